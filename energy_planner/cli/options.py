@@ -1,0 +1,103 @@
+"""Options and output helpers shared by every command, defined once."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+json_option = click.option(
+    "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
+)
+dem_option = click.option(
+    "--dem",
+    "dem",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
+)
+model_option = click.option(
+    "--model",
+    "model_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Energy model JSON (default: the bundled B1-class model).",
+)
+seed_option = click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+speed_option = click.option(
+    "--speed",
+    type=click.FloatRange(min=0, min_open=True),
+    default=0.3,
+    show_default=True,
+    help="Nominal walking speed, m/s.",
+)
+yaw_rate_option = click.option(
+    "--yaw-rate",
+    type=click.FloatRange(min=0, min_open=True),
+    default=0.5,
+    show_default=True,
+    help="Nominal turning rate, rad/s.",
+)
+
+
+def _jsonable(obj: Any) -> Any:
+    """Convert numpy scalars/arrays and non-finite floats to JSON-friendly values."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def emit(result: dict[str, Any], as_json: bool, text: Callable[[dict[str, Any]], str]) -> None:
+    """Print ``result`` as JSON (``--json``) or through ``text`` as a human table."""
+    if as_json:
+        click.echo(json.dumps(_jsonable(result), indent=2))
+    else:
+        click.echo(text(result))
+
+
+def parse_point(value: str, param_hint: str, with_yaw: bool = False) -> tuple[float, ...]:
+    """Parse ``X,Y`` (or ``X,Y,YAW_DEG`` when ``with_yaw``) into floats.
+
+    Raises ``click.BadParameter`` naming the value and the expected form.
+    """
+    parts = [p.strip() for p in value.split(",")]
+    allowed = (2, 3) if with_yaw else (2,)
+    form = "X,Y or X,Y,YAW_DEG" if with_yaw else "X,Y"
+    try:
+        nums = tuple(float(p) for p in parts)
+    except ValueError:
+        nums = ()
+    if len(nums) not in allowed or not all(math.isfinite(n) for n in nums):
+        raise click.BadParameter(
+            f"{value!r} is not {form} (numbers in the DEM's CRS, yaw in degrees CCW from x).",
+            param_hint=param_hint,
+        )
+    return nums
+
+
+def load_model_option(model_path: Path | None):
+    """Load the model named by ``--model``, or the bundled default."""
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.model import EnergyModel
+
+    try:
+        if model_path is None:
+            return EnergyModel.default()
+        return EnergyModel.load(model_path)
+    except EnergyPlannerError as exc:
+        raise click.BadParameter(str(exc), param_hint="--model") from exc
