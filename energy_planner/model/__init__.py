@@ -1,0 +1,34 @@
+"""Energy model: formulas, the term library and :class:`EnergyModel`.
+
+>>> from energy_planner.model import EnergyModel, BASE_TERMS
+>>> EnergyModel(BASE_TERMS).term_names[:2]
+['fwd_const', 'fwd_grade']
+"""
+
+from energy_planner.model.formula import CONSTANTS, FUNCTIONS, Formula, parse_formula
+from energy_planner.model.model import SCHEMA, SCHEMA_VERSION, EnergyModel, prepare_features
+from energy_planner.model.terms import (
+    BASE_TERMS,
+    CATALOG,
+    EFFECT_TERMS,
+    KINDS,
+    Term,
+    resolve_term,
+)
+
+__all__ = [
+    "BASE_TERMS",
+    "CATALOG",
+    "CONSTANTS",
+    "EFFECT_TERMS",
+    "FUNCTIONS",
+    "KINDS",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "EnergyModel",
+    "Formula",
+    "Term",
+    "parse_formula",
+    "prepare_features",
+    "resolve_term",
+]

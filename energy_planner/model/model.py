@@ -1,0 +1,448 @@
+"""The energy model: a sum of named terms, linear in its coefficients.
+
+``P = max(sum_k c_k * term_k(features), 0)``: electrical power in W, never negative
+because a legged robot does not regenerate (set ``regenerative=True`` for a machine
+that does). Built like a scikit-learn estimator: ``__init__`` stores its arguments,
+:meth:`EnergyModel.fit` validates the data and sets the coefficients.
+
+Examples
+--------
+>>> import numpy as np
+>>> m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 600.0, "fwd_grade": 1000.0})
+>>> f = {"alpha": np.radians([0.0, 10.0]), "gamma": np.zeros(2), "vx": np.full(2, 0.3),
+...      "vy": np.zeros(2), "wz": np.zeros(2)}
+>>> np.round(m.power(f), 2)
+array([180.  , 232.09])
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import FitError, FormulaError, ModelError
+from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
+
+__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "prepare_features"]
+
+SCHEMA = "energy_planner.model"
+SCHEMA_VERSION = 1
+_DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "b1_default.json"
+
+#: Features every kernel receives as arguments; everything else is a constant.
+KERNEL_ARGS = ("alpha", "gamma", "vx", "vy", "wz", "ax", "ay")
+
+
+def prepare_features(features: Mapping[str, Any] | pd.DataFrame) -> dict[str, Any]:
+    """Return a dict of per-sample features with ``speed`` derived when absent.
+
+    ``speed = hypot(vx, vy)``. A DataFrame's columns become arrays.
+    """
+    if isinstance(features, pd.DataFrame):
+        out: dict[str, Any] = {c: features[c].to_numpy() for c in features.columns}
+    else:
+        out = dict(features)
+    if "speed" not in out and "vx" in out and "vy" in out:
+        out["speed"] = np.hypot(np.asarray(out["vx"], float), np.asarray(out["vy"], float))
+    return out
+
+
+def _n_rows(features: Mapping[str, Any]) -> int:
+    for v in features.values():
+        arr = np.asarray(v)
+        if arr.ndim >= 1:
+            return arr.shape[0]
+    return 1
+
+
+class EnergyModel:
+    """Heading-dependent power model of a legged robot: a sum of named terms.
+
+    Parameters
+    ----------
+    terms : sequence of str or Term
+        Catalog names (:data:`energy_planner.model.CATALOG`) or formulas. Default: the
+        paper's base model :data:`energy_planner.model.BASE_TERMS`.
+    coefficients : mapping, optional
+        Term name -> coefficient. ``None`` for an unfitted model.
+    stderr : mapping, optional
+        Term name -> standard error of the coefficient (set by :meth:`fit`).
+    regenerative : bool
+        If False (default) power is floored at zero.
+    metadata : mapping, optional
+        Free-form provenance (robot, data, date), saved with the model.
+    """
+
+    def __init__(
+        self,
+        terms: Sequence[str | Term] = BASE_TERMS,
+        coefficients: Mapping[str, float] | None = None,
+        *,
+        stderr: Mapping[str, float] | None = None,
+        regenerative: bool = False,
+        metadata: Mapping[str, Any] | None = None,
+    ) -> None:
+        self.term_specs = tuple(terms)
+        self.coefficients = None if coefficients is None else dict(coefficients)
+        self.stderr = None if stderr is None else dict(stderr)
+        self.regenerative = regenerative
+        self.metadata = dict(metadata or {})
+
+    # ------------------------------------------------------------------ structure
+    @cached_property
+    def terms(self) -> list[Term]:
+        """The resolved terms, in order."""
+        terms = [resolve_term(s) for s in self.term_specs]
+        names = [t.name for t in terms]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ModelError(f"term(s) {', '.join(dup)} appear more than once in the model")
+        return terms
+
+    @property
+    def term_names(self) -> list[str]:
+        """Names of the terms, in order."""
+        return [t.name for t in self.terms]
+
+    @property
+    def variables(self) -> set[str]:
+        """Feature names the model reads."""
+        return set().union(*(t.variables for t in self.terms)) if self.terms else set()
+
+    @property
+    def is_fitted(self) -> bool:
+        """True when every term has a coefficient."""
+        return self.coefficients is not None
+
+    def coef_array(self) -> np.ndarray:
+        """Coefficients as an array in term order."""
+        if self.coefficients is None:
+            raise ModelError("the model has no coefficients yet: fit it or load a fitted model")
+        missing = [n for n in self.term_names if n not in self.coefficients]
+        if missing:
+            raise ModelError(f"coefficient missing for term(s) {', '.join(missing)}")
+        return np.array([float(self.coefficients[n]) for n in self.term_names])
+
+    def with_terms(self, *terms: str | Term) -> EnergyModel:
+        """A new, unfitted model with ``terms`` appended."""
+        return EnergyModel(
+            [*self.term_specs, *terms], regenerative=self.regenerative, metadata=self.metadata
+        )
+
+    def __repr__(self) -> str:
+        state = "fitted" if self.is_fitted else "unfitted"
+        return f"EnergyModel({self.term_names}, {state})"
+
+    # ------------------------------------------------------------------ evaluation
+    def design_matrix(
+        self, features: Mapping[str, Any] | pd.DataFrame, groups: Any = None
+    ) -> np.ndarray:
+        """Per-sample term values, shape ``(n, k)``; with ``groups`` the per-group means.
+
+        Parameters
+        ----------
+        features : DataFrame or mapping of arrays
+            Per-sample features (see :func:`prepare_features`).
+        groups : array-like, optional
+            Group label per sample (e.g. a window id); rows come out sorted by label.
+
+        Raises
+        ------
+        ModelError
+            If a term needs a feature the data does not have (names the term).
+        """
+        f = prepare_features(features)
+        n = _n_rows(f)
+        cols = []
+        for term in self.terms:
+            try:
+                col = term.parsed.evaluate(f)
+            except FormulaError as exc:
+                raise ModelError(f"term {term.name!r}: {exc}") from exc
+            cols.append(np.broadcast_to(col, (n,)).astype(float))
+        X = np.column_stack(cols) if cols else np.zeros((n, 0))
+        if groups is None:
+            return X
+        return pd.DataFrame(X).groupby(np.asarray(groups), sort=True).mean().to_numpy()
+
+    def contributions(self, features: Mapping[str, Any] | pd.DataFrame) -> pd.DataFrame:
+        """Per-sample power of each term (W), one column per term (before the floor)."""
+        X = self.design_matrix(features)
+        return pd.DataFrame(X * self.coef_array(), columns=self.term_names)
+
+    def power(self, features: Mapping[str, Any] | pd.DataFrame) -> np.ndarray:
+        """Electrical power in W for each sample."""
+        p = self.design_matrix(features) @ self.coef_array()
+        return p if self.regenerative else np.maximum(p, 0.0)
+
+    # ------------------------------------------------------------------ fitting
+    def fit(
+        self,
+        features: Mapping[str, Any] | pd.DataFrame,
+        power: Any,
+        groups: Any = None,
+        sample_weight: Any = None,
+    ) -> EnergyModel:
+        """Joint (weighted) least-squares fit of all coefficients.
+
+        Parameters
+        ----------
+        features : DataFrame or mapping
+            Per-sample features.
+        power : array-like
+            Measured power in W, per sample, or per group when ``groups`` is given and
+            ``power`` has one value per group (sorted by group label).
+        groups : array-like, optional
+            Group label per sample (window id): rows of the fit are group means.
+        sample_weight : array-like, optional
+            One weight per fitted row (e.g. window duration).
+
+        Raises
+        ------
+        FitError
+            Too little data, non-finite values, or terms the data cannot tell apart
+            (the message names them).
+        """
+        X = self.design_matrix(features, groups)
+        y = np.asarray(power, dtype=float)
+        if groups is not None and y.shape[0] != X.shape[0]:
+            y = pd.Series(y).groupby(np.asarray(groups), sort=True).mean().to_numpy()
+        if y.shape[0] != X.shape[0]:
+            raise FitError(f"power has {y.shape[0]} values but the features {X.shape[0]} rows")
+        n, k = X.shape
+        w = np.ones(n) if sample_weight is None else np.asarray(sample_weight, dtype=float)
+        bad = ~(np.isfinite(X).all(axis=1) & np.isfinite(y) & np.isfinite(w))
+        if bad.any():
+            raise FitError(
+                f"{int(bad.sum())} of {n} rows have NaN or infinite features/power; "
+                "clean the data first (energy_planner.measurements.preprocess)"
+            )
+        if n < k + 2:
+            raise FitError(
+                f"too little data: {n} rows for {k} terms ({', '.join(self.term_names)}); "
+                f"need at least {k + 2}, and in practice ten or more per term"
+            )
+        zero = [self.term_names[j] for j in range(k) if not np.any(np.abs(X[:, j]) > 1e-12)]
+        if zero:
+            raise FitError(
+                f"term(s) {', '.join(zero)} are zero on every row: the data has none of the "
+                "motion or conditions they describe; drop them or add such runs"
+            )
+        sw = np.sqrt(w)
+        Xw, yw = X * sw[:, None], y * sw
+        scale = np.linalg.norm(Xw, axis=0)
+        Xs = Xw / scale
+        sv = np.linalg.svd(Xs, compute_uv=False)
+        if sv[-1] < 1e-7 * sv[0]:
+            raise FitError(
+                "the data cannot tell these terms apart (their columns are nearly linearly "
+                f"dependent): {', '.join(collinear_terms(Xs, self.term_names))}; add runs that "
+                "vary what distinguishes them (speeds, slopes, headings) or drop one"
+            )
+        beta_s, *_ = np.linalg.lstsq(Xs, yw, rcond=None)
+        beta = beta_s / scale
+        resid = yw - Xw @ beta
+        dof = max(n - k, 1)
+        sigma2 = float(resid @ resid) / dof
+        cov = sigma2 * np.linalg.inv(Xs.T @ Xs) / np.outer(scale, scale)
+        self.coefficients = dict(zip(self.term_names, map(float, beta), strict=True))
+        self.stderr = dict(
+            zip(self.term_names, map(float, np.sqrt(np.clip(np.diag(cov), 0, None))), strict=True)
+        )
+        return self
+
+    # ------------------------------------------------------------------ persistence
+    def to_dict(self) -> dict[str, Any]:
+        """The versioned JSON document (see :meth:`from_dict` for the schema)."""
+        return {
+            "schema": SCHEMA,
+            "version": SCHEMA_VERSION,
+            "terms": [t.to_dict() for t in self.terms],
+            "coefficients": self.coefficients,
+            "stderr": self.stderr,
+            "regenerative": self.regenerative,
+            "metadata": self.metadata,
+        }
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any], source: str = "<dict>") -> EnergyModel:
+        """Build a model from its JSON document.
+
+        Schema (version 1)::
+
+            {"schema": "energy_planner.model", "version": 1,
+             "terms": [{"name", "formula", "explanation", "unit", "kind"}, ...],
+             "coefficients": {name: float} | null, "stderr": {name: float} | null,
+             "regenerative": false, "metadata": {...}}
+
+        A term whose name is in the catalog must carry the catalog's formula; other
+        terms must carry a formula. Every term needs a finite coefficient (unless
+        ``coefficients`` is null: an unfitted model).
+
+        Raises
+        ------
+        ModelError
+            Unknown schema or version, unknown term, missing or non-finite coefficient.
+        """
+        if not isinstance(doc, Mapping) or doc.get("schema") != SCHEMA:
+            raise ModelError(f"{source}: not an energy_planner model (expected schema {SCHEMA!r})")
+        if doc.get("version") != SCHEMA_VERSION:
+            raise ModelError(
+                f"{source}: model schema version {doc.get('version')!r} is not supported; "
+                f"this library reads version {SCHEMA_VERSION}"
+            )
+        terms: list[Term] = []
+        for entry in doc.get("terms") or []:
+            if isinstance(entry, str):
+                entry = {"name": entry}
+            name = entry.get("name")
+            formula = entry.get("formula")
+            if name in CATALOG:
+                if formula is not None and resolve_term(formula).formula != CATALOG[name].formula:
+                    raise ModelError(
+                        f"{source}: term {name!r} has formula {formula!r}, but the catalog's "
+                        f"{name!r} is {CATALOG[name].formula!r}; rename the custom term"
+                    )
+                terms.append(CATALOG[name])
+            elif formula is None:
+                raise ModelError(
+                    f"{source}: unknown term {name!r} without a formula; catalog terms: "
+                    + ", ".join(CATALOG)
+                )
+            else:
+                try:
+                    parsed = resolve_term(formula)
+                except FormulaError as exc:
+                    raise ModelError(f"{source}: term {name!r}: {exc}") from exc
+                terms.append(
+                    Term(
+                        name=name or parsed.name,
+                        formula=parsed.formula,
+                        explanation=entry.get("explanation", "user-defined term"),
+                        unit=entry.get("unit", "W per unit of the formula"),
+                        kind=entry.get("kind", "other") if entry.get("kind") in KINDS else "other",
+                    )
+                )
+        if not terms:
+            raise ModelError(f"{source}: the model has no terms")
+        coefs = doc.get("coefficients")
+        if coefs is not None:
+            for t in terms:
+                v = coefs.get(t.name)
+                if not isinstance(v, int | float) or not math.isfinite(v):
+                    raise ModelError(
+                        f"{source}: coefficient of term {t.name!r} is missing or not a finite "
+                        f"number (got {v!r})"
+                    )
+        model = cls(
+            terms,
+            coefs,
+            stderr=doc.get("stderr"),
+            regenerative=bool(doc.get("regenerative", False)),
+            metadata=doc.get("metadata") or {},
+        )
+        model.terms  # noqa: B018 - validate (duplicates) now
+        return model
+
+    def save(self, path: str | Path) -> Path:
+        """Write the model as JSON; returns the path."""
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> EnergyModel:
+        """Read a model saved by :meth:`save`.
+
+        Raises
+        ------
+        ModelError
+            If the file is missing, not JSON, or does not follow the schema.
+        """
+        path = Path(path)
+        try:
+            doc = json.loads(path.read_text())
+        except FileNotFoundError as exc:
+            raise ModelError(f"model file {str(path)!r} does not exist") from exc
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ModelError(f"model file {str(path)!r} is not valid JSON: {exc}") from exc
+        return cls.from_dict(doc, source=str(path))
+
+    @classmethod
+    def default(cls) -> EnergyModel:
+        """The bundled B1-class model (about 50 kg, 0.3 m/s); see its ``metadata``."""
+        return cls.load(_DEFAULT_PATH)
+
+    def describe(self) -> str:
+        """A table of terms, coefficients, standard errors and explanations."""
+        rows = []
+        for t in self.terms:
+            c = None if self.coefficients is None else self.coefficients.get(t.name)
+            s = None if self.stderr is None else self.stderr.get(t.name)
+            cs = "-" if c is None else f"{c:10.3f}"
+            ss = "" if s is None else f" ± {s:.3f}"
+            rows.append(f"{t.name:<22} {cs}{ss:<12} {t.unit:<6} {t.explanation}")
+        return "\n".join(rows)
+
+    # ------------------------------------------------------------------ compiled kernels
+    def kernel_source(self, constants: Mapping[str, Any] | None = None) -> str:
+        """Python source of a scalar power function for numba.
+
+        The function is ``power(alpha, gamma, vx, vy, wz, ax, ay) -> (total, by_kind)``
+        where ``by_kind`` sums the terms of each kind in :data:`KINDS` order; ``total`` is
+        floored at zero unless the model is regenerative. Features other than the
+        arguments (extra channels such as ``payload_kg``) must be given in
+        ``constants``.
+        """
+        coefs = self.coef_array()
+        varmap = {name: name for name in KERNEL_ARGS}
+        varmap["speed"] = "speed"
+        consts = dict(constants or {})
+        kind_sums: dict[str, list[str]] = {k: [] for k in KINDS}
+        for term, c in zip(self.terms, coefs, strict=True):
+            expr = term.parsed.to_scalar_source(varmap, consts)
+            kind_sums[term.kind].append(f"{float(c)!r} * {expr}")
+        lines = [
+            f"def power({', '.join(KERNEL_ARGS)}):",
+            "    speed = math.sqrt(vx * vx + vy * vy)",
+        ]
+        for k in KINDS:
+            lines.append(f"    p_{k} = " + (" + ".join(kind_sums[k]) or "0.0"))
+        total = " + ".join(f"p_{k}" for k in KINDS)
+        lines.append(f"    total = {total}")
+        if not self.regenerative:
+            lines.append("    total = max(total, 0.0)")
+        lines.append("    return total, (" + ", ".join(f"p_{k}" for k in KINDS) + ")")
+        return "\n".join(lines) + "\n"
+
+    def power_kernel(self, constants: Mapping[str, Any] | None = None):
+        """A numba-compiled scalar power function (see :meth:`kernel_source`)."""
+        from energy_planner.model._codegen import compile_kernel
+
+        return compile_kernel(self.kernel_source(constants))
+
+
+def collinear_terms(Xs: np.ndarray, names: Sequence[str]) -> list[str]:
+    """Names of the columns that are (nearly) a linear combination of the others."""
+    out = []
+    for j, name in enumerate(names):
+        others = np.delete(Xs, j, axis=1)
+        if others.shape[1] == 0:
+            continue
+        coef, *_ = np.linalg.lstsq(others, Xs[:, j], rcond=None)
+        r = Xs[:, j] - others @ coef
+        if np.linalg.norm(r) < 1e-5 * max(np.linalg.norm(Xs[:, j]), 1e-300):
+            out.append(name)
+    return out or list(names)
+
+
+def term_names(specs: Iterable[str | Term]) -> list[str]:
+    """Resolve term specs to names (for messages and CLI output)."""
+    return [resolve_term(s).name for s in specs]

@@ -1,0 +1,249 @@
+"""Energy model: formulas, catalog, fit, JSON, compiled kernel."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.errors import FitError, FormulaError, ModelError
+from energy_planner.model import (
+    BASE_TERMS,
+    CATALOG,
+    EFFECT_TERMS,
+    EnergyModel,
+    parse_formula,
+)
+
+B1 = {
+    "fwd_const": 600.0,
+    "fwd_grade": 1000.0,
+    "bwd_const": 700.0,
+    "bwd_grade": 1000.0,
+    "lat_const": 800.0,
+    "lat_grade": 900.0,
+    "turn_const": 250.0,
+    "turn_slope": 300.0,
+}
+
+
+def _features(rng, n):
+    return {
+        "alpha": rng.uniform(0, np.radians(30), n),
+        "gamma": rng.uniform(-np.pi, np.pi, n),
+        "vx": rng.uniform(-0.5, 0.5, n),
+        "vy": rng.uniform(-0.5, 0.5, n),
+        "wz": rng.uniform(-0.8, 0.8, n),
+        "ax": rng.normal(0, 0.2, n),
+        "ay": rng.normal(0, 0.2, n),
+        "payload_kg": rng.choice([0.0, 5.0, 10.0], n),
+    }
+
+
+# ---------------------------------------------------------------- formulas
+@pytest.mark.parametrize(
+    "bad, fragment",
+    [
+        ("__import__('os').system('x')", "unknown function"),
+        ("open('f')", "unknown function 'open'"),
+        ("speed.real", "Attribute"),
+        ("[1, 2]", "List"),
+        ("lambda: 1", "Lambda"),
+        ("sin(alpha, gamma)", "takes 1 argument"),
+        ("speed +", "cannot parse"),
+        ("sin", "is a function"),
+        ("0 < speed < 1", "one comparison"),
+    ],
+)
+def test_formula_rejects_unsafe_or_malformed(bad, fragment):
+    with pytest.raises(FormulaError, match=fragment):
+        parse_formula(bad)
+
+
+def test_formula_names_the_missing_variable():
+    f = parse_formula("payload_kg * speed * sin(alpha)")
+    with pytest.raises(FormulaError, match="'payload_kg'.*available: alpha, speed"):
+        f.evaluate({"alpha": np.zeros(2), "speed": np.ones(2)})
+
+
+def test_formula_values_match_hand_computation():
+    f = parse_formula("pos(-sin(alpha) * (vx * cos(gamma) - vy * sin(gamma)))")
+    a, g, vx, vy = np.radians(20), np.radians(150), 0.3, 0.1
+    descent = -np.sin(a) * (vx * np.cos(g) - vy * np.sin(g))
+    assert f.evaluate({"alpha": a, "gamma": g, "vx": vx, "vy": vy}) == pytest.approx(
+        max(descent, 0)
+    )
+
+
+# ---------------------------------------------------------------- physics of the base terms
+@settings(max_examples=60, deadline=None)
+@given(
+    alpha=st.floats(0, np.radians(40)),
+    gamma=st.floats(-np.pi, np.pi),
+    vx=st.floats(-1, 1),
+    vy=st.floats(-1, 1),
+    wz=st.floats(-1, 1),
+)
+def test_every_catalog_term_is_mirror_symmetric(alpha, gamma, vx, vy, wz):
+    """P(alpha, gamma, vx, vy, wz) == P(alpha, -gamma, vx, -vy, -wz) (design notes)."""
+    m = EnergyModel([*BASE_TERMS, *EFFECT_TERMS], dict.fromkeys([*BASE_TERMS, *EFFECT_TERMS], 1.0))
+    base = {"alpha": alpha, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz, "ax": 0.1, "ay": 0.2}
+    base["payload_kg"] = 3.0
+    mirror = {**base, "gamma": -gamma, "vy": -vy, "wz": -wz, "ay": -0.2}
+    np.testing.assert_allclose(m.design_matrix(mirror), m.design_matrix(base), atol=1e-12)
+
+
+def test_base_model_is_the_wrench_dotted_with_the_twist():
+    """Uphill forward at 10 deg: P = (f0 + f1 sin a) v; lateral with uphill on the right."""
+    m = EnergyModel(BASE_TERMS, B1)
+    a = np.radians(10)
+    up = {"alpha": a, "gamma": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0}
+    assert m.power(up)[0] == pytest.approx((600 + 1000 * np.sin(a)) * 0.3)
+    # uphill on the right (gamma = +pi/2): stepping right (vy < 0) climbs
+    right = {"alpha": a, "gamma": np.pi / 2, "vx": 0.0, "vy": -0.3, "wz": 0.0}
+    assert m.power(right)[0] == pytest.approx((800 + 900 * np.sin(a)) * 0.3)
+    left = {**right, "vy": 0.3}
+    assert m.power(left)[0] == pytest.approx((800 - 900 * np.sin(a)) * 0.3)
+    turn = {"alpha": a, "gamma": 1.0, "vx": 0.0, "vy": 0.0, "wz": -0.5}
+    assert m.power(turn)[0] == pytest.approx((250 + 300 * np.sin(a)) * 0.5)
+
+
+def test_power_never_negative_without_a_regenerative_model():
+    m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 100.0, "fwd_grade": 1000.0})
+    steep_descent = {"alpha": np.radians(30), "gamma": np.pi, "vx": 0.3, "vy": 0.0, "wz": 0.0}
+    assert m.power(steep_descent)[0] == 0.0
+    regen = EnergyModel(m.term_specs, m.coefficients, regenerative=True)
+    assert regen.power(steep_descent)[0] == pytest.approx((100 - 500) * 0.3)
+
+
+def test_linearity_in_the_twist_per_direction():
+    """Paper III-B: lambda*w1 + w2 in the same direction gives lambda*P1 + P2."""
+    m = EnergyModel(BASE_TERMS, B1)
+    f = {"alpha": 0.2, "gamma": 0.7, "vy": 0.0, "wz": 0.0}
+    p1 = m.power({**f, "vx": 0.2})[0]
+    p2 = m.power({**f, "vx": 0.1})[0]
+    assert m.power({**f, "vx": 3 * 0.2 + 0.1})[0] == pytest.approx(3 * p1 + p2)
+
+
+# ---------------------------------------------------------------- fit
+def test_fit_recovers_coefficients_from_noiseless_data():
+    rng = np.random.default_rng(1)
+    f = _features(rng, 400)
+    truth = EnergyModel(
+        [*BASE_TERMS, "idle_power", "payload"], {**B1, "idle_power": 40.0, "payload": 9.0}
+    )
+    p = truth.power(f)
+    fitted = EnergyModel(truth.term_specs).fit(f, p)
+    for name, value in truth.coefficients.items():
+        assert fitted.coefficients[name] == pytest.approx(value, rel=1e-8, abs=1e-8)
+
+
+def test_fit_standard_errors_cover_the_truth_under_noise():
+    rng = np.random.default_rng(2)
+    f = _features(rng, 3000)
+    truth = EnergyModel(BASE_TERMS, B1)
+    p = truth.power(f) + rng.normal(0, 5.0, 3000)
+    fitted = EnergyModel(BASE_TERMS).fit(f, p)
+    z = [(fitted.coefficients[n] - B1[n]) / fitted.stderr[n] for n in BASE_TERMS]
+    assert np.all(np.abs(z) < 4.5)
+
+
+def test_fit_on_group_means():
+    rng = np.random.default_rng(3)
+    f = _features(rng, 600)
+    groups = np.repeat(np.arange(60), 10)
+    truth = EnergyModel(BASE_TERMS, B1)
+    p = truth.power(f)
+    per_group = EnergyModel(BASE_TERMS).fit(f, p, groups=groups)
+    assert per_group.coefficients["lat_grade"] == pytest.approx(900.0, rel=1e-8)
+
+
+def test_fit_errors_are_specific():
+    rng = np.random.default_rng(4)
+    f = _features(rng, 5)
+    with pytest.raises(FitError, match="too little data: 5 rows for 8 terms"):
+        EnergyModel(BASE_TERMS).fit(f, np.ones(5))
+    f = _features(rng, 200)
+    f["vy"] = np.zeros(200)
+    with pytest.raises(FitError, match="lat_const, lat_grade are zero on every row"):
+        EnergyModel(BASE_TERMS).fit(f, np.ones(200))
+    f = _features(rng, 200)
+    with pytest.raises(FitError, match="cannot tell these terms apart.*fwd_const"):
+        EnergyModel(["fwd_const", "2 * pos(vx)"]).fit(f, np.ones(200))
+    with pytest.raises(ModelError, match="term 'payload'.*'payload_kg'"):
+        EnergyModel(["payload"]).fit(
+            {k: v for k, v in f.items() if k != "payload_kg"}, np.ones(200)
+        )
+
+
+# ---------------------------------------------------------------- JSON
+def test_json_round_trip_with_custom_term(tmp_path):
+    m = EnergyModel(
+        [*BASE_TERMS, "payload_kg*speed*sin(alpha)"],
+        {**B1, "payload_kg * speed * sin(alpha)": 3.5},
+        metadata={"robot": "x"},
+    )
+    path = m.save(tmp_path / "m.json")
+    back = EnergyModel.load(path)
+    assert back.term_names == m.term_names
+    assert back.coefficients == m.coefficients
+    f = _features(np.random.default_rng(5), 50)
+    np.testing.assert_array_equal(back.power(f), m.power(f))
+
+
+def test_json_rejects_bad_documents(tmp_path):
+    good = EnergyModel(BASE_TERMS, B1).to_dict()
+    cases = [
+        ({**good, "version": 99}, "version 99 is not supported"),
+        ({**good, "terms": [*good["terms"], {"name": "warp_drive"}]}, "unknown term 'warp_drive'"),
+        (
+            {**good, "coefficients": {k: v for k, v in B1.items() if k != "lat_grade"}},
+            "coefficient of term 'lat_grade' is missing",
+        ),
+        ({**good, "schema": "other"}, "not an energy_planner model"),
+    ]
+    for doc, msg in cases:
+        p = tmp_path / "bad.json"
+        p.write_text(json.dumps(doc))
+        with pytest.raises(ModelError, match=msg):
+            EnergyModel.load(p)
+    with pytest.raises(ModelError, match="does not exist"):
+        EnergyModel.load(tmp_path / "missing.json")
+
+
+def test_default_model_loads_and_is_physical():
+    m = EnergyModel.default()
+    assert set(BASE_TERMS) <= set(m.term_names)
+    flat = {"alpha": 0.0, "gamma": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0}
+    assert 50 < m.power(flat)[0] < 500
+
+
+# ---------------------------------------------------------------- compiled kernel
+def test_compiled_kernel_matches_numpy_power():
+    rng = np.random.default_rng(6)
+    f = _features(rng, 200)
+    terms = [*BASE_TERMS, *EFFECT_TERMS, "speed * (surface == 'mud')"]
+    m = EnergyModel(terms, {t: float(i + 1) for i, t in enumerate(EnergyModel(terms).term_names)})
+    kernel = m.power_kernel({"payload_kg": 7.0, "surface": "mud"})
+    f["payload_kg"] = np.full(200, 7.0)
+    f["surface"] = np.array(["mud"] * 200)
+    expected = m.power(f)
+    got = [
+        kernel(*(f[k][i] for k in ("alpha", "gamma", "vx", "vy", "wz", "ax", "ay")))[0]
+        for i in range(200)
+    ]
+    np.testing.assert_allclose(got, expected, rtol=1e-12)
+
+
+def test_kernel_needs_constants_for_extra_channels():
+    m = EnergyModel(["payload"], {"payload": 1.0})
+    with pytest.raises(FormulaError, match="needs 'payload_kg'"):
+        m.kernel_source()
+
+
+def test_catalog_terms_have_explanations():
+    for term in CATALOG.values():
+        assert len(term.explanation) > 20 and term.unit
