@@ -1,0 +1,82 @@
+"""Slope and relative heading from the IMU gravity vector.
+
+Relation shared by the whole project (design notes): with ``R`` the body-to-world
+rotation of the IMU quaternion, the world up vector seen in the body frame is
+``u = R^T (0, 0, 1)``; then ``alpha = arccos(u_z)`` and ``gamma = -atan2(u_y, u_x)``
+(``u_x > 0`` facing uphill; ``gamma = +pi/2`` when uphill is on the robot's right).
+On a planar slope of angle ``alpha``, uphill azimuth ``psi`` and yaw ``theta`` this
+gives ``gamma = wrap(theta - psi)`` in ``(-pi, pi]``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World up vector in the body frame, ``u = R^T (0, 0, 1)``.
+
+    The quaternion (body to world, scalar ``qw``) is normalised first.
+
+    Returns
+    -------
+    ux, uy, uz : ndarray
+        The third row of ``R``.
+
+    Examples
+    --------
+    >>> [float(c) for c in up_in_body(1.0, 0.0, 0.0, 0.0)]
+    [0.0, 0.0, 1.0]
+    """
+    qw, qx, qy, qz = (np.asarray(a, dtype=float) for a in (qw, qx, qy, qz))
+    n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
+    ux = 2.0 * (qx * qz - qw * qy)
+    uy = 2.0 * (qy * qz + qw * qx)
+    uz = 1.0 - 2.0 * (qx * qx + qy * qy)
+    return ux, uy, uz
+
+
+def wrap_angle(a) -> np.ndarray:
+    """Wrap angles (rad) to ``(-pi, pi]``.
+
+    Examples
+    --------
+    >>> float(wrap_angle(-np.pi)), float(wrap_angle(3 * np.pi / 2))
+    (3.141592653589793, -1.5707963267948966)
+    """
+    a = np.asarray(a, dtype=float)
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
+
+
+def imu_slope_heading(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray]:
+    """Slope ``alpha`` and signed relative heading ``gamma`` from an IMU quaternion.
+
+    Parameters
+    ----------
+    qw, qx, qy, qz : array_like
+        Orientation, body to world (ENU), as ``sensor_msgs/Imu`` (normalised here).
+
+    Returns
+    -------
+    alpha : ndarray
+        Slope angle, rad, ``arccos(u_z)`` in ``[0, pi]``.
+    gamma : ndarray
+        Relative heading, rad, ``-atan2(u_y, u_x)`` wrapped to ``(-pi, pi]``: 0 facing
+        uphill, pi facing downhill, +pi/2 with uphill on the robot's right. It is 0 on
+        level ground (undefined there; every model term multiplies it by ``sin(alpha)``).
+
+    Examples
+    --------
+    Pitched nose-up by 10 degrees (rotation about body y by -10 deg), facing uphill:
+
+    >>> h = np.radians(-10.0) / 2
+    >>> a, g = imu_slope_heading(np.cos(h), 0.0, np.sin(h), 0.0)
+    >>> round(float(np.degrees(a)), 6), round(float(g), 6)
+    (10.0, 0.0)
+    """
+    ux, uy, uz = up_in_body(qw, qx, qy, qz)
+    alpha = np.arccos(np.clip(uz, -1.0, 1.0))
+    gamma = wrap_angle(-np.arctan2(uy, ux))
+    return alpha, gamma

@@ -1,0 +1,489 @@
+"""Read and write robot logs as ROS 1 / ROS 2 bags with the ``rosbags`` package.
+
+No ROS installation is needed. Three standard topics make a log:
+
+* ``sensor_msgs/Imu`` (default ``/imu/data``): orientation ``qw, qx, qy, qz``;
+* ``nav_msgs/Odometry`` (default ``/odom``): body twist ``vx, vy, wz`` and pose
+  ``x, y, yaw``;
+* ``sensor_msgs/BatteryState`` (default ``/battery_state``): ``voltage`` and ``current``.
+
+Extra channels travel as ``std_msgs/Float64`` (numeric) or ``std_msgs/String``
+(categorical) on topics ``/energy_planner/<column>``.
+
+Resampling (:func:`load_rosbag`): every stream is brought onto one clock, the IMU's
+(default) or the odometry's. Clock samples outside the time span common to all streams
+are dropped (counted), as are clock samples whose bracketing messages in another
+stream are more than ``max_interp_gap`` seconds apart (a stream drop-out is never
+bridged). Twist, pose position, voltage, current and numeric extras are interpolated
+linearly in time; yaw is unwrapped, interpolated, then wrapped; the IMU quaternion
+(when the clock is the odometry) is interpolated by spherical linear interpolation
+(``scipy.spatial.transform.Slerp``); text extras are held from the previous message.
+At clock instants that coincide with source messages the values are exact.
+
+Sign of the current: ROS ``BatteryState.current`` is *negative* while discharging; the
+canonical log is positive while discharging, so the loader negates it (logged at INFO
+and recorded as ``LoadReport.current_sign_flipped``). ``battery_current="discharge_positive"``
+reads drivers that do not follow the ROS convention as they are.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import LogError, LogIOError
+from energy_planner.measurements.imu import wrap_angle
+from energy_planner.measurements.logs import LoadReport, canonicalize
+from energy_planner.measurements.schema import CANONICAL_COLUMNS, REQUIRED_COLUMNS
+
+log = logging.getLogger(__name__)
+
+#: Default topics, role -> topic name.
+DEFAULT_TOPICS: dict[str, str] = {
+    "imu": "/imu/data",
+    "odom": "/odom",
+    "battery": "/battery_state",
+}
+#: Namespace of the extra-channel topics written by :func:`write_rosbag`.
+EXTRA_NAMESPACE = "/energy_planner/"
+
+MSGTYPES = {
+    "imu": "sensor_msgs/msg/Imu",
+    "odom": "nav_msgs/msg/Odometry",
+    "battery": "sensor_msgs/msg/BatteryState",
+}
+_FLOAT64 = "std_msgs/msg/Float64"
+_STRING = "std_msgs/msg/String"
+
+
+def _typestore(version: int):
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
+
+
+def _stamp_ns(msg, bag_ns: int, stamp: str) -> int:
+    if stamp == "bag":
+        return int(bag_ns)
+    s = msg.header.stamp
+    return int(s.sec) * 1_000_000_000 + int(s.nanosec)
+
+
+def _yaw(qw, qx, qy, qz) -> float:
+    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def _topics_listing(reader) -> str:
+    return ", ".join(f"{c.topic} ({c.msgtype})" for c in
+                     sorted(reader.connections, key=lambda c: c.topic))
+
+
+def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
+                  extra_topics: Mapping[str, str] | None):
+    from rosbags.highlevel import AnyReader
+
+    try:
+        reader = AnyReader([path], default_typestore=_typestore(2))
+    except Exception as err:  # rosbags raises its own error classes
+        raise LogIOError(f"cannot open ROS bag {str(path)!r}: {err}") from err
+    with reader:
+        by_topic = {c.topic: c for c in reader.connections}
+        for role, topic in topics.items():
+            if topic not in by_topic:
+                raise LogError(
+                    f"ROS bag {str(path)!r} has no topic {topic!r} (for {MSGTYPES[role]}); "
+                    f"topics in the bag: {_topics_listing(reader)}")
+            if by_topic[topic].msgtype != MSGTYPES[role]:
+                raise LogError(
+                    f"ROS bag {str(path)!r}: topic {topic!r} carries "
+                    f"{by_topic[topic].msgtype}, expected {MSGTYPES[role]}; topics in the "
+                    f"bag: {_topics_listing(reader)}")
+        extras = dict(extra_topics or {})
+        if extra_topics is None:
+            for c in reader.connections:
+                if c.topic.startswith(EXTRA_NAMESPACE) and c.msgtype in (_FLOAT64, _STRING):
+                    extras[c.topic[len(EXTRA_NAMESPACE):]] = c.topic
+        for col, topic in extras.items():
+            if topic not in by_topic:
+                raise LogError(
+                    f"ROS bag {str(path)!r} has no topic {topic!r} (extra channel {col!r}); "
+                    f"topics in the bag: {_topics_listing(reader)}")
+        role_of = {t: r for r, t in topics.items()}
+        col_of = {t: c for c, t in extras.items()}
+        rows: dict[str, list] = {r: [] for r in topics}
+        xrows: dict[str, list] = {c: [] for c in extras}
+        conns = [by_topic[t] for t in (*topics.values(), *extras.values())]
+        for conn, bag_ns, raw in reader.messages(connections=conns):
+            msg = reader.deserialize(raw, conn.msgtype)
+            if conn.topic in col_of:
+                ns = bag_ns if stamp == "bag" or not hasattr(msg, "header") else \
+                    _stamp_ns(msg, bag_ns, stamp)
+                xrows[col_of[conn.topic]].append((ns, msg.data))
+                continue
+            role = role_of[conn.topic]
+            ns = _stamp_ns(msg, bag_ns, stamp)
+            if role == "imu":
+                o = msg.orientation
+                rows[role].append((ns, o.w, o.x, o.y, o.z))
+            elif role == "odom":
+                tw = msg.twist.twist
+                p = msg.pose.pose
+                o = p.orientation
+                rows[role].append((ns, tw.linear.x, tw.linear.y, tw.angular.z,
+                                   p.position.x, p.position.y, _yaw(o.w, o.x, o.y, o.z)))
+            else:
+                rows[role].append((ns, float(msg.voltage), float(msg.current)))
+        is2 = reader.is2
+    cols = {"imu": ["qw", "qx", "qy", "qz"], "odom": ["vx", "vy", "wz", "x", "y", "yaw"],
+            "battery": ["voltage", "current"]}
+    streams = {}
+    for role, r in rows.items():
+        if not r:
+            raise LogError(f"ROS bag {str(path)!r}: topic {topics[role]!r} has no messages")
+        arr = np.array(r, dtype=object)
+        ns = arr[:, 0].astype(np.int64)
+        streams[role] = (ns, {c: arr[:, i + 1].astype(float) for i, c in enumerate(cols[role])})
+    xstreams = {}
+    for col, r in xrows.items():
+        if r:
+            xstreams[col] = (np.array([a for a, _ in r], dtype=np.int64), [b for _, b in r])
+    return streams, xstreams, is2
+
+
+def _sorted_unique(ns: np.ndarray) -> tuple[np.ndarray, int]:
+    """Indices sorting ``ns`` with repeated stamps removed (first kept), and the count."""
+    order = np.argsort(ns, kind="stable")
+    keep = np.ones(order.size, bool)
+    keep[1:] = np.diff(ns[order]) > 0
+    return order[keep], int((~keep).sum())
+
+
+def load_rosbag(
+    path,
+    *,
+    imu_topic: str = DEFAULT_TOPICS["imu"],
+    odom_topic: str = DEFAULT_TOPICS["odom"],
+    battery_topic: str = DEFAULT_TOPICS["battery"],
+    extra_topics: Mapping[str, str] | None = None,
+    clock: Literal["imu", "odom"] = "imu",
+    run: str | None = None,
+    stamp: Literal["header", "bag"] = "header",
+    battery_current: Literal["ros", "discharge_positive"] = "ros",
+    max_interp_gap: float = 0.5,
+    report: bool = False,
+) -> pd.DataFrame | tuple[pd.DataFrame, LoadReport]:
+    """Read a ROS 1 (``.bag``) or ROS 2 (folder) bag into the canonical sample table.
+
+    Parameters
+    ----------
+    path : str or Path
+        ROS 1 bag file or ROS 2 bag folder.
+    imu_topic, odom_topic, battery_topic : str
+        Topics of ``sensor_msgs/Imu``, ``nav_msgs/Odometry``, ``sensor_msgs/BatteryState``.
+    extra_topics : mapping, optional
+        Column name -> topic of ``std_msgs/Float64`` or ``std_msgs/String`` extra
+        channels. Default: every such topic under ``/energy_planner/``.
+    clock : {"imu", "odom"}
+        Stream whose message times become the sample times (see module notes).
+    run : str, optional
+        Run id; default the bag's name (file stem or folder name).
+    stamp : {"header", "bag"}
+        Time source: message header stamps (default) or bag record times.
+    battery_current : {"ros", "discharge_positive"}
+        ``"ros"`` (default): the bag follows ROS (negative while discharging) and the
+        current is negated. ``"discharge_positive"``: taken as it is.
+    max_interp_gap : float
+        Longest interval, s, between two messages of a stream that may be interpolated.
+    report : bool
+        Also return a :class:`~energy_planner.measurements.logs.LoadReport`.
+
+    Returns
+    -------
+    samples : pandas.DataFrame
+        Canonical table with ``t`` in seconds (stamp time).
+    report : LoadReport
+        Only when ``report=True``.
+
+    Raises
+    ------
+    LogError
+        A topic is missing (the message lists the bag's topics and types) or carries the
+        wrong type, or a stream is empty, or no sample lies in the common time span.
+    LogIOError
+        The bag cannot be opened.
+    """
+    from scipy.spatial.transform import Rotation, Slerp
+
+    path = Path(path)
+    if not path.exists():
+        raise LogIOError(f"ROS bag {str(path)!r} does not exist")
+    if clock not in ("imu", "odom"):
+        raise LogError(f"clock={clock!r} is not valid; expected 'imu' or 'odom'")
+    if battery_current not in ("ros", "discharge_positive"):
+        raise LogError(f"battery_current={battery_current!r} is not valid; expected 'ros' "
+                       "or 'discharge_positive'")
+    topics = {"imu": imu_topic, "odom": odom_topic, "battery": battery_topic}
+    streams, xstreams, is2 = _read_streams(path, topics, stamp, extra_topics)
+    rep = LoadReport()
+    dropped: dict[str, int] = {}
+    clean = {}
+    for role, (ns, vals) in streams.items():
+        idx, ndup = _sorted_unique(ns)
+        if ndup:
+            dropped[f"repeated stamp on {topics[role]}"] = ndup
+        clean[role] = (ns[idx], {k: v[idx] for k, v in vals.items()})
+    tc_ns = clean[clock][0]
+    t0 = max(c[0][0] for c in clean.values())
+    t1 = min(c[0][-1] for c in clean.values())
+    inside = (tc_ns >= t0) & (tc_ns <= t1)
+    if (~inside).any():
+        dropped["outside the time span common to all topics"] = int((~inside).sum())
+    keep = inside.copy()
+    gap_ns = int(round(max_interp_gap * 1e9))
+    for role, (ns, _) in clean.items():
+        if role == clock:
+            continue
+        i = np.clip(np.searchsorted(ns, tc_ns), 1, max(ns.size - 1, 1))
+        exact = np.isin(tc_ns, ns)
+        span = ns[i] - ns[i - 1] if ns.size > 1 else np.zeros_like(tc_ns)
+        bad = inside & ~exact & (span > gap_ns)
+        if bad.any():
+            dropped[f"{topics[role]} silent for more than {max_interp_gap:g} s"] = \
+                int((bad & keep).sum())
+            keep &= ~bad
+    tc_ns = tc_ns[keep]
+    if tc_ns.size == 0:
+        raise LogError(f"ROS bag {str(path)!r}: no {topics[clock]} message lies in the time "
+                       "span common to all topics; check the topics and their stamps")
+    tsec = tc_ns / 1e9
+    out: dict[str, Any] = {"t": tsec}
+
+    def interp(role: str, key: str) -> np.ndarray:
+        ns, vals = clean[role]
+        return np.interp(tsec, ns / 1e9, vals[key])
+
+    imu_ns, imu = clean["imu"]
+    if clock == "imu":
+        for k in ("qw", "qx", "qy", "qz"):
+            out[k] = imu[k][keep]
+    else:
+        quat = np.column_stack([imu["qx"], imu["qy"], imu["qz"], imu["qw"]])
+        if imu_ns.size > 1:
+            q = Slerp(imu_ns / 1e9, Rotation.from_quat(quat))(tsec).as_quat()
+        else:
+            q = quat[np.zeros(tsec.size, int)]
+        near = quat[np.clip(np.searchsorted(imu_ns, tc_ns), 0, imu_ns.size - 1)]
+        q *= np.where(np.sum(q * near, axis=1) < 0, -1.0, 1.0)[:, None]
+        out.update(qw=q[:, 3], qx=q[:, 0], qy=q[:, 1], qz=q[:, 2])
+    for k in ("vx", "vy", "wz"):
+        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
+    out["voltage"] = interp("battery", "voltage")
+    cur = interp("battery", "current")
+    if battery_current == "ros":
+        cur = -cur
+        rep.current_sign_flipped = True
+        log.info("%s: battery current negated (ROS BatteryState is negative while "
+                 "discharging; canonical is positive)", path)
+    if cur.size and np.median(cur) < 0:
+        log.warning("%s: median battery current %.3g A is negative after conversion; the "
+                    "driver may report positive while discharging (use "
+                    "battery_current='discharge_positive')", path, float(np.median(cur)))
+        rep.notes.append(f"warning: median current {float(np.median(cur)):.3g} A < 0")
+    out["current"] = cur
+    for k in ("x", "y"):
+        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
+    if clock == "odom":
+        out["yaw"] = clean["odom"][1]["yaw"][keep]
+    else:
+        ns, vals = clean["odom"]
+        out["yaw"] = wrap_angle(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
+    for col, (ns, data) in xstreams.items():
+        idx, _ = _sorted_unique(ns)
+        xs = ns[idx]
+        vals = [data[i] for i in idx]
+        if isinstance(vals[0], str):
+            j = np.clip(np.searchsorted(xs, tc_ns, side="right") - 1, 0, xs.size - 1)
+            out[col] = pd.Categorical([vals[i] for i in j])
+        else:
+            out[col] = np.interp(tsec, xs / 1e9, np.asarray(vals, dtype=float))
+    name = run if run is not None else (path.stem if path.suffix == ".bag" else path.name)
+    df = pd.DataFrame(out)
+    df.insert(0, "run", str(name))
+    df = canonicalize(df, str(path))
+    fmt = "rosbag2" if is2 else "rosbag1"
+    rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": [str(name)],
+                      "topics": dict(topics), "extra_topics": sorted(xstreams)})
+    rep.n_rows = len(df)
+    rep.runs = [str(name)]
+    rep.columns = list(df.columns)
+    rep.extra_columns = [c for c in df.columns if c not in CANONICAL_COLUMNS]
+    rep.dropped = dropped
+    rep.notes.append(
+        f"{fmt} {path.name}: resampled onto the {topics[clock]} clock (linear in time; "
+        f"{'quaternion by Slerp; ' if clock == 'odom' else ''}yaw unwrapped)")
+    return (df, rep) if report else df
+
+
+def _ros_time(T, ns: int):
+    return T["builtin_interfaces/msg/Time"](sec=int(ns // 1_000_000_000),
+                                            nanosec=int(ns % 1_000_000_000))
+
+
+def _header(T, ros1: bool, ns: int, frame: str, seq: int):
+    if ros1:
+        return T["std_msgs/msg/Header"](seq=seq, stamp=_ros_time(T, ns), frame_id=frame)
+    return T["std_msgs/msg/Header"](stamp=_ros_time(T, ns), frame_id=frame)
+
+
+def _open_writer(path: Path, version: int):
+    if version == 1:
+        from rosbags.rosbag1 import Writer
+
+        return Writer(path)
+    from rosbags.rosbag2 import Writer
+
+    try:
+        return Writer(path, version=9)
+    except TypeError:  # rosbags 0.10 has no version argument
+        return Writer(path)
+
+
+def write_rosbag(
+    samples: pd.DataFrame,
+    path,
+    version: Literal[1, 2] = 2,
+    topics: Mapping[str, str] | None = None,
+    *,
+    extras: bool = True,
+) -> list[Path]:
+    """Write canonical samples as ROS bag(s): Imu, Odometry and BatteryState per sample.
+
+    Every sample becomes one message on each topic, stamped (header and bag time) with
+    ``t`` (s, must be >= 0). The current is written with the ROS sign (negative while
+    discharging). Numeric extra columns go to ``std_msgs/Float64`` and text/categorical
+    ones to ``std_msgs/String`` on ``/energy_planner/<column>`` (``extras=False``: none).
+    Missing pose columns are written as 0. :func:`load_rosbag` reads it back exactly at
+    the sample times, up to float32 rounding of voltage and current (BatteryState fields
+    are float32) and nanosecond rounding of ``t``.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical table (one or more runs).
+    path : str or Path
+        Output. One run: the bag itself (ROS 2 folder, or ``.bag`` file for ROS 1; must
+        not exist). Several runs: a folder that receives one bag per run, named by run.
+    version : {1, 2}
+        ROS 1 (``rosbags.rosbag1``) or ROS 2 (``rosbags.rosbag2``, sqlite3 storage).
+    topics : mapping, optional
+        Role (``imu``, ``odom``, ``battery``) -> topic; defaults :data:`DEFAULT_TOPICS`.
+    extras : bool
+        Write extra columns.
+
+    Returns
+    -------
+    list of Path
+        The bags written, one per run.
+    """
+    from energy_planner.measurements.schema import check_columns
+
+    if version not in (1, 2):
+        raise LogError(f"version={version!r} is not valid; expected 1 or 2")
+    tops = {**DEFAULT_TOPICS, **dict(topics or {})}
+    unknown = set(tops) - set(DEFAULT_TOPICS)
+    if unknown:
+        raise LogError(f"unknown topic role(s) {sorted(unknown)}; expected "
+                       f"{sorted(DEFAULT_TOPICS)}")
+    samples = samples.copy()
+    if "run" not in samples.columns:
+        samples.insert(0, "run", "run")
+    check_columns(samples.columns, "samples given to write_rosbag")
+    if (samples["t"] < 0).any():
+        raise LogError("write_rosbag: t must be >= 0 s (bag times are unsigned); shift the "
+                       f"times (min t = {samples['t'].min()!r})")
+    path = Path(path)
+    runs = sorted(samples["run"].astype(str).unique())
+    if len(runs) == 1:
+        targets = {runs[0]: path}
+    else:
+        path.mkdir(parents=True, exist_ok=True)
+        targets = {r: path / (f"{r}.bag" if version == 1 else r) for r in runs}
+    for r, target in targets.items():
+        if target.exists():
+            raise LogIOError(f"write_rosbag: {str(target)!r} exists already; not overwriting")
+        _write_one(samples[samples["run"].astype(str) == r].sort_values("t"), target,
+                   version, tops, extras)
+    return list(targets.values())
+
+
+def _write_one(df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, str],
+               extras: bool) -> None:
+    ts = _typestore(version)
+    T = ts.types
+    ros1 = version == 1
+    ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    extra_cols = [c for c in df.columns if c not in CANONICAL_COLUMNS] if extras else []
+    n = len(df)
+    col = {c: df[c].to_numpy(dtype=float) for c in REQUIRED_COLUMNS}
+    for c in ("x", "y", "yaw"):
+        col[c] = df[c].to_numpy(dtype=float) if c in df.columns else np.zeros(n)
+    stamps = np.round(col["t"] * 1e9).astype(np.int64)
+    Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    nan = float("nan")
+    with _open_writer(path, version) as w:
+        conn = {r: w.add_connection(tops[r], MSGTYPES[r], typestore=ts) for r in MSGTYPES}
+        xconn = {}
+        for c in extra_cols:
+            numeric = pd.api.types.is_numeric_dtype(df[c])
+            xconn[c] = (w.add_connection(EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING,
+                                         typestore=ts), numeric)
+        for i in range(n):
+            ns = int(stamps[i])
+            imu = T["sensor_msgs/msg/Imu"](
+                header=_header(T, ros1, ns, "imu_link", i),
+                orientation=Quat(x=col["qx"][i], y=col["qy"][i], z=col["qz"][i],
+                                 w=col["qw"][i]),
+                orientation_covariance=np.zeros(9),
+                angular_velocity=Vec(x=0.0, y=0.0, z=col["wz"][i]),
+                angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=Vec(x=0.0, y=0.0, z=0.0),
+                linear_acceleration_covariance=np.full(9, 0.0),
+            )
+            h = 0.5 * col["yaw"][i]
+            odom = T["nav_msgs/msg/Odometry"](
+                header=_header(T, ros1, ns, "odom", i),
+                child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=T["geometry_msgs/msg/Pose"](
+                        position=T["geometry_msgs/msg/Point"](x=col["x"][i], y=col["y"][i],
+                                                              z=0.0),
+                        orientation=Quat(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h))),
+                    covariance=np.zeros(36)),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=T["geometry_msgs/msg/Twist"](
+                        linear=Vec(x=col["vx"][i], y=col["vy"][i], z=0.0),
+                        angular=Vec(x=0.0, y=0.0, z=col["wz"][i])),
+                    covariance=np.zeros(36)),
+            )
+            bat = T["sensor_msgs/msg/BatteryState"](
+                header=_header(T, ros1, ns, "battery", i),
+                voltage=col["voltage"][i], temperature=nan,
+                current=-col["current"][i], charge=nan, capacity=nan, design_capacity=nan,
+                percentage=nan, power_supply_status=2, power_supply_health=0,
+                power_supply_technology=0, present=True,
+                cell_voltage=np.zeros(0, np.float32),
+                cell_temperature=np.zeros(0, np.float32),
+                location="", serial_number="",
+            )
+            for role, msg in (("imu", imu), ("odom", odom), ("battery", bat)):
+                w.write(conn[role], ns, ser(msg, MSGTYPES[role]))
+            for c, (cn, numeric) in xconn.items():
+                v = df[c].iloc[i]
+                msg = T[_FLOAT64](data=float(v)) if numeric else T[_STRING](data=str(v))
+                w.write(cn, ns, ser(msg, _FLOAT64 if numeric else _STRING))
