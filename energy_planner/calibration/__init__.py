@@ -1,0 +1,31 @@
+"""Calibrate an energy model from a robot's own logs (paper section IV).
+
+Two ways, on the windows built by :mod:`energy_planner.measurements`:
+
+* :func:`fit_forces` - the paper's way: per-window force estimates ``P / v`` (straight
+  runs) and yaw torques ``P / |w|`` (turns in place) indexed by slope and heading, then a
+  compact fit of each force as a function of ``(alpha, gamma)``;
+* :func:`fit_model` - a joint weighted least-squares fit of every term on all windows,
+  with standard errors, specific warnings where the data cannot support a term, and
+  held-out errors from :func:`cross_validate`, which validates by run.
+"""
+
+from energy_planner.calibration.fit import (
+    CrossValidation,
+    FitResult,
+    cross_validate,
+    fit_model,
+    run_folds,
+)
+from energy_planner.calibration.forces import ForceFit, fit_forces, force_estimates
+
+__all__ = [
+    "CrossValidation",
+    "FitResult",
+    "ForceFit",
+    "cross_validate",
+    "fit_forces",
+    "fit_model",
+    "force_estimates",
+    "run_folds",
+]

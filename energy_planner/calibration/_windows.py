@@ -1,0 +1,214 @@
+"""Helpers shared by the calibration modules: aligning windows, motion and heading classes.
+
+The measurements module delivers a ``Windows`` object with ``.samples`` (one row per
+sample, with an integer ``window`` column) and ``.table`` (one row per window). Every
+calibration function works on per-window quantities in the order of the sorted window
+ids, which is the order ``EnergyModel.design_matrix(samples, groups=samples["window"])``
+returns; :func:`aligned_table` puts the table in that order.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import FitError
+
+__all__ = [
+    "aligned_table",
+    "classify_motion",
+    "heading_class",
+    "window_climb_fraction",
+    "window_energy",
+    "MOTION_KIND",
+    "STRAIGHT_KINDS",
+]
+
+#: Motion class of a window (measurements contract) -> kind of the base terms it exercises.
+MOTION_KIND: dict[str, str] = {
+    "forward": "forward",
+    "backward": "backward",
+    "lateral_left": "lateral",
+    "lateral_right": "lateral",
+    "turn_left": "turning",
+    "turn_right": "turning",
+}
+#: Kinds whose force is power / speed (N); the turning kind gives power / |wz| (N m).
+STRAIGHT_KINDS = ("forward", "backward", "lateral")
+
+_REQUIRED_SAMPLES = ("run", "t", "vx", "vy", "wz", "alpha", "gamma", "power", "window")
+_REQUIRED_TABLE = ("run", "window", "duration", "power")
+
+
+def _check_columns(df: pd.DataFrame, required: tuple[str, ...], what: str) -> None:
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise FitError(
+            f"windows.{what} lacks column(s) {', '.join(missing)}; expected the measurements "
+            f"contract columns {', '.join(required)} (have: {', '.join(map(str, df.columns))})"
+        )
+
+
+def aligned_table(windows: Any) -> pd.DataFrame:
+    """The window table sorted by window id, checked against the samples.
+
+    Parameters
+    ----------
+    windows : Windows
+        Any object with ``samples`` and ``table`` DataFrames (measurements contract).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``windows.table`` sorted by ``window``, with ``motion`` filled in by
+        :func:`classify_motion` when the table has none, and the per-window mean
+        climb fraction ``climb`` (see :func:`window_climb_fraction`).
+
+    Raises
+    ------
+    FitError
+        If a column is missing, a window id repeats, or samples and table disagree.
+    """
+    samples, table = windows.samples, windows.table
+    _check_columns(samples, _REQUIRED_SAMPLES, "samples")
+    _check_columns(table, _REQUIRED_TABLE, "table")
+    if table["window"].duplicated().any():
+        dup = table.loc[table["window"].duplicated(), "window"].iloc[0]
+        raise FitError(f"window id {dup} appears twice in windows.table; ids must be unique")
+    table = table.sort_values("window").reset_index(drop=True)
+    ids = np.unique(samples["window"].to_numpy())
+    if len(ids) != len(table) or not np.array_equal(ids, table["window"].to_numpy()):
+        raise FitError(
+            f"windows.samples has {len(ids)} window ids and windows.table {len(table)} rows, "
+            "and they differ; build both with measurements.make_windows"
+        )
+    table = table.copy()
+    if "motion" not in table.columns:
+        table["motion"] = classify_motion(
+            table["vx"].to_numpy(), table["vy"].to_numpy(), table["wz"].to_numpy()
+        )
+    climb = window_climb_fraction(samples)
+    table["climb"] = climb.reindex(table["window"]).to_numpy()
+    table["kind"] = table["motion"].map(MOTION_KIND).fillna("mixed")
+    return table
+
+
+def classify_motion(
+    vx: np.ndarray,
+    vy: np.ndarray,
+    wz: np.ndarray,
+    *,
+    min_speed: float = 0.05,
+    min_yaw_rate: float = 0.1,
+    purity: float = 0.8,
+) -> np.ndarray:
+    """Classify window-mean twists as the measurements module does.
+
+    A window is ``forward``/``backward``/``lateral_left``/``lateral_right`` when one
+    velocity component carries at least ``purity`` of the speed and the yaw rate is
+    small, ``turn_left``/``turn_right`` when it turns in place, ``mixed`` otherwise.
+
+    Examples
+    --------
+    >>> classify_motion(np.array([0.3, 0.0, 0.0, 0.2]), np.array([0.0, -0.3, 0.0, 0.2]),
+    ...                 np.array([0.0, 0.0, 0.5, 0.0])).tolist()
+    ['forward', 'lateral_right', 'turn_left', 'mixed']
+    """
+    vx, vy, wz = (np.asarray(a, dtype=float) for a in (vx, vy, wz))
+    speed = np.hypot(vx, vy)
+    out = np.full(vx.shape, "mixed", dtype=object)
+    moving = speed >= min_speed
+    straight = moving & (np.abs(wz) < min_yaw_rate)
+    out[straight & (vx >= purity * speed)] = "forward"
+    out[straight & (-vx >= purity * speed)] = "backward"
+    out[straight & (vy >= purity * speed)] = "lateral_left"
+    out[straight & (-vy >= purity * speed)] = "lateral_right"
+    turning = ~moving & (np.abs(wz) >= min_yaw_rate)
+    out[turning & (wz > 0)] = "turn_left"
+    out[turning & (wz < 0)] = "turn_right"
+    return out.astype(str)
+
+
+def window_climb_fraction(samples: pd.DataFrame) -> pd.Series:
+    """Per-window mean of the fraction of the velocity that climbs the slope.
+
+    ``climb = (vx cos(gamma) - vy sin(gamma)) / speed``: +1 walking straight uphill,
+    -1 straight downhill, 0 across the slope, whatever the body points to (a robot
+    walking sideways up the slope climbs with ``climb = 1``). Averaging this per sample
+    avoids averaging ``gamma`` across the +-pi wrap. Samples without speed count as 0.
+
+    Examples
+    --------
+    >>> s = pd.DataFrame({"window": [0, 0, 1], "vx": [0.3, 0.3, 0.0], "vy": [0.0, 0.0, 0.3],
+    ...                   "gamma": [np.pi, -np.pi, -np.pi / 2]})
+    >>> window_climb_fraction(s).round(6).tolist()
+    [-1.0, 1.0]
+    """
+    vx = samples["vx"].to_numpy(float)
+    vy = samples["vy"].to_numpy(float)
+    g = samples["gamma"].to_numpy(float)
+    speed = np.hypot(vx, vy)
+    along = vx * np.cos(g) - vy * np.sin(g)
+    frac = np.divide(along, speed, out=np.zeros_like(along), where=speed > 1e-9)
+    return pd.Series(frac, index=samples.index).groupby(samples["window"].to_numpy()).mean()
+
+
+def heading_class(
+    alpha: np.ndarray, climb: np.ndarray, *, level_deg: float = 2.0
+) -> np.ndarray:
+    """Name the direction of travel relative to the slope.
+
+    ``level`` below ``level_deg`` of slope; otherwise ``uphill`` when the travel is within
+    45 deg of the uphill direction (``climb >= cos 45``), ``downhill`` within 45 deg of
+    downhill, ``cross`` within 30 deg of the contour line (``|climb| <= sin 30``), and
+    ``oblique`` in between.
+
+    Examples
+    --------
+    >>> heading_class(np.radians([10, 10, 10, 10, 1]), np.array([0.9, -1, 0.1, 0.6, 1])).tolist()
+    ['uphill', 'downhill', 'cross', 'oblique', 'level']
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    climb = np.asarray(climb, dtype=float)
+    c45 = np.cos(np.pi / 4)
+    out = np.full(alpha.shape, "oblique", dtype=object)
+    out[climb >= c45] = "uphill"
+    out[climb <= -c45] = "downhill"
+    out[np.abs(climb) <= 0.5] = "cross"
+    out[alpha < np.radians(level_deg)] = "level"
+    return out.astype(str)
+
+
+def window_energy(samples: pd.DataFrame, power: np.ndarray | None = None) -> pd.Series:
+    """Energy (J) of each window: trapezoidal integral of power over its samples' times.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Per-sample rows with ``window`` and ``t``.
+    power : ndarray, optional
+        Per-sample power (W) aligned with ``samples``; ``samples["power"]`` by default.
+
+    Returns
+    -------
+    pandas.Series
+        Energy per window id, sorted by window id.
+
+    Examples
+    --------
+    >>> s = pd.DataFrame({"window": [1, 1, 1, 2, 2], "t": [0.0, 1.0, 2.0, 5.0, 5.5],
+    ...                   "power": [100.0, 100.0, 200.0, 10.0, 30.0]})
+    >>> window_energy(s).tolist()
+    [250.0, 10.0]
+    """
+    p = samples["power"].to_numpy(float) if power is None else np.asarray(power, dtype=float)
+    w = samples["window"].to_numpy()
+    t = samples["t"].to_numpy(float)
+    order = np.lexsort((t, w))
+    w, t, p = w[order], t[order], p[order]
+    same = w[1:] == w[:-1]
+    seg = np.where(same, 0.5 * (p[1:] + p[:-1]) * (t[1:] - t[:-1]), 0.0)
+    energy = pd.Series(seg).groupby(w[:-1]).sum() if len(seg) else pd.Series(dtype=float)
+    return energy.reindex(np.unique(w), fill_value=0.0)

@@ -1,0 +1,346 @@
+"""Calibration on synthetic windows built from a known model (independent of the simulator).
+
+Samples come from a known base model: ``power = truth.power(features) + noise``; each run
+walks one motion at one slope and heading, cut into windows. A least-squares fit must
+recover the truth within a few standard errors, validation must hold out whole runs,
+and the warnings must name what the data cannot support.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.calibration import (
+    cross_validate,
+    fit_forces,
+    fit_model,
+    force_estimates,
+    run_folds,
+)
+from energy_planner.calibration._windows import classify_motion, window_energy
+from energy_planner.errors import FitError
+from energy_planner.model import BASE_TERMS, EnergyModel
+
+TRUTH = {
+    "fwd_const": 600.0,
+    "fwd_grade": 1000.0,
+    "bwd_const": 700.0,
+    "bwd_grade": 1000.0,
+    "lat_const": 800.0,
+    "lat_grade": 900.0,
+    "turn_const": 250.0,
+    "turn_slope": 300.0,
+}
+
+# motion -> (vx, vy, wz) at unit rate, and the body direction of travel beta
+_MOTIONS = {
+    "forward": ((1, 0, 0), 0.0),
+    "backward": ((-1, 0, 0), np.pi),
+    "lateral_left": ((0, 1, 0), np.pi / 2),
+    "lateral_right": ((0, -1, 0), -np.pi / 2),
+    "turn_left": ((0, 0, 1), None),
+    "turn_right": ((0, 0, -1), None),
+}
+
+
+class Windows:
+    """Minimal stand-in for measurements.Windows (samples + table)."""
+
+    def __init__(self, samples: pd.DataFrame, table: pd.DataFrame) -> None:
+        self.samples = samples
+        self.table = table
+
+
+def make_windows(
+    truth: EnergyModel,
+    *,
+    seed: int = 0,
+    slopes_deg=(0, 5, 10, 15, 20),
+    motions=tuple(_MOTIONS),
+    speeds=(0.3,),
+    yaw_rate: float = 0.5,
+    run_s: float = 20.0,
+    window_s: float = 5.0,
+    rate_hz: float = 10.0,
+    noise_w: float = 10.0,
+    twist_noise: float = 1.0,
+    extra: dict | None = None,
+) -> Windows:
+    """Runs of one motion each at every slope, up- and downhill, as windows."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    run_id = 0
+    for slope in slopes_deg:
+        for motion in motions:
+            (ux, uy, uw), beta = _MOTIONS[motion]
+            # travel uphill and downhill (turns: facing up and across)
+            for climb_dir in (0.0, np.pi) if beta is not None else (0.0, np.pi / 2):
+                for speed in speeds:
+                    gamma = climb_dir - (beta or 0.0)
+                    gamma = (gamma + np.pi) % (2 * np.pi) - np.pi
+                    n = int(run_s * rate_hz)
+                    t = np.arange(n) / rate_hz
+                    vx = ux * speed + rng.normal(0, 0.005 * twist_noise, n)
+                    vy = uy * speed + rng.normal(0, 0.005 * twist_noise, n)
+                    wz = uw * yaw_rate + rng.normal(0, 0.01 * twist_noise, n)
+                    alpha = np.full(n, np.radians(slope)) + rng.normal(0, np.radians(0.3), n)
+                    alpha = np.abs(alpha)
+                    g = np.full(n, gamma) + rng.normal(0, 0.02, n)
+                    df = pd.DataFrame(
+                        {
+                            "run": f"r{run_id:03d}",
+                            "t": t,
+                            "vx": vx,
+                            "vy": vy,
+                            "wz": wz,
+                            "alpha": alpha,
+                            "gamma": g,
+                            "ax": 0.0,
+                            "ay": 0.0,
+                        }
+                    )
+                    for k, v in (extra or {}).items():
+                        df[k] = v(run_id) if callable(v) else v
+                    df["speed"] = np.hypot(df.vx, df.vy)
+                    df["power"] = truth.power(df) + rng.normal(0, noise_w, n)
+                    df["window"] = (run_id * 1000 + t // window_s).astype(int)
+                    rows.append(df)
+                    run_id += 1
+    samples = pd.concat(rows, ignore_index=True)
+    g = samples.groupby("window")
+    table = g.agg(
+        run=("run", "first"),
+        t_start=("t", "min"),
+        t_end=("t", "max"),
+        n=("t", "size"),
+        alpha=("alpha", "mean"),
+        gamma=("gamma", "mean"),
+        vx=("vx", "mean"),
+        vy=("vy", "mean"),
+        wz=("wz", "mean"),
+        speed=("speed", "mean"),
+        power=("power", "mean"),
+    ).reset_index()
+    table["duration"] = table["t_end"] - table["t_start"] + 1 / rate_hz
+    table["energy_j"] = table["power"] * table["duration"]
+    table["motion"] = classify_motion(table.vx, table.vy, table.wz)
+    return Windows(samples, table)
+
+
+@pytest.fixture(scope="module")
+def truth() -> EnergyModel:
+    return EnergyModel(BASE_TERMS, TRUTH)
+
+
+@pytest.fixture(scope="module")
+def campaign(truth) -> Windows:
+    return make_windows(truth)
+
+
+def test_joint_fit_recovers_truth_within_stderr(campaign, truth):
+    res = fit_model(campaign, n_splits=5)
+    assert res.n_runs == 5 * 6 * 2 and res.n_windows == 4 * res.n_runs
+    for name, true in TRUTH.items():
+        c, se = res.coefficients[name], res.stderr[name]
+        # noise is white and the model exact: the estimate lies within 4 standard errors
+        assert abs(c - true) < 4 * se + 1e-9, (name, c, se)
+        assert se < 0.05 * true  # and the data pins every force down to 5 %
+    # 10 W of white noise averages to ~10/sqrt(50) = 1.4 W per 5 s window
+    assert res.residual_rms_w < 3.0
+    assert res.heldout is not None
+    # a run's measured energy carries the integrated noise: 10 W * 0.1 s * sqrt(200 samples)
+    # = 14 J; held-out predictions must be within 4 of those plus 0.5 % of coefficient error
+    runs = res.heldout.runs
+    assert (runs.error_j.abs() < 4 * 14.1 + 0.005 * runs.measured_j).all()
+    assert res.heldout.energy_mean_abs_rel < 0.01
+    assert res.warnings == []
+
+
+@pytest.fixture(scope="module")
+def clean_twist(truth) -> Windows:
+    return make_windows(truth, twist_noise=0.0)
+
+
+def test_force_fit_matches_joint_fit(clean_twist):
+    """Without twist noise both methods recover the truth and agree.
+
+    (With noise, |vy| and |wz| of a forward window rectify their noise into a few W of
+    lateral and turning power that the per-motion fit books as forward force: ~15 N on
+    fwd_const with the default noise; the joint fit separates them.)
+    """
+    joint = fit_model(clean_twist, n_splits=0)
+    per_motion = fit_forces(clean_twist)
+    for name, true in TRUTH.items():
+        assert abs(per_motion.coefficients[name] - true) < 4 * per_motion.stderr[name] + 1e-9
+        assert per_motion.coefficients[name] == pytest.approx(joint.coefficients[name], rel=0.03)
+
+
+def test_force_estimates_are_power_over_rate(clean_twist):
+    est = force_estimates(clean_twist)
+    fwd = est[(est.kind == "forward") & (est.heading == "uphill")]
+    # uphill forward at slope a: F = fwd_const + fwd_grade sin a (gamma = 0)
+    expect = TRUTH["fwd_const"] + TRUTH["fwd_grade"] * np.sin(fwd.alpha)
+    np.testing.assert_allclose(fwd.value, expect, rtol=0.03)
+    turns = est[est.kind == "turning"]
+    assert set(turns.unit) == {"N m"}
+    np.testing.assert_allclose(
+        turns.value, TRUTH["turn_const"] + TRUTH["turn_slope"] * np.sin(turns.alpha), rtol=0.05
+    )
+    # lateral uphill climbs; heading classes follow the direction of travel
+    lat = est[(est.kind == "lateral") & (est.alpha_deg > 3)]
+    assert set(lat.heading) == {"uphill", "downhill"}
+
+
+def test_cross_validation_never_mixes_runs(campaign):
+    cv = cross_validate(BASE_TERMS, campaign, n_splits=4, seed=3)
+    assert cv.n_splits == 4
+    runs = [set(f) for f in cv.folds]
+    assert sum(len(r) for r in runs) == len(set().union(*runs)) == 60
+    # every window of a run is in the run's fold, and that fold held out exactly its runs
+    by_run = cv.windows.groupby("run")["fold"].nunique()
+    assert (by_run == 1).all()
+    for i, fold_runs in enumerate(runs):
+        assert set(cv.windows.loc[cv.windows.fold == i, "run"]) == fold_runs
+    assert set(cv.runs.run) == set().union(*runs)
+
+
+def test_cross_validation_holds_out_the_test_runs(truth):
+    """A run whose power is off by +50 % must be predicted from the others only."""
+    w = make_windows(truth, slopes_deg=(0, 10, 20), seed=2)
+    odd = w.samples.run == "r000"
+    w.samples.loc[odd, "power"] *= 1.5
+    w.table.loc[w.table.run == "r000", "power"] *= 1.5
+    cv = cross_validate(None, w, n_splits=36, seed=0)  # leave one run out
+    row = cv.runs.set_index("run").loc["r000"]
+    # trained without r000, the model predicts the truth: about -1/3 of the inflated energy
+    assert row.rel_error == pytest.approx(1 / 1.5 - 1, abs=0.02)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    n_runs=st.integers(2, 40),
+    n_splits=st.integers(2, 10),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_run_folds_partition_runs(n_runs, n_splits, seed):
+    runs = [f"run{i}" for i in range(n_runs) for _ in range(3)]
+    if n_splits > n_runs:
+        with pytest.raises(FitError, match="folds"):
+            run_folds(runs, n_splits, seed)
+        return
+    folds = run_folds(runs, n_splits, seed)
+    flat = sum(folds, [])
+    assert sorted(flat) == sorted(set(runs)) and len(flat) == n_runs
+    sizes = [len(f) for f in folds]
+    assert max(sizes) - min(sizes) <= 1
+
+
+def test_too_little_data_names_counts(truth):
+    w = make_windows(truth, slopes_deg=(10,), motions=("forward",), run_s=5.0)
+    with pytest.raises(FitError, match=r"got 2 windows from 2 run\(s\); need at least 24"):
+        fit_model(w)
+    one_run = make_windows(truth, slopes_deg=(10,), motions=("forward",), run_s=60)
+    one_run.samples = one_run.samples[one_run.samples.run == "r000"]
+    one_run.table = one_run.table[one_run.table.run == "r000"]
+    with pytest.raises(FitError, match=r"from 1 run\(s\).*from at least 2 runs"):
+        fit_model(one_run, ["fwd_const", "fwd_grade"])
+
+
+def test_missing_motion_names_terms(truth):
+    w = make_windows(truth, motions=("forward", "lateral_left", "turn_left"))
+    with pytest.raises(FitError, match=r"0 backward window.*bwd_const, bwd_grade"):
+        fit_model(w)
+    res = fit_model(w, [t for t in BASE_TERMS if not t.startswith("bwd")], n_splits=3)
+    assert res.coefficients["lat_grade"] == pytest.approx(TRUTH["lat_grade"], rel=0.05)
+
+
+def test_single_speed_warns_for_speed_term(campaign):
+    res = fit_model(campaign, [*BASE_TERMS, "speed_dependence"], n_splits=0)
+    msgs = "\n".join(res.warnings)
+    assert "one speed (0.30 m/s" in msgs and "'speed_dependence'" in msgs
+    assert "nearly in the span" in msgs  # and the VIF check names it too
+    assert res.vif["speed_dependence"] > 30
+
+
+def test_several_speeds_support_speed_term():
+    truth = EnergyModel([*BASE_TERMS, "speed_dependence"], {**TRUTH, "speed_dependence": 400.0})
+    w = make_windows(truth, speeds=(0.2, 0.4, 0.6), slopes_deg=(0, 10, 20))
+    res = fit_model(w, [*BASE_TERMS, "speed_dependence"], n_splits=0)
+    assert not any("one speed" in m for m in res.warnings)
+    c, se = res.coefficients["speed_dependence"], res.stderr["speed_dependence"]
+    assert abs(c - 400.0) < 4 * se and se < 40
+
+
+def test_level_only_lateral_warns(truth):
+    w = make_windows(truth, slopes_deg=(0, 10, 20), motions=("forward", "backward", "turn_left"))
+    flat = make_windows(truth, slopes_deg=(0, 2), motions=("lateral_left",), seed=5)
+    flat.samples = flat.samples.assign(
+        run="f" + flat.samples.run, window=flat.samples.window + 10**6
+    )
+    flat.table = flat.table.assign(run="f" + flat.table.run, window=flat.table.window + 10**6)
+    both = Windows(
+        pd.concat([w.samples, flat.samples], ignore_index=True),
+        pd.concat([w.table, flat.table], ignore_index=True),
+    )
+    res = fit_model(both, n_splits=0)
+    msg = [m for m in res.warnings if m.startswith("no lateral windows on slopes")]
+    assert len(msg) == 1 and "lat_const, lat_grade" in msg[0], res.warnings
+
+
+def test_uphill_only_warns(truth):
+    w = make_windows(truth)
+    down = w.table.alpha.gt(np.radians(2)) & (w.table.motion == "forward")
+    down &= np.cos(w.table.gamma) < 0
+    keep = set(w.table.loc[~down, "window"])
+    w2 = Windows(w.samples[w.samples.window.isin(keep)], w.table[w.table.window.isin(keep)])
+    res = fit_model(w2, n_splits=0)
+    assert any(m.startswith("forward windows on slopes include no downhill") for m in res.warnings)
+
+
+def test_collinear_terms_raise(campaign):
+    with pytest.raises(FitError, match="cannot tell these terms apart"):
+        fit_model(campaign, [*BASE_TERMS, "2 * pos(vx)"], n_splits=0)
+
+
+def test_heldout_power_matches_model_power(campaign):
+    """The CV predictions equal EnergyModel.power with the fold coefficients."""
+    cv = cross_validate(None, campaign, n_splits=3)
+    fold0 = cv.folds[0]
+    m = EnergyModel(BASE_TERMS, cv.fold_coefficients.loc[0].to_dict())
+    s = campaign.samples[campaign.samples.run.isin(fold0)]
+    p = pd.Series(m.power(s)).groupby(s.window.to_numpy()).mean()
+    got = cv.windows.set_index("window").loc[p.index, "predicted_w"]
+    np.testing.assert_allclose(got.to_numpy(), p.to_numpy())
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    p=st.lists(st.floats(0, 1000), min_size=4, max_size=12),
+    dt=st.floats(0.01, 1.0),
+    cut=st.integers(1, 3),
+)
+def test_window_energy_adds_up(p, dt, cut):
+    """Energies of windows cut at shared samples add up to the energy of the whole."""
+    t = np.arange(len(p)) * dt
+    whole = pd.DataFrame({"window": 0, "t": t, "power": p})
+    a = whole.iloc[: cut + 1].assign(window=1)
+    b = whole.iloc[cut:].assign(window=2)
+    parts = window_energy(pd.concat([a, b]))
+    assert parts.sum() == pytest.approx(window_energy(whole).iloc[0], rel=1e-9, abs=1e-9)
+    assert window_energy(whole).iloc[0] == pytest.approx(np.trapezoid(p, t), abs=1e-9)
+
+
+def test_fit_result_serialises(campaign, tmp_path):
+    res = fit_model(campaign, n_splits=3)
+    d = res.to_dict()
+    assert [t["name"] for t in d["terms"]] == list(BASE_TERMS)
+    assert d["heldout"]["n_splits"] == 3 and len(d["heldout"]["runs"]) == 60
+    path = res.model.save(tmp_path / "m.json")
+    back = EnergyModel.load(path)
+    assert back.coefficients == pytest.approx(res.coefficients)
+    assert back.metadata["fit"]["n_windows"] == res.n_windows
+    assert "held-out by run" in res.summary()
