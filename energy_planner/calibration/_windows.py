@@ -155,9 +155,7 @@ def window_climb_fraction(samples: pd.DataFrame) -> pd.Series:
     return pd.Series(frac, index=samples.index).groupby(samples["window"].to_numpy()).mean()
 
 
-def heading_class(
-    alpha: np.ndarray, climb: np.ndarray, *, level_deg: float = 2.0
-) -> np.ndarray:
+def heading_class(alpha: np.ndarray, climb: np.ndarray, *, level_deg: float = 2.0) -> np.ndarray:
     """Name the direction of travel relative to the slope.
 
     ``level`` below ``level_deg`` of slope; otherwise ``uphill`` when the travel is within
