@@ -1,0 +1,51 @@
+"""Diagnosis: how far a model is from the measurements, and which effect it is missing.
+
+The flow (``energy-planner diagnose``): windowed measurements and a fitted model give
+power-level errors on windows, energy errors per run, the superposition check of composite
+paths, the residual broken down by every variable, a ranked list of suspects (candidate
+physical effects validated on held-out runs) and the greedy staircase of held-out error
+as the best suspects are added one by one.
+
+>>> from energy_planner.diagnosis import Thresholds
+>>> Thresholds().k, Thresholds().min_rel
+(2.0, 0.05)
+"""
+
+from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table
+from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
+from energy_planner.diagnosis.suspects import (
+    Candidate,
+    Ranking,
+    Step,
+    Suspect,
+    Thresholds,
+    heldout_rmse,
+    rank_suspects,
+    run_folds,
+    span_residual,
+    staircase,
+)
+
+__all__ = [
+    "Candidate",
+    "Diagnosis",
+    "Ranking",
+    "Step",
+    "Suspect",
+    "Thresholds",
+    "WindowData",
+    "breakdown",
+    "diagnose",
+    "heldout_rmse",
+    "hotspots",
+    "infer_composites",
+    "power_metrics",
+    "rank_suspects",
+    "run_folds",
+    "run_table",
+    "span_residual",
+    "staircase",
+    "superposition",
+    "window_data",
+]

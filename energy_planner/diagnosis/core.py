@@ -1,0 +1,211 @@
+"""Compare a model with measurements and find the physical effect it is missing."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
+from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, staircase
+from energy_planner.errors import FitError
+
+
+def _integrate(samples: pd.DataFrame, power: np.ndarray) -> pd.DataFrame:
+    """Energy of each run as ``run_energies`` computes it, for any per-sample power."""
+    s = samples[["run", "t"]].copy()
+    s["power"] = power
+    try:
+        from energy_planner.measurements import run_energies
+    except ImportError:  # measurements not there: trapezoid over each run
+        rows = []
+        for run, g in s.groupby("run", sort=True):
+            t = g["t"].to_numpy(float)
+            p = g["power"].to_numpy(float)
+            e = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t))) if len(t) > 1 else 0.0
+            rows.append({"run": run, "duration_s": float(t[-1] - t[0]), "measured_j": e})
+        return pd.DataFrame(rows)
+    return run_energies(s)
+
+
+def run_table(samples: pd.DataFrame, model) -> pd.DataFrame:
+    """Measured and predicted energy of every run (J), integrated the same way.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Clean per-sample data with ``run``, ``t``, ``power`` and the model's features.
+    model : EnergyModel
+        A fitted model.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``run, duration_s, measured_j, predicted_j, error_j, error_rel``.
+    """
+    s = samples.reset_index(drop=True)
+    s = s.assign(run=s["run"].astype(str))
+    measured = _integrate(s, s["power"].to_numpy(float))
+    predicted = _integrate(s, np.asarray(model.power(s), float))
+    out = measured[["run", "duration_s", "measured_j"]].merge(
+        predicted[["run", "measured_j"]].rename(columns={"measured_j": "predicted_j"}), on="run"
+    )
+    out["run"] = out["run"].astype(str)
+    out["error_j"] = out["predicted_j"] - out["measured_j"]
+    m = out["measured_j"].to_numpy(float)
+    rel = np.full(len(out), np.nan)
+    np.divide(out["error_j"].to_numpy(float), m, out=rel, where=m != 0)
+    out["error_rel"] = rel
+    return out
+
+
+def infer_composites(samples: pd.DataFrame, runs_meta: pd.DataFrame | None = None) -> dict:
+    """Composite runs and their parts, from run metadata or from log channels.
+
+    Looks for columns ``composite`` (the composite path a run belongs to) and ``part``
+    (``"A"``, ``"B"``, ... for a part; ``"AB"``/empty/``"whole"`` for the composite run)
+    in ``runs_meta`` (one row per run) or else in the samples.
+    """
+    src = runs_meta
+    if src is None or not {"run", "composite", "part"} <= set(src.columns):
+        if not {"run", "composite", "part"} <= set(samples.columns):
+            return {}
+        src = samples[["run", "composite", "part"]].drop_duplicates("run")
+    out: dict[str, list[str]] = {}
+    src = src.dropna(subset=["composite"])
+    for comp, g in src.groupby(src["composite"].astype(str), sort=True):
+        if comp in ("", "nan", "None"):
+            continue
+        part = g["part"].astype(str)
+        whole = g[part.str.len().ne(1)]
+        pieces = g[part.str.len().eq(1)].sort_values("part")
+        if len(whole) == 1 and len(pieces) >= 2:
+            out[str(whole["run"].iloc[0])] = pieces["run"].astype(str).tolist()
+    return out
+
+
+@dataclass
+class Diagnosis:
+    """Everything the diagnosis found; :meth:`to_dict` is the ``--json`` output."""
+
+    model: Any
+    data: WindowData
+    predicted: np.ndarray
+    metrics: dict[str, float]
+    runs: pd.DataFrame
+    breakdown: dict[str, dict]
+    superposition: list[dict]
+    ranking: Ranking | None
+    steps: list[Step] = field(default_factory=list)
+    rankings: list[Ranking] = field(default_factory=list)
+    thresholds: Thresholds = field(default_factory=Thresholds)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def residual(self) -> np.ndarray:
+        """Measured minus predicted mean power of each window, W."""
+        return self.data.power - self.predicted
+
+    @property
+    def suspects(self) -> list:
+        """Above-noise suspects, best first."""
+        return [] if self.ranking is None else self.ranking.suspects
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON document (see ``docs/diagnosis.md``)."""
+        r = self.ranking
+        runs = self.runs.replace({np.nan: None}).to_dict(orient="records")
+        th = self.thresholds
+        return {
+            "model_terms": list(self.model.term_names),
+            "n_windows": self.data.n_windows,
+            "n_runs": int(len(np.unique(self.data.runs))),
+            "rmse_w": self.metrics["rmse_w"],
+            "mae_w": self.metrics["mae_w"],
+            "bias_w": self.metrics["bias_w"],
+            "r2": self.metrics["r2"],
+            "heldout_rmse_w": None if r is None else r.heldout_rmse_w,
+            "runs": runs,
+            "superposition": self.superposition,
+            "breakdown": self.breakdown,
+            "hotspots": hotspots(self.breakdown),
+            "suspects": [] if r is None else [s.to_dict() for s in r.suspects],
+            "below_noise": [] if r is None else [s.to_dict() for s in r.below_noise],
+            "unsupported": [] if r is None else r.unsupported,
+            "staircase": [s.to_dict() for s in self.steps],
+            "thresholds": {
+                "k": th.k,
+                "min_rel": th.min_rel,
+                "span_tol": th.span_tol,
+                "n_splits": th.n_splits,
+                "seed": th.seed,
+            },
+            "notes": self.notes,
+        }
+
+
+def diagnose(
+    model,
+    samples: pd.DataFrame,
+    *,
+    composites: Mapping[str, Sequence[str]] | None = None,
+    thresholds: Thresholds | None = None,
+    max_steps: int = 4,
+    extras: Sequence[str] | None = None,
+    progress=None,
+) -> Diagnosis:
+    """Compare ``model`` with windowed measurements and rank the effects it misses.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        A fitted model (its terms are also the starting point of the refits).
+    samples : pandas.DataFrame
+        Windowed per-sample data, ``make_windows(clean).samples`` (or a ``Windows``).
+    composites : mapping, optional
+        Composite run -> part runs for the superposition check; default inferred from
+        ``composite``/``part`` columns (:func:`infer_composites`).
+    thresholds : Thresholds, optional
+        Support and noise rules (:mod:`energy_planner.diagnosis.suspects`).
+    max_steps : int
+        Largest number of terms the staircase adds (0: rank only).
+    extras : sequence of str, optional
+        Extra channels to examine (default: every non-canonical column).
+    progress : callable, optional
+        Called with the step number after each staircase step.
+
+    Returns
+    -------
+    Diagnosis
+    """
+    if hasattr(samples, "samples"):
+        samples = samples.samples
+    th = thresholds or Thresholds()
+    wd = window_data(samples, extras)
+    pred = wd.predict(model)
+    metrics = power_metrics(wd.power, pred)
+    notes: list[str] = []
+    runs = run_table(samples, model)
+    if composites is None:
+        composites = infer_composites(samples)
+    sup = superposition(runs, composites)
+    bd = breakdown(wd.table, wd.power - pred, wd.numeric_extras, wd.categorical_extras)
+    ranking, steps, rankings = None, [], []
+    try:
+        steps, rankings = staircase(wd, model.term_names, th, max_steps, progress=progress)
+        ranking = rankings[0]
+    except FitError as exc:
+        notes.append(f"no suspects: {exc}")
+    if ranking is not None and not ranking.suspects:
+        notes.append(
+            "no candidate effect is above noise: the model explains these logs as well as "
+            "the data can tell"
+        )
+    if not math.isfinite(metrics["rmse_w"]):
+        notes.append("no window has both a measured and a predicted power")
+    return Diagnosis(model, wd, pred, metrics, runs, bd, sup, ranking, steps, rankings, th, notes)

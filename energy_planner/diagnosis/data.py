@@ -1,0 +1,264 @@
+"""Window-level view of the measurements used by the diagnosis.
+
+The diagnosis works on windows (paper IV-C): the target is the mean measured power of a
+window and a term's column is the window mean of the term evaluated per sample (power is
+linear in the coefficients, so the window mean of power is the sum of the window means of
+the terms). This module turns the per-sample table of
+``energy_planner.measurements.make_windows(...).samples`` into that view, and evaluates
+any term (catalog name or formula) on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import FitError, LogError
+
+# Columns of the canonical samples that are not extra channels.
+KNOWN_COLUMNS = frozenset(
+    {
+        "run",
+        "t",
+        "qw",
+        "qx",
+        "qy",
+        "qz",
+        "vx",
+        "vy",
+        "wz",
+        "voltage",
+        "current",
+        "x",
+        "y",
+        "yaw",
+        "z",
+        "alpha",
+        "gamma",
+        "speed",
+        "ax",
+        "ay",
+        "az",
+        "power",
+        "motion",
+        "window",
+        "dt",
+        "valid",
+        "keep",
+        "composite",
+        "part",
+        "segment",
+    }
+)
+
+#: Categorical channels with more distinct values than this are treated as identifiers.
+MAX_CATEGORIES = 12
+
+REQUIRED = ("run", "t", "power", "window")
+
+
+@dataclass
+class WindowData:
+    """Per-sample features and their per-window aggregation.
+
+    Attributes
+    ----------
+    samples : pandas.DataFrame
+        Per-sample features (only samples that belong to a window), ``speed`` filled in.
+    key : numpy.ndarray
+        Window index of every sample, ``0 .. n_windows - 1``.
+    table : pandas.DataFrame
+        One row per window: ``run``, ``window``, ``n``, ``power`` (mean measured power, W),
+        ``alpha_deg``, ``gamma_deg``, ``speed``, ``vx``, ``vy``, ``wz``, ``motion`` and every
+        extra channel (numeric: window mean; categorical: most frequent value).
+    numeric_extras, categorical_extras : list of str
+        Extra channels found in the samples, by kind.
+    """
+
+    samples: pd.DataFrame
+    key: np.ndarray
+    table: pd.DataFrame
+    numeric_extras: list[str] = field(default_factory=list)
+    categorical_extras: list[str] = field(default_factory=list)
+
+    @property
+    def n_windows(self) -> int:
+        """Number of windows."""
+        return len(self.table)
+
+    @property
+    def power(self) -> np.ndarray:
+        """Mean measured power of each window, W."""
+        return self.table["power"].to_numpy(dtype=float)
+
+    @property
+    def runs(self) -> np.ndarray:
+        """Run identifier of each window."""
+        return self.table["run"].to_numpy()
+
+    @property
+    def extras(self) -> list[str]:
+        """All extra channels, numeric first."""
+        return [*self.numeric_extras, *self.categorical_extras]
+
+    def window_mean(self, values: np.ndarray) -> np.ndarray:
+        """Mean of a per-sample array over each window, ignoring non-finite samples.
+
+        A window whose samples are all non-finite gets NaN.
+        """
+        values = np.asarray(values, dtype=float)
+        ok = np.isfinite(values)
+        n = np.bincount(self.key[ok], minlength=self.n_windows).astype(float)
+        s = np.bincount(self.key[ok], weights=values[ok], minlength=self.n_windows)
+        out = np.full(self.n_windows, np.nan)
+        np.divide(s, n, out=out, where=n > 0)
+        return out
+
+    def columns(self, terms: Iterable[str]) -> np.ndarray:
+        """Window-mean design columns of ``terms`` (catalog names or formulas).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(n_windows, len(terms))``.
+        """
+        from energy_planner.model import EnergyModel
+
+        terms = list(terms)
+        if not terms:
+            return np.empty((self.n_windows, 0))
+        per_sample = np.asarray(EnergyModel(terms=terms).design_matrix(self.samples), dtype=float)
+        return np.column_stack([self.window_mean(per_sample[:, j]) for j in range(len(terms))])
+
+    def predict(self, model) -> np.ndarray:
+        """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
+        return self.window_mean(np.asarray(model.power(self.samples), dtype=float))
+
+
+def _is_numeric(series: pd.Series) -> bool:
+    return pd.api.types.is_numeric_dtype(series) and not pd.api.types.is_bool_dtype(series)
+
+
+def _mode(series: pd.Series, key: np.ndarray, n: int) -> np.ndarray:
+    """Most frequent value of a categorical per-sample series in each window (NaN-safe)."""
+    codes, uniques = pd.factorize(series, use_na_sentinel=True)
+    out = np.full(n, None, dtype=object)
+    ok = codes >= 0
+    if not ok.any():
+        return out
+    counts = np.zeros((n, len(uniques)), dtype=np.int64)
+    np.add.at(counts, (key[ok], codes[ok]), 1)
+    has = counts.sum(axis=1) > 0
+    best = counts.argmax(axis=1)
+    out[has] = np.asarray(uniques, dtype=object)[best[has]]
+    return out
+
+
+def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> WindowData:
+    """Build the window-level view from windowed per-sample data.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        ``make_windows(...).samples``: per-sample ``run, t, vx, vy, wz, alpha, gamma, ax, ay,
+        power, motion, window`` and any extra channel. Samples whose ``window`` is missing or
+        negative belong to no window and are ignored.
+    extras : iterable of str, optional
+        Extra channels to consider; default every column that is not a canonical one.
+
+    Returns
+    -------
+    WindowData
+
+    Raises
+    ------
+    LogError
+        A required column is missing.
+    FitError
+        No sample belongs to a window.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"run": ["a"] * 4, "t": [0, 1, 2, 3], "power": [1.0, 3, 5, 7],
+    ...                   "window": [0, 0, 1, 1], "vx": 0.3, "vy": 0.0, "wz": 0.0,
+    ...                   "alpha": 0.0, "gamma": 0.0, "mud": ["x", "x", "y", "y"]})
+    >>> wd = window_data(s)
+    >>> wd.table["power"].tolist(), wd.categorical_extras, wd.table["mud"].tolist()
+    ([2.0, 6.0], ['mud'], ['x', 'y'])
+    """
+    missing = [c for c in REQUIRED if c not in samples.columns]
+    if missing:
+        raise LogError(
+            f"windowed samples lack column(s) {missing}; expected the output of "
+            "energy_planner.measurements.make_windows(...).samples with columns "
+            f"{list(REQUIRED)} and the per-sample features"
+        )
+    win = pd.to_numeric(samples["window"], errors="coerce")
+    keep = win.notna().to_numpy() & (win.fillna(-1).to_numpy() >= 0)
+    keep &= np.isfinite(pd.to_numeric(samples["power"], errors="coerce").to_numpy(dtype=float))
+    s = samples.loc[keep].reset_index(drop=True).copy()
+    if s.empty:
+        raise FitError("no sample belongs to a window: nothing to diagnose (check make_windows)")
+    if "speed" not in s.columns and {"vx", "vy"} <= set(s.columns):
+        s["speed"] = np.hypot(s["vx"].to_numpy(float), s["vy"].to_numpy(float))
+    s["run"] = s["run"].astype(str)
+    # A window is identified by (run, window): window numbers may restart in each run.
+    pairs = pd.MultiIndex.from_arrays([s["run"], s["window"].astype(np.int64)])
+    key, uniq = pd.factorize(pairs, sort=True)
+    key = np.asarray(key, dtype=np.int64)
+    n = len(uniq)
+    if extras is None:
+        extras = [c for c in s.columns if c not in KNOWN_COLUMNS]
+    extras = [c for c in extras if c in s.columns]
+
+    def mean(col: str) -> np.ndarray:
+        v = pd.to_numeric(s[col], errors="coerce").to_numpy(dtype=float)
+        ok = np.isfinite(v)
+        cnt = np.bincount(key[ok], minlength=n).astype(float)
+        tot = np.bincount(key[ok], weights=v[ok], minlength=n)
+        out = np.full(n, np.nan)
+        np.divide(tot, cnt, out=out, where=cnt > 0)
+        return out
+
+    table = pd.DataFrame(
+        {
+            "run": uniq.get_level_values(0).astype(str),
+            "window": uniq.get_level_values(1),
+            "n": np.bincount(key, minlength=n),
+            "power": mean("power"),
+        }
+    )
+    if "t" in s.columns:
+        t = s["t"].to_numpy(dtype=float)
+        t0 = np.full(n, np.inf)
+        t1 = np.full(n, -np.inf)
+        np.minimum.at(t0, key, t)
+        np.maximum.at(t1, key, t)
+        table["t_start"], table["t_end"] = t0, t1
+    if "alpha" in s.columns:
+        table["alpha_deg"] = np.degrees(mean("alpha"))
+    if "gamma" in s.columns:  # circular mean: headings near +-180 deg must not average to 0
+        g = s["gamma"].to_numpy(dtype=float)
+        s["_sin_g"], s["_cos_g"] = np.sin(g), np.cos(g)
+        table["gamma_deg"] = np.degrees(np.arctan2(mean("_sin_g"), mean("_cos_g")))
+        s.drop(columns=["_sin_g", "_cos_g"], inplace=True)
+    for col in ("speed", "vx", "vy", "wz"):
+        if col in s.columns:
+            table[col] = mean(col)
+    if "motion" in s.columns:
+        table["motion"] = _mode(s["motion"].astype(object), key, n)
+    numeric, categorical = [], []
+    for col in extras:
+        if _is_numeric(s[col]) or pd.api.types.is_bool_dtype(s[col]):
+            if pd.api.types.is_bool_dtype(s[col]):
+                s[col] = s[col].astype(float)
+            table[col] = mean(col)
+            numeric.append(col)
+        else:
+            table[col] = _mode(s[col].astype(object), key, n)
+            categorical.append(col)
+    return WindowData(s, key, table, numeric, categorical)

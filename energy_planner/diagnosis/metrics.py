@@ -1,0 +1,253 @@
+"""How far the model is from the measurements: error metrics and breakdowns.
+
+Power-level metrics are computed on windows (mean measured vs mean predicted power);
+run-level metrics compare the energy of whole runs; the breakdown splits the window
+residuals by slope, heading, speed, motion type and every extra channel so that one can
+see where the model fails.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+#: Heading sectors (centre in degrees, label); gamma = 0 faces uphill, +90 has uphill on
+#: the robot's right (design notes).
+HEADING_SECTORS = (
+    (0.0, "uphill"),
+    (45.0, "uphill, slope on right"),
+    (90.0, "cross, uphill on right"),
+    (135.0, "downhill, slope on right"),
+    (180.0, "downhill"),
+    (-135.0, "downhill, slope on left"),
+    (-90.0, "cross, uphill on left"),
+    (-45.0, "uphill, slope on left"),
+)
+
+
+def power_metrics(measured: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
+    """RMSE, MAE (W), bias (mean of measured - predicted, W) and R^2 over windows.
+
+    Non-finite pairs are ignored.
+
+    Examples
+    --------
+    >>> m = power_metrics(np.array([1.0, 2, 3, 4]), np.array([1.0, 2, 3, 6]))
+    >>> m["rmse_w"], m["mae_w"], m["bias_w"], m["r2"]
+    (1.0, 0.5, -0.5, 0.2)
+    """
+    y = np.asarray(measured, float)
+    p = np.asarray(predicted, float)
+    ok = np.isfinite(y) & np.isfinite(p)
+    y, p = y[ok], p[ok]
+    if y.size == 0:
+        return {"rmse_w": np.nan, "mae_w": np.nan, "bias_w": np.nan, "r2": np.nan, "n": 0}
+    r = y - p
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    r2 = 1.0 - float(r @ r) / ss_tot if ss_tot > 0 else np.nan
+    return {
+        "rmse_w": float(np.sqrt(np.mean(r**2))),
+        "mae_w": float(np.mean(np.abs(r))),
+        "bias_w": float(np.mean(r)),
+        "r2": r2,
+        "n": int(y.size),
+    }
+
+
+def _bin_stats(labels: Sequence[str], codes: np.ndarray, r: np.ndarray, extra: list[dict]):
+    total = float(np.sum(r**2)) or 1.0
+    rows = []
+    for i, label in enumerate(labels):
+        ri = r[codes == i]
+        if ri.size == 0:
+            continue
+        sd = float(np.std(ri, ddof=1)) if ri.size > 1 else np.nan
+        t = float(ri.mean() / (sd / np.sqrt(ri.size))) if ri.size > 1 and sd > 0 else np.nan
+        row = {
+            "bin": label,
+            "n": int(ri.size),
+            "bias_w": float(ri.mean()),
+            "rmse_w": float(np.sqrt(np.mean(ri**2))),
+            "mae_w": float(np.mean(np.abs(ri))),
+            "share_sq_error": float(np.sum(ri**2) / total),
+            "t": t,
+        }
+        row.update(extra[i] if i < len(extra) else {})
+        rows.append(row)
+    return rows
+
+
+def numeric_bins(x: np.ndarray, n_bins: int = 5) -> tuple[np.ndarray, list[str], list[dict]]:
+    """Bin a numeric variable by quantiles (per value when it has few distinct values).
+
+    Returns the bin code of each element (-1 for NaN), the labels and the bin bounds.
+
+    Examples
+    --------
+    >>> codes, labels, _ = numeric_bins(np.array([0.0, 0, 10, 10, np.nan]))
+    >>> codes.tolist(), labels
+    ([0, 0, 1, 1, -1], ['0', '10'])
+    """
+    x = np.asarray(x, float)
+    ok = np.isfinite(x)
+    codes = np.full(x.shape, -1, dtype=np.int64)
+    if not ok.any():
+        return codes, [], []
+    values = np.unique(x[ok])
+    if values.size <= n_bins:
+        codes[ok] = np.searchsorted(values, x[ok])
+        bounds = [{"lo": float(v), "hi": float(v)} for v in values]
+        return codes, [f"{v:.4g}" for v in values], bounds
+    edges = np.unique(np.quantile(x[ok], np.linspace(0, 1, n_bins + 1)))
+    inner = edges[1:-1]
+    codes[ok] = np.searchsorted(inner, x[ok], side="right")
+    labels, bounds = [], []
+    for i in range(len(edges) - 1):
+        lo, hi = edges[i], edges[i + 1]
+        close = "]" if i == len(edges) - 2 else ")"
+        labels.append(f"[{lo:.4g}, {hi:.4g}{close}")
+        bounds.append({"lo": float(lo), "hi": float(hi)})
+    return codes, labels, bounds
+
+
+def categorical_bins(values: Sequence) -> tuple[np.ndarray, list[str], list[dict]]:
+    """One bin per value; missing values get their own bin ``"(missing)"``."""
+    s = pd.Series(np.asarray(values, dtype=object))
+    s = s.where(s.notna(), "(missing)").astype(str)
+    codes, uniq = pd.factorize(s, sort=True)
+    return np.asarray(codes), [str(u) for u in uniq], [{} for _ in uniq]
+
+
+def heading_bins(gamma_deg: np.ndarray) -> tuple[np.ndarray, list[str], list[dict]]:
+    """Eight 45-degree heading sectors centred on uphill, cross-slope and downhill."""
+    g = np.asarray(gamma_deg, float)
+    codes = np.full(g.shape, -1, dtype=np.int64)
+    ok = np.isfinite(g)
+    codes[ok] = np.round(np.mod(g[ok], 360.0) / 45.0).astype(np.int64) % 8
+    centres = [0, 45, 90, 135, 180, -135, -90, -45]
+    names = dict(HEADING_SECTORS)
+    labels = [f"{c:+d} deg ({names[float(c)]})" for c in centres]
+    return codes, labels, [{"centre_deg": float(c)} for c in centres]
+
+
+def breakdown(
+    table: pd.DataFrame,
+    residual: np.ndarray,
+    numeric: Sequence[str] = (),
+    categorical: Sequence[str] = (),
+    n_bins: int = 5,
+) -> dict[str, dict]:
+    """Window residuals split by slope, heading, speed, motion type and extra channels.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Per-window variables (``alpha_deg``, ``gamma_deg``, ``speed``, ``wz``, ``motion``
+        and the extra channels).
+    residual : numpy.ndarray
+        Measured minus predicted mean power of each window, W.
+    numeric, categorical : sequence of str
+        Extra channels by kind (numeric ones are binned by quantiles, categorical ones per
+        value).
+    n_bins : int
+        Number of quantile bins.
+
+    Returns
+    -------
+    dict
+        ``{variable: {"kind", "bins": [{"bin", "n", "bias_w", "rmse_w", "mae_w",
+        "share_sq_error", "t", ...}], "spread_w"}}`` where ``t`` is the bias over its
+        standard error and ``spread_w`` the largest minus smallest bin bias.
+    """
+    r = np.asarray(residual, float)
+    ok = np.isfinite(r)
+    out: dict[str, dict] = {}
+    plan: list[tuple[str, str, str]] = []
+    for col, kind in (("alpha_deg", "slope"), ("gamma_deg", "heading"), ("speed", "numeric"),
+                      ("wz", "numeric"), ("motion", "categorical")):
+        if col in table.columns:
+            plan.append((col, col, kind))
+    plan += [(c, c, "numeric") for c in numeric if c in table.columns]
+    plan += [(c, c, "categorical") for c in categorical if c in table.columns]
+    for name, col, kind in plan:
+        v = table[col].to_numpy()
+        if kind == "heading":
+            codes, labels, extra = heading_bins(v.astype(float))
+        elif kind == "categorical":
+            codes, labels, extra = categorical_bins(v)
+        else:
+            codes, labels, extra = numeric_bins(v.astype(float), n_bins)
+        rows = _bin_stats(labels, np.where(ok, codes, -1), np.where(ok, r, 0.0), extra)
+        biases = [row["bias_w"] for row in rows]
+        out[name] = {
+            "kind": "numeric" if kind == "slope" else kind,
+            "bins": rows,
+            "spread_w": float(max(biases) - min(biases)) if biases else 0.0,
+        }
+    return out
+
+
+def hotspots(bd: Mapping[str, dict], top: int = 5) -> list[dict]:
+    """Bins where the model fails most clearly: largest ``|t|`` (bias over its error)."""
+    rows = []
+    for var, info in bd.items():
+        for row in info["bins"]:
+            if np.isfinite(row["t"]):
+                rows.append({"variable": var, **row})
+    rows.sort(key=lambda r: -abs(r["t"]))
+    return rows[:top]
+
+
+def superposition(
+    runs: pd.DataFrame, composites: Mapping[str, Sequence[str]]
+) -> list[dict]:
+    """Energy of composite paths against the sum of their parts, measured and predicted.
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Per run: ``run``, ``measured_j``, ``predicted_j``.
+    composites : mapping
+        Composite run -> its part runs (e.g. ``{"AB": ["A", "B"]}``).
+
+    Returns
+    -------
+    list of dict
+        Per composite: measured ``E(AB)`` and ``sum E(parts)``, the superposition error
+        (their difference, absolute and relative), and the model's errors on both.
+
+    Examples
+    --------
+    >>> r = pd.DataFrame({"run": ["A", "B", "AB"], "measured_j": [10.0, 20, 33],
+    ...                   "predicted_j": [11.0, 19, 30]})
+    >>> s = superposition(r, {"AB": ["A", "B"]})[0]
+    >>> s["measured_parts_j"], s["superposition_error_j"], s["model_error_composite_j"]
+    (30.0, 3.0, -3.0)
+    """
+    by = runs.set_index(runs["run"].astype(str))
+    out = []
+    for comp, parts in composites.items():
+        names = [str(comp), *map(str, parts)]
+        if not all(n in by.index for n in names):
+            continue
+        m_c = float(by.at[str(comp), "measured_j"])
+        p_c = float(by.at[str(comp), "predicted_j"])
+        m_p = float(sum(by.at[str(p), "measured_j"] for p in parts))
+        p_p = float(sum(by.at[str(p), "predicted_j"] for p in parts))
+        out.append(
+            {
+                "composite": str(comp),
+                "parts": [str(p) for p in parts],
+                "measured_composite_j": m_c,
+                "measured_parts_j": m_p,
+                "superposition_error_j": m_c - m_p,
+                "superposition_error_rel": (m_c - m_p) / m_p if m_p else np.nan,
+                "predicted_composite_j": p_c,
+                "predicted_parts_j": p_p,
+                "model_error_composite_j": p_c - m_c,
+                "model_error_parts_j": p_p - m_p,
+            }
+        )
+    return out
