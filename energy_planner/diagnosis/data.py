@@ -245,7 +245,7 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
         g = s["gamma"].to_numpy(dtype=float)
         s["_sin_g"], s["_cos_g"] = np.sin(g), np.cos(g)
         table["gamma_deg"] = np.degrees(np.arctan2(mean("_sin_g"), mean("_cos_g")))
-        s.drop(columns=["_sin_g", "_cos_g"], inplace=True)
+        s = s.drop(columns=["_sin_g", "_cos_g"])
     for col in ("speed", "vx", "vy", "wz"):
         if col in s.columns:
             table[col] = mean(col)

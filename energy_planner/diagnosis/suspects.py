@@ -212,7 +212,7 @@ def hinge(ch: str, q: float, below: bool, level: float | None = None) -> Candida
     """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel.
 
     >>> hinge("temperature_c", 15.0, True).term
-    'pos(15.0 - temperature_c)'
+    'pos(15 - temperature_c)'
     >>> hinge("x", -2.5, False).term
     'pos(x + 2.5)'
     """
