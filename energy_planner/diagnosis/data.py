@@ -95,6 +95,11 @@ class WindowData:
         return self.table["power"].to_numpy(dtype=float)
 
     @property
+    def weights(self) -> np.ndarray:
+        """Fit weight of each window: its duration (s) as the calibration weighs windows."""
+        return self.table["duration"].to_numpy(dtype=float)
+
+    @property
     def runs(self) -> np.ndarray:
         """Run identifier of each window."""
         return self.table["run"].to_numpy()
@@ -239,6 +244,10 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
         np.minimum.at(t0, key, t)
         np.maximum.at(t1, key, t)
         table["t_start"], table["t_end"] = t0, t1
+    # duration: samples x the run's median sample interval (a window of 1 sample counts too)
+    dt = s.groupby("run", sort=False)["t"].transform(lambda v: np.median(np.diff(v))
+                                                     if len(v) > 1 else 1.0)
+    table["duration"] = np.bincount(key, weights=dt.to_numpy(float), minlength=n)
     if "alpha" in s.columns:
         table["alpha_deg"] = np.degrees(mean("alpha"))
     if "gamma" in s.columns:  # circular mean: headings near +-180 deg must not average to 0

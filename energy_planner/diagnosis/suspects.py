@@ -116,10 +116,11 @@ class Ranking:
 
 
 def run_folds(runs: Sequence, n_splits: int = 5, seed: int = 0) -> np.ndarray:
-    """Assign each window to a fold so that every run lies in a single fold.
+    """Fold index of each window, whole runs per fold.
 
-    Runs are dealt, largest first (ties in a seeded random order), to the fold that has
-    the fewest windows so far, as scikit-learn's ``GroupKFold`` does.
+    The assignment is :func:`energy_planner.calibration.run_folds` (the folds ``fit``
+    validates on, for the same ``n_splits`` and ``seed``); ``n_splits`` is reduced to the
+    number of runs when there are fewer.
 
     Examples
     --------
@@ -127,31 +128,36 @@ def run_folds(runs: Sequence, n_splits: int = 5, seed: int = 0) -> np.ndarray:
     >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
     (True, [0, 1])
     """
+    from energy_planner.calibration import run_folds as calibration_folds
+
     runs = np.asarray(runs).astype(str)
-    uniq, inv, counts = np.unique(runs, return_inverse=True, return_counts=True)
+    uniq = np.unique(runs)
     if len(uniq) < 2:
         raise FitError(
             f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
             f"({list(uniq)}); record more runs"
         )
-    n_splits = max(2, min(n_splits, len(uniq)))
-    rng = np.random.default_rng(seed)
-    order = np.lexsort((rng.permutation(len(uniq)), -counts))
-    load = np.zeros(n_splits)
-    fold_of_run = np.empty(len(uniq), dtype=np.int64)
-    for r in order:
-        f = int(np.argmin(load))
-        fold_of_run[r] = f
-        load[f] += counts[r]
-    return fold_of_run[inv]
+    folds = calibration_folds(uniq.tolist(), max(2, min(n_splits, len(uniq))), seed)
+    fold_of = {r: i for i, part in enumerate(folds) for r in part}
+    return np.array([fold_of[r] for r in runs], dtype=np.int64)
 
 
-def _cv_errors(x: np.ndarray, y: np.ndarray, folds: np.ndarray) -> np.ndarray:
-    """Held-out residuals of least squares ``y ~ x`` by fold (prediction clamped at 0)."""
+def wls(x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
+    """Weighted least squares ``y ~ x`` (columns scaled; minimum norm if rank-deficient)."""
+    sw = np.ones(len(y)) if w is None else np.sqrt(np.asarray(w, float))
+    xw = x * sw[:, None]
+    scale = np.linalg.norm(xw, axis=0)
+    scale[scale == 0] = 1.0
+    return np.linalg.lstsq(xw / scale, y * sw, rcond=None)[0] / scale
+
+
+def _cv_errors(x: np.ndarray, y: np.ndarray, folds: np.ndarray, w=None) -> np.ndarray:
+    """Held-out residuals of weighted least squares ``y ~ x`` by fold (prediction >= 0)."""
+    w = np.ones(len(y)) if w is None else np.asarray(w, float)
     err = np.empty_like(y)
     for f in np.unique(folds):
         te = folds == f
-        coef = np.linalg.lstsq(x[~te], y[~te], rcond=None)[0]
+        coef = wls(x[~te], y[~te], w[~te])
         err[te] = y[te] - np.maximum(x[te] @ coef, 0.0)
     return err
 
@@ -162,8 +168,13 @@ def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
     return np.sqrt(sq / np.maximum(n, 1))
 
 
-def heldout_rmse(x: np.ndarray, y: np.ndarray, folds: np.ndarray) -> tuple[float, np.ndarray]:
+def heldout_rmse(
+    x: np.ndarray, y: np.ndarray, folds: np.ndarray, w: np.ndarray | None = None
+) -> tuple[float, np.ndarray]:
     """Pooled and per-fold held-out RMSE of the linear model ``y ~ x`` validated by fold.
+
+    The fits weigh each row by ``w`` (window duration, as the calibration does); the RMSE
+    weighs every held-out window alike.
 
     Examples
     --------
@@ -174,7 +185,7 @@ def heldout_rmse(x: np.ndarray, y: np.ndarray, folds: np.ndarray) -> tuple[float
     >>> bool(0.08 < rmse < 0.12), per_fold.shape
     (True, (4,))
     """
-    err = _cv_errors(x, y, folds)
+    err = _cv_errors(x, y, folds, w)
     n_folds = int(folds.max()) + 1
     return float(np.sqrt(np.mean(err**2))), _fold_rmse(err, folds, n_folds)
 
@@ -456,8 +467,10 @@ class _Context:
     def __post_init__(self) -> None:
         self.n_folds = int(self.folds.max()) + 1
         self.base_ok = np.all(np.isfinite(self.x), axis=1) & np.isfinite(self.y)
+        self.w = self.wd.weights
+        ok = self.base_ok
         self.base_rmse, self.base_fold = heldout_rmse(
-            self.x[self.base_ok], self.y[self.base_ok], self.folds[self.base_ok]
+            self.x[ok], self.y[ok], self.folds[ok], self.w[ok]
         )
         self.available = set(self.wd.samples.columns) | {"speed"}
 
@@ -498,20 +511,20 @@ class _Context:
 
     def _score(self, c: Candidate, z: np.ndarray) -> Suspect:
         ok = self.base_ok & np.isfinite(z)
-        x, y, folds = self.x[ok], self.y[ok], self.folds[ok]
+        x, y, folds, w = self.x[ok], self.y[ok], self.folds[ok], self.w[ok]
         if ok.sum() == self.base_ok.sum():
             before, before_fold = self.base_rmse, self.base_fold
         else:  # compare on the same windows
-            before, before_fold = heldout_rmse(x, y, folds)
+            before, before_fold = heldout_rmse(x, y, folds, w)
         xz = np.column_stack([x, z[ok]])
-        after, after_fold = heldout_rmse(xz, y, folds)
+        after, after_fold = heldout_rmse(xz, y, folds, w)
         present = np.bincount(folds, minlength=self.n_folds) > 0
         d = (before_fold - after_fold)[present]
         se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
         red = before - after
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
         above = bool(d.mean() > self.th.k * se and red >= self.th.min_rel * before)
-        coef = float(np.linalg.lstsq(xz, y, rcond=None)[0][-1])
+        coef = float(wls(xz, y, w)[-1])
         return Suspect(
             name=c.name,
             term=c.term,
