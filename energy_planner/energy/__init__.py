@@ -1,0 +1,11 @@
+"""Energy of SE(2) motions and of given paths over a terrain.
+
+:class:`MotionCost` is the single numba-backed cost that path queries
+(:func:`path_energy`) and planners share, so a planned path and a queried path never
+disagree.
+"""
+
+from energy_planner.energy.motion import MotionCost
+from energy_planner.energy.path import SEGMENT_COLUMNS, PathEnergy, path_energy
+
+__all__ = ["SEGMENT_COLUMNS", "MotionCost", "PathEnergy", "path_energy"]

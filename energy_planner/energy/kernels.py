@@ -1,0 +1,188 @@
+"""Numba kernels: the energy of one SE(2) motion over a terrain grid.
+
+A motion from pose ``(x0, y0, th0)`` to ``(x1, y1, th1)`` (working CRS, metres; yaw in
+radians CCW from +x) moves the position linearly and the yaw along the shortest arc, at
+constant world velocity and yaw rate, for a duration ``max(d / speed, |dth| / yaw_rate)``
+(or a given duration). Its energy is the midpoint-rule integral of the model power over
+``n`` sub-steps, short enough (a fraction of a cell) that a motion crossing a ridge is
+charged for both sides. The body twist at each sub-step is the world velocity rotated
+into the body frame, so a motion whose yaw differs from its direction walks sideways.
+
+Terrain is sampled by bilinear interpolation of the Horn gradient at cell centres; the
+four corner cells must be valid (a NaN corner makes the sample invalid).
+
+Violation codes returned by the kernels: 0 valid, 1 outside the map or on nodata,
+2 slope above the limit, 3 cross-slope above the limit, 4 a blocked (keep-out) cell.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numba
+import numpy as np
+
+OK, OUTSIDE, TOO_STEEP, TOO_CROSS, BLOCKED = 0, 1, 2, 3, 4
+VIOLATIONS = {
+    OUTSIDE: "outside the map or on nodata",
+    TOO_STEEP: "slope above the limit",
+    TOO_CROSS: "cross-slope above the limit",
+    BLOCKED: "inside a keep-out area",
+}
+#: Length of the per-motion result vector of ``motion_full``.
+N_OUT = 13
+
+
+@numba.njit(cache=True)
+def sample_gradient(gx, gy, x0, y0, dx, dy, x, y):
+    """Bilinear gradient at (x, y); returns (ok, dz/dx, dz/dy)."""
+    nrows, ncols = gx.shape
+    fc = (x - x0) / dx
+    fr = (y - y0) / dy
+    if not (fc >= 0.0 and fr >= 0.0 and fc <= ncols - 1 and fr <= nrows - 1):
+        return False, 0.0, 0.0
+    c = min(int(fc), ncols - 2) if ncols > 1 else 0
+    r = min(int(fr), nrows - 2) if nrows > 1 else 0
+    tc = fc - c
+    tr = fr - r
+    c1 = min(c + 1, ncols - 1)
+    r1 = min(r + 1, nrows - 1)
+    a00, a01, a10, a11 = gx[r, c], gx[r, c1], gx[r1, c], gx[r1, c1]
+    b00, b01, b10, b11 = gy[r, c], gy[r, c1], gy[r1, c], gy[r1, c1]
+    if not (math.isfinite(a00 + a01 + a10 + a11) and math.isfinite(b00 + b01 + b10 + b11)):
+        return False, 0.0, 0.0
+    w00 = (1 - tr) * (1 - tc)
+    w01 = (1 - tr) * tc
+    w10 = tr * (1 - tc)
+    w11 = tr * tc
+    return (
+        True,
+        w00 * a00 + w01 * a01 + w10 * a10 + w11 * a11,
+        w00 * b00 + w01 * b01 + w10 * b10 + w11 * b11,
+    )
+
+
+@numba.njit(cache=True)
+def wrap_angle(a):
+    """Wrap to (-pi, pi]."""
+    two_pi = 2.0 * math.pi
+    a = (a + math.pi) - two_pi * math.floor((a + math.pi) / two_pi)  # in [0, 2 pi)
+    if a <= 0.0:
+        a += two_pi
+    return a - math.pi
+
+
+@lru_cache(maxsize=64)
+def make_kernels(power):
+    """Build the motion kernels around a compiled model power function.
+
+    Parameters
+    ----------
+    power : numba dispatcher
+        ``power(alpha, gamma, vx, vy, wz, ax, ay) -> (total, by_kind)`` from
+        :meth:`energy_planner.model.EnergyModel.power_kernel`.
+
+    Returns
+    -------
+    motion_full, motion_cost, motion_batch : numba dispatchers
+        ``motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)`` fills ``out``
+        (length :data:`N_OUT`): energy J, duration s, distance m, |turn| rad, mean slope
+        rad, mean |gamma| rad, max slope rad, energy by kind (forward, backward, lateral,
+        turning, other), violation code. ``motion_cost(x0, y0, th0, x1, y1, th1, data)``
+        returns the energy or ``inf`` if invalid; ``motion_batch`` maps it over arrays.
+        ``data`` is the tuple built by :class:`energy_planner.energy.MotionCost`.
+    """
+
+    @numba.njit
+    def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
+        gx, gy, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax = data
+        ddx = x1 - x0
+        ddy = y1 - y0
+        dist = math.sqrt(ddx * ddx + ddy * ddy)
+        dth = wrap_angle(th1 - th0)
+        T = duration
+        if T <= 0.0:
+            T = max(dist / speed, abs(dth) / yaw_rate)
+        n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
+        for k in range(N_OUT):
+            out[k] = 0.0
+        out[1] = T
+        out[2] = dist
+        out[3] = abs(dth)
+        if T <= 0.0:
+            ok, gxs, gys = sample_gradient(gx, gy, gx0, gy0, gdx, gdy, x0, y0)
+            if not ok:
+                out[12] = OUTSIDE
+            return
+        ux = ddx / T
+        uy = ddy / T
+        wz = dth / T
+        dt = T / n
+        nr, nc = blocked.shape
+        for i in range(n):
+            s = (i + 0.5) / n
+            x = x0 + s * ddx
+            y = y0 + s * ddy
+            th = th0 + s * dth
+            ok, gxs, gys = sample_gradient(gx, gy, gx0, gy0, gdx, gdy, x, y)
+            if not ok:
+                out[12] = OUTSIDE
+                out[0] = np.inf
+                return
+            if nr > 0:
+                r = int(round((y - gy0) / gdy))
+                c = int(round((x - gx0) / gdx))
+                if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
+                    out[12] = BLOCKED
+                    out[0] = np.inf
+                    return
+            g = math.sqrt(gxs * gxs + gys * gys)
+            if g > tmax:
+                out[12] = TOO_STEEP
+                out[0] = np.inf
+                return
+            alpha = math.atan(g)
+            gamma = wrap_angle(th - math.atan2(gys, gxs))
+            if math.sin(alpha) * abs(math.sin(gamma)) > smax:
+                out[12] = TOO_CROSS
+                out[0] = np.inf
+                return
+            c_, s_ = math.cos(th), math.sin(th)
+            vx = c_ * ux + s_ * uy
+            vy = -s_ * ux + c_ * uy
+            p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0)
+            out[0] += p * dt
+            out[4] += alpha / n
+            out[5] += abs(gamma) / n
+            out[6] = max(out[6], alpha)
+            for k in range(5):
+                out[7 + k] += kinds[k] * dt
+
+    @numba.njit
+    def motion_cost(x0, y0, th0, x1, y1, th1, data):
+        out = np.empty(N_OUT)
+        motion_full(x0, y0, th0, x1, y1, th1, -1.0, data, out)
+        return out[0]
+
+    @numba.njit
+    def motion_batch(x0, y0, th0, x1, y1, th1, data):
+        n = x0.shape[0]
+        res = np.empty(n)
+        out = np.empty(N_OUT)
+        for i in range(n):
+            motion_full(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
+            res[i] = out[0]
+        return res
+
+    @numba.njit
+    def path_table(x, y, th, durations, data):
+        m = x.shape[0] - 1
+        table = np.empty((max(m, 0), N_OUT))
+        out = np.empty(N_OUT)
+        for i in range(m):
+            motion_full(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], data, out)
+            table[i, :] = out
+        return table
+
+    return motion_full, motion_cost, motion_batch, path_table

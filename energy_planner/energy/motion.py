@@ -1,0 +1,163 @@
+"""Energy of SE(2) motions over a terrain: the one cost that queries and planners share."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from energy_planner.energy.kernels import N_OUT, OK, VIOLATIONS, make_kernels
+from energy_planner.errors import ModelError
+
+__all__ = ["MotionCost"]
+
+
+class MotionCost:
+    """Energy (J) of SE(2) motions over a terrain under an energy model.
+
+    Coordinates are in the terrain's working CRS (metres); yaw in radians CCW from +x.
+    A motion moves linearly in x, y and along the shortest arc in yaw at constant rates,
+    for ``max(distance / speed, |dyaw| / yaw_rate)`` seconds (see
+    :mod:`energy_planner.energy.kernels`).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        Provides ``grid`` (x0, y0, dx, dy), ``dzdx`` and ``dzdy``.
+    model : EnergyModel
+        A fitted model.
+    speed, yaw_rate : float
+        Nominal walking speed (m/s) and turning rate (rad/s).
+    max_slope_deg, max_cross_slope_deg : float, optional
+        Limits; a motion that samples a steeper slope, or holds the body across a
+        steeper cross-slope (``asin(sin(alpha) |sin(gamma)|)``), costs ``inf``.
+    blocked : ndarray of bool, optional
+        Keep-out mask on the terrain grid (nearest cell).
+    constants : mapping, optional
+        Values of extra channels the model's terms read (e.g. ``payload_kg``).
+    step : float, optional
+        Integration sub-step in metres (default a quarter of the smaller cell size).
+    ang_step : float
+        Integration sub-step for rotations, radians.
+    """
+
+    def __init__(
+        self,
+        terrain: Any,
+        model: Any,
+        speed: float = 0.3,
+        yaw_rate: float = 0.5,
+        *,
+        max_slope_deg: float | None = None,
+        max_cross_slope_deg: float | None = None,
+        blocked: np.ndarray | None = None,
+        constants: Mapping[str, Any] | None = None,
+        step: float | None = None,
+        ang_step: float = 0.05,
+    ) -> None:
+        if not (speed > 0 and yaw_rate > 0):
+            raise ValueError(f"speed and yaw_rate must be > 0, got {speed}, {yaw_rate}")
+        if not model.is_fitted:
+            raise ModelError("the energy model has no coefficients: fit or load a fitted model")
+        self.terrain = terrain
+        self.model = model
+        self.speed = float(speed)
+        self.yaw_rate = float(yaw_rate)
+        self.max_slope_deg = max_slope_deg
+        self.max_cross_slope_deg = max_cross_slope_deg
+        self.constants = dict(constants or {})
+        x0, y0, dx, dy = (float(v) for v in terrain.grid)
+        self.step = float(step) if step else 0.25 * min(abs(dx), abs(dy))
+        gx = np.ascontiguousarray(terrain.dzdx, dtype=np.float64)
+        gy = np.ascontiguousarray(terrain.dzdy, dtype=np.float64)
+        if blocked is None:
+            mask = np.zeros((0, 0), dtype=np.bool_)
+        else:
+            mask = np.ascontiguousarray(blocked, dtype=np.bool_)
+            if mask.shape != gx.shape:
+                raise ValueError(f"blocked mask shape {mask.shape} != terrain grid {gx.shape}")
+        tmax = math.inf if max_slope_deg is None else math.tan(math.radians(max_slope_deg))
+        smax = (
+            math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))
+        )
+        self.data = (
+            gx, gy, mask, x0, y0, dx, dy,
+            self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
+        )  # fmt: skip
+        self.power = model.power_kernel(self.constants)
+        self._full, self.kernel, self._batch, self._path = make_kernels(self.power)
+
+    def __call__(self, x0: float, y0: float, th0: float, x1: float, y1: float, th1: float):
+        """Energy in J of one motion, ``inf`` if it breaks a limit or leaves the map."""
+        return self.kernel(x0, y0, th0, x1, y1, th1, self.data)
+
+    def batch(self, x0, y0, th0, x1, y1, th1) -> np.ndarray:
+        """Vectorized :meth:`__call__` over equal-length arrays."""
+        arrs = [np.ascontiguousarray(a, dtype=np.float64) for a in (x0, y0, th0, x1, y1, th1)]
+        return self._batch(*arrs, self.data)
+
+    def details(self, x, y, th, durations=None) -> np.ndarray:
+        """Per-motion results along a pose sequence, shape ``(n - 1, N_OUT)``.
+
+        Columns: energy J, duration s, distance m, |turn| rad, mean slope rad, mean
+        |gamma| rad, max slope rad, energy by kind (forward, backward, lateral, turning,
+        other), violation code.
+        """
+        x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
+        if durations is None:
+            durations = np.full(max(len(x) - 1, 0), -1.0)
+        durations = np.ascontiguousarray(durations, dtype=np.float64)
+        out = self._path(x, y, th, durations, self.data)
+        assert out.shape[1] == N_OUT
+        return out
+
+    @property
+    def min_cost_per_metre(self) -> float:
+        """An admissible lower bound of J per metre of any motion on this terrain.
+
+        The minimum of power / speed over slopes up to the terrain's steepest (or the
+        limit), all headings, all directions of motion and speeds from a tenth of to the
+        nominal speed, with a 5% margin for the grid of the search; never negative.
+        """
+        if not hasattr(self, "_lb"):
+            slope = np.arctan(np.hypot(self.data[0], self.data[1]))
+            amax = float(np.nanmax(slope)) if np.isfinite(slope).any() else 0.0
+            if self.max_slope_deg is not None:
+                amax = min(amax, math.radians(self.max_slope_deg))
+            a, g, b, v = np.meshgrid(
+                np.linspace(0, amax, 16),
+                np.linspace(-np.pi, np.pi, 37),
+                np.linspace(-np.pi, np.pi, 37),
+                self.speed * np.array([0.1, 0.25, 0.5, 0.75, 1.0]),
+                indexing="ij",
+            )
+            feats = {
+                "alpha": a.ravel(), "gamma": g.ravel(), "vx": (v * np.cos(b)).ravel(),
+                "vy": (v * np.sin(b)).ravel(), "wz": np.zeros(a.size), "ax": np.zeros(a.size),
+                "ay": np.zeros(a.size),
+            }  # fmt: skip
+            for k, val in self.constants.items():
+                feats[k] = np.full(a.size, val)
+            per_m = self.model.power(feats) / v.ravel()
+            self._lb = max(0.0, 0.95 * float(per_m.min()))
+        return self._lb
+
+    def violation(self, x: float, y: float, th: float = 0.0) -> str | None:
+        """Which limit the pose breaks (with the value), or ``None`` if it is valid."""
+        out = self.details([x, x], [y, y], [th, th], [1.0])[0]
+        code = int(out[12])
+        if code == OK:
+            # a zero-length motion samples the pose itself
+            return None
+        t = self.terrain
+        sample = t.sample(np.array([x]), np.array([y]))
+        slope = float(np.degrees(np.asarray(sample.slope)[0]))
+        if code == 2:
+            return f"slope {slope:.1f} deg > limit {self.max_slope_deg:g} deg"
+        if code == 3:
+            gamma = th - float(np.asarray(sample.uphill_azimuth)[0])
+            cross = math.degrees(math.asin(math.sin(math.radians(slope)) * abs(math.sin(gamma))))
+            return f"cross-slope {cross:.1f} deg > limit {self.max_cross_slope_deg:g} deg"
+        return VIOLATIONS[code]

@@ -1,0 +1,241 @@
+"""Energy of a given path: waypoints (with optional yaw and time) over a terrain."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.energy.kernels import OK, VIOLATIONS
+from energy_planner.energy.motion import MotionCost
+from energy_planner.errors import EnergyPlannerError, OutsideMapError
+
+__all__ = ["PathEnergy", "path_energy", "SEGMENT_COLUMNS"]
+
+SEGMENT_COLUMNS = [
+    "segment",
+    "energy_j",
+    "distance_m",
+    "duration_s",
+    "turn_deg",
+    "mean_slope_deg",
+    "max_slope_deg",
+    "mean_rel_heading_deg",
+    "forward_share",
+    "lateral_share",
+    "turning_share",
+    "other_share",
+]
+
+
+@dataclass
+class PathEnergy:
+    """Energy breakdown of a path.
+
+    Attributes
+    ----------
+    energy_j, distance_m, duration_s : float
+        Totals.
+    segments : DataFrame
+        One row per segment between consecutive waypoints (columns
+        :data:`SEGMENT_COLUMNS`). Without given yaw, the turn in place at a segment's
+        first waypoint is part of that segment. Shares are the fractions of the
+        segment's work done walking forward or backward, sideways, turning, and by
+        other terms (idle power, effects).
+    poses : ndarray
+        The executed SE(2) poses ``(x, y, yaw)``, turns in place included.
+    """
+
+    energy_j: float
+    distance_m: float
+    duration_s: float
+    segments: pd.DataFrame
+    poses: np.ndarray = field(repr=False)
+
+    @property
+    def energy_wh(self) -> float:
+        """Total energy in Wh."""
+        return self.energy_j / 3600.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict with keys energy_j, energy_wh, distance_m, duration_s, segments."""
+        return {
+            "energy_j": self.energy_j,
+            "energy_wh": self.energy_wh,
+            "distance_m": self.distance_m,
+            "duration_s": self.duration_s,
+            "segments": self.segments.to_dict(orient="records"),
+        }
+
+
+def path_energy(
+    terrain: Any,
+    model: Any,
+    xy: Any,
+    yaw: Any = None,
+    t: Any = None,
+    speed: float = 0.3,
+    yaw_rate: float = 0.5,
+    *,
+    constants: Mapping[str, Any] | None = None,
+    cost: MotionCost | None = None,
+) -> PathEnergy:
+    """Energy of walking through waypoints (working CRS, metres).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map.
+    model : EnergyModel
+        A fitted model.
+    xy : array-like, shape (n, 2)
+        Waypoints, n >= 2.
+    yaw : array-like, shape (n,), optional
+        Body yaw at each waypoint, radians CCW from +x. Without it the robot faces along
+        each segment and turns in place at the corners; with it the robot follows the
+        given orientation (walking sideways if so told).
+    t : array-like, shape (n,), optional
+        Times at the waypoints (s, strictly increasing). Without them the nominal
+        ``speed`` and ``yaw_rate`` set the timing.
+    speed, yaw_rate : float
+        Nominal walking speed (m/s) and turning rate (rad/s).
+    constants : mapping, optional
+        Values of extra channels the model reads (e.g. ``payload_kg``).
+    cost : MotionCost, optional
+        Reuse a prepared :class:`MotionCost` (its speed and yaw rate apply).
+
+    Raises
+    ------
+    OutsideMapError
+        If a waypoint, or a motion between two, leaves the valid map (names which).
+    EnergyPlannerError
+        For malformed input (shapes, times not increasing).
+    """
+    xy = np.asarray(xy, dtype=float)
+    if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 2:
+        raise EnergyPlannerError(f"waypoints must be an (n >= 2, 2) array of x, y; got {xy.shape}")
+    if not np.isfinite(xy).all():
+        raise EnergyPlannerError("waypoints contain NaN or infinite coordinates")
+    n = xy.shape[0]
+    if cost is None:
+        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants)
+    samples = terrain.sample(xy[:, 0], xy[:, 1])
+    bad = np.flatnonzero(~np.isfinite(np.asarray(samples.slope, dtype=float)))
+    if bad.size:
+        i = int(bad[0])
+        raise OutsideMapError(
+            f"waypoint {i} at ({xy[i, 0]:.2f}, {xy[i, 1]:.2f}) is outside the map or on "
+            f"nodata ({bad.size} waypoint(s) are: {bad.tolist()[:10]})"
+        )
+    if t is not None:
+        t = np.asarray(t, dtype=float)
+        if t.shape != (n,) or not np.all(np.diff(t) > 0):
+            raise EnergyPlannerError("times must have one value per waypoint and increase strictly")
+    seg_dt = None if t is None else np.diff(t)
+
+    if yaw is not None:
+        yaw = np.asarray(yaw, dtype=float)
+        if yaw.shape != (n,) or not np.isfinite(yaw).all():
+            raise EnergyPlannerError("yaw must have one finite value per waypoint")
+        poses = np.column_stack([xy, yaw])
+        seg_of = np.arange(n - 1)
+        durations = np.full(n - 1, -1.0) if seg_dt is None else seg_dt
+    else:
+        poses, seg_of, durations = _face_along(xy, seg_dt, cost.yaw_rate)
+
+    out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations)
+    invalid = np.flatnonzero(out[:, 12] != OK)
+    if invalid.size:
+        k = int(invalid[0])
+        s = int(seg_of[k])
+        raise OutsideMapError(
+            f"segment {s} (waypoint {s} to {s + 1}) crosses cells {VIOLATIONS[int(out[k, 12])]}"
+        )
+    segments = _segment_table(out, seg_of, n - 1)
+    return PathEnergy(
+        energy_j=float(out[:, 0].sum()),
+        distance_m=float(out[:, 2].sum()),
+        duration_s=float(out[:, 1].sum()),
+        segments=segments,
+        poses=poses,
+    )
+
+
+def _face_along(xy: np.ndarray, seg_dt: np.ndarray | None, yaw_rate: float):
+    """Poses for 'face along each segment, turn in place at corners'."""
+    d = np.diff(xy, axis=0)
+    lengths = np.hypot(d[:, 0], d[:, 1])
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    # a zero-length segment keeps the previous heading
+    for i in range(len(heading)):
+        if lengths[i] == 0:
+            heading[i] = heading[i - 1] if i else (heading[lengths > 0][0] if lengths.any() else 0)
+    poses, seg_of, durations = [(xy[0, 0], xy[0, 1], heading[0])], [], []
+    for i in range(len(heading)):
+        turn_t = 0.0
+        if i > 0:
+            turn = math.remainder(heading[i] - heading[i - 1], 2 * math.pi)
+            if turn != 0.0:
+                poses.append((xy[i, 0], xy[i, 1], heading[i]))
+                seg_of.append(i)
+                turn_t = abs(turn) / yaw_rate
+                durations.append(turn_t)
+        poses.append((xy[i + 1, 0], xy[i + 1, 1], heading[i]))
+        seg_of.append(i)
+        if seg_dt is None:
+            durations.append(-1.0)
+        else:
+            walk = seg_dt[i] - turn_t
+            if walk <= 0 and lengths[i] > 0:
+                raise EnergyPlannerError(
+                    f"segment {i}: {seg_dt[i]:.2f} s is not enough to turn "
+                    f"({turn_t:.2f} s at {yaw_rate} rad/s) and walk {lengths[i]:.2f} m"
+                )
+            durations.append(max(walk, 1e-9))
+    return np.array(poses), np.array(seg_of), np.array(durations)
+
+
+def _segment_table(out: np.ndarray, seg_of: np.ndarray, n_seg: int) -> pd.DataFrame:
+    df = pd.DataFrame(
+        {
+            "segment": seg_of,
+            "energy_j": out[:, 0],
+            "duration_s": out[:, 1],
+            "distance_m": out[:, 2],
+            "turn": out[:, 3],
+            "slope_x_d": out[:, 4] * np.maximum(out[:, 2], 1e-12),
+            "gamma_x_d": out[:, 5] * np.maximum(out[:, 2], 1e-12),
+            "w": np.maximum(out[:, 2], 1e-12),
+            "max_slope": out[:, 6],
+            "e_fwd": out[:, 7] + out[:, 8],
+            "e_lat": out[:, 9],
+            "e_turn": out[:, 10],
+            "e_other": out[:, 11],
+        }
+    )
+    g = df.groupby("segment").agg("sum")
+    g["max_slope"] = df.groupby("segment")["max_slope"].max()
+    g = g.reindex(range(n_seg), fill_value=0.0)
+    work = g[["e_fwd", "e_lat", "e_turn", "e_other"]].sum(axis=1).to_numpy()
+    safe = np.where(work > 0, work, np.nan)
+    table = pd.DataFrame(
+        {
+            "segment": np.arange(n_seg),
+            "energy_j": g["energy_j"].to_numpy(),
+            "distance_m": g["distance_m"].to_numpy(),
+            "duration_s": g["duration_s"].to_numpy(),
+            "turn_deg": np.degrees(g["turn"].to_numpy()),
+            "mean_slope_deg": np.degrees(g["slope_x_d"] / g["w"]).to_numpy(),
+            "max_slope_deg": np.degrees(g["max_slope"]).to_numpy(),
+            "mean_rel_heading_deg": np.degrees(g["gamma_x_d"] / g["w"]).to_numpy(),
+            "forward_share": g["e_fwd"].to_numpy() / safe,
+            "lateral_share": g["e_lat"].to_numpy() / safe,
+            "turning_share": g["e_turn"].to_numpy() / safe,
+            "other_share": g["e_other"].to_numpy() / safe,
+        }
+    )
+    return table[SEGMENT_COLUMNS]

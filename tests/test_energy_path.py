@@ -1,0 +1,236 @@
+"""Energy of SE(2) motions and paths: hand-worked cases and physical laws."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.energy import MotionCost, path_energy
+from energy_planner.errors import OutsideMapError
+from energy_planner.model import BASE_TERMS, EnergyModel
+from energy_planner.terrain import Terrain
+
+B1 = {
+    "fwd_const": 600.0,
+    "fwd_grade": 1000.0,
+    "bwd_const": 700.0,
+    "bwd_grade": 1000.0,
+    "lat_const": 800.0,
+    "lat_grade": 900.0,
+    "turn_const": 250.0,
+    "turn_slope": 300.0,
+}
+MODEL = EnergyModel(BASE_TERMS, B1)
+
+
+def plane(slope_deg: float, psi_deg: float, size: float = 100.0) -> Terrain:
+    """A plane rising at ``slope_deg`` toward azimuth ``psi_deg`` (CCW from east)."""
+    k = math.tan(math.radians(slope_deg))
+    c, s = math.cos(math.radians(psi_deg)), math.sin(math.radians(psi_deg))
+    return Terrain.from_function(lambda x, y: k * (c * x + s * y), size=(size, size))
+
+
+@pytest.mark.parametrize("psi", [0.0, 37.0, 90.0, 200.0])
+def test_straight_climb_and_descent_of_a_plane(psi):
+    """E = (f0 +- f1 sin a) L: the force is constant, the distance L."""
+    a = 12.0
+    t = plane(a, psi)
+    u = np.array([math.cos(math.radians(psi)), math.sin(math.radians(psi))])
+    start = np.array([50.0, 50.0]) - 20 * u
+    end = np.array([50.0, 50.0]) + 20 * u
+    up = path_energy(t, MODEL, [start, end])
+    sa = math.sin(math.radians(a))
+    assert up.energy_j == pytest.approx((600 + 1000 * sa) * 40.0, rel=1e-9)
+    assert up.distance_m == pytest.approx(40.0)
+    assert up.duration_s == pytest.approx(40.0 / 0.3)
+    down = path_energy(t, MODEL, [end, start])
+    assert down.energy_j == pytest.approx((600 - 1000 * sa) * 40.0, rel=1e-9)
+    seg = up.segments.iloc[0]
+    assert seg.mean_slope_deg == pytest.approx(a, abs=1e-9)
+    assert seg.mean_rel_heading_deg == pytest.approx(0.0, abs=1e-6)
+    assert seg.forward_share == pytest.approx(1.0)
+
+
+def test_lateral_traverse_and_lateral_climb():
+    a, psi = 15.0, 30.0
+    t = plane(a, psi)
+    p = math.radians(psi)
+    sa = math.sin(math.radians(a))
+    # along the contour, facing uphill, stepping left: no grade
+    contour = np.array([-math.sin(p), math.cos(p)])
+    xy = [np.array([50.0, 50.0]) - 15 * contour, np.array([50.0, 50.0]) + 15 * contour]
+    r = path_energy(t, MODEL, xy, yaw=[p, p])
+    assert r.energy_j == pytest.approx(800 * 30.0, rel=1e-9)
+    assert r.segments.lateral_share.iloc[0] == pytest.approx(1.0)
+    # climbing sideways with uphill on the robot's left (gamma = -pi/2): moving left climbs
+    u = np.array([math.cos(p), math.sin(p)])
+    xy = [np.array([50.0, 50.0]) - 10 * u, np.array([50.0, 50.0]) + 10 * u]
+    r = path_energy(t, MODEL, xy, yaw=[p - math.pi / 2] * 2)
+    assert r.energy_j == pytest.approx((800 + 900 * sa) * 20.0, rel=1e-9)
+
+
+def test_turn_in_place():
+    """E = (tau0 + tau1 sin a) |dtheta|, whatever the yaw rate."""
+    t = plane(20.0, 0.0)
+    sa = math.sin(math.radians(20.0))
+    for rate in (0.3, 0.9):
+        r = path_energy(t, MODEL, [[50, 50], [50, 50]], yaw=[0.2, 0.2 + 2.5], yaw_rate=rate)
+        assert r.energy_j == pytest.approx((250 + 300 * sa) * 2.5, rel=1e-9)
+        assert r.duration_s == pytest.approx(2.5 / rate)
+        assert r.segments.turning_share.iloc[0] == pytest.approx(1.0)
+
+
+def test_corners_without_yaw_turn_in_place():
+    """An L-shaped path on flat ground: two straight legs plus one 90 degree turn."""
+    t = plane(0.0, 0.0)
+    r = path_energy(t, MODEL, [[10, 10], [40, 10], [40, 30]])
+    assert r.energy_j == pytest.approx(600 * 50 + 250 * math.pi / 2, rel=1e-9)
+    assert r.duration_s == pytest.approx(50 / 0.3 + (math.pi / 2) / 0.5)
+    assert len(r.segments) == 2
+    assert r.segments.turn_deg.tolist() == pytest.approx([0.0, 90.0])
+
+
+def test_ridge_is_charged_on_both_sides():
+    """A tent ridge crossed in one segment: uphill then downhill, each half charged."""
+    a = math.radians(10)
+    t = Terrain.from_function(lambda x, y: math.tan(a) * (30 - np.abs(x - 50)), size=(100, 100))
+    r = path_energy(t, MODEL, [[20, 50], [80, 50]])
+    expected = (600 + 1000 * math.sin(a)) * 30 + (600 - 1000 * math.sin(a)) * 30
+    # the gradient flips within one cell at the ridge: bilinear smoothing costs < 1 m there
+    assert r.energy_j == pytest.approx(expected, rel=2e-3)
+    assert r.segments.max_slope_deg.iloc[0] == pytest.approx(10.0, abs=1e-6)
+
+
+def test_timed_path_base_model_energy_does_not_depend_on_speed():
+    """The base model is a force times distance: walking slower costs the same."""
+    t = plane(8.0, 45.0)
+    xy = [[20, 20], [60, 40], [70, 70]]
+    fast = path_energy(t, MODEL, xy)
+    slow = path_energy(t, MODEL, xy, t=[0.0, 400.0, 700.0])
+    assert slow.energy_j == pytest.approx(fast.energy_j, rel=1e-9)
+    assert slow.duration_s == pytest.approx(700.0)
+    idle = EnergyModel([*BASE_TERMS, "idle_power"], {**B1, "idle_power": 30.0})
+    e_fast = path_energy(t, idle, xy).energy_j
+    e_slow = path_energy(t, idle, xy, t=[0.0, 400.0, 700.0]).energy_j
+    assert e_slow - e_fast == pytest.approx(30.0 * (700.0 - fast.duration_s), rel=1e-9)
+
+
+def test_waypoint_outside_the_map_is_named():
+    t = plane(5.0, 0.0)
+    with pytest.raises(OutsideMapError, match=r"waypoint 2 at \(150.00, 10.00\)"):
+        path_energy(t, MODEL, [[10, 10], [20, 10], [150, 10]])
+    z = t.elevation.copy()
+    z[40:60, 40:60] = np.nan
+    holey = Terrain(z, t.transform, t.crs)
+    with pytest.raises(OutsideMapError, match="segment 0 .* outside the map or on nodata"):
+        path_energy(holey, MODEL, [[10, 50], [90, 50]])
+
+
+def test_kernel_agrees_with_numpy_evaluation_of_the_model():
+    """Midpoint rule done independently with Terrain.sample and EnergyModel.power."""
+    t = Terrain.from_function(lambda x, y: 0.002 * (x - 40) ** 2 + 0.001 * x * y, size=(80, 80))
+    cost = MotionCost(t, MODEL, 0.3, 0.5, step=0.1)
+    x0, y0, th0, x1, y1, th1 = 10.0, 15.0, 0.3, 60.0, 55.0, 1.9
+    e = cost(x0, y0, th0, x1, y1, th1)
+    d = math.hypot(x1 - x0, y1 - y0)
+    T = max(d / 0.3, abs(th1 - th0) / 0.5)
+    n = int(math.ceil(d / 0.1))
+    s = (np.arange(n) + 0.5) / n
+    x, y, th = x0 + s * (x1 - x0), y0 + s * (y1 - y0), th0 + s * (th1 - th0)
+    smp = t.sample(x, y)
+    ux, uy = (x1 - x0) / T, (y1 - y0) / T
+    f = {
+        "alpha": np.asarray(smp.slope),
+        "gamma": np.angle(np.exp(1j * (th - np.asarray(smp.uphill_azimuth)))),
+        "vx": np.cos(th) * ux + np.sin(th) * uy,
+        "vy": -np.sin(th) * ux + np.cos(th) * uy,
+        "wz": np.full(n, (th1 - th0) / T),
+    }
+    assert e == pytest.approx(float(np.sum(MODEL.power(f)) * T / n), rel=1e-10)
+
+
+# ---------------------------------------------------------------- properties (hypothesis)
+BOWL = Terrain.from_function(
+    lambda x, y: 0.004 * (x - 30) ** 2 + 0.002 * (y - 45) ** 2 + 0.15 * x, size=(100, 100)
+)
+BOWL_COST = MotionCost(BOWL, MODEL)
+coord = st.floats(5, 95)
+yaw = st.floats(-math.pi, math.pi)
+
+
+@settings(max_examples=40, deadline=None)
+@given(x0=coord, y0=coord, x1=coord, y1=coord, th=yaw, f=st.floats(0.1, 0.9))
+def test_energies_of_concatenated_segments_add(x0, y0, x1, y1, th, f):
+    """Superposition: A->M plus M->B equals A->B when M lies on the motion."""
+    xm, ym = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+    whole = BOWL_COST(x0, y0, th, x1, y1, th)
+    parts = BOWL_COST(x0, y0, th, xm, ym, th) + BOWL_COST(xm, ym, th, x1, y1, th)
+    # midpoint rule with sub-steps of 0.25 m on a smooth surface
+    assert parts == pytest.approx(whole, rel=2e-3, abs=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(x0=coord, y0=coord, x1=coord, y1=coord, th0=yaw, th1=yaw)
+def test_mirror_symmetry(x0, y0, x1, y1, th0, th1):
+    """Mirror terrain and path in y = 50: the energy is the same (design notes)."""
+    mirrored = Terrain(BOWL.elevation[::-1].copy(), BOWL.transform, BOWL.crs)
+    mc = MotionCost(mirrored, MODEL)
+    e = BOWL_COST(x0, y0, th0, x1, y1, th1)
+    em = mc(x0, 100 - y0, -th0, x1, 100 - y1, -th1)
+    assert em == pytest.approx(e, rel=1e-9, abs=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(x0=coord, y0=coord, x1=coord, y1=coord, th0=yaw, th1=yaw, k=st.integers(1, 3))
+def test_invariance_under_quarter_turns(x0, y0, x1, y1, th0, th1, k):
+    """Rotating terrain and path together by k quarter turns about the map centre."""
+    rotated = Terrain(np.rot90(BOWL.elevation, k).copy(), BOWL.transform, BOWL.crs)
+    rc = MotionCost(rotated, MODEL)
+
+    def rot(x, y):
+        for _ in range(k):  # 90 deg CCW about (50, 50)
+            x, y = 100 - y, x
+        return x, y
+
+    a, b = rot(x0, y0), rot(x1, y1)
+    e = BOWL_COST(x0, y0, th0, x1, y1, th1)
+    er = rc(a[0], a[1], th0 + k * math.pi / 2, b[0], b[1], th1 + k * math.pi / 2)
+    assert er == pytest.approx(e, rel=1e-9, abs=1e-9)
+
+
+def test_a_to_b_and_b_to_a_differ_on_a_slope():
+    t = plane(10.0, 0.0)
+    c = MotionCost(t, MODEL)
+    assert c(20, 50, 0.0, 80, 50, 0.0) > 1.5 * c(80, 50, math.pi, 20, 50, math.pi)
+
+
+def test_limits_and_violations():
+    t = plane(20.0, 0.0)
+    c = MotionCost(t, MODEL, max_slope_deg=15.0)
+    assert c(20, 50, 0.0, 80, 50, 0.0) == math.inf
+    assert "slope 20.0 deg > limit 15 deg" == c.violation(50, 50, 0.0)
+    cross = MotionCost(t, MODEL, max_cross_slope_deg=10.0)
+    assert cross(50, 20, math.pi / 2, 50, 80, math.pi / 2) == math.inf
+    assert cross(20, 50, 0.0, 80, 50, 0.0) < math.inf
+    assert cross.violation(50, 50, math.pi / 2).startswith("cross-slope 20.0 deg")
+    assert c.violation(500, 50) == "outside the map or on nodata"
+    blocked = np.zeros(t.shape, bool)
+    blocked[:, 48:52] = True
+    b = MotionCost(t, MODEL, blocked=blocked)
+    assert b(20, 30, 0.0, 80, 30, 0.0) == math.inf
+    assert b.violation(50, 30) == "inside a keep-out area"
+
+
+def test_lower_bound_is_admissible():
+    c = MotionCost(BOWL, MODEL)
+    rng = np.random.default_rng(0)
+    p = rng.uniform(5, 95, (200, 4))
+    th = rng.uniform(-math.pi, math.pi, (200, 2))
+    e = c.batch(p[:, 0], p[:, 1], th[:, 0], p[:, 2], p[:, 3], th[:, 1])
+    d = np.hypot(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    assert np.all(e >= c.min_cost_per_metre * d - 1e-9)
+    assert c.min_cost_per_metre > 0
