@@ -1,0 +1,27 @@
+"""Terrain: DEM -> metric working grid, Horn gradient, slope/aspect, sampling.
+
+>>> from energy_planner.terrain import Terrain, load_dem
+>>> t = Terrain.from_function(lambda x, y: 0.2 * x, size=(20, 20))
+>>> round(float(t.sample(10.0, 10.0).dzdx), 12)
+0.2
+
+Conventions: x east, y north (metres); ``slope = atan(|grad z|)``; uphill azimuth
+``psi = atan2(dz/dy, dz/dx)`` counter-clockwise from east; "aspect" is the GIS aspect
+(downslope, degrees clockwise from north, as gdaldem). See ``docs/terrain.md``.
+rasterio is imported only by :func:`load_dem` and CRS handling.
+"""
+
+from energy_planner.terrain.dem import Terrain, load_dem, utm_epsg
+from energy_planner.terrain.horn import aspect, gradient, hillshade, slope
+from energy_planner.terrain.sample import TerrainSample
+
+__all__ = [
+    "Terrain",
+    "TerrainSample",
+    "aspect",
+    "gradient",
+    "hillshade",
+    "load_dem",
+    "slope",
+    "utm_epsg",
+]

@@ -1,0 +1,534 @@
+"""DEM loading and the :class:`Terrain` working grid.
+
+A :class:`Terrain` is a north-up grid in a metric CRS (the *working* grid): elevation,
+the Horn gradient, slope and azimuths, the geotransform and the CRS. :func:`load_dem`
+builds one from any single-band raster rasterio opens; :meth:`Terrain.from_array` and
+:meth:`Terrain.from_function` build one from numbers (tests, synthetic maps).
+
+Decisions (see also ``docs/terrain.md``):
+
+- Nodata and NaN cells become NaN in ``elevation``; every later quantity is NaN where it
+  would need them (Horn window, bilinear sampling). Nothing is filled in.
+- A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, is
+  reprojected to the local UTM zone (WGS 84, zone of the DEM's centre) with bilinear
+  resampling, at a square pixel whose area equals the source pixel's area at the DEM's
+  centre (same cell count). A working cell is valid only if every source cell bilinear
+  resampling draws on is valid. ``source_crs`` keeps the DEM's own CRS;
+  :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
+- A DEM without a CRS is taken as local metric coordinates (x east, y north, metres), with
+  a ``UserWarning``: its slopes are only right if the pixels really are metres.
+- A south-up or east-to-west grid is flipped to north-up; a rotated or sheared
+  geotransform raises :class:`~energy_planner.errors.DEMError` (warp it first).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from affine import Affine
+
+from energy_planner.errors import DEMError, DEMIOError
+from energy_planner.terrain.horn import (
+    aspect_from_gradient,
+    horn_gradient,
+    pixel_steps,
+)
+from energy_planner.terrain.sample import TerrainSample, bilinear
+
+__all__ = ["Terrain", "load_dem", "utm_epsg"]
+
+
+def _as_crs(crs: Any) -> Any:
+    """``rasterio.crs.CRS`` from anything it accepts; None stays None."""
+    if crs is None:
+        return None
+    from rasterio.crs import CRS
+    from rasterio.errors import CRSError
+
+    if isinstance(crs, CRS):
+        return crs
+    try:
+        return CRS.from_user_input(crs)
+    except CRSError as exc:
+        raise DEMError(f"CRS {crs!r} is not understood: {exc}") from exc
+
+
+def _is_metric(crs: Any) -> bool:
+    """True for a projected CRS whose linear unit is the metre."""
+    if crs is None:
+        return True
+    if crs.is_geographic:
+        return False
+    try:
+        _, factor = crs.linear_units_factor
+    except Exception:  # rasterio raises CRSError for odd definitions
+        return False
+    return abs(factor - 1.0) < 1e-12
+
+
+def utm_epsg(lon: float, lat: float) -> int:
+    """EPSG code of the WGS 84 UTM zone containing ``(lon, lat)`` (degrees).
+
+    Examples
+    --------
+    >>> utm_epsg(-84.25, 36.6), utm_epsg(2.35, 48.85), utm_epsg(151.2, -33.9)
+    (32616, 32631, 32756)
+    """
+    zone = int(math.floor((lon + 180.0) / 6.0)) % 60 + 1
+    return (32600 if lat >= 0 else 32700) + zone
+
+
+def _scalar_or_array(a: np.ndarray) -> np.ndarray | float:
+    return float(a) if np.ndim(a) == 0 else a
+
+
+@dataclass(eq=False, repr=False)
+class Terrain:
+    """A DEM on a north-up metric working grid, with its Horn gradient.
+
+    Parameters
+    ----------
+    elevation : ndarray, shape (rows, cols)
+        Elevation in metres, ``elevation[row, col]``; NaN = invalid. Copied to a
+        C-contiguous float64 array; a south-up/east-to-west grid is flipped to north-up
+        (row 0 north, column 0 west).
+    transform : affine.Affine
+        Geotransform of the working grid (cell corner convention, as rasterio).
+    crs : rasterio.crs.CRS, str or None
+        Working CRS (projected, metres); None = local metric coordinates.
+    source_crs : CRS, str or None
+        The DEM's own CRS (may be geographic); defaults to ``crs``.
+    source_transform : affine.Affine or None
+        The DEM's own geotransform (before any warp); defaults to ``transform``.
+    source_shape : (int, int) or None
+        The DEM's own shape; defaults to ``elevation.shape``.
+    path : pathlib.Path or None
+        File the DEM came from.
+
+    Attributes
+    ----------
+    dzdx, dzdy : ndarray of float64
+        Horn gradient towards east and north (m/m), NaN where not computable.
+
+    Notes
+    -----
+    Angles: ``slope = atan(|grad z|)``; ``uphill_azimuth = atan2(dzdy, dzdx)`` in radians
+    counter-clockwise from east; ``aspect_deg`` is the GIS aspect (downslope, degrees
+    clockwise from north, NaN on flat cells, as gdaldem).
+
+    Examples
+    --------
+    >>> t = Terrain.from_function(lambda x, y: 0.1 * y, size=(10, 10))
+    >>> t.shape, t.grid
+    ((10, 10), (0.5, 9.5, 1.0, -1.0))
+    >>> s = t.sample(5.0, 5.0)
+    >>> round(s.elevation, 9), round(math.degrees(s.uphill_azimuth), 9)
+    (0.5, 90.0)
+    """
+
+    elevation: np.ndarray
+    transform: Affine
+    crs: Any = None
+    source_crs: Any = None
+    source_transform: Affine | None = None
+    source_shape: tuple[int, int] | None = None
+    path: Path | None = None
+    dzdx: np.ndarray = field(init=False)
+    dzdy: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        z = np.array(self.elevation, dtype=np.float64, order="C", copy=True)
+        if z.ndim != 2:
+            raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
+        t = self.transform if isinstance(self.transform, Affine) else Affine(*self.transform)
+        sx, sy = pixel_steps(t)
+        rows, cols = z.shape
+        if sx < 0:  # east-to-west columns: flip to west-to-east
+            z = np.ascontiguousarray(z[:, ::-1])
+            t = t * Affine.translation(cols, 0) * Affine.scale(-1, 1)
+        if sy > 0:  # south-up rows: flip to north-up
+            z = np.ascontiguousarray(z[::-1, :])
+            t = t * Affine.translation(0, rows) * Affine.scale(1, -1)
+        z[~np.isfinite(z)] = np.nan
+        self.elevation = z
+        self.transform = t
+        self.crs = _as_crs(self.crs)
+        self.source_crs = self.crs if self.source_crs is None else _as_crs(self.source_crs)
+        if self.source_transform is None:
+            self.source_transform = t
+        if self.source_shape is None:
+            self.source_shape = (rows, cols)
+        self.dzdx, self.dzdy = horn_gradient(z, t.a, t.e)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_array(
+        cls,
+        elevation: np.ndarray,
+        resolution: float | Sequence[float] = 1.0,
+        origin: tuple[float, float] = (0.0, 0.0),
+        crs: Any = "EPSG:32631",
+        nodata: float | None = None,
+    ) -> Terrain:
+        """Terrain from an elevation array on a north-up grid.
+
+        Parameters
+        ----------
+        elevation : array_like, shape (rows, cols)
+            Elevation in metres. **Row 0 is the northern edge** (raster order, as
+            ``Terrain.elevation`` itself); column 0 the western edge.
+        resolution : float or (float, float)
+            Pixel size in metres, square or ``(xres, yres)``.
+        origin : (float, float)
+            ``(x_min, y_min)``: the south-west *outer corner* of the grid, so the default
+            map covers ``[0, cols*xres] x [0, rows*yres]``. Cell ``(r, c)`` has its
+            centre at ``(x_min + (c + 0.5) xres, y_min + (rows - r - 0.5) yres)``; see
+            :meth:`cell_centers`, or use :meth:`from_function` to avoid index
+            bookkeeping.
+        crs : CRS, str or None
+            A projected CRS in metres, or None for local coordinates.
+        nodata : float or None
+            Value to treat as invalid (NaN is always invalid).
+
+        Returns
+        -------
+        Terrain
+
+        Examples
+        --------
+        >>> t = Terrain.from_array(np.zeros((3, 4)), resolution=2.0, origin=(10.0, 20.0))
+        >>> t.bounds
+        (10.0, 20.0, 18.0, 26.0)
+        """
+        z = np.array(elevation, dtype=np.float64, copy=True)
+        if z.ndim != 2:
+            raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
+        sx, sy = pixel_steps(resolution)
+        x_min, y_min = (float(v) for v in origin)
+        if nodata is not None:
+            z[z == nodata] = np.nan
+        c = _as_crs(crs)
+        if c is not None and not _is_metric(c):
+            raise DEMError(
+                f"from_array needs a projected CRS in metres, got {c}; "
+                "use load_dem for a geographic DEM (it reprojects to UTM)"
+            )
+        rows = z.shape[0]
+        transform = Affine(sx, 0.0, x_min, 0.0, sy, y_min - sy * rows)
+        return cls(z, transform, c)
+
+    @classmethod
+    def from_function(
+        cls,
+        func: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        size: tuple[float, float] = (100.0, 100.0),
+        resolution: float = 1.0,
+        origin: tuple[float, float] = (0.0, 0.0),
+        crs: Any = "EPSG:32631",
+    ) -> Terrain:
+        """Terrain with ``elevation = func(x, y)`` evaluated at cell centres.
+
+        Parameters
+        ----------
+        func : callable
+            Vectorized ``z = func(x, y)`` in map coordinates (x east, y north, metres).
+        size : (float, float)
+            ``(width, height)`` in metres, rounded to whole cells.
+        resolution : float
+            Square pixel size in metres.
+        origin : (float, float)
+            South-west outer corner ``(x_min, y_min)``.
+        crs : CRS, str or None
+            Projected CRS in metres (None = local coordinates).
+
+        Examples
+        --------
+        >>> t = Terrain.from_function(lambda x, y: x + 2 * y, size=(4, 3))
+        >>> t.elevation[0].tolist(), t.elevation[:, 0].tolist()  # row 0 is north
+        ([5.5, 6.5, 7.5, 8.5], [5.5, 3.5, 1.5])
+        """
+        cols = int(round(size[0] / resolution))
+        rows = int(round(size[1] / resolution))
+        if rows < 1 or cols < 1:
+            raise DEMError(f"size {size} at resolution {resolution} gives no cells")
+        x = origin[0] + (np.arange(cols) + 0.5) * resolution
+        y = origin[1] + (rows - np.arange(rows) - 0.5) * resolution
+        xx, yy = np.meshgrid(x, y)
+        z = np.broadcast_to(np.asarray(func(xx, yy), dtype=np.float64), xx.shape)
+        return cls.from_array(z, resolution=resolution, origin=origin, crs=crs)
+
+    # ------------------------------------------------------------------ grid
+    def __repr__(self) -> str:
+        rx, ry = self.resolution
+        return (
+            f"Terrain(shape={self.shape}, resolution=({rx:g}, {ry:g}) m, crs={self.crs}, "
+            f"source_crs={self.source_crs}, valid={1 - self.nodata_fraction:.1%}, "
+            f"path={self.path})"
+        )
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` of the working grid."""
+        return self.elevation.shape  # type: ignore[return-value]
+
+    @property
+    def resolution(self) -> tuple[float, float]:
+        """Pixel size ``(xres, yres)`` in metres (positive)."""
+        return float(self.transform.a), float(-self.transform.e)
+
+    @property
+    def grid(self) -> tuple[float, float, float, float]:
+        """``(x0, y0, dx, dy)``: centre of cell (0, 0) and steps, ``dx > 0``, ``dy < 0``.
+
+        Cell ``(r, c)`` is centred at ``(x0 + c dx, y0 + r dy)``; a kernel samples
+        ``dzdx``/``dzdy`` at fractional index ``((y - y0) / dy, (x - x0) / dx)``.
+        """
+        t = self.transform
+        return (float(t.c + 0.5 * t.a), float(t.f + 0.5 * t.e), float(t.a), float(t.e))
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(left, bottom, right, top)`` outer bounds of the working grid."""
+        t = self.transform
+        rows, cols = self.shape
+        return (float(t.c), float(t.f + rows * t.e), float(t.c + cols * t.a), float(t.f))
+
+    def cell_centers(self) -> tuple[np.ndarray, np.ndarray]:
+        """2-D arrays ``(x, y)`` of cell-centre coordinates in the working CRS."""
+        x0, y0, dx, dy = self.grid
+        rows, cols = self.shape
+        return np.meshgrid(x0 + dx * np.arange(cols), y0 + dy * np.arange(rows))
+
+    @cached_property
+    def valid(self) -> np.ndarray:
+        """Boolean mask of cells with a valid elevation."""
+        return np.isfinite(self.elevation)
+
+    @property
+    def nodata_fraction(self) -> float:
+        """Share of working-grid cells without a valid elevation."""
+        return float(1.0 - self.valid.mean()) if self.valid.size else 1.0
+
+    # ------------------------------------------------------------------ derived
+    @cached_property
+    def slope(self) -> np.ndarray:
+        """Slope ``atan(|grad z|)``, radians; NaN where the gradient is NaN."""
+        return np.arctan(np.hypot(self.dzdx, self.dzdy))
+
+    @cached_property
+    def uphill_azimuth(self) -> np.ndarray:
+        """Uphill azimuth ``atan2(dzdy, dzdx)``, radians CCW from east (0 on flat cells)."""
+        return np.arctan2(self.dzdy, self.dzdx)
+
+    @cached_property
+    def aspect_deg(self) -> np.ndarray:
+        """GIS aspect: downslope, degrees clockwise from north in [0, 360); NaN if flat."""
+        return aspect_from_gradient(self.dzdx, self.dzdy, degrees=True)
+
+    def hillshade(self, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
+        """Hillshade in [0, 1] of the working grid (see :func:`horn.hillshade`)."""
+        from energy_planner.terrain.horn import hillshade
+
+        return hillshade(self.elevation, self.transform, azimuth=azimuth, altitude=altitude)
+
+    # ------------------------------------------------------------------ queries
+    def sample(self, x: np.ndarray | float, y: np.ndarray | float) -> TerrainSample:
+        """Bilinear terrain at working-CRS points ``(x, y)``; NaN outside/invalid.
+
+        Elevation and the two gradient components are interpolated; slope and uphill
+        azimuth are computed from the interpolated gradient (angles are never
+        interpolated).
+
+        Parameters
+        ----------
+        x, y : array_like
+            Coordinates in the working CRS (``self.crs``), broadcast together.
+
+        Returns
+        -------
+        TerrainSample
+            Arrays shaped like the broadcast query (floats for scalar queries).
+        """
+        z, gx, gy = bilinear((self.elevation, self.dzdx, self.dzdy), self.grid, x, y)
+        slope = np.arctan(np.hypot(gx, gy))
+        psi = np.arctan2(gy, gx)
+        return TerrainSample(*(_scalar_or_array(a) for a in (z, slope, psi, gx, gy)))
+
+    def contains(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | bool:
+        """True where :meth:`sample` gives a finite gradient (usable for planning)."""
+        s = self.sample(x, y)
+        ok = np.isfinite(s.dzdx) & np.isfinite(s.dzdy)
+        return bool(ok) if np.ndim(ok) == 0 else ok
+
+    def _convert(self, src: Any, dst: Any, x: Any, y: Any) -> tuple[Any, Any]:
+        xa = np.asarray(x, dtype=np.float64)
+        ya = np.asarray(y, dtype=np.float64)
+        xa, ya = np.broadcast_arrays(xa, ya)
+        if src is None or dst is None or src == dst:
+            xo, yo = xa.copy(), ya.copy()
+        else:
+            from rasterio.warp import transform
+
+            xs, ys = transform(src, dst, xa.ravel().tolist(), ya.ravel().tolist())
+            xo = np.asarray(xs, dtype=np.float64).reshape(xa.shape)
+            yo = np.asarray(ys, dtype=np.float64).reshape(ya.shape)
+        return _scalar_or_array(xo), _scalar_or_array(yo)
+
+    def to_work(self, x: Any, y: Any) -> tuple[Any, Any]:
+        """Convert coordinates from the DEM's own CRS (``source_crs``) to the working CRS.
+
+        For a geographic DEM, ``x`` is longitude and ``y`` latitude in degrees.
+        """
+        return self._convert(self.source_crs, self.crs, x, y)
+
+    def from_work(self, x: Any, y: Any) -> tuple[Any, Any]:
+        """Convert coordinates from the working CRS to the DEM's own CRS."""
+        return self._convert(self.crs, self.source_crs, x, y)
+
+
+# ---------------------------------------------------------------------- loading
+def _warp_to_utm(
+    z: np.ndarray, transform: Affine, crs: Any, path: Path
+) -> tuple[np.ndarray, Affine, Any]:
+    """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware)."""
+    from rasterio.crs import CRS
+    from rasterio.enums import Resampling
+    from rasterio.transform import array_bounds
+    from rasterio.warp import calculate_default_transform, reproject, transform_bounds
+    from rasterio.warp import transform as warp_transform
+
+    rows, cols = z.shape
+    west, south, east, north = array_bounds(rows, cols, transform)
+    lw, ls, le, ln = transform_bounds(crs, "EPSG:4326", west, south, east, north)
+    lon_c, lat_c = 0.5 * (lw + le), 0.5 * (ls + ln)
+    if not (-180 <= lon_c <= 180 and -80 <= lat_c <= 84):
+        raise DEMError(
+            f"DEM {path} is centred at lon {lon_c:.3f}, lat {lat_c:.3f}: outside the UTM "
+            "range (80 S to 84 N); reproject it to a metric CRS first"
+        )
+    dst_crs = CRS.from_epsg(utm_epsg(lon_c, lat_c))
+    # metric size of the centre pixel -> square pixel with the same area
+    cc, cr = cols / 2.0, rows / 2.0
+    px = [transform * (cc, cr), transform * (cc + 1, cr), transform * (cc, cr + 1)]
+    xs, ys = warp_transform(crs, dst_crs, [p[0] for p in px], [p[1] for p in px])
+    d_col = math.hypot(xs[1] - xs[0], ys[1] - ys[0])
+    d_row = math.hypot(xs[2] - xs[0], ys[2] - ys[0])
+    res = math.sqrt(d_col * d_row)
+    dst_transform, width, height = calculate_default_transform(
+        crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
+    )
+    common = dict(
+        src_transform=transform,
+        src_crs=crs,
+        dst_transform=dst_transform,
+        dst_crs=dst_crs,
+        resampling=Resampling.bilinear,
+    )
+    zw = np.full((height, width), np.nan)
+    reproject(z, zw, src_nodata=np.nan, dst_nodata=np.nan, **common)
+    # validity: a working cell is valid only if all source cells it draws on are valid
+    mask = np.isfinite(z).astype(np.float64)
+    mw = np.full((height, width), -1.0)
+    reproject(mask, mw, src_nodata=-1.0, dst_nodata=-1.0, **common)
+    zw[~(mw > 1.0 - 1e-9)] = np.nan
+    return zw, dst_transform, dst_crs
+
+
+def load_dem(path: str | Path, band: int | None = None) -> Terrain:
+    """Load a single-band DEM raster into a metric :class:`Terrain`.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Any raster rasterio opens (GeoTIFF, ...). Elevation in metres.
+    band : int or None
+        1-based band to read; required when the raster has several bands.
+
+    Returns
+    -------
+    Terrain
+        On the DEM's own grid when its CRS is projected in metres (or absent), else on a
+        UTM grid (see the module docstring).
+
+    Raises
+    ------
+    DEMIOError
+        The file does not exist or rasterio cannot open it.
+    DEMError
+        Several bands and no ``band``; ``band`` out of range; every cell nodata; a
+        rotated geotransform.
+
+    Examples
+    --------
+    >>> from energy_planner.maps import map_path
+    >>> t = load_dem(map_path("plane"))
+    >>> t.crs.to_epsg(), t.resolution
+    (32631, (1.0, 1.0))
+    """
+    import rasterio
+    from rasterio.errors import RasterioIOError
+
+    p = Path(path)
+    name = str(path)
+    if not name.startswith("/vsi") and "://" not in name and not p.exists():
+        raise DEMIOError(f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)")
+    try:
+        src = rasterio.open(name)
+    except RasterioIOError as exc:
+        raise DEMIOError(f"cannot open DEM {name!r} as a raster: {exc}") from exc
+    with src:
+        n = src.count
+        if band is None:
+            if n != 1:
+                raise DEMError(
+                    f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
+                    f"--band N (CLI), N in 1..{n}"
+                )
+            band = 1
+        if not (isinstance(band, int | np.integer) and 1 <= band <= n):
+            raise DEMError(f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}")
+        data = src.read(int(band), masked=True)
+        z = np.ma.filled(data.astype(np.float64), np.nan)
+        transform = src.transform
+        crs = src.crs
+        if transform.b != 0 or transform.d != 0:
+            raise DEMError(
+                f"DEM {name!r} has a rotated/sheared geotransform {tuple(transform)[:6]}; "
+                "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif"
+            )
+        if src.gcps[0] and transform == Affine.identity():
+            raise DEMError(f"DEM {name!r} is georeferenced by GCPs only; warp it first")
+    z[~np.isfinite(z)] = np.nan
+    if not np.isfinite(z).any():
+        raise DEMError(f"DEM {name!r} band {band} has no valid cell (all nodata/NaN)")
+    source_shape = z.shape
+    if crs is None:
+        warnings.warn(
+            f"DEM {name!r} has no CRS; treating its coordinates as local metres "
+            "(x east, y north). Slopes are wrong if its pixels are not metres.",
+            UserWarning,
+            stacklevel=2,
+        )
+        work_z, work_t, work_crs = z, transform, None
+    elif _is_metric(crs):
+        work_z, work_t, work_crs = z, transform, crs
+    else:
+        work_z, work_t, work_crs = _warp_to_utm(z, transform, crs, p)
+        if not np.isfinite(work_z).any():
+            raise DEMError(f"DEM {name!r} has no valid cell after reprojection to {work_crs}")
+    return Terrain(
+        work_z,
+        work_t,
+        work_crs,
+        source_crs=crs,
+        source_transform=transform,
+        source_shape=source_shape,
+        path=p,
+    )

@@ -1,0 +1,323 @@
+"""Slope, aspect and gradient by Horn's method.
+
+Conventions (shared with the whole project, see ``docs/terrain.md``):
+
+- World frame: x east, y north, z up, in metres. A grid is stored as a 2-D array
+  ``z[row, col]``; the geotransform maps a cell index to coordinates. For the usual
+  north-up raster (``transform.e < 0``) row 0 is the northern edge.
+- Gradient ``(dz/dx, dz/dy)``: derivative towards east and towards north, dimensionless
+  (metres per metre).
+- Slope ``alpha = atan(|grad z|)``, 0 on flat ground.
+- Uphill azimuth ``psi = atan2(dz/dy, dz/dx)``: direction of steepest ascent, radians,
+  counter-clockwise from +x (east), in (-pi, pi]. ``atan2(0, 0) = 0`` on flat cells.
+- GIS aspect: direction of steepest *descent*, degrees clockwise from north, in [0, 360),
+  as ``gdaldem aspect``. It is undefined on flat cells: gdaldem writes its nodata value
+  (-9999) there, these functions give NaN. ``aspect = (90 - degrees(psi) + 180) mod 360``.
+
+Method
+------
+Horn (1981) estimates the gradient at a cell from its 3 x 3 neighbourhood
+``a b c / d e f / g h i`` (``a`` = north-west for a north-up grid) with weights 1-2-1::
+
+    dz/dx = ((c + 2 f + i) - (a + 2 d + g)) / (8 * pixel_width)
+    dz/dy = ((a + 2 b + c) - (g + 2 h + i)) / (8 * pixel_height)
+
+It is a central difference smoothed across the other axis; it is exact on planes and
+is the default of ``gdaldem slope``/``aspect``. Pixels need not be square: the two
+differences use their own spacing, which is what a projected DEM with ``xres != yres``
+needs.
+
+Design notes
+------------
+- Invalid data is never invented. A cell whose 3 x 3 window touches a NaN (nodata) cell,
+  or that lies on the grid's outer edge, gets a NaN gradient. This matches gdaldem's
+  default, which leaves the one-cell border nodata (no ``-compute_edges``), and gdaldem's
+  rule that any nodata value in the window makes the output nodata.
+- The arithmetic is plain NumPy slicing (no SciPy convolution), so NaN propagates by IEEE
+  rules without RuntimeWarnings and the result is C-contiguous float64.
+
+References
+----------
+B. K. P. Horn, "Hill shading and the reflectance map", Proceedings of the IEEE 69(1),
+14-47, 1981. doi:10.1109/PROC.1981.11918
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from affine import Affine
+
+from energy_planner.errors import DEMError
+
+__all__ = [
+    "aspect",
+    "aspect_from_gradient",
+    "gradient",
+    "hillshade",
+    "horn_gradient",
+    "pixel_steps",
+    "slope",
+]
+
+TransformOrResolution = Affine | float | Sequence[float]
+
+
+def pixel_steps(transform_or_resolution: Any) -> tuple[float, float]:
+    """Signed coordinate steps ``(step_x per column, step_y per row)`` of a grid.
+
+    Parameters
+    ----------
+    transform_or_resolution : affine.Affine, float or (float, float)
+        An affine geotransform (north-up or flipped; no rotation), a square pixel size,
+        or ``(xres, yres)`` pixel sizes. Plain sizes are positive magnitudes and mean a
+        north-up grid (row 0 north), as in xdem and ``rasterio``'s ``res``.
+
+    Returns
+    -------
+    (float, float)
+        Metres per column along x and per row along y (negative for north-up).
+
+    Raises
+    ------
+    DEMError
+        For a rotated/sheared transform, a zero/negative/non-finite size.
+
+    Examples
+    --------
+    >>> pixel_steps(2.0)
+    (2.0, -2.0)
+    >>> pixel_steps((1.0, 3.0))
+    (1.0, -3.0)
+    >>> pixel_steps(Affine(1.5, 0, 100, 0, -2.5, 50))
+    (1.5, -2.5)
+    """
+    if isinstance(transform_or_resolution, Affine):
+        t = transform_or_resolution
+        if t.b != 0 or t.d != 0:
+            raise DEMError(
+                f"geotransform {tuple(t)[:6]} is rotated or sheared (b={t.b}, d={t.d}); "
+                "expected a north-up grid (b = d = 0). Warp it first, e.g. "
+                "`gdalwarp -t_srs <same CRS> in.tif out.tif`."
+            )
+        sx, sy = float(t.a), float(t.e)
+        if not (math.isfinite(sx) and math.isfinite(sy)) or sx == 0 or sy == 0:
+            raise DEMError(f"geotransform {tuple(t)[:6]} has a zero or non-finite pixel size")
+        return sx, sy
+    if isinstance(transform_or_resolution, int | float | np.floating | np.integer):
+        sx = sy = float(transform_or_resolution)
+    else:
+        try:
+            sx, sy = (float(v) for v in transform_or_resolution)
+        except (TypeError, ValueError) as exc:
+            raise DEMError(
+                f"resolution {transform_or_resolution!r} is not an Affine transform, a "
+                "number or an (xres, yres) pair"
+            ) from exc
+    if not (sx > 0 and sy > 0 and math.isfinite(sx) and math.isfinite(sy)):
+        raise DEMError(
+            f"resolution {transform_or_resolution!r} must be positive and finite "
+            "(pixel sizes in metres; use an Affine transform for a flipped grid)"
+        )
+    return sx, -sy
+
+
+def horn_gradient(z: np.ndarray, step_x: float, step_y: float) -> tuple[np.ndarray, np.ndarray]:
+    """Horn gradient of a grid with signed steps (see :func:`pixel_steps`).
+
+    Parameters
+    ----------
+    z : ndarray, shape (rows, cols)
+        Elevation; NaN marks invalid cells.
+    step_x, step_y : float
+        Coordinate change per column and per row (``step_y < 0`` for north-up).
+
+    Returns
+    -------
+    dzdx, dzdy : ndarray of float64, C-contiguous
+        dz/dx (east) and dz/dy (north); NaN on the border and wherever the 3 x 3 window
+        touches a NaN.
+
+    Examples
+    --------
+    >>> z = np.array([[2.0, 2.0, 2.0], [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])  # rises to north
+    >>> gx, gy = horn_gradient(z, 1.0, -1.0)
+    >>> float(gx[1, 1]), float(gy[1, 1]), bool(np.isnan(gx[0, 0]))
+    (0.0, 1.0, True)
+    """
+    z = np.asarray(z, dtype=np.float64)
+    if z.ndim != 2:
+        raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
+    rows, cols = z.shape
+    dzdx = np.full((rows, cols), np.nan)
+    dzdy = np.full((rows, cols), np.nan)
+    if rows < 3 or cols < 3:
+        return dzdx, dzdy
+    top, mid, bot = z[:-2], z[1:-1], z[2:]
+    # column difference (east minus west), weights 1-2-1 over the rows
+    gx = dzdx[1:-1, 1:-1]
+    np.subtract(top[:, 2:], top[:, :-2], out=gx)
+    tmp = np.subtract(mid[:, 2:], mid[:, :-2])
+    tmp *= 2.0
+    gx += tmp
+    np.subtract(bot[:, 2:], bot[:, :-2], out=tmp)
+    gx += tmp
+    gx /= 8.0 * step_x
+    # row difference (previous row minus next row: north minus south when step_y < 0),
+    # weights 1-2-1 over the columns; dividing by -step_y keeps flat cells at +0.0
+    gy = dzdy[1:-1, 1:-1]
+    np.subtract(top[:, :-2], bot[:, :-2], out=gy)
+    np.subtract(top[:, 1:-1], bot[:, 1:-1], out=tmp)
+    tmp *= 2.0
+    gy += tmp
+    np.subtract(top[:, 2:], bot[:, 2:], out=tmp)
+    gy += tmp
+    gy /= -8.0 * step_y
+    return dzdx, dzdy
+
+
+def gradient(
+    dem: np.ndarray, transform_or_resolution: TransformOrResolution
+) -> tuple[np.ndarray, np.ndarray]:
+    """Horn gradient ``(dz/dx east, dz/dy north)`` of a DEM array.
+
+    Parameters
+    ----------
+    dem : array_like, shape (rows, cols)
+        Elevation in metres; NaN = invalid.
+    transform_or_resolution : affine.Affine, float or (float, float)
+        See :func:`pixel_steps`.
+
+    Returns
+    -------
+    dzdx, dzdy : ndarray of float64
+
+    Examples
+    --------
+    >>> x = np.arange(5.0)
+    >>> z = np.tile(0.5 * x, (4, 1))  # rises 0.5 m per metre eastwards
+    >>> gx, gy = gradient(z, 1.0)
+    >>> float(gx[1, 2]), float(gy[1, 2])
+    (0.5, 0.0)
+    """
+    sx, sy = pixel_steps(transform_or_resolution)
+    return horn_gradient(np.asarray(dem, dtype=np.float64), sx, sy)
+
+
+def slope_from_gradient(dzdx: np.ndarray, dzdy: np.ndarray, degrees: bool = True) -> np.ndarray:
+    """Slope ``atan(hypot(dzdx, dzdy))``, in degrees or radians."""
+    s = np.arctan(np.hypot(dzdx, dzdy))
+    return np.degrees(s, out=s) if degrees else s
+
+
+def aspect_from_gradient(dzdx: np.ndarray, dzdy: np.ndarray, degrees: bool = True) -> np.ndarray:
+    """GIS aspect (downslope, clockwise from north, [0, 360)) from a gradient.
+
+    NaN where the gradient is NaN or exactly zero (flat, undefined; gdaldem: -9999).
+
+    Examples
+    --------
+    >>> aspect_from_gradient(np.array([-1.0, 0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0, 0.0]))
+    array([ 90.,   0., 270.,  nan])
+    """
+    dzdx = np.asarray(dzdx, dtype=np.float64)
+    dzdy = np.asarray(dzdy, dtype=np.float64)
+    # downslope vector (-dzdx, -dzdy); azimuth clockwise from north = atan2(east, north)
+    a = np.arctan2(-dzdx, -dzdy)
+    a = np.where((dzdx == 0) & (dzdy == 0), np.nan, np.degrees(a) % 360.0)
+    return a if degrees else np.radians(a)
+
+
+def slope(
+    dem: np.ndarray, transform_or_resolution: TransformOrResolution, degrees: bool = True
+) -> np.ndarray:
+    """Slope of a DEM by Horn's method (as ``gdaldem slope``).
+
+    Parameters
+    ----------
+    dem : array_like, shape (rows, cols)
+        Elevation in metres (same unit as the pixel size); NaN = invalid.
+    transform_or_resolution : affine.Affine, float or (float, float)
+        See :func:`pixel_steps`.
+    degrees : bool
+        Degrees (default) or radians.
+
+    Returns
+    -------
+    ndarray of float64
+        Slope; NaN on the border and around invalid cells.
+
+    Examples
+    --------
+    >>> z = np.tile(np.arange(5.0), (4, 1))  # 1 m rise per metre
+    >>> round(float(slope(z, 1.0)[1, 1]), 6)
+    45.0
+    """
+    return slope_from_gradient(*gradient(dem, transform_or_resolution), degrees=degrees)
+
+
+def aspect(
+    dem: np.ndarray, transform_or_resolution: TransformOrResolution, degrees: bool = True
+) -> np.ndarray:
+    """GIS aspect of a DEM by Horn's method (as ``gdaldem aspect``).
+
+    Direction of steepest descent, clockwise from north, in [0, 360) degrees (or the same
+    angle in radians). NaN on flat cells (gdaldem: -9999), on the border and around
+    invalid cells.
+
+    Examples
+    --------
+    >>> z = np.tile(np.arange(5.0), (4, 1))  # rises to the east, so faces west
+    >>> float(aspect(z, 1.0)[1, 1])
+    270.0
+    """
+    return aspect_from_gradient(*gradient(dem, transform_or_resolution), degrees=degrees)
+
+
+def hillshade(
+    dem: np.ndarray,
+    transform_or_resolution: TransformOrResolution,
+    azimuth: float = 315.0,
+    altitude: float = 45.0,
+    z_factor: float = 1.0,
+) -> np.ndarray:
+    """Lambertian hillshade in [0, 1] (gdaldem's formula, for plots).
+
+    Parameters
+    ----------
+    dem : array_like
+        Elevation; NaN = invalid.
+    transform_or_resolution : affine.Affine, float or (float, float)
+        See :func:`pixel_steps`.
+    azimuth : float
+        Direction the light comes *from*, degrees clockwise from north (315 = north-west).
+    altitude : float
+        Sun elevation above the horizon, degrees.
+    z_factor : float
+        Vertical exaggeration.
+
+    Returns
+    -------
+    ndarray of float64
+        ``cos`` of the angle between the surface normal and the sun, clipped at 0; NaN
+        where the gradient is NaN.
+
+    Examples
+    --------
+    >>> z = np.zeros((3, 3))
+    >>> round(float(hillshade(z, 1.0)[1, 1]), 6) == round(math.sin(math.radians(45)), 6)
+    True
+    """
+    gx, gy = gradient(dem, transform_or_resolution)
+    gx *= z_factor
+    gy *= z_factor
+    az = math.radians(azimuth)
+    alt = math.radians(altitude)
+    # unit vector towards the sun in (east, north, up)
+    sun = (math.sin(az) * math.cos(alt), math.cos(az) * math.cos(alt), math.sin(alt))
+    # surface normal (-gx, -gy, 1) / norm
+    shade = (-gx * sun[0] - gy * sun[1] + sun[2]) / np.sqrt(1.0 + gx * gx + gy * gy)
+    return np.clip(shade, 0.0, 1.0)
