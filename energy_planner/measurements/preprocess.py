@@ -1,0 +1,498 @@
+"""Cleaning robot logs (paper section IV-B), one named, tested function per step.
+
+:func:`preprocess` runs, in this order (each step per run and per gap-free segment):
+
+1. :func:`drop_invalid` - drop samples with a non-finite required value or a battery
+   voltage outside ``voltage_min..voltage_max`` (counted per reason);
+2. :func:`split_segments` - number the gap-free segments of each run (column
+   ``segment``); a time step longer than ``max_gap`` starts a new segment, so nothing
+   later (filters, derivatives, windows) bridges a gap;
+3. :func:`add_power` - electrical power ``power = voltage * current`` (W);
+4. :func:`hampel_filter` - median-type outlier filter on power: drop samples further
+   than ``hampel_n_sigma`` robust standard deviations from the running median;
+5. :func:`ema_smooth` - short exponential moving average (time constant ``ema_tau``
+   seconds, exact for irregular time steps) on power and the twist;
+6. :func:`body_accelerations` - ``ax, ay``: time derivative of the smoothed ``vx, vy``;
+7. :func:`add_slope_heading` - ``alpha, gamma`` from the IMU gravity vector
+   (:func:`~energy_planner.measurements.imu.imu_slope_heading`) and ``speed``;
+8. :func:`discard_low_speed` - drop samples with low translational speed AND low yaw
+   rate (turns in place survive);
+9. :func:`consistency_bound` - drop samples whose electrical power is below
+   ``min_mech_ratio`` times the rate of potential-energy gain ``m g v_up`` (the
+   mechanical lower bound; the motors cannot output more than they draw), below
+   ``min_power_w``, or above ``max_power_w``.
+
+The paper lists the low-speed discard first; here it runs after the filters so that the
+filters see contiguous data and the discard uses the smoothed twist (dropping samples
+first would make the median and EMA bridge over the removed stretches).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.measurements.imu import imu_slope_heading, up_in_body
+from energy_planner.measurements.schema import (
+    MAX_GAP_S,
+    REQUIRED_COLUMNS,
+    VOLTAGE_RANGE,
+    check_columns,
+    check_time,
+)
+
+G = 9.81
+
+
+@dataclass(frozen=True)
+class PreprocessParams:
+    """Parameters of :func:`preprocess` (units in the names or below).
+
+    Attributes
+    ----------
+    voltage_min, voltage_max : float
+        Plausible battery voltage, V (default 5..1000). Outside: dropped, counted.
+    max_gap : float
+        Longest time step, s, inside a segment (default 0.5). Longer: a new segment.
+    hampel_half_window : int
+        Samples on each side of the Hampel window (default 5, i.e. 11 samples).
+    hampel_n_sigma : float
+        Outlier threshold in robust standard deviations, ``1.4826 * MAD`` (default 3).
+    hampel_min_scale_w : float
+        Floor on the robust standard deviation, W (default 1.0), so that a locally
+        constant (quantised) power does not flag tiny deviations.
+    ema_tau : float
+        EMA time constant, s (default 0.2). 0 disables smoothing.
+    ema_columns : tuple of str
+        Columns smoothed (default power and twist).
+    min_speed : float
+        Translational speed, m/s, below which a sample is "low speed" (default 0.05).
+    min_yaw_rate : float
+        Yaw rate, rad/s, below which a sample is "not turning" (default 0.05). A sample
+        is discarded only if it is low speed and not turning.
+    robot_mass_kg : float
+        Mass used by the mechanical lower bound (default 50, a B1-class robot).
+    min_mech_ratio : float
+        Electrical power must be at least this times ``m g v_up`` (default 1.0:
+        efficiency cannot exceed one). 0 disables the check.
+    min_power_w, max_power_w : float
+        Plausible electrical power range, W (default 0..5000).
+    """
+
+    voltage_min: float = VOLTAGE_RANGE[0]
+    voltage_max: float = VOLTAGE_RANGE[1]
+    max_gap: float = MAX_GAP_S
+    hampel_half_window: int = 5
+    hampel_n_sigma: float = 3.0
+    hampel_min_scale_w: float = 1.0
+    ema_tau: float = 0.2
+    ema_columns: tuple[str, ...] = ("power", "vx", "vy", "wz")
+    min_speed: float = 0.05
+    min_yaw_rate: float = 0.05
+    robot_mass_kg: float = 50.0
+    min_mech_ratio: float = 1.0
+    min_power_w: float = 0.0
+    max_power_w: float = 5000.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form."""
+        d = asdict(self)
+        d["ema_columns"] = list(self.ema_columns)
+        return d
+
+
+@dataclass
+class StepRecord:
+    """One preprocessing step: samples in and out, removals per reason, a note."""
+
+    name: str
+    n_in: int
+    n_out: int
+    removed: dict[str, int] = field(default_factory=dict)
+    note: str = ""
+
+    @property
+    def n_removed(self) -> int:
+        """Samples removed by this step."""
+        return self.n_in - self.n_out
+
+
+@dataclass
+class PreprocessReport:
+    """How many samples each preprocessing step removed, and why.
+
+    ``str(report)`` is a table; :meth:`to_dict` is for ``--json``.
+    """
+
+    n_input: int = 0
+    steps: list[StepRecord] = field(default_factory=list)
+    params: PreprocessParams = field(default_factory=PreprocessParams)
+
+    @property
+    def n_output(self) -> int:
+        """Samples left after all steps."""
+        return self.steps[-1].n_out if self.steps else self.n_input
+
+    @property
+    def removed(self) -> dict[str, int]:
+        """Removed samples per step name."""
+        return {s.name: s.n_removed for s in self.steps}
+
+    def step(self, name: str) -> StepRecord:
+        """The record of the step called ``name``."""
+        for s in self.steps:
+            if s.name == name:
+                return s
+        raise KeyError(f"no step {name!r}; steps: {', '.join(s.name for s in self.steps)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (for ``--json``)."""
+        return {
+            "n_input": self.n_input,
+            "n_output": self.n_output,
+            "steps": [{"name": s.name, "n_in": s.n_in, "n_out": s.n_out,
+                       "removed": s.n_removed, "reasons": dict(s.removed), "note": s.note}
+                      for s in self.steps],
+            "params": self.params.to_dict(),
+        }
+
+    def __str__(self) -> str:
+        w = max([len(s.name) for s in self.steps] + [4])
+        lines = [f"{'step':<{w}}  {'in':>9}  {'removed':>8}  {'out':>9}  reason / note"]
+        for s in self.steps:
+            why = "; ".join(f"{k}: {n}" for k, n in s.removed.items() if n) or s.note
+            if s.removed and s.note:
+                why += f" ({s.note})"
+            lines.append(f"{s.name:<{w}}  {s.n_in:>9}  {s.n_removed:>8}  {s.n_out:>9}  {why}")
+        pct = 100.0 * self.n_output / self.n_input if self.n_input else 0.0
+        lines.append(f"kept {self.n_output} of {self.n_input} samples ({pct:.1f}%)")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------- helpers
+
+
+def segment_slices(samples: pd.DataFrame) -> list[slice]:
+    """Row slices of consecutive rows with the same run (and segment, when present)."""
+    n = len(samples)
+    if n == 0:
+        return []
+    run = samples["run"].astype(str).to_numpy()
+    change = run[1:] != run[:-1]
+    if "segment" in samples.columns:
+        seg = samples["segment"].to_numpy()
+        change |= seg[1:] != seg[:-1]
+    starts = np.concatenate([[0], np.flatnonzero(change) + 1, [n]])
+    return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)]
+
+
+_EMA_KERNEL: Callable | None = None
+
+
+def _ema_kernel() -> Callable:
+    global _EMA_KERNEL
+    if _EMA_KERNEL is None:
+        import numba
+
+        @numba.njit(cache=False)
+        def kernel(x, t, tau):  # pragma: no cover - compiled
+            y = np.empty_like(x)
+            y[0] = x[0]
+            for i in range(1, x.size):
+                a = 1.0 - np.exp(-(t[i] - t[i - 1]) / tau)
+                y[i] = y[i - 1] + a * (x[i] - y[i - 1])
+            return y
+
+        _EMA_KERNEL = kernel
+    return _EMA_KERNEL
+
+
+def ema(x, t, tau: float) -> np.ndarray:
+    """Exponential moving average with time constant ``tau`` (s) on irregular times.
+
+    ``y[0] = x[0]`` and ``y[i] = y[i-1] + (1 - exp(-(t[i] - t[i-1]) / tau)) (x[i] - y[i-1])``:
+    the exact solution of ``tau y' = x - y`` when ``x`` holds the value ``x[i]`` over
+    ``(t[i-1], t[i]]``. A unit step that arrives right after ``t = 0`` therefore gives
+    ``y(t) = 1 - exp(-t / tau)`` at every sample, whatever the time steps.
+
+    Examples
+    --------
+    >>> t = np.array([0.0, 0.1, 0.3, 0.35])
+    >>> y = ema(np.array([0.0, 1.0, 1.0, 1.0]), t, 0.2)
+    >>> bool(np.allclose(y, 1 - np.exp(-t / 0.2)))
+    True
+    """
+    x = np.asarray(x, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if x.size == 0 or tau <= 0:
+        return x.copy()
+    return _ema_kernel()(x, t, float(tau))
+
+
+def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
+                min_scale: float = 0.0) -> np.ndarray:
+    """Boolean mask of Hampel outliers in ``x``.
+
+    A sample is an outlier when ``|x_i - med_i| > n_sigma * max(1.4826 * MAD_i,
+    min_scale)``, with ``med_i`` and ``MAD_i`` the median and median absolute deviation
+    of the window of ``2 * half_window + 1`` samples centred on ``i`` (truncated at the
+    ends).
+
+    Examples
+    --------
+    >>> x = np.array([10.0, 10.2, 9.9, 10.1, 50.0, 10.0, 9.8, 10.1])
+    >>> np.flatnonzero(hampel_mask(x, 3, 3.0))
+    array([4])
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    out = np.zeros(n, dtype=bool)
+    if n < 3:
+        return out
+    w = int(half_window)
+    pad = np.concatenate([np.full(w, np.nan), x, np.full(w, np.nan)])
+    chunk = 100_000
+    for a in range(0, n, chunk):
+        b = min(n, a + chunk)
+        win = np.lib.stride_tricks.sliding_window_view(pad[a:b + 2 * w], 2 * w + 1)
+        med = np.nanmedian(win, axis=1)
+        mad = np.nanmedian(np.abs(win - med[:, None]), axis=1)
+        scale = np.maximum(1.4826 * mad, min_scale)
+        out[a:b] = np.abs(x[a:b] - med) > n_sigma * scale
+    return out
+
+
+# ------------------------------------------------------------------------------ steps
+
+
+def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                 ) -> tuple[pd.DataFrame, StepRecord]:
+    """Drop samples with a non-finite required value or an implausible voltage.
+
+    A sample counts once, under the first reason it meets: ``non-finite <column>`` in
+    the order of the required columns, then ``voltage outside lo..hi V``.
+    """
+    n = len(samples)
+    bad = np.zeros(n, dtype=bool)
+    removed: dict[str, int] = {}
+    for c in REQUIRED_COLUMNS:
+        nf = ~np.isfinite(samples[c].to_numpy(dtype=float)) & ~bad
+        if nf.any():
+            removed[f"non-finite {c}"] = int(nf.sum())
+            bad |= nf
+    v = samples["voltage"].to_numpy(dtype=float)
+    with np.errstate(invalid="ignore"):
+        bv = ~bad & ((v < params.voltage_min) | (v > params.voltage_max))
+    if bv.any():
+        removed[f"voltage outside {params.voltage_min:g}..{params.voltage_max:g} V"] = \
+            int(bv.sum())
+        bad |= bv
+    out = samples.loc[~bad].reset_index(drop=True)
+    return out, StepRecord("drop_invalid", n, len(out), removed)
+
+
+def split_segments(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                   ) -> tuple[pd.DataFrame, StepRecord]:
+    """Add ``segment`` (int, from 0 within each run): a step longer than ``max_gap`` s
+    starts a new segment. Nothing is removed; the note counts the gaps."""
+    out = samples.copy()
+    seg = np.zeros(len(out), dtype=np.int64)
+    n_gaps = 0
+    t = out["t"].to_numpy(dtype=float)
+    for sl in segment_slices(out.drop(columns=["segment"], errors="ignore")):
+        new = np.concatenate([[False], np.diff(t[sl]) > params.max_gap])
+        seg[sl] = np.cumsum(new)
+        n_gaps += int(new.sum())
+    out["segment"] = seg
+    n_seg = len(segment_slices(out))
+    note = f"{n_gaps} gap(s) > {params.max_gap:g} s; {n_seg} segment(s)"
+    return out, StepRecord("split_segments", len(samples), len(out), {}, note)
+
+
+def add_power(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+              ) -> tuple[pd.DataFrame, StepRecord]:
+    """Add electrical power ``power = voltage * current`` (W)."""
+    out = samples.copy()
+    out["power"] = out["voltage"].to_numpy(dtype=float) * out["current"].to_numpy(dtype=float)
+    return out, StepRecord("add_power", len(samples), len(out), {}, "power = voltage * current")
+
+
+def hampel_filter(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams(),
+                  column: str = "power") -> tuple[pd.DataFrame, StepRecord]:
+    """Drop Hampel outliers of ``column`` (default power), per run and segment."""
+    x = samples[column].to_numpy(dtype=float)
+    bad = np.zeros(len(samples), dtype=bool)
+    for sl in segment_slices(samples):
+        bad[sl] = hampel_mask(x[sl], params.hampel_half_window, params.hampel_n_sigma,
+                              params.hampel_min_scale_w)
+    out = samples.loc[~bad].reset_index(drop=True)
+    reason = (f"{column} beyond {params.hampel_n_sigma:g} robust sigma of the running median "
+              f"({2 * params.hampel_half_window + 1} samples)")
+    return out, StepRecord("hampel_filter", len(samples), len(out),
+                           {reason: int(bad.sum())} if bad.any() else {})
+
+
+def ema_smooth(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+               ) -> tuple[pd.DataFrame, StepRecord]:
+    """EMA (time constant ``ema_tau`` s) of ``ema_columns``, per run and segment."""
+    out = samples.copy()
+    t = out["t"].to_numpy(dtype=float)
+    for c in params.ema_columns:
+        if c not in out.columns:
+            continue
+        x = out[c].to_numpy(dtype=float)
+        y = x.copy()
+        for sl in segment_slices(out):
+            y[sl] = ema(x[sl], t[sl], params.ema_tau)
+        out[c] = y
+    note = (f"tau = {params.ema_tau:g} s on {', '.join(params.ema_columns)}"
+            if params.ema_tau > 0 else "disabled (ema_tau = 0)")
+    return out, StepRecord("ema_smooth", len(samples), len(out), {}, note)
+
+
+def body_accelerations(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                       ) -> tuple[pd.DataFrame, StepRecord]:
+    """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist, per run
+    and segment, by second-order central differences on the sample times
+    (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment)."""
+    out = samples.copy()
+    t = out["t"].to_numpy(dtype=float)
+    for src, dst in (("vx", "ax"), ("vy", "ay")):
+        v = out[src].to_numpy(dtype=float)
+        a = np.zeros_like(v)
+        for sl in segment_slices(out):
+            if sl.stop - sl.start > 1:
+                a[sl] = np.gradient(v[sl], t[sl])
+        out[dst] = a
+    return out, StepRecord("body_accelerations", len(samples), len(out), {},
+                           "ax, ay = d(vx, vy)/dt")
+
+
+def add_slope_heading(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                      ) -> tuple[pd.DataFrame, StepRecord]:
+    """Add ``alpha``, ``gamma`` (rad) from the IMU quaternion and ``speed`` (m/s)."""
+    out = samples.copy()
+    q = [out[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")]
+    out["alpha"], out["gamma"] = imu_slope_heading(*q)
+    out["speed"] = np.hypot(out["vx"].to_numpy(dtype=float), out["vy"].to_numpy(dtype=float))
+    return out, StepRecord("add_slope_heading", len(samples), len(out), {},
+                           "alpha = arccos(u_z), gamma = -atan2(u_y, u_x)")
+
+
+def discard_low_speed(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                      ) -> tuple[pd.DataFrame, StepRecord]:
+    """Drop samples with ``hypot(vx, vy) < min_speed`` AND ``|wz| < min_yaw_rate``."""
+    speed = np.hypot(samples["vx"].to_numpy(dtype=float), samples["vy"].to_numpy(dtype=float))
+    wz = np.abs(samples["wz"].to_numpy(dtype=float))
+    bad = (speed < params.min_speed) & (wz < params.min_yaw_rate)
+    out = samples.loc[~bad].reset_index(drop=True)
+    reason = (f"speed < {params.min_speed:g} m/s and |wz| < {params.min_yaw_rate:g} rad/s")
+    return out, StepRecord("discard_low_speed", len(samples), len(out),
+                           {reason: int(bad.sum())} if bad.any() else {})
+
+
+def mechanical_lower_bound(samples: pd.DataFrame, mass_kg: float) -> np.ndarray:
+    """Rate of potential-energy gain ``m g v_up`` (W, 0 when not climbing).
+
+    ``v_up = vx u_x + vy u_y`` is the vertical speed, with ``u`` the world up vector in
+    the body frame (from the IMU quaternion).
+    """
+    ux, uy, _ = up_in_body(*(samples[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")))
+    v_up = samples["vx"].to_numpy(dtype=float) * ux + samples["vy"].to_numpy(dtype=float) * uy
+    return np.maximum(mass_kg * G * v_up, 0.0)
+
+
+def consistency_bound(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+                      ) -> tuple[pd.DataFrame, StepRecord]:
+    """Drop samples whose electrical power is inconsistent with the motion.
+
+    Reasons (a sample counts under the first): ``power < min_power_w``;
+    ``power > max_power_w``; ``power < min_mech_ratio * m g v_up``
+    (:func:`mechanical_lower_bound`).
+    """
+    p = samples["power"].to_numpy(dtype=float)
+    removed: dict[str, int] = {}
+    low = p < params.min_power_w
+    high = ~low & (p > params.max_power_w)
+    bad = low | high
+    mech = np.zeros(len(samples), dtype=bool)
+    if params.min_mech_ratio > 0 and len(samples):
+        mech = ~bad & (p < params.min_mech_ratio
+                       * mechanical_lower_bound(samples, params.robot_mass_kg))
+    for reason, m in ((f"power < {params.min_power_w:g} W", low),
+                      (f"power > {params.max_power_w:g} W", high),
+                      (f"power < {params.min_mech_ratio:g} x m g v_up "
+                       f"(m = {params.robot_mass_kg:g} kg)", mech)):
+        if m.any():
+            removed[reason] = int(m.sum())
+    bad |= mech
+    out = samples.loc[~bad].reset_index(drop=True)
+    return out, StepRecord("consistency_bound", len(samples), len(out), removed)
+
+
+#: The steps :func:`preprocess` runs, in order.
+STEPS: tuple[Callable[..., tuple[pd.DataFrame, StepRecord]], ...] = (
+    drop_invalid,
+    split_segments,
+    add_power,
+    hampel_filter,
+    ema_smooth,
+    body_accelerations,
+    add_slope_heading,
+    discard_low_speed,
+    consistency_bound,
+)
+
+
+def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
+               ) -> tuple[pd.DataFrame, PreprocessReport]:
+    """Clean canonical samples for calibration (paper IV-B); see the module notes.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical table (e.g. from :func:`~energy_planner.measurements.load_logs`).
+    params : PreprocessParams, optional
+        Thresholds and filter settings; defaults :class:`PreprocessParams`.
+
+    Returns
+    -------
+    clean : pandas.DataFrame
+        The kept samples, sorted by run and t, with added columns ``segment``,
+        ``power`` (smoothed, W), ``ax``, ``ay``, ``alpha``, ``gamma``, ``speed``; the twist
+        is smoothed; voltage and current are as read.
+    report : PreprocessReport
+        Samples removed by each step and why.
+
+    Raises
+    ------
+    energy_planner.errors.LogError
+        A required column is missing or time is not increasing within a run.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 5, 0.02)
+    >>> df = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0,
+    ...     "qz": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": 6.0})
+    >>> df.loc[100, "current"] = 60.0                      # a spike
+    >>> clean, rep = preprocess(df)
+    >>> len(df), len(clean), rep.removed["hampel_filter"]
+    (250, 249, 1)
+    >>> float(clean["power"].max())
+    300.0
+    """
+    params = params or PreprocessParams()
+    check_columns(samples.columns, "samples given to preprocess")
+    check_time(samples, "samples given to preprocess")
+    samples = samples.assign(run=samples["run"].astype(str))
+    samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    report = PreprocessReport(n_input=len(samples), params=params)
+    df = samples
+    for step in STEPS:
+        df, rec = step(df, params)
+        report.steps.append(rec)
+    return df, report

@@ -1,0 +1,311 @@
+"""Short time windows for calibration, motion classes, and measured run energies.
+
+A window lies within one run, one gap-free segment and one motion class, and covers at
+most ``duration`` seconds (default 2 s). Per-sample rows carry a window id; the window
+table holds arithmetic means (circular mean for ``gamma``), the window energy and the
+mode of categorical channels. Means are plain per-sample means, the same as
+``EnergyModel.design_matrix(samples, groups=samples["window"])``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import LogError
+from energy_planner.measurements.imu import imu_slope_heading
+from energy_planner.measurements.schema import MAX_GAP_S, check_columns
+
+#: Motion classes, in the order of :func:`classify_motion`.
+MOTIONS: tuple[str, ...] = (
+    "forward", "backward", "lateral_left", "lateral_right", "turn_left", "turn_right", "mixed",
+)
+#: Columns derived by measurements (not extra channels).
+DERIVED_COLUMNS: tuple[str, ...] = (
+    "power", "alpha", "gamma", "speed", "ax", "ay", "motion", "window", "segment",
+)
+
+
+def classify_motion(vx, vy, wz, *, length: float = 0.5, ratio: float = 0.3) -> np.ndarray:
+    """Motion class per sample from the body twist.
+
+    The components ``(|vx|, |vy|, length * |wz|)`` (m/s; ``length`` in m turns a yaw
+    rate into the speed of a point ``length`` from the yaw axis) are compared: the
+    largest is the motion when every other component is at most ``ratio`` times it
+    (``forward``/``backward`` by the sign of vx, ``lateral_left``/``lateral_right`` by
+    vy, ``turn_left``/``turn_right`` by wz, counter-clockwise = left); otherwise, and when
+    the robot stands still (all components 0), ``mixed``.
+
+    Examples
+    --------
+    >>> classify_motion([0.3, -0.3, 0.0, 0.02, 0.3, 0.0], [0.0, 0.0, -0.2, 0.0, 0.2, 0.0],
+    ...                 [0.01, 0.0, 0.0, 0.5, 0.0, 0.0]).tolist()
+    ['forward', 'backward', 'lateral_right', 'turn_left', 'mixed', 'mixed']
+    """
+    vx, vy, wz = (np.asarray(a, dtype=float) for a in (vx, vy, wz))
+    c = np.stack([np.abs(vx), np.abs(vy), length * np.abs(wz)], axis=-1)
+    k = np.argmax(c, axis=-1)
+    top = np.take_along_axis(c, k[..., None], axis=-1)[..., 0]
+    second = np.sort(c, axis=-1)[..., 1]
+    sign = np.choose(k, [vx, vy, wz]) >= 0
+    names = np.array(MOTIONS, dtype=object)
+    idx = 2 * k + np.where(sign, 0, 1)
+    out = names[idx]
+    out[(second > ratio * top) | (top <= 0)] = "mixed"
+    return out.astype(object)
+
+
+@dataclass
+class Windows:
+    """Windows of a sample table (see :func:`make_windows`).
+
+    Attributes
+    ----------
+    samples : pandas.DataFrame
+        Per-sample rows inside a window: canonical columns, ``power`` (W), ``alpha``,
+        ``gamma``, ``speed``, ``ax``, ``ay``, ``motion``, ``window`` (int id) and extras.
+    table : pandas.DataFrame
+        One row per window: ``run, window, t_start, t_end, duration, n, alpha, gamma, vx,
+        vy, wz, speed, ax, ay, power, energy_j, motion`` and each extra channel.
+    duration : float
+        Nominal window length, s.
+    dropped : dict
+        Samples not put in any window, reason -> count.
+    params : dict
+        Settings used.
+    """
+
+    samples: pd.DataFrame
+    table: pd.DataFrame
+    duration: float
+    dropped: dict[str, int] = field(default_factory=dict)
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.table)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Summary in plain data (for ``--json``)."""
+        return {
+            "n_windows": len(self.table),
+            "n_samples": len(self.samples),
+            "duration": self.duration,
+            "dropped": dict(self.dropped),
+            "by_motion": {str(k): int(v) for k, v in
+                          self.table["motion"].value_counts().sort_index().items()},
+            "params": dict(self.params),
+        }
+
+
+def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
+    """Add power, alpha, gamma, speed, ax, ay where absent (raw, unsmoothed logs)."""
+    from energy_planner.measurements.preprocess import segment_slices
+
+    out = samples.copy()
+    if "power" not in out.columns:
+        out["power"] = out["voltage"].to_numpy(float) * out["current"].to_numpy(float)
+    if "alpha" not in out.columns or "gamma" not in out.columns:
+        out["alpha"], out["gamma"] = imu_slope_heading(
+            *(out[c].to_numpy(float) for c in ("qw", "qx", "qy", "qz")))
+    if "speed" not in out.columns:
+        out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
+    if "ax" not in out.columns or "ay" not in out.columns:
+        t = out["t"].to_numpy(float)
+        for src, dst in (("vx", "ax"), ("vy", "ay")):
+            v = out[src].to_numpy(float)
+            a = np.zeros_like(v)
+            for sl in segment_slices(out):
+                if sl.stop - sl.start > 1:
+                    a[sl] = np.gradient(v[sl], t[sl])
+            out[dst] = a
+    return out
+
+
+def _mode(s: pd.Series):
+    vc = s.value_counts(sort=True, dropna=True)
+    return vc.index[0] if len(vc) else None
+
+
+def make_windows(
+    samples: pd.DataFrame,
+    duration: float = 2.0,
+    *,
+    max_gap: float = MAX_GAP_S,
+    min_fraction: float = 0.5,
+    min_samples: int = 3,
+    motion_length: float = 0.5,
+    motion_ratio: float = 0.3,
+) -> Windows:
+    """Cut samples into short windows within a run, segment and motion class.
+
+    Consecutive samples form a block while the run, the ``segment`` (if present) and the
+    motion class stay the same and no time step exceeds ``max_gap``. Each block is cut
+    at ``t0 + k * duration``. Sample ``i`` stands for the interval to the next sample of
+    its block (the last one for the block's previous step), so a window's ``duration`` is
+    the sum of its sample intervals, ``t_end = t_start + duration`` and ``energy_j =
+    sum(power_i * dt_i)``. Windows shorter than ``min_fraction * duration`` or with fewer
+    than ``min_samples`` samples are dropped (counted in ``Windows.dropped``).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical samples, cleaned (:func:`~energy_planner.measurements.preprocess`) or
+        raw (then power = voltage * current, alpha/gamma from the IMU and ax/ay by
+        differences are computed here).
+    duration : float
+        Window length, s.
+    max_gap, min_fraction, min_samples
+        See above.
+    motion_length, motion_ratio
+        Passed to :func:`classify_motion` as ``length`` and ``ratio``.
+
+    Returns
+    -------
+    Windows
+
+    Examples
+    --------
+    >>> t = np.arange(0, 5, 0.5)
+    >>> df = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0,
+    ...     "vx": 0.3, "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": t})
+    >>> w = make_windows(df, 2.0)
+    >>> w.table[["t_start", "duration", "n", "power", "energy_j"]].to_numpy().tolist()
+    [[0.0, 2.0, 4.0, 37.5, 75.0], [2.0, 2.0, 4.0, 137.5, 275.0]]
+    >>> w.dropped
+    {'window shorter than 1 s or 3 samples': 2}
+    """
+    if duration <= 0:
+        raise LogError(f"window duration {duration!r} s must be > 0")
+    check_columns(samples.columns, "samples given to make_windows")
+    df = samples.assign(run=samples["run"].astype(str))
+    df = df.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    df = _ensure_features(df)
+    df["motion"] = classify_motion(df["vx"], df["vy"], df["wz"], length=motion_length,
+                                   ratio=motion_ratio)
+    n = len(df)
+    params = {"duration": duration, "max_gap": max_gap, "min_fraction": min_fraction,
+              "min_samples": min_samples, "motion_length": motion_length,
+              "motion_ratio": motion_ratio}
+    if n == 0:
+        df["window"] = np.zeros(0, dtype=np.int64)
+        return Windows(df, _table(df, np.zeros(0), duration), duration, {}, params)
+    t = df["t"].to_numpy(float)
+    run = df["run"].to_numpy()
+    motion = df["motion"].to_numpy()
+    dt_next = np.diff(t)
+    brk = (run[1:] != run[:-1]) | (motion[1:] != motion[:-1]) | (dt_next > max_gap)
+    if "segment" in df.columns:
+        seg = df["segment"].to_numpy()
+        brk |= seg[1:] != seg[:-1]
+    block = np.concatenate([[0], np.cumsum(brk)])
+    # Interval of each sample: to the next sample of its block; the block's last sample
+    # takes the previous step (0 for a one-sample block).
+    dt = np.zeros(n)
+    dt[:-1] = np.where(brk, 0.0, dt_next)
+    last = np.concatenate([brk, [True]])
+    prev_ok = np.concatenate([[False], ~brk])
+    fill = last & prev_ok
+    dt[fill] = np.concatenate([[0.0], dt_next])[fill]
+    t0 = pd.Series(t).groupby(block).transform("first").to_numpy()
+    k = np.floor((t - t0) / duration + 1e-9).astype(np.int64)
+    key = pd.MultiIndex.from_arrays([block, k])
+    codes = pd.factorize(key)[0]
+    dur = np.bincount(codes, weights=dt)
+    cnt = np.bincount(codes)
+    ok_win = (dur >= min_fraction * duration - 1e-9) & (cnt >= min_samples)
+    keep = ok_win[codes]
+    dropped: dict[str, int] = {}
+    if (~keep).any():
+        dropped[f"window shorter than {min_fraction * duration:g} s or {min_samples} "
+                f"samples"] = int((~keep).sum())
+    new_id = np.cumsum(ok_win) - 1
+    df["window"] = new_id[codes]
+    df["_dt"] = dt
+    df = df.loc[keep].reset_index(drop=True)
+    table = _table(df, df.pop("_dt").to_numpy(), duration)
+    return Windows(df, table, duration, dropped, params)
+
+
+def _table(df: pd.DataFrame, dt: np.ndarray, duration: float) -> pd.DataFrame:
+    cols = ["run", "window", "t_start", "t_end", "duration", "n", "alpha", "gamma", "vx", "vy",
+            "wz", "speed", "ax", "ay", "power", "energy_j", "motion"]
+    if len(df) == 0:
+        return pd.DataFrame({c: [] for c in cols})
+    g = df.assign(_dt=dt, _e=df["power"].to_numpy(float) * dt,
+                  _s=np.sin(df["gamma"].to_numpy(float)),
+                  _c=np.cos(df["gamma"].to_numpy(float))).groupby("window", sort=True)
+    tab = pd.DataFrame({
+        "run": g["run"].first(),
+        "window": g["window"].first(),
+        "t_start": g["t"].first(),
+        "duration": g["_dt"].sum(),
+        "n": g["t"].size(),
+    })
+    tab["t_end"] = tab["t_start"] + tab["duration"]
+    for c in ("alpha", "vx", "vy", "wz", "speed", "ax", "ay", "power"):
+        tab[c] = g[c].mean()
+    tab["gamma"] = np.arctan2(g["_s"].mean(), g["_c"].mean())
+    tab["energy_j"] = g["_e"].sum()
+    tab["motion"] = g["motion"].first()
+    from energy_planner.measurements.schema import CANONICAL_COLUMNS
+
+    for c in df.columns:
+        if c in CANONICAL_COLUMNS or c in DERIVED_COLUMNS or c.startswith("_"):
+            continue
+        if pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]):
+            tab[c] = g[c].mean()
+        else:
+            tab[c] = g[c].agg(_mode)
+            if isinstance(df[c].dtype, pd.CategoricalDtype):
+                tab[c] = pd.Categorical(tab[c], categories=df[c].cat.categories)
+    extras = [c for c in tab.columns if c not in cols]
+    return tab[cols + extras].reset_index(drop=True)
+
+
+def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) -> pd.DataFrame:
+    """Measured electrical energy of each run: trapezoidal integral of voltage * current.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical samples (raw: ``voltage * current``; the ``power`` column is not used).
+    max_gap : float or None
+        Time steps longer than this (s) are not integrated (a gap is never bridged); they
+        are counted in ``n_gaps`` and their total length in ``gap_s``. ``None``
+        integrates every step.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run: ``run``, ``duration_s`` (integrated time, s), ``measured_j``
+        (J), ``n_gaps``, ``gap_s``, ``t_start``, ``t_end``.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"run": "a", "t": [0.0, 0.5, 1.0, 3.0], "voltage": 50.0,
+    ...                    "current": [2.0, 4.0, 4.0, 4.0]})
+    >>> run_energies(df)[["run", "duration_s", "measured_j", "n_gaps", "gap_s"]].to_numpy().tolist()
+    [['a', 1.0, 175.0, 1, 2.0]]
+    """
+    missing = [c for c in ("run", "t", "voltage", "current") if c not in samples.columns]
+    if missing:
+        raise LogError(f"run_energies needs column(s) {', '.join(missing)}; required: run, t, "
+                       "voltage, current")
+    df = samples.assign(run=samples["run"].astype(str)).sort_values(["run", "t"],
+                                                                  kind="stable")
+    rows = []
+    for run, g in df.groupby("run", sort=True):
+        t = g["t"].to_numpy(float)
+        p = g["voltage"].to_numpy(float) * g["current"].to_numpy(float)
+        dt = np.diff(t)
+        gap = dt > max_gap if max_gap is not None else np.zeros(dt.size, bool)
+        use = ~gap
+        e = float(np.sum(0.5 * (p[1:] + p[:-1])[use] * dt[use]))
+        rows.append({"run": run, "duration_s": float(dt[use].sum()), "measured_j": e,
+                     "n_gaps": int(gap.sum()), "gap_s": float(dt[gap].sum()),
+                     "t_start": float(t[0]), "t_end": float(t[-1])})
+    cols = ["run", "duration_s", "measured_j", "n_gaps", "gap_s", "t_start", "t_end"]
+    return pd.DataFrame(rows, columns=cols)
