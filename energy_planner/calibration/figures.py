@@ -1,0 +1,363 @@
+"""The paper's figures from logs: force against slope, yaw torque, superposition.
+
+* Fig. 4 - :func:`plot_force_slope`: force-equivalent cost ``P / v`` (N) against slope,
+  uphill and downhill panels, forward (red) and lateral (blue) windows, with the model's
+  curves for travel straight up and down the fall line.
+* Fig. 5 - :func:`plot_yaw_torque`: yaw torque ``P / |w|`` (N m) of turns in place
+  against slope, with the model's curve.
+* Fig. 3 - :func:`plot_superposition`: measured energy of composite paths against the
+  sum of their parts (runs labelled ``A``, ``B``, ``AB``, ``C`` within a composite).
+
+matplotlib (Agg backend) is imported inside the plotting functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import EnergyPlannerError, LogError
+from energy_planner.model import EnergyModel
+
+__all__ = [
+    "model_curve",
+    "plot_force_slope",
+    "plot_yaw_torque",
+    "superposition_table",
+    "plot_superposition",
+    "run_energy",
+]
+
+_FWD_COLOR, _LAT_COLOR = "tab:red", "tab:blue"
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def model_curve(
+    model: EnergyModel,
+    alpha: np.ndarray,
+    *,
+    gamma: float,
+    vx: float = 0.0,
+    vy: float = 0.0,
+    wz: float = 0.0,
+    constants: Mapping[str, Any] | None = None,
+) -> np.ndarray | None:
+    """Model power (W) along a slope sweep at a fixed heading and twist.
+
+    Returns None when the model needs a channel that ``constants`` does not give.
+
+    Examples
+    --------
+    >>> m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 600.0, "fwd_grade": 1000.0})
+    >>> model_curve(m, np.radians([0.0, 30.0]), gamma=0.0, vx=0.3).round(1).tolist()
+    [180.0, 330.0]
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    n = alpha.shape[0]
+    feats: dict[str, Any] = {
+        "alpha": alpha,
+        "gamma": np.full(n, gamma),
+        "vx": np.full(n, vx),
+        "vy": np.full(n, vy),
+        "wz": np.full(n, wz),
+        "ax": np.zeros(n),
+        "ay": np.zeros(n),
+    }
+    for k, v in (constants or {}).items():
+        feats.setdefault(k, np.full(n, v, dtype=object if isinstance(v, str) else float))
+    try:
+        return model.power(feats)
+    except EnergyPlannerError:
+        return None
+
+
+def typical_channels(samples: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
+    """Typical value (median, or most common category) of each extra channel the model reads."""
+    out: dict[str, Any] = {}
+    for name in model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}:
+        if name not in samples:
+            continue
+        col = samples[name]
+        if pd.api.types.is_numeric_dtype(col):
+            out[name] = float(np.nanmedian(col.to_numpy(float)))
+        else:
+            out[name] = str(col.astype(str).mode().iloc[0])
+    return out
+
+
+def _median(x: pd.Series, default: float) -> float:
+    x = x.to_numpy(float)
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if x.size else default
+
+
+def plot_force_slope(
+    estimates: pd.DataFrame,
+    model: EnergyModel | None,
+    path: str | Path,
+    *,
+    constants: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Fig. 4: force-equivalent cost against slope, uphill and downhill panels.
+
+    Parameters
+    ----------
+    estimates : pandas.DataFrame
+        From :func:`energy_planner.calibration.force_estimates`.
+    model : EnergyModel or None
+        Drawn as curves for travel straight up / down the fall line at the median speed.
+    path : path
+        PNG to write.
+    constants : mapping, optional
+        Values of extra channels the model reads (e.g. ``payload_kg``).
+
+    Returns
+    -------
+    dict
+        Points per panel and motion, and the median force per panel and motion (N).
+    """
+    plt = _pyplot()
+    fwd = estimates[estimates["kind"] == "forward"]
+    lat = estimates[estimates["kind"] == "lateral"]
+    speed = _median(pd.concat([fwd["rate"], lat["rate"]]), 0.3)
+    amax = max(float(estimates["alpha_deg"].max()) if len(estimates) else 0.0, 5.0) + 2.0
+    grid = np.radians(np.linspace(0.0, amax, 60))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.3), sharey=True)
+    summary: dict[str, Any] = {"speed_m_s": speed}
+    for ax, direction in zip(axes, ("uphill", "downhill"), strict=True):
+        for df, label, color, climb_gamma in (
+            (
+                fwd,
+                "forward",
+                _FWD_COLOR,
+                {"uphill": (0.0, speed, 0.0), "downhill": (np.pi, speed, 0.0)},
+            ),
+            (
+                lat,
+                "lateral",
+                _LAT_COLOR,
+                {"uphill": (-np.pi / 2, 0.0, speed), "downhill": (np.pi / 2, 0.0, speed)},
+            ),
+        ):
+            pts = df[df["heading"].isin([direction, "level"])]
+            ax.scatter(
+                pts["alpha_deg"],
+                pts["value"],
+                s=14,
+                alpha=0.6,
+                color=color,
+                label=f"{label} windows (n={len(pts)})",
+            )
+            summary[f"{direction}_{label}_n"] = int(len(pts))
+            summary[f"{direction}_{label}_median_n"] = _median(pts["value"], float("nan"))
+            if model is not None and model.is_fitted:
+                g, vx, vy = climb_gamma[direction]
+                p = model_curve(model, grid, gamma=g, vx=vx, vy=vy, constants=constants)
+                if p is not None:
+                    ax.plot(
+                        np.degrees(grid),
+                        p / speed,
+                        color=color,
+                        lw=2,
+                        label=f"model, {label} straight {direction}",
+                    )
+        ax.set_title(f"{direction.capitalize()} travel")
+        ax.set_xlabel("slope angle alpha (deg)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left")
+    axes[0].set_ylabel("force-equivalent cost P / v (N = J/m)")
+    fig.suptitle(f"Force-equivalent cost against slope (windows at ~{speed:.2f} m/s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return summary
+
+
+def plot_yaw_torque(
+    estimates: pd.DataFrame,
+    model: EnergyModel | None,
+    path: str | Path,
+    *,
+    constants: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Fig. 5: yaw torque ``P / |w|`` of turns in place against slope.
+
+    Returns
+    -------
+    dict
+        Number of turn windows, median torque (N m) and the median yaw rate (rad/s).
+    """
+    plt = _pyplot()
+    turns = estimates[estimates["kind"] == "turning"]
+    rate = _median(turns["rate"], 0.5)
+    fig, ax = plt.subplots(figsize=(6.5, 4.3))
+    for motion, color in (("turn_left", "tab:purple"), ("turn_right", "tab:orange")):
+        pts = turns[turns["motion"] == motion]
+        ax.scatter(
+            pts["alpha_deg"],
+            pts["value"],
+            s=14,
+            alpha=0.6,
+            color=color,
+            label=f"{motion.replace('_', ' ')} windows (n={len(pts)})",
+        )
+    amax = max(float(turns["alpha_deg"].max()) if len(turns) else 0.0, 5.0) + 2.0
+    grid = np.radians(np.linspace(0.0, amax, 60))
+    if model is not None and model.is_fitted:
+        p = model_curve(model, grid, gamma=0.0, wz=rate, constants=constants)
+        if p is not None:
+            ax.plot(np.degrees(grid), p / rate, color="k", lw=2, label="model")
+    ax.set_xlabel("slope angle alpha (deg)")
+    ax.set_ylabel("yaw torque P / |w| (N m)")
+    ax.set_title(f"Turning in place (~{rate:.2f} rad/s)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return {
+        "n": int(len(turns)),
+        "median_torque_nm": _median(turns["value"], float("nan")),
+        "yaw_rate_rad_s": rate,
+    }
+
+
+def run_energy(samples: pd.DataFrame) -> pd.Series:
+    """Measured energy (J) of each run: trapezoidal integral of ``power`` over ``t``.
+
+    ``power`` is used when present, else ``voltage * current``.
+
+    Examples
+    --------
+    >>> s = pd.DataFrame({"run": ["a", "a", "b", "b"], "t": [0.0, 2.0, 0.0, 1.0],
+    ...                   "power": [100.0, 100.0, 50.0, 150.0]})
+    >>> run_energy(s).to_dict()
+    {'a': 200.0, 'b': 100.0}
+    """
+    if "power" in samples:
+        p = samples["power"].to_numpy(float)
+    else:
+        p = samples["voltage"].to_numpy(float) * samples["current"].to_numpy(float)
+    df = pd.DataFrame(
+        {"run": samples["run"].astype(str).to_numpy(), "t": samples["t"].to_numpy(float), "p": p}
+    )
+    out = {}
+    for run, g in df.groupby("run", sort=True):
+        g = g.sort_values("t")
+        t, pp = g["t"].to_numpy(), g["p"].to_numpy()
+        out[run] = float(np.sum(0.5 * (pp[1:] + pp[:-1]) * np.diff(t))) if len(t) > 1 else 0.0
+    return pd.Series(out, name="energy_j", dtype=float)
+
+
+def superposition_table(energy: pd.Series, meta: pd.DataFrame) -> pd.DataFrame:
+    """Energies of composite paths against the sum of their parts.
+
+    Parameters
+    ----------
+    energy : pandas.Series
+        Energy (J) per run id.
+    meta : pandas.DataFrame
+        Columns ``run``, ``composite`` (group id) and ``part`` (``A``, ``B``, ``AB``,
+        ``C``); repeats of a part are averaged.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per composite: A, B, AB, C (J; NaN when absent), sum_ab = A + B,
+        rel_ab = AB / (A + B) - 1, rel_c = C / (A + B) - 1.
+
+    Examples
+    --------
+    >>> e = pd.Series({"r1": 100.0, "r2": 50.0, "r3": 160.0, "r4": 140.0})
+    >>> meta = pd.DataFrame({"run": ["r1", "r2", "r3", "r4"], "composite": "c0",
+    ...                      "part": ["A", "B", "AB", "C"]})
+    >>> superposition_table(e, meta)[["sum_ab", "rel_ab"]].round(4).to_dict("records")
+    [{'sum_ab': 150.0, 'rel_ab': 0.0667}]
+    """
+    missing = [c for c in ("run", "composite", "part") if c not in meta.columns]
+    if missing:
+        raise LogError(
+            f"composite metadata lacks column(s) {', '.join(missing)}; expected run, "
+            "composite, part (A, B, AB, C)"
+        )
+    m = meta[meta["composite"].notna() & meta["part"].notna()].copy()
+    m = m[m["composite"].astype(str).str.len() > 0]
+    m["run"] = m["run"].astype(str)
+    m["part"] = m["part"].astype(str).str.upper()
+    m["energy_j"] = energy.reindex(m["run"]).to_numpy()
+    m = m[np.isfinite(m["energy_j"].to_numpy(float))]
+    cols = ["A", "B", "AB", "C"]
+    if m.empty:
+        return pd.DataFrame(columns=["composite", *cols, "sum_ab", "rel_ab", "rel_c"])
+    wide = m.pivot_table(index="composite", columns="part", values="energy_j", aggfunc="mean")
+    wide = wide.reindex(columns=cols)
+    wide["sum_ab"] = wide["A"] + wide["B"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wide["rel_ab"] = wide["AB"] / wide["sum_ab"] - 1
+        wide["rel_c"] = wide["C"] / wide["sum_ab"] - 1
+    wide.columns.name = None
+    return wide.reset_index()
+
+
+def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
+    """Fig. 3: composite energy (AB, C) against the sum of the parts (A + B).
+
+    Returns
+    -------
+    dict
+        Number of composites and the mean absolute relative differences.
+    """
+    plt = _pyplot()
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5), gridspec_kw={"width_ratios": [2.2, 1]})
+    n = len(table)
+    x = np.arange(n)
+    w = 0.27
+    a = table["A"].to_numpy(float)
+    b = table["B"].to_numpy(float)
+    ax.bar(x - w, a, w, color="tab:gray", label="A (measured part)")
+    ax.bar(x - w, b, w, bottom=a, color="silver", label="B (measured part)")
+    ax.bar(x, table["AB"].to_numpy(float), w, color="tab:green", label="A then B (one run)")
+    ax.bar(x + w, table["C"].to_numpy(float), w, color="tab:cyan", label="C (alternative)")
+    for i, r in table.iterrows():
+        if np.isfinite(r["rel_ab"]):
+            ax.annotate(
+                f"{100 * r['rel_ab']:+.1f}%", (i, r["AB"]), ha="center", va="bottom", fontsize=8
+            )
+    ax.set_xticks(x, [str(c) for c in table["composite"]], rotation=20, ha="right", fontsize=8)
+    ax.set_ylabel("energy (J)")
+    ax.set_title("Composite paths: sum of parts vs measured")
+    ax.legend(fontsize=8)
+    ax.grid(axis="y", alpha=0.3)
+    s = table["sum_ab"].to_numpy(float)
+    lim = [0, 1.1 * np.nanmax(np.r_[s, table["AB"], table["C"], 1.0])]
+    ax2.plot(lim, lim, "k--", lw=1, label="equal energy")
+    ax2.scatter(s, table["AB"], color="tab:green", label="A then B")
+    ax2.scatter(s, table["C"], color="tab:cyan", marker="s", label="C")
+    ax2.set_xlim(lim)
+    ax2.set_ylim(lim)
+    ax2.set_xlabel("E(A) + E(B) (J)")
+    ax2.set_ylabel("measured composite energy (J)")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    rel_ab = table["rel_ab"].to_numpy(float)
+    rel_c = table["rel_c"].to_numpy(float)
+    return {
+        "n": int(n),
+        "mean_abs_rel_ab": float(np.nanmean(np.abs(rel_ab))) if np.isfinite(rel_ab).any() else None,
+        "mean_abs_rel_c": float(np.nanmean(np.abs(rel_c))) if np.isfinite(rel_c).any() else None,
+    }

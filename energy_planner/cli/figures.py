@@ -1,0 +1,188 @@
+"""``energy-planner figures``: the paper's figures (Fig. 3, 4, 5) from robot logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import emit, json_option
+
+
+def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
+    """Run -> composite/part from ``runs.csv`` next to the logs, or from log columns."""
+    import pandas as pd
+
+    frames = []
+    seen: set[Path] = set()
+    for p in logs:
+        folder = p if p.is_dir() else p.parent
+        f = folder / "runs.csv"
+        if f.is_file() and f not in seen:
+            seen.add(f)
+            df = pd.read_csv(f)
+            if {"run", "composite", "part"} <= set(df.columns):
+                frames.append(df[["run", "composite", "part"]])
+    if frames:
+        meta = pd.concat(frames, ignore_index=True)
+    elif {"composite", "part"} <= set(samples.columns):
+        meta = (
+            samples[["run", "composite", "part"]]
+            .astype({"composite": object, "part": object})
+            .dropna()
+            .groupby("run", sort=True)
+            .first()
+            .reset_index()
+        )
+    else:
+        return None
+    meta = meta.dropna(subset=["composite", "part"])
+    return meta if len(meta) else None
+
+
+@click.command("figures")
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for the PNG figures (created if needed).",
+)
+@click.option(
+    "--model",
+    "model_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Energy model JSON whose curves are drawn (default: the base model fitted to LOGS).",
+)
+@click.option(
+    "--window",
+    type=click.FloatRange(min=0, min_open=True),
+    default=2.0,
+    show_default=True,
+    help="Window length, s.",
+)
+@json_option
+def command(
+    logs: tuple[Path, ...], out: Path, model_path: Path | None, window: float, as_json: bool
+) -> None:
+    """Reproduce the paper's figures from robot LOGS as PNGs in --out.
+
+    force_slope.png (Fig. 4): force-equivalent cost P/v against slope, uphill and
+    downhill, forward and lateral, with the model's curves; yaw_torque.png (Fig. 5):
+    P/|w| of turns in place against slope; superposition.png (Fig. 3): energy of
+    composite paths against the sum of their parts (needs runs.csv with columns run,
+    composite, part next to the logs, or composite/part columns in the logs).
+
+    Example: energy-planner figures logs/ --out figs/
+    """
+    from energy_planner.calibration import fit_model, force_estimates
+    from energy_planner.calibration.figures import (
+        plot_force_slope,
+        plot_superposition,
+        plot_yaw_torque,
+        run_energy,
+        superposition_table,
+        typical_channels,
+    )
+    from energy_planner.cli.fit import load_windows
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.model import EnergyModel
+
+    windows, reports, _ = load_windows(logs, window)
+    notes: list[str] = []
+    if model_path is not None:
+        try:
+            model = EnergyModel.load(model_path)
+        except EnergyPlannerError as exc:
+            raise click.BadParameter(str(exc), param_hint="--model") from exc
+        model_src = str(model_path)
+    else:
+        try:
+            model = fit_model(windows, n_splits=0).model
+            model_src = "base model fitted to the logs"
+        except EnergyPlannerError as exc:
+            model = None
+            model_src = "none"
+            notes.append(f"no model curves: the base model cannot be fitted ({exc})")
+    try:
+        est = force_estimates(windows)
+    except EnergyPlannerError as exc:
+        raise click.ClickException(f"cannot estimate forces: {exc}") from exc
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise click.BadParameter(f"cannot create {str(out)!r}: {exc}", param_hint="--out") from exc
+    consts = typical_channels(windows.samples, model) if model is not None else {}
+
+    figures: dict[str, Any] = {}
+    if (est["kind"].isin(["forward", "lateral"])).any():
+        path = out / "force_slope.png"
+        figures["force_slope"] = {
+            "path": str(path),
+            **plot_force_slope(est, model, path, constants=consts),
+        }
+    else:
+        notes.append("no forward or lateral windows: force_slope.png (Fig. 4) not drawn")
+    if (est["kind"] == "turning").any():
+        path = out / "yaw_torque.png"
+        figures["yaw_torque"] = {
+            "path": str(path),
+            **plot_yaw_torque(est, model, path, constants=consts),
+        }
+    else:
+        notes.append("no turn-in-place windows: yaw_torque.png (Fig. 5) not drawn")
+
+    from energy_planner.measurements import load_logs
+
+    raw = load_logs(list(logs))
+    meta = _composite_meta(logs, raw)
+    table = None
+    if meta is None:
+        notes.append(
+            "no composite/part labels (runs.csv or log columns): superposition.png (Fig. 3) "
+            "not drawn"
+        )
+    else:
+        table = superposition_table(run_energy(raw), meta)
+        if table.empty:
+            notes.append("composite labels match no loaded run: superposition.png not drawn")
+        else:
+            path = out / "superposition.png"
+            figures["superposition"] = {"path": str(path), **plot_superposition(table, path)}
+            figures["superposition"]["composites"] = table.to_dict(orient="records")
+
+    doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
+
+    def text(d: dict[str, Any]) -> str:
+        lines = [f"figures in {d['out']} (model: {d['model']})"]
+        f = d["figures"]
+        if "force_slope" in f:
+            s = f["force_slope"]
+            lines.append(f"  {s['path']}: Fig. 4, force-equivalent cost against slope")
+            for direction in ("uphill", "downhill"):
+                for motion in ("forward", "lateral"):
+                    n = s[f"{direction}_{motion}_n"]
+                    med = s[f"{direction}_{motion}_median_n"]
+                    lines.append(
+                        f"      {direction:<8} {motion:<8} {n:>4} windows, median {med:7.1f} N"
+                    )
+        if "yaw_torque" in f:
+            s = f["yaw_torque"]
+            lines.append(
+                f"  {s['path']}: Fig. 5, {s['n']} turn windows, median yaw torque "
+                f"{s['median_torque_nm']:.1f} N m"
+            )
+        if "superposition" in f:
+            s = f["superposition"]
+            rel = s["mean_abs_rel_ab"]
+            rel_txt = "n/a" if rel is None else f"{100 * rel:.1f} %"
+            lines.append(
+                f"  {s['path']}: Fig. 3, {s['n']} composites, mean |AB - (A + B)| {rel_txt}"
+            )
+        lines += [f"  note: {n}" for n in d["notes"]]
+        return "\n".join(lines)
+
+    emit(doc, as_json, text)

@@ -1,0 +1,186 @@
+"""``energy-planner fit``: calibrate an energy model from robot logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import emit, json_option, seed_option
+
+
+def _as_dict(report: Any) -> Any:
+    if report is None:
+        return None
+    if hasattr(report, "to_dict"):
+        return report.to_dict()
+    return str(report)
+
+
+def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str, Any], str]:
+    """Load logs, preprocess them and cut windows; errors become click errors.
+
+    Returns the windows, a dict of the load and preprocessing reports, and the
+    preprocessing report as text.
+    """
+    from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
+    from energy_planner.measurements import load_logs, make_windows, preprocess
+
+    try:
+        samples, load_report = load_logs(list(paths), report=True)
+    except LogIOError as exc:
+        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
+    except LogError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
+        ) from exc
+    try:
+        clean, prep_report = preprocess(samples)
+        windows = make_windows(clean, duration=window)
+    except EnergyPlannerError as exc:
+        raise click.ClickException(f"preprocessing failed: {exc}") from exc
+    reports = {"load": _as_dict(load_report), "preprocessing": _as_dict(prep_report)}
+    return windows, reports, str(prep_report)
+
+
+def resolve_terms(specs: tuple[str, ...], available: set[str]) -> list[Any]:
+    """Resolve ``--term`` values; a bad one becomes ``click.BadParameter``."""
+    from energy_planner.errors import FormulaError, ModelError
+    from energy_planner.model import BASE_TERMS, CATALOG, resolve_term
+
+    terms = []
+    for spec in specs:
+        try:
+            term = resolve_term(spec)
+        except (FormulaError, ModelError) as exc:
+            raise click.BadParameter(str(exc), param_hint="--term") from exc
+        if term.name in BASE_TERMS:
+            continue  # already in the base model
+        missing = sorted(set(term.variables) - available - {"speed"})
+        if missing:
+            known = [v for v in sorted(available) if v not in ("window", "run", "t")]
+            raise click.BadParameter(
+                f"term {spec!r} reads {', '.join(map(repr, missing))}, which the logs do not "
+                f"have; unknown name(s) {', '.join(missing)}. Log channels: {', '.join(known)}. "
+                f"Catalog terms: {', '.join(CATALOG)}",
+                param_hint="--term",
+            )
+        terms.append(term)
+    return terms
+
+
+def _runs_table(result: Any, limit: int = 12) -> str:
+    cv = result.heldout
+    if cv is None:
+        return ""
+    runs = cv.runs.assign(abs_rel=cv.runs["rel_error"].abs()).sort_values(
+        "abs_rel", ascending=False
+    )
+    lines = [
+        "",
+        f"held-out run energies (worst {min(limit, len(runs))} of {len(runs)} runs):",
+        f"  {'run':<28} {'fold':>4} {'measured J':>11} {'predicted J':>11} {'error':>8}",
+    ]
+    for _, r in runs.head(limit).iterrows():
+        lines.append(
+            f"  {str(r['run']):<28} {int(r['fold']):>4} {r['measured_j']:>11.1f} "
+            f"{r['predicted_j']:>11.1f} {100 * r['rel_error']:>7.2f}%"
+        )
+    return "\n".join(lines)
+
+
+@click.command("fit")
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Where to write the fitted model (JSON).",
+)
+@click.option(
+    "--term",
+    "terms",
+    multiple=True,
+    metavar="NAME",
+    help="Add a term to the base model: a catalog name (e.g. idle_power) or a formula "
+    "(e.g. 'payload_kg * speed * sin(alpha)'). Repeatable.",
+)
+@click.option(
+    "--window",
+    type=click.FloatRange(min=0, min_open=True),
+    default=2.0,
+    show_default=True,
+    help="Window length, s.",
+)
+@click.option(
+    "--folds",
+    type=click.IntRange(min=0),
+    default=5,
+    show_default=True,
+    help="Folds of the cross-validation by run (0: none).",
+)
+@seed_option
+@json_option
+def command(
+    logs: tuple[Path, ...],
+    out: Path,
+    terms: tuple[str, ...],
+    window: float,
+    folds: int,
+    seed: int,
+    as_json: bool,
+) -> None:
+    """Fit the energy model of your robot from its LOGS (files or folders).
+
+    Loads and preprocesses the logs (paper IV-B), cuts windows, fits the paper's base
+    model plus any --term jointly by weighted least squares, validates it on held-out
+    runs and writes the model to --out. Warnings say which terms the data cannot
+    support.
+
+    Example: energy-planner fit logs/ --out b1.json --term idle_power
+    """
+    from energy_planner.calibration import fit_model
+    from energy_planner.errors import EnergyPlannerError, FitError
+    from energy_planner.model import BASE_TERMS
+
+    if folds == 1:
+        raise click.BadParameter("use 0 (no validation) or 2 or more folds", param_hint="--folds")
+    windows, reports, prep_text = load_windows(logs, window)
+    extra = resolve_terms(terms, set(windows.samples.columns))
+    try:
+        result = fit_model(
+            windows,
+            [*BASE_TERMS, *extra],
+            n_splits=folds,
+            seed=seed,
+            metadata={"source": [str(p) for p in logs], "window_s": window},
+        )
+    except FitError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: see docs/calibration.md for the runs a calibration needs"
+        ) from exc
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        result.model.save(out)
+    except OSError as exc:
+        raise click.BadParameter(f"cannot write {str(out)!r}: {exc}", param_hint="--out") from exc
+
+    doc = {"model": str(out), **reports, "fit": result.to_dict()}
+
+    def text(_: dict[str, Any]) -> str:
+        return "\n".join(
+            [
+                prep_text,
+                "",
+                result.summary(),
+                _runs_table(result),
+                "",
+                f"model written to {out}",
+            ]
+        )
+
+    emit(doc, as_json, text)
