@@ -17,24 +17,22 @@ from energy_planner.errors import FitError
 
 
 def _integrate(samples: pd.DataFrame, power: np.ndarray) -> pd.DataFrame:
-    """Energy of each run as ``run_energies`` computes it, for any per-sample power."""
-    s = samples[["run", "t"]].copy()
-    s["power"] = power
-    try:
-        from energy_planner.measurements import run_energies
-    except ImportError:  # measurements not there: trapezoid over each run
-        rows = []
-        for run, g in s.groupby("run", sort=True):
-            t = g["t"].to_numpy(float)
-            p = g["power"].to_numpy(float)
-            e = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t))) if len(t) > 1 else 0.0
-            rows.append({"run": run, "duration_s": float(t[-1] - t[0]), "measured_j": e})
-        return pd.DataFrame(rows)
+    """Energy of each run for any per-sample power, as ``run_energies`` integrates it.
+
+    ``run_energies`` integrates ``voltage * current`` (trapezoids, gaps not bridged); here
+    the power given is fed to it as the current at 1 V.
+    """
+    from energy_planner.measurements import run_energies
+
+    s = samples[["run", "t"]].assign(voltage=1.0, current=np.asarray(power, dtype=float))
     return run_energies(s)
 
 
 def run_table(samples: pd.DataFrame, model) -> pd.DataFrame:
     """Measured and predicted energy of every run (J), integrated the same way.
+
+    Both integrate over the same samples (those the model is compared on: the windowed,
+    cleaned samples), so the difference is the model's error alone.
 
     Parameters
     ----------

@@ -1,0 +1,290 @@
+"""The diagnosis as one self-contained HTML page (plots embedded as base64 PNG).
+
+The page works offline: no script, no stylesheet or image is fetched from anywhere.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.diagnosis.core import Diagnosis
+
+_CSS = """
+body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}
+h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
+table{border-collapse:collapse;margin:.5em 0;font-size:.9em}
+td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
+th{background:#f0f0f0}td.l,th.l{text-align:left}
+tr.hot td{background:#fde2e2}
+.note{color:#555;font-size:.9em}.big{font-size:1.1em}
+img{max-width:100%;border:1px solid #eee}
+code{background:#f5f5f5;padding:0 3px}
+"""
+
+
+def _png(fig) -> str:
+    """Encode a matplotlib figure as an ``<img>`` tag with a base64 PNG, and close it."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    data = base64.b64encode(buf.getvalue()).decode("ascii")
+    return f'<img alt="plot" src="data:image/png;base64,{data}">'
+
+
+def _fmt(v: Any, digits: int = 3) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float | np.floating):
+        if not math.isfinite(v):
+            return "-"
+        return f"{v:.{digits}g}" if abs(v) < 1e4 else f"{v:.0f}"
+    return html.escape(str(v))
+
+
+def _table(rows: Sequence[dict], cols: Sequence[tuple[str, str]], hot=None) -> str:
+    if not rows:
+        return '<p class="note">(none)</p>'
+    head = "".join(
+        f'<th class="{"l" if i == 0 else ""}">{html.escape(label)}</th>'
+        for i, (_, label) in enumerate(cols)
+    )
+    body = []
+    for r in rows:
+        cls = ' class="hot"' if hot is not None and hot(r) else ""
+        cells = "".join(
+            f'<td class="{"l" if i == 0 or isinstance(r.get(k), str) else ""}">'
+            f"{_fmt(r.get(k))}</td>"
+            for i, (k, _) in enumerate(cols)
+        )
+        body.append(f"<tr{cls}>{cells}</tr>")
+    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def plot_predicted_vs_measured(d: Diagnosis):
+    """Scatter of window mean power, predicted against measured, by motion type."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    y, p = d.data.power, d.predicted
+    motion = d.data.table.get("motion")
+    groups = ["all"] if motion is None else sorted(map(str, set(motion.dropna())))
+    for g in groups:
+        m = np.ones(len(y), bool) if motion is None else motion.astype(str).to_numpy() == g
+        ax.scatter(y[m], p[m], s=8, alpha=0.6, label=g)
+    ok = np.isfinite(y) & np.isfinite(p)
+    if ok.any():
+        lo, hi = float(min(y[ok].min(), p[ok].min())), float(max(y[ok].max(), p[ok].max()))
+        ax.plot([lo, hi], [lo, hi], "k--", lw=1, label="y = x")
+    ax.set_xlabel("measured window power (W)")
+    ax.set_ylabel("predicted window power (W)")
+    ax.set_title(f"RMSE {d.metrics['rmse_w']:.1f} W, R$^2$ {d.metrics['r2']:.3f}")
+    ax.legend(fontsize=7, markerscale=1.5)
+    return fig
+
+
+def plot_residuals(d: Diagnosis):
+    """Window residual (measured - predicted) against every variable."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = d.data.table
+    r = d.residual
+    variables = [c for c in ("alpha_deg", "gamma_deg", "speed", "wz") if c in t.columns]
+    variables += list(d.data.numeric_extras)
+    cats = [c for c in ("motion",) if c in t.columns] + list(d.data.categorical_extras)
+    n = len(variables) + len(cats)
+    ncol = 3
+    nrow = max(1, math.ceil(n / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(12, 3.0 * nrow), squeeze=False)
+    for ax, col in zip(axes.flat, variables, strict=False):
+        ax.scatter(t[col].to_numpy(float), r, s=5, alpha=0.5)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xlabel(col)
+        ax.set_ylabel("residual (W)")
+    for ax, col in zip(axes.flat[len(variables):], cats, strict=False):
+        vals = t[col].astype(object).where(t[col].notna(), "(missing)").astype(str).to_numpy()
+        labels = sorted(set(vals))
+        data = [r[vals == v] for v in labels]
+        data = [x[np.isfinite(x)] for x in data]
+        ax.boxplot(data, showfliers=False)
+        ax.set_xticks(range(1, len(labels) + 1), labels, rotation=30, fontsize=7)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xlabel(col)
+        ax.set_ylabel("residual (W)")
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    return fig
+
+
+def plot_runs(d: Diagnosis):
+    """Per-run energy: relative error of the prediction, and predicted against measured."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = d.runs
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4))
+    m = runs["measured_j"].to_numpy(float)
+    p = runs["predicted_j"].to_numpy(float)
+    a1.scatter(m, p, s=10)
+    if len(m):
+        lo, hi = float(np.nanmin([m.min(), p.min()])), float(np.nanmax([m.max(), p.max()]))
+        a1.plot([lo, hi], [lo, hi], "k--", lw=1)
+    a1.set_xlabel("measured run energy (J)")
+    a1.set_ylabel("predicted run energy (J)")
+    rel = 100 * runs["error_rel"].to_numpy(float)
+    order = np.argsort(np.nan_to_num(rel))
+    a2.bar(np.arange(len(rel)), rel[order], width=1.0)
+    a2.axhline(0, color="k", lw=0.8)
+    a2.set_xlabel("runs, sorted by error")
+    a2.set_ylabel("energy error, % of measured")
+    fig.tight_layout()
+    return fig
+
+
+def plot_staircase(d: Diagnosis):
+    """Held-out RMSE as the best suspects are added one by one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.8))
+    steps = d.steps
+    x = np.arange(len(steps))
+    y = np.array([s.heldout_rmse_w for s in steps])
+    lo = np.array([min(s.fold_rmse_w) for s in steps])
+    hi = np.array([max(s.fold_rmse_w) for s in steps])
+    ax.bar(x, y, width=0.6, color="C0", label="pooled held-out RMSE")
+    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4,
+                label="fold range")
+    for xi, yi in zip(x, y, strict=True):
+        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3),
+                    fontsize=8)
+    labels = ["model as given"] + [f"+ {s.name}" for s in steps[1:]]
+    ax.set_xticks(x, labels, rotation=20, fontsize=8)
+    ax.set_ylabel("held-out RMSE (W)")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_suspects(d: Diagnosis, top: int = 12):
+    """Fraction of the held-out error each candidate explains (above-noise ones in red)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    r = d.ranking
+    rows = [] if r is None else (r.suspects + r.below_noise)[:top]
+    fig, ax = plt.subplots(figsize=(7, 0.35 * max(len(rows), 3) + 1))
+    names = [s.name for s in rows][::-1]
+    vals = [s.error_explained for s in rows][::-1]
+    colors = ["C3" if s.above_noise else "C7" for s in rows][::-1]
+    ax.barh(np.arange(len(rows)), vals, color=colors)
+    ax.set_yticks(np.arange(len(rows)), names, fontsize=8)
+    ax.set_xlabel("error_explained (fraction of held-out MSE removed)")
+    ax.axvline(0, color="k", lw=0.8)
+    fig.tight_layout()
+    return fig
+
+
+def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
+    """The full report as an HTML string."""
+    doc = d.to_dict()
+    th = doc["thresholds"]
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
+             f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"]
+    parts.append(
+        f"<p class='big'>Model terms: <code>{html.escape(', '.join(doc['model_terms']))}</code>"
+        f"<br>{doc['n_windows']} windows from {doc['n_runs']} runs. Window power: RMSE "
+        f"<b>{_fmt(doc['rmse_w'])} W</b>, MAE {_fmt(doc['mae_w'])} W, bias "
+        f"{_fmt(doc['bias_w'])} W, R<sup>2</sup> {_fmt(doc['r2'])}; held-out RMSE (refitted, "
+        f"by run) <b>{_fmt(doc['heldout_rmse_w'])} W</b>.</p>"
+    )
+    for n in doc["notes"]:
+        parts.append(f"<p class='note'>{html.escape(n)}</p>")
+    parts.append("<h2>Suspects: which effect is missing</h2>")
+    parts.append(
+        f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
+        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when the mean "
+        f"per-fold reduction of held-out RMSE exceeds {th['k']} times its fold-to-fold "
+        f"standard error and the pooled held-out RMSE falls by at least "
+        f"{100 * th['min_rel']:.0f}%. Add one with <code>energy-planner fit LOGS --term "
+        f"TERM</code>.</p>"
+    )
+    cols = [("name", "suspect"), ("term", "term"), ("error_explained", "error explained"),
+            ("heldout_rmse_w", "held-out RMSE with it (W)"),
+            ("reduction_se_w", "fold SE (W)"), ("explanation", "physical explanation")]
+    parts.append(_table(doc["suspects"], cols))
+    if doc["suspects"] or doc["below_noise"]:
+        parts.append(_png(plot_suspects(d)))
+    parts.append("<h3>Below noise (not findings)</h3>")
+    parts.append(_table(doc["below_noise"][:15], cols))
+    parts.append("<h3>Unsupported by these logs</h3>")
+    parts.append(_table(doc["unsupported"], [("name", "candidate"), ("term", "term"),
+                                             ("reason", "why not")]))
+    parts.append("<h2>Staircase: held-out error as suspects are added</h2>")
+    steps = [dict(s, added=s["added"] or "(model as given)") for s in doc["staircase"]]
+    parts.append(_table(steps, [("step", "step"), ("added", "term added"),
+                                ("heldout_rmse_w", "held-out RMSE (W)"),
+                                ("error_explained", "error explained by it")]))
+    if d.steps:
+        parts.append(_png(plot_staircase(d)))
+    parts.append("<h2>Predicted against measured power</h2>")
+    parts.append(_png(plot_predicted_vs_measured(d)))
+    parts.append("<h2>Where it fails: residuals by variable</h2>")
+    parts.append(_png(plot_residuals(d)))
+    parts.append("<h3>Largest systematic errors (bias / its standard error)</h3>")
+    bcols = [("bin", "bin"), ("n", "windows"), ("bias_w", "bias (W)"), ("rmse_w", "RMSE (W)"),
+             ("share_sq_error", "share of sq. error"), ("t", "t")]
+    parts.append(_table(doc["hotspots"], [("variable", "variable"), *bcols]))
+    for var, info in doc["breakdown"].items():
+        parts.append(f"<h3>{html.escape(var)} ({info['kind']})</h3>")
+        parts.append(_table(info["bins"], bcols, hot=lambda r: abs(r.get("t") or 0) > 3))
+    parts.append("<h2>Energy of whole runs</h2>")
+    parts.append(_png(plot_runs(d)))
+    parts.append(_table(doc["runs"], [("run", "run"), ("duration_s", "duration (s)"),
+                                      ("measured_j", "measured (J)"),
+                                      ("predicted_j", "predicted (J)"), ("error_j", "error (J)"),
+                                      ("error_rel", "error (rel.)")]))
+    parts.append("<h2>Superposition of composite paths</h2>")
+    parts.append(
+        "<p class='note'>Measured E(AB) against E(A) + E(B): how well energies add "
+        "(the model assumes they do), and the model's error on both.</p>"
+    )
+    sup = [dict(s, parts=" + ".join(s["parts"])) for s in doc["superposition"]]
+    parts.append(_table(sup, [("composite", "composite"), ("parts", "parts"),
+                              ("measured_composite_j", "measured E(AB) (J)"),
+                              ("measured_parts_j", "measured sum of parts (J)"),
+                              ("superposition_error_rel", "superposition error (rel.)"),
+                              ("model_error_composite_j", "model error on AB (J)"),
+                              ("model_error_parts_j", "model error on parts (J)")]))
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner diagnosis") -> Path:
+    """Write the self-contained HTML report; returns the path."""
+    path = Path(path)
+    path.write_text(render_html(d, title), encoding="utf-8")
+    return path
