@@ -155,6 +155,7 @@ def diagnose(
     thresholds: Thresholds | None = None,
     max_steps: int = 4,
     extras: Sequence[str] | None = None,
+    terms: Sequence[str] = (),
     progress=None,
 ) -> Diagnosis:
     """Compare ``model`` with windowed measurements and rank the effects it misses.
@@ -174,6 +175,8 @@ def diagnose(
         Largest number of terms the staircase adds (0: rank only).
     extras : sequence of str, optional
         Extra channels to examine (default: every non-canonical column).
+    terms : sequence of str
+        More candidate terms to test besides the catalog and the data-driven ones.
     progress : callable, optional
         Called with the step number after each staircase step.
 
@@ -195,7 +198,9 @@ def diagnose(
     bd = breakdown(wd.table, wd.power - pred, wd.numeric_extras, wd.categorical_extras)
     ranking, steps, rankings = None, [], []
     try:
-        steps, rankings = staircase(wd, model.term_names, th, max_steps, progress=progress)
+        steps, rankings = staircase(
+            wd, model.term_names, th, max_steps, progress=progress, extra=terms
+        )
         ranking = rankings[0]
     except FitError as exc:
         notes.append(f"no suspects: {exc}")

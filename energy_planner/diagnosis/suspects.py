@@ -311,6 +311,22 @@ def _categories(wd: WindowData, ch: str) -> list[str]:
     return sorted(vals.unique().tolist())
 
 
+def user_candidates(specs: Iterable[str]) -> list[Candidate]:
+    """Candidates from term specs (catalog names or formulas) a user wants tested.
+
+    >>> user_candidates(["payload_kg*speed*sin(alpha)"])[0].variables
+    ['alpha', 'payload_kg', 'speed']
+    """
+    from energy_planner.model import resolve_term
+
+    out = []
+    for spec in specs:
+        t = resolve_term(spec)
+        expl = t.explanation if t.explanation != "user-defined term" else "user-proposed term"
+        out.append(Candidate(t.name, t.name, sorted(t.variables), expl, "user"))
+    return out
+
+
 def channel_candidates(
     wd: WindowData, catalog_terms: Iterable[str] = ()
 ) -> tuple[list[Candidate], list[dict]]:
@@ -394,6 +410,7 @@ def rank_suspects(
     candidates: list[Candidate] | None = None,
     folds: np.ndarray | None = None,
     base_columns: np.ndarray | None = None,
+    extra: Sequence[str] = (),
 ) -> Ranking:
     """Score every candidate against the model with ``terms``, refitted by run-held-out CV.
 
@@ -410,6 +427,8 @@ def rank_suspects(
         :func:`channel_candidates`).
     folds, base_columns : numpy.ndarray, optional
         Precomputed folds by run and window columns of ``terms``.
+    extra : sequence of str
+        More candidate terms to test (the user's own hypotheses), scored like the others.
 
     Returns
     -------
@@ -428,6 +447,8 @@ def rank_suspects(
         )
         candidates = candidates + data
         unsupported.extend(bad)
+    seen = {c.term for c in candidates}
+    candidates = candidates + [c for c in user_candidates(extra) if c.term not in seen]
     ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms})
     scored, unsup = ctx.evaluate(candidates)
     unsupported.extend(unsup)
@@ -606,6 +627,7 @@ def staircase(
     max_steps: int = 4,
     first: Ranking | None = None,
     progress=None,
+    extra: Sequence[str] = (),
 ) -> tuple[list[Step], list[Ranking]]:
     """Greedy forward selection: add the best suspect, refit, re-rank, while above noise.
 
@@ -614,7 +636,7 @@ def staircase(
     th = thresholds or Thresholds()
     folds = run_folds(wd.runs, th.n_splits, th.seed)
     terms = list(terms)
-    ranking = first or rank_suspects(wd, terms, th, folds=folds)
+    ranking = first or rank_suspects(wd, terms, th, folds=folds, extra=extra)
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
     rankings = [ranking]
     for i in range(1, max_steps + 1):
@@ -622,7 +644,7 @@ def staircase(
             break
         best = ranking.suspects[0]
         terms.append(best.term)
-        ranking = rank_suspects(wd, terms, th, folds=folds)
+        ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
         rankings.append(ranking)
         steps.append(
             Step(i, best.term, best.name, ranking.heldout_rmse_w, ranking.fold_rmse_w,

@@ -1,0 +1,180 @@
+"""``energy-planner diagnose``: how far a model is from the logs, and what it misses."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import emit, json_option, load_model_option, model_option
+
+
+def _text(doc: dict[str, Any], report: Path | None) -> str:
+    def f(v: Any, fmt: str = ".1f") -> str:
+        return "-" if v is None else format(v, fmt)
+
+    lines = [
+        f"model: {', '.join(doc['model_terms'])}",
+        f"{doc['n_windows']} windows from {doc['n_runs']} runs",
+        f"window power: RMSE {f(doc['rmse_w'])} W, MAE {f(doc['mae_w'])} W, "
+        f"bias {f(doc['bias_w'])} W, R^2 {f(doc['r2'], '.3f')}; "
+        f"held-out RMSE (refitted, by run) {f(doc['heldout_rmse_w'])} W",
+        "",
+    ]
+    runs = sorted(doc["runs"], key=lambda r: -abs(r.get("error_rel") or 0.0))
+    if runs:
+        lines.append(f"run energy, worst {min(5, len(runs))} of {len(runs)} runs:")
+        for r in runs[:5]:
+            rel = r.get("error_rel")
+            lines.append(
+                f"  {r['run']:<28} measured {r['measured_j']:>9.1f} J  predicted "
+                f"{r['predicted_j']:>9.1f} J  error {f(None if rel is None else 100 * rel)}%"
+            )
+        lines.append("")
+    for s in doc["superposition"]:
+        lines.append(
+            f"superposition {s['composite']} vs {' + '.join(s['parts'])}: measured "
+            f"{s['measured_composite_j']:.0f} J vs {s['measured_parts_j']:.0f} J "
+            f"({100 * (s['superposition_error_rel'] or 0):+.1f}%), model error "
+            f"{s['model_error_composite_j']:+.0f} J / {s['model_error_parts_j']:+.0f} J"
+        )
+    if doc["superposition"]:
+        lines.append("")
+    if doc["hotspots"]:
+        lines.append("largest systematic errors (bin: bias, t = bias / its std error):")
+        for h in doc["hotspots"]:
+            lines.append(
+                f"  {h['variable']:<16} {h['bin']:<32} {h['bias_w']:+8.1f} W  t {h['t']:+.1f}"
+                f"  ({h['n']} windows)"
+            )
+        lines.append("")
+    if doc["suspects"]:
+        lines.append("suspects (above noise, best first):")
+        for i, s in enumerate(doc["suspects"], 1):
+            lines.append(
+                f"  {i}. {s['name']}: explains {100 * s['error_explained']:.0f}% of the error, "
+                f"held-out RMSE {s['heldout_rmse_before_w']:.1f} -> {s['heldout_rmse_w']:.1f} W"
+            )
+            lines.append(f"     term: {s['term']}   ({', '.join(s['variables'])})")
+            lines.append(f"     {s['explanation']}")
+        best = doc["suspects"][0]["term"]
+        lines.append(f'add one with: energy-planner fit LOGS --term "{best}"')
+    else:
+        lines.append("no suspect above noise.")
+    below = doc["below_noise"][:3]
+    if below:
+        lines.append(
+            "best below noise: "
+            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
+        )
+    if doc["unsupported"]:
+        lines.append(f"unsupported by these logs ({len(doc['unsupported'])}):")
+        for u in doc["unsupported"][:8]:
+            lines.append(f"  {u['name']}: {u['reason']}")
+    if len(doc["staircase"]) > 1:
+        lines.append("")
+        lines.append("staircase (held-out RMSE as the best suspects are added):")
+        for s in doc["staircase"]:
+            lines.append(f"  {s['step']}. {s['name'] or '(model as given)':<32} "
+                         f"{s['heldout_rmse_w']:.1f} W")
+    for n in doc["notes"]:
+        lines.append(f"note: {n}")
+    if report is not None:
+        lines.append(f"report written to {report}")
+    return "\n".join(lines)
+
+
+@click.command("diagnose")
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@model_option
+@click.option(
+    "--report",
+    "report",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write a self-contained HTML report (plots embedded) to this file.",
+)
+@click.option(
+    "--term",
+    "terms",
+    multiple=True,
+    metavar="TERM",
+    help="Also test this candidate term (catalog name or formula, e.g. "
+    "'payload_kg * speed * sin(alpha)'). Repeatable.",
+)
+@click.option("--window", type=click.FloatRange(min=0, min_open=True), default=2.0,
+              show_default=True, help="Window length, s.")
+@click.option("--folds", type=click.IntRange(min=2), default=5, show_default=True,
+              help="Folds of the held-out validation by run.")
+@click.option("--max-steps", type=click.IntRange(min=0), default=4, show_default=True,
+              help="Largest number of terms the staircase adds.")
+@click.option("--k", "k", type=click.FloatRange(min=0), default=2.0, show_default=True,
+              help="Noise rule: mean per-fold RMSE reduction > k x its standard error.")
+@click.option("--min-rel", type=click.FloatRange(min=0, max=1), default=0.05,
+              show_default=True, help="Noise rule: held-out RMSE must fall by this fraction.")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed of the assignment of runs to folds.")
+@json_option
+def command(
+    logs: tuple[Path, ...],
+    model_path: Path | None,
+    report: Path | None,
+    terms: tuple[str, ...],
+    window: float,
+    folds: int,
+    max_steps: int,
+    k: float,
+    min_rel: float,
+    seed: int,
+    as_json: bool,
+) -> None:
+    """Compare a fitted model with LOGS and rank the physical effects it misses.
+
+    Shows the error at the level of window power (RMSE, MAE, R^2) and of whole runs
+    (energy per run, superposition of composite paths), where it fails (the residual by
+    slope, heading, speed, motion and every extra log channel), and a ranked list of
+    suspects: candidate effects from the catalog and from the extra channels, each
+    validated on held-out runs. Add the best one with `energy-planner fit LOGS --term
+    TERM` and diagnose again.
+
+    Example: energy-planner diagnose logs/ --model b1.json --report diagnosis.html
+    """
+    from energy_planner.cli.fit import load_windows, resolve_terms
+    from energy_planner.diagnosis import Thresholds, diagnose
+    from energy_planner.errors import EnergyPlannerError
+
+    model = load_model_option(model_path)
+    if not model.is_fitted:
+        raise click.BadParameter(
+            f"the model {str(model_path)!r} has no coefficients; fit it first "
+            "(energy-planner fit LOGS --out model.json)",
+            param_hint="--model",
+        )
+    windows, _reports, _ = load_windows(logs, window)
+    extra = [t.name for t in resolve_terms(terms, set(windows.samples.columns))]
+    th = Thresholds(k=k, min_rel=min_rel, n_splits=folds, seed=seed)
+    progress = None
+    if sys.stderr.isatty():
+        def progress(i: int) -> None:
+            click.echo(f"staircase step {i} done", err=True)
+    try:
+        d = diagnose(model, windows, thresholds=th, max_steps=max_steps, terms=extra,
+                     progress=progress)
+    except EnergyPlannerError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: the model's features must be in the logs; see docs/diagnosis.md"
+        ) from exc
+    doc = d.to_dict()
+    if report is not None:
+        from energy_planner.diagnosis.report import write_report
+
+        try:
+            report.parent.mkdir(parents=True, exist_ok=True)
+            write_report(d, report)
+        except OSError as exc:
+            raise click.BadParameter(f"cannot write {str(report)!r}: {exc}",
+                                     param_hint="--report") from exc
+        doc["report"] = str(report)
+    emit(doc, as_json, lambda x: _text(x, report))
