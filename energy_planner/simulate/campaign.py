@@ -1,0 +1,561 @@
+"""Simulate a field campaign in the canonical robot-log format.
+
+The pipeline, for every planned run (:func:`~energy_planner.simulate.design.plan_runs`):
+
+1. twist profile with linear ramps (:func:`~energy_planner.simulate.kinematics.twist_profile`),
+2. true pose on the planar ramp and the true IMU orientation,
+3. true electrical power from the truth :class:`~energy_planner.model.EnergyModel`,
+4. the battery: current solving ``P = V I`` with ``V = OCV(soc) - R I``,
+5. sensors: current/voltage noise and spikes, odometry slip and noise, IMU tilt bias and
+   noise.
+
+Random streams are split so that the design (ramp azimuths, run order), the extra
+channels and the sensor noise do not depend on which effects are switched on: the same
+seed gives the same runs with and without an effect.
+
+Examples
+--------
+>>> from energy_planner.simulate import simulate_campaign, CampaignConfig
+>>> camp = simulate_campaign(seed=0, effects=("payload",), config=CampaignConfig.small())
+>>> len(camp.runs), camp.effects
+(95, ('payload',))
+>>> bool((camp.logs["current"].median() > 0))
+True
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import LogError, LogIOError
+from energy_planner.model import EnergyModel
+from energy_planner.simulate.config import CampaignConfig
+from energy_planner.simulate.design import RunSpec, plan_runs
+from energy_planner.simulate.effects import check_effects, truth_model
+from energy_planner.simulate.kinematics import (
+    body_to_world,
+    integrate_pose,
+    quaternion_from_matrix,
+    twist_profile,
+    wrap,
+)
+
+__all__ = ["Campaign", "simulate_campaign", "LOG_COLUMNS", "CHANNELS", "battery_current"]
+
+#: Canonical log columns written by the simulator, in order.
+LOG_COLUMNS = ("run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "voltage", "current",
+               "x", "y", "yaw")
+#: Extra channels (constant within a run, varying between runs).
+CHANNELS = ("payload_kg", "surface", "temperature_c", "grass_height_m")
+
+
+def battery_current(power: np.ndarray, ocv: np.ndarray | float, r_ohm: float) -> np.ndarray:
+    """Current (A, positive discharging) that delivers ``power`` (W) from the pack.
+
+    Solves ``P = (OCV - R I) I`` for the smaller root, written stably as
+    ``I = 2 P / (OCV + sqrt(OCV^2 - 4 R P))`` (also right for ``R = 0``).
+
+    Raises
+    ------
+    LogError
+        If the power exceeds what the pack can deliver, ``OCV^2 / (4 R)``.
+
+    Examples
+    --------
+    >>> i = battery_current(np.array([200.0]), 50.0, 0.1)
+    >>> v = 50.0 - 0.1 * i
+    >>> np.round(i, 4).tolist(), np.round(v * i, 9).tolist()
+    ([4.0325], [200.0])
+    """
+    disc = np.asarray(ocv, float) ** 2 - 4.0 * r_ohm * np.asarray(power, float)
+    if np.any(disc < 0):
+        raise LogError(
+            f"power {float(np.max(power)):.0f} W exceeds what the battery can deliver "
+            f"(OCV^2 / 4R with R = {r_ohm} ohm); expected a smaller internal resistance"
+        )
+    return 2.0 * power / (ocv + np.sqrt(disc))
+
+
+@dataclass
+class Campaign:
+    """A simulated field campaign.
+
+    Attributes
+    ----------
+    logs : DataFrame
+        Canonical log of all runs in campaign order (:data:`LOG_COLUMNS` plus
+        :data:`CHANNELS`); ``surface`` is categorical.
+    runs : DataFrame
+        One row per run: run, kind, motion, slope_deg, uphill_azimuth_deg, heading_deg
+        (gamma at the start), speed, yaw_rate, duration_s, composite, part,
+        true_energy_j, and more (distance, channels, slip, IMU bias, battery state,
+        start and end pose).
+    truth : EnergyModel
+        The ground truth (true coefficients).
+    effects : tuple of str
+        The effects switched on.
+    true_samples : DataFrame
+        The noise-free truth per log row: alpha, gamma (rad), true twist, ax, ay,
+        power (W), true voltage and current, soc.
+    seed : int
+        Random seed.
+    config : CampaignConfig
+        The campaign parameters.
+    """
+
+    logs: pd.DataFrame
+    runs: pd.DataFrame
+    truth: EnergyModel
+    effects: tuple[str, ...]
+    true_samples: pd.DataFrame
+    seed: int = 0
+    config: CampaignConfig = field(default_factory=CampaignConfig)
+
+    def write(
+        self, out_dir: str | Path, fmt: str = "csv", bag: bool = False, progress: bool = False
+    ) -> list[Path]:
+        """Write the campaign to ``out_dir``.
+
+        Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``truth.json``
+        (:meth:`EnergyModel.save`), ``campaign.json`` (seed, effects, parameters) and
+        with ``bag=True`` a ROS 2 bag ``campaign_bag/`` of the whole campaign.
+
+        Parameters
+        ----------
+        out_dir : path
+            Directory (created if missing).
+        fmt : {"csv", "parquet"}
+            Per-run log format.
+        bag : bool
+            Also write a ROS 2 bag (needs :func:`energy_planner.measurements.write_rosbag`).
+        progress : bool
+            Show a progress bar on stderr.
+
+        Returns
+        -------
+        list of Path
+            The files and directories written.
+
+        Raises
+        ------
+        LogError
+            Unknown ``fmt``.
+        LogIOError
+            ``out_dir`` cannot be created or written, or the bag writer is missing.
+        """
+        if fmt not in ("csv", "parquet"):
+            raise LogError(f"unknown log format {fmt!r}; expected 'csv' or 'parquet'")
+        out = Path(out_dir)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise LogIOError(f"cannot create output directory {str(out)!r}: {exc}") from exc
+        from tqdm.auto import tqdm
+
+        written: list[Path] = []
+        groups = self.logs.groupby("run", sort=False, observed=True)
+        try:
+            for run, df in tqdm(groups, total=len(self.runs), desc="writing runs",
+                                disable=not progress, unit="run"):
+                path = out / f"{run}.{fmt}"
+                if fmt == "csv":
+                    df.to_csv(path, index=False, float_format="%.10g")
+                else:
+                    df.to_parquet(path, index=False)
+                written.append(path)
+            runs_path = out / "runs.csv"
+            self.runs.to_csv(runs_path, index=False, float_format="%.10g")
+            truth_path = self.truth.save(out / "truth.json")
+            meta_path = out / "campaign.json"
+            meta_path.write_text(json.dumps(self.metadata(), indent=2) + "\n")
+        except OSError as exc:
+            raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
+        written += [runs_path, truth_path, meta_path]
+        if bag:
+            written.append(self._write_bag(out / "campaign_bag"))
+        return written
+
+    def _write_bag(self, path: Path) -> Path:
+        try:
+            from energy_planner.measurements import write_rosbag
+        except ImportError as exc:
+            raise LogIOError(
+                f"cannot write the ROS 2 bag {str(path)!r}: energy_planner.measurements does "
+                "not provide write_rosbag yet; write CSV or Parquet instead"
+            ) from exc
+        write_rosbag(self.logs, path, version=2)
+        return path
+
+    def metadata(self) -> dict[str, Any]:
+        """Seed, effects, counts and every parameter, JSON-ready."""
+        return {
+            "generator": "energy_planner.simulate",
+            "seed": self.seed,
+            "effects": list(self.effects),
+            "runs": len(self.runs),
+            "samples": len(self.logs),
+            "config": asdict(self.config),
+        }
+
+    def features(self) -> dict[str, np.ndarray]:
+        """True per-sample features (alpha, gamma, twist, speed, ax, ay, channels)."""
+        ts = self.true_samples
+        f = {k: ts[k].to_numpy() for k in ("alpha", "gamma", "vx", "vy", "wz", "speed",
+                                            "ax", "ay")}
+        for ch in CHANNELS:
+            col = self.logs[ch]
+            f[ch] = col.astype(str).to_numpy() if ch == "surface" else col.to_numpy(float)
+        return f
+
+    def effect_shares(self, effects: Iterable[str] | None = None) -> pd.DataFrame:
+        """How much power each effect adds in this campaign's motions, switched on or not.
+
+        For every effect (default: all of :data:`~energy_planner.simulate.EFFECTS`) with
+        its true coefficient: the mean added power over all samples, the fraction of
+        samples where it acts, its mean where it acts, and its share there relative to
+        the base model's power (``sum(effect) / sum(base)`` over those samples).
+
+        Returns
+        -------
+        DataFrame
+            Columns effect, mean_w, active_fraction, mean_active_w, share_active.
+        """
+        from energy_planner.simulate.effects import EFFECTS
+
+        names = list(EFFECTS) if effects is None else list(check_effects(effects))
+        f = self.features()
+        base = truth_model().power(f)
+        rows = []
+        for name in names:
+            e = EFFECTS[name]
+            contrib = e.coefficient * np.broadcast_to(e.term.parsed.evaluate(f), base.shape)
+            active = np.abs(contrib) > 1e-9
+            rows.append(
+                {
+                    "effect": name,
+                    "mean_w": float(contrib.mean()),
+                    "active_fraction": float(active.mean()),
+                    "mean_active_w": float(contrib[active].mean()) if active.any() else 0.0,
+                    "share_active": float(contrib[active].sum() / base[active].sum())
+                    if active.any() and base[active].sum() > 0
+                    else 0.0,
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def summary(self) -> dict[str, Any]:
+        """Counts, effects and truth coefficients (what the CLI prints)."""
+        kinds = self.runs["kind"].value_counts().sort_index()
+        return {
+            "seed": self.seed,
+            "runs": len(self.runs),
+            "samples": len(self.logs),
+            "duration_s": float(self.runs["duration_s"].sum()),
+            "kinds": {str(k): int(v) for k, v in kinds.items()},
+            "effects": list(self.effects),
+            "truth": dict(self.truth.coefficients or {}),
+            "mean_power_w": float(self.true_samples["power"].mean()),
+            "battery_packs": int(self.runs["battery_pack"].max()) + 1,
+        }
+
+
+def _balanced(rng: np.random.Generator, values: tuple, n: int) -> np.ndarray:
+    """``n`` draws that use every value equally often (up to one), in random order."""
+    return np.asarray(values, dtype=object)[rng.permutation(n) % len(values)]
+
+
+def simulate_campaign(
+    seed: int = 0,
+    effects: Iterable[str] = (),
+    config: CampaignConfig | None = None,
+    *,
+    truth: EnergyModel | None = None,
+    progress: bool = False,
+) -> Campaign:
+    """Simulate a field campaign.
+
+    Parameters
+    ----------
+    seed : int
+        Random seed; the same seed and parameters give the same campaign.
+    effects : iterable of str
+        Effects to switch on (names from :data:`energy_planner.simulate.EFFECTS`).
+    config : CampaignConfig, optional
+        Campaign parameters (default :class:`CampaignConfig`); ``CampaignConfig.small()``
+        for tests, ``CampaignConfig(sensors=SensorConfig.ideal())`` for noise-free logs.
+    truth : EnergyModel, optional
+        Use this fitted model as the truth instead of ``truth_model(effects)``.
+    progress : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    Campaign
+
+    Raises
+    ------
+    ModelError
+        Unknown effect, or a truth model needing a feature the simulator does not make.
+    """
+    config = config or CampaignConfig()
+    names = check_effects(effects)
+    model = truth if truth is not None else truth_model(names)
+    model.coef_array()  # raises ModelError for an unfitted truth
+    from tqdm.auto import tqdm
+
+    root = np.random.default_rng(seed)
+    design_rng, channel_rng, noise_rng = root.spawn(3)
+    plan = plan_runs(config)
+    n_runs = len(plan)
+    dt = config.dt
+    sens = config.sensors
+    bat = config.battery
+
+    # ---- design: a ramp azimuth per slope, conditions per block, field order
+    slope_values = sorted({r.slope_deg for r in plan})
+    psi_of = {s: float(design_rng.uniform(-math.pi, math.pi)) for s in slope_values}
+    blocks = list(dict.fromkeys(r.composite or r.run for r in plan))
+    block_index = {b: i for i, b in enumerate(blocks)}
+    shuffled = design_rng.permutation(len(blocks))
+    slope_rank = {s: i for i, s in enumerate(slope_values)}
+    run_block = [block_index[r.composite or r.run] for r in plan]
+    order = sorted(range(n_runs), key=lambda k: (slope_rank[plan[k].slope_deg],
+                                                 shuffled[run_block[k]], k))
+
+    # ---- extra channels: one draw per block (the parts of a composite share them)
+    nb = len(blocks)
+    surface_b = _balanced(channel_rng, config.surfaces, nb)
+    payload_b = _balanced(channel_rng, config.payloads_kg, nb).astype(float)
+    temp_b = channel_rng.uniform(*config.temperature_range_c, nb)
+    grass_b = channel_rng.uniform(*config.grass_height_range_m, nb)
+
+    # ---- per-run sensor draws (independent of effects)
+    slip_raw = noise_rng.standard_normal(n_runs)
+    bias_raw = noise_rng.standard_normal((n_runs, 2))
+
+    # ---- geometry, in design order (leg B starts where leg A ended)
+    geo: list[dict[str, Any]] = []
+    end_of: dict[str, tuple[np.ndarray, float]] = {}
+    for spec in tqdm(plan, desc="simulating runs", disable=not progress, unit="run"):
+        geo.append(_run_geometry(spec, config, psi_of[spec.slope_deg], end_of))
+
+    # ---- assemble in field order on the campaign clock
+    t_start = np.zeros(n_runs)
+    clock = 0.0
+    for k in order:
+        t_start[k] = clock
+        clock += geo[k]["t"][-1] + config.gap_s
+    sizes = np.array([len(geo[k]["t"]) for k in order])
+    run_of_sample = np.repeat(np.arange(n_runs), sizes)  # position in `order`
+    idx = np.asarray(order)[run_of_sample]  # design index per sample
+
+    def cat(key: str) -> np.ndarray:
+        return np.concatenate([geo[k][key] for k in order])
+
+    t = cat("t") + t_start[idx]
+    vx, vy, wz, ax, ay = (cat(k) for k in ("vx", "vy", "wz", "ax", "ay"))
+    gamma = cat("gamma")
+    alpha = np.radians(np.array([plan[k].slope_deg for k in range(n_runs)]))[idx]
+    pos = np.concatenate([geo[k]["pos"] for k in order])
+    yaw = cat("yaw")
+    blk = np.asarray(run_block)[idx]
+    features: dict[str, Any] = {
+        "alpha": alpha,
+        "gamma": wrap(gamma),
+        "vx": vx,
+        "vy": vy,
+        "wz": wz,
+        "speed": np.hypot(vx, vy),
+        "ax": ax,
+        "ay": ay,
+        "payload_kg": payload_b[blk],
+        "surface": surface_b[blk].astype(str),
+        "temperature_c": temp_b[blk],
+        "grass_height_m": grass_b[blk],
+    }
+    raw = model.design_matrix(features) @ model.coef_array()
+    if raw.min() < -1e-9:
+        warnings.warn(
+            f"the truth model gives negative power (min {raw.min():.1f} W) in this campaign; "
+            "it is floored at 0 W (a legged robot does not regenerate)",
+            UserWarning,
+            stacklevel=2,
+        )
+    power = model.power(features)
+
+    # ---- battery, run by run in field order
+    n = len(t)
+    current = np.empty(n)
+    voltage = np.empty(n)
+    soc = np.empty(n)
+    pack = np.zeros(n_runs, dtype=int)
+    soc_start = np.zeros(n_runs)
+    soc_end = np.zeros(n_runs)
+    level, pack_id = bat.soc_start, 0
+    charge_as = 3600.0 * bat.capacity_ah
+    r = bat.internal_resistance_ohm
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    for pos_k, k in enumerate(order):
+        sl = slice(bounds[pos_k], bounds[pos_k + 1])
+        p = power[sl]
+        i0 = battery_current(p, bat.ocv(level), r)
+        soc_t = level - _cumtrapz(i0, dt) / charge_as
+        if soc_t[-1] < bat.soc_swap and level < bat.soc_start:
+            level, pack_id = bat.soc_start, pack_id + 1
+            i0 = battery_current(p, bat.ocv(level), r)
+            soc_t = level - _cumtrapz(i0, dt) / charge_as
+        ocv = bat.ocv(soc_t)
+        i = battery_current(p, ocv, r)
+        current[sl], voltage[sl], soc[sl] = i, ocv - r * i, soc_t
+        pack[k], soc_start[k] = pack_id, level
+        level = level - float(np.sum((i[1:] + i[:-1]) * dt / 2)) / charge_as
+        soc_end[k] = level
+
+    # ---- sensors
+    slip = np.clip(
+        sens.slip_mean
+        + sens.slip_per_sin_slope * np.sin(np.radians([s.slope_deg for s in plan]))
+        + sens.slip_std * slip_raw,
+        -0.5,
+        0.5,
+    )
+    g = 1.0 - slip[idx]
+    meas_vx = vx * g + sens.twist_noise_v * noise_rng.standard_normal(n)
+    meas_vy = vy * g + sens.twist_noise_v * noise_rng.standard_normal(n)
+    meas_wz = wz * g + sens.twist_noise_w * noise_rng.standard_normal(n)
+    spikes = noise_rng.random(n) < sens.spike_prob
+    spike_size = noise_rng.uniform(0.5, 1.5, n) * np.where(noise_rng.random(n) < 0.5, -1, 1)
+    meas_current = (current + sens.current_noise_a * noise_rng.standard_normal(n)
+                    + np.where(spikes, sens.spike_current_a * spike_size, 0.0))
+    meas_voltage = voltage + sens.voltage_noise_v * noise_rng.standard_normal(n)
+    bias = np.radians(sens.imu_bias_deg) * bias_raw  # (roll, pitch) per run
+    R = np.concatenate([geo[k]["R"] for k in order])
+    rotvec = np.zeros((n, 3))
+    rotvec[:, :2] = bias[idx]
+    rotvec += np.radians(sens.imu_noise_deg) * noise_rng.standard_normal((n, 3))
+    if np.any(rotvec):
+        from scipy.spatial.transform import Rotation
+
+        R = R @ Rotation.from_rotvec(rotvec).as_matrix()
+    q = quaternion_from_matrix(R)
+
+    run_ids = np.array([plan[k].run for k in range(n_runs)], dtype=object)[idx]
+    logs = pd.DataFrame(
+        {
+            "run": run_ids,
+            "t": t,
+            "qw": q[:, 0],
+            "qx": q[:, 1],
+            "qy": q[:, 2],
+            "qz": q[:, 3],
+            "vx": meas_vx,
+            "vy": meas_vy,
+            "wz": meas_wz,
+            "voltage": meas_voltage,
+            "current": meas_current,
+            "x": pos[:, 0],
+            "y": pos[:, 1],
+            "yaw": yaw,
+            "payload_kg": features["payload_kg"],
+            "surface": pd.Categorical(features["surface"], categories=list(config.surfaces)),
+            "temperature_c": features["temperature_c"],
+            "grass_height_m": features["grass_height_m"],
+        }
+    )
+    true_samples = pd.DataFrame(
+        {
+            "run": run_ids,
+            "t": t,
+            **{k: features[k] for k in ("alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay")},
+            "z": pos[:, 2],
+            "power": power,
+            "voltage": voltage,
+            "current": current,
+            "soc": soc,
+        }
+    )
+
+    energy = np.zeros(n_runs)
+    for pos_k, k in enumerate(order):
+        sl = slice(bounds[pos_k], bounds[pos_k + 1])
+        energy[k] = float(np.sum((power[sl][1:] + power[sl][:-1]) * dt / 2))
+    rows = []
+    for rank, k in enumerate(order):
+        spec, gk = plan[k], geo[k]
+        b = run_block[k]
+        rows.append(
+            {
+                "run": spec.run,
+                "kind": spec.kind,
+                "motion": spec.motion,
+                "slope_deg": spec.slope_deg,
+                "uphill_azimuth_deg": math.degrees(psi_of[spec.slope_deg]),
+                "heading_deg": spec.heading_deg,
+                "speed": spec.speed,
+                "yaw_rate": spec.yaw_rate,
+                "duration_s": float(gk["t"][-1]),
+                "composite": spec.composite,
+                "part": spec.part,
+                "true_energy_j": energy[k],
+                "true_mean_power_w": energy[k] / float(gk["t"][-1]),
+                "distance_m": spec.distance_m,
+                "turn_deg": math.degrees(spec.turn_rad),
+                "repeat": spec.repeat,
+                "order": rank,
+                "t_start": t_start[k],
+                "n_samples": len(gk["t"]),
+                "payload_kg": payload_b[b],
+                "surface": surface_b[b],
+                "temperature_c": temp_b[b],
+                "grass_height_m": grass_b[b],
+                "slip": slip[k],
+                "imu_roll_bias_deg": math.degrees(bias[k, 0]),
+                "imu_pitch_bias_deg": math.degrees(bias[k, 1]),
+                "battery_pack": pack[k],
+                "soc_start": soc_start[k],
+                "soc_end": soc_end[k],
+                "start_x": gk["pos"][0, 0],
+                "start_y": gk["pos"][0, 1],
+                "end_x": gk["pos"][-1, 0],
+                "end_y": gk["pos"][-1, 1],
+                "end_yaw_deg": math.degrees(gk["yaw"][-1]),
+                "end_heading_deg": math.degrees(float(wrap(gk["gamma"][-1]))),
+            }
+        )
+    runs = pd.DataFrame(rows)
+    return Campaign(logs, runs, model, names, true_samples, seed, config)
+
+
+def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
+    out = np.zeros_like(y)
+    out[1:] = np.cumsum((y[1:] + y[:-1]) * (dt / 2))
+    return out
+
+
+def _run_geometry(
+    spec: RunSpec,
+    config: CampaignConfig,
+    psi: float,
+    end_of: dict[str, tuple[np.ndarray, float]],
+) -> dict[str, Any]:
+    """Twist, pose and true orientation of one run (time from 0)."""
+    t, vx, vy, wz, ax, ay = twist_profile(spec.segments, config.ramp_s, config.dt)
+    alpha = math.radians(spec.slope_deg)
+    if spec.start_after:
+        start, gamma0 = end_of[spec.start_after]
+    else:
+        start, gamma0 = np.zeros(3), math.radians(spec.heading_deg)
+    pos, gamma, yaw = integrate_pose(t, vx, vy, wz, alpha, psi, gamma0, start)
+    end_of[spec.run] = (pos[-1], float(gamma[-1]))
+    R = body_to_world(alpha, psi, gamma)
+    return {"t": t, "vx": vx, "vy": vy, "wz": wz, "ax": ax, "ay": ay, "pos": pos,
+            "gamma": gamma, "yaw": yaw, "R": R}
