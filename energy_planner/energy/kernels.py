@@ -1,12 +1,15 @@
 """Numba kernels: the energy of one SE(2) motion over a terrain grid.
 
 A motion from pose ``(x0, y0, th0)`` to ``(x1, y1, th1)`` (working CRS, metres; yaw in
-radians CCW from +x) moves the position linearly and the yaw along the shortest arc, at
-constant world velocity and yaw rate, for a duration ``max(d / speed, |dth| / yaw_rate)``
-(or a given duration). Its energy is the midpoint-rule integral of the model power over
-``n`` sub-steps, short enough (a fraction of a cell) that a motion crossing a ridge is
-charged for both sides. The body twist at each sub-step is the world velocity rotated
-into the body frame, so a motion whose yaw differs from its direction walks sideways.
+radians CCW from +x) moves the position linearly in the map and the yaw along the
+shortest arc. The robot walks on the ground, not on the map: it keeps a constant speed
+along the surface (odometry's speed), so the motion lasts
+``max(surface_length / speed, |dth| / yaw_rate)`` (or a given duration) and its body
+frame is tilted with the ground. The body twist at each sub-step is the 3-D velocity
+along the surface expressed in that tilted body frame, so a motion whose yaw differs from
+its direction walks sideways. The energy is the midpoint-rule integral of the model power
+over ``n`` sub-steps, short enough (a fraction of a cell) that a motion crossing a ridge
+is charged for both sides.
 
 Terrain is sampled by bilinear interpolation of the Horn gradient at cell centres; the
 four corner cells must be valid (a NaN corner makes the sample invalid).
@@ -87,7 +90,7 @@ def make_kernels(power):
     -------
     motion_full, motion_cost, motion_batch : numba dispatchers
         ``motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)`` fills ``out``
-        (length :data:`N_OUT`): energy J, duration s, distance m, |turn| rad, mean slope
+        (length :data:`N_OUT`): energy J, duration s, surface distance m, |turn| rad, mean slope
         rad, mean |gamma| rad, max slope rad, energy by kind (forward, backward, lateral,
         turning, other), violation code. ``motion_cost(x0, y0, th0, x1, y1, th1, data)``
         returns the energy or ``inf`` if invalid; ``motion_batch`` maps it over arrays.
@@ -101,30 +104,20 @@ def make_kernels(power):
         ddy = y1 - y0
         dist = math.sqrt(ddx * ddx + ddy * ddy)
         dth = wrap_angle(th1 - th0)
-        T = duration
-        if T <= 0.0:
-            T = max(dist / speed, abs(dth) / yaw_rate)
         n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
         for k in range(N_OUT):
             out[k] = 0.0
-        out[1] = T
-        out[2] = dist
         out[3] = abs(dth)
-        if T <= 0.0:
-            ok, gxs, gys = sample_gradient(gx, gy, gx0, gy0, gdx, gdy, x0, y0)
-            if not ok:
-                out[12] = OUTSIDE
-            return
-        ux = ddx / T
-        uy = ddy / T
-        wz = dth / T
-        dt = T / n
+        # pass 1: sample the gradient, check the limits, measure the surface length
+        grads = np.empty((n, 2))
         nr, nc = blocked.shape
+        hx = ddx / n
+        hy = ddy / n
+        surface = 0.0
         for i in range(n):
             s = (i + 0.5) / n
             x = x0 + s * ddx
             y = y0 + s * ddy
-            th = th0 + s * dth
             ok, gxs, gys = sample_gradient(gx, gy, gx0, gy0, gdx, gdy, x, y)
             if not ok:
                 out[12] = OUTSIDE
@@ -137,20 +130,60 @@ def make_kernels(power):
                     out[12] = BLOCKED
                     out[0] = np.inf
                     return
-            g = math.sqrt(gxs * gxs + gys * gys)
-            if g > tmax:
+            if gxs * gxs + gys * gys > tmax * tmax:
                 out[12] = TOO_STEEP
                 out[0] = np.inf
                 return
-            alpha = math.atan(g)
+            grads[i, 0] = gxs
+            grads[i, 1] = gys
+            dz = gxs * hx + gys * hy
+            surface += math.sqrt(hx * hx + hy * hy + dz * dz)
+        T = duration
+        if T <= 0.0:
+            T = max(surface / speed, abs(dth) / yaw_rate)
+        out[1] = T
+        out[2] = surface
+        if T <= 0.0:
+            return
+        # pass 2: the robot keeps a constant speed along the surface (and a constant yaw
+        # rate); its body frame is tilted with the ground: x = unit(c, s, g.(c, s)),
+        # z = unit(-gx, -gy, 1), y = z cross x.
+        wz = dth / T
+        for i in range(n):
+            gxs = grads[i, 0]
+            gys = grads[i, 1]
+            dz = gxs * hx + gys * hy
+            ds = math.sqrt(hx * hx + hy * hy + dz * dz)
+            dt = T / n if surface <= 0.0 else T * ds / surface
+            th = th0 + (i + 0.5) / n * dth
+            g2 = gxs * gxs + gys * gys
+            alpha = math.atan(math.sqrt(g2))
             gamma = wrap_angle(th - math.atan2(gys, gxs))
             if math.sin(alpha) * abs(math.sin(gamma)) > smax:
                 out[12] = TOO_CROSS
                 out[0] = np.inf
                 return
-            c_, s_ = math.cos(th), math.sin(th)
-            vx = c_ * ux + s_ * uy
-            vy = -s_ * ux + c_ * uy
+            vx = 0.0
+            vy = 0.0
+            if dt > 0.0:
+                # 3-D velocity along the surface
+                v0 = hx / dt
+                v1 = hy / dt
+                v2 = dz / dt
+                c_ = math.cos(th)
+                s_ = math.sin(th)
+                bx0, bx1, bx2 = c_, s_, gxs * c_ + gys * s_
+                nx = math.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2)
+                bx0 /= nx
+                bx1 /= nx
+                bx2 /= nx
+                nz = math.sqrt(1.0 + g2)
+                bz0, bz1, bz2 = -gxs / nz, -gys / nz, 1.0 / nz
+                by0 = bz1 * bx2 - bz2 * bx1
+                by1 = bz2 * bx0 - bz0 * bx2
+                by2 = bz0 * bx1 - bz1 * bx0
+                vx = v0 * bx0 + v1 * bx1 + v2 * bx2
+                vy = v0 * by0 + v1 * by1 + v2 * by2
             p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0)
             out[0] += p * dt
             out[4] += alpha / n
