@@ -5,7 +5,12 @@ rotation of the IMU quaternion, the world up vector seen in the body frame is
 ``u = R^T (0, 0, 1)``; then ``alpha = arccos(u_z)`` and ``gamma = -atan2(u_y, u_x)``
 (``u_x > 0`` facing uphill; ``gamma = +pi/2`` when uphill is on the robot's right).
 On a planar slope of angle ``alpha``, uphill azimuth ``psi`` and yaw ``theta`` this
-gives ``gamma = wrap(theta - psi)`` in ``(-pi, pi]``.
+gives ``wrap(theta - psi)`` in ``(-pi, pi]`` when ``theta`` is the heading measured
+in the slope plane, and ``wrap(atan2(cos(alpha) sin(d), cos(d)))`` with ``d = theta -
+psi`` when ``theta`` is the yaw of the horizontal projection of body x (the contract's
+body frame). :func:`imu_slope_heading` computes the first by default (the simulator
+builds its IMU quaternions so that it returns the simulated gamma exactly) and the
+second with ``heading="yaw"``.
 """
 
 from __future__ import annotations
@@ -50,22 +55,31 @@ def wrap_angle(a) -> np.ndarray:
     return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
 
 
-def imu_slope_heading(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray]:
+def imu_slope_heading(qw, qx, qy, qz, heading: str = "plane"
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Slope ``alpha`` and signed relative heading ``gamma`` from an IMU quaternion.
 
     Parameters
     ----------
     qw, qx, qy, qz : array_like
         Orientation, body to world (ENU), as ``sensor_msgs/Imu`` (normalised here).
+    heading : {"plane", "yaw"}
+        ``"plane"`` (default, the project's IMU relation): ``gamma = -atan2(u_y, u_x)``,
+        the angle *in the slope plane* between body x and the uphill direction.
+        ``"yaw"``: ``gamma = atan2(-u_y, u_x * u_z)``, which equals ``wrap(theta - psi)``
+        with ``theta`` the horizontal yaw of body x. The two agree on level ground and
+        for the named headings (0, +-pi/2, pi); elsewhere they differ by
+        ``atan2(cos(alpha) sin(d), cos(d)) - d``, e.g. 2.8 degrees at ``alpha = 25`` and
+        ``d = theta - psi = 47.8`` degrees.
 
     Returns
     -------
     alpha : ndarray
         Slope angle, rad, ``arccos(u_z)`` in ``[0, pi]``.
     gamma : ndarray
-        Relative heading, rad, ``-atan2(u_y, u_x)`` wrapped to ``(-pi, pi]``: 0 facing
-        uphill, pi facing downhill, +pi/2 with uphill on the robot's right. It is 0 on
-        level ground (undefined there; every model term multiplies it by ``sin(alpha)``).
+        Relative heading, rad, wrapped to ``(-pi, pi]``: 0 facing uphill, pi facing
+        downhill, +pi/2 with uphill on the robot's right. It is 0 on level ground
+        (undefined there; every model term multiplies it by ``sin(alpha)``).
 
     Examples
     --------
@@ -78,5 +92,12 @@ def imu_slope_heading(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray]:
     """
     ux, uy, uz = up_in_body(qw, qx, qy, qz)
     alpha = np.arccos(np.clip(uz, -1.0, 1.0))
-    gamma = wrap_angle(-np.arctan2(uy, ux))
+    if heading == "plane":
+        gamma = wrap_angle(-np.arctan2(uy, ux))
+    elif heading == "yaw":
+        gamma = wrap_angle(np.arctan2(-uy, ux * uz))
+    else:
+        from energy_planner.errors import LogError
+
+        raise LogError(f"heading={heading!r} is not valid; expected 'plane' or 'yaw'")
     return alpha, gamma

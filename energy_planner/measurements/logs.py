@@ -275,8 +275,10 @@ def load_logs(
         frames.append(df)
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     for c in samples.columns:
-        if c not in CANONICAL_COLUMNS and samples[c].dtype == object:
-            samples[c] = samples[c].astype("category")
+        col = samples[c]
+        if c not in CANONICAL_COLUMNS and not (pd.api.types.is_numeric_dtype(col)
+                                               or isinstance(col.dtype, pd.CategoricalDtype)):
+            samples[c] = col.astype("category")
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     rep.validation = validate_log(samples, voltage_range=voltage_range, max_gap=max_gap)
     rep.n_rows = len(samples)

@@ -142,8 +142,8 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
             what = "repeats" if tr[i + 1] == tr[i] else "goes backwards"
             raise LogError(
                 f"log{_where(source)}: time {what} in run {run!r} at row {row}: "
-                f"t={tr[i + 1]!r} s after t={tr[i]!r} s; expected t strictly increasing "
-                f"within a run"
+                f"t={float(tr[i + 1])!r} s after t={float(tr[i])!r} s; expected t strictly "
+                f"increasing within a run"
             )
 
 
