@@ -134,6 +134,28 @@ def lattice_geometry(terrain, start_xy: tuple[float, float], step: float):
     return xs, ys
 
 
+def _move_table(n_headings: int, moves: str) -> np.ndarray:
+    """Boolean (heading, move) table of the translations allowed at each heading.
+
+    Examples
+    --------
+    >>> t = _move_table(16, "axes")
+    >>> t.sum(axis=1).tolist() == [4] * 16
+    True
+    >>> [tuple(MOVES_16[m]) for m in np.nonzero(t[0])[0]]
+    [(1, 0), (0, 1), (-1, 0), (0, -1)]
+    """
+    if moves == "all":
+        return np.ones((n_headings, len(MOVES_16)), dtype=bool)
+    ang = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
+    table = np.zeros((n_headings, len(MOVES_16)), dtype=bool)
+    for h in range(n_headings):
+        for k in range(4):
+            axis = 2 * np.pi * h / n_headings + k * np.pi / 2
+            table[h, int(np.argmin(np.abs(_wrap(ang - axis))))] = True
+    return table
+
+
 def _wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
@@ -177,6 +199,7 @@ def lattice_plan(
     step: float | None = None,
     n_headings: int = 16,
     metric: str = "energy",
+    moves: str = "axes",
 ) -> LatticeResult:
     """Resolution-optimal path on the (x, y, heading) lattice.
 
@@ -196,6 +219,11 @@ def lattice_plan(
     metric : {"energy", "distance"}
         Edge weight: the motion's energy, or its horizontal length (shortest feasible
         path under the same limits).
+    moves : {"axes", "all"}
+        ``"axes"``: at each heading, the neighbour move closest to each body axis
+        (forward, left, backward, right) - 4 translations per node, the paper's motion
+        primitives; ``"all"``: all 16 neighbours at every heading (4x the edges; also
+        diagonal body motions).
 
     Returns
     -------
@@ -213,6 +241,8 @@ def lattice_plan(
 
     if metric not in ("energy", "distance"):
         raise ValueError(f"metric {metric!r} is not one of 'energy', 'distance'")
+    if moves not in ("axes", "all"):
+        raise ValueError(f"moves {moves!r} is not one of 'axes', 'all'")
     if n_headings < 4:
         raise ValueError(f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)")
     t0 = time.perf_counter()
@@ -235,12 +265,13 @@ def lattice_plan(
     dsts: list[np.ndarray] = []
     ws: list[np.ndarray] = []
     # translations at constant heading
-    for di, dj in MOVES_16:
+    move_ok = _move_table(H, moves)
+    for mi, (di, dj) in enumerate(MOVES_16):
         ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
         p_src = np.nonzero(ok_pos)[0]
         p_dst = p_src + dj * nx + di
         length = step * math.hypot(di, dj)
-        for h in range(H):
+        for h in np.nonzero(move_ok[:, mi])[0]:
             m = valid[p_src, h] & valid[p_dst, h]
             a, b = p_src[m], p_dst[m]
             if a.size == 0:
@@ -264,7 +295,12 @@ def lattice_plan(
             if a.size == 0:
                 continue
             w = cost.batch(
-                px[a], py[a], np.full(a.size, headings[h]), px[a], py[a], np.full(a.size, headings[h2])
+                px[a],
+                py[a],
+                np.full(a.size, headings[h]),
+                px[a],
+                py[a],
+                np.full(a.size, headings[h2]),
             )
             f = np.isfinite(w)
             a, w = a[f], w[f]
@@ -333,7 +369,11 @@ def lattice_plan(
         states = np.vstack([[start[0], start[1], float(_wrap(start[2]))], states])
     last = states[-1]
     gyaw = float(_wrap(goal[2])) if goal[2] is not None else last[2]
-    if abs(goal[0] - last[0]) > 1e-9 or abs(goal[1] - last[1]) > 1e-9 or abs(gyaw - last[2]) > 1e-12:
+    if (
+        abs(goal[0] - last[0]) > 1e-9
+        or abs(goal[1] - last[1]) > 1e-9
+        or abs(gyaw - last[2]) > 1e-12
+    ):
         states = np.vstack([states, [goal[0], goal[1], gyaw]])
     t2 = time.perf_counter()
     return LatticeResult(
