@@ -233,7 +233,7 @@ def ema(x, t, tau: float) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     if x.size == 0 or tau <= 0:
         return x.copy()
-    return _ema_kernel()(x, t, float(tau))
+    return _ema_kernel()(np.ascontiguousarray(x), np.ascontiguousarray(t), float(tau))
 
 
 def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
