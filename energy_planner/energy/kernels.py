@@ -38,9 +38,13 @@ N_OUT = 13
 
 
 @numba.njit(cache=True)
-def sample_gradient(gx, gy, x0, y0, dx, dy, x, y):
-    """Bilinear gradient at (x, y); returns (ok, dz/dx, dz/dy)."""
-    nrows, ncols = gx.shape
+def sample_gradient(grad, x0, y0, dx, dy, x, y):
+    """Bilinear gradient at (x, y); returns (ok, dz/dx, dz/dy).
+
+    ``grad[r, c]`` holds (dz/dx, dz/dy) of cell (r, c), interleaved so that one lookup
+    touches one cache line per corner.
+    """
+    nrows, ncols = grad.shape[0], grad.shape[1]
     fc = (x - x0) / dx
     fr = (y - y0) / dy
     if not (fc >= 0.0 and fr >= 0.0 and fc <= ncols - 1 and fr <= nrows - 1):
@@ -51,9 +55,11 @@ def sample_gradient(gx, gy, x0, y0, dx, dy, x, y):
     tr = fr - r
     c1 = min(c + 1, ncols - 1)
     r1 = min(r + 1, nrows - 1)
-    a00, a01, a10, a11 = gx[r, c], gx[r, c1], gx[r1, c], gx[r1, c1]
-    b00, b01, b10, b11 = gy[r, c], gy[r, c1], gy[r1, c], gy[r1, c1]
-    if not (math.isfinite(a00 + a01 + a10 + a11) and math.isfinite(b00 + b01 + b10 + b11)):
+    a00, b00 = grad[r, c, 0], grad[r, c, 1]
+    a01, b01 = grad[r, c1, 0], grad[r, c1, 1]
+    a10, b10 = grad[r1, c, 0], grad[r1, c, 1]
+    a11, b11 = grad[r1, c1, 0], grad[r1, c1, 1]
+    if not math.isfinite(a00 + a01 + a10 + a11 + b00 + b01 + b10 + b11):
         return False, 0.0, 0.0
     w00 = (1 - tr) * (1 - tc)
     w01 = (1 - tr) * tc
@@ -99,7 +105,7 @@ def make_kernels(power):
 
     @numba.njit
     def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
-        gx, gy, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax = data
+        grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax = data
         ddx = x1 - x0
         ddy = y1 - y0
         dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -108,8 +114,8 @@ def make_kernels(power):
         for k in range(N_OUT):
             out[k] = 0.0
         out[3] = abs(dth)
-        # pass 1: sample the gradient, check the limits, measure the surface length
-        grads = np.empty((n, 2))
+        # pass 1: check the limits and measure the surface length (pass 2 samples the
+        # gradient again: cheaper than allocating a buffer per motion)
         nr, nc = blocked.shape
         hx = ddx / n
         hy = ddy / n
@@ -118,7 +124,7 @@ def make_kernels(power):
             s = (i + 0.5) / n
             x = x0 + s * ddx
             y = y0 + s * ddy
-            ok, gxs, gys = sample_gradient(gx, gy, gx0, gy0, gdx, gdy, x, y)
+            ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
             if not ok:
                 out[12] = OUTSIDE
                 out[0] = np.inf
@@ -134,8 +140,6 @@ def make_kernels(power):
                 out[12] = TOO_STEEP
                 out[0] = np.inf
                 return
-            grads[i, 0] = gxs
-            grads[i, 1] = gys
             dz = gxs * hx + gys * hy
             surface += math.sqrt(hx * hx + hy * hy + dz * dz)
         T = duration
@@ -150,12 +154,12 @@ def make_kernels(power):
         # z = unit(-gx, -gy, 1), y = z cross x.
         wz = dth / T
         for i in range(n):
-            gxs = grads[i, 0]
-            gys = grads[i, 1]
+            s = (i + 0.5) / n
+            ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x0 + s * ddx, y0 + s * ddy)
             dz = gxs * hx + gys * hy
             ds = math.sqrt(hx * hx + hy * hy + dz * dz)
             dt = T / n if surface <= 0.0 else T * ds / surface
-            th = th0 + (i + 0.5) / n * dth
+            th = th0 + s * dth
             g2 = gxs * gxs + gys * gys
             alpha = math.atan(math.sqrt(g2))
             gamma = wrap_angle(th - math.atan2(gys, gxs))

@@ -38,7 +38,8 @@ class MotionCost:
     constants : mapping, optional
         Values of extra channels the model's terms read (e.g. ``payload_kg``).
     step : float, optional
-        Integration sub-step in metres (default a quarter of the smaller cell size).
+        Integration sub-step in metres (default half the smaller cell size: the gradient is
+        bilinear between cell centres, so the midpoint rule at half-cell steps resolves it).
     ang_step : float
         Integration sub-step for rotations, radians.
     """
@@ -69,9 +70,10 @@ class MotionCost:
         self.max_cross_slope_deg = max_cross_slope_deg
         self.constants = dict(constants or {})
         x0, y0, dx, dy = (float(v) for v in terrain.grid)
-        self.step = float(step) if step else 0.25 * min(abs(dx), abs(dy))
-        gx = np.ascontiguousarray(terrain.dzdx, dtype=np.float64)
-        gy = np.ascontiguousarray(terrain.dzdy, dtype=np.float64)
+        self.step = float(step) if step else 0.5 * min(abs(dx), abs(dy))
+        gx = np.asarray(terrain.dzdx, dtype=np.float64)
+        gy = np.asarray(terrain.dzdy, dtype=np.float64)
+        grad = np.ascontiguousarray(np.stack([gx, gy], axis=-1))
         if blocked is None:
             mask = np.zeros((0, 0), dtype=np.bool_)
         else:
@@ -83,7 +85,7 @@ class MotionCost:
             math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))
         )
         self.data = (
-            gx, gy, mask, x0, y0, dx, dy,
+            grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
         )  # fmt: skip
         self.power = model.power_kernel(self.constants)
@@ -122,7 +124,7 @@ class MotionCost:
         nominal speed, with a 5% margin for the grid of the search; never negative.
         """
         if not hasattr(self, "_lb"):
-            slope = np.arctan(np.hypot(self.data[0], self.data[1]))
+            slope = np.arctan(np.hypot(self.data[0][..., 0], self.data[0][..., 1]))
             amax = float(np.nanmax(slope)) if np.isfinite(slope).any() else 0.0
             if self.max_slope_deg is not None:
                 amax = min(amax, math.radians(self.max_slope_deg))

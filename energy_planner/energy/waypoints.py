@@ -23,7 +23,7 @@ Examples
 >>> d = pathlib.Path(tempfile.mkdtemp())
 >>> _ = (d / "p.csv").write_text("x,y,yaw_deg\\n0,0,90\\n3,4,90\\n")
 >>> w = read_waypoints(d / "p.csv")
->>> w.xy.tolist(), [round(v, 6) for v in w.yaw_rad], w.t
+>>> w.xy.tolist(), w.yaw_rad.round(6).tolist(), w.t
 ([[0.0, 0.0], [3.0, 4.0]], [1.570796, 1.570796], None)
 >>> out = write_waypoints_geojson(d / "p.geojson", w.xy, w.yaw_rad)
 >>> read_waypoints(out).yaw_rad.round(6).tolist()
@@ -49,7 +49,10 @@ __all__ = [
     "WaypointIOError",
     "Waypoints",
     "read_waypoints",
+    "waypoints_to_work",
     "write_waypoints_geojson",
+    "yaw_from_work",
+    "yaw_to_work",
 ]
 
 #: Column names with a meaning in a waypoint CSV.
@@ -447,3 +450,69 @@ def write_waypoints_geojson(
     p = Path(path)
     p.write_text(json.dumps(doc, indent=1) + "\n")
     return p
+
+
+# ---------------------------------------------------------------------- CRS
+def _xaxis_rotation(terrain: Any, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Angle (rad, CCW) of the DEM's local +x direction in the working CRS at (x, y)."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    src, dst = getattr(terrain, "source_crs", None), getattr(terrain, "crs", None)
+    if src is None or dst is None or src == dst:
+        return np.zeros(np.broadcast(x, y).shape)
+    st = getattr(terrain, "source_transform", None)
+    h = 1e-2 * abs(float(st.a)) if st is not None and st.a else 1e-6
+    xb, yb = np.broadcast_arrays(x, y)
+    wx0, wy0 = terrain.to_work(xb, yb)
+    wx1, wy1 = terrain.to_work(xb + h, yb)
+    return np.arctan2(np.asarray(wy1) - wy0, np.asarray(wx1) - wx0)
+
+
+def yaw_to_work(terrain: Any, x: Any, y: Any, yaw_rad: Any) -> np.ndarray:
+    """Yaw relative to the DEM's x axis -> yaw relative to the working grid's x axis.
+
+    For a DEM in a metric projected CRS the two are the same. For a geographic DEM the
+    map's x axis is the local east (along the parallel), which on the working UTM grid
+    is turned by the meridian convergence (about a degree, more far from the zone's
+    central meridian); the rotation is measured by transforming a point a hundredth of
+    a pixel along +x.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        Provides ``source_crs``, ``crs``, ``source_transform`` and ``to_work``.
+    x, y : array-like
+        Positions in the DEM's CRS.
+    yaw_rad : array-like
+        Yaw in radians CCW from the DEM's x axis.
+
+    Returns
+    -------
+    ndarray
+        Yaw in radians CCW from the working CRS's x axis (not wrapped).
+
+    Examples
+    --------
+    >>> from energy_planner.terrain import Terrain
+    >>> t = Terrain.from_function(lambda x, y: 0 * x, size=(10, 10))
+    >>> yaw_to_work(t, [5.0], [5.0], [0.3]).tolist()
+    [0.3]
+    """
+    return np.asarray(yaw_rad, dtype=float) + _xaxis_rotation(terrain, x, y)
+
+
+def yaw_from_work(terrain: Any, x_work: Any, y_work: Any, yaw_rad: Any) -> np.ndarray:
+    """Inverse of :func:`yaw_to_work`: working-grid yaw -> yaw from the DEM's x axis.
+
+    ``x_work, y_work`` are positions in the working CRS.
+    """
+    xs, ys = terrain.from_work(x_work, y_work)
+    return np.asarray(yaw_rad, dtype=float) - _xaxis_rotation(terrain, xs, ys)
+
+
+def waypoints_to_work(terrain: Any, wp: Waypoints) -> tuple[np.ndarray, np.ndarray | None]:
+    """Waypoints (DEM CRS) -> ``(xy, yaw)`` in the working CRS for :func:`path_energy`."""
+    xw, yw = terrain.to_work(wp.xy[:, 0], wp.xy[:, 1])
+    xy = np.column_stack([np.atleast_1d(xw), np.atleast_1d(yw)])
+    yaw = None if wp.yaw_rad is None else yaw_to_work(terrain, wp.xy[:, 0], wp.xy[:, 1], wp.yaw_rad)
+    return xy, yaw
