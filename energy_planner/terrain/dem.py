@@ -12,8 +12,10 @@ Decisions (see also ``docs/terrain.md``):
 - A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, is
   reprojected to the local UTM zone (WGS 84, zone of the DEM's centre) with bilinear
   resampling, at a square pixel whose area equals the source pixel's area at the DEM's
-  centre (same cell count). A working cell is valid only if every source cell bilinear
-  resampling draws on is valid. ``source_crs`` keeps the DEM's own CRS;
+  centre (same cell count); the grid is laid out by ``rasterio.warp``
+  (``calculate_default_transform``) and every working cell centre is projected back
+  exactly with ``rasterio.warp.transform``. A working cell is valid only if every source
+  cell bilinear resampling draws on is valid. ``source_crs`` keeps the DEM's own CRS;
   :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
 - A DEM without a CRS is taken as local metric coordinates (x east, y north, metres), with
   a ``UserWarning``: its slopes are only right if the pixels really are metres.
@@ -152,10 +154,10 @@ class Terrain:
         rows, cols = z.shape
         if sx < 0:  # east-to-west columns: flip to west-to-east
             z = np.ascontiguousarray(z[:, ::-1])
-            t = t * Affine.translation(cols, 0) * Affine.scale(-1, 1)
+            t = t @ Affine.translation(cols, 0) @ Affine.scale(-1, 1)
         if sy > 0:  # south-up rows: flip to north-up
             z = np.ascontiguousarray(z[::-1, :])
-            t = t * Affine.translation(0, rows) * Affine.scale(1, -1)
+            t = t @ Affine.translation(0, rows) @ Affine.scale(1, -1)
         z[~np.isfinite(z)] = np.nan
         self.elevation = z
         self.transform = t
@@ -399,9 +401,8 @@ def _warp_to_utm(
 ) -> tuple[np.ndarray, Affine, Any]:
     """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware)."""
     from rasterio.crs import CRS
-    from rasterio.enums import Resampling
     from rasterio.transform import array_bounds
-    from rasterio.warp import calculate_default_transform, reproject, transform_bounds
+    from rasterio.warp import calculate_default_transform, transform_bounds
     from rasterio.warp import transform as warp_transform
 
     rows, cols = z.shape
@@ -416,7 +417,7 @@ def _warp_to_utm(
     dst_crs = CRS.from_epsg(utm_epsg(lon_c, lat_c))
     # metric size of the centre pixel -> square pixel with the same area
     cc, cr = cols / 2.0, rows / 2.0
-    px = [transform * (cc, cr), transform * (cc + 1, cr), transform * (cc, cr + 1)]
+    px = [transform @ (cc, cr), transform @ (cc + 1, cr), transform @ (cc, cr + 1)]
     xs, ys = warp_transform(crs, dst_crs, [p[0] for p in px], [p[1] for p in px])
     d_col = math.hypot(xs[1] - xs[0], ys[1] - ys[0])
     d_row = math.hypot(xs[2] - xs[0], ys[2] - ys[0])
@@ -424,20 +425,26 @@ def _warp_to_utm(
     dst_transform, width, height = calculate_default_transform(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
-    common = dict(
-        src_transform=transform,
-        src_crs=crs,
-        dst_transform=dst_transform,
-        dst_crs=dst_crs,
-        resampling=Resampling.bilinear,
+    # Bilinear resampling at exactly projected cell centres (PROJ for every centre, no
+    # approximate transformer: GDAL's warper interpolates positions to 0.125 px, which
+    # showed as +-0.5 deg slope ripples on a plane). A working cell is valid only if every
+    # source cell with weight in its interpolation is valid.
+    src_grid = (
+        transform.c + 0.5 * transform.a,
+        transform.f + 0.5 * transform.e,
+        transform.a,
+        transform.e,
     )
-    zw = np.full((height, width), np.nan)
-    reproject(z, zw, src_nodata=np.nan, dst_nodata=np.nan, **common)
-    # validity: a working cell is valid only if all source cells it draws on are valid
-    mask = np.isfinite(z).astype(np.float64)
-    mw = np.full((height, width), -1.0)
-    reproject(mask, mw, src_nodata=-1.0, dst_nodata=-1.0, **common)
-    zw[~(mw > 1.0 - 1e-9)] = np.nan
+    zw = np.empty((height, width))
+    xs_dst = dst_transform.c + (np.arange(width) + 0.5) * dst_transform.a
+    block = max(1, 1_000_000 // max(width, 1))
+    for r0 in range(0, height, block):
+        r1 = min(height, r0 + block)
+        ys_dst = dst_transform.f + (np.arange(r0, r1) + 0.5) * dst_transform.e
+        gx, gy = np.meshgrid(xs_dst, ys_dst)
+        sx, sy = warp_transform(dst_crs, crs, gx.ravel(), gy.ravel())
+        (zb,) = bilinear((z,), src_grid, np.asarray(sx), np.asarray(sy))
+        zw[r0:r1] = zb.reshape(gx.shape)
     return zw, dst_transform, dst_crs
 
 

@@ -30,7 +30,8 @@ needs.
 Design notes
 ------------
 - Invalid data is never invented. A cell whose 3 x 3 window touches a NaN (nodata) cell,
-  or that lies on the grid's outer edge, gets a NaN gradient. This matches gdaldem's
+  or that lies on the grid's outer edge, gets a NaN gradient (so does an invalid cell itself,
+  although Horn's stencil does not use the centre). This matches gdaldem's
   default, which leaves the one-cell border nodata (no ``-compute_edges``), and gdaldem's
   rule that any nodata value in the window makes the output nodata.
 - The arithmetic is plain NumPy slicing (no SciPy convolution), so NaN propagates by IEEE
@@ -176,6 +177,13 @@ def horn_gradient(z: np.ndarray, step_x: float, step_y: float) -> tuple[np.ndarr
     np.subtract(top[:, 2:], bot[:, 2:], out=tmp)
     gy += tmp
     gy /= -8.0 * step_y
+    # dz/dx skips the window's middle column, dz/dy its middle row and neither uses the
+    # centre: like gdaldem, any invalid cell among the nine invalidates both components
+    bad = np.isnan(gx)
+    bad |= np.isnan(gy)
+    bad |= np.isnan(mid[:, 1:-1])
+    gx[bad] = np.nan
+    gy[bad] = np.nan
     return dzdx, dzdy
 
 
