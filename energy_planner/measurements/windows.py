@@ -45,7 +45,8 @@ def classify_motion(vx, vy, wz, *, length: float = 0.5, ratio: float = 0.3) -> n
     ...                 [0.01, 0.0, 0.0, 0.5, 0.0, 0.0]).tolist()
     ['forward', 'backward', 'lateral_right', 'turn_left', 'mixed', 'mixed']
     """
-    vx, vy, wz = (np.asarray(a, dtype=float) for a in (vx, vy, wz))
+    vx, vy, wz = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, dtype=float))
+                                       for a in (vx, vy, wz)))
     c = np.stack([np.abs(vx), np.abs(vy), length * np.abs(wz)], axis=-1)
     k = np.argmax(c, axis=-1)
     top = np.take_along_axis(c, k[..., None], axis=-1)[..., 0]
