@@ -35,7 +35,7 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
         lines.append("")
     for s in doc["superposition"]:
         lines.append(
-            f"superposition {s['composite']} vs {' + '.join(s['parts'])}: measured "
+            f"{s['kind']} {s['composite']} vs {' + '.join(s['parts'])}: measured "
             f"{s['measured_composite_j']:.0f} J vs {s['measured_parts_j']:.0f} J "
             f"({100 * (s['superposition_error_rel'] or 0):+.1f}%), model error "
             f"{s['model_error_composite_j']:+.0f} J / {s['model_error_parts_j']:+.0f} J"
@@ -86,6 +86,30 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
     return "\n".join(lines)
 
 
+def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
+    """Read the run metadata (``--runs`` or ``runs.csv`` in a LOGS folder), if any."""
+    import pandas as pd
+
+    if runs_path is None:
+        found = [p / "runs.csv" for p in logs if p.is_dir() and (p / "runs.csv").is_file()]
+        if not found:
+            return None
+        runs_path = found[0]
+    try:
+        meta = pd.read_csv(runs_path)
+    except (OSError, ValueError) as exc:
+        raise click.BadParameter(f"cannot read {str(runs_path)!r}: {exc}",
+                                 param_hint="--runs") from exc
+    missing = sorted({"run", "composite", "part"} - set(meta.columns))
+    if missing:
+        raise click.BadParameter(
+            f"{str(runs_path)!r} lacks column(s) {missing}; expected one row per run with "
+            "run, composite, part (as `energy-planner simulate` writes runs.csv)",
+            param_hint="--runs",
+        )
+    return meta
+
+
 @click.command("diagnose")
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @model_option
@@ -103,6 +127,14 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
     metavar="TERM",
     help="Also test this candidate term (catalog name or formula, e.g. "
     "'payload_kg * speed * sin(alpha)'). Repeatable.",
+)
+@click.option(
+    "--runs",
+    "runs_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Run metadata CSV with columns run, composite, part (for the superposition check); "
+    "default: runs.csv inside a LOGS folder, if there is one.",
 )
 @click.option("--window", type=click.FloatRange(min=0, min_open=True), default=2.0,
               show_default=True, help="Window length, s.")
@@ -122,6 +154,7 @@ def command(
     model_path: Path | None,
     report: Path | None,
     terms: tuple[str, ...],
+    runs_path: Path | None,
     window: float,
     folds: int,
     max_steps: int,
@@ -154,14 +187,15 @@ def command(
         )
     windows, _reports, _ = load_windows(logs, window)
     extra = [t.name for t in resolve_terms(terms, set(windows.samples.columns))]
+    runs_meta = _runs_meta(runs_path, logs)
     th = Thresholds(k=k, min_rel=min_rel, n_splits=folds, seed=seed)
     progress = None
     if sys.stderr.isatty():
         def progress(i: int) -> None:
             click.echo(f"staircase step {i} done", err=True)
     try:
-        d = diagnose(model, windows, thresholds=th, max_steps=max_steps, terms=extra,
-                     progress=progress)
+        d = diagnose(model, windows, runs_meta=runs_meta, thresholds=th, max_steps=max_steps,
+                     terms=extra, progress=progress)
     except EnergyPlannerError as exc:
         raise click.ClickException(
             f"{exc}\nhint: the model's features must be in the logs; see docs/diagnosis.md"

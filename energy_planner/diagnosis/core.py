@@ -62,28 +62,53 @@ def run_table(samples: pd.DataFrame, model) -> pd.DataFrame:
     return out
 
 
-def infer_composites(samples: pd.DataFrame, runs_meta: pd.DataFrame | None = None) -> dict:
-    """Composite runs and their parts, from run metadata or from log channels.
+def infer_composites(
+    samples: pd.DataFrame | None = None, runs_meta: pd.DataFrame | None = None
+) -> list[dict]:
+    """Composite paths and their parts, from run metadata or from log channels.
 
-    Looks for columns ``composite`` (the composite path a run belongs to) and ``part``
-    (``"A"``, ``"B"``, ... for a part; ``"AB"``/empty/``"whole"`` for the composite run)
-    in ``runs_meta`` (one row per run) or else in the samples.
+    Looks for columns ``run``, ``composite`` (the composite path a run belongs to) and
+    ``part`` in ``runs_meta`` (one row per run, e.g. the ``runs.csv`` a simulated campaign
+    writes) or else in the samples. Within a composite, single-letter parts (``A``,
+    ``B``) are legs; a run whose part is their concatenation (``AB``) is the legs
+    executed in one go (a *concatenation*), and any other single-letter run not named in
+    it (``C``) is a different path between the same poses (an *alternative*).
+
+    Returns
+    -------
+    list of dict
+        ``{"composite": run, "parts": [runs], "kind": "concatenation" | "alternative",
+        "group": name}``.
+
+    Examples
+    --------
+    >>> meta = pd.DataFrame({"run": ["a", "b", "ab", "c"], "composite": "s1",
+    ...                      "part": ["A", "B", "AB", "C"]})
+    >>> [(c["composite"], c["parts"], c["kind"]) for c in infer_composites(runs_meta=meta)]
+    [('ab', ['a', 'b'], 'concatenation'), ('c', ['a', 'b'], 'alternative')]
     """
+    cols = {"run", "composite", "part"}
     src = runs_meta
-    if src is None or not {"run", "composite", "part"} <= set(src.columns):
-        if not {"run", "composite", "part"} <= set(samples.columns):
-            return {}
+    if src is None or not cols <= set(src.columns):
+        if samples is None or not cols <= set(samples.columns):
+            return []
         src = samples[["run", "composite", "part"]].drop_duplicates("run")
-    out: dict[str, list[str]] = {}
-    src = src.dropna(subset=["composite"])
+    src = src[src["composite"].notna() & src["part"].notna()]
+    out: list[dict] = []
     for comp, g in src.groupby(src["composite"].astype(str), sort=True):
         if comp in ("", "nan", "None"):
             continue
-        part = g["part"].astype(str)
-        whole = g[part.str.len().ne(1)]
-        pieces = g[part.str.len().eq(1)].sort_values("part")
-        if len(whole) == 1 and len(pieces) >= 2:
-            out[str(whole["run"].iloc[0])] = pieces["run"].astype(str).tolist()
+        part = dict(zip(g["part"].astype(str), g["run"].astype(str), strict=False))
+        for whole in sorted(p for p in part if len(p) > 1):
+            legs = list(whole)
+            if not all(leg in part for leg in legs):
+                continue
+            parts = [part[leg] for leg in legs]
+            out.append({"composite": part[whole], "parts": parts, "kind": "concatenation",
+                        "group": comp})
+            for alt in sorted(p for p in part if len(p) == 1 and p not in legs):
+                out.append({"composite": part[alt], "parts": parts, "kind": "alternative",
+                            "group": comp})
     return out
 
 
@@ -151,7 +176,8 @@ def diagnose(
     model,
     samples: pd.DataFrame,
     *,
-    composites: Mapping[str, Sequence[str]] | None = None,
+    composites: Sequence[dict] | Mapping[str, Sequence[str]] | None = None,
+    runs_meta: pd.DataFrame | None = None,
     thresholds: Thresholds | None = None,
     max_steps: int = 4,
     extras: Sequence[str] | None = None,
@@ -166,9 +192,11 @@ def diagnose(
         A fitted model (its terms are also the starting point of the refits).
     samples : pandas.DataFrame
         Windowed per-sample data, ``make_windows(clean).samples`` (or a ``Windows``).
-    composites : mapping, optional
-        Composite run -> part runs for the superposition check; default inferred from
-        ``composite``/``part`` columns (:func:`infer_composites`).
+    composites : list of dict or mapping, optional
+        Composite paths for the superposition check (:func:`infer_composites` format, or
+        composite run -> part runs); default inferred from ``runs_meta`` or the samples.
+    runs_meta : pandas.DataFrame, optional
+        One row per run with ``run, composite, part`` (a simulated campaign's ``runs``).
     thresholds : Thresholds, optional
         Support and noise rules (:mod:`energy_planner.diagnosis.suspects`).
     max_steps : int
@@ -193,7 +221,7 @@ def diagnose(
     notes: list[str] = []
     runs = run_table(samples, model)
     if composites is None:
-        composites = infer_composites(samples)
+        composites = infer_composites(samples, runs_meta)
     sup = superposition(runs, composites)
     bd = breakdown(wd.table, wd.power - pred, wd.numeric_extras, wd.categorical_extras)
     ranking, steps, rankings = None, [], []

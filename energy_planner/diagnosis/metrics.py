@@ -201,7 +201,7 @@ def hotspots(bd: Mapping[str, dict], top: int = 5) -> list[dict]:
 
 
 def superposition(
-    runs: pd.DataFrame, composites: Mapping[str, Sequence[str]]
+    runs: pd.DataFrame, composites: Sequence[dict] | Mapping[str, Sequence[str]]
 ) -> list[dict]:
     """Energy of composite paths against the sum of their parts, measured and predicted.
 
@@ -209,14 +209,16 @@ def superposition(
     ----------
     runs : pandas.DataFrame
         Per run: ``run``, ``measured_j``, ``predicted_j``.
-    composites : mapping
-        Composite run -> its part runs (e.g. ``{"AB": ["A", "B"]}``).
+    composites : list of dict or mapping
+        ``[{"composite": run, "parts": [runs], "kind": ...}]`` (see
+        :func:`energy_planner.diagnosis.infer_composites`) or composite run -> part runs.
 
     Returns
     -------
     list of dict
         Per composite: measured ``E(AB)`` and ``sum E(parts)``, the superposition error
         (their difference, absolute and relative), and the model's errors on both.
+        Composites whose runs are not all in ``runs`` are skipped.
 
     Examples
     --------
@@ -226,20 +228,24 @@ def superposition(
     >>> s["measured_parts_j"], s["superposition_error_j"], s["model_error_composite_j"]
     (30.0, 3.0, -3.0)
     """
+    if isinstance(composites, Mapping):
+        composites = [{"composite": k, "parts": list(v), "kind": "concatenation"}
+                      for k, v in composites.items()]
     by = runs.set_index(runs["run"].astype(str))
     out = []
-    for comp, parts in composites.items():
-        names = [str(comp), *map(str, parts)]
-        if not all(n in by.index for n in names):
+    for c in composites:
+        comp, parts = str(c["composite"]), [str(p) for p in c["parts"]]
+        if not all(n in by.index for n in [comp, *parts]):
             continue
-        m_c = float(by.at[str(comp), "measured_j"])
-        p_c = float(by.at[str(comp), "predicted_j"])
-        m_p = float(sum(by.at[str(p), "measured_j"] for p in parts))
-        p_p = float(sum(by.at[str(p), "predicted_j"] for p in parts))
+        m_c = float(by.at[comp, "measured_j"])
+        p_c = float(by.at[comp, "predicted_j"])
+        m_p = float(sum(by.at[p, "measured_j"] for p in parts))
+        p_p = float(sum(by.at[p, "predicted_j"] for p in parts))
         out.append(
             {
-                "composite": str(comp),
-                "parts": [str(p) for p in parts],
+                "composite": comp,
+                "parts": parts,
+                "kind": c.get("kind", "concatenation"),
                 "measured_composite_j": m_c,
                 "measured_parts_j": m_p,
                 "superposition_error_j": m_c - m_p,

@@ -269,15 +269,16 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
                                       ("error_rel", "error (rel.)")]))
     parts.append("<h2>Superposition of composite paths</h2>")
     parts.append(
-        "<p class='note'>Measured E(AB) against E(A) + E(B): how well energies add "
-        "(the model assumes they do), and the model's error on both.</p>"
+        "<p class='note'>Measured energy of a composite run (AB: the legs in one go; "
+        "alternative: another path between the same poses) against E(A) + E(B): how well "
+        "energies add (the model assumes they do), and the model's error on both.</p>"
     )
     sup = [dict(s, parts=" + ".join(s["parts"])) for s in doc["superposition"]]
-    parts.append(_table(sup, [("composite", "composite"), ("parts", "parts"),
-                              ("measured_composite_j", "measured E(AB) (J)"),
+    parts.append(_table(sup, [("composite", "composite"), ("kind", "kind"), ("parts", "parts"),
+                              ("measured_composite_j", "measured E(composite) (J)"),
                               ("measured_parts_j", "measured sum of parts (J)"),
                               ("superposition_error_rel", "superposition error (rel.)"),
-                              ("model_error_composite_j", "model error on AB (J)"),
+                              ("model_error_composite_j", "model error, composite (J)"),
                               ("model_error_parts_j", "model error on parts (J)")]))
     parts.append("</body></html>")
     return "\n".join(parts)
