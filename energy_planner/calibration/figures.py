@@ -103,6 +103,13 @@ def _median(x: pd.Series, default: float) -> float:
     return float(np.median(x)) if x.size else default
 
 
+def _cruise(x: pd.Series, default: float) -> float:
+    """Cruising rate: the 75th percentile (windows on speed ramps pull the median down)."""
+    x = x.to_numpy(float)
+    x = x[np.isfinite(x)]
+    return float(np.percentile(x, 75)) if x.size else default
+
+
 def plot_force_slope(
     estimates: pd.DataFrame,
     model: EnergyModel | None,
@@ -131,7 +138,7 @@ def plot_force_slope(
     plt = _pyplot()
     fwd = estimates[estimates["kind"] == "forward"]
     lat = estimates[estimates["kind"] == "lateral"]
-    speed = _median(pd.concat([fwd["rate"], lat["rate"]]), 0.3)
+    speed = _cruise(pd.concat([fwd["rate"], lat["rate"]]), 0.3)
     amax = max(float(estimates["alpha_deg"].max()) if len(estimates) else 0.0, 5.0) + 2.0
     grid = np.radians(np.linspace(0.0, amax, 60))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.3), sharey=True)
@@ -178,7 +185,9 @@ def plot_force_slope(
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="upper left")
     axes[0].set_ylabel("force-equivalent cost P / v (N = J/m)")
-    fig.suptitle(f"Force-equivalent cost against slope (windows at ~{speed:.2f} m/s)")
+    fig.suptitle(
+        f"Force-equivalent cost against slope (curves at the cruising speed {speed:.2f} m/s)"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -201,7 +210,7 @@ def plot_yaw_torque(
     """
     plt = _pyplot()
     turns = estimates[estimates["kind"] == "turning"]
-    rate = _median(turns["rate"], 0.5)
+    rate = _cruise(turns["rate"], 0.5)
     fig, ax = plt.subplots(figsize=(6.5, 4.3))
     for motion, color in (("turn_left", "tab:purple"), ("turn_right", "tab:orange")):
         pts = turns[turns["motion"] == motion]
@@ -221,7 +230,7 @@ def plot_yaw_torque(
             ax.plot(np.degrees(grid), p / rate, color="k", lw=2, label="model")
     ax.set_xlabel("slope angle alpha (deg)")
     ax.set_ylabel("yaw torque P / |w| (N m)")
-    ax.set_title(f"Turning in place (~{rate:.2f} rad/s)")
+    ax.set_title(f"Turning in place (curve at the cruising yaw rate {rate:.2f} rad/s)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
@@ -338,7 +347,8 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     ax.set_xticks(x, [str(c) for c in table["composite"]], rotation=20, ha="right", fontsize=8)
     ax.set_ylabel("energy (J)")
     ax.set_title("Composite paths: sum of parts vs measured")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=4)
+    ax.set_ylim(0, 1.15 * np.nanmax(np.r_[a + b, table["AB"], table["C"], 1.0]))
     ax.grid(axis="y", alpha=0.3)
     s = table["sum_ab"].to_numpy(float)
     lim = [0, 1.1 * np.nanmax(np.r_[s, table["AB"], table["C"], 1.0])]
@@ -352,7 +362,7 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     rel_ab = table["rel_ab"].to_numpy(float)
     rel_c = table["rel_c"].to_numpy(float)

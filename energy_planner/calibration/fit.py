@@ -256,6 +256,22 @@ def _vif(X: np.ndarray, w: np.ndarray) -> np.ndarray:
     return out
 
 
+def model_features(samples: pd.DataFrame, model: EnergyModel) -> dict[str, np.ndarray]:
+    """The sample columns ``model`` reads, as arrays (converting only those columns).
+
+    Examples
+    --------
+    >>> s = pd.DataFrame({"vx": [0.3], "vy": [0.0], "note": ["x"]})
+    >>> sorted(model_features(s, EnergyModel(["fwd_const", "speed_dependence"])))
+    ['speed', 'vx', 'vy']
+    """
+    need = set(model.variables) | {"vx", "vy"}
+    out = {c: samples[c].to_numpy() for c in samples.columns if c in need}
+    if "speed" in need and "speed" not in out and "vx" in out and "vy" in out:
+        out["speed"] = np.hypot(out["vx"].astype(float), out["vy"].astype(float))
+    return out
+
+
 def run_folds(runs: Sequence[str], n_splits: int, seed: int = 0) -> list[list[str]]:
     """Assign whole runs to ``n_splits`` folds at random (grouped K-fold).
 
@@ -452,18 +468,20 @@ def cross_validate(
         n_splits = n_runs
     folds = run_folds(runs, n_splits, seed)
     names = model.term_names
-    D = model.design_matrix(samples)  # per sample
+    D = model.design_matrix(model_features(samples, model))  # per sample
     win = samples["window"].to_numpy()
     X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
     sample_run = samples["run"].astype(str).to_numpy()
 
+    run_to_fold = {r: i for i, fold in enumerate(folds) for r in fold}
+    fold_of_window = pd.Series(runs).map(run_to_fold).to_numpy(int)
+    fold_of_sample = pd.Series(sample_run).map(run_to_fold).to_numpy(int)
     pred_sample = np.full(len(samples), np.nan)
-    fold_of_window = np.full(len(table), -1)
     coefs = []
     for i, test_runs in enumerate(folds):
-        test = np.isin(runs, test_runs)
+        test = fold_of_window == i
         train = ~test
         beta = _wls(X[train], y[train], w[train])
         unsupported = [
@@ -477,8 +495,7 @@ def cross_validate(
                 f"runs are held out: {', '.join(test_runs)}); this fold predicts them as 0"
             )
         coefs.append(beta)
-        fold_of_window[test] = i
-        smask = np.isin(sample_run, test_runs)
+        smask = fold_of_sample == i
         p = D[smask] @ beta
         pred_sample[smask] = p if model.regenerative else np.maximum(p, 0.0)
 
@@ -581,7 +598,9 @@ def fit_model(
     n_runs = int(table["run"].nunique())
     _check_amount(n_windows, n_runs, len(names), names)
 
-    X = model.design_matrix(samples, groups=samples["window"].to_numpy())
+    feats = model_features(samples, model)
+    groups = samples["window"].to_numpy()
+    X = model.design_matrix(feats, groups=groups)
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
     if not np.all(np.isfinite(w)) or np.any(w <= 0):
@@ -609,7 +628,7 @@ def fit_model(
     vif = _vif(X, w)
     warnings = _support_warnings(model, X, w, table, vif)
     try:
-        model.fit(samples, y, groups=samples["window"].to_numpy(), sample_weight=w)
+        model.fit(feats, y, groups=groups, sample_weight=w)
     except FitError as exc:
         raise FitError(f"{exc} ({n_windows} windows from {n_runs} runs)") from exc
     beta = model.coef_array()

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.calibration._windows import STRAIGHT_KINDS, aligned_table, heading_class
+from energy_planner.calibration.fit import model_features
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
 
@@ -163,7 +164,7 @@ def fit_forces(
     est = force_estimates(windows, level_deg=level_deg)
     table = aligned_table(windows)
     samples = windows.samples
-    X = model.design_matrix(samples, groups=samples["window"].to_numpy())
+    X = model.design_matrix(model_features(samples, model), groups=samples["window"].to_numpy())
     row = pd.Series(np.arange(len(table)), index=table["window"].to_numpy())
     idx = row.reindex(est["window"].to_numpy()).to_numpy()
     coef: dict[str, float] = {}

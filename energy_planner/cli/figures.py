@@ -91,7 +91,7 @@ def command(
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.model import EnergyModel
 
-    windows, reports, _ = load_windows(logs, window)
+    windows, reports, _, raw = load_windows(logs, window)
     notes: list[str] = []
     if model_path is not None:
         try:
@@ -135,9 +135,6 @@ def command(
     else:
         notes.append("no turn-in-place windows: yaw_torque.png (Fig. 5) not drawn")
 
-    from energy_planner.measurements import load_logs
-
-    raw = load_logs(list(logs))
     meta = _composite_meta(logs, raw)
     table = None
     if meta is None:

@@ -18,17 +18,46 @@ def _as_dict(report: Any) -> Any:
     return str(report)
 
 
-def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str, Any], str]:
+#: Files that sit next to logs but are not logs (the simulator's run table).
+METADATA_FILES = frozenset({"runs.csv"})
+
+
+def log_files(paths: tuple[Path, ...]) -> list[Path]:
+    """Expand folders to their log files, leaving out metadata such as ``runs.csv``.
+
+    ROS 2 bag folders (with ``metadata.yaml``) and files are passed through; other
+    folders become the files and bag folders they hold, as ``load_logs`` would read
+    them, minus :data:`METADATA_FILES`.
+    """
+    out: list[Path] = []
+    for p in paths:
+        if p.is_dir() and not (p / "metadata.yaml").is_file():
+            found = sorted(
+                q
+                for q in p.iterdir()
+                if q.name not in METADATA_FILES
+                and (
+                    (q.is_file() and q.suffix.lower() in (".csv", ".parquet", ".pq", ".bag"))
+                    or (q / "metadata.yaml").is_file()
+                )
+            )
+            out.extend(found or [p])  # an empty folder: let load_logs name the problem
+        else:
+            out.append(p)
+    return out
+
+
+def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str, Any], str, Any]:
     """Load logs, preprocess them and cut windows; errors become click errors.
 
-    Returns the windows, a dict of the load and preprocessing reports, and the
-    preprocessing report as text.
+    Returns the windows, a dict of the load and preprocessing reports, the
+    preprocessing report as text, and the raw samples.
     """
     from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
     from energy_planner.measurements import load_logs, make_windows, preprocess
 
     try:
-        samples, load_report = load_logs(list(paths), report=True)
+        samples, load_report = load_logs(log_files(paths), report=True)
     except LogIOError as exc:
         raise click.BadParameter(str(exc), param_hint="LOGS") from exc
     except LogError as exc:
@@ -41,7 +70,8 @@ def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str,
     except EnergyPlannerError as exc:
         raise click.ClickException(f"preprocessing failed: {exc}") from exc
     reports = {"load": _as_dict(load_report), "preprocessing": _as_dict(prep_report)}
-    return windows, reports, str(prep_report)
+    reports["windows"] = _as_dict(windows)
+    return windows, reports, str(prep_report), samples
 
 
 def resolve_terms(specs: tuple[str, ...], available: set[str]) -> list[Any]:
@@ -80,11 +110,11 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     lines = [
         "",
         f"held-out run energies (worst {min(limit, len(runs))} of {len(runs)} runs):",
-        f"  {'run':<28} {'fold':>4} {'measured J':>11} {'predicted J':>11} {'error':>8}",
+        f"  {'run':<36} {'fold':>4} {'measured J':>11} {'predicted J':>11} {'error':>8}",
     ]
     for _, r in runs.head(limit).iterrows():
         lines.append(
-            f"  {str(r['run']):<28} {int(r['fold']):>4} {r['measured_j']:>11.1f} "
+            f"  {str(r['run']):<36} {int(r['fold']):>4} {r['measured_j']:>11.1f} "
             f"{r['predicted_j']:>11.1f} {100 * r['rel_error']:>7.2f}%"
         )
     return "\n".join(lines)
@@ -147,7 +177,7 @@ def command(
 
     if folds == 1:
         raise click.BadParameter("use 0 (no validation) or 2 or more folds", param_hint="--folds")
-    windows, reports, prep_text = load_windows(logs, window)
+    windows, reports, prep_text, _ = load_windows(logs, window)
     extra = resolve_terms(terms, set(windows.samples.columns))
     try:
         result = fit_model(
