@@ -1,0 +1,194 @@
+"""``energy-planner terrain``: inspect a DEM, write slope/aspect rasters and a plot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from energy_planner.cli.options import emit, json_option
+
+NODATA_OUT = -9999.0  # as gdaldem
+
+
+def _resolve_dem(dem: str) -> Path:
+    """A path, or the name of a bundled map (``hill``, ``plane``, ``jacksboro``)."""
+    p = Path(dem)
+    if p.exists():
+        return p
+    from energy_planner.maps import map_names, map_path
+
+    if dem in map_names():
+        return map_path(dem)
+    return p
+
+
+def _load(dem: Path, band: int | None):
+    from energy_planner.errors import DEMError, DEMIOError
+    from energy_planner.maps import map_names
+    from energy_planner.terrain import load_dem
+
+    try:
+        return load_dem(dem, band=band)
+    except DEMIOError as exc:
+        raise click.BadParameter(
+            f"{exc}. Give a raster file (GeoTIFF, ...) or a bundled map name: "
+            f"{', '.join(map_names())}.",
+            param_hint="'DEM'",
+        ) from exc
+    except DEMError as exc:
+        if "--band" in str(exc) or "valid bands" in str(exc):
+            raise click.BadParameter(str(exc), param_hint="'--band'") from exc
+        raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
+
+
+def _write(path: Path, data: np.ndarray, terrain) -> None:
+    import rasterio
+
+    out = np.where(np.isfinite(data), data, NODATA_OUT).astype(np.float32)
+    profile = dict(
+        driver="GTiff",
+        width=out.shape[1],
+        height=out.shape[0],
+        count=1,
+        dtype="float32",
+        crs=terrain.crs,
+        transform=terrain.transform,
+        nodata=NODATA_OUT,
+        compress="deflate",
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(out, 1)
+
+
+def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    left, bottom, right, top = terrain.bounds
+    extent = (left, right, bottom, top)
+    fig, ax = plt.subplots(figsize=(7.5, 6.5), layout="constrained")
+    ax.imshow(terrain.hillshade(), cmap="gray", extent=extent, vmin=0, vmax=1)
+    finite = slope_deg[np.isfinite(slope_deg)]
+    vmax = float(np.percentile(finite, 99.5)) if finite.size else 1.0
+    im = ax.imshow(slope_deg, cmap="magma_r", alpha=0.6, extent=extent, vmin=0, vmax=vmax)
+    fig.colorbar(im, ax=ax, label="slope (deg, Horn)")
+    crs = terrain.crs.to_string() if terrain.crs is not None else "local metres"
+    ax.set_xlabel(f"x east (m, {crs})")
+    ax.set_ylabel("y north (m)")
+    ax.set_title(title)
+    ax.ticklabel_format(useOffset=False, style="plain")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def summarize(terrain) -> dict[str, Any]:
+    """Summary numbers of a :class:`~energy_planner.terrain.Terrain` (for text and JSON)."""
+    slope_deg = np.degrees(terrain.slope)
+    finite = slope_deg[np.isfinite(slope_deg)]
+    z = terrain.elevation[terrain.valid]
+
+    def crs_str(c):
+        return c.to_string() if c is not None else None
+
+    return {
+        "path": str(terrain.path) if terrain.path else None,
+        "crs": crs_str(terrain.source_crs),
+        "working_crs": crs_str(terrain.crs),
+        "reprojected": terrain.source_crs != terrain.crs,
+        "source_shape": list(terrain.source_shape),
+        "shape": list(terrain.shape),
+        "resolution_m": list(terrain.resolution),
+        "bounds": list(terrain.bounds),
+        "elevation_min": float(z.min()),
+        "elevation_max": float(z.max()),
+        "slope_min_deg": float(finite.min()) if finite.size else None,
+        "slope_mean_deg": float(finite.mean()) if finite.size else None,
+        "slope_max_deg": float(finite.max()) if finite.size else None,
+        "nodata_share": terrain.nodata_fraction,
+        "no_slope_share": float(1.0 - finite.size / slope_deg.size),
+    }
+
+
+def _text(r: dict[str, Any]) -> str:
+    def f(v, fmt="{:.2f}"):
+        return "-" if v is None else fmt.format(v)
+
+    lines = [
+        f"DEM            {r['path']}",
+        f"CRS            {r['crs'] or 'none (local metres)'}",
+        f"working CRS    {r['working_crs'] or 'none (local metres)'}"
+        + ("  (reprojected)" if r["reprojected"] else ""),
+        f"shape          {r['shape'][0]} x {r['shape'][1]} (source "
+        f"{r['source_shape'][0]} x {r['source_shape'][1]})",
+        f"resolution     {r['resolution_m'][0]:.3f} x {r['resolution_m'][1]:.3f} m",
+        f"elevation      {f(r['elevation_min'])} .. {f(r['elevation_max'])} m",
+        f"slope (deg)    min {f(r['slope_min_deg'])}  mean {f(r['slope_mean_deg'])}  "
+        f"max {f(r['slope_max_deg'])}",
+        f"nodata share   {r['nodata_share']:.2%} of cells "
+        f"({r['no_slope_share']:.2%} without a slope: border and nodata neighbours)",
+    ]
+    for key in ("slope_out", "aspect_out", "plot"):
+        if r.get(key):
+            lines.append(f"wrote          {r[key]}")
+    return "\n".join(lines)
+
+
+@click.command("terrain")
+@click.argument("dem", metavar="DEM")
+@click.option("--band", type=click.IntRange(min=1), default=None, help="Band to read (1-based).")
+@click.option(
+    "--slope-out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write slope (degrees, float32, nodata -9999) as GeoTIFF.",
+)
+@click.option(
+    "--aspect-out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write GIS aspect (degrees clockwise from north, downslope; -9999 on flat and "
+    "nodata cells, as gdaldem) as GeoTIFF.",
+)
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write a PNG of the slope over a hillshade.",
+)
+@json_option
+def command(
+    dem: str,
+    band: int | None,
+    slope_out: Path | None,
+    aspect_out: Path | None,
+    plot: Path | None,
+    as_json: bool,
+) -> None:
+    """Summarize a DEM: CRS, grid, metric resolution, slope statistics, nodata.
+
+    DEM is any single-band raster rasterio opens (or a bundled map: hill, plane,
+    jacksboro). Slopes are Horn's (as gdaldem). A DEM in degrees is reprojected to its
+    UTM zone first; the slope/aspect rasters are then written on that metric working
+    grid (UTM), not on the original lon/lat grid, so that no angle is resampled. For a
+    projected DEM the working grid is the DEM's own grid and georeferencing.
+    """
+    path = _resolve_dem(dem)
+    terrain = _load(path, band)
+    result = summarize(terrain)
+    if slope_out is not None:
+        _write(slope_out, np.degrees(terrain.slope), terrain)
+        result["slope_out"] = str(slope_out)
+    if aspect_out is not None:
+        _write(aspect_out, terrain.aspect_deg, terrain)
+        result["aspect_out"] = str(aspect_out)
+    if plot is not None:
+        _plot(plot, terrain, np.degrees(terrain.slope), f"Slope of {path.name}")
+        result["plot"] = str(plot)
+    emit(result, as_json, _text)
