@@ -88,8 +88,8 @@ class MotionCost:
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
         )  # fmt: skip
-        self.power = model.power_kernel(self.constants)
-        self._full, self.kernel, self._batch, self._path = make_kernels(self.power)
+        source = model.kernel_source(self.constants)
+        self._full, self.kernel, self._batch, self._path = make_kernels(source)
 
     def __call__(self, x0: float, y0: float, th0: float, x1: float, y1: float, th1: float):
         """Energy in J of one motion, ``inf`` if it breaks a limit or leaves the map."""
