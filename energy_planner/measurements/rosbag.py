@@ -291,9 +291,11 @@ def load_rosbag(
         log.info("%s: battery current negated (ROS BatteryState is negative while "
                  "discharging; canonical is positive)", path)
     if cur.size and np.median(cur) < 0:
-        log.warning("%s: median battery current %.3g A is negative after conversion; the "
-                    "driver may report positive while discharging (use "
-                    "battery_current='discharge_positive')", path, float(np.median(cur)))
+        other = "discharge_positive" if battery_current == "ros" else "ros"
+        log.warning("%s: median battery current %.3g A is negative (read with "
+                    "battery_current=%r): the robot would be charging while it walks; the "
+                    "driver may use the other sign convention (battery_current=%r)",
+                    path, float(np.median(cur)), battery_current, other)
         rep.notes.append(f"warning: median current {float(np.median(cur)):.3g} A < 0")
     out["current"] = cur
     for k in ("x", "y"):
