@@ -127,7 +127,8 @@ class Campaign:
 
         Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``truth.json``
         (:meth:`EnergyModel.save`), ``campaign.json`` (seed, effects, parameters) and
-        with ``bag=True`` a ROS 2 bag ``campaign_bag/`` of the whole campaign.
+        with ``bag=True`` one ROS 2 bag per run in ``bags/<run>/`` (written by
+        :func:`energy_planner.measurements.write_rosbag`; current with the ROS sign).
 
         Parameters
         ----------
@@ -181,19 +182,31 @@ class Campaign:
             raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
         written += [runs_path, truth_path, meta_path]
         if bag:
-            written.append(self._write_bag(out / "campaign_bag"))
+            written += self._write_bag(out / "bags", progress)
         return written
 
-    def _write_bag(self, path: Path) -> Path:
+    def _write_bag(self, path: Path, progress: bool = False) -> list[Path]:
         try:
             from energy_planner.measurements import write_rosbag
-        except ImportError as exc:
+        except ImportError as exc:  # pragma: no cover - the measurements module is present
             raise LogIOError(
-                f"cannot write the ROS 2 bag {str(path)!r}: energy_planner.measurements does "
-                "not provide write_rosbag yet; write CSV or Parquet instead"
+                f"cannot write ROS 2 bags to {str(path)!r}: energy_planner.measurements does "
+                "not provide write_rosbag; write CSV or Parquet instead"
             ) from exc
-        write_rosbag(self.logs, path, version=2)
-        return path
+        from tqdm.auto import tqdm
+
+        if path.exists() and any(path.iterdir()):
+            raise LogIOError(
+                f"bag folder {str(path)!r} already holds bags; remove it or choose another "
+                "--out directory (bags are never overwritten)"
+            )
+        path.mkdir(parents=True, exist_ok=True)
+        written: list[Path] = []
+        groups = self.logs.groupby("run", sort=False, observed=True)
+        for run, df in tqdm(groups, total=len(self.runs), desc="writing bags",
+                            disable=not progress, unit="bag"):
+            written += list(write_rosbag(df, path / str(run), version=2))
+        return written
 
     def metadata(self) -> dict[str, Any]:
         """Seed, effects, counts and every parameter, JSON-ready."""
