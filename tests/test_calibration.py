@@ -261,7 +261,7 @@ def test_missing_motion_names_terms(truth):
 def test_single_speed_warns_for_speed_term(campaign):
     res = fit_model(campaign, [*BASE_TERMS, "speed_dependence"], n_splits=0)
     msgs = "\n".join(res.warnings)
-    assert "one speed (0.30 m/s" in msgs and "'speed_dependence'" in msgs
+    assert "cruise at one speed (0.30 m/s" in msgs and "'speed_dependence'" in msgs
     assert "nearly in the span" in msgs  # and the VIF check names it too
     assert res.vif["speed_dependence"] > 30
 
