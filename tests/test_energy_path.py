@@ -56,6 +56,23 @@ def test_straight_climb_and_descent_of_a_plane(psi):
     assert seg.forward_share == pytest.approx(1.0)
 
 
+def test_diagonal_climb_is_charged_the_true_grade():
+    """Walking 60 deg off the fall line: the force is f0 + f1 * (rise / ground distance).
+
+    That holds exactly because gamma is the heading in the slope plane, under which
+    sin(alpha) cos(gamma) is the grade along body x.
+    """
+    a, off = math.radians(20.0), math.radians(60.0)
+    t = plane(20.0, 0.0)
+    L = 30.0
+    xy = [[35.0, 50.0], [35.0 + L * math.cos(off), 50.0 + L * math.sin(off)]]
+    rise = L * math.cos(off) * math.tan(a)
+    ground = math.hypot(L, rise)
+    r = path_energy(t, MODEL, xy)
+    assert r.distance_m == pytest.approx(ground, rel=1e-9)
+    assert r.energy_j == pytest.approx((600 + 1000 * rise / ground) * ground, rel=1e-9)
+
+
 def test_lateral_traverse_and_lateral_climb():
     a, psi = 15.0, 30.0
     t = plane(a, psi)
@@ -157,9 +174,14 @@ def test_kernel_agrees_with_numpy_evaluation_of_the_model():
     bz /= np.linalg.norm(bz, axis=1)[:, None]
     by = np.cross(bz, bx)
     v = step3 / dt[:, None]
+    psi = np.asarray(smp.uphill_azimuth)
+    e_up = np.column_stack([np.cos(psi), np.sin(psi), np.hypot(*g.T)])
+    e_up /= np.linalg.norm(e_up, axis=1)[:, None]
+    e_side = np.column_stack([-np.sin(psi), np.cos(psi), np.zeros(n)])
     f = {
         "alpha": np.asarray(smp.slope),
-        "gamma": np.angle(np.exp(1j * (th - np.asarray(smp.uphill_azimuth)))),
+        # in-plane heading: angle of body x from the in-plane uphill direction
+        "gamma": np.arctan2(np.sum(bx * e_side, axis=1), np.sum(bx * e_up, axis=1)),
         "vx": np.sum(v * bx, axis=1),
         "vy": np.sum(v * by, axis=1),
         "wz": np.full(n, (th1 - th0) / T),

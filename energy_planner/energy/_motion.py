@@ -94,7 +94,10 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
         th = th0 + s * dth
         g2 = gxs * gxs + gys * gys
         alpha = math.atan(math.sqrt(g2))
-        gamma = wrap_angle(th - math.atan2(gys, gxs))
+        # relative heading in the slope plane (as the IMU measures it): from the in-plane
+        # uphill direction to body x; tan(gamma) = tan(theta - psi) cos(alpha)
+        gh = th - math.atan2(gys, gxs)
+        gamma = math.atan2(math.sin(gh) * math.cos(alpha), math.cos(gh))
         if math.sin(alpha) * abs(math.sin(gamma)) > smax:
             out[12] = TOO_CROSS
             out[0] = np.inf

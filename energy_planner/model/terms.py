@@ -4,9 +4,11 @@ Every term is one coefficient times a formula over per-sample features (see
 :mod:`energy_planner.model.formula`). Power is linear in the coefficients, so a model is
 fitted by least squares and a new physical effect is one more line in :data:`CATALOG`.
 
-Conventions (design notes): ``alpha`` is the slope angle, ``gamma = wrap(theta - psi)``
-the signed heading relative to uphill (0 facing uphill, +pi/2 with uphill on the robot's
-right), ``(vx, vy, wz)`` the body twist (REP-103: x forward, y left).
+Conventions (design notes): ``alpha`` is the slope angle, ``gamma`` the signed heading
+relative to uphill (0 facing uphill, +pi/2 with uphill on the robot's right), measured
+in the slope plane as the IMU sees it: ``tan(gamma) = tan(theta - psi) cos(alpha)``, equal
+to ``wrap(theta - psi)`` on the fall line and across it. ``(vx, vy, wz)`` is the body
+twist (REP-103: x forward, y left), along the ground.
 
 The base set is the paper's wrench ``f(alpha, gamma) = (fx, fy, tau)`` applied to the
 twist, linear in the twist per direction of motion. Moving along the body direction
