@@ -1,0 +1,258 @@
+"""``energy-planner energy``: the energy of a given path over a DEM, per segment."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    dem_option,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+    speed_option,
+    yaw_rate_option,
+)
+
+band_option = click.option(
+    "--band",
+    type=click.IntRange(min=1),
+    default=None,
+    help="1-based band of the DEM (required when the raster has several bands).",
+)
+
+
+def load_terrain(dem: Path, band: int | None) -> Any:
+    """Load ``--dem``; DEM errors become ``click.BadParameter``."""
+    from energy_planner.errors import DEMError, DEMIOError
+    from energy_planner.terrain import load_dem
+
+    try:
+        return load_dem(dem, band=band)
+    except (DEMIOError, DEMError) as exc:
+        hint = " (use --band N)" if "band" in str(exc) else ""
+        raise click.BadParameter(f"{exc}{hint}", param_hint="--dem") from exc
+
+
+def _source_bounds(terrain: Any) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of the DEM in its own CRS."""
+    t = terrain.source_transform
+    rows, cols = terrain.source_shape
+    xs = [t.c, t.c + cols * t.a]
+    ys = [t.f, t.f + rows * t.e]
+    return min(xs), min(ys), max(xs), max(ys)
+
+
+def _fmt_xy(x: float, y: float, geographic: bool) -> str:
+    return f"({x:.6f}, {y:.6f})" if geographic else f"({x:.2f}, {y:.2f})"
+
+
+def check_waypoints(terrain: Any, cost: Any, xy_src: Any, xy_work: Any) -> None:
+    """Raise ``click.ClickException`` naming the first waypoint or segment off the map.
+
+    Waypoints are named by index and by their coordinates in the DEM's CRS.
+    """
+    import numpy as np
+
+    geographic = bool(getattr(terrain.source_crs, "is_geographic", False))
+    s = terrain.sample(xy_work[:, 0], xy_work[:, 1])
+    bad = np.flatnonzero(~np.isfinite(np.atleast_1d(s.slope)))
+    xmin, ymin, xmax, ymax = _source_bounds(terrain)
+    crs = terrain.source_crs or "local metres"
+    if bad.size:
+        i = int(bad[0])
+        x, y = xy_src[i]
+        inside = xmin <= x <= xmax and ymin <= y <= ymax
+        where = (
+            "on nodata (or within a cell of nodata or the map edge, where the slope is not defined)"
+            if inside
+            else "outside the map"
+        )
+        msg = (
+            f"waypoint {i} at {_fmt_xy(x, y, geographic)} is {where}; "
+            f"{bad.size} of {len(xy_src)} waypoint(s) are unusable: {bad.tolist()[:10]}"
+        )
+        if bad.size == len(xy_src):
+            msg += (
+                f"\nhint: are the waypoints in the DEM's CRS ({crs})? The DEM covers "
+                f"x {xmin:g} .. {xmax:g}, y {ymin:g} .. {ymax:g}"
+            )
+        raise click.ClickException(msg)
+    d = np.diff(xy_work, axis=0)
+    h = np.arctan2(d[:, 1], d[:, 0])
+    e = cost.batch(xy_work[:-1, 0], xy_work[:-1, 1], h, xy_work[1:, 0], xy_work[1:, 1], h)
+    off = np.flatnonzero(~np.isfinite(e))
+    if off.size:
+        i = int(off[0])
+        raise click.ClickException(
+            f"segment {i} from waypoint {i} at {_fmt_xy(*xy_src[i], geographic)} to "
+            f"waypoint {i + 1} at {_fmt_xy(*xy_src[i + 1], geographic)} crosses nodata or "
+            f"leaves the map ({off.size} segment(s) do: {off.tolist()[:10]})"
+        )
+
+
+def _pct(v: float) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{100 * v:.0f}%"
+
+
+def format_table(res: dict[str, Any]) -> str:
+    """Human-readable totals and per-segment table."""
+    lines = [
+        f"energy    {res['energy_j']:.1f} J ({res['energy_wh']:.3f} Wh)",
+        f"distance  {res['distance_m']:.2f} m along the ground "
+        f"({res['map_distance_m']:.2f} m on the map)",
+        f"duration  {res['duration_s']:.1f} s",
+        f"mean      {res['energy_j'] / max(res['distance_m'], 1e-12):.1f} J/m",
+        "",
+    ]
+    segs = res["segments"]
+    other = any(
+        s["other_share"] is not None and math.isfinite(s["other_share"]) and s["other_share"] > 0
+        for s in segs
+    )
+    head = (
+        f"{'seg':>4} {'energy J':>10} {'dist m':>8} {'time s':>8} {'slope°':>7} "
+        f"{'rel.head°':>9} {'fwd':>5} {'lat':>5} {'turn':>5}"
+    ) + (f" {'other':>5}" if other else "")
+    lines.append(head)
+    for s in segs:
+        row = (
+            f"{s['segment']:>4} {s['energy_j']:>10.1f} {s['distance_m']:>8.2f} "
+            f"{s['duration_s']:>8.1f} {s['mean_slope_deg']:>7.1f} "
+            f"{s['mean_rel_heading_deg']:>9.1f} {_pct(s['forward_share']):>5} "
+            f"{_pct(s['lateral_share']):>5} {_pct(s['turning_share']):>5}"
+        )
+        if other:
+            row += f" {_pct(s['other_share']):>5}"
+        lines.append(row)
+    lines += [
+        "",
+        "slope: mean slope along the segment; rel.head: mean |relative heading| "
+        "(0 = facing uphill, 180 = downhill); fwd/lat/turn: shares of the segment's work",
+    ]
+    for note in res.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
+
+
+def compute(
+    dem: Path,
+    waypoints: Path,
+    model_path: Path | None = None,
+    speed: float = 0.3,
+    yaw_rate: float = 0.5,
+    band: int | None = None,
+) -> dict[str, Any]:
+    """The command's work, returning the JSON-ready result (click errors on bad input)."""
+    import numpy as np
+
+    from energy_planner.energy import MotionCost, path_energy
+    from energy_planner.energy.waypoints import (
+        WaypointError,
+        WaypointIOError,
+        read_waypoints,
+        waypoints_to_work,
+    )
+    from energy_planner.errors import EnergyPlannerError
+
+    terrain = load_terrain(dem, band)
+    model = load_model_option(model_path)
+    try:
+        wp = read_waypoints(waypoints)
+    except WaypointIOError as exc:
+        raise click.BadParameter(str(exc), param_hint="--waypoints") from exc
+    except WaypointError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: a CSV with a header x,y[,yaw_deg][,t] or a GeoJSON LineString, "
+            "in the DEM's CRS (docs/energy.md)"
+        ) from exc
+    notes = list(wp.notes)
+    if wp.declared_crs and terrain.source_crs is not None:
+        from rasterio.crs import CRS
+        from rasterio.errors import CRSError
+
+        try:
+            same = CRS.from_user_input(wp.declared_crs) == terrain.source_crs
+        except CRSError:
+            same = None
+        if same is False:
+            raise click.ClickException(
+                f"waypoint file {str(waypoints)!r} declares CRS {wp.declared_crs} but the DEM "
+                f"is in {terrain.source_crs}; give the waypoints in the DEM's CRS"
+            )
+        if same is None:
+            notes.append(f"could not interpret the declared CRS {wp.declared_crs!r}; ignored")
+    try:
+        xy, yaw = waypoints_to_work(terrain, wp)
+        cost = MotionCost(terrain, model, speed, yaw_rate)
+        check_waypoints(terrain, cost, wp.xy, xy)
+        result = path_energy(terrain, model, xy, yaw=yaw, t=wp.t, cost=cost)
+    except click.ClickException:
+        raise
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    out = result.to_dict()
+    # the kernel reports distances along the ground; add the map (horizontal) distance,
+    # the one a GIS measures between the waypoints
+    flat = np.hypot(*np.diff(xy, axis=0).T)
+    out["map_distance_m"] = float(flat.sum())
+    for seg, d in zip(out["segments"], flat, strict=True):
+        seg["map_distance_m"] = float(d)
+    if terrain.source_crs != terrain.crs:
+        notes.append(
+            f"waypoints converted from the DEM's CRS {terrain.source_crs} to the working "
+            f"grid {terrain.crs}; distances are on that grid"
+        )
+    out.update(
+        {
+            "waypoints": len(wp),
+            "dem": str(dem),
+            "working_crs": str(terrain.crs) if terrain.crs is not None else None,
+            "yaw_given": wp.yaw_rad is not None,
+            "times_given": wp.t is not None,
+            "speed": speed,
+            "yaw_rate": yaw_rate,
+            "notes": notes,
+        }
+    )
+    return out
+
+
+@click.command("energy")
+@dem_option
+@click.option(
+    "--waypoints",
+    "waypoints",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Waypoints in the DEM's CRS: CSV with header x,y[,yaw_deg][,t] or a GeoJSON "
+    "LineString (optional properties.yaw_deg, properties.t lists).",
+)
+@model_option
+@speed_option
+@yaw_rate_option
+@band_option
+@json_option
+def command(
+    dem: Path,
+    waypoints: Path,
+    model_path: Path | None,
+    speed: float,
+    yaw_rate: float,
+    band: int | None,
+    as_json: bool,
+) -> None:
+    """Energy of walking a given path over a DEM, with a per-segment breakdown.
+
+    Without yaw the robot faces along each segment and turns in place at corners; with
+    yaw_deg (degrees CCW from the map's x axis) it keeps the given orientation. Without
+    times it walks at --speed and turns at --yaw-rate.
+
+    Example: energy-planner energy --dem maps/hill.tif --waypoints path.csv
+    """
+    res = compute(dem, waypoints, model_path, speed, yaw_rate, band)
+    emit(res, as_json, format_table)
