@@ -82,7 +82,10 @@ class PlanResult:
         x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
         x, y = np.atleast_1d(x), np.atleast_1d(y)
         yaw = np.degrees(self.states[:, 2])
-        return [{"x": float(a), "y": float(b), "yaw_deg": float(c)} for a, b, c in zip(x, y, yaw)]
+        return [
+            {"x": float(a), "y": float(b), "yaw_deg": float(c)}
+            for a, b, c in zip(x, y, yaw, strict=True)
+        ]
 
     def to_geojson(self, terrain) -> dict[str, Any]:
         """A GeoJSON Feature: LineString in the DEM's CRS, ``yaw_deg`` per vertex."""
@@ -305,99 +308,6 @@ def _with_exact_goal(states: np.ndarray, goal) -> np.ndarray:
     return states
 
 
-def refine_path(
-    cost,
-    terrain,
-    states: np.ndarray,
-    *,
-    budget: float,
-    seed: int = 0,
-    max_rounds: int | None = None,
-    progress: _Progress | None = None,
-    step_size: float | None = None,
-    tol: float = 1e-4,
-) -> tuple[np.ndarray, dict]:
-    """Improve a path with OMPL's cost-aware simplifier until it stops improving.
-
-    Each round runs ``perturbPath`` and ``partialShortcutPath`` (the two
-    ``PathSimplifier`` operations that respect the objective; ``simplify`` and
-    ``reduceVertices`` only check validity and would straighten a cost-only path). The
-    path is first subdivided so that vertices are about ``step_size`` apart. Rounds stop
-    after two rounds with a relative gain below ``tol`` (reproducible for a given seed),
-    after ``max_rounds``, or when ``budget`` seconds have passed.
-
-    Returns
-    -------
-    states : ndarray, shape (n, 3)
-    info : dict
-        ``rounds`` and ``motion_cost_calls``.
-    """
-    from ompl import geometric as og
-
-    from energy_planner.planning.objective import path_cost, path_states, set_state
-
-    t0 = _time.perf_counter()
-    _seed_ompl(seed)
-    space, ss, si, obj = _ompl_setup(cost, terrain)
-    ss.setup()
-    kernel = obj._kernel
-    res = float(abs(terrain.grid[2]))
-    step_size = float(step_size) if step_size else 2.0 * res
-    path = og.PathGeometric(si)
-    st = space.allocState()
-    dense = _densify(states, step_size)
-    for x, y, yaw in dense:
-        set_state(st, x, y, yaw)
-        path.append(st)
-    simplifier = og.PathSimplifier(si, None, obj)
-    best = path_cost(kernel, path_states(path))
-    best_states = path_states(path)
-    if progress is not None:
-        progress.report(best)
-    calm = 0
-    rounds = 0
-    n = path.getStateCount()
-    while _time.perf_counter() - t0 < budget and (max_rounds is None or rounds < max_rounds):
-        rounds += 1
-        simplifier.perturbPath(path, step_size, 4 * n, n)
-        simplifier.partialShortcutPath(path, 2 * n, n)
-        cur_states = path_states(path)
-        e = path_cost(kernel, cur_states)
-        gain = (best - e) / best if math.isfinite(best) and best > 0 else math.inf
-        if e < best:
-            best, best_states = e, cur_states
-        if progress is not None:
-            progress.report(best)
-        calm = calm + 1 if gain < tol else 0
-        if calm >= 2:
-            break
-        n = path.getStateCount()
-    info = {"rounds": rounds, "motion_cost_calls": obj.calls}
-    del path, simplifier, ss, obj, si, space
-    return best_states, info
-
-
-def _densify(states: np.ndarray, spacing: float) -> np.ndarray:
-    """Insert poses along each motion (linear x, y; shortest-arc yaw) every ``spacing`` m."""
-    out = [states[0]]
-    for a, b in zip(states[:-1], states[1:]):
-        d = math.hypot(b[0] - a[0], b[1] - a[1])
-        n = max(1, math.ceil(d / spacing - 1e-9))
-        dth = math.remainder(b[2] - a[2], 2 * math.pi)
-        for k in range(1, n + 1):
-            f = k / n
-            out.append(
-                np.array(
-                    [
-                        a[0] + f * (b[0] - a[0]),
-                        a[1] + f * (b[1] - a[1]),
-                        math.remainder(a[2] + f * dth, 2 * math.pi),
-                    ]
-                )
-            )
-    return np.array(out)
-
-
 def plan(
     terrain,
     model,
@@ -513,15 +423,18 @@ def plan(
 
             prog.report(path_cost(_cost_fn(cost), states))
             if planner == "auto":
+                from energy_planner.planning.refine import refine_path
+
                 states, rinfo = refine_path(
                     cost,
-                    terrain,
                     states,
                     budget=max(time - prog.elapsed(), 0.0),
                     seed=seed,
+                    spacing=max(lat.step, float(abs(terrain.grid[2]))),
+                    free_start_yaw=start_p[2] is None,
+                    free_goal_yaw=goal_p[2] is None,
                     max_rounds=iterations,
-                    progress=prog,
-                    step_size=max(lat.step, float(abs(terrain.grid[2]))),
+                    report=prog.report,
                 )
                 info["refine"] = rinfo
         else:
