@@ -74,8 +74,12 @@ def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str,
     return windows, reports, str(prep_report), samples
 
 
-def resolve_terms(specs: tuple[str, ...], available: set[str]) -> list[Any]:
-    """Resolve ``--term`` values; a bad one becomes ``click.BadParameter``."""
+def resolve_terms(specs: tuple[str, ...], available: set[str] | None = None) -> list[Any]:
+    """Resolve ``--term`` values; a bad one becomes ``click.BadParameter``.
+
+    With ``available`` (the log's columns), also check that every variable a term reads
+    is a channel of the logs.
+    """
     from energy_planner.errors import FormulaError, ModelError
     from energy_planner.model import BASE_TERMS, CATALOG, resolve_term
 
@@ -85,8 +89,11 @@ def resolve_terms(specs: tuple[str, ...], available: set[str]) -> list[Any]:
             term = resolve_term(spec)
         except (FormulaError, ModelError) as exc:
             raise click.BadParameter(str(exc), param_hint="--term") from exc
-        if term.name in BASE_TERMS:
-            continue  # already in the base model
+        if term.name in BASE_TERMS or term.name in {t.name for t in terms}:
+            continue  # already in the model
+        terms.append(term)
+        if available is None:
+            continue
         missing = sorted(set(term.variables) - available - {"speed"})
         if missing:
             known = [v for v in sorted(available) if v not in ("window", "run", "t")]
@@ -96,7 +103,6 @@ def resolve_terms(specs: tuple[str, ...], available: set[str]) -> list[Any]:
                 f"Catalog terms: {', '.join(CATALOG)}",
                 param_hint="--term",
             )
-        terms.append(term)
     return terms
 
 
@@ -177,6 +183,7 @@ def command(
 
     if folds == 1:
         raise click.BadParameter("use 0 (no validation) or 2 or more folds", param_hint="--folds")
+    resolve_terms(terms)  # syntax and names first: fail before loading any log
     windows, reports, prep_text, _ = load_windows(logs, window)
     extra = resolve_terms(terms, set(windows.samples.columns))
     try:

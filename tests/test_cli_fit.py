@@ -1,0 +1,124 @@
+"""``energy-planner fit`` and ``energy-planner figures`` through click's CliRunner."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from energy_planner.cli import main
+from energy_planner.model import BASE_TERMS, CATALOG, EnergyModel
+from energy_planner.simulate import BASE_COEFFICIENTS, CampaignConfig, simulate_campaign
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("campaign")
+    config = CampaignConfig.small(slopes_deg=(0.0, 20.0), arcs=False, stand=False)
+    simulate_campaign(seed=3, config=config).write(out)
+    return out
+
+
+def test_fit_json(logs, tmp_path):
+    out = tmp_path / "model.json"
+    r = CliRunner().invoke(
+        main,
+        ["fit", str(logs), "--out", str(out), "--term", "idle_power", "--folds", "3", "--json"],
+    )
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    assert {"model", "load", "preprocessing", "windows", "fit"} <= set(doc)
+    fit = doc["fit"]
+    assert {"terms", "n_windows", "n_runs", "heldout", "warnings", "coverage"} <= set(fit)
+    names = [t["name"] for t in fit["terms"]]
+    assert names == [*BASE_TERMS, "idle_power"]
+    assert all(t["stderr"] > 0 for t in fit["terms"])
+    assert fit["heldout"]["n_splits"] == 3
+    assert fit["heldout"]["energy_mean_abs_rel_error"] < 0.05
+    # every run is held out exactly once
+    runs = [r["run"] for r in fit["heldout"]["runs"]]
+    assert len(runs) == len(set(runs)) == fit["n_runs"]
+    model = EnergyModel.load(out)
+    assert model.term_names == names
+    # forces near the simulator's truth (slip makes the logs show ~2-5 % more)
+    for name in ("fwd_const", "lat_const", "bwd_const"):
+        assert model.coefficients[name] == pytest.approx(BASE_COEFFICIENTS[name], rel=0.1)
+
+
+def test_fit_text_output(logs, tmp_path):
+    out = tmp_path / "m.json"
+    r = CliRunner().invoke(
+        main, ["fit", str(logs), "--out", str(out), "--term", "payload_kg * speed"]
+    )
+    assert r.exit_code == 0, r.output
+    assert "discard_low_speed" in r.output  # the preprocessing report
+    assert "std err" in r.output and "payload_kg * speed" in r.output
+    assert "held-out by run" in r.output and "held-out run energies" in r.output
+    assert out.is_file()
+
+
+def test_fit_bad_term(logs, tmp_path):
+    r = CliRunner().invoke(
+        main, ["fit", str(logs), "--out", str(tmp_path / "m.json"), "--term", "speeed * sin(alpha)"]
+    )
+    assert r.exit_code == 2
+    assert "speeed" in r.output and "idle_power" in r.output  # names it, lists the catalog
+    assert not (tmp_path / "m.json").exists()
+    r = CliRunner().invoke(
+        main, ["fit", str(logs), "--out", str(tmp_path / "m.json"), "--term", "__import__('os')"]
+    )
+    assert r.exit_code == 2 and "unknown function '__import__'" in r.output
+    assert all(name in r.output for name in CATALOG)
+
+
+def test_fit_too_little_data(logs, tmp_path):
+    one = sorted(logs.glob("straight_forward_*.csv"))[:1]
+    r = CliRunner().invoke(main, ["fit", str(one[0]), "--out", str(tmp_path / "m.json")])
+    assert r.exit_code == 1
+    assert "from 1 run(s)" in r.output and "need at least 24 windows" in r.output
+
+
+def test_fit_unknown_channel(logs, tmp_path):
+    r = CliRunner().invoke(
+        main, ["fit", str(logs), "--out", str(tmp_path / "m.json"), "--term", "mass_kg * speed"]
+    )
+    assert r.exit_code == 2
+    assert "'mass_kg'" in r.output and "payload_kg" in r.output  # lists the log channels
+
+
+def test_fit_missing_path(tmp_path):
+    r = CliRunner().invoke(main, ["fit", str(tmp_path / "nope"), "--out", str(tmp_path / "m")])
+    assert r.exit_code == 2 and "nope" in r.output
+
+
+def test_figures_json(logs, tmp_path):
+    out = tmp_path / "figs"
+    r = CliRunner().invoke(main, ["figures", str(logs), "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    figs = doc["figures"]
+    assert set(figs) == {"force_slope", "yaw_torque", "superposition"}
+    for f in figs.values():
+        p = out / f["path"].split("/")[-1]
+        assert p.is_file() and p.stat().st_size > 10_000
+    assert (
+        figs["force_slope"]["uphill_forward_median_n"]
+        > figs["force_slope"]["downhill_forward_median_n"]
+    )
+    assert figs["superposition"]["mean_abs_rel_ab"] < 0.05
+    assert doc["model"] == "base model fitted to the logs"
+
+
+def test_figures_with_model_and_no_composites(logs, tmp_path):
+    files = sorted(p for p in logs.glob("*.csv") if p.name != "runs.csv")
+    files = [p for p in files if not p.name.startswith("sup")]
+    model = tmp_path / "m.json"
+    EnergyModel(BASE_TERMS, BASE_COEFFICIENTS).save(model)
+    r = CliRunner().invoke(
+        main, ["figures", *map(str, files), "--out", str(tmp_path / "f"), "--model", str(model)]
+    )
+    assert r.exit_code == 0, r.output
+    assert "force_slope.png" in r.output and "yaw_torque.png" in r.output
+    # runs.csv is found next to the files, but none of its composites was loaded
+    assert "superposition.png not drawn" in r.output
