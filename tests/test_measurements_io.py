@@ -121,3 +121,19 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     assert lrep.validation.n_nan == {"qx": 1, "current": 1}
     text = str(lrep)
     assert "voltage outside 5..1000 V" in text and "time gaps > 0.5 s" in text
+
+
+def test_folder_scan_skips_tables_that_are_not_logs_and_says_so(tmp_path):
+    make_log().to_csv(tmp_path / "r1.csv", index=False)
+    pd.DataFrame({"run": ["r1"], "slope_deg": [10.0]}).to_csv(tmp_path / "runs.csv",
+                                                                index=False)
+    s, rep = load_logs(tmp_path, report=True)
+    assert list(s["run"].unique()) == ["r1"]
+    assert [k["path"] for k in rep.skipped] == [str(tmp_path / "runs.csv")]
+    assert "skipped" in str(rep) and rep.to_dict()["skipped"][0]["reason"]
+    # named explicitly it is an error, as is a partial log found in a folder
+    with pytest.raises(LogError, match="runs.csv lacks required column"):
+        load_logs(tmp_path / "runs.csv")
+    make_log().drop(columns=["qw"]).to_csv(tmp_path / "r2.csv", index=False)
+    with pytest.raises(LogError, match=r"r2.csv lacks required column\(s\) 'qw'"):
+        load_logs(tmp_path)

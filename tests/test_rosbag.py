@@ -47,10 +47,14 @@ def assert_round_trip(orig, back):
     assert list(back["surface"].astype(str)) == list(orig["surface"].astype(str))
 
 
-@pytest.mark.parametrize("version,name", [(2, "ros2_bag"), (1, "ros1.bag")])
-def test_round_trip_table_bag_table(tmp_path, version, name):
+@pytest.mark.parametrize("version,name,storage", [(2, "ros2_bag", "mcap"),
+                                                  (2, "ros2_bag", "sqlite3"),
+                                                  (1, "ros1.bag", "mcap")])
+def test_round_trip_table_bag_table(tmp_path, version, name, storage):
     orig = sample_table()
-    paths = write_rosbag(orig, tmp_path / name, version=version)
+    paths = write_rosbag(orig, tmp_path / name, version=version, storage=storage)
+    if version == 2:
+        assert len(list(paths[0].glob(f"*.{'mcap' if storage == 'mcap' else 'db3'}"))) == 1
     assert paths == [tmp_path / name]
     back, rep = load_rosbag(paths[0], report=True)
     assert_round_trip(orig, back)
@@ -257,6 +261,8 @@ def test_custom_topics_round_trip_and_bad_arguments(tmp_path):
         write_rosbag(orig, p)
     with pytest.raises(LogError, match="t must be >= 0"):
         write_rosbag(orig.assign(t=orig["t"] - 10), tmp_path / "neg")
+    with pytest.raises(LogError, match="'mcap' or 'sqlite3'"):
+        write_rosbag(orig, tmp_path / "y", storage="db")
     with pytest.raises(LogError, match="unknown topic role"):
         write_rosbag(orig, tmp_path / "x", topics={"gps": "/fix"})
     with pytest.raises(LogIOError, match="does not exist"):

@@ -60,6 +60,10 @@ class LoadReport:
         time span of all topics or too far from a source message), reason -> count.
     notes : list of str
         Anything else worth knowing (resampling method, conversions).
+    skipped : list of dict
+        Tables found by scanning a folder that have none of the log columns (e.g. a
+        ``runs.csv`` list of runs), with the reason. A table named explicitly, or one
+        with some but not all required columns, is an error instead.
     """
 
     files: list[dict[str, Any]] = field(default_factory=list)
@@ -71,6 +75,7 @@ class LoadReport:
     current_sign_flipped: bool = False
     dropped: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    skipped: list[dict[str, str]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""
@@ -84,6 +89,7 @@ class LoadReport:
             "current_sign_flipped": self.current_sign_flipped,
             "dropped": dict(self.dropped),
             "notes": list(self.notes),
+            "skipped": [dict(k) for k in self.skipped],
         }
 
     def __str__(self) -> str:
@@ -91,6 +97,8 @@ class LoadReport:
                  f"{len(self.runs)} run(s)"]
         for f in self.files:
             lines.append(f"  {f['format']:<8} {f['rows']:>8} rows  {f['path']}")
+        for k in self.skipped:
+            lines.append(f"  skipped  {k['path']}: {k['reason']}")
         if self.extra_columns:
             lines.append(f"extra columns kept: {', '.join(self.extra_columns)}")
         v = self.validation
@@ -117,10 +125,11 @@ def is_ros2_bag(path: Path) -> bool:
     return path.is_dir() and (path / "metadata.yaml").is_file()
 
 
-def _expand(paths: str | Path | Iterable[str | Path]) -> list[Path]:
+def _expand(paths: str | Path | Iterable[str | Path]) -> list[tuple[Path, bool]]:
+    """Files to read, each with True when it was found by scanning a folder."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    out: list[Path] = []
+    out: list[tuple[Path, bool]] = []
     for p in map(Path, paths):
         if not p.exists():
             raise LogIOError(f"log path {str(p)!r} does not exist; expected a CSV/Parquet file, "
@@ -135,9 +144,9 @@ def _expand(paths: str | Path | Iterable[str | Path]) -> list[Path]:
                 raise LogIOError(
                     f"folder {str(p)!r} holds no robot log; expected *.csv, *.parquet, *.pq, "
                     "*.bag files or ROS 2 bag folders")
-            out.extend(found)
+            out.extend((q, True) for q in found)
         elif p.is_dir() or p.suffix == ".bag" or p.suffix.lower() in TABLE_SUFFIXES:
-            out.append(p)
+            out.append((p, False))
         else:
             raise LogIOError(
                 f"cannot read {str(p)!r}: unknown suffix {p.suffix!r}; expected one of "
@@ -245,10 +254,16 @@ def load_logs(
     rep = LoadReport()
     frames: list[pd.DataFrame] = []
     owner: dict[str, str] = {}
-    for path in files:
+    for path, scanned in files:
         if path.suffix.lower() in TABLE_SUFFIXES:
             df = _read_table(path)
             fmt = TABLE_SUFFIXES[path.suffix.lower()]
+            if scanned and not set(REQUIRED_COLUMNS) & set(df.columns):
+                # a table in the folder that is not a log at all (e.g. a run list)
+                rep.skipped.append({"path": str(path), "reason": "no log column (t, qw, ..., "
+                                    "current): not a robot log"})
+                log.info("skipped %s: it has none of the log columns", path)
+                continue
             check_columns(df.columns, str(path), need_run=False)
             if "run" not in df.columns:
                 df.insert(0, "run", path.stem)
@@ -273,6 +288,9 @@ def load_logs(
             owner[r] = str(path)
         rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": runs})
         frames.append(df)
+    if not frames:
+        raise LogIOError(f"no robot log among {', '.join(str(p) for p, _ in files)}; "
+                         "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS))
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     for c in samples.columns:
         col = samples[c]
@@ -286,5 +304,5 @@ def load_logs(
     rep.columns = list(samples.columns)
     rep.extra_columns = [c for c in samples.columns if c not in CANONICAL_COLUMNS]
     log.info("loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs),
-             len(files))
+             len(frames))
     return (samples, rep) if report else samples
