@@ -234,9 +234,16 @@ def aspect_from_gradient(dzdx: np.ndarray, dzdy: np.ndarray, degrees: bool = Tru
     dzdx = np.asarray(dzdx, dtype=np.float64)
     dzdy = np.asarray(dzdy, dtype=np.float64)
     # downslope vector (-dzdx, -dzdy); azimuth clockwise from north = atan2(east, north)
-    a = np.arctan2(-dzdx, -dzdy)
-    a = np.where((dzdx == 0) & (dzdy == 0), np.nan, np.degrees(a) % 360.0)
-    return a if degrees else np.radians(a)
+    shape = np.broadcast(dzdx, dzdy).shape
+    a = np.arctan2(-dzdx, -dzdy).reshape(-1)  # (-pi, pi], a flat copy
+    np.degrees(a, out=a)
+    a[a < 0.0] += 360.0
+    a[a >= 360.0] = 0.0  # -tiny + 360 rounds to 360
+    a += 0.0  # -0.0 -> 0.0
+    a[((dzdx == 0) & (dzdy == 0)).reshape(-1)] = np.nan
+    if not degrees:
+        np.radians(a, out=a)
+    return a.reshape(shape)
 
 
 def slope(
