@@ -160,18 +160,27 @@ class Campaign:
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise LogIOError(f"cannot create output directory {str(out)!r}: {exc}") from exc
+        import pyarrow as pa
+        import pyarrow.csv as pa_csv
+        import pyarrow.parquet as pq
         from tqdm.auto import tqdm
 
         written: list[Path] = []
-        groups = self.logs.groupby("run", sort=False, observed=True)
+        logs = self.logs
+        if fmt == "csv":
+            logs = logs.assign(surface=logs["surface"].astype(str))
+        table = pa.Table.from_pandas(logs, preserve_index=False)
+        run = logs["run"].to_numpy()
+        starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+        ends = np.r_[starts[1:], len(run)]
         try:
-            for run, df in tqdm(groups, total=len(self.runs), desc="writing runs",
-                                disable=not progress, unit="run"):
-                path = out / f"{run}.{fmt}"
+            for s, e in tqdm(zip(starts, ends, strict=True), total=len(starts),
+                             desc="writing runs", disable=not progress, unit="run"):
+                path = out / f"{run[s]}.{fmt}"
                 if fmt == "csv":
-                    df.to_csv(path, index=False, float_format="%.10g")
+                    pa_csv.write_csv(table.slice(s, e - s), path)
                 else:
-                    df.to_parquet(path, index=False)
+                    pq.write_table(table.slice(s, e - s), path)
                 written.append(path)
             runs_path = out / "runs.csv"
             self.runs.to_csv(runs_path, index=False, float_format="%.10g")
@@ -374,7 +383,7 @@ def simulate_campaign(
     def cat(key: str) -> np.ndarray:
         return np.concatenate([geo[k][key] for k in order])
 
-    t = cat("t") + t_start[idx]
+    t = np.round(cat("t") + t_start[idx], 9)
     vx, vy, wz, ax, ay = (cat(k) for k in ("vx", "vy", "wz", "ax", "ay"))
     gamma = cat("gamma")
     alpha = np.radians(np.array([plan[k].slope_deg for k in range(n_runs)]))[idx]

@@ -1,0 +1,75 @@
+"""The ``energy-planner simulate`` command, through click's CliRunner."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from energy_planner.cli import main
+from energy_planner.model import EnergyModel
+
+
+def _run(*args: str):
+    return CliRunner().invoke(main, ["simulate", *args], catch_exceptions=False)
+
+
+def test_simulate_writes_readable_files_and_json(tmp_path):
+    from energy_planner.measurements import load_logs
+
+    res = _run("--out", str(tmp_path), "--small", "--seed", "4", "--effect", "payload",
+               "--effect", "cold_joints", "--json")
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert doc["summary"]["effects"] == ["payload", "cold_joints"]
+    runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False)
+    assert doc["summary"]["runs"] == len(runs) == doc["files"]["logs"]
+    truth = EnergyModel.load(tmp_path / "truth.json")
+    assert truth.coefficients["payload"] == 10.0
+    assert truth.coefficients["cold_joints"] == 4.0
+    assert {t["name"] for t in doc["terms"]} == set(truth.term_names)
+    logs = load_logs([tmp_path / f"{r}.csv" for r in runs["run"][:5]])
+    assert set(logs["run"]) == set(runs["run"][:5])
+    assert logs["payload_kg"].nunique() >= 1
+    meta = json.loads((tmp_path / "campaign.json").read_text())
+    assert meta["seed"] == 4 and meta["effects"] == ["payload", "cold_joints"]
+
+
+def test_noise_free_parquet_energies_match_truth(tmp_path):
+    res = _run("--out", str(tmp_path), "--small", "--noise-free", "--format", "parquet",
+               "--speeds", "0.2,0.45")
+    assert res.exit_code == 0, res.output
+    assert "truth coefficients" in res.output and "fwd_const" in res.output
+    runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False).set_index("run")
+    assert set(runs.loc[runs["kind"] == "straight", "speed"]) == {0.2, 0.45}
+    for run in runs.index[:20]:
+        df = pd.read_parquet(tmp_path / f"{run}.parquet")
+        p, t = (df["voltage"] * df["current"]).to_numpy(), df["t"].to_numpy()
+        energy = float(np.sum((p[1:] + p[:-1]) * np.diff(t) / 2))
+        assert energy == pytest.approx(runs.loc[run, "true_energy_j"], rel=1e-9, abs=1e-9)
+
+
+def test_unknown_effect_lists_the_valid_ones(tmp_path):
+    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--effect", "gremlins"])
+    assert res.exit_code == 2
+    assert "unknown effect 'gremlins'" in res.output
+    assert "vegetation_drag" in res.output and "idle_power" in res.output
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("speeds", ["0.2,fast", "0", "-0.3", ","])
+def test_bad_speeds_are_rejected(tmp_path, speeds):
+    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--speeds", speeds])
+    assert res.exit_code == 2
+    assert "--speeds" in res.output and "0.2,0.3,0.45" in res.output
+
+
+def test_unwritable_output_is_a_click_error(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    res = CliRunner().invoke(main, ["simulate", "--out", str(blocker / "sub"), "--small"])
+    assert res.exit_code == 1
+    assert "cannot create output directory" in res.output and "hint" in res.output
