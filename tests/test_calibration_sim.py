@@ -184,3 +184,43 @@ def test_figures_from_simulated_logs(inside, inside_fit, tmp_path):
     # Fig. 3: energies of A then B add up (the simulator's physics is additive)
     assert s3["n"] == len(camp.runs["composite"].replace("", np.nan).dropna().unique())
     assert s3["mean_abs_rel_ab"] < 0.05
+
+
+def test_default_model_script_small(tmp_path, capsys):
+    from energy_planner.calibration.default_model import main
+
+    out = tmp_path / "b1.json"
+    assert main(["--small", "--out", str(out)]) == 0
+    m = EnergyModel.load(out)
+    assert m.term_names == list(BASE_TERMS)
+    assert m.metadata["campaign"]["seed"] == 0
+    assert m.metadata["truth_coefficients"] == BASE_COEFFICIENTS
+    assert "held-out by run" in capsys.readouterr().out
+
+
+def test_bundled_default_model_comes_from_the_script():
+    """The bundled model is the script's fit: forces = truth / (1 - slip) within 6 %
+    (the slope terms absorb the slope-dependent slip, as in the default-sensor test)."""
+    m = EnergyModel.default()
+    meta = m.metadata
+    assert "energy_planner.calibration.default_model" in meta["source"]
+    assert meta["fit"]["n_runs"] > 500 and meta["fit"]["heldout_energy_mean_abs_rel_error"] < 0.03
+    truth = EnergyModel(BASE_TERMS, BASE_COEFFICIENTS)
+    s = SensorConfig()
+    alpha = np.radians([0.0, 10.0, 20.0])
+    slip = s.slip_mean + s.slip_per_sin_slope * np.sin(alpha)
+    for g, vx, vy, wz in [
+        (0.0, 0.3, 0, 0),
+        (np.pi, 0.3, 0, 0),
+        (-np.pi / 2, 0, 0.3, 0),
+        (0.0, -0.3, 0, 0),
+        (0.0, 0, 0, 0.5),
+    ]:
+        f = {
+            "alpha": alpha,
+            "gamma": np.full(3, g),
+            "vx": np.full(3, vx),
+            "vy": np.full(3, vy),
+            "wz": np.full(3, wz),
+        }
+        np.testing.assert_allclose(m.power(f), truth.power(f) / (1 - slip), rtol=0.06)
