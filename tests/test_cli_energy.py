@@ -149,7 +149,8 @@ def test_geojson_waypoints_and_table_output(plane_tif, tmp_path):
     rows = [lines[head + 1].split(), lines[head + 2].split()]
     assert [r[0] for r in rows] == ["0", "1"]
     assert float(rows[0][1]) == pytest.approx(res["segments"][0]["energy_j"], abs=0.05)
-    assert rows[0][6] == "100%"
+    assert float(rows[0][5]) == pytest.approx(SLOPE, abs=0.05)  # max slope
+    assert rows[0][7] == "100%"
 
 
 def test_model_option_and_multiband_dem(tmp_path):

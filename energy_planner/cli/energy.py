@@ -115,14 +115,14 @@ def format_table(res: dict[str, Any]) -> str:
         for s in segs
     )
     head = (
-        f"{'seg':>4} {'energy J':>10} {'dist m':>8} {'time s':>8} {'slope°':>7} "
+        f"{'seg':>4} {'energy J':>10} {'dist m':>8} {'time s':>8} {'slope°':>7} {'max°':>5} "
         f"{'rel.head°':>9} {'fwd':>5} {'lat':>5} {'turn':>5}"
     ) + (f" {'other':>5}" if other else "")
     lines.append(head)
     for s in segs:
         row = (
             f"{s['segment']:>4} {s['energy_j']:>10.1f} {s['distance_m']:>8.2f} "
-            f"{s['duration_s']:>8.1f} {s['mean_slope_deg']:>7.1f} "
+            f"{s['duration_s']:>8.1f} {s['mean_slope_deg']:>7.1f} {s['max_slope_deg']:>5.1f} "
             f"{s['mean_rel_heading_deg']:>9.1f} {_pct(s['forward_share']):>5} "
             f"{_pct(s['lateral_share']):>5} {_pct(s['turning_share']):>5}"
         )
@@ -131,8 +131,9 @@ def format_table(res: dict[str, Any]) -> str:
         lines.append(row)
     lines += [
         "",
-        "slope: mean slope along the segment; rel.head: mean |relative heading| "
-        "(0 = facing uphill, 180 = downhill); fwd/lat/turn: shares of the segment's work",
+        "dist: along the ground; slope, max: mean and steepest slope along the segment;",
+        "rel.head: mean |relative heading| (0 = facing uphill, 180 = downhill);",
+        "fwd/lat/turn: shares of the segment's work",
     ]
     for note in res.get("notes", []):
         lines.append(f"note: {note}")
