@@ -86,9 +86,38 @@ def test_several_runs_to_a_folder_and_load_logs(tmp_path):
 # ------------------------------------------------------------- bags written by hand
 
 
-def write_streams(path, version, imu=(), odom=(), battery=(), topics=None):
+OLD_BATTERY_STATE = """std_msgs/Header header
+float32 voltage
+float32 current
+float32 charge
+float32 capacity
+float32 design_capacity
+float32 percentage
+uint8 power_supply_status
+uint8 power_supply_health
+uint8 power_supply_technology
+bool present
+float32[] cell_voltage
+string location
+string serial_number
+"""
+
+
+def old_battery_store():
+    """A ROS 1 typestore with the pre-Noetic BatteryState (no temperature fields)."""
+    from rosbags.typesys import get_types_from_msg
+
+    ts = get_typestore(Stores.EMPTY)
+    ts.register(get_types_from_msg(OLD_BATTERY_STATE, "sensor_msgs/msg/BatteryState"))
+    ts.register({"std_msgs/msg/Header":
+                 get_typestore(Stores.ROS1_NOETIC).fielddefs["std_msgs/msg/Header"]})
+    return ts
+
+
+def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_battery=False):
     """Write a bag directly with rosbags: imu rows (ns, qw, qx, qy, qz), odom rows
-    (ns, vx, vy, wz, x, y, yaw), battery rows (ns, voltage, ros_current)."""
+    (ns, vx, vy, wz, x, y, yaw), battery rows (ns, voltage, ros_current). With
+    ``old_battery`` (ROS 1 only) BatteryState has the pre-Noetic definition."""
     topics = {"imu": "/imu/data", "odom": "/odom", "battery": "/battery_state",
               **(topics or {})}
     ts = get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
@@ -112,7 +141,8 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None):
     with w:
         ci = w.add_connection(topics["imu"], "sensor_msgs/msg/Imu", typestore=ts)
         co = w.add_connection(topics["odom"], "nav_msgs/msg/Odometry", typestore=ts)
-        cb = w.add_connection(topics["battery"], "sensor_msgs/msg/BatteryState", typestore=ts)
+        bts = old_battery_store() if old_battery else ts
+        cb = w.add_connection(topics["battery"], "sensor_msgs/msg/BatteryState", typestore=bts)
         cs = w.add_connection("/cmd_vel", "geometry_msgs/msg/Twist", typestore=ts)
         msgs = []
         for ns, qw, qx, qy, qz in imu:
@@ -137,13 +167,18 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None):
                     covariance=np.zeros(36)))
             msgs.append((ns, co, ser(m, "nav_msgs/msg/Odometry")))
         for ns, v, i in battery:
-            m = T["sensor_msgs/msg/BatteryState"](
-                header=header(ns), voltage=v, temperature=nan, current=i, charge=nan,
-                capacity=nan, design_capacity=nan, percentage=nan, power_supply_status=2,
-                power_supply_health=0, power_supply_technology=0, present=True,
-                cell_voltage=np.zeros(0, np.float32), cell_temperature=np.zeros(0, np.float32),
-                location="", serial_number="")
-            msgs.append((ns, cb, ser(m, "sensor_msgs/msg/BatteryState")))
+            fields = dict(header=header(ns), voltage=v, current=i, charge=nan, capacity=nan,
+                          design_capacity=nan, percentage=nan, power_supply_status=2,
+                          power_supply_health=0, power_supply_technology=0, present=True,
+                          cell_voltage=np.zeros(0, np.float32), location="", serial_number="")
+            if old_battery:
+                m = bts.types["sensor_msgs/msg/BatteryState"](**fields)
+                raw = bts.serialize_ros1(m, "sensor_msgs/msg/BatteryState")
+            else:
+                m = T["sensor_msgs/msg/BatteryState"](
+                    **fields, temperature=nan, cell_temperature=np.zeros(0, np.float32))
+                raw = ser(m, "sensor_msgs/msg/BatteryState")
+            msgs.append((ns, cb, raw))
         tw = T["geometry_msgs/msg/Twist"](linear=V3(x=0., y=0., z=0.),
                                           angular=V3(x=0., y=0., z=0.))
         msgs.append((10**9, cs, ser(tw, "geometry_msgs/msg/Twist")))
@@ -155,7 +190,7 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None):
 S = 10**9
 
 
-def multirate(version, tmp_path, battery_gap=None):
+def multirate(version, tmp_path, battery_gap=None, old_battery=False):
     """IMU 100 Hz from 1.000 s, odometry 50 Hz from 1.005 s, battery 10 Hz from 1.05 s,
     all to ~3 s. Signals are linear in time (so linear interpolation is exact), the IMU
     turns at a constant rate about z (so Slerp is exact)."""
@@ -172,7 +207,8 @@ def multirate(version, tmp_path, battery_gap=None):
            for k in range(20)
            if battery_gap is None or not battery_gap[0] < 1.05 + 0.1 * k < battery_gap[1]]
     ext = ".bag" if version == 1 else ""
-    return write_streams(tmp_path / f"multi{ext}", version, imu, odom, bat)
+    return write_streams(tmp_path / f"multi{ext}", version, imu, odom, bat,
+                         old_battery=old_battery)
 
 
 @pytest.mark.parametrize("version", [1, 2])
@@ -194,6 +230,21 @@ def test_resampling_onto_the_imu_clock_is_linear_in_time(tmp_path, version, capl
     np.testing.assert_allclose(s["voltage"], 50.0 - 0.5 * k, atol=1e-5)
     np.testing.assert_allclose(s["current"], 4.0 + 0.5 * k, atol=1e-5)   # sign converted
     np.testing.assert_allclose(s["qz"], np.sin(0.4 * t / 2), atol=1e-12)
+
+
+def test_a_non_standard_message_definition_is_read_with_the_bags_own(tmp_path):
+    # pre-Noetic BatteryState (no temperature fields): the standard decoder would
+    # misread it; the loader sees the different digest and uses the bag's definition
+    bag = multirate(1, tmp_path, old_battery=True)
+    from rosbags.rosbag1 import Reader
+    with Reader(bag) as r:
+        digest = {c.topic: c.digest for c in r.connections}["/battery_state"]
+    noetic = get_typestore(Stores.ROS1_NOETIC)
+    assert digest != noetic.generate_msgdef("sensor_msgs/msg/BatteryState")[1]
+    s = load_rosbag(bag)
+    k = (s["t"].to_numpy() - 1.05) / 0.1
+    np.testing.assert_allclose(s["voltage"], 50.0 - 0.5 * k, atol=1e-5)
+    np.testing.assert_allclose(s["current"], 4.0 + 0.5 * k, atol=1e-5)
 
 
 def test_resampling_onto_the_odometry_clock_slerps_the_quaternion(tmp_path):

@@ -59,6 +59,8 @@ MSGTYPES = {
     "odom": "nav_msgs/msg/Odometry",
     "battery": "sensor_msgs/msg/BatteryState",
 }
+#: A median current below minus this (A) after conversion triggers the sign warning.
+SIGN_WARNING_A = 0.5
 _FLOAT64 = "std_msgs/msg/Float64"
 _STRING = "std_msgs/msg/String"
 
@@ -87,15 +89,38 @@ def _topics_listing(reader) -> str:
                      sorted(reader.connections, key=lambda c: c.topic))
 
 
-def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
-                  extra_topics: Mapping[str, str] | None):
-    from rosbags.highlevel import AnyReader
+class _NonStandardTypes(Exception):
+    """A topic's type definition differs from the standard one: use AnyReader."""
 
+
+def _open_reader(path: Path, fast: bool):
+    """A plain rosbag1/rosbag2 reader (fast: standard types decoded by the cached
+    typestore) or an AnyReader (types from the bag's own definitions), and is2."""
     try:
-        reader = AnyReader([path], default_typestore=_typestore(2))
+        if not fast:
+            from rosbags.highlevel import AnyReader
+
+            reader = AnyReader([path], default_typestore=_typestore(2))
+            return reader, reader.is2
+        if path.is_dir():
+            from rosbags.rosbag2 import Reader as Reader2
+
+            return Reader2(path), True
+        from rosbags.rosbag1 import Reader as Reader1
+
+        return Reader1(path), False
     except Exception as err:  # rosbags raises its own error classes
         raise LogIOError(f"cannot open ROS bag {str(path)!r}: {err}") from err
-    with reader:
+
+
+def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
+                  extra_topics: Mapping[str, str] | None, fast: bool = True):
+    reader, is2 = _open_reader(path, fast)
+    try:
+        reader.open()
+    except Exception as err:  # rosbags raises its own error classes
+        raise LogIOError(f"cannot open ROS bag {str(path)!r}: {err}") from err
+    try:
         by_topic = {c.topic: c for c in reader.connections}
         for role, topic in topics.items():
             if topic not in by_topic:
@@ -122,8 +147,15 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
         rows: dict[str, list] = {r: [] for r in topics}
         xrows: dict[str, list] = {c: [] for c in extras}
         conns = [by_topic[t] for t in (*topics.values(), *extras.values())]
+        if fast:
+            decoders = {c.id: _fast_decoder(c, is2) for c in conns}
+            if any(d is None for d in decoders.values()):
+                raise _NonStandardTypes
+        else:
+            decoders = {c.id: functools.partial(_reader_decode, reader, c.msgtype)
+                        for c in conns}
         for conn, bag_ns, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
+            msg = decoders[conn.id](raw)
             if conn.topic in col_of:
                 ns = bag_ns if stamp == "bag" or not hasattr(msg, "header") else \
                     _stamp_ns(msg, bag_ns, stamp)
@@ -142,7 +174,13 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
                                    p.position.x, p.position.y, _yaw(o.w, o.x, o.y, o.z)))
             else:
                 rows[role].append((ns, float(msg.voltage), float(msg.current)))
-        is2 = reader.is2
+    except _NonStandardTypes:
+        reader.close()
+        return _read_streams(path, topics, stamp, extra_topics, fast=False)
+    except BaseException:
+        reader.close()
+        raise
+    reader.close()
     cols = {"imu": ["qw", "qx", "qy", "qz"], "odom": ["vx", "vy", "wz", "x", "y", "yaw"],
             "battery": ["voltage", "current"]}
     streams = {}
@@ -157,6 +195,32 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
         if r:
             xstreams[col] = (np.array([a for a, _ in r], dtype=np.int64), [b for _, b in r])
     return streams, xstreams, is2
+
+
+def _reader_decode(reader, msgtype: str, raw):
+    return reader.deserialize(raw, msgtype)
+
+
+def _fast_decoder(conn, is2: bool):
+    """A deserializer from the cached standard typestore when the bag's definition of the
+    type is the standard one (same digest), else None (then the reader's own typestore,
+    built from the bag's embedded definitions, decodes it: slower, always right)."""
+    ts = _typestore(2 if is2 else 1)
+    if conn.msgtype not in ts.types or not conn.digest:
+        return None
+    try:
+        digest = ts.hash_rihs01(conn.msgtype) if is2 else ts.generate_msgdef(conn.msgtype)[1]
+    except Exception:  # noqa: BLE001 - any failure: use the reader's definitions
+        return None
+    if digest != conn.digest:
+        return None
+    if is2:
+        return functools.partial(_decode, ts.deserialize_cdr, conn.msgtype)
+    return functools.partial(_decode, ts.deserialize_ros1, conn.msgtype)
+
+
+def _decode(fn, msgtype: str, raw):
+    return fn(raw, msgtype)
 
 
 def _sorted_unique(ns: np.ndarray) -> tuple[np.ndarray, int]:
@@ -293,7 +357,7 @@ def load_rosbag(
         rep.current_sign_flipped = True
         log.info("%s: battery current negated (ROS BatteryState is negative while "
                  "discharging; canonical is positive)", path)
-    if cur.size and np.median(cur) < 0:
+    if cur.size and np.median(cur) < -SIGN_WARNING_A:
         other = "discharge_positive" if battery_current == "ros" else "ros"
         log.warning("%s: median battery current %.3g A is negative (read with "
                     "battery_current=%r): the robot would be charging while it walks; the "
