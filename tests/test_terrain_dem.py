@@ -258,3 +258,18 @@ def test_jacksboro_map_georeferencing():
         b = src.bounds
         assert b.left == pytest.approx(-84.41375) and b.top == pytest.approx(36.7329166667)
         assert src.res == pytest.approx((1 / 1200, 1 / 1200))
+
+
+def test_wide_geographic_dem_warns_about_utm_distortion(tmp_path):
+    z = np.add.outer(np.arange(10.0), np.arange(20.0)).astype(np.float32) * 100
+    p = write_tif(tmp_path / "wide.tif", z, from_origin(0.0, 50.0, 0.5, 0.5), crs="EPSG:4326")
+    with pytest.warns(UserWarning, match="spans 10.0 degrees"):
+        t = load_dem(p)
+    assert t.crs.to_epsg() == utm_epsg(5.0, 47.5)
+
+
+def test_polar_geographic_dem_is_refused(tmp_path):
+    z = np.ones((5, 5), np.float32)
+    p = write_tif(tmp_path / "pole.tif", z, from_origin(10.0, 88.0, 0.01, 0.01), crs="EPSG:4326")
+    with pytest.raises(DEMError, match="outside the UTM range"):
+        load_dem(p)

@@ -415,6 +415,14 @@ def _warp_to_utm(
             "range (80 S to 84 N); reproject it to a metric CRS first"
         )
     dst_crs = CRS.from_epsg(utm_epsg(lon_c, lat_c))
+    if le - lw > 6.0:
+        warnings.warn(
+            f"DEM {path} spans {le - lw:.1f} degrees of longitude; in one UTM zone "
+            f"({dst_crs}) its far parts are distorted (scale error grows with the distance "
+            "from the central meridian). Reproject it to a suitable metric CRS first.",
+            UserWarning,
+            stacklevel=3,
+        )
     # metric size of the centre pixel -> square pixel with the same area
     cc, cr = cols / 2.0, rows / 2.0
     px = [transform @ (cc, cr), transform @ (cc + 1, cr), transform @ (cc, cr + 1)]
@@ -438,7 +446,18 @@ def _warp_to_utm(
     zw = np.empty((height, width))
     xs_dst = dst_transform.c + (np.arange(width) + 0.5) * dst_transform.a
     block = max(1, 1_000_000 // max(width, 1))
-    for r0 in range(0, height, block):
+    starts = range(0, height, block)
+    if len(starts) > 2:  # big rasters: show progress on a terminal (stderr)
+        from tqdm import tqdm
+
+        starts = tqdm(
+            starts,
+            desc=f"reprojecting {path.name} to {dst_crs}",
+            unit="block",
+            disable=None,
+            leave=False,
+        )
+    for r0 in starts:
         r1 = min(height, r0 + block)
         ys_dst = dst_transform.f + (np.arange(r0, r1) + 0.5) * dst_transform.e
         gx, gy = np.meshgrid(xs_dst, ys_dst)
