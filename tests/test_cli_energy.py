@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from affine import Affine
 from click.testing import CliRunner
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from energy_planner.cli import main
 from energy_planner.maps import map_path
@@ -311,3 +313,31 @@ def test_geographic_dem_error_names_lon_lat(jacksboro, tmp_path):
     r = run("--dem", jacksboro, "--waypoints", csv(tmp_path, [[-84.2, 36.5], [-85.0, 36.5]]))
     assert r.exit_code == 1
     assert "waypoint 1 at (-85.000000, 36.500000) is outside the map" in r.output
+
+
+# ---------------------------------------------------------------------- properties
+@settings(max_examples=12, deadline=None)
+@given(
+    pts=st.lists(st.tuples(st.floats(10.0, 90.0), st.floats(10.0, 90.0)), min_size=3, max_size=3)
+)
+def test_energies_of_concatenated_segments_add(plane_tif, tmp_path_factory, pts):
+    """On the plane, A->B->C costs A->B plus B->C plus the turn in place at B,
+    (tau0 + tau1 sin a) |turn|; each leg costs (f0 + f1 sin a cos g) L_ground."""
+    a, b, c = (np.array([X0 + x, Y0 + y]) for x, y in pts)
+    assume(np.hypot(*(b - a)) > 0.5 and np.hypot(*(c - b)) > 0.5)
+    d = tmp_path_factory.mktemp("add")
+    whole = run_json("--dem", plane_tif, "--waypoints", csv(d, [a, b, c]))
+    legs = [run_json("--dem", plane_tif, "--waypoints", csv(d, p)) for p in ([a, b], [b, c])]
+    h1, h2 = (math.atan2(*(q - p)[::-1]) for p, q in ((a, b), (b, c)))
+    turn = abs(math.remainder(h2 - h1, 2 * math.pi))
+    e_turn = (C["turn_const"] + C["turn_slope"] * SA) * turn
+    total = legs[0]["energy_j"] + legs[1]["energy_j"] + e_turn
+    assert whole["energy_j"] == pytest.approx(total, rel=1e-6)
+    assert whole["segments"][1]["energy_j"] == pytest.approx(legs[1]["energy_j"] + e_turn, rel=1e-6)
+    for leg, (p, q) in zip(legs, ((a, b), (b, c)), strict=True):
+        # on a plane: grade along the leg = k cos(heading - psi); force per ground metre
+        g = math.tan(math.radians(SLOPE)) * math.cos(math.atan2(*(q - p)[::-1]) - math.radians(PSI))
+        length = np.hypot(*(q - p)) * math.sqrt(1 + g * g)
+        sin_climb = g / math.sqrt(1 + g * g)  # sin(a) cos(gamma) in the slope plane
+        force = C["fwd_const"] + C["fwd_grade"] * sin_climb
+        assert leg["energy_j"] == pytest.approx(force * length, rel=1e-5)
