@@ -103,7 +103,7 @@ def test_no_crs_warns_and_is_metric(tmp_path):
 
 def test_south_up_file_is_flipped(tmp_path):
     z = np.add.outer(np.arange(6.0), np.zeros(5)).astype(np.float32)  # grows with row
-    p = write_tif(tmp_path / "southup.tif", z, rasterio.Affine(1, 0, 0, 0, 1, 0))
+    p = write_tif(tmp_path / "southup.tif", z, rasterio.Affine(1, 0, 100, 0, 1, 200))
     t = load_dem(p)
     assert t.transform.e < 0
     np.testing.assert_allclose(t.dzdy[1:-1, 1:-1], 1.0)  # rows went north in the file
