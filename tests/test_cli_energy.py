@@ -132,6 +132,7 @@ def test_given_yaw_walks_sideways_and_times_set_duration(plane_tif, tmp_path):
     assert res["duration_s"] == pytest.approx(150.0)
     assert res["segments"][0]["lateral_share"] == pytest.approx(1.0)
     assert res["yaw_given"] and res["times_given"]
+    assert any("--speed and --yaw-rate are not used" in n for n in res["notes"])
 
 
 def test_geojson_waypoints_and_table_output(plane_tif, tmp_path):

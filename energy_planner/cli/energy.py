@@ -172,6 +172,14 @@ def compute(
             "in the DEM's CRS (docs/energy.md)"
         ) from exc
     notes = list(wp.notes)
+    if wp.t is not None:
+        notes.append(
+            "times from the file set the speed and turning rate; --speed and --yaw-rate "
+            "are not used"
+            if wp.yaw_rad is not None
+            else "times from the file set the walking speed (--speed not used); turns in "
+            "place at corners take their time at --yaw-rate"
+        )
     if wp.declared_crs and terrain.source_crs is not None:
         from rasterio.crs import CRS
         from rasterio.errors import CRSError

@@ -149,9 +149,7 @@ def read_waypoints(path: str | Path) -> Waypoints:
     return _read_csv(text, p)
 
 
-def _check_common(
-    where: str, xy: np.ndarray, yaw: np.ndarray | None, t: np.ndarray | None, labels: list[str]
-) -> None:
+def _check_common(where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[str]) -> None:
     """Checks shared by both formats: at least two waypoints, times increasing."""
     if xy.shape[0] < 2:
         raise WaypointError(
@@ -239,7 +237,7 @@ def _read_csv(text: str, p: Path) -> Waypoints:
     xy = np.column_stack([data["x"], data["y"]]) if labels else np.zeros((0, 2))
     yaw = np.radians(np.asarray(data["yaw_deg"], dtype=float)) if "yaw_deg" in data else None
     t = np.asarray(data["t"], dtype=float) if "t" in data else None
-    _check_common(where_file, xy, yaw, t, labels)
+    _check_common(where_file, xy, t, labels)
     return Waypoints(
         xy=xy,
         yaw_rad=yaw,
@@ -329,7 +327,7 @@ def _read_geojson(text: str, p: Path) -> Waypoints:
     t = _prop_list(props, "t", len(coords), where_file)
     if yaw is not None:
         yaw = np.radians(yaw)
-    _check_common(where_file, xy, yaw, t, labels)
+    _check_common(where_file, xy, t, labels)
     note = (
         f"GeoJSON declares CRS {declared}"
         if declared
