@@ -433,10 +433,11 @@ def _warp_to_utm(
     dst_transform, width, height = calculate_default_transform(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
-    # Bilinear resampling at exactly projected cell centres (PROJ for every centre, no
-    # approximate transformer: GDAL's warper interpolates positions to 0.125 px, which
-    # showed as +-0.5 deg slope ripples on a plane). A working cell is valid only if every
-    # source cell with weight in its interpolation is valid.
+    # Point-bilinear resampling at exactly projected cell centres (PROJ for every centre).
+    # Not GDAL's warper: when the target pixel is larger than the source pixel along an
+    # axis (here 26 m over 21.9 m), its bilinear kernel is widened and a 10 deg plane came
+    # back with 9.5..10.5 deg ripples (with or without its approximate transformer).
+    # A working cell is valid only if every source cell with weight in it is valid.
     src_grid = (
         transform.c + 0.5 * transform.a,
         transform.f + 0.5 * transform.e,
