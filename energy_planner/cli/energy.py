@@ -106,7 +106,8 @@ def format_table(res: dict[str, Any]) -> str:
         f"distance  {res['distance_m']:.2f} m along the ground "
         f"({res['map_distance_m']:.2f} m on the map)",
         f"duration  {res['duration_s']:.1f} s",
-        f"mean      {res['energy_j'] / max(res['distance_m'], 1e-12):.1f} J/m",
+        "mean      "
+        + (f"{res['energy_j'] / res['distance_m']:.1f} J/m" if res["distance_m"] > 0 else "-"),
         "",
     ]
     segs = res["segments"]
