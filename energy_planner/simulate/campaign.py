@@ -42,9 +42,10 @@ from energy_planner.simulate.config import CampaignConfig
 from energy_planner.simulate.design import RunSpec, plan_runs
 from energy_planner.simulate.effects import check_effects, truth_model
 from energy_planner.simulate.kinematics import (
-    body_to_world,
+    imu_quaternion,
     integrate_pose,
-    quaternion_from_matrix,
+    quat_from_rotvec,
+    quat_mul,
     twist_profile,
     wrap,
 )
@@ -460,15 +461,14 @@ def simulate_campaign(
                     + np.where(spikes, sens.spike_current_a * spike_size, 0.0))
     meas_voltage = voltage + sens.voltage_noise_v * noise_rng.standard_normal(n)
     bias = np.radians(sens.imu_bias_deg) * bias_raw  # (roll, pitch) per run
-    R = np.concatenate([geo[k]["R"] for k in order])
+    psi = np.array([psi_of[s.slope_deg] for s in plan])[idx]
+    q = imu_quaternion(alpha, psi, gamma)
     rotvec = np.zeros((n, 3))
     rotvec[:, :2] = bias[idx]
     rotvec += np.radians(sens.imu_noise_deg) * noise_rng.standard_normal((n, 3))
-    if np.any(rotvec):
-        from scipy.spatial.transform import Rotation
-
-        R = R @ Rotation.from_rotvec(rotvec).as_matrix()
-    q = quaternion_from_matrix(R)
+    if np.any(rotvec):  # a misaligned, noisy IMU: R_measured = R_true R_error
+        q = quat_mul(q, quat_from_rotvec(rotvec))
+        q = np.where(q[:, :1] < 0, -q, q)
 
     run_ids = np.array([plan[k].run for k in range(n_runs)], dtype=object)[idx]
     logs = pd.DataFrame(
@@ -578,6 +578,5 @@ def _run_geometry(
         start, gamma0 = np.zeros(3), math.radians(spec.heading_deg)
     pos, gamma, yaw = integrate_pose(t, vx, vy, wz, alpha, psi, gamma0, start)
     end_of[spec.run] = (pos[-1], float(gamma[-1]))
-    R = body_to_world(alpha, psi, gamma)
     return {"t": t, "vx": vx, "vy": vy, "wz": wz, "ax": ax, "ay": ay, "pos": pos,
-            "gamma": gamma, "yaw": yaw, "R": R}
+            "gamma": gamma, "yaw": yaw}

@@ -39,7 +39,9 @@ __all__ = [
     "slope_frame",
     "integrate_pose",
     "body_to_world",
-    "quaternion_from_matrix",
+    "imu_quaternion",
+    "quat_mul",
+    "quat_from_rotvec",
     "wrap",
 ]
 
@@ -204,14 +206,59 @@ def body_to_world(alpha: float, psi: float, gamma: np.ndarray) -> np.ndarray:
     return np.stack([bx, by, bz], axis=2)
 
 
-def quaternion_from_matrix(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(qw, qx, qy, qz)`` with ``qw >= 0`` from rotation matrices.
+def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions ``(w, x, y, z)`` along the last axis.
 
-    >>> quaternion_from_matrix(np.eye(3)[None]).tolist()
-    [[1.0, 0.0, 0.0, 0.0]]
+    >>> quat_mul(np.array([0.0, 1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0, 0.0])).tolist()
+    [0.0, 0.0, 0.0, 1.0]
     """
-    from scipy.spatial.transform import Rotation
+    pw, px, py, pz = np.moveaxis(np.asarray(p, float), -1, 0)
+    qw, qx, qy, qz = np.moveaxis(np.asarray(q, float), -1, 0)
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        axis=-1,
+    )
 
-    q = Rotation.from_matrix(R).as_quat()  # (x, y, z, w)
-    q = np.column_stack([q[:, 3], q[:, 0], q[:, 1], q[:, 2]])
-    return np.where(q[:, :1] < 0, -q, q)
+
+def quat_from_rotvec(r: np.ndarray) -> np.ndarray:
+    """Quaternions ``(w, x, y, z)`` of rotation vectors (axis times angle, rad), shape (n, 3).
+
+    >>> np.round(quat_from_rotvec(np.array([[0.0, 0.0, np.pi]])), 12).tolist()
+    [[0.0, 0.0, 0.0, 1.0]]
+    """
+    r = np.asarray(r, float)
+    angle = np.linalg.norm(r, axis=-1)
+    half = angle / 2
+    # sin(half) / angle, with its limit 1/2 at zero angle
+    k = np.where(angle > 1e-12, np.sin(half) / np.where(angle > 1e-12, angle, 1.0), 0.5)
+    return np.concatenate([np.cos(half)[..., None], r * k[..., None]], axis=-1)
+
+
+def imu_quaternion(alpha: np.ndarray, psi: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    """Body-to-world quaternions ``(qw, qx, qy, qz)``, ``qw >= 0``, of :func:`body_to_world`.
+
+    ``R = Rz(psi) Ry(-alpha) Rz(gamma)``: the slope frame (``e_up, e_side, n``) is
+    ``Rz(psi) Ry(-alpha)``, and body x makes the in-plane angle ``gamma`` with ``e_up``.
+
+    Examples
+    --------
+    >>> q = imu_quaternion(np.array([0.3]), np.array([1.0]), np.array([-2.0]))
+    >>> w, x, y, z = q[0]
+    >>> R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+    ...               [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+    ...               [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    >>> bool(np.allclose(R, body_to_world(0.3, 1.0, np.array([-2.0]))[0]))
+    True
+    """
+    alpha, psi, gamma = np.broadcast_arrays(*(np.asarray(a, float) for a in (alpha, psi, gamma)))
+    zero = np.zeros_like(alpha)
+    qz_psi = np.stack([np.cos(psi / 2), zero, zero, np.sin(psi / 2)], axis=-1)
+    qy_alpha = np.stack([np.cos(alpha / 2), zero, -np.sin(alpha / 2), zero], axis=-1)
+    qz_gamma = np.stack([np.cos(gamma / 2), zero, zero, np.sin(gamma / 2)], axis=-1)
+    q = quat_mul(quat_mul(qz_psi, qy_alpha), qz_gamma)
+    return np.where(q[..., :1] < 0, -q, q)
