@@ -9,6 +9,9 @@ position. Its motion primitives are
   body moves in any of the 16 directions;
 * turns in place to the next heading on either side.
 
+With 16 headings the headings are the directions of the 16 moves, so a robot can walk
+exactly forward (or sideways) along every move.
+
 Every edge cost is the energy of that SE(2) motion from the **same** numba kernel that
 prices any other path (:class:`energy_planner.energy.MotionCost`), evaluated for all
 edges at once with ``MotionCost.batch``. Edges with an infinite cost (leaving the map,
@@ -31,7 +34,15 @@ import numpy as np
 
 from energy_planner.errors import InvalidStateError, PlanningError
 
-__all__ = ["LatticeResult", "MOVES_16", "lattice_plan", "lattice_geometry", "simplify_states"]
+__all__ = [
+    "LatticeResult",
+    "MOVES_16",
+    "default_step",
+    "lattice_headings",
+    "lattice_geometry",
+    "lattice_plan",
+    "simplify_states",
+]
 
 #: The 16 neighbour displacements (in lattice steps), counter-clockwise from +x.
 MOVES_16: np.ndarray = np.array(
@@ -93,7 +104,7 @@ def _terrain_extent(terrain) -> tuple[float, float, float, float]:
     return min(xs), max(xs), min(ys), max(ys)
 
 
-def default_step(terrain, max_positions: int = 40_000) -> float:
+def default_step(terrain, max_positions: int = 20_000) -> float:
     """The DEM cell size, coarsened so the lattice has at most ``max_positions`` positions.
 
     Parameters
@@ -134,24 +145,44 @@ def lattice_geometry(terrain, start_xy: tuple[float, float], step: float):
     return xs, ys
 
 
-def _move_table(n_headings: int, moves: str) -> np.ndarray:
+def lattice_headings(n_headings: int) -> np.ndarray:
+    """The lattice's headings, radians in [0, 2 pi).
+
+    With 16 headings they are the directions of :data:`MOVES_16` (0, 26.6, 45, 63.4,
+    90 deg, ...), so that every heading has a move straight ahead, behind and to
+    either side; otherwise they are evenly spaced.
+
+    Examples
+    --------
+    >>> np.round(np.degrees(lattice_headings(16)[:5]), 1).tolist()
+    [0.0, 26.6, 45.0, 63.4, 90.0]
+    >>> np.degrees(lattice_headings(8)).tolist()
+    [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0]
+    """
+    if n_headings == len(MOVES_16):
+        return np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0]) % (2 * np.pi)
+    return 2 * np.pi * np.arange(n_headings) / n_headings
+
+
+def _move_table(headings: np.ndarray, moves: str) -> np.ndarray:
     """Boolean (heading, move) table of the translations allowed at each heading.
 
     Examples
     --------
-    >>> t = _move_table(16, "axes")
+    >>> t = _move_table(lattice_headings(16), "axes")
     >>> t.sum(axis=1).tolist() == [4] * 16
     True
-    >>> [tuple(MOVES_16[m]) for m in np.nonzero(t[0])[0]]
-    [(1, 0), (0, 1), (-1, 0), (0, -1)]
+    >>> [tuple(MOVES_16[m].tolist()) for m in np.nonzero(t[1])[0]]
+    [(2, 1), (-1, 2), (-2, -1), (1, -2)]
     """
+    n_headings = len(headings)
     if moves == "all":
         return np.ones((n_headings, len(MOVES_16)), dtype=bool)
     ang = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     table = np.zeros((n_headings, len(MOVES_16)), dtype=bool)
     for h in range(n_headings):
         for k in range(4):
-            axis = 2 * np.pi * h / n_headings + k * np.pi / 2
+            axis = headings[h] + k * np.pi / 2
             table[h, int(np.argmin(np.abs(_wrap(ang - axis))))] = True
     return table
 
@@ -250,7 +281,7 @@ def lattice_plan(
     xs, ys = lattice_geometry(terrain, (start[0], start[1]), step)
     nx, ny = len(xs), len(ys)
     H = int(n_headings)
-    headings = 2 * np.pi * np.arange(H) / H
+    headings = lattice_headings(H)
     P = nx * ny
     jj, ii = np.divmod(np.arange(P), nx)
     px, py = xs[ii], ys[jj]
@@ -265,7 +296,7 @@ def lattice_plan(
     dsts: list[np.ndarray] = []
     ws: list[np.ndarray] = []
     # translations at constant heading
-    move_ok = _move_table(H, moves)
+    move_ok = _move_table(headings, moves)
     for mi, (di, dj) in enumerate(MOVES_16):
         ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
         p_src = np.nonzero(ok_pos)[0]
@@ -286,7 +317,6 @@ def lattice_plan(
             dsts.append(b * H + h)
             ws.append(w)
     # turns in place to the neighbouring headings
-    dtheta = 2 * np.pi / H
     for h in range(H):
         for dh in (-1, 1):
             h2 = (h + dh) % H
@@ -305,7 +335,7 @@ def lattice_plan(
             f = np.isfinite(w)
             a, w = a[f], w[f]
             if metric == "distance":
-                w = np.full(a.size, _TURN_EPS * dtheta)
+                w = np.full(a.size, _TURN_EPS * abs(_wrap(headings[h2] - headings[h])))
             srcs.append(a * H + h)
             dsts.append(a * H + h2)
             ws.append(w)
@@ -329,7 +359,7 @@ def lattice_plan(
         if yaw is None:
             hs = np.nonzero(valid[p])[0]
         else:
-            hs = np.array([int(round(float(yaw) / dtheta)) % H])
+            hs = np.array([int(np.argmin(np.abs(_wrap(headings - float(yaw)))))])
             hs = hs[valid[p, hs]]
         if hs.size == 0:
             raise InvalidStateError(

@@ -122,10 +122,15 @@ class PlanResult:
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):
         raise PlanningError(f"{which} must be (x, y) or (x, y, yaw), got {tuple(p)!r}")
-    vals = [float(v) for v in p]
+    p = list(p)
+    yaw = p[2] if len(p) == 3 else None
+    try:
+        vals = [float(v) for v in p[:2]] + ([] if yaw is None else [float(yaw)])
+    except (TypeError, ValueError) as exc:
+        raise PlanningError(f"{which} {tuple(p)!r} is not numeric") from exc
     if not all(math.isfinite(v) for v in vals):
         raise PlanningError(f"{which} {tuple(p)!r} has a non-finite value")
-    return (vals[0], vals[1], vals[2] if len(vals) == 3 else None)
+    return (vals[0], vals[1], vals[2] if yaw is not None else None)
 
 
 class _Progress:
@@ -209,10 +214,10 @@ def _make_planar_goal(si, gx: float, gy: float, threshold: float):
             self._k += 1
             s.setX(gx)
             s.setY(gy)
-            s.setYaw(math.remainder(self._k * 2.399963229728653, 2 * math.pi))  # golden angle
+            s.setYaw(math.remainder(self._k * math.pi / 8, 2 * math.pi))  # 16 yaws in turn
 
         def maxSampleCount(self):  # noqa: N802 - OMPL's name
-            return 1 << 30
+            return 16  # finite: BIT* draws every goal sample up front
 
     return PlanarGoal()
 
@@ -249,6 +254,10 @@ def _run_ompl(
         set_state(g, goal[0], goal[1], goal[2])
         ss.setGoalState(g, 0.5 * res)
     pl = getattr(og, _OMPL_PLANNERS[planner])(si)
+    if hasattr(pl, "setRange"):
+        # short motions: the kernel integrates at sub-cell steps, so a long motion is
+        # slow to price; 8 cells keeps RRT*'s rewiring affordable
+        pl.setRange(8.0 * res)
     ss.setPlanner(pl)
     ss.setup()
     kernel = obj._kernel
@@ -344,7 +353,8 @@ def plan(
         One of :data:`energy_planner.planning.PLANNERS`.
     time : float
         Planning budget in seconds (the lattice ignores it; ``auto`` spends what is
-        left after the lattice on refinement, stopping early once it converges).
+        left after the lattice - at least a fifth of ``time`` - on refinement, stopping
+        early once it converges).
     seed : int
         Random seed (OMPL's RNG); the same seed gives the same path for ``lattice``,
         ``auto`` when it converges within ``time``, and OMPL planners run with
@@ -428,7 +438,7 @@ def plan(
                 states, rinfo = refine_path(
                     cost,
                     states,
-                    budget=max(time - prog.elapsed(), 0.0),
+                    budget=max(time - prog.elapsed(), 0.2 * time),
                     seed=seed,
                     spacing=max(lat.step, float(abs(terrain.grid[2]))),
                     free_start_yaw=start_p[2] is None,
