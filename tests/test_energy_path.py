@@ -139,6 +139,13 @@ def test_timed_path_base_model_energy_does_not_depend_on_speed():
     assert e_slow - e_fast == pytest.approx(30.0 * (700.0 - fast.duration_s), rel=1e-9)
 
 
+def test_standing_still_reports_the_local_slope():
+    t = plane(12.0, 0.0)
+    r = path_energy(t, MODEL, [[50, 50], [50, 50]])
+    assert r.energy_j == 0.0
+    assert r.segments.max_slope_deg.iloc[0] == pytest.approx(12.0)
+
+
 def test_waypoint_outside_the_map_is_named():
     t = plane(5.0, 0.0)
     with pytest.raises(OutsideMapError, match=r"waypoint 2 at \(150.00, 10.00\)"):
@@ -217,7 +224,7 @@ def test_mirror_symmetry(x0, y0, x1, y1, th0, th1):
     A turn of exactly pi has no shorter side, so both the motion and its mirror turn
     the same way; it is excluded.
     """
-    assume(abs(abs(math.remainder(th1 - th0, 2 * math.pi)) - math.pi) > 1e-9)
+    assume(abs(abs(math.remainder(th1 - th0, 2 * math.pi)) - math.pi) > 1e-6)
     mirrored = Terrain(BOWL.elevation[::-1].copy(), BOWL.transform, BOWL.crs)
     mc = MotionCost(mirrored, MODEL)
     e = BOWL_COST(x0, y0, th0, x1, y1, th1)
@@ -228,7 +235,12 @@ def test_mirror_symmetry(x0, y0, x1, y1, th0, th1):
 @settings(max_examples=30, deadline=None)
 @given(x0=coord, y0=coord, x1=coord, y1=coord, th0=yaw, th1=yaw, k=st.integers(1, 3))
 def test_invariance_under_quarter_turns(x0, y0, x1, y1, th0, th1, k):
-    """Rotating terrain and path together by k quarter turns about the map centre."""
+    """Rotating terrain and path together by k quarter turns about the map centre.
+
+    A turn of (nearly) exactly pi is excluded: rounding in the rotated yaws can pick the
+    other way round.
+    """
+    assume(abs(abs(math.remainder(th1 - th0, 2 * math.pi)) - math.pi) > 1e-6)
     rotated = Terrain(np.rot90(BOWL.elevation, k).copy(), BOWL.transform, BOWL.crs)
     rc = MotionCost(rotated, MODEL)
 

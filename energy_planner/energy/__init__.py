@@ -7,5 +7,24 @@ disagree.
 
 from energy_planner.energy.motion import MotionCost
 from energy_planner.energy.path import SEGMENT_COLUMNS, PathEnergy, path_energy
+from energy_planner.energy.waypoints import (
+    Waypoints,
+    read_waypoints,
+    waypoints_to_work,
+    write_waypoints_geojson,
+    yaw_from_work,
+    yaw_to_work,
+)
 
-__all__ = ["SEGMENT_COLUMNS", "MotionCost", "PathEnergy", "path_energy"]
+__all__ = [
+    "SEGMENT_COLUMNS",
+    "MotionCost",
+    "PathEnergy",
+    "Waypoints",
+    "path_energy",
+    "read_waypoints",
+    "waypoints_to_work",
+    "write_waypoints_geojson",
+    "yaw_from_work",
+    "yaw_to_work",
+]

@@ -80,6 +80,8 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     out[1] = T
     out[2] = surface
     if T <= 0.0:
+        # no motion: report the slope where the robot stands (the last sample)
+        out[4] = out[6] = math.atan(math.sqrt(gxs * gxs + gys * gys))
         return
     # pass 2: the robot keeps a constant speed along the surface (and a constant yaw
     # rate); its body frame is tilted with the ground: x = unit(c, s, g.(c, s)),

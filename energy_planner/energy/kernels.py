@@ -21,6 +21,7 @@ Violation codes returned by the kernels: 0 valid, 1 outside the map or on nodata
 from __future__ import annotations
 
 import math
+import hashlib
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -118,5 +119,9 @@ def make_kernels(power_source: str):
     )
     text, n = _POWER_BLOCK.subn(lambda _: block, _TEMPLATE.read_text())
     assert n == 1, "the power markers of _motion.py are missing"
+    # numba's cache does not see changes to the helpers this file defines: put their
+    # hash into the generated text so that a change gives a new module name
+    helpers = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+    text = f"# kernels.py {helpers}\n" + text
     mod = load_generated_module(text, prefix="motion")
     return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table
