@@ -159,7 +159,7 @@ def heading_class(alpha: np.ndarray, climb: np.ndarray, *, level_deg: float = 2.
     """Name the direction of travel relative to the slope.
 
     ``level`` below ``level_deg`` of slope; otherwise ``uphill`` when the travel is within
-    45 deg of the uphill direction (``climb >= cos 45``), ``downhill`` within 45 deg of
+    30 deg of the uphill direction (``climb >= cos 30``), ``downhill`` within 30 deg of
     downhill, ``cross`` within 30 deg of the contour line (``|climb| <= sin 30``), and
     ``oblique`` in between.
 
@@ -170,10 +170,10 @@ def heading_class(alpha: np.ndarray, climb: np.ndarray, *, level_deg: float = 2.
     """
     alpha = np.asarray(alpha, dtype=float)
     climb = np.asarray(climb, dtype=float)
-    c45 = np.cos(np.pi / 4)
+    c30 = np.cos(np.pi / 6)
     out = np.full(alpha.shape, "oblique", dtype=object)
-    out[climb >= c45] = "uphill"
-    out[climb <= -c45] = "downhill"
+    out[climb >= c30] = "uphill"
+    out[climb <= -c30] = "downhill"
     out[np.abs(climb) <= 0.5] = "cross"
     out[alpha < np.radians(level_deg)] = "level"
     return out.astype(str)

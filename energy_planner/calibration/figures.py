@@ -133,7 +133,8 @@ def plot_force_slope(
     Returns
     -------
     dict
-        Points per panel and motion, and the median force per panel and motion (N).
+        Points per panel and motion (level windows appear in both panels), and the
+        median force (N) and slope (deg) of the sloped windows per panel and motion.
     """
     plt = _pyplot()
     fwd = estimates[estimates["kind"] == "forward"]
@@ -168,7 +169,11 @@ def plot_force_slope(
                 label=f"{label} windows (n={len(pts)})",
             )
             summary[f"{direction}_{label}_n"] = int(len(pts))
-            summary[f"{direction}_{label}_median_n"] = _median(pts["value"], float("nan"))
+            sloped = pts[pts["heading"] == direction]
+            summary[f"{direction}_{label}_median_n"] = _median(sloped["value"], float("nan"))
+            summary[f"{direction}_{label}_median_alpha_deg"] = _median(
+                sloped["alpha_deg"], float("nan")
+            )
             if model is not None and model.is_fitted:
                 g, vx, vy = climb_gamma[direction]
                 p = model_curve(model, grid, gamma=g, vx=vx, vy=vy, constants=constants)

@@ -163,8 +163,10 @@ def command(
                 for motion in ("forward", "lateral"):
                     n = s[f"{direction}_{motion}_n"]
                     med = s[f"{direction}_{motion}_median_n"]
+                    a = s[f"{direction}_{motion}_median_alpha_deg"]
                     lines.append(
-                        f"      {direction:<8} {motion:<8} {n:>4} windows, median {med:7.1f} N"
+                        f"      {direction:<8} {motion:<8} {n:>4} windows; on slopes: median "
+                        f"{med:7.1f} N at a median slope of {a:4.1f} deg"
                     )
         if "yaw_torque" in f:
             s = f["yaw_torque"]
