@@ -20,8 +20,8 @@ Violation codes returned by the kernels: 0 valid, 1 outside the map or on nodata
 
 from __future__ import annotations
 
-import math
 import hashlib
+import math
 import re
 from functools import lru_cache
 from pathlib import Path
