@@ -33,12 +33,17 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
                 f"{r['predicted_j']:>9.1f} J  error {f(None if rel is None else 100 * rel)}%"
             )
         lines.append("")
-    for s in doc["superposition"]:
+    for kind in ("concatenation", "alternative"):
+        sup = [s for s in doc["superposition"] if s["kind"] == kind]
+        if not sup:
+            continue
+        rel = [abs(s["superposition_error_rel"] or 0.0) for s in sup]
+        model = [abs(s["model_error_composite_j"]) for s in sup]
+        what = "E(AB) vs E(A)+E(B)" if kind == "concatenation" else "E(C) vs E(A)+E(B)"
         lines.append(
-            f"{s['kind']} {s['composite']} vs {' + '.join(s['parts'])}: measured "
-            f"{s['measured_composite_j']:.0f} J vs {s['measured_parts_j']:.0f} J "
-            f"({100 * (s['superposition_error_rel'] or 0):+.1f}%), model error "
-            f"{s['model_error_composite_j']:+.0f} J / {s['model_error_parts_j']:+.0f} J"
+            f"superposition, {kind} ({what}, {len(sup)} paths): measured difference mean "
+            f"{100 * sum(rel) / len(rel):.1f}%, max {100 * max(rel):.1f}%; model error on the "
+            f"composite run mean {sum(model) / len(model):.0f} J"
         )
     if doc["superposition"]:
         lines.append("")
@@ -142,7 +147,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
               help="Folds of the held-out validation by run.")
 @click.option("--max-steps", type=click.IntRange(min=0), default=4, show_default=True,
               help="Largest number of terms the staircase adds.")
-@click.option("--k", "k", type=click.FloatRange(min=0), default=2.0, show_default=True,
+@click.option("--k", "k", type=click.FloatRange(min=0), default=2.5, show_default=True,
               help="Noise rule: mean per-fold RMSE reduction > k x its standard error.")
 @click.option("--min-rel", type=click.FloatRange(min=0, max=1), default=0.05,
               show_default=True, help="Noise rule: held-out RMSE must fall by this fraction.")
@@ -185,7 +190,7 @@ def command(
             "(energy-planner fit LOGS --out model.json)",
             param_hint="--model",
         )
-    windows, _reports, _ = load_windows(logs, window)
+    windows = load_windows(logs, window)[0]  # (windows, reports, text, ...)
     extra = [t.name for t in resolve_terms(terms, set(windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
     th = Thresholds(k=k, min_rel=min_rel, n_splits=folds, seed=seed)

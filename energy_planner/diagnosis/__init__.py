@@ -8,7 +8,7 @@ as the best suspects are added one by one.
 
 >>> from energy_planner.diagnosis import Thresholds
 >>> Thresholds().k, Thresholds().min_rel
-(2.0, 0.05)
+(2.5, 0.05)
 """
 
 from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table

@@ -35,7 +35,7 @@ def _png(fig) -> str:
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=80)  # layout set by each plot (tight_layout)
     plt.close(fig)
     data = base64.b64encode(buf.getvalue()).decode("ascii")
     return f'<img alt="plot" src="data:image/png;base64,{data}">'
@@ -92,6 +92,7 @@ def plot_predicted_vs_measured(d: Diagnosis):
     ax.set_ylabel("predicted window power (W)")
     ax.set_title(f"RMSE {d.metrics['rmse_w']:.1f} W, R$^2$ {d.metrics['r2']:.3f}")
     ax.legend(fontsize=7, markerscale=1.5)
+    fig.tight_layout()
     return fig
 
 

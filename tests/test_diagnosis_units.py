@@ -1,0 +1,296 @@
+"""Unit tests of the diagnosis: breakdowns, odd channels, CV and noise rules, CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.diagnosis import (
+    Thresholds,
+    breakdown,
+    diagnose,
+    heldout_rmse,
+    hotspots,
+    power_metrics,
+    rank_suspects,
+    run_folds,
+    span_residual,
+    window_data,
+)
+from energy_planner.diagnosis.metrics import heading_bins, numeric_bins
+from energy_planner.model import BASE_TERMS, EnergyModel
+
+TRUE = {"fwd_const": 600.0, "fwd_grade": 1000.0, "bwd_const": 700.0, "bwd_grade": 1000.0,
+        "lat_const": 800.0, "lat_grade": 900.0, "turn_const": 250.0, "turn_slope": 300.0}
+
+
+def synth(n_runs=32, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12):
+    """Windowed samples from the base model (+ one hidden term) with white power noise.
+
+    Each run is one motion (forward, backward, lateral, turn in place) at 0.3 m/s or
+    0.5 rad/s on a random slope and heading; extra channels are constant per run.
+    """
+    rng = np.random.default_rng(seed)
+    frames = []
+    n = hz * dur
+    t = np.arange(n) / hz
+    for r in range(n_runs):
+        motion = ("forward", "backward", "lateral", "turn")[r % 4]
+        vx, vy, wz = np.zeros(n), np.zeros(n), np.zeros(n)
+        if motion == "forward":
+            vx[:] = 0.3
+        elif motion == "backward":
+            vx[:] = -0.3
+        elif motion == "lateral":
+            vy[:] = 0.3 * rng.choice([-1, 1])
+        else:
+            wz[:] = 0.5 * rng.choice([-1, 1])
+        frames.append(pd.DataFrame({
+            "run": f"r{r:02d}", "t": t, "vx": vx, "vy": vy, "wz": wz,
+            "alpha": np.radians(rng.uniform(0, 20)), "gamma": rng.uniform(-np.pi, np.pi),
+            "ax": 0.0, "ay": 0.0, "motion": motion,
+            "temperature_c": rng.uniform(0, 30), "surface": rng.choice(["grass", "mud"]),
+            "window": r * 1000 + (t // 2).astype(int),
+        }))
+    s = pd.concat(frames, ignore_index=True)
+    truth = EnergyModel(list(BASE_TERMS), TRUE)
+    p = truth.design_matrix(s) @ truth.coef_array()
+    if effect is not None:
+        p = p + coef * EnergyModel([effect]).design_matrix(s)[:, 0]
+    s["power"] = p + rng.normal(0, noise, len(s))
+    return s
+
+
+def fitted_base(s):
+    return EnergyModel(BASE_TERMS).fit(s, s["power"], groups=s["window"])
+
+
+# ----------------------------------------------------------------------------- metrics
+def test_power_metrics_analytic():
+    m = power_metrics(np.array([10.0, 20.0, 30.0]), np.array([12.0, 18.0, 30.0]))
+    assert m["rmse_w"] == pytest.approx(np.sqrt(8 / 3))
+    assert m["mae_w"] == pytest.approx(4 / 3)
+    assert m["bias_w"] == pytest.approx(0.0)
+    assert m["r2"] == pytest.approx(1 - 8 / 200)
+
+
+def test_breakdown_finds_residual_planted_in_one_bin():
+    rng = np.random.default_rng(1)
+    n = 600
+    table = pd.DataFrame({
+        "alpha_deg": rng.uniform(0, 20, n), "gamma_deg": rng.uniform(-180, 180, n),
+        "speed": rng.uniform(0.2, 0.4, n), "motion": rng.choice(["forward", "lateral"], n),
+        "temperature_c": rng.uniform(0, 30, n), "surface": rng.choice(["grass", "mud"], n),
+    })
+    r = rng.normal(0, 1.0, n)
+    cold = table["temperature_c"].to_numpy() < 6.0  # the lowest quintile, roughly
+    r[cold] += 25.0
+    mud = table["surface"].to_numpy() == "mud"
+    bd = breakdown(table, r, ["temperature_c"], ["surface"])
+    assert set(bd) == {"alpha_deg", "gamma_deg", "speed", "motion", "temperature_c",
+                       "surface"}
+    bins = bd["temperature_c"]["bins"]
+    worst = max(bins, key=lambda b: abs(b["bias_w"]))
+    assert worst is bins[0]  # the lowest-temperature quintile
+    # its bias is the planted offset times the share of planted windows in the bin
+    lo, hi = worst["lo"], worst["hi"]
+    in_bin = (table["temperature_c"] >= lo) & (table["temperature_c"] < hi)
+    assert worst["bias_w"] == pytest.approx(r[in_bin].mean())
+    assert worst["n"] == int(in_bin.sum())
+    assert worst["bias_w"] > 15
+    assert all(abs(b["bias_w"]) < 3 for b in bins[1:])
+    assert hotspots(bd)[0]["variable"] == "temperature_c"
+    # shares of squared error add to one per variable
+    for info in bd.values():
+        assert sum(b["share_sq_error"] for b in info["bins"]) == pytest.approx(1.0)
+    # categorical bins: per value, biases match the plain group means
+    surf = {b["bin"]: b for b in bd["surface"]["bins"]}
+    assert surf["mud"]["bias_w"] == pytest.approx(r[mud].mean())
+    assert surf["grass"]["n"] == int((~mud).sum())
+
+
+def test_numeric_bins_few_values_and_nan():
+    codes, labels, _ = numeric_bins(np.array([0.0, 5.0, 5.0, 10.0, np.nan, 0.0]))
+    assert labels == ["0", "5", "10"]
+    assert codes.tolist() == [0, 1, 1, 2, -1, 0]
+    codes, labels, _ = numeric_bins(np.full(4, np.nan))
+    assert labels == [] and (codes == -1).all()
+
+
+def test_heading_sectors():
+    codes, labels, _ = heading_bins(np.array([0.0, 44.0, 90.0, -90.0, 180.0, -179.0, 170.0]))
+    assert [labels[c].split(" ")[0] for c in codes] == ["+0", "+45", "+90", "-90", "+180",
+                                                        "+180", "+180"]
+
+
+# ----------------------------------------------------------------------------- CV
+@given(st.lists(st.sampled_from("abcdefgh"), min_size=6, max_size=60), st.integers(0, 5))
+@settings(max_examples=30, deadline=None)
+def test_run_folds_keep_runs_whole(runs, seed):
+    if len(set(runs)) < 2:
+        return
+    folds = run_folds(runs, 5, seed)
+    for r in set(runs):
+        assert len(set(folds[np.array(runs) == r])) == 1
+    assert folds.max() + 1 == min(5, len(set(runs)))
+
+
+def test_heldout_rmse_exact_model_is_zero_and_noise_is_sigma():
+    rng = np.random.default_rng(0)
+    x = np.column_stack([np.ones(400), rng.uniform(size=400)])
+    folds = np.arange(400) % 5
+    assert heldout_rmse(x, x @ [3.0, 2.0], folds)[0] == pytest.approx(0.0, abs=1e-9)
+    rmse, per_fold = heldout_rmse(x, x @ [3.0, 2.0] + rng.normal(0, 0.5, 400), folds)
+    assert rmse == pytest.approx(0.5, rel=0.15)
+    assert per_fold.shape == (5,)
+
+
+def test_span_residual():
+    x = np.column_stack([np.ones(5), np.arange(5.0)])
+    assert span_residual(2 * x[:, 1] - x[:, 0], x) == pytest.approx(0.0, abs=1e-12)
+    z = np.array([1.0, -1, 1, -1, 1]) - 0.2  # orthogonal to both columns
+    assert span_residual(z, x) == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------------------------- noise rule
+@given(st.integers(0, 10_000))
+@settings(max_examples=6, deadline=None, derandomize=True)
+def test_random_channel_is_never_above_noise(seed):
+    """A channel unrelated to power (random per run) must not become a finding."""
+    s = synth(seed=seed)
+    s["junk"] = s["run"].map({r: np.random.default_rng(seed + i).normal()
+                              for i, r in enumerate(s["run"].unique())})
+    wd = window_data(s)
+    rank = rank_suspects(wd, BASE_TERMS)
+    assert rank.suspects == []
+    assert any("junk" in b.variables for b in rank.below_noise)
+
+
+def test_planted_effect_is_above_noise_and_k_matters():
+    s = synth(effect="pos(12 - temperature_c)", coef=6.0)
+    wd = window_data(s)
+    rank = rank_suspects(wd, BASE_TERMS)
+    top = rank.suspects[0]
+    assert top.variables == ["temperature_c"] and top.term.startswith("pos(")
+    # the knot is found near the planted 12 degC
+    knot = float(top.term.split("(")[1].split("-")[0])
+    assert abs(knot - 12.0) < 2.0
+    assert top.reduction_w > 2 * top.reduction_se_w
+    # an absurd noise rule rejects it: the rule decides, not the ranking
+    strict = rank_suspects(wd, BASE_TERMS, Thresholds(min_rel=0.99))
+    assert strict.suspects == [] and strict.below_noise[0].term == top.term
+
+
+# ----------------------------------------------------------------------------- odd channels
+def test_constant_nan_and_partly_missing_channels():
+    s = synth(effect="speed * (surface == 'mud')", coef=200.0)
+    s["const"] = 7.0
+    s["empty"] = np.nan
+    s["one_cat"] = "same"
+    s["serial"] = s["run"]  # categorical with one value per run: an identifier
+    s["partly"] = s["temperature_c"].where(s["run"] > "r03")  # missing in 4 runs
+    d = diagnose(fitted_base(s), s, max_steps=1)
+    out = d.to_dict()
+    unsup = {u["name"]: u["reason"] for u in out["unsupported"]}
+    assert "no variance" in unsup["const"]
+    assert "missing" in unsup["empty"]
+    assert "no variance" in unsup["one_cat"]
+    assert "identifier" in unsup["serial"]
+    assert out["suspects"][0]["term"] == "speed * (surface == 'mud')"
+    partly = [x for x in out["below_noise"] + out["suspects"] if "partly" in x["variables"]]
+    assert partly and partly[0]["n_windows"] < d.data.n_windows
+    assert all(np.isfinite(x["heldout_rmse_w"]) for x in out["below_noise"])
+    # the breakdown lists missing values as their own bin and the constant as one bin
+    assert [b["bin"] for b in out["breakdown"]["const"]["bins"]] == ["7"]
+    assert out["breakdown"]["empty"]["bins"] == []
+    json.dumps(out, default=float)  # plain data
+
+
+def test_missing_channel_catalog_term_is_unsupported():
+    s = synth()
+    out = diagnose(fitted_base(s), s, max_steps=0).to_dict()
+    unsup = {u["name"]: u["reason"] for u in out["unsupported"]}
+    assert "payload_kg" in unsup["payload"]
+
+
+def test_user_term_is_scored():
+    s = synth(effect="speed * sin(alpha) * abs(sin(gamma))", coef=300.0)
+    out = diagnose(fitted_base(s), s, max_steps=0, terms=["abs(vy) * sin(alpha)"]).to_dict()
+    assert out["suspects"][0]["name"] == "cross_slope_roll"
+    user = [x for x in out["suspects"] + out["below_noise"] if x["source"] == "user"]
+    assert user and user[0]["term"] == "abs(vy) * sin(alpha)"
+
+
+def test_single_run_gives_comparison_without_suspects():
+    s = synth(n_runs=16)
+    out = diagnose(fitted_base(s), s[s["run"] == "r00"]).to_dict()
+    assert out["suspects"] == [] and out["staircase"] == []
+    assert "2 runs" in out["notes"][0]
+    assert np.isfinite(out["rmse_w"])
+
+
+# ----------------------------------------------------------------------------- CLI
+@pytest.fixture(scope="module")
+def campaign_dir(tmp_path_factory):
+    from energy_planner.calibration import fit_model
+    from energy_planner.measurements import make_windows, preprocess
+    from energy_planner.simulate import CampaignConfig, SensorConfig, simulate_campaign
+
+    d = tmp_path_factory.mktemp("camp")
+    sensors = SensorConfig(slip_mean=0.0, slip_per_sin_slope=0.0, slip_std=0.0,
+                           twist_noise_v=0.0, twist_noise_w=0.0, imu_bias_deg=0.0)
+    camp = simulate_campaign(seed=3, effects=("vegetation_drag",),
+                             config=CampaignConfig.small(sensors=sensors))
+    camp.write(d / "logs")
+    windows = make_windows(preprocess(camp.logs)[0], duration=2.0)
+    fit_model(windows, BASE_TERMS, n_splits=0).model.save(d / "base.json")
+    return d
+
+
+def test_cli_json_and_report(campaign_dir):
+    from energy_planner.cli import main
+
+    report = campaign_dir / "report.html"
+    res = CliRunner().invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
+                                    str(campaign_dir / "base.json"), "--json",
+                                    "--report", str(report), "--max-steps", "1"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    for key in ("rmse_w", "mae_w", "r2", "runs", "suspects", "unsupported", "breakdown",
+                "staircase", "superposition"):
+        assert key in doc
+    assert {"run", "measured_j", "predicted_j"} <= set(doc["runs"][0])
+    top = doc["suspects"][0]
+    assert {"name", "variables", "explanation", "term", "error_explained",
+            "heldout_rmse_w"} <= set(top)
+    assert "grass_height_m" in top["variables"]
+    assert doc["superposition"], "runs.csv in the logs folder gives the composites"
+    html = report.read_text()
+    assert 'src="http' not in html and "<script" not in html and "<link" not in html
+    assert html.count('src="data:image/png;base64,') >= 5
+    assert top["term"] in html
+
+
+def test_cli_text_and_errors(campaign_dir):
+    from energy_planner.cli import main
+
+    runner = CliRunner()
+    res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
+                               str(campaign_dir / "base.json"), "--max-steps", "0"])
+    assert res.exit_code == 0, res.output
+    assert "suspects (above noise" in res.output and "grass_height_m" in res.output
+    assert "energy-planner fit LOGS --term" in res.output
+    bad = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
+                               str(campaign_dir / "base.json"), "--term", "pos(nope)"])
+    assert bad.exit_code == 2 and "nope" in bad.output
+    unfitted = campaign_dir / "unfitted.json"
+    EnergyModel(BASE_TERMS).save(unfitted)
+    res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
+                               str(unfitted)])
+    assert res.exit_code == 2 and "no coefficients" in res.output
