@@ -449,3 +449,18 @@ def test_write_ros2_bags(tmp_path):
     assert np.allclose(back["current"], camp.logs["current"], rtol=1e-6, atol=1e-5)
     with pytest.raises(EnergyPlannerError, match="already holds bags"):
         camp.write(tmp_path, bag=True)
+
+
+def test_cost_table_is_the_wrench_along_the_fall_line(ideal, tmp_path):
+    """Force-equivalent cost along the fall line: const +- grade * sin(alpha)."""
+    table = ideal.cost_table()
+    assert set(table["direction"]) == {"uphill", "downhill"}
+    const = {"forward": C["fwd_const"], "backward": C["bwd_const"], "lateral": C["lat_const"]}
+    grade = {"forward": C["fwd_grade"], "backward": C["bwd_grade"], "lateral": C["lat_grade"]}
+    for r in table.itertuples():
+        sign = 1.0 if r.direction == "uphill" else -1.0
+        expected = const[r.motion] + sign * grade[r.motion] * math.sin(math.radians(r.slope_deg))
+        assert r.true_cost_n == pytest.approx(expected, rel=1e-9), r.run
+        assert r.measured_cost_n == pytest.approx(expected, rel=1e-9), r.run  # ideal sensors
+    png = ideal.plot(tmp_path / "cost.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -40,8 +40,9 @@ def test_simulate_writes_readable_files_and_json(tmp_path):
 
 def test_noise_free_parquet_energies_match_truth(tmp_path):
     res = _run("--out", str(tmp_path), "--small", "--noise-free", "--format", "parquet",
-               "--speeds", "0.2,0.45")
+               "--speeds", "0.2,0.45", "--plot", str(tmp_path / "cost.png"))
     assert res.exit_code == 0, res.output
+    assert (tmp_path / "cost.png").read_bytes()[:4] == b"\x89PNG"
     assert "truth coefficients" in res.output and "fwd_const" in res.output
     runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False).set_index("run")
     assert set(runs.loc[runs["kind"] == "straight", "speed"]) == {0.2, 0.45}

@@ -60,6 +60,8 @@ def _text(doc: dict[str, Any]) -> str:
         + (f" and {f['bags']} ROS 2 bags" if f["bags"] else "")
         + f" to {f['out']}"
     )
+    if f["plot"]:
+        lines.append(f"plot written to {f['plot']}")
     return "\n".join(lines)
 
 
@@ -77,6 +79,9 @@ def _text(doc: dict[str, Any]) -> str:
 @click.option("--bag", is_flag=True, help="Also write one ROS 2 bag per run into OUT/bags/.")
 @click.option("--small", is_flag=True, help="A tiny campaign (about 100 short runs) for a "
               "quick look.")
+@click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write a PNG of the force-equivalent cost versus slope (uphill and "
+              "downhill, forward and lateral; measured points, truth lines).")
 @click.option("--noise-free", is_flag=True, help="Perfect sensors: no noise, spikes, slip "
               "or IMU bias.")
 @json_option
@@ -88,6 +93,7 @@ def command(
     fmt: str,
     bag: bool,
     small: bool,
+    plot: Path | None,
     noise_free: bool,
     as_json: bool,
 ) -> None:
@@ -114,6 +120,7 @@ def command(
         config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
         camp = simulate_campaign(seed=seed, effects=effects, config=config, progress=progress)
         files = camp.write(out, fmt=fmt, bag=bag, progress=progress)
+        plot_path = camp.plot(plot) if plot is not None else None
     except EnergyPlannerError as exc:
         raise click.ClickException(
             f"{exc}\nhint: check --out is writable and empty of old bags; "
@@ -134,6 +141,7 @@ def command(
             "truth": out / "truth.json",
             "campaign": out / "campaign.json",
             "bags": sum(1 for p in files if p.parent == out / "bags"),
+            "plot": plot_path,
         },
     }
     emit(doc, as_json, _text)
