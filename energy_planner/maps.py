@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +17,21 @@ from energy_planner.errors import DEMIOError
 
 __all__ = ["MAPS_DIR", "map_names", "map_path", "scenario", "scenario_names"]
 
-#: The repository's ``maps/`` folder (the package is used from a source checkout).
-MAPS_DIR = Path(__file__).resolve().parents[1] / "maps"
+
+def _maps_dir() -> Path:
+    """The ``maps/`` folder: the source checkout's, else the installed data files'."""
+    candidates = [
+        Path(__file__).resolve().parents[1] / "maps",  # source checkout / editable install
+        Path(sys.prefix) / "share" / "energy_planner" / "maps",  # wheel data-files
+    ]
+    for d in candidates:
+        if (d / "scenarios.json").exists():
+            return d
+    return candidates[0]
+
+
+#: The bundled maps folder (``maps/`` of the checkout, or its installed copy).
+MAPS_DIR = _maps_dir()
 
 _FILES = {
     "hill": "hill.tif",
