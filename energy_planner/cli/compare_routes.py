@@ -1,0 +1,125 @@
+"""``energy-planner compare-routes``: direct climb vs detour (the paper's Fig. 1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    dem_option,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+    seed_option,
+    speed_option,
+    yaw_rate_option,
+)
+from energy_planner.cli.plan import (
+    PLANNER_CHOICES,
+    check_planner,
+    limit_options,
+    load_terrain,
+    point_to_work,
+)
+
+
+def format_table(res: dict[str, Any]) -> str:
+    """The comparison as a table (energy, Wh, distance, duration, max slope, saving)."""
+    from energy_planner.planning.compare import Route, RouteComparison
+
+    routes = [
+        Route(
+            r["name"], None, r["energy_j"], r["distance_m"], r["duration_s"],
+            r["max_slope_deg"], r["feasible"], r.get("reason"), r["saving_vs_direct"],
+        )
+        for r in res["routes"]
+    ]  # fmt: skip
+    text = RouteComparison(routes, (0, 0, None), (0, 0, None)).table()
+    text += "\n\nsaving: energy saved against the direct line (negative: costs more)"
+    if res.get("plot"):
+        text += f"\nplot written to {res['plot']}"
+    return text
+
+
+@click.command("compare-routes")
+@dem_option
+@click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")
+@click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")
+@model_option
+@click.option(
+    "--planner",
+    default="auto",
+    show_default=True,
+    help=f"Planner of the energy-optimal route: {', '.join(PLANNER_CHOICES)}.",
+)
+@click.option(
+    "--time",
+    "time_s",
+    type=click.FloatRange(min=0, min_open=True),
+    default=10.0,
+    show_default=True,
+    help="Planning budget of the energy-optimal route, seconds.",
+)
+@seed_option
+@limit_options
+@speed_option
+@yaw_rate_option
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="PNG: the three routes over a hillshade with heading marks.",
+)
+@json_option
+def command(
+    dem: Path,
+    start: str,
+    goal: str,
+    model_path: Path | None,
+    planner: str,
+    time_s: float,
+    seed: int,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    speed: float,
+    yaw_rate: float,
+    plot: Path | None,
+    as_json: bool,
+) -> None:
+    """Compare the direct line, the shortest feasible path and the energy-optimal path.
+
+    Each route gets its energy (J, Wh), distance, duration, steepest slope and the
+    energy saved against the direct line. A direct line that breaks a limit is
+    reported as infeasible with the reason.
+
+    Example: energy-planner compare-routes --dem maps/hill.tif --start 500058,5000046
+    --goal 500058,5000109 --max-slope 20 --plot routes.png
+    """
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.planning.compare import compare_routes
+
+    check_planner(planner)
+    terrain = load_terrain(dem)
+    model = load_model_option(model_path)
+    s = point_to_work(terrain, start, "--start", True)
+    g = point_to_work(terrain, goal, "--goal", True)
+    try:
+        comp = compare_routes(
+            terrain, model, s, g, planner=planner, time=time_s, seed=seed,
+            max_slope_deg=max_slope, max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+            speed=speed, yaw_rate=yaw_rate, progress=True,
+        )  # fmt: skip
+    except InvalidStateError as exc:
+        hint = "--start" if str(exc).startswith("start") else "--goal"
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    result = comp.to_dict(terrain)
+    if plot is not None:
+        comp.plot(terrain, plot)
+        result["plot"] = str(plot)
+    emit(result, as_json, format_table)

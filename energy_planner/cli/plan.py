@@ -1,0 +1,192 @@
+"""``energy-planner plan``: an energy-minimal SE(2) path over a DEM."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    dem_option,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+    parse_point,
+    seed_option,
+    speed_option,
+    yaw_rate_option,
+)
+from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
+
+
+def load_terrain(dem: Path) -> Any:
+    """Load ``--dem``; DEM errors become ``click.BadParameter``."""
+    from energy_planner.errors import DEMError, DEMIOError
+    from energy_planner.terrain import load_dem
+
+    try:
+        return load_dem(dem)
+    except (DEMIOError, DEMError) as exc:
+        raise click.BadParameter(str(exc), param_hint="--dem") from exc
+
+
+def point_to_work(terrain: Any, value: str, hint: str, with_yaw: bool) -> tuple:
+    """``X,Y[,YAW_DEG]`` in the DEM's CRS -> ``(x, y, yaw_rad | None)`` in the working CRS."""
+    p = parse_point(value, hint, with_yaw=with_yaw)
+    x, y = terrain.to_work(p[0], p[1])
+    yaw = math.radians(p[2]) if len(p) == 3 else None
+    return (float(x), float(y), yaw)
+
+
+def check_planner(planner: str) -> str:
+    """Validate ``--planner`` (click.BadParameter listing the valid names)."""
+    if planner not in PLANNER_CHOICES:
+        raise click.BadParameter(
+            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNER_CHOICES)}",
+            param_hint="--planner",
+        )
+    return planner
+
+
+def limit_options(f):
+    """--max-slope, --max-cross-slope and --keep-out."""
+    f = click.option(
+        "--keep-out",
+        "keep_out",
+        type=click.Path(dir_okay=False, path_type=Path),
+        default=None,
+        help="GeoJSON polygons (coordinates in the DEM's CRS) the path must avoid.",
+    )(f)
+    f = click.option(
+        "--max-cross-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest slope across the robot's body, degrees.",
+    )(f)
+    f = click.option(
+        "--max-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest ground slope the path may cross, degrees.",
+    )(f)
+    return f
+
+
+def format_table(res: dict[str, Any]) -> str:
+    """Human-readable summary."""
+    lines = [
+        f"planner   {res['planner']} ({res['time_s']:.1f} s)",
+        f"energy    {res['energy_j']:.1f} J ({res['energy_j'] / 3600:.3f} Wh)",
+        f"distance  {res['distance_m']:.1f} m",
+        f"duration  {res['duration_s']:.0f} s",
+        f"waypoints {len(res['waypoints'])} (x, y in the DEM's CRS, yaw deg CCW from x):",
+    ]
+    for w in res["waypoints"]:
+        lines.append(f"  {w['x']:>14.6g} {w['y']:>14.6g} {w['yaw_deg']:>8.1f}")
+    if res.get("out"):
+        lines.append(f"path written to {res['out']}")
+    if res.get("plot"):
+        lines.append(f"plot written to {res['plot']}")
+    return "\n".join(lines)
+
+
+@click.command("plan")
+@dem_option
+@click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")
+@click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")
+@model_option
+@click.option(
+    "--planner",
+    default="auto",
+    show_default=True,
+    help=f"One of: {', '.join(PLANNER_CHOICES)}.",
+)
+@click.option(
+    "--time",
+    "time_s",
+    type=click.FloatRange(min=0, min_open=True),
+    default=10.0,
+    show_default=True,
+    help="Planning budget, seconds.",
+)
+@seed_option
+@limit_options
+@speed_option
+@yaw_rate_option
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write the path as a GeoJSON LineString (yaw_deg per vertex).",
+)
+@click.option(
+    "--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="PNG plot."
+)
+@json_option
+def command(
+    dem: Path,
+    start: str,
+    goal: str,
+    model_path: Path | None,
+    planner: str,
+    time_s: float,
+    seed: int,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    speed: float,
+    yaw_rate: float,
+    out: Path | None,
+    plot: Path | None,
+    as_json: bool,
+) -> None:
+    """Plan an energy-minimal path (x, y, heading) from START to GOAL over a DEM.
+
+    The energy is that of the model (--model, default the bundled B1-class model)
+    integrated along the path; the path may walk sideways or backwards where that is
+    cheaper. Progress (best energy so far) is shown on stderr.
+
+    Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
+    --goal 500058,5000109 --max-slope 20
+    """
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.planning.plan import plan
+
+    check_planner(planner)
+    terrain = load_terrain(dem)
+    model = load_model_option(model_path)
+    s = point_to_work(terrain, start, "--start", True)
+    g = point_to_work(terrain, goal, "--goal", True)
+    try:
+        res = plan(
+            terrain, model, s, g, planner=planner, time=time_s, seed=seed,
+            max_slope_deg=max_slope, max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+            speed=speed, yaw_rate=yaw_rate, progress=True,
+        )  # fmt: skip
+    except InvalidStateError as exc:
+        hint = "--start" if str(exc).startswith("start") else "--goal"
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    result = res.to_dict(terrain)
+    if out is not None:
+        out.write_text(json.dumps(res.to_geojson(terrain), indent=1))
+        result["out"] = str(out)
+    if plot is not None:
+        from energy_planner.planning.compare import Route, RouteComparison
+
+        comp = RouteComparison(
+            routes=[
+                Route("energy_optimal", res.states, res.energy_j, res.distance_m,
+                      res.duration_s, None, True),
+            ],
+            start=s,
+            goal=g,
+        )  # fmt: skip
+        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J")
+        result["plot"] = str(plot)
+    emit(result, as_json, format_table)
