@@ -464,3 +464,27 @@ def test_cost_table_is_the_wrench_along_the_fall_line(ideal, tmp_path):
         assert r.measured_cost_n == pytest.approx(expected, rel=1e-9), r.run  # ideal sensors
     png = ideal.plot(tmp_path / "cost.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    alpha=st.floats(0, math.radians(30)),
+    gamma=st.floats(-math.pi, math.pi),
+    vx=st.floats(-0.6, 0.6),
+    vy=st.floats(-0.6, 0.6),
+    wz=st.floats(-1.0, 1.0),
+    ax=st.floats(-1, 1),
+    ay=st.floats(-1, 1),
+)
+def test_truth_is_mirror_symmetric(alpha, gamma, vx, vy, wz, ax, ay):
+    """P(a, g, vx, vy, w) = P(a, -g, vx, -vy, -w) (design notes), every effect on."""
+    model = truth_model(tuple(EFFECTS))
+    channels = {"payload_kg": np.array([5.0]), "temperature_c": np.array([3.0]),
+                "grass_height_m": np.array([0.2]), "surface": np.array(["mud"])}
+
+    def p(g, y, w, acc_y):
+        return model.power({"alpha": np.array([alpha]), "gamma": np.array([g]),
+                            "vx": np.array([vx]), "vy": np.array([y]), "wz": np.array([w]),
+                            "ax": np.array([ax]), "ay": np.array([acc_y]), **channels})[0]
+
+    assert p(gamma, vy, wz, ay) == pytest.approx(p(-gamma, -vy, -wz, -ay), rel=1e-12, abs=1e-9)
