@@ -246,3 +246,19 @@ def test_preprocess_keeps_input_unchanged_and_checks_columns():
     bad.loc[5, "t"] = 0.0
     with pytest.raises(LogError, match="goes backwards in run 'r' at row 5"):
         preprocess(bad)
+
+
+def test_zero_quaternion_is_dropped_and_counted():
+    df = log(6)
+    df.loc[2, ["qw", "qx", "qy", "qz"]] = 0.0     # driver without orientation
+    out, rec = drop_invalid(df, P)
+    assert rec.removed == {"IMU quaternion norm off 1 by more than 0.1": 1}
+    assert len(out) == 5
+
+
+@pytest.mark.parametrize("field,value", [("ema_tau", -1.0), ("hampel_half_window", 0),
+                                         ("voltage_min", 2000.0), ("max_gap", 0.0),
+                                         ("robot_mass_kg", 0.0)])
+def test_params_out_of_range_name_the_field(field, value):
+    with pytest.raises(LogError, match=rf"PreprocessParams\.{field}="):
+        PreprocessParams(**{field: value})

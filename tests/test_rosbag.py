@@ -318,3 +318,14 @@ def test_custom_topics_round_trip_and_bad_arguments(tmp_path):
         write_rosbag(orig, tmp_path / "x", topics={"gps": "/fix"})
     with pytest.raises(LogIOError, match="does not exist"):
         load_rosbag(tmp_path / "missing")
+
+
+def test_unstamped_messages_need_bag_times(tmp_path):
+    # an IMU driver that leaves header stamps at 0: every IMU message repeats t = 0
+    imu = [(0, 1.0, 0.0, 0.0, 0.0)] * 50
+    odom = [(S + k * 20_000_000, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0) for k in range(50)]
+    bat = [(S + k * 20_000_000, 50.0, -5.0) for k in range(50)]
+    bag = write_streams(tmp_path / "nostamp", 2, imu, odom, bat)
+    with pytest.raises(LogError, match=r"49 of 50 messages on ./imu/data. repeat a header "
+                                         r"stamp.*use stamp=.bag."):
+        load_rosbag(bag)

@@ -21,7 +21,8 @@ import numpy as np
 def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World up vector in the body frame, ``u = R^T (0, 0, 1)``.
 
-    The quaternion (body to world, scalar ``qw``) is normalised first.
+    The quaternion (body to world, scalar ``qw``) is normalised first; a zero
+    quaternion (no orientation) gives NaN.
 
     Returns
     -------
@@ -35,7 +36,8 @@ def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     qw, qx, qy, qz = (np.asarray(a, dtype=float) for a in (qw, qx, qy, qz))
     n = np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
+    with np.errstate(invalid="ignore", divide="ignore"):  # a zero quaternion gives NaN
+        qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
     ux = 2.0 * (qx * qz - qw * qy)
     uy = 2.0 * (qy * qz + qw * qx)
     uz = 1.0 - 2.0 * (qx * qx + qy * qy)

@@ -2,8 +2,9 @@
 
 :func:`preprocess` runs, in this order (each step per run and per gap-free segment):
 
-1. :func:`drop_invalid` - drop samples with a non-finite required value or a battery
-   voltage outside ``voltage_min..voltage_max`` (counted per reason);
+1. :func:`drop_invalid` - drop samples with a non-finite required value, a battery
+   voltage outside ``voltage_min..voltage_max`` or an IMU quaternion far from unit norm
+   (counted per reason);
 2. :func:`split_segments` - number the gap-free segments of each run (column
    ``segment``); a time step longer than ``max_gap`` starts a new segment, so nothing
    later (filters, derivatives, windows) bridges a gap;
@@ -36,6 +37,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from energy_planner.errors import LogError
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body
 from energy_planner.measurements.schema import (
     MAX_GAP_S,
@@ -84,6 +86,14 @@ class PreprocessParams:
         efficiency cannot exceed one). 0 disables the check.
     min_power_w, max_power_w : float
         Plausible electrical power range, W (default 0..5000).
+    max_quat_norm_error : float
+        A sample whose IMU quaternion norm differs from 1 by more than this is dropped
+        (default 0.1; drivers without orientation often publish zeros).
+
+    Raises
+    ------
+    energy_planner.errors.LogError
+        A parameter is out of range (the message names it and the valid range).
     """
 
     voltage_min: float = VOLTAGE_RANGE[0]
@@ -100,6 +110,28 @@ class PreprocessParams:
     min_mech_ratio: float = 1.0
     min_power_w: float = 0.0
     max_power_w: float = 5000.0
+    max_quat_norm_error: float = 0.1
+
+    def __post_init__(self) -> None:
+        def need(ok: bool, name: str, expected: str) -> None:
+            if not ok:
+                raise LogError(f"PreprocessParams.{name}={getattr(self, name)!r} is not "
+                               f"valid; expected {expected}")
+
+        need(0 <= self.voltage_min < self.voltage_max, "voltage_min",
+             "0 <= voltage_min < voltage_max")
+        need(self.max_gap > 0, "max_gap", "a time step > 0 s")
+        need(int(self.hampel_half_window) == self.hampel_half_window
+             and self.hampel_half_window >= 1, "hampel_half_window", "an integer >= 1")
+        need(self.hampel_n_sigma > 0, "hampel_n_sigma", "a threshold > 0")
+        need(self.hampel_min_scale_w >= 0, "hampel_min_scale_w", "a scale >= 0 W")
+        need(self.ema_tau >= 0, "ema_tau", "a time constant >= 0 s (0 disables)")
+        need(self.min_speed >= 0, "min_speed", "a speed >= 0 m/s")
+        need(self.min_yaw_rate >= 0, "min_yaw_rate", "a yaw rate >= 0 rad/s")
+        need(self.robot_mass_kg > 0, "robot_mass_kg", "a mass > 0 kg")
+        need(self.min_mech_ratio >= 0, "min_mech_ratio", "a ratio >= 0 (0 disables)")
+        need(self.min_power_w < self.max_power_w, "min_power_w", "min_power_w < max_power_w")
+        need(0 < self.max_quat_norm_error < 1, "max_quat_norm_error", "a value in (0, 1)")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form."""
@@ -274,10 +306,12 @@ def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
 
 def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                  ) -> tuple[pd.DataFrame, StepRecord]:
-    """Drop samples with a non-finite required value or an implausible voltage.
+    """Drop samples with a non-finite required value, an implausible voltage or no
+    valid IMU orientation.
 
     A sample counts once, under the first reason it meets: ``non-finite <column>`` in
-    the order of the required columns, then ``voltage outside lo..hi V``.
+    the order of the required columns, then ``voltage outside lo..hi V``, then the
+    quaternion norm (``max_quat_norm_error``).
     """
     n = len(samples)
     bad = np.zeros(n, dtype=bool)
@@ -294,6 +328,13 @@ def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessPar
         removed[f"voltage outside {params.voltage_min:g}..{params.voltage_max:g} V"] = \
             int(bv.sum())
         bad |= bv
+    q = np.column_stack([samples[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")])
+    with np.errstate(invalid="ignore"):
+        bq = ~bad & (np.abs(np.linalg.norm(q, axis=1) - 1.0) > params.max_quat_norm_error)
+    if bq.any():
+        removed[f"IMU quaternion norm off 1 by more than {params.max_quat_norm_error:g}"] = \
+            int(bq.sum())
+        bad |= bq
     out = samples.loc[~bad].reset_index(drop=True)
     return out, StepRecord("drop_invalid", n, len(out), removed)
 

@@ -302,6 +302,12 @@ def load_rosbag(
     clean = {}
     for role, (ns, vals) in streams.items():
         idx, ndup = _sorted_unique(ns)
+        if ndup and ndup > ns.size // 2:
+            raise LogError(
+                f"ROS bag {str(path)!r}: {ndup} of {ns.size} messages on {topics[role]!r} "
+                f"repeat a {stamp} stamp (a driver that does not stamp its messages?); "
+                + ("use stamp='bag' to take the bag record times" if stamp == "header"
+                   else "the bag times are unusable"))
         if ndup:
             dropped[f"repeated stamp on {topics[role]}"] = ndup
         clean[role] = (ns[idx], {k: v[idx] for k, v in vals.items()})
