@@ -105,11 +105,13 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     df.loc[5, "voltage"] = 0.0       # dead reading
     df.loc[6, "voltage"] = 4000.0    # absurd
     df.loc[7:, "t"] += 2.0           # one gap of 2.1 s between rows 6 and 7
+    df.loc[8, ["qw", "qx", "qy", "qz"]] = 0.0   # no orientation
     before = df.copy()
     rep = validate_log(df, "r.csv")
     pd.testing.assert_frame_equal(df, before)
     assert rep.n_nan == {"qx": 1, "current": 1}
     assert rep.n_bad_voltage == 2
+    assert rep.n_bad_quaternion == 1
     assert len(rep.gaps) == 1
     g = rep.gaps[0]
     assert g["run"] == "r" and g["t_before"] == pytest.approx(0.6)
@@ -121,6 +123,7 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     assert lrep.validation.n_nan == {"qx": 1, "current": 1}
     text = str(lrep)
     assert "voltage outside 5..1000 V" in text and "time gaps > 0.5 s" in text
+    assert "IMU quaternions far from unit norm (dropped by preprocess): 1" in text
 
 
 def test_folder_scan_skips_tables_that_are_not_logs_and_says_so(tmp_path):

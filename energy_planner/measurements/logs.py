@@ -109,6 +109,9 @@ class LoadReport:
             if v.n_bad_voltage:
                 lines.append(f"voltage outside {v.voltage_range[0]:g}..{v.voltage_range[1]:g} V "
                              f"(dropped by preprocess): {v.n_bad_voltage}")
+            if v.n_bad_quaternion:
+                lines.append(f"IMU quaternions far from unit norm (dropped by preprocess): "
+                             f"{v.n_bad_quaternion}")
             if v.gaps:
                 lines.append(f"time gaps > {v.max_gap:g} s (runs split there): {len(v.gaps)}")
         if self.current_sign_flipped:

@@ -60,6 +60,9 @@ class ValidationReport:
         Number of non-finite values per required column (only columns with any).
     n_bad_voltage : int
         Number of finite voltages outside ``voltage_range`` (V).
+    n_bad_quaternion : int
+        Number of finite IMU quaternions whose norm is off 1 by more than 0.1 (e.g. all
+        zeros from a driver without orientation).
     gaps : list of dict
         One entry per time step longer than ``max_gap`` (s): ``run``, ``t_before``,
         ``t_after``, ``dt``. Preprocessing splits the run there into segments.
@@ -71,6 +74,7 @@ class ValidationReport:
     runs: list[str]
     n_nan: dict[str, int] = field(default_factory=dict)
     n_bad_voltage: int = 0
+    n_bad_quaternion: int = 0
     gaps: list[dict[str, Any]] = field(default_factory=list)
     voltage_range: tuple[float, float] = VOLTAGE_RANGE
     max_gap: float = MAX_GAP_S
@@ -82,6 +86,7 @@ class ValidationReport:
             "runs": list(self.runs),
             "n_nan": dict(self.n_nan),
             "n_bad_voltage": self.n_bad_voltage,
+            "n_bad_quaternion": self.n_bad_quaternion,
             "n_gaps": len(self.gaps),
             "gaps": [dict(g) for g in self.gaps],
             "voltage_range": list(self.voltage_range),
@@ -201,6 +206,10 @@ def validate_log(
     lo, hi = voltage_range
     with np.errstate(invalid="ignore"):
         n_bad_v = int((np.isfinite(v) & ((v < lo) | (v > hi))).sum())
+    q = np.column_stack([pd.to_numeric(samples[c], errors="coerce").to_numpy(dtype=float)
+                         for c in ("qw", "qx", "qy", "qz")])
+    with np.errstate(invalid="ignore"):
+        n_bad_q = int((np.abs(np.linalg.norm(q, axis=1) - 1.0) > 0.1).sum())
     gaps = []
     runs = samples["run"].astype(str).to_numpy()
     t = samples["t"].to_numpy(dtype=float)
@@ -217,6 +226,7 @@ def validate_log(
         runs=sorted(map(str, pd.unique(runs))),
         n_nan=n_nan,
         n_bad_voltage=n_bad_v,
+        n_bad_quaternion=n_bad_q,
         gaps=gaps,
         voltage_range=(float(lo), float(hi)),
         max_gap=float(max_gap),
