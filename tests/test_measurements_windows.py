@@ -166,3 +166,28 @@ def test_run_energies_never_bridges_a_gap():
     assert run_energies(df, max_gap=None)["measured_j"].iloc[0] == pytest.approx(510.0)
     with pytest.raises(LogError, match="current"):
         run_energies(df.drop(columns="current"))
+
+
+@settings(max_examples=40, deadline=None)
+@given(dts=st.lists(st.floats(0.01, 0.7), min_size=5, max_size=120),
+       duration=st.floats(0.5, 3.0), seed=st.integers(0, 2**16))
+def test_window_invariants_on_irregular_sampling(dts, duration, seed):
+    rng = np.random.default_rng(seed)
+    t = np.concatenate([[0.0], np.cumsum(dts)])
+    n = t.size
+    vx = rng.choice([0.3, -0.3, 0.0], n)
+    wz = np.where(vx == 0.0, 0.5, 0.0)
+    df = log(t, vx=vx, wz=wz, current=rng.uniform(2, 10, n))
+    w = make_windows(df, duration=duration, max_gap=0.5)
+    s, tab = w.samples, w.table
+    # every input sample is in one window or counted as dropped
+    assert len(s) + sum(w.dropped.values()) == n
+    assert s["t"].is_unique and np.isin(s["t"], t).all()
+    for win, g in s.groupby("window"):
+        row = tab.loc[tab["window"] == win].iloc[0]
+        assert g["motion"].nunique() == 1 and g["motion"].iloc[0] == row["motion"]
+        assert np.diff(g["t"]).max(initial=0.0) <= 0.5
+        assert g["t"].iloc[-1] - g["t"].iloc[0] < duration + 1e-9
+        assert row["duration"] <= duration + 0.5 + 1e-9
+        assert row["power"] == pytest.approx(g["power"].mean())
+        assert row["t_start"] == g["t"].iloc[0] and row["n"] == len(g)
