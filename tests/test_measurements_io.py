@@ -140,3 +140,13 @@ def test_folder_scan_skips_tables_that_are_not_logs_and_says_so(tmp_path):
     make_log().drop(columns=["qw"]).to_csv(tmp_path / "r2.csv", index=False)
     with pytest.raises(LogError, match=r"r2.csv lacks required column\(s\) 'qw'"):
         load_logs(tmp_path)
+
+
+def test_time_backwards_in_an_interleaved_multi_run_file_names_the_file_row(tmp_path):
+    a, b = make_log(n=5, run="z"), make_log(n=5, run="y")
+    df = pd.concat([a, b]).iloc[np.r_[0, 5, 1, 6, 2, 7, 3, 8, 4, 9]].reset_index(drop=True)
+    df.loc[7, "t"] = 0.05          # run y: rows 1, 3, 5, 7 have t 0, 0.1, 0.2, 0.05
+    df.to_csv(tmp_path / "all.csv", index=False)
+    with pytest.raises(LogError, match=r"goes backwards in run 'y' at row 7: t=0.05 s after "
+                                       r"t=0.2 s"):
+        load_logs(tmp_path / "all.csv")

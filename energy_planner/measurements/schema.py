@@ -136,20 +136,28 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
             f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run"
         )
     runs = samples["run"].astype(str).to_numpy()
-    rows = np.arange(len(samples))
-    for run in pd.unique(runs):
-        sel = runs == run
-        tr = t[sel]
-        bad = np.flatnonzero(np.diff(tr) <= 0)
-        if bad.size:
-            i = int(bad[0])
-            row = int(rows[sel][i + 1])
-            what = "repeats" if tr[i + 1] == tr[i] else "goes backwards"
-            raise LogError(
-                f"log{_where(source)}: time {what} in run {run!r} at row {row}: "
-                f"t={float(tr[i + 1])!r} s after t={float(tr[i])!r} s; expected t strictly "
-                f"increasing within a run"
-            )
+    order, same = _by_run(runs)
+    ts = t[order]
+    bad = np.flatnonzero(same & (np.diff(ts) <= 0))
+    if bad.size:
+        # report the offending row that comes first in the file
+        j = int(bad[np.argmin(order[bad + 1])])
+        row = int(order[j + 1])
+        what = "repeats" if ts[j + 1] == ts[j] else "goes backwards"
+        raise LogError(
+            f"log{_where(source)}: time {what} in run {runs[row]!r} at row {row}: "
+            f"t={float(ts[j + 1])!r} s after t={float(ts[j])!r} s; expected t strictly "
+            f"increasing within a run"
+        )
+
+
+def _by_run(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row order grouping runs (file order kept within a run), and for each consecutive
+    pair in that order whether both rows belong to the same run."""
+    codes = pd.factorize(runs)[0]
+    order = np.argsort(codes, kind="stable")
+    c = codes[order]
+    return order, c[1:] == c[:-1]
 
 
 def validate_log(
@@ -213,14 +221,13 @@ def validate_log(
     gaps = []
     runs = samples["run"].astype(str).to_numpy()
     t = samples["t"].to_numpy(dtype=float)
-    for run in sorted(pd.unique(runs)):
-        tr = t[runs == run]
-        dt = np.diff(tr)
-        for i in np.flatnonzero(dt > max_gap):
-            gaps.append(
-                {"run": run, "t_before": float(tr[i]), "t_after": float(tr[i + 1]),
-                 "dt": round(float(dt[i]), 12)}
-            )
+    order, same = _by_run(runs)
+    ts, rs = t[order], runs[order]
+    dt = np.diff(ts)
+    for i in np.flatnonzero(same & (dt > max_gap)):
+        gaps.append({"run": str(rs[i]), "t_before": float(ts[i]), "t_after": float(ts[i + 1]),
+                     "dt": round(float(dt[i]), 12)})
+    gaps.sort(key=lambda g: (g["run"], g["t_before"]))
     return ValidationReport(
         n_rows=len(samples),
         runs=sorted(map(str, pd.unique(runs))),
