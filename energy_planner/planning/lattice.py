@@ -192,7 +192,7 @@ def _wrap(a):
 
 
 def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """Drop interior vertices that lie on a straight, constant-yaw run.
+    """Drop repeated poses and interior poses on a straight, constant-yaw run.
 
     The energy of a straight motion at constant yaw is the integral of the same
     per-metre cost, so merging collinear steps does not change it (up to sampling).
@@ -204,6 +204,8 @@ def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 0.0, 1.0]]
     """
     states = np.asarray(states, float)
+    dup = np.r_[False, np.all(np.abs(np.diff(states, axis=0)) <= tol, axis=1)]
+    states = states[~dup]
     if len(states) <= 2:
         return states.copy()
     keep = [0]

@@ -106,12 +106,13 @@ def load_keep_out(path: str | Path) -> list[Any]:
 
 def to_work_geometries(geoms: Sequence[Any], terrain) -> list[Any]:
     """Transform geometries from the DEM's CRS to the terrain's working CRS."""
-    from shapely.ops import transform
+    import shapely
 
-    def fwd(x, y, z=None):
-        return terrain.to_work(np.asarray(x, float), np.asarray(y, float))
+    def fwd(coords: np.ndarray) -> np.ndarray:
+        x, y = terrain.to_work(coords[:, 0], coords[:, 1])
+        return np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
 
-    return [transform(fwd, g) for g in geoms]
+    return [shapely.transform(g, fwd) for g in geoms]
 
 
 def rasterize_keep_out(geoms: Sequence[Any], terrain) -> np.ndarray:

@@ -10,7 +10,9 @@ Used by the ``auto`` planner to remove a lattice path's discretisation (16 headi
 2. tries shortcuts: replacing the poses between ``i`` and ``i + gap`` by one straight
    motion when that costs less (gaps 2, 3, 4, 6, 8, ...).
 
-The step size adapts to the acceptance rate. The energy never increases, motions
+Turns in place are first spread along the following motion (turning while walking), so
+that single-pose moves can bend the path. The step size adapts to the acceptance rate.
+The result is never dearer than the input, motions
 stay finite (limits hold), and with a given ``seed`` the result is reproducible as
 long as the refinement converges (or ``max_rounds`` ends it) within the time budget.
 
@@ -63,6 +65,60 @@ def _edge_costs(cost, s: np.ndarray) -> np.ndarray:
     return cost.batch(s[:-1, 0], s[:-1, 1], s[:-1, 2], s[1:, 0], s[1:, 1], s[1:, 2])
 
 
+def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int):
+    """Try every shortcut from pose i to pose i + gap; apply the best non-overlapping ones."""
+    n = len(s)
+    i = np.arange(0, n - gap)
+    csum = np.concatenate([[0.0], np.cumsum(e)])
+    old = csum[i + gap] - csum[i]
+    a, b = s[i], s[i + gap]
+    direct = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
+    h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
+    t1 = cost.batch(a[:, 0], a[:, 1], a[:, 2], a[:, 0], a[:, 1], h)
+    walk = cost.batch(a[:, 0], a[:, 1], h, b[:, 0], b[:, 1], h)
+    t2 = cost.batch(b[:, 0], b[:, 1], h, b[:, 0], b[:, 1], b[:, 2])
+    facing = t1 + walk + t2
+    use_b = facing < direct
+    new = np.where(use_b, facing, direct)
+    gain = old - new
+    good = np.nonzero(gain > 1e-9 * np.maximum(old, 1.0))[0]
+    evals = 4 * len(i)
+    if good.size == 0:
+        return s, e, evals
+    taken = np.zeros(n, dtype=bool)  # poses inside or at the ends of a taken shortcut
+    chosen = []
+    for r in good[np.argsort(-gain[good])]:
+        lo = i[r]
+        if taken[lo : lo + gap + 1].any():
+            continue
+        taken[lo : lo + gap + 1] = True
+        chosen.append(r)
+    chosen.sort(key=lambda r: i[r])
+    poses, costs = [], []
+    pos = 0
+    for r in chosen:
+        lo, hi = i[r], i[r] + gap
+        poses.append(s[pos : lo + 1])
+        costs.append(e[pos:lo])
+        if use_b[r]:
+            poses.append(np.array([[a[r, 0], a[r, 1], h[r]], [b[r, 0], b[r, 1], h[r]]]))
+            costs.append(np.array([t1[r], walk[r], t2[r]]))
+        else:
+            costs.append(np.array([direct[r]]))
+        pos = hi
+    poses.append(s[pos:])
+    costs.append(e[pos:])
+    s2 = np.vstack(poses)
+    e2 = np.concatenate(costs)
+    # drop zero-length, zero-turn motions (a turn to the yaw the pose already has)
+    dup = np.r_[False, np.all(np.abs(np.diff(s2, axis=0)) < 1e-12, axis=1)]
+    if dup.any():
+        keep = ~dup
+        s2 = s2[keep]
+        e2 = _edge_costs(cost, s2)
+    return s2, e2, evals
+
+
 def refine_path(
     cost,
     states: np.ndarray,
@@ -98,8 +154,8 @@ def refine_path(
     candidates : int
         Candidates per pose and round.
     tol : float
-        Converged after three rounds in a row with a relative gain below ``tol`` and
-        a step size below a tenth of ``spacing``.
+        Converged after five rounds in a row with a relative gain below ``tol`` and
+        a step size below a fiftieth of ``spacing``.
     report : callable, optional
         ``report(energy)`` after each round.
 
@@ -111,8 +167,18 @@ def refine_path(
     """
     t0 = _time.perf_counter()
     rng = np.random.default_rng(seed)
-    s = densify(states, spacing)
+    states = np.asarray(states, float)
+    e0 = _edge_costs(cost, states)
+    total0 = float(e0.sum())
+    # turns in place become turns while walking (the yaw then changes along the next
+    # motion), so that moving one pose at a time can bend the path
+    same = np.r_[False, np.all(np.diff(states[:, :2], axis=0) == 0, axis=1)]
+    same[-1] = False
+    s = densify(states[~same], spacing)
     e = _edge_costs(cost, s)
+    if not np.isfinite(e).all():
+        s = densify(states, spacing)
+        e = _edge_costs(cost, s)
     total = float(e.sum())
     sig_xy, sig_yaw = 0.5 * spacing, 0.3
     evals = len(e)
@@ -172,42 +238,27 @@ def refine_path(
                     e[i - 1] = cin[r, best[r]]
                 if i < n - 1:
                     e[i] = cout[r, best[r]]
-        # 2. shortcuts
-        for gap in (2, 3, 4, 6, 8, 12, 16):
+        # 2. shortcuts: straight at the current yaws (A), or turn to face along, walk,
+        # turn back (B)
+        for gap in (2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128):
             n = len(s)
             if n <= gap:
                 break
-            i = np.arange(0, n - gap)
-            csum = np.concatenate([[0.0], np.cumsum(e)])
-            old = csum[i + gap] - csum[i]
-            a, b = s[i], s[i + gap]
-            direct = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
-            evals += len(i)
-            good = np.nonzero(direct < old - 1e-9 * np.maximum(old, 1.0))[0]
-            if good.size == 0:
-                continue
-            keep = np.ones(n, dtype=bool)
-            new_e = e.copy()
-            for r in good[np.argsort(direct[good] - old[good])]:
-                start = i[r]
-                if not keep[start : start + gap + 1].all():
-                    continue  # overlaps a shortcut taken in this pass
-                keep[start + 1 : start + gap] = False
-                new_e[start] = direct[r]
-                new_e[start + 1 : start + gap] = np.nan
-            s = s[keep]
-            e = new_e[~np.isnan(new_e)]
+            s, e, k = _shortcut_pass(cost, s, e, gap)
+            evals += k
         total = float(e.sum())
         rate = accepted / max(tried, 1)
         if rate < 0.05:
-            sig_xy, sig_yaw = sig_xy * 0.6, sig_yaw * 0.6
-        elif rate > 0.3:
-            sig_xy, sig_yaw = min(sig_xy * 1.5, spacing), min(sig_yaw * 1.5, 0.5)
+            sig_xy, sig_yaw = sig_xy * 0.8, sig_yaw * 0.8
+        elif rate > 0.2:
+            sig_xy, sig_yaw = min(sig_xy * 1.25, spacing), min(sig_yaw * 1.25, 0.5)
         if report is not None:
-            report(total)
+            report(min(total, total0))
         gain = (before - total) / max(abs(before), 1e-12)
         calm = calm + 1 if gain < tol else 0
-        if calm >= 3 and sig_xy < 0.1 * spacing:
+        if calm >= 5 and sig_xy < 0.02 * spacing:
             converged = True
             break
+    if not total < total0:  # never return something dearer than the input
+        return states.copy(), {"rounds": rounds, "evaluations": evals, "converged": converged}
     return s, {"rounds": rounds, "evaluations": evals, "converged": converged}

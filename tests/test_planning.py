@@ -1,0 +1,202 @@
+"""Planning: lattice reference, OMPL planners, auto pipeline, limits.
+
+Numbers are checked against closed forms (zigzag at the critical grade), physical laws
+(uphill minus downhill energy = twice the grade work; energies of segments add) and
+geometry (straight on flat ground, keep-out polygons avoided), never against values the
+planner itself produced.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from shapely.geometry import LineString, box
+
+from energy_planner.energy import path_energy
+from energy_planner.errors import InvalidStateError, PlanningError
+from energy_planner.model import EnergyModel
+from energy_planner.planning.lattice import lattice_plan, simplify_states
+from energy_planner.planning.limits import make_motion_cost
+from energy_planner.planning.plan import plan
+from energy_planner.planning.refine import densify
+from energy_planner.terrain import Terrain
+
+QUAD = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
+
+
+@pytest.fixture(scope="module")
+def model():
+    return EnergyModel.default()
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return Terrain.from_function(lambda x, y: 0.0 * x, size=(40, 40))
+
+
+@pytest.fixture(scope="module")
+def ramp():
+    # inclined plane, uphill towards +y, grade 0.5 (26.6 deg)
+    return Terrain.from_function(lambda x, y: 0.5 * y, size=(60, 60))
+
+
+def _quad_model(c0: float, k: float) -> EnergyModel:
+    """Walking forward costs c0 + k sin(beta)^2 per metre (beta: path inclination);
+    walking backward or sideways costs 10 c0 per metre, turning is free."""
+    return EnergyModel(
+        ["fwd_const", "bwd_const", "lat_const", QUAD],
+        {"fwd_const": c0, "bwd_const": 10 * c0, "lat_const": 10 * c0, QUAD: k},
+    )
+
+
+def test_flat_ground_path_is_straight(flat, model):
+    res = plan(flat, model, (5.0, 20.0, 0.0), (35.0, 20.0, 0.0), planner="lattice", progress=False)
+    assert np.allclose(res.states[:, 1], 20.0)
+    assert np.allclose(res.states[:, 2], 0.0)
+    straight = path_energy(flat, model, [(5.0, 20.0), (35.0, 20.0)], yaw=[0.0, 0.0])
+    assert res.energy_j == pytest.approx(straight.energy_j, rel=1e-9)
+    assert res.distance_m == pytest.approx(30.0)
+
+
+def test_auto_on_flat_ground_stays_on_the_line(flat, model):
+    res = plan(flat, model, (5.0, 8.0), (33.0, 30.0), planner="auto", time=3, progress=False)
+    line = LineString([(5.0, 8.0), (33.0, 30.0)])
+    dev = max(line.distance(LineString(res.states[:, :2]).interpolate(f, normalized=True))
+              for f in np.linspace(0, 1, 50))  # fmt: skip
+    assert dev < 1.0
+    # and no dearer than walking the straight line facing forward
+    straight = path_energy(flat, model, [(5.0, 8.0), (33.0, 30.0)])
+    assert res.energy_j <= straight.energy_j * 1.001
+
+
+def test_zigzag_at_the_critical_grade_matches_closed_form(ramp):
+    r"""On a plane, walking forward along a direction of inclination beta (the path's
+    angle above the horizontal, :math:`\sin\beta = \sin\alpha\cos\gamma`) costs
+    :math:`c(u) = c_0 + k u^2` per metre along the ground, with :math:`u = \sin\beta`,
+    and gains :math:`u` metres of height per metre. Climbing a height H along directions
+    of inclination u costs :math:`H (c_0 + k u^2) / u`, minimal at the critical grade
+    :math:`u^* = \sqrt{c_0 / k}`: :math:`E^* = 2 H \sqrt{c_0 k}`, whatever the mix of
+    zigzag legs, as long as every leg climbs at :math:`u^*` (turning is free here). No
+    path can do better, and the straight climb (:math:`u = \sin\alpha > u^*`) does worse.
+
+    The lattice move (2, 1) on this plane (grade s = 0.5 uphill +y) has horizontal grade
+    :math:`s \cos\varphi` with :math:`\cos\varphi = 1/\sqrt5`, so
+    :math:`u = (s/\sqrt5) / \sqrt{1 + s^2/5}`; k is chosen so that this is the critical
+    grade, so the lattice can realise the optimum exactly.
+    """
+    s = 0.5
+    g = s / math.sqrt(5)
+    u = g / math.sqrt(1 + g * g)
+    c0 = 100.0
+    k = c0 / u**2
+    m = _quad_model(c0, k)
+    start, goal = (30.0, 5.0), (30.0, 45.0)
+    height = s * (goal[1] - start[1])
+    closed_form = 2 * height * math.sqrt(c0 * k)
+    lat = plan(ramp, m, start, goal, planner="lattice", step=1.0, progress=False)
+    assert lat.energy_j == pytest.approx(closed_form, rel=1e-6)
+    # it zigzags: legs cross the slope, none goes straight up
+    d = np.diff(lat.states[:, :2], axis=0)
+    moving = np.hypot(d[:, 0], d[:, 1]) > 1e-9
+    assert np.all(np.abs(d[moving, 0]) > 0)
+    # the direct climb is dearer, and the refined path cannot beat the closed form
+    sin_a = s / math.sqrt(1 + s * s)
+    direct = height * (c0 + k * sin_a**2) / sin_a
+    line = path_energy(ramp, m, [start, goal], yaw=[math.pi / 2] * 2)
+    assert line.energy_j == pytest.approx(direct, rel=1e-6)
+    auto = plan(ramp, m, start, goal, planner="auto", time=3, step=1.0, progress=False)
+    assert closed_form * (1 - 1e-6) <= auto.energy_j <= lat.energy_j * (1 + 1e-9)
+
+
+def test_uphill_and_downhill_cost_differently(ramp, model):
+    """Both ways the best path is the straight line (the default model is linear in the
+    grade and the slope is mild), so E_up - E_down is twice the grade work:
+    ``2 * fwd_grade * H`` (the grade term is fwd_grade * sin(beta) per metre)."""
+    a, b = (30.0, 10.0), (30.0, 40.0)
+    up = plan(ramp, model, a, b, planner="lattice", step=1.0, progress=False)
+    down = plan(ramp, model, b, a, planner="lattice", step=1.0, progress=False)
+    assert up.energy_j > down.energy_j
+    height = 0.5 * 30.0
+    fwd_grade = model.coefficients["fwd_grade"]
+    assert up.energy_j - down.energy_j == pytest.approx(2 * fwd_grade * height, rel=1e-6)
+
+
+def test_invalid_start_and_goal_name_the_limit(ramp, model):
+    with pytest.raises(InvalidStateError, match="start .* outside the map"):
+        plan(ramp, model, (-5.0, 10.0), (30.0, 30.0), planner="lattice", progress=False)
+    with pytest.raises(InvalidStateError, match="goal .* outside the map"):
+        plan(ramp, model, (30.0, 10.0), (30.0, 70.0), planner="lattice", progress=False)
+    with pytest.raises(InvalidStateError, match=r"start .*slope 26\.6 deg > limit 20 deg"):
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
+             max_slope_deg=20, progress=False)  # fmt: skip
+    with pytest.raises(InvalidStateError, match=r"cross-slope 26\.6 deg > limit 15 deg"):
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
+             max_cross_slope_deg=15, progress=False)  # fmt: skip
+    with pytest.raises(InvalidStateError, match="keep-out"):
+        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="lattice",
+             keep_out=[box(25, 25, 35, 35)], progress=False)  # fmt: skip
+    with pytest.raises(PlanningError, match="valid planners: auto, lattice"):
+        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="prmstar", progress=False)
+
+
+def test_keep_out_is_respected(flat, model):
+    wall = box(18.0, 8.0, 22.0, 32.0)
+    res = plan(flat, model, (5.0, 20.0), (35.0, 20.0), planner="auto", time=3,
+               keep_out=[wall], progress=False)  # fmt: skip
+    assert not LineString(res.states[:, :2]).intersects(wall)
+    straight = path_energy(flat, model, [(5.0, 20.0), (35.0, 20.0)])
+    assert res.energy_j > straight.energy_j
+    # it goes round the wall's end (y > 32 or y < 8)
+    assert res.states[:, 1].max() > 32.0 or res.states[:, 1].min() < 8.0
+
+
+def test_same_seed_same_path(flat, model):
+    kw = dict(planner="auto", time=5, keep_out=[box(18.0, 12.0, 22.0, 28.0)], progress=False)
+    a = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
+    b = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
+    assert a.info["refine"]["converged"]
+    assert np.array_equal(a.states, b.states)
+    r1 = plan(flat, model, (5.0, 20.0), (35.0, 21.0), planner="rrtstar", seed=7,
+              iterations=150, progress=False)  # fmt: skip
+    r2 = plan(flat, model, (5.0, 20.0), (35.0, 21.0), planner="rrtstar", seed=7,
+              iterations=150, progress=False)  # fmt: skip
+    assert np.array_equal(r1.states, r2.states)
+
+
+def test_planned_energy_is_the_sum_of_its_segments(ramp, model):
+    res = plan(ramp, model, (10.0, 10.0), (50.0, 45.0), planner="auto", time=2, progress=False)
+    pe = path_energy(ramp, model, res.states[:, :2], yaw=res.states[:, 2])
+    assert res.energy_j == pytest.approx(pe.energy_j, rel=1e-12)
+    assert pe.segments["energy_j"].sum() == pytest.approx(res.energy_j, rel=1e-9)
+    # splitting every motion in two changes nothing on a plane
+    dense = densify(res.states, 0.7)
+    pd_ = path_energy(ramp, model, dense[:, :2], yaw=dense[:, 2])
+    assert pd_.energy_j == pytest.approx(res.energy_j, rel=1e-6)
+
+
+@settings(max_examples=15, deadline=None)
+@given(x0=st.floats(3, 37), y0=st.floats(3, 37), x1=st.floats(3, 37), y1=st.floats(3, 37))
+def test_lattice_never_beats_the_admissible_bound(flat, model, x0, y0, x1, y1):
+    """On flat ground no path costs less than min_cost_per_metre * distance, and the
+    lattice path is at most ~8% dearer than the straight line (16 directions)."""
+    cost, _ = make_motion_cost(flat, model)
+    res = lattice_plan(cost, flat, (x0, y0, None), (x1, y1, None), step=2.0)
+    e = sum(cost(*a, *b) for a, b in zip(res.states[:-1], res.states[1:], strict=True))
+    d = math.hypot(x1 - x0, y1 - y0)
+    assert e >= cost.min_cost_per_metre * d * (1 - 1e-9)
+    h = math.atan2(y1 - y0, x1 - x0)
+    line = cost(x0, y0, h, x1, y1, h)
+    assert e <= line * 1.09 + 3 * cost.min_cost_per_metre * 2.0
+
+
+def test_simplify_keeps_energy(ramp, model):
+    cost, _ = make_motion_cost(ramp, model)
+    s = np.array([[5, 5, 0.3], [6, 5, 0.3], [7, 5, 0.3], [9, 5, 0.3], [9, 5, 1.0]], float)
+    t = simplify_states(s)
+    assert len(t) == 3
+    e = [sum(cost(*a, *b) for a, b in zip(p[:-1], p[1:], strict=True)) for p in (s, t)]
+    assert e[0] == pytest.approx(e[1], rel=1e-9)
