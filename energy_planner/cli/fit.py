@@ -98,8 +98,8 @@ def resolve_terms(specs: tuple[str, ...], available: set[str] | None = None) -> 
         if missing:
             known = [v for v in sorted(available) if v not in ("window", "run", "t")]
             raise click.BadParameter(
-                f"term {spec!r} reads {', '.join(map(repr, missing))}, which the logs do not "
-                f"have; unknown name(s) {', '.join(missing)}. Log channels: {', '.join(known)}. "
+                f"term {spec!r} reads {', '.join(map(repr, missing))}, which is neither a "
+                f"feature nor a channel of the logs. Log channels: {', '.join(known)}. "
                 f"Catalog terms: {', '.join(CATALOG)}",
                 param_hint="--term",
             )
