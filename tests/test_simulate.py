@@ -488,3 +488,13 @@ def test_truth_is_mirror_symmetric(alpha, gamma, vx, vy, wz, ax, ay):
                             "ax": np.array([ax]), "ay": np.array([acc_y]), **channels})[0]
 
     assert p(gamma, vy, wz, ay) == pytest.approx(p(-gamma, -vy, -wz, -ay), rel=1e-12, abs=1e-9)
+
+
+def test_negative_truth_power_is_flagged_and_floored():
+    cfg = CampaignConfig.small(slopes_deg=(20.0,), composite_slopes_deg=())
+    weak = truth_model(fwd_const=100.0)  # forward downhill: 100 - 1000 sin 20 < 0
+    with pytest.warns(UserWarning, match="negative power"):
+        camp = simulate_campaign(seed=0, config=cfg, truth=weak)
+    assert camp.truth is weak
+    assert (camp.true_samples["power"] >= 0).all()
+    assert (camp.true_samples["power"] == 0).any()
