@@ -152,6 +152,23 @@ def test_single_speed_campaign_warns_for_speed_term(inside):
     assert len(msgs) == 1 and "'speed_dependence'" in msgs[0]
 
 
+def test_channel_speed_terms_need_no_second_speed():
+    """``speed * (surface == 'mud')`` is told apart by the surface varying between runs."""
+    camp = simulate_campaign(
+        seed=4, effects=("surface_type",), config=CampaignConfig.small(sensors=INSIDE)
+    )
+    term = "speed * (surface == 'mud')"
+    res = fit_model(_windows(camp), [*BASE_TERMS, term, "payload"], n_splits=0)
+    assert not any("one speed" in m for m in res.warnings), res.warnings
+    true = camp.truth.coefficients[camp.truth.term_names[-1]]
+    assert camp.truth.terms[-1].formula == term
+    # a force like the others: slip 1/0.98, rectified noise and statistics within 6 %
+    assert res.coefficients[term] == pytest.approx(true / 0.98, rel=0.06)
+    # no payload effect in the truth: within 4 standard errors of 0, plus 1 N/kg of
+    # errors-in-variables bias (at 15 kg and 0.3 m/s: 4.5 W, 2.5 % of walking power)
+    assert abs(res.coefficients["payload"]) < 4 * res.stderr["payload"] + 1.0
+
+
 def test_several_speeds_recover_speed_effect():
     eff = EFFECTS["speed_dependence"]
     camp = simulate_campaign(

@@ -53,7 +53,8 @@ STEEP_DEG = 5.0
 VIF_WARN = 30.0
 #: Relative spread of the runs' cruising speeds under which a campaign is single-speed.
 SINGLE_SPEED_SPREAD = 0.1
-_SPEED_VARS = {"speed", "vx", "vy"}
+#: Per-sample features of the motion itself (not log channels).
+_KINEMATIC = frozenset({"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay"})
 
 
 @dataclass
@@ -182,16 +183,19 @@ class FitResult:
     def summary(self) -> str:
         """Human-readable table of coefficients, held-out errors and warnings."""
         terms = {t.name: t for t in self.model.terms}
+        names = self.model.term_names
+        nw = max(28, *(len(n) for n in names))
+        units = {n: terms[n].unit if len(terms[n].unit) <= 8 else "W/unit" for n in names}
         lines = [
             f"fitted {len(self.coefficients)} terms on {self.n_windows} windows "
             f"from {self.n_runs} runs (in-sample RMS residual {self.residual_rms_w:.1f} W)",
             "",
-            f"{'term':<28} {'coefficient':>12} {'std err':>10} {'unit':<6} formula",
+            f"{'term':<{nw}} {'coefficient':>12} {'std err':>10} {'unit':<6} formula",
         ]
-        for name in self.model.term_names:
+        for name in names:
             lines.append(
-                f"{name:<28} {self.coefficients[name]:>12.2f} {self.stderr[name]:>10.2f} "
-                f"{terms[name].unit:<6} {terms[name].formula}"
+                f"{name:<{nw}} {self.coefficients[name]:>12.2f} {self.stderr[name]:>10.2f} "
+                f"{units[name]:<6} {terms[name].formula}"
             )
         cv = self.heldout
         if cv is not None:
@@ -394,7 +398,11 @@ def _support_warnings(
         lo, med, hi = np.percentile(cruise.to_numpy(), [5, 50, 95])
         if (hi - lo) <= SINGLE_SPEED_SPREAD * med:
             for t in model.terms:
-                if t.name in BASE_TERMS or not (set(t.variables) & {"speed"}):
+                # a term that also reads a log channel (payload_kg * speed) is told apart
+                # by that channel varying between runs; one of motion only is not
+                if t.name in BASE_TERMS or "speed" not in t.variables:
+                    continue
+                if not set(t.variables) <= _KINEMATIC:
                     continue
                 out.append(
                     f"all runs cruise at one speed ({med:.2f} m/s; 5-95 % of runs "
