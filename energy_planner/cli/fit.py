@@ -47,6 +47,14 @@ def log_files(paths: tuple[Path, ...]) -> list[Path]:
     return out
 
 
+def status(message: str) -> None:
+    """Progress line on stderr, only when a person watches a terminal."""
+    import sys
+
+    if sys.stderr.isatty():
+        click.echo(message, err=True)
+
+
 def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str, Any], str, Any]:
     """Load logs, preprocess them and cut windows; errors become click errors.
 
@@ -56,14 +64,17 @@ def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str,
     from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
     from energy_planner.measurements import load_logs, make_windows, preprocess
 
+    files = log_files(paths)
+    status(f"loading {len(files)} log file(s) ...")
     try:
-        samples, load_report = load_logs(log_files(paths), report=True)
+        samples, load_report = load_logs(files, report=True)
     except LogIOError as exc:
         raise click.BadParameter(str(exc), param_hint="LOGS") from exc
     except LogError as exc:
         raise click.ClickException(
             f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
         ) from exc
+    status(f"preprocessing {len(samples)} samples ...")
     try:
         clean, prep_report = preprocess(samples)
         windows = make_windows(clean, duration=window)
@@ -186,6 +197,7 @@ def command(
     resolve_terms(terms)  # syntax and names first: fail before loading any log
     windows, reports, prep_text, _ = load_windows(logs, window)
     extra = resolve_terms(terms, set(windows.samples.columns))
+    status(f"fitting {len(BASE_TERMS) + len(extra)} terms on {len(windows.table)} windows ...")
     try:
         result = fit_model(
             windows,
