@@ -262,3 +262,18 @@ def test_zero_quaternion_is_dropped_and_counted():
 def test_params_out_of_range_name_the_field(field, value):
     with pytest.raises(LogError, match=rf"PreprocessParams\.{field}="):
         PreprocessParams(**{field: value})
+
+
+def test_heading_convention_is_a_parameter():
+    from scipy.spatial.transform import Rotation
+
+    # 25 deg slope, uphill along +x, in-plane heading 45 deg
+    R = Rotation.from_euler("y", -np.radians(25.0)) * Rotation.from_euler("z", np.pi / 4)
+    qx, qy, qz, qw = R.as_quat()
+    df = log(5, qw=qw, qx=qx, qy=qy, qz=qz)
+    plane = preprocess(df)[0]["gamma"]
+    yaw = preprocess(df, PreprocessParams(heading="yaw"))[0]["gamma"]
+    np.testing.assert_allclose(np.degrees(plane), 45.0)
+    np.testing.assert_allclose(np.degrees(yaw), np.degrees(np.arctan2(1, np.cos(np.radians(25)))))
+    with pytest.raises(LogError, match="heading"):
+        PreprocessParams(heading="compass")

@@ -89,6 +89,11 @@ class PreprocessParams:
     max_quat_norm_error : float
         A sample whose IMU quaternion norm differs from 1 by more than this is dropped
         (default 0.1; drivers without orientation often publish zeros).
+    heading : {"plane", "yaw"}
+        Convention of ``gamma`` (see
+        :func:`~energy_planner.measurements.imu.imu_slope_heading`): ``"plane"``
+        (default, the project's IMU relation ``-atan2(u_y, u_x)``) or ``"yaw"``
+        (``wrap(theta - psi)`` with the horizontal yaw).
 
     Raises
     ------
@@ -111,6 +116,7 @@ class PreprocessParams:
     min_power_w: float = 0.0
     max_power_w: float = 5000.0
     max_quat_norm_error: float = 0.1
+    heading: str = "plane"
 
     def __post_init__(self) -> None:
         def need(ok: bool, name: str, expected: str) -> None:
@@ -132,6 +138,7 @@ class PreprocessParams:
         need(self.min_mech_ratio >= 0, "min_mech_ratio", "a ratio >= 0 (0 disables)")
         need(self.min_power_w < self.max_power_w, "min_power_w", "min_power_w < max_power_w")
         need(0 < self.max_quat_norm_error < 1, "max_quat_norm_error", "a value in (0, 1)")
+        need(self.heading in ("plane", "yaw"), "heading", "'plane' or 'yaw'")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form."""
@@ -421,10 +428,11 @@ def add_slope_heading(samples: pd.DataFrame, params: PreprocessParams = Preproce
     """Add ``alpha``, ``gamma`` (rad) from the IMU quaternion and ``speed`` (m/s)."""
     out = samples.copy()
     q = [out[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")]
-    out["alpha"], out["gamma"] = imu_slope_heading(*q)
+    out["alpha"], out["gamma"] = imu_slope_heading(*q, heading=params.heading)
     out["speed"] = np.hypot(out["vx"].to_numpy(dtype=float), out["vy"].to_numpy(dtype=float))
-    return out, StepRecord("add_slope_heading", len(samples), len(out), {},
-                           "alpha = arccos(u_z), gamma = -atan2(u_y, u_x)")
+    note = "alpha = arccos(u_z), gamma = " + (
+        "-atan2(u_y, u_x)" if params.heading == "plane" else "atan2(-u_y, u_x u_z)")
+    return out, StepRecord("add_slope_heading", len(samples), len(out), {}, note)
 
 
 def discard_low_speed(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
