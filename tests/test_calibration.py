@@ -344,3 +344,36 @@ def test_fit_result_serialises(campaign, tmp_path):
     assert back.coefficients == pytest.approx(res.coefficients)
     assert back.metadata["fit"]["n_windows"] == res.n_windows
     assert "held-out by run" in res.summary()
+
+
+def test_run_robust_stderr_ignores_duplicated_windows(campaign):
+    """Copying every window of a run adds no information: the by-run standard error stays,
+    the classical one (which takes windows as independent) shrinks by about sqrt(2)."""
+    s2 = campaign.samples.assign(window=campaign.samples.window + 10**7)
+    t2 = campaign.table.assign(window=campaign.table.window + 10**7)
+    doubled = Windows(pd.concat([campaign.samples, s2]), pd.concat([campaign.table, t2]))
+    a = fit_model(campaign, n_splits=0)
+    b = fit_model(doubled, n_splits=0)
+    for name in BASE_TERMS:
+        assert b.coefficients[name] == pytest.approx(a.coefficients[name], rel=1e-9)
+        assert b.stderr_by_run[name] == pytest.approx(a.stderr_by_run[name], rel=1e-9)
+        assert b.stderr[name] == pytest.approx(a.stderr[name] / np.sqrt(2), rel=0.02)
+
+
+def test_mirrored_campaign_gives_the_same_model(campaign):
+    """Mirror symmetry (design notes): P(a, g, vx, vy, wz) = P(a, -g, vx, -vy, -wz), so the
+    mirrored logs must give the same coefficients."""
+    s = campaign.samples.assign(
+        gamma=-campaign.samples.gamma, vy=-campaign.samples.vy, wz=-campaign.samples.wz
+    )
+    t = campaign.table.assign(
+        gamma=-campaign.table.gamma,
+        vy=-campaign.table.vy,
+        wz=-campaign.table.wz,
+        motion=classify_motion(campaign.table.vx, -campaign.table.vy, -campaign.table.wz),
+    )
+    a = fit_model(campaign, n_splits=3)
+    b = fit_model(Windows(s, t), n_splits=3)
+    for name in BASE_TERMS:
+        assert b.coefficients[name] == pytest.approx(a.coefficients[name], rel=1e-9)
+    assert b.heldout.rmse_w == pytest.approx(a.heldout.rmse_w, rel=1e-9)

@@ -126,7 +126,12 @@ class FitResult:
     model : EnergyModel
         The fitted model (coefficients and standard errors set).
     coefficients, stderr : dict
-        Term name -> coefficient and its standard error (units of each term).
+        Term name -> coefficient and its classical standard error (units of each term),
+        which assumes independent windows.
+    stderr_by_run : dict
+        Term name -> standard error robust to correlation within a run (cluster
+        sandwich estimator over runs): windows of one run share slip, IMU bias and
+        ground, so this one is the honest one when it is larger.
     n_windows, n_runs : int
         Data the fit used.
     heldout : CrossValidation or None
@@ -155,6 +160,7 @@ class FitResult:
     condition_number: float
     vif: dict[str, float]
     coverage: pd.DataFrame
+    stderr_by_run: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary."""
@@ -167,6 +173,7 @@ class FitResult:
                     "unit": terms[name].unit,
                     "coefficient": self.coefficients[name],
                     "stderr": self.stderr[name],
+                    "stderr_by_run": self.stderr_by_run.get(name),
                     "vif": self.vif.get(name),
                 }
                 for name in self.model.term_names
@@ -190,13 +197,15 @@ class FitResult:
             f"fitted {len(self.coefficients)} terms on {self.n_windows} windows "
             f"from {self.n_runs} runs (in-sample RMS residual {self.residual_rms_w:.1f} W)",
             "",
-            f"{'term':<{nw}} {'coefficient':>12} {'std err':>10} {'unit':<6} formula",
+            f"{'term':<{nw}} {'coefficient':>12} {'std err':>10} {'by run':>9} {'unit':<6} formula",
         ]
         for name in names:
+            by_run = self.stderr_by_run.get(name, float("nan"))
             lines.append(
                 f"{name:<{nw}} {self.coefficients[name]:>12.2f} {self.stderr[name]:>10.2f} "
-                f"{units[name]:<6} {terms[name].formula}"
+                f"{by_run:>9.2f} {units[name]:<6} {terms[name].formula}"
             )
+        lines.append("(std err: classical; by run: robust to correlated windows within a run)")
         cv = self.heldout
         if cv is not None:
             lines += [
@@ -274,6 +283,31 @@ def model_features(samples: pd.DataFrame, model: EnergyModel) -> dict[str, np.nd
     if "speed" in need and "speed" not in out and "vx" in out and "vy" in out:
         out["speed"] = np.hypot(out["vx"].astype(float), out["vy"].astype(float))
     return out
+
+
+def _cluster_stderr(
+    X: np.ndarray, resid: np.ndarray, w: np.ndarray, runs: np.ndarray
+) -> np.ndarray:
+    """Cluster-robust (by run) standard errors of weighted least squares.
+
+    ``V = G/(G-1) B^-1 (sum_g s_g s_g^T) B^-1`` with ``B = X^T W X`` and the score of run
+    ``g`` ``s_g = X_g^T W_g r_g`` (the CR1 sandwich estimator).
+
+    Examples
+    --------
+    >>> X = np.ones((4, 1)); r = np.array([1.0, 1.0, -1.0, -1.0])
+    >>> _cluster_stderr(X, r, np.ones(4), np.array(["a", "a", "b", "b"])).tolist()
+    [1.0]
+    """
+    B = X.T @ (X * w[:, None])
+    Binv = np.linalg.pinv(B)
+    scores = pd.DataFrame(X * (w * resid)[:, None]).groupby(runs).sum().to_numpy()
+    g = scores.shape[0]
+    if g < 2:
+        return np.full(X.shape[1], np.nan)
+    meat = scores.T @ scores * (g / (g - 1))
+    V = Binv @ meat @ Binv
+    return np.sqrt(np.clip(np.diag(V), 0, None))
 
 
 def run_folds(runs: Sequence[str], n_splits: int, seed: int = 0) -> list[list[str]]:
@@ -651,6 +685,7 @@ def fit_model(
     Xs = Xs / np.linalg.norm(Xs, axis=0)
     cond = float(np.linalg.cond(Xs))
 
+    se_run = _cluster_stderr(X, resid, w, table["run"].astype(str).to_numpy())
     heldout = None
     if n_splits:
         heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed)
@@ -663,6 +698,7 @@ def fit_model(
             "n_windows": n_windows,
             "n_runs": n_runs,
             "residual_rms_w": round(rms, 3),
+            "stderr_by_run": {n: float(f"{v:.3g}") for n, v in zip(names, se_run, strict=True)},
             **(
                 {}
                 if heldout is None
@@ -686,4 +722,5 @@ def fit_model(
         condition_number=cond,
         vif=dict(zip(names, map(float, vif), strict=True)),
         coverage=_coverage(table),
+        stderr_by_run=dict(zip(names, map(float, se_run), strict=True)),
     )
