@@ -114,7 +114,8 @@ def old_battery_store():
     return ts
 
 
-def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_battery=False):
+def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_battery=False,
+                  extras=None):
     """Write a bag directly with rosbags: imu rows (ns, qw, qx, qy, qz), odom rows
     (ns, vx, vy, wz, x, y, yaw), battery rows (ns, voltage, ros_current). With
     ``old_battery`` (ROS 1 only) BatteryState has the pre-Noetic definition."""
@@ -179,6 +180,11 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_b
                     **fields, temperature=nan, cell_temperature=np.zeros(0, np.float32))
                 raw = ser(m, "sensor_msgs/msg/BatteryState")
             msgs.append((ns, cb, raw))
+        for topic, rows in (extras or {}).items():
+            typ = "std_msgs/msg/String" if isinstance(rows[0][1], str) else "std_msgs/msg/Float64"
+            cx = w.add_connection(topic, typ, typestore=ts)
+            for ns, v in rows:
+                msgs.append((ns, cx, ser(T[typ](data=v), typ)))
         tw = T["geometry_msgs/msg/Twist"](linear=V3(x=0., y=0., z=0.),
                                           angular=V3(x=0., y=0., z=0.))
         msgs.append((10**9, cs, ser(tw, "geometry_msgs/msg/Twist")))
@@ -329,3 +335,19 @@ def test_unstamped_messages_need_bag_times(tmp_path):
     with pytest.raises(LogError, match=r"49 of 50 messages on ./imu/data. repeat a header "
                                          r"stamp.*use stamp=.bag."):
         load_rosbag(bag)
+
+
+def test_extra_topics_by_name_and_missing_outside_their_span(tmp_path):
+    imu = [(S + k * 10**8, 1.0, 0.0, 0.0, 0.0) for k in range(11)]          # 1.0 .. 2.0 s
+    odom = [(S + k * 10**8, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0) for k in range(11)]
+    bat = [(S + k * 10**8, 50.0, -5.0) for k in range(11)]
+    extras = {"/payload": [(S + 5 * 10**8, 2.0), (S + 10 * 10**8, 4.0)],      # from 1.5 s
+              "/ground": [(S + 3 * 10**8, "grass"), (S + 7 * 10**8, "mud")]}  # from 1.3 s
+    bag = write_streams(tmp_path / "x", 2, imu, odom, bat, extras=extras)
+    s = load_rosbag(bag, extra_topics={"payload_kg": "/payload", "surface": "/ground"})
+    assert s["payload_kg"].isna().sum() == 5
+    np.testing.assert_allclose(s["payload_kg"].to_numpy()[5:], [2.0, 2.4, 2.8, 3.2, 3.6, 4.0])
+    assert s["surface"].isna().tolist() == [True] * 3 + [False] * 8
+    assert s["surface"].iloc[3:].tolist() == ["grass"] * 4 + ["mud"] * 4
+    # without extra_topics only the /energy_planner/ namespace is read
+    assert "payload_kg" not in load_rosbag(bag).columns

@@ -18,6 +18,8 @@ bridged). Twist, pose position, voltage, current and numeric extras are interpol
 linearly in time; yaw is unwrapped, interpolated, then wrapped; the IMU quaternion
 (when the clock is the odometry) is interpolated by spherical linear interpolation
 (``scipy.spatial.transform.Slerp``); text extras are held from the previous message.
+Extras are missing (NaN) at clock times before their first (numeric: or after their
+last) message.
 At clock instants that coincide with source messages the values are exact.
 
 Sign of the current: ROS ``BatteryState.current`` is *negative* while discharging; the
@@ -382,11 +384,13 @@ def load_rosbag(
         idx, _ = _sorted_unique(ns)
         xs = ns[idx]
         vals = [data[i] for i in idx]
+        # outside the channel's own time span the value is unknown: NaN / missing
         if isinstance(vals[0], str):
-            j = np.clip(np.searchsorted(xs, tc_ns, side="right") - 1, 0, xs.size - 1)
-            out[col] = pd.Categorical([vals[i] for i in j])
+            j = np.searchsorted(xs, tc_ns, side="right") - 1
+            out[col] = pd.Categorical([vals[i] if i >= 0 else None for i in j])
         else:
-            out[col] = np.interp(tsec, xs / 1e9, np.asarray(vals, dtype=float))
+            out[col] = np.interp(tsec, xs / 1e9, np.asarray(vals, dtype=float),
+                                 left=np.nan, right=np.nan)
     name = run if run is not None else (path.stem if path.suffix == ".bag" else path.name)
     df = pd.DataFrame(out)
     df.insert(0, "run", str(name))
