@@ -51,11 +51,18 @@ def bind_kernel(cost):
 
         _BOUND[key] = (holder_cls, call, kernel)  # keep kernel alive: the key uses its id
     holder_cls, call, _ = _BOUND[key]
+    cache = getattr(cost, "_planning_bound", None)
+    if cache is not None and cache[0] is data:
+        return cache[1]
     holder = holder_cls(data)
 
     def f(x0, y0, th0, x1, y1, th1):
         return call(x0, y0, th0, x1, y1, th1, holder)
 
+    try:
+        cost._planning_bound = (data, f)
+    except AttributeError:
+        pass
     return f
 
 

@@ -415,6 +415,11 @@ def plan(
     check_endpoint(cost, terrain, "start", start_p, geoms)
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
 
+    # compile the kernels before the clock starts (numba compiles on first call)
+    warm = _cost_fn(cost)
+    warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
+    one = np.array([start_p[0]])
+    cost.batch(one, np.array([start_p[1]]), np.zeros(1), one, np.array([start_p[1]]), np.zeros(1))
     prog = _Progress(time, progress, callback, f"plan ({planner})")
     info: dict[str, Any] = {}
     try:
