@@ -1,0 +1,158 @@
+"""compare_routes and the ``plan`` / ``compare-routes`` commands (through CliRunner)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from energy_planner.cli import main
+from energy_planner.model import EnergyModel
+from energy_planner.planning import PLANNERS
+from energy_planner.planning.compare import compare_routes
+from energy_planner.terrain import Terrain
+
+
+def _ridge(x, y):
+    # a ridge across the map, steep (about 31 deg) in the middle, gentle at the east end
+    x, y = x - 500000.0, y - 5000000.0
+    h = 12.0 * np.exp(-(((y - 30.0) / 8.0) ** 2)) * np.clip((60.0 - x) / 40.0, 0.0, 1.0)
+    return h
+
+
+@pytest.fixture(scope="module")
+def dem(tmp_path_factory):
+    import rasterio
+    from rasterio.transform import from_origin
+
+    t = Terrain.from_function(_ridge, size=(60, 60), origin=(500000.0, 5000000.0))
+    path = tmp_path_factory.mktemp("dem") / "ridge.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", height=60, width=60, count=1, dtype="float64",
+        crs="EPSG:32631", transform=from_origin(500000.0, 5000060.0, 1.0, 1.0),
+    ) as dst:  # fmt: skip
+        dst.write(t.elevation, 1)
+    return path, t
+
+
+def test_compare_routes_reports_an_infeasible_direct_line(dem):
+    _, terrain = dem
+    model = EnergyModel.default()
+    s, g = (500015.0, 5000010.0), (500015.0, 5000050.0)
+    comp = compare_routes(terrain, model, s, g, max_slope_deg=20, time=2, progress=False)
+    names = [r.name for r in comp.routes]
+    assert names == ["direct", "shortest", "energy_optimal"]
+    direct = comp.route("direct")
+    assert not direct.feasible
+    assert "slope" in direct.reason and "limit 20 deg" in direct.reason
+    # the direct line still has an energy (it stays on the map) and crosses > 20 deg
+    assert direct.max_slope_deg > 20
+    for name in ("shortest", "energy_optimal"):
+        r = comp.route(name)
+        assert r.feasible and r.max_slope_deg <= 20.0 + 1e-6
+        assert r.distance_m > direct.distance_m
+    shortest, best = comp.route("shortest"), comp.route("energy_optimal")
+    assert best.energy_j <= shortest.energy_j * (1 + 1e-9)
+    assert best.saving_vs_direct == pytest.approx(
+        (direct.energy_j - best.energy_j) / direct.energy_j
+    )
+
+
+def test_compare_routes_cli_json_and_plot(dem, tmp_path):
+    path, _ = dem
+    png = tmp_path / "routes.png"
+    res = CliRunner().invoke(
+        main,
+        ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+         "500015,5000050", "--max-slope", "20", "--time", "2", "--plot", str(png), "--json"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.output)
+    routes = {r["name"]: r for r in out["routes"]}
+    assert set(routes) == {"direct", "shortest", "energy_optimal"}
+    for r in routes.values():
+        for key in ("energy_j", "distance_m", "duration_s", "max_slope_deg", "feasible"):
+            assert key in r
+    assert routes["direct"]["feasible"] is False and "limit 20 deg" in routes["direct"]["reason"]
+    assert routes["energy_optimal"]["feasible"] is True
+    assert png.stat().st_size > 10_000
+    # the text table names every route
+    res = CliRunner().invoke(
+        main,
+        ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+         "500015,5000050", "--time", "1", "--planner", "lattice"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert all(n in res.output for n in ("direct", "shortest", "energy_optimal"))
+
+
+def test_plan_cli_json_geojson(dem, tmp_path):
+    path, _ = dem
+    out = tmp_path / "path.geojson"
+    res = CliRunner().invoke(
+        main,
+        ["plan", "--dem", str(path), "--start", "500010,5000010,90", "--goal",
+         "500050,5000012", "--planner", "lattice", "--out", str(out), "--json"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    for key in ("energy_j", "distance_m", "duration_s", "planner", "waypoints"):
+        assert key in data
+    assert data["planner"] == "lattice"
+    w = data["waypoints"]
+    assert (w[0]["x"], w[0]["y"], w[0]["yaw_deg"]) == pytest.approx((500010, 5000010, 90))
+    assert (w[-1]["x"], w[-1]["y"]) == pytest.approx((500050, 5000012))
+    gj = json.loads(out.read_text())
+    coords = gj["geometry"]["coordinates"]
+    assert gj["geometry"]["type"] == "LineString"
+    assert len(gj["properties"]["yaw_deg"]) == len(coords)
+    assert math.isclose(gj["properties"]["energy_j"], data["energy_j"])
+
+
+def test_plan_cli_errors(dem):
+    path, _ = dem
+    base = ["plan", "--dem", str(path), "--goal", "500050,5000012"]
+    res = CliRunner().invoke(main, [*base, "--start", "500010,5000010", "--planner", "prm"])
+    assert res.exit_code == 2
+    assert "unknown planner 'prm'" in res.output
+    assert ", ".join(PLANNERS) in res.output
+    res = CliRunner().invoke(main, [*base, "--start", "400000,5000010"])
+    assert res.exit_code == 2
+    assert "--start" in res.output and "outside the map" in res.output
+    res = CliRunner().invoke(main, [*base, "--start", "500015,5000024", "--max-slope", "10"])
+    assert res.exit_code == 2
+    assert "slope" in res.output and "limit 10 deg" in res.output
+    res = CliRunner().invoke(main, [*base, "--start", "1,2,3,4"])
+    assert res.exit_code == 2
+
+
+def test_plan_cli_keep_out_file(dem, tmp_path):
+    path, _ = dem
+    ko = tmp_path / "ko.geojson"
+    ko.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {},
+        "geometry": {"type": "Polygon", "coordinates": [[
+            [500028, 5000002], [500032, 5000002], [500032, 5000020], [500028, 5000020],
+            [500028, 5000002]]]}}]}))  # fmt: skip
+    res = CliRunner().invoke(
+        main,
+        ["plan", "--dem", str(path), "--start", "500010,5000010", "--goal", "500050,5000010",
+         "--planner", "lattice", "--keep-out", str(ko), "--json"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    from shapely.geometry import LineString, box
+
+    w = json.loads(res.output)["waypoints"]
+    line = LineString([(p["x"], p["y"]) for p in w])
+    assert not line.intersects(box(500028, 5000002, 500032, 5000020))
+    bad = tmp_path / "bad.geojson"
+    bad.write_text("{not json")
+    res = CliRunner().invoke(
+        main,
+        ["plan", "--dem", str(path), "--start", "500010,5000010", "--goal", "500050,5000010",
+         "--keep-out", str(bad)],
+    )  # fmt: skip
+    assert res.exit_code != 0 and "not JSON" in res.output
