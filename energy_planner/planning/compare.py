@@ -156,12 +156,14 @@ class RouteComparison:
                 label += f": {r.energy_j / 1000:.1f} kJ, {r.distance_m:.0f} m"
             if not r.feasible:
                 label += " (infeasible)"
+            widths = {"direct": 2.0, "shortest": 4.5, "energy_optimal": 2.0}
             ax.plot(
                 s[:, 0],
                 s[:, 1],
                 color=colors.get(r.name, "k"),
-                lw=2,
+                lw=widths.get(r.name, 2.0),
                 ls="--" if not r.feasible else "-",
+                alpha=0.6 if r.name == "shortest" else 1.0,
                 label=label,
             )
             # heading marks every ~1/25 of the map
@@ -183,6 +185,7 @@ class RouteComparison:
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
+        ax.ticklabel_format(useOffset=False, style="plain")
         ax.set_xlabel("x (working CRS, m)")
         ax.set_ylabel("y (working CRS, m)")
         ax.set_title(title or "Direct climb vs detour (arrows: robot heading)")
