@@ -101,6 +101,17 @@ def scenarios() -> dict:
                 "below 13 deg."
             ),
         },
+        "hill_crossing": {
+            "map": "hill",
+            "crs": CRS,
+            "start": [X0 + 30.0, Y0 + 10.0],
+            "goal": [X0 + 30.0, Y0 + 190.0],
+            "description": (
+                "Crossing the hill's western flank from south to north at its foot: the "
+                "straight line climbs to 15 m over the flank; routes differ in how much "
+                "they climb and how long they side-hill."
+            ),
+        },
         "plane": {
             "map": "plane",
             "crs": CRS,
