@@ -661,9 +661,9 @@ def fit_model(
         if kind_terms and n_kind < MIN_WINDOWS_PER_TERM:
             raise FitError(
                 f"the data has {n_kind} {kind} window(s) (of {n_windows} windows from "
-                f"{n_runs} runs), too few for term(s) {', '.join(kind_terms)} (no {kind} "
-                f"windows); need at least {MIN_WINDOWS_PER_TERM}: record {kind} runs, or fit "
-                "a model without these terms"
+                f"{n_runs} runs), too few for term(s) {', '.join(kind_terms)}; need at least "
+                f"{MIN_WINDOWS_PER_TERM}: record {kind} runs, or fit a model without these "
+                "terms"
             )
     zero = [names[j] for j in range(len(names)) if not np.any(np.abs(X[:, j]) > 1e-12)]
     if zero:
