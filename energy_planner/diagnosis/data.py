@@ -17,40 +17,16 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import FitError, LogError
+from energy_planner.measurements.schema import CANONICAL_COLUMNS
+from energy_planner.measurements.windows import DERIVED_COLUMNS
 
-# Columns of the canonical samples that are not extra channels.
+# Columns of the canonical samples that are not extra channels: the measurements
+# module's canonical and derived columns, plus a few common log fields.
 KNOWN_COLUMNS = frozenset(
     {
-        "run",
-        "t",
-        "qw",
-        "qx",
-        "qy",
-        "qz",
-        "vx",
-        "vy",
-        "wz",
-        "voltage",
-        "current",
-        "x",
-        "y",
-        "yaw",
-        "z",
-        "alpha",
-        "gamma",
-        "speed",
-        "ax",
-        "ay",
-        "az",
-        "power",
-        "motion",
-        "window",
-        "dt",
-        "valid",
-        "keep",
-        "composite",
-        "part",
-        "segment",
+        *CANONICAL_COLUMNS,
+        *DERIVED_COLUMNS,
+        *("z", "az", "dt", "valid", "keep", "composite", "part"),
     }
 )
 
@@ -83,6 +59,8 @@ class WindowData:
     table: pd.DataFrame
     numeric_extras: list[str] = field(default_factory=list)
     categorical_extras: list[str] = field(default_factory=list)
+    _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _features: dict | None = field(default=None, repr=False)
 
     @property
     def n_windows(self) -> int:
@@ -125,18 +103,26 @@ class WindowData:
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
 
+        Columns are cached by term: the staircase re-ranks the same candidates.
+
         Returns
         -------
         numpy.ndarray
             Shape ``(n_windows, len(terms))``.
         """
-        from energy_planner.model import EnergyModel
+        from energy_planner.model import EnergyModel, prepare_features
 
         terms = list(terms)
+        if self._features is None:  # DataFrame -> arrays once, not once per call
+            self._features = prepare_features(self.samples)
+        todo = list(dict.fromkeys(t for t in terms if t not in self._cache))
+        if todo:
+            per_sample = EnergyModel(terms=todo).design_matrix(self._features)
+            for j, t in enumerate(todo):
+                self._cache[t] = self.window_mean(per_sample[:, j])
         if not terms:
             return np.empty((self.n_windows, 0))
-        per_sample = np.asarray(EnergyModel(terms=terms).design_matrix(self.samples), dtype=float)
-        return np.column_stack([self.window_mean(per_sample[:, j]) for j in range(len(terms))])
+        return np.column_stack([self._cache[t] for t in terms])
 
     def predict(self, model) -> np.ndarray:
         """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
