@@ -1,0 +1,107 @@
+"""``energy-planner demo``: the main job on a bundled map, end to end."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import emit, json_option, load_model_option, model_option
+
+
+def _text(res: dict[str, Any]) -> str:
+    from energy_planner.cli.compare_routes import format_table
+
+    head = [
+        f"scenario   {res['scenario']}: {res['description']}",
+        f"map        {res['map']}",
+        f"model      {res['model']}",
+        f"start      {res['start'][0]:.1f}, {res['start'][1]:.1f}    goal  "
+        f"{res['goal'][0]:.1f}, {res['goal'][1]:.1f}  ({res['crs']})",
+        f"limits     max slope {res['max_slope_deg']} deg",
+        "",
+    ]
+    tail = [
+        "",
+        "Next: energy-planner compare-routes --dem DEM --start X,Y --goal X,Y (your map),",
+        "      energy-planner simulate / fit / diagnose (calibrate your robot from its logs).",
+    ]
+    return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
+
+
+@click.command("demo")
+@click.option(
+    "--scenario",
+    "scenario_name",
+    default="hill",
+    show_default=True,
+    help="Bundled scenario (maps/scenarios.json): hill, hill_crossing, plane.",
+)
+@model_option
+@click.option(
+    "--max-slope",
+    type=click.FloatRange(min=0, max=89),
+    default=25.0,
+    show_default=True,
+    help="The robot's slope limit, degrees (a B1-class quadruped: about 25).",
+)
+@click.option(
+    "--time",
+    "time_s",
+    type=click.FloatRange(min=0, min_open=True),
+    default=5.0,
+    show_default=True,
+    help="Planning budget of the energy-optimal route, seconds.",
+)
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=Path("energy-planner-demo.png"),
+    show_default=True,
+    help="PNG of the routes over a hillshade.",
+)
+@json_option
+def command(
+    scenario_name: str,
+    model_path: Path | None,
+    max_slope: float,
+    time_s: float,
+    plot: Path,
+    as_json: bool,
+) -> None:
+    """Compare the direct climb, the shortest path and the energy-optimal path on a
+    bundled map (the paper's Fig. 1 hill by default), print the table, draw the routes.
+    """
+    from energy_planner.maps import map_path, scenario, scenario_names
+    from energy_planner.planning.compare import compare_routes
+    from energy_planner.terrain import load_dem
+
+    try:
+        sc = scenario(scenario_name)
+    except KeyError as exc:
+        raise click.BadParameter(
+            f"no scenario {scenario_name!r}; valid: {', '.join(scenario_names())}",
+            param_hint="--scenario",
+        ) from exc
+    model = load_model_option(model_path)
+    terrain = load_dem(map_path(sc["map"]))
+    start = terrain.to_work(*sc["start"])
+    goal = terrain.to_work(*sc["goal"])
+    comp = compare_routes(
+        terrain, model, start, goal, time=time_s, max_slope_deg=max_slope, progress=True
+    )
+    res = comp.to_dict(terrain)
+    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}")
+    res.update(
+        scenario=scenario_name,
+        description=sc["description"],
+        map=str(map_path(sc["map"])),
+        crs=sc["crs"],
+        start=sc["start"],
+        goal=sc["goal"],
+        max_slope_deg=max_slope,
+        model=str(model_path) if model_path else "bundled B1-class default",
+        plot=str(plot),
+    )
+    emit(res, as_json, _text)
