@@ -61,6 +61,7 @@ class WindowData:
     categorical_extras: list[str] = field(default_factory=list)
     _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     _features: dict | None = field(default=None, repr=False)
+    _start_idx: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def n_windows(self) -> int:
@@ -88,17 +89,26 @@ class WindowData:
         return [*self.numeric_extras, *self.categorical_extras]
 
     def window_mean(self, values: np.ndarray) -> np.ndarray:
-        """Mean of a per-sample array over each window, ignoring non-finite samples.
+        """Mean over each window of a per-sample array (or of each column of a matrix),
+        ignoring non-finite samples; a window with no finite sample gets NaN.
 
-        A window whose samples are all non-finite gets NaN.
+        Samples are stored grouped by window, so this is one ``np.add.reduceat``.
         """
         values = np.asarray(values, dtype=float)
         ok = np.isfinite(values)
-        n = np.bincount(self.key[ok], minlength=self.n_windows).astype(float)
-        s = np.bincount(self.key[ok], weights=values[ok], minlength=self.n_windows)
-        out = np.full(self.n_windows, np.nan)
-        np.divide(s, n, out=out, where=n > 0)
+        starts = self._starts
+        tot = np.add.reduceat(np.where(ok, values, 0.0), starts, axis=0)
+        cnt = np.add.reduceat(ok.astype(float), starts, axis=0)
+        out = np.full(tot.shape, np.nan)
+        np.divide(tot, cnt, out=out, where=cnt > 0)
         return out
+
+    @property
+    def _starts(self) -> np.ndarray:
+        """Index of the first sample of each window (samples are sorted by window)."""
+        if self._start_idx is None:
+            self._start_idx = np.flatnonzero(np.r_[True, self.key[1:] != self.key[:-1]])
+        return self._start_idx
 
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
@@ -117,9 +127,9 @@ class WindowData:
             self._features = prepare_features(self.samples)
         todo = list(dict.fromkeys(t for t in terms if t not in self._cache))
         if todo:
-            per_sample = EnergyModel(terms=todo).design_matrix(self._features)
+            per_window = self.window_mean(EnergyModel(terms=todo).design_matrix(self._features))
             for j, t in enumerate(todo):
-                self._cache[t] = self.window_mean(per_sample[:, j])
+                self._cache[t] = per_window[:, j]
         if not terms:
             return np.empty((self.n_windows, 0))
         return np.column_stack([self._cache[t] for t in terms])
@@ -198,10 +208,17 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
         s["speed"] = np.hypot(s["vx"].to_numpy(float), s["vy"].to_numpy(float))
     s["run"] = s["run"].astype(str)
     # A window is identified by (run, window): window numbers may restart in each run.
-    pairs = pd.MultiIndex.from_arrays([s["run"], s["window"].astype(np.int64)])
-    key, uniq = pd.factorize(pairs, sort=True)
-    key = np.asarray(key, dtype=np.int64)
+    # key = (run code, window) packed in one integer; samples sorted by it (stable in t)
+    run_code, run_names = pd.factorize(s["run"], sort=True)
+    wid = s["window"].to_numpy(dtype=np.int64)
+    wid = wid - wid.min()
+    packed = run_code.astype(np.int64) * (int(wid.max()) + 1) + wid
+    order = np.argsort(packed, kind="stable")
+    s = s.iloc[order].reset_index(drop=True)
+    uniq, key = np.unique(packed[order], return_inverse=True)
+    key = key.astype(np.int64)
     n = len(uniq)
+    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     if extras is None:
         extras = [c for c in s.columns if c not in KNOWN_COLUMNS]
     extras = [c for c in extras if c in s.columns]
@@ -209,30 +226,28 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
     def mean(col: str) -> np.ndarray:
         v = pd.to_numeric(s[col], errors="coerce").to_numpy(dtype=float)
         ok = np.isfinite(v)
-        cnt = np.bincount(key[ok], minlength=n).astype(float)
-        tot = np.bincount(key[ok], weights=v[ok], minlength=n)
+        cnt = np.add.reduceat(ok.astype(float), first)
+        tot = np.add.reduceat(np.where(ok, v, 0.0), first)
         out = np.full(n, np.nan)
         np.divide(tot, cnt, out=out, where=cnt > 0)
         return out
 
     table = pd.DataFrame(
         {
-            "run": uniq.get_level_values(0).astype(str),
-            "window": uniq.get_level_values(1),
+            "run": np.asarray(run_names, dtype=object)[run_code[order][first]].astype(str),
+            "window": s["window"].to_numpy()[first],
             "n": np.bincount(key, minlength=n),
             "power": mean("power"),
         }
     )
     if "t" in s.columns:
         t = s["t"].to_numpy(dtype=float)
-        t0 = np.full(n, np.inf)
-        t1 = np.full(n, -np.inf)
-        np.minimum.at(t0, key, t)
-        np.maximum.at(t1, key, t)
-        table["t_start"], table["t_end"] = t0, t1
+        table["t_start"] = np.minimum.reduceat(t, first)
+        table["t_end"] = np.maximum.reduceat(t, first)
     # duration: samples x the run's median sample interval (a window of 1 sample counts too)
-    dt = s.groupby("run", sort=False)["t"].transform(lambda v: np.median(np.diff(v))
-                                                     if len(v) > 1 else 1.0)
+    dt = s.groupby("run", sort=False)["t"].transform(
+        lambda v: np.median(np.diff(np.sort(v.to_numpy()))) if len(v) > 1 else 1.0
+    )
     table["duration"] = np.bincount(key, weights=dt.to_numpy(float), minlength=n)
     if "alpha" in s.columns:
         table["alpha_deg"] = np.degrees(mean("alpha"))
