@@ -125,8 +125,7 @@ def test_speed_terms_unsupported_at_single_speed():
     arcs and no composite paths (whose diagonal legs would tell speed**2 from the
     per-axis motion terms).
     """
-    cfg = CampaignConfig.small(sensors=WHITE_NOISE, ramp_s=0.0, arcs=False,
-                               composite_slopes_deg=())
+    cfg = CampaignConfig.small(sensors=WHITE_NOISE, ramp_s=0.0, arcs=False, composite_slopes_deg=())
     camp = simulate_campaign(seed=0, effects=("speed_dependence",), config=cfg)
     windows = make_windows(preprocess(camp.logs)[0], duration=2.0)
     base = fit_model(windows, BASE_TERMS, n_splits=0).model

@@ -26,8 +26,16 @@ from energy_planner.diagnosis import (
 from energy_planner.diagnosis.metrics import heading_bins, numeric_bins
 from energy_planner.model import BASE_TERMS, EnergyModel
 
-TRUE = {"fwd_const": 600.0, "fwd_grade": 1000.0, "bwd_const": 700.0, "bwd_grade": 1000.0,
-        "lat_const": 800.0, "lat_grade": 900.0, "turn_const": 250.0, "turn_slope": 300.0}
+TRUE = {
+    "fwd_const": 600.0,
+    "fwd_grade": 1000.0,
+    "bwd_const": 700.0,
+    "bwd_grade": 1000.0,
+    "lat_const": 800.0,
+    "lat_grade": 900.0,
+    "turn_const": 250.0,
+    "turn_slope": 300.0,
+}
 
 
 def synth(n_runs=32, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12):
@@ -51,13 +59,25 @@ def synth(n_runs=32, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12):
             vy[:] = 0.3 * rng.choice([-1, 1])
         else:
             wz[:] = 0.5 * rng.choice([-1, 1])
-        frames.append(pd.DataFrame({
-            "run": f"r{r:02d}", "t": t, "vx": vx, "vy": vy, "wz": wz,
-            "alpha": np.radians(rng.uniform(0, 20)), "gamma": rng.uniform(-np.pi, np.pi),
-            "ax": 0.0, "ay": 0.0, "motion": motion,
-            "temperature_c": rng.uniform(0, 30), "surface": rng.choice(["grass", "mud"]),
-            "window": r * 1000 + (t // 2).astype(int),
-        }))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": f"r{r:02d}",
+                    "t": t,
+                    "vx": vx,
+                    "vy": vy,
+                    "wz": wz,
+                    "alpha": np.radians(rng.uniform(0, 20)),
+                    "gamma": rng.uniform(-np.pi, np.pi),
+                    "ax": 0.0,
+                    "ay": 0.0,
+                    "motion": motion,
+                    "temperature_c": rng.uniform(0, 30),
+                    "surface": rng.choice(["grass", "mud"]),
+                    "window": r * 1000 + (t // 2).astype(int),
+                }
+            )
+        )
     s = pd.concat(frames, ignore_index=True)
     truth = EnergyModel(list(BASE_TERMS), TRUE)
     p = truth.design_matrix(s) @ truth.coef_array()
@@ -83,18 +103,22 @@ def test_power_metrics_analytic():
 def test_breakdown_finds_residual_planted_in_one_bin():
     rng = np.random.default_rng(1)
     n = 600
-    table = pd.DataFrame({
-        "alpha_deg": rng.uniform(0, 20, n), "gamma_deg": rng.uniform(-180, 180, n),
-        "speed": rng.uniform(0.2, 0.4, n), "motion": rng.choice(["forward", "lateral"], n),
-        "temperature_c": rng.uniform(0, 30, n), "surface": rng.choice(["grass", "mud"], n),
-    })
+    table = pd.DataFrame(
+        {
+            "alpha_deg": rng.uniform(0, 20, n),
+            "gamma_deg": rng.uniform(-180, 180, n),
+            "speed": rng.uniform(0.2, 0.4, n),
+            "motion": rng.choice(["forward", "lateral"], n),
+            "temperature_c": rng.uniform(0, 30, n),
+            "surface": rng.choice(["grass", "mud"], n),
+        }
+    )
     r = rng.normal(0, 1.0, n)
     cold = table["temperature_c"].to_numpy() < 6.0  # the lowest quintile, roughly
     r[cold] += 25.0
     mud = table["surface"].to_numpy() == "mud"
     bd = breakdown(table, r, ["temperature_c"], ["surface"])
-    assert set(bd) == {"alpha_deg", "gamma_deg", "speed", "motion", "temperature_c",
-                       "surface"}
+    assert set(bd) == {"alpha_deg", "gamma_deg", "speed", "motion", "temperature_c", "surface"}
     bins = bd["temperature_c"]["bins"]
     worst = max(bins, key=lambda b: abs(b["bias_w"]))
     assert worst is bins[0]  # the lowest-temperature quintile
@@ -125,8 +149,15 @@ def test_numeric_bins_few_values_and_nan():
 
 def test_heading_sectors():
     codes, labels, _ = heading_bins(np.array([0.0, 44.0, 90.0, -90.0, 180.0, -179.0, 170.0]))
-    assert [labels[c].split(" ")[0] for c in codes] == ["+0", "+45", "+90", "-90", "+180",
-                                                        "+180", "+180"]
+    assert [labels[c].split(" ")[0] for c in codes] == [
+        "+0",
+        "+45",
+        "+90",
+        "-90",
+        "+180",
+        "+180",
+        "+180",
+    ]
 
 
 # ----------------------------------------------------------------------------- CV
@@ -164,8 +195,9 @@ def test_span_residual():
 def test_random_channel_is_never_above_noise(seed):
     """A channel unrelated to power (random per run) must not become a finding."""
     s = synth(seed=seed)
-    s["junk"] = s["run"].map({r: np.random.default_rng(seed + i).normal()
-                              for i, r in enumerate(s["run"].unique())})
+    s["junk"] = s["run"].map(
+        {r: np.random.default_rng(seed + i).normal() for i, r in enumerate(s["run"].unique())}
+    )
     wd = window_data(s)
     rank = rank_suspects(wd, BASE_TERMS)
     assert rank.suspects == []
@@ -243,10 +275,17 @@ def campaign_dir(tmp_path_factory):
     from energy_planner.simulate import CampaignConfig, SensorConfig, simulate_campaign
 
     d = tmp_path_factory.mktemp("camp")
-    sensors = SensorConfig(slip_mean=0.0, slip_per_sin_slope=0.0, slip_std=0.0,
-                           twist_noise_v=0.0, twist_noise_w=0.0, imu_bias_deg=0.0)
-    camp = simulate_campaign(seed=3, effects=("vegetation_drag",),
-                             config=CampaignConfig.small(sensors=sensors))
+    sensors = SensorConfig(
+        slip_mean=0.0,
+        slip_per_sin_slope=0.0,
+        slip_std=0.0,
+        twist_noise_v=0.0,
+        twist_noise_w=0.0,
+        imu_bias_deg=0.0,
+    )
+    camp = simulate_campaign(
+        seed=3, effects=("vegetation_drag",), config=CampaignConfig.small(sensors=sensors)
+    )
     camp.write(d / "logs")
     windows = make_windows(preprocess(camp.logs)[0], duration=2.0)
     fit_model(windows, BASE_TERMS, n_splits=0).model.save(d / "base.json")
@@ -257,18 +296,39 @@ def test_cli_json_and_report(campaign_dir):
     from energy_planner.cli import main
 
     report = campaign_dir / "report.html"
-    res = CliRunner().invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
-                                    str(campaign_dir / "base.json"), "--json",
-                                    "--report", str(report), "--max-steps", "1"])
+    res = CliRunner().invoke(
+        main,
+        [
+            "diagnose",
+            str(campaign_dir / "logs"),
+            "--model",
+            str(campaign_dir / "base.json"),
+            "--json",
+            "--report",
+            str(report),
+            "--max-steps",
+            "1",
+        ],
+    )
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
-    for key in ("rmse_w", "mae_w", "r2", "runs", "suspects", "unsupported", "breakdown",
-                "staircase", "superposition"):
+    for key in (
+        "rmse_w",
+        "mae_w",
+        "r2",
+        "runs",
+        "suspects",
+        "unsupported",
+        "breakdown",
+        "staircase",
+        "superposition",
+    ):
         assert key in doc
     assert {"run", "measured_j", "predicted_j"} <= set(doc["runs"][0])
     top = doc["suspects"][0]
-    assert {"name", "variables", "explanation", "term", "error_explained",
-            "heldout_rmse_w"} <= set(top)
+    assert {"name", "variables", "explanation", "term", "error_explained", "heldout_rmse_w"} <= set(
+        top
+    )
     assert "grass_height_m" in top["variables"]
     assert doc["superposition"], "runs.csv in the logs folder gives the composites"
     html = report.read_text()
@@ -281,16 +341,33 @@ def test_cli_text_and_errors(campaign_dir):
     from energy_planner.cli import main
 
     runner = CliRunner()
-    res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
-                               str(campaign_dir / "base.json"), "--max-steps", "0"])
+    res = runner.invoke(
+        main,
+        [
+            "diagnose",
+            str(campaign_dir / "logs"),
+            "--model",
+            str(campaign_dir / "base.json"),
+            "--max-steps",
+            "0",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "suspects (above noise" in res.output and "grass_height_m" in res.output
     assert "energy-planner fit LOGS --term" in res.output
-    bad = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
-                               str(campaign_dir / "base.json"), "--term", "pos(nope)"])
+    bad = runner.invoke(
+        main,
+        [
+            "diagnose",
+            str(campaign_dir / "logs"),
+            "--model",
+            str(campaign_dir / "base.json"),
+            "--term",
+            "pos(nope)",
+        ],
+    )
     assert bad.exit_code == 2 and "nope" in bad.output
     unfitted = campaign_dir / "unfitted.json"
     EnergyModel(BASE_TERMS).save(unfitted)
-    res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model",
-                               str(unfitted)])
+    res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model", str(unfitted)])
     assert res.exit_code == 2 and "no coefficients" in res.output

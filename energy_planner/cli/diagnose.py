@@ -82,8 +82,9 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
         lines.append("")
         lines.append("staircase (held-out RMSE as the best suspects are added):")
         for s in doc["staircase"]:
-            lines.append(f"  {s['step']}. {s['name'] or '(model as given)':<32} "
-                         f"{s['heldout_rmse_w']:.1f} W")
+            lines.append(
+                f"  {s['step']}. {s['name'] or '(model as given)':<32} {s['heldout_rmse_w']:.1f} W"
+            )
     for n in doc["notes"]:
         lines.append(f"note: {n}")
     if report is not None:
@@ -103,8 +104,9 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     try:
         meta = pd.read_csv(runs_path)
     except (OSError, ValueError) as exc:
-        raise click.BadParameter(f"cannot read {str(runs_path)!r}: {exc}",
-                                 param_hint="--runs") from exc
+        raise click.BadParameter(
+            f"cannot read {str(runs_path)!r}: {exc}", param_hint="--runs"
+        ) from exc
     missing = sorted({"run", "composite", "part"} - set(meta.columns))
     if missing:
         raise click.BadParameter(
@@ -141,18 +143,49 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     help="Run metadata CSV with columns run, composite, part (for the superposition check); "
     "default: runs.csv inside a LOGS folder, if there is one.",
 )
-@click.option("--window", type=click.FloatRange(min=0, min_open=True), default=2.0,
-              show_default=True, help="Window length, s.")
-@click.option("--folds", type=click.IntRange(min=2), default=5, show_default=True,
-              help="Folds of the held-out validation by run.")
-@click.option("--max-steps", type=click.IntRange(min=0), default=4, show_default=True,
-              help="Largest number of terms the staircase adds.")
-@click.option("--k", "k", type=click.FloatRange(min=0), default=2.5, show_default=True,
-              help="Noise rule: mean per-fold RMSE reduction > k x its standard error.")
-@click.option("--min-rel", type=click.FloatRange(min=0, max=1), default=0.05,
-              show_default=True, help="Noise rule: held-out RMSE must fall by this fraction.")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of the assignment of runs to folds.")
+@click.option(
+    "--window",
+    type=click.FloatRange(min=0, min_open=True),
+    default=2.0,
+    show_default=True,
+    help="Window length, s.",
+)
+@click.option(
+    "--folds",
+    type=click.IntRange(min=2),
+    default=5,
+    show_default=True,
+    help="Folds of the held-out validation by run.",
+)
+@click.option(
+    "--max-steps",
+    type=click.IntRange(min=0),
+    default=4,
+    show_default=True,
+    help="Largest number of terms the staircase adds.",
+)
+@click.option(
+    "--k",
+    "k",
+    type=click.FloatRange(min=0),
+    default=2.5,
+    show_default=True,
+    help="Noise rule: mean per-fold RMSE reduction > k x its standard error.",
+)
+@click.option(
+    "--min-rel",
+    type=click.FloatRange(min=0, max=1),
+    default=0.05,
+    show_default=True,
+    help="Noise rule: held-out RMSE must fall by this fraction.",
+)
+@click.option(
+    "--seed",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Seed of the assignment of runs to folds.",
+)
 @json_option
 def command(
     logs: tuple[Path, ...],
@@ -196,11 +229,20 @@ def command(
     th = Thresholds(k=k, min_rel=min_rel, n_splits=folds, seed=seed)
     progress = None
     if sys.stderr.isatty():
+
         def progress(i: int) -> None:
             click.echo(f"staircase step {i} done", err=True)
+
     try:
-        d = diagnose(model, windows, runs_meta=runs_meta, thresholds=th, max_steps=max_steps,
-                     terms=extra, progress=progress)
+        d = diagnose(
+            model,
+            windows,
+            runs_meta=runs_meta,
+            thresholds=th,
+            max_steps=max_steps,
+            terms=extra,
+            progress=progress,
+        )
     except EnergyPlannerError as exc:
         raise click.ClickException(
             f"{exc}\nhint: the model's features must be in the logs; see docs/diagnosis.md"
@@ -213,7 +255,8 @@ def command(
             report.parent.mkdir(parents=True, exist_ok=True)
             write_report(d, report)
         except OSError as exc:
-            raise click.BadParameter(f"cannot write {str(report)!r}: {exc}",
-                                     param_hint="--report") from exc
+            raise click.BadParameter(
+                f"cannot write {str(report)!r}: {exc}", param_hint="--report"
+            ) from exc
         doc["report"] = str(report)
     emit(doc, as_json, lambda x: _text(x, report))

@@ -104,11 +104,13 @@ def infer_composites(
             if not all(leg in part for leg in legs):
                 continue
             parts = [part[leg] for leg in legs]
-            out.append({"composite": part[whole], "parts": parts, "kind": "concatenation",
-                        "group": comp})
+            out.append(
+                {"composite": part[whole], "parts": parts, "kind": "concatenation", "group": comp}
+            )
             for alt in sorted(p for p in part if len(p) == 1 and p not in legs):
-                out.append({"composite": part[alt], "parts": parts, "kind": "alternative",
-                            "group": comp})
+                out.append(
+                    {"composite": part[alt], "parts": parts, "kind": "alternative", "group": comp}
+                )
     return out
 
 

@@ -165,8 +165,13 @@ def breakdown(
     ok = np.isfinite(r)
     out: dict[str, dict] = {}
     plan: list[tuple[str, str, str]] = []
-    for col, kind in (("alpha_deg", "slope"), ("gamma_deg", "heading"), ("speed", "numeric"),
-                      ("wz", "numeric"), ("motion", "categorical")):
+    for col, kind in (
+        ("alpha_deg", "slope"),
+        ("gamma_deg", "heading"),
+        ("speed", "numeric"),
+        ("wz", "numeric"),
+        ("motion", "categorical"),
+    ):
         if col in table.columns:
             plan.append((col, col, kind))
     plan += [(c, c, "numeric") for c in numeric if c in table.columns]
@@ -229,8 +234,10 @@ def superposition(
     (30.0, 3.0, -3.0)
     """
     if isinstance(composites, Mapping):
-        composites = [{"composite": k, "parts": list(v), "kind": "concatenation"}
-                      for k, v in composites.items()]
+        composites = [
+            {"composite": k, "parts": list(v), "kind": "concatenation"}
+            for k, v in composites.items()
+        ]
     by = runs.set_index(runs["run"].astype(str))
     out = []
     for c in composites:

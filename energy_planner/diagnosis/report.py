@@ -117,7 +117,7 @@ def plot_residuals(d: Diagnosis):
         ax.axhline(0, color="k", lw=0.8)
         ax.set_xlabel(col)
         ax.set_ylabel("residual (W)")
-    for ax, col in zip(axes.flat[len(variables):], cats, strict=False):
+    for ax, col in zip(axes.flat[len(variables) :], cats, strict=False):
         vals = t[col].astype(object).where(t[col].notna(), "(missing)").astype(str).to_numpy()
         labels = sorted(set(vals))
         data = [r[vals == v] for v in labels]
@@ -174,11 +174,9 @@ def plot_staircase(d: Diagnosis):
     lo = np.array([min(s.fold_rmse_w) for s in steps])
     hi = np.array([max(s.fold_rmse_w) for s in steps])
     ax.bar(x, y, width=0.6, color="C0", label="pooled held-out RMSE")
-    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4,
-                label="fold range")
+    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4, label="fold range")
     for xi, yi in zip(x, y, strict=True):
-        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3),
-                    fontsize=8)
+        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3), fontsize=8)
     labels = ["model as given"] + [f"+ {s.name}" for s in steps[1:]]
     ax.set_xticks(x, labels, rotation=20, fontsize=8)
     ax.set_ylabel("held-out RMSE (W)")
@@ -213,8 +211,10 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     """The full report as an HTML string."""
     doc = d.to_dict()
     th = doc["thresholds"]
-    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
-             f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"]
+    parts = [
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
+        f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"
+    ]
     parts.append(
         f"<p class='big'>Model terms: <code>{html.escape(', '.join(doc['model_terms']))}</code>"
         f"<br>{doc['n_windows']} windows from {doc['n_runs']} runs. Window power: RMSE "
@@ -233,22 +233,36 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
         f"{100 * th['min_rel']:.0f}%. Add one with <code>energy-planner fit LOGS --term "
         f"TERM</code>.</p>"
     )
-    cols = [("name", "suspect"), ("term", "term"), ("error_explained", "error explained"),
-            ("heldout_rmse_w", "held-out RMSE with it (W)"),
-            ("reduction_se_w", "fold SE (W)"), ("explanation", "physical explanation")]
+    cols = [
+        ("name", "suspect"),
+        ("term", "term"),
+        ("error_explained", "error explained"),
+        ("heldout_rmse_w", "held-out RMSE with it (W)"),
+        ("reduction_se_w", "fold SE (W)"),
+        ("explanation", "physical explanation"),
+    ]
     parts.append(_table(doc["suspects"], cols))
     if doc["suspects"] or doc["below_noise"]:
         parts.append(_png(plot_suspects(d)))
     parts.append("<h3>Below noise (not findings)</h3>")
     parts.append(_table(doc["below_noise"][:15], cols))
     parts.append("<h3>Unsupported by these logs</h3>")
-    parts.append(_table(doc["unsupported"], [("name", "candidate"), ("term", "term"),
-                                             ("reason", "why not")]))
+    parts.append(
+        _table(doc["unsupported"], [("name", "candidate"), ("term", "term"), ("reason", "why not")])
+    )
     parts.append("<h2>Staircase: held-out error as suspects are added</h2>")
     steps = [dict(s, added=s["added"] or "(model as given)") for s in doc["staircase"]]
-    parts.append(_table(steps, [("step", "step"), ("added", "term added"),
-                                ("heldout_rmse_w", "held-out RMSE (W)"),
-                                ("error_explained", "error explained by it")]))
+    parts.append(
+        _table(
+            steps,
+            [
+                ("step", "step"),
+                ("added", "term added"),
+                ("heldout_rmse_w", "held-out RMSE (W)"),
+                ("error_explained", "error explained by it"),
+            ],
+        )
+    )
     if d.steps:
         parts.append(_png(plot_staircase(d)))
     parts.append("<h2>Predicted against measured power</h2>")
@@ -256,18 +270,33 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     parts.append("<h2>Where it fails: residuals by variable</h2>")
     parts.append(_png(plot_residuals(d)))
     parts.append("<h3>Largest systematic errors (bias / its standard error)</h3>")
-    bcols = [("bin", "bin"), ("n", "windows"), ("bias_w", "bias (W)"), ("rmse_w", "RMSE (W)"),
-             ("share_sq_error", "share of sq. error"), ("t", "t")]
+    bcols = [
+        ("bin", "bin"),
+        ("n", "windows"),
+        ("bias_w", "bias (W)"),
+        ("rmse_w", "RMSE (W)"),
+        ("share_sq_error", "share of sq. error"),
+        ("t", "t"),
+    ]
     parts.append(_table(doc["hotspots"], [("variable", "variable"), *bcols]))
     for var, info in doc["breakdown"].items():
         parts.append(f"<h3>{html.escape(var)} ({info['kind']})</h3>")
         parts.append(_table(info["bins"], bcols, hot=lambda r: abs(r.get("t") or 0) > 3))
     parts.append("<h2>Energy of whole runs</h2>")
     parts.append(_png(plot_runs(d)))
-    parts.append(_table(doc["runs"], [("run", "run"), ("duration_s", "duration (s)"),
-                                      ("measured_j", "measured (J)"),
-                                      ("predicted_j", "predicted (J)"), ("error_j", "error (J)"),
-                                      ("error_rel", "error (rel.)")]))
+    parts.append(
+        _table(
+            doc["runs"],
+            [
+                ("run", "run"),
+                ("duration_s", "duration (s)"),
+                ("measured_j", "measured (J)"),
+                ("predicted_j", "predicted (J)"),
+                ("error_j", "error (J)"),
+                ("error_rel", "error (rel.)"),
+            ],
+        )
+    )
     parts.append("<h2>Superposition of composite paths</h2>")
     parts.append(
         "<p class='note'>Measured energy of a composite run (AB: the legs in one go; "
@@ -275,12 +304,21 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
         "energies add (the model assumes they do), and the model's error on both.</p>"
     )
     sup = [dict(s, parts=" + ".join(s["parts"])) for s in doc["superposition"]]
-    parts.append(_table(sup, [("composite", "composite"), ("kind", "kind"), ("parts", "parts"),
-                              ("measured_composite_j", "measured E(composite) (J)"),
-                              ("measured_parts_j", "measured sum of parts (J)"),
-                              ("superposition_error_rel", "superposition error (rel.)"),
-                              ("model_error_composite_j", "model error, composite (J)"),
-                              ("model_error_parts_j", "model error on parts (J)")]))
+    parts.append(
+        _table(
+            sup,
+            [
+                ("composite", "composite"),
+                ("kind", "kind"),
+                ("parts", "parts"),
+                ("measured_composite_j", "measured E(composite) (J)"),
+                ("measured_parts_j", "measured sum of parts (J)"),
+                ("superposition_error_rel", "superposition error (rel.)"),
+                ("model_error_composite_j", "model error, composite (J)"),
+                ("model_error_parts_j", "model error on parts (J)"),
+            ],
+        )
+    )
     parts.append("</body></html>")
     return "\n".join(parts)
 

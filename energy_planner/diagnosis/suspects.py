@@ -394,8 +394,9 @@ def channel_candidates(
         for name, term, expl in shapes:
             if canonical(term) in skip_terms:
                 continue
-            variables = sorted({ch, *(["speed"] if "speed" in term else []),
-                                *(["wz"] if "wz" in term else [])})
+            variables = sorted(
+                {ch, *(["speed"] if "speed" in term else []), *(["wz"] if "wz" in term else [])}
+            )
             out.append(Candidate(name, term, variables, expl, "data", ch))
         seen = set()
         for level, q in zip(HINGE_QUANTILES, np.quantile(fin, HINGE_QUANTILES), strict=True):
@@ -412,16 +413,29 @@ def channel_candidates(
             continue
         if len(cats) > MAX_CATEGORIES:
             bad.append(
-                _unsup(ch, ch, [ch], "data",
-                       f"{len(cats)} distinct values (> {MAX_CATEGORIES}): an identifier?")
+                _unsup(
+                    ch,
+                    ch,
+                    [ch],
+                    "data",
+                    f"{len(cats)} distinct values (> {MAX_CATEGORIES}): an identifier?",
+                )
             )
             continue
         for value in cats:
             for name, term, variables, expl in (
-                (f"{ch}=={value}", f"({ch} == {value!r})", [ch],
-                 f"extra standing power when {ch} is {value}"),
-                (f"speed*({ch}=={value})", f"speed * ({ch} == {value!r})", ["speed", ch],
-                 f"a different force per metre when {ch} is {value}"),
+                (
+                    f"{ch}=={value}",
+                    f"({ch} == {value!r})",
+                    [ch],
+                    f"extra standing power when {ch} is {value}",
+                ),
+                (
+                    f"speed*({ch}=={value})",
+                    f"speed * ({ch} == {value!r})",
+                    ["speed", ch],
+                    f"a different force per metre when {ch} is {value}",
+                ),
             ):
                 if canonical(term) in skip_terms:
                     continue
@@ -430,8 +444,13 @@ def channel_candidates(
 
 
 def _unsup(name, term, variables, source, reason) -> dict:
-    return {"name": name, "term": term, "variables": sorted(variables), "source": source,
-            "reason": reason}
+    return {
+        "name": name,
+        "term": term,
+        "variables": sorted(variables),
+        "source": source,
+        "reason": reason,
+    }
 
 
 # --------------------------------------------------------------------------- ranking
@@ -530,8 +549,9 @@ class _Context:
         self.available = set(self.wd.samples.columns) | {"speed"}
         self.basis = span_basis(self.x[ok])
 
-    def evaluate(self, candidates: list[Candidate]) -> tuple[list[tuple[Suspect, Candidate]],
-                                                             list[dict]]:
+    def evaluate(
+        self, candidates: list[Candidate]
+    ) -> tuple[list[tuple[Suspect, Candidate]], list[dict]]:
         """Score candidates; those the data cannot support come back as dicts."""
         todo = [c for c in candidates if c.term not in self.have]
         cols = _candidate_columns(self.wd, [c for c in todo if set(c.variables) <= self.available])
@@ -683,8 +703,14 @@ def staircase(
         ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
         rankings.append(ranking)
         steps.append(
-            Step(i, best.term, best.name, ranking.heldout_rmse_w, ranking.fold_rmse_w,
-                 best.error_explained)
+            Step(
+                i,
+                best.term,
+                best.name,
+                ranking.heldout_rmse_w,
+                ranking.fold_rmse_w,
+                best.error_explained,
+            )
         )
         if progress is not None:
             progress(i)
