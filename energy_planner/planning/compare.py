@@ -378,6 +378,7 @@ def _direct_reason(cost, states: np.ndarray, fallback: str) -> str:
             x, y = a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])
             v = cost.violation(x, y, b[2])
             if v is not None:
-                sx, sy = cost.terrain.from_work(x, y)
-                return f"{v} at ({float(sx):.6g}, {float(sy):.6g}), {f * length:.1f} m along"
+                from energy_planner.planning.limits import fmt_xy
+
+                return f"{v} at {fmt_xy(cost.terrain, x, y)}, {f * length:.1f} m along"
     return fallback

@@ -45,6 +45,7 @@ __all__ = [
     "keep_out_violation",
     "pose_violation",
     "check_endpoint",
+    "fmt_xy",
     "make_motion_cost",
 ]
 
@@ -184,6 +185,14 @@ def pose_violation(cost, x: float, y: float, yaw: float | None, geoms=()) -> str
     return f"{reasons[0]} (at every heading)"
 
 
+def fmt_xy(terrain, x: float, y: float) -> str:
+    """``(x, y)`` in the DEM's CRS: 6 decimals for degrees, 2 for metres."""
+    sx, sy = terrain.from_work(x, y)
+    geographic = bool(getattr(getattr(terrain, "source_crs", None), "is_geographic", False))
+    nd = 6 if geographic else 2
+    return f"({float(sx):.{nd}f}, {float(sy):.{nd}f})"
+
+
 def check_endpoint(
     cost, terrain, which: str, pose: tuple[float, float, float | None], geoms=()
 ) -> None:
@@ -194,10 +203,9 @@ def check_endpoint(
     x, y, yaw = pose
     reason = pose_violation(cost, x, y, yaw, geoms)
     if reason is not None:
-        sx, sy = terrain.from_work(x, y)
-        yaw_txt = "" if yaw is None else f", yaw {math.degrees(yaw):.1f} deg"
+        yaw_txt = "" if yaw is None else f" yaw {math.degrees(yaw):.1f} deg"
         raise InvalidStateError(
-            f"{which} ({float(sx):.6g}, {float(sy):.6g}{yaw_txt}) is invalid: {reason}; "
+            f"{which} {fmt_xy(terrain, x, y)}{yaw_txt} is invalid: {reason}; "
             f"choose a {which} on valid terrain within the limits"
         )
 
