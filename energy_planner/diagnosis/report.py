@@ -202,6 +202,7 @@ def plot_suspects(d: Diagnosis, top: int = 12):
     ax.barh(np.arange(len(rows)), vals, color=colors)
     ax.set_yticks(np.arange(len(rows)), names, fontsize=8)
     ax.set_xlabel("error_explained (fraction of held-out MSE removed)")
+    ax.set_title("candidates, best first (red: above noise, grey: below)", fontsize=9)
     ax.axvline(0, color="k", lw=0.8)
     fig.tight_layout()
     return fig
