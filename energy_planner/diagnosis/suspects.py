@@ -95,7 +95,6 @@ class Suspect:
     above_noise: bool
     n_windows: int
     coefficient: float = math.nan
-    reason: str = ""
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
@@ -462,7 +461,6 @@ def rank_suspects(
     thresholds: Thresholds | None = None,
     candidates: list[Candidate] | None = None,
     folds: np.ndarray | None = None,
-    base_columns: np.ndarray | None = None,
     extra: Sequence[str] = (),
 ) -> Ranking:
     """Score every candidate against the model with ``terms``, refitted by run-held-out CV.
@@ -478,8 +476,8 @@ def rank_suspects(
     candidates : list of Candidate, optional
         Default: catalog and data-driven candidates (:func:`catalog_candidates`,
         :func:`channel_candidates`).
-    folds, base_columns : numpy.ndarray, optional
-        Precomputed folds by run and window columns of ``terms``.
+    folds : numpy.ndarray, optional
+        Fold of each window (:func:`run_folds`); default from ``thresholds``.
     extra : sequence of str
         More candidate terms to test (the user's own hypotheses), scored like the others.
 
@@ -489,7 +487,7 @@ def rank_suspects(
     """
     th = thresholds or Thresholds()
     y = wd.power
-    x = wd.columns(terms) if base_columns is None else base_columns
+    x = wd.columns(terms)
     if folds is None:
         folds = run_folds(wd.runs, th.n_splits, th.seed)
     unsupported: list[dict] = []
@@ -681,7 +679,6 @@ def staircase(
     terms: Sequence[str],
     thresholds: Thresholds | None = None,
     max_steps: int = 4,
-    first: Ranking | None = None,
     progress=None,
     extra: Sequence[str] = (),
 ) -> tuple[list[Step], list[Ranking]]:
@@ -692,7 +689,7 @@ def staircase(
     th = thresholds or Thresholds()
     folds = run_folds(wd.runs, th.n_splits, th.seed)
     terms = list(terms)
-    ranking = first or rank_suspects(wd, terms, th, folds=folds, extra=extra)
+    ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
     rankings = [ranking]
     for i in range(1, max_steps + 1):
