@@ -183,7 +183,6 @@ def _seed_ompl(seed: int) -> None:
 
 
 def _ompl_setup(cost, terrain):
-    from ompl import base as ob
     from ompl import geometric as og
 
     from energy_planner.planning.objective import EnergyObjective, make_space
@@ -191,8 +190,18 @@ def _ompl_setup(cost, terrain):
     space = make_space(terrain)
     ss = og.SimpleSetup(space)
     si = ss.getSpaceInformation()
-    ss.setStateValidityChecker(ob.AllValidStateValidityChecker(si))
     obj = EnergyObjective(si, cost)
+    # poses that break a limit are invalid, so the tree does not grow into them (a
+    # Python checker, about 1 us per pose; motions are still priced - and limited - by
+    # the kernel, whose sub-steps are finer than the 2% checking resolution)
+    kernel = obj._kernel
+
+    def valid(state) -> bool:
+        x, y, th = state.getX(), state.getY(), state.getYaw()
+        return math.isfinite(kernel(x, y, th, x, y, th))
+
+    ss.setStateValidityChecker(valid)
+    si.setStateValidityCheckingResolution(0.02)
     ss.setOptimizationObjective(obj)
     return space, ss, si, obj
 
