@@ -54,9 +54,10 @@ def _fmt(v: Any, digits: int = 3) -> str:
 def _table(rows: Sequence[dict], cols: Sequence[tuple[str, str]], hot=None) -> str:
     if not rows:
         return '<p class="note">(none)</p>'
-    head = "".join(
-        f'<th class="{"l" if i == 0 else ""}">{html.escape(label)}</th>'
-        for i, (_, label) in enumerate(cols)
+    head = "".join(  # text columns (judged by the first row) are left-aligned
+        f'<th class="{"l" if i == 0 or isinstance(rows[0].get(k), str) else ""}">'
+        f"{html.escape(label)}</th>"
+        for i, (k, label) in enumerate(cols)
     )
     body = []
     for r in rows:
