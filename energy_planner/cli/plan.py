@@ -86,7 +86,9 @@ def format_table(res: dict[str, Any]) -> str:
         f"waypoints {len(res['waypoints'])} (x, y in the DEM's CRS, yaw deg CCW from x):",
     ]
     for w in res["waypoints"]:
-        lines.append(f"  {w['x']:>14.6g} {w['y']:>14.6g} {w['yaw_deg']:>8.1f}")
+        # degrees (a geographic DEM) to 6 decimals, metres to 2
+        nd = 6 if max(abs(w["x"]), abs(w["y"])) <= 360 else 2
+        lines.append(f"  {w['x']:>16.{nd}f} {w['y']:>16.{nd}f} {w['yaw_deg']:>8.1f}")
     if res.get("out"):
         lines.append(f"path written to {res['out']}")
     if res.get("plot"):
