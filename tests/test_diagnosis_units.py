@@ -371,3 +371,17 @@ def test_cli_text_and_errors(campaign_dir):
     EnergyModel(BASE_TERMS).save(unfitted)
     res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model", str(unfitted)])
     assert res.exit_code == 2 and "no coefficients" in res.output
+
+
+def test_breakdown_t_counts_runs_not_windows():
+    """Windows of a run share one error: the bin's t comes from the per-run means."""
+    table = pd.DataFrame({"surface": ["mud"] * 6})
+    r = np.array([1.0, 1.0, 1.0, 3.0, 3.0, 3.0])  # run a: +1 W, run b: +3 W
+    runs = np.array(["a", "a", "a", "b", "b", "b"])
+    by_run = breakdown(table, r, (), ["surface"], groups=runs)["surface"]["bins"][0]
+    # run means 1 and 3: mean 2, sd sqrt(2), se sqrt(2)/sqrt(2) = 1 -> t = 2
+    assert by_run["t"] == pytest.approx(2.0)
+    assert by_run["bias_w"] == pytest.approx(2.0)
+    by_window = breakdown(table, r, (), ["surface"])["surface"]["bins"][0]
+    # six windows: sd = sqrt(6/5), se = sd/sqrt(6) -> t = 2 / sqrt(1/5)
+    assert by_window["t"] == pytest.approx(2.0 / np.sqrt(1 / 5))

@@ -225,7 +225,9 @@ def diagnose(
     if composites is None:
         composites = infer_composites(samples, runs_meta)
     sup = superposition(runs, composites)
-    bd = breakdown(wd.table, wd.power - pred, wd.numeric_extras, wd.categorical_extras)
+    bd = breakdown(
+        wd.table, wd.power - pred, wd.numeric_extras, wd.categorical_extras, groups=wd.runs
+    )
     ranking, steps, rankings = None, [], []
     try:
         steps, rankings = staircase(

@@ -56,15 +56,29 @@ def power_metrics(measured: np.ndarray, predicted: np.ndarray) -> dict[str, floa
     }
 
 
-def _bin_stats(labels: Sequence[str], codes: np.ndarray, r: np.ndarray, extra: list[dict]):
+def _t_stat(ri: np.ndarray, gi: np.ndarray | None) -> float:
+    """Bias over its standard error; with groups (runs), from the per-run mean residuals.
+
+    Windows of one run share their ground, battery and gait, so their errors are
+    correlated: the standard error counts runs, not windows.
+    """
+    if gi is not None:
+        _, inv = np.unique(gi, return_inverse=True)
+        ri = np.bincount(inv, weights=ri) / np.bincount(inv)
+    if ri.size < 2:
+        return np.nan
+    sd = float(np.std(ri, ddof=1))
+    return float(ri.mean() / (sd / np.sqrt(ri.size))) if sd > 0 else np.nan
+
+
+def _bin_stats(labels, codes, r, extra, groups=None) -> list[dict]:
     total = float(np.sum(r**2)) or 1.0
     rows = []
     for i, label in enumerate(labels):
-        ri = r[codes == i]
+        sel = codes == i
+        ri = r[sel]
         if ri.size == 0:
             continue
-        sd = float(np.std(ri, ddof=1)) if ri.size > 1 else np.nan
-        t = float(ri.mean() / (sd / np.sqrt(ri.size))) if ri.size > 1 and sd > 0 else np.nan
         row = {
             "bin": label,
             "n": int(ri.size),
@@ -72,7 +86,7 @@ def _bin_stats(labels: Sequence[str], codes: np.ndarray, r: np.ndarray, extra: l
             "rmse_w": float(np.sqrt(np.mean(ri**2))),
             "mae_w": float(np.mean(np.abs(ri))),
             "share_sq_error": float(np.sum(ri**2) / total),
-            "t": t,
+            "t": _t_stat(ri, None if groups is None else groups[sel]),
         }
         row.update(extra[i] if i < len(extra) else {})
         rows.append(row)
@@ -138,6 +152,7 @@ def breakdown(
     numeric: Sequence[str] = (),
     categorical: Sequence[str] = (),
     n_bins: int = 5,
+    groups: np.ndarray | None = None,
 ) -> dict[str, dict]:
     """Window residuals split by slope, heading, speed, motion type and extra channels.
 
@@ -153,13 +168,17 @@ def breakdown(
         value).
     n_bins : int
         Number of quantile bins.
+    groups : numpy.ndarray, optional
+        Run of each window: the ``t`` of a bin is then computed from the per-run mean
+        residuals in it (windows of one run are not independent).
 
     Returns
     -------
     dict
         ``{variable: {"kind", "bins": [{"bin", "n", "bias_w", "rmse_w", "mae_w",
         "share_sq_error", "t", ...}], "spread_w"}}`` where ``t`` is the bias over its
-        standard error and ``spread_w`` the largest minus smallest bin bias.
+        standard error (over runs when ``groups`` is given) and ``spread_w`` the largest
+        minus smallest bin bias.
     """
     r = np.asarray(residual, float)
     ok = np.isfinite(r)
@@ -184,7 +203,7 @@ def breakdown(
             codes, labels, extra = categorical_bins(v)
         else:
             codes, labels, extra = numeric_bins(v.astype(float), n_bins)
-        rows = _bin_stats(labels, np.where(ok, codes, -1), np.where(ok, r, 0.0), extra)
+        rows = _bin_stats(labels, np.where(ok, codes, -1), np.where(ok, r, 0.0), extra, groups)
         biases = [row["bias_w"] for row in rows]
         out[name] = {
             "kind": "numeric" if kind == "slope" else kind,
