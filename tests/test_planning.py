@@ -205,3 +205,21 @@ def test_simplify_keeps_energy(ramp, model):
     assert len(t) == 3
     e = [sum(cost(*a, *b) for a, b in zip(p[:-1], p[1:], strict=True)) for p in (s, t)]
     assert e[0] == pytest.approx(e[1], rel=1e-9)
+
+
+def test_richer_lattices_are_never_worse(ramp, model):
+    """A superset of motion primitives cannot give a dearer optimum on the same graph
+    positions: all 16 moves at every heading <= the 4 body-axis moves."""
+    cost, _ = make_motion_cost(ramp, model)
+    s, g = (8.0, 8.0, None), (50.0, 40.0, None)
+    axes = lattice_plan(cost, ramp, s, g, step=2.0, moves="axes")
+    full = lattice_plan(cost, ramp, s, g, step=2.0, moves="all")
+    assert full.n_edges > axes.n_edges
+    assert full.cost <= axes.cost * (1 + 1e-12)
+    eight = lattice_plan(cost, ramp, s, g, step=2.0, n_headings=8)
+    assert math.isfinite(eight.cost) and eight.n_nodes == axes.n_nodes // 2
+    # with the distance metric: no shorter than the straight line, and (16 directions,
+    # offset (42, 32) between two of them) at most a few percent longer
+    dist = lattice_plan(cost, ramp, s, g, step=2.0, metric="distance")
+    d = math.hypot(42.0, 32.0)
+    assert d <= dist.cost <= d * 1.03
