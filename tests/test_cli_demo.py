@@ -25,6 +25,8 @@ def test_demo_compares_the_three_routes_on_the_hill(tmp_path):
     assert opt["max_slope_deg"] <= 25.0 + 1e-6
     # the energy-optimal route never costs more than the shortest feasible one
     assert opt["energy_j"] <= short["energy_j"] * (1 + 1e-9)
+    # and the shortest feasible route is no longer than the energy-optimal one
+    assert short["distance_m"] <= opt["distance_m"] + 1e-6
     assert png.stat().st_size > 10_000
 
 

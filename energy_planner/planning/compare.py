@@ -289,9 +289,11 @@ def compare_routes(
         ``saving_vs_direct`` is ``(E_direct - E) / E_direct``.
     """
     from energy_planner.energy import MotionCost
+    from energy_planner.model import EnergyModel
     from energy_planner.planning.lattice import lattice_plan
     from energy_planner.planning.limits import check_endpoint, keep_out_violation, make_motion_cost
     from energy_planner.planning.plan import _pose, plan
+    from energy_planner.planning.refine import refine_path
 
     s = _pose(start, "start")
     g = _pose(goal, "goal")
@@ -323,15 +325,33 @@ def compare_routes(
         except EnergyPlannerError:
             direct = Route("direct", d_states, None, None, None, None, False)
         direct.feasible = False
+        if direct.max_slope_deg is not None and max_slope_deg is not None:
+            reason += f" (the line reaches {direct.max_slope_deg:.1f} deg)"
         direct.reason = reason
     routes.append(direct)
 
-    # shortest feasible path
+    # shortest feasible path: the distance lattice, then refined off the lattice under a
+    # "model" whose energy is the ground distance (power = speed), with the same limits
     try:
         lat = lattice_plan(cost, terrain, s, g, step=step, metric="distance")
-        routes.append(
-            _route_from_states("shortest", _face_along(lat.states, s, g), terrain, model, cost)
+        short = _route_from_states("shortest", _face_along(lat.states, s, g), terrain, model, cost)
+        dist_cost, _ = make_motion_cost(
+            terrain, EnergyModel(["speed"], {"speed": 1.0}), speed=speed, yaw_rate=yaw_rate,
+            max_slope_deg=max_slope_deg, max_cross_slope_deg=max_cross_slope_deg,
+            keep_out=keep_out,
+        )  # fmt: skip
+        refined, _ = refine_path(
+            dist_cost, short.states, budget=min(2.0, max(time / 4, 0.5)), seed=seed
         )
+        try:
+            cand = _route_from_states("shortest", _face_along(refined, s, g), terrain, model, cost)
+            if keep_out_violation(cand.states, geoms) is None and (
+                cand.distance_m < short.distance_m
+            ):
+                short = cand
+        except EnergyPlannerError:
+            pass  # facing along the refined path breaks a limit: keep the lattice path
+        routes.append(short)
     except EnergyPlannerError as exc:
         routes.append(Route("shortest", None, None, None, None, None, False, str(exc)))
 
@@ -346,6 +366,16 @@ def compare_routes(
             raise EnergyPlannerError(f"the {planner} path enters a keep-out area: {bad}")
         opt = _route_from_states("energy_optimal", res.states, terrain, model, cost)
         info = {"planner": res.planner, "time_s": res.time_s, **res.info}
+        # a second start: the shortest route, refined under the energy cost. Local
+        # refinement keeps the homotopy class of its start, and the shortest route can
+        # lie in a cheaper one than the energy lattice found at its resolution.
+        short = routes[-1]
+        if short.feasible and short.states is not None:
+            alt, _ = refine_path(cost, short.states, budget=min(2.0, max(time / 4, 0.5)), seed=seed)
+            cand = _route_from_states("energy_optimal", alt, terrain, model, cost)
+            if cand.energy_j < opt.energy_j and keep_out_violation(alt, geoms) is None:
+                opt = cand
+                info["start"] = "shortest route, refined"
     except EnergyPlannerError as exc:
         opt = Route("energy_optimal", None, None, None, None, None, False, str(exc))
         info = {"planner": planner}
