@@ -49,5 +49,9 @@ class PlanningError(EnergyPlannerError, RuntimeError):
     """No valid plan: start/goal invalid, no solution within the budget."""
 
 
+class PlanningConfigError(PlanningError, ValueError):
+    """A planning request is malformed: unknown planner, bad keep-out file, bad pose."""
+
+
 class InvalidStateError(PlanningError, ValueError):
     """A start or goal breaks a limit (outside the map, too steep, in a keep-out area)."""

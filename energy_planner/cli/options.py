@@ -28,7 +28,13 @@ model_option = click.option(
     default=None,
     help="Energy model JSON (default: the bundled B1-class model).",
 )
-seed_option = click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+seed_option = click.option(
+    "--seed",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Random seed (planner sampling; for fit/diagnose, the assignment of runs to folds).",
+)
 speed_option = click.option(
     "--speed",
     type=click.FloatRange(min=0, min_open=True),

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.errors import InvalidStateError, PlanningError
+from energy_planner.errors import InvalidStateError, PlanningConfigError
 
 __all__ = [
     "load_keep_out",
@@ -74,9 +74,9 @@ def load_keep_out(path: str | Path) -> list[Any]:
     try:
         data = json.loads(path.read_text())
     except OSError as exc:
-        raise PlanningError(f"cannot read keep-out file {str(path)!r}: {exc}") from exc
+        raise PlanningConfigError(f"cannot read keep-out file {str(path)!r}: {exc}") from exc
     except json.JSONDecodeError as exc:
-        raise PlanningError(
+        raise PlanningConfigError(
             f"keep-out file {str(path)!r} is not JSON ({exc}); expected a GeoJSON "
             "FeatureCollection of Polygons"
         ) from exc
@@ -91,17 +91,17 @@ def load_keep_out(path: str | Path) -> list[Any]:
         try:
             geom = shape(g)
         except Exception as exc:  # shapely raises several types for bad GeoJSON
-            raise PlanningError(
+            raise PlanningConfigError(
                 f"keep-out file {str(path)!r}: geometry {k} is not valid GeoJSON ({exc})"
             ) from exc
         if geom.geom_type not in ("Polygon", "MultiPolygon"):
-            raise PlanningError(
+            raise PlanningConfigError(
                 f"keep-out file {str(path)!r}: geometry {k} is a {geom.geom_type}; "
                 "expected Polygon or MultiPolygon"
             )
         out.append(geom)
     if not out:
-        raise PlanningError(f"keep-out file {str(path)!r} holds no polygon")
+        raise PlanningConfigError(f"keep-out file {str(path)!r} holds no polygon")
     return out
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.errors import PlanningError
+from energy_planner.errors import PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
 __all__ = ["PlanResult", "plan", "PLANNERS"]
@@ -121,15 +121,15 @@ class PlanResult:
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):
-        raise PlanningError(f"{which} must be (x, y) or (x, y, yaw), got {tuple(p)!r}")
+        raise PlanningConfigError(f"{which} must be (x, y) or (x, y, yaw), got {tuple(p)!r}")
     p = list(p)
     yaw = p[2] if len(p) == 3 else None
     try:
         vals = [float(v) for v in p[:2]] + ([] if yaw is None else [float(yaw)])
     except (TypeError, ValueError) as exc:
-        raise PlanningError(f"{which} {tuple(p)!r} is not numeric") from exc
+        raise PlanningConfigError(f"{which} {tuple(p)!r} is not numeric") from exc
     if not all(math.isfinite(v) for v in vals):
-        raise PlanningError(f"{which} {tuple(p)!r} has a non-finite value")
+        raise PlanningConfigError(f"{which} {tuple(p)!r} has a non-finite value")
     return (vals[0], vals[1], vals[2] if yaw is not None else None)
 
 
@@ -405,9 +405,11 @@ def plan(
     from energy_planner.planning.limits import check_endpoint, keep_out_violation, make_motion_cost
 
     if planner not in PLANNERS:
-        raise PlanningError(f"unknown planner {planner!r}; valid planners: {', '.join(PLANNERS)}")
+        raise PlanningConfigError(
+            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNERS)}"
+        )
     if not (time > 0):
-        raise PlanningError(f"time must be > 0 seconds, got {time!r}")
+        raise PlanningConfigError(f"time must be > 0 seconds, got {time!r}")
     start_p = _pose(start, "start")
     goal_p = _pose(goal, "goal")
     geoms: list[Any] = []
