@@ -13,6 +13,7 @@ same :class:`~energy_planner.energy.MotionCost`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -380,6 +381,18 @@ def compare_routes(
         opt = Route("energy_optimal", None, None, None, None, None, False, str(exc))
         info = {"planner": planner}
     routes.append(opt)
+    # "shortest" is the shortest feasible path found: the energy-optimal one can be
+    # shorter than the distance lattice's when the latter could not be refined (refining
+    # it off the lattice can hug a slope limit that the face-along yaws then break)
+    short = routes[1]
+    if (
+        opt.feasible
+        and short.feasible
+        and opt.distance_m is not None
+        and short.distance_m is not None
+        and opt.distance_m < short.distance_m
+    ):
+        routes[1] = dataclasses.replace(opt, name="shortest")
 
     if direct.energy_j:
         for r in routes:
