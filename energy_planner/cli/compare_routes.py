@@ -15,6 +15,7 @@ from energy_planner.cli.options import (
     model_option,
     seed_option,
     speed_option,
+    start_goal_options,
     yaw_rate_option,
 )
 from energy_planner.cli.plan import (
@@ -46,8 +47,7 @@ def format_table(res: dict[str, Any]) -> str:
 
 @click.command("compare-routes")
 @dem_option
-@click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")
-@click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")
+@start_goal_options
 @model_option
 @click.option(
     "--planner",

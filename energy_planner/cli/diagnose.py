@@ -8,7 +8,14 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, load_model_option, model_option
+from energy_planner.cli.options import (
+    emit,
+    json_option,
+    load_model_option,
+    logs_argument,
+    model_option,
+    window_option,
+)
 
 
 def _text(doc: dict[str, Any], report: Path | None) -> str:
@@ -118,7 +125,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
 
 
 @click.command("diagnose")
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@logs_argument
 @model_option
 @click.option(
     "--report",
@@ -143,13 +150,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     help="Run metadata CSV with columns run, composite, part (for the superposition check); "
     "default: runs.csv inside a LOGS folder, if there is one.",
 )
-@click.option(
-    "--window",
-    type=click.FloatRange(min=0, min_open=True),
-    default=2.0,
-    show_default=True,
-    help="Window length, s.",
-)
+@window_option
 @click.option(
     "--folds",
     type=click.IntRange(min=2),

@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option
+from energy_planner.cli.options import emit, json_option, logs_argument, window_option
 
 
 def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
@@ -42,7 +42,7 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
 
 
 @click.command("figures")
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@logs_argument
 @click.option(
     "--out",
     "out",
@@ -57,13 +57,7 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
     default=None,
     help="Energy model JSON whose curves are drawn (default: the base model fitted to LOGS).",
 )
-@click.option(
-    "--window",
-    type=click.FloatRange(min=0, min_open=True),
-    default=2.0,
-    show_default=True,
-    help="Window length, s.",
-)
+@window_option
 @json_option
 def command(
     logs: tuple[Path, ...], out: Path, model_path: Path | None, window: float, as_json: bool

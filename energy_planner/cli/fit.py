@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, seed_option
+from energy_planner.cli.options import emit, json_option, logs_argument, seed_option, window_option
 
 
 def _as_dict(report: Any) -> Any:
@@ -138,7 +138,7 @@ def _runs_table(result: Any, limit: int = 12) -> str:
 
 
 @click.command("fit")
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@logs_argument
 @click.option(
     "--out",
     "out",
@@ -154,13 +154,7 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     help="Add a term to the base model: a catalog name (e.g. idle_power) or a formula "
     "(e.g. 'payload_kg * speed * sin(alpha)'). Repeatable.",
 )
-@click.option(
-    "--window",
-    type=click.FloatRange(min=0, min_open=True),
-    default=2.0,
-    show_default=True,
-    help="Window length, s.",
-)
+@window_option
 @click.option(
     "--folds",
     type=click.IntRange(min=0),

@@ -42,6 +42,22 @@ speed_option = click.option(
     show_default=True,
     help="Nominal walking speed, m/s.",
 )
+logs_argument = click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+window_option = click.option(
+    "--window",
+    type=click.FloatRange(min=0, min_open=True),
+    default=2.0,
+    show_default=True,
+    help="Window length, s.",
+)
+
+
+def start_goal_options(f):
+    """``--start`` and ``--goal`` as X,Y[,YAW_DEG] in the DEM's CRS."""
+    f = click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")(f)
+    return click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")(f)
+
+
 yaw_rate_option = click.option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),

@@ -18,6 +18,7 @@ from energy_planner.cli.options import (
     parse_point,
     seed_option,
     speed_option,
+    start_goal_options,
     yaw_rate_option,
 )
 from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
@@ -98,8 +99,7 @@ def format_table(res: dict[str, Any]) -> str:
 
 @click.command("plan")
 @dem_option
-@click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")
-@click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")
+@start_goal_options
 @model_option
 @click.option(
     "--planner",

@@ -34,8 +34,7 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None):
         speeds = ()
     if not speeds or not all(0 < v <= 3 for v in speeds):
         raise click.BadParameter(
-            f"{value!r} is not a comma-separated list of speeds in (0, 3] m/s, "
-            "e.g. 0.2,0.3,0.45",
+            f"{value!r} is not a comma-separated list of speeds in (0, 3] m/s, e.g. 0.2,0.3,0.45",
             ctx=ctx,
             param=param,
         )
@@ -66,24 +65,53 @@ def _text(doc: dict[str, Any]) -> str:
 
 
 @click.command("simulate")
-@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Output directory (created if missing).")
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Output directory (created if missing).",
+)
 @seed_option
-@click.option("--effect", "effects", multiple=True, metavar="NAME", callback=_effects,
-              help="Switch on a physical effect the base model lacks (repeatable), e.g. "
-              "--effect payload --effect cold_joints.")
-@click.option("--speeds", callback=_speeds, default=None, metavar="V1,V2,...",
-              help="Walking speeds, m/s, comma-separated (default 0.3, as in the paper).")
-@click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
-              show_default=True, help="Per-run log format.")
+@click.option(
+    "--effect",
+    "effects",
+    multiple=True,
+    metavar="NAME",
+    callback=_effects,
+    help="Switch on a physical effect the base model lacks (repeatable), e.g. "
+    "--effect payload --effect cold_joints.",
+)
+@click.option(
+    "--speeds",
+    callback=_speeds,
+    default=None,
+    metavar="V1,V2,...",
+    help="Walking speeds, m/s, comma-separated (default 0.3, as in the paper).",
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["csv", "parquet"]),
+    default="csv",
+    show_default=True,
+    help="Per-run log format.",
+)
 @click.option("--bag", is_flag=True, help="Also write one ROS 2 bag per run into OUT/bags/.")
-@click.option("--small", is_flag=True, help="A tiny campaign (about 100 short runs) for a "
-              "quick look.")
-@click.option("--plot", "plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Also write a PNG of the force-equivalent cost versus slope (uphill and "
-              "downhill, forward and lateral; measured points, truth lines).")
-@click.option("--noise-free", is_flag=True, help="Perfect sensors: no noise, spikes, slip "
-              "or IMU bias.")
+@click.option(
+    "--small", is_flag=True, help="A tiny campaign (about 100 short runs) for a quick look."
+)
+@click.option(
+    "--plot",
+    "plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Also write a PNG of the force-equivalent cost versus slope (uphill and "
+    "downhill, forward and lateral; measured points, truth lines).",
+)
+@click.option(
+    "--noise-free", is_flag=True, help="Perfect sensors: no noise, spikes, slip or IMU bias."
+)
 @json_option
 def command(
     out: Path,
