@@ -13,16 +13,12 @@ from energy_planner.cli.options import (
     json_option,
     load_model_option,
     model_option,
-    seed_option,
-    speed_option,
     start_goal_options,
-    yaw_rate_option,
 )
 from energy_planner.cli.plan import (
-    PLANNER_CHOICES,
     check_planner,
-    limit_options,
     load_terrain,
+    planning_options,
     point_to_work,
 )
 
@@ -49,24 +45,7 @@ def format_table(res: dict[str, Any]) -> str:
 @dem_option
 @start_goal_options
 @model_option
-@click.option(
-    "--planner",
-    default="auto",
-    show_default=True,
-    help=f"Planner of the energy-optimal route: {', '.join(PLANNER_CHOICES)}.",
-)
-@click.option(
-    "--time",
-    "time_s",
-    type=click.FloatRange(min=0, min_open=True),
-    default=10.0,
-    show_default=True,
-    help="Planning budget of the energy-optimal route, seconds.",
-)
-@seed_option
-@limit_options
-@speed_option
-@yaw_rate_option
+@planning_options("the energy-optimal route")
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),

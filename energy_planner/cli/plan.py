@@ -53,6 +53,38 @@ def check_planner(planner: str) -> str:
     return planner
 
 
+def planning_options(what: str):
+    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``."""
+
+    def deco(f):
+        for opt in reversed(
+            [
+                click.option(
+                    "--planner",
+                    default="auto",
+                    show_default=True,
+                    help=f"Planner of {what}: {', '.join(PLANNER_CHOICES)}.",
+                ),
+                click.option(
+                    "--time",
+                    "time_s",
+                    type=click.FloatRange(min=0, min_open=True),
+                    default=10.0,
+                    show_default=True,
+                    help=f"Planning budget of {what}, seconds.",
+                ),
+                seed_option,
+                limit_options,
+                speed_option,
+                yaw_rate_option,
+            ]
+        ):
+            f = opt(f)
+        return f
+
+    return deco
+
+
 def limit_options(f):
     """--max-slope, --max-cross-slope and --keep-out."""
     f = click.option(
@@ -101,24 +133,7 @@ def format_table(res: dict[str, Any]) -> str:
 @dem_option
 @start_goal_options
 @model_option
-@click.option(
-    "--planner",
-    default="auto",
-    show_default=True,
-    help=f"One of: {', '.join(PLANNER_CHOICES)}.",
-)
-@click.option(
-    "--time",
-    "time_s",
-    type=click.FloatRange(min=0, min_open=True),
-    default=10.0,
-    show_default=True,
-    help="Planning budget, seconds.",
-)
-@seed_option
-@limit_options
-@speed_option
-@yaw_rate_option
+@planning_options("the path")
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),

@@ -14,7 +14,7 @@ from energy_planner.energy.kernels import OK, VIOLATIONS
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, OutsideMapError
 
-__all__ = ["PathEnergy", "path_energy", "SEGMENT_COLUMNS"]
+__all__ = ["PathEnergy", "path_energy", "face_along_poses", "SEGMENT_COLUMNS"]
 
 SEGMENT_COLUMNS = [
     "segment",
@@ -163,6 +163,16 @@ def path_energy(
         segments=segments,
         poses=poses,
     )
+
+
+def face_along_poses(xy: Any) -> np.ndarray:
+    """Poses ``(x, y, yaw)`` that walk forward along each segment and turn in place at
+    the corners (a zero-length segment keeps the previous heading).
+
+    >>> face_along_poses([[0, 0], [1, 0], [1, 2]]).round(3).tolist()
+    [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.571], [1.0, 2.0, 1.571]]
+    """
+    return _face_along(np.asarray(xy, dtype=float), None, 1.0)[0]
 
 
 def _face_along(xy: np.ndarray, seg_dt: np.ndarray | None, yaw_rate: float):

@@ -224,17 +224,14 @@ def _face_along(states: np.ndarray, start, goal) -> np.ndarray:
     xy = xy[np.r_[True, np.any(np.diff(xy, axis=0) != 0, axis=1)]]
     if len(xy) < 2:
         return states
-    poses = []
-    if start[2] is not None:
-        poses.append((xy[0, 0], xy[0, 1], math.remainder(start[2], 2 * math.pi)))
-    for a, b in zip(xy[:-1], xy[1:], strict=True):
-        h = math.atan2(b[1] - a[1], b[0] - a[0])
-        poses += [(a[0], a[1], h), (b[0], b[1], h)]
-    if goal[2] is not None:
-        poses.append((xy[-1, 0], xy[-1, 1], math.remainder(goal[2], 2 * math.pi)))
-    from energy_planner.planning.lattice import simplify_states as simp
+    from energy_planner.energy.path import face_along_poses
 
-    return simp(np.array(poses, dtype=float))
+    poses = face_along_poses(xy)
+    if start[2] is not None:
+        poses = np.vstack([[xy[0, 0], xy[0, 1], math.remainder(start[2], 2 * math.pi)], poses])
+    if goal[2] is not None:
+        poses = np.vstack([poses, [xy[-1, 0], xy[-1, 1], math.remainder(goal[2], 2 * math.pi)]])
+    return simplify_states(poses)
 
 
 def _direct_states(start, goal) -> np.ndarray:
