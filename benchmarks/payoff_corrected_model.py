@@ -56,7 +56,7 @@ def run(
     from energy_planner.energy import path_energy
     from energy_planner.maps import map_path, scenario
     from energy_planner.measurements import make_windows, preprocess
-    from energy_planner.planning.plan import plan
+    from energy_planner.planning import plan
     from energy_planner.simulate import CampaignConfig, simulate_campaign
     from energy_planner.terrain import load_dem
 

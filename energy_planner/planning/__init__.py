@@ -10,21 +10,13 @@ importing this package is cheap.
 
 from __future__ import annotations
 
-from typing import Any
-
 #: Planner names accepted by :func:`plan`.
 PLANNERS: tuple[str, ...] = ("auto", "lattice", "rrtstar", "sorrtstar", "bitstar")
 
 __all__ = ["PLANNERS", "plan", "PlanResult", "compare_routes", "RouteComparison"]
 
-
-def __getattr__(name: str) -> Any:
-    if name in ("plan", "PlanResult"):
-        from energy_planner.planning import plan as _plan
-
-        return getattr(_plan, name)
-    if name in ("compare_routes", "RouteComparison"):
-        from energy_planner.planning import compare as _compare
-
-        return getattr(_compare, name)
-    raise AttributeError(f"module 'energy_planner.planning' has no attribute {name!r}")
+# After PLANNERS: plan.py reads it. These modules import ompl, numba and matplotlib only
+# inside their functions, so importing them here stays cheap. (A lazy __getattr__ cannot
+# serve ``plan``: the submodule of the same name shadows it, and it recursed.)
+from energy_planner.planning.compare import RouteComparison, compare_routes  # noqa: E402
+from energy_planner.planning.plan import PlanResult, plan  # noqa: E402
