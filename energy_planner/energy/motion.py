@@ -91,6 +91,20 @@ class MotionCost:
         source = model.kernel_source(self.constants)
         self._full, self.kernel, self._batch, self._path = make_kernels(source)
 
+    def compile(self) -> MotionCost:
+        """Compile (or load from the disk cache) every kernel now, not on first use.
+
+        Time-budgeted callers (planners) call this before their clock starts, so that
+        a cold cache does not eat into the budget and change the result.
+        """
+        x, y = self.data[2], self.data[3]  # centre of cell (0, 0): any point will do
+        self.kernel(x, y, 0.0, x, y, 0.0, self.data)
+        one = np.array([x])
+        zero = np.zeros(1)
+        self._batch(one, one * 0 + y, zero, one, one * 0 + y, zero, self.data)
+        self._path(np.array([x, x]), np.array([y, y]), np.zeros(2), np.full(1, -1.0), self.data)
+        return self
+
     def __call__(self, x0: float, y0: float, th0: float, x1: float, y1: float, th1: float):
         """Energy in J of one motion, ``inf`` if it breaks a limit or leaves the map."""
         return self.kernel(x0, y0, th0, x1, y1, th1, self.data)

@@ -338,6 +338,7 @@ def compare_routes(
             max_slope_deg=max_slope_deg, max_cross_slope_deg=max_cross_slope_deg,
             keep_out=keep_out,
         )  # fmt: skip
+        dist_cost.compile()  # before the refinement's time budget starts
         refined, _ = refine_path(
             dist_cost, short.states, budget=min(2.0, max(time / 4, 0.5)), seed=seed
         )

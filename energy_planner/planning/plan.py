@@ -427,6 +427,7 @@ def plan(
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
 
     # compile the kernels before the clock starts (numba compiles on first call)
+    cost.compile()
     warm = _cost_fn(cost)
     warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     one = np.array([start_p[0]])
