@@ -319,8 +319,7 @@ def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
 
 def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                  ) -> tuple[pd.DataFrame, StepRecord]:
-    """Drop samples with a non-finite required value, an implausible voltage or no
-    valid IMU orientation.
+    """Drop samples with a non-finite value, an implausible voltage or no IMU orientation.
 
     A sample counts once, under the first reason it meets: ``non-finite <column>`` in
     the order of the required columns, then ``voltage outside lo..hi V``, then the
@@ -354,8 +353,11 @@ def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessPar
 
 def split_segments(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                    ) -> tuple[pd.DataFrame, StepRecord]:
-    """Add ``segment`` (int, from 0 within each run): a step longer than ``max_gap`` s
-    starts a new segment. Nothing is removed; the note counts the gaps."""
+    """Add ``segment`` (int, from 0 within each run), split at time gaps.
+
+    A step longer than ``max_gap`` s starts a new segment. Nothing is removed; the note
+    counts the gaps.
+    """
     out = samples.copy()
     seg = np.zeros(len(out), dtype=np.int64)
     n_gaps = 0
@@ -413,9 +415,11 @@ def ema_smooth(samples: pd.DataFrame, params: PreprocessParams = PreprocessParam
 
 def body_accelerations(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                        ) -> tuple[pd.DataFrame, StepRecord]:
-    """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist, per run
-    and segment, by second-order central differences on the sample times
-    (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment)."""
+    """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist.
+
+    Per run and segment, by second-order central differences on the sample times
+    (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment).
+    """
     out = samples.copy()
     t = out["t"].to_numpy(dtype=float)
     for src, dst in (("vx", "ax"), ("vy", "ay")):

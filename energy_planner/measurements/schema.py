@@ -152,8 +152,10 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
 
 
 def _by_run(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row order grouping runs (file order kept within a run), and for each consecutive
-    pair in that order whether both rows belong to the same run."""
+    """Row order grouping runs, and which consecutive rows in that order share a run.
+
+    File order is kept within a run.
+    """
     codes = pd.factorize(runs)[0]
     order = np.argsort(codes, kind="stable")
     c = codes[order]
