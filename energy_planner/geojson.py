@@ -550,8 +550,8 @@ def check_path(where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[st
 def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str, Any] | None:
     """Evidence that a ``yaw_deg`` column holds radians, or None.
 
-    The rule (documented in ``docs/measurements.md``, "Waypoint files"): the values are
-    reported as radians when
+    The rule (also in ``docs/terrain.md``, "Paths on the map"): the values are reported
+    as radians when
 
     1. every value lies within +-2 pi (+-6.28) and the largest ``|value|`` is at least
        0.1 (a column of zeros means the same in both units), and
