@@ -153,3 +153,15 @@ def test_fit_json_lists_dropped_runs(tmp_path):
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output[res.output.index("{"):])
     assert [d["run"] for d in doc["windows"]["dropped_runs"]] == ["stub"]
+
+
+def test_missing_run_id_is_named(tmp_path):
+    """Found by tests/test_fuzz_loaders.py: an empty ``run`` cell reached ``sorted`` as NaN
+    (pandas 3 keeps NaN through ``astype(str)``) and raised a TypeError."""
+    df = run_table(n=4, run=["a", None, "a", "a"])
+    df.to_csv(tmp_path / "r.csv", index=False)
+    with pytest.raises(LogError, match=r"r\.csv: the run id is missing at row\(s\) 1") as exc:
+        load_logs(tmp_path)
+    assert exc.value.rows == [1] and exc.value.column == "run"
+    with pytest.raises(LogError, match="run id is missing"):
+        preprocess(df)

@@ -27,6 +27,7 @@ from energy_planner.measurements.schema import (
     VOLTAGE_RANGE,
     ValidationReport,
     check_columns,
+    check_runs,
     check_time,
     validate_log,
 )
@@ -232,6 +233,7 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
     values are numbers in at least half of the rows (:data:`NUMERIC_SHARE`) raises
     :class:`LogError` naming the column and the other values, their rows and runs.
     """
+    check_runs(df, source)
     out = pd.DataFrame(index=df.index)
     out["run"] = df["run"].astype(str)
     for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
@@ -440,6 +442,7 @@ def load_logs(
             if "run" not in df.columns:
                 df.insert(0, "run", path.stem)
             else:
+                check_runs(df, str(path))
                 df["run"] = df["run"].astype(str)
             check_time(df, str(path))
             df = canonicalize(df, str(path))

@@ -44,6 +44,7 @@ from energy_planner.measurements.schema import (
     REQUIRED_COLUMNS,
     VOLTAGE_RANGE,
     check_columns,
+    check_runs,
     check_time,
 )
 
@@ -550,6 +551,7 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
     """
     params = params or PreprocessParams()
     check_columns(samples.columns, "samples given to preprocess")
+    check_runs(samples, "samples given to preprocess")
     check_time(samples, "samples given to preprocess")
     samples = samples.assign(run=samples["run"].astype(str))
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)

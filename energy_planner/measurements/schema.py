@@ -121,6 +121,29 @@ def check_columns(columns, source: str | None = None, *, need_run: bool = True) 
         )
 
 
+def check_runs(samples: pd.DataFrame, source: str | None = None) -> None:
+    """Raise :class:`LogError` if a ``run`` value is missing (empty cell, NaN, None).
+
+    The message names the first rows (0-based, in the table's order) and the file.
+
+    Examples
+    --------
+    >>> check_runs(pd.DataFrame({"run": ["a", None]}), "a.csv")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    energy_planner.errors.LogError: log a.csv: the run id is missing at row(s) 1; expected ...
+    """
+    missing = np.flatnonzero(pd.isna(samples["run"].to_numpy(dtype=object)))
+    if missing.size:
+        rows = [int(r) for r in missing[:10]]
+        raise LogError(
+            f"log{(' ' + source) if source else ''}: the run id is missing at row(s) "
+            f"{', '.join(map(str, rows))}{' ...' if missing.size > 10 else ''}; expected a run "
+            "id in every row (or no 'run' column: then the file name is the run id)",
+            path=source, column="run", rows=rows, row=rows[0],
+            expected="a run id in every row")
+
+
 def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
     """Raise :class:`LogError` if ``t`` goes backwards or repeats within a run.
 
@@ -205,6 +228,7 @@ def validate_log(
     (1, 1, 1.9)
     """
     check_columns(samples.columns, source)
+    check_runs(samples, source)
     check_time(samples, source)
     n_nan: dict[str, int] = {}
     for c in REQUIRED_COLUMNS:

@@ -17,7 +17,7 @@ import pandas as pd
 
 from energy_planner.errors import LogError
 from energy_planner.measurements.imu import imu_slope_heading
-from energy_planner.measurements.schema import MAX_GAP_S, check_columns
+from energy_planner.measurements.schema import MAX_GAP_S, check_columns, check_runs
 
 #: Motion classes, in the order of :func:`classify_motion`.
 MOTIONS: tuple[str, ...] = (
@@ -187,6 +187,7 @@ def make_windows(
     if duration <= 0:
         raise LogError(f"window duration {duration!r} s must be > 0")
     check_columns(samples.columns, "samples given to make_windows")
+    check_runs(samples, "samples given to make_windows")
     df = samples.assign(run=samples["run"].astype(str))
     df = df.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     df = _ensure_features(df)
