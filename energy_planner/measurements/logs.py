@@ -157,7 +157,8 @@ def _expand(paths: str | Path | Iterable[str | Path]) -> list[tuple[Path, bool]]
     for p in map(Path, paths):
         if not p.exists():
             raise LogIOError(f"log path {str(p)!r} does not exist; expected a CSV/Parquet file, "
-                             "a ROS bag or a folder of them")
+                             "a ROS bag or a folder of them", path=p,
+                             expected="a CSV/Parquet file, a ROS bag or a folder of them")
         if p.is_dir() and not is_ros2_bag(p):
             found = sorted(
                 q for q in p.iterdir()
@@ -167,14 +168,16 @@ def _expand(paths: str | Path | Iterable[str | Path]) -> list[tuple[Path, bool]]
             if not found:
                 raise LogIOError(
                     f"folder {str(p)!r} holds no robot log; expected *.csv, *.parquet, *.pq, "
-                    "*.bag files or ROS 2 bag folders")
+                    "*.bag files or ROS 2 bag folders", path=p,
+                    expected="*.csv, *.parquet, *.pq, *.bag files or ROS 2 bag folders")
             out.extend((q, True) for q in found)
         elif p.is_dir() or p.suffix == ".bag" or p.suffix.lower() in TABLE_SUFFIXES:
             out.append((p, False))
         else:
             raise LogIOError(
                 f"cannot read {str(p)!r}: unknown suffix {p.suffix!r}; expected one of "
-                f"{', '.join(sorted(TABLE_SUFFIXES))}, .bag or a ROS 2 bag folder")
+                f"{', '.join(sorted(TABLE_SUFFIXES))}, .bag or a ROS 2 bag folder", path=p,
+                value=p.suffix, expected=", ".join(sorted(TABLE_SUFFIXES)))
     return out
 
 
@@ -185,7 +188,8 @@ def _read_table(path: Path) -> pd.DataFrame:
             return pd.read_csv(path)
         return pd.read_parquet(path)
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise LogIOError(f"cannot read {fmt} log {str(path)!r}: {err}") from err
+        raise LogIOError(f"cannot read {fmt} log {str(path)!r}: {err}", path=path,
+                         expected=f"a {fmt} table") from err
 
 
 #: An extra column whose non-missing values parse as numbers at least this often is a
@@ -460,7 +464,9 @@ def load_logs(
         for r in runs:
             if r in owner:
                 raise LogError(f"run id {r!r} found in both {owner[r]!r} and {str(path)!r}; "
-                               "run ids must be unique (rename a file or its 'run' values)")
+                               "run ids must be unique (rename a file or its 'run' values)",
+                               path=path, run=str(r), value=[owner[r], str(path)],
+                               expected="each run id in one file")
             owner[r] = str(path)
         rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": runs})
         frames.append(df)

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.errors import LogError
+from energy_planner.errors import LogError, UnknownNameError
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body
 from energy_planner.measurements.schema import (
     MAX_GAP_S,
@@ -123,7 +123,8 @@ class PreprocessParams:
         def need(ok: bool, name: str, expected: str) -> None:
             if not ok:
                 raise LogError(f"PreprocessParams.{name}={getattr(self, name)!r} is not "
-                               f"valid; expected {expected}")
+                               f"valid; expected {expected}", param=name,
+                               value=getattr(self, name), expected=expected)
 
         need(0 <= self.voltage_min < self.voltage_max, "voltage_min",
              "0 <= voltage_min < voltage_max")
@@ -193,7 +194,9 @@ class PreprocessReport:
         for s in self.steps:
             if s.name == name:
                 return s
-        raise KeyError(f"no step {name!r}; steps: {', '.join(s.name for s in self.steps)}")
+        raise UnknownNameError(f"no step {name!r}; steps: "
+                               f"{', '.join(s.name for s in self.steps)}", value=name,
+                               expected=", ".join(s.name for s in self.steps))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""

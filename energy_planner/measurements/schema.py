@@ -117,7 +117,8 @@ def check_columns(columns, source: str | None = None, *, need_run: bool = True) 
         raise LogError(
             f"log{(' ' + source) if source else ''} lacks required column(s) {names}; "
             f"required columns are {', '.join(need)} (optional: {', '.join(OPTIONAL_COLUMNS)}); "
-            f"found {', '.join(map(str, columns))}"
+            f"found {', '.join(map(str, columns))}", path=source, column=missing[0],
+            value=missing, expected=", ".join(need)
         )
 
 
@@ -156,7 +157,9 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         row = int(np.flatnonzero(np.isnan(t))[0])
         raise LogError(
             f"log{_where(source)}: time 't' is missing or not a number at row {row} "
-            f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run"
+            f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run",
+            path=source, column="t", row=row, value=samples["t"].iloc[row],
+            expected="seconds, increasing within a run"
         )
     runs = samples["run"].astype(str).to_numpy()
     order, same = _by_run(runs)
@@ -170,7 +173,8 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         raise LogError(
             f"log{_where(source)}: time {what} in run {runs[row]!r} at row {row}: "
             f"t={float(ts[j + 1])!r} s after t={float(ts[j])!r} s; expected t strictly "
-            f"increasing within a run"
+            f"increasing within a run", path=source, column="t", row=row, run=str(runs[row]),
+            value=float(ts[j + 1]), expected=f"t > {float(ts[j])!r} s"
         )
 
 
