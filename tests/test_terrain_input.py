@@ -182,3 +182,13 @@ def test_error_fields_round_trip_to_json(tmp_path):
         load_dem(p)
     d = json.loads(json.dumps(exc.value.to_dict()))
     assert d["error"] == "DEMError" and d["path"] == str(p)
+
+
+def test_energy_cli_metric_waypoints_on_lonlat_dem(tmp_path):
+    w = tmp_path / "w.csv"
+    w.write_text("x,y\n741700,4048300\n742000,4048600\n")
+    res = CliRunner().invoke(main, ["energy", "--dem", str(map_path("jacksboro")),
+                                    "--waypoints", str(w)])
+    assert res.exit_code == 1 and isinstance(res.exception, SystemExit), res.output
+    assert "(741700, 4048300)" in res.output and "EPSG:4326" in res.output
+    assert "longitude,latitude" in res.output
