@@ -285,3 +285,32 @@ def test_check_lets_other_exceptions_through(tmp_path):
     with pytest.raises(KeyError):
         check(bad, tmp_path)
     assert math.isnan(check(lambda _: float("nan"), Path(".")))
+
+
+# ---------------------------------------------------------------------- DEM rasters
+@FUZZ
+@given(blob=st.binary(max_size=400), suffix=st.sampled_from([".tif", ".asc", ".img"]))
+def test_load_dem_bytes(fuzzdir, blob, suffix):
+    from energy_planner.terrain import load_dem
+
+    p = fuzzdir / f"dem{suffix}"
+    p.write_bytes(blob)
+    check(load_dem, p)
+
+
+@FUZZ
+@given(rows=st.lists(st.lists(scalars.map(lambda v: "" if v is None else str(v)), min_size=1,
+                              max_size=4), min_size=1, max_size=4),
+       ncols=st.integers(-2, 5), cellsize=st.sampled_from(["1", "0", "-1", "nan", "x"]),
+       nodata=st.sampled_from(["", "NODATA_value -9999\n", "NODATA_value nan\n"]))
+def test_load_dem_ascii_grid(fuzzdir, rows, ncols, cellsize, nodata):
+    """Esri ASCII grids (a text raster GDAL reads) with broken headers and cells."""
+    from energy_planner.terrain import load_dem
+
+    p = fuzzdir / "grid.asc"
+    head = (f"ncols {ncols}\nnrows {len(rows)}\nxllcorner 0\nyllcorner 0\n"
+            f"cellsize {cellsize}\n{nodata}")
+    p.write_text(head + "\n".join(" ".join(r) for r in rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # no CRS: local metres
+        check(load_dem, p)

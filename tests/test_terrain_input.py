@@ -192,3 +192,16 @@ def test_energy_cli_metric_waypoints_on_lonlat_dem(tmp_path):
     assert res.exit_code == 1 and isinstance(res.exception, SystemExit), res.output
     assert "(741700, 4048300)" in res.output and "EPSG:4326" in res.output
     assert "longitude,latitude" in res.output
+
+
+def test_truncated_raster_is_a_dem_io_error(tmp_path):
+    """Found by tests/test_fuzz_loaders.py: a file GDAL opens but cannot read gave a
+    RasterioIOError traceback."""
+    from energy_planner.errors import DEMIOError
+
+    p = tmp_path / "grid.asc"
+    p.write_text("ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n")
+    with pytest.raises(DEMIOError) as exc:  # the read fails before the CRS is looked at
+        load_dem(p)
+    assert "cannot read band 1" in str(exc.value) and exc.value.path == str(p)
+    assert isinstance(exc.value, OSError)

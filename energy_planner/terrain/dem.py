@@ -610,6 +610,7 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
     (32631, (1.0, 1.0))
     """
     import rasterio
+    from rasterio._err import CPLE_BaseError
     from rasterio.errors import RasterioIOError
 
     p = Path(path)
@@ -638,7 +639,11 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
                            hint="--band N")
         check_memory((src.height, src.width), BYTES_PER_CELL, f"DEM {name!r}", path=name)
         nodata = src.nodatavals[int(band) - 1]
-        data = src.read(int(band), masked=True)
+        try:
+            data = src.read(int(band), masked=True)
+        except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
+            raise DEMIOError(f"cannot read band {band} of DEM {name!r}: {exc}", path=name,
+                             expected="a readable raster (is the file truncated?)") from exc
         z = np.ma.filled(data.astype(np.float64), np.nan)
         del data
         transform = src.transform
