@@ -101,7 +101,7 @@ def test_huge_raster_is_refused_before_reading(huge_tif, monkeypatch):
     assert e.cap_bytes == 4 * 2**30
     msg = str(e)
     for needle in ("huge.tif", "50000 x 50000", "149 GiB", "4 GiB", MEMORY_CAP_ENV, "window",
-                   "coarser resolution", "energy-map --dask"):
+                   "coarser grid", "--decimate 7", "energy-map --dask"):
         assert needle in msg, needle
 
 
@@ -205,3 +205,47 @@ def test_truncated_raster_is_a_dem_io_error(tmp_path):
         load_dem(p)
     assert "cannot read band 1" in str(exc.value) and exc.value.path == str(p)
     assert isinstance(exc.value, OSError)
+
+
+# ---------------------------------------------------------------------- the remedies
+def test_bounds_reads_the_same_cells_as_a_slice():
+    full = load_dem(map_path("hill"))
+    x0, y0 = full.bounds[:2]
+    part = load_dem(map_path("hill"), bounds=(x0 + 10.2, y0 + 20.5, x0 + 40, y0 + 50))
+    assert part.bounds == (x0 + 10, y0 + 20, x0 + 40, y0 + 50)  # whole cells covering it
+    r0 = int(round((full.bounds[3] - part.bounds[3]) / full.resolution[1]))
+    c0 = int(round((part.bounds[0] - full.bounds[0]) / full.resolution[0]))
+    np.testing.assert_array_equal(part.elevation, full.elevation[r0:r0 + 30, c0:c0 + 30])
+
+
+def test_decimate_averages_blocks():
+    full = load_dem(map_path("hill"))
+    d = load_dem(map_path("hill"), decimate=4)
+    assert d.shape == (50, 50) and d.resolution == (4.0, 4.0) and d.bounds == full.bounds
+    blocks = full.elevation.reshape(50, 4, 50, 4).mean(axis=(1, 3))
+    np.testing.assert_allclose(d.elevation, blocks, rtol=1e-6)  # float32 file
+
+
+def test_window_of_the_huge_raster_loads(huge_tif, monkeypatch):
+    monkeypatch.setenv(MEMORY_CAP_ENV, "2G")
+    t = load_dem(huge_tif, bounds=(5e5, 5e6 - 300, 5e5 + 400, 5e6))
+    assert t.shape == (300, 400)
+    res = CliRunner().invoke(main, ["terrain", str(huge_tif), "--bounds",
+                                    "500000,4999700,500400,5000000", "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.output)["shape"] == [300, 400]
+    # the error's hint names a decimation that fits
+    with pytest.raises(RasterTooLargeError, match=r"decimate=9") as exc:
+        load_dem(huge_tif)
+    k = 9
+    assert (50000 / k) ** 2 * 64 <= exc.value.cap_bytes < (50000 / (k - 1)) ** 2 * 64
+
+
+def test_bad_bounds(tmp_path):
+    with pytest.raises(DEMError, match="do not overlap") as exc:
+        load_dem(map_path("hill"), bounds=(0, 0, 1, 1))
+    assert exc.value.param == "bounds"
+    res = CliRunner().invoke(main, ["terrain", "hill", "--bounds", "1,2,3"])
+    assert res.exit_code == 2 and "XMIN,YMIN,XMAX,YMAX" in res.output
+    res = CliRunner().invoke(main, ["terrain", "hill", "--bounds", "0,0,1,1"])
+    assert res.exit_code == 2 and "do not overlap" in res.output

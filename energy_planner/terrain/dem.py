@@ -574,7 +574,54 @@ def _warp_to_utm(
     return zw, dst_transform, dst_crs
 
 
-def load_dem(path: str | Path, band: int | None = None) -> Terrain:
+def _read_window(src: Any, bounds: Sequence[float] | None, decimate: int, name: str
+                 ) -> tuple[Any, tuple[int, int], Affine]:
+    """The window to read, the shape to read it at and that grid's transform."""
+    from rasterio.windows import Window, from_bounds
+
+    full = Window(0, 0, src.width, src.height)
+    if bounds is None:
+        win = full
+    else:
+        try:
+            xmin, ymin, xmax, ymax = (float(v) for v in bounds)
+        except (TypeError, ValueError):
+            raise DEMError(f"bounds {bounds!r} are not (xmin, ymin, xmax, ymax)", path=name,
+                           value=bounds, param="bounds",
+                           expected="(xmin, ymin, xmax, ymax) in the DEM's CRS") from None
+        if not (xmin < xmax and ymin < ymax):
+            raise DEMError(f"bounds {bounds!r}: expected xmin < xmax and ymin < ymax",
+                           path=name, value=bounds, param="bounds",
+                           expected="(xmin, ymin, xmax, ymax) in the DEM's CRS")
+        w = from_bounds(xmin, ymin, xmax, ymax, transform=src.transform)
+        w = w.round_offsets(op="floor").round_lengths(op="ceil")
+        try:
+            win = w.intersection(full)
+        except Exception:  # noqa: BLE001 - rasterio raises WindowError for disjoint windows
+            win = None
+        if win is None or win.width < 1 or win.height < 1:
+            left, bottom, right, top = src.bounds
+            raise DEMError(
+                f"bounds {tuple(bounds)!r} do not overlap DEM {name!r}, which covers "
+                f"({left:.6g}, {bottom:.6g}, {right:.6g}, {top:.6g}) in {src.crs}", path=name,
+                value=tuple(bounds), param="bounds", bounds=(left, bottom, right, top),
+                crs=str(src.crs), expected="bounds inside the DEM, in its CRS")
+    if not (isinstance(decimate, int | np.integer) and decimate >= 1):
+        raise DEMError(f"decimate={decimate!r} must be an integer >= 1", path=name,
+                       value=decimate, param="decimate", expected="an integer >= 1")
+    h, w_ = int(win.height), int(win.width)
+    shape = (max(1, math.ceil(h / decimate)), max(1, math.ceil(w_ / decimate)))
+    t = src.window_transform(win) @ Affine.scale(w_ / shape[1], h / shape[0])
+    return win, shape, t
+
+
+def load_dem(
+    path: str | Path,
+    band: int | None = None,
+    *,
+    bounds: Sequence[float] | None = None,
+    decimate: int = 1,
+) -> Terrain:
     """Load a single-band DEM raster into a metric :class:`Terrain`.
 
     Parameters
@@ -583,6 +630,13 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
         Any raster rasterio opens (GeoTIFF, ...). Elevation in metres.
     band : int or None
         1-based band to read; required when the raster has several bands.
+    bounds : (xmin, ymin, xmax, ymax), optional
+        Read only this window, in the DEM's own CRS (whole cells covering it, clipped to
+        the raster). For a raster too large to load whole.
+    decimate : int
+        Read every ``decimate``-th cell along each axis, each new cell the average of the
+        ``decimate x decimate`` cells it covers (GDAL average resampling, nodata cells
+        left out); 1 (default) reads the raster as it is.
 
     Returns
     -------
@@ -637,16 +691,25 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
             raise DEMError(f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
                            path=name, value=band, param="band", expected=f"a band in 1..{n}",
                            hint="--band N")
-        check_memory((src.height, src.width), BYTES_PER_CELL, f"DEM {name!r}", path=name)
+        win, shape, transform = _read_window(src, bounds, decimate, name)
+        part = "" if (bounds is None and decimate == 1) else (
+            f" (window of {int(win.height)} x {int(win.width)} cells"
+            + (f", decimated by {decimate}" if decimate > 1 else "") + ")")
+        check_memory(shape, BYTES_PER_CELL, f"DEM {name!r}{part}", path=name)
         nodata = src.nodatavals[int(band) - 1]
         try:
-            data = src.read(int(band), masked=True)
+            if bounds is None and decimate == 1:
+                data = src.read(int(band), masked=True)
+            else:
+                from rasterio.enums import Resampling
+
+                data = src.read(int(band), window=win, out_shape=shape, masked=True,
+                                resampling=Resampling.average)
         except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
             raise DEMIOError(f"cannot read band {band} of DEM {name!r}: {exc}", path=name,
                              expected="a readable raster (is the file truncated?)") from exc
         z = np.ma.filled(data.astype(np.float64), np.nan)
         del data
-        transform = src.transform
         crs = src.crs
         if transform.b != 0 or transform.d != 0:
             raise DEMError(

@@ -174,11 +174,14 @@ def check_memory(
     need = float(rows) * float(cols) * float(bytes_per_cell)
     if limit is None or need <= limit:
         return
-    hint = hint or (
-        "read a window (gdal_translate -srcwin XOFF YOFF XSIZE YSIZE in.tif part.tif), a "
-        "coarser resolution (gdalwarp -tr XRES YRES -r average in.tif coarse.tif), or use "
-        "the out-of-core path (energy-planner energy-map --dask); or raise the cap with "
-        f"{MEMORY_CAP_ENV}=SIZE if the machine has the memory")
+    if hint is None:
+        k = max(2, math.ceil(math.sqrt(need / limit)))
+        hint = (
+            "read a window (load_dem(..., bounds=(xmin, ymin, xmax, ymax)), `terrain --bounds "
+            "XMIN,YMIN,XMAX,YMAX`, or gdal_translate -projwin), a coarser grid "
+            f"(load_dem(..., decimate={k}), `terrain --decimate {k}`, or gdalwarp -tr XRES YRES "
+            "-r average), or the out-of-core path (energy-planner energy-map --dask); or raise "
+            f"the cap with {MEMORY_CAP_ENV}=SIZE if the machine has the memory")
     total = total_memory()
     src = (f"set by {MEMORY_CAP_ENV}" if os.environ.get(MEMORY_CAP_ENV, "").strip() else
            f"default {DEFAULT_MEMORY_SHARE:.0%} of {format_bytes(total or 0)} memory; "
