@@ -324,6 +324,7 @@ def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) ->
     if missing:
         raise LogError(f"run_energies needs column(s) {', '.join(missing)}; required: run, t, "
                        "voltage, current")
+    check_runs(samples, "samples given to run_energies")
     df = samples.assign(run=samples["run"].astype(str)).sort_values(["run", "t"],
                                                                   kind="stable")
     rows = []
