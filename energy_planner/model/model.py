@@ -29,6 +29,7 @@ import pandas as pd
 
 from energy_planner.errors import FitError, FormulaError, ModelError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
+from energy_planner.stats import independent_columns, wls
 
 __all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "prepare_features"]
 
@@ -229,33 +230,27 @@ class EnergyModel:
                 f"too little data: {n} rows for {k} terms ({', '.join(self.term_names)}); "
                 f"need at least {k + 2}, and in practice ten or more per term"
             )
-        zero = [self.term_names[j] for j in range(k) if not np.any(np.abs(X[:, j]) > 1e-12)]
+        keep, why = independent_columns(X, w)
+        zero = [self.term_names[j] for j, by in why.items() if not by]
         if zero:
             raise FitError(
                 f"term(s) {', '.join(zero)} are zero on every row: the data has none of the "
                 "motion or conditions they describe; drop them or add such runs"
             )
-        sw = np.sqrt(w)
-        Xw, yw = X * sw[:, None], y * sw
-        scale = np.linalg.norm(Xw, axis=0)
-        Xs = Xw / scale
-        sv = np.linalg.svd(Xs, compute_uv=False)
-        if sv[-1] < 1e-7 * sv[0]:
-            raise FitError(
-                "the data cannot tell these terms apart (their columns are nearly linearly "
-                f"dependent): {', '.join(collinear_terms(Xs, self.term_names))}; add runs that "
-                "vary what distinguishes them (speeds, slopes, headings) or drop one"
+        if not keep.all():
+            names = self.term_names
+            dep = "; ".join(
+                f"{names[j]} (a combination of {', '.join(names[i] for i in by)})"
+                for j, by in why.items()
             )
-        beta_s, *_ = np.linalg.lstsq(Xs, yw, rcond=None)
-        beta = beta_s / scale
-        resid = yw - Xw @ beta
-        dof = max(n - k, 1)
-        sigma2 = float(resid @ resid) / dof
-        cov = sigma2 * np.linalg.inv(Xs.T @ Xs) / np.outer(scale, scale)
-        self.coefficients = dict(zip(self.term_names, map(float, beta), strict=True))
-        self.stderr = dict(
-            zip(self.term_names, map(float, np.sqrt(np.clip(np.diag(cov), 0, None))), strict=True)
-        )
+            raise FitError(
+                "the data cannot tell these terms apart (their columns are linearly "
+                f"dependent): {dep}; add runs that vary what distinguishes them (speeds, "
+                "slopes, headings) or drop one"
+            )
+        res = wls(X, y, w)
+        self.coefficients = dict(zip(self.term_names, map(float, res.coef), strict=True))
+        self.stderr = dict(zip(self.term_names, map(float, res.stderr), strict=True))
         return self
 
     # ------------------------------------------------------------------ persistence
@@ -427,20 +422,6 @@ class EnergyModel:
         from energy_planner.model._codegen import compile_kernel
 
         return compile_kernel(self.kernel_source(constants))
-
-
-def collinear_terms(Xs: np.ndarray, names: Sequence[str]) -> list[str]:
-    """Names of the columns that are (nearly) a linear combination of the others."""
-    out = []
-    for j, name in enumerate(names):
-        others = np.delete(Xs, j, axis=1)
-        if others.shape[1] == 0:
-            continue
-        coef, *_ = np.linalg.lstsq(others, Xs[:, j], rcond=None)
-        r = Xs[:, j] - others @ coef
-        if np.linalg.norm(r) < 1e-5 * max(np.linalg.norm(Xs[:, j]), 1e-300):
-            out.append(name)
-    return out or list(names)
 
 
 def term_names(specs: Iterable[str | Term]) -> list[str]:
