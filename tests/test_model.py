@@ -15,6 +15,7 @@ from energy_planner.model import (
     CATALOG,
     EFFECT_TERMS,
     EnergyModel,
+    critical_grade,
     parse_formula,
 )
 
@@ -144,8 +145,13 @@ def test_base_reproduces_the_shapes_of_fig4_and_fig5():
     n = len(a)
 
     def cost(gamma, vx=0.0, vy=0.0, wz=0.0):
-        f = {"alpha": a, "gamma": np.full(n, gamma), "vx": np.full(n, vx),
-             "vy": np.full(n, vy), "wz": np.full(n, wz)}
+        f = {
+            "alpha": a,
+            "gamma": np.full(n, gamma),
+            "vx": np.full(n, vx),
+            "vy": np.full(n, vy),
+            "wz": np.full(n, wz),
+        }
         return m.power(f) / max(abs(vx), abs(vy), abs(wz))
 
     assert np.all(np.diff(cost(0.0, vx=0.3)) > 0)  # forward uphill
@@ -160,8 +166,13 @@ def test_convex_uphill_cost_has_a_critical_grade():
     """c(g) = c0 + c1 g + c2 g^2 per metre; c(g)/g is least at g* = sqrt(c0 / c2)."""
     m = EnergyModel(BASE_TERMS, B1)
     g = np.linspace(0.02, 0.7, 2000)
-    f = {"alpha": np.arcsin(g), "gamma": np.zeros_like(g), "vx": np.full_like(g, 0.3),
-         "vy": np.zeros_like(g), "wz": np.zeros_like(g)}
+    f = {
+        "alpha": np.arcsin(g),
+        "gamma": np.zeros_like(g),
+        "vx": np.full_like(g, 0.3),
+        "vy": np.zeros_like(g),
+        "wz": np.zeros_like(g),
+    }
     c = m.power(f) / 0.3
     assert g[np.argmin(c / g)] == pytest.approx(np.sqrt(620 / 3750), abs=1e-3)
 
@@ -302,3 +313,18 @@ def test_kernel_needs_constants_for_extra_channels():
 def test_catalog_terms_have_explanations():
     for term in CATALOG.values():
         assert len(term.explanation) > 20 and term.unit
+
+
+def test_critical_grade_closed_form_matches_a_search():
+    """g* = sqrt(fwd_const / fwd_up_sq) minimises the climbing energy per metre of height."""
+    m = EnergyModel(BASE_TERMS, B1)
+    c = critical_grade(m)
+    assert c["method"] == "closed form" and c["grade"] == pytest.approx(np.sqrt(620 / 3750))
+    g = np.sin(np.radians(np.arange(0.5, 60.0, 0.001)))
+    cost = (620 + 700 * g + 3750 * g**2) / g
+    assert c["grade"] == pytest.approx(g[np.argmin(cost)], abs=1e-4)
+    # with a term outside the base, the numeric search agrees with the same search
+    idle = EnergyModel([*BASE_TERMS, "idle_power"], {**B1, "idle_power": 30.0})
+    n = critical_grade(idle)
+    cost = (620 + 100 + 700 * g + 3750 * g**2) / g  # 30 W at 0.3 m/s = 100 N
+    assert n["method"] == "numeric" and n["grade"] == pytest.approx(g[np.argmin(cost)], abs=2e-4)

@@ -134,6 +134,10 @@ def test_classify_motion_mirror(vx, vy, wz):
     """The mirror image (vy, wz -> -vy, -wz) swaps left and right and nothing else."""
     a = classify_motion(vx, vy, wz)[0]
     b = classify_motion(vx, -vy, -wz)[0]
-    swap = {"lateral_left": "lateral_right", "lateral_right": "lateral_left",
-            "turn_left": "turn_right", "turn_right": "turn_left"}
+    swap = {
+        "lateral_left": "lateral_right",
+        "lateral_right": "lateral_left",
+        "turn_left": "turn_right",
+        "turn_right": "turn_left",
+    }
     assert b == swap.get(a, a)

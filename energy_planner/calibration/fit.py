@@ -197,12 +197,8 @@ class FitResult:
                 }
                 for name in self.model.term_names
             ],
-            "unidentified": [
-                {"name": n, "reason": why} for n, why in self.unidentified.items()
-            ],
-            "held_at_prior": [
-                {"name": n, "coefficient": c} for n, c in self.held_at_prior.items()
-            ],
+            "unidentified": [{"name": n, "reason": why} for n, why in self.unidentified.items()],
+            "held_at_prior": [{"name": n, "coefficient": c} for n, c in self.held_at_prior.items()],
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
             "residual_rms_w": self.residual_rms_w,
@@ -747,9 +743,7 @@ def fit_model(
 
     heldout = None
     if n_splits:
-        heldout = cross_validate(
-            model, windows, n_splits=n_splits, seed=seed, fixed=held
-        )
+        heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed, fixed=held)
         warnings += heldout.warnings
     model.metadata = {
         **model.metadata,
@@ -768,9 +762,7 @@ def fit_model(
                 else {
                     "heldout_power_rmse_w": round(heldout.rmse_w, 3),
                     "heldout_energy_mean_abs_rel_error": round(heldout.energy_mean_abs_rel, 5),
-                    "heldout_energy_median_abs_rel_error": round(
-                        heldout.energy_median_abs_rel, 5
-                    ),
+                    "heldout_energy_median_abs_rel_error": round(heldout.energy_median_abs_rel, 5),
                     "heldout_energy_p90_abs_rel_error": round(heldout.energy_p90_abs_rel, 5),
                     "n_splits": heldout.n_splits,
                 }

@@ -8,7 +8,7 @@ that does). Built like a scikit-learn estimator: ``__init__`` stores its argumen
 Examples
 --------
 >>> import numpy as np
->>> m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 600.0, "fwd_grade": 1000.0})
+>>> m = EnergyModel(["fwd_const", "fwd_up"], {"fwd_const": 600.0, "fwd_up": 1000.0})
 >>> f = {"alpha": np.radians([0.0, 10.0]), "gamma": np.zeros(2), "vx": np.full(2, 0.3),
 ...      "vy": np.zeros(2), "wz": np.zeros(2)}
 >>> np.round(m.power(f), 2)
@@ -31,7 +31,7 @@ from energy_planner.errors import FitError, FormulaError, ModelError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
 from energy_planner.stats import independent_columns, wls
 
-__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "prepare_features"]
+__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "critical_grade", "prepare_features"]
 
 SCHEMA = "energy_planner.model"
 SCHEMA_VERSION = 1
@@ -427,3 +427,79 @@ class EnergyModel:
 def term_names(specs: Iterable[str | Term]) -> list[str]:
     """Resolve term specs to names (for messages and CLI output)."""
     return [resolve_term(s).name for s in specs]
+
+
+def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
+    """Grade beyond which a detour climbs a hill for less energy than the direct line.
+
+    Walking forward straight up a grade ``g = sin(alpha)`` costs ``c(g) = P / v`` per
+    metre; climbing a height ``H`` takes ``H / g`` metres, so the energy ``H c(g) / g`` is
+    least at the grade ``g*`` minimising ``c(g) / g``. On steeper ground a zig-zag at
+    ``g*`` beats the direct climb (paper Fig. 1). For the base model
+    ``c(g) = fwd_const + fwd_up g + fwd_up_sq g^2``, so ``g* = sqrt(fwd_const / fwd_up_sq)``
+    (closed form, ``method = "closed form"``); a model with other terms is minimised
+    numerically on a grid of 0.01 deg up to 60 deg.
+
+    Returns
+    -------
+    dict
+        ``grade`` (g*, inf when the cost is not convex), ``slope_deg``, ``cost_n`` (c(g*),
+        J/m), ``level_cost_n`` (c(0)) and ``method``.
+
+    Examples
+    --------
+    >>> m = EnergyModel(["fwd_const", "fwd_up", "fwd_up_sq"],
+    ...                 {"fwd_const": 600.0, "fwd_up": 700.0, "fwd_up_sq": 2400.0})
+    >>> c = critical_grade(m)
+    >>> c["grade"], round(c["slope_deg"], 2), c["method"]
+    (0.5, 30.0, 'closed form')
+    """
+    coefs = model.coefficients or {}
+    base_fwd = {"fwd_const", "fwd_up", "fwd_up_sq"}
+    forward_on_fall_line = [
+        t.name for t in model.terms if t.kind not in ("backward", "lateral", "turning")
+    ]
+
+    def cost(g: np.ndarray) -> np.ndarray:
+        n = g.shape[0]
+        f = {
+            "alpha": np.arcsin(g),
+            "gamma": np.zeros(n),
+            "vx": np.full(n, speed),
+            "vy": np.zeros(n),
+            "wz": np.zeros(n),
+            "ax": np.zeros(n),
+            "ay": np.zeros(n),
+        }
+        return model.power(f) / speed
+
+    level = float(cost(np.zeros(1))[0])
+    if set(forward_on_fall_line) - {"fwd_down", "fwd_down_sq", "fwd_cross_sq"} <= base_fwd:
+        c0, q = coefs.get("fwd_const", 0.0), coefs.get("fwd_up_sq", 0.0)
+        if q <= 0 or c0 <= 0:
+            return {
+                "grade": math.inf,
+                "slope_deg": 90.0,
+                "cost_n": math.nan,
+                "level_cost_n": level,
+                "method": "closed form",
+            }
+        g = math.sqrt(c0 / q)
+        if g < 1:
+            return {
+                "grade": g,
+                "slope_deg": math.degrees(math.asin(g)),
+                "cost_n": float(cost(np.array([g]))[0]),
+                "level_cost_n": level,
+                "method": "closed form",
+            }
+    grid = np.sin(np.radians(np.arange(0.01, 60.0, 0.01)))
+    c = cost(grid)
+    k = int(np.argmin(c / grid))
+    return {
+        "grade": float(grid[k]),
+        "slope_deg": float(np.degrees(np.arcsin(grid[k]))),
+        "cost_n": float(c[k]),
+        "level_cost_n": level,
+        "method": "numeric",
+    }
