@@ -124,8 +124,9 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "acceleration",
-            "speeding up spins up the 12 rotors (reflected inertia J N^2 / l^2) and the "
-            "legs, and that kinetic energy is dissipated instead of recovered",
+            "speed changes also spin the 12 rotors up and down (reflected inertia J N^2 / "
+            "l^2, about 220 kg at the feet) and swing the legs, and that kinetic energy is "
+            "paid both ways (dissipated when slowing down, never recovered)",
             ("speed ramps (CampaignConfig.ramp_s > 0) or mission logs with speed changes",),
             resembles="acceleration",
         ),
@@ -149,14 +150,14 @@ EFFECTS: dict[str, Effect] = {
             "motor_temp",
             "the winding resistance follows the logged winding temperature (channel "
             "motor_temp): +0.39 %/K from 40 C, so every copper loss grows with it",
-            ("channel motor_temp varies (default 25-55 C at run start, warming during runs)",
+            ("channel motor_temp varies (default 25-75 C at run start, warming during runs)",
              "copper-heavy motions (slopes, standing) make it clearer"),
             channel="motor_temp",
         ),
         Effect(
             "cold_joints",
             "gearbox grease stiffens in the cold (channel air_temp_c): its viscous loss "
-            "grows as exp(0.04 (20 - T)) (x2.2 at 0 C, x0.67 at 30 C)",
+            "grows as exp(0.05 (20 - T)) (x2.7 at 0 C, x0.61 at 30 C)",
             ("channel air_temp_c varies between runs (default 0-30 C)",),
             channel="air_temp_c",
         ),
