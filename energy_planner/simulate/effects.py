@@ -92,18 +92,18 @@ EFFECTS: dict[str, Effect] = {
         Effect(
             "speed_dependence",
             "the gait keeps its stride length, so the stride frequency follows the speed: "
-            "foot lifting grows with v and swing-leg kinetic losses with v^3 (same power "
-            "as the base robot at 0.3 m/s)",
+            "foot lifting and touch-downs per second grow with v, swing-leg kinetic losses "
+            "with v^3 (same power as the base robot at 0.3 m/s)",
             ("several speeds (e.g. --speeds 0.2,0.3,0.45)",),
             resembles="speed_dependence",
         ),
         Effect(
             "joule_heating",
-            "motors with 1.6 times the winding resistance (a thinner-wire actuator "
+            "motors with 1.3 times the winding resistance (a thinner-wire actuator "
             "version): every copper loss, which grows with the square of the leg forces, "
-            "is 1.6 times larger",
+            "is 1.3 times larger",
             ("several slopes; stand runs and cross-slope headings help",),
-            changes={"winding_resistance_ohm": lambda p: 1.6 * p.winding_resistance_ohm},
+            changes={"winding_resistance_ohm": lambda p: 1.3 * p.winding_resistance_ohm},
             resembles="joule_heating",
         ),
         Effect(
@@ -157,8 +157,8 @@ EFFECTS: dict[str, Effect] = {
         Effect(
             "cold_joints",
             "gearbox grease stiffens in the cold (channel air_temp_c): its viscous loss "
-            "grows as exp(0.05 (20 - T)) (x2.7 at 0 C, x0.61 at 30 C)",
-            ("channel air_temp_c varies between runs (default 0-30 C)",),
+            "grows as exp(0.05 (20 - T)) (x3.5 at -5 C, x0.61 at 30 C)",
+            ("channel air_temp_c varies between runs (default -5 to 30 C)",),
             channel="air_temp_c",
         ),
         Effect(

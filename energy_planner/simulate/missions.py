@@ -96,7 +96,7 @@ class MissionConfig:
     waypoint_spacing_m: float = 6.0
     grounds: tuple[str, ...] = ("meadow", "gravel", "mud", "asphalt")
     loads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
-    air_temp_range_c: tuple[float, float] = (0.0, 30.0)
+    air_temp_range_c: tuple[float, float] = (-5.0, 30.0)
     motor_temp_range_c: tuple[float, float] = (25.0, 75.0)
     motor_warming_k_s: float = 0.02
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)

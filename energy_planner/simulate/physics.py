@@ -429,8 +429,11 @@ class Physics:
                 + p.collision_lateral * w_lat)
         collisions = coll * weight * speed / p.lift_efficiency
         stride_f = np.full(n, p.stride_frequency_hz)
-        if "speed_dependence" in on:  # fixed stride length: the frequency follows the speed
+        if "speed_dependence" in on:
+            # fixed stride length: the frequency follows the speed, and so do the number
+            # of touch-downs per second (each as hard as at the nominal speed)
             stride_f = p.stride_frequency_hz * np.maximum(speed / p.nominal_speed, 0.5)
+            collisions = collisions * stride_f / p.stride_frequency_hz
         clearance = p.step_clearance_m
         terrain = np.zeros(n)
         if "vegetation" in on:
