@@ -515,7 +515,11 @@ def critical_grade(
     The cost per metre straight up the fall line is ``c(g) = P / v`` at grade ``g =
     sin(alpha)``; climbing a height ``H`` at grade ``g`` takes ``H / g`` metres, so the
     energy ``H c(g) / g`` is least at the grade ``g*`` minimising ``c(g) / g``. On
-    steeper ground a detour at grade ``g*`` beats the direct climb.
+    steeper ground a detour at grade ``g*`` beats the direct climb. For the default
+    physics ``c(g) = a + b g + q g^2`` exactly (``a`` the level cost, ``b = M g /
+    lift_efficiency``, ``q`` the copper losses of the tangential force, see
+    docs/simulate.md), so ``g* = sqrt(a / q)``; this function minimises numerically so
+    that it holds for any parameters and effects.
 
     Returns
     -------
