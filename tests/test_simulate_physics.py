@@ -389,3 +389,24 @@ def test_missions_same_seed_with_and_without_an_effect(missions):
     same = ["run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "x", "y", *CHANNELS]
     pd.testing.assert_frame_equal(other.logs[same], missions.logs[same])
     assert not np.allclose(other.true_samples["power"], missions.true_samples["power"])
+
+
+def test_ground_map_as_a_raster_and_in_path_energy(tmp_path):
+    import rasterio
+
+    from energy_planner.simulate import ground_map, synthetic_dem
+
+    terrain = synthetic_dem(seed=5, size_m=120.0)
+    gm = ground_map(terrain, ("meadow", "gravel", "mud", "asphalt"), seed=5)
+    tif, csv = gm.write(tmp_path / "ground.tif", tmp_path / "ground.csv")
+    with rasterio.open(tif) as src:
+        assert np.array_equal(src.read(1), gm.codes)
+        assert src.transform == terrain.transform
+    assert csv.read_text().splitlines()[:2] == ["code,ground", "1,meadow"]
+    path = [[20.0, 20.0], [100.0, 30.0], [60.0, 100.0]]
+    on = ("ground",)
+    mixed = true_path_energy(terrain, path, effects=on, channels={"ground": gm}).energy_j
+    paved = true_path_energy(terrain, path, effects=on, channels={"ground": "asphalt"}).energy_j
+    mud = true_path_energy(terrain, path, effects=on, channels={"ground": "mud"}).energy_j
+    assert paved < mixed < mud
+    assert paved == pytest.approx(true_path_energy(terrain, path).energy_j, rel=1e-12)
