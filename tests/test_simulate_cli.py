@@ -52,6 +52,10 @@ def test_simulate_missions_over_a_dem(tmp_path):
     assert list(runs["kind"]) == ["mission", "mission"]
     df = pd.read_csv(tmp_path / f"{runs['run'][0]}.csv")
     assert df["t"].is_monotonic_increasing and df["ground"].notna().all()
+    # the ground map the missions walked on, for --channel ground=ground.tif:ground.csv
+    assert (tmp_path / "ground.tif").exists()
+    table = pd.read_csv(tmp_path / "ground.csv")
+    assert set(df["ground"]) <= set(table["ground"])
 
 
 def test_dem_without_missions_is_rejected(tmp_path):

@@ -485,4 +485,4 @@ def simulate_missions(
     if not rows:  # pragma: no cover - missions >= 1
         raise ConfigError("no mission simulated")
     return Campaign(out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed,
-                    cfg, fault_names)
+                    cfg, fault_names, grounds)
