@@ -63,6 +63,7 @@ __all__ = [
     "PlanningConfigError",
     "PlanningError",
     "RasterTooLargeError",
+    "RemovedAPIError",
     "UnknownNameError",
     "WaypointError",
     "WaypointIOError",
@@ -253,3 +254,7 @@ class UnknownNameError(EnergyPlannerError, KeyError):
     ``str(err)`` is the message (not ``KeyError``'s quoted repr). Fields: ``value`` (the
     name), ``expected`` (the valid names).
     """
+
+
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""

@@ -22,7 +22,8 @@ from energy_planner.errors import (
     RasterTooLargeError,
 )
 
-BUILTINS = (ValueError, OSError, RuntimeError, MemoryError, KeyError, TypeError, LookupError)
+BUILTINS = (ValueError, OSError, RuntimeError, MemoryError, KeyError, TypeError, LookupError,
+            ImportError)
 
 
 def _project_error_classes() -> list[type]:

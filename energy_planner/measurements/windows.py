@@ -18,45 +18,15 @@ import pandas as pd
 from energy_planner.errors import LogError
 from energy_planner.measurements.imu import imu_slope_heading
 from energy_planner.measurements.schema import MAX_GAP_S, check_columns, check_runs
+from energy_planner.stats import MOTIONS, classify_motion
 
-#: Motion classes, in the order of :func:`classify_motion`.
-MOTIONS: tuple[str, ...] = (
-    "forward", "backward", "lateral_left", "lateral_right", "turn_left", "turn_right", "mixed",
-)
+__all__ = ["DERIVED_COLUMNS", "MOTIONS", "Windows", "classify_motion", "make_windows",
+           "run_energies"]
+
 #: Columns derived by measurements (not extra channels).
 DERIVED_COLUMNS: tuple[str, ...] = (
     "power", "alpha", "gamma", "speed", "ax", "ay", "motion", "window", "segment",
 )
-
-
-def classify_motion(vx, vy, wz, *, length: float = 0.5, ratio: float = 0.3) -> np.ndarray:
-    """Motion class per sample from the body twist.
-
-    The components ``(|vx|, |vy|, length * |wz|)`` (m/s; ``length`` in m turns a yaw
-    rate into the speed of a point ``length`` from the yaw axis) are compared: the
-    largest is the motion when every other component is at most ``ratio`` times it
-    (``forward``/``backward`` by the sign of vx, ``lateral_left``/``lateral_right`` by
-    vy, ``turn_left``/``turn_right`` by wz, counter-clockwise = left); otherwise, and when
-    the robot stands still (all components 0), ``mixed``.
-
-    Examples
-    --------
-    >>> classify_motion([0.3, -0.3, 0.0, 0.02, 0.3, 0.0], [0.0, 0.0, -0.2, 0.0, 0.2, 0.0],
-    ...                 [0.01, 0.0, 0.0, 0.5, 0.0, 0.0]).tolist()
-    ['forward', 'backward', 'lateral_right', 'turn_left', 'mixed', 'mixed']
-    """
-    vx, vy, wz = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, dtype=float))
-                                       for a in (vx, vy, wz)))
-    c = np.stack([np.abs(vx), np.abs(vy), length * np.abs(wz)], axis=-1)
-    k = np.argmax(c, axis=-1)
-    top = np.take_along_axis(c, k[..., None], axis=-1)[..., 0]
-    second = np.sort(c, axis=-1)[..., 1]
-    sign = np.choose(k, [vx, vy, wz]) >= 0
-    names = np.array(MOTIONS, dtype=object)
-    idx = 2 * k + np.where(sign, 0, 1)
-    out = names[idx]
-    out[(second > ratio * top) | (top <= 0)] = "mixed"
-    return out.astype(object)
 
 
 @dataclass
@@ -167,7 +137,8 @@ def make_windows(
     max_gap, min_fraction, min_samples
         See above.
     motion_length, motion_ratio
-        Passed to :func:`classify_motion` as ``length`` and ``ratio``.
+        Passed to :func:`energy_planner.stats.classify_motion` (the project's one motion
+        classifier) as ``length`` and ``ratio``.
 
     Returns
     -------
