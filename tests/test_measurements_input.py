@@ -142,7 +142,9 @@ def test_a_run_removed_by_preprocessing_is_named_with_the_step():
 def test_fit_json_lists_dropped_runs(tmp_path):
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
-    camp = simulate_campaign(seed=3, config=CampaignConfig.small())
+    cfg = CampaignConfig.small(slopes_deg=(0.0, 15.0), headings_deg=(0.0, 90.0),
+                               composite_slopes_deg=())
+    camp = simulate_campaign(seed=3, config=cfg)
     logs = tmp_path / "logs"
     logs.mkdir()
     for r, g in camp.logs.groupby("run"):
