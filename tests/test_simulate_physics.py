@@ -357,6 +357,31 @@ def test_true_path_energy_on_a_plane_matches_the_per_sample_truth():
         true_path_energy(plane, [[30.0, 10.0]])
 
 
+def _hills():
+    from energy_planner.simulate import synthetic_dem
+
+    return synthetic_dem(seed=7, size_m=60.0, resolution=1.0)
+
+
+_HILLS = _hills()
+
+
+@settings(max_examples=25, deadline=None)
+@given(x0=st.floats(15, 45), y0=st.floats(15, 45), heading=st.floats(-math.pi, math.pi),
+       d1=st.floats(0.5, 8), d2=st.floats(0.5, 8))
+def test_true_path_energy_adds_over_a_split_path(x0, y0, heading, d1, d2):
+    """Walking A -> B -> C in one straight line costs A -> B plus B -> C (superposition)."""
+    terrain = _HILLS
+    c, s = math.cos(heading), math.sin(heading)
+    a, b = (x0, y0, heading), (x0 + d1 * c, y0 + d1 * s, heading)
+    end = (x0 + (d1 + d2) * c, y0 + (d1 + d2) * s, heading)
+    whole = true_path_energy(terrain, [a, end], step_m=0.02).energy_j
+    parts = (true_path_energy(terrain, [a, b], step_m=0.02).energy_j
+             + true_path_energy(terrain, [b, end], step_m=0.02).energy_j)
+    # equal up to the midpoint rule's discretisation of the sub-steps
+    assert whole == pytest.approx(parts, rel=1e-5)
+
+
 # --------------------------------------------------------------------------- missions
 
 
