@@ -173,12 +173,9 @@ _UNCHANGED = {
     "speed_dependence": lambda f: np.isclose(np.hypot(f["vx"], f["vy"]), 0.3)
     | (np.hypot(f["vx"], f["vy"]) + np.abs(f["wz"]) == 0),
     "joule_heating": lambda f: np.zeros(len(f["vx"]), bool),
-    # forward braking: the x force opposes the motion, or mechanical power is released
-    "downhill_braking": lambda f: ~((f["vx"] > 1e-9) & (
-        (P.gravity * np.sin(f["alpha"]) * np.cos(f["gamma"]) + f["ax"] < 0)
-        | (P.gravity * np.sin(f["alpha"]) * (f["vx"] * np.cos(f["gamma"])
-                                              - f["vy"] * np.sin(f["gamma"]))
-           + f["vx"] * f["ax"] + f["vy"] * f["ay"] < 0))),
+    # the descent mode: forward, more than 8 deg of downhill grade along the motion
+    "downhill_braking": lambda f: ~((f["vx"] > 0) & (
+        -np.sin(f["alpha"]) * np.cos(f["gamma"]) > math.sin(math.radians(8.0)))),
     "turn_while_walking": lambda f: (np.abs(f["wz"]) < 1e-12)
     | (np.hypot(f["vx"], f["vy"]) < 1e-12),
     "acceleration": lambda f: (np.abs(f["ax"]) < 1e-12) & (np.abs(f["ay"]) < 1e-12),
