@@ -255,8 +255,10 @@ def test_fit_errors_are_specific():
     ):
         EnergyModel(BASE_TERMS).fit(f, np.ones(200))
     f = _features(rng, 200)
-    with pytest.raises(FitError, match=r"2 \* pos\(vx\) \(a combination of fwd_const\)"):
-        EnergyModel(["fwd_const", "2 * pos(vx)"]).fit(f, np.ones(200))
+    with pytest.raises(FitError, match=r"cos\(gamma\) \(a combination of fwd_up, fwd_down\)"):
+        EnergyModel(["fwd_up", "fwd_down", "pos(vx) * sin(alpha) * cos(gamma)"]).fit(
+            f, np.ones(200)
+        )
     with pytest.raises(ModelError, match="term 'payload'.*'payload_kg'"):
         EnergyModel(["payload"]).fit(
             {k: v for k, v in f.items() if k != "payload_kg"}, np.ones(200)
