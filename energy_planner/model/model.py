@@ -345,8 +345,8 @@ class EnergyModel:
         for key in ("coefficients", "stderr", "metadata"):
             val = doc.get(key)
             if val is not None and not isinstance(val, Mapping):
-                what = "free-form object" if key == "metadata" else "object (term name -> value)"
-                raise ModelError(f"{source}: {key!r} must be a {what} or null, got {val!r}")
+                what = "a free-form object" if key == "metadata" else "an object (name -> value)"
+                raise ModelError(f"{source}: {key!r} must be {what} or null, got {val!r}")
         stderr = doc.get("stderr")
         for n, v in (stderr or {}).items():
             if v is not None and not isinstance(v, int | float):
