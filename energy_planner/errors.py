@@ -55,3 +55,29 @@ class PlanningConfigError(PlanningError, ValueError):
 
 class InvalidStateError(PlanningError, ValueError):
     """A start or goal breaks a limit (outside the map, too steep, in a keep-out area)."""
+
+
+class ChannelError(EnergyPlannerError, ValueError):
+    """An extra channel (``--set`` / ``--channel``) is malformed, unreadable or missing."""
+
+
+class MissingChannelError(ChannelError, FormulaError):
+    """A model term reads a channel that was not given.
+
+    Attributes
+    ----------
+    missing : list of str
+        Names of the channels nobody gave.
+    """
+
+    def __init__(self, message: str, missing: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.missing = list(missing or [])
+
+
+class MotionCostError(EnergyPlannerError, ValueError):
+    """A motion cost is configured with bad values (speed, yaw rate, mask shape)."""
+
+
+class ChannelIOError(EnergyPlannerError, OSError):
+    """A channel raster or value table cannot be found or opened."""
