@@ -67,6 +67,47 @@ yaw_rate_option = click.option(
 )
 
 
+def channel_options(f):
+    """``--set NAME=VALUE`` and ``--channel NAME=RASTER[:TABLE]`` (both repeatable).
+
+    The command receives ``sets`` and ``channels`` (tuples of strings); turn them into a
+    :class:`~energy_planner.energy.channels.Channels` with :func:`channels_from_options`.
+    """
+    f = click.option(
+        "--channel",
+        "channels",
+        multiple=True,
+        metavar="NAME=RASTER[:TABLE]",
+        help="A channel the model reads that varies over the map: a numeric raster "
+        "(bilinear), or a coded raster with a value table (code,category CSV or JSON; "
+        "nearest cell), e.g. ground=landcover.tif:landcover.csv. Aligned to the DEM. "
+        "Repeatable.",
+    )(f)
+    return click.option(
+        "--set",
+        "sets",
+        multiple=True,
+        metavar="NAME=VALUE",
+        help="A constant channel the model reads: a number (load_kg=10) or a category "
+        "(ground=meadow). Repeatable.",
+    )(f)
+
+
+def channels_from_options(sets: tuple[str, ...], channels: tuple[str, ...]):
+    """The :class:`~energy_planner.energy.channels.Channels` of ``--set``/``--channel``.
+
+    Bad strings and missing files become ``click.BadParameter`` naming the option.
+    """
+    from energy_planner.energy.channels import Channels
+    from energy_planner.errors import ChannelError, ChannelIOError
+
+    try:
+        return Channels.parse(sets, channels)
+    except (ChannelError, ChannelIOError) as exc:
+        hint = "--channel" if str(exc).startswith("--channel") or "table" in str(exc) else "--set"
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
+
+
 def _jsonable(obj: Any) -> Any:
     """Convert numpy scalars/arrays and non-finite floats to JSON-friendly values."""
     if isinstance(obj, dict):

@@ -120,7 +120,7 @@ def read_value_table(path: str | Path) -> dict[float, float | str]:
             raise ChannelError(f"value table {str(p)!r} is not valid JSON: {exc}") from exc
         if not isinstance(obj, dict):
             raise ChannelError(
-                f"value table {str(p)!r}: expected a JSON object {{\"code\": \"category\", "
+                f'value table {str(p)!r}: expected a JSON object {{"code": "category", '
                 f"...}}, got {type(obj).__name__}"
             )
         for k, v in obj.items():
@@ -156,8 +156,7 @@ def read_value_table(path: str | Path) -> dict[float, float | str]:
             code = float(code_text)
         except ValueError:
             raise ChannelError(
-                f"value table {where}: code {code_text!r} is not a number (the raster's "
-                "cell value)"
+                f"value table {where}: code {code_text!r} is not a number (the raster's cell value)"
             ) from None
         if code in table:
             raise ChannelError(f"value table {where}: code {code_text} is given twice")
@@ -255,9 +254,9 @@ class Channels:
                 raise ChannelError(
                     f"constant {name!r}: value {v!r} is not a number or a category name"
                 )
-            consts[name] = _parse_value(str(v), f"constant {name!r}") if isinstance(
-                v, str
-            ) else float(v)
+            consts[name] = (
+                _parse_value(str(v), f"constant {name!r}") if isinstance(v, str) else float(v)
+            )
             if isinstance(consts[name], float) and not math.isfinite(consts[name]):
                 raise ChannelError(f"constant {name!r}: value {v!r} is not finite")
         rasters: dict[str, ChannelRaster] = {}

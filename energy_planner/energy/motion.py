@@ -105,9 +105,7 @@ class MotionCost:
         else:
             mask = np.ascontiguousarray(blocked, dtype=np.bool_)
             if mask.shape != gx.shape:
-                raise MotionCostError(
-                    f"blocked mask shape {mask.shape} != terrain grid {gx.shape}"
-                )
+                raise MotionCostError(f"blocked mask shape {mask.shape} != terrain grid {gx.shape}")
         tmax = math.inf if max_slope_deg is None else math.tan(math.radians(max_slope_deg))
         smax = (
             math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))

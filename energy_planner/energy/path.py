@@ -142,9 +142,7 @@ def path_energy(
         raise EnergyPlannerError("waypoints contain NaN or infinite coordinates")
     n = xy.shape[0]
     if cost is None:
-        cost = MotionCost(
-            terrain, model, speed, yaw_rate, constants=constants, channels=channels
-        )
+        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants, channels=channels)
     samples = terrain.sample(xy[:, 0], xy[:, 1])
     bad = np.flatnonzero(~np.isfinite(np.asarray(samples.slope, dtype=float)))
     if bad.size:
