@@ -56,10 +56,8 @@ class RequestError(EnergyPlannerError, ValueError):
         The value given.
     """
 
-    def __init__(self, message: str, *, field: str, value: Any) -> None:
-        super().__init__(message)
-        self.field = field
-        self.value = value
+    def __init__(self, message: str, *, field: str, value: Any, **fields: Any) -> None:
+        super().__init__(message, value=value, field=field, param=field, **fields)
 
 
 def _positive(name: str, value: Any, unit: str) -> float:
