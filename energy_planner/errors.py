@@ -63,6 +63,8 @@ __all__ = [
     "PlanningConfigError",
     "PlanningError",
     "RasterTooLargeError",
+    "WaypointError",
+    "WaypointIOError",
 ]
 
 
@@ -234,6 +236,14 @@ class RasterTooLargeError(DEMError, MemoryError):
     Fields: ``shape``, ``size_bytes`` (decoded, float64), ``cap_bytes``, ``path``, ``hint``.
     The cap is ``ENERGY_PLANNER_MEMORY_CAP`` (see :func:`energy_planner.terrain.memory_cap`).
     """
+
+
+class WaypointError(EnergyPlannerError, ValueError):
+    """A waypoint or path file is malformed: missing column, bad value, wrong geometry."""
+
+
+class WaypointIOError(EnergyPlannerError, OSError):
+    """A waypoint or path file cannot be found, read or written."""
 
 
 class ChannelError(EnergyPlannerError, ValueError):
