@@ -269,3 +269,6 @@ class MotionCostError(EnergyPlannerError, ValueError):
 
 class ChannelIOError(EnergyPlannerError, OSError):
     """A channel raster or value table cannot be found or opened."""
+
+
+__all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCostError"]

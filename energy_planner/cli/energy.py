@@ -19,6 +19,7 @@ from energy_planner.cli.options import (
     speed_option,
     yaw_rate_option,
 )
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 band_option = click.option(
     "--band",
@@ -147,8 +148,8 @@ def compute(
     dem: Path,
     waypoints: Path,
     model_path: Path | None = None,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    speed: float = DEFAULT_SPEED,
+    yaw_rate: float = DEFAULT_YAW_RATE,
     band: int | None = None,
     channels: Any = None,
 ) -> dict[str, Any]:

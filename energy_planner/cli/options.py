@@ -11,6 +11,8 @@ from typing import Any
 import click
 import numpy as np
 
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
 )
@@ -38,7 +40,7 @@ seed_option = click.option(
 speed_option = click.option(
     "--speed",
     type=click.FloatRange(min=0, min_open=True),
-    default=0.3,
+    default=DEFAULT_SPEED,
     show_default=True,
     help="Nominal walking speed, m/s.",
 )
@@ -61,7 +63,7 @@ def start_goal_options(f):
 yaw_rate_option = click.option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),
-    default=0.5,
+    default=DEFAULT_YAW_RATE,
     show_default=True,
     help="Nominal turning rate, rad/s.",
 )

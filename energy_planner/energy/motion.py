@@ -19,6 +19,7 @@ from energy_planner.energy.kernels import (
     make_kernels,
 )
 from energy_planner.errors import ChannelError, ModelError, MotionCostError
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["MotionCost"]
 
@@ -61,8 +62,8 @@ class MotionCost:
         self,
         terrain: Any,
         model: Any,
-        speed: float = 0.3,
-        yaw_rate: float = 0.5,
+        speed: float = DEFAULT_SPEED,
+        yaw_rate: float = DEFAULT_YAW_RATE,
         *,
         max_slope_deg: float | None = None,
         max_cross_slope_deg: float | None = None,

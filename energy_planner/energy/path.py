@@ -30,6 +30,7 @@ from energy_planner.energy.kernels import (
 )
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, OutsideMapError
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["PathEnergy", "path_energy", "face_along_poses", "SEGMENT_COLUMNS"]
 
@@ -95,8 +96,8 @@ def path_energy(
     xy: Any,
     yaw: Any = None,
     t: Any = None,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    speed: float = DEFAULT_SPEED,
+    yaw_rate: float = DEFAULT_YAW_RATE,
     *,
     constants: Mapping[str, Any] | None = None,
     channels: Channels | None = None,
