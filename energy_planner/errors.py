@@ -271,4 +271,14 @@ class ChannelIOError(EnergyPlannerError, OSError):
     """A channel raster or value table cannot be found or opened."""
 
 
-__all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCostError"]
+class EnergyMapError(EnergyPlannerError, ValueError):
+    """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+__all__ += [
+    "ChannelError",
+    "ChannelIOError",
+    "EnergyMapError",
+    "MissingChannelError",
+    "MotionCostError",
+]
