@@ -72,8 +72,12 @@ def body_velocity(gxs, gys, th, v0, v1, v2):
     The body frame is tilted with the ground: x = unit(c, s, g.(c, s)),
     z = unit(-gx, -gy, 1), y = z cross x.
     """
-    c_ = math.cos(th)
-    s_ = math.sin(th)
+    return body_velocity_cs(gxs, gys, math.cos(th), math.sin(th), v0, v1, v2)
+
+
+@numba.njit(cache=True)
+def body_velocity_cs(gxs, gys, c_, s_, v0, v1, v2):
+    """:func:`body_velocity` given the cosine and sine of the yaw."""
     bx0, bx1, bx2 = c_, s_, gxs * c_ + gys * s_
     nx = math.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2)
     bx0 /= nx
@@ -204,20 +208,19 @@ def path_table(x, y, th, durations, data):
 
 
 @numba.njit(cache=True)
-def heading_cost(gx, gy, h, yaw, speed, smax, chv):
-    """J per metre of map distance of walking in map direction ``h`` with body yaw
-    ``yaw`` where the gradient is (gx, gy): the limit of :func:`motion_full` for a short
-    straight motion (no turn) through that point; ``inf`` above the cross-slope limit.
+def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, chv):
+    """Energy of ``dt`` seconds of straight walking at velocity (v0, v1, v2) along the
+    surface with body yaw of cosine ``cy`` and sine ``sy``, where the gradient is
+    (gx, gy) (slope ``alpha``, its cosine ``ca`` and sine ``sa``, uphill azimuth of cosine
+    ``c_psi`` and sine ``s_psi``); ``inf`` above the cross-slope limit ``smax``.
+
+    The same relative heading as :func:`slope_frame` (``tan(gamma) = tan(yaw - psi)
+    cos(alpha)``) and the same body velocity as :func:`motion_full`.
     """
-    u0 = math.cos(h)
-    u1 = math.sin(h)
-    dz = gx * u0 + gy * u1
-    ds = math.sqrt(1.0 + dz * dz)  # metres along the ground per metre on the map
-    dt = ds / speed
-    alpha, gamma = slope_frame(gx, gy, yaw)
-    if math.sin(alpha) * abs(math.sin(gamma)) > smax:
+    gamma = math.atan2((sy * c_psi - cy * s_psi) * ca, cy * c_psi + sy * s_psi)
+    if sa * abs(math.sin(gamma)) > smax:
         return np.inf
-    vx, vy = body_velocity(gx, gy, yaw, u0 / dt, u1 / dt, dz / dt)
+    vx, vy = body_velocity_cs(gx, gy, cy, sy, v0, v1, v2)
     p, kinds = power(alpha, gamma, vx, vy, 0.0, 0.0, 0.0, chv)
     return p * dt
 
@@ -230,13 +233,15 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
     channels on the same cells, shape (k, rows, cols), category indices for categorical
     ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
     ``best[j, r, c]``: the cheapest of walking forward, backward or sideways (either
-    side) along it. NaN where the gradient or a channel is undefined, ``inf`` above a
-    slope limit.
+    side) along it. Each is the limit of :func:`motion_full` for a short straight motion
+    through the cell centre, divided by its map length. NaN where the gradient or a
+    channel is undefined, ``inf`` above a slope limit.
     """
     rows, cols = gx.shape
     nh = headings.shape[0]
     nch = chan.shape[0]
-    half = 0.5 * math.pi
+    hc = np.cos(headings)
+    hs = np.sin(headings)
     for r in numba.prange(rows):
         chv = np.empty(nch)
         for c in range(cols):
@@ -252,17 +257,36 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
                     along[j, r, c] = np.nan
                     best[j, r, c] = np.nan
                 continue
-            if a * a + b * b > tmax * tmax:
+            g2 = a * a + b * b
+            if g2 > tmax * tmax:
                 for j in range(nh):
                     along[j, r, c] = np.inf
                     best[j, r, c] = np.inf
                 continue
+            g = math.sqrt(g2)
+            alpha = math.atan(g)
+            ca = math.cos(alpha)
+            sa = math.sin(alpha)
+            c_psi = a / g if g > 0.0 else 1.0  # atan2(0, 0) = 0 on flat ground
+            s_psi = b / g if g > 0.0 else 0.0
             for j in range(nh):
-                h = headings[j]
-                fwd = heading_cost(a, b, h, h, speed, smax, chv)
+                u0 = hc[j]
+                u1 = hs[j]
+                dz = a * u0 + b * u1
+                ds = math.sqrt(1.0 + dz * dz)  # metres along the ground per map metre
+                dt = ds / speed
+                v0 = u0 / dt
+                v1 = u1 / dt
+                v2 = dz / dt
+                fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                smax, chv)  # fmt: skip
                 m = fwd
-                m = min(m, heading_cost(a, b, h, h + math.pi, speed, smax, chv))
-                m = min(m, heading_cost(a, b, h, h + half, speed, smax, chv))
-                m = min(m, heading_cost(a, b, h, h - half, speed, smax, chv))
+                # backward (yaw h + pi), sideways (yaw h - pi/2 and h + pi/2)
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
+                                     dt, smax, chv))  # fmt: skip
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
+                                     dt, smax, chv))  # fmt: skip
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
+                                     dt, smax, chv))  # fmt: skip
                 along[j, r, c] = fwd
                 best[j, r, c] = m

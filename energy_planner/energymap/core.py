@@ -374,7 +374,8 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
     chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
     step = _rows_per_block(cols, nb)
     starts = range(0, rows, step)
-    with rasterio.open(out, "w", **_profile(terrain.shape, terrain.transform, terrain.crs, nb)) as dst:
+    prof = _profile(terrain.shape, terrain.transform, terrain.crs, nb)
+    with rasterio.open(out, "w", **prof) as dst:
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
             chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
@@ -656,11 +657,13 @@ def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
     out: dict[str, Any] = {"sampled_every": scale, "valid_cells": int(ok.sum())}
     if ok.any():
         q = np.percentile(cheap[ok], [0, 10, 50, 90, 100])
-        out["cheapest_j_per_m"] = dict(zip(("min", "p10", "median", "p90", "max"), q.tolist()))
+        out["cheapest_j_per_m"] = dict(
+            zip(("min", "p10", "median", "p90", "max"), q.tolist(), strict=True)
+        )
         a = aniso[np.isfinite(aniso)]
         if a.size:
             qa = np.percentile(a, [50, 90, 100])
-            out["anisotropy"] = dict(zip(("median", "p90", "max"), qa.tolist()))
+            out["anisotropy"] = dict(zip(("median", "p90", "max"), qa.tolist(), strict=True))
     return out
 
 

@@ -24,6 +24,11 @@ from energy_planner.energymap.core import _DemInfo, _Setup, _write_metadata, blo
 
 __all__ = ["compute_dask", "gradient_dask"]
 
+# The map kernel runs its rows in parallel itself (numba prange); numba's fallback
+# threading layer (workqueue) must not be entered by two threads at once, so the chunks
+# of one process take turns in the kernel (reading, gradients and writing still overlap).
+_KERNEL_LOCK = threading.Lock()
+
 
 def _horn_component(z: np.ndarray, step_x: float, step_y: float, which: int) -> np.ndarray:
     from energy_planner.terrain.horn import horn_gradient
@@ -50,11 +55,12 @@ def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, trans
     rows, cols = gx.shape
     if channels.rasters:
         (r0, _), (c0, _) = block_info[0]["array-location"]
-        t = transform * Affine.translation(c0, r0)
+        t = transform @ Affine.translation(c0, r0)
         chan, _ = channels.bind_grid((rows, cols), t, crs, quiet=True).stack((rows, cols))
     else:
         chan = np.zeros((0, 1, 1))
-    return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax)
+    with _KERNEL_LOCK:
+        return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax)
 
 
 def _client() -> Any:
@@ -107,7 +113,7 @@ def compute_dask(
     if client is not None:
         from distributed import Lock
 
-        lock: Any = Lock("energy_planner-energy-map-write", client=client)
+        lock: Any = Lock("energy_planner-energy-map-write")
     else:
         lock = threading.Lock()
     prof = _profile(info.shape, t, info.crs, nb)

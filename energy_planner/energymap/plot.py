@@ -23,7 +23,7 @@ def _decimated_grid(src: Any, max_side: int) -> tuple[tuple[int, int], Any]:
 
     scale = max(1.0, max(src.height, src.width) / max_side)
     shape = (max(1, round(src.height / scale)), max(1, round(src.width / scale)))
-    t = src.transform * Affine.scale(src.width / shape[1], src.height / shape[0])
+    t = src.transform @ Affine.scale(src.width / shape[1], src.height / shape[0])
     return shape, t
 
 
@@ -119,7 +119,7 @@ def plot_energy_map(
     if shade is not None:
         ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1, interpolation="bilinear")
     finite = cheap[np.isfinite(cheap)]
-    vmin, vmax = (np.percentile(finite, [2, 98]) if finite.size else (0.0, 1.0))
+    vmin, vmax = np.percentile(finite, [2, 98]) if finite.size else (0.0, 1.0)
     im = ax.imshow(
         np.ma.masked_invalid(cheap), cmap="viridis", extent=extent, vmin=vmin, vmax=vmax,
         alpha=0.6 if shade is not None else 1.0, interpolation="nearest",
