@@ -450,8 +450,8 @@ class EnergyModel:
                 f"the model needs {', '.join(map(repr, missing))} (channel(s) read by "
                 f"term(s) {', '.join(map(repr, readers))}), not given (channels given: "
                 f"{', '.join(given) or 'none'}); give each with --set NAME=VALUE (a constant, "
-                "e.g. --set payload_kg=10 or --set ground=meadow) or --channel NAME=RASTER"
-                "[:TABLE] (a map), or choose a model without these terms",
+                f"e.g. --set {missing[0]}=...) or --channel NAME=RASTER[:TABLE] (a map, e.g. "
+                f"--channel {missing[0]}=map.tif), or choose a model without these terms",
                 missing=missing,
             )
 
