@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 from affine import Affine
+from b1_model import B1, b1_model  # tests/ helper
 from click.testing import CliRunner
 
 from energy_planner.cli import main
@@ -20,17 +21,16 @@ from energy_planner.errors import (
     MissingChannelError,
     OutsideMapError,
 )
-from energy_planner.model import BASE_TERMS, EnergyModel
 from energy_planner.terrain import Terrain
 
 X0, Y0, N = 500000.0, 5000000.0, 100  # south-west corner of a flat 100 m x 100 m DEM
 F0 = 600.0  # N, forward on level ground
 K_LOAD = 7.0  # W per (kg m/s)
 K_MEADOW = 250.0  # extra N on meadow
-BASE = dict.fromkeys(BASE_TERMS, 0.0) | {"fwd_const": F0}
-LOAD_MODEL = EnergyModel([*BASE_TERMS, "load_kg * speed"], BASE | {"load_kg * speed": K_LOAD})
+BASE = dict.fromkeys(B1, 0.0) | {"fwd_const": F0}
+LOAD_MODEL = b1_model(BASE, extra={"load_kg * speed": K_LOAD})
 GROUND = "speed * (ground == 'meadow')"
-GROUND_MODEL = EnergyModel([*BASE_TERMS, GROUND], BASE | {GROUND: K_MEADOW})
+GROUND_MODEL = b1_model(BASE, extra={GROUND: K_MEADOW})
 
 
 def write_tif(path, z, res=1.0, x0=X0, y0=Y0, crs="EPSG:32631", nodata=None, dtype="float32"):
@@ -134,8 +134,7 @@ def test_cli_channel_with_value_table(files, tmp_path):
 
 def test_lower_bound_covers_every_category(files, flat):
     """The planners' admissible bound is the cheaper category's (asphalt), not meadow's."""
-    gaits = {"fwd_const": F0, "bwd_const": F0, "lat_const": F0}
-    m = EnergyModel(GROUND_MODEL.term_names, GROUND_MODEL.coefficients | gaits)
+    m = b1_model(BASE | {"bwd_const": F0, "lat_const": F0}, extra={GROUND: K_MEADOW})
     ch = Channels.parse([], [f"ground={files['cover']}:{files['table']}"])
     assert MotionCost(flat, m, channels=ch).min_cost_per_metre == pytest.approx(0.95 * F0)
     meadow = MotionCost(flat, m, channels=Channels({"ground": "meadow"}))

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import rasterio
 from affine import Affine
+from b1_model import b1_model  # tests/ helper
 from click.testing import CliRunner
 
 from energy_planner.cli import main
@@ -19,15 +20,10 @@ from energy_planner.energy.channels import Channels
 from energy_planner.energymap import band_names, energy_map, parse_size
 from energy_planner.errors import EnergyMapError, MissingChannelError
 from energy_planner.maps import map_path
-from energy_planner.model import BASE_TERMS, EnergyModel
 from energy_planner.request import Limits, Request
 from energy_planner.terrain import load_dem
 
-B1 = {
-    "fwd_const": 600.0, "fwd_grade": 1000.0, "bwd_const": 700.0, "bwd_grade": 1000.0,
-    "lat_const": 800.0, "lat_grade": 900.0, "turn_const": 250.0, "turn_slope": 300.0,
-}  # fmt: skip
-MODEL = EnergyModel(BASE_TERMS, B1)
+MODEL = b1_model()
 X0, Y0 = 500000.0, 5000000.0
 H = 16
 
@@ -183,8 +179,7 @@ def test_nodata_and_edges_are_nan_and_grid_is_the_dems(tmp_path):
 
 
 def test_categorical_channel_map(tmp_path):
-    term = "speed * (ground == 'meadow')"
-    m = EnergyModel([*BASE_TERMS, term], B1 | {term: 250.0})
+    m = b1_model(extra={"speed * (ground == 'meadow')": 250.0})
     dem = write_tif(tmp_path / "flat.tif", np.full((20, 20), 5.0))
     cover = write_tif(
         tmp_path / "cover.tif", np.where(np.arange(20) < 10, 1.0, 2.0)[None].repeat(20, 0)
@@ -257,7 +252,7 @@ def test_out_of_core_on_a_distributed_cluster(bumpy, tmp_path):
 
 def test_out_of_core_with_a_numeric_channel(bumpy, tmp_path):
     dem, _ = bumpy
-    m = EnergyModel([*BASE_TERMS, "load_kg * speed"], B1 | {"load_kg * speed": 5.0})
+    m = b1_model(extra={"load_kg * speed": 5.0})
     load = write_tif(tmp_path / "load.tif", np.linspace(0, 30, 75)[None].repeat(75, 0), res=4.0)
     ch = Channels.parse([], [f"load_kg={load}"])
     a, b = tmp_path / "a.tif", tmp_path / "b.tif"
@@ -282,7 +277,7 @@ def test_cli_energy_map_json_plot_and_errors(plane, tmp_path):
     )
     r = CliRunner().invoke(main, ["energy-map", str(dem), "--out", str(out)])
     assert r.exit_code == 0 and "cheapest" in r.output
-    term_model = EnergyModel([*BASE_TERMS, "load_kg * speed"], B1 | {"load_kg * speed": 1.0})
+    term_model = b1_model(extra={"load_kg * speed": 1.0})
     tm = term_model.save(tmp_path / "load.json")
     r = CliRunner().invoke(main, ["energy-map", str(dem), "--out", str(out), "--model", str(tm)])
     assert r.exit_code == 1 and "load_kg" in r.output and "--set" in r.output

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -211,7 +212,11 @@ def compute(
         notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
     try:
         xy, yaw = waypoints_to_work(terrain, wp)
-        cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            # channel rasters that leave part of the DEM uncovered, or have no CRS
+            cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
+        notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         check_waypoints(terrain, cost, wp.xy, xy)
         result = path_energy(terrain, model, xy, yaw=yaw, t=wp.t, cost=cost)
     except click.ClickException:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -147,10 +148,12 @@ def command(
     ch = channels_from_options(sets, channels)
     request = Request(robot=Robot(speed=speed), channels=ch)
     try:
-        res = energy_map(
-            dem, out, model, headings=headings, request=request, band=band,
-            use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk,
-        )  # fmt: skip
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            res = energy_map(
+                dem, out, model, headings=headings, request=request, band=band,
+                use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk,
+            )  # fmt: skip
     except DEMIOError as exc:
         raise click.BadParameter(str(exc), param_hint="DEM") from exc
     except DEMError as exc:
@@ -159,6 +162,7 @@ def command(
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     result = res.to_dict()
+    result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
     if plot is not None:
         result["plot"] = str(plot_energy_map(out, plot, dem))
     emit(result, as_json, format_table)
