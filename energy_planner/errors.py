@@ -63,6 +63,7 @@ __all__ = [
     "PlanningConfigError",
     "PlanningError",
     "RasterTooLargeError",
+    "UnknownNameError",
     "WaypointError",
     "WaypointIOError",
 ]
@@ -244,6 +245,14 @@ class WaypointError(EnergyPlannerError, ValueError):
 
 class WaypointIOError(EnergyPlannerError, OSError):
     """A waypoint or path file cannot be found, read or written."""
+
+
+class UnknownNameError(EnergyPlannerError, KeyError):
+    """A name looked up among a fixed set (a preprocessing step, ...) does not exist.
+
+    ``str(err)`` is the message (not ``KeyError``'s quoted repr). Fields: ``value`` (the
+    name), ``expected`` (the valid names).
+    """
 
 
 class ChannelError(EnergyPlannerError, ValueError):

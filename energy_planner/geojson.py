@@ -550,8 +550,8 @@ def check_path(where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[st
 def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str, Any] | None:
     """Evidence that a ``yaw_deg`` column holds radians, or None.
 
-    The rule (documented in ``docs/measurements.md``, "Waypoint files"): the values are
-    reported as radians when
+    The rule (also in ``docs/terrain.md``, "Paths on the map"): the values are reported
+    as radians when
 
     1. every value lies within +-2 pi (+-6.28) and the largest ``|value|`` is at least
        0.1 (a column of zeros means the same in both units), and
@@ -577,8 +577,9 @@ def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str
     Returns
     -------
     dict or None
-        ``{"misfit_deg": ..., "misfit_rad": ...}`` (degrees, both rules' means) when
-        suspect.
+        When suspect: ``rule`` (``"axes"``: the modulo-90 test, ``"forward"``: the
+        along-the-path test, ``"no_length"``: the whole-degrees fallback) and the mean
+        distances ``misfit_deg``, ``misfit_rad`` (degrees) of that rule.
 
     Examples
     --------
@@ -601,7 +602,8 @@ def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str
         d[:, 0] *= np.cos(np.radians(np.clip(pts[:-1, 1], -89.9, 89.9)))
     ok = np.hypot(d[:, 0], d[:, 1]) > 0
     if not ok.any():
-        return None if np.allclose(v, np.round(v)) else {"misfit_deg": None, "misfit_rad": None}
+        return None if np.allclose(v, np.round(v)) else {
+            "rule": "no_length", "misfit_deg": None, "misfit_rad": None}
     h = np.arctan2(d[ok, 1], d[ok, 0])
 
     def misfit(yaw: np.ndarray, period: float) -> float:
@@ -614,9 +616,11 @@ def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str
     as_deg, as_rad = np.radians(v), v
     m90_deg, m90_rad = misfit(as_deg, math.pi / 2), misfit(as_rad, math.pi / 2)
     m360_deg, m360_rad = misfit(as_deg, 2 * math.pi), misfit(as_rad, 2 * math.pi)
-    if m90_rad + 5.0 <= m90_deg or (m360_rad < 10.0 and m360_deg > 45.0):
-        return {"misfit_deg": round(min(m90_deg, m360_deg), 1),
-                "misfit_rad": round(min(m90_rad, m360_rad), 1)}
+    if m90_rad + 5.0 <= m90_deg:
+        return {"rule": "axes", "misfit_deg": round(m90_deg, 1), "misfit_rad": round(m90_rad, 1)}
+    if m360_rad < 10.0 and m360_deg > 45.0:
+        return {"rule": "forward", "misfit_deg": round(m360_deg, 1),
+                "misfit_rad": round(m360_rad, 1)}
     return None
 
 
@@ -629,9 +633,16 @@ def warn_if_radians(yaw_deg: np.ndarray, xy: np.ndarray, where_file: str,
     ev = radians_suspect(yaw_deg, xy, geographic)
     if ev is None:
         return False
-    fit = ("" if ev["misfit_deg"] is None else
-           f" (read as radians they fit the path's direction within {ev['misfit_rad']:g} deg "
-           f"on average, read as degrees within {ev['misfit_deg']:g} deg)")
+    if ev["rule"] == "axes":
+        fit = (f" (read as radians they follow the path's segments, forwards, backwards or "
+               f"sideways, within {ev['misfit_rad']:g} deg on average; read as degrees within "
+               f"{ev['misfit_deg']:g} deg)")
+    elif ev["rule"] == "forward":
+        fit = (f" (read as radians the robot faces along the path, within {ev['misfit_rad']:g} "
+               f"deg on average; read as degrees it faces {ev['misfit_deg']:g} deg away from "
+               "it, walking sideways or backwards)")
+    else:
+        fit = ""
     msg = (f"{where_file}: yaw_deg values lie within +-6.28 and look like radians{fit}; "
            "yaw_deg is read as degrees. Convert with degrees = radians * 180 / pi.")
     warnings.warn(msg, UserWarning, stacklevel=4)

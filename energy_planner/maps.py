@@ -85,7 +85,9 @@ def scenario_names() -> list[str]:
 
 
 def scenario(name: str) -> dict[str, Any]:
-    """A demo scenario: ``map`` name, ``crs``, ``start``/``goal`` (x, y in the map's CRS,
+    """A demo scenario by name.
+
+    The dict holds the ``map`` name, ``crs``, ``start``/``goal`` (x, y in the map's CRS,
     metres) and a one-line ``description``; ``path`` is added (the map file).
 
     Raises

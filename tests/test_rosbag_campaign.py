@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from energy_planner.measurements import load_logs
+from energy_planner.measurements import CANONICAL_COLUMNS, load_logs
 from energy_planner.simulate import CampaignConfig, simulate_campaign
 
 
@@ -26,8 +26,14 @@ def test_bag_path_and_csv_path_give_the_same_table(tmp_path):
     # BatteryState stores voltage and current as float32; the loader flips the sign back
     for col in ("voltage", "current"):
         np.testing.assert_allclose(from_bag[col], from_csv[col], rtol=1e-6, atol=1e-5, err_msg=col)
-    for col in ("payload_kg", "temperature_c", "grass_height_m"):
-        np.testing.assert_allclose(from_bag[col], from_csv[col], rtol=1e-6, err_msg=col)
-    pd.testing.assert_series_equal(
-        from_bag["surface"].astype(str), from_csv["surface"].astype(str), check_names=False
-    )
+    # every extra channel the simulator writes (whatever their names), numeric or text
+    extras = [c for c in from_csv.columns if c not in CANONICAL_COLUMNS]
+    assert extras and sorted(extras) == sorted(c for c in from_bag.columns
+                                               if c not in CANONICAL_COLUMNS)
+    for col in extras:
+        if pd.api.types.is_numeric_dtype(from_csv[col]):
+            np.testing.assert_allclose(from_bag[col], from_csv[col], rtol=1e-6, err_msg=col)
+        else:
+            pd.testing.assert_series_equal(
+                from_bag[col].astype(str), from_csv[col].astype(str), check_names=False
+            )

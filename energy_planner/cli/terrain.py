@@ -25,22 +25,39 @@ def _resolve_dem(dem: str) -> Path:
     return p
 
 
-def _load(dem: Path, band: int | None):
-    from energy_planner.errors import DEMError, DEMIOError
+def _parse_bounds(value: str | None) -> tuple[float, float, float, float] | None:
+    """``XMIN,YMIN,XMAX,YMAX`` -> a tuple (click.BadParameter otherwise)."""
+    if value is None:
+        return None
+    try:
+        vals = tuple(float(v) for v in value.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != 4:
+        raise click.BadParameter(
+            f"{value!r} is not XMIN,YMIN,XMAX,YMAX (four numbers in the DEM's CRS)",
+            param_hint="'--bounds'")
+    return vals  # type: ignore[return-value]
+
+
+def _load(dem: Path, band: int | None, bounds=None, decimate: int = 1):
+    from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
     from energy_planner.maps import map_names
     from energy_planner.terrain import load_dem
 
     try:
-        return load_dem(dem, band=band)
+        return load_dem(dem, band=band, bounds=bounds, decimate=decimate)
     except DEMIOError as exc:
         raise click.BadParameter(
             f"{exc}. Give a raster file (GeoTIFF, ...) or a bundled map name: "
             f"{', '.join(map_names())}.",
             param_hint="'DEM'",
         ) from exc
+    except RasterTooLargeError as exc:  # the message carries its own remedy
+        raise click.ClickException(str(exc)) from exc
     except DEMError as exc:
-        if "--band" in str(exc) or "valid bands" in str(exc):
-            raise click.BadParameter(str(exc), param_hint="'--band'") from exc
+        if exc.param in ("band", "bounds", "decimate"):
+            raise click.BadParameter(str(exc), param_hint=f"'--{exc.param}'") from exc
         raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
 
 
@@ -144,6 +161,19 @@ def _text(r: dict[str, Any]) -> str:
 @click.argument("dem", metavar="DEM")
 @click.option("--band", type=click.IntRange(min=1), default=None, help="Band to read (1-based).")
 @click.option(
+    "--bounds",
+    default=None,
+    metavar="XMIN,YMIN,XMAX,YMAX",
+    help="Read only this window, in the DEM's own CRS (for rasters too large to load whole).",
+)
+@click.option(
+    "--decimate",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Read every N-th cell along each axis (each the average of N x N cells).",
+)
+@click.option(
     "--slope-out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
@@ -166,6 +196,8 @@ def _text(r: dict[str, Any]) -> str:
 def command(
     dem: str,
     band: int | None,
+    bounds: str | None,
+    decimate: int,
     slope_out: Path | None,
     aspect_out: Path | None,
     plot: Path | None,
@@ -178,9 +210,13 @@ def command(
     UTM zone first; the slope/aspect rasters are then written on that metric working
     grid (UTM), not on the original lon/lat grid, so that no angle is resampled. For a
     projected DEM the working grid is the DEM's own grid and georeferencing.
+
+    A raster whose decoded size would pass the memory cap (ENERGY_PLANNER_MEMORY_CAP,
+    default half the memory) is refused before reading; --bounds and --decimate read a
+    part of it or a coarser grid.
     """
     path = _resolve_dem(dem)
-    terrain = _load(path, band)
+    terrain = _load(path, band, _parse_bounds(bounds), decimate)
     result = summarize(terrain)
     if slope_out is not None:
         _write(slope_out, np.degrees(terrain.slope), terrain)

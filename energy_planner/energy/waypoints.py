@@ -1,4 +1,4 @@
-"""Read waypoint files (CSV or GeoJSON LineString, in the DEM's own CRS) and convert them.
+r"""Read waypoint files (CSV or GeoJSON LineString, in the DEM's own CRS) and convert them.
 
 Two formats describe a path to evaluate (``energy-planner energy``) or a planned path
 (the planner writes the GeoJSON form, :mod:`energy_planner.geojson`):
@@ -26,7 +26,7 @@ Examples
 --------
 >>> import tempfile, pathlib
 >>> d = pathlib.Path(tempfile.mkdtemp())
->>> _ = (d / "p.csv").write_text("x,y,yaw_deg\\n0,0,90\\n3,4,90\\n")
+>>> _ = (d / "p.csv").write_text("x,y,yaw_deg\n0,0,90\n3,4,90\n")
 >>> w = read_waypoints(d / "p.csv")
 >>> w.xy.tolist(), w.yaw_rad.round(6).tolist(), w.t
 ([[0.0, 0.0], [3.0, 4.0]], [1.570796, 1.570796], None)

@@ -37,13 +37,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.errors import LogError
+from energy_planner.errors import LogError, UnknownNameError
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body
 from energy_planner.measurements.schema import (
     MAX_GAP_S,
     REQUIRED_COLUMNS,
     VOLTAGE_RANGE,
     check_columns,
+    check_runs,
     check_time,
 )
 
@@ -122,7 +123,8 @@ class PreprocessParams:
         def need(ok: bool, name: str, expected: str) -> None:
             if not ok:
                 raise LogError(f"PreprocessParams.{name}={getattr(self, name)!r} is not "
-                               f"valid; expected {expected}")
+                               f"valid; expected {expected}", param=name,
+                               value=getattr(self, name), expected=expected)
 
         need(0 <= self.voltage_min < self.voltage_max, "voltage_min",
              "0 <= voltage_min < voltage_max")
@@ -173,6 +175,9 @@ class PreprocessReport:
     n_input: int = 0
     steps: list[StepRecord] = field(default_factory=list)
     params: PreprocessParams = field(default_factory=PreprocessParams)
+    #: Runs that lost every sample: ``run``, ``n_samples`` (input), ``step`` (the one that
+    #: removed the last ones) and ``reason``.
+    dropped_runs: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def n_output(self) -> int:
@@ -189,7 +194,9 @@ class PreprocessReport:
         for s in self.steps:
             if s.name == name:
                 return s
-        raise KeyError(f"no step {name!r}; steps: {', '.join(s.name for s in self.steps)}")
+        raise UnknownNameError(f"no step {name!r}; steps: "
+                               f"{', '.join(s.name for s in self.steps)}", value=name,
+                               expected=", ".join(s.name for s in self.steps))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""
@@ -199,6 +206,7 @@ class PreprocessReport:
             "steps": [{"name": s.name, "n_in": s.n_in, "n_out": s.n_out,
                        "removed": s.n_removed, "reasons": dict(s.removed), "note": s.note}
                       for s in self.steps],
+            "dropped_runs": [dict(d) for d in self.dropped_runs],
             "params": self.params.to_dict(),
         }
 
@@ -212,6 +220,8 @@ class PreprocessReport:
             lines.append(f"{s.name:<{w}}  {s.n_in:>9}  {s.n_removed:>8}  {s.n_out:>9}  {why}")
         pct = 100.0 * self.n_output / self.n_input if self.n_input else 0.0
         lines.append(f"kept {self.n_output} of {self.n_input} samples ({pct:.1f}%)")
+        for d in self.dropped_runs:
+            lines.append(f"run {d['run']!r} dropped ({d['n_samples']} samples): {d['reason']}")
         return "\n".join(lines)
 
 
@@ -313,8 +323,7 @@ def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
 
 def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                  ) -> tuple[pd.DataFrame, StepRecord]:
-    """Drop samples with a non-finite required value, an implausible voltage or no
-    valid IMU orientation.
+    """Drop samples with a non-finite value, an implausible voltage or no IMU orientation.
 
     A sample counts once, under the first reason it meets: ``non-finite <column>`` in
     the order of the required columns, then ``voltage outside lo..hi V``, then the
@@ -348,8 +357,11 @@ def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessPar
 
 def split_segments(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                    ) -> tuple[pd.DataFrame, StepRecord]:
-    """Add ``segment`` (int, from 0 within each run): a step longer than ``max_gap`` s
-    starts a new segment. Nothing is removed; the note counts the gaps."""
+    """Add ``segment`` (int, from 0 within each run), split at time gaps.
+
+    A step longer than ``max_gap`` s starts a new segment. Nothing is removed; the note
+    counts the gaps.
+    """
     out = samples.copy()
     seg = np.zeros(len(out), dtype=np.int64)
     n_gaps = 0
@@ -407,9 +419,11 @@ def ema_smooth(samples: pd.DataFrame, params: PreprocessParams = PreprocessParam
 
 def body_accelerations(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
                        ) -> tuple[pd.DataFrame, StepRecord]:
-    """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist, per run
-    and segment, by second-order central differences on the sample times
-    (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment)."""
+    """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist.
+
+    Per run and segment, by second-order central differences on the sample times
+    (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment).
+    """
     out = samples.copy()
     t = out["t"].to_numpy(dtype=float)
     for src, dst in (("vx", "ax"), ("vy", "ay")):
@@ -518,7 +532,8 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
         ``power`` (smoothed, W), ``ax``, ``ay``, ``alpha``, ``gamma``, ``speed``; the twist
         is smoothed; voltage and current are as read.
     report : PreprocessReport
-        Samples removed by each step and why.
+        Samples removed by each step and why; ``dropped_runs`` names every run that lost
+        all its samples (also a ``UserWarning``).
 
     Raises
     ------
@@ -539,12 +554,37 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
     """
     params = params or PreprocessParams()
     check_columns(samples.columns, "samples given to preprocess")
+    check_runs(samples, "samples given to preprocess")
     check_time(samples, "samples given to preprocess")
     samples = samples.assign(run=samples["run"].astype(str))
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     report = PreprocessReport(n_input=len(samples), params=params)
     df = samples
+    counts = samples["run"].value_counts()
+    alive = set(counts.index)
     for step in STEPS:
         df, rec = step(df, params)
         report.steps.append(rec)
+        left = set(df["run"].unique())
+        for run in sorted(alive - left):
+            why = "; ".join(rec.removed) or rec.note
+            report.dropped_runs.append({
+                "run": str(run), "n_samples": int(counts[run]), "step": rec.name,
+                "reason": f"every sample removed; the last ones by {rec.name}"
+                          + (f" ({why})" if why else "")})
+        alive &= left
+    warn_dropped_runs(report.dropped_runs, "preprocessing")
     return df, report
+
+
+def warn_dropped_runs(dropped: list[dict[str, Any]], where: str) -> None:
+    """One ``UserWarning`` naming each dropped run (the first 10) and why."""
+    if not dropped:
+        return
+    import warnings
+
+    shown = "; ".join(f"{d['run']!r} ({d['n_samples']} samples): {d['reason']}"
+                      for d in dropped[:10])
+    more = f"; and {len(dropped) - 10} more" if len(dropped) > 10 else ""
+    warnings.warn(f"{where} dropped {len(dropped)} whole run(s): {shown}{more}", UserWarning,
+                  stacklevel=3)

@@ -40,8 +40,8 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from energy_planner.angles import wrap
 from energy_planner.errors import LogError, LogIOError
-from energy_planner.measurements.imu import wrap_angle
 from energy_planner.measurements.logs import LoadReport, canonicalize
 from energy_planner.measurements.schema import CANONICAL_COLUMNS, REQUIRED_COLUMNS
 
@@ -96,8 +96,11 @@ class _NonStandardTypes(Exception):
 
 
 def _open_reader(path: Path, fast: bool):
-    """A plain rosbag1/rosbag2 reader (fast: standard types decoded by the cached
-    typestore) or an AnyReader (types from the bag's own definitions), and is2."""
+    """Open a bag: a plain rosbag1/rosbag2 reader or an AnyReader, and whether it is ROS 2.
+
+    ``fast``: the plain reader, standard types decoded by the cached typestore; else an
+    AnyReader (types from the bag's own definitions).
+    """
     try:
         if not fast:
             from rosbags.highlevel import AnyReader
@@ -204,9 +207,12 @@ def _reader_decode(reader, msgtype: str, raw):
 
 
 def _fast_decoder(conn, is2: bool):
-    """A deserializer from the cached standard typestore when the bag's definition of the
-    type is the standard one (same digest), else None (then the reader's own typestore,
-    built from the bag's embedded definitions, decodes it: slower, always right)."""
+    """Deserializer from the cached standard typestore, or None for a non-standard type.
+
+    Used when the bag's definition of the type is the standard one (same digest); with
+    None the reader's own typestore, built from the bag's embedded definitions, decodes
+    it (slower, always right).
+    """
     ts = _typestore(2 if is2 else 1)
     if conn.msgtype not in ts.types or not conn.digest:
         return None
@@ -379,7 +385,7 @@ def load_rosbag(
         out["yaw"] = clean["odom"][1]["yaw"][keep]
     else:
         ns, vals = clean["odom"]
-        out["yaw"] = wrap_angle(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
+        out["yaw"] = wrap(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
     for col, (ns, data) in xstreams.items():
         idx, _ = _sorted_unique(ns)
         xs = ns[idx]

@@ -117,8 +117,32 @@ def check_columns(columns, source: str | None = None, *, need_run: bool = True) 
         raise LogError(
             f"log{(' ' + source) if source else ''} lacks required column(s) {names}; "
             f"required columns are {', '.join(need)} (optional: {', '.join(OPTIONAL_COLUMNS)}); "
-            f"found {', '.join(map(str, columns))}"
+            f"found {', '.join(map(str, columns))}", path=source, column=missing[0],
+            value=missing, expected=", ".join(need)
         )
+
+
+def check_runs(samples: pd.DataFrame, source: str | None = None) -> None:
+    """Raise :class:`LogError` if a ``run`` value is missing (empty cell, NaN, None).
+
+    The message names the first rows (0-based, in the table's order) and the file.
+
+    Examples
+    --------
+    >>> check_runs(pd.DataFrame({"run": ["a", None]}), "a.csv")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    energy_planner.errors.LogError: log a.csv: the run id is missing at row(s) 1; expected ...
+    """
+    missing = np.flatnonzero(pd.isna(samples["run"].to_numpy(dtype=object)))
+    if missing.size:
+        rows = [int(r) for r in missing[:10]]
+        raise LogError(
+            f"log{(' ' + source) if source else ''}: the run id is missing at row(s) "
+            f"{', '.join(map(str, rows))}{' ...' if missing.size > 10 else ''}; expected a run "
+            "id in every row (or no 'run' column: then the file name is the run id)",
+            path=source, column="run", rows=rows, row=rows[0],
+            expected="a run id in every row")
 
 
 def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
@@ -133,7 +157,9 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         row = int(np.flatnonzero(np.isnan(t))[0])
         raise LogError(
             f"log{_where(source)}: time 't' is missing or not a number at row {row} "
-            f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run"
+            f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run",
+            path=source, column="t", row=row, value=samples["t"].iloc[row],
+            expected="seconds, increasing within a run"
         )
     runs = samples["run"].astype(str).to_numpy()
     order, same = _by_run(runs)
@@ -147,13 +173,16 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         raise LogError(
             f"log{_where(source)}: time {what} in run {runs[row]!r} at row {row}: "
             f"t={float(ts[j + 1])!r} s after t={float(ts[j])!r} s; expected t strictly "
-            f"increasing within a run"
+            f"increasing within a run", path=source, column="t", row=row, run=str(runs[row]),
+            value=float(ts[j + 1]), expected=f"t > {float(ts[j])!r} s"
         )
 
 
 def _by_run(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row order grouping runs (file order kept within a run), and for each consecutive
-    pair in that order whether both rows belong to the same run."""
+    """Row order grouping runs, and which consecutive rows in that order share a run.
+
+    File order is kept within a run.
+    """
     codes = pd.factorize(runs)[0]
     order = np.argsort(codes, kind="stable")
     c = codes[order]
@@ -203,6 +232,7 @@ def validate_log(
     (1, 1, 1.9)
     """
     check_columns(samples.columns, source)
+    check_runs(samples, source)
     check_time(samples, source)
     n_nan: dict[str, int] = {}
     for c in REQUIRED_COLUMNS:
