@@ -93,8 +93,9 @@ def format_table(res: dict[str, Any]) -> str:
     "memory_cap",
     default=None,
     metavar="SIZE",
-    help="Decoded DEM size above which the map is computed out of core, e.g. 2GB "
-    "(default: $ENERGY_PLANNER_MEMORY_CAP, else none).",
+    help="Memory the DEM may take in memory (64 bytes per cell, as load_dem counts) "
+    "above which the map is computed out of core, e.g. 2GB "
+    "(default: $ENERGY_PLANNER_MEMORY_CAP, else half the machine's memory).",
 )
 @click.option(
     "--chunk",
@@ -130,19 +131,14 @@ def command(
     Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
     """
     from energy_planner.energymap import energy_map, parse_size, plot_energy_map
-    from energy_planner.errors import (
-        DEMError,
-        DEMIOError,
-        EnergyMapError,
-        EnergyPlannerError,
-    )
+    from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
     from energy_planner.request import Request, Robot
 
     cap = None
     if memory_cap is not None:
         try:
             cap = parse_size(memory_cap)
-        except EnergyMapError as exc:
+        except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)

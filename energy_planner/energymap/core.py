@@ -38,8 +38,6 @@ Three ways to compute it, with equal results:
 from __future__ import annotations
 
 import math
-import os
-import re
 import time
 import warnings
 from collections.abc import Sequence
@@ -50,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import DEMError, DEMIOError, EnergyMapError
+from energy_planner.terrain.memory import BYTES_PER_CELL, memory_cap, parse_size
 
 __all__ = [
     "EnergyMapError",
@@ -63,53 +62,6 @@ __all__ = [
 
 #: The bands after the 2 N heading bands, in order.
 SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
-_ENV_CAP = "ENERGY_PLANNER_MEMORY_CAP"
-_UNITS = {"": 1, "B": 1, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
-
-
-def parse_size(text: str | int | float) -> int:
-    """Bytes from ``"512MB"``, ``"2GiB"``, ``"1.5G"`` or a plain number.
-
-    Examples
-    --------
-    >>> parse_size("2GiB"), parse_size("512MB"), parse_size("1e6"), parse_size(10)
-    (2147483648, 512000000, 1000000, 10)
-    """
-    if isinstance(text, int | float) and not isinstance(text, bool):
-        value = float(text)
-        if not (math.isfinite(value) and value > 0):
-            raise EnergyMapError(f"memory cap {text!r} must be a positive size", value=text)
-        return int(value)
-    m = re.fullmatch(r"\s*([0-9.eE+]+)\s*([kKmMgGtT]?)(i?)[bB]?\s*", str(text))
-    try:
-        value = float(m.group(1)) if m else math.nan
-    except ValueError:
-        value = math.nan
-    if not m or not (math.isfinite(value) and value > 0):
-        raise EnergyMapError(
-            f"memory cap {text!r} is not a size; expected bytes or a number with a unit, "
-            "e.g. 512MB, 2GiB, 1.5G",
-            value=text,
-            expected="a size such as 512MB or 2GiB",
-        )
-    unit = m.group(2).upper()
-    factor = 1024 ** "BKMGT".index(unit) if m.group(3) else _UNITS[unit]
-    return int(value * factor)
-
-
-def memory_cap() -> int | None:
-    """The memory cap in bytes from ``ENERGY_PLANNER_MEMORY_CAP`` (None if unset).
-
-    The terrain module's helper is used when it exists (one parser for the project).
-    """
-    try:
-        from energy_planner.terrain import memory_cap as terrain_cap  # type: ignore[attr-defined]
-    except ImportError:
-        terrain_cap = None
-    if terrain_cap is not None:
-        return terrain_cap()
-    text = os.environ.get(_ENV_CAP, "").strip()
-    return parse_size(text) if text else None
 
 
 def band_names(headings: int) -> list[str]:
@@ -439,7 +391,7 @@ def _dem_info(dem: str | Path, band: int | None) -> _DemInfo:
             transform=t,
             crs=src.crs,
             metric_north_up=north_up and _is_metric(src.crs),
-            nbytes=8 * src.height * src.width,
+            nbytes=BYTES_PER_CELL * src.height * src.width,
         )
 
 
@@ -538,10 +490,12 @@ def energy_map(
     band : int, optional
         Band of a multi-band DEM file.
     use_dask : bool, optional
-        True: the dask path; False: never; None (default): dask when the DEM's decoded
-        size (float64) passes the memory cap.
+        True: the dask path; False: never; None (default): dask when the DEM would not
+        fit the memory cap in memory.
     memory_cap_bytes : int, optional
-        The cap (default ``ENERGY_PLANNER_MEMORY_CAP``, else none).
+        The cap (default: :func:`energy_planner.terrain.memory_cap`, i.e.
+        ``ENERGY_PLANNER_MEMORY_CAP`` or half the machine's memory). The DEM is taken to
+        need ``BYTES_PER_CELL`` (64) bytes per cell in memory, as ``load_dem`` does.
     chunk : int
         Chunk side of the dask path, cells.
     progress : bool, optional
@@ -581,8 +535,8 @@ def energy_map(
         if use_dask or (use_dask is None and too_big):
             if not info.metric_north_up:
                 raise EnergyMapError(
-                    f"DEM {info.path!r} ({info.shape[0]} x {info.shape[1]} cells, "
-                    f"{info.nbytes / 1e9:.2f} GB decoded) needs the out-of-core path, which "
+                    f"DEM {info.path!r} ({info.shape[0]} x {info.shape[1]} cells, about "
+                    f"{info.nbytes / 1e9:.2f} GB in memory) needs the out-of-core path, which "
                     f"reads a north-up DEM in a metric CRS (this one is in {info.crs}); warp "
                     "it first, e.g. gdalwarp -t_srs EPSG:326ZZ (its UTM zone) in.tif out.tif",
                     path=info.path,
@@ -591,7 +545,8 @@ def energy_map(
                 )
             if too_big and not use_dask:
                 notes.append(
-                    f"the DEM decodes to {info.nbytes / 1e6:.0f} MB, above the memory cap "
+                    f"the DEM would take about {info.nbytes / 1e6:.0f} MB in memory "
+                    f"({BYTES_PER_CELL} bytes per cell), above the memory cap "
                     f"{cap / 1e6:.0f} MB: computed out of core with dask"
                 )
             from energy_planner.energymap.outofcore import compute_dask
