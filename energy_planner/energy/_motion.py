@@ -103,7 +103,9 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     for k in range(N_OUT):
         out[k] = 0.0
     out[OUT_TURN] = abs(dth)
-    chv = np.empty(chan.shape[0])
+    # sampled channel values: scratch space after the results (no allocation per motion)
+    nch = chan.shape[0]
+    chv = out[N_OUT : N_OUT + nch]
     # pass 1: check the limits and measure the surface length (pass 2 samples the
     # gradient again: cheaper than allocating a buffer per motion)
     nr, nc = blocked.shape
@@ -131,7 +133,7 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
             out[OUT_CODE] = TOO_STEEP
             out[OUT_ENERGY] = np.inf
             return
-        if not sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv):
+        if nch > 0 and not sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv):
             out[OUT_CODE] = NO_CHANNEL
             out[OUT_ENERGY] = np.inf
             return
@@ -154,7 +156,8 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
         x = x0 + s * ddx
         y = y0 + s * ddy
         ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
-        sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
+        if nch > 0:
+            sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
         dz = gxs * hx + gys * hy
         ds = math.sqrt(hx * hx + hy * hy + dz * dz)
         dt = T / n if surface <= 0.0 else T * ds / surface
@@ -180,7 +183,7 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
 
 @numba.njit(cache=True)
 def motion_cost(x0, y0, th0, x1, y1, th1, data):
-    out = np.empty(N_OUT)
+    out = np.empty(N_OUT + data[12].shape[0])
     motion_full(x0, y0, th0, x1, y1, th1, -1.0, data, out)
     return out[OUT_ENERGY]
 
@@ -189,7 +192,7 @@ def motion_cost(x0, y0, th0, x1, y1, th1, data):
 def motion_batch(x0, y0, th0, x1, y1, th1, data):
     n = x0.shape[0]
     res = np.empty(n)
-    out = np.empty(N_OUT)
+    out = np.empty(N_OUT + data[12].shape[0])
     for i in range(n):
         motion_full(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
         res[i] = out[OUT_ENERGY]
@@ -200,10 +203,10 @@ def motion_batch(x0, y0, th0, x1, y1, th1, data):
 def path_table(x, y, th, durations, data):
     m = x.shape[0] - 1
     table = np.empty((max(m, 0), N_OUT))
-    out = np.empty(N_OUT)
+    out = np.empty(N_OUT + data[12].shape[0])
     for i in range(m):
         motion_full(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], data, out)
-        table[i, :] = out
+        table[i, :] = out[:N_OUT]
     return table
 
 

@@ -192,7 +192,8 @@ def make_kernels(power_source: str):
     -------
     motion_full, motion_cost, motion_batch, path_table, map_costs : numba dispatchers
         ``motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)`` fills ``out``
-        (length :data:`N_OUT`, indices ``OUT_*``): energy J, duration s, surface
+        (length :data:`N_OUT` plus one scratch entry per raster channel, indices
+        ``OUT_*``): energy J, duration s, surface
         distance m, |turn| rad, mean slope rad, mean |gamma| rad, max slope rad, energy
         by kind (forward, backward, lateral, turning, other), violation code.
         ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` returns the energy or ``inf`` if

@@ -60,6 +60,10 @@ __all__ = [
     "SUMMARY_BANDS",
 ]
 
+_TILE = 128  # output tile side, cells
+#: GDAL's block cache while a map is written, MB: dirty tiles wait there until flushed,
+#: so the default (5 % of the memory) would let the cache, not the window, set the peak.
+GDAL_CACHE_MB = 64
 #: The bands after the 2 N heading bands, in order.
 SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
 
@@ -276,8 +280,8 @@ def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> d
         transform=transform, nodata=float("nan"), compress="deflate", predictor=3,
         BIGTIFF="IF_SAFER", interleave="band",
     )  # fmt: skip
-    if rows >= 256 and cols >= 256:
-        prof.update(tiled=True, blockxsize=256, blockysize=256)
+    if rows >= _TILE and cols >= _TILE:
+        prof.update(tiled=True, blockxsize=_TILE, blockysize=_TILE)
     return prof
 
 
@@ -302,10 +306,11 @@ def _write_metadata(dst: Any, setup: _Setup, model_name: str, mode: str) -> None
 
 
 def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
-    """Rows per window so one window's arrays take about ``target_bytes``."""
-    per_row = cols * (nbands * 4 + (nbands + 8) * 8)
-    rows = int(max(1, target_bytes // max(per_row, 1)))
-    return max(16, (rows // 16) * 16)
+    """Rows per window: whole rows of output tiles (so that every write completes its
+    tiles and GDAL can flush them), about ``target_bytes`` of arrays, at least one."""
+    per_row = cols * (nbands * 4 + 80)  # the bands (float32) + gradient and temporaries
+    rows = int(target_bytes // max(per_row, 1))
+    return max(_TILE, (rows // _TILE) * _TILE)
 
 
 def _progress(iterable: Any, total: int, desc: str, progress: bool | None) -> Any:
@@ -514,6 +519,19 @@ def energy_map(
     MissingChannelError
         The model reads a channel nobody gave.
     """
+    import rasterio
+
+    with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
+        return _energy_map(
+            dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
+            chunk, progress,
+        )  # fmt: skip
+
+
+def _energy_map(
+    dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes, chunk,
+    progress,
+) -> EnergyMapResult:  # fmt: skip
     from energy_planner.terrain import Terrain
 
     t0 = time.perf_counter()
