@@ -237,17 +237,19 @@ def test_out_of_core_when_the_dem_passes_the_cap(bumpy, tmp_path, monkeypatch):
 
 
 def test_out_of_core_on_a_distributed_cluster(bumpy, tmp_path):
+    """energy-map --scheduler ADDRESS of a LocalCluster(processes=False): the same map."""
     distributed = pytest.importorskip("distributed")
     dem, ref = bumpy
     out = tmp_path / "cluster.tif"
-    with (
-        distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
-        ) as cluster,  # fmt: skip
-        distributed.Client(cluster),
-    ):
-        res = energy_map(dem, out, MODEL, headings=4, use_dask=True, chunk=64)
-    assert res.mode == "dask"
+    model_file = MODEL.save(tmp_path / "m.json")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        args = ["energy-map", dem, "--out", out, "--model", model_file, "--headings", "4",
+                "--chunk", "64", "--scheduler", cluster.scheduler_address, "--json"]  # fmt: skip
+        r = CliRunner().invoke(main, list(map(str, args)))
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["mode"] == "dask"
     np.testing.assert_allclose(read(out)[0], ref, rtol=1e-6, equal_nan=True)
 
 

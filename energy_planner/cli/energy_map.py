@@ -84,9 +84,15 @@ def format_table(res: dict[str, Any]) -> str:
     "use_dask",
     is_flag=True,
     default=None,
-    help="Compute out of core with dask (chunks of --chunk cells; a dask.distributed "
-    "Client, if one is running in this process, is used). Automatic when the DEM's "
-    "decoded size passes --memory-cap.",
+    help="Compute out of core with dask (chunks of --chunk cells). Automatic when the "
+    "DEM would not fit --memory-cap.",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run the dask path on this dask.distributed scheduler (e.g. tcp://host:8786); "
+    "implies --dask. The workers must see the DEM, the output path and the kernel cache.",
 )
 @click.option(
     "--memory-cap",
@@ -116,6 +122,7 @@ def command(
     plot: Path | None,
     band: int | None,
     use_dask: bool | None,
+    scheduler: str | None,
     memory_cap: str | None,
     chunk: int,
     as_json: bool,
@@ -143,6 +150,17 @@ def command(
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
     request = Request(robot=Robot(speed=speed), channels=ch)
+    client = None
+    if scheduler is not None:
+        from distributed import Client
+
+        try:
+            client = Client(scheduler, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise click.BadParameter(
+                f"cannot reach the dask scheduler {scheduler!r}: {exc}", param_hint="--scheduler"
+            ) from exc
+        use_dask = True
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
@@ -157,6 +175,9 @@ def command(
         raise click.BadParameter(str(exc), param_hint=hint) from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
+    finally:
+        if client is not None:
+            client.close()
     result = res.to_dict()
     result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
     if plot is not None:
