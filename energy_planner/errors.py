@@ -258,3 +258,41 @@ class UnknownNameError(EnergyPlannerError, KeyError):
 
 class RemovedAPIError(EnergyPlannerError, ImportError):
     """A name that was removed; the message says what replaces it."""
+
+
+class ChannelError(EnergyPlannerError, ValueError):
+    """An extra channel (``--set`` / ``--channel``) is malformed, unreadable or missing."""
+
+
+class MissingChannelError(ChannelError, FormulaError):
+    """A model term reads a channel that was not given.
+
+    Attributes
+    ----------
+    missing : list of str
+        Names of the channels nobody gave.
+    """
+
+    def __init__(self, message: str = "", *, missing: list[str] | None = None, **fields) -> None:
+        super().__init__(message, missing=list(missing or []), **fields)
+
+
+class MotionCostError(EnergyPlannerError, ValueError):
+    """A motion cost is configured with bad values (speed, yaw rate, mask shape)."""
+
+
+class ChannelIOError(EnergyPlannerError, OSError):
+    """A channel raster or value table cannot be found or opened."""
+
+
+class EnergyMapError(EnergyPlannerError, ValueError):
+    """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+__all__ += [
+    "ChannelError",
+    "ChannelIOError",
+    "EnergyMapError",
+    "MissingChannelError",
+    "MotionCostError",
+]

@@ -6,25 +6,15 @@ import math
 
 import numpy as np
 import pytest
+from b1_model import b1_model  # tests/ helper
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.energy import MotionCost, path_energy
 from energy_planner.errors import OutsideMapError
-from energy_planner.model import BASE_TERMS, EnergyModel
 from energy_planner.terrain import Terrain
 
-B1 = {
-    "fwd_const": 600.0,
-    "fwd_grade": 1000.0,
-    "bwd_const": 700.0,
-    "bwd_grade": 1000.0,
-    "lat_const": 800.0,
-    "lat_grade": 900.0,
-    "turn_const": 250.0,
-    "turn_slope": 300.0,
-}
-MODEL = EnergyModel(BASE_TERMS, B1)
+MODEL = b1_model()
 
 
 def plane(slope_deg: float, psi_deg: float, size: float = 100.0) -> Terrain:
@@ -133,7 +123,7 @@ def test_timed_path_base_model_energy_does_not_depend_on_speed():
     slow = path_energy(t, MODEL, xy, t=[0.0, 400.0, 700.0])
     assert slow.energy_j == pytest.approx(fast.energy_j, rel=1e-9)
     assert slow.duration_s == pytest.approx(700.0)
-    idle = EnergyModel([*BASE_TERMS, "idle_power"], {**B1, "idle_power": 30.0})
+    idle = b1_model(extra={"1": 30.0})  # 30 W standing power
     e_fast = path_energy(t, idle, xy).energy_j
     e_slow = path_energy(t, idle, xy, t=[0.0, 400.0, 700.0]).energy_j
     assert e_slow - e_fast == pytest.approx(30.0 * (700.0 - fast.duration_s), rel=1e-9)

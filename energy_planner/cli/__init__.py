@@ -18,6 +18,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "terrain": "terrain",
     "energy": "energy",
+    "energy-map": "energy_map",
     "simulate": "simulate",
     "fit": "fit",
     "figures": "figures",

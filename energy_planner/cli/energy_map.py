@@ -1,0 +1,185 @@
+"""``energy-planner energy-map``: J per metre of walking each way from every cell, as a GeoTIFF."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+    speed_option,
+)
+
+
+def format_table(res: dict[str, Any]) -> str:
+    """Human-readable summary of the written map."""
+    s = res["stats"]
+    lines = [
+        f"wrote     {res['path']} ({res['shape'][0]} x {res['shape'][1]} cells, "
+        f"{len(res['bands'])} bands, {res['crs']})",
+        f"headings  {res['headings']} ({360 / res['headings']:g} deg apart, CCW from east)",
+        f"computed  {res['mode']} in {res['seconds']:.1f} s",
+    ]
+    c = s.get("cheapest_j_per_m")
+    if c:
+        lines.append(
+            f"cheapest  {c['min']:.0f} .. {c['max']:.0f} J/m (median {c['median']:.0f}) "
+            f"over {s['valid_cells']} valid cells"
+            + (f" (sampled every {s['sampled_every']})" if s["sampled_every"] > 1 else "")
+        )
+    a = s.get("anisotropy")
+    if a:
+        lines.append(
+            f"dearest/cheapest  median {a['median']:.2f}, p90 {a['p90']:.2f}, max {a['max']:.1f}"
+        )
+    if res.get("plot"):
+        lines.append(f"plot      {res['plot']}")
+    lines.append("bands     " + ", ".join(b["name"] for b in res["bands"][-4:]) + " after the "
+                 f"{2 * res['headings']} heading bands along_*, best_* (J/m)")  # fmt: skip
+    for note in res.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
+
+
+@click.command("energy-map")
+@click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Output GeoTIFF (one band per heading and gait, then the summary bands).",
+)
+@model_option
+@click.option(
+    "--headings",
+    type=click.IntRange(1, 360),
+    default=16,
+    show_default=True,
+    help="Number of map headings, 360/N degrees apart, the first east.",
+)
+@speed_option
+@channel_options
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG.",
+)
+@click.option(
+    "--band",
+    type=click.IntRange(min=1),
+    default=None,
+    help="1-based band of the DEM (required when the raster has several bands).",
+)
+@click.option(
+    "--dask",
+    "use_dask",
+    is_flag=True,
+    default=None,
+    help="Compute out of core with dask (chunks of --chunk cells). Automatic when the "
+    "DEM would not fit --memory-cap.",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run the dask path on this dask.distributed scheduler (e.g. tcp://host:8786); "
+    "implies --dask. The workers must see the DEM, the output path and the kernel cache.",
+)
+@click.option(
+    "--memory-cap",
+    "memory_cap",
+    default=None,
+    metavar="SIZE",
+    help="Memory the DEM may take in memory (64 bytes per cell, as load_dem counts) "
+    "above which the map is computed out of core, e.g. 2GB "
+    "(default: $ENERGY_PLANNER_MEMORY_CAP, else half the machine's memory).",
+)
+@click.option(
+    "--chunk",
+    type=click.IntRange(64, 16384),
+    default=512,
+    show_default=True,
+    help="Chunk side (cells) of the out-of-core path.",
+)
+@json_option
+def command(
+    dem: Path,
+    out: Path,
+    model_path: Path | None,
+    headings: int,
+    speed: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
+    plot: Path | None,
+    band: int | None,
+    use_dask: bool | None,
+    scheduler: str | None,
+    memory_cap: str | None,
+    chunk: int,
+    as_json: bool,
+) -> None:
+    """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
+
+    For every cell: the cost of walking through it facing along each heading
+    (along_*), with the cheapest of forward, backward and sideways gaits (best_*), the
+    cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
+    physics as `energy` (a short straight motion through the cell centre, per metre of
+    map distance). A DEM in a geographic CRS is mapped on its UTM working grid.
+
+    Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
+    """
+    from energy_planner.energymap import energy_map, parse_size, plot_energy_map
+    from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
+    from energy_planner.request import Request, Robot
+
+    cap = None
+    if memory_cap is not None:
+        try:
+            cap = parse_size(memory_cap)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
+    model = load_model_option(model_path)
+    ch = channels_from_options(sets, channels)
+    request = Request(robot=Robot(speed=speed), channels=ch)
+    client = None
+    if scheduler is not None:
+        from distributed import Client
+
+        try:
+            client = Client(scheduler, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise click.BadParameter(
+                f"cannot reach the dask scheduler {scheduler!r}: {exc}", param_hint="--scheduler"
+            ) from exc
+        use_dask = True
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            res = energy_map(
+                dem, out, model, headings=headings, request=request, band=band,
+                use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk,
+            )  # fmt: skip
+    except DEMIOError as exc:
+        raise click.BadParameter(str(exc), param_hint="DEM") from exc
+    except DEMError as exc:
+        hint = "--band" if getattr(exc, "param", None) == "band" else "DEM"
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    finally:
+        if client is not None:
+            client.close()
+    result = res.to_dict()
+    result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
+    if plot is not None:
+        result["plot"] = str(plot_energy_map(out, plot, dem))
+    emit(result, as_json, format_table)
