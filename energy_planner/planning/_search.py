@@ -189,7 +189,7 @@ def heuristic_chunk(
                             t0x, t0y, tdx, tdy)
             if not math.isfinite(lb):
                 continue
-            nk = key + margin * move_len[m] * lb
+            nk = key + margin * move_len[m] * step * lb
             if nk < h[p]:
                 h[p] = nk
                 heap_push(keys, vals, n, nk, p)
