@@ -243,6 +243,11 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     gx = grad[..., 0]
     gy = grad[..., 1]
     fin = np.isfinite(gx) & np.isfinite(gy)
+    if getattr(getattr(cost, "channels", None), "rasters", None):
+        # channel rasters vary over the map: the constant-gradient table cannot bound
+        # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
+        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2))
+        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
     lo = np.array([float(gx[fin].min()), float(gy[fin].min())])
