@@ -372,8 +372,11 @@ def relaxed_cost_to_go(
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
     h = np.full(grid.P, np.inf)
     h[goal_p] = 0.0
-    heap = _Heap(1 << 20)
-    heap.keys[0], heap.vals[0], heap.n[0] = 0.0, goal_p, 1
+    pos = np.full(grid.P, -1, dtype=np.int64)
+    keys = np.empty(grid.P, np.float64)
+    vals = np.empty(grid.P, np.int64)
+    n = np.ones(1, np.int64)
+    keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
     grad = cost.data[0]
     geo = _geo(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
@@ -381,15 +384,12 @@ def relaxed_cost_to_go(
     try:
         while True:
             code, pops = mod.heuristic_chunk(
-                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h,
-                heap.keys, heap.vals, heap.n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor,
-                limit,
+                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h, pos,
+                keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
             )  # fmt: skip
             if bar is not None:
                 bar.update(pops)
-            if code == mod.HEAP_FULL:
-                heap.grow()
-            elif code == mod.EXHAUSTED:
+            if code == mod.EXHAUSTED:
                 break
             if time.perf_counter() > deadline:
                 raise PlanningError(
@@ -400,6 +400,7 @@ def relaxed_cost_to_go(
     finally:
         if bar is not None:
             bar.close()
+    del pos, keys, vals
     return np.minimum(h, limit[0])
 
 
