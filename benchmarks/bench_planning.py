@@ -40,12 +40,16 @@ def best_at(history, t):
 
 
 def main() -> None:
-    import energy_planner.planning.plan as plan_mod
+    import importlib
+
     from energy_planner.maps import scenario
     from energy_planner.model import BASE_TERMS, EnergyModel
     from energy_planner.planning.plan import plan
     from energy_planner.request import Request
     from energy_planner.terrain import load_dem
+
+    # the module (the package's ``plan`` attribute is the function)
+    plan_mod = importlib.import_module("energy_planner.planning.plan")
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--time", type=float, default=10.0)
