@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
@@ -266,7 +267,7 @@ def _make_planar_goal(si, gx: float, gy: float, threshold: float):
             self._k += 1
             s.setX(gx)
             s.setY(gy)
-            s.setYaw(math.remainder(self._k * math.pi / 8, 2 * math.pi))  # 16 yaws in turn
+            s.setYaw(float(wrap(self._k * math.pi / 8)))  # 16 yaws in turn
 
         def maxSampleCount(self):  # noqa: N802 - OMPL's name
             return 16  # finite: BIT* draws every goal sample up front
@@ -365,7 +366,7 @@ def _run_ompl(
 def _with_exact_goal(states: np.ndarray, goal) -> np.ndarray:
     """Append the exact goal pose if the planner stopped within its goal threshold."""
     last = states[-1]
-    gyaw = last[2] if goal[2] is None else math.remainder(goal[2], 2 * math.pi)
+    gyaw = last[2] if goal[2] is None else float(wrap(goal[2]))
     if abs(last[0] - goal[0]) > 1e-9 or abs(last[1] - goal[1]) > 1e-9 or abs(last[2] - gyaw) > 1e-9:
         return np.vstack([states, [goal[0], goal[1], gyaw]])
     return states
