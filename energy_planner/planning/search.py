@@ -67,18 +67,48 @@ TABLE_NODES = 96
 
 
 def search_module(cost):
-    """The numba search functions compiled against ``cost``'s motion kernel (cached)."""
+    """The numba search functions compiled against ``cost``'s motion kernel (cached).
+
+    The functions are compiled (or loaded from numba's disk cache) here, by a call on a
+    problem with nothing to do, so that a planner's time budget does not pay for it.
+    """
     from energy_planner.model._codegen import load_generated_module
 
     mod_name = cost.kernel.py_func.__module__
     if mod_name == "energy_planner.energy._motion":
         import energy_planner.planning._search as mod
+    else:
+        text = _TEMPLATE.read_text()
+        assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
+        text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
+        mod = load_generated_module(text, prefix="search")
+    if not getattr(mod, "_warm", False):
+        _warm_up(mod, cost)
+        mod._warm = True
+    return mod
 
-        return mod
-    text = _TEMPLATE.read_text()
-    assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
-    text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
-    return load_generated_module(text, prefix="search")
+
+def _warm_up(mod, cost) -> None:
+    """Call every numba function of ``mod`` once with empty work (compiles them)."""
+    i8 = np.int64
+    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
+    moves = np.zeros((16, 2), i8)
+    keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
+    table = np.zeros((16, 1, 1, 2, 2))
+    tgeo = np.array([0.0, 0.0, 1.0, 1.0])
+    mod.heuristic_chunk(
+        cost.data[0], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
+        np.zeros(1, i8), keys, vals, n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
+    )  # fmt: skip
+    mod.astar_chunk(
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1), 1.0,
+        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1, keys, vals, n, 0, 0.0,
+        np.zeros(1, i8),
+    )  # fmt: skip
+    mod.heap_push(keys, vals, n, 0.0, 0)
+    mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
+    mod.min_over_headings(np.zeros(16, np.float32), 1, 16)
+    mod.edge_bound(cost.data[0], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
 @dataclass
