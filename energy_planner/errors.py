@@ -282,3 +282,5 @@ __all__ += [
     "MissingChannelError",
     "MotionCostError",
 ]
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""

@@ -15,18 +15,29 @@ from energy_planner.model import (
     CATALOG,
     EFFECT_TERMS,
     EnergyModel,
+    critical_grade,
     parse_formula,
 )
 
+#: B1-class coefficients (a mechanistic 50 kg quadruped; N, N m and W).
 B1 = {
-    "fwd_const": 600.0,
-    "fwd_grade": 1000.0,
-    "bwd_const": 700.0,
-    "bwd_grade": 1000.0,
-    "lat_const": 800.0,
-    "lat_grade": 900.0,
-    "turn_const": 250.0,
-    "turn_slope": 300.0,
+    "fwd_const": 130.0,
+    "fwd_up": 720.0,
+    "fwd_down": -300.0,
+    "bwd_const": 150.0,
+    "bwd_up": 720.0,
+    "bwd_down": -100.0,
+    "lat_const": 230.0,
+    "lat_up": 720.0,
+    "lat_down": -20.0,
+    "turn_const": 105.0,
+    "turn_slope": 255.0,
+    "idle_power": 137.0,
+    "tilt_x_sq": 1760.0,
+    "tilt_y_sq": 370.0,
+    "fwd_brake_sq": -1660.0,
+    "bwd_brake_sq": -1120.0,
+    "lat_tilt_sq": 1510.0,
 }
 
 
@@ -97,44 +108,115 @@ def test_every_catalog_term_is_mirror_symmetric(alpha, gamma, vx, vy, wz):
 
 
 def test_base_model_is_the_wrench_dotted_with_the_twist():
-    """Uphill forward at 10 deg: P = (f0 + f1 sin a) v; lateral with uphill on the right."""
+    """Hand-computed power at 10 deg: per-metre forces times rates, plus per-second terms."""
     m = EnergyModel(BASE_TERMS, B1)
     a = np.radians(10)
-    up = {"alpha": a, "gamma": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0}
-    assert m.power(up)[0] == pytest.approx((600 + 1000 * np.sin(a)) * 0.3)
-    # uphill on the right (gamma = +pi/2): stepping right (vy < 0) climbs
-    right = {"alpha": a, "gamma": np.pi / 2, "vx": 0.0, "vy": -0.3, "wz": 0.0}
-    assert m.power(right)[0] == pytest.approx((800 + 900 * np.sin(a)) * 0.3)
-    left = {**right, "vy": 0.3}
-    assert m.power(left)[0] == pytest.approx((800 - 900 * np.sin(a)) * 0.3)
-    turn = {"alpha": a, "gamma": 1.0, "vx": 0.0, "vy": 0.0, "wz": -0.5}
-    assert m.power(turn)[0] == pytest.approx((250 + 300 * np.sin(a)) * 0.5)
+    s = np.sin(a)
+
+    def power(gamma, vx=0.0, vy=0.0, wz=0.0):
+        return m.power({"alpha": a, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz})[0]
+
+    idle = 137.0
+    assert power(0.0, vx=0.3) == pytest.approx((130 + 720 * s) * 0.3 + idle + 1760 * s**2)
+    down = (130 - 300 * s) * 0.3 + idle + (1760 - 1660) * s**2
+    assert power(np.pi, vx=0.3) == pytest.approx(down)
+    # across the slope, uphill on either side: the same roll-holding cost
+    across = 130 * 0.3 + idle + 370 * s**2
+    assert power(np.pi / 2, vx=0.3) == pytest.approx(across)
+    assert power(-np.pi / 2, vx=0.3) == pytest.approx(across)
+    # backward facing downhill climbs (and does not brake)
+    assert power(np.pi, vx=-0.3) == pytest.approx((150 + 720 * s) * 0.3 + idle + 1760 * s**2)
+    # uphill on the right (gamma = +pi/2): stepping right (vy < 0) climbs, left descends
+    lat_hold = idle + (370 + 1510) * s**2
+    assert power(np.pi / 2, vy=-0.3) == pytest.approx((230 + 720 * s) * 0.3 + lat_hold)
+    assert power(np.pi / 2, vy=0.3) == pytest.approx((230 - 20 * s) * 0.3 + lat_hold)
+    # side-stepping with the slope along the body x axis
+    assert power(0.0, vy=0.3) == pytest.approx(230 * 0.3 + idle + 1760 * s**2)
+    turn = (105 + 255 * s) * 0.5 + idle + 1760 * (s * np.cos(1)) ** 2 + 370 * (s * np.sin(1)) ** 2
+    assert power(1.0, wz=-0.5) == pytest.approx(turn)
+    # walking diagonally on level ground: each gait's force weighted by cos^2 of its angle
+    v = 0.3 / np.sqrt(2)
+    diag = m.power({"alpha": 0.0, "gamma": 0.0, "vx": v, "vy": v, "wz": 0.0})[0]
+    assert diag == pytest.approx(idle + (130 + 230) / 2 * 0.3)
+
+
+def test_base_reproduces_the_shapes_of_fig4_and_fig5():
+    """Paper Fig. 4/5: uphill cost rises with slope; downhill it falls only forward;
+    lateral stays dearer and worsens with slope both ways; yaw torque grows with slope."""
+    m = EnergyModel(BASE_TERMS, B1)
+    a = np.radians(np.arange(0.0, 26.0, 5.0))
+    n = len(a)
+
+    def cost(gamma, vx=0.0, vy=0.0, wz=0.0):
+        f = {
+            "alpha": a,
+            "gamma": np.full(n, gamma),
+            "vx": np.full(n, vx),
+            "vy": np.full(n, vy),
+            "wz": np.full(n, wz),
+        }
+        return m.power(f) / max(abs(vx), abs(vy), abs(wz))
+
+    assert np.all(np.diff(cost(0.0, vx=0.3)) > 0)  # forward uphill
+    assert np.all(np.diff(cost(np.pi, vx=0.3)) < 0)  # forward downhill
+    assert np.all(np.diff(cost(-np.pi / 2, vy=0.3)) > 0)  # lateral uphill
+    assert np.all(np.diff(cost(np.pi / 2, vy=0.3)) > 0)  # lateral downhill: dearer too
+    assert np.all(cost(np.pi / 2, vy=0.3) > cost(np.pi, vx=0.3))
+    assert np.all(np.diff(cost(0.0, wz=0.5)) > 0)  # yaw torque
+
+
+def test_convex_uphill_cost_has_a_critical_grade():
+    """c(g) = c0 + c1 g + c2 g^2 per metre; c(g)/g is least at g* = sqrt(c0 / c2)."""
+    m = EnergyModel(BASE_TERMS, B1)
+    g = np.linspace(0.02, 0.7, 20000)
+    f = {
+        "alpha": np.arcsin(g),
+        "gamma": np.zeros_like(g),
+        "vx": np.full_like(g, 0.3),
+        "vy": np.zeros_like(g),
+        "wz": np.zeros_like(g),
+    }
+    c = m.power(f) / 0.3
+    c0, c2 = 130 + 137 / 0.3, 1760 / 0.3
+    assert g[np.argmin(c / g)] == pytest.approx(np.sqrt(c0 / c2), abs=1e-3)
 
 
 def test_power_never_negative_without_a_regenerative_model():
-    m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 100.0, "fwd_grade": 1000.0})
+    m = EnergyModel(["fwd_const", "fwd_down"], {"fwd_const": 100.0, "fwd_down": -1000.0})
     steep_descent = {"alpha": np.radians(30), "gamma": np.pi, "vx": 0.3, "vy": 0.0, "wz": 0.0}
     assert m.power(steep_descent)[0] == 0.0
     regen = EnergyModel(m.term_specs, m.coefficients, regenerative=True)
     assert regen.power(steep_descent)[0] == pytest.approx((100 - 500) * 0.3)
 
 
-def test_linearity_in_the_twist_per_direction():
-    """Paper III-B: lambda*w1 + w2 in the same direction gives lambda*P1 + P2."""
+@pytest.mark.parametrize("direction", [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)])
+def test_linearity_in_the_twist_per_direction(direction):
+    """Paper III-B: along one direction of motion the wrench is fixed, so power is the
+    per-second terms plus a force times the rate: lambda*w1 + w2 (same direction) costs
+    lambda*(P1 - P0) + (P2 - P0) + P0, with P0 the per-second part of that gait (idle,
+    holding the slope load; the gait's own holding terms are on from 0.05 m/s)."""
     m = EnergyModel(BASE_TERMS, B1)
-    f = {"alpha": 0.2, "gamma": 0.7, "vy": 0.0, "wz": 0.0}
-    p1 = m.power({**f, "vx": 0.2})[0]
-    p2 = m.power({**f, "vx": 0.1})[0]
-    assert m.power({**f, "vx": 3 * 0.2 + 0.1})[0] == pytest.approx(3 * p1 + p2)
+    f = {"alpha": 0.2, "gamma": 0.7}
+
+    def p(rate):
+        return m.power(
+            {
+                **f,
+                **dict(zip(("vx", "vy", "wz"), np.multiply(direction, rate), strict=True)),
+                "speed": np.hypot(direction[0], direction[1]) * rate,
+            }
+        )[0]
+
+    p1, p2 = p(0.2), p(0.1)
+    p0 = 2 * p2 - p1  # affine in the rate: extrapolate to rate 0
+    assert p(3 * 0.2 + 0.1) == pytest.approx(3 * (p1 - p0) + (p2 - p0) + p0)
 
 
 # ---------------------------------------------------------------- fit
 def test_fit_recovers_coefficients_from_noiseless_data():
     rng = np.random.default_rng(1)
     f = _features(rng, 400)
-    truth = EnergyModel(
-        [*BASE_TERMS, "idle_power", "payload"], {**B1, "idle_power": 40.0, "payload": 9.0}
-    )
+    truth = EnergyModel([*BASE_TERMS, "payload"], {**B1, "payload": 9.0})
     p = truth.power(f)
     fitted = EnergyModel(truth.term_specs).fit(f, p)
     for name, value in truth.coefficients.items():
@@ -158,21 +240,25 @@ def test_fit_on_group_means():
     truth = EnergyModel(BASE_TERMS, B1)
     p = truth.power(f)
     per_group = EnergyModel(BASE_TERMS).fit(f, p, groups=groups)
-    assert per_group.coefficients["lat_grade"] == pytest.approx(900.0, rel=1e-8)
+    assert per_group.coefficients["lat_tilt_sq"] == pytest.approx(1510.0, rel=1e-7)
 
 
 def test_fit_errors_are_specific():
     rng = np.random.default_rng(4)
     f = _features(rng, 5)
-    with pytest.raises(FitError, match="too little data: 5 rows for 8 terms"):
+    with pytest.raises(FitError, match="too little data: 5 rows for 17 terms"):
         EnergyModel(BASE_TERMS).fit(f, np.ones(5))
     f = _features(rng, 200)
     f["vy"] = np.zeros(200)
-    with pytest.raises(FitError, match="lat_const, lat_grade are zero on every row"):
+    with pytest.raises(
+        FitError, match="lat_const, lat_up, lat_down, lat_tilt_sq are zero on every"
+    ):
         EnergyModel(BASE_TERMS).fit(f, np.ones(200))
     f = _features(rng, 200)
-    with pytest.raises(FitError, match="cannot tell these terms apart.*fwd_const"):
-        EnergyModel(["fwd_const", "2 * pos(vx)"]).fit(f, np.ones(200))
+    with pytest.raises(FitError, match=r"cos\(gamma\) \(a combination of fwd_up, fwd_down\)"):
+        EnergyModel(["fwd_up", "fwd_down", "pos(vx) * sin(alpha) * cos(gamma)"]).fit(
+            f, np.ones(200)
+        )
     with pytest.raises(ModelError, match="term 'payload'.*'payload_kg'"):
         EnergyModel(["payload"]).fit(
             {k: v for k, v in f.items() if k != "payload_kg"}, np.ones(200)
@@ -200,8 +286,8 @@ def test_json_rejects_bad_documents(tmp_path):
         ({**good, "version": 99}, "version 99 is not supported"),
         ({**good, "terms": [*good["terms"], {"name": "warp_drive"}]}, "unknown term 'warp_drive'"),
         (
-            {**good, "coefficients": {k: v for k, v in B1.items() if k != "lat_grade"}},
-            "coefficient of term 'lat_grade' is missing",
+            {**good, "coefficients": {k: v for k, v in B1.items() if k != "lat_up"}},
+            "coefficient of term 'lat_up' is missing",
         ),
         ({**good, "schema": "other"}, "not an energy_planner model"),
     ]
@@ -212,6 +298,28 @@ def test_json_rejects_bad_documents(tmp_path):
             EnergyModel.load(p)
     with pytest.raises(ModelError, match="does not exist"):
         EnergyModel.load(tmp_path / "missing.json")
+
+
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        ({"terms": True}, "'terms' must be a list"),
+        ({"terms": [None]}, r"terms\[0\] must be a name or an object"),
+        ({"terms": [["x"]]}, r"terms\[0\] must be a name or an object"),
+        ({"terms": [{"name": ["a"]}]}, r"terms\[0\].name must be a string"),
+        ({"terms": [{}]}, r"terms\[0\] has neither a name nor a formula"),
+        ({"coefficients": [1]}, "'coefficients' must be an object"),
+        ({"stderr": 5}, "'stderr' must be an object"),
+        ({"stderr": {"fwd_const": "x"}}, "stderr of term 'fwd_const' must be a number"),
+        ({"metadata": [1]}, "'metadata' must be a free-form object"),
+    ],
+)
+def test_malformed_model_documents_raise_model_errors(tmp_path, change, fragment):
+    """Each of these raised a builtin TypeError/AttributeError before (fuzzing, BUGS.md)."""
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps({**EnergyModel(BASE_TERMS, B1).to_dict(), **change}))
+    with pytest.raises(ModelError, match=fragment):
+        EnergyModel.load(p)
 
 
 def test_default_model_loads_and_is_physical():
@@ -247,3 +355,19 @@ def test_kernel_needs_constants_for_extra_channels():
 def test_catalog_terms_have_explanations():
     for term in CATALOG.values():
         assert len(term.explanation) > 20 and term.unit
+
+
+def test_critical_grade_closed_form_matches_a_search():
+    """g* = sqrt(fwd_const / fwd_up_sq) minimises the climbing energy per metre of height."""
+    m = EnergyModel(BASE_TERMS, B1)
+    c = critical_grade(m)
+    assert c["method"] == "closed form"
+    assert c["grade"] == pytest.approx(np.sqrt((130 * 0.3 + 137) / 1760))
+    g = np.sin(np.radians(np.arange(0.5, 60.0, 0.001)))
+    cost = (130 + 137 / 0.3 + 720 * g + 1760 / 0.3 * g**2) / g
+    assert c["grade"] == pytest.approx(g[np.argmin(cost)], abs=1e-4)
+    # with a term outside the base, the numeric search agrees with the same search
+    fast = EnergyModel([*BASE_TERMS, "speed_dependence"], {**B1, "speed_dependence": 400.0})
+    n = critical_grade(fast)
+    cost = (130 + 137 / 0.3 + 720 * g + 1760 / 0.3 * g**2 + 400 * 0.3) / g
+    assert n["method"] == "numeric" and n["grade"] == pytest.approx(g[np.argmin(cost)], abs=3e-4)

@@ -27,6 +27,7 @@ from energy_planner.calibration._windows import STRAIGHT_KINDS, aligned_table, h
 from energy_planner.calibration.fit import model_features
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.stats import independent_columns, wls
 
 __all__ = ["ForceFit", "force_estimates", "fit_forces", "MOTION_KINDS"]
 
@@ -131,16 +132,17 @@ def fit_forces(
 
     For every motion kind, the force estimates ``P / rate`` of its windows are regressed
     (least squares weighted by window duration) on that kind's terms divided by the
-    window's rate, i.e. on the terms' basis functions of ``(alpha, gamma)``.
+    window's rate, i.e. on the terms' basis functions of ``(alpha, gamma)``. Terms of no
+    single motion (kind ``other``: ``idle_power``, the per-second holding terms) are taken
+    from the joint fit (:func:`energy_planner.calibration.fit.fit_model`) and subtracted,
+    as a force ``P_other / rate``, before each motion's fit.
 
     Parameters
     ----------
     windows : Windows
         Measurements contract.
     terms : sequence of term specs
-        Terms whose kind is forward, backward, lateral or turning (default: the base
-        model). Terms of kind ``other`` (e.g. ``idle_power``) are not forces of a single
-        motion: fit them with :func:`energy_planner.calibration.fit.fit_model`.
+        Terms to fit (default: the base model).
     level_deg : float
         Passed to :func:`force_estimates`.
 
@@ -151,24 +153,39 @@ def fit_forces(
     Raises
     ------
     FitError
-        A term of kind ``other``, or a kind with fewer windows than its terms + 1
-        (the message names the kind and the counts).
+        A kind with fewer windows than its terms + 1 (the message names the kind and the
+        counts), or a per-second term the joint fit cannot identify.
     """
     model = EnergyModel(list(terms))
-    others = [t.name for t in model.terms if t.kind not in MOTION_KINDS]
-    if others:
-        raise FitError(
-            f"term(s) {', '.join(others)} belong to no single motion, so the per-motion force "
-            "fit cannot estimate them; use calibration.fit_model (joint fit) instead"
-        )
+    others = [j for j, t in enumerate(model.terms) if t.kind not in MOTION_KINDS]
     est = force_estimates(windows, level_deg=level_deg)
     table = aligned_table(windows)
     samples = windows.samples
     X = model.design_matrix(model_features(samples, model), groups=samples["window"].to_numpy())
     row = pd.Series(np.arange(len(table)), index=table["window"].to_numpy())
     idx = row.reindex(est["window"].to_numpy()).to_numpy()
-    coef: dict[str, float] = {}
-    err: dict[str, float] = {}
+    shared: dict[str, float] = {}
+    shared_se: dict[str, float] = {}
+    offset = np.zeros(len(est))
+    if others:
+        # per-second terms (idle power, holding the slope load) belong to no single
+        # motion: take them from the joint fit, and fit each motion's force on the rest
+        from energy_planner.calibration.fit import fit_model
+
+        joint = fit_model(windows, model, n_splits=0)
+        missing = [
+            model.term_names[j] for j in others if model.term_names[j] not in joint.coefficients
+        ]
+        if missing:
+            raise FitError(
+                f"the joint fit cannot identify the per-second term(s) {', '.join(missing)} "
+                "the per-motion forces need: " + "; ".join(joint.unidentified.values())
+            )
+        shared = {model.term_names[j]: joint.coefficients[model.term_names[j]] for j in others}
+        shared_se = {n: joint.stderr[n] for n in shared}
+        offset = X[idx][:, others] @ np.array(list(shared.values()))
+    coef: dict[str, float] = dict(shared)
+    err: dict[str, float] = dict(shared_se)
     fitted = np.full(len(est), np.nan)
     rows = []
     for kind in MOTION_KINDS:
@@ -185,12 +202,23 @@ def fit_forces(
             )
         rate = est.loc[sel, "rate"].to_numpy()
         B = X[idx[sel]][:, cols] / rate[:, None]
-        F = est.loc[sel, "value"].to_numpy()
+        base_force = offset[sel] / rate  # the per-second terms, as a force at this rate
+        F = est.loc[sel, "value"].to_numpy() - base_force
         w = est.loc[sel, "duration"].to_numpy()
-        beta, se, rms = _wls_se(B, F, w, names, kind)
+        keep, why = independent_columns(B, w)
+        if not keep.all():
+            bad = [names[j] for j in why]
+            raise FitError(
+                f"the {kind} windows cannot separate {', '.join(bad)} from the other {kind} "
+                "terms: record this motion on more slopes and headings, or fit with "
+                "calibration.fit_model, which reports and leaves out such terms"
+            )
+        res = wls(B, F, w)
+        beta, se = res.coef, res.stderr
+        rms = float(np.sqrt(np.sum(w * (F - B @ beta) ** 2) / np.sum(w)))
         coef.update(zip(names, beta.tolist(), strict=True))
         err.update(zip(names, se.tolist(), strict=True))
-        fitted[sel] = B @ beta
+        fitted[sel] = B @ beta + base_force
         rows.append(
             {
                 "kind": kind,
@@ -209,30 +237,3 @@ def fit_forces(
         metadata={"fit": {"method": "per-motion force fit (paper section IV)"}},
     )
     return ForceFit(fitted_model, coef, err, est, pd.DataFrame(rows))
-
-
-def _wls_se(
-    B: np.ndarray, F: np.ndarray, w: np.ndarray, names: list[str], kind: str
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Weighted least squares with standard errors; FitError when a column is unsupported."""
-    sw = np.sqrt(w / w.mean())
-    Bw, Fw = B * sw[:, None], F * sw
-    scale = np.linalg.norm(Bw, axis=0)
-    if np.any(scale == 0):
-        bad = [n for n, s in zip(names, scale, strict=True) if s == 0]
-        raise FitError(f"no {kind} window exercises {', '.join(bad)}")
-    Bs = Bw / scale
-    sv = np.linalg.svd(Bs, compute_uv=False)
-    if sv[-1] < 1e-6 * sv[0]:
-        raise FitError(
-            f"the {kind} windows cannot separate {', '.join(names)}: they all have the same "
-            "slope and heading; record this motion on several slopes"
-        )
-    beta_s, *_ = np.linalg.lstsq(Bs, Fw, rcond=None)
-    beta = beta_s / scale
-    r = Fw - Bw @ beta
-    dof = max(len(F) - len(names), 1)
-    sigma2 = float(r @ r) / dof
-    cov = sigma2 * np.linalg.inv(Bs.T @ Bs) / np.outer(scale, scale)
-    rms = float(np.sqrt(np.sum(w * (F - B @ beta) ** 2) / np.sum(w)))
-    return beta, np.sqrt(np.clip(np.diag(cov), 0, None)), rms

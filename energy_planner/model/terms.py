@@ -11,19 +11,37 @@ to ``wrap(theta - psi)`` on the fall line and across it. ``(vx, vy, wz)`` is the
 twist (REP-103: x forward, y left), along the ground.
 
 The base set is the paper's wrench ``f(alpha, gamma) = (fx, fy, tau)`` applied to the
-twist, linear in the twist per direction of motion. Moving along the body direction
-``beta`` the grade is ``sin(alpha) * cos(gamma + beta)``: forward ``sin a cos g``,
-backward ``-sin a cos g``, left ``-sin a sin g``, right ``+sin a sin g``. Left and right
-share coefficients (right is the mirror of left), which makes the lateral grade term
-``-vy sin(alpha) sin(gamma)`` for either direction. Every base term satisfies the mirror
-symmetry ``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)``.
+twist (Fig. 4 and Fig. 5 of the paper), plus what a legged robot draws per second whatever
+it does. With ``sx = sin(alpha) cos(gamma)`` and ``sy = sin(alpha) sin(gamma)`` the grades
+along and across the body, and per direction of motion ``d`` (forward, backward, lateral;
+left is the mirror of right) its rate ``r`` (``pos(vx)``, ``pos(-vx)``, ``abs(vy)``, m/s)
+and the grade along the travel ``G`` (``sx``, ``-sx``, ``-sign(vy) sy``)::
+
+    P = sum_d [ c0_d r_d^2 / max(speed, 0.05) + c_up_d r_d pos(G_d) + c_down_d r_d pos(-G_d) ]
+        + abs(wz) (t0 + t1 sin(alpha))
+        + idle + k_x sx^2 + k_y sy^2 + (brake levers) + (side-stepping holding)
+
+The per-metre pair ``c_up``/``c_down`` is a kink at level: lifting the body costs gravity
+work through the drive efficiency, lowering it returns a gait-dependent fraction (Fig. 4:
+downhill gets cheaper only walking forward; sideways it worsens). The level force of each
+gait is weighted by its squared direction cosine, so walking obliquely costs a weighted
+mean, not the sum, of the gaits' forces. The per-second terms are the standing power and
+the copper (Joule) losses of the legs holding the slope load, which grow with the square
+of that load along (``tilt_x_sq``) and across (``tilt_y_sq``, the cross slope, whichever
+side it falls to) the body, with other levers when braking downhill and when
+side-stepping; they make the cost per metre uphill convex, so that on steep ground a
+detour beats the direct climb (:func:`energy_planner.model.critical_grade`). Turning in
+place costs a torque growing with slope (Fig. 5) plus the same per-second terms. Every
+term satisfies the mirror symmetry ``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx,
+-vy, -wz)``; along one direction of motion the per-metre terms are linear in the rate (the
+paper's superposition), and energy stays additive along a path with the per-second terms.
 
 Examples
 --------
->>> sorted(BASE_TERMS)[:3]
-['bwd_const', 'bwd_grade', 'fwd_const']
->>> CATALOG["cross_slope_roll"].formula
-'speed * sin(alpha) * abs(sin(gamma))'
+>>> BASE_TERMS[:3]
+('fwd_const', 'fwd_up', 'fwd_down')
+>>> CATALOG["tilt_y_sq"].formula
+'(sin(alpha) * sin(gamma)) ** 2'
 >>> resolve_term("payload_kg*speed*sin(alpha)").name
 'payload_kg * speed * sin(alpha)'
 """
@@ -91,77 +109,148 @@ def _t(name: str, formula: str, explanation: str, unit: str, kind: str) -> Term:
     return Term(name, parse_formula(formula).text, explanation, unit, kind)
 
 
-_BASE = [
-    _t("fwd_const", "pos(vx)", "force to walk forward on level ground", "N", "forward"),
-    _t(
-        "fwd_grade",
-        "pos(vx) * sin(alpha) * cos(gamma)",
-        "extra force per unit grade walking forward (gravity work, divided by efficiency)",
-        "N",
+#: Directions of motion of the base: (prefix, kind, rate, rate weighted by the squared
+#: direction cosine, grade along the travel, its negative, words for the explanations).
+_DIRECTIONS = (
+    (
+        "fwd",
         "forward",
+        "pos(vx)",
+        "pos(vx) ** 2 / max(speed, 0.05)",
+        "sin(alpha) * cos(gamma)",
+        "-sin(alpha) * cos(gamma)",
+        "walking forward",
     ),
-    _t("bwd_const", "pos(-vx)", "force to walk backward on level ground", "N", "backward"),
-    _t(
-        "bwd_grade",
-        "-pos(-vx) * sin(alpha) * cos(gamma)",
-        "extra force per unit grade walking backward",
-        "N",
+    (
+        "bwd",
         "backward",
+        "pos(-vx)",
+        "pos(-vx) ** 2 / max(speed, 0.05)",
+        "-sin(alpha) * cos(gamma)",
+        "sin(alpha) * cos(gamma)",
+        "walking backward",
     ),
-    _t("lat_const", "abs(vy)", "force to walk sideways on level ground", "N", "lateral"),
-    _t(
-        "lat_grade",
-        "-vy * sin(alpha) * sin(gamma)",
-        "extra force per unit grade walking sideways (left and right mirror each other)",
-        "N",
+    (
+        "lat",
         "lateral",
+        "abs(vy)",
+        "vy ** 2 / max(speed, 0.05)",
+        "-sign(vy) * sin(alpha) * sin(gamma)",
+        "sign(vy) * sin(alpha) * sin(gamma)",
+        "side-stepping (left mirrors right)",
     ),
-    _t("turn_const", "abs(wz)", "torque to turn in place on level ground", "N m", "turning"),
+)
+
+
+def _direction_terms(
+    prefix: str, kind: str, r: str, r_mix: str, g: str, neg_g: str, words: str
+) -> list[Term]:
+    return [
+        _t(
+            f"{prefix}_const",
+            r_mix,
+            f"force {words} on level ground: touch-down losses, leg swing and gearbox "
+            "friction per metre (walking obliquely, each gait's force is weighted by its "
+            "squared direction cosine)",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_up",
+            f"{r} * pos({g})",
+            f"extra force per unit uphill grade {words}: gravity work lifting the body, "
+            "paid through the drive efficiency (about m g / efficiency)",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_down",
+            f"{r} * pos({neg_g})",
+            f"change of force per unit downhill grade {words}: negative where the gait "
+            "returns part of the released potential energy, about 0 where it brakes it",
+            "N",
+            kind,
+        ),
+    ]
+
+
+#: Grade along the body x axis and across it (the slope the legs hold, whatever the motion).
+_TILT_X = "sin(alpha) * cos(gamma)"
+_TILT_Y = "sin(alpha) * sin(gamma)"
+
+_BASE = [
+    *(t for d in _DIRECTIONS for t in _direction_terms(*d)),
+    _t(
+        "turn_const",
+        "abs(wz)",
+        "torque to turn in place on level ground: twisting the planted feet",
+        "N m",
+        "turning",
+    ),
     _t(
         "turn_slope",
         "abs(wz) * sin(alpha)",
-        "extra turning torque per unit of sin(slope): stabilising while reorienting",
+        "extra turning torque per unit of sin(slope): re-balancing the tangential gravity "
+        "load while the support pattern rotates",
         "N m",
         "turning",
+    ),
+    _t(
+        "idle_power",
+        "1",
+        "power drawn per second whatever the motion: electronics, and the copper losses of "
+        "carrying the body while the gait runs (paid once, not per direction of motion)",
+        "W",
+        "other",
+    ),
+    _t(
+        "tilt_x_sq",
+        f"({_TILT_X}) ** 2",
+        "copper (I^2 R) losses per second of the legs pushing or holding the slope load "
+        "along the body x axis: they grow with the square of that force",
+        "W",
+        "other",
+    ),
+    _t(
+        "tilt_y_sq",
+        f"({_TILT_Y}) ** 2",
+        "copper losses per second of holding the sideways slope load and the roll moment "
+        "(cross slope), whichever side the slope falls to",
+        "W",
+        "other",
+    ),
+    _t(
+        "fwd_brake_sq",
+        f"min(pos(vx) / 0.05, 1) * pos(-{_TILT_X}) ** 2",
+        "walking forward downhill the legs brake through a shorter lever than they push "
+        "with: change of the copper losses along x (per second; fully on above 0.05 m/s)",
+        "W",
+        "forward",
+    ),
+    _t(
+        "bwd_brake_sq",
+        f"min(pos(-vx) / 0.05, 1) * pos({_TILT_X}) ** 2",
+        "walking backward downhill the legs brake through hip and knee: change of the "
+        "copper losses along x (per second; fully on above 0.05 m/s)",
+        "W",
+        "backward",
+    ),
+    _t(
+        "lat_tilt_sq",
+        f"(vy / max(speed, 0.05)) ** 2 * ({_TILT_Y}) ** 2",
+        "side-stepping, the sideways slope load goes through the hip ab/adduction joints "
+        "(a longer lever than the wide stance of forward walking): extra copper losses",
+        "W",
+        "lateral",
     ),
 ]
 
 _EFFECTS = [
     _t(
-        "idle_power",
-        "1",
-        "standing power: electronics and holding the body up cost energy even at rest",
-        "W",
-        "other",
-    ),
-    _t(
         "speed_dependence",
         "speed ** 2",
         "leg swing and damping losses grow with speed, so the force per metre grows with speed",
         "N s/m",
-        "other",
-    ),
-    _t(
-        "joule_heating",
-        "sin(alpha) ** 2",
-        "motor current grows with the supporting force the legs hold against the slope; "
-        "I^2 R loss grows with its square",
-        "W",
-        "other",
-    ),
-    _t(
-        "downhill_braking",
-        "pos(-sin(alpha) * (vx * cos(gamma) - vy * sin(gamma)))",
-        "uphill/downhill asymmetry: descending, the legs brake the body and dissipate "
-        "instead of regenerating",
-        "N",
-        "other",
-    ),
-    _t(
-        "cross_slope_roll",
-        "speed * sin(alpha) * abs(sin(gamma))",
-        "with the slope to one side the robot holds its roll and loads its downhill legs",
-        "N",
         "other",
     ),
     _t(
@@ -191,7 +280,8 @@ _EFFECTS = [
 CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_EFFECTS)}
 #: The paper's model (wrench from alpha and gamma only).
 BASE_TERMS: tuple[str, ...] = tuple(t.name for t in _BASE)
-#: The catalog's physical effects, none of which the base model contains.
+#: The catalog's physical effects, none of which the base model contains (uphill/downhill
+#: asymmetry, cross-slope roll and copper losses on slopes are base terms now).
 EFFECT_TERMS: tuple[str, ...] = tuple(t.name for t in _EFFECTS)
 
 
