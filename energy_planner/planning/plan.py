@@ -433,6 +433,7 @@ def plan(
     progress: bool = True,
     step: float | None = None,
     n_headings: int = 16,
+    moves: str = "all",
     eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[float, float], None] | None = None,
@@ -470,6 +471,10 @@ def plan(
         ``lattice`` (default :func:`energy_planner.planning.lattice.default_step`).
     n_headings : int
         Headings per position.
+    moves : {"all", "crab", "axes"}
+        Translations per heading for ``auto``/``search``/``lattice``
+        (:data:`energy_planner.planning.search.MOVE_SETS`): all 16 lattice directions at
+        every heading (default; crab walking), 8, or the 4 closest to the body axes.
     eps : float, optional
         Heuristic weight of ``auto``/``search`` (default :data:`DEFAULT_EPS`; 1 = optimal
         on the primitives, slower).
@@ -558,8 +563,8 @@ def plan(
             from energy_planner.planning.search import search_plan
 
             sr = search_plan(
-                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, eps=eps,
-                progress=progress, time_budget=budget,
+                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves,
+                eps=eps, progress=progress, time_budget=budget,
             )  # fmt: skip
             info["search"] = {
                 "step_m": sr.step,
@@ -600,7 +605,9 @@ def plan(
             from energy_planner.planning.binding import path_cost
             from energy_planner.planning.lattice import lattice_plan
 
-            lat = lattice_plan(cost, terrain, start_p, goal_p, step=step, n_headings=n_headings)
+            lat = lattice_plan(
+                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves
+            )
             info["lattice"] = {
                 "step_m": lat.step,
                 "headings": lat.n_headings,
