@@ -23,6 +23,7 @@ from energy_planner.planning.lattice import lattice_plan, simplify_states
 from energy_planner.planning.limits import make_motion_cost
 from energy_planner.planning.plan import plan
 from energy_planner.planning.refine import densify
+from energy_planner.request import Request
 from energy_planner.terrain import Terrain
 
 QUAD = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
@@ -47,9 +48,11 @@ def ramp():
 def _quad_model(c0: float, k: float) -> EnergyModel:
     """Walking forward costs c0 + k sin(beta)^2 per metre (beta: path inclination);
     walking backward or sideways costs 10 c0 per metre, turning is free."""
+    # explicit per-metre formulas (the catalog's *_const terms weight oblique walking by
+    # squared direction cosines, which would make crab walking cheap here)
     return EnergyModel(
-        ["fwd_const", "bwd_const", "lat_const", QUAD],
-        {"fwd_const": c0, "bwd_const": 10 * c0, "lat_const": 10 * c0, QUAD: k},
+        ["pos(vx)", "pos(-vx)", "abs(vy)", QUAD],
+        {"pos(vx)": c0, "pos(-vx)": 10 * c0, "abs(vy)": 10 * c0, QUAD: k},
     )
 
 
@@ -63,7 +66,7 @@ def test_flat_ground_path_is_straight(flat, model):
 
 
 def test_auto_on_flat_ground_stays_on_the_line(flat, model):
-    res = plan(flat, model, (5.0, 8.0), (33.0, 30.0), planner="auto", time=3, progress=False)
+    res = plan(flat, model, (5.0, 8.0), (33.0, 30.0), planner="auto", time=20, progress=False)
     line = LineString([(5.0, 8.0), (33.0, 30.0)])
     dev = max(line.distance(LineString(res.states[:, :2]).interpolate(f, normalized=True))
               for f in np.linspace(0, 1, 50))  # fmt: skip
@@ -112,16 +115,22 @@ def test_zigzag_at_the_critical_grade_matches_closed_form(ramp):
     assert closed_form * (1 - 1e-6) <= auto.energy_j <= lat.energy_j * (1 + 1e-9)
 
 
-def test_uphill_and_downhill_cost_differently(ramp, model):
-    """Both ways the best path is the straight line (the default model is linear in the
-    grade and the slope is mild), so E_up - E_down is twice the grade work:
-    ``2 * fwd_grade * H`` (the grade term is fwd_grade * sin(beta) per metre)."""
+def test_uphill_and_downhill_cost_differently(ramp):
+    """Both ways the best path is the straight line for a model linear in the grade
+    (``c0 + fwd_grade * sin(beta)`` per metre walking forward, the power staying positive
+    downhill; other gaits dear), so E_up - E_down is twice the grade work:
+    ``2 * fwd_grade * H``."""
+    grade = "vx * sin(alpha) * cos(gamma)"
+    fwd_grade = 1000.0
+    model = EnergyModel(
+        ["pos(vx)", "pos(-vx)", "abs(vy)", grade],
+        {"pos(vx)": 600.0, "pos(-vx)": 6000.0, "abs(vy)": 6000.0, grade: fwd_grade},
+    )
     a, b = (30.0, 10.0), (30.0, 40.0)
     up = plan(ramp, model, a, b, planner="lattice", step=1.0, progress=False)
     down = plan(ramp, model, b, a, planner="lattice", step=1.0, progress=False)
     assert up.energy_j > down.energy_j
     height = 0.5 * 30.0
-    fwd_grade = model.coefficients["fwd_grade"]
     assert up.energy_j - down.energy_j == pytest.approx(2 * fwd_grade * height, rel=1e-6)
 
 
@@ -131,22 +140,22 @@ def test_invalid_start_and_goal_name_the_limit(ramp, model):
     with pytest.raises(InvalidStateError, match="goal .* outside the map"):
         plan(ramp, model, (30.0, 10.0), (30.0, 70.0), planner="lattice", progress=False)
     with pytest.raises(InvalidStateError, match=r"start .*slope 26\.6 deg > limit 20 deg"):
-        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
-             max_slope_deg=20, progress=False)  # fmt: skip
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), Request.make(max_slope_deg=20),
+             planner="lattice", progress=False)  # fmt: skip
     with pytest.raises(InvalidStateError, match=r"cross-slope 26\.6 deg > limit 15 deg"):
-        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
-             max_cross_slope_deg=15, progress=False)  # fmt: skip
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0),
+             Request.make(max_cross_slope_deg=15), planner="lattice", progress=False)  # fmt: skip
     with pytest.raises(InvalidStateError, match="keep-out"):
-        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="lattice",
-             keep_out=[box(25, 25, 35, 35)], progress=False)  # fmt: skip
-    with pytest.raises(PlanningError, match="valid planners: auto, lattice"):
+        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), Request.make(keep_out=[box(25, 25, 35, 35)]),
+             planner="lattice", progress=False)  # fmt: skip
+    with pytest.raises(PlanningError, match="valid planners: auto, search, lattice"):
         plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="prmstar", progress=False)
 
 
 def test_keep_out_is_respected(flat, model):
     wall = box(18.0, 8.0, 22.0, 32.0)
-    res = plan(flat, model, (5.0, 20.0), (35.0, 20.0), planner="auto", time=3,
-               keep_out=[wall], progress=False)  # fmt: skip
+    res = plan(flat, model, (5.0, 20.0), (35.0, 20.0), Request.make(keep_out=[wall]),
+               planner="auto", time=3, progress=False)  # fmt: skip
     assert not LineString(res.states[:, :2]).intersects(wall)
     straight = path_energy(flat, model, [(5.0, 20.0), (35.0, 20.0)])
     assert res.energy_j > straight.energy_j
@@ -156,8 +165,8 @@ def test_keep_out_is_respected(flat, model):
 
 def test_same_seed_same_path(flat, model):
     # the refinement stops at convergence or after 25 rounds, long before 30 s
-    kw = dict(planner="auto", time=30, iterations=25, keep_out=[box(18.0, 12.0, 22.0, 28.0)],
-              progress=False)  # fmt: skip
+    kw = dict(planner="auto", time=30, iterations=25, progress=False,
+              request=Request.make(keep_out=[box(18.0, 12.0, 22.0, 28.0)]))  # fmt: skip
     a = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
     b = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
     assert a.info["refine"]["converged"] or a.info["refine"]["rounds"] == 25
