@@ -234,3 +234,7 @@ class RasterTooLargeError(DEMError, MemoryError):
     Fields: ``shape``, ``size_bytes`` (decoded, float64), ``cap_bytes``, ``path``, ``hint``.
     The cap is ``ENERGY_PLANNER_MEMORY_CAP`` (see :func:`energy_planner.terrain.memory_cap`).
     """
+
+
+class RouteNameError(EnergyPlannerError, KeyError):
+    """A route comparison has no route of that name (the message names the valid ones)."""

@@ -13,6 +13,7 @@ from energy_planner.cli import main
 from energy_planner.model import EnergyModel
 from energy_planner.planning import PLANNERS
 from energy_planner.planning.compare import compare_routes
+from energy_planner.request import Request
 from energy_planner.terrain import Terrain
 
 
@@ -42,7 +43,9 @@ def test_compare_routes_reports_an_infeasible_direct_line(dem):
     _, terrain = dem
     model = EnergyModel.default()
     s, g = (500015.0, 5000010.0), (500015.0, 5000050.0)
-    comp = compare_routes(terrain, model, s, g, max_slope_deg=20, time=2, progress=False)
+    comp = compare_routes(
+        terrain, model, s, g, Request.make(max_slope_deg=20), time=2, progress=False
+    )
     names = [r.name for r in comp.routes]
     assert names == ["direct", "shortest", "energy_optimal"]
     direct = comp.route("direct")

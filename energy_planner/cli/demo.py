@@ -75,6 +75,7 @@ def command(
     """
     from energy_planner.maps import map_path, scenario, scenario_names
     from energy_planner.planning.compare import compare_routes
+    from energy_planner.request import Request
     from energy_planner.terrain import load_dem
 
     try:
@@ -89,7 +90,8 @@ def command(
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
     comp = compare_routes(
-        terrain, model, start, goal, time=time_s, max_slope_deg=max_slope, progress=True
+        terrain, model, start, goal, Request.make(max_slope_deg=max_slope), time=time_s,
+        progress=True,
     )
     res = comp.to_dict(terrain)
     comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}")
