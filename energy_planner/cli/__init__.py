@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "diagnose": "diagnose",
     "plan": "plan",
     "compare-routes": "compare_routes",
+    "reach": "reach",
 }
 
 
