@@ -63,6 +63,8 @@ __all__ = [
     "PlanningConfigError",
     "PlanningError",
     "RasterTooLargeError",
+    "WaypointError",
+    "WaypointIOError",
 ]
 
 
@@ -234,6 +236,42 @@ class RasterTooLargeError(DEMError, MemoryError):
     Fields: ``shape``, ``size_bytes`` (decoded, float64), ``cap_bytes``, ``path``, ``hint``.
     The cap is ``ENERGY_PLANNER_MEMORY_CAP`` (see :func:`energy_planner.terrain.memory_cap`).
     """
+
+
+class WaypointError(EnergyPlannerError, ValueError):
+    """A waypoint or path file is malformed: missing column, bad value, wrong geometry."""
+
+
+class WaypointIOError(EnergyPlannerError, OSError):
+    """A waypoint or path file cannot be found, read or written."""
+
+
+class ChannelError(EnergyPlannerError, ValueError):
+    """An extra channel (``--set`` / ``--channel``) is malformed, unreadable or missing."""
+
+
+class MissingChannelError(ChannelError, FormulaError):
+    """A model term reads a channel that was not given.
+
+    Attributes
+    ----------
+    missing : list of str
+        Names of the channels nobody gave.
+    """
+
+    def __init__(self, message: str = "", *, missing: list[str] | None = None, **fields) -> None:
+        super().__init__(message, missing=list(missing or []), **fields)
+
+
+class MotionCostError(EnergyPlannerError, ValueError):
+    """A motion cost is configured with bad values (speed, yaw rate, mask shape)."""
+
+
+class ChannelIOError(EnergyPlannerError, OSError):
+    """A channel raster or value table cannot be found or opened."""
+
+
+__all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCostError"]
 
 
 class RouteNameError(EnergyPlannerError, KeyError):
