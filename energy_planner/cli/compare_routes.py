@@ -8,6 +8,8 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
     dem_option,
     emit,
     json_option,
@@ -38,6 +40,7 @@ def format_table(res: dict[str, Any]) -> str:
 @start_goal_options
 @model_option
 @planning_options("the energy-optimal route")
+@channel_options
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -58,6 +61,8 @@ def command(
     keep_out: Path | None,
     speed: float,
     yaw_rate: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     plot: Path | None,
     as_json: bool,
 ) -> None:
@@ -72,7 +77,7 @@ def command(
     Example: energy-planner compare-routes --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20 --plot routes.png
     """
-    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes
     from energy_planner.request import Request
 
@@ -85,6 +90,7 @@ def command(
         request = Request.make(
             speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
             max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+            channels=channels_from_options(sets, channels),
         )  # fmt: skip
         comp = compare_routes(
             terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
@@ -93,6 +99,8 @@ def command(
     except InvalidStateError as exc:
         hint = "--start" if str(exc).startswith("start") else "--goal"
         raise click.BadParameter(str(exc), param_hint=hint) from exc
+    except MissingChannelError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     result = comp.to_dict(terrain)

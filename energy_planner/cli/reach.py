@@ -8,6 +8,8 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
     emit,
     json_option,
     load_model_option,
@@ -57,6 +59,7 @@ def _text(res: dict[str, Any]) -> str:
 @limit_options
 @speed_option
 @yaw_rate_option
+@channel_options
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -87,6 +90,8 @@ def command(
     keep_out: Path | None,
     speed: float,
     yaw_rate: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     out: Path | None,
     geojson: Path | None,
     plot: Path | None,
@@ -104,7 +109,7 @@ def command(
 
     import numpy as np
 
-    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.reach import reach
     from energy_planner.request import Request
 
@@ -119,11 +124,14 @@ def command(
     request = Request.make(
         speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
         max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+        channels=channels_from_options(sets, channels),
     )  # fmt: skip
     try:
         res = reach(terrain, model, s[:2], request, round_trip=round_trip)
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
+    except MissingChannelError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     wh = res.energy_j / 3600.0

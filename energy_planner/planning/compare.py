@@ -105,6 +105,7 @@ def grade_cost(
     model,
     speed: float = 0.3,
     *,
+    slope: float | None = None,
     max_grade: float = 0.8,
     fit_max_grade: float = 0.6,
     constants: dict[str, Any] | None = None,
@@ -117,6 +118,11 @@ def grade_cost(
         A fitted model.
     speed : float
         Walking speed along the ground, m/s.
+    slope : float, optional
+        Walk on a plane of this slope (sine of the slope angle) instead of up the fall
+        line of each grade: grade ``g <= slope`` is walked facing forward at the relative
+        heading ``acos(g / slope)``, so cross-slope terms count (a zig-zag or a spiral
+        round a cone of that slope climbs this way). ``max_grade`` becomes ``slope``.
     max_grade : float
         Steepest grade evaluated (sine of the inclination).
     fit_max_grade : float
@@ -141,10 +147,17 @@ def grade_cost(
     ...                              {"fwd_const": 600.0, "fwd_grade": 1000.0})).critical_grade)
     None
     """
+    if slope is not None:
+        max_grade = fit_max_grade = float(slope)
     g = np.linspace(0.0, max_grade, 801)
     n = g.size
+    if slope is None:
+        alpha, gamma = np.arcsin(g), np.zeros(n)
+    else:
+        alpha = np.full(n, math.asin(slope))
+        gamma = np.arccos(np.clip(g / slope, -1.0, 1.0))
     feats: dict[str, Any] = {
-        "alpha": np.arcsin(g), "gamma": np.zeros(n), "vx": np.full(n, float(speed)),
+        "alpha": alpha, "gamma": gamma, "vx": np.full(n, float(speed)),
         "vy": np.zeros(n), "wz": np.zeros(n), "ax": np.zeros(n), "ay": np.zeros(n),
     }  # fmt: skip
     for k, v in (constants or {}).items():
@@ -571,21 +584,33 @@ class _Candidates:
 
 
 def _motion_cost(terrain, model, request, distance: bool = False):
-    """The motion cost of ``request`` (limits, robot, channels) and the keep-out polygons.
-
-    With ``distance`` the "model" prices the ground distance (power = speed).
-    """
+    """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons
+    in the working CRS. With ``distance`` the "model" prices the ground distance
+    (power = speed) under the same limits, and reads no channel."""
+    from energy_planner.energy import MotionCost
     from energy_planner.model import EnergyModel
-    from energy_planner.planning.limits import make_motion_cost
+    from energy_planner.planning.limits import (
+        load_keep_out,
+        rasterize_keep_out,
+        to_work_geometries,
+    )
 
-    if distance:
-        model = EnergyModel(["speed"], {"speed": 1.0})
     lim, robot = request.limits, request.robot
-    cost, geoms = make_motion_cost(
-        terrain, model, speed=robot.speed, yaw_rate=robot.yaw_rate,
-        max_slope_deg=lim.max_slope_deg, max_cross_slope_deg=lim.max_cross_slope_deg,
-        keep_out=lim.keep_out,
-    )  # fmt: skip
+    geoms: list[Any] = []
+    if lim.keep_out is not None:
+        ko = lim.keep_out
+        raw = load_keep_out(ko) if isinstance(ko, str | Path) else list(ko)
+        geoms = to_work_geometries(raw, terrain)
+    cost = MotionCost(
+        terrain,
+        EnergyModel(["speed"], {"speed": 1.0}) if distance else model,
+        speed=robot.speed,
+        yaw_rate=robot.yaw_rate,
+        max_slope_deg=lim.max_slope_deg,
+        max_cross_slope_deg=lim.max_cross_slope_deg,
+        blocked=rasterize_keep_out(geoms, terrain) if geoms else None,
+        channels=None if distance else request.channels,
+    )
     return cost, geoms
 
 
@@ -654,7 +679,10 @@ def compare_routes(
     except EnergyPlannerError as exc:
         direct_ok = False
         reason = _direct_reason(cost, d_states, str(exc))
-        free = MotionCost(terrain, model, request.robot.speed, request.robot.yaw_rate)
+        free = MotionCost(
+            terrain, model, request.robot.speed, request.robot.yaw_rate,
+            channels=request.channels,
+        )  # fmt: skip
         try:
             direct = _route("direct", d_states, terrain, model, free)
         except EnergyPlannerError:
@@ -736,7 +764,8 @@ def compare_routes(
                 r.saving_vs_direct = (direct.energy_j - r.energy_j) / direct.energy_j
     physics = None
     try:
-        gc = grade_cost(model, request.robot.speed)
+        consts = dict(request.channels.constants) if request.channels is not None else None
+        gc = grade_cost(model, request.robot.speed, constants=consts)
         physics = gc.to_dict()
         physics["per_height"] = {
             r.name: gc.per_height(r.climb_grade) for r in routes if r.climb_grade
