@@ -276,3 +276,7 @@ __all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCost
 
 class RouteNameError(EnergyPlannerError, KeyError):
     """A route comparison has no route of that name (the message names the valid ones)."""
+
+
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""
