@@ -32,14 +32,18 @@ import time
 
 
 def _test_model():
+    """The convex model of tests/test_compare_routes.py (formulas, not catalog names)."""
     from energy_planner.model import EnergyModel
+    from energy_planner.model.terms import resolve_term
 
     a, b, k = 600.0, 1000.0, 15000.0
-    quad = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
-    terms = ["fwd_const", "fwd_grade", "bwd_const", "bwd_grade", "lat_const", "lat_grade", quad]
-    coef = {"fwd_const": a, "fwd_grade": b, "bwd_const": a + k, "bwd_grade": b,
-            "lat_const": a + k, "lat_grade": b, quad: k}  # fmt: skip
-    return EnergyModel(terms, coef)
+    g_fwd = "sin(alpha) * cos(gamma)"
+    spec = {
+        "pos(vx)": a, f"pos(vx) * {g_fwd}": b, "pos(-vx)": a + k, f"-pos(-vx) * {g_fwd}": b,
+        "abs(vy)": a + k, "-vy * sin(alpha) * sin(gamma)": b, f"pos(vx) * ({g_fwd}) ** 2": k,
+    }  # fmt: skip
+    terms = [resolve_term(f) for f in spec]
+    return EnergyModel(terms, {t.name: v for t, v in zip(terms, spec.values(), strict=True)})
 
 
 def critical_slope(model, speed: float, lo: float = 0.02, hi: float = 0.9) -> float | None:

@@ -176,13 +176,18 @@ QUAD = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
 
 
 def _convex_model(k=K_):
-    terms = ["fwd_const", "fwd_grade", "bwd_const", "bwd_grade", "lat_const", "lat_grade"]
-    coef = {"fwd_const": A_, "fwd_grade": B_, "bwd_const": A_ + K_, "bwd_grade": B_,
-            "lat_const": A_ + K_, "lat_grade": B_}  # fmt: skip
+    from energy_planner.model.terms import resolve_term
+
+    g_fwd = "sin(alpha) * cos(gamma)"  # grade along the travel walking forward
+    spec = {
+        "pos(vx)": A_, f"pos(vx) * {g_fwd}": B_,
+        "pos(-vx)": A_ + K_, f"-pos(-vx) * {g_fwd}": B_,
+        "abs(vy)": A_ + K_, "-vy * sin(alpha) * sin(gamma)": B_,
+    }  # fmt: skip
     if k:
-        terms.append(QUAD)
-        coef[QUAD] = k
-    return EnergyModel(terms, coef)
+        spec[QUAD] = k
+    terms = [resolve_term(f) for f in spec]
+    return EnergyModel(terms, {t.name: v for t, v in zip(terms, spec.values(), strict=True)})
 
 
 def _c(g):
