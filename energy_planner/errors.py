@@ -280,3 +280,16 @@ class RouteNameError(EnergyPlannerError, KeyError):
 
 class RemovedAPIError(EnergyPlannerError, ImportError):
     """A name that was removed; the message says what replaces it."""
+
+
+class EnergyMapError(EnergyPlannerError, ValueError):
+    """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+__all__ += [
+    "ChannelError",
+    "ChannelIOError",
+    "EnergyMapError",
+    "MissingChannelError",
+    "MotionCostError",
+]
