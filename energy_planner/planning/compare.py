@@ -585,33 +585,18 @@ class _Candidates:
 
 def _motion_cost(terrain, model, request, distance: bool = False):
     """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons
-    in the working CRS. With ``distance`` the "model" prices the ground distance
-    (power = speed) under the same limits, and reads no channel."""
-    from energy_planner.energy import MotionCost
-    from energy_planner.model import EnergyModel
-    from energy_planner.planning.limits import (
-        load_keep_out,
-        rasterize_keep_out,
-        to_work_geometries,
-    )
+    in the working CRS (:func:`energy_planner.planning.limits.make_motion_cost`). With
+    ``distance`` the "model" prices the ground distance (power = speed) under the same
+    limits and reads no channel."""
+    import dataclasses
 
-    lim, robot = request.limits, request.robot
-    geoms: list[Any] = []
-    if lim.keep_out is not None:
-        ko = lim.keep_out
-        raw = load_keep_out(ko) if isinstance(ko, str | Path) else list(ko)
-        geoms = to_work_geometries(raw, terrain)
-    cost = MotionCost(
-        terrain,
-        EnergyModel(["speed"], {"speed": 1.0}) if distance else model,
-        speed=robot.speed,
-        yaw_rate=robot.yaw_rate,
-        max_slope_deg=lim.max_slope_deg,
-        max_cross_slope_deg=lim.max_cross_slope_deg,
-        blocked=rasterize_keep_out(geoms, terrain) if geoms else None,
-        channels=None if distance else request.channels,
-    )
-    return cost, geoms
+    from energy_planner.model import EnergyModel
+    from energy_planner.planning.limits import make_motion_cost
+
+    if distance:
+        model = EnergyModel(["speed"], {"speed": 1.0})
+        request = dataclasses.replace(request, channels=None)
+    return make_motion_cost(terrain, model, request)
 
 
 def compare_routes(
@@ -712,7 +697,7 @@ def compare_routes(
         if bad is not None:
             raise EnergyPlannerError(f"the {planner} path enters a keep-out area: {bad}")
         plan_states = res.states
-        info.update({"time_s": res.time_s, **res.info})
+        info.update({k: v for k, v in res.info.items() if k != "request"}, time_s=res.time_s)
     except EnergyPlannerError as exc:
         plan_error = str(exc)
 
