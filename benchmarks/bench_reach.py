@@ -8,9 +8,10 @@ Usage::
 Runs :func:`energy_planner.planning.reach.reach` from the Fig. 1 start on ``maps/hill.tif``
 (1 m cells, full resolution), picks ``--samples`` cells on the budget contour (cells within
 the budget with a neighbour outside it, and a cost within 2 % of the budget), plans to each
-with ``plan`` (``lattice`` at the same 1 m step, the same search; and ``auto``, which
-refines off the lattice) and prints the energies side by side with their ratio to the
-reach value. Records ``uptime`` (the machine is shared).
+with ``plan`` (``search`` at the same 1 m step: the same search with a goal; and
+``auto``, the default, which refines the search's path off the grid) and prints the
+energies side by side with their ratio to the reach value. Records the load average
+(the machine is shared).
 """
 
 from __future__ import annotations
@@ -66,14 +67,14 @@ def main() -> None:
     rng = np.random.default_rng(0)
     pick = rng.choice(rows.size, size=min(args.samples, rows.size), replace=False)
     x0, y0, dx, dy = terrain.grid
-    print("| cell (E, N) | reach J | plan lattice J | ratio | plan auto J | ratio | vs budget |")
+    print("| cell (E, N) | reach J | plan search J | ratio | plan auto J | ratio | vs budget |")
     print("|---|---|---|---|---|---|---|")
     worst = 0.0
     for k in pick:
         r, c = rows[k], cols[k]
         goal = (x0 + c * dx, y0 + r * dy)
         e = res.energy_j[r, c]
-        lat = plan(terrain, model, res.start, goal, planner="lattice", step=1.0, progress=False)
+        lat = plan(terrain, model, res.start, goal, planner="search", step=1.0, progress=False)
         auto = plan(terrain, model, res.start, goal, planner="auto", step=1.0, time=3,
                     progress=False)  # fmt: skip
         worst = max(worst, abs(lat.energy_j / e - 1))
@@ -83,7 +84,7 @@ def main() -> None:
             f"{auto.energy_j:.0f} | {auto.energy_j / e:.4f} | {e / budget:.4f} |",
             flush=True,
         )
-    print(f"\nworst |plan lattice / reach - 1| = {100 * worst:.2f}%")
+    print(f"\nworst |plan search / reach - 1| = {100 * worst:.2f}%")
     print(f"# load average after: {os.getloadavg()}")
 
 

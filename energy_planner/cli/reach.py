@@ -127,7 +127,7 @@ def command(
         channels=channels_from_options(sets, channels),
     )  # fmt: skip
     try:
-        res = reach(terrain, model, s[:2], request, round_trip=round_trip)
+        res = reach(terrain, model, s[:2], request, round_trip=round_trip, progress=True)
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:

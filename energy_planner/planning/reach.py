@@ -19,9 +19,12 @@ the DEM has none or the cell cannot be reached), the area within a battery budge
 GeoJSON polygon in the DEM's CRS, and a PNG (cost over a hillshade with the budget
 contour).
 
-The search sits behind one function, :func:`least_energy`, so that swapping the search
-(today the lattice graph of :mod:`energy_planner.planning.lattice`, searched by scipy's
-Dijkstra in both directions) is one change.
+The search sits behind one function, :func:`least_energy`: one way it is the planner's
+full-resolution search run without a goal
+(:func:`energy_planner.planning.search.reach_search`); a round trip needs per-heading
+energies and a backward search, which run on the lattice graph of
+:mod:`energy_planner.planning.lattice` with the same primitives and edge costs (scipy's
+Dijkstra) until ``reach_search`` offers them.
 """
 
 from __future__ import annotations
@@ -106,22 +109,34 @@ def least_energy(
     step: float,
     n_headings: int = 16,
     round_trip: bool = False,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """Least energy from ``start_xy`` (any initial heading) to every lattice state.
+    progress: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Least energy from ``start_xy`` (any initial heading) to every search position.
 
-    The one boundary between :func:`reach` and the search.
+    The one boundary between :func:`reach` and the search. One way: the planner's own
+    full-resolution search without a goal
+    (:func:`energy_planner.planning.search.reach_search`). Round trip: the lattice graph
+    searched forwards and backwards (scipy's Dijkstra), ``min over h of (to[p, h] +
+    back[p, h])``, because ``reach_search`` gives neither per-heading energies nor the
+    reverse search yet (the same primitives and edge costs, so the same numbers).
 
     Returns
     -------
     xs, ys : ndarray
-        Lattice x and y coordinates (increasing).
-    to : ndarray, shape (len(ys) * len(xs), n_headings)
-        Least energy, J, to reach each (position, heading); ``inf`` if unreachable.
-        Position ``p = j * len(xs) + i``.
-    back : ndarray or None
-        With ``round_trip``: least energy from each state back to the start (any
-        final heading).
+        Position x and y coordinates (increasing).
+    energy : ndarray, shape (len(ys), len(xs))
+        Least energy, J (row ``j`` is ``ys[j]``); ``inf`` where unreachable.
+    search : str
+        Which search produced it.
     """
+    if not round_trip:
+        from energy_planner.planning.search import reach_search
+
+        res = reach_search(
+            cost, terrain, (start_xy[0], start_xy[1], None), step=step, n_headings=n_headings,
+            progress=progress,
+        )  # fmt: skip
+        return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
     from scipy.sparse.csgraph import dijkstra
 
     graph, xs, ys, valid = _graph(cost, terrain, start_xy, step, n_headings)
@@ -137,11 +152,9 @@ def least_energy(
         )  # fmt: skip
     sources = p0 * H + hs
     to = dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(-1, H)
-    back = None
-    if round_trip:
-        back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True)
-        back = back.reshape(-1, H)
-    return xs, ys, to, back
+    back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True)
+    e = (to + back.reshape(-1, H)).min(axis=1)
+    return xs, ys, e.reshape(len(ys), len(xs)), "lattice graph, forward + backward Dijkstra"
 
 
 @dataclass
@@ -300,6 +313,7 @@ def reach(
     *,
     round_trip: bool = False,
     n_headings: int = 16,
+    progress: bool = False,
 ) -> ReachMap:
     """Least energy from ``start`` to every cell (or to go there and back).
 
@@ -317,6 +331,8 @@ def reach(
         Cost of going to each cell and back to the start.
     n_headings : int
         Search headings.
+    progress : bool
+        Progress bar on stderr (one-way search).
 
     Returns
     -------
@@ -350,11 +366,10 @@ def reach(
     step = abs(float(dx))
     if abs(abs(dy) - step) > 1e-9 * step:
         raise PlanningError(f"reach needs square cells; the working grid has {dx} x {-dy} m")
-    xs, ys, to, back = least_energy(
-        cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip
-    )
-    e = (to + back).min(axis=1) if round_trip else to.min(axis=1)
-    grid = e.reshape(len(ys), len(xs))
+    xs, ys, grid, search = least_energy(
+        cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip,
+        progress=progress,
+    )  # fmt: skip
     # lattice positions are cell centres: map them to (row, col)
     ci = np.rint((xs - x0) / dx).astype(int)
     ri = np.rint((ys - y0) / dy).astype(int)
@@ -366,6 +381,6 @@ def reach(
         start=s,
         round_trip=round_trip,
         step=step,
-        info={"search": "lattice (scipy Dijkstra)", "states": int(to.size),
+        info={"search": search, "states": int(grid.size * n_headings),
               "time_s": time.perf_counter() - t0},
     )  # fmt: skip
