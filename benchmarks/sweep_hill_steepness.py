@@ -18,16 +18,18 @@ plane ``C^2 = s^2 - g^2``), so the script fits ``c_s`` per slope. The predicted 
 is ``1 - min_g (c_s(g) / g) / (c_s(s) / s)`` (no turning cost, so an upper bound of what a
 path can save).
 
-For each slope: the direct climb's energy (walked facing up), the planned path's
-(``plan``, ``auto``), the saving, the predicted saving and the critical grade. The PNG
-plots measured and predicted saving against the slope, with the closed-form critical
-slope. ``--test-model`` uses the convex model of the tests (critical grade 11.5 deg).
+For each slope: the direct climb's energy (walked facing up), the energy-optimal route's
+(``compare_routes``: ``plan`` ``auto``, also refined from the straight line), the
+saving, the predicted saving and the critical grade. The PNG plots measured and
+predicted saving against the slope, with the closed-form critical slope.
+``--test-model`` uses the convex model of the tests (critical grade 11.5 deg).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 
 
@@ -67,10 +69,8 @@ def critical_slope(model, speed: float, lo: float = 0.02, hi: float = 0.9) -> fl
 def main() -> None:
     import numpy as np
 
-    from energy_planner.energy import path_energy
     from energy_planner.model import EnergyModel
-    from energy_planner.planning.compare import grade_cost
-    from energy_planner.planning.plan import plan
+    from energy_planner.planning.compare import compare_routes, grade_cost
     from energy_planner.terrain import Terrain
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -92,7 +92,10 @@ def main() -> None:
     s_crit = critical_slope(model, speed)
     deg = fall.deg
     a, b, k = fall.quadratic
-    print(f"# {name}; cone radius 45 m, foot (10, 55) -> top (55, 55); plan auto {args.time:g} s")
+    print(
+        f"# {name}; cone radius 45 m, foot (10, 55) -> top (55, 55); compare_routes "
+        f"(plan auto) {args.time:g} s; load average {os.getloadavg()[0]:.1f}"
+    )
     print(
         f"# fall line: c(g) ~ {a:.0f} + {b:.0f} g + {k:.0f} g^2 J/m; critical grade "
         f"{deg(fall.critical_grade) if fall.critical_grade else float('nan'):.1f} deg "
@@ -118,10 +121,11 @@ def main() -> None:
             lambda x, y, tan=tan: tan * np.maximum(R - np.hypot(x - cx, y - cy), 0.0),
             size=(110, 110),
         )
-        direct = path_energy(t, model, [start, goal]).energy_j
         t0 = time.perf_counter()
-        res = plan(t, model, start, goal, planner="auto", time=args.time, progress=False)
+        comp = compare_routes(t, model, start, goal, time=args.time, progress=False)
         dt = time.perf_counter() - t0
+        direct = comp.route("direct").energy_j
+        res = comp.route("energy_optimal")
         gc = grade_cost(model, speed, slope=s)
         g_cf = gc.closed_form_grade
         pred = 0.0

@@ -275,3 +275,25 @@ def test_route_lookup_error_is_a_project_error_and_a_key_error(dem):
         comp.route("fastest")
     with pytest.raises(EnergyPlannerError):
         comp.route("fastest")
+
+
+def test_compare_routes_cli_reads_channels(dem, tmp_path):
+    """--set feeds a channel the model reads: a payload term ``c * payload_kg * speed``
+    adds ``c * payload_kg`` J per metre to every route (the direct line analytically)."""
+    path, _ = dem
+    base = EnergyModel.default()
+    c = 9.81
+    model = EnergyModel([*base.term_specs, "payload"], {**base.coefficients, "payload": c})
+    mpath = model.save(tmp_path / "payload.json")
+    args = ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+            "500040,5000010", "--planner", "lattice", "--time", "1", "--model", str(mpath),
+            "--json"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "payload_kg" in r.output and "--set" in r.output
+    out = {}
+    for kg in (0, 10):
+        r = CliRunner().invoke(main, [*args, "--set", f"payload_kg={kg}"])
+        assert r.exit_code == 0, r.output
+        out[kg] = {x["name"]: x for x in json.loads(r.output)["routes"]}
+    d0, d10 = out[0]["direct"], out[10]["direct"]
+    assert d10["energy_j"] - d0["energy_j"] == pytest.approx(c * 10 * d0["distance_m"], rel=1e-6)
