@@ -56,7 +56,7 @@ ROUTE_NAMES = ("direct", "shortest", "energy_optimal")
 
 @dataclass
 class GradeCost:
-    """The cost per metre of walking forward straight up a grade, and its critical grade.
+    """The cost per metre of walking straight up a grade, and its critical grade.
 
     Attributes
     ----------
@@ -72,6 +72,9 @@ class GradeCost:
         ``(a, b, k)`` of the least-squares fit ``c = a + b g + k g^2`` on ``g <= g_fit``.
     closed_form_grade : float or None
         ``sqrt(a / k)`` when ``a > 0`` and ``k > 0``.
+    body_yaw : ndarray
+        The cheapest yaw of the body relative to the direction of travel at each grade,
+        radians (0: facing it; +-pi/2: sideways).
     """
 
     grades: np.ndarray
@@ -79,6 +82,7 @@ class GradeCost:
     critical_grade: float | None
     quadratic: tuple[float, float, float]
     closed_form_grade: float | None
+    body_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def per_height(self, g: float) -> float:
         """``c(g) / g``: J per metre of height climbed at grade ``g`` (> 0)."""
@@ -92,7 +96,12 @@ class GradeCost:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary."""
         a, b, k = self.quadratic
+        yaw = None
+        if self.critical_grade is not None and self.body_yaw.size:
+            i = int(np.argmin(np.abs(self.grades - self.critical_grade)))
+            yaw = abs(math.degrees(float(self.body_yaw[i])))
         return {
+            "body_yaw_at_critical_deg": yaw,
             "critical_grade": self.critical_grade,
             "critical_grade_deg": self.deg(self.critical_grade),
             "quadratic_a_b_k": [a, b, k],
@@ -109,8 +118,13 @@ def grade_cost(
     max_grade: float = 0.8,
     fit_max_grade: float = 0.6,
     constants: dict[str, Any] | None = None,
+    any_yaw: bool = True,
 ) -> GradeCost:
-    """``c(g)``, the energy per metre of walking forward up the fall line at grade ``g``.
+    """``c(g)``, the least energy per metre of walking up the fall line at grade ``g``.
+
+    The least over the body's yaw relative to the direction of travel (forward,
+    crabbing, sideways, backward: a model can make a diagonal gait cheaper than facing
+    the slope), unless ``any_yaw`` is False (facing the direction of travel).
 
     Parameters
     ----------
@@ -120,8 +134,8 @@ def grade_cost(
         Walking speed along the ground, m/s.
     slope : float, optional
         Walk on a plane of this slope (sine of the slope angle) instead of up the fall
-        line of each grade: grade ``g <= slope`` is walked facing forward at the relative
-        heading ``acos(g / slope)``, so cross-slope terms count (a zig-zag or a spiral
+        line of each grade: grade ``g <= slope`` is travelled at the relative heading
+        ``acos(g / slope)`` from uphill, so cross-slope terms count (a zig-zag or a spiral
         round a cone of that slope climbs this way). ``max_grade`` becomes ``slope``.
     max_grade : float
         Steepest grade evaluated (sine of the inclination).
@@ -129,6 +143,8 @@ def grade_cost(
         Steepest grade used for the quadratic fit.
     constants : dict, optional
         Values of extra channels the model reads.
+    any_yaw : bool
+        Minimise over the body's yaw relative to the travel (else face the travel).
 
     Returns
     -------
@@ -137,32 +153,38 @@ def grade_cost(
     Examples
     --------
     >>> from energy_planner.model import EnergyModel
-    >>> m = EnergyModel(["fwd_const", "fwd_grade", "pos(vx) * sin(alpha) ** 2"],
-    ...                 {"fwd_const": 600.0, "fwd_grade": 1000.0,
-    ...                  "pos(vx) * sin(alpha) ** 2": 15000.0})
+    >>> up, sq, other = ("pos(vx) * sin(alpha) * cos(gamma)", "pos(vx) * sin(alpha) ** 2",
+    ...                  "pos(-vx) + abs(vy)")  # other gaits: dear
+    >>> m = EnergyModel(["pos(vx)", up, sq, other],
+    ...                 {"pos(vx)": 600.0, up: 1000.0, sq: 15000.0, other: 20000.0})
     >>> gc = grade_cost(m)
-    >>> round(gc.critical_grade, 3), round(gc.closed_form_grade, 3)
-    (0.2, 0.2)
-    >>> print(grade_cost(EnergyModel(["fwd_const", "fwd_grade"],
-    ...                              {"fwd_const": 600.0, "fwd_grade": 1000.0})).critical_grade)
+    >>> round(gc.critical_grade, 3), round(gc.closed_form_grade, 3), float(gc.body_yaw[0])
+    (0.2, 0.2, 0.0)
+    >>> m = EnergyModel(["pos(vx)", up, other], {"pos(vx)": 600.0, up: 1000.0, other: 2e4})
+    >>> print(grade_cost(m).critical_grade)
     None
     """
     if slope is not None:
         max_grade = fit_max_grade = float(slope)
     g = np.linspace(0.0, max_grade, 801)
-    n = g.size
-    if slope is None:
-        alpha, gamma = np.arcsin(g), np.zeros(n)
-    else:
-        alpha = np.full(n, math.asin(slope))
-        gamma = np.arccos(np.clip(g / slope, -1.0, 1.0))
+    # travel direction relative to uphill (tau), body yaw relative to the travel (psi)
+    tau = np.zeros(g.size) if slope is None else np.arccos(np.clip(g / slope, -1.0, 1.0))
+    alpha = np.arcsin(g) if slope is None else np.full(g.size, math.asin(slope))
+    psi = np.radians(np.arange(-180.0, 180.0, 2.5)) if any_yaw else np.zeros(1)
+    G, P = np.meshgrid(np.arange(g.size), psi, indexing="ij")
+    n = G.size
+    v = float(speed)
     feats: dict[str, Any] = {
-        "alpha": alpha, "gamma": gamma, "vx": np.full(n, float(speed)),
-        "vy": np.zeros(n), "wz": np.zeros(n), "ax": np.zeros(n), "ay": np.zeros(n),
+        "alpha": alpha[G].ravel(), "gamma": (tau[G] + P).ravel(),
+        "vx": (v * np.cos(P)).ravel(), "vy": (-v * np.sin(P)).ravel(),
+        "wz": np.zeros(n), "ax": np.zeros(n), "ay": np.zeros(n),
     }  # fmt: skip
-    for k, v in (constants or {}).items():
-        feats[k] = np.full(n, v)
-    c = np.asarray(model.power(feats), float) / float(speed)
+    for k, val in (constants or {}).items():
+        feats[k] = np.full(n, val)
+    cp = np.asarray(model.power(feats), float).reshape(G.shape) / v
+    best = np.argmin(cp, axis=1)
+    c = cp[np.arange(g.size), best]
+    yaw = psi[best]
     per_h = c[1:] / g[1:]
     i = int(np.argmin(per_h))
     crit: float | None
@@ -179,7 +201,7 @@ def grade_cost(
     m = g <= fit_max_grade
     a, b, k = (float(v) for v in np.polynomial.polynomial.polyfit(g[m], c[m], 2))
     closed = math.sqrt(a / k) if a > 0 and k > 0 else None
-    return GradeCost(g, c, crit, (a, b, k), closed)
+    return GradeCost(g, c, crit, (a, b, k), closed, yaw)
 
 
 def _climb(terrain, states: np.ndarray) -> tuple[float, float | None]:
@@ -353,6 +375,9 @@ class RouteComparison:
         gstar = p.get("critical_grade_deg")
         a, b, k = p["quadratic_a_b_k"]
         fit = f"c(g) ~ {a:.0f} + {b:.0f} g + {k:.0f} g^2 J/m"
+        yaw = p.get("body_yaw_at_critical_deg")
+        if yaw is not None and yaw > 1.0:
+            fit += f" (cheapest gait: body turned {yaw:.0f} deg from the direction of travel)"
         if gstar is None:
             out += textwrap.wrap(
                 f"Physics: walking up grade g costs {fit}; per metre of height c(g)/g keeps "
