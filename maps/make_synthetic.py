@@ -5,10 +5,10 @@ at 1 m (EPSG:32631, UTM 31N, south-west corner at E 500000, N 5000000), top at l
 (58, 84). Its radial profile is a cone with rounded foot and top,
 ``z = H r(1 - rho) / (1 - w)`` with ``rho = dist / L(phi)`` and ``r`` the C1 ramp of
 :func:`_ramp` (blend ``w = 0.2``), where the footprint radius ``L`` depends on the
-direction ``phi`` from the top (a periodic cubic spline through 33 m south, 90 m east,
+direction ``phi`` from the top (a periodic cubic spline through 29 m south, 90 m east,
 60 m north, 45 m west). The south face is steep: the straight climb from the start at the
-southern foot to the top is 30 degrees on average and up to 42 (steeper than the bundled
-model's critical grade, about 19 degrees, where a metre of height is cheapest), while
+southern foot to the top is 33 degrees on average and up to 47 (steeper than the bundled
+model's critical grade, about 20 degrees, where a metre of height is cheapest), while
 the flanks towards the east are gentler, so a longer route that climbs near the critical
 grade costs less than the direct climb without any slope limit. ``python
 maps/make_synthetic.py --check`` prints the numbers (measured with the package's own
@@ -37,7 +37,7 @@ X0, Y0 = 500_000.0, 5_000_000.0  # south-west corner of both maps
 
 HILL_HEIGHT = 20.0
 HILL_TOP = (58.0, 84.0)  # local metres from the corner
-HILL_L = {-90: 33.0, 0: 90.0, 90: 60.0, 180: 45.0}  # footprint radius per direction
+HILL_L = {-90: 29.0, 0: 90.0, 90: 60.0, 180: 45.0}  # footprint radius per direction
 HILL_BLEND = 0.2  # rounded foot and top, as a fraction of the radius
 HILL_START = (58.0, 46.0)
 HILL_GOAL = (58.0, 84.0)
@@ -111,7 +111,7 @@ def scenarios() -> dict:
             "goal": [X0 + HILL_GOAL[0], Y0 + HILL_GOAL[1]],
             "description": (
                 "Paper Fig. 1: from the southern foot to the top of a 20 m hill; the "
-                "straight climb averages 30 deg (up to 42), steeper than the critical grade "
+                "straight climb averages 33 deg (up to 47), steeper than the critical grade "
                 "where a metre of height is cheapest; a longer route over the gentler "
                 "south-eastern flank climbs near it and costs less."
             ),

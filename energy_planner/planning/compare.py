@@ -434,7 +434,17 @@ class RouteComparison:
         )
         ax.clabel(cs, fontsize=6, fmt="%.0f")
         colors = {"direct": "tab:blue", "shortest": "tab:green", "energy_optimal": "tab:red"}
-        span = max(extent[1] - extent[0], extent[3] - extent[2])
+        # zoom to the routes (with a margin), within the map
+        pts = [np.asarray(r.states)[:, :2] for r in self.routes if r.states is not None]
+        pts.append(np.array([self.start[:2], self.goal[:2]], float))
+        allp = np.vstack(pts)
+        lo, hi = allp.min(axis=0), allp.max(axis=0)
+        pad = max(25.0, 0.5 * float(np.max(hi - lo)))
+        view = (
+            max(extent[0], lo[0] - pad), min(extent[1], hi[0] + pad),
+            max(extent[2], lo[1] - pad), min(extent[3], hi[1] + pad),
+        )  # fmt: skip
+        span = max(view[1] - view[0], view[3] - view[2])
         for r in self.routes:
             if r.states is None:
                 continue
@@ -475,8 +485,8 @@ class RouteComparison:
             )
         ax.plot(*self.start[:2], "o", color="white", mec="k", ms=9, label="start")
         ax.plot(*self.goal[:2], "*", color="gold", mec="k", ms=14, label="goal")
-        ax.set_xlim(extent[0], extent[1])
-        ax.set_ylim(extent[2], extent[3])
+        ax.set_xlim(view[0], view[1])
+        ax.set_ylim(view[2], view[3])
         ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
         ax.set_xlabel("x (working CRS, m)")
