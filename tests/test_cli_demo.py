@@ -15,7 +15,7 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     less than the direct climb, and climbs more gently than the model's critical grade
     lets the direct line do."""
     png = tmp_path / "demo.png"
-    r = CliRunner().invoke(main, ["demo", "--time", "1", "--plot", str(png), "--json"])
+    r = CliRunner().invoke(main, ["demo", "--time", "2", "--plot", str(png), "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)
     assert res["max_slope_deg"] is None
@@ -23,12 +23,13 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     assert list(routes) == ["direct", "shortest", "energy_optimal"]
     direct, short, opt = routes["direct"], routes["shortest"], routes["energy_optimal"]
     assert direct["feasible"] and short["feasible"] and opt["feasible"]
-    # no limit: the straight line is the shortest path, and the table says so
-    assert short["same_as"] == "direct"
+    # no limit: the shortest path (along the ground) is the straight line (and the table
+    # says so) or a path next to it that avoids a little of the steepest ground
+    assert short["same_as"] == "direct" or short["distance_m"] <= direct["distance_m"]
     # the energy-optimal route is its own path (more than a cell away somewhere), longer
     # and cheaper than the direct climb
     assert opt["same_as"] is None
-    assert opt["distance_m"] > direct["distance_m"]
+    assert opt["distance_m"] > 1.2 * direct["distance_m"]
     assert opt["energy_j"] < direct["energy_j"]
     # the physics: the direct line climbs steeper than the critical grade, the detour
     # climbs closer to it and pays less per metre of height

@@ -38,11 +38,21 @@ def flat():
 OFFSETS = [(10, 0), (0, -10), (10, 5), (-10, -5), (8, 8), (-4, 8)]
 
 
+def _level_power(model, vx=0.0, vy=0.0, wz=0.0):
+    """The model's power on level ground for one body twist, W."""
+    f = {"alpha": [0.0], "gamma": [0.0], "vx": [vx], "vy": [vy], "wz": [wz], "ax": [0.0],
+         "ay": [0.0]}  # fmt: skip
+    return float(model.power(f)[0])
+
+
 def test_level_ground_costs_distance_times_the_level_cost_per_metre(flat):
     model = EnergyModel.default()
     res = reach(flat, model, (15.4, 15.6))
     assert res.start == (15.5, 15.5)  # the centre of the start's cell
-    a = model.coefficients["fwd_const"]  # the cheapest gait on level ground: forward
+    # the cheapest gait on level ground: forward, J per metre = power / speed
+    v = 0.3
+    a = _level_power(model, vx=v) / v
+    assert a < min(_level_power(model, vx=-v), _level_power(model, vy=v)) / v
     for dx, dy in OFFSETS:
         # (the search keeps energies in float32)
         assert _cell(flat, res, dx, dy) == pytest.approx(math.hypot(dx, dy) * a, rel=1e-6)
@@ -52,20 +62,25 @@ def test_level_ground_costs_distance_times_the_level_cost_per_metre(flat):
 def test_return_doubles_a_symmetric_cost_and_adds_the_turn_around(flat):
     base = EnergyModel.default()
     c = dict(base.coefficients)
-    a, turn = c["fwd_const"], c["turn_const"]
-    # turning free: going and coming back costs exactly twice going
-    free = EnergyModel(base.term_specs, {**c, "turn_const": 0.0, "turn_slope": 0.0})
+    # turning free (no turning torque, no standing power): going and coming back costs
+    # exactly twice going
+    free = EnergyModel(
+        base.term_specs, {**c, "turn_const": 0.0, "turn_slope": 0.0, "idle_power": 0.0}
+    )
     one = reach(flat, free, (15.5, 15.5))
     two = reach(flat, free, (15.5, 15.5), round_trip=True)
     for dx, dy in OFFSETS:
         assert _cell(flat, two, dx, dy) == pytest.approx(2 * _cell(flat, one, dx, dy), rel=1e-6)
-    # with the default model the robot turns round once (pi rad at turn_const N m per
-    # rad: turn_const * pi J), cheaper here than walking back backwards
+    # the default model: out forward, then back either after turning round in place
+    # (pi rad at the yaw rate) or walking back backwards, whichever is cheaper
+    v, w = 0.3, 0.5
+    fwd, bwd = _level_power(base, vx=v) / v, _level_power(base, vx=-v) / v
+    turn = _level_power(base, wz=w) * math.pi / w
     rt = reach(flat, base, (15.5, 15.5), round_trip=True)
     for dx, dy in OFFSETS:
         d = math.hypot(dx, dy)
-        assert turn * math.pi < d * (c["bwd_const"] - a)
-        assert _cell(flat, rt, dx, dy) == pytest.approx(2 * d * a + turn * math.pi, rel=1e-6)
+        expected = 2 * d * fwd + min(turn, d * (bwd - fwd))
+        assert _cell(flat, rt, dx, dy) == pytest.approx(expected, rel=1e-6)
 
 
 def _hill(x, y):

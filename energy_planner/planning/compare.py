@@ -751,12 +751,12 @@ def compare_routes(
     best = _Candidates(
         "energy_optimal", terrain, model, cost, geoms, lambda r: r.energy_j, budget, seed
     )
-    best.offer(plan_states, f"plan ({planner})")
+    best.offer(plan_states, f"plan ({planner})", cost)
     if short.best is not None:
         best.offer(short.best.states, "shortest route", cost)
     if direct_ok:
         best.offer(d_states, "straight line", cost)
-    if best.best is not None and best.origin != f"plan ({planner})":
+    if best.best is not None and not best.origin.startswith("plan"):
         # the energy refinement of the shortest route can end shorter than it
         short.offer(best.best.states, "energy-optimal route", dist_cost)
         if short.best is not None:
