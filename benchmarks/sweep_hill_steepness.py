@@ -15,8 +15,10 @@ grade ``g < s`` walking forward at the relative heading ``acos(g / s)``. Walking
 ``c = a + b g + k g^2`` it is ``g* = sqrt(a / k)`` (the closed form), and the detour
 pays when ``s > g*``; with cross-slope terms ``a`` and ``k`` depend on ``s`` (on a
 plane ``C^2 = s^2 - g^2``), so the script fits ``c_s`` per slope. The predicted saving
-is ``1 - min_g (c_s(g) / g) / (c_s(s) / s)`` (no turning cost, so an upper bound of what a
-path can save).
+against the direct climb (walked facing up) is ``1 - min_g (c_s(g) / g) / (c_s(s) / s)``
+walking facing the travel, and with the cheapest body yaw (crabbing, which some models
+make cheaper; it includes crabbing straight up); no turning cost, so an upper bound of
+what a path can save.
 
 For each slope: the direct climb's energy (walked facing up), the energy-optimal route's
 (``compare_routes``: ``plan`` ``auto``, also refined from the straight line), the
@@ -48,12 +50,14 @@ def _test_model():
     return EnergyModel(terms, {t.name: v for t, v in zip(terms, spec.values(), strict=True)})
 
 
-def critical_slope(model, speed: float, lo: float = 0.02, hi: float = 0.9) -> float | None:
+def critical_slope(
+    model, speed: float, any_yaw: bool = False, lo: float = 0.02, hi: float = 0.9
+) -> float | None:
     """The least slope ``s`` at which ``min_{g<=s} c_s(g)/g < c_s(s)/s`` (bisection)."""
     from energy_planner.planning.compare import grade_cost
 
     def pays(s):
-        gc = grade_cost(model, speed, slope=s)
+        gc = grade_cost(model, speed, slope=s, any_yaw=any_yaw)
         return gc.critical_grade is not None and gc.critical_grade < s * 0.999
 
     if not pays(hi):
@@ -88,8 +92,9 @@ def main() -> None:
     else:
         model, name = EnergyModel.default(), "bundled default model"
     speed = 0.3
-    fall = grade_cost(model, speed)
+    fall = grade_cost(model, speed, any_yaw=False)
     s_crit = critical_slope(model, speed)
+    s_crit_any = critical_slope(model, speed, any_yaw=True)
     deg = fall.deg
     a, b, k = fall.quadratic
     print(
@@ -103,14 +108,16 @@ def main() -> None:
         f"{deg(fall.closed_form_grade) if fall.closed_form_grade else float('nan'):.1f} deg)"
     )
     print(
-        "# on a plane of slope s (cross-slope terms included) the detour pays above "
-        + (f"{deg(s_crit):.1f} deg" if s_crit else "no slope up to 64 deg")
+        "# on a plane of slope s (cross-slope terms included), facing the travel, the detour "
+        "pays above " + (f"{deg(s_crit):.1f} deg" if s_crit else "no slope up to 64 deg")
+        + "; with the cheapest body yaw (crabbing) above "
+        + (f"{deg(s_crit_any):.1f} deg" if s_crit_any else "no slope up to 64 deg")
     )
     print(
         "| slope deg | g*(s) deg (closed form) | direct J | planned J | planned m | "
-        "saving | predicted saving | time s |"
+        "saving | predicted, facing travel | predicted, any yaw | time s |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     rows = []
     R, cx, cy = 45.0, 55.0, 55.0
     start, goal = (cx - R, cy), (cx, cy)
@@ -126,17 +133,23 @@ def main() -> None:
         dt = time.perf_counter() - t0
         direct = comp.route("direct").energy_j
         res = comp.route("energy_optimal")
-        gc = grade_cost(model, speed, slope=s)
+        gc = grade_cost(model, speed, slope=s, any_yaw=False)
+        gca = grade_cost(model, speed, slope=s, any_yaw=True)
         g_cf = gc.closed_form_grade
-        pred = 0.0
+        # the direct route walks facing the goal: c_s(s)/s facing the travel
+        base = gc.per_height(s)
+        pred = pred_any = 0.0
         if gc.critical_grade is not None:
-            pred = max(0.0, 1 - gc.per_height(gc.critical_grade) / gc.per_height(s))
+            pred = max(0.0, 1 - gc.per_height(gc.critical_grade) / base)
+        if gca.critical_grade is not None:
+            pred_any = max(0.0, 1 - gca.per_height(gca.critical_grade) / base)
+        pred_any = max(pred_any, 1 - gca.per_height(s) / base)  # crabbing straight up
         saving = (direct - res.energy_j) / direct
-        rows.append((sd, direct, res.energy_j, res.distance_m, saving, pred))
+        rows.append((sd, direct, res.energy_j, res.distance_m, saving, pred, pred_any))
         print(
             f"| {sd:g} | {deg(min(g_cf, 1.0)) if g_cf else float('nan'):.1f} | {direct:.0f} | "
             f"{res.energy_j:.0f} | {res.distance_m:.1f} | {100 * saving:.1f}% | "
-            f"{100 * pred:.1f}% | {dt:.1f} |",
+            f"{100 * pred:.1f}% | {100 * pred_any:.1f}% | {dt:.1f} |",
             flush=True,
         )
     import matplotlib
@@ -149,11 +162,15 @@ def main() -> None:
     r = np.array(rows)
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     ax.plot(r[:, 0], 100 * r[:, 4], "o-", label="planned vs direct climb (measured)")
-    ax.plot(r[:, 0], 100 * r[:, 5], "s--", label="closed form: 1 - min c(g)/g / (c(s)/s)")
+    ax.plot(r[:, 0], 100 * r[:, 5], "s--", label="closed form, facing the travel")
+    ax.plot(r[:, 0], 100 * r[:, 6], "^:", label="closed form, cheapest body yaw")
     ax.axhline(0, color="k", lw=0.5)
     if s_crit is not None:
         ax.axvline(deg(s_crit), color="r", lw=1,
                    label=f"critical slope {deg(s_crit):.1f}\u00b0")  # fmt: skip
+    if s_crit_any is not None and s_crit_any != s_crit:
+        ax.axvline(deg(s_crit_any), color="r", lw=1, ls=":",
+                   label=f"critical slope, any yaw {deg(s_crit_any):.1f}\u00b0")  # fmt: skip
     ax.set_xlabel("cone slope (deg)")
     ax.set_ylabel("energy saved by the detour (%)")
     ax.set_title(f"Over the hill or round it\n{name}", fontsize=9)
