@@ -572,6 +572,33 @@ def _same_path(a: Route, b: Route, tol: float) -> bool:
     return bool(geom(a.states).hausdorff_distance(geom(b.states)) <= tol)
 
 
+def _best_gait(states: np.ndarray, cost, start, goal) -> tuple[np.ndarray, float]:
+    """The path's positions walked with the body at a constant yaw ``psi`` from the
+    direction of travel (0: facing it), the cheapest ``psi`` on a 10 deg grid.
+
+    Local refinement moves one pose at a time, so it cannot turn a whole path into a
+    crabbing gait (each single yaw change costs two turns first); this offers it whole.
+    """
+    base = _face_along(states, start, goal)
+    fixed = np.zeros(len(base), bool)
+    if start[2] is not None:
+        fixed[0] = True
+    if goal[2] is not None:
+        fixed[-1] = True
+    best, best_e, best_psi = states, float(np.sum(_edges(cost, states))), 0.0
+    for psi in np.radians(np.arange(-180.0, 180.0, 10.0)):
+        cand = base.copy()
+        cand[~fixed, 2] = np.remainder(cand[~fixed, 2] + psi + np.pi, 2 * np.pi) - np.pi
+        e = float(np.sum(_edges(cost, cand)))
+        if e < best_e:
+            best, best_e, best_psi = cand, e, float(psi)
+    return best, best_psi
+
+
+def _edges(cost, s: np.ndarray) -> np.ndarray:
+    return cost.batch(s[:-1, 0], s[:-1, 1], s[:-1, 2], s[1:, 0], s[1:, 1], s[1:, 2])
+
+
 class _Candidates:
     """Refine several starting paths under one cost; keep the best route by a key.
 
@@ -588,12 +615,20 @@ class _Candidates:
         self.best: Route | None = None
         self.origin: str | None = None
 
-    def offer(self, states: np.ndarray | None, origin: str, objective=None) -> None:
+    def offer(
+        self, states: np.ndarray | None, origin: str, objective=None, gait=None
+    ) -> None:
+        """Offer ``states`` (refined under ``objective`` first when given; with ``gait =
+        (start, goal)``, first walked with the cheapest constant body yaw)."""
         from energy_planner.planning.limits import keep_out_violation
         from energy_planner.planning.refine import densify, refine_path
 
         if states is None:
             return
+        if gait is not None:
+            states, psi = _best_gait(states, objective or self.cost, *gait)
+            if psi:
+                origin += f", body turned {math.degrees(psi):.0f} deg"
         tries = [(states, origin)]
         spacing = abs(float(self.terrain.grid[2]))
         # refinement densifies the path first; a path that hugs a limit can break it
@@ -752,10 +787,11 @@ def compare_routes(
         "energy_optimal", terrain, model, cost, geoms, lambda r: r.energy_j, budget, seed
     )
     best.offer(plan_states, f"plan ({planner})", cost)
+    best.offer(plan_states, f"plan ({planner})", cost, gait=(s, g))
     if short.best is not None:
-        best.offer(short.best.states, "shortest route", cost)
+        best.offer(short.best.states, "shortest route", cost, gait=(s, g))
     if direct_ok:
-        best.offer(d_states, "straight line", cost)
+        best.offer(d_states, "straight line", cost, gait=(s, g))
     if best.best is not None and not best.origin.startswith("plan"):
         # the energy refinement of the shortest route can end shorter than it
         short.offer(best.best.states, "energy-optimal route", dist_cost)
