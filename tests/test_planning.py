@@ -64,7 +64,7 @@ def test_flat_ground_path_is_straight(flat, model):
 
 
 def test_auto_on_flat_ground_stays_on_the_line(flat, model):
-    res = plan(flat, model, (5.0, 8.0), (33.0, 30.0), planner="auto", time=3, progress=False)
+    res = plan(flat, model, (5.0, 8.0), (33.0, 30.0), planner="auto", time=20, progress=False)
     line = LineString([(5.0, 8.0), (33.0, 30.0)])
     dev = max(line.distance(LineString(res.states[:, :2]).interpolate(f, normalized=True))
               for f in np.linspace(0, 1, 50))  # fmt: skip

@@ -53,7 +53,7 @@ def test_real_dem_in_a_geographic_crs_plans_within_budget():
     assert wps[-1]["y"] == pytest.approx(goal_ll[1], abs=1e-7)
     d = math.hypot(g[0] - s[0], g[1] - s[1])
     assert res.distance_m >= d
-    gj = res.to_geojson(terrain)
+    gj = res.to_geojson(terrain)["features"][0]
     assert gj["geometry"]["type"] == "LineString"
     assert len(gj["properties"]["yaw_deg"]) == len(gj["geometry"]["coordinates"])
 

@@ -139,19 +139,67 @@ def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx
 
 
 @numba.njit(cache=True)
+def _sift_up(keys, vals, pos, i):
+    key = keys[i]
+    v = vals[i]
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[i] = keys[parent]
+        vals[i] = vals[parent]
+        pos[vals[i]] = i
+        i = parent
+    keys[i] = key
+    vals[i] = v
+    pos[v] = i
+
+
+@numba.njit(cache=True)
+def _pop_indexed(keys, vals, pos, n):
+    key = keys[0]
+    val = vals[0]
+    pos[val] = -2
+    m = n[0] - 1
+    n[0] = m
+    if m > 0:
+        k = keys[m]
+        v = vals[m]
+        i = 0
+        while True:
+            c = 2 * i + 1
+            if c >= m:
+                break
+            if c + 1 < m and keys[c + 1] < keys[c]:
+                c += 1
+            if keys[c] >= k:
+                break
+            keys[i] = keys[c]
+            vals[i] = vals[c]
+            pos[vals[i]] = i
+            i = c
+        keys[i] = k
+        vals[i] = v
+        pos[v] = i
+    return key, val
+
+
+@numba.njit(cache=True)
 def heuristic_chunk(
-    grad, geo, lat, moves, move_len, table, tgeo, h, keys, vals, n, max_pops, margin,
+    grad, geo, lat, moves, move_len, table, tgeo, h, pos, keys, vals, n, max_pops, margin,
     stop_p, stop_factor, limit,
 ):
     """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
 
     ``geo`` = (x0, y0, dx, dy) of the DEM grid; ``lat`` = (xs0, ys0, step, nx, ny);
     ``tgeo`` = (t0x, t0y, tdx, tdy) of the table. ``h`` (float64, nx * ny) holds the
-    tentative costs-to-go (inf = not reached); a popped key larger than ``h`` is a stale
-    heap entry. ``margin`` (< 1) scales every bound down. When position ``stop_p`` is
-    settled at key ``k``, ``limit[0]`` becomes ``stop_factor * k`` and the search stops at
-    the first key above it (the caller caps ``h`` at ``limit[0]``: every position not
-    settled by then is at least that far from the goal). Returns (code, pops).
+    tentative costs-to-go (inf = not reached). The open list is an indexed heap
+    (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
+    never holds more than one entry per position. ``margin`` (< 1) scales every bound
+    down. When position ``stop_p`` is settled at key ``k``, ``limit[0]`` becomes
+    ``stop_factor * k`` and the search stops at the first key above it (the caller caps
+    ``h`` at ``limit[0]``: every position not settled by then is at least that far from
+    the goal). Returns (code, pops).
     """
     gx0, gy0, gdx, gdy = geo[0], geo[1], geo[2], geo[3]
     xs0, ys0, step = lat[0], lat[1], lat[2]
@@ -163,14 +211,10 @@ def heuristic_chunk(
     while n[0] > 0:
         if pops >= max_pops:
             return RUNNING, pops
-        if n[0] + nm > keys.shape[0]:
-            return HEAP_FULL, pops
-        key, q = heap_pop(keys, vals, n)
-        if key > h[q]:
-            continue
-        if key > limit[0]:
+        if keys[0] > limit[0]:
             n[0] = 0
             return EXHAUSTED, pops
+        key, q = _pop_indexed(keys, vals, pos, n)
         if q == stop_p:
             limit[0] = stop_factor * key
         pops += 1
@@ -183,16 +227,22 @@ def heuristic_chunk(
             if ip < 0 or jp < 0 or ip >= nx or jp >= ny:
                 continue
             p = jp * nx + ip
+            if pos[p] == -2:
+                continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step
             lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m,
                             t0x, t0y, tdx, tdy)
-            if not math.isfinite(lb):
-                continue
             nk = key + margin * move_len[m] * step * lb
             if nk < h[p]:
                 h[p] = nk
-                heap_push(keys, vals, n, nk, p)
+                i = pos[p]
+                if i < 0:
+                    i = n[0]
+                    n[0] = i + 1
+                keys[i] = nk
+                vals[i] = p
+                _sift_up(keys, vals, pos, i)
     return EXHAUSTED, pops
 
 

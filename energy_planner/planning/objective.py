@@ -46,14 +46,18 @@ class EnergyObjective(ob.OptimizationObjective):
         self._kernel = bind_kernel(cost)
         self._lb = max(float(getattr(cost, "min_cost_per_metre", 0.0)), 0.0)
         self.calls = 0
+        self.cache: dict | None = None  # filled by a pricing motion validator, if any
         self.setCostThreshold(ob.Cost(0.0))
 
     def motionCost(self, s1, s2):  # noqa: N802 - OMPL's name
         """Energy of the straight SE(2) motion from ``s1`` to ``s2`` (J)."""
         self.calls += 1
-        return ob.Cost(
-            self._kernel(s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
-        )
+        key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
+        if self.cache is not None:
+            e = self.cache.get(key)
+            if e is not None:
+                return ob.Cost(e)
+        return ob.Cost(self._kernel(*key))
 
     def stateCost(self, s):  # noqa: N802 - OMPL's name
         """Energy is spent by motions only: zero per state."""

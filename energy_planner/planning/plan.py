@@ -84,31 +84,38 @@ class PlanResult:
         return self.energy_j / 3600.0
 
     def waypoints(self, terrain) -> list[dict[str, float]]:
-        """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``."""
+        """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.
+
+        ``yaw_deg`` is CCW from the +x axis of the DEM's CRS at the vertex (local east on
+        a geographic DEM), the frame of :mod:`energy_planner.geojson`.
+        """
+        from energy_planner.geojson import yaw_from_work
+
         x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
         x, y = np.atleast_1d(x), np.atleast_1d(y)
-        yaw = np.degrees(self.states[:, 2])
+        yaw = np.atleast_1d(
+            yaw_from_work(terrain, self.states[:, 0], self.states[:, 1], self.states[:, 2])
+        )
         return [
             {"x": float(a), "y": float(b), "yaw_deg": float(c)}
-            for a, b, c in zip(x, y, yaw, strict=True)
+            for a, b, c in zip(x, y, np.degrees(yaw), strict=True)
         ]
 
     def to_geojson(self, terrain) -> dict[str, Any]:
-        """A GeoJSON Feature: LineString in the DEM's CRS, ``yaw_deg`` per vertex."""
-        wps = self.waypoints(terrain)
-        crs = getattr(terrain, "source_crs", None)
-        return {
-            "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": [[w["x"], w["y"]] for w in wps]},
-            "properties": {
-                "yaw_deg": [w["yaw_deg"] for w in wps],
+        """The project's GeoJSON path document (:mod:`energy_planner.geojson`) in the DEM's
+        CRS, with ``yaw_deg`` per vertex and the energy, distance, duration, planner."""
+        from energy_planner.geojson import path_document_from_work
+
+        return path_document_from_work(
+            terrain,
+            self.states,
+            properties={
                 "energy_j": self.energy_j,
                 "distance_m": self.distance_m,
                 "duration_s": self.duration_s,
                 "planner": self.planner,
-                "crs": None if crs is None else str(crs),
             },
-        }
+        )
 
     def to_dict(self, terrain) -> dict[str, Any]:
         """JSON-ready summary (waypoints in the DEM's CRS)."""
@@ -188,7 +195,15 @@ def _seed_ompl(seed: int) -> None:
     ou.setLogLevel(ou.LOG_WARN)
 
 
+#: Remove the overhead that keeps OMPL's planners far from the search (measured in
+#: ``benchmarks/bench_planning.py``): r-disc instead of k-nearest rewiring for RRT* and
+#: SORRT*, and a motion validator that prices each motion once and hands its cost to the
+#: objective. ``False`` gives OMPL's defaults (for the before/after benchmark).
+OMPL_TUNING = True
+
+
 def _ompl_setup(cost, terrain):
+    from ompl import base as ob
     from ompl import geometric as og
 
     from energy_planner.planning.objective import EnergyObjective, make_space
@@ -208,6 +223,28 @@ def _ompl_setup(cost, terrain):
 
     ss.setStateValidityChecker(valid)
     si.setStateValidityCheckingResolution(0.02)
+    if OMPL_TUNING:
+        cache: dict = {}
+
+        class PricingValidator(ob.MotionValidator):
+            """A motion is valid iff its energy is finite; the energy is kept for
+            ``motionCost`` (which RRT* asks for right after checking the motion)."""
+
+            def __init__(self) -> None:
+                super().__init__(si)
+
+            def checkMotion(self, s1, s2, *rest):  # noqa: N802 - OMPL's name
+                key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
+                e = kernel(*key)
+                if len(cache) > 200_000:
+                    cache.clear()
+                cache[key] = e
+                return math.isfinite(e)
+
+        validator = PricingValidator()
+        si.setMotionValidator(validator)
+        obj.cache = cache
+        obj._validator = validator  # keep it alive as long as the objective
     ss.setOptimizationObjective(obj)
     return space, ss, si, obj
 
@@ -269,6 +306,8 @@ def _run_ompl(
         set_state(g, goal[0], goal[1], goal[2])
         ss.setGoalState(g, 0.5 * res)
     pl = getattr(og, _OMPL_PLANNERS[planner])(si)
+    if OMPL_TUNING and hasattr(pl, "setKNearest"):
+        pl.setKNearest(False)  # r-disc: k-nearest prices ~64 ln(n) motions per sample
     if hasattr(pl, "setRange"):
         # short motions: the kernel integrates at sub-cell steps, so a long motion is
         # slow to price; 8 cells keeps RRT*'s rewiring affordable
@@ -613,7 +652,7 @@ def _stay(terrain, model, cost, start_p, goal_p, planner: str, seed: int) -> Pla
         y0 = float(wrap(goal_p[2]))
     else:
         y0 = next(
-            (float(th) for th in np.linspace(-np.pi, np.pi, 16, endpoint=False)
+            (float(wrap(th)) for th in np.linspace(-np.pi, np.pi, 16, endpoint=False)
              if math.isfinite(cost(x, y, th, x, y, th))),
             0.0,
         )  # fmt: skip

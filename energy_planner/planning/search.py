@@ -243,6 +243,11 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     gx = grad[..., 0]
     gy = grad[..., 1]
     fin = np.isfinite(gx) & np.isfinite(gy)
+    if getattr(getattr(cost, "channels", None), "rasters", None):
+        # channel rasters vary over the map: the constant-gradient table cannot bound
+        # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
+        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2))
+        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
     lo = np.array([float(gx[fin].min()), float(gy[fin].min())])
@@ -367,8 +372,11 @@ def relaxed_cost_to_go(
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
     h = np.full(grid.P, np.inf)
     h[goal_p] = 0.0
-    heap = _Heap(1 << 20)
-    heap.keys[0], heap.vals[0], heap.n[0] = 0.0, goal_p, 1
+    pos = np.full(grid.P, -1, dtype=np.int64)
+    keys = np.empty(grid.P, np.float64)
+    vals = np.empty(grid.P, np.int64)
+    n = np.ones(1, np.int64)
+    keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
     grad = cost.data[0]
     geo = _geo(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
@@ -376,15 +384,12 @@ def relaxed_cost_to_go(
     try:
         while True:
             code, pops = mod.heuristic_chunk(
-                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h,
-                heap.keys, heap.vals, heap.n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor,
-                limit,
+                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h, pos,
+                keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
             )  # fmt: skip
             if bar is not None:
                 bar.update(pops)
-            if code == mod.HEAP_FULL:
-                heap.grow()
-            elif code == mod.EXHAUSTED:
+            if code == mod.EXHAUSTED:
                 break
             if time.perf_counter() > deadline:
                 raise PlanningError(
@@ -395,6 +400,7 @@ def relaxed_cost_to_go(
     finally:
         if bar is not None:
             bar.close()
+    del pos, keys, vals
     return np.minimum(h, limit[0])
 
 
