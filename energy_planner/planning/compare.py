@@ -7,9 +7,12 @@
   searched with edge length as the weight under the same limits, then refined off the
   lattice under a cost equal to the ground distance (starting also from the straight
   line and from the energy-optimal path, whichever ends shorter), walked facing forward.
-* ``energy_optimal``: :func:`energy_planner.planning.plan` (default ``auto``), also
-  refined from the shortest route and from the straight line (local refinement keeps
-  the homotopy class of its start); the cheapest is kept.
+* ``energy_optimal``: :func:`energy_planner.planning.plan` (default ``auto``), refined
+  again, and the shortest route and the straight line refined under the energy (local
+  refinement keeps the homotopy class of its start); each start is also tried walked
+  with the cheapest constant body yaw (a model can make crabbing up a slope cheaper than
+  facing it, and pose-by-pose refinement cannot reach a whole-path gait change); the
+  cheapest is kept.
 
 When two routes are the same path (within a cell everywhere), the later one says so
 (``same_as``) instead of repeating the other: with no limit the straight line is usually
