@@ -108,11 +108,13 @@ def test_plan_cli_json_geojson(dem, tmp_path):
     w = data["waypoints"]
     assert (w[0]["x"], w[0]["y"], w[0]["yaw_deg"]) == pytest.approx((500010, 5000010, 90))
     assert (w[-1]["x"], w[-1]["y"]) == pytest.approx((500050, 5000012))
-    gj = json.loads(out.read_text())
-    coords = gj["geometry"]["coordinates"]
-    assert gj["geometry"]["type"] == "LineString"
-    assert len(gj["properties"]["yaw_deg"]) == len(coords)
-    assert math.isclose(gj["properties"]["energy_j"], data["energy_j"])
+    # the project's one path format (energy_planner.geojson), read back to the same poses
+    from energy_planner.geojson import read_path
+
+    wp = read_path(out)
+    assert np.allclose(wp.xy, [[p["x"], p["y"]] for p in w])
+    assert len(wp.yaw_rad) == len(w)
+    assert math.isclose(wp.properties["energy_j"], data["energy_j"])
 
 
 def test_plan_cli_errors(dem):
