@@ -293,3 +293,6 @@ __all__ += [
     "MissingChannelError",
     "MotionCostError",
 ]
+
+
+__all__ += ["RouteNameError"]
