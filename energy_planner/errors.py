@@ -285,6 +285,17 @@ class ChannelIOError(EnergyPlannerError, OSError):
     """A channel raster or value table cannot be found or opened."""
 
 
+__all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCostError"]
+
+
+class RouteNameError(EnergyPlannerError, KeyError):
+    """A route comparison has no route of that name (the message names the valid ones)."""
+
+
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""
+
+
 class EnergyMapError(EnergyPlannerError, ValueError):
     """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
 
@@ -296,3 +307,9 @@ __all__ += [
     "MissingChannelError",
     "MotionCostError",
 ]
+
+
+
+
+
+__all__ += ["RouteNameError"]

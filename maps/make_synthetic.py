@@ -1,14 +1,18 @@
 """Write the synthetic maps ``maps/hill.tif``, ``maps/plane.tif`` and ``maps/scenarios.json``.
 
-``hill.tif`` is the scene of the paper's Fig. 1: a smooth hill, 20 m high, on a 200 m x
-200 m grid at 1 m (EPSG:32631, UTM 31N, south-west corner at E 500000, N 5000000). Its
-radial profile is a cosine bell ``z = H (1 + cos(pi r / L(phi))) / 2`` for ``r < L``, 0
-beyond, where the footprint radius ``L`` depends on the direction ``phi`` from the top
-(a periodic cubic spline through 65 m south, 140 m east, 88 m north, 56 m west). The
-south face is therefore steep (the straight climb from the start at the southern foot to
-the goal at the top meets 20-30 degrees) while the long eastern shoulder is gentle: a
-route round it stays below 13 degrees. ``python maps/make_synthetic.py --check`` prints
-the numbers (measured with the package's own Horn slope and a grid shortest path).
+``hill.tif`` is the scene of the paper's Fig. 1: a hill 20 m high on a 200 m x 200 m grid
+at 1 m (EPSG:32631, UTM 31N, south-west corner at E 500000, N 5000000), top at local
+(58, 84). Its radial profile is a cone with rounded foot and top,
+``z = H r(1 - rho) / (1 - w)`` with ``rho = dist / L(phi)`` and ``r`` the C1 ramp of
+:func:`_ramp` (blend ``w = 0.2``), where the footprint radius ``L`` depends on the
+direction ``phi`` from the top (a periodic cubic spline through 29 m south, 90 m east,
+60 m north, 45 m west). The south face is steep: the straight climb from the start at the
+southern foot to the top is 33 degrees on average and up to 47 (steeper than the bundled
+model's critical grade, about 20 degrees, where a metre of height is cheapest), while
+the flanks towards the east are gentler, so a longer route that climbs near the critical
+grade costs less than the direct climb without any slope limit. ``python
+maps/make_synthetic.py --check`` prints the numbers (measured with the package's own
+Horn slope, a grid shortest path and the bundled model's critical grade).
 
 ``plane.tif`` is an inclined plane for analytic checks: slope 10 degrees, rising towards
 uphill azimuth psi = 30 degrees counter-clockwise from east (GIS aspect, the downslope
@@ -32,10 +36,11 @@ CRS = "EPSG:32631"
 X0, Y0 = 500_000.0, 5_000_000.0  # south-west corner of both maps
 
 HILL_HEIGHT = 20.0
-HILL_TOP = (58.0, 112.0)  # local metres from the corner
-HILL_L = {-90: 65.0, 0: 140.0, 90: 88.0, 180: 56.0}  # footprint radius per direction
+HILL_TOP = (58.0, 84.0)  # local metres from the corner
+HILL_L = {-90: 29.0, 0: 90.0, 90: 60.0, 180: 45.0}  # footprint radius per direction
+HILL_BLEND = 0.2  # rounded foot and top, as a fraction of the radius
 HILL_START = (58.0, 46.0)
-HILL_GOAL = (58.0, 109.0)
+HILL_GOAL = (58.0, 84.0)
 
 PLANE_SLOPE_DEG = 10.0
 PLANE_PSI_DEG = 30.0  # uphill azimuth, CCW from east
@@ -53,7 +58,16 @@ def hill_z(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     phi = np.arctan2(v, u)
     phi = np.where(phi < -np.pi / 2, phi + 2 * np.pi, phi)
     rho = np.minimum(np.hypot(u, v) / spline(phi), 1.0)
-    return HILL_HEIGHT * (1.0 + np.cos(np.pi * rho)) / 2.0
+    return HILL_HEIGHT * _ramp(1.0 - rho, HILL_BLEND) / (1.0 - HILL_BLEND)
+
+
+def _ramp(u: np.ndarray, w: float) -> np.ndarray:
+    """A cone profile with rounded ends: ``u - w/2`` on ``[w, 1 - w]``, parabolas joining
+    0 (slope 0) at ``u = 0`` and the top (slope 0) at ``u = 1``; C1, peak slope 1."""
+    u = np.clip(u, 0.0, 1.0)
+    return np.where(
+        u < w, u**2 / (2 * w), np.where(u > 1 - w, 1 - w - (1 - u) ** 2 / (2 * w), u - w / 2)
+    )
 
 
 def plane_z(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -97,8 +111,9 @@ def scenarios() -> dict:
             "goal": [X0 + HILL_GOAL[0], Y0 + HILL_GOAL[1]],
             "description": (
                 "Paper Fig. 1: from the southern foot to the top of a 20 m hill; the "
-                "straight climb meets 20-30 deg, a detour round the eastern shoulder stays "
-                "below 13 deg."
+                "straight climb averages 33 deg (up to 47), steeper than the critical grade "
+                "where a metre of height is cheapest; a longer route over the gentler "
+                "south-eastern flank climbs near it and costs less."
             ),
         },
         "hill_crossing": {
@@ -107,9 +122,9 @@ def scenarios() -> dict:
             "start": [X0 + 30.0, Y0 + 10.0],
             "goal": [X0 + 30.0, Y0 + 190.0],
             "description": (
-                "Crossing the hill's western flank from south to north at its foot: the "
-                "straight line climbs to 15 m over the flank; routes differ in how much "
-                "they climb and how long they side-hill."
+                "Crossing the hill's western flank from south to north: the straight line "
+                "climbs over the flank; routes differ in how much they climb and how long "
+                "they side-hill."
             ),
         },
         "plane": {
@@ -150,7 +165,11 @@ def check() -> None:
     def rc(x, y):
         return int(round((y - y0) / dy)), int(round((x - x0) / dx))
 
-    for limit in (15.0, 13.0):
+    from energy_planner.model import EnergyModel, critical_grade
+
+    cg = critical_grade(EnergyModel.default())
+    print(f"bundled model's critical grade: {cg['slope_deg']:.1f} deg ({cg['method']})")
+    for limit in (30.0, 25.0):
         ok = slope <= limit
         lab, _ = ndimage.label(ok, structure=np.ones((3, 3)))
         rows, cols = ok.shape

@@ -13,6 +13,7 @@ from energy_planner.cli import main
 from energy_planner.model import EnergyModel
 from energy_planner.planning import PLANNERS
 from energy_planner.planning.compare import compare_routes
+from energy_planner.request import Request
 from energy_planner.terrain import Terrain
 
 
@@ -42,7 +43,9 @@ def test_compare_routes_reports_an_infeasible_direct_line(dem):
     _, terrain = dem
     model = EnergyModel.default()
     s, g = (500015.0, 5000010.0), (500015.0, 5000050.0)
-    comp = compare_routes(terrain, model, s, g, max_slope_deg=20, time=2, progress=False)
+    comp = compare_routes(
+        terrain, model, s, g, Request.make(max_slope_deg=20), time=2, progress=False
+    )
     names = [r.name for r in comp.routes]
     assert names == ["direct", "shortest", "energy_optimal"]
     direct = comp.route("direct")
@@ -105,11 +108,13 @@ def test_plan_cli_json_geojson(dem, tmp_path):
     w = data["waypoints"]
     assert (w[0]["x"], w[0]["y"], w[0]["yaw_deg"]) == pytest.approx((500010, 5000010, 90))
     assert (w[-1]["x"], w[-1]["y"]) == pytest.approx((500050, 5000012))
-    gj = json.loads(out.read_text())
-    coords = gj["geometry"]["coordinates"]
-    assert gj["geometry"]["type"] == "LineString"
-    assert len(gj["properties"]["yaw_deg"]) == len(coords)
-    assert math.isclose(gj["properties"]["energy_j"], data["energy_j"])
+    # the project's one path format (energy_planner.geojson), read back to the same poses
+    from energy_planner.geojson import read_path
+
+    wp = read_path(out)
+    assert np.allclose(wp.xy, [[p["x"], p["y"]] for p in w])
+    assert len(wp.yaw_rad) == len(w)
+    assert math.isclose(wp.properties["energy_j"], data["energy_j"])
 
 
 def test_plan_cli_errors(dem):
@@ -156,3 +161,141 @@ def test_plan_cli_keep_out_file(dem, tmp_path):
          "--keep-out", str(bad)],
     )  # fmt: skip
     assert res.exit_code != 0 and "not JSON" in res.output
+
+
+# --- the physics of the detour: a convex cost per metre and its critical grade ----------
+#
+# A model whose forward cost per metre along a path of grade g (the sine of the path's
+# inclination; on a slope alpha walked at relative heading gamma, g = sin(alpha) cos(gamma))
+# is c(g) = a + b g + k g^2: the quadratic term is the copper loss of the force the legs
+# hold against gravity. Backward and sideways gaits cost more than forward at any grade
+# these tests use, so the planner climbs walking forward. Turning is free. A metre of
+# height then costs c(g) / g >= c(g*) / g* with g* = sqrt(a / k), on any path: a lower
+# bound for the energy of climbing H metres, E >= H c(g*) / g*, which a zig-zag at g*
+# reaches. The straight climb of a plane of slope s costs H c(s) / s.
+A_, B_, K_ = 600.0, 1000.0, 15000.0  # g* = sqrt(600 / 15000) = 0.2 (11.5 deg)
+QUAD = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
+
+
+def _convex_model(k=K_):
+    from energy_planner.model.terms import resolve_term
+
+    g_fwd = "sin(alpha) * cos(gamma)"  # grade along the travel walking forward
+    spec = {
+        "pos(vx)": A_, f"pos(vx) * {g_fwd}": B_,
+        "pos(-vx)": A_ + K_, f"-pos(-vx) * {g_fwd}": B_,
+        "abs(vy)": A_ + K_, "-vy * sin(alpha) * sin(gamma)": B_,
+    }  # fmt: skip
+    if k:
+        spec[QUAD] = k
+    terms = [resolve_term(f) for f in spec]
+    return EnergyModel(terms, {t.name: v for t, v in zip(terms, spec.values(), strict=True)})
+
+
+def _c(g):
+    return A_ + B_ * g + K_ * g * g
+
+
+def _plane(s, size=40):
+    return Terrain.from_function(lambda x, y: math.tan(math.asin(s)) * y, size=(size, size))
+
+
+def test_grade_cost_finds_the_closed_form_critical_grade():
+    from energy_planner.planning.compare import grade_cost
+
+    gc = grade_cost(_convex_model())
+    assert gc.critical_grade == pytest.approx(math.sqrt(A_ / K_), abs=1e-3)
+    assert gc.closed_form_grade == pytest.approx(math.sqrt(A_ / K_), rel=1e-6)
+    assert gc.quadratic == pytest.approx((A_, B_, K_), rel=1e-6)
+    # the per-height cost is the analytic one
+    assert gc.per_height(0.5) == pytest.approx(_c(0.5) / 0.5, rel=1e-3)
+    # linear in the grade: c(g) / g falls all the way, no critical grade
+    assert grade_cost(_convex_model(k=0.0)).critical_grade is None
+
+
+@pytest.mark.parametrize(
+    ("s", "detour"), [(0.5, True), (0.12, False)], ids=["steeper-than-g*", "gentler"]
+)
+def test_zigzag_pays_exactly_when_the_slope_exceeds_the_critical_grade(s, detour):
+    terrain = _plane(s)
+    start, goal = (20.0, 5.0), (20.0, 35.0)
+    comp = compare_routes(terrain, _convex_model(), start, goal, time=2, progress=False)
+    direct, short, best = (comp.route(n) for n in ("direct", "shortest", "energy_optimal"))
+    H = 30.0 * math.tan(math.asin(s))
+    # the straight climb: H c(s) / s, analytically
+    assert direct.energy_j == pytest.approx(H * _c(s) / s, rel=2e-3)
+    # no limit: the straight line is the shortest path, and the table says so
+    assert short.same_as == "direct"
+    g_star = math.sqrt(A_ / K_)
+    bound = H * _c(g_star) / g_star if detour else H * _c(s) / s
+    # never below the lower bound (a physical law), at most 3% above it (lattice headings)
+    assert best.energy_j >= bound * (1 - 2e-3)
+    assert best.energy_j <= bound * 1.03
+    if detour:
+        assert best.same_as is None
+        assert best.distance_m > 1.5 * direct.distance_m
+        assert best.saving_vs_direct > 0.2
+        # it climbs near the critical grade, far below the plane's slope
+        assert best.climb_grade < 0.6 * s
+        assert comp.physics["critical_grade"] == pytest.approx(g_star, abs=1e-3)
+        assert "critical grade g* = 11.5 deg" in comp.table()
+    else:
+        assert best.energy_j == pytest.approx(direct.energy_j, rel=5e-3)
+
+
+def test_a_linear_model_never_zigzags_without_a_limit():
+    comp = compare_routes(
+        _plane(0.5), _convex_model(k=0.0), (20.0, 5.0), (20.0, 35.0), time=1, progress=False
+    )
+    best, direct = comp.route("energy_optimal"), comp.route("direct")
+    assert best.energy_j == pytest.approx(direct.energy_j, rel=5e-3)
+    assert comp.physics["critical_grade"] is None
+    assert "never by climbing more gently" in comp.table()
+
+
+def test_three_different_routes_with_a_limit_and_a_convex_model(dem):
+    _, terrain = dem
+    s, g = (500015.0, 5000010.0), (500015.0, 5000050.0)
+    comp = compare_routes(
+        terrain, _convex_model(), s, g, Request.make(max_slope_deg=20), time=2, progress=False
+    )
+    direct, short, best = (comp.route(n) for n in ("direct", "shortest", "energy_optimal"))
+    assert not direct.feasible
+    assert short.same_as is None and best.same_as is None
+    assert short.distance_m <= best.distance_m
+    assert best.energy_j < short.energy_j
+    text = comp.table()
+    assert "(the same path)" not in text
+
+
+def test_route_lookup_error_is_a_project_error_and_a_key_error(dem):
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.planning.compare import RouteComparison
+
+    comp = RouteComparison([], (0.0, 0.0, None), (1.0, 1.0, None))
+    with pytest.raises(KeyError, match="no route 'fastest'"):
+        comp.route("fastest")
+    with pytest.raises(EnergyPlannerError):
+        comp.route("fastest")
+
+
+def test_compare_routes_cli_reads_channels(dem, tmp_path):
+    """--set feeds a channel the model reads: a payload term ``c * payload_kg * speed``
+    adds ``c * payload_kg`` J per metre to every route (the direct line analytically)."""
+    path, _ = dem
+    base = EnergyModel.default()
+    c = 9.81
+    model = EnergyModel([*base.term_specs, "payload"], {**base.coefficients, "payload": c})
+    mpath = model.save(tmp_path / "payload.json")
+    args = ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+            "500040,5000010", "--planner", "lattice", "--time", "1", "--model", str(mpath),
+            "--json"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "payload_kg" in r.output and "--set" in r.output
+    out = {}
+    for kg in (0, 10):
+        r = CliRunner().invoke(main, [*args, "--set", f"payload_kg={kg}"])
+        assert r.exit_code == 0, r.output
+        out[kg] = {x["name"]: x for x in json.loads(r.output)["routes"]}
+    d0, d10 = out[0]["direct"], out[10]["direct"]
+    assert d10["energy_j"] - d0["energy_j"] == pytest.approx(c * 10 * d0["distance_m"], rel=1e-6)

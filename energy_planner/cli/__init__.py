@@ -25,6 +25,7 @@ COMMANDS: dict[str, str] = {
     "diagnose": "diagnose",
     "plan": "plan",
     "compare-routes": "compare_routes",
+    "reach": "reach",
 }
 
 

@@ -8,6 +8,8 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
     dem_option,
     emit,
     json_option,
@@ -25,17 +27,9 @@ from energy_planner.cli.plan import (
 
 def format_table(res: dict[str, Any]) -> str:
     """The comparison as a table (energy, Wh, distance, duration, max slope, saving)."""
-    from energy_planner.planning.compare import Route, RouteComparison
+    from energy_planner.planning.compare import RouteComparison
 
-    routes = [
-        Route(
-            r["name"], None, r["energy_j"], r["distance_m"], r["duration_s"],
-            r["max_slope_deg"], r["feasible"], r.get("reason"), r["saving_vs_direct"],
-        )
-        for r in res["routes"]
-    ]  # fmt: skip
-    text = RouteComparison(routes, (0, 0, None), (0, 0, None)).table()
-    text += "\n\nsaving: energy saved against the direct line (negative: costs more)"
+    text = RouteComparison.from_dict(res).table()
     if res.get("plot"):
         text += f"\nplot written to {res['plot']}"
     return text
@@ -46,6 +40,7 @@ def format_table(res: dict[str, Any]) -> str:
 @start_goal_options
 @model_option
 @planning_options("the energy-optimal route")
+@channel_options
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -66,20 +61,25 @@ def command(
     keep_out: Path | None,
     speed: float,
     yaw_rate: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     plot: Path | None,
     as_json: bool,
 ) -> None:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
 
-    Each route gets its energy (J, Wh), distance, duration, steepest slope and the
-    energy saved against the direct line. A direct line that breaks a limit is
-    reported as infeasible with the reason.
+    Each route gets its energy (J, Wh), distance, duration, ascent, mean climbing grade,
+    steepest slope and the energy saved against the direct line. A direct line that
+    breaks a limit is reported as infeasible with the reason; a route that is the same
+    path as an earlier one says so. Below the table: the model's critical grade (the
+    grade at which a metre of height is cheapest), which explains the detour's saving.
 
     Example: energy-planner compare-routes --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20 --plot routes.png
     """
-    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes
+    from energy_planner.request import Request
 
     check_planner(planner)
     terrain = load_terrain(dem)
@@ -87,14 +87,20 @@ def command(
     s = point_to_work(terrain, start, "--start", True)
     g = point_to_work(terrain, goal, "--goal", True)
     try:
+        request = Request.make(
+            speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
+            max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+            channels=channels_from_options(sets, channels),
+        )  # fmt: skip
         comp = compare_routes(
-            terrain, model, s, g, planner=planner, time=time_s, seed=seed,
-            max_slope_deg=max_slope, max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-            speed=speed, yaw_rate=yaw_rate, progress=True,
+            terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
+            progress=True,
         )  # fmt: skip
     except InvalidStateError as exc:
         hint = "--start" if str(exc).startswith("start") else "--goal"
         raise click.BadParameter(str(exc), param_hint=hint) from exc
+    except MissingChannelError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     result = comp.to_dict(terrain)

@@ -7,7 +7,14 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, load_model_option, model_option
+from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+)
 
 
 def _text(res: dict[str, Any]) -> str:
@@ -19,7 +26,12 @@ def _text(res: dict[str, Any]) -> str:
         f"model      {res['model']}",
         f"start      {res['start'][0]:.1f}, {res['start'][1]:.1f}    goal  "
         f"{res['goal'][0]:.1f}, {res['goal'][1]:.1f}  ({res['crs']})",
-        f"limits     max slope {res['max_slope_deg']} deg",
+        "limits     "
+        + (
+            "none (the detour must pay by physics alone)"
+            if res["max_slope_deg"] is None
+            else f"max slope {res['max_slope_deg']:g} deg"
+        ),
         "",
     ]
     tail = [
@@ -42,9 +54,9 @@ def _text(res: dict[str, Any]) -> str:
 @click.option(
     "--max-slope",
     type=click.FloatRange(min=0, max=89),
-    default=25.0,
-    show_default=True,
-    help="The robot's slope limit, degrees (a B1-class quadruped: about 25).",
+    default=None,
+    help="A slope limit, degrees (a B1-class quadruped: about 25). Default: none, as in "
+    "the paper's Fig. 1: the detour must pay by the model's physics alone.",
 )
 @click.option(
     "--time",
@@ -61,20 +73,28 @@ def _text(res: dict[str, Any]) -> str:
     show_default=True,
     help="PNG of the routes over a hillshade.",
 )
+@channel_options
 @json_option
 def command(
     scenario_name: str,
     model_path: Path | None,
-    max_slope: float,
+    max_slope: float | None,
     time_s: float,
     plot: Path,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     as_json: bool,
 ) -> None:
     """Compare the direct climb, the shortest path and the energy-optimal path on a
     bundled map (the paper's Fig. 1 hill by default), print the table, draw the routes.
+
+    Below the table: the model's critical grade (where a metre of height is cheapest)
+    and each route's climbing grade, which say why the longer route costs less.
     """
+    from energy_planner.errors import MissingChannelError
     from energy_planner.maps import map_path, scenario, scenario_names
     from energy_planner.planning.compare import compare_routes
+    from energy_planner.request import Request
     from energy_planner.terrain import load_dem
 
     try:
@@ -88,9 +108,13 @@ def command(
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
-    comp = compare_routes(
-        terrain, model, start, goal, time=time_s, max_slope_deg=max_slope, progress=True
+    request = Request.make(
+        max_slope_deg=max_slope, channels=channels_from_options(sets, channels)
     )
+    try:
+        comp = compare_routes(terrain, model, start, goal, request, time=time_s, progress=True)
+    except MissingChannelError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     res = comp.to_dict(terrain)
     comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}")
     res.update(

@@ -1,0 +1,165 @@
+"""``energy-planner reach``: how far the battery goes, from a start, over the whole map."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
+    emit,
+    json_option,
+    load_model_option,
+    model_option,
+    speed_option,
+    yaw_rate_option,
+)
+from energy_planner.cli.plan import limit_options, load_terrain, point_to_work
+
+
+def _text(res: dict[str, Any]) -> str:
+    what = "go and come back" if res["round_trip"] else "reach"
+    lines = [
+        f"start        {res['start'][0]:.2f}, {res['start'][1]:.2f} (centre of its cell, "
+        f"DEM CRS)",
+        f"energy to {what}: {res['min_wh']:.2f} .. {res['max_wh']:.2f} Wh over "
+        f"{res['reachable_cells']} reachable cells (median {res['median_wh']:.2f} Wh)",
+    ]
+    if res.get("budget_wh") is not None:
+        lines.append(
+            f"within {res['budget_wh']:g} Wh: {res['budget_cells']} cells, "
+            f"{res['budget_area_m2']:.0f} m^2"
+        )
+    for key, label in (("out", "GeoTIFF"), ("geojson", "GeoJSON"), ("plot", "plot")):
+        if res.get(key):
+            lines.append(f"{label:<12} {res[key]}")
+    lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
+    return "\n".join(lines)
+
+
+@click.command("reach")
+@click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--start", required=True, help="Start X,Y in the DEM's CRS.")
+@click.option(
+    "--budget-wh",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Battery budget, Wh: the area reachable within it (GeoJSON, contour on the plot).",
+)
+@click.option(
+    "--return",
+    "round_trip",
+    is_flag=True,
+    help="Cost of going to each cell and coming back to the start.",
+)
+@model_option
+@limit_options
+@speed_option
+@yaw_rate_option
+@channel_options
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="GeoTIFF of the least energy per cell (J), on the DEM's grid and CRS.",
+)
+@click.option(
+    "--geojson",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="GeoJSON polygon of the area reachable within --budget-wh (DEM's CRS).",
+)
+@click.option(
+    "--plot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="PNG: energy over a hillshade with the budget contour.",
+)
+@json_option
+def command(
+    dem: Path,
+    start: str,
+    budget_wh: float | None,
+    round_trip: bool,
+    model_path: Path | None,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    speed: float,
+    yaw_rate: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
+    out: Path | None,
+    geojson: Path | None,
+    plot: Path | None,
+    as_json: bool,
+) -> None:
+    """Least energy to reach every cell of DEM from --start (or to go and come back).
+
+    Uses the planner's own search (same motion primitives and energy kernel as
+    `plan`), at the DEM's cell size, any initial heading.
+
+    Example: energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh 15
+    --out reach.tif --geojson area.geojson --plot reach.png
+    """
+    import json
+
+    import numpy as np
+
+    from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
+    from energy_planner.planning.reach import reach
+    from energy_planner.request import Request
+
+    if geojson is not None and budget_wh is None:
+        raise click.BadParameter(
+            "--geojson writes the area within a budget: give --budget-wh too",
+            param_hint="--geojson",
+        )
+    terrain = load_terrain(dem)
+    model = load_model_option(model_path)
+    s = point_to_work(terrain, start, "--start", False)
+    request = Request.make(
+        speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
+        max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+        channels=channels_from_options(sets, channels),
+    )  # fmt: skip
+    try:
+        res = reach(terrain, model, s[:2], request, round_trip=round_trip, progress=True)
+    except InvalidStateError as exc:
+        raise click.BadParameter(str(exc), param_hint="--start") from exc
+    except MissingChannelError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    wh = res.energy_j / 3600.0
+    finite = wh[np.isfinite(wh)]
+    sx, sy = terrain.from_work(*res.start)
+    result: dict[str, Any] = {
+        "dem": str(dem),
+        "start": [float(sx), float(sy)],
+        "round_trip": round_trip,
+        "reachable_cells": int(finite.size),
+        "min_wh": float(finite.min()),
+        "median_wh": float(np.median(finite)),
+        "max_wh": float(finite.max()),
+        "budget_wh": budget_wh,
+        "search": res.info["search"],
+        "time_s": res.info["time_s"],
+    }
+    budget_j = None if budget_wh is None else budget_wh * 3600.0
+    if budget_j is not None:
+        result["budget_cells"] = int(res.mask(budget_j).sum())
+        result["budget_area_m2"] = float(res.area(terrain, budget_j).area)
+    if out is not None:
+        res.write_geotiff(terrain, out)
+        result["out"] = str(out)
+    if geojson is not None:
+        geojson.write_text(json.dumps(res.area_geojson(terrain, budget_j)))
+        result["geojson"] = str(geojson)
+    if plot is not None:
+        res.plot(terrain, plot, budget_j)
+        result["plot"] = str(plot)
+    emit(result, as_json, _text)

@@ -1,0 +1,386 @@
+"""Battery reach: the least energy to reach every cell of a map from a start.
+
+:func:`reach` prices every cell of the terrain's working grid with the least energy of a
+path from the start to it (or, with ``round_trip=True``, of going there and coming back
+to the start), using the planner's own search over (x, y, heading) with the same motion
+primitives and the same kernel as :func:`energy_planner.planning.plan`, so that the
+energy of a cell equals the energy ``plan`` finds to that cell (``planner="lattice"`` at
+the same step; ``auto`` refines off the lattice and can end slightly lower).
+
+The search positions lie on the DEM's own cells: the start is moved to the centre of its
+cell (reported as ``start``) so that every cell centre is a search position. Headings are
+free at the start; the cost of a cell is the least over the headings the robot may
+arrive with. For a round trip the robot may arrive with one heading and leave with
+another: the cost is ``min over h of (to[cell, h] + back[cell, h])`` where ``back`` is
+the least energy from the state back to the start (turning at the cell included).
+
+:class:`ReachMap` writes the result as a GeoTIFF on the DEM's grid and CRS (nodata where
+the DEM has none or the cell cannot be reached), the area within a battery budget as a
+GeoJSON polygon in the DEM's CRS, and a PNG (cost over a hillshade with the budget
+contour).
+
+The search sits behind one function, :func:`least_energy`: one way it is the planner's
+full-resolution search run without a goal
+(:func:`energy_planner.planning.search.reach_search`); a round trip needs per-heading
+energies and a backward search, which run on the lattice graph of
+:mod:`energy_planner.planning.lattice` with the same primitives and edge costs (scipy's
+Dijkstra) until ``reach_search`` offers them.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import InvalidStateError, PlanningError
+
+__all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
+
+#: Nodata value of the written GeoTIFF.
+NODATA = -9999.0
+
+
+def _graph(cost, terrain, start_xy: tuple[float, float], step: float, n_headings: int):
+    """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan` (energy
+    metric, ``moves="axes"``): CSR matrix over ``position * H + heading``."""
+    from scipy.sparse import csr_matrix
+
+    from energy_planner.planning.lattice import (
+        MOVES_16,
+        _move_table,
+        lattice_geometry,
+        lattice_headings,
+    )
+
+    xs, ys = lattice_geometry(terrain, start_xy, step)
+    nx, ny = len(xs), len(ys)
+    H = int(n_headings)
+    headings = lattice_headings(H)
+    P = nx * ny
+    jj, ii = np.divmod(np.arange(P), nx)
+    px, py = xs[ii], ys[jj]
+    valid = np.zeros((P, H), dtype=bool)
+    for h in range(H):
+        th = np.full(P, headings[h])
+        valid[:, h] = np.isfinite(cost.batch(px, py, th, px, py, th))
+    srcs, dsts, ws = [], [], []
+    move_ok = _move_table(headings, "axes")
+    for mi, (di, dj) in enumerate(MOVES_16):
+        ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
+        p_src = np.nonzero(ok_pos)[0]
+        p_dst = p_src + dj * nx + di
+        for h in np.nonzero(move_ok[:, mi])[0]:
+            m = valid[p_src, h] & valid[p_dst, h]
+            a, b = p_src[m], p_dst[m]
+            th = np.full(a.size, headings[h])
+            w = cost.batch(px[a], py[a], th, px[b], py[b], th)
+            f = np.isfinite(w)
+            srcs.append(a[f] * H + h)
+            dsts.append(b[f] * H + h)
+            ws.append(w[f])
+    for h in range(H):
+        for dh in (-1, 1):
+            h2 = (h + dh) % H
+            a = np.nonzero(valid[:, h] & valid[:, h2])[0]
+            w = cost.batch(
+                px[a], py[a], np.full(a.size, headings[h]), px[a], py[a],
+                np.full(a.size, headings[h2]),
+            )  # fmt: skip
+            f = np.isfinite(w)
+            srcs.append(a[f] * H + h)
+            dsts.append(a[f] * H + h2)
+            ws.append(w[f])
+    N = P * H
+    w = np.maximum(np.concatenate(ws), 1e-12)
+    graph = csr_matrix((w, (np.concatenate(srcs), np.concatenate(dsts))), shape=(N, N))
+    return graph, xs, ys, valid
+
+
+def least_energy(
+    cost,
+    terrain,
+    start_xy: tuple[float, float],
+    *,
+    step: float,
+    n_headings: int = 16,
+    round_trip: bool = False,
+    progress: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Least energy from ``start_xy`` (any initial heading) to every search position.
+
+    The one boundary between :func:`reach` and the search. One way: the planner's own
+    full-resolution search without a goal
+    (:func:`energy_planner.planning.search.reach_search`). Round trip: the lattice graph
+    searched forwards and backwards (scipy's Dijkstra), ``min over h of (to[p, h] +
+    back[p, h])``, because ``reach_search`` gives neither per-heading energies nor the
+    reverse search yet (the same primitives and edge costs, so the same numbers).
+
+    Returns
+    -------
+    xs, ys : ndarray
+        Position x and y coordinates (increasing).
+    energy : ndarray, shape (len(ys), len(xs))
+        Least energy, J (row ``j`` is ``ys[j]``); ``inf`` where unreachable.
+    search : str
+        Which search produced it.
+    """
+    if not round_trip:
+        from energy_planner.planning.search import reach_search
+
+        res = reach_search(
+            cost, terrain, (start_xy[0], start_xy[1], None), step=step, n_headings=n_headings,
+            progress=progress,
+        )  # fmt: skip
+        return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
+    from scipy.sparse.csgraph import dijkstra
+
+    graph, xs, ys, valid = _graph(cost, terrain, start_xy, step, n_headings)
+    H = int(n_headings)
+    p0 = int(np.argmin(np.abs(ys - start_xy[1]))) * len(xs) + int(
+        np.argmin(np.abs(xs - start_xy[0]))
+    )
+    hs = np.nonzero(valid[p0])[0]
+    if hs.size == 0:
+        raise InvalidStateError(
+            f"start ({start_xy[0]:.2f}, {start_xy[1]:.2f}) breaks a limit at every heading",
+            endpoint="start", value=tuple(start_xy),
+        )  # fmt: skip
+    sources = p0 * H + hs
+    to = dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(-1, H)
+    back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True)
+    e = (to + back.reshape(-1, H)).min(axis=1)
+    return xs, ys, e.reshape(len(ys), len(xs)), "lattice graph, forward + backward Dijkstra"
+
+
+@dataclass
+class ReachMap:
+    """Least energy from a start to every cell of the terrain's working grid.
+
+    Attributes
+    ----------
+    energy_j : ndarray, shape (rows, cols)
+        On the terrain's working grid (row 0 north); NaN where the DEM has no data or
+        the cell cannot be reached.
+    start : tuple of float
+        The start used (the centre of the start's cell), working CRS.
+    round_trip : bool
+        Whether ``energy_j`` is the cost of going and coming back.
+    step : float
+        Search spacing, m.
+    info : dict
+        Search details (time, states).
+    """
+
+    energy_j: np.ndarray
+    start: tuple[float, float]
+    round_trip: bool
+    step: float
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def mask(self, budget_j: float) -> np.ndarray:
+        """Cells reachable within ``budget_j`` joules."""
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(self.energy_j) & (self.energy_j <= budget_j)
+
+    def area(self, terrain, budget_j: float):
+        """The area reachable within ``budget_j`` as a shapely (Multi)Polygon of whole
+        cells, in the working CRS."""
+        from rasterio import features
+        from shapely.geometry import shape
+        from shapely.ops import unary_union
+
+        m = self.mask(budget_j)
+        polys = [
+            shape(geom)
+            for geom, v in features.shapes(
+                m.astype(np.uint8), mask=m, transform=terrain.transform, connectivity=8
+            )
+            if v == 1
+        ]
+        return unary_union(polys)
+
+    def area_geojson(self, terrain, budget_j: float) -> dict[str, Any]:
+        """A GeoJSON FeatureCollection with the reachable area in the DEM's CRS."""
+        from shapely.geometry import mapping
+        from shapely.ops import transform as shp_transform
+
+        work = self.area(terrain, budget_j)
+        geom = work
+        if str(terrain.source_crs) != str(terrain.crs):
+            geom = shp_transform(lambda x, y: terrain.from_work(x, y), work)
+        crs = terrain.source_crs
+        return {
+            "type": "FeatureCollection",
+            "features": [
+                {
+                    "type": "Feature",
+                    "geometry": mapping(geom),
+                    "properties": {
+                        "budget_j": budget_j,
+                        "budget_wh": budget_j / 3600.0,
+                        "round_trip": self.round_trip,
+                        "area_m2": float(work.area),
+                        "cells": int(self.mask(budget_j).sum()),
+                        "crs": None if crs is None else str(crs),
+                    },
+                }
+            ],
+        }
+
+    def write_geotiff(self, terrain, path: str | Path) -> Path:
+        """Write ``energy_j`` (J, float32, nodata :data:`NODATA`) on the DEM's grid and
+        CRS; a DEM in longitude/latitude gets the working grid's values resampled to
+        its own grid (nearest cell)."""
+        import rasterio
+
+        path = Path(path)
+        data = np.where(np.isfinite(self.energy_j), self.energy_j, NODATA).astype(np.float32)
+        transform, crs, shape = terrain.transform, terrain.crs, data.shape
+        if str(terrain.source_crs) != str(terrain.crs):
+            from rasterio.warp import Resampling, reproject
+
+            shape = tuple(terrain.source_shape)
+            out = np.full(shape, NODATA, np.float32)
+            reproject(
+                data, out, src_transform=terrain.transform, src_crs=terrain.crs,
+                dst_transform=terrain.source_transform, dst_crs=terrain.source_crs,
+                src_nodata=NODATA, dst_nodata=NODATA, resampling=Resampling.nearest,
+            )  # fmt: skip
+            data, transform, crs = out, terrain.source_transform, terrain.source_crs
+        profile = dict(
+            driver="GTiff", height=shape[0], width=shape[1], count=1, dtype="float32",
+            crs=crs, transform=transform, nodata=NODATA, compress="deflate",
+        )  # fmt: skip
+        with rasterio.open(path, "w", **profile) as dst:
+            dst.write(data, 1)
+            what = "go and come back" if self.round_trip else "reach"
+            dst.set_band_description(1, f"least energy to {what} the cell from the start, J")
+            dst.update_tags(1, units="J", round_trip=str(self.round_trip))
+        return path
+
+    def plot(self, terrain, path: str | Path, budget_j: float | None = None) -> Path:
+        """PNG: energy (Wh) over a hillshade, the budget contour and the start."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        path = Path(path)
+        x0, y0, dx, dy = terrain.grid
+        rows, cols = self.energy_j.shape
+        extent = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
+        fig, ax = plt.subplots(figsize=(8, 7))
+        ax.imshow(terrain.hillshade(), cmap="gray", extent=extent, origin="upper")
+        wh = self.energy_j / 3600.0
+        im = ax.imshow(wh, cmap="viridis", extent=extent, origin="upper", alpha=0.6)
+        fig.colorbar(
+            im, ax=ax, shrink=0.8,
+            label="energy to go and come back, Wh" if self.round_trip else "energy to reach, Wh",
+        )  # fmt: skip
+        if budget_j is not None and np.isfinite(wh).any() and np.nanmin(wh) < budget_j / 3600:
+            xc = x0 + dx * np.arange(cols)
+            yc = y0 + dy * np.arange(rows)
+            ax.contour(
+                xc, yc, np.where(np.isfinite(wh), wh, np.nanmax(wh) * 2),
+                levels=[budget_j / 3600.0], colors="red", linewidths=2,
+            )  # fmt: skip
+            ax.plot([], [], color="red", lw=2, label=f"budget {budget_j / 3600:.1f} Wh")
+        ax.plot(*self.start, "o", color="white", mec="k", ms=9, label="start")
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+        ax.set_aspect("equal")
+        ax.ticklabel_format(useOffset=False, style="plain")
+        ax.set_xlabel("x (working CRS, m)")
+        ax.set_ylabel("y (working CRS, m)")
+        ax.set_title("Battery reach" + (" (out and back)" if self.round_trip else ""))
+        ax.legend(loc="lower left", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        return path
+
+
+def reach(
+    terrain,
+    model,
+    start: Sequence[float],
+    request=None,
+    *,
+    round_trip: bool = False,
+    n_headings: int = 16,
+    progress: bool = False,
+) -> ReachMap:
+    """Least energy from ``start`` to every cell (or to go there and back).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map; the result is on its working grid.
+    model : EnergyModel
+        A fitted model.
+    start : sequence of float
+        ``(x, y)`` in the working CRS; moved to the centre of its cell.
+    request : Request, optional
+        Robot, limits and channels (default :class:`energy_planner.request.Request()`).
+    round_trip : bool
+        Cost of going to each cell and back to the start.
+    n_headings : int
+        Search headings.
+    progress : bool
+        Progress bar on stderr (one-way search).
+
+    Returns
+    -------
+    ReachMap
+
+    Raises
+    ------
+    InvalidStateError
+        If the start is outside the map or breaks a limit.
+    """
+    from energy_planner.planning.compare import _motion_cost
+    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.planning.plan import _pose
+    from energy_planner.request import Request
+
+    request = Request() if request is None else request
+    sx, sy, _ = _pose(start, "start")
+    x0, y0, dx, dy = terrain.grid
+    rows, cols = terrain.shape
+    c = round((sx - x0) / dx)
+    r = round((sy - y0) / dy)
+    if not (0 <= r < rows and 0 <= c < cols):
+        raise InvalidStateError(
+            f"start ({sx:.2f}, {sy:.2f}) is outside the map", endpoint="start", value=(sx, sy)
+        )
+    s = (x0 + c * dx, y0 + r * dy)
+    cost, geoms = _motion_cost(terrain, model, request)
+    check_endpoint(cost, terrain, "start", (s[0], s[1], None), geoms)
+    cost.compile()
+    t0 = time.perf_counter()
+    step = abs(float(dx))
+    if abs(abs(dy) - step) > 1e-9 * step:
+        raise PlanningError(f"reach needs square cells; the working grid has {dx} x {-dy} m")
+    xs, ys, grid, search = least_energy(
+        cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip,
+        progress=progress,
+    )  # fmt: skip
+    # lattice positions are cell centres: map them to (row, col)
+    ci = np.rint((xs - x0) / dx).astype(int)
+    ri = np.rint((ys - y0) / dy).astype(int)
+    out = np.full((rows, cols), np.nan)
+    out[np.ix_(ri, ci)] = grid
+    out[~np.isfinite(out)] = np.nan
+    return ReachMap(
+        energy_j=out,
+        start=s,
+        round_trip=round_trip,
+        step=step,
+        info={"search": search, "states": int(grid.size * n_headings),
+              "time_s": time.perf_counter() - t0},
+    )  # fmt: skip

@@ -1,0 +1,168 @@
+"""Battery reach (``energy_planner.planning.reach`` and ``energy-planner reach``).
+
+Checked against analytic costs on level ground, against ``plan`` on a hill (the same
+search, so the least energy of a cell on the budget contour is the energy ``plan``
+finds to it), and through the CLI's files (GeoTIFF grid/CRS/nodata, GeoJSON polygon).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from energy_planner.cli import main
+from energy_planner.model import EnergyModel
+from energy_planner.planning.reach import NODATA, reach
+from energy_planner.terrain import Terrain
+
+X0, Y0 = 500000.0, 5000000.0
+
+
+def _cell(terrain, res, dx, dy):
+    """Reach energy at the cell ``(dx, dy)`` metres from the start."""
+    x0, y0, sx, sy = terrain.grid
+    x, y = res.start[0] + dx, res.start[1] + dy
+    return res.energy_j[round((y - y0) / sy), round((x - x0) / sx)]
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return Terrain.from_function(lambda x, y: 0.0 * x, size=(31, 31))
+
+
+# cells along the search's move directions, where the lattice distance is the distance
+OFFSETS = [(10, 0), (0, -10), (10, 5), (-10, -5), (8, 8), (-4, 8)]
+
+
+def _level_power(model, vx=0.0, vy=0.0, wz=0.0):
+    """The model's power on level ground for one body twist, W."""
+    f = {"alpha": [0.0], "gamma": [0.0], "vx": [vx], "vy": [vy], "wz": [wz], "ax": [0.0],
+         "ay": [0.0]}  # fmt: skip
+    return float(model.power(f)[0])
+
+
+def test_level_ground_costs_distance_times_the_level_cost_per_metre(flat):
+    model = EnergyModel.default()
+    res = reach(flat, model, (15.4, 15.6))
+    assert res.start == (15.5, 15.5)  # the centre of the start's cell
+    # the cheapest gait on level ground: forward, J per metre = power / speed
+    v = 0.3
+    a = _level_power(model, vx=v) / v
+    assert a < min(_level_power(model, vx=-v), _level_power(model, vy=v)) / v
+    for dx, dy in OFFSETS:
+        # (the search keeps energies in float32)
+        assert _cell(flat, res, dx, dy) == pytest.approx(math.hypot(dx, dy) * a, rel=1e-6)
+    assert _cell(flat, res, 0, 0) == 0.0
+
+
+def test_return_doubles_a_symmetric_cost_and_adds_the_turn_around(flat):
+    base = EnergyModel.default()
+    c = dict(base.coefficients)
+    # turning free (no turning torque, no standing power): going and coming back costs
+    # exactly twice going
+    free = EnergyModel(
+        base.term_specs, {**c, "turn_const": 0.0, "turn_slope": 0.0, "idle_power": 0.0}
+    )
+    one = reach(flat, free, (15.5, 15.5))
+    two = reach(flat, free, (15.5, 15.5), round_trip=True)
+    for dx, dy in OFFSETS:
+        assert _cell(flat, two, dx, dy) == pytest.approx(2 * _cell(flat, one, dx, dy), rel=1e-6)
+    # the default model: out forward, then back either after turning round in place
+    # (pi rad at the yaw rate) or walking back backwards, whichever is cheaper
+    v, w = 0.3, 0.5
+    fwd, bwd = _level_power(base, vx=v) / v, _level_power(base, vx=-v) / v
+    turn = _level_power(base, wz=w) * math.pi / w
+    rt = reach(flat, base, (15.5, 15.5), round_trip=True)
+    for dx, dy in OFFSETS:
+        d = math.hypot(dx, dy)
+        expected = 2 * d * fwd + min(turn, d * (bwd - fwd))
+        assert _cell(flat, rt, dx, dy) == pytest.approx(expected, rel=1e-6)
+
+
+def _hill(x, y):
+    return 6.0 * np.exp(-((x - X0 - 28.0) ** 2 + (y - Y0 - 26.0) ** 2) / (2 * 9.0**2))
+
+
+@pytest.fixture(scope="module")
+def hill_tif(tmp_path_factory):
+    import rasterio
+    from rasterio.transform import from_origin
+
+    t = Terrain.from_function(_hill, size=(50, 50), origin=(X0, Y0))
+    z = t.elevation.copy()
+    z[40:45, 5:9] = np.nan  # a nodata hole (row 40 is 40 m south of the north edge)
+    path = tmp_path_factory.mktemp("reach") / "hill.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", height=50, width=50, count=1, dtype="float64",
+        crs="EPSG:32631", transform=from_origin(X0, Y0 + 50.0, 1.0, 1.0), nodata=-1.0,
+    ) as dst:  # fmt: skip
+        dst.write(np.where(np.isfinite(z), z, -1.0), 1)
+    return path
+
+
+def test_cells_on_the_budget_contour_cost_the_budget_when_planned(hill_tif):
+    from energy_planner.planning.plan import plan
+    from energy_planner.terrain import load_dem
+
+    terrain = load_dem(hill_tif)
+    model = EnergyModel.default()
+    start = (X0 + 10.5, Y0 + 12.5)
+    res = reach(terrain, model, start)
+    budget = 0.6 * np.nanmax(res.energy_j)
+    inside = res.mask(budget)
+    # cells inside the budget with a neighbour outside it: the contour
+    edge = inside & ~(
+        np.roll(inside, 1, 0) & np.roll(inside, -1, 0) & np.roll(inside, 1, 1)
+        & np.roll(inside, -1, 1)
+    )  # fmt: skip
+    edge[[0, -1], :] = edge[:, [0, -1]] = False
+    rows, cols = np.nonzero(edge & (res.energy_j > 0.98 * budget))
+    rng = np.random.default_rng(0)
+    x0, y0, dx, dy = terrain.grid
+    for k in rng.choice(rows.size, size=4, replace=False):
+        r, c = rows[k], cols[k]
+        goal = (x0 + c * dx, y0 + r * dy)
+        for planner in ("search", "lattice"):  # the default planner's search, the reference
+            p = plan(terrain, model, res.start, goal, planner=planner, step=1.0, progress=False)
+            assert p.energy_j == pytest.approx(res.energy_j[r, c], rel=0.01)
+            assert p.energy_j == pytest.approx(budget, rel=0.03)
+
+
+def test_reach_cli_writes_geotiff_geojson_and_plot(hill_tif, tmp_path):
+    import rasterio
+    from shapely.geometry import Point, shape
+
+    tif, gj, png = tmp_path / "r.tif", tmp_path / "a.geojson", tmp_path / "r.png"
+    args = ["reach", str(hill_tif), "--start", f"{X0 + 10.5},{Y0 + 12.5}", "--budget-wh", "3",
+            "--out", str(tif), "--geojson", str(gj), "--plot", str(png), "--json"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    with rasterio.open(hill_tif) as src, rasterio.open(tif) as dst:
+        assert dst.crs == src.crs and dst.transform == src.transform
+        assert dst.shape == src.shape and dst.nodata == NODATA
+        data = dst.read(1)
+        dem = src.read(1, masked=True)
+    assert (data[dem.mask] == NODATA).all()
+    assert data[37, 10] == 0.0  # the start's cell (row 50 - 12.5 -> 37)
+    fc = json.loads(gj.read_text())
+    poly = shape(fc["features"][0]["geometry"])
+    assert poly.contains(Point(X0 + 10.5, Y0 + 12.5))
+    within = (data != NODATA) & (data <= 3 * 3600)
+    assert fc["features"][0]["properties"]["cells"] == within.sum() == out["budget_cells"]
+    assert poly.area == pytest.approx(within.sum() * 1.0)
+    assert png.stat().st_size > 10_000
+    assert out["round_trip"] is False and out["max_wh"] > 3
+
+
+def test_reach_cli_errors(hill_tif):
+    r = CliRunner().invoke(main, ["reach", str(hill_tif), "--start", "1,2"])
+    assert r.exit_code == 2 and "--start" in r.output and "outside the map" in r.output
+    r = CliRunner().invoke(
+        main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--geojson", "a.json"]
+    )
+    assert r.exit_code == 2 and "--budget-wh" in r.output
