@@ -7,8 +7,8 @@ physical effects validated on held-out runs) and the greedy staircase of held-ou
 as the best suspects are added one by one.
 
 >>> from energy_planner.diagnosis import Thresholds
->>> Thresholds().k, Thresholds().min_rel
-(2.5, 0.05)
+>>> Thresholds().alpha, Thresholds().min_rel
+(0.01, 0.05)
 """
 
 from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table

@@ -229,18 +229,20 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     parts.append("<h2>Suspects: which effect is missing</h2>")
     parts.append(
         f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
-        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when the mean "
-        f"per-fold reduction of held-out RMSE exceeds {th['k']} times its fold-to-fold "
-        f"standard error and the pooled held-out RMSE falls by at least "
-        f"{100 * th['min_rel']:.0f}%. Add one with <code>energy-planner fit LOGS --term "
-        f"TERM</code>.</p>"
+        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when a one-sided "
+        f"paired t-test by run of its held-out error reduction has p &lt; "
+        f"{th['alpha']} / {doc['n_tested']} candidates (Bonferroni) and the pooled held-out "
+        f"RMSE falls by at least {100 * th['min_rel']:.0f}%. Add one with <code>energy-planner "
+        f"fit LOGS --out model.json --term TERM</code>, or let <code>energy-planner discover"
+        f"</code> walk the staircase.</p>"
     )
     cols = [
         ("name", "suspect"),
         ("term", "term"),
         ("error_explained", "error explained"),
         ("heldout_rmse_w", "held-out RMSE with it (W)"),
-        ("reduction_se_w", "fold SE (W)"),
+        ("t_by_run", "t (by run)"),
+        ("p_value", "p"),
         ("explanation", "physical explanation"),
     ]
     parts.append(_table(doc["suspects"], cols))
