@@ -1,0 +1,429 @@
+"""Data findings: sensor problems in the logs, told apart from physical effects.
+
+A physical effect is something the robot really spends; a sensor problem makes the logs
+lie about what it did or spent. Both leave a residual that some candidate term can fit
+(odometry that under-reports speed more on steep ground makes every metre look dearer on
+slopes, which ``sin(alpha)**2`` fits), so the sensor problems are looked for first, on the
+raw canonical samples, each with a test of its own, and are reported as *data findings*:
+
+``current_sign``
+    Runs whose battery current is mostly negative while the robot walks: the current
+    sensor's sign is the other way round (canonical: positive while discharging). Repair:
+    the sign of those runs' current is flipped.
+``clock_offset``
+    The power stream (voltage, current) and the motion stream (twist) are shifted in time.
+    Within each run, power is regressed on ``1, speed, |wz|`` with the power shifted by
+    ``k`` samples; the shift with the smallest total squared error is the offset. It is a
+    finding when it is at least :data:`MIN_OFFSET_SAMPLES` samples and the per-run gain
+    over no shift passes a one-sided paired t-test by run at level :data:`DATA_ALPHA`.
+    Repair: the power stream is shifted back.
+``odometry_slip``
+    Needs the optional pose columns ``x, y`` (from a source other than the legged
+    odometry, as in the simulator's logs). Per run, the net horizontal displacement of the
+    twist integrated through the IMU orientation is compared with the pose's; the ratio is
+    ``1 - slip``. A finding when the slip grows with ``sin(alpha)`` (regression slope over
+    runs, one-sided t-test at :data:`DATA_ALPHA`, at least :data:`MIN_SLIP_PER_SIN` per unit
+    ``sin(alpha)``). Repair: each run's twist is divided by its measured ratio (runs that do
+    not translate: by the fitted slip at their slope).
+
+Each check reports what it measured whether or not it is a finding (``evidence``), so a
+clean log says *why* it is clean.
+
+Examples
+--------
+>>> import pandas as pd
+>>> t = np.arange(0, 4, 0.05)
+>>> s = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0,
+...                   "vx": 0.3, "vy": 0.0, "wz": 0.0, "voltage": 50.0,
+...                   "current": -4.0 + 0.1 * np.sin(7 * t)})
+>>> found, fixed = check_data(s)
+>>> [f.name for f in found if f.finding], float(fixed["current"].iloc[0])
+(['current_sign'], 4.0)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+#: Level of each data check's test (one test per check).
+DATA_ALPHA = 1e-3
+#: Smallest clock offset reported, in samples.
+MIN_OFFSET_SAMPLES = 2
+#: Largest clock offset searched, s.
+MAX_OFFSET_S = 2.0
+#: Smallest growth of the odometry slip per unit sin(alpha) reported.
+MIN_SLIP_PER_SIN = 0.02
+#: Smallest net pose displacement of a run used for the slip check, m.
+MIN_DISPLACEMENT_M = 0.5
+
+
+@dataclass
+class DataFinding:
+    """The result of one data check.
+
+    Attributes
+    ----------
+    name : str
+        ``current_sign``, ``clock_offset`` or ``odometry_slip``.
+    finding : bool
+        True when the check found the problem.
+    summary : str
+        One line for a person.
+    evidence : dict
+        What was measured (numbers, test statistics, affected runs).
+    repaired : bool
+        True when the samples returned by :func:`check_data` have it corrected.
+    """
+
+    name: str
+    finding: bool
+    summary: str
+    evidence: dict[str, Any] = field(default_factory=dict)
+    repaired: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dict."""
+        return asdict(self)
+
+
+def _runs(samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Run code of each sample (samples sorted by run, t) and the run names."""
+    code, names = pd.factorize(samples["run"].astype(str), sort=True)
+    return code.astype(np.int64), np.asarray(names, dtype=object)
+
+
+def check_current_sign(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """Runs whose current is mostly negative (see the module docstring)."""
+    code, names = _runs(samples)
+    cur = pd.Series(samples["current"].to_numpy(float))
+    g = cur.groupby(code)
+    med = g.median().reindex(range(len(names))).to_numpy(float)
+    # noise of the sensor from successive differences (robust): a standing robot whose
+    # current is zero up to noise has no sign to check
+    noise = (
+        pd.Series(np.abs(np.diff(cur.to_numpy(), prepend=np.nan)))
+        .where(np.r_[False, code[1:] == code[:-1]])
+        .groupby(code)
+        .median()
+        .reindex(range(len(names)))
+        .to_numpy(float)
+        * 1.4826
+        / math.sqrt(2)
+    )
+    bad = np.nan_to_num(med, nan=0.0) < -3.0 * np.nan_to_num(noise, nan=0.0) - 1e-9
+    ev = {"runs_checked": int(len(names)), "median_current_a": float(np.nanmedian(med))}
+    if not bad.any():
+        return (
+            DataFinding("current_sign", False, "battery current is positive while walking", ev),
+            samples,
+        )
+    bad_runs = [str(r) for r in names[bad]]
+    ev.update({"runs": bad_runs[:20], "n_runs": len(bad_runs)})
+    fixed = samples.copy()
+    flip = bad[code]
+    fixed.loc[flip, "current"] = -fixed.loc[flip, "current"]
+    what = "every run" if bad.all() else f"{len(bad_runs)} of {len(names)} runs"
+    return (
+        DataFinding(
+            "current_sign",
+            True,
+            f"battery current is negative in {what} while the robot works: the current "
+            "sensor's sign is inverted (canonical: positive while discharging); flipped",
+            ev,
+            repaired=True,
+        ),
+        fixed,
+    )
+
+
+def _shift_within_runs(values: np.ndarray, code: np.ndarray, k: int) -> np.ndarray:
+    """``values`` moved ``k`` samples later within each run (NaN where nothing comes)."""
+    out = np.full(values.shape, np.nan)
+    n = len(values)
+    if k == 0:
+        return values.astype(float).copy()
+    if k > 0:
+        same = code[k:] == code[:-k]
+        out[k:][same] = values[:-k][same]
+    else:
+        k = -k
+        same = code[:-k] == code[k:]
+        out[: n - k][same] = values[k:][same]
+    return out
+
+
+def _run_sse(p: np.ndarray, feats: np.ndarray, code: np.ndarray, n_runs: int) -> np.ndarray:
+    """Per run, the squared error of the least-squares fit ``p ~ feats`` (run's own)."""
+    ok = np.isfinite(p) & np.all(np.isfinite(feats), axis=1)
+    c, y, x = code[ok], p[ok], feats[ok]
+    k = x.shape[1]
+    g = np.zeros((n_runs, k, k))
+    r = np.zeros((n_runs, k))
+    for i in range(k):
+        r[:, i] = np.bincount(c, weights=x[:, i] * y, minlength=n_runs)
+        for j in range(i, k):
+            g[:, i, j] = g[:, j, i] = np.bincount(c, weights=x[:, i] * x[:, j], minlength=n_runs)
+    yy = np.bincount(c, weights=y * y, minlength=n_runs)
+    cnt = np.bincount(c, minlength=n_runs)
+    g += np.eye(k)[None] * 1e-9 * (np.trace(g, axis1=1, axis2=2)[:, None, None] + 1.0)
+    beta = np.linalg.solve(g, r[..., None])[..., 0]
+    sse = yy - np.einsum("ri,ri->r", beta, r)
+    return np.where(cnt > k, np.maximum(sse, 0.0) / np.maximum(cnt, 1), np.nan)
+
+
+def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """Time shift between the power and the motion streams (see the module docstring)."""
+    from energy_planner.diagnosis.suspects import paired_run_test
+
+    code, names = _runs(samples)
+    t = samples["t"].to_numpy(float)
+    same = code[1:] == code[:-1]
+    dts = np.diff(t)[same]
+    dt = float(np.median(dts)) if dts.size else math.nan
+    p = samples["voltage"].to_numpy(float) * samples["current"].to_numpy(float)
+    speed = np.hypot(samples["vx"].to_numpy(float), samples["vy"].to_numpy(float))
+    feats = np.column_stack([np.ones(len(p)), speed, np.abs(samples["wz"].to_numpy(float))])
+    if not math.isfinite(dt) or dt <= 0:
+        return DataFinding("clock_offset", False, "too few samples to check timing"), samples
+    kmax = max(1, int(round(MAX_OFFSET_S / dt)))
+    lags = np.arange(-kmax, kmax + 1)
+    n_runs = len(names)
+    per_run = np.array([_run_sse(_shift_within_runs(p, code, -k), feats, code, n_runs)
+                        for k in lags])  # fmt: skip
+    # compare lags on the runs every shift leaves enough samples in
+    usable = np.all(np.isfinite(per_run), axis=0)
+    if usable.sum() < 3:
+        return DataFinding("clock_offset", False, "too few runs to check timing"), samples
+    total = per_run[:, usable].mean(axis=1)
+    best = int(lags[int(np.argmin(total))])
+    e0 = np.sqrt(per_run[kmax, usable])
+    e1 = np.sqrt(per_run[kmax + best, usable])
+    tstat, pval, nr = paired_run_test(e0, e1, np.arange(int(usable.sum())))
+    ev = {
+        "offset_s": best * dt,
+        "offset_samples": best,
+        "sample_interval_s": dt,
+        "searched_s": kmax * dt,
+        "t_by_run": tstat,
+        "p_value": pval,
+        "n_runs": nr,
+        "mse_at_zero": float(total[kmax]),
+        "mse_at_offset": float(total[kmax + best]),
+    }
+    found = abs(best) >= MIN_OFFSET_SAMPLES and pval < DATA_ALPHA
+    if not found:
+        return (
+            DataFinding(
+                "clock_offset",
+                False,
+                f"power and motion streams are in step (best shift {best * dt:+.2f} s, "
+                f"within {MIN_OFFSET_SAMPLES} samples or not significant)",
+                ev,
+            ),
+            samples,
+        )
+    fixed = samples.copy()
+    for col in ("voltage", "current"):
+        fixed[col] = _shift_within_runs(fixed[col].to_numpy(float), code, -best)
+    fixed = fixed[np.isfinite(fixed["current"].to_numpy(float))].reset_index(drop=True)
+    later = "later" if best > 0 else "earlier"
+    return (
+        DataFinding(
+            "clock_offset",
+            True,
+            f"the power stream is stamped {abs(best) * dt:.2f} s {later} than the motion it "
+            f"pays for (clock offset between the streams); shifted back",
+            ev,
+            repaired=True,
+        ),
+        fixed,
+    )
+
+
+def _rotate_xy(q: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World x, y components of the body vector ``(vx, vy, 0)`` rotated by unit ``q``."""
+    w, x, y, z = q.T
+    r00 = 1 - 2 * (y * y + z * z)
+    r01 = 2 * (x * y - w * z)
+    r10 = 2 * (x * y + w * z)
+    r11 = 1 - 2 * (x * x + z * z)
+    return r00 * vx + r01 * vy, r10 * vx + r11 * vy
+
+
+def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """Odometry slip that grows with slope, against the pose (see the module docstring)."""
+    if not {"x", "y"} <= set(samples.columns):
+        return (
+            DataFinding(
+                "odometry_slip",
+                False,
+                "not checked: the logs have no pose (x, y) to compare the odometry with",
+            ),
+            samples,
+        )
+    code, names = _runs(samples)
+    n_runs = len(names)
+    q = samples[["qw", "qx", "qy", "qz"]].to_numpy(float)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    t = samples["t"].to_numpy(float)
+    dt = np.zeros(len(t))
+    same = code[1:] == code[:-1]
+    dt[1:] = np.where(same, np.diff(t), 0.0)
+    wx, wy = _rotate_xy(q, samples["vx"].to_numpy(float), samples["vy"].to_numpy(float))
+    # trapezoid-free: the velocity of a sample times the step that follows it ends a run short
+    ox = np.bincount(code, weights=np.nan_to_num(wx * dt), minlength=n_runs)
+    oy = np.bincount(code, weights=np.nan_to_num(wy * dt), minlength=n_runs)
+    px, py = samples["x"].to_numpy(float), samples["y"].to_numpy(float)
+    first = np.flatnonzero(np.r_[True, ~same])
+    last = np.r_[first[1:] - 1, len(code) - 1]
+    disp = np.hypot(px[last] - px[first], py[last] - py[first])
+    odo = np.hypot(ox, oy)
+    # slope of each run from the IMU: the body z axis against the vertical
+    cos_a = 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2)
+    sin_a = np.sqrt(np.clip(1 - cos_a**2, 0, 1))
+    sin_run = np.bincount(code, weights=sin_a, minlength=n_runs) / np.bincount(code)
+    use = np.isfinite(disp) & (disp > MIN_DISPLACEMENT_M) & np.isfinite(odo)
+    ev: dict[str, Any] = {"runs_used": int(use.sum())}
+    if use.sum() < 5:
+        return (
+            DataFinding(
+                "odometry_slip",
+                False,
+                f"not checked: {int(use.sum())} runs move more than {MIN_DISPLACEMENT_M} m",
+                ev,
+            ),
+            samples,
+        )
+    ratio = odo[use] / disp[use]
+    slip = 1.0 - ratio
+    xs = sin_run[use]
+    a = np.column_stack([np.ones(xs.size), xs])
+    coef, *_ = np.linalg.lstsq(a, slip, rcond=None)
+    resid = slip - a @ coef
+    dof = max(xs.size - 2, 1)
+    s2 = float(resid @ resid) / dof
+    cov = s2 * np.linalg.pinv(a.T @ a)
+    se = math.sqrt(max(cov[1, 1], 0.0))
+    from scipy.stats import t as student
+
+    tstat = coef[1] / se if se > 0 else (math.inf if coef[1] > 0 else 0.0)
+    pval = float(student.sf(tstat, dof))
+    ev.update(
+        {
+            "slip_level": float(coef[0]),
+            "slip_per_sin_slope": float(coef[1]),
+            "stderr": se,
+            "t": float(tstat),
+            "p_value": pval,
+            "slip_median": float(np.median(slip)),
+        }
+    )
+    found = pval < DATA_ALPHA and coef[1] >= MIN_SLIP_PER_SIN
+    if not found:
+        return (
+            DataFinding(
+                "odometry_slip",
+                False,
+                f"odometry agrees with the pose on every slope (slip {coef[0]:+.3f} "
+                f"{coef[1]:+.3f} sin(alpha), not a finding)",
+                ev,
+            ),
+            samples,
+        )
+    factor = 1.0 - (coef[0] + coef[1] * sin_run)  # fitted ratio for every run
+    factor[use] = ratio
+    factor = np.clip(factor, 0.5, 1.5)
+    fixed = samples.copy()
+    for col in ("vx", "vy", "wz"):
+        fixed[col] = fixed[col].to_numpy(float) / factor[code]
+    return (
+        DataFinding(
+            "odometry_slip",
+            True,
+            f"the legged odometry under-reports distance more on steeper ground: slip "
+            f"{coef[0]:.3f} + {coef[1]:.3f} sin(alpha) against the pose (t {tstat:.1f}); a "
+            "sensor problem, not a physical effect: the twist of each run was rescaled by "
+            "its measured slip",
+            ev,
+            repaired=True,
+        ),
+        fixed,
+    )
+
+
+def _noise_sd(v: np.ndarray, code: np.ndarray) -> float:
+    """Robust white-noise level of a per-sample signal from successive differences."""
+    d = np.diff(v)[code[1:] == code[:-1]]
+    d = d[np.isfinite(d)]
+    return float(1.4826 * np.median(np.abs(d)) / math.sqrt(2)) if d.size else 0.0
+
+
+#: Twist noise whose rectified mean, ``sd * sqrt(2 / pi)``, exceeds this (m/s or rad/s) is
+#: a finding: ``abs(vy)`` of a forward run would then carry a spurious constant.
+MAX_RECTIFIED = 0.002
+
+
+def check_twist_noise(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """White noise on the twist, which the model's ``abs`` and ``pos`` terms rectify.
+
+    A forward run has ``vy = 0``; with noise of standard deviation ``sd`` on ``vy``, the
+    lateral term ``abs(vy)`` reads ``sd * sqrt(2 / pi)`` on average: a spurious lateral
+    cost in every forward window, which a constant (``idle_power``) then "explains". The
+    noise level comes from successive differences; a finding when its rectified mean
+    exceeds :data:`MAX_RECTIFIED`. Repair: a dead band of three standard deviations on each
+    twist component (values within it are set to zero).
+    """
+    code, _ = _runs(samples)
+    sds = {c: _noise_sd(samples[c].to_numpy(float), code) for c in ("vx", "vy", "wz")}
+    rect = {c: sd * math.sqrt(2 / math.pi) for c, sd in sds.items()}
+    ev = {"noise_sd": sds, "rectified_mean": rect}
+    if max(rect.values()) <= MAX_RECTIFIED:
+        return DataFinding("twist_noise", False, "twist noise is negligible", ev), samples
+    fixed = samples.copy()
+    for c, sd in sds.items():
+        v = fixed[c].to_numpy(float)
+        fixed[c] = np.where(np.abs(v) < 3 * sd, 0.0, v)
+    worst = max(rect, key=rect.get)
+    return (
+        DataFinding(
+            "twist_noise",
+            True,
+            f"the odometry twist is noisy (sd {sds['vx']:.3g}, {sds['vy']:.3g} m/s, "
+            f"{sds['wz']:.3g} rad/s): rectified by abs()/pos() terms it reads as a motion "
+            f"that is not there ({rect[worst]:.3g} on {worst}); a dead band of 3 sd was applied",
+            ev,
+            repaired=True,
+        ),
+        fixed,
+    )
+
+
+CHECKS = (check_current_sign, check_clock_offset, check_odometry_slip, check_twist_noise)
+
+
+def check_data(
+    samples: pd.DataFrame, repair: bool = True
+) -> tuple[list[DataFinding], pd.DataFrame]:
+    """Run every data check on raw canonical samples; return the results and the samples
+    with the findings repaired (unchanged when ``repair`` is False).
+
+    The current sign is checked first (power is needed by the clock check), the clock
+    before the slip (the slip check does not use power).
+    """
+    s = samples.assign(run=samples["run"].astype(str))
+    s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    out = []
+    cur = s
+    for check in CHECKS:
+        found, fixed = check(cur)
+        if repair:
+            cur = fixed
+        else:
+            found.repaired = False
+        out.append(found)
+    return out, cur
