@@ -132,7 +132,7 @@ def test_speed_terms_unsupported_at_single_speed():
     d = diagnose(base, windows, max_steps=0).to_dict()
     names = {u["name"]: u["reason"] for u in d["unsupported"]}
     assert "speed_dependence" in names
-    assert "span" in names["speed_dependence"]
+    assert "one walking speed" in names["speed_dependence"]
     assert all(s["name"] != "speed_dependence" for s in d["suspects"] + d["below_noise"])
 
 

@@ -209,7 +209,7 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
         "offset_samples": best,
         "sample_interval_s": dt,
         "searched_s": kmax * dt,
-        "t_by_run": tstat,
+        "z_by_run": tstat,
         "p_value": pval,
         "n_runs": nr,
         "mse_at_zero": float(total[kmax]),

@@ -241,7 +241,7 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
         ("term", "term"),
         ("error_explained", "error explained"),
         ("heldout_rmse_w", "held-out RMSE with it (W)"),
-        ("t_by_run", "t (by run)"),
+        ("z_by_run", "z (by run)"),
         ("p_value", "p"),
         ("explanation", "physical explanation"),
     ]
@@ -442,7 +442,7 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
         _table(
             doc["below_noise_at_end"],
             [("name", "candidate"), ("term", "term"), ("error_explained", "error explained"),
-             ("t_by_run", "t (by run)"), ("p_value", "p"), ("explanation", "explanation")],
+             ("z_by_run", "z (by run)"), ("p_value", "p"), ("explanation", "explanation")],
         )
     )  # fmt: skip
     fit = doc.get("final_fit")
