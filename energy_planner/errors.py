@@ -55,3 +55,7 @@ class PlanningConfigError(PlanningError, ValueError):
 
 class InvalidStateError(PlanningError, ValueError):
     """A start or goal breaks a limit (outside the map, too steep, in a keep-out area)."""
+
+
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""

@@ -15,18 +15,33 @@ from energy_planner.model import (
     CATALOG,
     EFFECT_TERMS,
     EnergyModel,
+    critical_grade,
     parse_formula,
 )
 
+#: B1-class coefficients (a mechanistic 50 kg quadruped at constant speed; N and N m).
 B1 = {
-    "fwd_const": 600.0,
-    "fwd_grade": 1000.0,
-    "bwd_const": 700.0,
-    "bwd_grade": 1000.0,
-    "lat_const": 800.0,
-    "lat_grade": 900.0,
-    "turn_const": 250.0,
-    "turn_slope": 300.0,
+    "fwd_const": 620.0,
+    "fwd_up": 700.0,
+    "fwd_down": -290.0,
+    "fwd_up_sq": 3750.0,
+    "fwd_down_sq": 240.0,
+    "fwd_cross_sq": 4090.0,
+    "bwd_const": 640.0,
+    "bwd_up": 700.0,
+    "bwd_down": -100.0,
+    "bwd_up_sq": 3750.0,
+    "bwd_down_sq": 2150.0,
+    "bwd_cross_sq": 4090.0,
+    "lat_const": 690.0,
+    "lat_up": 700.0,
+    "lat_down": -25.0,
+    "lat_up_sq": 4090.0,
+    "lat_down_sq": 4090.0,
+    "lat_cross_sq": 3750.0,
+    "turn_const": 380.0,
+    "turn_slope": 260.0,
+    "turn_slope_sq": 2320.0,
 }
 
 
@@ -97,22 +112,73 @@ def test_every_catalog_term_is_mirror_symmetric(alpha, gamma, vx, vy, wz):
 
 
 def test_base_model_is_the_wrench_dotted_with_the_twist():
-    """Uphill forward at 10 deg: P = (f0 + f1 sin a) v; lateral with uphill on the right."""
+    """Hand-computed wrench at 10 deg: P = rate * force(grade along, grade across)."""
     m = EnergyModel(BASE_TERMS, B1)
     a = np.radians(10)
-    up = {"alpha": a, "gamma": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0}
-    assert m.power(up)[0] == pytest.approx((600 + 1000 * np.sin(a)) * 0.3)
-    # uphill on the right (gamma = +pi/2): stepping right (vy < 0) climbs
-    right = {"alpha": a, "gamma": np.pi / 2, "vx": 0.0, "vy": -0.3, "wz": 0.0}
-    assert m.power(right)[0] == pytest.approx((800 + 900 * np.sin(a)) * 0.3)
-    left = {**right, "vy": 0.3}
-    assert m.power(left)[0] == pytest.approx((800 - 900 * np.sin(a)) * 0.3)
-    turn = {"alpha": a, "gamma": 1.0, "vx": 0.0, "vy": 0.0, "wz": -0.5}
-    assert m.power(turn)[0] == pytest.approx((250 + 300 * np.sin(a)) * 0.5)
+    s = np.sin(a)
+
+    def power(gamma, vx=0.0, vy=0.0, wz=0.0):
+        return m.power({"alpha": a, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz})[0]
+
+    up = (620 + 700 * s + 3750 * s**2) * 0.3
+    assert power(0.0, vx=0.3) == pytest.approx(up)
+    assert power(np.pi, vx=0.3) == pytest.approx((620 - 290 * s + 240 * s**2) * 0.3)
+    # across the slope, uphill on either side: the same roll-holding cost
+    across = (620 + 4090 * s**2) * 0.3
+    assert power(np.pi / 2, vx=0.3) == pytest.approx(across)
+    assert power(-np.pi / 2, vx=0.3) == pytest.approx(across)
+    # backward facing downhill climbs
+    assert power(np.pi, vx=-0.3) == pytest.approx((640 + 700 * s + 3750 * s**2) * 0.3)
+    # uphill on the right (gamma = +pi/2): stepping right (vy < 0) climbs, left descends
+    assert power(np.pi / 2, vy=-0.3) == pytest.approx((690 + 700 * s + 4090 * s**2) * 0.3)
+    assert power(np.pi / 2, vy=0.3) == pytest.approx((690 - 25 * s + 4090 * s**2) * 0.3)
+    # side-stepping with the slope along the body x axis: cross term of the lateral gait
+    assert power(0.0, vy=0.3) == pytest.approx((690 + 3750 * s**2) * 0.3)
+    assert power(1.0, wz=-0.5) == pytest.approx((380 + 260 * s + 2320 * s**2) * 0.5)
+
+
+def test_base_reproduces_the_shapes_of_fig4_and_fig5():
+    """Paper Fig. 4/5: uphill cost rises with slope; downhill it falls only forward;
+    lateral stays dearer and worsens with slope both ways; yaw torque grows with slope."""
+    m = EnergyModel(BASE_TERMS, B1)
+    a = np.radians(np.arange(0.0, 26.0, 5.0))
+    n = len(a)
+
+    def cost(gamma, vx=0.0, vy=0.0, wz=0.0):
+        f = {
+            "alpha": a,
+            "gamma": np.full(n, gamma),
+            "vx": np.full(n, vx),
+            "vy": np.full(n, vy),
+            "wz": np.full(n, wz),
+        }
+        return m.power(f) / max(abs(vx), abs(vy), abs(wz))
+
+    assert np.all(np.diff(cost(0.0, vx=0.3)) > 0)  # forward uphill
+    assert np.all(np.diff(cost(np.pi, vx=0.3)) < 0)  # forward downhill
+    assert np.all(np.diff(cost(-np.pi / 2, vy=0.3)) > 0)  # lateral uphill
+    assert np.all(np.diff(cost(np.pi / 2, vy=0.3)) > 0)  # lateral downhill: dearer too
+    assert np.all(cost(np.pi / 2, vy=0.3) > cost(np.pi, vx=0.3))
+    assert np.all(np.diff(cost(0.0, wz=0.5)) > 0)  # yaw torque
+
+
+def test_convex_uphill_cost_has_a_critical_grade():
+    """c(g) = c0 + c1 g + c2 g^2 per metre; c(g)/g is least at g* = sqrt(c0 / c2)."""
+    m = EnergyModel(BASE_TERMS, B1)
+    g = np.linspace(0.02, 0.7, 2000)
+    f = {
+        "alpha": np.arcsin(g),
+        "gamma": np.zeros_like(g),
+        "vx": np.full_like(g, 0.3),
+        "vy": np.zeros_like(g),
+        "wz": np.zeros_like(g),
+    }
+    c = m.power(f) / 0.3
+    assert g[np.argmin(c / g)] == pytest.approx(np.sqrt(620 / 3750), abs=1e-3)
 
 
 def test_power_never_negative_without_a_regenerative_model():
-    m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 100.0, "fwd_grade": 1000.0})
+    m = EnergyModel(["fwd_const", "fwd_down"], {"fwd_const": 100.0, "fwd_down": -1000.0})
     steep_descent = {"alpha": np.radians(30), "gamma": np.pi, "vx": 0.3, "vy": 0.0, "wz": 0.0}
     assert m.power(steep_descent)[0] == 0.0
     regen = EnergyModel(m.term_specs, m.coefficients, regenerative=True)
@@ -158,20 +224,20 @@ def test_fit_on_group_means():
     truth = EnergyModel(BASE_TERMS, B1)
     p = truth.power(f)
     per_group = EnergyModel(BASE_TERMS).fit(f, p, groups=groups)
-    assert per_group.coefficients["lat_grade"] == pytest.approx(900.0, rel=1e-8)
+    assert per_group.coefficients["lat_up_sq"] == pytest.approx(4090.0, rel=1e-7)
 
 
 def test_fit_errors_are_specific():
     rng = np.random.default_rng(4)
     f = _features(rng, 5)
-    with pytest.raises(FitError, match="too little data: 5 rows for 8 terms"):
+    with pytest.raises(FitError, match="too little data: 5 rows for 21 terms"):
         EnergyModel(BASE_TERMS).fit(f, np.ones(5))
     f = _features(rng, 200)
     f["vy"] = np.zeros(200)
-    with pytest.raises(FitError, match="lat_const, lat_grade are zero on every row"):
+    with pytest.raises(FitError, match="lat_const, lat_up, .*lat_cross_sq are zero on every"):
         EnergyModel(BASE_TERMS).fit(f, np.ones(200))
     f = _features(rng, 200)
-    with pytest.raises(FitError, match="cannot tell these terms apart.*fwd_const"):
+    with pytest.raises(FitError, match=r"2 \* pos\(vx\) \(a combination of fwd_const\)"):
         EnergyModel(["fwd_const", "2 * pos(vx)"]).fit(f, np.ones(200))
     with pytest.raises(ModelError, match="term 'payload'.*'payload_kg'"):
         EnergyModel(["payload"]).fit(
@@ -200,8 +266,8 @@ def test_json_rejects_bad_documents(tmp_path):
         ({**good, "version": 99}, "version 99 is not supported"),
         ({**good, "terms": [*good["terms"], {"name": "warp_drive"}]}, "unknown term 'warp_drive'"),
         (
-            {**good, "coefficients": {k: v for k, v in B1.items() if k != "lat_grade"}},
-            "coefficient of term 'lat_grade' is missing",
+            {**good, "coefficients": {k: v for k, v in B1.items() if k != "lat_up"}},
+            "coefficient of term 'lat_up' is missing",
         ),
         ({**good, "schema": "other"}, "not an energy_planner model"),
     ]
@@ -247,3 +313,18 @@ def test_kernel_needs_constants_for_extra_channels():
 def test_catalog_terms_have_explanations():
     for term in CATALOG.values():
         assert len(term.explanation) > 20 and term.unit
+
+
+def test_critical_grade_closed_form_matches_a_search():
+    """g* = sqrt(fwd_const / fwd_up_sq) minimises the climbing energy per metre of height."""
+    m = EnergyModel(BASE_TERMS, B1)
+    c = critical_grade(m)
+    assert c["method"] == "closed form" and c["grade"] == pytest.approx(np.sqrt(620 / 3750))
+    g = np.sin(np.radians(np.arange(0.5, 60.0, 0.001)))
+    cost = (620 + 700 * g + 3750 * g**2) / g
+    assert c["grade"] == pytest.approx(g[np.argmin(cost)], abs=1e-4)
+    # with a term outside the base, the numeric search agrees with the same search
+    idle = EnergyModel([*BASE_TERMS, "idle_power"], {**B1, "idle_power": 30.0})
+    n = critical_grade(idle)
+    cost = (620 + 100 + 700 * g + 3750 * g**2) / g  # 30 W at 0.3 m/s = 100 N
+    assert n["method"] == "numeric" and n["grade"] == pytest.approx(g[np.argmin(cost)], abs=2e-4)

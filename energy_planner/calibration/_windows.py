@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import FitError
+from energy_planner.stats import classify_motion
 
 __all__ = [
     "aligned_table",
-    "classify_motion",
     "heading_class",
     "window_climb_fraction",
     "window_energy",
@@ -63,8 +63,8 @@ def aligned_table(windows: Any) -> pd.DataFrame:
     -------
     pandas.DataFrame
         ``windows.table`` sorted by ``window``, with ``motion`` filled in by
-        :func:`classify_motion` when the table has none, and the per-window mean
-        climb fraction ``climb`` (see :func:`window_climb_fraction`).
+        :func:`energy_planner.stats.classify_motion` when the table has none, and the
+        per-window mean climb fraction ``climb`` (see :func:`window_climb_fraction`).
 
     Raises
     ------
@@ -93,42 +93,6 @@ def aligned_table(windows: Any) -> pd.DataFrame:
     table["climb"] = climb.reindex(table["window"]).to_numpy()
     table["kind"] = table["motion"].map(MOTION_KIND).fillna("mixed")
     return table
-
-
-def classify_motion(
-    vx: np.ndarray,
-    vy: np.ndarray,
-    wz: np.ndarray,
-    *,
-    min_speed: float = 0.05,
-    min_yaw_rate: float = 0.1,
-    purity: float = 0.8,
-) -> np.ndarray:
-    """Classify window-mean twists as the measurements module does.
-
-    A window is ``forward``/``backward``/``lateral_left``/``lateral_right`` when one
-    velocity component carries at least ``purity`` of the speed and the yaw rate is
-    small, ``turn_left``/``turn_right`` when it turns in place, ``mixed`` otherwise.
-
-    Examples
-    --------
-    >>> classify_motion(np.array([0.3, 0.0, 0.0, 0.2]), np.array([0.0, -0.3, 0.0, 0.2]),
-    ...                 np.array([0.0, 0.0, 0.5, 0.0])).tolist()
-    ['forward', 'lateral_right', 'turn_left', 'mixed']
-    """
-    vx, vy, wz = (np.asarray(a, dtype=float) for a in (vx, vy, wz))
-    speed = np.hypot(vx, vy)
-    out = np.full(vx.shape, "mixed", dtype=object)
-    moving = speed >= min_speed
-    straight = moving & (np.abs(wz) < min_yaw_rate)
-    out[straight & (vx >= purity * speed)] = "forward"
-    out[straight & (-vx >= purity * speed)] = "backward"
-    out[straight & (vy >= purity * speed)] = "lateral_left"
-    out[straight & (-vy >= purity * speed)] = "lateral_right"
-    turning = ~moving & (np.abs(wz) >= min_yaw_rate)
-    out[turning & (wz > 0)] = "turn_left"
-    out[turning & (wz < 0)] = "turn_right"
-    return out.astype(str)
 
 
 def window_climb_fraction(samples: pd.DataFrame) -> pd.Series:

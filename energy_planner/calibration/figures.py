@@ -60,7 +60,7 @@ def model_curve(
 
     Examples
     --------
-    >>> m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 600.0, "fwd_grade": 1000.0})
+    >>> m = EnergyModel(["fwd_const", "fwd_up"], {"fwd_const": 600.0, "fwd_up": 1000.0})
     >>> model_curve(m, np.radians([0.0, 30.0]), gamma=0.0, vx=0.3).round(1).tolist()
     [180.0, 330.0]
     """

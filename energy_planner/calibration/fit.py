@@ -22,7 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,12 +32,14 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.stats import independent_columns, run_folds, vif, wls
 
 __all__ = [
     "FitResult",
     "CrossValidation",
     "fit_model",
     "cross_validate",
+    "identify_terms",
     "run_folds",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
@@ -50,7 +52,7 @@ MIN_RUNS = 2
 #: A slope is "steep" for the coverage check above this angle (deg).
 STEEP_DEG = 5.0
 #: Warn when a term's variance inflation factor exceeds this (1 - R^2 < 1/VIF_WARN).
-VIF_WARN = 30.0
+VIF_WARN = 100.0
 #: Relative spread of the runs' cruising speeds under which a campaign is single-speed.
 SINGLE_SPEED_SPREAD = 0.1
 #: Per-sample features of the motion itself (not log channels).
@@ -80,6 +82,8 @@ class CrossValidation:
         Held-out window power errors (W) and the coefficient of determination.
     energy_mean_abs_rel, energy_max_abs_rel : float
         Mean and largest absolute relative error of held-out run energies.
+    energy_median_abs_rel, energy_p90_abs_rel : float
+        Median and 90th percentile of the absolute relative run-energy errors.
     energy_total_rel : float
         Relative error of the summed held-out energy of all runs.
     warnings : list of str
@@ -98,6 +102,8 @@ class CrossValidation:
     energy_mean_abs_rel: float
     energy_max_abs_rel: float
     energy_total_rel: float
+    energy_median_abs_rel: float = float("nan")
+    energy_p90_abs_rel: float = float("nan")
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -111,6 +117,8 @@ class CrossValidation:
             "power_r2": self.r2,
             "energy_mean_abs_rel_error": self.energy_mean_abs_rel,
             "energy_max_abs_rel_error": self.energy_max_abs_rel,
+            "energy_median_abs_rel_error": self.energy_median_abs_rel,
+            "energy_p90_abs_rel_error": self.energy_p90_abs_rel,
             "energy_total_rel_error": self.energy_total_rel,
             "runs": self.runs.to_dict(orient="records"),
             "warnings": list(self.warnings),
@@ -147,6 +155,10 @@ class FitResult:
         on the others, uncentred).
     coverage : pandas.DataFrame
         Windows per motion kind and heading class, with the steepest slope (deg).
+    unidentified : dict
+        Term name -> why the campaign cannot identify it; such terms are not in ``model``.
+    held_at_prior : dict
+        Term name -> coefficient taken from the prior model (unidentified, kept).
     """
 
     model: EnergyModel
@@ -161,10 +173,16 @@ class FitResult:
     vif: dict[str, float]
     coverage: pd.DataFrame
     stderr_by_run: dict[str, float] = field(default_factory=dict)
+    unidentified: dict[str, str] = field(default_factory=dict)
+    held_at_prior: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary."""
+        """JSON-ready summary (``unidentified``: term -> reason, not in the model)."""
         terms = {t.name: t for t in self.model.terms}
+
+        def num(x: float | None) -> float | None:
+            return None if x is None or not np.isfinite(x) else float(x)
+
         return {
             "terms": [
                 {
@@ -172,12 +190,15 @@ class FitResult:
                     "formula": terms[name].formula,
                     "unit": terms[name].unit,
                     "coefficient": self.coefficients[name],
-                    "stderr": self.stderr[name],
-                    "stderr_by_run": self.stderr_by_run.get(name),
-                    "vif": self.vif.get(name),
+                    "stderr": num(self.stderr[name]),
+                    "stderr_by_run": num(self.stderr_by_run.get(name)),
+                    "vif": num(self.vif.get(name)),
+                    "status": "prior" if name in self.held_at_prior else "fitted",
                 }
                 for name in self.model.term_names
             ],
+            "unidentified": [{"name": n, "reason": why} for n, why in self.unidentified.items()],
+            "held_at_prior": [{"name": n, "coefficient": c} for n, c in self.held_at_prior.items()],
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
             "residual_rms_w": self.residual_rms_w,
@@ -201,19 +222,28 @@ class FitResult:
         ]
         for name in names:
             by_run = self.stderr_by_run.get(name, float("nan"))
+            se = "prior" if name in self.held_at_prior else f"{self.stderr[name]:.2f}"
             lines.append(
-                f"{name:<{nw}} {self.coefficients[name]:>12.2f} {self.stderr[name]:>10.2f} "
+                f"{name:<{nw}} {self.coefficients[name]:>12.2f} {se:>10} "
                 f"{by_run:>9.2f} {units[name]:<6} {terms[name].formula}"
             )
         lines.append("(std err: classical; by run: robust to correlated windows within a run)")
+        if self.unidentified:
+            lines += ["", "not identified by this campaign (left out of the model):"]
+            lines += [f"  {n:<{nw - 2}} {why}" for n, why in self.unidentified.items()]
+        if self.held_at_prior:
+            lines += ["", "not identified, held at the prior's value:"]
+            lines += [f"  {n:<{nw - 2}} {c:.2f}" for n, c in self.held_at_prior.items()]
         cv = self.heldout
         if cv is not None:
             lines += [
                 "",
                 f"held-out by run ({cv.n_splits} folds, runs never split): power RMSE "
                 f"{cv.rmse_w:.1f} W, MAE {cv.mae_w:.1f} W, R^2 {cv.r2:.3f}",
-                f"run energy error: mean |err| {100 * cv.energy_mean_abs_rel:.2f} %, "
-                f"max |err| {100 * cv.energy_max_abs_rel:.2f} %, "
+                f"run energy error: median |err| {100 * cv.energy_median_abs_rel:.2f} %, "
+                f"90th percentile {100 * cv.energy_p90_abs_rel:.2f} %, "
+                f"mean {100 * cv.energy_mean_abs_rel:.2f} %, "
+                f"max {100 * cv.energy_max_abs_rel:.2f} %, "
                 f"total {100 * cv.energy_total_rel:+.2f} %",
             ]
         if self.warnings:
@@ -238,37 +268,6 @@ def _as_model(model_or_terms: EnergyModel | Sequence[str | Term] | None) -> Ener
     return model
 
 
-def _wls(X: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Weighted least squares (column-scaled, minimum norm for unsupported columns)."""
-    sw = np.sqrt(w)
-    Xw, yw = X * sw[:, None], y * sw
-    scale = np.linalg.norm(Xw, axis=0)
-    scale[scale == 0] = 1.0
-    beta_s, *_ = np.linalg.lstsq(Xw / scale, yw, rcond=None)
-    return beta_s / scale
-
-
-def _vif(X: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Uncentred variance inflation factor of each column (inf when in the others' span)."""
-    Xw = X * np.sqrt(w)[:, None]
-    k = X.shape[1]
-    out = np.full(k, np.inf)
-    for j in range(k):
-        xj = Xw[:, j]
-        nj = float(xj @ xj)
-        if nj == 0:
-            continue
-        if k == 1:
-            out[j] = 1.0
-            continue
-        others = np.delete(Xw, j, axis=1)
-        coef, *_ = np.linalg.lstsq(others, xj, rcond=None)
-        r = xj - others @ coef
-        frac = float(r @ r) / nj
-        out[j] = np.inf if frac <= 1e-14 else 1.0 / frac
-    return out
-
-
 def model_features(samples: pd.DataFrame, model: EnergyModel) -> dict[str, np.ndarray]:
     """The sample columns ``model`` reads, as arrays (converting only those columns).
 
@@ -285,63 +284,6 @@ def model_features(samples: pd.DataFrame, model: EnergyModel) -> dict[str, np.nd
     return out
 
 
-def _cluster_stderr(
-    X: np.ndarray, resid: np.ndarray, w: np.ndarray, runs: np.ndarray
-) -> np.ndarray:
-    """Cluster-robust (by run) standard errors of weighted least squares.
-
-    ``V = G/(G-1) B^-1 (sum_g s_g s_g^T) B^-1`` with ``B = X^T W X`` and the score of run
-    ``g`` ``s_g = X_g^T W_g r_g`` (the CR1 sandwich estimator).
-
-    Examples
-    --------
-    >>> X = np.ones((4, 1)); r = np.array([1.0, 1.0, -1.0, -1.0])
-    >>> _cluster_stderr(X, r, np.ones(4), np.array(["a", "a", "b", "b"])).tolist()
-    [1.0]
-    """
-    B = X.T @ (X * w[:, None])
-    Binv = np.linalg.pinv(B)
-    scores = pd.DataFrame(X * (w * resid)[:, None]).groupby(runs).sum().to_numpy()
-    g = scores.shape[0]
-    if g < 2:
-        return np.full(X.shape[1], np.nan)
-    meat = scores.T @ scores * (g / (g - 1))
-    V = Binv @ meat @ Binv
-    return np.sqrt(np.clip(np.diag(V), 0, None))
-
-
-def run_folds(runs: Sequence[str], n_splits: int, seed: int = 0) -> list[list[str]]:
-    """Assign whole runs to ``n_splits`` folds at random (grouped K-fold).
-
-    Parameters
-    ----------
-    runs : sequence of str
-        Run id of every window (repeats allowed).
-    n_splits : int
-        Number of folds; at most the number of distinct runs.
-    seed : int
-        Seed of the shuffle.
-
-    Returns
-    -------
-    list of list of str
-        Disjoint, sorted lists of runs, sizes differing by at most one.
-
-    Examples
-    --------
-    >>> folds = run_folds(["a", "a", "b", "c", "d", "e"], 2, seed=1)
-    >>> sorted(sum(folds, [])), sorted(len(f) for f in folds)
-    (['a', 'b', 'c', 'd', 'e'], [2, 3])
-    """
-    uniq = np.array(sorted({str(r) for r in runs}))
-    if not 2 <= n_splits <= len(uniq):
-        raise FitError(
-            f"cannot split {len(uniq)} run(s) into {n_splits} folds: need 2 <= folds <= runs"
-        )
-    perm = np.random.default_rng(seed).permutation(len(uniq))
-    return [sorted(map(str, part)) for part in np.array_split(uniq[perm], n_splits)]
-
-
 def _check_amount(n_windows: int, n_runs: int, k: int, names: list[str]) -> None:
     need_w = MIN_WINDOWS_PER_TERM * k
     if n_windows < need_w or n_runs < MIN_RUNS:
@@ -351,6 +293,86 @@ def _check_amount(n_windows: int, n_runs: int, k: int, names: list[str]) -> None
             f"per term) from at least {MIN_RUNS} runs (to validate on held-out runs). "
             "Record more runs or use shorter windows (--window)"
         )
+
+
+#: A window exercises a motion term when the term's value per unit rate (m/s or rad/s)
+#: exceeds this floor and this fraction of its largest value on the motion's windows.
+EXERCISE_FLOOR = 0.01
+EXERCISE_FRACTION = 0.05
+#: Columns whose relative residual on the earlier columns is below this are dependent.
+DEPENDENCE_TOL = 1e-6
+_RATE_OF_KIND = {"forward": "speed", "backward": "speed", "lateral": "speed", "turning": "yaw"}
+
+
+def identify_terms(
+    model: EnergyModel, X: np.ndarray, w: np.ndarray, table: pd.DataFrame
+) -> dict[str, str]:
+    """Terms the campaign cannot identify, each with the reason (empty when all are).
+
+    A motion term (kind forward, backward, lateral or turning) needs at least
+    :data:`MIN_WINDOWS_PER_TERM` windows of its motion in which it is exercised: its value
+    per unit rate above ``max(EXERCISE_FLOOR, EXERCISE_FRACTION * largest)`` (a grade of
+    about 0.6 deg for the linear grade terms). Sensor noise alone (a few mm/s of ``vx``
+    while side-stepping) makes a backward column non-zero without any backward run, so a
+    least-squares fit would happily give it a value; this rule does not. Then, in term
+    order, a column that is (numerically) a combination of the earlier identified ones
+    is not identified either (:func:`energy_planner.stats.independent_columns`).
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its terms, in the order of the columns of ``X``.
+    X : numpy.ndarray
+        Window means of the terms, shape ``(n_windows, k)``.
+    w : numpy.ndarray
+        Window weights (durations).
+    table : pandas.DataFrame
+        :func:`~energy_planner.calibration._windows.aligned_table` (``kind``, ``speed`` or
+        ``vx``/``vy``, ``wz``).
+
+    Returns
+    -------
+    dict
+        Term name -> why the data cannot identify it.
+    """
+    names = model.term_names
+    out: dict[str, str] = {}
+    kind = table["kind"].to_numpy()
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    yaw = np.abs(table["wz"].to_numpy(float))
+    for j, term in enumerate(model.terms):
+        if term.kind not in _RATE_OF_KIND:
+            continue
+        sel = kind == term.kind
+        rate = (speed if _RATE_OF_KIND[term.kind] == "speed" else yaw)[sel]
+        per_rate = np.abs(X[sel, j]) / np.maximum(rate, 1e-9)
+        top = float(per_rate.max()) if per_rate.size else 0.0
+        n = int(np.sum(per_rate > max(EXERCISE_FLOOR, EXERCISE_FRACTION * top)))
+        if n < MIN_WINDOWS_PER_TERM:
+            label = "turn-in-place" if term.kind == "turning" else term.kind
+            out[term.name] = (
+                f"{n} {label} window(s) exercise it (of {int(sel.sum())} {label} windows; "
+                f"need {MIN_WINDOWS_PER_TERM}): the campaign has no {label} motion where "
+                f"{term.formula} is non-zero; record such runs"
+            )
+    rest = [j for j, nm in enumerate(names) if nm not in out]
+    if rest:
+        keep, why = independent_columns(X[:, rest], w, tol=DEPENDENCE_TOL)
+        for i, by in why.items():
+            nm = names[rest[i]]
+            if by:
+                out[nm] = (
+                    "a linear combination of "
+                    + ", ".join(names[rest[b]] for b in by)
+                    + " on these windows: the campaign does not vary what tells them apart"
+                )
+            else:
+                out[nm] = "zero on every window: the campaign never exercises it"
+    return {nm: out[nm] for nm in names if nm in out}
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -472,6 +494,8 @@ def cross_validate(
     windows: Any,
     n_splits: int = 5,
     seed: int = 0,
+    *,
+    fixed: Mapping[str, float] | None = None,
 ) -> CrossValidation:
     """Validate a model's terms by run: refit on some runs, predict the others.
 
@@ -487,6 +511,9 @@ def cross_validate(
         are fewer runs, with a warning.
     seed : int
         Seed of the random assignment of runs to folds.
+    fixed : mapping, optional
+        Term name -> coefficient held fixed in every fold (a prior for a term the data
+        cannot identify, see :func:`fit_model`); the other terms are refitted.
 
     Returns
     -------
@@ -514,10 +541,17 @@ def cross_validate(
         )
         n_splits = n_runs
     folds = run_folds(runs, n_splits, seed)
-    names = model.term_names
-    D = model.design_matrix(model_features(samples, model))  # per sample
+    fixed = dict(fixed or {})
+    all_names = model.term_names
+    D_all = model.design_matrix(model_features(samples, model))  # per sample
+    free = np.array([n not in fixed for n in all_names], dtype=bool)
+    names = [n for n in all_names if n not in fixed]
+    held = np.array([fixed[n] for n in all_names if n in fixed], dtype=float)
+    D = D_all[:, free]
+    offset_sample = D_all[:, ~free] @ held if held.size else np.zeros(len(samples))
     win = samples["window"].to_numpy()
     X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
+    offset = pd.Series(offset_sample).groupby(win, sort=True).mean().to_numpy()
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
     sample_run = samples["run"].astype(str).to_numpy()
@@ -530,7 +564,7 @@ def cross_validate(
     for i, test_runs in enumerate(folds):
         test = fold_of_window == i
         train = ~test
-        beta = _wls(X[train], y[train], w[train])
+        beta = wls(X[train], y[train] - offset[train], w[train]).coef
         unsupported = [
             names[j]
             for j in range(len(names))
@@ -543,7 +577,7 @@ def cross_validate(
             )
         coefs.append(beta)
         smask = fold_of_sample == i
-        p = D[smask] @ beta
+        p = D[smask] @ beta + offset_sample[smask]
         pred_sample[smask] = p if model.regenerative else np.maximum(p, 0.0)
 
     pred_w = pd.Series(pred_sample).groupby(win, sort=True).mean().to_numpy()
@@ -589,12 +623,16 @@ def cross_validate(
         folds=folds,
         windows=per_window.drop(columns=["measured_j", "predicted_j"]),
         runs=per_run,
-        fold_coefficients=pd.DataFrame(coefs, columns=names).rename_axis("fold"),
+        fold_coefficients=pd.DataFrame(coefs, columns=names)
+        .assign(**{n: fixed[n] for n in all_names if n in fixed})
+        .rename_axis("fold"),
         rmse_w=rmse,
         mae_w=mae,
         r2=r2,
         energy_mean_abs_rel=float(np.mean(np.abs(rel))) if rel.size else float("nan"),
         energy_max_abs_rel=float(np.max(np.abs(rel))) if rel.size else float("nan"),
+        energy_median_abs_rel=float(np.median(np.abs(rel))) if rel.size else float("nan"),
+        energy_p90_abs_rel=float(np.percentile(np.abs(rel), 90)) if rel.size else float("nan"),
         energy_total_rel=total_rel,
         warnings=warnings,
     )
@@ -607,8 +645,16 @@ def fit_model(
     n_splits: int = 5,
     seed: int = 0,
     metadata: dict[str, Any] | None = None,
+    prior: EnergyModel | None = None,
 ) -> FitResult:
     """Fit all terms of a model jointly on all windows and validate it by run.
+
+    Terms the campaign cannot identify (:func:`identify_terms`: no windows of their
+    motion, or a column that is a combination of the others) are not given a value: they
+    are left out of the fitted model and reported in ``FitResult.unidentified`` (and the
+    model's ``metadata["unidentified"]``). With ``prior``, such a term that the prior
+    model has is kept at the prior's coefficient instead, reported in
+    ``FitResult.held_at_prior`` (no standard error).
 
     Parameters
     ----------
@@ -624,6 +670,9 @@ def fit_model(
         Seed of the assignment of runs to folds.
     metadata : dict, optional
         Stored in the model's ``metadata`` (with the data counts and held-out errors).
+    prior : EnergyModel, optional
+        A fitted model whose coefficients stand in for the terms this campaign cannot
+        identify (e.g. :meth:`EnergyModel.default`); only when the user asks.
 
     Returns
     -------
@@ -632,63 +681,69 @@ def fit_model(
     Raises
     ------
     FitError
-        Too little data (names the counts and what is needed), a term the data never
-        exercises, or terms the data cannot tell apart (names them).
+        Too little data (names the counts and what is needed), or no term identifiable.
     ModelError
         A term needs a channel the logs do not have.
     """
-    model = _as_model(terms)
+    requested = _as_model(terms)
     table = aligned_table(windows)
     samples = windows.samples
-    names = model.term_names
     n_windows = len(table)
     n_runs = int(table["run"].nunique())
-    _check_amount(n_windows, n_runs, len(names), names)
-
-    feats = model_features(samples, model)
-    groups = samples["window"].to_numpy()
-    X = model.design_matrix(feats, groups=groups)
-    y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
     if not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise FitError("window durations must be positive and finite (windows.table.duration)")
-    # a motion's terms need windows of that motion: sensor noise alone (a few mm/s of
-    # vx while walking sideways) would otherwise "fit" a backward force
-    kind_counts = table["kind"].value_counts()
-    for kind in ("forward", "backward", "lateral", "turning"):
-        kind_terms = [t.name for t in model.terms if t.kind == kind]
-        n_kind = int(kind_counts.get(kind, 0))
-        if kind_terms and n_kind < MIN_WINDOWS_PER_TERM:
-            raise FitError(
-                f"the data has {n_kind} {kind} window(s) (of {n_windows} windows from "
-                f"{n_runs} runs), too few for term(s) {', '.join(kind_terms)}; need at least "
-                f"{MIN_WINDOWS_PER_TERM}: record {kind} runs, or fit a model without these "
-                "terms"
-            )
-    zero = [names[j] for j in range(len(names)) if not np.any(np.abs(X[:, j]) > 1e-12)]
-    if zero:
-        raise FitError(
-            f"the data never exercises term(s) {', '.join(zero)}: they are zero on all "
-            f"{n_windows} windows from {n_runs} runs; record runs where they vary, or fit a "
-            "model without them"
-        )
-    vif = _vif(X, w)
-    warnings = _support_warnings(model, X, w, table, vif)
-    try:
-        model.fit(feats, y, groups=groups, sample_weight=w)
-    except FitError as exc:
-        raise FitError(f"{exc} ({n_windows} windows from {n_runs} runs)") from exc
-    beta = model.coef_array()
-    resid = X @ beta - y
-    rms = float(np.sqrt(np.sum(w * resid**2) / np.sum(w)))
-    Xs = X * np.sqrt(w)[:, None]
-    Xs = Xs / np.linalg.norm(Xs, axis=0)
-    cond = float(np.linalg.cond(Xs))
+    if n_runs < MIN_RUNS:
+        _check_amount(n_windows, n_runs, len(requested.term_names), requested.term_names)
 
-    se_run = _cluster_stderr(X, resid, w, table["run"].astype(str).to_numpy())
+    groups = samples["window"].to_numpy()
+    X_all = requested.design_matrix(model_features(samples, requested), groups=groups)
+    y = table["power"].to_numpy(float)
+    unidentified = identify_terms(requested, X_all, w, table)
+    prior_coefs = dict(prior.coefficients or {}) if prior is not None else {}
+    held = {n: float(prior_coefs[n]) for n in unidentified if n in prior_coefs}
+    dropped = {n: why for n, why in unidentified.items() if n not in held}
+    fit_idx = [j for j, n in enumerate(requested.term_names) if n not in unidentified]
+    if not fit_idx:
+        _check_amount(n_windows, n_runs, len(requested.term_names), requested.term_names)
+        raise FitError(
+            f"no term of the model can be identified from {n_windows} windows of {n_runs} "
+            "runs: " + "; ".join(f"{n}: {why}" for n, why in unidentified.items())
+        )
+    names = [requested.term_names[j] for j in fit_idx]
+    _check_amount(n_windows, n_runs, len(names), names)
+    keep_terms = [t for t in requested.terms if t.name not in dropped]
+    model = EnergyModel(
+        keep_terms, regenerative=requested.regenerative, metadata=requested.metadata
+    )
+    X = X_all[:, fit_idx]
+    held_idx = [requested.term_names.index(n) for n in held]
+    offset = X_all[:, held_idx] @ np.array(list(held.values())) if held else np.zeros(n_windows)
+    res = wls(X, y - offset, w, clusters=table["run"].astype(str).to_numpy())
+    coefs = dict(zip(names, map(float, res.coef), strict=True))
+    stderr = dict(zip(names, map(float, res.stderr), strict=True))
+    se_run = dict(zip(names, map(float, res.stderr_by_run), strict=True))
+    model.coefficients = {n: coefs.get(n, held.get(n)) for n in model.term_names}
+    model.stderr = {n: stderr.get(n, float("nan")) for n in model.term_names}
+    resid = res.resid
+    rms = float(np.sqrt(np.sum(w * resid**2) / np.sum(w)))
+    vifs = vif(X, w)
+    warnings = _support_warnings(EnergyModel(names), X, w, table, vifs)
+    for n, why in dropped.items():
+        warnings.append(
+            f"term {n!r} cannot be identified from this campaign ({why}); it is left out of "
+            "the fitted model, which therefore prices that motion without it (give a prior "
+            "model, fit --prior, to hold it at the prior's value instead)"
+        )
+    for n, c in held.items():
+        warnings.append(
+            f"term {n!r} cannot be identified from this campaign ({unidentified[n]}); it is "
+            f"held at the prior's value {c:g} {_unit(requested, n)}"
+        )
+
     heldout = None
     if n_splits:
-        heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed)
+        heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed, fixed=held)
         warnings += heldout.warnings
     model.metadata = {
         **model.metadata,
@@ -698,13 +753,17 @@ def fit_model(
             "n_windows": n_windows,
             "n_runs": n_runs,
             "residual_rms_w": round(rms, 3),
-            "stderr_by_run": {n: float(f"{v:.3g}") for n, v in zip(names, se_run, strict=True)},
+            "stderr_by_run": {n: float(f"{v:.3g}") for n, v in se_run.items()},
+            "unidentified": dict(dropped),
+            "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
             **(
                 {}
                 if heldout is None
                 else {
                     "heldout_power_rmse_w": round(heldout.rmse_w, 3),
                     "heldout_energy_mean_abs_rel_error": round(heldout.energy_mean_abs_rel, 5),
+                    "heldout_energy_median_abs_rel_error": round(heldout.energy_median_abs_rel, 5),
+                    "heldout_energy_p90_abs_rel_error": round(heldout.energy_p90_abs_rel, 5),
                     "n_splits": heldout.n_splits,
                 }
             ),
@@ -712,15 +771,22 @@ def fit_model(
     }
     return FitResult(
         model=model,
-        coefficients=dict(model.coefficients or {}),
-        stderr=dict(model.stderr or {}),
+        coefficients=dict(model.coefficients),
+        stderr=dict(model.stderr),
         n_windows=n_windows,
         n_runs=n_runs,
         heldout=heldout,
         warnings=warnings,
         residual_rms_w=rms,
-        condition_number=cond,
-        vif=dict(zip(names, map(float, vif), strict=True)),
+        condition_number=res.condition_number,
+        vif=dict(zip(names, map(float, vifs), strict=True)),
         coverage=_coverage(table),
-        stderr_by_run=dict(zip(names, map(float, se_run), strict=True)),
+        stderr_by_run=se_run,
+        unidentified=dict(dropped),
+        held_at_prior=held,
     )
+
+
+def _unit(model: EnergyModel, name: str) -> str:
+    """Unit of a term's coefficient (for messages)."""
+    return {t.name: t.unit for t in model.terms}[name]

@@ -27,6 +27,7 @@ from energy_planner.calibration._windows import STRAIGHT_KINDS, aligned_table, h
 from energy_planner.calibration.fit import model_features
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.stats import independent_columns, wls
 
 __all__ = ["ForceFit", "force_estimates", "fit_forces", "MOTION_KINDS"]
 
@@ -187,7 +188,17 @@ def fit_forces(
         B = X[idx[sel]][:, cols] / rate[:, None]
         F = est.loc[sel, "value"].to_numpy()
         w = est.loc[sel, "duration"].to_numpy()
-        beta, se, rms = _wls_se(B, F, w, names, kind)
+        keep, why = independent_columns(B, w)
+        if not keep.all():
+            bad = [names[j] for j in why]
+            raise FitError(
+                f"the {kind} windows cannot separate {', '.join(bad)} from the other {kind} "
+                "terms: record this motion on more slopes and headings, or fit with "
+                "calibration.fit_model, which reports and leaves out such terms"
+            )
+        res = wls(B, F, w)
+        beta, se = res.coef, res.stderr
+        rms = float(np.sqrt(np.sum(w * (F - B @ beta) ** 2) / np.sum(w)))
         coef.update(zip(names, beta.tolist(), strict=True))
         err.update(zip(names, se.tolist(), strict=True))
         fitted[sel] = B @ beta
@@ -209,30 +220,3 @@ def fit_forces(
         metadata={"fit": {"method": "per-motion force fit (paper section IV)"}},
     )
     return ForceFit(fitted_model, coef, err, est, pd.DataFrame(rows))
-
-
-def _wls_se(
-    B: np.ndarray, F: np.ndarray, w: np.ndarray, names: list[str], kind: str
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Weighted least squares with standard errors; FitError when a column is unsupported."""
-    sw = np.sqrt(w / w.mean())
-    Bw, Fw = B * sw[:, None], F * sw
-    scale = np.linalg.norm(Bw, axis=0)
-    if np.any(scale == 0):
-        bad = [n for n, s in zip(names, scale, strict=True) if s == 0]
-        raise FitError(f"no {kind} window exercises {', '.join(bad)}")
-    Bs = Bw / scale
-    sv = np.linalg.svd(Bs, compute_uv=False)
-    if sv[-1] < 1e-6 * sv[0]:
-        raise FitError(
-            f"the {kind} windows cannot separate {', '.join(names)}: they all have the same "
-            "slope and heading; record this motion on several slopes"
-        )
-    beta_s, *_ = np.linalg.lstsq(Bs, Fw, rcond=None)
-    beta = beta_s / scale
-    r = Fw - Bw @ beta
-    dof = max(len(F) - len(names), 1)
-    sigma2 = float(r @ r) / dof
-    cov = sigma2 * np.linalg.inv(Bs.T @ Bs) / np.outer(scale, scale)
-    rms = float(np.sqrt(np.sum(w * (F - B @ beta) ** 2) / np.sum(w)))
-    return beta, np.sqrt(np.clip(np.diag(cov), 0, None)), rms

@@ -162,6 +162,15 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     show_default=True,
     help="Folds of the cross-validation by run (0: none).",
 )
+@click.option(
+    "--prior",
+    "prior_spec",
+    default=None,
+    metavar="MODEL",
+    help="Hold the terms these logs cannot identify (e.g. no backward runs) at this model's "
+    "values: a model JSON, or 'default' for the bundled model. Without it such terms are "
+    "left out of the fitted model and listed as not identified.",
+)
 @seed_option
 @json_option
 def command(
@@ -170,6 +179,7 @@ def command(
     terms: tuple[str, ...],
     window: float,
     folds: int,
+    prior_spec: str | None,
     seed: int,
     as_json: bool,
 ) -> None:
@@ -177,17 +187,29 @@ def command(
 
     Loads and preprocesses the logs (paper IV-B), cuts windows, fits the paper's base
     model plus any --term jointly by weighted least squares, validates it on held-out
-    runs and writes the model to --out. Warnings say which terms the data cannot
-    support.
+    runs and writes the model to --out. Terms the logs cannot identify (no runs of
+    their motion, or no slopes that tell them apart) are listed and left out of the
+    model, or held at --prior's values; warnings say what else the data cannot support.
 
     Example: energy-planner fit logs/ --out b1.json --term idle_power
     """
     from energy_planner.calibration import fit_model
     from energy_planner.errors import EnergyPlannerError, FitError
-    from energy_planner.model import BASE_TERMS
+    from energy_planner.model import BASE_TERMS, EnergyModel
 
     if folds == 1:
         raise click.BadParameter("use 0 (no validation) or 2 or more folds", param_hint="--folds")
+    prior = None
+    if prior_spec is not None:
+        try:
+            prior = (
+                EnergyModel.default() if prior_spec == "default" else EnergyModel.load(prior_spec)
+            )
+            prior.coef_array()
+        except EnergyPlannerError as exc:
+            raise click.BadParameter(
+                f"{exc} (give a fitted model JSON or 'default')", param_hint="--prior"
+            ) from exc
     resolve_terms(terms)  # syntax and names first: fail before loading any log
     windows, reports, prep_text, _ = load_windows(logs, window)
     extra = resolve_terms(terms, set(windows.samples.columns))
@@ -199,6 +221,7 @@ def command(
             n_splits=folds,
             seed=seed,
             metadata={"source": [str(p) for p in logs], "window_s": window},
+            prior=prior,
         )
     except FitError as exc:
         raise click.ClickException(

@@ -25,6 +25,20 @@ def _effects(ctx: click.Context, param: click.Parameter, value: tuple[str, ...])
     return tuple(dict.fromkeys(value))
 
 
+def _faults(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
+    from energy_planner.simulate import FAULTS
+
+    for name in value:
+        if name not in FAULTS:
+            raise click.BadParameter(
+                f"unknown sensor fault {name!r}; valid faults: {', '.join(FAULTS)} "
+                "(see docs/simulate.md)",
+                ctx=ctx,
+                param=param,
+            )
+    return tuple(dict.fromkeys(value))
+
+
 def _speeds(ctx: click.Context, param: click.Parameter, value: str | None):
     if value is None:
         return None
@@ -43,19 +57,23 @@ def _speeds(ctx: click.Context, param: click.Parameter, value: str | None):
 
 def _text(doc: dict[str, Any]) -> str:
     s = doc["summary"]
+    what = "missions" if doc["missions"] else "runs"
     lines = [
-        f"simulated {s['runs']} runs, {s['samples']} samples, "
+        f"simulated {s['runs']} {what}, {s['samples']} samples, "
         f"{s['duration_s'] / 60:.1f} min of logs (seed {s['seed']})",
         "runs by kind: " + ", ".join(f"{k} {v}" for k, v in s["kinds"].items()),
-        f"effects: {', '.join(s['effects']) or 'none (truth = the base model)'}",
         f"mean true power {s['mean_power_w']:.1f} W; battery packs used {s['battery_packs']}",
-        "truth coefficients:",
+        "truth: mechanistic physics of a "
+        f"{doc['robot']['mass_kg']:g} kg quadruped (parameters in physics.json)",
+        f"effects: {', '.join(s['effects']) or 'none'}",
     ]
-    for t in doc["terms"]:
-        lines.append(f"  {t['name']:<20} {t['coefficient']:>9.2f} {t['unit']:<5} {t['formula']}")
+    for e in doc["effects"]:
+        ch = f" [channel {e['channel']}]" if e["channel"] else ""
+        lines.append(f"  {e['name']}{ch}: {e['explanation']}")
+    lines.append(f"sensor faults: {', '.join(s['faults']) or 'none'}")
     f = doc["files"]
     lines.append(
-        f"wrote {f['logs']} {f['format']} logs, runs.csv, truth.json, campaign.json"
+        f"wrote {f['logs']} {f['format']} logs, runs.csv, physics.json, campaign.json"
         + (f" and {f['bags']} ROS 2 bags" if f["bags"] else "")
         + f" to {f['out']}"
     )
@@ -81,6 +99,28 @@ def _text(doc: dict[str, Any]) -> str:
     callback=_effects,
     help="Switch on a physical effect the base model lacks (repeatable), e.g. "
     "--effect payload --effect cold_joints.",
+)
+@click.option(
+    "--fault",
+    "faults",
+    multiple=True,
+    metavar="NAME",
+    callback=_faults,
+    help="Add a sensor fault (repeatable): slope_slip, ros_current_sign, clock_offset.",
+)
+@click.option(
+    "--missions",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="Write N mission logs (a robot following smooth paths over a DEM, with speed "
+    "changes, stops and turns) instead of the designed campaign.",
+)
+@click.option(
+    "--dem",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    help="DEM for --missions (default: synthetic rolling hills), e.g. maps/hill.tif.",
 )
 @click.option(
     "--speeds",
@@ -117,6 +157,9 @@ def command(
     out: Path,
     seed: int,
     effects: tuple[str, ...],
+    faults: tuple[str, ...],
+    missions: int | None,
+    dem: Path | None,
     speeds: tuple[float, ...] | None,
     fmt: str,
     bag: bool,
@@ -130,13 +173,22 @@ def command(
     Straight runs on planar slopes of 0-25 degrees at many headings, forward, backward
     and sideways, turns in place, arcs, standing, and composite paths for the
     superposition test, with a noisy battery monitor, slipping odometry and a biased
-    IMU. The truth is the paper's base model plus the effects switched on with --effect;
-    it is written to OUT/truth.json so that calibration and diagnosis can be checked.
+    IMU. The truth is mechanistic physics of a 50 kg quadruped (gravity work, copper
+    losses, direction-dependent recovery downhill, swing, turning, ripple) with the
+    effects switched on with --effect; its parameters go to OUT/physics.json. With
+    --missions N the robot follows smooth paths over a DEM instead.
 
-    Example: energy-planner simulate --out campaign/ --effect payload --speeds 0.2,0.3,0.45
+    Example: energy-planner simulate --out campaign/ --effect load --speeds 0.2,0.3,0.45
     """
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.simulate import CampaignConfig, SensorConfig, simulate_campaign
+    from energy_planner.simulate import (
+        EFFECTS,
+        CampaignConfig,
+        MissionConfig,
+        SensorConfig,
+        simulate_campaign,
+        simulate_missions,
+    )
 
     changes: dict[str, Any] = {}
     if speeds is not None:
@@ -144,9 +196,21 @@ def command(
     if noise_free:
         changes["sensors"] = SensorConfig.ideal()
     progress = sys.stderr.isatty()
+    if dem is not None and missions is None:
+        raise click.BadParameter("--dem is only used with --missions N", param_hint="--dem")
     try:
-        config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
-        camp = simulate_campaign(seed=seed, effects=effects, config=config, progress=progress)
+        if missions is not None:
+            from energy_planner.terrain import load_dem
+
+            terrain = load_dem(dem) if dem is not None else None
+            mk = MissionConfig.small if small else MissionConfig
+            config = mk(missions=missions, **changes)
+            camp = simulate_missions(seed=seed, effects=effects, config=config,
+                                     terrain=terrain, faults=faults, progress=progress)
+        else:
+            config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
+            camp = simulate_campaign(seed=seed, effects=effects, config=config, faults=faults,
+                                     progress=progress)
         files = camp.write(out, fmt=fmt, bag=bag, progress=progress)
         plot_path = camp.plot(plot) if plot is not None else None
     except EnergyPlannerError as exc:
@@ -154,19 +218,20 @@ def command(
             f"{exc}\nhint: check --out is writable and empty of old bags; "
             "`energy-planner simulate --help` lists the options"
         ) from exc
-    coefs = camp.truth.coefficients or {}
     doc = {
         "summary": camp.summary(),
-        "terms": [
-            {"name": t.name, "formula": t.formula, "unit": t.unit, "coefficient": coefs[t.name]}
-            for t in camp.truth.terms
+        "missions": missions is not None,
+        "robot": {r["name"]: r["value"] for r in camp.physics.params.table()},
+        "effects": [
+            {"name": n, "channel": EFFECTS[n].channel, "explanation": EFFECTS[n].explanation}
+            for n in camp.effects
         ],
         "files": {
             "out": out,
             "format": fmt,
             "logs": sum(1 for p in files if p.suffix == f".{fmt}" and p.name != "runs.csv"),
             "runs": out / "runs.csv",
-            "truth": out / "truth.json",
+            "physics": out / "physics.json",
             "campaign": out / "campaign.json",
             "bags": sum(1 for p in files if p.parent == out / "bags"),
             "plot": plot_path,

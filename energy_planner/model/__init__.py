@@ -2,11 +2,17 @@
 
 >>> from energy_planner.model import EnergyModel, BASE_TERMS
 >>> EnergyModel(BASE_TERMS).term_names[:2]
-['fwd_const', 'fwd_grade']
+['fwd_const', 'fwd_up']
 """
 
 from energy_planner.model.formula import CONSTANTS, FUNCTIONS, Formula, parse_formula
-from energy_planner.model.model import SCHEMA, SCHEMA_VERSION, EnergyModel, prepare_features
+from energy_planner.model.model import (
+    SCHEMA,
+    SCHEMA_VERSION,
+    EnergyModel,
+    critical_grade,
+    prepare_features,
+)
 from energy_planner.model.terms import (
     BASE_TERMS,
     CATALOG,
@@ -28,6 +34,7 @@ __all__ = [
     "EnergyModel",
     "Formula",
     "Term",
+    "critical_grade",
     "parse_formula",
     "prepare_features",
     "resolve_term",

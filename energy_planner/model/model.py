@@ -8,7 +8,7 @@ that does). Built like a scikit-learn estimator: ``__init__`` stores its argumen
 Examples
 --------
 >>> import numpy as np
->>> m = EnergyModel(["fwd_const", "fwd_grade"], {"fwd_const": 600.0, "fwd_grade": 1000.0})
+>>> m = EnergyModel(["fwd_const", "fwd_up"], {"fwd_const": 600.0, "fwd_up": 1000.0})
 >>> f = {"alpha": np.radians([0.0, 10.0]), "gamma": np.zeros(2), "vx": np.full(2, 0.3),
 ...      "vy": np.zeros(2), "wz": np.zeros(2)}
 >>> np.round(m.power(f), 2)
@@ -29,8 +29,9 @@ import pandas as pd
 
 from energy_planner.errors import FitError, FormulaError, ModelError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
+from energy_planner.stats import independent_columns, wls
 
-__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "prepare_features"]
+__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "critical_grade", "prepare_features"]
 
 SCHEMA = "energy_planner.model"
 SCHEMA_VERSION = 1
@@ -229,33 +230,27 @@ class EnergyModel:
                 f"too little data: {n} rows for {k} terms ({', '.join(self.term_names)}); "
                 f"need at least {k + 2}, and in practice ten or more per term"
             )
-        zero = [self.term_names[j] for j in range(k) if not np.any(np.abs(X[:, j]) > 1e-12)]
+        keep, why = independent_columns(X, w)
+        zero = [self.term_names[j] for j, by in why.items() if not by]
         if zero:
             raise FitError(
                 f"term(s) {', '.join(zero)} are zero on every row: the data has none of the "
                 "motion or conditions they describe; drop them or add such runs"
             )
-        sw = np.sqrt(w)
-        Xw, yw = X * sw[:, None], y * sw
-        scale = np.linalg.norm(Xw, axis=0)
-        Xs = Xw / scale
-        sv = np.linalg.svd(Xs, compute_uv=False)
-        if sv[-1] < 1e-7 * sv[0]:
-            raise FitError(
-                "the data cannot tell these terms apart (their columns are nearly linearly "
-                f"dependent): {', '.join(collinear_terms(Xs, self.term_names))}; add runs that "
-                "vary what distinguishes them (speeds, slopes, headings) or drop one"
+        if not keep.all():
+            names = self.term_names
+            dep = "; ".join(
+                f"{names[j]} (a combination of {', '.join(names[i] for i in by)})"
+                for j, by in why.items()
             )
-        beta_s, *_ = np.linalg.lstsq(Xs, yw, rcond=None)
-        beta = beta_s / scale
-        resid = yw - Xw @ beta
-        dof = max(n - k, 1)
-        sigma2 = float(resid @ resid) / dof
-        cov = sigma2 * np.linalg.inv(Xs.T @ Xs) / np.outer(scale, scale)
-        self.coefficients = dict(zip(self.term_names, map(float, beta), strict=True))
-        self.stderr = dict(
-            zip(self.term_names, map(float, np.sqrt(np.clip(np.diag(cov), 0, None))), strict=True)
-        )
+            raise FitError(
+                "the data cannot tell these terms apart (their columns are linearly "
+                f"dependent): {dep}; add runs that vary what distinguishes them (speeds, "
+                "slopes, headings) or drop one"
+            )
+        res = wls(X, y, w)
+        self.coefficients = dict(zip(self.term_names, map(float, res.coef), strict=True))
+        self.stderr = dict(zip(self.term_names, map(float, res.stderr), strict=True))
         return self
 
     # ------------------------------------------------------------------ persistence
@@ -429,20 +424,82 @@ class EnergyModel:
         return compile_kernel(self.kernel_source(constants))
 
 
-def collinear_terms(Xs: np.ndarray, names: Sequence[str]) -> list[str]:
-    """Names of the columns that are (nearly) a linear combination of the others."""
-    out = []
-    for j, name in enumerate(names):
-        others = np.delete(Xs, j, axis=1)
-        if others.shape[1] == 0:
-            continue
-        coef, *_ = np.linalg.lstsq(others, Xs[:, j], rcond=None)
-        r = Xs[:, j] - others @ coef
-        if np.linalg.norm(r) < 1e-5 * max(np.linalg.norm(Xs[:, j]), 1e-300):
-            out.append(name)
-    return out or list(names)
-
-
 def term_names(specs: Iterable[str | Term]) -> list[str]:
     """Resolve term specs to names (for messages and CLI output)."""
     return [resolve_term(s).name for s in specs]
+
+
+def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
+    """Grade beyond which a detour climbs a hill for less energy than the direct line.
+
+    Walking forward straight up a grade ``g = sin(alpha)`` costs ``c(g) = P / v`` per
+    metre; climbing a height ``H`` takes ``H / g`` metres, so the energy ``H c(g) / g`` is
+    least at the grade ``g*`` minimising ``c(g) / g``. On steeper ground a zig-zag at
+    ``g*`` beats the direct climb (paper Fig. 1). For the base model
+    ``c(g) = fwd_const + fwd_up g + fwd_up_sq g^2``, so ``g* = sqrt(fwd_const / fwd_up_sq)``
+    (closed form, ``method = "closed form"``); a model with other terms is minimised
+    numerically on a grid of 0.01 deg up to 60 deg.
+
+    Returns
+    -------
+    dict
+        ``grade`` (g*, inf when the cost is not convex), ``slope_deg``, ``cost_n`` (c(g*),
+        J/m), ``level_cost_n`` (c(0)) and ``method``.
+
+    Examples
+    --------
+    >>> m = EnergyModel(["fwd_const", "fwd_up", "fwd_up_sq"],
+    ...                 {"fwd_const": 600.0, "fwd_up": 700.0, "fwd_up_sq": 2400.0})
+    >>> c = critical_grade(m)
+    >>> c["grade"], round(c["slope_deg"], 2), c["method"]
+    (0.5, 30.0, 'closed form')
+    """
+    coefs = model.coefficients or {}
+    base_fwd = {"fwd_const", "fwd_up", "fwd_up_sq"}
+    forward_on_fall_line = [
+        t.name for t in model.terms if t.kind not in ("backward", "lateral", "turning")
+    ]
+
+    def cost(g: np.ndarray) -> np.ndarray:
+        n = g.shape[0]
+        f = {
+            "alpha": np.arcsin(g),
+            "gamma": np.zeros(n),
+            "vx": np.full(n, speed),
+            "vy": np.zeros(n),
+            "wz": np.zeros(n),
+            "ax": np.zeros(n),
+            "ay": np.zeros(n),
+        }
+        return model.power(f) / speed
+
+    level = float(cost(np.zeros(1))[0])
+    if set(forward_on_fall_line) - {"fwd_down", "fwd_down_sq", "fwd_cross_sq"} <= base_fwd:
+        c0, q = coefs.get("fwd_const", 0.0), coefs.get("fwd_up_sq", 0.0)
+        if q <= 0 or c0 <= 0:
+            return {
+                "grade": math.inf,
+                "slope_deg": 90.0,
+                "cost_n": math.nan,
+                "level_cost_n": level,
+                "method": "closed form",
+            }
+        g = math.sqrt(c0 / q)
+        if g < 1:
+            return {
+                "grade": g,
+                "slope_deg": math.degrees(math.asin(g)),
+                "cost_n": float(cost(np.array([g]))[0]),
+                "level_cost_n": level,
+                "method": "closed form",
+            }
+    grid = np.sin(np.radians(np.arange(0.01, 60.0, 0.01)))
+    c = cost(grid)
+    k = int(np.argmin(c / grid))
+    return {
+        "grade": float(grid[k]),
+        "slope_deg": float(np.degrees(np.arcsin(grid[k]))),
+        "cost_n": float(c[k]),
+        "level_cost_n": level,
+        "method": "numeric",
+    }

@@ -11,19 +11,33 @@ to ``wrap(theta - psi)`` on the fall line and across it. ``(vx, vy, wz)`` is the
 twist (REP-103: x forward, y left), along the ground.
 
 The base set is the paper's wrench ``f(alpha, gamma) = (fx, fy, tau)`` applied to the
-twist, linear in the twist per direction of motion. Moving along the body direction
-``beta`` the grade is ``sin(alpha) * cos(gamma + beta)``: forward ``sin a cos g``,
-backward ``-sin a cos g``, left ``-sin a sin g``, right ``+sin a sin g``. Left and right
-share coefficients (right is the mirror of left), which makes the lateral grade term
-``-vy sin(alpha) sin(gamma)`` for either direction. Every base term satisfies the mirror
-symmetry ``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)``.
+twist (Fig. 4 and Fig. 5 of the paper): for each direction of motion ``d`` (forward,
+backward, lateral; left is the mirror of right) the power is the direction's rate ``r``
+(``pos(vx)``, ``pos(-vx)``, ``abs(vy)``, m/s) times a force that depends on the grade
+along the travel ``G`` and the grade across it ``C``::
+
+    P_d = r * (c0 + c_up pos(G) + c_down pos(-G) + q_up pos(G)^2 + q_down pos(-G)^2
+               + q_cross C^2)
+
+with ``G = sin(alpha) cos(gamma)`` forward, ``-sin(alpha) cos(gamma)`` backward,
+``-sign(vy) sin(alpha) sin(gamma)`` sideways, and ``C = sin(alpha) sin(gamma)`` for
+forward/backward, ``sin(alpha) cos(gamma)`` (the slope along the body x axis) sideways.
+The linear pair is a kink at level: lifting the body costs gravity work through the drive
+efficiency, lowering it returns a gait-dependent fraction or none (Fig. 4: downhill gets
+cheaper only walking forward). The squares are copper (Joule) losses, which grow with the
+square of the force the legs hold along and across the slope; they make the cost per
+metre uphill convex, so that on steep ground a detour beats the direct climb. Turning in
+place costs ``abs(wz) (t0 + t1 sin(alpha) + t2 sin(alpha)^2)`` (Fig. 5: the yaw torque
+grows with slope). Every term satisfies the mirror symmetry
+``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)`` and is linear in the
+twist per direction (the paper's superposition).
 
 Examples
 --------
->>> sorted(BASE_TERMS)[:3]
-['bwd_const', 'bwd_grade', 'fwd_const']
->>> CATALOG["cross_slope_roll"].formula
-'speed * sin(alpha) * abs(sin(gamma))'
+>>> BASE_TERMS[:3]
+('fwd_const', 'fwd_up', 'fwd_down')
+>>> CATALOG["fwd_cross_sq"].formula
+'pos(vx) * (sin(alpha) * sin(gamma)) ** 2'
 >>> resolve_term("payload_kg*speed*sin(alpha)").name
 'payload_kg * speed * sin(alpha)'
 """
@@ -91,36 +105,115 @@ def _t(name: str, formula: str, explanation: str, unit: str, kind: str) -> Term:
     return Term(name, parse_formula(formula).text, explanation, unit, kind)
 
 
-_BASE = [
-    _t("fwd_const", "pos(vx)", "force to walk forward on level ground", "N", "forward"),
-    _t(
-        "fwd_grade",
-        "pos(vx) * sin(alpha) * cos(gamma)",
-        "extra force per unit grade walking forward (gravity work, divided by efficiency)",
-        "N",
+#: Directions of motion of the base: (prefix, kind, rate, grade along the travel, its
+#: negative, grade across the travel, words for the explanations).
+_DIRECTIONS = (
+    (
+        "fwd",
         "forward",
+        "pos(vx)",
+        "sin(alpha) * cos(gamma)",
+        "-sin(alpha) * cos(gamma)",
+        "sin(alpha) * sin(gamma)",
+        "walking forward",
     ),
-    _t("bwd_const", "pos(-vx)", "force to walk backward on level ground", "N", "backward"),
-    _t(
-        "bwd_grade",
-        "-pos(-vx) * sin(alpha) * cos(gamma)",
-        "extra force per unit grade walking backward",
-        "N",
+    (
+        "bwd",
         "backward",
+        "pos(-vx)",
+        "-sin(alpha) * cos(gamma)",
+        "sin(alpha) * cos(gamma)",
+        "sin(alpha) * sin(gamma)",
+        "walking backward",
     ),
-    _t("lat_const", "abs(vy)", "force to walk sideways on level ground", "N", "lateral"),
-    _t(
-        "lat_grade",
-        "-vy * sin(alpha) * sin(gamma)",
-        "extra force per unit grade walking sideways (left and right mirror each other)",
-        "N",
+    (
+        "lat",
         "lateral",
+        "abs(vy)",
+        "-sign(vy) * sin(alpha) * sin(gamma)",
+        "sign(vy) * sin(alpha) * sin(gamma)",
+        "sin(alpha) * cos(gamma)",
+        "side-stepping (left mirrors right)",
     ),
-    _t("turn_const", "abs(wz)", "torque to turn in place on level ground", "N m", "turning"),
+)
+
+
+def _direction_terms(
+    prefix: str, kind: str, r: str, g: str, neg_g: str, c: str, words: str
+) -> list[Term]:
+    return [
+        _t(
+            f"{prefix}_const",
+            r,
+            f"force {words} on level ground: touch-down losses, leg swing, gearbox "
+            "friction and the standing power spread over the metres walked",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_up",
+            f"{r} * pos({g})",
+            f"extra force per unit uphill grade {words}: gravity work lifting the body, "
+            "paid through the drive efficiency (about m g / efficiency)",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_down",
+            f"{r} * pos({neg_g})",
+            f"change of force per unit downhill grade {words}: negative where the gait "
+            "returns part of the released potential energy, about 0 where it brakes it",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_up_sq",
+            f"{r} * pos({g}) ** 2",
+            f"copper (I^2 R) losses of the pushing force along an uphill grade {words}: "
+            "they grow with the square of the force the legs push with",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_down_sq",
+            f"{r} * pos({neg_g}) ** 2",
+            f"copper losses of the braking force along a downhill grade {words} (the legs "
+            "brake through another lever than they push with)",
+            "N",
+            kind,
+        ),
+        _t(
+            f"{prefix}_cross_sq",
+            f"{r} * ({c}) ** 2",
+            f"copper losses of holding the body on a cross slope {words}: the sideways "
+            "load and the roll moment, whichever side the slope falls to",
+            "N",
+            kind,
+        ),
+    ]
+
+
+_BASE = [
+    *(t for d in _DIRECTIONS for t in _direction_terms(*d)),
+    _t(
+        "turn_const",
+        "abs(wz)",
+        "torque to turn in place on level ground: twisting the planted feet",
+        "N m",
+        "turning",
+    ),
     _t(
         "turn_slope",
         "abs(wz) * sin(alpha)",
-        "extra turning torque per unit of sin(slope): stabilising while reorienting",
+        "extra turning torque per unit of sin(slope): re-balancing the tangential gravity "
+        "load while the support pattern rotates",
+        "N m",
+        "turning",
+    ),
+    _t(
+        "turn_slope_sq",
+        "abs(wz) * sin(alpha) ** 2",
+        "copper losses of the slope load while turning in place (square of the force)",
         "N m",
         "turning",
     ),
@@ -139,29 +232,6 @@ _EFFECTS = [
         "speed ** 2",
         "leg swing and damping losses grow with speed, so the force per metre grows with speed",
         "N s/m",
-        "other",
-    ),
-    _t(
-        "joule_heating",
-        "sin(alpha) ** 2",
-        "motor current grows with the supporting force the legs hold against the slope; "
-        "I^2 R loss grows with its square",
-        "W",
-        "other",
-    ),
-    _t(
-        "downhill_braking",
-        "pos(-sin(alpha) * (vx * cos(gamma) - vy * sin(gamma)))",
-        "uphill/downhill asymmetry: descending, the legs brake the body and dissipate "
-        "instead of regenerating",
-        "N",
-        "other",
-    ),
-    _t(
-        "cross_slope_roll",
-        "speed * sin(alpha) * abs(sin(gamma))",
-        "with the slope to one side the robot holds its roll and loads its downhill legs",
-        "N",
         "other",
     ),
     _t(
@@ -191,7 +261,8 @@ _EFFECTS = [
 CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_EFFECTS)}
 #: The paper's model (wrench from alpha and gamma only).
 BASE_TERMS: tuple[str, ...] = tuple(t.name for t in _BASE)
-#: The catalog's physical effects, none of which the base model contains.
+#: The catalog's physical effects, none of which the base model contains (uphill/downhill
+#: asymmetry, cross-slope roll and copper losses on slopes are base terms now).
 EFFECT_TERMS: tuple[str, ...] = tuple(t.name for t in _EFFECTS)
 
 

@@ -1,20 +1,24 @@
-"""Field-campaign simulator: ground-truth physics to canonical robot logs.
+"""Field-campaign and mission simulator: mechanistic ground truth to canonical robot logs.
 
+The truth is physics (:mod:`energy_planner.simulate.physics`: gravity work through an
+efficiency, direction-dependent recovery when lowering, copper losses from the square
+of the leg forces, standing, swing, turning, ripple), never the model's own terms.
 Writes the campaign of the paper's section IV-C (straight runs on planar slopes at many
-headings, turns, arcs, standing, composite paths for the superposition test) with
-realistic sensors, so that calibration and diagnosis can be developed and tested
-against a known truth. See ``docs/simulate.md``.
+headings, turns, arcs, standing, composite paths for the superposition test) or mission
+logs over a DEM, with realistic sensors, so that calibration and diagnosis can be
+developed and tested against a known truth. See ``docs/simulate.md``.
 
->>> from energy_planner.simulate import simulate_campaign, CampaignConfig, EFFECTS
+>>> from energy_planner.simulate import simulate_campaign, CampaignConfig
 >>> camp = simulate_campaign(seed=1, effects=("cold_joints",), config=CampaignConfig.small())
->>> camp.truth.coefficients["cold_joints"] == EFFECTS["cold_joints"].coefficient
-True
+>>> camp.physics.effects
+('cold_joints',)
 """
 
 from energy_planner.simulate.campaign import (
     CHANNELS,
     LOG_COLUMNS,
     Campaign,
+    NoiseFloor,
     battery_current,
     simulate_campaign,
 )
@@ -26,30 +30,59 @@ from energy_planner.simulate.config import (
 )
 from energy_planner.simulate.design import RunSpec, plan_runs
 from energy_planner.simulate.effects import (
-    BASE_COEFFICIENTS,
     EFFECTS,
+    FAULTS,
     Effect,
     check_effects,
+    check_faults,
     effect_table,
     truth_model,
 )
+from energy_planner.simulate.missions import MissionConfig, simulate_missions, synthetic_dem
+from energy_planner.simulate.path import true_path_energy
+from energy_planner.simulate.physics import (
+    COMPONENTS,
+    GROUNDS,
+    Physics,
+    RobotParams,
+    critical_grade,
+)
 
 __all__ = [
-    "BASE_COEFFICIENTS",
     "CHANNELS",
+    "COMPONENTS",
     "EFFECTS",
+    "FAULTS",
+    "GROUNDS",
     "LOG_COLUMNS",
     "BatteryConfig",
     "Campaign",
     "CampaignConfig",
     "ConfigError",
     "Effect",
+    "MissionConfig",
+    "NoiseFloor",
+    "Physics",
+    "RobotParams",
     "RunSpec",
     "SensorConfig",
     "battery_current",
     "check_effects",
+    "check_faults",
+    "critical_grade",
     "effect_table",
     "plan_runs",
     "simulate_campaign",
+    "simulate_missions",
+    "synthetic_dem",
+    "true_path_energy",
     "truth_model",
 ]
+
+
+def __getattr__(name: str):
+    if name == "BASE_COEFFICIENTS":
+        from energy_planner.simulate import effects
+
+        return effects.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -4,10 +4,11 @@ The pipeline, for every planned run (:func:`~energy_planner.simulate.design.plan
 
 1. twist profile with linear ramps (:func:`~energy_planner.simulate.kinematics.twist_profile`),
 2. true pose on the planar ramp and the true IMU orientation,
-3. true electrical power from the truth :class:`~energy_planner.model.EnergyModel`,
+3. true electrical power from the mechanistic physics
+   (:class:`~energy_planner.simulate.physics.Physics`, with the effects switched on),
 4. the battery: current solving ``P = V I`` with ``V = OCV(soc) - R I``,
 5. sensors: current/voltage noise and spikes, odometry slip and noise, IMU tilt bias and
-   noise.
+   noise, and the sensor faults asked for.
 
 Random streams are split so that the design (ramp azimuths, run order), the extra
 channels and the sensor noise do not depend on which effects are switched on: the same
@@ -16,9 +17,9 @@ seed gives the same runs with and without an effect.
 Examples
 --------
 >>> from energy_planner.simulate import simulate_campaign, CampaignConfig
->>> camp = simulate_campaign(seed=0, effects=("payload",), config=CampaignConfig.small())
+>>> camp = simulate_campaign(seed=0, effects=("load",), config=CampaignConfig.small())
 >>> len(camp.runs), camp.effects
-(95, ('payload',))
+(95, ('load',))
 >>> bool((camp.logs["current"].median() > 0))
 True
 """
@@ -27,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -36,11 +36,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.errors import LogError, LogIOError
-from energy_planner.model import EnergyModel
+from energy_planner.errors import LogError, LogIOError, RemovedAPIError
 from energy_planner.simulate.config import CampaignConfig
 from energy_planner.simulate.design import RunSpec, plan_runs
-from energy_planner.simulate.effects import check_effects, truth_model
+from energy_planner.simulate.effects import check_effects, check_faults
 from energy_planner.simulate.kinematics import (
     imu_quaternion,
     integrate_pose,
@@ -49,14 +48,20 @@ from energy_planner.simulate.kinematics import (
     twist_profile,
     wrap,
 )
+from energy_planner.simulate.physics import Physics, RobotParams
 
-__all__ = ["Campaign", "simulate_campaign", "LOG_COLUMNS", "CHANNELS", "battery_current"]
+__all__ = ["Campaign", "NoiseFloor", "simulate_campaign", "LOG_COLUMNS", "CHANNELS",
+           "battery_current"]
 
 #: Canonical log columns written by the simulator, in order.
 LOG_COLUMNS = ("run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "voltage", "current",
                "x", "y", "yaw")
-#: Extra channels (constant within a run, varying between runs).
-CHANNELS = ("payload_kg", "surface", "temperature_c", "grass_height_m")
+#: Extra channels: carried mass (kg), surface (categorical), winding temperature (deg C,
+#: warming during a run), air temperature (deg C), grass height (m). The model's catalog
+#: reads none of them; each is logged in every campaign, its effect on or not.
+CHANNELS = ("load_kg", "ground", "motor_temp", "air_temp_c", "grass_height_m")
+#: Channels that are categorical.
+CATEGORICAL = ("ground",)
 
 
 def battery_current(power: np.ndarray, ocv: np.ndarray | float, r_ohm: float) -> np.ndarray:
@@ -86,48 +91,102 @@ def battery_current(power: np.ndarray, ocv: np.ndarray | float, r_ohm: float) ->
     return 2.0 * power / (ocv + np.sqrt(disc))
 
 
+@dataclass(frozen=True)
+class NoiseFloor:
+    """Noise floor of a campaign on a set of windows (:meth:`Campaign.noise_floor`).
+
+    Attributes
+    ----------
+    rmse_w : float
+        Root mean square over windows of (measured window power - true window power), W.
+    bias_w : float
+        Mean of that difference, W.
+    n_windows : int
+        Windows compared.
+    reference : str
+        ``expected`` (gait-cycle mean truth, the default) or ``instantaneous`` (with the
+        ripple).
+    per_window : DataFrame
+        window, run, measured_w, true_w.
+    """
+
+    rmse_w: float
+    bias_w: float
+    n_windows: int
+    reference: str
+    per_window: pd.DataFrame
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for ``--json``."""
+        return {"rmse_w": self.rmse_w, "bias_w": self.bias_w, "n_windows": self.n_windows,
+                "reference": self.reference}
+
+
 @dataclass
 class Campaign:
-    """A simulated field campaign.
+    """A simulated field campaign (or a set of mission logs).
 
     Attributes
     ----------
     logs : DataFrame
         Canonical log of all runs in campaign order (:data:`LOG_COLUMNS` plus
-        :data:`CHANNELS`); ``surface`` is categorical.
+        :data:`CHANNELS`); ``ground`` is categorical.
     runs : DataFrame
         One row per run: run, kind, motion, slope_deg, uphill_azimuth_deg, heading_deg
         (gamma at the start), speed, yaw_rate, duration_s, composite, part,
         true_energy_j, and more (distance, channels, slip, IMU bias, battery state,
         start and end pose).
-    truth : EnergyModel
-        The ground truth (true coefficients).
+    physics : Physics
+        The ground truth: robot parameters and the effects switched on.
     effects : tuple of str
         The effects switched on.
     true_samples : DataFrame
-        The noise-free truth per log row: alpha, gamma (rad), true twist, ax, ay,
-        power (W), true voltage and current, soc.
+        The noise-free truth per log row: run, t, alpha, gamma (rad), true twist, ax,
+        ay, z, t_gait (s since the run started), power (W, instantaneous, with the gait
+        ripple), power_expected (W, gait-cycle mean: what a perfect model of the
+        features predicts), true voltage, current and soc.
     seed : int
         Random seed.
     config : CampaignConfig
         The campaign parameters.
+    faults : tuple of str
+        Sensor faults switched on (:data:`energy_planner.simulate.FAULTS`).
     """
 
     logs: pd.DataFrame
     runs: pd.DataFrame
-    truth: EnergyModel
+    physics: Physics
     effects: tuple[str, ...]
     true_samples: pd.DataFrame
     seed: int = 0
-    config: CampaignConfig = field(default_factory=CampaignConfig)
+    config: Any = field(default_factory=CampaignConfig)
+    faults: tuple[str, ...] = ()
+
+    @property
+    def truth(self) -> Any:
+        """Removed: the truth is :attr:`physics`, not an EnergyModel.
+
+        Raises
+        ------
+        RemovedAPIError
+            Always, naming the replacements.
+        """
+        raise RemovedAPIError(
+            "Campaign.truth was removed: the simulator's truth is mechanistic physics "
+            "(Campaign.physics, a Physics object), not an EnergyModel. Per-sample true "
+            "power: Campaign.true_samples['power'] / ['power_expected']; a path's true "
+            "energy: energy_planner.simulate.true_path_energy(terrain, states, "
+            "effects=campaign.effects)"
+        )
 
     def write(
         self, out_dir: str | Path, fmt: str = "csv", bag: bool = False, progress: bool = False
     ) -> list[Path]:
         """Write the campaign to ``out_dir``.
 
-        Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``truth.json``
-        (:meth:`EnergyModel.save`), ``campaign.json`` (seed, effects, parameters) and
+        Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``physics.json``
+        (robot parameters and effects of the truth), ``campaign.json`` (seed, effects,
+        faults, parameters) and
         with ``bag=True`` one ROS 2 bag per run in ``bags/<run>/`` (written by
         :func:`energy_planner.measurements.write_rosbag`; current with the ROS sign).
 
@@ -169,7 +228,7 @@ class Campaign:
         written: list[Path] = []
         logs = self.logs
         if fmt == "csv":
-            logs = logs.assign(surface=logs["surface"].astype(str))
+            logs = logs.assign(**{c: logs[c].astype(str) for c in CATEGORICAL})
         table = pa.Table.from_pandas(logs, preserve_index=False)
         run = logs["run"].to_numpy()
         starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
@@ -185,7 +244,8 @@ class Campaign:
                 written.append(path)
             runs_path = out / "runs.csv"
             self.runs.to_csv(runs_path, index=False, float_format="%.10g")
-            truth_path = self.truth.save(out / "truth.json")
+            truth_path = out / "physics.json"
+            truth_path.write_text(json.dumps(self.physics_dict(), indent=2) + "\n")
             meta_path = out / "campaign.json"
             meta_path.write_text(json.dumps(self.metadata(), indent=2) + "\n")
         except OSError as exc:
@@ -296,34 +356,44 @@ class Campaign:
             plt.close(fig)
         return path
 
+    def physics_dict(self) -> dict[str, Any]:
+        """The truth as plain data: effects and every robot parameter with its unit."""
+        return {
+            "generator": "energy_planner.simulate.physics",
+            "effects": list(self.effects),
+            "params": self.physics.params.table(),
+        }
+
     def metadata(self) -> dict[str, Any]:
-        """Seed, effects, counts and every parameter, JSON-ready."""
+        """Seed, effects, faults, counts and every parameter, JSON-ready."""
         return {
             "generator": "energy_planner.simulate",
             "seed": self.seed,
             "effects": list(self.effects),
+            "faults": list(self.faults),
             "runs": len(self.runs),
             "samples": len(self.logs),
             "config": asdict(self.config),
         }
 
     def features(self) -> dict[str, np.ndarray]:
-        """True per-sample features (alpha, gamma, twist, speed, ax, ay, channels)."""
+        """True per-sample features (alpha, gamma, twist, speed, ax, ay, t_gait, channels)."""
         ts = self.true_samples
         f = {k: ts[k].to_numpy() for k in ("alpha", "gamma", "vx", "vy", "wz", "speed",
-                                            "ax", "ay")}
+                                            "ax", "ay", "t_gait")}
         for ch in CHANNELS:
             col = self.logs[ch]
-            f[ch] = col.astype(str).to_numpy() if ch == "surface" else col.to_numpy(float)
+            f[ch] = col.astype(str).to_numpy() if ch in CATEGORICAL else col.to_numpy(float)
         return f
 
     def effect_shares(self, effects: Iterable[str] | None = None) -> pd.DataFrame:
         """How much power each effect adds in this campaign's motions, switched on or not.
 
-        For every effect (default: all of :data:`~energy_planner.simulate.EFFECTS`) with
-        its true coefficient: the mean added power over all samples, the fraction of
-        samples where it acts, its mean where it acts, and its share there relative to
-        the base model's power (``sum(effect) / sum(base)`` over those samples).
+        For every effect (default: all of :data:`~energy_planner.simulate.EFFECTS`), the
+        difference of the expected truth power with only that effect on and with none,
+        on this campaign's true features: its mean over all samples, the fraction of
+        samples where it acts (|difference| > 0.01 W), its mean where it acts, and its
+        share there relative to the base power.
 
         Returns
         -------
@@ -334,12 +404,12 @@ class Campaign:
 
         names = list(EFFECTS) if effects is None else list(check_effects(effects))
         f = self.features()
-        base = truth_model().power(f)
+        params = self.physics.base_params
+        base = Physics(params).expected_power(f)
         rows = []
         for name in names:
-            e = EFFECTS[name]
-            contrib = e.coefficient * np.broadcast_to(e.term.parsed.evaluate(f), base.shape)
-            active = np.abs(contrib) > 1e-9
+            contrib = Physics(params, (name,)).expected_power(f) - base
+            active = np.abs(contrib) > 1e-2
             rows.append(
                 {
                     "effect": name,
@@ -353,8 +423,72 @@ class Campaign:
             )
         return pd.DataFrame(rows)
 
+    def noise_floor(self, windows: Any, reference: str = "expected") -> NoiseFloor:
+        """RMSE of the measured against the true power on the same windows.
+
+        Every sample of ``windows.samples`` is matched to its log row by ``run`` and
+        ``t`` (to 1e-6 s); a window's true power is the plain mean of the truth over its
+        samples (as :func:`~energy_planner.measurements.make_windows` averages the
+        measured power), its measured power is ``windows.table["power"]``; the floor is
+        ``sqrt(mean over windows of (measured - true)^2)``, unweighted, as calibration's
+        held-out power RMSE. No model of the per-sample features can do better on
+        average.
+
+        Parameters
+        ----------
+        windows : Windows
+            Windows of this campaign's logs (raw or preprocessed), from
+            :func:`energy_planner.measurements.make_windows`.
+        reference : {"expected", "instantaneous"}
+            Truth to compare with: the gait-cycle mean power (default; the ripple counts
+            as noise, since its phase is not in the features) or the instantaneous power.
+
+        Raises
+        ------
+        LogError
+            Unknown ``reference``, or a window sample that is not a row of these logs.
+        """
+        col = {"expected": "power_expected", "instantaneous": "power"}.get(reference)
+        if col is None:
+            raise LogError(
+                f"unknown noise-floor reference {reference!r}; expected 'expected' or "
+                "'instantaneous'"
+            )
+        samples = windows.samples
+        key = pd.DataFrame({"run": samples["run"].astype(str).to_numpy(),
+                            "tk": np.round(samples["t"].to_numpy(float) * 1e6).astype(np.int64),
+                            "window": samples["window"].to_numpy()})
+        ts = self.true_samples
+        truth = pd.DataFrame({"run": ts["run"].astype(str).to_numpy(),
+                              "tk": np.round(ts["t"].to_numpy(float) * 1e6).astype(np.int64),
+                              "true": ts[col].to_numpy(float)})
+        merged = key.merge(truth, on=["run", "tk"], how="left", validate="many_to_one")
+        missing = merged["true"].isna()
+        if missing.any():
+            r = merged.loc[missing].iloc[0]
+            raise LogError(
+                f"{int(missing.sum())} window sample(s) are not rows of this campaign's "
+                f"logs (first: run {r['run']!r} at t = {r['tk'] / 1e6:.6f} s); expected "
+                "windows made from Campaign.logs"
+            )
+        true_w = merged.groupby("window", sort=True)["true"].mean()
+        table = windows.table.sort_values("window")
+        measured = table.set_index("window")["power"].reindex(true_w.index).to_numpy(float)
+        diff = measured - true_w.to_numpy()
+        per = pd.DataFrame({"window": true_w.index.to_numpy(),
+                            "run": table.set_index("window")["run"].reindex(true_w.index)
+                            .to_numpy(),
+                            "measured_w": measured, "true_w": true_w.to_numpy()})
+        return NoiseFloor(
+            rmse_w=float(np.sqrt(np.mean(diff**2))) if len(diff) else float("nan"),
+            bias_w=float(np.mean(diff)) if len(diff) else float("nan"),
+            n_windows=len(diff),
+            reference=reference,
+            per_window=per,
+        )
+
     def summary(self) -> dict[str, Any]:
-        """Counts, effects and truth coefficients (what the CLI prints)."""
+        """Counts, effects, faults and the truth's headline numbers (what the CLI prints)."""
         kinds = self.runs["kind"].value_counts().sort_index()
         return {
             "seed": self.seed,
@@ -363,7 +497,7 @@ class Campaign:
             "duration_s": float(self.runs["duration_s"].sum()),
             "kinds": {str(k): int(v) for k, v in kinds.items()},
             "effects": list(self.effects),
-            "truth": dict(self.truth.coefficients or {}),
+            "faults": list(self.faults),
             "mean_power_w": float(self.true_samples["power"].mean()),
             "battery_packs": int(self.runs["battery_pack"].max()) + 1,
         }
@@ -379,7 +513,8 @@ def simulate_campaign(
     effects: Iterable[str] = (),
     config: CampaignConfig | None = None,
     *,
-    truth: EnergyModel | None = None,
+    faults: Iterable[str] = (),
+    params: RobotParams | None = None,
     progress: bool = False,
 ) -> Campaign:
     """Simulate a field campaign.
@@ -393,8 +528,11 @@ def simulate_campaign(
     config : CampaignConfig, optional
         Campaign parameters (default :class:`CampaignConfig`); ``CampaignConfig.small()``
         for tests, ``CampaignConfig(sensors=SensorConfig.ideal())`` for noise-free logs.
-    truth : EnergyModel, optional
-        Use this fitted model as the truth instead of ``truth_model(effects)``.
+    faults : iterable of str
+        Sensor faults (names from :data:`energy_planner.simulate.FAULTS`), applied on
+        top of ``config.sensors``.
+    params : RobotParams, optional
+        Robot parameters of the truth (default :class:`RobotParams`).
     progress : bool
         Show a progress bar on stderr.
 
@@ -405,21 +543,18 @@ def simulate_campaign(
     Raises
     ------
     ModelError
-        Unknown effect, or a truth model needing a feature the simulator does not make.
+        Unknown effect or fault.
     """
     config = config or CampaignConfig()
     names = check_effects(effects)
-    model = truth if truth is not None else truth_model(names)
-    model.coef_array()  # raises ModelError for an unfitted truth
+    fault_names = check_faults(faults)
+    physics = Physics(params, names)
     from tqdm.auto import tqdm
 
     root = np.random.default_rng(seed)
     design_rng, channel_rng, noise_rng = root.spawn(3)
     plan = plan_runs(config)
     n_runs = len(plan)
-    dt = config.dt
-    sens = config.sensors
-    bat = config.battery
 
     # ---- design: a ramp azimuth per slope, conditions per block, field order
     slope_values = sorted({r.slope_deg for r in plan})
@@ -434,10 +569,12 @@ def simulate_campaign(
 
     # ---- extra channels: one draw per block (the parts of a composite share them)
     nb = len(blocks)
-    surface_b = _balanced(channel_rng, config.surfaces, nb)
-    payload_b = _balanced(channel_rng, config.payloads_kg, nb).astype(float)
-    temp_b = channel_rng.uniform(*config.temperature_range_c, nb)
+    ground_b = _balanced(channel_rng, config.grounds, nb)
+    load_b = _balanced(channel_rng, config.loads_kg, nb).astype(float)
+    air_b = channel_rng.uniform(*config.air_temp_range_c, nb)
     grass_b = channel_rng.uniform(*config.grass_height_range_m, nb)
+    motor0_b = channel_rng.uniform(*config.motor_temp_range_c, nb)
+    warm_b = channel_rng.uniform(0.0, config.motor_warming_k_s, nb)
 
     # ---- per-run sensor draws (independent of effects)
     slip_raw = noise_rng.standard_normal(n_runs)
@@ -462,133 +599,36 @@ def simulate_campaign(
     def cat(key: str) -> np.ndarray:
         return np.concatenate([geo[k][key] for k in order])
 
-    t = np.round(cat("t") + t_start[idx], 9)
+    t_run = cat("t")
+    t = np.round(t_run + t_start[idx], 9)
     vx, vy, wz, ax, ay = (cat(k) for k in ("vx", "vy", "wz", "ax", "ay"))
     gamma = cat("gamma")
     alpha = np.radians(np.array([plan[k].slope_deg for k in range(n_runs)]))[idx]
+    psi = np.array([psi_of[s.slope_deg] for s in plan])[idx]
     pos = np.concatenate([geo[k]["pos"] for k in order])
     yaw = cat("yaw")
     blk = np.asarray(run_block)[idx]
-    features: dict[str, Any] = {
-        "alpha": alpha,
-        "gamma": wrap(gamma),
-        "vx": vx,
-        "vy": vy,
-        "wz": wz,
-        "speed": np.hypot(vx, vy),
-        "ax": ax,
-        "ay": ay,
-        "payload_kg": payload_b[blk],
-        "surface": surface_b[blk].astype(str),
-        "temperature_c": temp_b[blk],
+    channels = {
+        "load_kg": load_b[blk],
+        "ground": ground_b[blk].astype(str),
+        "motor_temp": motor0_b[blk] + warm_b[blk] * t_run,
+        "air_temp_c": air_b[blk],
         "grass_height_m": grass_b[blk],
     }
-    raw = model.design_matrix(features) @ model.coef_array()
-    if raw.min() < -1e-9:
-        warnings.warn(
-            f"the truth model gives negative power (min {raw.min():.1f} W) in this campaign; "
-            "it is floored at 0 W (a legged robot does not regenerate)",
-            UserWarning,
-            stacklevel=2,
-        )
-    power = model.power(features)
-
-    # ---- battery, run by run in field order
-    n = len(t)
-    current = np.empty(n)
-    voltage = np.empty(n)
-    soc = np.empty(n)
-    pack = np.zeros(n_runs, dtype=int)
-    soc_start = np.zeros(n_runs)
-    soc_end = np.zeros(n_runs)
-    level, pack_id = bat.soc_start, 0
-    charge_as = 3600.0 * bat.capacity_ah
-    r = bat.internal_resistance_ohm
-    bounds = np.concatenate([[0], np.cumsum(sizes)])
-    for pos_k, k in enumerate(order):
-        sl = slice(bounds[pos_k], bounds[pos_k + 1])
-        p = power[sl]
-        i0 = battery_current(p, bat.ocv(level), r)
-        soc_t = level - _cumtrapz(i0, dt) / charge_as
-        if soc_t[-1] < bat.soc_swap and level < bat.soc_start:
-            level, pack_id = bat.soc_start, pack_id + 1
-            i0 = battery_current(p, bat.ocv(level), r)
-            soc_t = level - _cumtrapz(i0, dt) / charge_as
-        ocv = bat.ocv(soc_t)
-        i = battery_current(p, ocv, r)
-        current[sl], voltage[sl], soc[sl] = i, ocv - r * i, soc_t
-        pack[k], soc_start[k] = pack_id, level
-        level = level - float(np.sum((i[1:] + i[:-1]) * dt / 2)) / charge_as
-        soc_end[k] = level
-
-    # ---- sensors
-    slip = np.clip(
-        sens.slip_mean
-        + sens.slip_per_sin_slope * np.sin(np.radians([s.slope_deg for s in plan]))
-        + sens.slip_std * slip_raw,
-        -0.5,
-        0.5,
-    )
-    g = 1.0 - slip[idx]
-    meas_vx = vx * g + sens.twist_noise_v * noise_rng.standard_normal(n)
-    meas_vy = vy * g + sens.twist_noise_v * noise_rng.standard_normal(n)
-    meas_wz = wz * g + sens.twist_noise_w * noise_rng.standard_normal(n)
-    spikes = noise_rng.random(n) < sens.spike_prob
-    spike_size = noise_rng.uniform(0.5, 1.5, n) * np.where(noise_rng.random(n) < 0.5, -1, 1)
-    meas_current = (current + sens.current_noise_a * noise_rng.standard_normal(n)
-                    + np.where(spikes, sens.spike_current_a * spike_size, 0.0))
-    meas_voltage = voltage + sens.voltage_noise_v * noise_rng.standard_normal(n)
-    bias = np.radians(sens.imu_bias_deg) * bias_raw  # (roll, pitch) per run
-    psi = np.array([psi_of[s.slope_deg] for s in plan])[idx]
-    q = imu_quaternion(alpha, psi, gamma)
-    rotvec = np.zeros((n, 3))
-    rotvec[:, :2] = bias[idx]
-    rotvec += np.radians(sens.imu_noise_deg) * noise_rng.standard_normal((n, 3))
-    if np.any(rotvec):  # a misaligned, noisy IMU: R_measured = R_true R_error
-        q = quat_mul(q, quat_from_rotvec(rotvec))
-        q = np.where(q[:, :1] < 0, -q, q)
-
+    slip_run = (config.sensors.with_faults(fault_names).slip_mean
+                + config.sensors.with_faults(fault_names).slip_per_sin_slope
+                * np.sin(np.radians([s.slope_deg for s in plan]))
+                + config.sensors.with_faults(fault_names).slip_std * slip_raw)
+    bias = np.radians(config.sensors.imu_bias_deg) * bias_raw  # (roll, pitch) per run
     run_ids = np.array([plan[k].run for k in range(n_runs)], dtype=object)[idx]
-    logs = pd.DataFrame(
-        {
-            "run": run_ids,
-            "t": t,
-            "qw": q[:, 0],
-            "qx": q[:, 1],
-            "qy": q[:, 2],
-            "qz": q[:, 3],
-            "vx": meas_vx,
-            "vy": meas_vy,
-            "wz": meas_wz,
-            "voltage": meas_voltage,
-            "current": meas_current,
-            "x": pos[:, 0],
-            "y": pos[:, 1],
-            "yaw": yaw,
-            "payload_kg": features["payload_kg"],
-            "surface": pd.Categorical(features["surface"], categories=list(config.surfaces)),
-            "temperature_c": features["temperature_c"],
-            "grass_height_m": features["grass_height_m"],
-        }
-    )
-    true_samples = pd.DataFrame(
-        {
-            "run": run_ids,
-            "t": t,
-            **{k: features[k] for k in ("alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay")},
-            "z": pos[:, 2],
-            "power": power,
-            "voltage": voltage,
-            "current": current,
-            "soc": soc,
-        }
-    )
+    truth = _TruthStreams(run_ids, t, t_run, alpha, psi, gamma, vx, vy, wz, ax, ay, pos, yaw,
+                          channels)
+    out = _logs_from_truth(truth, physics, config.sensors.with_faults(fault_names),
+                           config.battery, config.dt, sizes, slip_run[idx], bias[idx],
+                           noise_rng, list(config.grounds))
 
-    energy = np.zeros(n_runs)
-    for pos_k, k in enumerate(order):
-        sl = slice(bounds[pos_k], bounds[pos_k + 1])
-        energy[k] = float(np.sum((power[sl][1:] + power[sl][:-1]) * dt / 2))
     rows = []
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
     for rank, k in enumerate(order):
         spec, gk = plan[k], geo[k]
         b = run_block[k]
@@ -605,24 +645,25 @@ def simulate_campaign(
                 "duration_s": float(gk["t"][-1]),
                 "composite": spec.composite,
                 "part": spec.part,
-                "true_energy_j": energy[k],
-                "true_mean_power_w": energy[k] / float(gk["t"][-1]),
+                "true_energy_j": out["energy"][rank],
+                "true_mean_power_w": out["energy"][rank] / float(gk["t"][-1]),
                 "distance_m": spec.distance_m,
                 "turn_deg": math.degrees(spec.turn_rad),
                 "repeat": spec.repeat,
                 "order": rank,
                 "t_start": t_start[k],
                 "n_samples": len(gk["t"]),
-                "payload_kg": payload_b[b],
-                "surface": surface_b[b],
-                "temperature_c": temp_b[b],
+                "load_kg": load_b[b],
+                "ground": ground_b[b],
+                "motor_temp_start": motor0_b[b],
+                "air_temp_c": air_b[b],
                 "grass_height_m": grass_b[b],
-                "slip": slip[k],
+                "slip": slip_run[k],
                 "imu_roll_bias_deg": math.degrees(bias[k, 0]),
                 "imu_pitch_bias_deg": math.degrees(bias[k, 1]),
-                "battery_pack": pack[k],
-                "soc_start": soc_start[k],
-                "soc_end": soc_end[k],
+                "battery_pack": out["pack"][rank],
+                "soc_start": out["soc_start"][rank],
+                "soc_end": out["soc_end"][rank],
                 "start_x": gk["pos"][0, 0],
                 "start_y": gk["pos"][0, 1],
                 "end_x": gk["pos"][-1, 0],
@@ -631,8 +672,162 @@ def simulate_campaign(
                 "end_heading_deg": math.degrees(float(wrap(gk["gamma"][-1]))),
             }
         )
+    del bounds
     runs = pd.DataFrame(rows)
-    return Campaign(logs, runs, model, names, true_samples, seed, config)
+    return Campaign(out["logs"], runs, physics, names, out["true_samples"], seed, config,
+                    fault_names)
+
+
+@dataclass
+class _TruthStreams:
+    """True motion of consecutive runs (concatenated, each run's samples together)."""
+
+    run: np.ndarray
+    t: np.ndarray  # campaign clock
+    t_run: np.ndarray  # time since the run (gait) started
+    alpha: np.ndarray
+    psi: np.ndarray
+    gamma: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    wz: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+    pos: np.ndarray
+    yaw: np.ndarray
+    channels: dict[str, np.ndarray]
+
+
+def _logs_from_truth(
+    tr: _TruthStreams,
+    physics: Physics,
+    sens: Any,
+    bat: Any,
+    dt: float,
+    sizes: np.ndarray,
+    slip: np.ndarray,
+    bias: np.ndarray,
+    noise_rng: np.random.Generator,
+    grounds: list[str],
+) -> dict[str, Any]:
+    """Truth power, battery and sensors for runs laid out one after another.
+
+    ``sizes`` are the sample counts of the runs in log order, ``slip`` and ``bias``
+    (roll, pitch; rad) per sample (constant per run).
+    """
+    features: dict[str, Any] = {
+        "alpha": tr.alpha, "gamma": wrap(tr.gamma), "vx": tr.vx, "vy": tr.vy, "wz": tr.wz,
+        "ax": tr.ax, "ay": tr.ay, "t_gait": tr.t_run, **tr.channels,
+    }
+    power = physics.power(features)
+    expected = physics.expected_power(features)
+
+    # ---- battery, run by run in log order
+    n = len(tr.t)
+    n_runs = len(sizes)
+    current = np.empty(n)
+    voltage = np.empty(n)
+    soc = np.empty(n)
+    pack = np.zeros(n_runs, dtype=int)
+    soc_start = np.zeros(n_runs)
+    soc_end = np.zeros(n_runs)
+    energy = np.zeros(n_runs)
+    level, pack_id = bat.soc_start, 0
+    charge_as = 3600.0 * bat.capacity_ah
+    r = bat.internal_resistance_ohm
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    for k in range(n_runs):
+        sl = slice(bounds[k], bounds[k + 1])
+        p = power[sl]
+        i0 = battery_current(p, bat.ocv(level), r)
+        soc_t = level - _cumtrapz(i0, dt) / charge_as
+        if soc_t[-1] < bat.soc_swap and level < bat.soc_start:
+            level, pack_id = bat.soc_start, pack_id + 1
+            i0 = battery_current(p, bat.ocv(level), r)
+            soc_t = level - _cumtrapz(i0, dt) / charge_as
+        ocv = bat.ocv(soc_t)
+        i = battery_current(p, ocv, r)
+        current[sl], voltage[sl], soc[sl] = i, ocv - r * i, soc_t
+        pack[k], soc_start[k] = pack_id, level
+        level = level - float(np.sum((i[1:] + i[:-1]) * dt / 2)) / charge_as
+        soc_end[k] = level
+        energy[k] = float(np.sum((p[1:] + p[:-1]) * dt / 2))
+
+    # ---- sensors
+    g = 1.0 - np.clip(slip, -0.5, 0.5)
+    meas_vx = tr.vx * g + sens.twist_noise_v * noise_rng.standard_normal(n)
+    meas_vy = tr.vy * g + sens.twist_noise_v * noise_rng.standard_normal(n)
+    meas_wz = tr.wz * g + sens.twist_noise_w * noise_rng.standard_normal(n)
+    spikes = noise_rng.random(n) < sens.spike_prob
+    spike_size = noise_rng.uniform(0.5, 1.5, n) * np.where(noise_rng.random(n) < 0.5, -1, 1)
+    cur_src, volt_src = current, voltage
+    if sens.battery_clock_offset_s > 0:  # the battery stream lags: shows older values
+        cur_src, volt_src = np.empty(n), np.empty(n)
+        for k in range(n_runs):
+            sl = slice(bounds[k], bounds[k + 1])
+            tt = tr.t[sl]
+            cur_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, current[sl])
+            volt_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, voltage[sl])
+    meas_current = (cur_src + sens.current_noise_a * noise_rng.standard_normal(n)
+                    + np.where(spikes, sens.spike_current_a * spike_size, 0.0))
+    if sens.ros_current_sign:
+        meas_current = -meas_current
+    meas_voltage = volt_src + sens.voltage_noise_v * noise_rng.standard_normal(n)
+    q = imu_quaternion(tr.alpha, tr.psi, tr.gamma)
+    rotvec = np.zeros((n, 3))
+    rotvec[:, :2] = bias
+    rotvec += np.radians(sens.imu_noise_deg) * noise_rng.standard_normal((n, 3))
+    if np.any(rotvec):  # a misaligned, noisy IMU: R_measured = R_true R_error
+        q = quat_mul(q, quat_from_rotvec(rotvec))
+        q = np.where(q[:, :1] < 0, -q, q)
+
+    ch = tr.channels
+    logs = pd.DataFrame(
+        {
+            "run": tr.run,
+            "t": tr.t,
+            "qw": q[:, 0],
+            "qx": q[:, 1],
+            "qy": q[:, 2],
+            "qz": q[:, 3],
+            "vx": meas_vx,
+            "vy": meas_vy,
+            "wz": meas_wz,
+            "voltage": meas_voltage,
+            "current": meas_current,
+            "x": tr.pos[:, 0],
+            "y": tr.pos[:, 1],
+            "yaw": tr.yaw,
+            "load_kg": ch["load_kg"],
+            "ground": pd.Categorical(ch["ground"], categories=grounds),
+            "motor_temp": ch["motor_temp"],
+            "air_temp_c": ch["air_temp_c"],
+            "grass_height_m": ch["grass_height_m"],
+        }
+    )
+    true_samples = pd.DataFrame(
+        {
+            "run": tr.run,
+            "t": tr.t,
+            "alpha": tr.alpha,
+            "gamma": features["gamma"],
+            "vx": tr.vx,
+            "vy": tr.vy,
+            "wz": tr.wz,
+            "speed": np.hypot(tr.vx, tr.vy),
+            "ax": tr.ax,
+            "ay": tr.ay,
+            "z": tr.pos[:, 2],
+            "t_gait": tr.t_run,
+            "power": power,
+            "power_expected": expected,
+            "voltage": voltage,
+            "current": current,
+            "soc": soc,
+        }
+    )
+    return {"logs": logs, "true_samples": true_samples, "energy": energy, "pack": pack,
+            "soc_start": soc_start, "soc_end": soc_end}
 
 
 def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:

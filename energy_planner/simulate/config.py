@@ -62,6 +62,12 @@ class SensorConfig:
         Standard deviation of the fixed per-run tilt bias of the IMU (roll and pitch), deg.
     imu_noise_deg : float
         White orientation noise per axis, deg.
+    ros_current_sign : bool
+        Log the battery current with the ROS sign (negative while discharging): the
+        ``ros_current_sign`` fault.
+    battery_clock_offset_s : float
+        The battery stream (voltage, current) lags the odometry and IMU by this, s: the
+        ``clock_offset`` fault.
     """
 
     current_noise_a: float = 0.1
@@ -75,11 +81,32 @@ class SensorConfig:
     twist_noise_w: float = 0.01
     imu_bias_deg: float = 0.3
     imu_noise_deg: float = 0.05
+    ros_current_sign: bool = False
+    battery_clock_offset_s: float = 0.0
 
     @classmethod
     def ideal(cls) -> SensorConfig:
-        """Perfect sensors: no noise, no spikes, no slip, no IMU bias."""
-        return cls(**{f.name: 0.0 for f in dataclasses.fields(cls)})
+        """Perfect sensors: no noise, no spikes, no slip, no IMU bias, no fault."""
+        return cls(**{f.name: False if f.type in (bool, "bool") else 0.0
+                      for f in dataclasses.fields(cls)})
+
+    def with_faults(self, faults: tuple[str, ...]) -> SensorConfig:
+        """These sensors with the named faults (:data:`energy_planner.simulate.FAULTS`).
+
+        >>> SensorConfig().with_faults(("slope_slip", "clock_offset")).battery_clock_offset_s
+        0.4
+        """
+        from energy_planner.simulate.effects import check_faults
+
+        changes: dict[str, Any] = {}
+        for name in check_faults(faults):
+            if name == "slope_slip":
+                changes["slip_per_sin_slope"] = 0.6
+            elif name == "ros_current_sign":
+                changes["ros_current_sign"] = True
+            elif name == "clock_offset":
+                changes["battery_clock_offset_s"] = 0.4
+        return dataclasses.replace(self, **changes)
 
     @property
     def is_ideal(self) -> bool:
@@ -203,12 +230,18 @@ class CampaignConfig:
     composite_turn_deg : float
         Pose change of composite (b): yaw in place by this angle then a straight
         translation, against a circular arc of radius ``arc_radius_m``, deg.
-    surfaces : tuple of str
-        Values of the categorical channel ``surface``, balanced over runs.
-    payloads_kg : tuple of float
-        Values of the channel ``payload_kg``, balanced over runs, kg.
-    temperature_range_c : tuple of float
-        Range of the uniform per-run channel ``temperature_c``, deg C.
+    grounds : tuple of str
+        Values of the categorical channel ``ground``, balanced over runs (names from
+        :data:`energy_planner.simulate.GROUNDS`).
+    loads_kg : tuple of float
+        Values of the channel ``load_kg`` (carried mass), balanced over runs, kg.
+    air_temp_range_c : tuple of float
+        Range of the uniform per-run channel ``air_temp_c``, deg C.
+    motor_temp_range_c : tuple of float
+        Range of the uniform winding temperature at run start (channel ``motor_temp``),
+        deg C.
+    motor_warming_k_s : float
+        Largest warming rate of the windings during a run (uniform per run from 0), K/s.
     grass_height_range_m : tuple of float
         Range of the uniform per-run channel ``grass_height_m``, m.
     sensors : SensorConfig
@@ -235,9 +268,11 @@ class CampaignConfig:
     composite_headings_deg: tuple[float, ...] = (0.0, 90.0, 180.0, -90.0)
     composite_legs_m: tuple[float, float] = (4.0, 3.0)
     composite_turn_deg: float = 90.0
-    surfaces: tuple[str, ...] = ("grass", "gravel", "mud", "asphalt")
-    payloads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
-    temperature_range_c: tuple[float, float] = (0.0, 30.0)
+    grounds: tuple[str, ...] = ("meadow", "gravel", "mud", "asphalt")
+    loads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
+    air_temp_range_c: tuple[float, float] = (0.0, 30.0)
+    motor_temp_range_c: tuple[float, float] = (25.0, 55.0)
+    motor_warming_k_s: float = 0.05
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)
     sensors: SensorConfig = field(default_factory=SensorConfig)
     battery: BatteryConfig = field(default_factory=BatteryConfig)
@@ -245,7 +280,8 @@ class CampaignConfig:
     def __post_init__(self) -> None:
         for name in ("slopes_deg", "headings_deg", "motions", "speeds", "turn_headings_deg",
                      "composite_slopes_deg", "composite_headings_deg", "composite_legs_m",
-                     "surfaces", "payloads_kg", "temperature_range_c", "grass_height_range_m"):
+                     "grounds", "loads_kg", "air_temp_range_c", "motor_temp_range_c",
+                     "grass_height_range_m"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
         _check(all(0 <= s < 60 for s in self.slopes_deg), "CampaignConfig.slopes_deg",
                self.slopes_deg, "slopes in [0, 60) deg")
@@ -273,11 +309,16 @@ class CampaignConfig:
                "two positive lengths (A forward, B sideways) in m")
         _check(0 < abs(self.composite_turn_deg) < 180, "CampaignConfig.composite_turn_deg",
                self.composite_turn_deg, "an angle in (0, 180) deg")
-        _check(len(self.surfaces) > 0, "CampaignConfig.surfaces", self.surfaces,
-               "at least one surface name")
-        _check(len(self.payloads_kg) > 0 and all(p >= 0 for p in self.payloads_kg),
-               "CampaignConfig.payloads_kg", self.payloads_kg, "one or more masses >= 0 kg")
-        for name in ("temperature_range_c", "grass_height_range_m"):
+        from energy_planner.simulate.physics import GROUNDS
+
+        _check(len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
+               "CampaignConfig.grounds", self.grounds,
+               f"one or more of {', '.join(GROUNDS)}")
+        _check(len(self.loads_kg) > 0 and all(p >= 0 for p in self.loads_kg),
+               "CampaignConfig.loads_kg", self.loads_kg, "one or more masses >= 0 kg")
+        _check(self.motor_warming_k_s >= 0, "CampaignConfig.motor_warming_k_s",
+               self.motor_warming_k_s, ">= 0 K/s")
+        for name in ("air_temp_range_c", "motor_temp_range_c", "grass_height_range_m"):
             lo_hi = getattr(self, name)
             _check(len(lo_hi) == 2 and lo_hi[0] <= lo_hi[1], f"CampaignConfig.{name}",
                    lo_hi, "(low, high) with low <= high")

@@ -1,160 +1,183 @@
-"""Ground-truth physics of the simulator: the base wrench plus switchable effects.
+"""Hidden effects: switchable changes to the simulator's physics, and sensor faults.
 
-The truth is an ordinary :class:`~energy_planner.model.EnergyModel`: the paper's base
-terms (:data:`~energy_planner.model.BASE_TERMS`) with B1-class coefficients
-(:data:`BASE_COEFFICIENTS`), plus one term per switched-on effect from :data:`EFFECTS`.
-With no effect switched on, the truth lies exactly inside the base model, so a perfect
-calibration recovers :data:`BASE_COEFFICIENTS` up to sensor effects.
+Each :class:`Effect` changes the mechanistic truth of
+:mod:`energy_planner.simulate.physics` (a parameter, or a physical process that the
+base robot does not have); none is a formula of the model's catalog. Effects tied to a
+log channel make the physics read that channel; the channel is logged in every
+campaign (varying between runs) whether its effect is on or not. Any effects combine.
 
-Base coefficients (about 50 kg robot, ``m g = 490 N``; level ground at 0.3 m/s costs
-``600 N * 0.3 m/s = 180 W`` forward):
-
-============  ========  =====================================================
-term          value     why
-============  ========  =====================================================
-fwd_const     600 N     cost of transport ~1.2 at 0.3 m/s (B1-class)
-fwd_grade     1000 N    ``m g / efficiency`` = 490 N / 0.49
-bwd_const     700 N     backward gait is less efficient than forward
-bwd_grade     1000 N    same gravity work as forward
-lat_const     800 N     side stepping is the least efficient gait
-lat_grade     900 N     gravity work sideways, slightly better efficiency
-turn_const    250 N m   turning in place (per rad/s)
-turn_slope    300 N m   extra stabilisation while turning on a slope
-============  ========  =====================================================
-
-Downhill at 25 degrees forward still costs ``600 - 1000 sin 25° = 177 N``, backward
-``700 - 423 = 277 N`` and sideways ``800 - 900 sin 25° = 420 N``: power never goes
-negative in the campaign, so the model's floor at zero is never active.
+Sensor faults (:data:`FAULTS`) are not physics: they corrupt the logs (odometry slip
+that grows with slope, the ROS sign of the battery current, a clock offset between the
+battery and the odometry streams), for diagnosis to report as data findings.
 
 Examples
 --------
->>> m = truth_model(("idle_power",))
->>> m.term_names[-1], m.coefficients["idle_power"]
-('idle_power', 20.0)
->>> truth_model().term_names == list(BASE_TERMS)
-True
->>> sorted(EFFECTS)[:3]
-['acceleration', 'cold_joints', 'cross_slope_roll']
+>>> sorted(EFFECTS)[:4]
+['acceleration', 'cold_joints', 'downhill_braking', 'ground']
+>>> [e.name for e in EFFECTS.values() if e.channel]
+['load', 'ground', 'motor_temp', 'cold_joints', 'vegetation']
+>>> EFFECTS["idle_power"].adjust(RobotParams()).electronics_w
+75.0
+>>> check_effects(["load", "ground", "load"])
+('load', 'ground')
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
 
-from energy_planner.errors import ModelError
-from energy_planner.model import BASE_TERMS, CATALOG, EnergyModel, Term, parse_formula
+from energy_planner.errors import ModelError, RemovedAPIError
+from energy_planner.simulate.physics import RobotParams
 
-__all__ = ["Effect", "EFFECTS", "BASE_COEFFICIENTS", "truth_model", "check_effects"]
-
-#: True coefficients of the paper's base terms (units: N for forces, N m for torques).
-BASE_COEFFICIENTS: dict[str, float] = {
-    "fwd_const": 600.0,
-    "fwd_grade": 1000.0,
-    "bwd_const": 700.0,
-    "bwd_grade": 1000.0,
-    "lat_const": 800.0,
-    "lat_grade": 900.0,
-    "turn_const": 250.0,
-    "turn_slope": 300.0,
-}
+__all__ = [
+    "Effect",
+    "EFFECTS",
+    "FAULTS",
+    "check_effects",
+    "check_faults",
+    "effect_table",
+    "truth_model",
+]
 
 
 @dataclass(frozen=True)
 class Effect:
-    """One physical effect the simulator can switch on: a single model term.
+    """One physical change the simulator can switch on.
 
     Attributes
     ----------
     name : str
-        Effect name (``--effect NAME``); also the term name in the truth model.
-    formula : str
-        Term formula over per-sample features (see :mod:`energy_planner.model.formula`).
-    coefficient : float
-        True coefficient, in ``unit``.
-    unit : str
-        Unit of the coefficient (power is in W).
+        Effect name (``--effect NAME``).
     explanation : str
-        One line: the physics behind the term.
+        The physics that changes.
     needs : tuple of str
-        What a campaign must contain for the effect to be visible and identifiable.
-    catalog : bool
-        True when :data:`energy_planner.model.CATALOG` names this effect; False for the
-        effects a diagnosis has to find from the extra log channels.
+        What a campaign must contain for the effect to be visible.
+    channel : str or None
+        The log channel the physics reads when the effect is on (None: structural).
+    changes : mapping
+        Parameter changes of :class:`RobotParams` (name -> new value, or a function of
+        the old parameters).
+    resembles : str or None
+        The catalog term whose shape is closest (for orientation only: the simulated
+        physics is not that formula); None when the catalog does not read the channel.
     """
 
     name: str
-    formula: str
-    coefficient: float
-    unit: str
     explanation: str
     needs: tuple[str, ...] = ()
-    catalog: bool = False
+    channel: str | None = None
+    changes: Mapping[str, float | Callable[[RobotParams], float]] = field(default_factory=dict)
+    resembles: str | None = None
 
-    @property
-    def term(self) -> Term:
-        """The model term (the catalog's own :class:`Term` for catalog effects)."""
-        if self.catalog:
-            return CATALOG[self.name]
-        return Term(self.name, parse_formula(self.formula).text, self.explanation, self.unit)
-
-    @property
-    def variables(self) -> frozenset[str]:
-        """Feature names the effect's term reads."""
-        return parse_formula(self.formula).variables
+    def adjust(self, params: RobotParams) -> RobotParams:
+        """The parameters with this effect's changes applied."""
+        new = {k: (v(params) if callable(v) else v) for k, v in self.changes.items()}
+        return dataclasses.replace(params, **new) if new else params
 
 
-def _cat(name: str, coefficient: float, needs: tuple[str, ...]) -> Effect:
-    t = CATALOG[name]
-    return Effect(name, t.formula, coefficient, t.unit, t.explanation, needs, catalog=True)
-
-
-#: Every effect the simulator knows: name -> :class:`Effect`. Strengths are chosen so that
-#: each effect carries roughly 5-15 % of the mean power of the runs it acts on.
+#: Every physical effect the simulator knows: name -> :class:`Effect`.
 EFFECTS: dict[str, Effect] = {
     e.name: e
     for e in (
-        _cat("idle_power", 20.0, ("stand runs (CampaignConfig.stand) or several speeds",)),
-        _cat(
-            "speed_dependence",
-            300.0,
-            ("several speeds, e.g. CampaignConfig(speeds=(0.2, 0.3, 0.45))",),
-        ),
-        _cat("joule_heating", 300.0, ("several slopes", "stand runs help")),
-        _cat("downhill_braking", 400.0, ("downhill runs at several slopes",)),
-        _cat("cross_slope_roll", 400.0, ("cross-slope headings at several slopes",)),
-        _cat("turn_while_walking", 600.0, ("arc runs (CampaignConfig.arcs)",)),
-        _cat(
-            "acceleration",
-            400.0,
-            ("speed ramps at run start and end (CampaignConfig.ramp_s > 0)",),
+        Effect(
+            "idle_power",
+            "a perception computer and lidar add 30 W of electronics (constant, also "
+            "while standing)",
+            ("several speeds (e.g. --speeds 0.2,0.3,0.45) or turns and stand runs",),
+            changes={"electronics_w": lambda p: p.electronics_w + 30.0},
+            resembles="idle_power",
         ),
         Effect(
-            "surface_type",
-            "speed * (surface == 'mud')",
-            250.0,
-            "N",
-            "walking in mud costs extra force per metre (sinking feet, suction)",
-            ("channel surface varies between runs (grass, gravel, mud, asphalt)",),
+            "speed_dependence",
+            "the gait keeps its stride length, so the stride frequency follows the speed: "
+            "foot lifting grows with v and swing-leg kinetic losses with v^3 (same power "
+            "as the base robot at 0.3 m/s)",
+            ("several speeds (e.g. --speeds 0.2,0.3,0.45)",),
+            resembles="speed_dependence",
         ),
-        _cat("payload", 10.0, ("channel payload_kg varies between runs (0, 5, 10, 15 kg)",)),
+        Effect(
+            "joule_heating",
+            "motors with 1.6 times the winding resistance (a thinner-wire actuator "
+            "version): every copper loss, which grows with the square of the leg forces, "
+            "is 1.6 times larger",
+            ("several slopes; stand runs and cross-slope headings help",),
+            changes={"winding_resistance_ohm": lambda p: 1.6 * p.winding_resistance_ohm},
+            resembles="joule_heating",
+        ),
+        Effect(
+            "downhill_braking",
+            "a stiff descent mode: walking forward downhill the legs brake with the hip "
+            "(lever 0.30 m instead of 0.08 m) and return only 10 % of the released "
+            "energy instead of 60 %",
+            ("forward runs downhill at several slopes",),
+            changes={"recovery_forward": 0.10, "lever_brake_forward_m": 0.30},
+            resembles="downhill_braking",
+        ),
+        Effect(
+            "turn_while_walking",
+            "on arcs the planted feet scuff sideways (friction 0.6 times the weight at "
+            "the foot radius, growing with speed as v / (v + 0.1 m/s))",
+            ("arc runs (CampaignConfig.arcs) or mission logs",),
+            resembles="turn_while_walking",
+        ),
+        Effect(
+            "acceleration",
+            "speeding up spins up the 12 rotors (reflected inertia J N^2 / l^2) and the "
+            "legs, and that kinetic energy is dissipated instead of recovered",
+            ("speed ramps (CampaignConfig.ramp_s > 0) or mission logs with speed changes",),
+            resembles="acceleration",
+        ),
+        Effect(
+            "load",
+            "a carried load (channel load_kg) adds to the mass everywhere: gravity work, "
+            "inertia, the copper losses of the leg forces (which grow with the square of "
+            "the mass), touch-down losses",
+            ("channel load_kg varies between runs (default 0, 5, 10, 15 kg)",),
+            channel="load_kg",
+        ),
+        Effect(
+            "ground",
+            "the surface (channel ground) resists: feet sink in meadow, gravel and mud "
+            "(a force of 3, 5, 14 % of the weight along the motion) and slip, so less of "
+            "the lowering energy is recovered (asphalt is the reference)",
+            ("channel ground varies between runs (meadow, gravel, mud, asphalt)",),
+            channel="ground",
+        ),
+        Effect(
+            "motor_temp",
+            "the winding resistance follows the logged winding temperature (channel "
+            "motor_temp): +0.39 %/K from 40 C, so every copper loss grows with it",
+            ("channel motor_temp varies (default 25-55 C at run start, warming during runs)",
+             "copper-heavy motions (slopes, standing) make it clearer"),
+            channel="motor_temp",
+        ),
         Effect(
             "cold_joints",
-            "pos(15 - temperature_c)",
-            4.0,
-            "W/K",
-            "below 15 C gearbox grease stiffens: friction power grows as the air gets colder",
-            ("channel temperature_c varies between runs (0..30 C)",),
+            "gearbox grease stiffens in the cold (channel air_temp_c): its viscous loss "
+            "grows as exp(0.04 (20 - T)) (x2.2 at 0 C, x0.67 at 30 C)",
+            ("channel air_temp_c varies between runs (default 0-30 C)",),
+            channel="air_temp_c",
         ),
         Effect(
-            "vegetation_drag",
-            "grass_height_m * speed",
-            500.0,
-            "N/m",
-            "tall grass drags on the legs: force per metre grows with the grass height",
-            ("channel grass_height_m varies between runs (0..0.4 m)",),
+            "vegetation",
+            "grass (channel grass_height_m) drags on the swinging legs (250 N per metre "
+            "of grass height along the motion) and the feet are lifted above half of it",
+            ("channel grass_height_m varies between runs (default 0-0.4 m)",),
+            channel="grass_height_m",
         ),
     )
+}
+
+#: Sensor faults (``--fault NAME``): data problems, not physics. name -> description.
+FAULTS: dict[str, str] = {
+    "slope_slip": "odometry slip grows strongly with slope: measured speed = true * "
+    "(1 - 0.02 - 0.6 sin(alpha)) (default sensors: 0.1 sin(alpha))",
+    "ros_current_sign": "the battery current is logged with the ROS sign convention "
+    "(negative while discharging)",
+    "clock_offset": "the battery stream (voltage, current) lags the odometry and IMU by "
+    "0.4 s",
 }
 
 
@@ -165,11 +188,6 @@ def check_effects(effects: Iterable[str]) -> tuple[str, ...]:
     ------
     ModelError
         Naming the unknown effect and listing the valid ones.
-
-    Examples
-    --------
-    >>> check_effects(["payload", "idle_power", "payload"])
-    ('payload', 'idle_power')
     """
     if isinstance(effects, str):
         effects = (effects,)
@@ -184,65 +202,61 @@ def check_effects(effects: Iterable[str]) -> tuple[str, ...]:
     return tuple(out)
 
 
-def truth_model(effects: Iterable[str] = (), **overrides: float) -> EnergyModel:
-    """The truth physics used by the simulator, as an :class:`EnergyModel`.
+def check_faults(faults: Iterable[str]) -> tuple[str, ...]:
+    """Validate sensor-fault names (see :data:`FAULTS`).
 
-    Parameters
-    ----------
-    effects : iterable of str
-        Names from :data:`EFFECTS` to switch on (one term each, appended in order).
-    **overrides : float
-        Coefficient overrides by term name, e.g. ``truth_model(fwd_const=650.0)``.
-
-    Returns
-    -------
-    EnergyModel
-        Base terms with :data:`BASE_COEFFICIENTS` plus the effects' terms; its metadata
-        records the effects.
-
-    Raises
-    ------
-    ModelError
-        Unknown effect, or an override for a term the model does not have.
-
-    Examples
-    --------
-    >>> truth_model(fwd_const=650.0).coefficients["fwd_const"]
-    650.0
+    >>> check_faults(["clock_offset"])
+    ('clock_offset',)
     """
-    names = check_effects(effects)
-    terms: list[str | Term] = [*BASE_TERMS, *(EFFECTS[n].term for n in names)]
-    coefs: dict[str, float] = dict(BASE_COEFFICIENTS)
-    coefs.update({n: float(EFFECTS[n].coefficient) for n in names})
-    unknown = sorted(set(overrides) - set(coefs))
-    if unknown:
-        raise ModelError(
-            f"cannot override {', '.join(map(repr, unknown))}: not a term of this truth "
-            f"model; its terms are {', '.join(coefs)}"
-        )
-    coefs.update({k: float(v) for k, v in overrides.items()})
-    return EnergyModel(
-        terms,
-        coefs,
-        metadata={
-            "source": "energy_planner.simulate ground truth",
-            "effects": list(names),
-        },
-    )
+    if isinstance(faults, str):
+        faults = (faults,)
+    out: list[str] = []
+    for name in faults:
+        if name not in FAULTS:
+            raise ModelError(f"unknown sensor fault {name!r}; valid faults: {', '.join(FAULTS)}")
+        if name not in out:
+            out.append(name)
+    return tuple(out)
 
 
 def effect_table(effects: Mapping[str, Effect] | None = None) -> list[dict[str, object]]:
-    """Rows describing the effects (name, formula, coefficient, unit, explanation, needs)."""
+    """Rows describing the effects (name, channel, explanation, needs, resembles)."""
     effects = EFFECTS if effects is None else effects
     return [
         {
             "name": e.name,
-            "formula": e.formula,
-            "coefficient": e.coefficient,
-            "unit": e.unit,
+            "channel": e.channel,
             "explanation": e.explanation,
             "needs": list(e.needs),
-            "catalog": e.catalog,
+            "resembles": e.resembles,
         }
         for e in effects.values()
     ]
+
+
+def truth_model(*args: object, **kwargs: object):
+    """Removed: the truth is no longer an EnergyModel.
+
+    Raises
+    ------
+    RemovedAPIError
+        Always, pointing to :class:`energy_planner.simulate.Physics` and
+        :func:`energy_planner.simulate.true_path_energy`.
+    """
+    raise RemovedAPIError(
+        "energy_planner.simulate.truth_model was removed: the simulator's truth is "
+        "mechanistic physics, not an EnergyModel. Use Campaign.physics / "
+        "energy_planner.simulate.Physics(effects=...).power(features) for per-sample "
+        "power and energy_planner.simulate.true_path_energy(...) for a path"
+    )
+
+
+def __getattr__(name: str):
+    if name == "BASE_COEFFICIENTS":
+        raise RemovedAPIError(
+            "energy_planner.simulate.BASE_COEFFICIENTS was removed: the simulator's truth "
+            "is mechanistic (energy_planner.simulate.RobotParams) and has no model "
+            "coefficients; compare a fitted model with the truth's power "
+            "(Campaign.true_samples['power_expected'], Physics.expected_power) instead"
+        )
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,442 @@
+"""Mission logs: a robot following smooth paths over a DEM, in the canonical log format.
+
+Each mission is one run: the robot follows a smooth random path (a Catmull-Rom spline
+through random waypoints inside the map; no planning), so slope and heading change
+continuously. It walks in phases of constant commanded speed (drawn from
+``MissionConfig.speeds``), stops now and then, and at a stop may turn in place to walk
+the next phase sideways or backward; speed changes are ramped (moving average over
+``ramp_s``), so it accelerates and turns while walking. The same physics, effects,
+battery and sensors as :func:`~energy_planner.simulate.simulate_campaign` apply; the
+``ground`` channel varies along the path (patches of a categorical ground map), the
+other channels per mission.
+
+Examples
+--------
+>>> camp = simulate_missions(seed=0, config=MissionConfig.small())
+>>> camp.runs["kind"].unique().tolist(), len(camp.runs)
+(['mission'], 2)
+>>> bool(camp.true_samples["alpha"].std() > 0.01)
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.simulate.campaign import (
+    Campaign,
+    _logs_from_truth,
+    _TruthStreams,
+)
+from energy_planner.simulate.config import BatteryConfig, ConfigError, SensorConfig, _check
+from energy_planner.simulate.effects import check_effects, check_faults
+from energy_planner.simulate.kinematics import wrap
+from energy_planner.simulate.physics import GROUNDS, Physics, RobotParams
+
+__all__ = ["MissionConfig", "simulate_missions", "synthetic_dem", "ground_map"]
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    """What a set of simulated missions contains.
+
+    Attributes
+    ----------
+    missions : int
+        Number of missions (one run each).
+    duration_s : float
+        Length of each mission, s.
+    speeds : tuple of float
+        Commanded walking speeds, m/s (one drawn per phase).
+    phase_s : tuple of float
+        Range of the length of a walking phase, s.
+    stop_prob : float
+        Probability that a phase is followed by a stop, 1.
+    stop_s : float
+        Length of a stop (longer when the robot turns in place), s.
+    sideways_prob, backward_prob : float
+        Probability that a phase after a stop is walked sideways / backward, 1.
+    yaw_rate : float
+        Yaw rate of turns in place, rad/s.
+    ramp_s : float
+        Speed ramps, s.
+    rate_hz : float
+        Sample rate, Hz.
+    gap_s : float
+        Pause between missions on the campaign clock, s.
+    waypoint_spacing_m : float
+        Typical distance between the path's random waypoints, m.
+    grounds, loads_kg, air_temp_range_c, motor_temp_range_c, motor_warming_k_s,
+    grass_height_range_m
+        Channels, as in :class:`~energy_planner.simulate.CampaignConfig` (``ground``
+        varies along the path).
+    sensors : SensorConfig
+    battery : BatteryConfig
+    """
+
+    missions: int = 8
+    duration_s: float = 240.0
+    speeds: tuple[float, ...] = (0.2, 0.3, 0.45)
+    phase_s: tuple[float, float] = (8.0, 25.0)
+    stop_prob: float = 0.3
+    stop_s: float = 3.0
+    sideways_prob: float = 0.15
+    backward_prob: float = 0.1
+    yaw_rate: float = 0.5
+    ramp_s: float = 1.0
+    rate_hz: float = 50.0
+    gap_s: float = 10.0
+    waypoint_spacing_m: float = 6.0
+    grounds: tuple[str, ...] = ("meadow", "gravel", "mud", "asphalt")
+    loads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
+    air_temp_range_c: tuple[float, float] = (0.0, 30.0)
+    motor_temp_range_c: tuple[float, float] = (25.0, 55.0)
+    motor_warming_k_s: float = 0.02
+    grass_height_range_m: tuple[float, float] = (0.0, 0.4)
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+    battery: BatteryConfig = field(default_factory=BatteryConfig)
+
+    def __post_init__(self) -> None:
+        for name in ("speeds", "phase_s", "grounds", "loads_kg", "air_temp_range_c",
+                     "motor_temp_range_c", "grass_height_range_m"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        _check(isinstance(self.missions, int) and self.missions >= 1, "MissionConfig.missions",
+               self.missions, "an integer >= 1")
+        _check(self.duration_s >= 10, "MissionConfig.duration_s", self.duration_s, ">= 10 s")
+        _check(len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
+               "MissionConfig.speeds", self.speeds, "speeds in (0, 3] m/s")
+        _check(len(self.phase_s) == 2 and 0 < self.phase_s[0] <= self.phase_s[1],
+               "MissionConfig.phase_s", self.phase_s, "(low, high) with 0 < low <= high")
+        for name in ("stop_prob", "sideways_prob", "backward_prob"):
+            _check(0 <= getattr(self, name) <= 1, f"MissionConfig.{name}", getattr(self, name),
+                   "a probability in [0, 1]")
+        _check(self.sideways_prob + self.backward_prob <= 1, "MissionConfig.sideways_prob",
+               self.sideways_prob, "sideways_prob + backward_prob <= 1")
+        _check(0 < self.yaw_rate <= 3, "MissionConfig.yaw_rate", self.yaw_rate, "in (0, 3]")
+        _check(self.ramp_s >= 0, "MissionConfig.ramp_s", self.ramp_s, ">= 0 s")
+        _check(1 <= self.rate_hz <= 2000, "MissionConfig.rate_hz", self.rate_hz, "in [1, 2000]")
+        _check(self.waypoint_spacing_m > 0, "MissionConfig.waypoint_spacing_m",
+               self.waypoint_spacing_m, "> 0 m")
+        _check(len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
+               "MissionConfig.grounds", self.grounds, f"one or more of {', '.join(GROUNDS)}")
+
+    @property
+    def dt(self) -> float:
+        """Sample period, s."""
+        return 1.0 / self.rate_hz
+
+    @classmethod
+    def small(cls, **overrides: Any) -> MissionConfig:
+        """Two 60 s missions at 20 Hz (for tests)."""
+        base: dict[str, Any] = dict(missions=2, duration_s=60.0, rate_hz=20.0)
+        base.update(overrides)
+        return cls(**base)
+
+    def replace(self, **changes: Any) -> MissionConfig:
+        """A copy with some parameters changed."""
+        return dataclasses.replace(self, **changes)
+
+
+def _smooth_noise(rng: np.random.Generator, shape: tuple[int, int], scale_cells: float
+                  ) -> np.ndarray:
+    """Smooth random field (Gaussian-filtered white noise), zero mean, unit std."""
+    from scipy.ndimage import gaussian_filter
+
+    z = gaussian_filter(rng.standard_normal(shape), scale_cells, mode="reflect")
+    return (z - z.mean()) / (z.std() or 1.0)
+
+
+def synthetic_dem(seed: int = 0, size_m: float = 300.0, resolution: float = 2.0,
+                  max_slope_deg: float = 25.0) -> Any:
+    """Rolling hills: a smooth random surface scaled so its steepest slope is
+    ``max_slope_deg``.
+
+    >>> t = synthetic_dem(seed=1, size_m=100.0)
+    >>> bool(abs(float(np.degrees(np.nanmax(t.slope))) - 25.0) < 2.0)
+    True
+    """
+    from energy_planner.terrain import Terrain
+
+    n = max(8, int(round(size_m / resolution)))
+    rng = np.random.default_rng(seed)
+    z = _smooth_noise(rng, (n, n), 40.0 / resolution)
+    gy, gx = np.gradient(z, resolution)
+    steep = float(np.nanmax(np.hypot(gx, gy)))
+    z *= math.tan(math.radians(max_slope_deg)) / steep
+    t = Terrain.from_array(z, resolution=resolution)
+    s = float(np.nanmax(t.slope))
+    return Terrain.from_array(z * math.tan(math.radians(max_slope_deg)) / math.tan(s),
+                              resolution=resolution)
+
+
+def ground_map(terrain: Any, grounds: tuple[str, ...], seed: int = 0,
+               patch_m: float = 25.0) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A categorical ground map on the terrain's grid: patches of ``grounds``.
+
+    Returns ``(codes, names)``: ``codes[row, col]`` indexes ``names``.
+    """
+    rng = np.random.default_rng(seed)
+    res = abs(terrain.resolution[0])
+    z = _smooth_noise(rng, terrain.shape, patch_m / res)
+    qs = np.quantile(z, np.linspace(0, 1, len(grounds) + 1)[1:-1])
+    return np.digitize(z, qs).astype(np.int16), tuple(grounds)
+
+
+def _catmull_rom(p: np.ndarray, per_seg: int = 40) -> np.ndarray:
+    """Dense points of a centripetal-free (uniform) Catmull-Rom spline through ``p``."""
+    p = np.vstack([2 * p[0] - p[1], p, 2 * p[-1] - p[-2]])
+    u = np.linspace(0, 1, per_seg, endpoint=False)[:, None]
+    out = []
+    for i in range(1, len(p) - 2):
+        p0, p1, p2, p3 = p[i - 1], p[i], p[i + 1], p[i + 2]
+        out.append(0.5 * ((2 * p1) + (-p0 + p2) * u + (2 * p0 - 5 * p1 + 4 * p2 - p3) * u**2
+                          + (-p0 + 3 * p1 - 3 * p2 + p3) * u**3))
+    out.append(p[-2][None, :])
+    return np.vstack(out)
+
+
+def _mission_track(rng: np.random.Generator, terrain: Any, cfg: MissionConfig) -> dict:
+    """Commanded phases, the path and the sampled true motion of one mission."""
+    dt = cfg.dt
+    n = int(round(cfg.duration_s / dt)) + 1
+    t = np.arange(n) * dt
+    # ---- phases: commanded speed and body yaw offset from the path tangent
+    v_cmd = np.zeros(n)
+    off_cmd = np.zeros(n)
+    k, offset = 0, 0.0
+    first = True
+    while k < n:
+        if not first and rng.random() < cfg.stop_prob:
+            r = rng.random()
+            new = (0.0 if r >= cfg.sideways_prob + cfg.backward_prob
+                   else (math.pi if r < cfg.backward_prob else rng.choice([-1, 1]) * math.pi / 2))
+            turn = abs(math.remainder(new - offset, 2 * math.pi))
+            m = int(round((cfg.stop_s + turn / cfg.yaw_rate) / dt))
+            # turn in place at the yaw rate in the middle of the stop
+            ramp = np.clip((np.arange(m) * dt - cfg.stop_s / 2) * cfg.yaw_rate
+                           / max(turn, 1e-12), 0, 1)
+            d = math.remainder(new - offset, 2 * math.pi)
+            off_cmd[k:k + m] = (offset + ramp * d)[: max(0, min(m, n - k))]
+            v_cmd[k:k + m] = 0.0
+            k += m
+            offset = offset + d
+        first = False
+        m = int(round(rng.uniform(*cfg.phase_s) / dt))
+        v_cmd[k:k + m] = rng.choice(cfg.speeds)
+        off_cmd[k:k + m] = offset
+        k += m
+    v_cmd[-max(1, int(round(cfg.ramp_s / dt))):] = 0.0  # end at rest
+    r = int(round(cfg.ramp_s / dt))
+    if r > 0:
+        kern = np.ones(r) / r
+        v = np.convolve(np.r_[np.zeros(r), v_cmd], kern, mode="full")[r: r + n]
+    else:
+        v = v_cmd.copy()
+    # ---- the path: random waypoints within the map, a smooth spline
+    x_min, y_min, x_max, y_max = terrain.bounds
+    margin = 0.15 * min(x_max - x_min, y_max - y_min)
+    total = float(np.sum(v) * dt) * 1.2 + 10.0
+    n_wp = max(3, int(total / cfg.waypoint_spacing_m) + 2)
+    wp = [np.array([rng.uniform(x_min + margin, x_max - margin),
+                    rng.uniform(y_min + margin, y_max - margin)])]
+    heading = rng.uniform(-math.pi, math.pi)
+    for _ in range(n_wp - 1):
+        for _try in range(20):
+            h = heading + rng.normal(0.0, 0.6)
+            step = cfg.waypoint_spacing_m * rng.uniform(0.7, 1.3)
+            q = wp[-1] + step * np.array([math.cos(h), math.sin(h)])
+            inside_x = x_min + margin <= q[0] <= x_max - margin
+            if inside_x and y_min + margin <= q[1] <= y_max - margin:
+                break
+            heading += math.pi / 3  # steer away from the edge
+        else:
+            q = wp[-1]
+        heading = h
+        wp.append(q)
+    dense = _catmull_rom(np.array(wp))
+    seg = np.hypot(*np.diff(dense, axis=0).T)
+    s_h = np.concatenate([[0.0], np.cumsum(seg)])
+    keep = np.concatenate([[True], seg > 1e-9])
+    dense, s_h = dense[keep], s_h[keep]
+    smp = terrain.sample(dense[:, 0], dense[:, 1])
+    tang = np.gradient(dense, s_h, axis=0)
+    tang /= np.linalg.norm(tang, axis=1)[:, None]
+    grade_along = np.asarray(smp.dzdx) * tang[:, 0] + np.asarray(smp.dzdy) * tang[:, 1]
+    # horizontal progress: the speed is along the surface
+    pos_h = np.zeros(n)
+    for i in range(1, n):
+        ga = np.interp(pos_h[i - 1], s_h, grade_along)
+        pos_h[i] = pos_h[i - 1] + 0.5 * (v[i] + v[i - 1]) * dt / math.sqrt(1 + ga * ga)
+    pos_h = np.minimum(pos_h, s_h[-1])
+    x = np.interp(pos_h, s_h, dense[:, 0])
+    y = np.interp(pos_h, s_h, dense[:, 1])
+    tx = np.interp(pos_h, s_h, tang[:, 0])
+    ty = np.interp(pos_h, s_h, tang[:, 1])
+    theta = np.unwrap(np.arctan2(ty, tx)) + off_cmd
+    return {"t": t, "x": x, "y": y, "theta": theta}
+
+
+def _body_motion(terrain: Any, tr: dict, dt: float) -> dict[str, np.ndarray]:
+    """Slope, heading, body twist and accelerations of a sampled track."""
+    x, y, theta = tr["x"], tr["y"], tr["theta"]
+    smp = terrain.sample(x, y)
+    gx, gy = np.asarray(smp.dzdx, float), np.asarray(smp.dzdy, float)
+    z = np.asarray(smp.elevation, float)
+    g2 = gx * gx + gy * gy
+    alpha = np.arctan(np.sqrt(g2))
+    psi = np.arctan2(gy, gx)
+    gh = theta - psi
+    gamma = np.arctan2(np.sin(gh) * np.cos(alpha), np.cos(gh))
+    c, s = np.cos(theta), np.sin(theta)
+    bx = np.stack([c, s, gx * c + gy * s], axis=1)
+    bx /= np.linalg.norm(bx, axis=1)[:, None]
+    bz = np.stack([-gx, -gy, np.ones_like(gx)], axis=1) / np.sqrt(1 + g2)[:, None]
+    by = np.cross(bz, bx)
+    pos = np.stack([x, y, z], axis=1)
+    vel = np.gradient(pos, dt, axis=0)
+    vx = np.sum(vel * bx, axis=1)
+    vy = np.sum(vel * by, axis=1)
+    R = np.stack([bx, by, bz], axis=2)  # columns: body axes in the world
+    rel = np.einsum("nji,njk->nik", R[:-1], R[1:])  # R_k^T R_{k+1}
+    w = (rel[:, 1, 0] - rel[:, 0, 1]) / (2 * dt)
+    wz = np.concatenate([[w[0]], 0.5 * (w[1:] + w[:-1]), [w[-1]]]) if len(w) > 1 else np.zeros(
+        len(x))
+    ax = np.gradient(vx, dt)
+    ay = np.gradient(vy, dt)
+    return {"alpha": alpha, "psi": psi, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz,
+            "ax": ax, "ay": ay, "pos": pos, "yaw": wrap(theta)}
+
+
+def simulate_missions(
+    seed: int = 0,
+    effects: Iterable[str] = (),
+    config: MissionConfig | None = None,
+    *,
+    terrain: Any = None,
+    faults: Iterable[str] = (),
+    params: RobotParams | None = None,
+    progress: bool = False,
+) -> Campaign:
+    """Simulate mission logs over a DEM.
+
+    Parameters
+    ----------
+    seed : int
+        Random seed (paths, phases, channels and sensors; the same with and without
+        an effect).
+    effects, faults : iterable of str
+        As for :func:`~energy_planner.simulate.simulate_campaign`.
+    config : MissionConfig, optional
+        Mission parameters (default :class:`MissionConfig`).
+    terrain : Terrain, optional
+        The map (default :func:`synthetic_dem` with this seed); e.g.
+        ``load_dem("maps/hill.tif")``.
+    params : RobotParams, optional
+        Robot parameters of the truth.
+    progress : bool
+        Progress bar on stderr.
+
+    Returns
+    -------
+    Campaign
+        ``runs`` has one row per mission (kind ``mission``); ``config`` is the
+        :class:`MissionConfig`.
+    """
+    from tqdm.auto import tqdm
+
+    cfg = config or MissionConfig()
+    names = check_effects(effects)
+    fault_names = check_faults(faults)
+    physics = Physics(params, names)
+    if terrain is None:
+        terrain = synthetic_dem(seed)
+    root = np.random.default_rng(seed)
+    path_rng, channel_rng, noise_rng = root.spawn(3)
+    sens = cfg.sensors.with_faults(fault_names)
+    codes, gnames = ground_map(terrain, cfg.grounds, seed=seed)
+    x_min, _, _, y_max = terrain.bounds
+    res_x, res_y = (abs(r) for r in terrain.resolution)
+
+    def ground_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        c = np.clip(((x - x_min) / res_x).astype(int), 0, codes.shape[1] - 1)
+        r = np.clip(((y_max - y) / res_y).astype(int), 0, codes.shape[0] - 1)
+        return np.asarray(gnames, dtype=object)[codes[r, c]]
+
+    tracks, motions = [], []
+    for _ in tqdm(range(cfg.missions), desc="simulating missions", disable=not progress,
+                  unit="mission"):
+        tr = _mission_track(path_rng, terrain, cfg)
+        tracks.append(tr)
+        motions.append(_body_motion(terrain, tr, cfg.dt))
+    m = cfg.missions
+    load = np.asarray(cfg.loads_kg, float)[channel_rng.permutation(m) % len(cfg.loads_kg)]
+    air = channel_rng.uniform(*cfg.air_temp_range_c, m)
+    grass = channel_rng.uniform(*cfg.grass_height_range_m, m)
+    motor0 = channel_rng.uniform(*cfg.motor_temp_range_c, m)
+    warm = channel_rng.uniform(0.0, cfg.motor_warming_k_s, m)
+    slip = sens.slip_mean + sens.slip_std * noise_rng.standard_normal(m)
+    bias = np.radians(sens.imu_bias_deg) * noise_rng.standard_normal((m, 2))
+
+    sizes = np.array([len(tr["t"]) for tr in tracks])
+    idx = np.repeat(np.arange(m), sizes)
+    t_run = np.concatenate([tr["t"] for tr in tracks])
+    starts = np.concatenate([[0.0], np.cumsum([tr["t"][-1] + cfg.gap_s for tr in tracks])[:-1]])
+    t = np.round(t_run + starts[idx], 9)
+
+    def cat(key: str) -> np.ndarray:
+        return np.concatenate([mo[key] for mo in motions])
+
+    alpha = cat("alpha")
+    pos = cat("pos")
+    run_ids = np.array([f"mission_{i:03d}" for i in range(m)], dtype=object)[idx]
+    channels = {
+        "load_kg": load[idx],
+        "ground": ground_at(pos[:, 0], pos[:, 1]).astype(str),
+        "motor_temp": motor0[idx] + warm[idx] * t_run,
+        "air_temp_c": air[idx],
+        "grass_height_m": grass[idx],
+    }
+    slip_s = slip[idx] + sens.slip_per_sin_slope * np.sin(alpha)
+    truth = _TruthStreams(run_ids, t, t_run, alpha, cat("psi"), cat("gamma"), cat("vx"),
+                          cat("vy"), cat("wz"), cat("ax"), cat("ay"), pos, cat("yaw"),
+                          channels)
+    out = _logs_from_truth(truth, physics, sens, cfg.battery, cfg.dt, sizes, slip_s,
+                           bias[idx], noise_rng, list(cfg.grounds))
+    rows = []
+    for i, (tr, mo) in enumerate(zip(tracks, motions, strict=True)):
+        speed = np.hypot(mo["vx"], mo["vy"])
+        dist = float(np.sum(0.5 * (speed[1:] + speed[:-1])) * cfg.dt)
+        dur = float(tr["t"][-1])
+        rows.append({
+            "run": f"mission_{i:03d}", "kind": "mission", "motion": "mission",
+            "slope_deg": float(np.degrees(np.mean(mo["alpha"]))),
+            "max_slope_deg": float(np.degrees(np.max(mo["alpha"]))),
+            "uphill_azimuth_deg": float("nan"), "heading_deg": float(np.degrees(mo["gamma"][0])),
+            "speed": float(np.mean(speed[speed > 0.05])) if np.any(speed > 0.05) else 0.0,
+            "yaw_rate": float(np.mean(np.abs(mo["wz"]))), "duration_s": dur,
+            "composite": "", "part": "", "true_energy_j": out["energy"][i],
+            "true_mean_power_w": out["energy"][i] / dur, "distance_m": dist,
+            "turn_deg": float(np.degrees(mo["yaw"][-1] - mo["yaw"][0])), "repeat": 0,
+            "order": i, "t_start": starts[i], "n_samples": int(sizes[i]),
+            "load_kg": load[i], "ground": "varies", "motor_temp_start": motor0[i],
+            "air_temp_c": air[i], "grass_height_m": grass[i], "slip": slip[i],
+            "imu_roll_bias_deg": math.degrees(bias[i, 0]),
+            "imu_pitch_bias_deg": math.degrees(bias[i, 1]),
+            "battery_pack": out["pack"][i], "soc_start": out["soc_start"][i],
+            "soc_end": out["soc_end"][i],
+            "start_x": mo["pos"][0, 0], "start_y": mo["pos"][0, 1],
+            "end_x": mo["pos"][-1, 0], "end_y": mo["pos"][-1, 1],
+            "end_yaw_deg": math.degrees(mo["yaw"][-1]),
+            "end_heading_deg": math.degrees(mo["gamma"][-1]),
+        })
+    if not rows:  # pragma: no cover - missions >= 1
+        raise ConfigError("no mission simulated")
+    return Campaign(out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed,
+                    cfg, fault_names)

@@ -1,0 +1,498 @@
+"""Weighted least squares, run-clustered errors, folds by run, identifiability, motion classes.
+
+One implementation of the numerics that calibration (:mod:`energy_planner.calibration`),
+the model's own fit (:meth:`energy_planner.model.EnergyModel.fit`) and the diagnosis
+(:mod:`energy_planner.diagnosis`) share:
+
+* :func:`wls` - weighted least squares on column-scaled regressors, with classical and
+  run-clustered (CR1 sandwich) standard errors; :func:`wls_coef` - the coefficients only,
+  through the normal equations (cheap when thousands of small fits are made);
+* :func:`run_folds` / :func:`fold_index` - grouped K-fold: whole runs per fold, as lists
+  of runs or as a fold index per row; :func:`heldout_residuals` / :func:`heldout_rmse` -
+  held-out errors of a linear model validated by fold;
+* :func:`independent_columns`, :func:`vif`, :func:`span_basis`, :func:`span_residual` -
+  which columns the data can tell apart;
+* :func:`classify_motion` - the motion class of a body twist.
+
+Rows are windows (or samples), columns are model terms; weights are window durations.
+
+Examples
+--------
+>>> X = np.column_stack([np.ones(6), np.arange(6.0)])
+>>> fit = wls(X, 1.0 + 2.0 * np.arange(6.0), clusters=["a", "a", "b", "b", "c", "c"])
+>>> np.round(fit.coef, 9).tolist(), fit.rank
+([1.0, 2.0], 2)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import FitError
+
+__all__ = [
+    "MOTIONS",
+    "WLSFit",
+    "classify_motion",
+    "cluster_stderr",
+    "fold_index",
+    "heldout_residuals",
+    "heldout_rmse",
+    "independent_columns",
+    "run_folds",
+    "span_basis",
+    "span_residual",
+    "vif",
+    "wls",
+    "wls_coef",
+]
+
+#: Motion classes, in the order :func:`classify_motion` assigns them.
+MOTIONS: tuple[str, ...] = (
+    "forward",
+    "backward",
+    "lateral_left",
+    "lateral_right",
+    "turn_left",
+    "turn_right",
+    "mixed",
+)
+
+
+# --------------------------------------------------------------------------- least squares
+def _weights(w: np.ndarray | Sequence[float] | None, n: int) -> np.ndarray:
+    if w is None:
+        return np.ones(n)
+    w = np.asarray(w, dtype=float)
+    if w.shape != (n,):
+        raise FitError(f"weights have shape {w.shape}, expected ({n},): one weight per row")
+    if not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise FitError("weights must be finite and non-negative (e.g. window durations in s)")
+    return w
+
+
+def _scaled(X: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``sqrt(w)``, the weighted columns scaled to unit norm, and the scales (0 -> 1)."""
+    sw = np.sqrt(w)
+    Xw = X * sw[:, None]
+    scale = np.linalg.norm(Xw, axis=0)
+    scale[scale == 0] = 1.0
+    return sw, Xw / scale, scale
+
+
+@dataclass(frozen=True)
+class WLSFit:
+    """Result of :func:`wls`.
+
+    Attributes
+    ----------
+    coef : numpy.ndarray
+        Coefficients, shape ``(k,)`` (minimum norm when the columns are dependent).
+    stderr : numpy.ndarray
+        Classical standard errors ``sqrt(diag(sigma^2 (X^T W X)^-1))`` (windows taken as
+        independent); NaN where the design is rank-deficient.
+    stderr_by_run : numpy.ndarray or None
+        Run-clustered (CR1 sandwich) standard errors when ``clusters`` was given.
+    resid : numpy.ndarray
+        Unweighted residuals ``y - X coef``.
+    sigma2 : float
+        Weighted residual variance ``sum(w r^2) / (n - rank)``.
+    rank : int
+        Numerical rank of the column-scaled weighted design.
+    condition_number : float
+        Of the column-scaled weighted design (inf when rank-deficient).
+    """
+
+    coef: np.ndarray
+    stderr: np.ndarray
+    stderr_by_run: np.ndarray | None
+    resid: np.ndarray
+    sigma2: float
+    rank: int
+    condition_number: float
+
+
+def wls(
+    X: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+    *,
+    clusters: Sequence | np.ndarray | None = None,
+    rcond: float = 1e-10,
+) -> WLSFit:
+    """Weighted least squares ``y ~ X`` with classical and run-clustered standard errors.
+
+    Columns are scaled to unit weighted norm before solving (terms in N, N m and W live on
+    very different scales), and the solution is the minimum-norm one when columns are
+    dependent (check :func:`independent_columns` first to name them).
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Design, shape ``(n, k)``.
+    y : numpy.ndarray
+        Target, shape ``(n,)``.
+    w : array-like, optional
+        Non-negative row weights (window durations); equal by default.
+    clusters : array-like, optional
+        Cluster label of each row (the run): adds ``stderr_by_run``, the CR1 sandwich
+        ``G/(G-1) B^-1 (sum_g s_g s_g^T) B^-1`` with ``B = X^T W X`` and run scores
+        ``s_g = X_g^T W_g r_g``. Windows of one run share slip, IMU bias and ground, so this
+        is the honest error when it is the larger.
+    rcond : float
+        Relative singular-value cut-off of the scaled design.
+
+    Returns
+    -------
+    WLSFit
+
+    Examples
+    --------
+    >>> X = np.ones((4, 1)); y = np.array([1.0, 1.0, -1.0, -1.0])
+    >>> f = wls(X, y, clusters=np.array(["a", "a", "b", "b"]))
+    >>> float(f.coef[0]), float(f.stderr_by_run[0])
+    (0.0, 1.0)
+    """
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n, k = X.shape
+    if y.shape != (n,):
+        raise FitError(f"target has shape {y.shape}, expected ({n},): one value per row")
+    w = _weights(w, n)
+    sw, Xs, scale = _scaled(X, w)
+    yw = y * sw
+    U, sv, Vt = np.linalg.svd(Xs, full_matrices=False)
+    keep = sv > rcond * (sv[0] if sv.size else 1.0)
+    rank = int(keep.sum())
+    inv_sv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
+    beta_s = Vt.T @ (inv_sv * (U.T @ yw))
+    coef = beta_s / scale
+    resid = y - X @ coef
+    dof = max(n - rank, 1)
+    sigma2 = float(np.sum(w * resid**2)) / dof
+    if rank == k:
+        cov_s = (Vt.T * inv_sv**2) @ Vt
+        stderr = np.sqrt(np.clip(np.diag(cov_s) * sigma2, 0, None)) / scale
+        cond = float(sv[0] / sv[-1])
+    else:
+        stderr = np.full(k, np.nan)
+        cond = float("inf")
+    by_run = None if clusters is None else cluster_stderr(X, resid, w, clusters)
+    return WLSFit(coef, stderr, by_run, resid, sigma2, rank, cond)
+
+
+def wls_coef(
+    X: np.ndarray, y: np.ndarray, w: np.ndarray | Sequence[float] | None = None
+) -> np.ndarray:
+    """Coefficients of weighted least squares ``y ~ X`` (column-scaled, minimum norm).
+
+    Solved through the normal equations of the unit-norm columns: for a dozen well-scaled
+    columns a ``k x k`` solve is much cheaper than an SVD of the ``n x k`` design, which
+    matters when thousands of fits are made (the diagnosis' candidate search).
+
+    Examples
+    --------
+    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
+    >>> np.round(wls_coef(x, np.array([1.0, 3, 5, 7])), 9).tolist()
+    [1.0, 2.0]
+    """
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    sw, Xs, scale = _scaled(X, _weights(w, len(y)))
+    return np.linalg.lstsq(Xs.T @ Xs, Xs.T @ (y * sw), rcond=1e-12)[0] / scale
+
+
+def cluster_stderr(
+    X: np.ndarray, resid: np.ndarray, w: np.ndarray | None, clusters: Sequence | np.ndarray
+) -> np.ndarray:
+    """Cluster-robust (CR1) standard errors of weighted least squares, clusters = runs.
+
+    ``V = G/(G-1) B^-1 (sum_g s_g s_g^T) B^-1``, ``B = X^T W X``, ``s_g = X_g^T W_g r_g``.
+    NaN with fewer than two clusters.
+
+    Examples
+    --------
+    >>> X = np.ones((4, 1)); r = np.array([1.0, 1.0, -1.0, -1.0])
+    >>> cluster_stderr(X, r, None, np.array(["a", "a", "b", "b"])).tolist()
+    [1.0]
+    """
+    X = np.asarray(X, dtype=float)
+    w = _weights(w, X.shape[0])
+    B = X.T @ (X * w[:, None])
+    Binv = np.linalg.pinv(B)
+    labels = np.asarray(clusters).astype(str)
+    scores = pd.DataFrame(X * (w * np.asarray(resid, float))[:, None]).groupby(labels).sum()
+    g = scores.shape[0]
+    if g < 2:
+        return np.full(X.shape[1], np.nan)
+    s = scores.to_numpy()
+    V = Binv @ (s.T @ s * (g / (g - 1))) @ Binv
+    return np.sqrt(np.clip(np.diag(V), 0, None))
+
+
+# --------------------------------------------------------------------------- folds by run
+def run_folds(runs: Sequence, n_splits: int, seed: int = 0) -> list[list[str]]:
+    """Assign whole runs to ``n_splits`` folds at random (grouped K-fold).
+
+    Parameters
+    ----------
+    runs : sequence
+        Run id of every row (repeats allowed; compared as strings).
+    n_splits : int
+        Number of folds, ``2 <= n_splits <= number of runs``.
+    seed : int
+        Seed of the shuffle.
+
+    Returns
+    -------
+    list of list of str
+        Disjoint, sorted lists of runs, sizes differing by at most one.
+
+    Raises
+    ------
+    FitError
+        If ``n_splits`` is out of range (names both counts).
+
+    Examples
+    --------
+    >>> folds = run_folds(["a", "a", "b", "c", "d", "e"], 2, seed=1)
+    >>> sorted(sum(folds, [])), sorted(len(f) for f in folds)
+    (['a', 'b', 'c', 'd', 'e'], [2, 3])
+    """
+    uniq = np.array(sorted({str(r) for r in runs}))
+    if not 2 <= n_splits <= len(uniq):
+        raise FitError(
+            f"cannot split {len(uniq)} run(s) into {n_splits} folds: need 2 <= folds <= runs"
+        )
+    perm = np.random.default_rng(seed).permutation(len(uniq))
+    return [sorted(map(str, part)) for part in np.array_split(uniq[perm], n_splits)]
+
+
+def fold_index(runs: Sequence | np.ndarray, n_splits: int = 5, seed: int = 0) -> np.ndarray:
+    """Fold of every row, whole runs per fold (the folds of :func:`run_folds`).
+
+    ``n_splits`` is reduced to the number of runs when there are fewer (leave one run out).
+
+    Raises
+    ------
+    FitError
+        Fewer than two runs.
+
+    Examples
+    --------
+    >>> f = fold_index(["a", "a", "b", "c", "c", "c"], n_splits=2)
+    >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
+    (True, [0, 1])
+    """
+    runs = np.asarray(runs).astype(str)
+    uniq = np.unique(runs)
+    if len(uniq) < 2:
+        raise FitError(
+            f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
+            f"({list(uniq)}); record more runs"
+        )
+    folds = run_folds(uniq.tolist(), max(2, min(n_splits, len(uniq))), seed)
+    fold_of = {r: i for i, part in enumerate(folds) for r in part}
+    return np.array([fold_of[r] for r in runs], dtype=np.int64)
+
+
+def heldout_residuals(
+    X: np.ndarray,
+    y: np.ndarray,
+    folds: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+    *,
+    floor: float | None = 0.0,
+) -> np.ndarray:
+    """Held-out residuals ``y - max(X b_f, floor)`` of weighted least squares by fold.
+
+    Each fold's coefficients ``b_f`` come from the other folds' rows only; the training
+    normal equations of a fold are the totals minus the fold's own (one ``k x k`` solve per
+    fold). ``floor=None`` leaves predictions unfloored (a regenerative machine).
+
+    Examples
+    --------
+    >>> X = np.column_stack([np.ones(6), np.arange(6.0)])
+    >>> np.abs(heldout_residuals(X, 2 * np.arange(6.0), np.arange(6) % 2)).max() < 1e-9
+    np.True_
+    """
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    sw, Xs, scale = _scaled(X, _weights(w, len(y)))
+    yw = y * sw
+    g, r = Xs.T @ Xs, Xs.T @ yw
+    err = np.empty_like(y)
+    for f in np.unique(folds):
+        te = folds == f
+        xt = Xs[te]
+        coef = np.linalg.lstsq(g - xt.T @ xt, r - xt.T @ yw[te], rcond=1e-12)[0] / scale
+        pred = X[te] @ coef
+        err[te] = y[te] - (pred if floor is None else np.maximum(pred, floor))
+    return err
+
+
+def heldout_rmse(
+    X: np.ndarray,
+    y: np.ndarray,
+    folds: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+) -> tuple[float, np.ndarray]:
+    """Pooled and per-fold held-out RMSE of ``y ~ X`` validated by fold (predictions >= 0).
+
+    The fits weigh each row by ``w``; the RMSE weighs every held-out row alike.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> x = np.column_stack([np.ones(200), rng.uniform(size=200)])
+    >>> y = x @ [1.0, 2.0] + rng.normal(0, 0.1, 200)
+    >>> rmse, per_fold = heldout_rmse(x, y, np.arange(200) % 4)
+    >>> bool(0.08 < rmse < 0.12), per_fold.shape
+    (True, (4,))
+    """
+    folds = np.asarray(folds, dtype=np.int64)
+    err = heldout_residuals(X, y, folds, w)
+    n_folds = int(folds.max()) + 1
+    sq = np.bincount(folds, weights=err**2, minlength=n_folds)
+    cnt = np.bincount(folds, minlength=n_folds)
+    return float(np.sqrt(np.mean(err**2))), np.sqrt(sq / np.maximum(cnt, 1))
+
+
+# --------------------------------------------------------------------------- identifiability
+def span_basis(X: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the column span of ``X`` (from its SVD)."""
+    X = np.asarray(X, dtype=float)
+    if X.shape[1] == 0:
+        return np.zeros((X.shape[0], 0))
+    u, sv, _ = np.linalg.svd(X, full_matrices=False)
+    return u[:, sv > sv[0] * 1e-10] if sv.size and sv[0] > 0 else u[:, :0]
+
+
+def span_residual(z: np.ndarray, X: np.ndarray, basis: np.ndarray | None = None) -> float:
+    """Relative residual ``||z - X b|| / ||z||`` of the projection of ``z`` on ``X``'s span.
+
+    0: ``z`` is a combination of the columns of ``X`` (the data cannot tell it apart);
+    1: orthogonal to them. ``basis`` (:func:`span_basis` of ``X``) saves the decomposition
+    when many ``z`` are tested against the same ``X``.
+
+    Examples
+    --------
+    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
+    >>> round(span_residual(np.array([1.0, 3, 5, 7]), x), 6)
+    0.0
+    """
+    z = np.asarray(z, dtype=float)
+    norm = float(np.linalg.norm(z))
+    if norm == 0.0:
+        return 0.0
+    q = span_basis(X) if basis is None else basis
+    return float(np.linalg.norm(z - q @ (q.T @ z)) / norm)
+
+
+def vif(X: np.ndarray, w: np.ndarray | Sequence[float] | None = None) -> np.ndarray:
+    """Uncentred variance inflation factor of each column (inf when in the others' span).
+
+    ``VIF_j = 1 / (1 - R_j^2)`` with ``R_j^2`` from regressing (weighted) column ``j`` on
+    the others without intercept: ``1 / span_residual(x_j, others)**2``.
+
+    Examples
+    --------
+    >>> X = np.column_stack([np.ones(4), [0.0, 1, 2, 3], [0.0, 2, 4, 6]])
+    >>> vif(X)[2] == np.inf, float(vif(X[:, :1])[0])
+    (np.True_, 1.0)
+    """
+    X = np.asarray(X, dtype=float)
+    Xw = X * np.sqrt(_weights(w, X.shape[0]))[:, None]
+    k = X.shape[1]
+    out = np.full(k, np.inf)
+    for j in range(k):
+        if not np.any(Xw[:, j]):
+            continue
+        if k == 1:
+            out[j] = 1.0
+            continue
+        rel = span_residual(Xw[:, j], np.delete(Xw, j, axis=1))
+        out[j] = np.inf if rel**2 <= 1e-14 else 1.0 / rel**2
+    return out
+
+
+def independent_columns(
+    X: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+    *,
+    tol: float = 1e-6,
+) -> tuple[np.ndarray, dict[int, list[int]]]:
+    """Which columns the data can tell apart, taken in order (earlier columns win).
+
+    Column ``j`` is kept when its (weighted) relative residual after projection on the
+    kept earlier columns exceeds ``tol``; otherwise it is a combination of them and is
+    not identifiable. Zero columns are never kept.
+
+    Returns
+    -------
+    keep : numpy.ndarray of bool
+        Kept (identifiable) columns.
+    explained_by : dict
+        Dropped column -> the kept columns that carry it (largest share first; empty for a
+        zero column).
+
+    Examples
+    --------
+    >>> X = np.column_stack([np.ones(4), [0.0, 1, 2, 3], [1.0, 2, 3, 4], np.zeros(4)])
+    >>> keep, why = independent_columns(X)
+    >>> keep.tolist(), why
+    ([True, True, False, False], {2: [1, 0], 3: []})
+    """
+    X = np.asarray(X, dtype=float)
+    Xw = X * np.sqrt(_weights(w, X.shape[0]))[:, None]
+    k = X.shape[1]
+    keep = np.zeros(k, dtype=bool)
+    why: dict[int, list[int]] = {}
+    for j in range(k):
+        z = Xw[:, j]
+        if not np.any(z):
+            why[j] = []
+            continue
+        kept = np.flatnonzero(keep)
+        if kept.size == 0 or span_residual(z, Xw[:, kept]) > tol:
+            keep[j] = True
+            continue
+        coef = np.linalg.lstsq(Xw[:, kept], z, rcond=None)[0]
+        share = np.abs(coef) * np.linalg.norm(Xw[:, kept], axis=0)
+        why[j] = [int(kept[i]) for i in np.argsort(share)[::-1] if share[i] > 1e-9 * share.max()]
+    return keep, why
+
+
+# --------------------------------------------------------------------------- motion
+def classify_motion(vx, vy, wz, *, length: float = 0.5, ratio: float = 0.3) -> np.ndarray:
+    """Motion class of each body twist (per sample or per window mean).
+
+    The components ``(|vx|, |vy|, length * |wz|)`` (m/s; ``length`` in m turns a yaw rate
+    into the speed of a point ``length`` from the yaw axis) are compared: the largest is
+    the motion when every other component is at most ``ratio`` times it
+    (``forward``/``backward`` by the sign of vx, ``lateral_left``/``lateral_right`` by vy,
+    ``turn_left``/``turn_right`` by wz, counter-clockwise = left); otherwise, and when the
+    robot stands still (all components 0), ``mixed``.
+
+    Examples
+    --------
+    >>> classify_motion([0.3, -0.3, 0.0, 0.02, 0.3, 0.0], [0.0, 0.0, -0.2, 0.0, 0.2, 0.0],
+    ...                 [0.01, 0.0, 0.0, 0.5, 0.0, 0.0]).tolist()
+    ['forward', 'backward', 'lateral_right', 'turn_left', 'mixed', 'mixed']
+    """
+    vx, vy, wz = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(a, dtype=float)) for a in (vx, vy, wz))
+    )
+    c = np.stack([np.abs(vx), np.abs(vy), length * np.abs(wz)], axis=-1)
+    k = np.argmax(c, axis=-1)
+    top = np.take_along_axis(c, k[..., None], axis=-1)[..., 0]
+    second = np.sort(c, axis=-1)[..., 1]
+    sign = np.choose(k, [vx, vy, wz]) >= 0
+    names = np.array(MOTIONS, dtype=object)
+    out = names[2 * k + np.where(sign, 0, 1)]
+    out[(second > ratio * top) | (top <= 0)] = "mixed"
+    return out.astype(object)

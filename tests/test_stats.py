@@ -1,0 +1,143 @@
+"""Shared numerics (energy_planner.stats) against independent computations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.errors import FitError
+from energy_planner.stats import (
+    classify_motion,
+    cluster_stderr,
+    fold_index,
+    heldout_residuals,
+    heldout_rmse,
+    independent_columns,
+    run_folds,
+    span_residual,
+    vif,
+    wls,
+    wls_coef,
+)
+
+
+def _data(seed: int, n: int = 120, k: int = 4):
+    rng = np.random.default_rng(seed)
+    X = np.column_stack([np.ones(n), rng.uniform(-1, 1, (n, k - 1)) * [1, 100, 0.01][: k - 1]])
+    w = rng.uniform(0.5, 2.0, n)
+    beta = rng.normal(0, 3, k)
+    y = X @ beta + rng.normal(0, 0.5, n)
+    return X, y, w
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_wls_solves_the_weighted_normal_equations(seed):
+    """Coefficients equal the textbook (X^T W X)^-1 X^T W y, whatever the column scales."""
+    X, y, w = _data(seed)
+    ref = np.linalg.solve(X.T @ (X * w[:, None]), X.T @ (w * y))
+    fit = wls(X, y, w)
+    np.testing.assert_allclose(fit.coef, ref, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(wls_coef(X, y, w), ref, rtol=1e-6, atol=1e-8)
+    # classical covariance sigma^2 (X^T W X)^-1 with sigma^2 = sum(w r^2) / (n - k)
+    r = y - X @ ref
+    s2 = np.sum(w * r**2) / (len(y) - X.shape[1])
+    se = np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ (X * w[:, None]))))
+    np.testing.assert_allclose(fit.stderr, se, rtol=1e-6)
+    assert fit.rank == X.shape[1]
+
+
+def test_cluster_stderr_matches_the_sandwich_by_hand():
+    X, y, w = _data(3, n=40, k=2)
+    runs = np.repeat(np.arange(8), 5)
+    fit = wls(X, y, w, clusters=runs)
+    B = X.T @ (X * w[:, None])
+    meat = np.zeros((2, 2))
+    for g in range(8):
+        m = runs == g
+        s = X[m].T @ (w[m] * fit.resid[m])
+        meat += np.outer(s, s)
+    V = np.linalg.inv(B) @ meat @ np.linalg.inv(B) * 8 / 7
+    np.testing.assert_allclose(fit.stderr_by_run, np.sqrt(np.diag(V)), rtol=1e-9)
+    np.testing.assert_allclose(cluster_stderr(X, fit.resid, w, runs), fit.stderr_by_run)
+
+
+def test_duplicated_rows_leave_clustered_errors_unchanged():
+    X, y, w = _data(4, n=60, k=3)
+    runs = np.repeat(np.arange(12), 5)
+    a = wls(X, y, w, clusters=runs)
+    b = wls(np.vstack([X, X]), np.r_[y, y], np.r_[w, w], clusters=np.r_[runs, runs])
+    np.testing.assert_allclose(b.stderr_by_run, a.stderr_by_run, rtol=1e-9)
+    np.testing.assert_allclose(b.stderr, a.stderr / np.sqrt(2), rtol=0.03)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    runs=st.lists(st.sampled_from("abcdefgh"), min_size=2, max_size=40),
+    n_splits=st.integers(2, 8),
+    seed=st.integers(0, 100),
+)
+def test_folds_partition_the_runs(runs, n_splits, seed):
+    uniq = sorted(set(runs))
+    if len(uniq) < 2:
+        with pytest.raises(FitError, match="at least 2 runs"):
+            fold_index(runs, n_splits, seed)
+        return
+    f = fold_index(runs, n_splits, seed)
+    for r in uniq:  # a run never spans two folds
+        assert len({int(f[i]) for i, x in enumerate(runs) if x == r}) == 1
+    k = min(n_splits, len(uniq))
+    assert sorted(set(f.tolist())) == list(range(k))
+    folds = run_folds(runs, k, seed)
+    assert sorted(sum(folds, [])) == uniq
+    assert max(map(len, folds)) - min(map(len, folds)) <= 1
+    with pytest.raises(FitError, match="folds"):
+        run_folds(runs, len(uniq) + 1)
+
+
+def test_heldout_residuals_equal_explicit_refits():
+    X, y, w = _data(5, n=90, k=3)
+    folds = np.arange(90) % 3
+    err = heldout_residuals(X, y, folds, w, floor=None)
+    for f in range(3):
+        tr = folds != f
+        b = np.linalg.lstsq(X[tr] * np.sqrt(w[tr])[:, None], y[tr] * np.sqrt(w[tr]), rcond=None)[0]
+        np.testing.assert_allclose(err[folds == f], y[folds == f] - X[folds == f] @ b, atol=1e-8)
+    rmse, per = heldout_rmse(X, y, folds, w)
+    assert per.shape == (3,) and rmse == pytest.approx(
+        np.sqrt(np.mean(heldout_residuals(X, y, folds, w) ** 2))
+    )
+
+
+def test_independent_columns_names_the_dependence():
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=50), rng.normal(size=50)
+    X = np.column_stack([a, b, 2 * a - b, np.zeros(50), rng.normal(size=50)])
+    keep, why = independent_columns(X)
+    assert keep.tolist() == [True, True, False, False, True]
+    assert sorted(why[2]) == [0, 1] and why[3] == []
+    assert np.isinf(vif(X)[2]) and np.isfinite(vif(X)[4])
+    assert span_residual(X[:, 2], X[:, :2]) < 1e-12
+    fit = wls(X, rng.normal(size=50))
+    assert fit.rank == 3 and np.isnan(fit.stderr).all()
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    vx=st.floats(-1, 1, allow_nan=False),
+    vy=st.floats(-1, 1, allow_nan=False),
+    wz=st.floats(-2, 2, allow_nan=False),
+)
+def test_classify_motion_mirror(vx, vy, wz):
+    """The mirror image (vy, wz -> -vy, -wz) swaps left and right and nothing else."""
+    a = classify_motion(vx, vy, wz)[0]
+    b = classify_motion(vx, -vy, -wz)[0]
+    swap = {
+        "lateral_left": "lateral_right",
+        "lateral_right": "lateral_left",
+        "turn_left": "turn_right",
+        "turn_right": "turn_left",
+    }
+    assert b == swap.get(a, a)
