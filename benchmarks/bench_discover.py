@@ -66,7 +66,7 @@ def noise_floor(camp, windows) -> float:
     Uses the simulator's own ``Campaign.noise_floor`` when it has one.
     """
     if hasattr(camp, "noise_floor"):
-        return float(camp.noise_floor(windows))
+        return float(camp.noise_floor(windows).rmse_w)
     s = windows.samples[["run", "t", "power", "window"]].copy()
     s["run"] = s["run"].astype(str)
     tr = camp.true_samples[["run", "t", "power"]].rename(columns={"power": "true_power"})

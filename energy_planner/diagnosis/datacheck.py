@@ -303,14 +303,14 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
     slip = 1.0 - ratio
     xs = sin_run[use]
     a = np.column_stack([np.ones(xs.size), xs])
-    coef, *_ = np.linalg.lstsq(a, slip, rcond=None)
-    resid = slip - a @ coef
-    dof = max(xs.size - 2, 1)
-    s2 = float(resid @ resid) / dof
-    cov = s2 * np.linalg.pinv(a.T @ a)
-    se = math.sqrt(max(cov[1, 1], 0.0))
     from scipy.stats import t as student
 
+    from energy_planner.stats import wls
+
+    fit = wls(a, slip)
+    coef = fit.coef
+    dof = max(xs.size - 2, 1)
+    se = float(fit.stderr[1]) if np.isfinite(fit.stderr[1]) else math.inf
     tstat = coef[1] / se if se > 0 else (math.inf if coef[1] > 0 else 0.0)
     pval = float(student.sf(tstat, dof))
     ev.update(

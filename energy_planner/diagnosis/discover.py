@@ -48,8 +48,8 @@ def run_energy_errors(wd: WindowData, heldout_err: np.ndarray) -> np.ndarray:
     >>> t = pd.DataFrame({"run": ["a", "a", "b"], "power": [10.0, 10, 20],
     ...                   "duration": [2.0, 2, 2]})
     >>> wd = WindowData(pd.DataFrame(), np.zeros(3, int), t)
-    >>> run_energy_errors(wd, np.array([1.0, -3.0, 2.0])).tolist()
-    [0.05, 0.1]
+    >>> np.round(run_energy_errors(wd, np.array([1.0, -3.0, 4.0])), 12).tolist()
+    [0.1, 0.2]
     """
     y = wd.power
     dur = wd.weights

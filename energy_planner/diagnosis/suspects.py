@@ -56,7 +56,10 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from energy_planner.diagnosis.data import MAX_CATEGORIES, WindowData
-from energy_planner.errors import FitError
+from energy_planner.stats import fold_index as run_folds
+from energy_planner.stats import heldout_residuals as cv_errors
+from energy_planner.stats import heldout_rmse, span_basis, span_residual
+from energy_planner.stats import wls_coef as wls
 
 #: Quantiles at which hinge terms on a numeric channel are tried.
 HINGE_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
@@ -166,110 +169,30 @@ class Ranking:
 
 
 # --------------------------------------------------------------------------- folds / CV
+# Least squares, folds by run and spans are energy_planner.stats' (shared with calibration).
 
-
-def run_folds(runs: Sequence, n_splits: int = 5, seed: int = 0) -> np.ndarray:
-    """Fold index of each window, whole runs per fold.
-
-    The assignment is :func:`energy_planner.calibration.run_folds` (the folds ``fit``
-    validates on, for the same ``n_splits`` and ``seed``); ``n_splits`` is reduced to the
-    number of runs when there are fewer.
-
-    Examples
-    --------
-    >>> f = run_folds(["a", "a", "b", "c", "c", "c"], n_splits=2)
-    >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
-    (True, [0, 1])
-    """
-    from energy_planner.calibration import run_folds as calibration_folds
-
-    runs = np.asarray(runs).astype(str)
-    uniq = np.unique(runs)
-    if len(uniq) < 2:
-        raise FitError(
-            f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
-            f"({list(uniq)}); record more runs"
-        )
-    folds = calibration_folds(uniq.tolist(), max(2, min(n_splits, len(uniq))), seed)
-    fold_of = {r: i for i, part in enumerate(folds) for r in part}
-    return np.array([fold_of[r] for r in runs], dtype=np.int64)
-
-
-def _solve_gram(g: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Minimum-norm solution of the normal equations ``g b = r`` (small, symmetric)."""
-    return np.linalg.lstsq(g, r, rcond=1e-12)[0]
-
-
-def wls(x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """Weighted least squares ``y ~ x`` (columns scaled; minimum norm if rank-deficient).
-
-    Solved through the normal equations of the unit-norm scaled columns: the problems
-    here have a dozen well-scaled columns, and a ``k x k`` solve is much cheaper than an
-    SVD of the ``n x k`` matrix when thousands of fits are made.
-
-    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
-    >>> np.round(wls(x, np.array([1.0, 3, 5, 7])), 9).tolist()
-    [1.0, 2.0]
-    """
-    sw = np.ones(len(y)) if w is None else np.sqrt(np.asarray(w, float))
-    xw = x * sw[:, None]
-    scale = np.linalg.norm(xw, axis=0)
-    scale[scale == 0] = 1.0
-    xs = xw / scale
-    return _solve_gram(xs.T @ xs, xs.T @ (y * sw)) / scale
-
-
-def cv_errors(x: np.ndarray, y: np.ndarray, folds: np.ndarray, w=None) -> np.ndarray:
-    """Held-out residuals ``y - max(x b_(-f), 0)`` of weighted least squares by fold.
-
-    The training normal equations of a fold are the totals minus the fold's own.
-
-    >>> x = np.column_stack([np.ones(6), np.arange(6.0)])
-    >>> np.round(cv_errors(x, 1 + 2 * np.arange(6.0), np.arange(6) % 2), 9).tolist()
-    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-    """
-    sw = np.ones(len(y)) if w is None else np.sqrt(np.asarray(w, float))
-    xw = x * sw[:, None]
-    scale = np.linalg.norm(xw, axis=0)
-    scale[scale == 0] = 1.0
-    xs = xw / scale
-    yw = y * sw
-    g, r = xs.T @ xs, xs.T @ yw
-    err = np.empty_like(y)
-    for f in np.unique(folds):
-        te = folds == f
-        xt = xs[te]
-        coef = _solve_gram(g - xt.T @ xt, r - xt.T @ yw[te]) / scale
-        err[te] = y[te] - np.maximum(x[te] @ coef, 0.0)
-    return err
+__all__ = [
+    "Candidate",
+    "Ranking",
+    "Step",
+    "Suspect",
+    "Thresholds",
+    "cv_errors",
+    "heldout_rmse",
+    "paired_run_test",
+    "rank_suspects",
+    "run_folds",
+    "span_basis",
+    "span_residual",
+    "staircase",
+    "wls",
+]
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
     sq = np.bincount(folds, weights=err**2, minlength=n_folds)
     n = np.bincount(folds, minlength=n_folds)
     return np.sqrt(sq / np.maximum(n, 1))
-
-
-def heldout_rmse(
-    x: np.ndarray, y: np.ndarray, folds: np.ndarray, w: np.ndarray | None = None
-) -> tuple[float, np.ndarray]:
-    """Pooled and per-fold held-out RMSE of the linear model ``y ~ x`` validated by fold.
-
-    The fits weigh each row by ``w`` (window duration, as the calibration does); the RMSE
-    weighs every held-out window alike.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> x = np.column_stack([np.ones(200), rng.uniform(size=200)])
-    >>> y = x @ [1.0, 2.0] + rng.normal(0, 0.1, 200)
-    >>> rmse, per_fold = heldout_rmse(x, y, np.arange(200) % 4)
-    >>> bool(0.08 < rmse < 0.12), per_fold.shape
-    (True, (4,))
-    """
-    err = cv_errors(x, y, folds, w)
-    n_folds = int(folds.max()) + 1
-    return float(np.sqrt(np.mean(err**2))), _fold_rmse(err, folds, n_folds)
 
 
 def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
@@ -320,34 +243,6 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
         return math.nan, 1.0, n
     z = (w - mean) / math.sqrt(var)
     return float(z), float(norm.sf(z)), n
-
-
-def span_basis(x: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of the column span of ``x`` (from its SVD)."""
-    if x.shape[1] == 0:
-        return np.zeros((x.shape[0], 0))
-    u, sv, _ = np.linalg.svd(x, full_matrices=False)
-    return u[:, sv > sv[0] * 1e-10] if sv.size and sv[0] > 0 else u[:, :0]
-
-
-def span_residual(z: np.ndarray, x: np.ndarray, basis: np.ndarray | None = None) -> float:
-    """Relative residual ``||z - X b|| / ||z||`` of the projection of ``z`` on ``X``'s span.
-
-    0 means ``z`` is a combination of the columns of ``X`` (the data cannot tell it apart);
-    1 means it is orthogonal to them. ``basis`` (:func:`span_basis` of ``x``) saves the
-    decomposition when many ``z`` are tested against the same ``x``.
-
-    Examples
-    --------
-    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
-    >>> round(span_residual(np.array([1.0, 3, 5, 7]), x), 6)
-    0.0
-    """
-    norm = float(np.linalg.norm(z))
-    if norm == 0.0:
-        return 0.0
-    q = span_basis(x) if basis is None else basis
-    return float(np.linalg.norm(z - q @ (q.T @ z)) / norm)
 
 
 # --------------------------------------------------------------------------- candidates
