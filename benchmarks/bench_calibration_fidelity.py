@@ -49,7 +49,7 @@ MEDIAN_MAX, P90_MAX, RMSE_RATIO_MAX = 0.03, 0.06, 1.3
 
 def noise_floor(camp: Any, windows: Any) -> float:
     """RMSE (W) of the true against the measured window power on ``windows``."""
-    return float(camp.noise_floor(windows))
+    return float(camp.noise_floor(windows).rmse_w)
 
 
 def measure(camp: Any, windows: Any, terms: Any, n_splits: int = 5, seed: int = 0) -> dict:

@@ -26,33 +26,32 @@ from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel
 from energy_planner.stats import classify_motion
 
-#: B1-class coefficients of the base model (N, N m).
+#: B1-class coefficients of the base model (N, N m, W).
 TRUTH = {
-    "fwd_const": 620.0,
-    "fwd_up": 700.0,
-    "fwd_down": -290.0,
-    "fwd_up_sq": 3750.0,
-    "fwd_down_sq": 240.0,
-    "fwd_cross_sq": 4090.0,
-    "bwd_const": 640.0,
-    "bwd_up": 700.0,
+    "fwd_const": 130.0,
+    "fwd_up": 720.0,
+    "fwd_down": -300.0,
+    "bwd_const": 150.0,
+    "bwd_up": 720.0,
     "bwd_down": -100.0,
-    "bwd_up_sq": 3750.0,
-    "bwd_down_sq": 2150.0,
-    "bwd_cross_sq": 4090.0,
-    "lat_const": 690.0,
-    "lat_up": 700.0,
-    "lat_down": -25.0,
-    "lat_up_sq": 4090.0,
-    "lat_down_sq": 4090.0,
-    "lat_cross_sq": 3750.0,
-    "turn_const": 380.0,
-    "turn_slope": 260.0,
-    "turn_slope_sq": 2320.0,
+    "lat_const": 230.0,
+    "lat_up": 720.0,
+    "lat_down": -20.0,
+    "turn_const": 105.0,
+    "turn_slope": 255.0,
+    "idle_power": 137.0,
+    "tilt_x_sq": 1760.0,
+    "tilt_y_sq": 370.0,
+    "fwd_brake_sq": -1660.0,
+    "bwd_brake_sq": -1120.0,
+    "lat_tilt_sq": 1510.0,
 }
-#: Largest value per unit rate of each term's basis on the campaign's slopes (<= 20 deg).
-BASIS_MAX = {n: np.sin(np.radians(20)) ** (2 if n.endswith("_sq") else 1) for n in TRUTH}
-BASIS_MAX.update(fwd_const=1.0, bwd_const=1.0, lat_const=1.0, turn_const=1.0)
+#: Largest power (W) per unit coefficient of each term on the campaign (<= 20 deg, 0.4 m/s).
+S20 = np.sin(np.radians(20))
+BASIS_MAX = {n: 0.4 * S20 for n in TRUTH}
+BASIS_MAX.update(fwd_const=0.4, bwd_const=0.4, lat_const=0.4, turn_const=0.5)
+BASIS_MAX.update(turn_slope=0.5 * S20, idle_power=1.0)
+BASIS_MAX.update({n: S20**2 for n in TRUTH if n.endswith("_sq")})
 
 # motion -> (vx, vy, wz) at unit rate, and the body direction of travel beta
 _MOTIONS = {
@@ -79,7 +78,7 @@ def make_windows(
     seed: int = 0,
     slopes_deg=(0, 5, 10, 15, 20),
     motions=tuple(_MOTIONS),
-    speeds=(0.3,),
+    speeds=(0.2, 0.4),
     yaw_rate: float = 0.5,
     run_s: float = 20.0,
     window_s: float = 5.0,
@@ -161,14 +160,14 @@ def campaign(truth) -> Windows:
 
 def test_joint_fit_recovers_truth_within_stderr(campaign, truth):
     res = fit_model(campaign, n_splits=5)
-    assert res.n_runs == 5 * (4 * 3 + 2 * 2) and res.n_windows == 4 * res.n_runs
+    assert res.n_runs == 5 * 2 * (4 * 3 + 2 * 2) and res.n_windows == 4 * res.n_runs
     assert res.unidentified == {}
     for name, true in TRUTH.items():
         c, se = res.coefficients[name], res.stderr[name]
         # noise is white and the model exact: the estimate lies within 4 standard errors
         assert abs(c - true) < 4 * se + 1e-9, (name, c, se)
-        # and the data pins every term's share of the force down to 2 % of a level force
-        assert se * BASIS_MAX[name] < 0.02 * 600, (name, se)
+        # and the data pins every term's share of the power down to 2 % of a level walk
+        assert se * BASIS_MAX[name] < 0.02 * 180, (name, se)
     # 10 W of white noise averages to ~10/sqrt(50) = 1.4 W per 5 s window
     assert res.residual_rms_w < 3.0
     assert res.heldout is not None
@@ -196,20 +195,30 @@ def test_force_fit_matches_joint_fit(clean_twist):
     per_motion = fit_forces(clean_twist)
     for name, true in TRUTH.items():
         assert abs(per_motion.coefficients[name] - true) < 4 * per_motion.stderr[name] + 1e-9
-        assert per_motion.coefficients[name] == pytest.approx(joint.coefficients[name], rel=0.03)
+        assert per_motion.coefficients[name] == pytest.approx(
+            joint.coefficients[name], rel=0.03, abs=10
+        )
 
 
 def test_force_estimates_are_power_over_rate(clean_twist):
     est = force_estimates(clean_twist)
     fwd = est[(est.kind == "forward") & (est.heading == "uphill")]
-    # uphill forward at slope a: F = fwd_const + fwd_up sin a + fwd_up_sq sin^2 a (gamma = 0)
-    sa = np.sin(fwd.alpha)
-    expect = TRUTH["fwd_const"] + TRUTH["fwd_up"] * sa + TRUTH["fwd_up_sq"] * sa**2
+    # uphill forward at slope a (gamma = 0), speed v: F = P / v =
+    # fwd_const + fwd_up sin a + (idle_power + tilt_x_sq sin^2 a) / v
+    sa, v = np.sin(fwd.alpha), fwd.rate
+    expect = (
+        TRUTH["fwd_const"]
+        + TRUTH["fwd_up"] * sa
+        + (TRUTH["idle_power"] + TRUTH["tilt_x_sq"] * sa**2) / v
+    )
     np.testing.assert_allclose(fwd.value, expect, rtol=0.03)
     turns = est[est.kind == "turning"]
     assert set(turns.unit) == {"N m"}
-    st_ = np.sin(turns.alpha)
-    expect = TRUTH["turn_const"] + TRUTH["turn_slope"] * st_ + TRUTH["turn_slope_sq"] * st_**2
+    st_, cg, sg = np.sin(turns.alpha), np.cos(turns.gamma), np.sin(turns.gamma)
+    hold = TRUTH["tilt_x_sq"] * (st_ * cg) ** 2 + TRUTH["tilt_y_sq"] * (st_ * sg) ** 2
+    expect = (
+        TRUTH["turn_const"] + TRUTH["turn_slope"] * st_ + (TRUTH["idle_power"] + hold) / turns.rate
+    )
     np.testing.assert_allclose(turns.value, expect, rtol=0.05)
     # lateral uphill climbs; heading classes follow the direction of travel
     lat = est[(est.kind == "lateral") & (est.alpha_deg > 3)]
@@ -220,7 +229,7 @@ def test_cross_validation_never_mixes_runs(campaign):
     cv = cross_validate(BASE_TERMS, campaign, n_splits=4, seed=3)
     assert cv.n_splits == 4
     runs = [set(f) for f in cv.folds]
-    assert sum(len(r) for r in runs) == len(set().union(*runs)) == 80
+    assert sum(len(r) for r in runs) == len(set().union(*runs)) == 160
     # every window of a run is in the run's fold, and that fold held out exactly its runs
     by_run = cv.windows.groupby("run")["fold"].nunique()
     assert (by_run == 1).all()
@@ -261,9 +270,9 @@ def test_run_folds_partition_runs(n_runs, n_splits, seed):
 
 
 def test_too_little_data_names_counts(truth):
-    w = make_windows(truth, slopes_deg=(10,), motions=("forward",), run_s=5.0)
+    w = make_windows(truth, slopes_deg=(10,), motions=("forward",), run_s=5.0, speeds=(0.3,))
     w.samples, w.table = w.samples[w.samples.run != "r002"], w.table[w.table.run != "r002"]
-    with pytest.raises(FitError, match=r"got 2 windows from 2 run\(s\); need at least 63"):
+    with pytest.raises(FitError, match=r"got 2 windows from 2 run\(s\); need at least \d+ windows"):
         fit_model(w)
     one_run = make_windows(truth, slopes_deg=(10,), motions=("forward",), run_s=60)
     one_run.samples = one_run.samples[one_run.samples.run == "r000"]
@@ -285,9 +294,11 @@ def test_missing_motion_is_reported_not_fitted(truth):
     assert any("'bwd_up' cannot be identified" in m for m in res.warnings)
     assert "not identified by this campaign" in res.summary()
     assert [u["name"] for u in res.to_dict()["unidentified"]] == bwd
+    # the backward terms of the truth are not quite 0 without backward runs (noise in vx
+    # while side-stepping switches the backward braking term on a little): 10 % slack
     for name in ("fwd_up", "lat_up", "turn_slope"):
         c, se = res.coefficients[name], res.stderr[name]
-        assert abs(c - TRUTH[name]) < 4 * se, name
+        assert abs(c - TRUTH[name]) < 4 * se + 0.1 * abs(TRUTH[name]), name
     # forward runs only uphill: the downhill responses are not identified either
     up_only = make_windows(truth, motions=("forward", "turn_left"))
     keep = up_only.table.loc[
@@ -298,7 +309,7 @@ def test_missing_motion_is_reported_not_fitted(truth):
         up_only.table[up_only.table.window.isin(keep)],
     )
     res = fit_model(up_only, [t for t in BASE_TERMS if t[:3] in ("fwd", "tur")], n_splits=0)
-    assert list(res.unidentified) == ["fwd_down", "fwd_down_sq"]
+    assert list(res.unidentified) == ["fwd_down", "fwd_brake_sq"]
 
 
 def test_prior_holds_unidentified_terms_when_asked(truth):
@@ -314,8 +325,9 @@ def test_prior_holds_unidentified_terms_when_asked(truth):
     assert terms["bwd_const"]["status"] == "prior" and terms["bwd_const"]["stderr"] is None
 
 
-def test_single_speed_warns_for_speed_term(campaign):
-    res = fit_model(campaign, [*BASE_TERMS, "speed_dependence"], n_splits=0)
+def test_single_speed_warns_for_speed_term(truth):
+    one_speed = make_windows(truth, speeds=(0.3,))
+    res = fit_model(one_speed, [*BASE_TERMS, "speed_dependence"], n_splits=0)
     msgs = "\n".join(res.warnings)
     assert "cruise at one speed (0.30 m/s" in msgs and "'speed_dependence'" in msgs
     assert "nearly in the span" in msgs  # and the VIF check names it too
@@ -346,7 +358,7 @@ def test_level_only_lateral_warns(truth):
     msg = [m for m in res.warnings if m.startswith("no lateral windows on slopes")]
     assert len(msg) == 1 and "lat_const, lat_up" in msg[0], res.warnings
     # the squares of side-stepping are not identified from 2 deg slopes
-    assert {"lat_up_sq", "lat_down_sq", "lat_cross_sq"} <= set(res.unidentified)
+    assert "lat_tilt_sq" in res.unidentified
 
 
 def test_uphill_only_warns(truth):
@@ -360,10 +372,10 @@ def test_uphill_only_warns(truth):
 
 
 def test_collinear_terms_are_reported(campaign):
-    res = fit_model(campaign, [*BASE_TERMS, "2 * pos(vx)"], n_splits=0)
+    res = fit_model(campaign, [*BASE_TERMS, "2 * pos(vx) ** 2 / max(speed, 0.05)"], n_splits=0)
     assert res.unidentified == {
-        "2 * pos(vx)": "a linear combination of fwd_const on these windows: the campaign "
-        "does not vary what tells them apart"
+        "2 * pos(vx) ** 2 / max(speed, 0.05)": "a linear combination of fwd_const on these "
+        "windows: the campaign does not vary what tells them apart"
     }
 
 
@@ -399,7 +411,7 @@ def test_fit_result_serialises(campaign, tmp_path):
     res = fit_model(campaign, n_splits=3)
     d = res.to_dict()
     assert [t["name"] for t in d["terms"]] == list(BASE_TERMS)
-    assert d["heldout"]["n_splits"] == 3 and len(d["heldout"]["runs"]) == 80
+    assert d["heldout"]["n_splits"] == 3 and len(d["heldout"]["runs"]) == 160
     path = res.model.save(tmp_path / "m.json")
     back = EnergyModel.load(path)
     assert back.coefficients == pytest.approx(res.coefficients)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,7 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 from energy_planner.cli import main
-from energy_planner.model import EnergyModel
+
+HILL = str(Path(__file__).resolve().parents[1] / "maps" / "hill.tif")
 
 
 def _run(*args: str):
@@ -20,22 +22,46 @@ def _run(*args: str):
 def test_simulate_writes_readable_files_and_json(tmp_path):
     from energy_planner.measurements import load_logs
 
-    res = _run("--out", str(tmp_path), "--small", "--seed", "4", "--effect", "payload",
-               "--effect", "cold_joints", "--json")
+    res = _run("--out", str(tmp_path), "--small", "--seed", "4", "--effect", "load",
+               "--effect", "cold_joints", "--fault", "ros_current_sign", "--json")
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
-    assert doc["summary"]["effects"] == ["payload", "cold_joints"]
+    assert doc["summary"]["effects"] == ["load", "cold_joints"]
+    assert doc["summary"]["faults"] == ["ros_current_sign"]
+    assert [e["channel"] for e in doc["effects"]] == ["load_kg", "air_temp_c"]
     runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False)
     assert doc["summary"]["runs"] == len(runs) == doc["files"]["logs"]
-    truth = EnergyModel.load(tmp_path / "truth.json")
-    assert truth.coefficients["payload"] == 10.0
-    assert truth.coefficients["cold_joints"] == 4.0
-    assert {t["name"] for t in doc["terms"]} == set(truth.term_names)
+    physics = json.loads((tmp_path / "physics.json").read_text())
+    assert physics["effects"] == ["load", "cold_joints"]
+    assert doc["robot"]["mass_kg"] == 50.0
     logs = load_logs([tmp_path / f"{r}.csv" for r in runs["run"][:5]])
     assert set(logs["run"]) == set(runs["run"][:5])
-    assert logs["payload_kg"].nunique() >= 1
+    assert logs["load_kg"].nunique() >= 1
     meta = json.loads((tmp_path / "campaign.json").read_text())
-    assert meta["seed"] == 4 and meta["effects"] == ["payload", "cold_joints"]
+    assert meta["seed"] == 4 and meta["effects"] == ["load", "cold_joints"]
+    assert meta["faults"] == ["ros_current_sign"]
+
+
+def test_simulate_missions_over_a_dem(tmp_path):
+    res = _run("--out", str(tmp_path), "--small", "--missions", "2", "--dem", HILL,
+               "--effect", "ground", "--json")
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert doc["missions"] and doc["summary"]["kinds"] == {"mission": 2}
+    runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False)
+    assert list(runs["kind"]) == ["mission", "mission"]
+    df = pd.read_csv(tmp_path / f"{runs['run'][0]}.csv")
+    assert df["t"].is_monotonic_increasing and df["ground"].notna().all()
+    # the ground map the missions walked on, for --channel ground=ground.tif:ground.csv
+    assert (tmp_path / "ground.tif").exists()
+    table = pd.read_csv(tmp_path / "ground.csv")
+    assert set(df["ground"]) <= set(table["ground"])
+
+
+def test_dem_without_missions_is_rejected(tmp_path):
+    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--dem",
+                                    HILL])
+    assert res.exit_code == 2 and "--missions" in res.output
 
 
 def test_noise_free_parquet_energies_match_truth(tmp_path):
@@ -43,7 +69,7 @@ def test_noise_free_parquet_energies_match_truth(tmp_path):
                "--speeds", "0.2,0.45", "--plot", str(tmp_path / "cost.png"))
     assert res.exit_code == 0, res.output
     assert (tmp_path / "cost.png").read_bytes()[:4] == b"\x89PNG"
-    assert "truth coefficients" in res.output and "fwd_const" in res.output
+    assert "mechanistic physics" in res.output
     runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False).set_index("run")
     assert set(runs.loc[runs["kind"] == "straight", "speed"]) == {0.2, 0.45}
     for run in runs.index[:20]:
@@ -57,7 +83,7 @@ def test_unknown_effect_lists_the_valid_ones(tmp_path):
     res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--effect", "gremlins"])
     assert res.exit_code == 2
     assert "unknown effect 'gremlins'" in res.output
-    assert "vegetation_drag" in res.output and "idle_power" in res.output
+    assert "vegetation" in res.output and "idle_power" in res.output
     assert not any(tmp_path.iterdir())
 
 

@@ -12,11 +12,11 @@ Run it with::
     python -m energy_planner.calibration.default_model          # rewrites the bundled file
     python -m energy_planner.calibration.default_model --out other.json --seed 1
 
-The fitted forces are a few percent above the simulator's true coefficients because the
-simulated odometry slips (2 % plus 10 % of ``sin(alpha)``): the logs show the robot
-moving less far than the battery paid for, exactly as on a real robot. The model's
-``metadata`` records the campaign, the data counts, the held-out errors and the true
-coefficients for comparison.
+The simulator's truth is mechanistic physics, not a model, so there are no true
+coefficients to compare with; the model's ``metadata`` records where it came from (package
+version, the physics and its robot parameters, the campaign, the seed), the data counts,
+the held-out errors, the campaign's noise floor and the critical grade of the forward
+uphill cost (:func:`energy_planner.model.critical_grade`).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from energy_planner.calibration.fit import FitResult, fit_model
+from energy_planner.model import critical_grade
 
 __all__ = ["DEFAULT_PATH", "build_default_model", "main"]
 
@@ -55,7 +56,8 @@ def build_default_model(
     Returns
     -------
     FitResult
-        With the model's ``metadata`` filled in (source, campaign, truth).
+        With the model's ``metadata`` filled in (source, simulator, campaign, noise floor,
+        critical grade).
     """
     from energy_planner.measurements import make_windows, preprocess
     from energy_planner.simulate import CampaignConfig, simulate_campaign
@@ -64,12 +66,22 @@ def build_default_model(
     camp = simulate_campaign(seed=seed, effects=(), config=config)
     clean, _ = preprocess(camp.logs)
     windows = make_windows(clean, duration=window)
+    noise = camp.noise_floor(windows)
     metadata = {
         "robot": "B1-class quadruped, about 50 kg, 0.3 m/s",
         "source": (
             f"base model fitted by `{_COMMAND}` on the simulator's default campaign "
             f"(seed {seed}, no extra effect, default sensors), {window:g} s windows"
         ),
+        "simulator": {
+            "package_version": _package_version(),
+            "truth": (
+                "mechanistic physics, energy_planner.simulate.Physics (gravity work through "
+                "an efficiency, direction-dependent recovery, copper losses from the square "
+                "of the leg forces, standing, swing, turning, ripple)"
+            ),
+            "robot_params": {r["name"]: r["value"] for r in camp.physics.params.table()},
+        },
         "campaign": {
             "seed": seed,
             "effects": [],
@@ -77,16 +89,27 @@ def build_default_model(
             "n_samples": int(len(camp.logs)),
             "slopes_deg": list(config.slopes_deg),
             "headings_deg": list(config.headings_deg),
+            "motions": list(config.motions),
             "speeds_m_s": list(config.speeds),
+            "yaw_rate_rad_s": config.yaw_rate,
+            "repeats": config.repeats,
+            "run_s": config.run_s,
             "rate_hz": config.rate_hz,
         },
-        "truth_coefficients": dict(camp.truth.coefficients or {}),
-        "note": (
-            "fitted forces exceed the truth by the simulated odometry slip "
-            "(2 % + 10 % sin(alpha)): the logs see the robot travel less than it paid for"
-        ),
+        "noise_floor_w": round(noise.rmse_w, 3),
     }
-    return fit_model(windows, None, n_splits=n_splits, seed=seed, metadata=metadata)
+    result = fit_model(windows, None, n_splits=n_splits, seed=seed, metadata=metadata)
+    result.model.metadata["critical_grade"] = {
+        k: (round(v, 4) if isinstance(v, float) else v)
+        for k, v in critical_grade(result.model).items()
+    }
+    return result
+
+
+def _package_version() -> str:
+    from energy_planner import __version__
+
+    return __version__
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,12 +130,23 @@ def main(argv: list[str] | None = None) -> int:
     # round to what the data supports (standard errors are well below 0.01 N)
     model.coefficients = {k: round(v, 2) for k, v in model.coefficients.items()}
     model.stderr = {k: float(f"{v:.3g}") for k, v in (model.stderr or {}).items()}
+    model.metadata["critical_grade"] = {  # of the coefficients as saved
+        k: (round(v, 4) if isinstance(v, float) else v) for k, v in critical_grade(model).items()
+    }
     model.save(args.out)
     print(result.summary())
-    truth = result.model.metadata["truth_coefficients"]
-    print("\nfitted / true coefficient:")
-    for name, c in result.coefficients.items():
-        print(f"  {name:<12} {c:9.2f} / {truth[name]:7.1f}  ({100 * (c / truth[name] - 1):+.1f} %)")
+    cv = result.heldout
+    floor = model.metadata["noise_floor_w"]
+    print(
+        f"\nheld-out power RMSE {cv.rmse_w:.2f} W = {cv.rmse_w / floor:.2f} x the campaign's "
+        f"noise floor {floor:.2f} W"
+    )
+    cg = model.metadata["critical_grade"]
+    print(
+        f"critical grade of the forward uphill cost per metre (c(g)/g least): "
+        f"g* = {cg['grade']:.4f} ({cg['slope_deg']:.2f} deg, {cg['method']}); "
+        f"c(g*) = {cg['cost_n']:.1f} J/m, level {cg['level_cost_n']:.1f} J/m"
+    )
     print(f"\nwrote {args.out} in {time.perf_counter() - t0:.1f} s")
     return 0
 

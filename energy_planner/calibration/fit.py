@@ -564,16 +564,17 @@ def cross_validate(
     for i, test_runs in enumerate(folds):
         test = fold_of_window == i
         train = ~test
-        beta = wls(X[train], y[train] - offset[train], w[train]).coef
-        unsupported = [
-            names[j]
-            for j in range(len(names))
-            if not np.any(np.abs(X[train, j]) > 1e-12) and np.any(np.abs(X[test, j]) > 1e-12)
-        ]
-        if unsupported:
+        free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
+        lost = identify_terms(free_model, X[train], w[train], table[train])
+        cols = np.array([n not in lost for n in names], dtype=bool)
+        beta = np.zeros(len(names))
+        beta[cols] = wls(X[train][:, cols], y[train] - offset[train], w[train]).coef
+        lost = [n for j, n in enumerate(names) if n in lost and np.any(np.abs(X[test, j]) > 0)]
+        if lost:
             warnings.append(
-                f"fold {i}: no training window exercises {', '.join(unsupported)} (all such "
-                f"runs are held out: {', '.join(test_runs)}); this fold predicts them as 0"
+                f"fold {i}: the training runs cannot identify {', '.join(lost)} (the runs "
+                f"that do are held out: {', '.join(test_runs[:6])}"
+                f"{', ...' if len(test_runs) > 6 else ''}); this fold predicts them as 0"
             )
         coefs.append(beta)
         smask = fold_of_sample == i

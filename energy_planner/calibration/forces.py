@@ -132,16 +132,17 @@ def fit_forces(
 
     For every motion kind, the force estimates ``P / rate`` of its windows are regressed
     (least squares weighted by window duration) on that kind's terms divided by the
-    window's rate, i.e. on the terms' basis functions of ``(alpha, gamma)``.
+    window's rate, i.e. on the terms' basis functions of ``(alpha, gamma)``. Terms of no
+    single motion (kind ``other``: ``idle_power``, the per-second holding terms) are taken
+    from the joint fit (:func:`energy_planner.calibration.fit.fit_model`) and subtracted,
+    as a force ``P_other / rate``, before each motion's fit.
 
     Parameters
     ----------
     windows : Windows
         Measurements contract.
     terms : sequence of term specs
-        Terms whose kind is forward, backward, lateral or turning (default: the base
-        model). Terms of kind ``other`` (e.g. ``idle_power``) are not forces of a single
-        motion: fit them with :func:`energy_planner.calibration.fit.fit_model`.
+        Terms to fit (default: the base model).
     level_deg : float
         Passed to :func:`force_estimates`.
 
@@ -152,24 +153,39 @@ def fit_forces(
     Raises
     ------
     FitError
-        A term of kind ``other``, or a kind with fewer windows than its terms + 1
-        (the message names the kind and the counts).
+        A kind with fewer windows than its terms + 1 (the message names the kind and the
+        counts), or a per-second term the joint fit cannot identify.
     """
     model = EnergyModel(list(terms))
-    others = [t.name for t in model.terms if t.kind not in MOTION_KINDS]
-    if others:
-        raise FitError(
-            f"term(s) {', '.join(others)} belong to no single motion, so the per-motion force "
-            "fit cannot estimate them; use calibration.fit_model (joint fit) instead"
-        )
+    others = [j for j, t in enumerate(model.terms) if t.kind not in MOTION_KINDS]
     est = force_estimates(windows, level_deg=level_deg)
     table = aligned_table(windows)
     samples = windows.samples
     X = model.design_matrix(model_features(samples, model), groups=samples["window"].to_numpy())
     row = pd.Series(np.arange(len(table)), index=table["window"].to_numpy())
     idx = row.reindex(est["window"].to_numpy()).to_numpy()
-    coef: dict[str, float] = {}
-    err: dict[str, float] = {}
+    shared: dict[str, float] = {}
+    shared_se: dict[str, float] = {}
+    offset = np.zeros(len(est))
+    if others:
+        # per-second terms (idle power, holding the slope load) belong to no single
+        # motion: take them from the joint fit, and fit each motion's force on the rest
+        from energy_planner.calibration.fit import fit_model
+
+        joint = fit_model(windows, model, n_splits=0)
+        missing = [
+            model.term_names[j] for j in others if model.term_names[j] not in joint.coefficients
+        ]
+        if missing:
+            raise FitError(
+                f"the joint fit cannot identify the per-second term(s) {', '.join(missing)} "
+                "the per-motion forces need: " + "; ".join(joint.unidentified.values())
+            )
+        shared = {model.term_names[j]: joint.coefficients[model.term_names[j]] for j in others}
+        shared_se = {n: joint.stderr[n] for n in shared}
+        offset = X[idx][:, others] @ np.array(list(shared.values()))
+    coef: dict[str, float] = dict(shared)
+    err: dict[str, float] = dict(shared_se)
     fitted = np.full(len(est), np.nan)
     rows = []
     for kind in MOTION_KINDS:
@@ -186,7 +202,8 @@ def fit_forces(
             )
         rate = est.loc[sel, "rate"].to_numpy()
         B = X[idx[sel]][:, cols] / rate[:, None]
-        F = est.loc[sel, "value"].to_numpy()
+        base_force = offset[sel] / rate  # the per-second terms, as a force at this rate
+        F = est.loc[sel, "value"].to_numpy() - base_force
         w = est.loc[sel, "duration"].to_numpy()
         keep, why = independent_columns(B, w)
         if not keep.all():
@@ -201,7 +218,7 @@ def fit_forces(
         rms = float(np.sqrt(np.sum(w * (F - B @ beta) ** 2) / np.sum(w)))
         coef.update(zip(names, beta.tolist(), strict=True))
         err.update(zip(names, se.tolist(), strict=True))
-        fitted[sel] = B @ beta
+        fitted[sel] = B @ beta + base_force
         rows.append(
             {
                 "kind": kind,

@@ -74,6 +74,7 @@ def _text(doc: dict[str, Any]) -> str:
     f = doc["files"]
     lines.append(
         f"wrote {f['logs']} {f['format']} logs, runs.csv, physics.json, campaign.json"
+        + (", ground.tif, ground.csv" if doc["missions"] else "")
         + (f" and {f['bags']} ROS 2 bags" if f["bags"] else "")
         + f" to {f['out']}"
     )

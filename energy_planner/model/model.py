@@ -432,33 +432,32 @@ def term_names(specs: Iterable[str | Term]) -> list[str]:
 def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
     """Grade beyond which a detour climbs a hill for less energy than the direct line.
 
-    Walking forward straight up a grade ``g = sin(alpha)`` costs ``c(g) = P / v`` per
-    metre; climbing a height ``H`` takes ``H / g`` metres, so the energy ``H c(g) / g`` is
-    least at the grade ``g*`` minimising ``c(g) / g``. On steeper ground a zig-zag at
-    ``g*`` beats the direct climb (paper Fig. 1). For the base model
-    ``c(g) = fwd_const + fwd_up g + fwd_up_sq g^2``, so ``g* = sqrt(fwd_const / fwd_up_sq)``
-    (closed form, ``method = "closed form"``); a model with other terms is minimised
-    numerically on a grid of 0.01 deg up to 60 deg.
+    Walking forward straight up a grade ``g = sin(alpha)`` at ``speed`` costs
+    ``c(g) = P / v`` per metre; climbing a height ``H`` takes ``H / g`` metres, so the
+    energy ``H c(g) / g`` is least at the grade ``g*`` minimising ``c(g) / g``. On steeper
+    ground a zig-zag at ``g*`` beats the direct climb (paper Fig. 1). For the base model
+    ``c(g) = fwd_const + idle_power / v + fwd_up g + tilt_x_sq g^2 / v``, so
+    ``g* = sqrt((fwd_const v + idle_power) / tilt_x_sq)`` (``method = "closed form"``); a
+    model with other terms is minimised numerically on a 0.01 deg grid up to 60 deg.
 
     Returns
     -------
     dict
-        ``grade`` (g*, inf when the cost is not convex), ``slope_deg``, ``cost_n`` (c(g*),
+        ``grade`` (g*; inf when the cost is not convex), ``slope_deg``, ``cost_n`` (c(g*),
         J/m), ``level_cost_n`` (c(0)) and ``method``.
 
     Examples
     --------
-    >>> m = EnergyModel(["fwd_const", "fwd_up", "fwd_up_sq"],
-    ...                 {"fwd_const": 600.0, "fwd_up": 700.0, "fwd_up_sq": 2400.0})
+    >>> m = EnergyModel(["fwd_const", "fwd_up", "idle_power", "tilt_x_sq"],
+    ...     {"fwd_const": 100.0, "fwd_up": 700.0, "idle_power": 120.0, "tilt_x_sq": 600.0})
     >>> c = critical_grade(m)
     >>> c["grade"], round(c["slope_deg"], 2), c["method"]
     (0.5, 30.0, 'closed form')
     """
     coefs = model.coefficients or {}
-    base_fwd = {"fwd_const", "fwd_up", "fwd_up_sq"}
-    forward_on_fall_line = [
-        t.name for t in model.terms if t.kind not in ("backward", "lateral", "turning")
-    ]
+    closed = {"fwd_const", "fwd_up", "idle_power", "tilt_x_sq"}
+    zero_here = {"fwd_down", "fwd_brake_sq", "tilt_y_sq"}  # 0 walking forward straight up
+    forward = {t.name for t in model.terms if t.kind not in ("backward", "lateral", "turning")}
 
     def cost(g: np.ndarray) -> np.ndarray:
         n = g.shape[0]
@@ -474,9 +473,10 @@ def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
         return model.power(f) / speed
 
     level = float(cost(np.zeros(1))[0])
-    if set(forward_on_fall_line) - {"fwd_down", "fwd_down_sq", "fwd_cross_sq"} <= base_fwd:
-        c0, q = coefs.get("fwd_const", 0.0), coefs.get("fwd_up_sq", 0.0)
-        if q <= 0 or c0 <= 0:
+    if forward - zero_here <= closed:
+        num = coefs.get("fwd_const", 0.0) * speed + coefs.get("idle_power", 0.0)
+        q = coefs.get("tilt_x_sq", 0.0)
+        if q <= 0 or num <= 0:
             return {
                 "grade": math.inf,
                 "slope_deg": 90.0,
@@ -484,7 +484,7 @@ def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
                 "level_cost_n": level,
                 "method": "closed form",
             }
-        g = math.sqrt(c0 / q)
+        g = math.sqrt(num / q)
         if g < 1:
             return {
                 "grade": g,

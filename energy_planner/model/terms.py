@@ -28,9 +28,13 @@ cheaper only walking forward). The squares are copper (Joule) losses, which grow
 square of the force the legs hold along and across the slope; they make the cost per
 metre uphill convex, so that on steep ground a detour beats the direct climb. Turning in
 place costs ``abs(wz) (t0 + t1 sin(alpha) + t2 sin(alpha)^2)`` (Fig. 5: the yaw torque
-grows with slope). Every term satisfies the mirror symmetry
-``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)`` and is linear in the
-twist per direction (the paper's superposition).
+grows with slope). ``idle_power`` (W) is what the robot draws per second whatever it
+does - electronics, holding the body up - paid once however the motion combines
+directions (an arc is not charged the standing power of walking and of turning). Every
+term satisfies the mirror symmetry
+``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)`` and, apart from
+``idle_power``, is linear in the twist per direction (the paper's superposition; energy
+stays additive along a path either way).
 
 Examples
 --------
@@ -105,48 +109,49 @@ def _t(name: str, formula: str, explanation: str, unit: str, kind: str) -> Term:
     return Term(name, parse_formula(formula).text, explanation, unit, kind)
 
 
-#: Directions of motion of the base: (prefix, kind, rate, grade along the travel, its
-#: negative, grade across the travel, words for the explanations).
+#: Directions of motion of the base: (prefix, kind, rate, rate weighted by the squared
+#: direction cosine, grade along the travel, its negative, words for the explanations).
 _DIRECTIONS = (
     (
         "fwd",
         "forward",
         "pos(vx)",
+        "pos(vx) ** 2 / max(speed, 0.05)",
         "sin(alpha) * cos(gamma)",
         "-sin(alpha) * cos(gamma)",
-        "sin(alpha) * sin(gamma)",
         "walking forward",
     ),
     (
         "bwd",
         "backward",
         "pos(-vx)",
+        "pos(-vx) ** 2 / max(speed, 0.05)",
         "-sin(alpha) * cos(gamma)",
         "sin(alpha) * cos(gamma)",
-        "sin(alpha) * sin(gamma)",
         "walking backward",
     ),
     (
         "lat",
         "lateral",
         "abs(vy)",
+        "vy ** 2 / max(speed, 0.05)",
         "-sign(vy) * sin(alpha) * sin(gamma)",
         "sign(vy) * sin(alpha) * sin(gamma)",
-        "sin(alpha) * cos(gamma)",
         "side-stepping (left mirrors right)",
     ),
 )
 
 
 def _direction_terms(
-    prefix: str, kind: str, r: str, g: str, neg_g: str, c: str, words: str
+    prefix: str, kind: str, r: str, r_mix: str, g: str, neg_g: str, words: str
 ) -> list[Term]:
     return [
         _t(
             f"{prefix}_const",
-            r,
-            f"force {words} on level ground: touch-down losses, leg swing, gearbox "
-            "friction and the standing power spread over the metres walked",
+            r_mix,
+            f"force {words} on level ground: touch-down losses, leg swing and gearbox "
+            "friction per metre (walking obliquely, each gait's force is weighted by its "
+            "squared direction cosine)",
             "N",
             kind,
         ),
@@ -166,32 +171,12 @@ def _direction_terms(
             "N",
             kind,
         ),
-        _t(
-            f"{prefix}_up_sq",
-            f"{r} * pos({g}) ** 2",
-            f"copper (I^2 R) losses of the pushing force along an uphill grade {words}: "
-            "they grow with the square of the force the legs push with",
-            "N",
-            kind,
-        ),
-        _t(
-            f"{prefix}_down_sq",
-            f"{r} * pos({neg_g}) ** 2",
-            f"copper losses of the braking force along a downhill grade {words} (the legs "
-            "brake through another lever than they push with)",
-            "N",
-            kind,
-        ),
-        _t(
-            f"{prefix}_cross_sq",
-            f"{r} * ({c}) ** 2",
-            f"copper losses of holding the body on a cross slope {words}: the sideways "
-            "load and the roll moment, whichever side the slope falls to",
-            "N",
-            kind,
-        ),
     ]
 
+
+#: Grade along the body x axis and across it (the slope the legs hold, whatever the motion).
+_TILT_X = "sin(alpha) * cos(gamma)"
+_TILT_Y = "sin(alpha) * sin(gamma)"
 
 _BASE = [
     *(t for d in _DIRECTIONS for t in _direction_terms(*d)),
@@ -211,22 +196,56 @@ _BASE = [
         "turning",
     ),
     _t(
-        "turn_slope_sq",
-        "abs(wz) * sin(alpha) ** 2",
-        "copper losses of the slope load while turning in place (square of the force)",
-        "N m",
-        "turning",
+        "idle_power",
+        "1",
+        "power drawn per second whatever the motion: electronics, and the copper losses of "
+        "carrying the body while the gait runs (paid once, not per direction of motion)",
+        "W",
+        "other",
+    ),
+    _t(
+        "tilt_x_sq",
+        f"({_TILT_X}) ** 2",
+        "copper (I^2 R) losses per second of the legs pushing or holding the slope load "
+        "along the body x axis: they grow with the square of that force",
+        "W",
+        "other",
+    ),
+    _t(
+        "tilt_y_sq",
+        f"({_TILT_Y}) ** 2",
+        "copper losses per second of holding the sideways slope load and the roll moment "
+        "(cross slope), whichever side the slope falls to",
+        "W",
+        "other",
+    ),
+    _t(
+        "fwd_brake_sq",
+        f"min(pos(vx) / 0.05, 1) * pos(-{_TILT_X}) ** 2",
+        "walking forward downhill the legs brake through a shorter lever than they push "
+        "with: change of the copper losses along x (per second; fully on above 0.05 m/s)",
+        "W",
+        "forward",
+    ),
+    _t(
+        "bwd_brake_sq",
+        f"min(pos(-vx) / 0.05, 1) * pos({_TILT_X}) ** 2",
+        "walking backward downhill the legs brake through hip and knee: change of the "
+        "copper losses along x (per second; fully on above 0.05 m/s)",
+        "W",
+        "backward",
+    ),
+    _t(
+        "lat_tilt_sq",
+        f"(vy / max(speed, 0.05)) ** 2 * ({_TILT_Y}) ** 2",
+        "side-stepping, the sideways slope load goes through the hip ab/adduction joints "
+        "(a longer lever than the wide stance of forward walking): extra copper losses",
+        "W",
+        "lateral",
     ),
 ]
 
 _EFFECTS = [
-    _t(
-        "idle_power",
-        "1",
-        "standing power: electronics and holding the body up cost energy even at rest",
-        "W",
-        "other",
-    ),
     _t(
         "speed_dependence",
         "speed ** 2",

@@ -38,7 +38,13 @@ from energy_planner.simulate.effects import (
     effect_table,
     truth_model,
 )
-from energy_planner.simulate.missions import MissionConfig, simulate_missions, synthetic_dem
+from energy_planner.simulate.missions import (
+    GroundMap,
+    MissionConfig,
+    ground_map,
+    simulate_missions,
+    synthetic_dem,
+)
 from energy_planner.simulate.path import true_path_energy
 from energy_planner.simulate.physics import (
     COMPONENTS,
@@ -60,6 +66,7 @@ __all__ = [
     "CampaignConfig",
     "ConfigError",
     "Effect",
+    "GroundMap",
     "MissionConfig",
     "NoiseFloor",
     "Physics",
@@ -71,6 +78,7 @@ __all__ = [
     "check_faults",
     "critical_grade",
     "effect_table",
+    "ground_map",
     "plan_runs",
     "simulate_campaign",
     "simulate_missions",

@@ -151,6 +151,8 @@ class Campaign:
         The campaign parameters.
     faults : tuple of str
         Sensor faults switched on (:data:`energy_planner.simulate.FAULTS`).
+    ground_map : GroundMap or None
+        Missions: the map of ground types the ``ground`` channel was sampled from.
     """
 
     logs: pd.DataFrame
@@ -161,6 +163,7 @@ class Campaign:
     seed: int = 0
     config: Any = field(default_factory=CampaignConfig)
     faults: tuple[str, ...] = ()
+    ground_map: Any = None
 
     @property
     def truth(self) -> Any:
@@ -186,7 +189,8 @@ class Campaign:
 
         Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``physics.json``
         (robot parameters and effects of the truth), ``campaign.json`` (seed, effects,
-        faults, parameters) and
+        faults, parameters), for missions ``ground.tif`` and ``ground.csv`` (the ground map,
+        for ``--channel ground=ground.tif:ground.csv``) and
         with ``bag=True`` one ROS 2 bag per run in ``bags/<run>/`` (written by
         :func:`energy_planner.measurements.write_rosbag`; current with the ROS sign).
 
@@ -251,6 +255,8 @@ class Campaign:
         except OSError as exc:
             raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
         written += [runs_path, truth_path, meta_path]
+        if self.ground_map is not None:
+            written += list(self.ground_map.write(out / "ground.tif", out / "ground.csv"))
         if bag:
             written += self._write_bag(out / "bags", progress)
         return written

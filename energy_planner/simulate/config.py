@@ -270,8 +270,8 @@ class CampaignConfig:
     composite_turn_deg: float = 90.0
     grounds: tuple[str, ...] = ("meadow", "gravel", "mud", "asphalt")
     loads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
-    air_temp_range_c: tuple[float, float] = (0.0, 30.0)
-    motor_temp_range_c: tuple[float, float] = (25.0, 55.0)
+    air_temp_range_c: tuple[float, float] = (-5.0, 30.0)
+    motor_temp_range_c: tuple[float, float] = (25.0, 75.0)
     motor_warming_k_s: float = 0.05
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)
     sensors: SensorConfig = field(default_factory=SensorConfig)

@@ -92,18 +92,18 @@ EFFECTS: dict[str, Effect] = {
         Effect(
             "speed_dependence",
             "the gait keeps its stride length, so the stride frequency follows the speed: "
-            "foot lifting grows with v and swing-leg kinetic losses with v^3 (same power "
-            "as the base robot at 0.3 m/s)",
+            "foot lifting and touch-downs per second grow with v, swing-leg kinetic losses "
+            "with v^3 (same power as the base robot at 0.3 m/s)",
             ("several speeds (e.g. --speeds 0.2,0.3,0.45)",),
             resembles="speed_dependence",
         ),
         Effect(
             "joule_heating",
-            "motors with 1.6 times the winding resistance (a thinner-wire actuator "
+            "motors with 1.3 times the winding resistance (a thinner-wire actuator "
             "version): every copper loss, which grows with the square of the leg forces, "
-            "is 1.6 times larger",
+            "is 1.3 times larger",
             ("several slopes; stand runs and cross-slope headings help",),
-            changes={"winding_resistance_ohm": lambda p: 1.6 * p.winding_resistance_ohm},
+            changes={"winding_resistance_ohm": lambda p: 1.3 * p.winding_resistance_ohm},
             resembles="joule_heating",
         ),
         Effect(
@@ -124,8 +124,9 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "acceleration",
-            "speeding up spins up the 12 rotors (reflected inertia J N^2 / l^2) and the "
-            "legs, and that kinetic energy is dissipated instead of recovered",
+            "speed changes also spin the 12 rotors up and down (reflected inertia J N^2 / "
+            "l^2, about 220 kg at the feet) and swing the legs, and that kinetic energy is "
+            "paid both ways (dissipated when slowing down, never recovered)",
             ("speed ramps (CampaignConfig.ramp_s > 0) or mission logs with speed changes",),
             resembles="acceleration",
         ),
@@ -149,15 +150,15 @@ EFFECTS: dict[str, Effect] = {
             "motor_temp",
             "the winding resistance follows the logged winding temperature (channel "
             "motor_temp): +0.39 %/K from 40 C, so every copper loss grows with it",
-            ("channel motor_temp varies (default 25-55 C at run start, warming during runs)",
+            ("channel motor_temp varies (default 25-75 C at run start, warming during runs)",
              "copper-heavy motions (slopes, standing) make it clearer"),
             channel="motor_temp",
         ),
         Effect(
             "cold_joints",
             "gearbox grease stiffens in the cold (channel air_temp_c): its viscous loss "
-            "grows as exp(0.04 (20 - T)) (x2.2 at 0 C, x0.67 at 30 C)",
-            ("channel air_temp_c varies between runs (default 0-30 C)",),
+            "grows as exp(0.05 (20 - T)) (x3.5 at -5 C, x0.61 at 30 C)",
+            ("channel air_temp_c varies between runs (default -5 to 30 C)",),
             channel="air_temp_c",
         ),
         Effect(

@@ -25,11 +25,13 @@ import dataclasses
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from energy_planner.errors import LogIOError
 from energy_planner.simulate.campaign import (
     Campaign,
     _logs_from_truth,
@@ -40,7 +42,7 @@ from energy_planner.simulate.effects import check_effects, check_faults
 from energy_planner.simulate.kinematics import wrap
 from energy_planner.simulate.physics import GROUNDS, Physics, RobotParams
 
-__all__ = ["MissionConfig", "simulate_missions", "synthetic_dem", "ground_map"]
+__all__ = ["MissionConfig", "GroundMap", "simulate_missions", "synthetic_dem", "ground_map"]
 
 
 @dataclass(frozen=True)
@@ -96,8 +98,8 @@ class MissionConfig:
     waypoint_spacing_m: float = 6.0
     grounds: tuple[str, ...] = ("meadow", "gravel", "mud", "asphalt")
     loads_kg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0)
-    air_temp_range_c: tuple[float, float] = (0.0, 30.0)
-    motor_temp_range_c: tuple[float, float] = (25.0, 55.0)
+    air_temp_range_c: tuple[float, float] = (-5.0, 30.0)
+    motor_temp_range_c: tuple[float, float] = (25.0, 75.0)
     motor_warming_k_s: float = 0.02
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)
     sensors: SensorConfig = field(default_factory=SensorConfig)
@@ -176,17 +178,68 @@ def synthetic_dem(seed: int = 0, size_m: float = 300.0, resolution: float = 2.0,
                               resolution=resolution)
 
 
-def ground_map(terrain: Any, grounds: tuple[str, ...], seed: int = 0,
-               patch_m: float = 25.0) -> tuple[np.ndarray, tuple[str, ...]]:
-    """A categorical ground map on the terrain's grid: patches of ``grounds``.
+@dataclass(frozen=True)
+class GroundMap:
+    """A categorical ground map on a terrain's grid (patches of ground types).
 
-    Returns ``(codes, names)``: ``codes[row, col]`` indexes ``names``.
+    Attributes
+    ----------
+    codes : ndarray of int16
+        ``codes[row, col]`` in ``1 .. len(names)`` (raster order, as the terrain).
+    names : tuple of str
+        Ground type of code ``k`` is ``names[k - 1]``.
+    terrain : Terrain
+        The grid the map lies on.
+    """
+
+    codes: np.ndarray
+    names: tuple[str, ...]
+    terrain: Any
+
+    def sample(self, x: Any, y: Any) -> np.ndarray:
+        """Ground type at points (nearest cell; points outside take the edge cell)."""
+        x_min, _, _, y_max = self.terrain.bounds
+        res_x, res_y = (abs(r) for r in self.terrain.resolution)
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        c = np.clip(np.floor((x - x_min) / res_x).astype(int), 0, self.codes.shape[1] - 1)
+        r = np.clip(np.floor((y_max - y) / res_y).astype(int), 0, self.codes.shape[0] - 1)
+        return np.asarray(self.names, dtype=object)[self.codes[r, c] - 1]
+
+    def write(self, raster: str | Path, table: str | Path) -> tuple[Path, Path]:
+        """Write the codes as a GeoTIFF on the terrain's grid and the table ``code,ground``
+        (for ``--channel ground=RASTER:TABLE``)."""
+        import rasterio
+
+        raster, table = Path(raster), Path(table)
+        try:
+            with rasterio.open(raster, "w", driver="GTiff", height=self.codes.shape[0],
+                               width=self.codes.shape[1], count=1, dtype="int16",
+                               crs=self.terrain.crs, transform=self.terrain.transform,
+                               nodata=0) as dst:
+                dst.write(self.codes, 1)
+            table.write_text("code,ground\n" + "".join(
+                f"{k},{name}\n" for k, name in enumerate(self.names, start=1)))
+        except (OSError, rasterio.errors.RasterioError) as exc:
+            raise LogIOError(f"cannot write the ground map to {str(raster)!r} / "
+                             f"{str(table)!r}: {exc}") from exc
+        return raster, table
+
+
+def ground_map(terrain: Any, grounds: tuple[str, ...] = tuple(GROUNDS), seed: int = 0,
+               patch_m: float = 25.0) -> GroundMap:
+    """Patches of ground types on the terrain's grid, about equally common.
+
+    >>> gm = ground_map(synthetic_dem(seed=1, size_m=60.0), ("meadow", "mud"), seed=2)
+    >>> set(gm.sample([5.0, 30.0, 55.0], [5.0, 30.0, 55.0])) <= {"meadow", "mud"}
+    True
+    >>> sorted(np.unique(gm.codes).tolist())
+    [1, 2]
     """
     rng = np.random.default_rng(seed)
     res = abs(terrain.resolution[0])
     z = _smooth_noise(rng, terrain.shape, patch_m / res)
     qs = np.quantile(z, np.linspace(0, 1, len(grounds) + 1)[1:-1])
-    return np.digitize(z, qs).astype(np.int16), tuple(grounds)
+    return GroundMap((np.digitize(z, qs) + 1).astype(np.int16), tuple(grounds), terrain)
 
 
 def _catmull_rom(p: np.ndarray, per_seg: int = 40) -> np.ndarray:
@@ -360,14 +413,7 @@ def simulate_missions(
     root = np.random.default_rng(seed)
     path_rng, channel_rng, noise_rng = root.spawn(3)
     sens = cfg.sensors.with_faults(fault_names)
-    codes, gnames = ground_map(terrain, cfg.grounds, seed=seed)
-    x_min, _, _, y_max = terrain.bounds
-    res_x, res_y = (abs(r) for r in terrain.resolution)
-
-    def ground_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        c = np.clip(((x - x_min) / res_x).astype(int), 0, codes.shape[1] - 1)
-        r = np.clip(((y_max - y) / res_y).astype(int), 0, codes.shape[0] - 1)
-        return np.asarray(gnames, dtype=object)[codes[r, c]]
+    grounds = ground_map(terrain, cfg.grounds, seed=seed)
 
     tracks, motions = [], []
     for _ in tqdm(range(cfg.missions), desc="simulating missions", disable=not progress,
@@ -398,7 +444,7 @@ def simulate_missions(
     run_ids = np.array([f"mission_{i:03d}" for i in range(m)], dtype=object)[idx]
     channels = {
         "load_kg": load[idx],
-        "ground": ground_at(pos[:, 0], pos[:, 1]).astype(str),
+        "ground": grounds.sample(pos[:, 0], pos[:, 1]).astype(str),
         "motor_temp": motor0[idx] + warm[idx] * t_run,
         "air_temp_c": air[idx],
         "grass_height_m": grass[idx],
@@ -439,4 +485,4 @@ def simulate_missions(
     if not rows:  # pragma: no cover - missions >= 1
         raise ConfigError("no mission simulated")
     return Campaign(out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed,
-                    cfg, fault_names)
+                    cfg, fault_names, grounds)

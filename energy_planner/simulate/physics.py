@@ -210,7 +210,7 @@ class RobotParams:
     recovery_forward: float = 0.60
     recovery_backward: float = 0.20
     recovery_lateral: float = 0.05
-    collision_forward: float = 0.07
+    collision_forward: float = 0.06
     collision_backward: float = 0.10
     collision_lateral: float = 0.16
     stride_frequency_hz: float = 0.9
@@ -218,9 +218,9 @@ class RobotParams:
     step_clearance_m: float = 0.08
     swing_efficiency: float = 0.5
     swing_lateral_factor: float = 1.3
-    gearbox_friction_n: float = 50.0
+    gearbox_friction_n: float = 70.0
     gearbox_reference_c: float = 20.0
-    gearbox_viscosity_per_k: float = 0.04
+    gearbox_viscosity_per_k: float = 0.05
     turn_friction: float = 0.25
     foot_radius_m: float = 0.37
     turn_slope_factor: float = 1.0
@@ -288,10 +288,11 @@ def _arr(f: Mapping[str, Any], key: str, n: int, default: float = 0.0) -> np.nda
 
 
 def _length(f: Mapping[str, Any]) -> int:
-    for key in ("alpha", "vx", "gamma", "vy", "wz"):
-        if key in f and f[key] is not None:
-            return int(np.size(f[key]))
-    raise ModelError("features need at least one of alpha, gamma, vx, vy, wz")
+    """Number of samples: the largest size among the features (scalars broadcast)."""
+    sizes = [int(np.size(v)) for v in f.values() if v is not None]
+    if not any(k in f for k in ("alpha", "gamma", "vx", "vy", "wz")) or not sizes:
+        raise ModelError("features need at least one of alpha, gamma, vx, vy, wz")
+    return max(sizes)
 
 
 class Physics:
@@ -381,10 +382,8 @@ class Physics:
         p_mech = weight * dz_dt + m_inertial * (vx * ax + vy * ay)
         recovery = (p.recovery_forward * w_fwd + p.recovery_backward * w_bwd
                     + p.recovery_lateral * w_lat)
-        if "acceleration" in on:  # the inertial energy is not recovered at all
-            p_mech_grav = weight * dz_dt
-            p_inert = m_inertial * (vx * ax + vy * ay)
-            p_mech = p_mech_grav + np.maximum(p_inert, 0.0)
+        if "acceleration" in on:  # speeding up and slowing down both cost (no recovery)
+            p_mech = weight * dz_dt + m_inertial * np.abs(vx * ax + vy * ay)
         sinkage = np.zeros(n)
         if "ground" in on:
             ground = np.asarray(np.broadcast_to(np.asarray(f["ground"], dtype=object), (n,)))
@@ -430,8 +429,11 @@ class Physics:
                 + p.collision_lateral * w_lat)
         collisions = coll * weight * speed / p.lift_efficiency
         stride_f = np.full(n, p.stride_frequency_hz)
-        if "speed_dependence" in on:  # fixed stride length: the frequency follows the speed
+        if "speed_dependence" in on:
+            # fixed stride length: the frequency follows the speed, and so do the number
+            # of touch-downs per second (each as hard as at the nominal speed)
             stride_f = p.stride_frequency_hz * np.maximum(speed / p.nominal_speed, 0.5)
+            collisions = collisions * stride_f / p.stride_frequency_hz
         clearance = p.step_clearance_m
         terrain = np.zeros(n)
         if "vegetation" in on:
@@ -492,12 +494,16 @@ TURN_SCUFF = 0.6
 
 
 def p_extra_inertia(p: RobotParams) -> float:
-    """Extra effective mass of the ``acceleration`` effect: reflected rotor inertia.
+    """Extra effective mass of the ``acceleration`` effect: rotors and legs, kg.
 
-    Twelve rotors (``J = 6e-4 kg m^2`` each) behind gear ratio ``N`` appear at the foot
-    as ``J N^2 / l^2`` per joint (``l = lever_push_m``), plus the legs themselves.
+    Twelve rotors (``J = 1e-3 kg m^2`` each, the B1 class's large actuators) behind gear
+    ratio ``N`` appear at the foot as ``J N^2 / l^2`` per joint (``l =
+    lever_support_m``: the knee, which drives the stance), plus the four legs.
+
+    >>> round(p_extra_inertia(RobotParams()))
+    237
     """
-    rotor = 12 * 6e-4 * p.gear_ratio**2 / p.lever_push_m**2
+    rotor = 12 * 1e-3 * p.gear_ratio**2 / p.lever_support_m**2
     return float(rotor + 4 * p.leg_mass_kg)
 
 
@@ -509,7 +515,11 @@ def critical_grade(
     The cost per metre straight up the fall line is ``c(g) = P / v`` at grade ``g =
     sin(alpha)``; climbing a height ``H`` at grade ``g`` takes ``H / g`` metres, so the
     energy ``H c(g) / g`` is least at the grade ``g*`` minimising ``c(g) / g``. On
-    steeper ground a detour at grade ``g*`` beats the direct climb.
+    steeper ground a detour at grade ``g*`` beats the direct climb. For the default
+    physics ``c(g) = a + b g + q g^2`` exactly (``a`` the level cost, ``b = M g /
+    lift_efficiency``, ``q`` the copper losses of the tangential force, see
+    docs/simulate.md), so ``g* = sqrt(a / q)``; this function minimises numerically so
+    that it holds for any parameters and effects.
 
     Returns
     -------
