@@ -509,14 +509,68 @@ def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, 
     return shapes
 
 
+def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, str, list[str]]]:
+    """``ch`` times each base term of the model: the base's own physics scaled by the
+    channel (a load scales the lifting work, the copper losses of holding a slope...)."""
+    from energy_planner.model import BASE_TERMS, CATALOG
+
+    out = []
+    for name in model_terms:
+        if name not in BASE_TERMS or CATALOG[name].formula.strip() == "1":
+            continue
+        t = CATALOG[name]
+        expl = t.explanation.split(":")[0]
+        out.append(
+            (
+                f"{ch}*{name}",
+                f"{ch} * ({t.formula})",
+                f"{expl}, in proportion to {ch}",
+                sorted(t.variables),
+            )
+        )
+    return out
+
+
+def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | None):
+    """``ch`` times the fitted base power, and times its copper (squared-force) part: a
+    channel that scales every force of the gait (a mass) or every copper loss (the
+    winding resistance). The coefficients are the current fit's, written into the term.
+    """
+    from energy_planner.model import BASE_TERMS, CATALOG
+
+    if not coef:
+        return []
+    base = [t for t in model_terms if t in BASE_TERMS and np.isfinite(coef.get(t, np.nan))]
+    out = []
+    for label, names, expl in (
+        ("P_base", base, f"every force of the gait grows in proportion to {ch} (a carried "
+         "mass: gravity work, inertia and the losses of the leg forces)"),
+        ("P_copper", [t for t in base if t.endswith("_sq")],
+         f"the copper (I^2 R) losses grow in proportion to {ch} (winding resistance: it "
+         "rises with the motor temperature)"),
+    ):  # fmt: skip
+        parts = [f"{coef[t]:.4g} * ({CATALOG[t].formula})" for t in names if coef[t] != 0]
+        if not parts:
+            continue
+        variables = sorted({v for t in names for v in CATALOG[t].variables})
+        out.append((f"{ch}*{label}", f"{ch} * ({' + '.join(parts)})", expl, variables))
+    return out
+
+
 def channel_candidates(
-    wd: WindowData, catalog_terms: Iterable[str] = (), several_speeds: bool | None = None
+    wd: WindowData,
+    catalog_terms: Iterable[str] = (),
+    several_speeds: bool | None = None,
+    model_terms: Iterable[str] = (),
+    coef: dict[str, float] | None = None,
 ) -> tuple[list[Candidate], list[dict]]:
-    """Data-driven candidates, one family of shapes per extra channel.
+    """Data-driven candidates, one family of shapes per extra channel (with
+    ``model_terms``, also the channel times each of the model's base terms).
 
     Returns the candidates and the channels that cannot give one (with the reason).
     """
     skip_terms = {canonical(t) for t in catalog_terms}
+    model_terms = list(model_terms)
     if several_speeds is None:
         several_speeds = speed_levels(wd)["several"]
     out: list[Candidate] = []
@@ -532,9 +586,11 @@ def channel_candidates(
                 _unsup(ch, ch, [ch], "data", f"no variance: {ch} is {fin[0]:.4g} in every sample")
             )
             continue
-        for name, term, expl, more in _numeric_shapes(ch, several_speeds):
+        shapes = _numeric_shapes(ch, several_speeds) + _base_products(ch, model_terms)
+        for name, term, expl, more in shapes + _scaled_base(ch, model_terms, coef):
             if canonical(term) in skip_terms:
                 continue
+            skip_terms.add(canonical(term))
             out.append(
                 Candidate(
                     name,
@@ -630,9 +686,12 @@ def default_candidates(
     """Catalog, speed and channel candidates for a model with ``terms``; and the
     candidates that cannot be tried, with the reason."""
     speeds = speed_levels(wd) if speeds is None else speeds
+    x, y = wd.columns(terms), wd.power
+    ok = np.all(np.isfinite(x), axis=1) & np.isfinite(y)
+    coef = dict(zip(terms, wls(x[ok], y[ok], wd.weights[ok]), strict=True)) if ok.any() else None
     cands = catalog_candidates(terms, wd)
     data, bad = channel_candidates(
-        wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"]
+        wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"], terms, coef
     )
     cands = cands + speed_candidates(wd) + data
     out, unsupported = [], list(bad)
