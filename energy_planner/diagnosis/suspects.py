@@ -775,6 +775,7 @@ def rank_suspects(
     p_thr = th.alpha / m
     for s in final:
         ctx.decide(s, p_thr)
+        s.coefficient = ctx.coefficient(s.term)
     # best first; on a tie (complementary shapes: grass = not mud when a channel has two
     # values) the extra cost (positive coefficient) is named rather than a saving
     final.sort(key=lambda s: (-round(s.error_explained, 9), not s.coefficient > 0))
@@ -880,7 +881,7 @@ class _Context:
         after = float(np.sqrt(np.mean(e1**2)))
         t, p, n_runs = paired_run_test(e0, e1, self.runs[ok])
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
-        coef = float(wls(xz, y, w)[-1])
+        coef = math.nan  # filled in for the suspects reported (see rank_suspects)
         if x is self.x:
             full = np.full(len(self.y), np.nan)
             full[ok] = e1
@@ -904,6 +905,15 @@ class _Context:
             coefficient=coef,
             channel=c.channel,
         )
+
+    def coefficient(self, term: str) -> float:
+        """Coefficient of a scored candidate in the model refitted with it (all windows)."""
+        z = self.columns.get(term)
+        if z is None:
+            return math.nan
+        ok = self.base_ok & np.isfinite(z)
+        xz = np.column_stack([self.x[ok], z[ok]])
+        return float(wls(xz, self.y[ok], self.w[ok])[-1])
 
     def passes(self, s: Suspect, p_thr: float) -> bool:
         """The noise rule (module docstring)."""
