@@ -193,7 +193,16 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--small", action="store_true", help="CampaignConfig.small() campaigns")
     ap.add_argument("--seeds", type=int, default=20, help="seeds of the false-finding rate")
-    ap.add_argument("--effects", nargs="*", default=None, help="effects (default: all)")
+    ap.add_argument(
+        "--null-size",
+        choices=("small", "medium", "full"),
+        default=None,
+        help="campaign size of the false-finding seeds (default: as the effect cases); "
+        "medium is CampaignConfig.small(repeats=2)",
+    )
+    ap.add_argument(
+        "--effects", nargs="*", default=None, help="effects, a+b for two (default: all)"
+    )
     ap.add_argument("--missions", nargs="*", default=None, help="effects on mission logs")
     ap.add_argument("--max-steps", type=int, default=4)
     ap.add_argument("--json", action="store_true")
@@ -201,6 +210,12 @@ def main(argv: list[str] | None = None) -> int:
     from energy_planner.simulate import CampaignConfig
 
     config = CampaignConfig.small() if args.small else CampaignConfig()
+    sizes = {
+        "small": CampaignConfig.small(),
+        "medium": CampaignConfig.small(repeats=2),
+        "full": CampaignConfig(),
+    }
+    null_config = config if args.null_size is None else sizes[args.null_size]
     cases = default_cases() if args.effects is None else [
         tuple(e.split("+")) for e in args.effects
     ]  # fmt: skip
@@ -217,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  mission {e}: {c.added} ({c.seconds:.0f} s)", file=sys.stderr)
     nulls = []
     for seed in range(args.seeds):
-        c = run_case((), seed, config, args.max_steps)
+        c = run_case((), seed, null_config, args.max_steps)
         nulls.append(c)
         print(f"  no effect, seed {seed}: {c.added} ({c.seconds:.0f} s)", file=sys.stderr)
     elapsed = time.perf_counter() - t_all
@@ -270,7 +285,8 @@ def main(argv: list[str] | None = None) -> int:
     if nulls:
         n_false = sum(bool(c.added) for c in nulls)
         print(
-            f"\nno hidden effect, default sensors, seeds 0-{args.seeds - 1}: a term was added "
+            f"\nno hidden effect, default sensors, {args.null_size or 'same size'} campaigns, "
+            f"seeds 0-{args.seeds - 1}: a term was added "
             f"in {n_false}/{len(nulls)} campaigns (false-finding rate {n_false / len(nulls):.0%})"
         )
         extra = pd.Series([t for c in nulls for t in c.added]).value_counts()

@@ -38,13 +38,14 @@ TRUTH = {
     "-vy * sin(alpha) * sin(gamma)": 900.0,
     "abs(wz)": 250.0,
     "abs(wz) * sin(alpha)": 300.0,
+    "1": 60.0,
 }
 
 
 def synth(n_runs=64, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12, speeds=(0.3,)):
     """Windowed samples from the base model (+ one hidden term) with white power noise.
 
-    Each run is one motion (forward, backward, lateral, turn in place) at one of
+    Each run is one motion (forward, backward, lateral, turn in place, standing) at one of
     ``speeds`` (m/s, in turn) or 0.5 rad/s on a random slope and heading; extra channels
     are constant per run.
     """
@@ -53,16 +54,16 @@ def synth(n_runs=64, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12, s
     n = hz * dur
     t = np.arange(n) / hz
     for r in range(n_runs):
-        motion = ("forward", "backward", "lateral", "turn")[r % 4]
+        motion = ("forward", "backward", "lateral", "turn", "stand")[r % 5]
         vx, vy, wz = np.zeros(n), np.zeros(n), np.zeros(n)
-        v = speeds[(r // 4) % len(speeds)]
+        v = speeds[(r // 5) % len(speeds)]
         if motion == "forward":
             vx[:] = v
         elif motion == "backward":
             vx[:] = -v
         elif motion == "lateral":
             vy[:] = v * rng.choice([-1, 1])
-        else:
+        elif motion == "turn":
             wz[:] = 0.5 * rng.choice([-1, 1])
         frames.append(
             pd.DataFrame(
@@ -217,7 +218,9 @@ def test_planted_effect_is_above_noise_and_rule_matters():
     assert top.variables == ["temperature_c"] and top.term.startswith("pos(")
     # the knot is found near the planted 12 degC
     knot = float(top.term.split("(")[1].split("-")[0])
-    assert abs(knot - 12.0) < 2.0
+    # the knot is found near the planted 12 degC (below it, idle_power absorbs a shift of
+    # the knot as a constant: only the runs between the two knots tell them apart)
+    assert abs(knot - 12.0) < 2.5
     # the by-run test passes the Bonferroni level over every candidate scored
     assert top.p_value < rank.p_threshold == pytest.approx(0.01 / rank.n_tested)
     assert rank.n_tested > 20
@@ -296,7 +299,7 @@ def campaign_dir(tmp_path_factory):
         imu_bias_deg=0.0,
     )
     camp = simulate_campaign(
-        seed=3, effects=("vegetation_drag",), config=CampaignConfig.small(sensors=sensors)
+        seed=3, effects=("vegetation",), config=CampaignConfig.small(sensors=sensors)
     )
     camp.write(d / "logs")
     windows = make_windows(preprocess(camp.logs)[0], duration=2.0)

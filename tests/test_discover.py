@@ -13,6 +13,7 @@ import importlib.util
 import json
 import sys
 import warnings
+from html import escape
 from pathlib import Path
 
 import numpy as np
@@ -129,7 +130,8 @@ def test_cli_discover(tmp_path):
     assert model.term_names == doc["terms"] and model.is_fitted
     html = report.read_text()
     assert 'src="http' not in html and "<script" not in html
-    assert html.count('src="data:image/png;base64,') >= 1 and steps[1]["added"] in html
+    assert html.count('src="data:image/png;base64,') >= 1
+    assert escape(steps[1]["added"]) in html
     text = runner.invoke(main, args)
     assert text.exit_code == 0 and "held-out RMSE" in text.output
     assert steps[1]["added"] in text.output and "model written to" in text.output
