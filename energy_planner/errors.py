@@ -1,16 +1,180 @@
-"""Exception hierarchy.
+"""Exception hierarchy with structured fields.
 
-Every error the library raises on purpose derives from :class:`EnergyPlannerError` and
-from the builtin that fits it best, as rasterio does (``RasterioIOError(RasterioError,
-OSError)``), so callers can catch either. Messages name the offending value, the file
-and what was expected.
+Every class here derives from :class:`EnergyPlannerError` and from the builtin that fits
+it best, as rasterio does (``RasterioIOError(RasterioError, OSError)``), so callers can
+catch either. Errors raised on purpose by the library use these classes; a bug may
+still surface as a builtin exception (``tests/test_fuzz_loaders.py`` feeds malformed
+files to the public loaders to catch those).
+
+Messages name the offending value, the file and what was expected, for people. The same
+facts are attributes, for programs: ``err.value``, ``err.path``, ``err.expected`` and any
+other keyword given when raising (``err.endpoint``, ``err.limit``, ``err.column``, ...),
+all collected in ``err.fields``. Callers (the CLI, the planner) read the fields and never
+parse the message.
+
+Field names used across the project (use these when they fit):
+
+============  =================================================================
+``value``     the offending value (a number, a coordinate pair, a cell value)
+``path``      the file it came from (``str``)
+``expected``  what was expected, in words (``"longitude, latitude in degrees"``)
+``param``     the option or argument at fault (``"band"``, ``"start"``)
+``endpoint``  ``"start"`` or ``"goal"``
+``limit``     the limit broken: ``"map"``, ``"nodata"``, ``"max_slope_deg"``,
+              ``"max_cross_slope_deg"``, ``"keep_out"``
+``column``    a table column; ``row`` its 0-based row; ``run`` a run id
+``crs``       a CRS (``str``); ``bounds`` ``(xmin, ymin, xmax, ymax)`` in it
+``hint``      a remedy, in words
+============  =================================================================
+
+Examples
+--------
+>>> try:
+...     raise DEMError("band 3 is out of range", value=3, path="a.tif", param="band",
+...                    expected="a band in 1..1")
+... except ValueError as err:  # also an EnergyPlannerError
+...     err.value, err.param, err.fields["path"], str(err)
+(3, 'band', 'a.tif', 'band 3 is out of range')
+>>> DEMError("no fields").fields
+{}
+>>> DEMError("x").endpoint is None  # a usual field not given reads as None
+True
+>>> DEMError("x", which=2).which
+2
 """
 
 from __future__ import annotations
 
+from typing import Any
+
+__all__ = [
+    "FIELD_NAMES",
+    "CoordinateError",
+    "DEMError",
+    "DEMIOError",
+    "EnergyPlannerError",
+    "FitError",
+    "FormulaError",
+    "InvalidStateError",
+    "LogError",
+    "LogIOError",
+    "ModelError",
+    "OutsideMapError",
+    "PlanningConfigError",
+    "PlanningError",
+    "RasterTooLargeError",
+    "WaypointError",
+    "WaypointIOError",
+]
+
+
+#: The usual structured field names; an absent one reads as None on any error.
+FIELD_NAMES: frozenset[str] = frozenset({
+    "value", "path", "expected", "param", "endpoint", "limit", "column", "row", "run",
+    "crs", "bounds", "hint", "shape", "size_bytes", "cap_bytes", "values", "rows", "runs",
+})
+
 
 class EnergyPlannerError(Exception):
-    """Base class of all energy_planner errors."""
+    """Base class of all energy_planner errors.
+
+    Parameters
+    ----------
+    message : str
+        The human-readable message (``str(err)``): the value, the file, what was expected.
+    value : object, optional
+        The offending value.
+    path : str or os.PathLike, optional
+        The file the value came from (stored as ``str``).
+    expected : str, optional
+        What was expected, in words.
+    **fields
+        Any other structured facts (see the module docstring for the usual names,
+        :data:`FIELD_NAMES`).
+
+    Attributes
+    ----------
+    message : str
+        As given.
+    fields : dict
+        Every structured field given (``value``, ``path``, ``expected`` only when not
+        None). Each key is also readable as an attribute; a usual field name
+        (:data:`FIELD_NAMES`) that was not given reads as None.
+    """
+
+    def __init__(
+        self,
+        message: str = "",
+        *,
+        value: Any = None,
+        path: Any = None,
+        expected: str | None = None,
+        **fields: Any,
+    ) -> None:
+        super().__init__(message)
+        self.message = str(message)
+        known = {"value": value, "path": None if path is None else str(path),
+                 "expected": expected}
+        self.fields: dict[str, Any] = {k: v for k, v in known.items() if v is not None}
+        self.fields.update(fields)
+
+    def __getattr__(self, name: str) -> Any:
+        # only called when normal lookup fails: a given field, or None for a usual
+        # field name not given; anything else is a real AttributeError (so that
+        # hasattr() probes by other tools, e.g. IPython's _render_traceback_, stay False)
+        fields = self.__dict__.get("fields", {})
+        if name in fields:
+            return fields[name]
+        if name in FIELD_NAMES:
+            return None
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __str__(self) -> str:
+        return self.message
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # keep the fields through pickle/copy (keyword-only arguments are not in args)
+        return (_rebuild, (type(self), self.message, self.fields))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form for ``--json`` error output: type, message and fields.
+
+        Values that are not JSON types are given as ``repr`` strings.
+
+        Examples
+        --------
+        >>> d = OutsideMapError("start is off the map", endpoint="start", value=(1.0, 2.0))
+        >>> d.to_dict()  # doctest: +NORMALIZE_WHITESPACE
+        {'error': 'OutsideMapError', 'message': 'start is off the map',
+         'value': [1.0, 2.0], 'endpoint': 'start'}
+        """
+        return {"error": type(self).__name__, "message": self.message,
+                **{k: _plain(v) for k, v in self.fields.items()}}
+
+
+def _rebuild(cls: type, message: str, fields: dict[str, Any]) -> EnergyPlannerError:
+    """Unpickle an :class:`EnergyPlannerError` with its fields."""
+    return cls(message, **fields)
+
+
+def _plain(v: Any) -> Any:
+    """JSON-friendly copy of a field value."""
+    if v is None or isinstance(v, bool | int | float | str):
+        return v
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_plain(x) for x in v]
+    try:  # numpy scalars and arrays
+        import numpy as np
+
+        if isinstance(v, np.generic):
+            return v.item()
+        if isinstance(v, np.ndarray):
+            return _plain(v.tolist())
+    except ImportError:  # pragma: no cover
+        pass
+    return repr(v)
 
 
 class DEMError(EnergyPlannerError, ValueError):
@@ -59,3 +223,66 @@ class InvalidStateError(PlanningError, ValueError):
 
 class RemovedAPIError(EnergyPlannerError, ImportError):
     """A name that was removed; the message says what replaces it."""
+
+
+class CoordinateError(OutsideMapError):
+    """Coordinates that cannot be converted to the map's working grid.
+
+    Typically metric coordinates given for a DEM in longitude/latitude (or the other way
+    round). Fields: ``value`` (the coordinates), ``crs`` and ``bounds`` (the DEM's CRS and
+    its bounds in that CRS), ``expected``.
+    """
+
+
+class RasterTooLargeError(DEMError, MemoryError):
+    """A raster whose decoded size would pass the memory cap; refused before reading.
+
+    Fields: ``shape``, ``size_bytes`` (decoded, float64), ``cap_bytes``, ``path``, ``hint``.
+    The cap is ``ENERGY_PLANNER_MEMORY_CAP`` (see :func:`energy_planner.terrain.memory_cap`).
+    """
+
+
+class WaypointError(EnergyPlannerError, ValueError):
+    """A waypoint or path file is malformed: missing column, bad value, wrong geometry."""
+
+
+class WaypointIOError(EnergyPlannerError, OSError):
+    """A waypoint or path file cannot be found, read or written."""
+
+
+class ChannelError(EnergyPlannerError, ValueError):
+    """An extra channel (``--set`` / ``--channel``) is malformed, unreadable or missing."""
+
+
+class MissingChannelError(ChannelError, FormulaError):
+    """A model term reads a channel that was not given.
+
+    Attributes
+    ----------
+    missing : list of str
+        Names of the channels nobody gave.
+    """
+
+    def __init__(self, message: str = "", *, missing: list[str] | None = None, **fields) -> None:
+        super().__init__(message, missing=list(missing or []), **fields)
+
+
+class MotionCostError(EnergyPlannerError, ValueError):
+    """A motion cost is configured with bad values (speed, yaw rate, mask shape)."""
+
+
+class ChannelIOError(EnergyPlannerError, OSError):
+    """A channel raster or value table cannot be found or opened."""
+
+
+class EnergyMapError(EnergyPlannerError, ValueError):
+    """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+__all__ += [
+    "ChannelError",
+    "ChannelIOError",
+    "EnergyMapError",
+    "MissingChannelError",
+    "MotionCostError",
+]

@@ -23,6 +23,7 @@ from energy_planner.planning.lattice import lattice_plan, simplify_states
 from energy_planner.planning.limits import make_motion_cost
 from energy_planner.planning.plan import plan
 from energy_planner.planning.refine import densify
+from energy_planner.request import Request
 from energy_planner.terrain import Terrain
 
 QUAD = "pos(vx) * (sin(alpha) * cos(gamma)) ** 2"
@@ -131,22 +132,22 @@ def test_invalid_start_and_goal_name_the_limit(ramp, model):
     with pytest.raises(InvalidStateError, match="goal .* outside the map"):
         plan(ramp, model, (30.0, 10.0), (30.0, 70.0), planner="lattice", progress=False)
     with pytest.raises(InvalidStateError, match=r"start .*slope 26\.6 deg > limit 20 deg"):
-        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
-             max_slope_deg=20, progress=False)  # fmt: skip
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), Request.make(max_slope_deg=20),
+             planner="lattice", progress=False)  # fmt: skip
     with pytest.raises(InvalidStateError, match=r"cross-slope 26\.6 deg > limit 15 deg"):
-        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0), planner="lattice",
-             max_cross_slope_deg=15, progress=False)  # fmt: skip
+        plan(ramp, model, (30.0, 10.0, 0.0), (30.0, 30.0, 0.0),
+             Request.make(max_cross_slope_deg=15), planner="lattice", progress=False)  # fmt: skip
     with pytest.raises(InvalidStateError, match="keep-out"):
-        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="lattice",
-             keep_out=[box(25, 25, 35, 35)], progress=False)  # fmt: skip
-    with pytest.raises(PlanningError, match="valid planners: auto, lattice"):
+        plan(ramp, model, (30.0, 10.0), (30.0, 30.0), Request.make(keep_out=[box(25, 25, 35, 35)]),
+             planner="lattice", progress=False)  # fmt: skip
+    with pytest.raises(PlanningError, match="valid planners: auto, search, lattice"):
         plan(ramp, model, (30.0, 10.0), (30.0, 30.0), planner="prmstar", progress=False)
 
 
 def test_keep_out_is_respected(flat, model):
     wall = box(18.0, 8.0, 22.0, 32.0)
-    res = plan(flat, model, (5.0, 20.0), (35.0, 20.0), planner="auto", time=3,
-               keep_out=[wall], progress=False)  # fmt: skip
+    res = plan(flat, model, (5.0, 20.0), (35.0, 20.0), Request.make(keep_out=[wall]),
+               planner="auto", time=3, progress=False)  # fmt: skip
     assert not LineString(res.states[:, :2]).intersects(wall)
     straight = path_energy(flat, model, [(5.0, 20.0), (35.0, 20.0)])
     assert res.energy_j > straight.energy_j
@@ -156,8 +157,8 @@ def test_keep_out_is_respected(flat, model):
 
 def test_same_seed_same_path(flat, model):
     # the refinement stops at convergence or after 25 rounds, long before 30 s
-    kw = dict(planner="auto", time=30, iterations=25, keep_out=[box(18.0, 12.0, 22.0, 28.0)],
-              progress=False)  # fmt: skip
+    kw = dict(planner="auto", time=30, iterations=25, progress=False,
+              request=Request.make(keep_out=[box(18.0, 12.0, 22.0, 28.0)]))  # fmt: skip
     a = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
     b = plan(flat, model, (5.0, 20.0), (35.0, 21.0), seed=3, **kw)
     assert a.info["refine"]["converged"] or a.info["refine"]["rounds"] == 25

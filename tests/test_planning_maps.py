@@ -44,7 +44,7 @@ def test_real_dem_in_a_geographic_crs_plans_within_budget():
     s = terrain.to_work(*start_ll)
     g = terrain.to_work(*goal_ll)
     model = EnergyModel.default()
-    res = plan(terrain, model, s, g, planner="auto", time=5, progress=False)
+    res = plan(terrain, model, s, g, planner="auto", time=30, progress=False)
     assert math.isfinite(res.energy_j) and res.energy_j > 0
     wps = res.waypoints(terrain)
     assert wps[0]["x"] == pytest.approx(start_ll[0], abs=1e-7)
@@ -53,7 +53,7 @@ def test_real_dem_in_a_geographic_crs_plans_within_budget():
     assert wps[-1]["y"] == pytest.approx(goal_ll[1], abs=1e-7)
     d = math.hypot(g[0] - s[0], g[1] - s[1])
     assert res.distance_m >= d
-    gj = res.to_geojson(terrain)
+    gj = res.to_geojson(terrain)["features"][0]
     assert gj["geometry"]["type"] == "LineString"
     assert len(gj["properties"]["yaw_deg"]) == len(gj["geometry"]["coordinates"])
 

@@ -207,6 +207,7 @@ def test_invalid_json(tmp_path):
 finite = st.floats(-1e6, 1e6, allow_nan=False)
 
 
+@pytest.mark.filterwarnings("ignore:.*look like radians:UserWarning")
 @settings(max_examples=40, deadline=None)
 @given(
     xy=st.lists(st.tuples(finite, finite), min_size=2, max_size=8),
@@ -290,3 +291,112 @@ def test_projected_dem_keeps_coordinates_and_yaw(tmp_path):
     xy, yaw = waypoints_to_work(t, read_waypoints(p))
     assert xy.tolist() == [[500001, 5000001], [500010, 5000011]]
     np.testing.assert_allclose(yaw, np.radians([30, -60]))
+
+
+# ---------------------------------------------------------------------- one path format
+def _poses_on(t, lon, lat):
+    """A zig-zag of working-grid poses with yaw off the segment direction (lateral parts)."""
+    x0, y0 = t.to_work(lon, lat)
+    return np.array([[x0, y0, 0.3], [x0 + 300, y0 + 50, 1.2], [x0 + 500, y0 + 400, -2.0],
+                     [x0 + 520, y0 + 900, 1.5708]])
+
+
+def test_planned_path_round_trips_with_crs_and_yaw_frame(tmp_path):
+    """Poses on the UTM working grid of a lon/lat DEM, written with write_path_from_work and
+    read back by read_waypoints, come back as the same working-grid poses (this is what
+    makes ``energy --waypoints`` agree with ``plan --out``)."""
+    from energy_planner.geojson import PATH_FORMAT, write_path_from_work
+
+    t = _geographic_terrain(tmp_path, -84.25, 36.6, n=200)
+    states = _poses_on(t, -84.2, 36.56)
+    p = write_path_from_work(tmp_path / "plan.geojson", t, states, properties={"energy_j": 9.0})
+    doc = json.loads(p.read_text())
+    props = doc["features"][0]["properties"]
+    assert doc["crs"]["properties"]["name"] == "EPSG:4326" and props["crs"] == "EPSG:4326"
+    assert props["format"] == PATH_FORMAT and props["yaw_frame"] == "crs_x_ccw"
+    # the file holds lon/lat and yaw from local east: differs from the grid yaw by the
+    # meridian convergence (~1.7 deg here)
+    assert -84.3 < doc["features"][0]["geometry"]["coordinates"][0][0] < -84.1
+    conv = math.radians(props["yaw_deg"][0]) - states[0, 2]
+    assert 1.0 < abs(math.degrees(conv)) < 2.5
+    w = read_waypoints(p)
+    assert w.declared_crs == "EPSG:4326" and w.properties == {"energy_j": 9.0}
+    xy, yaw = waypoints_to_work(t, w)
+    np.testing.assert_allclose(xy, states[:, :2], atol=1e-6)
+    np.testing.assert_allclose(yaw, states[:, 2], atol=1e-9)
+
+
+def test_older_planner_geojson_is_read_in_its_own_yaw_frame(tmp_path):
+    """The planner's older output (a Feature, properties.crs and yaw_deg in the working
+    grid's frame) is read in that frame, with a note: reading it in the CRS frame turned
+    every yaw by the convergence (+4.1 % energy on the jacksboro map, issue 13)."""
+    t = _geographic_terrain(tmp_path, -84.25, 36.6, n=200)
+    states = _poses_on(t, -84.2, 36.56)
+    lon, lat = t.from_work(states[:, 0], states[:, 1])
+    old = {"type": "Feature",
+           "geometry": {"type": "LineString", "coordinates": np.c_[lon, lat].tolist()},
+           "properties": {"yaw_deg": np.degrees(states[:, 2]).tolist(), "energy_j": 1.0,
+                          "planner": "auto", "crs": "EPSG:4326"}}
+    w = read_waypoints(gj(tmp_path, old))
+    assert w.yaw_frame == "work_x_ccw" and w.declared_crs == "EPSG:4326"
+    assert any("older planner GeoJSON" in n for n in w.notes)
+    _, yaw = waypoints_to_work(t, w)
+    np.testing.assert_allclose(yaw, states[:, 2], atol=1e-12)
+
+
+def test_path_energy_of_written_and_read_path_is_the_same(tmp_path):
+    from energy_planner.energy import path_energy
+    from energy_planner.geojson import write_path_from_work
+    from energy_planner.model import EnergyModel
+
+    t = _geographic_terrain(tmp_path, -84.25, 36.6, n=200)
+    states = _poses_on(t, -84.2, 36.56)
+    m = EnergyModel.default()
+    e0 = path_energy(t, m, states[:, :2], yaw=states[:, 2]).energy_j
+    xy, yaw = waypoints_to_work(t, read_waypoints(
+        write_path_from_work(tmp_path / "p.geojson", t, states)))
+    assert path_energy(t, m, xy, yaw=yaw).energy_j == pytest.approx(e0, rel=1e-9)
+
+
+def test_yaw_frame_unknown_is_an_error(tmp_path):
+    doc = feature(line(COORDS), {"yaw_deg": [0, 1, 2], "yaw_frame": "compass"})
+    with pytest.raises(WaypointError, match="yaw_frame 'compass'") as exc:
+        read_waypoints(gj(tmp_path, doc))
+    assert exc.value.column == "yaw_frame"
+
+
+# ---------------------------------------------------------------------- radians in yaw_deg
+def test_radians_in_yaw_deg_column_warn(tmp_path):
+    """yaw_deg = 1.57 on a path due north: the robot would walk sideways (issue 13)."""
+    p = write(tmp_path, "w.csv", "x,y,yaw_deg\n0,0,1.57\n0,10,1.57\n0,20,1.6\n")
+    with pytest.warns(UserWarning, match="look like radians") as rec:
+        w = read_waypoints(p)
+    assert str(p) in str(rec[0].message)
+    assert w.yaw_radians_suspect and any("radians" in n for n in w.notes)
+    # still read as degrees: the file is not rewritten behind the user's back
+    np.testing.assert_allclose(w.yaw_rad, np.radians([1.57, 1.57, 1.6]))
+
+
+@pytest.mark.parametrize("rows", [
+    "0,0,90\n0,10,90\n0,20,90\n",            # degrees, north
+    "0,0,0\n10,0,0\n20,0,0\n",               # zeros mean the same in both units
+    "0,0,2\n10,0,1\n20,0,-1.5\n",            # small degrees, walking east
+    "0,0,0\n0,10,0\n0,20,0\n",               # sideways to the north in degrees
+    "0,0,180\n-10,0,180\n-20,0,180\n",       # west in degrees
+])
+def test_degrees_do_not_warn(tmp_path, rows):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        w = read_waypoints(write(tmp_path, "w.csv", "x,y,yaw_deg\n" + rows))
+    assert not w.yaw_radians_suspect
+
+
+def test_radians_westward_and_geojson_warn(tmp_path):
+    p = write(tmp_path, "w.csv", "x,y,yaw_deg\n0,0,3.14\n-10,0,3.14\n-20,1,3.1\n")
+    with pytest.warns(UserWarning, match="radians"):
+        read_waypoints(p)
+    doc = feature(line([[0, 0], [5, 5], [10, 10]]), {"yaw_deg": [0.785, 0.785, 0.785]})
+    with pytest.warns(UserWarning, match="radians"):
+        assert read_waypoints(gj(tmp_path, doc)).yaw_radians_suspect

@@ -9,6 +9,8 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
     dem_option,
     emit,
     json_option,
@@ -17,6 +19,7 @@ from energy_planner.cli.options import (
     speed_option,
     yaw_rate_option,
 )
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 band_option = click.option(
     "--band",
@@ -145,14 +148,20 @@ def compute(
     dem: Path,
     waypoints: Path,
     model_path: Path | None = None,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    speed: float = DEFAULT_SPEED,
+    yaw_rate: float = DEFAULT_YAW_RATE,
     band: int | None = None,
+    channels: Any = None,
 ) -> dict[str, Any]:
-    """The command's work, returning the JSON-ready result (click errors on bad input)."""
+    """The command's work, returning the JSON-ready result (click errors on bad input).
+
+    ``channels`` is a :class:`~energy_planner.energy.channels.Channels` (``--set`` /
+    ``--channel``) or None.
+    """
     import numpy as np
 
     from energy_planner.energy import MotionCost, path_energy
+    from energy_planner.energy.channels import Channels
     from energy_planner.energy.waypoints import (
         WaypointError,
         WaypointIOError,
@@ -163,6 +172,7 @@ def compute(
 
     terrain = load_terrain(dem, band)
     model = load_model_option(model_path)
+    channels = channels if channels is not None else Channels()
     try:
         wp = read_waypoints(waypoints)
     except WaypointIOError as exc:
@@ -196,9 +206,12 @@ def compute(
             )
         if same is None:
             notes.append(f"could not interpret the declared CRS {wp.declared_crs!r}; ignored")
+    unused = channels.unused(model)
+    if unused:
+        notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
     try:
         xy, yaw = waypoints_to_work(terrain, wp)
-        cost = MotionCost(terrain, model, speed, yaw_rate)
+        cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
         check_waypoints(terrain, cost, wp.xy, xy)
         result = path_energy(terrain, model, xy, yaw=yaw, t=wp.t, cost=cost)
     except click.ClickException:
@@ -226,6 +239,7 @@ def compute(
             "times_given": wp.t is not None,
             "speed": speed,
             "yaw_rate": yaw_rate,
+            "channels": cost.channels.describe(),
             "notes": notes,
         }
     )
@@ -246,6 +260,7 @@ def compute(
 @speed_option
 @yaw_rate_option
 @band_option
+@channel_options
 @json_option
 def command(
     dem: Path,
@@ -254,15 +269,19 @@ def command(
     speed: float,
     yaw_rate: float,
     band: int | None,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     as_json: bool,
 ) -> None:
     """Energy of walking a given path over a DEM, with a per-segment breakdown.
 
     Without yaw the robot faces along each segment and turns in place at corners; with
     yaw_deg (degrees CCW from the map's x axis) it keeps the given orientation. Without
-    times it walks at --speed and turns at --yaw-rate.
+    times it walks at --speed and turns at --yaw-rate. Channels a fitted model reads
+    (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
 
-    Example: energy-planner energy --dem maps/hill.tif --waypoints path.csv
+    Example: energy-planner energy --dem maps/hill.tif --waypoints path.csv --set load_kg=10
     """
-    res = compute(dem, waypoints, model_path, speed, yaw_rate, band)
+    ch = channels_from_options(sets, channels)
+    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch)
     emit(res, as_json, format_table)

@@ -11,6 +11,8 @@ from typing import Any
 import click
 import numpy as np
 
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
 )
@@ -38,7 +40,7 @@ seed_option = click.option(
 speed_option = click.option(
     "--speed",
     type=click.FloatRange(min=0, min_open=True),
-    default=0.3,
+    default=DEFAULT_SPEED,
     show_default=True,
     help="Nominal walking speed, m/s.",
 )
@@ -61,10 +63,51 @@ def start_goal_options(f):
 yaw_rate_option = click.option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),
-    default=0.5,
+    default=DEFAULT_YAW_RATE,
     show_default=True,
     help="Nominal turning rate, rad/s.",
 )
+
+
+def channel_options(f):
+    """``--set NAME=VALUE`` and ``--channel NAME=RASTER[:TABLE]`` (both repeatable).
+
+    The command receives ``sets`` and ``channels`` (tuples of strings); turn them into a
+    :class:`~energy_planner.energy.channels.Channels` with :func:`channels_from_options`.
+    """
+    f = click.option(
+        "--channel",
+        "channels",
+        multiple=True,
+        metavar="NAME=RASTER[:TABLE]",
+        help="A channel the model reads that varies over the map: a numeric raster "
+        "(bilinear), or a coded raster with a value table (code,category CSV or JSON; "
+        "nearest cell), e.g. ground=landcover.tif:landcover.csv. Aligned to the DEM. "
+        "Repeatable.",
+    )(f)
+    return click.option(
+        "--set",
+        "sets",
+        multiple=True,
+        metavar="NAME=VALUE",
+        help="A constant channel the model reads: a number (load_kg=10) or a category "
+        "(ground=meadow). Repeatable.",
+    )(f)
+
+
+def channels_from_options(sets: tuple[str, ...], channels: tuple[str, ...]):
+    """The :class:`~energy_planner.energy.channels.Channels` of ``--set``/``--channel``.
+
+    Bad strings and missing files become ``click.BadParameter`` naming the option.
+    """
+    from energy_planner.energy.channels import Channels
+    from energy_planner.errors import ChannelError, ChannelIOError
+
+    try:
+        return Channels.parse(sets, channels)
+    except (ChannelError, ChannelIOError) as exc:
+        hint = "--channel" if str(exc).startswith("--channel") or "table" in str(exc) else "--set"
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
 
 
 def _jsonable(obj: Any) -> Any:

@@ -10,6 +10,8 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
     dem_option,
     emit,
     json_option,
@@ -37,8 +39,13 @@ def load_terrain(dem: Path) -> Any:
 
 def point_to_work(terrain: Any, value: str, hint: str, with_yaw: bool) -> tuple:
     """``X,Y[,YAW_DEG]`` in the DEM's CRS -> ``(x, y, yaw_rad | None)`` in the working CRS."""
+    from energy_planner.errors import CoordinateError, OutsideMapError
+
     p = parse_point(value, hint, with_yaw=with_yaw)
-    x, y = terrain.to_work(p[0], p[1])
+    try:
+        x, y = terrain.to_work(p[0], p[1])
+    except (CoordinateError, OutsideMapError) as exc:
+        raise click.BadParameter(str(exc), param_hint=hint) from exc
     yaw = math.radians(p[2]) if len(p) == 3 else None
     return (float(x), float(y), yaw)
 
@@ -53,8 +60,23 @@ def check_planner(planner: str) -> str:
     return planner
 
 
-def planning_options(what: str):
+#: What ``--time`` bounds, for the help texts.
+TIME_HELP = (
+    "Budget for the whole planning of {what}, seconds, counted after the kernels are compiled "
+    "(loading the DEM is not counted): the search's relaxed problem and search (an error if "
+    "they do not finish in time), then the refinement, which gets what is left. Default: no "
+    "limit for the search, and up to a quarter of its time (1-10 s) for the refinement; "
+    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted."
+)
+
+
+def planning_options(what: str, time_default: float | None = 10.0):
     """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``."""
+    time_help = (
+        TIME_HELP.format(what=what)
+        if time_default is None
+        else f"Planning budget of {what}, seconds."
+    )
 
     def deco(f):
         for opt in reversed(
@@ -69,9 +91,9 @@ def planning_options(what: str):
                     "--time",
                     "time_s",
                     type=click.FloatRange(min=0, min_open=True),
-                    default=10.0,
-                    show_default=True,
-                    help=f"Planning budget of {what}, seconds.",
+                    default=time_default,
+                    show_default=time_default is not None,
+                    help=time_help,
                 ),
                 seed_option,
                 limit_options,
@@ -109,6 +131,51 @@ def limit_options(f):
     return f
 
 
+def request_from_options(
+    speed: float,
+    yaw_rate: float,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    channels: Any = None,
+):
+    """The :class:`~energy_planner.request.Request` of the planning options.
+
+    A bad value becomes ``click.BadParameter`` naming the option (from the error's
+    ``field``, never from its text).
+    """
+    from energy_planner.request import Request, RequestError
+
+    option = {
+        "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
+        "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
+    }  # fmt: skip
+    try:
+        return Request.make(
+            speed=speed,
+            yaw_rate=yaw_rate,
+            max_slope_deg=max_slope,
+            max_cross_slope_deg=max_cross_slope,
+            keep_out=keep_out,
+            channels=channels,
+        )
+    except RequestError as exc:
+        raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
+
+
+def planning_error(exc: Exception) -> click.ClickException:
+    """A planning error as a click exception, by its structured fields."""
+    from energy_planner.errors import CoordinateError, InvalidStateError
+
+    endpoint = getattr(exc, "endpoint", None)
+    if isinstance(exc, InvalidStateError | CoordinateError) and endpoint in ("start", "goal"):
+        return click.BadParameter(str(exc), param_hint=f"--{endpoint}")
+    param = getattr(exc, "param", None)
+    if param == "keep_out":
+        return click.BadParameter(str(exc), param_hint="--keep-out")
+    return click.ClickException(str(exc))
+
+
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -133,7 +200,21 @@ def format_table(res: dict[str, Any]) -> str:
 @dem_option
 @start_goal_options
 @model_option
-@planning_options("the path")
+@planning_options("the path", time_default=None)
+@click.option(
+    "--step",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Position spacing of the search, metres (default: the DEM's cell size).",
+)
+@click.option(
+    "--eps",
+    type=click.FloatRange(min=1.0),
+    default=None,
+    help="Heuristic weight of the search: its energy is at most EPS times the optimum on "
+    "its motion primitives (default 1.05; 1 = optimal, slower).",
+)
+@channel_options
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -157,6 +238,10 @@ def command(
     keep_out: Path | None,
     speed: float,
     yaw_rate: float,
+    step: float | None,
+    eps: float | None,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
     out: Path | None,
     plot: Path | None,
     as_json: bool,
@@ -165,30 +250,29 @@ def command(
 
     The energy is that of the model (--model, default the bundled B1-class model)
     integrated along the path; the path may walk sideways or backwards where that is
-    cheaper. Progress (best energy so far) is shown on stderr.
+    cheaper. The default planner searches (x, y, heading) at the DEM's own cell size with
+    an admissible heuristic, then refines the path. Progress is shown on stderr.
 
     Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20
     """
-    from energy_planner.errors import EnergyPlannerError, InvalidStateError
+    from energy_planner.errors import EnergyPlannerError
     from energy_planner.planning.plan import plan
 
     check_planner(planner)
+    ch = channels_from_options(sets, channels) if (sets or channels) else None
+    request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out, ch)
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
     s = point_to_work(terrain, start, "--start", True)
     g = point_to_work(terrain, goal, "--goal", True)
     try:
         res = plan(
-            terrain, model, s, g, planner=planner, time=time_s, seed=seed,
-            max_slope_deg=max_slope, max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-            speed=speed, yaw_rate=yaw_rate, progress=True,
+            terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
+            step=step, eps=eps, progress=True,
         )  # fmt: skip
-    except InvalidStateError as exc:
-        hint = "--start" if str(exc).startswith("start") else "--goal"
-        raise click.BadParameter(str(exc), param_hint=hint) from exc
     except EnergyPlannerError as exc:
-        raise click.ClickException(str(exc)) from exc
+        raise planning_error(exc) from exc
     result = res.to_dict(terrain)
     if out is not None:
         out.write_text(json.dumps(res.to_geojson(terrain), indent=1))

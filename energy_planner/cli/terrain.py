@@ -26,7 +26,7 @@ def _resolve_dem(dem: str) -> Path:
 
 
 def _load(dem: Path, band: int | None):
-    from energy_planner.errors import DEMError, DEMIOError
+    from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
     from energy_planner.maps import map_names
     from energy_planner.terrain import load_dem
 
@@ -38,8 +38,10 @@ def _load(dem: Path, band: int | None):
             f"{', '.join(map_names())}.",
             param_hint="'DEM'",
         ) from exc
+    except RasterTooLargeError as exc:  # the message carries its own remedy
+        raise click.ClickException(str(exc)) from exc
     except DEMError as exc:
-        if "--band" in str(exc) or "valid bands" in str(exc):
+        if exc.param == "band":
             raise click.BadParameter(str(exc), param_hint="'--band'") from exc
         raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
 

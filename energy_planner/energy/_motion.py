@@ -4,9 +4,12 @@
 ``power`` function between the markers with the model's generated one, writes it to the
 kernel cache directory and imports it, so that numba's on-disk cache (``cache=True``)
 keeps the compiled code between runs. Imported as it is, the placeholder ``power`` is a
-level-ground model of 1 N per m/s in every direction (used by the tests of this file).
+level-ground model of 1 N per m/s in every direction, plus the first raster channel if
+there is one (used by the tests of this file).
 
-Signatures: see :func:`energy_planner.energy.kernels.make_kernels`.
+Signatures: see :func:`energy_planner.energy.kernels.make_kernels`. Entries of the result
+vector are read and written through the named indices ``OUT_*`` of
+:mod:`energy_planner.energy.kernels`.
 """
 
 import math
@@ -16,10 +19,22 @@ import numpy as np
 
 from energy_planner.energy.kernels import (
     BLOCKED,
+    N_KINDS,
     N_OUT,
+    NO_CHANNEL,
+    OUT_CODE,
+    OUT_DISTANCE,
+    OUT_DURATION,
+    OUT_E_FORWARD,
+    OUT_ENERGY,
+    OUT_MAX_SLOPE,
+    OUT_MEAN_GAMMA,
+    OUT_MEAN_SLOPE,
+    OUT_TURN,
     OUTSIDE,
     TOO_CROSS,
     TOO_STEEP,
+    sample_channels,
     sample_gradient,
     wrap_angle,
 )
@@ -27,8 +42,10 @@ from energy_planner.energy.kernels import (
 
 # --- power: replaced per model ---
 @numba.njit(cache=True)
-def power(alpha, gamma, vx, vy, wz, ax, ay):
+def power(alpha, gamma, vx, vy, wz, ax, ay, ch):
     p = abs(vx) + abs(vy) + abs(wz)
+    if ch.shape[0] > 0:
+        p += ch[0]
     return p, (max(vx, 0.0), max(-vx, 0.0), abs(vy), abs(wz), 0.0)
 
 
@@ -36,8 +53,44 @@ def power(alpha, gamma, vx, vy, wz, ax, ay):
 
 
 @numba.njit(cache=True)
+def slope_frame(gxs, gys, th):
+    """Slope ``alpha`` and relative heading ``gamma`` of body yaw ``th`` on gradient g.
+
+    ``gamma`` is measured in the slope plane (as the IMU measures it), from the in-plane
+    uphill direction to body x: ``tan(gamma) = tan(th - psi) cos(alpha)``.
+    """
+    alpha = math.atan(math.sqrt(gxs * gxs + gys * gys))
+    gh = th - math.atan2(gys, gxs)
+    gamma = math.atan2(math.sin(gh) * math.cos(alpha), math.cos(gh))
+    return alpha, gamma
+
+
+@numba.njit(cache=True)
+def body_velocity(gxs, gys, th, v0, v1, v2):
+    """Body-frame (vx, vy) of the 3-D velocity (v0, v1, v2) along the surface.
+
+    The body frame is tilted with the ground: x = unit(c, s, g.(c, s)),
+    z = unit(-gx, -gy, 1), y = z cross x.
+    """
+    c_ = math.cos(th)
+    s_ = math.sin(th)
+    bx0, bx1, bx2 = c_, s_, gxs * c_ + gys * s_
+    nx = math.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2)
+    bx0 /= nx
+    bx1 /= nx
+    bx2 /= nx
+    nz = math.sqrt(1.0 + gxs * gxs + gys * gys)
+    bz0, bz1, bz2 = -gxs / nz, -gys / nz, 1.0 / nz
+    by0 = bz1 * bx2 - bz2 * bx1
+    by1 = bz2 * bx0 - bz0 * bx2
+    by2 = bz0 * bx1 - bz1 * bx0
+    return v0 * bx0 + v1 * bx1 + v2 * bx2, v0 * by0 + v1 * by1 + v2 * by2
+
+
+@numba.njit(cache=True)
 def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
-    grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax = data
+    (grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax, chan,
+     nearest) = data  # fmt: skip
     ddx = x1 - x0
     ddy = y1 - y0
     dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -45,100 +98,87 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
     for k in range(N_OUT):
         out[k] = 0.0
-    out[3] = abs(dth)
+    out[OUT_TURN] = abs(dth)
+    chv = np.empty(chan.shape[0])
     # pass 1: check the limits and measure the surface length (pass 2 samples the
     # gradient again: cheaper than allocating a buffer per motion)
     nr, nc = blocked.shape
     hx = ddx / n
     hy = ddy / n
     surface = 0.0
+    gxs = gys = 0.0
     for i in range(n):
         s = (i + 0.5) / n
         x = x0 + s * ddx
         y = y0 + s * ddy
         ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
         if not ok:
-            out[12] = OUTSIDE
-            out[0] = np.inf
+            out[OUT_CODE] = OUTSIDE
+            out[OUT_ENERGY] = np.inf
             return
         if nr > 0:
             r = int(round((y - gy0) / gdy))
             c = int(round((x - gx0) / gdx))
             if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
-                out[12] = BLOCKED
-                out[0] = np.inf
+                out[OUT_CODE] = BLOCKED
+                out[OUT_ENERGY] = np.inf
                 return
         if gxs * gxs + gys * gys > tmax * tmax:
-            out[12] = TOO_STEEP
-            out[0] = np.inf
+            out[OUT_CODE] = TOO_STEEP
+            out[OUT_ENERGY] = np.inf
+            return
+        if not sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv):
+            out[OUT_CODE] = NO_CHANNEL
+            out[OUT_ENERGY] = np.inf
             return
         dz = gxs * hx + gys * hy
         surface += math.sqrt(hx * hx + hy * hy + dz * dz)
     T = duration
     if T <= 0.0:
         T = max(surface / speed, abs(dth) / yaw_rate)
-    out[1] = T
-    out[2] = surface
+    out[OUT_DURATION] = T
+    out[OUT_DISTANCE] = surface
     if T <= 0.0:
         # no motion: report the slope where the robot stands (the last sample)
-        out[4] = out[6] = math.atan(math.sqrt(gxs * gxs + gys * gys))
+        out[OUT_MEAN_SLOPE] = out[OUT_MAX_SLOPE] = math.atan(math.sqrt(gxs * gxs + gys * gys))
         return
     # pass 2: the robot keeps a constant speed along the surface (and a constant yaw
-    # rate); its body frame is tilted with the ground: x = unit(c, s, g.(c, s)),
-    # z = unit(-gx, -gy, 1), y = z cross x.
+    # rate); its body frame is tilted with the ground (see body_velocity).
     wz = dth / T
     for i in range(n):
         s = (i + 0.5) / n
-        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x0 + s * ddx, y0 + s * ddy)
+        x = x0 + s * ddx
+        y = y0 + s * ddy
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+        sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
         dz = gxs * hx + gys * hy
         ds = math.sqrt(hx * hx + hy * hy + dz * dz)
         dt = T / n if surface <= 0.0 else T * ds / surface
         th = th0 + s * dth
-        g2 = gxs * gxs + gys * gys
-        alpha = math.atan(math.sqrt(g2))
-        # relative heading in the slope plane (as the IMU measures it): from the in-plane
-        # uphill direction to body x; tan(gamma) = tan(theta - psi) cos(alpha)
-        gh = th - math.atan2(gys, gxs)
-        gamma = math.atan2(math.sin(gh) * math.cos(alpha), math.cos(gh))
+        alpha, gamma = slope_frame(gxs, gys, th)
         if math.sin(alpha) * abs(math.sin(gamma)) > smax:
-            out[12] = TOO_CROSS
-            out[0] = np.inf
+            out[OUT_CODE] = TOO_CROSS
+            out[OUT_ENERGY] = np.inf
             return
         vx = 0.0
         vy = 0.0
         if dt > 0.0:
-            # 3-D velocity along the surface
-            v0 = hx / dt
-            v1 = hy / dt
-            v2 = dz / dt
-            c_ = math.cos(th)
-            s_ = math.sin(th)
-            bx0, bx1, bx2 = c_, s_, gxs * c_ + gys * s_
-            nx = math.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2)
-            bx0 /= nx
-            bx1 /= nx
-            bx2 /= nx
-            nz = math.sqrt(1.0 + g2)
-            bz0, bz1, bz2 = -gxs / nz, -gys / nz, 1.0 / nz
-            by0 = bz1 * bx2 - bz2 * bx1
-            by1 = bz2 * bx0 - bz0 * bx2
-            by2 = bz0 * bx1 - bz1 * bx0
-            vx = v0 * bx0 + v1 * bx1 + v2 * bx2
-            vy = v0 * by0 + v1 * by1 + v2 * by2
-        p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0)
-        out[0] += p * dt
-        out[4] += alpha / n
-        out[5] += abs(gamma) / n
-        out[6] = max(out[6], alpha)
-        for k in range(5):
-            out[7 + k] += kinds[k] * dt
+            # 3-D velocity along the surface, in the tilted body frame
+            vx, vy = body_velocity(gxs, gys, th, hx / dt, hy / dt, dz / dt)
+        p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0, chv)
+        out[OUT_ENERGY] += p * dt
+        out[OUT_MEAN_SLOPE] += alpha / n
+        out[OUT_MEAN_GAMMA] += abs(gamma) / n
+        out[OUT_MAX_SLOPE] = max(out[OUT_MAX_SLOPE], alpha)
+        for k in range(N_KINDS):
+            out[OUT_E_FORWARD + k] += kinds[k] * dt
 
 
 @numba.njit(cache=True)
 def motion_cost(x0, y0, th0, x1, y1, th1, data):
     out = np.empty(N_OUT)
     motion_full(x0, y0, th0, x1, y1, th1, -1.0, data, out)
-    return out[0]
+    return out[OUT_ENERGY]
 
 
 @numba.njit(cache=True)
@@ -148,7 +188,7 @@ def motion_batch(x0, y0, th0, x1, y1, th1, data):
     out = np.empty(N_OUT)
     for i in range(n):
         motion_full(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
-        res[i] = out[0]
+        res[i] = out[OUT_ENERGY]
     return res
 
 
@@ -161,3 +201,68 @@ def path_table(x, y, th, durations, data):
         motion_full(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], data, out)
         table[i, :] = out
     return table
+
+
+@numba.njit(cache=True)
+def heading_cost(gx, gy, h, yaw, speed, smax, chv):
+    """J per metre of map distance of walking in map direction ``h`` with body yaw
+    ``yaw`` where the gradient is (gx, gy): the limit of :func:`motion_full` for a short
+    straight motion (no turn) through that point; ``inf`` above the cross-slope limit.
+    """
+    u0 = math.cos(h)
+    u1 = math.sin(h)
+    dz = gx * u0 + gy * u1
+    ds = math.sqrt(1.0 + dz * dz)  # metres along the ground per metre on the map
+    dt = ds / speed
+    alpha, gamma = slope_frame(gx, gy, yaw)
+    if math.sin(alpha) * abs(math.sin(gamma)) > smax:
+        return np.inf
+    vx, vy = body_velocity(gx, gy, yaw, u0 / dt, u1 / dt, dz / dt)
+    p, kinds = power(alpha, gamma, vx, vy, 0.0, 0.0, 0.0, chv)
+    return p * dt
+
+
+@numba.njit(cache=True, parallel=True)
+def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
+    """Energy-map costs of a block of cells (J per metre of map distance).
+
+    ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
+    channels on the same cells, shape (k, rows, cols), category indices for categorical
+    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
+    ``best[j, r, c]``: the cheapest of walking forward, backward or sideways (either
+    side) along it. NaN where the gradient or a channel is undefined, ``inf`` above a
+    slope limit.
+    """
+    rows, cols = gx.shape
+    nh = headings.shape[0]
+    nch = chan.shape[0]
+    half = 0.5 * math.pi
+    for r in numba.prange(rows):
+        chv = np.empty(nch)
+        for c in range(cols):
+            a = gx[r, c]
+            b = gy[r, c]
+            ok = math.isfinite(a) and math.isfinite(b)
+            for k in range(nch):
+                chv[k] = chan[k, r, c]
+                if not math.isfinite(chv[k]):
+                    ok = False
+            if not ok:
+                for j in range(nh):
+                    along[j, r, c] = np.nan
+                    best[j, r, c] = np.nan
+                continue
+            if a * a + b * b > tmax * tmax:
+                for j in range(nh):
+                    along[j, r, c] = np.inf
+                    best[j, r, c] = np.inf
+                continue
+            for j in range(nh):
+                h = headings[j]
+                fwd = heading_cost(a, b, h, h, speed, smax, chv)
+                m = fwd
+                m = min(m, heading_cost(a, b, h, h + math.pi, speed, smax, chv))
+                m = min(m, heading_cost(a, b, h, h + half, speed, smax, chv))
+                m = min(m, heading_cost(a, b, h, h - half, speed, smax, chv))
+                along[j, r, c] = fwd
+                best[j, r, c] = m

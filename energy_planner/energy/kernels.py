@@ -15,7 +15,17 @@ Terrain is sampled by bilinear interpolation of the Horn gradient at cell centre
 four corner cells must be valid (a NaN corner makes the sample invalid).
 
 Violation codes returned by the kernels: 0 valid, 1 outside the map or on nodata,
-2 slope above the limit, 3 cross-slope above the limit, 4 a blocked (keep-out) cell.
+2 slope above the limit, 3 cross-slope above the limit, 4 a blocked (keep-out) cell,
+5 a channel raster has no value there.
+
+The per-motion result vector ``out`` of ``motion_full`` is read through the named
+indices ``OUT_*`` below (plain module-level ints, which numba folds as constants), never
+through bare numbers: ``out[OUT_ENERGY]``, ``table[:, OUT_CODE]``.
+
+Extra channels (:class:`energy_planner.energy.channels.Channels`): constants are compiled
+into the model's ``power`` function; rasters sit on the terrain's grid in ``data`` and are
+sampled at every sub-step (numeric: bilinear, like the gradient; categorical: the nearest
+cell's category index) and passed to ``power`` as its eighth argument.
 """
 
 from __future__ import annotations
@@ -28,15 +38,52 @@ from pathlib import Path
 
 import numba
 
-OK, OUTSIDE, TOO_STEEP, TOO_CROSS, BLOCKED = 0, 1, 2, 3, 4
+OK, OUTSIDE, TOO_STEEP, TOO_CROSS, BLOCKED, NO_CHANNEL = 0, 1, 2, 3, 4, 5
 VIOLATIONS = {
     OUTSIDE: "outside the map or on nodata",
     TOO_STEEP: "slope above the limit",
     TOO_CROSS: "cross-slope above the limit",
     BLOCKED: "inside a keep-out area",
+    NO_CHANNEL: "where a channel raster has no value (nodata)",
 }
+
+# Named indices of the per-motion result vector ``out`` of ``motion_full``.
+#: energy, J
+OUT_ENERGY = 0
+#: duration, s
+OUT_DURATION = 1
+#: distance along the ground, m
+OUT_DISTANCE = 2
+#: |turn|, rad
+OUT_TURN = 3
+#: mean slope, rad
+OUT_MEAN_SLOPE = 4
+#: mean |relative heading gamma|, rad
+OUT_MEAN_GAMMA = 5
+#: steepest slope sampled, rad
+OUT_MAX_SLOPE = 6
+#: energy of the forward terms, J (the next four follow in :data:`KINDS` order)
+OUT_E_FORWARD = 7
+#: energy of the backward terms, J
+OUT_E_BACKWARD = 8
+#: energy of the lateral terms, J
+OUT_E_LATERAL = 9
+#: energy of the turning terms, J
+OUT_E_TURNING = 10
+#: energy of the other terms (idle power, effects), J
+OUT_E_OTHER = 11
+#: violation code (:data:`OK` or a key of :data:`VIOLATIONS`), stored as a float
+OUT_CODE = 12
 #: Length of the per-motion result vector of ``motion_full``.
 N_OUT = 13
+#: Column names of ``out`` in index order (for tables and messages).
+OUT_NAMES = (
+    "energy_j", "duration_s", "distance_m", "turn_rad", "mean_slope_rad", "mean_gamma_rad",
+    "max_slope_rad", "e_forward_j", "e_backward_j", "e_lateral_j", "e_turning_j", "e_other_j",
+    "code",
+)  # fmt: skip
+#: Number of energy-by-kind entries (forward, backward, lateral, turning, other).
+N_KINDS = 5
 
 
 @numba.njit(cache=True)
@@ -75,6 +122,48 @@ def sample_gradient(grad, x0, y0, dx, dy, x, y):
 
 
 @numba.njit(cache=True)
+def sample_channels(chan, nearest, x0, y0, dx, dy, x, y, values):
+    """Fill ``values[k]`` with channel ``k`` at (x, y); False if one has no value there.
+
+    ``chan[k, r, c]`` is channel ``k`` on the terrain grid (NaN = no value). A channel
+    with ``nearest[k]`` (categorical: a category index) takes the nearest cell's value;
+    the others are bilinear between cell centres, as :func:`sample_gradient`.
+    """
+    nch = chan.shape[0]
+    if nch == 0:
+        return True
+    nrows, ncols = chan.shape[1], chan.shape[2]
+    fc = (x - x0) / dx
+    fr = (y - y0) / dy
+    if not (fc >= -0.5 and fr >= -0.5 and fc <= ncols - 0.5 and fr <= nrows - 0.5):
+        return False
+    rn = min(max(int(math.floor(fr + 0.5)), 0), nrows - 1)
+    cn = min(max(int(math.floor(fc + 0.5)), 0), ncols - 1)
+    fcb = min(max(fc, 0.0), ncols - 1.0)
+    frb = min(max(fr, 0.0), nrows - 1.0)
+    c = min(int(fcb), ncols - 2) if ncols > 1 else 0
+    r = min(int(frb), nrows - 2) if nrows > 1 else 0
+    tc = fcb - c
+    tr = frb - r
+    c1 = min(c + 1, ncols - 1)
+    r1 = min(r + 1, nrows - 1)
+    for k in range(nch):
+        if nearest[k]:
+            v = chan[k, rn, cn]
+        else:
+            v = (
+                (1 - tr) * (1 - tc) * chan[k, r, c]
+                + (1 - tr) * tc * chan[k, r, c1]
+                + tr * (1 - tc) * chan[k, r1, c]
+                + tr * tc * chan[k, r1, c1]
+            )
+        if not math.isfinite(v):
+            return False
+        values[k] = v
+    return True
+
+
+@numba.njit(cache=True)
 def wrap_angle(a):
     """Wrap to (-pi, pi]."""
     two_pi = 2.0 * math.pi
@@ -96,19 +185,22 @@ def make_kernels(power_source: str):
     ----------
     power_source : str
         Source of ``power(alpha, gamma, vx, vy, wz, ax, ay) -> (total, by_kind)`` from
-        :meth:`energy_planner.model.EnergyModel.kernel_source`.
+        :meth:`energy_planner.model.EnergyModel.kernel_source` with ``channels`` given
+        (eight arguments: the last one holds the sampled raster channels).
 
     Returns
     -------
-    motion_full, motion_cost, motion_batch, path_table : numba dispatchers
+    motion_full, motion_cost, motion_batch, path_table, map_costs : numba dispatchers
         ``motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)`` fills ``out``
-        (length :data:`N_OUT`): energy J, duration s, surface distance m, |turn| rad,
-        mean slope rad, mean |gamma| rad, max slope rad, energy by kind (forward,
-        backward, lateral, turning, other), violation code.
+        (length :data:`N_OUT`, indices ``OUT_*``): energy J, duration s, surface
+        distance m, |turn| rad, mean slope rad, mean |gamma| rad, max slope rad, energy
+        by kind (forward, backward, lateral, turning, other), violation code.
         ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` returns the energy or ``inf`` if
         invalid; ``motion_batch`` maps it over arrays; ``path_table(x, y, th, durations,
         data)`` gives the ``out`` rows of consecutive poses. ``data`` is the tuple built
-        by :class:`energy_planner.energy.MotionCost`.
+        by :class:`energy_planner.energy.MotionCost`. ``map_costs(gx, gy, chan,
+        headings, speed, tmax, smax, along, best)`` fills the energy-map costs of a block
+        of cells (see :mod:`energy_planner.energymap`).
     """
     from energy_planner.model._codegen import load_generated_module
 
@@ -124,4 +216,4 @@ def make_kernels(power_source: str):
     helpers = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
     text = f"# kernels.py {helpers}\n" + text
     mod = load_generated_module(text, prefix="motion")
-    return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table
+    return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table, mod.map_costs

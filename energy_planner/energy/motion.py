@@ -8,8 +8,18 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.energy.kernels import N_OUT, OK, VIOLATIONS, make_kernels
-from energy_planner.errors import ModelError
+from energy_planner.energy.channels import Channels
+from energy_planner.energy.kernels import (
+    N_OUT,
+    OK,
+    OUT_CODE,
+    TOO_CROSS,
+    TOO_STEEP,
+    VIOLATIONS,
+    make_kernels,
+)
+from energy_planner.errors import ChannelError, ModelError, MotionCostError
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["MotionCost"]
 
@@ -36,7 +46,11 @@ class MotionCost:
     blocked : ndarray of bool, optional
         Keep-out mask on the terrain grid (nearest cell).
     constants : mapping, optional
-        Values of extra channels the model's terms read (e.g. ``payload_kg``).
+        Values of extra channels the model's terms read (e.g. ``payload_kg``); merged
+        with ``channels.constants``.
+    channels : Channels, optional
+        Extra channels: constants (compiled into the kernel) and rasters (aligned to the
+        terrain's grid here if they are not yet, sampled at every sub-step).
     step : float, optional
         Integration sub-step in metres (default half the smaller cell size: the gradient is
         bilinear between cell centres, so the midpoint rule at half-cell steps resolves it).
@@ -48,18 +62,21 @@ class MotionCost:
         self,
         terrain: Any,
         model: Any,
-        speed: float = 0.3,
-        yaw_rate: float = 0.5,
+        speed: float = DEFAULT_SPEED,
+        yaw_rate: float = DEFAULT_YAW_RATE,
         *,
         max_slope_deg: float | None = None,
         max_cross_slope_deg: float | None = None,
         blocked: np.ndarray | None = None,
         constants: Mapping[str, Any] | None = None,
+        channels: Channels | None = None,
         step: float | None = None,
         ang_step: float = 0.05,
     ) -> None:
         if not (speed > 0 and yaw_rate > 0):
-            raise ValueError(f"speed and yaw_rate must be > 0, got {speed}, {yaw_rate}")
+            raise MotionCostError(
+                f"speed and yaw_rate must be > 0 (m/s, rad/s), got {speed}, {yaw_rate}"
+            )
         if not model.is_fitted:
             raise ModelError("the energy model has no coefficients: fit or load a fitted model")
         self.terrain = terrain
@@ -68,7 +85,17 @@ class MotionCost:
         self.yaw_rate = float(yaw_rate)
         self.max_slope_deg = max_slope_deg
         self.max_cross_slope_deg = max_cross_slope_deg
-        self.constants = dict(constants or {})
+        channels = channels if channels is not None else Channels()
+        extra = dict(constants or {})
+        clash = sorted(set(extra) & set(channels.names))
+        if clash:
+            raise ChannelError(f"channel(s) {', '.join(clash)} given in constants and channels")
+        if extra:
+            channels = Channels({**channels.constants, **extra}, channels.rasters)
+        if channels.rasters:
+            channels = channels.bind(terrain)
+        self.channels = channels
+        self.constants = dict(channels.constants)
         x0, y0, dx, dy = (float(v) for v in terrain.grid)
         self.step = float(step) if step else 0.5 * min(abs(dx), abs(dy))
         gx = np.asarray(terrain.dzdx, dtype=np.float64)
@@ -79,17 +106,19 @@ class MotionCost:
         else:
             mask = np.ascontiguousarray(blocked, dtype=np.bool_)
             if mask.shape != gx.shape:
-                raise ValueError(f"blocked mask shape {mask.shape} != terrain grid {gx.shape}")
+                raise MotionCostError(f"blocked mask shape {mask.shape} != terrain grid {gx.shape}")
         tmax = math.inf if max_slope_deg is None else math.tan(math.radians(max_slope_deg))
         smax = (
             math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))
         )
+        chan, nearest = channels.stack(gx.shape)
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
+            chan, nearest,
         )  # fmt: skip
-        source = model.kernel_source(self.constants)
-        self._full, self.kernel, self._batch, self._path = make_kernels(source)
+        source = model.kernel_source(self.constants, channels.kernel_layout())
+        self._full, self.kernel, self._batch, self._path, self.map_kernel = make_kernels(source)
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
@@ -117,9 +146,10 @@ class MotionCost:
     def details(self, x, y, th, durations=None) -> np.ndarray:
         """Per-motion results along a pose sequence, shape ``(n - 1, N_OUT)``.
 
-        Columns: energy J, duration s, distance m, |turn| rad, mean slope rad, mean
-        |gamma| rad, max slope rad, energy by kind (forward, backward, lateral, turning,
-        other), violation code.
+        Columns, read through the named indices ``OUT_*`` of
+        :mod:`energy_planner.energy.kernels`: energy J, duration s, distance m, |turn|
+        rad, mean slope rad, mean |gamma| rad, max slope rad, energy by kind (forward,
+        backward, lateral, turning, other), violation code.
         """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
         if durations is None:
@@ -154,26 +184,36 @@ class MotionCost:
                 "vy": (v * np.sin(b)).ravel(), "wz": np.zeros(a.size), "ax": np.zeros(a.size),
                 "ay": np.zeros(a.size),
             }  # fmt: skip
-            for k, val in self.constants.items():
-                feats[k] = np.full(a.size, val)
-            per_m = self.model.power(feats) / v.ravel()
-            self._lb = max(0.0, 0.95 * float(per_m.min()))
+            per_m = np.inf
+            for combo in _combinations(self.channels.value_samples()):
+                for k, val in combo.items():
+                    feats[k] = np.full(a.size, val)
+                per_m = min(per_m, float((self.model.power(feats) / v.ravel()).min()))
+            self._lb = max(0.0, 0.95 * per_m)
         return self._lb
 
     def violation(self, x: float, y: float, th: float = 0.0) -> str | None:
         """Which limit the pose breaks (with the value), or ``None`` if it is valid."""
         out = self.details([x, x], [y, y], [th, th], [1.0])[0]
-        code = int(out[12])
+        code = int(out[OUT_CODE])
         if code == OK:
             # a zero-length motion samples the pose itself
             return None
         t = self.terrain
         sample = t.sample(np.array([x]), np.array([y]))
         slope = float(np.degrees(np.asarray(sample.slope)[0]))
-        if code == 2:
+        if code == TOO_STEEP:
             return f"slope {slope:.1f} deg > limit {self.max_slope_deg:g} deg"
-        if code == 3:
+        if code == TOO_CROSS:
             gamma = th - float(np.asarray(sample.uphill_azimuth)[0])
             cross = math.degrees(math.asin(math.sin(math.radians(slope)) * abs(math.sin(gamma))))
             return f"cross-slope {cross:.1f} deg > limit {self.max_cross_slope_deg:g} deg"
         return VIOLATIONS[code]
+
+
+def _combinations(samples: Mapping[str, np.ndarray]) -> list[dict[str, Any]]:
+    """Every combination of the sampled channel values (one dict per combination)."""
+    combos: list[dict[str, Any]] = [{}]
+    for name, values in samples.items():
+        combos = [{**c, name: v} for c in combos for v in values]
+    return combos

@@ -10,9 +10,27 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.energy.kernels import OK, VIOLATIONS
+from energy_planner.energy.channels import Channels
+from energy_planner.energy.kernels import (
+    OK,
+    OUT_CODE,
+    OUT_DISTANCE,
+    OUT_DURATION,
+    OUT_E_BACKWARD,
+    OUT_E_FORWARD,
+    OUT_E_LATERAL,
+    OUT_E_OTHER,
+    OUT_E_TURNING,
+    OUT_ENERGY,
+    OUT_MAX_SLOPE,
+    OUT_MEAN_GAMMA,
+    OUT_MEAN_SLOPE,
+    OUT_TURN,
+    VIOLATIONS,
+)
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, OutsideMapError
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["PathEnergy", "path_energy", "face_along_poses", "SEGMENT_COLUMNS"]
 
@@ -78,10 +96,11 @@ def path_energy(
     xy: Any,
     yaw: Any = None,
     t: Any = None,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    speed: float = DEFAULT_SPEED,
+    yaw_rate: float = DEFAULT_YAW_RATE,
     *,
     constants: Mapping[str, Any] | None = None,
+    channels: Channels | None = None,
     cost: MotionCost | None = None,
 ) -> PathEnergy:
     """Energy of walking through waypoints (working CRS, metres).
@@ -105,6 +124,8 @@ def path_energy(
         Nominal walking speed (m/s) and turning rate (rad/s).
     constants : mapping, optional
         Values of extra channels the model reads (e.g. ``payload_kg``).
+    channels : Channels, optional
+        Extra channels as constants and rasters (see :class:`MotionCost`).
     cost : MotionCost, optional
         Reuse a prepared :class:`MotionCost` (its speed and yaw rate apply).
 
@@ -122,7 +143,7 @@ def path_energy(
         raise EnergyPlannerError("waypoints contain NaN or infinite coordinates")
     n = xy.shape[0]
     if cost is None:
-        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants)
+        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants, channels=channels)
     samples = terrain.sample(xy[:, 0], xy[:, 1])
     bad = np.flatnonzero(~np.isfinite(np.asarray(samples.slope, dtype=float)))
     if bad.size:
@@ -148,18 +169,19 @@ def path_energy(
         poses, seg_of, durations = _face_along(xy, seg_dt, cost.yaw_rate)
 
     out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations)
-    invalid = np.flatnonzero(out[:, 12] != OK)
+    invalid = np.flatnonzero(out[:, OUT_CODE] != OK)
     if invalid.size:
         k = int(invalid[0])
         s = int(seg_of[k])
         raise OutsideMapError(
-            f"segment {s} (waypoint {s} to {s + 1}) crosses cells {VIOLATIONS[int(out[k, 12])]}"
+            f"segment {s} (waypoint {s} to {s + 1}) crosses cells "
+            f"{VIOLATIONS[int(out[k, OUT_CODE])]}"
         )
     segments = _segment_table(out, seg_of, n - 1)
     return PathEnergy(
-        energy_j=float(out[:, 0].sum()),
-        distance_m=float(out[:, 2].sum()),
-        duration_s=float(out[:, 1].sum()),
+        energy_j=float(out[:, OUT_ENERGY].sum()),
+        distance_m=float(out[:, OUT_DISTANCE].sum()),
+        duration_s=float(out[:, OUT_DURATION].sum()),
         segments=segments,
         poses=poses,
     )
@@ -210,21 +232,22 @@ def _face_along(xy: np.ndarray, seg_dt: np.ndarray | None, yaw_rate: float):
 
 
 def _segment_table(out: np.ndarray, seg_of: np.ndarray, n_seg: int) -> pd.DataFrame:
+    w = np.maximum(out[:, OUT_DISTANCE], 1e-12)
     df = pd.DataFrame(
         {
             "segment": seg_of,
-            "energy_j": out[:, 0],
-            "duration_s": out[:, 1],
-            "distance_m": out[:, 2],
-            "turn": out[:, 3],
-            "slope_x_d": out[:, 4] * np.maximum(out[:, 2], 1e-12),
-            "gamma_x_d": out[:, 5] * np.maximum(out[:, 2], 1e-12),
-            "w": np.maximum(out[:, 2], 1e-12),
-            "max_slope": out[:, 6],
-            "e_fwd": out[:, 7] + out[:, 8],
-            "e_lat": out[:, 9],
-            "e_turn": out[:, 10],
-            "e_other": out[:, 11],
+            "energy_j": out[:, OUT_ENERGY],
+            "duration_s": out[:, OUT_DURATION],
+            "distance_m": out[:, OUT_DISTANCE],
+            "turn": out[:, OUT_TURN],
+            "slope_x_d": out[:, OUT_MEAN_SLOPE] * w,
+            "gamma_x_d": out[:, OUT_MEAN_GAMMA] * w,
+            "w": w,
+            "max_slope": out[:, OUT_MAX_SLOPE],
+            "e_fwd": out[:, OUT_E_FORWARD] + out[:, OUT_E_BACKWARD],
+            "e_lat": out[:, OUT_E_LATERAL],
+            "e_turn": out[:, OUT_E_TURNING],
+            "e_other": out[:, OUT_E_OTHER],
         }
     )
     g = df.groupby("segment").agg("sum")

@@ -17,6 +17,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from energy_planner.angles import wrap
+
+#: Kept for existing imports; the project's one wrapping function is
+#: :func:`energy_planner.angles.wrap` (``(-pi, pi]``).
+wrap_angle = wrap
+
 
 def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World up vector in the body frame, ``u = R^T (0, 0, 1)``.
@@ -42,19 +48,6 @@ def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     uy = 2.0 * (qy * qz + qw * qx)
     uz = 1.0 - 2.0 * (qx * qx + qy * qy)
     return ux, uy, uz
-
-
-def wrap_angle(a) -> np.ndarray:
-    """Wrap angles (rad) to ``(-pi, pi]``.
-
-    Examples
-    --------
-    >>> float(wrap_angle(-np.pi)), float(wrap_angle(3 * np.pi / 2))
-    (3.141592653589793, -1.5707963267948966)
-    """
-    a = np.asarray(a, dtype=float)
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
 
 
 def imu_slope_heading(qw, qx, qy, qz, heading: str = "plane"
@@ -95,9 +88,9 @@ def imu_slope_heading(qw, qx, qy, qz, heading: str = "plane"
     ux, uy, uz = up_in_body(qw, qx, qy, qz)
     alpha = np.arccos(np.clip(uz, -1.0, 1.0))
     if heading == "plane":
-        gamma = wrap_angle(-np.arctan2(uy, ux))
+        gamma = wrap(-np.arctan2(uy, ux))
     elif heading == "yaw":
-        gamma = wrap_angle(np.arctan2(-uy, ux * uz))
+        gamma = wrap(np.arctan2(-uy, ux * uz))
     else:
         from energy_planner.errors import LogError
 

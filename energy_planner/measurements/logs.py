@@ -9,6 +9,7 @@ ROS 2 bags (folders with ``metadata.yaml``) are read by
 from __future__ import annotations
 
 import logging
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,16 @@ from energy_planner.measurements.schema import (
 )
 
 log = logging.getLogger(__name__)
+
+#: Samples "in motion" for the current-sign check: speed (m/s) or |yaw rate| (rad/s) at
+#: least this.
+MOTION_THRESHOLD = 0.05
+#: The current is taken as ROS-signed when at least this share of the samples in motion
+#: is negative (and there are at least ``SIGN_MIN_SAMPLES`` of them).
+SIGN_NEGATIVE_SHARE = 0.8
+SIGN_MIN_SAMPLES = 10
+#: Values of ``load_logs(table_current=...)``.
+TABLE_CURRENT = ("auto", "discharge_positive", "ros")
 
 TABLE_SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 
@@ -55,6 +66,10 @@ class LoadReport:
     current_sign_flipped : bool
         True when a ROS ``BatteryState`` current (negative while discharging) was negated
         to the canonical sign (positive while discharging).
+    current_negated_files : list of dict
+        Tables whose current was negated (``table_current="auto"`` found it negative in
+        most samples in motion, or ``"ros"``): ``path``, ``negative_share``,
+        ``median_current_a`` (as read), ``n_motion``.
     dropped : dict
         Samples dropped while reading (ROS bags only: clock samples outside the common
         time span of all topics or too far from a source message), reason -> count.
@@ -73,6 +88,7 @@ class LoadReport:
     extra_columns: list[str] = field(default_factory=list)
     validation: ValidationReport | None = None
     current_sign_flipped: bool = False
+    current_negated_files: list[dict[str, Any]] = field(default_factory=list)
     dropped: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     skipped: list[dict[str, str]] = field(default_factory=list)
@@ -87,6 +103,7 @@ class LoadReport:
             "extra_columns": list(self.extra_columns),
             "validation": self.validation.to_dict() if self.validation else None,
             "current_sign_flipped": self.current_sign_flipped,
+            "current_negated_files": [dict(f) for f in self.current_negated_files],
             "dropped": dict(self.dropped),
             "notes": list(self.notes),
             "skipped": [dict(k) for k in self.skipped],
@@ -117,6 +134,9 @@ class LoadReport:
         if self.current_sign_flipped:
             lines.append("battery current negated: ROS BatteryState is negative while "
                          "discharging, canonical is positive")
+        for f in self.current_negated_files:
+            lines.append(f"  negated in {f['path']} (negative in {f['negative_share']:.0%} of "
+                         f"{f['n_motion']} samples in motion)")
         for k, n in self.dropped.items():
             lines.append(f"dropped while reading: {n} ({k})")
         lines.extend(self.notes)
@@ -167,11 +187,50 @@ def _read_table(path: Path) -> pd.DataFrame:
         raise LogIOError(f"cannot read {fmt} log {str(path)!r}: {err}") from err
 
 
+#: An extra column whose non-missing values parse as numbers at least this often is a
+#: numeric channel: its other values are an error, not categories.
+NUMERIC_SHARE = 0.5
+
+
+def _check_extra_column(col: pd.Series, name: str, runs: pd.Series, source: str | None) -> None:
+    """Raise :class:`LogError` for a mostly-numeric extra column holding some text.
+
+    A channel such as ``payload_kg`` with one value typed ``"ten"`` would otherwise become
+    a categorical column, and every later step would treat it as one.
+    """
+    arr = col.to_numpy(dtype=object)
+    present = np.asarray(pd.notna(arr), dtype=bool)
+    n = int(present.sum())
+    if n == 0:
+        return
+    num = pd.to_numeric(pd.Series(arr, dtype=object), errors="coerce").to_numpy(dtype=float)
+    text = present & np.isnan(num)
+    n_text = int(text.sum())
+    if n_text == 0 or (1.0 - n_text / n) < NUMERIC_SHARE:
+        return
+    rows = [int(r) for r in np.flatnonzero(text)]
+    bad = [arr[r] for r in rows]
+    run_ids = runs.to_numpy()
+    bad_runs = sorted({str(run_ids[r]) for r in rows})
+    shown = ", ".join(f"{v!r} at row {r} (run {run_ids[r]!s})"
+                      for v, r in zip(bad[:5], rows[:5], strict=True))
+    more = f" and {n_text - 5} more" if n_text > 5 else ""
+    raise LogError(
+        f"log{(' ' + source) if source else ''}: extra column {name!r} is numeric in "
+        f"{n - n_text} of {n} rows but not in {n_text}: {shown}{more}; "
+        "expected a number in every row (leave a cell empty for a missing value); a "
+        "categorical channel must be text in every row",
+        path=source, column=name, value=bad[0], values=bad[:20], rows=rows[:20],
+        runs=bad_runs, expected="a number (or an empty cell)")
+
+
 def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
     """Cast to canonical dtypes and order: float64 numerics, ``run`` str, sorted by run, t.
 
     Canonical columns that are not numeric raise :class:`LogError`. Extra columns are
-    kept: numeric ones as they are, text ones as pandas ``category``.
+    kept: numeric ones as they are, text ones as pandas ``category``. A text column whose
+    values are numbers in at least half of the rows (:data:`NUMERIC_SHARE`) raises
+    :class:`LogError` naming the column and the other values, their rows and runs.
     """
     out = pd.DataFrame(index=df.index)
     out["run"] = df["run"].astype(str)
@@ -186,19 +245,116 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
                 row = int(np.flatnonzero(bad.to_numpy())[0])
                 raise LogError(
                     f"log{(' ' + source) if source else ''}: column {c!r} is not numeric at "
-                    f"row {row} (value {col.iloc[row]!r}); expected a number in SI units")
+                    f"row {row} (value {col.iloc[row]!r}); expected a number in SI units",
+                    path=source, column=c, row=row, value=col.iloc[row],
+                    run=str(df["run"].iloc[row]), expected="a number in SI units")
             col = num
         out[c] = col.astype("float64")
     for c in df.columns:
         if c in CANONICAL_COLUMNS:
             continue
         col = df[c]
-        if pd.api.types.is_numeric_dtype(col) or isinstance(col.dtype, pd.CategoricalDtype):
+        if isinstance(col, pd.DataFrame):  # a repeated column name
+            raise LogError(f"log{(' ' + source) if source else ''}: column {c!r} appears "
+                           f"{col.shape[1]} times; expected each column once", path=source,
+                           column=str(c), expected="each column once")
+        if pd.api.types.is_bool_dtype(col):
+            out[c] = col
+        elif pd.api.types.is_numeric_dtype(col):
+            out[c] = col
+        elif isinstance(col.dtype, pd.CategoricalDtype):
+            _check_extra_column(col.astype(object), str(c), df["run"], source)
             out[c] = col
         else:
+            _check_extra_column(col, str(c), df["run"], source)
             out[c] = col.astype("string").astype(object).astype("category")
     out = out.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     return out
+
+
+def _check_extra_types(frames: list[pd.DataFrame], paths: list[str]) -> None:
+    """Raise :class:`LogError` if an extra column is numeric in one file and text in another."""
+    kinds: dict[str, dict[str, list[str]]] = {}
+    for df, p in zip(frames, paths, strict=True):
+        for c in df.columns:
+            if c in CANONICAL_COLUMNS:
+                continue
+            k = "numeric" if pd.api.types.is_numeric_dtype(df[c]) else "text"
+            kinds.setdefault(c, {}).setdefault(k, []).append(p)
+    for c, by in kinds.items():
+        if len(by) > 1:
+            raise LogError(
+                f"extra column {c!r} is numeric in {', '.join(by['numeric'][:3])} but text in "
+                f"{', '.join(by['text'][:3])}; expected one type in every file (a number "
+                "for a numeric channel, text for a categorical one)", column=c,
+                path=by["text"][0], expected="the same type in every file",
+                value={k: v[:10] for k, v in by.items()})
+
+
+def current_sign(df: pd.DataFrame) -> dict[str, Any]:
+    """How negative the battery current is while the robot moves.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Canonical columns ``vx, vy, wz, current`` (numeric).
+
+    Returns
+    -------
+    dict
+        ``n_motion`` (samples with speed or |yaw rate| >= :data:`MOTION_THRESHOLD` and a
+        finite current), ``negative_share`` (share of them with current < 0),
+        ``median_current_a``, and ``ros_sign``: True when there are at least
+        :data:`SIGN_MIN_SAMPLES` such samples and at least :data:`SIGN_NEGATIVE_SHARE` of
+        them are negative: a walking robot draws current, so the log uses the ROS
+        ``BatteryState`` sign (negative while discharging), not the canonical one.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"vx": 0.3, "vy": 0.0, "wz": 0.0, "current": [-5.0] * 12})
+    >>> current_sign(df)["ros_sign"]
+    True
+    """
+    v = np.hypot(pd.to_numeric(df["vx"], errors="coerce").to_numpy(float),
+                 pd.to_numeric(df["vy"], errors="coerce").to_numpy(float))
+    w = np.abs(pd.to_numeric(df["wz"], errors="coerce").to_numpy(float))
+    cur = pd.to_numeric(df["current"], errors="coerce").to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        moving = ((v >= MOTION_THRESHOLD) | (w >= MOTION_THRESHOLD)) & np.isfinite(cur)
+    c = cur[moving]
+    share = float(np.mean(c < 0)) if c.size else 0.0
+    return {"n_motion": int(c.size), "negative_share": share,
+            "median_current_a": float(np.median(c)) if c.size else None,
+            "ros_sign": bool(c.size >= SIGN_MIN_SAMPLES and share >= SIGN_NEGATIVE_SHARE)}
+
+
+def _apply_current_sign(df: pd.DataFrame, path: Path, mode: str, rep: LoadReport) -> pd.DataFrame:
+    """Negate a table's current per ``table_current`` (see :func:`load_logs`)."""
+    sign = current_sign(df)
+    entry = {"path": str(path), "negative_share": round(sign["negative_share"], 4),
+             "median_current_a": sign["median_current_a"], "n_motion": sign["n_motion"]}
+    if mode == "ros" or (mode == "auto" and sign["ros_sign"]):
+        df = df.assign(current=-df["current"])
+        rep.current_sign_flipped = True
+        rep.current_negated_files.append(entry)
+        if mode == "auto":
+            msg = (f"log {path}: the battery current is negative in "
+                   f"{sign['negative_share']:.0%} of the {sign['n_motion']} samples in motion "
+                   f"(median {sign['median_current_a']:.3g} A): read as the ROS BatteryState "
+                   "sign (negative while discharging) and negated to the canonical sign "
+                   "(positive while discharging). Pass table_current='discharge_positive' to "
+                   "keep it as it is.")
+            warnings.warn(msg, UserWarning, stacklevel=3)
+            rep.notes.append(msg)
+    elif sign["ros_sign"]:  # discharge_positive, yet mostly negative: say so
+        msg = (f"log {path}: the battery current is negative in {sign['negative_share']:.0%} "
+               f"of the {sign['n_motion']} samples in motion although table_current="
+               "'discharge_positive' says positive while discharging; preprocessing will drop "
+               "those samples (negative power). If the logger uses the ROS BatteryState sign, "
+               "load with table_current='ros' or 'auto'.")
+        warnings.warn(msg, UserWarning, stacklevel=3)
+        rep.notes.append(msg)
+    return df
 
 
 def load_logs(
@@ -207,6 +363,7 @@ def load_logs(
     report: bool = False,
     voltage_range: tuple[float, float] = VOLTAGE_RANGE,
     max_gap: float = MAX_GAP_S,
+    table_current: str = "auto",
     **bag_options: Any,
 ) -> pd.DataFrame | tuple[pd.DataFrame, LoadReport]:
     """Load robot logs into the canonical sample table.
@@ -222,6 +379,14 @@ def load_logs(
     voltage_range, max_gap
         Thresholds for the validation counts (see
         :func:`~energy_planner.measurements.schema.validate_log`).
+    table_current : {"auto", "discharge_positive", "ros"}
+        Sign of the current in CSV/Parquet tables. ``"auto"`` (default): a table whose
+        current is negative in at least 80 % of the samples in motion
+        (:func:`current_sign`) uses the ROS ``BatteryState`` sign and is negated, with a
+        ``UserWarning`` naming the file (listed in ``LoadReport.current_negated_files``).
+        ``"discharge_positive"``: canonical, taken as it is (a mostly negative current
+        still warns). ``"ros"``: every table is negated. Bags have their own
+        ``battery_current`` option (``**bag_options``).
     **bag_options
         Passed to :func:`~energy_planner.measurements.rosbag.load_rosbag` for bags
         (topics, clock, ...).
@@ -253,6 +418,10 @@ def load_logs(
     >>> list(s["run"]), s["current"].dtype.name, s["surface"].dtype.name
     (['ramp1', 'ramp1'], 'float64', 'category')
     """
+    if table_current not in TABLE_CURRENT:
+        raise LogError(f"table_current={table_current!r} is not valid; expected one of "
+                       f"{', '.join(map(repr, TABLE_CURRENT))}", value=table_current,
+                       param="table_current", expected=" or ".join(TABLE_CURRENT))
     files = _expand(paths)
     rep = LoadReport()
     frames: list[pd.DataFrame] = []
@@ -274,6 +443,7 @@ def load_logs(
                 df["run"] = df["run"].astype(str)
             check_time(df, str(path))
             df = canonicalize(df, str(path))
+            df = _apply_current_sign(df, path, table_current, rep)
         else:
             from energy_planner.measurements.rosbag import load_rosbag
 
@@ -294,6 +464,7 @@ def load_logs(
     if not frames:
         raise LogIOError(f"no robot log among {', '.join(str(p) for p, _ in files)}; "
                          "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS))
+    _check_extra_types(frames, [f["path"] for f in rep.files])
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     for c in samples.columns:
         col = samples[c]

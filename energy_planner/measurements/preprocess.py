@@ -173,6 +173,9 @@ class PreprocessReport:
     n_input: int = 0
     steps: list[StepRecord] = field(default_factory=list)
     params: PreprocessParams = field(default_factory=PreprocessParams)
+    #: Runs that lost every sample: ``run``, ``n_samples`` (input), ``step`` (the one that
+    #: removed the last ones) and ``reason``.
+    dropped_runs: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def n_output(self) -> int:
@@ -199,6 +202,7 @@ class PreprocessReport:
             "steps": [{"name": s.name, "n_in": s.n_in, "n_out": s.n_out,
                        "removed": s.n_removed, "reasons": dict(s.removed), "note": s.note}
                       for s in self.steps],
+            "dropped_runs": [dict(d) for d in self.dropped_runs],
             "params": self.params.to_dict(),
         }
 
@@ -212,6 +216,8 @@ class PreprocessReport:
             lines.append(f"{s.name:<{w}}  {s.n_in:>9}  {s.n_removed:>8}  {s.n_out:>9}  {why}")
         pct = 100.0 * self.n_output / self.n_input if self.n_input else 0.0
         lines.append(f"kept {self.n_output} of {self.n_input} samples ({pct:.1f}%)")
+        for d in self.dropped_runs:
+            lines.append(f"run {d['run']!r} dropped ({d['n_samples']} samples): {d['reason']}")
         return "\n".join(lines)
 
 
@@ -518,7 +524,8 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
         ``power`` (smoothed, W), ``ax``, ``ay``, ``alpha``, ``gamma``, ``speed``; the twist
         is smoothed; voltage and current are as read.
     report : PreprocessReport
-        Samples removed by each step and why.
+        Samples removed by each step and why; ``dropped_runs`` names every run that lost
+        all its samples (also a ``UserWarning``).
 
     Raises
     ------
@@ -544,7 +551,31 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     report = PreprocessReport(n_input=len(samples), params=params)
     df = samples
+    counts = samples["run"].value_counts()
+    alive = set(counts.index)
     for step in STEPS:
         df, rec = step(df, params)
         report.steps.append(rec)
+        left = set(df["run"].unique())
+        for run in sorted(alive - left):
+            why = "; ".join(rec.removed) or rec.note
+            report.dropped_runs.append({
+                "run": str(run), "n_samples": int(counts[run]), "step": rec.name,
+                "reason": f"every sample removed; the last ones by {rec.name}"
+                          + (f" ({why})" if why else "")})
+        alive &= left
+    warn_dropped_runs(report.dropped_runs, "preprocessing")
     return df, report
+
+
+def warn_dropped_runs(dropped: list[dict[str, Any]], where: str) -> None:
+    """One ``UserWarning`` naming each dropped run (the first 10) and why."""
+    if not dropped:
+        return
+    import warnings
+
+    shown = "; ".join(f"{d['run']!r} ({d['n_samples']} samples): {d['reason']}"
+                      for d in dropped[:10])
+    more = f"; and {len(dropped) - 10} more" if len(dropped) > 10 else ""
+    warnings.warn(f"{where} dropped {len(dropped)} whole run(s): {shown}{more}", UserWarning,
+                  stacklevel=3)

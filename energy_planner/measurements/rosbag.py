@@ -40,8 +40,8 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from energy_planner.angles import wrap
 from energy_planner.errors import LogError, LogIOError
-from energy_planner.measurements.imu import wrap_angle
 from energy_planner.measurements.logs import LoadReport, canonicalize
 from energy_planner.measurements.schema import CANONICAL_COLUMNS, REQUIRED_COLUMNS
 
@@ -379,7 +379,7 @@ def load_rosbag(
         out["yaw"] = clean["odom"][1]["yaw"][keep]
     else:
         ns, vals = clean["odom"]
-        out["yaw"] = wrap_angle(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
+        out["yaw"] = wrap(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
     for col, (ns, data) in xstreams.items():
         idx, _ = _sorted_unique(ns)
         xs = ns[idx]

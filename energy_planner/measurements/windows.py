@@ -77,6 +77,10 @@ class Windows:
         Samples not put in any window, reason -> count.
     params : dict
         Settings used.
+    dropped_runs : list of dict
+        Runs with samples but no window: ``run``, ``n_samples``, ``longest_window_s`` and
+        ``most_samples`` (of its candidate windows) and ``reason``. Also a
+        ``UserWarning``.
     """
 
     samples: pd.DataFrame
@@ -84,6 +88,7 @@ class Windows:
     duration: float
     dropped: dict[str, int] = field(default_factory=dict)
     params: dict[str, Any] = field(default_factory=dict)
+    dropped_runs: list[dict[str, Any]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.table)
@@ -95,6 +100,7 @@ class Windows:
             "n_samples": len(self.samples),
             "duration": self.duration,
             "dropped": dict(self.dropped),
+            "dropped_runs": [dict(d) for d in self.dropped_runs],
             "by_motion": {str(k): int(v) for k, v in
                           self.table["motion"].value_counts().sort_index().items()},
             "params": dict(self.params),
@@ -225,9 +231,31 @@ def make_windows(
     new_id = np.cumsum(ok_win) - 1
     df["window"] = new_id[codes]
     df["_dt"] = dt
+    kept_runs = set(run[keep])
+    lost = []
+    if len(kept_runs) < len(set(run)):
+        # per candidate window: its run, length and sample count
+        per = pd.DataFrame({"run": run, "code": codes}).drop_duplicates("code")
+        per = per.assign(dur=dur[per["code"].to_numpy()], cnt=cnt[per["code"].to_numpy()])
+        n_run = pd.Series(run).value_counts()
+        for r, g in per.groupby("run", sort=True):
+            if r in kept_runs:
+                continue
+            lost.append({
+                "run": str(r), "n_samples": int(n_run[r]),
+                "longest_window_s": float(g["dur"].max()),
+                "most_samples": int(g["cnt"].max()),
+                "reason": f"no window long enough: cut every {duration:g} s within stretches of "
+                          f"one motion class without a gap, its windows reach at most "
+                          f"{float(g['dur'].max()):.3g} s and {int(g['cnt'].max())} samples; a "
+                          f"window needs {min_fraction * duration:g} s and {min_samples} "
+                          "samples"})
     df = df.loc[keep].reset_index(drop=True)
     table = _table(df, df.pop("_dt").to_numpy(), duration)
-    return Windows(df, table, duration, dropped, params)
+    from energy_planner.measurements.preprocess import warn_dropped_runs
+
+    warn_dropped_runs(lost, "make_windows")
+    return Windows(df, table, duration, dropped, params, lost)
 
 
 def _table(df: pd.DataFrame, dt: np.ndarray, duration: float) -> pd.DataFrame:

@@ -242,8 +242,9 @@ def _src(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, An
             value = constants[node.id]
             return repr(value) if isinstance(value, str) else repr(float(value))
         raise FormulaError(
-            f"formula {text!r} needs {node.id!r}; give it as a constant (e.g. "
-            f"{node.id}=...) or choose a model without this term"
+            f"formula {text!r} needs {node.id!r}; give it with --set {node.id}=VALUE (a "
+            f"constant) or --channel {node.id}=RASTER[:TABLE] (a map), or choose a model "
+            "without this term"
         )
     if isinstance(node, ast.BinOp):
         return f"({rec(node.left)} {_BINOPS[type(node.op)][1]} {rec(node.right)})"

@@ -387,27 +387,96 @@ class EnergyModel:
         return "\n".join(rows)
 
     # ------------------------------------------------------------------ compiled kernels
-    def kernel_source(self, constants: Mapping[str, Any] | None = None) -> str:
+    def kernel_source(
+        self,
+        constants: Mapping[str, Any] | None = None,
+        channels: Sequence[tuple[str, Sequence[str] | None]] | None = None,
+    ) -> str:
         """Python source of a scalar power function for numba.
 
         The function is ``power(alpha, gamma, vx, vy, wz, ax, ay) -> (total, by_kind)``
         where ``by_kind`` sums the terms of each kind in :data:`KINDS` order; ``total`` is
         floored at zero unless the model is regenerative. Features other than the
-        arguments (extra channels such as ``payload_kg``) must be given in
-        ``constants``.
+        arguments (extra channels such as ``payload_kg``) must be given in ``constants``
+        (compiled in) or ``channels``.
+
+        Parameters
+        ----------
+        constants : mapping, optional
+            Channel name -> number or category (string), substituted at render time.
+        channels : sequence of (name, categories or None), optional
+            Channels that vary per sample (rasters). When given (even empty), the function
+            takes an eighth argument ``ch``, a float array holding these channels in this
+            order; a categorical channel (``categories`` a sequence of strings) holds the
+            index of its category, and every term that reads it is rendered once per
+            category (its comparisons folded) and chosen by that index at run time.
+
+        Raises
+        ------
+        MissingChannelError
+            If a term reads a channel given neither as a constant nor as a raster: names
+            the channels, the terms, and the ``--set`` / ``--channel`` options.
+
+        Examples
+        --------
+        >>> m = EnergyModel(["speed * (ground == 'meadow')"], {"speed * (ground == 'meadow')": 2.0})
+        >>> src = m.kernel_source(channels=[("ground", ["asphalt", "meadow"])])
+        >>> "if ch_ground == 0.0" in src
+        True
         """
+        from energy_planner.errors import MissingChannelError
+
         coefs = self.coef_array()
+        consts = dict(constants or {})
+        rasters = list(channels or [])
+        raster_names = [name for name, _ in rasters]
+        categories = {name: list(cats) for name, cats in rasters if cats is not None}
         varmap = {name: name for name in KERNEL_ARGS}
         varmap["speed"] = "speed"
-        consts = dict(constants or {})
+        for name in raster_names:
+            if name not in categories:
+                varmap[name] = f"ch_{name}"
+        known = set(varmap) | set(consts) | set(categories)
+        missing = sorted(self.variables - known)
+        if missing:
+            readers = [t.name for t in self.terms if t.variables & set(missing)]
+            given = sorted(set(consts) | set(raster_names))
+            raise MissingChannelError(
+                f"the model needs {', '.join(map(repr, missing))} (channel(s) read by "
+                f"term(s) {', '.join(map(repr, readers))}), not given (channels given: "
+                f"{', '.join(given) or 'none'}); give each with --set NAME=VALUE (a constant, "
+                "e.g. --set payload_kg=10 or --set ground=meadow) or --channel NAME=RASTER"
+                "[:TABLE] (a map), or choose a model without these terms",
+                missing=missing,
+            )
+
+        def render(formula: Any, cats: list[str], fixed: dict[str, Any]) -> str:
+            if not cats:
+                return formula.to_scalar_source(varmap, {**consts, **fixed})
+            name, rest = cats[0], cats[1:]
+            options = [render(formula, rest, {**fixed, name: c}) for c in categories[name]]
+            expr = options[-1]
+            for i in range(len(options) - 2, -1, -1):
+                expr = f"({options[i]} if ch_{name} == {float(i)!r} else {expr})"
+            return expr
+
         kind_sums: dict[str, list[str]] = {k: [] for k in KINDS}
         for term, c in zip(self.terms, coefs, strict=True):
-            expr = term.parsed.to_scalar_source(varmap, consts)
+            cats = sorted(term.variables & set(categories))
+            if any(not categories[n] for n in cats):
+                empty = [n for n in cats if not categories[n]]
+                raise MissingChannelError(
+                    f"categorical channel(s) {', '.join(empty)} have no category", missing=empty
+                )
+            expr = render(term.parsed, cats, {})
             kind_sums[term.kind].append(f"{float(c)!r} * {expr}")
+        args = ", ".join(KERNEL_ARGS) + (", ch" if channels is not None else "")
         lines = [
-            f"def power({', '.join(KERNEL_ARGS)}):",
+            f"def power({args}):",
             "    speed = math.sqrt(vx * vx + vy * vy)",
         ]
+        for i, name in enumerate(raster_names):
+            lines.append(f"    ch_{name} = ch[{i}]")
         for k in KINDS:
             lines.append(f"    p_{k} = " + (" + ".join(kind_sums[k]) or "0.0"))
         total = " + ".join(f"p_{k}" for k in KINDS)

@@ -1,17 +1,17 @@
-"""Energy-minimal planning on SE(2): lattice reference, OMPL planners, route comparison.
+"""Energy-minimal planning on SE(2): full-resolution search, lattice reference, OMPL, routes.
 
 Heavy imports (ompl, numba, matplotlib) happen inside the submodules that need them;
 importing this package is cheap.
 
 >>> from energy_planner.planning import PLANNERS
 >>> PLANNERS
-('auto', 'lattice', 'rrtstar', 'sorrtstar', 'bitstar')
+('auto', 'search', 'lattice', 'rrtstar', 'sorrtstar', 'bitstar')
 """
 
 from __future__ import annotations
 
 #: Planner names accepted by :func:`plan`.
-PLANNERS: tuple[str, ...] = ("auto", "lattice", "rrtstar", "sorrtstar", "bitstar")
+PLANNERS: tuple[str, ...] = ("auto", "search", "lattice", "rrtstar", "sorrtstar", "bitstar")
 
 __all__ = ["PLANNERS", "plan", "PlanResult", "compare_routes", "RouteComparison"]
 

@@ -1,12 +1,17 @@
-"""Deterministic reference planner: Dijkstra on a state lattice over (x, y, heading).
+"""Reference planner: Dijkstra on a fully built state lattice over (x, y, heading).
+
+Kept for reference and benchmarks; the default planner is the full-resolution search of
+:mod:`energy_planner.planning.search`, which has the same motion primitives and edge costs
+but prices edges on demand instead of building the graph (so at equal ``step`` both find
+the same optimum).
 
 The lattice places positions on a square grid (spacing ``step`` metres, aligned so that
 the start lies exactly on a node) and ``n_headings`` evenly spaced headings at each
 position. Its motion primitives are
 
-* translations at constant heading to the 16 neighbours ``(1,0), (2,1), (1,1), (1,2),
-  ...`` - forward, backward, sideways or any mix, since the heading is kept while the
-  body moves in any of the 16 directions;
+* translations at constant heading to neighbours among the 16 ``(1,0), (2,1), (1,1),
+  (1,2), ...``: with ``moves="axes"`` (default) the 4 closest to the body axes (forward,
+  left, backward, right), with ``moves="all"`` all 16 (any mix of forward and sideways);
 * turns in place to the next heading on either side.
 
 With 16 headings the headings are the directions of the 16 moves, so a robot can walk
@@ -32,7 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from energy_planner.errors import InvalidStateError, PlanningError
+from energy_planner.angles import wrap
+from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 
 __all__ = [
     "LatticeResult",
@@ -183,12 +189,8 @@ def _move_table(headings: np.ndarray, moves: str) -> np.ndarray:
     for h in range(n_headings):
         for k in range(4):
             axis = headings[h] + k * np.pi / 2
-            table[h, int(np.argmin(np.abs(_wrap(ang - axis))))] = True
+            table[h, int(np.argmin(np.abs(wrap(ang - axis))))] = True
     return table
-
-
-def _wrap(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
 def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
@@ -211,7 +213,7 @@ def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     keep = [0]
     for k in range(1, len(states) - 1):
         a, b, c = states[keep[-1]], states[k], states[k + 1]
-        same_yaw = abs(_wrap(b[2] - a[2])) < tol and abs(_wrap(c[2] - b[2])) < tol
+        same_yaw = abs(wrap(b[2] - a[2])) < tol and abs(wrap(c[2] - b[2])) < tol
         u = b[:2] - a[:2]
         v = c[:2] - b[:2]
         cross = u[0] * v[1] - u[1] * v[0]
@@ -273,11 +275,19 @@ def lattice_plan(
     from scipy.sparse.csgraph import dijkstra
 
     if metric not in ("energy", "distance"):
-        raise ValueError(f"metric {metric!r} is not one of 'energy', 'distance'")
+        raise PlanningConfigError(
+            f"metric {metric!r} is not one of 'energy', 'distance'", value=metric, param="metric"
+        )
     if moves not in ("axes", "all"):
-        raise ValueError(f"moves {moves!r} is not one of 'axes', 'all'")
+        raise PlanningConfigError(
+            f"moves {moves!r} is not one of 'axes', 'all'", value=moves, param="moves"
+        )
     if n_headings < 4:
-        raise ValueError(f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)")
+        raise PlanningConfigError(
+            f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
+            value=n_headings,
+            param="n_headings",
+        )
     t0 = time.perf_counter()
     step = float(step) if step is not None else default_step(terrain)
     xs, ys = lattice_geometry(terrain, (start[0], start[1]), step)
@@ -337,7 +347,7 @@ def lattice_plan(
             f = np.isfinite(w)
             a, w = a[f], w[f]
             if metric == "distance":
-                w = np.full(a.size, _TURN_EPS * abs(_wrap(headings[h2] - headings[h])))
+                w = np.full(a.size, _TURN_EPS * abs(wrap(headings[h2] - headings[h])))
             srcs.append(a * H + h)
             dsts.append(a * H + h2)
             ws.append(w)
@@ -355,13 +365,16 @@ def lattice_plan(
         if not (0 <= i < nx and 0 <= j < ny):
             raise InvalidStateError(
                 f"{which} ({x:.2f}, {y:.2f}) is outside the map (lattice x {xs[0]:.2f}.."
-                f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)"
+                f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)",
+                endpoint=which,
+                limit="map",
+                value=(x, y),
             )
         p = j * nx + i
         if yaw is None:
             hs = np.nonzero(valid[p])[0]
         else:
-            hs = np.array([int(np.argmin(np.abs(_wrap(headings - float(yaw)))))])
+            hs = np.array([int(np.argmin(np.abs(wrap(headings - float(yaw)))))])
             hs = hs[valid[p, hs]]
         if hs.size == 0:
             raise InvalidStateError(
@@ -394,13 +407,13 @@ def lattice_plan(
     chain.reverse()
     nodes = np.array(chain)
     p_of, h_of = np.divmod(nodes, H)
-    states = np.column_stack([px[p_of], py[p_of], _wrap(headings[h_of])])
+    states = np.column_stack([px[p_of], py[p_of], wrap(headings[h_of])])
     # exact start and goal poses around the lattice part
     first = states[0]
-    if start[2] is not None and abs(_wrap(float(start[2]) - first[2])) > 1e-12:
-        states = np.vstack([[start[0], start[1], float(_wrap(start[2]))], states])
+    if start[2] is not None and abs(wrap(float(start[2]) - first[2])) > 1e-12:
+        states = np.vstack([[start[0], start[1], float(wrap(start[2]))], states])
     last = states[-1]
-    gyaw = float(_wrap(goal[2])) if goal[2] is not None else last[2]
+    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
     if (
         abs(goal[0] - last[0]) > 1e-9
         or abs(goal[1] - last[1]) > 1e-9

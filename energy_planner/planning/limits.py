@@ -30,13 +30,17 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from energy_planner.errors import InvalidStateError, PlanningConfigError
+
+if TYPE_CHECKING:
+    from energy_planner.request import Request
 
 __all__ = [
     "load_keep_out",
@@ -44,7 +48,9 @@ __all__ = [
     "rasterize_keep_out",
     "keep_out_violation",
     "pose_violation",
+    "pose_limit",
     "check_endpoint",
+    "check_valid_geometries",
     "fmt_xy",
     "make_motion_cost",
 ]
@@ -92,17 +98,58 @@ def load_keep_out(path: str | Path) -> list[Any]:
             geom = shape(g)
         except Exception as exc:  # shapely raises several types for bad GeoJSON
             raise PlanningConfigError(
-                f"keep-out file {str(path)!r}: geometry {k} is not valid GeoJSON ({exc})"
+                f"keep-out file {str(path)!r}: geometry {k} is not valid GeoJSON ({exc})",
+                path=path,
+                value=k,
+                param="keep_out",
+                expected="GeoJSON Polygon or MultiPolygon",
             ) from exc
         if geom.geom_type not in ("Polygon", "MultiPolygon"):
             raise PlanningConfigError(
                 f"keep-out file {str(path)!r}: geometry {k} is a {geom.geom_type}; "
-                "expected Polygon or MultiPolygon"
+                "expected Polygon or MultiPolygon",
+                path=path,
+                value=k,
+                param="keep_out",
+                expected="Polygon or MultiPolygon",
             )
         out.append(geom)
     if not out:
-        raise PlanningConfigError(f"keep-out file {str(path)!r} holds no polygon")
+        raise PlanningConfigError(
+            f"keep-out file {str(path)!r} holds no polygon", path=path, param="keep_out"
+        )
+    check_valid_geometries(out, str(path))
     return out
+
+
+def check_valid_geometries(geoms: Sequence[Any], source: str = "keep_out") -> None:
+    """Raise :class:`PlanningConfigError` naming the first invalid polygon and why.
+
+    A self-intersecting ("bow-tie") polygon has no well-defined inside: shapely's
+    ``explain_validity`` says where it breaks. ``source`` is the file (or a name).
+
+    Examples
+    --------
+    >>> from shapely.geometry import Polygon
+    >>> check_valid_geometries([Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])], "ko.geojson")
+    Traceback (most recent call last):
+    ...
+    energy_planner.errors.PlanningConfigError: keep-out geometry 0 in 'ko.geojson' is not a valid polygon: Self-intersection[1 1]; redraw it without crossing edges (or split it in two)
+    """  # noqa: E501
+    from shapely.validation import explain_validity
+
+    for k, g in enumerate(geoms):
+        if not g.is_valid:
+            why = explain_validity(g)
+            raise PlanningConfigError(
+                f"keep-out geometry {k} in {source!r} is not a valid polygon: {why}; "
+                "redraw it without crossing edges (or split it in two)",
+                path=source,
+                value=k,
+                param="keep_out",
+                expected="a valid (non-self-intersecting) polygon",
+                hint=why,
+            )
 
 
 def to_work_geometries(geoms: Sequence[Any], terrain) -> list[Any]:
@@ -172,17 +219,46 @@ def keep_out_violation(states: np.ndarray, geoms: Sequence[Any]) -> str | None:
 
 def pose_violation(cost, x: float, y: float, yaw: float | None, geoms=()) -> str | None:
     """Which limit a pose breaks, or None (yaw None: valid if some heading is valid)."""
+    v = pose_limit(cost, x, y, yaw, geoms)
+    return None if v is None else v[1]
+
+
+#: Kernel violation codes -> the request's limit names (structured error fields).
+_LIMIT_OF_CODE = {1: "map", 2: "max_slope_deg", 3: "max_cross_slope_deg", 4: "keep_out"}
+
+
+def pose_limit(
+    cost, x: float, y: float, yaw: float | None, geoms=()
+) -> tuple[str, str, float | None] | None:
+    """The limit a pose breaks as ``(limit, reason, value)``, or None if it is valid.
+
+    ``limit`` is ``"map"`` (outside the map or on nodata), ``"max_slope_deg"``,
+    ``"max_cross_slope_deg"`` or ``"keep_out"``; ``value`` the slope or cross-slope in
+    degrees (None otherwise). With ``yaw`` None the pose is valid if some heading is.
+    """
     from shapely.geometry import Point
 
     for k, g in enumerate(geoms):
         if g.intersects(Point(x, y)):
-            return f"inside keep-out area {k}"
-    if yaw is not None:
-        return cost.violation(x, y, float(yaw))
-    reasons = [cost.violation(x, y, th) for th in np.linspace(-np.pi, np.pi, 16, endpoint=False)]
-    if any(r is None for r in reasons):
-        return None
-    return f"{reasons[0]} (at every heading)"
+            return ("keep_out", f"inside keep-out area {k}", None)
+    yaws = [float(yaw)] if yaw is not None else np.linspace(-np.pi, np.pi, 16, endpoint=False)
+    first = None
+    for th in yaws:
+        out = cost.details([x, x], [y, y], [th, th], [1.0])[0]
+        code = int(out[12])
+        if code == 0:
+            return None
+        if first is None:
+            first = (code, th)
+    code, th = first
+    reason = cost.violation(x, y, th) or "breaks a limit"
+    if yaw is None:
+        reason += " (at every heading)"
+    value = None
+    if code in (2, 3):
+        m = re.search(r"([-0-9.]+) deg >", reason)
+        value = float(m.group(1)) if m else None
+    return (_LIMIT_OF_CODE.get(code, "map"), reason, value)
 
 
 def fmt_xy(terrain, x: float, y: float) -> str:
@@ -198,24 +274,33 @@ def check_endpoint(
 ) -> None:
     """Raise :class:`InvalidStateError` if the start/goal ``pose`` breaks a limit.
 
-    The message names the pose in the DEM's CRS and the limit with its value.
+    The message names the pose in the DEM's CRS and the limit with its value; the error's
+    fields are ``endpoint`` (``which``), ``limit`` (see :func:`pose_limit`), ``value`` (the
+    slope in degrees for a slope limit, else the pose ``(x, y)`` in the DEM's CRS).
     """
     x, y, yaw = pose
-    reason = pose_violation(cost, x, y, yaw, geoms)
-    if reason is not None:
+    v = pose_limit(cost, x, y, yaw, geoms)
+    if v is not None:
+        limit, reason, value = v
         yaw_txt = "" if yaw is None else f" yaw {math.degrees(yaw):.1f} deg"
+        sx, sy = terrain.from_work(x, y)
         raise InvalidStateError(
             f"{which} {fmt_xy(terrain, x, y)}{yaw_txt} is invalid: {reason}; "
-            f"choose a {which} on valid terrain within the limits"
+            f"choose a {which} on valid terrain within the limits",
+            endpoint=which,
+            limit=limit,
+            value=value if value is not None else (float(sx), float(sy)),
+            param=which,
         )
 
 
 def make_motion_cost(
     terrain,
     model,
+    request: Request | None = None,
     *,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    speed: float | None = None,
+    yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
     keep_out: str | Path | Sequence[Any] | None = None,
@@ -224,8 +309,13 @@ def make_motion_cost(
 
     Parameters
     ----------
-    keep_out : path, sequence of shapely geometries or None
-        A GeoJSON file or geometries, both in the DEM's CRS.
+    terrain : Terrain
+    model : EnergyModel
+    request : Request, optional
+        Robot speed and yaw rate, limits, channels (:class:`energy_planner.request.Request`).
+    speed, yaw_rate, max_slope_deg, max_cross_slope_deg, keep_out
+        The same as flat keywords (older callers); not together with ``request``.
+        ``keep_out`` is a GeoJSON file or geometries, both in the DEM's CRS.
 
     Returns
     -------
@@ -234,19 +324,44 @@ def make_motion_cost(
         Keep-out polygons in the working CRS (empty without ``keep_out``).
     """
     from energy_planner.energy import MotionCost
+    from energy_planner.request import Request
 
+    flat = {
+        "speed": speed, "yaw_rate": yaw_rate, "max_slope_deg": max_slope_deg,
+        "max_cross_slope_deg": max_cross_slope_deg, "keep_out": keep_out,
+    }  # fmt: skip
+    given = {k: v for k, v in flat.items() if v is not None}
+    if request is None:
+        request = Request.make(**given)
+    elif given:
+        raise PlanningConfigError(
+            f"give the limits and robot either as request= or as keywords, not both "
+            f"(got request= and {', '.join(given)})",
+            param=next(iter(given)),
+        )
+    lim = request.limits
     geoms: list[Any] = []
-    if keep_out is not None:
-        raw = load_keep_out(keep_out) if isinstance(keep_out, str | Path) else list(keep_out)
+    if lim.keep_out is not None:
+        if isinstance(lim.keep_out, str | Path):
+            raw = load_keep_out(lim.keep_out)
+        else:
+            raw = list(lim.keep_out)
+            check_valid_geometries(raw)
         geoms = to_work_geometries(raw, terrain)
     blocked = rasterize_keep_out(geoms, terrain) if geoms else None
+    kwargs: dict[str, Any] = {}
+    ch = request.channels
+    if ch is not None:
+        kwargs["channels"] = ch
     cost = MotionCost(
         terrain,
         model,
-        speed=speed,
-        yaw_rate=yaw_rate,
-        max_slope_deg=max_slope_deg,
-        max_cross_slope_deg=max_cross_slope_deg,
+        speed=request.robot.speed,
+        yaw_rate=request.robot.yaw_rate,
+        max_slope_deg=lim.max_slope_deg,
+        max_cross_slope_deg=lim.max_cross_slope_deg,
         blocked=blocked,
+        **kwargs,
     )
+    cost.request = request
     return cost, geoms

@@ -21,57 +21,8 @@ from ompl import base as ob
 
 __all__ = ["EnergyObjective", "bind_kernel", "make_space", "set_state", "path_states", "path_cost"]
 
-_BOUND: dict = {}
-
-
-def bind_kernel(cost):
-    """A fast Python-callable ``f(x0, y0, th0, x1, y1, th1) -> J`` for ``cost``.
-
-    ``MotionCost.kernel`` takes the terrain/limit data tuple as a seventh argument;
-    passing that tuple from Python unboxes three arrays per call (about 14 us). Here the
-    tuple sits in a numba jitclass, which unboxes as one pointer, and a small njit
-    wrapper calls the kernel with it (about 1 us per call, most of it numba's dispatch).
-    A cost whose ``kernel`` takes six arguments is returned as is.
-    """
-    data = getattr(cost, "data", None)
-    kernel = cost.kernel
-    if data is None:
-        return kernel
-    import numba
-    from numba.experimental import jitclass
-
-    dtype = numba.typeof(data)
-    key = (id(kernel), str(dtype))
-    if key not in _BOUND:
-        holder_cls = jitclass([("data", dtype)])(_make_holder_class())
-
-        @numba.njit
-        def call(x0, y0, th0, x1, y1, th1, holder):
-            return kernel(x0, y0, th0, x1, y1, th1, holder.data)
-
-        _BOUND[key] = (holder_cls, call, kernel)  # keep kernel alive: the key uses its id
-    holder_cls, call, _ = _BOUND[key]
-    cache = getattr(cost, "_planning_bound", None)
-    if cache is not None and cache[0] is data:
-        return cache[1]
-    holder = holder_cls(data)
-
-    def f(x0, y0, th0, x1, y1, th1):
-        return call(x0, y0, th0, x1, y1, th1, holder)
-
-    try:
-        cost._planning_bound = (data, f)
-    except AttributeError:
-        pass
-    return f
-
-
-def _make_holder_class():
-    class _Holder:
-        def __init__(self, data):
-            self.data = data
-
-    return _Holder
+# re-exported: they live in binding.py so that planning without OMPL does not import it
+from energy_planner.planning.binding import bind_kernel, path_cost  # noqa: E402
 
 
 class EnergyObjective(ob.OptimizationObjective):
@@ -95,14 +46,18 @@ class EnergyObjective(ob.OptimizationObjective):
         self._kernel = bind_kernel(cost)
         self._lb = max(float(getattr(cost, "min_cost_per_metre", 0.0)), 0.0)
         self.calls = 0
+        self.cache: dict | None = None  # filled by a pricing motion validator, if any
         self.setCostThreshold(ob.Cost(0.0))
 
     def motionCost(self, s1, s2):  # noqa: N802 - OMPL's name
         """Energy of the straight SE(2) motion from ``s1`` to ``s2`` (J)."""
         self.calls += 1
-        return ob.Cost(
-            self._kernel(s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
-        )
+        key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
+        if self.cache is not None:
+            e = self.cache.get(key)
+            if e is not None:
+                return ob.Cost(e)
+        return ob.Cost(self._kernel(*key))
 
     def stateCost(self, s):  # noqa: N802 - OMPL's name
         """Energy is spent by motions only: zero per state."""
@@ -142,9 +97,3 @@ def set_state(state, x: float, y: float, yaw: float) -> None:
 def path_states(path) -> np.ndarray:
     """Copy an OMPL ``PathGeometric``'s states to an ``(n, 3)`` float array at once."""
     return np.array([(s.getX(), s.getY(), s.getYaw()) for s in path.getStates()], dtype=float)
-
-
-def path_cost(kernel, states: np.ndarray) -> float:
-    """Sum of the kernel over consecutive poses (the objective's cost of the path)."""
-    s = np.asarray(states, float)
-    return float(sum(kernel(*s[k], *s[k + 1]) for k in range(len(s) - 1)) if len(s) > 1 else 0.0)

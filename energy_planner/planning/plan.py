@@ -1,19 +1,24 @@
-"""Energy-minimal SE(2) planning: one entry point over the lattice and OMPL planners.
+"""Energy-minimal SE(2) planning: one entry point over the search, the lattice and OMPL.
 
 Planners (``planner=``):
 
+``"auto"`` (default)
+    The full-resolution search (``"search"``), then a short cost-aware local refinement
+    of its path (:func:`energy_planner.planning.refine.refine_path`: pose perturbation and
+    shortcuts priced by the same kernel) that removes the discretisation of headings and
+    move directions. Chosen by measurement (``benchmarks/bench_planning_scale.py``,
+    ``docs/planning.md``).
+``"search"``
+    A* over (x, y, heading) at the DEM's cell size with edges priced on demand and an
+    admissible heuristic (:mod:`energy_planner.planning.search`); its energy is at most
+    ``eps`` times the optimum on its motion primitives.
 ``"lattice"``
-    Dijkstra on the (x, y, heading) lattice (:mod:`energy_planner.planning.lattice`):
-    deterministic, resolution-optimal.
+    Dijkstra on the fully built lattice (:mod:`energy_planner.planning.lattice`), the
+    reference: same primitives as ``search``, coarsened by default on large maps.
 ``"rrtstar"``, ``"sorrtstar"``, ``"bitstar"``
     OMPL's asymptotically optimal planners with the energy objective
     (:class:`~energy_planner.planning.objective.EnergyObjective`), run for ``time``
     seconds (or ``iterations`` planner iterations, which is reproducible).
-``"auto"`` (default)
-    The lattice solution refined by OMPL's cost-aware path simplifier
-    (``perturbPath`` + ``partialShortcutPath``): the lattice gives the right homotopy
-    class and the simplifier removes the lattice's heading/direction discretisation.
-    Chosen by measurement (``benchmarks/bench_planning.py``, ``docs/planning.md``).
 
 The returned energy is always :func:`energy_planner.energy.path_energy` of the returned
 poses with the same :class:`~energy_planner.energy.MotionCost`, so a planned path and a
@@ -28,14 +33,15 @@ import sys
 import time as _time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from energy_planner.errors import PlanningConfigError, PlanningError
+from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
-__all__ = ["PlanResult", "plan", "PLANNERS"]
+__all__ = ["PlanResult", "plan", "PLANNERS", "DEFAULT_EPS"]
 
 _OMPL_PLANNERS = {"rrtstar": "RRTstar", "sorrtstar": "SORRTstar", "bitstar": "BITstar"}
 
@@ -78,31 +84,38 @@ class PlanResult:
         return self.energy_j / 3600.0
 
     def waypoints(self, terrain) -> list[dict[str, float]]:
-        """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``."""
+        """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.
+
+        ``yaw_deg`` is CCW from the +x axis of the DEM's CRS at the vertex (local east on
+        a geographic DEM), the frame of :mod:`energy_planner.geojson`.
+        """
+        from energy_planner.geojson import yaw_from_work
+
         x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
         x, y = np.atleast_1d(x), np.atleast_1d(y)
-        yaw = np.degrees(self.states[:, 2])
+        yaw = np.atleast_1d(
+            yaw_from_work(terrain, self.states[:, 0], self.states[:, 1], self.states[:, 2])
+        )
         return [
             {"x": float(a), "y": float(b), "yaw_deg": float(c)}
-            for a, b, c in zip(x, y, yaw, strict=True)
+            for a, b, c in zip(x, y, np.degrees(yaw), strict=True)
         ]
 
     def to_geojson(self, terrain) -> dict[str, Any]:
-        """A GeoJSON Feature: LineString in the DEM's CRS, ``yaw_deg`` per vertex."""
-        wps = self.waypoints(terrain)
-        crs = getattr(terrain, "source_crs", None)
-        return {
-            "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": [[w["x"], w["y"]] for w in wps]},
-            "properties": {
-                "yaw_deg": [w["yaw_deg"] for w in wps],
+        """The project's GeoJSON path document (:mod:`energy_planner.geojson`) in the DEM's
+        CRS, with ``yaw_deg`` per vertex and the energy, distance, duration, planner."""
+        from energy_planner.geojson import path_document_from_work
+
+        return path_document_from_work(
+            terrain,
+            self.states,
+            properties={
                 "energy_j": self.energy_j,
                 "distance_m": self.distance_m,
                 "duration_s": self.duration_s,
                 "planner": self.planner,
-                "crs": None if crs is None else str(crs),
             },
-        }
+        )
 
     def to_dict(self, terrain) -> dict[str, Any]:
         """JSON-ready summary (waypoints in the DEM's CRS)."""
@@ -182,7 +195,15 @@ def _seed_ompl(seed: int) -> None:
     ou.setLogLevel(ou.LOG_WARN)
 
 
+#: Remove the overhead that keeps OMPL's planners far from the search (measured in
+#: ``benchmarks/bench_planning.py``): r-disc instead of k-nearest rewiring for RRT* and
+#: SORRT*, and a motion validator that prices each motion once and hands its cost to the
+#: objective. ``False`` gives OMPL's defaults (for the before/after benchmark).
+OMPL_TUNING = True
+
+
 def _ompl_setup(cost, terrain):
+    from ompl import base as ob
     from ompl import geometric as og
 
     from energy_planner.planning.objective import EnergyObjective, make_space
@@ -202,6 +223,28 @@ def _ompl_setup(cost, terrain):
 
     ss.setStateValidityChecker(valid)
     si.setStateValidityCheckingResolution(0.02)
+    if OMPL_TUNING:
+        cache: dict = {}
+
+        class PricingValidator(ob.MotionValidator):
+            """A motion is valid iff its energy is finite; the energy is kept for
+            ``motionCost`` (which RRT* asks for right after checking the motion)."""
+
+            def __init__(self) -> None:
+                super().__init__(si)
+
+            def checkMotion(self, s1, s2, *rest):  # noqa: N802 - OMPL's name
+                key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
+                e = kernel(*key)
+                if len(cache) > 200_000:
+                    cache.clear()
+                cache[key] = e
+                return math.isfinite(e)
+
+        validator = PricingValidator()
+        si.setMotionValidator(validator)
+        obj.cache = cache
+        obj._validator = validator  # keep it alive as long as the objective
     ss.setOptimizationObjective(obj)
     return space, ss, si, obj
 
@@ -263,6 +306,8 @@ def _run_ompl(
         set_state(g, goal[0], goal[1], goal[2])
         ss.setGoalState(g, 0.5 * res)
     pl = getattr(og, _OMPL_PLANNERS[planner])(si)
+    if OMPL_TUNING and hasattr(pl, "setKNearest"):
+        pl.setKNearest(False)  # r-disc: k-nearest prices ~64 ln(n) motions per sample
     if hasattr(pl, "setRange"):
         # short motions: the kernel integrates at sub-cell steps, so a long motion is
         # slow to price; 8 cells keeps RRT*'s rewiring affordable
@@ -326,23 +371,68 @@ def _with_exact_goal(states: np.ndarray, goal) -> np.ndarray:
     return states
 
 
+#: Heuristic weight of the ``auto`` and ``search`` planners: the search's energy is at
+#: most this factor above the optimum on its primitives; measured well below it
+#: (``benchmarks/bench_planning_scale.py``, ``docs/planning.md``).
+DEFAULT_EPS = 1.05
+
+
+def _request_for(request, cost):
+    """The request to plan with: ``request``, or one derived from ``cost``; never both
+    disagreeing (``cost=`` used to override speed and limits silently)."""
+    from energy_planner.request import Request
+
+    if cost is None:
+        return request if request is not None else Request()
+    derived = getattr(cost, "request", None)
+    if derived is None:
+        derived = Request.make(
+            speed=cost.speed,
+            yaw_rate=cost.yaw_rate,
+            max_slope_deg=cost.max_slope_deg,
+            max_cross_slope_deg=cost.max_cross_slope_deg,
+        )
+    if request is None:
+        return derived
+    pairs = [
+        ("speed", request.robot.speed, cost.speed),
+        ("yaw_rate", request.robot.yaw_rate, cost.yaw_rate),
+        ("max_slope_deg", request.limits.max_slope_deg, cost.max_slope_deg),
+        ("max_cross_slope_deg", request.limits.max_cross_slope_deg, cost.max_cross_slope_deg),
+    ]
+    for name, want, have in pairs:
+        same = want == have or (want is not None and have is not None and math.isclose(want, have))
+        if not same:
+            raise PlanningConfigError(
+                f"cost= was built with {name}={have!r} but request= asks for {name}={want!r}; "
+                "give one of them (build the cost with make_motion_cost(terrain, model, request))",
+                param=name,
+                value=want,
+                expected=f"{name}={have!r} as in cost=",
+            )
+    if request.limits.keep_out is not None and cost.data[1].size == 0:
+        raise PlanningConfigError(
+            "request= has keep-out areas but cost= was built without them; build the cost "
+            "with make_motion_cost(terrain, model, request)",
+            param="keep_out",
+        )
+    return request
+
+
 def plan(
     terrain,
     model,
     start: Sequence[float],
     goal: Sequence[float],
-    planner: str = "auto",
-    time: float = 5.0,
-    seed: int = 0,
-    max_slope_deg: float | None = None,
-    max_cross_slope_deg: float | None = None,
-    keep_out: Any = None,
-    progress: bool = True,
+    request=None,
     *,
-    speed: float = 0.3,
-    yaw_rate: float = 0.5,
+    planner: str = "auto",
+    time: float | None = None,
+    seed: int = 0,
+    progress: bool = True,
     step: float | None = None,
     n_headings: int = 16,
+    eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[float, float], None] | None = None,
     cost: Any = None,
@@ -358,36 +448,40 @@ def plan(
     start, goal : sequence of float
         ``(x, y)`` or ``(x, y, yaw)`` in the working CRS (metres; yaw radians CCW from
         +x). Without a yaw the planner chooses the best one.
+    request : Request, optional
+        Robot speed and yaw rate, slope limits, keep-out areas, channels
+        (:class:`energy_planner.request.Request`; default ``Request()``).
     planner : str
         One of :data:`energy_planner.planning.PLANNERS`.
-    time : float
-        Planning budget in seconds (the lattice ignores it; ``auto`` spends what is
-        left after the lattice - at least a fifth of ``time`` - on refinement, stopping
-        early once it converges).
+    time : float, optional
+        Budget in seconds for the whole planning after kernel compilation: the search's
+        relaxed problem and search (a :class:`PlanningError` when they do not finish in
+        time) and then ``auto``'s refinement, which gets what is left. Default: no limit
+        for the search, and up to a quarter of the search's time (at least 1 s, at most
+        10 s) for the refinement. OMPL planners run for ``time`` (default 10 s). The
+        ``lattice`` planner is not interruptible: ``time`` does not bound it.
     seed : int
-        Random seed (OMPL's RNG); the same seed gives the same path for ``lattice``,
-        ``auto`` when it converges within ``time``, and OMPL planners run with
-        ``iterations``.
-    max_slope_deg, max_cross_slope_deg : float, optional
-        Limits (slope of the ground; slope across the body).
-    keep_out : path or sequence of shapely geometries, optional
-        Keep-out polygons in the DEM's CRS (GeoJSON file or geometries).
+        Random seed (refinement, OMPL's RNG).
     progress : bool
-        Show a tqdm bar with the best energy on stderr (only on a terminal).
-    speed, yaw_rate : float
-        Nominal walking speed (m/s) and turning rate (rad/s).
+        Progress bars on stderr (only on a terminal).
     step : float, optional
-        Lattice spacing for ``lattice``/``auto`` (default
-        :func:`energy_planner.planning.lattice.default_step`).
+        Position spacing for ``auto``/``search`` (default: the DEM's cell size) and
+        ``lattice`` (default :func:`energy_planner.planning.lattice.default_step`).
     n_headings : int
-        Lattice headings.
+        Headings per position.
+    eps : float, optional
+        Heuristic weight of ``auto``/``search`` (default :data:`DEFAULT_EPS`; 1 = optimal
+        on the primitives, slower).
     iterations : int, optional
         For OMPL planners: stop after this many planner iterations instead of ``time``
         (reproducible). For ``auto``: the maximum number of refinement rounds.
     callback : callable, optional
         ``callback(seconds, best_energy_j)`` whenever the best energy is reported.
     cost : MotionCost, optional
-        Use this motion cost (limits included) instead of building one.
+        A prepared motion cost (from
+        :func:`~energy_planner.planning.limits.make_motion_cost`). Its speed and limits
+        define the request; a ``request`` that disagrees raises
+        :class:`PlanningConfigError`.
 
     Returns
     -------
@@ -396,46 +490,115 @@ def plan(
     Raises
     ------
     InvalidStateError
-        If the start or goal breaks a limit (message names the limit and the value).
+        If the start or goal breaks a limit (fields ``endpoint``, ``limit``, ``value``).
+    PlanningConfigError
+        Unknown planner, bad parameters, invalid keep-out polygons, ``cost`` and
+        ``request`` disagreeing.
     PlanningError
-        Unknown planner, or no feasible path.
+        No feasible path, or the budget ran out (field ``limit="time"``).
     """
     from energy_planner.energy import path_energy
-    from energy_planner.planning.lattice import lattice_plan
-    from energy_planner.planning.limits import check_endpoint, keep_out_violation, make_motion_cost
+    from energy_planner.planning.limits import (
+        check_endpoint,
+        check_valid_geometries,
+        keep_out_violation,
+        load_keep_out,
+        make_motion_cost,
+        to_work_geometries,
+    )
 
     if planner not in PLANNERS:
         raise PlanningConfigError(
-            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNERS)}"
+            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNERS)}",
+            value=planner,
+            param="planner",
         )
-    if not (time > 0):
-        raise PlanningConfigError(f"time must be > 0 seconds, got {time!r}")
+    if time is not None and not (time > 0):
+        raise PlanningConfigError(
+            f"time must be > 0 seconds, got {time!r}", value=time, param="time"
+        )
+    eps = DEFAULT_EPS if eps is None else float(eps)
     start_p = _pose(start, "start")
     goal_p = _pose(goal, "goal")
+    request = _request_for(request, cost)
     geoms: list[Any] = []
     if cost is None:
-        cost, geoms = make_motion_cost(
-            terrain,
-            model,
-            speed=speed,
-            yaw_rate=yaw_rate,
-            max_slope_deg=max_slope_deg,
-            max_cross_slope_deg=max_cross_slope_deg,
-            keep_out=keep_out,
-        )
+        cost, geoms = make_motion_cost(terrain, model, request)
+    elif request.limits.keep_out is not None:
+        ko = request.limits.keep_out
+        raw = load_keep_out(ko) if isinstance(ko, str | Path) else list(ko)
+        if not isinstance(ko, str | Path):
+            check_valid_geometries(raw)
+        geoms = to_work_geometries(raw, terrain)
     check_endpoint(cost, terrain, "start", start_p, geoms)
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
+
+    if math.hypot(goal_p[0] - start_p[0], goal_p[1] - start_p[1]) <= 1e-9:
+        return _stay(terrain, model, cost, start_p, goal_p, planner, seed)
 
     # compile the kernels before the clock starts (numba compiles on first call)
     cost.compile()
     warm = _cost_fn(cost)
     warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
-    one = np.array([start_p[0]])
-    cost.batch(one, np.array([start_p[1]]), np.zeros(1), one, np.array([start_p[1]]), np.zeros(1))
-    prog = _Progress(time, progress, callback, f"plan ({planner})")
-    info: dict[str, Any] = {}
+    if planner in ("auto", "search"):
+        from energy_planner.planning.search import search_module
+
+        search_module(cost)
+    budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
+    prog = _Progress(
+        budget if math.isfinite(budget) else 0.0,
+        progress and planner in _OMPL_PLANNERS,
+        callback,
+        f"plan ({planner})",
+    )
+    info: dict[str, Any] = {"request": request}
     try:
-        if planner in ("lattice", "auto"):
+        if planner in ("auto", "search"):
+            from energy_planner.planning.search import search_plan
+
+            sr = search_plan(
+                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, eps=eps,
+                progress=progress, time_budget=budget,
+            )  # fmt: skip
+            info["search"] = {
+                "step_m": sr.step,
+                "headings": sr.n_headings,
+                "eps": sr.eps,
+                "states": sr.states_total,
+                "expanded": sr.expanded,
+                "edges_priced": sr.priced,
+                "heuristic_s": sr.heuristic_s,
+                "search_s": sr.search_s,
+                "h_start_j": sr.info["h_start"],
+            }
+            states = sr.states
+            prog.report(sr.cost)
+            if planner == "auto":
+                from energy_planner.planning.refine import refine_path
+
+                spent = prog.elapsed()
+                left = (
+                    budget - spent
+                    if math.isfinite(budget)
+                    else min(max(1.0, 0.25 * spent), 10.0)
+                )
+                if left > 0.05:
+                    states, rinfo = refine_path(
+                        cost,
+                        states,
+                        budget=left,
+                        seed=seed,
+                        spacing=max(sr.step, float(abs(terrain.grid[2]))),
+                        free_start_yaw=start_p[2] is None,
+                        free_goal_yaw=goal_p[2] is None,
+                        max_rounds=iterations,
+                        report=prog.report,
+                    )
+                    info["refine"] = rinfo
+        elif planner == "lattice":
+            from energy_planner.planning.binding import path_cost
+            from energy_planner.planning.lattice import lattice_plan
+
             lat = lattice_plan(cost, terrain, start_p, goal_p, step=step, n_headings=n_headings)
             info["lattice"] = {
                 "step_m": lat.step,
@@ -446,28 +609,12 @@ def plan(
                 "search_s": lat.search_s,
             }
             states = lat.states
-            from energy_planner.planning.objective import path_cost
-
             prog.report(path_cost(_cost_fn(cost), states))
-            if planner == "auto":
-                from energy_planner.planning.refine import refine_path
-
-                states, rinfo = refine_path(
-                    cost,
-                    states,
-                    budget=max(time - prog.elapsed(), 0.2 * time),
-                    seed=seed,
-                    spacing=max(lat.step, float(abs(terrain.grid[2]))),
-                    free_start_yaw=start_p[2] is None,
-                    free_goal_yaw=goal_p[2] is None,
-                    max_rounds=iterations,
-                    report=prog.report,
-                )
-                info["refine"] = rinfo
         else:
-            states, info = _run_ompl(
-                cost, terrain, start_p, goal_p, planner, time, seed, iterations, prog
+            states, oinfo = _run_ompl(
+                cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog
             )
+            info.update(oinfo)
     finally:
         prog.close()
     from energy_planner.planning.lattice import simplify_states
@@ -475,10 +622,10 @@ def plan(
     states = simplify_states(states)
     bad = keep_out_violation(states, geoms)
     if bad is not None:
-        raise PlanningError(f"the {planner} path enters a keep-out area: {bad}")
+        raise PlanningError(f"the {planner} path enters a keep-out area: {bad}", limit="keep_out")
     try:
         pe = path_energy(terrain, model, states[:, :2], yaw=states[:, 2], cost=cost)
-    except Exception as exc:
+    except EnergyPlannerError as exc:
         raise PlanningError(f"the {planner} path is not feasible: {exc}") from exc
     return PlanResult(
         states=states,
@@ -493,7 +640,40 @@ def plan(
     )
 
 
+def _stay(terrain, model, cost, start_p, goal_p, planner: str, seed: int) -> PlanResult:
+    """Start and goal at the same position: stay, turning in place if both yaws are given."""
+    from energy_planner.angles import wrap
+    from energy_planner.energy import path_energy
+
+    x, y = start_p[0], start_p[1]
+    if start_p[2] is not None:
+        y0 = float(wrap(start_p[2]))
+    elif goal_p[2] is not None:
+        y0 = float(wrap(goal_p[2]))
+    else:
+        y0 = next(
+            (float(wrap(th)) for th in np.linspace(-np.pi, np.pi, 16, endpoint=False)
+             if math.isfinite(cost(x, y, th, x, y, th))),
+            0.0,
+        )  # fmt: skip
+    y1 = float(wrap(goal_p[2])) if goal_p[2] is not None else y0
+    states = np.array([[x, y, y0], [x, y, y1]])
+    try:
+        pe = path_energy(terrain, model, states[:, :2], yaw=states[:, 2], cost=cost)
+    except EnergyPlannerError as exc:
+        raise PlanningError(f"turning in place at the start is not feasible: {exc}") from exc
+    return PlanResult(
+        states=states,
+        energy_j=pe.energy_j,
+        distance_m=pe.distance_m,
+        duration_s=pe.duration_s,
+        planner=planner,
+        seed=seed,
+        info={"trivial": "start and goal are the same position"},
+    )
+
+
 def _cost_fn(cost):
-    from energy_planner.planning.objective import bind_kernel
+    from energy_planner.planning.binding import bind_kernel
 
     return bind_kernel(cost)

@@ -30,11 +30,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from energy_planner.angles import wrap
+
 __all__ = ["densify", "refine_path"]
-
-
-def _wrap(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
 def densify(states: np.ndarray, spacing: float) -> np.ndarray:
@@ -55,7 +53,7 @@ def densify(states: np.ndarray, spacing: float) -> np.ndarray:
         seg = np.column_stack(
             [a[0] + f[:, 0] * (b[0] - a[0]), a[1] + f[:, 0] * (b[1] - a[1]), a[2] + f[:, 0] * dth]
         )
-        seg[:, 2] = _wrap(seg[:, 2])
+        seg[:, 2] = wrap(seg[:, 2])
         seg[-1] = b
         out.append(seg)
     return np.vstack(out)
@@ -206,7 +204,7 @@ def refine_path(
             interior = ((idx > 0) & (idx < n - 1))[:, None]
             cand[:, :, 0] += np.where(interior, noise[:, :, 0] * sig_xy, 0.0)
             cand[:, :, 1] += np.where(interior, noise[:, :, 1] * sig_xy, 0.0)
-            cand[:, :, 2] = _wrap(cand[:, :, 2] + noise[:, :, 2] * sig_yaw)
+            cand[:, :, 2] = wrap(cand[:, :, 2] + noise[:, :, 2] * sig_yaw)
             c = cand.reshape(-1, 3)
             has_prev = np.repeat(idx > 0, k)
             has_next = np.repeat(idx < n - 1, k)

@@ -13,15 +13,19 @@ rasterio is imported only by :func:`load_dem` and CRS handling.
 
 from energy_planner.terrain.dem import Terrain, load_dem, utm_epsg
 from energy_planner.terrain.horn import aspect, gradient, hillshade, slope
+from energy_planner.terrain.memory import MEMORY_CAP_ENV, check_memory, memory_cap
 from energy_planner.terrain.sample import TerrainSample
 
 __all__ = [
     "Terrain",
     "TerrainSample",
+    "MEMORY_CAP_ENV",
     "aspect",
+    "check_memory",
     "gradient",
     "hillshade",
     "load_dem",
+    "memory_cap",
     "slope",
     "utm_epsg",
 ]

@@ -36,12 +36,13 @@ from typing import Any
 import numpy as np
 from affine import Affine
 
-from energy_planner.errors import DEMError, DEMIOError
+from energy_planner.errors import CoordinateError, DEMError, DEMIOError
 from energy_planner.terrain.horn import (
     aspect_from_gradient,
     horn_gradient,
     pixel_steps,
 )
+from energy_planner.terrain.memory import BYTES_PER_CELL, check_memory
 from energy_planner.terrain.sample import TerrainSample, bilinear
 
 __all__ = ["Terrain", "load_dem", "utm_epsg"]
@@ -369,30 +370,133 @@ class Terrain:
         ok = np.isfinite(s.dzdx) & np.isfinite(s.dzdy)
         return bool(ok) if np.ndim(ok) == 0 else ok
 
-    def _convert(self, src: Any, dst: Any, x: Any, y: Any) -> tuple[Any, Any]:
+    @property
+    def source_bounds(self) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)`` of the DEM in its own CRS (``source_crs``)."""
+        t = self.source_transform
+        rows, cols = self.source_shape
+        xs = (t.c, t.c + cols * t.a)
+        ys = (t.f, t.f + rows * t.e)
+        return (float(min(xs)), float(min(ys)), float(max(xs)), float(max(ys)))
+
+    def _coordinate_error(self, crs: Any, x: np.ndarray, y: np.ndarray, bad: np.ndarray,
+                          source: bool, cause: str) -> CoordinateError:
+        """A :class:`CoordinateError` naming the first bad point, the CRS and the bounds."""
+        i = int(np.flatnonzero(bad.ravel())[0])
+        px, py = float(x.ravel()[i]), float(y.ravel()[i])
+        n_bad, n = int(bad.sum()), int(bad.size)
+        geographic = bool(getattr(crs, "is_geographic", False))
+        bounds = self.source_bounds if source else self.bounds
+        dem = f"the DEM {str(self.path)!r}" if self.path else "the DEM"
+        if geographic:
+            expected = "longitude,latitude in degrees"
+            cover = (f"lon {bounds[0]:.6g} .. {bounds[2]:.6g}, "
+                     f"lat {bounds[1]:.6g} .. {bounds[3]:.6g}")
+            hint = (f"give longitude,latitude, e.g. {0.5 * (bounds[0] + bounds[2]):.5f},"
+                    f"{0.5 * (bounds[1] + bounds[3]):.5f} (the map's centre)")
+            if source:
+                wx0, wy0, wx1, wy1 = self.bounds
+                if wx0 <= px <= wx1 and wy0 <= py <= wy1:  # metres on the working grid
+                    lon, lat = self.from_work(px, py)
+                    hint = (f"({px:.10g}, {py:.10g}) lies on the DEM's working grid "
+                            f"{self.crs} at lon {lon:.7f}, lat {lat:.7f}: give that")
+            kind = "geographic"
+        else:
+            expected = f"x,y in {crs}"
+            cover = f"x {bounds[0]:.6g} .. {bounds[2]:.6g}, y {bounds[1]:.6g} .. {bounds[3]:.6g}"
+            hint = f"give coordinates in {crs}, inside the DEM's bounds"
+            kind = "projected"
+        where = f" (point {i}; {n_bad} of {n} points fail)" if n > 1 else ""
+        return CoordinateError(
+            f"coordinates ({px:.10g}, {py:.10g}){where} {cause}: {dem} is in {crs} "
+            f"({kind}), covering {cover}; expected {expected}. Hint: {hint}",
+            value=(px, py), crs=str(crs), bounds=bounds, expected=expected, hint=hint,
+            path=self.path, index=i, n_bad=n_bad,
+        )
+
+    def _convert(self, src: Any, dst: Any, x: Any, y: Any, source: bool) -> tuple[Any, Any]:
         xa = np.asarray(x, dtype=np.float64)
         ya = np.asarray(y, dtype=np.float64)
         xa, ya = np.broadcast_arrays(xa, ya)
         if src is None or dst is None or src == dst:
-            xo, yo = xa.copy(), ya.copy()
-        else:
-            from rasterio.warp import transform
+            return _scalar_or_array(xa.copy()), _scalar_or_array(ya.copy())
+        from rasterio.errors import CRSError
+        from rasterio.warp import transform
 
+        bad = ~(np.isfinite(xa) & np.isfinite(ya))
+        if getattr(src, "is_geographic", False):
+            with np.errstate(invalid="ignore"):
+                bad |= (np.abs(ya) > 90.0) | (np.abs(xa) > 360.0)
+        if bad.any():
+            raise self._coordinate_error(
+                src, xa, ya, bad, source,
+                "are not a longitude, latitude (beyond +-90 deg latitude or +-360 deg "
+                "longitude)" if getattr(src, "is_geographic", False) else "are not finite")
+        try:
             xs, ys = transform(src, dst, xa.ravel().tolist(), ya.ravel().tolist())
-            xo = np.asarray(xs, dtype=np.float64).reshape(xa.shape)
-            yo = np.asarray(ys, dtype=np.float64).reshape(ya.shape)
+        except (CRSError, Exception) as exc:  # noqa: BLE001 - PROJ errors (CPLE_*Error)
+            # find the points PROJ rejects, one by one, to name the first
+            bad = np.zeros(xa.size, dtype=bool)
+            for k, (a, b) in enumerate(zip(xa.ravel(), ya.ravel(), strict=True)):
+                try:
+                    transform(src, dst, [float(a)], [float(b)])
+                except Exception:  # noqa: BLE001
+                    bad[k] = True
+            if not bad.any():
+                bad[0] = True
+            raise self._coordinate_error(src, xa, ya, bad.reshape(xa.shape), source,
+                                         f"cannot be converted to {dst} (PROJ: {exc})") from exc
+        xo = np.asarray(xs, dtype=np.float64).reshape(xa.shape)
+        yo = np.asarray(ys, dtype=np.float64).reshape(ya.shape)
+        bad = ~(np.isfinite(xo) & np.isfinite(yo))
+        if bad.any():
+            raise self._coordinate_error(src, xa, ya, bad, source,
+                                         f"have no finite position in {dst}")
         return _scalar_or_array(xo), _scalar_or_array(yo)
 
     def to_work(self, x: Any, y: Any) -> tuple[Any, Any]:
         """Convert coordinates from the DEM's own CRS (``source_crs``) to the working CRS.
 
         For a geographic DEM, ``x`` is longitude and ``y`` latitude in degrees.
+
+        Parameters
+        ----------
+        x, y : float or array_like
+            Coordinates in ``source_crs``, broadcast together.
+
+        Returns
+        -------
+        x, y : float or ndarray
+            In the working CRS (floats for scalar input).
+
+        Raises
+        ------
+        CoordinateError
+            A point cannot be converted (e.g. metric coordinates on a longitude/latitude
+            DEM): the message and the fields name the point, the DEM's CRS and its bounds
+            in that CRS. Points that convert but lie off the map are not an error here.
         """
-        return self._convert(self.source_crs, self.crs, x, y)
+        return self._convert(self.source_crs, self.crs, x, y, True)
 
     def from_work(self, x: Any, y: Any) -> tuple[Any, Any]:
-        """Convert coordinates from the working CRS to the DEM's own CRS."""
-        return self._convert(self.crs, self.source_crs, x, y)
+        """Convert coordinates from the working CRS to the DEM's own CRS.
+
+        Parameters
+        ----------
+        x, y : float or array_like
+            Coordinates in the working CRS.
+
+        Returns
+        -------
+        x, y : float or ndarray
+            In ``source_crs``.
+
+        Raises
+        ------
+        CoordinateError
+            A point cannot be converted.
+        """
+        return self._convert(self.crs, self.source_crs, x, y, False)
 
 
 # ---------------------------------------------------------------------- loading
@@ -433,6 +537,8 @@ def _warp_to_utm(
     dst_transform, width, height = calculate_default_transform(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
+    check_memory((height, width), BYTES_PER_CELL, f"DEM {str(path)!r} reprojected to {dst_crs}",
+                 path=path)
     # Point-bilinear resampling at exactly projected cell centres (PROJ for every centre).
     # Not GDAL's warper: when the target pixel is larger than the source pixel along an
     # axis (here 26 m over 21.9 m), its bilinear kernel is widened and a 10 deg plane came
@@ -490,7 +596,11 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
         The file does not exist or rasterio cannot open it.
     DEMError
         Several bands and no ``band``; ``band`` out of range; every cell nodata; a
-        rotated geotransform.
+        rotated geotransform. Fields: ``path``, ``value``, ``param="band"`` when the
+        remedy is another band.
+    RasterTooLargeError
+        The DEM's decoded size would pass the memory cap
+        (:func:`~energy_planner.terrain.memory.memory_cap`); raised before reading.
 
     Examples
     --------
@@ -505,36 +615,54 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
     p = Path(path)
     name = str(path)
     if not name.startswith("/vsi") and "://" not in name and not p.exists():
-        raise DEMIOError(f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)")
+        raise DEMIOError(f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
+                         path=name, expected="a raster file (GeoTIFF, ...)")
     try:
         src = rasterio.open(name)
     except RasterioIOError as exc:
-        raise DEMIOError(f"cannot open DEM {name!r} as a raster: {exc}") from exc
+        raise DEMIOError(f"cannot open DEM {name!r} as a raster: {exc}", path=name,
+                         expected="a raster file (GeoTIFF, ...)") from exc
     with src:
         n = src.count
         if band is None:
             if n != 1:
                 raise DEMError(
                     f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
-                    f"--band N (CLI), N in 1..{n}"
+                    f"--band N (CLI), N in 1..{n}", path=name, value=n, param="band",
+                    expected=f"a band in 1..{n}", hint="--band N"
                 )
             band = 1
         if not (isinstance(band, int | np.integer) and 1 <= band <= n):
-            raise DEMError(f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}")
+            raise DEMError(f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
+                           path=name, value=band, param="band", expected=f"a band in 1..{n}",
+                           hint="--band N")
+        check_memory((src.height, src.width), BYTES_PER_CELL, f"DEM {name!r}", path=name)
+        nodata = src.nodatavals[int(band) - 1]
         data = src.read(int(band), masked=True)
         z = np.ma.filled(data.astype(np.float64), np.nan)
+        del data
         transform = src.transform
         crs = src.crs
         if transform.b != 0 or transform.d != 0:
             raise DEMError(
                 f"DEM {name!r} has a rotated/sheared geotransform {tuple(transform)[:6]}; "
-                "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif"
+                "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif",
+                path=name, value=tuple(transform)[:6], expected="a north-up geotransform"
             )
         if src.gcps[0] and transform == Affine.identity():
-            raise DEMError(f"DEM {name!r} is georeferenced by GCPs only; warp it first")
+            raise DEMError(f"DEM {name!r} is georeferenced by GCPs only; warp it first",
+                           path=name, expected="a geotransform")
     z[~np.isfinite(z)] = np.nan
     if not np.isfinite(z).any():
-        raise DEMError(f"DEM {name!r} band {band} has no valid cell (all nodata/NaN)")
+        what = "NaN" if nodata is None or np.isnan(nodata) else f"nodata ({nodata:g}) or NaN"
+        if n == 1:
+            raise DEMError(f"DEM {name!r} has no valid cell: every cell is {what}; expected "
+                           "elevations (check the file's nodata value)", path=name,
+                           value=nodata, expected="at least one valid elevation")
+        raise DEMError(f"band {band} of DEM {name!r} has no valid cell: every cell is {what}; "
+                       f"the file has {n} bands (choose another with --band N)", path=name,
+                       value=band, param="band", expected="a band with valid elevations",
+                       hint="--band N")
     source_shape = z.shape
     if crs is None:
         warnings.warn(
@@ -549,7 +677,8 @@ def load_dem(path: str | Path, band: int | None = None) -> Terrain:
     else:
         work_z, work_t, work_crs = _warp_to_utm(z, transform, crs, p)
         if not np.isfinite(work_z).any():
-            raise DEMError(f"DEM {name!r} has no valid cell after reprojection to {work_crs}")
+            raise DEMError(f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
+                           path=name, crs=str(work_crs), expected="valid cells")
     return Terrain(
         work_z,
         work_t,

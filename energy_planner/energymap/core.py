@@ -1,0 +1,674 @@
+"""Heading-dependent energy maps: J per metre of walking each way from every cell.
+
+For every valid cell and each of ``N`` map headings ``h_j = 360 j / N`` degrees
+(counter-clockwise from the working grid's +x axis, east, as every yaw in the project),
+the map holds the energy per metre of **map** (horizontal) distance of walking in that
+direction through the cell centre, under the same model physics as ``energy`` and the
+planners: the Horn gradient of the cell, the robot on the ground at its nominal speed
+along the surface, its body frame tilted with the slope (see
+:mod:`energy_planner.energy.kernels`; the numba function ``map_costs`` of the same
+compiled module as the motion kernels, sharing their slope and body-velocity code and the
+model's ``power``). It is the limit of ``energy`` of a short straight motion through the
+cell centre divided by its map length.
+
+Bands (float32, NaN = nodata; ``inf`` = above a slope limit):
+
+- ``along_<deg>`` (N bands): walking forward, facing along the heading;
+- ``best_<deg>`` (N bands): the cheapest of walking forward, backward, or sideways (either
+  side) along the heading;
+- ``cheapest`` / ``dearest``: the least and greatest ``best`` over the headings;
+- ``anisotropy``: ``dearest / cheapest`` (``inf`` where the cheapest costs nothing);
+- ``cheapest_heading_deg``: the heading of ``cheapest``, degrees CCW from east in [0, 360).
+
+Three ways to compute it, with equal results:
+
+- **terrain**: from a loaded :class:`~energy_planner.terrain.Terrain` (a geographic DEM
+  is loaded and warped to UTM this way, and the map is on that working grid);
+- **windowed**: a DEM in a metric CRS is read by windows of rows (plus one halo row each
+  side for Horn's 3 x 3 stencil) and the map written by windows, so memory stays bounded
+  by the window, whatever the DEM's size;
+- **dask**: the DEM as a chunked dask array (rioxarray), the gradient by
+  ``map_overlap`` with depth 1 reusing :func:`energy_planner.terrain.horn.horn_gradient`,
+  the costs by ``map_blocks``; runs on the threads of one machine or on a
+  ``dask.distributed`` cluster (the workers rebuild the kernel from the model's source
+  text, loaded from the numba disk cache). Used with ``use_dask=True`` or when the DEM's
+  decoded size passes the memory cap (``ENERGY_PLANNER_MEMORY_CAP``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import DEMError, DEMIOError, EnergyMapError
+
+__all__ = [
+    "EnergyMapError",
+    "EnergyMapResult",
+    "band_names",
+    "energy_map",
+    "memory_cap",
+    "parse_size",
+    "SUMMARY_BANDS",
+]
+
+#: The bands after the 2 N heading bands, in order.
+SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
+_ENV_CAP = "ENERGY_PLANNER_MEMORY_CAP"
+_UNITS = {"": 1, "B": 1, "K": 1e3, "M": 1e6, "G": 1e9, "T": 1e12}
+
+
+def parse_size(text: str | int | float) -> int:
+    """Bytes from ``"512MB"``, ``"2GiB"``, ``"1.5G"`` or a plain number.
+
+    Examples
+    --------
+    >>> parse_size("2GiB"), parse_size("512MB"), parse_size("1e6"), parse_size(10)
+    (2147483648, 512000000, 1000000, 10)
+    """
+    if isinstance(text, int | float) and not isinstance(text, bool):
+        value = float(text)
+        if not (math.isfinite(value) and value > 0):
+            raise EnergyMapError(f"memory cap {text!r} must be a positive size", value=text)
+        return int(value)
+    m = re.fullmatch(r"\s*([0-9.eE+]+)\s*([kKmMgGtT]?)(i?)[bB]?\s*", str(text))
+    try:
+        value = float(m.group(1)) if m else math.nan
+    except ValueError:
+        value = math.nan
+    if not m or not (math.isfinite(value) and value > 0):
+        raise EnergyMapError(
+            f"memory cap {text!r} is not a size; expected bytes or a number with a unit, "
+            "e.g. 512MB, 2GiB, 1.5G",
+            value=text,
+            expected="a size such as 512MB or 2GiB",
+        )
+    unit = m.group(2).upper()
+    factor = 1024 ** "BKMGT".index(unit) if m.group(3) else _UNITS[unit]
+    return int(value * factor)
+
+
+def memory_cap() -> int | None:
+    """The memory cap in bytes from ``ENERGY_PLANNER_MEMORY_CAP`` (None if unset).
+
+    The terrain module's helper is used when it exists (one parser for the project).
+    """
+    try:
+        from energy_planner.terrain import memory_cap as terrain_cap  # type: ignore[attr-defined]
+    except ImportError:
+        terrain_cap = None
+    if terrain_cap is not None:
+        return terrain_cap()
+    text = os.environ.get(_ENV_CAP, "").strip()
+    return parse_size(text) if text else None
+
+
+def band_names(headings: int) -> list[str]:
+    """Names of the bands of a map with ``headings`` headings, in order.
+
+    Examples
+    --------
+    >>> band_names(4)  # doctest: +NORMALIZE_WHITESPACE
+    ['along_000', 'along_090', 'along_180', 'along_270', 'best_000', 'best_090',
+     'best_180', 'best_270', 'cheapest', 'dearest', 'anisotropy', 'cheapest_heading_deg']
+    """
+    degs = [_deg_label(360.0 * j / headings) for j in range(headings)]
+    return [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
+
+
+def _deg_label(d: float) -> str:
+    return f"{d:05.1f}".rstrip("0").rstrip(".").zfill(3) if d != int(d) else f"{int(d):03d}"
+
+
+def band_descriptions(headings: int) -> list[tuple[str, str, str]]:
+    """``(name, description, units)`` of every band."""
+    out = []
+    for j in range(headings):
+        d = 360.0 * j / headings
+        out.append(
+            (f"along_{_deg_label(d)}", f"J per map metre walking forward, facing heading "
+             f"{d:g} deg (CCW from east)", "J/m")
+        )  # fmt: skip
+    for j in range(headings):
+        d = 360.0 * j / headings
+        out.append(
+            (f"best_{_deg_label(d)}", f"J per map metre moving along heading {d:g} deg (CCW "
+             "from east), cheapest of forward, backward and sideways", "J/m")
+        )  # fmt: skip
+    out += [
+        ("cheapest", "least best_* over the headings, J per map metre", "J/m"),
+        ("dearest", "greatest best_* over the headings, J per map metre", "J/m"),
+        ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
+        ("cheapest_heading_deg", "heading of the cheapest, degrees CCW from east", "deg"),
+    ]
+    return out
+
+
+@dataclass
+class EnergyMapResult:
+    """What :func:`energy_map` wrote and how.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The GeoTIFF.
+    shape : (int, int)
+        Rows, columns.
+    crs : str or None
+        CRS of the map's grid.
+    transform : tuple
+        Its geotransform (6 numbers, rasterio order).
+    headings : int
+        Number of map headings.
+    bands : list of dict
+        ``name``, ``description``, ``units`` of every band, in order.
+    mode : str
+        ``"terrain"``, ``"windowed"`` or ``"dask"``.
+    seconds : float
+        Wall time of the computation and writing.
+    stats : dict
+        Summary of the cheapest cost and the anisotropy over valid cells.
+    notes : list of str
+        Decisions a reader should know (grid, ignored options).
+    """
+
+    path: Path
+    shape: tuple[int, int]
+    crs: str | None
+    transform: tuple[float, ...]
+    headings: int
+    bands: list[dict[str, str]]
+    mode: str
+    seconds: float
+    stats: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    channels: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "path": str(self.path),
+            "shape": list(self.shape),
+            "crs": self.crs,
+            "transform": list(self.transform),
+            "headings": self.headings,
+            "heading_convention": "degrees counter-clockwise from the grid's +x axis (east)",
+            "bands": self.bands,
+            "mode": self.mode,
+            "seconds": self.seconds,
+            "stats": self.stats,
+            "channels": self.channels,
+            "notes": self.notes,
+        }
+
+
+# ---------------------------------------------------------------------------- computing
+def heading_angles(headings: int) -> np.ndarray:
+    """The map headings in radians, ``2 pi j / N``."""
+    return 2.0 * np.pi * np.arange(headings) / headings
+
+
+def block_bands(
+    map_kernel: Any,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    chan: np.ndarray,
+    headings: int,
+    speed: float,
+    tmax: float,
+    smax: float,
+) -> np.ndarray:
+    """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
+
+    ``gx``, ``gy``: the cells' Horn gradient; ``chan``: raster channels on the same cells
+    ``(k, rows, cols)``; ``map_kernel``: ``map_costs`` of the model's compiled kernels.
+    """
+    gx = np.ascontiguousarray(gx, dtype=np.float64)
+    gy = np.ascontiguousarray(gy, dtype=np.float64)
+    rows, cols = gx.shape
+    if chan.shape[0] == 0:
+        chan = np.zeros((0, rows, cols))
+    chan = np.ascontiguousarray(chan, dtype=np.float64)
+    ang = heading_angles(headings)
+    out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
+    along = out[:headings]
+    best = out[headings : 2 * headings]
+    map_kernel(gx, gy, chan, ang, float(speed), float(tmax), float(smax), along, best)
+    valid = ~np.isnan(best[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cheapest = best.min(axis=0)
+        dearest = best.max(axis=0)
+        arg = np.argmin(np.where(np.isnan(best), np.inf, best), axis=0)
+        out[2 * headings] = cheapest
+        out[2 * headings + 1] = dearest
+        out[2 * headings + 2] = np.where(valid, dearest / cheapest, np.nan)
+    heading_deg = np.degrees(ang)[arg]
+    out[2 * headings + 3] = np.where(valid & np.isfinite(cheapest), heading_deg, np.nan)
+    return out
+
+
+@dataclass
+class _Setup:
+    """Model, kernel and settings shared by every way of computing a map."""
+
+    source: str
+    map_kernel: Any
+    channels: Any
+    headings: int
+    speed: float
+    tmax: float
+    smax: float
+    notes: list[str]
+
+
+def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
+    from energy_planner.energy.channels import Channels
+    from energy_planner.energy.kernels import make_kernels
+    from energy_planner.errors import ModelError
+    from energy_planner.model import EnergyModel
+    from energy_planner.request import Request
+
+    if not (isinstance(headings, int | np.integer) and 1 <= headings <= 360):
+        raise EnergyMapError(
+            f"headings {headings!r} must be a whole number in 1..360",
+            value=headings,
+            expected="1..360",
+        )
+    model = EnergyModel.default() if model is None else model
+    if not model.is_fitted:
+        raise ModelError("the energy model has no coefficients: fit or load a fitted model")
+    request = Request() if request is None else request
+    if channels is None:
+        channels = request.channels if request.channels is not None else Channels()
+    elif request.channels is not None:
+        raise EnergyMapError("give channels either in the request or as channels=, not both")
+    notes = []
+    lim = request.limits
+    if getattr(lim, "keep_out", None) is not None:
+        notes.append("keep-out areas do not change an energy map (it prices every cell); ignored")
+    tmax = math.inf if lim.max_slope_deg is None else math.tan(math.radians(lim.max_slope_deg))
+    smax = (
+        math.inf
+        if lim.max_cross_slope_deg is None
+        else math.sin(math.radians(lim.max_cross_slope_deg))
+    )
+    source = model.kernel_source(channels.constants, channels.kernel_layout())
+    unused = channels.unused(model)
+    if unused:
+        notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
+    return _Setup(
+        source=source,
+        map_kernel=make_kernels(source)[4],
+        channels=channels,
+        headings=int(headings),
+        speed=float(request.robot.speed),
+        tmax=tmax,
+        smax=smax,
+        notes=notes,
+    )
+
+
+def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> dict[str, Any]:
+    rows, cols = shape
+    prof: dict[str, Any] = dict(
+        driver="GTiff", width=cols, height=rows, count=nbands, dtype="float32", crs=crs,
+        transform=transform, nodata=float("nan"), compress="deflate", predictor=3,
+        BIGTIFF="IF_SAFER", interleave="band",
+    )  # fmt: skip
+    if rows >= 256 and cols >= 256:
+        prof.update(tiled=True, blockxsize=256, blockysize=256)
+    return prof
+
+
+def _write_metadata(dst: Any, setup: _Setup, model_name: str, mode: str) -> None:
+    """Band descriptions and units, dataset tags."""
+    for i, (name, desc, units) in enumerate(band_descriptions(setup.headings), start=1):
+        dst.set_band_description(i, name)
+        dst.update_tags(i, name=name, description=desc, units=units)
+    dst.update_tags(
+        software="energy_planner energy-map",
+        model=model_name,
+        headings=str(setup.headings),
+        heading_convention="degrees counter-clockwise from the grid's +x axis (east)",
+        cost="J per metre of map (horizontal) distance through the cell centre",
+        speed_m_s=repr(setup.speed),
+        max_slope_tan=repr(setup.tmax),
+        max_cross_slope_sin=repr(setup.smax),
+        channels=repr(setup.channels.describe()),
+        mode=mode,
+        nodata="NaN; inf = above a slope limit",
+    )
+
+
+def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
+    """Rows per window so one window's arrays take about ``target_bytes``."""
+    per_row = cols * (nbands * 4 + (nbands + 8) * 8)
+    rows = int(max(1, target_bytes // max(per_row, 1)))
+    return max(16, (rows // 16) * 16)
+
+
+def _progress(iterable: Any, total: int, desc: str, progress: bool | None) -> Any:
+    if progress is False or total < 2:
+        return iterable
+    from tqdm import tqdm
+
+    return tqdm(iterable, total=total, desc=desc, unit="block", disable=None, leave=False)
+
+
+def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, progress) -> None:
+    """From a loaded Terrain: windows of rows of its gradient, written as they come."""
+    import rasterio
+    from rasterio.windows import Window
+
+    rows, cols = terrain.shape
+    nb = 2 * setup.headings + 4
+    chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
+    step = _rows_per_block(cols, nb)
+    starts = range(0, rows, step)
+    with rasterio.open(out, "w", **_profile(terrain.shape, terrain.transform, terrain.crs, nb)) as dst:
+        for r0 in _progress(starts, len(starts), "energy map", progress):
+            r1 = min(rows, r0 + step)
+            chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
+            bands = block_bands(
+                setup.map_kernel, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan,
+                setup.headings, setup.speed, setup.tmax, setup.smax,
+            )  # fmt: skip
+            dst.write(bands, window=Window(0, r0, cols, r1 - r0))
+        _write_metadata(dst, setup, model_name, "terrain")
+
+
+@dataclass
+class _DemInfo:
+    path: str
+    band: int
+    shape: tuple[int, int]
+    transform: Any
+    crs: Any
+    metric_north_up: bool
+    nbytes: int
+
+
+def _dem_info(dem: str | Path, band: int | None) -> _DemInfo:
+    import rasterio
+    from rasterio.errors import RasterioIOError
+
+    from energy_planner.terrain.dem import _is_metric
+
+    name = str(dem)
+    if not name.startswith("/vsi") and "://" not in name and not Path(name).exists():
+        raise DEMIOError(
+            f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)", path=name
+        )
+    try:
+        src = rasterio.open(name)
+    except RasterioIOError as exc:
+        raise DEMIOError(f"cannot open DEM {name!r} as a raster: {exc}", path=name) from exc
+    with src:
+        n = src.count
+        if band is None:
+            if n != 1:
+                raise DEMError(
+                    f"DEM {name!r} has {n} bands; choose one with --band N, N in 1..{n}",
+                    path=name,
+                    param="band",
+                )
+            band = 1
+        if not 1 <= band <= n:
+            raise DEMError(
+                f"band {band} is out of range for DEM {name!r}: valid bands 1..{n}",
+                path=name,
+                param="band",
+                value=band,
+            )
+        t = src.transform
+        north_up = t.b == 0 and t.d == 0 and t.a > 0 and t.e < 0
+        return _DemInfo(
+            path=name,
+            band=int(band),
+            shape=(src.height, src.width),
+            transform=t,
+            crs=src.crs,
+            metric_north_up=north_up and _is_metric(src.crs),
+            nbytes=8 * src.height * src.width,
+        )
+
+
+def _read_rows(src: Any, band: int, r0: int, r1: int) -> np.ndarray:
+    """Rows ``r0 .. r1`` (may pass the edges: NaN there) as float64 with NaN nodata."""
+    from rasterio.windows import Window
+
+    rows, cols = src.height, src.width
+    z = np.full((r1 - r0, cols), np.nan)
+    a, b = max(r0, 0), min(r1, rows)
+    if b > a:
+        data = src.read(band, window=Window(0, a, cols, b - a), masked=True)
+        z[a - r0 : b - r0] = np.ma.filled(data.astype(np.float64), np.nan)
+    z[~np.isfinite(z)] = np.nan
+    return z
+
+
+def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress):
+    """A metric north-up DEM read by windows of rows with a one-row halo."""
+    import rasterio
+    from rasterio.windows import Window
+    from rasterio.windows import transform as window_transform
+
+    from energy_planner.terrain.horn import horn_gradient
+
+    rows, cols = info.shape
+    t = info.transform
+    nb = 2 * setup.headings + 4
+    step = _rows_per_block(cols, nb)
+    starts = range(0, rows, step)
+    any_valid = False
+    with (
+        rasterio.open(info.path) as src,
+        rasterio.open(out, "w", **_profile(info.shape, t, info.crs, nb)) as dst,
+    ):
+        for r0 in _progress(starts, len(starts), "energy map", progress):
+            r1 = min(rows, r0 + step)
+            z = _read_rows(src, info.band, r0 - 1, r1 + 1)
+            any_valid = any_valid or bool(np.isfinite(z).any())
+            gx, gy = horn_gradient(z, t.a, t.e)
+            gx, gy = gx[1:-1], gy[1:-1]
+            if setup.channels.rasters:
+                wt = window_transform(Window(0, r0, cols, r1 - r0), t)
+                ch = setup.channels.bind_grid((r1 - r0, cols), wt, info.crs, quiet=True)
+                chan, _ = ch.stack((r1 - r0, cols))
+            else:
+                chan = np.zeros((0, 1, 1))
+            bands = block_bands(
+                setup.map_kernel, gx, gy, chan, setup.headings, setup.speed, setup.tmax,
+                setup.smax,
+            )  # fmt: skip
+            dst.write(bands, window=Window(0, r0, cols, r1 - r0))
+        _write_metadata(dst, setup, model_name, "windowed")
+    if not any_valid:
+        out.unlink(missing_ok=True)
+        raise DEMError(
+            f"DEM {info.path!r} band {info.band} has no valid cell (all nodata/NaN)",
+            path=info.path,
+        )
+
+
+# ---------------------------------------------------------------------------- the API
+def energy_map(
+    dem: Any,
+    out: str | Path,
+    model: Any = None,
+    *,
+    headings: int = 16,
+    request: Any = None,
+    channels: Any = None,
+    band: int | None = None,
+    use_dask: bool | None = None,
+    memory_cap_bytes: int | None = None,
+    chunk: int = 512,
+    progress: bool | None = None,
+) -> EnergyMapResult:
+    """Write the heading-dependent energy map of a DEM to a GeoTIFF.
+
+    Parameters
+    ----------
+    dem : str, pathlib.Path or Terrain
+        A DEM file, or a loaded terrain (computed on its working grid).
+    out : str or pathlib.Path
+        Output GeoTIFF (overwritten).
+    model : EnergyModel, optional
+        A fitted model (default: the bundled B1-class model).
+    headings : int
+        Number of map headings ``N`` (``360 / N`` degrees apart, the first east).
+    request : energy_planner.request.Request, optional
+        Robot speed (the yaw rate does not matter: straight motions), slope limits
+        (cells above ``max_slope_deg`` cost ``inf``; headings whose gait holds the body
+        across a steeper cross-slope than ``max_cross_slope_deg`` cost ``inf``) and
+        channels.
+    channels : Channels, optional
+        Extra channels the model reads (or ``request.channels``).
+    band : int, optional
+        Band of a multi-band DEM file.
+    use_dask : bool, optional
+        True: the dask path; False: never; None (default): dask when the DEM's decoded
+        size (float64) passes the memory cap.
+    memory_cap_bytes : int, optional
+        The cap (default ``ENERGY_PLANNER_MEMORY_CAP``, else none).
+    chunk : int
+        Chunk side of the dask path, cells.
+    progress : bool, optional
+        Progress bars on stderr (None: when stderr is a terminal).
+
+    Returns
+    -------
+    EnergyMapResult
+
+    Raises
+    ------
+    DEMIOError, DEMError
+        Unreadable DEM, bad band, no valid cell.
+    EnergyMapError
+        Bad headings, or the out-of-core path asked for a DEM that is not in a metric CRS.
+    MissingChannelError
+        The model reads a channel nobody gave.
+    """
+    from energy_planner.terrain import Terrain
+
+    t0 = time.perf_counter()
+    out = Path(out)
+    setup = _setup(model, request, channels, headings)
+    model_name = _model_name(model)
+    notes = list(setup.notes)
+    if isinstance(dem, Terrain):
+        if use_dask:
+            raise EnergyMapError(
+                "the dask path reads a DEM file by chunks; give the file, not a Terrain"
+            )
+        _compute_terrain(dem, out, setup, model_name, progress)
+        mode = "terrain"
+    else:
+        info = _dem_info(dem, band)
+        cap = memory_cap_bytes if memory_cap_bytes is not None else memory_cap()
+        too_big = cap is not None and info.nbytes > cap
+        if use_dask or (use_dask is None and too_big):
+            if not info.metric_north_up:
+                raise EnergyMapError(
+                    f"DEM {info.path!r} ({info.shape[0]} x {info.shape[1]} cells, "
+                    f"{info.nbytes / 1e9:.2f} GB decoded) needs the out-of-core path, which "
+                    f"reads a north-up DEM in a metric CRS (this one is in {info.crs}); warp "
+                    "it first, e.g. gdalwarp -t_srs EPSG:326ZZ (its UTM zone) in.tif out.tif",
+                    path=info.path,
+                    crs=str(info.crs),
+                    hint="gdalwarp -t_srs <a metric CRS>",
+                )
+            if too_big and not use_dask:
+                notes.append(
+                    f"the DEM decodes to {info.nbytes / 1e6:.0f} MB, above the memory cap "
+                    f"{cap / 1e6:.0f} MB: computed out of core with dask"
+                )
+            from energy_planner.energymap.outofcore import compute_dask
+
+            compute_dask(info, out, setup, model_name, chunk=chunk, progress=progress)
+            mode = "dask"
+        elif info.metric_north_up:
+            _compute_windowed(info, out, setup, model_name, progress)
+            mode = "windowed"
+        else:
+            from energy_planner.terrain import load_dem
+
+            terrain = load_dem(info.path, band=info.band)
+            if terrain.crs != info.crs:
+                notes.append(
+                    f"the DEM's CRS {info.crs} is not metric: the map is on the working grid "
+                    f"{terrain.crs} (as every energy_planner computation), headings from its "
+                    "grid east"
+                )
+            _compute_terrain(terrain, out, setup, model_name, progress)
+            mode = "terrain"
+    seconds = time.perf_counter() - t0
+    return _result(out, setup, mode, seconds, notes)
+
+
+def _model_name(model: Any) -> str:
+    if model is None:
+        return "bundled default (B1-class)"
+    meta = getattr(model, "metadata", {}) or {}
+    return str(meta.get("source") or meta.get("name") or ", ".join(model.term_names))
+
+
+def _result(out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str]):
+    import rasterio
+
+    with rasterio.open(out) as src:
+        shape = (src.height, src.width)
+        crs = None if src.crs is None else str(src.crs)
+        transform = tuple(src.transform)[:6]
+        stats = _stats(src, setup.headings)
+    bands = [
+        {"name": n, "description": d, "units": u} for n, d, u in band_descriptions(setup.headings)
+    ]
+    if stats.get("valid_cells", 1) == 0:
+        warnings.warn(f"energy map {out} has no valid cell", UserWarning, stacklevel=3)
+    return EnergyMapResult(
+        path=out, shape=shape, crs=crs, transform=transform, headings=setup.headings,
+        bands=bands, mode=mode, seconds=seconds, stats=stats, notes=notes,
+        channels=setup.channels.describe(),
+    )  # fmt: skip
+
+
+def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
+    """Quantiles of the cheapest cost and the anisotropy (from a decimated read)."""
+    from rasterio.enums import Resampling
+
+    scale = max(1, math.ceil(max(src.height, src.width) / max_side))
+    shape = (max(1, src.height // scale), max(1, src.width // scale))
+    i_cheap = 2 * headings + 1
+    cheap = src.read(i_cheap, out_shape=shape, resampling=Resampling.nearest).astype(float)
+    aniso = src.read(i_cheap + 2, out_shape=shape, resampling=Resampling.nearest).astype(float)
+    ok = np.isfinite(cheap)
+    out: dict[str, Any] = {"sampled_every": scale, "valid_cells": int(ok.sum())}
+    if ok.any():
+        q = np.percentile(cheap[ok], [0, 10, 50, 90, 100])
+        out["cheapest_j_per_m"] = dict(zip(("min", "p10", "median", "p90", "max"), q.tolist()))
+        a = aniso[np.isfinite(aniso)]
+        if a.size:
+            qa = np.percentile(a, [50, 90, 100])
+            out["anisotropy"] = dict(zip(("median", "p90", "max"), qa.tolist()))
+    return out
+
+
+def sample_band(path: str | Path, name: str, rows: Sequence[int], cols: Sequence[int]):
+    """Values of band ``name`` at cells ``(rows[i], cols[i])`` of a written map."""
+    import rasterio
+
+    with rasterio.open(path) as src:
+        idx = list(src.descriptions).index(name) + 1
+        data = src.read(idx)
+    return data[np.asarray(rows), np.asarray(cols)]

@@ -1,0 +1,129 @@
+"""The out-of-core energy map: dask arrays over a DEM read by chunks.
+
+The DEM is opened lazily with rioxarray (``chunks``), the Horn gradient is computed per
+chunk with :func:`dask.array.map_overlap` (depth 1: one halo cell for the 3 x 3 stencil,
+NaN beyond the map's edge, so the map's border is NaN exactly as in the in-memory
+:func:`energy_planner.terrain.horn.horn_gradient`), and every band per chunk with
+:func:`dask.array.map_blocks` calling the same :func:`~energy_planner.energymap.core.block_bands`
+as the other paths. The graph runs on whatever dask scheduler is active: the threads of
+this machine, or a ``dask.distributed`` cluster when a ``Client`` exists (its workers
+rebuild the compiled kernel from the model's source text, loaded from the numba disk
+cache, and write their chunks to the GeoTIFF under a cluster-wide lock).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.energymap.core import _DemInfo, _Setup, _write_metadata, block_bands
+
+__all__ = ["compute_dask", "gradient_dask"]
+
+
+def _horn_component(z: np.ndarray, step_x: float, step_y: float, which: int) -> np.ndarray:
+    from energy_planner.terrain.horn import horn_gradient
+
+    z = np.where(np.isfinite(z), z, np.nan)
+    return horn_gradient(z, step_x, step_y)[which]
+
+
+def gradient_dask(z: Any, step_x: float, step_y: float) -> tuple[Any, Any]:
+    """Horn gradient ``(dz/dx, dz/dy)`` of a 2-D dask array (NaN border and nodata)."""
+    kw = dict(depth=1, boundary=np.nan, dtype=np.float64, step_x=step_x, step_y=step_y)
+    gx = z.map_overlap(_horn_component, which=0, **kw)
+    gy = z.map_overlap(_horn_component, which=1, **kw)
+    return gx, gy
+
+
+def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, transform, crs,
+                 block_info=None):  # fmt: skip
+    from affine import Affine
+
+    from energy_planner.energy.kernels import make_kernels
+
+    kernel = make_kernels(source)[4]
+    rows, cols = gx.shape
+    if channels.rasters:
+        (r0, _), (c0, _) = block_info[0]["array-location"]
+        t = transform * Affine.translation(c0, r0)
+        chan, _ = channels.bind_grid((rows, cols), t, crs, quiet=True).stack((rows, cols))
+    else:
+        chan = np.zeros((0, 1, 1))
+    return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax)
+
+
+def _client() -> Any:
+    try:
+        from distributed import get_client
+
+        return get_client()
+    except (ImportError, ValueError):
+        return None
+
+
+def compute_dask(
+    info: _DemInfo,
+    out: Path,
+    setup: _Setup,
+    model_name: str,
+    *,
+    chunk: int = 512,
+    progress: bool | None = None,
+) -> None:
+    """Compute and write the map of ``info``'s DEM with dask (see the module docstring)."""
+    import rioxarray
+    import xarray as xr
+
+    from energy_planner.energymap.core import _profile
+
+    chunk = max(64, int(chunk))
+    arr = rioxarray.open_rasterio(
+        info.path, chunks={"band": 1, "y": chunk, "x": chunk}, masked=True, lock=False
+    )
+    z = arr.sel(band=info.band).data.astype(np.float64)
+    t = info.transform
+    gx, gy = gradient_dask(z, t.a, t.e)
+    nb = 2 * setup.headings + 4
+    import dask.array as da
+
+    bands = da.map_blocks(
+        _bands_block, gx, gy, new_axis=0, chunks=((nb,), *gx.chunks), dtype=np.float32,
+        source=setup.source, headings=setup.headings, speed=setup.speed, tmax=setup.tmax,
+        smax=setup.smax, channels=setup.channels, transform=t, crs=info.crs,
+    )  # fmt: skip
+    xarr = xr.DataArray(
+        bands,
+        dims=("band", "y", "x"),
+        coords={"band": np.arange(1, nb + 1), "y": arr.y.values, "x": arr.x.values},
+    )
+    xarr = xarr.rio.write_crs(info.crs).rio.write_transform(t)
+    xarr = xarr.rio.write_nodata(np.nan, encoded=False)
+    client = _client()
+    if client is not None:
+        from distributed import Lock
+
+        lock: Any = Lock("energy_planner-energy-map-write", client=client)
+    else:
+        lock = threading.Lock()
+    prof = _profile(info.shape, t, info.crs, nb)
+    opts = {k: prof[k] for k in ("compress", "predictor", "BIGTIFF") if k in prof}
+    if prof.get("tiled"):
+        opts.update(tiled=True, blockxsize=256, blockysize=256)
+    show = progress if progress is not None else sys.stderr.isatty()
+    if show and client is None:
+        from dask.diagnostics import ProgressBar
+
+        with ProgressBar(out=sys.stderr):
+            xarr.rio.to_raster(out, lock=lock, dtype="float32", **opts)
+    else:
+        xarr.rio.to_raster(out, lock=lock, dtype="float32", **opts)
+    import rasterio
+
+    with rasterio.open(out, "r+") as dst:
+        _write_metadata(dst, setup, model_name, "dask")
+    del rioxarray  # imported for the .rio accessor

@@ -1,0 +1,159 @@
+"""The picture of an energy map: cheapest cost over a hillshade, arrows for the way to go.
+
+The colour is the cheapest heading's cost (J per map metre) laid over the DEM's hillshade;
+an arrow at regularly spaced cells points along the cheapest heading where the direction
+matters (anisotropy above a threshold), a dot where it does not. Large maps are read
+decimated (at most ``max_side`` pixels on the longer side), so the plot costs the same
+for a 4096 x 4096 map as for a small one.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["plot_energy_map"]
+
+
+def _decimated_grid(src: Any, max_side: int) -> tuple[tuple[int, int], Any]:
+    from affine import Affine
+
+    scale = max(1.0, max(src.height, src.width) / max_side)
+    shape = (max(1, round(src.height / scale)), max(1, round(src.width / scale)))
+    t = src.transform * Affine.scale(src.width / shape[1], src.height / shape[0])
+    return shape, t
+
+
+def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) -> np.ndarray | None:
+    """Hillshade of ``dem`` (path or Terrain) on the (decimated) map grid, or None."""
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+
+    from energy_planner.terrain.horn import hillshade
+
+    z = np.full(shape, np.nan)
+    if dem is None:
+        return None
+    if hasattr(dem, "elevation"):
+        src_arr, src_t, src_crs = dem.elevation, dem.transform, dem.crs
+        reproject(
+            source=src_arr, destination=z, src_transform=src_t, src_crs=src_crs or crs,
+            dst_transform=transform, dst_crs=crs or src_crs, src_nodata=np.nan,
+            dst_nodata=np.nan, resampling=Resampling.average,
+        )  # fmt: skip
+    else:
+        with rasterio.open(dem) as src:
+            reproject(
+                source=rasterio.band(src, 1), destination=z, src_transform=src.transform,
+                src_crs=src.crs or crs, src_nodata=src.nodata, dst_transform=transform,
+                dst_crs=crs or src.crs, dst_nodata=np.nan, resampling=Resampling.average,
+            )  # fmt: skip
+    if not np.isfinite(z).any():
+        return None
+    return hillshade(z, transform)
+
+
+def plot_energy_map(
+    map_path: str | Path,
+    png: str | Path,
+    dem: Any = None,
+    *,
+    arrows: int = 24,
+    anisotropy_min: float = 1.05,
+    max_side: int = 900,
+    title: str | None = None,
+) -> Path:
+    """Draw an energy map GeoTIFF (from :func:`energy_map`) to a PNG.
+
+    Parameters
+    ----------
+    map_path : str or pathlib.Path
+        The energy map.
+    png : str or pathlib.Path
+        Output image.
+    dem : str, pathlib.Path or Terrain, optional
+        The DEM, for the hillshade (resampled onto the map's grid).
+    arrows : int
+        Arrows along the longer side.
+    anisotropy_min : float
+        Arrows only where ``dearest / cheapest`` passes this (a dot elsewhere).
+    max_side : int
+        Pixels on the longer side the map is read at.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    pathlib.Path
+        ``png``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import rasterio
+    from rasterio.enums import Resampling
+
+    with rasterio.open(map_path) as src:
+        names = list(src.descriptions)
+        shape, t = _decimated_grid(src, max_side)
+        crs = src.crs
+
+        def band(name: str, how: Any) -> np.ndarray:
+            return src.read(names.index(name) + 1, out_shape=shape, resampling=how).astype(float)
+
+        cheap = band("cheapest", Resampling.average)
+        head = band("cheapest_heading_deg", Resampling.nearest)
+        aniso = band("anisotropy", Resampling.nearest)
+        headings = sum(n.startswith("best_") for n in names)
+    rows, cols = shape
+    left, top = t.c, t.f
+    right, bottom = left + cols * t.a, top + rows * t.e
+    extent = (left, right, bottom, top)
+    shade = _hillshade_on(dem, shape, t, crs)
+    aspect = rows / max(cols, 1)
+    fig, ax = plt.subplots(figsize=(8.5, max(4.0, 7.5 * aspect)), dpi=120)
+    if shade is not None:
+        ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1, interpolation="bilinear")
+    finite = cheap[np.isfinite(cheap)]
+    vmin, vmax = (np.percentile(finite, [2, 98]) if finite.size else (0.0, 1.0))
+    im = ax.imshow(
+        np.ma.masked_invalid(cheap), cmap="viridis", extent=extent, vmin=vmin, vmax=vmax,
+        alpha=0.6 if shade is not None else 1.0, interpolation="nearest",
+    )  # fmt: skip
+    cb = fig.colorbar(im, ax=ax, shrink=0.85)
+    cb.set_label("cheapest cost, J per map metre")
+    step = max(1, math.ceil(max(rows, cols) / arrows))
+    rr, cc = np.mgrid[step // 2 : rows : step, step // 2 : cols : step]
+    xs = left + (cc + 0.5) * t.a
+    ys = top + (rr + 0.5) * t.e
+    h = np.radians(head[rr, cc])
+    a = aniso[rr, cc]
+    ok = np.isfinite(h)
+    directed = ok & (a > anisotropy_min)
+    length = 0.8 * step * abs(t.a)
+    ax.quiver(
+        xs[directed], ys[directed], np.cos(h[directed]), np.sin(h[directed]),
+        angles="xy", scale_units="xy", scale=1.0 / length, pivot="middle", color="white",
+        edgecolor="black", linewidth=0.6, width=0.004,
+    )  # fmt: skip
+    flat = ok & ~directed
+    ax.plot(xs[flat], ys[flat], ".", color="white", markersize=2.5)
+    ax.set_xlim(left, right)
+    ax.set_ylim(bottom, top)
+    ax.set_xlabel(f"x, m ({crs})" if crs is not None else "x, m")
+    ax.set_ylabel("y, m")
+    ax.set_title(
+        title
+        or f"Energy map ({headings} headings): colour = cheapest way through each cell;\n"
+        f"arrows = cheapest direction where dearest/cheapest > {anisotropy_min:g}",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    png = Path(png)
+    fig.savefig(png)
+    plt.close(fig)
+    return png

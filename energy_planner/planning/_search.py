@@ -1,0 +1,368 @@
+"""Numba core of the full-resolution search (template, compiled once per energy model).
+
+:func:`energy_planner.planning.search.search_module` copies this file, replaces the
+kernel import below with the model's generated motion-kernel module (see
+:func:`energy_planner.energy.kernels.make_kernels`), writes it to the kernel cache and
+imports it, so that numba's on-disk cache keeps the compiled search between runs.
+Imported as it is, ``kernel`` is the template's level-ground placeholder model.
+
+States are ``s = p * H + h``: lattice position ``p = j * nx + i`` (x index ``i``, y index
+``j``) and heading index ``h``. Per state the search keeps ``g`` (float32, J) and a code
+(int8): -1 never reached; 0..15 reached by translation ``MOVES[code]`` at constant heading;
+16 by a turn from heading ``h - 1``; 17 by a turn from ``h + 1``; 18 a start state; +64
+once expanded (closed). The open list is a binary heap of (key, state) with lazy deletion,
+grown by the caller when full.
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from energy_planner.energy._motion import motion_full as kernel  # --- kernel import ---
+
+UNSEEN = -1
+TURN_FROM_PREV = 16
+TURN_FROM_NEXT = 17
+START = 18
+CLOSED = 64
+
+# chunk return codes
+RUNNING, FOUND, EXHAUSTED, HEAP_FULL = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def heap_push(keys, vals, n, key, val):
+    i = n[0]
+    if i >= keys.shape[0]:
+        return False
+    n[0] = i + 1
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[i] = keys[parent]
+        vals[i] = vals[parent]
+        i = parent
+    keys[i] = key
+    vals[i] = val
+    return True
+
+
+@numba.njit(cache=True)
+def heap_pop(keys, vals, n):
+    key = keys[0]
+    val = vals[0]
+    m = n[0] - 1
+    n[0] = m
+    if m > 0:
+        k = keys[m]
+        v = vals[m]
+        i = 0
+        while True:
+            c = 2 * i + 1
+            if c >= m:
+                break
+            if c + 1 < m and keys[c + 1] < keys[c]:
+                c += 1
+            if keys[c] >= k:
+                break
+            keys[i] = keys[c]
+            vals[i] = vals[c]
+            i = c
+        keys[i] = k
+        vals[i] = v
+    return key, val
+
+
+@numba.njit(cache=True)
+def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy):
+    """Lower bound of J per metre of translation ``m`` from (xa, ya) to (xb, yb).
+
+    Every kernel sample of the motion interpolates the gradient of DEM cells inside the
+    bounding box of the two endpoints' cell indices, so its gradient lies in the box of
+    those cells' gradients; ``table[m]`` holds the least J per metre over headings at each
+    gradient node (already minimised over neighbouring nodes), as a 2-D sparse table for
+    range minima (``table[m, a, b, i, j]`` = min over ``[i, i + 2^a) x [j, j + 2^b)``).
+    Returns inf when no cell of the box is valid or the box lies outside the table (every
+    sample above the limit).
+    """
+    nr, nc = grad.shape[0], grad.shape[1]
+    fa_c = (xa - gx0) / gdx
+    fb_c = (xb - gx0) / gdx
+    fa_r = (ya - gy0) / gdy
+    fb_r = (yb - gy0) / gdy
+    # (a sample within 1e-7 cells of a cell line gives the far cell a weight < 1e-7)
+    c0 = max(int(math.floor(min(fa_c, fb_c) + 1e-7)), 0)
+    c1 = min(int(math.ceil(max(fa_c, fb_c) - 1e-7)), nc - 1)
+    r0 = max(int(math.floor(min(fa_r, fb_r) + 1e-7)), 0)
+    r1 = min(int(math.ceil(max(fa_r, fb_r) - 1e-7)), nr - 1)
+    lox = np.inf
+    hix = -np.inf
+    loy = np.inf
+    hiy = -np.inf
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            a = grad[r, c, 0]
+            b = grad[r, c, 1]
+            if math.isfinite(a) and math.isfinite(b):
+                lox = min(lox, a)
+                hix = max(hix, a)
+                loy = min(loy, b)
+                hiy = max(hiy, b)
+    if not (lox <= hix):
+        return np.inf
+    K = table.shape[3]
+    i0 = int(math.floor((lox - t0x) / tdx))
+    i1 = int(math.ceil((hix - t0x) / tdx))
+    j0 = int(math.floor((loy - t0y) / tdy))
+    j1 = int(math.ceil((hiy - t0y) / tdy))
+    if i1 < 0 or j1 < 0 or i0 > K - 1 or j0 > K - 1:
+        return np.inf
+    i0 = max(i0, 0)
+    j0 = max(j0, 0)
+    i1 = min(i1, K - 1)
+    j1 = min(j1, K - 1)
+    # sparse table: table[m, a, b, i, j] = min over [i, i + 2^a) x [j, j + 2^b)
+    a = 0
+    while (2 << a) <= i1 - i0 + 1:
+        a += 1
+    b = 0
+    while (2 << b) <= j1 - j0 + 1:
+        b += 1
+    i2 = i1 + 1 - (1 << a)
+    j2 = j1 + 1 - (1 << b)
+    return min(
+        min(table[m, a, b, i0, j0], table[m, a, b, i2, j0]),
+        min(table[m, a, b, i0, j2], table[m, a, b, i2, j2]),
+    )
+
+
+@numba.njit(cache=True)
+def _sift_up(keys, vals, pos, i):
+    key = keys[i]
+    v = vals[i]
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[i] = keys[parent]
+        vals[i] = vals[parent]
+        pos[vals[i]] = i
+        i = parent
+    keys[i] = key
+    vals[i] = v
+    pos[v] = i
+
+
+@numba.njit(cache=True)
+def _pop_indexed(keys, vals, pos, n):
+    key = keys[0]
+    val = vals[0]
+    pos[val] = -2
+    m = n[0] - 1
+    n[0] = m
+    if m > 0:
+        k = keys[m]
+        v = vals[m]
+        i = 0
+        while True:
+            c = 2 * i + 1
+            if c >= m:
+                break
+            if c + 1 < m and keys[c + 1] < keys[c]:
+                c += 1
+            if keys[c] >= k:
+                break
+            keys[i] = keys[c]
+            vals[i] = vals[c]
+            pos[vals[i]] = i
+            i = c
+        keys[i] = k
+        vals[i] = v
+        pos[v] = i
+    return key, val
+
+
+@numba.njit(cache=True)
+def heuristic_chunk(
+    grad, geo, lat, moves, move_len, table, tgeo, h, pos, keys, vals, n, max_pops, margin,
+    stop_p, stop_factor, limit,
+):
+    """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
+
+    ``geo`` = (x0, y0, dx, dy) of the DEM grid; ``lat`` = (xs0, ys0, step, nx, ny);
+    ``tgeo`` = (t0x, t0y, tdx, tdy) of the table. ``h`` (float64, nx * ny) holds the
+    tentative costs-to-go (inf = not reached). The open list is an indexed heap
+    (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
+    never holds more than one entry per position. ``margin`` (< 1) scales every bound
+    down. When position ``stop_p`` is settled at key ``k``, ``limit[0]`` becomes
+    ``stop_factor * k`` and the search stops at the first key above it (the caller caps
+    ``h`` at ``limit[0]``: every position not settled by then is at least that far from
+    the goal). Returns (code, pops).
+    """
+    gx0, gy0, gdx, gdy = geo[0], geo[1], geo[2], geo[3]
+    xs0, ys0, step = lat[0], lat[1], lat[2]
+    nx = int(lat[3])
+    ny = int(lat[4])
+    t0x, t0y, tdx, tdy = tgeo[0], tgeo[1], tgeo[2], tgeo[3]
+    nm = moves.shape[0]
+    pops = 0
+    while n[0] > 0:
+        if pops >= max_pops:
+            return RUNNING, pops
+        if keys[0] > limit[0]:
+            n[0] = 0
+            return EXHAUSTED, pops
+        key, q = _pop_indexed(keys, vals, pos, n)
+        if q == stop_p:
+            limit[0] = stop_factor * key
+        pops += 1
+        jq, iq = divmod(q, nx)
+        xb = xs0 + iq * step
+        yb = ys0 + jq * step
+        for m in range(nm):
+            ip = iq - moves[m, 0]
+            jp = jq - moves[m, 1]
+            if ip < 0 or jp < 0 or ip >= nx or jp >= ny:
+                continue
+            p = jp * nx + ip
+            if pos[p] == -2:
+                continue
+            xa = xs0 + ip * step
+            ya = ys0 + jp * step
+            lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m,
+                            t0x, t0y, tdx, tdy)
+            nk = key + margin * move_len[m] * step * lb
+            if nk < h[p]:
+                h[p] = nk
+                i = pos[p]
+                if i < 0:
+                    i = n[0]
+                    n[0] = i + 1
+                keys[i] = nk
+                vals[i] = p
+                _sift_up(keys, vals, pos, i)
+    return EXHAUSTED, pops
+
+
+@numba.njit(cache=True)
+def astar_chunk(
+    data, lat, headings, moves, moves_of, h2d, eps, g, code, goal_p, goal_h, keys, vals, n,
+    max_pops, max_key, out,
+):
+    """Expand up to ``max_pops`` states of the (x, y, heading) search.
+
+    Edge costs are ``kernel`` of the motion (translation at constant heading to the
+    neighbour ``moves[m]`` for the ``m`` in ``moves_of[h]``, or a turn in place to the
+    next heading either side), priced when first needed. Keys are ``g + eps * h2d``.
+    ``goal_p`` < 0: no goal (expand everything with ``g <= max_key``). ``goal_h`` < 0:
+    any heading at the goal. On FOUND, ``out[0]`` is the goal state. Returns
+    (code, pops, edges priced).
+    """
+    xs0, ys0, step = lat[0], lat[1], lat[2]
+    nx = int(lat[3])
+    ny = int(lat[4])
+    H = headings.shape[0]
+    nmv = moves_of.shape[1]
+    pops = 0
+    priced = 0
+    buf = np.empty(32)
+    while n[0] > 0:
+        if pops >= max_pops:
+            return RUNNING, pops, priced
+        if n[0] + nmv + 2 > keys.shape[0]:
+            return HEAP_FULL, pops, priced
+        key, s = heap_pop(keys, vals, n)
+        c = code[s]
+        if c >= CLOSED:
+            continue
+        if key > max_key:
+            n[0] = 0
+            return EXHAUSTED, pops, priced
+        code[s] = c + CLOSED
+        pops += 1
+        p, hh = divmod(s, H)
+        if p == goal_p and (goal_h < 0 or hh == goal_h):
+            out[0] = s
+            return FOUND, pops, priced
+        j, i = divmod(p, nx)
+        x = xs0 + i * step
+        y = ys0 + j * step
+        th = headings[hh]
+        gs = g[s]
+        for k in range(nmv):
+            m = moves_of[hh, k]
+            if m < 0:
+                continue
+            i2 = i + moves[m, 0]
+            j2 = j + moves[m, 1]
+            if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
+                continue
+            q = j2 * nx + i2
+            t = q * H + hh
+            if code[t] >= CLOSED or not math.isfinite(h2d[q]):
+                continue
+            kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
+            e = buf[0]
+            priced += 1
+            if not math.isfinite(e):
+                continue
+            ng = gs + e
+            if ng < g[t]:
+                g[t] = ng
+                code[t] = m
+                heap_push(keys, vals, n, ng + eps * h2d[q], t)
+        for d in (-1, 1):
+            h2 = (hh + d) % H
+            t = p * H + h2
+            if code[t] >= CLOSED:
+                continue
+            kernel(x, y, th, x, y, headings[h2], -1.0, data, buf)
+            e = buf[0]
+            priced += 1
+            if not math.isfinite(e):
+                continue
+            ng = gs + e
+            if ng < g[t]:
+                g[t] = ng
+                code[t] = TURN_FROM_PREV if d == 1 else TURN_FROM_NEXT
+                heap_push(keys, vals, n, ng + eps * h2d[p], t)
+    return EXHAUSTED, pops, priced
+
+
+@numba.njit(cache=True)
+def trace(code, moves, nx, H, s):
+    """States from a start state to ``s`` following the codes."""
+    out = []
+    while True:
+        out.append(s)
+        c = code[s] % CLOSED
+        if c == START or c < 0:
+            break
+        p, hh = divmod(s, H)
+        if c == TURN_FROM_PREV:
+            s = p * H + (hh - 1) % H
+        elif c == TURN_FROM_NEXT:
+            s = p * H + (hh + 1) % H
+        else:
+            j, i = divmod(p, nx)
+            s = (j - moves[c, 1]) * nx + (i - moves[c, 0])
+            s = s * H + hh
+    res = np.empty(len(out), np.int64)
+    for k in range(len(out)):
+        res[k] = out[len(out) - 1 - k]
+    return res
+
+
+@numba.njit(cache=True)
+def min_over_headings(g, P, H):
+    res = np.empty(P, np.float64)
+    for p in range(P):
+        b = np.inf
+        for hh in range(H):
+            v = g[p * H + hh]
+            if v < b:
+                b = v
+        res[p] = b
+    return res

@@ -1,0 +1,654 @@
+"""Full-resolution search over (x, y, heading) with edges priced on demand.
+
+The default planner. Positions lie on a square grid at the DEM's own cell size (or a given
+``step``), aligned so that the start is a position; each position has ``n_headings``
+headings. The motion primitives are those of the reference lattice
+(:mod:`energy_planner.planning.lattice`): at each heading, translations at constant
+heading to the neighbour closest to each body axis (forward, left, backward, right, among
+the 16 neighbours ``(1, 0), (2, 1), (1, 1), ...``; ``moves="all"`` allows all 16), and
+turns in place to the next heading on either side. No graph is built: an edge is priced
+by the motion kernel (:class:`energy_planner.energy.MotionCost`, the same numba function
+that prices every other path) when the search first reaches it.
+
+The search is A* with keys ``g + eps * h``. The heuristic ``h`` is the exact solution of a
+relaxed problem solved once on the 2-D grid of positions (a backward Dijkstra from the
+goal): no turning, and every translation priced by a lower bound of its kernel cost over
+all headings. The bound uses the kernel itself: the least energy per metre of a motion in
+each move direction on ground of constant gradient ``g`` is tabulated over a grid of
+gradients (the kernel run on a synthetic constant-gradient map, minimised over the
+headings that may make that move, then over neighbouring table nodes); a motion samples
+gradients interpolated from the DEM cells in its bounding box, so its energy is at least
+its length times the table's minimum over the box of those cells' gradients. A 1 % margin
+covers the table's spacing. Turns cost >= 0 (the model's power is clipped at 0), so ``h``
+never exceeds the search's cost to go: with ``eps = 1`` the path is optimal on these
+primitives (the same optimum as the full lattice); with ``eps > 1`` its energy is at most
+``eps`` times that optimum.
+
+Memory: one float32 ``g`` and one int8 code per state (5 bytes x cells x headings), the
+2-D heuristic (8 bytes per cell) and the open list. All hot loops are numba functions in
+:mod:`energy_planner.planning._search`, compiled once per energy model and cached on disk.
+
+Without a goal (:func:`reach_search`) the same search runs with ``h = 0`` (Dijkstra) and
+returns the least energy to every position.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from energy_planner.angles import wrap
+from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
+
+__all__ = [
+    "SearchResult",
+    "ReachResult",
+    "bound_table",
+    "relaxed_cost_to_go",
+    "search_plan",
+    "reach_search",
+    "search_module",
+]
+
+_TEMPLATE = Path(__file__).with_name("_search.py")
+_IMPORT_LINE = (
+    "from energy_planner.energy._motion import motion_full as kernel  # --- kernel import ---"
+)
+#: Scale applied to every edge bound (covers the gradient table's spacing).
+BOUND_MARGIN = 0.99
+#: Nodes per axis of the gradient table.
+TABLE_NODES = 96
+
+
+def search_module(cost):
+    """The numba search functions compiled against ``cost``'s motion kernel (cached)."""
+    from energy_planner.model._codegen import load_generated_module
+
+    mod_name = cost.kernel.py_func.__module__
+    if mod_name == "energy_planner.energy._motion":
+        import energy_planner.planning._search as mod
+
+        return mod
+    text = _TEMPLATE.read_text()
+    assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
+    text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
+    return load_generated_module(text, prefix="search")
+
+
+@dataclass
+class SearchResult:
+    """A path found by the full-resolution search.
+
+    Attributes
+    ----------
+    states : ndarray, shape (n, 3)
+        ``x, y, yaw`` (working CRS, radians) from the exact start to the exact goal;
+        collinear steps at the same heading merged.
+    cost : float
+        The search's cost of the lattice part, J.
+    step : float
+        Position spacing, m.
+    n_headings : int
+        Headings per position.
+    eps : float
+        Heuristic weight; the energy is at most ``eps`` times the optimum on the
+        primitives.
+    expanded, priced : int
+        States expanded and edges priced by the search.
+    states_total : int
+        Positions x headings.
+    heuristic_s, search_s : float
+        Wall time of the relaxed problem and of the search, s.
+    info : dict
+        Lower bound ``h`` at the start (``h_start``) and other details.
+    """
+
+    states: np.ndarray
+    cost: float
+    step: float
+    n_headings: int
+    eps: float
+    expanded: int
+    priced: int
+    states_total: int
+    heuristic_s: float
+    search_s: float
+    info: dict = field(default_factory=dict)
+
+
+@dataclass
+class ReachResult:
+    """Least energy from a start to every position (min over headings).
+
+    Attributes
+    ----------
+    xs, ys : ndarray
+        Position coordinates (working CRS, increasing).
+    energy : ndarray, shape (len(ys), len(xs))
+        Least energy in J to reach each position (row ``j`` is ``ys[j]``, so row 0 is the
+        south edge); ``inf`` where unreachable (or above ``max_energy``).
+    step : float
+    n_headings : int
+    expanded : int
+    time_s : float
+    """
+
+    xs: np.ndarray
+    ys: np.ndarray
+    energy: np.ndarray
+    step: float
+    n_headings: int
+    expanded: int
+    time_s: float
+
+
+class _Grid:
+    """Lattice geometry, headings and primitives of one search."""
+
+    def __init__(self, cost, terrain, start_xy, step, n_headings, moves):
+        from energy_planner.planning.lattice import (
+            MOVES_16,
+            _move_table,
+            lattice_geometry,
+            lattice_headings,
+        )
+
+        if moves not in ("axes", "all"):
+            raise PlanningConfigError(
+                f"moves {moves!r} is not one of 'axes', 'all'", value=moves, param="moves"
+            )
+        if int(n_headings) < 4:
+            raise PlanningConfigError(
+                f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
+                value=n_headings,
+                param="n_headings",
+            )
+        cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
+        step = cell if step is None else float(step)
+        if not (math.isfinite(step) and step > 0):
+            raise PlanningConfigError(
+                f"step must be a positive number of metres, got {step!r}", value=step,
+                param="step",
+            )  # fmt: skip
+        self.step = step
+        self.xs, self.ys = lattice_geometry(terrain, start_xy, step)
+        self.nx, self.ny = len(self.xs), len(self.ys)
+        self.H = int(n_headings)
+        self.headings = np.ascontiguousarray(wrap(lattice_headings(self.H)), dtype=np.float64)
+        self.moves = np.ascontiguousarray(MOVES_16, dtype=np.int64)
+        self.move_len = np.hypot(self.moves[:, 0], self.moves[:, 1]).astype(np.float64)
+        self.move_ok = _move_table(lattice_headings(self.H), moves)
+        k = int(self.move_ok.sum(axis=1).max())
+        mo = np.full((self.H, k), -1, dtype=np.int64)
+        for h in range(self.H):
+            idx = np.nonzero(self.move_ok[h])[0]
+            mo[h, : len(idx)] = idx
+        self.moves_of = mo
+        self.lat = np.array([self.xs[0], self.ys[0], step, self.nx, self.ny], dtype=np.float64)
+        self.P = self.nx * self.ny
+
+    def position(self, x: float, y: float, which: str) -> int:
+        i = int(round((x - self.xs[0]) / self.step))
+        j = int(round((y - self.ys[0]) / self.step))
+        if not (0 <= i < self.nx and 0 <= j < self.ny):
+            raise InvalidStateError(
+                f"{which} ({x:.2f}, {y:.2f}) is outside the map (positions x "
+                f"{self.xs[0]:.2f}..{self.xs[-1]:.2f}, y {self.ys[0]:.2f}..{self.ys[-1]:.2f} in "
+                "the working CRS)",
+                endpoint=which,
+                limit="map",
+                value=(x, y),
+            )
+        return j * self.nx + i
+
+    def xy(self, p: int) -> tuple[float, float]:
+        j, i = divmod(int(p), self.nx)
+        return float(self.xs[i]), float(self.ys[j])
+
+    def heading_index(self, yaw: float) -> int:
+        return int(np.argmin(np.abs(wrap(self.headings - float(yaw)))))
+
+
+def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TABLE_NODES):
+    """Least J per metre of each move direction on constant-gradient ground.
+
+    For every gradient ``(gx, gy)`` on a ``nodes x nodes`` grid spanning the terrain's
+    gradients (clipped to the slope limit), and every move direction ``m`` of
+    :data:`~energy_planner.planning.lattice.MOVES_16`, the kernel's energy of a short
+    translation in direction ``m`` at each heading allowed to make it (``move_ok``), on a
+    synthetic map of that constant gradient, divided by its length; minimised over
+    headings and then over the 3 x 3 neighbouring nodes (so values between nodes are
+    covered).
+
+    Returns
+    -------
+    table : ndarray, shape (16, L, L, nodes, nodes)
+        J per metre, ``inf`` where no heading can move (limits), as a sparse table for
+        range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
+        ``[i, i + 2^a) x [j, j + 2^b)``.
+    tgeo : ndarray
+        ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
+    """
+    from scipy.ndimage import minimum_filter
+
+    from energy_planner.planning.lattice import MOVES_16
+
+    grad = cost.data[0]
+    gx = grad[..., 0]
+    gy = grad[..., 1]
+    fin = np.isfinite(gx) & np.isfinite(gy)
+    if getattr(getattr(cost, "channels", None), "rasters", None):
+        # channel rasters vary over the map: the constant-gradient table cannot bound
+        # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
+        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2))
+        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
+    if not fin.any():
+        raise PlanningError("the terrain has no valid gradient (all nodata)")
+    lo = np.array([float(gx[fin].min()), float(gy[fin].min())])
+    hi = np.array([float(gx[fin].max()), float(gy[fin].max())])
+    tmax = float(cost.data[10])
+    if math.isfinite(tmax):
+        lo = np.maximum(lo, -tmax)
+        hi = np.minimum(hi, tmax)
+    span = np.maximum(hi - lo, 1e-6)
+    lo = lo - 0.01 * span
+    hi = hi + 0.01 * span
+    tdx, tdy = (hi - lo) / (nodes - 1)
+    gxs = lo[0] + tdx * np.arange(nodes)
+    gys = lo[1] + tdy * np.arange(nodes)
+    # a synthetic map: node k of the table is a 2 x 2 block of cells at columns 3k, 3k+1
+    K = nodes * nodes
+    GX, GY = np.meshgrid(gxs, gys, indexing="ij")
+    syn = np.full((2, 3 * K, 2), np.nan)
+    for c in (0, 1):
+        syn[:, c::3, 0] = GX.ravel()[None, :]
+        syn[:, c::3, 1] = GY.ravel()[None, :]
+    data = list(cost.data)
+    data[0] = np.ascontiguousarray(syn)
+    data[1] = np.zeros((0, 0), dtype=np.bool_)
+    data[2], data[3], data[4], data[5] = 0.0, 0.0, 1.0, 1.0
+    data = tuple(data)
+    cx = 3.0 * np.arange(K) + 0.5
+    cy = np.full(K, 0.5)
+    half = 0.24  # motion of 0.48 m inside the block
+    dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
+    table = np.full((len(MOVES_16), nodes, nodes), np.inf)
+    batch = cost._batch
+    for m, ang in enumerate(dirs):
+        ux, uy = math.cos(ang) * half, math.sin(ang) * half
+        best = np.full(K, np.inf)
+        for h in np.nonzero(move_ok[:, m])[0]:
+            th = np.full(K, headings[h])
+            e = batch(cx - ux, cy - uy, th, cx + ux, cy + uy, th, data)
+            best = np.minimum(best, e / (2 * half))
+        table[m] = minimum_filter(best.reshape(nodes, nodes), size=3, mode="nearest")
+    table = np.maximum(table, 0.0)
+    return _sparse_table(table), np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
+
+
+def _sparse_table(table: np.ndarray) -> np.ndarray:
+    """``st[m, a, b, i, j]`` = min of ``table[m]`` over ``[i, i + 2^a) x [j, j + 2^b)``.
+
+    Examples
+    --------
+    >>> t = np.arange(16.0).reshape(1, 4, 4)[:, ::-1, ::-1].copy()
+    >>> st = _sparse_table(t)
+    >>> float(st[0, 1, 1, 1, 2]), float(t[0, 1:3, 2:4].min())
+    (4.0, 4.0)
+    """
+    M, K, _ = table.shape
+    L = max(1, int(math.floor(math.log2(K))) + 1)
+    st = np.full((M, L, L, K, K), np.inf)
+    st[:, 0, 0] = table
+    for a in range(1, L):
+        w = 1 << (a - 1)
+        st[:, a, 0, : K - w] = np.minimum(st[:, a - 1, 0, : K - w], st[:, a - 1, 0, w:])
+    for b in range(1, L):
+        w = 1 << (b - 1)
+        st[:, :, b, :, : K - w] = np.minimum(st[:, :, b - 1, :, : K - w], st[:, :, b - 1, :, w:])
+    return np.ascontiguousarray(st)
+
+
+def _geo(cost) -> np.ndarray:
+    return np.array(cost.data[2:6], dtype=np.float64)
+
+
+class _Heap:
+    """Open-list arrays for the numba heap, grown on demand."""
+
+    def __init__(self, size: int):
+        self.keys = np.empty(size, np.float64)
+        self.vals = np.empty(size, np.int64)
+        self.n = np.zeros(1, np.int64)
+
+    def grow(self) -> None:
+        size = 2 * len(self.keys)
+        k = np.empty(size, np.float64)
+        v = np.empty(size, np.int64)
+        m = int(self.n[0])
+        k[:m] = self.keys[:m]
+        v[:m] = self.vals[:m]
+        self.keys, self.vals = k, v
+
+
+def _bar(show: bool, desc: str, total: int | None, unit: str):
+    if not show:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=None,
+                mininterval=0.5, unit_scale=True)  # fmt: skip
+
+
+def relaxed_cost_to_go(
+    cost,
+    grid: _Grid,
+    goal_p: int,
+    *,
+    mod=None,
+    progress: bool = False,
+    deadline: float = math.inf,
+    stop_p: int = -1,
+    stop_factor: float = 1.5,
+) -> np.ndarray:
+    """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
+
+    With ``stop_p`` >= 0 the backward Dijkstra stops at ``stop_factor`` times the cost of
+    ``stop_p`` (the start) and caps ``h`` there: still a lower bound everywhere, and the
+    search rarely looks further.
+
+    Returns
+    -------
+    ndarray of float64, shape (nx * ny,)
+        J; ``inf`` where the goal cannot be reached even in the relaxed problem.
+    """
+    mod = mod or search_module(cost)
+    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    h = np.full(grid.P, np.inf)
+    h[goal_p] = 0.0
+    pos = np.full(grid.P, -1, dtype=np.int64)
+    keys = np.empty(grid.P, np.float64)
+    vals = np.empty(grid.P, np.int64)
+    n = np.ones(1, np.int64)
+    keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
+    grad = cost.data[0]
+    geo = _geo(cost)
+    bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
+    limit = np.full(1, np.inf)
+    try:
+        while True:
+            code, pops = mod.heuristic_chunk(
+                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h, pos,
+                keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
+            )  # fmt: skip
+            if bar is not None:
+                bar.update(pops)
+            if code == mod.EXHAUSTED:
+                break
+            if time.perf_counter() > deadline:
+                raise PlanningError(
+                    "the planning time budget ran out while solving the relaxed problem "
+                    "(heuristic); give more --time or a coarser --step",
+                    limit="time",
+                )
+    finally:
+        if bar is not None:
+            bar.close()
+    del pos, keys, vals
+    return np.minimum(h, limit[0])
+
+
+def _start_states(cost, grid: _Grid, p: int, yaw: float | None, which: str) -> np.ndarray:
+    x, y = grid.xy(p)
+    hs = [grid.heading_index(yaw)] if yaw is not None else range(grid.H)
+    ok = [h for h in hs if math.isfinite(cost(x, y, grid.headings[h], x, y, grid.headings[h]))]
+    if not ok:
+        raise InvalidStateError(
+            f"{which} position ({x:.2f}, {y:.2f}) breaks a limit at "
+            f"{'every heading' if yaw is None else 'the requested heading'} "
+            f"(step {grid.step:.2f} m)",
+            endpoint=which,
+            value=(x, y),
+        )
+    return np.array(ok, dtype=np.int64)
+
+
+def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *,
+                max_key, progress, deadline, desc):  # fmt: skip
+    N = grid.P * grid.H
+    g = np.full(N, np.inf, dtype=np.float32)
+    code = np.full(N, -1, dtype=np.int8)
+    heap = _Heap(1 << 22)
+    for h in start_hs:
+        s = starts_p * grid.H + int(h)
+        g[s] = 0.0
+        code[s] = mod.START
+        mod.heap_push(heap.keys, heap.vals, heap.n, eps * float(h2d[starts_p]), s)
+    out = np.zeros(1, np.int64)
+    expanded = priced = 0
+    bar = _bar(progress, desc, None, "states")
+    status = mod.RUNNING
+    try:
+        while True:
+            status, pops, pr = mod.astar_chunk(
+                cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, eps, g,
+                code, goal_p, goal_h, heap.keys, heap.vals, heap.n, 500_000, max_key, out,
+            )  # fmt: skip
+            expanded += pops
+            priced += pr
+            if bar is not None:
+                bar.update(pops)
+            if status == mod.HEAP_FULL:
+                heap.grow()
+            elif status in (mod.FOUND, mod.EXHAUSTED):
+                break
+            if time.perf_counter() > deadline:
+                raise PlanningError(
+                    f"the planning time budget ran out after {expanded} states expanded; "
+                    "give more --time, a coarser --step, or fewer headings",
+                    limit="time",
+                )
+    finally:
+        if bar is not None:
+            bar.close()
+    return status, int(out[0]), g, code, expanded, priced
+
+
+def search_plan(
+    cost,
+    terrain,
+    start: tuple[float, float, float | None],
+    goal: tuple[float, float, float | None],
+    *,
+    step: float | None = None,
+    n_headings: int = 16,
+    moves: str = "axes",
+    eps: float = 1.0,
+    progress: bool = False,
+    time_budget: float = math.inf,
+    callback: Callable[[str, float], None] | None = None,
+) -> SearchResult:
+    """Energy-optimal path on the (x, y, heading) primitives, without building the graph.
+
+    Parameters
+    ----------
+    cost : MotionCost
+        Prices every edge (limits make edges infinite).
+    terrain : Terrain
+        The map; positions cover its extent.
+    start, goal : tuple
+        ``(x, y, yaw)`` in the working CRS, yaw in radians or ``None`` (free).
+    step : float, optional
+        Position spacing, m (default: the DEM's cell size).
+    n_headings : int
+        Headings per position.
+    moves : {"axes", "all"}
+        Translations per heading: the 4 closest to the body axes, or all 16.
+    eps : float
+        Heuristic weight >= 1; the path's search cost is at most ``eps`` times the optimum.
+    progress : bool
+        tqdm bars on stderr (relaxed problem, then the search).
+    time_budget : float
+        Seconds for the whole call (heuristic included); :class:`PlanningError` when
+        exceeded.
+    callback : callable, optional
+        ``callback(stage, seconds)`` after each stage.
+
+    Returns
+    -------
+    SearchResult
+
+    Raises
+    ------
+    InvalidStateError
+        If the start or goal position breaks a limit or lies outside the map.
+    PlanningError
+        If no path exists under the limits, or the time budget runs out.
+    """
+    if not (eps >= 1.0 and math.isfinite(eps)):
+        raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
+    t0 = time.perf_counter()
+    deadline = t0 + time_budget
+    grid = _Grid(cost, terrain, (start[0], start[1]), step, n_headings, moves)
+    mod = search_module(cost)
+    ps = grid.position(start[0], start[1], "start")
+    pg = grid.position(goal[0], goal[1], "goal")
+    hs_start = _start_states(cost, grid, ps, start[2], "start")
+    hs_goal = _start_states(cost, grid, pg, goal[2], "goal")
+    goal_h = int(hs_goal[0]) if goal[2] is not None else -1
+    h2d = relaxed_cost_to_go(
+        cost, grid, pg, mod=mod, progress=progress, deadline=deadline, stop_p=ps
+    )
+    t1 = time.perf_counter()
+    if callback is not None:
+        callback("heuristic", t1 - t0)
+    if not np.isfinite(h2d[ps]):
+        raise PlanningError(
+            f"no feasible path from start ({start[0]:.2f}, {start[1]:.2f}) to goal "
+            f"({goal[0]:.2f}, {goal[1]:.2f}): the goal is unreachable even without turning "
+            "costs (limits, keep-out areas or nodata cut it off); relax the limits",
+            limit="unreachable",
+        )
+    status, s_goal, g, code, expanded, priced = _run_search(
+        mod, cost, grid, h2d, float(eps), ps, hs_start, pg, goal_h, max_key=math.inf,
+        progress=progress, deadline=deadline, desc="search (x, y, heading)",
+    )  # fmt: skip
+    if status != mod.FOUND:
+        raise PlanningError(
+            f"no feasible path from start ({start[0]:.2f}, {start[1]:.2f}) to goal "
+            f"({goal[0]:.2f}, {goal[1]:.2f}) at step {grid.step:.2f} m with {grid.H} "
+            "headings under the given limits; relax the slope limits or keep-out areas",
+            limit="unreachable",
+        )
+    chain = mod.trace(code, grid.moves, grid.nx, grid.H, s_goal)
+    total = float(g[s_goal])
+    del g, code
+    p_of, h_of = np.divmod(chain, grid.H)
+    j_of, i_of = np.divmod(p_of, grid.nx)
+    states = np.column_stack([grid.xs[i_of], grid.ys[j_of], grid.headings[h_of]])
+    states = _exact_ends(states, start, goal)
+    t2 = time.perf_counter()
+    from energy_planner.planning.lattice import simplify_states
+
+    return SearchResult(
+        states=simplify_states(states),
+        cost=total,
+        step=grid.step,
+        n_headings=grid.H,
+        eps=float(eps),
+        expanded=expanded,
+        priced=priced,
+        states_total=grid.P * grid.H,
+        heuristic_s=t1 - t0,
+        search_s=t2 - t1,
+        info={"h_start": float(h2d[ps]), "positions": grid.P},
+    )
+
+
+def _exact_ends(states: np.ndarray, start, goal) -> np.ndarray:
+    """Put the exact start and goal poses around the lattice part."""
+    first = states[0]
+    syaw = float(wrap(start[2])) if start[2] is not None else first[2]
+    if (
+        abs(start[0] - first[0]) > 1e-9
+        or abs(start[1] - first[1]) > 1e-9
+        or abs(float(wrap(syaw - first[2]))) > 1e-12
+    ):
+        states = np.vstack([[start[0], start[1], syaw], states])
+    last = states[-1]
+    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
+    if (
+        abs(goal[0] - last[0]) > 1e-9
+        or abs(goal[1] - last[1]) > 1e-9
+        or abs(float(wrap(gyaw - last[2]))) > 1e-12
+    ):
+        states = np.vstack([states, [goal[0], goal[1], gyaw]])
+    return states
+
+
+def reach_search(
+    cost,
+    terrain,
+    start: tuple[float, float, float | None],
+    *,
+    step: float | None = None,
+    n_headings: int = 16,
+    moves: str = "axes",
+    max_energy: float = math.inf,
+    progress: bool = False,
+    time_budget: float = math.inf,
+) -> ReachResult:
+    """Least energy from ``start`` to every position: the planner's search without a goal.
+
+    The same primitives and edge costs as :func:`search_plan` (so ``reach`` and ``plan``
+    agree: the energy at the goal's position equals ``search_plan``'s cost with
+    ``eps=1``), searched by Dijkstra (``h = 0``) until every state with energy
+    ``<= max_energy`` is settled.
+
+    Parameters
+    ----------
+    cost : MotionCost
+    terrain : Terrain
+    start : tuple
+        ``(x, y, yaw)`` in the working CRS; yaw ``None`` = any initial heading (free).
+    step, n_headings, moves
+        As :func:`search_plan`.
+    max_energy : float
+        Stop at this energy, J (positions beyond read ``inf``).
+    progress : bool
+        tqdm bar on stderr.
+    time_budget : float
+        Seconds; :class:`PlanningError` when exceeded.
+
+    Returns
+    -------
+    ReachResult
+    """
+    t0 = time.perf_counter()
+    grid = _Grid(cost, terrain, (start[0], start[1]), step, n_headings, moves)
+    mod = search_module(cost)
+    ps = grid.position(start[0], start[1], "start")
+    hs = _start_states(cost, grid, ps, start[2], "start")
+    h0 = np.zeros(grid.P)
+    _, _, g, _code, expanded, _ = _run_search(
+        mod, cost, grid, h0, 0.0, ps, hs, -1, -1, max_key=float(max_energy),
+        progress=progress, deadline=t0 + time_budget, desc="reach (x, y, heading)",
+    )  # fmt: skip
+    del _code
+    e = mod.min_over_headings(g, grid.P, grid.H)
+    e[e > max_energy] = np.inf
+    return ReachResult(
+        xs=grid.xs,
+        ys=grid.ys,
+        energy=e.reshape(grid.ny, grid.nx),
+        step=grid.step,
+        n_headings=grid.H,
+        expanded=expanded,
+        time_s=time.perf_counter() - t0,
+    )

@@ -1,0 +1,152 @@
+"""The full-resolution search: admissible heuristic, optimality against the built lattice
+(scipy's Dijkstra on every edge priced up front: an independent search of the same graph),
+the eps bound, the goal-less reach mode, and plan-vs-energy agreement on real maps."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from energy_planner.energy import MotionCost, path_energy
+from energy_planner.maps import map_path
+from energy_planner.model import EnergyModel
+from energy_planner.planning.lattice import lattice_plan
+from energy_planner.planning.limits import make_motion_cost
+from energy_planner.planning.search import (
+    BOUND_MARGIN,
+    _Grid,
+    bound_table,
+    reach_search,
+    relaxed_cost_to_go,
+    search_module,
+    search_plan,
+)
+from energy_planner.request import Request
+from energy_planner.terrain import Terrain, load_dem
+
+
+@pytest.fixture(scope="module")
+def model():
+    return EnergyModel.default()
+
+
+def _bumpy(seed: int, size: int = 24, amp: float = 4.0) -> Terrain:
+    """A random smooth terrain: a few Gaussian bumps and a tilt."""
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0, size, (4, 2))
+    h = rng.uniform(-amp, amp, 4)
+    w = rng.uniform(3, 8, 4)
+    tilt = rng.uniform(-0.2, 0.2, 2)
+
+    def z(x, y):
+        out = tilt[0] * x + tilt[1] * y
+        for k in range(4):
+            out = out + h[k] * np.exp(-((x - c[k, 0]) ** 2 + (y - c[k, 1]) ** 2) / w[k] ** 2)
+        return out
+
+    return Terrain.from_function(z, size=(size, size))
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), p=st.integers(0, 10_000), cross=st.sampled_from([None, 25.0]))
+def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross):
+    """Every translation the search can make costs at least the heuristic's bound of it,
+    at every heading allowed to make it (the kernel is the independent side)."""
+    t = _bumpy(seed)
+    cost, _ = make_motion_cost(t, model, Request.make(max_cross_slope_deg=cross))
+    grid = _Grid(cost, t, (1.5, 2.5), None, 16, "axes")
+    mod = search_module(cost)
+    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    geo = np.array(cost.data[2:6], dtype=float)
+    # an interior position (the Horn gradient of the outer cells is undefined)
+    i, j = 2 + p % (grid.nx - 4), 2 + (p // grid.nx) % (grid.ny - 4)
+    xa, ya = grid.xs[i], grid.ys[j]
+    checked = 0
+    for m, (di, dj) in enumerate(grid.moves):
+        if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
+            continue
+        xb, yb = grid.xs[i + di], grid.ys[j + dj]
+        lb = mod.edge_bound(cost.data[0], *geo, xa, ya, xb, yb, table, m, *tgeo)
+        lb *= BOUND_MARGIN * grid.move_len[m] * grid.step
+        for h in np.nonzero(grid.move_ok[:, m])[0]:
+            th = grid.headings[h]
+            e = cost(xa, ya, th, xb, yb, th)
+            assert lb <= e * (1 + 1e-9), (m, h, lb, e)
+            checked += math.isfinite(e)
+    assert checked > 0
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000))
+def test_search_finds_the_lattice_optimum_and_h_is_a_lower_bound(model, seed):
+    t = _bumpy(seed, size=20)
+    cost, _ = make_motion_cost(t, model)
+    s, g = (2.5, 3.5, None), (17.5, 16.5, None)
+    ref = lattice_plan(cost, t, s, g, step=1.0)  # scipy Dijkstra over the built graph
+    opt = search_plan(cost, t, s, g, eps=1.0)
+    assert opt.cost == pytest.approx(ref.cost, rel=1e-5)  # float32 g-values
+    assert opt.info["h_start"] <= opt.cost * (1 + 1e-6)
+    # the heuristic is below the optimal cost-to-go from every position (reach from the goal
+    # is not the reverse problem, so compare with searches from a few other starts)
+    grid = _Grid(cost, t, s[:2], None, 16, "axes")
+    h = relaxed_cost_to_go(cost, grid, grid.position(g[0], g[1], "goal"))
+    for x, y in [(10.5, 3.5), (3.5, 12.5), (15.5, 9.5)]:
+        r = search_plan(cost, t, (x, y, None), g, eps=1.0)
+        assert h[grid.position(x, y, "start")] <= r.cost * (1 + 1e-6)
+    # eps bounds the suboptimality
+    w = search_plan(cost, t, s, g, eps=1.5)
+    assert ref.cost * (1 - 1e-6) <= w.cost <= 1.5 * ref.cost
+
+
+def test_reach_agrees_with_the_search(model):
+    t = _bumpy(3, size=20)
+    cost, _ = make_motion_cost(t, model)
+    s = (2.5, 3.5, None)
+    reach = reach_search(cost, t, s)
+    for gx, gy in [(17.5, 16.5), (10.5, 3.5), (2.5, 15.5)]:
+        j = int(np.argmin(np.abs(reach.ys - gy)))
+        i = int(np.argmin(np.abs(reach.xs - gx)))
+        opt = search_plan(cost, t, s, (gx, gy, None), eps=1.0)
+        assert reach.energy[j, i] == pytest.approx(opt.cost, rel=1e-5)
+    assert reach.energy[int(np.argmin(np.abs(reach.ys - 3.5))), 2] == 0.0
+    capped = reach_search(cost, t, s, max_energy=2000.0)
+    assert np.all(np.isinf(capped.energy[reach.energy > 2000.0]))
+    fin = reach.energy <= 2000.0
+    assert np.allclose(capped.energy[fin], reach.energy[fin])
+
+
+def _energy_of_written_path(tmp_path, terrain, model, res):
+    """Write the plan with --out's format, read it back as `energy --waypoints` does and
+    price it with a fresh MotionCost (nothing shared with the planner)."""
+    from energy_planner.geojson import read_path, write_path_from_work, yaw_to_work
+
+    f = write_path_from_work(tmp_path / "p.geojson", terrain, res.states)
+    wp = read_path(f)
+    assert wp.yaw_frame == "crs_x_ccw"
+    x, y = terrain.to_work(wp.xy[:, 0], wp.xy[:, 1])
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    yaw = yaw_to_work(terrain, wp.xy[:, 0], wp.xy[:, 1], wp.yaw_rad)
+    fresh = MotionCost(terrain, model)
+    return path_energy(terrain, model, np.column_stack([x, y]), yaw=yaw, cost=fresh).energy_j
+
+
+@pytest.mark.parametrize(
+    "name, start, goal",
+    [
+        ("hill", (500058.0, 5000046.0), (500058.0, 5000109.0)),
+        ("jacksboro_fault_dem", (-84.22, 36.52), (-84.19, 36.55)),
+    ],
+)
+def test_plan_energy_equals_energy_of_its_waypoints(tmp_path, model, name, start, goal):
+    from energy_planner.planning.plan import plan
+
+    terrain = load_dem(map_path(name))
+    s = terrain.to_work(*start)
+    g = terrain.to_work(*goal)
+    res = plan(terrain, model, s, g, planner="search", progress=False)
+    e = _energy_of_written_path(tmp_path, terrain, model, res)
+    assert e == pytest.approx(res.energy_j, rel=1e-3)
