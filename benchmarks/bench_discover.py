@@ -55,6 +55,7 @@ class Case:
     effects: tuple[str, ...]
     seed: int
     added: list[str]
+    added_names: list[str]
     data_findings: list[str]
     hit_steps: list[int | None]  # step at which each hidden effect was added (None: never)
     base_rmse_w: float
@@ -174,6 +175,7 @@ def run_case(
         effects=tuple(effects),
         seed=seed,
         added=d.added,
+        added_names=[r["name"] for r in rows[1:]],
         data_findings=[f.name for f in d.data_findings if f.finding],
         hit_steps=hits,
         base_rmse_w=rows[0]["heldout_rmse_w"],
@@ -239,17 +241,17 @@ def main(argv: list[str] | None = None) -> int:
     for eff in cases:
         c = run_case(eff, 0, config, args.max_steps)
         results.append(c)
-        print(f"  {'+'.join(eff)}: {c.added} ({c.seconds:.0f} s)", file=sys.stderr)
+        print(f"  {'+'.join(eff)}: {c.added_names} ({c.seconds:.0f} s)", file=sys.stderr)
     missions: list[Case] = []
     for e in args.missions or []:
         c = run_case(tuple(e.split("+")), 0, config, args.max_steps, mission=True)
         missions.append(c)
-        print(f"  mission {e}: {c.added} ({c.seconds:.0f} s)", file=sys.stderr)
+        print(f"  mission {e}: {c.added_names} ({c.seconds:.0f} s)", file=sys.stderr)
     nulls = []
     for seed in range(args.seeds):
         c = run_case((), seed, null_config, args.max_steps)
         nulls.append(c)
-        print(f"  no effect, seed {seed}: {c.added} ({c.seconds:.0f} s)", file=sys.stderr)
+        print(f"  no effect, seed {seed}: {c.added_names} ({c.seconds:.0f} s)", file=sys.stderr)
     elapsed = time.perf_counter() - t_all
     load = os.getloadavg()
     if args.json:
@@ -277,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
                 "base" if s is None and b else "-" if s is None else str(s)
                 for s, b in zip(c.hit_steps, c.in_base, strict=True)
             ) or "-"
-            added = "; ".join(c.added) or "(none)"
+            added = "; ".join(c.added_names) or "(none)"
             print(
                 f"{'+'.join(c.effects) or '(none)':<34}{len(c.added):>6}  {added[:57]:<58}"
                 f"{hit:>8}{c.base_rmse_w:>8.2f}{c.final_rmse_w:>8.2f}{c.noise_floor_w:>8.2f}"
@@ -308,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
             f"seeds 0-{args.seeds - 1}: a term was added "
             f"in {n_false}/{len(nulls)} campaigns (false-finding rate {n_false / len(nulls):.0%})"
         )
-        extra = pd.Series([t for c in nulls for t in c.added]).value_counts()
+        extra = pd.Series([t for c in nulls for t in c.added_names]).value_counts()
         if len(extra):
             print("  terms added: " + ", ".join(f"{k} x{v}" for k, v in extra.items()))
         ratios = [c.ratio for c in nulls]
