@@ -36,12 +36,14 @@ def _text(doc: dict[str, Any]) -> str:
             f"{removed:>15}"
         )
         if r["added"]:
-            lines.append(f"       term: {r['added']}")
+            term = r["added"]
+            if len(term) > 100:  # a channel times the fitted base: the formula is long
+                term = f"{term[:60]}... ({len(term)} characters; in the model file)"
+            lines.append(f"       term: {term}")
             lines.append(f"       {r['explanation']}")
         for a in r["alternatives"]:
             lines.append(
-                f"       or, equally well (the data cannot tell them apart): {a['name']}: "
-                f"{a['term']}"
+                f"       or, equally well (the data cannot tell them apart): {a['name']}"
             )
     if len(doc["staircase"]) > 1:
         lines.append(
