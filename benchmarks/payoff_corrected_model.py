@@ -48,6 +48,7 @@ class Payoff:
     case: str
     effects: tuple[str, ...]
     added: list[str]
+    added_terms: list[str]
     channel_options: list[str]
     heldout_rmse_base_w: float
     heldout_rmse_discovered_w: float
@@ -133,6 +134,7 @@ def run(
         case=case,
         effects=tuple(spec["effects"]),
         added=[s.name for s in d.steps[1:]],
+        added_terms=list(d.added),
         channel_options=options,
         heldout_rmse_base_w=float(base.heldout.rmse_w),
         heldout_rmse_discovered_w=float(d.fit.heldout.rmse_w),
