@@ -30,8 +30,8 @@ def fit_hint(
     ``fit`` starts from the base terms, so the model's other terms are repeated; every
     argument is shell-quoted, so the line runs as printed.
 
-    >>> fit_hint(("my logs",), ["fwd_const", "idle_power"], "pos(15 - t_c)", "m2.json")
-    "energy-planner fit 'my logs' --out m2.json --term idle_power --term 'pos(15 - t_c)'"
+    >>> fit_hint(("my logs",), ["fwd_const", "acceleration"], "pos(15 - t_c)", "m2.json")
+    "energy-planner fit 'my logs' --out m2.json --term acceleration --term 'pos(15 - t_c)'"
     """
     import shlex
 
