@@ -49,21 +49,27 @@ from typing import Any
 
 __all__ = [
     "FIELD_NAMES",
+    "ChannelError",
+    "ChannelIOError",
     "CoordinateError",
     "DEMError",
     "DEMIOError",
+    "EnergyMapError",
     "EnergyPlannerError",
     "FitError",
     "FormulaError",
     "InvalidStateError",
     "LogError",
     "LogIOError",
+    "MissingChannelError",
     "ModelError",
+    "MotionCostError",
     "OutsideMapError",
     "PlanningConfigError",
     "PlanningError",
     "RasterTooLargeError",
     "RemovedAPIError",
+    "RouteNameError",
     "UnknownNameError",
     "WaypointError",
     "WaypointIOError",
@@ -223,6 +229,10 @@ class InvalidStateError(PlanningError, ValueError):
     """A start or goal breaks a limit (outside the map, too steep, in a keep-out area)."""
 
 
+class RemovedAPIError(EnergyPlannerError, ImportError):
+    """A name that was removed; the message says what replaces it."""
+
+
 class CoordinateError(OutsideMapError):
     """Coordinates that cannot be converted to the map's working grid.
 
@@ -256,10 +266,6 @@ class UnknownNameError(EnergyPlannerError, KeyError):
     """
 
 
-class RemovedAPIError(EnergyPlannerError, ImportError):
-    """A name that was removed; the message says what replaces it."""
-
-
 class ChannelError(EnergyPlannerError, ValueError):
     """An extra channel (``--set`` / ``--channel``) is malformed, unreadable or missing."""
 
@@ -285,31 +291,12 @@ class ChannelIOError(EnergyPlannerError, OSError):
     """A channel raster or value table cannot be found or opened."""
 
 
-__all__ += ["ChannelError", "ChannelIOError", "MissingChannelError", "MotionCostError"]
-
-
 class RouteNameError(EnergyPlannerError, KeyError):
     """A route comparison has no route of that name (the message names the valid ones)."""
 
 
-class RemovedAPIError(EnergyPlannerError, ImportError):
-    """A name that was removed; the message says what replaces it."""
-
-
 class EnergyMapError(EnergyPlannerError, ValueError):
     """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
-
-
-__all__ += [
-    "ChannelError",
-    "ChannelIOError",
-    "EnergyMapError",
-    "MissingChannelError",
-    "MotionCostError",
-]
-
-
-
 
 
 __all__ += ["RouteNameError"]

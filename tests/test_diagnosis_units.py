@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shlex
 
 import numpy as np
 import pandas as pd
@@ -26,38 +27,43 @@ from energy_planner.diagnosis import (
 from energy_planner.diagnosis.metrics import heading_bins, numeric_bins
 from energy_planner.model import BASE_TERMS, EnergyModel
 
-TRUE = {
-    "fwd_const": 600.0,
-    "fwd_grade": 1000.0,
-    "bwd_const": 700.0,
-    "bwd_grade": 1000.0,
-    "lat_const": 800.0,
-    "lat_grade": 900.0,
-    "turn_const": 250.0,
-    "turn_slope": 300.0,
+#: The truth of the synthetic data: the paper's linear wrench written out as formulas (not
+#: the model's base terms, which are fitted to it: kinked grades, copper-loss squares).
+TRUTH = {
+    "pos(vx)": 600.0,
+    "pos(vx) * sin(alpha) * cos(gamma)": 1000.0,
+    "pos(-vx)": 700.0,
+    "-pos(-vx) * sin(alpha) * cos(gamma)": 1000.0,
+    "abs(vy)": 800.0,
+    "-vy * sin(alpha) * sin(gamma)": 900.0,
+    "abs(wz)": 250.0,
+    "abs(wz) * sin(alpha)": 300.0,
+    "1": 60.0,
 }
 
 
-def synth(n_runs=32, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12):
+def synth(n_runs=64, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12, speeds=(0.3,)):
     """Windowed samples from the base model (+ one hidden term) with white power noise.
 
-    Each run is one motion (forward, backward, lateral, turn in place) at 0.3 m/s or
-    0.5 rad/s on a random slope and heading; extra channels are constant per run.
+    Each run is one motion (forward, backward, lateral, turn in place, standing) at one of
+    ``speeds`` (m/s, in turn) or 0.5 rad/s on a random slope and heading; extra channels
+    are constant per run.
     """
     rng = np.random.default_rng(seed)
     frames = []
     n = hz * dur
     t = np.arange(n) / hz
     for r in range(n_runs):
-        motion = ("forward", "backward", "lateral", "turn")[r % 4]
+        motion = ("forward", "backward", "lateral", "turn", "stand")[r % 5]
         vx, vy, wz = np.zeros(n), np.zeros(n), np.zeros(n)
+        v = speeds[(r // 5) % len(speeds)]
         if motion == "forward":
-            vx[:] = 0.3
+            vx[:] = v
         elif motion == "backward":
-            vx[:] = -0.3
+            vx[:] = -v
         elif motion == "lateral":
-            vy[:] = 0.3 * rng.choice([-1, 1])
-        else:
+            vy[:] = v * rng.choice([-1, 1])
+        elif motion == "turn":
             wz[:] = 0.5 * rng.choice([-1, 1])
         frames.append(
             pd.DataFrame(
@@ -79,8 +85,8 @@ def synth(n_runs=32, seed=0, effect=None, coef=0.0, noise=20.0, hz=10, dur=12):
             )
         )
     s = pd.concat(frames, ignore_index=True)
-    truth = EnergyModel(list(BASE_TERMS), TRUE)
-    p = truth.design_matrix(s) @ truth.coef_array()
+    truth = EnergyModel(list(TRUTH))
+    p = truth.design_matrix(s) @ np.array(list(TRUTH.values()))
     if effect is not None:
         p = p + coef * EnergyModel([effect]).design_matrix(s)[:, 0]
     s["power"] = p + rng.normal(0, noise, len(s))
@@ -191,7 +197,7 @@ def test_span_residual():
 
 # ----------------------------------------------------------------------------- noise rule
 @given(st.integers(0, 10_000))
-@settings(max_examples=6, deadline=None, derandomize=True)
+@settings(max_examples=3, deadline=None, derandomize=True)
 def test_random_channel_is_never_above_noise(seed):
     """A channel unrelated to power (random per run) must not become a finding."""
     s = synth(seed=seed)
@@ -204,7 +210,7 @@ def test_random_channel_is_never_above_noise(seed):
     assert any("junk" in b.variables for b in rank.below_noise)
 
 
-def test_planted_effect_is_above_noise_and_k_matters():
+def test_planted_effect_is_above_noise_and_rule_matters():
     s = synth(effect="pos(12 - temperature_c)", coef=6.0)
     wd = window_data(s)
     rank = rank_suspects(wd, BASE_TERMS)
@@ -212,8 +218,12 @@ def test_planted_effect_is_above_noise_and_k_matters():
     assert top.variables == ["temperature_c"] and top.term.startswith("pos(")
     # the knot is found near the planted 12 degC
     knot = float(top.term.split("(")[1].split("-")[0])
-    assert abs(knot - 12.0) < 2.0
-    assert top.reduction_w > 2 * top.reduction_se_w
+    # the knot is found near the planted 12 degC (below it, idle_power absorbs a shift of
+    # the knot as a constant: only the runs between the two knots tell them apart)
+    assert abs(knot - 12.0) < 2.5
+    # the by-run test passes the Bonferroni level over every candidate scored
+    assert top.p_value < rank.p_threshold == pytest.approx(0.01 / rank.n_tested)
+    assert rank.n_tested > 20
     # an absurd noise rule rejects it: the rule decides, not the ranking
     strict = rank_suspects(wd, BASE_TERMS, Thresholds(min_rel=0.99))
     assert strict.suspects == [] and strict.below_noise[0].term == top.term
@@ -252,15 +262,20 @@ def test_missing_channel_catalog_term_is_unsupported():
 
 
 def test_user_term_is_scored():
-    s = synth(effect="speed * sin(alpha) * abs(sin(gamma))", coef=300.0)
-    out = diagnose(fitted_base(s), s, max_steps=0, terms=["abs(vy) * sin(alpha)"]).to_dict()
-    assert out["suspects"][0]["name"] == "cross_slope_roll"
-    user = [x for x in out["suspects"] + out["below_noise"] if x["source"] == "user"]
-    assert user and user[0]["term"] == "abs(vy) * sin(alpha)"
+    """A user's hypothesis (a shape no generator makes) is scored and can win."""
+    s = synth(effect="speed * temperature_c ** 2", coef=1.0)
+    term = "speed * temperature_c ** 2"
+    out = diagnose(fitted_base(s), s, max_steps=0, terms=[term]).to_dict()
+    top = out["suspects"][0]
+    assert (top["term"], top["source"]) == (term, "user")
+    # without it, the best data shape of the channel stands in, and explains less
+    out2 = diagnose(fitted_base(s), s, max_steps=0).to_dict()
+    assert "temperature_c" in out2["suspects"][0]["variables"]
+    assert out2["suspects"][0]["error_explained"] < top["error_explained"]
 
 
 def test_single_run_gives_comparison_without_suspects():
-    s = synth(n_runs=16)
+    s = synth()
     out = diagnose(fitted_base(s), s[s["run"] == "r00"]).to_dict()
     assert out["suspects"] == [] and out["staircase"] == []
     assert "2 runs" in out["notes"][0]
@@ -284,7 +299,7 @@ def campaign_dir(tmp_path_factory):
         imu_bias_deg=0.0,
     )
     camp = simulate_campaign(
-        seed=3, effects=("vegetation_drag",), config=CampaignConfig.small(sensors=sensors)
+        seed=3, effects=("vegetation",), config=CampaignConfig.small(sensors=sensors)
     )
     camp.write(d / "logs")
     windows = make_windows(preprocess(camp.logs)[0], duration=2.0)
@@ -354,7 +369,14 @@ def test_cli_text_and_errors(campaign_dir):
     )
     assert res.exit_code == 0, res.output
     assert "suspects (above noise" in res.output and "grass_height_m" in res.output
-    assert "energy-planner fit LOGS --term" in res.output
+    # the hint is runnable as printed: it names the logs, --out and the term
+    (hint,) = [ln for ln in res.output.splitlines() if "add the first one with:" in ln]
+    argv = shlex.split(hint.split("add the first one with:", 1)[1])
+    assert argv[:2] == ["energy-planner", "fit"] and "--out" in argv
+    fitted = runner.invoke(main, argv[1:])
+    assert fitted.exit_code == 0, fitted.output
+    new = EnergyModel.load(argv[argv.index("--out") + 1])
+    assert argv[-1] in new.term_names and "grass_height_m" in argv[-1]
     bad = runner.invoke(
         main,
         [

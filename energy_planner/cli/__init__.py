@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "fit": "fit",
     "figures": "figures",
     "diagnose": "diagnose",
+    "discover": "discover",
     "plan": "plan",
     "compare-routes": "compare_routes",
     "reach": "reach",

@@ -18,6 +18,34 @@ from energy_planner.cli.options import (
 )
 
 
+def fit_hint(
+    logs: tuple[Path, ...] | list[str],
+    model_terms: list[str],
+    new_term: str,
+    out: Path | str,
+    window: float = 2.0,
+) -> str:
+    """The ``energy-planner fit`` command that adds ``new_term`` to a model, as printed.
+
+    ``fit`` starts from the base terms, so the model's other terms are repeated; every
+    argument is shell-quoted, so the line runs as printed.
+
+    >>> fit_hint(("my logs",), ["fwd_const", "acceleration"], "pos(15 - t_c)", "m2.json")
+    "energy-planner fit 'my logs' --out m2.json --term acceleration --term 'pos(15 - t_c)'"
+    """
+    import shlex
+
+    from energy_planner.model import BASE_TERMS
+
+    extra = [t for t in model_terms if t not in BASE_TERMS]
+    parts = ["energy-planner", "fit", *map(str, logs), "--out", str(out)]
+    if window != 2.0:
+        parts += ["--window", f"{window:g}"]
+    for t in [*extra, new_term]:
+        parts += ["--term", t]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
 def _text(doc: dict[str, Any], report: Path | None) -> str:
     def f(v: Any, fmt: str = ".1f") -> str:
         return "-" if v is None else format(v, fmt)
@@ -71,8 +99,13 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
             )
             lines.append(f"     term: {s['term']}   ({', '.join(s['variables'])})")
             lines.append(f"     {s['explanation']}")
-        best = doc["suspects"][0]["term"]
-        lines.append(f'add one with: energy-planner fit LOGS --term "{best}"')
+        for a in doc.get("alternatives", []):
+            lines.append(
+                f"  or, equally well (the data cannot tell them apart): {a['name']}: "
+                f"{a['term']} (held-out RMSE {a['heldout_rmse_w']:.1f} W)"
+            )
+        if doc.get("hint"):
+            lines.append(f"add the first one with: {doc['hint']}")
     else:
         lines.append("no suspect above noise.")
     below = doc["below_noise"][:3]
@@ -166,12 +199,13 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     help="Largest number of terms the staircase adds.",
 )
 @click.option(
-    "--k",
-    "k",
-    type=click.FloatRange(min=0),
-    default=2.5,
+    "--alpha",
+    "alpha",
+    type=click.FloatRange(min=0, max=1, min_open=True),
+    default=0.01,
     show_default=True,
-    help="Noise rule: mean per-fold RMSE reduction > k x its standard error.",
+    help="Noise rule: family-wise false-finding level (Bonferroni over the candidates) of "
+    "the one-sided test by run.",
 )
 @click.option(
     "--min-rel",
@@ -197,7 +231,7 @@ def command(
     window: float,
     folds: int,
     max_steps: int,
-    k: float,
+    alpha: float,
     min_rel: float,
     seed: int,
     as_json: bool,
@@ -208,8 +242,8 @@ def command(
     (energy per run, superposition of composite paths), where it fails (the residual by
     slope, heading, speed, motion and every extra log channel), and a ranked list of
     suspects: candidate effects from the catalog and from the extra channels, each
-    validated on held-out runs. Add the best one with `energy-planner fit LOGS --term
-    TERM` and diagnose again.
+    validated on held-out runs. Add the best one with the printed `energy-planner fit`
+    line and diagnose again, or let `energy-planner discover` walk the whole staircase.
 
     Example: energy-planner diagnose logs/ --model b1.json --report diagnosis.html
     """
@@ -227,7 +261,7 @@ def command(
     windows = load_windows(logs, window)[0]  # (windows, reports, text, ...)
     extra = [t.name for t in resolve_terms(terms, set(windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
-    th = Thresholds(k=k, min_rel=min_rel, n_splits=folds, seed=seed)
+    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     progress = None
     if sys.stderr.isatty():
 
@@ -249,6 +283,11 @@ def command(
             f"{exc}\nhint: the model's features must be in the logs; see docs/diagnosis.md"
         ) from exc
     doc = d.to_dict()
+    if doc["suspects"]:
+        out = Path("model.json") if model_path is None else model_path.with_name(
+            f"{model_path.stem}_next.json"
+        )
+        doc["hint"] = fit_hint(logs, doc["model_terms"], doc["suspects"][0]["term"], out, window)
     if report is not None:
         from energy_planner.diagnosis.report import write_report
 

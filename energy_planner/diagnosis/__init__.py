@@ -4,15 +4,18 @@ The flow (``energy-planner diagnose``): windowed measurements and a fitted model
 power-level errors on windows, energy errors per run, the superposition check of composite
 paths, the residual broken down by every variable, a ranked list of suspects (candidate
 physical effects validated on held-out runs) and the greedy staircase of held-out error
-as the best suspects are added one by one.
+as the best suspects are added one by one. ``discover`` walks that staircase from raw
+logs after the data checks (sensor problems reported as data findings and repaired).
 
 >>> from energy_planner.diagnosis import Thresholds
->>> Thresholds().k, Thresholds().min_rel
-(2.5, 0.05)
+>>> Thresholds().alpha, Thresholds().min_rel
+(0.01, 0.05)
 """
 
 from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table
 from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.diagnosis.datacheck import DataFinding, check_data
+from energy_planner.diagnosis.discover import Discovery, discover
 from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
 from energy_planner.diagnosis.suspects import (
     Candidate,
@@ -29,6 +32,10 @@ from energy_planner.diagnosis.suspects import (
 
 __all__ = [
     "Candidate",
+    "DataFinding",
+    "Discovery",
+    "check_data",
+    "discover",
     "Diagnosis",
     "Ranking",
     "Step",

@@ -162,9 +162,12 @@ class Diagnosis:
             "suspects": [] if r is None else [s.to_dict() for s in r.suspects],
             "below_noise": [] if r is None else [s.to_dict() for s in r.below_noise],
             "unsupported": [] if r is None else r.unsupported,
+            "alternatives": [] if r is None else [s.to_dict() for s in r.alternatives],
+            "n_tested": 0 if r is None else r.n_tested,
+            "p_threshold": None if r is None else r.p_threshold,
             "staircase": [s.to_dict() for s in self.steps],
             "thresholds": {
-                "k": th.k,
+                "alpha": th.alpha,
                 "min_rel": th.min_rel,
                 "span_tol": th.span_tol,
                 "n_splits": th.n_splits,

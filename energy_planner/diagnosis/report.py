@@ -229,18 +229,20 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     parts.append("<h2>Suspects: which effect is missing</h2>")
     parts.append(
         f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
-        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when the mean "
-        f"per-fold reduction of held-out RMSE exceeds {th['k']} times its fold-to-fold "
-        f"standard error and the pooled held-out RMSE falls by at least "
-        f"{100 * th['min_rel']:.0f}%. Add one with <code>energy-planner fit LOGS --term "
-        f"TERM</code>.</p>"
+        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when a one-sided "
+        f"paired t-test by run of its held-out error reduction has p &lt; "
+        f"{th['alpha']} / {doc['n_tested']} candidates (Bonferroni) and the pooled held-out "
+        f"RMSE falls by at least {100 * th['min_rel']:.0f}%. Add one with <code>energy-planner "
+        f"fit LOGS --out model.json --term TERM</code>, or let <code>energy-planner discover"
+        f"</code> walk the staircase.</p>"
     )
     cols = [
         ("name", "suspect"),
         ("term", "term"),
         ("error_explained", "error explained"),
         ("heldout_rmse_w", "held-out RMSE with it (W)"),
-        ("reduction_se_w", "fold SE (W)"),
+        ("z_by_run", "z (by run)"),
+        ("p_value", "p"),
         ("explanation", "physical explanation"),
     ]
     parts.append(_table(doc["suspects"], cols))
@@ -330,3 +332,128 @@ def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner di
     path = Path(path)
     path.write_text(render_html(d, title), encoding="utf-8")
     return path
+
+
+# --------------------------------------------------------------------------- discover
+
+
+def plot_discovery(table: Sequence[dict]):
+    """The staircase of ``discover``: held-out power RMSE (bars) and run-energy error
+    (median and 90th percentile, lines) after each step."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    x = np.arange(len(table))
+    y = np.array([r["heldout_rmse_w"] for r in table], float)
+    lo = np.array([min(r["fold_rmse_w"]) for r in table], float)
+    hi = np.array([max(r["fold_rmse_w"]) for r in table], float)
+    ax.bar(x, y, width=0.6, color="C0", label="held-out power RMSE (W)")
+    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4,
+                label="fold range")  # fmt: skip
+    for xi, yi in zip(x, y, strict=True):
+        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3), fontsize=8)
+    labels = ["base model"] + [f"+ {r['name']}" for r in table[1:]]
+    ax.set_xticks(x, labels, rotation=15, fontsize=8)
+    ax.set_ylabel("held-out power RMSE (W)")
+    ax.set_ylim(bottom=0)
+    ax2 = ax.twinx()
+    med = 100 * np.array([r["run_energy_error_median"] for r in table], float)
+    p90 = 100 * np.array([r["run_energy_error_p90"] for r in table], float)
+    ax2.plot(x, med, "o-", color="C3", label="run energy error, median (%)")
+    ax2.plot(x, p90, "s--", color="C1", label="run energy error, p90 (%)")
+    ax2.set_ylabel("held-out run energy error (%)")
+    ax2.set_ylim(bottom=0)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right")
+    ax.set_title("discovery staircase (every number held out by run)", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> str:
+    """The ``discover`` report (``Discovery.to_dict()``) as one self-contained page."""
+    th = doc["thresholds"]
+    parts = [
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
+        f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"
+    ]
+    parts.append(
+        f"<p class='big'>{doc['n_windows']} windows from {doc['n_runs']} runs. Base model: "
+        f"<code>{html.escape(', '.join(doc['base_terms']))}</code>.<br>Terms added: "
+        f"<code>{html.escape(', '.join(doc['added']) or '(none)')}</code></p>"
+    )
+    for n in doc["notes"]:
+        parts.append(f"<p class='note'>{html.escape(n)}</p>")
+    parts.append("<h2>Data findings (sensor problems, not physical effects)</h2>")
+    parts.append(
+        _table(
+            doc["data_findings"],
+            [("name", "check"), ("finding", "found"), ("repaired", "repaired"),
+             ("summary", "what was measured")],
+            hot=lambda r: r.get("finding"),
+        )
+    )  # fmt: skip
+    parts.append("<h2>Staircase</h2>")
+    table = doc["staircase"]
+    parts.append(_png(plot_discovery(table)))
+    rows = []
+    for r in table:
+        alts = "; ".join(f"{a['name']} ({a['term']})" for a in r["alternatives"])
+        rows.append(
+            dict(
+                r,
+                added=r["added"] or "(base model)",
+                alternatives=alts or "-",
+                med=None if r["run_energy_error_median"] is None
+                else 100 * r["run_energy_error_median"],
+                p90=None if r["run_energy_error_p90"] is None else 100 * r["run_energy_error_p90"],
+                removed=None if r["error_removed"] is None else 100 * r["error_removed"],
+                removed_total=100 * r["error_removed_total"],
+            )
+        )  # fmt: skip
+    parts.append(
+        _table(
+            rows,
+            [
+                ("step", "step"),
+                ("added", "term added"),
+                ("explanation", "physical explanation"),
+                ("alternatives", "or equally (confounded)"),
+                ("heldout_rmse_w", "held-out RMSE (W)"),
+                ("med", "run energy error, median (%)"),
+                ("p90", "run energy error, p90 (%)"),
+                ("removed", "error removed by the step (%)"),
+                ("removed_total", "error removed so far (%)"),
+            ],
+        )
+    )
+    parts.append(
+        f"<p class='note'>Rule: a candidate is added when a one-sided paired t-test by run of "
+        f"its held-out error reduction has p below {th['alpha']} / (candidates tested: "
+        f"{', '.join(map(str, doc['n_tested']))} at each step) and it lowers the held-out "
+        f"RMSE by at least {100 * th['min_rel']:.0f}%. Folds: {th['n_splits']} by run.</p>"
+    )
+    parts.append("<h2>Best candidates left below noise</h2>")
+    parts.append(
+        _table(
+            doc["below_noise_at_end"],
+            [("name", "candidate"), ("term", "term"), ("error_explained", "error explained"),
+             ("z_by_run", "z (by run)"), ("p_value", "p"), ("explanation", "explanation")],
+        )
+    )  # fmt: skip
+    fit = doc.get("final_fit")
+    if fit:
+        parts.append("<h2>Final model (all windows)</h2>")
+        coef = [
+            {"term": k, "coefficient": v, "stderr": (fit["stderr"] or {}).get(k)}
+            for k, v in fit["coefficients"].items()
+        ]
+        parts.append(
+            _table(coef, [("term", "term"), ("coefficient", "coefficient"), ("stderr", "stderr")])
+        )
+    parts.append("</body></html>")
+    return "\n".join(parts)

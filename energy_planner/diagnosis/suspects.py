@@ -1,36 +1,50 @@
 """Which physical effect is the model missing: candidates, held-out validation, ranking.
 
 A *candidate* is one more term (a catalog name or a formula) with a one-line physical
-explanation. Candidates come from the model catalog (``energy_planner.model.CATALOG``, plus
-surface type per value of the ``surface`` channel) and from the data: every extra channel
-of the logs gets a few term shapes (``x``, ``x * speed``, ``abs(wz) * x``, hinges
-``pos(q - x)`` / ``pos(x - q)`` at data quantiles; per value ``(c == 'v')`` and
-``speed * (c == 'v')`` for a categorical channel) and the best shape by held-out error
-stands for the channel.
+explanation. Candidates come from
+
+- the model catalog (``energy_planner.model.CATALOG``) and surface type per value of a
+  ``surface`` channel;
+- the data: every extra channel of the logs gets a family of shapes (:func:`channel_candidates`):
+  numeric ``x`` (standing power), ``x * speed`` (force per metre), ``x * pos(climb)`` and
+  ``x * pos(-climb)`` (a mass lifted and lowered: ``climb = sin(alpha) * (vx cos(gamma) -
+  vy sin(gamma))`` is the rate of climb along the motion), ``x * speed * sin(alpha)`` (a load
+  on any slope), ``abs(wz) * x`` (turning), hinges ``pos(q - x)``, ``pos(x - q)`` and the same
+  times speed at data quantiles ``q``; categorical ``(c == 'v')``, ``speed * (c == 'v')``,
+  ``(c == 'v') * pos(climb)`` and ``abs(wz) * (c == 'v')`` per value. The best shape per
+  channel by held-out error stands for the channel (a best hinge gets its knot refined);
+- speed shapes (``speed ** 2``, ``speed ** 3``, hinges in speed), tried only when the logs
+  hold several walking speeds (:func:`speed_levels`): at one speed they are the motion terms
+  again;
+- the user's own ``--term``.
 
 Each candidate is scored by the held-out error of the model refitted with it, validated
 by run (grouped K-fold: all windows of a run are in the same fold, so a run is never
-predicted by a fit that saw it). The rules:
+predicted by a fit that saw it).
 
 *Unsupported* (listed, never ranked): the candidate needs a channel the logs lack, its
 column has no variance or no finite value, or its column is nearly in the span of the
 model's columns: the relative residual ``||z - X b|| / ||z||`` of its least-squares
-projection on the model's columns is below ``span_tol`` (default 0.05). Example: a
-``speed**2`` term from single-speed runs is ``0.3 * speed`` up to noise, which the motion
-terms already carry; its coefficient would be noise.
+projection on the model's columns is below ``span_tol`` (default 0.05).
 
-*Above noise* (a finding): with ``d_f`` the held-out RMSE reduction on fold ``f`` (same
-held-out windows with and without the candidate), the mean reduction must exceed ``k``
-(default 2.5) times its fold-to-fold standard error ``sd(d_f) / sqrt(n_folds)``, AND the
-pooled held-out RMSE must fall by at least ``min_rel`` (default 5 %) of its current value.
-The first rule asks that the gain be systematic across runs, not the luck of one fold: it
-is a one-sided paired t-test over the folds (with 5 folds, 4 degrees of freedom, t > 2.5
-has a chance of about 3 % under no effect; 2.13 would be the usual 5 %). The second keeps
-out gains too small to matter, which a search over a few dozen candidates would
-otherwise find in noise. Both were checked on noise-only data (see docs/diagnosis.md).
+*Above noise* (a finding). With ``d_r`` the reduction of run ``r``'s mean held-out squared
+window error when the candidate is added (same held-out windows with and without it), a
+one-sided signed-rank test over the runs (:func:`paired_run_test`) asks that runs improve
+consistently; its p-value must be below
+``alpha / m`` where ``m`` is the number of candidates scored in this ranking (Bonferroni: the
+chance that *any* of them passes by luck is at most ``alpha``, default 1 %), AND the pooled
+held-out RMSE must fall by at least ``min_rel`` (default 5 %) of its current value. The first
+rule controls the false-finding rate whatever the number of candidates; the second keeps
+out gains too small to matter (a real but negligible structure of the residual). Measured
+rates are in docs/diagnosis.md.
 
 ``error_explained`` is the fraction of the current held-out mean squared error that the
 candidate removes, ``1 - MSE_cv(with) / MSE_cv(without)``.
+
+*Confounded* suspects: when another above-noise suspect ``B`` is not significantly worse than
+the best one ``A`` (two-sided paired test by run at 5 %), and neither adds anything above
+noise once the other is in the model, the data cannot tell them apart: ``B`` is listed in
+``Ranking.alternatives`` and reported with ``A`` as one finding.
 """
 
 from __future__ import annotations
@@ -42,21 +56,50 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from energy_planner.diagnosis.data import MAX_CATEGORIES, WindowData
-from energy_planner.errors import FitError
+from energy_planner.stats import fold_index as run_folds
+from energy_planner.stats import heldout_residuals as cv_errors
+from energy_planner.stats import heldout_rmse, span_basis, span_residual
+from energy_planner.stats import wls_coef as wls
 
 #: Quantiles at which hinge terms on a numeric channel are tried.
 HINGE_QUANTILES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
+#: Rate of climb along the motion per unit speed, sin(alpha) times the grade of the
+#: direction of travel (forward ``sin a cos g``, left ``-sin a sin g``), m/s.
+CLIMB = "sin(alpha) * (vx * cos(gamma) - vy * sin(gamma))"
+#: Steady walking samples whose 90th / 10th percentile speed ratio exceeds this hold
+#: several speeds: speed shapes are then tried.
+SPEED_SPREAD = 1.25
+#: Windows slower than this (m/s) are standing or turning in place, not walking.
+WALKING_SPEED = 0.05
 
 
 @dataclass(frozen=True)
 class Thresholds:
-    """Rules that decide support and noise (see the module docstring)."""
+    """Rules that decide support and noise (see the module docstring).
 
-    k: float = 2.5
+    Attributes
+    ----------
+    alpha : float
+        Family-wise false-finding level of one ranking: the p-value of a candidate's
+        one-sided test by run must be below ``alpha / m`` (``m`` candidates scored).
+    min_rel : float
+        Smallest relative reduction of the pooled held-out RMSE that counts.
+    span_tol : float
+        Candidates whose column is within this relative residual of the model's span
+        are unsupported.
+    n_splits, seed : int
+        Folds by run and the seed of their assignment.
+    confound_alpha : float
+        Two-sided level of the paired signed-rank test by run that tells the best suspect
+        from another one.
+    """
+
+    alpha: float = 0.01
     min_rel: float = 0.05
     span_tol: float = 0.05
     n_splits: int = 5
     seed: int = 0
+    confound_alpha: float = 0.05
 
 
 @dataclass
@@ -67,15 +110,19 @@ class Candidate:
     term: str
     variables: list[str]
     explanation: str
-    source: str  # "catalog" or "data"
-    channel: str | None = None  # channel whose shapes compete for this candidate
+    source: str  # "catalog", "data", "speed" or "user"
+    channel: str | None = None  # family whose shapes compete (a channel, or "speed")
     formula: str = ""  # the formula behind a catalog name (for de-duplication)
     knot_level: float | None = None  # hinge: quantile level of the knot in the channel
     below: bool = True  # hinge: pos(q - x) (True) or pos(x - q)
+    shape: str = ""  # kind of shape within the family (hinges of one kind share it)
+    needs_speeds: bool = False  # only identifiable from several walking speeds
+    hinge_times: str = ""  # hinge multiplied by this ("" or "speed")
 
     def __post_init__(self) -> None:
         self.term = canonical(self.term)
         self.formula = self.formula or self.term
+        self.shape = self.shape or self.name
 
 
 @dataclass
@@ -91,10 +138,14 @@ class Suspect:
     heldout_rmse_w: float
     heldout_rmse_before_w: float
     reduction_w: float
-    reduction_se_w: float
-    above_noise: bool
+    z_by_run: float
+    p_value: float
+    n_runs: int
     n_windows: int
     coefficient: float = math.nan
+    above_noise: bool = False
+    p_threshold: float = math.nan
+    channel: str | None = None
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
@@ -111,81 +162,31 @@ class Ranking:
     suspects: list[Suspect]  # above noise, best first
     below_noise: list[Suspect]
     unsupported: list[dict] = field(default_factory=list)
+    alternatives: list[Suspect] = field(default_factory=list)  # confounded with the best
+    n_tested: int = 0
+    p_threshold: float = math.nan
+    heldout_errors: np.ndarray | None = field(default=None, repr=False)
 
 
 # --------------------------------------------------------------------------- folds / CV
+# Least squares, folds by run and spans are energy_planner.stats' (shared with calibration).
 
-
-def run_folds(runs: Sequence, n_splits: int = 5, seed: int = 0) -> np.ndarray:
-    """Fold index of each window, whole runs per fold.
-
-    The assignment is :func:`energy_planner.calibration.run_folds` (the folds ``fit``
-    validates on, for the same ``n_splits`` and ``seed``); ``n_splits`` is reduced to the
-    number of runs when there are fewer.
-
-    Examples
-    --------
-    >>> f = run_folds(["a", "a", "b", "c", "c", "c"], n_splits=2)
-    >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
-    (True, [0, 1])
-    """
-    from energy_planner.calibration import run_folds as calibration_folds
-
-    runs = np.asarray(runs).astype(str)
-    uniq = np.unique(runs)
-    if len(uniq) < 2:
-        raise FitError(
-            f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
-            f"({list(uniq)}); record more runs"
-        )
-    folds = calibration_folds(uniq.tolist(), max(2, min(n_splits, len(uniq))), seed)
-    fold_of = {r: i for i, part in enumerate(folds) for r in part}
-    return np.array([fold_of[r] for r in runs], dtype=np.int64)
-
-
-def _solve_gram(g: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Minimum-norm solution of the normal equations ``g b = r`` (small, symmetric)."""
-    return np.linalg.lstsq(g, r, rcond=1e-12)[0]
-
-
-def wls(x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """Weighted least squares ``y ~ x`` (columns scaled; minimum norm if rank-deficient).
-
-    Solved through the normal equations of the unit-norm scaled columns: the problems
-    here have a dozen well-scaled columns, and a ``k x k`` solve is much cheaper than an
-    SVD of the ``n x k`` matrix when thousands of fits are made.
-
-    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
-    >>> np.round(wls(x, np.array([1.0, 3, 5, 7])), 9).tolist()
-    [1.0, 2.0]
-    """
-    sw = np.ones(len(y)) if w is None else np.sqrt(np.asarray(w, float))
-    xw = x * sw[:, None]
-    scale = np.linalg.norm(xw, axis=0)
-    scale[scale == 0] = 1.0
-    xs = xw / scale
-    return _solve_gram(xs.T @ xs, xs.T @ (y * sw)) / scale
-
-
-def _cv_errors(x: np.ndarray, y: np.ndarray, folds: np.ndarray, w=None) -> np.ndarray:
-    """Held-out residuals of weighted least squares ``y ~ x`` by fold (prediction >= 0).
-
-    The training normal equations of a fold are the totals minus the fold's own.
-    """
-    sw = np.ones(len(y)) if w is None else np.sqrt(np.asarray(w, float))
-    xw = x * sw[:, None]
-    scale = np.linalg.norm(xw, axis=0)
-    scale[scale == 0] = 1.0
-    xs = xw / scale
-    yw = y * sw
-    g, r = xs.T @ xs, xs.T @ yw
-    err = np.empty_like(y)
-    for f in np.unique(folds):
-        te = folds == f
-        xt = xs[te]
-        coef = _solve_gram(g - xt.T @ xt, r - xt.T @ yw[te]) / scale
-        err[te] = y[te] - np.maximum(x[te] @ coef, 0.0)
-    return err
+__all__ = [
+    "Candidate",
+    "Ranking",
+    "Step",
+    "Suspect",
+    "Thresholds",
+    "cv_errors",
+    "heldout_rmse",
+    "paired_run_test",
+    "rank_suspects",
+    "run_folds",
+    "span_basis",
+    "span_residual",
+    "staircase",
+    "wls",
+]
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
@@ -194,54 +195,54 @@ def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
     return np.sqrt(sq / np.maximum(n, 1))
 
 
-def heldout_rmse(
-    x: np.ndarray, y: np.ndarray, folds: np.ndarray, w: np.ndarray | None = None
-) -> tuple[float, np.ndarray]:
-    """Pooled and per-fold held-out RMSE of the linear model ``y ~ x`` validated by fold.
+def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
+    """One-sided paired test by run that ``e1`` has smaller squared errors than ``e0``.
 
-    The fits weigh each row by ``w`` (window duration, as the calibration does); the RMSE
-    weighs every held-out window alike.
+    ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
+    independent units (held out by run; a run's windows share its ground and sensors). The
+    test is Wilcoxon's signed-rank test of ``d_r`` (one-sided, normal approximation with
+    tie correction): an effect often lives in a few runs (those on mud, those with a
+    payload) and makes ``d_r`` very skewed, where a t-test has little power; the
+    signed-rank test counts how consistently runs improve.
 
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> x = np.column_stack([np.ones(200), rng.uniform(size=200)])
-    >>> y = x @ [1.0, 2.0] + rng.normal(0, 0.1, 200)
-    >>> rmse, per_fold = heldout_rmse(x, y, np.arange(200) % 4)
-    >>> bool(0.08 < rmse < 0.12), per_fold.shape
-    (True, (4,))
-    """
-    err = _cv_errors(x, y, folds, w)
-    n_folds = int(folds.max()) + 1
-    return float(np.sqrt(np.mean(err**2))), _fold_rmse(err, folds, n_folds)
-
-
-def span_basis(x: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of the column span of ``x`` (from its SVD)."""
-    if x.shape[1] == 0:
-        return np.zeros((x.shape[0], 0))
-    u, sv, _ = np.linalg.svd(x, full_matrices=False)
-    return u[:, sv > sv[0] * 1e-10] if sv.size and sv[0] > 0 else u[:, :0]
-
-
-def span_residual(z: np.ndarray, x: np.ndarray, basis: np.ndarray | None = None) -> float:
-    """Relative residual ``||z - X b|| / ||z||`` of the projection of ``z`` on ``X``'s span.
-
-    0 means ``z`` is a combination of the columns of ``X`` (the data cannot tell it apart);
-    1 means it is orthogonal to them. ``basis`` (:func:`span_basis` of ``x``) saves the
-    decomposition when many ``z`` are tested against the same ``x``.
+    Returns
+    -------
+    tuple
+        ``(z, p, n_runs)``: the standardised signed-rank statistic (> 0: ``e1`` better),
+        its one-sided p-value and the number of runs.
 
     Examples
     --------
-    >>> x = np.column_stack([np.ones(4), [0.0, 1, 2, 3]])
-    >>> round(span_residual(np.array([1.0, 3, 5, 7]), x), 6)
-    0.0
+    >>> runs = np.repeat(np.arange(20), 3)
+    >>> rng = np.random.default_rng(1)
+    >>> e0 = rng.normal(0, 2, 60); e1 = e0 / 2
+    >>> z, p, n = paired_run_test(e0, e1, runs)
+    >>> bool(z > 3 and p < 1e-3), n
+    (True, 20)
+    >>> z, p, n = paired_run_test(e1, e0, runs)
+    >>> bool(z < -3 and p > 0.99)
+    True
     """
-    norm = float(np.linalg.norm(z))
-    if norm == 0.0:
-        return 0.0
-    q = span_basis(x) if basis is None else basis
-    return float(np.linalg.norm(z - q @ (q.T @ z)) / norm)
+    from scipy.stats import norm, rankdata
+
+    _, inv = np.unique(runs, return_inverse=True)
+    cnt = np.bincount(inv)
+    d = np.bincount(inv, weights=e0**2 - e1**2) / cnt
+    n = d.size
+    scale = np.max(np.abs(d)) if n else 0.0
+    d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
+    m = d.size
+    if m < 2:
+        return math.nan, 1.0, n
+    r = rankdata(np.abs(d))
+    w = float(np.sum(r[d > 0]))
+    mean = m * (m + 1) / 4.0
+    _, ties = np.unique(r, return_counts=True)
+    var = m * (m + 1) * (2 * m + 1) / 24.0 - float(np.sum(ties**3 - ties)) / 48.0
+    if var <= 0:
+        return math.nan, 1.0, n
+    z = (w - mean) / math.sqrt(var)
+    return float(z), float(norm.sf(z)), n
 
 
 # --------------------------------------------------------------------------- candidates
@@ -252,37 +253,57 @@ def _fmt(q: float) -> str:
     return f"{float(q):.4g}"
 
 
-def hinge(ch: str, q: float, below: bool, level: float | None = None) -> Candidate:
-    """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel.
+def hinge(
+    ch: str, q: float, below: bool, level: float | None = None, times: str = ""
+) -> Candidate:
+    """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel,
+    optionally times ``speed`` (a force per metre that starts at a threshold).
 
     >>> hinge("temperature_c", 15.0, True).term
     'pos(15 - temperature_c)'
     >>> hinge("x", -2.5, False).term
     'pos(x + 2.5)'
+    >>> hinge("motor_temp", 60.0, False, times="speed").term
+    'speed * pos(motor_temp - 60)'
     """
     qs = _fmt(q)
     if below:
+        h, name = f"pos({qs} - {ch})", f"{ch}<{qs}"
+        what = f"as {ch} falls below {qs}"
+    else:
+        h = f"pos({ch} - {qs})" if q >= 0 else f"pos({ch} + {_fmt(-q)})"
+        name, what = f"{ch}>{qs}", f"as {ch} rises above {qs}"
+    if times == "speed":
         return Candidate(
-            f"{ch}<{qs}",
-            f"pos({qs} - {ch})",
-            [ch],
-            f"extra standing power grows as {ch} falls below {qs} (a threshold effect, "
-            "e.g. stiff cold joints, a low battery)",
+            f"speed*({name})",
+            f"speed * {h}",
+            sorted({ch, "speed"}),
+            f"the force per metre grows {what} (a threshold effect on walking, e.g. a "
+            "surface or temperature that changes the gait's losses)",
             "data",
             ch,
             knot_level=level,
-            below=True,
+            below=below,
+            shape=f"speed*hinge{'<' if below else '>'}",
+            hinge_times="speed",
         )
     return Candidate(
-        f"{ch}>{qs}",
-        f"pos({ch} - {qs})" if q >= 0 else f"pos({ch} + {_fmt(-q)})",
+        name,
+        h,
         [ch],
-        f"extra standing power grows as {ch} rises above {qs} (a threshold effect)",
+        f"extra standing power grows {what} (a threshold effect, e.g. stiff cold joints, "
+        "a low battery, hot motors)",
         "data",
         ch,
         knot_level=level,
-        below=False,
+        below=below,
+        shape=f"hinge{'<' if below else '>'}",
     )
+
+
+def _nonlinear_in_speed(formula: str) -> bool:
+    f = formula.replace(" ", "")
+    return "speed**" in f or "speed*speed" in f
 
 
 def catalog_candidates(model_terms: Iterable[str], wd: WindowData) -> list[Candidate]:
@@ -305,6 +326,7 @@ def catalog_candidates(model_terms: Iterable[str], wd: WindowData) -> list[Candi
                 explanation=str(getattr(term, "explanation", "")),
                 source="catalog",
                 formula=formula,
+                needs_speeds=_nonlinear_in_speed(formula),
             )
         )
     if "surface" in wd.categorical_extras:
@@ -323,6 +345,7 @@ def catalog_candidates(model_terms: Iterable[str], wd: WindowData) -> list[Candi
                     ),
                     source="catalog",
                     channel="surface",
+                    shape="speed*(c==v)",
                 )
             )
     return out
@@ -344,6 +367,88 @@ def _categories(wd: WindowData, ch: str) -> list[str]:
     return sorted(vals.unique().tolist())
 
 
+def speed_levels(wd: WindowData) -> dict:
+    """Do the logs hold several walking speeds? From the steady walking samples.
+
+    A sample is steady walking when its speed exceeds :data:`WALKING_SPEED` and its
+    acceleration (``ax, ay`` when the samples have them) is below 0.05 m/s^2: the ramps
+    at the start and end of a run are not other speeds.
+
+    Returns
+    -------
+    dict
+        ``{"several": bool, "p10": float, "p90": float, "n_walking": int}``: several
+        speeds when the 90th / 10th percentile ratio of steady walking speeds exceeds
+        :data:`SPEED_SPREAD`.
+    """
+    s = wd.samples
+    none = {"several": False, "p10": math.nan, "p90": math.nan, "n_walking": 0}
+    if "speed" not in s.columns:
+        return none
+    sp = s["speed"].to_numpy(float)
+    keep = np.isfinite(sp) & (sp > WALKING_SPEED)
+    if {"ax", "ay"} <= set(s.columns):
+        acc = np.hypot(s["ax"].to_numpy(float), s["ay"].to_numpy(float))
+        keep &= np.nan_to_num(acc, nan=np.inf) < 0.05
+    walking = sp[keep]
+    if walking.size < 20:
+        return {**none, "n_walking": int(walking.size)}
+    lo, hi = np.quantile(walking, [0.1, 0.9])
+    return {
+        "several": bool(hi > SPEED_SPREAD * lo),
+        "p10": float(lo),
+        "p90": float(hi),
+        "n_walking": int(walking.size),
+    }
+
+
+def speed_candidates(wd: WindowData) -> list[Candidate]:
+    """Shapes of a speed dependence (only meaningful when the logs hold several speeds)."""
+    sp = wd.table["speed"].to_numpy(float) if "speed" in wd.table.columns else np.array([])
+    walking = sp[np.isfinite(sp) & (sp > WALKING_SPEED)]
+    out = [
+        Candidate(
+            "speed^2",
+            "speed ** 2",
+            ["speed"],
+            "leg swing and damping losses grow with speed: the force per metre grows "
+            "with speed",
+            "speed",
+            "speed",
+            shape="speed^2",
+            needs_speeds=True,
+        ),
+        Candidate(
+            "speed^3",
+            "speed ** 3",
+            ["speed"],
+            "losses that grow with the square of speed per metre (fast leg swing, impacts)",
+            "speed",
+            "speed",
+            shape="speed^3",
+            needs_speeds=True,
+        ),
+    ]
+    if walking.size >= 10:
+        levels = (0.25, 0.5, 0.75)
+        for level, q in zip(levels, np.quantile(walking, levels), strict=True):
+            qs = _fmt(q)
+            out.append(
+                Candidate(
+                    f"speed>{qs}",
+                    f"pos(speed - {qs})",
+                    ["speed"],
+                    f"above {qs} m/s the gait changes and costs more per second",
+                    "speed",
+                    "speed",
+                    knot_level=float(level),
+                    shape="speed-hinge",
+                    needs_speeds=True,
+                )
+            )
+    return out
+
+
 def user_candidates(specs: Iterable[str]) -> list[Candidate]:
     """Candidates from term specs (catalog names or formulas) a user wants tested.
 
@@ -360,14 +465,114 @@ def user_candidates(specs: Iterable[str]) -> list[Candidate]:
     return out
 
 
+def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, list[str]]]:
+    climb = f"pos({CLIMB})"
+    descent = f"pos(-({CLIMB}))"
+    geo = ["alpha", "gamma", "vx", "vy"]
+    shapes = [
+        (ch, ch, f"a standing power proportional to {ch}", []),
+        (
+            f"{ch}*speed",
+            f"{ch} * speed",
+            f"a force along the motion proportional to {ch} (drag, resistance, carried load)",
+            ["speed"],
+        ),
+        (
+            f"{ch}*climb",
+            f"{ch} * {climb}",
+            f"lifting work proportional to {ch} (a mass carried uphill)",
+            geo,
+        ),
+        (
+            f"{ch}*descent",
+            f"{ch} * {descent}",
+            f"braking work proportional to {ch} (a mass lowered downhill)",
+            geo,
+        ),
+        (
+            f"{ch}*slope",
+            f"{ch} * speed * sin(alpha)",
+            f"walking on any slope costs more in proportion to {ch} (a load held on a slope)",
+            ["speed", "alpha"],
+        ),
+        (f"{ch}*turn", f"abs(wz) * {ch}", f"the cost of turning grows with {ch}", ["wz"]),
+    ]
+    if several_speeds:
+        shapes.append(
+            (
+                f"{ch}*speed^2",
+                f"{ch} * speed ** 2",
+                f"swing losses that grow with speed, in proportion to {ch}",
+                ["speed"],
+            )
+        )
+    return shapes
+
+
+def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, str, list[str]]]:
+    """``ch`` times each base term of the model: the base's own physics scaled by the
+    channel (a load scales the lifting work, the copper losses of holding a slope...)."""
+    from energy_planner.model import BASE_TERMS, CATALOG
+
+    out = []
+    for name in model_terms:
+        if name not in BASE_TERMS or CATALOG[name].formula.strip() == "1":
+            continue
+        t = CATALOG[name]
+        expl = t.explanation.split(":")[0]
+        out.append(
+            (
+                f"{ch}*{name}",
+                f"{ch} * ({t.formula})",
+                f"{expl}, in proportion to {ch}",
+                sorted(t.variables),
+            )
+        )
+    return out
+
+
+def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | None):
+    """``ch`` times the fitted base power, and times its copper (squared-force) part: a
+    channel that scales every force of the gait (a mass) or every copper loss (the
+    winding resistance). The coefficients are the current fit's, written into the term.
+    """
+    from energy_planner.model import BASE_TERMS, CATALOG
+
+    if not coef:
+        return []
+    base = [t for t in model_terms if t in BASE_TERMS and np.isfinite(coef.get(t, np.nan))]
+    out = []
+    for label, names, expl in (
+        ("P_base", base, f"every force of the gait grows in proportion to {ch} (a carried "
+         "mass: gravity work, inertia and the losses of the leg forces)"),
+        ("P_copper", [t for t in base if t.endswith("_sq")],
+         f"the copper (I^2 R) losses grow in proportion to {ch} (winding resistance: it "
+         "rises with the motor temperature)"),
+    ):  # fmt: skip
+        parts = [f"{coef[t]:.4g} * ({CATALOG[t].formula})" for t in names if coef[t] != 0]
+        if not parts:
+            continue
+        variables = sorted({v for t in names for v in CATALOG[t].variables})
+        out.append((f"{ch}*{label}", f"{ch} * ({' + '.join(parts)})", expl, variables))
+    return out
+
+
 def channel_candidates(
-    wd: WindowData, catalog_terms: Iterable[str] = ()
+    wd: WindowData,
+    catalog_terms: Iterable[str] = (),
+    several_speeds: bool | None = None,
+    model_terms: Iterable[str] = (),
+    coef: dict[str, float] | None = None,
 ) -> tuple[list[Candidate], list[dict]]:
-    """Data-driven candidates, one group of shapes per extra channel.
+    """Data-driven candidates, one family of shapes per extra channel (with
+    ``model_terms``, also the channel times each of the model's base terms).
 
     Returns the candidates and the channels that cannot give one (with the reason).
     """
     skip_terms = {canonical(t) for t in catalog_terms}
+    model_terms = list(model_terms)
+    if several_speeds is None:
+        several_speeds = speed_levels(wd)["several"]
     out: list[Candidate] = []
     bad: list[dict] = []
     for ch in wd.numeric_extras:
@@ -381,28 +586,31 @@ def channel_candidates(
                 _unsup(ch, ch, [ch], "data", f"no variance: {ch} is {fin[0]:.4g} in every sample")
             )
             continue
-        shapes = [
-            (ch, ch, f"a standing power proportional to {ch}"),
-            (
-                f"{ch}*speed",
-                f"{ch} * speed",
-                f"a force along the motion proportional to {ch} (drag, resistance, carried load)",
-            ),
-            (f"{ch}*turn", f"abs(wz) * {ch}", f"the cost of turning grows with {ch}"),
-        ]
-        for name, term, expl in shapes:
+        shapes = _numeric_shapes(ch, several_speeds) + _base_products(ch, model_terms)
+        for name, term, expl, more in shapes + _scaled_base(ch, model_terms, coef):
             if canonical(term) in skip_terms:
                 continue
-            variables = sorted(
-                {ch, *(["speed"] if "speed" in term else []), *(["wz"] if "wz" in term else [])}
+            skip_terms.add(canonical(term))
+            out.append(
+                Candidate(
+                    name,
+                    term,
+                    sorted({ch, *more}),
+                    expl,
+                    "data",
+                    ch,
+                    shape=name.replace(ch, "x"),
+                    needs_speeds=_nonlinear_in_speed(term),
+                )
             )
-            out.append(Candidate(name, term, variables, expl, "data", ch))
         seen = set()
         for level, q in zip(HINGE_QUANTILES, np.quantile(fin, HINGE_QUANTILES), strict=True):
             key = _fmt(q)
             if fin.min() < q < fin.max() and key not in seen:  # at an end: 0 or linear
                 seen.add(key)
-                out.extend(hinge(ch, float(q), b, level) for b in (True, False))
+                for b in (True, False):
+                    out.append(hinge(ch, float(q), b, level))
+                    out.append(hinge(ch, float(q), b, level, times="speed"))
     for ch in wd.categorical_extras:
         cats = _categories(wd, ch)
         if len(cats) < 2:
@@ -422,23 +630,40 @@ def channel_candidates(
             )
             continue
         for value in cats:
-            for name, term, variables, expl in (
+            is_v = f"({ch} == {value!r})"
+            for name, term, variables, expl, shape in (
                 (
                     f"{ch}=={value}",
-                    f"({ch} == {value!r})",
+                    is_v,
                     [ch],
                     f"extra standing power when {ch} is {value}",
+                    "c==v",
                 ),
                 (
                     f"speed*({ch}=={value})",
-                    f"speed * ({ch} == {value!r})",
+                    f"speed * {is_v}",
                     ["speed", ch],
                     f"a different force per metre when {ch} is {value}",
+                    "speed*(c==v)",
+                ),
+                (
+                    f"climb*({ch}=={value})",
+                    f"{is_v} * pos({CLIMB})",
+                    ["alpha", "gamma", "vx", "vy", ch],
+                    f"climbing costs more when {ch} is {value} (feet slip back, sink in)",
+                    "climb*(c==v)",
+                ),
+                (
+                    f"turn*({ch}=={value})",
+                    f"abs(wz) * {is_v}",
+                    ["wz", ch],
+                    f"turning costs more when {ch} is {value} (feet twist against the ground)",
+                    "turn*(c==v)",
                 ),
             ):
                 if canonical(term) in skip_terms:
                     continue
-                out.append(Candidate(name, term, variables, expl, "data", ch))
+                out.append(Candidate(name, term, sorted(variables), expl, "data", ch, shape=shape))
     return out, bad
 
 
@@ -453,6 +678,43 @@ def _unsup(name, term, variables, source, reason) -> dict:
 
 
 # --------------------------------------------------------------------------- ranking
+
+
+def default_candidates(
+    wd: WindowData, terms: Sequence[str], speeds: dict | None = None
+) -> tuple[list[Candidate], list[dict]]:
+    """Catalog, speed and channel candidates for a model with ``terms``; and the
+    candidates that cannot be tried, with the reason."""
+    speeds = speed_levels(wd) if speeds is None else speeds
+    x, y = wd.columns(terms), wd.power
+    ok = np.all(np.isfinite(x), axis=1) & np.isfinite(y)
+    coef = dict(zip(terms, wls(x[ok], y[ok], wd.weights[ok]), strict=True)) if ok.any() else None
+    cands = catalog_candidates(terms, wd)
+    data, bad = channel_candidates(
+        wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"], terms, coef
+    )
+    cands = cands + speed_candidates(wd) + data
+    out, unsupported = [], list(bad)
+    have = {canonical(t) for t in terms}
+    for c in cands:
+        if c.term in have or c.formula in have:
+            continue
+        if c.needs_speeds and not speeds["several"]:
+            p10, p90 = speeds["p10"], speeds["p90"]
+            spread = "" if not math.isfinite(p10) else f" (steady walking {p10:.2f}-{p90:.2f} m/s)"
+            unsupported.append(
+                _unsup(
+                    c.name,
+                    c.term,
+                    c.variables,
+                    c.source,
+                    f"the logs hold one walking speed{spread}: a speed shape is the motion "
+                    "terms again; record runs at several speeds",
+                )
+            )
+            continue
+        out.append(c)
+    return out, unsupported
 
 
 def rank_suspects(
@@ -474,8 +736,7 @@ def rank_suspects(
     thresholds : Thresholds, optional
         Support and noise rules.
     candidates : list of Candidate, optional
-        Default: catalog and data-driven candidates (:func:`catalog_candidates`,
-        :func:`channel_candidates`).
+        Default: :func:`default_candidates`.
     folds : numpy.ndarray, optional
         Fold of each window (:func:`run_folds`); default from ``thresholds``.
     extra : sequence of str
@@ -492,36 +753,45 @@ def rank_suspects(
         folds = run_folds(wd.runs, th.n_splits, th.seed)
     unsupported: list[dict] = []
     if candidates is None:
-        candidates = catalog_candidates(terms, wd)
-        data, bad = channel_candidates(
-            wd, [c.term for c in candidates] + [c.formula for c in candidates]
-        )
-        candidates = candidates + data
+        candidates, bad = default_candidates(wd, terms)
         unsupported.extend(bad)
     seen = {c.term for c in candidates}
     candidates = candidates + [c for c in user_candidates(extra) if c.term not in seen]
     ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms})
     scored, unsup = ctx.evaluate(candidates)
     unsupported.extend(unsup)
-    # the best shape per data channel stands for the channel (hinge knots refined)
+    # the best shape per family stands for it (hinge knots refined)
     best: dict[str, tuple[Suspect, Candidate]] = {}
     rest: list[Suspect] = []
     for sus, cand in scored:
-        if cand.source == "data" and cand.channel is not None:
+        if cand.source in ("data", "speed") and cand.channel is not None:
             prev = best.get(cand.channel)
             if prev is None or sus.heldout_rmse_w < prev[0].heldout_rmse_w:
                 best[cand.channel] = (sus, cand)
         else:
             rest.append(sus)
     final = rest + [ctx.refine(sus, cand) for sus, cand in best.values()]
-    final.sort(key=lambda s: -s.error_explained)
+    m = max(ctx.n_scored, 1)
+    p_thr = th.alpha / m
+    for s in final:
+        ctx.decide(s, p_thr)
+        s.coefficient = ctx.coefficient(s.term)
+    # best first; on a tie (complementary shapes: grass = not mud when a channel has two
+    # values) the extra cost (positive coefficient) is named rather than a saving
+    final.sort(key=lambda s: (-round(s.error_explained, 9), not s.coefficient > 0))
+    suspects = [s for s in final if s.above_noise]
+    alternatives = ctx.alternatives(suspects[0], p_thr) if suspects else []
     return Ranking(
         terms=list(terms),
         heldout_rmse_w=ctx.base_rmse,
         fold_rmse_w=ctx.base_fold.tolist(),
-        suspects=[s for s in final if s.above_noise],
+        suspects=suspects,
         below_noise=[s for s in final if not s.above_noise],
         unsupported=unsupported,
+        alternatives=alternatives,
+        n_tested=m,
+        p_threshold=p_thr,
+        heldout_errors=ctx.base_err,
     )
 
 
@@ -540,12 +810,20 @@ class _Context:
         self.n_folds = int(self.folds.max()) + 1
         self.base_ok = np.all(np.isfinite(self.x), axis=1) & np.isfinite(self.y)
         self.w = self.wd.weights
+        self.runs = self.wd.runs
         ok = self.base_ok
-        self.base_rmse, self.base_fold = heldout_rmse(
-            self.x[ok], self.y[ok], self.folds[ok], self.w[ok]
-        )
+        self.base_err = np.full(len(self.y), np.nan)
+        self.base_err[ok] = cv_errors(self.x[ok], self.y[ok], self.folds[ok], self.w[ok])
+        e = self.base_err[ok]
+        self.base_rmse = float(np.sqrt(np.mean(e**2)))
+        self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
         self.available = set(self.wd.samples.columns) | {"speed"}
         self.basis = span_basis(self.x[ok])
+        self.n_scored = 0
+        self.errors: dict[str, np.ndarray] = {}  # held-out errors with each candidate
+        self.columns: dict[str, np.ndarray] = {}
+        self.cands: dict[str, Candidate] = {}
+        self.scored: list[Suspect] = []
 
     def evaluate(
         self, candidates: list[Candidate]
@@ -559,7 +837,9 @@ class _Context:
             if reason:
                 unsupported.append(_unsup(c.name, c.term, c.variables, c.source, reason))
             else:
-                scored.append((self._score(c, cols[c.term]), c))
+                s = self._score(c, cols[c.term])
+                scored.append((s, c))
+                self.scored.append(s)
         return scored, unsupported
 
     def _unsupported(self, c: Candidate, z: np.ndarray | None) -> str:
@@ -569,7 +849,7 @@ class _Context:
         if z is None:
             return "the term cannot be evaluated on these logs"
         ok = self.base_ok & np.isfinite(z)
-        if ok.sum() < 3 or len(np.unique(self.wd.runs[ok])) < 2:
+        if ok.sum() < 3 or len(np.unique(self.runs[ok])) < 2:
             return "too few windows with a finite value"
         zz = z[ok]
         if np.ptp(zz) == 0 and zz[0] == 0:
@@ -584,22 +864,30 @@ class _Context:
             )
         return ""
 
-    def _score(self, c: Candidate, z: np.ndarray) -> Suspect:
-        ok = self.base_ok & np.isfinite(z)
-        x, y, folds, w = self.x[ok], self.y[ok], self.folds[ok], self.w[ok]
-        if ok.sum() == self.base_ok.sum():
-            before, before_fold = self.base_rmse, self.base_fold
+    def _score(self, c: Candidate, z: np.ndarray, x: np.ndarray | None = None) -> Suspect:
+        """Held-out scores of the model (``x``, default the current one) plus ``z``."""
+        self.n_scored += 1
+        x = self.x if x is None else x
+        base_ok = np.all(np.isfinite(x), axis=1) & np.isfinite(self.y)
+        ok = base_ok & np.isfinite(z)
+        y, folds, w = self.y[ok], self.folds[ok], self.w[ok]
+        if x is self.x and ok.sum() == self.base_ok.sum():
+            e0 = self.base_err[ok]
         else:  # compare on the same windows
-            before, before_fold = heldout_rmse(x, y, folds, w)
-        xz = np.column_stack([x, z[ok]])
-        after, after_fold = heldout_rmse(xz, y, folds, w)
-        present = np.bincount(folds, minlength=self.n_folds) > 0
-        d = (before_fold - after_fold)[present]
-        se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
-        red = before - after
+            e0 = cv_errors(x[ok], y, folds, w)
+        xz = np.column_stack([x[ok], z[ok]])
+        e1 = cv_errors(xz, y, folds, w)
+        before = float(np.sqrt(np.mean(e0**2)))
+        after = float(np.sqrt(np.mean(e1**2)))
+        t, p, n_runs = paired_run_test(e0, e1, self.runs[ok])
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
-        above = bool(d.mean() > self.th.k * se and red >= self.th.min_rel * before)
-        coef = float(wls(xz, y, w)[-1])
+        coef = math.nan  # filled in for the suspects reported (see rank_suspects)
+        if x is self.x:
+            full = np.full(len(self.y), np.nan)
+            full[ok] = e1
+            self.errors[c.term] = full
+            self.columns[c.term] = z
+            self.cands[c.term] = c
         return Suspect(
             name=c.name,
             term=c.term,
@@ -607,18 +895,39 @@ class _Context:
             explanation=c.explanation,
             source=c.source,
             error_explained=float(explained),
-            heldout_rmse_w=float(after),
-            heldout_rmse_before_w=float(before),
-            reduction_w=float(red),
-            reduction_se_w=se,
-            above_noise=above,
+            heldout_rmse_w=after,
+            heldout_rmse_before_w=before,
+            reduction_w=before - after,
+            z_by_run=t,
+            p_value=p,
+            n_runs=n_runs,
             n_windows=int(ok.sum()),
             coefficient=coef,
+            channel=c.channel,
         )
+
+    def coefficient(self, term: str) -> float:
+        """Coefficient of a scored candidate in the model refitted with it (all windows)."""
+        z = self.columns.get(term)
+        if z is None:
+            return math.nan
+        ok = self.base_ok & np.isfinite(z)
+        xz = np.column_stack([self.x[ok], z[ok]])
+        return float(wls(xz, self.y[ok], self.w[ok])[-1])
+
+    def passes(self, s: Suspect, p_thr: float) -> bool:
+        """The noise rule (module docstring)."""
+        return bool(
+            s.p_value < p_thr and s.reduction_w >= self.th.min_rel * s.heldout_rmse_before_w
+        )
+
+    def decide(self, s: Suspect, p_thr: float) -> None:
+        s.p_threshold = p_thr
+        s.above_noise = self.passes(s, p_thr)
 
     def refine(self, sus: Suspect, cand: Candidate) -> Suspect:
         """For a hinge, search the knot on a finer grid of quantiles around the best one."""
-        if cand.knot_level is None or cand.channel is None:
+        if cand.knot_level is None or cand.channel is None or cand.source != "data":
             return sus
         v = self.wd.samples[cand.channel].to_numpy(dtype=float)
         fin = v[np.isfinite(v)]
@@ -626,13 +935,61 @@ class _Context:
         cands = []
         for level, q in zip(levels, np.quantile(fin, levels), strict=True):
             if fin.min() < q < fin.max():
-                cands.append(hinge(cand.channel, float(q), cand.below, float(level)))
+                cands.append(
+                    hinge(cand.channel, float(q), cand.below, float(level), cand.hinge_times)
+                )
         cands = list({c.term: c for c in cands if c.term != cand.term}.values())
         scored, _ = self.evaluate(cands)
         for s2, _c in scored:
             if s2.heldout_rmse_w < sus.heldout_rmse_w:
                 sus = s2
         return sus
+
+    def alternatives(self, best: Suspect, p_thr: float) -> list[Suspect]:
+        """Suspects the data cannot tell from ``best`` (module docstring, *Confounded*)."""
+        from scipy.stats import norm
+
+        best_c = self.cands.get(best.term)
+        pool = [
+            s
+            for s in self.scored
+            if s.term != best.term and self.passes(s, p_thr) and s.term in self.errors
+        ]
+        # one per (family, shape): hinge knots of one kind are one shape, not alternatives
+        seen: set[tuple] = set()
+        picked = []
+        for s in sorted(pool, key=lambda s: s.heldout_rmse_w):
+            c = self.cands[s.term]
+            key = (c.channel, c.shape) if c.channel is not None else (s.term,)
+            if best_c is not None and best_c.channel is not None:
+                if key == (best_c.channel, best_c.shape):
+                    continue
+            if key in seen:
+                continue
+            seen.add(key)
+            picked.append(s)
+            if len(picked) >= 6:
+                break
+        out = []
+        ea = self.errors[best.term]
+        za = self.columns[best.term]
+        for s in picked:
+            eb = self.errors[s.term]
+            ok = np.isfinite(ea) & np.isfinite(eb)
+            t_ab, _, n = paired_run_test(eb[ok], ea[ok], self.runs[ok])  # > 0: A better
+            crit = float(norm.isf(self.th.confound_alpha / 2))
+            if not (abs(t_ab) < crit):
+                continue
+            zb = self.columns[s.term]
+            n0 = self.n_scored
+            b_given_a = self._score(self.cands[s.term], zb, np.column_stack([self.x, za]))
+            a_given_b = self._score(self.cands[best.term], za, np.column_stack([self.x, zb]))
+            self.n_scored = n0  # side checks, not candidates of the ranking
+            if not self.passes(b_given_a, p_thr) and not self.passes(a_given_b, p_thr):
+                s.above_noise = True
+                s.p_threshold = p_thr
+                out.append(s)
+        return out
 
 
 def _candidate_columns(wd: WindowData, cands: list[Candidate]) -> dict[str, np.ndarray]:
@@ -668,6 +1025,8 @@ class Step:
     heldout_rmse_w: float
     fold_rmse_w: list[float]
     error_explained: float | None
+    explanation: str = ""
+    alternatives: list[dict] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
@@ -696,6 +1055,11 @@ def staircase(
         if not ranking.suspects:
             break
         best = ranking.suspects[0]
+        alts = [
+            {"name": a.name, "term": a.term, "explanation": a.explanation,
+             "heldout_rmse_w": a.heldout_rmse_w}
+            for a in ranking.alternatives
+        ]  # fmt: skip
         terms.append(best.term)
         ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
         rankings.append(ranking)
@@ -707,6 +1071,8 @@ def staircase(
                 ranking.heldout_rmse_w,
                 ranking.fold_rmse_w,
                 best.error_explained,
+                best.explanation,
+                alts,
             )
         )
         if progress is not None:

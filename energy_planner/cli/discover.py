@@ -1,0 +1,225 @@
+"""``energy-planner discover``: the whole diagnosis staircase in one command."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import emit, json_option, logs_argument, window_option
+
+
+def _pct(v: Any) -> str:
+    return "-" if v is None else f"{100 * v:.1f}%"
+
+
+def _text(doc: dict[str, Any]) -> str:
+    lines = [f"{doc['n_windows']} windows from {doc['n_runs']} runs", ""]
+    found = [f for f in doc["data_findings"] if f["finding"]]
+    if found:
+        lines.append("data findings (sensor problems, not physical effects):")
+        for f in found:
+            lines.append(f"  {f['name']}: {f['summary']}")
+        lines.append("")
+    lines.append(
+        f"  {'step':<5}{'term added':<40}{'held-out RMSE':>14}{'run energy err':>16}"
+        f"{'p90':>8}{'error removed':>15}"
+    )
+    for r in doc["staircase"]:
+        name = r["name"] or "(base model)"
+        removed = "" if r["error_removed"] is None else _pct(r["error_removed"])
+        lines.append(
+            f"  {r['step']:<5}{name[:39]:<40}{r['heldout_rmse_w']:>11.2f} W"
+            f"{_pct(r['run_energy_error_median']):>16}{_pct(r['run_energy_error_p90']):>8}"
+            f"{removed:>15}"
+        )
+        if r["added"]:
+            term = r["added"]
+            if len(term) > 100:  # a channel times the fitted base: the formula is long
+                term = f"{term[:60]}... ({len(term)} characters; in the model file)"
+            lines.append(f"       term: {term}")
+            lines.append(f"       {r['explanation']}")
+        for a in r["alternatives"]:
+            lines.append(
+                f"       or, equally well (the data cannot tell them apart): {a['name']}"
+            )
+    if len(doc["staircase"]) > 1:
+        lines.append(
+            f"error removed in total: {_pct(doc['staircase'][-1]['error_removed_total'])} of "
+            "the base model's held-out squared error"
+        )
+    lines.append("")
+    below = doc["below_noise_at_end"][:3]
+    if below:
+        lines.append(
+            "best left below noise: "
+            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
+        )
+    for n in doc["notes"]:
+        lines.append(f"note: {n}")
+    if doc.get("model"):
+        lines.append(f"model written to {doc['model']}")
+    if doc.get("report"):
+        lines.append(f"report written to {doc['report']}")
+    return "\n".join(lines)
+
+
+@click.command("discover")
+@logs_argument
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Where to write the discovered model (JSON), fitted on all windows.",
+)
+@click.option(
+    "--report",
+    "report",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write a self-contained HTML report with the staircase plot to this file.",
+)
+@click.option(
+    "--max-steps",
+    type=click.IntRange(min=0),
+    default=4,
+    show_default=True,
+    help="Largest number of terms added to the base model.",
+)
+@click.option(
+    "--term",
+    "terms",
+    multiple=True,
+    metavar="TERM",
+    help="Also test this candidate term (catalog name or formula). Repeatable.",
+)
+@window_option
+@click.option(
+    "--folds",
+    type=click.IntRange(min=2),
+    default=5,
+    show_default=True,
+    help="Folds of the held-out validation by run.",
+)
+@click.option(
+    "--alpha",
+    type=click.FloatRange(min=0, max=1, min_open=True),
+    default=0.01,
+    show_default=True,
+    help="Family-wise false-finding level of each step (Bonferroni over the candidates).",
+)
+@click.option(
+    "--min-rel",
+    type=click.FloatRange(min=0, max=1),
+    default=0.05,
+    show_default=True,
+    help="Smallest relative reduction of the held-out RMSE a step must bring.",
+)
+@click.option(
+    "--no-repair",
+    is_flag=True,
+    help="Report data findings (sensor problems) but do not correct them before fitting.",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the folds.")
+@json_option
+def command(
+    logs: tuple[Path, ...],
+    out: Path,
+    report: Path | None,
+    max_steps: int,
+    terms: tuple[str, ...],
+    window: float,
+    folds: int,
+    alpha: float,
+    min_rel: float,
+    no_repair: bool,
+    seed: int,
+    as_json: bool,
+) -> None:
+    """Find the effects the base model misses in LOGS and write the model that has them.
+
+    Checks the logs for sensor problems first (current sign, clock offset between power
+    and motion, odometry slip growing with slope, twist noise) and repairs them; then
+    starts from the base model, adds the best candidate effect above noise, refits and
+    repeats until none is left (or --max-steps). Every number is held out by run. Prints
+    the staircase: term added, its physical explanation, held-out power RMSE, run-energy
+    error (median, p90) and the share of the error removed.
+
+    Example: energy-planner discover logs/ --out model.json --report discover.html
+    """
+    from energy_planner.cli.fit import log_files, resolve_terms, status
+    from energy_planner.diagnosis.discover import discover
+    from energy_planner.diagnosis.suspects import Thresholds
+    from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
+    from energy_planner.measurements import load_logs
+
+    resolve_terms(terms)  # syntax first: fail before loading any log
+    files = log_files(logs)
+    status(f"loading {len(files)} log file(s) ...")
+    try:
+        samples = load_logs(files)
+    except LogIOError as exc:
+        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
+    except LogError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
+        ) from exc
+    from energy_planner.measurements.windows import DERIVED_COLUMNS
+
+    extra = [t.name for t in resolve_terms(terms, set(samples.columns) | set(DERIVED_COLUMNS))]
+    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=max_steps + 3, desc="discover", disable=not sys.stderr.isatty(), leave=False)
+
+    def progress(msg: str) -> None:
+        bar.set_postfix_str(msg)
+        bar.update(1)
+
+    try:
+        d = discover(
+            samples,
+            thresholds=th,
+            max_steps=max_steps,
+            terms=extra,
+            window=window,
+            repair=not no_repair,
+            progress=progress,
+        )
+    except EnergyPlannerError as exc:
+        raise click.ClickException(f"{exc}\nhint: see docs/diagnosis.md") from exc
+    finally:
+        bar.close()
+    doc = d.to_dict()
+    if d.model is None:
+        raise click.ClickException(
+            "the final model could not be fitted: " + "; ".join(d.notes)
+        )
+    d.model.metadata = {
+        **d.model.metadata,
+        "source": [str(p) for p in logs],
+        "window_s": window,
+        "discover": {"added": d.added, "data_findings": [
+            f.name for f in d.data_findings if f.finding]},
+    }  # fmt: skip
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        d.model.save(out)
+    except OSError as exc:
+        raise click.BadParameter(f"cannot write {str(out)!r}: {exc}", param_hint="--out") from exc
+    doc["model"] = str(out)
+    if report is not None:
+        from energy_planner.diagnosis.report import render_discovery_html
+
+        try:
+            report.parent.mkdir(parents=True, exist_ok=True)
+            report.write_text(render_discovery_html(doc), encoding="utf-8")
+        except OSError as exc:
+            raise click.BadParameter(
+                f"cannot write {str(report)!r}: {exc}", param_hint="--report"
+            ) from exc
+        doc["report"] = str(report)
+    emit(doc, as_json, _text)

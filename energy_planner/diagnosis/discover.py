@@ -1,0 +1,260 @@
+"""Discovery: the whole staircase in one call, from raw logs to a validated model.
+
+``discover`` (``energy-planner discover``) does what a person would do by hand with
+``fit`` and ``diagnose``:
+
+1. run the data checks (:mod:`energy_planner.diagnosis.datacheck`) on the raw samples and
+   repair what they find (a sensor problem is a *data finding*, never a model term);
+2. preprocess and cut windows as ``fit`` does;
+3. start from the base model, rank every candidate effect on held-out runs, add the best
+   one above noise (:mod:`energy_planner.diagnosis.suspects`), re-rank, and repeat until
+   none is above noise or ``max_steps`` terms were added;
+4. fit the final model on all windows (``calibration.fit_model``) and validate it by run.
+
+Each step records the term added, its physical explanation, the suspects the data cannot
+tell from it (confounded alternatives), the held-out power RMSE, the held-out run-energy
+error (median and 90th percentile over runs) and the share of the held-out error removed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.diagnosis.datacheck import DataFinding, check_data
+from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, staircase
+
+
+def run_energy_errors(wd: WindowData, heldout_err: np.ndarray) -> np.ndarray:
+    """Relative energy error of every run from held-out window errors.
+
+    A run's measured energy is the sum over its windows of mean power times duration; the
+    predicted one uses the held-out prediction ``power - err`` of each window.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``|E_pred - E_meas| / E_meas`` per run (runs with no energy left out).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"run": ["a", "a", "b"], "power": [10.0, 10, 20],
+    ...                   "duration": [2.0, 2, 2]})
+    >>> wd = WindowData(pd.DataFrame(), np.zeros(3, int), t)
+    >>> np.round(run_energy_errors(wd, np.array([1.0, -3.0, 4.0])), 12).tolist()
+    [0.1, 0.2]
+    """
+    y = wd.power
+    dur = wd.weights
+    ok = np.isfinite(heldout_err) & np.isfinite(y)
+    runs = wd.runs[ok]
+    _, inv = np.unique(runs, return_inverse=True)
+    meas = np.bincount(inv, weights=y[ok] * dur[ok])
+    pred = np.bincount(inv, weights=(y[ok] - heldout_err[ok]) * dur[ok])
+    good = meas > 0
+    return np.abs(pred[good] - meas[good]) / meas[good]
+
+
+@dataclass
+class Discovery:
+    """What :func:`discover` found; :meth:`to_dict` is the ``--json`` output."""
+
+    base_terms: list[str]
+    steps: list[Step]
+    rankings: list[Ranking]
+    data_findings: list[DataFinding]
+    step_metrics: list[dict[str, float]]
+    thresholds: Thresholds
+    n_windows: int
+    n_runs: int
+    speeds: dict[str, Any]
+    fit: Any = None  # calibration FitResult of the final model, or None
+    notes: list[str] = field(default_factory=list)
+    data: WindowData | None = field(default=None, repr=False)
+    windows: Any = field(default=None, repr=False)
+
+    @property
+    def terms(self) -> list[str]:
+        """Terms of the final model: the base terms and every term added."""
+        return [*self.base_terms, *(s.added for s in self.steps[1:])]
+
+    @property
+    def added(self) -> list[str]:
+        """Terms added, in order."""
+        return [s.added for s in self.steps[1:]]
+
+    @property
+    def model(self):
+        """The final fitted model (None when the final fit failed)."""
+        return None if self.fit is None else self.fit.model
+
+    def table(self) -> list[dict[str, Any]]:
+        """The staircase as rows (step 0 is the base model)."""
+        rows = []
+        first = self.step_metrics[0]["heldout_rmse_w"] if self.step_metrics else math.nan
+        for s, m in zip(self.steps, self.step_metrics, strict=True):
+            removed_total = 1.0 - (m["heldout_rmse_w"] / first) ** 2 if first > 0 else math.nan
+            rows.append(
+                {
+                    "step": s.step,
+                    "added": s.added,
+                    "name": s.name,
+                    "explanation": s.explanation,
+                    "alternatives": s.alternatives,
+                    "heldout_rmse_w": m["heldout_rmse_w"],
+                    "run_energy_error_median": m["run_energy_error_median"],
+                    "run_energy_error_p90": m["run_energy_error_p90"],
+                    "error_removed": s.error_explained,
+                    "error_removed_total": removed_total,
+                    "fold_rmse_w": s.fold_rmse_w,
+                }
+            )
+        return rows
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON document (see ``docs/diagnosis.md``)."""
+        last = self.rankings[-1] if self.rankings else None
+        th = self.thresholds
+        fit = self.fit
+        return {
+            "base_terms": list(self.base_terms),
+            "added": self.added,
+            "terms": self.terms,
+            "n_windows": self.n_windows,
+            "n_runs": self.n_runs,
+            "speeds": self.speeds,
+            "staircase": self.table(),
+            "data_findings": [f.to_dict() for f in self.data_findings],
+            "below_noise_at_end": []
+            if last is None
+            else [s.to_dict() for s in last.below_noise[:5]],
+            "unsupported_at_end": [] if last is None else last.unsupported,
+            "n_tested": [r.n_tested for r in self.rankings],
+            "thresholds": {
+                "alpha": th.alpha,
+                "min_rel": th.min_rel,
+                "span_tol": th.span_tol,
+                "n_splits": th.n_splits,
+                "seed": th.seed,
+                "confound_alpha": th.confound_alpha,
+            },
+            "final_fit": None
+            if fit is None
+            else {
+                "coefficients": fit.coefficients,
+                "stderr": fit.stderr,
+                "heldout_power_rmse_w": None if fit.heldout is None else fit.heldout.rmse_w,
+                "warnings": [str(w) for w in fit.warnings],
+            },
+            "notes": self.notes,
+        }
+
+
+def discover(
+    samples: pd.DataFrame,
+    *,
+    base_terms: Sequence[str] | None = None,
+    thresholds: Thresholds | None = None,
+    max_steps: int = 4,
+    terms: Sequence[str] = (),
+    window: float = 2.0,
+    repair: bool = True,
+    fit_final: bool = True,
+    progress=None,
+) -> Discovery:
+    """Walk the staircase on raw canonical samples (module docstring).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Raw canonical samples, as ``measurements.load_logs`` or a simulated campaign's
+        ``logs`` give them.
+    base_terms : sequence of str, optional
+        Where the staircase starts; default the base model
+        (:data:`energy_planner.model.BASE_TERMS`).
+    thresholds : Thresholds, optional
+        Noise and support rules.
+    max_steps : int
+        Largest number of terms added.
+    terms : sequence of str
+        The user's own candidate terms, scored with the others.
+    window : float
+        Window length, s.
+    repair : bool
+        Correct the data findings before fitting (they are reported either way).
+    fit_final : bool
+        Fit the final model on all windows (``calibration.fit_model``).
+    progress : callable, optional
+        Called with a short message after each stage.
+
+    Returns
+    -------
+    Discovery
+    """
+    from energy_planner.calibration import fit_model
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements import make_windows, preprocess
+    from energy_planner.model import BASE_TERMS
+
+    def say(msg: str) -> None:
+        if progress is not None:
+            progress(msg)
+
+    th = thresholds or Thresholds()
+    base = list(BASE_TERMS if base_terms is None else base_terms)
+    findings, fixed = check_data(samples, repair=repair)
+    say("data checks done")
+    clean, _ = preprocess(fixed)
+    windows = make_windows(clean, duration=window)
+    wd = window_data(windows.samples)
+    say(f"{wd.n_windows} windows")
+    from energy_planner.diagnosis.suspects import speed_levels
+
+    steps, rankings = staircase(
+        wd, base, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
+    )
+    metrics = []
+    for r in rankings:
+        err = r.heldout_errors
+        rel = run_energy_errors(wd, err)
+        metrics.append(
+            {
+                "heldout_rmse_w": r.heldout_rmse_w,
+                "run_energy_error_median": float(np.median(rel)) if rel.size else math.nan,
+                "run_energy_error_p90": float(np.quantile(rel, 0.9)) if rel.size else math.nan,
+            }
+        )
+    notes = []
+    if rankings and not rankings[-1].suspects:
+        notes.append("no candidate effect is above noise: the model explains these logs")
+    elif len(steps) - 1 >= max_steps:
+        notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
+    fit = None
+    if fit_final:
+        try:
+            fit = fit_model(windows, [*base, *(s.added for s in steps[1:])],
+                            n_splits=th.n_splits, seed=th.seed)  # fmt: skip
+        except EnergyPlannerError as exc:
+            notes.append(f"the final fit failed: {exc}")
+    return Discovery(
+        base_terms=base,
+        steps=steps,
+        rankings=rankings,
+        data_findings=findings,
+        step_metrics=metrics,
+        thresholds=th,
+        n_windows=wd.n_windows,
+        n_runs=int(len(np.unique(wd.runs))),
+        speeds=speed_levels(wd),
+        fit=fit,
+        notes=notes,
+        data=wd,
+        windows=windows,
+    )

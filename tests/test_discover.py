@@ -1,0 +1,154 @@
+"""``discover``: the staircase in one command, confounded findings, data findings.
+
+The acceptance on full campaigns is ``benchmarks/bench_discover.py``; here the same code
+runs on reduced campaigns of the mechanistic simulator (whose truth is physics, not the
+model's formulas) and on synthetic data where the answer is known by construction of
+the data (two channels that carry the same information; one speed or several).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import json
+import sys
+import warnings
+from html import escape
+from pathlib import Path
+
+import numpy as np
+from click.testing import CliRunner
+
+from energy_planner.diagnosis import rank_suspects, window_data
+from energy_planner.diagnosis.datacheck import check_data
+from energy_planner.diagnosis.suspects import speed_levels
+from energy_planner.model import BASE_TERMS, EnergyModel
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_diagnosis_units import synth  # noqa: E402
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_discover.py"
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench_discover", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up there
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# ----------------------------------------------------------------------------- synthetic
+
+
+def test_confounded_channels_are_one_finding():
+    """Two channels that carry the same information: both named, as one finding."""
+    s = synth(effect="temperature_c", coef=3.0)  # standing power: in every run
+    runs = s["run"].unique()
+    rng = np.random.default_rng(5)
+    jitter = dict(zip(runs, rng.normal(0, 0.05, len(runs)), strict=True))
+    s["motor_temp"] = s["temperature_c"] + s["run"].map(jitter)  # the same, up to 0.05 K
+    rank = rank_suspects(window_data(s), BASE_TERMS)
+    best = rank.suspects[0]
+    chans = {"temperature_c", "motor_temp"}
+    assert chans & set(best.variables)
+    other = (chans - set(best.variables)).pop()
+    assert any(other in a.variables for a in rank.alternatives), rank.alternatives
+    # an unrelated channel with the same distribution is not an alternative
+    s2 = s.assign(motor_temp=s["run"].map(dict(zip(runs, rng.uniform(0, 30, len(runs)),
+                                                    strict=True))))  # fmt: skip
+    rank2 = rank_suspects(window_data(s2), BASE_TERMS)
+    assert "temperature_c" in rank2.suspects[0].variables
+    assert not any("motor_temp" in a.variables for a in rank2.alternatives)
+
+
+def test_speed_shapes_only_with_several_speeds():
+    s = synth()
+    wd = window_data(s)
+    assert not speed_levels(wd)["several"]
+    rank = rank_suspects(wd, BASE_TERMS)
+    reasons = {u["name"]: u["reason"] for u in rank.unsupported}
+    assert "one walking speed" in reasons["speed^2"]
+    assert not any(x.name.startswith("speed^") for x in rank.suspects + rank.below_noise)
+    # three speeds: speed shapes are scored, and a planted v^3 loss is found as one
+    fast = synth(effect="speed ** 3", coef=3000.0, speeds=(0.2, 0.3, 0.45))
+    wd = window_data(fast)
+    assert speed_levels(wd)["several"]
+    top = rank_suspects(wd, BASE_TERMS).suspects[0]
+    assert top.variables == ["speed"] and "speed" in top.term, top
+
+
+# ----------------------------------------------------------------------------- simulator
+
+
+@functools.cache
+def _campaign(effects=(), faults=(), seed=0):
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate_campaign(
+            seed=seed, effects=effects, faults=faults, config=CampaignConfig.small()
+        )
+
+
+def test_sensor_faults_are_data_findings():
+    camp = _campaign(faults=("clock_offset", "ros_current_sign", "slope_slip"))
+    found, fixed = check_data(camp.logs)
+    got = {f.name: f for f in found}
+    assert got["current_sign"].finding and got["current_sign"].repaired
+    assert (fixed.groupby("run")["current"].median() > 0).mean() > 0.9
+    clock = got["clock_offset"]
+    assert clock.finding and 0.25 < clock.evidence["offset_s"] < 0.5  # simulated: 0.4 s
+    slip = got["odometry_slip"]
+    assert slip.finding and 0.45 < slip.evidence["slip_per_sin_slope"] < 0.75  # 0.6
+    # the same campaign without faults: no clock or sign finding (slip: default 0.1 sin)
+    clean = {f.name: f for f in check_data(_campaign().logs)[0]}
+    assert not clean["clock_offset"].finding and not clean["current_sign"].finding
+    assert 0.05 < clean["odometry_slip"].evidence["slip_per_sin_slope"] < 0.15
+
+
+def test_cli_discover(tmp_path):
+    from energy_planner.cli import main
+
+    camp = _campaign(effects=("ground",), seed=1)
+    camp.write(tmp_path / "logs")
+    out, report = tmp_path / "m.json", tmp_path / "r.html"
+    runner = CliRunner()
+    args = ["discover", str(tmp_path / "logs"), "--out", str(out), "--max-steps", "2"]
+    res = runner.invoke(main, [*args, "--json", "--report", str(report)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    steps = doc["staircase"]
+    assert steps[0]["added"] is None and len(steps) >= 2
+    assert "ground" in EnergyModel([steps[1]["added"]]).variables
+    rmse = [s["heldout_rmse_w"] for s in steps]
+    assert all(b < a for a, b in zip(rmse, rmse[1:], strict=False))
+    for s in steps:
+        assert 0 <= s["run_energy_error_median"] <= s["run_energy_error_p90"]
+    model = EnergyModel.load(out)
+    assert model.term_names == doc["terms"] and model.is_fitted
+    html = report.read_text()
+    assert 'src="http' not in html and "<script" not in html
+    assert html.count('src="data:image/png;base64,') >= 1
+    assert escape(steps[1]["added"]) in html
+    from energy_planner.cli.discover import _text
+
+    text = _text(doc)  # the table the command prints without --json
+    assert "held-out RMSE" in text and steps[1]["name"] in text and "model written to" in text
+    bad = runner.invoke(main, [*args, "--term", "pos(nope"])
+    assert bad.exit_code == 2 and "nope" in bad.output
+
+
+def test_reduced_acceptance():
+    """Hidden channel effect found within two steps; nothing found where nothing hides."""
+    from energy_planner.simulate import CampaignConfig
+
+    bench = _bench()
+    cfg = CampaignConfig.small()
+    case = bench.run_case(("load",), 0, cfg, max_steps=2)
+    assert case.found, case.added_names
+    assert case.final_rmse_w < 0.5 * case.base_rmse_w
+    null = bench.run_case((), 2, cfg, max_steps=2)
+    assert null.added == [], null.added
+    assert "clock_offset" not in null.data_findings
