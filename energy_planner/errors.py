@@ -297,6 +297,3 @@ class RouteNameError(EnergyPlannerError, KeyError):
 
 class EnergyMapError(EnergyPlannerError, ValueError):
     """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
-
-
-__all__ += ["RouteNameError"]
