@@ -236,8 +236,6 @@ def model_doc():
     return EnergyModel.default().to_dict()
 
 
-@pytest.mark.xfail(reason="model/model.py EnergyModel.from_dict raises TypeError/AttributeError on "
-                   "wrong JSON types (model engineer; /work/coord/BUGS.md)", strict=False)
 @FUZZ
 @given(data=st.data())
 def test_model_load(fuzzdir, model_doc, data):
@@ -257,8 +255,6 @@ VALID_KEEP_OUT = {
 }
 
 
-@pytest.mark.xfail(reason="planning/limits.py load_keep_out raises TypeError/AttributeError on "
-                   "wrong JSON types (plan engineer; /work/coord/BUGS.md)", strict=False)
 @FUZZ
 @given(data=st.data())
 def test_load_keep_out(fuzzdir, data):

@@ -157,8 +157,6 @@ def test_all_nodata_one_band_does_not_suggest_another_band(tmp_path):
     assert res.exit_code == 1 and "--band" not in res.output and "void.tif" in res.output
 
 
-@pytest.mark.xfail(reason="cli/energy.py (emap) finds the hint by 'band' in the message, and "
-                   "this file's folder name holds 'band'; fix: exc.param == 'band' (BUGS.md)")
 def test_energy_cli_all_nodata_one_band_hint_fits(tmp_path):
     (tmp_path / "bands").mkdir()  # a folder name the hint must not react to
     p = _void(tmp_path / "bands" / "void.tif", 1)

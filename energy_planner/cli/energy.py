@@ -38,7 +38,7 @@ def load_terrain(dem: Path, band: int | None) -> Any:
     try:
         return load_dem(dem, band=band)
     except (DEMIOError, DEMError) as exc:
-        hint = " (use --band N)" if "band" in str(exc) else ""
+        hint = " (use --band N)" if getattr(exc, "param", None) == "band" else ""
         raise click.BadParameter(f"{exc}{hint}", param_hint="--dem") from exc
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from energy_planner.errors import FitError, FormulaError, ModelError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
+from energy_planner.request import DEFAULT_SPEED
 from energy_planner.stats import independent_columns, wls
 
 __all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "critical_grade", "prepare_features"]
@@ -524,7 +525,7 @@ def term_names(specs: Iterable[str | Term]) -> list[str]:
     return [resolve_term(s).name for s in specs]
 
 
-def critical_grade(model: EnergyModel, speed: float = 0.3) -> dict[str, float]:
+def critical_grade(model: EnergyModel, speed: float = DEFAULT_SPEED) -> dict[str, float]:
     """Grade beyond which a detour climbs a hill for less energy than the direct line.
 
     Walking forward straight up a grade ``g = sin(alpha)`` at ``speed`` costs

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import EnergyPlannerError, RouteNameError
+from energy_planner.request import DEFAULT_SPEED
 
 __all__ = [
     "GradeCost",
@@ -115,7 +116,7 @@ class GradeCost:
 
 def grade_cost(
     model,
-    speed: float = 0.3,
+    speed: float = DEFAULT_SPEED,
     *,
     slope: float | None = None,
     max_grade: float = 0.8,
