@@ -18,7 +18,8 @@ Usage::
 
     python benchmarks/bench_calibration_fidelity.py                 # full default campaign
     python benchmarks/bench_calibration_fidelity.py --seeds 0 1 2   # several campaigns
-    python benchmarks/bench_calibration_fidelity.py --small --json  # reduced campaign
+    python benchmarks/bench_calibration_fidelity.py --reduced       # the test's campaign
+    python benchmarks/bench_calibration_fidelity.py --small --json  # tiny, a quick look
 """
 
 from __future__ import annotations
@@ -77,12 +78,26 @@ def measure(camp: Any, windows: Any, terms: Any, n_splits: int = 5, seed: int = 
     }
 
 
-def campaign(seed: int, small: bool) -> tuple[Any, Any]:
+def campaign_config(size: str) -> Any:
+    """``default`` (the paper's campaign), ``reduced`` (the acceptance test's: 4 slopes,
+    8 headings, 10 s runs, 20 Hz) or ``small`` (``CampaignConfig.small()``)."""
+    from energy_planner.simulate import CampaignConfig
+
+    if size == "reduced":  # == tests/test_calibration_sim.py REDUCED
+        return CampaignConfig.small(
+            slopes_deg=(0.0, 8.0, 16.0, 24.0),
+            headings_deg=(0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0),
+            run_s=10.0,
+        )
+    return CampaignConfig.small() if size == "small" else CampaignConfig()
+
+
+def campaign(seed: int, size: str) -> tuple[Any, Any]:
     """Simulate a campaign without hidden effect and cut it into 2 s windows."""
     from energy_planner.measurements import make_windows, preprocess
-    from energy_planner.simulate import CampaignConfig, simulate_campaign
+    from energy_planner.simulate import simulate_campaign
 
-    config = CampaignConfig.small() if small else CampaignConfig()
+    config = campaign_config(size)
     camp = simulate_campaign(seed=seed, effects=(), config=config)
     clean, _ = preprocess(camp.logs)
     return camp, make_windows(clean, duration=2.0)
@@ -101,7 +116,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; print the table (or JSON with --json)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0], help="simulator seeds")
-    ap.add_argument("--small", action="store_true", help="reduced campaign (CampaignConfig.small)")
+    size = ap.add_mutually_exclusive_group()
+    size.add_argument("--reduced", action="store_true", help="the acceptance test's campaign")
+    size.add_argument("--small", action="store_true", help="CampaignConfig.small (quick look)")
     ap.add_argument("--json", action="store_true", help="JSON on stdout")
     args = ap.parse_args(argv)
     from energy_planner.model import BASE_TERMS
@@ -110,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     for seed in args.seeds:
         t0 = time.perf_counter()
         print(f"seed {seed}: simulating ...", file=sys.stderr)
-        camp, windows = campaign(seed, args.small)
+        size = "reduced" if args.reduced else "small" if args.small else "default"
+        camp, windows = campaign(seed, size)
         sim_s = time.perf_counter() - t0
         base = measure(camp, windows, BASE_TERMS)
         lin = measure(camp, windows, LINEAR_WRENCH)
@@ -119,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(
             {
                 "seed": seed,
-                "campaign": "small" if args.small else "default",
+                "campaign": size,
                 "simulate_s": sim_s,
                 "base": base,
                 "linear_wrench": lin,

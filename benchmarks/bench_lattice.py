@@ -46,7 +46,7 @@ print(json.dumps(dict(step=r.step, nodes=r.n_nodes, edges=r.n_edges, build=r.bui
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", default="4,2,1.41,1")
-    ap.add_argument("--moves", default="axes", choices=["axes", "all"])
+    ap.add_argument("--moves", default="axes", choices=["axes", "crab", "all"])
     args = ap.parse_args()
     print(f"# hill scenario, max slope 20 deg, 16 headings, moves={args.moves}")
     print("| step m | nodes | edges | build s | Dijkstra s | total s | energy J | peak RSS MB "

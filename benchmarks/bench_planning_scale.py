@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_planning_scale.py [--sizes 200,400,800,1600,3200]
-        [--lattice-sizes 200,400] [--eps 1.05] [--timeout 900]
+        [--lattice-sizes 200,400] [--eps 1.05] [--timeout 900] [--max-slope DEG]
 
 For each size a hilly synthetic DEM (``benchmarks/_hilly.py``: 1 m cells, EPSG:32631) is
 written to a temporary directory and planned corner to corner (5 cells inside), each
@@ -44,13 +44,15 @@ from energy_planner.planning.plan import plan
 from energy_planner.terrain import load_dem
 from _hilly import corners
 path, size, planner, eps = sys.argv[2], int(sys.argv[3]), sys.argv[4], float(sys.argv[5])
+from energy_planner.request import Request
+req = Request.make(max_slope_deg=float(sys.argv[6]) if sys.argv[6] != "none" else None)
 t = load_dem(path)
 m = EnergyModel.default()
 a, b = corners(size)
 s = t.to_work(*a); g = t.to_work(*b)
 t1 = time.perf_counter()
 kw = dict(step=1.0) if planner == "lattice" else dict(eps=eps)
-r = plan(t, m, s, g, planner=planner, progress=True, **kw)
+r = plan(t, m, s, g, req, planner=planner, progress=True, **kw)
 t2 = time.perf_counter()
 info = r.info.get("search") or r.info.get("lattice") or {}
 print(json.dumps(dict(energy=r.energy_j, distance=r.distance_m, load_s=t1 - t0,
@@ -62,11 +64,12 @@ print(json.dumps(dict(energy=r.energy_j, distance=r.distance_m, load_s=t1 - t0,
 """
 
 
-def run(path: Path, size: int, planner: str, eps: float, timeout: float) -> dict:
+def run(path: Path, size: int, planner: str, eps: float, timeout: float, slope: str) -> dict:
     t0 = time.perf_counter()
     try:
         out = subprocess.run(
-            [sys.executable, "-c", CHILD, str(HERE), str(path), str(size), planner, str(eps)],
+            [sys.executable, "-c", CHILD, str(HERE), str(path), str(size), planner, str(eps),
+             slope],
             capture_output=True, text=True, timeout=timeout,
         )  # fmt: skip
     except subprocess.TimeoutExpired:
@@ -87,12 +90,14 @@ def main() -> None:
     ap.add_argument("--optimal-sizes", default="200,400,800")
     ap.add_argument("--eps", type=float, default=1.05)
     ap.add_argument("--timeout", type=float, default=900.0)
+    ap.add_argument("--max-slope", default="none", help="slope limit, degrees (forces detours)")
     args = ap.parse_args()
     sizes = [int(v) for v in args.sizes.split(",") if v]
     lat_sizes = {int(v) for v in args.lattice_sizes.split(",") if v}
     opt_sizes = {int(v) for v in args.optimal_sizes.split(",") if v}
     print(f"# uptime: {os.popen('uptime').read().strip()}  (2 cores shared with other jobs)")
-    print(f"# hilly DEMs at 1 m, corner to corner, default model, no limits; eps={args.eps}")
+    print(f"# hilly DEMs at 1 m, corner to corner, default model, max slope {args.max_slope} "
+          f"deg; eps={args.eps}")  # fmt: skip
     print("| DEM | planner | time s (load + plan) | peak RSS GB | energy J | vs optimum | "
           "expanded / states |")  # fmt: skip
     print("|---|---|---|---|---|---|---|")
@@ -106,7 +111,7 @@ def main() -> None:
                 rows.append(("lattice", 1.0))
             res = {}
             for planner, eps in rows:
-                res[(planner, eps)] = run(path, size, planner, eps, args.timeout)
+                res[(planner, eps)] = run(path, size, planner, eps, args.timeout, args.max_slope)
             ref = res.get(("lattice", 1.0), {}).get("energy") or res.get(
                 ("search", 1.0), {}
             ).get("energy")

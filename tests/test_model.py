@@ -255,8 +255,10 @@ def test_fit_errors_are_specific():
     ):
         EnergyModel(BASE_TERMS).fit(f, np.ones(200))
     f = _features(rng, 200)
-    with pytest.raises(FitError, match=r"2 \* pos\(vx\) \(a combination of fwd_const\)"):
-        EnergyModel(["fwd_const", "2 * pos(vx)"]).fit(f, np.ones(200))
+    with pytest.raises(FitError, match=r"cos\(gamma\) \(a combination of fwd_up, fwd_down\)"):
+        EnergyModel(["fwd_up", "fwd_down", "pos(vx) * sin(alpha) * cos(gamma)"]).fit(
+            f, np.ones(200)
+        )
     with pytest.raises(ModelError, match="term 'payload'.*'payload_kg'"):
         EnergyModel(["payload"]).fit(
             {k: v for k, v in f.items() if k != "payload_kg"}, np.ones(200)
@@ -296,6 +298,28 @@ def test_json_rejects_bad_documents(tmp_path):
             EnergyModel.load(p)
     with pytest.raises(ModelError, match="does not exist"):
         EnergyModel.load(tmp_path / "missing.json")
+
+
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        ({"terms": True}, "'terms' must be a list"),
+        ({"terms": [None]}, r"terms\[0\] must be a name or an object"),
+        ({"terms": [["x"]]}, r"terms\[0\] must be a name or an object"),
+        ({"terms": [{"name": ["a"]}]}, r"terms\[0\].name must be a string"),
+        ({"terms": [{}]}, r"terms\[0\] has neither a name nor a formula"),
+        ({"coefficients": [1]}, "'coefficients' must be an object"),
+        ({"stderr": 5}, "'stderr' must be an object"),
+        ({"stderr": {"fwd_const": "x"}}, "stderr of term 'fwd_const' must be a number"),
+        ({"metadata": [1]}, "'metadata' must be a free-form object"),
+    ],
+)
+def test_malformed_model_documents_raise_model_errors(tmp_path, change, fragment):
+    """Each of these raised a builtin TypeError/AttributeError before (fuzzing, BUGS.md)."""
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps({**EnergyModel(BASE_TERMS, B1).to_dict(), **change}))
+    with pytest.raises(ModelError, match=fragment):
+        EnergyModel.load(p)
 
 
 def test_default_model_loads_and_is_physical():

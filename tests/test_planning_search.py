@@ -51,14 +51,20 @@ def _bumpy(seed: int, size: int = 24, amp: float = 4.0) -> Terrain:
     return Terrain.from_function(z, size=(size, size))
 
 
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 10_000), p=st.integers(0, 10_000), cross=st.sampled_from([None, 25.0]))
-def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross):
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 10_000),
+    p=st.integers(0, 10_000),
+    cross=st.sampled_from([None, 25.0]),
+    moves=st.sampled_from(["all", "crab", "axes"]),
+)
+def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross, moves):
     """Every translation the search can make costs at least the heuristic's bound of it,
-    at every heading allowed to make it (the kernel is the independent side)."""
+    at every heading allowed to make it (the kernel is the independent side): with
+    ``moves="all"`` also every crab edge (body yaw off the direction of travel)."""
     t = _bumpy(seed)
     cost, _ = make_motion_cost(t, model, Request.make(max_cross_slope_deg=cross))
-    grid = _Grid(cost, t, (1.5, 2.5), None, 16, "axes")
+    grid = _Grid(cost, t, (1.5, 2.5), None, 16, moves)
     mod = search_module(cost)
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
     geo = np.array(cost.data[2:6], dtype=float)
@@ -81,24 +87,25 @@ def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross):
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 10_000))
-def test_search_finds_the_lattice_optimum_and_h_is_a_lower_bound(model, seed):
+@given(seed=st.integers(0, 10_000), moves=st.sampled_from(["all", "axes"]))
+def test_search_finds_the_lattice_optimum_and_h_is_a_lower_bound(model, seed, moves):
     t = _bumpy(seed, size=20)
     cost, _ = make_motion_cost(t, model)
     s, g = (2.5, 3.5, None), (17.5, 16.5, None)
-    ref = lattice_plan(cost, t, s, g, step=1.0)  # scipy Dijkstra over the built graph
-    opt = search_plan(cost, t, s, g, eps=1.0)
+    # scipy Dijkstra over the built graph
+    ref = lattice_plan(cost, t, s, g, step=1.0, moves=moves)
+    opt = search_plan(cost, t, s, g, eps=1.0, moves=moves)
     assert opt.cost == pytest.approx(ref.cost, rel=1e-5)  # float32 g-values
     assert opt.info["h_start"] <= opt.cost * (1 + 1e-6)
     # the heuristic is below the optimal cost-to-go from every position (reach from the goal
     # is not the reverse problem, so compare with searches from a few other starts)
-    grid = _Grid(cost, t, s[:2], None, 16, "axes")
+    grid = _Grid(cost, t, s[:2], None, 16, moves)
     h = relaxed_cost_to_go(cost, grid, grid.position(g[0], g[1], "goal"))
     for x, y in [(10.5, 3.5), (3.5, 12.5), (15.5, 9.5)]:
-        r = search_plan(cost, t, (x, y, None), g, eps=1.0)
+        r = search_plan(cost, t, (x, y, None), g, eps=1.0, moves=moves)
         assert h[grid.position(x, y, "start")] <= r.cost * (1 + 1e-6)
     # eps bounds the suboptimality
-    w = search_plan(cost, t, s, g, eps=1.5)
+    w = search_plan(cost, t, s, g, eps=1.5, moves=moves)
     assert ref.cost * (1 - 1e-6) <= w.cost <= 1.5 * ref.cost
 
 
@@ -117,6 +124,38 @@ def test_reach_agrees_with_the_search(model):
     assert np.all(np.isinf(capped.energy[reach.energy > 2000.0]))
     fin = reach.energy <= 2000.0
     assert np.allclose(capped.energy[fin], reach.energy[fin])
+
+
+def test_crab_moves_on_a_steep_plane(model):
+    """With the bundled model, walking with the body yawed off the direction of travel is
+    cheaper than facing it on a 27-degree plane (its fore-aft tilt term is much larger
+    than the sideways one). The crab moves must then lower the search's optimum, bring it
+    within 1 % of the default planner (search + continuous pose refinement), and ``reach``
+    (the same move set, no goal) must agree with ``plan(planner="search")``."""
+    from energy_planner.planning.plan import plan
+
+    t = Terrain.from_function(lambda x, y: 0.5 * x + 0.15 * y, size=(24, 24))
+    cost, _ = make_motion_cost(t, model)
+    s, g = (2.5, 2.5, None), (20.5, 11.5, None)
+    facing = search_plan(cost, t, s, g, eps=1.0, moves="axes")
+    crab = search_plan(cost, t, s, g, eps=1.0)  # default moves: all 16 at every heading
+    assert crab.cost <= facing.cost * (1 + 1e-6)
+    assert crab.cost < 0.95 * facing.cost  # crabbing matters here (not a tie)
+    yaw_off = []
+    for a, b in zip(crab.states[:-1], crab.states[1:], strict=True):
+        d = b[:2] - a[:2]
+        if np.hypot(*d) > 0:
+            yaw_off.append(abs(math.remainder(math.atan2(d[1], d[0]) - a[2], 2 * math.pi)))
+    assert max(yaw_off) > math.radians(10)  # the optimum does crab
+    auto = plan(t, model, s, g, progress=False)
+    assert crab.cost <= auto.energy_j * 1.01
+    searched = plan(t, model, s, g, planner="search", progress=False)
+    reach = reach_search(cost, t, s)
+    j = int(np.argmin(np.abs(reach.ys - g[1])))
+    i = int(np.argmin(np.abs(reach.xs - g[0])))
+    assert (reach.xs[i], reach.ys[j]) == (g[0], g[1])
+    assert reach.energy[j, i] == pytest.approx(crab.cost, rel=1e-5)
+    assert reach.energy[j, i] == pytest.approx(searched.energy_j, rel=0.01)
 
 
 def _energy_of_written_path(tmp_path, terrain, model, res):

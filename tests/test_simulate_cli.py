@@ -62,6 +62,9 @@ def test_dem_without_missions_is_rejected(tmp_path):
     res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--dem",
                                     HILL])
     assert res.exit_code == 2 and "--missions" in res.output
+    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--missions", "1",
+                                    "--plot", str(tmp_path / "p.png")])
+    assert res.exit_code == 2 and "Fig. 4" in res.output
 
 
 def test_noise_free_parquet_energies_match_truth(tmp_path):

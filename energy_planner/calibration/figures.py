@@ -4,7 +4,8 @@
   uphill and downhill panels, forward (red) and lateral (blue) windows, with the model's
   curves for travel straight up and down the fall line.
 * Fig. 5 - :func:`plot_yaw_torque`: yaw torque ``P / |w|`` (N m) of turns in place
-  against slope, with the model's curve.
+  against slope, with the model's torque averaged over the headings a turn sweeps and its
+  range (the per-second holding terms depend on the heading).
 * Fig. 3 - :func:`plot_superposition`: measured energy of composite paths against the
   sum of their parts (runs labelled ``A``, ``B``, ``AB``, ``C`` within a composite).
 
@@ -225,17 +226,36 @@ def plot_yaw_torque(
             s=14,
             alpha=0.6,
             color=color,
+            zorder=3,
             label=f"{motion.replace('_', ' ')} windows (n={len(pts)})",
         )
     amax = max(float(turns["alpha_deg"].max()) if len(turns) else 0.0, 5.0) + 2.0
     grid = np.radians(np.linspace(0.0, amax, 60))
     if model is not None and model.is_fitted:
-        p = model_curve(model, grid, gamma=0.0, wz=rate, constants=constants)
-        if p is not None:
-            ax.plot(np.degrees(grid), p / rate, color="k", lw=2, label="model")
+        # a turn sweeps the heading: the model's torque at every heading, its mean and range
+        curves = [
+            model_curve(model, grid, gamma=g, wz=rate, constants=constants)
+            for g in np.linspace(-np.pi, np.pi, 24, endpoint=False)
+        ]
+        if all(c is not None for c in curves):
+            tau = np.array(curves) / rate
+            deg = np.degrees(grid)
+            ax.fill_between(
+                deg,
+                tau.min(axis=0),
+                tau.max(axis=0),
+                color="0.85",
+                zorder=0,
+                label="model, over headings",
+            )
+            ax.plot(deg, tau.mean(axis=0), color="k", lw=2, label="model, heading mean")
     ax.set_xlabel("slope angle alpha (deg)")
     ax.set_ylabel("yaw torque P / |w| (N m)")
-    ax.set_title(f"Turning in place (curve at the cruising yaw rate {rate:.2f} rad/s)")
+    ax.set_title(
+        f"Turning in place (model at the cruising yaw rate {rate:.2f} rad/s;\n"
+        "windows on the speed ramps, at lower yaw rates, sit higher)",
+        fontsize=10,
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()

@@ -199,6 +199,10 @@ def command(
     progress = sys.stderr.isatty()
     if dem is not None and missions is None:
         raise click.BadParameter("--dem is only used with --missions N", param_hint="--dem")
+    if plot is not None and missions is not None:
+        raise click.BadParameter(
+            "--plot draws the designed campaign's fall-line runs (Fig. 4); missions have "
+            "none: drop --plot or --missions", param_hint="--plot")
     try:
         if missions is not None:
             from energy_planner.terrain import load_dem

@@ -294,11 +294,26 @@ class EnergyModel:
                 f"this library reads version {SCHEMA_VERSION}"
             )
         terms: list[Term] = []
-        for entry in doc.get("terms") or []:
+        raw_terms = doc.get("terms")
+        if raw_terms is not None and not isinstance(raw_terms, list):
+            raise ModelError(
+                f"{source}: 'terms' must be a list of term names or objects, got {raw_terms!r}"
+            )
+        for i, entry in enumerate(raw_terms or []):
             if isinstance(entry, str):
                 entry = {"name": entry}
+            if not isinstance(entry, Mapping):
+                raise ModelError(
+                    f"{source}: terms[{i}] must be a name or an object with 'name' and "
+                    f"'formula', got {entry!r}"
+                )
             name = entry.get("name")
             formula = entry.get("formula")
+            for key, val in (("name", name), ("formula", formula)):
+                if val is not None and not isinstance(val, str):
+                    raise ModelError(f"{source}: terms[{i}].{key} must be a string, got {val!r}")
+            if name is None and formula is None:
+                raise ModelError(f"{source}: terms[{i}] has neither a name nor a formula")
             if name in CATALOG:
                 if formula is not None and resolve_term(formula).formula != CATALOG[name].formula:
                     raise ModelError(
@@ -327,6 +342,17 @@ class EnergyModel:
                 )
         if not terms:
             raise ModelError(f"{source}: the model has no terms")
+        for key in ("coefficients", "stderr", "metadata"):
+            val = doc.get(key)
+            if val is not None and not isinstance(val, Mapping):
+                what = "a free-form object" if key == "metadata" else "an object (name -> value)"
+                raise ModelError(f"{source}: {key!r} must be {what} or null, got {val!r}")
+        stderr = doc.get("stderr")
+        for n, v in (stderr or {}).items():
+            if v is not None and not isinstance(v, int | float):
+                raise ModelError(
+                    f"{source}: stderr of term {n!r} must be a number or null, got {v!r}"
+                )
         coefs = doc.get("coefficients")
         if coefs is not None:
             for t in terms:

@@ -11,37 +11,37 @@ to ``wrap(theta - psi)`` on the fall line and across it. ``(vx, vy, wz)`` is the
 twist (REP-103: x forward, y left), along the ground.
 
 The base set is the paper's wrench ``f(alpha, gamma) = (fx, fy, tau)`` applied to the
-twist (Fig. 4 and Fig. 5 of the paper): for each direction of motion ``d`` (forward,
-backward, lateral; left is the mirror of right) the power is the direction's rate ``r``
-(``pos(vx)``, ``pos(-vx)``, ``abs(vy)``, m/s) times a force that depends on the grade
-along the travel ``G`` and the grade across it ``C``::
+twist (Fig. 4 and Fig. 5 of the paper), plus what a legged robot draws per second whatever
+it does. With ``sx = sin(alpha) cos(gamma)`` and ``sy = sin(alpha) sin(gamma)`` the grades
+along and across the body, and per direction of motion ``d`` (forward, backward, lateral;
+left is the mirror of right) its rate ``r`` (``pos(vx)``, ``pos(-vx)``, ``abs(vy)``, m/s)
+and the grade along the travel ``G`` (``sx``, ``-sx``, ``-sign(vy) sy``)::
 
-    P_d = r * (c0 + c_up pos(G) + c_down pos(-G) + q_up pos(G)^2 + q_down pos(-G)^2
-               + q_cross C^2)
+    P = sum_d [ c0_d r_d^2 / max(speed, 0.05) + c_up_d r_d pos(G_d) + c_down_d r_d pos(-G_d) ]
+        + abs(wz) (t0 + t1 sin(alpha))
+        + idle + k_x sx^2 + k_y sy^2 + (brake levers) + (side-stepping holding)
 
-with ``G = sin(alpha) cos(gamma)`` forward, ``-sin(alpha) cos(gamma)`` backward,
-``-sign(vy) sin(alpha) sin(gamma)`` sideways, and ``C = sin(alpha) sin(gamma)`` for
-forward/backward, ``sin(alpha) cos(gamma)`` (the slope along the body x axis) sideways.
-The linear pair is a kink at level: lifting the body costs gravity work through the drive
-efficiency, lowering it returns a gait-dependent fraction or none (Fig. 4: downhill gets
-cheaper only walking forward). The squares are copper (Joule) losses, which grow with the
-square of the force the legs hold along and across the slope; they make the cost per
-metre uphill convex, so that on steep ground a detour beats the direct climb. Turning in
-place costs ``abs(wz) (t0 + t1 sin(alpha) + t2 sin(alpha)^2)`` (Fig. 5: the yaw torque
-grows with slope). ``idle_power`` (W) is what the robot draws per second whatever it
-does - electronics, holding the body up - paid once however the motion combines
-directions (an arc is not charged the standing power of walking and of turning). Every
-term satisfies the mirror symmetry
-``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx, -vy, -wz)`` and, apart from
-``idle_power``, is linear in the twist per direction (the paper's superposition; energy
-stays additive along a path either way).
+The per-metre pair ``c_up``/``c_down`` is a kink at level: lifting the body costs gravity
+work through the drive efficiency, lowering it returns a gait-dependent fraction (Fig. 4:
+downhill gets cheaper only walking forward; sideways it worsens). The level force of each
+gait is weighted by its squared direction cosine, so walking obliquely costs a weighted
+mean, not the sum, of the gaits' forces. The per-second terms are the standing power and
+the copper (Joule) losses of the legs holding the slope load, which grow with the square
+of that load along (``tilt_x_sq``) and across (``tilt_y_sq``, the cross slope, whichever
+side it falls to) the body, with other levers when braking downhill and when
+side-stepping; they make the cost per metre uphill convex, so that on steep ground a
+detour beats the direct climb (:func:`energy_planner.model.critical_grade`). Turning in
+place costs a torque growing with slope (Fig. 5) plus the same per-second terms. Every
+term satisfies the mirror symmetry ``P(alpha, gamma, vx, vy, wz) = P(alpha, -gamma, vx,
+-vy, -wz)``; along one direction of motion the per-metre terms are linear in the rate (the
+paper's superposition), and energy stays additive along a path with the per-second terms.
 
 Examples
 --------
 >>> BASE_TERMS[:3]
 ('fwd_const', 'fwd_up', 'fwd_down')
->>> CATALOG["fwd_cross_sq"].formula
-'pos(vx) * (sin(alpha) * sin(gamma)) ** 2'
+>>> CATALOG["tilt_y_sq"].formula
+'(sin(alpha) * sin(gamma)) ** 2'
 >>> resolve_term("payload_kg*speed*sin(alpha)").name
 'payload_kg * speed * sin(alpha)'
 """

@@ -207,6 +207,11 @@ def heuristic_chunk(
     ny = int(lat[4])
     t0x, t0y, tdx, tdy = tgeo[0], tgeo[1], tgeo[2], tgeo[3]
     nm = moves.shape[0]
+    # least bound of each move over the whole table: an edge that cannot improve h[p]
+    # even at this cost is skipped without looking up its own bound
+    gmin = np.empty(nm)
+    for m in range(nm):
+        gmin[m] = margin * move_len[m] * step * table[m, 0, 0].min()
     pops = 0
     while n[0] > 0:
         if pops >= max_pops:
@@ -227,7 +232,7 @@ def heuristic_chunk(
             if ip < 0 or jp < 0 or ip >= nx or jp >= ny:
                 continue
             p = jp * nx + ip
-            if pos[p] == -2:
+            if pos[p] == -2 or key + gmin[m] >= h[p]:
                 continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step

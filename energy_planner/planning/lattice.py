@@ -11,7 +11,8 @@ position. Its motion primitives are
 
 * translations at constant heading to neighbours among the 16 ``(1,0), (2,1), (1,1),
   (1,2), ...``: with ``moves="axes"`` (default) the 4 closest to the body axes (forward,
-  left, backward, right), with ``moves="all"`` all 16 (any mix of forward and sideways);
+  left, backward, right), with ``moves="crab"`` also the 4 obliques at 45 degrees, with
+  ``moves="all"`` all 16 (any mix of forward and sideways: crab walking);
 * turns in place to the next heading on either side.
 
 With 16 headings the headings are the directions of the 16 moves, so a robot can walk
@@ -180,15 +181,18 @@ def _move_table(headings: np.ndarray, moves: str) -> np.ndarray:
     True
     >>> [tuple(MOVES_16[m].tolist()) for m in np.nonzero(t[1])[0]]
     [(2, 1), (-1, 2), (-2, -1), (1, -2)]
+    >>> _move_table(lattice_headings(16), "crab").sum(axis=1).tolist() == [8] * 16
+    True
     """
     n_headings = len(headings)
     if moves == "all":
         return np.ones((n_headings, len(MOVES_16)), dtype=bool)
     ang = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     table = np.zeros((n_headings, len(MOVES_16)), dtype=bool)
+    n_dirs = 8 if moves == "crab" else 4
     for h in range(n_headings):
-        for k in range(4):
-            axis = headings[h] + k * np.pi / 2
+        for k in range(n_dirs):
+            axis = headings[h] + k * 2 * np.pi / n_dirs
             table[h, int(np.argmin(np.abs(wrap(ang - axis))))] = True
     return table
 
@@ -254,11 +258,12 @@ def lattice_plan(
     metric : {"energy", "distance"}
         Edge weight: the motion's energy, or its horizontal length (shortest feasible
         path under the same limits).
-    moves : {"axes", "all"}
+    moves : {"axes", "crab", "all"}
         ``"axes"``: at each heading, the neighbour move closest to each body axis
         (forward, left, backward, right) - 4 translations per node, the paper's motion
-        primitives; ``"all"``: all 16 neighbours at every heading (4x the edges; also
-        diagonal body motions).
+        primitives; ``"crab"``: also the 4 obliques at 45 degrees to them (8);
+        ``"all"``: all 16 neighbours at every heading (4x the edges; any body yaw
+        relative to the direction of travel: crab walking).
 
     Returns
     -------
@@ -278,9 +283,9 @@ def lattice_plan(
         raise PlanningConfigError(
             f"metric {metric!r} is not one of 'energy', 'distance'", value=metric, param="metric"
         )
-    if moves not in ("axes", "all"):
+    if moves not in ("axes", "crab", "all"):
         raise PlanningConfigError(
-            f"moves {moves!r} is not one of 'axes', 'all'", value=moves, param="moves"
+            f"moves {moves!r} is not one of 'axes', 'crab', 'all'", value=moves, param="moves"
         )
     if n_headings < 4:
         raise PlanningConfigError(

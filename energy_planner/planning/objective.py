@@ -19,6 +19,8 @@ import math
 import numpy as np
 from ompl import base as ob
 
+from energy_planner.angles import wrap
+
 __all__ = ["EnergyObjective", "bind_kernel", "make_space", "set_state", "path_states", "path_cost"]
 
 # re-exported: they live in binding.py so that planning without OMPL does not import it
@@ -91,7 +93,7 @@ def set_state(state, x: float, y: float, yaw: float) -> None:
     """Write a pose into an SE(2) state (yaw wrapped to (-pi, pi])."""
     state.setX(float(x))
     state.setY(float(y))
-    state.setYaw(float(math.remainder(yaw, 2 * math.pi)))
+    state.setYaw(float(wrap(yaw)))
 
 
 def path_states(path) -> np.ndarray:

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
@@ -266,7 +267,7 @@ def _make_planar_goal(si, gx: float, gy: float, threshold: float):
             self._k += 1
             s.setX(gx)
             s.setY(gy)
-            s.setYaw(math.remainder(self._k * math.pi / 8, 2 * math.pi))  # 16 yaws in turn
+            s.setYaw(float(wrap(self._k * math.pi / 8)))  # 16 yaws in turn
 
         def maxSampleCount(self):  # noqa: N802 - OMPL's name
             return 16  # finite: BIT* draws every goal sample up front
@@ -365,7 +366,7 @@ def _run_ompl(
 def _with_exact_goal(states: np.ndarray, goal) -> np.ndarray:
     """Append the exact goal pose if the planner stopped within its goal threshold."""
     last = states[-1]
-    gyaw = last[2] if goal[2] is None else math.remainder(goal[2], 2 * math.pi)
+    gyaw = last[2] if goal[2] is None else float(wrap(goal[2]))
     if abs(last[0] - goal[0]) > 1e-9 or abs(last[1] - goal[1]) > 1e-9 or abs(last[2] - gyaw) > 1e-9:
         return np.vstack([states, [goal[0], goal[1], gyaw]])
     return states
@@ -432,6 +433,7 @@ def plan(
     progress: bool = True,
     step: float | None = None,
     n_headings: int = 16,
+    moves: str = "all",
     eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[float, float], None] | None = None,
@@ -469,6 +471,10 @@ def plan(
         ``lattice`` (default :func:`energy_planner.planning.lattice.default_step`).
     n_headings : int
         Headings per position.
+    moves : {"all", "crab", "axes"}
+        Translations per heading for ``auto``/``search``/``lattice``
+        (:data:`energy_planner.planning.search.MOVE_SETS`): all 16 lattice directions at
+        every heading (default; crab walking), 8, or the 4 closest to the body axes.
     eps : float, optional
         Heuristic weight of ``auto``/``search`` (default :data:`DEFAULT_EPS`; 1 = optimal
         on the primitives, slower).
@@ -557,8 +563,8 @@ def plan(
             from energy_planner.planning.search import search_plan
 
             sr = search_plan(
-                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, eps=eps,
-                progress=progress, time_budget=budget,
+                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves,
+                eps=eps, progress=progress, time_budget=budget,
             )  # fmt: skip
             info["search"] = {
                 "step_m": sr.step,
@@ -599,7 +605,9 @@ def plan(
             from energy_planner.planning.binding import path_cost
             from energy_planner.planning.lattice import lattice_plan
 
-            lat = lattice_plan(cost, terrain, start_p, goal_p, step=step, n_headings=n_headings)
+            lat = lattice_plan(
+                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves
+            )
             info["lattice"] = {
                 "step_m": lat.step,
                 "headings": lat.n_headings,

@@ -49,7 +49,7 @@ def densify(states: np.ndarray, spacing: float) -> np.ndarray:
         d = math.hypot(b[0] - a[0], b[1] - a[1])
         n = max(1, math.ceil(d / spacing - 1e-9))
         f = (np.arange(1, n + 1) / n)[:, None]
-        dth = math.remainder(b[2] - a[2], 2 * math.pi)
+        dth = float(wrap(b[2] - a[2]))
         seg = np.column_stack(
             [a[0] + f[:, 0] * (b[0] - a[0]), a[1] + f[:, 0] * (b[1] - a[1]), a[2] + f[:, 0] * dth]
         )

@@ -4,9 +4,12 @@ The default planner. Positions lie on a square grid at the DEM's own cell size (
 ``step``), aligned so that the start is a position; each position has ``n_headings``
 headings. The motion primitives are those of the reference lattice
 (:mod:`energy_planner.planning.lattice`): at each heading, translations at constant
-heading to the neighbour closest to each body axis (forward, left, backward, right, among
-the 16 neighbours ``(1, 0), (2, 1), (1, 1), ...``; ``moves="all"`` allows all 16), and
-turns in place to the next heading on either side. No graph is built: an edge is priced
+heading to the 16 neighbours ``(1, 0), (2, 1), (1, 1), ...`` (``moves="all"``, the
+default: the body may face any lattice heading while it travels in any lattice direction,
+i.e. crab walking, which a model with a large fore-aft tilt cost prefers on steep slopes;
+``moves="crab"``: the 8 neighbours closest to the body axes and their 45-degree
+obliques; ``moves="axes"``: only the 4 closest to the body axes, forward, left, backward,
+right), and turns in place to the next heading on either side. No graph is built: an edge is priced
 by the motion kernel (:class:`energy_planner.energy.MotionCost`, the same numba function
 that prices every other path) when the search first reaches it.
 
@@ -62,23 +65,56 @@ _IMPORT_LINE = (
 )
 #: Scale applied to every edge bound (covers the gradient table's spacing).
 BOUND_MARGIN = 0.99
+#: Translation sets per heading: the 4 neighbours closest to the body axes; 8 (also the
+#: obliques at 45 degrees to them: crab walking); all 16.
+MOVE_SETS = ("axes", "crab", "all")
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
 
 
 def search_module(cost):
-    """The numba search functions compiled against ``cost``'s motion kernel (cached)."""
+    """The numba search functions compiled against ``cost``'s motion kernel (cached).
+
+    The functions are compiled (or loaded from numba's disk cache) here, by a call on a
+    problem with nothing to do, so that a planner's time budget does not pay for it.
+    """
     from energy_planner.model._codegen import load_generated_module
 
     mod_name = cost.kernel.py_func.__module__
     if mod_name == "energy_planner.energy._motion":
         import energy_planner.planning._search as mod
+    else:
+        text = _TEMPLATE.read_text()
+        assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
+        text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
+        mod = load_generated_module(text, prefix="search")
+    if not getattr(mod, "_warm", False):
+        _warm_up(mod, cost)
+        mod._warm = True
+    return mod
 
-        return mod
-    text = _TEMPLATE.read_text()
-    assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
-    text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
-    return load_generated_module(text, prefix="search")
+
+def _warm_up(mod, cost) -> None:
+    """Call every numba function of ``mod`` once with empty work (compiles them)."""
+    i8 = np.int64
+    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
+    moves = np.zeros((16, 2), i8)
+    keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
+    table = np.zeros((16, 1, 1, 2, 2))
+    tgeo = np.array([0.0, 0.0, 1.0, 1.0])
+    mod.heuristic_chunk(
+        cost.data[0], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
+        np.zeros(1, i8), keys, vals, n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
+    )  # fmt: skip
+    mod.astar_chunk(
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1), 1.0,
+        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1, keys, vals, n, 0, 0.0,
+        np.zeros(1, i8),
+    )  # fmt: skip
+    mod.heap_push(keys, vals, n, 0.0, 0)
+    mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
+    mod.min_over_headings(np.zeros(16, np.float32), 1, 16)
+    mod.edge_bound(cost.data[0], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
 @dataclass
@@ -159,9 +195,11 @@ class _Grid:
             lattice_headings,
         )
 
-        if moves not in ("axes", "all"):
+        if moves not in MOVE_SETS:
             raise PlanningConfigError(
-                f"moves {moves!r} is not one of 'axes', 'all'", value=moves, param="moves"
+                f"moves {moves!r} is not one of {', '.join(map(repr, MOVE_SETS))}",
+                value=moves,
+                param="moves",
             )
         if int(n_headings) < 4:
             raise PlanningConfigError(
@@ -468,7 +506,7 @@ def search_plan(
     *,
     step: float | None = None,
     n_headings: int = 16,
-    moves: str = "axes",
+    moves: str = "all",
     eps: float = 1.0,
     progress: bool = False,
     time_budget: float = math.inf,
@@ -488,8 +526,10 @@ def search_plan(
         Position spacing, m (default: the DEM's cell size).
     n_headings : int
         Headings per position.
-    moves : {"axes", "all"}
-        Translations per heading: the 4 closest to the body axes, or all 16.
+    moves : {"all", "crab", "axes"}
+        Translations per heading (:data:`MOVE_SETS`): all 16 (default; crab walking at
+        any lattice yaw offset), the 8 closest to the body axes and their 45-degree
+        obliques, or the 4 closest to the body axes.
     eps : float
         Heuristic weight >= 1; the path's search cost is at most ``eps`` times the optimum.
     progress : bool
@@ -599,7 +639,7 @@ def reach_search(
     *,
     step: float | None = None,
     n_headings: int = 16,
-    moves: str = "axes",
+    moves: str = "all",
     max_energy: float = math.inf,
     progress: bool = False,
     time_budget: float = math.inf,

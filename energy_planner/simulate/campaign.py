@@ -429,7 +429,8 @@ class Campaign:
             )
         return pd.DataFrame(rows)
 
-    def noise_floor(self, windows: Any, reference: str = "expected") -> NoiseFloor:
+    def noise_floor(self, windows: Any, reference: str = "expected",
+                    smoothing_tau_s: float = 0.0) -> NoiseFloor:
         """RMSE of the measured against the true power on the same windows.
 
         Every sample of ``windows.samples`` is matched to its log row by ``run`` and
@@ -448,6 +449,11 @@ class Campaign:
         reference : {"expected", "instantaneous"}
             Truth to compare with: the gait-cycle mean power (default; the ripple counts
             as noise, since its phase is not in the features) or the instantaneous power.
+        smoothing_tau_s : float
+            If > 0, the truth is first smoothed per run with the exponential moving
+            average that :func:`energy_planner.measurements.preprocess` applies to the
+            measured power (its ``ema_tau``, 0.2 s by default), so that the floor counts
+            the sensors alone and not the smoothing's lag at speed changes.
 
         Raises
         ------
@@ -465,9 +471,20 @@ class Campaign:
                             "tk": np.round(samples["t"].to_numpy(float) * 1e6).astype(np.int64),
                             "window": samples["window"].to_numpy()})
         ts = self.true_samples
+        true_p = ts[col].to_numpy(float)
+        if smoothing_tau_s > 0:
+            from energy_planner.measurements.preprocess import ema
+
+            run = ts["run"].to_numpy()
+            t = ts["t"].to_numpy(float)
+            starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+            ends = np.r_[starts[1:], len(run)]
+            true_p = true_p.copy()
+            for a, b in zip(starts, ends, strict=True):
+                true_p[a:b] = ema(true_p[a:b], t[a:b], smoothing_tau_s)
         truth = pd.DataFrame({"run": ts["run"].astype(str).to_numpy(),
                               "tk": np.round(ts["t"].to_numpy(float) * 1e6).astype(np.int64),
-                              "true": ts[col].to_numpy(float)})
+                              "true": true_p})
         merged = key.merge(truth, on=["run", "tk"], how="left", validate="many_to_one")
         missing = merged["true"].isna()
         if missing.any():

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from energy_planner.angles import wrap_deg
 from energy_planner.simulate.config import CampaignConfig, ConfigError
 
 __all__ = ["RunSpec", "plan_runs", "nominal_speed"]
@@ -98,11 +99,6 @@ def nominal_speed(config: CampaignConfig) -> float:
     return min(config.speeds, key=lambda v: (abs(v - 0.3), v))
 
 
-def _wrap_deg(a: float) -> float:
-    w = (a + 180.0) % 360.0 - 180.0
-    return 180.0 if w <= -180.0 else w + 0.0
-
-
 def _q(d: float, dt: float) -> float:
     """Round a duration to a whole number of samples (at least one)."""
     return max(1, round(d / dt)) * dt
@@ -126,7 +122,7 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
     for slope in config.slopes_deg:
         for rep in range(config.repeats):
             for heading in config.headings_deg:
-                h = _wrap_deg(heading)
+                h = wrap_deg(heading)
                 for motion in config.motions:
                     ux, uy = directions[motion]
                     for v in config.speeds:
@@ -138,7 +134,7 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                             )
                         )
             for heading in config.turn_headings_deg:
-                h = _wrap_deg(heading)
+                h = wrap_deg(heading)
                 for side, s in (("left", 1), ("right", -1)):
                     runs.append(
                         RunSpec(
@@ -172,7 +168,7 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
     chord = 2.0 * radius * math.sin(turn / 2.0)
     for slope in config.composite_slopes_deg:
         for heading in config.composite_headings_deg:
-            h = _wrap_deg(heading)
+            h = wrap_deg(heading)
             for side, s in (("left", 1), ("right", -1)):
                 # (a) A forward, B sideways, C diagonal
                 cid = f"supa_{side}_{_tag(slope, h, v)}"
@@ -202,7 +198,7 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                          0.0)
                 seg_c = (tc, radius * turn / tc, 0.0, s * turn / tc)
                 stop = (ramp, 0.0, 0.0, 0.0) if ramp > 0 else None
-                h_b = _wrap_deg(h + s * math.degrees(turn))
+                h_b = wrap_deg(h + s * math.degrees(turn))
                 common = dict(kind="composite", slope_deg=slope, speed=v, composite=cid)
                 runs += [
                     RunSpec(f"{cid}_A", motion=f"turn_{side}", heading_deg=h,

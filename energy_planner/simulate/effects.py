@@ -108,24 +108,24 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             "downhill_braking",
-            "a stiff descent mode: walking forward downhill the legs brake with the hip "
-            "(lever 0.30 m instead of 0.08 m) and return only 10 % of the released "
-            "energy instead of 60 %",
-            ("forward runs downhill at several slopes",),
-            changes={"recovery_forward": 0.10, "lever_brake_forward_m": 0.30},
+            "a stiff descent mode that engages walking forward down more than 8 deg of "
+            "grade: the legs brake with the hip (lever 0.30 m instead of 0.08 m) and "
+            "return 10 % of the released energy instead of 60 % (a step in the cost at "
+            "the threshold)",
+            ("forward runs downhill at slopes on both sides of 8 deg",),
             resembles="downhill_braking",
         ),
         Effect(
             "turn_while_walking",
-            "on arcs the planted feet scuff sideways (friction 0.6 times the weight at "
-            "the foot radius, growing with speed as v / (v + 0.1 m/s))",
+            "on arcs the planted feet scuff sideways (friction 0.8 times the weight at "
+            "the foot radius, growing with speed as v / (v + 0.05 m/s))",
             ("arc runs (CampaignConfig.arcs) or mission logs",),
             resembles="turn_while_walking",
         ),
         Effect(
             "acceleration",
             "speed changes also spin the 12 rotors up and down (reflected inertia J N^2 / "
-            "l^2, about 220 kg at the feet) and swing the legs, and that kinetic energy is "
+            "l^2, about 450 kg at the feet) and swing the legs, and that kinetic energy is "
             "paid both ways (dissipated when slowing down, never recovered)",
             ("speed ramps (CampaignConfig.ramp_s > 0) or mission logs with speed changes",),
             resembles="acceleration",

@@ -34,6 +34,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from energy_planner.angles import wrap  # re-exported: one wrapping convention, (-pi, pi]
+
 __all__ = [
     "twist_profile",
     "slope_frame",
@@ -46,16 +48,6 @@ __all__ = [
 ]
 
 Segment = tuple[float, float, float, float]  # (duration_s, vx, vy, wz)
-
-
-def wrap(a: np.ndarray | float) -> np.ndarray:
-    """Wrap angles (rad) to ``(-pi, pi]``.
-
-    >>> float(wrap(-np.pi)), float(wrap(3 * np.pi / 2))
-    (3.141592653589793, -1.5707963267948966)
-    """
-    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
 
 
 def twist_profile(

@@ -26,7 +26,6 @@ True
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -34,6 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, OutsideMapError
 from energy_planner.simulate.physics import Physics, RobotParams
 
@@ -145,7 +145,7 @@ def true_path_energy(
     physics = Physics(params, effects)
     x0, y0, th0 = st[:-1, 0], st[:-1, 1], st[:-1, 2]
     ddx, ddy = np.diff(st[:, 0]), np.diff(st[:, 1])
-    dth = np.remainder(np.diff(st[:, 2]) + math.pi, 2 * math.pi) - math.pi
+    dth = wrap(np.diff(st[:, 2]))
     dist_h = np.hypot(ddx, ddy)
     n_sub = np.maximum.reduce([np.ones_like(dist_h, dtype=int),
                                np.ceil(dist_h / step_m).astype(int),

@@ -380,7 +380,13 @@ class Physics:
         f_z = weight * ca
         dz_dt = vx * s_x + vy * s_y
         p_mech = weight * dz_dt + m_inertial * (vx * ax + vy * ay)
-        recovery = (p.recovery_forward * w_fwd + p.recovery_backward * w_bwd
+        rec_fwd: Any = p.recovery_forward
+        descent = np.zeros(n, dtype=bool)
+        if "downhill_braking" in on:
+            # stiff descent mode when walking forward down more than DESCENT_GRADE
+            descent = (vx > 0) & (-s_x > DESCENT_GRADE)
+            rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
+        recovery = (rec_fwd * w_fwd + p.recovery_backward * w_bwd
                     + p.recovery_lateral * w_lat)
         if "acceleration" in on:  # speeding up and slowing down both cost (no recovery)
             p_mech = weight * dz_dt + m_inertial * np.abs(vx * ax + vy * ay)
@@ -404,7 +410,8 @@ class Physics:
             r_factor = 1.0 + p.copper_temp_coeff * (_arr(f, "motor_temp", n) - p.reference_temp_c)
         k_z = p.kappa(p.lever_support_m, r_factor)
         k_push = p.kappa(p.lever_push_m, r_factor)
-        k_bf = p.kappa(p.lever_brake_forward_m, r_factor)
+        k_bf = np.where(descent, p.kappa(DESCENT_LEVER_M, r_factor),
+                        p.kappa(p.lever_brake_forward_m, r_factor))
         k_bb = p.kappa(p.lever_brake_backward_m, r_factor)
         # sideways forces: stepping sideways the stance legs pass through the vertical
         # (hip ab/adduction lever); walking forward the feet are placed wide on the
@@ -454,7 +461,7 @@ class Physics:
             p.turn_friction * ca + p.turn_slope_factor * sa) / p.lift_efficiency
         if "turn_while_walking" in on:  # planted feet scuff sideways on arcs
             turning = turning + (TURN_SCUFF * weight * p.foot_radius_m * np.abs(wz)
-                                 * speed / (speed + 0.1) / p.lift_efficiency)
+                                 * speed / (speed + 0.05) / p.lift_efficiency)
         terrain = terrain + sinkage * weight * speed / p.lift_efficiency
 
         electronics = np.full(n, p.electronics_w)
@@ -490,20 +497,25 @@ class Physics:
 #: Drag of grass stems on the swinging legs per metre of grass height, N/m.
 VEGETATION_DRAG_N_PER_M = 250.0
 #: Friction coefficient of the sideways scuffing of planted feet on arcs (effect).
-TURN_SCUFF = 0.6
+TURN_SCUFF = 0.8
+#: ``downhill_braking`` effect: the stiff descent mode engages beyond this downhill grade
+#: along the forward motion (sin 8 deg), brakes with this lever (m) and returns this share.
+DESCENT_GRADE = math.sin(math.radians(8.0))
+DESCENT_LEVER_M = 0.30
+DESCENT_RECOVERY = 0.10
 
 
 def p_extra_inertia(p: RobotParams) -> float:
     """Extra effective mass of the ``acceleration`` effect: rotors and legs, kg.
 
-    Twelve rotors (``J = 1e-3 kg m^2`` each, the B1 class's large actuators) behind gear
+    Twelve rotors (``J = 2e-3 kg m^2`` each, the B1 class's large actuators) behind gear
     ratio ``N`` appear at the foot as ``J N^2 / l^2`` per joint (``l =
     lever_support_m``: the knee, which drives the stance), plus the four legs.
 
     >>> round(p_extra_inertia(RobotParams()))
-    237
+    460
     """
-    rotor = 12 * 1e-3 * p.gear_ratio**2 / p.lever_support_m**2
+    rotor = 12 * 2e-3 * p.gear_ratio**2 / p.lever_support_m**2
     return float(rotor + 4 * p.leg_mass_kg)
 
 
