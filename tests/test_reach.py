@@ -204,3 +204,7 @@ def test_reach_cli_errors(hill_tif):
         main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--geojson", "a.json"]
     )
     assert r.exit_code == 2 and "--budget-wh" in r.output
+    r = CliRunner().invoke(
+        main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--free-turn"]
+    )
+    assert r.exit_code == 2 and "--return" in r.output
