@@ -10,9 +10,14 @@ the same step; ``auto`` refines off the lattice and can end slightly lower).
 The search positions lie on the DEM's own cells: the start is moved to the centre of its
 cell (reported as ``start``) so that every cell centre is a search position. Headings are
 free at the start; the cost of a cell is the least over the headings the robot may
-arrive with. For a round trip the robot may arrive with one heading and leave with
-another: the cost is ``min over h of (to[cell, h] + back[cell, h])`` where ``back`` is
-the least energy from the state back to the start (turning at the cell included).
+arrive with. For a round trip the robot arrives with some heading and leaves again: by
+default (``turn_at_cell=True``) it keeps its heading at the cell, so the cost is
+``min over h of (to[cell, h] + back[cell, h])`` where ``back`` is the least energy from
+the state back to the start (turning round, walking back backwards or crabbing at the
+cell is paid). With ``turn_at_cell=False`` the two legs' headings at the cell are free,
+``min_h to[cell, h] + min_h back[cell, h]``, as ``plan`` treats a goal without yaw and a
+start without yaw: it equals ``plan(start, cell) + plan(cell, start)`` and is lower by at
+most one half turn in place at the cell.
 
 :class:`ReachMap` writes the result as a GeoTIFF on the DEM's grid and CRS (nodata where
 the DEM has none or the cell cannot be reached), the area within a battery budget as a
@@ -23,8 +28,10 @@ The search sits behind one function, :func:`least_energy`: one way it is the pla
 full-resolution search run without a goal
 (:func:`energy_planner.planning.search.reach_search`); a round trip needs per-heading
 energies and a backward search, which run on the lattice graph of
-:mod:`energy_planner.planning.lattice` with the same primitives and edge costs (scipy's
-Dijkstra) until ``reach_search`` offers them.
+:mod:`energy_planner.planning.lattice` with the search's move set (``moves="all"``, crab
+walking included, as ``plan``'s default) and edge costs, every edge ``u -> v`` priced by
+the kernel in its own direction, searched by scipy's Dijkstra forwards and on the
+transposed graph.
 """
 
 from __future__ import annotations
@@ -123,9 +130,11 @@ def least_energy(
     The one boundary between :func:`reach` and the search. One way: the planner's own
     full-resolution search without a goal
     (:func:`energy_planner.planning.search.reach_search`). Round trip: the lattice graph
-    searched forwards and backwards (scipy's Dijkstra), ``min over h of (to[p, h] +
-    back[p, h])``, because ``reach_search`` gives neither per-heading energies nor the
-    reverse search yet (the same primitives and edge costs, so the same numbers).
+    with the same move set ``moves`` and edge costs, searched forwards and backwards
+    (scipy's Dijkstra on the graph and its transpose, so every edge keeps the price of
+    its true direction): ``min over h of (to[p, h] + back[p, h])`` with
+    ``turn_at_cell``, else ``min_h to[p, h] + min_h back[p, h]`` (headings free at the
+    cell, as two ``plan`` calls).
 
     Returns
     -------
