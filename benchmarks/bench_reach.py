@@ -3,14 +3,15 @@
 Usage::
 
     python benchmarks/bench_reach.py [--budget-wh 12] [--samples 8] [--model M.json]
-        [--return] [--png docs/img/reach_hill.png]
+        [--return [--free-turn]] [--png docs/img/reach_hill.png]
 
 Runs :func:`energy_planner.planning.reach.reach` from the Fig. 1 start on ``maps/hill.tif``
 (1 m cells, full resolution), picks ``--samples`` cells on the budget contour (cells within
 the budget with a neighbour outside it, and a cost within 2 % of the budget), plans to each
 with ``plan`` (``search`` at the same 1 m step: the same search with a goal; and
 ``auto``, the default, which refines the search's path off the grid) and prints the
-energies side by side with their ratio to the reach value. Records the load average
+energies side by side with their ratio to the reach value (with ``--return``: plan there
+plus plan back, which ``--free-turn`` should equal). Records the load average
 (the machine is shared).
 """
 
