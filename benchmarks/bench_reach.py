@@ -3,14 +3,15 @@
 Usage::
 
     python benchmarks/bench_reach.py [--budget-wh 12] [--samples 8] [--model M.json]
-        [--return] [--png docs/img/reach_hill.png]
+        [--return [--free-turn]] [--png docs/img/reach_hill.png]
 
 Runs :func:`energy_planner.planning.reach.reach` from the Fig. 1 start on ``maps/hill.tif``
 (1 m cells, full resolution), picks ``--samples`` cells on the budget contour (cells within
 the budget with a neighbour outside it, and a cost within 2 % of the budget), plans to each
 with ``plan`` (``search`` at the same 1 m step: the same search with a goal; and
 ``auto``, the default, which refines the search's path off the grid) and prints the
-energies side by side with their ratio to the reach value. Records the load average
+energies side by side with their ratio to the reach value (with ``--return``: plan there
+plus plan back, which ``--free-turn`` should equal). Records the load average
 (the machine is shared).
 """
 
@@ -35,6 +36,7 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--model", default=None)
     ap.add_argument("--return", dest="round_trip", action="store_true")
+    ap.add_argument("--free-turn", action="store_true", help="with --return: free heading at cell")
     ap.add_argument("--png", default=None)
     args = ap.parse_args()
 
@@ -44,7 +46,8 @@ def main() -> None:
     start = terrain.to_work(*sc["start"])
     print(f"# load average before: {os.getloadavg()}")
     t0 = time.perf_counter()
-    res = reach(terrain, model, start, round_trip=args.round_trip)
+    res = reach(terrain, model, start, round_trip=args.round_trip,
+                turn_at_cell=not args.free_turn)  # fmt: skip
     t_reach = time.perf_counter() - t0
     budget = args.budget_wh * 3600.0
     inside = res.mask(budget)
@@ -56,8 +59,6 @@ def main() -> None:
     if args.png:
         res.plot(terrain, args.png, budget)
         print(f"# plot: {args.png}")
-    if args.round_trip:
-        return
     edge = inside & ~(
         np.roll(inside, 1, 0) & np.roll(inside, -1, 0) & np.roll(inside, 1, 1)
         & np.roll(inside, -1, 1)
@@ -74,14 +75,22 @@ def main() -> None:
         r, c = rows[k], cols[k]
         goal = (x0 + c * dx, y0 + r * dy)
         e = res.energy_j[r, c]
-        lat = plan(terrain, model, res.start, goal, planner="search", step=1.0, progress=False)
-        auto = plan(terrain, model, res.start, goal, planner="auto", step=1.0, time=3,
-                    progress=False)  # fmt: skip
-        worst = max(worst, abs(lat.energy_j / e - 1))
+        legs = ((res.start, goal), (goal, res.start)) if args.round_trip else ((res.start, goal),)
+        # plan there (and back, for --return): the search, and the default planner
+        e_search = sum(
+            plan(terrain, model, a, b, planner="search", step=1.0, progress=False).energy_j
+            for a, b in legs
+        )
+        e_auto = sum(
+            plan(terrain, model, a, b, planner="auto", step=1.0, time=3,
+                 progress=False).energy_j
+            for a, b in legs
+        )  # fmt: skip
+        worst = max(worst, abs(e_search / e - 1))
         gx, gy = terrain.from_work(*goal)
         print(
-            f"| {gx:.1f}, {gy:.1f} | {e:.0f} | {lat.energy_j:.0f} | {lat.energy_j / e:.4f} | "
-            f"{auto.energy_j:.0f} | {auto.energy_j / e:.4f} | {e / budget:.4f} |",
+            f"| {gx:.1f}, {gy:.1f} | {e:.0f} | {e_search:.0f} | {e_search / e:.4f} | "
+            f"{e_auto:.0f} | {e_auto / e:.4f} | {e / budget:.4f} |",
             flush=True,
         )
     print(f"\nworst |plan search / reach - 1| = {100 * worst:.2f}%")

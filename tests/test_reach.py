@@ -81,6 +81,11 @@ def test_return_doubles_a_symmetric_cost_and_adds_the_turn_around(flat):
         d = math.hypot(dx, dy)
         expected = 2 * d * fwd + min(turn, d * (bwd - fwd))
         assert _cell(flat, rt, dx, dy) == pytest.approx(expected, rel=1e-6)
+    # headings free at the cell (two plans): both legs walk forwards, twice the one way
+    legs = reach(flat, base, (15.5, 15.5), round_trip=True, turn_at_cell=False)
+    for dx, dy in OFFSETS:
+        d = math.hypot(dx, dy)
+        assert _cell(flat, legs, dx, dy) == pytest.approx(2 * d * fwd, rel=1e-6)
 
 
 def _hill(x, y):
@@ -132,6 +137,39 @@ def test_cells_on_the_budget_contour_cost_the_budget_when_planned(hill_tif):
             assert p.energy_j == pytest.approx(budget, rel=0.03)
 
 
+def test_return_equals_two_plans_on_the_hill_and_the_turn_round_is_bounded(hill_tif):
+    from energy_planner.planning.compare import _motion_cost
+    from energy_planner.planning.lattice import lattice_headings
+    from energy_planner.planning.plan import plan
+    from energy_planner.request import Request
+    from energy_planner.terrain import load_dem
+
+    terrain = load_dem(hill_tif)
+    model = EnergyModel.default()
+    start = (X0 + 10.5, Y0 + 12.5)
+    legs = reach(terrain, model, start, round_trip=True, turn_at_cell=False)
+    rt = reach(terrain, model, start, round_trip=True)
+    cost, _ = _motion_cost(terrain, model, Request())
+    th = lattice_headings(16)
+    x0, y0, dx, dy = terrain.grid
+    # cells over the hill, on its flank and near the nodata hole (row 40 = y0 + 40 dy)
+    for r, c in [(10, 40), (25, 30), (38, 12)]:
+        goal = (x0 + c * dx, y0 + r * dy)
+        there = plan(terrain, model, legs.start, goal, planner="search", step=1.0)
+        back = plan(terrain, model, goal, legs.start, planner="search", step=1.0)
+        assert legs.energy_j[r, c] == pytest.approx(there.energy_j + back.energy_j, rel=0.01)
+        # keeping the heading at the cell costs at most one half turn in place there
+        half = max(
+            min(
+                sum(cost(*goal, th[(h + s * k) % 16], *goal, th[(h + s * (k + 1)) % 16])
+                    for k in range(8))
+                for s in (1, -1)
+            )
+            for h in range(16)
+        )  # fmt: skip
+        assert legs.energy_j[r, c] <= rt.energy_j[r, c] <= legs.energy_j[r, c] + half * 1.001
+
+
 def test_reach_cli_writes_geotiff_geojson_and_plot(hill_tif, tmp_path):
     import rasterio
     from shapely.geometry import Point, shape
@@ -166,3 +204,7 @@ def test_reach_cli_errors(hill_tif):
         main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--geojson", "a.json"]
     )
     assert r.exit_code == 2 and "--budget-wh" in r.output
+    r = CliRunner().invoke(
+        main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--free-turn"]
+    )
+    assert r.exit_code == 2 and "--return" in r.output

@@ -55,6 +55,12 @@ def _text(res: dict[str, Any]) -> str:
     is_flag=True,
     help="Cost of going to each cell and coming back to the start.",
 )
+@click.option(
+    "--free-turn",
+    is_flag=True,
+    help="With --return: headings free at the cell (the sum of two `plan` calls with no "
+    "yaw there); default: the robot keeps its heading and pays the turn round.",
+)
 @model_option
 @limit_options
 @speed_option
@@ -84,6 +90,7 @@ def command(
     start: str,
     budget_wh: float | None,
     round_trip: bool,
+    free_turn: bool,
     model_path: Path | None,
     max_slope: float | None,
     max_cross_slope: float | None,
@@ -113,6 +120,8 @@ def command(
     from energy_planner.planning.reach import reach
     from energy_planner.request import Request
 
+    if free_turn and not round_trip:
+        raise click.BadParameter("--free-turn applies to --return only", param_hint="--free-turn")
     if geojson is not None and budget_wh is None:
         raise click.BadParameter(
             "--geojson writes the area within a budget: give --budget-wh too",
@@ -127,7 +136,10 @@ def command(
         channels=channels_from_options(sets, channels),
     )  # fmt: skip
     try:
-        res = reach(terrain, model, s[:2], request, round_trip=round_trip, progress=True)
+        res = reach(
+            terrain, model, s[:2], request, round_trip=round_trip,
+            turn_at_cell=not free_turn, progress=True,
+        )  # fmt: skip
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:
@@ -141,6 +153,7 @@ def command(
         "dem": str(dem),
         "start": [float(sx), float(sy)],
         "round_trip": round_trip,
+        "turn_at_cell": res.info.get("turn_at_cell"),
         "reachable_cells": int(finite.size),
         "min_wh": float(finite.min()),
         "median_wh": float(np.median(finite)),

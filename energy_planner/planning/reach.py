@@ -10,9 +10,14 @@ the same step; ``auto`` refines off the lattice and can end slightly lower).
 The search positions lie on the DEM's own cells: the start is moved to the centre of its
 cell (reported as ``start``) so that every cell centre is a search position. Headings are
 free at the start; the cost of a cell is the least over the headings the robot may
-arrive with. For a round trip the robot may arrive with one heading and leave with
-another: the cost is ``min over h of (to[cell, h] + back[cell, h])`` where ``back`` is
-the least energy from the state back to the start (turning at the cell included).
+arrive with. For a round trip the robot arrives with some heading and leaves again: by
+default (``turn_at_cell=True``) it keeps its heading at the cell, so the cost is
+``min over h of (to[cell, h] + back[cell, h])`` where ``back`` is the least energy from
+the state back to the start (turning round, walking back backwards or crabbing at the
+cell is paid). With ``turn_at_cell=False`` the two legs' headings at the cell are free,
+``min_h to[cell, h] + min_h back[cell, h]``, as ``plan`` treats a goal without yaw and a
+start without yaw: it equals ``plan(start, cell) + plan(cell, start)`` and is lower by at
+most one half turn in place at the cell.
 
 :class:`ReachMap` writes the result as a GeoTIFF on the DEM's grid and CRS (nodata where
 the DEM has none or the cell cannot be reached), the area within a battery budget as a
@@ -23,8 +28,10 @@ The search sits behind one function, :func:`least_energy`: one way it is the pla
 full-resolution search run without a goal
 (:func:`energy_planner.planning.search.reach_search`); a round trip needs per-heading
 energies and a backward search, which run on the lattice graph of
-:mod:`energy_planner.planning.lattice` with the same primitives and edge costs (scipy's
-Dijkstra) until ``reach_search`` offers them.
+:mod:`energy_planner.planning.lattice` with the search's move set (``moves="all"``, crab
+walking included, as ``plan``'s default) and edge costs, every edge ``u -> v`` priced by
+the kernel in its own direction, searched by scipy's Dijkstra forwards and on the
+transposed graph.
 """
 
 from __future__ import annotations
@@ -45,9 +52,14 @@ __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 NODATA = -9999.0
 
 
-def _graph(cost, terrain, start_xy: tuple[float, float], step: float, n_headings: int):
+def _graph(
+    cost, terrain, start_xy: tuple[float, float], step: float, n_headings: int,
+    moves: str = "all",
+):  # fmt: skip
     """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan` (energy
-    metric, ``moves="axes"``): CSR matrix over ``position * H + heading``."""
+    metric) with the search's move set ``moves``
+    (:data:`energy_planner.planning.search.MOVE_SETS`): CSR matrix over
+    ``position * H + heading``; every edge priced by the kernel in its own direction."""
     from scipy.sparse import csr_matrix
 
     from energy_planner.planning.lattice import (
@@ -69,7 +81,7 @@ def _graph(cost, terrain, start_xy: tuple[float, float], step: float, n_headings
         th = np.full(P, headings[h])
         valid[:, h] = np.isfinite(cost.batch(px, py, th, px, py, th))
     srcs, dsts, ws = [], [], []
-    move_ok = _move_table(headings, "axes")
+    move_ok = _move_table(headings, moves)
     for mi, (di, dj) in enumerate(MOVES_16):
         ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
         p_src = np.nonzero(ok_pos)[0]
@@ -109,6 +121,8 @@ def least_energy(
     step: float,
     n_headings: int = 16,
     round_trip: bool = False,
+    turn_at_cell: bool = True,
+    moves: str = "all",
     progress: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """Least energy from ``start_xy`` (any initial heading) to every search position.
@@ -116,9 +130,11 @@ def least_energy(
     The one boundary between :func:`reach` and the search. One way: the planner's own
     full-resolution search without a goal
     (:func:`energy_planner.planning.search.reach_search`). Round trip: the lattice graph
-    searched forwards and backwards (scipy's Dijkstra), ``min over h of (to[p, h] +
-    back[p, h])``, because ``reach_search`` gives neither per-heading energies nor the
-    reverse search yet (the same primitives and edge costs, so the same numbers).
+    with the same move set ``moves`` and edge costs, searched forwards and backwards
+    (scipy's Dijkstra on the graph and its transpose, so every edge keeps the price of
+    its true direction): ``min over h of (to[p, h] + back[p, h])`` with
+    ``turn_at_cell``, else ``min_h to[p, h] + min_h back[p, h]`` (headings free at the
+    cell, as two ``plan`` calls).
 
     Returns
     -------
@@ -134,12 +150,12 @@ def least_energy(
 
         res = reach_search(
             cost, terrain, (start_xy[0], start_xy[1], None), step=step, n_headings=n_headings,
-            progress=progress,
+            moves=moves, progress=progress,
         )  # fmt: skip
         return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
     from scipy.sparse.csgraph import dijkstra
 
-    graph, xs, ys, valid = _graph(cost, terrain, start_xy, step, n_headings)
+    graph, xs, ys, valid = _graph(cost, terrain, start_xy, step, n_headings, moves)
     H = int(n_headings)
     p0 = int(np.argmin(np.abs(ys - start_xy[1]))) * len(xs) + int(
         np.argmin(np.abs(xs - start_xy[0]))
@@ -153,8 +169,14 @@ def least_energy(
     sources = p0 * H + hs
     to = dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(-1, H)
     back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True)
-    e = (to + back.reshape(-1, H)).min(axis=1)
-    return xs, ys, e.reshape(len(ys), len(xs)), "lattice graph, forward + backward Dijkstra"
+    back = back.reshape(-1, H)
+    if turn_at_cell:
+        e = (to + back).min(axis=1)
+    else:
+        e = to.min(axis=1) + back.min(axis=1)
+    return xs, ys, e.reshape(len(ys), len(xs)), (
+        f"lattice graph (moves={moves!r}), forward + backward Dijkstra"
+    )
 
 
 @dataclass
@@ -312,6 +334,7 @@ def reach(
     request=None,
     *,
     round_trip: bool = False,
+    turn_at_cell: bool = True,
     n_headings: int = 16,
     progress: bool = False,
 ) -> ReachMap:
@@ -329,6 +352,12 @@ def reach(
         Robot, limits and channels (default :class:`energy_planner.request.Request()`).
     round_trip : bool
         Cost of going to each cell and back to the start.
+    turn_at_cell : bool
+        Round trip only. True (default): the robot leaves the cell with the heading it
+        arrived with, so turning round there (or walking back backwards or crabbing) is
+        paid. False: each leg's heading at the cell is free, as two ``plan`` calls with
+        no yaw at the cell (``plan(start, cell) + plan(cell, start)``); lower by at most
+        one turn in place at the cell.
     n_headings : int
         Search headings.
     progress : bool
@@ -368,7 +397,7 @@ def reach(
         raise PlanningError(f"reach needs square cells; the working grid has {dx} x {-dy} m")
     xs, ys, grid, search = least_energy(
         cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip,
-        progress=progress,
+        turn_at_cell=turn_at_cell, progress=progress,
     )  # fmt: skip
     # lattice positions are cell centres: map them to (row, col)
     ci = np.rint((xs - x0) / dx).astype(int)
@@ -382,5 +411,6 @@ def reach(
         round_trip=round_trip,
         step=step,
         info={"search": search, "states": int(grid.size * n_headings),
+              "turn_at_cell": bool(turn_at_cell) if round_trip else None,
               "time_s": time.perf_counter() - t0},
     )  # fmt: skip
