@@ -71,7 +71,8 @@ class Case:
     @property
     def found(self) -> bool:
         """Every hidden effect added within the first two steps (an effect the base
-        already represents: nothing added for it, and the final RMSE at the floor)."""
+        already represents: nothing added for it, and the final RMSE at the floor).
+        """
         return all(
             (s is not None and s <= 2) or (b and self.ratio <= 1.2)
             for s, b in zip(self.hit_steps, self.in_base, strict=True)
@@ -101,7 +102,8 @@ def noise_floor(camp, windows) -> float:
 
 def in_base(effect: str) -> bool:
     """An effect the base model's structure already represents (its physics changes only
-    the base coefficients: nothing is missing, nothing should be added)."""
+    the base coefficients: nothing is missing, nothing should be added).
+    """
     from energy_planner.model import BASE_TERMS, CATALOG
     from energy_planner.simulate import EFFECTS
 
@@ -115,7 +117,8 @@ def in_base(effect: str) -> bool:
 def matches(term: str, effect: str) -> bool:
     """Does an added term stand for a hidden effect? By the effect's own description: a
     channel effect by any term reading its channel; a structural one by the catalog term
-    it resembles, or (speed_dependence) by a speed shape."""
+    it resembles, or (speed_dependence) by a speed shape.
+    """
     from energy_planner.model import resolve_term
     from energy_planner.simulate import EFFECTS
 
@@ -275,10 +278,13 @@ def main(argv: list[str] | None = None) -> int:
             f"{'E med':>7}{'E p90':>7}{'s':>5}"
         )
         for c in rows:
-            hit = ",".join(
-                "base" if s is None and b else "-" if s is None else str(s)
-                for s, b in zip(c.hit_steps, c.in_base, strict=True)
-            ) or "-"
+            hit = (
+                ",".join(
+                    "base" if s is None and b else "-" if s is None else str(s)
+                    for s, b in zip(c.hit_steps, c.in_base, strict=True)
+                )
+                or "-"
+            )
             added = "; ".join(c.added_names) or "(none)"
             print(
                 f"{'+'.join(c.effects) or '(none)':<34}{len(c.added):>6}  {added[:57]:<58}"

@@ -94,8 +94,10 @@ def main() -> None:
                 runs.append((p, True))
         for p, tuned in runs:
             plan_mod.OMPL_TUNING = tuned
-            label = p if p not in ("rrtstar", "sorrtstar", "bitstar") else (
-                f"{p} ({'tuned' if tuned else 'OMPL defaults'})"
+            label = (
+                p
+                if p not in ("rrtstar", "sorrtstar", "bitstar")
+                else (f"{p} ({'tuned' if tuned else 'OMPL defaults'})")
             )
             try:
                 res = plan(terrain, model, s, g, req, planner=p, time=args.time, seed=args.seed,

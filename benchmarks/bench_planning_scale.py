@@ -112,9 +112,9 @@ def main() -> None:
             res = {}
             for planner, eps in rows:
                 res[(planner, eps)] = run(path, size, planner, eps, args.timeout, args.max_slope)
-            ref = res.get(("lattice", 1.0), {}).get("energy") or res.get(
-                ("search", 1.0), {}
-            ).get("energy")
+            ref = res.get(("lattice", 1.0), {}).get("energy") or res.get(("search", 1.0), {}).get(
+                "energy"
+            )
             for (planner, eps), r in res.items():
                 name = planner if planner in ("auto", "lattice") else f"search eps={eps:g}"
                 if planner == "lattice":
@@ -126,7 +126,9 @@ def main() -> None:
                 exp = (
                     f"{r['expanded']:,} / {r['states']:,}"
                     if r.get("expanded") is not None
-                    else f"- / {r['states']:,}" if r.get("states") else ""
+                    else f"- / {r['states']:,}"
+                    if r.get("states")
+                    else ""
                 )
                 print(
                     f"| {size} x {size} | {name} | {r['total_s']:.1f} ({r['load_s']:.1f} + "

@@ -36,29 +36,40 @@ def main(argv: list[str] | None = None) -> int:
     load = os.getloadavg()[0]
     for name in [None, *EFFECTS]:
         speeds = (0.2, 0.3, 0.45) if name in ("idle_power", "speed_dependence") else (0.3,)
-        cfg = (CampaignConfig(speeds=speeds) if args.full
-               else CampaignConfig.small(speeds=speeds))
+        cfg = CampaignConfig(speeds=speeds) if args.full else CampaignConfig.small(speeds=speeds)
         camp = simulate_campaign(seed=args.seed, effects=(name,) if name else (), config=cfg)
         windows = make_windows(preprocess(camp.logs)[0])
         held = fit_model(windows, seed=args.seed).heldout
         floor = camp.noise_floor(windows).rmse_w
-        rows.append({
-            "effect": name or "(none)", "speeds": len(speeds), "heldout_rmse_w": held.rmse_w,
-            "noise_floor_w": floor, "ratio": held.rmse_w / floor,
-            "energy_median": float(getattr(held, "energy_median_abs_rel", float("nan"))),
-            "energy_p90": float(getattr(held, "energy_p90_abs_rel", float("nan"))),
-        })
+        rows.append(
+            {
+                "effect": name or "(none)",
+                "speeds": len(speeds),
+                "heldout_rmse_w": held.rmse_w,
+                "noise_floor_w": floor,
+                "ratio": held.rmse_w / floor,
+                "energy_median": float(getattr(held, "energy_median_abs_rel", float("nan"))),
+                "energy_p90": float(getattr(held, "energy_p90_abs_rel", float("nan"))),
+            }
+        )
     if args.json:
-        print(json.dumps({"load_avg": load, "seconds": time.perf_counter() - t0, "rows": rows},
-                         indent=2))
+        print(
+            json.dumps(
+                {"load_avg": load, "seconds": time.perf_counter() - t0, "rows": rows}, indent=2
+            )
+        )
         return 0
     print(f"campaign: {'default' if args.full else 'small'}, seed {args.seed}, load {load:.1f}")
-    print(f"{'effect':<20}{'speeds':>7}{'heldout W':>11}{'floor W':>9}{'ratio':>7}"
-          f"{'E med':>8}{'E p90':>8}")
+    print(
+        f"{'effect':<20}{'speeds':>7}{'heldout W':>11}{'floor W':>9}{'ratio':>7}"
+        f"{'E med':>8}{'E p90':>8}"
+    )
     for r in rows:
-        print(f"{r['effect']:<20}{r['speeds']:>7}{r['heldout_rmse_w']:>11.2f}"
-              f"{r['noise_floor_w']:>9.2f}{r['ratio']:>7.2f}{r['energy_median']:>8.1%}"
-              f"{r['energy_p90']:>8.1%}")
+        print(
+            f"{r['effect']:<20}{r['speeds']:>7}{r['heldout_rmse_w']:>11.2f}"
+            f"{r['noise_floor_w']:>9.2f}{r['ratio']:>7.2f}{r['energy_median']:>8.1%}"
+            f"{r['energy_p90']:>8.1%}"
+        )
     print(f"total {time.perf_counter() - t0:.0f} s")
     return 0
 

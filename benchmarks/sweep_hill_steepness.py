@@ -109,7 +109,8 @@ def main() -> None:
     )
     print(
         "# on a plane of slope s (cross-slope terms included), facing the travel, the detour "
-        "pays above " + (f"{deg(s_crit):.1f} deg" if s_crit else "no slope up to 64 deg")
+        "pays above "
+        + (f"{deg(s_crit):.1f} deg" if s_crit else "no slope up to 64 deg")
         + "; with the cheapest body yaw (crabbing) above "
         + (f"{deg(s_crit_any):.1f} deg" if s_crit_any else "no slope up to 64 deg")
     )

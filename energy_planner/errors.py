@@ -77,10 +77,28 @@ __all__ = [
 
 
 #: The usual structured field names; an absent one reads as None on any error.
-FIELD_NAMES: frozenset[str] = frozenset({
-    "value", "path", "expected", "param", "endpoint", "limit", "column", "row", "run",
-    "crs", "bounds", "hint", "shape", "size_bytes", "cap_bytes", "values", "rows", "runs",
-})
+FIELD_NAMES: frozenset[str] = frozenset(
+    {
+        "value",
+        "path",
+        "expected",
+        "param",
+        "endpoint",
+        "limit",
+        "column",
+        "row",
+        "run",
+        "crs",
+        "bounds",
+        "hint",
+        "shape",
+        "size_bytes",
+        "cap_bytes",
+        "values",
+        "rows",
+        "runs",
+    }
+)
 
 
 class EnergyPlannerError(Exception):
@@ -121,8 +139,7 @@ class EnergyPlannerError(Exception):
     ) -> None:
         super().__init__(message)
         self.message = str(message)
-        known = {"value": value, "path": None if path is None else str(path),
-                 "expected": expected}
+        known = {"value": value, "path": None if path is None else str(path), "expected": expected}
         self.fields: dict[str, Any] = {k: v for k, v in known.items() if v is not None}
         self.fields.update(fields)
 
@@ -156,8 +173,11 @@ class EnergyPlannerError(Exception):
         {'error': 'OutsideMapError', 'message': 'start is off the map',
          'value': [1.0, 2.0], 'endpoint': 'start'}
         """
-        return {"error": type(self).__name__, "message": self.message,
-                **{k: _plain(v) for k, v in self.fields.items()}}
+        return {
+            "error": type(self).__name__,
+            "message": self.message,
+            **{k: _plain(v) for k, v in self.fields.items()},
+        }
 
 
 def _rebuild(cls: type, message: str, fields: dict[str, Any]) -> EnergyPlannerError:

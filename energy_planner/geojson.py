@@ -185,11 +185,19 @@ def _finite_list(vals: Any, n: int, key: str, scale: float = 1.0) -> list[float]
     try:
         arr = np.asarray(vals, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise WaypointError(f"{key}: {vals!r} is not numeric", value=vals, column=key,
-                            expected=f"{n} finite numbers") from exc
+        raise WaypointError(
+            f"{key}: {vals!r} is not numeric",
+            value=vals,
+            column=key,
+            expected=f"{n} finite numbers",
+        ) from exc
     if arr.shape != (n,) or not np.isfinite(arr).all():
-        raise WaypointError(f"{key}: expected {n} finite values, got shape {arr.shape}",
-                            value=vals, column=key, expected=f"{n} finite numbers")
+        raise WaypointError(
+            f"{key}: expected {n} finite values, got shape {arr.shape}",
+            value=vals,
+            column=key,
+            expected=f"{n} finite numbers",
+        )
     return [float(v) * scale for v in arr]
 
 
@@ -229,15 +237,22 @@ def path_document(
     try:
         arr = np.asarray(xy, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise WaypointError(f"xy {xy!r} is not numeric", value=xy,
-                            expected="a finite (n >= 2, 2) array") from exc
+        raise WaypointError(
+            f"xy {xy!r} is not numeric", value=xy, expected="a finite (n >= 2, 2) array"
+        ) from exc
     n = arr.shape[0] if arr.ndim == 2 else -1
     if arr.ndim != 2 or arr.shape[1] != 2 or n < 2 or not np.isfinite(arr).all():
-        raise WaypointError(f"xy must be a finite (n >= 2, 2) array; got shape {arr.shape}",
-                            value=arr.shape, expected="a finite (n >= 2, 2) array")
+        raise WaypointError(
+            f"xy must be a finite (n >= 2, 2) array; got shape {arr.shape}",
+            value=arr.shape,
+            expected="a finite (n >= 2, 2) array",
+        )
     name = crs_name(crs)
-    props: dict[str, Any] = {"format": PATH_FORMAT, "format_version": PATH_FORMAT_VERSION,
-                             "crs": name}
+    props: dict[str, Any] = {
+        "format": PATH_FORMAT,
+        "format_version": PATH_FORMAT_VERSION,
+        "crs": name,
+    }
     if yaw_rad is not None:
         props["yaw_frame"] = YAW_FRAME
         props["yaw_deg"] = _finite_list(yaw_rad, n, "yaw_deg", 180.0 / math.pi)
@@ -245,17 +260,22 @@ def path_document(
         props["t"] = _finite_list(t, n, "t")
     for k, v in (properties or {}).items():
         if k in props:
-            raise WaypointError(f"property {k!r} is set by the path format itself",
-                                value=k, expected=f"a name other than {sorted(props)}")
+            raise WaypointError(
+                f"property {k!r} is set by the path format itself",
+                value=k,
+                expected=f"a name other than {sorted(props)}",
+            )
         props[k] = v
     doc: dict[str, Any] = {"type": "FeatureCollection"}
     if name:
         doc["crs"] = {"type": "name", "properties": {"name": name}}
-    doc["features"] = [{
-        "type": "Feature",
-        "properties": props,
-        "geometry": {"type": "LineString", "coordinates": arr.tolist()},
-    }]
+    doc["features"] = [
+        {
+            "type": "Feature",
+            "properties": props,
+            "geometry": {"type": "LineString", "coordinates": arr.tolist()},
+        }
+    ]
     return doc
 
 
@@ -311,13 +331,17 @@ def path_document_from_work(
     """
     s = np.asarray(states, dtype=float)
     if s.ndim != 2 or s.shape[1] not in (2, 3):
-        raise WaypointError(f"states must have shape (n, 2) or (n, 3); got {s.shape}",
-                            value=s.shape, expected="(n, 2) or (n, 3)")
+        raise WaypointError(
+            f"states must have shape (n, 2) or (n, 3); got {s.shape}",
+            value=s.shape,
+            expected="(n, 2) or (n, 3)",
+        )
     x, y = terrain.from_work(s[:, 0], s[:, 1])
     xy = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
     yaw = yaw_from_work(terrain, s[:, 0], s[:, 1], s[:, 2]) if s.shape[1] == 3 else None
-    return path_document(xy, yaw, t=t, crs=getattr(terrain, "source_crs", None),
-                         properties=properties)
+    return path_document(
+        xy, yaw, t=t, crs=getattr(terrain, "source_crs", None), properties=properties
+    )
 
 
 def write_path_from_work(
@@ -364,8 +388,9 @@ def read_path(path: str | Path) -> Waypoints:
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError as exc:
-        raise WaypointIOError(f"path file {str(p)!r} does not exist (expected a GeoJSON "
-                              "LineString)", path=p) from exc
+        raise WaypointIOError(
+            f"path file {str(p)!r} does not exist (expected a GeoJSON LineString)", path=p
+        ) from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise WaypointIOError(f"cannot read path file {str(p)!r}: {exc}", path=p) from exc
     return parse_path(text, p)
@@ -378,19 +403,26 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
     try:
         doc = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as exc:
-        raise WaypointError(f"{where_file} is not valid JSON: {exc}", **fkw,
-                            expected="a GeoJSON LineString") from exc
+        raise WaypointError(
+            f"{where_file} is not valid JSON: {exc}", **fkw, expected="a GeoJSON LineString"
+        ) from exc
     if not isinstance(doc, dict) or "type" not in doc:
-        raise WaypointError(f"{where_file}: not a GeoJSON object (no 'type' member)", **fkw,
-                            expected="a GeoJSON object")
+        raise WaypointError(
+            f"{where_file}: not a GeoJSON object (no 'type' member)",
+            **fkw,
+            expected="a GeoJSON object",
+        )
     notes: list[str] = []
     kind = doc["type"]
     props: Any = {}
     if kind == "FeatureCollection":
         feats = doc.get("features")
         if not isinstance(feats, list):
-            raise WaypointError(f"{where_file}: FeatureCollection without a 'features' list",
-                                **fkw, expected="a 'features' list")
+            raise WaypointError(
+                f"{where_file}: FeatureCollection without a 'features' list",
+                **fkw,
+                expected="a 'features' list",
+            )
 
         def gtype(f: Any) -> Any:
             g = f.get("geometry") if isinstance(f, dict) else None
@@ -401,8 +433,11 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
             kinds = [gtype(f) if isinstance(f, dict) else type(f).__name__ for f in feats]
             raise WaypointError(
                 f"{where_file}: a FeatureCollection must hold exactly one LineString "
-                f"feature; found {len(lines)} among geometries {kinds}", **fkw,
-                value=len(lines), expected="exactly one LineString feature")
+                f"feature; found {len(lines)} among geometries {kinds}",
+                **fkw,
+                value=len(lines),
+                expected="exactly one LineString feature",
+            )
         if len(feats) > 1:
             notes.append(
                 f"used feature {lines[0][0]} (the LineString); ignored {len(feats) - 1} other "
@@ -421,22 +456,34 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
         hint = "; split it into one LineString per file" if gkind == "MultiLineString" else ""
         raise WaypointError(
             f"{where_file}: geometry type {gkind!r} is not a LineString (expected a "
-            f"LineString geometry, a Feature or a FeatureCollection with one){hint}", **fkw,
-            value=gkind, expected="a LineString")
+            f"LineString geometry, a Feature or a FeatureCollection with one){hint}",
+            **fkw,
+            value=gkind,
+            expected="a LineString",
+        )
     if not isinstance(props, dict):
-        raise WaypointError(f"{where_file}: 'properties' is not an object", **fkw,
-                            value=props, expected="an object")
+        raise WaypointError(
+            f"{where_file}: 'properties' is not an object", **fkw, value=props, expected="an object"
+        )
     coords = geom.get("coordinates")
     if not isinstance(coords, list):
-        raise WaypointError(f"{where_file}: LineString without a 'coordinates' list", **fkw,
-                            expected="a 'coordinates' list")
+        raise WaypointError(
+            f"{where_file}: LineString without a 'coordinates' list",
+            **fkw,
+            expected="a 'coordinates' list",
+        )
     xy = np.zeros((len(coords), 2))
     has_z = False
     for i, c in enumerate(coords):
         where = f"{where_file}, vertex {i}"
         if not isinstance(c, list | tuple) or len(c) < 2:
-            raise WaypointError(f"{where}: {c!r} is not a position [x, y]", **fkw, value=c,
-                                row=i, expected="a position [x, y]")
+            raise WaypointError(
+                f"{where}: {c!r} is not a position [x, y]",
+                **fkw,
+                value=c,
+                row=i,
+                expected="a position [x, y]",
+            )
         for k, name in enumerate(("x", "y")):
             xy[i, k] = _json_number(c[k], f"{where}, {name}", p, i, name)
         has_z |= len(c) > 2
@@ -451,26 +498,45 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
     if frame is None and "format" not in props and "planner" in props and kind == "Feature":
         frame = LEGACY_YAW_FRAME
         if yaw is not None:
-            notes.append("older planner GeoJSON (no 'format' property): yaw_deg read in the "
-                         "working grid's frame, as that writer used; rewrite it with "
-                         "energy_planner.geojson.write_path_from_work")
+            notes.append(
+                "older planner GeoJSON (no 'format' property): yaw_deg read in the "
+                "working grid's frame, as that writer used; rewrite it with "
+                "energy_planner.geojson.write_path_from_work"
+            )
     elif frame is None:
         frame = YAW_FRAME
     if frame not in (YAW_FRAME, LEGACY_YAW_FRAME):
-        raise WaypointError(f"{where_file}: properties.yaw_frame {frame!r} is not known",
-                            **fkw, value=frame, column="yaw_frame",
-                            expected=f"{YAW_FRAME!r} or {LEGACY_YAW_FRAME!r}")
+        raise WaypointError(
+            f"{where_file}: properties.yaw_frame {frame!r} is not known",
+            **fkw,
+            value=frame,
+            column="yaw_frame",
+            expected=f"{YAW_FRAME!r} or {LEGACY_YAW_FRAME!r}",
+        )
     suspect = False
     if yaw is not None and frame == YAW_FRAME:
         geographic = _is_geographic_name(declared)
         suspect = warn_if_radians(yaw, xy, where_file, notes, geographic)
-    note = (f"GeoJSON declares CRS {declared}" if declared
-            else "GeoJSON: coordinates taken in the DEM's CRS (no 'crs' member)")
-    extra = {k: v for k, v in props.items()
-             if k not in ("format", "format_version", "crs", "yaw_frame", "yaw_deg", "t")}
+    note = (
+        f"GeoJSON declares CRS {declared}"
+        if declared
+        else "GeoJSON: coordinates taken in the DEM's CRS (no 'crs' member)"
+    )
+    extra = {
+        k: v
+        for k, v in props.items()
+        if k not in ("format", "format_version", "crs", "yaw_frame", "yaw_deg", "t")
+    }
     return Waypoints(
-        xy=xy, yaw_rad=None if yaw is None else np.radians(yaw), t=t, crs_note=note,
-        declared_crs=declared, notes=notes, path=p, yaw_frame=frame, properties=extra,
+        xy=xy,
+        yaw_rad=None if yaw is None else np.radians(yaw),
+        t=t,
+        crs_note=note,
+        declared_crs=declared,
+        notes=notes,
+        path=p,
+        yaw_frame=frame,
+        properties=extra,
         yaw_radians_suspect=suspect,
     )
 
@@ -509,8 +575,9 @@ def _json_number(v: Any, where: str, p: Path | None, row: int, column: str) -> f
     return f
 
 
-def _prop_list(props: dict[str, Any], key: str, n: int, where_file: str,
-               p: Path | None) -> np.ndarray | None:
+def _prop_list(
+    props: dict[str, Any], key: str, n: int, where_file: str, p: Path | None
+) -> np.ndarray | None:
     if key not in props or props[key] is None:
         return None
     vals = props[key]
@@ -518,22 +585,37 @@ def _prop_list(props: dict[str, Any], key: str, n: int, where_file: str,
     if not isinstance(vals, list):
         raise WaypointError(
             f"{where_file}: properties.{key} is {vals!r}; expected a list with one number "
-            f"per vertex ({n})", value=vals, **kw)
+            f"per vertex ({n})",
+            value=vals,
+            **kw,
+        )
     if len(vals) != n:
         raise WaypointError(
             f"{where_file}: properties.{key} has {len(vals)} value(s) for {n} vertices "
-            "(expected one per vertex)", value=len(vals), **kw)
-    return np.array([_json_number(v, f"{where_file}, properties.{key}[{i}]", p, i, key)
-                     for i, v in enumerate(vals)], dtype=float)
+            "(expected one per vertex)",
+            value=len(vals),
+            **kw,
+        )
+    return np.array(
+        [
+            _json_number(v, f"{where_file}, properties.{key}[{i}]", p, i, key)
+            for i, v in enumerate(vals)
+        ],
+        dtype=float,
+    )
 
 
-def check_path(where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[str],
-               p: Path | None = None) -> None:
+def check_path(
+    where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[str], p: Path | None = None
+) -> None:
     """Checks shared by the path formats: at least two waypoints, times increasing."""
     if xy.shape[0] < 2:
         raise WaypointError(
             f"{where}: {xy.shape[0]} waypoint(s); a path needs at least 2 (one segment)",
-            path=p, value=int(xy.shape[0]), expected="at least 2 waypoints")
+            path=p,
+            value=int(xy.shape[0]),
+            expected="at least 2 waypoints",
+        )
     if t is not None:
         dt = np.diff(t)
         bad = np.flatnonzero(~(dt > 0))
@@ -542,8 +624,12 @@ def check_path(where: str, xy: np.ndarray, t: np.ndarray | None, labels: list[st
             raise WaypointError(
                 f"{where}: time does not increase at {labels[i + 1]}: t = {t[i + 1]:g} s "
                 f"after t = {t[i]:g} s at {labels[i]} (times must increase strictly)",
-                path=p, row=i + 1, column="t", value=float(t[i + 1]),
-                expected=f"t > {t[i]:g} s")
+                path=p,
+                row=i + 1,
+                column="t",
+                value=float(t[i + 1]),
+                expected=f"t > {t[i]:g} s",
+            )
 
 
 # ---------------------------------------------------------------------- yaw units
@@ -602,8 +688,11 @@ def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str
         d[:, 0] *= np.cos(np.radians(np.clip(pts[:-1, 1], -89.9, 89.9)))
     ok = np.hypot(d[:, 0], d[:, 1]) > 0
     if not ok.any():
-        return None if np.allclose(v, np.round(v)) else {
-            "rule": "no_length", "misfit_deg": None, "misfit_rad": None}
+        return (
+            None
+            if np.allclose(v, np.round(v))
+            else {"rule": "no_length", "misfit_deg": None, "misfit_rad": None}
+        )
     h = np.arctan2(d[ok, 1], d[ok, 0])
 
     def misfit(yaw: np.ndarray, period: float) -> float:
@@ -619,13 +708,17 @@ def radians_suspect(yaw_deg: Any, xy: Any, geographic: bool = False) -> dict[str
     if m90_rad + 5.0 <= m90_deg:
         return {"rule": "axes", "misfit_deg": round(m90_deg, 1), "misfit_rad": round(m90_rad, 1)}
     if m360_rad < 10.0 and m360_deg > 45.0:
-        return {"rule": "forward", "misfit_deg": round(m360_deg, 1),
-                "misfit_rad": round(m360_rad, 1)}
+        return {
+            "rule": "forward",
+            "misfit_deg": round(m360_deg, 1),
+            "misfit_rad": round(m360_rad, 1),
+        }
     return None
 
 
-def warn_if_radians(yaw_deg: np.ndarray, xy: np.ndarray, where_file: str,
-                    notes: list[str], geographic: bool = False) -> bool:
+def warn_if_radians(
+    yaw_deg: np.ndarray, xy: np.ndarray, where_file: str, notes: list[str], geographic: bool = False
+) -> bool:
     """Warn (``UserWarning``) and add a note when :func:`radians_suspect` says so.
 
     Returns True when it did.
@@ -634,17 +727,23 @@ def warn_if_radians(yaw_deg: np.ndarray, xy: np.ndarray, where_file: str,
     if ev is None:
         return False
     if ev["rule"] == "axes":
-        fit = (f" (read as radians they follow the path's segments, forwards, backwards or "
-               f"sideways, within {ev['misfit_rad']:g} deg on average; read as degrees within "
-               f"{ev['misfit_deg']:g} deg)")
+        fit = (
+            f" (read as radians they follow the path's segments, forwards, backwards or "
+            f"sideways, within {ev['misfit_rad']:g} deg on average; read as degrees within "
+            f"{ev['misfit_deg']:g} deg)"
+        )
     elif ev["rule"] == "forward":
-        fit = (f" (read as radians the robot faces along the path, within {ev['misfit_rad']:g} "
-               f"deg on average; read as degrees it faces {ev['misfit_deg']:g} deg away from "
-               "it, walking sideways or backwards)")
+        fit = (
+            f" (read as radians the robot faces along the path, within {ev['misfit_rad']:g} "
+            f"deg on average; read as degrees it faces {ev['misfit_deg']:g} deg away from "
+            "it, walking sideways or backwards)"
+        )
     else:
         fit = ""
-    msg = (f"{where_file}: yaw_deg values lie within +-6.28 and look like radians{fit}; "
-           "yaw_deg is read as degrees. Convert with degrees = radians * 180 / pi.")
+    msg = (
+        f"{where_file}: yaw_deg values lie within +-6.28 and look like radians{fit}; "
+        "yaw_deg is read as degrees. Convert with degrees = radians * 180 / pi."
+    )
     warnings.warn(msg, UserWarning, stacklevel=4)
     notes.append(msg)
     return True

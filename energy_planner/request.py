@@ -126,9 +126,7 @@ class Limits:
     keep_out: str | Path | Sequence[Any] | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "max_slope_deg", _angle_limit("max_slope_deg", self.max_slope_deg)
-        )
+        object.__setattr__(self, "max_slope_deg", _angle_limit("max_slope_deg", self.max_slope_deg))
         object.__setattr__(
             self,
             "max_cross_slope_deg",

@@ -22,8 +22,16 @@ from energy_planner.errors import (
     RasterTooLargeError,
 )
 
-BUILTINS = (ValueError, OSError, RuntimeError, MemoryError, KeyError, TypeError, LookupError,
-            ImportError)
+BUILTINS = (
+    ValueError,
+    OSError,
+    RuntimeError,
+    MemoryError,
+    KeyError,
+    TypeError,
+    LookupError,
+    ImportError,
+)
 
 
 def _project_error_classes() -> list[type]:
@@ -37,9 +45,12 @@ def _project_error_classes() -> list[type]:
         for obj in vars(mod).values():
             # private classes (leading underscore) are internal control flow that never
             # leaves its module (e.g. rosbag's fallback signal), not errors users see
-            if (isinstance(obj, type) and issubclass(obj, BaseException)
-                    and obj.__module__.startswith("energy_planner")
-                    and not obj.__name__.startswith("_")):
+            if (
+                isinstance(obj, type)
+                and issubclass(obj, BaseException)
+                and obj.__module__.startswith("energy_planner")
+                and not obj.__name__.startswith("_")
+            ):
                 found[f"{obj.__module__}.{obj.__qualname__}"] = obj
     return [found[k] for k in sorted(found)]
 
@@ -52,16 +63,26 @@ def test_every_error_has_project_and_builtin_base(cls):
 
 
 def test_errors_module_lists_its_classes():
-    classes = {n for n, o in vars(errors).items()
-               if isinstance(o, type) and issubclass(o, BaseException)}
+    classes = {
+        n for n, o in vars(errors).items() if isinstance(o, type) and issubclass(o, BaseException)
+    }
     assert classes <= set(errors.__all__)
 
 
 def test_fields_are_attributes_and_message_is_str():
-    e = InvalidStateError("goal is too steep: 31.2 deg > 20 deg", endpoint="goal",
-                          limit="max_slope_deg", value=31.2, expected="<= 20 deg")
-    assert (e.endpoint, e.limit, e.value, e.expected) == ("goal", "max_slope_deg", 31.2,
-                                                          "<= 20 deg")
+    e = InvalidStateError(
+        "goal is too steep: 31.2 deg > 20 deg",
+        endpoint="goal",
+        limit="max_slope_deg",
+        value=31.2,
+        expected="<= 20 deg",
+    )
+    assert (e.endpoint, e.limit, e.value, e.expected) == (
+        "goal",
+        "max_slope_deg",
+        31.2,
+        "<= 20 deg",
+    )
     assert str(e) == "goal is too steep: 31.2 deg > 20 deg"
     assert e.path is None and e.row is None
     with pytest.raises(AttributeError):
@@ -76,8 +97,11 @@ def test_fields_survive_pickle_and_json():
 
     c = CoordinateError("bad", value=np.array([1.5, 2.0]), bounds=(0, 0, 1, 1))
     assert json.loads(json.dumps(c.to_dict())) == {
-        "error": "CoordinateError", "message": "bad", "value": [1.5, 2.0],
-        "bounds": [0, 0, 1, 1]}
+        "error": "CoordinateError",
+        "message": "bad",
+        "value": [1.5, 2.0],
+        "bounds": [0, 0, 1, 1],
+    }
 
 
 def test_builtin_catch_still_works():

@@ -35,12 +35,21 @@ from energy_planner.measurements.schema import CANONICAL_COLUMNS
 MAX_EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "60"))
 # In the suite: no shrinking (a failure is reported as found; shrinking a loader failure
 # costs tens of seconds). A long campaign (FUZZ_EXAMPLES set) shrinks to minimal examples.
-_PHASES = tuple(Phase) if "FUZZ_EXAMPLES" in os.environ else (
-    Phase.explicit, Phase.reuse, Phase.generate)
-FUZZ = settings(max_examples=MAX_EXAMPLES, deadline=None, database=None, phases=_PHASES,
-                report_multiple_bugs=False,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                       HealthCheck.function_scoped_fixture])
+_PHASES = (
+    tuple(Phase) if "FUZZ_EXAMPLES" in os.environ else (Phase.explicit, Phase.reuse, Phase.generate)
+)
+FUZZ = settings(
+    max_examples=MAX_EXAMPLES,
+    deadline=None,
+    database=None,
+    phases=_PHASES,
+    report_multiple_bugs=False,
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.function_scoped_fixture,
+    ],
+)
 
 # ---------------------------------------------------------------------- value strategies
 scalars = st.one_of(
@@ -54,10 +63,32 @@ scalars = st.one_of(
 )
 json_values = st.recursive(
     scalars,
-    lambda c: st.lists(c, max_size=4) | st.dictionaries(
-        st.sampled_from(["type", "coordinates", "features", "geometry", "properties",
-                         "crs", "name", "yaw_deg", "t", "terms", "coefficients", "formula",
-                         "x", "y"]) | st.text(max_size=4), c, max_size=4),
+    lambda c: (
+        st.lists(c, max_size=4)
+        | st.dictionaries(
+            st.sampled_from(
+                [
+                    "type",
+                    "coordinates",
+                    "features",
+                    "geometry",
+                    "properties",
+                    "crs",
+                    "name",
+                    "yaw_deg",
+                    "t",
+                    "terms",
+                    "coefficients",
+                    "formula",
+                    "x",
+                    "y",
+                ]
+            )
+            | st.text(max_size=4),
+            c,
+            max_size=4,
+        )
+    ),
     max_leaves=8,
 )
 
@@ -124,9 +155,18 @@ column_names = st.sampled_from([*LOG_COLUMNS, "run", "payload_kg", "surface", "t
 def log_tables(draw):
     """A log table: mostly the canonical columns, some cells and columns broken."""
     n = draw(st.integers(0, 8))
-    good = {"t": np.arange(n) * 0.02, "qw": np.ones(n), "qx": np.zeros(n), "qy": np.zeros(n),
-            "qz": np.zeros(n), "vx": np.full(n, 0.3), "vy": np.zeros(n), "wz": np.zeros(n),
-            "voltage": np.full(n, 50.0), "current": np.full(n, 6.0)}
+    good = {
+        "t": np.arange(n) * 0.02,
+        "qw": np.ones(n),
+        "qx": np.zeros(n),
+        "qy": np.zeros(n),
+        "qz": np.zeros(n),
+        "vx": np.full(n, 0.3),
+        "vy": np.zeros(n),
+        "wz": np.zeros(n),
+        "voltage": np.full(n, 50.0),
+        "current": np.full(n, 6.0),
+    }
     cols = {k: list(v) for k, v in good.items()}
     for name in draw(st.sets(st.sampled_from(list(cols)), max_size=2)):
         del cols[name]  # a missing column
@@ -158,7 +198,7 @@ def test_load_logs_tables(fuzzdir, df, fmt):
 
 
 @FUZZ
-@given(text=st.text(st.sampled_from("t,qwxyzvcurnlage0123456789.-e\n\"; \tx"), max_size=200))
+@given(text=st.text(st.sampled_from('t,qwxyzvcurnlage0123456789.-e\n"; \tx'), max_size=200))
 def test_load_logs_csv_text(fuzzdir, text):
     from energy_planner.measurements import load_logs
 
@@ -181,12 +221,20 @@ def test_load_logs_bytes(fuzzdir, blob, suffix):
 VALID_PATH = {
     "type": "FeatureCollection",
     "crs": {"type": "name", "properties": {"name": "EPSG:32631"}},
-    "features": [{"type": "Feature",
-                  "properties": {"format": "energy_planner/path", "format_version": 1,
-                                 "crs": "EPSG:32631", "yaw_frame": "crs_x_ccw",
-                                 "yaw_deg": [0.0, 90.0, 90.0], "t": [0.0, 1.0, 2.0]},
-                  "geometry": {"type": "LineString",
-                               "coordinates": [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]}}],
+    "features": [
+        {
+            "type": "Feature",
+            "properties": {
+                "format": "energy_planner/path",
+                "format_version": 1,
+                "crs": "EPSG:32631",
+                "yaw_frame": "crs_x_ccw",
+                "yaw_deg": [0.0, 90.0, 90.0],
+                "t": [0.0, 1.0, 2.0],
+            },
+            "geometry": {"type": "LineString", "coordinates": [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]},
+        }
+    ],
 }
 
 
@@ -201,11 +249,13 @@ def test_read_waypoints_geojson(fuzzdir, data):
 
 
 @FUZZ
-@given(header=st.lists(st.sampled_from(["x", "y", "yaw_deg", "t", "X", "yaw", ""]),
-                       max_size=5),
-       rows=st.lists(st.lists(scalars.map(lambda v: "" if v is None else str(v)), max_size=5),
-                     max_size=5),
-       sep=st.sampled_from([",", ";", "\t"]))
+@given(
+    header=st.lists(st.sampled_from(["x", "y", "yaw_deg", "t", "X", "yaw", ""]), max_size=5),
+    rows=st.lists(
+        st.lists(scalars.map(lambda v: "" if v is None else str(v)), max_size=5), max_size=5
+    ),
+    sep=st.sampled_from([",", ";", "\t"]),
+)
 def test_read_waypoints_csv(fuzzdir, header, rows, sep):
     from energy_planner.energy.waypoints import read_waypoints
 
@@ -249,9 +299,16 @@ def test_model_load(fuzzdir, model_doc, data):
 # ---------------------------------------------------------------------- keep-out GeoJSON
 VALID_KEEP_OUT = {
     "type": "FeatureCollection",
-    "features": [{"type": "Feature", "properties": {},
-                  "geometry": {"type": "Polygon",
-                               "coordinates": [[[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]]}}],
+    "features": [
+        {
+            "type": "Feature",
+            "properties": {},
+            "geometry": {
+                "type": "Polygon",
+                "coordinates": [[[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]]],
+            },
+        }
+    ],
 }
 
 
@@ -295,17 +352,24 @@ def test_load_dem_bytes(fuzzdir, blob, suffix):
 
 
 @FUZZ
-@given(rows=st.lists(st.lists(scalars.map(lambda v: "" if v is None else str(v)), min_size=1,
-                              max_size=4), min_size=1, max_size=4),
-       ncols=st.integers(-2, 5), cellsize=st.sampled_from(["1", "0", "-1", "nan", "x"]),
-       nodata=st.sampled_from(["", "NODATA_value -9999\n", "NODATA_value nan\n"]))
+@given(
+    rows=st.lists(
+        st.lists(scalars.map(lambda v: "" if v is None else str(v)), min_size=1, max_size=4),
+        min_size=1,
+        max_size=4,
+    ),
+    ncols=st.integers(-2, 5),
+    cellsize=st.sampled_from(["1", "0", "-1", "nan", "x"]),
+    nodata=st.sampled_from(["", "NODATA_value -9999\n", "NODATA_value nan\n"]),
+)
 def test_load_dem_ascii_grid(fuzzdir, rows, ncols, cellsize, nodata):
     """Esri ASCII grids (a text raster GDAL reads) with broken headers and cells."""
     from energy_planner.terrain import load_dem
 
     p = fuzzdir / "grid.asc"
-    head = (f"ncols {ncols}\nnrows {len(rows)}\nxllcorner 0\nyllcorner 0\n"
-            f"cellsize {cellsize}\n{nodata}")
+    head = (
+        f"ncols {ncols}\nnrows {len(rows)}\nxllcorner 0\nyllcorner 0\ncellsize {cellsize}\n{nodata}"
+    )
     p.write_text(head + "\n".join(" ".join(r) for r in rows) + "\n")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # no CRS: local metres

@@ -75,8 +75,9 @@ def test_plane_frame_plane_heading_is_gamma(alpha, psi, gamma, sign):
 def test_named_headings_agree(heading):
     a = np.radians(15.0)
     for rel in (0.0, np.pi / 2, -np.pi / 2, np.pi):
-        alpha, gamma = imu_slope_heading(*to_quat(contract_frame(a, 0.3, 0.3 + rel)),
-                                         heading=heading)
+        alpha, gamma = imu_slope_heading(
+            *to_quat(contract_frame(a, 0.3, 0.3 + rel)), heading=heading
+        )
         assert np.isclose(alpha, a) and np.isclose(gamma, rel, atol=1e-12)
     # yawed +90 deg from uphill, uphill is on the right: body y points downhill (-x)
     R = contract_frame(a, 0.0, np.pi / 2)

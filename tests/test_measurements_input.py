@@ -19,8 +19,21 @@ from energy_planner.measurements import load_logs, make_windows, preprocess
 def run_table(n=250, current=6.0, run=None, dt=0.02, **extra):
     """Walking forward at 0.3 m/s on level ground, 50 V, ``current`` A."""
     t = np.arange(n) * dt
-    df = pd.DataFrame({"t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3,
-                       "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": current, **extra})
+    df = pd.DataFrame(
+        {
+            "t": t,
+            "qw": 1.0,
+            "qx": 0.0,
+            "qy": 0.0,
+            "qz": 0.0,
+            "vx": 0.3,
+            "vy": 0.0,
+            "wz": 0.0,
+            "voltage": 50.0,
+            "current": current,
+            **extra,
+        }
+    )
     if run is not None:
         df.insert(0, "run", run)
     return df
@@ -34,8 +47,15 @@ def test_one_text_value_in_a_numeric_channel_is_named(tmp_path):
     with pytest.raises(LogError) as exc:
         load_logs(tmp_path)
     e, msg = exc.value, str(exc.value)
-    for needle in ("ramp1.csv", "'payload_kg'", "'ten'", "row 42", "run ramp1", "249 of 250",
-                   "expected a number"):
+    for needle in (
+        "ramp1.csv",
+        "'payload_kg'",
+        "'ten'",
+        "row 42",
+        "run ramp1",
+        "249 of 250",
+        "expected a number",
+    ):
         assert needle in msg, needle
     assert (e.column, e.value, e.rows, e.runs) == ("payload_kg", "ten", [42], ["ramp1"])
     assert e.path.endswith("ramp1.csv")
@@ -45,8 +65,10 @@ def test_fit_with_the_channel_gives_the_message_not_a_traceback(tmp_path):
     payload = [10.0] * 250
     payload[7] = "n/a kg"
     run_table(payload_kg=payload).to_csv(tmp_path / "r.csv", index=False)
-    res = CliRunner().invoke(main, ["fit", str(tmp_path), "--out", str(tmp_path / "m.json"),
-                                    "--term", "payload_kg * speed"])
+    res = CliRunner().invoke(
+        main,
+        ["fit", str(tmp_path), "--out", str(tmp_path / "m.json"), "--term", "payload_kg * speed"],
+    )
     assert res.exit_code == 1 and isinstance(res.exception, SystemExit), res.output
     assert "'payload_kg'" in res.output and "'n/a kg'" in res.output and "row 7" in res.output
 
@@ -62,8 +84,11 @@ def test_text_channels_stay_categorical(tmp_path):
 def test_channel_numeric_in_one_file_text_in_another(tmp_path):
     run_table(payload_kg=10.0).to_csv(tmp_path / "a.csv", index=False)
     run_table(payload_kg="heavy").to_csv(tmp_path / "b.csv", index=False)
-    with pytest.raises(LogError, match=r"'payload_kg' is numeric in .*a\.csv but text in "
-                       r".*b\.csv") as exc:
+    with pytest.raises(
+        LogError,
+        match=r"'payload_kg' is numeric in .*a\.csv but text in "
+        r".*b\.csv",
+    ) as exc:
         load_logs(tmp_path)
     assert exc.value.column == "payload_kg"
 
@@ -131,10 +156,15 @@ def test_a_run_removed_by_preprocessing_is_named_with_the_step():
     df = pd.concat([run_table(run="good"), dead], ignore_index=True)
     with pytest.warns(UserWarning, match=r"'dead' \(250 samples\).*drop_invalid"):
         clean, rep = preprocess(df)
-    assert rep.dropped_runs == [{
-        "run": "dead", "n_samples": 250, "step": "drop_invalid",
-        "reason": "every sample removed; the last ones by drop_invalid (voltage outside "
-                  "5..1000 V)"}]
+    assert rep.dropped_runs == [
+        {
+            "run": "dead",
+            "n_samples": 250,
+            "step": "drop_invalid",
+            "reason": "every sample removed; the last ones by drop_invalid (voltage outside "
+            "5..1000 V)",
+        }
+    ]
     assert "run 'dead' dropped" in str(rep) and rep.to_dict()["dropped_runs"][0]["run"] == "dead"
     assert set(clean["run"]) == {"good"}
 
@@ -142,18 +172,20 @@ def test_a_run_removed_by_preprocessing_is_named_with_the_step():
 def test_fit_json_lists_dropped_runs(tmp_path):
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
-    cfg = CampaignConfig.small(slopes_deg=(0.0, 15.0), headings_deg=(0.0, 90.0),
-                               composite_slopes_deg=())
+    cfg = CampaignConfig.small(
+        slopes_deg=(0.0, 15.0), headings_deg=(0.0, 90.0), composite_slopes_deg=()
+    )
     camp = simulate_campaign(seed=3, config=cfg)
     logs = tmp_path / "logs"
     logs.mkdir()
     for r, g in camp.logs.groupby("run"):
         g.drop(columns="run").to_csv(logs / f"{r}.csv", index=False)
     run_table(n=3).to_csv(logs / "stub.csv", index=False)
-    res = CliRunner().invoke(main, ["fit", str(logs), "--out", str(tmp_path / "m.json"),
-                                    "--folds", "0", "--json"])
+    res = CliRunner().invoke(
+        main, ["fit", str(logs), "--out", str(tmp_path / "m.json"), "--folds", "0", "--json"]
+    )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output[res.output.index("{"):])
+    doc = json.loads(res.output[res.output.index("{") :])
     assert [d["run"] for d in doc["windows"]["dropped_runs"]] == ["stub"]
 
 

@@ -12,8 +12,18 @@ from energy_planner.measurements import REQUIRED_COLUMNS, load_logs, validate_lo
 
 def make_log(n=20, dt=0.1, run=None, t0=0.0, **over):
     t = t0 + dt * np.arange(n)
-    d = {"t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3, "vy": 0.0,
-         "wz": 0.0, "voltage": 50.0, "current": 5.0 + 0.01 * np.arange(n)}
+    d = {
+        "t": t,
+        "qw": 1.0,
+        "qx": 0.0,
+        "qy": 0.0,
+        "qz": 0.0,
+        "vx": 0.3,
+        "vy": 0.0,
+        "wz": 0.0,
+        "voltage": 50.0,
+        "current": 5.0 + 0.01 * np.arange(n),
+    }
     if run is not None:
         d = {"run": run, **d}
     d.update(over)
@@ -69,8 +79,9 @@ def test_missing_column_names_column_file_and_required(tmp_path):
     assert isinstance(ei.value, ValueError) and isinstance(ei.value, EnergyPlannerError)
 
 
-@pytest.mark.parametrize("what,tvals", [("goes backwards", [0.0, 0.1, 0.05, 0.3]),
-                                        ("repeats", [0.0, 0.1, 0.1, 0.3])])
+@pytest.mark.parametrize(
+    "what,tvals", [("goes backwards", [0.0, 0.1, 0.05, 0.3]), ("repeats", [0.0, 0.1, 0.1, 0.3])]
+)
 def test_time_backwards_or_repeated_names_run_row_and_time(tmp_path, what, tvals):
     p = tmp_path / "r7.csv"
     make_log(n=4, t=tvals).to_csv(p, index=False)
@@ -102,10 +113,10 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     df = make_log(n=10, run="r")
     df.loc[2, "current"] = np.nan
     df.loc[3, "qx"] = np.nan
-    df.loc[5, "voltage"] = 0.0       # dead reading
-    df.loc[6, "voltage"] = 4000.0    # absurd
-    df.loc[7:, "t"] += 2.0           # one gap of 2.1 s between rows 6 and 7
-    df.loc[8, ["qw", "qx", "qy", "qz"]] = 0.0   # no orientation
+    df.loc[5, "voltage"] = 0.0  # dead reading
+    df.loc[6, "voltage"] = 4000.0  # absurd
+    df.loc[7:, "t"] += 2.0  # one gap of 2.1 s between rows 6 and 7
+    df.loc[8, ["qw", "qx", "qy", "qz"]] = 0.0  # no orientation
     before = df.copy()
     rep = validate_log(df, "r.csv")
     pd.testing.assert_frame_equal(df, before)
@@ -128,8 +139,7 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
 
 def test_folder_scan_skips_tables_that_are_not_logs_and_says_so(tmp_path):
     make_log().to_csv(tmp_path / "r1.csv", index=False)
-    pd.DataFrame({"run": ["r1"], "slope_deg": [10.0]}).to_csv(tmp_path / "runs.csv",
-                                                                index=False)
+    pd.DataFrame({"run": ["r1"], "slope_deg": [10.0]}).to_csv(tmp_path / "runs.csv", index=False)
     s, rep = load_logs(tmp_path, report=True)
     assert list(s["run"].unique()) == ["r1"]
     assert [k["path"] for k in rep.skipped] == [str(tmp_path / "runs.csv")]
@@ -145,8 +155,11 @@ def test_folder_scan_skips_tables_that_are_not_logs_and_says_so(tmp_path):
 def test_time_backwards_in_an_interleaved_multi_run_file_names_the_file_row(tmp_path):
     a, b = make_log(n=5, run="z"), make_log(n=5, run="y")
     df = pd.concat([a, b]).iloc[np.r_[0, 5, 1, 6, 2, 7, 3, 8, 4, 9]].reset_index(drop=True)
-    df.loc[7, "t"] = 0.05          # run y: rows 1, 3, 5, 7 have t 0, 0.1, 0.2, 0.05
+    df.loc[7, "t"] = 0.05  # run y: rows 1, 3, 5, 7 have t 0, 0.1, 0.2, 0.05
     df.to_csv(tmp_path / "all.csv", index=False)
-    with pytest.raises(LogError, match=r"goes backwards in run 'y' at row 7: t=0.05 s after "
-                                       r"t=0.2 s"):
+    with pytest.raises(
+        LogError,
+        match=r"goes backwards in run 'y' at row 7: t=0.05 s after "
+        r"t=0.2 s",
+    ):
         load_logs(tmp_path / "all.csv")

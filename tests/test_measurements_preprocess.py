@@ -30,8 +30,19 @@ from energy_planner.measurements import (
 
 def log(n=200, dt=0.02, run="r", **over):
     t = dt * np.arange(n)
-    d = {"run": run, "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3,
-         "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": 6.0}
+    d = {
+        "run": run,
+        "t": t,
+        "qw": 1.0,
+        "qx": 0.0,
+        "qy": 0.0,
+        "qz": 0.0,
+        "vx": 0.3,
+        "vy": 0.0,
+        "wz": 0.0,
+        "voltage": 50.0,
+        "current": 6.0,
+    }
     d.update(over)
     return pd.DataFrame(d)
 
@@ -48,10 +59,14 @@ def test_drop_invalid_counts_each_reason_once():
     df.loc[2, "current"] = np.inf
     df.loc[3, "voltage"] = 0.0
     df.loc[4, "voltage"] = 1500.0
-    df.loc[5, ["qw", "voltage"]] = [np.nan, 0.0]   # first reason only: non-finite qw
+    df.loc[5, ["qw", "voltage"]] = [np.nan, 0.0]  # first reason only: non-finite qw
     out, rec = drop_invalid(df, P)
-    assert rec.removed == {"non-finite qw": 1, "non-finite vx": 1, "non-finite current": 1,
-                           "voltage outside 5..1000 V": 2}
+    assert rec.removed == {
+        "non-finite qw": 1,
+        "non-finite vx": 1,
+        "non-finite current": 1,
+        "voltage outside 5..1000 V": 2,
+    }
     assert rec.n_removed == 5 and len(out) == 5
     assert list(out["t"]) == list(df["t"].iloc[[0, 6, 7, 8, 9]])
 
@@ -61,7 +76,7 @@ def test_drop_invalid_counts_each_reason_once():
 
 def test_gap_splits_run_into_segments_and_is_counted():
     df = log(10, dt=0.1)
-    df.loc[5:, "t"] += 1.0   # 1.1 s step between rows 4 and 5
+    df.loc[5:, "t"] += 1.0  # 1.1 s step between rows 4 and 5
     df2 = log(4, dt=0.1, run="s")
     out, rec = split_segments(pd.concat([df, df2], ignore_index=True), P)
     assert list(out["segment"]) == [0] * 5 + [1] * 5 + [0] * 4
@@ -87,13 +102,13 @@ def test_hampel_removes_a_spike_and_keeps_a_constant():
 def test_hampel_keeps_a_ramp_and_a_step():
     ramp = np.linspace(100.0, 400.0, 80)
     assert not hampel_mask(ramp, 10, 4.0).any()
-    step = np.r_[np.full(40, 200.0), np.full(40, 500.0)]   # a real change of gait
+    step = np.r_[np.full(40, 200.0), np.full(40, 500.0)]  # a real change of gait
     assert not hampel_mask(step, 10, 4.0).any()
 
 
 def test_hampel_min_scale_floor():
     x = np.full(30, 300.0)
-    x[10] = 300.5               # quantisation-level wiggle: MAD = 0
+    x[10] = 300.5  # quantisation-level wiggle: MAD = 0
     assert hampel_mask(x, 5, 3.0, 0.0)[10]
     assert not hampel_mask(x, 5, 3.0, 1.0).any()
 
@@ -115,12 +130,11 @@ def test_hampel_per_segment_does_not_cross_a_gap():
 
 
 @settings(max_examples=50, deadline=None)
-@given(dts=st.lists(st.floats(0.001, 0.1), min_size=2, max_size=60),
-       tau=st.floats(0.05, 1.0))
+@given(dts=st.lists(st.floats(0.001, 0.1), min_size=2, max_size=60), tau=st.floats(0.05, 1.0))
 def test_ema_step_response_is_one_minus_exp(dts, tau):
     t = np.concatenate([[0.0], np.cumsum(dts)])
     x = np.ones_like(t)
-    x[0] = 0.0                                     # step right after t = 0
+    x[0] = 0.0  # step right after t = 0
     np.testing.assert_allclose(ema(x, t, tau), 1.0 - np.exp(-t / tau), atol=1e-12)
 
 
@@ -156,7 +170,7 @@ def test_body_accelerations_of_a_linear_ramp_and_irregular_dt():
     out, _ = body_accelerations(df, P)
     np.testing.assert_allclose(out["ax"], 0.5, atol=1e-9)
     np.testing.assert_allclose(out["ay"], -0.1, atol=1e-9)
-    df["segment"] = np.r_[np.zeros(60, int), [1]]   # one-sample segment -> 0
+    df["segment"] = np.r_[np.zeros(60, int), [1]]  # one-sample segment -> 0
     out, _ = body_accelerations(df, P)
     assert out["ax"].iloc[-1] == 0.0
 
@@ -165,11 +179,15 @@ def test_body_accelerations_of_a_linear_ramp_and_irregular_dt():
 
 
 def test_low_speed_discard_keeps_turns_in_place():
-    df = log(5, vx=[0.3, 0.01, 0.0, 0.0, 0.03], vy=[0.0, 0.0, 0.0, 0.06, 0.0],
-             wz=[0.0, 0.0, 0.6, 0.0, -0.01])
+    df = log(
+        5,
+        vx=[0.3, 0.01, 0.0, 0.0, 0.03],
+        vy=[0.0, 0.0, 0.0, 0.06, 0.0],
+        wz=[0.0, 0.0, 0.6, 0.0, -0.01],
+    )
     out, rec = discard_low_speed(df, P)
     assert list(out.index) == [0, 1, 2]
-    assert list(out["t"]) == list(df["t"].iloc[[0, 2, 3]])   # forward, turn, lateral
+    assert list(out["t"]) == list(df["t"].iloc[[0, 2, 3]])  # forward, turn, lateral
     assert list(rec.removed.values()) == [2]
 
 
@@ -177,7 +195,7 @@ def test_low_speed_discard_keeps_turns_in_place():
 
 
 def pitched(alpha_deg):
-    h = np.radians(-alpha_deg) / 2     # nose up by alpha, facing uphill
+    h = np.radians(-alpha_deg) / 2  # nose up by alpha, facing uphill
     return {"qw": np.cos(h), "qy": np.sin(h)}
 
 
@@ -194,8 +212,11 @@ def test_consistency_bound_rejects_impossible_power():
     df["power"] = [300.0, 30.0, -5.0, 9000.0]
     out, rec = consistency_bound(df, P)
     assert list(out["power"]) == [300.0]
-    assert rec.removed == {"power < 0 W": 1, "power > 5000 W": 1,
-                           "power < 1 x m g v_up (m = 50 kg)": 1}
+    assert rec.removed == {
+        "power < 0 W": 1,
+        "power > 5000 W": 1,
+        "power < 1 x m g v_up (m = 50 kg)": 1,
+    }
     out, _ = consistency_bound(df, PreprocessParams(min_mech_ratio=0.0))
     assert list(out["power"]) == [300.0, 30.0]
 
@@ -207,17 +228,19 @@ def test_preprocess_report_accounts_for_every_sample():
     rng = np.random.default_rng(0)
     n = 1000
     df = log(n, current=6.0 + rng.normal(0, 0.05, n), **pitched(10.0))
-    df.loc[100, "current"] = 60.0         # spike
-    df.loc[200, "voltage"] = np.nan       # NaN
-    df.loc[300, "voltage"] = 2.0          # absurd
-    df.loc[400:449, "vx"] = 0.0           # standing still 1 s
-    df.loc[600:, "t"] += 3.0              # gap
+    df.loc[100, "current"] = 60.0  # spike
+    df.loc[200, "voltage"] = np.nan  # NaN
+    df.loc[300, "voltage"] = 2.0  # absurd
+    df.loc[400:449, "vx"] = 0.0  # standing still 1 s
+    df.loc[600:, "t"] += 3.0  # gap
     clean, rep = preprocess(df)
     assert isinstance(rep, PreprocessReport)
     assert rep.n_input == n and rep.n_output == len(clean)
     assert sum(rep.removed.values()) == n - len(clean)
-    assert rep.step("drop_invalid").removed == {"non-finite voltage": 1,
-                                                "voltage outside 5..1000 V": 1}
+    assert rep.step("drop_invalid").removed == {
+        "non-finite voltage": 1,
+        "voltage outside 5..1000 V": 1,
+    }
     assert rep.removed["hampel_filter"] >= 1
     assert 100 not in set(np.round(clean["t"] / 0.02).astype(int))
     # standing still 50 samples: the smoothed speed 0.3 exp(-k dt / tau) falls below
@@ -250,15 +273,22 @@ def test_preprocess_keeps_input_unchanged_and_checks_columns():
 
 def test_zero_quaternion_is_dropped_and_counted():
     df = log(6)
-    df.loc[2, ["qw", "qx", "qy", "qz"]] = 0.0     # driver without orientation
+    df.loc[2, ["qw", "qx", "qy", "qz"]] = 0.0  # driver without orientation
     out, rec = drop_invalid(df, P)
     assert rec.removed == {"IMU quaternion norm off 1 by more than 0.1": 1}
     assert len(out) == 5
 
 
-@pytest.mark.parametrize("field,value", [("ema_tau", -1.0), ("hampel_half_window", 0),
-                                         ("voltage_min", 2000.0), ("max_gap", 0.0),
-                                         ("robot_mass_kg", 0.0)])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("ema_tau", -1.0),
+        ("hampel_half_window", 0),
+        ("voltage_min", 2000.0),
+        ("max_gap", 0.0),
+        ("robot_mass_kg", 0.0),
+    ],
+)
 def test_params_out_of_range_name_the_field(field, value):
     with pytest.raises(LogError, match=rf"PreprocessParams\.{field}="):
         PreprocessParams(**{field: value})

@@ -22,8 +22,19 @@ from energy_planner.measurements import (
 
 def log(t, run="r", **over):
     t = np.asarray(t, dtype=float)
-    d = {"run": run, "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3,
-         "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": 6.0}
+    d = {
+        "run": run,
+        "t": t,
+        "qw": 1.0,
+        "qx": 0.0,
+        "qy": 0.0,
+        "qz": 0.0,
+        "vx": 0.3,
+        "vy": 0.0,
+        "wz": 0.0,
+        "voltage": 50.0,
+        "current": 6.0,
+    }
     d.update(over)
     return pd.DataFrame(d)
 
@@ -33,8 +44,15 @@ def test_classify_motion_each_class():
     vy = [0.05, 0.0, 0.2, -0.2, 0.0, 0.0, 0.2, 0.0]
     wz = [0.0, 0.1, 0.0, 0.0, 0.5, -0.5, 0.0, 0.0]
     assert classify_motion(vx, vy, wz).tolist() == [
-        "forward", "backward", "lateral_left", "lateral_right", "turn_left", "turn_right",
-        "mixed", "mixed"]
+        "forward",
+        "backward",
+        "lateral_left",
+        "lateral_right",
+        "turn_left",
+        "turn_right",
+        "mixed",
+        "mixed",
+    ]
     # arc: 0.3 m/s with 0.4 rad/s -> 0.5 m * 0.4 = 0.2 > 0.3 * 0.3 -> mixed
     assert classify_motion(0.3, 0.0, 0.4).tolist() == ["mixed"]
     assert classify_motion(0.3, 0.0, 0.4, ratio=0.7).tolist() == ["forward"]
@@ -46,8 +64,12 @@ def test_classify_motion_mirror_symmetry(vx, vy, wz):
     # mirroring left/right swaps left and right classes, keeps the others
     a = classify_motion(vx, vy, wz)[0]
     b = classify_motion(vx, -vy, -wz)[0]
-    swap = {"lateral_left": "lateral_right", "lateral_right": "lateral_left",
-            "turn_left": "turn_right", "turn_right": "turn_left"}
+    swap = {
+        "lateral_left": "lateral_right",
+        "lateral_right": "lateral_left",
+        "turn_left": "turn_right",
+        "turn_right": "turn_left",
+    }
     assert a in MOTIONS and b == swap.get(a, a)
 
 
@@ -60,8 +82,16 @@ def test_window_means_equal_hand_computed():
     wz = np.r_[np.zeros(12), np.full(4, 0.8)]
     cur = 1.0 + np.arange(16.0)
     surface = ["grass"] * 5 + ["mud"] * 11
-    df = log(t, vx=vx, wz=wz, current=cur, qw=np.cos(h), qy=np.sin(h),
-             payload_kg=np.arange(16.0), surface=pd.Categorical(surface))
+    df = log(
+        t,
+        vx=vx,
+        wz=wz,
+        current=cur,
+        qw=np.cos(h),
+        qy=np.sin(h),
+        payload_kg=np.arange(16.0),
+        surface=pd.Categorical(surface),
+    )
     w = make_windows(df, duration=1.0)
     tab = w.table
     assert list(tab["motion"]) == ["forward"] * 3 + ["turn_left"]
@@ -105,8 +135,8 @@ def test_gamma_is_a_circular_mean():
 
 
 def test_windows_do_not_cross_gaps_motion_changes_or_runs_and_drop_short_tails():
-    t = np.r_[0.1 * np.arange(15), 3.0 + 0.1 * np.arange(25)]     # gap of 1.6 s
-    vx = np.r_[np.full(30, 0.3), np.full(10, -0.3)]                # reverse at row 30
+    t = np.r_[0.1 * np.arange(15), 3.0 + 0.1 * np.arange(25)]  # gap of 1.6 s
+    vx = np.r_[np.full(30, 0.3), np.full(10, -0.3)]  # reverse at row 30
     a = log(t, vx=vx)
     b = log(0.1 * np.arange(12), run="s")
     w = make_windows(pd.concat([a, b], ignore_index=True), duration=1.0)
@@ -132,8 +162,10 @@ def test_windows_respect_preprocess_segments_and_energy_adds_up():
     assert len(w) == 10 and (w.table["n"] == 100).all()
     # energies of consecutive windows add up to the energy of the whole run (same
     # rectangle rule): sum(power_i dt_i)
-    e_all = float(np.sum(clean["power"].to_numpy()[:-1] * np.diff(clean["t"])) +
-                  clean["power"].iloc[-1] * 0.02)
+    e_all = float(
+        np.sum(clean["power"].to_numpy()[:-1] * np.diff(clean["t"]))
+        + clean["power"].iloc[-1] * 0.02
+    )
     assert w.table["energy_j"].sum() == pytest.approx(e_all, rel=1e-12)
 
 
@@ -145,7 +177,7 @@ def test_make_windows_errors_and_empty():
 
 
 def test_run_energies_analytic_and_additive():
-    t = 0.01 * np.arange(1001)                       # 10 s
+    t = 0.01 * np.arange(1001)  # 10 s
     df = log(t, voltage=48.0, current=2.0 + 0.3 * t)  # P = 96 + 14.4 t
     e = run_energies(df)
     assert list(e.columns[:3]) == ["run", "duration_s", "measured_j"]
@@ -169,8 +201,11 @@ def test_run_energies_never_bridges_a_gap():
 
 
 @settings(max_examples=40, deadline=None)
-@given(dts=st.lists(st.floats(0.01, 0.7), min_size=5, max_size=120),
-       duration=st.floats(0.5, 3.0), seed=st.integers(0, 2**16))
+@given(
+    dts=st.lists(st.floats(0.01, 0.7), min_size=5, max_size=120),
+    duration=st.floats(0.5, 3.0),
+    seed=st.integers(0, 2**16),
+)
 def test_window_invariants_on_irregular_sampling(dts, duration, seed):
     rng = np.random.default_rng(seed)
     t = np.concatenate([[0.0], np.cumsum(dts)])

@@ -21,17 +21,29 @@ CANON = ["t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "voltage", "current", "x
 def sample_table(n=60, run="r1", t0=2.0, seed=0):
     rng = np.random.default_rng(seed)
     t = t0 + 0.02 * np.arange(n)
-    q = Rotation.from_euler("zyx", np.c_[np.linspace(2.5, 3.6, n), rng.uniform(-.3, .3, n),
-                                         rng.uniform(-.2, .2, n)]).as_quat()
-    return pd.DataFrame({
-        "run": run, "t": t, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2],
-        "vx": rng.normal(0.3, 0.05, n), "vy": rng.normal(0, 0.05, n),
-        "wz": rng.normal(0, 0.1, n), "voltage": rng.uniform(48, 58, n),
-        "current": rng.uniform(3, 12, n), "x": np.cumsum(rng.normal(0, 1, n)),
-        "y": rng.normal(0, 1, n), "yaw": np.linspace(2.8, 3.5, n),   # crosses +pi
-        "payload_kg": rng.uniform(0, 5, n),
-        "surface": pd.Categorical(["grass"] * (n // 2) + ["mud"] * (n - n // 2)),
-    })
+    q = Rotation.from_euler(
+        "zyx", np.c_[np.linspace(2.5, 3.6, n), rng.uniform(-0.3, 0.3, n), rng.uniform(-0.2, 0.2, n)]
+    ).as_quat()
+    return pd.DataFrame(
+        {
+            "run": run,
+            "t": t,
+            "qw": q[:, 3],
+            "qx": q[:, 0],
+            "qy": q[:, 1],
+            "qz": q[:, 2],
+            "vx": rng.normal(0.3, 0.05, n),
+            "vy": rng.normal(0, 0.05, n),
+            "wz": rng.normal(0, 0.1, n),
+            "voltage": rng.uniform(48, 58, n),
+            "current": rng.uniform(3, 12, n),
+            "x": np.cumsum(rng.normal(0, 1, n)),
+            "y": rng.normal(0, 1, n),
+            "yaw": np.linspace(2.8, 3.5, n),  # crosses +pi
+            "payload_kg": rng.uniform(0, 5, n),
+            "surface": pd.Categorical(["grass"] * (n // 2) + ["mud"] * (n - n // 2)),
+        }
+    )
 
 
 def assert_round_trip(orig, back):
@@ -41,15 +53,15 @@ def assert_round_trip(orig, back):
         np.testing.assert_allclose(back[c], orig[c], rtol=1e-15, atol=1e-15, err_msg=c)
     # BatteryState voltage/current are float32 in the message
     for c in ["voltage", "current"]:
-        np.testing.assert_allclose(back[c], orig[c].astype(np.float32), rtol=0, atol=0,
-                                   err_msg=c)
+        np.testing.assert_allclose(back[c], orig[c].astype(np.float32), rtol=0, atol=0, err_msg=c)
     np.testing.assert_allclose(wrap_angle(back["yaw"] - orig["yaw"]), 0, atol=1e-12)
     assert list(back["surface"].astype(str)) == list(orig["surface"].astype(str))
 
 
-@pytest.mark.parametrize("version,name,storage", [(2, "ros2_bag", "mcap"),
-                                                  (2, "ros2_bag", "sqlite3"),
-                                                  (1, "ros1.bag", "mcap")])
+@pytest.mark.parametrize(
+    "version,name,storage",
+    [(2, "ros2_bag", "mcap"), (2, "ros2_bag", "sqlite3"), (1, "ros1.bag", "mcap")],
+)
 def test_round_trip_table_bag_table(tmp_path, version, name, storage):
     orig = sample_table()
     paths = write_rosbag(orig, tmp_path / name, version=version, storage=storage)
@@ -73,8 +85,9 @@ def test_several_runs_to_a_folder_and_load_logs(tmp_path):
     paths = write_rosbag(orig, tmp_path / "bags", version=1)
     assert sorted(p.name for p in paths) == ["a.bag", "b.bag"]
     write_rosbag(sample_table(run="c", seed=3), tmp_path / "bags" / "c", version=2)
-    sample_table(run="d", seed=4).drop(columns="run").to_csv(tmp_path / "bags" / "d.csv",
-                                                              index=False)
+    sample_table(run="d", seed=4).drop(columns="run").to_csv(
+        tmp_path / "bags" / "d.csv", index=False
+    )
     s, rep = load_logs(tmp_path / "bags", report=True)
     assert sorted(s["run"].unique()) == ["a", "b", "c", "d"]
     assert [f["format"] for f in rep.files] == ["rosbag1", "rosbag1", "rosbag2", "csv"]
@@ -109,26 +122,29 @@ def old_battery_store():
 
     ts = get_typestore(Stores.EMPTY)
     ts.register(get_types_from_msg(OLD_BATTERY_STATE, "sensor_msgs/msg/BatteryState"))
-    ts.register({"std_msgs/msg/Header":
-                 get_typestore(Stores.ROS1_NOETIC).fielddefs["std_msgs/msg/Header"]})
+    ts.register(
+        {"std_msgs/msg/Header": get_typestore(Stores.ROS1_NOETIC).fielddefs["std_msgs/msg/Header"]}
+    )
     return ts
 
 
-def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_battery=False,
-                  extras=None):
+def write_streams(
+    path, version, imu=(), odom=(), battery=(), topics=None, old_battery=False, extras=None
+):
     """Write a bag directly with rosbags: imu rows (ns, qw, qx, qy, qz), odom rows
     (ns, vx, vy, wz, x, y, yaw), battery rows (ns, voltage, ros_current). With
     ``old_battery`` (ROS 1 only) BatteryState has the pre-Noetic definition."""
-    topics = {"imu": "/imu/data", "odom": "/odom", "battery": "/battery_state",
-              **(topics or {})}
+    topics = {"imu": "/imu/data", "odom": "/odom", "battery": "/battery_state", **(topics or {})}
     ts = get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
     T = ts.types
     ser = ts.serialize_ros1 if version == 1 else ts.serialize_cdr
     if version == 1:
         from rosbags.rosbag1 import Writer
+
         w = Writer(path)
     else:
         from rosbags.rosbag2 import Writer
+
         w = Writer(path, version=9)
 
     def header(ns):
@@ -148,36 +164,58 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_b
         msgs = []
         for ns, qw, qx, qy, qz in imu:
             m = T["sensor_msgs/msg/Imu"](
-                header=header(ns), orientation=Q(x=qx, y=qy, z=qz, w=qw),
-                orientation_covariance=np.zeros(9), angular_velocity=V3(x=0., y=0., z=0.),
+                header=header(ns),
+                orientation=Q(x=qx, y=qy, z=qz, w=qw),
+                orientation_covariance=np.zeros(9),
+                angular_velocity=V3(x=0.0, y=0.0, z=0.0),
                 angular_velocity_covariance=np.zeros(9),
-                linear_acceleration=V3(x=0., y=0., z=9.81),
-                linear_acceleration_covariance=np.zeros(9))
+                linear_acceleration=V3(x=0.0, y=0.0, z=9.81),
+                linear_acceleration_covariance=np.zeros(9),
+            )
             msgs.append((ns, ci, ser(m, "sensor_msgs/msg/Imu")))
         for ns, vx, vy, wz, x, y, yaw in odom:
             m = T["nav_msgs/msg/Odometry"](
-                header=header(ns), child_frame_id="base",
+                header=header(ns),
+                child_frame_id="base",
                 pose=T["geometry_msgs/msg/PoseWithCovariance"](
                     pose=T["geometry_msgs/msg/Pose"](
                         position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
-                        orientation=Q(x=0., y=0., z=np.sin(yaw / 2), w=np.cos(yaw / 2))),
-                    covariance=np.zeros(36)),
+                        orientation=Q(x=0.0, y=0.0, z=np.sin(yaw / 2), w=np.cos(yaw / 2)),
+                    ),
+                    covariance=np.zeros(36),
+                ),
                 twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                    twist=T["geometry_msgs/msg/Twist"](linear=V3(x=vx, y=vy, z=0.),
-                                                       angular=V3(x=0., y=0., z=wz)),
-                    covariance=np.zeros(36)))
+                    twist=T["geometry_msgs/msg/Twist"](
+                        linear=V3(x=vx, y=vy, z=0.0), angular=V3(x=0.0, y=0.0, z=wz)
+                    ),
+                    covariance=np.zeros(36),
+                ),
+            )
             msgs.append((ns, co, ser(m, "nav_msgs/msg/Odometry")))
         for ns, v, i in battery:
-            fields = dict(header=header(ns), voltage=v, current=i, charge=nan, capacity=nan,
-                          design_capacity=nan, percentage=nan, power_supply_status=2,
-                          power_supply_health=0, power_supply_technology=0, present=True,
-                          cell_voltage=np.zeros(0, np.float32), location="", serial_number="")
+            fields = dict(
+                header=header(ns),
+                voltage=v,
+                current=i,
+                charge=nan,
+                capacity=nan,
+                design_capacity=nan,
+                percentage=nan,
+                power_supply_status=2,
+                power_supply_health=0,
+                power_supply_technology=0,
+                present=True,
+                cell_voltage=np.zeros(0, np.float32),
+                location="",
+                serial_number="",
+            )
             if old_battery:
                 m = bts.types["sensor_msgs/msg/BatteryState"](**fields)
                 raw = bts.serialize_ros1(m, "sensor_msgs/msg/BatteryState")
             else:
                 m = T["sensor_msgs/msg/BatteryState"](
-                    **fields, temperature=nan, cell_temperature=np.zeros(0, np.float32))
+                    **fields, temperature=nan, cell_temperature=np.zeros(0, np.float32)
+                )
                 raw = ser(m, "sensor_msgs/msg/BatteryState")
             msgs.append((ns, cb, raw))
         for topic, rows in (extras or {}).items():
@@ -185,8 +223,9 @@ def write_streams(path, version, imu=(), odom=(), battery=(), topics=None, old_b
             cx = w.add_connection(topic, typ, typestore=ts)
             for ns, v in rows:
                 msgs.append((ns, cx, ser(T[typ](data=v), typ)))
-        tw = T["geometry_msgs/msg/Twist"](linear=V3(x=0., y=0., z=0.),
-                                          angular=V3(x=0., y=0., z=0.))
+        tw = T["geometry_msgs/msg/Twist"](
+            linear=V3(x=0.0, y=0.0, z=0.0), angular=V3(x=0.0, y=0.0, z=0.0)
+        )
         msgs.append((10**9, cs, ser(tw, "geometry_msgs/msg/Twist")))
         for ns, c, raw in sorted(msgs, key=lambda m: m[0]):
             w.write(c, ns, raw)
@@ -200,21 +239,24 @@ def multirate(version, tmp_path, battery_gap=None, old_battery=False):
     """IMU 100 Hz from 1.000 s, odometry 50 Hz from 1.005 s, battery 10 Hz from 1.05 s,
     all to ~3 s. Signals are linear in time (so linear interpolation is exact), the IMU
     turns at a constant rate about z (so Slerp is exact)."""
-    w = 0.4   # rad/s
-    imu = [(S + k * 10_000_000,) + tuple(np.r_[np.cos(w * (1 + k * 0.01) / 2), 0, 0,
-                                               np.sin(w * (1 + k * 0.01) / 2)])
-           for k in range(201)]
+    w = 0.4  # rad/s
+    imu = [
+        (S + k * 10_000_000,)
+        + tuple(np.r_[np.cos(w * (1 + k * 0.01) / 2), 0, 0, np.sin(w * (1 + k * 0.01) / 2)])
+        for k in range(201)
+    ]
     odom = []
     for k in range(100):
         ns = S + 5_000_000 + k * 20_000_000
         t = ns / S
         odom.append((ns, 0.1 + 0.1 * t, -0.05 * t, 0.2, 0.3 * t, 1.0, 3.0 + 0.2 * t))
-    bat = [(S + 50_000_000 + k * 100_000_000, 50.0 - 0.5 * k, -(4.0 + 0.5 * k))
-           for k in range(20)
-           if battery_gap is None or not battery_gap[0] < 1.05 + 0.1 * k < battery_gap[1]]
+    bat = [
+        (S + 50_000_000 + k * 100_000_000, 50.0 - 0.5 * k, -(4.0 + 0.5 * k))
+        for k in range(20)
+        if battery_gap is None or not battery_gap[0] < 1.05 + 0.1 * k < battery_gap[1]
+    ]
     ext = ".bag" if version == 1 else ""
-    return write_streams(tmp_path / f"multi{ext}", version, imu, odom, bat,
-                         old_battery=old_battery)
+    return write_streams(tmp_path / f"multi{ext}", version, imu, odom, bat, old_battery=old_battery)
 
 
 @pytest.mark.parametrize("version", [1, 2])
@@ -234,7 +276,7 @@ def test_resampling_onto_the_imu_clock_is_linear_in_time(tmp_path, version, capl
     np.testing.assert_allclose(s["yaw"], wrap_angle(3.0 + 0.2 * t), atol=1e-12)
     k = (t - 1.05) / 0.1
     np.testing.assert_allclose(s["voltage"], 50.0 - 0.5 * k, atol=1e-5)
-    np.testing.assert_allclose(s["current"], 4.0 + 0.5 * k, atol=1e-5)   # sign converted
+    np.testing.assert_allclose(s["current"], 4.0 + 0.5 * k, atol=1e-5)  # sign converted
     np.testing.assert_allclose(s["qz"], np.sin(0.4 * t / 2), atol=1e-12)
 
 
@@ -243,6 +285,7 @@ def test_a_non_standard_message_definition_is_read_with_the_bags_own(tmp_path):
     # misread it; the loader sees the different digest and uses the bag's definition
     bag = multirate(1, tmp_path, old_battery=True)
     from rosbags.rosbag1 import Reader
+
     with Reader(bag) as r:
         digest = {c.topic: c.digest for c in r.connections}["/battery_state"]
     noetic = get_typestore(Stores.ROS1_NOETIC)
@@ -265,10 +308,10 @@ def test_resampling_onto_the_odometry_clock_slerps_the_quaternion(tmp_path):
 
 
 def test_a_silent_stream_is_not_bridged(tmp_path):
-    bag = multirate(2, tmp_path, battery_gap=(1.5, 2.2))   # battery silent 1.45 .. 2.25 s
+    bag = multirate(2, tmp_path, battery_gap=(1.5, 2.2))  # battery silent 1.45 .. 2.25 s
     s, rep = load_rosbag(bag, report=True)
     reason = "/battery_state silent for more than 0.5 s"
-    assert rep.dropped[reason] == 79   # IMU samples strictly between 1.45 and 2.25 s
+    assert rep.dropped[reason] == 79  # IMU samples strictly between 1.45 and 2.25 s
     assert not ((s["t"] > 1.451) & (s["t"] < 2.249)).any()
     s2, rep2 = load_rosbag(bag, report=True, max_interp_gap=1.0)
     assert reason not in rep2.dropped and len(s2) == 191
@@ -282,7 +325,7 @@ def test_discharge_positive_drivers_and_the_sign_warning(tmp_path, caplog):
     with caplog.at_level(logging.WARNING):
         s, rep = load_rosbag(bag, report=True, battery_current="discharge_positive")
     assert rep.current_sign_flipped is False
-    assert (s["current"] < 0).all()   # the bag's values as they are
+    assert (s["current"] < 0).all()  # the bag's values as they are
     assert "median battery current -8.75 A is negative" in caplog.text
     assert "battery_current='ros'" in caplog.text
     assert any("median current" in n for n in rep.notes)
@@ -296,12 +339,16 @@ def test_unknown_topic_lists_the_topics_in_the_bag(tmp_path):
         load_rosbag(bag, imu_topic="/imu")
     msg = str(ei.value)
     assert "no topic '/imu'" in msg and "sensor_msgs/msg/Imu" in msg
-    for topic in ("/imu/data (sensor_msgs/msg/Imu)", "/odom (nav_msgs/msg/Odometry)",
-                  "/battery_state (sensor_msgs/msg/BatteryState)",
-                  "/cmd_vel (geometry_msgs/msg/Twist)"):
+    for topic in (
+        "/imu/data (sensor_msgs/msg/Imu)",
+        "/odom (nav_msgs/msg/Odometry)",
+        "/battery_state (sensor_msgs/msg/BatteryState)",
+        "/cmd_vel (geometry_msgs/msg/Twist)",
+    ):
         assert topic in msg
-    with pytest.raises(LogError, match="'/cmd_vel' carries geometry_msgs/msg/Twist, "
-                                       "expected nav_msgs/msg/Odometry"):
+    with pytest.raises(
+        LogError, match="'/cmd_vel' carries geometry_msgs/msg/Twist, expected nav_msgs/msg/Odometry"
+    ):
         load_rosbag(bag, odom_topic="/cmd_vel")
     with pytest.raises(LogError, match="extra channel 'terrain'"):
         load_rosbag(bag, extra_topics={"terrain": "/terrain"})
@@ -332,17 +379,22 @@ def test_unstamped_messages_need_bag_times(tmp_path):
     odom = [(S + k * 20_000_000, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0) for k in range(50)]
     bat = [(S + k * 20_000_000, 50.0, -5.0) for k in range(50)]
     bag = write_streams(tmp_path / "nostamp", 2, imu, odom, bat)
-    with pytest.raises(LogError, match=r"49 of 50 messages on ./imu/data. repeat a header "
-                                         r"stamp.*use stamp=.bag."):
+    with pytest.raises(
+        LogError,
+        match=r"49 of 50 messages on ./imu/data. repeat a header "
+        r"stamp.*use stamp=.bag.",
+    ):
         load_rosbag(bag)
 
 
 def test_extra_topics_by_name_and_missing_outside_their_span(tmp_path):
-    imu = [(S + k * 10**8, 1.0, 0.0, 0.0, 0.0) for k in range(11)]          # 1.0 .. 2.0 s
+    imu = [(S + k * 10**8, 1.0, 0.0, 0.0, 0.0) for k in range(11)]  # 1.0 .. 2.0 s
     odom = [(S + k * 10**8, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0) for k in range(11)]
     bat = [(S + k * 10**8, 50.0, -5.0) for k in range(11)]
-    extras = {"/payload": [(S + 5 * 10**8, 2.0), (S + 10 * 10**8, 4.0)],      # from 1.5 s
-              "/ground": [(S + 3 * 10**8, "grass"), (S + 7 * 10**8, "mud")]}  # from 1.3 s
+    extras = {
+        "/payload": [(S + 5 * 10**8, 2.0), (S + 10 * 10**8, 4.0)],  # from 1.5 s
+        "/ground": [(S + 3 * 10**8, "grass"), (S + 7 * 10**8, "mud")],
+    }  # from 1.3 s
     bag = write_streams(tmp_path / "x", 2, imu, odom, bat, extras=extras)
     s = load_rosbag(bag, extra_topics={"payload_kg": "/payload", "surface": "/ground"})
     assert s["payload_kg"].isna().sum() == 5

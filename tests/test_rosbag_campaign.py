@@ -28,8 +28,9 @@ def test_bag_path_and_csv_path_give_the_same_table(tmp_path):
         np.testing.assert_allclose(from_bag[col], from_csv[col], rtol=1e-6, atol=1e-5, err_msg=col)
     # every extra channel the simulator writes (whatever their names), numeric or text
     extras = [c for c in from_csv.columns if c not in CANONICAL_COLUMNS]
-    assert extras and sorted(extras) == sorted(c for c in from_bag.columns
-                                               if c not in CANONICAL_COLUMNS)
+    assert extras and sorted(extras) == sorted(
+        c for c in from_bag.columns if c not in CANONICAL_COLUMNS
+    )
     for col in extras:
         if pd.api.types.is_numeric_dtype(from_csv[col]):
             np.testing.assert_allclose(from_bag[col], from_csv[col], rtol=1e-6, err_msg=col)

@@ -62,8 +62,20 @@ def test_logs_and_runs_follow_the_contract(noisy):
     for col in (*LOG_COLUMNS, *CHANNELS):
         assert col in noisy.logs.columns
     assert noisy.logs["ground"].dtype.name == "category"
-    for col in ("run", "kind", "motion", "slope_deg", "uphill_azimuth_deg", "heading_deg",
-                "speed", "yaw_rate", "duration_s", "composite", "part", "true_energy_j"):
+    for col in (
+        "run",
+        "kind",
+        "motion",
+        "slope_deg",
+        "uphill_azimuth_deg",
+        "heading_deg",
+        "speed",
+        "yaw_rate",
+        "duration_s",
+        "composite",
+        "part",
+        "true_energy_j",
+    ):
         assert col in noisy.runs.columns
     assert set(noisy.logs["run"]) == set(noisy.runs["run"])
     assert isinstance(noisy.physics, Physics)
@@ -143,8 +155,10 @@ def test_composite_paths_share_their_end_pose(ideal):
 )
 def test_ramps_keep_distance_and_angle(durations, values, ramp):
     dt = 0.05
-    segs = [(d * dt, values[i % 4], values[(i + 1) % 4], values[(i + 2) % 4])
-            for i, d in enumerate(durations)]
+    segs = [
+        (d * dt, values[i % 4], values[(i + 1) % 4], values[(i + 2) % 4])
+        for i, d in enumerate(durations)
+    ]
     t, vx, vy, wz, ax, _ = twist_profile(segs, ramp * dt, dt)
     assert t[-1] == pytest.approx(sum(s[0] for s in segs) + ramp * dt)
     for k, v in zip((1, 2, 3), (vx, vy, wz), strict=True):
@@ -200,8 +214,16 @@ def test_campaign_design_is_mirror_symmetric(ideal):
         return text.replace("left", "#").replace("right", "left").replace("#", "right")
 
     def key(r, motion: str, heading: float, family: str):
-        return (r.kind, motion, r.slope_deg, (heading + 180) % 360 - 180, r.speed, r.part,
-                r.repeat, family)
+        return (
+            r.kind,
+            motion,
+            r.slope_deg,
+            (heading + 180) % 360 - 180,
+            r.speed,
+            r.part,
+            r.repeat,
+            family,
+        )
 
     runs = list(ideal.runs.itertuples())
     family = {r.run: "_".join(r.composite.split("_")[:2]) for r in runs}  # e.g. supa_left
@@ -301,8 +323,9 @@ def test_write_and_load_back(tmp_path, fmt):
     runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False)
     assert list(runs["run"]) == list(camp.runs["run"])
     doc = json.loads((tmp_path / "physics.json").read_text())
-    assert doc["effects"] == [] and {"name": "mass_kg", "value": 50.0, "unit": "kg"} in doc[
-        "params"]
+    assert (
+        doc["effects"] == [] and {"name": "mass_kg", "value": 50.0, "unit": "kg"} in doc["params"]
+    )
     with pytest.raises(RemovedAPIError, match="true_path_energy"):
         camp.truth  # noqa: B018
 
@@ -310,9 +333,15 @@ def test_write_and_load_back(tmp_path, fmt):
 def test_write_ros2_bags(tmp_path):
     from energy_planner.measurements import load_rosbag
 
-    cfg = CampaignConfig.small(slopes_deg=(10.0,), headings_deg=(0.0,), motions=("forward",),
-                               turn_headings_deg=(), arcs=False, stand=False,
-                               composite_slopes_deg=())
+    cfg = CampaignConfig.small(
+        slopes_deg=(10.0,),
+        headings_deg=(0.0,),
+        motions=("forward",),
+        turn_headings_deg=(),
+        arcs=False,
+        stand=False,
+        composite_slopes_deg=(),
+    )
     camp = simulate_campaign(seed=2, config=cfg)
     files = camp.write(tmp_path, bag=True)
     bags = [p for p in files if p.parent.name == "bags"]

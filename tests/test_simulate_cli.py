@@ -22,8 +22,20 @@ def _run(*args: str):
 def test_simulate_writes_readable_files_and_json(tmp_path):
     from energy_planner.measurements import load_logs
 
-    res = _run("--out", str(tmp_path), "--small", "--seed", "4", "--effect", "load",
-               "--effect", "cold_joints", "--fault", "ros_current_sign", "--json")
+    res = _run(
+        "--out",
+        str(tmp_path),
+        "--small",
+        "--seed",
+        "4",
+        "--effect",
+        "load",
+        "--effect",
+        "cold_joints",
+        "--fault",
+        "ros_current_sign",
+        "--json",
+    )
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     assert doc["summary"]["effects"] == ["load", "cold_joints"]
@@ -43,8 +55,18 @@ def test_simulate_writes_readable_files_and_json(tmp_path):
 
 
 def test_simulate_missions_over_a_dem(tmp_path):
-    res = _run("--out", str(tmp_path), "--small", "--missions", "2", "--dem", HILL,
-               "--effect", "ground", "--json")
+    res = _run(
+        "--out",
+        str(tmp_path),
+        "--small",
+        "--missions",
+        "2",
+        "--dem",
+        HILL,
+        "--effect",
+        "ground",
+        "--json",
+    )
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     assert doc["missions"] and doc["summary"]["kinds"] == {"mission": 2}
@@ -59,17 +81,28 @@ def test_simulate_missions_over_a_dem(tmp_path):
 
 
 def test_dem_without_missions_is_rejected(tmp_path):
-    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--dem",
-                                    HILL])
+    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--dem", HILL])
     assert res.exit_code == 2 and "--missions" in res.output
-    res = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path), "--missions", "1",
-                                    "--plot", str(tmp_path / "p.png")])
+    res = CliRunner().invoke(
+        main,
+        ["simulate", "--out", str(tmp_path), "--missions", "1", "--plot", str(tmp_path / "p.png")],
+    )
     assert res.exit_code == 2 and "Fig. 4" in res.output
 
 
 def test_noise_free_parquet_energies_match_truth(tmp_path):
-    res = _run("--out", str(tmp_path), "--small", "--noise-free", "--format", "parquet",
-               "--speeds", "0.2,0.45", "--plot", str(tmp_path / "cost.png"))
+    res = _run(
+        "--out",
+        str(tmp_path),
+        "--small",
+        "--noise-free",
+        "--format",
+        "parquet",
+        "--speeds",
+        "0.2,0.45",
+        "--plot",
+        str(tmp_path / "cost.png"),
+    )
     assert res.exit_code == 0, res.output
     assert (tmp_path / "cost.png").read_bytes()[:4] == b"\x89PNG"
     assert "mechanistic physics" in res.output

@@ -29,8 +29,13 @@ from energy_planner.simulate import (
 
 P = RobotParams()
 IDEAL = CampaignConfig.small(sensors=SensorConfig.ideal())
-ALL_CHANNELS = {"load_kg": 10.0, "ground": "mud", "motor_temp": 55.0, "air_temp_c": 3.0,
-                "grass_height_m": 0.3}
+ALL_CHANNELS = {
+    "load_kg": 10.0,
+    "ground": "mud",
+    "motor_temp": 55.0,
+    "air_temp_c": 3.0,
+    "grass_height_m": 0.3,
+}
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +47,8 @@ def _state(alpha=0.0, gamma=0.0, vx=0.0, vy=0.0, wz=0.0, ax=0.0, ay=0.0, **ch):
     f = {"alpha": alpha, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz, "ax": ax, "ay": ay}
     return {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in f.items()} | {
         k: np.atleast_1d(np.asarray(v, dtype=object if isinstance(v, str) else float))
-        for k, v in ch.items()}
+        for k, v in ch.items()
+    }
 
 
 # --------------------------------------------------------------------------- analytic
@@ -51,14 +57,22 @@ def _state(alpha=0.0, gamma=0.0, vx=0.0, vy=0.0, wz=0.0, ax=0.0, ay=0.0, **ch):
 def test_level_walk_costs_the_analytic_power():
     """Level, straight, steady forward walk, term by term from the parameter table."""
     v, m, g = 0.3, P.mass_kg, P.gravity
-    kappa_z = P.winding_resistance_ohm * P.lever_support_m**2 / (
-        P.torque_constant_nm_a * P.gear_ratio) ** 2
+    kappa_z = (
+        P.winding_resistance_ohm
+        * P.lever_support_m**2
+        / (P.torque_constant_nm_a * P.gear_ratio) ** 2
+    )
     # 4 legs share m g; each stance leg carries it 1/duty of the time, half-sine profile
     copper = kappa_z * (m * g) ** 2 / 4 * (math.pi**2 / 8) / P.duty_factor
     swing_lift = 4 * P.stride_frequency_hz * P.leg_mass_kg * g * P.step_clearance_m
     swing_kin = 4 * P.stride_frequency_hz * P.leg_mass_kg * (v / (1 - P.duty_factor)) ** 2
-    expected = (P.electronics_w + copper + P.collision_forward * m * g * v / P.lift_efficiency
-                + (swing_lift + swing_kin) / P.swing_efficiency + P.gearbox_friction_n * v)
+    expected = (
+        P.electronics_w
+        + copper
+        + P.collision_forward * m * g * v / P.lift_efficiency
+        + (swing_lift + swing_kin) / P.swing_efficiency
+        + P.gearbox_friction_n * v
+    )
     assert Physics().expected_power(_state(vx=v))[0] == pytest.approx(expected, rel=1e-12)
     # standing: all four legs, constant load, no gait
     stand = P.electronics_w + kappa_z * (m * g) ** 2 / 4
@@ -69,8 +83,9 @@ def test_level_run_energy_in_the_campaign(ideal):
     """The steady part of a level forward run: analytic power times its duration."""
     ts = ideal.true_samples
     runs = ideal.runs.set_index("run")
-    run = runs[(runs["kind"] == "straight") & (runs["motion"] == "forward")
-               & (runs["slope_deg"] == 0)].index[0]
+    run = runs[
+        (runs["kind"] == "straight") & (runs["motion"] == "forward") & (runs["slope_deg"] == 0)
+    ].index[0]
     d = ts[(ts["run"] == run) & np.isclose(ts["vx"], 0.3) & np.isclose(ts["ax"], 0)]
     assert len(d) > 50
     level = Physics().expected_power(_state(vx=0.3))[0]
@@ -170,14 +185,18 @@ def test_ripple_averages_out_over_a_step_cycle():
 #: For each effect, samples where it must not change the power (features -> bool).
 _UNCHANGED = {
     "idle_power": lambda f: np.zeros(len(f["vx"]), bool),
-    "speed_dependence": lambda f: np.isclose(np.hypot(f["vx"], f["vy"]), 0.3)
-    | (np.hypot(f["vx"], f["vy"]) + np.abs(f["wz"]) == 0),
+    "speed_dependence": lambda f: (
+        np.isclose(np.hypot(f["vx"], f["vy"]), 0.3)
+        | (np.hypot(f["vx"], f["vy"]) + np.abs(f["wz"]) == 0)
+    ),
     "joule_heating": lambda f: np.zeros(len(f["vx"]), bool),
     # the descent mode: forward, more than 8 deg of downhill grade along the motion
-    "downhill_braking": lambda f: ~((f["vx"] > 0) & (
-        -np.sin(f["alpha"]) * np.cos(f["gamma"]) > math.sin(math.radians(8.0)))),
-    "turn_while_walking": lambda f: (np.abs(f["wz"]) < 1e-12)
-    | (np.hypot(f["vx"], f["vy"]) < 1e-12),
+    "downhill_braking": lambda f: (
+        ~((f["vx"] > 0) & (-np.sin(f["alpha"]) * np.cos(f["gamma"]) > math.sin(math.radians(8.0))))
+    ),
+    "turn_while_walking": lambda f: (
+        (np.abs(f["wz"]) < 1e-12) | (np.hypot(f["vx"], f["vy"]) < 1e-12)
+    ),
     "acceleration": lambda f: (np.abs(f["ax"]) < 1e-12) & (np.abs(f["ay"]) < 1e-12),
     "load": lambda f: f["load_kg"] == 0,
     "ground": lambda f: f["ground"] == "asphalt",
@@ -206,33 +225,49 @@ def test_effect_changes_only_the_power_and_only_where_it_should(ideal, name):
     same = ["run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "x", "y", *CHANNELS]
     pd.testing.assert_frame_equal(camp.logs[same], ideal.logs[same])
     f = ideal.features()
-    added = camp.true_samples["power_expected"].to_numpy() - ideal.true_samples[
-        "power_expected"].to_numpy()
+    added = (
+        camp.true_samples["power_expected"].to_numpy()
+        - ideal.true_samples["power_expected"].to_numpy()
+    )
     still = _UNCHANGED[name](f)
     assert np.allclose(added[still], 0.0, atol=1e-9)
     acts = np.abs(added) > 1e-6
     assert acts.any()
-    share = np.abs(added[acts]).sum() / ideal.true_samples["power_expected"].to_numpy()[
-        acts].sum()
+    share = np.abs(added[acts]).sum() / ideal.true_samples["power_expected"].to_numpy()[acts].sum()
     assert 0.015 < share < 0.6, share
 
 
 def test_effects_are_the_physics_they_describe():
     """Each effect equals the parameter change it claims, computed independently."""
-    f = _state(math.radians(14), 2.4, 0.3, 0.05, 0.2, 0.2, 0.0, load_kg=12.0,
-               motor_temp=60.0, air_temp_c=0.0, grass_height_m=0.2, ground="mud")
+    f = _state(
+        math.radians(14),
+        2.4,
+        0.3,
+        0.05,
+        0.2,
+        0.2,
+        0.0,
+        load_kg=12.0,
+        motor_temp=60.0,
+        air_temp_c=0.0,
+        grass_height_m=0.2,
+        ground="mud",
+    )
     base = Physics().expected_power(f)[0]
     # load == a heavier robot
     assert Physics(effects=("load",)).expected_power(f)[0] == pytest.approx(
-        Physics(P.replace(mass_kg=P.mass_kg + 12.0)).expected_power(f)[0], rel=1e-12)
+        Physics(P.replace(mass_kg=P.mass_kg + 12.0)).expected_power(f)[0], rel=1e-12
+    )
     # motor_temp == the winding resistance at that temperature (+0.39 %/K)
     hot = P.winding_resistance_ohm * (1 + 0.0039 * (60.0 - P.reference_temp_c))
     assert Physics(effects=("motor_temp",)).expected_power(f)[0] == pytest.approx(
-        Physics(P.replace(winding_resistance_ohm=hot)).expected_power(f)[0], rel=1e-12)
+        Physics(P.replace(winding_resistance_ohm=hot)).expected_power(f)[0], rel=1e-12
+    )
     # cold_joints: the gearbox loss grows by exp(0.05 * 20 K)
     gear = Physics().components(f)["gearbox"][0]
     assert Physics(effects=("cold_joints",)).expected_power(f)[0] - base == pytest.approx(
-        gear * (math.exp(0.05 * 20) - 1), rel=1e-9)
+        gear * (math.exp(0.05 * 20) - 1), rel=1e-9
+    )
     # idle_power: 30 W more, everywhere
     assert Physics(effects=("idle_power",)).expected_power(f)[0] - base == pytest.approx(30.0)
 
@@ -267,8 +302,9 @@ def test_unknown_names_and_missing_channels_are_named():
 
 def test_sensor_faults():
     assert set(FAULTS) == {"slope_slip", "ros_current_sign", "clock_offset"}
-    cfg = CampaignConfig.small(sensors=SensorConfig.ideal(), slopes_deg=(0.0, 20.0),
-                               composite_slopes_deg=())
+    cfg = CampaignConfig.small(
+        sensors=SensorConfig.ideal(), slopes_deg=(0.0, 20.0), composite_slopes_deg=()
+    )
     clean = simulate_campaign(seed=1, config=cfg)
     sign = simulate_campaign(seed=1, config=cfg, faults=("ros_current_sign",))
     assert np.allclose(sign.logs["current"], -clean.logs["current"])
@@ -289,19 +325,25 @@ def test_sensor_faults():
 def test_noise_floor_is_the_rmse_of_measured_against_true_window_power():
     from energy_planner.measurements import make_windows, preprocess
 
-    cfg = CampaignConfig.small(slopes_deg=(10.0,), composite_slopes_deg=(), arcs=False,
-                               turn_headings_deg=())
+    cfg = CampaignConfig.small(
+        slopes_deg=(10.0,), composite_slopes_deg=(), arcs=False, turn_headings_deg=()
+    )
     camp = simulate_campaign(seed=2, config=cfg)
     windows = make_windows(preprocess(camp.logs)[0])
     floor = camp.noise_floor(windows)
     # by hand: match every window sample to its log row, average the truth per window
-    truth = {(r, round(t, 6)): p for r, t, p in zip(
-        camp.true_samples["run"], camp.true_samples["t"], camp.true_samples["power_expected"],
-        strict=True)}
+    truth = {
+        (r, round(t, 6)): p
+        for r, t, p in zip(
+            camp.true_samples["run"],
+            camp.true_samples["t"],
+            camp.true_samples["power_expected"],
+            strict=True,
+        )
+    }
     sq = []
     for w, g in windows.samples.groupby("window"):
-        true_w = np.mean([truth[(r, round(t, 6))] for r, t in zip(g["run"], g["t"],
-                                                                  strict=True)])
+        true_w = np.mean([truth[(r, round(t, 6))] for r, t in zip(g["run"], g["t"], strict=True)])
         meas_w = windows.table.loc[windows.table["window"] == w, "power"].iloc[0]
         sq.append((meas_w - true_w) ** 2)
     assert floor.rmse_w == pytest.approx(math.sqrt(np.mean(sq)), rel=1e-12)
@@ -328,8 +370,7 @@ def test_true_path_energy_on_a_plane_matches_the_per_sample_truth():
     from energy_planner.terrain import Terrain
 
     a = math.radians(12)
-    plane = Terrain.from_function(lambda x, y: math.tan(a) * y, size=(60.0, 60.0),
-                                  resolution=1.0)
+    plane = Terrain.from_function(lambda x, y: math.tan(a) * y, size=(60.0, 60.0), resolution=1.0)
     # 20 m (horizontal) straight up the fall line (+y), facing uphill
     e = true_path_energy(plane, [[30.0, 10.0, math.pi / 2], [30.0, 30.0, math.pi / 2]])
     surface = 20.0 / math.cos(a)
@@ -345,8 +386,9 @@ def test_true_path_energy_on_a_plane_matches_the_per_sample_truth():
     assert e3.duration_s == pytest.approx(40.0 / 0.3 * 0 + e3.segments["duration_s"].sum())
     assert e3.segments["turn_rad"].abs().max() == pytest.approx(math.pi / 2)
     # channels: a load on, given as a constant
-    heavy = true_path_energy(plane, [[30.0, 10.0], [30.0, 30.0]], effects=("load",),
-                             channels={"load_kg": 10.0})
+    heavy = true_path_energy(
+        plane, [[30.0, 10.0], [30.0, 30.0]], effects=("load",), channels={"load_kg": 10.0}
+    )
     assert heavy.energy_j > e.energy_j
     with pytest.raises(OutsideMapError):
         true_path_energy(plane, [[30.0, 10.0], [30.0, 90.0]])
@@ -364,8 +406,13 @@ _HILLS = _hills()
 
 
 @settings(max_examples=25, deadline=None)
-@given(x0=st.floats(15, 45), y0=st.floats(15, 45), heading=st.floats(-math.pi, math.pi),
-       d1=st.floats(0.5, 8), d2=st.floats(0.5, 8))
+@given(
+    x0=st.floats(15, 45),
+    y0=st.floats(15, 45),
+    heading=st.floats(-math.pi, math.pi),
+    d1=st.floats(0.5, 8),
+    d2=st.floats(0.5, 8),
+)
 def test_true_path_energy_adds_over_a_split_path(x0, y0, heading, d1, d2):
     """Walking A -> B -> C in one straight line costs A -> B plus B -> C (superposition)."""
     terrain = _HILLS
@@ -373,8 +420,10 @@ def test_true_path_energy_adds_over_a_split_path(x0, y0, heading, d1, d2):
     a, b = (x0, y0, heading), (x0 + d1 * c, y0 + d1 * s, heading)
     end = (x0 + (d1 + d2) * c, y0 + (d1 + d2) * s, heading)
     whole = true_path_energy(terrain, [a, end], step_m=0.02).energy_j
-    parts = (true_path_energy(terrain, [a, b], step_m=0.02).energy_j
-             + true_path_energy(terrain, [b, end], step_m=0.02).energy_j)
+    parts = (
+        true_path_energy(terrain, [a, b], step_m=0.02).energy_j
+        + true_path_energy(terrain, [b, end], step_m=0.02).energy_j
+    )
     # equal up to the midpoint rule's discretisation of the sub-steps
     assert whole == pytest.approx(parts, rel=1e-5)
 
@@ -390,8 +439,20 @@ def missions():
 def test_missions_follow_the_dem(missions):
     ts, logs = missions.true_samples, missions.logs
     assert list(missions.runs["kind"].unique()) == ["mission"]
-    for col in ("run", "t", "qw", "vx", "vy", "wz", "voltage", "current", "x", "y", "yaw",
-                *CHANNELS):
+    for col in (
+        "run",
+        "t",
+        "qw",
+        "vx",
+        "vy",
+        "wz",
+        "voltage",
+        "current",
+        "x",
+        "y",
+        "yaw",
+        *CHANNELS,
+    ):
         assert col in logs.columns
     # slope and heading change continuously; the robot stops, turns and changes speed
     d_alpha = ts.groupby("run")["alpha"].diff().abs().max()
@@ -402,8 +463,9 @@ def test_missions_follow_the_dem(missions):
     # noise-free: the logged energy is the truth's, the IMU gives back the slope
     for run, df in logs.groupby("run", sort=False):
         e = np.trapezoid(df["voltage"] * df["current"], df["t"])
-        assert e == pytest.approx(missions.runs.set_index("run").loc[run, "true_energy_j"],
-                                  rel=1e-9)
+        assert e == pytest.approx(
+            missions.runs.set_index("run").loc[run, "true_energy_j"], rel=1e-9
+        )
     alpha = np.arccos(np.clip(1 - 2 * (logs["qx"] ** 2 + logs["qy"] ** 2), -1, 1))
     assert np.allclose(alpha, ts["alpha"], atol=1e-9)
     # the ground channel varies along the path
@@ -411,8 +473,9 @@ def test_missions_follow_the_dem(missions):
 
 
 def test_missions_same_seed_with_and_without_an_effect(missions):
-    other = simulate_missions(seed=4, effects=("ground", "load"),
-                              config=MissionConfig.small(sensors=SensorConfig.ideal()))
+    other = simulate_missions(
+        seed=4, effects=("ground", "load"), config=MissionConfig.small(sensors=SensorConfig.ideal())
+    )
     same = ["run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "x", "y", *CHANNELS]
     pd.testing.assert_frame_equal(other.logs[same], missions.logs[same])
     assert not np.allclose(other.true_samples["power"], missions.true_samples["power"])

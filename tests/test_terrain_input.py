@@ -39,8 +39,15 @@ def test_metric_coordinates_on_a_lonlat_dem(jacksboro):
     e = exc.value
     assert isinstance(e, OutsideMapError) and isinstance(e, ValueError)
     msg = str(e)
-    for needle in ("(741700, 4048300)", "EPSG:4326", "geographic", "jacksboro_fault_dem.tif",
-                   "longitude,latitude", "lon -84.41", "lat 36.44"):
+    for needle in (
+        "(741700, 4048300)",
+        "EPSG:4326",
+        "geographic",
+        "jacksboro_fault_dem.tif",
+        "longitude,latitude",
+        "lon -84.41",
+        "lat 36.44",
+    ):
         assert needle in msg, needle
     assert e.value == (741700.0, 4048300.0) and e.crs == "EPSG:4326"
     left, bottom, right, top = e.bounds
@@ -48,8 +55,9 @@ def test_metric_coordinates_on_a_lonlat_dem(jacksboro):
     assert -84.5 < left < right < -84.0 and 36.4 < bottom < top < 36.8
     # the point is on the working UTM grid: the hint gives its lon/lat, which converts back
     assert "EPSG:32616" in e.hint
-    lon, lat = (float(v) for v in e.hint.split("at lon ")[1].split(": ")[0]
-                .replace("lat ", "").split(", "))
+    lon, lat = (
+        float(v) for v in e.hint.split("at lon ")[1].split(": ")[0].replace("lat ", "").split(", ")
+    )
     x, y = jacksboro.to_work(lon, lat)
     assert (x, y) == pytest.approx((741700.0, 4048300.0), abs=0.05)
 
@@ -78,9 +86,20 @@ def test_projected_dem_passes_coordinates_through():
 def huge_tif(tmp_path_factory):
     """A 50000 x 50000 float32 GeoTIFF of about 300 KB (sparse tiles, as in issue 13)."""
     p = tmp_path_factory.mktemp("big") / "huge.tif"
-    with rasterio.open(p, "w", driver="GTiff", width=50000, height=50000, count=1,
-                       dtype="float32", crs="EPSG:32631", transform=from_origin(5e5, 5e6, 1, 1),
-                       tiled=True, compress="deflate", sparse_ok=True):
+    with rasterio.open(
+        p,
+        "w",
+        driver="GTiff",
+        width=50000,
+        height=50000,
+        count=1,
+        dtype="float32",
+        crs="EPSG:32631",
+        transform=from_origin(5e5, 5e6, 1, 1),
+        tiled=True,
+        compress="deflate",
+        sparse_ok=True,
+    ):
         pass
     assert p.stat().st_size < 1_000_000
     return p
@@ -100,8 +119,17 @@ def test_huge_raster_is_refused_before_reading(huge_tif, monkeypatch):
     assert e.shape == (50000, 50000) and e.size_bytes == 50000 * 50000 * 64
     assert e.cap_bytes == 4 * 2**30
     msg = str(e)
-    for needle in ("huge.tif", "50000 x 50000", "149 GiB", "4 GiB", MEMORY_CAP_ENV, "window",
-                   "coarser grid", "--decimate 7", "energy-map --dask"):
+    for needle in (
+        "huge.tif",
+        "50000 x 50000",
+        "149 GiB",
+        "4 GiB",
+        MEMORY_CAP_ENV,
+        "window",
+        "coarser grid",
+        "--decimate 7",
+        "energy-map --dask",
+    ):
         assert needle in msg, needle
 
 
@@ -140,9 +168,18 @@ def test_energy_cli_refuses_huge_raster(huge_tif, tmp_path, monkeypatch):
 
 # ---------------------------------------------------------------------- all nodata
 def _void(path, bands):
-    with rasterio.open(path, "w", driver="GTiff", width=4, height=4, count=bands,
-                       dtype="float32", crs="EPSG:32631", transform=from_origin(0, 4, 1, 1),
-                       nodata=-1) as dst:
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=4,
+        height=4,
+        count=bands,
+        dtype="float32",
+        crs="EPSG:32631",
+        transform=from_origin(0, 4, 1, 1),
+        nodata=-1,
+    ) as dst:
         dst.write(np.full((bands, 4, 4), -1, np.float32))
     return path
 
@@ -185,8 +222,9 @@ def test_error_fields_round_trip_to_json(tmp_path):
 def test_energy_cli_metric_waypoints_on_lonlat_dem(tmp_path):
     w = tmp_path / "w.csv"
     w.write_text("x,y\n741700,4048300\n742000,4048600\n")
-    res = CliRunner().invoke(main, ["energy", "--dem", str(map_path("jacksboro")),
-                                    "--waypoints", str(w)])
+    res = CliRunner().invoke(
+        main, ["energy", "--dem", str(map_path("jacksboro")), "--waypoints", str(w)]
+    )
     assert res.exit_code == 1 and isinstance(res.exception, SystemExit), res.output
     assert "(741700, 4048300)" in res.output and "EPSG:4326" in res.output
     assert "longitude,latitude" in res.output
@@ -213,7 +251,7 @@ def test_bounds_reads_the_same_cells_as_a_slice():
     assert part.bounds == (x0 + 10, y0 + 20, x0 + 40, y0 + 50)  # whole cells covering it
     r0 = int(round((full.bounds[3] - part.bounds[3]) / full.resolution[1]))
     c0 = int(round((part.bounds[0] - full.bounds[0]) / full.resolution[0]))
-    np.testing.assert_array_equal(part.elevation, full.elevation[r0:r0 + 30, c0:c0 + 30])
+    np.testing.assert_array_equal(part.elevation, full.elevation[r0 : r0 + 30, c0 : c0 + 30])
 
 
 def test_decimate_averages_blocks():
@@ -228,8 +266,9 @@ def test_window_of_the_huge_raster_loads(huge_tif, monkeypatch):
     monkeypatch.setenv(MEMORY_CAP_ENV, "2G")
     t = load_dem(huge_tif, bounds=(5e5, 5e6 - 300, 5e5 + 400, 5e6))
     assert t.shape == (300, 400)
-    res = CliRunner().invoke(main, ["terrain", str(huge_tif), "--bounds",
-                                    "500000,4999700,500400,5000000", "--json"])
+    res = CliRunner().invoke(
+        main, ["terrain", str(huge_tif), "--bounds", "500000,4999700,500400,5000000", "--json"]
+    )
     assert res.exit_code == 0, res.output
     assert json.loads(res.output)["shape"] == [300, 400]
     # the error's hint names a decimation that fits

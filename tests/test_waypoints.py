@@ -297,8 +297,14 @@ def test_projected_dem_keeps_coordinates_and_yaw(tmp_path):
 def _poses_on(t, lon, lat):
     """A zig-zag of working-grid poses with yaw off the segment direction (lateral parts)."""
     x0, y0 = t.to_work(lon, lat)
-    return np.array([[x0, y0, 0.3], [x0 + 300, y0 + 50, 1.2], [x0 + 500, y0 + 400, -2.0],
-                     [x0 + 520, y0 + 900, 1.5708]])
+    return np.array(
+        [
+            [x0, y0, 0.3],
+            [x0 + 300, y0 + 50, 1.2],
+            [x0 + 500, y0 + 400, -2.0],
+            [x0 + 520, y0 + 900, 1.5708],
+        ]
+    )
 
 
 def test_planned_path_round_trips_with_crs_and_yaw_frame(tmp_path):
@@ -333,10 +339,16 @@ def test_older_planner_geojson_is_read_in_its_own_yaw_frame(tmp_path):
     t = _geographic_terrain(tmp_path, -84.25, 36.6, n=200)
     states = _poses_on(t, -84.2, 36.56)
     lon, lat = t.from_work(states[:, 0], states[:, 1])
-    old = {"type": "Feature",
-           "geometry": {"type": "LineString", "coordinates": np.c_[lon, lat].tolist()},
-           "properties": {"yaw_deg": np.degrees(states[:, 2]).tolist(), "energy_j": 1.0,
-                          "planner": "auto", "crs": "EPSG:4326"}}
+    old = {
+        "type": "Feature",
+        "geometry": {"type": "LineString", "coordinates": np.c_[lon, lat].tolist()},
+        "properties": {
+            "yaw_deg": np.degrees(states[:, 2]).tolist(),
+            "energy_j": 1.0,
+            "planner": "auto",
+            "crs": "EPSG:4326",
+        },
+    }
     w = read_waypoints(gj(tmp_path, old))
     assert w.yaw_frame == "work_x_ccw" and w.declared_crs == "EPSG:4326"
     assert any("older planner GeoJSON" in n for n in w.notes)
@@ -353,8 +365,9 @@ def test_path_energy_of_written_and_read_path_is_the_same(tmp_path):
     states = _poses_on(t, -84.2, 36.56)
     m = EnergyModel.default()
     e0 = path_energy(t, m, states[:, :2], yaw=states[:, 2]).energy_j
-    xy, yaw = waypoints_to_work(t, read_waypoints(
-        write_path_from_work(tmp_path / "p.geojson", t, states)))
+    xy, yaw = waypoints_to_work(
+        t, read_waypoints(write_path_from_work(tmp_path / "p.geojson", t, states))
+    )
     assert path_energy(t, m, xy, yaw=yaw).energy_j == pytest.approx(e0, rel=1e-9)
 
 
@@ -377,13 +390,16 @@ def test_radians_in_yaw_deg_column_warn(tmp_path):
     np.testing.assert_allclose(w.yaw_rad, np.radians([1.57, 1.57, 1.6]))
 
 
-@pytest.mark.parametrize("rows", [
-    "0,0,90\n0,10,90\n0,20,90\n",            # degrees, north
-    "0,0,0\n10,0,0\n20,0,0\n",               # zeros mean the same in both units
-    "0,0,2\n10,0,1\n20,0,-1.5\n",            # small degrees, walking east
-    "0,0,0\n0,10,0\n0,20,0\n",               # sideways to the north in degrees
-    "0,0,180\n-10,0,180\n-20,0,180\n",       # west in degrees
-])
+@pytest.mark.parametrize(
+    "rows",
+    [
+        "0,0,90\n0,10,90\n0,20,90\n",  # degrees, north
+        "0,0,0\n10,0,0\n20,0,0\n",  # zeros mean the same in both units
+        "0,0,2\n10,0,1\n20,0,-1.5\n",  # small degrees, walking east
+        "0,0,0\n0,10,0\n0,20,0\n",  # sideways to the north in degrees
+        "0,0,180\n-10,0,180\n-20,0,180\n",  # west in degrees
+    ],
+)
 def test_degrees_do_not_warn(tmp_path, rows):
     import warnings
 

@@ -108,9 +108,7 @@ def command(
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
-    request = Request.make(
-        max_slope_deg=max_slope, channels=channels_from_options(sets, channels)
-    )
+    request = Request.make(max_slope_deg=max_slope, channels=channels_from_options(sets, channels))
     try:
         comp = compare_routes(terrain, model, start, goal, request, time=time_s, progress=True)
     except MissingChannelError as exc:

@@ -284,8 +284,10 @@ def command(
         ) from exc
     doc = d.to_dict()
     if doc["suspects"]:
-        out = Path("model.json") if model_path is None else model_path.with_name(
-            f"{model_path.stem}_next.json"
+        out = (
+            Path("model.json")
+            if model_path is None
+            else model_path.with_name(f"{model_path.stem}_next.json")
         )
         doc["hint"] = fit_hint(logs, doc["model_terms"], doc["suspects"][0]["term"], out, window)
     if report is not None:

@@ -42,9 +42,7 @@ def _text(doc: dict[str, Any]) -> str:
             lines.append(f"       term: {term}")
             lines.append(f"       {r['explanation']}")
         for a in r["alternatives"]:
-            lines.append(
-                f"       or, equally well (the data cannot tell them apart): {a['name']}"
-            )
+            lines.append(f"       or, equally well (the data cannot tell them apart): {a['name']}")
     if len(doc["staircase"]) > 1:
         lines.append(
             f"error removed in total: {_pct(doc['staircase'][-1]['error_removed_total'])} of "
@@ -195,9 +193,7 @@ def command(
         bar.close()
     doc = d.to_dict()
     if d.model is None:
-        raise click.ClickException(
-            "the final model could not be fitted: " + "; ".join(d.notes)
-        )
+        raise click.ClickException("the final model could not be fitted: " + "; ".join(d.notes))
     d.model.metadata = {
         **d.model.metadata,
         "source": [str(p) for p in logs],

@@ -23,8 +23,7 @@ from energy_planner.cli.plan import limit_options, load_terrain, point_to_work
 def _text(res: dict[str, Any]) -> str:
     what = "go and come back" if res["round_trip"] else "reach"
     lines = [
-        f"start        {res['start'][0]:.2f}, {res['start'][1]:.2f} (centre of its cell, "
-        f"DEM CRS)",
+        f"start        {res['start'][0]:.2f}, {res['start'][1]:.2f} (centre of its cell, DEM CRS)",
         f"energy to {what}: {res['min_wh']:.2f} .. {res['max_wh']:.2f} Wh over "
         f"{res['reachable_cells']} reachable cells (median {res['median_wh']:.2f} Wh)",
     ]

@@ -202,7 +202,9 @@ def command(
     if plot is not None and missions is not None:
         raise click.BadParameter(
             "--plot draws the designed campaign's fall-line runs (Fig. 4); missions have "
-            "none: drop --plot or --missions", param_hint="--plot")
+            "none: drop --plot or --missions",
+            param_hint="--plot",
+        )
     try:
         if missions is not None:
             from energy_planner.terrain import load_dem
@@ -210,12 +212,19 @@ def command(
             terrain = load_dem(dem) if dem is not None else None
             mk = MissionConfig.small if small else MissionConfig
             config = mk(missions=missions, **changes)
-            camp = simulate_missions(seed=seed, effects=effects, config=config,
-                                     terrain=terrain, faults=faults, progress=progress)
+            camp = simulate_missions(
+                seed=seed,
+                effects=effects,
+                config=config,
+                terrain=terrain,
+                faults=faults,
+                progress=progress,
+            )
         else:
             config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
-            camp = simulate_campaign(seed=seed, effects=effects, config=config, faults=faults,
-                                     progress=progress)
+            camp = simulate_campaign(
+                seed=seed, effects=effects, config=config, faults=faults, progress=progress
+            )
         files = camp.write(out, fmt=fmt, bag=bag, progress=progress)
         plot_path = camp.plot(plot) if plot is not None else None
     except EnergyPlannerError as exc:

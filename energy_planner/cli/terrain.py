@@ -36,7 +36,8 @@ def _parse_bounds(value: str | None) -> tuple[float, float, float, float] | None
     if len(vals) != 4:
         raise click.BadParameter(
             f"{value!r} is not XMIN,YMIN,XMAX,YMAX (four numbers in the DEM's CRS)",
-            param_hint="'--bounds'")
+            param_hint="'--bounds'",
+        )
     return vals  # type: ignore[return-value]
 
 

@@ -157,7 +157,8 @@ def _shift_within_runs(values: np.ndarray, code: np.ndarray, k: int) -> np.ndarr
 
 def _crossing(t: np.ndarray, v: np.ndarray, level: float, rising: bool) -> float:
     """First time ``v`` crosses ``level`` upwards (``rising``) or last time downwards,
-    linearly interpolated; NaN if it never does."""
+    linearly interpolated; NaN if it never does.
+    """
     above = v >= level
     if rising:
         i = np.flatnonzero(~above[:-1] & above[1:])
@@ -178,7 +179,8 @@ def _transition_offsets(
     t: np.ndarray, p: np.ndarray, m: np.ndarray, ends: tuple[float, float, float, float]
 ) -> tuple[float, float]:
     """Power-minus-motion midpoint-crossing times at the start and at the end of a run;
-    ``ends`` are the power and motion levels at the first and the last sample."""
+    ``ends`` are the power and motion levels at the first and the last sample.
+    """
     n = len(t)
     p1, m1 = np.median(p[n // 3 : 2 * n // 3]), np.median(m[n // 3 : 2 * n // 3])
     p0, m0, pe, me = ends

@@ -253,9 +253,7 @@ def _fmt(q: float) -> str:
     return f"{float(q):.4g}"
 
 
-def hinge(
-    ch: str, q: float, below: bool, level: float | None = None, times: str = ""
-) -> Candidate:
+def hinge(ch: str, q: float, below: bool, level: float | None = None, times: str = "") -> Candidate:
     """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel,
     optionally times ``speed`` (a force per metre that starts at a threshold).
 
@@ -411,8 +409,7 @@ def speed_candidates(wd: WindowData) -> list[Candidate]:
             "speed^2",
             "speed ** 2",
             ["speed"],
-            "leg swing and damping losses grow with speed: the force per metre grows "
-            "with speed",
+            "leg swing and damping losses grow with speed: the force per metre grows with speed",
             "speed",
             "speed",
             shape="speed^2",
@@ -511,7 +508,8 @@ def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, 
 
 def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, str, list[str]]]:
     """``ch`` times each base term of the model: the base's own physics scaled by the
-    channel (a load scales the lifting work, the copper losses of holding a slope...)."""
+    channel (a load scales the lifting work, the copper losses of holding a slope...).
+    """
     from energy_planner.model import BASE_TERMS, CATALOG
 
     out = []
@@ -684,7 +682,8 @@ def default_candidates(
     wd: WindowData, terms: Sequence[str], speeds: dict | None = None
 ) -> tuple[list[Candidate], list[dict]]:
     """Catalog, speed and channel candidates for a model with ``terms``; and the
-    candidates that cannot be tried, with the reason."""
+    candidates that cannot be tried, with the reason.
+    """
     speeds = speed_levels(wd) if speeds is None else speeds
     x, y = wd.columns(terms), wd.power
     ok = np.all(np.isfinite(x), axis=1) & np.isfinite(y)

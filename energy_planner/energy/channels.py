@@ -360,7 +360,8 @@ class Channels:
 
     def check(self, model: Any) -> None:
         """Raise :class:`~energy_planner.errors.MissingChannelError` naming every
-        channel the model reads and nobody gave (and the channels given)."""
+        channel the model reads and nobody gave (and the channels given).
+        """
         model.kernel_source(self.constants, self.kernel_layout())
 
     def unused(self, model: Any) -> list[str]:
@@ -386,7 +387,8 @@ class Channels:
 
     def value_samples(self, n: int = 5) -> dict[str, np.ndarray]:
         """A few values of each channel (constants: the value; numeric rasters: ``n``
-        values from their minimum to their maximum; categorical: every category)."""
+        values from their minimum to their maximum; categorical: every category).
+        """
         out: dict[str, np.ndarray] = {k: np.array([v]) for k, v in self.constants.items()}
         for name, r in self.rasters.items():
             v = None if r.values is None else np.asarray(r.values, dtype=float)

@@ -107,8 +107,9 @@ def read_waypoints(path: str | Path) -> Waypoints:
     except FileNotFoundError as exc:
         raise WaypointIOError(
             f"waypoint file {str(p)!r} does not exist (expected a CSV with columns "
-            "x,y[,yaw_deg][,t] or a GeoJSON LineString)", path=p,
-            expected="a CSV x,y[,yaw_deg][,t] or a GeoJSON LineString"
+            "x,y[,yaw_deg][,t] or a GeoJSON LineString)",
+            path=p,
+            expected="a CSV x,y[,yaw_deg][,t] or a GeoJSON LineString",
         ) from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise WaypointIOError(f"cannot read waypoint file {str(p)!r}: {exc}", path=p) from exc
@@ -146,15 +147,18 @@ def _read_csv(text: str, p: Path) -> Waypoints:
     if not lines:
         raise WaypointError(
             f"waypoint file {str(p)!r} is empty (expected a header x,y[,yaw_deg][,t] and "
-            "at least 2 rows)", path=p, expected=expected
+            "at least 2 rows)",
+            path=p,
+            expected=expected,
         )
     header_line = lines[0][1]
     delim = max((",", ";", "\t"), key=header_line.count)
     try:
         rows = list(csv.reader([line for _, line in lines], delimiter=delim))
     except csv.Error as exc:  # e.g. a NUL byte, a field beyond the csv field limit
-        raise WaypointError(f"{where_file} is not a readable CSV: {exc}", path=p,
-                            expected=expected) from exc
+        raise WaypointError(
+            f"{where_file} is not a readable CSV: {exc}", path=p, expected=expected
+        ) from exc
     header = [h.strip().lower() for h in rows[0]]
     missing = [c for c in ("x", "y") if c not in header]
     if missing:
@@ -166,13 +170,20 @@ def _read_csv(text: str, p: Path) -> Waypoints:
         )
         raise WaypointError(
             f"{where_file}: missing column(s) {', '.join(map(repr, missing))} in the header "
-            f"(line {lines[0][0]}); expected x,y[,yaw_deg][,t]; {hint}", path=p,
-            value=header, column=missing[0], expected=expected
+            f"(line {lines[0][0]}); expected x,y[,yaw_deg][,t]; {hint}",
+            path=p,
+            value=header,
+            column=missing[0],
+            expected=expected,
         )
     dup = sorted({h for h in header if header.count(h) > 1 and h in CSV_COLUMNS})
     if dup:
-        raise WaypointError(f"{where_file}: column(s) {', '.join(map(repr, dup))} appear twice",
-                            path=p, column=dup[0], expected="each column once")
+        raise WaypointError(
+            f"{where_file}: column(s) {', '.join(map(repr, dup))} appear twice",
+            path=p,
+            column=dup[0],
+            expected="each column once",
+        )
     idx = {c: header.index(c) for c in CSV_COLUMNS if c in header}
     notes = []
     extra = [h for h in header if h not in CSV_COLUMNS]
@@ -191,12 +202,22 @@ def _read_csv(text: str, p: Path) -> Waypoints:
         if len(row) < len(header):
             raise WaypointError(
                 f"{where_file}, line {lineno}: {len(row)} value(s) for {len(header)} "
-                f"columns {header}", path=p, row=lineno, value=row,
-                expected=f"{len(header)} values"
+                f"columns {header}",
+                path=p,
+                row=lineno,
+                value=row,
+                expected=f"{len(header)} values",
             )
         for c, j in idx.items():
-            data[c].append(_number(row[j], f"{where_file}, line {lineno}, column {c!r}",
-                                   path=p, row=lineno, column=c))
+            data[c].append(
+                _number(
+                    row[j],
+                    f"{where_file}, line {lineno}, column {c!r}",
+                    path=p,
+                    row=lineno,
+                    column=c,
+                )
+            )
         labels.append(f"line {lineno}")
     xy = np.column_stack([data["x"], data["y"]]) if labels else np.zeros((0, 2))
     yaw_deg = np.asarray(data["yaw_deg"], dtype=float) if "yaw_deg" in data else None

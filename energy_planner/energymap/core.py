@@ -307,7 +307,8 @@ def _write_metadata(dst: Any, setup: _Setup, model_name: str, mode: str) -> None
 
 def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
     """Rows per window: whole rows of output tiles (so that every write completes its
-    tiles and GDAL can flush them), about ``target_bytes`` of arrays, at least one."""
+    tiles and GDAL can flush them), about ``target_bytes`` of arrays, at least one.
+    """
     per_row = cols * (nbands * 4 + 80)  # the bands (float32) + gradient and temporaries
     rows = int(target_bytes // max(per_row, 1))
     return max(_TILE, (rows // _TILE) * _TILE)

@@ -50,8 +50,7 @@ def up_in_body(qw, qx, qy, qz) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ux, uy, uz
 
 
-def imu_slope_heading(qw, qx, qy, qz, heading: str = "plane"
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def imu_slope_heading(qw, qx, qy, qz, heading: str = "plane") -> tuple[np.ndarray, np.ndarray]:
     """Slope ``alpha`` and signed relative heading ``gamma`` from an IMU quaternion.
 
     Parameters

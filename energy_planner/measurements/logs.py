@@ -111,8 +111,7 @@ class LoadReport:
         }
 
     def __str__(self) -> str:
-        lines = [f"read {len(self.files)} file(s), {self.n_rows} samples, "
-                 f"{len(self.runs)} run(s)"]
+        lines = [f"read {len(self.files)} file(s), {self.n_rows} samples, {len(self.runs)} run(s)"]
         for f in self.files:
             lines.append(f"  {f['format']:<8} {f['rows']:>8} rows  {f['path']}")
         for k in self.skipped:
@@ -122,22 +121,32 @@ class LoadReport:
         v = self.validation
         if v is not None:
             if v.n_nan:
-                lines.append("non-finite values (dropped by preprocess): " + ", ".join(
-                    f"{k}={n}" for k, n in v.n_nan.items()))
+                lines.append(
+                    "non-finite values (dropped by preprocess): "
+                    + ", ".join(f"{k}={n}" for k, n in v.n_nan.items())
+                )
             if v.n_bad_voltage:
-                lines.append(f"voltage outside {v.voltage_range[0]:g}..{v.voltage_range[1]:g} V "
-                             f"(dropped by preprocess): {v.n_bad_voltage}")
+                lines.append(
+                    f"voltage outside {v.voltage_range[0]:g}..{v.voltage_range[1]:g} V "
+                    f"(dropped by preprocess): {v.n_bad_voltage}"
+                )
             if v.n_bad_quaternion:
-                lines.append(f"IMU quaternions far from unit norm (dropped by preprocess): "
-                             f"{v.n_bad_quaternion}")
+                lines.append(
+                    f"IMU quaternions far from unit norm (dropped by preprocess): "
+                    f"{v.n_bad_quaternion}"
+                )
             if v.gaps:
                 lines.append(f"time gaps > {v.max_gap:g} s (runs split there): {len(v.gaps)}")
         if self.current_sign_flipped:
-            lines.append("battery current negated: ROS BatteryState is negative while "
-                         "discharging, canonical is positive")
+            lines.append(
+                "battery current negated: ROS BatteryState is negative while "
+                "discharging, canonical is positive"
+            )
         for f in self.current_negated_files:
-            lines.append(f"  negated in {f['path']} (negative in {f['negative_share']:.0%} of "
-                         f"{f['n_motion']} samples in motion)")
+            lines.append(
+                f"  negated in {f['path']} (negative in {f['negative_share']:.0%} of "
+                f"{f['n_motion']} samples in motion)"
+            )
         for k, n in self.dropped.items():
             lines.append(f"dropped while reading: {n} ({k})")
         lines.extend(self.notes)
@@ -156,28 +165,37 @@ def _expand(paths: str | Path | Iterable[str | Path]) -> list[tuple[Path, bool]]
     out: list[tuple[Path, bool]] = []
     for p in map(Path, paths):
         if not p.exists():
-            raise LogIOError(f"log path {str(p)!r} does not exist; expected a CSV/Parquet file, "
-                             "a ROS bag or a folder of them", path=p,
-                             expected="a CSV/Parquet file, a ROS bag or a folder of them")
+            raise LogIOError(
+                f"log path {str(p)!r} does not exist; expected a CSV/Parquet file, "
+                "a ROS bag or a folder of them",
+                path=p,
+                expected="a CSV/Parquet file, a ROS bag or a folder of them",
+            )
         if p.is_dir() and not is_ros2_bag(p):
             found = sorted(
-                q for q in p.iterdir()
+                q
+                for q in p.iterdir()
                 if (q.is_file() and (q.suffix.lower() in TABLE_SUFFIXES or q.suffix == ".bag"))
                 or is_ros2_bag(q)
             )
             if not found:
                 raise LogIOError(
                     f"folder {str(p)!r} holds no robot log; expected *.csv, *.parquet, *.pq, "
-                    "*.bag files or ROS 2 bag folders", path=p,
-                    expected="*.csv, *.parquet, *.pq, *.bag files or ROS 2 bag folders")
+                    "*.bag files or ROS 2 bag folders",
+                    path=p,
+                    expected="*.csv, *.parquet, *.pq, *.bag files or ROS 2 bag folders",
+                )
             out.extend((q, True) for q in found)
         elif p.is_dir() or p.suffix == ".bag" or p.suffix.lower() in TABLE_SUFFIXES:
             out.append((p, False))
         else:
             raise LogIOError(
                 f"cannot read {str(p)!r}: unknown suffix {p.suffix!r}; expected one of "
-                f"{', '.join(sorted(TABLE_SUFFIXES))}, .bag or a ROS 2 bag folder", path=p,
-                value=p.suffix, expected=", ".join(sorted(TABLE_SUFFIXES)))
+                f"{', '.join(sorted(TABLE_SUFFIXES))}, .bag or a ROS 2 bag folder",
+                path=p,
+                value=p.suffix,
+                expected=", ".join(sorted(TABLE_SUFFIXES)),
+            )
     return out
 
 
@@ -188,8 +206,9 @@ def _read_table(path: Path) -> pd.DataFrame:
             return pd.read_csv(path)
         return pd.read_parquet(path)
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise LogIOError(f"cannot read {fmt} log {str(path)!r}: {err}", path=path,
-                         expected=f"a {fmt} table") from err
+        raise LogIOError(
+            f"cannot read {fmt} log {str(path)!r}: {err}", path=path, expected=f"a {fmt} table"
+        ) from err
 
 
 #: An extra column whose non-missing values parse as numbers at least this often is a
@@ -217,16 +236,23 @@ def _check_extra_column(col: pd.Series, name: str, runs: pd.Series, source: str 
     bad = [arr[r] for r in rows]
     run_ids = runs.to_numpy()
     bad_runs = sorted({str(run_ids[r]) for r in rows})
-    shown = ", ".join(f"{v!r} at row {r} (run {run_ids[r]!s})"
-                      for v, r in zip(bad[:5], rows[:5], strict=True))
+    shown = ", ".join(
+        f"{v!r} at row {r} (run {run_ids[r]!s})" for v, r in zip(bad[:5], rows[:5], strict=True)
+    )
     more = f" and {n_text - 5} more" if n_text > 5 else ""
     raise LogError(
         f"log{(' ' + source) if source else ''}: extra column {name!r} is numeric in "
         f"{n - n_text} of {n} rows but not in {n_text}: {shown}{more}; "
         "expected a number in every row (leave a cell empty for a missing value); a "
         "categorical channel must be text in every row",
-        path=source, column=name, value=bad[0], values=bad[:20], rows=rows[:20],
-        runs=bad_runs, expected="a number (or an empty cell)")
+        path=source,
+        column=name,
+        value=bad[0],
+        values=bad[:20],
+        rows=rows[:20],
+        runs=bad_runs,
+        expected="a number (or an empty cell)",
+    )
 
 
 def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
@@ -252,8 +278,13 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
                 raise LogError(
                     f"log{(' ' + source) if source else ''}: column {c!r} is not numeric at "
                     f"row {row} (value {col.iloc[row]!r}); expected a number in SI units",
-                    path=source, column=c, row=row, value=col.iloc[row],
-                    run=str(df["run"].iloc[row]), expected="a number in SI units")
+                    path=source,
+                    column=c,
+                    row=row,
+                    value=col.iloc[row],
+                    run=str(df["run"].iloc[row]),
+                    expected="a number in SI units",
+                )
             col = num
         out[c] = col.astype("float64")
     for c in df.columns:
@@ -261,9 +292,13 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
             continue
         col = df[c]
         if isinstance(col, pd.DataFrame):  # a repeated column name
-            raise LogError(f"log{(' ' + source) if source else ''}: column {c!r} appears "
-                           f"{col.shape[1]} times; expected each column once", path=source,
-                           column=str(c), expected="each column once")
+            raise LogError(
+                f"log{(' ' + source) if source else ''}: column {c!r} appears "
+                f"{col.shape[1]} times; expected each column once",
+                path=source,
+                column=str(c),
+                expected="each column once",
+            )
         if pd.api.types.is_bool_dtype(col):
             out[c] = col
         elif pd.api.types.is_numeric_dtype(col):
@@ -292,9 +327,12 @@ def _check_extra_types(frames: list[pd.DataFrame], paths: list[str]) -> None:
             raise LogError(
                 f"extra column {c!r} is numeric in {', '.join(by['numeric'][:3])} but text in "
                 f"{', '.join(by['text'][:3])}; expected one type in every file (a number "
-                "for a numeric channel, text for a categorical one)", column=c,
-                path=by["text"][0], expected="the same type in every file",
-                value={k: v[:10] for k, v in by.items()})
+                "for a numeric channel, text for a categorical one)",
+                column=c,
+                path=by["text"][0],
+                expected="the same type in every file",
+                value={k: v[:10] for k, v in by.items()},
+            )
 
 
 def current_sign(df: pd.DataFrame) -> dict[str, Any]:
@@ -321,43 +359,56 @@ def current_sign(df: pd.DataFrame) -> dict[str, Any]:
     >>> current_sign(df)["ros_sign"]
     True
     """
-    v = np.hypot(pd.to_numeric(df["vx"], errors="coerce").to_numpy(float),
-                 pd.to_numeric(df["vy"], errors="coerce").to_numpy(float))
+    v = np.hypot(
+        pd.to_numeric(df["vx"], errors="coerce").to_numpy(float),
+        pd.to_numeric(df["vy"], errors="coerce").to_numpy(float),
+    )
     w = np.abs(pd.to_numeric(df["wz"], errors="coerce").to_numpy(float))
     cur = pd.to_numeric(df["current"], errors="coerce").to_numpy(float)
     with np.errstate(invalid="ignore"):
         moving = ((v >= MOTION_THRESHOLD) | (w >= MOTION_THRESHOLD)) & np.isfinite(cur)
     c = cur[moving]
     share = float(np.mean(c < 0)) if c.size else 0.0
-    return {"n_motion": int(c.size), "negative_share": share,
-            "median_current_a": float(np.median(c)) if c.size else None,
-            "ros_sign": bool(c.size >= SIGN_MIN_SAMPLES and share >= SIGN_NEGATIVE_SHARE)}
+    return {
+        "n_motion": int(c.size),
+        "negative_share": share,
+        "median_current_a": float(np.median(c)) if c.size else None,
+        "ros_sign": bool(c.size >= SIGN_MIN_SAMPLES and share >= SIGN_NEGATIVE_SHARE),
+    }
 
 
 def _apply_current_sign(df: pd.DataFrame, path: Path, mode: str, rep: LoadReport) -> pd.DataFrame:
     """Negate a table's current per ``table_current`` (see :func:`load_logs`)."""
     sign = current_sign(df)
-    entry = {"path": str(path), "negative_share": round(sign["negative_share"], 4),
-             "median_current_a": sign["median_current_a"], "n_motion": sign["n_motion"]}
+    entry = {
+        "path": str(path),
+        "negative_share": round(sign["negative_share"], 4),
+        "median_current_a": sign["median_current_a"],
+        "n_motion": sign["n_motion"],
+    }
     if mode == "ros" or (mode == "auto" and sign["ros_sign"]):
         df = df.assign(current=-df["current"])
         rep.current_sign_flipped = True
         rep.current_negated_files.append(entry)
         if mode == "auto":
-            msg = (f"log {path}: the battery current is negative in "
-                   f"{sign['negative_share']:.0%} of the {sign['n_motion']} samples in motion "
-                   f"(median {sign['median_current_a']:.3g} A): read as the ROS BatteryState "
-                   "sign (negative while discharging) and negated to the canonical sign "
-                   "(positive while discharging). Pass table_current='discharge_positive' to "
-                   "keep it as it is.")
+            msg = (
+                f"log {path}: the battery current is negative in "
+                f"{sign['negative_share']:.0%} of the {sign['n_motion']} samples in motion "
+                f"(median {sign['median_current_a']:.3g} A): read as the ROS BatteryState "
+                "sign (negative while discharging) and negated to the canonical sign "
+                "(positive while discharging). Pass table_current='discharge_positive' to "
+                "keep it as it is."
+            )
             warnings.warn(msg, UserWarning, stacklevel=3)
             rep.notes.append(msg)
     elif sign["ros_sign"]:  # discharge_positive, yet mostly negative: say so
-        msg = (f"log {path}: the battery current is negative in {sign['negative_share']:.0%} "
-               f"of the {sign['n_motion']} samples in motion although table_current="
-               "'discharge_positive' says positive while discharging; preprocessing will drop "
-               "those samples (negative power). If the logger uses the ROS BatteryState sign, "
-               "load with table_current='ros' or 'auto'.")
+        msg = (
+            f"log {path}: the battery current is negative in {sign['negative_share']:.0%} "
+            f"of the {sign['n_motion']} samples in motion although table_current="
+            "'discharge_positive' says positive while discharging; preprocessing will drop "
+            "those samples (negative power). If the logger uses the ROS BatteryState sign, "
+            "load with table_current='ros' or 'auto'."
+        )
         warnings.warn(msg, UserWarning, stacklevel=3)
         rep.notes.append(msg)
     return df
@@ -425,9 +476,13 @@ def load_logs(
     (['ramp1', 'ramp1'], 'float64', 'category')
     """
     if table_current not in TABLE_CURRENT:
-        raise LogError(f"table_current={table_current!r} is not valid; expected one of "
-                       f"{', '.join(map(repr, TABLE_CURRENT))}", value=table_current,
-                       param="table_current", expected=" or ".join(TABLE_CURRENT))
+        raise LogError(
+            f"table_current={table_current!r} is not valid; expected one of "
+            f"{', '.join(map(repr, TABLE_CURRENT))}",
+            value=table_current,
+            param="table_current",
+            expected=" or ".join(TABLE_CURRENT),
+        )
     files = _expand(paths)
     rep = LoadReport()
     frames: list[pd.DataFrame] = []
@@ -438,8 +493,12 @@ def load_logs(
             fmt = TABLE_SUFFIXES[path.suffix.lower()]
             if scanned and not set(REQUIRED_COLUMNS) & set(df.columns):
                 # a table in the folder that is not a log at all (e.g. a run list)
-                rep.skipped.append({"path": str(path), "reason": "no log column (t, qw, ..., "
-                                    "current): not a robot log"})
+                rep.skipped.append(
+                    {
+                        "path": str(path),
+                        "reason": "no log column (t, qw, ..., current): not a robot log",
+                    }
+                )
                 log.info("skipped %s: it has none of the log columns", path)
                 continue
             check_columns(df.columns, str(path), need_run=False)
@@ -463,22 +522,29 @@ def load_logs(
         runs = sorted(df["run"].unique())
         for r in runs:
             if r in owner:
-                raise LogError(f"run id {r!r} found in both {owner[r]!r} and {str(path)!r}; "
-                               "run ids must be unique (rename a file or its 'run' values)",
-                               path=path, run=str(r), value=[owner[r], str(path)],
-                               expected="each run id in one file")
+                raise LogError(
+                    f"run id {r!r} found in both {owner[r]!r} and {str(path)!r}; "
+                    "run ids must be unique (rename a file or its 'run' values)",
+                    path=path,
+                    run=str(r),
+                    value=[owner[r], str(path)],
+                    expected="each run id in one file",
+                )
             owner[r] = str(path)
         rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": runs})
         frames.append(df)
     if not frames:
-        raise LogIOError(f"no robot log among {', '.join(str(p) for p, _ in files)}; "
-                         "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS))
+        raise LogIOError(
+            f"no robot log among {', '.join(str(p) for p, _ in files)}; "
+            "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS)
+        )
     _check_extra_types(frames, [f["path"] for f in rep.files])
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     for c in samples.columns:
         col = samples[c]
-        if c not in CANONICAL_COLUMNS and not (pd.api.types.is_numeric_dtype(col)
-                                               or isinstance(col.dtype, pd.CategoricalDtype)):
+        if c not in CANONICAL_COLUMNS and not (
+            pd.api.types.is_numeric_dtype(col) or isinstance(col.dtype, pd.CategoricalDtype)
+        ):
             samples[c] = col.astype("category")
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     rep.validation = validate_log(samples, voltage_range=voltage_range, max_gap=max_gap)
@@ -486,6 +552,7 @@ def load_logs(
     rep.runs = rep.validation.runs
     rep.columns = list(samples.columns)
     rep.extra_columns = [c for c in samples.columns if c not in CANONICAL_COLUMNS]
-    log.info("loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs),
-             len(frames))
+    log.info(
+        "loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs), len(frames)
+    )
     return (samples, rep) if report else samples

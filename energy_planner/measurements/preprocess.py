@@ -122,15 +122,26 @@ class PreprocessParams:
     def __post_init__(self) -> None:
         def need(ok: bool, name: str, expected: str) -> None:
             if not ok:
-                raise LogError(f"PreprocessParams.{name}={getattr(self, name)!r} is not "
-                               f"valid; expected {expected}", param=name,
-                               value=getattr(self, name), expected=expected)
+                raise LogError(
+                    f"PreprocessParams.{name}={getattr(self, name)!r} is not "
+                    f"valid; expected {expected}",
+                    param=name,
+                    value=getattr(self, name),
+                    expected=expected,
+                )
 
-        need(0 <= self.voltage_min < self.voltage_max, "voltage_min",
-             "0 <= voltage_min < voltage_max")
+        need(
+            0 <= self.voltage_min < self.voltage_max,
+            "voltage_min",
+            "0 <= voltage_min < voltage_max",
+        )
         need(self.max_gap > 0, "max_gap", "a time step > 0 s")
-        need(int(self.hampel_half_window) == self.hampel_half_window
-             and self.hampel_half_window >= 1, "hampel_half_window", "an integer >= 1")
+        need(
+            int(self.hampel_half_window) == self.hampel_half_window
+            and self.hampel_half_window >= 1,
+            "hampel_half_window",
+            "an integer >= 1",
+        )
         need(self.hampel_n_sigma > 0, "hampel_n_sigma", "a threshold > 0")
         need(self.hampel_min_scale_w >= 0, "hampel_min_scale_w", "a scale >= 0 W")
         need(self.ema_tau >= 0, "ema_tau", "a time constant >= 0 s (0 disables)")
@@ -194,18 +205,28 @@ class PreprocessReport:
         for s in self.steps:
             if s.name == name:
                 return s
-        raise UnknownNameError(f"no step {name!r}; steps: "
-                               f"{', '.join(s.name for s in self.steps)}", value=name,
-                               expected=", ".join(s.name for s in self.steps))
+        raise UnknownNameError(
+            f"no step {name!r}; steps: {', '.join(s.name for s in self.steps)}",
+            value=name,
+            expected=", ".join(s.name for s in self.steps),
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""
         return {
             "n_input": self.n_input,
             "n_output": self.n_output,
-            "steps": [{"name": s.name, "n_in": s.n_in, "n_out": s.n_out,
-                       "removed": s.n_removed, "reasons": dict(s.removed), "note": s.note}
-                      for s in self.steps],
+            "steps": [
+                {
+                    "name": s.name,
+                    "n_in": s.n_in,
+                    "n_out": s.n_out,
+                    "removed": s.n_removed,
+                    "reasons": dict(s.removed),
+                    "note": s.note,
+                }
+                for s in self.steps
+            ],
             "dropped_runs": [dict(d) for d in self.dropped_runs],
             "params": self.params.to_dict(),
         }
@@ -285,8 +306,9 @@ def ema(x, t, tau: float) -> np.ndarray:
     return _ema_kernel()(np.ascontiguousarray(x), np.ascontiguousarray(t), float(tau))
 
 
-def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
-                min_scale: float = 0.0) -> np.ndarray:
+def hampel_mask(
+    x, half_window: int = 5, n_sigma: float = 3.0, min_scale: float = 0.0
+) -> np.ndarray:
     """Boolean mask of Hampel outliers in ``x``.
 
     A sample is an outlier when ``|x_i - med_i| > n_sigma * max(1.4826 * MAD_i,
@@ -310,7 +332,7 @@ def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
     chunk = 100_000
     for a in range(0, n, chunk):
         b = min(n, a + chunk)
-        win = np.lib.stride_tricks.sliding_window_view(pad[a:b + 2 * w], 2 * w + 1)
+        win = np.lib.stride_tricks.sliding_window_view(pad[a : b + 2 * w], 2 * w + 1)
         med = np.nanmedian(win, axis=1)
         mad = np.nanmedian(np.abs(win - med[:, None]), axis=1)
         scale = np.maximum(1.4826 * mad, min_scale)
@@ -321,8 +343,9 @@ def hampel_mask(x, half_window: int = 5, n_sigma: float = 3.0,
 # ------------------------------------------------------------------------------ steps
 
 
-def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                 ) -> tuple[pd.DataFrame, StepRecord]:
+def drop_invalid(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Drop samples with a non-finite value, an implausible voltage or no IMU orientation.
 
     A sample counts once, under the first reason it meets: ``non-finite <column>`` in
@@ -341,22 +364,23 @@ def drop_invalid(samples: pd.DataFrame, params: PreprocessParams = PreprocessPar
     with np.errstate(invalid="ignore"):
         bv = ~bad & ((v < params.voltage_min) | (v > params.voltage_max))
     if bv.any():
-        removed[f"voltage outside {params.voltage_min:g}..{params.voltage_max:g} V"] = \
-            int(bv.sum())
+        removed[f"voltage outside {params.voltage_min:g}..{params.voltage_max:g} V"] = int(bv.sum())
         bad |= bv
     q = np.column_stack([samples[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")])
     with np.errstate(invalid="ignore"):
         bq = ~bad & (np.abs(np.linalg.norm(q, axis=1) - 1.0) > params.max_quat_norm_error)
     if bq.any():
-        removed[f"IMU quaternion norm off 1 by more than {params.max_quat_norm_error:g}"] = \
-            int(bq.sum())
+        removed[f"IMU quaternion norm off 1 by more than {params.max_quat_norm_error:g}"] = int(
+            bq.sum()
+        )
         bad |= bq
     out = samples.loc[~bad].reset_index(drop=True)
     return out, StepRecord("drop_invalid", n, len(out), removed)
 
 
-def split_segments(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                   ) -> tuple[pd.DataFrame, StepRecord]:
+def split_segments(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Add ``segment`` (int, from 0 within each run), split at time gaps.
 
     A step longer than ``max_gap`` s starts a new segment. Nothing is removed; the note
@@ -376,31 +400,38 @@ def split_segments(samples: pd.DataFrame, params: PreprocessParams = PreprocessP
     return out, StepRecord("split_segments", len(samples), len(out), {}, note)
 
 
-def add_power(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-              ) -> tuple[pd.DataFrame, StepRecord]:
+def add_power(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Add electrical power ``power = voltage * current`` (W)."""
     out = samples.copy()
     out["power"] = out["voltage"].to_numpy(dtype=float) * out["current"].to_numpy(dtype=float)
     return out, StepRecord("add_power", len(samples), len(out), {}, "power = voltage * current")
 
 
-def hampel_filter(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams(),
-                  column: str = "power") -> tuple[pd.DataFrame, StepRecord]:
+def hampel_filter(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams(), column: str = "power"
+) -> tuple[pd.DataFrame, StepRecord]:
     """Drop Hampel outliers of ``column`` (default power), per run and segment."""
     x = samples[column].to_numpy(dtype=float)
     bad = np.zeros(len(samples), dtype=bool)
     for sl in segment_slices(samples):
-        bad[sl] = hampel_mask(x[sl], params.hampel_half_window, params.hampel_n_sigma,
-                              params.hampel_min_scale_w)
+        bad[sl] = hampel_mask(
+            x[sl], params.hampel_half_window, params.hampel_n_sigma, params.hampel_min_scale_w
+        )
     out = samples.loc[~bad].reset_index(drop=True)
-    reason = (f"{column} beyond {params.hampel_n_sigma:g} robust sigma of the running median "
-              f"({2 * params.hampel_half_window + 1} samples)")
-    return out, StepRecord("hampel_filter", len(samples), len(out),
-                           {reason: int(bad.sum())} if bad.any() else {})
+    reason = (
+        f"{column} beyond {params.hampel_n_sigma:g} robust sigma of the running median "
+        f"({2 * params.hampel_half_window + 1} samples)"
+    )
+    return out, StepRecord(
+        "hampel_filter", len(samples), len(out), {reason: int(bad.sum())} if bad.any() else {}
+    )
 
 
-def ema_smooth(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-               ) -> tuple[pd.DataFrame, StepRecord]:
+def ema_smooth(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """EMA (time constant ``ema_tau`` s) of ``ema_columns``, per run and segment."""
     out = samples.copy()
     t = out["t"].to_numpy(dtype=float)
@@ -412,13 +443,17 @@ def ema_smooth(samples: pd.DataFrame, params: PreprocessParams = PreprocessParam
         for sl in segment_slices(out):
             y[sl] = ema(x[sl], t[sl], params.ema_tau)
         out[c] = y
-    note = (f"tau = {params.ema_tau:g} s on {', '.join(params.ema_columns)}"
-            if params.ema_tau > 0 else "disabled (ema_tau = 0)")
+    note = (
+        f"tau = {params.ema_tau:g} s on {', '.join(params.ema_columns)}"
+        if params.ema_tau > 0
+        else "disabled (ema_tau = 0)"
+    )
     return out, StepRecord("ema_smooth", len(samples), len(out), {}, note)
 
 
-def body_accelerations(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                       ) -> tuple[pd.DataFrame, StepRecord]:
+def body_accelerations(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Add ``ax, ay`` (m/s^2): ``d vx/dt``, ``d vy/dt`` of the (smoothed) twist.
 
     Per run and segment, by second-order central differences on the sample times
@@ -433,32 +468,37 @@ def body_accelerations(samples: pd.DataFrame, params: PreprocessParams = Preproc
             if sl.stop - sl.start > 1:
                 a[sl] = np.gradient(v[sl], t[sl])
         out[dst] = a
-    return out, StepRecord("body_accelerations", len(samples), len(out), {},
-                           "ax, ay = d(vx, vy)/dt")
+    return out, StepRecord(
+        "body_accelerations", len(samples), len(out), {}, "ax, ay = d(vx, vy)/dt"
+    )
 
 
-def add_slope_heading(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                      ) -> tuple[pd.DataFrame, StepRecord]:
+def add_slope_heading(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Add ``alpha``, ``gamma`` (rad) from the IMU quaternion and ``speed`` (m/s)."""
     out = samples.copy()
     q = [out[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")]
     out["alpha"], out["gamma"] = imu_slope_heading(*q, heading=params.heading)
     out["speed"] = np.hypot(out["vx"].to_numpy(dtype=float), out["vy"].to_numpy(dtype=float))
     note = "alpha = arccos(u_z), gamma = " + (
-        "-atan2(u_y, u_x)" if params.heading == "plane" else "atan2(-u_y, u_x u_z)")
+        "-atan2(u_y, u_x)" if params.heading == "plane" else "atan2(-u_y, u_x u_z)"
+    )
     return out, StepRecord("add_slope_heading", len(samples), len(out), {}, note)
 
 
-def discard_low_speed(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                      ) -> tuple[pd.DataFrame, StepRecord]:
+def discard_low_speed(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Drop samples with ``hypot(vx, vy) < min_speed`` AND ``|wz| < min_yaw_rate``."""
     speed = np.hypot(samples["vx"].to_numpy(dtype=float), samples["vy"].to_numpy(dtype=float))
     wz = np.abs(samples["wz"].to_numpy(dtype=float))
     bad = (speed < params.min_speed) & (wz < params.min_yaw_rate)
     out = samples.loc[~bad].reset_index(drop=True)
-    reason = (f"speed < {params.min_speed:g} m/s and |wz| < {params.min_yaw_rate:g} rad/s")
-    return out, StepRecord("discard_low_speed", len(samples), len(out),
-                           {reason: int(bad.sum())} if bad.any() else {})
+    reason = f"speed < {params.min_speed:g} m/s and |wz| < {params.min_yaw_rate:g} rad/s"
+    return out, StepRecord(
+        "discard_low_speed", len(samples), len(out), {reason: int(bad.sum())} if bad.any() else {}
+    )
 
 
 def mechanical_lower_bound(samples: pd.DataFrame, mass_kg: float) -> np.ndarray:
@@ -472,8 +512,9 @@ def mechanical_lower_bound(samples: pd.DataFrame, mass_kg: float) -> np.ndarray:
     return np.maximum(mass_kg * G * v_up, 0.0)
 
 
-def consistency_bound(samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
-                      ) -> tuple[pd.DataFrame, StepRecord]:
+def consistency_bound(
+    samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
+) -> tuple[pd.DataFrame, StepRecord]:
     """Drop samples whose electrical power is inconsistent with the motion.
 
     Reasons (a sample counts under the first): ``power < min_power_w``;
@@ -487,12 +528,14 @@ def consistency_bound(samples: pd.DataFrame, params: PreprocessParams = Preproce
     bad = low | high
     mech = np.zeros(len(samples), dtype=bool)
     if params.min_mech_ratio > 0 and len(samples):
-        mech = ~bad & (p < params.min_mech_ratio
-                       * mechanical_lower_bound(samples, params.robot_mass_kg))
-    for reason, m in ((f"power < {params.min_power_w:g} W", low),
-                      (f"power > {params.max_power_w:g} W", high),
-                      (f"power < {params.min_mech_ratio:g} x m g v_up "
-                       f"(m = {params.robot_mass_kg:g} kg)", mech)):
+        mech = ~bad & (
+            p < params.min_mech_ratio * mechanical_lower_bound(samples, params.robot_mass_kg)
+        )
+    for reason, m in (
+        (f"power < {params.min_power_w:g} W", low),
+        (f"power > {params.max_power_w:g} W", high),
+        (f"power < {params.min_mech_ratio:g} x m g v_up (m = {params.robot_mass_kg:g} kg)", mech),
+    ):
         if m.any():
             removed[reason] = int(m.sum())
     bad |= mech
@@ -514,8 +557,9 @@ STEPS: tuple[Callable[..., tuple[pd.DataFrame, StepRecord]], ...] = (
 )
 
 
-def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
-               ) -> tuple[pd.DataFrame, PreprocessReport]:
+def preprocess(
+    samples: pd.DataFrame, params: PreprocessParams | None = None
+) -> tuple[pd.DataFrame, PreprocessReport]:
     """Clean canonical samples for calibration (paper IV-B); see the module notes.
 
     Parameters
@@ -568,10 +612,15 @@ def preprocess(samples: pd.DataFrame, params: PreprocessParams | None = None
         left = set(df["run"].unique())
         for run in sorted(alive - left):
             why = "; ".join(rec.removed) or rec.note
-            report.dropped_runs.append({
-                "run": str(run), "n_samples": int(counts[run]), "step": rec.name,
-                "reason": f"every sample removed; the last ones by {rec.name}"
-                          + (f" ({why})" if why else "")})
+            report.dropped_runs.append(
+                {
+                    "run": str(run),
+                    "n_samples": int(counts[run]),
+                    "step": rec.name,
+                    "reason": f"every sample removed; the last ones by {rec.name}"
+                    + (f" ({why})" if why else ""),
+                }
+            )
         alive &= left
     warn_dropped_runs(report.dropped_runs, "preprocessing")
     return df, report
@@ -583,8 +632,10 @@ def warn_dropped_runs(dropped: list[dict[str, Any]], where: str) -> None:
         return
     import warnings
 
-    shown = "; ".join(f"{d['run']!r} ({d['n_samples']} samples): {d['reason']}"
-                      for d in dropped[:10])
+    shown = "; ".join(
+        f"{d['run']!r} ({d['n_samples']} samples): {d['reason']}" for d in dropped[:10]
+    )
     more = f"; and {len(dropped) - 10} more" if len(dropped) > 10 else ""
-    warnings.warn(f"{where} dropped {len(dropped)} whole run(s): {shown}{more}", UserWarning,
-                  stacklevel=3)
+    warnings.warn(
+        f"{where} dropped {len(dropped)} whole run(s): {shown}{more}", UserWarning, stacklevel=3
+    )

@@ -87,8 +87,9 @@ def _yaw(qw, qx, qy, qz) -> float:
 
 
 def _topics_listing(reader) -> str:
-    return ", ".join(f"{c.topic} ({c.msgtype})" for c in
-                     sorted(reader.connections, key=lambda c: c.topic))
+    return ", ".join(
+        f"{c.topic} ({c.msgtype})" for c in sorted(reader.connections, key=lambda c: c.topic)
+    )
 
 
 class _NonStandardTypes(Exception):
@@ -118,8 +119,13 @@ def _open_reader(path: Path, fast: bool):
         raise LogIOError(f"cannot open ROS bag {str(path)!r}: {err}") from err
 
 
-def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
-                  extra_topics: Mapping[str, str] | None, fast: bool = True):
+def _read_streams(
+    path: Path,
+    topics: Mapping[str, str],
+    stamp: str,
+    extra_topics: Mapping[str, str] | None,
+    fast: bool = True,
+):
     reader, is2 = _open_reader(path, fast)
     try:
         reader.open()
@@ -131,22 +137,25 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
             if topic not in by_topic:
                 raise LogError(
                     f"ROS bag {str(path)!r} has no topic {topic!r} (for {MSGTYPES[role]}); "
-                    f"topics in the bag: {_topics_listing(reader)}")
+                    f"topics in the bag: {_topics_listing(reader)}"
+                )
             if by_topic[topic].msgtype != MSGTYPES[role]:
                 raise LogError(
                     f"ROS bag {str(path)!r}: topic {topic!r} carries "
                     f"{by_topic[topic].msgtype}, expected {MSGTYPES[role]}; topics in the "
-                    f"bag: {_topics_listing(reader)}")
+                    f"bag: {_topics_listing(reader)}"
+                )
         extras = dict(extra_topics or {})
         if extra_topics is None:
             for c in reader.connections:
                 if c.topic.startswith(EXTRA_NAMESPACE) and c.msgtype in (_FLOAT64, _STRING):
-                    extras[c.topic[len(EXTRA_NAMESPACE):]] = c.topic
+                    extras[c.topic[len(EXTRA_NAMESPACE) :]] = c.topic
         for col, topic in extras.items():
             if topic not in by_topic:
                 raise LogError(
                     f"ROS bag {str(path)!r} has no topic {topic!r} (extra channel {col!r}); "
-                    f"topics in the bag: {_topics_listing(reader)}")
+                    f"topics in the bag: {_topics_listing(reader)}"
+                )
         role_of = {t: r for r, t in topics.items()}
         col_of = {t: c for c, t in extras.items()}
         rows: dict[str, list] = {r: [] for r in topics}
@@ -157,13 +166,15 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
             if any(d is None for d in decoders.values()):
                 raise _NonStandardTypes
         else:
-            decoders = {c.id: functools.partial(_reader_decode, reader, c.msgtype)
-                        for c in conns}
+            decoders = {c.id: functools.partial(_reader_decode, reader, c.msgtype) for c in conns}
         for conn, bag_ns, raw in reader.messages(connections=conns):
             msg = decoders[conn.id](raw)
             if conn.topic in col_of:
-                ns = bag_ns if stamp == "bag" or not hasattr(msg, "header") else \
-                    _stamp_ns(msg, bag_ns, stamp)
+                ns = (
+                    bag_ns
+                    if stamp == "bag" or not hasattr(msg, "header")
+                    else _stamp_ns(msg, bag_ns, stamp)
+                )
                 xrows[col_of[conn.topic]].append((ns, msg.data))
                 continue
             role = role_of[conn.topic]
@@ -175,8 +186,17 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
                 tw = msg.twist.twist
                 p = msg.pose.pose
                 o = p.orientation
-                rows[role].append((ns, tw.linear.x, tw.linear.y, tw.angular.z,
-                                   p.position.x, p.position.y, _yaw(o.w, o.x, o.y, o.z)))
+                rows[role].append(
+                    (
+                        ns,
+                        tw.linear.x,
+                        tw.linear.y,
+                        tw.angular.z,
+                        p.position.x,
+                        p.position.y,
+                        _yaw(o.w, o.x, o.y, o.z),
+                    )
+                )
             else:
                 rows[role].append((ns, float(msg.voltage), float(msg.current)))
     except _NonStandardTypes:
@@ -186,8 +206,11 @@ def _read_streams(path: Path, topics: Mapping[str, str], stamp: str,
         reader.close()
         raise
     reader.close()
-    cols = {"imu": ["qw", "qx", "qy", "qz"], "odom": ["vx", "vy", "wz", "x", "y", "yaw"],
-            "battery": ["voltage", "current"]}
+    cols = {
+        "imu": ["qw", "qx", "qy", "qz"],
+        "odom": ["vx", "vy", "wz", "x", "y", "yaw"],
+        "battery": ["voltage", "current"],
+    }
     streams = {}
     for role, r in rows.items():
         if not r:
@@ -301,8 +324,10 @@ def load_rosbag(
     if clock not in ("imu", "odom"):
         raise LogError(f"clock={clock!r} is not valid; expected 'imu' or 'odom'")
     if battery_current not in ("ros", "discharge_positive"):
-        raise LogError(f"battery_current={battery_current!r} is not valid; expected 'ros' "
-                       "or 'discharge_positive'")
+        raise LogError(
+            f"battery_current={battery_current!r} is not valid; expected 'ros' "
+            "or 'discharge_positive'"
+        )
     topics = {"imu": imu_topic, "odom": odom_topic, "battery": battery_topic}
     streams, xstreams, is2 = _read_streams(path, topics, stamp, extra_topics)
     rep = LoadReport()
@@ -314,8 +339,12 @@ def load_rosbag(
             raise LogError(
                 f"ROS bag {str(path)!r}: {ndup} of {ns.size} messages on {topics[role]!r} "
                 f"repeat a {stamp} stamp (a driver that does not stamp its messages?); "
-                + ("use stamp='bag' to take the bag record times" if stamp == "header"
-                   else "the bag times are unusable"))
+                + (
+                    "use stamp='bag' to take the bag record times"
+                    if stamp == "header"
+                    else "the bag times are unusable"
+                )
+            )
         if ndup:
             dropped[f"repeated stamp on {topics[role]}"] = ndup
         clean[role] = (ns[idx], {k: v[idx] for k, v in vals.items()})
@@ -335,13 +364,16 @@ def load_rosbag(
         span = ns[i] - ns[i - 1] if ns.size > 1 else np.zeros_like(tc_ns)
         bad = inside & ~exact & (span > gap_ns)
         if bad.any():
-            dropped[f"{topics[role]} silent for more than {max_interp_gap:g} s"] = \
-                int((bad & keep).sum())
+            dropped[f"{topics[role]} silent for more than {max_interp_gap:g} s"] = int(
+                (bad & keep).sum()
+            )
             keep &= ~bad
     tc_ns = tc_ns[keep]
     if tc_ns.size == 0:
-        raise LogError(f"ROS bag {str(path)!r}: no {topics[clock]} message lies in the time "
-                       "span common to all topics; check the topics and their stamps")
+        raise LogError(
+            f"ROS bag {str(path)!r}: no {topics[clock]} message lies in the time "
+            "span common to all topics; check the topics and their stamps"
+        )
     tsec = tc_ns / 1e9
     out: dict[str, Any] = {"t": tsec}
 
@@ -369,14 +401,22 @@ def load_rosbag(
     if battery_current == "ros":
         cur = -cur
         rep.current_sign_flipped = True
-        log.info("%s: battery current negated (ROS BatteryState is negative while "
-                 "discharging; canonical is positive)", path)
+        log.info(
+            "%s: battery current negated (ROS BatteryState is negative while "
+            "discharging; canonical is positive)",
+            path,
+        )
     if cur.size and np.median(cur) < -SIGN_WARNING_A:
         other = "discharge_positive" if battery_current == "ros" else "ros"
-        log.warning("%s: median battery current %.3g A is negative (read with "
-                    "battery_current=%r): the robot would be charging while it walks; the "
-                    "driver may use the other sign convention (battery_current=%r)",
-                    path, float(np.median(cur)), battery_current, other)
+        log.warning(
+            "%s: median battery current %.3g A is negative (read with "
+            "battery_current=%r): the robot would be charging while it walks; the "
+            "driver may use the other sign convention (battery_current=%r)",
+            path,
+            float(np.median(cur)),
+            battery_current,
+            other,
+        )
         rep.notes.append(f"warning: median current {float(np.median(cur)):.3g} A < 0")
     out["current"] = cur
     for k in ("x", "y"):
@@ -395,15 +435,24 @@ def load_rosbag(
             j = np.searchsorted(xs, tc_ns, side="right") - 1
             out[col] = pd.Categorical([vals[i] if i >= 0 else None for i in j])
         else:
-            out[col] = np.interp(tsec, xs / 1e9, np.asarray(vals, dtype=float),
-                                 left=np.nan, right=np.nan)
+            out[col] = np.interp(
+                tsec, xs / 1e9, np.asarray(vals, dtype=float), left=np.nan, right=np.nan
+            )
     name = run if run is not None else (path.stem if path.suffix == ".bag" else path.name)
     df = pd.DataFrame(out)
     df.insert(0, "run", str(name))
     df = canonicalize(df, str(path))
     fmt = "rosbag2" if is2 else "rosbag1"
-    rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": [str(name)],
-                      "topics": dict(topics), "extra_topics": sorted(xstreams)})
+    rep.files.append(
+        {
+            "path": str(path),
+            "format": fmt,
+            "rows": len(df),
+            "runs": [str(name)],
+            "topics": dict(topics),
+            "extra_topics": sorted(xstreams),
+        }
+    )
     rep.n_rows = len(df)
     rep.runs = [str(name)]
     rep.columns = list(df.columns)
@@ -411,13 +460,15 @@ def load_rosbag(
     rep.dropped = dropped
     rep.notes.append(
         f"{fmt} {path.name}: resampled onto the {topics[clock]} clock (linear in time; "
-        f"{'quaternion by Slerp; ' if clock == 'odom' else ''}yaw unwrapped)")
+        f"{'quaternion by Slerp; ' if clock == 'odom' else ''}yaw unwrapped)"
+    )
     return (df, rep) if report else df
 
 
 def _ros_time(T, ns: int):
-    return T["builtin_interfaces/msg/Time"](sec=int(ns // 1_000_000_000),
-                                            nanosec=int(ns % 1_000_000_000))
+    return T["builtin_interfaces/msg/Time"](
+        sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000)
+    )
 
 
 def _header(T, ros1: bool, ns: int, frame: str, seq: int):
@@ -490,15 +541,18 @@ def write_rosbag(
     tops = {**DEFAULT_TOPICS, **dict(topics or {})}
     unknown = set(tops) - set(DEFAULT_TOPICS)
     if unknown:
-        raise LogError(f"unknown topic role(s) {sorted(unknown)}; expected "
-                       f"{sorted(DEFAULT_TOPICS)}")
+        raise LogError(
+            f"unknown topic role(s) {sorted(unknown)}; expected {sorted(DEFAULT_TOPICS)}"
+        )
     samples = samples.copy()
     if "run" not in samples.columns:
         samples.insert(0, "run", "run")
     check_columns(samples.columns, "samples given to write_rosbag")
     if (samples["t"] < 0).any():
-        raise LogError("write_rosbag: t must be >= 0 s (bag times are unsigned); shift the "
-                       f"times (min t = {samples['t'].min()!r})")
+        raise LogError(
+            "write_rosbag: t must be >= 0 s (bag times are unsigned); shift the "
+            f"times (min t = {samples['t'].min()!r})"
+        )
     path = Path(path)
     runs = sorted(samples["run"].astype(str).unique())
     if len(runs) == 1:
@@ -509,13 +563,20 @@ def write_rosbag(
     for r, target in targets.items():
         if target.exists():
             raise LogIOError(f"write_rosbag: {str(target)!r} exists already; not overwriting")
-        _write_one(samples[samples["run"].astype(str) == r].sort_values("t"), target,
-                   version, tops, extras, storage)
+        _write_one(
+            samples[samples["run"].astype(str) == r].sort_values("t"),
+            target,
+            version,
+            tops,
+            extras,
+            storage,
+        )
     return list(targets.values())
 
 
-def _write_one(df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, str],
-               extras: bool, storage: str) -> None:
+def _write_one(
+    df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, str], extras: bool, storage: str
+) -> None:
     ts = _typestore(version)
     T = ts.types
     ros1 = version == 1
@@ -534,14 +595,18 @@ def _write_one(df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, st
         for c in extra_cols:
             numeric = pd.api.types.is_numeric_dtype(df[c])
             values = df[c].to_numpy(dtype=float) if numeric else df[c].astype(str).tolist()
-            xconn[c] = (w.add_connection(EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING,
-                                         typestore=ts), numeric, values)
+            xconn[c] = (
+                w.add_connection(
+                    EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING, typestore=ts
+                ),
+                numeric,
+                values,
+            )
         for i in range(n):
             ns = int(stamps[i])
             imu = T["sensor_msgs/msg/Imu"](
                 header=_header(T, ros1, ns, "imu_link", i),
-                orientation=Quat(x=col["qx"][i], y=col["qy"][i], z=col["qz"][i],
-                                 w=col["qw"][i]),
+                orientation=Quat(x=col["qx"][i], y=col["qy"][i], z=col["qz"][i], w=col["qw"][i]),
                 orientation_covariance=np.zeros(9),
                 angular_velocity=Vec(x=0.0, y=0.0, z=col["wz"][i]),
                 angular_velocity_covariance=np.zeros(9),
@@ -554,25 +619,36 @@ def _write_one(df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, st
                 child_frame_id="base_link",
                 pose=T["geometry_msgs/msg/PoseWithCovariance"](
                     pose=T["geometry_msgs/msg/Pose"](
-                        position=T["geometry_msgs/msg/Point"](x=col["x"][i], y=col["y"][i],
-                                                              z=0.0),
-                        orientation=Quat(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h))),
-                    covariance=np.zeros(36)),
+                        position=T["geometry_msgs/msg/Point"](x=col["x"][i], y=col["y"][i], z=0.0),
+                        orientation=Quat(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h)),
+                    ),
+                    covariance=np.zeros(36),
+                ),
                 twist=T["geometry_msgs/msg/TwistWithCovariance"](
                     twist=T["geometry_msgs/msg/Twist"](
                         linear=Vec(x=col["vx"][i], y=col["vy"][i], z=0.0),
-                        angular=Vec(x=0.0, y=0.0, z=col["wz"][i])),
-                    covariance=np.zeros(36)),
+                        angular=Vec(x=0.0, y=0.0, z=col["wz"][i]),
+                    ),
+                    covariance=np.zeros(36),
+                ),
             )
             bat = T["sensor_msgs/msg/BatteryState"](
                 header=_header(T, ros1, ns, "battery", i),
-                voltage=col["voltage"][i], temperature=nan,
-                current=-col["current"][i], charge=nan, capacity=nan, design_capacity=nan,
-                percentage=nan, power_supply_status=2, power_supply_health=0,
-                power_supply_technology=0, present=True,
+                voltage=col["voltage"][i],
+                temperature=nan,
+                current=-col["current"][i],
+                charge=nan,
+                capacity=nan,
+                design_capacity=nan,
+                percentage=nan,
+                power_supply_status=2,
+                power_supply_health=0,
+                power_supply_technology=0,
+                present=True,
                 cell_voltage=np.zeros(0, np.float32),
                 cell_temperature=np.zeros(0, np.float32),
-                location="", serial_number="",
+                location="",
+                serial_number="",
             )
             for role, msg in (("imu", imu), ("odom", odom), ("battery", bat)):
                 w.write(conn[role], ns, ser(msg, MSGTYPES[role]))

@@ -33,7 +33,16 @@ from energy_planner.errors import LogError
 
 #: Columns every log must have (besides ``run``, which may come from the file name).
 REQUIRED_COLUMNS: tuple[str, ...] = (
-    "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "voltage", "current",
+    "t",
+    "qw",
+    "qx",
+    "qy",
+    "qz",
+    "vx",
+    "vy",
+    "wz",
+    "voltage",
+    "current",
 )
 #: Optional odometry pose columns.
 OPTIONAL_COLUMNS: tuple[str, ...] = ("x", "y", "yaw")
@@ -117,8 +126,11 @@ def check_columns(columns, source: str | None = None, *, need_run: bool = True) 
         raise LogError(
             f"log{(' ' + source) if source else ''} lacks required column(s) {names}; "
             f"required columns are {', '.join(need)} (optional: {', '.join(OPTIONAL_COLUMNS)}); "
-            f"found {', '.join(map(str, columns))}", path=source, column=missing[0],
-            value=missing, expected=", ".join(need)
+            f"found {', '.join(map(str, columns))}",
+            path=source,
+            column=missing[0],
+            value=missing,
+            expected=", ".join(need),
         )
 
 
@@ -141,8 +153,12 @@ def check_runs(samples: pd.DataFrame, source: str | None = None) -> None:
             f"log{(' ' + source) if source else ''}: the run id is missing at row(s) "
             f"{', '.join(map(str, rows))}{' ...' if missing.size > 10 else ''}; expected a run "
             "id in every row (or no 'run' column: then the file name is the run id)",
-            path=source, column="run", rows=rows, row=rows[0],
-            expected="a run id in every row")
+            path=source,
+            column="run",
+            rows=rows,
+            row=rows[0],
+            expected="a run id in every row",
+        )
 
 
 def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
@@ -158,8 +174,11 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         raise LogError(
             f"log{_where(source)}: time 't' is missing or not a number at row {row} "
             f"(value {samples['t'].iloc[row]!r}); expected seconds, increasing within a run",
-            path=source, column="t", row=row, value=samples["t"].iloc[row],
-            expected="seconds, increasing within a run"
+            path=source,
+            column="t",
+            row=row,
+            value=samples["t"].iloc[row],
+            expected="seconds, increasing within a run",
         )
     runs = samples["run"].astype(str).to_numpy()
     order, same = _by_run(runs)
@@ -173,8 +192,13 @@ def check_time(samples: pd.DataFrame, source: str | None = None) -> None:
         raise LogError(
             f"log{_where(source)}: time {what} in run {runs[row]!r} at row {row}: "
             f"t={float(ts[j + 1])!r} s after t={float(ts[j])!r} s; expected t strictly "
-            f"increasing within a run", path=source, column="t", row=row, run=str(runs[row]),
-            value=float(ts[j + 1]), expected=f"t > {float(ts[j])!r} s"
+            f"increasing within a run",
+            path=source,
+            column="t",
+            row=row,
+            run=str(runs[row]),
+            value=float(ts[j + 1]),
+            expected=f"t > {float(ts[j])!r} s",
         )
 
 
@@ -244,8 +268,12 @@ def validate_log(
     lo, hi = voltage_range
     with np.errstate(invalid="ignore"):
         n_bad_v = int((np.isfinite(v) & ((v < lo) | (v > hi))).sum())
-    q = np.column_stack([pd.to_numeric(samples[c], errors="coerce").to_numpy(dtype=float)
-                         for c in ("qw", "qx", "qy", "qz")])
+    q = np.column_stack(
+        [
+            pd.to_numeric(samples[c], errors="coerce").to_numpy(dtype=float)
+            for c in ("qw", "qx", "qy", "qz")
+        ]
+    )
     with np.errstate(invalid="ignore"):
         n_bad_q = int((np.abs(np.linalg.norm(q, axis=1) - 1.0) > 0.1).sum())
     gaps = []
@@ -255,8 +283,14 @@ def validate_log(
     ts, rs = t[order], runs[order]
     dt = np.diff(ts)
     for i in np.flatnonzero(same & (dt > max_gap)):
-        gaps.append({"run": str(rs[i]), "t_before": float(ts[i]), "t_after": float(ts[i + 1]),
-                     "dt": round(float(dt[i]), 12)})
+        gaps.append(
+            {
+                "run": str(rs[i]),
+                "t_before": float(ts[i]),
+                "t_after": float(ts[i + 1]),
+                "dt": round(float(dt[i]), 12),
+            }
+        )
     gaps.sort(key=lambda g: (g["run"], g["t_before"]))
     return ValidationReport(
         n_rows=len(samples),

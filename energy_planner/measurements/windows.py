@@ -20,12 +20,26 @@ from energy_planner.measurements.imu import imu_slope_heading
 from energy_planner.measurements.schema import MAX_GAP_S, check_columns, check_runs
 from energy_planner.stats import MOTIONS, classify_motion
 
-__all__ = ["DERIVED_COLUMNS", "MOTIONS", "Windows", "classify_motion", "make_windows",
-           "run_energies"]
+__all__ = [
+    "DERIVED_COLUMNS",
+    "MOTIONS",
+    "Windows",
+    "classify_motion",
+    "make_windows",
+    "run_energies",
+]
 
 #: Columns derived by measurements (not extra channels).
 DERIVED_COLUMNS: tuple[str, ...] = (
-    "power", "alpha", "gamma", "speed", "ax", "ay", "motion", "window", "segment",
+    "power",
+    "alpha",
+    "gamma",
+    "speed",
+    "ax",
+    "ay",
+    "motion",
+    "window",
+    "segment",
 )
 
 
@@ -71,8 +85,9 @@ class Windows:
             "duration": self.duration,
             "dropped": dict(self.dropped),
             "dropped_runs": [dict(d) for d in self.dropped_runs],
-            "by_motion": {str(k): int(v) for k, v in
-                          self.table["motion"].value_counts().sort_index().items()},
+            "by_motion": {
+                str(k): int(v) for k, v in self.table["motion"].value_counts().sort_index().items()
+            },
             "params": dict(self.params),
         }
 
@@ -86,7 +101,8 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
         out["power"] = out["voltage"].to_numpy(float) * out["current"].to_numpy(float)
     if "alpha" not in out.columns or "gamma" not in out.columns:
         out["alpha"], out["gamma"] = imu_slope_heading(
-            *(out[c].to_numpy(float) for c in ("qw", "qx", "qy", "qz")))
+            *(out[c].to_numpy(float) for c in ("qw", "qx", "qy", "qz"))
+        )
     if "speed" not in out.columns:
         out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
     if "ax" not in out.columns or "ay" not in out.columns:
@@ -162,12 +178,18 @@ def make_windows(
     df = samples.assign(run=samples["run"].astype(str))
     df = df.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     df = _ensure_features(df)
-    df["motion"] = classify_motion(df["vx"], df["vy"], df["wz"], length=motion_length,
-                                   ratio=motion_ratio)
+    df["motion"] = classify_motion(
+        df["vx"], df["vy"], df["wz"], length=motion_length, ratio=motion_ratio
+    )
     n = len(df)
-    params = {"duration": duration, "max_gap": max_gap, "min_fraction": min_fraction,
-              "min_samples": min_samples, "motion_length": motion_length,
-              "motion_ratio": motion_ratio}
+    params = {
+        "duration": duration,
+        "max_gap": max_gap,
+        "min_fraction": min_fraction,
+        "min_samples": min_samples,
+        "motion_length": motion_length,
+        "motion_ratio": motion_ratio,
+    }
     if n == 0:
         df["window"] = np.zeros(0, dtype=np.int64)
         return Windows(df, _table(df, np.zeros(0), duration), duration, {}, params)
@@ -198,8 +220,9 @@ def make_windows(
     keep = ok_win[codes]
     dropped: dict[str, int] = {}
     if (~keep).any():
-        dropped[f"window shorter than {min_fraction * duration:g} s or {min_samples} "
-                f"samples"] = int((~keep).sum())
+        dropped[f"window shorter than {min_fraction * duration:g} s or {min_samples} samples"] = (
+            int((~keep).sum())
+        )
     new_id = np.cumsum(ok_win) - 1
     df["window"] = new_id[codes]
     df["_dt"] = dt
@@ -213,15 +236,19 @@ def make_windows(
         for r, g in per.groupby("run", sort=True):
             if r in kept_runs:
                 continue
-            lost.append({
-                "run": str(r), "n_samples": int(n_run[r]),
-                "longest_window_s": float(g["dur"].max()),
-                "most_samples": int(g["cnt"].max()),
-                "reason": f"no window long enough: cut every {duration:g} s within stretches of "
-                          f"one motion class without a gap, its windows reach at most "
-                          f"{float(g['dur'].max()):.3g} s and {int(g['cnt'].max())} samples; a "
-                          f"window needs {min_fraction * duration:g} s and {min_samples} "
-                          "samples"})
+            lost.append(
+                {
+                    "run": str(r),
+                    "n_samples": int(n_run[r]),
+                    "longest_window_s": float(g["dur"].max()),
+                    "most_samples": int(g["cnt"].max()),
+                    "reason": f"no window long enough: cut every {duration:g} s within stretches of "
+                    f"one motion class without a gap, its windows reach at most "
+                    f"{float(g['dur'].max()):.3g} s and {int(g['cnt'].max())} samples; a "
+                    f"window needs {min_fraction * duration:g} s and {min_samples} "
+                    "samples",
+                }
+            )
     df = df.loc[keep].reset_index(drop=True)
     table = _table(df, df.pop("_dt").to_numpy(), duration)
     from energy_planner.measurements.preprocess import warn_dropped_runs
@@ -231,20 +258,42 @@ def make_windows(
 
 
 def _table(df: pd.DataFrame, dt: np.ndarray, duration: float) -> pd.DataFrame:
-    cols = ["run", "window", "t_start", "t_end", "duration", "n", "alpha", "gamma", "vx", "vy",
-            "wz", "speed", "ax", "ay", "power", "energy_j", "motion"]
+    cols = [
+        "run",
+        "window",
+        "t_start",
+        "t_end",
+        "duration",
+        "n",
+        "alpha",
+        "gamma",
+        "vx",
+        "vy",
+        "wz",
+        "speed",
+        "ax",
+        "ay",
+        "power",
+        "energy_j",
+        "motion",
+    ]
     if len(df) == 0:
         return pd.DataFrame({c: [] for c in cols})
-    g = df.assign(_dt=dt, _e=df["power"].to_numpy(float) * dt,
-                  _s=np.sin(df["gamma"].to_numpy(float)),
-                  _c=np.cos(df["gamma"].to_numpy(float))).groupby("window", sort=True)
-    tab = pd.DataFrame({
-        "run": g["run"].first(),
-        "window": g["window"].first(),
-        "t_start": g["t"].first(),
-        "duration": g["_dt"].sum(),
-        "n": g["t"].size(),
-    })
+    g = df.assign(
+        _dt=dt,
+        _e=df["power"].to_numpy(float) * dt,
+        _s=np.sin(df["gamma"].to_numpy(float)),
+        _c=np.cos(df["gamma"].to_numpy(float)),
+    ).groupby("window", sort=True)
+    tab = pd.DataFrame(
+        {
+            "run": g["run"].first(),
+            "window": g["window"].first(),
+            "t_start": g["t"].first(),
+            "duration": g["_dt"].sum(),
+            "n": g["t"].size(),
+        }
+    )
     tab["t_end"] = tab["t_start"] + tab["duration"]
     for c in ("alpha", "vx", "vy", "wz", "speed", "ax", "ay", "power"):
         tab[c] = g[c].mean()
@@ -293,11 +342,11 @@ def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) ->
     """
     missing = [c for c in ("run", "t", "voltage", "current") if c not in samples.columns]
     if missing:
-        raise LogError(f"run_energies needs column(s) {', '.join(missing)}; required: run, t, "
-                       "voltage, current")
+        raise LogError(
+            f"run_energies needs column(s) {', '.join(missing)}; required: run, t, voltage, current"
+        )
     check_runs(samples, "samples given to run_energies")
-    df = samples.assign(run=samples["run"].astype(str)).sort_values(["run", "t"],
-                                                                  kind="stable")
+    df = samples.assign(run=samples["run"].astype(str)).sort_values(["run", "t"], kind="stable")
     rows = []
     for run, g in df.groupby("run", sort=True):
         t = g["t"].to_numpy(float)
@@ -306,8 +355,16 @@ def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) ->
         gap = dt > max_gap if max_gap is not None else np.zeros(dt.size, bool)
         use = ~gap
         e = float(np.sum(0.5 * (p[1:] + p[:-1])[use] * dt[use]))
-        rows.append({"run": run, "duration_s": float(dt[use].sum()), "measured_j": e,
-                     "n_gaps": int(gap.sum()), "gap_s": float(dt[gap].sum()),
-                     "t_start": float(t[0]), "t_end": float(t[-1])})
+        rows.append(
+            {
+                "run": run,
+                "duration_s": float(dt[use].sum()),
+                "measured_j": e,
+                "n_gaps": int(gap.sum()),
+                "gap_s": float(dt[gap].sum()),
+                "t_start": float(t[0]),
+                "t_end": float(t[-1]),
+            }
+        )
     cols = ["run", "duration_s", "measured_j", "n_gaps", "gap_s", "t_start", "t_end"]
     return pd.DataFrame(rows, columns=cols)

@@ -186,8 +186,23 @@ def _pop_indexed(keys, vals, pos, n):
 
 @numba.njit(cache=True)
 def heuristic_chunk(
-    grad, geo, lat, moves, move_len, table, tgeo, h, pos, keys, vals, n, max_pops, margin,
-    stop_p, stop_factor, limit,
+    grad,
+    geo,
+    lat,
+    moves,
+    move_len,
+    table,
+    tgeo,
+    h,
+    pos,
+    keys,
+    vals,
+    n,
+    max_pops,
+    margin,
+    stop_p,
+    stop_factor,
+    limit,
 ):
     """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
 
@@ -236,8 +251,7 @@ def heuristic_chunk(
                 continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step
-            lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m,
-                            t0x, t0y, tdx, tdy)
+            lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
             nk = key + margin * move_len[m] * step * lb
             if nk < h[p]:
                 h[p] = nk
@@ -253,8 +267,23 @@ def heuristic_chunk(
 
 @numba.njit(cache=True)
 def astar_chunk(
-    data, lat, headings, moves, moves_of, h2d, eps, g, code, goal_p, goal_h, keys, vals, n,
-    max_pops, max_key, out,
+    data,
+    lat,
+    headings,
+    moves,
+    moves_of,
+    h2d,
+    eps,
+    g,
+    code,
+    goal_p,
+    goal_h,
+    keys,
+    vals,
+    n,
+    max_pops,
+    max_key,
+    out,
 ):
     """Expand up to ``max_pops`` states of the (x, y, heading) search.
 

@@ -210,7 +210,8 @@ def grade_cost(
 
 def _climb(terrain, states: np.ndarray) -> tuple[float, float | None]:
     """Total ascent (m) and mean climbing grade (ascent / ground length of the climbing
-    parts; ``None`` if the route never climbs) along a route's positions."""
+    parts; ``None`` if the route never climbs) along a route's positions.
+    """
     from energy_planner.planning.refine import densify
 
     xy = np.column_stack([states[:, :2], np.zeros(len(states))])
@@ -321,9 +322,7 @@ class RouteComparison:
         for r in self.routes:
             if r.name == name:
                 return r
-        raise RouteNameError(
-            f"no route {name!r}; routes: {', '.join(r.name for r in self.routes)}"
-        )
+        raise RouteNameError(f"no route {name!r}; routes: {', '.join(r.name for r in self.routes)}")
 
     def to_dict(self, terrain=None) -> dict[str, Any]:
         """JSON-ready dict with ``routes`` (one entry per route), ``limits`` and ``physics``."""
@@ -509,7 +508,6 @@ class RouteComparison:
         return path
 
 
-
 def _route(name: str, states: np.ndarray, terrain, model, cost) -> Route:
     """Price ``states`` (raises EnergyPlannerError if a motion breaks a limit)."""
     from energy_planner.energy import path_energy
@@ -619,11 +617,10 @@ class _Candidates:
         self.best: Route | None = None
         self.origin: str | None = None
 
-    def offer(
-        self, states: np.ndarray | None, origin: str, objective=None, gait=None
-    ) -> None:
+    def offer(self, states: np.ndarray | None, origin: str, objective=None, gait=None) -> None:
         """Offer ``states`` (refined under ``objective`` first when given; with ``gait =
-        (start, goal)``, first walked with the cheapest constant body yaw)."""
+        (start, goal)``, first walked with the cheapest constant body yaw).
+        """
         from energy_planner.planning.limits import keep_out_violation
         from energy_planner.planning.refine import densify, refine_path
 
@@ -638,9 +635,10 @@ class _Candidates:
         # refinement densifies the path first; a path that hugs a limit can break it
         # once resampled, and then cannot be refined (it still competes as it is)
         dense = densify(states, spacing)
-        if objective is not None and np.isfinite(
-            objective.batch(*dense[:-1].T, *dense[1:].T)
-        ).all():
+        if (
+            objective is not None
+            and np.isfinite(objective.batch(*dense[:-1].T, *dense[1:].T)).all()
+        ):
             refined, _ = refine_path(
                 objective, states, budget=self.budget, seed=self.seed, spacing=spacing
             )
@@ -661,7 +659,8 @@ def _motion_cost(terrain, model, request, distance: bool = False):
     """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons
     in the working CRS (:func:`energy_planner.planning.limits.make_motion_cost`). With
     ``distance`` the "model" prices the ground distance (power = speed) under the same
-    limits and reads no channel."""
+    limits and reads no channel.
+    """
     import dataclasses
 
     from energy_planner.model import EnergyModel
@@ -813,9 +812,7 @@ def compare_routes(
     # a route that is the same path as an earlier one says so
     for i in (1, 2):
         for j in range(i):
-            if routes[i].feasible and routes[j].feasible and _same_path(
-                routes[i], routes[j], cell
-            ):
+            if routes[i].feasible and routes[j].feasible and _same_path(routes[i], routes[j], cell):
                 routes[i].same_as = routes[j].name
                 break
     if direct.energy_j:

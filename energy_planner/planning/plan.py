@@ -104,7 +104,8 @@ class PlanResult:
 
     def to_geojson(self, terrain) -> dict[str, Any]:
         """The project's GeoJSON path document (:mod:`energy_planner.geojson`) in the DEM's
-        CRS, with ``yaw_deg`` per vertex and the energy, distance, duration, planner."""
+        CRS, with ``yaw_deg`` per vertex and the energy, distance, duration, planner.
+        """
         from energy_planner.geojson import path_document_from_work
 
         return path_document_from_work(
@@ -229,7 +230,8 @@ def _ompl_setup(cost, terrain):
 
         class PricingValidator(ob.MotionValidator):
             """A motion is valid iff its energy is finite; the energy is kept for
-            ``motionCost`` (which RRT* asks for right after checking the motion)."""
+            ``motionCost`` (which RRT* asks for right after checking the motion).
+            """
 
             def __init__(self) -> None:
                 super().__init__(si)
@@ -380,7 +382,8 @@ DEFAULT_EPS = 1.05
 
 def _request_for(request, cost):
     """The request to plan with: ``request``, or one derived from ``cost``; never both
-    disagreeing (``cost=`` used to override speed and limits silently)."""
+    disagreeing (``cost=`` used to override speed and limits silently).
+    """
     from energy_planner.request import Request
 
     if cost is None:
@@ -584,9 +587,7 @@ def plan(
 
                 spent = prog.elapsed()
                 left = (
-                    budget - spent
-                    if math.isfinite(budget)
-                    else min(max(1.0, 0.25 * spent), 10.0)
+                    budget - spent if math.isfinite(budget) else min(max(1.0, 0.25 * spent), 10.0)
                 )
                 if left > 0.05:
                     states, rinfo = refine_path(

@@ -59,7 +59,8 @@ def _graph(
     """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan` (energy
     metric) with the search's move set ``moves``
     (:data:`energy_planner.planning.search.MOVE_SETS`): CSR matrix over
-    ``position * H + heading``; every edge priced by the kernel in its own direction."""
+    ``position * H + heading``; every edge priced by the kernel in its own direction.
+    """
     from scipy.sparse import csr_matrix
 
     from energy_planner.planning.lattice import (
@@ -174,8 +175,11 @@ def least_energy(
         e = (to + back).min(axis=1)
     else:
         e = to.min(axis=1) + back.min(axis=1)
-    return xs, ys, e.reshape(len(ys), len(xs)), (
-        f"lattice graph (moves={moves!r}), forward + backward Dijkstra"
+    return (
+        xs,
+        ys,
+        e.reshape(len(ys), len(xs)),
+        (f"lattice graph (moves={moves!r}), forward + backward Dijkstra"),
     )
 
 
@@ -211,7 +215,8 @@ class ReachMap:
 
     def area(self, terrain, budget_j: float):
         """The area reachable within ``budget_j`` as a shapely (Multi)Polygon of whole
-        cells, in the working CRS."""
+        cells, in the working CRS.
+        """
         from rasterio import features
         from shapely.geometry import shape
         from shapely.ops import unary_union
@@ -257,7 +262,8 @@ class ReachMap:
     def write_geotiff(self, terrain, path: str | Path) -> Path:
         """Write ``energy_j`` (J, float32, nodata :data:`NODATA`) on the DEM's grid and
         CRS; a DEM in longitude/latitude gets the working grid's values resampled to
-        its own grid (nearest cell)."""
+        its own grid (nearest cell).
+        """
         import rasterio
 
         path = Path(path)

@@ -50,12 +50,32 @@ from energy_planner.simulate.kinematics import (
 )
 from energy_planner.simulate.physics import Physics, RobotParams
 
-__all__ = ["Campaign", "NoiseFloor", "simulate_campaign", "LOG_COLUMNS", "CHANNELS",
-           "battery_current"]
+__all__ = [
+    "Campaign",
+    "NoiseFloor",
+    "simulate_campaign",
+    "LOG_COLUMNS",
+    "CHANNELS",
+    "battery_current",
+]
 
 #: Canonical log columns written by the simulator, in order.
-LOG_COLUMNS = ("run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "voltage", "current",
-               "x", "y", "yaw")
+LOG_COLUMNS = (
+    "run",
+    "t",
+    "qw",
+    "qx",
+    "qy",
+    "qz",
+    "vx",
+    "vy",
+    "wz",
+    "voltage",
+    "current",
+    "x",
+    "y",
+    "yaw",
+)
 #: Extra channels: carried mass (kg), surface (categorical), winding temperature (deg C,
 #: warming during a run), air temperature (deg C), grass height (m). The model's catalog
 #: reads none of them; each is logged in every campaign, its effect on or not.
@@ -118,8 +138,12 @@ class NoiseFloor:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``--json``."""
-        return {"rmse_w": self.rmse_w, "bias_w": self.bias_w, "n_windows": self.n_windows,
-                "reference": self.reference}
+        return {
+            "rmse_w": self.rmse_w,
+            "bias_w": self.bias_w,
+            "n_windows": self.n_windows,
+            "reference": self.reference,
+        }
 
 
 @dataclass
@@ -238,8 +262,13 @@ class Campaign:
         starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
         ends = np.r_[starts[1:], len(run)]
         try:
-            for s, e in tqdm(zip(starts, ends, strict=True), total=len(starts),
-                             desc="writing runs", disable=not progress, unit="run"):
+            for s, e in tqdm(
+                zip(starts, ends, strict=True),
+                total=len(starts),
+                desc="writing runs",
+                disable=not progress,
+                unit="run",
+            ):
                 path = out / f"{run[s]}.{fmt}"
                 if fmt == "csv":
                     pa_csv.write_csv(table.slice(s, e - s), path)
@@ -279,8 +308,9 @@ class Campaign:
         path.mkdir(parents=True, exist_ok=True)
         written: list[Path] = []
         groups = self.logs.groupby("run", sort=False, observed=True)
-        for run, df in tqdm(groups, total=len(self.runs), desc="writing bags",
-                            disable=not progress, unit="bag"):
+        for run, df in tqdm(
+            groups, total=len(self.runs), desc="writing bags", disable=not progress, unit="bag"
+        ):
             written += list(write_rosbag(df, path / str(run), version=2))
         return written
 
@@ -303,11 +333,13 @@ class Campaign:
         (logged energy / distance) and true cost (truth energy / distance).
         """
         r = self.runs[self.runs["kind"] == "straight"].copy()
-        offset = r["motion"].map({"forward": 0.0, "backward": 180.0, "left": 90.0,
-                                  "right": -90.0})
+        offset = r["motion"].map({"forward": 0.0, "backward": 180.0, "left": 90.0, "right": -90.0})
         travel = np.mod(r["heading_deg"] + offset, 360.0)
-        r["direction"] = np.select([np.isclose(travel, 0.0) | np.isclose(travel, 360.0),
-                                    np.isclose(travel, 180.0)], ["uphill", "downhill"], "")
+        r["direction"] = np.select(
+            [np.isclose(travel, 0.0) | np.isclose(travel, 360.0), np.isclose(travel, 180.0)],
+            ["uphill", "downhill"],
+            "",
+        )
         r = r[r["direction"] != ""]
         r["motion"] = np.where(r["motion"].isin(["left", "right"]), "lateral", r["motion"])
         measured = self.run_energies()
@@ -341,11 +373,16 @@ class Campaign:
             sub = table[table["direction"] == direction]
             for motion, g in sub.groupby("motion"):
                 c = colours.get(str(motion), "k")
-                ax.scatter(g["slope_deg"], g["measured_cost_n"], s=12, alpha=0.6, color=c,
-                           label=f"{motion} (measured)")
+                ax.scatter(
+                    g["slope_deg"],
+                    g["measured_cost_n"],
+                    s=12,
+                    alpha=0.6,
+                    color=c,
+                    label=f"{motion} (measured)",
+                )
                 truth = g.groupby("slope_deg")["true_cost_n"].mean()
-                ax.plot(truth.index, truth.to_numpy(), color=c, lw=1.5,
-                        label=f"{motion} (truth)")
+                ax.plot(truth.index, truth.to_numpy(), color=c, lw=1.5, label=f"{motion} (truth)")
             ax.set_title(direction)
             ax.set_xlabel("slope alpha (deg)")
             ax.grid(alpha=0.3)
@@ -385,8 +422,10 @@ class Campaign:
     def features(self) -> dict[str, np.ndarray]:
         """True per-sample features (alpha, gamma, twist, speed, ax, ay, t_gait, channels)."""
         ts = self.true_samples
-        f = {k: ts[k].to_numpy() for k in ("alpha", "gamma", "vx", "vy", "wz", "speed",
-                                            "ax", "ay", "t_gait")}
+        f = {
+            k: ts[k].to_numpy()
+            for k in ("alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "t_gait")
+        }
         for ch in CHANNELS:
             col = self.logs[ch]
             f[ch] = col.astype(str).to_numpy() if ch in CATEGORICAL else col.to_numpy(float)
@@ -429,8 +468,9 @@ class Campaign:
             )
         return pd.DataFrame(rows)
 
-    def noise_floor(self, windows: Any, reference: str = "expected",
-                    smoothing_tau_s: float = 0.0) -> NoiseFloor:
+    def noise_floor(
+        self, windows: Any, reference: str = "expected", smoothing_tau_s: float = 0.0
+    ) -> NoiseFloor:
         """RMSE of the measured against the true power on the same windows.
 
         Every sample of ``windows.samples`` is matched to its log row by ``run`` and
@@ -467,9 +507,13 @@ class Campaign:
                 "'instantaneous'"
             )
         samples = windows.samples
-        key = pd.DataFrame({"run": samples["run"].astype(str).to_numpy(),
-                            "tk": np.round(samples["t"].to_numpy(float) * 1e6).astype(np.int64),
-                            "window": samples["window"].to_numpy()})
+        key = pd.DataFrame(
+            {
+                "run": samples["run"].astype(str).to_numpy(),
+                "tk": np.round(samples["t"].to_numpy(float) * 1e6).astype(np.int64),
+                "window": samples["window"].to_numpy(),
+            }
+        )
         ts = self.true_samples
         true_p = ts[col].to_numpy(float)
         if smoothing_tau_s > 0:
@@ -482,9 +526,13 @@ class Campaign:
             true_p = true_p.copy()
             for a, b in zip(starts, ends, strict=True):
                 true_p[a:b] = ema(true_p[a:b], t[a:b], smoothing_tau_s)
-        truth = pd.DataFrame({"run": ts["run"].astype(str).to_numpy(),
-                              "tk": np.round(ts["t"].to_numpy(float) * 1e6).astype(np.int64),
-                              "true": true_p})
+        truth = pd.DataFrame(
+            {
+                "run": ts["run"].astype(str).to_numpy(),
+                "tk": np.round(ts["t"].to_numpy(float) * 1e6).astype(np.int64),
+                "true": true_p,
+            }
+        )
         merged = key.merge(truth, on=["run", "tk"], how="left", validate="many_to_one")
         missing = merged["true"].isna()
         if missing.any():
@@ -498,10 +546,14 @@ class Campaign:
         table = windows.table.sort_values("window")
         measured = table.set_index("window")["power"].reindex(true_w.index).to_numpy(float)
         diff = measured - true_w.to_numpy()
-        per = pd.DataFrame({"window": true_w.index.to_numpy(),
-                            "run": table.set_index("window")["run"].reindex(true_w.index)
-                            .to_numpy(),
-                            "measured_w": measured, "true_w": true_w.to_numpy()})
+        per = pd.DataFrame(
+            {
+                "window": true_w.index.to_numpy(),
+                "run": table.set_index("window")["run"].reindex(true_w.index).to_numpy(),
+                "measured_w": measured,
+                "true_w": true_w.to_numpy(),
+            }
+        )
         return NoiseFloor(
             rmse_w=float(np.sqrt(np.mean(diff**2))) if len(diff) else float("nan"),
             bias_w=float(np.mean(diff)) if len(diff) else float("nan"),
@@ -587,8 +639,9 @@ def simulate_campaign(
     shuffled = design_rng.permutation(len(blocks))
     slope_rank = {s: i for i, s in enumerate(slope_values)}
     run_block = [block_index[r.composite or r.run] for r in plan]
-    order = sorted(range(n_runs), key=lambda k: (slope_rank[plan[k].slope_deg],
-                                                 shuffled[run_block[k]], k))
+    order = sorted(
+        range(n_runs), key=lambda k: (slope_rank[plan[k].slope_deg], shuffled[run_block[k]], k)
+    )
 
     # ---- extra channels: one draw per block (the parts of a composite share them)
     nb = len(blocks)
@@ -638,17 +691,29 @@ def simulate_campaign(
         "air_temp_c": air_b[blk],
         "grass_height_m": grass_b[blk],
     }
-    slip_run = (config.sensors.with_faults(fault_names).slip_mean
-                + config.sensors.with_faults(fault_names).slip_per_sin_slope
-                * np.sin(np.radians([s.slope_deg for s in plan]))
-                + config.sensors.with_faults(fault_names).slip_std * slip_raw)
+    slip_run = (
+        config.sensors.with_faults(fault_names).slip_mean
+        + config.sensors.with_faults(fault_names).slip_per_sin_slope
+        * np.sin(np.radians([s.slope_deg for s in plan]))
+        + config.sensors.with_faults(fault_names).slip_std * slip_raw
+    )
     bias = np.radians(config.sensors.imu_bias_deg) * bias_raw  # (roll, pitch) per run
     run_ids = np.array([plan[k].run for k in range(n_runs)], dtype=object)[idx]
-    truth = _TruthStreams(run_ids, t, t_run, alpha, psi, gamma, vx, vy, wz, ax, ay, pos, yaw,
-                          channels)
-    out = _logs_from_truth(truth, physics, config.sensors.with_faults(fault_names),
-                           config.battery, config.dt, sizes, slip_run[idx], bias[idx],
-                           noise_rng, list(config.grounds))
+    truth = _TruthStreams(
+        run_ids, t, t_run, alpha, psi, gamma, vx, vy, wz, ax, ay, pos, yaw, channels
+    )
+    out = _logs_from_truth(
+        truth,
+        physics,
+        config.sensors.with_faults(fault_names),
+        config.battery,
+        config.dt,
+        sizes,
+        slip_run[idx],
+        bias[idx],
+        noise_rng,
+        list(config.grounds),
+    )
 
     rows = []
     bounds = np.concatenate([[0], np.cumsum(sizes)])
@@ -697,8 +762,9 @@ def simulate_campaign(
         )
     del bounds
     runs = pd.DataFrame(rows)
-    return Campaign(out["logs"], runs, physics, names, out["true_samples"], seed, config,
-                    fault_names)
+    return Campaign(
+        out["logs"], runs, physics, names, out["true_samples"], seed, config, fault_names
+    )
 
 
 @dataclass
@@ -739,8 +805,15 @@ def _logs_from_truth(
     (roll, pitch; rad) per sample (constant per run).
     """
     features: dict[str, Any] = {
-        "alpha": tr.alpha, "gamma": wrap(tr.gamma), "vx": tr.vx, "vy": tr.vy, "wz": tr.wz,
-        "ax": tr.ax, "ay": tr.ay, "t_gait": tr.t_run, **tr.channels,
+        "alpha": tr.alpha,
+        "gamma": wrap(tr.gamma),
+        "vx": tr.vx,
+        "vy": tr.vy,
+        "wz": tr.wz,
+        "ax": tr.ax,
+        "ay": tr.ay,
+        "t_gait": tr.t_run,
+        **tr.channels,
     }
     power = physics.power(features)
     expected = physics.expected_power(features)
@@ -791,8 +864,11 @@ def _logs_from_truth(
             tt = tr.t[sl]
             cur_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, current[sl])
             volt_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, voltage[sl])
-    meas_current = (cur_src + sens.current_noise_a * noise_rng.standard_normal(n)
-                    + np.where(spikes, sens.spike_current_a * spike_size, 0.0))
+    meas_current = (
+        cur_src
+        + sens.current_noise_a * noise_rng.standard_normal(n)
+        + np.where(spikes, sens.spike_current_a * spike_size, 0.0)
+    )
     if sens.ros_current_sign:
         meas_current = -meas_current
     meas_voltage = volt_src + sens.voltage_noise_v * noise_rng.standard_normal(n)
@@ -849,8 +925,14 @@ def _logs_from_truth(
             "soc": soc,
         }
     )
-    return {"logs": logs, "true_samples": true_samples, "energy": energy, "pack": pack,
-            "soc_start": soc_start, "soc_end": soc_end}
+    return {
+        "logs": logs,
+        "true_samples": true_samples,
+        "energy": energy,
+        "pack": pack,
+        "soc_start": soc_start,
+        "soc_end": soc_end,
+    }
 
 
 def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
@@ -874,5 +956,14 @@ def _run_geometry(
         start, gamma0 = np.zeros(3), math.radians(spec.heading_deg)
     pos, gamma, yaw = integrate_pose(t, vx, vy, wz, alpha, psi, gamma0, start)
     end_of[spec.run] = (pos[-1], float(gamma[-1]))
-    return {"t": t, "vx": vx, "vy": vy, "wz": wz, "ax": ax, "ay": ay, "pos": pos,
-            "gamma": gamma, "yaw": yaw}
+    return {
+        "t": t,
+        "vx": vx,
+        "vy": vy,
+        "wz": wz,
+        "ax": ax,
+        "ay": ay,
+        "pos": pos,
+        "gamma": gamma,
+        "yaw": yaw,
+    }

@@ -87,8 +87,9 @@ class SensorConfig:
     @classmethod
     def ideal(cls) -> SensorConfig:
         """Perfect sensors: no noise, no spikes, no slip, no IMU bias, no fault."""
-        return cls(**{f.name: False if f.type in (bool, "bool") else 0.0
-                      for f in dataclasses.fields(cls)})
+        return cls(
+            **{f.name: False if f.type in (bool, "bool") else 0.0 for f in dataclasses.fields(cls)}
+        )
 
     def with_faults(self, faults: tuple[str, ...]) -> SensorConfig:
         """These sensors with the named faults (:data:`energy_planner.simulate.FAULTS`).
@@ -160,16 +161,32 @@ class BatteryConfig:
     soc_swap: float = 0.2
 
     def __post_init__(self) -> None:
-        _check(isinstance(self.cells, int) and self.cells > 0, "BatteryConfig.cells",
-               self.cells, "a positive integer")
-        _check(0 < self.cell_empty_v < self.cell_full_v, "BatteryConfig.cell_empty_v",
-               self.cell_empty_v, f"0 < cell_empty_v < cell_full_v ({self.cell_full_v})")
-        _check(self.internal_resistance_ohm >= 0, "BatteryConfig.internal_resistance_ohm",
-               self.internal_resistance_ohm, ">= 0")
+        _check(
+            isinstance(self.cells, int) and self.cells > 0,
+            "BatteryConfig.cells",
+            self.cells,
+            "a positive integer",
+        )
+        _check(
+            0 < self.cell_empty_v < self.cell_full_v,
+            "BatteryConfig.cell_empty_v",
+            self.cell_empty_v,
+            f"0 < cell_empty_v < cell_full_v ({self.cell_full_v})",
+        )
+        _check(
+            self.internal_resistance_ohm >= 0,
+            "BatteryConfig.internal_resistance_ohm",
+            self.internal_resistance_ohm,
+            ">= 0",
+        )
         _check(self.capacity_ah > 0, "BatteryConfig.capacity_ah", self.capacity_ah, "> 0")
         _check(0 < self.soc_start <= 1, "BatteryConfig.soc_start", self.soc_start, "in (0, 1]")
-        _check(0 <= self.soc_swap < self.soc_start, "BatteryConfig.soc_swap", self.soc_swap,
-               f"in [0, soc_start={self.soc_start})")
+        _check(
+            0 <= self.soc_swap < self.soc_start,
+            "BatteryConfig.soc_swap",
+            self.soc_swap,
+            f"in [0, soc_start={self.soc_start})",
+        )
 
     def ocv(self, soc):
         """Open-circuit pack voltage, V, at state of charge ``soc`` (1).
@@ -278,52 +295,120 @@ class CampaignConfig:
     battery: BatteryConfig = field(default_factory=BatteryConfig)
 
     def __post_init__(self) -> None:
-        for name in ("slopes_deg", "headings_deg", "motions", "speeds", "turn_headings_deg",
-                     "composite_slopes_deg", "composite_headings_deg", "composite_legs_m",
-                     "grounds", "loads_kg", "air_temp_range_c", "motor_temp_range_c",
-                     "grass_height_range_m"):
+        for name in (
+            "slopes_deg",
+            "headings_deg",
+            "motions",
+            "speeds",
+            "turn_headings_deg",
+            "composite_slopes_deg",
+            "composite_headings_deg",
+            "composite_legs_m",
+            "grounds",
+            "loads_kg",
+            "air_temp_range_c",
+            "motor_temp_range_c",
+            "grass_height_range_m",
+        ):
             object.__setattr__(self, name, tuple(getattr(self, name)))
-        _check(all(0 <= s < 60 for s in self.slopes_deg), "CampaignConfig.slopes_deg",
-               self.slopes_deg, "slopes in [0, 60) deg")
-        _check(all(0 <= s < 60 for s in self.composite_slopes_deg),
-               "CampaignConfig.composite_slopes_deg", self.composite_slopes_deg,
-               "slopes in [0, 60) deg")
+        _check(
+            all(0 <= s < 60 for s in self.slopes_deg),
+            "CampaignConfig.slopes_deg",
+            self.slopes_deg,
+            "slopes in [0, 60) deg",
+        )
+        _check(
+            all(0 <= s < 60 for s in self.composite_slopes_deg),
+            "CampaignConfig.composite_slopes_deg",
+            self.composite_slopes_deg,
+            "slopes in [0, 60) deg",
+        )
         valid = ("forward", "backward", "left", "right")
-        _check(all(m in valid for m in self.motions), "CampaignConfig.motions", self.motions,
-               f"a subset of {', '.join(valid)}")
-        _check(len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
-               "CampaignConfig.speeds", self.speeds, "one or more speeds in (0, 3] m/s")
-        _check(0 < self.yaw_rate <= 3, "CampaignConfig.yaw_rate", self.yaw_rate,
-               "a yaw rate in (0, 3] rad/s")
+        _check(
+            all(m in valid for m in self.motions),
+            "CampaignConfig.motions",
+            self.motions,
+            f"a subset of {', '.join(valid)}",
+        )
+        _check(
+            len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
+            "CampaignConfig.speeds",
+            self.speeds,
+            "one or more speeds in (0, 3] m/s",
+        )
+        _check(
+            0 < self.yaw_rate <= 3,
+            "CampaignConfig.yaw_rate",
+            self.yaw_rate,
+            "a yaw rate in (0, 3] rad/s",
+        )
         _check(self.arc_radius_m > 0, "CampaignConfig.arc_radius_m", self.arc_radius_m, "> 0")
-        _check(isinstance(self.repeats, int) and self.repeats >= 1, "CampaignConfig.repeats",
-               self.repeats, "an integer >= 1")
-        _check(1 <= self.rate_hz <= 2000, "CampaignConfig.rate_hz", self.rate_hz,
-               "a rate in [1, 2000] Hz")
+        _check(
+            isinstance(self.repeats, int) and self.repeats >= 1,
+            "CampaignConfig.repeats",
+            self.repeats,
+            "an integer >= 1",
+        )
+        _check(
+            1 <= self.rate_hz <= 2000,
+            "CampaignConfig.rate_hz",
+            self.rate_hz,
+            "a rate in [1, 2000] Hz",
+        )
         _check(self.ramp_s >= 0, "CampaignConfig.ramp_s", self.ramp_s, ">= 0 s")
-        _check(self.run_s > self.ramp_s, "CampaignConfig.run_s", self.run_s,
-               f"longer than ramp_s = {self.ramp_s} s")
+        _check(
+            self.run_s > self.ramp_s,
+            "CampaignConfig.run_s",
+            self.run_s,
+            f"longer than ramp_s = {self.ramp_s} s",
+        )
         _check(self.gap_s >= 0, "CampaignConfig.gap_s", self.gap_s, ">= 0 s")
-        _check(len(self.composite_legs_m) == 2 and all(d > 0 for d in self.composite_legs_m),
-               "CampaignConfig.composite_legs_m", self.composite_legs_m,
-               "two positive lengths (A forward, B sideways) in m")
-        _check(0 < abs(self.composite_turn_deg) < 180, "CampaignConfig.composite_turn_deg",
-               self.composite_turn_deg, "an angle in (0, 180) deg")
+        _check(
+            len(self.composite_legs_m) == 2 and all(d > 0 for d in self.composite_legs_m),
+            "CampaignConfig.composite_legs_m",
+            self.composite_legs_m,
+            "two positive lengths (A forward, B sideways) in m",
+        )
+        _check(
+            0 < abs(self.composite_turn_deg) < 180,
+            "CampaignConfig.composite_turn_deg",
+            self.composite_turn_deg,
+            "an angle in (0, 180) deg",
+        )
         from energy_planner.simulate.physics import GROUNDS
 
-        _check(len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
-               "CampaignConfig.grounds", self.grounds,
-               f"one or more of {', '.join(GROUNDS)}")
-        _check(len(self.loads_kg) > 0 and all(p >= 0 for p in self.loads_kg),
-               "CampaignConfig.loads_kg", self.loads_kg, "one or more masses >= 0 kg")
-        _check(self.motor_warming_k_s >= 0, "CampaignConfig.motor_warming_k_s",
-               self.motor_warming_k_s, ">= 0 K/s")
+        _check(
+            len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
+            "CampaignConfig.grounds",
+            self.grounds,
+            f"one or more of {', '.join(GROUNDS)}",
+        )
+        _check(
+            len(self.loads_kg) > 0 and all(p >= 0 for p in self.loads_kg),
+            "CampaignConfig.loads_kg",
+            self.loads_kg,
+            "one or more masses >= 0 kg",
+        )
+        _check(
+            self.motor_warming_k_s >= 0,
+            "CampaignConfig.motor_warming_k_s",
+            self.motor_warming_k_s,
+            ">= 0 K/s",
+        )
         for name in ("air_temp_range_c", "motor_temp_range_c", "grass_height_range_m"):
             lo_hi = getattr(self, name)
-            _check(len(lo_hi) == 2 and lo_hi[0] <= lo_hi[1], f"CampaignConfig.{name}",
-                   lo_hi, "(low, high) with low <= high")
-        _check(self.grass_height_range_m[0] >= 0, "CampaignConfig.grass_height_range_m",
-               self.grass_height_range_m, "heights >= 0 m")
+            _check(
+                len(lo_hi) == 2 and lo_hi[0] <= lo_hi[1],
+                f"CampaignConfig.{name}",
+                lo_hi,
+                "(low, high) with low <= high",
+            )
+        _check(
+            self.grass_height_range_m[0] >= 0,
+            "CampaignConfig.grass_height_range_m",
+            self.grass_height_range_m,
+            "heights >= 0 m",
+        )
 
     @property
     def dt(self) -> float:

@@ -129,8 +129,14 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                         runs.append(
                             RunSpec(
                                 f"straight_{motion}_{_tag(slope, h, v)}_r{rep}",
-                                "straight", motion, slope, h, v, 0.0,
-                                ((body, ux * v, uy * v, 0.0),), rep,
+                                "straight",
+                                motion,
+                                slope,
+                                h,
+                                v,
+                                0.0,
+                                ((body, ux * v, uy * v, 0.0),),
+                                rep,
                             )
                         )
             for heading in config.turn_headings_deg:
@@ -138,9 +144,15 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                 for side, s in (("left", 1), ("right", -1)):
                     runs.append(
                         RunSpec(
-                            f"turn_{side}_{_tag(slope, h, 0.0)}_r{rep}", "turn",
-                            f"turn_{side}", slope, h, 0.0, config.yaw_rate,
-                            ((body, 0.0, 0.0, s * config.yaw_rate),), rep,
+                            f"turn_{side}_{_tag(slope, h, 0.0)}_r{rep}",
+                            "turn",
+                            f"turn_{side}",
+                            slope,
+                            h,
+                            0.0,
+                            config.yaw_rate,
+                            ((body, 0.0, 0.0, s * config.yaw_rate),),
+                            rep,
                         )
                     )
             if config.arcs:
@@ -149,15 +161,29 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                     for side, s in (("left", 1), ("right", -1)):
                         runs.append(
                             RunSpec(
-                                f"arc_{side}_{_tag(slope, 0.0, v)}_r{rep}", "arc",
-                                f"arc_{side}", slope, 0.0, v, w, ((body, v, 0.0, s * w),), rep,
+                                f"arc_{side}_{_tag(slope, 0.0, v)}_r{rep}",
+                                "arc",
+                                f"arc_{side}",
+                                slope,
+                                0.0,
+                                v,
+                                w,
+                                ((body, v, 0.0, s * w),),
+                                rep,
                             )
                         )
             if config.stand:
                 runs.append(
                     RunSpec(
-                        f"stand_{_tag(slope, 0.0, 0.0)}_r{rep}", "stand", "stand", slope, 0.0,
-                        0.0, 0.0, ((body, 0.0, 0.0, 0.0),), rep,
+                        f"stand_{_tag(slope, 0.0, 0.0)}_r{rep}",
+                        "stand",
+                        "stand",
+                        slope,
+                        0.0,
+                        0.0,
+                        0.0,
+                        ((body, 0.0, 0.0, 0.0),),
+                        rep,
                     )
                 )
     v = nominal_speed(config)
@@ -178,14 +204,43 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                 seg_c = (tc, d_a / tc, s * d_b / tc, 0.0)
                 common = dict(kind="composite", slope_deg=slope, speed=v, composite=cid)
                 runs += [
-                    RunSpec(f"{cid}_A", motion="forward", heading_deg=h, yaw_rate=0.0,
-                            segments=(seg_a,), part="A", **common),
-                    RunSpec(f"{cid}_B", motion=side, heading_deg=h, yaw_rate=0.0,
-                            segments=(seg_b,), part="B", start_after=f"{cid}_A", **common),
-                    RunSpec(f"{cid}_AB", motion=f"forward+{side}", heading_deg=h, yaw_rate=0.0,
-                            segments=(seg_a, seg_b), part="AB", **common),
-                    RunSpec(f"{cid}_C", motion=f"diagonal_{side}", heading_deg=h,
-                            yaw_rate=0.0, segments=(seg_c,), part="C", **common),
+                    RunSpec(
+                        f"{cid}_A",
+                        motion="forward",
+                        heading_deg=h,
+                        yaw_rate=0.0,
+                        segments=(seg_a,),
+                        part="A",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_B",
+                        motion=side,
+                        heading_deg=h,
+                        yaw_rate=0.0,
+                        segments=(seg_b,),
+                        part="B",
+                        start_after=f"{cid}_A",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_AB",
+                        motion=f"forward+{side}",
+                        heading_deg=h,
+                        yaw_rate=0.0,
+                        segments=(seg_a, seg_b),
+                        part="AB",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_C",
+                        motion=f"diagonal_{side}",
+                        heading_deg=h,
+                        yaw_rate=0.0,
+                        segments=(seg_c,),
+                        part="C",
+                        **common,
+                    ),
                 ]
                 # (b) A yaw in place, B straight along the chord, C arc
                 cid = f"supb_{side}_{_tag(slope, h, v)}"
@@ -194,24 +249,54 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
                 tc = _q(radius * turn / v, dt)
                 seg_a = (ta, 0.0, 0.0, s * turn / ta)
                 # after yawing by s*turn the chord points at -s*turn/2 in the body frame
-                seg_b = (tb, chord / tb * math.cos(turn / 2), -s * chord / tb * math.sin(turn / 2),
-                         0.0)
+                seg_b = (
+                    tb,
+                    chord / tb * math.cos(turn / 2),
+                    -s * chord / tb * math.sin(turn / 2),
+                    0.0,
+                )
                 seg_c = (tc, radius * turn / tc, 0.0, s * turn / tc)
                 stop = (ramp, 0.0, 0.0, 0.0) if ramp > 0 else None
                 h_b = wrap_deg(h + s * math.degrees(turn))
                 common = dict(kind="composite", slope_deg=slope, speed=v, composite=cid)
                 runs += [
-                    RunSpec(f"{cid}_A", motion=f"turn_{side}", heading_deg=h,
-                            yaw_rate=config.yaw_rate, segments=(seg_a,), part="A", **common),
-                    RunSpec(f"{cid}_B", motion=f"chord_{side}", heading_deg=h_b, yaw_rate=0.0,
-                            segments=(seg_b,), part="B", start_after=f"{cid}_A", **common),
-                    RunSpec(f"{cid}_AB", motion=f"turn_{side}+chord_{side}", heading_deg=h,
-                            yaw_rate=config.yaw_rate,
-                            segments=(seg_a, stop, seg_b) if stop else (seg_a, seg_b),
-                            part="AB", **common),
-                    RunSpec(f"{cid}_C", motion=f"arc_{side}", heading_deg=h,
-                            yaw_rate=v / radius, segments=(seg_c,), part="C",
-                            **common),
+                    RunSpec(
+                        f"{cid}_A",
+                        motion=f"turn_{side}",
+                        heading_deg=h,
+                        yaw_rate=config.yaw_rate,
+                        segments=(seg_a,),
+                        part="A",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_B",
+                        motion=f"chord_{side}",
+                        heading_deg=h_b,
+                        yaw_rate=0.0,
+                        segments=(seg_b,),
+                        part="B",
+                        start_after=f"{cid}_A",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_AB",
+                        motion=f"turn_{side}+chord_{side}",
+                        heading_deg=h,
+                        yaw_rate=config.yaw_rate,
+                        segments=(seg_a, stop, seg_b) if stop else (seg_a, seg_b),
+                        part="AB",
+                        **common,
+                    ),
+                    RunSpec(
+                        f"{cid}_C",
+                        motion=f"arc_{side}",
+                        heading_deg=h,
+                        yaw_rate=v / radius,
+                        segments=(seg_c,),
+                        part="C",
+                        **common,
+                    ),
                 ]
     ids = [r.run for r in runs]
     dup = sorted({i for i in ids if ids.count(i) > 1})

@@ -150,8 +150,10 @@ EFFECTS: dict[str, Effect] = {
             "motor_temp",
             "the winding resistance follows the logged winding temperature (channel "
             "motor_temp): +0.39 %/K from 40 C, so every copper loss grows with it",
-            ("channel motor_temp varies (default 25-75 C at run start, warming during runs)",
-             "copper-heavy motions (slopes, standing) make it clearer"),
+            (
+                "channel motor_temp varies (default 25-75 C at run start, warming during runs)",
+                "copper-heavy motions (slopes, standing) make it clearer",
+            ),
             channel="motor_temp",
         ),
         Effect(
@@ -177,8 +179,7 @@ FAULTS: dict[str, str] = {
     "(1 - 0.02 - 0.6 sin(alpha)) (default sensors: 0.1 sin(alpha))",
     "ros_current_sign": "the battery current is logged with the ROS sign convention "
     "(negative while discharging)",
-    "clock_offset": "the battery stream (voltage, current) lags the odometry and IMU by "
-    "0.4 s",
+    "clock_offset": "the battery stream (voltage, current) lags the odometry and IMU by 0.4 s",
 }
 
 

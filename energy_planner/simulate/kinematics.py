@@ -50,9 +50,7 @@ __all__ = [
 Segment = tuple[float, float, float, float]  # (duration_s, vx, vy, wz)
 
 
-def twist_profile(
-    segments: Sequence[Segment], ramp_s: float, dt: float
-) -> tuple[np.ndarray, ...]:
+def twist_profile(segments: Sequence[Segment], ramp_s: float, dt: float) -> tuple[np.ndarray, ...]:
     """Sampled body twist of a run made of constant-twist segments with linear ramps.
 
     The commanded twist ``u(t)`` is piecewise constant (zero before the first and after

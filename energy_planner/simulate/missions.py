@@ -106,28 +106,63 @@ class MissionConfig:
     battery: BatteryConfig = field(default_factory=BatteryConfig)
 
     def __post_init__(self) -> None:
-        for name in ("speeds", "phase_s", "grounds", "loads_kg", "air_temp_range_c",
-                     "motor_temp_range_c", "grass_height_range_m"):
+        for name in (
+            "speeds",
+            "phase_s",
+            "grounds",
+            "loads_kg",
+            "air_temp_range_c",
+            "motor_temp_range_c",
+            "grass_height_range_m",
+        ):
             object.__setattr__(self, name, tuple(getattr(self, name)))
-        _check(isinstance(self.missions, int) and self.missions >= 1, "MissionConfig.missions",
-               self.missions, "an integer >= 1")
+        _check(
+            isinstance(self.missions, int) and self.missions >= 1,
+            "MissionConfig.missions",
+            self.missions,
+            "an integer >= 1",
+        )
         _check(self.duration_s >= 10, "MissionConfig.duration_s", self.duration_s, ">= 10 s")
-        _check(len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
-               "MissionConfig.speeds", self.speeds, "speeds in (0, 3] m/s")
-        _check(len(self.phase_s) == 2 and 0 < self.phase_s[0] <= self.phase_s[1],
-               "MissionConfig.phase_s", self.phase_s, "(low, high) with 0 < low <= high")
+        _check(
+            len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
+            "MissionConfig.speeds",
+            self.speeds,
+            "speeds in (0, 3] m/s",
+        )
+        _check(
+            len(self.phase_s) == 2 and 0 < self.phase_s[0] <= self.phase_s[1],
+            "MissionConfig.phase_s",
+            self.phase_s,
+            "(low, high) with 0 < low <= high",
+        )
         for name in ("stop_prob", "sideways_prob", "backward_prob"):
-            _check(0 <= getattr(self, name) <= 1, f"MissionConfig.{name}", getattr(self, name),
-                   "a probability in [0, 1]")
-        _check(self.sideways_prob + self.backward_prob <= 1, "MissionConfig.sideways_prob",
-               self.sideways_prob, "sideways_prob + backward_prob <= 1")
+            _check(
+                0 <= getattr(self, name) <= 1,
+                f"MissionConfig.{name}",
+                getattr(self, name),
+                "a probability in [0, 1]",
+            )
+        _check(
+            self.sideways_prob + self.backward_prob <= 1,
+            "MissionConfig.sideways_prob",
+            self.sideways_prob,
+            "sideways_prob + backward_prob <= 1",
+        )
         _check(0 < self.yaw_rate <= 3, "MissionConfig.yaw_rate", self.yaw_rate, "in (0, 3]")
         _check(self.ramp_s >= 0, "MissionConfig.ramp_s", self.ramp_s, ">= 0 s")
         _check(1 <= self.rate_hz <= 2000, "MissionConfig.rate_hz", self.rate_hz, "in [1, 2000]")
-        _check(self.waypoint_spacing_m > 0, "MissionConfig.waypoint_spacing_m",
-               self.waypoint_spacing_m, "> 0 m")
-        _check(len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
-               "MissionConfig.grounds", self.grounds, f"one or more of {', '.join(GROUNDS)}")
+        _check(
+            self.waypoint_spacing_m > 0,
+            "MissionConfig.waypoint_spacing_m",
+            self.waypoint_spacing_m,
+            "> 0 m",
+        )
+        _check(
+            len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
+            "MissionConfig.grounds",
+            self.grounds,
+            f"one or more of {', '.join(GROUNDS)}",
+        )
 
     @property
     def dt(self) -> float:
@@ -146,8 +181,9 @@ class MissionConfig:
         return dataclasses.replace(self, **changes)
 
 
-def _smooth_noise(rng: np.random.Generator, shape: tuple[int, int], scale_cells: float
-                  ) -> np.ndarray:
+def _smooth_noise(
+    rng: np.random.Generator, shape: tuple[int, int], scale_cells: float
+) -> np.ndarray:
     """Smooth random field (Gaussian-filtered white noise), zero mean, unit std."""
     from scipy.ndimage import gaussian_filter
 
@@ -155,8 +191,9 @@ def _smooth_noise(rng: np.random.Generator, shape: tuple[int, int], scale_cells:
     return (z - z.mean()) / (z.std() or 1.0)
 
 
-def synthetic_dem(seed: int = 0, size_m: float = 300.0, resolution: float = 2.0,
-                  max_slope_deg: float = 25.0) -> Any:
+def synthetic_dem(
+    seed: int = 0, size_m: float = 300.0, resolution: float = 2.0, max_slope_deg: float = 25.0
+) -> Any:
     """Rolling hills: a smooth random surface scaled so its steepest slope is
     ``max_slope_deg``.
 
@@ -174,8 +211,9 @@ def synthetic_dem(seed: int = 0, size_m: float = 300.0, resolution: float = 2.0,
     z *= math.tan(math.radians(max_slope_deg)) / steep
     t = Terrain.from_array(z, resolution=resolution)
     s = float(np.nanmax(t.slope))
-    return Terrain.from_array(z * math.tan(math.radians(max_slope_deg)) / math.tan(s),
-                              resolution=resolution)
+    return Terrain.from_array(
+        z * math.tan(math.radians(max_slope_deg)) / math.tan(s), resolution=resolution
+    )
 
 
 @dataclass(frozen=True)
@@ -207,26 +245,39 @@ class GroundMap:
 
     def write(self, raster: str | Path, table: str | Path) -> tuple[Path, Path]:
         """Write the codes as a GeoTIFF on the terrain's grid and the table ``code,ground``
-        (for ``--channel ground=RASTER:TABLE``)."""
+        (for ``--channel ground=RASTER:TABLE``).
+        """
         import rasterio
 
         raster, table = Path(raster), Path(table)
         try:
-            with rasterio.open(raster, "w", driver="GTiff", height=self.codes.shape[0],
-                               width=self.codes.shape[1], count=1, dtype="int16",
-                               crs=self.terrain.crs, transform=self.terrain.transform,
-                               nodata=0) as dst:
+            with rasterio.open(
+                raster,
+                "w",
+                driver="GTiff",
+                height=self.codes.shape[0],
+                width=self.codes.shape[1],
+                count=1,
+                dtype="int16",
+                crs=self.terrain.crs,
+                transform=self.terrain.transform,
+                nodata=0,
+            ) as dst:
                 dst.write(self.codes, 1)
-            table.write_text("code,ground\n" + "".join(
-                f"{k},{name}\n" for k, name in enumerate(self.names, start=1)))
+            table.write_text(
+                "code,ground\n"
+                + "".join(f"{k},{name}\n" for k, name in enumerate(self.names, start=1))
+            )
         except (OSError, rasterio.errors.RasterioError) as exc:
-            raise LogIOError(f"cannot write the ground map to {str(raster)!r} / "
-                             f"{str(table)!r}: {exc}") from exc
+            raise LogIOError(
+                f"cannot write the ground map to {str(raster)!r} / {str(table)!r}: {exc}"
+            ) from exc
         return raster, table
 
 
-def ground_map(terrain: Any, grounds: tuple[str, ...] = tuple(GROUNDS), seed: int = 0,
-               patch_m: float = 25.0) -> GroundMap:
+def ground_map(
+    terrain: Any, grounds: tuple[str, ...] = tuple(GROUNDS), seed: int = 0, patch_m: float = 25.0
+) -> GroundMap:
     """Patches of ground types on the terrain's grid, about equally common.
 
     >>> gm = ground_map(synthetic_dem(seed=1, size_m=60.0), ("meadow", "mud"), seed=2)
@@ -249,8 +300,15 @@ def _catmull_rom(p: np.ndarray, per_seg: int = 40) -> np.ndarray:
     out = []
     for i in range(1, len(p) - 2):
         p0, p1, p2, p3 = p[i - 1], p[i], p[i + 1], p[i + 2]
-        out.append(0.5 * ((2 * p1) + (-p0 + p2) * u + (2 * p0 - 5 * p1 + 4 * p2 - p3) * u**2
-                          + (-p0 + 3 * p1 - 3 * p2 + p3) * u**3))
+        out.append(
+            0.5
+            * (
+                (2 * p1)
+                + (-p0 + p2) * u
+                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * u**2
+                + (-p0 + 3 * p1 - 3 * p2 + p3) * u**3
+            )
+        )
     out.append(p[-2][None, :])
     return np.vstack(out)
 
@@ -268,28 +326,32 @@ def _mission_track(rng: np.random.Generator, terrain: Any, cfg: MissionConfig) -
     while k < n:
         if not first and rng.random() < cfg.stop_prob:
             r = rng.random()
-            new = (0.0 if r >= cfg.sideways_prob + cfg.backward_prob
-                   else (math.pi if r < cfg.backward_prob else rng.choice([-1, 1]) * math.pi / 2))
+            new = (
+                0.0
+                if r >= cfg.sideways_prob + cfg.backward_prob
+                else (math.pi if r < cfg.backward_prob else rng.choice([-1, 1]) * math.pi / 2)
+            )
             turn = abs(math.remainder(new - offset, 2 * math.pi))
             m = int(round((cfg.stop_s + turn / cfg.yaw_rate) / dt))
             # turn in place at the yaw rate in the middle of the stop
-            ramp = np.clip((np.arange(m) * dt - cfg.stop_s / 2) * cfg.yaw_rate
-                           / max(turn, 1e-12), 0, 1)
+            ramp = np.clip(
+                (np.arange(m) * dt - cfg.stop_s / 2) * cfg.yaw_rate / max(turn, 1e-12), 0, 1
+            )
             d = math.remainder(new - offset, 2 * math.pi)
-            off_cmd[k:k + m] = (offset + ramp * d)[: max(0, min(m, n - k))]
-            v_cmd[k:k + m] = 0.0
+            off_cmd[k : k + m] = (offset + ramp * d)[: max(0, min(m, n - k))]
+            v_cmd[k : k + m] = 0.0
             k += m
             offset = offset + d
         first = False
         m = int(round(rng.uniform(*cfg.phase_s) / dt))
-        v_cmd[k:k + m] = rng.choice(cfg.speeds)
-        off_cmd[k:k + m] = offset
+        v_cmd[k : k + m] = rng.choice(cfg.speeds)
+        off_cmd[k : k + m] = offset
         k += m
-    v_cmd[-max(1, int(round(cfg.ramp_s / dt))):] = 0.0  # end at rest
+    v_cmd[-max(1, int(round(cfg.ramp_s / dt))) :] = 0.0  # end at rest
     r = int(round(cfg.ramp_s / dt))
     if r > 0:
         kern = np.ones(r) / r
-        v = np.convolve(np.r_[np.zeros(r), v_cmd], kern, mode="full")[r: r + n]
+        v = np.convolve(np.r_[np.zeros(r), v_cmd], kern, mode="full")[r : r + n]
     else:
         v = v_cmd.copy()
     # ---- the path: random waypoints within the map, a smooth spline
@@ -297,8 +359,14 @@ def _mission_track(rng: np.random.Generator, terrain: Any, cfg: MissionConfig) -
     margin = 0.15 * min(x_max - x_min, y_max - y_min)
     total = float(np.sum(v) * dt) * 1.2 + 10.0
     n_wp = max(3, int(total / cfg.waypoint_spacing_m) + 2)
-    wp = [np.array([rng.uniform(x_min + margin, x_max - margin),
-                    rng.uniform(y_min + margin, y_max - margin)])]
+    wp = [
+        np.array(
+            [
+                rng.uniform(x_min + margin, x_max - margin),
+                rng.uniform(y_min + margin, y_max - margin),
+            ]
+        )
+    ]
     heading = rng.uniform(-math.pi, math.pi)
     for _ in range(n_wp - 1):
         for _try in range(20):
@@ -359,12 +427,25 @@ def _body_motion(terrain: Any, tr: dict, dt: float) -> dict[str, np.ndarray]:
     R = np.stack([bx, by, bz], axis=2)  # columns: body axes in the world
     rel = np.einsum("nji,njk->nik", R[:-1], R[1:])  # R_k^T R_{k+1}
     w = (rel[:, 1, 0] - rel[:, 0, 1]) / (2 * dt)
-    wz = np.concatenate([[w[0]], 0.5 * (w[1:] + w[:-1]), [w[-1]]]) if len(w) > 1 else np.zeros(
-        len(x))
+    wz = (
+        np.concatenate([[w[0]], 0.5 * (w[1:] + w[:-1]), [w[-1]]])
+        if len(w) > 1
+        else np.zeros(len(x))
+    )
     ax = np.gradient(vx, dt)
     ay = np.gradient(vy, dt)
-    return {"alpha": alpha, "psi": psi, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz,
-            "ax": ax, "ay": ay, "pos": pos, "yaw": wrap(theta)}
+    return {
+        "alpha": alpha,
+        "psi": psi,
+        "gamma": gamma,
+        "vx": vx,
+        "vy": vy,
+        "wz": wz,
+        "ax": ax,
+        "ay": ay,
+        "pos": pos,
+        "yaw": wrap(theta),
+    }
 
 
 def simulate_missions(
@@ -416,8 +497,9 @@ def simulate_missions(
     grounds = ground_map(terrain, cfg.grounds, seed=seed)
 
     tracks, motions = [], []
-    for _ in tqdm(range(cfg.missions), desc="simulating missions", disable=not progress,
-                  unit="mission"):
+    for _ in tqdm(
+        range(cfg.missions), desc="simulating missions", disable=not progress, unit="mission"
+    ):
         tr = _mission_track(path_rng, terrain, cfg)
         tracks.append(tr)
         motions.append(_body_motion(terrain, tr, cfg.dt))
@@ -450,39 +532,90 @@ def simulate_missions(
         "grass_height_m": grass[idx],
     }
     slip_s = slip[idx] + sens.slip_per_sin_slope * np.sin(alpha)
-    truth = _TruthStreams(run_ids, t, t_run, alpha, cat("psi"), cat("gamma"), cat("vx"),
-                          cat("vy"), cat("wz"), cat("ax"), cat("ay"), pos, cat("yaw"),
-                          channels)
-    out = _logs_from_truth(truth, physics, sens, cfg.battery, cfg.dt, sizes, slip_s,
-                           bias[idx], noise_rng, list(cfg.grounds))
+    truth = _TruthStreams(
+        run_ids,
+        t,
+        t_run,
+        alpha,
+        cat("psi"),
+        cat("gamma"),
+        cat("vx"),
+        cat("vy"),
+        cat("wz"),
+        cat("ax"),
+        cat("ay"),
+        pos,
+        cat("yaw"),
+        channels,
+    )
+    out = _logs_from_truth(
+        truth,
+        physics,
+        sens,
+        cfg.battery,
+        cfg.dt,
+        sizes,
+        slip_s,
+        bias[idx],
+        noise_rng,
+        list(cfg.grounds),
+    )
     rows = []
     for i, (tr, mo) in enumerate(zip(tracks, motions, strict=True)):
         speed = np.hypot(mo["vx"], mo["vy"])
         dist = float(np.sum(0.5 * (speed[1:] + speed[:-1])) * cfg.dt)
         dur = float(tr["t"][-1])
-        rows.append({
-            "run": f"mission_{i:03d}", "kind": "mission", "motion": "mission",
-            "slope_deg": float(np.degrees(np.mean(mo["alpha"]))),
-            "max_slope_deg": float(np.degrees(np.max(mo["alpha"]))),
-            "uphill_azimuth_deg": float("nan"), "heading_deg": float(np.degrees(mo["gamma"][0])),
-            "speed": float(np.mean(speed[speed > 0.05])) if np.any(speed > 0.05) else 0.0,
-            "yaw_rate": float(np.mean(np.abs(mo["wz"]))), "duration_s": dur,
-            "composite": "", "part": "", "true_energy_j": out["energy"][i],
-            "true_mean_power_w": out["energy"][i] / dur, "distance_m": dist,
-            "turn_deg": float(np.degrees(mo["yaw"][-1] - mo["yaw"][0])), "repeat": 0,
-            "order": i, "t_start": starts[i], "n_samples": int(sizes[i]),
-            "load_kg": load[i], "ground": "varies", "motor_temp_start": motor0[i],
-            "air_temp_c": air[i], "grass_height_m": grass[i], "slip": slip[i],
-            "imu_roll_bias_deg": math.degrees(bias[i, 0]),
-            "imu_pitch_bias_deg": math.degrees(bias[i, 1]),
-            "battery_pack": out["pack"][i], "soc_start": out["soc_start"][i],
-            "soc_end": out["soc_end"][i],
-            "start_x": mo["pos"][0, 0], "start_y": mo["pos"][0, 1],
-            "end_x": mo["pos"][-1, 0], "end_y": mo["pos"][-1, 1],
-            "end_yaw_deg": math.degrees(mo["yaw"][-1]),
-            "end_heading_deg": math.degrees(mo["gamma"][-1]),
-        })
+        rows.append(
+            {
+                "run": f"mission_{i:03d}",
+                "kind": "mission",
+                "motion": "mission",
+                "slope_deg": float(np.degrees(np.mean(mo["alpha"]))),
+                "max_slope_deg": float(np.degrees(np.max(mo["alpha"]))),
+                "uphill_azimuth_deg": float("nan"),
+                "heading_deg": float(np.degrees(mo["gamma"][0])),
+                "speed": float(np.mean(speed[speed > 0.05])) if np.any(speed > 0.05) else 0.0,
+                "yaw_rate": float(np.mean(np.abs(mo["wz"]))),
+                "duration_s": dur,
+                "composite": "",
+                "part": "",
+                "true_energy_j": out["energy"][i],
+                "true_mean_power_w": out["energy"][i] / dur,
+                "distance_m": dist,
+                "turn_deg": float(np.degrees(mo["yaw"][-1] - mo["yaw"][0])),
+                "repeat": 0,
+                "order": i,
+                "t_start": starts[i],
+                "n_samples": int(sizes[i]),
+                "load_kg": load[i],
+                "ground": "varies",
+                "motor_temp_start": motor0[i],
+                "air_temp_c": air[i],
+                "grass_height_m": grass[i],
+                "slip": slip[i],
+                "imu_roll_bias_deg": math.degrees(bias[i, 0]),
+                "imu_pitch_bias_deg": math.degrees(bias[i, 1]),
+                "battery_pack": out["pack"][i],
+                "soc_start": out["soc_start"][i],
+                "soc_end": out["soc_end"][i],
+                "start_x": mo["pos"][0, 0],
+                "start_y": mo["pos"][0, 1],
+                "end_x": mo["pos"][-1, 0],
+                "end_y": mo["pos"][-1, 1],
+                "end_yaw_deg": math.degrees(mo["yaw"][-1]),
+                "end_heading_deg": math.degrees(mo["gamma"][-1]),
+            }
+        )
     if not rows:  # pragma: no cover - missions >= 1
         raise ConfigError("no mission simulated")
-    return Campaign(out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed,
-                    cfg, fault_names, grounds)
+    return Campaign(
+        out["logs"],
+        pd.DataFrame(rows),
+        physics,
+        names,
+        out["true_samples"],
+        seed,
+        cfg,
+        fault_names,
+        grounds,
+    )

@@ -59,8 +59,9 @@ class PathTruth:
     segments: pd.DataFrame
 
 
-def channel_values(channels: Mapping[str, Any] | None, x: np.ndarray,
-                   y: np.ndarray) -> dict[str, np.ndarray]:
+def channel_values(
+    channels: Mapping[str, Any] | None, x: np.ndarray, y: np.ndarray
+) -> dict[str, np.ndarray]:
     """Channel values at points: constants broadcast; callables ``f(x, y)`` or objects
     with ``.sample(x, y)`` (a raster) evaluated there.
 
@@ -147,9 +148,13 @@ def true_path_energy(
     ddx, ddy = np.diff(st[:, 0]), np.diff(st[:, 1])
     dth = wrap(np.diff(st[:, 2]))
     dist_h = np.hypot(ddx, ddy)
-    n_sub = np.maximum.reduce([np.ones_like(dist_h, dtype=int),
-                               np.ceil(dist_h / step_m).astype(int),
-                               np.ceil(np.abs(dth) / ang_step).astype(int)])
+    n_sub = np.maximum.reduce(
+        [
+            np.ones_like(dist_h, dtype=int),
+            np.ceil(dist_h / step_m).astype(int),
+            np.ceil(np.abs(dth) / ang_step).astype(int),
+        ]
+    )
     seg = np.repeat(np.arange(len(dist_h)), n_sub)
     first = np.concatenate([[0], np.cumsum(n_sub)[:-1]])
     i_in = np.arange(len(seg)) - first[seg]
@@ -189,11 +194,18 @@ def true_path_energy(
     vx = np.where(dt > 0, np.sum(v * bx, axis=0), 0.0)
     vy = np.where(dt > 0, np.sum(v * by, axis=0), 0.0)
     wz = np.where(T[seg] > 0, dth[seg] / np.where(Ts > 0, Ts, 1.0), 0.0)
-    features = {"alpha": alpha, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz,
-                **channel_values(channels, x, y)}
+    features = {
+        "alpha": alpha,
+        "gamma": gamma,
+        "vx": vx,
+        "vy": vy,
+        "wz": wz,
+        **channel_values(channels, x, y),
+    }
     p = physics.expected_power(features)
     e = p * dt
     seg_e = np.bincount(seg, weights=e, minlength=len(dist_h))
-    segments = pd.DataFrame({"energy_j": seg_e, "distance_m": surface, "duration_s": T,
-                             "turn_rad": dth})
+    segments = pd.DataFrame(
+        {"energy_j": seg_e, "distance_m": surface, "duration_s": T, "turn_rad": dth}
+    )
     return PathTruth(float(seg_e.sum()), float(surface.sum()), float(T.sum()), segments)

@@ -96,8 +96,17 @@ GROUNDS: dict[str, tuple[float, float]] = {
 }
 
 #: Power components, W, in the order :meth:`Physics.components` returns them.
-COMPONENTS = ("electronics", "copper", "mechanical", "collisions", "swing", "gearbox",
-              "turning", "terrain", "ripple")
+COMPONENTS = (
+    "electronics",
+    "copper",
+    "mechanical",
+    "collisions",
+    "swing",
+    "gearbox",
+    "turning",
+    "terrain",
+    "ripple",
+)
 
 
 @dataclass(frozen=True)
@@ -235,15 +244,32 @@ class RobotParams:
             v = getattr(self, f.name)
             if not (isinstance(v, int | float) and math.isfinite(v)):
                 raise ModelError(f"RobotParams.{f.name} = {v!r}: expected a finite number")
-        positive = ("mass_kg", "gravity", "winding_resistance_ohm", "torque_constant_nm_a",
-                    "gear_ratio", "com_height_m", "half_length_m", "half_width_m",
-                    "lift_efficiency", "swing_efficiency", "stride_frequency_hz",
-                    "gait_on_speed", "nominal_speed")
+        positive = (
+            "mass_kg",
+            "gravity",
+            "winding_resistance_ohm",
+            "torque_constant_nm_a",
+            "gear_ratio",
+            "com_height_m",
+            "half_length_m",
+            "half_width_m",
+            "lift_efficiency",
+            "swing_efficiency",
+            "stride_frequency_hz",
+            "gait_on_speed",
+            "nominal_speed",
+        )
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ModelError(f"RobotParams.{name} = {getattr(self, name)!r}: expected > 0")
-        for name in ("duty_factor", "lift_efficiency", "swing_efficiency", "recovery_forward",
-                     "recovery_backward", "recovery_lateral"):
+        for name in (
+            "duty_factor",
+            "lift_efficiency",
+            "swing_efficiency",
+            "recovery_forward",
+            "recovery_backward",
+            "recovery_lateral",
+        ):
             v = getattr(self, name)
             if not 0 <= v <= 1:
                 raise ModelError(f"RobotParams.{name} = {v!r}: expected a value in [0, 1]")
@@ -266,16 +292,27 @@ class RobotParams:
     def table(self) -> list[dict[str, Any]]:
         """Rows ``name, value, unit`` of every parameter (for docs and ``--json``)."""
         units = {
-            "mass_kg": "kg", "gravity": "m/s^2", "electronics_w": "W",
-            "winding_resistance_ohm": "ohm", "torque_constant_nm_a": "N m/A",
-            "stride_frequency_hz": "Hz", "leg_mass_kg": "kg", "gearbox_friction_n": "N",
-            "gearbox_reference_c": "deg C", "gearbox_viscosity_per_k": "1/K",
-            "reference_temp_c": "deg C", "copper_temp_coeff": "1/K", "nominal_speed": "m/s",
+            "mass_kg": "kg",
+            "gravity": "m/s^2",
+            "electronics_w": "W",
+            "winding_resistance_ohm": "ohm",
+            "torque_constant_nm_a": "N m/A",
+            "stride_frequency_hz": "Hz",
+            "leg_mass_kg": "kg",
+            "gearbox_friction_n": "N",
+            "gearbox_reference_c": "deg C",
+            "gearbox_viscosity_per_k": "1/K",
+            "reference_temp_c": "deg C",
+            "copper_temp_coeff": "1/K",
+            "nominal_speed": "m/s",
             "gait_on_speed": "m/s",
         }
         return [
-            {"name": f.name, "value": getattr(self, f.name),
-             "unit": units.get(f.name, "m" if f.name.endswith("_m") else "1")}
+            {
+                "name": f.name,
+                "value": getattr(self, f.name),
+                "unit": units.get(f.name, "m" if f.name.endswith("_m") else "1"),
+            }
             for f in dataclasses.fields(self)
         ]
 
@@ -386,8 +423,7 @@ class Physics:
             # stiff descent mode when walking forward down more than DESCENT_GRADE
             descent = (vx > 0) & (-s_x > DESCENT_GRADE)
             rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
-        recovery = (rec_fwd * w_fwd + p.recovery_backward * w_bwd
-                    + p.recovery_lateral * w_lat)
+        recovery = rec_fwd * w_fwd + p.recovery_backward * w_bwd + p.recovery_lateral * w_lat
         if "acceleration" in on:  # speeding up and slowing down both cost (no recovery)
             p_mech = weight * dz_dt + m_inertial * np.abs(vx * ax + vy * ay)
         sinkage = np.zeros(n)
@@ -395,13 +431,12 @@ class Physics:
             ground = np.asarray(np.broadcast_to(np.asarray(f["ground"], dtype=object), (n,)))
             bad = sorted({str(x) for x in np.unique(ground.astype(str))} - set(GROUNDS))
             if bad:
-                raise ModelError(
-                    f"unknown ground {bad[0]!r}; expected one of {', '.join(GROUNDS)}"
-                )
+                raise ModelError(f"unknown ground {bad[0]!r}; expected one of {', '.join(GROUNDS)}")
             codes = ground.astype(str)
             sinkage = np.select([codes == k for k in GROUNDS], [v[0] for v in GROUNDS.values()])
-            recovery = recovery * np.select([codes == k for k in GROUNDS],
-                                            [v[1] for v in GROUNDS.values()])
+            recovery = recovery * np.select(
+                [codes == k for k in GROUNDS], [v[1] for v in GROUNDS.values()]
+            )
         mechanical = np.where(p_mech >= 0, p_mech / p.lift_efficiency, recovery * p_mech)
 
         # ---- copper losses
@@ -410,14 +445,16 @@ class Physics:
             r_factor = 1.0 + p.copper_temp_coeff * (_arr(f, "motor_temp", n) - p.reference_temp_c)
         k_z = p.kappa(p.lever_support_m, r_factor)
         k_push = p.kappa(p.lever_push_m, r_factor)
-        k_bf = np.where(descent, p.kappa(DESCENT_LEVER_M, r_factor),
-                        p.kappa(p.lever_brake_forward_m, r_factor))
+        k_bf = np.where(
+            descent, p.kappa(DESCENT_LEVER_M, r_factor), p.kappa(p.lever_brake_forward_m, r_factor)
+        )
         k_bb = p.kappa(p.lever_brake_backward_m, r_factor)
         # sideways forces: stepping sideways the stance legs pass through the vertical
         # (hip ab/adduction lever); walking forward the feet are placed wide on the
         # downhill side, so a sideways load runs mostly along the legs (short lever)
-        k_y = (w_lat * p.kappa(p.lever_lateral_m, r_factor)
-               + (1.0 - w_lat) * p.kappa(p.lever_side_hold_m, r_factor))
+        k_y = w_lat * p.kappa(p.lever_lateral_m, r_factor) + (1.0 - w_lat) * p.kappa(
+            p.lever_side_hold_m, r_factor
+        )
         braking = f_x * vx < 0  # the x force opposes the motion along x
         moving_x = np.clip(np.abs(vx) / p.gait_on_speed, 0.0, 1.0)
         k_brake = np.where(vx > 0, k_bf, k_bb)
@@ -425,15 +462,16 @@ class Physics:
         share = 1.0 + activity * (p.stance_profile_factor / p.duty_factor - 1.0)
         h = p.com_height_m
         pitch, roll = (h / p.half_length_m) ** 2, (h / p.half_width_m) ** 2
-        copper = share / 4.0 * (
-            k_z * (f_z**2 + pitch * f_x**2 + roll * f_y**2)
-            + k_x * f_x**2
-            + k_y * f_y**2
+        copper = (
+            share
+            / 4.0
+            * (k_z * (f_z**2 + pitch * f_x**2 + roll * f_y**2) + k_x * f_x**2 + k_y * f_y**2)
         )
 
         # ---- gait: touch-down losses, swing, gearbox friction, turning
-        coll = (p.collision_forward * w_fwd + p.collision_backward * w_bwd
-                + p.collision_lateral * w_lat)
+        coll = (
+            p.collision_forward * w_fwd + p.collision_backward * w_bwd + p.collision_lateral * w_lat
+        )
         collisions = coll * weight * speed / p.lift_efficiency
         stride_f = np.full(n, p.stride_frequency_hz)
         if "speed_dependence" in on:
@@ -454,14 +492,27 @@ class Physics:
         swing = lift + kinetic
         visc = 1.0
         if "cold_joints" in on:
-            visc = np.exp(p.gearbox_viscosity_per_k
-                          * (p.gearbox_reference_c - _arr(f, "air_temp_c", n)))
+            visc = np.exp(
+                p.gearbox_viscosity_per_k * (p.gearbox_reference_c - _arr(f, "air_temp_c", n))
+            )
         gearbox = p.gearbox_friction_n * visc * (speed + yaw_speed)
-        turning = np.abs(wz) * p.foot_radius_m * weight * (
-            p.turn_friction * ca + p.turn_slope_factor * sa) / p.lift_efficiency
+        turning = (
+            np.abs(wz)
+            * p.foot_radius_m
+            * weight
+            * (p.turn_friction * ca + p.turn_slope_factor * sa)
+            / p.lift_efficiency
+        )
         if "turn_while_walking" in on:  # planted feet scuff sideways on arcs
-            turning = turning + (TURN_SCUFF * weight * p.foot_radius_m * np.abs(wz)
-                                 * speed / (speed + 0.05) / p.lift_efficiency)
+            turning = turning + (
+                TURN_SCUFF
+                * weight
+                * p.foot_radius_m
+                * np.abs(wz)
+                * speed
+                / (speed + 0.05)
+                / p.lift_efficiency
+            )
         terrain = terrain + sinkage * weight * speed / p.lift_efficiency
 
         electronics = np.full(n, p.electronics_w)
@@ -469,8 +520,12 @@ class Physics:
         ripple = np.zeros(n)
         if f.get("t_gait") is not None and p.ripple_fraction > 0:
             t_gait = _arr(f, "t_gait", n)
-            ripple = (p.ripple_fraction * activity * np.maximum(gait, 0.0)
-                      * np.sin(4 * np.pi * stride_f * t_gait))
+            ripple = (
+                p.ripple_fraction
+                * activity
+                * np.maximum(gait, 0.0)
+                * np.sin(4 * np.pi * stride_f * t_gait)
+            )
         return {
             "electronics": electronics,
             "copper": copper,
@@ -549,12 +604,30 @@ def critical_grade(
     deg = np.linspace(0.05, max_deg, 8000)
     a = np.radians(deg)
     n = len(a)
-    f = {"alpha": a, "gamma": np.zeros(n), "vx": np.full(n, speed), "vy": np.zeros(n),
-         "wz": np.zeros(n)}
+    f = {
+        "alpha": a,
+        "gamma": np.zeros(n),
+        "vx": np.full(n, speed),
+        "vy": np.zeros(n),
+        "wz": np.zeros(n),
+    }
     cost = physics.expected_power(f) / speed
     k = int(np.argmin(cost / np.sin(a)))
-    level = physics.expected_power({"alpha": np.zeros(1), "gamma": np.zeros(1),
-                                    "vx": np.full(1, speed), "vy": np.zeros(1),
-                                    "wz": np.zeros(1)})[0] / speed
-    return {"grade": float(np.sin(a[k])), "slope_deg": float(deg[k]),
-            "cost_n": float(cost[k]), "level_cost_n": float(level)}
+    level = (
+        physics.expected_power(
+            {
+                "alpha": np.zeros(1),
+                "gamma": np.zeros(1),
+                "vx": np.full(1, speed),
+                "vy": np.zeros(1),
+                "wz": np.zeros(1),
+            }
+        )[0]
+        / speed
+    )
+    return {
+        "grade": float(np.sin(a[k])),
+        "slope_deg": float(deg[k]),
+        "cost_n": float(cost[k]),
+        "level_cost_n": float(level),
+    }

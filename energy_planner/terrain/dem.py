@@ -379,8 +379,9 @@ class Terrain:
         ys = (t.f, t.f + rows * t.e)
         return (float(min(xs)), float(min(ys)), float(max(xs)), float(max(ys)))
 
-    def _coordinate_error(self, crs: Any, x: np.ndarray, y: np.ndarray, bad: np.ndarray,
-                          source: bool, cause: str) -> CoordinateError:
+    def _coordinate_error(
+        self, crs: Any, x: np.ndarray, y: np.ndarray, bad: np.ndarray, source: bool, cause: str
+    ) -> CoordinateError:
         """A :class:`CoordinateError` naming the first bad point, the CRS and the bounds."""
         i = int(np.flatnonzero(bad.ravel())[0])
         px, py = float(x.ravel()[i]), float(y.ravel()[i])
@@ -390,16 +391,21 @@ class Terrain:
         dem = f"the DEM {str(self.path)!r}" if self.path else "the DEM"
         if geographic:
             expected = "longitude,latitude in degrees"
-            cover = (f"lon {bounds[0]:.6g} .. {bounds[2]:.6g}, "
-                     f"lat {bounds[1]:.6g} .. {bounds[3]:.6g}")
-            hint = (f"give longitude,latitude, e.g. {0.5 * (bounds[0] + bounds[2]):.5f},"
-                    f"{0.5 * (bounds[1] + bounds[3]):.5f} (the map's centre)")
+            cover = (
+                f"lon {bounds[0]:.6g} .. {bounds[2]:.6g}, lat {bounds[1]:.6g} .. {bounds[3]:.6g}"
+            )
+            hint = (
+                f"give longitude,latitude, e.g. {0.5 * (bounds[0] + bounds[2]):.5f},"
+                f"{0.5 * (bounds[1] + bounds[3]):.5f} (the map's centre)"
+            )
             if source:
                 wx0, wy0, wx1, wy1 = self.bounds
                 if wx0 <= px <= wx1 and wy0 <= py <= wy1:  # metres on the working grid
                     lon, lat = self.from_work(px, py)
-                    hint = (f"({px:.10g}, {py:.10g}) lies on the DEM's working grid "
-                            f"{self.crs} at lon {lon:.7f}, lat {lat:.7f}: give that")
+                    hint = (
+                        f"({px:.10g}, {py:.10g}) lies on the DEM's working grid "
+                        f"{self.crs} at lon {lon:.7f}, lat {lat:.7f}: give that"
+                    )
             kind = "geographic"
         else:
             expected = f"x,y in {crs}"
@@ -410,8 +416,14 @@ class Terrain:
         return CoordinateError(
             f"coordinates ({px:.10g}, {py:.10g}){where} {cause}: {dem} is in {crs} "
             f"({kind}), covering {cover}; expected {expected}. Hint: {hint}",
-            value=(px, py), crs=str(crs), bounds=bounds, expected=expected, hint=hint,
-            path=self.path, index=i, n_bad=n_bad,
+            value=(px, py),
+            crs=str(crs),
+            bounds=bounds,
+            expected=expected,
+            hint=hint,
+            path=self.path,
+            index=i,
+            n_bad=n_bad,
         )
 
     def _convert(self, src: Any, dst: Any, x: Any, y: Any, source: bool) -> tuple[Any, Any]:
@@ -429,9 +441,15 @@ class Terrain:
                 bad |= (np.abs(ya) > 90.0) | (np.abs(xa) > 360.0)
         if bad.any():
             raise self._coordinate_error(
-                src, xa, ya, bad, source,
-                "are not a longitude, latitude (beyond +-90 deg latitude or +-360 deg "
-                "longitude)" if getattr(src, "is_geographic", False) else "are not finite")
+                src,
+                xa,
+                ya,
+                bad,
+                source,
+                "are not a longitude, latitude (beyond +-90 deg latitude or +-360 deg longitude)"
+                if getattr(src, "is_geographic", False)
+                else "are not finite",
+            )
         try:
             xs, ys = transform(src, dst, xa.ravel().tolist(), ya.ravel().tolist())
         except (CRSError, Exception) as exc:  # noqa: BLE001 - PROJ errors (CPLE_*Error)
@@ -444,14 +462,21 @@ class Terrain:
                     bad[k] = True
             if not bad.any():
                 bad[0] = True
-            raise self._coordinate_error(src, xa, ya, bad.reshape(xa.shape), source,
-                                         f"cannot be converted to {dst} (PROJ: {exc})") from exc
+            raise self._coordinate_error(
+                src,
+                xa,
+                ya,
+                bad.reshape(xa.shape),
+                source,
+                f"cannot be converted to {dst} (PROJ: {exc})",
+            ) from exc
         xo = np.asarray(xs, dtype=np.float64).reshape(xa.shape)
         yo = np.asarray(ys, dtype=np.float64).reshape(ya.shape)
         bad = ~(np.isfinite(xo) & np.isfinite(yo))
         if bad.any():
-            raise self._coordinate_error(src, xa, ya, bad, source,
-                                         f"have no finite position in {dst}")
+            raise self._coordinate_error(
+                src, xa, ya, bad, source, f"have no finite position in {dst}"
+            )
         return _scalar_or_array(xo), _scalar_or_array(yo)
 
     def to_work(self, x: Any, y: Any) -> tuple[Any, Any]:
@@ -537,8 +562,9 @@ def _warp_to_utm(
     dst_transform, width, height = calculate_default_transform(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
-    check_memory((height, width), BYTES_PER_CELL, f"DEM {str(path)!r} reprojected to {dst_crs}",
-                 path=path)
+    check_memory(
+        (height, width), BYTES_PER_CELL, f"DEM {str(path)!r} reprojected to {dst_crs}", path=path
+    )
     # Point-bilinear resampling at exactly projected cell centres (PROJ for every centre).
     # Not GDAL's warper: when the target pixel is larger than the source pixel along an
     # axis (here 26 m over 21.9 m), its bilinear kernel is widened and a 10 deg plane came
@@ -574,8 +600,9 @@ def _warp_to_utm(
     return zw, dst_transform, dst_crs
 
 
-def _read_window(src: Any, bounds: Sequence[float] | None, decimate: int, name: str
-                 ) -> tuple[Any, tuple[int, int], Affine]:
+def _read_window(
+    src: Any, bounds: Sequence[float] | None, decimate: int, name: str
+) -> tuple[Any, tuple[int, int], Affine]:
     """The window to read, the shape to read it at and that grid's transform."""
     from rasterio.windows import Window, from_bounds
 
@@ -586,13 +613,21 @@ def _read_window(src: Any, bounds: Sequence[float] | None, decimate: int, name: 
         try:
             xmin, ymin, xmax, ymax = (float(v) for v in bounds)
         except (TypeError, ValueError):
-            raise DEMError(f"bounds {bounds!r} are not (xmin, ymin, xmax, ymax)", path=name,
-                           value=bounds, param="bounds",
-                           expected="(xmin, ymin, xmax, ymax) in the DEM's CRS") from None
+            raise DEMError(
+                f"bounds {bounds!r} are not (xmin, ymin, xmax, ymax)",
+                path=name,
+                value=bounds,
+                param="bounds",
+                expected="(xmin, ymin, xmax, ymax) in the DEM's CRS",
+            ) from None
         if not (xmin < xmax and ymin < ymax):
-            raise DEMError(f"bounds {bounds!r}: expected xmin < xmax and ymin < ymax",
-                           path=name, value=bounds, param="bounds",
-                           expected="(xmin, ymin, xmax, ymax) in the DEM's CRS")
+            raise DEMError(
+                f"bounds {bounds!r}: expected xmin < xmax and ymin < ymax",
+                path=name,
+                value=bounds,
+                param="bounds",
+                expected="(xmin, ymin, xmax, ymax) in the DEM's CRS",
+            )
         w = from_bounds(xmin, ymin, xmax, ymax, transform=src.transform)
         w = w.round_offsets(op="floor").round_lengths(op="ceil")
         try:
@@ -603,12 +638,22 @@ def _read_window(src: Any, bounds: Sequence[float] | None, decimate: int, name: 
             left, bottom, right, top = src.bounds
             raise DEMError(
                 f"bounds {tuple(bounds)!r} do not overlap DEM {name!r}, which covers "
-                f"({left:.6g}, {bottom:.6g}, {right:.6g}, {top:.6g}) in {src.crs}", path=name,
-                value=tuple(bounds), param="bounds", bounds=(left, bottom, right, top),
-                crs=str(src.crs), expected="bounds inside the DEM, in its CRS")
+                f"({left:.6g}, {bottom:.6g}, {right:.6g}, {top:.6g}) in {src.crs}",
+                path=name,
+                value=tuple(bounds),
+                param="bounds",
+                bounds=(left, bottom, right, top),
+                crs=str(src.crs),
+                expected="bounds inside the DEM, in its CRS",
+            )
     if not (isinstance(decimate, int | np.integer) and decimate >= 1):
-        raise DEMError(f"decimate={decimate!r} must be an integer >= 1", path=name,
-                       value=decimate, param="decimate", expected="an integer >= 1")
+        raise DEMError(
+            f"decimate={decimate!r} must be an integer >= 1",
+            path=name,
+            value=decimate,
+            param="decimate",
+            expected="an integer >= 1",
+        )
     h, w_ = int(win.height), int(win.width)
     shape = (max(1, math.ceil(h / decimate)), max(1, math.ceil(w_ / decimate)))
     t = src.window_transform(win) @ Affine.scale(w_ / shape[1], h / shape[0])
@@ -670,31 +715,52 @@ def load_dem(
     p = Path(path)
     name = str(path)
     if not name.startswith("/vsi") and "://" not in name and not p.exists():
-        raise DEMIOError(f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
-                         path=name, expected="a raster file (GeoTIFF, ...)")
+        raise DEMIOError(
+            f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
+            path=name,
+            expected="a raster file (GeoTIFF, ...)",
+        )
     try:
         src = rasterio.open(name)
     except RasterioIOError as exc:
-        raise DEMIOError(f"cannot open DEM {name!r} as a raster: {exc}", path=name,
-                         expected="a raster file (GeoTIFF, ...)") from exc
+        raise DEMIOError(
+            f"cannot open DEM {name!r} as a raster: {exc}",
+            path=name,
+            expected="a raster file (GeoTIFF, ...)",
+        ) from exc
     with src:
         n = src.count
         if band is None:
             if n != 1:
                 raise DEMError(
                     f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
-                    f"--band N (CLI), N in 1..{n}", path=name, value=n, param="band",
-                    expected=f"a band in 1..{n}", hint="--band N"
+                    f"--band N (CLI), N in 1..{n}",
+                    path=name,
+                    value=n,
+                    param="band",
+                    expected=f"a band in 1..{n}",
+                    hint="--band N",
                 )
             band = 1
         if not (isinstance(band, int | np.integer) and 1 <= band <= n):
-            raise DEMError(f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
-                           path=name, value=band, param="band", expected=f"a band in 1..{n}",
-                           hint="--band N")
+            raise DEMError(
+                f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
+                path=name,
+                value=band,
+                param="band",
+                expected=f"a band in 1..{n}",
+                hint="--band N",
+            )
         win, shape, transform = _read_window(src, bounds, decimate, name)
-        part = "" if (bounds is None and decimate == 1) else (
-            f" (window of {int(win.height)} x {int(win.width)} cells"
-            + (f", decimated by {decimate}" if decimate > 1 else "") + ")")
+        part = (
+            ""
+            if (bounds is None and decimate == 1)
+            else (
+                f" (window of {int(win.height)} x {int(win.width)} cells"
+                + (f", decimated by {decimate}" if decimate > 1 else "")
+                + ")"
+            )
+        )
         check_memory(shape, BYTES_PER_CELL, f"DEM {name!r}{part}", path=name)
         nodata = src.nodatavals[int(band) - 1]
         try:
@@ -703,11 +769,19 @@ def load_dem(
             else:
                 from rasterio.enums import Resampling
 
-                data = src.read(int(band), window=win, out_shape=shape, masked=True,
-                                resampling=Resampling.average)
+                data = src.read(
+                    int(band),
+                    window=win,
+                    out_shape=shape,
+                    masked=True,
+                    resampling=Resampling.average,
+                )
         except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
-            raise DEMIOError(f"cannot read band {band} of DEM {name!r}: {exc}", path=name,
-                             expected="a readable raster (is the file truncated?)") from exc
+            raise DEMIOError(
+                f"cannot read band {band} of DEM {name!r}: {exc}",
+                path=name,
+                expected="a readable raster (is the file truncated?)",
+            ) from exc
         z = np.ma.filled(data.astype(np.float64), np.nan)
         del data
         crs = src.crs
@@ -715,22 +789,36 @@ def load_dem(
             raise DEMError(
                 f"DEM {name!r} has a rotated/sheared geotransform {tuple(transform)[:6]}; "
                 "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif",
-                path=name, value=tuple(transform)[:6], expected="a north-up geotransform"
+                path=name,
+                value=tuple(transform)[:6],
+                expected="a north-up geotransform",
             )
         if src.gcps[0] and transform == Affine.identity():
-            raise DEMError(f"DEM {name!r} is georeferenced by GCPs only; warp it first",
-                           path=name, expected="a geotransform")
+            raise DEMError(
+                f"DEM {name!r} is georeferenced by GCPs only; warp it first",
+                path=name,
+                expected="a geotransform",
+            )
     z[~np.isfinite(z)] = np.nan
     if not np.isfinite(z).any():
         what = "NaN" if nodata is None or np.isnan(nodata) else f"nodata ({nodata:g}) or NaN"
         if n == 1:
-            raise DEMError(f"DEM {name!r} has no valid cell: every cell is {what}; expected "
-                           "elevations (check the file's nodata value)", path=name,
-                           value=nodata, expected="at least one valid elevation")
-        raise DEMError(f"band {band} of DEM {name!r} has no valid cell: every cell is {what}; "
-                       f"the file has {n} bands (choose another with --band N)", path=name,
-                       value=band, param="band", expected="a band with valid elevations",
-                       hint="--band N")
+            raise DEMError(
+                f"DEM {name!r} has no valid cell: every cell is {what}; expected "
+                "elevations (check the file's nodata value)",
+                path=name,
+                value=nodata,
+                expected="at least one valid elevation",
+            )
+        raise DEMError(
+            f"band {band} of DEM {name!r} has no valid cell: every cell is {what}; "
+            f"the file has {n} bands (choose another with --band N)",
+            path=name,
+            value=band,
+            param="band",
+            expected="a band with valid elevations",
+            hint="--band N",
+        )
     source_shape = z.shape
     if crs is None:
         warnings.warn(
@@ -745,8 +833,12 @@ def load_dem(
     else:
         work_z, work_t, work_crs = _warp_to_utm(z, transform, crs, p)
         if not np.isfinite(work_z).any():
-            raise DEMError(f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
-                           path=name, crs=str(work_crs), expected="valid cells")
+            raise DEMError(
+                f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
+                path=name,
+                crs=str(work_crs),
+                expected="valid cells",
+            )
     return Terrain(
         work_z,
         work_t,

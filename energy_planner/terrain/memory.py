@@ -58,9 +58,22 @@ DEFAULT_MEMORY_SHARE = 0.5
 #: the reprojection to UTM; the slope and aspect grids add 8 each.
 BYTES_PER_CELL = 64
 
-_UNITS = {"": 1, "b": 1, "k": 1024, "kb": 1000, "kib": 1024, "m": 1024**2, "mb": 1000**2,
-          "mib": 1024**2, "g": 1024**3, "gb": 1000**3, "gib": 1024**3, "t": 1024**4,
-          "tb": 1000**4, "tib": 1024**4}
+_UNITS = {
+    "": 1,
+    "b": 1,
+    "k": 1024,
+    "kb": 1000,
+    "kib": 1024,
+    "m": 1024**2,
+    "mb": 1000**2,
+    "mib": 1024**2,
+    "g": 1024**3,
+    "gb": 1000**3,
+    "gib": 1024**3,
+    "t": 1024**4,
+    "tb": 1000**4,
+    "tib": 1024**4,
+}
 
 
 def parse_size(text: str) -> int:
@@ -123,8 +136,11 @@ def memory_cap() -> int | None:
     except ValueError:
         raise DEMError(
             f"{MEMORY_CAP_ENV}={raw!r} is not understood; expected a size (8G, 512M, "
-            "2000000000), a share of the memory (50%) or off", value=raw,
-            param=MEMORY_CAP_ENV, expected="a size, a percentage or off") from None
+            "2000000000), a share of the memory (50%) or off",
+            value=raw,
+            param=MEMORY_CAP_ENV,
+            expected="a size, a percentage or off",
+        ) from None
 
 
 def format_bytes(n: float) -> str:
@@ -181,15 +197,23 @@ def check_memory(
             "XMIN,YMIN,XMAX,YMAX`, or gdal_translate -projwin), a coarser grid "
             f"(load_dem(..., decimate={k}), `terrain --decimate {k}`, or gdalwarp -tr XRES YRES "
             "-r average), or the out-of-core path (energy-planner energy-map --dask); or raise "
-            f"the cap with {MEMORY_CAP_ENV}=SIZE if the machine has the memory")
+            f"the cap with {MEMORY_CAP_ENV}=SIZE if the machine has the memory"
+        )
     total = total_memory()
-    src = (f"set by {MEMORY_CAP_ENV}" if os.environ.get(MEMORY_CAP_ENV, "").strip() else
-           f"default {DEFAULT_MEMORY_SHARE:.0%} of {format_bytes(total or 0)} memory; "
-           f"{MEMORY_CAP_ENV} changes it")
+    src = (
+        f"set by {MEMORY_CAP_ENV}"
+        if os.environ.get(MEMORY_CAP_ENV, "").strip()
+        else f"default {DEFAULT_MEMORY_SHARE:.0%} of {format_bytes(total or 0)} memory; "
+        f"{MEMORY_CAP_ENV} changes it"
+    )
     raise RasterTooLargeError(
         f"{what} is {rows} x {cols} cells: working with it needs about "
         f"{format_bytes(need)} ({bytes_per_cell:g} bytes per cell), above the memory cap "
         f"{format_bytes(limit)} ({src}). Nothing was read. Hint: {hint}",
-        path=path, shape=(rows, cols), size_bytes=int(need), cap_bytes=int(limit), hint=hint,
+        path=path,
+        shape=(rows, cols),
+        size_bytes=int(need),
+        cap_bytes=int(limit),
+        hint=hint,
         expected=f"at most {format_bytes(limit)}",
     )
