@@ -498,14 +498,19 @@ def _resample(
     arr: np.ndarray, src_t: Any, src_crs: Any, shape: tuple[int, int], dst_t: Any,
     dst_crs: Any, how: Any,
 ) -> np.ndarray:  # fmt: skip
-    """``arr`` (NaN nodata) on the destination grid; NaN cells never enter an average."""
+    """``arr`` (NaN nodata) on the destination grid; NaN cells never enter an average.
+
+    ``XSCALE=YSCALE=1``: the value at a destination cell centre is the source
+    interpolated at that point (GDAL would otherwise widen the kernel where the
+    destination cells are larger, smoothing the map).
+    """
     from rasterio.warp import reproject
 
     dst = np.full(shape, np.nan, dtype=np.float64)
     reproject(
         source=np.ascontiguousarray(arr, dtype=np.float64), destination=dst,
         src_transform=src_t, src_crs=src_crs, src_nodata=np.nan, dst_transform=dst_t,
-        dst_crs=dst_crs, dst_nodata=np.nan, resampling=how,
+        dst_crs=dst_crs, dst_nodata=np.nan, resampling=how, XSCALE=1, YSCALE=1, tolerance=0.0,
     )  # fmt: skip
     return dst
 
