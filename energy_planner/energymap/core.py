@@ -22,8 +22,11 @@ Bands (float32, NaN = nodata; ``inf`` = above a slope limit):
 
 Three ways to compute it, with equal results:
 
-- **terrain**: from a loaded :class:`~energy_planner.terrain.Terrain` (a geographic DEM
-  is loaded and warped to UTM this way, and the map is on that working grid);
+- **terrain**: from a loaded :class:`~energy_planner.terrain.Terrain` (on its grid). A
+  geographic DEM file is loaded and warped to UTM this way, mapped on that working grid,
+  then resampled onto the DEM's own grid and CRS (bilinear over valid cells; headings
+  rotated by the meridian convergence, so that they are degrees CCW from the DEM's local
+  east; see :func:`east_angle`);
 - **windowed**: a DEM in a metric CRS is read by windows of rows (plus one halo row each
   side for Horn's 3 x 3 stencil) and the map written by windows, so memory stays bounded
   by the window, whatever the DEM's size;
