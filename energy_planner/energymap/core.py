@@ -540,7 +540,8 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
     relabelled in the DEM's local-east frame: heading ``d`` of the output is the working
     heading ``d + convergence`` of the cell, interpolated linearly between the two
     computed working headings around it. The cheapest heading: nearest neighbour, then
-    rotated into the DEM's frame. Cells outside the DEM's valid cells are NaN.
+    rotated into the DEM's frame. Cells outside the DEM's valid cells are NaN. Written
+    band by band: a few DEM-sized arrays in memory whatever the number of headings.
     """
     import rasterio
     from rasterio.enums import Resampling
@@ -550,46 +551,68 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
     with rasterio.open(info.path) as src:
         z = src.read(info.band, masked=True)
         dem_valid = ~np.ma.getmaskarray(z) & np.isfinite(np.ma.filled(z.astype(float), np.nan))
-    with rasterio.open(work) as w:
+    del z
+    prof = _profile(info.shape, info.transform, info.crs, nb)
+    with rasterio.open(work) as w, rasterio.open(out, "w", **prof) as dst:
         wt, wcrs = w.transform, w.crs
-        band_w = lambda i: w.read(i + 1).astype(np.float64)  # noqa: E731
         args = (wt, wcrs, info.shape, info.transform, info.crs)
-        heads = [_resample_cost(band_w(i), *args) for i in range(2 * n)]
-        cheapest_w = band_w(2 * n)
-        summary = [_resample_cost(band_w(2 * n + k), *args) for k in range(3)]
-        head_deg = _resample(band_w(2 * n + 3), *args, Resampling.nearest)
+
+        def cost(i: int) -> np.ndarray:  # 0-based band of the working map, resampled
+            return _resample_cost(w.read(i + 1).astype(np.float64), *args)
+
+        cheapest = cost(2 * n)
+        cheapest_w = w.read(2 * n + 1).astype(np.float64)
         valid_w = _resample(np.where(np.isnan(cheapest_w), np.nan, 1.0), *args,
                             Resampling.nearest)  # fmt: skip
-    valid = dem_valid & (valid_w == 1.0) & ~np.isnan(summary[0])
-    theta = np.degrees(east_angle(info.shape, info.transform, info.crs, wcrs))
-    step = 360.0 / n
-    bands = np.full((nb, *info.shape), np.nan, dtype=np.float32)
-    for g in range(2):  # along_*, best_*
-        stack = np.stack(heads[g * n : (g + 1) * n])
-        for j in range(n):
-            k = np.mod(j + theta / step, n)
-            k0 = np.floor(k).astype(int) % n
-            f = k - np.floor(k)
-            lo = np.take_along_axis(stack, k0[None], 0)[0]
-            hi = np.take_along_axis(stack, ((k0 + 1) % n)[None], 0)[0]
-            with np.errstate(invalid="ignore"):
-                val = np.where(f < 1e-9, lo, np.where(f > 1 - 1e-9, hi, (1 - f) * lo + f * hi))
-            bands[g * n + j] = np.where(valid, val, np.nan)
-    for k in range(3):
-        bands[2 * n + k] = np.where(valid, summary[k], np.nan)
-    with np.errstate(invalid="ignore"):
-        rel = np.mod(head_deg - theta, 360.0)
-    rel = np.where(rel >= 360.0, 0.0, rel)
-    bands[2 * n + 3] = np.where(valid & np.isfinite(head_deg), rel, np.nan)
-    prof = _profile(info.shape, info.transform, info.crs, nb)
-    with rasterio.open(out, "w", **prof) as dst:
-        dst.write(bands)
+        del cheapest_w
+        valid = dem_valid & (valid_w == 1.0) & ~np.isnan(cheapest)
+        del valid_w, dem_valid
+        theta = np.degrees(east_angle(info.shape, info.transform, info.crs, wcrs))
+        k = np.mod(theta / (360.0 / n), n)  # the convergence in heading steps
+        k_int = np.floor(k).astype(int)
+        frac = k - k_int
+
+        def put(i: int, arr: np.ndarray) -> None:
+            dst.write(np.where(valid, arr, np.nan).astype(np.float32), i + 1)
+
+        for g in range(2):  # along_*, best_*
+            cache: dict[int, np.ndarray] = {}
+            for j in range(n):
+                k0 = (j + k_int) % n
+                k1 = (k0 + 1) % n
+                need = set(np.unique(k0).tolist()) | set(np.unique(k1).tolist())
+                for m in list(cache):
+                    if m not in need:
+                        del cache[m]
+                for m in need:
+                    if m not in cache:
+                        cache[m] = cost(g * n + m)
+                lo = np.zeros(info.shape)
+                hi = np.zeros(info.shape)
+                for m in need:
+                    lo = np.where(k0 == m, cache[m], lo)
+                    hi = np.where(k1 == m, cache[m], hi)
+                with np.errstate(invalid="ignore"):
+                    val = np.where(
+                        frac < 1e-9, lo,
+                        np.where(frac > 1 - 1e-9, hi, (1 - frac) * lo + frac * hi),
+                    )  # fmt: skip
+                put(g * n + j, val)
+        put(2 * n, cheapest)
+        put(2 * n + 1, cost(2 * n + 1))
+        put(2 * n + 2, cost(2 * n + 2))
+        head = _resample(w.read(2 * n + 4).astype(np.float64), *args, Resampling.nearest)
+        with np.errstate(invalid="ignore"):
+            rel = np.mod(head - theta, 360.0)
+        rel = np.where(rel >= 360.0, 0.0, rel)
+        put(2 * n + 3, np.where(np.isfinite(head), rel, np.nan))
         _write_metadata(dst, setup, model_name, "terrain", DEM_EAST)
         dst.update_tags(
             working_grid_crs=str(wcrs),
             working_grid_transform=repr(tuple(wt)[:6]),
-            resampling="bilinear over valid cells (costs, anisotropy; per-heading bands "
-            "also linear in heading); nearest (cheapest_heading_deg, then rotated)",
+            resampling="bilinear over valid cells at the DEM's cell centres (costs, "
+            "anisotropy; per-heading bands also linear in heading); nearest "
+            "(cheapest_heading_deg, then rotated)",
             meridian_convergence_deg=f"{np.nanmin(theta):.4f} .. {np.nanmax(theta):.4f}",
         )
 
