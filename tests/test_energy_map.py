@@ -286,3 +286,127 @@ def test_cli_energy_map_json_plot_and_errors(plane, tmp_path):
     assert r.exit_code == 1 and "load_kg" in r.output and "--set" in r.output
     r = CliRunner().invoke(main, ["energy-map", "nope.tif", "--out", str(out)])
     assert r.exit_code == 2 and "nope.tif" in r.output
+
+
+# ------------------------------------------------------------- geographic DEMs
+def _bilinear(arr, transform, x, y, spread=False):
+    """``arr`` (a grid with cell-centre values) at the map point (x, y), bilinear; NaN
+    when a neighbour is not finite. ``spread``: also the range of the 4 neighbours."""
+    c, r = ~transform * (x, y)
+    c, r = c - 0.5, r - 0.5
+    c0, r0 = int(math.floor(c)), int(math.floor(r))
+    fc, fr = c - c0, r - r0
+    q = arr[r0 : r0 + 2, c0 : c0 + 2].astype(float)
+    if q.shape != (2, 2) or not np.isfinite(q).all():
+        return (math.nan, math.nan) if spread else math.nan
+    v = (q[0, 0] * (1 - fc) * (1 - fr) + q[0, 1] * fc * (1 - fr)
+         + q[1, 0] * (1 - fc) * fr + q[1, 1] * fc * fr)  # fmt: skip
+    return (v, float(q.max() - q.min())) if spread else v
+
+
+def _close(got, want, spread):
+    """Equal up to 1e-3 relative plus 5 % of the neighbours' range: GDAL's warper maps
+    points with an approximate (interpolated) transformer, so the interpolation point is
+    off by a few hundredths of a cell."""
+    return abs(got - want) <= 1e-3 * abs(want) + 0.05 * spread
+
+
+def test_geographic_dem_map_is_on_the_dems_grid_and_crs(tmp_path):
+    """Jacksboro (EPSG:4326): the map lands on the DEM's grid; its values are the
+    working-grid (UTM) map interpolated at the DEM's cell centres, headings rotated by
+    the meridian convergence (from pyproj, independent of the code's finite step)."""
+    import pyproj
+    from rasterio.warp import transform as warp_transform
+
+    dem = map_path("jacksboro")
+    out = tmp_path / "jack.tif"
+    res = energy_map(dem, out, MODEL, headings=H)
+    terrain = load_dem(dem)
+    work = tmp_path / "jack_work.tif"
+    energy_map(terrain, work, MODEL, headings=H)
+    data, names, src = read(out)
+    wdata, wnames, wsrc = read(work)
+    with rasterio.open(dem) as d:
+        assert src.crs == d.crs and src.transform == d.transform and src.shape == d.shape
+        dem_valid = ~d.read(1, masked=True).mask if d.nodata is not None else None
+    assert res.crs == str(src.crs) and "local east" in res.heading_convention
+    with rasterio.open(out) as o:
+        assert "local east" in o.tags()["heading_convention"]
+    assert names == band_names(H)
+    valid = np.isfinite(data[names.index("cheapest")])
+    # nodata: only the DEM's invalid cells and the border (Horn's cell, resampling's cell)
+    if dem_valid is not None and dem_valid.ndim == 2:
+        assert not (valid & ~dem_valid).any()
+    assert valid[2:-2, 2:-2].all()
+    assert not valid[0].any() and not valid[-1].any()
+    for k in range(len(names)):  # every band has the same nodata mask
+        np.testing.assert_array_equal(np.isnan(data[k]), ~valid)
+    rng = np.random.default_rng(5)
+    proj = pyproj.Proj(str(terrain.crs))
+    rows, cols = rng.integers(3, src.height - 3, 12), rng.integers(3, src.width - 3, 12)
+    checked = 0
+    for r, c in zip(rows, cols, strict=True):
+        lon, lat = src.transform * (c + 0.5, r + 0.5)
+        (x,), (y,) = warp_transform(src.crs, terrain.crs, [lon], [lat])
+        for name in ("cheapest", "dearest", "anisotropy"):
+            want, spread = _bilinear(wdata[wnames.index(name)], wsrc.transform, x, y, True)
+            assert _close(data[names.index(name), r, c], want, spread), name
+        gamma = proj.get_factors(lon, lat).meridian_convergence
+        for j in (0, 5, 11):  # along_<d>: working heading d + gamma, between two bands
+            k = (j + gamma / (360.0 / H)) % H
+            k0 = int(k) % H
+            f = k - int(k)
+            lo, s0 = _bilinear(wdata[k0], wsrc.transform, x, y, True)
+            hi, s1 = _bilinear(wdata[(k0 + 1) % H], wsrc.transform, x, y, True)
+            assert _close(data[j, r, c], (1 - f) * lo + f * hi, max(s0, s1))
+        head = data[names.index("cheapest_heading_deg"), r, c]
+        # the working grid's cheapest heading, one of 360 j / H, minus the convergence
+        assert (head + gamma) % (360.0 / H) == pytest.approx(0.0, abs=0.05) or (
+            (head + gamma) % (360.0 / H) == pytest.approx(360.0 / H, abs=0.05)
+        )
+        checked += 1
+    assert checked == 12
+
+
+def test_geographic_plane_of_known_slope(tmp_path):
+    """A lon/lat DEM whose elevation rises 12 deg towards UTM grid east: the cheapest cost
+    is the analytic downhill one; in the DEM's frame the uphill azimuth is -gamma (the
+    meridian convergence), so along_<d> is the analytic forward cost at d + gamma and
+    the cheapest heading is 180 - gamma."""
+    import pyproj
+
+    n, res = 40, 0.0002
+    t = Affine(res, 0.0, 5.5, 0.0, -res, 45.0 + n * res)
+    cc, rr = np.meshgrid(np.arange(n) + 0.5, np.arange(n) + 0.5)
+    lon, lat = t * (cc, rr)
+    e, _ = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32631", always_xy=True).transform(
+        lon, lat
+    )
+    z = 100.0 + math.tan(math.radians(12.0)) * (e - e.min())
+    dem = tmp_path / "geo_plane.tif"
+    prof = dict(driver="GTiff", width=n, height=n, count=1, dtype="float64",
+                crs="EPSG:4326", transform=t, nodata=-9999.0)  # fmt: skip
+    with rasterio.open(dem, "w", **prof) as dst:
+        dst.write(z, 1)
+    hh = 72
+    out = tmp_path / "geo_plane_map.tif"
+    energy_map(dem, out, MODEL, headings=hh)
+    data, names, src = read(out)
+    assert src.crs == "EPSG:4326" and src.transform == t
+    inner = (slice(4, -4), slice(4, -4))
+    gamma = pyproj.Proj("EPSG:32631").get_factors(lon, lat).meridian_convergence[inner]
+    cheapest = data[names.index("cheapest")][inner]
+    np.testing.assert_allclose(cheapest, forward_analytic(12.0, 0.0, 180.0), rtol=1e-4)
+    # the dearest (a sideways or backward gait) against the same plane on a UTM grid
+    ref = tmp_path / "utm_plane_map.tif"
+    energy_map(write_tif(tmp_path / "utm_plane.tif", plane_z(40, 12.0, 0.0)), ref, MODEL,
+               headings=hh)  # fmt: skip
+    rdata, rnames, _ = read(ref)
+    want_dear = rdata[rnames.index("dearest"), 20, 20]
+    np.testing.assert_allclose(data[names.index("dearest")][inner], want_dear, rtol=1e-4)
+    head = data[names.index("cheapest_heading_deg")][inner]
+    np.testing.assert_allclose(head, 180.0 - gamma, atol=0.02)
+    for j in (0, 10, 30, 45):
+        d = 360.0 * j / hh
+        want = np.vectorize(lambda g, d=d: forward_analytic(12.0, 0.0, d + g))(gamma)
+        np.testing.assert_allclose(data[j][inner], want, rtol=5e-3)

@@ -25,7 +25,9 @@ def format_table(res: dict[str, Any]) -> str:
     lines = [
         f"wrote     {res['path']} ({res['shape'][0]} x {res['shape'][1]} cells, "
         f"{len(res['bands'])} bands, {res['crs']})",
-        f"headings  {res['headings']} ({360 / res['headings']:g} deg apart, CCW from east)",
+        f"headings  {res['headings']} ({360 / res['headings']:g} deg apart, "
+        + ("CCW from the DEM's local east)" if "local east" in res.get("heading_convention", "")
+           else "CCW from east)"),
         f"computed  {res['mode']} in {res['seconds']:.1f} s",
     ]
     c = s.get("cheapest_j_per_m")
@@ -133,7 +135,9 @@ def command(
     (along_*), with the cheapest of forward, backward and sideways gaits (best_*), the
     cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
     physics as `energy` (a short straight motion through the cell centre, per metre of
-    map distance). A DEM in a geographic CRS is mapped on its UTM working grid.
+    map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
+    computed on its UTM working grid and resampled back (bilinear), headings then CCW
+    from the DEM's local east (the meridian convergence applied).
 
     Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
     """

@@ -22,8 +22,11 @@ Bands (float32, NaN = nodata; ``inf`` = above a slope limit):
 
 Three ways to compute it, with equal results:
 
-- **terrain**: from a loaded :class:`~energy_planner.terrain.Terrain` (a geographic DEM
-  is loaded and warped to UTM this way, and the map is on that working grid);
+- **terrain**: from a loaded :class:`~energy_planner.terrain.Terrain` (on its grid). A
+  geographic DEM file is loaded and warped to UTM this way, mapped on that working grid,
+  then resampled onto the DEM's own grid and CRS (bilinear over valid cells; headings
+  rotated by the meridian convergence, so that they are degrees CCW from the DEM's local
+  east; see :func:`east_angle`);
 - **windowed**: a DEM in a metric CRS is read by windows of rows (plus one halo row each
   side for Horn's 3 x 3 stencil) and the map written by windows, so memory stays bounded
   by the window, whatever the DEM's size;
@@ -85,26 +88,36 @@ def _deg_label(d: float) -> str:
     return f"{d:05.1f}".rstrip("0").rstrip(".").zfill(3) if d != int(d) else f"{int(d):03d}"
 
 
-def band_descriptions(headings: int) -> list[tuple[str, str, str]]:
-    """``(name, description, units)`` of every band."""
+#: Heading frame of a map on a metric grid: the grid's own +x axis.
+GRID_EAST = "degrees counter-clockwise from the grid's +x axis (east)"
+#: Heading frame of a map resampled onto a geographic (non-metric) DEM's grid.
+DEM_EAST = (
+    "degrees counter-clockwise from the DEM's local east (its CRS's +x direction, e.g. "
+    "increasing longitude, at the cell): the working (UTM) grid's headings rotated by the "
+    "meridian convergence"
+)
+
+
+def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str, str]]:
+    """``(name, description, units)`` of every band; ``frame`` names the heading frame."""
     out = []
     for j in range(headings):
         d = 360.0 * j / headings
         out.append(
             (f"along_{_deg_label(d)}", f"J per map metre walking forward, facing heading "
-             f"{d:g} deg (CCW from east)", "J/m")
+             f"{d:g} deg (CCW from {frame})", "J/m")
         )  # fmt: skip
     for j in range(headings):
         d = 360.0 * j / headings
         out.append(
             (f"best_{_deg_label(d)}", f"J per map metre moving along heading {d:g} deg (CCW "
-             "from east), cheapest of forward, backward and sideways", "J/m")
+             f"from {frame}), cheapest of forward, backward and sideways", "J/m")
         )  # fmt: skip
     out += [
         ("cheapest", "least best_* over the headings, J per map metre", "J/m"),
         ("dearest", "greatest best_* over the headings, J per map metre", "J/m"),
         ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
-        ("cheapest_heading_deg", "heading of the cheapest, degrees CCW from east", "deg"),
+        ("cheapest_heading_deg", f"heading of the cheapest, degrees CCW from {frame}", "deg"),
     ]
     return out
 
@@ -148,6 +161,7 @@ class EnergyMapResult:
     stats: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     channels: dict[str, Any] = field(default_factory=dict)
+    heading_convention: str = GRID_EAST
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -157,7 +171,7 @@ class EnergyMapResult:
             "crs": self.crs,
             "transform": list(self.transform),
             "headings": self.headings,
-            "heading_convention": "degrees counter-clockwise from the grid's +x axis (east)",
+            "heading_convention": self.heading_convention,
             "bands": self.bands,
             "mode": self.mode,
             "seconds": self.seconds,
@@ -285,16 +299,20 @@ def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> d
     return prof
 
 
-def _write_metadata(dst: Any, setup: _Setup, model_name: str, mode: str) -> None:
+def _write_metadata(
+    dst: Any, setup: _Setup, model_name: str, mode: str, convention: str = GRID_EAST
+) -> None:
     """Band descriptions and units, dataset tags."""
-    for i, (name, desc, units) in enumerate(band_descriptions(setup.headings), start=1):
+    frame = "the DEM's local east" if convention == DEM_EAST else "east"
+    descs = band_descriptions(setup.headings, frame)
+    for i, (name, desc, units) in enumerate(descs, start=1):
         dst.set_band_description(i, name)
         dst.update_tags(i, name=name, description=desc, units=units)
     dst.update_tags(
         software="energy_planner energy-map",
         model=model_name,
         headings=str(setup.headings),
-        heading_convention="degrees counter-clockwise from the grid's +x axis (east)",
+        heading_convention=convention,
         cost="J per metre of map (horizontal) distance through the cell centre",
         speed_m_s=repr(setup.speed),
         max_slope_tan=repr(setup.tmax),
@@ -459,6 +477,165 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
         )
 
 
+# ------------------------------------------------- back onto a geographic DEM's grid
+def east_angle(shape: tuple[int, int], transform: Any, crs: Any, work_crs: Any) -> np.ndarray:
+    """Angle (radians, CCW from the working grid's +x) of the DEM's local east at its cells.
+
+    The DEM's local east is its CRS's +x direction (increasing longitude for a geographic
+    CRS); in a conformal working CRS (UTM) it is the working grid's +x rotated by the
+    meridian convergence. Found by mapping each cell centre and a point a small step
+    east of it into the working CRS.
+    """
+    from rasterio.warp import transform as warp_transform
+
+    rows, cols = shape
+    cc, rr = np.meshgrid(np.arange(cols) + 0.5, np.arange(rows) + 0.5)
+    xs, ys = transform * (cc.ravel(), rr.ravel())
+    step = 1e-3 * abs(transform.a) if transform.a else 1e-6
+    x0, y0 = warp_transform(crs, work_crs, list(xs), list(ys))
+    x1, y1 = warp_transform(crs, work_crs, list(xs + step), list(ys))
+    ang = np.arctan2(np.subtract(y1, y0), np.subtract(x1, x0))
+    return ang.reshape(shape)
+
+
+def _resample(
+    arr: np.ndarray, src_t: Any, src_crs: Any, shape: tuple[int, int], dst_t: Any,
+    dst_crs: Any, how: Any,
+) -> np.ndarray:  # fmt: skip
+    """``arr`` (NaN nodata) on the destination grid; NaN cells never enter an average.
+
+    ``XSCALE=YSCALE=1``: the value at a destination cell centre is the source
+    interpolated at that point (GDAL would otherwise widen the kernel where the
+    destination cells are larger, smoothing the map).
+    """
+    from rasterio.warp import reproject
+
+    dst = np.full(shape, np.nan, dtype=np.float64)
+    reproject(
+        source=np.ascontiguousarray(arr, dtype=np.float64), destination=dst,
+        src_transform=src_t, src_crs=src_crs, src_nodata=np.nan, dst_transform=dst_t,
+        dst_crs=dst_crs, dst_nodata=np.nan, resampling=how, XSCALE=1, YSCALE=1, tolerance=0.0,
+    )  # fmt: skip
+    return dst
+
+
+def _resample_cost(arr, src_t, src_crs, shape, dst_t, dst_crs) -> np.ndarray:
+    """Bilinear for a cost band: ``inf`` cells are masked out of the average and put back
+    (nearest neighbour) so that they never mix into finite numbers."""
+    from rasterio.enums import Resampling
+
+    inf = np.isinf(arr)
+    finite = np.where(inf, np.nan, arr)
+    out = _resample(finite, src_t, src_crs, shape, dst_t, dst_crs, Resampling.bilinear)
+    if inf.any():
+        flag = np.where(np.isnan(arr), np.nan, inf.astype(np.float64))
+        near = _resample(flag, src_t, src_crs, shape, dst_t, dst_crs, Resampling.nearest)
+        out[near == 1.0] = np.inf
+    return out
+
+
+def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_name: str):
+    """Resample the working-grid map ``work`` onto the DEM's own grid and CRS.
+
+    Cost bands and the anisotropy: bilinear over valid cells only. Heading bands are
+    relabelled in the DEM's local-east frame: heading ``d`` of the output is the working
+    heading ``d + convergence`` of the cell, interpolated linearly between the two
+    computed working headings around it. The cheapest heading: nearest neighbour, then
+    rotated into the DEM's frame. Cells outside the DEM's valid cells are NaN. Written
+    band by band: a few DEM-sized arrays in memory whatever the number of headings.
+    """
+    import rasterio
+    from rasterio.enums import Resampling
+
+    n = setup.headings
+    nb = 2 * n + 4
+    with rasterio.open(info.path) as src:
+        z = src.read(info.band, masked=True)
+        dem_valid = ~np.ma.getmaskarray(z) & np.isfinite(np.ma.filled(z.astype(float), np.nan))
+    del z
+    prof = _profile(info.shape, info.transform, info.crs, nb)
+    with rasterio.open(work) as w, rasterio.open(out, "w", **prof) as dst:
+        wt, wcrs = w.transform, w.crs
+        args = (wt, wcrs, info.shape, info.transform, info.crs)
+
+        def cost(i: int) -> np.ndarray:  # 0-based band of the working map, resampled
+            return _resample_cost(w.read(i + 1).astype(np.float64), *args)
+
+        cheapest = cost(2 * n)
+        cheapest_w = w.read(2 * n + 1).astype(np.float64)
+        valid_w = _resample(np.where(np.isnan(cheapest_w), np.nan, 1.0), *args,
+                            Resampling.nearest)  # fmt: skip
+        del cheapest_w
+        valid = dem_valid & (valid_w == 1.0) & ~np.isnan(cheapest)
+        del valid_w, dem_valid
+        theta = np.degrees(east_angle(info.shape, info.transform, info.crs, wcrs))
+        k = np.mod(theta / (360.0 / n), n)  # the convergence in heading steps
+        k_int = np.floor(k).astype(int)
+        frac = k - k_int
+
+        def put(i: int, arr: np.ndarray) -> None:
+            dst.write(np.where(valid, arr, np.nan).astype(np.float32), i + 1)
+
+        for g in range(2):  # along_*, best_*
+            cache: dict[int, np.ndarray] = {}
+            for j in range(n):
+                k0 = (j + k_int) % n
+                k1 = (k0 + 1) % n
+                need = set(np.unique(k0).tolist()) | set(np.unique(k1).tolist())
+                for m in list(cache):
+                    if m not in need:
+                        del cache[m]
+                for m in need:
+                    if m not in cache:
+                        cache[m] = cost(g * n + m)
+                lo = np.zeros(info.shape)
+                hi = np.zeros(info.shape)
+                for m in need:
+                    lo = np.where(k0 == m, cache[m], lo)
+                    hi = np.where(k1 == m, cache[m], hi)
+                with np.errstate(invalid="ignore"):
+                    val = np.where(
+                        frac < 1e-9, lo,
+                        np.where(frac > 1 - 1e-9, hi, (1 - frac) * lo + frac * hi),
+                    )  # fmt: skip
+                put(g * n + j, val)
+        put(2 * n, cheapest)
+        put(2 * n + 1, cost(2 * n + 1))
+        put(2 * n + 2, cost(2 * n + 2))
+        head = _resample(w.read(2 * n + 4).astype(np.float64), *args, Resampling.nearest)
+        with np.errstate(invalid="ignore"):
+            rel = np.mod(head - theta, 360.0)
+        rel = np.where(rel >= 360.0, 0.0, rel)
+        put(2 * n + 3, np.where(np.isfinite(head), rel, np.nan))
+        _write_metadata(dst, setup, model_name, "terrain", DEM_EAST)
+        dst.update_tags(
+            working_grid_crs=str(wcrs),
+            working_grid_transform=repr(tuple(wt)[:6]),
+            resampling="bilinear over valid cells at the DEM's cell centres (costs, "
+            "anisotropy; per-heading bands also linear in heading); nearest "
+            "(cheapest_heading_deg, then rotated)",
+            meridian_convergence_deg=f"{np.nanmin(theta):.4f} .. {np.nanmax(theta):.4f}",
+        )
+
+
+def _compute_on_dem_grid(
+    terrain: Any, info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress
+) -> None:
+    """Map on the working grid (a temporary file next to ``out``), then onto the DEM's."""
+    import tempfile
+
+    fd, name = tempfile.mkstemp(suffix=".working.tif", prefix=out.stem, dir=out.parent)
+    import os
+
+    os.close(fd)
+    work = Path(name)
+    try:
+        _compute_terrain(terrain, work, setup, model_name, progress)
+        _to_dem_grid(work, info, out, setup, model_name)
+    finally:
+        work.unlink(missing_ok=True)
+
+
 # ---------------------------------------------------------------------------- the API
 def energy_map(
     dem: Any,
@@ -540,6 +717,7 @@ def _energy_map(
     setup = _setup(model, request, channels, headings)
     model_name = _model_name(model)
     notes = list(setup.notes)
+    convention = GRID_EAST
     if isinstance(dem, Terrain):
         if use_dask:
             raise EnergyMapError(
@@ -579,16 +757,16 @@ def _energy_map(
             from energy_planner.terrain import load_dem
 
             terrain = load_dem(info.path, band=info.band)
-            if terrain.crs != info.crs:
-                notes.append(
-                    f"the DEM's CRS {info.crs} is not metric: the map is on the working grid "
-                    f"{terrain.crs} (as every energy_planner computation), headings from its "
-                    "grid east"
-                )
-            _compute_terrain(terrain, out, setup, model_name, progress)
+            notes.append(
+                f"the DEM's grid ({info.crs}) is not a metric north-up one: the map was "
+                f"computed on the working grid {terrain.crs} and resampled onto the DEM's "
+                "grid (bilinear); headings are degrees CCW from the DEM's local east"
+            )
+            _compute_on_dem_grid(terrain, info, out, setup, model_name, progress)
+            convention = DEM_EAST
             mode = "terrain"
     seconds = time.perf_counter() - t0
-    return _result(out, setup, mode, seconds, notes)
+    return _result(out, setup, mode, seconds, notes, convention)
 
 
 def _model_name(model: Any) -> str:
@@ -598,7 +776,10 @@ def _model_name(model: Any) -> str:
     return str(meta.get("source") or meta.get("name") or ", ".join(model.term_names))
 
 
-def _result(out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str]):
+def _result(
+    out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str],
+    convention: str = GRID_EAST,
+):  # fmt: skip
     import rasterio
 
     with rasterio.open(out) as src:
@@ -606,15 +787,17 @@ def _result(out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str
         crs = None if src.crs is None else str(src.crs)
         transform = tuple(src.transform)[:6]
         stats = _stats(src, setup.headings)
+    frame = "the DEM's local east" if convention == DEM_EAST else "east"
     bands = [
-        {"name": n, "description": d, "units": u} for n, d, u in band_descriptions(setup.headings)
+        {"name": n, "description": d, "units": u}
+        for n, d, u in band_descriptions(setup.headings, frame)
     ]
     if stats.get("valid_cells", 1) == 0:
         warnings.warn(f"energy map {out} has no valid cell", UserWarning, stacklevel=3)
     return EnergyMapResult(
         path=out, shape=shape, crs=crs, transform=transform, headings=setup.headings,
         bands=bands, mode=mode, seconds=seconds, stats=stats, notes=notes,
-        channels=setup.channels.describe(),
+        channels=setup.channels.describe(), heading_convention=convention,
     )  # fmt: skip
 
 

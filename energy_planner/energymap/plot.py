@@ -53,6 +53,10 @@ def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) ->
             )  # fmt: skip
     if not np.isfinite(z).any():
         return None
+    if crs is not None and crs.is_geographic:  # degrees -> metres for the slope
+        lat = math.radians(transform.f + 0.5 * shape[0] * transform.e)
+        return hillshade(z, (abs(transform.a) * 111320.0 * math.cos(lat),
+                             abs(transform.e) * 110574.0))  # fmt: skip
     return hillshade(z, transform)
 
 
@@ -135,8 +139,15 @@ def plot_energy_map(
     ok = np.isfinite(h)
     directed = ok & (a > anisotropy_min)
     length = 0.8 * step * abs(t.a)
+    # lon/lat map: a degree of longitude is cos(lat) of one of latitude on the ground
+    kx = 1.0
+    if crs is not None and crs.is_geographic:
+        kx = 1.0 / max(math.cos(math.radians(0.5 * (top + bottom))), 1e-6)
+        ax.set_aspect(kx)
+    u, v = np.cos(h[directed]) * kx, np.sin(h[directed])
+    norm = np.hypot(u, v)
     ax.quiver(
-        xs[directed], ys[directed], np.cos(h[directed]), np.sin(h[directed]),
+        xs[directed], ys[directed], u / norm, v / norm,
         angles="xy", scale_units="xy", scale=1.0 / length, pivot="middle", color="white",
         edgecolor="black", linewidth=0.6, width=0.004,
     )  # fmt: skip
@@ -144,8 +155,9 @@ def plot_energy_map(
     ax.plot(xs[flat], ys[flat], ".", color="white", markersize=2.5)
     ax.set_xlim(left, right)
     ax.set_ylim(bottom, top)
-    ax.set_xlabel(f"x, m ({crs})" if crs is not None else "x, m")
-    ax.set_ylabel("y, m")
+    geo = crs is not None and crs.is_geographic
+    ax.set_xlabel(f"longitude, deg ({crs})" if geo else f"x, m ({crs})" if crs else "x, m")
+    ax.set_ylabel("latitude, deg" if geo else "y, m")
     ax.set_title(
         title
         or f"Energy map ({headings} headings): colour = cheapest way through each cell;\n"
