@@ -26,8 +26,11 @@ def format_table(res: dict[str, Any]) -> str:
         f"wrote     {res['path']} ({res['shape'][0]} x {res['shape'][1]} cells, "
         f"{len(res['bands'])} bands, {res['crs']})",
         f"headings  {res['headings']} ({360 / res['headings']:g} deg apart, "
-        + ("CCW from the DEM's local east)" if "local east" in res.get("heading_convention", "")
-           else "CCW from east)"),
+        + (
+            "CCW from the DEM's local east)"
+            if "local east" in res.get("heading_convention", "")
+            else "CCW from east)"
+        ),
         f"computed  {res['mode']} in {res['seconds']:.1f} s",
     ]
     c = s.get("cheapest_j_per_m")
