@@ -79,7 +79,9 @@ def measure(camp: Any, windows: Any, terms: Any, n_splits: int = 5, seed: int = 
 
 
 def campaign_config(size: str) -> Any:
-    """``default`` (the paper's campaign), ``reduced`` (the acceptance test's: 4 slopes,
+    """Campaign configuration of the given size.
+
+    ``default`` (the paper's campaign), ``reduced`` (the acceptance test's: 4 slopes,
     8 headings, 10 s runs, 20 Hz) or ``small`` (``CampaignConfig.small()``).
     """
     from energy_planner.simulate import CampaignConfig

@@ -1,4 +1,4 @@
-"""Does ``discover`` find what a campaign hides, and nothing when it hides nothing?
+"""Benchmark: does ``discover`` find what a campaign hides, and nothing when it hides nothing.
 
 For every hidden effect the simulator offers (and campaigns hiding two at once), a campaign
 is simulated, ``discover`` walks the staircase from the raw logs, and the table says which
@@ -70,8 +70,10 @@ class Case:
 
     @property
     def found(self) -> bool:
-        """Every hidden effect added within the first two steps (an effect the base
-        already represents: nothing added for it, and the final RMSE at the floor).
+        """Every hidden effect added within the first two steps.
+
+        An effect the base already represents counts when nothing was added for it and
+        the final RMSE is at the floor.
         """
         return all(
             (s is not None and s <= 2) or (b and self.ratio <= 1.2)
@@ -101,8 +103,10 @@ def noise_floor(camp, windows) -> float:
 
 
 def in_base(effect: str) -> bool:
-    """An effect the base model's structure already represents (its physics changes only
-    the base coefficients: nothing is missing, nothing should be added).
+    """Whether the base model's structure already represents the effect.
+
+    Its physics then changes only the base coefficients: nothing is missing, nothing
+    should be added.
     """
     from energy_planner.model import BASE_TERMS, CATALOG
     from energy_planner.simulate import EFFECTS
@@ -115,9 +119,11 @@ def in_base(effect: str) -> bool:
 
 
 def matches(term: str, effect: str) -> bool:
-    """Does an added term stand for a hidden effect? By the effect's own description: a
-    channel effect by any term reading its channel; a structural one by the catalog term
-    it resembles, or (speed_dependence) by a speed shape.
+    """Whether an added term stands for a hidden effect.
+
+    Judged by the effect's own description: a channel effect by any term reading its
+    channel; a structural one by the catalog term it resembles, or (speed_dependence) by
+    a speed shape.
     """
     from energy_planner.model import resolve_term
     from energy_planner.simulate import EFFECTS

@@ -125,8 +125,9 @@ def long_path(terrain, cost, n_seg, length, rng):
 
 
 def best_time(fn, repeat):
-    """Best of ``repeat`` runs, in CPU seconds of this process (``time.process_time``):
-    the work is single-threaded, and CPU time is what other jobs on a shared machine do
+    """Best of ``repeat`` runs, in CPU seconds of this process (``time.process_time``).
+
+    The work is single-threaded, and CPU time is what other jobs on a shared machine do
     not inflate (wall-clock time is printed too, in ``main``).
     """
     best = math.inf

@@ -25,8 +25,10 @@ import numpy as np
 
 
 def detour_slope(physics, speed: float = 0.3) -> tuple[float, float]:
-    """Smallest plane slope (deg) on which climbing obliquely beats the fall line, and the
-    best heading there (deg): energy per metre of height ``P / (v sin(a) cos(gamma))``.
+    """Smallest plane slope (deg) where climbing obliquely beats the fall line.
+
+    Also returns the best heading there (deg); the criterion is energy per metre of height
+    ``P / (v sin(a) cos(gamma))``.
     """
     gam = np.radians(np.linspace(0.0, 89.0, 891))
     for deg in np.arange(5.0, 45.0, 0.25):

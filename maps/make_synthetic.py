@@ -62,8 +62,10 @@ def hill_z(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _ramp(u: np.ndarray, w: float) -> np.ndarray:
-    """A cone profile with rounded ends: ``u - w/2`` on ``[w, 1 - w]``, parabolas joining
-    0 (slope 0) at ``u = 0`` and the top (slope 0) at ``u = 1``; C1, peak slope 1.
+    """A cone profile with rounded ends; C1, peak slope 1.
+
+    ``u - w/2`` on ``[w, 1 - w]``, parabolas joining 0 (slope 0) at ``u = 0`` and the
+    top (slope 0) at ``u = 1``.
     """
     u = np.clip(u, 0.0, 1.0)
     return np.where(

@@ -41,9 +41,11 @@ class LazyGroup(click.Group):
         }
 
     def list_commands(self, ctx: click.Context) -> list[str]:
+        """Return the sorted names of the sub-commands whose modules are installed."""
         return sorted(self._available())
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        """Import and return the sub-command ``cmd_name``, or ``None`` if unavailable."""
         mod = self._available().get(cmd_name)
         if mod is None:
             return None

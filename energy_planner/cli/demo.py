@@ -85,8 +85,9 @@ def command(
     channels: tuple[str, ...],
     as_json: bool,
 ) -> None:
-    """Compare the direct climb, the shortest path and the energy-optimal path on a
-    bundled map (the paper's Fig. 1 hill by default), print the table, draw the routes.
+    """Compare the direct climb, the shortest and the energy-optimal path on a bundled map.
+
+    The map is the paper's Fig. 1 hill by default; prints the table and draws the routes.
 
     Below the table: the model's critical grade (where a metre of height is cheapest)
     and each route's climbing grade, which say why the longer route costs less.

@@ -212,10 +212,12 @@ def path_table(x, y, th, durations, data):
 
 @numba.njit(cache=True)
 def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, chv):
-    """Energy of ``dt`` seconds of straight walking at velocity (v0, v1, v2) along the
-    surface with body yaw of cosine ``cy`` and sine ``sy``, where the gradient is
-    (gx, gy) (slope ``alpha``, its cosine ``ca`` and sine ``sa``, uphill azimuth of cosine
-    ``c_psi`` and sine ``s_psi``); ``inf`` above the cross-slope limit ``smax``.
+    """Energy of ``dt`` seconds of straight walking at velocity (v0, v1, v2).
+
+    The walk is along the surface with body yaw of cosine ``cy`` and sine ``sy``, where
+    the gradient is (gx, gy) (slope ``alpha``, its cosine ``ca`` and sine ``sa``, uphill
+    azimuth of cosine ``c_psi`` and sine ``s_psi``); ``inf`` above the cross-slope limit
+    ``smax``.
 
     The same relative heading as :func:`slope_frame` (``tan(gamma) = tan(yaw - psi)
     cos(alpha)``) and the same body velocity as :func:`motion_full`.

@@ -82,7 +82,7 @@ def _parse_value(text: str, where: str) -> float | str:
 
 
 def read_value_table(path: str | Path) -> dict[float, float | str]:
-    """Read a value table ``code -> category`` (or ``code -> number``).
+    r"""Read a value table ``code -> category`` (or ``code -> number``).
 
     CSV (``,``, ``;`` or tab; optional header; ``#`` lines skipped): first column the
     raster code, second the category or number. JSON: an object ``{"1": "meadow", ...}``.
@@ -99,7 +99,7 @@ def read_value_table(path: str | Path) -> dict[float, float | str]:
     --------
     >>> import tempfile, os
     >>> d = tempfile.mkdtemp(); p = os.path.join(d, "t.csv")
-    >>> _ = open(p, "w").write("code,ground\\n1,meadow\\n2,asphalt\\n")
+    >>> _ = open(p, "w").write("code,ground\n1,meadow\n2,asphalt\n")
     >>> read_value_table(p)
     {1.0: 'meadow', 2.0: 'asphalt'}
     """
@@ -359,8 +359,10 @@ class Channels:
         return out
 
     def check(self, model: Any) -> None:
-        """Raise :class:`~energy_planner.errors.MissingChannelError` naming every
-        channel the model reads and nobody gave (and the channels given).
+        """Raise :class:`~energy_planner.errors.MissingChannelError` if a channel is missing.
+
+        The error names every channel the model reads and nobody gave (and the channels
+        given).
         """
         model.kernel_source(self.constants, self.kernel_layout())
 
@@ -386,8 +388,10 @@ class Channels:
         return np.ascontiguousarray(np.stack(arrays)), nearest
 
     def value_samples(self, n: int = 5) -> dict[str, np.ndarray]:
-        """A few values of each channel (constants: the value; numeric rasters: ``n``
-        values from their minimum to their maximum; categorical: every category).
+        """A few values of each channel.
+
+        Constants: the value; numeric rasters: ``n`` values from their minimum to their
+        maximum; categorical: every category.
         """
         out: dict[str, np.ndarray] = {k: np.array([v]) for k, v in self.constants.items()}
         for name, r in self.rasters.items():

@@ -188,8 +188,10 @@ def path_energy(
 
 
 def face_along_poses(xy: Any) -> np.ndarray:
-    """Poses ``(x, y, yaw)`` that walk forward along each segment and turn in place at
-    the corners (a zero-length segment keeps the previous heading).
+    """Poses ``(x, y, yaw)`` walking forward along each segment, turning at the corners.
+
+    The turns are in place at the corners; a zero-length segment keeps the previous
+    heading.
 
     >>> face_along_poses([[0, 0], [1, 0], [1, 2]]).round(3).tolist()
     [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.571], [1.0, 2.0, 1.571]]

@@ -242,8 +242,8 @@ def make_windows(
                     "n_samples": int(n_run[r]),
                     "longest_window_s": float(g["dur"].max()),
                     "most_samples": int(g["cnt"].max()),
-                    "reason": f"no window long enough: cut every {duration:g} s within stretches of "
-                    f"one motion class without a gap, its windows reach at most "
+                    "reason": f"no window long enough: cut every {duration:g} s within "
+                    f"stretches of one motion class without a gap, its windows reach at most "
                     f"{float(g['dur'].max()):.3g} s and {int(g['cnt'].max())} samples; a "
                     f"window needs {min_fraction * duration:g} s and {min_samples} "
                     "samples",

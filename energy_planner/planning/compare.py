@@ -209,8 +209,10 @@ def grade_cost(
 
 
 def _climb(terrain, states: np.ndarray) -> tuple[float, float | None]:
-    """Total ascent (m) and mean climbing grade (ascent / ground length of the climbing
-    parts; ``None`` if the route never climbs) along a route's positions.
+    """Total ascent (m) and mean climbing grade along a route's positions.
+
+    The grade is ascent / ground length of the climbing parts; ``None`` if the route
+    never climbs.
     """
     from energy_planner.planning.refine import densify
 
@@ -575,8 +577,10 @@ def _same_path(a: Route, b: Route, tol: float) -> bool:
 
 
 def _best_gait(states: np.ndarray, cost, start, goal) -> tuple[np.ndarray, float]:
-    """The path's positions walked with the body at a constant yaw ``psi`` from the
-    direction of travel (0: facing it), the cheapest ``psi`` on a 10 deg grid.
+    """The path's positions walked with the body at the cheapest constant yaw offset.
+
+    The yaw ``psi`` is measured from the direction of travel (0: facing it); the cheapest
+    ``psi`` on a 10 deg grid is used.
 
     Local refinement moves one pose at a time, so it cannot turn a whole path into a
     crabbing gait (each single yaw change costs two turns first); this offers it whole.
@@ -618,8 +622,10 @@ class _Candidates:
         self.origin: str | None = None
 
     def offer(self, states: np.ndarray | None, origin: str, objective=None, gait=None) -> None:
-        """Offer ``states`` (refined under ``objective`` first when given; with ``gait =
-        (start, goal)``, first walked with the cheapest constant body yaw).
+        """Offer ``states`` as a candidate route.
+
+        They are refined under ``objective`` first when given; with ``gait = (start,
+        goal)``, first walked with the cheapest constant body yaw.
         """
         from energy_planner.planning.limits import keep_out_violation
         from energy_planner.planning.refine import densify, refine_path
@@ -656,10 +662,12 @@ class _Candidates:
 
 
 def _motion_cost(terrain, model, request, distance: bool = False):
-    """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons
-    in the working CRS (:func:`energy_planner.planning.limits.make_motion_cost`). With
-    ``distance`` the "model" prices the ground distance (power = speed) under the same
-    limits and reads no channel.
+    """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons.
+
+    The polygons are in the working CRS
+    (:func:`energy_planner.planning.limits.make_motion_cost`). With ``distance`` the
+    "model" prices the ground distance (power = speed) under the same limits and reads no
+    channel.
     """
     import dataclasses
 

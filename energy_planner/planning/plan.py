@@ -103,8 +103,10 @@ class PlanResult:
         ]
 
     def to_geojson(self, terrain) -> dict[str, Any]:
-        """The project's GeoJSON path document (:mod:`energy_planner.geojson`) in the DEM's
-        CRS, with ``yaw_deg`` per vertex and the energy, distance, duration, planner.
+        """The project's GeoJSON path document (:mod:`energy_planner.geojson`).
+
+        In the DEM's CRS, with ``yaw_deg`` per vertex and the energy, distance, duration,
+        planner.
         """
         from energy_planner.geojson import path_document_from_work
 
@@ -229,8 +231,10 @@ def _ompl_setup(cost, terrain):
         cache: dict = {}
 
         class PricingValidator(ob.MotionValidator):
-            """A motion is valid iff its energy is finite; the energy is kept for
-            ``motionCost`` (which RRT* asks for right after checking the motion).
+            """A motion is valid iff its energy is finite.
+
+            The energy is kept for ``motionCost`` (which RRT* asks for right after
+            checking the motion).
             """
 
             def __init__(self) -> None:
@@ -381,8 +385,9 @@ DEFAULT_EPS = 1.05
 
 
 def _request_for(request, cost):
-    """The request to plan with: ``request``, or one derived from ``cost``; never both
-    disagreeing (``cost=`` used to override speed and limits silently).
+    """The request to plan with: ``request``, or one derived from ``cost``.
+
+    Never both disagreeing (``cost=`` used to override speed and limits silently).
     """
     from energy_planner.request import Request
 

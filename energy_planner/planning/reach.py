@@ -56,8 +56,9 @@ def _graph(
     cost, terrain, start_xy: tuple[float, float], step: float, n_headings: int,
     moves: str = "all",
 ):  # fmt: skip
-    """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan` (energy
-    metric) with the search's move set ``moves``
+    """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan`.
+
+    Energy metric, with the search's move set ``moves``
     (:data:`energy_planner.planning.search.MOVE_SETS`): CSR matrix over
     ``position * H + heading``; every edge priced by the kernel in its own direction.
     """
@@ -214,8 +215,9 @@ class ReachMap:
             return np.isfinite(self.energy_j) & (self.energy_j <= budget_j)
 
     def area(self, terrain, budget_j: float):
-        """The area reachable within ``budget_j`` as a shapely (Multi)Polygon of whole
-        cells, in the working CRS.
+        """The area reachable within ``budget_j``.
+
+        A shapely (Multi)Polygon of whole cells, in the working CRS.
         """
         from rasterio import features
         from shapely.geometry import shape
@@ -260,9 +262,10 @@ class ReachMap:
         }
 
     def write_geotiff(self, terrain, path: str | Path) -> Path:
-        """Write ``energy_j`` (J, float32, nodata :data:`NODATA`) on the DEM's grid and
-        CRS; a DEM in longitude/latitude gets the working grid's values resampled to
-        its own grid (nearest cell).
+        """Write ``energy_j`` (J, float32, nodata :data:`NODATA`) on the DEM's grid and CRS.
+
+        A DEM in longitude/latitude gets the working grid's values resampled to its own
+        grid (nearest cell).
         """
         import rasterio
 

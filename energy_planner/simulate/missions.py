@@ -194,8 +194,9 @@ def _smooth_noise(
 def synthetic_dem(
     seed: int = 0, size_m: float = 300.0, resolution: float = 2.0, max_slope_deg: float = 25.0
 ) -> Any:
-    """Rolling hills: a smooth random surface scaled so its steepest slope is
-    ``max_slope_deg``.
+    """Rolling hills: a smooth random surface.
+
+    It is scaled so its steepest slope is ``max_slope_deg``.
 
     >>> t = synthetic_dem(seed=1, size_m=100.0)
     >>> bool(abs(float(np.degrees(np.nanmax(t.slope))) - 25.0) < 2.0)
@@ -244,8 +245,9 @@ class GroundMap:
         return np.asarray(self.names, dtype=object)[self.codes[r, c] - 1]
 
     def write(self, raster: str | Path, table: str | Path) -> tuple[Path, Path]:
-        """Write the codes as a GeoTIFF on the terrain's grid and the table ``code,ground``
-        (for ``--channel ground=RASTER:TABLE``).
+        """Write the codes as a GeoTIFF on the terrain's grid and the table ``code,ground``.
+
+        For ``--channel ground=RASTER:TABLE``.
         """
         import rasterio
 

@@ -62,8 +62,10 @@ class PathTruth:
 def channel_values(
     channels: Mapping[str, Any] | None, x: np.ndarray, y: np.ndarray
 ) -> dict[str, np.ndarray]:
-    """Channel values at points: constants broadcast; callables ``f(x, y)`` or objects
-    with ``.sample(x, y)`` (a raster) evaluated there.
+    """Channel values at points.
+
+    Constants are broadcast; callables ``f(x, y)`` or objects with ``.sample(x, y)``
+    (a raster) are evaluated there.
 
     >>> channel_values({"load_kg": 10, "ground": "mud"}, np.zeros(2), np.zeros(2))["ground"]
     array(['mud', 'mud'], dtype=object)
