@@ -324,8 +324,10 @@ def _write_metadata(
 
 
 def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
-    """Rows per window: whole rows of output tiles (so that every write completes its
-    tiles and GDAL can flush them), about ``target_bytes`` of arrays, at least one.
+    """Rows per window: whole rows of output tiles, about ``target_bytes`` of arrays.
+
+    Whole tile rows, so that every write completes its tiles and GDAL can flush them; at
+    least one.
     """
     per_row = cols * (nbands * 4 + 80)  # the bands (float32) + gradient and temporaries
     rows = int(target_bytes // max(per_row, 1))
@@ -520,8 +522,10 @@ def _resample(
 
 
 def _resample_cost(arr, src_t, src_crs, shape, dst_t, dst_crs) -> np.ndarray:
-    """Bilinear for a cost band: ``inf`` cells are masked out of the average and put back
-    (nearest neighbour) so that they never mix into finite numbers."""
+    """Bilinear resampling of a cost band that never mixes ``inf`` into finite numbers.
+
+    ``inf`` cells are masked out of the average and put back by nearest neighbour.
+    """
     from rasterio.enums import Resampling
 
     inf = np.isinf(arr)
