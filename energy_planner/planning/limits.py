@@ -74,6 +74,7 @@ def load_keep_out(path: str | Path) -> list[Any]:
     PlanningError
         If the file is missing, is not JSON/GeoJSON or holds no polygon.
     """
+    import shapely
     from shapely.geometry import shape
 
     path = Path(path)
@@ -81,13 +82,22 @@ def load_keep_out(path: str | Path) -> list[Any]:
         data = json.loads(path.read_text())
     except OSError as exc:
         raise PlanningConfigError(f"cannot read keep-out file {str(path)!r}: {exc}") from exc
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PlanningConfigError(
             f"keep-out file {str(path)!r} is not JSON ({exc}); expected a GeoJSON "
             "FeatureCollection of Polygons"
         ) from exc
     if isinstance(data, dict) and data.get("type") == "FeatureCollection":
-        geoms = [f.get("geometry") for f in data.get("features", [])]
+        features = data.get("features")
+        if not isinstance(features, list) or not all(isinstance(f, dict) for f in features):
+            raise PlanningConfigError(
+                f"keep-out file {str(path)!r}: 'features' is {type(features).__name__}, "
+                "expected a list of GeoJSON Feature objects",
+                path=path,
+                param="keep_out",
+                expected="a list of Features",
+            )
+        geoms = [f.get("geometry") for f in features]
     elif isinstance(data, dict) and data.get("type") == "Feature":
         geoms = [data.get("geometry")]
     else:
@@ -112,6 +122,16 @@ def load_keep_out(path: str | Path) -> list[Any]:
                 value=k,
                 param="keep_out",
                 expected="Polygon or MultiPolygon",
+            )
+        coords = shapely.get_coordinates(geom)
+        if not np.isfinite(coords).all():
+            raise PlanningConfigError(
+                f"keep-out file {str(path)!r}: geometry {k} has a vertex that is not a finite "
+                "number (NaN or infinity)",
+                path=path,
+                value=k,
+                param="keep_out",
+                expected="finite coordinates in the DEM's CRS",
             )
         out.append(geom)
     if not out:
