@@ -14,6 +14,8 @@ from energy_planner.cli.options import (
     load_model_option,
     logs_argument,
     model_option,
+    report_option,
+    staircase_options,
     window_option,
 )
 
@@ -160,21 +162,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
 @click.command("diagnose")
 @logs_argument
 @model_option
-@click.option(
-    "--report",
-    "report",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write a self-contained HTML report (plots embedded) to this file.",
-)
-@click.option(
-    "--term",
-    "terms",
-    multiple=True,
-    metavar="TERM",
-    help="Also test this candidate term (catalog name or formula, e.g. "
-    "'payload_kg * speed * sin(alpha)'). Repeatable.",
-)
+@report_option
 @click.option(
     "--runs",
     "runs_path",
@@ -184,43 +172,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     "default: runs.csv inside a LOGS folder, if there is one.",
 )
 @window_option
-@click.option(
-    "--folds",
-    type=click.IntRange(min=2),
-    default=5,
-    show_default=True,
-    help="Folds of the held-out validation by run.",
-)
-@click.option(
-    "--max-steps",
-    type=click.IntRange(min=0),
-    default=4,
-    show_default=True,
-    help="Largest number of terms the staircase adds.",
-)
-@click.option(
-    "--alpha",
-    "alpha",
-    type=click.FloatRange(min=0, max=1, min_open=True),
-    default=0.01,
-    show_default=True,
-    help="Noise rule: family-wise false-finding level (Bonferroni over the candidates) of "
-    "the one-sided test by run.",
-)
-@click.option(
-    "--min-rel",
-    type=click.FloatRange(min=0, max=1),
-    default=0.05,
-    show_default=True,
-    help="Noise rule: held-out RMSE must fall by this fraction.",
-)
-@click.option(
-    "--seed",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Seed of the assignment of runs to folds.",
-)
+@staircase_options
 @json_option
 def command(
     logs: tuple[Path, ...],

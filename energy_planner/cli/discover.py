@@ -8,7 +8,14 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, logs_argument, window_option
+from energy_planner.cli.options import (
+    emit,
+    json_option,
+    logs_argument,
+    report_option,
+    staircase_options,
+    window_option,
+)
 
 
 def _pct(v: Any) -> str:
@@ -73,55 +80,14 @@ def _text(doc: dict[str, Any]) -> str:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Where to write the discovered model (JSON), fitted on all windows.",
 )
-@click.option(
-    "--report",
-    "report",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write a self-contained HTML report with the staircase plot to this file.",
-)
-@click.option(
-    "--max-steps",
-    type=click.IntRange(min=0),
-    default=4,
-    show_default=True,
-    help="Largest number of terms added to the base model.",
-)
-@click.option(
-    "--term",
-    "terms",
-    multiple=True,
-    metavar="TERM",
-    help="Also test this candidate term (catalog name or formula). Repeatable.",
-)
+@report_option
 @window_option
-@click.option(
-    "--folds",
-    type=click.IntRange(min=2),
-    default=5,
-    show_default=True,
-    help="Folds of the held-out validation by run.",
-)
-@click.option(
-    "--alpha",
-    type=click.FloatRange(min=0, max=1, min_open=True),
-    default=0.01,
-    show_default=True,
-    help="Family-wise false-finding level of each step (Bonferroni over the candidates).",
-)
-@click.option(
-    "--min-rel",
-    type=click.FloatRange(min=0, max=1),
-    default=0.05,
-    show_default=True,
-    help="Smallest relative reduction of the held-out RMSE a step must bring.",
-)
+@staircase_options
 @click.option(
     "--no-repair",
     is_flag=True,
     help="Report data findings (sensor problems) but do not correct them before fitting.",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the folds.")
 @json_option
 def command(
     logs: tuple[Path, ...],

@@ -54,6 +54,74 @@ window_option = click.option(
 )
 
 
+report_option = click.option(
+    "--report",
+    "report",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write a self-contained HTML report (plots embedded) to this file.",
+)
+
+
+def staircase_options(f):
+    """The options of the staircase of ``diagnose`` and ``discover``, defined once.
+
+    ``--term`` (extra candidates), ``--folds``, ``--max-steps``, and the noise rule
+    (``--alpha``, ``--min-rel``) with the fold ``--seed``.
+    """
+    for opt in reversed(
+        (
+            click.option(
+                "--term",
+                "terms",
+                multiple=True,
+                metavar="TERM",
+                help="Also test this candidate term (catalog name or formula, e.g. "
+                "'load_kg * speed * sin(alpha)'). Repeatable.",
+            ),
+            click.option(
+                "--folds",
+                type=click.IntRange(min=2),
+                default=5,
+                show_default=True,
+                help="Folds of the held-out validation by run.",
+            ),
+            click.option(
+                "--max-steps",
+                type=click.IntRange(min=0),
+                default=4,
+                show_default=True,
+                help="Largest number of terms the staircase adds to the model.",
+            ),
+            click.option(
+                "--alpha",
+                "alpha",
+                type=click.FloatRange(min=0, max=1, min_open=True),
+                default=0.01,
+                show_default=True,
+                help="Noise rule: family-wise false-finding level of each step (one-sided "
+                "test by run, Bonferroni over the candidates).",
+            ),
+            click.option(
+                "--min-rel",
+                type=click.FloatRange(min=0, max=1),
+                default=0.05,
+                show_default=True,
+                help="Noise rule: the held-out RMSE must fall by at least this fraction.",
+            ),
+            click.option(
+                "--seed",
+                type=int,
+                default=0,
+                show_default=True,
+                help="Seed of the assignment of runs to folds.",
+            ),
+        )
+    ):
+        f = opt(f)
+    return f
+
+
 def start_goal_options(f):
     """``--start`` and ``--goal`` as X,Y[,YAW_DEG] in the DEM's CRS."""
     f = click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")(f)

@@ -78,8 +78,10 @@ def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int):
     facing = t1 + walk + t2
     use_b = facing < direct
     new = np.where(use_b, facing, direct)
-    gain = old - new
-    good = np.nonzero(gain > 1e-9 * np.maximum(old, 1.0))[0]
+    # an infeasible (inf) old edge gains inf from a feasible new one and nothing from an
+    # infeasible one (inf - inf would be NaN)
+    gain = np.where(np.isfinite(old), old - new, np.where(np.isfinite(new), np.inf, 0.0))
+    good = np.nonzero(gain > 1e-9 * np.where(np.isfinite(old), np.maximum(old, 1.0), 1.0))[0]
     evals = 4 * len(i)
     if good.size == 0:
         return s, e, evals
@@ -226,7 +228,9 @@ def refine_path(
             cur = np.where(idx > 0, e[np.maximum(idx - 1, 0)], 0.0) + np.where(
                 idx < n - 1, e[np.minimum(idx, n - 2)], 0.0
             )
-            better = new[rows, best] < cur - 1e-9 * np.maximum(cur, 1.0)
+            # cur * (1 - 1e-9) rather than cur - 1e-9 * cur: an infeasible (inf) current
+            # pair must not give inf - inf = NaN
+            better = new[rows, best] < np.where(cur > 1.0, cur * (1.0 - 1e-9), cur - 1e-9)
             tried += idx.size
             accepted += int(better.sum())
             for r in np.nonzero(better)[0]:
