@@ -89,8 +89,9 @@ class WindowData:
         return [*self.numeric_extras, *self.categorical_extras]
 
     def window_mean(self, values: np.ndarray) -> np.ndarray:
-        """Mean over each window of a per-sample array (or of each column of a matrix),
-        ignoring non-finite samples; a window with no finite sample gets NaN.
+        """Mean over each window of a per-sample array (or of each column of a matrix).
+
+        Non-finite samples are ignored; a window with no finite sample gets NaN.
 
         Samples are stored grouped by window, so this is one ``np.add.reduceat``.
         """

@@ -156,8 +156,9 @@ def _shift_within_runs(values: np.ndarray, code: np.ndarray, k: int) -> np.ndarr
 
 
 def _crossing(t: np.ndarray, v: np.ndarray, level: float, rising: bool) -> float:
-    """First time ``v`` crosses ``level`` upwards (``rising``) or last time downwards,
-    linearly interpolated; NaN if it never does.
+    """First time ``v`` crosses ``level`` upwards (``rising``) or last time downwards.
+
+    Linearly interpolated; NaN if it never does.
     """
     above = v >= level
     if rising:
@@ -178,7 +179,8 @@ def _crossing(t: np.ndarray, v: np.ndarray, level: float, rising: bool) -> float
 def _transition_offsets(
     t: np.ndarray, p: np.ndarray, m: np.ndarray, ends: tuple[float, float, float, float]
 ) -> tuple[float, float]:
-    """Power-minus-motion midpoint-crossing times at the start and at the end of a run;
+    """Power-minus-motion midpoint-crossing times at the start and at the end of a run.
+
     ``ends`` are the power and motion levels at the first and the last sample.
     """
     n = len(t)
@@ -469,8 +471,9 @@ CHECKS = (check_current_sign, check_clock_offset, check_odometry_slip, check_twi
 def check_data(
     samples: pd.DataFrame, repair: bool = True
 ) -> tuple[list[DataFinding], pd.DataFrame]:
-    """Run every data check on raw canonical samples; return the results and the samples
-    with the findings repaired (unchanged when ``repair`` is False).
+    """Run every data check on raw canonical samples; return results and repaired samples.
+
+    The samples come back with the findings repaired (unchanged when ``repair`` is False).
 
     The current sign is checked first (power is needed by the clock check), the clock
     before the slip (the slip check does not use power).

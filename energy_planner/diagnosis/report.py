@@ -338,8 +338,10 @@ def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner di
 
 
 def plot_discovery(table: Sequence[dict]):
-    """The staircase of ``discover``: held-out power RMSE (bars) and run-energy error
-    (median and 90th percentile, lines) after each step.
+    """The staircase of ``discover`` as a plot.
+
+    Held-out power RMSE (bars) and run-energy error (median and 90th percentile, lines)
+    after each step.
     """
     import matplotlib
 

@@ -254,8 +254,9 @@ def _fmt(q: float) -> str:
 
 
 def hinge(ch: str, q: float, below: bool, level: float | None = None, times: str = "") -> Candidate:
-    """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel,
-    optionally times ``speed`` (a force per metre that starts at a threshold).
+    """The hinge candidate ``pos(q - ch)`` (``below``) or ``pos(ch - q)`` on a channel.
+
+    Optionally times ``speed`` (a force per metre that starts at a threshold).
 
     >>> hinge("temperature_c", 15.0, True).term
     'pos(15 - temperature_c)'
@@ -507,8 +508,9 @@ def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, 
 
 
 def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, str, list[str]]]:
-    """``ch`` times each base term of the model: the base's own physics scaled by the
-    channel (a load scales the lifting work, the copper losses of holding a slope...).
+    """``ch`` times each base term of the model: the base's own physics scaled by a channel.
+
+    A load scales the lifting work, the copper losses of holding a slope, ...
     """
     from energy_planner.model import BASE_TERMS, CATALOG
 
@@ -530,8 +532,9 @@ def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, 
 
 
 def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | None):
-    """``ch`` times the fitted base power, and times its copper (squared-force) part: a
-    channel that scales every force of the gait (a mass) or every copper loss (the
+    """``ch`` times the fitted base power, and times its copper (squared-force) part.
+
+    A channel that scales every force of the gait (a mass) or every copper loss (the
     winding resistance). The coefficients are the current fit's, written into the term.
     """
     from energy_planner.model import BASE_TERMS, CATALOG
@@ -562,8 +565,9 @@ def channel_candidates(
     model_terms: Iterable[str] = (),
     coef: dict[str, float] | None = None,
 ) -> tuple[list[Candidate], list[dict]]:
-    """Data-driven candidates, one family of shapes per extra channel (with
-    ``model_terms``, also the channel times each of the model's base terms).
+    """Data-driven candidates, one family of shapes per extra channel.
+
+    With ``model_terms``, also the channel times each of the model's base terms.
 
     Returns the candidates and the channels that cannot give one (with the reason).
     """
@@ -681,8 +685,9 @@ def _unsup(name, term, variables, source, reason) -> dict:
 def default_candidates(
     wd: WindowData, terms: Sequence[str], speeds: dict | None = None
 ) -> tuple[list[Candidate], list[dict]]:
-    """Catalog, speed and channel candidates for a model with ``terms``; and the
-    candidates that cannot be tried, with the reason.
+    """Catalog, speed and channel candidates for a model with ``terms``.
+
+    Also returns the candidates that cannot be tried, with the reason.
     """
     speeds = speed_levels(wd) if speeds is None else speeds
     x, y = wd.columns(terms), wd.power
