@@ -70,7 +70,7 @@ class Payoff:
 def mud_strip(gm, start, goal, half_width_m: float = 4.0, span=(0.25, 0.75)):
     """Meadow everywhere but a mud strip on the middle of the straight start-goal line.
 
-    Avoiding the mud is a real choice there: a sideways shift of ~5 m, spread over a quarter
+    Avoiding the mud is a real choice there: a sideways shift of ~4-5 m, spread over a quarter
     of the route, lengthens it by ~1 m, while crossing the strip costs ~40 m of mud.
     """
     from energy_planner.simulate import GroundMap
