@@ -50,6 +50,8 @@ CASES = {
 
 @dataclass
 class Payoff:
+    """One payoff case: what discovery added and what each model's plan truly costs."""
+
     case: str
     effects: tuple[str, ...]
     added: list[str]
@@ -62,6 +64,7 @@ class Payoff:
 
     @property
     def saving(self) -> float:
+        """True energy saved by the discovered model's plan, as a share of the base plan's."""
         b = self.plans["base"]["true_energy_j"]
         c = self.plans["discovered"]["true_energy_j"]
         return (b - c) / b
@@ -168,8 +171,9 @@ def run(
         }
         states = np.asarray(p.states, dtype=float)
         for other, m in models.items():  # each model's prediction of this route
-            plans[name][f"predicted_by_{other}_j"] = float(path_energy(
-                terrain, m, states[:, :2], yaw=states[:, 2], channels=channels).energy_j)
+            plans[name][f"predicted_by_{other}_j"] = float(
+                path_energy(terrain, m, states[:, :2], yaw=states[:, 2], channels=channels).energy_j
+            )
     return Payoff(
         case=case,
         effects=tuple(spec["effects"]),
@@ -190,8 +194,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--small", action="store_true", help="CampaignConfig.small(repeats=2)")
     ap.add_argument("--planner", default="auto")
     ap.add_argument("--scenario", default="hill_crossing", help="bundled scenario name")
-    ap.add_argument("--ground", choices=("strip", "patches"), default="strip",
-                    help="ground layout of the ground case (see the module docstring)")
+    ap.add_argument(
+        "--ground",
+        choices=("strip", "patches"),
+        default="strip",
+        help="ground layout of the ground case (see the module docstring)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     from energy_planner.simulate import CampaignConfig
