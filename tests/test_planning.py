@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, box
 
@@ -194,6 +194,7 @@ def test_planned_energy_is_the_sum_of_its_segments(ramp, model):
 
 @settings(max_examples=15, deadline=None)
 @given(x0=st.floats(3, 37), y0=st.floats(3, 37), x1=st.floats(3, 37), y1=st.floats(3, 37))
+@example(x0=3.0, y0=3.0, x1=3.0, y1=3.0000000000000004)  # found by CI: start ~= goal
 def test_lattice_never_beats_the_admissible_bound(flat, model, x0, y0, x1, y1):
     """On flat ground no path costs less than min_cost_per_metre * distance, and the
     lattice path is at most ~8% dearer than the straight line (16 directions)."""
@@ -201,7 +202,8 @@ def test_lattice_never_beats_the_admissible_bound(flat, model, x0, y0, x1, y1):
     res = lattice_plan(cost, flat, (x0, y0, None), (x1, y1, None), step=2.0)
     e = sum(cost(*a, *b) for a, b in zip(res.states[:-1], res.states[1:], strict=True))
     d = math.hypot(x1 - x0, y1 - y0)
-    assert e >= cost.min_cost_per_metre * d * (1 - 1e-9)
+    # 1e-9 J absolute: a goal within float rounding of the start (d ~ 4e-16 m) is a stay
+    assert e >= cost.min_cost_per_metre * d * (1 - 1e-9) - 1e-9
     h = math.atan2(y1 - y0, x1 - x0)
     line = cost(x0, y0, h, x1, y1, h)
     assert e <= line * 1.09 + 3 * cost.min_cost_per_metre * 2.0
