@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    band_option,
     channel_options,
     channels_from_options,
     dem_option,
@@ -21,13 +22,6 @@ from energy_planner.cli.options import (
     yaw_rate_option,
 )
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
-
-band_option = click.option(
-    "--band",
-    type=click.IntRange(min=1),
-    default=None,
-    help="1-based band of the DEM (required when the raster has several bands).",
-)
 
 
 def load_terrain(dem: Path, band: int | None) -> Any:

@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    band_option,
     channel_options,
     channels_from_options,
     emit,
@@ -78,12 +79,7 @@ def format_table(res: dict[str, Any]) -> str:
     default=None,
     help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG.",
 )
-@click.option(
-    "--band",
-    type=click.IntRange(min=1),
-    default=None,
-    help="1-based band of the DEM (required when the raster has several bands).",
-)
+@band_option
 @click.option(
     "--dask",
     "use_dask",

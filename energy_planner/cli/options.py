@@ -23,6 +23,13 @@ dem_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
 )
+band_option = click.option(
+    "--band",
+    type=click.IntRange(min=1),
+    default=None,
+    help="1-based band of the DEM (required when the raster has several bands).",
+)
+
 model_option = click.option(
     "--model",
     "model_path",

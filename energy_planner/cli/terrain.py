@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.cli.options import emit, json_option
+from energy_planner.cli.options import band_option, emit, json_option
 
 NODATA_OUT = -9999.0  # as gdaldem
 
@@ -160,7 +160,7 @@ def _text(r: dict[str, Any]) -> str:
 
 @click.command("terrain")
 @click.argument("dem", metavar="DEM")
-@click.option("--band", type=click.IntRange(min=1), default=None, help="Band to read (1-based).")
+@band_option
 @click.option(
     "--bounds",
     default=None,
