@@ -15,7 +15,9 @@ from energy_planner.cli.options import (
     emit,
     json_option,
     load_model_option,
+    memory_cap_option,
     model_option,
+    parse_memory_cap,
     speed_option,
 )
 
@@ -95,14 +97,9 @@ def format_table(res: dict[str, Any]) -> str:
     help="Run the dask path on this dask.distributed scheduler (e.g. tcp://host:8786); "
     "implies --dask. The workers must see the DEM, the output path and the kernel cache.",
 )
-@click.option(
-    "--memory-cap",
-    "memory_cap",
-    default=None,
-    metavar="SIZE",
-    help="Memory the DEM may take in memory (64 bytes per cell, as load_dem counts) "
-    "above which the map is computed out of core, e.g. 2GB "
-    "(default: $ENERGY_PLANNER_MEMORY_CAP, else half the machine's memory).",
+@memory_cap_option(
+    "the DEM may take in memory (64 bytes per cell, as load_dem counts) above which the "
+    "map is computed out of core"
 )
 @click.option(
     "--chunk",
@@ -140,16 +137,11 @@ def command(
 
     Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
     """
-    from energy_planner.energymap import energy_map, parse_size, plot_energy_map
+    from energy_planner.energymap import energy_map, plot_energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
     from energy_planner.request import Request, Robot
 
-    cap = None
-    if memory_cap is not None:
-        try:
-            cap = parse_size(memory_cap)
-        except ValueError as exc:
-            raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
+    cap = parse_memory_cap(memory_cap)
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
     request = Request(robot=Robot(speed=speed), channels=ch)

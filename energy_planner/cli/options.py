@@ -30,6 +30,47 @@ band_option = click.option(
     help="1-based band of the DEM (required when the raster has several bands).",
 )
 
+
+def memory_cap_option(what: str):
+    """``--memory-cap SIZE``: the memory ``what`` may use; parse with :func:`parse_memory_cap`."""
+    return click.option(
+        "--memory-cap",
+        "memory_cap",
+        default=None,
+        metavar="SIZE",
+        help=f"Memory {what}, e.g. 2GB, 512M or 50% "
+        "(default: $ENERGY_PLANNER_MEMORY_CAP, else half the machine's memory).",
+    )
+
+
+def parse_memory_cap(value: str | None) -> int | None:
+    """``--memory-cap`` in bytes (None: the default cap); ``click.BadParameter`` if not a size."""
+    if value is None:
+        return None
+    from energy_planner.terrain.memory import MEMORY_CAP_ENV, memory_cap, parse_size
+
+    text = value.strip()
+    try:
+        if text.endswith("%"):
+            import os
+
+            old = os.environ.get(MEMORY_CAP_ENV)
+            os.environ[MEMORY_CAP_ENV] = text
+            try:
+                return memory_cap()
+            finally:
+                if old is None:
+                    del os.environ[MEMORY_CAP_ENV]
+                else:
+                    os.environ[MEMORY_CAP_ENV] = old
+        return parse_size(text)
+    except Exception as exc:  # noqa: BLE001 - ValueError or the cap's DEMError
+        raise click.BadParameter(
+            f"{value!r} is not a size; expected e.g. 2GB, 512M, 1.5GiB or 50%",
+            param_hint="--memory-cap",
+        ) from exc
+
+
 model_option = click.option(
     "--model",
     "model_path",

@@ -16,7 +16,9 @@ from energy_planner.cli.options import (
     emit,
     json_option,
     load_model_option,
+    memory_cap_option,
     model_option,
+    parse_memory_cap,
     parse_point,
     seed_option,
     speed_option,
@@ -48,6 +50,34 @@ def point_to_work(terrain: Any, value: str, hint: str, with_yaw: bool) -> tuple:
         raise click.BadParameter(str(exc), param_hint=hint) from exc
     yaw = math.radians(p[2]) if len(p) == 3 else None
     return (float(x), float(y), yaw)
+
+
+def over_memory_cap(dem: Path, cap: int | None) -> bool:
+    """True if planning on the whole of ``dem`` would pass the memory cap (header only).
+
+    ``cap`` None: the default cap. A file rasterio cannot open returns False, so that
+    :func:`load_terrain` reports it.
+    """
+    import rasterio
+
+    from energy_planner.planning.corridor import PLAN_BYTES_PER_CELL
+    from energy_planner.terrain import memory_cap
+
+    limit = memory_cap() if cap is None else cap
+    if limit is None:
+        return False
+    try:
+        with rasterio.open(dem) as src:
+            cells = float(src.height) * float(src.width)
+    except Exception:  # noqa: BLE001 - any open error is load_terrain's to report
+        return False
+    return cells * PLAN_BYTES_PER_CELL > limit
+
+
+def point_in_dem_crs(value: str, hint: str, with_yaw: bool) -> tuple:
+    """``X,Y[,YAW_DEG]`` as ``(x, y[, yaw_rad])`` in the DEM's own (projected) CRS."""
+    p = parse_point(value, hint, with_yaw=with_yaw)
+    return (p[0], p[1], math.radians(p[2])) if len(p) == 3 else (p[0], p[1])
 
 
 def check_planner(planner: str) -> str:
@@ -189,6 +219,18 @@ def format_table(res: dict[str, Any]) -> str:
         # degrees (a geographic DEM) to 6 decimals, metres to 2
         nd = 6 if max(abs(w["x"]), abs(w["y"])) <= 360 else 2
         lines.append(f"  {w['x']:>16.{nd}f} {w['y']:>16.{nd}f} {w['yaw_deg']:>8.1f}")
+    c = res.get("corridor")
+    if c:
+        last = c["windows"][-1]["shape"]
+        lines.append(
+            f"corridor  DEM {c['dem_shape'][0]} x {c['dem_shape'][1]} read by windows "
+            f"({len(c['windows'])}, the last {last[0]} x {last[1]} cells): "
+            + (
+                "proven to hold every cheaper path"
+                if c["proven"]
+                else "NOT proven: a path leaving the window might be cheaper"
+            )
+        )
     if res.get("out"):
         lines.append(f"path written to {res['out']}")
     if res.get("plot"):
@@ -215,6 +257,11 @@ def format_table(res: dict[str, Any]) -> str:
     "its motion primitives (default 1.05; 1 = optimal, slower).",
 )
 @channel_options
+@memory_cap_option(
+    "planning may use (160 bytes per DEM cell); a larger DEM is planned by windows: a "
+    "corridor about the start and the goal, proven to hold every cheaper path or reported "
+    "as not proven"
+)
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -242,6 +289,7 @@ def command(
     eps: float | None,
     sets: tuple[str, ...],
     channels: tuple[str, ...],
+    memory_cap: str | None,
     out: Path | None,
     plot: Path | None,
     as_json: bool,
@@ -251,29 +299,45 @@ def command(
     The energy is that of the model (--model, default the bundled B1-class model)
     integrated along the path; the path may walk sideways or backwards where that is
     cheaper. The default planner searches (x, y, heading) at the DEM's own cell size with
-    an admissible heuristic, then refines the path. Progress is shown on stderr.
+    an admissible heuristic, then refines the path. Progress is shown on stderr. A DEM too
+    large for --memory-cap is read by windows about the start and the goal (a corridor);
+    the output says whether the window is proven to hold every cheaper path.
 
     Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20
     """
-    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
     from energy_planner.planning.plan import plan
 
     check_planner(planner)
     ch = channels_from_options(sets, channels) if (sets or channels) else None
     request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out, ch)
-    terrain = load_terrain(dem)
+    cap = parse_memory_cap(memory_cap)
     model = load_model_option(model_path)
-    s = point_to_work(terrain, start, "--start", True)
-    g = point_to_work(terrain, goal, "--goal", True)
-    try:
-        res = plan(
-            terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
-            step=step, eps=eps, progress=True,
-        )  # fmt: skip
-    except EnergyPlannerError as exc:
-        raise planning_error(exc) from exc
+    kwargs = dict(planner=planner, time=time_s, seed=seed, step=step, eps=eps)
+    if over_memory_cap(dem, cap):
+        from energy_planner.planning.corridor import plan_in_corridor
+
+        s = point_in_dem_crs(start, "--start", True)
+        g = point_in_dem_crs(goal, "--goal", True)
+        try:
+            res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
+                                            **kwargs)  # fmt: skip
+        except (DEMError, DEMIOError) as exc:
+            raise click.BadParameter(str(exc), param_hint="--dem") from exc
+        except EnergyPlannerError as exc:
+            raise planning_error(exc) from exc
+    else:
+        terrain = load_terrain(dem)
+        s = point_to_work(terrain, start, "--start", True)
+        g = point_to_work(terrain, goal, "--goal", True)
+        try:
+            res = plan(terrain, model, s, g, request, progress=True, **kwargs)
+        except EnergyPlannerError as exc:
+            raise planning_error(exc) from exc
     result = res.to_dict(terrain)
+    if "corridor" in res.info:
+        result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:
         out.write_text(json.dumps(res.to_geojson(terrain), indent=1))
         result["out"] = str(out)

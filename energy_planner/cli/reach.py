@@ -13,11 +13,19 @@ from energy_planner.cli.options import (
     emit,
     json_option,
     load_model_option,
+    memory_cap_option,
     model_option,
+    parse_memory_cap,
     speed_option,
     yaw_rate_option,
 )
-from energy_planner.cli.plan import limit_options, load_terrain, point_to_work
+from energy_planner.cli.plan import (
+    limit_options,
+    load_terrain,
+    over_memory_cap,
+    point_in_dem_crs,
+    point_to_work,
+)
 
 
 def _text(res: dict[str, Any]) -> str:
@@ -35,6 +43,13 @@ def _text(res: dict[str, Any]) -> str:
     for key, label in (("out", "GeoTIFF"), ("geojson", "GeoJSON"), ("plot", "plot")):
         if res.get(key):
             lines.append(f"{label:<12} {res[key]}")
+    w = res.get("window")
+    if w:
+        lines.append(
+            f"window       DEM {w['dem_shape'][0]} x {w['dem_shape'][1]} read as a window of "
+            f"{w['shape'][0]} x {w['shape'][1]} cells (radius {w['radius_m']:.0f} m, "
+            f"c_min {w['c_min_j_per_m']:.1f} J/m); cells above the budget left nodata"
+        )
     lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
     return "\n".join(lines)
 
@@ -83,6 +98,10 @@ def _text(res: dict[str, Any]) -> str:
     default=None,
     help="PNG: energy over a hillshade with the budget contour.",
 )
+@memory_cap_option(
+    "the search may use (160 bytes per DEM cell); a larger DEM is read as one window about "
+    "the start, of the radius the budget can reach (needs --budget-wh)"
+)
 @json_option
 def command(
     dem: Path,
@@ -101,12 +120,16 @@ def command(
     out: Path | None,
     geojson: Path | None,
     plot: Path | None,
+    memory_cap: str | None,
     as_json: bool,
 ) -> None:
     """Least energy to reach every cell of DEM from --start (or to go and come back).
 
     Uses the planner's own search (same motion primitives and energy kernel as
-    `plan`), at the DEM's cell size, any initial heading.
+    `plan`), at the DEM's cell size, any initial heading. A DEM too large for
+    --memory-cap is read as one window about the start that provably holds every cell
+    within --budget-wh (its radius: the budget over the least energy per metre anywhere on
+    the DEM); the outputs then cover that window, and cells above the budget are nodata.
 
     Example: energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh 15
     --out reach.tif --geojson area.geojson --plot reach.png
@@ -126,19 +149,43 @@ def command(
             "--geojson writes the area within a budget: give --budget-wh too",
             param_hint="--geojson",
         )
-    terrain = load_terrain(dem)
+    cap = parse_memory_cap(memory_cap)
+    windowed = over_memory_cap(dem, cap)
+    if windowed and budget_wh is None:
+        raise click.BadParameter(
+            f"DEM {str(dem)!r} is too large for the memory cap to be searched whole; give "
+            "--budget-wh to search only the window the budget can reach (or raise "
+            "--memory-cap / ENERGY_PLANNER_MEMORY_CAP)",
+            param_hint="--budget-wh",
+        )
     model = load_model_option(model_path)
-    s = point_to_work(terrain, start, "--start", False)
     request = Request.make(
         speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
         max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
         channels=channels_from_options(sets, channels),
     )  # fmt: skip
     try:
-        res = reach(
-            terrain, model, s[:2], request, round_trip=round_trip,
-            turn_at_cell=not free_turn, progress=True,
-        )  # fmt: skip
+        if windowed:
+            from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
+            from energy_planner.planning.corridor import reach_in_window
+
+            s = point_in_dem_crs(start, "--start", False)
+            try:
+                res, terrain = reach_in_window(
+                    dem, model, s, budget_wh * 3600.0, request, cap=cap,
+                    round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+                )  # fmt: skip
+            except RasterTooLargeError as exc:
+                raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
+            except (DEMError, DEMIOError) as exc:
+                raise click.BadParameter(str(exc), param_hint="--dem") from exc
+        else:
+            terrain = load_terrain(dem)
+            s = point_to_work(terrain, start, "--start", False)
+            res = reach(
+                terrain, model, s[:2], request, round_trip=round_trip,
+                turn_at_cell=not free_turn, progress=True,
+            )  # fmt: skip
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:
@@ -161,6 +208,8 @@ def command(
         "search": res.info["search"],
         "time_s": res.info["time_s"],
     }
+    if "window" in res.info:
+        result["window"] = {k: v for k, v in res.info["window"].items() if k != "log"}
     budget_j = None if budget_wh is None else budget_wh * 3600.0
     if budget_j is not None:
         result["budget_cells"] = int(res.mask(budget_j).sum())

@@ -36,6 +36,7 @@ transposed graph.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -390,8 +391,10 @@ def reach(
     sx, sy, _ = _pose(start, "start")
     x0, y0, dx, dy = terrain.grid
     rows, cols = terrain.shape
-    c = round((sx - x0) / dx)
-    r = round((sy - y0) / dy)
+    # floor(v + 0.5), not round(): a start on a cell edge picks the same cell in every
+    # window of the grid (round() sends ties to the even index, which depends on the window)
+    c = math.floor((sx - x0) / dx + 0.5)
+    r = math.floor((sy - y0) / dy + 0.5)
     if not (0 <= r < rows and 0 <= c < cols):
         raise InvalidStateError(
             f"start ({sx:.2f}, {sy:.2f}) is outside the map", endpoint="start", value=(sx, sy)

@@ -53,6 +53,7 @@ __all__ = [
     "SearchResult",
     "ReachResult",
     "bound_table",
+    "gradient_table",
     "relaxed_cost_to_go",
     "search_plan",
     "reach_search",
@@ -273,8 +274,6 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
-    from scipy.ndimage import minimum_filter
-
     from energy_planner.planning.lattice import MOVES_16
 
     grad = cost.data[0]
@@ -290,6 +289,38 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
         raise PlanningError("the terrain has no valid gradient (all nodata)")
     lo = np.array([float(gx[fin].min()), float(gy[fin].min())])
     hi = np.array([float(gx[fin].max()), float(gy[fin].max())])
+    table, tgeo = gradient_table(cost, headings, move_ok, lo, hi, nodes)
+    return _sparse_table(table), tgeo
+
+
+def gradient_table(
+    cost,
+    headings: np.ndarray,
+    move_ok: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    nodes: int = TABLE_NODES,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least J per metre of each move direction over a box of constant gradients.
+
+    The table behind :func:`bound_table`, for any gradient box ``lo .. hi`` (``(gx, gy)``
+    m/m, east and north), clipped to the slope limit of ``cost``. Its minimum is a lower
+    bound of the energy per metre of any translation on ground whose gradients lie in
+    the box (the corridor planner's ellipse and the windowed reach use it).
+
+    Returns
+    -------
+    table : ndarray, shape (16, nodes, nodes)
+        J per metre (>= 0; ``inf`` where no heading can move).
+    tgeo : ndarray
+        ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
+    """
+    from scipy.ndimage import minimum_filter
+
+    from energy_planner.planning.lattice import MOVES_16
+
+    lo = np.asarray(lo, dtype=np.float64).copy()
+    hi = np.asarray(hi, dtype=np.float64).copy()
     tmax = float(cost.data[10])
     if math.isfinite(tmax):
         lo = np.maximum(lo, -tmax)
@@ -327,7 +358,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
             best = np.minimum(best, e / (2 * half))
         table[m] = minimum_filter(best.reshape(nodes, nodes), size=3, mode="nearest")
     table = np.maximum(table, 0.0)
-    return _sparse_table(table), np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
+    return table, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
 
 
 def _sparse_table(table: np.ndarray) -> np.ndarray:
