@@ -179,6 +179,11 @@ def test_reach_in_a_window_equals_the_whole_maps_reach_within_the_budget(bumpy_t
     full_t = load_dem(bumpy_tif)
     full = reach(full_t, model, start)
     assert res.start == full.start
+    # the search stopped at the budget is exact within it
+    bounded = reach(full_t, model, start, max_energy=budget)
+    np.testing.assert_array_equal(bounded.energy_j <= budget, full.energy_j <= budget)
+    ok = full.energy_j <= budget
+    np.testing.assert_allclose(bounded.energy_j[ok], full.energy_j[ok], rtol=1e-12)
     # the window's cells in the whole map's grid
     r0 = round((full_t.bounds[3] - terrain.bounds[3]) / 1.0)
     c0 = round((terrain.bounds[0] - full_t.bounds[0]) / 1.0)

@@ -70,6 +70,12 @@ def _text(res: dict[str, Any]) -> str:
     help="Cost of going to each cell and coming back to the start.",
 )
 @click.option(
+    "--within-budget",
+    is_flag=True,
+    help="Search only as far as --budget-wh (much faster on a large map); cells above the "
+    "budget are nodata. Implied when the DEM is read as a window.",
+)
+@click.option(
     "--free-turn",
     is_flag=True,
     help="With --return: headings free at the cell (the sum of two `plan` calls with no "
@@ -108,6 +114,7 @@ def command(
     start: str,
     budget_wh: float | None,
     round_trip: bool,
+    within_budget: bool,
     free_turn: bool,
     model_path: Path | None,
     max_slope: float | None,
@@ -144,6 +151,10 @@ def command(
 
     if free_turn and not round_trip:
         raise click.BadParameter("--free-turn applies to --return only", param_hint="--free-turn")
+    if within_budget and budget_wh is None:
+        raise click.BadParameter(
+            "give --budget-wh with --within-budget", param_hint="--within-budget"
+        )
     if geojson is not None and budget_wh is None:
         raise click.BadParameter(
             "--geojson writes the area within a budget: give --budget-wh too",
@@ -185,6 +196,7 @@ def command(
             res = reach(
                 terrain, model, s[:2], request, round_trip=round_trip,
                 turn_at_cell=not free_turn, progress=True,
+                max_energy=budget_wh * 3600.0 if within_budget else None,
             )  # fmt: skip
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc

@@ -714,7 +714,7 @@ def reach_in_window(
         )  # fmt: skip
     terrain = load_dem(info.path, band=info.band, bounds=window)
     res = reach(terrain, model, start, request, round_trip=round_trip, progress=progress,
-                **reach_kwargs)  # fmt: skip
+                max_energy=budget_j, **reach_kwargs)  # fmt: skip
     above = ~(res.energy_j <= budget_j)
     res.energy_j[above] = np.nan
     res.info["window"] = {

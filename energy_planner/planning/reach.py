@@ -127,6 +127,7 @@ def least_energy(
     turn_at_cell: bool = True,
     moves: str = "all",
     progress: bool = False,
+    max_energy: float = math.inf,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """Least energy from ``start_xy`` (any initial heading) to every search position.
 
@@ -137,7 +138,8 @@ def least_energy(
     (scipy's Dijkstra on the graph and its transpose, so every edge keeps the price of
     its true direction): ``min over h of (to[p, h] + back[p, h])`` with
     ``turn_at_cell``, else ``min_h to[p, h] + min_h back[p, h]`` (headings free at the
-    cell, as two ``plan`` calls).
+    cell, as two ``plan`` calls). With ``max_energy`` finite each search stops there
+    (exact for every position whose energy is at most ``max_energy``; others ``inf``).
 
     Returns
     -------
@@ -153,7 +155,7 @@ def least_energy(
 
         res = reach_search(
             cost, terrain, (start_xy[0], start_xy[1], None), step=step, n_headings=n_headings,
-            moves=moves, progress=progress,
+            moves=moves, progress=progress, max_energy=max_energy,
         )  # fmt: skip
         return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
     from scipy.sparse.csgraph import dijkstra
@@ -170,13 +172,16 @@ def least_energy(
             endpoint="start", value=tuple(start_xy),
         )  # fmt: skip
     sources = p0 * H + hs
-    to = dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(-1, H)
-    back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True)
+    lim = float(max_energy) if math.isfinite(max_energy) else np.inf
+    to = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=lim)
+    to = to.reshape(-1, H)
+    back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True, limit=lim)
     back = back.reshape(-1, H)
     if turn_at_cell:
         e = (to + back).min(axis=1)
     else:
         e = to.min(axis=1) + back.min(axis=1)
+    e[e > max_energy] = np.inf
     return (
         xs,
         ys,
@@ -347,6 +352,7 @@ def reach(
     turn_at_cell: bool = True,
     n_headings: int = 16,
     progress: bool = False,
+    max_energy: float | None = None,
 ) -> ReachMap:
     """Least energy from ``start`` to every cell (or to go there and back).
 
@@ -372,6 +378,9 @@ def reach(
         Search headings.
     progress : bool
         Progress bar on stderr (one-way search).
+    max_energy : float, optional
+        Search only as far as this energy, J (a budget): exact for every cell within it,
+        the others NaN; much faster than the whole map when the budget is small.
 
     Returns
     -------
@@ -410,6 +419,7 @@ def reach(
     xs, ys, grid, search = least_energy(
         cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip,
         turn_at_cell=turn_at_cell, progress=progress,
+        max_energy=math.inf if max_energy is None else float(max_energy),
     )  # fmt: skip
     # lattice positions are cell centres: map them to (row, col)
     ci = np.rint((xs - x0) / dx).astype(int)
