@@ -11,6 +11,9 @@ Cases, each a fresh ``energy-planner`` process (its own peak RSS, from ``wait4``
   with no memory cap, on a route of about a kilometre inside it (the baseline);
 * ``windows``: the same route with ``--memory-cap CAP``, below what planning the whole
   DEM needs (160 bytes per cell): the corridor of ``energy_planner.planning.corridor``;
+* with ``--exact``, both again with the optimal search (``--planner search --eps 1``),
+  where a proven window must give the whole map's energy exactly (the default ``eps``
+  1.05 and the refinement may land on different paths within their bounds);
 * ``huge``: with ``--huge K``, the DEM tiled ``K x K`` times (the hilly field is
   periodic, so the tiling is seamless: ``K * size`` cells a side, 4 bytes per cell on
   disk), planned with the default cap on the same route: a DEM whose planning would need
@@ -20,7 +23,8 @@ Cases, each a fresh ``energy-planner`` process (its own peak RSS, from ``wait4``
   ``--within-budget``: exact within it, as ``tests/test_corridor.py`` checks against the
   unbounded search).
 
-Printed: wall time, peak RSS, energy and its ratio to the whole-map plan, the windows
+Printed: wall time, peak RSS, energy and its ratio to the whole-map plan (the eps=1 rows
+to the whole-map eps=1 search), the windows
 read and whether the window was proven to hold every cheaper path; for reach, the cells
 within the budget and whether they equal the whole map's. ``uptime`` load is printed: the
 machine is shared.
@@ -41,17 +45,30 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-CLI = str(Path(sys.executable).with_name("energy-planner"))
+
+
+#: Runs the CLI in this interpreter and prints its own peak RSS (kB) on exit: ``wait4``'s
+#: ``ru_maxrss`` is not the child's own (it carried the largest earlier child's value).
+WRAP = (
+    "import atexit, resource, sys\n"
+    "atexit.register(lambda: sys.stderr.write("
+    "f'\\nMAXRSS_KB {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}\\n'))\n"
+    "sys.argv = ['energy-planner', *sys.argv[1:]]\n"
+    "from energy_planner.cli import main\n"
+    "main()\n"
+)
 
 
 def run(args: list[str], timeout: float) -> dict:
-    """Run the CLI with ``--json``: its result, wall time and peak RSS (``wait4``)."""
+    """Run the CLI with ``--json``: its result, wall time and peak RSS."""
     t0 = time.perf_counter()
     with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe:
-        p = subprocess.Popen([CLI, *args, "--json"], stdout=fo, stderr=fe, text=True)
+        p = subprocess.Popen(
+            [sys.executable, "-c", WRAP, *args, "--json"], stdout=fo, stderr=fe, text=True
+        )
         deadline = time.perf_counter() + timeout
         while True:
-            pid, status, ru = os.wait4(p.pid, os.WNOHANG)
+            pid, status, _ = os.wait4(p.pid, os.WNOHANG)
             if pid:
                 break
             if time.perf_counter() > deadline:
@@ -68,7 +85,8 @@ def run(args: list[str], timeout: float) -> dict:
         last = (err.strip().splitlines() or ["?"])[-1]
         return {"error": f"exit {code}: {last}", "wall_s": wall}
     res = json.loads(out)
-    res.update(wall_s=wall, rss_gb=ru.ru_maxrss / 1e6)
+    kb = [int(x.split()[1]) for x in err.splitlines() if x.startswith("MAXRSS_KB ")]
+    res.update(wall_s=wall, rss_gb=kb[-1] / 1e6 if kb else float("nan"))
     return res
 
 
@@ -102,6 +120,9 @@ def main() -> None:
     ap.add_argument("--budget-wh", type=float, default=60.0)
     ap.add_argument("--timeout", type=float, default=1800.0)
     ap.add_argument("--no-reach", action="store_true")
+    ap.add_argument(
+        "--exact", action="store_true", help="also plan whole and by windows with the eps=1 search"
+    )
     a = ap.parse_args()
 
     from _hilly import X0, Y0, hilly_dem
@@ -121,6 +142,12 @@ def main() -> None:
                                   a.timeout)))  # fmt: skip
     rows.append(("windows", run(["plan", "--dem", str(dem), *route, "--memory-cap", a.cap],
                                     a.timeout)))  # fmt: skip
+    if a.exact:
+        ex = ["--planner", "search", "--eps", "1"]
+        rows.append(("whole, search eps=1", run(["plan", "--dem", str(dem), *route, *ex,
+                                                 "--memory-cap", "1T"], a.timeout)))  # fmt: skip
+        rows.append(("windows, search eps=1", run(["plan", "--dem", str(dem), *route, *ex,
+                                                   "--memory-cap", a.cap], a.timeout)))  # fmt: skip
     huge = None
     if a.huge > 1:
         t0 = time.perf_counter()
@@ -168,7 +195,8 @@ def main() -> None:
         c = r.get("corridor") or {}
         w = c.get("windows") or []
         last = f"{len(w)} ({w[-1]['shape'][0]} x {w[-1]['shape'][1]})" if w else "whole DEM"
-        ratio = r["energy_j"] / base if base else float("nan")
+        ref = rows[2][1].get("energy_j") if "eps=1" in name else base
+        ratio = r["energy_j"] / ref if ref else float("nan")
         print(
             f"| {name} | {r['wall_s']:.1f} | {r['rss_gb']:.2f} | {r['energy_j']:.0f} | "
             f"{ratio:.4f} | {last} | {c.get('proven', '-')} |"
