@@ -545,6 +545,9 @@ def plan_in_corridor(
         try:
             res = plan(terrain, model, start, goal, request, progress=progress, **kw)
         except PlanningError as exc:
+            if getattr(exc, "limit", None) == "time" and best is not None:
+                log("the time budget ran out in this window: keeping the last window's path")
+                break
             if getattr(exc, "limit", None) not in ("unreachable",) or isinstance(
                 exc, InvalidStateError
             ):
