@@ -47,12 +47,16 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 
-#: Runs the CLI in this interpreter and prints its own peak RSS (kB) on exit: ``wait4``'s
-#: ``ru_maxrss`` is not the child's own (it carried the largest earlier child's value).
+#: Runs the CLI in this interpreter and prints its own peak RSS (``VmHWM``, kB) on exit.
+#: Not ``ru_maxrss``: Linux carries it over from the forking parent across ``exec``, and the
+#: parent's peak (tiling the huge DEM) would show up in every later child.
 WRAP = (
-    "import atexit, resource, sys\n"
-    "atexit.register(lambda: sys.stderr.write("
-    "f'\\nMAXRSS_KB {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}\\n'))\n"
+    "import atexit, sys\n"
+    "def _hwm():\n"
+    "    for line in open('/proc/self/status'):\n"
+    "        if line.startswith('VmHWM:'):\n"
+    "            sys.stderr.write('\\nMAXRSS_KB ' + line.split()[1] + '\\n')\n"
+    "atexit.register(_hwm)\n"
     "sys.argv = ['energy-planner', *sys.argv[1:]]\n"
     "from energy_planner.cli import main\n"
     "main()\n"
