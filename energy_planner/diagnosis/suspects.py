@@ -427,6 +427,26 @@ def speed_candidates(wd: WindowData) -> list[Candidate]:
             needs_speeds=True,
         ),
     ]
+    # per gait: the force per metre of one direction of motion grows with speed (its
+    # touch-downs per second, its swing losses), each gait by its own amount
+    for name, term, words in (
+        ("forward*speed", "pos(vx) ** 2", "walking forward"),
+        ("backward*speed", "pos(-vx) ** 2", "walking backward"),
+        ("lateral*speed", "vy ** 2", "side-stepping"),
+    ):
+        out.append(
+            Candidate(
+                name,
+                term,
+                ["vx"] if "vx" in term else ["vy"],
+                f"the force per metre {words} grows with speed (more touch-downs and faster "
+                "leg swings per metre at a fixed stride length), by its own amount per gait",
+                "speed",
+                "speed",
+                shape=name,
+                needs_speeds=True,
+            )
+        )
     if walking.size >= 10:
         levels = (0.25, 0.5, 0.75)
         for level, q in zip(levels, np.quantile(walking, levels), strict=True):
@@ -445,6 +465,40 @@ def speed_candidates(wd: WindowData) -> list[Candidate]:
                 )
             )
     return out
+
+
+#: Rate of change of the kinetic energy per unit mass, ``d(v^2 / 2) / dt``, W/kg.
+KINETIC = "ax * vx + ay * vy"
+
+
+def kinetic_candidates(wd: WindowData) -> list[Candidate]:
+    """Shapes of a cost of speed changes beyond the catalog's ``acceleration``.
+
+    The catalog's ``pos(ax vx + ay vy)`` pays the kinetic energy when speeding up only.
+    Masses that the drive spins up and then brakes actively (rotors, swinging legs) cost
+    both ways: ``abs(ax vx + ay vy)``; braking alone: ``pos(-(ax vx + ay vy))``. Tried
+    only when the samples have ``ax, ay`` (the preprocessing derives them from the twist).
+
+    >>> [c.name for c in kinetic_candidates(None)]
+    ['speed_changes', 'slowing_down']
+    """
+    return [
+        Candidate(
+            "speed_changes",
+            f"abs({KINETIC})",
+            ["ax", "ay", "vx", "vy"],
+            "every speed change costs kinetic energy, speeding up and slowing down alike "
+            "(rotors and legs spun up by the motors and braked by them, not recovered)",
+            "motion",
+        ),
+        Candidate(
+            "slowing_down",
+            f"pos(-({KINETIC}))",
+            ["ax", "ay", "vx", "vy"],
+            "slowing down costs (the motors brake the moving masses actively)",
+            "motion",
+        ),
+    ]
 
 
 def user_candidates(specs: Iterable[str]) -> list[Candidate]:
@@ -697,7 +751,7 @@ def default_candidates(
     data, bad = channel_candidates(
         wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"], terms, coef
     )
-    cands = cands + speed_candidates(wd) + data
+    cands = cands + kinetic_candidates(wd) + speed_candidates(wd) + data
     out, unsupported = [], list(bad)
     have = {canonical(t) for t in terms}
     for c in cands:
