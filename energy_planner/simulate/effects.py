@@ -147,9 +147,10 @@ EFFECTS: dict[str, Effect] = {
             "acceleration",
             "speed changes also spin the rotors of the hip and knee motors and swing the "
             "legs relative to the body (about 22 kg more kinetic mass, see "
-            "physics.p_extra_inertia), paid both ways (braked by the motors, nothing "
-            "returned). Not a discovery target: physically sized, a start at 0.3 m/s costs "
-            "about 1.4 J more, far below the noise of a window",
+            "physics.p_extra_inertia): paid through the drive when speeding up, returned "
+            "like the body's share when slowing down. Not a discovery target: physically "
+            "sized, a start at 0.3 m/s costs about 1.4 J more, far below the noise of a "
+            "window",
             ("speed ramps (CampaignConfig.ramp_s > 0) or mission logs with speed changes",),
             resembles="acceleration",
             target=False,

@@ -424,8 +424,6 @@ class Physics:
             descent = (vx > 0) & (-s_x > DESCENT_GRADE)
             rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
         recovery = rec_fwd * w_fwd + p.recovery_backward * w_bwd + p.recovery_lateral * w_lat
-        if "acceleration" in on:  # speeding up and slowing down both cost (no recovery)
-            p_mech = weight * dz_dt + m_inertial * np.abs(vx * ax + vy * ay)
         sinkage = np.zeros(n)
         if "ground" in on:
             ground = np.asarray(np.broadcast_to(np.asarray(f["ground"], dtype=object), (n,)))
