@@ -16,6 +16,7 @@ Run::
     python benchmarks/bench_discover.py --size full --seeds 0   # the table
     python benchmarks/bench_discover.py --size medium --seeds 20 --null-size small
     python benchmarks/bench_discover.py --size small --seeds 0 --effects load ground+load
+    python benchmarks/bench_discover.py --size medium --effects none --null-speeds 0.2,0.3,0.45
     python benchmarks/bench_discover.py --seeds 0 --effects none --missions load ground
     python benchmarks/bench_discover.py --json
 
@@ -233,6 +234,12 @@ def main(argv: list[str] | None = None) -> int:
         "medium is CampaignConfig.small(repeats=2)",
     )
     ap.add_argument(
+        "--null-speeds",
+        default=None,
+        help="walking speeds of the false-finding campaigns, e.g. 0.2,0.3,0.45 (default: "
+        "the campaign size's, 0.3 m/s); several speeds make the speed shapes candidates",
+    )
+    ap.add_argument(
         "--effects", nargs="*", default=None, help="effects, a+b for two (default: all)"
     )
     ap.add_argument("--missions", nargs="*", default=None, help="effects on mission logs")
@@ -254,6 +261,10 @@ def main(argv: list[str] | None = None) -> int:
     }
     config = sizes[args.size]
     null_config = config if args.null_size is None else sizes[args.null_size]
+    if args.null_speeds:
+        null_config = null_config.replace(
+            speeds=tuple(float(v) for v in args.null_speeds.split(","))
+        )
     cases = default_cases() if args.effects is None else [
         tuple(e.split("+")) for e in args.effects if e != "none"
     ]  # fmt: skip
@@ -345,8 +356,10 @@ def main(argv: list[str] | None = None) -> int:
         table(missions, "discover on mission logs (simulate_missions, seed 0)")
     if nulls:
         n_false = sum(bool(c.added) for c in nulls)
+        speeds = f", speeds {args.null_speeds} m/s" if args.null_speeds else ""
         print(
-            f"\nno hidden effect, default sensors, {args.null_size or 'same size'} campaigns, "
+            f"\nno hidden effect, default sensors, {args.null_size or 'same size'} campaigns"
+            f"{speeds}, "
             f"seeds 0-{args.seeds - 1}: a term was added "
             f"in {n_false}/{len(nulls)} campaigns (false-finding rate {n_false / len(nulls):.0%})"
         )
