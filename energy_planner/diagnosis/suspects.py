@@ -13,9 +13,11 @@ explanation. Candidates come from
   times speed at data quantiles ``q``; categorical ``(c == 'v')``, ``speed * (c == 'v')``,
   ``(c == 'v') * pos(climb)`` and ``abs(wz) * (c == 'v')`` per value. The best shape per
   channel by held-out error stands for the channel (a best hinge gets its knot refined);
-- speed shapes (``speed ** 2``, ``speed ** 3``, hinges in speed), tried only when the logs
-  hold several walking speeds (:func:`speed_levels`): at one speed they are the motion terms
-  again;
+- speed-change shapes (:func:`kinetic_candidates`): ``abs(ax vx + ay vy)`` and
+  ``pos(-(ax vx + ay vy))`` next to the catalog's ``acceleration``;
+- speed shapes (``speed ** 2``, ``speed ** 3``, per gait ``pos(vx) ** 2``, ``pos(-vx) ** 2``,
+  ``vy ** 2``, hinges in speed), tried only when the logs hold several walking speeds
+  (:func:`speed_levels`): at one speed they are the motion terms again;
 - the user's own ``--term``.
 
 Each candidate is scored by the held-out error of the model refitted with it, validated
@@ -476,8 +478,9 @@ def kinetic_candidates(wd: WindowData) -> list[Candidate]:
 
     The catalog's ``pos(ax vx + ay vy)`` pays the kinetic energy when speeding up only.
     Masses that the drive spins up and then brakes actively (rotors, swinging legs) cost
-    both ways: ``abs(ax vx + ay vy)``; braking alone: ``pos(-(ax vx + ay vy))``. Tried
-    only when the samples have ``ax, ay`` (the preprocessing derives them from the twist).
+    both ways: ``abs(ax vx + ay vy)``; braking alone: ``pos(-(ax vx + ay vy))``. Samples
+    without ``ax, ay`` make them unsupported (the preprocessing derives them from the
+    twist). ``wd`` is not read: the shapes are the same for any logs.
 
     >>> [c.name for c in kinetic_candidates(None)]
     ['speed_changes', 'slowing_down']

@@ -6,7 +6,8 @@ wz``, body accelerations ``ax, ay`` and the extra channels) the electrical power
 from the battery is the sum of
 
 ``electronics``
-    computers, sensors and motor drivers (constant).
+    computers, sensors and motor drivers (constant; with the ``idle_power`` effect plus
+    cooling fans that follow the air temperature).
 ``copper``
     Joule losses ``R i^2`` in the 12 motor windings. A leg carrying a foot force ``F``
     along one direction needs joint torques ``l F`` (``l`` the effective lever of that
