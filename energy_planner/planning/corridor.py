@@ -257,7 +257,9 @@ def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarra
         from tqdm.auto import tqdm
 
         bar = tqdm(total=rows, desc="gradient range (strips)", unit="rows", file=sys.stderr)
-    with rasterio.open(info.path) as src:
+    # a small GDAL block cache: the pass reads every block once (the default cache, 5 % of
+    # the memory, would fill up with blocks that are never read again)
+    with rasterio.Env(GDAL_CACHEMAX=64), rasterio.open(info.path) as src:
         for r0 in range(0, rows, step):
             r1 = min(rows, r0 + step)
             a, b = max(0, r0 - 1), min(rows, r1 + 1)
