@@ -96,7 +96,9 @@ TIME_HELP = (
     "(loading the DEM is not counted): the search's relaxed problem and search (an error if "
     "they do not finish in time), then the refinement, which gets what is left. Default: no "
     "limit for the search, and up to a quarter of its time (1-10 s) for the refinement; "
-    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted."
+    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted. A DEM planned "
+    "by windows (above --memory-cap) counts everything: the gradient pass and each "
+    "window's read and search."
 )
 
 
