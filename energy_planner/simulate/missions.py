@@ -8,7 +8,10 @@ the next phase sideways or backward; speed changes are ramped (moving average ov
 ``ramp_s``), so it accelerates and turns while walking. The same physics, effects,
 battery and sensors as :func:`~energy_planner.simulate.simulate_campaign` apply; the
 ``ground`` channel varies along the path (patches of a categorical ground map), the
-other channels per mission.
+other channels per mission. Besides the designed campaign's columns, the logs hold the
+pose's altitude ``z`` (m, the DEM under the robot, as exact as ``x, y``): a robot on a
+mission localizes on the map, and the IMU's tilt against the body can be checked
+against it (``imu_tilt`` in :mod:`energy_planner.diagnosis.datacheck`).
 
 Examples
 --------
@@ -562,6 +565,9 @@ def simulate_missions(
         noise_rng,
         list(cfg.grounds),
     )
+    # the pose has an altitude: a map-referenced localization (x, y as logged already)
+    logs = out["logs"]
+    logs.insert(logs.columns.get_loc("y") + 1, "z", pos[:, 2])
     rows = []
     for i, (tr, mo) in enumerate(zip(tracks, motions, strict=True)):
         speed = np.hypot(mo["vx"], mo["vy"])
