@@ -1,18 +1,22 @@
 """Benchmark: does ``discover`` find what a campaign hides, and nothing when it hides nothing.
 
-For every hidden effect the simulator offers (and campaigns hiding two at once), a campaign
-is simulated, ``discover`` walks the staircase from the raw logs, and the table says which
-terms it added, whether the hidden effect(s) came within the first two steps, and the
-final held-out power RMSE against the campaign's noise floor (RMSE of the true against the
-measured window power, on the windows ``discover`` used). Then campaigns with no hidden
-effect (default sensors) on many seeds give the false-finding rate: the share of seeds where
-``discover`` added any term.
+For every hidden effect the simulator offers (``energy_planner.simulate.HIDDEN_EFFECTS``,
+and campaigns hiding two at once), a campaign is simulated, ``discover`` walks the
+staircase from the raw logs, and the table says which terms it added, whether the hidden
+effect(s) came within the first two steps, and the final held-out power RMSE against the
+campaign's noise floor (RMSE of the true against the measured window power, on the windows
+``discover`` used). A second table runs the effects that are not discovery targets
+(robot-parameter variants the base's coefficients absorb, and ``acceleration``, too small
+to see): nothing should be added. Then campaigns with no hidden effect (default sensors) on
+many seeds give the false-finding rate: the share of seeds where ``discover`` added any
+term.
 
 Run::
 
-    python benchmarks/bench_discover.py                 # full campaigns, 20 seeds
+    python benchmarks/bench_discover.py --size full --seeds 0   # the issue's table
     python benchmarks/bench_discover.py --size medium --seeds 20 --null-size small
     python benchmarks/bench_discover.py --size small --seeds 0 --effects load ground+load
+    python benchmarks/bench_discover.py --size medium --effects none --null-speeds 0.2,0.3,0.45
     python benchmarks/bench_discover.py --seeds 0 --effects none --missions load ground
     python benchmarks/bench_discover.py --json
 
@@ -103,19 +107,15 @@ def noise_floor(camp, windows) -> float:
 
 
 def in_base(effect: str) -> bool:
-    """Whether the base model's structure already represents the effect.
+    """Whether the effect is not a discovery target (``Effect.target`` False).
 
-    Its physics then changes only the base coefficients: nothing is missing, nothing
-    should be added.
+    A robot-parameter variant changes only the base model's coefficients (nothing is
+    missing, nothing should be added); ``acceleration`` is too small to see (see
+    ``energy_planner.simulate.effects``).
     """
-    from energy_planner.model import BASE_TERMS, CATALOG
     from energy_planner.simulate import EFFECTS
 
-    e = EFFECTS[effect]
-    if e.channel:
-        return False
-    r = e.resembles
-    return r is None or r in BASE_TERMS or r not in CATALOG
+    return not EFFECTS[effect].target
 
 
 def matches(term: str, effect: str) -> bool:
@@ -137,15 +137,15 @@ def matches(term: str, effect: str) -> bool:
         return e.channel in variables
     if term == e.resembles:
         return True
-    return effect == "speed_dependence" and variables == {"speed"}
+    if effect == "acceleration":  # the kinetic-energy shapes read the accelerations
+        return {"ax", "ay"} <= variables
+    # a speed shape: speed alone, or one gait's rate squared (pos(vx) ** 2, vy ** 2)
+    return effect == "speed_dependence" and bool(variables) and variables <= {"speed", "vx", "vy"}
 
 
 def config_for(effects: Sequence[str], config):
     """The campaign an effect needs: several speeds for a speed dependence."""
-    from energy_planner.simulate import EFFECTS
-
-    if any("several speeds" in " ".join(EFFECTS[e].needs) for e in effects
-           if not in_base(e) or e == "speed_dependence"):  # fmt: skip
+    if "speed_dependence" in effects:
         return config.replace(speeds=(0.2, 0.3, 0.45))
     return config
 
@@ -199,14 +199,21 @@ def run_case(
 
 
 def default_cases() -> list[tuple[str, ...]]:
-    """Every effect alone, and three campaigns hiding two effects at once."""
-    from energy_planner.simulate import EFFECTS
+    """Every hidden effect alone, and three campaigns hiding two effects at once."""
+    from energy_planner.simulate import HIDDEN_EFFECTS
 
-    singles = [(e,) for e in EFFECTS]
+    singles = [(e,) for e in HIDDEN_EFFECTS]
     pairs = [("idle_power", "vegetation"), ("speed_dependence", "cold_joints"),
              ("load", "ground")]  # fmt: skip
-    pairs = [p for p in pairs if set(p) <= set(EFFECTS)]
+    pairs = [p for p in pairs if set(p) <= set(HIDDEN_EFFECTS)]
     return singles + [tuple(p) for p in pairs]
+
+
+def variant_cases() -> list[tuple[str, ...]]:
+    """The effects that are not discovery targets (robot-parameter variants, too small)."""
+    from energy_planner.simulate import EFFECTS
+
+    return [(n,) for n, e in EFFECTS.items() if not e.target]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -227,9 +234,21 @@ def main(argv: list[str] | None = None) -> int:
         "medium is CampaignConfig.small(repeats=2)",
     )
     ap.add_argument(
+        "--null-speeds",
+        default=None,
+        help="walking speeds of the false-finding campaigns, e.g. 0.2,0.3,0.45 (default: "
+        "the campaign size's, 0.3 m/s); several speeds make the speed shapes candidates",
+    )
+    ap.add_argument(
         "--effects", nargs="*", default=None, help="effects, a+b for two (default: all)"
     )
     ap.add_argument("--missions", nargs="*", default=None, help="effects on mission logs")
+    ap.add_argument(
+        "--no-variants",
+        action="store_true",
+        help="skip the effects that are not discovery targets (run by default when "
+        "--effects is not given)",
+    )
     ap.add_argument("--max-steps", type=int, default=4)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -242,6 +261,10 @@ def main(argv: list[str] | None = None) -> int:
     }
     config = sizes[args.size]
     null_config = config if args.null_size is None else sizes[args.null_size]
+    if args.null_speeds:
+        null_config = null_config.replace(
+            speeds=tuple(float(v) for v in args.null_speeds.split(","))
+        )
     cases = default_cases() if args.effects is None else [
         tuple(e.split("+")) for e in args.effects if e != "none"
     ]  # fmt: skip
@@ -251,6 +274,11 @@ def main(argv: list[str] | None = None) -> int:
         c = run_case(eff, 0, config, args.max_steps)
         results.append(c)
         print(f"  {'+'.join(eff)}: {c.added_names} ({c.seconds:.0f} s)", file=sys.stderr)
+    variants: list[Case] = []
+    for eff in variant_cases() if args.effects is None and not args.no_variants else []:
+        c = run_case(eff, 0, config, args.max_steps)
+        variants.append(c)
+        print(f"  variant {'+'.join(eff)}: {c.added_names} ({c.seconds:.0f} s)", file=sys.stderr)
     missions: list[Case] = []
     for e in args.missions or []:
         c = run_case(tuple(e.split("+")), 0, config, args.max_steps, mission=True)
@@ -267,6 +295,7 @@ def main(argv: list[str] | None = None) -> int:
         doc = {
             "cases": [asdict(c) | {"found": c.found, "ratio": c.ratio} for c in results],
             "missions": [asdict(c) | {"found": c.found, "ratio": c.ratio} for c in missions],
+            "not_targets": [asdict(c) | {"ratio": c.ratio} for c in variants],
             "null": [asdict(c) for c in nulls],
             "false_finding_rate": float(np.mean([bool(c.added) for c in nulls])) if nulls
             else None,
@@ -276,7 +305,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(doc, indent=2, default=float))
         return 0
 
-    def table(rows: list[Case], title: str) -> None:
+    def table(rows: list[Case], title: str, summary: bool = True) -> None:
         print(f"\n{title}")
         print(
             f"{'hidden effect(s)':<34}{'steps':>6}  {'terms added (in order)':<58}"
@@ -299,6 +328,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"{c.seconds:>5.0f}"
             )
         ok = [c for c in rows if c.effects]
+        if ok and not summary:
+            return
         if ok:
             n_found = sum(c.found for c in ok)
             n_ratio = sum(c.ratio <= 1.2 for c in ok)
@@ -313,12 +344,22 @@ def main(argv: list[str] | None = None) -> int:
         "full": "CampaignConfig() (full)",
     }[args.size]
     table(results, f"discover on campaigns hiding effects ({size}, seed 0)")
+    if variants:
+        table(
+            variants,
+            f"effects that are not discovery targets ({size}, seed 0): nothing should be "
+            "added ('base': a robot-parameter variant the base's coefficients absorb, or "
+            "too small to see)",
+            summary=False,
+        )
     if missions:
         table(missions, "discover on mission logs (simulate_missions, seed 0)")
     if nulls:
         n_false = sum(bool(c.added) for c in nulls)
+        speeds = f", speeds {args.null_speeds} m/s" if args.null_speeds else ""
         print(
-            f"\nno hidden effect, default sensors, {args.null_size or 'same size'} campaigns, "
+            f"\nno hidden effect, default sensors, {args.null_size or 'same size'} campaigns"
+            f"{speeds}, "
             f"seeds 0-{args.seeds - 1}: a term was added "
             f"in {n_false}/{len(nulls)} campaigns (false-finding rate {n_false / len(nulls):.0%})"
         )

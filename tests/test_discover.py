@@ -152,3 +152,24 @@ def test_reduced_acceptance():
     null = bench.run_case((), 2, cfg, max_steps=2)
     assert null.added == [], null.added
     assert "clock_offset" not in null.data_findings
+
+
+def test_reduced_acceptance_fans_speed_and_not_targets():
+    """Cooling fans (air_temp_c) and a speed dependence (v and v^3 swing losses, several
+    speeds) are found within two steps and end within 1.2x the noise floor; the speed
+    dependence needs two speed shapes. The effect too small to see adds nothing."""
+    from energy_planner.simulate import EFFECTS, HIDDEN_EFFECTS, CampaignConfig
+
+    bench = _bench()
+    cfg = CampaignConfig.small()
+    fans = bench.run_case(("idle_power",), 0, cfg, max_steps=2)
+    assert fans.found and fans.hit_steps == [1], fans.added_names
+    assert all("air_temp_c" in t for t in fans.added)
+    assert fans.ratio <= 1.2 < fans.base_rmse_w / fans.noise_floor_w
+    speed = bench.run_case(("speed_dependence",), 0, cfg, max_steps=2)
+    assert speed.found and len(speed.added) == 2, speed.added_names
+    assert all(bench.matches(t, "speed_dependence") for t in speed.added)
+    assert speed.ratio <= 1.2, speed.ratio
+    assert "acceleration" not in HIDDEN_EFFECTS and not EFFECTS["acceleration"].target
+    acc = bench.run_case(("acceleration",), 0, cfg, max_steps=2)
+    assert acc.added == [] and acc.ratio <= 1.2, acc.added_names

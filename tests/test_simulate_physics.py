@@ -184,7 +184,8 @@ def test_ripple_averages_out_over_a_step_cycle():
 
 #: For each effect, samples where it must not change the power (features -> bool).
 _UNCHANGED = {
-    "idle_power": lambda f: np.zeros(len(f["vx"]), bool),
+    # cooling fans: off at or below 5 C of air
+    "idle_power": lambda f: f["air_temp_c"] <= 5.0,
     "speed_dependence": lambda f: (
         np.isclose(np.hypot(f["vx"], f["vy"]), 0.3)
         | (np.hypot(f["vx"], f["vy"]) + np.abs(f["wz"]) == 0)
@@ -234,7 +235,9 @@ def test_effect_changes_only_the_power_and_only_where_it_should(ideal, name):
     acts = np.abs(added) > 1e-6
     assert acts.any()
     share = np.abs(added[acts]).sum() / ideal.true_samples["power_expected"].to_numpy()[acts].sum()
-    assert 0.015 < share < 0.6, share
+    # acceleration is small by physics (rotors and legs: about 22 kg of kinetic mass)
+    low = 0.002 if name == "acceleration" else 0.015
+    assert low < share < 0.6, share
 
 
 def test_effects_are_the_physics_they_describe():
@@ -268,8 +271,38 @@ def test_effects_are_the_physics_they_describe():
     assert Physics(effects=("cold_joints",)).expected_power(f)[0] - base == pytest.approx(
         gear * (math.exp(0.05 * 20) - 1), rel=1e-9
     )
-    # idle_power: 30 W more, everywhere
-    assert Physics(effects=("idle_power",)).expected_power(f)[0] - base == pytest.approx(30.0)
+    # idle_power: cooling fans, nothing at 0 C; 30 W at 30 C, (12.5 / 25)^3 of it at 17.5 C
+    assert Physics(effects=("idle_power",)).expected_power(f)[0] == pytest.approx(base)
+    for temp, fan in ((30.0, 30.0), (40.0, 30.0), (17.5, 30.0 / 8), (5.0, 0.0)):
+        warm = {**f, "air_temp_c": np.array([temp])}
+        added = Physics(effects=("idle_power",)).expected_power(warm) - Physics().expected_power(
+            warm
+        )
+        assert added[0] == pytest.approx(fan, abs=1e-9)
+
+
+def test_acceleration_pays_the_kinetic_energy_of_rotors_and_legs():
+    """A level start from rest to v: the effect adds m_extra v^2 / 2 through the drive.
+
+    m_extra from the rotor inertia and the joint kinematics (hip at v / h, knee at half),
+    computed here from the parameter table, not from the simulator's helper.
+    """
+    v, ramp = 0.3, 1.0
+    t = np.linspace(0.0, ramp, 20001)
+    f = _state(0.0, 0.0, v * t / ramp, 0.0, 0.0, np.full(t.size, v / ramp), 0.0)
+    added = Physics(effects=("acceleration",)).expected_power(f) - Physics().expected_power(f)
+    j_n2 = 2e-3 * P.gear_ratio**2
+    m_extra = 4 * j_n2 * (1 + 0.25) / P.com_height_m**2 + 4 * P.leg_mass_kg / 4
+    assert 20 < m_extra < 25  # kg: half the robot's mass, not ten times it
+    expected = m_extra * v**2 / 2 / P.lift_efficiency
+    assert np.trapezoid(added, t) == pytest.approx(expected, rel=1e-6)
+    # slowing down, the forward gait returns its share of that energy, as of the body's
+    f_down = {**f, "ax": -f["ax"], "vx": f["vx"][::-1].copy()}
+    down = Physics(effects=("acceleration",)).expected_power(f_down) - Physics().expected_power(
+        f_down
+    )
+    returned = P.recovery_forward * m_extra * v**2 / 2
+    assert np.trapezoid(down, t) == pytest.approx(-returned, rel=1e-3)
 
 
 def test_any_two_effects_combine(ideal):

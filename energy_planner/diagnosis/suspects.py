@@ -13,9 +13,11 @@ explanation. Candidates come from
   times speed at data quantiles ``q``; categorical ``(c == 'v')``, ``speed * (c == 'v')``,
   ``(c == 'v') * pos(climb)`` and ``abs(wz) * (c == 'v')`` per value. The best shape per
   channel by held-out error stands for the channel (a best hinge gets its knot refined);
-- speed shapes (``speed ** 2``, ``speed ** 3``, hinges in speed), tried only when the logs
-  hold several walking speeds (:func:`speed_levels`): at one speed they are the motion terms
-  again;
+- speed-change shapes (:func:`kinetic_candidates`): ``abs(ax vx + ay vy)`` and
+  ``pos(-(ax vx + ay vy))`` next to the catalog's ``acceleration``;
+- speed shapes (``speed ** 2``, ``speed ** 3``, per gait ``pos(vx) ** 2``, ``pos(-vx) ** 2``,
+  ``vy ** 2``, hinges in speed), tried only when the logs hold several walking speeds
+  (:func:`speed_levels`): at one speed they are the motion terms again;
 - the user's own ``--term``.
 
 Each candidate is scored by the held-out error of the model refitted with it, validated
@@ -427,6 +429,26 @@ def speed_candidates(wd: WindowData) -> list[Candidate]:
             needs_speeds=True,
         ),
     ]
+    # per gait: the force per metre of one direction of motion grows with speed (its
+    # touch-downs per second, its swing losses), each gait by its own amount
+    for name, term, words in (
+        ("forward*speed", "pos(vx) ** 2", "walking forward"),
+        ("backward*speed", "pos(-vx) ** 2", "walking backward"),
+        ("lateral*speed", "vy ** 2", "side-stepping"),
+    ):
+        out.append(
+            Candidate(
+                name,
+                term,
+                ["vx"] if "vx" in term else ["vy"],
+                f"the force per metre {words} grows with speed (more touch-downs and faster "
+                "leg swings per metre at a fixed stride length), by its own amount per gait",
+                "speed",
+                "speed",
+                shape=name,
+                needs_speeds=True,
+            )
+        )
     if walking.size >= 10:
         levels = (0.25, 0.5, 0.75)
         for level, q in zip(levels, np.quantile(walking, levels), strict=True):
@@ -445,6 +467,41 @@ def speed_candidates(wd: WindowData) -> list[Candidate]:
                 )
             )
     return out
+
+
+#: Rate of change of the kinetic energy per unit mass, ``d(v^2 / 2) / dt``, W/kg.
+KINETIC = "ax * vx + ay * vy"
+
+
+def kinetic_candidates(wd: WindowData) -> list[Candidate]:
+    """Shapes of a cost of speed changes beyond the catalog's ``acceleration``.
+
+    The catalog's ``pos(ax vx + ay vy)`` pays the kinetic energy when speeding up only.
+    Masses that the drive spins up and then brakes actively (rotors, swinging legs) cost
+    both ways: ``abs(ax vx + ay vy)``; braking alone: ``pos(-(ax vx + ay vy))``. Samples
+    without ``ax, ay`` make them unsupported (the preprocessing derives them from the
+    twist). ``wd`` is not read: the shapes are the same for any logs.
+
+    >>> [c.name for c in kinetic_candidates(None)]
+    ['speed_changes', 'slowing_down']
+    """
+    return [
+        Candidate(
+            "speed_changes",
+            f"abs({KINETIC})",
+            ["ax", "ay", "vx", "vy"],
+            "every speed change costs kinetic energy, speeding up and slowing down alike "
+            "(rotors and legs spun up by the motors and braked by them, not recovered)",
+            "motion",
+        ),
+        Candidate(
+            "slowing_down",
+            f"pos(-({KINETIC}))",
+            ["ax", "ay", "vx", "vy"],
+            "slowing down costs (the motors brake the moving masses actively)",
+            "motion",
+        ),
+    ]
 
 
 def user_candidates(specs: Iterable[str]) -> list[Candidate]:
@@ -697,7 +754,7 @@ def default_candidates(
     data, bad = channel_candidates(
         wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"], terms, coef
     )
-    cands = cands + speed_candidates(wd) + data
+    cands = cands + kinetic_candidates(wd) + speed_candidates(wd) + data
     out, unsupported = [], list(bad)
     have = {canonical(t) for t in terms}
     for c in cands:

@@ -32,6 +32,7 @@ from energy_planner.simulate.design import RunSpec, plan_runs
 from energy_planner.simulate.effects import (
     EFFECTS,
     FAULTS,
+    HIDDEN_EFFECTS,
     Effect,
     check_effects,
     check_faults,
@@ -60,6 +61,7 @@ __all__ = [
     "EFFECTS",
     "FAULTS",
     "GROUNDS",
+    "HIDDEN_EFFECTS",
     "LOG_COLUMNS",
     "BatteryConfig",
     "Campaign",

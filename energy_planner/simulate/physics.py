@@ -6,7 +6,8 @@ wz``, body accelerations ``ax, ay`` and the extra channels) the electrical power
 from the battery is the sum of
 
 ``electronics``
-    computers, sensors and motor drivers (constant).
+    computers, sensors and motor drivers (constant; with the ``idle_power`` effect plus
+    cooling fans that follow the air temperature).
 ``copper``
     Joule losses ``R i^2`` in the 12 motor windings. A leg carrying a foot force ``F``
     along one direction needs joint torques ``l F`` (``l`` the effective lever of that
@@ -424,8 +425,6 @@ class Physics:
             descent = (vx > 0) & (-s_x > DESCENT_GRADE)
             rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
         recovery = rec_fwd * w_fwd + p.recovery_backward * w_bwd + p.recovery_lateral * w_lat
-        if "acceleration" in on:  # speeding up and slowing down both cost (no recovery)
-            p_mech = weight * dz_dt + m_inertial * np.abs(vx * ax + vy * ay)
         sinkage = np.zeros(n)
         if "ground" in on:
             ground = np.asarray(np.broadcast_to(np.asarray(f["ground"], dtype=object), (n,)))
@@ -516,6 +515,11 @@ class Physics:
         terrain = terrain + sinkage * weight * speed / p.lift_efficiency
 
         electronics = np.full(n, p.electronics_w)
+        if "idle_power" in on:  # cooling fans follow the air temperature (fan law)
+            fan_speed = np.clip(
+                (_arr(f, "air_temp_c", n) - FAN_ON_C) / (FAN_FULL_C - FAN_ON_C), 0.0, 1.0
+            )
+            electronics = electronics + FAN_POWER_W * fan_speed**3
         gait = copper + mechanical + collisions + swing + gearbox + turning + terrain
         ripple = np.zeros(n)
         if f.get("t_gait") is not None and p.ripple_fraction > 0:
@@ -558,20 +562,33 @@ TURN_SCUFF = 0.8
 DESCENT_GRADE = math.sin(math.radians(8.0))
 DESCENT_LEVER_M = 0.30
 DESCENT_RECOVERY = 0.10
+#: ``acceleration`` effect: inertia of one motor rotor, kg m^2.
+ROTOR_INERTIA_KG_M2 = 2e-3
+#: ``idle_power`` effect: the cooling fans of the computers and drivers draw up to this
+#: (W); they start at ``FAN_ON_C`` and run at full speed from ``FAN_FULL_C`` (deg C of the
+#: air); fan power grows with the cube of the fan speed (fan affinity law).
+FAN_POWER_W = 30.0
+FAN_ON_C = 5.0
+FAN_FULL_C = 30.0
 
 
 def p_extra_inertia(p: RobotParams) -> float:
     """Extra effective mass of the ``acceleration`` effect: rotors and legs, kg.
 
-    Twelve rotors (``J = 2e-3 kg m^2`` each, the B1 class's large actuators) behind gear
-    ratio ``N`` appear at the foot as ``J N^2 / l^2`` per joint (``l =
-    lever_support_m``: the knee, which drives the stance), plus the four legs.
+    The kinetic energy the gait carries beyond the body's, ``m_extra v^2 / 2`` at body
+    speed ``v``. In a trot every foot moves at ``v`` relative to the body (stance feet
+    backward, swing feet forward), so the hip turns at about ``v / h`` (``h =
+    com_height_m``, the leg's height) and the knee at about half that. The rotors (``J =
+    2e-3 kg m^2`` each, the B1 class's large actuators, behind gear ratio ``N``) of the
+    hip and knee of four legs then hold ``4 J N^2 (1 + 1/4) / h^2``; the legs' own masses,
+    whose centres move at about ``v / 2`` relative to the body, ``4 m_leg / 4``. The
+    ab/adduction joints do not turn walking straight.
 
-    >>> round(p_extra_inertia(RobotParams()))
-    460
+    >>> round(p_extra_inertia(RobotParams()), 1)
+    21.9
     """
-    rotor = 12 * 2e-3 * p.gear_ratio**2 / p.lever_support_m**2
-    return float(rotor + 4 * p.leg_mass_kg)
+    rotor = 4 * ROTOR_INERTIA_KG_M2 * p.gear_ratio**2 * 1.25 / p.com_height_m**2
+    return float(rotor + p.leg_mass_kg)
 
 
 def critical_grade(
