@@ -52,7 +52,6 @@ import numpy as np
 
 from energy_planner.errors import (
     DEMError,
-    DEMIOError,
     InvalidStateError,
     PlanningError,
     RasterTooLargeError,
@@ -158,27 +157,10 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
     DEMError
         Several bands and no ``band``; a geographic or rotated raster.
     """
-    import rasterio
-    from rasterio.errors import RasterioIOError
-
-    from energy_planner.terrain.dem import _is_metric, utm_epsg
+    from energy_planner.terrain.dem import _is_metric, open_dem, utm_epsg
 
     name = str(path)
-    if not name.startswith("/vsi") and "://" not in name and not Path(name).exists():
-        raise DEMIOError(
-            f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
-            path=name,
-            expected="a raster file (GeoTIFF, ...)",
-        )
-    try:
-        src = rasterio.open(name)
-    except RasterioIOError as exc:
-        raise DEMIOError(
-            f"cannot open DEM {name!r} as a raster: {exc}",
-            path=name,
-            expected="a raster file (GeoTIFF, ...)",
-        ) from exc
-    with src:
+    with open_dem(name) as src:
         if band is None:
             if src.count != 1:
                 raise DEMError(

@@ -660,6 +660,31 @@ def _read_window(
     return win, shape, t
 
 
+def open_dem(path: str | Path) -> Any:
+    """Open a DEM with rasterio; a missing or unreadable file is a :class:`DEMIOError`.
+
+    Returns the open dataset (use it as a context manager).
+    """
+    import rasterio
+    from rasterio.errors import RasterioIOError
+
+    name = str(path)
+    if not name.startswith("/vsi") and "://" not in name and not Path(name).exists():
+        raise DEMIOError(
+            f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
+            path=name,
+            expected="a raster file (GeoTIFF, ...)",
+        )
+    try:
+        return rasterio.open(name)
+    except RasterioIOError as exc:
+        raise DEMIOError(
+            f"cannot open DEM {name!r} as a raster: {exc}",
+            path=name,
+            expected="a raster file (GeoTIFF, ...)",
+        ) from exc
+
+
 def load_dem(
     path: str | Path,
     band: int | None = None,
@@ -708,26 +733,12 @@ def load_dem(
     >>> t.crs.to_epsg(), t.resolution
     (32631, (1.0, 1.0))
     """
-    import rasterio
     from rasterio._err import CPLE_BaseError
     from rasterio.errors import RasterioIOError
 
     p = Path(path)
     name = str(path)
-    if not name.startswith("/vsi") and "://" not in name and not p.exists():
-        raise DEMIOError(
-            f"DEM file {name!r} does not exist (expected a raster, e.g. GeoTIFF)",
-            path=name,
-            expected="a raster file (GeoTIFF, ...)",
-        )
-    try:
-        src = rasterio.open(name)
-    except RasterioIOError as exc:
-        raise DEMIOError(
-            f"cannot open DEM {name!r} as a raster: {exc}",
-            path=name,
-            expected="a raster file (GeoTIFF, ...)",
-        ) from exc
+    src = open_dem(name)
     with src:
         n = src.count
         if band is None:
