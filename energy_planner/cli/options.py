@@ -38,7 +38,7 @@ def memory_cap_option(what: str):
         "memory_cap",
         default=None,
         metavar="SIZE",
-        help=f"Memory {what}, e.g. 2GB, 512M or 50% "
+        help=f"Memory {what}, e.g. 2GB, 512M, 50% or off "
         "(default: $ENERGY_PLANNER_MEMORY_CAP, else half the machine's memory).",
     )
 
@@ -50,6 +50,8 @@ def parse_memory_cap(value: str | None) -> int | None:
     from energy_planner.terrain.memory import MEMORY_CAP_ENV, memory_cap, parse_size
 
     text = value.strip()
+    if text.lower() in ("off", "none"):
+        return 1 << 62  # no cap
     try:
         if text.endswith("%"):
             import os
@@ -63,12 +65,17 @@ def parse_memory_cap(value: str | None) -> int | None:
                     del os.environ[MEMORY_CAP_ENV]
                 else:
                     os.environ[MEMORY_CAP_ENV] = old
-        return parse_size(text)
+        size = parse_size(text)
     except Exception as exc:  # noqa: BLE001 - ValueError or the cap's DEMError
         raise click.BadParameter(
-            f"{value!r} is not a size; expected e.g. 2GB, 512M, 1.5GiB or 50%",
+            f"{value!r} is not a size; expected e.g. 2GB, 512M, 1.5GiB, 50% or off",
             param_hint="--memory-cap",
         ) from exc
+    if size <= 0:
+        raise click.BadParameter(
+            f"{value!r}: the cap must be more than 0 bytes (or off)", param_hint="--memory-cap"
+        )
+    return size
 
 
 model_option = click.option(

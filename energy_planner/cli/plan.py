@@ -308,7 +308,12 @@ def command(
     Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20
     """
-    from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
+    from energy_planner.errors import (
+        DEMError,
+        DEMIOError,
+        EnergyPlannerError,
+        RasterTooLargeError,
+    )
     from energy_planner.planning.plan import plan
 
     check_planner(planner)
@@ -325,6 +330,8 @@ def command(
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
                                             **kwargs)  # fmt: skip
+        except RasterTooLargeError as exc:
+            raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
         except (DEMError, DEMIOError) as exc:
             raise click.BadParameter(str(exc), param_hint="--dem") from exc
         except EnergyPlannerError as exc:
