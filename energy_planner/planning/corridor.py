@@ -373,7 +373,7 @@ def _too_large(info: RasterInfo, what: str, cells: int, max_cells: int, cap: int
     )
 
 
-def _bound(cost, info, request, n_headings, moves, log, progress) -> tuple[float, list]:
+def _bound(cost, info, n_headings, moves, log, progress) -> tuple[float, list]:
     """``c_min`` and the gradient box it was taken over."""
     tmax = float(cost.data[10])
     if math.isfinite(tmax):
@@ -503,17 +503,18 @@ def plan_in_corridor(
     for attempt in range(4):
         t0 = time.perf_counter()
         terrain = load_dem(info.path, band=info.band, bounds=window)
+        kw = dict(plan_kwargs)
         if c_min is None:
             cost, _ = make_motion_cost(terrain, model, request)
+            kw["cost"] = cost  # this window's cost: plan() need not build it again
             cost.compile()
-            c_min, gbox = _bound(cost, info, request, n_headings, moves, log, progress)
+            c_min, gbox = _bound(cost, info, n_headings, moves, log, progress)
             log(f"least energy per metre anywhere on the DEM: c_min = {c_min:.2f} J/m")
         log(
             f"window {attempt + 1}: x {window[0]:.1f}..{window[2]:.1f}, "
             f"y {window[1]:.1f}..{window[3]:.1f} ({terrain.shape[0]} x {terrain.shape[1]} cells)"
         )
         rec: dict[str, Any] = {"bounds": list(window), "shape": list(terrain.shape)}
-        kw = dict(plan_kwargs)
         if budget is not None:
             left = budget - (time.perf_counter() - t_start)
             if left <= 0:
@@ -592,7 +593,13 @@ def plan_in_corridor(
             "above the cap: planning once more in the largest window that fits"
         )
         window = bigger
-    assert best is not None
+    if best is None:
+        raise PlanningError(
+            f"no feasible path from the start to the goal in {len(windows)} windows of DEM "
+            f"{info.path!r} (the last {windows[-1]['shape'][0]} x {windows[-1]['shape'][1]} "
+            "cells); relax the limits or raise the memory cap",
+            limit="unreachable",
+        )
     share = None
     if not proven and ell is not None:
         share = info.cells(windows[-1]["bounds"]) / max(info.cells(ell), 1)
@@ -673,7 +680,7 @@ def reach_in_window(
     cost, _ = make_motion_cost(load_dem(info.path, band=info.band, bounds=probe), model, request)
     cost.compile()
     n_headings = int(reach_kwargs.get("n_headings", 16))
-    c_min, gbox = _bound(cost, info, request, n_headings, "all", log, progress)
+    c_min, gbox = _bound(cost, info, n_headings, "all", log, progress)
     if c_min <= 0:
         raise PlanningError(
             "reach by windows needs a positive least energy per metre, and this request's "
