@@ -47,31 +47,23 @@ def parse_memory_cap(value: str | None) -> int | None:
     """``--memory-cap`` in bytes (None: the default cap); ``click.BadParameter`` if not a size."""
     if value is None:
         return None
-    from energy_planner.terrain.memory import MEMORY_CAP_ENV, memory_cap, parse_size
+    from energy_planner.terrain.memory import parse_cap
 
     text = value.strip()
     if text.lower() in ("off", "none"):
         return 1 << 62  # no cap
     try:
-        if text.endswith("%"):
-            import os
-
-            old = os.environ.get(MEMORY_CAP_ENV)
-            os.environ[MEMORY_CAP_ENV] = text
-            try:
-                return memory_cap()
-            finally:
-                if old is None:
-                    del os.environ[MEMORY_CAP_ENV]
-                else:
-                    os.environ[MEMORY_CAP_ENV] = old
-        size = parse_size(text)
-    except Exception as exc:  # noqa: BLE001 - ValueError or the cap's DEMError
+        if not text:
+            raise ValueError(text)
+        size = parse_cap(text)
+    except ValueError as exc:
         raise click.BadParameter(
             f"{value!r} is not a size; expected e.g. 2GB, 512M, 1.5GiB, 50% or off",
             param_hint="--memory-cap",
         ) from exc
-    if size <= 0:
+    if size is None and text.endswith("%"):
+        return None  # a share of a memory size the machine does not report: the default
+    if size is None or size <= 0:  # "0" means off for the variable; here it is refused
         raise click.BadParameter(
             f"{value!r}: the cap must be more than 0 bytes (or off)", param_hint="--memory-cap"
         )

@@ -44,6 +44,7 @@ __all__ = [
     "check_memory",
     "format_bytes",
     "memory_cap",
+    "parse_cap",
     "parse_size",
     "total_memory",
 ]
@@ -110,6 +111,36 @@ def total_memory() -> int | None:
     return total
 
 
+def parse_cap(text: str) -> int | None:
+    """A cap in bytes from its text: a size, a share of the memory (``50%``) or ``off``.
+
+    ``""`` is the default (:data:`DEFAULT_MEMORY_SHARE` of the memory); ``off`` (or
+    ``none``, ``no``, ``0``) and a share of an unknown memory give None (no cap).
+
+    Raises
+    ------
+    ValueError
+        Not a size, a share in (0, 1000] % or ``off``.
+
+    Examples
+    --------
+    >>> parse_cap("2G"), parse_cap("off")
+    (2147483648, None)
+    """
+    raw = str(text).strip()
+    if raw.lower() in ("off", "none", "no", "0"):
+        return None
+    total = total_memory()
+    if not raw:
+        return None if total is None else int(DEFAULT_MEMORY_SHARE * total)
+    if raw.endswith("%"):
+        share = float(raw[:-1]) / 100.0
+        if not 0 < share <= 10:
+            raise ValueError(raw)
+        return None if total is None else int(share * total)
+    return parse_size(raw)
+
+
 def memory_cap() -> int | None:
     """The cap in bytes from ``ENERGY_PLANNER_MEMORY_CAP`` (None = no cap).
 
@@ -119,20 +150,8 @@ def memory_cap() -> int | None:
         The variable is set to something that is not a size, a percentage or ``off``.
     """
     raw = os.environ.get(MEMORY_CAP_ENV, "").strip()
-    if raw.lower() in ("off", "none", "no", "0"):
-        return None
-    total = total_memory()
-    if not raw:
-        return None if total is None else int(DEFAULT_MEMORY_SHARE * total)
     try:
-        if raw.endswith("%"):
-            share = float(raw[:-1]) / 100.0
-            if not 0 < share <= 10:
-                raise ValueError(raw)
-            if total is None:
-                return None
-            return int(share * total)
-        return parse_size(raw)
+        return parse_cap(raw)
     except ValueError:
         raise DEMError(
             f"{MEMORY_CAP_ENV}={raw!r} is not understood; expected a size (8G, 512M, "
