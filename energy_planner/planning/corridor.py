@@ -313,6 +313,27 @@ def ellipse_box(
     return (cx - hx, cy - hy, cx + hx, cy + hy)
 
 
+def _window_cells(cap: int | None) -> tuple[int | None, int]:
+    """The cap in bytes (None: the default cap) and the most cells a window may hold."""
+    from energy_planner.terrain import memory_cap
+
+    cap = memory_cap() if cap is None else int(cap)
+    return cap, int(cap // PLAN_BYTES_PER_CELL) if cap is not None else 1 << 62
+
+
+def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
+    """:class:`InvalidStateError` if ``(x, y)`` is outside the DEM's bounds."""
+    x0, y0, x1, y1 = info.bounds
+    if not (x0 <= x <= x1 and y0 <= y <= y1):
+        raise InvalidStateError(
+            f"{which} ({x:.2f}, {y:.2f}) is outside DEM {info.path!r}, which covers "
+            f"x {x0:.6g}..{x1:.6g}, y {y0:.6g}..{y1:.6g} in {info.crs}",
+            endpoint=which,
+            limit="map",
+            value=(x, y),
+        )
+
+
 def _grow(box: Sequence[float], m: float) -> tuple[float, float, float, float]:
     return (box[0] - m, box[1] - m, box[2] + m, box[3] + m)
 
@@ -452,27 +473,18 @@ def plan_in_corridor(
     from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import _pose, plan
     from energy_planner.request import Request
-    from energy_planner.terrain import load_dem, memory_cap
+    from energy_planner.terrain import load_dem
     from energy_planner.terrain.memory import format_bytes
 
     request = Request() if request is None else request
     info = raster_info(dem, band)
-    cap = memory_cap() if cap is None else int(cap)
-    max_cells = int(cap // PLAN_BYTES_PER_CELL) if cap is not None else 1 << 62
+    cap, max_cells = _window_cells(cap)
     log = _Log(progress)
     t_start = time.perf_counter()
     budget = plan_kwargs.get("time")
     s, g = _pose(start, "start"), _pose(goal, "goal")
-    x0, y0, x1, y1 = info.bounds
     for which, p in (("start", s), ("goal", g)):
-        if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1):
-            raise InvalidStateError(
-                f"{which} ({p[0]:.2f}, {p[1]:.2f}) is outside DEM {info.path!r}, which covers "
-                f"x {x0:.6g}..{x1:.6g}, y {y0:.6g}..{y1:.6g} in {info.crs}",
-                endpoint=which,
-                limit="map",
-                value=(p[0], p[1]),
-            )
+        _check_inside(info, which, p[0], p[1])
     rows, cols = info.shape
     log(
         f"DEM {rows} x {cols} cells needs ~{format_bytes(rows * cols * PLAN_BYTES_PER_CELL)} "
@@ -659,23 +671,14 @@ def reach_in_window(
     from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.reach import reach
     from energy_planner.request import Request
-    from energy_planner.terrain import load_dem, memory_cap
+    from energy_planner.terrain import load_dem
 
     request = Request() if request is None else request
     info = raster_info(dem, band)
-    cap = memory_cap() if cap is None else int(cap)
-    max_cells = int(cap // PLAN_BYTES_PER_CELL) if cap is not None else 1 << 62
+    cap, max_cells = _window_cells(cap)
     log = _Log(progress)
     sx, sy = float(start[0]), float(start[1])
-    x0, y0, x1, y1 = info.bounds
-    if not (x0 <= sx <= x1 and y0 <= sy <= y1):
-        raise InvalidStateError(
-            f"start ({sx:.2f}, {sy:.2f}) is outside DEM {info.path!r}, which covers "
-            f"x {x0:.6g}..{x1:.6g}, y {y0:.6g}..{y1:.6g} in {info.crs}",
-            endpoint="start",
-            limit="map",
-            value=(sx, sy),
-        )
+    _check_inside(info, "start", sx, sy)
     probe = info.snap(_grow((sx, sy, sx, sy), 8 * info.cell))
     cost, _ = make_motion_cost(load_dem(info.path, band=info.band, bounds=probe), model, request)
     cost.compile()
