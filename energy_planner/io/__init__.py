@@ -1,0 +1,58 @@
+"""Reading and writing files: atomic outputs, one GeoTIFF writer, GeoJSON with its CRS.
+
+Every file the project writes goes through this package:
+
+* :func:`atomic_path` - a temporary file beside the destination, renamed when complete;
+  the destination keeps its previous content when the write fails or the process gets
+  SIGTERM. :func:`write_text`, :func:`write_bytes`, :func:`write_json` use it.
+* :func:`write_geotiff` / :func:`open_geotiff` - the one GeoTIFF writer (NaN nodata for
+  floats, GDAL band units and descriptions, tags).
+* :func:`write_geojson` / :func:`feature_collection` - RFC 7946 (WGS 84 lon/lat) by
+  default, or the data's own CRS declared with the ``crs`` member.
+* :func:`read_geometries` - GeoJSON geometries with their CRS (RFC 7946 lon/lat unless
+  the file declares one), to be reprojected with :func:`reproject_geometries`.
+"""
+
+from __future__ import annotations
+
+from energy_planner.io.atomic import Terminated, atomic_path, write_bytes, write_json, write_text
+from energy_planner.io.geojson import (
+    RFC7946_CRS,
+    Geometries,
+    crs_name,
+    declared_crs,
+    feature_collection,
+    read_geometries,
+    reproject_geometries,
+    reproject_xy,
+    write_geojson,
+)
+from energy_planner.io.geotiff import (
+    NODATA,
+    describe_band,
+    geotiff_profile,
+    open_geotiff,
+    write_geotiff,
+)
+
+__all__ = [
+    "NODATA",
+    "RFC7946_CRS",
+    "Geometries",
+    "Terminated",
+    "atomic_path",
+    "crs_name",
+    "declared_crs",
+    "describe_band",
+    "feature_collection",
+    "geotiff_profile",
+    "open_geotiff",
+    "read_geometries",
+    "reproject_geometries",
+    "reproject_xy",
+    "write_bytes",
+    "write_geojson",
+    "write_geotiff",
+    "write_json",
+    "write_text",
+]
