@@ -58,6 +58,7 @@ __all__ = [
     "EnergyPlannerError",
     "FitError",
     "FormulaError",
+    "GeometryOutsideMapWarning",
     "InvalidStateError",
     "LogError",
     "LogIOError",
@@ -73,6 +74,8 @@ __all__ = [
     "UnknownNameError",
     "WaypointError",
     "WaypointIOError",
+    "extent_text",
+    "fmt_num",
 ]
 
 
@@ -317,3 +320,68 @@ class RouteNameError(EnergyPlannerError, KeyError):
 
 class EnergyMapError(EnergyPlannerError, ValueError):
     """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+class GeometryOutsideMapWarning(EnergyPlannerError, UserWarning):
+    """A geometry input (a keep-out polygon, ...) lies wholly outside the map.
+
+    It cannot affect the result; most often its coordinates are in another CRS than
+    the one it declares (or, without a declaration, than RFC 7946's longitude/latitude).
+    """
+
+
+def fmt_num(v: float, sig: int = 7, max_decimals: int = 6) -> str:
+    """A number for people: fixed notation, about ``sig`` significant digits, no exponent.
+
+    Examples
+    --------
+    >>> fmt_num(5000000.0), fmt_num(5000200.25), fmt_num(3.123456789), fmt_num(-0.5)
+    ('5000000', '5000200', '3.123457', '-0.5')
+    >>> fmt_num(float("nan")), fmt_num(12.0)
+    ('nan', '12')
+    """
+    import math
+
+    v = float(v)
+    if not math.isfinite(v):
+        return str(v)
+    if v == 0:
+        return "0"
+    mag = int(math.floor(math.log10(abs(v))))
+    dec = min(max_decimals, max(0, sig - 1 - mag))
+    text = f"{v:.{dec}f}"
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def extent_text(bounds: tuple[float, float, float, float], crs: Any) -> str:
+    """``(xmin, ymin, xmax, ymax)`` in ``crs`` for messages, with a lon/lat hint.
+
+    Examples
+    --------
+    >>> extent_text((499980.0, 5e6, 500200.0, 5000200.0), "EPSG:32631")
+    'x 499980 .. 500200, y 5000000 .. 5000200 in EPSG:32631 (projected, metres: give x,y in this CRS, not longitude/latitude)'
+    >>> extent_text((2.5, 44.0, 2.6, 44.1), "EPSG:4326")
+    'lon 2.5 .. 2.6, lat 44 .. 44.1 in EPSG:4326 (geographic: give longitude,latitude in degrees)'
+    """  # noqa: E501
+    x0, y0, x1, y1 = (fmt_num(b) for b in bounds)
+    geographic = False
+    if crs is not None:
+        try:
+            from rasterio.crs import CRS
+
+            geographic = bool(CRS.from_user_input(crs).is_geographic)
+        except Exception:  # noqa: BLE001 - an unknown CRS: say it is projected
+            geographic = False
+    if crs is None:
+        return f"x {x0} .. {x1}, y {y0} .. {y1} (local metres, no CRS)"
+    if geographic:
+        return (
+            f"lon {x0} .. {x1}, lat {y0} .. {y1} in {crs} (geographic: give longitude,latitude "
+            "in degrees)"
+        )
+    return (
+        f"x {x0} .. {x1}, y {y0} .. {y1} in {crs} (projected, metres: give x,y in this CRS, "
+        "not longitude/latitude)"
+    )

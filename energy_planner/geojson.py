@@ -63,6 +63,7 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import WaypointError, WaypointIOError
+from energy_planner.io import write_geojson
 
 __all__ = [
     "PATH_FORMAT",
@@ -292,7 +293,7 @@ def write_path(
     doc = path_document(xy, yaw_rad, t=t, crs=crs, properties=properties)
     p = Path(path)
     try:
-        p.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        write_geojson(p, doc)
     except OSError as exc:
         raise WaypointIOError(f"cannot write path file {str(p)!r}: {exc}", path=p) from exc
     return p
@@ -356,7 +357,7 @@ def write_path_from_work(
     doc = path_document_from_work(terrain, states, t=t, properties=properties)
     p = Path(path)
     try:
-        p.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        write_geojson(p, doc)
     except OSError as exc:
         raise WaypointIOError(f"cannot write path file {str(p)!r}: {exc}", path=p) from exc
     return p

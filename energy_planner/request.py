@@ -117,8 +117,10 @@ class Limits:
     max_cross_slope_deg : float, optional
         Steepest slope across the robot's body, degrees in [0, 90].
     keep_out : path or sequence of shapely geometries, optional
-        Keep-out polygons in the DEM's CRS: a GeoJSON file (read when planning, so that
-        errors name the file) or geometries (a single geometry is accepted too).
+        Keep-out polygons: a GeoJSON file (RFC 7946 longitude/latitude unless it declares
+        a CRS; read when planning, so that errors name the file), geometries read with
+        their CRS (:func:`energy_planner.io.read_geometries`) or shapely geometries in the
+        DEM's CRS (a single geometry is accepted too).
     """
 
     max_slope_deg: float | None = None
@@ -154,6 +156,8 @@ class Limits:
                     field="keep_out",
                     value=g,
                 )
+        if getattr(ko, "crs", None) is not None:  # io.Geometries: keep their CRS
+            geoms = type(ko)(geoms, crs=ko.crs, source=getattr(ko, "source", ""))
         object.__setattr__(self, "keep_out", geoms)
 
 

@@ -137,7 +137,8 @@ def test_plan_cli_errors(dem):
 def test_plan_cli_keep_out_file(dem, tmp_path):
     path, _ = dem
     ko = tmp_path / "ko.geojson"
-    ko.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+    ko.write_text(json.dumps({"type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": "EPSG:32631"}}, "features": [{
         "type": "Feature", "properties": {},
         "geometry": {"type": "Polygon", "coordinates": [[
             [500028, 5000002], [500032, 5000002], [500032, 5000020], [500028, 5000020],

@@ -31,6 +31,7 @@ BUILTINS = (
     TypeError,
     LookupError,
     ImportError,
+    UserWarning,  # project warnings (GeometryOutsideMapWarning)
 )
 
 

@@ -134,9 +134,10 @@ def test_cli_plan_names_the_option(tmp_path):
                                 "--goal", "500058,5000046", "--json"])  # fmt: skip
     assert same.exit_code == 0, same.output
     assert json.loads(same.stdout)["energy_j"] == 0.0
-    bowtie = {"type": "Polygon",
+    bowtie = {"type": "Feature", "properties": {"crs": "EPSG:32631"}, "geometry": {
+              "type": "Polygon",
               "coordinates": [[[500050, 5000060], [500060, 5000070], [500060, 5000060],
-                               [500050, 5000070], [500050, 5000060]]]}  # fmt: skip
+                               [500050, 5000070], [500050, 5000060]]]}}  # fmt: skip
     f = tmp_path / "ko.geojson"
     f.write_text(json.dumps(bowtie))
     bad = runner.invoke(main, ["plan", "--dem", hill, "--start", "500058,5000046",

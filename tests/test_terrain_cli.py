@@ -60,7 +60,9 @@ def test_rasters_keep_the_dem_georeferencing(runner, tmp_path):
         assert s.crs == src.crs and s.transform == src.transform and s.shape == src.shape
         assert a.crs == src.crs and a.transform == src.transform
         sl, asp = s.read(1), a.read(1)
-        assert s.nodata == -9999 and sl[0, 0] == -9999  # border, as gdaldem
+        assert np.isnan(s.nodata) and np.isnan(sl[0, 0])  # border (gdaldem: -9999)
+        assert s.units == ("deg",) and a.units == ("deg",)  # GDAL band units (#19)
+        assert s.descriptions == ("slope",) and a.descriptions == ("aspect",)
         np.testing.assert_allclose(sl[1:-1, 1:-1], 10.0, atol=1e-4)
         np.testing.assert_allclose(asp[1:-1, 1:-1], 240.0, atol=1e-3)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000

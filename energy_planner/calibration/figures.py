@@ -195,7 +195,9 @@ def plot_force_slope(
         f"Force-equivalent cost against slope (curves at the cruising speed {speed:.2f} m/s)"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from energy_planner.io import save_figure
+
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return summary
 
@@ -259,7 +261,9 @@ def plot_yaw_torque(
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from energy_planner.io import save_figure
+
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return {
         "n": int(len(turns)),
@@ -387,7 +391,9 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    from energy_planner.io import save_figure
+
+    save_figure(fig, path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     rel_ab = table["rel_ab"].to_numpy(float)
     rel_c = table["rel_c"].to_numpy(float)

@@ -20,6 +20,7 @@ from energy_planner.cli.options import (
 from energy_planner.cli.plan import (
     check_planner,
     load_terrain,
+    planning_error,
     planning_options,
     point_to_work,
 )
@@ -102,7 +103,7 @@ def command(
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
-        raise click.ClickException(str(exc)) from exc
+        raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
     result = comp.to_dict(terrain)
     if plot is not None:
         comp.plot(terrain, plot)

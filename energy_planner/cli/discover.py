@@ -178,7 +178,9 @@ def command(
 
         try:
             report.parent.mkdir(parents=True, exist_ok=True)
-            report.write_text(render_discovery_html(doc), encoding="utf-8")
+            from energy_planner.io import write_text
+
+            write_text(report, render_discovery_html(doc))
         except OSError as exc:
             raise click.BadParameter(
                 f"cannot write {str(report)!r}: {exc}", param_hint="--report"

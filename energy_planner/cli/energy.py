@@ -74,10 +74,12 @@ def check_waypoints(terrain: Any, cost: Any, xy_src: Any, xy_work: Any) -> None:
             f"waypoint {i} at {_fmt_xy(x, y, geographic)} is {where}; "
             f"{bad.size} of {len(xy_src)} waypoint(s) are unusable: {bad.tolist()[:10]}"
         )
-        if bad.size == len(xy_src):
+        if bad.size == len(xy_src) or not inside:
+            from energy_planner.errors import extent_text
+
             msg += (
                 f"\nhint: are the waypoints in the DEM's CRS ({crs})? The DEM covers "
-                f"x {xmin:g} .. {xmax:g}, y {ymin:g} .. {ymax:g}"
+                f"{extent_text((xmin, ymin, xmax, ymax), terrain.source_crs)}"
             )
         raise click.ClickException(msg)
     d = np.diff(xy_work, axis=0)

@@ -23,6 +23,7 @@ from energy_planner.cli.plan import (
     limit_options,
     load_terrain,
     over_memory_cap,
+    planning_error,
     point_in_dem_crs,
     point_to_work,
 )
@@ -203,7 +204,7 @@ def command(
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
-        raise click.ClickException(str(exc)) from exc
+        raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
     wh = res.energy_j / 3600.0
     finite = wh[np.isfinite(wh)]
     sx, sy = terrain.from_work(*res.start)

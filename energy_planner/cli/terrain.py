@@ -10,8 +10,6 @@ import numpy as np
 
 from energy_planner.cli.options import band_option, emit, json_option
 
-NODATA_OUT = -9999.0  # as gdaldem
-
 
 def _resolve_dem(dem: str) -> Path:
     """A path, or the name of a bundled map (``hill``, ``plane``, ``jacksboro``)."""
@@ -62,24 +60,15 @@ def _load(dem: Path, band: int | None, bounds=None, decimate: int = 1):
         raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
 
 
-def _write(path: Path, data: np.ndarray, terrain) -> None:
-    import rasterio
+def _write(path: Path, data: np.ndarray, terrain, name: str, description: str) -> None:
+    from energy_planner.io import write_geotiff
 
-    out = np.where(np.isfinite(data), data, NODATA_OUT).astype(np.float32)
-    profile = dict(
-        driver="GTiff",
-        width=out.shape[1],
-        height=out.shape[0],
-        count=1,
-        dtype="float32",
-        crs=terrain.crs,
-        transform=terrain.transform,
-        nodata=NODATA_OUT,
-        compress="deflate",
-    )
     path.parent.mkdir(parents=True, exist_ok=True)
-    with rasterio.open(path, "w", **profile) as dst:
-        dst.write(out, 1)
+    write_geotiff(
+        path, np.where(np.isfinite(data), data, np.nan), transform=terrain.transform,
+        crs=terrain.crs, names=[name], units=["deg"], descriptions=[description],
+        tags={"software": "energy_planner terrain"},
+    )  # fmt: skip
 
 
 def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
@@ -102,7 +91,9 @@ def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
     ax.set_title(title)
     ax.ticklabel_format(useOffset=False, style="plain")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    from energy_planner.io import save_figure
+
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -178,14 +169,14 @@ def _text(r: dict[str, Any]) -> str:
     "--slope-out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Write slope (degrees, float32, nodata -9999) as GeoTIFF.",
+    help="Write slope (degrees, float32, nodata NaN) as GeoTIFF.",
 )
 @click.option(
     "--aspect-out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Write GIS aspect (degrees clockwise from north, downslope; -9999 on flat and "
-    "nodata cells, as gdaldem) as GeoTIFF.",
+    help="Write GIS aspect (degrees clockwise from north, downslope; nodata NaN on flat "
+    "and nodata cells, where gdaldem writes -9999) as GeoTIFF.",
 )
 @click.option(
     "--plot",
@@ -220,10 +211,11 @@ def command(
     terrain = _load(path, band, _parse_bounds(bounds), decimate)
     result = summarize(terrain)
     if slope_out is not None:
-        _write(slope_out, np.degrees(terrain.slope), terrain)
+        _write(slope_out, np.degrees(terrain.slope), terrain, "slope", "slope angle, degrees")
         result["slope_out"] = str(slope_out)
     if aspect_out is not None:
-        _write(aspect_out, terrain.aspect_deg, terrain)
+        _write(aspect_out, terrain.aspect_deg, terrain, "aspect",
+               "GIS aspect: downslope direction, degrees clockwise from north")  # fmt: skip
         result["aspect_out"] = str(aspect_out)
     if plot is not None:
         _plot(plot, terrain, np.degrees(terrain.slope), f"Slope of {path.name}")

@@ -329,9 +329,9 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
 
 def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner diagnosis") -> Path:
     """Write the self-contained HTML report; returns the path."""
-    path = Path(path)
-    path.write_text(render_html(d, title), encoding="utf-8")
-    return path
+    from energy_planner.io import write_text
+
+    return write_text(Path(path), render_html(d, title))
 
 
 # --------------------------------------------------------------------------- discover

@@ -166,6 +166,8 @@ def plot_energy_map(
     )
     fig.tight_layout()
     png = Path(png)
-    fig.savefig(png)
+    from energy_planner.io import save_figure
+
+    save_figure(fig, png)
     plt.close(fig)
     return png

@@ -15,7 +15,13 @@ Every file the project writes goes through this package:
 
 from __future__ import annotations
 
-from energy_planner.io.atomic import Terminated, atomic_path, write_bytes, write_json, write_text
+from energy_planner.io.atomic import (
+    atomic_path,
+    save_figure,
+    write_bytes,
+    write_json,
+    write_text,
+)
 from energy_planner.io.geojson import (
     RFC7946_CRS,
     Geometries,
@@ -39,7 +45,6 @@ __all__ = [
     "NODATA",
     "RFC7946_CRS",
     "Geometries",
-    "Terminated",
     "atomic_path",
     "crs_name",
     "declared_crs",
@@ -50,6 +55,7 @@ __all__ = [
     "read_geometries",
     "reproject_geometries",
     "reproject_xy",
+    "save_figure",
     "write_bytes",
     "write_geojson",
     "write_geotiff",

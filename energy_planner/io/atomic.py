@@ -7,7 +7,7 @@ one, never a partial one:
 
 * on success the temporary file is renamed over the destination (:func:`os.replace`,
   atomic on POSIX and Windows within one file system);
-* on an exception, or a SIGTERM (turned into :class:`Terminated` while the file is being
+* on an exception, or a SIGTERM (turned into ``SystemExit(143)`` while the file is being
   written, in the main thread), the temporary file is removed and the destination is
   left as it was.
 
@@ -41,20 +41,26 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Terminated", "atomic_path", "write_bytes", "write_json", "write_text"]
+__all__ = [
+    "atomic_path",
+    "save_figure",
+    "write_bytes",
+    "write_json",
+    "write_text",
+]
 
 
-class Terminated(SystemExit):
+class _Terminated(SystemExit):
     """SIGTERM received while an output was being written (exit status 143)."""
 
 
 def _on_sigterm(signum: int, frame: Any) -> None:
-    raise Terminated(128 + signum)
+    raise _Terminated(128 + signum)
 
 
 @contextlib.contextmanager
 def _sigterm_raises() -> Iterator[None]:
-    """Turn SIGTERM into :class:`Terminated` (main thread, default handler only)."""
+    """Turn SIGTERM into ``SystemExit(143)`` (main thread, default handler only)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -105,7 +111,7 @@ def atomic_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
 
     Notes
     -----
-    On an exception (including :class:`Terminated` from SIGTERM and
+    On an exception (including ``SystemExit(143)`` from SIGTERM and
     :class:`KeyboardInterrupt`) the temporary file is removed and the exception
     propagates; ``dest`` is untouched. A SIGKILL leaves ``dest`` untouched too, and a
     stray ``.<name>.<random>.tmp<suffix>`` file beside it.
@@ -162,3 +168,22 @@ def write_json(
     """
     text = json.dumps(obj, indent=indent, **dumps_kw) + "\n"
     return write_text(dest, text)
+
+
+def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Path:
+    """``fig.savefig`` to ``dest`` atomically (the format from ``dest``'s suffix).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    dest : str or path-like
+    **savefig_kw
+        Passed to ``savefig`` (``dpi``, ``bbox_inches``, ...).
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    with atomic_path(dest) as tmp:
+        fig.savefig(tmp, **savefig_kw)
+    return Path(dest)

@@ -249,8 +249,8 @@ def write_geojson(
 
 
 # ---------------------------------------------------------------------- reading
-def _bad(path: str, msg: str, **fields: Any) -> PlanningConfigError:
-    return PlanningConfigError(msg, path=path, **fields)
+def _bad(p: Path, msg: str, **fields: Any) -> PlanningConfigError:
+    return PlanningConfigError(msg, path=str(p), **fields)
 
 
 def _load(path: Path, what: str) -> Any:
@@ -264,7 +264,8 @@ def _load(path: Path, what: str) -> Any:
         ) from exc
     except OSError as exc:
         raise PlanningConfigError(
-            f"cannot read {what} file {str(path)!r}: {exc.strerror or exc}", path=str(path)
+            f"cannot read {what} file {str(path)!r}: {exc.strerror or exc}",
+            path=str(path),
         ) from exc
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise PlanningConfigError(
@@ -274,12 +275,12 @@ def _load(path: Path, what: str) -> Any:
         ) from exc
 
 
-def _raw_geometries(data: Any, src: str) -> list[Any]:
+def _raw_geometries(data: Any, src: str, p: Path) -> list[Any]:
     if isinstance(data, dict) and data.get("type") == "FeatureCollection":
         features = data.get("features")
         if not isinstance(features, list) or not all(isinstance(f, dict) for f in features):
             raise _bad(
-                src,
+                p,
                 f"{src}: 'features' is {type(features).__name__}, expected a list of GeoJSON "
                 "Feature objects",
                 expected="a list of Features",
@@ -290,7 +291,7 @@ def _raw_geometries(data: Any, src: str) -> list[Any]:
     return [data]
 
 
-def _check_lonlat(geoms: list[Any], crs: str, src: str) -> None:
+def _check_lonlat(geoms: list[Any], crs: str, src: str, p: Path) -> None:
     """An undeclared CRS means lon/lat: coordinates beyond it name the fix."""
     import shapely
 
@@ -299,7 +300,7 @@ def _check_lonlat(geoms: list[Any], crs: str, src: str) -> None:
         return
     k = int(np.flatnonzero((np.abs(c[:, 0]) > 360.0) | (np.abs(c[:, 1]) > 90.0))[0])
     raise _bad(
-        src,
+        p,
         f"{src}: coordinates ({c[k, 0]:.10g}, {c[k, 1]:.10g}) are not longitude, latitude, "
         "which a GeoJSON file without a 'crs' member holds (RFC 7946). If they are in the "
         'DEM\'s projected CRS, declare it: "crs": {"type": "name", "properties": '
@@ -338,15 +339,26 @@ def read_geometries(
     PlanningConfigError
         Missing or unreadable file, not JSON/GeoJSON, a geometry of another type, a
         non-finite vertex, coordinates that are not lon/lat in a file without a CRS, a
-        CRS that PROJ does not know.
+        CRS that PROJ does not know. Its ``param`` field is ``what`` with ``_`` for
+        ``-`` (``"keep_out"``), so that a command names its option.
     """
+    try:
+        return _read_geometries(Path(path), what, types)
+    except PlanningConfigError as exc:
+        exc.fields.setdefault("param", what.replace("-", "_"))
+        raise
+
+
+def _read_geometries(p: Path, what: str, types: tuple[str, ...]) -> Geometries:
     import shapely
     from shapely.geometry import shape
 
-    p = Path(path)
     src = f"{what} file {str(p)!r}"
     data = _load(p, what)
-    crs = declared_crs(data) if isinstance(data, dict) else None
+    crs = None
+    if isinstance(data, dict):
+        props = data.get("properties") if data.get("type") == "Feature" else None
+        crs = declared_crs(data, props if isinstance(props, dict) else None)
     if crs is not None:
         from rasterio.crs import CRS
         from rasterio.errors import CRSError
@@ -354,24 +366,24 @@ def read_geometries(
         try:
             CRS.from_user_input(crs)
         except CRSError as exc:
-            raise _bad(src, f"{src} declares CRS {crs!r}, which PROJ does not know ({exc})",
+            raise _bad(p, f"{src} declares CRS {crs!r}, which PROJ does not know ({exc})",
                        value=crs, expected="an EPSG code or a PROJ CRS name") from exc  # fmt: skip
     out = Geometries(crs=crs or RFC7946_CRS, source=str(p))
-    for k, g in enumerate(_raw_geometries(data, src)):
-        fields = {"value": k, "param": what.replace("-", "_"), "expected": " or ".join(types)}
+    for k, g in enumerate(_raw_geometries(data, src, p)):
+        fields = {"value": k, "expected": " or ".join(types)}
         try:
             geom = shape(g)
         except Exception as exc:  # noqa: BLE001 - shapely raises several types for bad GeoJSON
-            raise _bad(src, f"{src}: geometry {k} is not valid GeoJSON ({exc})", **fields) from exc
+            raise _bad(p, f"{src}: geometry {k} is not valid GeoJSON ({exc})", **fields) from exc
         if geom.geom_type not in types:
-            raise _bad(src, f"{src}: geometry {k} is a {geom.geom_type}; expected "
+            raise _bad(p, f"{src}: geometry {k} is a {geom.geom_type}; expected "
                        f"{' or '.join(types)}", **fields)  # fmt: skip
         if not np.isfinite(shapely.get_coordinates(geom)).all():
-            raise _bad(src, f"{src}: geometry {k} has a vertex that is not a finite number "
+            raise _bad(p, f"{src}: geometry {k} has a vertex that is not a finite number "
                        "(NaN or infinity)", **fields)  # fmt: skip
         out.append(geom)
     if not out:
-        raise _bad(src, f"{src} holds no {' or '.join(types)}", param=what.replace("-", "_"))
+        raise _bad(p, f"{src} holds no {' or '.join(types)}")
     if crs is None:
-        _check_lonlat(out, RFC7946_CRS, src)
+        _check_lonlat(out, RFC7946_CRS, src, p)
     return out

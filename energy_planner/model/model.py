@@ -375,9 +375,9 @@ class EnergyModel:
 
     def save(self, path: str | Path) -> Path:
         """Write the model as JSON; returns the path."""
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
-        return path
+        from energy_planner.io import write_json
+
+        return write_json(Path(path), self.to_dict())
 
     @classmethod
     def load(cls, path: str | Path) -> EnergyModel:

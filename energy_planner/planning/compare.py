@@ -505,7 +505,9 @@ class RouteComparison:
         ax.set_title(title, fontsize=10)
         ax.legend(loc="lower left", fontsize=8, framealpha=0.9)
         fig.tight_layout()
-        fig.savefig(path, dpi=120)
+        from energy_planner.io import save_figure
+
+        save_figure(fig, path, dpi=120)
         plt.close(fig)
         return path
 

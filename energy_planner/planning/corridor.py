@@ -325,9 +325,11 @@ def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
     """:class:`InvalidStateError` if ``(x, y)`` is outside the DEM's bounds."""
     x0, y0, x1, y1 = info.bounds
     if not (x0 <= x <= x1 and y0 <= y <= y1):
+        from energy_planner.errors import extent_text
+
         raise InvalidStateError(
             f"{which} ({x:.2f}, {y:.2f}) is outside DEM {info.path!r}, which covers "
-            f"x {x0:.6g}..{x1:.6g}, y {y0:.6g}..{y1:.6g} in {info.crs}",
+            f"{extent_text((x0, y0, x1, y1), info.crs)}",
             endpoint=which,
             limit="map",
             value=(x, y),

@@ -1,8 +1,9 @@
 """Planning limits: keep-out polygons, start/goal checks, the motion cost with limits.
 
 Keep-out areas come from a GeoJSON file (Polygon / MultiPolygon geometries, Features or a
-FeatureCollection) whose coordinates are in the DEM's CRS, like ``--start``/``--goal``.
-They are
+FeatureCollection) in longitude/latitude as RFC 7946 says, or in the CRS the file declares
+(``crs`` member); Python callers may give shapely geometries in the DEM's CRS. They are
+reprojected to the working grid and
 
 * rasterized onto the terrain grid as the ``blocked`` mask of
   :class:`energy_planner.energy.MotionCost` (a cell is blocked when its centre lies
@@ -28,7 +29,6 @@ array([[0, 1, 1, 1],
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections.abc import Sequence
@@ -57,7 +57,11 @@ __all__ = [
 
 
 def load_keep_out(path: str | Path) -> list[Any]:
-    """Read keep-out polygons from a GeoJSON file (coordinates in the DEM's CRS).
+    """Read keep-out polygons from a GeoJSON file, with their CRS.
+
+    The file follows RFC 7946: longitude, latitude (WGS 84) unless it declares another
+    CRS (the 2008 ``crs`` member that GDAL and QGIS write, or ``properties.crs``); see
+    :func:`energy_planner.io.read_geometries`. :func:`to_work_geometries` reprojects them.
 
     Parameters
     ----------
@@ -66,78 +70,18 @@ def load_keep_out(path: str | Path) -> list[Any]:
 
     Returns
     -------
-    list of shapely geometries
-        In the file's coordinates.
+    energy_planner.io.Geometries
+        A list of shapely geometries in the file's coordinates; ``.crs`` names their CRS.
 
     Raises
     ------
-    PlanningError
-        If the file is missing, is not JSON/GeoJSON or holds no polygon.
+    PlanningConfigError
+        If the file is missing, is not JSON/GeoJSON, holds no polygon, an invalid one,
+        or coordinates that are not longitude/latitude without a declared CRS.
     """
-    import shapely
-    from shapely.geometry import shape
+    from energy_planner.io import read_geometries
 
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except OSError as exc:
-        raise PlanningConfigError(f"cannot read keep-out file {str(path)!r}: {exc}") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PlanningConfigError(
-            f"keep-out file {str(path)!r} is not JSON ({exc}); expected a GeoJSON "
-            "FeatureCollection of Polygons"
-        ) from exc
-    if isinstance(data, dict) and data.get("type") == "FeatureCollection":
-        features = data.get("features")
-        if not isinstance(features, list) or not all(isinstance(f, dict) for f in features):
-            raise PlanningConfigError(
-                f"keep-out file {str(path)!r}: 'features' is {type(features).__name__}, "
-                "expected a list of GeoJSON Feature objects",
-                path=path,
-                param="keep_out",
-                expected="a list of Features",
-            )
-        geoms = [f.get("geometry") for f in features]
-    elif isinstance(data, dict) and data.get("type") == "Feature":
-        geoms = [data.get("geometry")]
-    else:
-        geoms = [data]
-    out = []
-    for k, g in enumerate(geoms):
-        try:
-            geom = shape(g)
-        except Exception as exc:  # shapely raises several types for bad GeoJSON
-            raise PlanningConfigError(
-                f"keep-out file {str(path)!r}: geometry {k} is not valid GeoJSON ({exc})",
-                path=path,
-                value=k,
-                param="keep_out",
-                expected="GeoJSON Polygon or MultiPolygon",
-            ) from exc
-        if geom.geom_type not in ("Polygon", "MultiPolygon"):
-            raise PlanningConfigError(
-                f"keep-out file {str(path)!r}: geometry {k} is a {geom.geom_type}; "
-                "expected Polygon or MultiPolygon",
-                path=path,
-                value=k,
-                param="keep_out",
-                expected="Polygon or MultiPolygon",
-            )
-        coords = shapely.get_coordinates(geom)
-        if not np.isfinite(coords).all():
-            raise PlanningConfigError(
-                f"keep-out file {str(path)!r}: geometry {k} has a vertex that is not a finite "
-                "number (NaN or infinity)",
-                path=path,
-                value=k,
-                param="keep_out",
-                expected="finite coordinates in the DEM's CRS",
-            )
-        out.append(geom)
-    if not out:
-        raise PlanningConfigError(
-            f"keep-out file {str(path)!r} holds no polygon", path=path, param="keep_out"
-        )
+    out = read_geometries(path, what="keep-out")
     check_valid_geometries(out, str(path))
     return out
 
@@ -173,14 +117,71 @@ def check_valid_geometries(geoms: Sequence[Any], source: str = "keep_out") -> No
 
 
 def to_work_geometries(geoms: Sequence[Any], terrain) -> list[Any]:
-    """Transform geometries from the DEM's CRS to the terrain's working CRS."""
+    """Transform keep-out geometries to the terrain's working CRS.
+
+    Geometries read from a file (:func:`load_keep_out`) carry their CRS (``.crs``) and
+    are reprojected from it; plain shapely geometries are in the DEM's own CRS. A
+    geometry wholly outside the map is reported with a
+    :class:`~energy_planner.errors.GeometryOutsideMapWarning` (it cannot keep the plan
+    out of anything, and most often means the wrong CRS), never dropped silently.
+
+    Raises
+    ------
+    PlanningConfigError
+        A vertex has no position in the working CRS.
+    """
     import shapely
 
-    def fwd(coords: np.ndarray) -> np.ndarray:
-        x, y = terrain.to_work(coords[:, 0], coords[:, 1])
-        return np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
+    crs = getattr(geoms, "crs", None)
+    source = getattr(geoms, "source", "") or "keep_out"
+    if crs is not None and terrain.crs is not None:
+        from energy_planner.io import reproject_geometries
 
-    return [shapely.transform(g, fwd) for g in geoms]
+        out = reproject_geometries(geoms, crs, terrain.crs)
+        for k, g in enumerate(out):
+            if not np.isfinite(shapely.get_coordinates(g)).all():
+                raise PlanningConfigError(
+                    f"keep-out geometry {k} in {source!r} ({crs}) has no position in the "
+                    f"map's CRS {terrain.crs}: are its coordinates in {crs}?",
+                    path=source, value=k, param="keep_out", crs=str(crs),
+                )  # fmt: skip
+    else:
+
+        def fwd(coords: np.ndarray) -> np.ndarray:
+            x, y = terrain.to_work(coords[:, 0], coords[:, 1])
+            return np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
+
+        out = [shapely.transform(g, fwd) for g in geoms]
+    _warn_outside(out, geoms, crs, source, terrain)
+    return out
+
+
+def _warn_outside(work: list[Any], given: Sequence[Any], crs: Any, source: str, terrain) -> None:
+    """A :class:`GeometryOutsideMapWarning` for each geometry wholly off the map."""
+    import warnings
+
+    from shapely.geometry import box
+
+    from energy_planner.errors import GeometryOutsideMapWarning, extent_text, fmt_num
+
+    bounds = getattr(terrain, "bounds", None)
+    if bounds is None:
+        return
+    frame = box(*bounds)
+    src_crs = crs if crs is not None else getattr(terrain, "source_crs", None)
+    src_bounds = getattr(terrain, "source_bounds", bounds)
+    for k, g in enumerate(work):
+        if g.intersects(frame):
+            continue
+        gb = ", ".join(fmt_num(v) for v in given[k].bounds)
+        warnings.warn(
+            f"keep-out geometry {k} in {source!r} lies wholly outside the map and is not "
+            f"used: its bounds ({gb}) in {src_crs}; the map covers "
+            f"{extent_text(src_bounds, getattr(terrain, 'source_crs', None))}. A GeoJSON file "
+            "without a 'crs' member is longitude/latitude (RFC 7946)",
+            GeometryOutsideMapWarning,
+            stacklevel=3,
+        )
 
 
 def rasterize_keep_out(geoms: Sequence[Any], terrain) -> np.ndarray:
@@ -304,14 +305,51 @@ def check_endpoint(
         limit, reason, value = v
         yaw_txt = "" if yaw is None else f" yaw {math.degrees(yaw):.1f} deg"
         sx, sy = terrain.from_work(x, y)
+        extra: dict[str, Any] = {}
+        where = f"choose a {which} on valid terrain within the limits"
+        if limit == "map":
+            where, extra = _map_hint(terrain, which, float(sx), float(sy))
+            if extra["outside"]:
+                reason = "outside the map"
         raise InvalidStateError(
-            f"{which} {fmt_xy(terrain, x, y)}{yaw_txt} is invalid: {reason}; "
-            f"choose a {which} on valid terrain within the limits",
+            f"{which} {fmt_xy(terrain, x, y)}{yaw_txt} is invalid: {reason}; {where}",
             endpoint=which,
             limit=limit,
             value=value if value is not None else (float(sx), float(sy)),
             param=which,
+            **{k: v for k, v in extra.items() if k != "outside"},
         )
+
+
+def _map_hint(terrain, which: str, sx: float, sy: float) -> tuple[str, dict[str, Any]]:
+    """The map's extent and CRS for an endpoint off the map, with a lon/lat hint.
+
+    Returns the text and the error fields (``crs``, ``bounds``, ``hint``, ``outside``).
+    """
+    from energy_planner.errors import extent_text, fmt_num
+
+    crs = getattr(terrain, "source_crs", None)
+    bounds = tuple(float(b) for b in terrain.source_bounds)
+    outside = not (bounds[0] <= sx <= bounds[2] and bounds[1] <= sy <= bounds[3])
+    text = f"the map covers {extent_text(bounds, crs)}"
+    hint = f"give a {which} inside the map, on valid terrain"
+    geographic = bool(getattr(crs, "is_geographic", False))
+    if outside and crs is not None and not geographic and abs(sx) <= 180 and abs(sy) <= 90:
+        from energy_planner.io import reproject_xy
+
+        try:
+            px, py = (float(v[0]) for v in reproject_xy("OGC:CRS84", crs, [sx], [sy]))
+        except Exception:  # noqa: BLE001 - PROJ cannot place it: no lon/lat hint
+            px = py = math.nan
+        if math.isfinite(px) and math.isfinite(py):
+            inside = bounds[0] <= px <= bounds[2] and bounds[1] <= py <= bounds[3]
+            hint = (
+                f"({fmt_num(sx)}, {fmt_num(sy)}) looks like longitude, latitude; that point is "
+                f"x {fmt_num(px)}, y {fmt_num(py)} in {crs}"
+                + (": give that" if inside else ", also outside the map")
+            )
+    return (f"{text}. Hint: {hint}", {"crs": str(crs), "bounds": bounds, "hint": hint,
+                                      "outside": outside})  # fmt: skip
 
 
 def make_motion_cost(
@@ -365,7 +403,7 @@ def make_motion_cost(
         if isinstance(lim.keep_out, str | Path):
             raw = load_keep_out(lim.keep_out)
         else:
-            raw = list(lim.keep_out)
+            raw = lim.keep_out if hasattr(lim.keep_out, "crs") else list(lim.keep_out)
             check_valid_geometries(raw)
         geoms = to_work_geometries(raw, terrain)
     blocked = rasterize_keep_out(geoms, terrain) if geoms else None

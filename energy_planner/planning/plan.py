@@ -540,7 +540,7 @@ def plan(
         cost, geoms = make_motion_cost(terrain, model, request)
     elif request.limits.keep_out is not None:
         ko = request.limits.keep_out
-        raw = load_keep_out(ko) if isinstance(ko, str | Path) else list(ko)
+        raw = load_keep_out(ko) if isinstance(ko, str | Path) else ko
         if not isinstance(ko, str | Path):
             check_valid_geometries(raw)
         geoms = to_work_geometries(raw, terrain)

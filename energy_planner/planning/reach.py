@@ -337,7 +337,9 @@ class ReachMap:
         ax.set_title("Battery reach" + (" (out and back)" if self.round_trip else ""))
         ax.legend(loc="lower left", fontsize=8)
         fig.tight_layout()
-        fig.savefig(path, dpi=120)
+        from energy_planner.io import save_figure
+
+        save_figure(fig, path, dpi=120)
         plt.close(fig)
         return path
 
@@ -392,7 +394,7 @@ def reach(
         If the start is outside the map or breaks a limit.
     """
     from energy_planner.planning.compare import _motion_cost
-    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.planning.limits import check_endpoint, fmt_xy
     from energy_planner.planning.plan import _pose
     from energy_planner.request import Request
 
@@ -405,9 +407,14 @@ def reach(
     c = math.floor((sx - x0) / dx + 0.5)
     r = math.floor((sy - y0) / dy + 0.5)
     if not (0 <= r < rows and 0 <= c < cols):
+        from energy_planner.errors import extent_text
+
+        sb = terrain.source_bounds
         raise InvalidStateError(
-            f"start ({sx:.2f}, {sy:.2f}) is outside the map", endpoint="start", value=(sx, sy)
-        )
+            f"start {fmt_xy(terrain, sx, sy)} is outside the map, which covers "
+            f"{extent_text(sb, terrain.source_crs)}",
+            endpoint="start", value=(sx, sy), limit="map", bounds=sb, crs=str(terrain.source_crs),
+        )  # fmt: skip
     s = (x0 + c * dx, y0 + r * dy)
     cost, geoms = _motion_cost(terrain, model, request)
     check_endpoint(cost, terrain, "start", (s[0], s[1], None), geoms)

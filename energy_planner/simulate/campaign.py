@@ -26,7 +26,6 @@ True
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
@@ -253,6 +252,8 @@ class Campaign:
         import pyarrow.parquet as pq
         from tqdm.auto import tqdm
 
+        from energy_planner.io import atomic_path, write_json
+
         written: list[Path] = []
         logs = self.logs
         if fmt == "csv":
@@ -270,17 +271,17 @@ class Campaign:
                 unit="run",
             ):
                 path = out / f"{run[s]}.{fmt}"
-                if fmt == "csv":
-                    pa_csv.write_csv(table.slice(s, e - s), path)
-                else:
-                    pq.write_table(table.slice(s, e - s), path)
+                with atomic_path(path) as tmp:
+                    if fmt == "csv":
+                        pa_csv.write_csv(table.slice(s, e - s), tmp)
+                    else:
+                        pq.write_table(table.slice(s, e - s), tmp)
                 written.append(path)
             runs_path = out / "runs.csv"
-            self.runs.to_csv(runs_path, index=False, float_format="%.10g")
-            truth_path = out / "physics.json"
-            truth_path.write_text(json.dumps(self.physics_dict(), indent=2) + "\n")
-            meta_path = out / "campaign.json"
-            meta_path.write_text(json.dumps(self.metadata(), indent=2) + "\n")
+            with atomic_path(runs_path) as tmp:
+                self.runs.to_csv(tmp, index=False, float_format="%.10g")
+            truth_path = write_json(out / "physics.json", self.physics_dict())
+            meta_path = write_json(out / "campaign.json", self.metadata())
         except OSError as exc:
             raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
         written += [runs_path, truth_path, meta_path]
@@ -392,7 +393,9 @@ class Campaign:
         fig.suptitle(f"simulated campaign (seed {self.seed}, effects: {effects})", fontsize=9)
         path = Path(path)
         try:
-            fig.savefig(path, dpi=120)
+            from energy_planner.io import save_figure
+
+            save_figure(fig, path, dpi=120)
         except OSError as exc:
             raise LogIOError(f"cannot write the plot {str(path)!r}: {exc}") from exc
         finally:

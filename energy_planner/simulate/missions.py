@@ -283,24 +283,19 @@ class GroundMap:
         """
         import rasterio
 
+        from energy_planner.io import write_geotiff, write_text
+
         raster, table = Path(raster), Path(table)
         try:
-            with rasterio.open(
-                raster,
-                "w",
-                driver="GTiff",
-                height=self.codes.shape[0],
-                width=self.codes.shape[1],
-                count=1,
-                dtype="int16",
-                crs=self.terrain.crs,
-                transform=self.terrain.transform,
-                nodata=0,
-            ) as dst:
-                dst.write(self.codes, 1)
-            table.write_text(
+            write_geotiff(
+                raster, self.codes, transform=self.terrain.transform, crs=self.terrain.crs,
+                dtype="int16", nodata=0, names=["ground"],
+                descriptions=["ground class code (0 = none); names in the code,ground table"],
+            )  # fmt: skip
+            write_text(
+                table,
                 "code,ground\n"
-                + "".join(f"{k},{name}\n" for k, name in enumerate(self.names, start=1))
+                + "".join(f"{k},{name}\n" for k, name in enumerate(self.names, start=1)),
             )
         except (OSError, rasterio.errors.RasterioError) as exc:
             raise LogIOError(

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from affine import Affine
 
-from energy_planner.errors import CoordinateError, DEMError, DEMIOError
+from energy_planner.errors import CoordinateError, DEMError, DEMIOError, fmt_num
 from energy_planner.terrain.horn import (
     aspect_from_gradient,
     horn_gradient,
@@ -392,7 +392,8 @@ class Terrain:
         if geographic:
             expected = "longitude,latitude in degrees"
             cover = (
-                f"lon {bounds[0]:.6g} .. {bounds[2]:.6g}, lat {bounds[1]:.6g} .. {bounds[3]:.6g}"
+                f"lon {fmt_num(bounds[0])} .. {fmt_num(bounds[2])}, "
+                f"lat {fmt_num(bounds[1])} .. {fmt_num(bounds[3])}"
             )
             hint = (
                 f"give longitude,latitude, e.g. {0.5 * (bounds[0] + bounds[2]):.5f},"
@@ -409,7 +410,10 @@ class Terrain:
             kind = "geographic"
         else:
             expected = f"x,y in {crs}"
-            cover = f"x {bounds[0]:.6g} .. {bounds[2]:.6g}, y {bounds[1]:.6g} .. {bounds[3]:.6g}"
+            cover = (
+                f"x {fmt_num(bounds[0])} .. {fmt_num(bounds[2])}, "
+                f"y {fmt_num(bounds[1])} .. {fmt_num(bounds[3])}"
+            )
             hint = f"give coordinates in {crs}, inside the DEM's bounds"
             kind = "projected"
         where = f" (point {i}; {n_bad} of {n} points fail)" if n > 1 else ""
