@@ -182,17 +182,32 @@ def test_reach_cli_writes_geotiff_geojson_and_plot(hill_tif, tmp_path):
     out = json.loads(r.output)
     with rasterio.open(hill_tif) as src, rasterio.open(tif) as dst:
         assert dst.crs == src.crs and dst.transform == src.transform
-        assert dst.shape == src.shape and dst.nodata == NODATA
+        assert dst.shape == src.shape and np.isnan(dst.nodata) and np.isnan(NODATA)
+        assert dst.units == ("J",) and dst.descriptions == ("energy_j",)  # GDAL band unit
         data = dst.read(1)
         dem = src.read(1, masked=True)
-    assert (data[dem.mask] == NODATA).all()
+    assert np.isnan(data[dem.mask]).all()
     assert data[37, 10] == 0.0  # the start's cell (row 50 - 12.5 -> 37)
+    # RFC 7946: longitude, latitude and no 'crs' member; back in UTM with pyproj
     fc = json.loads(gj.read_text())
-    poly = shape(fc["features"][0]["geometry"])
+    assert "crs" not in fc
+    import pyproj
+    from shapely.ops import transform as shp_transform
+
+    ll = shape(fc["features"][0]["geometry"])
+    assert -180 <= ll.bounds[0] <= ll.bounds[2] <= 180 and -90 <= ll.bounds[1] <= 90
+    to_utm = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32631", always_xy=True).transform
+    poly = shp_transform(to_utm, ll)
     assert poly.contains(Point(X0 + 10.5, Y0 + 12.5))
-    within = (data != NODATA) & (data <= 3 * 3600)
+    within = np.isfinite(data) & (data <= 3 * 3600)
     assert fc["features"][0]["properties"]["cells"] == within.sum() == out["budget_cells"]
-    assert poly.area == pytest.approx(within.sum() * 1.0)
+    assert poly.area == pytest.approx(within.sum() * 1.0, rel=1e-6)
+    # --geojson-crs dem: the DEM's CRS, declared
+    r = CliRunner().invoke(main, [*args, "--geojson-crs", "dem"])
+    assert r.exit_code == 0, r.output
+    fc = json.loads(gj.read_text())
+    assert fc["crs"]["properties"]["name"] == "EPSG:32631"
+    assert shape(fc["features"][0]["geometry"]).symmetric_difference(poly).area < 1e-5 * poly.area
     assert png.stat().st_size > 10_000
     assert out["round_trip"] is False and out["max_wh"] > 3
 

@@ -23,6 +23,15 @@ dem_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
 )
+#: ``--geojson-crs``: the CRS of GeoJSON outputs (io's RFC 7946 writer or the DEM's CRS).
+geojson_crs_option = click.option(
+    "--geojson-crs",
+    type=click.Choice(["wgs84", "dem"]),
+    default="wgs84",
+    show_default=True,
+    help="CRS of GeoJSON outputs: 'wgs84' (RFC 7946 longitude, latitude, what GIS and web "
+    "maps expect) or 'dem' (the DEM's own CRS, declared with a 'crs' member).",
+)
 band_option = click.option(
     "--band",
     type=click.IntRange(min=1),

@@ -11,6 +11,7 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    geojson_crs_option,
     json_option,
     load_model_option,
     memory_cap_option,
@@ -97,8 +98,10 @@ def _text(res: dict[str, Any]) -> str:
     "--geojson",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="GeoJSON polygon of the area reachable within --budget-wh (DEM's CRS).",
+    help="GeoJSON polygon of the area reachable within --budget-wh (longitude, latitude; "
+    "see --geojson-crs).",
 )
+@geojson_crs_option
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -127,6 +130,7 @@ def command(
     channels: tuple[str, ...],
     out: Path | None,
     geojson: Path | None,
+    geojson_crs: str,
     plot: Path | None,
     memory_cap: str | None,
     as_json: bool,
@@ -142,8 +146,6 @@ def command(
     Example: energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh 15
     --out reach.tif --geojson area.geojson --plot reach.png
     """
-    import json
-
     import numpy as np
 
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
@@ -231,7 +233,10 @@ def command(
         res.write_geotiff(terrain, out)
         result["out"] = str(out)
     if geojson is not None:
-        geojson.write_text(json.dumps(res.area_geojson(terrain, budget_j)))
+        from energy_planner.io import write_geojson
+
+        native = geojson_crs == "dem"
+        write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
         result["geojson"] = str(geojson)
     if plot is not None:
         res.plot(terrain, plot, budget_j)

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import DEMError, DEMIOError, EnergyMapError
+from energy_planner.io import open_geotiff
 from energy_planner.terrain.memory import BYTES_PER_CELL, memory_cap, parse_size
 
 __all__ = [
@@ -288,15 +289,17 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
 
 
 def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> dict[str, Any]:
+    """The project GeoTIFF profile (:func:`energy_planner.io.geotiff_profile`).
+
+    Tiles of :data:`_TILE`, so that a block of whole tile rows completes its tiles.
+    """
+    from energy_planner.io import geotiff_profile
+
     rows, cols = shape
-    prof: dict[str, Any] = dict(
-        driver="GTiff", width=cols, height=rows, count=nbands, dtype="float32", crs=crs,
-        transform=transform, nodata=float("nan"), compress="deflate", predictor=3,
-        BIGTIFF="IF_SAFER", interleave="band",
-    )  # fmt: skip
+    tiles: dict[str, Any] = {}
     if rows >= _TILE and cols >= _TILE:
-        prof.update(tiled=True, blockxsize=_TILE, blockysize=_TILE)
-    return prof
+        tiles = dict(tiled=True, blockxsize=_TILE, blockysize=_TILE)
+    return geotiff_profile(shape, nbands, transform=transform, crs=crs, **tiles)
 
 
 def _write_metadata(
@@ -305,9 +308,10 @@ def _write_metadata(
     """Band descriptions and units, dataset tags."""
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
     descs = band_descriptions(setup.headings, frame)
+    from energy_planner.io import describe_band
+
     for i, (name, desc, units) in enumerate(descs, start=1):
-        dst.set_band_description(i, name)
-        dst.update_tags(i, name=name, description=desc, units=units)
+        describe_band(dst, i, name=name, description=desc, units=units)
     dst.update_tags(
         software="energy_planner energy-map",
         model=model_name,
@@ -344,7 +348,6 @@ def _progress(iterable: Any, total: int, desc: str, progress: bool | None) -> An
 
 def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, progress) -> None:
     """From a loaded Terrain: windows of rows of its gradient, written as they come."""
-    import rasterio
     from rasterio.windows import Window
 
     rows, cols = terrain.shape
@@ -353,7 +356,7 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
     step = _rows_per_block(cols, nb)
     starts = range(0, rows, step)
     prof = _profile(terrain.shape, terrain.transform, terrain.crs, nb)
-    with rasterio.open(out, "w", **prof) as dst:
+    with open_geotiff(out, **prof) as dst:
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
             chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
@@ -451,7 +454,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
     any_valid = False
     with (
         rasterio.open(info.path) as src,
-        rasterio.open(out, "w", **_profile(info.shape, t, info.crs, nb)) as dst,
+        open_geotiff(out, **_profile(info.shape, t, info.crs, nb)) as dst,
     ):
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
@@ -558,7 +561,7 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
         dem_valid = ~np.ma.getmaskarray(z) & np.isfinite(np.ma.filled(z.astype(float), np.nan))
     del z
     prof = _profile(info.shape, info.transform, info.crs, nb)
-    with rasterio.open(work) as w, rasterio.open(out, "w", **prof) as dst:
+    with rasterio.open(work) as w, open_geotiff(out, **prof) as dst:
         wt, wcrs = w.transform, w.crs
         args = (wt, wcrs, info.shape, info.transform, info.crs)
 

@@ -121,15 +121,18 @@ def compute_dask(
     if prof.get("tiled"):
         opts.update(tiled=True, blockxsize=256, blockysize=256)
     show = progress if progress is not None else sys.stderr.isatty()
-    if show and client is None:
-        from dask.diagnostics import ProgressBar
-
-        with ProgressBar(out=sys.stderr):
-            xarr.rio.to_raster(out, lock=lock, dtype="float32", **opts)
-    else:
-        xarr.rio.to_raster(out, lock=lock, dtype="float32", **opts)
     import rasterio
 
-    with rasterio.open(out, "r+") as dst:
-        _write_metadata(dst, setup, model_name, "dask")
+    from energy_planner.io import atomic_path
+
+    with atomic_path(out) as tmp:
+        if show and client is None:
+            from dask.diagnostics import ProgressBar
+
+            with ProgressBar(out=sys.stderr):
+                xarr.rio.to_raster(tmp, lock=lock, dtype="float32", **opts)
+        else:
+            xarr.rio.to_raster(tmp, lock=lock, dtype="float32", **opts)
+        with rasterio.open(tmp, "r+") as dst:
+            _write_metadata(dst, setup, model_name, "dask")
     del rioxarray  # imported for the .rio accessor

@@ -50,7 +50,7 @@ from energy_planner.errors import InvalidStateError, PlanningError
 __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 
 #: Nodata value of the written GeoTIFF.
-NODATA = -9999.0
+NODATA = float("nan")  # the project's one raster nodata (energy_planner.io)
 
 
 def _graph(
@@ -239,66 +239,58 @@ class ReachMap:
         ]
         return unary_union(polys)
 
-    def area_geojson(self, terrain, budget_j: float) -> dict[str, Any]:
-        """A GeoJSON FeatureCollection with the reachable area in the DEM's CRS."""
-        from shapely.geometry import mapping
+    def area_geojson(self, terrain, budget_j: float, *, native: bool = False) -> dict[str, Any]:
+        """A GeoJSON FeatureCollection with the area reachable within ``budget_j``.
+
+        RFC 7946 (longitude, latitude; what QGIS, geopandas and web maps expect) by
+        default; ``native=True`` writes the DEM's own CRS and declares it with the
+        ``crs`` member (:func:`energy_planner.io.feature_collection`).
+        """
         from shapely.ops import transform as shp_transform
 
+        from energy_planner.io import crs_name, feature_collection
+
         work = self.area(terrain, budget_j)
-        geom = work
-        if str(terrain.source_crs) != str(terrain.crs):
+        geom, crs = work, terrain.crs
+        if native and str(terrain.source_crs) != str(terrain.crs):
             geom = shp_transform(lambda x, y: terrain.from_work(x, y), work)
-        crs = terrain.source_crs
-        return {
-            "type": "FeatureCollection",
-            "features": [
-                {
-                    "type": "Feature",
-                    "geometry": mapping(geom),
-                    "properties": {
-                        "budget_j": budget_j,
-                        "budget_wh": budget_j / 3600.0,
-                        "round_trip": self.round_trip,
-                        "area_m2": float(work.area),
-                        "cells": int(self.mask(budget_j).sum()),
-                        "crs": None if crs is None else str(crs),
-                    },
-                }
-            ],
+            crs = terrain.source_crs
+        props = {
+            "budget_j": budget_j,
+            "budget_wh": budget_j / 3600.0,
+            "round_trip": self.round_trip,
+            "area_m2": float(work.area),
+            "cells": int(self.mask(budget_j).sum()),
+            "dem_crs": crs_name(terrain.source_crs),
         }
+        return feature_collection([(geom, props)], crs=crs, native=native)
 
     def write_geotiff(self, terrain, path: str | Path) -> Path:
-        """Write ``energy_j`` (J, float32, nodata :data:`NODATA`) on the DEM's grid and CRS.
+        """Write ``energy_j`` (J, float32, nodata NaN) on the DEM's grid and CRS.
 
         A DEM in longitude/latitude gets the working grid's values resampled to its own
         grid (nearest cell).
         """
-        import rasterio
+        from energy_planner.io import write_geotiff
 
-        path = Path(path)
         data = np.where(np.isfinite(self.energy_j), self.energy_j, NODATA).astype(np.float32)
-        transform, crs, shape = terrain.transform, terrain.crs, data.shape
+        transform, crs = terrain.transform, terrain.crs
         if str(terrain.source_crs) != str(terrain.crs):
             from rasterio.warp import Resampling, reproject
 
-            shape = tuple(terrain.source_shape)
-            out = np.full(shape, NODATA, np.float32)
+            out = np.full(tuple(terrain.source_shape), NODATA, np.float32)
             reproject(
                 data, out, src_transform=terrain.transform, src_crs=terrain.crs,
                 dst_transform=terrain.source_transform, dst_crs=terrain.source_crs,
                 src_nodata=NODATA, dst_nodata=NODATA, resampling=Resampling.nearest,
             )  # fmt: skip
             data, transform, crs = out, terrain.source_transform, terrain.source_crs
-        profile = dict(
-            driver="GTiff", height=shape[0], width=shape[1], count=1, dtype="float32",
-            crs=crs, transform=transform, nodata=NODATA, compress="deflate",
+        what = "go and come back" if self.round_trip else "reach"
+        return write_geotiff(
+            Path(path), data, transform=transform, crs=crs, names=["energy_j"], units=["J"],
+            descriptions=[f"least energy to {what} the cell from the start, J"],
+            band_tags=[{"round_trip": self.round_trip}], tags={"software": "energy_planner reach"},
         )  # fmt: skip
-        with rasterio.open(path, "w", **profile) as dst:
-            dst.write(data, 1)
-            what = "go and come back" if self.round_trip else "reach"
-            dst.set_band_description(1, f"least energy to {what} the cell from the start, J")
-            dst.update_tags(1, units="J", round_trip=str(self.round_trip))
-        return path
 
     def plot(self, terrain, path: str | Path, budget_j: float | None = None) -> Path:
         """PNG: energy (Wh) over a hillshade, the budget contour and the start."""
