@@ -4,49 +4,56 @@ Every path the project writes (``plan --out``, route comparisons, ...) and reads
 (``energy --waypoints``) uses this format, so that a planned path read back gives the
 same energy.
 
-Format (``energy_planner/path``, version 1)::
+Format (``energy_planner/path``, version 1), RFC 7946 by default::
 
     {"type": "FeatureCollection",
-     "crs": {"type": "name", "properties": {"name": "EPSG:4326"}},
      "features": [{"type": "Feature",
-                   "geometry": {"type": "LineString", "coordinates": [[x, y], ...]},
+                   "geometry": {"type": "LineString", "coordinates": [[lon, lat], ...]},
                    "properties": {"format": "energy_planner/path", "format_version": 1,
-                                  "crs": "EPSG:4326", "yaw_frame": "crs_x_ccw",
+                                  "crs": "OGC:CRS84", "yaw_frame": "crs_x_ccw",
                                   "yaw_deg": [...], "t": [...], ...}}]}
 
-- ``coordinates``: vertices in the CRS named by the ``crs`` member, which is the DEM's
-  own CRS (x, y = longitude, latitude in degrees for a geographic DEM, in that order).
-  The 2008 ``crs`` member is what GDAL and QGIS read (RFC 7946 GeoJSON is WGS 84 only,
-  and a projected path needs it); ``properties.crs`` repeats it for readers that drop
-  unknown members. Both are absent for a DEM without a CRS (local metres).
+- ``coordinates``: WGS 84 longitude, latitude (RFC 7946: what QGIS, geopandas and web
+  maps expect), converted from the DEM's CRS. With ``native=True`` (``--geojson-crs
+  dem``) they stay in the DEM's own CRS, named by the 2008 ``crs`` member (what GDAL and
+  QGIS read for projected data). ``properties.crs`` names the CRS either way, for
+  readers that drop unknown members. A DEM without a CRS (local metres) is written as is.
 - ``yaw_deg`` (optional): body yaw per vertex, degrees counter-clockwise from the +x
-  axis of that CRS *at the vertex* (``yaw_frame = "crs_x_ccw"``). For a geographic CRS
-  that is local east (along the parallel), with north at +90. On the working UTM grid
-  the same direction is turned by the meridian convergence, which
-  :func:`yaw_to_work` / :func:`yaw_from_work` apply.
+  axis of that CRS *at the vertex* (``yaw_frame = "crs_x_ccw"``). For longitude,
+  latitude that is local east (along the parallel), with north at +90. On the working
+  UTM grid the same direction is turned by the meridian convergence, which
+  :func:`yaw_to_work` / :func:`yaw_from_work` (and
+  :func:`energy_planner.io.x_axis_angle` for any two CRSs) apply.
 - ``t`` (optional): seconds, strictly increasing. Other properties (``energy_j``,
   ``planner``, ...) are free.
+- A pose that repeats the previous one (a zero-length segment) is not written.
 
 :func:`read_path` also reads any LineString GeoJSON (bare geometry, Feature, or a
 FeatureCollection with exactly one LineString feature), taking ``yaw_deg`` in the CRS's
-frame, and the older planner output (a bare Feature with ``properties.planner`` and no
-``format``), whose ``yaw_deg`` was in the *working grid's* frame: it is read as such,
-with a note.
+frame; without a ``crs`` member the coordinates are longitude, latitude (RFC 7946), or,
+when they cannot be, the DEM's CRS (with a note). The older planner output (a bare
+Feature with ``properties.planner`` and no ``format``) has ``yaw_deg`` in the *working
+grid's* frame: it is read as such, with a note.
 
-Writers: :func:`write_path` (coordinates and yaw already in the DEM's CRS) and
+Writers: :func:`write_path` (coordinates and yaw in a given CRS) and
 :func:`write_path_from_work` (poses on a :class:`~energy_planner.terrain.Terrain`'s
 working grid, converted here). :func:`path_document` / :func:`path_document_from_work`
-return the dict instead of writing it.
+return the dict instead of writing it; the file is written atomically
+(:func:`energy_planner.io.write_geojson`).
 
 Examples
 --------
 >>> import tempfile, pathlib
 >>> p = pathlib.Path(tempfile.mkdtemp()) / "p.geojson"
->>> _ = write_path(p, [[0.0, 0.0], [3.0, 4.0]], [0.9273, 0.9273], crs="EPSG:32631",
-...                properties={"energy_j": 12.5})
->>> w = read_path(p)
->>> w.xy.tolist(), w.yaw_rad.round(4).tolist(), w.declared_crs, w.properties["energy_j"]
-([[0.0, 0.0], [3.0, 4.0]], [0.9273, 0.9273], 'EPSG:32631', 12.5)
+>>> _ = write_path(p, [[500000.0, 0.0], [500003.0, 4.0]], [0.9273, 0.9273],
+...                crs="EPSG:32631", properties={"energy_j": 12.5})
+>>> w = read_path(p)                        # RFC 7946: longitude, latitude
+>>> w.xy.round(6).tolist(), w.yaw_rad.round(4).tolist(), w.declared_crs
+([[3.0, 0.0], [3.000027, 3.6e-05]], [0.9273, 0.9273], 'OGC:CRS84')
+>>> _ = write_path(p, [[500000.0, 0.0], [500003.0, 4.0]], crs="EPSG:32631", native=True)
+>>> w = read_path(p)                        # the DEM's CRS, declared
+>>> w.xy.tolist(), w.declared_crs
+([[500000.0, 0.0], [500003.0, 4.0]], 'EPSG:32631')
 """
 
 from __future__ import annotations
@@ -63,7 +70,15 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import WaypointError, WaypointIOError
-from energy_planner.io import write_geojson
+from energy_planner.io import (
+    RFC7946_CRS,
+    crs_name,
+    declared_crs,
+    is_lonlat,
+    reproject_xy,
+    write_geojson,
+    x_axis_angle,
+)
 
 __all__ = [
     "PATH_FORMAT",
@@ -140,47 +155,6 @@ class Waypoints:
         return int(self.xy.shape[0])
 
 
-# ---------------------------------------------------------------------- CRS names
-def crs_name(crs: Any) -> str | None:
-    """Short name of a CRS for the ``crs`` member: ``"EPSG:n"`` when it has one, else WKT.
-
-    Examples
-    --------
-    >>> crs_name("EPSG:4326"), crs_name(None)
-    ('EPSG:4326', None)
-    """
-    if crs is None:
-        return None
-    if isinstance(crs, str):
-        return crs
-    epsg = None
-    try:
-        epsg = crs.to_epsg()
-    except Exception:  # noqa: BLE001 - any CRS object without an EPSG code
-        epsg = None
-    if epsg:
-        return f"EPSG:{epsg}"
-    to_wkt = getattr(crs, "to_wkt", None)
-    return to_wkt() if callable(to_wkt) else str(crs)
-
-
-def _declared_crs(doc: dict[str, Any], props: dict[str, Any]) -> str | None:
-    """The CRS named by the 2008 ``crs`` member (as GDAL writes it) or ``properties.crs``."""
-    name = None
-    crs = doc.get("crs")
-    if isinstance(crs, dict) and isinstance(crs.get("properties"), dict):
-        name = crs["properties"].get("name")
-    if not isinstance(name, str) or not name:
-        name = props.get("crs")
-    if not isinstance(name, str) or not name:
-        return None
-    # urn:ogc:def:crs:EPSG::32631 -> EPSG:32631 ; urn:ogc:def:crs:OGC:1.3:CRS84 -> OGC:CRS84
-    parts = name.split(":")
-    if name.lower().startswith("urn:ogc:def:crs:") and len(parts) >= 6 and parts[-1]:
-        return f"{parts[4]}:{parts[-1]}"
-    return name
-
-
 # ---------------------------------------------------------------------- writing
 def _finite_list(vals: Any, n: int, key: str, scale: float = 1.0) -> list[float]:
     try:
@@ -209,22 +183,27 @@ def path_document(
     t: Sequence[float] | np.ndarray | None = None,
     crs: Any = None,
     properties: dict[str, Any] | None = None,
+    native: bool = False,
 ) -> dict[str, Any]:
     """The GeoJSON dict of a path (see the module docstring for the format).
 
     Parameters
     ----------
     xy : array-like, shape (n, 2)
-        Vertices in the DEM's own CRS (``terrain.source_crs``), n >= 2.
+        Vertices in CRS ``crs``, n >= 2.
     yaw_rad : array-like, shape (n,), optional
         Body yaw, radians counter-clockwise from that CRS's +x axis at each vertex
         (local east for a geographic CRS); written as ``yaw_deg``.
     t : array-like, shape (n,), optional
         Times, s.
     crs : CRS, str or None
-        The CRS of ``xy`` (rasterio CRS or a string such as ``"EPSG:32631"``).
+        The CRS of ``xy`` (rasterio CRS or a string such as ``"EPSG:32631"``); None for
+        a local grid (written as given).
     properties : dict, optional
         Extra feature properties (``energy_j``, ``planner``, ...); JSON-serialisable.
+    native : bool
+        False (default): RFC 7946, longitude/latitude (yaw from local east), no ``crs``
+        member. True: coordinates in ``crs``, declared with the ``crs`` member.
 
     Returns
     -------
@@ -248,17 +227,23 @@ def path_document(
             value=arr.shape,
             expected="a finite (n >= 2, 2) array",
         )
+    yaw = None if yaw_rad is None else np.asarray(_finite_list(yaw_rad, n, "yaw_deg"))
+    times = None if t is None else np.asarray(_finite_list(t, n, "t"))
     name = crs_name(crs)
+    if name is not None and not native:
+        arr, yaw = _to_lonlat(arr, yaw, name)
+        name = RFC7946_CRS
+    keep = _not_repeated(arr, yaw, times)
     props: dict[str, Any] = {
         "format": PATH_FORMAT,
         "format_version": PATH_FORMAT_VERSION,
         "crs": name,
     }
-    if yaw_rad is not None:
+    if yaw is not None:
         props["yaw_frame"] = YAW_FRAME
-        props["yaw_deg"] = _finite_list(yaw_rad, n, "yaw_deg", 180.0 / math.pi)
-    if t is not None:
-        props["t"] = _finite_list(t, n, "t")
+        props["yaw_deg"] = [math.degrees(v) for v in yaw[keep]]
+    if times is not None:
+        props["t"] = [float(v) for v in times[keep]]
     for k, v in (properties or {}).items():
         if k in props:
             raise WaypointError(
@@ -268,16 +253,56 @@ def path_document(
             )
         props[k] = v
     doc: dict[str, Any] = {"type": "FeatureCollection"}
-    if name:
+    if name and native:
         doc["crs"] = {"type": "name", "properties": {"name": name}}
     doc["features"] = [
         {
             "type": "Feature",
             "properties": props,
-            "geometry": {"type": "LineString", "coordinates": arr.tolist()},
+            "geometry": {"type": "LineString", "coordinates": arr[keep].tolist()},
         }
     ]
     return doc
+
+
+def _to_lonlat(
+    arr: np.ndarray, yaw: np.ndarray | None, name: str
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Vertices (and yaw from the CRS's x axis) -> longitude, latitude (yaw from east)."""
+    if is_lonlat(name):
+        return arr, yaw
+    lon, lat = reproject_xy(name, RFC7946_CRS, arr[:, 0], arr[:, 1])
+    if not (np.isfinite(lon).all() and np.isfinite(lat).all()):
+        raise WaypointError(
+            f"xy has no longitude, latitude: are the coordinates in {name}?",
+            value=name,
+            expected=f"coordinates in {name}",
+        )
+    if yaw is not None:
+        # minus the angle of local east in ``name``: the exact inverse of what a reader
+        # adds (waypoints_to_work), so that a written path reads back as the same poses
+        yaw = yaw - x_axis_angle(RFC7946_CRS, name, lon, lat)
+    return np.column_stack([lon, lat]), yaw  # full precision: read back, the same poses
+
+
+def _not_repeated(arr: np.ndarray, yaw: np.ndarray | None, t: np.ndarray | None) -> np.ndarray:
+    """Mask of the vertices to write: a pose that repeats the previous one is dropped.
+
+    A repeated pose (same position, same yaw, no time or the same time) adds a
+    zero-length segment and nothing else.
+
+    Examples
+    --------
+    >>> _not_repeated(np.array([[0.0, 0], [0, 0], [1, 0], [1, 0]]), None, None).tolist()
+    [True, False, True, False]
+    """
+    cols = [arr] + [v[:, None] for v in (yaw, t) if v is not None]
+    full = np.hstack(cols)
+    same = np.all(full[1:] == full[:-1], axis=1)
+    keep = np.concatenate([[True], ~same])
+    if keep.sum() < 2:  # a path that stays in place keeps its two ends
+        keep[-1] = True
+    return keep
 
 
 def write_path(
@@ -288,9 +313,10 @@ def write_path(
     t: Sequence[float] | np.ndarray | None = None,
     crs: Any = None,
     properties: dict[str, Any] | None = None,
+    native: bool = False,
 ) -> Path:
     """Write :func:`path_document` to ``path`` (UTF-8 JSON) and return the path."""
-    doc = path_document(xy, yaw_rad, t=t, crs=crs, properties=properties)
+    doc = path_document(xy, yaw_rad, t=t, crs=crs, properties=properties, native=native)
     p = Path(path)
     try:
         write_geojson(p, doc)
@@ -305,8 +331,9 @@ def path_document_from_work(
     *,
     t: Sequence[float] | np.ndarray | None = None,
     properties: dict[str, Any] | None = None,
+    native: bool = False,
 ) -> dict[str, Any]:
-    """The GeoJSON dict of poses on a terrain's working grid, in the DEM's own CRS.
+    """The GeoJSON dict of poses on a terrain's working grid.
 
     Parameters
     ----------
@@ -316,19 +343,24 @@ def path_document_from_work(
         ``x, y[, yaw]`` in the working CRS (metres; yaw radians CCW from the grid's +x).
     t, properties
         As in :func:`path_document`.
+    native : bool
+        False (default): RFC 7946 longitude/latitude, yaw from local east. True: the
+        DEM's own CRS (``terrain.source_crs``), declared.
 
     Returns
     -------
     dict
-        Coordinates converted with ``terrain.from_work``, yaw with :func:`yaw_from_work`.
 
     Examples
     --------
     >>> from energy_planner.terrain import Terrain
     >>> ter = Terrain.from_function(lambda x, y: 0 * x, size=(10, 10))
-    >>> d = path_document_from_work(ter, [[1, 1, 0.5], [2, 2, 0.5]])
-    >>> d["features"][0]["properties"]["yaw_deg"][0] == math.degrees(0.5)
-    True
+    >>> d = path_document_from_work(ter, [[1, 1, 0.5], [2, 2, 0.5]], native=True)
+    >>> d["features"][0]["properties"]["yaw_deg"][0] == math.degrees(0.5), d["crs"]
+    (True, {'type': 'name', 'properties': {'name': 'EPSG:32631'}})
+    >>> d = path_document_from_work(ter, [[500000, 0, 0.5], [500001, 1, 0.5]])  # RFC 7946
+    >>> np.round(d["features"][0]["geometry"]["coordinates"][0], 9).tolist(), "crs" in d
+    ([3.0, 0.0], False)
     """
     s = np.asarray(states, dtype=float)
     if s.ndim != 2 or s.shape[1] not in (2, 3):
@@ -337,12 +369,15 @@ def path_document_from_work(
             value=s.shape,
             expected="(n, 2) or (n, 3)",
         )
-    x, y = terrain.from_work(s[:, 0], s[:, 1])
-    xy = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
-    yaw = yaw_from_work(terrain, s[:, 0], s[:, 1], s[:, 2]) if s.shape[1] == 3 else None
-    return path_document(
-        xy, yaw, t=t, crs=getattr(terrain, "source_crs", None), properties=properties
-    )
+    work = getattr(terrain, "crs", None)
+    if native or work is None:
+        x, y = terrain.from_work(s[:, 0], s[:, 1])
+        xy = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
+        yaw = yaw_from_work(terrain, s[:, 0], s[:, 1], s[:, 2]) if s.shape[1] == 3 else None
+        crs = getattr(terrain, "source_crs", None)
+        return path_document(xy, yaw, t=t, crs=crs, properties=properties, native=True)
+    yaw = s[:, 2] if s.shape[1] == 3 else None
+    return path_document(s[:, :2], yaw, t=t, crs=work, properties=properties)
 
 
 def write_path_from_work(
@@ -352,9 +387,10 @@ def write_path_from_work(
     *,
     t: Sequence[float] | np.ndarray | None = None,
     properties: dict[str, Any] | None = None,
+    native: bool = False,
 ) -> Path:
     """Write :func:`path_document_from_work` to ``path`` and return the path."""
-    doc = path_document_from_work(terrain, states, t=t, properties=properties)
+    doc = path_document_from_work(terrain, states, t=t, properties=properties, native=native)
     p = Path(path)
     try:
         write_geojson(p, doc)
@@ -494,7 +530,10 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
     yaw = _prop_list(props, "yaw_deg", len(coords), where_file, p)
     t = _prop_list(props, "t", len(coords), where_file, p)
     check_path(where_file, xy, t, labels, p)
-    declared = _declared_crs(doc, props)
+    declared = declared_crs(doc, props)
+    rfc = declared is None and bool(np.all((np.abs(xy[:, 0]) <= 180) & (np.abs(xy[:, 1]) <= 90)))
+    if rfc:
+        declared = RFC7946_CRS
     frame = props.get("yaw_frame")
     if frame is None and "format" not in props and "planner" in props and kind == "Feature":
         frame = LEGACY_YAW_FRAME
@@ -518,11 +557,16 @@ def parse_path(text: str, p: Path | None = None) -> Waypoints:
     if yaw is not None and frame == YAW_FRAME:
         geographic = _is_geographic_name(declared)
         suspect = warn_if_radians(yaw, xy, where_file, notes, geographic)
-    note = (
-        f"GeoJSON declares CRS {declared}"
-        if declared
-        else "GeoJSON: coordinates taken in the DEM's CRS (no 'crs' member)"
-    )
+    if rfc:
+        note = "GeoJSON without a 'crs' member: longitude, latitude (RFC 7946)"
+    elif declared:
+        note = f"GeoJSON declares CRS {declared}"
+    else:
+        note = (
+            "GeoJSON without a 'crs' member, but its coordinates are not longitude, latitude "
+            "(RFC 7946): taken in the DEM's CRS; declare it with a 'crs' member"
+        )
+        notes.append(note)
     extra = {
         k: v
         for k, v in props.items()

@@ -220,12 +220,24 @@ def test_bad_files(plane_tif, tmp_path):
     assert r.exit_code == 2 and "nodem.tif" in r.output
 
 
-def test_declared_crs_must_match_the_dem(plane_tif, tmp_path):
+def test_declared_crs_is_reprojected(plane_tif, tmp_path):
+    """A waypoint file in another CRS than the DEM's is reprojected (#19), and one whose
+    coordinates are not in the CRS it declares is a data error naming it and the map."""
+    import pyproj
+
     from energy_planner.energy.waypoints import write_waypoints_geojson
 
-    p = write_waypoints_geojson(tmp_path / "w.geojson", [MID, MID + 5], crs="EPSG:4326")
-    r = run("--dem", plane_tif, "--waypoints", p)
-    assert r.exit_code == 1 and "declares CRS EPSG:4326" in r.output
+    bad = write_waypoints_geojson(tmp_path / "w.geojson", [MID, MID + 5], crs="EPSG:4326")
+    r = run("--dem", plane_tif, "--waypoints", bad)
+    assert r.exit_code == 1 and "OGC:CRS84" in r.output and "covers x 500000" in r.output
+    same = run("--dem", plane_tif, "--waypoints", csv(tmp_path, [MID, MID + 5]), "--json")
+    to_ll = pyproj.Transformer.from_crs("EPSG:32631", "EPSG:4326", always_xy=True)
+    ll = np.array([to_ll.transform(*MID), to_ll.transform(*(MID + 5))])
+    p = write_waypoints_geojson(tmp_path / "ll.geojson", ll, crs="EPSG:4326")
+    r = run("--dem", plane_tif, "--waypoints", p, "--json")
+    assert r.exit_code == 0, r.output
+    a, b = json.loads(same.output), json.loads(r.output)
+    assert b["energy_j"] == pytest.approx(a["energy_j"], rel=1e-6)
 
 
 # ---------------------------------------------------------------------- geographic DEM

@@ -108,11 +108,15 @@ def test_plan_cli_json_geojson(dem, tmp_path):
     w = data["waypoints"]
     assert (w[0]["x"], w[0]["y"], w[0]["yaw_deg"]) == pytest.approx((500010, 5000010, 90))
     assert (w[-1]["x"], w[-1]["y"]) == pytest.approx((500050, 5000012))
-    # the project's one path format (energy_planner.geojson), read back to the same poses
+    # the project's one path format (energy_planner.geojson; RFC 7946 lon/lat), read back
+    # and placed on the map: the same poses
+    from energy_planner.energy.waypoints import waypoints_to_work
     from energy_planner.geojson import read_path
 
     wp = read_path(out)
-    assert np.allclose(wp.xy, [[p["x"], p["y"]] for p in w])
+    assert wp.declared_crs == "OGC:CRS84"
+    xy, _ = waypoints_to_work(dem[1], wp)
+    assert np.allclose(xy, [[p["x"], p["y"]] for p in w], atol=1e-6)
     assert len(wp.yaw_rad) == len(w)
     assert math.isclose(wp.properties["energy_j"], data["energy_j"])
 

@@ -124,7 +124,8 @@ COORDS = [[0.0, 0.0], [10.0, 0.0], [10.0, 5.0]]
 def test_geojson_forms(tmp_path, doc):
     w = read_waypoints(gj(tmp_path, doc))
     assert w.xy.tolist() == COORDS
-    assert w.yaw_rad is None and w.t is None and w.declared_crs is None
+    # no 'crs' member: RFC 7946 longitude, latitude
+    assert w.yaw_rad is None and w.t is None and w.declared_crs == "OGC:CRS84"
 
 
 def test_geojson_properties_crs_z_and_other_features(tmp_path):
@@ -218,7 +219,9 @@ def test_geojson_round_trip(tmp_path_factory, xy, data):
     yaw = data.draw(st.lists(st.floats(-10, 10), min_size=n, max_size=n))
     t = np.cumsum(data.draw(st.lists(st.floats(0.01, 100), min_size=n, max_size=n)))
     p = tmp_path_factory.mktemp("rt") / "p.geojson"
-    write_waypoints_geojson(p, xy, yaw, t=t, crs="EPSG:32631", properties={"energy_j": 1.5})
+    write_waypoints_geojson(
+        p, xy, yaw, t=t, crs="EPSG:32631", properties={"energy_j": 1.5}, native=True
+    )
     w = read_waypoints(p)
     np.testing.assert_array_equal(w.xy, np.asarray(xy, dtype=float))
     np.testing.assert_allclose(w.yaw_rad, yaw, rtol=1e-12, atol=1e-12)
@@ -318,7 +321,7 @@ def test_planned_path_round_trips_with_crs_and_yaw_frame(tmp_path):
     p = write_path_from_work(tmp_path / "plan.geojson", t, states, properties={"energy_j": 9.0})
     doc = json.loads(p.read_text())
     props = doc["features"][0]["properties"]
-    assert doc["crs"]["properties"]["name"] == "EPSG:4326" and props["crs"] == "EPSG:4326"
+    assert "crs" not in doc and props["crs"] == "OGC:CRS84"  # RFC 7946
     assert props["format"] == PATH_FORMAT and props["yaw_frame"] == "crs_x_ccw"
     # the file holds lon/lat and yaw from local east: differs from the grid yaw by the
     # meridian convergence (~1.7 deg here)
@@ -326,7 +329,7 @@ def test_planned_path_round_trips_with_crs_and_yaw_frame(tmp_path):
     conv = math.radians(props["yaw_deg"][0]) - states[0, 2]
     assert 1.0 < abs(math.degrees(conv)) < 2.5
     w = read_waypoints(p)
-    assert w.declared_crs == "EPSG:4326" and w.properties == {"energy_j": 9.0}
+    assert w.declared_crs == "OGC:CRS84" and w.properties == {"energy_j": 9.0}
     xy, yaw = waypoints_to_work(t, w)
     np.testing.assert_allclose(xy, states[:, :2], atol=1e-6)
     np.testing.assert_allclose(yaw, states[:, 2], atol=1e-9)

@@ -188,21 +188,6 @@ def compute(
             else "times from the file set the walking speed (--speed not used); turns in "
             "place at corners take their time at --yaw-rate"
         )
-    if wp.declared_crs and terrain.source_crs is not None:
-        from rasterio.crs import CRS
-        from rasterio.errors import CRSError
-
-        try:
-            same = CRS.from_user_input(wp.declared_crs) == terrain.source_crs
-        except CRSError:
-            same = None
-        if same is False:
-            raise click.ClickException(
-                f"waypoint file {str(waypoints)!r} declares CRS {wp.declared_crs} but the DEM "
-                f"is in {terrain.source_crs}; give the waypoints in the DEM's CRS"
-            )
-        if same is None:
-            notes.append(f"could not interpret the declared CRS {wp.declared_crs!r}; ignored")
     unused = channels.unused(model)
     if unused:
         notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
@@ -213,7 +198,8 @@ def compute(
             # channel rasters that leave part of the DEM uncovered, or have no CRS
             cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
-        check_waypoints(terrain, cost, wp.xy, xy)
+        xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages
+        check_waypoints(terrain, cost, np.column_stack([np.atleast_1d(xs), np.atleast_1d(ys)]), xy)
         result = path_energy(terrain, model, xy, yaw=yaw, t=wp.t, cost=cost)
     except click.ClickException:
         raise
@@ -226,6 +212,12 @@ def compute(
     out["map_distance_m"] = float(flat.sum())
     for seg, d in zip(out["segments"], flat, strict=True):
         seg["map_distance_m"] = float(d)
+    if (
+        wp.declared_crs
+        and terrain.crs is not None
+        and str(wp.declared_crs) != str(terrain.source_crs)
+    ):
+        notes.append(f"waypoints converted from {wp.declared_crs} (the file's CRS) to the map")
     if terrain.source_crs != terrain.crs:
         notes.append(
             f"waypoints converted from the DEM's CRS {terrain.source_crs} to the working "

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -14,6 +13,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    geojson_crs_option,
     json_option,
     load_model_option,
     memory_cap_option,
@@ -208,6 +208,32 @@ def planning_error(exc: Exception) -> click.ClickException:
     return click.ClickException(str(exc))
 
 
+def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None) -> dict:
+    """What a plan's JSON needs to be read alone: CRSs, limits and the model's id."""
+    from energy_planner.io import content_id, crs_name
+
+    lim, robot = request.limits, request.robot
+    ko = lim.keep_out
+    return {
+        "crs": {
+            "waypoints": crs_name(terrain.source_crs),
+            "dem": crs_name(terrain.source_crs),
+            "working_grid": crs_name(terrain.crs),
+        },
+        "limits": {
+            "max_slope_deg": lim.max_slope_deg,
+            "max_cross_slope_deg": lim.max_cross_slope_deg,
+            "keep_out": None if ko is None else str(ko) if isinstance(ko, str | Path) else len(ko),
+            "speed_m_s": robot.speed,
+            "yaw_rate_rad_s": robot.yaw_rate,
+        },
+        "model": {
+            "id": content_id(model.to_dict()),
+            "source": "default" if model_path is None else str(model_path),
+        },
+    }
+
+
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -268,8 +294,10 @@ def format_table(res: dict[str, Any]) -> str:
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Write the path as a GeoJSON LineString (yaw_deg per vertex).",
+    help="Write the path as a GeoJSON LineString (yaw_deg per vertex; longitude, latitude "
+    "unless --geojson-crs dem).",
 )
+@geojson_crs_option
 @click.option(
     "--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="PNG plot."
 )
@@ -293,6 +321,7 @@ def command(
     channels: tuple[str, ...],
     memory_cap: str | None,
     out: Path | None,
+    geojson_crs: str,
     plot: Path | None,
     as_json: bool,
 ) -> None:
@@ -345,10 +374,13 @@ def command(
         except EnergyPlannerError as exc:
             raise planning_error(exc) from exc
     result = res.to_dict(terrain)
+    result.update(plan_context(terrain, request, model, model_path))
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:
-        out.write_text(json.dumps(res.to_geojson(terrain), indent=1))
+        from energy_planner.io import write_geojson
+
+        write_geojson(out, res.to_geojson(terrain, native=geojson_crs == "dem"))
         result["out"] = str(out)
     if plot is not None:
         from energy_planner.planning.compare import Route, RouteComparison

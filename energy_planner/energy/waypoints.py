@@ -252,6 +252,7 @@ def write_waypoints_geojson(
     t: Sequence[float] | np.ndarray | None = None,
     crs: Any = None,
     properties: dict[str, Any] | None = None,
+    native: bool = False,
 ) -> Path:
     """Write a path in the project's GeoJSON format (:func:`energy_planner.geojson.write_path`).
 
@@ -273,6 +274,8 @@ def write_waypoints_geojson(
         The CRS of ``xy``, recorded in the file.
     properties : dict, optional
         Extra feature properties (e.g. ``energy_j``).
+    native : bool
+        False: RFC 7946 longitude/latitude; True: ``crs``, declared.
 
     Returns
     -------
@@ -284,7 +287,7 @@ def write_waypoints_geojson(
     WaypointError
         Bad shapes or non-finite values.
     """
-    return write_path(path, xy, yaw_rad, t=t, crs=crs, properties=properties)
+    return write_path(path, xy, yaw_rad, t=t, crs=crs, properties=properties, native=native)
 
 
 # ---------------------------------------------------------------------- CRS
@@ -308,6 +311,9 @@ def waypoints_to_work(terrain: Any, wp: Waypoints) -> tuple[np.ndarray, np.ndarr
     yaw : ndarray, shape (n,), or None
         Yaw in radians CCW from the working grid's +x axis.
     """
+    declared = getattr(wp, "declared_crs", None)
+    if declared is not None and terrain.crs is not None and not _is_dem_crs(declared, terrain):
+        return _declared_to_work(terrain, wp, declared)
     xw, yw = terrain.to_work(wp.xy[:, 0], wp.xy[:, 1])
     xy = np.column_stack([np.atleast_1d(xw), np.atleast_1d(yw)])
     if wp.yaw_rad is None:
@@ -315,3 +321,45 @@ def waypoints_to_work(terrain: Any, wp: Waypoints) -> tuple[np.ndarray, np.ndarr
     if wp.yaw_frame == LEGACY_YAW_FRAME:
         return xy, np.asarray(wp.yaw_rad, dtype=float)
     return xy, yaw_to_work(terrain, wp.xy[:, 0], wp.xy[:, 1], wp.yaw_rad)
+
+
+def _is_dem_crs(declared: str, terrain: Any) -> bool:
+    from rasterio.crs import CRS
+    from rasterio.errors import CRSError
+
+    try:
+        return CRS.from_user_input(declared) == terrain.source_crs
+    except CRSError as exc:
+        raise WaypointError(
+            f"the waypoint file declares CRS {declared!r}, which PROJ does not know ({exc})",
+            value=declared,
+            expected="an EPSG code or a PROJ CRS name",
+        ) from exc
+
+
+def _declared_to_work(
+    terrain: Any, wp: Waypoints, declared: str
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Waypoints in the CRS their file declares (not the DEM's) -> the working grid."""
+    from energy_planner.errors import CoordinateError, extent_text
+    from energy_planner.io import reproject_xy, x_axis_angle
+
+    x, y = reproject_xy(declared, terrain.crs, wp.xy[:, 0], wp.xy[:, 1])
+    bad = ~(np.isfinite(x) & np.isfinite(y))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise CoordinateError(
+            f"waypoint {i} ({wp.xy[i, 0]:.10g}, {wp.xy[i, 1]:.10g}) has no position on the map: "
+            f"the file says its coordinates are in {declared}; the map covers "
+            f"{extent_text(terrain.source_bounds, terrain.source_crs)}",
+            value=(float(wp.xy[i, 0]), float(wp.xy[i, 1])),
+            crs=declared,
+            path=wp.path,
+        )
+    xy = np.column_stack([x, y])
+    if wp.yaw_rad is None:
+        return xy, None
+    if wp.yaw_frame == LEGACY_YAW_FRAME:
+        return xy, np.asarray(wp.yaw_rad, dtype=float)
+    turn = x_axis_angle(declared, terrain.crs, wp.xy[:, 0], wp.xy[:, 1])
+    return xy, np.asarray(wp.yaw_rad, dtype=float) + turn

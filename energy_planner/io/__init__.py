@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from energy_planner.io.atomic import (
     atomic_path,
+    content_id,
     save_figure,
     write_bytes,
     write_json,
@@ -28,10 +29,12 @@ from energy_planner.io.geojson import (
     crs_name,
     declared_crs,
     feature_collection,
+    is_lonlat,
     read_geometries,
     reproject_geometries,
     reproject_xy,
     write_geojson,
+    x_axis_angle,
 )
 from energy_planner.io.geotiff import (
     NODATA,
@@ -46,11 +49,13 @@ __all__ = [
     "RFC7946_CRS",
     "Geometries",
     "atomic_path",
+    "content_id",
     "crs_name",
     "declared_crs",
     "describe_band",
     "feature_collection",
     "geotiff_profile",
+    "is_lonlat",
     "open_geotiff",
     "read_geometries",
     "reproject_geometries",
@@ -61,4 +66,5 @@ __all__ = [
     "write_geotiff",
     "write_json",
     "write_text",
+    "x_axis_angle",
 ]

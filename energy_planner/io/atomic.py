@@ -43,6 +43,7 @@ from typing import Any
 
 __all__ = [
     "atomic_path",
+    "content_id",
     "save_figure",
     "write_bytes",
     "write_json",
@@ -187,3 +188,23 @@ def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Pa
     with atomic_path(dest) as tmp:
         fig.savefig(tmp, **savefig_kw)
     return Path(dest)
+
+
+def content_id(obj: Any) -> str:
+    """A short, stable id of a JSON document's content: ``"sha256:"`` + 16 hex digits.
+
+    The same document (keys in any order) gives the same id, so a result can name the
+    model it used (``plan --json``'s ``model.id``) and a reader can check it against a
+    model file (``EnergyModel.load(p).to_dict()``).
+
+    Examples
+    --------
+    >>> content_id({"b": 1, "a": [1.5]}) == content_id({"a": [1.5], "b": 1})
+    True
+    >>> content_id({"a": 1})
+    'sha256:015abd7f5cc57a2d'
+    """
+    import hashlib
+
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()[:16]

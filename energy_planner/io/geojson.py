@@ -25,6 +25,7 @@ Examples
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -45,6 +46,7 @@ __all__ = [
     "reproject_geometries",
     "reproject_xy",
     "write_geojson",
+    "x_axis_angle",
 ]
 
 #: The CRS of RFC 7946 GeoJSON: WGS 84 longitude, latitude (in that order).
@@ -131,6 +133,9 @@ def _same_crs(a: Any, b: Any) -> bool:
 def reproject_xy(src: Any, dst: Any, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
     """Coordinates from CRS ``src`` to CRS ``dst`` (x = longitude for geographic CRSs).
 
+    A point PROJ cannot convert (a latitude beyond 90 degrees, ...) comes back as NaN
+    or infinity; callers check and name it.
+
     Examples
     --------
     >>> x, y = reproject_xy("OGC:CRS84", "EPSG:32631", [3.0], [0.0])
@@ -143,8 +148,63 @@ def reproject_xy(src: Any, dst: Any, x: Any, y: Any) -> tuple[np.ndarray, np.nda
         return xa.copy(), ya.copy()
     from rasterio.warp import transform
 
-    xs, ys = transform(src, dst, xa.ravel().tolist(), ya.ravel().tolist())
+    xl, yl = xa.ravel().tolist(), ya.ravel().tolist()
+    try:
+        xs, ys = transform(src, dst, xl, yl)
+    except Exception:  # noqa: BLE001 - PROJ refuses a point: NaN for those, one by one
+        xs, ys = [], []
+        for a, b in zip(xl, yl, strict=True):
+            try:
+                (u,), (v,) = transform(src, dst, [a], [b])
+            except Exception:  # noqa: BLE001
+                u = v = math.nan
+            xs.append(u)
+            ys.append(v)
     return np.asarray(xs, float).reshape(xa.shape), np.asarray(ys, float).reshape(ya.shape)
+
+
+def is_lonlat(crs: Any) -> bool:
+    """True for WGS 84 longitude/latitude (``OGC:CRS84``, ``EPSG:4326``).
+
+    Examples
+    --------
+    >>> is_lonlat("OGC:CRS84"), is_lonlat("EPSG:4326"), is_lonlat("EPSG:32631")
+    (True, True, False)
+    """
+    return crs is not None and _same_crs(crs, RFC7946_CRS)
+
+
+def x_axis_angle(src: Any, dst: Any, x: Any, y: Any) -> np.ndarray:
+    """Angle (rad, CCW) of CRS ``src``'s +x direction at ``(x, y)``, seen in CRS ``dst``.
+
+    For a geographic ``dst`` the angle is in the local east/north frame (degree steps
+    scaled to metres on the WGS 84 ellipsoid); for a projected ``dst``, from its +x axis.
+    Measured by transforming a point a small step along +x. A yaw from ``src``'s x
+    axis plus this angle is the yaw from ``dst``'s.
+
+    Examples
+    --------
+    >>> float(x_axis_angle("EPSG:32631", "OGC:CRS84", [500000.0], [5e6])[0])  # on the
+    ... # central meridian, UTM's grid north is true north
+    0.0
+    """
+    xa = np.atleast_1d(np.asarray(x, dtype=float))
+    ya = np.atleast_1d(np.asarray(y, dtype=float))
+    if _same_crs(src, dst):
+        return np.zeros(np.broadcast(xa, ya).shape)
+    from rasterio.crs import CRS
+
+    h = 1e-7 * np.maximum(1.0, np.abs(xa))  # central difference: error O(h^2)
+    x0, y0 = reproject_xy(src, dst, xa - h, ya)
+    x1, y1 = reproject_xy(src, dst, xa + h, ya)
+    dx, dy = x1 - x0, y1 - y0
+    y0 = 0.5 * (y0 + y1)
+    if CRS.from_user_input(dst).is_geographic:
+        # metres per degree east / north on the WGS 84 ellipsoid: N cos(lat) / M
+        e2 = 0.00669437999014
+        s2 = np.sin(np.radians(y0)) ** 2
+        dx = dx * np.cos(np.radians(y0)) * (1.0 - e2 * s2) / (1.0 - e2)
+    return np.arctan2(dy, dx)
 
 
 def reproject_geometries(geoms: Iterable[Any], src: Any, dst: Any) -> list[Any]:

@@ -53,9 +53,9 @@ def load_generated_module(text: str, prefix: str) -> ModuleType:
         return mod
     path = cache_dir() / f"{prefix}_{key}.py"
     if not path.exists() or path.read_text() != text:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: parallel processes never read half a file
+        from energy_planner.io import write_text
+
+        write_text(path, text)  # atomic: parallel processes never read half a file
     spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)

@@ -102,11 +102,11 @@ class PlanResult:
             for a, b, c in zip(x, y, np.degrees(yaw), strict=True)
         ]
 
-    def to_geojson(self, terrain) -> dict[str, Any]:
+    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
         """The project's GeoJSON path document (:mod:`energy_planner.geojson`).
 
-        In the DEM's CRS, with ``yaw_deg`` per vertex and the energy, distance, duration,
-        planner.
+        RFC 7946 longitude/latitude (``native=True``: the DEM's CRS, declared), with
+        ``yaw_deg`` per vertex and the energy, distance, duration, planner.
         """
         from energy_planner.geojson import path_document_from_work
 
@@ -119,6 +119,7 @@ class PlanResult:
                 "duration_s": self.duration_s,
                 "planner": self.planner,
             },
+            native=native,
         )
 
     def to_dict(self, terrain) -> dict[str, Any]:
