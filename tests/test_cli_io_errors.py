@@ -76,3 +76,61 @@ def test_projected_keep_out_without_crs_names_the_option(tmp_path):
     r = _run([*PLAN, "--goal", "500058,5000060", "--keep-out", str(f)])
     assert r.exit_code == 2, r.output
     assert "RFC 7946" in r.output and "--keep-out" in r.output
+
+
+def _options(cmd_name: str) -> set[str]:
+    import click
+
+    cmd = main.get_command(click.Context(main), cmd_name)
+    return {o for p in cmd.params for o in getattr(p, "opts", []) if o.startswith("--")}
+
+
+@pytest.mark.parametrize(
+    ("cmd", "lighter"),
+    [("plan", "a coarser --step or a larger --eps"), ("compare-routes", "")],
+)
+def test_time_budget_hint_names_only_existing_options(cmd, lighter):
+    """--time running out suggests options the command has (not 'fewer headings')."""
+    from energy_planner.cli.plan import planning_error
+    from energy_planner.errors import PlanningError
+
+    exc = PlanningError("budget", limit="time", stage="search", expanded=12)
+    msg = planning_error(exc, lighter).message
+    named = set(re.findall(r"--[a-z-]+", msg))
+    assert "--time" in named and named <= _options(cmd), (named, cmd)
+    assert "heading" not in msg
+
+
+def test_search_messages_name_no_cli_option():
+    """The library's budget errors name its own arguments (time=, step=, eps=)."""
+    from pathlib import Path
+
+    import energy_planner.planning.search as search
+
+    lines = Path(search.__file__).read_text().splitlines()
+    starts = [i for i, ln in enumerate(lines) if "raise PlanningError(" in ln]
+    budget = [i for i in starts if any('limit="time"' in ln for ln in lines[i : i + 8])]
+    assert budget
+    for i in budget:
+        call = "\n".join(lines[i : i + 8])
+        assert "--" not in call and "headings" not in call, call
+
+
+def test_category_raster_without_table_names_table(tmp_path):
+    """--channel ground=RASTER for a model comparing ground with 'mud' names :TABLE."""
+    from energy_planner.model import EnergyModel
+
+    doc = EnergyModel.default().to_dict()
+    doc["terms"].append({"name": "mud", "formula": "(ground == 'mud') * speed",
+                         "explanation": "mud", "unit": "W", "kind": "fwd"})  # fmt: skip
+    doc["coefficients"]["mud"] = 50.0
+    if doc.get("stderr"):
+        doc["stderr"]["mud"] = 1.0
+    model = tmp_path / "mud.json"
+    model.write_text(json.dumps(doc))
+    r = _run([*PLAN, "--goal", "500058,5000109", "--model", str(model),
+              "--channel", f"ground={HILL}"])  # fmt: skip
+    assert r.exit_code != 0
+    text = " ".join(r.output.split())
+    assert "--channel ground=RASTER:TABLE" in text and "--set ground=mud" in text
+    assert "Traceback" not in r.output

@@ -195,9 +195,21 @@ def request_from_options(
         raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
 
 
-def planning_error(exc: Exception) -> click.ClickException:
-    """A planning error as a click exception, by its structured fields."""
+def planning_error(exc: Exception, lighter: str = "") -> click.ClickException:
+    """A planning error as a click exception, by its structured fields.
+
+    ``lighter``: the command's options that make the search lighter (``"--step"``,
+    ``"--eps"``), named when the time budget runs out, besides ``--time``.
+    """
     from energy_planner.errors import CoordinateError, InvalidStateError
+
+    if getattr(exc, "limit", None) == "time" and getattr(exc, "stage", None):
+        what = exc.stage
+        done = f" after {exc.expanded} states expanded" if getattr(exc, "expanded", None) else ""
+        more = f", or make the search lighter with {lighter}" if lighter else ""
+        return click.ClickException(
+            f"the planning time budget ran out in the {what}{done}: give more --time{more}"
+        )
 
     endpoint = getattr(exc, "endpoint", None)
     if isinstance(exc, InvalidStateError | CoordinateError) and endpoint in ("start", "goal"):
@@ -364,7 +376,7 @@ def command(
         except (DEMError, DEMIOError) as exc:
             raise click.BadParameter(str(exc), param_hint="--dem") from exc
         except EnergyPlannerError as exc:
-            raise planning_error(exc) from exc
+            raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     else:
         terrain = load_terrain(dem)
         s = point_to_work(terrain, start, "--start", True)
@@ -372,7 +384,7 @@ def command(
         try:
             res = plan(terrain, model, s, g, request, progress=True, **kwargs)
         except EnergyPlannerError as exc:
-            raise planning_error(exc) from exc
+            raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)
     result.update(plan_context(terrain, request, model, model_path))
     if "corridor" in res.info:

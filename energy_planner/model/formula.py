@@ -258,8 +258,17 @@ def _src(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, An
             # constant compared with a string): fold the comparison.
             return "1.0" if bool(_CMPOPS[op][0](known[0], known[1])) else "0.0"
         if any(isinstance(k, str) for k in known):
+            var = node.left if known[0] is _UNKNOWN else node.comparators[0]
+            name = var.id if isinstance(var, ast.Name) else ast.unparse(var)
+            cat = known[1] if known[0] is _UNKNOWN else known[0]
             raise FormulaError(
-                f"formula {text!r} compares a per-sample category; give it as a constant"
+                f"formula {text!r} compares {name} with the category {cat!r}, but {name} is "
+                f"given as numbers per cell or sample: a raster of category codes needs its "
+                f"value table, --channel {name}=RASTER:TABLE (a CSV of code,category rows, "
+                f"e.g. 1,{cat}); or give one category for the whole map, --set {name}={cat}",
+                value=name,
+                column=name,
+                hint=f"--channel {name}=RASTER:TABLE",
             )
         left, right = rec(node.left), rec(node.comparators[0])
         return f"(1.0 if {left} {_CMPOPS[op][1]} {right} else 0.0)"

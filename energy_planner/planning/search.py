@@ -463,8 +463,9 @@ def relaxed_cost_to_go(
             if time.perf_counter() > deadline:
                 raise PlanningError(
                     "the planning time budget ran out while solving the relaxed problem "
-                    "(heuristic); give more --time or a coarser --step",
+                    "(heuristic); give more time (time=) or a coarser step (step=)",
                     limit="time",
+                    stage="heuristic",
                 )
     finally:
         if bar is not None:
@@ -520,8 +521,10 @@ def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *
             if time.perf_counter() > deadline:
                 raise PlanningError(
                     f"the planning time budget ran out after {expanded} states expanded; "
-                    "give more --time, a coarser --step, or fewer headings",
+                    "give more time (time=), a coarser step (step=) or a larger eps (eps=)",
                     limit="time",
+                    stage="search",
+                    expanded=expanded,
                 )
     finally:
         if bar is not None:
