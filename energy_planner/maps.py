@@ -1,4 +1,4 @@
-"""Bundled maps (``maps/`` at the repository root) and their demo scenarios.
+"""Bundled maps (package data, linked from ``maps/`` in a checkout) and their scenarios.
 
 >>> map_path("hill").name
 'hill.tif'
@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -19,18 +18,17 @@ __all__ = ["MAPS_DIR", "map_names", "map_path", "scenario", "scenario_names"]
 
 
 def _maps_dir() -> Path:
-    """The ``maps/`` folder: the source checkout's, else the installed data files'."""
-    candidates = [
-        Path(__file__).resolve().parents[1] / "maps",  # source checkout / editable install
-        Path(sys.prefix) / "share" / "energy_planner" / "maps",  # wheel data-files
-    ]
-    for d in candidates:
-        if (d / "scenarios.json").exists():
-            return d
-    return candidates[0]
+    """The bundled maps: package data ``energy_planner/data/maps`` (importlib.resources).
+
+    The same in a source checkout (where ``maps/`` at the root links to these files), an
+    editable install, a wheel in a venv or ``pip install --user``.
+    """
+    from importlib.resources import files
+
+    return Path(str(files("energy_planner") / "data" / "maps"))
 
 
-#: The bundled maps folder (``maps/`` of the checkout, or its installed copy).
+#: The bundled maps folder (package data).
 MAPS_DIR = _maps_dir()
 
 _FILES = {
@@ -67,7 +65,7 @@ def map_path(name: str) -> Path:
     if not path.exists():
         raise DEMIOError(
             f"bundled map {name!r} is missing at {path}; regenerate it with the scripts "
-            f"in {MAPS_DIR} (make_synthetic.py, make_jacksboro.py)"
+            "in maps/ of the source (make_synthetic.py, make_jacksboro.py)"
         )
     return path
 

@@ -31,7 +31,13 @@ import rasterio
 from matplotlib import cbook
 from rasterio.transform import from_origin
 
-OUT = Path(__file__).resolve().parent / "jacksboro_fault_dem.tif"
+OUT = (  # package data (maps/ at the root links to it)
+    Path(__file__).resolve().parents[1]
+    / "energy_planner"
+    / "data"
+    / "maps"
+    / "jacksboro_fault_dem.tif"
+)
 
 
 def main() -> None:

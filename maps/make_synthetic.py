@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
+# package data (maps/ at the root links to it)
+HERE = Path(__file__).resolve().parents[1] / "energy_planner" / "data" / "maps"
 CRS = "EPSG:32631"
 X0, Y0 = 500_000.0, 5_000_000.0  # south-west corner of both maps
 

@@ -59,7 +59,7 @@ def parse_memory_cap(value: str | None) -> int | None:
     from energy_planner.terrain.memory import parse_cap
 
     text = value.strip()
-    if text.lower() in ("off", "none"):
+    if text.lower() in ("off", "none", "no"):  # as ENERGY_PLANNER_MEMORY_CAP accepts
         return 1 << 62  # no cap
     try:
         if not text:

@@ -1,0 +1,60 @@
+"""#19 installs: bundled data as package data found with importlib.resources, py.typed,
+the version stated once, and --memory-cap no accepted like the environment variable."""
+
+from __future__ import annotations
+
+import fnmatch
+import tomllib
+from importlib.resources import files
+from pathlib import Path
+
+from click.testing import CliRunner
+
+import energy_planner
+from energy_planner.cli import main
+from energy_planner.maps import MAPS_DIR, map_names, map_path
+
+ROOT = Path(__file__).resolve().parents[1]
+PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def _package_data() -> list[str]:
+    return PYPROJECT["tool"]["setuptools"]["package-data"]["energy_planner"]
+
+
+def _shipped(rel: str) -> bool:
+    return any(fnmatch.fnmatch(rel, pat) for pat in _package_data())
+
+
+def test_maps_are_package_data_found_with_importlib_resources():
+    res = files("energy_planner") / "data" / "maps"
+    for name in map_names():
+        p = map_path(name)
+        assert (res / p.name).is_file()
+        assert p.parent == MAPS_DIR == Path(str(res))
+        assert _shipped(f"data/maps/{p.name}"), p.name  # in the wheel
+    assert _shipped("data/maps/scenarios.json")
+    assert "data-files" not in PYPROJECT["tool"]["setuptools"]  # no sys.prefix copy
+    assert "sys.prefix" not in (ROOT / "energy_planner" / "maps.py").read_text()
+
+
+def test_py_typed_is_shipped():
+    assert (files("energy_planner") / "py.typed").is_file()
+    assert _shipped("py.typed")
+
+
+def test_version_is_stated_once():
+    project = PYPROJECT["project"]
+    assert "version" not in project and "version" in project["dynamic"]
+    attr = PYPROJECT["tool"]["setuptools"]["dynamic"]["version"]["attr"]
+    assert attr == "energy_planner.__version__" and energy_planner.__version__
+
+
+def test_memory_cap_no_is_accepted_like_the_variable():
+    from energy_planner.terrain.memory import parse_cap
+
+    assert parse_cap("no") is None  # the environment variable's parser: no cap
+    r = CliRunner().invoke(main, ["plan", "--dem", str(map_path("hill")), "--start",
+                                  "500058,5000046", "--goal", "500058,5000084",
+                                  "--memory-cap", "no", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
