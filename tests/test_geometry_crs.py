@@ -120,3 +120,37 @@ def test_keep_out_on_the_map_gives_no_warning(dems, tmp_path):
         warnings.simplefilter("error", GeometryOutsideMapWarning)
         (g,) = to_work_geometries(load_keep_out(f), dems["utm"])
     assert abs(g.bounds[0] - (X0 + 30)) < 0.01
+
+
+def test_start_goal_in_another_crs_are_reprojected():
+    """--points-crs: --start/--goal (and yaw, from local east) in lon/lat on a UTM DEM."""
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+    from energy_planner.maps import map_path
+
+    hill = str(map_path("hill"))
+    to_ll = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True)
+    s, g = (500058.0, 5000046.0), (500070.0, 5000060.0)
+    (slon, slat), (glon, glat) = to_ll.transform(*s), to_ll.transform(*g)
+    base = ["plan", "--dem", hill, "--planner", "search", "--json"]
+    utm = CliRunner().invoke(main, [*base, "--start", f"{s[0]},{s[1]},90", "--goal",
+                                    f"{g[0]},{g[1]}"])  # fmt: skip
+    # north (90 deg CCW from east) in lon/lat is grid north turned by the convergence
+    fwd = pyproj.Transformer.from_crs("EPSG:4326", UTM, always_xy=True)
+    (x0, x1), (y0, y1) = fwd.transform([slon, slon], [slat, slat + 1e-5])
+    north = float(np.degrees(np.arctan2(y1 - y0, x1 - x0)))
+    pts = ["--start", f"{slon!r},{slat!r},90", "--goal", f"{glon!r},{glat!r}"]
+    ll = CliRunner().invoke(main, [*base, "--points-crs", "EPSG:4326", *pts])
+    assert utm.exit_code == 0 and ll.exit_code == 0, (utm.output, ll.output)
+    a, b = json.loads(utm.stdout), json.loads(ll.stdout)
+    w0 = b["waypoints"][0]
+    assert abs(w0["x"] - s[0]) < 1e-3 and abs(w0["y"] - s[1]) < 1e-3
+    assert w0["yaw_deg"] == pytest.approx(north, abs=1e-4) and abs(north - 90) > 1e-4
+    assert b["energy_j"] == pytest.approx(a["energy_j"], rel=5e-3)
+    r = CliRunner().invoke(main, ["reach", hill, "--points-crs", "EPSG:4326", "--start",
+                                  f"{slon!r},{slat!r}", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    bad = CliRunner().invoke(main, [*base, "--points-crs", "EPSG:4326", "--start",
+                                    f"{s[0]},{s[1]}", "--goal", f"{glon},{glat}"])  # fmt: skip
+    assert bad.exit_code == 2 and "--points-crs" in bad.output and "covers x 500000" in bad.output

@@ -178,8 +178,47 @@ def staircase_options(f):
     return f
 
 
+#: ``ctx.meta`` key of ``--points-crs`` (read by :func:`points_crs`).
+POINTS_CRS_KEY = "energy_planner.points_crs"
+
+
+def _store_points_crs(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
+    if value is not None:
+        from rasterio.crs import CRS
+        from rasterio.errors import CRSError
+
+        try:
+            CRS.from_user_input(value)
+        except CRSError as exc:
+            raise click.BadParameter(
+                f"{value!r} is not a CRS PROJ knows ({exc}); e.g. EPSG:4326 (longitude, "
+                "latitude) or EPSG:32631",
+                param_hint="--points-crs",
+            ) from exc
+    ctx.meta[POINTS_CRS_KEY] = value
+
+
+#: ``--points-crs``: the CRS of the command line's points (default: the DEM's).
+points_crs_option = click.option(
+    "--points-crs",
+    metavar="CRS",
+    default=None,
+    expose_value=False,
+    callback=_store_points_crs,
+    help="CRS of --start/--goal, e.g. EPSG:4326 for longitude,latitude (yaw then from "
+    "local east); default: the DEM's CRS.",
+)
+
+
+def points_crs() -> str | None:
+    """``--points-crs`` of the running command (None: the DEM's CRS)."""
+    ctx = click.get_current_context(silent=True)
+    return None if ctx is None else ctx.find_root().meta.get(POINTS_CRS_KEY)
+
+
 def start_goal_options(f):
-    """``--start`` and ``--goal`` as X,Y[,YAW_DEG] in the DEM's CRS."""
+    """``--start`` and ``--goal`` as X,Y[,YAW_DEG] in the DEM's CRS (or ``--points-crs``)."""
+    f = points_crs_option(f)
     f = click.option("--goal", required=True, help="Goal X,Y[,YAW_DEG] in the DEM's CRS.")(f)
     return click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")(f)
 

@@ -20,6 +20,7 @@ from energy_planner.cli.options import (
     model_option,
     parse_memory_cap,
     parse_point,
+    points_crs,
     seed_option,
     speed_option,
     start_goal_options,
@@ -44,12 +45,33 @@ def point_to_work(terrain: Any, value: str, hint: str, with_yaw: bool) -> tuple:
     from energy_planner.errors import CoordinateError, OutsideMapError
 
     p = parse_point(value, hint, with_yaw=with_yaw)
+    if points_crs() is not None and terrain.crs is not None:
+        return _reproject_point(p, terrain.crs, hint, terrain.source_bounds, terrain.source_crs)
     try:
         x, y = terrain.to_work(p[0], p[1])
     except (CoordinateError, OutsideMapError) as exc:
         raise click.BadParameter(str(exc), param_hint=hint) from exc
     yaw = math.radians(p[2]) if len(p) == 3 else None
     return (float(x), float(y), yaw)
+
+
+def _reproject_point(p: tuple, dst: Any, hint: str, bounds: Any, dem_crs: Any) -> tuple:
+    """A point given in ``--points-crs`` -> ``(x, y, yaw_rad | None)`` in CRS ``dst``."""
+    from energy_planner.errors import extent_text
+    from energy_planner.io import reproject_xy, x_axis_angle
+
+    src = points_crs()
+    x, y = (float(v[0]) for v in reproject_xy(src, dst, [p[0]], [p[1]]))
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise click.BadParameter(
+            f"({p[0]:.10g}, {p[1]:.10g}) is not a position in {src} (--points-crs); the map "
+            f"covers {extent_text(bounds, dem_crs)}",
+            param_hint=hint,
+        )
+    yaw = None
+    if len(p) == 3:
+        yaw = math.radians(p[2]) + float(x_axis_angle(src, dst, [p[0]], [p[1]])[0])
+    return (x, y, yaw)
 
 
 def over_memory_cap(dem: Path, cap: int | None) -> bool:
@@ -77,6 +99,15 @@ def over_memory_cap(dem: Path, cap: int | None) -> bool:
 def point_in_dem_crs(value: str, hint: str, with_yaw: bool) -> tuple:
     """``X,Y[,YAW_DEG]`` as ``(x, y[, yaw_rad])`` in the DEM's own (projected) CRS."""
     p = parse_point(value, hint, with_yaw=with_yaw)
+    if points_crs() is not None:  # the DEM's CRS from its header
+        import rasterio
+
+        dem = click.get_current_context().params.get("dem")
+        with rasterio.open(dem) as src:
+            crs, b = src.crs, src.bounds
+        if crs is not None:
+            x, y, yaw = _reproject_point(p, crs, hint, (b.left, b.bottom, b.right, b.top), crs)
+            return (x, y, yaw) if with_yaw and yaw is not None else (x, y)
     return (p[0], p[1], math.radians(p[2])) if len(p) == 3 else (p[0], p[1])
 
 

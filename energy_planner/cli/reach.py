@@ -17,6 +17,7 @@ from energy_planner.cli.options import (
     memory_cap_option,
     model_option,
     parse_memory_cap,
+    points_crs_option,
     speed_option,
     yaw_rate_option,
 )
@@ -58,7 +59,8 @@ def _text(res: dict[str, Any]) -> str:
 
 @click.command("reach")
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--start", required=True, help="Start X,Y in the DEM's CRS.")
+@click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
+@points_crs_option
 @click.option(
     "--budget-wh",
     type=click.FloatRange(min=0, min_open=True),
