@@ -171,3 +171,18 @@ def test_read_geometries_projected_without_crs_is_an_error(tmp_path):
 def test_read_geometries_missing_file(tmp_path):
     with pytest.raises(ValueError, match="does not exist"):
         read_geometries(tmp_path / "nope.geojson")
+
+
+def test_atomic_new_path_for_directory_writers(tmp_path):
+    """create=False: a fresh name (a ROS 2 bag writer makes a folder there)."""
+    dest = tmp_path / "run1"
+    with atomic_path(dest, create=False) as tmp:
+        assert not tmp.exists() and tmp.name == "run1"
+        tmp.mkdir()
+        (tmp / "data.mcap").write_text("x")
+        assert not dest.exists()
+    assert (dest / "data.mcap").read_text() == "x"
+    with pytest.raises(RuntimeError), atomic_path(tmp_path / "run2", create=False) as tmp:
+        tmp.mkdir()
+        raise RuntimeError
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run1"]

@@ -161,16 +161,15 @@ def test_crab_moves_on_a_steep_plane(model):
 def _energy_of_written_path(tmp_path, terrain, model, res):
     """Write the plan with --out's format, read it back as `energy --waypoints` does and
     price it with a fresh MotionCost (nothing shared with the planner)."""
-    from energy_planner.geojson import read_path, write_path_from_work, yaw_to_work
+    from energy_planner.energy.waypoints import waypoints_to_work
+    from energy_planner.geojson import read_path, write_path_from_work
 
-    f = write_path_from_work(tmp_path / "p.geojson", terrain, res.states)
+    f = write_path_from_work(tmp_path / "p.geojson", terrain, res.states)  # RFC 7946 lon/lat
     wp = read_path(f)
-    assert wp.yaw_frame == "crs_x_ccw"
-    x, y = terrain.to_work(wp.xy[:, 0], wp.xy[:, 1])
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    yaw = yaw_to_work(terrain, wp.xy[:, 0], wp.xy[:, 1], wp.yaw_rad)
+    assert wp.yaw_frame == "crs_x_ccw" and wp.declared_crs == "OGC:CRS84"
+    xy, yaw = waypoints_to_work(terrain, wp)
     fresh = MotionCost(terrain, model)
-    return path_energy(terrain, model, np.column_stack([x, y]), yaw=yaw, cost=fresh).energy_j
+    return path_energy(terrain, model, xy, yaw=yaw, cost=fresh).energy_j
 
 
 @pytest.mark.parametrize(

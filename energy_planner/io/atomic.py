@@ -91,13 +91,17 @@ def _mode_for(dest: Path) -> int:
 
 
 @contextlib.contextmanager
-def atomic_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``dest``; rename it to ``dest`` on success.
 
     Parameters
     ----------
     dest : str or path-like
         The file to (re)write. Its directory must exist.
+    create : bool
+        True: the temporary path is an empty file. False: it does not exist yet (for
+        writers that refuse an existing path or make a directory, such as ROS bag
+        writers); a directory is renamed to ``dest``, which must not exist then.
 
     Yields
     ------
@@ -118,6 +122,10 @@ def atomic_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
     stray ``.<name>.<random>.tmp<suffix>`` file beside it.
     """
     dest = Path(dest)
+    if not create:
+        with _atomic_new(dest) as tmp:
+            yield tmp
+        return
     fd, name = tempfile.mkstemp(
         dir=dest.parent if str(dest.parent) else ".",
         prefix=f".{dest.stem}.",
@@ -136,6 +144,22 @@ def atomic_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
         if not done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
+
+
+@contextlib.contextmanager
+def _atomic_new(dest: Path) -> Iterator[Path]:
+    """:func:`atomic_path` with ``create=False``: a fresh name in a private temp folder."""
+    import shutil
+
+    parent = dest.parent if str(dest.parent) else Path(".")
+    holder = Path(tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}.", suffix=".tmp"))
+    tmp = holder / dest.name
+    try:
+        with _sigterm_raises():
+            yield tmp
+            os.replace(tmp, dest)
+    finally:
+        shutil.rmtree(holder, ignore_errors=True)
 
 
 def write_bytes(dest: str | os.PathLike[str], data: bytes) -> Path:

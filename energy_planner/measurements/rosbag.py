@@ -563,14 +563,17 @@ def write_rosbag(
     for r, target in targets.items():
         if target.exists():
             raise LogIOError(f"write_rosbag: {str(target)!r} exists already; not overwriting")
-        _write_one(
-            samples[samples["run"].astype(str) == r].sort_values("t"),
-            target,
-            version,
-            tops,
-            extras,
-            storage,
-        )
+        from energy_planner.io import atomic_path
+
+        with atomic_path(target, create=False) as tmp:  # a killed write leaves no bag
+            _write_one(
+                samples[samples["run"].astype(str) == r].sort_values("t"),
+                tmp,
+                version,
+                tops,
+                extras,
+                storage,
+            )
     return list(targets.values())
 
 
