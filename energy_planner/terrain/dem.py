@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from affine import Affine
 
-from energy_planner.errors import CoordinateError, DEMError, DEMIOError, fmt_num
+from energy_planner.errors import CoordinateError, DEMError, DEMIOError, extent_text, fmt_num
 from energy_planner.terrain.horn import (
     aspect_from_gradient,
     horn_gradient,
@@ -642,7 +642,7 @@ def _read_window(
             left, bottom, right, top = src.bounds
             raise DEMError(
                 f"bounds {tuple(bounds)!r} do not overlap DEM {name!r}, which covers "
-                f"({left:.6g}, {bottom:.6g}, {right:.6g}, {top:.6g}) in {src.crs}",
+                f"{extent_text((left, bottom, right, top), src.crs)}",
                 path=name,
                 value=tuple(bounds),
                 param="bounds",
