@@ -55,3 +55,17 @@ def test_path_repeats_no_vertex():
     # a turn in place (same position, new yaw) is a real pose and stays
     turn = path_document([[0, 0], [0, 0], [5, 0]], [0.0, 1.0, 1.0], crs=None)
     assert len(turn["features"][0]["geometry"]["coordinates"]) == 3
+
+
+def test_energy_map_bands_carry_gdal_units(tmp_path):
+    """GeoTIFF band units are GDAL units (src.units), not only tags (#19)."""
+    import rasterio
+
+    out = tmp_path / "plane.tif"
+    r = CliRunner().invoke(main, ["energy-map", str(map_path("plane")), "--out", str(out),
+                                  "--headings", "4"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    with rasterio.open(out) as src:
+        units = [src.tags(b).get("units") for b in range(1, src.count + 1)]
+        assert all(units) and list(src.units) == units
+        assert all(src.descriptions) and np.isnan(src.nodata)

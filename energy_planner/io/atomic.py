@@ -80,14 +80,21 @@ def _sigterm_raises() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _read_umask() -> int:
+    umask = os.umask(0)  # read once, at import (os.umask can only be read by setting it)
+    os.umask(umask)
+    return umask
+
+
+_UMASK = _read_umask()
+
+
 def _mode_for(dest: Path) -> int:
     """Permissions of the new file: the old file's, else 0o666 minus the umask."""
     try:
         return dest.stat().st_mode & 0o7777
     except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask
+        return 0o666 & ~_UMASK
 
 
 @contextlib.contextmanager
