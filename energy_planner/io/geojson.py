@@ -53,13 +53,30 @@ __all__ = [
 RFC7946_CRS = "OGC:CRS84"
 
 
-class Geometries(list):
-    """A list of shapely geometries with the CRS of their coordinates (``.crs``)."""
+class Geometries(tuple):
+    """Shapely geometries (a tuple) with the CRS of their coordinates (``.crs``).
 
-    def __init__(self, geoms: Iterable[Any] = (), crs: str | None = None, source: str = "") -> None:
-        super().__init__(geoms)
-        self.crs = crs
-        self.source = source
+    ``source`` names the file they came from, for messages.
+
+    Examples
+    --------
+    >>> from shapely.geometry import Point
+    >>> g = Geometries([Point(3, 45)], crs="OGC:CRS84", source="ko.geojson")
+    >>> len(g), g.crs, isinstance(g, tuple)
+    (1, 'OGC:CRS84', True)
+    """
+
+    crs: str | None
+    source: str
+
+    def __new__(
+        cls, geoms: Iterable[Any] = (), crs: str | None = None, source: str = ""
+    ) -> Geometries:
+        """The geometries ``geoms`` in CRS ``crs``, read from ``source``."""
+        obj = super().__new__(cls, tuple(geoms))
+        obj.crs = crs
+        obj.source = source
+        return obj
 
 
 def crs_name(crs: Any) -> str | None:
@@ -428,7 +445,7 @@ def _read_geometries(p: Path, what: str, types: tuple[str, ...]) -> Geometries:
         except CRSError as exc:
             raise _bad(p, f"{src} declares CRS {crs!r}, which PROJ does not know ({exc})",
                        value=crs, expected="an EPSG code or a PROJ CRS name") from exc  # fmt: skip
-    out = Geometries(crs=crs or RFC7946_CRS, source=str(p))
+    out: list[Any] = []
     for k, g in enumerate(_raw_geometries(data, src, p)):
         fields = {"value": k, "expected": " or ".join(types)}
         try:
@@ -446,4 +463,4 @@ def _read_geometries(p: Path, what: str, types: tuple[str, ...]) -> Geometries:
         raise _bad(p, f"{src} holds no {' or '.join(types)}")
     if crs is None:
         _check_lonlat(out, RFC7946_CRS, src, p)
-    return out
+    return Geometries(out, crs=crs or RFC7946_CRS, source=str(p))
