@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "plan": "plan",
     "compare-routes": "compare_routes",
     "reach": "reach",
+    "mission": "mission",
 }
 
 

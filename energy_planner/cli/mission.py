@@ -1,0 +1,150 @@
+"""``energy-planner mission``: visit several sites in the least-energy order."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from energy_planner.cli.options import (
+    channel_options,
+    channels_from_options,
+    dem_option,
+    emit,
+    geojson_crs_option,
+    json_option,
+    load_model_option,
+    model_option,
+    speed_option,
+    yaw_rate_option,
+)
+from energy_planner.cli.plan import (
+    limit_options,
+    load_terrain,
+    planning_error,
+    request_from_options,
+)
+
+
+def _text(res: dict[str, Any]) -> str:
+    lines = [f"{'leg':<24} {'energy J':>10} {'Wh':>7} {'dist m':>8} {'time s':>8}"]
+    for leg in res["legs"]:
+        lines.append(
+            f"{leg['from'] + ' -> ' + leg['to']:<24} {leg['energy_j']:>10.0f} "
+            f"{leg['energy_j'] / 3600:>7.2f} {leg['distance_m']:>8.1f} {leg['duration_s']:>8.0f}"
+        )
+    lines.append(
+        f"{'tour':<24} {res['energy_j']:>10.0f} {res['energy_wh']:>7.2f} "
+        f"{res['distance_m']:>8.1f} {res['duration_s']:>8.0f}"
+    )
+    lines.append(f"order: {' -> '.join(res['order'])}" + (" (and back)" if res["return"] else ""))
+    lines.append(f"chosen by: {res['method']}; energies between sites from one search per site")
+    moved = [s for s in res["sites"] if s["moved_m"] > 0.01]
+    if moved:
+        lines.append(f"{len(moved)} site(s) moved onto their cell centres, at most "
+                     f"{max(s['moved_m'] for s in moved):.2f} m")  # fmt: skip
+    for key, label in (("geojson", "GeoJSON"), ("plot", "plot")):
+        if res.get(key):
+            lines.append(f"{label:<8} {res[key]}")
+    return "\n".join(lines)
+
+
+@click.command("mission")
+@dem_option
+@click.option(
+    "--sites",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="CSV x,y[,yaw_deg][,name] in the DEM's CRS, or GeoJSON points (lon/lat unless the "
+    "file declares a crs). The first site is the start.",
+)
+@click.option(
+    "--order",
+    type=click.Choice(["best", "given"]),
+    default="best",
+    show_default=True,
+    help="best: the least-energy order (exact up to 15 sites); given: as listed.",
+)
+@click.option("--return", "return_to_start", is_flag=True, help="Come back to the first site.")
+@click.option(
+    "--scheduler",
+    default=None,
+    help="Address of a dask.distributed scheduler to run the per-site searches on "
+    "(default: in this process).",
+)
+@model_option
+@limit_options
+@speed_option
+@yaw_rate_option
+@channel_options
+@click.option("--geojson", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="GeoJSON of the legs and sites (lon/lat; see --geojson-crs).")  # fmt: skip
+@geojson_crs_option
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="PNG of the tour over the slope map.")  # fmt: skip
+@json_option
+def command(
+    dem: Path,
+    sites: Path,
+    order: str,
+    return_to_start: bool,
+    scheduler: str | None,
+    model_path: Path | None,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    speed: float,
+    yaw_rate: float,
+    sets: tuple[str, ...],
+    channels: tuple[str, ...],
+    geojson: Path | None,
+    geojson_crs: str,
+    plot: Path | None,
+    as_json: bool,
+) -> None:
+    r"""Visit the sites of --sites in the least-energy (or given) order over DEM.
+
+    The energy from each site to every other comes from one search per site (the
+    planner's own motions and kernel; uphill differs from downhill), the order from
+    Held-Karp (exact) or OR-Tools beyond 15 sites, and each leg is then planned.
+
+    \b
+    Example:
+      energy-planner mission --dem maps/hill.tif --sites sites.csv --return --json
+    """
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.mission import mission, read_sites
+
+    terrain = load_terrain(dem)
+    model = load_model_option(model_path)
+    request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out,
+                                   channels_from_options(sets, channels))  # fmt: skip
+    try:
+        s = read_sites(sites, terrain)
+    except EnergyPlannerError as exc:
+        raise click.BadParameter(str(exc), param_hint="--sites") from exc
+    client = None
+    if scheduler is not None:
+        from distributed import Client
+
+        client = Client(scheduler)
+    try:
+        res = mission(terrain, model, s, request, order=order, return_to_start=return_to_start,
+                      client=client, progress=True)  # fmt: skip
+    except EnergyPlannerError as exc:
+        raise planning_error(exc) from exc
+    finally:
+        if client is not None:
+            client.close()
+    out = res.to_dict()
+    out["dem"] = str(dem)
+    if geojson is not None:
+        from energy_planner.io import write_geojson
+
+        write_geojson(geojson, res.to_geojson(terrain, native=geojson_crs == "dem"))
+        out["geojson"] = str(geojson)
+    if plot is not None:
+        res.plot(terrain, plot)
+        out["plot"] = str(plot)
+    emit(out, as_json, _text)

@@ -1,0 +1,23 @@
+"""Missions: several sites, the least-energy order, each leg planned.
+
+>>> from energy_planner.mission import held_karp
+>>> held_karp([[0, 2, 9], [9, 0, 2], [2, 9, 0]], return_to_start=True)
+([0, 1, 2], 6.0)
+"""
+
+from energy_planner.mission.core import Leg, MissionResult, energy_matrix, mission
+from energy_planner.mission.sites import Sites, read_sites
+from energy_planner.mission.tour import EXACT_MAX_SITES, brute_force, held_karp, order_sites
+
+__all__ = [
+    "EXACT_MAX_SITES",
+    "Leg",
+    "MissionResult",
+    "Sites",
+    "brute_force",
+    "energy_matrix",
+    "held_karp",
+    "mission",
+    "order_sites",
+    "read_sites",
+]

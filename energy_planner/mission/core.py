@@ -1,0 +1,301 @@
+"""A mission: several sites visited in the best order, each leg planned and priced.
+
+The energy between every pair of sites comes from **one search per site**: the planner's
+own search over (x, y, heading) without a goal (:func:`energy_planner.planning.reach.reach`,
+the same motions and kernel as :func:`energy_planner.planning.plan`), read at the other
+sites' cells. The matrix is asymmetric (uphill is not downhill). The order is then chosen
+on it (:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned
+with :func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
+``eps=1`` (the default here) a leg's planned energy equals its matrix entry.
+
+Sites lie on the DEM's cell centres (as :func:`~energy_planner.planning.reach.reach` moves
+its start), so that the matrix and the legs price the same poses; the moved distance is
+reported. Headings are free at every site.
+
+The per-site searches are independent: with a ``dask.distributed`` client they run in
+parallel on its workers (a :class:`~distributed.LocalCluster` or a cluster given by
+address), with the same result as the serial loop.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import PlanningError
+from energy_planner.mission.sites import Sites
+from energy_planner.mission.tour import order_sites
+
+__all__ = ["Leg", "MissionResult", "energy_matrix", "mission"]
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a tour: from site ``a`` to site ``b``, planned."""
+
+    a: int
+    b: int
+    energy_j: float
+    matrix_energy_j: float
+    distance_m: float
+    duration_s: float
+    states: np.ndarray = field(repr=False)
+
+
+@dataclass
+class MissionResult:
+    """A planned mission: the order, its legs, totals and the energy matrix.
+
+    Attributes
+    ----------
+    sites : Sites
+        The sites (working CRS, on cell centres), names included.
+    order : list of int
+        Visiting order (site indices; the first is the start).
+    legs : list of Leg
+        The planned legs in order (with the return leg when ``return_to_start``).
+    matrix_j : ndarray, shape (n, n)
+        Least energy from row site to column site (one search per site), J.
+    method : str
+        How the order was chosen.
+    return_to_start : bool
+        Whether the tour comes back to the first site.
+    """
+
+    sites: Sites
+    order: list[int]
+    legs: list[Leg]
+    matrix_j: np.ndarray
+    method: str
+    return_to_start: bool
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def energy_j(self) -> float:
+        """Total planned energy, J."""
+        return float(sum(leg.energy_j for leg in self.legs))
+
+    @property
+    def distance_m(self) -> float:
+        """Total ground distance, m."""
+        return float(sum(leg.distance_m for leg in self.legs))
+
+    @property
+    def duration_s(self) -> float:
+        """Total walking time, s."""
+        return float(sum(leg.duration_s for leg in self.legs))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary: order, legs, totals, the matrix."""
+        names = self.sites.names
+        return {
+            "order": [names[i] for i in self.order],
+            "order_index": list(self.order),
+            "method": self.method,
+            "return": self.return_to_start,
+            "energy_j": self.energy_j,
+            "energy_wh": self.energy_j / 3600.0,
+            "distance_m": self.distance_m,
+            "duration_s": self.duration_s,
+            "legs": [
+                {
+                    "from": names[leg.a],
+                    "to": names[leg.b],
+                    "energy_j": leg.energy_j,
+                    "matrix_energy_j": leg.matrix_energy_j,
+                    "distance_m": leg.distance_m,
+                    "duration_s": leg.duration_s,
+                }
+                for leg in self.legs
+            ],  # fmt: skip
+            "sites": self.sites.to_dicts(),
+            "matrix_j": [
+                [None if not math.isfinite(v) else float(v) for v in row] for row in self.matrix_j
+            ],  # fmt: skip
+            **self.info,
+        }
+
+    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
+        """RFC 7946 FeatureCollection: one LineString per leg and one Point per site."""
+        from shapely.geometry import LineString, Point
+
+        from energy_planner.io.geojson import feature_collection
+
+        geoms, props = [], []
+        for k, leg in enumerate(self.legs):
+            geoms.append(LineString(leg.states[:, :2]))
+            props.append({"leg": k, "from": self.sites.names[leg.a],
+                          "to": self.sites.names[leg.b], "energy_j": leg.energy_j,
+                          "distance_m": leg.distance_m, "duration_s": leg.duration_s})  # fmt: skip
+        for i in self.order:
+            geoms.append(Point(self.sites.xy[i]))
+            props.append({"site": self.sites.names[i], "visit": self.order.index(i)})
+        return feature_collection(zip(geoms, props, strict=True), crs=terrain.crs, native=native)
+
+    def plot(self, terrain, path: str | Path) -> Path:
+        """PNG: legs over a hillshade, sites numbered in visiting order."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from energy_planner.io import save_figure
+
+        fig, ax = plt.subplots(figsize=(7, 6))
+        x0, y0, dx, dy = terrain.grid
+        rows, cols = terrain.shape
+        ext = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
+        im = ax.imshow(np.degrees(terrain.slope), extent=ext, cmap="Greys", origin="upper")
+        fig.colorbar(im, ax=ax, label="slope (deg)")
+        for leg in self.legs:
+            ax.plot(leg.states[:, 0], leg.states[:, 1], lw=2)
+        for k, i in enumerate(self.order):
+            x, y = self.sites.xy[i]
+            ax.plot(x, y, "o", color="tab:red")
+            ax.annotate(f"{k}: {self.sites.names[i]}", (x, y), textcoords="offset points",
+                        xytext=(4, 4))  # fmt: skip
+        ax.set_title(f"mission: {self.energy_j / 1000:.1f} kJ, {self.distance_m:.0f} m "
+                     f"({self.method})")  # fmt: skip
+        crs = terrain.crs.to_string() if terrain.crs is not None else "working grid"
+        ax.set_xlabel(f"x (m, {crs})")
+        ax.set_ylabel(f"y (m, {crs})")
+        out = save_figure(fig, path, dpi=110)
+        plt.close(fig)
+        return out
+
+
+def _one_site(terrain, model, request, xy, n_headings, max_energy):
+    from energy_planner.planning.reach import reach
+
+    return reach(terrain, model, xy, request, n_headings=n_headings,
+                 max_energy=max_energy).energy_j  # fmt: skip
+
+
+def energy_matrix(
+    terrain,
+    model,
+    sites: Sites,
+    request=None,
+    *,
+    n_headings: int = 16,
+    max_energy: float | None = None,
+    client: Any = None,
+    progress: bool = False,
+) -> np.ndarray:
+    """Least energy between every ordered pair of sites, one search per site.
+
+    Parameters
+    ----------
+    terrain, model, request
+        As for :func:`energy_planner.planning.plan`.
+    sites : Sites
+        On cell centres (working CRS).
+    n_headings : int
+        Search headings.
+    max_energy : float, optional
+        Stop each search at this energy (J); farther sites get ``inf``.
+    client : distributed.Client, optional
+        Run the searches on this dask cluster's workers (same result as serial).
+    progress : bool
+        A progress bar over the sites on stderr.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``E[i, j]``: energy from site i to site j, J (``inf`` unreachable, 0 diagonal).
+    """
+    rc = sites.cells(terrain)
+    xy = [tuple(map(float, p)) for p in sites.xy]
+    args = (n_headings, max_energy)
+    if client is not None:
+        futs = [client.submit(_one_site, terrain, model, request, p, *args, pure=False)
+                for p in xy]  # fmt: skip
+        grids = client.gather(futs)
+    else:
+        from tqdm import tqdm
+
+        grids = [_one_site(terrain, model, request, p, *args)
+                 for p in tqdm(xy, desc="searches", unit="site", disable=not progress)]  # fmt: skip
+    n = len(xy)
+    E = np.full((n, n), np.inf)
+    for i, g in enumerate(grids):
+        vals = g[rc[:, 0], rc[:, 1]]
+        E[i] = np.where(np.isfinite(vals), vals, np.inf)
+        E[i, i] = 0.0
+    return E
+
+
+def mission(
+    terrain,
+    model,
+    sites: Sites | str | Path,
+    request=None,
+    *,
+    order: str = "best",
+    return_to_start: bool = False,
+    planner: str = "search",
+    eps: float = 1.0,
+    n_headings: int = 16,
+    client: Any = None,
+    progress: bool = False,
+) -> MissionResult:
+    """Visit several sites in the given or the least-energy order and plan every leg.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map.
+    model : EnergyModel
+        A fitted energy model.
+    sites : Sites or path
+        The sites, or a CSV/GeoJSON file (:func:`energy_planner.mission.read_sites`).
+    request : Request, optional
+        Robot, limits, channels (as for ``plan``).
+    order : {"best", "given"}
+        ``best``: the least-energy order (exact up to
+        :data:`~energy_planner.mission.tour.EXACT_MAX_SITES` sites).
+    return_to_start : bool
+        Come back to the first site.
+    planner, eps, n_headings
+        The planner for each leg's path (default: the optimal search, whose energy equals
+        the matrix's).
+    client : distributed.Client, optional
+        Run the per-site searches on a dask cluster.
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    MissionResult
+    """
+    from energy_planner.planning.plan import plan
+
+    if not isinstance(sites, Sites):
+        from energy_planner.mission.sites import read_sites
+
+        sites = read_sites(sites, terrain)
+    sites = sites.on_cells(terrain)
+    E = energy_matrix(terrain, model, sites, request, n_headings=n_headings, client=client,
+                      progress=progress)  # fmt: skip
+    o, total, method = order_sites(E, order, return_to_start)
+    if not math.isfinite(total):
+        bad = [(sites.names[i], sites.names[j]) for i in range(len(E)) for j in range(len(E))
+               if not math.isfinite(E[i, j])]  # fmt: skip
+        raise PlanningError(
+            f"no tour visits every site: no path between {bad[:5]} (slope limits, keep-outs "
+            "or the map's edge separate them)", value=bad[:5])  # fmt: skip
+    pairs = list(zip(o[:-1], o[1:], strict=True))
+    if return_to_start and len(o) > 1:
+        pairs.append((o[-1], o[0]))
+    legs = []
+    for a, b in pairs:
+        r = plan(terrain, model, tuple(sites.xy[a]), tuple(sites.xy[b]), request,
+                 planner=planner, eps=eps, n_headings=n_headings, progress=progress)  # fmt: skip
+        legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
+                        float(r.duration_s), r.states))  # fmt: skip
+    return MissionResult(sites, o, legs, E, method, return_to_start,
+                         info={"matrix_energy_j": float(total), "planner": planner})  # fmt: skip
