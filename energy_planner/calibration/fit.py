@@ -765,6 +765,11 @@ def fit_model(
                     "heldout_energy_mean_abs_rel_error": round(heldout.energy_mean_abs_rel, 5),
                     "heldout_energy_median_abs_rel_error": round(heldout.energy_median_abs_rel, 5),
                     "heldout_energy_p90_abs_rel_error": round(heldout.energy_p90_abs_rel, 5),
+                    # every held-out run's predicted / measured - 1, sorted: the scores of
+                    # the split-conformal energy intervals (energy_planner.uncertainty)
+                    "heldout_run_rel_errors": sorted(
+                        round(float(v), 5) for v in heldout.runs["rel_error"].dropna()
+                    ),
                     "n_splits": heldout.n_splits,
                 }
             ),

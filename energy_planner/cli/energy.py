@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    add_trust,
     band_option,
     channel_options,
     channels_from_options,
@@ -19,6 +20,8 @@ from energy_planner.cli.options import (
     load_model_option,
     model_option,
     speed_option,
+    trust_lines,
+    trust_options,
     yaw_rate_option,
 )
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
@@ -254,6 +257,7 @@ def compute(
 @yaw_rate_option
 @band_option
 @channel_options
+@trust_options
 @json_option
 def command(
     dem: Path,
@@ -264,6 +268,11 @@ def command(
     band: int | None,
     sets: tuple[str, ...],
     channels: tuple[str, ...],
+    level: float,
+    battery_wh: float | None,
+    reserve_wh: float,
+    confidence: float,
+    refuse: bool,
     as_json: bool,
 ) -> None:
     """Energy of walking a given path over a DEM, with a per-segment breakdown.
@@ -277,4 +286,6 @@ def command(
     """
     ch = channels_from_options(sets, channels)
     res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch)
-    emit(res, as_json, format_table)
+    add_trust(res, load_model_option(model_path), res["energy_j"], level, battery_wh,
+              reserve_wh, confidence, refuse)  # fmt: skip
+    emit(res, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

@@ -329,3 +329,72 @@ def load_model_option(model_path: Path | None):
         return EnergyModel.load(model_path)
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--model") from exc
+
+
+def trust_options(f):
+    """``--level`` (interval) and ``--battery-wh/--reserve-wh/--confidence/--refuse``."""
+    opts = [
+        click.option("--level", type=click.FloatRange(0.5, 0.99), default=0.9, show_default=True,
+                     help="Nominal coverage of the energy's prediction interval."),
+        click.option("--battery-wh", type=click.FloatRange(min=0, min_open=True), default=None,
+                     help="Battery energy, Wh: print the chance that the route fits in it "
+                     "(less --reserve-wh)."),
+        click.option("--reserve-wh", type=click.FloatRange(min=0), default=0.0,
+                     show_default=True, help="Energy to keep in the battery, Wh."),
+        click.option("--confidence", type=click.FloatRange(0.5, 0.999), default=0.9,
+                     show_default=True,
+                     help="Required chance that the battery suffices: below it, a warning "
+                     "(or an error with --refuse)."),
+        click.option("--refuse", is_flag=True,
+                     help="Exit with an error (status 1) when the chance is below "
+                     "--confidence."),
+    ]  # fmt: skip
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+def add_trust(
+    result: dict[str, Any], model: Any, energy_j: float, level: float,
+    battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
+) -> None:  # fmt: skip
+    """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
+
+    A chance below ``confidence`` prints a warning on stderr, or with ``refuse`` raises a
+    ``click.ClickException`` (exit status 1).
+    """
+    from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
+
+    iv = predict_interval(model, energy_j, level)
+    result["interval"] = None if iv is None else iv.to_dict()
+    if battery_wh is None:
+        return
+    try:
+        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence)
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
+    result["battery"] = d.to_dict()
+    if not d.ok:
+        if refuse:
+            raise click.ClickException(d.text().strip())
+        click.echo(f"warning: {d.text().strip()}", err=True)
+
+
+def trust_lines(res: dict[str, Any]) -> str:
+    """The interval and battery lines of a result (empty when it has neither)."""
+    from energy_planner.uncertainty import BatteryDecision, EnergyInterval
+
+    lines = []
+    iv = res.get("interval")
+    if iv:
+        e = EnergyInterval(iv["energy_j"], iv["low_j"], iv["high_j"], iv["level"])
+        lines.append(f"interval  {e.text()}, split-conformal on "
+                     f"{iv['calibrated_on_runs']} held-out runs")  # fmt: skip
+    elif "interval" in res:
+        lines.append("interval  none: the model carries no held-out run errors")
+    b = res.get("battery")
+    if b:
+        d = BatteryDecision(b["battery_wh"], b["reserve_wh"], b["usable_wh"] * 3600.0,
+                            b["probability"], b["confidence"])  # fmt: skip
+        lines.append(d.text())
+    return "\n".join(lines)

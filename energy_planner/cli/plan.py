@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    add_trust,
     channel_options,
     channels_from_options,
     dem_option,
@@ -24,6 +25,8 @@ from energy_planner.cli.options import (
     seed_option,
     speed_option,
     start_goal_options,
+    trust_lines,
+    trust_options,
     yaw_rate_option,
 )
 from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
@@ -341,6 +344,7 @@ def format_table(res: dict[str, Any]) -> str:
     "unless --geojson-crs dem).",
 )
 @geojson_crs_option
+@trust_options
 @click.option(
     "--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="PNG plot."
 )
@@ -365,6 +369,11 @@ def command(
     memory_cap: str | None,
     out: Path | None,
     geojson_crs: str,
+    level: float,
+    battery_wh: float | None,
+    reserve_wh: float,
+    confidence: float,
+    refuse: bool,
     plot: Path | None,
     as_json: bool,
 ) -> None:
@@ -418,6 +427,7 @@ def command(
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)
     result.update(plan_context(terrain, request, model, model_path))
+    add_trust(result, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse)
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:
@@ -438,4 +448,4 @@ def command(
         )  # fmt: skip
         comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J")
         result["plot"] = str(plot)
-    emit(result, as_json, format_table)
+    emit(result, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

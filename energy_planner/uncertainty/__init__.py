@@ -1,0 +1,218 @@
+r"""Prediction intervals on energies and the chance that a battery suffices.
+
+A fitted model predicts a run's energy ``E``; on runs it was not fitted on, its error
+``r = E / E_true - 1`` scatters. The fit's cross-validation by run
+(:func:`energy_planner.calibration.fit.cross_validate`) records every held-out run's ``r``
+in the model (``metadata["fit"]["heldout_run_rel_errors"]``). Those are the scores of a
+**split-conformal** interval: with ``n`` held-out scores and level ``L``, the conformal
+quantiles of ``r`` (the ``ceil((n + 1) p) / n`` order statistics) bound the error of a new
+run drawn like the calibration's runs with probability at least ``L``, by construction, and
+the interval on the true energy is
+
+.. math:: E_\text{true} \in [E / (1 + r_\text{hi}),\; E / (1 + r_\text{lo})].
+
+The same scores give the whole predictive distribution, so the chance that the true energy
+fits in a usable battery energy ``U`` is the share of scores with ``E / (1 + r) <= U``
+(:func:`success_probability`).
+
+What it does not know: a path far longer than the calibration's runs (errors that average
+out make the interval conservative there), and a path on slopes, headings or channel values
+the campaign never saw (the interval is only as good as the model there). A model without
+held-out scores (an old file, or ``fit --folds 0``) has no interval: ``None``, said so.
+
+Examples
+--------
+>>> rng = np.random.default_rng(0)
+>>> scores = np.sort(rng.normal(0.0, 0.02, 500))
+>>> iv = interval(1000.0, scores, level=0.9)
+>>> bool(iv.low_j < 1000.0 < iv.high_j), iv.level
+(True, 0.9)
+>>> round(success_probability(1000.0, scores, usable_j=1000.0), 1)
+0.5
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import EnergyPlannerError
+
+__all__ = [
+    "DEFAULT_LEVEL",
+    "BatteryDecision",
+    "EnergyInterval",
+    "battery_decision",
+    "interval",
+    "model_scores",
+    "predict_interval",
+    "success_probability",
+]
+
+#: Default level of prediction intervals.
+DEFAULT_LEVEL = 0.9
+
+
+class BatteryError(EnergyPlannerError, ValueError):
+    """A battery's chance of getting through is below the required confidence."""
+
+
+@dataclass(frozen=True)
+class EnergyInterval:
+    """A predicted energy with its prediction interval.
+
+    Attributes
+    ----------
+    energy_j : float
+        The model's prediction, J.
+    low_j, high_j : float
+        The interval's bounds, J.
+    level : float
+        Its nominal coverage (0.9: 90 %).
+    n_scores : int
+        Held-out runs it was calibrated on.
+    """
+
+    energy_j: float
+    low_j: float
+    high_j: float
+    level: float = DEFAULT_LEVEL
+    n_scores: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields (J and Wh)."""
+        return {
+            "energy_j": self.energy_j,
+            "low_j": self.low_j,
+            "high_j": self.high_j,
+            "low_wh": self.low_j / 3600.0,
+            "high_wh": self.high_j / 3600.0,
+            "level": self.level,
+            "calibrated_on_runs": self.n_scores,
+            "method": "split-conformal on held-out run energies",
+        }
+
+    def text(self) -> str:
+        """``"[a .. b] J (90 %)"``."""
+        return f"[{self.low_j:.0f} .. {self.high_j:.0f}] J ({100 * self.level:g} %)"
+
+
+def model_scores(model: Any) -> np.ndarray | None:
+    """The held-out relative run-energy errors a model carries (sorted), or None."""
+    fit = (getattr(model, "metadata", None) or {}).get("fit") or {}
+    s = fit.get("heldout_run_rel_errors")
+    if not s:
+        return None
+    a = np.sort(np.asarray(s, dtype=float))
+    a = a[np.isfinite(a) & (a > -1.0)]
+    return a if a.size else None
+
+
+def _conformal(scores: np.ndarray, p: float) -> float:
+    """The conformal ``p`` quantile: order statistic ``ceil((n + 1) p)`` (1-based), clipped."""
+    n = scores.size
+    k = math.ceil((n + 1) * p)
+    return float(scores[min(max(k, 1), n) - 1])
+
+
+def interval(energy_j: float, scores: np.ndarray, level: float = DEFAULT_LEVEL) -> EnergyInterval:
+    """The split-conformal interval of a predicted energy from held-out scores.
+
+    Parameters
+    ----------
+    energy_j : float
+        Predicted energy, J.
+    scores : ndarray
+        Held-out ``predicted / measured - 1`` of runs (any order).
+    level : float
+        Nominal coverage, in (0, 1).
+
+    Returns
+    -------
+    EnergyInterval
+    """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be in (0, 1), not {level!r}")
+    s = np.sort(np.asarray(scores, dtype=float))
+    a = (1.0 - level) / 2.0
+    r_lo, r_hi = _conformal(s, a), _conformal(s, 1.0 - a)
+    return EnergyInterval(float(energy_j), float(energy_j) / (1.0 + r_hi),
+                          float(energy_j) / (1.0 + r_lo), float(level), int(s.size))  # fmt: skip
+
+
+def predict_interval(model: Any, energy_j: float, level: float = DEFAULT_LEVEL):
+    """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores."""
+    s = model_scores(model)
+    return None if s is None else interval(energy_j, s, level)
+
+
+def success_probability(energy_j: float, scores: np.ndarray, usable_j: float) -> float:
+    """Chance that the true energy of a run predicted at ``energy_j`` is at most ``usable_j``.
+
+    The share of held-out scores ``r`` with ``energy_j / (1 + r) <= usable_j`` (with the
+    conformal ``+1`` in the count, so that it is never 1 from a finite sample).
+    """
+    s = np.asarray(scores, dtype=float)
+    if usable_j <= 0:
+        return 0.0
+    ok = int(np.count_nonzero(energy_j / (1.0 + s) <= usable_j))
+    return ok / (s.size + 1)
+
+
+@dataclass(frozen=True)
+class BatteryDecision:
+    """Whether a route fits in a battery: the chance, and the verdict at a confidence."""
+
+    battery_wh: float
+    reserve_wh: float
+    usable_j: float
+    probability: float
+    confidence: float
+
+    @property
+    def ok(self) -> bool:
+        """The chance reaches the confidence."""
+        return self.probability >= self.confidence
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {"battery_wh": self.battery_wh, "reserve_wh": self.reserve_wh,
+                "usable_wh": self.usable_j / 3600.0, "probability": self.probability,
+                "confidence": self.confidence, "ok": self.ok}  # fmt: skip
+
+    def text(self) -> str:
+        """One line for people."""
+        verdict = "OK" if self.ok else "BELOW the required confidence"
+        return (f"battery      {100 * self.probability:.1f} % chance the route fits in "
+                f"{self.usable_j / 3600:.1f} Wh usable ({self.battery_wh:g} Wh - "
+                f"{self.reserve_wh:g} Wh reserve): {verdict} "
+                f"({100 * self.confidence:g} % required)")  # fmt: skip
+
+
+def battery_decision(
+    model: Any, energy_j: float, battery_wh: float, reserve_wh: float = 0.0,
+    confidence: float = DEFAULT_LEVEL,
+) -> BatteryDecision:  # fmt: skip
+    """The chance that a route predicted at ``energy_j`` fits in a battery.
+
+    Raises
+    ------
+    BatteryError
+        The model carries no held-out scores (refit it with cross-validation), or the
+        reserve is not below the battery.
+    """
+    if not reserve_wh < battery_wh:
+        raise BatteryError(f"the reserve ({reserve_wh:g} Wh) must be below the battery "
+                           f"({battery_wh:g} Wh)", value=reserve_wh)  # fmt: skip
+    s = model_scores(model)
+    if s is None:
+        raise BatteryError(
+            "the model carries no held-out run errors, so it cannot give the chance that a "
+            "battery suffices: refit it with cross-validation (energy-planner fit --folds 5)"
+        )
+    usable = (battery_wh - reserve_wh) * 3600.0
+    return BatteryDecision(float(battery_wh), float(reserve_wh), usable,
+                           success_probability(energy_j, s, usable), float(confidence))  # fmt: skip

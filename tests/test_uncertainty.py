@@ -1,0 +1,124 @@
+"""Energy intervals and battery chances (``energy_planner.uncertainty``).
+
+The coverage check is independent of the model's formulas: the model is fitted on one
+simulated campaign (whose truth is mechanistic physics), its interval is calibrated on
+that campaign's held-out runs, and the interval is then scored on the runs of a fresh
+campaign (another seed: other noise, other sensor faults) that neither fit nor
+calibration saw.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.calibration import fit_model
+from energy_planner.calibration._windows import window_energy
+from energy_planner.calibration.fit import model_features
+from energy_planner.cli import main
+from energy_planner.measurements import make_windows, preprocess
+from energy_planner.model import EnergyModel
+from energy_planner.simulate import CampaignConfig, simulate_campaign
+from energy_planner.uncertainty import (
+    BatteryError,
+    battery_decision,
+    interval,
+    model_scores,
+    predict_interval,
+    success_probability,
+)
+
+CAMPAIGN = CampaignConfig.small(
+    slopes_deg=(0.0, 8.0, 16.0, 24.0),
+    headings_deg=(0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0),
+    run_s=10.0,
+)
+
+
+def _windows(seed):
+    clean, _ = preprocess(simulate_campaign(seed=seed, config=CAMPAIGN).logs)
+    return make_windows(clean, duration=2.0)
+
+
+def test_interval_covers_fresh_runs_at_its_level():
+    fit = fit_model(_windows(0), n_splits=5, seed=0)
+    model = fit.model
+    scores = model_scores(model)
+    assert scores is not None and scores.size == fit.n_runs
+    fresh = _windows(1)
+    s = fresh.samples
+    pred = model.power(model_features(s, model))
+    win = pd.DataFrame({"measured": window_energy(s), "predicted": window_energy(s, pred)})
+    run_of = s.groupby("window")["run"].first()
+    per_run = win.groupby(run_of.reindex(win.index).to_numpy()).sum()
+    assert len(per_run) > 80
+    for level in (0.8, 0.9):
+        inside = [
+            (iv := predict_interval(model, p, level)).low_j <= m <= iv.high_j
+            for p, m in zip(per_run["predicted"], per_run["measured"], strict=True)
+        ]
+        cov = float(np.mean(inside))
+        print(f"coverage at {level}: {cov:.3f} over {len(inside)} fresh runs")
+        assert level - 0.1 <= cov <= min(level + 0.08, 1.0), (level, cov)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(st.floats(-0.3, 0.3), min_size=5, max_size=200),
+    st.floats(100.0, 1e6),
+    st.floats(0.05, 0.95),
+)
+def test_interval_and_chance_properties(scores, energy, level):
+    s = np.asarray(scores)
+    iv = interval(energy, s, level)
+    assert iv.low_j <= iv.high_j
+    wider = interval(energy, s, min(level + 0.04, 0.99))
+    assert wider.low_j <= iv.low_j and wider.high_j >= iv.high_j
+    # the chance grows with the battery and reaches its most at the interval's top
+    u = np.linspace(0.5 * energy, 2.0 * energy, 7)
+    p = [success_probability(energy, s, x) for x in u]
+    assert all(a <= b for a, b in zip(p, p[1:], strict=False))
+    assert success_probability(energy, s, iv.high_j) == pytest.approx(
+        np.count_nonzero(energy / (1 + s) <= iv.high_j) / (s.size + 1)
+    )
+
+
+def test_chance_is_a_half_at_the_median_of_symmetric_errors():
+    s = np.linspace(-0.05, 0.05, 1001)
+    assert success_probability(1000.0, s, 1000.0) == pytest.approx(0.5, abs=0.002)
+
+
+def test_battery_decision_and_errors():
+    m = EnergyModel.default()
+    d = battery_decision(m, 3600.0 * 10, battery_wh=20, reserve_wh=2, confidence=0.9)
+    assert d.ok and d.probability > 0.99
+    d = battery_decision(m, 3600.0 * 10, battery_wh=10.05, confidence=0.9)
+    assert not d.ok and 0 < d.probability < 0.9
+    with pytest.raises(BatteryError):
+        battery_decision(m, 1.0, battery_wh=1, reserve_wh=2)
+    bare = EnergyModel.from_dict({**m.to_dict(), "metadata": {}})
+    assert predict_interval(bare, 10.0) is None
+    with pytest.raises(BatteryError, match="cross-validation"):
+        battery_decision(bare, 1.0, battery_wh=1)
+
+
+def test_cli_energy_prints_interval_and_battery_chance(tmp_path):
+    wp = tmp_path / "w.csv"
+    wp.write_text("x,y\n500010,5000050\n500090,5000050\n")
+    r = CliRunner().invoke(main, ["energy", "--dem", "maps/plane.tif", "--waypoints", str(wp),
+                                  "--battery-wh", "100", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output[r.output.index("{") :])
+    iv = out["interval"]
+    assert iv["low_j"] < out["energy_j"] < iv["high_j"] and iv["level"] == 0.9
+    assert out["battery"]["probability"] > 0.9 and out["battery"]["ok"]
+    # a battery far too small is refused with --refuse
+    r = CliRunner().invoke(main, ["energy", "--dem", "maps/plane.tif", "--waypoints", str(wp),
+                                  "--battery-wh", "1", "--refuse"])  # fmt: skip
+    assert r.exit_code == 1 and "chance" in r.output
