@@ -94,6 +94,15 @@ def test_best_order_on_a_map_matches_brute_force_and_legs_match_plan(hill, model
     for leg in res.legs:
         assert leg.energy_j == pytest.approx(leg.matrix_energy_j, rel=0.01)
     assert res.energy_j == pytest.approx(sum(leg.energy_j for leg in res.legs))
+    # a battery between the energy spent after leg k and after leg k + 1 (the widest gap)
+    cum = np.cumsum([leg.energy_j for leg in res.legs])
+    k = int(np.argmax(cum[1:] / cum[:-1]))
+    assert cum[k + 1] / cum[k] > 1.1
+    usable_wh = np.sqrt(cum[k] * cum[k + 1]) / 3600.0
+    b = res.battery(model, battery_wh=usable_wh + 1.0, reserve_wh=1.0, confidence=0.9)
+    p = [leg["probability"] for leg in b["legs"]]
+    assert all(x >= y for x, y in zip(p, p[1:], strict=False))
+    assert b["reserve_crossed_at"] == k + 1 and p[k] > 0.9 and p[k + 1] < 0.1
 
 
 def test_dask_cluster_gives_the_serial_matrix(hill, model):

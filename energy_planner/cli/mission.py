@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    add_trust,
     channel_options,
     channels_from_options,
     dem_option,
@@ -17,6 +18,8 @@ from energy_planner.cli.options import (
     load_model_option,
     model_option,
     speed_option,
+    trust_lines,
+    trust_options,
     yaw_rate_option,
 )
 from energy_planner.cli.plan import (
@@ -44,6 +47,16 @@ def _text(res: dict[str, Any]) -> str:
     if moved:
         lines.append(f"{len(moved)} site(s) moved onto their cell centres, at most "
                      f"{max(s['moved_m'] for s in moved):.2f} m")  # fmt: skip
+    b = res.get("battery_legs")
+    if b:
+        for leg in b["legs"]:
+            lines.append(
+                f"after leg {leg['leg']} (at {leg['to']}): {leg['spent_j'] / 3600:.2f} Wh "
+                f"spent, {100 * leg['probability']:.1f} % chance within the battery"
+            )
+        k = b["reserve_crossed_at"]
+        lines.append("the whole tour stays above the reserve at the required confidence"
+                     if k is None else f"the reserve is crossed on leg {k}")  # fmt: skip
     for key, label in (("geojson", "GeoJSON"), ("plot", "plot")):
         if res.get(key):
             lines.append(f"{label:<8} {res[key]}")
@@ -81,6 +94,7 @@ def _text(res: dict[str, Any]) -> str:
 @click.option("--geojson", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="GeoJSON of the legs and sites (lon/lat; see --geojson-crs).")  # fmt: skip
 @geojson_crs_option
+@trust_options
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="PNG of the tour over the slope map.")  # fmt: skip
 @json_option
@@ -100,6 +114,11 @@ def command(
     channels: tuple[str, ...],
     geojson: Path | None,
     geojson_crs: str,
+    level: float,
+    battery_wh: float | None,
+    reserve_wh: float,
+    confidence: float,
+    refuse: bool,
     plot: Path | None,
     as_json: bool,
 ) -> None:
@@ -139,6 +158,9 @@ def command(
             client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
+    if battery_wh is not None:
+        out["battery_legs"] = res.battery(model, battery_wh, reserve_wh, confidence)
+    add_trust(out, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse)
     if geojson is not None:
         from energy_planner.io import write_geojson
 
@@ -147,4 +169,4 @@ def command(
     if plot is not None:
         res.plot(terrain, plot)
         out["plot"] = str(plot)
-    emit(out, as_json, _text)
+    emit(out, as_json, lambda r: _text(r) + "\n" + trust_lines(r))

@@ -119,6 +119,30 @@ class MissionResult:
             **self.info,
         }
 
+    def battery(
+        self, model, battery_wh: float, reserve_wh: float = 0.0, confidence: float = 0.9
+    ) -> dict[str, Any]:
+        """The chance of finishing each leg on one battery, and where the reserve is crossed.
+
+        After leg ``k`` the robot has spent the sum of legs ``0..k``; its chance of
+        success is :func:`energy_planner.uncertainty.battery_decision` of that sum (the
+        model's split-conformal run errors). ``reserve_crossed_at`` names the first leg
+        whose chance falls below ``confidence`` (None: the whole tour fits).
+        """
+        from energy_planner.uncertainty import battery_decision
+
+        out, cum, crossed = [], 0.0, None
+        for k, leg in enumerate(self.legs):
+            cum += leg.energy_j
+            d = battery_decision(model, cum, battery_wh, reserve_wh, confidence)
+            out.append({"leg": k, "to": self.sites.names[leg.b], "spent_j": cum,
+                        "probability": d.probability, "ok": d.ok})  # fmt: skip
+            if crossed is None and not d.ok:
+                crossed = k
+        return {"battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
+                "legs": out, "reserve_crossed_at": crossed,
+                "probability": out[-1]["probability"] if out else 1.0}  # fmt: skip
+
     def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
         """RFC 7946 FeatureCollection: one LineString per leg and one Point per site."""
         from shapely.geometry import LineString, Point
