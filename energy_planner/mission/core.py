@@ -184,6 +184,14 @@ class MissionResult:
                         xytext=(4, 4))  # fmt: skip
         ax.set_title(f"mission: {self.energy_j / 1000:.1f} kJ, {self.distance_m:.0f} m "
                      f"({self.method})")  # fmt: skip
+        from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
+        for axis in (ax.xaxis, ax.yaxis):  # plain metres, no offset or exponent
+            fmt = ScalarFormatter(useOffset=False)
+            fmt.set_scientific(False)
+            axis.set_major_formatter(fmt)
+            axis.set_major_locator(MaxNLocator(5))
+        ax.tick_params(axis="x", labelrotation=20)
         crs = terrain.crs.to_string() if terrain.crs is not None else "working grid"
         ax.set_xlabel(f"x (m, {crs})")
         ax.set_ylabel(f"y (m, {crs})")
