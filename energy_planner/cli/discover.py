@@ -114,11 +114,12 @@ def command(
 
     Example: energy-planner discover logs/ --out model.json --report discover.html
     """
-    from energy_planner.cli.fit import log_files, resolve_terms, status
+    from energy_planner.cli.fit import resolve_terms, status
     from energy_planner.diagnosis.discover import discover
     from energy_planner.diagnosis.suspects import Thresholds
     from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
     from energy_planner.measurements import load_logs
+    from energy_planner.measurements.logs import log_files
 
     resolve_terms(terms)  # syntax first: fail before loading any log
     files = log_files(logs)

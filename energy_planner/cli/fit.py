@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import emit, json_option, logs_argument, seed_option, window_option
+from energy_planner.measurements.logs import log_files
 
 
 def _as_dict(report: Any) -> Any:
@@ -19,32 +20,6 @@ def _as_dict(report: Any) -> Any:
 
 
 #: Files that sit next to logs but are not logs (the simulator's run table).
-METADATA_FILES = frozenset({"runs.csv"})
-
-
-def log_files(paths: tuple[Path, ...]) -> list[Path]:
-    """Expand folders to their log files, leaving out metadata such as ``runs.csv``.
-
-    ROS 2 bag folders (with ``metadata.yaml``) and files are passed through; other
-    folders become the files and bag folders they hold, as ``load_logs`` would read
-    them, minus :data:`METADATA_FILES`.
-    """
-    out: list[Path] = []
-    for p in paths:
-        if p.is_dir() and not (p / "metadata.yaml").is_file():
-            found = sorted(
-                q
-                for q in p.iterdir()
-                if q.name not in METADATA_FILES
-                and (
-                    (q.is_file() and q.suffix.lower() in (".csv", ".parquet", ".pq", ".bag"))
-                    or (q / "metadata.yaml").is_file()
-                )
-            )
-            out.extend(found or [p])  # an empty folder: let load_logs name the problem
-        else:
-            out.append(p)
-    return out
 
 
 def status(message: str) -> None:

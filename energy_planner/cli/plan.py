@@ -78,25 +78,13 @@ def _reproject_point(p: tuple, dst: Any, hint: str, bounds: Any, dem_crs: Any) -
 
 
 def over_memory_cap(dem: Path, cap: int | None) -> bool:
-    """True if planning on the whole of ``dem`` would pass the memory cap (header only).
+    """True if planning on the whole of ``dem`` would pass the memory cap.
 
-    ``cap`` None: the default cap. A file rasterio cannot open returns False, so that
-    :func:`load_terrain` reports it.
+    The library decides: :func:`energy_planner.planning.corridor.needs_windows`.
     """
-    import rasterio
+    from energy_planner.planning.corridor import needs_windows
 
-    from energy_planner.planning.corridor import PLAN_BYTES_PER_CELL
-    from energy_planner.terrain import memory_cap
-
-    limit = memory_cap() if cap is None else cap
-    if limit is None:
-        return False
-    try:
-        with rasterio.open(dem) as src:
-            cells = float(src.height) * float(src.width)
-    except Exception:  # noqa: BLE001 - any open error is load_terrain's to report
-        return False
-    return cells * PLAN_BYTES_PER_CELL > limit
+    return needs_windows(dem, cap)
 
 
 def point_in_dem_crs(value: str, hint: str, with_yaw: bool) -> tuple:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -556,3 +556,32 @@ def load_logs(
         "loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs), len(frames)
     )
     return (samples, rep) if report else samples
+
+
+#: Files in a log folder that are not logs (the simulator's run table).
+METADATA_FILES = frozenset({"runs.csv"})
+
+
+def log_files(paths: Sequence[str | Path]) -> list[Path]:
+    """Expand folders to their log files, leaving out metadata such as ``runs.csv``.
+
+    ROS 2 bag folders (with ``metadata.yaml``) and files are passed through; other
+    folders become the files and bag folders they hold, as ``load_logs`` would read
+    them, minus :data:`METADATA_FILES`.
+    """
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir() and not (p / "metadata.yaml").is_file():
+            found = sorted(
+                q
+                for q in p.iterdir()
+                if q.name not in METADATA_FILES
+                and (
+                    (q.is_file() and q.suffix.lower() in (".csv", ".parquet", ".pq", ".bag"))
+                    or (q / "metadata.yaml").is_file()
+                )
+            )
+            out.extend(found or [p])  # an empty folder: let load_logs name the problem
+        else:
+            out.append(p)
+    return out

@@ -65,6 +65,7 @@ __all__ = [
     "gradient_box",
     "least_cost_per_metre",
     "needs_window",
+    "needs_windows",
     "plan_in_corridor",
     "raster_info",
     "reach_in_window",
@@ -201,7 +202,10 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
 
 def needs_window(info: RasterInfo, cap: int | None) -> bool:
     """True if planning on the whole DEM would pass the memory cap ``cap`` (bytes)."""
-    rows, cols = info.shape
+    return _over_cap(*info.shape, cap)
+
+
+def _over_cap(rows: int, cols: int, cap: int | None) -> bool:
     return cap is not None and float(rows) * cols * PLAN_BYTES_PER_CELL > cap
 
 
@@ -411,6 +415,24 @@ def _bound(cost, info, n_headings, moves, log, progress) -> tuple[float, list]:
         )
     c_min = least_cost_per_metre(cost, lo, hi, n_headings, moves)
     return c_min, [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])]
+
+
+def needs_windows(dem: str | Path, cap: int | None = None) -> bool:
+    """True if planning on the whole of ``dem`` would pass the memory cap (header only).
+
+    ``cap`` None: the default cap (:func:`energy_planner.terrain.memory_cap`). A file
+    rasterio cannot open returns False, so that loading it reports the problem.
+    """
+    import rasterio
+
+    from energy_planner.terrain import memory_cap
+
+    try:
+        with rasterio.open(dem) as src:
+            shape = (src.height, src.width)
+    except Exception:  # noqa: BLE001 - any open error is the loader's to report
+        return False
+    return _over_cap(*shape, memory_cap() if cap is None else cap)
 
 
 def plan_in_corridor(

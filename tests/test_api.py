@@ -1,0 +1,50 @@
+"""The public API (``import energy_planner as ep``) gives what the commands give."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+import energy_planner as ep
+from energy_planner.cli import main
+from energy_planner.io import reproject_xy
+
+PLANE = str(ep.map_path("plane"))
+S, G = (500010.0, 5000020.0), (500080.0, 5000070.0)
+
+
+def test_plan_equals_the_plan_command():
+    r = CliRunner().invoke(main, ["plan", "--dem", PLANE, "--start", "500010,5000020",
+                                  "--goal", "500080,5000070", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    cli = json.loads(r.output[r.output.index("{") :])
+    res = ep.plan(PLANE, S, G)
+    assert res.energy_j == pytest.approx(cli["energy_j"], rel=1e-9)
+
+
+def test_points_in_another_crs_give_the_same_plan():
+    prob = ep.Problem.from_dem(PLANE)
+    lon, lat = reproject_xy("EPSG:32631", "EPSG:4326", [S[0], G[0]], [S[1], G[1]])
+    a = prob.plan(S, G)
+    b = prob.plan((lon[0], lat[0]), (lon[1], lat[1]), crs="EPSG:4326")
+    assert b.energy_j == pytest.approx(a.energy_j, rel=1e-6)
+
+
+def test_path_energy_adds_over_concatenated_segments():
+    prob = ep.Problem.from_dem(PLANE)
+    mid = (500040.0, 5000020.0)
+    whole = prob.path_energy([S, mid, (500040.0, 5000060.0)])
+    a = prob.path_energy([S, mid])
+    b = prob.path_energy([mid, (500040.0, 5000060.0)])
+    # the whole path also pays the turn in place at the corner
+    assert whole.energy_j >= a.energy_j + b.energy_j - 1e-6
+    assert whole.distance_m == pytest.approx(a.distance_m + b.distance_m, rel=1e-9)
+
+
+def test_plan_chooses_windows_for_a_dem_over_the_memory_cap():
+    res = ep.plan(PLANE, S, G, memory_cap=1_000_000)  # 100 x 100 cells need 1.6 MB whole
+    assert "corridor" in res.info
+    whole = ep.plan(PLANE, S, G)
+    assert res.energy_j >= whole.energy_j * (1 - 1e-6)
