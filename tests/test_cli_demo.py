@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from click.testing import CliRunner
 
 from energy_planner.cli import main
@@ -20,7 +21,7 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     res = json.loads(r.output)
     assert res["max_slope_deg"] is None
     routes = {x["name"]: x for x in res["routes"]}
-    assert list(routes) == ["direct", "shortest", "energy_optimal"]
+    assert list(routes) == ["direct", "direct_best_yaw", "shortest", "energy_optimal"]
     direct, short, opt = routes["direct"], routes["shortest"], routes["energy_optimal"]
     assert direct["feasible"] and short["feasible"] and opt["feasible"]
     # no limit: the shortest path (along the ground) is the straight line (and the table
@@ -37,6 +38,10 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     assert gstar is not None and direct["climb_grade_deg"] > gstar
     per_h = res["physics"]["per_height"]
     assert per_h["energy_optimal"] < per_h["direct"]
+    # the saving splits into gait (the line crabbed) and route (the detour), both > 0
+    crab = routes["direct_best_yaw"]
+    assert crab["same_as"] is None and crab["distance_m"] == pytest.approx(direct["distance_m"])
+    assert opt["energy_j"] < crab["energy_j"] < direct["energy_j"]
     assert png.stat().st_size > 10_000
 
 

@@ -47,7 +47,8 @@ def test_compare_routes_reports_an_infeasible_direct_line(dem):
         terrain, model, s, g, Request.make(max_slope_deg=20), time=2, progress=False
     )
     names = [r.name for r in comp.routes]
-    assert names == ["direct", "shortest", "energy_optimal"]
+    assert names == ["direct", "direct_best_yaw", "shortest", "energy_optimal"]
+    assert not comp.route("direct_best_yaw").feasible
     direct = comp.route("direct")
     assert not direct.feasible
     assert "slope" in direct.reason and "limit 20 deg" in direct.reason
@@ -75,7 +76,7 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
     assert res.exit_code == 0, res.output
     out = json.loads(res.output)
     routes = {r["name"]: r for r in out["routes"]}
-    assert set(routes) == {"direct", "shortest", "energy_optimal"}
+    assert set(routes) == {"direct", "direct_best_yaw", "shortest", "energy_optimal"}
     for r in routes.values():
         for key in ("energy_j", "distance_m", "duration_s", "max_slope_deg", "feasible"):
             assert key in r
@@ -304,3 +305,31 @@ def test_compare_routes_cli_reads_channels(dem, tmp_path):
         out[kg] = {x["name"]: x for x in json.loads(r.output)["routes"]}
     d0, d10 = out[0]["direct"], out[10]["direct"]
     assert d10["energy_j"] - d0["energy_j"] == pytest.approx(c * 10 * d0["distance_m"], rel=1e-6)
+
+
+def test_best_yaw_line_and_same_path_judged_on_poses():
+    from energy_planner.planning.compare import Route, _same_path
+
+    flat = Terrain.from_array(np.zeros((40, 40)), resolution=1.0)
+    model = EnergyModel.default()
+    x0, y0 = flat.grid[0], flat.grid[1]
+    s, g = (x0 + 5, y0 - 20), (x0 + 30, y0 - 20)
+    comp = compare_routes(flat, model, s, g, time=1, progress=False)
+    d, dy = comp.route("direct"), comp.route("direct_best_yaw")
+    # on level ground facing forward is the cheapest gait: nothing to gain by crabbing
+    assert dy.energy_j == pytest.approx(d.energy_j, rel=1e-9) and dy.body_yaw_deg == 0.0
+    assert dy.same_as == "direct"
+    # the same line with the body turned 40 deg is another gait, not "the same path"
+    turned = d.states.copy()
+    turned[:, 2] += np.radians(40)
+    other = Route("x", turned, 1.0, d.distance_m, 1.0, 0.0, True)
+    assert _same_path(d, d, 1.0) and not _same_path(d, other, 1.0)
+    # on a slope the crabbed line is never dearer, and the split adds up
+    hill = compare_routes(
+        Terrain.from_array(np.add.outer(np.zeros(40), 0.4 * np.arange(40.0)), resolution=1.0),
+        model, s, g, time=1, progress=False,
+    )  # fmt: skip
+    fwd, crab = hill.route("direct"), hill.route("direct_best_yaw")
+    assert crab.energy_j <= fwd.energy_j
+    split = " ".join(hill.saving_split())
+    assert "points are gait" in split

@@ -3,6 +3,10 @@
 * ``direct``: the straight line, walked facing the goal (turns in place at the ends if
   a start/goal yaw is given). If it breaks a limit it is reported as infeasible with
   the reason, and its energy is still given when it stays on the map.
+* ``direct_best_yaw``: the same straight line walked with the body at its cheapest
+  constant yaw from the direction of travel (crabbing, as ``plan`` and ``energy`` allow),
+  so that the saving of the energy-optimal route splits into gait (``direct`` ->
+  ``direct_best_yaw``) and route (``direct_best_yaw`` -> ``energy_optimal``).
 * ``shortest``: the shortest feasible path, by distance along the ground: the lattice
   searched with edge length as the weight under the same limits, then refined off the
   lattice under a cost equal to the ground distance (starting also from the straight
@@ -14,7 +18,8 @@
   facing it, and pose-by-pose refinement cannot reach a whole-path gait change); the
   cheapest is kept.
 
-When two routes are the same path (within a cell everywhere), the later one says so
+When two routes are the same path (within a cell everywhere, and with the body turned
+the same way within 15 deg), the later one says so
 (``same_as``) instead of repeating the other: with no limit the straight line is usually
 the shortest feasible path.
 
@@ -55,7 +60,7 @@ __all__ = [
 ]
 
 #: Route names, in report order.
-ROUTE_NAMES = ("direct", "shortest", "energy_optimal")
+ROUTE_NAMES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
 
 
 @dataclass
@@ -232,8 +237,10 @@ class Route:
     """One route of a comparison (poses in the working CRS, radians).
 
     ``same_as`` names an earlier route of the comparison that is the same path (within
-    a cell everywhere); ``ascent_m`` is the total climb and ``climb_grade`` the mean
-    grade of its climbing parts (sine of the inclination).
+    a cell everywhere, body yaw within 15 deg); ``body_yaw_deg`` is the constant body yaw
+    from the direction of travel a route is walked with, where it has one; ``ascent_m``
+    is the total climb and ``climb_grade`` the mean grade of its climbing parts (sine of
+    the inclination).
     """
 
     name: str
@@ -248,6 +255,7 @@ class Route:
     same_as: str | None = None
     ascent_m: float | None = None
     climb_grade: float | None = None
+    body_yaw_deg: float | None = None
 
     @property
     def energy_wh(self) -> float | None:
@@ -273,6 +281,7 @@ class Route:
             "feasible": self.feasible,
             "saving_vs_direct": self.saving_vs_direct,
             "same_as": self.same_as,
+            "body_yaw_deg": self.body_yaw_deg,
         }
         if self.reason is not None:
             out["reason"] = self.reason
@@ -294,7 +303,7 @@ class Route:
             d["name"], None, d["energy_j"], d["distance_m"], d["duration_s"],
             d["max_slope_deg"], d["feasible"], d.get("reason"), d.get("saving_vs_direct"),
             d.get("same_as"), d.get("ascent_m"),
-            None if g is None else math.sin(math.radians(g)),
+            None if g is None else math.sin(math.radians(g)), d.get("body_yaw_deg"),
         )  # fmt: skip
 
 
@@ -368,6 +377,23 @@ class RouteComparison:
         lines += ["", *self.explain()]
         return "\n".join(lines)
 
+    def saving_split(self) -> list[str]:
+        """Lines splitting the energy-optimal saving into gait and route (paper Fig. 1)."""
+        try:
+            d, dy, eo = (self.route(n) for n in ("direct", "direct_best_yaw", "energy_optimal"))
+        except RouteNameError:
+            return []
+        if not (d.energy_j and dy.energy_j and eo.energy_j):
+            return []
+        gait = (d.energy_j - dy.energy_j) / d.energy_j
+        route = (dy.energy_j - eo.energy_j) / d.energy_j
+        return textwrap.wrap(
+            f"Of the {100 * (gait + route):.1f}% saving, {100 * gait:.1f} points are gait (the "
+            f"direct line walked with the body turned {dy.body_yaw_deg:+.0f} deg from the "
+            f"direction of travel) and {100 * route:.1f} points are the route.",
+            width=92,
+        )
+
     def explain(self) -> list[str]:
         """Lines saying why the energy-optimal route saves energy (the model's physics)."""
         p = self.physics
@@ -375,6 +401,7 @@ class RouteComparison:
             "saving: energy saved against the direct line (negative: costs more); climb: mean",
             "grade of the climbing parts.",
         ]
+        out += self.saving_split()
         if p is None:
             return out
         gstar = p.get("critical_grade_deg")
@@ -563,8 +590,17 @@ def _direct_states(start, goal) -> np.ndarray:
     return np.array(poses, dtype=float)
 
 
-def _same_path(a: Route, b: Route, tol: float) -> bool:
-    """True when both routes' positions stay within ``tol`` metres of each other."""
+#: Two routes whose body yaws differ by more than this at matching places are not the
+#: same path, even along the same line (a crabbed walk is another gait).
+SAME_YAW_TOL = math.radians(15.0)
+
+
+def _same_path(a: Route, b: Route, tol: float, yaw_tol: float = SAME_YAW_TOL) -> bool:
+    """True when both routes' poses match.
+
+    Positions within ``tol`` metres everywhere (Hausdorff) and, at every vertex of either,
+    the body yaw within ``yaw_tol`` of the other route's nearest vertex.
+    """
     from shapely.geometry import LineString, Point
 
     if a.states is None or b.states is None:
@@ -575,7 +611,14 @@ def _same_path(a: Route, b: Route, tol: float) -> bool:
         xy = xy[np.r_[True, np.any(np.diff(xy, axis=0) != 0, axis=1)]]
         return Point(xy[0]) if len(xy) < 2 else LineString(xy)
 
-    return bool(geom(a.states).hausdorff_distance(geom(b.states)) <= tol)
+    if geom(a.states).hausdorff_distance(geom(b.states)) > tol:
+        return False
+    for p, q in ((a.states, b.states), (b.states, a.states)):
+        d = np.hypot(p[:, None, 0] - q[None, :, 0], p[:, None, 1] - q[None, :, 1])
+        dyaw = np.remainder(p[:, 2] - q[np.argmin(d, axis=1), 2] + np.pi, 2 * np.pi) - np.pi
+        if np.max(np.abs(dyaw)) > yaw_tol:
+            return False
+    return True
 
 
 def _best_gait(states: np.ndarray, cost, start, goal) -> tuple[np.ndarray, float]:
@@ -594,12 +637,15 @@ def _best_gait(states: np.ndarray, cost, start, goal) -> tuple[np.ndarray, float
     if goal[2] is not None:
         fixed[-1] = True
     best, best_e, best_psi = states, float(np.sum(_edges(cost, states))), 0.0
-    for psi in np.radians(np.arange(-180.0, 180.0, 10.0)):
-        cand = base.copy()
-        cand[~fixed, 2] = np.remainder(cand[~fixed, 2] + psi + np.pi, 2 * np.pi) - np.pi
-        e = float(np.sum(_edges(cost, cand)))
-        if e < best_e:
-            best, best_e, best_psi = cand, e, float(psi)
+    for grid in (np.arange(-180.0, 180.0, 10.0), None):
+        if grid is None:  # then 1 deg steps about the best of the 10 deg grid
+            grid = math.degrees(best_psi) + np.arange(-9.0, 10.0, 1.0)
+        for psi in np.radians(grid):
+            cand = base.copy()
+            cand[~fixed, 2] = np.remainder(cand[~fixed, 2] + psi + np.pi, 2 * np.pi) - np.pi
+            e = float(np.sum(_edges(cost, cand)))
+            if e < best_e:
+                best, best_e, best_psi = cand, e, float(psi)
     return best, best_psi
 
 
@@ -760,6 +806,15 @@ def compare_routes(
             reason += f" (the line reaches {direct.max_slope_deg:.1f} deg)"
         direct.reason = reason
 
+    # the same line at its cheapest constant body yaw: the gait part of any saving
+    if direct_ok:
+        crab, psi = _best_gait(d_states, cost, s, g)
+        direct_yaw = _route("direct_best_yaw", crab, terrain, model, cost)
+        direct_yaw.body_yaw_deg = round(math.degrees(psi), 1)
+        direct.body_yaw_deg = 0.0
+    else:
+        direct_yaw = Route("direct_best_yaw", None, None, None, None, None, False, direct.reason)
+
     # the distance-optimal lattice path (same limits), then the energy-optimal plan
     dist_cost, _ = _motion_cost(terrain, model, request, distance=True)
     dist_cost.compile()  # before the refinements' time budgets start
@@ -813,14 +868,14 @@ def compare_routes(
     info["energy_optimal_from"] = best.origin
     info["shortest_from"] = short.origin
 
-    routes = [direct]
+    routes = [direct, direct_yaw]
     for cand, err in ((short, lat_error or plan_error), (best, plan_error or lat_error)):
         if cand.best is None:
             routes.append(Route(cand.name, None, None, None, None, None, False, err))
         else:
             routes.append(cand.best)
     # a route that is the same path as an earlier one says so
-    for i in (1, 2):
+    for i in range(1, len(routes)):
         for j in range(i):
             if routes[i].feasible and routes[j].feasible and _same_path(routes[i], routes[j], cell):
                 routes[i].same_as = routes[j].name
