@@ -122,3 +122,47 @@ def test_cli_energy_prints_interval_and_battery_chance(tmp_path):
     r = CliRunner().invoke(main, ["energy", "--dem", "maps/plane.tif", "--waypoints", str(wp),
                                   "--battery-wh", "1", "--refuse"])  # fmt: skip
     assert r.exit_code == 1 and "chance" in r.output
+
+
+def test_reach_with_confidence_on_a_level_plane(tmp_path):
+    """On level ground a straight walk costs c J/m (priced independently by path_energy),
+    so the cells east of the start reached with chance p are those within
+    confident_budget / c metres."""
+    from energy_planner.energy import path_energy
+    from energy_planner.planning.reach import reach
+    from energy_planner.terrain import Terrain
+    from energy_planner.uncertainty import confident_budget
+
+    flat = Terrain.from_array(np.zeros((41, 61)), resolution=1.0)
+    m = EnergyModel.default()
+    x0, y0 = flat.grid[0], flat.grid[1]
+    start = (x0 + 5.0, y0 - 20.0)
+    c = path_energy(flat, m, np.array([start, (start[0] + 20.0, start[1])])).energy_j / 20.0
+    rm = reach(flat, m, start)
+    usable = 40.0 * c  # 40 m of walking
+    budget = confident_budget(m, usable, 0.9)
+    assert budget < usable  # 90 % sure needs a margin below the point estimate
+    east = rm.energy_j[20, 5:-1]  # the start's row, going east (the edge cell has no slope)
+    reached = np.nonzero(rm.mask(budget)[20, 5:])[0]
+    assert abs(reached.max() - budget / c) <= 1.0
+    chance = rm.chance(m, usable)
+    np.testing.assert_array_equal(chance >= 0.9, rm.mask(budget) & np.isfinite(chance))
+    assert np.all(np.diff(chance[20, 5:-1]) <= 1e-12) and np.all(np.diff(east) > 0)
+    out = rm.write_chance_geotiff(flat, tmp_path / "chance.tif", m, usable)
+    import rasterio
+
+    with rasterio.open(out) as src:
+        assert src.units == ("1",) and np.nanmax(src.read(1)) <= 1.0
+
+
+def test_cli_reach_battery_confidence(tmp_path):
+    r = CliRunner().invoke(main, ["reach", "maps/plane.tif", "--start", "500050,5000050",
+                                  "--battery-wh", "5", "--reserve-wh", "1", "--confidence",
+                                  "0.95", "--geojson", str(tmp_path / "a.geojson"),
+                                  "--chance-out", str(tmp_path / "c.tif"), "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output[r.output.index("{") :])
+    b = out["battery"]
+    assert b["confident_budget_wh"] < b["usable_wh"] == 4.0 and b["cells"] > 100
+    doc = json.loads((tmp_path / "a.geojson").read_text())
+    assert "crs" not in doc and doc["features"][0]["properties"]["cells"] == b["cells"]

@@ -331,27 +331,34 @@ def load_model_option(model_path: Path | None):
         raise click.BadParameter(str(exc), param_hint="--model") from exc
 
 
-def trust_options(f):
-    """``--level`` (interval) and ``--battery-wh/--reserve-wh/--confidence/--refuse``."""
+def battery_options(f):
+    """``--battery-wh``, ``--reserve-wh`` and ``--confidence``, defined once."""
     opts = [
-        click.option("--level", type=click.FloatRange(0.5, 0.99), default=0.9, show_default=True,
-                     help="Nominal coverage of the energy's prediction interval."),
         click.option("--battery-wh", type=click.FloatRange(min=0, min_open=True), default=None,
-                     help="Battery energy, Wh: print the chance that the route fits in it "
+                     help="Battery energy, Wh: the chance that the route fits in it "
                      "(less --reserve-wh)."),
         click.option("--reserve-wh", type=click.FloatRange(min=0), default=0.0,
                      show_default=True, help="Energy to keep in the battery, Wh."),
         click.option("--confidence", type=click.FloatRange(0.5, 0.999), default=0.9,
                      show_default=True,
-                     help="Required chance that the battery suffices: below it, a warning "
-                     "(or an error with --refuse)."),
-        click.option("--refuse", is_flag=True,
-                     help="Exit with an error (status 1) when the chance is below "
-                     "--confidence."),
+                     help="Required chance that the battery suffices."),
     ]  # fmt: skip
     for opt in reversed(opts):
         f = opt(f)
     return f
+
+
+def trust_options(f):
+    """``--level`` (interval), the battery options and ``--refuse``."""
+    f = click.option("--refuse", is_flag=True,
+                     help="Exit with an error (status 1) when the chance is below "
+                     "--confidence (default: a warning).")(f)  # fmt: skip
+    f = battery_options(f)
+    level = click.option(
+        "--level", type=click.FloatRange(0.5, 0.99), default=0.9, show_default=True,
+        help="Nominal coverage of the energy's prediction interval.",
+    )  # fmt: skip
+    return level(f)
 
 
 def add_trust(

@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from energy_planner.cli.options import (
+    battery_options,
     channel_options,
     channels_from_options,
     emit,
@@ -38,12 +39,21 @@ def _text(res: dict[str, Any]) -> str:
         f"energy to {what}: {res['min_wh']:.2f} .. {res['max_wh']:.2f} Wh over "
         f"{res['reachable_cells']} reachable cells (median {res['median_wh']:.2f} Wh)",
     ]
+    b = res.get("battery")
+    if b:
+        what = "reach and come back" if res["round_trip"] else "reach"
+        lines.append(
+            f"battery      {b['battery_wh']:g} Wh - {b['reserve_wh']:g} Wh reserve: "
+            f"{b['cells']} cells ({b['area_m2']:.0f} m^2) {what} with a chance of at least "
+            f"{100 * b['confidence']:g} % (predicted energy <= {b['confident_budget_wh']:.2f} Wh)"
+        )
     if res.get("budget_wh") is not None:
         lines.append(
             f"within {res['budget_wh']:g} Wh: {res['budget_cells']} cells, "
             f"{res['budget_area_m2']:.0f} m^2"
         )
-    for key, label in (("out", "GeoTIFF"), ("geojson", "GeoJSON"), ("plot", "plot")):
+    for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("geojson", "GeoJSON"),
+                       ("plot", "plot")):  # fmt: skip
         if res.get(key):
             lines.append(f"{label:<12} {res[key]}")
     w = res.get("window")
@@ -100,10 +110,19 @@ def _text(res: dict[str, Any]) -> str:
     "--geojson",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="GeoJSON polygon of the area reachable within --budget-wh (longitude, latitude; "
-    "see --geojson-crs).",
+    help="GeoJSON polygon of the area reachable within --budget-wh, or with --battery-wh the "
+    "area reached with a chance of at least --confidence (longitude, latitude; see "
+    "--geojson-crs).",
 )
 @geojson_crs_option
+@battery_options
+@click.option(
+    "--chance-out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="With --battery-wh: GeoTIFF of the chance that each cell is reached (and left, with "
+    "--return) on the usable battery.",
+)
 @click.option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -133,6 +152,10 @@ def command(
     out: Path | None,
     geojson: Path | None,
     geojson_crs: str,
+    battery_wh: float | None,
+    reserve_wh: float,
+    confidence: float,
+    chance_out: Path | None,
     plot: Path | None,
     memory_cap: str | None,
     as_json: bool,
@@ -160,10 +183,18 @@ def command(
         raise click.BadParameter(
             "give --budget-wh with --within-budget", param_hint="--within-budget"
         )
-    if geojson is not None and budget_wh is None:
+    if geojson is not None and budget_wh is None and battery_wh is None:
         raise click.BadParameter(
-            "--geojson writes the area within a budget: give --budget-wh too",
+            "--geojson writes the area within a budget: give --budget-wh (or --battery-wh for "
+            "the area reached with the chance --confidence)",
             param_hint="--geojson",
+        )
+    if chance_out is not None and battery_wh is None:
+        raise click.BadParameter("--chance-out needs --battery-wh", param_hint="--chance-out")
+    if battery_wh is not None and not reserve_wh < battery_wh:
+        raise click.BadParameter(
+            f"the reserve ({reserve_wh:g} Wh) must be below the battery ({battery_wh:g} Wh)",
+            param_hint="--reserve-wh",
         )
     cap = parse_memory_cap(memory_cap)
     windowed = over_memory_cap(dem, cap)
@@ -231,6 +262,23 @@ def command(
     if budget_j is not None:
         result["budget_cells"] = int(res.mask(budget_j).sum())
         result["budget_area_m2"] = float(res.area(terrain, budget_j).area)
+    if battery_wh is not None:
+        from energy_planner.uncertainty import confident_budget
+
+        usable = (battery_wh - reserve_wh) * 3600.0
+        try:
+            budget_j = confident_budget(model, usable, confidence)
+        except EnergyPlannerError as exc:
+            raise click.BadParameter(str(exc), param_hint="--battery-wh") from exc
+        result["battery"] = {
+            "battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
+            "usable_wh": usable / 3600.0, "confident_budget_wh": budget_j / 3600.0,
+            "cells": int(res.mask(budget_j).sum()),
+            "area_m2": float(res.area(terrain, budget_j).area),
+        }  # fmt: skip
+        if chance_out is not None:
+            res.write_chance_geotiff(terrain, chance_out, model, usable)
+            result["chance_out"] = str(chance_out)
     if out is not None:
         res.write_geotiff(terrain, out)
         result["out"] = str(out)

@@ -271,9 +271,38 @@ class ReachMap:
         A DEM in longitude/latitude gets the working grid's values resampled to its own
         grid (nearest cell).
         """
+        what = "go and come back" if self.round_trip else "reach"
+        return self._write(terrain, path, self.energy_j, "energy_j", "J",
+                           f"least energy to {what} the cell from the start, J")  # fmt: skip
+
+    def chance(self, model, usable_j: float) -> np.ndarray:
+        """Per cell, the chance that going there (and back) fits in ``usable_j`` joules.
+
+        :func:`energy_planner.uncertainty.success_probability` of each cell's energy, from
+        the model's held-out run errors; NaN where the cell cannot be reached.
+        """
+        from energy_planner.uncertainty import BatteryError, model_scores
+
+        s = model_scores(model)
+        if s is None:
+            raise BatteryError("the model carries no held-out run errors: refit it with "
+                               "cross-validation (energy-planner fit --folds 5)")  # fmt: skip
+        e = self.energy_j
+        with np.errstate(invalid="ignore", divide="ignore"):
+            count = s.size - np.searchsorted(s, e / usable_j - 1.0, side="left")
+            out = count / (s.size + 1.0)
+        return np.where(np.isfinite(e), out, np.nan)
+
+    def write_chance_geotiff(self, terrain, path: str | Path, model, usable_j: float) -> Path:
+        """Write :meth:`chance` (0-1, float32, nodata NaN) on the DEM's grid and CRS."""
+        what = "go there and come back" if self.round_trip else "reach the cell"
+        return self._write(terrain, path, self.chance(model, usable_j), "chance", "1",
+                           f"chance to {what} within {usable_j / 3600:.2f} Wh usable")  # fmt: skip
+
+    def _write(self, terrain, path, values, name: str, unit: str, desc: str) -> Path:
         from energy_planner.io import write_geotiff
 
-        data = np.where(np.isfinite(self.energy_j), self.energy_j, NODATA).astype(np.float32)
+        data = np.where(np.isfinite(values), values, NODATA).astype(np.float32)
         transform, crs = terrain.transform, terrain.crs
         if str(terrain.source_crs) != str(terrain.crs):
             from rasterio.warp import Resampling, reproject
@@ -285,11 +314,10 @@ class ReachMap:
                 src_nodata=NODATA, dst_nodata=NODATA, resampling=Resampling.nearest,
             )  # fmt: skip
             data, transform, crs = out, terrain.source_transform, terrain.source_crs
-        what = "go and come back" if self.round_trip else "reach"
         return write_geotiff(
-            Path(path), data, transform=transform, crs=crs, names=["energy_j"], units=["J"],
-            descriptions=[f"least energy to {what} the cell from the start, J"],
-            band_tags=[{"round_trip": self.round_trip}], tags={"software": "energy_planner reach"},
+            Path(path), data, transform=transform, crs=crs, names=[name], units=[unit],
+            descriptions=[desc], band_tags=[{"round_trip": self.round_trip}],
+            tags={"software": "energy_planner reach"},
         )  # fmt: skip
 
     def plot(self, terrain, path: str | Path, budget_j: float | None = None) -> Path:

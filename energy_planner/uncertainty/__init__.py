@@ -46,6 +46,7 @@ __all__ = [
     "BatteryDecision",
     "EnergyInterval",
     "battery_decision",
+    "confident_budget",
     "interval",
     "model_scores",
     "predict_interval",
@@ -216,3 +217,34 @@ def battery_decision(
     usable = (battery_wh - reserve_wh) * 3600.0
     return BatteryDecision(float(battery_wh), float(reserve_wh), usable,
                            success_probability(energy_j, s, usable), float(confidence))  # fmt: skip
+
+
+def confident_budget(model_or_scores: Any, usable_j: float, confidence: float) -> float:
+    """The largest predicted energy whose chance of fitting in ``usable_j`` is >= ``confidence``.
+
+    :func:`success_probability` falls with the predicted energy ``E``: it is at least ``p``
+    when at least ``k = ceil(p (n + 1))`` scores ``r`` have ``E / (1 + r) <= U``, that is
+    when ``E <= U (1 + r_(n-k+1))`` with ``r_(n-k+1)`` the ``k``-th largest score. So the
+    cells reachable with chance ``p`` are those whose predicted energy is at most this
+    budget (0 when ``p`` needs more scores than there are).
+
+    Examples
+    --------
+    >>> s = np.linspace(-0.1, 0.1, 99)
+    >>> b = confident_budget(s, 1000.0, 0.9)
+    >>> success_probability(b, s, 1000.0) >= 0.9 > success_probability(b * 1.001, s, 1000.0)
+    True
+    """
+    s = model_or_scores
+    if not isinstance(s, np.ndarray):
+        s = model_scores(model_or_scores)
+        if s is None:
+            raise BatteryError(
+                "the model carries no held-out run errors, so it cannot give the chance that "
+                "a battery suffices: refit it with cross-validation (energy-planner fit --folds 5)"
+            )
+    s = np.sort(np.asarray(s, dtype=float))
+    k = math.ceil(confidence * (s.size + 1))
+    if k > s.size:
+        return 0.0
+    return float(usable_j * (1.0 + s[s.size - k]))
