@@ -36,18 +36,20 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import LogError, LogIOError, RemovedAPIError
+from energy_planner.simulate.battery import battery_current
 from energy_planner.simulate.config import CampaignConfig
 from energy_planner.simulate.design import RunSpec, plan_runs
 from energy_planner.simulate.effects import check_effects, check_faults
-from energy_planner.simulate.kinematics import (
-    imu_quaternion,
-    integrate_pose,
-    quat_from_rotvec,
-    quat_mul,
-    twist_profile,
-    wrap,
-)
+from energy_planner.simulate.kinematics import integrate_pose, twist_profile, wrap
 from energy_planner.simulate.physics import Physics, RobotParams
+from energy_planner.simulate.records import (
+    ChannelDraws,
+    TruthStreams,
+    lay_out,
+    logs_from_truth,
+    run_record,
+    sensor_offsets,
+)
 
 __all__ = [
     "Campaign",
@@ -81,33 +83,6 @@ LOG_COLUMNS = (
 CHANNELS = ("load_kg", "ground", "motor_temp", "air_temp_c", "grass_height_m")
 #: Channels that are categorical.
 CATEGORICAL = ("ground",)
-
-
-def battery_current(power: np.ndarray, ocv: np.ndarray | float, r_ohm: float) -> np.ndarray:
-    """Current (A, positive discharging) that delivers ``power`` (W) from the pack.
-
-    Solves ``P = (OCV - R I) I`` for the smaller root, written stably as
-    ``I = 2 P / (OCV + sqrt(OCV^2 - 4 R P))`` (also right for ``R = 0``).
-
-    Raises
-    ------
-    LogError
-        If the power exceeds what the pack can deliver, ``OCV^2 / (4 R)``.
-
-    Examples
-    --------
-    >>> i = battery_current(np.array([200.0]), 50.0, 0.1)
-    >>> v = 50.0 - 0.1 * i
-    >>> np.round(i, 4).tolist(), np.round(v * i, 9).tolist()
-    ([4.0325], [200.0])
-    """
-    disc = np.asarray(ocv, float) ** 2 - 4.0 * r_ohm * np.asarray(power, float)
-    if np.any(disc < 0):
-        raise LogError(
-            f"power {float(np.max(power)):.0f} W exceeds what the battery can deliver "
-            f"(OCV^2 / 4R with R = {r_ohm} ohm); expected a smaller internal resistance"
-        )
-    return 2.0 * power / (ocv + np.sqrt(disc))
 
 
 @dataclass(frozen=True)
@@ -581,11 +556,6 @@ class Campaign:
         }
 
 
-def _balanced(rng: np.random.Generator, values: tuple, n: int) -> np.ndarray:
-    """``n`` draws that use every value equally often (up to one), in random order."""
-    return np.asarray(values, dtype=object)[rng.permutation(n) % len(values)]
-
-
 def simulate_campaign(
     seed: int = 0,
     effects: Iterable[str] = (),
@@ -627,37 +597,14 @@ def simulate_campaign(
     names = check_effects(effects)
     fault_names = check_faults(faults)
     physics = Physics(params, names)
+    sens = config.sensors.with_faults(fault_names)
     from tqdm.auto import tqdm
 
-    root = np.random.default_rng(seed)
-    design_rng, channel_rng, noise_rng = root.spawn(3)
+    design_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)
     plan = plan_runs(config)
-    n_runs = len(plan)
-
-    # ---- design: a ramp azimuth per slope, conditions per block, field order
-    slope_values = sorted({r.slope_deg for r in plan})
-    psi_of = {s: float(design_rng.uniform(-math.pi, math.pi)) for s in slope_values}
-    blocks = list(dict.fromkeys(r.composite or r.run for r in plan))
-    block_index = {b: i for i, b in enumerate(blocks)}
-    shuffled = design_rng.permutation(len(blocks))
-    slope_rank = {s: i for i, s in enumerate(slope_values)}
-    run_block = [block_index[r.composite or r.run] for r in plan]
-    order = sorted(
-        range(n_runs), key=lambda k: (slope_rank[plan[k].slope_deg], shuffled[run_block[k]], k)
-    )
-
-    # ---- extra channels: one draw per block (the parts of a composite share them)
-    nb = len(blocks)
-    ground_b = _balanced(channel_rng, config.grounds, nb)
-    load_b = _balanced(channel_rng, config.loads_kg, nb).astype(float)
-    air_b = channel_rng.uniform(*config.air_temp_range_c, nb)
-    grass_b = channel_rng.uniform(*config.grass_height_range_m, nb)
-    motor0_b = channel_rng.uniform(*config.motor_temp_range_c, nb)
-    warm_b = channel_rng.uniform(0.0, config.motor_warming_k_s, nb)
-
-    # ---- per-run sensor draws (independent of effects)
-    slip_raw = noise_rng.standard_normal(n_runs)
-    bias_raw = noise_rng.standard_normal((n_runs, 2))
+    psi_of, run_block, order = _field_design(plan, design_rng)
+    draws = ChannelDraws.draw(channel_rng, config, max(run_block) + 1, ground=True)
+    slip_raw, bias = sensor_offsets(noise_rng, sens, len(plan))
 
     # ---- geometry, in design order (leg B starts where leg A ended)
     geo: list[dict[str, Any]] = []
@@ -666,282 +613,81 @@ def simulate_campaign(
         geo.append(_run_geometry(spec, config, psi_of[spec.slope_deg], end_of))
 
     # ---- assemble in field order on the campaign clock
-    t_start = np.zeros(n_runs)
-    clock = 0.0
-    for k in order:
-        t_start[k] = clock
-        clock += geo[k]["t"][-1] + config.gap_s
-    sizes = np.array([len(geo[k]["t"]) for k in order])
-    run_of_sample = np.repeat(np.arange(n_runs), sizes)  # position in `order`
-    idx = np.asarray(order)[run_of_sample]  # design index per sample
-
-    def cat(key: str) -> np.ndarray:
-        return np.concatenate([geo[k][key] for k in order])
-
-    t_run = cat("t")
-    t = np.round(t_run + t_start[idx], 9)
-    vx, vy, wz, ax, ay = (cat(k) for k in ("vx", "vy", "wz", "ax", "ay"))
-    gamma = cat("gamma")
-    alpha = np.radians(np.array([plan[k].slope_deg for k in range(n_runs)]))[idx]
-    psi = np.array([psi_of[s.slope_deg] for s in plan])[idx]
-    pos = np.concatenate([geo[k]["pos"] for k in order])
-    yaw = cat("yaw")
-    blk = np.asarray(run_block)[idx]
-    channels = {
-        "load_kg": load_b[blk],
-        "ground": ground_b[blk].astype(str),
-        "motor_temp": motor0_b[blk] + warm_b[blk] * t_run,
-        "air_temp_c": air_b[blk],
-        "grass_height_m": grass_b[blk],
-    }
-    slip_run = (
-        config.sensors.with_faults(fault_names).slip_mean
-        + config.sensors.with_faults(fault_names).slip_per_sin_slope
-        * np.sin(np.radians([s.slope_deg for s in plan]))
-        + config.sensors.with_faults(fault_names).slip_std * slip_raw
-    )
-    bias = np.radians(config.sensors.imu_bias_deg) * bias_raw  # (roll, pitch) per run
-    run_ids = np.array([plan[k].run for k in range(n_runs)], dtype=object)[idx]
-    truth = _TruthStreams(
-        run_ids, t, t_run, alpha, psi, gamma, vx, vy, wz, ax, ay, pos, yaw, channels
-    )
-    out = _logs_from_truth(
-        truth,
-        physics,
-        config.sensors.with_faults(fault_names),
-        config.battery,
-        config.dt,
-        sizes,
-        slip_run[idx],
-        bias[idx],
-        noise_rng,
-        list(config.grounds),
-    )
-
-    rows = []
-    bounds = np.concatenate([[0], np.cumsum(sizes)])
-    for rank, k in enumerate(order):
-        spec, gk = plan[k], geo[k]
-        b = run_block[k]
-        rows.append(
-            {
-                "run": spec.run,
-                "kind": spec.kind,
-                "motion": spec.motion,
-                "slope_deg": spec.slope_deg,
-                "uphill_azimuth_deg": math.degrees(psi_of[spec.slope_deg]),
-                "heading_deg": spec.heading_deg,
-                "speed": spec.speed,
-                "yaw_rate": spec.yaw_rate,
-                "duration_s": float(gk["t"][-1]),
-                "composite": spec.composite,
-                "part": spec.part,
-                "true_energy_j": out["energy"][rank],
-                "true_mean_power_w": out["energy"][rank] / float(gk["t"][-1]),
-                "distance_m": spec.distance_m,
-                "turn_deg": math.degrees(spec.turn_rad),
-                "repeat": spec.repeat,
-                "order": rank,
-                "t_start": t_start[k],
-                "n_samples": len(gk["t"]),
-                "load_kg": load_b[b],
-                "ground": ground_b[b],
-                "motor_temp_start": motor0_b[b],
-                "air_temp_c": air_b[b],
-                "grass_height_m": grass_b[b],
-                "slip": slip_run[k],
-                "imu_roll_bias_deg": math.degrees(bias[k, 0]),
-                "imu_pitch_bias_deg": math.degrees(bias[k, 1]),
-                "battery_pack": out["pack"][rank],
-                "soc_start": out["soc_start"][rank],
-                "soc_end": out["soc_end"][rank],
-                "start_x": gk["pos"][0, 0],
-                "start_y": gk["pos"][0, 1],
-                "end_x": gk["pos"][-1, 0],
-                "end_y": gk["pos"][-1, 1],
-                "end_yaw_deg": math.degrees(gk["yaw"][-1]),
-                "end_heading_deg": math.degrees(float(wrap(gk["gamma"][-1]))),
-            }
-        )
-    del bounds
-    runs = pd.DataFrame(rows)
+    lay = lay_out([geo[k]["t"] for k in order], config.gap_s)
+    idx = np.asarray(order)[lay.run_of_sample]  # design index per sample
+    g = {key: np.concatenate([geo[k][key] for k in order]) for key in geo[0]}
+    slopes = np.radians([s.slope_deg for s in plan])
+    slip_run = sens.slip_mean + sens.slip_per_sin_slope * np.sin(slopes) + sens.slip_std * slip_raw
+    truth = TruthStreams(
+        np.array([s.run for s in plan], dtype=object)[idx], lay.t, lay.t_run, slopes[idx],
+        np.array([psi_of[s.slope_deg] for s in plan])[idx], g["gamma"], g["vx"], g["vy"],
+        g["wz"], g["ax"], g["ay"], g["pos"], g["yaw"],
+        draws.per_sample(np.asarray(run_block)[idx], lay.t_run),
+    )  # fmt: skip
+    out = logs_from_truth(
+        truth, physics, sens, config.battery, config.dt, lay.sizes, slip_run[idx], bias[idx],
+        noise_rng, list(config.grounds),
+    )  # fmt: skip
+    rows = [
+        run_record(
+            _run_description(plan[k], psi_of),
+            rank,
+            lay,
+            out,
+            draws.row(run_block[k]),
+            slip_run[k],
+            bias[k],
+            geo[k]["pos"],
+            geo[k]["yaw"][-1],
+            float(wrap(geo[k]["gamma"][-1])),
+        )  # fmt: skip
+        for rank, k in enumerate(order)
+    ]
     return Campaign(
-        out["logs"], runs, physics, names, out["true_samples"], seed, config, fault_names
-    )
+        out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed, config,
+        fault_names,
+    )  # fmt: skip
 
 
-@dataclass
-class _TruthStreams:
-    """True motion of consecutive runs (concatenated, each run's samples together)."""
+def _field_design(
+    plan: list[RunSpec], rng: np.random.Generator
+) -> tuple[dict[float, float], list[int], list[int]]:
+    """A ramp azimuth per slope, the block of each run, and the runs in field order.
 
-    run: np.ndarray
-    t: np.ndarray  # campaign clock
-    t_run: np.ndarray  # time since the run (gait) started
-    alpha: np.ndarray
-    psi: np.ndarray
-    gamma: np.ndarray
-    vx: np.ndarray
-    vy: np.ndarray
-    wz: np.ndarray
-    ax: np.ndarray
-    ay: np.ndarray
-    pos: np.ndarray
-    yaw: np.ndarray
-    channels: dict[str, np.ndarray]
-
-
-def _logs_from_truth(
-    tr: _TruthStreams,
-    physics: Physics,
-    sens: Any,
-    bat: Any,
-    dt: float,
-    sizes: np.ndarray,
-    slip: np.ndarray,
-    bias: np.ndarray,
-    noise_rng: np.random.Generator,
-    grounds: list[str],
-) -> dict[str, Any]:
-    """Truth power, battery and sensors for runs laid out one after another.
-
-    ``sizes`` are the sample counts of the runs in log order, ``slip`` and ``bias``
-    (roll, pitch; rad) per sample (constant per run).
+    The runs of a slope are walked together (slopes in increasing order), its blocks (a
+    condition, or the parts of a composite) in random order.
     """
-    features: dict[str, Any] = {
-        "alpha": tr.alpha,
-        "gamma": wrap(tr.gamma),
-        "vx": tr.vx,
-        "vy": tr.vy,
-        "wz": tr.wz,
-        "ax": tr.ax,
-        "ay": tr.ay,
-        "t_gait": tr.t_run,
-        **tr.channels,
-    }
-    power = physics.power(features)
-    expected = physics.expected_power(features)
-
-    # ---- battery, run by run in log order
-    n = len(tr.t)
-    n_runs = len(sizes)
-    current = np.empty(n)
-    voltage = np.empty(n)
-    soc = np.empty(n)
-    pack = np.zeros(n_runs, dtype=int)
-    soc_start = np.zeros(n_runs)
-    soc_end = np.zeros(n_runs)
-    energy = np.zeros(n_runs)
-    level, pack_id = bat.soc_start, 0
-    charge_as = 3600.0 * bat.capacity_ah
-    r = bat.internal_resistance_ohm
-    bounds = np.concatenate([[0], np.cumsum(sizes)])
-    for k in range(n_runs):
-        sl = slice(bounds[k], bounds[k + 1])
-        p = power[sl]
-        i0 = battery_current(p, bat.ocv(level), r)
-        soc_t = level - _cumtrapz(i0, dt) / charge_as
-        if soc_t[-1] < bat.soc_swap and level < bat.soc_start:
-            level, pack_id = bat.soc_start, pack_id + 1
-            i0 = battery_current(p, bat.ocv(level), r)
-            soc_t = level - _cumtrapz(i0, dt) / charge_as
-        ocv = bat.ocv(soc_t)
-        i = battery_current(p, ocv, r)
-        current[sl], voltage[sl], soc[sl] = i, ocv - r * i, soc_t
-        pack[k], soc_start[k] = pack_id, level
-        level = level - float(np.sum((i[1:] + i[:-1]) * dt / 2)) / charge_as
-        soc_end[k] = level
-        energy[k] = float(np.sum((p[1:] + p[:-1]) * dt / 2))
-
-    # ---- sensors
-    g = 1.0 - np.clip(slip, -0.5, 0.5)
-    meas_vx = tr.vx * g + sens.twist_noise_v * noise_rng.standard_normal(n)
-    meas_vy = tr.vy * g + sens.twist_noise_v * noise_rng.standard_normal(n)
-    meas_wz = tr.wz * g + sens.twist_noise_w * noise_rng.standard_normal(n)
-    spikes = noise_rng.random(n) < sens.spike_prob
-    spike_size = noise_rng.uniform(0.5, 1.5, n) * np.where(noise_rng.random(n) < 0.5, -1, 1)
-    cur_src, volt_src = current, voltage
-    if sens.battery_clock_offset_s > 0:  # the battery stream lags: shows older values
-        cur_src, volt_src = np.empty(n), np.empty(n)
-        for k in range(n_runs):
-            sl = slice(bounds[k], bounds[k + 1])
-            tt = tr.t[sl]
-            cur_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, current[sl])
-            volt_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, voltage[sl])
-    meas_current = (
-        cur_src
-        + sens.current_noise_a * noise_rng.standard_normal(n)
-        + np.where(spikes, sens.spike_current_a * spike_size, 0.0)
+    slope_values = sorted({r.slope_deg for r in plan})
+    psi_of = {s: float(rng.uniform(-math.pi, math.pi)) for s in slope_values}
+    blocks = list(dict.fromkeys(r.composite or r.run for r in plan))
+    block_index = {b: i for i, b in enumerate(blocks)}
+    shuffled = rng.permutation(len(blocks))
+    slope_rank = {s: i for i, s in enumerate(slope_values)}
+    run_block = [block_index[r.composite or r.run] for r in plan]
+    order = sorted(
+        range(len(plan)),
+        key=lambda k: (slope_rank[plan[k].slope_deg], shuffled[run_block[k]], k),
     )
-    if sens.ros_current_sign:
-        meas_current = -meas_current
-    meas_voltage = volt_src + sens.voltage_noise_v * noise_rng.standard_normal(n)
-    q = imu_quaternion(tr.alpha, tr.psi, tr.gamma)
-    rotvec = np.zeros((n, 3))
-    rotvec[:, :2] = bias
-    rotvec += np.radians(sens.imu_noise_deg) * noise_rng.standard_normal((n, 3))
-    if np.any(rotvec):  # a misaligned, noisy IMU: R_measured = R_true R_error
-        q = quat_mul(q, quat_from_rotvec(rotvec))
-        q = np.where(q[:, :1] < 0, -q, q)
+    return psi_of, run_block, order
 
-    ch = tr.channels
-    logs = pd.DataFrame(
-        {
-            "run": tr.run,
-            "t": tr.t,
-            "qw": q[:, 0],
-            "qx": q[:, 1],
-            "qy": q[:, 2],
-            "qz": q[:, 3],
-            "vx": meas_vx,
-            "vy": meas_vy,
-            "wz": meas_wz,
-            "voltage": meas_voltage,
-            "current": meas_current,
-            "x": tr.pos[:, 0],
-            "y": tr.pos[:, 1],
-            "yaw": tr.yaw,
-            "load_kg": ch["load_kg"],
-            "ground": pd.Categorical(ch["ground"], categories=grounds),
-            "motor_temp": ch["motor_temp"],
-            "air_temp_c": ch["air_temp_c"],
-            "grass_height_m": ch["grass_height_m"],
-        }
-    )
-    true_samples = pd.DataFrame(
-        {
-            "run": tr.run,
-            "t": tr.t,
-            "alpha": tr.alpha,
-            "gamma": features["gamma"],
-            "vx": tr.vx,
-            "vy": tr.vy,
-            "wz": tr.wz,
-            "speed": np.hypot(tr.vx, tr.vy),
-            "ax": tr.ax,
-            "ay": tr.ay,
-            "z": tr.pos[:, 2],
-            "t_gait": tr.t_run,
-            "power": power,
-            "power_expected": expected,
-            "voltage": voltage,
-            "current": current,
-            "soc": soc,
-        }
-    )
+
+def _run_description(spec: RunSpec, psi_of: dict[float, float]) -> dict[str, Any]:
+    """What a designed run's record says of it (:data:`~.records.RUN_FIELDS`)."""
     return {
-        "logs": logs,
-        "true_samples": true_samples,
-        "energy": energy,
-        "pack": pack,
-        "soc_start": soc_start,
-        "soc_end": soc_end,
+        "run": spec.run,
+        "kind": spec.kind,
+        "motion": spec.motion,
+        "slope_deg": spec.slope_deg,
+        "uphill_azimuth_deg": math.degrees(psi_of[spec.slope_deg]),
+        "heading_deg": spec.heading_deg,
+        "speed": spec.speed,
+        "yaw_rate": spec.yaw_rate,
+        "composite": spec.composite,
+        "part": spec.part,
+        "distance_m": spec.distance_m,
+        "turn_deg": math.degrees(spec.turn_rad),
+        "repeat": spec.repeat,
     }
-
-
-def _cumtrapz(y: np.ndarray, dt: float) -> np.ndarray:
-    out = np.zeros_like(y)
-    out[1:] = np.cumsum((y[1:] + y[:-1]) * (dt / 2))
-    return out
 
 
 def _run_geometry(

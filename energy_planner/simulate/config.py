@@ -17,12 +17,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 from energy_planner.errors import EnergyPlannerError
 
-__all__ = ["SensorConfig", "BatteryConfig", "CampaignConfig", "ConfigError"]
+__all__ = [
+    "SensorConfig",
+    "BatteryConfig",
+    "CampaignConfig",
+    "ConfigError",
+    "check_fields",
+    "shared_rules",
+]
 
 
 class ConfigError(EnergyPlannerError, ValueError):
@@ -31,7 +40,116 @@ class ConfigError(EnergyPlannerError, ValueError):
 
 def _check(cond: bool, what: str, value: Any, expected: str) -> None:
     if not cond:
-        raise ConfigError(f"{what} = {value!r} is invalid: expected {expected}")
+        raise ConfigError(
+            f"{what} = {value!r} is invalid: expected {expected}",
+            value=value,
+            param=what,
+            expected=expected,
+        )
+
+
+#: A rule on one field: ``(test(value, config), expected)``. ``expected`` says what a
+#: valid value is, in words; it may name other fields as ``{c.name}``. A test that
+#: raises (a string where a number belongs, say) counts as failed.
+Rule = tuple[Callable[[Any, Any], bool], str]
+
+
+def is_number(v: Any) -> bool:
+    """A finite real number (not a bool)."""
+    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def in_range(lo: float, hi: float = math.inf, *, lo_open: bool = False, hi_open: bool = False):
+    """Test of a finite number between ``lo`` and ``hi`` (closed ends unless told)."""
+
+    def test(v: Any, _c: Any = None) -> bool:
+        above = v > lo if lo_open else v >= lo
+        below = v < hi if hi_open else v <= hi
+        return is_number(v) and above and below
+
+    return test
+
+
+def all_in(test: Callable[[Any, Any], bool], min_len: int = 1):
+    """Test of a tuple of at least ``min_len`` items that each pass ``test``."""
+    return lambda v, c=None: (
+        isinstance(v, tuple) and len(v) >= min_len and all(test(x, c) for x in v)
+    )
+
+
+def low_high(lo: float = -math.inf):
+    """Test of a ``(low, high)`` pair of numbers with ``lo <= low <= high``."""
+    return lambda v, c=None: (
+        isinstance(v, tuple) and len(v) == 2 and all(map(is_number, v)) and lo <= v[0] <= v[1]
+    )
+
+
+def positive_int(v: Any, _c: Any = None) -> bool:
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1
+
+
+def _grounds_rule() -> Rule:
+    from energy_planner.simulate.physics import GROUNDS
+
+    return (
+        lambda v, c=None: isinstance(v, tuple) and len(v) > 0 and all(g in GROUNDS for g in v),
+        f"one or more of {', '.join(GROUNDS)}",
+    )
+
+
+def check_fields(config: Any, rules: dict[str, Rule]) -> None:
+    """Validate a config's fields against ``rules``, first failure first.
+
+    Fields typed as tuples are first made tuples (any iterable but a string is accepted).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``Class.field``, the value and what was expected.
+
+    Examples
+    --------
+    >>> from energy_planner.simulate import MissionConfig
+    >>> try:
+    ...     MissionConfig(gap_s=-3)
+    ... except ConfigError as err:
+    ...     print(err, err.param, err.value, sep=" | ")
+    MissionConfig.gap_s = -3 is invalid: expected a pause >= 0 s | MissionConfig.gap_s | -3
+    """
+    for f in dataclasses.fields(config):
+        v = getattr(config, f.name)
+        if str(f.type).startswith("tuple") and isinstance(v, Iterable) and not isinstance(v, str):
+            object.__setattr__(config, f.name, tuple(v))
+    owner = type(config).__name__
+    for name, (test, expected) in rules.items():
+        value = getattr(config, name)
+        try:
+            ok = bool(test(value, config))
+        except (TypeError, ValueError):
+            ok = False
+        _check(ok, f"{owner}.{name}", value, expected.format(c=config))
+
+
+def shared_rules() -> dict[str, Rule]:
+    """Rules of the fields :class:`CampaignConfig` and ``MissionConfig`` share.
+
+    One rule per field, so that both configs accept and refuse the same values.
+    """
+    return {
+        "speeds": (all_in(in_range(0, 3, lo_open=True)), "one or more speeds in (0, 3] m/s"),
+        "yaw_rate": (in_range(0, 3, lo_open=True), "a yaw rate in (0, 3] rad/s"),
+        "ramp_s": (in_range(0), "a ramp length >= 0 s"),
+        "rate_hz": (in_range(1, 2000), "a rate in [1, 2000] Hz"),
+        "gap_s": (in_range(0), "a pause >= 0 s"),
+        "grounds": _grounds_rule(),
+        "loads_kg": (all_in(in_range(0)), "one or more masses >= 0 kg"),
+        "air_temp_range_c": (low_high(), "(low, high) with low <= high, deg C"),
+        "motor_temp_range_c": (low_high(), "(low, high) with low <= high, deg C"),
+        "motor_warming_k_s": (in_range(0), "a warming rate >= 0 K/s"),
+        "grass_height_range_m": (low_high(0.0), "(low, high) with 0 <= low <= high, m"),
+        "sensors": (lambda v, c=None: isinstance(v, SensorConfig), "a SensorConfig"),
+        "battery": (lambda v, c=None: isinstance(v, BatteryConfig), "a BatteryConfig"),
+    }
 
 
 @dataclass(frozen=True)
@@ -115,15 +233,12 @@ class SensorConfig:
         return all(getattr(self, f.name) == 0 for f in dataclasses.fields(self))
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            v = getattr(self, f.name)
-            _check(
-                isinstance(v, int | float) and math.isfinite(v) and v >= 0,
-                f"SensorConfig.{f.name}",
-                v,
-                "a finite number >= 0",
-            )
-        _check(self.spike_prob <= 1, "SensorConfig.spike_prob", self.spike_prob, "<= 1")
+        rules: dict[str, Rule] = {
+            f.name: (in_range(0), "a finite number >= 0") for f in dataclasses.fields(self)
+        }
+        rules["spike_prob"] = (in_range(0, 1), "a probability in [0, 1]")
+        rules["ros_current_sign"] = (lambda v, c=None: v in (True, False), "True or False")
+        check_fields(self, rules)
 
 
 @dataclass(frozen=True)
@@ -161,31 +276,23 @@ class BatteryConfig:
     soc_swap: float = 0.2
 
     def __post_init__(self) -> None:
-        _check(
-            isinstance(self.cells, int) and self.cells > 0,
-            "BatteryConfig.cells",
-            self.cells,
-            "a positive integer",
-        )
-        _check(
-            0 < self.cell_empty_v < self.cell_full_v,
-            "BatteryConfig.cell_empty_v",
-            self.cell_empty_v,
-            f"0 < cell_empty_v < cell_full_v ({self.cell_full_v})",
-        )
-        _check(
-            self.internal_resistance_ohm >= 0,
-            "BatteryConfig.internal_resistance_ohm",
-            self.internal_resistance_ohm,
-            ">= 0",
-        )
-        _check(self.capacity_ah > 0, "BatteryConfig.capacity_ah", self.capacity_ah, "> 0")
-        _check(0 < self.soc_start <= 1, "BatteryConfig.soc_start", self.soc_start, "in (0, 1]")
-        _check(
-            0 <= self.soc_swap < self.soc_start,
-            "BatteryConfig.soc_swap",
-            self.soc_swap,
-            f"in [0, soc_start={self.soc_start})",
+        check_fields(
+            self,
+            {
+                "cells": (positive_int, "a positive integer"),
+                "cell_full_v": (in_range(0, lo_open=True), "a voltage > 0 V"),
+                "cell_empty_v": (
+                    lambda v, c: in_range(0, c.cell_full_v, lo_open=True, hi_open=True)(v),
+                    "0 < cell_empty_v < cell_full_v ({c.cell_full_v})",
+                ),
+                "internal_resistance_ohm": (in_range(0), "a resistance >= 0 ohm"),
+                "capacity_ah": (in_range(0, lo_open=True), "a capacity > 0 Ah"),
+                "soc_start": (in_range(0, 1, lo_open=True), "in (0, 1]"),
+                "soc_swap": (
+                    lambda v, c: in_range(0, c.soc_start, hi_open=True)(v),
+                    "in [0, soc_start={c.soc_start})",
+                ),
+            },
         )
 
     def ocv(self, soc):
@@ -295,120 +402,7 @@ class CampaignConfig:
     battery: BatteryConfig = field(default_factory=BatteryConfig)
 
     def __post_init__(self) -> None:
-        for name in (
-            "slopes_deg",
-            "headings_deg",
-            "motions",
-            "speeds",
-            "turn_headings_deg",
-            "composite_slopes_deg",
-            "composite_headings_deg",
-            "composite_legs_m",
-            "grounds",
-            "loads_kg",
-            "air_temp_range_c",
-            "motor_temp_range_c",
-            "grass_height_range_m",
-        ):
-            object.__setattr__(self, name, tuple(getattr(self, name)))
-        _check(
-            all(0 <= s < 60 for s in self.slopes_deg),
-            "CampaignConfig.slopes_deg",
-            self.slopes_deg,
-            "slopes in [0, 60) deg",
-        )
-        _check(
-            all(0 <= s < 60 for s in self.composite_slopes_deg),
-            "CampaignConfig.composite_slopes_deg",
-            self.composite_slopes_deg,
-            "slopes in [0, 60) deg",
-        )
-        valid = ("forward", "backward", "left", "right")
-        _check(
-            all(m in valid for m in self.motions),
-            "CampaignConfig.motions",
-            self.motions,
-            f"a subset of {', '.join(valid)}",
-        )
-        _check(
-            len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
-            "CampaignConfig.speeds",
-            self.speeds,
-            "one or more speeds in (0, 3] m/s",
-        )
-        _check(
-            0 < self.yaw_rate <= 3,
-            "CampaignConfig.yaw_rate",
-            self.yaw_rate,
-            "a yaw rate in (0, 3] rad/s",
-        )
-        _check(self.arc_radius_m > 0, "CampaignConfig.arc_radius_m", self.arc_radius_m, "> 0")
-        _check(
-            isinstance(self.repeats, int) and self.repeats >= 1,
-            "CampaignConfig.repeats",
-            self.repeats,
-            "an integer >= 1",
-        )
-        _check(
-            1 <= self.rate_hz <= 2000,
-            "CampaignConfig.rate_hz",
-            self.rate_hz,
-            "a rate in [1, 2000] Hz",
-        )
-        _check(self.ramp_s >= 0, "CampaignConfig.ramp_s", self.ramp_s, ">= 0 s")
-        _check(
-            self.run_s > self.ramp_s,
-            "CampaignConfig.run_s",
-            self.run_s,
-            f"longer than ramp_s = {self.ramp_s} s",
-        )
-        _check(self.gap_s >= 0, "CampaignConfig.gap_s", self.gap_s, ">= 0 s")
-        _check(
-            len(self.composite_legs_m) == 2 and all(d > 0 for d in self.composite_legs_m),
-            "CampaignConfig.composite_legs_m",
-            self.composite_legs_m,
-            "two positive lengths (A forward, B sideways) in m",
-        )
-        _check(
-            0 < abs(self.composite_turn_deg) < 180,
-            "CampaignConfig.composite_turn_deg",
-            self.composite_turn_deg,
-            "an angle in (0, 180) deg",
-        )
-        from energy_planner.simulate.physics import GROUNDS
-
-        _check(
-            len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
-            "CampaignConfig.grounds",
-            self.grounds,
-            f"one or more of {', '.join(GROUNDS)}",
-        )
-        _check(
-            len(self.loads_kg) > 0 and all(p >= 0 for p in self.loads_kg),
-            "CampaignConfig.loads_kg",
-            self.loads_kg,
-            "one or more masses >= 0 kg",
-        )
-        _check(
-            self.motor_warming_k_s >= 0,
-            "CampaignConfig.motor_warming_k_s",
-            self.motor_warming_k_s,
-            ">= 0 K/s",
-        )
-        for name in ("air_temp_range_c", "motor_temp_range_c", "grass_height_range_m"):
-            lo_hi = getattr(self, name)
-            _check(
-                len(lo_hi) == 2 and lo_hi[0] <= lo_hi[1],
-                f"CampaignConfig.{name}",
-                lo_hi,
-                "(low, high) with low <= high",
-            )
-        _check(
-            self.grass_height_range_m[0] >= 0,
-            "CampaignConfig.grass_height_range_m",
-            self.grass_height_range_m,
-            "heights >= 0 m",
-        )
+        check_fields(self, _campaign_rules())
 
     @property
     def dt(self) -> float:
@@ -440,3 +434,35 @@ class CampaignConfig:
     def replace(self, **changes: Any) -> CampaignConfig:
         """A copy with some parameters changed."""
         return dataclasses.replace(self, **changes)
+
+
+def _campaign_rules() -> dict[str, Rule]:
+    """Rules of :class:`CampaignConfig`'s fields (the shared ones and its own)."""
+    slopes = all_in(in_range(0, 60, hi_open=True), min_len=0)
+    motions = ("forward", "backward", "left", "right")
+    return {
+        "slopes_deg": (slopes, "slopes in [0, 60) deg"),
+        "composite_slopes_deg": (slopes, "slopes in [0, 60) deg"),
+        "headings_deg": (all_in(in_range(-math.inf), min_len=0), "headings in deg"),
+        "turn_headings_deg": (all_in(in_range(-math.inf), min_len=0), "headings in deg"),
+        "composite_headings_deg": (all_in(in_range(-math.inf), min_len=0), "headings in deg"),
+        "motions": (
+            lambda v, c=None: isinstance(v, tuple) and all(m in motions for m in v),
+            f"a subset of {', '.join(motions)}",
+        ),
+        **shared_rules(),
+        "arc_radius_m": (in_range(0, lo_open=True), "a radius > 0 m"),
+        "repeats": (positive_int, "an integer >= 1"),
+        "run_s": (
+            lambda v, c: in_range(c.ramp_s, lo_open=True)(v),
+            "longer than ramp_s = {c.ramp_s} s",
+        ),
+        "composite_legs_m": (
+            lambda v, c=None: len(v) == 2 and all(in_range(0, lo_open=True)(d) for d in v),
+            "two positive lengths (A forward, B sideways) in m",
+        ),
+        "composite_turn_deg": (
+            lambda v, c=None: in_range(-180, 180, lo_open=True, hi_open=True)(v) and v != 0,
+            "an angle in (0, 180) deg",
+        ),
+    }

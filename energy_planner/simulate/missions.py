@@ -35,15 +35,28 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import LogIOError
-from energy_planner.simulate.campaign import (
-    Campaign,
-    _logs_from_truth,
-    _TruthStreams,
+from energy_planner.simulate.campaign import Campaign
+from energy_planner.simulate.config import (
+    BatteryConfig,
+    Rule,
+    SensorConfig,
+    check_fields,
+    in_range,
+    low_high,
+    positive_int,
+    shared_rules,
 )
-from energy_planner.simulate.config import BatteryConfig, ConfigError, SensorConfig, _check
 from energy_planner.simulate.effects import check_effects, check_faults
 from energy_planner.simulate.kinematics import wrap
 from energy_planner.simulate.physics import GROUNDS, Physics, RobotParams
+from energy_planner.simulate.records import (
+    ChannelDraws,
+    TruthStreams,
+    lay_out,
+    logs_from_truth,
+    run_record,
+    sensor_offsets,
+)
 
 __all__ = ["MissionConfig", "GroundMap", "simulate_missions", "synthetic_dem", "ground_map"]
 
@@ -109,63 +122,7 @@ class MissionConfig:
     battery: BatteryConfig = field(default_factory=BatteryConfig)
 
     def __post_init__(self) -> None:
-        for name in (
-            "speeds",
-            "phase_s",
-            "grounds",
-            "loads_kg",
-            "air_temp_range_c",
-            "motor_temp_range_c",
-            "grass_height_range_m",
-        ):
-            object.__setattr__(self, name, tuple(getattr(self, name)))
-        _check(
-            isinstance(self.missions, int) and self.missions >= 1,
-            "MissionConfig.missions",
-            self.missions,
-            "an integer >= 1",
-        )
-        _check(self.duration_s >= 10, "MissionConfig.duration_s", self.duration_s, ">= 10 s")
-        _check(
-            len(self.speeds) > 0 and all(0 < v <= 3 for v in self.speeds),
-            "MissionConfig.speeds",
-            self.speeds,
-            "speeds in (0, 3] m/s",
-        )
-        _check(
-            len(self.phase_s) == 2 and 0 < self.phase_s[0] <= self.phase_s[1],
-            "MissionConfig.phase_s",
-            self.phase_s,
-            "(low, high) with 0 < low <= high",
-        )
-        for name in ("stop_prob", "sideways_prob", "backward_prob"):
-            _check(
-                0 <= getattr(self, name) <= 1,
-                f"MissionConfig.{name}",
-                getattr(self, name),
-                "a probability in [0, 1]",
-            )
-        _check(
-            self.sideways_prob + self.backward_prob <= 1,
-            "MissionConfig.sideways_prob",
-            self.sideways_prob,
-            "sideways_prob + backward_prob <= 1",
-        )
-        _check(0 < self.yaw_rate <= 3, "MissionConfig.yaw_rate", self.yaw_rate, "in (0, 3]")
-        _check(self.ramp_s >= 0, "MissionConfig.ramp_s", self.ramp_s, ">= 0 s")
-        _check(1 <= self.rate_hz <= 2000, "MissionConfig.rate_hz", self.rate_hz, "in [1, 2000]")
-        _check(
-            self.waypoint_spacing_m > 0,
-            "MissionConfig.waypoint_spacing_m",
-            self.waypoint_spacing_m,
-            "> 0 m",
-        )
-        _check(
-            len(self.grounds) > 0 and all(g in GROUNDS for g in self.grounds),
-            "MissionConfig.grounds",
-            self.grounds,
-            f"one or more of {', '.join(GROUNDS)}",
-        )
+        check_fields(self, _mission_rules())
 
     @property
     def dt(self) -> float:
@@ -211,6 +168,28 @@ class MissionConfig:
     def replace(self, **changes: Any) -> MissionConfig:
         """A copy with some parameters changed."""
         return dataclasses.replace(self, **changes)
+
+
+def _mission_rules() -> dict[str, Rule]:
+    """Rules of :class:`MissionConfig`'s fields (its own and those shared with the campaign)."""
+    probability = in_range(0, 1)
+    return {
+        "missions": (positive_int, "an integer >= 1"),
+        "duration_s": (in_range(10), "a duration >= 10 s"),
+        "phase_s": (
+            lambda v, c=None: low_high(0)(v) and v[0] > 0,
+            "(low, high) with 0 < low <= high, s",
+        ),
+        "stop_prob": (probability, "a probability in [0, 1]"),
+        "sideways_prob": (probability, "a probability in [0, 1]"),
+        "backward_prob": (
+            lambda v, c: probability(v) and c.sideways_prob + v <= 1,
+            "a probability in [0, 1 - sideways_prob = {c.sideways_prob}]",
+        ),
+        "stop_s": (in_range(0), "a stop length >= 0 s"),
+        "waypoint_spacing_m": (in_range(0, lo_open=True), "a spacing > 0 m"),
+        **shared_rules(),
+    }
 
 
 def _smooth_noise(
@@ -520,8 +499,7 @@ def simulate_missions(
     physics = Physics(params, names)
     if terrain is None:
         terrain = synthetic_dem(seed)
-    root = np.random.default_rng(seed)
-    path_rng, channel_rng, noise_rng = root.spawn(3)
+    path_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)
     sens = cfg.sensors.with_faults(fault_names)
     grounds = ground_map(terrain, cfg.grounds, seed=seed)
 
@@ -529,125 +507,66 @@ def simulate_missions(
     for _ in tqdm(
         range(cfg.missions), desc="simulating missions", disable=not progress, unit="mission"
     ):
-        tr = _mission_track(path_rng, terrain, cfg)
-        tracks.append(tr)
-        motions.append(_body_motion(terrain, tr, cfg.dt))
-    m = cfg.missions
-    load = np.asarray(cfg.loads_kg, float)[channel_rng.permutation(m) % len(cfg.loads_kg)]
-    air = channel_rng.uniform(*cfg.air_temp_range_c, m)
-    grass = channel_rng.uniform(*cfg.grass_height_range_m, m)
-    motor0 = channel_rng.uniform(*cfg.motor_temp_range_c, m)
-    warm = channel_rng.uniform(0.0, cfg.motor_warming_k_s, m)
-    slip = sens.slip_mean + sens.slip_std * noise_rng.standard_normal(m)
-    bias = np.radians(sens.imu_bias_deg) * noise_rng.standard_normal((m, 2))
+        tracks.append(_mission_track(path_rng, terrain, cfg))
+        motions.append(_body_motion(terrain, tracks[-1], cfg.dt))
+    draws = ChannelDraws.draw(channel_rng, cfg, cfg.missions, ground=False)
+    slip_raw, bias = sensor_offsets(noise_rng, sens, cfg.missions)
+    slip = sens.slip_mean + sens.slip_std * slip_raw
 
-    sizes = np.array([len(tr["t"]) for tr in tracks])
-    idx = np.repeat(np.arange(m), sizes)
-    t_run = np.concatenate([tr["t"] for tr in tracks])
-    starts = np.concatenate([[0.0], np.cumsum([tr["t"][-1] + cfg.gap_s for tr in tracks])[:-1]])
-    t = np.round(t_run + starts[idx], 9)
-
-    def cat(key: str) -> np.ndarray:
-        return np.concatenate([mo[key] for mo in motions])
-
-    alpha = cat("alpha")
-    pos = cat("pos")
-    run_ids = np.array([f"mission_{i:03d}" for i in range(m)], dtype=object)[idx]
-    channels = {
-        "load_kg": load[idx],
-        "ground": grounds.sample(pos[:, 0], pos[:, 1]).astype(str),
-        "motor_temp": motor0[idx] + warm[idx] * t_run,
-        "air_temp_c": air[idx],
-        "grass_height_m": grass[idx],
-    }
-    slip_s = slip[idx] + sens.slip_per_sin_slope * np.sin(alpha)
-    truth = _TruthStreams(
-        run_ids,
-        t,
-        t_run,
-        alpha,
-        cat("psi"),
-        cat("gamma"),
-        cat("vx"),
-        cat("vy"),
-        cat("wz"),
-        cat("ax"),
-        cat("ay"),
-        pos,
-        cat("yaw"),
-        channels,
-    )
-    out = _logs_from_truth(
-        truth,
-        physics,
-        sens,
-        cfg.battery,
-        cfg.dt,
-        sizes,
-        slip_s,
-        bias[idx],
-        noise_rng,
+    lay = lay_out([tr["t"] for tr in tracks], cfg.gap_s)
+    idx = lay.run_of_sample
+    mo = {key: np.concatenate([m[key] for m in motions]) for key in motions[0]}
+    pos = mo["pos"]
+    run_ids = np.array([f"mission_{i:03d}" for i in range(cfg.missions)], dtype=object)
+    channels = draws.per_sample(idx, lay.t_run, grounds.sample(pos[:, 0], pos[:, 1]).astype(str))
+    truth = TruthStreams(
+        run_ids[idx], lay.t, lay.t_run, mo["alpha"], mo["psi"], mo["gamma"], mo["vx"],
+        mo["vy"], mo["wz"], mo["ax"], mo["ay"], pos, mo["yaw"], channels,
+    )  # fmt: skip
+    slip_s = slip[idx] + sens.slip_per_sin_slope * np.sin(mo["alpha"])
+    out = logs_from_truth(
+        truth, physics, sens, cfg.battery, cfg.dt, lay.sizes, slip_s, bias[idx], noise_rng,
         list(cfg.grounds),
-    )
+    )  # fmt: skip
     # the pose has an altitude: a map-referenced localization (x, y as logged already)
-    logs = out["logs"]
-    logs.insert(logs.columns.get_loc("y") + 1, "z", pos[:, 2])
-    rows = []
-    for i, (tr, mo) in enumerate(zip(tracks, motions, strict=True)):
-        speed = np.hypot(mo["vx"], mo["vy"])
-        dist = float(np.sum(0.5 * (speed[1:] + speed[:-1])) * cfg.dt)
-        dur = float(tr["t"][-1])
-        rows.append(
-            {
-                "run": f"mission_{i:03d}",
-                "kind": "mission",
-                "motion": "mission",
-                "slope_deg": float(np.degrees(np.mean(mo["alpha"]))),
-                "max_slope_deg": float(np.degrees(np.max(mo["alpha"]))),
-                "uphill_azimuth_deg": float("nan"),
-                "heading_deg": float(np.degrees(mo["gamma"][0])),
-                "speed": float(np.mean(speed[speed > 0.05])) if np.any(speed > 0.05) else 0.0,
-                "yaw_rate": float(np.mean(np.abs(mo["wz"]))),
-                "duration_s": dur,
-                "composite": "",
-                "part": "",
-                "true_energy_j": out["energy"][i],
-                "true_mean_power_w": out["energy"][i] / dur,
-                "distance_m": dist,
-                "turn_deg": float(np.degrees(mo["yaw"][-1] - mo["yaw"][0])),
-                "repeat": 0,
-                "order": i,
-                "t_start": starts[i],
-                "n_samples": int(sizes[i]),
-                "load_kg": load[i],
-                "ground": "varies",
-                "motor_temp_start": motor0[i],
-                "air_temp_c": air[i],
-                "grass_height_m": grass[i],
-                "slip": slip[i],
-                "imu_roll_bias_deg": math.degrees(bias[i, 0]),
-                "imu_pitch_bias_deg": math.degrees(bias[i, 1]),
-                "battery_pack": out["pack"][i],
-                "soc_start": out["soc_start"][i],
-                "soc_end": out["soc_end"][i],
-                "start_x": mo["pos"][0, 0],
-                "start_y": mo["pos"][0, 1],
-                "end_x": mo["pos"][-1, 0],
-                "end_y": mo["pos"][-1, 1],
-                "end_yaw_deg": math.degrees(mo["yaw"][-1]),
-                "end_heading_deg": math.degrees(mo["gamma"][-1]),
-            }
-        )
-    if not rows:  # pragma: no cover - missions >= 1
-        raise ConfigError("no mission simulated")
+    out["logs"].insert(out["logs"].columns.get_loc("y") + 1, "z", pos[:, 2])
+    rows = [
+        run_record(
+            _mission_description(run_ids[i], m, cfg.dt),
+            i,
+            lay,
+            out,
+            draws.row(i),
+            slip[i],
+            bias[i],
+            m["pos"],
+            m["yaw"][-1],
+            m["gamma"][-1],
+        )  # fmt: skip
+        for i, m in enumerate(motions)
+    ]
     return Campaign(
-        out["logs"],
-        pd.DataFrame(rows),
-        physics,
-        names,
-        out["true_samples"],
-        seed,
-        cfg,
-        fault_names,
-        grounds,
-    )
+        out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed, cfg,
+        fault_names, grounds,
+    )  # fmt: skip
+
+
+def _mission_description(run: str, mo: dict[str, np.ndarray], dt: float) -> dict[str, Any]:
+    """What a mission's run record says of its motion (:data:`~.records.RUN_FIELDS`)."""
+    speed = np.hypot(mo["vx"], mo["vy"])
+    return {
+        "run": run,
+        "kind": "mission",
+        "motion": "mission",
+        "slope_deg": float(np.degrees(np.mean(mo["alpha"]))),
+        "max_slope_deg": float(np.degrees(np.max(mo["alpha"]))),
+        "uphill_azimuth_deg": float("nan"),
+        "heading_deg": float(np.degrees(mo["gamma"][0])),
+        "speed": float(np.mean(speed[speed > 0.05])) if np.any(speed > 0.05) else 0.0,
+        "yaw_rate": float(np.mean(np.abs(mo["wz"]))),
+        "composite": "",
+        "part": "",
+        "distance_m": float(np.sum(0.5 * (speed[1:] + speed[:-1])) * dt),
+        "turn_deg": float(np.degrees(mo["yaw"][-1] - mo["yaw"][0])),
+        "repeat": 0,
+    }
