@@ -108,201 +108,145 @@ def _tag(slope: float, heading: float, speed: float) -> str:
     return f"a{slope:g}_g{heading:+g}_v{speed:g}"
 
 
+_SIDES = (("left", 1), ("right", -1))
+_DIRECTIONS = {"forward": (1, 0), "backward": (-1, 0), "left": (0, 1), "right": (0, -1)}
+
+Segment = tuple[float, float, float, float]
+
+
 def plan_runs(config: CampaignConfig) -> list[RunSpec]:
     """Every run of the campaign, in design order (leg A before leg B).
 
     Durations are whole numbers of samples; a composite part's speed is adjusted by at
     most half a sample so that its distance is exact.
+
+    Raises
+    ------
+    ConfigError
+        If two runs would get the same id (a heading, slope or speed listed twice).
     """
     dt = config.dt
     ramp = round(config.ramp_s / dt) * dt
     body = _q(config.run_s - ramp, dt)
     runs: list[RunSpec] = []
-    directions = {"forward": (1, 0), "backward": (-1, 0), "left": (0, 1), "right": (0, -1)}
     for slope in config.slopes_deg:
         for rep in range(config.repeats):
-            for heading in config.headings_deg:
-                h = wrap_deg(heading)
-                for motion in config.motions:
-                    ux, uy = directions[motion]
-                    for v in config.speeds:
-                        runs.append(
-                            RunSpec(
-                                f"straight_{motion}_{_tag(slope, h, v)}_r{rep}",
-                                "straight",
-                                motion,
-                                slope,
-                                h,
-                                v,
-                                0.0,
-                                ((body, ux * v, uy * v, 0.0),),
-                                rep,
-                            )
-                        )
-            for heading in config.turn_headings_deg:
-                h = wrap_deg(heading)
-                for side, s in (("left", 1), ("right", -1)):
-                    runs.append(
-                        RunSpec(
-                            f"turn_{side}_{_tag(slope, h, 0.0)}_r{rep}",
-                            "turn",
-                            f"turn_{side}",
-                            slope,
-                            h,
-                            0.0,
-                            config.yaw_rate,
-                            ((body, 0.0, 0.0, s * config.yaw_rate),),
-                            rep,
-                        )
-                    )
-            if config.arcs:
-                for v in config.speeds:
-                    w = v / config.arc_radius_m
-                    for side, s in (("left", 1), ("right", -1)):
-                        runs.append(
-                            RunSpec(
-                                f"arc_{side}_{_tag(slope, 0.0, v)}_r{rep}",
-                                "arc",
-                                f"arc_{side}",
-                                slope,
-                                0.0,
-                                v,
-                                w,
-                                ((body, v, 0.0, s * w),),
-                                rep,
-                            )
-                        )
-            if config.stand:
-                runs.append(
-                    RunSpec(
-                        f"stand_{_tag(slope, 0.0, 0.0)}_r{rep}",
-                        "stand",
-                        "stand",
-                        slope,
-                        0.0,
-                        0.0,
-                        0.0,
-                        ((body, 0.0, 0.0, 0.0),),
-                        rep,
-                    )
-                )
-    v = nominal_speed(config)
-    d_a, d_b = config.composite_legs_m
-    d_c = math.hypot(d_a, d_b)
-    turn = math.radians(abs(config.composite_turn_deg))
-    radius = config.arc_radius_m
-    chord = 2.0 * radius * math.sin(turn / 2.0)
+            runs += _condition_runs(config, slope, rep, body)
     for slope in config.composite_slopes_deg:
         for heading in config.composite_headings_deg:
-            h = wrap_deg(heading)
-            for side, s in (("left", 1), ("right", -1)):
-                # (a) A forward, B sideways, C diagonal
-                cid = f"supa_{side}_{_tag(slope, h, v)}"
-                ta, tb, tc = _q(d_a / v, dt), _q(d_b / v, dt), _q(d_c / v, dt)
-                seg_a = (ta, d_a / ta, 0.0, 0.0)
-                seg_b = (tb, 0.0, s * d_b / tb, 0.0)
-                seg_c = (tc, d_a / tc, s * d_b / tc, 0.0)
-                common = dict(kind="composite", slope_deg=slope, speed=v, composite=cid)
-                runs += [
-                    RunSpec(
-                        f"{cid}_A",
-                        motion="forward",
-                        heading_deg=h,
-                        yaw_rate=0.0,
-                        segments=(seg_a,),
-                        part="A",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_B",
-                        motion=side,
-                        heading_deg=h,
-                        yaw_rate=0.0,
-                        segments=(seg_b,),
-                        part="B",
-                        start_after=f"{cid}_A",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_AB",
-                        motion=f"forward+{side}",
-                        heading_deg=h,
-                        yaw_rate=0.0,
-                        segments=(seg_a, seg_b),
-                        part="AB",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_C",
-                        motion=f"diagonal_{side}",
-                        heading_deg=h,
-                        yaw_rate=0.0,
-                        segments=(seg_c,),
-                        part="C",
-                        **common,
-                    ),
-                ]
-                # (b) A yaw in place, B straight along the chord, C arc
-                cid = f"supb_{side}_{_tag(slope, h, v)}"
-                ta = _q(turn / config.yaw_rate, dt)
-                tb = _q(chord / v, dt)
-                tc = _q(radius * turn / v, dt)
-                seg_a = (ta, 0.0, 0.0, s * turn / ta)
-                # after yawing by s*turn the chord points at -s*turn/2 in the body frame
-                seg_b = (
-                    tb,
-                    chord / tb * math.cos(turn / 2),
-                    -s * chord / tb * math.sin(turn / 2),
-                    0.0,
-                )
-                seg_c = (tc, radius * turn / tc, 0.0, s * turn / tc)
-                stop = (ramp, 0.0, 0.0, 0.0) if ramp > 0 else None
-                h_b = wrap_deg(h + s * math.degrees(turn))
-                common = dict(kind="composite", slope_deg=slope, speed=v, composite=cid)
-                runs += [
-                    RunSpec(
-                        f"{cid}_A",
-                        motion=f"turn_{side}",
-                        heading_deg=h,
-                        yaw_rate=config.yaw_rate,
-                        segments=(seg_a,),
-                        part="A",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_B",
-                        motion=f"chord_{side}",
-                        heading_deg=h_b,
-                        yaw_rate=0.0,
-                        segments=(seg_b,),
-                        part="B",
-                        start_after=f"{cid}_A",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_AB",
-                        motion=f"turn_{side}+chord_{side}",
-                        heading_deg=h,
-                        yaw_rate=config.yaw_rate,
-                        segments=(seg_a, stop, seg_b) if stop else (seg_a, seg_b),
-                        part="AB",
-                        **common,
-                    ),
-                    RunSpec(
-                        f"{cid}_C",
-                        motion=f"arc_{side}",
-                        heading_deg=h,
-                        yaw_rate=v / radius,
-                        segments=(seg_c,),
-                        part="C",
-                        **common,
-                    ),
-                ]
+            for side, s in _SIDES:
+                runs += _composite_a(config, slope, wrap_deg(heading), side, s)
+                runs += _composite_b(config, slope, wrap_deg(heading), side, s, ramp)
     ids = [r.run for r in runs]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise ConfigError(
             f"the campaign plans run {dup[0]!r} twice: a heading, slope or speed is listed "
-            "twice (e.g. 0 and 360 deg); expected distinct values"
+            "twice (e.g. 0 and 360 deg); expected distinct values",
+            value=dup[0],
+            expected="distinct headings, slopes and speeds",
         )
     return runs
+
+
+def _condition_runs(config: CampaignConfig, slope: float, rep: int, body: float) -> list[RunSpec]:
+    """The straight runs, turns in place, arcs and standing run of one slope and repeat."""
+    runs: list[RunSpec] = []
+
+    def add(run: str, kind: str, motion: str, h: float, v: float, w: float, seg: Segment):
+        runs.append(RunSpec(f"{run}_r{rep}", kind, motion, slope, h, v, w, (seg,), rep))
+
+    for heading in config.headings_deg:
+        h = wrap_deg(heading)
+        for motion in config.motions:
+            ux, uy = _DIRECTIONS[motion]
+            for v in config.speeds:
+                seg = (body, ux * v, uy * v, 0.0)
+                add(f"straight_{motion}_{_tag(slope, h, v)}", "straight", motion, h, v, 0.0, seg)
+    for heading in config.turn_headings_deg:
+        h = wrap_deg(heading)
+        for side, s in _SIDES:
+            w = config.yaw_rate
+            seg = (body, 0.0, 0.0, s * w)
+            add(f"turn_{side}_{_tag(slope, h, 0.0)}", "turn", f"turn_{side}", h, 0.0, w, seg)
+    if config.arcs:
+        for v in config.speeds:
+            w = v / config.arc_radius_m
+            for side, s in _SIDES:
+                seg = (body, v, 0.0, s * w)
+                add(f"arc_{side}_{_tag(slope, 0.0, v)}", "arc", f"arc_{side}", 0.0, v, w, seg)
+    if config.stand:
+        seg = (body, 0.0, 0.0, 0.0)
+        add(f"stand_{_tag(slope, 0.0, 0.0)}", "stand", "stand", 0.0, 0.0, 0.0, seg)
+    return runs
+
+
+def _quartet(
+    cid: str,
+    slope: float,
+    v: float,
+    parts: dict[str, tuple[str, float, float, tuple[Segment, ...]]],
+) -> list[RunSpec]:
+    """The runs A, B (starting where A ended), AB and C of one composite.
+
+    ``parts[p]`` is ``(motion, heading_deg, yaw_rate, segments)`` of part ``p``.
+    """
+    return [
+        RunSpec(
+            f"{cid}_{part}",
+            kind="composite",
+            motion=motion,
+            slope_deg=slope,
+            heading_deg=h,
+            speed=v,
+            yaw_rate=w,
+            segments=segments,
+            composite=cid,
+            part=part,
+            start_after=f"{cid}_A" if part == "B" else "",
+        )
+        for part, (motion, h, w, segments) in parts.items()
+    ]
+
+
+def _composite_a(config: CampaignConfig, slope: float, h: float, side: str, s: int) -> list:
+    """Composite (a): A forward, B sideways, C the diagonal between the same end points."""
+    dt, v = config.dt, nominal_speed(config)
+    d_a, d_b = config.composite_legs_m
+    d_c = math.hypot(d_a, d_b)
+    ta, tb, tc = _q(d_a / v, dt), _q(d_b / v, dt), _q(d_c / v, dt)
+    seg_a = (ta, d_a / ta, 0.0, 0.0)
+    seg_b = (tb, 0.0, s * d_b / tb, 0.0)
+    seg_c = (tc, d_a / tc, s * d_b / tc, 0.0)
+    parts = {
+        "A": ("forward", h, 0.0, (seg_a,)),
+        "B": (side, h, 0.0, (seg_b,)),
+        "AB": (f"forward+{side}", h, 0.0, (seg_a, seg_b)),
+        "C": (f"diagonal_{side}", h, 0.0, (seg_c,)),
+    }
+    return _quartet(f"supa_{side}_{_tag(slope, h, v)}", slope, v, parts)
+
+
+def _composite_b(
+    config: CampaignConfig, slope: float, h: float, side: str, s: int, ramp: float
+) -> list:
+    """Composite (b): A yaw in place, B straight along the chord, C the circular arc."""
+    dt, v = config.dt, nominal_speed(config)
+    turn = math.radians(abs(config.composite_turn_deg))
+    radius = config.arc_radius_m
+    chord = 2.0 * radius * math.sin(turn / 2.0)
+    ta = _q(turn / config.yaw_rate, dt)
+    tb = _q(chord / v, dt)
+    tc = _q(radius * turn / v, dt)
+    seg_a = (ta, 0.0, 0.0, s * turn / ta)
+    # after yawing by s*turn the chord points at -s*turn/2 in the body frame
+    seg_b = (tb, chord / tb * math.cos(turn / 2), -s * chord / tb * math.sin(turn / 2), 0.0)
+    seg_c = (tc, radius * turn / tc, 0.0, s * turn / tc)
+    ab = (seg_a, (ramp, 0.0, 0.0, 0.0), seg_b) if ramp > 0 else (seg_a, seg_b)
+    parts = {
+        "A": (f"turn_{side}", h, config.yaw_rate, (seg_a,)),
+        "B": (f"chord_{side}", wrap_deg(h + s * math.degrees(turn)), 0.0, (seg_b,)),
+        "AB": (f"turn_{side}+chord_{side}", h, config.yaw_rate, ab),
+        "C": (f"arc_{side}", h, v / radius, (seg_c,)),
+    }
+    return _quartet(f"supb_{side}_{_tag(slope, h, v)}", slope, v, parts)

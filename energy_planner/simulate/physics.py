@@ -383,155 +383,24 @@ class Physics:
             A switched-on effect reads a channel the features do not have, or an
             unknown ``ground`` value.
         """
-        p = self.params
-        on = set(self.effects)
-        f = features
-        n = _length(f)
-        alpha, gamma = _arr(f, "alpha", n), _arr(f, "gamma", n)
-        vx, vy, wz = _arr(f, "vx", n), _arr(f, "vy", n), _arr(f, "wz", n)
-        ax, ay = _arr(f, "ax", n), _arr(f, "ay", n)
         for ch in self.needs():
-            if f.get(ch) is None:
+            if features.get(ch) is None:
                 raise ModelError(
                     f"effect reading channel {ch!r} is on but the features have no {ch!r}; "
-                    f"give it (e.g. channels={{{ch!r}: value}})"
+                    f"give it (e.g. channels={{{ch!r}: value}})",
+                    value=ch,
+                    expected=f"features with the channel {ch!r}",
                 )
-        g = p.gravity
-        mass = p.mass_kg + (_arr(f, "load_kg", n) if "load" in on else 0.0)
-        weight = mass * g
-        speed = np.hypot(vx, vy)
-        yaw_speed = p.foot_radius_m * np.abs(wz)
-        activity = np.clip((speed + yaw_speed) / p.gait_on_speed, 0.0, 1.0)
-        sa, ca = np.sin(alpha), np.cos(alpha)
-        s_x = sa * np.cos(gamma)  # grade along body x (uphill positive)
-        s_y = -sa * np.sin(gamma)  # grade along body y
-        # direction weights of the motion (squared direction cosines), 0 when standing
-        safe = np.where(speed > 0, speed, 1.0)
-        w_fwd = np.where(speed > 0, (np.maximum(vx, 0) / safe) ** 2, 0.0)
-        w_bwd = np.where(speed > 0, (np.maximum(-vx, 0) / safe) ** 2, 0.0)
-        w_lat = np.where(speed > 0, (vy / safe) ** 2, 0.0)
-
-        # ---- mechanical work of gravity and inertia (body frame forces)
-        m_inertial = mass + (p_extra_inertia(p) if "acceleration" in on else 0.0)
-        f_x = weight * s_x + mass * ax
-        f_y = weight * s_y + mass * ay
-        f_z = weight * ca
-        dz_dt = vx * s_x + vy * s_y
-        p_mech = weight * dz_dt + m_inertial * (vx * ax + vy * ay)
-        rec_fwd: Any = p.recovery_forward
-        descent = np.zeros(n, dtype=bool)
-        if "downhill_braking" in on:
-            # stiff descent mode when walking forward down more than DESCENT_GRADE
-            descent = (vx > 0) & (-s_x > DESCENT_GRADE)
-            rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
-        recovery = rec_fwd * w_fwd + p.recovery_backward * w_bwd + p.recovery_lateral * w_lat
-        sinkage = np.zeros(n)
-        if "ground" in on:
-            ground = np.asarray(np.broadcast_to(np.asarray(f["ground"], dtype=object), (n,)))
-            bad = sorted({str(x) for x in np.unique(ground.astype(str))} - set(GROUNDS))
-            if bad:
-                raise ModelError(f"unknown ground {bad[0]!r}; expected one of {', '.join(GROUNDS)}")
-            codes = ground.astype(str)
-            sinkage = np.select([codes == k for k in GROUNDS], [v[0] for v in GROUNDS.values()])
-            recovery = recovery * np.select(
-                [codes == k for k in GROUNDS], [v[1] for v in GROUNDS.values()]
-            )
-        mechanical = np.where(p_mech >= 0, p_mech / p.lift_efficiency, recovery * p_mech)
-
-        # ---- copper losses
-        r_factor: Any = 1.0
-        if "motor_temp" in on:
-            r_factor = 1.0 + p.copper_temp_coeff * (_arr(f, "motor_temp", n) - p.reference_temp_c)
-        k_z = p.kappa(p.lever_support_m, r_factor)
-        k_push = p.kappa(p.lever_push_m, r_factor)
-        k_bf = np.where(
-            descent, p.kappa(DESCENT_LEVER_M, r_factor), p.kappa(p.lever_brake_forward_m, r_factor)
-        )
-        k_bb = p.kappa(p.lever_brake_backward_m, r_factor)
-        # sideways forces: stepping sideways the stance legs pass through the vertical
-        # (hip ab/adduction lever); walking forward the feet are placed wide on the
-        # downhill side, so a sideways load runs mostly along the legs (short lever)
-        k_y = w_lat * p.kappa(p.lever_lateral_m, r_factor) + (1.0 - w_lat) * p.kappa(
-            p.lever_side_hold_m, r_factor
-        )
-        braking = f_x * vx < 0  # the x force opposes the motion along x
-        moving_x = np.clip(np.abs(vx) / p.gait_on_speed, 0.0, 1.0)
-        k_brake = np.where(vx > 0, k_bf, k_bb)
-        k_x = np.where(braking, moving_x * k_brake + (1 - moving_x) * k_push, k_push)
-        share = 1.0 + activity * (p.stance_profile_factor / p.duty_factor - 1.0)
-        h = p.com_height_m
-        pitch, roll = (h / p.half_length_m) ** 2, (h / p.half_width_m) ** 2
-        copper = (
-            share
-            / 4.0
-            * (k_z * (f_z**2 + pitch * f_x**2 + roll * f_y**2) + k_x * f_x**2 + k_y * f_y**2)
-        )
-
-        # ---- gait: touch-down losses, swing, gearbox friction, turning
-        coll = (
-            p.collision_forward * w_fwd + p.collision_backward * w_bwd + p.collision_lateral * w_lat
-        )
-        collisions = coll * weight * speed / p.lift_efficiency
-        stride_f = np.full(n, p.stride_frequency_hz)
-        if "speed_dependence" in on:
-            # fixed stride length: the frequency follows the speed, and so do the number
-            # of touch-downs per second (each as hard as at the nominal speed)
-            stride_f = p.stride_frequency_hz * np.maximum(speed / p.nominal_speed, 0.5)
-            collisions = collisions * stride_f / p.stride_frequency_hz
-        clearance = p.step_clearance_m
-        terrain = np.zeros(n)
-        if "vegetation" in on:
-            grass = np.maximum(_arr(f, "grass_height_m", n), 0.0)
-            clearance = clearance + 0.5 * grass  # feet lifted above the grass
-            terrain = terrain + VEGETATION_DRAG_N_PER_M * grass * speed  # stems drag on the legs
-        lift = activity * 4 * stride_f * p.leg_mass_kg * g * clearance / p.swing_efficiency
-        lat_factor = 1.0 + (p.swing_lateral_factor - 1.0) * w_lat
-        swing_v = speed / (1.0 - p.duty_factor) if p.duty_factor < 1 else speed
-        kinetic = 4 * stride_f * p.leg_mass_kg * swing_v**2 * lat_factor / p.swing_efficiency
-        swing = lift + kinetic
-        visc = 1.0
-        if "cold_joints" in on:
-            visc = np.exp(
-                p.gearbox_viscosity_per_k * (p.gearbox_reference_c - _arr(f, "air_temp_c", n))
-            )
-        gearbox = p.gearbox_friction_n * visc * (speed + yaw_speed)
-        turning = (
-            np.abs(wz)
-            * p.foot_radius_m
-            * weight
-            * (p.turn_friction * ca + p.turn_slope_factor * sa)
-            / p.lift_efficiency
-        )
-        if "turn_while_walking" in on:  # planted feet scuff sideways on arcs
-            turning = turning + (
-                TURN_SCUFF
-                * weight
-                * p.foot_radius_m
-                * np.abs(wz)
-                * speed
-                / (speed + 0.05)
-                / p.lift_efficiency
-            )
-        terrain = terrain + sinkage * weight * speed / p.lift_efficiency
-
-        electronics = np.full(n, p.electronics_w)
-        if "idle_power" in on:  # cooling fans follow the air temperature (fan law)
-            fan_speed = np.clip(
-                (_arr(f, "air_temp_c", n) - FAN_ON_C) / (FAN_FULL_C - FAN_ON_C), 0.0, 1.0
-            )
-            electronics = electronics + FAN_POWER_W * fan_speed**3
+        m = _Motion.of(features, self.params, set(self.effects))
+        mechanical, descent, sinkage = _mechanical(m)
+        copper = _copper(m, descent)
+        collisions, stride_f = _collisions(m)
+        swing, terrain = _swing_and_grass(m, stride_f)
+        terrain = terrain + sinkage * m.weight * m.speed / m.p.lift_efficiency
+        gearbox, turning = _gearbox(m), _turning(m)
         gait = copper + mechanical + collisions + swing + gearbox + turning + terrain
-        ripple = np.zeros(n)
-        if f.get("t_gait") is not None and p.ripple_fraction > 0:
-            t_gait = _arr(f, "t_gait", n)
-            ripple = (
-                p.ripple_fraction
-                * activity
-                * np.maximum(gait, 0.0)
-                * np.sin(4 * np.pi * stride_f * t_gait)
-            )
         return {
-            "electronics": electronics,
+            "electronics": _electronics(m),
             "copper": copper,
             "mechanical": mechanical,
             "collisions": collisions,
@@ -539,7 +408,7 @@ class Physics:
             "gearbox": gearbox,
             "turning": turning,
             "terrain": terrain,
-            "ripple": ripple,
+            "ripple": _ripple(m, gait, stride_f),
         }
 
     def expected_power(self, features: Mapping[str, Any]) -> np.ndarray:
@@ -551,6 +420,217 @@ class Physics:
         """Instantaneous electrical power, W (with the ripple when ``t_gait`` is given)."""
         c = self.components(features)
         return np.maximum(sum(c.values()), 0.0)
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """The features of :meth:`Physics.components` as arrays, and what every component uses."""
+
+    f: Mapping[str, Any]
+    p: RobotParams
+    on: set[str]
+    n: int
+    alpha: np.ndarray
+    gamma: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    wz: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+    mass: Any  # kg (an array with the load effect)
+    weight: Any  # N
+    speed: np.ndarray
+    yaw_speed: np.ndarray  # foot speed of the turn, m/s
+    activity: np.ndarray  # 0 standing .. 1 walking
+    sa: np.ndarray
+    ca: np.ndarray
+    s_x: np.ndarray  # grade along body x (uphill positive)
+    s_y: np.ndarray  # grade along body y
+    w_fwd: np.ndarray  # direction weights of the motion (squared direction cosines)
+    w_bwd: np.ndarray
+    w_lat: np.ndarray
+
+    @classmethod
+    def of(cls, f: Mapping[str, Any], p: RobotParams, on: set[str]) -> _Motion:
+        n = _length(f)
+        alpha, gamma = _arr(f, "alpha", n), _arr(f, "gamma", n)
+        vx, vy, wz = _arr(f, "vx", n), _arr(f, "vy", n), _arr(f, "wz", n)
+        mass = p.mass_kg + (_arr(f, "load_kg", n) if "load" in on else 0.0)
+        speed = np.hypot(vx, vy)
+        yaw_speed = p.foot_radius_m * np.abs(wz)
+        sa = np.sin(alpha)
+        # direction weights of the motion, 0 when standing
+        safe = np.where(speed > 0, speed, 1.0)
+        return cls(
+            f, p, on, n, alpha, gamma, vx, vy, wz, _arr(f, "ax", n), _arr(f, "ay", n),
+            mass, mass * p.gravity, speed, yaw_speed,
+            np.clip((speed + yaw_speed) / p.gait_on_speed, 0.0, 1.0),
+            sa, np.cos(alpha), sa * np.cos(gamma), -sa * np.sin(gamma),
+            np.where(speed > 0, (np.maximum(vx, 0) / safe) ** 2, 0.0),
+            np.where(speed > 0, (np.maximum(-vx, 0) / safe) ** 2, 0.0),
+            np.where(speed > 0, (vy / safe) ** 2, 0.0),
+        )  # fmt: skip
+
+    @property
+    def forces(self) -> tuple[Any, Any, Any]:
+        """Ground reaction along body x, y and the normal, N."""
+        return (
+            self.weight * self.s_x + self.mass * self.ax,
+            self.weight * self.s_y + self.mass * self.ay,
+            self.weight * self.ca,
+        )
+
+
+def _mechanical(m: _Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gravity and inertial work through the drives; also the descent mode and sinkage."""
+    p, on = m.p, m.on
+    m_inertial = m.mass + (p_extra_inertia(p) if "acceleration" in on else 0.0)
+    dz_dt = m.vx * m.s_x + m.vy * m.s_y
+    p_mech = m.weight * dz_dt + m_inertial * (m.vx * m.ax + m.vy * m.ay)
+    rec_fwd: Any = p.recovery_forward
+    descent = np.zeros(m.n, dtype=bool)
+    if "downhill_braking" in on:
+        # stiff descent mode when walking forward down more than DESCENT_GRADE
+        descent = (m.vx > 0) & (-m.s_x > DESCENT_GRADE)
+        rec_fwd = np.where(descent, DESCENT_RECOVERY, p.recovery_forward)
+    recovery = rec_fwd * m.w_fwd + p.recovery_backward * m.w_bwd + p.recovery_lateral * m.w_lat
+    sinkage = np.zeros(m.n)
+    if "ground" in on:
+        codes = _ground_codes(m.f["ground"], m.n)
+        sinkage = np.select([codes == k for k in GROUNDS], [v[0] for v in GROUNDS.values()])
+        recovery = recovery * np.select(
+            [codes == k for k in GROUNDS], [v[1] for v in GROUNDS.values()]
+        )
+    mechanical = np.where(p_mech >= 0, p_mech / p.lift_efficiency, recovery * p_mech)
+    return mechanical, descent, sinkage
+
+
+def _ground_codes(ground: Any, n: int) -> np.ndarray:
+    """The ``ground`` feature as ``n`` strings, each one of :data:`GROUNDS`."""
+    codes = np.asarray(np.broadcast_to(np.asarray(ground, dtype=object), (n,))).astype(str)
+    bad = sorted(set(np.unique(codes).tolist()) - set(GROUNDS))
+    if bad:
+        raise ModelError(
+            f"unknown ground {bad[0]!r}; expected one of {', '.join(GROUNDS)}",
+            value=bad[0],
+            expected=f"one of {', '.join(GROUNDS)}",
+        )
+    return codes
+
+
+def _copper(m: _Motion, descent: np.ndarray) -> np.ndarray:
+    """Joule losses in the windings from the legs' share of the ground reaction."""
+    p, vx = m.p, m.vx
+    f_x, f_y, f_z = m.forces
+    r_factor: Any = 1.0
+    if "motor_temp" in m.on:
+        r_factor = 1.0 + p.copper_temp_coeff * (_arr(m.f, "motor_temp", m.n) - p.reference_temp_c)
+    k_z = p.kappa(p.lever_support_m, r_factor)
+    k_push = p.kappa(p.lever_push_m, r_factor)
+    k_bf = np.where(
+        descent, p.kappa(DESCENT_LEVER_M, r_factor), p.kappa(p.lever_brake_forward_m, r_factor)
+    )
+    k_bb = p.kappa(p.lever_brake_backward_m, r_factor)
+    # sideways forces: stepping sideways the stance legs pass through the vertical
+    # (hip ab/adduction lever); walking forward the feet are placed wide on the
+    # downhill side, so a sideways load runs mostly along the legs (short lever)
+    k_y = m.w_lat * p.kappa(p.lever_lateral_m, r_factor) + (1.0 - m.w_lat) * p.kappa(
+        p.lever_side_hold_m, r_factor
+    )
+    braking = f_x * vx < 0  # the x force opposes the motion along x
+    moving_x = np.clip(np.abs(vx) / p.gait_on_speed, 0.0, 1.0)
+    k_brake = np.where(vx > 0, k_bf, k_bb)
+    k_x = np.where(braking, moving_x * k_brake + (1 - moving_x) * k_push, k_push)
+    share = 1.0 + m.activity * (p.stance_profile_factor / p.duty_factor - 1.0)
+    h = p.com_height_m
+    pitch, roll = (h / p.half_length_m) ** 2, (h / p.half_width_m) ** 2
+    return (
+        share
+        / 4.0
+        * (k_z * (f_z**2 + pitch * f_x**2 + roll * f_y**2) + k_x * f_x**2 + k_y * f_y**2)
+    )
+
+
+def _collisions(m: _Motion) -> tuple[np.ndarray, np.ndarray]:
+    """Touch-down losses, and the stride frequency (Hz) per sample."""
+    p = m.p
+    coll = p.collision_forward * m.w_fwd + p.collision_backward * m.w_bwd
+    coll = coll + p.collision_lateral * m.w_lat
+    collisions = coll * m.weight * m.speed / p.lift_efficiency
+    stride_f = np.full(m.n, p.stride_frequency_hz)
+    if "speed_dependence" in m.on:
+        # fixed stride length: the frequency follows the speed, and so do the number
+        # of touch-downs per second (each as hard as at the nominal speed)
+        stride_f = p.stride_frequency_hz * np.maximum(m.speed / p.nominal_speed, 0.5)
+        collisions = collisions * stride_f / p.stride_frequency_hz
+    return collisions, stride_f
+
+
+def _swing_and_grass(m: _Motion, stride_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Swinging the legs (lift and kinetic), and the drag of grass stems (terrain)."""
+    p, speed = m.p, m.speed
+    clearance = p.step_clearance_m
+    terrain = np.zeros(m.n)
+    if "vegetation" in m.on:
+        grass = np.maximum(_arr(m.f, "grass_height_m", m.n), 0.0)
+        clearance = clearance + 0.5 * grass  # feet lifted above the grass
+        terrain = terrain + VEGETATION_DRAG_N_PER_M * grass * speed  # stems drag on the legs
+    lift = m.activity * 4 * stride_f * p.leg_mass_kg * p.gravity * clearance / p.swing_efficiency
+    lat_factor = 1.0 + (p.swing_lateral_factor - 1.0) * m.w_lat
+    swing_v = speed / (1.0 - p.duty_factor) if p.duty_factor < 1 else speed
+    kinetic = 4 * stride_f * p.leg_mass_kg * swing_v**2 * lat_factor / p.swing_efficiency
+    return lift + kinetic, terrain
+
+
+def _gearbox(m: _Motion) -> np.ndarray:
+    """Viscous gearbox friction; the grease thickens in the cold (``cold_joints``)."""
+    p = m.p
+    visc: Any = 1.0
+    if "cold_joints" in m.on:
+        visc = np.exp(
+            p.gearbox_viscosity_per_k * (p.gearbox_reference_c - _arr(m.f, "air_temp_c", m.n))
+        )
+    return p.gearbox_friction_n * visc * (m.speed + m.yaw_speed)
+
+
+def _turning(m: _Motion) -> np.ndarray:
+    """Twisting the planted feet and holding the slope's load while the support rotates."""
+    p, w = m.p, np.abs(m.wz)
+    turning = (
+        w
+        * p.foot_radius_m
+        * m.weight
+        * (p.turn_friction * m.ca + p.turn_slope_factor * m.sa)
+        / p.lift_efficiency
+    )
+    if "turn_while_walking" in m.on:  # planted feet scuff sideways on arcs
+        scuff = TURN_SCUFF * m.weight * p.foot_radius_m * w * m.speed / (m.speed + 0.05)
+        turning = turning + scuff / p.lift_efficiency
+    return turning
+
+
+def _electronics(m: _Motion) -> np.ndarray:
+    """Computers and drivers; with ``idle_power``, fans that follow the air temperature."""
+    electronics = np.full(m.n, m.p.electronics_w)
+    if "idle_power" in m.on:  # cooling fans follow the air temperature (fan law)
+        air = _arr(m.f, "air_temp_c", m.n)
+        fan_speed = np.clip((air - FAN_ON_C) / (FAN_FULL_C - FAN_ON_C), 0.0, 1.0)
+        electronics = electronics + FAN_POWER_W * fan_speed**3
+    return electronics
+
+
+def _ripple(m: _Motion, gait: np.ndarray, stride_f: np.ndarray) -> np.ndarray:
+    """The gait's power oscillation at the step frequency (none without ``t_gait``)."""
+    p = m.p
+    if m.f.get("t_gait") is None or p.ripple_fraction <= 0:
+        return np.zeros(m.n)
+    t_gait = _arr(m.f, "t_gait", m.n)
+    return (
+        p.ripple_fraction
+        * m.activity
+        * np.maximum(gait, 0.0)
+        * np.sin(4 * np.pi * stride_f * t_gait)
+    )
 
 
 #: Drag of grass stems on the swinging legs per metre of grass height, N/m.
