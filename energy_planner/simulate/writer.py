@@ -1,0 +1,139 @@
+"""Write a simulated campaign: one log per run (CSV or Parquet), the run table, the truth.
+
+Every file goes through :mod:`energy_planner.io` (written beside its destination and
+renamed when complete); ROS 2 bags through :func:`energy_planner.measurements.write_rosbag`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from energy_planner.errors import LogError, LogIOError
+from energy_planner.simulate.result import CATEGORICAL, Campaign
+
+__all__ = ["write_campaign", "write_bags"]
+
+
+def write_campaign(
+    campaign: Campaign,
+    out_dir: str | Path,
+    fmt: str = "csv",
+    bag: bool = False,
+    progress: bool = False,
+) -> list[Path]:
+    """Write the campaign to ``out_dir``.
+
+    Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``physics.json``
+    (robot parameters and effects of the truth), ``campaign.json`` (seed, effects,
+    faults, parameters), for missions ``ground.tif`` and ``ground.csv`` (the ground map,
+    for ``--channel ground=ground.tif:ground.csv``) and
+    with ``bag=True`` one ROS 2 bag per run in ``bags/<run>/`` (written by
+    :func:`energy_planner.measurements.write_rosbag`; current with the ROS sign).
+
+    Parameters
+    ----------
+    out_dir : path
+        Directory (created if missing).
+    fmt : {"csv", "parquet"}
+        Per-run log format.
+    bag : bool
+        Also write a ROS 2 bag (needs :func:`energy_planner.measurements.write_rosbag`).
+    progress : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    list of Path
+        The files and directories written.
+
+    Raises
+    ------
+    LogError
+        Unknown ``fmt``.
+    LogIOError
+        ``out_dir`` cannot be created or written, or the bag writer is missing.
+    """
+    if fmt not in ("csv", "parquet"):
+        raise LogError(f"unknown log format {fmt!r}; expected 'csv' or 'parquet'")
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise LogIOError(f"cannot create output directory {str(out)!r}: {exc}") from exc
+    import pyarrow as pa
+    import pyarrow.csv as pa_csv
+    import pyarrow.parquet as pq
+    from tqdm.auto import tqdm
+
+    from energy_planner.io import atomic_path, write_json
+
+    written: list[Path] = []
+    logs = campaign.logs
+    if fmt == "csv":
+        logs = logs.assign(**{c: logs[c].astype(str) for c in CATEGORICAL})
+    table = pa.Table.from_pandas(logs, preserve_index=False)
+    run = logs["run"].to_numpy()
+    starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+    ends = np.r_[starts[1:], len(run)]
+    try:
+        for s, e in tqdm(
+            zip(starts, ends, strict=True),
+            total=len(starts),
+            desc="writing runs",
+            disable=not progress,
+            unit="run",
+        ):
+            path = out / f"{run[s]}.{fmt}"
+            with atomic_path(path) as tmp:
+                if fmt == "csv":
+                    pa_csv.write_csv(table.slice(s, e - s), tmp)
+                else:
+                    pq.write_table(table.slice(s, e - s), tmp)
+            written.append(path)
+        runs_path = out / "runs.csv"
+        with atomic_path(runs_path) as tmp:
+            campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
+        truth_path = write_json(out / "physics.json", campaign.physics_dict())
+        meta_path = write_json(out / "campaign.json", campaign.metadata())
+    except OSError as exc:
+        raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
+    written += [runs_path, truth_path, meta_path]
+    if campaign.ground_map is not None:
+        written += list(campaign.ground_map.write(out / "ground.tif", out / "ground.csv"))
+    if bag:
+        written += write_bags(campaign, out / "bags", progress)
+    return written
+
+
+def write_bags(campaign: Campaign, path: Path, progress: bool = False) -> list[Path]:
+    """Write one ROS 2 bag per run in ``path/<run>/`` (never over existing bags).
+
+    Raises
+    ------
+    LogIOError
+        ``path`` already holds bags, or the bag writer is missing.
+    """
+    try:
+        from energy_planner.measurements import write_rosbag
+    except ImportError as exc:  # pragma: no cover - the measurements module is present
+        raise LogIOError(
+            f"cannot write ROS 2 bags to {str(path)!r}: energy_planner.measurements does "
+            "not provide write_rosbag; write CSV or Parquet instead"
+        ) from exc
+    from tqdm.auto import tqdm
+
+    if path.exists() and any(path.iterdir()):
+        raise LogIOError(
+            f"bag folder {str(path)!r} already holds bags; remove it or choose another "
+            "--out directory (bags are never overwritten)"
+        )
+    path.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    groups = campaign.logs.groupby("run", sort=False, observed=True)
+    for run, df in tqdm(
+        groups, total=len(campaign.runs), desc="writing bags", disable=not progress, unit="bag"
+    ):
+        written += list(write_rosbag(df, path / str(run), version=2))
+    return written
