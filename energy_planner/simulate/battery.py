@@ -7,7 +7,7 @@ on one pack until a run would end below ``soc_swap``: then a fresh pack is put i
 Examples
 --------
 >>> from energy_planner.simulate import BatteryConfig
->>> d = discharge(np.full(11, 100.0), BatteryConfig(), 0.1, np.array([5, 6]))
+>>> d = discharge(np.full(11, 100.0), BatteryConfig(), 0.1, [slice(0, 5), slice(5, 11)])
 >>> d.energy.round(6).tolist(), d.pack.tolist()
 ([40.0, 50.0], [0, 0])
 """
@@ -83,22 +83,20 @@ class Discharge:
     energy: np.ndarray
 
 
-def discharge(power: np.ndarray, bat: Any, dt: float, sizes: np.ndarray) -> Discharge:
-    """Run ``power`` (W per sample; runs of ``sizes`` samples one after another) off packs.
+def discharge(power: np.ndarray, bat: Any, dt: float, runs: list[slice]) -> Discharge:
+    """Run ``power`` (W per sample; ``runs`` the slices of the runs, in order) off packs.
 
     A pack is swapped for a fresh one before a run that would end below
     ``bat.soc_swap`` (unless the pack is fresh already).
     """
-    n, n_runs = len(power), len(sizes)
+    n, n_runs = len(power), len(runs)
     current, voltage, soc = np.empty(n), np.empty(n), np.empty(n)
     pack = np.zeros(n_runs, dtype=int)
     soc_start, soc_end, energy = np.zeros(n_runs), np.zeros(n_runs), np.zeros(n_runs)
     level, pack_id = bat.soc_start, 0
     charge_as = 3600.0 * bat.capacity_ah
     r = bat.internal_resistance_ohm
-    bounds = np.concatenate([[0], np.cumsum(sizes)])
-    for k in range(n_runs):
-        sl = slice(bounds[k], bounds[k + 1])
+    for k, sl in enumerate(runs):
         p = power[sl]
         i0 = battery_current(p, bat.ocv(level), r)
         soc_t = level - cumtrapz(i0, dt) / charge_as

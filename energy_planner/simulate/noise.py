@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import LogError
+from energy_planner.simulate.records import runs_in
 
 if TYPE_CHECKING:
     from energy_planner.simulate.result import Campaign
@@ -108,11 +109,9 @@ def noise_floor(
 
         run = ts["run"].to_numpy()
         t = ts["t"].to_numpy(float)
-        starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
-        ends = np.r_[starts[1:], len(run)]
         true_p = true_p.copy()
-        for a, b in zip(starts, ends, strict=True):
-            true_p[a:b] = ema(true_p[a:b], t[a:b], smoothing_tau_s)
+        for sl in runs_in(run):
+            true_p[sl] = ema(true_p[sl], t[sl], smoothing_tau_s)
     truth = pd.DataFrame(
         {
             "run": ts["run"].astype(str).to_numpy(),

@@ -33,6 +33,8 @@ __all__ = [
     "RunLayout",
     "TruthStreams",
     "lay_out",
+    "run_slices",
+    "runs_in",
     "logs_from_truth",
     "run_record",
     "sensor_offsets",
@@ -64,6 +66,26 @@ class RunLayout:
     run_of_sample: np.ndarray
     t_run: np.ndarray
     t: np.ndarray
+
+
+def run_slices(sizes: Sequence[int] | np.ndarray) -> list[slice]:
+    """Slices of runs of ``sizes`` samples laid one after another.
+
+    >>> run_slices([2, 3])
+    [slice(0, 2, None), slice(2, 5, None)]
+    """
+    bounds = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    return [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def runs_in(run: np.ndarray) -> list[slice]:
+    """Slices of the runs of a log column (each run's samples together).
+
+    >>> runs_in(np.array(["a", "a", "b"]))
+    [slice(0, 2, None), slice(2, 3, None)]
+    """
+    starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+    return run_slices(np.diff(np.r_[starts, len(run)]))
 
 
 def lay_out(times: Sequence[np.ndarray], gap_s: float) -> RunLayout:
@@ -200,8 +222,9 @@ def logs_from_truth(
     }
     power = physics.power(features)
     expected = physics.expected_power(features)
-    dis = discharge(power, bat, dt, sizes)
-    meas = _measure(tr, dis, sens, sizes, slip, bias, noise_rng)
+    runs = run_slices(sizes)
+    dis = discharge(power, bat, dt, runs)
+    meas = _measure(tr, dis, sens, runs, slip, bias, noise_rng)
     ch = tr.channels
     logs = pd.DataFrame(
         {
@@ -253,7 +276,7 @@ def _measure(
     tr: TruthStreams,
     dis: Discharge,
     sens: Any,
-    sizes: np.ndarray,
+    runs: list[slice],
     slip: np.ndarray,
     bias: np.ndarray,
     noise_rng: np.random.Generator,
@@ -269,9 +292,7 @@ def _measure(
     cur_src, volt_src = dis.current, dis.voltage
     if sens.battery_clock_offset_s > 0:  # the battery stream lags: shows older values
         cur_src, volt_src = np.empty(n), np.empty(n)
-        bounds = np.concatenate([[0], np.cumsum(sizes)])
-        for k in range(len(sizes)):
-            sl = slice(bounds[k], bounds[k + 1])
+        for sl in runs:
             tt = tr.t[sl]
             cur_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, dis.current[sl])
             volt_src[sl] = np.interp(tt - sens.battery_clock_offset_s, tt, dis.voltage[sl])

@@ -121,37 +121,9 @@ class Campaign:
     def write(
         self, out_dir: str | Path, fmt: str = "csv", bag: bool = False, progress: bool = False
     ) -> list[Path]:
-        """Write the campaign to ``out_dir``.
+        """Write the campaign to ``out_dir``: one log per run, the run table, the truth.
 
-        Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``physics.json``
-        (robot parameters and effects of the truth), ``campaign.json`` (seed, effects,
-        faults, parameters), for missions ``ground.tif`` and ``ground.csv`` (the ground map,
-        for ``--channel ground=ground.tif:ground.csv``) and
-        with ``bag=True`` one ROS 2 bag per run in ``bags/<run>/`` (written by
-        :func:`energy_planner.measurements.write_rosbag`; current with the ROS sign).
-
-        Parameters
-        ----------
-        out_dir : path
-            Directory (created if missing).
-        fmt : {"csv", "parquet"}
-            Per-run log format.
-        bag : bool
-            Also write a ROS 2 bag (needs :func:`energy_planner.measurements.write_rosbag`).
-        progress : bool
-            Show a progress bar on stderr.
-
-        Returns
-        -------
-        list of Path
-            The files and directories written.
-
-        Raises
-        ------
-        LogError
-            Unknown ``fmt``.
-        LogIOError
-            ``out_dir`` cannot be created or written, or the bag writer is missing.
+        Parameters and files: :func:`~energy_planner.simulate.writer.write_campaign`.
         """
         from energy_planner.simulate.writer import write_campaign
 
@@ -263,32 +235,7 @@ class Campaign:
     ) -> NoiseFloor:
         """RMSE of the measured against the true power on the same windows.
 
-        Every sample of ``windows.samples`` is matched to its log row by ``run`` and
-        ``t`` (to 1e-6 s); a window's true power is the plain mean of the truth over its
-        samples (as :func:`~energy_planner.measurements.make_windows` averages the
-        measured power), its measured power is ``windows.table["power"]``; the floor is
-        ``sqrt(mean over windows of (measured - true)^2)``, unweighted, as calibration's
-        held-out power RMSE. No model of the per-sample features can do better on
-        average.
-
-        Parameters
-        ----------
-        windows : Windows
-            Windows of this campaign's logs (raw or preprocessed), from
-            :func:`energy_planner.measurements.make_windows`.
-        reference : {"expected", "instantaneous"}
-            Truth to compare with: the gait-cycle mean power (default; the ripple counts
-            as noise, since its phase is not in the features) or the instantaneous power.
-        smoothing_tau_s : float
-            If > 0, the truth is first smoothed per run with the exponential moving
-            average that :func:`energy_planner.measurements.preprocess` applies to the
-            measured power (its ``ema_tau``, 0.2 s by default), so that the floor counts
-            the sensors alone and not the smoothing's lag at speed changes.
-
-        Raises
-        ------
-        LogError
-            Unknown ``reference``, or a window sample that is not a row of these logs.
+        Parameters and method: :func:`~energy_planner.simulate.noise.noise_floor`.
         """
         from energy_planner.simulate.noise import noise_floor
 

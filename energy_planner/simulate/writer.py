@@ -8,9 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from energy_planner.errors import LogError, LogIOError
+from energy_planner.simulate.records import runs_in
 from energy_planner.simulate.result import CATEGORICAL, Campaign
 
 __all__ = ["write_campaign", "write_bags"]
@@ -75,22 +74,14 @@ def write_campaign(
         logs = logs.assign(**{c: logs[c].astype(str) for c in CATEGORICAL})
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
-    starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
-    ends = np.r_[starts[1:], len(run)]
     try:
-        for s, e in tqdm(
-            zip(starts, ends, strict=True),
-            total=len(starts),
-            desc="writing runs",
-            disable=not progress,
-            unit="run",
-        ):
-            path = out / f"{run[s]}.{fmt}"
+        for sl in tqdm(runs_in(run), desc="writing runs", disable=not progress, unit="run"):
+            path = out / f"{run[sl.start]}.{fmt}"
             with atomic_path(path) as tmp:
                 if fmt == "csv":
-                    pa_csv.write_csv(table.slice(s, e - s), tmp)
+                    pa_csv.write_csv(table.slice(sl.start, sl.stop - sl.start), tmp)
                 else:
-                    pq.write_table(table.slice(s, e - s), tmp)
+                    pq.write_table(table.slice(sl.start, sl.stop - sl.start), tmp)
             written.append(path)
         runs_path = out / "runs.csv"
         with atomic_path(runs_path) as tmp:
