@@ -36,9 +36,8 @@ import pandas as pd
 from energy_planner.simulate.battery import battery_current
 from energy_planner.simulate.config import CampaignConfig
 from energy_planner.simulate.design import RunSpec, plan_runs
-from energy_planner.simulate.effects import check_effects, check_faults
 from energy_planner.simulate.kinematics import integrate_pose, twist_profile, wrap
-from energy_planner.simulate.physics import Physics, RobotParams
+from energy_planner.simulate.physics import RobotParams
 from energy_planner.simulate.records import (
     ChannelDraws,
     TruthStreams,
@@ -46,6 +45,7 @@ from energy_planner.simulate.records import (
     logs_from_truth,
     run_record,
     sensor_offsets,
+    switch_on,
 )
 from energy_planner.simulate.result import CHANNELS, LOG_COLUMNS, Campaign, NoiseFloor
 
@@ -97,10 +97,7 @@ def simulate_campaign(
         Unknown effect or fault.
     """
     config = config or CampaignConfig()
-    names = check_effects(effects)
-    fault_names = check_faults(faults)
-    physics = Physics(params, names)
-    sens = config.sensors.with_faults(fault_names)
+    names, fault_names, physics, sens = switch_on(effects, faults, params, config.sensors)
     from tqdm.auto import tqdm
 
     design_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)

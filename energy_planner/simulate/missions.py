@@ -46,9 +46,8 @@ from energy_planner.simulate.config import (
     positive_int,
     shared_rules,
 )
-from energy_planner.simulate.effects import check_effects, check_faults
 from energy_planner.simulate.kinematics import wrap
-from energy_planner.simulate.physics import GROUNDS, Physics, RobotParams
+from energy_planner.simulate.physics import GROUNDS, RobotParams
 from energy_planner.simulate.records import (
     ChannelDraws,
     TruthStreams,
@@ -56,6 +55,7 @@ from energy_planner.simulate.records import (
     logs_from_truth,
     run_record,
     sensor_offsets,
+    switch_on,
 )
 
 __all__ = ["MissionConfig", "GroundMap", "simulate_missions", "synthetic_dem", "ground_map"]
@@ -494,13 +494,10 @@ def simulate_missions(
     from tqdm.auto import tqdm
 
     cfg = config or MissionConfig()
-    names = check_effects(effects)
-    fault_names = check_faults(faults)
-    physics = Physics(params, names)
+    names, fault_names, physics, sens = switch_on(effects, faults, params, cfg.sensors)
     if terrain is None:
         terrain = synthetic_dem(seed)
     path_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)
-    sens = cfg.sensors.with_faults(fault_names)
     grounds = ground_map(terrain, cfg.grounds, seed=seed)
 
     tracks, motions = [], []

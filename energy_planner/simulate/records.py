@@ -17,7 +17,7 @@ Examples
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,6 +38,7 @@ __all__ = [
     "logs_from_truth",
     "run_record",
     "sensor_offsets",
+    "switch_on",
 ]
 
 
@@ -157,6 +158,22 @@ class ChannelDraws:
 def _balanced(rng: np.random.Generator, values: tuple, n: int) -> np.ndarray:
     """``n`` draws that use every value equally often (up to one), in random order."""
     return np.asarray(values, dtype=object)[rng.permutation(n) % len(values)]
+
+
+def switch_on(
+    effects: Iterable[str], faults: Iterable[str], params: Any, sensors: Any
+) -> tuple[tuple[str, ...], tuple[str, ...], Physics, Any]:
+    """The effects and faults checked, the truth with the effects, the sensors with the faults.
+
+    Raises
+    ------
+    ModelError
+        Unknown effect or fault.
+    """
+    from energy_planner.simulate.effects import check_effects, check_faults
+
+    names, fault_names = check_effects(effects), check_faults(faults)
+    return names, fault_names, Physics(params, names), sensors.with_faults(fault_names)
 
 
 def sensor_offsets(rng: np.random.Generator, sens: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
