@@ -127,3 +127,22 @@ def test_shared_scalar_fields_agree(name, value):
 )
 def test_shared_tuple_fields_agree(name, value):
     assert _outcome(MissionConfig, name, value) == _outcome(CampaignConfig, name, value)
+
+
+def test_the_truth_imports_nothing_from_the_model():
+    """The truth is physics: simulating, and a path's true energy, never load the model."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from energy_planner.simulate import (CampaignConfig, MissionConfig, simulate_campaign,\n"
+        "    simulate_missions, synthetic_dem, true_path_energy)\n"
+        "simulate_campaign(seed=0, effects=('load', 'ground'), config=CampaignConfig.small())\n"
+        "t = synthetic_dem(seed=1, size_m=60.0)\n"
+        "simulate_missions(seed=0, config=MissionConfig.small(duration_s=20.0), terrain=t)\n"
+        "true_path_energy(t, [[20.0, 20.0, 0.0], [30.0, 25.0, 0.0]])\n"
+        "print(sorted(m for m in sys.modules if m.startswith('energy_planner.model')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
