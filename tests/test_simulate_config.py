@@ -146,3 +146,11 @@ def test_the_truth_imports_nothing_from_the_model():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_log_columns_are_the_canonical_ones():
+    """The simulator writes the canonical log (its own copy of the names, to import light)."""
+    from energy_planner.measurements.schema import CANONICAL_COLUMNS
+    from energy_planner.simulate import LOG_COLUMNS
+
+    assert LOG_COLUMNS == CANONICAL_COLUMNS

@@ -33,7 +33,8 @@ from energy_planner.simulate.physics import Physics
 
 __all__ = ["Campaign", "LOG_COLUMNS", "CHANNELS", "CATEGORICAL"]
 
-#: Canonical log columns written by the simulator, in order.
+#: Canonical log columns written by the simulator, in order: measurements.schema.CANONICAL_COLUMNS
+#: (a copy, so that importing the simulator does not import the log readers; a test pins them).
 LOG_COLUMNS = (
     "run",
     "t",
