@@ -154,3 +154,40 @@ def test_log_columns_are_the_canonical_ones():
     from energy_planner.simulate import LOG_COLUMNS
 
     assert LOG_COLUMNS == CANONICAL_COLUMNS
+
+
+@pytest.mark.parametrize("kind", ["campaign", "missions"])
+def test_run_records_agree_with_the_logs(kind):
+    """Each run record's clock, size, battery and pose fields, recomputed from the logs."""
+    import numpy as np
+
+    from energy_planner.simulate import simulate_campaign, simulate_missions, synthetic_dem
+
+    if kind == "campaign":
+        cfg = CampaignConfig.small(slopes_deg=(0.0, 20.0), composite_slopes_deg=())
+        camp = simulate_campaign(seed=2, config=cfg)
+    else:
+        cfg = MissionConfig.small(missions=3, duration_s=15.0)
+        terrain = synthetic_dem(seed=3, size_m=60.0)
+        camp = simulate_missions(seed=2, config=cfg, terrain=terrain)
+    runs, logs, ts = camp.runs, camp.logs, camp.true_samples
+    assert runs["order"].tolist() == list(range(len(runs)))
+    assert logs["run"].unique().tolist() == runs["run"].tolist()  # log order = record order
+    first = logs.groupby("run", sort=False).head(1).set_index("run")
+    last = logs.groupby("run", sort=False).tail(1).set_index("run")
+    r = runs.set_index("run")
+    assert (logs.groupby("run", sort=False).size() == r["n_samples"]).all()
+    np.testing.assert_allclose(first["t"], r["t_start"], atol=1e-9)
+    np.testing.assert_allclose(last["t"] - first["t"], r["duration_s"], atol=1e-9)
+    gaps = r["t_start"].to_numpy()[1:] - (r["t_start"] + r["duration_s"]).to_numpy()[:-1]
+    np.testing.assert_allclose(gaps, cfg.gap_s, atol=1e-9)
+    np.testing.assert_allclose(first[["x", "y"]], r[["start_x", "start_y"]], atol=1e-12)
+    np.testing.assert_allclose(last[["x", "y"]], r[["end_x", "end_y"]], atol=1e-12)
+    for run, g in ts.groupby("run", sort=False):
+        p, t = g["power"].to_numpy(), g["t"].to_numpy()
+        energy = float(np.sum((p[1:] + p[:-1]) * np.diff(t) / 2))
+        assert energy == pytest.approx(r.loc[run, "true_energy_j"], rel=1e-6)
+        assert r.loc[run, "true_mean_power_w"] == pytest.approx(energy / np.ptp(t), rel=1e-6)
+    soc = ts.groupby("run", sort=False)["soc"]
+    np.testing.assert_allclose(soc.first(), r["soc_start"], atol=1e-12)
+    assert (r["soc_end"] < r["soc_start"]).all()
