@@ -35,7 +35,7 @@ __all__ = [
 
 
 class ConfigError(EnergyPlannerError, ValueError):
-    """A campaign parameter is out of its valid range."""
+    """A parameter of a simulator config is out of its valid range or of the wrong type."""
 
 
 def _check(cond: bool, what: str, value: Any, expected: str) -> None:
@@ -63,9 +63,10 @@ def in_range(lo: float, hi: float = math.inf, *, lo_open: bool = False, hi_open:
     """Test of a finite number between ``lo`` and ``hi`` (closed ends unless told)."""
 
     def test(v: Any, _c: Any = None) -> bool:
+        if not is_number(v):
+            return False
         above = v > lo if lo_open else v >= lo
-        below = v < hi if hi_open else v <= hi
-        return is_number(v) and above and below
+        return above and (v < hi if hi_open else v <= hi)
 
     return test
 
@@ -85,6 +86,7 @@ def low_high(lo: float = -math.inf):
 
 
 def positive_int(v: Any, _c: Any = None) -> bool:
+    """Test of an integer >= 1 (not a bool)."""
     return isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1
 
 
