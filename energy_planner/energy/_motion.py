@@ -230,21 +230,240 @@ def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax,
     return p * dt
 
 
+# --- the cheapest way to move along a heading, over the body's yaw ------------------
+#: Coarse step of the sweep over the body's yaw relative to the travel, radians; each of
+#: the two best local minima of the sweep is then refined by golden-section search.
+YAW_SWEEP_STEP = math.radians(6.0)
+#: Golden-section iterations of a refinement: the bracket (two sweep steps) shrinks by
+#: 0.618 per iteration, to 0.02 degrees.
+YAW_REFINE_ITERS = 14
+#: The second-lowest local minimum of the sweep is refined too when it is within this
+#: factor of the lowest (a basin between two sweep samples may hold the true minimum).
+SECOND_BASIN = 1.1
+
+
+@numba.njit(cache=True)
+def slope_of(a, b):
+    """``(alpha, cos alpha, sin alpha, cos psi, sin psi)`` of gradient (a, b).
+
+    ``psi`` is the uphill azimuth; on flat ground ``atan2(0, 0) = 0`` (cos 1, sin 0).
+    """
+    g = math.sqrt(a * a + b * b)
+    alpha = math.atan(g)
+    c_psi = a / g if g > 0.0 else 1.0
+    s_psi = b / g if g > 0.0 else 0.0
+    return alpha, math.cos(alpha), math.sin(alpha), c_psi, s_psi
+
+
+@numba.njit(cache=True)
+def travel(a, b, u0, u1, speed):
+    """Time per map metre and 3-D velocity of walking along unit map direction (u0, u1).
+
+    The robot keeps ``speed`` along the ground (as :func:`motion_full`): a map metre is
+    ``sqrt(1 + dz^2)`` metres of ground, ``dz = g . u``.
+    """
+    dz = a * u0 + b * u1
+    dt = math.sqrt(1.0 + dz * dz) / speed
+    return dt, u0 / dt, u1 / dt, dz / dt
+
+
+@numba.njit(cache=True)
+def gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, r):
+    """J per map metre along (u0, u1) with the body yaw turned ``r`` from the travel."""
+    cr = math.cos(r)
+    sr = math.sin(r)
+    return gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0 * cr - u1 * sr, u1 * cr + u0 * sr,
+                     v0, v1, v2, dt, smax, chv)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, lo, hi,
+            fb, rb):  # fmt: skip
+    """Golden-section search of :func:`gait_at` over ``r`` in [lo, hi].
+
+    Returns the best of it and the known point ``(rb, fb)``.
+    """
+    g = 0.3819660112501051  # 2 - golden ratio
+    x1 = lo + g * (hi - lo)
+    x2 = hi - g * (hi - lo)
+    f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, x1)
+    f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, x2)
+    for _ in range(YAW_REFINE_ITERS):
+        if f1 <= f2:
+            hi = x2
+            x2 = x1
+            f2 = f1
+            x1 = lo + g * (hi - lo)
+            f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                         x1)  # fmt: skip
+        else:
+            lo = x1
+            x1 = x2
+            f1 = f2
+            x2 = hi - g * (hi - lo)
+            f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                         x2)  # fmt: skip
+    if f1 < fb:
+        fb, rb = f1, x1
+    if f2 < fb:
+        fb, rb = f2, x2
+    return fb, rb
+
+
+@numba.njit(cache=True)
+def half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, centre,
+             width):  # fmt: skip
+    """Least :func:`gait_at` over ``r`` in ``[centre - width, centre + width]``: ``(J/m, r)``.
+
+    A sweep at about :data:`YAW_SWEEP_STEP` (endpoints included), then a golden-section
+    refinement within one sweep step either side of each of the two lowest local minima
+    of the sweep (the second only within :data:`SECOND_BASIN` of the lowest). Every value
+    returned is an evaluated cost (of a yaw in the interval),
+    ``inf`` if every sampled yaw breaks the cross-slope limit.
+    """
+    if width <= 0.0:
+        return (gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                        centre), centre)  # fmt: skip
+    lo = centre - width
+    hi = centre + width
+    n = max(2, int(math.ceil((hi - lo) / YAW_SWEEP_STEP)))
+    h = (hi - lo) / n
+    b1 = b2 = np.inf
+    r1 = r2 = centre
+    f_prev = np.inf
+    f_cur = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, lo)
+    for k in range(n + 1):
+        f_next = np.inf
+        if k < n:
+            f_next = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax,
+                             chv, lo + (k + 1) * h)  # fmt: skip
+        if f_cur <= f_prev and f_cur <= f_next:  # a local minimum of the sweep
+            if f_cur < b1:
+                b2, r2 = b1, r1
+                b1, r1 = f_cur, lo + k * h
+            elif f_cur < b2:
+                b2, r2 = f_cur, lo + k * h
+        f_prev = f_cur
+        f_cur = f_next
+    if b1 < np.inf:
+        b1, r1 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                         max(lo, r1 - h), min(hi, r1 + h), b1, r1)  # fmt: skip
+    if b2 < SECOND_BASIN * b1:
+        b2, r2 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                         max(lo, r2 - h), min(hi, r2 + h), b2, r2)  # fmt: skip
+    if b2 < b1:
+        return b2, r2
+    return b1, r1
+
+
+@numba.njit(cache=True)
+def cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv):
+    """The cheapest way to move along unit map direction (u0, u1) on gradient (a, b).
+
+    Least J per map metre over the body's yaw ``r`` relative to the travel, within the
+    gait limits: ``|r| <= crab`` (walking forward or sideways) or ``|r - pi| <= crab``
+    (walking backward, only where ``|g| <= back_tan``); ``crab >= pi / 2`` is no limit.
+    Returns ``(J per map metre, r)``, ``r`` in (-pi, pi]; ``inf`` if no allowed yaw may
+    move (cross-slope limit ``smax``). The continuous minimum of :func:`half_min` on
+    each half of the yaws.
+    """
+    alpha, ca, sa, c_psi, s_psi = slope_of(a, b)
+    dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
+    w = min(crab, 0.5 * math.pi)
+    f, r = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                    0.0, w)  # fmt: skip
+    if a * a + b * b <= back_tan * back_tan:
+        fb, rb = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
+                          math.pi, w)  # fmt: skip
+        if fb < f:
+            f, r = fb, wrap_angle(rb)
+    return f, r
+
+
 @numba.njit(cache=True, parallel=True)
-def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
+def cheapest_batch(gx, gy, heading, speed, smax, crab, back_tan, chan):
+    """:func:`cheapest_at` of every ``(gx[i], gy[i], heading[i])``; channels ``chan[:, i]``.
+
+    Returns ``(J per map metre, body yaw relative to the travel)`` arrays; NaN where the
+    gradient or a channel is not finite.
+    """
+    n = gx.shape[0]
+    cost = np.empty(n)
+    yaw = np.empty(n)
+    nch = chan.shape[0]
+    for i in numba.prange(n):
+        chv = np.empty(nch)
+        ok = math.isfinite(gx[i]) and math.isfinite(gy[i]) and math.isfinite(heading[i])
+        for k in range(nch):
+            chv[k] = chan[k, i]
+            ok = ok and math.isfinite(chv[k])
+        if not ok:
+            cost[i] = yaw[i] = np.nan
+            continue
+        cost[i], yaw[i] = cheapest_at(gx[i], gy[i], math.cos(heading[i]), math.sin(heading[i]),
+                                      speed, smax, crab, back_tan, chv)  # fmt: skip
+    return cost, yaw
+
+
+@numba.njit(cache=True, parallel=True)
+def heading_table(speed, smax, crab, d_alpha, i_start, n_rows, n_phi, chv):
+    """The cheapest J per map metre at table nodes, each half of the body's yaws apart.
+
+    ``table[0, i, j]``: body within ``crab`` (at most pi/2) of the travel direction;
+    ``table[1, i, j]``: within ``crab`` of its opposite (walking backward), on ground of
+    slope ``(i_start + i) * d_alpha`` travelling ``2 pi j / n_phi`` counter-clockwise from
+    uphill (map angles): :func:`half_min` of each half, as :func:`cheapest_at` computes
+    them. ``n_rows`` rows of slope; each node is computed on its own, so a table built in
+    pieces equals one built whole.
+    """
+    table = np.empty((2, n_rows, n_phi))
+    d_phi = 2.0 * math.pi / n_phi
+    w = min(crab, 0.5 * math.pi)
+    for k in numba.prange(n_rows * n_phi):
+        i = k // n_phi
+        j = k - i * n_phi
+        a = math.tan((i_start + i) * d_alpha)
+        u0 = math.cos(j * d_phi)
+        u1 = math.sin(j * d_phi)
+        alpha, ca, sa, c_psi, s_psi = slope_of(a, 0.0)
+        dt, v0, v1, v2 = travel(a, 0.0, u0, u1, speed)
+        table[0, i, j] = half_min(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                  smax, chv, 0.0, w)[0]  # fmt: skip
+        table[1, i, j] = half_min(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                  smax, chv, math.pi, w)[0]  # fmt: skip
+    return table
+
+
+@numba.njit(cache=True)
+def _lerp_table(table, h, i0, ti, j0, j1, tj):
+    return ((1.0 - ti) * ((1.0 - tj) * table[h, i0, j0] + tj * table[h, i0, j1])
+            + ti * ((1.0 - tj) * table[h, i0 + 1, j0] + tj * table[h, i0 + 1, j1]))  # fmt: skip
+
+
+@numba.njit(cache=True, parallel=True)
+def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, d_alpha,
+              along, best):  # fmt: skip
     """Energy-map costs of a block of cells (J per metre of map distance).
 
     ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
     channels on the same cells, shape (k, rows, cols), category indices for categorical
-    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
-    ``best[j, r, c]``: the cheapest of walking forward, backward or sideways (either
-    side) along it. Each is the limit of :func:`motion_full` for a short straight motion
+    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along),
+    exactly; ``best[j, r, c]``: the cheapest way to move along it over the body's yaw
+    within the gait limits (:func:`cheapest_at`): bilinear in ``table`` (of
+    :func:`heading_table`, slope step ``d_alpha``) where the cell's slope is inside it
+    and the four nodes are finite, else :func:`cheapest_at` itself; never above
+    ``along``. Each is the limit of :func:`motion_full` for a short straight motion
     through the cell centre, divided by its map length. NaN where the gradient or a
-    channel is undefined, ``inf`` above a slope limit.
+    channel is undefined, ``inf`` above a slope limit. An empty ``table`` (channel
+    rasters: the cost varies with them) computes every ``best`` by :func:`cheapest_at`.
     """
     rows, cols = gx.shape
     nh = headings.shape[0]
     nch = chan.shape[0]
+    n_alpha = table.shape[1]
+    n_phi = table.shape[2]
+    d_phi = 2.0 * math.pi / max(n_phi, 1)
+    two_pi = 2.0 * math.pi
     hc = np.cos(headings)
     hs = np.sin(headings)
     for r in numba.prange(rows):
@@ -268,30 +487,39 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
                     along[j, r, c] = np.inf
                     best[j, r, c] = np.inf
                 continue
-            g = math.sqrt(g2)
-            alpha = math.atan(g)
-            ca = math.cos(alpha)
-            sa = math.sin(alpha)
-            c_psi = a / g if g > 0.0 else 1.0  # atan2(0, 0) = 0 on flat ground
-            s_psi = b / g if g > 0.0 else 0.0
+            alpha, ca, sa, c_psi, s_psi = slope_of(a, b)
+            back_ok = g2 <= back_tan * back_tan
+            fi = alpha / d_alpha if n_alpha >= 2 else np.inf
+            in_table = fi <= n_alpha - 1
+            i0 = 0
+            ti = 0.0
+            psi = 0.0
+            if in_table:
+                i0 = min(int(fi), n_alpha - 2)
+                ti = fi - i0
+                psi = math.atan2(s_psi, c_psi)
             for j in range(nh):
                 u0 = hc[j]
                 u1 = hs[j]
-                dz = a * u0 + b * u1
-                ds = math.sqrt(1.0 + dz * dz)  # metres along the ground per map metre
-                dt = ds / speed
-                v0 = u0 / dt
-                v1 = u1 / dt
-                v2 = dz / dt
+                dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
                 fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
                                 smax, chv)  # fmt: skip
-                m = fwd
-                # backward (yaw h + pi), sideways (yaw h - pi/2 and h + pi/2)
-                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
-                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
-                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
+                m = np.inf
+                exact = not in_table
+                if in_table:
+                    phi = headings[j] - psi
+                    phi -= two_pi * math.floor(phi / two_pi)
+                    fj = phi / d_phi
+                    j0 = min(int(fj), n_phi - 1)
+                    tj = fj - j0
+                    j1 = j0 + 1 if j0 + 1 < n_phi else 0
+                    m = _lerp_table(table, 0, i0, ti, j0, j1, tj)
+                    exact = not math.isfinite(m)  # a node above the cross-slope limit
+                    if back_ok:
+                        mb = _lerp_table(table, 1, i0, ti, j0, j1, tj)
+                        exact = exact or not math.isfinite(mb)
+                        m = min(m, mb)
+                if exact:
+                    m = cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv)[0]
                 along[j, r, c] = fwd
-                best[j, r, c] = m
+                best[j, r, c] = min(m, fwd)

@@ -177,7 +177,6 @@ _TEMPLATE = Path(__file__).with_name("_motion.py")
 _POWER_BLOCK = re.compile(r"# --- power: replaced per model ---\n.*?# --- end power ---\n", re.S)
 
 
-@lru_cache(maxsize=64)
 def make_kernels(power_source: str):
     """Build (or load from the kernel cache) the motion kernels of one model.
 
@@ -200,8 +199,21 @@ def make_kernels(power_source: str):
         invalid; ``motion_batch`` maps it over arrays; ``path_table(x, y, th, durations,
         data)`` gives the ``out`` rows of consecutive poses. ``data`` is the tuple built
         by :class:`energy_planner.energy.MotionCost`. ``map_costs(gx, gy, chan,
-        headings, speed, tmax, smax, along, best)`` fills the energy-map costs of a block
-        of cells (see :mod:`energy_planner.energymap`).
+        headings, speed, tmax, smax, crab, back_tan, table, d_alpha, along, best)`` fills
+        the energy-map costs of a block of cells (see
+        :class:`energy_planner.energy.heading.HeadingCost`).
+    """
+    mod = kernel_module(power_source)
+    return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table, mod.map_costs
+
+
+@lru_cache(maxsize=64)
+def kernel_module(power_source: str):
+    """The compiled module of one model's kernels (see :func:`make_kernels`).
+
+    Besides the functions :func:`make_kernels` returns, it holds the cheapest way to move
+    along a heading over the body's yaw (``cheapest_at``, ``cheapest_batch``,
+    ``heading_table``), which :mod:`energy_planner.energy.heading` wraps.
     """
     from energy_planner.model._codegen import load_generated_module
 
@@ -216,5 +228,4 @@ def make_kernels(power_source: str):
     # hash into the generated text so that a change gives a new module name
     helpers = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
     text = f"# kernels.py {helpers}\n" + text
-    mod = load_generated_module(text, prefix="motion")
-    return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table, mod.map_costs
+    return load_generated_module(text, prefix="motion")

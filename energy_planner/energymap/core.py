@@ -189,19 +189,13 @@ def heading_angles(headings: int) -> np.ndarray:
 
 
 def block_bands(
-    map_kernel: Any,
-    gx: np.ndarray,
-    gy: np.ndarray,
-    chan: np.ndarray,
-    headings: int,
-    speed: float,
-    tmax: float,
-    smax: float,
+    heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int
 ) -> np.ndarray:
     """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
 
-    ``gx``, ``gy``: the cells' Horn gradient; ``chan``: raster channels on the same cells
-    ``(k, rows, cols)``; ``map_kernel``: ``map_costs`` of the model's compiled kernels.
+    ``heading``: the :class:`~energy_planner.energy.heading.HeadingCost` of the map's
+    model, speed and limits (it prices ``along`` and ``best``); ``gx``, ``gy``: the cells'
+    Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``.
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -213,7 +207,7 @@ def block_bands(
     out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
     along = out[:headings]
     best = out[headings : 2 * headings]
-    map_kernel(gx, gy, chan, ang, float(speed), float(tmax), float(smax), along, best)
+    heading.map_bands(gx, gy, chan, ang, along, best)
     valid = ~np.isnan(best[0])
     with np.errstate(invalid="ignore", divide="ignore"):
         cheapest = best.min(axis=0)
@@ -231,8 +225,7 @@ def block_bands(
 class _Setup:
     """Model, kernel and settings shared by every way of computing a map."""
 
-    source: str
-    map_kernel: Any
+    heading: Any
     channels: Any
     headings: int
     speed: float
@@ -243,7 +236,7 @@ class _Setup:
 
 def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
     from energy_planner.energy.channels import Channels
-    from energy_planner.energy.kernels import make_kernels
+    from energy_planner.energy.heading import HeadingCost
     from energy_planner.errors import ModelError
     from energy_planner.model import EnergyModel
     from energy_planner.request import Request
@@ -272,13 +265,11 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         if lim.max_cross_slope_deg is None
         else math.sin(math.radians(lim.max_cross_slope_deg))
     )
-    source = model.kernel_source(channels.constants, channels.kernel_layout())
     unused = channels.unused(model)
     if unused:
         notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
     return _Setup(
-        source=source,
-        map_kernel=make_kernels(source)[4],
+        heading=HeadingCost.of_request(model, request, channels),
         channels=channels,
         headings=int(headings),
         speed=float(request.robot.speed),
@@ -321,6 +312,10 @@ def _write_metadata(
         speed_m_s=repr(setup.speed),
         max_slope_tan=repr(setup.tmax),
         max_cross_slope_sin=repr(setup.smax),
+        max_crab_rad=repr(setup.heading.crab),
+        max_backward_slope_tan=repr(setup.heading.back_tan),
+        best="least over the body's yaw relative to the travel (continuous minimum within "
+        "the gait limits; energy_planner.energy.heading)",
         channels=repr(setup.channels.describe()),
         mode=mode,
         nodata="NaN; inf = above a slope limit",
@@ -361,9 +356,8 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
             r1 = min(rows, r0 + step)
             chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
             bands = block_bands(
-                setup.map_kernel, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan,
-                setup.headings, setup.speed, setup.tmax, setup.smax,
-            )  # fmt: skip
+                setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings
+            )
             dst.write(bands, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
 
@@ -468,10 +462,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
                 chan, _ = ch.stack((r1 - r0, cols))
             else:
                 chan = np.zeros((0, 1, 1))
-            bands = block_bands(
-                setup.map_kernel, gx, gy, chan, setup.headings, setup.speed, setup.tmax,
-                setup.smax,
-            )  # fmt: skip
+            bands = block_bands(setup.heading, gx, gy, chan, setup.headings)
             dst.write(bands, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:

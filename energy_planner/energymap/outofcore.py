@@ -45,13 +45,9 @@ def gradient_dask(z: Any, step_x: float, step_y: float) -> tuple[Any, Any]:
     return gx, gy
 
 
-def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, transform, crs,
-                 block_info=None):  # fmt: skip
+def _bands_block(gx, gy, *, heading, headings, channels, transform, crs, block_info=None):
     from affine import Affine
 
-    from energy_planner.energy.kernels import make_kernels
-
-    kernel = make_kernels(source)[4]
     rows, cols = gx.shape
     if channels.rasters:
         (r0, _), (c0, _) = block_info[0]["array-location"]
@@ -60,7 +56,7 @@ def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, trans
     else:
         chan = np.zeros((0, 1, 1))
     with _KERNEL_LOCK:
-        return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax)
+        return block_bands(heading, gx, gy, chan, headings)
 
 
 def _client() -> Any:
@@ -99,8 +95,8 @@ def compute_dask(
 
     bands = da.map_blocks(
         _bands_block, gx, gy, new_axis=0, chunks=((nb,), *gx.chunks), dtype=np.float32,
-        source=setup.source, headings=setup.headings, speed=setup.speed, tmax=setup.tmax,
-        smax=setup.smax, channels=setup.channels, transform=t, crs=info.crs,
+        heading=setup.heading, headings=setup.headings, channels=setup.channels,
+        transform=t, crs=info.crs,
     )  # fmt: skip
     xarr = xr.DataArray(
         bands,

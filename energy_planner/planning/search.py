@@ -16,10 +16,10 @@ that prices every other path) when the search first reaches it.
 The search is A* with keys ``g + eps * h``. The heuristic ``h`` is the exact solution of a
 relaxed problem solved once on the 2-D grid of positions (a backward Dijkstra from the
 goal): no turning, and every translation priced by a lower bound of its kernel cost over
-all headings. The bound uses the kernel itself: the least energy per metre of a motion in
-each move direction on ground of constant gradient ``g`` is tabulated over a grid of
-gradients (the kernel run on a synthetic constant-gradient map, minimised over the
-headings that may make that move, then over neighbouring table nodes); a motion samples
+all headings. The bound is the project's one cheapest way to move along a heading
+(:class:`energy_planner.energy.heading.HeadingCost`: the least energy per metre over every
+body yaw, priced by the kernel's own gait cost), tabulated for each move direction over a
+grid of constant gradients ``g`` and minimised over neighbouring table nodes; a motion samples
 gradients interpolated from the DEM cells in its bounding box, so its energy is at least
 its length times the table's minimum over the box of those cells' gradients. A 1 % margin
 covers the table's spacing. Turns cost >= 0 (the model's power is clipped at 0), so ``h``
@@ -304,9 +304,14 @@ def gradient_table(
     """Least J per metre of each move direction over a box of constant gradients.
 
     The table behind :func:`bound_table`, for any gradient box ``lo .. hi`` (``(gx, gy)``
-    m/m, east and north), clipped to the slope limit of ``cost``. Its minimum is a lower
-    bound of the energy per metre of any translation on ground whose gradients lie in
-    the box (the corridor planner's ellipse and the windowed reach use it).
+    m/m, east and north), clipped to the slope limit of ``cost``. Each node holds the
+    cheapest way to move in the move's direction on ground of that gradient, over every
+    body yaw the gait limits allow (:class:`energy_planner.energy.heading.HeadingCost`,
+    its lower bound: below the kernel's energy of any translation there at any heading,
+    so also below the lattice headings that may make the move), then the least over the
+    3 x 3 neighbouring nodes (so values between nodes are covered). Its minimum is a
+    lower bound of the energy per metre of any translation on ground whose gradients lie
+    in the box (the corridor planner's ellipse and the windowed reach use it).
 
     Returns
     -------
@@ -317,11 +322,13 @@ def gradient_table(
     """
     from scipy.ndimage import minimum_filter
 
+    from energy_planner.energy.heading import HeadingCost
     from energy_planner.planning.lattice import MOVES_16
 
+    heading = HeadingCost.of_motion_cost(cost)
     lo = np.asarray(lo, dtype=np.float64).copy()
     hi = np.asarray(hi, dtype=np.float64).copy()
-    tmax = float(cost.data[10])
+    tmax = heading.tmax
     if math.isfinite(tmax):
         lo = np.maximum(lo, -tmax)
         hi = np.minimum(hi, tmax)
@@ -331,32 +338,13 @@ def gradient_table(
     tdx, tdy = (hi - lo) / (nodes - 1)
     gxs = lo[0] + tdx * np.arange(nodes)
     gys = lo[1] + tdy * np.arange(nodes)
-    # a synthetic map: node k of the table is a 2 x 2 block of cells at columns 3k, 3k+1
-    K = nodes * nodes
     GX, GY = np.meshgrid(gxs, gys, indexing="ij")
-    syn = np.full((2, 3 * K, 2), np.nan)
-    for c in (0, 1):
-        syn[:, c::3, 0] = GX.ravel()[None, :]
-        syn[:, c::3, 1] = GY.ravel()[None, :]
-    data = list(cost.data)
-    data[0] = np.ascontiguousarray(syn)
-    data[1] = np.zeros((0, 0), dtype=np.bool_)
-    data[2], data[3], data[4], data[5] = 0.0, 0.0, 1.0, 1.0
-    data = tuple(data)
-    cx = 3.0 * np.arange(K) + 0.5
-    cy = np.full(K, 0.5)
-    half = 0.24  # motion of 0.48 m inside the block
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     table = np.full((len(MOVES_16), nodes, nodes), np.inf)
-    batch = cost._batch
     for m, ang in enumerate(dirs):
-        ux, uy = math.cos(ang) * half, math.sin(ang) * half
-        best = np.full(K, np.inf)
-        for h in np.nonzero(move_ok[:, m])[0]:
-            th = np.full(K, headings[h])
-            e = batch(cx - ux, cy - uy, th, cx + ux, cy + uy, th, data)
-            best = np.minimum(best, e / (2 * half))
-        table[m] = minimum_filter(best.reshape(nodes, nodes), size=3, mode="nearest")
+        if move_ok[:, m].any():
+            best = heading.lower_bound(GX, GY, ang)
+            table[m] = minimum_filter(best, size=3, mode="nearest")
     table = np.maximum(table, 0.0)
     return table, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
 

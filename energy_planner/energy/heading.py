@@ -1,0 +1,427 @@
+"""The cheapest way to move along a heading at a cell, over the body's yaw.
+
+One concept, one implementation: :class:`HeadingCost` answers "how much energy per metre
+of map does it cost, at the least, to move along this heading on this ground?" for
+
+- the energy map's ``best_*`` and ``cheapest`` bands (:mod:`energy_planner.energymap`);
+- the planner's 2-D heuristic, a lower bound of every motion the search prices
+  (:func:`energy_planner.planning.search.gradient_table`, which also bounds the corridor
+  planner's and the windowed reach's windows);
+- compare-routes' cost of climbing a grade and its critical grade with the best yaw
+  (:func:`energy_planner.planning.compare.grade_cost`).
+
+**Which yaws.** The continuous minimum over the body's yaw ``r`` relative to the
+direction of travel (map angles, as every yaw in energy_planner; 0 facing it, ``+-pi/2``
+sideways, ``pi`` walking backward), within the gait limits:
+
+- ``max_crab_deg``: ``|r| <= max_crab`` walking forward or sideways, ``|r - pi| <=
+  max_crab`` walking backward (None: any yaw; 0: face along or straight back);
+- ``max_backward_slope_deg``: no backward walking (``|r| > 90 deg``) on ground steeper
+  than this (None: anywhere);
+- ``max_cross_slope_deg``: no yaw that holds the body across a steeper cross-slope
+  (as every motion of the kernels); ``max_slope_deg``: ``inf`` on steeper ground.
+
+The minimum is found by a sweep of ``r`` at 6 degrees on each half (forward: ``|r| <=
+90``; backward) and a golden-section refinement of the two best basins to 0.02 degrees
+(``cheapest_at`` in :mod:`energy_planner.energy._motion`, compiled with the model's
+``power``, pricing with the very ``gait_cost`` of the motion kernels: a short straight
+motion's energy per map metre). Every value is an evaluated cost of an allowed yaw.
+
+**What the planners realise.** The search moves at its lattice headings (16) along
+the 16 lattice directions (``moves="all"``; fewer with ``"crab"``/``"axes"``), so it
+realises only the crab angles between those; the refinement (``planner="auto"``), OMPL
+and ``energy`` of given waypoints walk any yaw. The continuous minimum is below every one
+of them, which is what an admissible heuristic needs.
+
+**Raster speed.** The cost per map metre depends only on the slope ``alpha``, the
+travel direction relative to uphill ``phi`` (map angle), the channel values and the
+speed (the ground's azimuth only rotates the problem). So it is tabulated once over
+``alpha`` (1 degree steps, up to 60 degrees or the slope limit, built lazily as steeper
+cells come) and ``phi`` (0.5 degree steps), each half of the yaws apart (so that the
+backward-slope limit is applied per cell, exactly), and looked up bilinearly. Bilinear
+interpolation is exact at the nodes and within 0.3 % of the minimum over a dense
+sample of slopes up to 55 degrees under the bundled model (largest where the cheapest
+gait switches branch between two nodes on steep ground: the minimum has a kink there);
+``tests/test_energy_heading.py`` checks the table against the exact minimum. A cell
+steeper than the table, a lookup that touches a node where no yaw may move
+(cross-slope limit), and maps with channel rasters (the cost varies with them) are
+computed by the exact minimum itself. The table is cached on disk next to the
+compiled kernels.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import threading
+from collections.abc import Mapping
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from energy_planner.request import DEFAULT_SPEED
+
+__all__ = ["HeadingCost", "heading_cost", "TABLE_D_ALPHA_DEG", "TABLE_D_PHI_DEG"]
+
+#: Slope step of the table, degrees.
+TABLE_D_ALPHA_DEG = 1.0
+#: Step of the travel direction relative to uphill, degrees (divides 360).
+TABLE_D_PHI_DEG = 0.5
+#: Steepest slope the table holds, degrees (steeper cells: the exact minimum).
+TABLE_TOP_DEG = 60.0
+#: Rows of slope built at once when the table grows.
+_ROWS_PER_BUILD = 10
+
+
+def _angle(deg: float | None, fn: Any) -> float:
+    """``fn(radians(deg))``, ``inf`` for None (no limit)."""
+    return math.inf if deg is None else float(fn(math.radians(deg)))
+
+
+class HeadingCost:
+    """The cheapest way to move along a heading, over the body yaws the gait allows.
+
+    Build it with :func:`heading_cost` (or :meth:`of_motion_cost`, :meth:`of_request`):
+    instances with the same physics share one table within a process.
+
+    Parameters
+    ----------
+    source : str
+        The model's ``power`` source (:meth:`EnergyModel.kernel_source` with the
+        channels' constants and raster layout).
+    speed : float
+        Walking speed along the ground, m/s.
+    tmax, smax : float
+        ``tan`` of the slope limit, ``sin`` of the cross-slope limit (``inf``: none).
+    crab : float
+        Largest angle between body x and the travel (or its opposite walking backward),
+        radians (``inf``: none).
+    back_tan : float
+        ``tan`` of the steepest slope on which the robot may walk backward (``inf``).
+    rasters : int
+        Number of channel rasters the kernel reads (then no table: the exact minimum).
+    """
+
+    def __init__(
+        self, source: str, speed: float, tmax: float, smax: float, crab: float,
+        back_tan: float, rasters: int = 0,
+    ) -> None:  # fmt: skip
+        from energy_planner.energy.kernels import kernel_module
+
+        self.source = source
+        self.speed = float(speed)
+        self.tmax = float(tmax)
+        self.smax = float(smax)
+        self.crab = float(crab)
+        self.back_tan = float(back_tan)
+        self.rasters = int(rasters)
+        self._mod = kernel_module(source)
+        top = min(TABLE_TOP_DEG, math.degrees(math.atan(self.tmax)))
+        self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
+        self.n_alpha = max(2, int(math.ceil(top / TABLE_D_ALPHA_DEG - 1e-9)) + 1)
+        self.n_phi = int(round(360.0 / TABLE_D_PHI_DEG))
+        self._table = np.full((2, self.n_alpha, self.n_phi), np.nan)
+        self._built = 0
+        self._lock = threading.Lock()
+
+    def __reduce__(self):  # the dask workers rebuild it from its parameters (cached)
+        return (_cached, self.params)
+
+    @property
+    def params(self) -> tuple[Any, ...]:
+        """The parameters that define it (those of the constructor)."""
+        return (self.source, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
+                self.rasters)  # fmt: skip
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def of_motion_cost(
+        cls, cost: Any, *, max_crab_deg: float | None = None,
+        max_backward_slope_deg: float | None = None,
+    ) -> HeadingCost:  # fmt: skip
+        """The heading cost of a :class:`~energy_planner.energy.MotionCost`'s physics.
+
+        Its model, speed, channels and slope limits; the gait limits given here, or the
+        cost's own ``max_crab_deg`` / ``max_backward_slope_deg`` if it has them.
+        """
+        if max_crab_deg is None:
+            max_crab_deg = getattr(cost, "max_crab_deg", None)
+        if max_backward_slope_deg is None:
+            max_backward_slope_deg = getattr(cost, "max_backward_slope_deg", None)
+        return heading_cost(
+            cost.model, speed=cost.speed, channels=cost.channels,
+            max_slope_deg=cost.max_slope_deg, max_cross_slope_deg=cost.max_cross_slope_deg,
+            max_crab_deg=max_crab_deg, max_backward_slope_deg=max_backward_slope_deg,
+        )  # fmt: skip
+
+    @classmethod
+    def of_request(cls, model: Any, request: Any = None, channels: Any = None) -> HeadingCost:
+        """From a :class:`~energy_planner.request.Request`: speed, limits, channels."""
+        from energy_planner.request import Request
+
+        request = Request() if request is None else request
+        lim = request.limits
+        if channels is None:
+            channels = request.channels
+        return heading_cost(
+            model, speed=request.robot.speed, channels=channels,
+            max_slope_deg=lim.max_slope_deg, max_cross_slope_deg=lim.max_cross_slope_deg,
+            max_crab_deg=getattr(lim, "max_crab_deg", None),
+            max_backward_slope_deg=getattr(lim, "max_backward_slope_deg", None),
+        )  # fmt: skip
+
+    # ------------------------------------------------------------------ exact
+    def per_metre(
+        self, gx: Any, gy: Any, heading: Any, chan: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The exact cheapest J per map metre and the body yaw that gives it.
+
+        Parameters
+        ----------
+        gx, gy : array_like
+            Gradient ``dz/dx``, ``dz/dy`` of the ground (broadcast with ``heading``).
+        heading : array_like
+            Direction of travel, radians CCW from +x (east).
+        chan : ndarray, optional
+            Channel raster values, shape ``(k,) + shape`` (the kernel's raster layout).
+
+        Returns
+        -------
+        cost : ndarray
+            J per metre of map distance (``inf`` where no allowed yaw may move, or
+            above the slope limit; NaN where the gradient is not finite).
+        yaw : ndarray
+            The body's yaw relative to the travel, radians in (-pi, pi] (map angles).
+        """
+        gx, gy, h = np.broadcast_arrays(
+            *(np.asarray(v, dtype=np.float64) for v in (gx, gy, heading))
+        )
+        shape = gx.shape
+        n = gx.size
+        if chan is None:
+            chan = np.zeros((0, n))
+        chan = np.ascontiguousarray(np.asarray(chan, dtype=np.float64).reshape(-1, n))
+        if chan.shape[0] != self.rasters:
+            raise ValueError(f"chan has {chan.shape[0]} channels, the kernel reads {self.rasters}")
+        flat = [np.ascontiguousarray(v.ravel()) for v in (gx, gy, h)]
+        cost, yaw = self._mod.cheapest_batch(*flat, self.speed, self.smax, self.crab,
+                                             self.back_tan, chan)  # fmt: skip
+        steep = flat[0] ** 2 + flat[1] ** 2 > self.tmax**2
+        cost[steep] = np.inf
+        return cost.reshape(shape), yaw.reshape(shape)
+
+    # ------------------------------------------------------------------ the table
+    def table(self, max_alpha: float = 0.0) -> np.ndarray:
+        """The table, built at least up to slope ``max_alpha`` (radians).
+
+        ``table[h, i, j]``: J per map metre at slope ``i * d_alpha`` moving ``2 pi j /
+        n_phi`` CCW from uphill, least over the forward (``h = 0``: ``|r| <= 90 deg``)
+        or backward (``h = 1``) half of the allowed yaws. Rows are added as needed
+        (each node on its own: a table grown in pieces equals one built whole).
+        """
+        need = min(self.n_alpha, int(math.floor(max(max_alpha, 0.0) / self.d_alpha)) + 2)
+        if need > self._built:
+            with self._lock:
+                if need > self._built:
+                    self._grow(need)
+        return self._table[:, : self._built]
+
+    def _grow(self, need: int) -> None:
+        start = self._built
+        stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
+        if start == 0:
+            cached = _load_table(self._key())
+            if cached is not None and cached.shape[2] == self.n_phi:
+                rows = min(cached.shape[1], self.n_alpha)
+                self._table[:, :rows] = cached[:, :rows]
+                self._built = start = rows
+                if start >= need:
+                    return
+                stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
+        part = self._mod.heading_table(
+            self.speed, self.smax, self.crab, self.d_alpha, start, stop - start, self.n_phi,
+            np.zeros(0),
+        )  # fmt: skip
+        self._table[:, start:stop] = part
+        self._built = stop
+        _save_table(self._key(), self._table[:, :stop])
+
+    def _key(self) -> str:
+        from energy_planner.energy import kernels
+
+        text = repr((self.params, TABLE_D_ALPHA_DEG, TABLE_D_PHI_DEG))
+        helpers = (kernels._TEMPLATE.read_bytes(), text.encode())
+        return hashlib.sha256(b"\0".join(helpers)).hexdigest()[:24]
+
+    def lower_bound(self, gx: Any, gy: Any, heading: Any) -> np.ndarray:
+        """A lower bound of the cheapest J per map metre at each point.
+
+        The least of the table's nodes around the point (both halves where walking
+        backward is allowed). Exact at the nodes; between them it is below the bilinear
+        value, and below the exact minimum wherever that is concave or monotone across
+        the table's cell (a smooth minimum inside a cell can dip below its corners by a
+        fraction of the interpolation error: planners scale the bound by their margin).
+        Points steeper than the table, or whose four nodes all forbid moving, take the
+        exact minimum. Without a table (channel rasters) it is 0.
+        """
+        gx, gy, h = np.broadcast_arrays(
+            *(np.asarray(v, dtype=np.float64) for v in (gx, gy, heading))
+        )
+        if self.rasters:
+            return np.zeros(gx.shape)
+        g = np.hypot(gx, gy)
+        alpha = np.arctan(g)
+        fin = np.isfinite(alpha)
+        table = self.table(float(alpha[fin].max()) if fin.any() else 0.0)
+        rows = table.shape[1]
+        psi = np.where(g > 0, np.arctan2(gy, gx), 0.0)
+        phi = np.mod(h - psi, 2 * np.pi)
+        fi = np.where(fin, alpha / self.d_alpha, np.inf)
+        inside = fi <= rows - 1
+        i0 = np.clip(np.floor(np.where(inside, fi, 0)).astype(int), 0, max(rows - 2, 0))
+        fj = phi / (2 * np.pi / self.n_phi)
+        j0 = np.floor(np.where(np.isfinite(fj), fj, 0)).astype(int) % self.n_phi
+        j1 = (j0 + 1) % self.n_phi
+        back = g <= self.back_tan
+        out = np.full(gx.shape, np.inf)
+        for half in (0, 1):
+            ok = back if half else np.ones(gx.shape, bool)
+            corners = np.minimum.reduce(
+                [table[half, i0 + di, j] for di in (0, 1) for j in (j0, j1)]
+            )
+            out = np.where(ok, np.minimum(out, corners), out)
+        exact = fin & (~inside | ~np.isfinite(out))
+        if exact.any():
+            out[exact] = self.per_metre(gx[exact], gy[exact], h[exact])[0]
+        out[~fin] = np.nan
+        out[g > self.tmax] = np.inf
+        return np.maximum(out, 0.0)
+
+    # ------------------------------------------------------------------ the map
+    def map_bands(
+        self, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: np.ndarray,
+        along: np.ndarray, best: np.ndarray,
+    ) -> None:  # fmt: skip
+        """Fill the energy map's ``along`` and ``best`` bands of a block of cells.
+
+        ``gx``, ``gy``: float64 ``(rows, cols)``; ``chan``: ``(k, rows, cols)`` channel
+        rasters; ``headings``: radians; ``along``, ``best``: ``(N, rows, cols)``
+        outputs (float32). ``along`` walks forward facing the heading (exactly);
+        ``best`` is the cheapest way over the allowed yaws (the table, or the exact
+        minimum where the table does not serve; never above ``along``).
+        """
+        if self.rasters:
+            table = np.zeros((2, 0, 0))
+        else:
+            with np.errstate(invalid="ignore"):
+                g2 = gx * gx + gy * gy
+                g2 = g2[np.isfinite(g2) & (g2 <= self.tmax * self.tmax)]
+            top = float(np.arctan(np.sqrt(g2.max()))) if g2.size else 0.0
+            table = np.ascontiguousarray(self.table(top))
+        self._mod.map_costs(
+            gx, gy, chan, np.ascontiguousarray(headings, dtype=np.float64), self.speed,
+            self.tmax, self.smax, self.crab, self.back_tan, table, self.d_alpha, along, best,
+        )  # fmt: skip
+
+
+@lru_cache(maxsize=32)
+def _cached(*params: Any) -> HeadingCost:
+    return HeadingCost(*params)
+
+
+def heading_cost(
+    model: Any,
+    *,
+    speed: float = DEFAULT_SPEED,
+    channels: Any = None,
+    constants: Mapping[str, Any] | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    max_backward_slope_deg: float | None = None,
+) -> HeadingCost:
+    """The cheapest way to move along a heading under a model, speed and limits.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        A fitted model.
+    speed : float
+        Walking speed along the ground, m/s.
+    channels : Channels, optional
+        Extra channels: constants (compiled in) and rasters (their layout; the values
+        are given per call).
+    constants : mapping, optional
+        More channel constants (merged with ``channels.constants``).
+    max_slope_deg, max_cross_slope_deg : float, optional
+        Slope limits, as :class:`~energy_planner.request.Limits`.
+    max_crab_deg : float, optional
+        Largest angle between the body's x axis and the direction of travel, or its
+        opposite when walking backward, degrees in [0, 90] (None: any yaw; 0: face along
+        or straight back; sideways is 90).
+    max_backward_slope_deg : float, optional
+        No backward walking (body x more than 90 degrees from the travel) on ground
+        steeper than this, degrees (None: anywhere).
+
+    Returns
+    -------
+    HeadingCost
+        Shared with every other call of the same physics in this process.
+
+    Examples
+    --------
+    >>> import math
+    >>> from energy_planner.model import EnergyModel
+    >>> m = EnergyModel(["pos(vx)", "pos(-vx)", "abs(vy)"],
+    ...                 {"pos(vx)": 600.0, "pos(-vx)": 700.0, "abs(vy)": 800.0})
+    >>> hc = heading_cost(m)
+    >>> cost, yaw = hc.per_metre(0.0, 0.0, 0.0)  # flat: walk forward, 600 J/m
+    >>> round(float(cost), 6), round(float(yaw), 6)
+    (600.0, 0.0)
+    >>> round(float(heading_cost(m, max_crab_deg=0).per_metre(0.0, 0.0, 1.0)[0]), 6)
+    600.0
+    """
+    from energy_planner.energy.channels import Channels
+    from energy_planner.errors import ModelError
+
+    if not model.is_fitted:
+        raise ModelError("the energy model has no coefficients: fit or load a fitted model")
+    channels = channels if channels is not None else Channels()
+    if constants:
+        channels = Channels({**channels.constants, **dict(constants)}, channels.rasters)
+    source = model.kernel_source(channels.constants, channels.kernel_layout())
+    return _cached(
+        source,
+        float(speed),
+        _angle(max_slope_deg, math.tan),
+        _angle(max_cross_slope_deg, math.sin),
+        math.inf if max_crab_deg is None else math.radians(max_crab_deg),
+        _angle(max_backward_slope_deg, math.tan),
+        len(channels.rasters),
+    )
+
+
+def _table_path(key: str):
+    from energy_planner.model._codegen import cache_dir
+
+    return cache_dir() / f"heading_{key}.npy"
+
+
+def _load_table(key: str) -> np.ndarray | None:
+    try:
+        arr = np.load(_table_path(key), allow_pickle=False)
+    except (OSError, ValueError):
+        return None
+    return arr if arr.ndim == 3 and arr.shape[0] == 2 else None
+
+
+def _save_table(key: str, table: np.ndarray) -> None:
+    from energy_planner.io import atomic_path
+
+    try:
+        path = _table_path(key)
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.save(f, np.ascontiguousarray(table))
+    except OSError:
+        pass  # the cache is an optimisation only
