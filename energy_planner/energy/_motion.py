@@ -362,7 +362,8 @@ def cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv):
 
     Least J per map metre over the body's yaw ``r`` relative to the travel, within the
     gait limits: ``|r| <= crab`` (walking forward or sideways) or ``|r - pi| <= crab``
-    (walking backward, only where ``|g| <= back_tan``); ``crab >= pi / 2`` is no limit.
+    (walking backward, only where ``|g| <= back_tan``: never if it is negative);
+    ``crab >= pi / 2`` is no limit.
     Returns ``(J per map metre, r)``, ``r`` in (-pi, pi]; ``inf`` if no allowed yaw may
     move (cross-slope limit ``smax``). The continuous minimum of :func:`half_min` on
     each half of the yaws.
@@ -372,7 +373,7 @@ def cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv):
     w = min(crab, 0.5 * math.pi)
     f, r = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
                     0.0, w)  # fmt: skip
-    if a * a + b * b <= back_tan * back_tan:
+    if back_tan >= 0.0 and a * a + b * b <= back_tan * back_tan:
         fb, rb = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
                           math.pi, w)  # fmt: skip
         if fb < f:
@@ -488,7 +489,7 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, 
                     best[j, r, c] = np.inf
                 continue
             alpha, ca, sa, c_psi, s_psi = slope_of(a, b)
-            back_ok = g2 <= back_tan * back_tan
+            back_ok = back_tan >= 0.0 and g2 <= back_tan * back_tan
             fi = alpha / d_alpha if n_alpha >= 2 else np.inf
             in_table = fi <= n_alpha - 1
             i0 = 0

@@ -362,7 +362,8 @@ def heading_cost(
         or straight back; sideways is 90).
     max_backward_slope_deg : float, optional
         No backward walking (body x more than 90 degrees from the travel) on ground
-        steeper than this, degrees (None: anywhere).
+        steeper than this, degrees (None: anywhere; negative: nowhere, not even on flat
+        ground).
 
     Returns
     -------

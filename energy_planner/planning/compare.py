@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, RouteNameError
 from energy_planner.request import DEFAULT_SPEED
 
@@ -83,7 +84,8 @@ class GradeCost:
         ``sqrt(a / k)`` when ``a > 0`` and ``k > 0``.
     body_yaw : ndarray
         The cheapest yaw of the body relative to the direction of travel at each grade,
-        radians (0: facing it; +-pi/2: sideways).
+        radians, measured in the slope plane like ``gamma`` (0: facing it; +-pi/2:
+        sideways).
     """
 
     grades: np.ndarray
@@ -133,7 +135,10 @@ def grade_cost(
 
     The least over the body's yaw relative to the direction of travel (forward,
     crabbing, sideways, backward: a model can make a diagonal gait cheaper than facing
-    the slope), unless ``any_yaw`` is False (facing the direction of travel).
+    the slope), unless ``any_yaw`` is False (facing the direction of travel): the
+    project's one cheapest way to move along a heading
+    (:func:`energy_planner.energy.heading.heading_cost`, its continuous minimum over the
+    yaw) on a plane of the grade's slope, per metre of ground.
 
     Parameters
     ----------
@@ -173,27 +178,24 @@ def grade_cost(
     >>> print(grade_cost(m).critical_grade)
     None
     """
+    from energy_planner.energy.heading import heading_cost
+
     if slope is not None:
         max_grade = fit_max_grade = float(slope)
     g = np.linspace(0.0, max_grade, 801)
-    # travel direction relative to uphill (tau), body yaw relative to the travel (psi)
+    # travel direction relative to uphill, in the slope plane (tau) and on the map (phi)
     tau = np.zeros(g.size) if slope is None else np.arccos(np.clip(g / slope, -1.0, 1.0))
     alpha = np.arcsin(g) if slope is None else np.full(g.size, math.asin(slope))
-    psi = np.radians(np.arange(-180.0, 180.0, 2.5)) if any_yaw else np.zeros(1)
-    G, P = np.meshgrid(np.arange(g.size), psi, indexing="ij")
-    n = G.size
-    v = float(speed)
-    feats: dict[str, Any] = {
-        "alpha": alpha[G].ravel(), "gamma": (tau[G] + P).ravel(),
-        "vx": (v * np.cos(P)).ravel(), "vy": (-v * np.sin(P)).ravel(),
-        "wz": np.zeros(n), "ax": np.zeros(n), "ay": np.zeros(n),
-    }  # fmt: skip
-    for k, val in (constants or {}).items():
-        feats[k] = np.full(n, val)
-    cp = np.asarray(model.power(feats), float).reshape(G.shape) / v
-    best = np.argmin(cp, axis=1)
-    c = cp[np.arange(g.size), best]
-    yaw = psi[best]
+    phi = np.arctan2(np.sin(tau), np.cos(tau) * np.cos(alpha))
+    # the one cheapest way along a heading (any yaw; or facing the travel: no crab, never
+    # backward); J per map metre -> per metre of ground
+    gait = {} if any_yaw else {"max_crab_deg": 0.0, "max_backward_slope_deg": -1.0}
+    hc = heading_cost(model, speed=float(speed), constants=constants, **gait)
+    per_map, r = hc.per_metre(np.tan(alpha), 0.0, phi)
+    c = per_map / np.hypot(1.0, np.tan(alpha) * np.cos(phi))
+    # the body's yaw from the travel, in the slope plane (as gamma is measured)
+    theta = phi + r
+    yaw = wrap(np.arctan2(np.sin(theta) * np.cos(alpha), np.cos(theta)) - tau)
     per_h = c[1:] / g[1:]
     i = int(np.argmin(per_h))
     crit: float | None
