@@ -2,8 +2,25 @@
 
 Usage::
 
+    python benchmarks/bench_energy_map.py --kernel [--sizes 1024 2048 4096] [--headings 16]
     python benchmarks/bench_energy_map.py [--size 4096] [--headings 16] [--chunk 512]
         [--skip-large] [--workdir /tmp/bench_energy_map]
+
+``--kernel``: the map's computation alone (no GeoTIFF), old against new, each size in
+its own process (peak RSS from ``os.wait4``) on the synthetic DEM's in-memory gradient,
+by blocks of 256 rows (the bands of a block: ``2 N`` float32 planes):
+
+- ``old``: the kernel of main before the one heading cost (kept below as
+  ``OLD_MAP_COSTS``, compiled with the model's ``power`` into the same module as the
+  motion kernels): ``best`` is the least of 4 body yaws (forward, backward, sideways);
+- ``new``: :meth:`energy_planner.energy.heading.HeadingCost.map_bands`, ``best`` the
+  least over every body yaw (table lookup, exact minimum where the table does not
+  serve). Its table is built in the run (``table s``, included in the time; the disk
+  cache is bypassed).
+
+Columns: wall seconds, CPU seconds, cell-headings per second of wall and per CPU second,
+the ratio new / old of the latter, peak RSS. The load average is printed with the
+table: on a shared machine compare within one table, and by CPU seconds.
 
 Every run is a fresh Python process (``python -m energy_planner.cli energy-map ...``
 through :func:`run_one`), so its peak resident memory (``os.wait4``'s ``ru_maxrss``) is its
@@ -107,14 +124,180 @@ def max_diff(a: Path, b: Path) -> float:
     return worst
 
 
+#: main's map kernel before the one heading cost (the baseline): best of 4 body yaws.
+OLD_MAP_COSTS = """
+@numba.njit(cache=True, parallel=True)
+def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
+    rows, cols = gx.shape
+    nh = headings.shape[0]
+    nch = chan.shape[0]
+    hc = np.cos(headings)
+    hs = np.sin(headings)
+    for r in numba.prange(rows):
+        chv = np.empty(nch)
+        for c in range(cols):
+            a = gx[r, c]
+            b = gy[r, c]
+            ok = math.isfinite(a) and math.isfinite(b)
+            for k in range(nch):
+                chv[k] = chan[k, r, c]
+                if not math.isfinite(chv[k]):
+                    ok = False
+            if not ok:
+                for j in range(nh):
+                    along[j, r, c] = np.nan
+                    best[j, r, c] = np.nan
+                continue
+            g2 = a * a + b * b
+            if g2 > tmax * tmax:
+                for j in range(nh):
+                    along[j, r, c] = np.inf
+                    best[j, r, c] = np.inf
+                continue
+            g = math.sqrt(g2)
+            alpha = math.atan(g)
+            ca = math.cos(alpha)
+            sa = math.sin(alpha)
+            c_psi = a / g if g > 0.0 else 1.0
+            s_psi = b / g if g > 0.0 else 0.0
+            for j in range(nh):
+                u0 = hc[j]
+                u1 = hs[j]
+                dz = a * u0 + b * u1
+                ds = math.sqrt(1.0 + dz * dz)
+                dt = ds / speed
+                v0 = u0 / dt
+                v1 = u1 / dt
+                v2 = dz / dt
+                fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                smax, chv)
+                m = fwd
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
+                                     dt, smax, chv))
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
+                                     dt, smax, chv))
+                m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
+                                     dt, smax, chv))
+                along[j, r, c] = fwd
+                best[j, r, c] = m
+"""
+
+
+def old_kernel(model):
+    """Main's 4-yaw map kernel compiled with ``model``'s power (the baseline)."""
+    from energy_planner.energy import kernels
+    from energy_planner.model._codegen import load_generated_module
+
+    source = model.kernel_source({}, [])
+    block = "# --- power: replaced per model ---\n@numba.njit(cache=True)\n" + source
+    text = kernels._POWER_BLOCK.sub(lambda _: block + "\n\n# --- end power ---\n",
+                                    kernels._TEMPLATE.read_text())  # fmt: skip
+    return load_generated_module(text + OLD_MAP_COSTS, prefix="bench_old").old_map_costs
+
+
+_KERNEL_SCRIPT = """
+import json, math, os, sys, time
+sys.path.insert(0, sys.argv[4])
+import numpy as np
+from bench_energy_map import old_kernel, synthetic_gradient
+from energy_planner.energy.heading import HeadingCost, heading_cost
+from energy_planner.energymap.core import heading_angles
+from energy_planner.model import EnergyModel
+size, nh, which = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+model = EnergyModel.default()
+gx, gy = synthetic_gradient(size)
+ang = heading_angles(nh)
+hc = heading_cost(model)
+fresh = HeadingCost(*hc.params)  # a table of its own: built in this run
+kernel = old_kernel(model)
+w = np.ascontiguousarray
+chan = np.zeros((0, 1, 1))
+def run(a, b, along, best):
+    if which == "old":
+        kernel(a, b, chan, ang, 0.3, math.inf, math.inf, along, best)
+    else:
+        fresh.map_bands(a, b, chan, ang, along, best)
+# compile (or load) on a small block first
+s = np.empty((nh, 4, 4), np.float32)
+(kernel if which == "old" else hc.map_bands)(*([w(gx[1:5, 1:5]), w(gy[1:5, 1:5]), chan, ang]
+    + ([0.3, math.inf, math.inf] if which == "old" else [])), s, s.copy())
+import energy_planner.energy.heading as H
+H._load_table = lambda key: None  # build the table in the run
+H._save_table = lambda key, t: None
+t0, c0 = time.perf_counter(), time.process_time()
+tt = 0.0
+step = 256
+along = np.empty((nh, step, size), np.float32)
+best = np.empty_like(along)
+for r0 in range(0, size, step):
+    r1 = min(size, r0 + step)
+    a, b = w(gx[r0:r1]), w(gy[r0:r1])
+    if which == "new" and fresh._built < fresh.n_alpha:
+        t1 = time.perf_counter()
+        g = np.hypot(a, b)
+        fresh.table(float(np.arctan(np.nanmax(g))))
+        tt += time.perf_counter() - t1
+    run(a, b, along[:, : r1 - r0], best[:, : r1 - r0])
+print(json.dumps({"wall": time.perf_counter() - t0, "cpu": time.process_time() - c0,
+                  "table": tt}))
+"""
+
+
+def synthetic_gradient(size: int, res: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """Horn gradient of :func:`make_dem`'s rolling hills, in memory (float64)."""
+    from energy_planner.terrain.horn import horn_gradient
+
+    x = np.arange(size) * res
+    y = x[:, None]
+    z = 40 * np.sin(x / 310.0) * np.cos(y / 270.0) + 8 * np.sin((x + 2 * y) / 53.0) + 0.02 * x
+    return horn_gradient(z, res, -res)
+
+
+def kernel_table(sizes: list[int], headings: int) -> None:
+    """Old (4 yaws) against new (every yaw) map kernels; prints a markdown table."""
+    rows = []
+    for size in sizes:
+        res = {}
+        for which in ("old", "new"):
+            cmd = [sys.executable, "-c", _KERNEL_SCRIPT, str(size), str(headings), which,
+                   str(Path(__file__).parent)]  # fmt: skip
+            p = subprocess.Popen(cmd, stdout=subprocess.PIPE, cwd=ROOT)
+            out = p.stdout.read()  # type: ignore[union-attr]
+            _, status, usage = os.wait4(p.pid, 0)
+            if status != 0:
+                raise RuntimeError(f"{which} {size} failed with status {status}")
+            res[which] = {**json.loads(out), "rss": usage.ru_maxrss / 1024.0}
+        rows.append((size, res))
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"energy-map kernel, {headings} headings; machine: {os.cpu_count()} cores; {load}")
+    print()
+    print("| DEM | kernel | wall s | CPU s | table s | cell-headings/s (wall) | "
+          "cell-headings per CPU s | new / old (per CPU s) | peak RSS MB |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
+    for size, res in rows:
+        n = size * size * headings
+        for which, label in (("old", "old: 4 yaws (main)"), ("new", "new: every yaw")):
+            r = res[which]
+            ratio = (n / r["cpu"]) / (n / res["old"]["cpu"])
+            table = f"{r['table']:.2f}" if which == "new" else "-"
+            print(f"| {size}^2 | {label} | {r['wall']:.2f} | {r['cpu']:.2f} | {table} | "
+                  f"{n / r['wall'] / 1e6:.1f} M | {n / r['cpu'] / 1e6:.1f} M | {ratio:.2f} | "
+                  f"{r['rss']:.0f} |")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--kernel", action="store_true", help="old vs new map kernel only")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
     ap.add_argument("--size", type=int, default=4096)
     ap.add_argument("--headings", type=int, default=16)
     ap.add_argument("--chunk", type=int, default=512)
     ap.add_argument("--skip-large", action="store_true")
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/bench_energy_map"))
     a = ap.parse_args()
+    if a.kernel:
+        kernel_table(a.sizes, a.headings)
+        return
     a.workdir.mkdir(parents=True, exist_ok=True)
     h = str(a.headings)
     jack = ROOT / "maps" / "jacksboro_fault_dem.tif"

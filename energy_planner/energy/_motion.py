@@ -411,13 +411,14 @@ def heading_table(speed, smax, crab, d_alpha, i_start, n_rows, n_phi, chv):
     """The cheapest J per map metre at table nodes, each half of the body's yaws apart.
 
     ``table[0, i, j]``: body within ``crab`` (at most pi/2) of the travel direction;
-    ``table[1, i, j]``: within ``crab`` of its opposite (walking backward), on ground of
+    ``table[1, i, j]``: within ``crab`` of its opposite (walking backward);
+    ``table[2, i, j]``: walking forward facing the travel; on ground of
     slope ``(i_start + i) * d_alpha`` travelling ``2 pi j / n_phi`` counter-clockwise from
     uphill (map angles): :func:`half_min` of each half, as :func:`cheapest_at` computes
     them. ``n_rows`` rows of slope; each node is computed on its own, so a table built in
     pieces equals one built whole.
     """
-    table = np.empty((2, n_rows, n_phi))
+    table = np.empty((3, n_rows, n_phi))
     d_phi = 2.0 * math.pi / n_phi
     w = min(crab, 0.5 * math.pi)
     for k in numba.prange(n_rows * n_phi):
@@ -432,6 +433,8 @@ def heading_table(speed, smax, crab, d_alpha, i_start, n_rows, n_phi, chv):
                                   smax, chv, 0.0, w)[0]  # fmt: skip
         table[1, i, j] = half_min(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
                                   smax, chv, math.pi, w)[0]  # fmt: skip
+        table[2, i, j] = gait_cost(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                   smax, chv)  # fmt: skip
     return table
 
 
@@ -448,12 +451,12 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, 
 
     ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
     channels on the same cells, shape (k, rows, cols), category indices for categorical
-    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along),
-    exactly; ``best[j, r, c]``: the cheapest way to move along it over the body's yaw
-    within the gait limits (:func:`cheapest_at`): bilinear in ``table`` (of
-    :func:`heading_table`, slope step ``d_alpha``) where the cell's slope is inside it
-    and the four nodes are finite, else :func:`cheapest_at` itself; never above
-    ``along``. Each is the limit of :func:`motion_full` for a short straight motion
+    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
+    ``best[j, r, c]``: the cheapest way to move along it over the body's yaw within the
+    gait limits (:func:`cheapest_at`), never above ``along``. Both bilinear in ``table``
+    (of :func:`heading_table`, slope step ``d_alpha``) where the cell's slope is inside
+    it and the four nodes are finite, else exactly (:func:`gait_cost`,
+    :func:`cheapest_at`). Each is the limit of :func:`motion_full` for a short straight motion
     through the cell centre, divided by its map length. NaN where the gradient or a
     channel is undefined, ``inf`` above a slope limit. An empty ``table`` (channel
     rasters: the cost varies with them) computes every ``best`` by :func:`cheapest_at`.
@@ -500,27 +503,33 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, 
                 ti = fi - i0
                 psi = math.atan2(s_psi, c_psi)
             for j in range(nh):
-                u0 = hc[j]
-                u1 = hs[j]
-                dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
-                fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                smax, chv)  # fmt: skip
+                fwd = np.inf
                 m = np.inf
-                exact = not in_table
+                exact = True
                 if in_table:
                     phi = headings[j] - psi
-                    phi -= two_pi * math.floor(phi / two_pi)
+                    if phi < 0.0:
+                        phi += two_pi
+                    elif phi >= two_pi:
+                        phi -= two_pi
                     fj = phi / d_phi
                     j0 = min(int(fj), n_phi - 1)
                     tj = fj - j0
                     j1 = j0 + 1 if j0 + 1 < n_phi else 0
+                    fwd = _lerp_table(table, 2, i0, ti, j0, j1, tj)
                     m = _lerp_table(table, 0, i0, ti, j0, j1, tj)
-                    exact = not math.isfinite(m)  # a node above the cross-slope limit
+                    # a node where the gait breaks the cross-slope limit: exactly
+                    exact = not (math.isfinite(m) and math.isfinite(fwd))
                     if back_ok:
                         mb = _lerp_table(table, 1, i0, ti, j0, j1, tj)
                         exact = exact or not math.isfinite(mb)
                         m = min(m, mb)
                 if exact:
+                    u0 = hc[j]
+                    u1 = hs[j]
+                    dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
+                    fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
+                                    smax, chv)  # fmt: skip
                     m = cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv)[0]
                 along[j, r, c] = fwd
                 best[j, r, c] = min(m, fwd)

@@ -38,10 +38,12 @@ travel direction relative to uphill ``phi`` (map angle), the channel values and 
 speed (the ground's azimuth only rotates the problem). So it is tabulated once over
 ``alpha`` (1 degree steps, up to 60 degrees or the slope limit, built lazily as steeper
 cells come) and ``phi`` (0.5 degree steps), each half of the yaws apart (so that the
-backward-slope limit is applied per cell, exactly), and looked up bilinearly. Bilinear
+backward-slope limit is applied per cell, exactly), with walking forward facing the
+travel (the map's ``along``) beside them, and looked up bilinearly. Bilinear
 interpolation is exact at the nodes and within 0.3 % of the minimum over a dense
 sample of slopes up to 55 degrees under the bundled model (largest where the cheapest
-gait switches branch between two nodes on steep ground: the minimum has a kink there);
+gait switches branch between two nodes on steep ground: the minimum has a kink there;
+``along`` is smooth between nodes, its kinks facing across the slope lie on them);
 ``tests/test_energy_heading.py`` checks the table against the exact minimum. A cell
 steeper than the table, a lookup that touches a node where no yaw may move
 (cross-slope limit), and maps with channel rasters (the cost varies with them) are
@@ -121,7 +123,7 @@ class HeadingCost:
         self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
         self.n_alpha = max(2, int(math.ceil(top / TABLE_D_ALPHA_DEG - 1e-9)) + 1)
         self.n_phi = int(round(360.0 / TABLE_D_PHI_DEG))
-        self._table = np.full((2, self.n_alpha, self.n_phi), np.nan)
+        self._table = np.full((3, self.n_alpha, self.n_phi), np.nan)
         self._built = 0
         self._lock = threading.Lock()
 
@@ -217,7 +219,8 @@ class HeadingCost:
 
         ``table[h, i, j]``: J per map metre at slope ``i * d_alpha`` moving ``2 pi j /
         n_phi`` CCW from uphill, least over the forward (``h = 0``: ``|r| <= 90 deg``)
-        or backward (``h = 1``) half of the allowed yaws. Rows are added as needed
+        or backward (``h = 1``) half of the allowed yaws; ``h = 2``: walking forward
+        facing the travel (the map's ``along``). Rows are added as needed
         (each node on its own: a table grown in pieces equals one built whole).
         """
         need = min(self.n_alpha, int(math.floor(max(max_alpha, 0.0) / self.d_alpha)) + 2)
@@ -307,12 +310,12 @@ class HeadingCost:
 
         ``gx``, ``gy``: float64 ``(rows, cols)``; ``chan``: ``(k, rows, cols)`` channel
         rasters; ``headings``: radians; ``along``, ``best``: ``(N, rows, cols)``
-        outputs (float32). ``along`` walks forward facing the heading (exactly);
-        ``best`` is the cheapest way over the allowed yaws (the table, or the exact
-        minimum where the table does not serve; never above ``along``).
+        outputs (float32). ``along`` walks forward facing the heading; ``best`` is the
+        cheapest way over the allowed yaws (never above ``along``). Both from the table,
+        or exactly where the table does not serve.
         """
         if self.rasters:
-            table = np.zeros((2, 0, 0))
+            table = np.zeros((3, 0, 0))
         else:
             with np.errstate(invalid="ignore"):
                 g2 = gx * gx + gy * gy
@@ -414,7 +417,7 @@ def _load_table(key: str) -> np.ndarray | None:
         arr = np.load(_table_path(key), allow_pickle=False)
     except (OSError, ValueError):
         return None
-    return arr if arr.ndim == 3 and arr.shape[0] == 2 else None
+    return arr if arr.ndim == 3 and arr.shape[0] == 3 else None
 
 
 def _save_table(key: str, table: np.ndarray) -> None:
