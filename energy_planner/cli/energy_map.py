@@ -128,7 +128,7 @@ def command(
     """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
 
     For every cell: the cost of walking through it facing along each heading
-    (along_*), with the cheapest of forward, backward and sideways gaits (best_*), the
+    (along_*), the cheapest way along it over every body yaw, crabbing included (best_*), the
     cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
     physics as `energy` (a short straight motion through the cell centre, per metre of
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is

@@ -8,14 +8,16 @@ planners: the Horn gradient of the cell, the robot on the ground at its nominal 
 along the surface, its body frame tilted with the slope (see
 :mod:`energy_planner.energy.kernels`; the numba function ``map_costs`` of the same
 compiled module as the motion kernels, sharing their slope and body-velocity code and the
-model's ``power``). It is the limit of ``energy`` of a short straight motion through the
-cell centre divided by its map length.
+model's ``power``, looked up in :class:`~energy_planner.energy.heading.HeadingCost`'s
+table over slope and relative heading). It is the limit of ``energy`` of a short straight
+motion through the cell centre divided by its map length.
 
 Bands (float32, NaN = nodata; ``inf`` = above a slope limit):
 
 - ``along_<deg>`` (N bands): walking forward, facing along the heading;
-- ``best_<deg>`` (N bands): the cheapest of walking forward, backward, or sideways (either
-  side) along the heading;
+- ``best_<deg>`` (N bands): the cheapest way to move along the heading, over every body
+  yaw the gait limits allow (crabbing included: the continuous minimum of
+  :class:`energy_planner.energy.heading.HeadingCost`, the one the planners use);
 - ``cheapest`` / ``dearest``: the least and greatest ``best`` over the headings;
 - ``anisotropy``: ``dearest / cheapest`` (``inf`` where the cheapest costs nothing);
 - ``cheapest_heading_deg``: the heading of ``cheapest``, degrees CCW from east in [0, 360).
@@ -112,7 +114,7 @@ def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str
         d = 360.0 * j / headings
         out.append(
             (f"best_{_deg_label(d)}", f"J per map metre moving along heading {d:g} deg (CCW "
-             f"from {frame}), cheapest of forward, backward and sideways", "J/m")
+             f"from {frame}), cheapest over the body's yaw (crabbing included)", "J/m")
         )  # fmt: skip
     out += [
         ("cheapest", "least best_* over the headings, J per map metre", "J/m"),
