@@ -284,7 +284,8 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
 def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> dict[str, Any]:
     """The project GeoTIFF profile (:func:`energy_planner.io.geotiff_profile`).
 
-    Tiles of :data:`_TILE`, so that a block of whole tile rows completes its tiles.
+    Tiles of :data:`_TILE`, so that a block of whole tile rows completes its tiles;
+    deflate level 1.
     """
     from energy_planner.io import geotiff_profile
 
@@ -292,7 +293,9 @@ def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> d
     tiles: dict[str, Any] = {}
     if rows >= _TILE and cols >= _TILE:
         tiles = dict(tiled=True, blockxsize=_TILE, blockysize=_TILE)
-    return geotiff_profile(shape, nbands, transform=transform, crs=crs, **tiles)
+    # deflate level 1: the bands (float32 costs) hardly compress further at the default
+    # level 6, which takes 1.6x the CPU (7.3 s against 4.6 s for 2048^2 x 36 bands)
+    return geotiff_profile(shape, nbands, transform=transform, crs=crs, zlevel=1, **tiles)
 
 
 def _write_metadata(
