@@ -223,6 +223,36 @@ def test_categorical_channel_map(tmp_path):
     np.testing.assert_allclose(along[1:-1, 10:-1], 600.0)
 
 
+def test_categorical_channel_map_on_a_slope_takes_every_yaw(tmp_path):
+    """On a 15 deg plane with a land-cover raster, ``best`` on each cover equals the least
+    energy of 1 cm motions over the body's yaw every 0.1 deg (``MotionCost`` with the
+    same channels): one table per category, within 0.5 %."""
+    m = b1_model(extra={"speed * (ground == 'meadow')": 250.0})  # as above: one compile
+    dem = write_tif(tmp_path / "tilted.tif", plane_z(12, 15.0, 30.0))
+    cover = write_tif(
+        tmp_path / "cover.tif", np.where(np.arange(12) < 6, 1.0, 2.0)[None].repeat(12, 0)
+    )
+    table = tmp_path / "t.json"
+    table.write_text('{"1": "meadow", "2": "asphalt"}')
+    ch = Channels.parse([], [f"ground={cover}:{table}"])
+    out = tmp_path / "m.tif"
+    energy_map(dem, out, m, headings=4, channels=ch)
+    data, _, src = read(out)
+    t = load_dem(dem)
+    cost = MotionCost(t, m, channels=ch)
+    yaw = np.radians(np.arange(0.0, 360.0, 0.1))
+    ones, eps = np.ones(yaw.size), 0.005
+    for r, c in [(5, 3), (6, 8)]:
+        x, y = src.transform * (c + 0.5, r + 0.5)
+        for j in range(4):
+            h = math.pi * j / 2
+            dx, dy = eps * math.cos(h), eps * math.sin(h)
+            e = cost.batch(ones * (x - dx), ones * (y - dy), h + yaw,
+                           ones * (x + dx), ones * (y + dy), h + yaw) / (2 * eps)  # fmt: skip
+            assert data[4 + j, r, c] == pytest.approx(e.min(), rel=5e-3), (r, c, j)
+            assert data[j, r, c] == pytest.approx(e[0], rel=1e-3)
+
+
 def test_bad_requests(plane, tmp_path):
     dem, _ = plane
     with pytest.raises(EnergyMapError, match="headings 0"):

@@ -46,8 +46,9 @@ gait switches branch between two nodes on steep ground: the minimum has a kink t
 ``along`` is smooth between nodes, its kinks facing across the slope lie on them);
 ``tests/test_energy_heading.py`` checks the table against the exact minimum. A cell
 steeper than the table, a lookup that touches a node where no yaw may move
-(cross-slope limit), and maps with channel rasters (the cost varies with them) are
-computed by the exact minimum itself. The table is cached on disk next to the
+(cross-slope limit), and maps with a numeric channel raster (the cost varies with it)
+are computed by the exact minimum itself; categorical channel rasters get one table
+per combination of categories met. The table is cached on disk next to the
 compiled kernels.
 """
 
@@ -102,12 +103,15 @@ class HeadingCost:
     back_tan : float
         ``tan`` of the steepest slope on which the robot may walk backward (``inf``).
     rasters : int
-        Number of channel rasters the kernel reads (then no table: the exact minimum).
+        Number of channel rasters the kernel reads.
+    categorical : bool
+        Every raster is categorical: one table per combination of categories met;
+        otherwise (a numeric raster) no table, the exact minimum everywhere.
     """
 
     def __init__(
         self, source: str, speed: float, tmax: float, smax: float, crab: float,
-        back_tan: float, rasters: int = 0,
+        back_tan: float, rasters: int = 0, categorical: bool = False,
     ) -> None:  # fmt: skip
         from energy_planner.energy.kernels import kernel_module
 
@@ -118,13 +122,15 @@ class HeadingCost:
         self.crab = float(crab)
         self.back_tan = float(back_tan)
         self.rasters = int(rasters)
+        self.categorical = bool(categorical)
         self._mod = kernel_module(source)
         top = min(TABLE_TOP_DEG, math.degrees(math.atan(self.tmax)))
         self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
         self.n_alpha = max(2, int(math.ceil(top / TABLE_D_ALPHA_DEG - 1e-9)) + 1)
         self.n_phi = int(round(360.0 / TABLE_D_PHI_DEG))
-        self._table = np.full((3, self.n_alpha, self.n_phi), np.nan)
-        self._built = 0
+        # per combination of categorical channel values (() without rasters): the
+        # table and the number of rows built
+        self._tables: dict[tuple[float, ...], list[Any]] = {}
         self._lock = threading.Lock()
 
     def __reduce__(self):  # the dask workers rebuild it from its parameters (cached)
@@ -134,7 +140,7 @@ class HeadingCost:
     def params(self) -> tuple[Any, ...]:
         """The parameters that define it (those of the constructor)."""
         return (self.source, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
-                self.rasters)  # fmt: skip
+                self.rasters, self.categorical)  # fmt: skip
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -214,46 +220,50 @@ class HeadingCost:
         return cost.reshape(shape), yaw.reshape(shape)
 
     # ------------------------------------------------------------------ the table
-    def table(self, max_alpha: float = 0.0) -> np.ndarray:
+    def table(self, max_alpha: float = 0.0, values: tuple[float, ...] = ()) -> np.ndarray:
         """The table, built at least up to slope ``max_alpha`` (radians).
 
         ``table[h, i, j]``: J per map metre at slope ``i * d_alpha`` moving ``2 pi j /
         n_phi`` CCW from uphill, least over the forward (``h = 0``: ``|r| <= 90 deg``)
         or backward (``h = 1``) half of the allowed yaws; ``h = 2``: walking forward
-        facing the travel (the map's ``along``). Rows are added as needed
-        (each node on its own: a table grown in pieces equals one built whole).
+        facing the travel (the map's ``along``). ``values``: the categorical channels'
+        values (category indices) it is for. Rows are added as needed (each node on its
+        own: a table grown in pieces equals one built whole).
         """
         need = min(self.n_alpha, int(math.floor(max(max_alpha, 0.0) / self.d_alpha)) + 2)
-        if need > self._built:
-            with self._lock:
-                if need > self._built:
-                    self._grow(need)
-        return self._table[:, : self._built]
+        with self._lock:
+            entry = self._tables.get(values)
+            if entry is None:
+                entry = self._tables[values] = [np.full((3, self.n_alpha, self.n_phi), np.nan), 0]
+            if need > entry[1]:
+                self._grow(entry, need, values)
+            return entry[0][:, : entry[1]]
 
-    def _grow(self, need: int) -> None:
-        start = self._built
+    def _grow(self, entry: list[Any], need: int, values: tuple[float, ...]) -> None:
+        table, start = entry
+        key = self._key(values)
         stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
         if start == 0:
-            cached = _load_table(self._key())
+            cached = _load_table(key)
             if cached is not None and cached.shape[2] == self.n_phi:
                 rows = min(cached.shape[1], self.n_alpha)
-                self._table[:, :rows] = cached[:, :rows]
-                self._built = start = rows
+                table[:, :rows] = cached[:, :rows]
+                entry[1] = start = rows
                 if start >= need:
                     return
                 stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
         part = self._mod.heading_table(
             self.speed, self.smax, self.crab, self.d_alpha, start, stop - start, self.n_phi,
-            np.zeros(0),
+            np.asarray(values, dtype=np.float64),
         )  # fmt: skip
-        self._table[:, start:stop] = part
-        self._built = stop
-        _save_table(self._key(), self._table[:, :stop])
+        table[:, start:stop] = part
+        entry[1] = stop
+        _save_table(key, table[:, :stop])
 
-    def _key(self) -> str:
+    def _key(self, values: tuple[float, ...] = ()) -> str:
         from energy_planner.energy import kernels
 
-        text = repr((self.params, TABLE_D_ALPHA_DEG, TABLE_D_PHI_DEG))
+        text = repr((self.params, values, TABLE_D_ALPHA_DEG, TABLE_D_PHI_DEG))
         helpers = (kernels._TEMPLATE.read_bytes(), text.encode())
         return hashlib.sha256(b"\0".join(helpers)).hexdigest()[:24]
 
@@ -314,18 +324,48 @@ class HeadingCost:
         cheapest way over the allowed yaws (never above ``along``). Both from the table,
         or exactly where the table does not serve.
         """
-        if self.rasters:
-            table = np.zeros((3, 0, 0))
-        else:
-            with np.errstate(invalid="ignore"):
-                g2 = gx * gx + gy * gy
-                g2 = g2[np.isfinite(g2) & (g2 <= self.tmax * self.tmax)]
-            top = float(np.arctan(np.sqrt(g2.max()))) if g2.size else 0.0
-            table = np.ascontiguousarray(self.table(top))
+        ang = np.ascontiguousarray(headings, dtype=np.float64)
+        with np.errstate(invalid="ignore"):
+            g2 = gx * gx + gy * gy
+            ok = np.isfinite(g2) & (g2 <= self.tmax * self.tmax)
+        if not self.rasters or not self.categorical:
+            table = np.zeros((3, 0, 0))  # a numeric raster: the exact minimum everywhere
+            if not self.rasters:
+                table = np.ascontiguousarray(self.table(_top(g2[ok])))
+            self._map(gx, gy, chan, ang, table, along, best)
+            return
+        # categorical rasters: one pass per combination of categories in the block, the
+        # other cells masked (NaN), each with that combination's table
+        flat = chan.reshape(chan.shape[0], -1)
+        fin = np.isfinite(flat).all(axis=0)
+        along[:] = np.nan
+        best[:] = np.nan
+        if not fin.any():
+            return
+        combos, which = np.unique(flat[:, fin], axis=1, return_inverse=True)
+        index = np.full(fin.size, -1)
+        index[fin] = which.ravel()
+        index = index.reshape(gx.shape)
+        a, b = np.empty_like(along), np.empty_like(best)
+        for k in range(combos.shape[1]):
+            cells = index == k
+            table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
+            nan = np.full(gx.shape, np.nan)
+            self._map(np.where(cells, gx, nan), np.where(cells, gy, nan), chan, ang,
+                      np.ascontiguousarray(table), a, b)  # fmt: skip
+            along[:, cells] = a[:, cells]
+            best[:, cells] = b[:, cells]
+
+    def _map(self, gx, gy, chan, ang, table, along, best) -> None:
         self._mod.map_costs(
-            gx, gy, chan, np.ascontiguousarray(headings, dtype=np.float64), self.speed,
-            self.tmax, self.smax, self.crab, self.back_tan, table, self.d_alpha, along, best,
+            gx, gy, chan, ang, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
+            table, self.d_alpha, along, best,
         )  # fmt: skip
+
+
+def _top(g2: np.ndarray) -> float:
+    """The steepest slope (radians) of squared gradients ``g2`` (0 if none)."""
+    return float(np.arctan(np.sqrt(g2.max()))) if g2.size else 0.0
 
 
 @lru_cache(maxsize=32)
@@ -403,6 +443,7 @@ def heading_cost(
         math.inf if max_crab_deg is None else math.radians(max_crab_deg),
         _angle(max_backward_slope_deg, math.tan),
         len(channels.rasters),
+        all(cats is not None for _, cats in channels.kernel_layout()),
     )
 
 
