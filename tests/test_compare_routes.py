@@ -93,6 +93,35 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
     assert all(n in res.output for n in ("direct", "shortest", "energy_optimal"))
 
 
+def test_compare_routes_cli_interval_and_battery_per_route(dem):
+    """Each feasible route carries its interval and battery chance; --refuse judges the best."""
+    from energy_planner.uncertainty import battery_decision, predict_interval
+
+    path, _ = dem
+    base = ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+            "500015,5000050", "--max-slope", "20", "--time", "1", "--planner", "lattice"]
+    res = CliRunner().invoke(main, [*base, "--json", "--battery-wh", "30", "--reserve-wh", "2"])
+    assert res.exit_code == 0, res.output
+    routes = {r["name"]: r for r in json.loads(res.stdout)["routes"]}
+    model = EnergyModel.default()
+    for r in routes.values():
+        if not r["feasible"]:
+            assert "interval" not in r and "battery" not in r
+            continue
+        iv, want = r["interval"], predict_interval(model, r["energy_j"], 0.9)
+        assert iv["low_j"] < r["energy_j"] < iv["high_j"]
+        assert (iv["low_j"], iv["high_j"]) == pytest.approx((want.low_j, want.high_j))
+        d = battery_decision(model, r["energy_j"], 30.0, 2.0, 0.9)
+        assert r["battery"]["probability"] == pytest.approx(d.probability)
+    # a battery too small for the energy-optimal route: a warning naming it, or exit 1
+    best = routes["energy_optimal"]["energy_j"] / 3600.0
+    small = ["--battery-wh", f"{0.8 * best:.3f}"]
+    res = CliRunner().invoke(main, [*base, *small])
+    assert res.exit_code == 0 and "warning: energy_optimal:" in res.stderr
+    res = CliRunner().invoke(main, [*base, *small, "--refuse"])
+    assert res.exit_code == 1 and "energy_optimal" in res.output
+
+
 def test_plan_cli_json_geojson(dem, tmp_path):
     path, _ = dem
     out = tmp_path / "path.geojson"

@@ -364,11 +364,13 @@ def trust_options(f):
 def add_trust(
     result: dict[str, Any], model: Any, energy_j: float, level: float,
     battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
+    label: str | None = None,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
-    A chance below ``confidence`` prints a warning on stderr, or with ``refuse`` raises a
-    ``click.ClickException`` (exit status 1).
+    A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
+    route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
+    status 1).
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
@@ -382,9 +384,10 @@ def add_trust(
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     result["battery"] = d.to_dict()
     if not d.ok:
+        text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
         if refuse:
-            raise click.ClickException(d.text().strip())
-        click.echo(f"warning: {d.text().strip()}", err=True)
+            raise click.ClickException(text)
+        click.echo(f"warning: {text}", err=True)
 
 
 def trust_lines(res: dict[str, Any]) -> str:
