@@ -98,8 +98,9 @@ def test_compare_routes_cli_interval_and_battery_per_route(dem):
     from energy_planner.uncertainty import battery_decision, predict_interval
 
     path, _ = dem
-    base = ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
-            "500015,5000050", "--max-slope", "20", "--time", "1", "--planner", "lattice"]  # fmt: skip
+    base = ["compare-routes", "--dem", str(path), "--start", "500015,5000010",
+            "--goal", "500015,5000050", "--max-slope", "20", "--time", "1",
+            "--planner", "lattice"]  # fmt: skip
     res = CliRunner().invoke(main, [*base, "--json", "--battery-wh", "30", "--reserve-wh", "2"])
     assert res.exit_code == 0, res.output
     routes = {r["name"]: r for r in json.loads(res.stdout)["routes"]}
