@@ -13,6 +13,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
     json_option,
     load_model_option,
     model_option,
@@ -46,7 +47,16 @@ def format_table(res: dict[str, Any]) -> str:
     return text
 
 
-@click.command("compare-routes")
+@click.command(
+    "compare-routes",
+    epilog=examples(
+        "energy-planner compare-routes --dem maps/hill.tif --start "
+        "500058,5000046 --goal 500058,5000109 --max-slope 30 --plot routes.png",
+        "energy-planner compare-routes --dem maps/hill.tif --start "
+        "500058,5000046 --goal 500058,5000084 --battery-wh 30 --reserve-wh 2 "
+        "--json",
+    ),
+)
 @dem_option
 @start_goal_options
 @model_option
@@ -92,9 +102,6 @@ def command(
     grade at which a metre of height is cheapest), which explains the detour's saving,
     and each route's prediction interval (``--level``) and, with ``--battery-wh``, the
     chance that it fits in the battery (``--refuse`` judges the energy-optimal route).
-
-    Example: energy-planner compare-routes --dem maps/hill.tif --start 500058,5000046
-    --goal 500058,5000109 --max-slope 20 --plot routes.png
     """
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes

@@ -11,6 +11,7 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
     json_option,
     load_model_option,
     model_option,
@@ -42,7 +43,13 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
 
 
-@click.command("demo")
+@click.command(
+    "demo",
+    epilog=examples(
+        "energy-planner demo",
+        "energy-planner demo --max-slope 25 --plot demo25.png",
+    ),
+)
 @click.option(
     "--scenario",
     "scenario_name",

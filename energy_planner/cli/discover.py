@@ -10,6 +10,7 @@ import click
 
 from energy_planner.cli.options import (
     emit,
+    examples,
     json_option,
     logs_argument,
     report_option,
@@ -71,7 +72,12 @@ def _text(doc: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("discover")
+@click.command(
+    "discover",
+    epilog=examples(
+        "energy-planner discover campaign --out model.json --report discover.html",
+    ),
+)
 @logs_argument
 @click.option(
     "--out",
@@ -111,8 +117,6 @@ def command(
     repeats until none is left (or --max-steps). Every number is held out by run. Prints
     the staircase: term added, its physical explanation, held-out power RMSE, run-energy
     error (median, p90) and the share of the error removed.
-
-    Example: energy-planner discover logs/ --out model.json --report discover.html
     """
     from energy_planner.cli.fit import resolve_terms, status
     from energy_planner.diagnosis.discover import discover

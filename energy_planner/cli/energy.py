@@ -16,6 +16,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
     json_option,
     load_model_option,
     model_option,
@@ -242,15 +243,23 @@ def compute(
     return out
 
 
-@click.command("energy")
+@click.command(
+    "energy",
+    epilog=examples(
+        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
+        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
+        "--model load.json --set load_kg=10 --battery-wh 40",
+    ),
+)
 @dem_option
 @click.option(
     "--waypoints",
     "waypoints",
     required=True,
     type=click.Path(dir_okay=False, path_type=Path),
-    help="Waypoints in the DEM's CRS: CSV with header x,y[,yaw_deg][,t] or a GeoJSON "
-    "LineString (optional properties.yaw_deg, properties.t lists).",
+    help="Waypoints: CSV with header x,y[,yaw_deg][,t] in the DEM's CRS, or a GeoJSON "
+    "LineString (optional properties.yaw_deg, properties.t lists) in longitude, latitude "
+    "(RFC 7946) unless it declares a crs, as plan --out writes it.",
 )
 @model_option
 @speed_option
@@ -281,8 +290,6 @@ def command(
     yaw_deg (degrees CCW from the map's x axis) it keeps the given orientation. Without
     times it walks at --speed and turns at --yaw-rate. Channels a fitted model reads
     (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
-
-    Example: energy-planner energy --dem maps/hill.tif --waypoints path.csv --set load_kg=10
     """
     ch = channels_from_options(sets, channels)
     res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch)

@@ -13,6 +13,7 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
     json_option,
     load_model_option,
     memory_cap_option,
@@ -57,7 +58,12 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("energy-map")
+@click.command(
+    "energy-map",
+    epilog=examples(
+        "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png",
+    ),
+)
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option(
     "--out",
@@ -134,8 +140,6 @@ def command(
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
     computed on its UTM working grid and resampled back (bilinear), headings then CCW
     from the DEM's local east (the meridian convergence applied).
-
-    Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
     """
     from energy_planner.energymap import energy_map, plot_energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError

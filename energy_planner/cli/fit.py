@@ -7,7 +7,14 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, logs_argument, seed_option, window_option
+from energy_planner.cli.options import (
+    emit,
+    examples,
+    json_option,
+    logs_argument,
+    seed_option,
+    window_option,
+)
 from energy_planner.measurements.logs import log_files
 
 
@@ -112,7 +119,13 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     return "\n".join(lines)
 
 
-@click.command("fit")
+@click.command(
+    "fit",
+    epilog=examples(
+        "energy-planner fit campaign --out b1.json",
+        "energy-planner fit campaign --out load.json --term 'load_kg * speed'",
+    ),
+)
 @logs_argument
 @click.option(
     "--out",
@@ -165,8 +178,6 @@ def command(
     runs and writes the model to --out. Terms the logs cannot identify (no runs of
     their motion, or no slopes that tell them apart) are listed and left out of the
     model, or held at --prior's values; warnings say what else the data cannot support.
-
-    Example: energy-planner fit logs/ --out b1.json --term idle_power
     """
     from energy_planner.calibration import fit_model
     from energy_planner.errors import EnergyPlannerError, FitError

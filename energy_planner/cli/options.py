@@ -331,6 +331,15 @@ def load_model_option(model_path: Path | None):
         raise click.BadParameter(str(exc), param_hint="--model") from exc
 
 
+def examples(*lines: str) -> str:
+    """A command's ``epilog``: its examples, one ``$ energy-planner ...`` line each.
+
+    Click's no-rewrap marker keeps each line whole, so it can be copied as printed; the
+    tests run every one (``tests/test_examples.py``).
+    """
+    return "Examples:\n\n\b\n" + "\n".join(f"  $ {line}" for line in lines)
+
+
 def battery_options(f):
     """``--battery-wh``, ``--reserve-wh`` and ``--confidence``, defined once."""
     opts = [

@@ -14,6 +14,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -168,7 +169,8 @@ def limit_options(f):
         "keep_out",
         type=click.Path(dir_okay=False, path_type=Path),
         default=None,
-        help="GeoJSON polygons (coordinates in the DEM's CRS) the path must avoid.",
+        help="GeoJSON polygons the path must avoid: longitude, latitude (RFC 7946) unless "
+        "the file declares a crs; reprojected to the DEM.",
     )(f)
     f = click.option(
         "--max-cross-slope",
@@ -300,7 +302,13 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("plan")
+@click.command(
+    "plan",
+    epilog=examples(
+        "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
+        "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
+    ),
+)
 @dem_option
 @start_goal_options
 @model_option
@@ -373,9 +381,6 @@ def command(
     an admissible heuristic, then refines the path. Progress is shown on stderr. A DEM too
     large for --memory-cap is read by windows about the start and the goal (a corridor);
     the output says whether the window is proven to hold every cheaper path.
-
-    Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
-    --goal 500058,5000109 --max-slope 20
     """
     from energy_planner.errors import (
         DEMError,

@@ -12,6 +12,7 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -67,7 +68,13 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("reach")
+@click.command(
+    "reach",
+    epilog=examples(
+        "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
+        "15 --out reach.tif --geojson area.geojson --plot reach.png",
+    ),
+)
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
 @points_crs_option
@@ -167,9 +174,6 @@ def command(
     --memory-cap is read as one window about the start that provably holds every cell
     within --budget-wh (its radius: the budget over the least energy per metre anywhere on
     the DEM); the outputs then cover that window, and cells above the budget are nodata.
-
-    Example: energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh 15
-    --out reach.tif --geojson area.geojson --plot reach.png
     """
     import numpy as np
 

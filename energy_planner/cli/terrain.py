@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.cli.options import band_option, emit, json_option
+from energy_planner.cli.options import band_option, emit, examples, json_option
 
 
 def _resolve_dem(dem: str) -> Path:
@@ -149,7 +149,13 @@ def _text(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("terrain")
+@click.command(
+    "terrain",
+    epilog=examples(
+        "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
+        "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
+    ),
+)
 @click.argument("dem", metavar="DEM")
 @band_option
 @click.option(
