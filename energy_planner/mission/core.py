@@ -201,10 +201,16 @@ class MissionResult:
 
 
 def _one_site(terrain, model, request, xy, n_headings, max_energy):
+    import warnings
+
+    from energy_planner.errors import ReachEdgeWarning
     from energy_planner.planning.reach import reach
 
-    return reach(terrain, model, xy, request, n_headings=n_headings,
-                 max_energy=max_energy).energy_j  # fmt: skip
+    # max_energy only bounds the search here: the map's edge cutting it is no news
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ReachEdgeWarning)
+        return reach(terrain, model, xy, request, n_headings=n_headings,
+                     max_energy=max_energy).energy_j  # fmt: skip
 
 
 def energy_matrix(
