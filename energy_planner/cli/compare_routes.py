@@ -106,6 +106,6 @@ def command(
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
     result = comp.to_dict(terrain)
     if plot is not None:
-        comp.plot(terrain, plot)
+        comp.plot(terrain, plot, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, format_table)

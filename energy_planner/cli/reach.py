@@ -305,6 +305,6 @@ def command(
         write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
         result["geojson"] = str(geojson)
     if plot is not None:
-        res.plot(terrain, plot, budget_j)
+        res.plot(terrain, plot, budget_j, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, _text)

@@ -380,8 +380,14 @@ class ReachMap:
             tags={"software": "energy_planner reach"},
         )  # fmt: skip
 
-    def plot(self, terrain, path: str | Path, budget_j: float | None = None) -> Path:
-        """PNG: energy (Wh) over a hillshade, the budget contour and the start."""
+    def plot(
+        self, terrain, path: str | Path, budget_j: float | None = None, request: Any = None
+    ) -> Path:
+        """PNG: energy (Wh) over a hillshade, the budget contour and the start.
+
+        ``request`` adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -407,13 +413,15 @@ class ReachMap:
                 levels=[budget_j / 3600.0], colors="red", linewidths=2,
             )  # fmt: skip
             ax.plot([], [], color="red", lw=2, label=f"budget {budget_j / 3600:.1f} Wh")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        draw_request(ax, terrain, request)
         ax.plot(*self.start, "o", color="white", mec="k", ms=9, label="start")
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        ax.set_xlabel("x (working CRS, m)")
-        ax.set_ylabel("y (working CRS, m)")
+        label_map_axes(ax, terrain.crs)
         ax.set_title("Battery reach" + (" (out and back)" if self.round_trip else ""))
         ax.legend(loc="lower left", fontsize=8)
         fig.tight_layout()
