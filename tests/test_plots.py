@@ -264,3 +264,28 @@ def test_energy_map_draws_its_channel_rasters(tmp_path, figures):
     (cs,) = [c for c in ax.collections if c.get_gid() == "channel:ground"]
     pts = np.vstack([p.vertices for p in cs.get_paths() if len(p.vertices)])
     np.testing.assert_allclose(pts[:, 0], X0 + 6.0, atol=1e-9)
+
+
+def test_the_reach_command_passes_its_request_to_the_plot(valley, figures, tmp_path):
+    """``reach --plot`` with --max-slope and --keep-out: both drawn, the CRS named."""
+    import pyproj
+    from click.testing import CliRunner
+    from rasterio.transform import from_origin
+
+    from energy_planner.cli import main
+    from energy_planner.io import write_geotiff
+
+    dem = write_geotiff(tmp_path / "valley.tif", valley.elevation, crs="EPSG:32631",
+                        transform=from_origin(X0, Y0 + 30.0, 1.0, 1.0))  # fmt: skip
+    to_ll = pyproj.Transformer.from_crs("EPSG:32631", "EPSG:4326", always_xy=True)
+    ring = [list(to_ll.transform(x, y)) for x, y in ZONE.exterior.coords]
+    ko = tmp_path / "zone.geojson"
+    ko.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
+    args = ["reach", str(dem), "--start", f"{X0 + 3.5},{Y0 + 20.5}", "--max-slope", str(LIMIT),
+            "--keep-out", str(ko), "--plot", str(tmp_path / "r.png"), "--json"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    ax = figures[0].axes[0]
+    assert [p for p in ax.patches if p.get_gid() == "keep_out"]
+    assert [i for i in ax.images if i.get_gid() == "slope_mask"]
+    assert ax.get_xlabel() == "x (EPSG:32631, m)"
