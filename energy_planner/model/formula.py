@@ -53,17 +53,17 @@ def _sign(x):
 
 
 def _power(x, y):
-    """``x ** y`` elementwise, C ``pow`` everywhere (as the compiled ``**``).
+    """``x ** y`` as C ``pow`` gives it (the compiled ``**``).
 
-    numpy's ``power`` with a scalar exponent takes shortcuts that differ from ``pow``
-    on edge inputs (``x ** 0.5`` is ``sqrt``: NaN for -inf, -0.0 for -0.0); a full
-    exponent array keeps every element on the elementwise loop.
+    numpy's ``power`` with the scalar exponent 0.5 takes ``sqrt``, which differs from
+    ``pow`` at two inputs: ``pow(-inf, 0.5)`` is inf (sqrt: NaN) and ``pow(-0.0, 0.5)``
+    is +0.0 (sqrt: -0.0). Its other scalar shortcuts (``x * x``, ``1 / x``) agree with
+    ``pow`` on every special value and are kept (exact, and fast).
     """
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    shape = np.broadcast_shapes(x.shape, y.shape)
-    xs = np.array(np.broadcast_to(x, shape), ndmin=1)
-    ys = np.array(np.broadcast_to(y, shape), ndmin=1)
-    return np.power(xs, ys).reshape(shape)
+    out = np.power(x, y)
+    if np.ndim(y) == 0 and y == 0.5:
+        out = np.where(np.isneginf(x), np.inf, out) + 0.0
+    return out
 
 
 #: Functions a formula may call: name -> (numpy implementation, numba/scalar source template).
