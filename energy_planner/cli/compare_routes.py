@@ -135,6 +135,6 @@ def command(
             add_trust(r, model, r["energy_j"], level, battery_wh, reserve_wh, confidence,
                       refuse and r["name"] == "energy_optimal", label=r["name"])  # fmt: skip
     if plot is not None:
-        comp.plot(terrain, plot)
+        comp.plot(terrain, plot, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, format_table)

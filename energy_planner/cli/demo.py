@@ -122,7 +122,7 @@ def command(
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     res = comp.to_dict(terrain)
-    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}")
+    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}", request=request)
     res.update(
         scenario=scenario_name,
         description=sc["description"],

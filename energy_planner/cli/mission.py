@@ -169,6 +169,6 @@ def command(
         write_geojson(geojson, res.to_geojson(terrain, native=geojson_crs == "dem"))
         out["geojson"] = str(geojson)
     if plot is not None:
-        res.plot(terrain, plot)
+        res.plot(terrain, plot, request=request)
         out["plot"] = str(plot)
     emit(out, as_json, lambda r: _text(r) + "\n" + trust_lines(r))

@@ -439,6 +439,7 @@ def command(
             start=s,
             goal=g,
         )  # fmt: skip
-        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J")
+        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J",
+                  request=request)  # fmt: skip
         result["plot"] = str(plot)
     emit(result, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

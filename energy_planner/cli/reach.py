@@ -65,6 +65,7 @@ def _text(res: dict[str, Any]) -> str:
             f"c_min {w['c_min_j_per_m']:.1f} J/m); cells above the budget left nodata"
         )
     lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
+    lines += [f"warning      {w}" for w in res.get("warnings", [])]
     return "\n".join(lines)
 
 
@@ -215,29 +216,35 @@ def command(
         max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
         channels=channels_from_options(sets, channels),
     )  # fmt: skip
-    try:
-        if windowed:
-            from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
-            from energy_planner.planning.corridor import reach_in_window
+    import warnings
 
-            s = point_in_dem_crs(start, "--start", False)
-            try:
-                res, terrain = reach_in_window(
-                    dem, model, s, budget_wh * 3600.0, request, cap=cap,
-                    round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+    from energy_planner.errors import ReachEdgeWarning
+
+    try:
+        with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
+            warnings.filterwarnings("ignore", category=ReachEdgeWarning)
+            if windowed:
+                from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
+                from energy_planner.planning.corridor import reach_in_window
+
+                s = point_in_dem_crs(start, "--start", False)
+                try:
+                    res, terrain = reach_in_window(
+                        dem, model, s, budget_wh * 3600.0, request, cap=cap,
+                        round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+                    )  # fmt: skip
+                except RasterTooLargeError as exc:
+                    raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
+                except (DEMError, DEMIOError) as exc:
+                    raise click.BadParameter(str(exc), param_hint="--dem") from exc
+            else:
+                terrain = load_terrain(dem)
+                s = point_to_work(terrain, start, "--start", False)
+                res = reach(
+                    terrain, model, s[:2], request, round_trip=round_trip,
+                    turn_at_cell=not free_turn, progress=True,
+                    max_energy=budget_wh * 3600.0 if within_budget else None,
                 )  # fmt: skip
-            except RasterTooLargeError as exc:
-                raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
-            except (DEMError, DEMIOError) as exc:
-                raise click.BadParameter(str(exc), param_hint="--dem") from exc
-        else:
-            terrain = load_terrain(dem)
-            s = point_to_work(terrain, start, "--start", False)
-            res = reach(
-                terrain, model, s[:2], request, round_trip=round_trip,
-                turn_at_cell=not free_turn, progress=True,
-                max_energy=budget_wh * 3600.0 if within_budget else None,
-            )  # fmt: skip
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:
@@ -283,6 +290,15 @@ def command(
         if chance_out is not None:
             res.write_chance_geotiff(terrain, chance_out, model, usable)
             result["chance_out"] = str(chance_out)
+    budgets = [result.get("budget_wh"), result.get("battery", {}).get("confident_budget_wh")]
+    for wh_b in sorted({b for b in budgets if b is not None}):
+        w = res.edge_warning(terrain, wh_b * 3600.0)
+        if w is not None:
+            result.setdefault("warnings", []).append(str(w))
+            result.setdefault("edge_cut", []).append(
+                {"budget_wh": wh_b, **{k: w.fields[k] for k in ("cells", "map_edge_cells",
+                                                               "nodata_edge_cells")}}
+            )  # fmt: skip
     if out is not None:
         res.write_geotiff(terrain, out)
         result["out"] = str(out)
@@ -293,6 +309,6 @@ def command(
         write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
         result["geojson"] = str(geojson)
     if plot is not None:
-        res.plot(terrain, plot, budget_j)
+        res.plot(terrain, plot, budget_j, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, _text)

@@ -438,8 +438,15 @@ class RouteComparison:
                     )
         return out
 
-    def plot(self, terrain, path: str | Path, title: str | None = None) -> Path:
-        """Draw the routes over a hillshade with heading marks; write a PNG."""
+    def plot(
+        self, terrain, path: str | Path, title: str | None = None, request: Any = None
+    ) -> Path:
+        """Draw the routes over a hillshade with heading marks; write a PNG.
+
+        ``request`` (the :class:`~energy_planner.request.Request` the routes were planned
+        with) adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -465,6 +472,9 @@ class RouteComparison:
             alpha=0.5,
         )
         ax.clabel(cs, fontsize=6, fmt="%.0f")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        draw_request(ax, terrain, request)
         colors = {"direct": "tab:blue", "shortest": "tab:green", "energy_optimal": "tab:red"}
         # zoom to the routes (with a margin), within the map
         pts = [np.asarray(r.states)[:, :2] for r in self.routes if r.states is not None]
@@ -521,8 +531,7 @@ class RouteComparison:
         ax.set_ylim(view[2], view[3])
         ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        ax.set_xlabel("x (working CRS, m)")
-        ax.set_ylabel("y (working CRS, m)")
+        label_map_axes(ax, terrain.crs)
         title = title or "Direct climb vs detour (arrows: robot heading)"
         if self.physics and self.physics.get("critical_grade_deg") is not None:
             title += (

@@ -53,6 +53,7 @@ __all__ = [
     "check_valid_geometries",
     "fmt_xy",
     "make_motion_cost",
+    "keep_out_geometries",
 ]
 
 
@@ -154,6 +155,23 @@ def to_work_geometries(geoms: Sequence[Any], terrain) -> list[Any]:
         out = [shapely.transform(g, fwd) for g in geoms]
     _warn_outside(out, geoms, crs, source, terrain)
     return out
+
+
+def keep_out_geometries(keep_out: str | Path | Sequence[Any] | None, terrain) -> list[Any]:
+    """A request's keep-out areas (``Limits.keep_out``) in the terrain's working CRS.
+
+    A path is read with :func:`load_keep_out` (RFC 7946 unless the file declares a CRS);
+    geometries are checked and taken in their ``.crs`` or the DEM's own CRS
+    (:func:`to_work_geometries`). ``None`` gives an empty list.
+    """
+    if keep_out is None:
+        return []
+    if isinstance(keep_out, str | Path):
+        raw = load_keep_out(keep_out)
+    else:
+        raw = keep_out if hasattr(keep_out, "crs") else list(keep_out)
+        check_valid_geometries(raw)
+    return to_work_geometries(raw, terrain)
 
 
 def _warn_outside(work: list[Any], given: Sequence[Any], crs: Any, source: str, terrain) -> None:
@@ -398,14 +416,7 @@ def make_motion_cost(
             param=next(iter(given)),
         )
     lim = request.limits
-    geoms: list[Any] = []
-    if lim.keep_out is not None:
-        if isinstance(lim.keep_out, str | Path):
-            raw = load_keep_out(lim.keep_out)
-        else:
-            raw = lim.keep_out if hasattr(lim.keep_out, "crs") else list(lim.keep_out)
-            check_valid_geometries(raw)
-        geoms = to_work_geometries(raw, terrain)
+    geoms = keep_out_geometries(lim.keep_out, terrain)
     blocked = rasterize_keep_out(geoms, terrain) if geoms else None
     kwargs: dict[str, Any] = {}
     ch = request.channels
