@@ -381,10 +381,11 @@ def command(
 
     The energy is that of the model (--model, default the bundled B1-class model)
     integrated along the path; the path may walk sideways or backwards where that is
-    cheaper. The default planner searches (x, y, heading) at the DEM's own cell size with
-    an admissible heuristic, then refines the path. Progress is shown on stderr. A DEM too
-    large for --memory-cap is read by windows about the start and the goal (a corridor);
-    the output says whether the window is proven to hold every cheaper path.
+    cheaper, unless --max-backward-slope or --max-crab forbid it. The default planner
+    searches (x, y, heading) at the DEM's own cell size with an admissible heuristic,
+    then refines the path. Progress is shown on stderr. A DEM too large for --memory-cap
+    is read by windows about the start and the goal (a corridor); the output says
+    whether the window is proven to hold every cheaper path.
 
     Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
     --goal 500058,5000109 --max-slope 20
