@@ -367,3 +367,11 @@ def test_energy_command_reports_a_gait_violation(tmp_path):
     assert crab.exit_code == 1 and "max_crab_deg" in crab.output, crab.output
     usage = run(30.0, "--max-crab", "91")
     assert usage.exit_code == 2 and "--max-crab" in usage.output
+
+
+def test_demo_names_the_gait_limits_it_was_given():
+    from energy_planner.cli.demo import _limits_text
+
+    lim = {"max_slope_deg": None, "max_backward_slope_deg": 20.0, "max_crab_deg": 0.0}
+    assert _limits_text({"limits": lim}) == "no backward walking above 20 deg, max crab angle 0 deg"
+    assert _limits_text({"limits": {"max_slope_deg": None}}).startswith("none")
