@@ -21,7 +21,8 @@ Field names used across the project (use these when they fit):
 ``param``     the option or argument at fault (``"band"``, ``"start"``)
 ``endpoint``  ``"start"`` or ``"goal"``
 ``limit``     the limit broken: ``"map"``, ``"nodata"``, ``"max_slope_deg"``,
-              ``"max_cross_slope_deg"``, ``"keep_out"``
+              ``"max_cross_slope_deg"``, ``"keep_out"``, ``"max_backward_slope_deg"``,
+              ``"max_crab_deg"``
 ``column``    a table column; ``row`` its 0-based row; ``run`` a run id
 ``crs``       a CRS (``str``); ``bounds`` ``(xmin, ymin, xmax, ymax)`` in it
 ``hint``      a remedy, in words

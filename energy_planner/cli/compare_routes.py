@@ -14,6 +14,7 @@ from energy_planner.cli.options import (
     dem_option,
     emit,
     examples,
+    gait_limits,
     json_option,
     load_model_option,
     model_option,
@@ -116,7 +117,7 @@ def command(
         request = Request.make(
             speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
             max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-            channels=channels_from_options(sets, channels),
+            channels=channels_from_options(sets, channels), **gait_limits(),
         )  # fmt: skip
         comp = compare_routes(
             terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,

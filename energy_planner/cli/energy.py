@@ -17,6 +17,8 @@ from energy_planner.cli.options import (
     dem_option,
     emit,
     examples,
+    gait_limit_options,
+    gait_limits,
     json_option,
     load_model_option,
     model_option,
@@ -153,11 +155,15 @@ def compute(
     yaw_rate: float = DEFAULT_YAW_RATE,
     band: int | None = None,
     channels: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
 ) -> dict[str, Any]:
     """The command's work, returning the JSON-ready result (click errors on bad input).
 
     ``channels`` is a :class:`~energy_planner.energy.channels.Channels` (``--set`` /
-    ``--channel``) or None.
+    ``--channel``) or None. ``max_backward_slope_deg`` and ``max_crab_deg`` are the gait
+    limits (:class:`~energy_planner.request.Limits`): a segment that breaks one is an
+    error naming it.
     """
     import numpy as np
 
@@ -200,7 +206,10 @@ def compute(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
             # channel rasters that leave part of the DEM uncovered, or have no CRS
-            cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
+            cost = MotionCost(
+                terrain, model, speed, yaw_rate, channels=channels,
+                max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
+            )  # fmt: skip
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages
         check_waypoints(terrain, cost, np.column_stack([np.atleast_1d(xs), np.atleast_1d(ys)]), xy)
@@ -265,6 +274,7 @@ def compute(
 @speed_option
 @yaw_rate_option
 @band_option
+@gait_limit_options
 @channel_options
 @trust_options
 @json_option
@@ -292,7 +302,7 @@ def command(
     (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
     """
     ch = channels_from_options(sets, channels)
-    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch)
+    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **gait_limits())
     add_trust(res, load_model_option(model_path), res["energy_j"], level, battery_wh,
               reserve_wh, confidence, refuse)  # fmt: skip
     emit(res, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

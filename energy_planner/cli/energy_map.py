@@ -14,6 +14,8 @@ from energy_planner.cli.options import (
     channels_from_options,
     emit,
     examples,
+    gait_limit_options,
+    gait_limits,
     json_option,
     load_model_option,
     memory_cap_option,
@@ -80,6 +82,7 @@ def format_table(res: dict[str, Any]) -> str:
     help="Number of map headings, 360/N degrees apart, the first east.",
 )
 @speed_option
+@gait_limit_options
 @channel_options
 @click.option(
     "--plot",
@@ -134,7 +137,8 @@ def command(
     """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
 
     For every cell: the cost of walking through it facing along each heading
-    (along_*), with the cheapest of forward, backward and sideways gaits (best_*), the
+    (along_*), with the cheapest of forward, backward and sideways gaits that the gait
+    limits allow (best_*), the
     cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
     physics as `energy` (a short straight motion through the cell centre, per metre of
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
@@ -143,12 +147,12 @@ def command(
     """
     from energy_planner.energymap import energy_map, plot_energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
-    from energy_planner.request import Request, Robot
+    from energy_planner.request import Limits, Request, Robot
 
     cap = parse_memory_cap(memory_cap)
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
-    request = Request(robot=Robot(speed=speed), channels=ch)
+    request = Request(robot=Robot(speed=speed), limits=Limits(**gait_limits()), channels=ch)
     client = None
     if scheduler is not None:
         from distributed import Client

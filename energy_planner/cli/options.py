@@ -223,6 +223,59 @@ def start_goal_options(f):
     return click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")(f)
 
 
+#: ``ctx.meta`` key of the gait limits (read by :func:`gait_limits`).
+GAIT_LIMITS_KEY = "energy_planner.gait_limits"
+#: The gait-limit options and the :class:`~energy_planner.request.Limits` field of each.
+GAIT_LIMIT_OPTIONS = {
+    "--max-backward-slope": "max_backward_slope_deg",
+    "--max-crab": "max_crab_deg",
+}
+
+
+def _store_gait_limit(ctx: click.Context, param: click.Parameter, value: float | None) -> None:
+    field = GAIT_LIMIT_OPTIONS[param.opts[0]]
+    ctx.find_root().meta.setdefault(GAIT_LIMITS_KEY, {})[field] = value
+
+
+def gait_limit_options(f):
+    """``--max-backward-slope`` and ``--max-crab``: the gait limits, defined once.
+
+    Their values are read with :func:`gait_limits` (they are not parameters of the
+    command function), so that every command with planning limits takes them the same way.
+    """
+    f = click.option(
+        "--max-crab",
+        metavar="DEG",
+        type=click.FloatRange(0, 90),
+        default=None,
+        expose_value=False,
+        callback=_store_gait_limit,
+        help="Largest crab angle: the angle between the body's x axis and the direction of "
+        "travel (or its opposite when walking backward), degrees; 0 = face along or "
+        "straight back, 90 = any gait. Turns in place are not limited.",
+    )(f)
+    return click.option(
+        "--max-backward-slope",
+        metavar="DEG",
+        type=click.FloatRange(0, 90),
+        default=None,
+        expose_value=False,
+        callback=_store_gait_limit,
+        help="No backward walking (body x more than 90 deg from the direction of travel) on "
+        "ground steeper than this, degrees.",
+    )(f)
+
+
+def gait_limits() -> dict[str, float | None]:
+    """The running command's gait limits as :class:`~energy_planner.request.Limits` fields.
+
+    ``{"max_backward_slope_deg": ..., "max_crab_deg": ...}`` (None: no limit).
+    """
+    ctx = click.get_current_context(silent=True)
+    given = {} if ctx is None else ctx.find_root().meta.get(GAIT_LIMITS_KEY, {})
+    return {field: given.get(field) for field in GAIT_LIMIT_OPTIONS.values()}
+
+
 yaw_rate_option = click.option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),

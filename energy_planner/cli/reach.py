@@ -13,6 +13,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     emit,
     examples,
+    gait_limits,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -214,7 +215,7 @@ def command(
     request = Request.make(
         speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
         max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-        channels=channels_from_options(sets, channels),
+        channels=channels_from_options(sets, channels), **gait_limits(),
     )  # fmt: skip
     import warnings
 

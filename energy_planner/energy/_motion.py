@@ -19,6 +19,7 @@ import numpy as np
 
 from energy_planner.energy.kernels import (
     BLOCKED,
+    GAIT_TOL,
     N_KINDS,
     N_OUT,
     NO_CHANNEL,
@@ -32,6 +33,8 @@ from energy_planner.energy.kernels import (
     OUT_MEAN_SLOPE,
     OUT_TURN,
     OUTSIDE,
+    TOO_BACKWARD,
+    TOO_CRAB,
     TOO_CROSS,
     TOO_STEEP,
     sample_channels,
@@ -92,9 +95,30 @@ def body_velocity_cs(gxs, gys, c_, s_, v0, v1, v2):
 
 
 @numba.njit(cache=True)
+def gait_violation(gxs, gys, vx, vy, dist, btan, cmax):
+    """The gait limit a translation breaks (a violation code), or 0.
+
+    ``(vx, vy)``: the body-frame velocity (any scale); ``dist``: the motion's map length
+    (0: a turn in place, never refused); ``btan``: tangent of the steepest slope on
+    which walking backward is allowed; ``cmax``: the largest crab angle, radians. The
+    angle from body x to the velocity is ``atan2(|vy|, vx)`` in [0, pi]: beyond
+    ``pi / 2`` the robot walks backward, and its crab angle is the smaller of the angle
+    and its supplement. :data:`GAIT_TOL` of slack on both.
+    """
+    if dist <= 0.0 or (vx == 0.0 and vy == 0.0):
+        return 0
+    ang = math.atan2(abs(vy), vx)
+    if ang > 0.5 * math.pi + GAIT_TOL and gxs * gxs + gys * gys > btan * btan:
+        return TOO_BACKWARD
+    if min(ang, math.pi - ang) > cmax + GAIT_TOL:
+        return TOO_CRAB
+    return 0
+
+
+@numba.njit(cache=True)
 def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     (grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax, chan,
-     nearest) = data  # fmt: skip
+     nearest, btan, cmax) = data  # fmt: skip
     ddx = x1 - x0
     ddy = y1 - y0
     dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -172,6 +196,11 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
         if dt > 0.0:
             # 3-D velocity along the surface, in the tilted body frame
             vx, vy = body_velocity(gxs, gys, th, hx / dt, hy / dt, dz / dt)
+        code = gait_violation(gxs, gys, vx, vy, dist, btan, cmax)
+        if code != 0:
+            out[OUT_CODE] = code
+            out[OUT_ENERGY] = np.inf
+            return
         p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0, chv)
         out[OUT_ENERGY] += p * dt
         out[OUT_MEAN_SLOPE] += alpha / n
@@ -211,13 +240,15 @@ def path_table(x, y, th, durations, data):
 
 
 @numba.njit(cache=True)
-def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, chv):
+def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, btan, cmax,
+              chv):  # fmt: skip
     """Energy of ``dt`` seconds of straight walking at velocity (v0, v1, v2).
 
     The walk is along the surface with body yaw of cosine ``cy`` and sine ``sy``, where
     the gradient is (gx, gy) (slope ``alpha``, its cosine ``ca`` and sine ``sa``, uphill
     azimuth of cosine ``c_psi`` and sine ``s_psi``); ``inf`` above the cross-slope limit
-    ``smax``.
+    ``smax`` or where the gait breaks a gait limit (``btan``, ``cmax``:
+    :func:`gait_violation`).
 
     The same relative heading as :func:`slope_frame` (``tan(gamma) = tan(yaw - psi)
     cos(alpha)``) and the same body velocity as :func:`motion_full`.
@@ -226,21 +257,25 @@ def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax,
     if sa * abs(math.sin(gamma)) > smax:
         return np.inf
     vx, vy = body_velocity_cs(gx, gy, cy, sy, v0, v1, v2)
+    if gait_violation(gx, gy, vx, vy, 1.0, btan, cmax) != 0:
+        return np.inf
     p, kinds = power(alpha, gamma, vx, vy, 0.0, 0.0, 0.0, chv)
     return p * dt
 
 
 @numba.njit(cache=True, parallel=True)
-def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
+def map_costs(gx, gy, chan, headings, speed, tmax, smax, btan, cmax, along, best):
     """Energy-map costs of a block of cells (J per metre of map distance).
 
     ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
     channels on the same cells, shape (k, rows, cols), category indices for categorical
     ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
     ``best[j, r, c]``: the cheapest of walking forward, backward or sideways (either
-    side) along it. Each is the limit of :func:`motion_full` for a short straight motion
-    through the cell centre, divided by its map length. NaN where the gradient or a
-    channel is undefined, ``inf`` above a slope limit.
+    side) along it, among the gaits the gait limits allow (``btan``, ``cmax``: see
+    :func:`gait_violation`; facing along is always allowed). Each is the limit of
+    :func:`motion_full` for a short straight motion through the cell centre, divided by
+    its map length. NaN where the gradient or a channel is undefined, ``inf`` above a
+    slope limit.
     """
     rows, cols = gx.shape
     nh = headings.shape[0]
@@ -284,14 +319,14 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
                 v1 = u1 / dt
                 v2 = dz / dt
                 fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                smax, chv)  # fmt: skip
+                                smax, btan, cmax, chv)  # fmt: skip
                 m = fwd
                 # backward (yaw h + pi), sideways (yaw h - pi/2 and h + pi/2)
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
+                                     dt, smax, btan, cmax, chv))  # fmt: skip
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
+                                     dt, smax, btan, cmax, chv))  # fmt: skip
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
-                                     dt, smax, chv))  # fmt: skip
+                                     dt, smax, btan, cmax, chv))  # fmt: skip
                 along[j, r, c] = fwd
                 best[j, r, c] = m

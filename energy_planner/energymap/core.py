@@ -197,11 +197,15 @@ def block_bands(
     speed: float,
     tmax: float,
     smax: float,
+    btan: float = math.inf,
+    cmax: float = math.inf,
 ) -> np.ndarray:
     """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
 
     ``gx``, ``gy``: the cells' Horn gradient; ``chan``: raster channels on the same cells
-    ``(k, rows, cols)``; ``map_kernel``: ``map_costs`` of the model's compiled kernels.
+    ``(k, rows, cols)``; ``map_kernel``: ``map_costs`` of the model's compiled kernels;
+    ``btan``, ``cmax``: the gait limits
+    (:func:`energy_planner.energy.motion.gait_limit_values`).
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -213,7 +217,8 @@ def block_bands(
     out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
     along = out[:headings]
     best = out[headings : 2 * headings]
-    map_kernel(gx, gy, chan, ang, float(speed), float(tmax), float(smax), along, best)
+    map_kernel(gx, gy, chan, ang, float(speed), float(tmax), float(smax), float(btan),
+               float(cmax), along, best)  # fmt: skip
     valid = ~np.isnan(best[0])
     with np.errstate(invalid="ignore", divide="ignore"):
         cheapest = best.min(axis=0)
@@ -239,11 +244,14 @@ class _Setup:
     tmax: float
     smax: float
     notes: list[str]
+    btan: float = math.inf
+    cmax: float = math.inf
 
 
 def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.kernels import make_kernels
+    from energy_planner.energy.motion import gait_limit_values
     from energy_planner.errors import ModelError
     from energy_planner.model import EnergyModel
     from energy_planner.request import Request
@@ -272,6 +280,7 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         if lim.max_cross_slope_deg is None
         else math.sin(math.radians(lim.max_cross_slope_deg))
     )
+    btan, cmax = gait_limit_values(lim.max_backward_slope_deg, lim.max_crab_deg)
     source = model.kernel_source(channels.constants, channels.kernel_layout())
     unused = channels.unused(model)
     if unused:
@@ -285,6 +294,8 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         tmax=tmax,
         smax=smax,
         notes=notes,
+        btan=btan,
+        cmax=cmax,
     )
 
 
@@ -321,6 +332,8 @@ def _write_metadata(
         speed_m_s=repr(setup.speed),
         max_slope_tan=repr(setup.tmax),
         max_cross_slope_sin=repr(setup.smax),
+        max_backward_slope_tan=repr(setup.btan),
+        max_crab_rad=repr(setup.cmax),
         channels=repr(setup.channels.describe()),
         mode=mode,
         nodata="NaN; inf = above a slope limit",
@@ -362,7 +375,7 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
             chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
             bands = block_bands(
                 setup.map_kernel, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan,
-                setup.headings, setup.speed, setup.tmax, setup.smax,
+                setup.headings, setup.speed, setup.tmax, setup.smax, setup.btan, setup.cmax,
             )  # fmt: skip
             dst.write(bands, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
@@ -470,7 +483,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
                 chan = np.zeros((0, 1, 1))
             bands = block_bands(
                 setup.map_kernel, gx, gy, chan, setup.headings, setup.speed, setup.tmax,
-                setup.smax,
+                setup.smax, setup.btan, setup.cmax,
             )  # fmt: skip
             dst.write(bands, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
@@ -673,8 +686,9 @@ def energy_map(
     request : energy_planner.request.Request, optional
         Robot speed (the yaw rate does not matter: straight motions), slope limits
         (cells above ``max_slope_deg`` cost ``inf``; headings whose gait holds the body
-        across a steeper cross-slope than ``max_cross_slope_deg`` cost ``inf``) and
-        channels.
+        across a steeper cross-slope than ``max_cross_slope_deg`` cost ``inf``), gait
+        limits (the cheapest band takes only the gaits ``max_backward_slope_deg`` and
+        ``max_crab_deg`` allow) and channels.
     channels : Channels, optional
         Extra channels the model reads (or ``request.channels``).
     band : int, optional

@@ -46,7 +46,7 @@ def gradient_dask(z: Any, step_x: float, step_y: float) -> tuple[Any, Any]:
 
 
 def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, transform, crs,
-                 block_info=None):  # fmt: skip
+                 btan=np.inf, cmax=np.inf, block_info=None):  # fmt: skip
     from affine import Affine
 
     from energy_planner.energy.kernels import make_kernels
@@ -60,7 +60,7 @@ def _bands_block(gx, gy, *, source, headings, speed, tmax, smax, channels, trans
     else:
         chan = np.zeros((0, 1, 1))
     with _KERNEL_LOCK:
-        return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax)
+        return block_bands(kernel, gx, gy, chan, headings, speed, tmax, smax, btan, cmax)
 
 
 def _client() -> Any:
@@ -100,7 +100,8 @@ def compute_dask(
     bands = da.map_blocks(
         _bands_block, gx, gy, new_axis=0, chunks=((nb,), *gx.chunks), dtype=np.float32,
         source=setup.source, headings=setup.headings, speed=setup.speed, tmax=setup.tmax,
-        smax=setup.smax, channels=setup.channels, transform=t, crs=info.crs,
+        smax=setup.smax, btan=setup.btan, cmax=setup.cmax, channels=setup.channels,
+        transform=t, crs=info.crs,
     )  # fmt: skip
     xarr = xr.DataArray(
         bands,

@@ -910,6 +910,8 @@ def compare_routes(
         limits={
             "max_slope_deg": lim.max_slope_deg,
             "max_cross_slope_deg": lim.max_cross_slope_deg,
+            "max_backward_slope_deg": lim.max_backward_slope_deg,
+            "max_crab_deg": lim.max_crab_deg,
             "keep_out_areas": len(geoms),
         },
         info=info,

@@ -263,7 +263,10 @@ def pose_violation(cost, x: float, y: float, yaw: float | None, geoms=()) -> str
 
 
 #: Kernel violation codes -> the request's limit names (structured error fields).
-_LIMIT_OF_CODE = {1: "map", 2: "max_slope_deg", 3: "max_cross_slope_deg", 4: "keep_out"}
+_LIMIT_OF_CODE = {
+    1: "map", 2: "max_slope_deg", 3: "max_cross_slope_deg", 4: "keep_out",
+    6: "max_backward_slope_deg", 7: "max_crab_deg",
+}  # fmt: skip
 
 
 def pose_limit(
@@ -383,6 +386,11 @@ def make_motion_cost(
 ):
     """The :class:`~energy_planner.energy.MotionCost` with all limits, and the keep-out polygons.
 
+    All limits of ``request.limits`` go into the one motion kernel: slope, cross-slope,
+    keep-out mask and the gait limits (``max_backward_slope_deg``, ``max_crab_deg``), so
+    that every planner, reach, compare-routes and path energy priced with this cost
+    honours them.
+
     Parameters
     ----------
     terrain : Terrain
@@ -429,6 +437,8 @@ def make_motion_cost(
         yaw_rate=request.robot.yaw_rate,
         max_slope_deg=lim.max_slope_deg,
         max_cross_slope_deg=lim.max_cross_slope_deg,
+        max_backward_slope_deg=lim.max_backward_slope_deg,
+        max_crab_deg=lim.max_crab_deg,
         blocked=blocked,
         **kwargs,
     )
