@@ -68,19 +68,32 @@ def test_rasters_keep_the_dem_georeferencing(runner, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
 
 
-def test_geographic_dem_written_on_working_grid(runner, tmp_path):
-    s_out = tmp_path / "s.tif"
-    res = runner.invoke(main, ["terrain", "jacksboro", "--slope-out", str(s_out), "--json"])
+def test_geographic_dem_written_on_its_own_grid(runner, tmp_path):
+    """A lon/lat DEM's slope and aspect are written on its own grid (Horn computed there).
+
+    Before issue 19 they were written on the UTM working grid, from Horn of the warped
+    elevation: 0.72 deg median off Horn on the native grid (test_terrain_native.py holds
+    the values against an independent reference).
+    """
+    s_out, a_out = tmp_path / "s.tif", tmp_path / "a.tif"
+    args = ["terrain", "jacksboro", "--slope-out", str(s_out), "--aspect-out", str(a_out)]
+    res = runner.invoke(main, [*args, "--json"])
     assert res.exit_code == 0, res.output
     r = json.loads(res.output)
     assert r["crs"] == "EPSG:4326" and r["working_crs"] == "EPSG:32616" and r["reprojected"]
     t = load_dem(map_path("jacksboro"))
-    with rasterio.open(s_out) as s:
-        assert s.crs.to_epsg() == 32616 and s.transform == t.transform
-        sl = s.read(1, masked=True)
-    np.testing.assert_allclose(sl.filled(np.nan), np.degrees(t.slope).astype(np.float32))
-    assert r["slope_max_deg"] == pytest.approx(float(np.nanmax(np.degrees(t.slope))))
-    assert 0.0 < r["nodata_share"] < 0.1  # the rotated footprint leaves empty corners
+    with rasterio.open(map_path("jacksboro")) as src, rasterio.open(s_out) as s:
+        assert s.crs == src.crs and s.transform == src.transform and s.shape == src.shape
+        sl = s.read(1, masked=True).filled(np.nan)
+    with rasterio.open(a_out) as a:
+        assert a.transform == t.native_grid.transform
+        asp = a.read(1, masked=True).filled(np.nan)
+    native = np.degrees(t.native_grid.slope)
+    np.testing.assert_allclose(sl, native.astype(np.float32))
+    np.testing.assert_allclose(asp, t.native_grid.aspect_deg.astype(np.float32))
+    assert r["slope_max_deg"] == pytest.approx(float(np.nanmax(native)))
+    assert r["source_shape"] == list(sl.shape) and r["shape"] == list(t.shape)
+    assert r["nodata_share"] == pytest.approx(float(np.isnan(t.native_grid.elevation).mean()))
 
 
 def test_missing_file(runner, tmp_path):

@@ -60,13 +60,14 @@ def _load(dem: Path, band: int | None, bounds=None, decimate: int = 1):
         raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
 
 
-def _write(path: Path, data: np.ndarray, terrain, name: str, description: str) -> None:
+def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> None:
+    """Write one band on ``grid`` (a :class:`~energy_planner.terrain.native.NativeGrid`)."""
     from energy_planner.io import write_geotiff
 
     path.parent.mkdir(parents=True, exist_ok=True)
     write_geotiff(
-        path, np.where(np.isfinite(data), data, np.nan), transform=terrain.transform,
-        crs=terrain.crs, names=[name], units=["deg"], descriptions=[description],
+        path, np.where(np.isfinite(data), data, np.nan), transform=grid.transform,
+        crs=grid.crs, names=[name], units=["deg"], descriptions=[description],
         tags={"software": "energy_planner terrain"},
     )  # fmt: skip
 
@@ -98,10 +99,17 @@ def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
 
 
 def summarize(terrain) -> dict[str, Any]:
-    """Summary numbers of a :class:`~energy_planner.terrain.Terrain` (for text and JSON)."""
-    slope_deg = np.degrees(terrain.slope)
+    """Summary numbers of a :class:`~energy_planner.terrain.Terrain` (for text and JSON).
+
+    Slopes, elevations and shares are those of the DEM's own grid
+    (:attr:`Terrain.native_grid`: Horn with geodesic spacing on a lon/lat grid), the
+    grid the slope and aspect rasters are written on.
+    """
+    grid = terrain.native_grid
+    slope_deg = np.degrees(grid.slope)
     finite = slope_deg[np.isfinite(slope_deg)]
-    z = terrain.elevation[terrain.valid]
+    valid = np.isfinite(grid.elevation)
+    z = grid.elevation[valid]
 
     def crs_str(c):
         return c.to_string() if c is not None else None
@@ -120,7 +128,7 @@ def summarize(terrain) -> dict[str, Any]:
         "slope_min_deg": float(finite.min()) if finite.size else None,
         "slope_mean_deg": float(finite.mean()) if finite.size else None,
         "slope_max_deg": float(finite.max()) if finite.size else None,
-        "nodata_share": terrain.nodata_fraction,
+        "nodata_share": float(1.0 - valid.mean()),
         "no_slope_share": float(1.0 - finite.size / slope_deg.size),
     }
 
@@ -198,10 +206,9 @@ def command(
     """Summarize a DEM: CRS, grid, metric resolution, slope statistics, nodata.
 
     DEM is any single-band raster rasterio opens (or a bundled map: hill, plane,
-    jacksboro). Slopes are Horn's (as gdaldem). A DEM in degrees is reprojected to its
-    UTM zone first; the slope/aspect rasters are then written on that metric working
-    grid (UTM), not on the original lon/lat grid, so that no angle is resampled. For a
-    projected DEM the working grid is the DEM's own grid and georeferencing.
+    jacksboro). Slopes are Horn's (as gdaldem), computed on the DEM's own grid and
+    written on it: on a lon/lat DEM with each row's geodesic cell size, aspect from true
+    north (the planners' UTM working grid takes its gradient from these values).
 
     A raster whose decoded size would pass the memory cap (ENERGY_PLANNER_MEMORY_CAP,
     default half the memory) is refused before reading; --bounds and --decimate read a
@@ -210,11 +217,12 @@ def command(
     path = _resolve_dem(dem)
     terrain = _load(path, band, _parse_bounds(bounds), decimate)
     result = summarize(terrain)
+    grid = terrain.native_grid
     if slope_out is not None:
-        _write(slope_out, np.degrees(terrain.slope), terrain, "slope", "slope angle, degrees")
+        _write(slope_out, np.degrees(grid.slope), grid, "slope", "slope angle, degrees")
         result["slope_out"] = str(slope_out)
     if aspect_out is not None:
-        _write(aspect_out, terrain.aspect_deg, terrain, "aspect",
+        _write(aspect_out, grid.aspect_deg, grid, "aspect",
                "GIS aspect: downslope direction, degrees clockwise from north")  # fmt: skip
         result["aspect_out"] = str(aspect_out)
     if plot is not None:
