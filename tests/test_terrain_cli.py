@@ -37,6 +37,7 @@ def test_text_output_and_bundled_name(runner):
     res = runner.invoke(main, ["terrain", "hill"])
     assert res.exit_code == 0, res.output
     assert "EPSG:32631" in res.output and "slope (deg)" in res.output
+    assert "slope grid" not in res.output  # a metric DEM: the working grid is its own
 
 
 def test_rasters_keep_the_dem_georeferencing(runner, tmp_path):
@@ -93,6 +94,12 @@ def test_geographic_dem_written_on_its_own_grid(runner, tmp_path):
     np.testing.assert_allclose(asp, t.native_grid.aspect_deg.astype(np.float32))
     assert r["slope_max_deg"] == pytest.approx(float(np.nanmax(native)))
     assert r["source_shape"] == list(sl.shape) and r["shape"] == list(t.shape)
+    # 3" cells at 36.4-36.7 N: 3/3600 deg x 111.0 km x cos(lat) by 92.5 m
+    assert r["slope_grid"] == "source"
+    x0, x1, y0, y1 = r["source_cell_m"]
+    assert 74.3 < x0 < x1 < 74.8 and 92.4 < y0 <= y1 < 92.6
+    text = runner.invoke(main, ["terrain", "jacksboro"]).output
+    assert "slope grid     the DEM's own (344 x 403), cells 74.4..74.7 x 92.5..92.5 m" in text
     assert r["nodata_share"] == pytest.approx(float(np.isnan(t.native_grid.elevation).mean()))
 
 

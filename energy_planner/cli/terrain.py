@@ -114,6 +114,13 @@ def summarize(terrain) -> dict[str, Any]:
     def crs_str(c):
         return c.to_string() if c is not None else None
 
+    cell_m = None
+    if terrain.native is not None:  # Horn ran on the DEM's own (non-metric) grid
+        from energy_planner.terrain.native import native_steps
+
+        sx, sy = native_steps(grid.transform, grid.elevation.shape[0], grid.crs)
+        sx, sy = np.abs(np.atleast_1d(sx)), np.abs(np.atleast_1d(sy))
+        cell_m = [float(sx.min()), float(sx.max()), float(sy.min()), float(sy.max())]
     return {
         "path": str(terrain.path) if terrain.path else None,
         "crs": crs_str(terrain.source_crs),
@@ -122,6 +129,8 @@ def summarize(terrain) -> dict[str, Any]:
         "source_shape": list(terrain.source_shape),
         "shape": list(terrain.shape),
         "resolution_m": list(terrain.resolution),
+        "slope_grid": "source" if cell_m is not None else "working",
+        "source_cell_m": cell_m,
         "bounds": list(terrain.bounds),
         "elevation_min": float(z.min()),
         "elevation_max": float(z.max()),
@@ -145,6 +154,14 @@ def _text(r: dict[str, Any]) -> str:
         f"shape          {r['shape'][0]} x {r['shape'][1]} (source "
         f"{r['source_shape'][0]} x {r['source_shape'][1]})",
         f"resolution     {r['resolution_m'][0]:.3f} x {r['resolution_m'][1]:.3f} m",
+    ]
+    if r.get("source_cell_m"):
+        x0, x1, y0, y1 = r["source_cell_m"]
+        lines.append(
+            f"slope grid     the DEM's own ({r['source_shape'][0]} x {r['source_shape'][1]}), "
+            f"cells {x0:.1f}..{x1:.1f} x {y0:.1f}..{y1:.1f} m (geodesic)"
+        )
+    lines += [
         f"elevation      {f(r['elevation_min'])} .. {f(r['elevation_max'])} m",
         f"slope (deg)    min {f(r['slope_min_deg'])}  mean {f(r['slope_mean_deg'])}  "
         f"max {f(r['slope_max_deg'])}",

@@ -637,7 +637,7 @@ def _warp_to_utm(
     # working cell centres with a ring of neighbours (one column each side), for the
     # Jacobian of the back-projection in gradient_to_work
     xs_dst = dst_transform.c + (np.arange(-1, width + 1) + 0.5) * dst_transform.a
-    block = max(1, 1_000_000 // max(width, 1))
+    block = max(1, 250_000 // max(width, 1))  # points per PROJ call: bounds the temporaries
     starts = range(0, height, block)
     if len(starts) > 2:  # big rasters: show progress on a terminal (stderr)
         from tqdm import tqdm
