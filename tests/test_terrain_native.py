@@ -248,3 +248,20 @@ def test_projected_dem_in_us_feet(tmp_path):
     ref_y = (plane_at(x, y + h) - plane_at(x, y - h)) / (2 * h)
     np.testing.assert_allclose(t.dzdx[ok], ref_x[ok], atol=1e-6)
     np.testing.assert_allclose(t.dzdy[ok], ref_y[ok], atol=1e-6)
+
+
+def test_lonlat_memory_budget_counts_the_native_grid(monkeypatch):
+    """The reprojected grid is checked at LONLAT_BYTES_PER_CELL (the native grid is kept).
+
+    Jacksboro: 344 x 403 source cells x 64 B = 8.9 MB passes a 10 MB cap; the 393 x 373
+    working grid x 80 B = 11.7 MB does not (at 64 B it would have passed: 9.4 MB).
+    """
+    from energy_planner.errors import RasterTooLargeError
+    from energy_planner.terrain.memory import LONLAT_BYTES_PER_CELL, MEMORY_CAP_ENV
+
+    monkeypatch.setenv(MEMORY_CAP_ENV, "10000000")
+    with pytest.raises(RasterTooLargeError, match="reprojected to EPSG:32616") as exc:
+        load_dem(map_path("jacksboro"))
+    assert exc.value.size_bytes == 393 * 373 * LONLAT_BYTES_PER_CELL
+    monkeypatch.setenv(MEMORY_CAP_ENV, "12000000")
+    assert load_dem(map_path("jacksboro")).shape == (393, 373)

@@ -42,7 +42,7 @@ from energy_planner.terrain.horn import (
     horn_gradient,
     pixel_steps,
 )
-from energy_planner.terrain.memory import BYTES_PER_CELL, check_memory
+from energy_planner.terrain.memory import BYTES_PER_CELL, LONLAT_BYTES_PER_CELL, check_memory
 from energy_planner.terrain.native import NativeGrid, gradient_to_work, native_gradient
 from energy_planner.terrain.sample import TerrainSample, bilinear
 
@@ -617,7 +617,10 @@ def _warp_to_utm(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
     check_memory(
-        (height, width), BYTES_PER_CELL, f"DEM {str(path)!r} reprojected to {dst_crs}", path=path
+        (height, width),
+        LONLAT_BYTES_PER_CELL,
+        f"DEM {str(path)!r} reprojected to {dst_crs}",
+        path=path,
     )
     # Point-bilinear resampling at exactly projected cell centres (PROJ for every centre).
     # Not GDAL's warper: when the target pixel is larger than the source pixel along an
