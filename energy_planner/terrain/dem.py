@@ -9,14 +9,17 @@ Decisions (see also ``docs/terrain.md``):
 
 - Nodata and NaN cells become NaN in ``elevation``; every later quantity is NaN where it
   would need them (Horn window, bilinear sampling). Nothing is filled in.
-- A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, is
-  reprojected to the local UTM zone (WGS 84, zone of the DEM's centre) with bilinear
-  resampling, at a square pixel whose area equals the source pixel's area at the DEM's
-  centre (same cell count); the grid is laid out by ``rasterio.warp``
+- A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, gets
+  Horn on its own grid with each row's geodesic cell size (:attr:`Terrain.native_grid`,
+  :mod:`energy_planner.terrain.native`) and a working grid in the local UTM zone (WGS 84,
+  zone of the DEM's centre), at a square pixel whose area equals the source pixel's area
+  at the DEM's centre (same cell count); the grid is laid out by ``rasterio.warp``
   (``calculate_default_transform``) and every working cell centre is projected back
-  exactly with ``rasterio.warp.transform``. A working cell is valid only if every source
-  cell bilinear resampling draws on is valid. ``source_crs`` keeps the DEM's own CRS;
-  :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
+  exactly with ``rasterio.warp.transform``. There the elevation is bilinear in the source
+  elevation and the gradient bilinear in the native gradient, turned into UTM axes (not
+  Horn of the warped elevation, which smooths slopes). A working cell is valid only if
+  every source cell bilinear resampling draws on is valid. ``source_crs`` keeps the DEM's
+  own CRS; :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
 - A DEM without a CRS is taken as local metric coordinates (x east, y north, metres), with
   a ``UserWarning``: its slopes are only right if the pixels really are metres.
 - A south-up or east-to-west grid is flipped to north-up; a rotated or sheared
@@ -779,7 +782,8 @@ def load_dem(
     -------
     Terrain
         On the DEM's own grid when its CRS is projected in metres (or absent), else on a
-        UTM grid (see the module docstring).
+        UTM grid with the gradient of Horn on the DEM's own grid, which ``native_grid``
+        keeps (see the module docstring).
 
     Raises
     ------
