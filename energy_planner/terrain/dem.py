@@ -139,6 +139,8 @@ class Terrain:
     gradient : (ndarray, ndarray) or None
         Init only: the working grid's gradient when it is not Horn of ``elevation`` on
         this grid (a geographic DEM's native gradient carried over); None computes Horn.
+        Needs a north-up grid; float64 C-contiguous arrays are kept, not copied, and set
+        to NaN in place where a component or the elevation is invalid.
 
     Attributes
     ----------
@@ -200,7 +202,10 @@ class Terrain:
         else:
             gx, gy = (np.ascontiguousarray(g, dtype=np.float64) for g in gradient)
             if gx.shape != z.shape or gy.shape != z.shape:
-                raise DEMError(f"gradient shapes {gx.shape}, {gy.shape} differ from {z.shape}")
+                raise DEMError(
+                    f"gradient shapes {gx.shape}, {gy.shape}: expected the elevation's "
+                    f"shape {z.shape}"
+                )
             bad = ~(np.isfinite(gx) & np.isfinite(gy) & np.isfinite(z))
             gx[bad] = np.nan
             gy[bad] = np.nan
