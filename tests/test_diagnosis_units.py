@@ -407,3 +407,41 @@ def test_breakdown_t_counts_runs_not_windows():
     by_window = breakdown(table, r, (), ["surface"])["surface"]["bins"][0]
     # six windows: sd = sqrt(6/5), se = sd/sqrt(6) -> t = 2 / sqrt(1/5)
     assert by_window["t"] == pytest.approx(2.0 / np.sqrt(1 / 5))
+
+
+#: ``paired_run_test`` on four cases, from the hand-written signed-rank test it replaced
+#: (normal approximation with tie correction); scipy's gives the same to the digit.
+#: Each case: (seed, runs, windows per run, rounding of the errors) -> (z, p, n runs).
+SIGNED_RANK_REFERENCE = {
+    (0, 15, 3, False): (2.5558282541117916, 0.005296769544344748, 15),
+    (1, 20, 2, False): (1.1946454287144919, 0.11611279602506436, 20),
+    (2, 18, 4, True): (2.4389374809298614, 0.007365258239674928, 18),
+    (3, 30, 3, False): (3.897700307752433, 4.8555244880358035e-05, 30),
+}
+
+
+def _signed_rank_case(seed, n_runs, per_run, rounded):
+    rng = np.random.default_rng(seed)
+    runs = np.repeat(np.arange(n_runs), per_run)
+    e0 = rng.normal(0, 2, runs.size)
+    e1 = e0 * rng.uniform(0.3, 1.3, runs.size)
+    if rounded:  # ties and exact zeros in the per-run differences
+        e0, e1 = np.round(e0), np.round(e1)
+    return e0, e1, runs
+
+
+@pytest.mark.parametrize("case", sorted(SIGNED_RANK_REFERENCE))
+def test_paired_run_test_is_wilcoxon_signed_rank(case):
+    """The run test agrees with ``scipy.stats.wilcoxon`` and with the stored reference."""
+    from scipy.stats import wilcoxon
+
+    from energy_planner.diagnosis.suspects import paired_run_test
+
+    e0, e1, runs = _signed_rank_case(*case)
+    z, p, n = paired_run_test(e0, e1, runs)
+    _, inv = np.unique(runs, return_inverse=True)
+    d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
+    ref = wilcoxon(d, alternative="greater", method="approx", zero_method="wilcox")
+    assert z == pytest.approx(ref.zstatistic, rel=1e-12)
+    assert p == pytest.approx(ref.pvalue, rel=1e-12)
+    assert (z, p, n) == pytest.approx(SIGNED_RANK_REFERENCE[case], rel=1e-12)
