@@ -350,6 +350,11 @@ def test_cli_json_and_report(campaign_dir):
     assert 'src="http' not in html and "<script" not in html and "<link" not in html
     assert html.count('src="data:image/png;base64,') >= 5
     assert top["term"] in html
+    # the report names the significance test the code runs (one name, read from suspects)
+    from energy_planner.diagnosis.suspects import RUN_TEST_NAME
+
+    assert "Wilcoxon signed-rank" in RUN_TEST_NAME and RUN_TEST_NAME in html
+    assert "t-test" not in html
 
 
 def test_cli_text_and_errors(campaign_dir):

@@ -132,6 +132,9 @@ def test_cli_discover(tmp_path):
     assert 'src="http' not in html and "<script" not in html
     assert html.count('src="data:image/png;base64,') >= 1
     assert escape(steps[1]["added"]) in html
+    from energy_planner.diagnosis.suspects import RUN_TEST_NAME
+
+    assert RUN_TEST_NAME in html and "t-test" not in html
     from energy_planner.cli.discover import _text
 
     text = _text(doc)  # the table the command prints without --json
