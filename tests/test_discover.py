@@ -17,6 +17,7 @@ from html import escape
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from energy_planner.diagnosis import rank_suspects, window_data
@@ -176,3 +177,50 @@ def test_reduced_acceptance_fans_speed_and_not_targets():
     assert "acceleration" not in HIDDEN_EFFECTS and not EFFECTS["acceleration"].target
     acc = bench.run_case(("acceleration",), 0, cfg, max_steps=2)
     assert acc.added == [] and acc.ratio <= 1.2, acc.added_names
+
+
+def test_noise_floor_from_the_logs_tracks_the_simulators_truth():
+    """The floor discover estimates from the logs alone against the simulator's floor from
+    the true power (``Campaign.noise_floor``) on the same windows: within 15 %."""
+    from energy_planner.diagnosis.discover import discover
+    from energy_planner.diagnosis.metrics import noise_floor
+
+    for effects in ((), ("load",)):
+        camp = _campaign(effects=effects)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = discover(camp.logs, max_steps=0, fit_final=False)
+        est = noise_floor(d.data)
+        truth = camp.noise_floor(d.windows).rmse_w
+        assert 0.85 < est.rmse_w / truth < 1.15, (effects, est, truth)
+        assert est.n_windows == d.n_windows
+        assert est.rmse_w**2 == pytest.approx(est.sensor_noise_w**2 + est.smoothing_shift_w**2)
+        assert d.to_dict()["noise_floor"]["rmse_w"] == est.rmse_w
+
+
+def test_discover_words_its_conclusion_by_the_noise_floor():
+    """A load discover is stopped from adding (max steps 0): it says the model does NOT
+    explain the logs, with the ratio; on a clean campaign: within the floor."""
+    import re
+
+    from energy_planner.cli.discover import _text
+    from energy_planner.diagnosis.discover import WITHIN_FLOOR, discover
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hidden = discover(_campaign(effects=("load",)).logs, max_steps=0, fit_final=False)
+        clean = discover(_campaign().logs, max_steps=1, fit_final=False)
+    doc = hidden.to_dict()
+    note = doc["notes"][-1]
+    assert "does NOT explain these logs" in note and "explains these logs within" not in note
+    ratio = doc["staircase"][-1]["heldout_rmse_w"] / doc["noise_floor"]["rmse_w"]
+    assert ratio > 3  # a hidden load: the base model is far above the floor
+    shown = float(re.search(r"is ([\d.]+)x the noise floor", note).group(1))
+    assert shown == pytest.approx(ratio, abs=0.05)
+    text = _text(doc)
+    assert "noise floor estimated from the logs" in text and "does NOT explain" in text
+    doc = clean.to_dict()
+    assert clean.added == []
+    assert doc["staircase"][-1]["floor_ratio"] <= WITHIN_FLOOR
+    assert "explains these logs within their noise" in doc["notes"][-1]
+    assert "NOT" not in doc["notes"][-1]

@@ -390,6 +390,14 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
         f"<code>{html.escape(', '.join(doc['base_terms']))}</code>.<br>Terms added: "
         f"<code>{html.escape(', '.join(doc['added']) or '(none)')}</code></p>"
     )
+    fl = doc.get("noise_floor")
+    if fl:
+        parts.append(
+            f"<p>Noise floor estimated from the logs: <b>{_fmt(fl['rmse_w'])} W</b> over "
+            f"{fl['n_windows']} windows (sensor noise {_fmt(fl['sensor_noise_w'])} W, "
+            f"smoothing shift {_fmt(fl['smoothing_shift_w'])} W). Method: "
+            f"{html.escape(fl['method'])}.</p>"
+        )
     for n in doc["notes"]:
         parts.append(f"<p class='note'>{html.escape(n)}</p>")
     parts.append("<h2>Data findings (sensor problems, not physical effects)</h2>")
@@ -428,6 +436,7 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
                 ("explanation", "physical explanation"),
                 ("alternatives", "or equally (confounded)"),
                 ("heldout_rmse_w", "held-out RMSE (W)"),
+                ("floor_ratio", "x noise floor"),
                 ("med", "run energy error, median (%)"),
                 ("p90", "run energy error, p90 (%)"),
                 ("removed", "error removed by the step (%)"),
