@@ -450,3 +450,30 @@ def test_paired_run_test_is_wilcoxon_signed_rank(case):
     assert z == pytest.approx(ref.zstatistic, rel=1e-12)
     assert p == pytest.approx(ref.pvalue, rel=1e-12)
     assert (z, p, n) == pytest.approx(SIGNED_RANK_REFERENCE[case], rel=1e-12)
+
+
+def test_explanations_follow_the_channel_the_term_reads():
+    """``motor_temp*P_base`` is not "a carried mass": a channel's candidates are explained
+    by what its name says it measures (a mass, a temperature, or nothing known)."""
+    from energy_planner.diagnosis.suspects import channel_candidates
+
+    s = synth(n_runs=20)
+    per_run = {r: i for i, r in enumerate(s["run"].unique())}
+    i = s["run"].map(per_run).to_numpy(float)
+    s = s.assign(motor_temp=30 + i, load_kg=i % 4 * 5.0, foo_level=i % 3)
+    s = s.drop(columns=["temperature_c"])
+    wd = window_data(s)
+    coef = dict.fromkeys(BASE_TERMS, 10.0)
+    cands, _ = channel_candidates(wd, model_terms=BASE_TERMS, coef=coef)
+    expl = {c.name: c.explanation for c in cands}
+    for name in ("motor_temp*P_base", "motor_temp*P_copper", "load_kg*P_base", "foo_level*P_base"):
+        ch = name.split("*")[0]
+        assert ch in expl[name], expl[name]  # the channel the term reads is named
+    assert "temperature" in expl["motor_temp*P_base"]
+    assert "winding resistance" in expl["motor_temp*P_copper"]
+    assert "mass" in expl["load_kg*P_base"] and "mass" in expl["load_kg*climb"]
+    for c in cands:  # no candidate of a temperature or of an unknown channel is a mass
+        if c.channel in ("motor_temp", "foo_level"):
+            assert "mass" not in c.explanation and "carried" not in c.explanation, c
+        if c.channel == "foo_level":
+            assert "temperature" not in c.explanation, c

@@ -74,6 +74,33 @@ SPEED_SPREAD = 1.25
 #: Windows slower than this (m/s) are standing or turning in place, not walking.
 WALKING_SPEED = 0.05
 
+#: What a channel's name says it measures: a kind and the words of a name that give it
+#: (the name is split at non-alphanumerics: ``motor_temp`` -> ``motor``, ``temp``).
+CHANNEL_KINDS = (
+    ("mass", frozenset({"kg", "mass", "load", "payload", "weight"})),
+    ("temperature", frozenset({"temp", "temperature", "celsius", "degc", "kelvin"})),
+)
+
+
+def channel_kind(ch: str) -> str | None:
+    """The kind of quantity a channel's name says it is (:data:`CHANNEL_KINDS`), or None.
+
+    Explanations of a channel's candidates are worded by it: a term that scales the base
+    by ``motor_temp`` is not "a carried mass".
+
+    >>> channel_kind("load_kg"), channel_kind("motor_temp"), channel_kind("grass_height_m")
+    ('mass', 'temperature', None)
+    """
+    import re
+
+    parts = set(re.split(r"[^a-z0-9]+", ch.lower()))
+    return next((kind for kind, words in CHANNEL_KINDS if parts & words), None)
+
+
+def _reads_as(ch: str, hints: dict[str, str], default: str) -> str:
+    """The words for ``ch``'s kind (``hints``), or ``default`` for a channel of no known kind."""
+    return hints.get(channel_kind(ch) or "", default).format(ch=ch)
+
 
 @dataclass(frozen=True)
 class Thresholds:
@@ -274,13 +301,17 @@ def hinge(ch: str, q: float, below: bool, level: float | None = None, times: str
     else:
         h = f"pos({ch} - {qs})" if q >= 0 else f"pos({ch} + {_fmt(-q)})"
         name, what = f"{ch}>{qs}", f"as {ch} rises above {qs}"
+    example = _reads_as(
+        ch,
+        {"temperature": " (e.g. stiff cold joints, hot motors)", "mass": " (of the load)"},
+        "",
+    )
     if times == "speed":
         return Candidate(
             f"speed*({name})",
             f"speed * {h}",
             sorted({ch, "speed"}),
-            f"the force per metre grows {what} (a threshold effect on walking, e.g. a "
-            "surface or temperature that changes the gait's losses)",
+            f"the force per metre grows {what}: a threshold effect on walking{example}",
             "data",
             ch,
             knot_level=level,
@@ -292,8 +323,7 @@ def hinge(ch: str, q: float, below: bool, level: float | None = None, times: str
         name,
         h,
         [ch],
-        f"extra standing power grows {what} (a threshold effect, e.g. stiff cold joints, "
-        "a low battery, hot motors)",
+        f"extra standing power grows {what}: a threshold effect{example}",
         "data",
         ch,
         knot_level=level,
@@ -524,30 +554,39 @@ def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, 
     climb = f"pos({CLIMB})"
     descent = f"pos(-({CLIMB}))"
     geo = ["alpha", "gamma", "vx", "vy"]
+    mass = channel_kind(ch) == "mass"
+    force = _reads_as(
+        ch,
+        {"mass": " (a carried load)", "temperature": " (friction that changes with temperature)"},
+        " (drag, resistance)",
+    )
     shapes = [
         (ch, ch, f"a standing power proportional to {ch}", []),
         (
             f"{ch}*speed",
             f"{ch} * speed",
-            f"a force along the motion proportional to {ch} (drag, resistance, carried load)",
+            f"a force along the motion proportional to {ch}{force}",
             ["speed"],
         ),
         (
             f"{ch}*climb",
             f"{ch} * {climb}",
-            f"lifting work proportional to {ch} (a mass carried uphill)",
+            f"climbing costs more in proportion to {ch}"
+            + (" (lifting work: a mass carried uphill)" if mass else ""),
             geo,
         ),
         (
             f"{ch}*descent",
             f"{ch} * {descent}",
-            f"braking work proportional to {ch} (a mass lowered downhill)",
+            f"descending costs more in proportion to {ch}"
+            + (" (braking work: a mass lowered downhill)" if mass else ""),
             geo,
         ),
         (
             f"{ch}*slope",
             f"{ch} * speed * sin(alpha)",
-            f"walking on any slope costs more in proportion to {ch} (a load held on a slope)",
+            f"walking on any slope costs more in proportion to {ch}"
+            + (" (a load held on a slope)" if mass else ""),
             ["speed", "alpha"],
         ),
         (f"{ch}*turn", f"abs(wz) * {ch}", f"the cost of turning grows with {ch}", ["wz"]),
@@ -600,12 +639,31 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
         return []
     base = [t for t in model_terms if t in BASE_TERMS and np.isfinite(coef.get(t, np.nan))]
     out = []
+    whole = _reads_as(
+        ch,
+        {
+            "mass": "{ch} reads as a carried mass: it scales every leg force (gravity work, "
+            "inertia and the losses of the leg forces)",
+            "temperature": "{ch} reads as a temperature: warm motors and gearboxes draw more "
+            "for the same forces (winding resistance, friction)",
+        },
+        "what {ch} measures scales the whole gait; the logs do not say why",
+    )
+    copper = _reads_as(
+        ch,
+        {
+            "mass": "{ch} reads as a carried mass: the leg forces grow with it, their copper "
+            "losses with the square of the forces",
+            "temperature": "{ch} reads as a temperature: the winding resistance rises with it",
+        },
+        "what {ch} measures scales the copper losses; the logs do not say why",
+    )
     for label, names, expl in (
-        ("P_base", base, f"every force of the gait grows in proportion to {ch} (a carried "
-         "mass: gravity work, inertia and the losses of the leg forces)"),
+        ("P_base", base, f"the fitted base power (every term of the gait) grows in "
+         f"proportion to {ch}; {whole}"),
         ("P_copper", [t for t in base if t.endswith("_sq")],
-         f"the copper (I^2 R) losses grow in proportion to {ch} (winding resistance: it "
-         "rises with the motor temperature)"),
+         f"the base's copper (I^2 R) losses (its squared-force terms) grow in proportion to "
+         f"{ch}; {copper}"),
     ):  # fmt: skip
         parts = [f"{coef[t]:.4g} * ({CATALOG[t].formula})" for t in names if coef[t] != 0]
         if not parts:
