@@ -224,3 +224,37 @@ def test_discover_words_its_conclusion_by_the_noise_floor():
     assert doc["staircase"][-1]["floor_ratio"] <= WITHIN_FLOOR
     assert "explains these logs within their noise" in doc["notes"][-1]
     assert "NOT" not in doc["notes"][-1]
+
+
+def test_discovered_short_name_fits_the_same_term(tmp_path):
+    """discover names ``load_kg*P_base`` (an ~800-character formula) by its short name;
+    ``fit --term`` with that name, on the same logs, fits the same term: the same
+    coefficients as discover's model. The formula is in the model file, not in the name."""
+    from energy_planner.cli import main
+    from energy_planner.cli.discover import _text
+    from energy_planner.diagnosis.discover import discover
+    from energy_planner.diagnosis.suspects import LONG_FORMULA
+
+    logs = _campaign(effects=("load",)).logs  # the load's channel only: fewer candidates
+    logs = logs.drop(columns=["ground", "motor_temp", "air_temp_c", "grass_height_m"])
+    (tmp_path / "logs").mkdir()
+    logs.to_csv(tmp_path / "logs" / "campaign.csv", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = discover(logs, max_steps=1, repair=False)  # fit reads the logs unrepaired
+    name = d.term_names[-1]
+    assert name == "load_kg*P_base", d.term_names
+    formula = d.added[-1]
+    assert len(formula) > LONG_FORMULA and len(name) < 20
+    assert d.model.terms[-1].formula == formula and d.model.term_names[-1] == name
+    text = _text(d.to_dict())
+    assert name in text and formula not in text
+    out = tmp_path / "fit.json"
+    args = ["fit", str(tmp_path / "logs"), "--out", str(out), "--term", name, "--folds", "0"]
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    fitted = EnergyModel.load(out)
+    assert fitted.term_names == d.model.term_names
+    assert fitted.terms[-1].formula == formula
+    for k, v in d.model.coefficients.items():
+        assert fitted.coefficients[k] == pytest.approx(v, rel=1e-6, abs=1e-9), k

@@ -24,6 +24,8 @@ def _pct(v: Any) -> str:
 
 
 def _text(doc: dict[str, Any]) -> str:
+    from energy_planner.diagnosis.suspects import LONG_FORMULA
+
     lines = [f"{doc['n_windows']} windows from {doc['n_runs']} runs", ""]
     found = [f for f in doc["data_findings"] if f["finding"]]
     if found:
@@ -59,9 +61,13 @@ def _text(doc: dict[str, Any]) -> str:
         )
         if r["added"]:
             term = r["added"]
-            if len(term) > 100:  # a channel times the fitted base: the formula is long
-                term = f"{term[:60]}... ({len(term)} characters; in the model file)"
-            lines.append(f"       term: {term}")
+            if len(term) > LONG_FORMULA:  # a channel times the fitted base: the formula is long
+                lines.append(
+                    f"       term: a {len(term)}-character formula, in the model file and the "
+                    f"report as {name!r} (fit --term {name} rebuilds it from the same logs)"
+                )
+            elif term != name:
+                lines.append(f"       term: {term}")
             lines.append(f"       {r['explanation']}")
         for a in r["alternatives"]:
             lines.append(f"       or, equally well (the data cannot tell them apart): {a['name']}")

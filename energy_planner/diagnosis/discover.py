@@ -34,7 +34,8 @@ import pandas as pd
 from energy_planner.diagnosis.data import WindowData, window_data
 from energy_planner.diagnosis.datacheck import DataFinding, check_data
 from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
-from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, staircase
+from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
+from energy_planner.model.terms import Term
 
 #: A final held-out RMSE within this factor of the noise floor estimated from the logs is
 #: "within the noise": the clean simulated campaigns end at 1.0-1.3x (docs/diagnosis.md).
@@ -142,8 +143,19 @@ class Discovery:
 
     @property
     def terms(self) -> list[str]:
-        """Terms of the final model: the base terms and every term added."""
+        """Terms of the final model as formulas: the base terms and every term added."""
         return [*self.base_terms, *(s.added for s in self.steps[1:])]
+
+    @property
+    def model_terms(self) -> list[str | Term]:
+        """Terms of the final model as it is written (a long formula named, :func:`model_term`)."""
+        added = [model_term(s.name, s.added, s.explanation) for s in self.steps[1:]]
+        return [*self.base_terms, *added]
+
+    @property
+    def term_names(self) -> list[str]:
+        """Names of the final model's terms: what messages print and ``fit --term`` takes."""
+        return [t.name if isinstance(t, Term) else t for t in self.model_terms]
 
     @property
     def added(self) -> list[str]:
@@ -188,7 +200,7 @@ class Discovery:
         return {
             "base_terms": list(self.base_terms),
             "added": self.added,
-            "terms": self.terms,
+            "terms": self.term_names,
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
             "speeds": self.speeds,
@@ -304,8 +316,8 @@ def discover(
     fit = None
     if fit_final:
         try:
-            fit = fit_model(windows, [*base, *(s.added for s in steps[1:])],
-                            n_splits=th.n_splits, seed=th.seed)  # fmt: skip
+            final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
+            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed)
         except EnergyPlannerError as exc:
             notes.append(f"the final fit failed: {exc}")
     return Discovery(

@@ -58,6 +58,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from energy_planner.diagnosis.data import MAX_CATEGORIES, WindowData
+from energy_planner.model.terms import Term
 from energy_planner.stats import fold_index as run_folds
 from energy_planner.stats import heldout_residuals as cv_errors
 from energy_planner.stats import heldout_rmse, span_basis, span_residual
@@ -201,19 +202,25 @@ class Ranking:
 # Least squares, folds by run and spans are energy_planner.stats' (shared with calibration).
 
 __all__ = [
+    "LONG_FORMULA",
+    "RUN_TEST_NAME",
     "Candidate",
     "Ranking",
     "Step",
     "Suspect",
     "Thresholds",
+    "channel_kind",
     "cv_errors",
     "heldout_rmse",
+    "model_term",
     "paired_run_test",
     "rank_suspects",
+    "resolve_names",
     "run_folds",
     "span_basis",
     "span_residual",
     "staircase",
+    "term_spec",
     "wls",
 ]
 
@@ -838,7 +845,7 @@ def default_candidates(
 
 def rank_suspects(
     wd: WindowData,
-    terms: Sequence[str],
+    terms: Sequence[str | Term],
     thresholds: Thresholds | None = None,
     candidates: list[Candidate] | None = None,
     folds: np.ndarray | None = None,
@@ -850,8 +857,8 @@ def rank_suspects(
     ----------
     wd : WindowData
         The measurements, by window.
-    terms : sequence of str
-        The current model's terms (names or formulas).
+    terms : sequence of str or Term
+        The current model's terms (catalog names, formulas or a model's ``terms``).
     thresholds : Thresholds, optional
         Support and noise rules.
     candidates : list of Candidate, optional
@@ -866,6 +873,7 @@ def rank_suspects(
     Ranking
     """
     th = thresholds or Thresholds()
+    terms = [term_spec(t) for t in terms]
     y = wd.power
     x = wd.columns(terms)
     if folds is None:
@@ -1154,7 +1162,7 @@ class Step:
 
 def staircase(
     wd: WindowData,
-    terms: Sequence[str],
+    terms: Sequence[str | Term],
     thresholds: Thresholds | None = None,
     max_steps: int = 4,
     progress=None,
@@ -1166,7 +1174,7 @@ def staircase(
     """
     th = thresholds or Thresholds()
     folds = run_folds(wd.runs, th.n_splits, th.seed)
-    terms = list(terms)
+    terms = [term_spec(t) for t in terms]
     ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
     rankings = [ranking]
@@ -1197,3 +1205,123 @@ def staircase(
         if progress is not None:
             progress(i)
     return steps, rankings
+
+
+# --------------------------------------------------------------------------- short names
+
+#: A discovered term whose formula is longer than this many characters is named in the
+#: model by its candidate's short name (``load_kg*P_base``: a channel times the fitted base
+#: power, hundreds of characters); a shorter one is named by its formula.
+LONG_FORMULA = 80
+
+
+def term_spec(term: str | Term) -> str:
+    """What evaluates a term on windows: a catalog name as is, else its formula.
+
+    >>> term_spec(Term("load_kg*P_base", "load_kg * (2 * (pos(vx)))"))
+    'load_kg * (2 * pos(vx))'
+    >>> term_spec("idle_power")
+    'idle_power'
+    """
+    from energy_planner.model import CATALOG
+
+    if isinstance(term, Term):
+        return term.name if term.name in CATALOG else canonical(term.formula)
+    return term
+
+
+def model_term(name: str | None, formula: str, explanation: str = "") -> str | Term:
+    """The term a discovered candidate adds to a model.
+
+    Its formula when that is short (the name is then the formula), else a
+    :class:`~energy_planner.model.Term` named ``name`` that carries the formula: the name
+    is what messages print and ``fit --term`` takes (:func:`resolve_names`), the formula
+    goes into the model file and the report.
+
+    >>> model_term("x*speed", "x * speed")
+    'x * speed'
+    >>> t = model_term("x*P_base", "x * (" + " + ".join(["2 * pos(vx)"] * 20) + ")")
+    >>> t.name, len(t.formula) > LONG_FORMULA
+    ('x*P_base', True)
+    """
+    if name is None or len(formula) <= LONG_FORMULA:
+        return formula
+    return Term(name=name, formula=formula, explanation=explanation or "discovered term")
+
+
+#: ``ch<q``, ``ch>q`` and ``speed*(ch<q)``: the names :func:`hinge` gives (any knot).
+_HINGE_NAME = r"^(speed\*\()?([A-Za-z_]\w*)([<>])(-?[0-9.]+(?:e[-+]?[0-9]+)?)(\))?$"
+
+
+def _candidate_named(spec: str, wd: WindowData, context: list[str]) -> Candidate | dict | None:
+    """The candidate ``discover`` names ``spec`` on these windows after ``context``, or None."""
+    import re
+
+    m = re.match(_HINGE_NAME, spec)
+    if m and bool(m.group(1)) == bool(m.group(5)):
+        ch = m.group(2)
+        if ch in wd.samples.columns or ch == "speed":
+            times = "speed" if m.group(1) else ""
+            return hinge(ch, float(m.group(4)), m.group(3) == "<", times=times)
+    cands, unsupported = default_candidates(wd, context)
+    found = next((c for c in cands if c.name == spec), None)
+    return found or next((u for u in unsupported if u["name"] == spec), None)
+
+
+def resolve_names(
+    specs: Iterable[str], wd: WindowData, base_terms: Sequence[str] | None = None
+) -> list[str | Term]:
+    """Resolve term specs that are the names ``discover`` prints, in order, on these logs.
+
+    A spec without spaces that is not a catalog name is looked up among the candidates
+    discover tries on these windows with the base terms and the specs before it
+    (:func:`default_candidates`, and any hinge knot ``ch<q``): ``load_kg*P_base`` becomes
+    the channel times the base power fitted on these windows, as discover built it at that
+    step, so ``fit --term`` with the names discover printed, in its order, fits the same
+    terms. Anything else (a catalog name, a formula) is returned as given.
+
+    Parameters
+    ----------
+    specs : iterable of str
+        ``--term`` values.
+    wd : WindowData
+        The windows the terms will be fitted on.
+    base_terms : sequence of str, optional
+        The model the terms are added to; default the base model.
+
+    Returns
+    -------
+    list of str or Term
+        Per spec: the spec, a formula, or a named :class:`~energy_planner.model.Term`
+        (:func:`model_term`).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"run": ["a"] * 4, "t": [0, 1, 2, 3], "power": [1.0, 3, 5, 7],
+    ...                   "window": [0, 0, 1, 1], "vx": 0.3, "vy": 0.0, "wz": 0.0,
+    ...                   "alpha": 0.0, "gamma": 0.0, "load_kg": [0.0, 0, 5, 5]})
+    >>> from energy_planner.diagnosis import window_data
+    >>> resolve_names(["load_kg<2.5", "speed*(load_kg>1)", "idle_power", "vx * vy"],
+    ...               window_data(s))
+    ['pos(2.5 - load_kg)', 'speed * pos(load_kg - 1)', 'idle_power', 'vx * vy']
+    """
+    from energy_planner.model import BASE_TERMS, CATALOG
+
+    context = [term_spec(t) for t in (BASE_TERMS if base_terms is None else base_terms)]
+    out: list[str | Term] = []
+    for spec in specs:
+        found = None
+        if spec not in CATALOG and " " not in spec:
+            found = _candidate_named(spec, wd, context)
+        if found is None:
+            out.append(spec)
+            context.append(spec)
+            continue
+        if isinstance(found, dict):
+            name, formula, expl = found["name"], found["term"], ""
+        else:
+            name, formula, expl = found.name, found.term, found.explanation
+        out.append(model_term(name, formula, expl))
+        context.append(formula)
+    return out
