@@ -63,7 +63,7 @@ def _text(doc: dict[str, Any]) -> str:
             term = r["added"]
             if len(term) > LONG_FORMULA:  # a channel times the fitted base: the formula is long
                 lines.append(
-                    f"       term: a {len(term)}-character formula, in the model file and the "
+                    f"       term: {len(term)} characters of formula, in the model file and the "
                     f"report as {name!r} (fit --term {name} rebuilds it from the same logs)"
                 )
             elif term != name:
