@@ -65,7 +65,12 @@ def _candidate_named(spec: str, wd: WindowData, context: list[str]) -> Candidate
         if ch in wd.samples.columns or ch == "speed":
             times = "speed" if m.group(1) else ""
             return hinge(ch, float(m.group(4)), m.group(3) == "<", times=times)
-    cands, unsupported = default_candidates(wd, context)
+    from energy_planner.errors import EnergyPlannerError
+
+    try:
+        cands, unsupported = default_candidates(wd, context)
+    except EnergyPlannerError:  # logs discover could not rank: no name to look up
+        return None
     found = next((c for c in cands if c.name == spec), None)
     return found or next((u for u in unsupported if u["name"] == spec), None)
 
