@@ -245,7 +245,12 @@ def command(
             if model_path is None
             else model_path.with_name(f"{model_path.stem}_next.json")
         )
-        doc["hint"] = fit_hint(logs, doc["model_terms"], doc["suspects"][0]["term"], out, window)
+        from energy_planner.diagnosis.suspects import model_term
+
+        top = doc["suspects"][0]
+        new = model_term(top["name"], top["term"])  # a long formula by its short name
+        new = getattr(new, "name", new)
+        doc["hint"] = fit_hint(logs, doc["model_terms"], new, out, window)
     if report is not None:
         from energy_planner.diagnosis.report import write_report
 
