@@ -28,6 +28,7 @@ COMMANDS: dict[str, str] = {
     "compare-routes": "compare_routes",
     "reach": "reach",
     "mission": "mission",
+    "follow": "follow",
 }
 
 

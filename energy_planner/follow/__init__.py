@@ -7,7 +7,13 @@
 See :mod:`energy_planner.follow.core` and ``docs/follow.md``.
 """
 
-from energy_planner.follow.core import Follower, FollowError, FollowUpdate, SlopeFinding
+from energy_planner.follow.core import (
+    Follower,
+    FollowError,
+    FollowUpdate,
+    SlopeFinding,
+    follow_log,
+)
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
 from energy_planner.follow.terms import PathTerms, path_term_energies
 
@@ -18,6 +24,7 @@ __all__ = [
     "ForgettingRLS",
     "PathTerms",
     "SlopeFinding",
+    "follow_log",
     "path_term_energies",
     "seed_covariance",
 ]

@@ -37,7 +37,7 @@ from energy_planner.follow.terms import PathTerms, path_term_energies
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 from energy_planner.uncertainty import DEFAULT_LEVEL, interval, model_scores, success_probability
 
-__all__ = ["FollowUpdate", "Follower", "SlopeFinding", "FollowError"]
+__all__ = ["FollowUpdate", "Follower", "SlopeFinding", "FollowError", "follow_log"]
 
 #: Per-sample features the windows derive (not log channels).
 _FEATURES = {"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "power"}
@@ -333,16 +333,29 @@ class Follower:
         self._close_stretch()
         return out
 
-    def replay(self, samples: pd.DataFrame, chunk_s: float = 1.0) -> list[FollowUpdate]:
-        """Feed a whole log in chunks of ``chunk_s`` seconds, then :meth:`finish`."""
+    def replay(
+        self, samples: pd.DataFrame, chunk_s: float = 1.0, speedup: float | None = None
+    ) -> list[FollowUpdate]:
+        """Feed a whole log in chunks of ``chunk_s`` seconds, then :meth:`finish`.
+
+        ``speedup`` paces the replay at that many times real time (None: as fast as it
+        goes).
+        """
+        import time
+
         t = samples["t"].to_numpy(float)
         edges = np.searchsorted(t, np.arange(t[0], t[-1] + chunk_s, chunk_s), side="left")
+        edges = np.r_[edges, len(samples)]
         out: list[FollowUpdate] = []
-        for a, b in zip(edges[:-1], edges[1:], strict=False):
-            if b > a:
-                out += self.feed(samples.iloc[a:b])
-        if edges[-1] < len(samples):
-            out += self.feed(samples.iloc[edges[-1] :])
+        wall0 = time.monotonic()
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            if b <= a:
+                continue
+            if speedup:
+                wait = (t[b - 1] - t[0]) / speedup - (time.monotonic() - wall0)
+                if wait > 0:
+                    time.sleep(wait)
+            out += self.feed(samples.iloc[a:b])
         return out + self.finish()
 
     def _check(self, samples: pd.DataFrame) -> None:
@@ -617,3 +630,82 @@ class Follower:
             ),
             "slope_tolerance_deg": self.slope_tol_deg,
         }
+
+
+def follow_log(
+    terrain: Any,
+    model: Any,
+    samples: pd.DataFrame,
+    path: Any,
+    *,
+    run: str | None = None,
+    speedup: float | None = None,
+    chunk_s: float = 1.0,
+    **options: Any,
+) -> Follower:
+    """Replay a log against a plan's path (what ``energy-planner follow`` runs).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The DEM.
+    model : EnergyModel
+        The fitted model.
+    samples : pandas.DataFrame
+        Canonical log samples (:func:`energy_planner.measurements.load_logs`) with the
+        pose ``x, y`` in the DEM's CRS.
+    path : Waypoints
+        The plan's path as read by :func:`energy_planner.energy.waypoints.read_waypoints`
+        (the project's GeoJSON path format, or CSV waypoints).
+    run : str, optional
+        The run to follow when the log holds several.
+    speedup : float, optional
+        Replay pace, times real time (None: as fast as possible).
+    chunk_s : float
+        Log time fed at once, s.
+    **options
+        Passed to :class:`Follower` (battery, confidence, forgetting, ...).
+
+    Returns
+    -------
+    Follower
+        With ``updates``, ``findings``, ``events`` and ``notes``.
+
+    Raises
+    ------
+    FollowError
+        Several runs and no ``run``, a ``run`` the log does not have, or no pose.
+    """
+    from energy_planner.energy.waypoints import waypoints_to_work
+
+    runs = sorted(map(str, pd.unique(samples["run"].astype(str))))
+    if run is None and len(runs) > 1:
+        raise FollowError(
+            f"the log holds {len(runs)} runs ({', '.join(runs[:5])}"
+            f"{', ...' if len(runs) > 5 else ''}): choose one with --run",
+            value=runs[:5],
+            expected="one of " + ", ".join(runs[:20]),
+        )
+    if run is not None:
+        if run not in runs:
+            raise FollowError(
+                f"run {run!r} is not in the log; runs: {', '.join(runs[:20])}",
+                value=run,
+                expected="one of " + ", ".join(runs[:20]),
+            )
+        samples = samples[samples["run"].astype(str) == run]
+    missing = [c for c in ("x", "y") if c not in samples.columns]
+    if missing:
+        raise FollowError(
+            f"the log has no pose column(s) {', '.join(missing)}: a follower needs the "
+            "robot's position (columns x, y in the DEM's CRS)",
+            value=missing,
+            expected="columns x, y",
+        )
+    samples = samples.sort_values("t", kind="stable").reset_index(drop=True)
+    xw, yw = terrain.to_work(samples["x"].to_numpy(float), samples["y"].to_numpy(float))
+    samples = samples.assign(x=np.asarray(xw, dtype=float), y=np.asarray(yw, dtype=float))
+    xy, yaw = waypoints_to_work(terrain, path)
+    f = Follower(terrain, model, xy, yaw, path.t, **options)
+    f.replay(samples, chunk_s=chunk_s, speedup=speedup)
+    return f
