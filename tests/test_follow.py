@@ -145,6 +145,11 @@ def test_follower_after_a_payload_pick_up_beats_the_static_prediction():
         assert err_static > 0.1 * true  # the payload costs: the static plan is wrong
         assert err_upd < 0.5 * err_static
     assert [d["t"] for d in f.to_dict()["updates"]] == [u.t for u in ups]
+    # the change is detected and said, after the pick-up (at 30 %) and with its place
+    said = [e for e in f.events if "a change of conditions" in e]
+    assert said
+    t_said = float(said[0].split("t=")[1].split(" s")[0])
+    assert t0 + 0.3 * (t1 - t0) <= t_said <= t0 + 0.3 * (t1 - t0) + 10.0
 
 
 def test_slope_disagreement_reported_on_a_biased_stretch_and_not_on_a_clean_one():

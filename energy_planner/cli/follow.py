@@ -81,7 +81,7 @@ def _text(res: dict[str, Any]) -> str:
 @click.option(
     "--forgetting",
     type=click.FloatRange(0.5, 1.0),
-    default=0.95,
+    default=0.99,
     show_default=True,
     help="Forgetting factor of the online update, per 2 s window.",
 )

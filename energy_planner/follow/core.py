@@ -14,7 +14,8 @@ arrive. Every complete window of the log (cut by
    design matrix, seeded from the fit's coefficients and covariance;
 3. the energy of the rest of the path priced with the updated coefficients
    (:func:`~energy_planner.follow.terms.path_term_energies`), its interval (the model's
-   split-conformal interval widened by the coefficients' uncertainty) and, with a
+   split-conformal interval widened by the coefficients' uncertainty and by the power
+   the model still misses, the recent mean innovation times the time left) and, with a
    battery, the chance that what is left of it suffices
    (:func:`energy_planner.uncertainty.success_probability`). Below the confidence the
    follower replans from the current pose to the goal (or to the nearest site that still
@@ -207,6 +208,11 @@ class Follower:
         Limits for replanning.
     replan_time : float
         Planner time for a replan, s.
+    change_share : float
+        A change of conditions is detected when the recent mean innovation (an
+        exponentially weighted mean over about 3 windows) exceeds both 4 of its standard
+        deviations and this share of the recent power; the covariance is then opened to
+        its cap (:meth:`ForgettingRLS.reset`) and the event is said.
     batch_s : float
         The log is windowed once this much of it has arrived (log time, s); each call
         gives one update per complete window. A call's cost is mostly fixed (the table
@@ -231,7 +237,7 @@ class Follower:
         confidence: float = DEFAULT_LEVEL,
         level: float = DEFAULT_LEVEL,
         window_s: float = 2.0,
-        forgetting: float = 0.95,
+        forgetting: float = 0.99,
         noise_w: float | None = None,
         slope_tol_deg: float | None = None,
         imu_bias_deg: float = 0.3,
@@ -241,6 +247,7 @@ class Follower:
         request: Any = None,
         replan_time: float = 2.0,
         batch_s: float = 20.0,
+        change_share: float = 0.05,
     ) -> None:
         from scipy.stats import norm
 
@@ -299,6 +306,14 @@ class Follower:
         self._run: str | None = None
         self._used_j = 0.0
         self._used_at = 0.0
+        self._bias_w = 0.0  # recent mean innovation (EWMA with the RLS's memory), W
+        self._bias_limit = 4.0 * noise_w * math.sqrt(0.3 / 1.7)
+        self._fast_w = 0.0
+        self._since_reset = 10**9
+        self._n_windows = 0
+        self._power_w = 0.0
+        self.change_share = float(change_share)
+        self._rem_s = 0.0
         self._last_power: tuple[float, float] | None = None  # (t, p) of the last sample
         self._motion = 0
         self._done_m = 0.0
@@ -446,7 +461,31 @@ class Follower:
         return out
 
     def _update(self, used_j, x, power, t_end, imu_deg, dem_deg, p_first, p_last, t_start):
-        innovation = self.rls.update(x, power)
+        if self._n_windows == 0:
+            # the first window holds the gait's start (a transient the fit's cleaned
+            # windows do not have): it is checked, not learnt from
+            innovation = float(power - x @ self.rls.coef)
+        else:
+            innovation = self.rls.update(x, power)
+        self._n_windows += 1
+        lam = self.rls.forgetting
+        self._bias_w = lam * self._bias_w + (1.0 - lam) * innovation
+        self._power_w = lam * self._power_w + (1.0 - lam) * power if self._power_w else power
+        self._since_reset += 1
+        # change detection on a short mean of the innovation (3 windows): beyond 4 of its
+        # standard deviations and beyond change_share of the power (the model's own bias on
+        # new ground is a few %)
+        self._fast_w = 0.7 * self._fast_w + 0.3 * innovation
+        limit = max(self._bias_limit, self.change_share * self._power_w)
+        if abs(self._fast_w) > limit and self._since_reset > 5:
+            self.rls.reset()
+            self._since_reset = 0
+            self.events.append(
+                f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): the power departs "
+                f"from the model by {self._fast_w:+.1f} W on average (beyond "
+                f"{limit:.1f} W): a change of conditions; the coefficients are "
+                "opened to follow it"
+            )
         self._slope_check(t_start, t_end, imu_deg, dem_deg, p_first, p_last)
         self._motion, frac = self.path.locate(*p_last, start=self._motion)
         m = self._motion
@@ -454,6 +493,7 @@ class Follower:
         self._done_m = float(dist[:m].sum() + frac * (dist[m] if m < dist.size else 0.0))
         r = self.path.remaining(m, frac)
         self._used_at = float(used_j)
+        self._rem_s = self.path.remaining_s(m, frac)
         rem, low, high, prob = self._predict(r)
         event = None
         if (
@@ -467,6 +507,7 @@ class Follower:
             if event is not None:
                 self._motion, frac = 0, 0.0
                 r = self.path.remaining(0, 0.0)
+                self._rem_s = self.path.remaining_s(0, 0.0)
                 rem, low, high, prob = self._predict(r)
         static = float(max(r @ self.c0, 0.0))
         u = FollowUpdate(
@@ -489,7 +530,9 @@ class Follower:
     def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
         """Remaining energy, its interval and the chance the battery suffices."""
         rem = float(max(r @ self.rls.coef, 0.0))
-        sd = math.sqrt(self.rls.variance_of(r))
+        # the coefficients' uncertainty, and the power the model still misses (the recent
+        # mean innovation: large while it catches up with a change) over the time left
+        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
         if self.scores is not None:
             iv = interval(rem, self.scores, self.level)
             low, high = iv.low_j - self.z * sd, iv.high_j + self.z * sd

@@ -17,7 +17,10 @@ windows. For a constant regressor ``x`` and ``P`` at its steady state ``s2 (1 - 
 ``d lambda^m`` after ``m`` windows (an exponentially weighted mean); the test suite checks
 that. Directions the windows do not excite would let ``P / lambda`` grow without bound
 ("wind-up"); each coefficient's variance is capped at ``cov_cap`` (a congruence with a
-diagonal, which keeps ``P`` positive semi-definite).
+diagonal, which keeps ``P`` positive semi-definite). When a change is detected (the
+follower watches the recent mean innovation), :meth:`ForgettingRLS.reset` opens each
+variance to its cap, keeping the correlations: covariance resetting, so that a step is
+tracked within a few windows rather than after the forgetting has inflated ``P``.
 """
 
 from __future__ import annotations
@@ -135,6 +138,14 @@ class ForgettingRLS:
         self.cov = 0.5 * (P + P.T)
         self.n_updates += 1
         return innovation
+
+    def reset(self) -> None:
+        """Open the covariance to its cap (a change was detected: forget faster)."""
+        if self.cov_cap is None:
+            raise ModelError("reset needs cov_cap: the covariance to open to")
+        d = np.sqrt(np.maximum(np.diag(self.cov), 1e-300))
+        s = np.sqrt(self.cov_cap) / d
+        self.cov = self.cov * np.maximum(s, 1.0)[:, None] * np.maximum(s, 1.0)[None, :]
 
     def variance_of(self, r: np.ndarray) -> float:
         """Variance of the linear combination ``r . c``."""

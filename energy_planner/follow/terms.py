@@ -54,6 +54,7 @@ class PathTerms:
         self.tail = np.vstack(
             [np.cumsum(self.energy[::-1], axis=0)[::-1], np.zeros((1, self.energy.shape[1]))]
         )
+        self.tail_s = np.r_[np.cumsum(self.duration_s[::-1])[::-1], 0.0]
         d = np.hypot(*np.diff(self.poses[:, :2], axis=0).T)
         self.map_length = d
         self.s_vertex = np.concatenate([[0.0], np.cumsum(d)])
@@ -63,6 +64,12 @@ class PathTerms:
         if motion >= self.energy.shape[0]:
             return np.zeros(self.energy.shape[1])
         return self.tail[motion + 1] + (1.0 - frac) * self.energy[motion]
+
+    def remaining_s(self, motion: int, frac: float) -> float:
+        """Duration of the rest of the path from ``frac`` of motion ``motion`` on, s."""
+        if motion >= self.duration_s.size:
+            return 0.0
+        return float(self.tail_s[motion + 1] + (1.0 - frac) * self.duration_s[motion])
 
     def locate(self, x: float, y: float, start: int = 0, ahead: int = 200) -> tuple[int, float]:
         """The motion and fraction of it closest to ``(x, y)``, searched from ``start``."""
