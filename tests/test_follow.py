@@ -235,3 +235,36 @@ def test_follow_cli_json_records(tmp_path):
         ],
     )
     assert res.exit_code == 1 and "x, y" in res.output
+
+
+def test_follower_replans_when_the_battery_chance_falls_and_says_so():
+    # a 40 m tilted plane (small: the replan's search is quick); the battery holds the
+    # static plan with 10 % to spare, so a 15 kg payload at 30 % sinks the chance
+    from energy_planner.terrain import Terrain
+
+    x = np.arange(40.0)
+    ter = Terrain.from_array(np.tile(0.15 * x, (40, 1)), resolution=1.0)
+    cfg = CFG.replace(
+        duration_s=60.0,
+        waypoint_spacing_m=4.0,
+        events=(MissionEvent("payload", at=0.3, load_kg=15.0),),
+    )
+    logs = simulate_missions(seed=4, config=cfg, terrain=ter).logs
+    k = np.r_[np.arange(0, len(logs) - 1, 10), len(logs) - 1]
+    m = ep.load_model()
+    args = (
+        ter,
+        m,
+        logs[["x", "y"]].to_numpy()[k],
+        logs["yaw"].to_numpy()[k],
+        logs["t"].to_numpy()[k],
+    )
+    static = float(Follower(*args).path.energy.sum(axis=0) @ m.coef_array())
+    f = Follower(*args, battery_wh=1.1 * static / 3600, reserve_wh=0.0, replan_time=0.5)
+    ups = f.replay(logs)
+    assert ups[0].probability >= 0.9  # the plan fits before the pick-up
+    low = [u for u in ups if u.probability < 0.9]
+    assert low and low[0].t > logs["t"].iloc[0] + 0.3 * 60.0
+    said = [e for e in f.events if "chance the battery suffices" in e]
+    assert said and ("replanned" in said[0] or "no replan fits" in said[0])
+    assert [u.event for u in ups if u.event is not None] == said

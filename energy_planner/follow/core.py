@@ -503,12 +503,26 @@ class Follower:
             and self.replan_enabled
             and t_end >= self._cooldown_until
         ):
-            event = self._replan(p_last, t_end, rem, prob)
-            if event is not None:
+            event, replaced = self._replan(p_last, t_end, rem, prob)
+            if replaced:
                 self._motion, frac = 0, 0.0
                 r = self.path.remaining(0, 0.0)
                 self._rem_s = self.path.remaining_s(0, 0.0)
                 rem, low, high, prob = self._predict(r)
+        elif (
+            self.usable_j is not None
+            and prob is not None
+            and prob < self.confidence
+            and not self.replan_enabled
+            and t_end >= self._cooldown_until
+        ):
+            self._cooldown_until = t_end + 30.0
+            event = (
+                f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): "
+                f"{100 * prob:.0f} % chance the battery suffices for the {rem:.0f} J "
+                f"left (< {100 * self.confidence:g} %); replanning is off"
+            )
+            self.events.append(event)
         static = float(max(r @ self.c0, 0.0))
         u = FollowUpdate(
             t_end,
@@ -625,7 +639,8 @@ class Follower:
     def _predict_on(self, pt: PathTerms):
         return self._predict(pt.remaining(0, 0.0))
 
-    def _replan(self, pose, t, rem, prob) -> str | None:
+    def _replan(self, pose, t, rem, prob) -> tuple[str, bool]:
+        """Replan to the goal, else to the nearest site that fits; (what was done, replaced)."""
         self._cooldown_until = t + 30.0
         yaw = float(self.path.poses[min(self._motion, len(self.path.poses) - 1), 2])
         start = (pose[0], pose[1], yaw)
@@ -641,7 +656,7 @@ class Follower:
                 f"{100 * got[2]:.0f} % chance"
             )
             self.events.append(msg)
-            return msg
+            return msg, True
         if self.sites is not None:
             order = np.argsort(np.hypot(self.sites[:, 0] - pose[0], self.sites[:, 1] - pose[1]))
             for j in order:
@@ -655,10 +670,10 @@ class Follower:
                         f"{100 * got_s[2]:.0f} % chance"
                     )
                     self.events.append(msg)
-                    return msg
+                    return msg, True
         msg = f"{head}; no replan fits (goal{' or any site' if self.sites is not None else ''})"
         self.events.append(msg)
-        return None
+        return msg, False
 
     # ------------------------------------------------------------------ results
     def to_dict(self) -> dict[str, Any]:
