@@ -31,7 +31,7 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: the order the help examples run in: each may use the files earlier ones wrote
 HELP_ORDER = [
     "simulate", "fit", "figures", "diagnose", "discover", "terrain", "plan", "energy",
-    "compare-routes", "reach", "energy-map", "mission", "demo",
+    "compare-routes", "reach", "energy-map", "mission", "follow", "demo",
 ]  # fmt: skip
 RTOL = 0.03
 NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")

@@ -31,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "compare-routes": ("compare_routes", "Direct line vs shortest vs energy-optimal route."),
     "reach": ("reach", "Least energy to every cell; the area a battery reaches."),
     "mission": ("mission", "Visit several sites in the least-energy order, legs planned."),
+    "follow": ("follow", "Replay a log along a planned path: remaining energy, updated."),
 }
 
 
