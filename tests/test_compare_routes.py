@@ -74,7 +74,7 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
          "500015,5000050", "--max-slope", "20", "--time", "2", "--plot", str(png), "--json"],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    out = json.loads(res.output)
+    out = json.loads(res.stdout)
     routes = {r["name"]: r for r in out["routes"]}
     assert set(routes) == {"direct", "direct_best_yaw", "shortest", "energy_optimal"}
     for r in routes.values():
@@ -132,7 +132,7 @@ def test_plan_cli_json_geojson(dem, tmp_path):
          "500050,5000012", "--planner", "lattice", "--out", str(out), "--json"],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    data = json.loads(res.output)
+    data = json.loads(res.stdout)
     for key in ("energy_j", "distance_m", "duration_s", "planner", "waypoints"):
         assert key in data
     assert data["planner"] == "lattice"
@@ -186,7 +186,7 @@ def test_plan_cli_keep_out_file(dem, tmp_path):
     assert res.exit_code == 0, res.output
     from shapely.geometry import LineString, box
 
-    w = json.loads(res.output)["waypoints"]
+    w = json.loads(res.stdout)["waypoints"]
     line = LineString([(p["x"], p["y"]) for p in w])
     assert not line.intersects(box(500028, 5000002, 500032, 5000020))
     bad = tmp_path / "bad.geojson"
@@ -332,7 +332,7 @@ def test_compare_routes_cli_reads_channels(dem, tmp_path):
     for kg in (0, 10):
         r = CliRunner().invoke(main, [*args, "--set", f"payload_kg={kg}"])
         assert r.exit_code == 0, r.output
-        out[kg] = {x["name"]: x for x in json.loads(r.output)["routes"]}
+        out[kg] = {x["name"]: x for x in json.loads(r.stdout)["routes"]}
     d0, d10 = out[0]["direct"], out[10]["direct"]
     assert d10["energy_j"] - d0["energy_j"] == pytest.approx(c * 10 * d0["distance_m"], rel=1e-6)
 

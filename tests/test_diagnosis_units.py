@@ -326,7 +326,7 @@ def test_cli_json_and_report(campaign_dir):
         ],
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     for key in (
         "rmse_w",
         "mae_w",

@@ -119,7 +119,7 @@ def test_cli_discover(tmp_path):
     args = ["discover", str(tmp_path / "logs"), "--out", str(out), "--max-steps", "2"]
     res = runner.invoke(main, [*args, "--json", "--report", str(report)])
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     steps = doc["staircase"]
     assert steps[0]["added"] is None and len(steps) >= 2
     assert "ground" in EnergyModel([steps[1]["added"]]).variables

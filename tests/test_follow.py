@@ -205,7 +205,7 @@ def test_follow_cli_json_records(tmp_path):
         ],
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     keys = {
         "t",
         "distance_m",

@@ -179,7 +179,7 @@ def test_reach_cli_writes_geotiff_geojson_and_plot(hill_tif, tmp_path):
             "--out", str(tif), "--geojson", str(gj), "--plot", str(png), "--json"]  # fmt: skip
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = json.loads(r.stdout)
     with rasterio.open(hill_tif) as src, rasterio.open(tif) as dst:
         assert dst.crs == src.crs and dst.transform == src.transform
         assert dst.shape == src.shape and np.isnan(dst.nodata) and np.isnan(NODATA)
@@ -286,7 +286,7 @@ def test_reach_cli_reports_the_cut_in_text_and_json(tmp_path):
     args = ["reach", str(path), "--start", f"{X0 + 10.5},{Y0 + 10.5}", "--budget-wh", "50"]
     r = CliRunner().invoke(main, [*args, "--json"])
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = json.loads(r.stdout)
     # the valid ring of a 21 x 21 map: 19 x 19 cells, 4 * 18 on its border
     assert out["edge_cut"] == [{"budget_wh": 50.0, "cells": 72, "map_edge_cells": 72,
                                 "nodata_edge_cells": 0}]  # fmt: skip
@@ -297,4 +297,4 @@ def test_reach_cli_reports_the_cut_in_text_and_json(tmp_path):
     assert "ReachEdgeWarning" not in r.output and "warnings.warn" not in r.output
     r = CliRunner().invoke(main, [*args[:-1], "0.1", "--json"])  # 0.1 Wh: about 5 m
     assert r.exit_code == 0, r.output
-    assert "edge_cut" not in json.loads(r.output)
+    assert "edge_cut" not in json.loads(r.stdout)

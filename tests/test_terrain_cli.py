@@ -24,7 +24,7 @@ def runner():
 def test_summary_json_on_plane(runner):
     res = runner.invoke(main, ["terrain", str(map_path("plane")), "--json"])
     assert res.exit_code == 0, res.output
-    r = json.loads(res.output)
+    r = json.loads(res.stdout)
     assert r["crs"] == r["working_crs"] == "EPSG:32631" and not r["reprojected"]
     assert r["shape"] == [100, 100] and r["resolution_m"] == [1.0, 1.0]
     for key in ("slope_min_deg", "slope_mean_deg", "slope_max_deg"):
@@ -80,7 +80,7 @@ def test_geographic_dem_written_on_its_own_grid(runner, tmp_path):
     args = ["terrain", "jacksboro", "--slope-out", str(s_out), "--aspect-out", str(a_out)]
     res = runner.invoke(main, [*args, "--json"])
     assert res.exit_code == 0, res.output
-    r = json.loads(res.output)
+    r = json.loads(res.stdout)
     assert r["crs"] == "EPSG:4326" and r["working_crs"] == "EPSG:32616" and r["reprojected"]
     t = load_dem(map_path("jacksboro"))
     with rasterio.open(map_path("jacksboro")) as src, rasterio.open(s_out) as s:
@@ -127,7 +127,7 @@ def test_multiband_needs_band(runner, tmp_path):
     res = runner.invoke(main, ["terrain", str(p)])
     assert res.exit_code == 2 and "2 bands" in res.output and "--band" in res.output
     res = runner.invoke(main, ["terrain", str(p), "--band", "2", "--json"])
-    assert res.exit_code == 0 and json.loads(res.output)["elevation_max"] == 1.0
+    assert res.exit_code == 0 and json.loads(res.stdout)["elevation_max"] == 1.0
     res = runner.invoke(main, ["terrain", str(p), "--band", "3"])
     assert res.exit_code == 2 and "1..2" in res.output
 
@@ -168,6 +168,6 @@ def test_no_crs_dem_is_treated_as_metres(runner, tmp_path):
     with pytest.warns(UserWarning, match="no CRS"):
         res = runner.invoke(main, ["terrain", str(p), "--json"])
     assert res.exit_code == 0, res.output
-    r = json.loads(res.output)
+    r = json.loads(res.stdout)
     assert r["crs"] is None and r["slope_mean_deg"] == pytest.approx(45.0)
     assert math.isclose(r["slope_max_deg"], 45.0)
