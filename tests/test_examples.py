@@ -3,7 +3,9 @@
 Examples are the lines that start with ``$ `` (a shell prompt): in each command's help
 they stand in an ``Examples:`` block, in README.md and docs/*.md in fenced blocks. Each
 source runs in a fresh folder holding ``maps/`` (the bundled maps, as in a checkout),
-its lines in order, so a line may use what an earlier line of the same source wrote.
+its lines in order, so a line may use what an earlier line of the same source wrote; a
+page's ```python blocks run in that order too (README.md's included: this is where they
+run).
 The help examples run as one tutorial in the order of :data:`HELP_ORDER`.
 
 Where a docs block shows what a command prints, every shown line that carries numbers
@@ -45,20 +47,30 @@ def help_examples(name: str) -> list[str]:
     return [ln.strip()[2:] for ln in out.splitlines() if ln.strip().startswith("$ ")]
 
 
-def doc_examples(path: Path) -> list[tuple[str, list[str]]]:
-    """The ``$ `` lines of a page's fenced blocks, each with the lines shown after it there."""
-    found: list[tuple[str, list[str]]] = []
-    fenced = False
+def doc_examples(path: Path) -> list[tuple[str, str, list[str]]]:
+    """A page's examples in order: ``("shell", line, shown)`` for each ``$ `` line of a
+    fenced block (with the lines shown after it in that block) and ``("python", code, [])``
+    for each ```python block (a later ``$`` line may use the files it writes)."""
+    found: list[tuple[str, str, list[str]]] = []
+    fence: str | None = None
     shown: list[str] | None = None
+    code: list[str] = []
     for line in path.read_text().splitlines():
         if line.startswith("```"):
-            fenced, shown = not fenced, None
+            if fence is None:
+                fence, shown, code = line[3:].strip(), None, []
+            else:
+                if fence == "python":
+                    found.append(("python", "\n".join(code), []))
+                fence, shown = None, None
             continue
-        if not fenced:
+        if fence is None:
             continue
-        if line.startswith("$ "):
+        if fence == "python":
+            code.append(line)
+        elif line.startswith("$ "):
             shown = []
-            found.append((line[2:], shown))
+            found.append(("shell", line[2:], shown))
         elif shown is not None and line.strip():
             shown.append(line)
     return found
@@ -151,18 +163,25 @@ def test_help_examples_run_as_printed(tmp_path):
 
 
 @pytest.mark.parametrize("page", DOCS, ids=lambda p: p.name)
-def test_doc_examples_run_as_printed(page, tmp_path):
+def test_doc_examples_run_as_printed(page, tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
     examples = doc_examples(page)
     if not examples:
-        pytest.skip(f"{page.name} shows no '$ ' example")
+        pytest.skip(f"{page.name} shows no example")
     cwd = _workdir(tmp_path)
-    for cmd, shown in examples:
+    monkeypatch.chdir(cwd)
+    namespace: dict = {"__name__": page.stem}  # a page's python blocks share one namespace
+    for kind, cmd, shown in examples:
+        if kind == "python":
+            exec(compile(cmd, str(page), "exec"), namespace)  # noqa: S102
+            continue
         if "python benchmarks/" in cmd.split("#")[0]:
             check_benchmark(cmd)
             continue
         r = run(cmd, cwd)
-        expect_error = any(s.startswith("Error") for s in shown)
-        if expect_error:
+        if any(s.startswith("Error") for s in shown):
             assert r.returncode != 0, f"{page.name}: {cmd!r} should fail as shown"
             first = next(s for s in shown if s.startswith("Error"))
             assert first.split(";")[0][:40] in " ".join(r.stderr.split()), (cmd, r.stderr)
