@@ -49,6 +49,7 @@ _LAZY: dict[str, str] = {
     "battery_decision": "energy_planner.uncertainty",
     "success_probability": "energy_planner.uncertainty",
     "map_path": "energy_planner.maps",
+    "Follower": "energy_planner.follow",
 }
 
 __all__ = ["EnergyPlannerError", "__version__", *_LAZY]

@@ -21,7 +21,8 @@ Field names used across the project (use these when they fit):
 ``param``     the option or argument at fault (``"band"``, ``"start"``)
 ``endpoint``  ``"start"`` or ``"goal"``
 ``limit``     the limit broken: ``"map"``, ``"nodata"``, ``"max_slope_deg"``,
-              ``"max_cross_slope_deg"``, ``"keep_out"``
+              ``"max_cross_slope_deg"``, ``"keep_out"``, ``"max_backward_slope_deg"``,
+              ``"max_crab_deg"``
 ``column``    a table column; ``row`` its 0-based row; ``run`` a run id
 ``crs``       a CRS (``str``); ``bounds`` ``(xmin, ymin, xmax, ymax)`` in it
 ``hint``      a remedy, in words
@@ -59,6 +60,7 @@ __all__ = [
     "FitError",
     "FormulaError",
     "GeometryOutsideMapWarning",
+    "ReachEdgeWarning",
     "InvalidStateError",
     "LogError",
     "LogIOError",
@@ -327,6 +329,16 @@ class GeometryOutsideMapWarning(EnergyPlannerError, UserWarning):
 
     It cannot affect the result; most often its coordinates are in another CRS than
     the one it declares (or, without a declaration, than RFC 7946's longitude/latitude).
+    """
+
+
+class ReachEdgeWarning(EnergyPlannerError, UserWarning):
+    """The area reached within a budget runs into the edge of the map or of its nodata.
+
+    Beyond that edge the map says nothing: the true reachable area may be larger than the
+    one reported. Fields: ``cells`` (reached cells within the budget that touch the edge),
+    ``map_edge_cells`` and ``nodata_edge_cells`` (the two kinds; a cell may be both) and
+    ``budget_j``.
     """
 
 

@@ -37,12 +37,24 @@ from energy_planner.errors import EnergyPlannerError
 if TYPE_CHECKING:  # the emap engineer's class; imported by name only
     from energy_planner.energy.channels import Channels
 
-__all__ = ["DEFAULT_SPEED", "DEFAULT_YAW_RATE", "Robot", "Limits", "Request", "RequestError"]
+__all__ = [
+    "DEFAULT_SPEED",
+    "DEFAULT_YAW_RATE",
+    "GAIT_TOL_RAD",
+    "Robot",
+    "Limits",
+    "Request",
+    "RequestError",
+]
 
 #: Nominal walking speed along the ground, m/s (as in the paper's runs).
 DEFAULT_SPEED: float = 0.3
 #: Nominal turning rate, rad/s.
 DEFAULT_YAW_RATE: float = 0.5
+#: Slack of the gait limits (:class:`Limits`), radians: a body within this of the
+#: direction of travel (or of its opposite) has crab angle 0, and walking counts as
+#: backward only beyond 90 degrees plus this.
+GAIT_TOL_RAD: float = 1e-6
 
 
 class RequestError(EnergyPlannerError, ValueError):
@@ -121,19 +133,45 @@ class Limits:
         a CRS; read when planning, so that errors name the file), geometries read with
         their CRS (:func:`energy_planner.io.read_geometries`) or shapely geometries in the
         DEM's CRS (a single geometry is accepted too).
+    max_backward_slope_deg : float, optional
+        Gait limit: no backward walking on ground steeper than this, degrees in [0, 90].
+        A motion walks backward where the angle between body x and its direction of
+        travel exceeds 90 degrees (:data:`GAIT_TOL_RAD` of slack); walking exactly
+        sideways is not backward. Checked at every sub-step of a motion against the
+        slope there. None: backward walking is allowed everywhere; 0: only on level ground.
+    max_crab_deg : float, optional
+        Gait limit: the crab angle, the angle between body x and the direction of
+        travel, or between body x and its opposite when walking backward, is at most
+        this, degrees in [0, 90]. 0: the body faces along the direction of travel or
+        straight back; 90 (or None): any gait, sideways included.
+
+    Notes
+    -----
+    Both gait limits are about translation. The direction of travel of a motion is the
+    direction of its velocity along the ground, and the angles are measured in the
+    ground plane, in the body frame tilted with the ground (``atan2(|vy|, vx)`` of the
+    body-frame velocity, the twist the energy model prices), at every sub-step.
+    "Backward" thus means that the feet carry the robot towards its rear along the
+    ground. On a slope this differs from the horizontal angle between the yaw and the
+    map direction of travel, except at 0 and 180 degrees (and at 90 degrees when the
+    body or the direction of travel lies along a contour line).
+
+    A turn in place has no direction of travel, so neither limit restricts it (nor a
+    pose: a start or goal is never refused for its yaw). A motion that turns while it
+    translates is checked with its yaw at each sub-step, so under ``max_crab_deg=0``
+    the body may only translate at constant yaw along its axis, or turn in place.
     """
 
     max_slope_deg: float | None = None
     max_cross_slope_deg: float | None = None
     keep_out: str | Path | Sequence[Any] | None = None
+    max_backward_slope_deg: float | None = None
+    max_crab_deg: float | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "max_slope_deg", _angle_limit("max_slope_deg", self.max_slope_deg))
-        object.__setattr__(
-            self,
-            "max_cross_slope_deg",
-            _angle_limit("max_cross_slope_deg", self.max_cross_slope_deg),
-        )
+        for name in ("max_slope_deg", "max_cross_slope_deg", "max_backward_slope_deg",
+                     "max_crab_deg"):  # fmt: skip
+            object.__setattr__(self, name, _angle_limit(name, getattr(self, name)))
         ko = self.keep_out
         if ko is None or isinstance(ko, str | Path):
             return
@@ -212,6 +250,8 @@ class Request:
         max_cross_slope_deg: float | None = None,
         keep_out: str | Path | Sequence[Any] | None = None,
         channels: Channels | None = None,
+        max_backward_slope_deg: float | None = None,
+        max_crab_deg: float | None = None,
     ) -> Request:
         """A request from flat keyword values (what a CLI command has).
 
@@ -226,6 +266,8 @@ class Request:
                 max_slope_deg=max_slope_deg,
                 max_cross_slope_deg=max_cross_slope_deg,
                 keep_out=keep_out,
+                max_backward_slope_deg=max_backward_slope_deg,
+                max_crab_deg=max_crab_deg,
             ),
             channels=channels,
         )

@@ -18,7 +18,7 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     png = tmp_path / "demo.png"
     r = CliRunner().invoke(main, ["demo", "--time", "2", "--plot", str(png), "--json"])
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)
+    res = json.loads(r.stdout)
     assert res["max_slope_deg"] is None
     routes = {x["name"]: x for x in res["routes"]}
     assert list(routes) == ["direct", "direct_best_yaw", "shortest", "energy_optimal"]

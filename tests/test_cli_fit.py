@@ -37,7 +37,7 @@ def test_fit_json(logs, tmp_path):
         ],
     )
     assert r.exit_code == 0, r.output
-    doc = json.loads(r.output)
+    doc = json.loads(r.stdout)
     assert {"model", "load", "preprocessing", "windows", "fit"} <= set(doc)
     fit = doc["fit"]
     assert {"terms", "n_windows", "n_runs", "heldout", "warnings", "coverage"} <= set(fit)
@@ -105,7 +105,7 @@ def test_figures_json(logs, tmp_path):
     out = tmp_path / "figs"
     r = CliRunner().invoke(main, ["figures", str(logs), "--out", str(out), "--json"])
     assert r.exit_code == 0, r.output
-    doc = json.loads(r.output)
+    doc = json.loads(r.stdout)
     figs = doc["figures"]
     assert set(figs) == {"force_slope", "yaw_torque", "superposition"}
     for f in figs.values():
@@ -145,7 +145,7 @@ def test_fit_reports_unidentified_terms_and_holds_them_at_a_prior(logs, tmp_path
         main, ["fit", *map(str, files), "--out", str(tmp_path / "a.json"), "--json"]
     )
     assert r.exit_code == 0, r.output
-    fit = json.loads(r.output)["fit"]
+    fit = json.loads(r.stdout)["fit"]
     bwd = ["bwd_const", "bwd_up", "bwd_down", "bwd_brake_sq"]
     assert [u["name"] for u in fit["unidentified"]] == bwd
     assert not set(bwd) & {t["name"] for t in fit["terms"]}
@@ -164,7 +164,7 @@ def test_fit_reports_unidentified_terms_and_holds_them_at_a_prior(logs, tmp_path
         ],
     )
     assert r.exit_code == 0, r.output
-    fit = json.loads(r.output)["fit"]
+    fit = json.loads(r.stdout)["fit"]
     prior = EnergyModel.default().coefficients
     held = {t["name"]: t for t in fit["terms"] if t["status"] == "prior"}
     assert sorted(held) == sorted(bwd) and fit["unidentified"] == []

@@ -74,7 +74,7 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
          "500015,5000050", "--max-slope", "20", "--time", "2", "--plot", str(png), "--json"],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    out = json.loads(res.output)
+    out = json.loads(res.stdout)
     routes = {r["name"]: r for r in out["routes"]}
     assert set(routes) == {"direct", "direct_best_yaw", "shortest", "energy_optimal"}
     for r in routes.values():
@@ -93,6 +93,36 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
     assert all(n in res.output for n in ("direct", "shortest", "energy_optimal"))
 
 
+def test_compare_routes_cli_interval_and_battery_per_route(dem):
+    """Each feasible route carries its interval and battery chance; --refuse judges the best."""
+    from energy_planner.uncertainty import battery_decision, predict_interval
+
+    path, _ = dem
+    base = ["compare-routes", "--dem", str(path), "--start", "500015,5000010",
+            "--goal", "500015,5000050", "--max-slope", "20", "--time", "1",
+            "--planner", "lattice"]  # fmt: skip
+    res = CliRunner().invoke(main, [*base, "--json", "--battery-wh", "30", "--reserve-wh", "2"])
+    assert res.exit_code == 0, res.output
+    routes = {r["name"]: r for r in json.loads(res.stdout)["routes"]}
+    model = EnergyModel.default()
+    for r in routes.values():
+        if not r["feasible"]:
+            assert "interval" not in r and "battery" not in r
+            continue
+        iv, want = r["interval"], predict_interval(model, r["energy_j"], 0.9)
+        assert iv["low_j"] < r["energy_j"] < iv["high_j"]
+        assert (iv["low_j"], iv["high_j"]) == pytest.approx((want.low_j, want.high_j))
+        d = battery_decision(model, r["energy_j"], 30.0, 2.0, 0.9)
+        assert r["battery"]["probability"] == pytest.approx(d.probability)
+    # a battery too small for the energy-optimal route: a warning naming it, or exit 1
+    best = routes["energy_optimal"]["energy_j"] / 3600.0
+    small = ["--battery-wh", f"{0.8 * best:.3f}"]
+    res = CliRunner().invoke(main, [*base, *small])
+    assert res.exit_code == 0 and "warning: energy_optimal:" in res.stderr
+    res = CliRunner().invoke(main, [*base, *small, "--refuse"])
+    assert res.exit_code == 1 and "energy_optimal" in res.output
+
+
 def test_plan_cli_json_geojson(dem, tmp_path):
     path, _ = dem
     out = tmp_path / "path.geojson"
@@ -102,7 +132,7 @@ def test_plan_cli_json_geojson(dem, tmp_path):
          "500050,5000012", "--planner", "lattice", "--out", str(out), "--json"],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
-    data = json.loads(res.output)
+    data = json.loads(res.stdout)
     for key in ("energy_j", "distance_m", "duration_s", "planner", "waypoints"):
         assert key in data
     assert data["planner"] == "lattice"
@@ -156,7 +186,7 @@ def test_plan_cli_keep_out_file(dem, tmp_path):
     assert res.exit_code == 0, res.output
     from shapely.geometry import LineString, box
 
-    w = json.loads(res.output)["waypoints"]
+    w = json.loads(res.stdout)["waypoints"]
     line = LineString([(p["x"], p["y"]) for p in w])
     assert not line.intersects(box(500028, 5000002, 500032, 5000020))
     bad = tmp_path / "bad.geojson"
@@ -302,7 +332,7 @@ def test_compare_routes_cli_reads_channels(dem, tmp_path):
     for kg in (0, 10):
         r = CliRunner().invoke(main, [*args, "--set", f"payload_kg={kg}"])
         assert r.exit_code == 0, r.output
-        out[kg] = {x["name"]: x for x in json.loads(r.output)["routes"]}
+        out[kg] = {x["name"]: x for x in json.loads(r.stdout)["routes"]}
     d0, d10 = out[0]["direct"], out[10]["direct"]
     assert d10["energy_j"] - d0["energy_j"] == pytest.approx(c * 10 * d0["distance_m"], rel=1e-6)
 

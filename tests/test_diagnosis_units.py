@@ -326,7 +326,7 @@ def test_cli_json_and_report(campaign_dir):
         ],
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     for key in (
         "rmse_w",
         "mae_w",
@@ -350,6 +350,11 @@ def test_cli_json_and_report(campaign_dir):
     assert 'src="http' not in html and "<script" not in html and "<link" not in html
     assert html.count('src="data:image/png;base64,') >= 5
     assert top["term"] in html
+    # the report names the significance test the code runs (one name, read from suspects)
+    from energy_planner.diagnosis.suspects import RUN_TEST_NAME
+
+    assert "Wilcoxon signed-rank" in RUN_TEST_NAME and RUN_TEST_NAME in html
+    assert "t-test" not in html
 
 
 def test_cli_text_and_errors(campaign_dir):
@@ -407,3 +412,120 @@ def test_breakdown_t_counts_runs_not_windows():
     by_window = breakdown(table, r, (), ["surface"])["surface"]["bins"][0]
     # six windows: sd = sqrt(6/5), se = sd/sqrt(6) -> t = 2 / sqrt(1/5)
     assert by_window["t"] == pytest.approx(2.0 / np.sqrt(1 / 5))
+
+
+#: ``paired_run_test`` on four cases, from the hand-written signed-rank test it replaced
+#: (normal approximation with tie correction); scipy's gives the same to the digit.
+#: Each case: (seed, runs, windows per run, rounding of the errors) -> (z, p, n runs).
+SIGNED_RANK_REFERENCE = {
+    (0, 15, 3, False): (2.5558282541117916, 0.005296769544344748, 15),
+    (1, 20, 2, False): (1.1946454287144919, 0.11611279602506436, 20),
+    (2, 18, 4, True): (2.4389374809298614, 0.007365258239674928, 18),
+    (3, 30, 3, False): (3.897700307752433, 4.8555244880358035e-05, 30),
+}
+
+
+def _signed_rank_case(seed, n_runs, per_run, rounded):
+    rng = np.random.default_rng(seed)
+    runs = np.repeat(np.arange(n_runs), per_run)
+    e0 = rng.normal(0, 2, runs.size)
+    e1 = e0 * rng.uniform(0.3, 1.3, runs.size)
+    if rounded:  # ties and exact zeros in the per-run differences
+        e0, e1 = np.round(e0), np.round(e1)
+    return e0, e1, runs
+
+
+@pytest.mark.parametrize("case", sorted(SIGNED_RANK_REFERENCE))
+def test_paired_run_test_is_wilcoxon_signed_rank(case):
+    """The run test agrees with ``scipy.stats.wilcoxon`` and with the stored reference."""
+    from scipy.stats import wilcoxon
+
+    from energy_planner.diagnosis.suspects import paired_run_test
+
+    e0, e1, runs = _signed_rank_case(*case)
+    z, p, n = paired_run_test(e0, e1, runs)
+    _, inv = np.unique(runs, return_inverse=True)
+    d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
+    ref = wilcoxon(d, alternative="greater", method="approx", zero_method="wilcox")
+    assert z == pytest.approx(ref.zstatistic, rel=1e-12)
+    assert p == pytest.approx(ref.pvalue, rel=1e-12)
+    assert (z, p, n) == pytest.approx(SIGNED_RANK_REFERENCE[case], rel=1e-12)
+
+
+def test_explanations_follow_the_channel_the_term_reads():
+    """``motor_temp*P_base`` is not "a carried mass": a channel's candidates are explained
+    by what its name says it measures (a mass, a temperature, or nothing known)."""
+    from energy_planner.diagnosis.suspects import channel_candidates
+
+    s = synth(n_runs=20)
+    per_run = {r: i for i, r in enumerate(s["run"].unique())}
+    i = s["run"].map(per_run).to_numpy(float)
+    s = s.assign(motor_temp=30 + i, load_kg=i % 4 * 5.0, foo_level=i % 3)
+    s = s.drop(columns=["temperature_c"])
+    wd = window_data(s)
+    coef = dict.fromkeys(BASE_TERMS, 10.0)
+    cands, _ = channel_candidates(wd, model_terms=BASE_TERMS, coef=coef)
+    expl = {c.name: c.explanation for c in cands}
+    for name in ("motor_temp*P_base", "motor_temp*P_copper", "load_kg*P_base", "foo_level*P_base"):
+        ch = name.split("*")[0]
+        assert ch in expl[name], expl[name]  # the channel the term reads is named
+    assert "temperature" in expl["motor_temp*P_base"]
+    assert "winding resistance" in expl["motor_temp*P_copper"]
+    assert "mass" in expl["load_kg*P_base"] and "mass" in expl["load_kg*climb"]
+    for c in cands:  # no candidate of a temperature or of an unknown channel is a mass
+        if c.channel in ("motor_temp", "foo_level"):
+            assert "mass" not in c.explanation and "carried" not in c.explanation, c
+        if c.channel == "foo_level":
+            assert "temperature" not in c.explanation, c
+
+
+@given(
+    sd=st.floats(0.5, 20.0),
+    n=st.integers(10, 60),
+    shift=st.floats(-10.0, 10.0),
+    seed=st.integers(0, 2**16),
+)
+@settings(max_examples=15, deadline=None)
+def test_noise_floor_of_white_noise_and_a_known_shift(sd, n, shift, seed):
+    """Analytic case: raw power = a constant plus white noise of sd ``sd``; the smoothed
+    power is the raw power moved by ``shift`` in every window. The floor is then
+    ``sqrt(shift^2 + sd^2 / n)`` for windows of ``n`` samples."""
+    from energy_planner.diagnosis.metrics import noise_floor
+
+    rng = np.random.default_rng(seed)
+    n_win = 240
+    current = 100.0 + rng.normal(0.0, sd, n_win * n)  # at 1 V: raw power = current
+    s = pd.DataFrame(
+        {
+            "run": np.repeat(np.arange(24), 10 * n).astype(str),
+            "t": np.tile(np.arange(10 * n) * 0.05, 24),
+            "window": np.repeat(np.arange(n_win), n),
+            "voltage": 1.0,
+            "current": current,
+            "power": current + shift,
+        }
+    )
+    fl = noise_floor(window_data(s))
+    assert fl.n_windows == n_win
+    assert fl.smoothing_shift_w == pytest.approx(abs(shift), abs=1e-9)
+    assert fl.sample_sd_w == pytest.approx(sd, rel=0.08)
+    assert fl.rmse_w == pytest.approx(np.sqrt(shift**2 + sd**2 / n), rel=0.08)
+
+
+def test_suspects_split_keeps_the_old_import_path():
+    """suspects.py was split into candidates, scoring and names (issue 18): every public
+    name stays importable from ``energy_planner.diagnosis.suspects``, as the same object."""
+    from energy_planner.diagnosis import candidates, names, scoring, suspects
+
+    for name in suspects.__all__:
+        assert hasattr(suspects, name), name
+    moved = {
+        candidates: ("Candidate", "hinge", "speed_levels", "channel_candidates", "channel_kind",
+                     "default_candidates", "user_candidates"),
+        scoring: ("Thresholds", "Suspect", "Ranking", "RUN_TEST_NAME", "paired_run_test",
+                  "rank_suspects"),
+        names: ("LONG_FORMULA", "model_term", "resolve_names", "term_spec"),
+    }  # fmt: skip
+    for mod, names_ in moved.items():
+        for name in names_:
+            assert getattr(suspects, name) is getattr(mod, name), (mod.__name__, name)

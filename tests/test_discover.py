@@ -17,6 +17,7 @@ from html import escape
 from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from energy_planner.diagnosis import rank_suspects, window_data
@@ -118,7 +119,7 @@ def test_cli_discover(tmp_path):
     args = ["discover", str(tmp_path / "logs"), "--out", str(out), "--max-steps", "2"]
     res = runner.invoke(main, [*args, "--json", "--report", str(report)])
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     steps = doc["staircase"]
     assert steps[0]["added"] is None and len(steps) >= 2
     assert "ground" in EnergyModel([steps[1]["added"]]).variables
@@ -132,6 +133,9 @@ def test_cli_discover(tmp_path):
     assert 'src="http' not in html and "<script" not in html
     assert html.count('src="data:image/png;base64,') >= 1
     assert escape(steps[1]["added"]) in html
+    from energy_planner.diagnosis.suspects import RUN_TEST_NAME
+
+    assert RUN_TEST_NAME in html and "t-test" not in html
     from energy_planner.cli.discover import _text
 
     text = _text(doc)  # the table the command prints without --json
@@ -173,3 +177,84 @@ def test_reduced_acceptance_fans_speed_and_not_targets():
     assert "acceleration" not in HIDDEN_EFFECTS and not EFFECTS["acceleration"].target
     acc = bench.run_case(("acceleration",), 0, cfg, max_steps=2)
     assert acc.added == [] and acc.ratio <= 1.2, acc.added_names
+
+
+def test_noise_floor_from_the_logs_tracks_the_simulators_truth():
+    """The floor discover estimates from the logs alone against the simulator's floor from
+    the true power (``Campaign.noise_floor``) on the same windows: within 15 %."""
+    from energy_planner.diagnosis.discover import discover
+    from energy_planner.diagnosis.metrics import noise_floor
+
+    for effects in ((), ("load",)):
+        camp = _campaign(effects=effects)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = discover(camp.logs, max_steps=0, fit_final=False)
+        est = noise_floor(d.data)
+        truth = camp.noise_floor(d.windows).rmse_w
+        assert 0.85 < est.rmse_w / truth < 1.15, (effects, est, truth)
+        assert est.n_windows == d.n_windows
+        assert est.rmse_w**2 == pytest.approx(est.sensor_noise_w**2 + est.smoothing_shift_w**2)
+        assert d.to_dict()["noise_floor"]["rmse_w"] == est.rmse_w
+
+
+def test_discover_words_its_conclusion_by_the_noise_floor():
+    """A load discover is stopped from adding (max steps 0): it says the model does NOT
+    explain the logs, with the ratio; on a clean campaign: within the floor."""
+    import re
+
+    from energy_planner.cli.discover import _text
+    from energy_planner.diagnosis.discover import WITHIN_FLOOR, discover
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hidden = discover(_campaign(effects=("load",)).logs, max_steps=0, fit_final=False)
+        clean = discover(_campaign().logs, max_steps=1, fit_final=False)
+    doc = hidden.to_dict()
+    note = doc["notes"][-1]
+    assert "does NOT explain these logs" in note and "explains these logs within" not in note
+    ratio = doc["staircase"][-1]["heldout_rmse_w"] / doc["noise_floor"]["rmse_w"]
+    assert ratio > 3  # a hidden load: the base model is far above the floor
+    shown = float(re.search(r"is ([\d.]+)x the noise floor", note).group(1))
+    assert shown == pytest.approx(ratio, abs=0.05)
+    text = _text(doc)
+    assert "noise floor estimated from the logs" in text and "does NOT explain" in text
+    doc = clean.to_dict()
+    assert clean.added == []
+    assert doc["staircase"][-1]["floor_ratio"] <= WITHIN_FLOOR
+    assert "explains these logs within their noise" in doc["notes"][-1]
+    assert "NOT" not in doc["notes"][-1]
+
+
+def test_discovered_short_name_fits_the_same_term(tmp_path):
+    """discover names ``load_kg*P_base`` (an ~800-character formula) by its short name;
+    ``fit --term`` with that name, on the same logs, fits the same term: the same
+    coefficients as discover's model. The formula is in the model file, not in the name."""
+    from energy_planner.cli import main
+    from energy_planner.cli.discover import _text
+    from energy_planner.diagnosis.discover import discover
+    from energy_planner.diagnosis.suspects import LONG_FORMULA
+
+    logs = _campaign(effects=("load",)).logs  # the load's channel only: fewer candidates
+    logs = logs.drop(columns=["ground", "motor_temp", "air_temp_c", "grass_height_m"])
+    (tmp_path / "logs").mkdir()
+    logs.to_csv(tmp_path / "logs" / "campaign.csv", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = discover(logs, max_steps=1, repair=False)  # fit reads the logs unrepaired
+    name = d.term_names[-1]
+    assert name == "load_kg*P_base", d.term_names
+    formula = d.added[-1]
+    assert len(formula) > LONG_FORMULA and len(name) < 20
+    assert d.model.terms[-1].formula == formula and d.model.term_names[-1] == name
+    text = _text(d.to_dict())
+    assert name in text and formula not in text
+    out = tmp_path / "fit.json"
+    args = ["fit", str(tmp_path / "logs"), "--out", str(out), "--term", name, "--folds", "0"]
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    fitted = EnergyModel.load(out)
+    assert fitted.term_names == d.model.term_names
+    assert fitted.terms[-1].formula == formula
+    for k, v in d.model.coefficients.items():
+        assert fitted.coefficients[k] == pytest.approx(v, rel=1e-6, abs=1e-9), k

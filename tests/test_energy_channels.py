@@ -89,7 +89,7 @@ def test_cli_set_load_equals_the_analytic_value(files, tmp_path):
     args = ["energy", "--dem", files["dem"], "--waypoints", wp, "--model", files["load_model"]]
     r = CliRunner().invoke(main, [*map(str, args), "--set", "load_kg=10", "--json"])
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)
+    res = json.loads(r.stdout)
     assert res["energy_j"] == pytest.approx((F0 + K_LOAD * 10.0) * 60.0, rel=1e-9)
     assert res["channels"]["constants"] == {"load_kg": 10.0}
 
@@ -122,14 +122,14 @@ def test_cli_channel_with_value_table(files, tmp_path):
             "--channel", f"ground={files['cover']}:{files['table']}", "--json"]  # fmt: skip
     r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)
+    res = json.loads(r.stdout)
     assert res["energy_j"] == pytest.approx(F0 * 60 + K_MEADOW * 30, rel=1e-9)
     (desc,) = res["channels"]["rasters"]
     assert desc["categories"] == ["asphalt", "meadow"] and desc["sampling"] == "nearest"
     # the same ground given as a constant everywhere
     args[-3:-1] = ["--set", "ground=meadow"]
     r = CliRunner().invoke(main, list(map(str, args)))
-    assert json.loads(r.output)["energy_j"] == pytest.approx((F0 + K_MEADOW) * 60, rel=1e-9)
+    assert json.loads(r.stdout)["energy_j"] == pytest.approx((F0 + K_MEADOW) * 60, rel=1e-9)
 
 
 def test_lower_bound_covers_every_category(files, flat):

@@ -31,11 +31,6 @@ def per_map_metre(ground: float, alpha: float, phi: float) -> float:
     return ground * math.hypot(1.0, math.tan(alpha) * math.cos(phi))
 
 
-def tilt_cos2(c: float, alpha: float) -> float:
-    """cos^2 of the in-plane angle from uphill of a body yawed ``c`` (map) off uphill."""
-    return math.cos(c) ** 2 / (math.cos(c) ** 2 + math.sin(c) ** 2 * math.cos(alpha) ** 2)
-
-
 @pytest.mark.parametrize("phi_deg", [0.0, 30.0, 90.0, 160.0, 180.0])
 def test_any_yaw_crabs_across_the_slope(phi_deg):
     """Any direction on a 20 deg plane costs 100 J per metre of ground: the body is held
@@ -48,18 +43,21 @@ def test_any_yaw_crabs_across_the_slope(phi_deg):
 
 def test_gait_limits_closed_form():
     """Straight up a 20 deg plane. ``max_crab_deg=0``: backward, 100 + 400 sin^2(alpha);
-    30: backward with the body 30 deg off the fall line, 100 + 400 sin^2(alpha) cos^2(g)
-    (g in the slope plane); and with no backward walking above 10 deg: forward at 30 deg,
-    plus 400 cos g. The energy map's lookup applies the backward limit per cell."""
+    30: backward with the body 30 deg off the fall line in the slope plane (where the
+    motion kernel checks the crab angle), 100 + 400 sin^2(alpha) cos^2(30 deg), a map yaw
+    of atan(tan 30 deg / cos alpha) off it; and with no backward walking above 10 deg:
+    forward at 30 deg, plus 400 cos 30 deg. The energy map's lookup applies the backward
+    limit per cell."""
     alpha, c = math.radians(20.0), math.radians(30.0)
     gx, s2 = math.tan(alpha), math.sin(alpha) ** 2
+    c_map = math.degrees(math.atan(math.tan(c) / math.cos(alpha)))  # 31.6 deg
     cases = [
         ({"max_crab_deg": 0.0}, 100.0 + 400.0 * s2, 180.0),
-        ({"max_crab_deg": 30.0}, 100.0 + 400.0 * s2 * tilt_cos2(c, alpha), 150.0),
+        ({"max_crab_deg": 30.0}, 100.0 + 400.0 * s2 * math.cos(c) ** 2, 180.0 - c_map),
         (
             {"max_crab_deg": 30.0, "max_backward_slope_deg": 10.0},
-            100.0 + 400.0 * math.sqrt(tilt_cos2(c, alpha)) + 400.0 * s2 * tilt_cos2(c, alpha),
-            30.0,
+            100.0 + 400.0 * math.cos(c) + 400.0 * s2 * math.cos(c) ** 2,
+            c_map,
         ),
         ({"max_crab_deg": 0.0, "max_backward_slope_deg": 10.0}, 500.0 + 400.0 * s2, 0.0),
     ]
@@ -101,6 +99,76 @@ def test_exact_minimum_equals_the_motion_kernel_swept_over_yaws():
         assert float(got) <= e.min() * (1 + 1e-6)
         # the sweep misses a sharp minimum (a kink of the model) by up to 0.07 %
         assert float(got) == pytest.approx(e.min(), rel=1e-3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    slope=st.floats(0.0, 70.0),
+    azimuth=st.floats(0.0, 360.0),
+    heading=st.floats(0.0, 360.0),
+    w_deg=st.floats(0.5, 90.0),
+)
+def test_yaw_window_is_the_map_image_of_the_in_plane_gait_window(slope, azimuth, heading, w_deg):
+    """The sweep's window of map yaws holds exactly the yaws whose angle between body x
+    and the velocity, in the tilted body frame of the motion kernel (3-D geometry, not
+    the window's closed form), is within ``w`` of the travel; turned by pi, of its
+    opposite."""
+    from energy_planner.energy import _motion as km
+
+    g = math.tan(math.radians(slope))
+    gx, gy = g * math.cos(math.radians(azimuth)), g * math.sin(math.radians(azimuth))
+    h, w = math.radians(heading), math.radians(w_deg)
+    alpha, ca, sa, c_psi, s_psi = km.slope_of(gx, gy)
+    u0, u1 = math.cos(h), math.sin(h)
+    centre, width = km.yaw_window(ca, c_psi, s_psi, u0, u1, w)
+    assert abs(centre) <= width + 1e-12  # facing along is always inside
+    v = (u0, u1, gx * u0 + gy * u1)
+    for r in np.radians(np.arange(-180.0, 180.0, 0.1)):
+        vx, vy = km.body_velocity_cs(gx, gy, math.cos(h + r), math.sin(h + r), *v)
+        ang = math.atan2(abs(vy), vx)  # 0: along the travel, pi: straight back
+        d_fwd = abs(km.wrap_angle(r - centre))
+        d_back = abs(km.wrap_angle(r - centre - math.pi))
+        if d_fwd < width - 1e-6:
+            assert ang <= w + 1e-6, (math.degrees(r), math.degrees(ang))
+        elif d_fwd > width + 1e-6:
+            assert ang > w - 1e-6, (math.degrees(r), math.degrees(ang))
+        if d_back < width - 1e-6:
+            assert math.pi - ang <= w + 1e-6, (math.degrees(r), math.degrees(ang))
+        elif d_back > width + 1e-6:
+            assert math.pi - ang > w - 1e-6, (math.degrees(r), math.degrees(ang))
+
+
+@pytest.mark.parametrize(
+    "limits", [{"max_crab_deg": 30.0, "max_backward_slope_deg": 10.0}, {"max_crab_deg": 45.0}]
+)
+def test_gait_limited_minimum_equals_the_limited_motion_kernel_swept_over_yaws(limits):
+    """The gait limits as the motion kernel checks them (in the slope plane): on a 24 deg
+    plane the least energy of a 1 cm motion over every 0.25 deg of body yaw that the
+    limited ``MotionCost`` allows equals the heading cost's minimum within 0.1 %, is never
+    below it (the window covers every allowed yaw, also where the map image of the crab
+    window is asymmetric, travelling off the fall line), and the yaw it returns is one
+    the kernel allows."""
+    model = EnergyModel.default()
+    k = math.tan(math.radians(24.0))
+    t = Terrain.from_function(lambda x, y: k * (0.6 * x + 0.8 * y), size=(8, 8))
+    cost = MotionCost(t, model, **limits)
+    hc = heading_cost(model, **limits)
+    yaw = np.radians(np.arange(0.0, 360.0, 0.25))
+    x, y, eps = 3.5, 3.5, 0.005
+    uphill = math.atan2(0.8, 0.6)
+    for off in (0.0, 12.0, 40.0, 90.0, 160.0, 200.0, 300.0):
+        h = uphill + math.radians(off)
+        c, s = math.cos(h), math.sin(h)
+        ones = np.ones(yaw.size)
+        e = cost.batch(ones * (x - eps * c), ones * (y - eps * s), h + yaw,
+                       ones * (x + eps * c), ones * (y + eps * s), h + yaw) / (2 * eps)  # fmt: skip
+        got, r = hc.per_metre(0.6 * k, 0.8 * k, h)
+        assert np.isfinite(e).any() and np.isinf(e).any(), off  # the limits act
+        assert float(got) <= e.min() * (1 + 1e-6), off
+        assert float(got) == pytest.approx(e.min(), rel=1e-3), off
+        th = h + float(r)
+        at_r = cost(x - eps * c, y - eps * s, th, x + eps * c, y + eps * s, th) / (2 * eps)
+        assert float(got) == pytest.approx(at_r, rel=1e-6), off
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])

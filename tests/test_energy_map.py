@@ -107,7 +107,7 @@ def test_map_equals_energy_of_a_one_metre_motion_on_the_plane(plane, tmp_path):
         args = ["energy", "--dem", dem, "--waypoints", wp, "--model", model_file, "--json"]
         res = CliRunner().invoke(main, list(map(str, args)))
         assert res.exit_code == 0, res.output
-        e = json.loads(res.output)["energy_j"]
+        e = json.loads(res.stdout)["energy_j"]
         assert data[j, r, c] == pytest.approx(e, rel=2e-6)
 
 
@@ -306,7 +306,7 @@ def test_out_of_core_on_a_distributed_cluster(bumpy, tmp_path):
                 "--chunk", "64", "--scheduler", cluster.scheduler_address, "--json"]  # fmt: skip
         r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
-    assert json.loads(r.output)["mode"] == "dask"
+    assert json.loads(r.stdout)["mode"] == "dask"
     np.testing.assert_allclose(read(out)[0], ref, rtol=1e-6, equal_nan=True)
 
 
@@ -330,7 +330,7 @@ def test_cli_energy_map_json_plot_and_errors(plane, tmp_path):
             "--plot", png, "--json"]  # fmt: skip
     r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)
+    res = json.loads(r.stdout)
     assert res["headings"] == 8 and len(res["bands"]) == 20 and png.stat().st_size > 10_000
     assert res["stats"]["cheapest_j_per_m"]["min"] == pytest.approx(
         forward_analytic(12.0, 0.0, 180.0), rel=1e-5

@@ -58,3 +58,40 @@ def test_memory_cap_no_is_accepted_like_the_variable():
                                   "500058,5000046", "--goal", "500058,5000084",
                                   "--memory-cap", "no", "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
+
+
+def test_help_lists_every_command_without_importing_them():
+    """``energy-planner --help`` lists all commands from the static table, loading none."""
+    import subprocess
+    import sys
+
+    from energy_planner.cli import COMMANDS
+
+    code = (
+        "import sys\n"
+        "from click.testing import CliRunner\n"
+        "from energy_planner.cli import main\n"
+        "r = CliRunner().invoke(main, ['--help'])\n"
+        "assert r.exit_code == 0, r.output\n"
+        "print(r.output)\n"
+        "heavy = [m for m in ('numpy', 'pandas', 'numba', 'rasterio') if m in sys.modules]\n"
+        "cmds = [m for m in sys.modules if m.startswith('energy_planner.cli.')]\n"
+        "print('LOADED', heavy, cmds)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "LOADED [] []" in out.stdout
+    for name, (_, summary) in COMMANDS.items():
+        assert name in out.stdout
+        assert summary.split()[0] in out.stdout
+        assert len(summary) <= 62, f"{name}: summary wraps in an 80-column terminal"
+
+
+def test_command_summaries_name_real_modules():
+    """Each listed command imports, and its own help shows the same summary in the list."""
+    from click.testing import CliRunner
+
+    from energy_planner.cli import COMMANDS, main
+
+    for name in COMMANDS:
+        r = CliRunner().invoke(main, [name, "--help"])
+        assert r.exit_code == 0, (name, r.output)

@@ -179,7 +179,7 @@ def test_reach_cli_writes_geotiff_geojson_and_plot(hill_tif, tmp_path):
             "--out", str(tif), "--geojson", str(gj), "--plot", str(png), "--json"]  # fmt: skip
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = json.loads(r.stdout)
     with rasterio.open(hill_tif) as src, rasterio.open(tif) as dst:
         assert dst.crs == src.crs and dst.transform == src.transform
         assert dst.shape == src.shape and np.isnan(dst.nodata) and np.isnan(NODATA)
@@ -223,3 +223,78 @@ def test_reach_cli_errors(hill_tif):
         main, ["reach", str(hill_tif), "--start", f"{X0 + 10},{Y0 + 10}", "--free-turn"]
     )
     assert r.exit_code == 2 and "--return" in r.output
+
+
+def test_the_edge_of_the_map_cutting_the_budget_area_is_a_named_warning(flat):
+    """Level ground: the energy of a cell is at least distance x the level cost a (the
+    cheapest J/m), and exactly that along a move direction. The valid cells nearest the
+    edge (Horn leaves the outer ring without a slope) are the four at 14 m on the axes."""
+    import warnings
+
+    from energy_planner.errors import EnergyPlannerError, ReachEdgeWarning
+
+    model = EnergyModel.default()
+    a = _level_power(model, vx=0.3) / 0.3
+    # 14.02 a: the four axis cells (14 a) are in; (14, 1) needs at least 14.036 a
+    with pytest.warns(ReachEdgeWarning) as rec:
+        res = reach(flat, model, (15.5, 15.5), max_energy=14.02 * a)
+    (w,) = [r.message for r in rec if isinstance(r.message, ReachEdgeWarning)]
+    assert isinstance(w, EnergyPlannerError) and isinstance(w, UserWarning)
+    assert (w.cells, w.map_edge_cells, w.nodata_edge_cells) == (4, 4, 0)
+    assert w.budget_j == pytest.approx(14.02 * a)
+    assert "4 cells" in str(w) and "edge" in str(w)
+    assert res.edge_cells(flat, 14.02 * a)["cells"] == 4
+    # 13.5 a stops a metre short of every edge-adjacent cell: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = reach(flat, model, (15.5, 15.5), max_energy=13.5 * a)
+    assert res.edge_warning(flat, 13.5 * a) is None
+    # the whole map: every cell of the valid ring (29 x 29 cells, border 4 * 28) touches
+    whole = reach(flat, model, (15.5, 15.5))
+    assert whole.edge_cells(flat, 1e12) == {"cells": 112, "map_edge_cells": 112,
+                                            "nodata_edge_cells": 0}  # fmt: skip
+
+
+def test_a_nodata_hole_cutting_the_budget_area_is_reported_as_nodata():
+    """A hole of nodata 7 m east of the start: its slope-less ring starts 6 m east, so the
+    first cell that touches it is (5, 0), at exactly 5 a; (5, +-1) need 5.099 a."""
+    from energy_planner.errors import ReachEdgeWarning
+
+    z = np.zeros((31, 31))
+    z[14:17, 22:25] = np.nan
+    t = Terrain.from_array(z, resolution=1.0)
+    model = EnergyModel.default()
+    a = _level_power(model, vx=0.3) / 0.3
+    with pytest.warns(ReachEdgeWarning) as rec:
+        reach(t, model, (15.5, 15.5), max_energy=5.02 * a)
+    (w,) = [r.message for r in rec if isinstance(r.message, ReachEdgeWarning)]
+    assert (w.cells, w.map_edge_cells, w.nodata_edge_cells) == (1, 0, 1)
+    assert "nodata (1 cells)" in str(w)
+
+
+def test_reach_cli_reports_the_cut_in_text_and_json(tmp_path):
+    """A 21 m square of level ground and a budget that covers all of it."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    path = tmp_path / "flat.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", height=21, width=21, count=1, dtype="float64",
+        crs="EPSG:32631", transform=from_origin(X0, Y0 + 21.0, 1.0, 1.0),
+    ) as dst:  # fmt: skip
+        dst.write(np.zeros((21, 21)), 1)
+    args = ["reach", str(path), "--start", f"{X0 + 10.5},{Y0 + 10.5}", "--budget-wh", "50"]
+    r = CliRunner().invoke(main, [*args, "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    # the valid ring of a 21 x 21 map: 19 x 19 cells, 4 * 18 on its border
+    assert out["edge_cut"] == [{"budget_wh": 50.0, "cells": 72, "map_edge_cells": 72,
+                                "nodata_edge_cells": 0}]  # fmt: skip
+    assert len(out["warnings"]) == 1 and "72 cells" in out["warnings"][0]
+    r = CliRunner().invoke(main, [*args, "--within-budget"])
+    assert r.exit_code == 0, r.output
+    assert r.output.count("72 cells reached within 50 Wh touch the map's edge") == 1
+    assert "ReachEdgeWarning" not in r.output and "warnings.warn" not in r.output
+    r = CliRunner().invoke(main, [*args[:-1], "0.1", "--json"])  # 0.1 Wh: about 5 m
+    assert r.exit_code == 0, r.output
+    assert "edge_cut" not in json.loads(r.stdout)

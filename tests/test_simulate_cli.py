@@ -37,7 +37,7 @@ def test_simulate_writes_readable_files_and_json(tmp_path):
         "--json",
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     assert doc["summary"]["effects"] == ["load", "cold_joints"]
     assert doc["summary"]["faults"] == ["ros_current_sign"]
     assert [e["channel"] for e in doc["effects"]] == ["load_kg", "air_temp_c"]
@@ -68,7 +68,7 @@ def test_simulate_missions_over_a_dem(tmp_path):
         "--json",
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output)
+    doc = json.loads(res.stdout)
     assert doc["missions"] and doc["summary"]["kinds"] == {"mission": 2}
     runs = pd.read_csv(tmp_path / "runs.csv", keep_default_na=False)
     assert list(runs["kind"]) == ["mission", "mission"]

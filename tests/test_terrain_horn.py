@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from energy_planner.errors import DEMError
 from energy_planner.terrain import Terrain, aspect, gradient, hillshade, slope
-from energy_planner.terrain.horn import pixel_steps
+from energy_planner.terrain.horn import horn_gradient, pixel_steps
 
 
 def plane(g: float, psi: float, xres: float, yres: float, shape=(9, 11)):
@@ -180,3 +180,45 @@ def test_radians_option():
 def test_bad_resolution_or_rotated_transform_raise(bad):
     with pytest.raises(DEMError, match="resolution|rotated|sheared"):
         pixel_steps(bad)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    p=st.floats(-2.0, 2.0),
+    q=st.floats(-2.0, 2.0),
+    sx0=st.floats(5.0, 100.0),
+    shrink=st.floats(-0.02, 0.02),
+    gaps=st.lists(st.floats(5.0, 100.0), min_size=7, max_size=7),
+)
+def test_per_row_steps_are_exact_on_a_plane(p, q, sx0, shrink, gaps):
+    """Per-row steps (a lon/lat grid: columns narrow towards the pole, rows uneven).
+
+    Column spacing linear in the row (as cos(latitude) over three rows, to first order)
+    and rows at arbitrary spacing: Horn with step_x[r] and step_y[r] = half the signed
+    distance from row r - 1 to row r + 1 is exact on ``z = p x`` (x along each row) and
+    on ``z = q y``. (On such a grid a column is not a line of constant x, so ``p x``
+    also varies along a column: only dz/dx is checked for it.)
+    """
+    rows, cols = 8, 6
+    sx = sx0 * (1.0 + shrink * np.arange(rows))
+    y = -np.concatenate([[0.0], np.cumsum(gaps)])  # row 0 north, y decreasing
+    sy = np.empty(rows)
+    sy[1:-1] = 0.5 * (y[2:] - y[:-2])
+    sy[[0, -1]] = -1.0  # not used (border)
+    x = np.arange(cols)[None, :] * sx[:, None]
+    gx, _ = horn_gradient(p * x, sx, sy)
+    np.testing.assert_allclose(gx[1:-1, 1:-1], p, atol=1e-9)
+    gx, gy = horn_gradient(np.broadcast_to(q * y[:, None], x.shape), sx, sy)
+    np.testing.assert_allclose(gx[1:-1, 1:-1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(gy[1:-1, 1:-1], q, atol=1e-9)
+    z = p * x + q * y[:, None]
+    # a scalar step and a constant per-row step give the same bits
+    ref = horn_gradient(z, 7.0, -3.0)
+    per_row = horn_gradient(z, np.full(rows, 7.0), np.full(rows, -3.0))
+    np.testing.assert_array_equal(ref[0], per_row[0])
+    np.testing.assert_array_equal(ref[1], per_row[1])
+
+
+def test_per_row_steps_must_match_the_rows():
+    with pytest.raises(DEMError, match="one step per row"):
+        horn_gradient(np.zeros((4, 4)), np.ones(3), -1.0)

@@ -270,7 +270,7 @@ def test_window_of_the_huge_raster_loads(huge_tif, monkeypatch):
         main, ["terrain", str(huge_tif), "--bounds", "500000,4999700,500400,5000000", "--json"]
     )
     assert res.exit_code == 0, res.output
-    assert json.loads(res.output)["shape"] == [300, 400]
+    assert json.loads(res.stdout)["shape"] == [300, 400]
     # the error's hint names a decimation that fits
     with pytest.raises(RasterTooLargeError, match=r"decimate=9") as exc:
         load_dem(huge_tif)

@@ -13,21 +13,25 @@ import importlib.util
 
 import click
 
-# command name -> module in energy_planner.cli
-COMMANDS: dict[str, str] = {
-    "demo": "demo",
-    "terrain": "terrain",
-    "energy": "energy",
-    "energy-map": "energy_map",
-    "simulate": "simulate",
-    "fit": "fit",
-    "figures": "figures",
-    "diagnose": "diagnose",
-    "discover": "discover",
-    "plan": "plan",
-    "compare-routes": "compare_routes",
-    "reach": "reach",
-    "mission": "mission",
+# command name -> (module in energy_planner.cli, one-line summary for the command list).
+# The summaries live here so that ``energy-planner --help`` lists the commands without
+# importing them (numpy, pandas and numba stay unloaded); a command's own ``--help``
+# shows its docstring.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("demo", "Fig. 1 on the bundled hill: direct, shortest, optimal route."),
+    "terrain": ("terrain", "Summarize a DEM; write slope and aspect rasters."),
+    "energy": ("energy", "Energy of walking given waypoints over a DEM, per segment."),
+    "energy-map": ("energy_map", "Heading-dependent energy map of a DEM (J/m per heading)."),
+    "simulate": ("simulate", "Simulate a campaign or missions from mechanistic physics."),
+    "fit": ("fit", "Fit the energy model of your robot from its logs."),
+    "figures": ("figures", "The paper's Fig. 3, 4 and 5 from logs, as PNGs."),
+    "diagnose": ("diagnose", "Compare a model with logs and rank the missing effects."),
+    "discover": ("discover", "Find and add the effects the base model misses."),
+    "plan": ("plan", "Plan an energy-minimal path on SE(2) from a start to a goal."),
+    "compare-routes": ("compare_routes", "Direct line vs shortest vs energy-optimal route."),
+    "reach": ("reach", "Least energy to every cell; the area a battery reaches."),
+    "mission": ("mission", "Visit several sites in the least-energy order, legs planned."),
+    "follow": ("follow", "Replay a log along a planned path: remaining energy, updated."),
 }
 
 
@@ -37,7 +41,7 @@ class LazyGroup(click.Group):
     def _available(self) -> dict[str, str]:
         return {
             name: mod
-            for name, mod in COMMANDS.items()
+            for name, (mod, _) in COMMANDS.items()
             if importlib.util.find_spec(f"energy_planner.cli.{mod}") is not None
         }
 
@@ -50,7 +54,16 @@ class LazyGroup(click.Group):
         mod = self._available().get(cmd_name)
         if mod is None:
             return None
-        return importlib.import_module(f"energy_planner.cli.{mod}").command
+        cmd = importlib.import_module(f"energy_planner.cli.{mod}").command
+        cmd.short_help = COMMANDS[cmd_name][1]
+        return cmd
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """List the commands with their summaries from :data:`COMMANDS`, importing none."""
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

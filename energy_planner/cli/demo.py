@@ -11,10 +11,28 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
+    gait_limit_options,
+    gait_limits,
     json_option,
     load_model_option,
     model_option,
 )
+
+
+def _limits_text(res: dict[str, Any]) -> str:
+    """The demo's limits in words: the slope limit and the gait limits given."""
+    lim = res.get("limits") or {}
+    words = [
+        f"{what} {lim[key]:g} deg"
+        for key, what in (
+            ("max_slope_deg", "max slope"),
+            ("max_backward_slope_deg", "no backward walking above"),
+            ("max_crab_deg", "max crab angle"),
+        )
+        if lim.get(key) is not None
+    ]
+    return ", ".join(words) or "none (the detour must pay by physics alone)"
 
 
 def _text(res: dict[str, Any]) -> str:
@@ -26,12 +44,7 @@ def _text(res: dict[str, Any]) -> str:
         f"model      {res['model']}",
         f"start      {res['start'][0]:.1f}, {res['start'][1]:.1f}    goal  "
         f"{res['goal'][0]:.1f}, {res['goal'][1]:.1f}  ({res['crs']})",
-        "limits     "
-        + (
-            "none (the detour must pay by physics alone)"
-            if res["max_slope_deg"] is None
-            else f"max slope {res['max_slope_deg']:g} deg"
-        ),
+        "limits     " + _limits_text(res),
         "",
     ]
     tail = [
@@ -42,7 +55,13 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
 
 
-@click.command("demo")
+@click.command(
+    "demo",
+    epilog=examples(
+        "energy-planner demo",
+        "energy-planner demo --max-slope 25 --plot demo25.png",
+    ),
+)
 @click.option(
     "--scenario",
     "scenario_name",
@@ -73,6 +92,7 @@ def _text(res: dict[str, Any]) -> str:
     show_default=True,
     help="PNG of the routes over a hillshade.",
 )
+@gait_limit_options
 @channel_options
 @json_option
 def command(
@@ -109,13 +129,15 @@ def command(
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
-    request = Request.make(max_slope_deg=max_slope, channels=channels_from_options(sets, channels))
+    request = Request.make(
+        max_slope_deg=max_slope, channels=channels_from_options(sets, channels), **gait_limits()
+    )
     try:
         comp = compare_routes(terrain, model, start, goal, request, time=time_s, progress=True)
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     res = comp.to_dict(terrain)
-    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}")
+    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}", request=request)
     res.update(
         scenario=scenario_name,
         description=sc["description"],

@@ -10,6 +10,7 @@ import click
 
 from energy_planner.cli.options import (
     emit,
+    examples,
     json_option,
     load_model_option,
     logs_argument,
@@ -159,7 +160,12 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     return meta
 
 
-@click.command("diagnose")
+@click.command(
+    "diagnose",
+    epilog=examples(
+        "energy-planner diagnose campaign --model b1.json --report diagnosis.html",
+    ),
+)
 @logs_argument
 @model_option
 @report_option
@@ -196,8 +202,6 @@ def command(
     suspects: candidate effects from the catalog and from the extra channels, each
     validated on held-out runs. Add the best one with the printed `energy-planner fit`
     line and diagnose again, or let `energy-planner discover` walk the whole staircase.
-
-    Example: energy-planner diagnose logs/ --model b1.json --report diagnosis.html
     """
     from energy_planner.cli.fit import load_windows, resolve_terms
     from energy_planner.diagnosis import Thresholds, diagnose
@@ -241,7 +245,12 @@ def command(
             if model_path is None
             else model_path.with_name(f"{model_path.stem}_next.json")
         )
-        doc["hint"] = fit_hint(logs, doc["model_terms"], doc["suspects"][0]["term"], out, window)
+        from energy_planner.diagnosis.suspects import model_term
+
+        top = doc["suspects"][0]
+        new = model_term(top["name"], top["term"])  # a long formula by its short name
+        new = getattr(new, "name", new)
+        doc["hint"] = fit_hint(logs, doc["model_terms"], new, out, window)
     if report is not None:
         from energy_planner.diagnosis.report import write_report
 

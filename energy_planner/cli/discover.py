@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -10,6 +11,7 @@ import click
 
 from energy_planner.cli.options import (
     emit,
+    examples,
     json_option,
     logs_argument,
     report_option,
@@ -23,6 +25,8 @@ def _pct(v: Any) -> str:
 
 
 def _text(doc: dict[str, Any]) -> str:
+    from energy_planner.diagnosis.suspects import LONG_FORMULA
+
     lines = [f"{doc['n_windows']} windows from {doc['n_runs']} runs", ""]
     found = [f for f in doc["data_findings"] if f["finding"]]
     if found:
@@ -30,23 +34,41 @@ def _text(doc: dict[str, Any]) -> str:
         for f in found:
             lines.append(f"  {f['name']}: {f['summary']}")
         lines.append("")
+    fl = doc.get("noise_floor") or {}
+    if fl and math.isfinite(fl["rmse_w"]):
+        lines.append(
+            f"noise floor estimated from the logs: {fl['rmse_w']:.2f} W over "
+            f"{fl['n_windows']} windows (white sensor noise within windows "
+            f"{fl['sensor_noise_w']:.2f} W, smoothing shift at window edges "
+            f"{fl['smoothing_shift_w']:.2f} W; docs/diagnosis.md)"
+        )
+    elif fl:
+        lines.append(f"noise floor: {fl['method']}")
+    lines.append("")
     lines.append(
-        f"  {'step':<5}{'term added':<40}{'held-out RMSE':>14}{'run energy err':>16}"
-        f"{'p90':>8}{'error removed':>15}"
+        f"  {'step':<5}{'term added':<40}{'held-out RMSE':>14}{'x floor':>9}"
+        f"{'run energy err':>16}{'p90':>8}{'error removed':>15}"
     )
     for r in doc["staircase"]:
         name = r["name"] or "(base model)"
         removed = "" if r["error_removed"] is None else _pct(r["error_removed"])
+        ratio = r.get("floor_ratio")
+        ratio = math.nan if ratio is None else ratio
         lines.append(
             f"  {r['step']:<5}{name[:39]:<40}{r['heldout_rmse_w']:>11.2f} W"
+            f"{'-' if not math.isfinite(ratio) else f'{ratio:.2f}':>9}"
             f"{_pct(r['run_energy_error_median']):>16}{_pct(r['run_energy_error_p90']):>8}"
             f"{removed:>15}"
         )
         if r["added"]:
             term = r["added"]
-            if len(term) > 100:  # a channel times the fitted base: the formula is long
-                term = f"{term[:60]}... ({len(term)} characters; in the model file)"
-            lines.append(f"       term: {term}")
+            if len(term) > LONG_FORMULA:  # a channel times the fitted base: the formula is long
+                lines.append(
+                    f"       term: {len(term)} characters of formula, in the model file and the "
+                    f"report as {name!r} (fit --term {name} rebuilds it from the same logs)"
+                )
+            elif term != name:
+                lines.append(f"       term: {term}")
             lines.append(f"       {r['explanation']}")
         for a in r["alternatives"]:
             lines.append(f"       or, equally well (the data cannot tell them apart): {a['name']}")
@@ -71,7 +93,12 @@ def _text(doc: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("discover")
+@click.command(
+    "discover",
+    epilog=examples(
+        "energy-planner discover campaign --out model.json --report discover.html",
+    ),
+)
 @logs_argument
 @click.option(
     "--out",
@@ -111,8 +138,6 @@ def command(
     repeats until none is left (or --max-steps). Every number is held out by run. Prints
     the staircase: term added, its physical explanation, held-out power RMSE, run-energy
     error (median, p90) and the share of the error removed.
-
-    Example: energy-planner discover logs/ --out model.json --report discover.html
     """
     from energy_planner.cli.fit import resolve_terms, status
     from energy_planner.diagnosis.discover import discover

@@ -16,6 +16,9 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
+    gait_limit_options,
+    gait_limits,
     json_option,
     load_model_option,
     model_option,
@@ -152,11 +155,15 @@ def compute(
     yaw_rate: float = DEFAULT_YAW_RATE,
     band: int | None = None,
     channels: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
 ) -> dict[str, Any]:
     """The command's work, returning the JSON-ready result (click errors on bad input).
 
     ``channels`` is a :class:`~energy_planner.energy.channels.Channels` (``--set`` /
-    ``--channel``) or None.
+    ``--channel``) or None. ``max_backward_slope_deg`` and ``max_crab_deg`` are the gait
+    limits (:class:`~energy_planner.request.Limits`): a segment that breaks one is an
+    error naming it.
     """
     import numpy as np
 
@@ -199,7 +206,10 @@ def compute(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
             # channel rasters that leave part of the DEM uncovered, or have no CRS
-            cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
+            cost = MotionCost(
+                terrain, model, speed, yaw_rate, channels=channels,
+                max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
+            )  # fmt: skip
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages
         check_waypoints(terrain, cost, np.column_stack([np.atleast_1d(xs), np.atleast_1d(ys)]), xy)
@@ -242,20 +252,29 @@ def compute(
     return out
 
 
-@click.command("energy")
+@click.command(
+    "energy",
+    epilog=examples(
+        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
+        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
+        "--model load.json --set load_kg=10 --battery-wh 40",
+    ),
+)
 @dem_option
 @click.option(
     "--waypoints",
     "waypoints",
     required=True,
     type=click.Path(dir_okay=False, path_type=Path),
-    help="Waypoints in the DEM's CRS: CSV with header x,y[,yaw_deg][,t] or a GeoJSON "
-    "LineString (optional properties.yaw_deg, properties.t lists).",
+    help="Waypoints: CSV with header x,y[,yaw_deg][,t] in the DEM's CRS, or a GeoJSON "
+    "LineString (optional properties.yaw_deg, properties.t lists) in longitude, latitude "
+    "(RFC 7946) unless it declares a crs, as plan --out writes it.",
 )
 @model_option
 @speed_option
 @yaw_rate_option
 @band_option
+@gait_limit_options
 @channel_options
 @trust_options
 @json_option
@@ -281,11 +300,9 @@ def command(
     yaw_deg (degrees CCW from the map's x axis) it keeps the given orientation. Without
     times it walks at --speed and turns at --yaw-rate. Channels a fitted model reads
     (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
-
-    Example: energy-planner energy --dem maps/hill.tif --waypoints path.csv --set load_kg=10
     """
     ch = channels_from_options(sets, channels)
-    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch)
+    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **gait_limits())
     add_trust(res, load_model_option(model_path), res["energy_j"], level, battery_wh,
               reserve_wh, confidence, refuse)  # fmt: skip
     emit(res, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

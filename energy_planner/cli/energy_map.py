@@ -13,6 +13,9 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
+    gait_limit_options,
+    gait_limits,
     json_option,
     load_model_option,
     memory_cap_option,
@@ -57,7 +60,12 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("energy-map")
+@click.command(
+    "energy-map",
+    epilog=examples(
+        "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png",
+    ),
+)
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option(
     "--out",
@@ -74,6 +82,7 @@ def format_table(res: dict[str, Any]) -> str:
     help="Number of map headings, 360/N degrees apart, the first east.",
 )
 @speed_option
+@gait_limit_options
 @channel_options
 @click.option(
     "--plot",
@@ -128,23 +137,22 @@ def command(
     """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
 
     For every cell: the cost of walking through it facing along each heading
-    (along_*), the cheapest way along it over every body yaw, crabbing included (best_*), the
+    (along_*), the cheapest way along it over the body yaws the gait limits allow,
+    crabbing included (best_*), the
     cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
     physics as `energy` (a short straight motion through the cell centre, per metre of
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
     computed on its UTM working grid and resampled back (bilinear), headings then CCW
     from the DEM's local east (the meridian convergence applied).
-
-    Example: energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png
     """
     from energy_planner.energymap import energy_map, plot_energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
-    from energy_planner.request import Request, Robot
+    from energy_planner.request import Limits, Request, Robot
 
     cap = parse_memory_cap(memory_cap)
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
-    request = Request(robot=Robot(speed=speed), channels=ch)
+    request = Request(robot=Robot(speed=speed), limits=Limits(**gait_limits()), channels=ch)
     client = None
     if scheduler is not None:
         from distributed import Client

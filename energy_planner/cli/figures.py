@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, logs_argument, window_option
+from energy_planner.cli.options import emit, examples, json_option, logs_argument, window_option
 
 
 def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
@@ -41,7 +41,12 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
     return meta if len(meta) else None
 
 
-@click.command("figures")
+@click.command(
+    "figures",
+    epilog=examples(
+        "energy-planner figures campaign --out figs --model b1.json",
+    ),
+)
 @logs_argument
 @click.option(
     "--out",
@@ -69,8 +74,6 @@ def command(
     P/|w| of turns in place against slope; superposition.png (Fig. 3): energy of
     composite paths against the sum of their parts (needs runs.csv with columns run,
     composite, part next to the logs, or composite/part columns in the logs).
-
-    Example: energy-planner figures logs/ --out figs/
     """
     from energy_planner.calibration import fit_model, force_estimates
     from energy_planner.calibration.figures import (

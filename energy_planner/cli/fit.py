@@ -7,7 +7,14 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, logs_argument, seed_option, window_option
+from energy_planner.cli.options import (
+    emit,
+    examples,
+    json_option,
+    logs_argument,
+    seed_option,
+    window_option,
+)
 from energy_planner.measurements.logs import log_files
 
 
@@ -92,6 +99,24 @@ def resolve_terms(specs: tuple[str, ...], available: set[str] | None = None) -> 
     return terms
 
 
+def discovered_names(specs: tuple[str, ...], windows: Any) -> tuple[Any, ...]:
+    """``--term`` values with the names ``discover`` prints resolved on these windows.
+
+    ``load_kg*P_base``, ``speed^2``, ``ground==mud``: see
+    :func:`energy_planner.diagnosis.suspects.resolve_names`; other specs are kept as given.
+    """
+    from energy_planner.diagnosis import window_data
+    from energy_planner.diagnosis.suspects import resolve_names
+    from energy_planner.errors import EnergyPlannerError
+
+    if all(" " in s for s in specs):
+        return specs
+    try:
+        return tuple(resolve_names(specs, window_data(windows.samples)))
+    except EnergyPlannerError as exc:
+        raise click.BadParameter(str(exc), param_hint="--term") from exc
+
+
 def _runs_table(result: Any, limit: int = 12) -> str:
     cv = result.heldout
     if cv is None:
@@ -112,7 +137,13 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     return "\n".join(lines)
 
 
-@click.command("fit")
+@click.command(
+    "fit",
+    epilog=examples(
+        "energy-planner fit campaign --out b1.json",
+        "energy-planner fit campaign --out load.json --term 'load_kg * speed'",
+    ),
+)
 @logs_argument
 @click.option(
     "--out",
@@ -165,8 +196,6 @@ def command(
     runs and writes the model to --out. Terms the logs cannot identify (no runs of
     their motion, or no slopes that tell them apart) are listed and left out of the
     model, or held at --prior's values; warnings say what else the data cannot support.
-
-    Example: energy-planner fit logs/ --out b1.json --term idle_power
     """
     from energy_planner.calibration import fit_model
     from energy_planner.errors import EnergyPlannerError, FitError
@@ -185,9 +214,11 @@ def command(
             raise click.BadParameter(
                 f"{exc} (give a fitted model JSON or 'default')", param_hint="--prior"
             ) from exc
-    resolve_terms(terms)  # syntax and names first: fail before loading any log
+    # syntax first: fail before loading any log (a spec without spaces may be a name that
+    # discover prints, such as speed^2 or load_kg*P_base: resolved on the windows below)
+    resolve_terms(tuple(t for t in terms if " " in t))
     windows, reports, prep_text, _ = load_windows(logs, window)
-    extra = resolve_terms(terms, set(windows.samples.columns))
+    extra = resolve_terms(discovered_names(terms, windows), set(windows.samples.columns))
     status(f"fitting {len(BASE_TERMS) + len(extra)} terms on {len(windows.table)} windows ...")
     try:
         result = fit_model(

@@ -13,6 +13,7 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -63,7 +64,12 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("mission")
+@click.command(
+    "mission",
+    epilog=examples(
+        "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
+    ),
+)
 @dem_option
 @click.option(
     "--sites",
@@ -122,15 +128,11 @@ def command(
     plot: Path | None,
     as_json: bool,
 ) -> None:
-    r"""Visit the sites of --sites in the least-energy (or given) order over DEM.
+    """Visit the sites of --sites in the least-energy (or given) order over DEM.
 
     The energy from each site to every other comes from one search per site (the
     planner's own motions and kernel; uphill differs from downhill), the order from
     Held-Karp (exact) or OR-Tools beyond 15 sites, and each leg is then planned.
-
-    \b
-    Example:
-      energy-planner mission --dem maps/hill.tif --sites sites.csv --return --json
     """
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.mission import mission, read_sites
@@ -167,6 +169,6 @@ def command(
         write_geojson(geojson, res.to_geojson(terrain, native=geojson_crs == "dem"))
         out["geojson"] = str(geojson)
     if plot is not None:
-        res.plot(terrain, plot)
+        res.plot(terrain, plot, request=request)
         out["plot"] = str(plot)
     emit(out, as_json, lambda r: _text(r) + "\n" + trust_lines(r))

@@ -223,6 +223,59 @@ def start_goal_options(f):
     return click.option("--start", required=True, help="Start X,Y[,YAW_DEG] in the DEM's CRS.")(f)
 
 
+#: ``ctx.meta`` key of the gait limits (read by :func:`gait_limits`).
+GAIT_LIMITS_KEY = "energy_planner.gait_limits"
+#: The gait-limit options and the :class:`~energy_planner.request.Limits` field of each.
+GAIT_LIMIT_OPTIONS = {
+    "--max-backward-slope": "max_backward_slope_deg",
+    "--max-crab": "max_crab_deg",
+}
+
+
+def _store_gait_limit(ctx: click.Context, param: click.Parameter, value: float | None) -> None:
+    field = GAIT_LIMIT_OPTIONS[param.opts[0]]
+    ctx.find_root().meta.setdefault(GAIT_LIMITS_KEY, {})[field] = value
+
+
+def gait_limit_options(f):
+    """``--max-backward-slope`` and ``--max-crab``: the gait limits, defined once.
+
+    Their values are read with :func:`gait_limits` (they are not parameters of the
+    command function), so that every command with planning limits takes them the same way.
+    """
+    f = click.option(
+        "--max-crab",
+        metavar="DEG",
+        type=click.FloatRange(0, 90),
+        default=None,
+        expose_value=False,
+        callback=_store_gait_limit,
+        help="Largest crab angle: the angle between the body's x axis and the direction of "
+        "travel (or its opposite when walking backward), degrees; 0 = face along or "
+        "straight back, 90 = any gait. Turns in place are not limited.",
+    )(f)
+    return click.option(
+        "--max-backward-slope",
+        metavar="DEG",
+        type=click.FloatRange(0, 90),
+        default=None,
+        expose_value=False,
+        callback=_store_gait_limit,
+        help="No backward walking (body x more than 90 deg from the direction of travel) on "
+        "ground steeper than this, degrees.",
+    )(f)
+
+
+def gait_limits() -> dict[str, float | None]:
+    """The running command's gait limits as :class:`~energy_planner.request.Limits` fields.
+
+    ``{"max_backward_slope_deg": ..., "max_crab_deg": ...}`` (None: no limit).
+    """
+    ctx = click.get_current_context(silent=True)
+    given = {} if ctx is None else ctx.find_root().meta.get(GAIT_LIMITS_KEY, {})
+    return {field: given.get(field) for field in GAIT_LIMIT_OPTIONS.values()}
+
+
 yaw_rate_option = click.option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),
@@ -331,6 +384,15 @@ def load_model_option(model_path: Path | None):
         raise click.BadParameter(str(exc), param_hint="--model") from exc
 
 
+def examples(*lines: str) -> str:
+    """A command's ``epilog``: its examples, one ``$ energy-planner ...`` line each.
+
+    Click's no-rewrap marker keeps each line whole, so it can be copied as printed; the
+    tests run every one (``tests/test_examples.py``).
+    """
+    return "Examples:\n\n\b\n" + "\n".join(f"  $ {line}" for line in lines)
+
+
 def battery_options(f):
     """``--battery-wh``, ``--reserve-wh`` and ``--confidence``, defined once."""
     opts = [
@@ -364,11 +426,13 @@ def trust_options(f):
 def add_trust(
     result: dict[str, Any], model: Any, energy_j: float, level: float,
     battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
+    label: str | None = None,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
-    A chance below ``confidence`` prints a warning on stderr, or with ``refuse`` raises a
-    ``click.ClickException`` (exit status 1).
+    A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
+    route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
+    status 1).
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
@@ -382,9 +446,10 @@ def add_trust(
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     result["battery"] = d.to_dict()
     if not d.ok:
+        text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
         if refuse:
-            raise click.ClickException(d.text().strip())
-        click.echo(f"warning: {d.text().strip()}", err=True)
+            raise click.ClickException(text)
+        click.echo(f"warning: {text}", err=True)
 
 
 def trust_lines(res: dict[str, Any]) -> str:

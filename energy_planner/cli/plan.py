@@ -14,6 +14,9 @@ from energy_planner.cli.options import (
     channels_from_options,
     dem_option,
     emit,
+    examples,
+    gait_limit_options,
+    gait_limits,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -162,13 +165,20 @@ def planning_options(what: str, time_default: float | None = 10.0):
 
 
 def limit_options(f):
-    """--max-slope, --max-cross-slope and --keep-out."""
+    """--max-slope, --max-cross-slope, --keep-out and the gait limits.
+
+    The gait limits (``--max-backward-slope``, ``--max-crab``:
+    :func:`~energy_planner.cli.options.gait_limit_options`) are read with
+    :func:`~energy_planner.cli.options.gait_limits`.
+    """
+    f = gait_limit_options(f)
     f = click.option(
         "--keep-out",
         "keep_out",
         type=click.Path(dir_okay=False, path_type=Path),
         default=None,
-        help="GeoJSON polygons (coordinates in the DEM's CRS) the path must avoid.",
+        help="GeoJSON polygons the path must avoid: longitude, latitude (RFC 7946) unless "
+        "the file declares a crs; reprojected to the DEM.",
     )(f)
     f = click.option(
         "--max-cross-slope",
@@ -203,9 +213,11 @@ def request_from_options(
     option = {
         "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
         "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
+        "max_backward_slope_deg": "--max-backward-slope", "max_crab_deg": "--max-crab",
     }  # fmt: skip
     try:
         return Request.make(
+            **gait_limits(),
             speed=speed,
             yaw_rate=yaw_rate,
             max_slope_deg=max_slope,
@@ -257,6 +269,8 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
         "limits": {
             "max_slope_deg": lim.max_slope_deg,
             "max_cross_slope_deg": lim.max_cross_slope_deg,
+            "max_backward_slope_deg": lim.max_backward_slope_deg,
+            "max_crab_deg": lim.max_crab_deg,
             "keep_out": None if ko is None else str(ko) if isinstance(ko, str | Path) else len(ko),
             "speed_m_s": robot.speed,
             "yaw_rate_rad_s": robot.yaw_rate,
@@ -300,7 +314,13 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("plan")
+@click.command(
+    "plan",
+    epilog=examples(
+        "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
+        "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
+    ),
+)
 @dem_option
 @start_goal_options
 @model_option
@@ -369,13 +389,11 @@ def command(
 
     The energy is that of the model (--model, default the bundled B1-class model)
     integrated along the path; the path may walk sideways or backwards where that is
-    cheaper. The default planner searches (x, y, heading) at the DEM's own cell size with
-    an admissible heuristic, then refines the path. Progress is shown on stderr. A DEM too
-    large for --memory-cap is read by windows about the start and the goal (a corridor);
-    the output says whether the window is proven to hold every cheaper path.
-
-    Example: energy-planner plan --dem maps/hill.tif --start 500058,5000046
-    --goal 500058,5000109 --max-slope 20
+    cheaper, unless --max-backward-slope or --max-crab forbid it. The default planner
+    searches (x, y, heading) at the DEM's own cell size with an admissible heuristic,
+    then refines the path. Progress is shown on stderr. A DEM too large for --memory-cap
+    is read by windows about the start and the goal (a corridor); the output says
+    whether the window is proven to hold every cheaper path.
     """
     from energy_planner.errors import (
         DEMError,
@@ -434,6 +452,7 @@ def command(
             start=s,
             goal=g,
         )  # fmt: skip
-        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J")
+        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J",
+                  request=request)  # fmt: skip
         result["plot"] = str(plot)
     emit(result, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

@@ -12,6 +12,8 @@ from energy_planner.cli.options import (
     channel_options,
     channels_from_options,
     emit,
+    examples,
+    gait_limits,
     geojson_crs_option,
     json_option,
     load_model_option,
@@ -64,10 +66,17 @@ def _text(res: dict[str, Any]) -> str:
             f"c_min {w['c_min_j_per_m']:.1f} J/m); cells above the budget left nodata"
         )
     lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
+    lines += [f"warning      {w}" for w in res.get("warnings", [])]
     return "\n".join(lines)
 
 
-@click.command("reach")
+@click.command(
+    "reach",
+    epilog=examples(
+        "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
+        "15 --out reach.tif --geojson area.geojson --plot reach.png",
+    ),
+)
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
 @points_crs_option
@@ -167,9 +176,6 @@ def command(
     --memory-cap is read as one window about the start that provably holds every cell
     within --budget-wh (its radius: the budget over the least energy per metre anywhere on
     the DEM); the outputs then cover that window, and cells above the budget are nodata.
-
-    Example: energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh 15
-    --out reach.tif --geojson area.geojson --plot reach.png
     """
     import numpy as np
 
@@ -209,31 +215,37 @@ def command(
     request = Request.make(
         speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
         max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-        channels=channels_from_options(sets, channels),
+        channels=channels_from_options(sets, channels), **gait_limits(),
     )  # fmt: skip
-    try:
-        if windowed:
-            from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
-            from energy_planner.planning.corridor import reach_in_window
+    import warnings
 
-            s = point_in_dem_crs(start, "--start", False)
-            try:
-                res, terrain = reach_in_window(
-                    dem, model, s, budget_wh * 3600.0, request, cap=cap,
-                    round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+    from energy_planner.errors import ReachEdgeWarning
+
+    try:
+        with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
+            warnings.filterwarnings("ignore", category=ReachEdgeWarning)
+            if windowed:
+                from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
+                from energy_planner.planning.corridor import reach_in_window
+
+                s = point_in_dem_crs(start, "--start", False)
+                try:
+                    res, terrain = reach_in_window(
+                        dem, model, s, budget_wh * 3600.0, request, cap=cap,
+                        round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+                    )  # fmt: skip
+                except RasterTooLargeError as exc:
+                    raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
+                except (DEMError, DEMIOError) as exc:
+                    raise click.BadParameter(str(exc), param_hint="--dem") from exc
+            else:
+                terrain = load_terrain(dem)
+                s = point_to_work(terrain, start, "--start", False)
+                res = reach(
+                    terrain, model, s[:2], request, round_trip=round_trip,
+                    turn_at_cell=not free_turn, progress=True,
+                    max_energy=budget_wh * 3600.0 if within_budget else None,
                 )  # fmt: skip
-            except RasterTooLargeError as exc:
-                raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
-            except (DEMError, DEMIOError) as exc:
-                raise click.BadParameter(str(exc), param_hint="--dem") from exc
-        else:
-            terrain = load_terrain(dem)
-            s = point_to_work(terrain, start, "--start", False)
-            res = reach(
-                terrain, model, s[:2], request, round_trip=round_trip,
-                turn_at_cell=not free_turn, progress=True,
-                max_energy=budget_wh * 3600.0 if within_budget else None,
-            )  # fmt: skip
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:
@@ -279,6 +291,15 @@ def command(
         if chance_out is not None:
             res.write_chance_geotiff(terrain, chance_out, model, usable)
             result["chance_out"] = str(chance_out)
+    budgets = [result.get("budget_wh"), result.get("battery", {}).get("confident_budget_wh")]
+    for wh_b in sorted({b for b in budgets if b is not None}):
+        w = res.edge_warning(terrain, wh_b * 3600.0)
+        if w is not None:
+            result.setdefault("warnings", []).append(str(w))
+            result.setdefault("edge_cut", []).append(
+                {"budget_wh": wh_b, **{k: w.fields[k] for k in ("cells", "map_edge_cells",
+                                                               "nodata_edge_cells")}}
+            )  # fmt: skip
     if out is not None:
         res.write_geotiff(terrain, out)
         result["out"] = str(out)
@@ -289,6 +310,6 @@ def command(
         write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
         result["geojson"] = str(geojson)
     if plot is not None:
-        res.plot(terrain, plot, budget_j)
+        res.plot(terrain, plot, budget_j, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, _text)

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, json_option, seed_option
+from energy_planner.cli.options import emit, examples, json_option, seed_option
 
 
 def _effects(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
@@ -83,7 +83,13 @@ def _text(doc: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("simulate")
+@click.command(
+    "simulate",
+    epilog=examples(
+        "energy-planner simulate --out campaign --small --effect load",
+        "energy-planner simulate --out missions --missions 4 --dem maps/hill.tif --effect load",
+    ),
+)
 @click.option(
     "--out",
     "out",
@@ -99,7 +105,7 @@ def _text(doc: dict[str, Any]) -> str:
     metavar="NAME",
     callback=_effects,
     help="Switch on a physical effect the base model lacks (repeatable), e.g. "
-    "--effect payload --effect cold_joints.",
+    "--effect load --effect cold_joints (simulate.HIDDEN_EFFECTS lists them).",
 )
 @click.option(
     "--fault",
@@ -178,8 +184,6 @@ def command(
     losses, direction-dependent recovery downhill, swing, turning, ripple) with the
     effects switched on with --effect; its parameters go to OUT/physics.json. With
     --missions N the robot follows smooth paths over a DEM instead.
-
-    Example: energy-planner simulate --out campaign/ --effect load --speeds 0.2,0.3,0.45
     """
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.simulate import (

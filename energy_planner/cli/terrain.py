@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.cli.options import band_option, emit, json_option
+from energy_planner.cli.options import band_option, emit, examples, json_option
 
 
 def _resolve_dem(dem: str) -> Path:
@@ -60,13 +60,14 @@ def _load(dem: Path, band: int | None, bounds=None, decimate: int = 1):
         raise click.ClickException(f"{exc}. Hint: check the file's nodata value and CRS.") from exc
 
 
-def _write(path: Path, data: np.ndarray, terrain, name: str, description: str) -> None:
+def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> None:
+    """Write one band on ``grid`` (a :class:`~energy_planner.terrain.native.NativeGrid`)."""
     from energy_planner.io import write_geotiff
 
     path.parent.mkdir(parents=True, exist_ok=True)
     write_geotiff(
-        path, np.where(np.isfinite(data), data, np.nan), transform=terrain.transform,
-        crs=terrain.crs, names=[name], units=["deg"], descriptions=[description],
+        path, np.where(np.isfinite(data), data, np.nan), transform=grid.transform,
+        crs=grid.crs, names=[name], units=["deg"], descriptions=[description],
         tags={"software": "energy_planner terrain"},
     )  # fmt: skip
 
@@ -98,14 +99,28 @@ def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
 
 
 def summarize(terrain) -> dict[str, Any]:
-    """Summary numbers of a :class:`~energy_planner.terrain.Terrain` (for text and JSON)."""
-    slope_deg = np.degrees(terrain.slope)
+    """Summary numbers of a :class:`~energy_planner.terrain.Terrain` (for text and JSON).
+
+    Slopes, elevations and shares are those of the DEM's own grid
+    (:attr:`Terrain.native_grid`: Horn with geodesic spacing on a lon/lat grid), the
+    grid the slope and aspect rasters are written on.
+    """
+    grid = terrain.native_grid
+    slope_deg = np.degrees(grid.slope)
     finite = slope_deg[np.isfinite(slope_deg)]
-    z = terrain.elevation[terrain.valid]
+    valid = np.isfinite(grid.elevation)
+    z = grid.elevation[valid]
 
     def crs_str(c):
         return c.to_string() if c is not None else None
 
+    cell_m = None
+    if terrain.native is not None:  # Horn ran on the DEM's own (non-metric) grid
+        from energy_planner.terrain.native import native_steps
+
+        sx, sy = native_steps(grid.transform, grid.elevation.shape[0], grid.crs)
+        sx, sy = np.abs(np.atleast_1d(sx)), np.abs(np.atleast_1d(sy))
+        cell_m = [float(sx.min()), float(sx.max()), float(sy.min()), float(sy.max())]
     return {
         "path": str(terrain.path) if terrain.path else None,
         "crs": crs_str(terrain.source_crs),
@@ -114,13 +129,15 @@ def summarize(terrain) -> dict[str, Any]:
         "source_shape": list(terrain.source_shape),
         "shape": list(terrain.shape),
         "resolution_m": list(terrain.resolution),
+        "slope_grid": "source" if cell_m is not None else "working",
+        "source_cell_m": cell_m,
         "bounds": list(terrain.bounds),
         "elevation_min": float(z.min()),
         "elevation_max": float(z.max()),
         "slope_min_deg": float(finite.min()) if finite.size else None,
         "slope_mean_deg": float(finite.mean()) if finite.size else None,
         "slope_max_deg": float(finite.max()) if finite.size else None,
-        "nodata_share": terrain.nodata_fraction,
+        "nodata_share": float(1.0 - valid.mean()),
         "no_slope_share": float(1.0 - finite.size / slope_deg.size),
     }
 
@@ -137,6 +154,14 @@ def _text(r: dict[str, Any]) -> str:
         f"shape          {r['shape'][0]} x {r['shape'][1]} (source "
         f"{r['source_shape'][0]} x {r['source_shape'][1]})",
         f"resolution     {r['resolution_m'][0]:.3f} x {r['resolution_m'][1]:.3f} m",
+    ]
+    if r.get("source_cell_m"):
+        x0, x1, y0, y1 = r["source_cell_m"]
+        lines.append(
+            f"slope grid     the DEM's own ({r['source_shape'][0]} x {r['source_shape'][1]}), "
+            f"cells {x0:.1f}..{x1:.1f} x {y0:.1f}..{y1:.1f} m (geodesic)"
+        )
+    lines += [
         f"elevation      {f(r['elevation_min'])} .. {f(r['elevation_max'])} m",
         f"slope (deg)    min {f(r['slope_min_deg'])}  mean {f(r['slope_mean_deg'])}  "
         f"max {f(r['slope_max_deg'])}",
@@ -149,7 +174,13 @@ def _text(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command("terrain")
+@click.command(
+    "terrain",
+    epilog=examples(
+        "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
+        "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
+    ),
+)
 @click.argument("dem", metavar="DEM")
 @band_option
 @click.option(
@@ -198,10 +229,9 @@ def command(
     """Summarize a DEM: CRS, grid, metric resolution, slope statistics, nodata.
 
     DEM is any single-band raster rasterio opens (or a bundled map: hill, plane,
-    jacksboro). Slopes are Horn's (as gdaldem). A DEM in degrees is reprojected to its
-    UTM zone first; the slope/aspect rasters are then written on that metric working
-    grid (UTM), not on the original lon/lat grid, so that no angle is resampled. For a
-    projected DEM the working grid is the DEM's own grid and georeferencing.
+    jacksboro). Slopes are Horn's (as gdaldem), computed on the DEM's own grid and
+    written on it: on a lon/lat DEM with each row's geodesic cell size, aspect from true
+    north (the planners' UTM working grid takes its gradient from these values).
 
     A raster whose decoded size would pass the memory cap (ENERGY_PLANNER_MEMORY_CAP,
     default half the memory) is refused before reading; --bounds and --decimate read a
@@ -210,11 +240,12 @@ def command(
     path = _resolve_dem(dem)
     terrain = _load(path, band, _parse_bounds(bounds), decimate)
     result = summarize(terrain)
+    grid = terrain.native_grid
     if slope_out is not None:
-        _write(slope_out, np.degrees(terrain.slope), terrain, "slope", "slope angle, degrees")
+        _write(slope_out, np.degrees(grid.slope), grid, "slope", "slope angle, degrees")
         result["slope_out"] = str(slope_out)
     if aspect_out is not None:
-        _write(aspect_out, terrain.aspect_deg, terrain, "aspect",
+        _write(aspect_out, grid.aspect_deg, grid, "aspect",
                "GIS aspect: downslope direction, degrees clockwise from north")  # fmt: skip
         result["aspect_out"] = str(aspect_out)
     if plot is not None:

@@ -233,9 +233,7 @@ def diagnose(
     )
     ranking, steps, rankings = None, [], []
     try:
-        steps, rankings = staircase(
-            wd, model.term_names, th, max_steps, progress=progress, extra=terms
-        )
+        steps, rankings = staircase(wd, model.terms, th, max_steps, progress=progress, extra=terms)
         ranking = rankings[0]
     except FitError as exc:
         notes.append(f"no suspects: {exc}")

@@ -14,6 +14,11 @@
 Each step records the term added, its physical explanation, the suspects the data cannot
 tell from it (confounded alternatives), the held-out power RMSE, the held-out run-energy
 error (median and 90th percentile over runs) and the share of the held-out error removed.
+
+The conclusion is worded by the noise floor the logs themselves show
+(:func:`energy_planner.diagnosis.metrics.noise_floor`): "explains these logs" only when the
+final held-out RMSE is within :data:`WITHIN_FLOOR` times that floor; otherwise the note
+says that the model does NOT explain them, with the ratio.
 """
 
 from __future__ import annotations
@@ -28,7 +33,62 @@ import pandas as pd
 
 from energy_planner.diagnosis.data import WindowData, window_data
 from energy_planner.diagnosis.datacheck import DataFinding, check_data
-from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, staircase
+from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
+from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
+from energy_planner.model.terms import Term
+
+#: A final held-out RMSE within this factor of the noise floor estimated from the logs is
+#: "within the noise": the clean simulated campaigns end at 1.0-1.3x (docs/diagnosis.md).
+WITHIN_FLOOR = 1.5
+
+
+def conclusion(rmse_w: float, floor: NoiseFloorEstimate, *, suspects_left: bool) -> str:
+    """The closing note of a discovery, worded by the noise floor of the logs.
+
+    Parameters
+    ----------
+    rmse_w : float
+        Held-out window-power RMSE of the final model, W.
+    floor : NoiseFloorEstimate
+        The floor the logs show.
+    suspects_left : bool
+        Whether candidates above noise remain (the step limit stopped the staircase).
+
+    Examples
+    --------
+    >>> f = NoiseFloorEstimate(8.0, 1.6, 7.8, 10.0, 300)
+    >>> conclusion(52.0, f, suspects_left=False)[:55]
+    'the model does NOT explain these logs: held-out RMSE 52'
+    >>> "explains these logs within their noise" in conclusion(9.0, f, suspects_left=False)
+    True
+    """
+    ratio = rmse_w / floor.rmse_w if floor.rmse_w > 0 else math.nan
+    where = (
+        f"held-out RMSE {rmse_w:.2f} W is {ratio:.1f}x the noise floor estimated from the "
+        f"logs ({floor.rmse_w:.2f} W)"
+    )
+    if not math.isfinite(ratio):
+        return (
+            f"no noise floor could be estimated ({floor.method}): whether the model explains "
+            "these logs is not known"
+        )
+    if ratio > WITHIN_FLOOR:
+        why = (
+            "candidate effects remain above noise (the step limit stopped the search)"
+            if suspects_left
+            else "no candidate effect is above noise: something the candidates do not "
+            "capture remains (try your own --term, or more runs)"
+        )
+        return f"the model does NOT explain these logs: {where}; {why}"
+    if suspects_left:
+        return (
+            f"{where} (within {WITHIN_FLOOR}x), but candidate effects remain above noise "
+            "(the step limit stopped the search)"
+        )
+    return (
+        f"no candidate effect is above noise and {where} (within {WITHIN_FLOOR}x): the model "
+        "explains these logs within their noise"
+    )
 
 
 def run_energy_errors(wd: WindowData, heldout_err: np.ndarray) -> np.ndarray:
@@ -75,6 +135,7 @@ class Discovery:
     n_windows: int
     n_runs: int
     speeds: dict[str, Any]
+    floor: NoiseFloorEstimate | None = None
     fit: Any = None  # calibration FitResult of the final model, or None
     notes: list[str] = field(default_factory=list)
     data: WindowData | None = field(default=None, repr=False)
@@ -82,8 +143,19 @@ class Discovery:
 
     @property
     def terms(self) -> list[str]:
-        """Terms of the final model: the base terms and every term added."""
+        """Terms of the final model as formulas: the base terms and every term added."""
         return [*self.base_terms, *(s.added for s in self.steps[1:])]
+
+    @property
+    def model_terms(self) -> list[str | Term]:
+        """Terms of the final model as it is written (a long formula named, :func:`model_term`)."""
+        added = [model_term(s.name, s.added, s.explanation) for s in self.steps[1:]]
+        return [*self.base_terms, *added]
+
+    @property
+    def term_names(self) -> list[str]:
+        """Names of the final model's terms: what messages print and ``fit --term`` takes."""
+        return [t.name if isinstance(t, Term) else t for t in self.model_terms]
 
     @property
     def added(self) -> list[str]:
@@ -99,6 +171,7 @@ class Discovery:
         """The staircase as rows (step 0 is the base model)."""
         rows = []
         first = self.step_metrics[0]["heldout_rmse_w"] if self.step_metrics else math.nan
+        fl = math.nan if self.floor is None else self.floor.rmse_w
         for s, m in zip(self.steps, self.step_metrics, strict=True):
             removed_total = 1.0 - (m["heldout_rmse_w"] / first) ** 2 if first > 0 else math.nan
             rows.append(
@@ -109,6 +182,7 @@ class Discovery:
                     "explanation": s.explanation,
                     "alternatives": s.alternatives,
                     "heldout_rmse_w": m["heldout_rmse_w"],
+                    "floor_ratio": m["heldout_rmse_w"] / fl if fl > 0 else math.nan,
                     "run_energy_error_median": m["run_energy_error_median"],
                     "run_energy_error_p90": m["run_energy_error_p90"],
                     "error_removed": s.error_explained,
@@ -126,11 +200,12 @@ class Discovery:
         return {
             "base_terms": list(self.base_terms),
             "added": self.added,
-            "terms": self.terms,
+            "terms": self.term_names,
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
             "speeds": self.speeds,
             "staircase": self.table(),
+            "noise_floor": None if self.floor is None else self.floor.to_dict(),
             "data_findings": [f.to_dict() for f in self.data_findings],
             "below_noise_at_end": []
             if last is None
@@ -231,16 +306,18 @@ def discover(
                 "run_energy_error_p90": float(np.quantile(rel, 0.9)) if rel.size else math.nan,
             }
         )
+    floor = noise_floor(wd)
     notes = []
-    if rankings and not rankings[-1].suspects:
-        notes.append("no candidate effect is above noise: the model explains these logs")
-    elif len(steps) - 1 >= max_steps:
-        notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
+    if rankings:
+        left = bool(rankings[-1].suspects)
+        if left:
+            notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
+        notes.append(conclusion(rankings[-1].heldout_rmse_w, floor, suspects_left=left))
     fit = None
     if fit_final:
         try:
-            fit = fit_model(windows, [*base, *(s.added for s in steps[1:])],
-                            n_splits=th.n_splits, seed=th.seed)  # fmt: skip
+            final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
+            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed)
         except EnergyPlannerError as exc:
             notes.append(f"the final fit failed: {exc}")
     return Discovery(
@@ -253,6 +330,7 @@ def discover(
         n_windows=wd.n_windows,
         n_runs=int(len(np.unique(wd.runs))),
         speeds=speed_levels(wd),
+        floor=floor,
         fit=fit,
         notes=notes,
         data=wd,

@@ -8,10 +8,16 @@ see where the model fails.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+
+if TYPE_CHECKING:
+    from energy_planner.diagnosis.data import WindowData
 
 #: Heading sectors (centre in degrees, label); gamma = 0 faces uphill, +90 has uphill on
 #: the robot's right (design notes).
@@ -283,3 +289,100 @@ def superposition(
             }
         )
     return out
+
+
+#: How the noise floor is estimated from the logs (printed with it).
+NOISE_FLOOR_METHOD = (
+    "per window: the white sensor noise of the window mean (robust successive-difference sd "
+    "of the raw power voltage x current within windows, over sqrt(samples)) and the shift "
+    "the preprocessing's smoothing makes (mean smoothed minus mean raw power); "
+    "floor = sqrt(mean over windows of both squared)"
+)
+
+
+@dataclass(frozen=True)
+class NoiseFloorEstimate:
+    """What the logs alone say about the smallest window-power RMSE to expect.
+
+    Attributes
+    ----------
+    rmse_w : float
+        The floor, W: ``sqrt(mean over windows of (noise_w^2 + shift_w^2))``; NaN when the
+        windows carry no raw ``voltage`` and ``current``.
+    sensor_noise_w : float
+        RMS over windows of the white sensor noise of the window mean, W.
+    smoothing_shift_w : float
+        RMS over windows of the smoothing's shift of the window mean, W.
+    sample_sd_w : float
+        Robust white-noise sd of one raw power sample, W.
+    n_windows : int
+        Windows used.
+    method : str
+        :data:`NOISE_FLOOR_METHOD`, or why no floor could be estimated.
+    """
+
+    rmse_w: float
+    sensor_noise_w: float
+    smoothing_shift_w: float
+    sample_sd_w: float
+    n_windows: int
+    method: str = NOISE_FLOOR_METHOD
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dict."""
+        return asdict(self)
+
+
+def noise_floor(wd: WindowData) -> NoiseFloorEstimate:
+    """Estimate from the logs the RMSE no model of the window features is expected to beat.
+
+    A window's measured power is the mean of the preprocessed (smoothed) power of its
+    samples. Two parts of it are not in any feature and both are measured from the logs,
+    without a model:
+
+    - the sensor's white noise on the mean: the robust standard deviation of successive
+      differences of the raw power ``voltage * current`` within each window (the data
+      checks' estimator, ``datacheck._noise_sd``: 1.4826 MAD / sqrt(2)) over the square
+      root of the window's samples;
+    - the shift the preprocessing's smoothing (an exponential moving average) makes: it
+      moves power across window edges at every change of gait or speed; per window, mean
+      smoothed minus mean raw power.
+
+    The floor is ``sqrt(mean over windows of noise^2 + shift^2)``, comparable with the
+    held-out window-power RMSE. Checked against the simulator's floor from the true power
+    (``Campaign.noise_floor``, tests/test_discover.py): 0.92-0.98 of it on designed
+    campaigns, 1.02 on missions. It is a yardstick, not a bound: a model can come a little
+    below it.
+
+    Parameters
+    ----------
+    wd : WindowData
+        Windows of preprocessed samples that still carry ``voltage`` and ``current``.
+
+    Returns
+    -------
+    NoiseFloorEstimate
+    """
+    from energy_planner.diagnosis.datacheck import _noise_sd
+
+    s = wd.samples
+    if not {"voltage", "current", "power"} <= set(s.columns):
+        nan = math.nan
+        why = "not estimable: the windows carry no raw voltage and current"
+        return NoiseFloorEstimate(nan, nan, nan, nan, 0, why)
+    raw = s["voltage"].to_numpy(float) * s["current"].to_numpy(float)
+    shift = wd.window_mean(s["power"].to_numpy(float)) - wd.window_mean(raw)
+    sd = _noise_sd(raw, wd.key)
+    n = np.bincount(wd.key, weights=np.isfinite(raw), minlength=wd.n_windows)
+    noise2 = np.where(n > 0, sd**2 / np.maximum(n, 1), np.nan)
+    ok = np.isfinite(shift) & np.isfinite(noise2)
+    if not ok.any():
+        nan = math.nan
+        return NoiseFloorEstimate(nan, nan, nan, sd, 0, "not estimable: no window has raw power")
+    return NoiseFloorEstimate(
+        rmse_w=float(np.sqrt(np.mean(shift[ok] ** 2 + noise2[ok]))),
+        sensor_noise_w=float(np.sqrt(np.mean(noise2[ok]))),
+        smoothing_shift_w=float(np.sqrt(np.mean(shift[ok] ** 2))),
+        sample_sd_w=float(sd),
+        n_windows=int(ok.sum()),
+    )

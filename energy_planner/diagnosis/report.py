@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.diagnosis.core import Diagnosis
+from energy_planner.diagnosis.suspects import RUN_TEST_NAME
 
 _CSS = """
 body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}
@@ -229,8 +230,8 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     parts.append("<h2>Suspects: which effect is missing</h2>")
     parts.append(
         f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
-        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when a one-sided "
-        f"paired t-test by run of its held-out error reduction has p &lt; "
+        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when a "
+        f"{RUN_TEST_NAME} of its held-out error reduction has p &lt; "
         f"{th['alpha']} / {doc['n_tested']} candidates (Bonferroni) and the pooled held-out "
         f"RMSE falls by at least {100 * th['min_rel']:.0f}%. Add one with <code>energy-planner "
         f"fit LOGS --out model.json --term TERM</code>, or let <code>energy-planner discover"
@@ -389,6 +390,14 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
         f"<code>{html.escape(', '.join(doc['base_terms']))}</code>.<br>Terms added: "
         f"<code>{html.escape(', '.join(doc['added']) or '(none)')}</code></p>"
     )
+    fl = doc.get("noise_floor")
+    if fl:
+        parts.append(
+            f"<p>Noise floor estimated from the logs: <b>{_fmt(fl['rmse_w'])} W</b> over "
+            f"{fl['n_windows']} windows (sensor noise {_fmt(fl['sensor_noise_w'])} W, "
+            f"smoothing shift {_fmt(fl['smoothing_shift_w'])} W). Method: "
+            f"{html.escape(fl['method'])}.</p>"
+        )
     for n in doc["notes"]:
         parts.append(f"<p class='note'>{html.escape(n)}</p>")
     parts.append("<h2>Data findings (sensor problems, not physical effects)</h2>")
@@ -427,6 +436,7 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
                 ("explanation", "physical explanation"),
                 ("alternatives", "or equally (confounded)"),
                 ("heldout_rmse_w", "held-out RMSE (W)"),
+                ("floor_ratio", "x noise floor"),
                 ("med", "run energy error, median (%)"),
                 ("p90", "run energy error, p90 (%)"),
                 ("removed", "error removed by the step (%)"),
@@ -435,7 +445,7 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
         )
     )
     parts.append(
-        f"<p class='note'>Rule: a candidate is added when a one-sided paired t-test by run of "
+        f"<p class='note'>Rule: a candidate is added when a {RUN_TEST_NAME} of "
         f"its held-out error reduction has p below {th['alpha']} / (candidates tested: "
         f"{', '.join(map(str, doc['n_tested']))} at each step) and it lowers the held-out "
         f"RMSE by at least {100 * th['min_rel']:.0f}%. Folds: {th['n_splits']} by run.</p>"

@@ -19,6 +19,7 @@ import numpy as np
 
 from energy_planner.energy.kernels import (
     BLOCKED,
+    GAIT_TOL,
     N_KINDS,
     N_OUT,
     NO_CHANNEL,
@@ -32,6 +33,8 @@ from energy_planner.energy.kernels import (
     OUT_MEAN_SLOPE,
     OUT_TURN,
     OUTSIDE,
+    TOO_BACKWARD,
+    TOO_CRAB,
     TOO_CROSS,
     TOO_STEEP,
     sample_channels,
@@ -92,9 +95,30 @@ def body_velocity_cs(gxs, gys, c_, s_, v0, v1, v2):
 
 
 @numba.njit(cache=True)
+def gait_violation(gxs, gys, vx, vy, dist, btan, cmax):
+    """The gait limit a translation breaks (a violation code), or 0.
+
+    ``(vx, vy)``: the body-frame velocity (any scale); ``dist``: the motion's map length
+    (0: a turn in place, never refused); ``btan``: tangent of the steepest slope on
+    which walking backward is allowed; ``cmax``: the largest crab angle, radians. The
+    angle from body x to the velocity is ``atan2(|vy|, vx)`` in [0, pi]: beyond
+    ``pi / 2`` the robot walks backward, and its crab angle is the smaller of the angle
+    and its supplement. :data:`GAIT_TOL` of slack on both.
+    """
+    if dist <= 0.0 or (vx == 0.0 and vy == 0.0):
+        return 0
+    ang = math.atan2(abs(vy), vx)
+    if ang > 0.5 * math.pi + GAIT_TOL and gxs * gxs + gys * gys > btan * btan:
+        return TOO_BACKWARD
+    if min(ang, math.pi - ang) > cmax + GAIT_TOL:
+        return TOO_CRAB
+    return 0
+
+
+@numba.njit(cache=True)
 def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     (grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax, chan,
-     nearest) = data  # fmt: skip
+     nearest, btan, cmax) = data  # fmt: skip
     ddx = x1 - x0
     ddy = y1 - y0
     dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -172,6 +196,11 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
         if dt > 0.0:
             # 3-D velocity along the surface, in the tilted body frame
             vx, vy = body_velocity(gxs, gys, th, hx / dt, hy / dt, dz / dt)
+        code = gait_violation(gxs, gys, vx, vy, dist, btan, cmax)
+        if code != 0:
+            out[OUT_CODE] = code
+            out[OUT_ENERGY] = np.inf
+            return
         p, kinds = power(alpha, gamma, vx, vy, wz, 0.0, 0.0, chv)
         out[OUT_ENERGY] += p * dt
         out[OUT_MEAN_SLOPE] += alpha / n
@@ -211,13 +240,15 @@ def path_table(x, y, th, durations, data):
 
 
 @numba.njit(cache=True)
-def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, chv):
+def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax, btan, cmax,
+              chv):  # fmt: skip
     """Energy of ``dt`` seconds of straight walking at velocity (v0, v1, v2).
 
     The walk is along the surface with body yaw of cosine ``cy`` and sine ``sy``, where
     the gradient is (gx, gy) (slope ``alpha``, its cosine ``ca`` and sine ``sa``, uphill
     azimuth of cosine ``c_psi`` and sine ``s_psi``); ``inf`` above the cross-slope limit
-    ``smax``.
+    ``smax`` or where the gait breaks a gait limit (``btan``, ``cmax``:
+    :func:`gait_violation`).
 
     The same relative heading as :func:`slope_frame` (``tan(gamma) = tan(yaw - psi)
     cos(alpha)``) and the same body velocity as :func:`motion_full`.
@@ -226,6 +257,8 @@ def gait_cost(gx, gy, alpha, ca, sa, c_psi, s_psi, cy, sy, v0, v1, v2, dt, smax,
     if sa * abs(math.sin(gamma)) > smax:
         return np.inf
     vx, vy = body_velocity_cs(gx, gy, cy, sy, v0, v1, v2)
+    if gait_violation(gx, gy, vx, vy, 1.0, btan, cmax) != 0:
+        return np.inf
     p, kinds = power(alpha, gamma, vx, vy, 0.0, 0.0, 0.0, chv)
     return p * dt
 
@@ -268,17 +301,21 @@ def travel(a, b, u0, u1, speed):
 
 
 @numba.njit(cache=True)
-def gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, r):
-    """J per map metre along (u0, u1) with the body yaw turned ``r`` from the travel."""
+def gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax,
+            chv, r):  # fmt: skip
+    """J per map metre along (u0, u1) with the body yaw turned ``r`` from the travel.
+
+    ``r`` is a map angle; ``inf`` where the gait breaks a limit (:func:`gait_cost`).
+    """
     cr = math.cos(r)
     sr = math.sin(r)
     return gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0 * cr - u1 * sr, u1 * cr + u0 * sr,
-                     v0, v1, v2, dt, smax, chv)  # fmt: skip
+                     v0, v1, v2, dt, smax, btan, cmax, chv)  # fmt: skip
 
 
 @numba.njit(cache=True)
-def _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, lo, hi,
-            fb, rb):  # fmt: skip
+def _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax, chv,
+            lo, hi, fb, rb):  # fmt: skip
     """Golden-section search of :func:`gait_at` over ``r`` in [lo, hi].
 
     Returns the best of it and the known point ``(rb, fb)``.
@@ -286,23 +323,25 @@ def _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv
     g = 0.3819660112501051  # 2 - golden ratio
     x1 = lo + g * (hi - lo)
     x2 = hi - g * (hi - lo)
-    f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, x1)
-    f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, x2)
+    f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax,
+                 chv, x1)  # fmt: skip
+    f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax,
+                 chv, x2)  # fmt: skip
     for _ in range(YAW_REFINE_ITERS):
         if f1 <= f2:
             hi = x2
             x2 = x1
             f2 = f1
             x1 = lo + g * (hi - lo)
-            f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                         x1)  # fmt: skip
+            f1 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan,
+                         cmax, chv, x1)  # fmt: skip
         else:
             lo = x1
             x1 = x2
             f1 = f2
             x2 = hi - g * (hi - lo)
-            f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                         x2)  # fmt: skip
+            f2 = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan,
+                         cmax, chv, x2)  # fmt: skip
     if f1 < fb:
         fb, rb = f1, x1
     if f2 < fb:
@@ -311,19 +350,22 @@ def _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv
 
 
 @numba.njit(cache=True)
-def half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, centre,
-             width):  # fmt: skip
+def half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax, chv,
+             centre, width, anchor):  # fmt: skip
     """Least :func:`gait_at` over ``r`` in ``[centre - width, centre + width]``: ``(J/m, r)``.
 
     A sweep at about :data:`YAW_SWEEP_STEP` (endpoints included), then a golden-section
     refinement within one sweep step either side of each of the two lowest local minima
-    of the sweep (the second only within :data:`SECOND_BASIN` of the lowest). Every value
-    returned is an evaluated cost (of a yaw in the interval),
-    ``inf`` if every sampled yaw breaks the cross-slope limit.
+    of the sweep (the second only within :data:`SECOND_BASIN` of the lowest); ``anchor``,
+    a yaw in the interval, is a candidate too (the body along the travel or its
+    opposite: a kink of most models, ``|vy|``, where the minimum often lies). Every value
+    returned is an evaluated cost (of a yaw in the interval), ``inf`` if every sampled
+    yaw breaks a limit (cross-slope ``smax``, gait limits ``btan``, ``cmax``).
     """
+    fa = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax,
+                 chv, anchor)  # fmt: skip
     if width <= 0.0:
-        return (gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                        centre), centre)  # fmt: skip
+        return fa, anchor
     lo = centre - width
     hi = centre + width
     n = max(2, int(math.ceil((hi - lo) / YAW_SWEEP_STEP)))
@@ -331,12 +373,13 @@ def half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, ch
     b1 = b2 = np.inf
     r1 = r2 = centre
     f_prev = np.inf
-    f_cur = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv, lo)
+    f_cur = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan, cmax,
+                    chv, lo)  # fmt: skip
     for k in range(n + 1):
         f_next = np.inf
         if k < n:
             f_next = gait_at(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax,
-                             chv, lo + (k + 1) * h)  # fmt: skip
+                             btan, cmax, chv, lo + (k + 1) * h)  # fmt: skip
         if f_cur <= f_prev and f_cur <= f_next:  # a local minimum of the sweep
             if f_cur < b1:
                 b2, r2 = b1, r1
@@ -346,43 +389,72 @@ def half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, ch
         f_prev = f_cur
         f_cur = f_next
     if b1 < np.inf:
-        b1, r1 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                         max(lo, r1 - h), min(hi, r1 + h), b1, r1)  # fmt: skip
+        b1, r1 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan,
+                         cmax, chv, max(lo, r1 - h), min(hi, r1 + h), b1, r1)  # fmt: skip
     if b2 < SECOND_BASIN * b1:
-        b2, r2 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                         max(lo, r2 - h), min(hi, r2 + h), b2, r2)  # fmt: skip
+        b2, r2 = _golden(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan,
+                         cmax, chv, max(lo, r2 - h), min(hi, r2 + h), b2, r2)  # fmt: skip
     if b2 < b1:
-        return b2, r2
+        b1, r1 = b2, r2
+    if fa < b1:
+        return fa, anchor
     return b1, r1
 
 
 @numba.njit(cache=True)
-def cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv):
+def yaw_window(ca, c_psi, s_psi, u0, u1, w):
+    """Map yaws of a body within in-plane angle ``w`` of the travel: ``(centre, width)``.
+
+    The gait limits hold on angles in the slope plane (:func:`gait_violation`: the angle
+    between body x and the velocity), the sweep of :func:`half_min` runs over map angles
+    ``r`` relative to the travel (u0, u1). A map direction ``m`` from uphill lies at
+    ``atan2(cos(alpha) sin m, cos m)`` in the plane (as :func:`slope_frame`), so the
+    in-plane interval ``[t0 - w, t0 + w]`` around the travel's ``t0`` maps to the map yaws
+    ``[centre - width, centre + width]``, exactly (``w <= pi / 2``; ``ca``: cos of the
+    slope; ``c_psi``, ``s_psi``: the uphill azimuth). Near the fall line the window is
+    wider than ``w`` (up to ``2 atan(tan(w / 2) / cos(alpha))``), across it narrower; its
+    opposite (walking backward) is the same window turned by ``pi``.
+    """
+    if w <= 0.0:
+        return 0.0, 0.0
+    cphi = u0 * c_psi + u1 * s_psi  # the travel from uphill (map angle phi)
+    sphi = u1 * c_psi - u0 * s_psi
+    phi = math.atan2(sphi, cphi)
+    t0 = math.atan2(ca * sphi, cphi)  # in the slope plane
+    lo = wrap_angle(math.atan2(math.sin(t0 - w), ca * math.cos(t0 - w)) - phi)
+    hi = wrap_angle(math.atan2(math.sin(t0 + w), ca * math.cos(t0 + w)) - phi)
+    if hi < lo - math.pi:  # wrapped across +-pi (lo <= 0 <= hi before wrapping)
+        hi += 2.0 * math.pi
+    return 0.5 * (lo + hi), max(0.5 * (hi - lo), 0.0)
+
+
+@numba.njit(cache=True)
+def cheapest_at(a, b, u0, u1, speed, smax, btan, cmax, chv):
     """The cheapest way to move along unit map direction (u0, u1) on gradient (a, b).
 
     Least J per map metre over the body's yaw ``r`` relative to the travel, within the
-    gait limits: ``|r| <= crab`` (walking forward or sideways) or ``|r - pi| <= crab``
-    (walking backward, only where ``|g| <= back_tan``: never if it is negative);
-    ``crab >= pi / 2`` is no limit.
-    Returns ``(J per map metre, r)``, ``r`` in (-pi, pi]; ``inf`` if no allowed yaw may
-    move (cross-slope limit ``smax``). The continuous minimum of :func:`half_min` on
-    each half of the yaws.
+    gait limits of :func:`gait_violation` (angles in the slope plane): body x within
+    ``cmax`` of the travel (walking forward or sideways) or of its opposite (walking
+    backward, only where ``|g| <= btan``: never if it is negative); ``cmax >= pi / 2`` is
+    no crab limit. Returns ``(J per map metre, r)``, ``r`` in (-pi, pi] (map angle);
+    ``inf`` if no allowed yaw may move (cross-slope limit ``smax``). The continuous
+    minimum of :func:`half_min` on each half of the yaws (:func:`yaw_window`).
     """
     alpha, ca, sa, c_psi, s_psi = slope_of(a, b)
     dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
-    w = min(crab, 0.5 * math.pi)
-    f, r = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                    0.0, w)  # fmt: skip
-    if back_tan >= 0.0 and a * a + b * b <= back_tan * back_tan:
-        fb, rb = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, chv,
-                          math.pi, w)  # fmt: skip
+    centre, width = yaw_window(ca, c_psi, s_psi, u0, u1, min(cmax, 0.5 * math.pi))
+    f, r = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax, btan,
+                    cmax, chv, centre, width, 0.0)  # fmt: skip
+    if btan >= 0.0 and a * a + b * b <= btan * btan:
+        fb, rb = half_min(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt, smax,
+                          btan, cmax, chv, centre + math.pi, width, math.pi)  # fmt: skip
         if fb < f:
             f, r = fb, wrap_angle(rb)
     return f, r
 
 
 @numba.njit(cache=True, parallel=True)
-def cheapest_batch(gx, gy, heading, speed, smax, crab, back_tan, chan):
+def cheapest_batch(gx, gy, heading, speed, smax, btan, cmax, chan):
     """:func:`cheapest_at` of every ``(gx[i], gy[i], heading[i])``; channels ``chan[:, i]``.
 
     Returns ``(J per map metre, body yaw relative to the travel)`` arrays; NaN where the
@@ -402,25 +474,26 @@ def cheapest_batch(gx, gy, heading, speed, smax, crab, back_tan, chan):
             cost[i] = yaw[i] = np.nan
             continue
         cost[i], yaw[i] = cheapest_at(gx[i], gy[i], math.cos(heading[i]), math.sin(heading[i]),
-                                      speed, smax, crab, back_tan, chv)  # fmt: skip
+                                      speed, smax, btan, cmax, chv)  # fmt: skip
     return cost, yaw
 
 
 @numba.njit(cache=True, parallel=True)
-def heading_table(speed, smax, crab, d_alpha, i_start, n_rows, n_phi, chv):
+def heading_table(speed, smax, cmax, d_alpha, i_start, n_rows, n_phi, chv):
     """The cheapest J per map metre at table nodes, each half of the body's yaws apart.
 
-    ``table[0, i, j]``: body within ``crab`` (at most pi/2) of the travel direction;
-    ``table[1, i, j]``: within ``crab`` of its opposite (walking backward);
-    ``table[2, i, j]``: walking forward facing the travel; on ground of
-    slope ``(i_start + i) * d_alpha`` travelling ``2 pi j / n_phi`` counter-clockwise from
-    uphill (map angles): :func:`half_min` of each half, as :func:`cheapest_at` computes
-    them. ``n_rows`` rows of slope; each node is computed on its own, so a table built in
-    pieces equals one built whole.
+    ``table[0, i, j]``: body within ``cmax`` (at most pi/2, in the slope plane) of the
+    travel direction; ``table[1, i, j]``: within ``cmax`` of its opposite (walking
+    backward, whatever the slope: the backward-slope limit is applied per cell by
+    :func:`map_costs`); ``table[2, i, j]``: walking forward facing the travel; on ground
+    of slope ``(i_start + i) * d_alpha`` travelling ``2 pi j / n_phi`` counter-clockwise
+    from uphill (map angles): :func:`half_min` of each half, as :func:`cheapest_at`
+    computes them. ``n_rows`` rows of slope; each node is computed on its own, so a table
+    built in pieces equals one built whole.
     """
     table = np.empty((3, n_rows, n_phi))
     d_phi = 2.0 * math.pi / n_phi
-    w = min(crab, 0.5 * math.pi)
+    w = min(cmax, 0.5 * math.pi)
     for k in numba.prange(n_rows * n_phi):
         i = k // n_phi
         j = k - i * n_phi
@@ -429,12 +502,14 @@ def heading_table(speed, smax, crab, d_alpha, i_start, n_rows, n_phi, chv):
         u1 = math.sin(j * d_phi)
         alpha, ca, sa, c_psi, s_psi = slope_of(a, 0.0)
         dt, v0, v1, v2 = travel(a, 0.0, u0, u1, speed)
+        centre, width = yaw_window(ca, c_psi, s_psi, u0, u1, w)
         table[0, i, j] = half_min(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                  smax, chv, 0.0, w)[0]  # fmt: skip
+                                  smax, np.inf, cmax, chv, centre, width, 0.0)[0]  # fmt: skip
         table[1, i, j] = half_min(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                  smax, chv, math.pi, w)[0]  # fmt: skip
+                                  smax, np.inf, cmax, chv, centre + math.pi, width,
+                                  math.pi)[0]  # fmt: skip
         table[2, i, j] = gait_cost(a, 0.0, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                   smax, chv)  # fmt: skip
+                                   smax, np.inf, cmax, chv)  # fmt: skip
     return table
 
 
@@ -445,8 +520,8 @@ def _lerp_table(table, h, i0, ti, j0, j1, tj):
 
 
 @numba.njit(cache=True, parallel=True)
-def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, d_alpha,
-              along, best):  # fmt: skip
+def map_costs(gx, gy, chan, headings, speed, tmax, smax, btan, cmax, table, d_alpha, along,
+              best):  # fmt: skip
     """Energy-map costs of a block of cells (J per metre of map distance).
 
     ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
@@ -492,7 +567,7 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, 
                     best[j, r, c] = np.inf
                 continue
             alpha, ca, sa, c_psi, s_psi = slope_of(a, b)
-            back_ok = back_tan >= 0.0 and g2 <= back_tan * back_tan
+            back_ok = btan >= 0.0 and g2 <= btan * btan
             fi = alpha / d_alpha if n_alpha >= 2 else np.inf
             in_table = fi <= n_alpha - 1
             i0 = 0
@@ -529,7 +604,7 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, crab, back_tan, table, 
                     u1 = hs[j]
                     dt, v0, v1, v2 = travel(a, b, u0, u1, speed)
                     fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                    smax, chv)  # fmt: skip
-                    m = cheapest_at(a, b, u0, u1, speed, smax, crab, back_tan, chv)[0]
+                                    smax, btan, cmax, chv)  # fmt: skip
+                    m = cheapest_at(a, b, u0, u1, speed, smax, btan, cmax, chv)[0]
                 along[j, r, c] = fwd
                 best[j, r, c] = min(m, fwd)

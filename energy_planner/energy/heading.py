@@ -14,15 +14,23 @@ of map does it cost, at the least, to move along this heading on this ground?" f
 direction of travel (map angles, as every yaw in energy_planner; 0 facing it, ``+-pi/2``
 sideways, ``pi`` walking backward), within the gait limits:
 
-- ``max_crab_deg``: ``|r| <= max_crab`` walking forward or sideways, ``|r - pi| <=
-  max_crab`` walking backward (None: any yaw; 0: face along or straight back);
-- ``max_backward_slope_deg``: no backward walking (``|r| > 90 deg``) on ground steeper
-  than this (None: anywhere);
+- ``max_crab_deg``: body x within ``max_crab`` of the travel (walking forward or
+  sideways) or of its opposite (walking backward) (None: any yaw; 0: face along or
+  straight back);
+- ``max_backward_slope_deg``: no backward walking (more than 90 deg between body x and
+  the travel) on ground steeper than this (None: anywhere);
 - ``max_cross_slope_deg``: no yaw that holds the body across a steeper cross-slope
   (as every motion of the kernels); ``max_slope_deg``: ``inf`` on steeper ground.
 
-The minimum is found by a sweep of ``r`` at 6 degrees on each half (forward: ``|r| <=
-90``; backward) and a golden-section refinement of the two best basins to 0.02 degrees
+The gait limits hold as the motion kernels check them
+(:func:`energy_planner.energy._motion.gait_violation`, within ``gait_cost``): on angles
+in the slope plane, between body x and the velocity. The sweep runs over map angles, so
+each half's window is the map image of the in-plane one (``yaw_window``: wider than
+``max_crab`` near the fall line, narrower across it; the forward half is exactly the
+in-plane forward yaws, all that is left where backward walking is forbidden).
+
+The minimum is found by a sweep of ``r`` at 6 degrees on each half (forward; backward)
+and a golden-section refinement of the two best basins to 0.02 degrees
 (``cheapest_at`` in :mod:`energy_planner.energy._motion`, compiled with the model's
 ``power``, pricing with the very ``gait_cost`` of the motion kernels: a short straight
 motion's energy per map metre). Every value is an evaluated cost of an allowed yaw.
@@ -99,9 +107,11 @@ class HeadingCost:
         ``tan`` of the slope limit, ``sin`` of the cross-slope limit (``inf``: none).
     crab : float
         Largest angle between body x and the travel (or its opposite walking backward),
-        radians (``inf``: none).
+        radians, in the slope plane (``inf``: none): the motion kernel's ``cmax``
+        (:func:`~energy_planner.energy.motion.gait_limit_values`).
     back_tan : float
-        ``tan`` of the steepest slope on which the robot may walk backward (``inf``).
+        ``tan`` of the steepest slope on which the robot may walk backward (``inf``:
+        anywhere; negative: nowhere): the motion kernel's ``btan``.
     rasters : int
         Number of channel rasters the kernel reads.
     categorical : bool
@@ -213,8 +223,8 @@ class HeadingCost:
         if chan.shape[0] != self.rasters:
             raise ValueError(f"chan has {chan.shape[0]} channels, the kernel reads {self.rasters}")
         flat = [np.ascontiguousarray(v.ravel()) for v in (gx, gy, h)]
-        cost, yaw = self._mod.cheapest_batch(*flat, self.speed, self.smax, self.crab,
-                                             self.back_tan, chan)  # fmt: skip
+        cost, yaw = self._mod.cheapest_batch(*flat, self.speed, self.smax, self.back_tan,
+                                             self.crab, chan)  # fmt: skip
         steep = flat[0] ** 2 + flat[1] ** 2 > self.tmax**2
         cost[steep] = np.inf
         return cost.reshape(shape), yaw.reshape(shape)
@@ -224,8 +234,10 @@ class HeadingCost:
         """The table, built at least up to slope ``max_alpha`` (radians).
 
         ``table[h, i, j]``: J per map metre at slope ``i * d_alpha`` moving ``2 pi j /
-        n_phi`` CCW from uphill, least over the forward (``h = 0``: ``|r| <= 90 deg``)
-        or backward (``h = 1``) half of the allowed yaws; ``h = 2``: walking forward
+        n_phi`` CCW from uphill, least over the forward (``h = 0``: body x at most 90 deg
+        from the travel, in the slope plane) or backward (``h = 1``, whatever the slope:
+        the backward-slope limit is applied per cell) half of the yaws within the crab
+        limit; ``h = 2``: walking forward
         facing the travel (the map's ``along``). ``values``: the categorical channels'
         values (category indices) it is for. Rows are added as needed (each node on its
         own: a table grown in pieces equals one built whole).
@@ -358,7 +370,7 @@ class HeadingCost:
 
     def _map(self, gx, gy, chan, ang, table, along, best) -> None:
         self._mod.map_costs(
-            gx, gy, chan, ang, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
+            gx, gy, chan, ang, self.speed, self.tmax, self.smax, self.back_tan, self.crab,
             table, self.d_alpha, along, best,
         )  # fmt: skip
 
@@ -401,8 +413,9 @@ def heading_cost(
         Slope limits, as :class:`~energy_planner.request.Limits`.
     max_crab_deg : float, optional
         Largest angle between the body's x axis and the direction of travel, or its
-        opposite when walking backward, degrees in [0, 90] (None: any yaw; 0: face along
-        or straight back; sideways is 90).
+        opposite when walking backward, degrees in [0, 90], measured in the slope plane
+        as the motion kernel checks it (None: any yaw; 0: face along or straight back;
+        sideways is 90).
     max_backward_slope_deg : float, optional
         No backward walking (body x more than 90 degrees from the travel) on ground
         steeper than this, degrees (None: anywhere; negative: nowhere, not even on flat
@@ -427,6 +440,7 @@ def heading_cost(
     600.0
     """
     from energy_planner.energy.channels import Channels
+    from energy_planner.energy.motion import gait_limit_values
     from energy_planner.errors import ModelError
 
     if not model.is_fitted:
@@ -435,13 +449,16 @@ def heading_cost(
     if constants:
         channels = Channels({**channels.constants, **dict(constants)}, channels.rasters)
     source = model.kernel_source(channels.constants, channels.kernel_layout())
+    # the motion kernel's form of the gait limits (a negative backward slope gives a
+    # negative tangent: never backward)
+    back_tan, crab = gait_limit_values(max_backward_slope_deg, max_crab_deg)
     return _cached(
         source,
         float(speed),
         _angle(max_slope_deg, math.tan),
         _angle(max_cross_slope_deg, math.sin),
-        math.inf if max_crab_deg is None else math.radians(max_crab_deg),
-        _angle(max_backward_slope_deg, math.tan),
+        crab,
+        back_tan,
         len(channels.rasters),
         all(cats is not None for _, cats in channels.kernel_layout()),
     )

@@ -16,7 +16,10 @@ four corner cells must be valid (a NaN corner makes the sample invalid).
 
 Violation codes returned by the kernels: 0 valid, 1 outside the map or on nodata,
 2 slope above the limit, 3 cross-slope above the limit, 4 a blocked (keep-out) cell,
-5 a channel raster has no value there.
+5 a channel raster has no value there, 6 walking backward on ground steeper than the
+backward-walking limit, 7 a crab angle above its limit (the gait limits of
+:class:`energy_planner.request.Limits`, checked at every sub-step of a translation from
+the body-frame velocity; turns in place are never refused by them).
 
 The per-motion result vector ``out`` of ``motion_full`` is read through the named
 indices ``OUT_*`` below (plain module-level ints, which numba folds as constants), never
@@ -38,14 +41,21 @@ from pathlib import Path
 
 import numba
 
+from energy_planner.request import GAIT_TOL_RAD
+
 OK, OUTSIDE, TOO_STEEP, TOO_CROSS, BLOCKED, NO_CHANNEL = 0, 1, 2, 3, 4, 5
+TOO_BACKWARD, TOO_CRAB = 6, 7
 VIOLATIONS = {
     OUTSIDE: "outside the map or on nodata",
     TOO_STEEP: "slope above the limit",
     TOO_CROSS: "cross-slope above the limit",
     BLOCKED: "inside a keep-out area",
     NO_CHANNEL: "where a channel raster has no value (nodata)",
+    TOO_BACKWARD: "walking backward on ground steeper than the backward-walking limit",
+    TOO_CRAB: "with a crab angle (body x to the direction of travel) above the limit",
 }
+#: Slack of the gait checks, radians (see :class:`energy_planner.request.Limits`).
+GAIT_TOL = GAIT_TOL_RAD
 
 # Named indices of the per-motion result vector ``out`` of ``motion_full``.
 #: energy, J
@@ -199,7 +209,7 @@ def make_kernels(power_source: str):
         invalid; ``motion_batch`` maps it over arrays; ``path_table(x, y, th, durations,
         data)`` gives the ``out`` rows of consecutive poses. ``data`` is the tuple built
         by :class:`energy_planner.energy.MotionCost`. ``map_costs(gx, gy, chan,
-        headings, speed, tmax, smax, crab, back_tan, table, d_alpha, along, best)`` fills
+        headings, speed, tmax, smax, btan, cmax, table, d_alpha, along, best)`` fills
         the energy-map costs of a block of cells (see
         :class:`energy_planner.energy.heading.HeadingCost`).
     """

@@ -21,7 +21,7 @@ from energy_planner.energy.kernels import (
 from energy_planner.errors import ChannelError, ModelError, MotionCostError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
-__all__ = ["MotionCost"]
+__all__ = ["MotionCost", "gait_limit_values"]
 
 
 class MotionCost:
@@ -43,6 +43,9 @@ class MotionCost:
     max_slope_deg, max_cross_slope_deg : float, optional
         Limits; a motion that samples a steeper slope, or holds the body across a
         steeper cross-slope (``asin(sin(alpha) |sin(gamma)|)``), costs ``inf``.
+    max_backward_slope_deg, max_crab_deg : float, optional
+        Gait limits (:class:`energy_planner.request.Limits`): a translation that walks
+        backward on a steeper slope, or with a larger crab angle, costs ``inf``.
     blocked : ndarray of bool, optional
         Keep-out mask on the terrain grid (nearest cell).
     constants : mapping, optional
@@ -67,6 +70,8 @@ class MotionCost:
         *,
         max_slope_deg: float | None = None,
         max_cross_slope_deg: float | None = None,
+        max_backward_slope_deg: float | None = None,
+        max_crab_deg: float | None = None,
         blocked: np.ndarray | None = None,
         constants: Mapping[str, Any] | None = None,
         channels: Channels | None = None,
@@ -85,6 +90,8 @@ class MotionCost:
         self.yaw_rate = float(yaw_rate)
         self.max_slope_deg = max_slope_deg
         self.max_cross_slope_deg = max_cross_slope_deg
+        self.max_backward_slope_deg = max_backward_slope_deg
+        self.max_crab_deg = max_crab_deg
         channels = channels if channels is not None else Channels()
         extra = dict(constants or {})
         clash = sorted(set(extra) & set(channels.names))
@@ -111,11 +118,12 @@ class MotionCost:
         smax = (
             math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))
         )
+        btan, cmax = gait_limit_values(max_backward_slope_deg, max_crab_deg)
         chan, nearest = channels.stack(gx.shape)
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
-            chan, nearest,
+            chan, nearest, btan, cmax,
         )  # fmt: skip
         source = model.kernel_source(self.constants, channels.kernel_layout())
         self._full, self.kernel, self._batch, self._path, self.map_kernel = make_kernels(source)
@@ -209,6 +217,31 @@ class MotionCost:
             cross = math.degrees(math.asin(math.sin(math.radians(slope)) * abs(math.sin(gamma))))
             return f"cross-slope {cross:.1f} deg > limit {self.max_cross_slope_deg:g} deg"
         return VIOLATIONS[code]
+
+
+def gait_limit_values(
+    max_backward_slope_deg: float | None, max_crab_deg: float | None
+) -> tuple[float, float]:
+    """The kernels' form of the gait limits: ``(btan, cmax)``.
+
+    ``btan`` is the tangent of the steepest slope on which walking backward is allowed,
+    ``cmax`` the largest crab angle in radians; ``inf`` for no limit. Used by the motion
+    kernel's data tuple and by the energy map.
+
+    Examples
+    --------
+    >>> gait_limit_values(None, 0)
+    (inf, 0.0)
+    >>> round(gait_limit_values(45, None)[0], 12)
+    1.0
+    """
+    btan = (
+        math.inf
+        if max_backward_slope_deg is None
+        else math.tan(math.radians(max_backward_slope_deg))
+    )
+    cmax = math.inf if max_crab_deg is None else math.radians(max_crab_deg)
+    return btan, cmax
 
 
 def _combinations(samples: Mapping[str, np.ndarray]) -> list[dict[str, Any]]:

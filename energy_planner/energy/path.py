@@ -26,6 +26,8 @@ from energy_planner.energy.kernels import (
     OUT_MEAN_GAMMA,
     OUT_MEAN_SLOPE,
     OUT_TURN,
+    TOO_BACKWARD,
+    TOO_CRAB,
     VIOLATIONS,
 )
 from energy_planner.energy.motion import MotionCost
@@ -173,9 +175,21 @@ def path_energy(
     if invalid.size:
         k = int(invalid[0])
         s = int(seg_of[k])
+        code = int(out[k, OUT_CODE])
+        gait = {
+            TOO_BACKWARD: ("max_backward_slope_deg", cost.max_backward_slope_deg),
+            TOO_CRAB: ("max_crab_deg", cost.max_crab_deg),
+        }
+        if code in gait:  # a gait limit: the motion, not the cells, breaks it
+            name, value = gait[code]
+            raise OutsideMapError(
+                f"segment {s} (waypoint {s} to {s + 1}) is walked {VIOLATIONS[code]} "
+                f"({name} = {value:g} deg)",
+                limit=name,
+                value=value,
+            )
         raise OutsideMapError(
-            f"segment {s} (waypoint {s} to {s + 1}) crosses cells "
-            f"{VIOLATIONS[int(out[k, OUT_CODE])]}"
+            f"segment {s} (waypoint {s} to {s + 1}) crosses cells {VIOLATIONS[code]}"
         )
     segments = _segment_table(out, seg_of, n - 1)
     return PathEnergy(

@@ -669,8 +669,9 @@ def energy_map(
     request : energy_planner.request.Request, optional
         Robot speed (the yaw rate does not matter: straight motions), slope limits
         (cells above ``max_slope_deg`` cost ``inf``; headings whose gait holds the body
-        across a steeper cross-slope than ``max_cross_slope_deg`` cost ``inf``) and
-        channels.
+        across a steeper cross-slope than ``max_cross_slope_deg`` cost ``inf``), gait
+        limits (the cheapest band takes only the gaits ``max_backward_slope_deg`` and
+        ``max_crab_deg`` allow) and channels.
     channels : Channels, optional
         Extra channels the model reads (or ``request.channels``).
     band : int, optional

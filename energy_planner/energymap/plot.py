@@ -5,6 +5,12 @@ an arrow at regularly spaced cells points along the cheapest heading where the d
 matters (anisotropy above a threshold), a dot where it does not. Large maps are read
 decimated (at most ``max_side`` pixels on the longer side), so the plot costs the same
 for a 4096 x 4096 map as for a small one.
+
+The colour scale spans the 2nd to 98th percentile of the cheapest cost; when values lie
+beyond it the colour bar shows arrows at those ends and says so ("colour scale clipped
+at p2..p98: X..Y J/m"). Cells above a slope limit at every heading (inf in the map) are
+shaded, raster channels named in the map's tags are contoured, and the axes name the
+map's CRS (:mod:`energy_planner.plotting`).
 """
 
 from __future__ import annotations
@@ -15,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["plot_energy_map"]
+from energy_planner.errors import fmt_num
+
+__all__ = ["plot_energy_map", "colour_scale"]
 
 
 def _decimated_grid(src: Any, max_side: int) -> tuple[tuple[int, int], Any]:
@@ -58,6 +66,76 @@ def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) ->
         return hillshade(z, (abs(transform.a) * 111320.0 * math.cos(lat),
                              abs(transform.e) * 110574.0))  # fmt: skip
     return hillshade(z, transform)
+
+
+def colour_scale(values: np.ndarray) -> tuple[float, float, str]:
+    """Colour limits of a map: its 2nd and 98th percentiles, and what they clip.
+
+    Returns
+    -------
+    vmin, vmax : float
+        The percentiles (0, 1 without finite values).
+    extend : str
+        matplotlib's colour bar ``extend``: ``"min"``, ``"max"`` or ``"both"`` for the
+        ends where values lie beyond the scale, ``"neither"`` when nothing is clipped.
+
+    Examples
+    --------
+    >>> colour_scale(np.arange(101.0))
+    (2.0, 98.0, 'both')
+    >>> colour_scale(np.array([5.0, 5.0, 5.0]))
+    (5.0, 5.0, 'neither')
+    """
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return 0.0, 1.0, "neither"
+    vmin, vmax = (float(v) for v in np.percentile(values, [2, 98]))
+    low, high = bool(values.min() < vmin), bool(values.max() > vmax)
+    return vmin, vmax, {(0, 0): "neither", (1, 0): "min", (0, 1): "max"}.get((low, high), "both")
+
+
+def _limit_label(tags: dict[str, str]) -> str:
+    """Legend text of the cells above a slope limit, from the map's tags."""
+    parts = []
+    for key, what, inv in (("max_slope_tan", "slope", math.atan),
+                           ("max_cross_slope_sin", "cross slope", math.asin)):  # fmt: skip
+        try:
+            v = float(tags.get(key, "inf"))
+        except ValueError:
+            continue
+        if math.isfinite(v):
+            parts.append(f"{what} {math.degrees(inv(v)):.4g}\u00b0")
+    return "above the slope limit at every heading" + (f" ({', '.join(parts)})" if parts else "")
+
+
+def _channels_on(tags: dict[str, str], shape: tuple[int, int], transform: Any, crs: Any):
+    """The map's raster channels (named in its ``channels`` tag) on the plot's grid."""
+    import ast
+    import warnings
+
+    from energy_planner.energy.channels import ChannelRaster, Channels
+    from energy_planner.errors import EnergyPlannerError
+
+    try:
+        desc = ast.literal_eval(tags.get("channels", "{}"))
+        rasters = {
+            r["name"]: ChannelRaster(
+                r["name"], path=Path(r["raster"]), table=Path(r["table"]) if r["table"] else None
+            )
+            for r in desc.get("rasters", [])
+            if r.get("raster")
+        }
+    except (ValueError, SyntaxError, KeyError, TypeError, AttributeError):
+        return None
+    if not rasters:
+        return None
+    try:
+        return Channels(rasters=rasters).bind_grid(shape, transform, crs, default_crs=crs,
+                                                   quiet=True)  # fmt: skip
+    except EnergyPlannerError as exc:  # moved or deleted since the map was made
+        warnings.warn(f"channel rasters of the map not drawn: {exc}", UserWarning, stacklevel=3)
+        return None
 
 
 def plot_energy_map(
@@ -110,9 +188,12 @@ def plot_energy_map(
             return src.read(names.index(name) + 1, out_shape=shape, resampling=how).astype(float)
 
         cheap = band("cheapest", Resampling.average)
+        # inf marks a cell above a slope limit at every heading (the map's nodata tag)
+        blocked = np.isposinf(band("cheapest", Resampling.nearest))
         head = band("cheapest_heading_deg", Resampling.nearest)
         aniso = band("anisotropy", Resampling.nearest)
         headings = sum(n.startswith("best_") for n in names)
+        tags = src.tags()
     rows, cols = shape
     left, top = t.c, t.f
     right, bottom = left + cols * t.a, top + rows * t.e
@@ -123,13 +204,22 @@ def plot_energy_map(
     if shade is not None:
         ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1, interpolation="bilinear")
     finite = cheap[np.isfinite(cheap)]
-    vmin, vmax = np.percentile(finite, [2, 98]) if finite.size else (0.0, 1.0)
+    vmin, vmax, extend = colour_scale(finite)
     im = ax.imshow(
         np.ma.masked_invalid(cheap), cmap="viridis", extent=extent, vmin=vmin, vmax=vmax,
         alpha=0.6 if shade is not None else 1.0, interpolation="nearest",
     )  # fmt: skip
-    cb = fig.colorbar(im, ax=ax, shrink=0.85)
-    cb.set_label("cheapest cost, J per map metre")
+    cb = fig.colorbar(im, ax=ax, shrink=0.85, extend=extend)
+    label = "cheapest cost, J per map metre"
+    if extend != "neither":
+        label += f"\ncolour scale clipped at p2..p98: {fmt_num(vmin, 4)}..{fmt_num(vmax, 4)} J/m"
+    cb.set_label(label)
+    from energy_planner.plotting import draw_channels, draw_mask, label_map_axes
+
+    draw_mask(ax, blocked, extent, _limit_label(tags))
+    bound = _channels_on(tags, shape, t, crs)
+    if bound is not None:
+        draw_channels(ax, bound, shape, t)
     step = max(1, math.ceil(max(rows, cols) / arrows))
     rr, cc = np.mgrid[step // 2 : rows : step, step // 2 : cols : step]
     xs = left + (cc + 0.5) * t.a
@@ -155,9 +245,10 @@ def plot_energy_map(
     ax.plot(xs[flat], ys[flat], ".", color="white", markersize=2.5)
     ax.set_xlim(left, right)
     ax.set_ylim(bottom, top)
-    geo = crs is not None and crs.is_geographic
-    ax.set_xlabel(f"longitude, deg ({crs})" if geo else f"x, m ({crs})" if crs else "x, m")
-    ax.set_ylabel("latitude, deg" if geo else "y, m")
+    label_map_axes(ax, crs)
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates, not "+5e6"
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
     ax.set_title(
         title
         or f"Energy map ({headings} headings): colour = cheapest way through each cell;\n"

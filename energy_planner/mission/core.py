@@ -160,8 +160,12 @@ class MissionResult:
             props.append({"site": self.sites.names[i], "visit": self.order.index(i)})
         return feature_collection(zip(geoms, props, strict=True), crs=terrain.crs, native=native)
 
-    def plot(self, terrain, path: str | Path) -> Path:
-        """PNG: legs over a hillshade, sites numbered in visiting order."""
+    def plot(self, terrain, path: str | Path, request: Any = None) -> Path:
+        """PNG: legs over a hillshade, sites numbered in visiting order.
+
+        ``request`` adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -175,6 +179,11 @@ class MissionResult:
         ext = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
         im = ax.imshow(np.degrees(terrain.slope), extent=ext, cmap="Greys", origin="upper")
         fig.colorbar(im, ax=ax, label="slope (deg)")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        if draw_request(ax, terrain, request):
+            ax.set_xlim(ext[0], ext[1])
+            ax.set_ylim(ext[2], ext[3])
         for leg in self.legs:
             ax.plot(leg.states[:, 0], leg.states[:, 1], lw=2)
         for k, i in enumerate(self.order):
@@ -192,19 +201,25 @@ class MissionResult:
             axis.set_major_formatter(fmt)
             axis.set_major_locator(MaxNLocator(5))
         ax.tick_params(axis="x", labelrotation=20)
-        crs = terrain.crs.to_string() if terrain.crs is not None else "working grid"
-        ax.set_xlabel(f"x (m, {crs})")
-        ax.set_ylabel(f"y (m, {crs})")
+        label_map_axes(ax, terrain.crs)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
         out = save_figure(fig, path, dpi=110)
         plt.close(fig)
         return out
 
 
 def _one_site(terrain, model, request, xy, n_headings, max_energy):
+    import warnings
+
+    from energy_planner.errors import ReachEdgeWarning
     from energy_planner.planning.reach import reach
 
-    return reach(terrain, model, xy, request, n_headings=n_headings,
-                 max_energy=max_energy).energy_j  # fmt: skip
+    # max_energy only bounds the search here: the map's edge cutting it is no news
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ReachEdgeWarning)
+        return reach(terrain, model, xy, request, n_headings=n_headings,
+                     max_energy=max_energy).energy_j  # fmt: skip
 
 
 def energy_matrix(

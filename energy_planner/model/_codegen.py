@@ -67,5 +67,6 @@ def load_generated_module(text: str, prefix: str) -> ModuleType:
 
 def compile_kernel(source: str):
     """The numba-compiled ``power`` function defined by ``source``."""
-    text = "import math\n\nimport numba\n\n\n@numba.njit(cache=True)\n" + source
+    # formulas render with math and numpy (energy_planner.model.formula.FUNCTIONS)
+    text = "import math\n\nimport numba\nimport numpy as np\n\n\n@numba.njit(cache=True)\n" + source
     return load_generated_module(text, prefix="power").power

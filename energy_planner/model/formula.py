@@ -36,11 +36,43 @@ from energy_planner.errors import FormulaError
 __all__ = ["Formula", "parse_formula", "FUNCTIONS", "CONSTANTS"]
 
 
+def _pos(x):
+    return np.maximum(x, 0.0) + 0.0
+
+
+def _min(x, y):
+    return np.minimum(x, y) + 0.0
+
+
+def _max(x, y):
+    return np.maximum(x, y) + 0.0
+
+
 def _sign(x):
-    return np.sign(x)
+    return np.sign(x) + 0.0
 
 
-#: Functions a formula may call: name -> (numpy implementation, numba/scalar source template)
+def _power(x, y):
+    """``x ** y`` as C ``pow`` gives it (the compiled ``**``).
+
+    numpy's ``power`` with the scalar exponent 0.5 takes ``sqrt``, which differs from
+    ``pow`` at two inputs: ``pow(-inf, 0.5)`` is inf (sqrt: NaN) and ``pow(-0.0, 0.5)``
+    is +0.0 (sqrt: -0.0). Its other scalar shortcuts (``x * x``, ``1 / x``) agree with
+    ``pow`` on every special value and are kept (exact, and fast).
+    """
+    out = np.power(x, y)
+    if np.ndim(y) == 0 and y == 0.5:
+        out = np.where(np.isneginf(x), np.inf, out) + 0.0
+    return out
+
+
+#: Functions a formula may call: name -> (numpy implementation, numba/scalar source template).
+#: The two give the same number for every input, NaN, infinities and signed zeros
+#: included (``tests/test_formula_parity.py``): NaN propagates through ``min``, ``max``,
+#: ``pos`` and ``sign`` in both (Python's ``max(1.0, nan)`` would give 1.0), and the
+#: results of these four are normalised to +0.0 (numpy and numba break ties between
+#: -0.0 and 0.0 differently). The templates use ``math`` and ``np`` (numpy): a module
+#: that compiles them imports both.
 FUNCTIONS: dict[str, tuple[Callable[..., Any], str]] = {
     "sin": (np.sin, "math.sin({0})"),
     "cos": (np.cos, "math.cos({0})"),
@@ -49,10 +81,10 @@ FUNCTIONS: dict[str, tuple[Callable[..., Any], str]] = {
     "sqrt": (np.sqrt, "math.sqrt({0})"),
     "exp": (np.exp, "math.exp({0})"),
     "log": (np.log, "math.log({0})"),
-    "pos": (lambda x: np.maximum(x, 0.0), "max({0}, 0.0)"),
-    "min": (np.minimum, "min({0}, {1})"),
-    "max": (np.maximum, "max({0}, {1})"),
-    "sign": (_sign, "(1.0 if {0} > 0 else (-1.0 if {0} < 0 else 0.0))"),
+    "pos": (_pos, "(np.maximum({0}, 0.0) + 0.0)"),
+    "min": (_min, "(np.minimum({0}, {1}) + 0.0)"),
+    "max": (_max, "(np.maximum({0}, {1}) + 0.0)"),
+    "sign": (_sign, "(np.sign({0}) + 0.0)"),
 }
 _ARITY = {"min": 2, "max": 2}
 
@@ -63,8 +95,8 @@ _BINOPS: dict[type, tuple[Callable[[Any, Any], Any], str]] = {
     ast.Add: (np.add, "+"),
     ast.Sub: (np.subtract, "-"),
     ast.Mult: (np.multiply, "*"),
-    ast.Div: (np.divide, "/"),
-    ast.Pow: (np.power, "**"),
+    ast.Div: (np.divide, "/"),  # compiled as np.divide: x / 0 is inf or NaN, not an error
+    ast.Pow: (_power, "**"),
 }
 _CMPOPS: dict[type, tuple[Callable[[Any, Any], Any], str]] = {
     ast.Eq: (np.equal, "=="),
@@ -113,6 +145,11 @@ class Formula:
 
     def to_scalar_source(self, variables: Mapping[str, str], constants: Mapping[str, Any]) -> str:
         """Render as a scalar Python expression (for numba code generation).
+
+        The expression uses the names ``math`` and ``np`` (numpy): the module that
+        compiles it imports both. Compiled, it gives the same number as :meth:`evaluate`
+        for every input, NaN and infinities included (division by zero gives inf or NaN,
+        as in numpy, not an error).
 
         Parameters
         ----------
@@ -232,21 +269,23 @@ def _src(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, An
         return _src(n, variables, constants, text)
 
     if isinstance(node, ast.Constant):
-        return repr(node.value) if isinstance(node.value, str) else repr(float(node.value))
+        return repr(node.value) if isinstance(node.value, str) else _number_source(node.value)
     if isinstance(node, ast.Name):
         if node.id in CONSTANTS:
-            return repr(CONSTANTS[node.id])
+            return _number_source(CONSTANTS[node.id])
         if node.id in variables:
             return variables[node.id]
         if node.id in constants:
             value = constants[node.id]
-            return repr(value) if isinstance(value, str) else repr(float(value))
+            return repr(value) if isinstance(value, str) else _number_source(value)
         raise FormulaError(
             f"formula {text!r} needs {node.id!r}; give it with --set {node.id}=VALUE (a "
             f"constant) or --channel {node.id}=RASTER[:TABLE] (a map), or choose a model "
             "without this term"
         )
     if isinstance(node, ast.BinOp):
+        if isinstance(node.op, ast.Div):  # numba's "/" raises ZeroDivisionError
+            return f"np.divide({rec(node.left)}, {rec(node.right)})"
         return f"({rec(node.left)} {_BINOPS[type(node.op)][1]} {rec(node.right)})"
     if isinstance(node, ast.UnaryOp):
         return f"(-{rec(node.operand)})" if isinstance(node.op, ast.USub) else rec(node.operand)
@@ -277,6 +316,24 @@ def _src(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, An
 
 
 _UNKNOWN = object()
+
+
+def _number_source(value: Any) -> str:
+    """Source of a float constant; NaN and infinities as ``math.nan`` / ``math.inf``.
+
+    ``repr(float("nan"))`` is ``nan``, a name the generated module does not define.
+
+    Examples
+    --------
+    >>> _number_source(2), _number_source(float("nan")), _number_source(float("-inf"))
+    ('2.0', 'math.nan', '(-math.inf)')
+    """
+    v = float(value)
+    if math.isnan(v):
+        return "math.nan"
+    if math.isinf(v):
+        return "math.inf" if v > 0 else "(-math.inf)"
+    return repr(v)
 
 
 def _constant(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, Any]) -> Any:

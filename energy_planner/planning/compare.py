@@ -440,8 +440,15 @@ class RouteComparison:
                     )
         return out
 
-    def plot(self, terrain, path: str | Path, title: str | None = None) -> Path:
-        """Draw the routes over a hillshade with heading marks; write a PNG."""
+    def plot(
+        self, terrain, path: str | Path, title: str | None = None, request: Any = None
+    ) -> Path:
+        """Draw the routes over a hillshade with heading marks; write a PNG.
+
+        ``request`` (the :class:`~energy_planner.request.Request` the routes were planned
+        with) adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -467,6 +474,9 @@ class RouteComparison:
             alpha=0.5,
         )
         ax.clabel(cs, fontsize=6, fmt="%.0f")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        draw_request(ax, terrain, request)
         colors = {"direct": "tab:blue", "shortest": "tab:green", "energy_optimal": "tab:red"}
         # zoom to the routes (with a margin), within the map
         pts = [np.asarray(r.states)[:, :2] for r in self.routes if r.states is not None]
@@ -523,8 +533,7 @@ class RouteComparison:
         ax.set_ylim(view[2], view[3])
         ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        ax.set_xlabel("x (working CRS, m)")
-        ax.set_ylabel("y (working CRS, m)")
+        label_map_axes(ax, terrain.crs)
         title = title or "Direct climb vs detour (arrows: robot heading)"
         if self.physics and self.physics.get("critical_grade_deg") is not None:
             title += (
@@ -903,6 +912,8 @@ def compare_routes(
         limits={
             "max_slope_deg": lim.max_slope_deg,
             "max_cross_slope_deg": lim.max_cross_slope_deg,
+            "max_backward_slope_deg": lim.max_backward_slope_deg,
+            "max_crab_deg": lim.max_crab_deg,
             "keep_out_areas": len(geoms),
         },
         info=info,

@@ -53,6 +53,7 @@ __all__ = [
     "check_valid_geometries",
     "fmt_xy",
     "make_motion_cost",
+    "keep_out_geometries",
 ]
 
 
@@ -156,6 +157,23 @@ def to_work_geometries(geoms: Sequence[Any], terrain) -> list[Any]:
     return out
 
 
+def keep_out_geometries(keep_out: str | Path | Sequence[Any] | None, terrain) -> list[Any]:
+    """A request's keep-out areas (``Limits.keep_out``) in the terrain's working CRS.
+
+    A path is read with :func:`load_keep_out` (RFC 7946 unless the file declares a CRS);
+    geometries are checked and taken in their ``.crs`` or the DEM's own CRS
+    (:func:`to_work_geometries`). ``None`` gives an empty list.
+    """
+    if keep_out is None:
+        return []
+    if isinstance(keep_out, str | Path):
+        raw = load_keep_out(keep_out)
+    else:
+        raw = keep_out if hasattr(keep_out, "crs") else list(keep_out)
+        check_valid_geometries(raw)
+    return to_work_geometries(raw, terrain)
+
+
 def _warn_outside(work: list[Any], given: Sequence[Any], crs: Any, source: str, terrain) -> None:
     """A :class:`GeometryOutsideMapWarning` for each geometry wholly off the map."""
     import warnings
@@ -245,7 +263,10 @@ def pose_violation(cost, x: float, y: float, yaw: float | None, geoms=()) -> str
 
 
 #: Kernel violation codes -> the request's limit names (structured error fields).
-_LIMIT_OF_CODE = {1: "map", 2: "max_slope_deg", 3: "max_cross_slope_deg", 4: "keep_out"}
+_LIMIT_OF_CODE = {
+    1: "map", 2: "max_slope_deg", 3: "max_cross_slope_deg", 4: "keep_out",
+    6: "max_backward_slope_deg", 7: "max_crab_deg",
+}  # fmt: skip
 
 
 def pose_limit(
@@ -365,6 +386,11 @@ def make_motion_cost(
 ):
     """The :class:`~energy_planner.energy.MotionCost` with all limits, and the keep-out polygons.
 
+    All limits of ``request.limits`` go into the one motion kernel: slope, cross-slope,
+    keep-out mask and the gait limits (``max_backward_slope_deg``, ``max_crab_deg``), so
+    that every planner, reach, compare-routes and path energy priced with this cost
+    honours them.
+
     Parameters
     ----------
     terrain : Terrain
@@ -398,14 +424,7 @@ def make_motion_cost(
             param=next(iter(given)),
         )
     lim = request.limits
-    geoms: list[Any] = []
-    if lim.keep_out is not None:
-        if isinstance(lim.keep_out, str | Path):
-            raw = load_keep_out(lim.keep_out)
-        else:
-            raw = lim.keep_out if hasattr(lim.keep_out, "crs") else list(lim.keep_out)
-            check_valid_geometries(raw)
-        geoms = to_work_geometries(raw, terrain)
+    geoms = keep_out_geometries(lim.keep_out, terrain)
     blocked = rasterize_keep_out(geoms, terrain) if geoms else None
     kwargs: dict[str, Any] = {}
     ch = request.channels
@@ -418,6 +437,8 @@ def make_motion_cost(
         yaw_rate=request.robot.yaw_rate,
         max_slope_deg=lim.max_slope_deg,
         max_cross_slope_deg=lim.max_cross_slope_deg,
+        max_backward_slope_deg=lim.max_backward_slope_deg,
+        max_crab_deg=lim.max_crab_deg,
         blocked=blocked,
         **kwargs,
     )

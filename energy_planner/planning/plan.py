@@ -401,6 +401,8 @@ def _request_for(request, cost):
             yaw_rate=cost.yaw_rate,
             max_slope_deg=cost.max_slope_deg,
             max_cross_slope_deg=cost.max_cross_slope_deg,
+            max_backward_slope_deg=getattr(cost, "max_backward_slope_deg", None),
+            max_crab_deg=getattr(cost, "max_crab_deg", None),
         )
     if request is None:
         return derived
@@ -409,7 +411,10 @@ def _request_for(request, cost):
         ("yaw_rate", request.robot.yaw_rate, cost.yaw_rate),
         ("max_slope_deg", request.limits.max_slope_deg, cost.max_slope_deg),
         ("max_cross_slope_deg", request.limits.max_cross_slope_deg, cost.max_cross_slope_deg),
-    ]
+        ("max_backward_slope_deg", request.limits.max_backward_slope_deg,
+         getattr(cost, "max_backward_slope_deg", None)),
+        ("max_crab_deg", request.limits.max_crab_deg, getattr(cost, "max_crab_deg", None)),
+    ]  # fmt: skip
     for name, want, have in pairs:
         same = want == have or (want is not None and have is not None and math.isclose(want, have))
         if not same:

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.errors import InvalidStateError, PlanningError
+from energy_planner.errors import InvalidStateError, PlanningError, ReachEdgeWarning
 
 __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 
@@ -220,6 +221,65 @@ class ReachMap:
         with np.errstate(invalid="ignore"):
             return np.isfinite(self.energy_j) & (self.energy_j <= budget_j)
 
+    def edge_cells(self, terrain, budget_j: float) -> dict[str, int]:
+        """Cells reached within ``budget_j`` that touch the edge of the map or of its nodata.
+
+        A cell touches an edge when one of its eight neighbours is off the grid or has no
+        slope (no data, or the ring of cells at the DEM's border where Horn's gradient is
+        not defined). Nodata connected to the outside of the grid (a lon/lat DEM's margins
+        on the working grid included) counts as the map's edge; the rest as nodata.
+        Limits (slope, keep-out) are walls the robot really meets and do not count.
+
+        Returns
+        -------
+        dict
+            ``cells`` (either kind), ``map_edge_cells``, ``nodata_edge_cells``.
+        """
+        from scipy import ndimage
+
+        reached = self.mask(budget_j)
+        empty = np.pad(~np.isfinite(terrain.slope), 1, constant_values=True)
+        labels, _ = ndimage.label(empty)
+        outside = np.isin(labels, np.unique(labels[0]))[1:-1, 1:-1]
+        hole = empty[1:-1, 1:-1] & ~outside
+        ring = np.ones((3, 3), bool)
+
+        def near(m: np.ndarray, off_grid: bool) -> np.ndarray:
+            padded = np.pad(m, 1, constant_values=off_grid)
+            return ndimage.binary_dilation(padded, structure=ring)[1:-1, 1:-1]
+
+        # a neighbour off the grid is the map's edge, never a hole
+        at_map, at_hole = reached & near(outside, True), reached & near(hole, False)
+        return {
+            "cells": int((at_map | at_hole).sum()),
+            "map_edge_cells": int(at_map.sum()),
+            "nodata_edge_cells": int(at_hole.sum()),
+        }
+
+    def edge_warning(self, terrain, budget_j: float) -> ReachEdgeWarning | None:
+        """A :class:`ReachEdgeWarning` if the area within ``budget_j`` meets an edge, else None.
+
+        See :meth:`edge_cells`. :func:`reach` issues it when given ``max_energy``; the
+        ``reach`` command prints it for each budget it reports.
+        """
+        from energy_planner.errors import fmt_num
+
+        e = self.edge_cells(terrain, budget_j)
+        if not e["cells"]:
+            return None
+        kinds = []
+        if e["map_edge_cells"]:
+            kinds.append(f"the map's edge ({e['map_edge_cells']} cells)")
+        if e["nodata_edge_cells"]:
+            kinds.append(f"its nodata ({e['nodata_edge_cells']} cells)")
+        return ReachEdgeWarning(
+            f"{e['cells']} cells reached within {fmt_num(budget_j / 3600.0, 4)} Wh touch "
+            f"{' and '.join(kinds)}: the map ends there, so the area reachable within the "
+            "budget may be larger than reported; give a DEM that covers it (or fill the "
+            "nodata) to see all of it",
+            budget_j=float(budget_j), **e,
+        )  # fmt: skip
+
     def area(self, terrain, budget_j: float):
         """The area reachable within ``budget_j``.
 
@@ -320,8 +380,14 @@ class ReachMap:
             tags={"software": "energy_planner reach"},
         )  # fmt: skip
 
-    def plot(self, terrain, path: str | Path, budget_j: float | None = None) -> Path:
-        """PNG: energy (Wh) over a hillshade, the budget contour and the start."""
+    def plot(
+        self, terrain, path: str | Path, budget_j: float | None = None, request: Any = None
+    ) -> Path:
+        """PNG: energy (Wh) over a hillshade, the budget contour and the start.
+
+        ``request`` adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -347,13 +413,15 @@ class ReachMap:
                 levels=[budget_j / 3600.0], colors="red", linewidths=2,
             )  # fmt: skip
             ax.plot([], [], color="red", lw=2, label=f"budget {budget_j / 3600:.1f} Wh")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        draw_request(ax, terrain, request)
         ax.plot(*self.start, "o", color="white", mec="k", ms=9, label="start")
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        ax.set_xlabel("x (working CRS, m)")
-        ax.set_ylabel("y (working CRS, m)")
+        label_map_axes(ax, terrain.crs)
         ax.set_title("Battery reach" + (" (out and back)" if self.round_trip else ""))
         ax.legend(loc="lower left", fontsize=8)
         fig.tight_layout()
@@ -412,6 +480,12 @@ def reach(
     ------
     InvalidStateError
         If the start is outside the map or breaks a limit.
+
+    Warns
+    -----
+    ReachEdgeWarning
+        With ``max_energy``: cells reached within it touch the edge of the map or of its
+        nodata, so the area within the budget is cut there (:meth:`ReachMap.edge_cells`).
     """
     from energy_planner.planning.compare import _motion_cost
     from energy_planner.planning.limits import check_endpoint, fmt_xy
@@ -454,7 +528,7 @@ def reach(
     out = np.full((rows, cols), np.nan)
     out[np.ix_(ri, ci)] = grid
     out[~np.isfinite(out)] = np.nan
-    return ReachMap(
+    res = ReachMap(
         energy_j=out,
         start=s,
         round_trip=round_trip,
@@ -463,3 +537,8 @@ def reach(
               "turn_at_cell": bool(turn_at_cell) if round_trip else None,
               "time_s": time.perf_counter() - t0},
     )  # fmt: skip
+    if max_energy is not None and math.isfinite(max_energy):
+        w = res.edge_warning(terrain, max_energy)
+        if w is not None:
+            warnings.warn(w, stacklevel=2)
+    return res

@@ -29,6 +29,8 @@ __all__ = [
     "BatteryConfig",
     "CampaignConfig",
     "ConfigError",
+    "MissionEvent",
+    "EVENT_KINDS",
     "check_fields",
     "shared_rules",
 ]
@@ -152,6 +154,74 @@ def shared_rules() -> dict[str, Rule]:
         "sensors": (lambda v, c=None: isinstance(v, SensorConfig), "a SensorConfig"),
         "battery": (lambda v, c=None: isinstance(v, BatteryConfig), "a BatteryConfig"),
     }
+
+
+#: Mid-mission events: kind -> the physics it changes (see :class:`MissionEvent`).
+EVENT_KINDS: dict[str, str] = {
+    "payload": "a payload of load_kg is picked up: the load channel grows by it (the physics "
+    "reads it through the load effect, switched on by the event)",
+    "mud": "the ground turns to mud: the ground channel becomes 'mud' (sinkage and lost "
+    "recovery, through the ground effect, switched on by the event)",
+    "dem_bias": "the true ground is steeper than the DEM by slope_bias_deg along the path's "
+    "heading at the stretch's start (the DEM is wrong there; altitude shifts with it)",
+}
+
+
+@dataclass(frozen=True)
+class MissionEvent:
+    """Something that happens partway along every mission (a change of the truth).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`EVENT_KINDS`: ``payload``, ``mud`` or ``dem_bias``.
+    at : float
+        When it starts, as a fraction of the mission's duration, 1.
+    until : float
+        When it ends (fraction; 1 = the end of the mission).
+    load_kg : float
+        Mass picked up (``payload``), kg.
+    slope_bias_deg : float
+        Extra slope of the true ground over the DEM's (``dem_bias``), deg.
+
+    Examples
+    --------
+    >>> MissionEvent("payload", at=0.4).load_kg
+    15.0
+    >>> try:
+    ...     MissionEvent("flood")
+    ... except ConfigError as err:
+    ...     print(err)
+    MissionEvent.kind = 'flood' is invalid: expected one of payload, mud, dem_bias
+    """
+
+    kind: str
+    at: float = 0.4
+    until: float = 1.0
+    load_kg: float = 15.0
+    slope_bias_deg: float = 5.0
+
+    def __post_init__(self) -> None:
+        check_fields(
+            self,
+            {
+                "kind": (lambda v, c=None: v in EVENT_KINDS, "one of " + ", ".join(EVENT_KINDS)),
+                "at": (in_range(0, 1, hi_open=True), "a fraction of the mission in [0, 1)"),
+                "until": (
+                    lambda v, c: in_range(0, 1)(v) and v > c.at,
+                    "a fraction in ({c.at}, 1] (after 'at')",
+                ),
+                "load_kg": (in_range(0, 200), "a mass in [0, 200] kg"),
+                "slope_bias_deg": (in_range(-30, 30), "a slope in [-30, 30] deg"),
+            },
+        )
+
+    def active(self, fraction: Any) -> Any:
+        """Where (fractions of the mission) the event is on."""
+        import numpy as np
+
+        f = np.asarray(fraction, dtype=float)
+        return (f >= self.at) & (f < self.until if self.until < 1.0 else f <= 1.0)
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ from energy_planner.errors import LogIOError
 from energy_planner.simulate.campaign import Campaign
 from energy_planner.simulate.config import (
     BatteryConfig,
+    MissionEvent,
     Rule,
     SensorConfig,
     check_fields,
@@ -97,6 +98,13 @@ class MissionConfig:
         varies along the path).
     sensors : SensorConfig
     battery : BatteryConfig
+    events : tuple of MissionEvent
+        Changes partway along every mission (a payload picked up, ground turning to
+        mud, a stretch where the DEM is wrong by a known bias); see
+        :class:`~energy_planner.simulate.config.MissionEvent`. A ``payload`` event
+        switches on the ``load`` effect and a ``mud`` event the ``ground`` effect (the
+        missions' drawn loads and ground patches then count too: give ``loads_kg=(0.0,)``
+        and ``grounds=("asphalt",)`` for a baseline without them).
     """
 
     missions: int = 8
@@ -120,6 +128,7 @@ class MissionConfig:
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)
     sensors: SensorConfig = field(default_factory=SensorConfig)
     battery: BatteryConfig = field(default_factory=BatteryConfig)
+    events: tuple[MissionEvent, ...] = ()
 
     def __post_init__(self) -> None:
         check_fields(self, _mission_rules())
@@ -188,6 +197,10 @@ def _mission_rules() -> dict[str, Rule]:
         ),
         "stop_s": (in_range(0), "a stop length >= 0 s"),
         "waypoint_spacing_m": (in_range(0, lo_open=True), "a spacing > 0 m"),
+        "events": (
+            lambda v, c=None: all(isinstance(e, MissionEvent) for e in v),
+            "a tuple of MissionEvent",
+        ),
         **shared_rules(),
     }
 
@@ -412,12 +425,45 @@ def _mission_track(rng: np.random.Generator, terrain: Any, cfg: MissionConfig) -
     return {"t": t, "x": x, "y": y, "theta": theta}
 
 
-def _body_motion(terrain: Any, tr: dict, dt: float) -> dict[str, np.ndarray]:
-    """Slope, heading, body twist and accelerations of a sampled track."""
+def _dem_bias(tr: dict, events: Iterable[MissionEvent]) -> np.ndarray:
+    """Per sample, the true ground's gradient minus the DEM's (``dem_bias`` events).
+
+    Over an event's stretch the true ground climbs ``tan(slope_bias_deg)`` more per metre
+    along the path's heading at the stretch's start.
+    """
+    t = tr["t"]
+    frac = t / t[-1] if t[-1] > 0 else np.zeros_like(t)
+    bias = np.zeros((t.size, 2))
+    for ev in events:
+        if ev.kind != "dem_bias":
+            continue
+        on = ev.active(frac)
+        if not on.any():
+            continue
+        i0 = int(np.flatnonzero(on)[0])
+        i1 = min(i0 + 5, t.size - 1)
+        h = math.atan2(tr["y"][i1] - tr["y"][i0], tr["x"][i1] - tr["x"][i0])
+        g = math.tan(math.radians(ev.slope_bias_deg))
+        bias[on] += g * np.array([math.cos(h), math.sin(h)])
+    return bias
+
+
+def _body_motion(
+    terrain: Any, tr: dict, dt: float, grad_bias: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """Slope, heading, body twist and accelerations of a sampled track.
+
+    ``grad_bias`` (per sample, ``(n, 2)``) is added to the DEM's gradient: the true
+    ground where the DEM is wrong; the altitude follows it (its integral along the track).
+    """
     x, y, theta = tr["x"], tr["y"], tr["theta"]
     smp = terrain.sample(x, y)
     gx, gy = np.asarray(smp.dzdx, float), np.asarray(smp.dzdy, float)
     z = np.asarray(smp.elevation, float)
+    if grad_bias is not None and np.any(grad_bias):
+        gx, gy = gx + grad_bias[:, 0], gy + grad_bias[:, 1]
+        dz = grad_bias[1:, 0] * np.diff(x) + grad_bias[1:, 1] * np.diff(y)
+        z = z + np.concatenate([[0.0], np.cumsum(dz)])
     g2 = gx * gx + gy * gy
     alpha = np.arctan(np.sqrt(g2))
     psi = np.arctan2(gy, gx)
@@ -494,6 +540,12 @@ def simulate_missions(
     from tqdm.auto import tqdm
 
     cfg = config or MissionConfig()
+    kinds = {e.kind for e in cfg.events}
+    effects = (
+        tuple(effects)
+        + (("load",) if "payload" in kinds else ())
+        + (("ground",) if "mud" in kinds else ())
+    )
     names, fault_names, physics, sens = switch_on(effects, faults, params, cfg.sensors)
     if terrain is None:
         terrain = synthetic_dem(seed)
@@ -505,7 +557,7 @@ def simulate_missions(
         range(cfg.missions), desc="simulating missions", disable=not progress, unit="mission"
     ):
         tracks.append(_mission_track(path_rng, terrain, cfg))
-        motions.append(_body_motion(terrain, tracks[-1], cfg.dt))
+        motions.append(_body_motion(terrain, tracks[-1], cfg.dt, _dem_bias(tracks[-1], cfg.events)))
     draws = ChannelDraws.draw(channel_rng, cfg, cfg.missions, ground=False)
     slip_raw, bias = sensor_offsets(noise_rng, sens, cfg.missions)
     slip = sens.slip_mean + sens.slip_std * slip_raw
@@ -516,6 +568,7 @@ def simulate_missions(
     pos = mo["pos"]
     run_ids = np.array([f"mission_{i:03d}" for i in range(cfg.missions)], dtype=object)
     channels = draws.per_sample(idx, lay.t_run, grounds.sample(pos[:, 0], pos[:, 1]).astype(str))
+    categories = _apply_events(cfg, channels, lay.t_run, idx, [tr["t"][-1] for tr in tracks])
     truth = TruthStreams(
         run_ids[idx], lay.t, lay.t_run, mo["alpha"], mo["psi"], mo["gamma"], mo["vx"],
         mo["vy"], mo["wz"], mo["ax"], mo["ay"], pos, mo["yaw"], channels,
@@ -523,7 +576,7 @@ def simulate_missions(
     slip_s = slip[idx] + sens.slip_per_sin_slope * np.sin(mo["alpha"])
     out = logs_from_truth(
         truth, physics, sens, cfg.battery, cfg.dt, lay.sizes, slip_s, bias[idx], noise_rng,
-        list(cfg.grounds),
+        categories,
     )  # fmt: skip
     # the pose has an altitude: a map-referenced localization (x, y as logged already)
     out["logs"].insert(out["logs"].columns.get_loc("y") + 1, "z", pos[:, 2])
@@ -546,6 +599,28 @@ def simulate_missions(
         out["logs"], pd.DataFrame(rows), physics, names, out["true_samples"], seed, cfg,
         fault_names, grounds,
     )  # fmt: skip
+
+
+def _apply_events(
+    cfg: MissionConfig,
+    channels: dict[str, np.ndarray],
+    t_run: np.ndarray,
+    idx: np.ndarray,
+    durations: list[float],
+) -> list[str]:
+    """Change the channels where ``payload`` and ``mud`` events are on; the ground names."""
+    frac = t_run / np.maximum(np.asarray(durations, dtype=float)[idx], 1e-12)
+    grounds = list(cfg.grounds)
+    for ev in cfg.events:
+        on = ev.active(frac)
+        if ev.kind == "payload":
+            channels["load_kg"] = np.where(on, channels["load_kg"] + ev.load_kg,
+                                           channels["load_kg"])  # fmt: skip
+        elif ev.kind == "mud":
+            channels["ground"] = np.where(on, "mud", channels["ground"].astype(object)).astype(str)
+            if "mud" not in grounds:
+                grounds.append("mud")
+    return grounds
 
 
 def _mission_description(run: str, mo: dict[str, np.ndarray], dt: float) -> dict[str, Any]:

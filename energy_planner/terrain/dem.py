@@ -9,14 +9,17 @@ Decisions (see also ``docs/terrain.md``):
 
 - Nodata and NaN cells become NaN in ``elevation``; every later quantity is NaN where it
   would need them (Horn window, bilinear sampling). Nothing is filled in.
-- A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, is
-  reprojected to the local UTM zone (WGS 84, zone of the DEM's centre) with bilinear
-  resampling, at a square pixel whose area equals the source pixel's area at the DEM's
-  centre (same cell count); the grid is laid out by ``rasterio.warp``
+- A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, gets
+  Horn on its own grid with each row's geodesic cell size (:attr:`Terrain.native_grid`,
+  :mod:`energy_planner.terrain.native`) and a working grid in the local UTM zone (WGS 84,
+  zone of the DEM's centre), at a square pixel whose area equals the source pixel's area
+  at the DEM's centre (same cell count); the grid is laid out by ``rasterio.warp``
   (``calculate_default_transform``) and every working cell centre is projected back
-  exactly with ``rasterio.warp.transform``. A working cell is valid only if every source
-  cell bilinear resampling draws on is valid. ``source_crs`` keeps the DEM's own CRS;
-  :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
+  exactly with ``rasterio.warp.transform``. There the elevation is bilinear in the source
+  elevation and the gradient bilinear in the native gradient, turned into UTM axes (not
+  Horn of the warped elevation, which smooths slopes). A working cell is valid only if
+  every source cell bilinear resampling draws on is valid. ``source_crs`` keeps the DEM's
+  own CRS; :meth:`Terrain.to_work` / :meth:`Terrain.from_work` convert coordinates.
 - A DEM without a CRS is taken as local metric coordinates (x east, y north, metres), with
   a ``UserWarning``: its slopes are only right if the pixels really are metres.
 - A south-up or east-to-west grid is flipped to north-up; a rotated or sheared
@@ -28,7 +31,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -42,7 +45,8 @@ from energy_planner.terrain.horn import (
     horn_gradient,
     pixel_steps,
 )
-from energy_planner.terrain.memory import BYTES_PER_CELL, check_memory
+from energy_planner.terrain.memory import BYTES_PER_CELL, LONLAT_BYTES_PER_CELL, check_memory
+from energy_planner.terrain.native import NativeGrid, gradient_to_work, native_gradient
 from energy_planner.terrain.sample import TerrainSample, bilinear
 
 __all__ = ["Terrain", "load_dem", "utm_epsg"]
@@ -92,6 +96,20 @@ def _scalar_or_array(a: np.ndarray) -> np.ndarray | float:
     return float(a) if np.ndim(a) == 0 else a
 
 
+def _north_up(arrays: Sequence[np.ndarray], t: Affine) -> tuple[list[np.ndarray], Affine]:
+    """Flip grids (and their transform) to north-up, west-to-east; C-contiguous copies."""
+    sx, sy = pixel_steps(t)
+    out = [np.array(a, dtype=np.float64, order="C", copy=True) for a in arrays]
+    rows, cols = out[0].shape
+    if sx < 0:  # east-to-west columns: flip to west-to-east
+        out = [np.ascontiguousarray(a[:, ::-1]) for a in out]
+        t = t @ Affine.translation(cols, 0) @ Affine.scale(-1, 1)
+    if sy > 0:  # south-up rows: flip to north-up
+        out = [np.ascontiguousarray(a[::-1, :]) for a in out]
+        t = t @ Affine.translation(0, rows) @ Affine.scale(1, -1)
+    return out, t
+
+
 @dataclass(eq=False, repr=False)
 class Terrain:
     """A DEM on a north-up metric working grid, with its Horn gradient.
@@ -114,6 +132,15 @@ class Terrain:
         The DEM's own shape; defaults to ``elevation.shape``.
     path : pathlib.Path or None
         File the DEM came from.
+    native : NativeGrid or None
+        Horn slope and aspect on the DEM's own grid when that grid is not metric
+        (longitude/latitude): :func:`load_dem` computes them there and derives ``dzdx``,
+        ``dzdy`` from them. None when the working grid is the DEM's grid.
+    gradient : (ndarray, ndarray) or None
+        Init only: the working grid's gradient when it is not Horn of ``elevation`` on
+        this grid (a geographic DEM's native gradient carried over); None computes Horn.
+        Needs a north-up grid; float64 C-contiguous arrays are kept, not copied, and set
+        to NaN in place where a component or the elevation is invalid.
 
     Attributes
     ----------
@@ -143,22 +170,24 @@ class Terrain:
     source_transform: Affine | None = None
     source_shape: tuple[int, int] | None = None
     path: Path | None = None
+    native: NativeGrid | None = None
+    gradient: InitVar[tuple[np.ndarray, np.ndarray] | None] = None
     dzdx: np.ndarray = field(init=False)
     dzdy: np.ndarray = field(init=False)
 
-    def __post_init__(self) -> None:
-        z = np.array(self.elevation, dtype=np.float64, order="C", copy=True)
+    def __post_init__(self, gradient: tuple[np.ndarray, np.ndarray] | None) -> None:
+        z = np.asarray(self.elevation)
         if z.ndim != 2:
             raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
-        t = self.transform if isinstance(self.transform, Affine) else Affine(*self.transform)
-        sx, sy = pixel_steps(t)
         rows, cols = z.shape
-        if sx < 0:  # east-to-west columns: flip to west-to-east
-            z = np.ascontiguousarray(z[:, ::-1])
-            t = t @ Affine.translation(cols, 0) @ Affine.scale(-1, 1)
-        if sy > 0:  # south-up rows: flip to north-up
-            z = np.ascontiguousarray(z[::-1, :])
-            t = t @ Affine.translation(0, rows) @ Affine.scale(1, -1)
+        t = self.transform if isinstance(self.transform, Affine) else Affine(*self.transform)
+        if gradient is not None:
+            sx, sy = pixel_steps(t)
+            if sx < 0 or sy > 0:
+                raise DEMError("a given gradient needs a north-up, west-to-east grid")
+            z = np.array(z, dtype=np.float64, order="C", copy=True)
+        else:
+            (z,), t = _north_up([z], t)
         z[~np.isfinite(z)] = np.nan
         self.elevation = z
         self.transform = t
@@ -168,7 +197,19 @@ class Terrain:
             self.source_transform = t
         if self.source_shape is None:
             self.source_shape = (rows, cols)
-        self.dzdx, self.dzdy = horn_gradient(z, t.a, t.e)
+        if gradient is None:
+            self.dzdx, self.dzdy = horn_gradient(z, t.a, t.e)
+        else:
+            gx, gy = (np.ascontiguousarray(g, dtype=np.float64) for g in gradient)
+            if gx.shape != z.shape or gy.shape != z.shape:
+                raise DEMError(
+                    f"gradient shapes {gx.shape}, {gy.shape}: expected the elevation's "
+                    f"shape {z.shape}"
+                )
+            bad = ~(np.isfinite(gx) & np.isfinite(gy) & np.isfinite(z))
+            gx[bad] = np.nan
+            gy[bad] = np.nan
+            self.dzdx, self.dzdy = gx, gy
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -334,6 +375,17 @@ class Terrain:
     def aspect_deg(self) -> np.ndarray:
         """GIS aspect: downslope, degrees clockwise from north in [0, 360); NaN if flat."""
         return aspect_from_gradient(self.dzdx, self.dzdy, degrees=True)
+
+    @cached_property
+    def native_grid(self) -> NativeGrid:
+        """Horn slope and aspect on the DEM's own grid (what ``terrain`` writes).
+
+        For a longitude/latitude DEM: Horn with geodesic spacing on the lon/lat grid,
+        aspect from true north (:attr:`native`). Otherwise the working grid itself.
+        """
+        if self.native is not None:
+            return self.native
+        return NativeGrid(self.elevation, self.dzdx, self.dzdy, self.transform, self.crs)
 
     def hillshade(self, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
         """Hillshade in [0, 1] of the working grid (see :func:`horn.hillshade`)."""
@@ -531,8 +583,14 @@ class Terrain:
 # ---------------------------------------------------------------------- loading
 def _warp_to_utm(
     z: np.ndarray, transform: Affine, crs: Any, path: Path
-) -> tuple[np.ndarray, Affine, Any]:
-    """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware)."""
+) -> tuple[np.ndarray, Affine, Any, tuple[np.ndarray, np.ndarray]]:
+    """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware).
+
+    Returns the working elevation, transform and CRS, and the working gradient: the
+    native Horn gradient ``grads`` of ``z`` (:func:`~energy_planner.terrain.native.
+    native_gradient`, ``transform`` north-up) carried to the working cell centres and
+    axes by :func:`~energy_planner.terrain.native.gradient_to_work`.
+    """
     from rasterio.crs import CRS
     from rasterio.transform import array_bounds
     from rasterio.warp import calculate_default_transform, transform_bounds
@@ -567,7 +625,10 @@ def _warp_to_utm(
         crs, dst_crs, cols, rows, west, south, east, north, resolution=(res, res)
     )
     check_memory(
-        (height, width), BYTES_PER_CELL, f"DEM {str(path)!r} reprojected to {dst_crs}", path=path
+        (height, width),
+        LONLAT_BYTES_PER_CELL,
+        f"DEM {str(path)!r} reprojected to {dst_crs}",
+        path=path,
     )
     # Point-bilinear resampling at exactly projected cell centres (PROJ for every centre).
     # Not GDAL's warper: when the target pixel is larger than the source pixel along an
@@ -580,9 +641,14 @@ def _warp_to_utm(
         transform.a,
         transform.e,
     )
+    grads = native_gradient(z, transform, crs)
     zw = np.empty((height, width))
-    xs_dst = dst_transform.c + (np.arange(width) + 0.5) * dst_transform.a
-    block = max(1, 1_000_000 // max(width, 1))
+    gxw = np.empty((height, width))
+    gyw = np.empty((height, width))
+    # working cell centres with a ring of neighbours (one column each side), for the
+    # Jacobian of the back-projection in gradient_to_work
+    xs_dst = dst_transform.c + (np.arange(-1, width + 1) + 0.5) * dst_transform.a
+    block = max(1, 250_000 // max(width, 1))  # points per PROJ call: bounds the temporaries
     starts = range(0, height, block)
     if len(starts) > 2:  # big rasters: show progress on a terminal (stderr)
         from tqdm import tqdm
@@ -596,12 +662,17 @@ def _warp_to_utm(
         )
     for r0 in starts:
         r1 = min(height, r0 + block)
-        ys_dst = dst_transform.f + (np.arange(r0, r1) + 0.5) * dst_transform.e
+        ys_dst = dst_transform.f + (np.arange(r0 - 1, r1 + 1) + 0.5) * dst_transform.e
         gx, gy = np.meshgrid(xs_dst, ys_dst)
         sx, sy = warp_transform(dst_crs, crs, gx.ravel(), gy.ravel())
-        (zb,) = bilinear((z,), src_grid, np.asarray(sx), np.asarray(sy))
-        zw[r0:r1] = zb.reshape(gx.shape)
-    return zw, dst_transform, dst_crs
+        sx = np.asarray(sx).reshape(gx.shape)
+        sy = np.asarray(sy).reshape(gx.shape)
+        (zb,) = bilinear((z,), src_grid, sx[1:-1, 1:-1], sy[1:-1, 1:-1])
+        zw[r0:r1] = zb
+        gxw[r0:r1], gyw[r0:r1] = gradient_to_work(
+            grads, transform, crs, sx, sy, (dst_transform.a, dst_transform.e)
+        )
+    return zw, dst_transform, dst_crs, grads, (gxw, gyw)
 
 
 def _read_window(
@@ -716,7 +787,8 @@ def load_dem(
     -------
     Terrain
         On the DEM's own grid when its CRS is projected in metres (or absent), else on a
-        UTM grid (see the module docstring).
+        UTM grid with the gradient of Horn on the DEM's own grid, which ``native_grid``
+        keeps (see the module docstring).
 
     Raises
     ------
@@ -835,6 +907,8 @@ def load_dem(
             hint="--band N",
         )
     source_shape = z.shape
+    source_transform = transform
+    native, work_grad = None, None
     if crs is None:
         warnings.warn(
             f"DEM {name!r} has no CRS; treating its coordinates as local metres "
@@ -846,7 +920,10 @@ def load_dem(
     elif _is_metric(crs):
         work_z, work_t, work_crs = z, transform, crs
     else:
-        work_z, work_t, work_crs = _warp_to_utm(z, transform, crs, p)
+        # Horn on the DEM's own grid (geodesic spacing), carried to the working grid
+        (z,), north_up = _north_up([z], transform)
+        work_z, work_t, work_crs, grads, work_grad = _warp_to_utm(z, north_up, crs, p)
+        native = NativeGrid(z, *grads, north_up, crs)
         if not np.isfinite(work_z).any():
             raise DEMError(
                 f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
@@ -859,7 +936,9 @@ def load_dem(
         work_t,
         work_crs,
         source_crs=crs,
-        source_transform=transform,
+        source_transform=source_transform,
         source_shape=source_shape,
         path=p,
+        native=native,
+        gradient=work_grad,
     )

@@ -126,15 +126,33 @@ def pixel_steps(transform_or_resolution: Any) -> tuple[float, float]:
     return sx, -sy
 
 
-def horn_gradient(z: np.ndarray, step_x: float, step_y: float) -> tuple[np.ndarray, np.ndarray]:
+def _per_row(step: float | np.ndarray, rows: int, name: str) -> float | np.ndarray:
+    """A scalar step, or per-row steps as a ``(rows - 2, 1)`` column for the interior."""
+    if np.ndim(step) == 0:
+        return float(step)
+    s = np.asarray(step, dtype=np.float64)
+    if s.shape != (rows,):
+        raise DEMError(
+            f"{name} has shape {s.shape}; expected a number or one step per row ({rows})"
+        )
+    return s[1:-1, None]
+
+
+def horn_gradient(
+    z: np.ndarray, step_x: float | np.ndarray, step_y: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Horn gradient of a grid with signed steps (see :func:`pixel_steps`).
 
     Parameters
     ----------
     z : ndarray, shape (rows, cols)
         Elevation; NaN marks invalid cells.
-    step_x, step_y : float
-        Coordinate change per column and per row (``step_y < 0`` for north-up).
+    step_x, step_y : float or ndarray, shape (rows,)
+        Coordinate change per column and per row (``step_y < 0`` for north-up), in
+        metres. An array gives one step per row: the spacing of the grid at that row, as
+        on a longitude/latitude grid, where a column step is ``cos(latitude)`` times
+        shorter towards the poles (see :mod:`energy_planner.terrain.native`). Row ``r``'s
+        differences are divided by row ``r``'s steps (the window's centre row).
 
     Returns
     -------
@@ -166,7 +184,9 @@ def horn_gradient(z: np.ndarray, step_x: float, step_y: float) -> tuple[np.ndarr
     gx += tmp
     np.subtract(bot[:, 2:], bot[:, :-2], out=tmp)
     gx += tmp
-    gx /= 8.0 * step_x
+    sx = _per_row(step_x, rows, "step_x")
+    sy = _per_row(step_y, rows, "step_y")
+    gx /= 8.0 * sx
     # row difference (previous row minus next row: north minus south when step_y < 0),
     # weights 1-2-1 over the columns; dividing by -step_y keeps flat cells at +0.0
     gy = dzdy[1:-1, 1:-1]
@@ -176,7 +196,7 @@ def horn_gradient(z: np.ndarray, step_x: float, step_y: float) -> tuple[np.ndarr
     gy += tmp
     np.subtract(top[:, 2:], bot[:, 2:], out=tmp)
     gy += tmp
-    gy /= -8.0 * step_y
+    gy /= -8.0 * sy
     # dz/dx skips the window's middle column, dz/dy its middle row and neither uses the
     # centre: like gdaldem, any invalid cell among the nine invalidates both components
     bad = np.isnan(gx)

@@ -40,6 +40,7 @@ from energy_planner.errors import DEMError, RasterTooLargeError
 __all__ = [
     "BYTES_PER_CELL",
     "DEFAULT_MEMORY_SHARE",
+    "LONLAT_BYTES_PER_CELL",
     "MEMORY_CAP_ENV",
     "check_memory",
     "format_bytes",
@@ -58,6 +59,11 @@ DEFAULT_MEMORY_SHARE = 0.5
 #: float32 DEM in a metric CRS (read, mask, float64 copy, elevation, Horn gradient), 55 with
 #: the reprojection to UTM; the slope and aspect grids add 8 each.
 BYTES_PER_CELL = 64
+#: The same for a longitude/latitude (or other non-metric) DEM, per working-grid cell: the
+#: Terrain also keeps the DEM's own grid with its Horn gradient (24 B per source cell).
+#: Measured peak of ``load_dem`` on a 3000 x 3000 float32 lon/lat DEM: 57 B per working
+#: cell (47 held; ``benchmarks/bench_terrain_lonlat.py``); slope and aspect add 16.
+LONLAT_BYTES_PER_CELL = 80
 
 _UNITS = {
     "": 1,

@@ -1,0 +1,206 @@
+"""The mission follower on mid-mission events (issue 22, point 4).
+
+Simulated missions (the simulator's mechanistic physics, realistic sensors) walk a smooth
+path over a synthetic hill at 0.3 m/s; partway along, an event changes the truth
+(:class:`energy_planner.simulate.config.MissionEvent`): a 15 kg payload picked up at 40 %,
+the ground turning to mud at 40 %, or the DEM wrong by 5 deg over 30-60 %. ``none`` is the
+same missions without an event. The plan is the walked path (every 0.5 s, with its
+times), so a prediction's error is the model's alone. The bundled model (fitted on a
+campaign without these effects) is followed by :class:`energy_planner.follow.Follower`.
+
+Printed per event, over the missions:
+
+* the remaining-energy error ``|E_pred / E_true - 1|`` at 25, 50 and 75 % of each mission
+  (median), updated (online RLS) vs static (the fit's coefficients), and their ratio;
+* the coverage of the nominal 90 % interval of the updated prediction (share of missions
+  whose true remaining energy lies inside it), at each checkpoint after the event;
+* the time to pick up the change: from the event until the updated prediction's error
+  falls below half the static one and stays there (median; ``-`` when the static error
+  stays below 2 %, nothing to pick up);
+* the replay speed on a 200 Hz log against the required 100x real time.
+
+Acceptance (issue 22): after each event the updated median error is at most half the
+static one; coverage 85-95 % of missions at nominal 90 %; at least 100x real time.
+
+Usage::
+
+    python benchmarks/bench_follow.py                       # reduced: 12 missions of 240 s
+    python benchmarks/bench_follow.py --missions 40 --duration 600 --rate 200   # full size
+    python benchmarks/bench_follow.py --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+import numpy as np
+
+CHECKPOINTS = (0.25, 0.5, 0.75)
+EVENTS = ("none", "payload", "mud", "dem_bias")
+
+
+def _events(name: str) -> tuple:
+    from energy_planner.simulate.config import MissionEvent
+
+    return {
+        "none": (),
+        "payload": (MissionEvent("payload", at=0.4, load_kg=15.0),),
+        "mud": (MissionEvent("mud", at=0.4),),
+        "dem_bias": (MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0),),
+    }[name]
+
+
+def _event_at(name: str) -> float:
+    return {"none": 0.0, "payload": 0.4, "mud": 0.4, "dem_bias": 0.3}[name]
+
+
+def run_mission(seed: int, event: str, duration: float, rate: float, model: Any) -> dict:
+    """One mission with ``event``: errors at the checkpoints, coverage, pick-up time."""
+    from energy_planner.follow import Follower
+    from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
+
+    cfg = MissionConfig(
+        missions=1,
+        duration_s=duration,
+        rate_hz=rate,
+        stop_prob=0.0,
+        sideways_prob=0.0,
+        backward_prob=0.0,
+        speeds=(0.3,),
+        loads_kg=(0.0,),
+        grounds=("asphalt",),
+        events=_events(event),
+    )
+    logs = simulate_missions(seed=seed, config=cfg).logs
+    step = max(1, int(round(0.5 * rate)))
+    k = np.r_[np.arange(0, len(logs) - 1, step), len(logs) - 1]
+    f = Follower(
+        synthetic_dem(seed),
+        model,
+        logs[["x", "y"]].to_numpy()[k],
+        logs["yaw"].to_numpy()[k],
+        logs["t"].to_numpy()[k],
+    )
+    t0w, t0c = time.perf_counter(), time.process_time()
+    ups = f.replay(logs, chunk_s=1.0)
+    wall, cpu = time.perf_counter() - t0w, time.process_time() - t0c
+    t = logs["t"].to_numpy()
+    p = (logs["voltage"] * logs["current"]).to_numpy()
+    total = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
+    ut = np.array([u.t for u in ups])
+    true = np.array([total - u.used_j for u in ups])
+    upd = np.array([u.remaining_j for u in ups]) / true - 1.0
+    sta = np.array([u.static_j for u in ups]) / true - 1.0
+    inside = np.array([u.low_j <= tr <= u.high_j for u, tr in zip(ups, true, strict=True)])
+    out: dict[str, Any] = {"seed": seed, "wall_s": wall, "cpu_s": cpu, "log_s": float(t[-1] - t[0])}
+    for c in CHECKPOINTS:
+        i = int(np.argmin(np.abs(ut - (t[0] + c * (t[-1] - t[0])))))
+        out[c] = {
+            "updated": float(abs(upd[i])),
+            "static": float(abs(sta[i])),
+            "covered": bool(inside[i]),
+        }
+    t_ev = t[0] + _event_at(event) * (t[-1] - t[0])
+    # relative errors near the end (little energy left) say nothing: up to 90 %
+    after = (ut >= t_ev) & (ut <= t[0] + 0.9 * (t[-1] - t[0]))
+    good = (np.abs(upd) <= 0.5 * np.abs(sta)) | (np.abs(sta) < 0.02)
+    pick = None
+    if event != "none" and np.any(np.abs(sta[after]) >= 0.02):
+        idx = np.flatnonzero(after)
+        bad = idx[~good[idx]]
+        last_bad = bad[-1] if bad.size else idx[0] - 1
+        if last_bad < idx[-1]:
+            pick = float(ut[last_bad + 1] - t_ev) if last_bad >= idx[0] else 0.0
+    out["pickup_s"] = pick
+    out["findings"] = len(f.findings)
+    return out
+
+
+def speed(model: Any, duration: float = 120.0) -> dict:
+    """Replay speed on a 200 Hz log, times real time."""
+    r = run_mission(99, "none", duration, 200.0, model)
+    return {
+        "rate_hz": 200.0,
+        "log_s": r["log_s"],
+        "wall_s": r["wall_s"],
+        "cpu_s": r["cpu_s"],
+        "x_real_time": r["log_s"] / r["cpu_s"],
+        "x_real_time_wall": r["log_s"] / r["wall_s"],
+    }
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark and print its tables."""
+    import energy_planner as ep
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--missions", type=int, default=12)
+    ap.add_argument("--duration", type=float, default=240.0)
+    ap.add_argument("--rate", type=float, default=20.0)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args(argv)
+    model = ep.load_model()
+    t0 = time.perf_counter()
+    res: dict[str, Any] = {
+        "missions": a.missions,
+        "duration_s": a.duration,
+        "rate_hz": a.rate,
+        "events": {},
+    }
+    for ev in EVENTS:
+        runs = [run_mission(s, ev, a.duration, a.rate, model) for s in range(a.missions)]
+        row: dict[str, Any] = {}
+        for c in CHECKPOINTS:
+            u = float(np.median([r[c]["updated"] for r in runs]))
+            s = float(np.median([r[c]["static"] for r in runs]))
+            row[f"{int(100 * c)}"] = {
+                "updated": u,
+                "static": s,
+                "ratio": u / s if s else None,
+                "coverage": float(np.mean([r[c]["covered"] for r in runs])),
+            }
+        picks = [r["pickup_s"] for r in runs if r["pickup_s"] is not None]
+        row["pickup_s_median"] = float(np.median(picks)) if picks else None
+        row["pickup_n"] = len(picks)
+        row["slope_findings_per_mission"] = float(np.mean([r["findings"] for r in runs]))
+        res["events"][ev] = row
+    res["speed"] = speed(model)
+    res["elapsed_s"] = time.perf_counter() - t0
+    if a.json:
+        print(json.dumps(res, indent=2))
+        return res
+    print(
+        f"{a.missions} missions of {a.duration:g} s at {a.rate:g} Hz per event "
+        f"({res['elapsed_s']:.0f} s)\n"
+    )
+    print(f"{'event':<9} {'at':>4} {'updated':>8} {'static':>8} {'ratio':>6} {'cover90':>8}")
+    for ev, row in res["events"].items():
+        for c in CHECKPOINTS:
+            r = row[f"{int(100 * c)}"]
+            ratio = "-" if r["ratio"] is None else f"{r['ratio']:.2f}"
+            print(
+                f"{ev:<9} {int(100 * c):>3}% {100 * r['updated']:>7.2f}% "
+                f"{100 * r['static']:>7.2f}% {ratio:>6} {100 * r['coverage']:>7.0f}%"
+            )
+    print(f"\n{'event':<9} {'pick-up s (median)':>19} {'missions':>9} {'slope findings':>15}")
+    for ev, row in res["events"].items():
+        pk = "-" if row["pickup_s_median"] is None else f"{row['pickup_s_median']:.0f}"
+        print(f"{ev:<9} {pk:>19} {row['pickup_n']:>9} {row['slope_findings_per_mission']:>15.1f}")
+    sp = res["speed"]
+    print(
+        f"\nspeed: {sp['log_s']:.0f} s of a {sp['rate_hz']:.0f} Hz log replayed in "
+        f"{sp['cpu_s']:.2f} s of CPU (one core; {sp['wall_s']:.2f} s wall on this machine, "
+        f"{sp['x_real_time_wall']:.0f}x)"
+    )
+    print(f"{'':<12} {'baseline (required)':>20} {'measured':>9} {'ratio':>6}")
+    print(
+        f"{'x real time':<12} {100:>20} {sp['x_real_time']:>9.0f} {sp['x_real_time'] / 100:>6.2f}"
+    )
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,454 @@
+"""Scoring candidates on held-out runs: the run test, the noise rule, the ranking.
+
+The rules (held-out by run, the signed-rank test by run, Bonferroni over the candidates
+scored, the smallest relative gain, confounded suspects) are told in
+:mod:`energy_planner.diagnosis.suspects`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from energy_planner.diagnosis.candidates import (
+    Candidate,
+    _unsup,
+    canonical,
+    default_candidates,
+    hinge,
+    user_candidates,
+)
+from energy_planner.diagnosis.data import WindowData
+from energy_planner.diagnosis.names import term_spec
+from energy_planner.model.terms import Term
+from energy_planner.stats import fold_index as run_folds
+from energy_planner.stats import heldout_residuals as cv_errors
+from energy_planner.stats import span_basis, span_residual
+from energy_planner.stats import wls_coef as wls
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Rules that decide support and noise (see the module docstring).
+
+    Attributes
+    ----------
+    alpha : float
+        Family-wise false-finding level of one ranking: the p-value of a candidate's
+        one-sided test by run must be below ``alpha / m`` (``m`` candidates scored).
+    min_rel : float
+        Smallest relative reduction of the pooled held-out RMSE that counts.
+    span_tol : float
+        Candidates whose column is within this relative residual of the model's span
+        are unsupported.
+    n_splits, seed : int
+        Folds by run and the seed of their assignment.
+    confound_alpha : float
+        Two-sided level of the paired signed-rank test by run that tells the best suspect
+        from another one.
+    """
+
+    alpha: float = 0.01
+    min_rel: float = 0.05
+    span_tol: float = 0.05
+    n_splits: int = 5
+    seed: int = 0
+    confound_alpha: float = 0.05
+
+
+@dataclass
+class Suspect:
+    """A scored candidate."""
+
+    name: str
+    term: str
+    variables: list[str]
+    explanation: str
+    source: str
+    error_explained: float
+    heldout_rmse_w: float
+    heldout_rmse_before_w: float
+    reduction_w: float
+    z_by_run: float
+    p_value: float
+    n_runs: int
+    n_windows: int
+    coefficient: float = math.nan
+    above_noise: bool = False
+    p_threshold: float = math.nan
+    channel: str | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-friendly dict."""
+        return asdict(self)
+
+
+@dataclass
+class Ranking:
+    """Result of :func:`rank_suspects`."""
+
+    terms: list[str]
+    heldout_rmse_w: float
+    fold_rmse_w: list[float]
+    suspects: list[Suspect]  # above noise, best first
+    below_noise: list[Suspect]
+    unsupported: list[dict] = field(default_factory=list)
+    alternatives: list[Suspect] = field(default_factory=list)  # confounded with the best
+    n_tested: int = 0
+    p_threshold: float = math.nan
+    heldout_errors: np.ndarray | None = field(default=None, repr=False)
+
+
+def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
+    sq = np.bincount(folds, weights=err**2, minlength=n_folds)
+    n = np.bincount(folds, minlength=n_folds)
+    return np.sqrt(sq / np.maximum(n, 1))
+
+
+#: The significance test of a candidate, as reports name it (one place: the text, the
+#: HTML report and the docs read it here).
+RUN_TEST_NAME = "one-sided Wilcoxon signed-rank test by run"
+
+
+def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
+    """One-sided paired test by run that ``e1`` has smaller squared errors than ``e0``.
+
+    ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
+    independent units (held out by run; a run's windows share its ground and sensors). The
+    test is Wilcoxon's signed-rank test of ``d_r`` (:data:`RUN_TEST_NAME`;
+    ``scipy.stats.wilcoxon``, one-sided, normal approximation with tie correction, zero
+    differences dropped): an effect often lives in a few runs (those on mud, those with a
+    payload) and makes ``d_r`` very skewed, where a t-test has little power; the
+    signed-rank test counts how consistently runs improve.
+
+    Returns
+    -------
+    tuple
+        ``(z, p, n_runs)``: the standardised signed-rank statistic (> 0: ``e1`` better),
+        its one-sided p-value and the number of runs.
+
+    Examples
+    --------
+    >>> runs = np.repeat(np.arange(20), 3)
+    >>> rng = np.random.default_rng(1)
+    >>> e0 = rng.normal(0, 2, 60); e1 = e0 / 2
+    >>> z, p, n = paired_run_test(e0, e1, runs)
+    >>> bool(z > 3 and p < 1e-3), n
+    (True, 20)
+    >>> z, p, n = paired_run_test(e1, e0, runs)
+    >>> bool(z < -3 and p > 0.99)
+    True
+    """
+    from scipy.stats import wilcoxon
+
+    _, inv = np.unique(runs, return_inverse=True)
+    d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
+    n = d.size
+    scale = np.max(np.abs(d)) if n else 0.0
+    d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
+    if d.size < 2:
+        return math.nan, 1.0, n
+    res = wilcoxon(d, alternative="greater", method="approx", zero_method="wilcox")
+    z = float(res.zstatistic)
+    if not math.isfinite(z):
+        return math.nan, 1.0, n
+    return z, float(res.pvalue), n
+
+
+def rank_suspects(
+    wd: WindowData,
+    terms: Sequence[str | Term],
+    thresholds: Thresholds | None = None,
+    candidates: list[Candidate] | None = None,
+    folds: np.ndarray | None = None,
+    extra: Sequence[str] = (),
+) -> Ranking:
+    """Score every candidate against the model with ``terms``, refitted by run-held-out CV.
+
+    Parameters
+    ----------
+    wd : WindowData
+        The measurements, by window.
+    terms : sequence of str or Term
+        The current model's terms (catalog names, formulas or a model's ``terms``).
+    thresholds : Thresholds, optional
+        Support and noise rules.
+    candidates : list of Candidate, optional
+        Default: :func:`default_candidates`.
+    folds : numpy.ndarray, optional
+        Fold of each window (:func:`run_folds`); default from ``thresholds``.
+    extra : sequence of str
+        More candidate terms to test (the user's own hypotheses), scored like the others.
+
+    Returns
+    -------
+    Ranking
+    """
+    th = thresholds or Thresholds()
+    terms = [term_spec(t) for t in terms]
+    y = wd.power
+    x = wd.columns(terms)
+    if folds is None:
+        folds = run_folds(wd.runs, th.n_splits, th.seed)
+    unsupported: list[dict] = []
+    if candidates is None:
+        candidates, bad = default_candidates(wd, terms)
+        unsupported.extend(bad)
+    seen = {c.term for c in candidates}
+    candidates = candidates + [c for c in user_candidates(extra) if c.term not in seen]
+    ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms})
+    scored, unsup = ctx.evaluate(candidates)
+    unsupported.extend(unsup)
+    # the best shape per family stands for it (hinge knots refined)
+    best: dict[str, tuple[Suspect, Candidate]] = {}
+    rest: list[Suspect] = []
+    for sus, cand in scored:
+        if cand.source in ("data", "speed") and cand.channel is not None:
+            prev = best.get(cand.channel)
+            if prev is None or sus.heldout_rmse_w < prev[0].heldout_rmse_w:
+                best[cand.channel] = (sus, cand)
+        else:
+            rest.append(sus)
+    final = rest + [ctx.refine(sus, cand) for sus, cand in best.values()]
+    m = max(ctx.n_scored, 1)
+    p_thr = th.alpha / m
+    for s in final:
+        ctx.decide(s, p_thr)
+        s.coefficient = ctx.coefficient(s.term)
+    # best first; on a tie (complementary shapes: grass = not mud when a channel has two
+    # values) the extra cost (positive coefficient) is named rather than a saving
+    final.sort(key=lambda s: (-round(s.error_explained, 9), not s.coefficient > 0))
+    suspects = [s for s in final if s.above_noise]
+    alternatives = ctx.alternatives(suspects[0], p_thr) if suspects else []
+    return Ranking(
+        terms=list(terms),
+        heldout_rmse_w=ctx.base_rmse,
+        fold_rmse_w=ctx.base_fold.tolist(),
+        suspects=suspects,
+        below_noise=[s for s in final if not s.above_noise],
+        unsupported=unsupported,
+        alternatives=alternatives,
+        n_tested=m,
+        p_threshold=p_thr,
+        heldout_errors=ctx.base_err,
+    )
+
+
+@dataclass
+class _Context:
+    """What scoring a candidate needs: the data, the model's columns and the folds."""
+
+    wd: WindowData
+    x: np.ndarray
+    y: np.ndarray
+    folds: np.ndarray
+    th: Thresholds
+    have: set[str]
+
+    def __post_init__(self) -> None:
+        self.n_folds = int(self.folds.max()) + 1
+        self.base_ok = np.all(np.isfinite(self.x), axis=1) & np.isfinite(self.y)
+        self.w = self.wd.weights
+        self.runs = self.wd.runs
+        ok = self.base_ok
+        self.base_err = np.full(len(self.y), np.nan)
+        self.base_err[ok] = cv_errors(self.x[ok], self.y[ok], self.folds[ok], self.w[ok])
+        e = self.base_err[ok]
+        self.base_rmse = float(np.sqrt(np.mean(e**2)))
+        self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
+        self.available = set(self.wd.samples.columns) | {"speed"}
+        self.basis = span_basis(self.x[ok])
+        self.n_scored = 0
+        self.errors: dict[str, np.ndarray] = {}  # held-out errors with each candidate
+        self.columns: dict[str, np.ndarray] = {}
+        self.cands: dict[str, Candidate] = {}
+        self.scored: list[Suspect] = []
+
+    def evaluate(
+        self, candidates: list[Candidate]
+    ) -> tuple[list[tuple[Suspect, Candidate]], list[dict]]:
+        """Score candidates; those the data cannot support come back as dicts."""
+        todo = [c for c in candidates if c.term not in self.have]
+        cols = _candidate_columns(self.wd, [c for c in todo if set(c.variables) <= self.available])
+        scored, unsupported = [], []
+        for c in todo:
+            reason = self._unsupported(c, cols.get(c.term))
+            if reason:
+                unsupported.append(_unsup(c.name, c.term, c.variables, c.source, reason))
+            else:
+                s = self._score(c, cols[c.term])
+                scored.append((s, c))
+                self.scored.append(s)
+        return scored, unsupported
+
+    def _unsupported(self, c: Candidate, z: np.ndarray | None) -> str:
+        missing = sorted(set(c.variables) - self.available)
+        if missing:
+            return f"needs channel(s) {missing}, which the logs do not have"
+        if z is None:
+            return "the term cannot be evaluated on these logs"
+        ok = self.base_ok & np.isfinite(z)
+        if ok.sum() < 3 or len(np.unique(self.runs[ok])) < 2:
+            return "too few windows with a finite value"
+        zz = z[ok]
+        if np.ptp(zz) == 0 and zz[0] == 0:
+            return "no variance: the term is 0 in every window"
+        full = ok.sum() == self.base_ok.sum()
+        rel = span_residual(zz, self.x[ok], self.basis if full else None)
+        if rel < self.th.span_tol:
+            return (
+                f"nearly in the span of the model's columns (relative residual {rel:.3g} < "
+                f"{self.th.span_tol}): the runs do not vary what it needs (e.g. a speed term "
+                "from single-speed runs)"
+            )
+        return ""
+
+    def _score(self, c: Candidate, z: np.ndarray, x: np.ndarray | None = None) -> Suspect:
+        """Held-out scores of the model (``x``, default the current one) plus ``z``."""
+        self.n_scored += 1
+        x = self.x if x is None else x
+        base_ok = np.all(np.isfinite(x), axis=1) & np.isfinite(self.y)
+        ok = base_ok & np.isfinite(z)
+        y, folds, w = self.y[ok], self.folds[ok], self.w[ok]
+        if x is self.x and ok.sum() == self.base_ok.sum():
+            e0 = self.base_err[ok]
+        else:  # compare on the same windows
+            e0 = cv_errors(x[ok], y, folds, w)
+        xz = np.column_stack([x[ok], z[ok]])
+        e1 = cv_errors(xz, y, folds, w)
+        before = float(np.sqrt(np.mean(e0**2)))
+        after = float(np.sqrt(np.mean(e1**2)))
+        t, p, n_runs = paired_run_test(e0, e1, self.runs[ok])
+        explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
+        coef = math.nan  # filled in for the suspects reported (see rank_suspects)
+        if x is self.x:
+            full = np.full(len(self.y), np.nan)
+            full[ok] = e1
+            self.errors[c.term] = full
+            self.columns[c.term] = z
+            self.cands[c.term] = c
+        return Suspect(
+            name=c.name,
+            term=c.term,
+            variables=list(c.variables),
+            explanation=c.explanation,
+            source=c.source,
+            error_explained=float(explained),
+            heldout_rmse_w=after,
+            heldout_rmse_before_w=before,
+            reduction_w=before - after,
+            z_by_run=t,
+            p_value=p,
+            n_runs=n_runs,
+            n_windows=int(ok.sum()),
+            coefficient=coef,
+            channel=c.channel,
+        )
+
+    def coefficient(self, term: str) -> float:
+        """Coefficient of a scored candidate in the model refitted with it (all windows)."""
+        z = self.columns.get(term)
+        if z is None:
+            return math.nan
+        ok = self.base_ok & np.isfinite(z)
+        xz = np.column_stack([self.x[ok], z[ok]])
+        return float(wls(xz, self.y[ok], self.w[ok])[-1])
+
+    def passes(self, s: Suspect, p_thr: float) -> bool:
+        """The noise rule (module docstring)."""
+        return bool(
+            s.p_value < p_thr and s.reduction_w >= self.th.min_rel * s.heldout_rmse_before_w
+        )
+
+    def decide(self, s: Suspect, p_thr: float) -> None:
+        s.p_threshold = p_thr
+        s.above_noise = self.passes(s, p_thr)
+
+    def refine(self, sus: Suspect, cand: Candidate) -> Suspect:
+        """For a hinge, search the knot on a finer grid of quantiles around the best one."""
+        if cand.knot_level is None or cand.channel is None or cand.source != "data":
+            return sus
+        v = self.wd.samples[cand.channel].to_numpy(dtype=float)
+        fin = v[np.isfinite(v)]
+        levels = np.clip(cand.knot_level + np.linspace(-0.1, 0.1, 21), 0.01, 0.99)
+        cands = []
+        for level, q in zip(levels, np.quantile(fin, levels), strict=True):
+            if fin.min() < q < fin.max():
+                cands.append(
+                    hinge(cand.channel, float(q), cand.below, float(level), cand.hinge_times)
+                )
+        cands = list({c.term: c for c in cands if c.term != cand.term}.values())
+        scored, _ = self.evaluate(cands)
+        for s2, _c in scored:
+            if s2.heldout_rmse_w < sus.heldout_rmse_w:
+                sus = s2
+        return sus
+
+    def alternatives(self, best: Suspect, p_thr: float) -> list[Suspect]:
+        """Suspects the data cannot tell from ``best`` (module docstring, *Confounded*)."""
+        from scipy.stats import norm
+
+        best_c = self.cands.get(best.term)
+        pool = [
+            s
+            for s in self.scored
+            if s.term != best.term and self.passes(s, p_thr) and s.term in self.errors
+        ]
+        # one per (family, shape): hinge knots of one kind are one shape, not alternatives
+        seen: set[tuple] = set()
+        picked = []
+        for s in sorted(pool, key=lambda s: s.heldout_rmse_w):
+            c = self.cands[s.term]
+            key = (c.channel, c.shape) if c.channel is not None else (s.term,)
+            if best_c is not None and best_c.channel is not None:
+                if key == (best_c.channel, best_c.shape):
+                    continue
+            if key in seen:
+                continue
+            seen.add(key)
+            picked.append(s)
+            if len(picked) >= 6:
+                break
+        out = []
+        ea = self.errors[best.term]
+        za = self.columns[best.term]
+        for s in picked:
+            eb = self.errors[s.term]
+            ok = np.isfinite(ea) & np.isfinite(eb)
+            t_ab, _, n = paired_run_test(eb[ok], ea[ok], self.runs[ok])  # > 0: A better
+            crit = float(norm.isf(self.th.confound_alpha / 2))
+            if not (abs(t_ab) < crit):
+                continue
+            zb = self.columns[s.term]
+            n0 = self.n_scored
+            b_given_a = self._score(self.cands[s.term], zb, np.column_stack([self.x, za]))
+            a_given_b = self._score(self.cands[best.term], za, np.column_stack([self.x, zb]))
+            self.n_scored = n0  # side checks, not candidates of the ranking
+            if not self.passes(b_given_a, p_thr) and not self.passes(a_given_b, p_thr):
+                s.above_noise = True
+                s.p_threshold = p_thr
+                out.append(s)
+        return out
+
+
+def _candidate_columns(wd: WindowData, cands: list[Candidate]) -> dict[str, np.ndarray]:
+    """Window columns of candidate terms, evaluated all at once (one per term)."""
+    from energy_planner.errors import EnergyPlannerError
+
+    terms = list(dict.fromkeys(c.term for c in cands))
+    if not terms:
+        return {}
+    try:
+        z = wd.columns(terms)
+        return {t: z[:, j] for j, t in enumerate(terms)}
+    except EnergyPlannerError:
+        out = {}
+        for t in terms:  # isolate the term that cannot be evaluated
+            try:
+                out[t] = wd.columns([t])[:, 0]
+            except EnergyPlannerError:
+                pass
+        return out

@@ -1,0 +1,815 @@
+"""A prediction that follows the robot: online slope check, coefficients and remaining energy.
+
+:class:`Follower` takes the plan's remaining path and the robot's log samples (the
+canonical log table of :mod:`energy_planner.measurements`, with the pose ``x, y``) as they
+arrive. Every complete window of the log (cut by
+:func:`energy_planner.measurements.make_windows`, as for the fit) gives one update:
+
+1. the slope the IMU measures (:func:`~energy_planner.measurements.imu_slope_heading`, the
+   window's mean ``alpha``) against the DEM's slope under the window's poses; a
+   disagreement beyond the sensors' noise is reported with its place
+   (:class:`SlopeFinding`);
+2. the model's coefficients, by recursive least squares with forgetting
+   (:class:`~energy_planner.follow.rls.ForgettingRLS`) on the window's row of the model's
+   design matrix, seeded from the fit's coefficients and covariance;
+3. the energy of the rest of the path priced with the updated coefficients
+   (:func:`~energy_planner.follow.terms.path_term_energies`), its interval (the model's
+   split-conformal interval widened by the coefficients' uncertainty and by the power
+   the model still misses, the recent mean innovation times the time left) and, with a
+   battery, the chance that what is left of it suffices
+   (:func:`energy_planner.uncertainty.success_probability`). Below the confidence the
+   follower replans from the current pose to the goal (or to the nearest site that still
+   fits) and says so.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import EnergyPlannerError
+from energy_planner.follow.rls import ForgettingRLS, seed_covariance
+from energy_planner.follow.terms import PathTerms, path_term_energies
+from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+from energy_planner.uncertainty import DEFAULT_LEVEL, interval, model_scores, success_probability
+
+__all__ = ["FollowUpdate", "Follower", "SlopeFinding", "FollowError", "follow_log", "walked_path"]
+
+#: Per-sample features the windows derive (not log channels).
+_FEATURES = {"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "power"}
+
+
+class FollowError(EnergyPlannerError, ValueError):
+    """Log samples a follower cannot use (missing pose, several runs, time going back)."""
+
+
+@dataclass(frozen=True)
+class FollowUpdate:
+    """One update of the follower (one window of the log).
+
+    Attributes
+    ----------
+    t : float
+        Time at the end of the window, s (the log's clock).
+    distance_m : float
+        Distance done along the plan's path (ground metres) at the window's last pose.
+    remaining_j, low_j, high_j : float
+        Energy of the rest of the path with the updated coefficients, and its interval.
+    static_j : float
+        The same with the fit's coefficients (no online update).
+    probability : float or None
+        Chance that the battery's usable energy left suffices (None without a battery).
+    used_j : float
+        Measured battery energy spent so far (integral of voltage times current).
+    x, y : float
+        The window's last pose (working CRS).
+    innovation_w : float
+        Measured minus predicted mean power of the window before the update, W.
+    event : str or None
+        What the follower did at this update (a replan), in words.
+    """
+
+    t: float
+    distance_m: float
+    remaining_j: float
+    low_j: float
+    high_j: float
+    static_j: float
+    probability: float | None
+    used_j: float
+    x: float
+    y: float
+    innovation_w: float
+    event: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
+        return {
+            "t": self.t,
+            "distance_m": self.distance_m,
+            "remaining_j": self.remaining_j,
+            "remaining_low_j": self.low_j,
+            "remaining_high_j": self.high_j,
+            "static_remaining_j": self.static_j,
+            "success_probability": self.probability,
+            "used_j": self.used_j,
+            "x": self.x,
+            "y": self.y,
+            "innovation_w": self.innovation_w,
+            "event": self.event,
+        }
+
+
+@dataclass(frozen=True)
+class SlopeFinding:
+    """A stretch where the IMU's slope and the DEM's disagree beyond the sensors' noise."""
+
+    t_start: float
+    t_end: float
+    x_start: float
+    y_start: float
+    x_end: float
+    y_end: float
+    imu_slope_deg: float
+    dem_slope_deg: float
+    threshold_deg: float
+    n_windows: int
+
+    @property
+    def difference_deg(self) -> float:
+        """Mean IMU minus DEM slope over the stretch, degrees."""
+        return self.imu_slope_deg - self.dem_slope_deg
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {
+            "t_start": self.t_start,
+            "t_end": self.t_end,
+            "from": [self.x_start, self.y_start],
+            "to": [self.x_end, self.y_end],
+            "imu_slope_deg": self.imu_slope_deg,
+            "dem_slope_deg": self.dem_slope_deg,
+            "difference_deg": self.difference_deg,
+            "threshold_deg": self.threshold_deg,
+            "n_windows": self.n_windows,
+        }
+
+    def text(self) -> str:
+        """One line for people."""
+        return (
+            f"slope: the IMU measures {self.imu_slope_deg:.1f} deg where the DEM gives "
+            f"{self.dem_slope_deg:.1f} deg ({self.difference_deg:+.1f} deg, beyond the "
+            f"sensors' {self.threshold_deg:.1f} deg) from ({self.x_start:.1f}, "
+            f"{self.y_start:.1f}) to ({self.x_end:.1f}, {self.y_end:.1f}), "
+            f"t {self.t_start:.0f}-{self.t_end:.0f} s"
+        )
+
+
+@dataclass
+class _Stretch:
+    t0: float
+    t1: float
+    p0: tuple[float, float]
+    p1: tuple[float, float]
+    imu: list[float] = field(default_factory=list)
+    dem: list[float] = field(default_factory=list)
+
+
+class Follower:
+    """Follow a mission: update the model and the remaining energy from the robot's logs.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The DEM.
+    model : EnergyModel
+        The fitted model (its held-out run errors give the interval; its standard errors
+        or covariance seed the online update).
+    xy : array-like, shape (n, 2)
+        The plan's path, working CRS.
+    yaw, t : array-like, optional
+        Its yaw (radians) and times (s) per vertex, as for
+        :func:`~energy_planner.energy.path_energy`.
+    speed, yaw_rate : float
+        Nominal speed and yaw rate (when the path has no times).
+    constants : mapping, optional
+        Channel values the model reads (``--set``).
+    battery_wh, reserve_wh : float, optional
+        Battery and reserve, Wh; with them each update gives the chance of success.
+    confidence : float
+        Below this chance the follower replans.
+    level : float
+        Nominal coverage of the remaining energy's interval.
+    window_s : float
+        Window length, s (the fit's: 2 s).
+    forgetting : float
+        RLS forgetting factor per window (memory about ``1 / (1 - forgetting)`` windows).
+    noise_w : float, optional
+        Standard deviation of a window's mean power about the model, W (default: the
+        fit's residual RMS or the model's noise floor, else 6 W).
+    slope_tol_deg : float, optional
+        IMU-minus-DEM slope beyond which two consecutive windows are reported (default:
+        3 standard deviations of the IMU's tilt error, ``imu_bias_deg`` per run plus
+        ``imu_noise_deg`` per sample averaged over the window, plus 0.5 deg for the DEM's
+        sampling of a robot-sized footprint).
+    imu_bias_deg, imu_noise_deg : float
+        The IMU's per-run tilt bias and per-sample noise (standard deviations), deg.
+    replan : bool
+        Replan when the chance falls below the confidence.
+    sites : array-like, shape (m, 2), optional
+        Fallback sites (working CRS): when the goal no longer fits, the nearest site
+        that still does.
+    request : Request, optional
+        Limits for replanning.
+    replan_time : float
+        Planner time for a replan, s.
+    change_share : float
+        A change of conditions is detected when the recent mean innovation (an
+        exponentially weighted mean over about 3 windows) exceeds both 4 of its standard
+        deviations and this share of the recent power; the covariance is then opened to
+        its cap (:meth:`ForgettingRLS.reset`) and the event is said.
+    batch_s : float
+        The log is windowed once this much of it has arrived (log time, s); each call
+        gives one update per complete window. A call's cost is mostly fixed (the table
+        work of :func:`~energy_planner.measurements.make_windows`), so batching is what
+        lets the follower run far faster than real time; it delays an update by at most
+        ``batch_s`` of log time (0: window as soon as two windows have arrived).
+    """
+
+    def __init__(
+        self,
+        terrain: Any,
+        model: Any,
+        xy: Any,
+        yaw: Any = None,
+        t: Any = None,
+        *,
+        speed: float = DEFAULT_SPEED,
+        yaw_rate: float = DEFAULT_YAW_RATE,
+        constants: dict[str, Any] | None = None,
+        battery_wh: float | None = None,
+        reserve_wh: float = 0.0,
+        confidence: float = DEFAULT_LEVEL,
+        level: float = DEFAULT_LEVEL,
+        window_s: float = 2.0,
+        forgetting: float = 0.99,
+        noise_w: float | None = None,
+        slope_tol_deg: float | None = None,
+        imu_bias_deg: float = 0.3,
+        imu_noise_deg: float = 0.05,
+        replan: bool = True,
+        sites: Any = None,
+        request: Any = None,
+        replan_time: float = 2.0,
+        batch_s: float = 20.0,
+        change_share: float = 0.05,
+    ) -> None:
+        from scipy.stats import norm
+
+        if battery_wh is not None and not reserve_wh < battery_wh:
+            raise FollowError(
+                f"the reserve ({reserve_wh:g} Wh) must be below the battery ({battery_wh:g} Wh)",
+                value=reserve_wh,
+            )
+        self.terrain = terrain
+        self.model = model
+        self.speed, self.yaw_rate = float(speed), float(yaw_rate)
+        self.constants = dict(constants or {})
+        self.level, self.confidence = float(level), float(confidence)
+        self.window_s = float(window_s)
+        self.batch_s = float(batch_s)
+        self.battery_wh, self.reserve_wh = battery_wh, float(reserve_wh)
+        self.usable_j = None if battery_wh is None else (battery_wh - reserve_wh) * 3600.0
+        self.replan_enabled, self.request, self.replan_time = replan, request, replan_time
+        self.sites = None if sites is None else np.atleast_2d(np.asarray(sites, dtype=float))
+        self.notes: list[str] = []
+        self.path = path_term_energies(
+            terrain, model, xy, yaw, t, speed, yaw_rate, constants=self.constants
+        )
+        self.goal = tuple(self.path.poses[-1])
+        c0 = model.coef_array()
+        cov, note = seed_covariance(model)
+        self.notes.append(f"coefficients seeded from the fit; covariance: {note}")
+        fit = (model.metadata or {}).get("fit") or {}
+        if noise_w is None:
+            noise_w = fit.get("residual_rms_w") or (model.metadata or {}).get("noise_floor_w")
+            noise_w = float(noise_w) if noise_w else 6.0
+        # a coefficient may drift by half its value (a payload on a 50 kg robot is a few
+        # tens of %), plus three standard errors, before the cap stops wind-up
+        cap = (0.5 * np.abs(c0) + 3.0 * np.sqrt(np.diag(cov))) ** 2
+        self.rls = ForgettingRLS(c0, cov, noise_w**2, forgetting, cap)
+        self.c0 = c0
+        self.z = float(norm.ppf(0.5 + level / 2.0))
+        self.scores = model_scores(model)
+        if self.scores is None:
+            self.notes.append(
+                "the model carries no held-out run errors: the interval is "
+                "the coefficients' uncertainty only"
+            )
+        if slope_tol_deg is None:
+            sd = math.hypot(imu_bias_deg, imu_noise_deg / math.sqrt(10.0))
+            slope_tol_deg = 3.0 * sd + 0.5
+        self.slope_tol_deg = float(slope_tol_deg)
+        self.updates: list[FollowUpdate] = []
+        self.findings: list[SlopeFinding] = []
+        self.events: list[str] = []
+        from energy_planner.measurements import CANONICAL_COLUMNS
+
+        self._columns = [c for c in CANONICAL_COLUMNS if c != "run"]
+        self._columns += sorted(model.variables - set(self._columns) - _FEATURES)
+        self._buf: dict[str, np.ndarray] | None = None
+        self._run: str | None = None
+        self._used_j = 0.0
+        self._used_at = 0.0
+        self._bias_w = 0.0  # recent mean innovation (EWMA with the RLS's memory), W
+        self._bias_limit = 4.0 * noise_w * math.sqrt(0.3 / 1.7)
+        self._fast_w = 0.0
+        self._since_reset = 10**9
+        self._n_windows = 0
+        self._power_w = 0.0
+        self.change_share = float(change_share)
+        self._rem_s = 0.0
+        self._last_power: tuple[float, float] | None = None  # (t, p) of the last sample
+        self._motion = 0
+        self._done_m = 0.0
+        self._stretch: _Stretch | None = None
+        self._cooldown_until = -math.inf
+
+    # ------------------------------------------------------------------ input
+    def feed(self, samples: pd.DataFrame) -> list[FollowUpdate]:
+        """Take newly arrived log samples; return the updates of the windows they complete."""
+        if len(samples) == 0:
+            return []
+        self._check(samples)
+        used = self._integrate_power(samples)
+        # only what windows and the model read: extra channels cost time in make_windows
+        cols = [c for c in self._columns if c in samples.columns]
+        arrived = {c: samples[c].to_numpy() for c in cols}
+        arrived["_used"] = used
+        buf = (
+            arrived
+            if self._buf is None
+            else {c: np.concatenate([self._buf[c], arrived[c]]) for c in arrived}
+        )
+        t = buf["t"]
+        if t[-1] - t[0] < max(2.0 * self.window_s, self.batch_s):
+            self._buf = buf
+            return []
+        return self._process(buf, final=False)
+
+    def finish(self) -> list[FollowUpdate]:
+        """Process what is left in the buffer (the log has ended); close open findings."""
+        out = [] if self._buf is None or len(self._buf) == 0 else self._process(self._buf, True)
+        self._close_stretch()
+        return out
+
+    def replay(
+        self, samples: pd.DataFrame, chunk_s: float = 1.0, speedup: float | None = None
+    ) -> list[FollowUpdate]:
+        """Feed a whole log in chunks of ``chunk_s`` seconds, then :meth:`finish`.
+
+        ``speedup`` paces the replay at that many times real time (None: as fast as it
+        goes).
+        """
+        import time
+
+        t = samples["t"].to_numpy(float)
+        edges = np.searchsorted(t, np.arange(t[0], t[-1] + chunk_s, chunk_s), side="left")
+        edges = np.r_[edges, len(samples)]
+        out: list[FollowUpdate] = []
+        wall0 = time.monotonic()
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            if b <= a:
+                continue
+            if speedup:
+                wait = (t[b - 1] - t[0]) / speedup - (time.monotonic() - wall0)
+                if wait > 0:
+                    time.sleep(wait)
+            out += self.feed(samples.iloc[a:b])
+        return out + self.finish()
+
+    def _check(self, samples: pd.DataFrame) -> None:
+        missing = [c for c in ("x", "y") if c not in samples.columns]
+        if missing:
+            raise FollowError(
+                f"the log has no pose column(s) {', '.join(missing)}: a follower needs the "
+                "robot's position (columns x, y in the DEM's CRS) to know where on the path "
+                "it is",
+                value=missing,
+                expected="columns x, y",
+            )
+        r = samples["run"].to_numpy() if "run" in samples.columns else np.array(["log"])
+        runs = [r[0]] if (r == r[0]).all() else list(pd.unique(r.astype(str)))
+        if self._run is None:
+            self._run = str(runs[0])
+        if len(runs) > 1 or str(runs[0]) != self._run:
+            raise FollowError(
+                f"the log holds several runs ({', '.join(map(str, runs[:5]))}; following "
+                f"{self._run!r}): follow one mission at a time (choose it with --run)",
+                value=list(map(str, runs[:5])),
+            )
+        if self._last_power is not None and samples["t"].iloc[0] <= self._last_power[0]:
+            raise FollowError(
+                f"time goes back: sample at t={samples['t'].iloc[0]:g} s after "
+                f"t={self._last_power[0]:g} s",
+                value=float(samples["t"].iloc[0]),
+            )
+
+    def _integrate_power(self, samples: pd.DataFrame) -> np.ndarray:
+        """Battery energy spent up to each new sample (trapezoids of voltage * current)."""
+        t = samples["t"].to_numpy(float)
+        p = samples["voltage"].to_numpy(float) * samples["current"].to_numpy(float)
+        t0, p0 = self._last_power if self._last_power is not None else (t[0], p[0])
+        tt, pp = np.r_[t0, t], np.r_[p0, p]
+        used = self._used_j + np.cumsum(0.5 * (pp[1:] + pp[:-1]) * np.diff(tt))
+        self._used_j = float(used[-1])
+        self._last_power = (float(t[-1]), float(p[-1]))
+        return used
+
+    # ------------------------------------------------------------------ updates
+    def _process(self, buf: dict[str, np.ndarray], final: bool) -> list[FollowUpdate]:
+        from energy_planner.measurements import make_windows
+
+        frame = pd.DataFrame(buf)
+        frame.insert(0, "run", np.full(len(frame), self._run, dtype=object))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # a short buffer may drop its tail
+            w = make_windows(frame, self.window_s)
+        tab = w.table
+        if len(tab) == 0:
+            self._buf = None if final else buf
+            return []
+        if not final:
+            tab = tab.iloc[:-1]  # the last window may still grow
+            if len(tab) == 0:
+                self._buf = buf
+                return []
+        ids = tab["window"].to_numpy()
+        smp = w.samples[w.samples["window"].isin(ids)]
+        win = smp["window"].to_numpy()
+        X = self.model.design_matrix(smp, groups=win)
+        xs, ys = smp["x"].to_numpy(float), smp["y"].to_numpy(float)
+        dem = np.degrees(np.asarray(self.terrain.sample(xs, ys).slope, dtype=float))
+        # window ids are sorted: the first and last sample of each, and the DEM's mean slope
+        starts = np.flatnonzero(np.r_[True, win[1:] != win[:-1]])
+        ends = np.r_[starts[1:], win.size] - 1
+        dem_mean = np.add.reduceat(dem, starts) / (ends - starts + 1)
+        cols = {c: tab[c].to_numpy(float) for c in ("power", "t_start", "t_end", "alpha")}
+        imu = np.degrees(cols["alpha"])
+        used = smp["_used"].to_numpy(float)
+        out = [
+            self._update(
+                used[ends[i]],
+                X[i],
+                cols["power"][i],
+                cols["t_end"][i],
+                imu[i],
+                dem_mean[i],
+                (xs[starts[i]], ys[starts[i]]),
+                (xs[ends[i]], ys[ends[i]]),
+                cols["t_start"][i],
+            )
+            for i in range(len(tab))
+        ]
+        keep = buf["t"] > float(smp["t"].max())
+        self._buf = None if final or not keep.any() else {c: v[keep] for c, v in buf.items()}
+        return out
+
+    def _update(self, used_j, x, power, t_end, imu_deg, dem_deg, p_first, p_last, t_start):
+        if self._n_windows == 0:
+            # the first window holds the gait's start (a transient the fit's cleaned
+            # windows do not have): it is checked, not learnt from
+            innovation = float(power - x @ self.rls.coef)
+        else:
+            innovation = self.rls.update(x, power)
+        self._n_windows += 1
+        lam = self.rls.forgetting
+        self._bias_w = lam * self._bias_w + (1.0 - lam) * innovation
+        self._power_w = lam * self._power_w + (1.0 - lam) * power if self._power_w else power
+        self._since_reset += 1
+        # change detection on a short mean of the innovation (3 windows): beyond 4 of its
+        # standard deviations and beyond change_share of the power (the model's own bias on
+        # new ground is a few %)
+        self._fast_w = 0.7 * self._fast_w + 0.3 * innovation
+        limit = max(self._bias_limit, self.change_share * self._power_w)
+        if abs(self._fast_w) > limit and self._since_reset > 5:
+            self.rls.reset()
+            self._since_reset = 0
+            self.events.append(
+                f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): the power departs "
+                f"from the model by {self._fast_w:+.1f} W on average (beyond "
+                f"{limit:.1f} W): a change of conditions; the coefficients are "
+                "opened to follow it"
+            )
+        self._slope_check(t_start, t_end, imu_deg, dem_deg, p_first, p_last)
+        self._motion, frac = self.path.locate(*p_last, start=self._motion)
+        m = self._motion
+        dist = self.path.distance_m
+        self._done_m = float(dist[:m].sum() + frac * (dist[m] if m < dist.size else 0.0))
+        r = self.path.remaining(m, frac)
+        self._used_at = float(used_j)
+        self._rem_s = self.path.remaining_s(m, frac)
+        rem, low, high, prob = self._predict(r)
+        event = None
+        if (
+            self.usable_j is not None
+            and prob is not None
+            and prob < self.confidence
+            and self.replan_enabled
+            and t_end >= self._cooldown_until
+        ):
+            event, replaced = self._replan(p_last, t_end, rem, prob)
+            if replaced:
+                self._motion, frac = 0, 0.0
+                r = self.path.remaining(0, 0.0)
+                self._rem_s = self.path.remaining_s(0, 0.0)
+                rem, low, high, prob = self._predict(r)
+        elif (
+            self.usable_j is not None
+            and prob is not None
+            and prob < self.confidence
+            and not self.replan_enabled
+            and t_end >= self._cooldown_until
+        ):
+            self._cooldown_until = t_end + 30.0
+            event = (
+                f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): "
+                f"{100 * prob:.0f} % chance the battery suffices for the {rem:.0f} J "
+                f"left (< {100 * self.confidence:g} %); replanning is off"
+            )
+            self.events.append(event)
+        static = float(max(r @ self.c0, 0.0))
+        u = FollowUpdate(
+            t_end,
+            self._done_m,
+            rem,
+            low,
+            high,
+            static,
+            prob,
+            self._used_at,
+            p_last[0],
+            p_last[1],
+            innovation,
+            event,
+        )
+        self.updates.append(u)
+        return u
+
+    def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
+        """Remaining energy, its interval and the chance the battery suffices."""
+        rem = float(max(r @ self.rls.coef, 0.0))
+        # the coefficients' uncertainty, and the power the model still misses (the recent
+        # mean innovation: large while it catches up with a change) over the time left
+        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
+        if self.scores is not None:
+            iv = interval(rem, self.scores, self.level)
+            low, high = iv.low_j - self.z * sd, iv.high_j + self.z * sd
+        else:
+            low, high = rem - self.z * sd, rem + self.z * sd
+        prob = None
+        if self.usable_j is not None:
+            left = self.usable_j - self._used_at
+            if self.scores is not None:
+                prob = success_probability(rem, self.scores, left)
+            else:
+                from scipy.stats import norm
+
+                prob = float(norm.cdf((left - rem) / max(sd, 1e-9)))
+        return rem, max(low, 0.0), high, prob
+
+    # ------------------------------------------------------------------ slope
+    def _slope_check(self, t0, t1, imu_deg, dem_deg, p0, p1) -> None:
+        if not (math.isfinite(imu_deg) and math.isfinite(dem_deg)):
+            return
+        if abs(imu_deg - dem_deg) > self.slope_tol_deg:
+            s = self._stretch
+            if s is None:
+                s = self._stretch = _Stretch(t0, t1, p0, p1)
+            s.t1, s.p1 = t1, p1
+            s.imu.append(imu_deg)
+            s.dem.append(dem_deg)
+        else:
+            self._close_stretch()
+
+    def _close_stretch(self) -> None:
+        s, self._stretch = self._stretch, None
+        if s is None or len(s.imu) < 2:  # one window alone is not reported (noise)
+            return
+        f = SlopeFinding(
+            s.t0,
+            s.t1,
+            *s.p0,
+            *s.p1,
+            float(np.mean(s.imu)),
+            float(np.mean(s.dem)),
+            self.slope_tol_deg,
+            len(s.imu),
+        )
+        self.findings.append(f)
+        self.events.append(f.text())
+
+    # ------------------------------------------------------------------ replanning
+    def current_model(self) -> Any:
+        """The model with the updated coefficients."""
+        from energy_planner.model import EnergyModel
+
+        m = self.model
+        return EnergyModel(
+            m.term_specs,
+            dict(zip(m.term_names, map(float, self.rls.coef), strict=True)),
+            stderr=m.stderr,
+            regenerative=m.regenerative,
+            metadata=m.metadata,
+        )
+
+    def _plan_to(self, start, goal) -> tuple[PathTerms, float, float | None] | None:
+        from energy_planner.planning.plan import plan
+
+        try:
+            res = plan(
+                self.terrain,
+                self.current_model(),
+                start,
+                goal,
+                self.request,
+                time=self.replan_time,
+                progress=False,
+            )
+        except EnergyPlannerError:
+            return None
+        pt = path_term_energies(
+            self.terrain,
+            self.model,
+            res.states[:, :2],
+            res.states[:, 2],
+            None,
+            self.speed,
+            self.yaw_rate,
+            constants=self.constants,
+        )
+        rem, _, _, prob = self._predict_on(pt)
+        return pt, rem, prob
+
+    def _predict_on(self, pt: PathTerms):
+        return self._predict(pt.remaining(0, 0.0))
+
+    def _replan(self, pose, t, rem, prob) -> tuple[str, bool]:
+        """Replan to the goal, else to the nearest site that fits; (what was done, replaced)."""
+        self._cooldown_until = t + 30.0
+        yaw = float(self.path.poses[min(self._motion, len(self.path.poses) - 1), 2])
+        start = (pose[0], pose[1], yaw)
+        head = (
+            f"t={t:.0f} s at ({pose[0]:.1f}, {pose[1]:.1f}): {100 * prob:.0f} % chance "
+            f"the battery suffices for the {rem:.0f} J left (< {100 * self.confidence:g} %)"
+        )
+        got = self._plan_to(start, self.goal)
+        if got is not None and got[2] is not None and got[2] >= self.confidence:
+            self.path = got[0]
+            msg = (
+                f"{head}; replanned from the current pose to the goal: {got[1]:.0f} J, "
+                f"{100 * got[2]:.0f} % chance"
+            )
+            self.events.append(msg)
+            return msg, True
+        if self.sites is not None:
+            order = np.argsort(np.hypot(self.sites[:, 0] - pose[0], self.sites[:, 1] - pose[1]))
+            for j in order:
+                site = (float(self.sites[j, 0]), float(self.sites[j, 1]))
+                got_s = self._plan_to(start, site)
+                if got_s is not None and got_s[2] is not None and got_s[2] >= self.confidence:
+                    self.path, self.goal = got_s[0], tuple(got_s[0].poses[-1])
+                    msg = (
+                        f"{head}; the goal no longer fits: replanned to the nearest site "
+                        f"that does, ({site[0]:.1f}, {site[1]:.1f}): {got_s[1]:.0f} J, "
+                        f"{100 * got_s[2]:.0f} % chance"
+                    )
+                    self.events.append(msg)
+                    return msg, True
+        msg = f"{head}; no replan fits (goal{' or any site' if self.sites is not None else ''})"
+        self.events.append(msg)
+        return msg, False
+
+    # ------------------------------------------------------------------ results
+    def to_dict(self) -> dict[str, Any]:
+        """Updates, slope findings, events and notes (for ``--json``)."""
+        return {
+            "updates": [u.to_dict() for u in self.updates],
+            "slope_findings": [f.to_dict() for f in self.findings],
+            "events": list(self.events),
+            "notes": list(self.notes),
+            "coefficients": dict(
+                zip(self.model.term_names, map(float, self.rls.coef), strict=True)
+            ),
+            "slope_tolerance_deg": self.slope_tol_deg,
+        }
+
+
+def walked_path(samples: pd.DataFrame, run: str | None = None, every_s: float = 0.5):
+    """The poses a log walked, as the path to follow (a replay of what was walked).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical log samples with the pose ``x, y`` (the DEM's CRS) and ``yaw`` (radians
+        counter-clockwise from the CRS's x axis).
+    run : str, optional
+        The run to take when the log holds several (default: the first).
+    every_s : float
+        One pose every this many seconds of log time (and the last one), with its time.
+
+    Returns
+    -------
+    Waypoints
+        In the DEM's CRS, with yaw and times (from the run's first sample).
+
+    Raises
+    ------
+    FollowError
+        The log has no pose columns, or the run is not in it.
+    """
+    from energy_planner.io.path_format import Waypoints
+
+    missing = [c for c in ("x", "y", "yaw", "t") if c not in samples.columns]
+    if missing:
+        raise FollowError(
+            f"the log has no pose column(s) {', '.join(missing)}: give the plan's path "
+            "with --path (follow needs a path to price the rest of)"
+        )
+    runs = list(dict.fromkeys(samples["run"].astype(str))) if "run" in samples else [None]
+    name = runs[0] if run is None else run
+    if name not in runs:
+        raise FollowError(f"no run {name!r} in the log; runs: {', '.join(map(str, runs))}")
+    d = samples if name is None else samples[samples["run"].astype(str) == name]
+    t = d["t"].to_numpy(float) - float(d["t"].iloc[0])
+    k = np.unique(np.r_[np.searchsorted(t, np.arange(0.0, t[-1], every_s)), len(t) - 1])
+    return Waypoints(
+        xy=d[["x", "y"]].to_numpy(float)[k],
+        yaw_rad=d["yaw"].to_numpy(float)[k],
+        t=t[k],
+        crs_note="the log's own poses (the DEM's CRS)",
+    )
+
+
+def follow_log(
+    terrain: Any,
+    model: Any,
+    samples: pd.DataFrame,
+    path: Any,
+    *,
+    run: str | None = None,
+    speedup: float | None = None,
+    chunk_s: float = 1.0,
+    **options: Any,
+) -> Follower:
+    """Replay a log against a plan's path (what ``energy-planner follow`` runs).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The DEM.
+    model : EnergyModel
+        The fitted model.
+    samples : pandas.DataFrame
+        Canonical log samples (:func:`energy_planner.measurements.load_logs`) with the
+        pose ``x, y`` in the DEM's CRS.
+    path : Waypoints
+        The plan's path as read by :func:`energy_planner.energy.waypoints.read_waypoints`
+        (the project's GeoJSON path format, or CSV waypoints).
+    run : str, optional
+        The run to follow when the log holds several.
+    speedup : float, optional
+        Replay pace, times real time (None: as fast as possible).
+    chunk_s : float
+        Log time fed at once, s.
+    **options
+        Passed to :class:`Follower` (battery, confidence, forgetting, ...).
+
+    Returns
+    -------
+    Follower
+        With ``updates``, ``findings``, ``events`` and ``notes``.
+
+    Raises
+    ------
+    FollowError
+        Several runs and no ``run``, a ``run`` the log does not have, or no pose.
+    """
+    from energy_planner.energy.waypoints import waypoints_to_work
+
+    runs = sorted(map(str, pd.unique(samples["run"].astype(str))))
+    if run is None and len(runs) > 1:
+        raise FollowError(
+            f"the log holds {len(runs)} runs ({', '.join(runs[:5])}"
+            f"{', ...' if len(runs) > 5 else ''}): choose one with --run",
+            value=runs[:5],
+            expected="one of " + ", ".join(runs[:20]),
+        )
+    if run is not None:
+        if run not in runs:
+            raise FollowError(
+                f"run {run!r} is not in the log; runs: {', '.join(runs[:20])}",
+                value=run,
+                expected="one of " + ", ".join(runs[:20]),
+            )
+        samples = samples[samples["run"].astype(str) == run]
+    missing = [c for c in ("x", "y") if c not in samples.columns]
+    if missing:
+        raise FollowError(
+            f"the log has no pose column(s) {', '.join(missing)}: a follower needs the "
+            "robot's position (columns x, y in the DEM's CRS)",
+            value=missing,
+            expected="columns x, y",
+        )
+    samples = samples.sort_values("t", kind="stable").reset_index(drop=True)
+    xw, yw = terrain.to_work(samples["x"].to_numpy(float), samples["y"].to_numpy(float))
+    samples = samples.assign(x=np.asarray(xw, dtype=float), y=np.asarray(yw, dtype=float))
+    xy, yaw = waypoints_to_work(terrain, path)
+    f = Follower(terrain, model, xy, yaw, path.t, **options)
+    f.replay(samples, chunk_s=chunk_s, speedup=speedup)
+    return f

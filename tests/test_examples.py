@@ -1,0 +1,200 @@
+"""Every example in the commands' ``--help`` and in the docs runs as printed.
+
+Examples are the lines that start with ``$ `` (a shell prompt): in each command's help
+they stand in an ``Examples:`` block, in README.md and docs/*.md in fenced blocks. Each
+source runs in a fresh folder holding ``maps/`` (the bundled maps, as in a checkout),
+its lines in order, so a line may use what an earlier line of the same source wrote; a
+page's ```python blocks run in that order too (README.md's included: this is where they
+run).
+The help examples run as one tutorial in the order of :data:`HELP_ORDER`.
+
+Where a docs block shows what a command prints, every shown line that carries numbers
+must be printed too (the line with the same first word), with the same numbers within
+:data:`RTOL` (the energy-optimal route's timed refinement can end a little elsewhere on
+another machine); ``...`` in a shown line ends what is compared of it.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from energy_planner.cli import COMMANDS, main
+from energy_planner.maps import map_path
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+#: the order the help examples run in: each may use the files earlier ones wrote
+HELP_ORDER = [
+    "simulate", "fit", "figures", "diagnose", "discover", "terrain", "plan", "energy",
+    "compare-routes", "reach", "energy-map", "mission", "follow", "demo",
+]  # fmt: skip
+RTOL = 0.03
+NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")
+
+
+def help_examples(name: str) -> list[str]:
+    """The ``$ `` lines of a command's help, as click prints them."""
+    from click.testing import CliRunner
+
+    out = CliRunner().invoke(main, [name, "--help"], terminal_width=200).output
+    return [ln.strip()[2:] for ln in out.splitlines() if ln.strip().startswith("$ ")]
+
+
+def doc_examples(path: Path) -> list[tuple[str, str, list[str]]]:
+    """A page's examples in order: ``("shell", line, shown)`` for each ``$ `` line of a
+    fenced block (with the lines shown after it in that block) and ``("python", code, [])``
+    for each ```python block (a later ``$`` line may use the files it writes)."""
+    found: list[tuple[str, str, list[str]]] = []
+    fence: str | None = None
+    shown: list[str] | None = None
+    code: list[str] = []
+    for line in path.read_text().splitlines():
+        if line.startswith("```"):
+            if fence is None:
+                fence, shown, code = line[3:].strip(), None, []
+            else:
+                if fence == "python":
+                    found.append(("python", "\n".join(code), []))
+                fence, shown = None, None
+            continue
+        if fence is None:
+            continue
+        if fence == "python":
+            code.append(line)
+        elif line.startswith("$ "):
+            shown = []
+            found.append(("shell", line[2:], shown))
+        elif shown is not None and line.strip():
+            shown.append(line)
+    return found
+
+
+def _workdir(tmp_path: Path) -> Path:
+    (tmp_path / "maps").symlink_to(map_path("hill").parent, target_is_directory=True)
+    return tmp_path
+
+
+def run(cmd: str, cwd: Path) -> subprocess.CompletedProcess:
+    """Run one example line with the installed ``energy-planner`` (through a shell)."""
+    bindir = str(Path(sys.executable).parent)
+    env = {**os.environ, "PATH": bindir + os.pathsep + os.environ.get("PATH", "")}
+    env["MPLBACKEND"] = "Agg"
+    return subprocess.run(
+        ["bash", "-c", cmd], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
+
+
+def check_shown(shown: list[str], printed: str, cmd: str) -> None:
+    """Each shown line with numbers is printed with the same first word and numbers.
+
+    A shown line indented by four or more spaces whose first word starts no printed line
+    is the wrapped tail of the line above it (wrapping follows the terminal): skipped.
+    """
+    lines = printed.splitlines()
+    for want in shown:
+        head = want.split("...")[0]
+        nums = [float(v) for v in NUM.findall(head)]
+        words = head.split()
+        if not nums or not words or words[0].startswith("Error"):
+            continue
+        key = words[0]
+        cands = [ln for ln in lines if ln.split()[:1] == [key]]
+        if not cands and want.startswith("    "):
+            continue
+        assert cands, f"{cmd!r}: no printed line starts with {key!r} (shown: {want!r})"
+
+        def close(ln: str, nums: list[float] = nums) -> bool:
+            got = [float(v) for v in NUM.findall(ln)]
+            if len(got) < len(nums):
+                return False
+            return all(
+                abs(a - b) <= RTOL * max(abs(b), 1.0) for a, b in zip(got, nums, strict=False)
+            )
+
+        assert any(close(ln) for ln in cands), f"{cmd!r}: shown {want!r}, printed {cands!r}"
+
+
+def check_benchmark(cmd: str) -> None:
+    """A ``python benchmarks/X.py ARGS`` line: the script exists and knows every option.
+
+    Benchmarks run at full size for minutes to hours, so the suite does not run them; it
+    checks that the line would start as printed (the script's ``--help`` lists each option).
+    """
+    words = shlex.split(cmd.split("#")[0])
+    words = [w for w in words if "=" not in w or w.startswith("-")]  # NUMBA_...=1 prefixes
+    assert words[0] == "python" and words[1].startswith("benchmarks/"), cmd
+    script = ROOT / words[1]
+    assert script.exists(), f"{cmd!r}: no {script}"
+    r = subprocess.run(
+        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120
+    )
+    assert r.returncode == 0, f"{cmd!r}: --help failed\n{r.stderr}"
+    for w in words[2:]:
+        if w.startswith("--"):
+            assert w.split("=")[0] in r.stdout, f"{cmd!r}: {script.name} has no option {w}"
+
+
+def test_every_command_has_examples():
+    """Each command's help shows at least one example, and the tutorial covers them all."""
+    assert sorted(HELP_ORDER) == sorted(COMMANDS)
+    for name in COMMANDS:
+        assert help_examples(name), f"{name} --help has no '$ energy-planner' example"
+    from click.testing import CliRunner
+
+    for name in COMMANDS:  # click's no-rewrap marker never shows literally
+        out = CliRunner().invoke(main, [name, "--help"]).output
+        assert "\\b" not in out and "\b" not in out, name
+
+
+def test_help_examples_run_as_printed(tmp_path):
+    cwd = _workdir(tmp_path)
+    for name in HELP_ORDER:
+        for cmd in help_examples(name):
+            assert cmd.startswith(f"energy-planner {name}"), cmd
+            r = run(cmd, cwd)
+            assert r.returncode == 0, f"{name} --help example {cmd!r}:\n{r.stdout}\n{r.stderr}"
+
+
+@pytest.mark.parametrize("page", DOCS, ids=lambda p: p.name)
+def test_doc_examples_run_as_printed(page, tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    examples = doc_examples(page)
+    if not examples:
+        pytest.skip(f"{page.name} shows no example")
+    cwd = _workdir(tmp_path)
+    monkeypatch.chdir(cwd)
+    namespace: dict = {"__name__": page.stem}  # a page's python blocks share one namespace
+    for kind, cmd, shown in examples:
+        if kind == "python":
+            exec(compile(cmd, str(page), "exec"), namespace)  # noqa: S102
+            continue
+        if "python benchmarks/" in cmd.split("#")[0]:
+            check_benchmark(cmd)
+            continue
+        r = run(cmd, cwd)
+        if any(s.startswith("Error") for s in shown):
+            assert r.returncode != 0, f"{page.name}: {cmd!r} should fail as shown"
+            first = next(s for s in shown if s.startswith("Error"))
+            assert first.split(";")[0][:40] in " ".join(r.stderr.split()), (cmd, r.stderr)
+            continue
+        assert r.returncode == 0, f"{page.name}: {cmd!r}\n{r.stdout}\n{r.stderr}"
+        check_shown(shown, r.stdout + r.stderr, cmd)
+
+
+def test_shown_lines_are_compared():
+    """The comparison itself: a shown number off by more than RTOL fails."""
+    check_shown(["energy    100.0 J"], "energy    101.0 J\n", "x")
+    with pytest.raises(AssertionError):
+        check_shown(["energy    100.0 J"], "energy    110.0 J\n", "x")
+    with pytest.raises(AssertionError):
+        check_shown(["distance  5 m"], "energy 5 J\n", "x")
+    assert shlex.split("a 'b c'") == ["a", "b c"]
