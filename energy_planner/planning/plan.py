@@ -251,6 +251,7 @@ def _ompl_setup(cost, terrain, cost_to_go=None):
             def checkMotion(self, s1, s2, *rest):  # noqa: N802 - OMPL's name
                 key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
                 e = kernel(*key)
+                obj.priced += 1
                 if len(cache) > 200_000:
                     cache.clear()
                 cache[key] = e
@@ -363,7 +364,7 @@ def _run_ompl(
         progress.report(best)
         if finished:
             break
-    info = {"motion_cost_calls": obj.calls}
+    info = {"motion_cost_calls": obj.calls, "motions_priced": obj.priced}
     if ctg is not None:
         info["cost_to_go"] = {"build_s": ctg.build_s, "h_start_j": ctg(start[0], start[1])}
     try:
