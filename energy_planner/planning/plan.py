@@ -480,7 +480,8 @@ def plan(
         relaxed problem and search (a :class:`PlanningError` when they do not finish in
         time) and then ``auto``'s refinement, which gets what is left. Default: no limit
         for the search, and up to a quarter of the search's time (at least 1 s, at most
-        10 s) for the refinement. OMPL planners run for ``time`` (default 10 s). The
+        10 s) for the refinement. OMPL planners run for ``time`` (default 10 s); BIT*'s
+        cost-to-go (:data:`OMPL_COST_TO_GO`) is built before that clock starts. The
         ``lattice`` planner is not interruptible: ``time`` does not bound it.
     seed : int
         Random seed (refinement, OMPL's RNG).
