@@ -282,14 +282,14 @@ def least_cost_per_metre(
     directions, headings and the gradient box; 0 when the cost reads channel rasters
     (they vary over the map, so no constant-gradient table bounds them).
     """
-    from energy_planner.planning.lattice import _move_table, lattice_headings
+    from energy_planner.planning.moves import lattice_headings, move_table
     from energy_planner.planning.search import BOUND_MARGIN, gradient_table
 
     if getattr(getattr(cost, "channels", None), "rasters", None):
         return 0.0
     headings = lattice_headings(int(n_headings))
     table, _ = gradient_table(
-        cost, headings, _move_table(headings, moves), np.asarray(lo), np.asarray(hi)
+        cost, headings, move_table(headings, moves), np.asarray(lo), np.asarray(hi)
     )
     fin = table[np.isfinite(table)]
     return float(fin.min()) * BOUND_MARGIN if fin.size else 0.0

@@ -48,6 +48,7 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
+from energy_planner.planning.moves import MOVE_SETS
 
 __all__ = [
     "SearchResult",
@@ -66,9 +67,6 @@ _IMPORT_LINE = (
 )
 #: Scale applied to every edge bound (covers the gradient table's spacing).
 BOUND_MARGIN = 0.99
-#: Translation sets per heading: the 4 neighbours closest to the body axes; 8 (also the
-#: obliques at 45 degrees to them: crab walking); all 16.
-MOVE_SETS = ("axes", "crab", "all")
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
 
@@ -189,11 +187,11 @@ class _Grid:
     """Lattice geometry, headings and primitives of one search."""
 
     def __init__(self, cost, terrain, start_xy, step, n_headings, moves):
-        from energy_planner.planning.lattice import (
+        from energy_planner.planning.moves import (
             MOVES_16,
-            _move_table,
             lattice_geometry,
             lattice_headings,
+            move_table,
         )
 
         if moves not in MOVE_SETS:
@@ -222,7 +220,7 @@ class _Grid:
         self.headings = np.ascontiguousarray(wrap(lattice_headings(self.H)), dtype=np.float64)
         self.moves = np.ascontiguousarray(MOVES_16, dtype=np.int64)
         self.move_len = np.hypot(self.moves[:, 0], self.moves[:, 1]).astype(np.float64)
-        self.move_ok = _move_table(lattice_headings(self.H), moves)
+        self.move_ok = move_table(lattice_headings(self.H), moves)
         k = int(self.move_ok.sum(axis=1).max())
         mo = np.full((self.H, k), -1, dtype=np.int64)
         for h in range(self.H):
@@ -274,7 +272,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
-    from energy_planner.planning.lattice import MOVES_16
+    from energy_planner.planning.moves import MOVES_16
 
     grad = cost.data[0]
     gx = grad[..., 0]
@@ -317,7 +315,7 @@ def gradient_table(
     """
     from scipy.ndimage import minimum_filter
 
-    from energy_planner.planning.lattice import MOVES_16
+    from energy_planner.planning.moves import MOVES_16
 
     lo = np.asarray(lo, dtype=np.float64).copy()
     hi = np.asarray(hi, dtype=np.float64).copy()
