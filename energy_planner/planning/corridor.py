@@ -56,6 +56,7 @@ from energy_planner.errors import (
     PlanningError,
     RasterTooLargeError,
 )
+from energy_planner.terrain.memory import DEFAULT_CAP, Cap, resolve_cap
 
 __all__ = [
     "PAD_CELLS",
@@ -200,13 +201,18 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
         return RasterInfo(name, (src.height, src.width), t, src.crs, int(band))
 
 
-def needs_window(info: RasterInfo, cap: int | None) -> bool:
-    """True if planning on the whole DEM would pass the memory cap ``cap`` (bytes)."""
+def needs_window(info: RasterInfo, cap: Cap = DEFAULT_CAP) -> bool:
+    """True if planning on the whole DEM would pass the memory cap ``cap``.
+
+    ``cap``: bytes, :data:`~energy_planner.terrain.memory.DEFAULT_CAP` or
+    :data:`~energy_planner.terrain.memory.NO_CAP` (:func:`~energy_planner.terrain.memory.
+    resolve_cap`).
+    """
     return _over_cap(*info.shape, cap)
 
 
-def _over_cap(rows: int, cols: int, cap: int | None) -> bool:
-    return cap is not None and float(rows) * cols * PLAN_BYTES_PER_CELL > cap
+def _over_cap(rows: int, cols: int, cap: Cap) -> bool:
+    return float(rows) * cols * PLAN_BYTES_PER_CELL > resolve_cap(cap)
 
 
 def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
@@ -317,12 +323,12 @@ def ellipse_box(
     return (cx - hx, cy - hy, cx + hx, cy + hy)
 
 
-def _window_cells(cap: int | None) -> tuple[int | None, int]:
-    """The cap in bytes (None: the default cap) and the most cells a window may hold."""
-    from energy_planner.terrain import memory_cap
-
-    cap = memory_cap() if cap is None else int(cap)
-    return cap, int(cap // PLAN_BYTES_PER_CELL) if cap is not None else 1 << 62
+def _window_cells(cap: Cap) -> tuple[int | None, int]:
+    """The cap in bytes (None: no cap) and the most cells a window may hold."""
+    limit = resolve_cap(cap)
+    if math.isinf(limit):
+        return None, sys.maxsize  # no cap: a window may hold any number of cells
+    return int(limit), int(limit // PLAN_BYTES_PER_CELL)
 
 
 def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
@@ -417,22 +423,21 @@ def _bound(cost, info, n_headings, moves, log, progress) -> tuple[float, list]:
     return c_min, [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])]
 
 
-def needs_windows(dem: str | Path, cap: int | None = None) -> bool:
+def needs_windows(dem: str | Path, cap: Cap = DEFAULT_CAP) -> bool:
     """True if planning on the whole of ``dem`` would pass the memory cap (header only).
 
-    ``cap`` None: the default cap (:func:`energy_planner.terrain.memory_cap`). A file
-    rasterio cannot open returns False, so that loading it reports the problem.
+    ``cap`` as :func:`~energy_planner.terrain.memory.resolve_cap` reads it (default: the
+    default cap). A file rasterio cannot open returns False, so that loading it reports
+    the problem.
     """
     import rasterio
-
-    from energy_planner.terrain import memory_cap
 
     try:
         with rasterio.open(dem) as src:
             shape = (src.height, src.width)
     except Exception:  # noqa: BLE001 - any open error is the loader's to report
         return False
-    return _over_cap(*shape, memory_cap() if cap is None else cap)
+    return _over_cap(*shape, cap)
 
 
 def plan_in_corridor(
@@ -443,7 +448,7 @@ def plan_in_corridor(
     request=None,
     *,
     band: int | None = None,
-    cap: int | None = None,
+    cap: Cap = DEFAULT_CAP,
     progress: bool = False,
     margin: float = 0.25,
     **plan_kwargs: Any,
@@ -462,9 +467,10 @@ def plan_in_corridor(
         As :func:`energy_planner.planning.plan.plan`.
     band : int, optional
         Band of a multi-band DEM.
-    cap : int, optional
-        Memory cap in bytes (default :func:`energy_planner.terrain.memory_cap`); windows
-        hold at most ``cap / PLAN_BYTES_PER_CELL`` cells.
+    cap : int, DEFAULT_CAP or NO_CAP
+        Memory cap (:func:`~energy_planner.terrain.memory.resolve_cap`; default
+        :func:`energy_planner.terrain.memory_cap`); windows hold at most
+        ``cap / PLAN_BYTES_PER_CELL`` cells.
     progress : bool
         Progress bars and the corridor's steps on stderr.
     margin : float
@@ -667,7 +673,7 @@ def reach_in_window(
     request=None,
     *,
     band: int | None = None,
-    cap: int | None = None,
+    cap: Cap = DEFAULT_CAP,
     round_trip: bool = False,
     progress: bool = False,
     **reach_kwargs: Any,
