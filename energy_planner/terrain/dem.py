@@ -809,35 +809,12 @@ def load_dem(
     >>> t.crs.to_epsg(), t.resolution
     (32631, (1.0, 1.0))
     """
-    from rasterio._err import CPLE_BaseError
-    from rasterio.errors import RasterioIOError
-
     p = Path(path)
     name = str(path)
     src = open_dem(name)
     with src:
         n = src.count
-        if band is None:
-            if n != 1:
-                raise DEMError(
-                    f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
-                    f"--band N (CLI), N in 1..{n}",
-                    path=name,
-                    value=n,
-                    param="band",
-                    expected=f"a band in 1..{n}",
-                    hint="--band N",
-                )
-            band = 1
-        if not (isinstance(band, int | np.integer) and 1 <= band <= n):
-            raise DEMError(
-                f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
-                path=name,
-                value=band,
-                param="band",
-                expected=f"a band in 1..{n}",
-                hint="--band N",
-            )
+        band = _pick_band(band, n, name)
         win, shape, transform = _read_window(src, bounds, decimate, name)
         part = (
             ""
@@ -850,95 +827,160 @@ def load_dem(
         )
         check_memory(shape, BYTES_PER_CELL, f"DEM {name!r}{part}", path=name)
         nodata = src.nodatavals[int(band) - 1]
-        try:
-            if bounds is None and decimate == 1:
-                data = src.read(int(band), masked=True)
-            else:
-                from rasterio.enums import Resampling
-
-                data = src.read(
-                    int(band),
-                    window=win,
-                    out_shape=shape,
-                    masked=True,
-                    resampling=Resampling.average,
-                )
-        except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
-            raise DEMIOError(
-                f"cannot read band {band} of DEM {name!r}: {exc}",
-                path=name,
-                expected="a readable raster (is the file truncated?)",
-            ) from exc
-        z = np.ma.filled(data.astype(np.float64), np.nan)
-        del data
+        z = _read_band(src, band, None if bounds is None and decimate == 1 else (win, shape), name)
         crs = src.crs
-        if transform.b != 0 or transform.d != 0:
-            raise DEMError(
-                f"DEM {name!r} has a rotated/sheared geotransform {tuple(transform)[:6]}; "
-                "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif",
-                path=name,
-                value=tuple(transform)[:6],
-                expected="a north-up geotransform",
-            )
-        if src.gcps[0] and transform == Affine.identity():
-            raise DEMError(
-                f"DEM {name!r} is georeferenced by GCPs only; warp it first",
-                path=name,
-                expected="a geotransform",
-            )
+        _check_georeferenced(src, transform, name)
     z[~np.isfinite(z)] = np.nan
-    if not np.isfinite(z).any():
-        what = "NaN" if nodata is None or np.isnan(nodata) else f"nodata ({nodata:g}) or NaN"
-        if n == 1:
-            raise DEMError(
-                f"DEM {name!r} has no valid cell: every cell is {what}; expected "
-                "elevations (check the file's nodata value)",
-                path=name,
-                value=nodata,
-                expected="at least one valid elevation",
-            )
-        raise DEMError(
-            f"band {band} of DEM {name!r} has no valid cell: every cell is {what}; "
-            f"the file has {n} bands (choose another with --band N)",
-            path=name,
-            value=band,
-            param="band",
-            expected="a band with valid elevations",
-            hint="--band N",
-        )
-    source_shape = z.shape
-    source_transform = transform
-    native, work_grad = None, None
-    if crs is None:
-        warnings.warn(
-            f"DEM {name!r} has no CRS; treating its coordinates as local metres "
-            "(x east, y north). Slopes are wrong if its pixels are not metres.",
-            UserWarning,
-            stacklevel=2,
-        )
-        work_z, work_t, work_crs = z, transform, None
-    elif _is_metric(crs):
-        work_z, work_t, work_crs = z, transform, crs
-    else:
-        # Horn on the DEM's own grid (geodesic spacing), carried to the working grid
-        (z,), north_up = _north_up([z], transform)
-        work_z, work_t, work_crs, grads, work_grad = _warp_to_utm(z, north_up, crs, p)
-        native = NativeGrid(z, *grads, north_up, crs)
-        if not np.isfinite(work_z).any():
-            raise DEMError(
-                f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
-                path=name,
-                crs=str(work_crs),
-                expected="valid cells",
-            )
+    _check_some_valid(z, nodata, band, n, name)
+    work_z, work_t, work_crs, native, work_grad = _working_grid(z, transform, crs, name, p)
     return Terrain(
         work_z,
         work_t,
         work_crs,
         source_crs=crs,
-        source_transform=source_transform,
-        source_shape=source_shape,
+        source_transform=transform,
+        source_shape=z.shape,
         path=p,
         native=native,
         gradient=work_grad,
     )
+
+
+def _pick_band(band, n: int, name: str) -> int:
+    """The band to read (1 when the DEM has one and none was asked for).
+
+    Raises
+    ------
+    DEMError
+        Several bands and no ``band``, or ``band`` out of range.
+    """
+    if band is None:
+        if n != 1:
+            raise DEMError(
+                f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
+                f"--band N (CLI), N in 1..{n}",
+                path=name,
+                value=n,
+                param="band",
+                expected=f"a band in 1..{n}",
+                hint="--band N",
+            )
+        return 1
+    if not (isinstance(band, int | np.integer) and 1 <= band <= n):
+        raise DEMError(
+            f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
+            path=name,
+            value=band,
+            param="band",
+            expected=f"a band in 1..{n}",
+            hint="--band N",
+        )
+    return band
+
+
+def _read_band(src, band: int, window, name: str) -> np.ndarray:
+    """Band ``band`` as float64 with NaN for nodata; ``window`` ``(win, out_shape)`` or None.
+
+    Raises
+    ------
+    DEMIOError
+        The file cannot be read (truncated or corrupt).
+    """
+    from rasterio._err import CPLE_BaseError
+    from rasterio.errors import RasterioIOError
+
+    try:
+        if window is None:
+            data = src.read(int(band), masked=True)
+        else:
+            from rasterio.enums import Resampling
+
+            data = src.read(
+                int(band),
+                window=window[0],
+                out_shape=window[1],
+                masked=True,
+                resampling=Resampling.average,
+            )
+    except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
+        raise DEMIOError(
+            f"cannot read band {band} of DEM {name!r}: {exc}",
+            path=name,
+            expected="a readable raster (is the file truncated?)",
+        ) from exc
+    return np.ma.filled(data.astype(np.float64), np.nan)
+
+
+def _check_georeferenced(src, transform, name: str) -> None:
+    """:class:`DEMError` unless the DEM has a north-up geotransform."""
+    if transform.b != 0 or transform.d != 0:
+        raise DEMError(
+            f"DEM {name!r} has a rotated/sheared geotransform {tuple(transform)[:6]}; "
+            "expected north-up. Warp it first: gdalwarp -t_srs <its CRS> in.tif out.tif",
+            path=name,
+            value=tuple(transform)[:6],
+            expected="a north-up geotransform",
+        )
+    if src.gcps[0] and transform == Affine.identity():
+        raise DEMError(
+            f"DEM {name!r} is georeferenced by GCPs only; warp it first",
+            path=name,
+            expected="a geotransform",
+        )
+
+
+def _check_some_valid(z: np.ndarray, nodata, band: int, n: int, name: str) -> None:
+    """:class:`DEMError` if every cell of the band is nodata or NaN."""
+    if np.isfinite(z).any():
+        return
+    what = "NaN" if nodata is None or np.isnan(nodata) else f"nodata ({nodata:g}) or NaN"
+    if n == 1:
+        raise DEMError(
+            f"DEM {name!r} has no valid cell: every cell is {what}; expected "
+            "elevations (check the file's nodata value)",
+            path=name,
+            value=nodata,
+            expected="at least one valid elevation",
+        )
+    raise DEMError(
+        f"band {band} of DEM {name!r} has no valid cell: every cell is {what}; "
+        f"the file has {n} bands (choose another with --band N)",
+        path=name,
+        value=band,
+        param="band",
+        expected="a band with valid elevations",
+        hint="--band N",
+    )
+
+
+def _working_grid(z: np.ndarray, transform, crs, name: str, p: Path):
+    """The metric working grid: the DEM's own, or a UTM warp with Horn on the DEM's grid.
+
+    Returns
+    -------
+    work_z, work_t, work_crs, native, work_grad
+        Elevation, transform and CRS of the working grid; the :class:`NativeGrid` and
+        the working grid's gradient (None unless the DEM was warped).
+    """
+    if crs is None:
+        warnings.warn(
+            f"DEM {name!r} has no CRS; treating its coordinates as local metres "
+            "(x east, y north). Slopes are wrong if its pixels are not metres.",
+            UserWarning,
+            stacklevel=3,
+        )
+        return z, transform, None, None, None
+    if _is_metric(crs):
+        return z, transform, crs, None, None
+    # Horn on the DEM's own grid (geodesic spacing), carried to the working grid
+    (z,), north_up = _north_up([z], transform)
+    work_z, work_t, work_crs, grads, work_grad = _warp_to_utm(z, north_up, crs, p)
+    native = NativeGrid(z, *grads, north_up, crs)
+    if not np.isfinite(work_z).any():
+        raise DEMError(
+            f"DEM {name!r} has no valid cell after reprojection to {work_crs}",
+            path=name,
+            crs=str(work_crs),
+            expected="valid cells",
+        )
+    return work_z, work_t, work_crs, native, work_grad
