@@ -47,6 +47,7 @@ from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 from energy_planner.planning.moves import (
     MOVES_16,
+    check_headings,
     check_moves,
     lattice_geometry,
     lattice_headings,
@@ -318,12 +319,7 @@ def _check_options(metric: str, moves: str, n_headings: int) -> None:
             f"metric {metric!r} is not one of 'energy', 'distance'", value=metric, param="metric"
         )
     check_moves(moves)
-    if n_headings < 4:
-        raise PlanningConfigError(
-            f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
-            value=n_headings,
-            param="n_headings",
-        )
+    check_headings(n_headings)
 
 
 def _endpoint_nodes(lat: LatticeGraph, x: float, y: float, yaw, which: str) -> np.ndarray:

@@ -26,6 +26,7 @@ from energy_planner.errors import PlanningConfigError
 __all__ = [
     "MOVES_16",
     "MOVE_SETS",
+    "check_headings",
     "check_moves",
     "lattice_geometry",
     "lattice_headings",
@@ -54,6 +55,16 @@ def check_moves(moves: str) -> None:
             f"moves {moves!r} is not one of {', '.join(map(repr, MOVE_SETS))}",
             value=moves,
             param="moves",
+        )
+
+
+def check_headings(n_headings: int) -> None:
+    """:class:`PlanningConfigError` for fewer than 4 headings (the body axes need 4)."""
+    if int(n_headings) < 4:
+        raise PlanningConfigError(
+            f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
+            value=n_headings,
+            param="n_headings",
         )
 
 

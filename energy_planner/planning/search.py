@@ -48,7 +48,7 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
-from energy_planner.planning.moves import MOVE_SETS
+from energy_planner.planning.moves import MOVE_SETS  # noqa: F401 - documented here too
 
 __all__ = [
     "SearchResult",
@@ -189,23 +189,15 @@ class _Grid:
     def __init__(self, cost, terrain, start_xy, step, n_headings, moves):
         from energy_planner.planning.moves import (
             MOVES_16,
+            check_headings,
+            check_moves,
             lattice_geometry,
             lattice_headings,
             move_table,
         )
 
-        if moves not in MOVE_SETS:
-            raise PlanningConfigError(
-                f"moves {moves!r} is not one of {', '.join(map(repr, MOVE_SETS))}",
-                value=moves,
-                param="moves",
-            )
-        if int(n_headings) < 4:
-            raise PlanningConfigError(
-                f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
-                value=n_headings,
-                param="n_headings",
-            )
+        check_moves(moves)
+        check_headings(n_headings)
         cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
         step = cell if step is None else float(step)
         if not (math.isfinite(step) and step > 0):
