@@ -49,6 +49,7 @@ from energy_planner.planning.moves import (
     MOVES_16,
     check_headings,
     check_moves,
+    exact_ends,
     lattice_geometry,
     lattice_headings,
     move_table,
@@ -370,22 +371,6 @@ def _node_chain(pred: np.ndarray, best: int, sources: np.ndarray) -> np.ndarray:
     return np.array(chain)
 
 
-def _with_exact_endpoints(states: np.ndarray, start, goal) -> np.ndarray:
-    """The lattice path's poses with the exact start and goal poses around them."""
-    first = states[0]
-    if start[2] is not None and abs(wrap(float(start[2]) - first[2])) > 1e-12:
-        states = np.vstack([[start[0], start[1], float(wrap(start[2]))], states])
-    last = states[-1]
-    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
-    if (
-        abs(goal[0] - last[0]) > 1e-9
-        or abs(goal[1] - last[1]) > 1e-9
-        or abs(gyaw - last[2]) > 1e-12
-    ):
-        states = np.vstack([states, [goal[0], goal[1], gyaw]])
-    return states
-
-
 def lattice_plan(
     cost,
     terrain,
@@ -455,7 +440,7 @@ def lattice_plan(
         )
     p_of, h_of = np.divmod(_node_chain(pred, best, sources), lat.n_headings)
     states = np.column_stack([*lat.position(p_of), wrap(lat.headings[h_of])])
-    states = _with_exact_endpoints(states, start, goal)
+    states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     return LatticeResult(
         states=simplify_states(states),

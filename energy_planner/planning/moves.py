@@ -28,6 +28,7 @@ __all__ = [
     "MOVE_SETS",
     "check_headings",
     "check_moves",
+    "exact_ends",
     "lattice_geometry",
     "lattice_headings",
     "move_table",
@@ -139,3 +140,28 @@ def move_table(headings: np.ndarray, moves: str) -> np.ndarray:
             axis = headings[h] + k * 2 * np.pi / n_dirs
             table[h, int(np.argmin(np.abs(wrap(ang - axis))))] = True
     return table
+
+
+def exact_ends(states: np.ndarray, start, goal) -> np.ndarray:
+    """Put the exact start and goal poses around a lattice path's poses.
+
+    ``start``, ``goal``: ``(x, y, yaw)`` with yaw None when free; a pose is added only
+    where the lattice path does not already begin (end) there.
+    """
+    first = states[0]
+    syaw = float(wrap(start[2])) if start[2] is not None else first[2]
+    if (
+        abs(start[0] - first[0]) > 1e-9
+        or abs(start[1] - first[1]) > 1e-9
+        or abs(float(wrap(syaw - first[2]))) > 1e-12
+    ):
+        states = np.vstack([[start[0], start[1], syaw], states])
+    last = states[-1]
+    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
+    if (
+        abs(goal[0] - last[0]) > 1e-9
+        or abs(goal[1] - last[1]) > 1e-9
+        or abs(float(wrap(gyaw - last[2]))) > 1e-12
+    ):
+        states = np.vstack([states, [goal[0], goal[1], gyaw]])
+    return states

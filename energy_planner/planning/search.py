@@ -48,7 +48,7 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
-from energy_planner.planning.moves import MOVE_SETS  # noqa: F401 - documented here too
+from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
 
 __all__ = [
     "SearchResult",
@@ -616,7 +616,7 @@ def search_plan(
     p_of, h_of = np.divmod(chain, grid.H)
     j_of, i_of = np.divmod(p_of, grid.nx)
     states = np.column_stack([grid.xs[i_of], grid.ys[j_of], grid.headings[h_of]])
-    states = _exact_ends(states, start, goal)
+    states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     from energy_planner.planning.lattice import simplify_states
 
@@ -633,27 +633,6 @@ def search_plan(
         search_s=t2 - t1,
         info={"h_start": float(h2d[ps]), "positions": grid.P},
     )
-
-
-def _exact_ends(states: np.ndarray, start, goal) -> np.ndarray:
-    """Put the exact start and goal poses around the lattice part."""
-    first = states[0]
-    syaw = float(wrap(start[2])) if start[2] is not None else first[2]
-    if (
-        abs(start[0] - first[0]) > 1e-9
-        or abs(start[1] - first[1]) > 1e-9
-        or abs(float(wrap(syaw - first[2]))) > 1e-12
-    ):
-        states = np.vstack([[start[0], start[1], syaw], states])
-    last = states[-1]
-    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
-    if (
-        abs(goal[0] - last[0]) > 1e-9
-        or abs(goal[1] - last[1]) > 1e-9
-        or abs(float(wrap(gyaw - last[2]))) > 1e-12
-    ):
-        states = np.vstack([states, [goal[0], goal[1], gyaw]])
-    return states
 
 
 def reach_search(
