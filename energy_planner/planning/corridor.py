@@ -159,7 +159,8 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
     DEMError
         Several bands and no ``band``; a geographic or rotated raster.
     """
-    from energy_planner.terrain.dem import _is_metric, open_dem, utm_epsg
+    from energy_planner.terrain.dem import _is_metric, utm_epsg
+    from energy_planner.terrain.load import open_dem
 
     name = str(path)
     with open_dem(name) as src:
