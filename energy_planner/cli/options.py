@@ -52,15 +52,19 @@ def memory_cap_option(what: str):
     )
 
 
-def parse_memory_cap(value: str | None) -> int | None:
-    """``--memory-cap`` in bytes (None: the default cap); ``click.BadParameter`` if not a size."""
-    if value is None:
-        return None
-    from energy_planner.terrain.memory import parse_cap
+def parse_memory_cap(value: str | None):
+    """``--memory-cap`` as a cap (:func:`energy_planner.terrain.memory.resolve_cap`).
 
+    Bytes, ``DEFAULT_CAP`` when not given, ``NO_CAP`` for off; ``click.BadParameter`` if
+    not a size.
+    """
+    from energy_planner.terrain.memory import DEFAULT_CAP, NO_CAP, parse_cap
+
+    if value is None:
+        return DEFAULT_CAP
     text = value.strip()
     if text.lower() in ("off", "none", "no"):  # as ENERGY_PLANNER_MEMORY_CAP accepts
-        return 1 << 62  # no cap
+        return NO_CAP
     try:
         if not text:
             raise ValueError(text)
@@ -71,7 +75,7 @@ def parse_memory_cap(value: str | None) -> int | None:
             param_hint="--memory-cap",
         ) from exc
     if size is None and text.endswith("%"):
-        return None  # a share of a memory size the machine does not report: the default
+        return DEFAULT_CAP  # a share of a memory size the machine does not report
     if size is None or size <= 0:  # "0" means off for the variable; here it is refused
         raise click.BadParameter(
             f"{value!r}: the cap must be more than 0 bytes (or off)", param_hint="--memory-cap"

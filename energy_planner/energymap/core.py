@@ -748,8 +748,10 @@ def _energy_map(
         mode = "terrain"
     else:
         info = _dem_info(dem, band)
-        cap = memory_cap_bytes if memory_cap_bytes is not None else memory_cap()
-        too_big = cap is not None and info.nbytes > cap
+        from energy_planner.terrain.memory import resolve_cap
+
+        cap = resolve_cap(memory_cap_bytes)  # None: the default cap
+        too_big = info.nbytes > cap
         if use_dask or (use_dask is None and too_big):
             if not info.metric_north_up:
                 raise EnergyMapError(

@@ -188,9 +188,9 @@ class EnergyObjective(ob.OptimizationObjective):
 
 def make_space(terrain):
     """An ``SE2StateSpace`` bounded by the terrain's extent in the working CRS."""
-    from energy_planner.planning.lattice import _terrain_extent
+    from energy_planner.planning.moves import terrain_extent
 
-    xmin, xmax, ymin, ymax = _terrain_extent(terrain)
+    xmin, xmax, ymin, ymax = terrain_extent(terrain)
     space = ob.SE2StateSpace()
     bounds = ob.RealVectorBounds(2)
     bounds.setLow(0, xmin)
