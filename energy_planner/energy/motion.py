@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -98,7 +99,8 @@ class MotionCost:
         if clash:
             raise ChannelError(f"channel(s) {', '.join(clash)} given in constants and channels")
         if extra:
-            channels = Channels({**channels.constants, **extra}, channels.rasters)
+            channels = replace(channels, constants={**channels.constants, **extra})
+        channels = channels.resolve(model)  # values of the kinds the model reads
         if channels.rasters:
             channels = channels.bind(terrain)
         self.channels = channels
