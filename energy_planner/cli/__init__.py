@@ -135,15 +135,27 @@ def _file_is_there(path: Any) -> bool:
 #: Library parameters that are files: an error naming one of them (its ``param`` field)
 #: is about the file; an error naming another parameter (``band``, ``bounds``, ...) is
 #: about that option's value, a usage error even when it names the file too.
-FILE_PARAMS = frozenset({"dem", "path", "keep_out", "waypoints", "sites", "model", "logs"})
+FILE_PARAMS = frozenset(
+    {"dem", "path", "keep_out", "waypoints", "sites", "model", "logs", "channel", "prior"}
+)
+
+
+def _option_name(exc: click.ClickException) -> str | None:
+    """The option a usage error blames, as a parameter name (``--keep-out`` -> keep_out)."""
+    param = getattr(exc, "param", None)
+    hint = getattr(exc, "param_hint", None) or (None if param is None else param.name)
+    if not isinstance(hint, str):
+        return None
+    return hint.strip("'\"").lstrip("-").replace("-", "_").lower()
 
 
 def exit_status_error(exc: click.ClickException) -> click.ClickException:
     """``exc`` with the exit status the rule of this module gives its cause.
 
     A usage error (2) whose cause names a file that is there (its ``path`` field) is
-    about the file's content: a :class:`DataError` (1), unless the cause names another
-    option at fault (its ``param`` field, e.g. ``band``). A data error whose cause is a
+    about the file's content: a :class:`DataError` (1), unless the error blames an option
+    that is not a file (``--start`` outside the map the file covers, ``--band``: the
+    error's ``param_hint`` or its cause's ``param`` field). A data error whose cause is a
     file that is not there, or a channel value the model cannot take, is a usage error.
     Anything else is returned as it is.
     """
@@ -154,7 +166,10 @@ def exit_status_error(exc: click.ClickException) -> click.ClickException:
         return exc
     path = cause.fields.get("path")
     usage = isinstance(exc, click.UsageError)
-    other_param = cause.fields.get("param") not in (None, *FILE_PARAMS)
+    option = _option_name(exc)
+    other_param = cause.fields.get("param") not in (None, *FILE_PARAMS) or (
+        option is not None and option not in FILE_PARAMS
+    )
     if usage and path is not None and _file_is_there(path) and not other_param:
         new: click.ClickException = DataError(exc.format_message())
     elif not usage and path is not None and isinstance(cause, OSError) and not _file_is_there(path):
