@@ -249,3 +249,27 @@ def test_cli_allow_unknown_category_prices_none_and_warns(files):
     res = json.loads(r.stdout)
     assert res["energy_j"] == pytest.approx(F0 * 40.0, rel=1e-9)
     assert any("priced as none of them" in n for n in res["notes"])
+
+
+# ------------------------------------------------------------------ #21 point 3
+def test_set_values_are_kernel_inputs_not_compiled_in(flat):
+    """Two --set values share one compiled kernel and each gives (F0 + k m) L."""
+    from energy_planner.energy import MotionCost
+
+    line = np.array([[X0 + 10, Y0 + 30], [X0 + 50, Y0 + 30]])
+    costs = {v: MotionCost(flat, LOAD_MODEL, channels=Channels({"load_kg": v})) for v in (3, 41)}
+    assert costs[3].kernel is costs[41].kernel  # one module from the kernel cache
+    sources = {
+        LOAD_MODEL.kernel_source(c.constants, c.channels.kernel_layout(runtime=True))
+        for c in costs.values()
+    }
+    assert len(sources) == 1 and "41" not in sources.pop()
+    for v, cost in costs.items():
+        e = path_energy(flat, LOAD_MODEL, line, cost=cost)
+        assert e.energy_j == pytest.approx((F0 + K_LOAD * v) * 40.0, rel=1e-12)
+    mud = MotionCost(flat, MUD_MODEL, channels=Channels({"ground": "mud"}))
+    assert mud.channels.kernel_layout(runtime=True) == [("ground", ("mud",))]
+    assert mud.channels.stack((N, N), runtime=True)[0].shape == (1, 1, 1)  # index 0: mud
+    assert path_energy(flat, MUD_MODEL, line, cost=mud).energy_j == pytest.approx(
+        (F0 + K_MUD) * 40.0, rel=1e-12
+    )

@@ -359,6 +359,11 @@ class Channels:
         Accept a category the model's formulas do not name (``--allow-unknown-category``):
         it is priced as none of the named categories, with a warning. Default: an error
         listing the valid categories.
+    runtime : mapping, optional
+        Set by :meth:`resolve` (leave it out): the constants the model reads and the
+        categories the kernel renders for each (``None`` for a number). With it, the
+        constants are kernel inputs (:meth:`kernel_layout` ``runtime=True``,
+        :meth:`stack`), so a new value needs no compilation.
 
     Examples
     --------
@@ -369,6 +374,11 @@ class Channels:
     constants: Mapping[str, float | str] = field(default_factory=dict)
     rasters: Mapping[str, ChannelRaster] = field(default_factory=dict)
     allow_unknown_categories: bool = False
+    #: Set by :meth:`resolve`: the constants the model reads, each with the categories
+    #: the kernel renders (``None`` for a number); they enter the kernels at run time.
+    runtime: Mapping[str, tuple[str, ...] | None] | None = field(
+        default=None, compare=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         consts: dict[str, float | str] = {}
@@ -480,8 +490,14 @@ class Channels:
     def __bool__(self) -> bool:
         return bool(self.constants or self.rasters)
 
-    def kernel_layout(self) -> list[tuple[str, tuple[str, ...] | None]]:
-        """``(name, categories or None)`` of the rasters, in the kernel's order."""
+    def kernel_layout(self, runtime: bool = False) -> list[tuple[str, tuple[str, ...] | None]]:
+        """``(name, categories or None)`` of the kernel's channel inputs, in order.
+
+        The rasters; with ``runtime`` (channels from :meth:`resolve`) also the constants
+        the model reads, after them, so that their values are inputs of the compiled
+        kernel (:meth:`stack` gives them) instead of being compiled in: the kernel's
+        source then depends on the model only, not on the values.
+        """
         out = []
         for name, r in self.rasters.items():
             cats = r.categories
@@ -490,6 +506,8 @@ class Channels:
                 if all(isinstance(v, str) for v in table.values()):
                     cats = tuple(sorted(set(table.values())))  # type: ignore[arg-type]
             out.append((name, cats))
+        if runtime and self.runtime is not None:
+            out.extend(self.runtime.items())
         return out
 
     def check(self, model: Any) -> None:
@@ -530,11 +548,14 @@ class Channels:
         """
         kinds = channel_kinds(model)
         consts: dict[str, float | str] = {}
+        runtime: dict[str, tuple[str, ...] | None] = {}
         for name, v in self.constants.items():
             kind = kinds.get(name)
             if kind is None:
                 consts[name] = v
-            elif not kind.is_categorical:
+                continue
+            runtime[name] = kind.categories
+            if not kind.is_categorical:
                 if isinstance(v, str):
                     unit = re.fullmatch(r"\s*[-+]?[\d.]+(?:e[-+]?\d+)?\s*([^\d\s].*)", v, re.I)
                     hint = (
@@ -556,11 +577,13 @@ class Channels:
                 text = v if isinstance(v, str) else f"{v:g}"
                 self._check_categories(kind, [text], f"channel {name!r}")
                 consts[name] = Category(text)
+                if text not in (kind.categories or ()):  # allowed unknown: its own slot
+                    runtime[name] = (*(kind.categories or ()), text)
         for name, r in self.rasters.items():
             kind = kinds.get(name)
             if kind is not None:
                 self._check_raster(kind, r)
-        return replace(self, constants=consts)
+        return replace(self, constants=consts, runtime=runtime)
 
     def _check_categories(
         self, kind: ChannelKind, given: Sequence[str], where: str, table: bool = False
@@ -651,10 +674,25 @@ class Channels:
         """Channels given that the model does not read (worth a note)."""
         return [n for n in self.names if n not in model.variables]
 
-    def stack(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        """The rasters for the kernel: ``(values (k, rows, cols) float64, nearest (k,))``."""
+    def stack(self, shape: tuple[int, int], runtime: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The channels for the kernel: ``(values (k, rows, cols) float64, nearest (k,))``.
+
+        The rasters; with ``runtime``, also the constants of :meth:`kernel_layout`
+        ``runtime=True`` (a number, or the index of the category in its layout). Without
+        rasters the constants are a ``(k, 1, 1)`` array, which the kernels read as
+        uniform (:func:`energy_planner.energy.kernels.sample_channels`); with rasters
+        each is a layer of ``shape`` holding its value.
+        """
+        consts = []
+        if runtime and self.runtime is not None:
+            for name, cats in self.runtime.items():
+                v = self.constants[name]
+                consts.append((float(cats.index(v)) if cats is not None else float(v), cats))
         if not self.rasters:
-            return np.zeros((0, 1, 1)), np.zeros(0, dtype=np.bool_)
+            if not consts:
+                return np.zeros((0, 1, 1)), np.zeros(0, dtype=np.bool_)
+            values = np.array([v for v, _ in consts], dtype=np.float64).reshape(-1, 1, 1)
+            return values, np.array([c is not None for _, c in consts], dtype=np.bool_)
         arrays = []
         for r in self.rasters.values():
             if r.values is None:
@@ -665,7 +703,11 @@ class Channels:
                     f"{tuple(shape)}; bind it to this terrain"
                 )
             arrays.append(np.asarray(r.values, dtype=np.float64))
-        nearest = np.array([r.nearest for r in self.rasters.values()], dtype=np.bool_)
+        arrays += [np.full(tuple(shape), v) for v, _ in consts]
+        nearest = np.array(
+            [r.nearest for r in self.rasters.values()] + [c is not None for _, c in consts],
+            dtype=np.bool_,
+        )
         return np.ascontiguousarray(np.stack(arrays)), nearest
 
     def value_samples(self, n: int = 5) -> dict[str, np.ndarray]:
