@@ -158,8 +158,9 @@ class Formula:
 
         Examples
         --------
-        >>> parse_formula("(ground == 'mud') * speed + load_kg * speed").channel_uses
-        ({'ground': frozenset({'mud'})}, frozenset({'load_kg', 'speed'}))
+        >>> cats, numeric = parse_formula("(ground == 'mud') * speed + load_kg").channel_uses
+        >>> cats, sorted(numeric)
+        ({'ground': frozenset({'mud'})}, ['load_kg', 'speed'])
         """
         cats: dict[str, set[str]] = {}
         numeric: set[str] = set()
