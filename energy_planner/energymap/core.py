@@ -281,6 +281,7 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         else math.sin(math.radians(lim.max_cross_slope_deg))
     )
     btan, cmax = gait_limit_values(lim.max_backward_slope_deg, lim.max_crab_deg)
+    channels = channels.resolve(model)  # values of the kinds the model reads
     source = model.kernel_source(channels.constants, channels.kernel_layout())
     unused = channels.unused(model)
     if unused:
