@@ -12,8 +12,15 @@ Printed per event, over the missions:
 
 * the remaining-energy error ``|E_pred / E_true - 1|`` at 25, 50 and 75 % of each mission
   (median), updated (online RLS) vs static (the fit's coefficients), and their ratio;
-* the coverage of the nominal 90 % interval of the updated prediction (share of missions
-  whose true remaining energy lies inside it), at each checkpoint after the event;
+* the coverage of the nominal 90 % interval of the updated prediction, calibrated first
+  (:func:`energy_planner.follow.calibrate_remaining` on seeds 1000, 1001, ...: disjoint
+  from the reported missions' 0, 1, ...): the share of counted missions whose true
+  remaining energy lies inside it, with their number ``n``; counted: every checkpoint
+  without an event, and with one the checkpoints after the follower picked it up (its
+  first change detection or slope finding after the event's start);
+* ``floor``: the static error on missions without an event (the noise floor);
+* ``detected s``: from the event to the follower's first change detection or slope
+  finding (median over missions where it happened);
 * the time to pick up the change: from the event until the updated prediction's error
   falls below half the static one and stays there (median; ``-`` when the static error
   stays below 2 %, nothing to pick up);
