@@ -31,7 +31,7 @@ static one; coverage 85-95 % of missions at nominal 90 %; at least 100x real tim
 
 Usage::
 
-    python benchmarks/bench_follow.py                       # reduced: 12 missions of 240 s
+    python benchmarks/bench_follow.py              # reduced: 12 missions (+96 to calibrate)
     python benchmarks/bench_follow.py --missions 40 --duration 600 --rate 200   # full size
     python benchmarks/bench_follow.py --json
 """
@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--missions", type=int, default=12)
     ap.add_argument("--duration", type=float, default=240.0)
     ap.add_argument("--rate", type=float, default=20.0)
-    ap.add_argument("--calibration-seeds", type=int, default=8)
+    ap.add_argument("--calibration-seeds", type=int, default=24)
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
     from energy_planner.follow import calibrate_remaining
