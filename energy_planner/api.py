@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.terrain.memory import DEFAULT_CAP
+
 __all__ = [
     "Problem",
     "compare_routes",
@@ -184,12 +186,13 @@ def _problem(dem: Any, model: Any, request: Any) -> Problem:
 
 
 def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,
-         crs: Any = None, memory_cap: int | None = None, **kwargs: Any):  # fmt: skip
+         crs: Any = None, memory_cap: Any = DEFAULT_CAP, **kwargs: Any):  # fmt: skip
     """Plan an energy-minimal path from ``start`` to ``goal``.
 
     ``dem`` is a path, a Terrain or a :class:`Problem`. A DEM path too large for the memory
-    cap (``memory_cap`` bytes, default :func:`energy_planner.terrain.memory_cap`) is read
-    by windows; the result's ``info["corridor"]`` says whether the window is proven.
+    cap (``memory_cap``: bytes, ``DEFAULT_CAP`` or ``NO_CAP``, as
+    :func:`energy_planner.terrain.memory.resolve_cap` reads it) is read by windows; the
+    result's ``info["corridor"]`` says whether the window is proven.
     """
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, plan_in_corridor

@@ -59,6 +59,7 @@ __all__ = [
     "EnergyPlannerError",
     "FitError",
     "FormulaError",
+    "EnergyPlannerWarning",
     "GeometryOutsideMapWarning",
     "ReachEdgeWarning",
     "InvalidStateError",
@@ -322,6 +323,30 @@ class RouteNameError(EnergyPlannerError, KeyError):
 
 class EnergyMapError(EnergyPlannerError, ValueError):
     """An energy map cannot be made as asked (bad headings, out-of-core on a lon/lat DEM)."""
+
+
+class EnergyPlannerWarning(EnergyPlannerError, UserWarning):
+    """A warning with structured fields, and a remedy for each door.
+
+    ``api_hint`` is a remedy in Python terms (a function argument): ``str()`` ends with
+    it. The command line, which has no such argument, shows :meth:`cli_text` instead:
+    the message and ``cli_hint`` (an option the command has), or no remedy.
+
+    Examples
+    --------
+    >>> w = EnergyPlannerWarning("sign flipped.", api_hint="Pass keep=True.")
+    >>> str(w), w.cli_text()
+    ('sign flipped. Pass keep=True.', 'sign flipped.')
+    """
+
+    def __str__(self) -> str:
+        hint = self.fields.get("api_hint")
+        return f"{self.message} {hint}" if hint else self.message
+
+    def cli_text(self) -> str:
+        """The message as the command line prints it (with ``cli_hint`` if given)."""
+        hint = self.fields.get("cli_hint")
+        return f"{self.message} {hint}" if hint else self.message
 
 
 class GeometryOutsideMapWarning(EnergyPlannerError, UserWarning):

@@ -19,7 +19,7 @@ def test_plan_equals_the_plan_command():
     r = CliRunner().invoke(main, ["plan", "--dem", PLANE, "--start", "500010,5000020",
                                   "--goal", "500080,5000070", "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
-    cli = json.loads(r.output[r.output.index("{") :])
+    cli = json.loads(r.stdout[r.stdout.index("{") :])
     res = ep.plan(PLANE, S, G)
     assert res.energy_j == pytest.approx(cli["energy_j"], rel=1e-9)
 

@@ -236,7 +236,7 @@ def test_declared_crs_is_reprojected(plane_tif, tmp_path):
     p = write_waypoints_geojson(tmp_path / "ll.geojson", ll, crs="EPSG:4326")
     r = run("--dem", plane_tif, "--waypoints", p, "--json")
     assert r.exit_code == 0, r.output
-    a, b = json.loads(same.output), json.loads(r.stdout)
+    a, b = json.loads(same.stdout), json.loads(r.stdout)
     assert b["energy_j"] == pytest.approx(a["energy_j"], rel=1e-6)
 
 

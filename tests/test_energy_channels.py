@@ -150,7 +150,7 @@ def test_missing_channel_names_it_and_the_options(flat, files, tmp_path):
     wp.write_text(f"x,y\n{X0 + 20},{Y0 + 50}\n{X0 + 80},{Y0 + 50}\n")
     args = ["energy", "--dem", files["dem"], "--waypoints", wp, "--model", files["load_model"]]
     r = CliRunner().invoke(main, list(map(str, args)))
-    assert r.exit_code == 1 and "load_kg" in r.output and "--set NAME=VALUE" in r.output
+    assert r.exit_code == 2 and "load_kg" in r.output and "--set NAME=VALUE" in r.output
     assert "Traceback" not in r.output
 
 

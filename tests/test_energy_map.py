@@ -340,7 +340,7 @@ def test_cli_energy_map_json_plot_and_errors(plane, tmp_path):
     term_model = b1_model(extra={"load_kg * speed": 1.0})
     tm = term_model.save(tmp_path / "load.json")
     r = CliRunner().invoke(main, ["energy-map", str(dem), "--out", str(out), "--model", str(tm)])
-    assert r.exit_code == 1 and "load_kg" in r.output and "--set" in r.output
+    assert r.exit_code == 2 and "load_kg" in r.output and "--set" in r.output
     r = CliRunner().invoke(main, ["energy-map", "nope.tif", "--out", str(out)])
     assert r.exit_code == 2 and "nope.tif" in r.output
 

@@ -331,7 +331,7 @@ def test_hill_plan_with_max_backward_slope_walks_no_backward_motion_on_steep_cel
     def states(extra):
         r = CliRunner().invoke(main, [*args, *extra])
         assert r.exit_code == 0, r.output
-        res = json.loads(r.output[r.output.index("{") :])
+        res = json.loads(r.stdout[r.stdout.index("{") :])
         w = res["waypoints"]
         xs, ys = t.to_work(np.array([p["x"] for p in w]), np.array([p["y"] for p in w]))
         st_ = np.column_stack([xs, ys, np.radians([p["yaw_deg"] for p in w])])

@@ -185,7 +185,7 @@ def test_fit_json_lists_dropped_runs(tmp_path):
         main, ["fit", str(logs), "--out", str(tmp_path / "m.json"), "--folds", "0", "--json"]
     )
     assert res.exit_code == 0, res.output
-    doc = json.loads(res.output[res.output.index("{") :])
+    doc = json.loads(res.stdout[res.stdout.index("{") :])
     assert [d["run"] for d in doc["windows"]["dropped_runs"]] == ["stub"]
 
 

@@ -114,7 +114,7 @@ def test_cli_energy_prints_interval_and_battery_chance(tmp_path):
     r = CliRunner().invoke(main, ["energy", "--dem", "maps/plane.tif", "--waypoints", str(wp),
                                   "--battery-wh", "100", "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output[r.output.index("{") :])
+    out = json.loads(r.stdout[r.stdout.index("{") :])
     iv = out["interval"]
     assert iv["low_j"] < out["energy_j"] < iv["high_j"] and iv["level"] == 0.9
     assert out["battery"]["probability"] > 0.9 and out["battery"]["ok"]
@@ -161,7 +161,7 @@ def test_cli_reach_battery_confidence(tmp_path):
                                   "0.95", "--geojson", str(tmp_path / "a.geojson"),
                                   "--chance-out", str(tmp_path / "c.tif"), "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output[r.output.index("{") :])
+    out = json.loads(r.stdout[r.stdout.index("{") :])
     b = out["battery"]
     assert b["confident_budget_wh"] < b["usable_wh"] == 4.0 and b["cells"] > 100
     doc = json.loads((tmp_path / "a.geojson").read_text())

@@ -75,35 +75,14 @@ def command(
     composite paths against the sum of their parts (needs runs.csv with columns run,
     composite, part next to the logs, or composite/part columns in the logs).
     """
-    from energy_planner.calibration import fit_model, force_estimates
-    from energy_planner.calibration.figures import (
-        plot_force_slope,
-        plot_superposition,
-        plot_yaw_torque,
-        run_energy,
-        superposition_table,
-        typical_channels,
-    )
+    from energy_planner.calibration import force_estimates
+    from energy_planner.calibration.figures import typical_channels
     from energy_planner.cli.fit import load_windows
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.model import EnergyModel
 
     windows, reports, _, raw = load_windows(logs, window)
     notes: list[str] = []
-    if model_path is not None:
-        try:
-            model = EnergyModel.load(model_path)
-        except EnergyPlannerError as exc:
-            raise click.BadParameter(str(exc), param_hint="--model") from exc
-        model_src = str(model_path)
-    else:
-        try:
-            model = fit_model(windows, n_splits=0).model
-            model_src = "base model fitted to the logs"
-        except EnergyPlannerError as exc:
-            model = None
-            model_src = "none"
-            notes.append(f"no model curves: the base model cannot be fitted ({exc})")
+    model, model_src = _model_for_curves(model_path, windows, notes)
     try:
         est = force_estimates(windows)
     except EnergyPlannerError as exc:
@@ -113,6 +92,33 @@ def command(
     except OSError as exc:
         raise click.BadParameter(f"cannot create {str(out)!r}: {exc}", param_hint="--out") from exc
     consts = typical_channels(windows.samples, model) if model is not None else {}
+    figures = _slope_figures(est, model, consts, out, notes)
+    figures.update(_superposition_figure(logs, raw, out, notes))
+    doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
+    emit(doc, as_json, _text)
+
+
+def _model_for_curves(model_path: Path | None, windows, notes: list[str]):
+    """The model whose curves are drawn and where it came from (None if none fits)."""
+    from energy_planner.calibration import fit_model
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.model import EnergyModel
+
+    if model_path is not None:
+        try:
+            return EnergyModel.load(model_path), str(model_path)
+        except EnergyPlannerError as exc:
+            raise click.BadParameter(str(exc), param_hint="--model") from exc
+    try:
+        return fit_model(windows, n_splits=0).model, "base model fitted to the logs"
+    except EnergyPlannerError as exc:
+        notes.append(f"no model curves: the base model cannot be fitted ({exc})")
+        return None, "none"
+
+
+def _slope_figures(est, model, consts, out: Path, notes: list[str]) -> dict[str, Any]:
+    """Fig. 4 (force against slope) and Fig. 5 (yaw torque), when the logs have the motions."""
+    from energy_planner.calibration.figures import plot_force_slope, plot_yaw_torque
 
     figures: dict[str, Any] = {}
     if (est["kind"].isin(["forward", "lateral"])).any():
@@ -131,54 +137,59 @@ def command(
         }
     else:
         notes.append("no turn-in-place windows: yaw_torque.png (Fig. 5) not drawn")
+    return figures
+
+
+def _superposition_figure(logs, raw, out: Path, notes: list[str]) -> dict[str, Any]:
+    """Fig. 3 (composite paths against the sum of their parts), when runs are labelled."""
+    from energy_planner.calibration.figures import (
+        plot_superposition,
+        run_energy,
+        superposition_table,
+    )
 
     meta = _composite_meta(logs, raw)
-    table = None
     if meta is None:
         notes.append(
             "no composite/part labels (runs.csv or log columns): superposition.png (Fig. 3) "
             "not drawn"
         )
-    else:
-        table = superposition_table(run_energy(raw), meta)
-        if table.empty:
-            notes.append("composite labels match no loaded run: superposition.png not drawn")
-        else:
-            path = out / "superposition.png"
-            figures["superposition"] = {"path": str(path), **plot_superposition(table, path)}
-            figures["superposition"]["composites"] = table.to_dict(orient="records")
+        return {}
+    table = superposition_table(run_energy(raw), meta)
+    if table.empty:
+        notes.append("composite labels match no loaded run: superposition.png not drawn")
+        return {}
+    path = out / "superposition.png"
+    fig = {"path": str(path), **plot_superposition(table, path)}
+    fig["composites"] = table.to_dict(orient="records")
+    return {"superposition": fig}
 
-    doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
 
-    def text(d: dict[str, Any]) -> str:
-        lines = [f"figures in {d['out']} (model: {d['model']})"]
-        f = d["figures"]
-        if "force_slope" in f:
-            s = f["force_slope"]
-            lines.append(f"  {s['path']}: Fig. 4, force-equivalent cost against slope")
-            for direction in ("uphill", "downhill"):
-                for motion in ("forward", "lateral"):
-                    n = s[f"{direction}_{motion}_n"]
-                    med = s[f"{direction}_{motion}_median_n"]
-                    a = s[f"{direction}_{motion}_median_alpha_deg"]
-                    lines.append(
-                        f"      {direction:<8} {motion:<8} {n:>4} windows; on slopes: median "
-                        f"{med:7.1f} N at a median slope of {a:4.1f} deg"
-                    )
-        if "yaw_torque" in f:
-            s = f["yaw_torque"]
-            lines.append(
-                f"  {s['path']}: Fig. 5, {s['n']} turn windows, median yaw torque "
-                f"{s['median_torque_nm']:.1f} N m"
-            )
-        if "superposition" in f:
-            s = f["superposition"]
-            rel = s["mean_abs_rel_ab"]
-            rel_txt = "n/a" if rel is None else f"{100 * rel:.1f} %"
-            lines.append(
-                f"  {s['path']}: Fig. 3, {s['n']} composites, mean |AB - (A + B)| {rel_txt}"
-            )
-        lines += [f"  note: {n}" for n in d["notes"]]
-        return "\n".join(lines)
-
-    emit(doc, as_json, text)
+def _text(d: dict[str, Any]) -> str:
+    lines = [f"figures in {d['out']} (model: {d['model']})"]
+    f = d["figures"]
+    if "force_slope" in f:
+        s = f["force_slope"]
+        lines.append(f"  {s['path']}: Fig. 4, force-equivalent cost against slope")
+        for direction in ("uphill", "downhill"):
+            for motion in ("forward", "lateral"):
+                n = s[f"{direction}_{motion}_n"]
+                med = s[f"{direction}_{motion}_median_n"]
+                a = s[f"{direction}_{motion}_median_alpha_deg"]
+                lines.append(
+                    f"      {direction:<8} {motion:<8} {n:>4} windows; on slopes: median "
+                    f"{med:7.1f} N at a median slope of {a:4.1f} deg"
+                )
+    if "yaw_torque" in f:
+        s = f["yaw_torque"]
+        lines.append(
+            f"  {s['path']}: Fig. 5, {s['n']} turn windows, median yaw torque "
+            f"{s['median_torque_nm']:.1f} N m"
+        )
+    if "superposition" in f:
+        s = f["superposition"]
+        rel = s["mean_abs_rel_ab"]
+        rel_txt = "n/a" if rel is None else f"{100 * rel:.1f} %"
+        lines.append(f"  {s['path']}: Fig. 3, {s['n']} composites, mean |AB - (A + B)| {rel_txt}")
+    lines += [f"  note: {n}" for n in d["notes"]]
+    return "\n".join(lines)

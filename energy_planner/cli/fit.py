@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -37,11 +38,15 @@ def status(message: str) -> None:
         click.echo(message, err=True)
 
 
-def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str, Any], str, Any]:
+def load_windows(
+    paths: tuple[Path, ...], window: float, *, prints_report: bool = False
+) -> tuple[Any, dict[str, Any], str, Any]:
     """Load logs, preprocess them and cut windows; errors become click errors.
 
     Returns the windows, a dict of the load and preprocessing reports, the
-    preprocessing report as text, and the raw samples.
+    preprocessing report as text, and the raw samples. A caller that prints the
+    preprocessing report (``prints_report``), which lists the runs preprocessing dropped,
+    gets no warning repeating them.
     """
     from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
     from energy_planner.measurements import load_logs, make_windows, preprocess
@@ -58,7 +63,10 @@ def load_windows(paths: tuple[Path, ...], window: float) -> tuple[Any, dict[str,
         ) from exc
     status(f"preprocessing {len(samples)} samples ...")
     try:
-        clean, prep_report = preprocess(samples)
+        with warnings.catch_warnings():
+            if prints_report:  # the report printed lists the dropped runs: say it once
+                warnings.filterwarnings("ignore", "preprocessing dropped", UserWarning)
+            clean, prep_report = preprocess(samples)
         windows = make_windows(clean, duration=window)
     except EnergyPlannerError as exc:
         raise click.ClickException(f"preprocessing failed: {exc}") from exc
@@ -217,7 +225,7 @@ def command(
     # syntax first: fail before loading any log (a spec without spaces may be a name that
     # discover prints, such as speed^2 or load_kg*P_base: resolved on the windows below)
     resolve_terms(tuple(t for t in terms if " " in t))
-    windows, reports, prep_text, _ = load_windows(logs, window)
+    windows, reports, prep_text, _ = load_windows(logs, window, prints_report=True)
     extra = resolve_terms(discovered_names(terms, windows), set(windows.samples.columns))
     status(f"fitting {len(BASE_TERMS) + len(extra)} terms on {len(windows.table)} windows ...")
     try:

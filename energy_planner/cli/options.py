@@ -52,15 +52,19 @@ def memory_cap_option(what: str):
     )
 
 
-def parse_memory_cap(value: str | None) -> int | None:
-    """``--memory-cap`` in bytes (None: the default cap); ``click.BadParameter`` if not a size."""
-    if value is None:
-        return None
-    from energy_planner.terrain.memory import parse_cap
+def parse_memory_cap(value: str | None):
+    """``--memory-cap`` as a cap (:func:`energy_planner.terrain.memory.resolve_cap`).
 
+    Bytes, ``DEFAULT_CAP`` when not given, ``NO_CAP`` for off; ``click.BadParameter`` if
+    not a size.
+    """
+    from energy_planner.terrain.memory import DEFAULT_CAP, NO_CAP, parse_cap
+
+    if value is None:
+        return DEFAULT_CAP
     text = value.strip()
     if text.lower() in ("off", "none", "no"):  # as ENERGY_PLANNER_MEMORY_CAP accepts
-        return 1 << 62  # no cap
+        return NO_CAP
     try:
         if not text:
             raise ValueError(text)
@@ -71,7 +75,7 @@ def parse_memory_cap(value: str | None) -> int | None:
             param_hint="--memory-cap",
         ) from exc
     if size is None and text.endswith("%"):
-        return None  # a share of a memory size the machine does not report: the default
+        return DEFAULT_CAP  # a share of a memory size the machine does not report
     if size is None or size <= 0:  # "0" means off for the variable; here it is refused
         raise click.BadParameter(
             f"{value!r}: the cap must be more than 0 bytes (or off)", param_hint="--memory-cap"
@@ -285,12 +289,30 @@ yaw_rate_option = click.option(
 )
 
 
-def channel_options(f):
-    """``--set NAME=VALUE`` and ``--channel NAME=RASTER[:TABLE]`` (both repeatable).
+#: ``ctx.meta`` key of ``--allow-unknown-category`` (read by :func:`channels_from_options`).
+ALLOW_UNKNOWN_KEY = "energy_planner.allow_unknown_category"
 
-    The command receives ``sets`` and ``channels`` (tuples of strings); turn them into a
+
+def _store_allow_unknown(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    ctx.meta[ALLOW_UNKNOWN_KEY] = bool(value)
+
+
+def channel_options(f):
+    """``--set NAME=VALUE``, ``--channel NAME=RASTER[:TABLE]`` and ``--allow-unknown-category``.
+
+    ``--set`` and ``--channel`` are repeatable; the flag is stored in the context. The
+    command receives ``sets`` and ``channels`` (tuples of strings); turn them into a
     :class:`~energy_planner.energy.channels.Channels` with :func:`channels_from_options`.
     """
+    f = click.option(
+        "--allow-unknown-category",
+        is_flag=True,
+        expose_value=False,
+        callback=_store_allow_unknown,
+        help="Accept a category the model's formulas do not name (in --set or a --channel "
+        "value table): priced as none of the model's categories, with a warning. Default: "
+        "an error listing the valid categories.",
+    )(f)
     f = click.option(
         "--channel",
         "channels",
@@ -319,8 +341,10 @@ def channels_from_options(sets: tuple[str, ...], channels: tuple[str, ...]):
     from energy_planner.energy.channels import Channels
     from energy_planner.errors import ChannelError, ChannelIOError
 
+    ctx = click.get_current_context(silent=True)
+    allow = bool(ctx is not None and ctx.find_root().meta.get(ALLOW_UNKNOWN_KEY))
     try:
-        return Channels.parse(sets, channels)
+        return Channels.parse(sets, channels, allow_unknown_categories=allow)
     except (ChannelError, ChannelIOError) as exc:
         hint = "--channel" if str(exc).startswith("--channel") or "table" in str(exc) else "--set"
         raise click.BadParameter(str(exc), param_hint=hint) from exc

@@ -177,12 +177,60 @@ def command(
     within --budget-wh (its radius: the budget over the least energy per metre anywhere on
     the DEM); the outputs then cover that window, and cells above the budget are nodata.
     """
-    import numpy as np
-
-    from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
-    from energy_planner.planning.reach import reach
     from energy_planner.request import Request
 
+    _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, battery_wh,
+                   chance_out, reserve_wh)  # fmt: skip
+    cap = parse_memory_cap(memory_cap)
+    windowed = over_memory_cap(dem, cap)
+    if windowed and budget_wh is None:
+        raise click.BadParameter(
+            f"DEM {str(dem)!r} is too large for the memory cap to be searched whole; give "
+            "--budget-wh to search only the window the budget can reach (or raise "
+            "--memory-cap / ENERGY_PLANNER_MEMORY_CAP)",
+            param_hint="--budget-wh",
+        )
+    model = load_model_option(model_path)
+    request = Request.make(
+        speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
+        max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
+        channels=channels_from_options(sets, channels), **gait_limits(),
+    )  # fmt: skip
+    res, terrain = _run_reach(
+        dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
+        within_budget,
+    )  # fmt: skip
+    result = _summary(dem, res, terrain, round_trip, budget_wh)
+    budget_j = None if budget_wh is None else budget_wh * 3600.0
+    if budget_j is not None:
+        result["budget_cells"] = int(res.mask(budget_j).sum())
+        result["budget_area_m2"] = float(res.area(terrain, budget_j).area)
+    if battery_wh is not None:
+        result["battery"], budget_j = _battery(res, terrain, model, battery_wh, reserve_wh,
+                                               confidence)  # fmt: skip
+        if chance_out is not None:
+            usable = (battery_wh - reserve_wh) * 3600.0
+            res.write_chance_geotiff(terrain, chance_out, model, usable)
+            result["chance_out"] = str(chance_out)
+    _add_edge_warnings(result, res, terrain)
+    if out is not None:
+        res.write_geotiff(terrain, out)
+        result["out"] = str(out)
+    if geojson is not None:
+        from energy_planner.io import write_geojson
+
+        native = geojson_crs == "dem"
+        write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
+        result["geojson"] = str(geojson)
+    if plot is not None:
+        res.plot(terrain, plot, budget_j, request=request)
+        result["plot"] = str(plot)
+    emit(result, as_json, _text)
+
+
+def _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, battery_wh,
+                   chance_out, reserve_wh) -> None:  # fmt: skip
+    """``click.BadParameter`` for options that do not go together."""
     if free_turn and not round_trip:
         raise click.BadParameter("--free-turn applies to --return only", param_hint="--free-turn")
     if within_budget and budget_wh is None:
@@ -202,24 +250,23 @@ def command(
             f"the reserve ({reserve_wh:g} Wh) must be below the battery ({battery_wh:g} Wh)",
             param_hint="--reserve-wh",
         )
-    cap = parse_memory_cap(memory_cap)
-    windowed = over_memory_cap(dem, cap)
-    if windowed and budget_wh is None:
-        raise click.BadParameter(
-            f"DEM {str(dem)!r} is too large for the memory cap to be searched whole; give "
-            "--budget-wh to search only the window the budget can reach (or raise "
-            "--memory-cap / ENERGY_PLANNER_MEMORY_CAP)",
-            param_hint="--budget-wh",
-        )
-    model = load_model_option(model_path)
-    request = Request.make(
-        speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
-        max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-        channels=channels_from_options(sets, channels), **gait_limits(),
-    )  # fmt: skip
+
+
+def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
+               within_budget):  # fmt: skip
+    """The reach map and its terrain: the DEM whole, or one window within ``cap``.
+
+    Errors become ``click.BadParameter`` naming the option to change (exit 2).
+    """
     import warnings
 
-    from energy_planner.errors import ReachEdgeWarning
+    from energy_planner.errors import (
+        EnergyPlannerError,
+        InvalidStateError,
+        MissingChannelError,
+        ReachEdgeWarning,
+    )
+    from energy_planner.planning.reach import reach
 
     try:
         with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
@@ -230,7 +277,7 @@ def command(
 
                 s = point_in_dem_crs(start, "--start", False)
                 try:
-                    res, terrain = reach_in_window(
+                    return reach_in_window(
                         dem, model, s, budget_wh * 3600.0, request, cap=cap,
                         round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
                     )  # fmt: skip
@@ -238,20 +285,26 @@ def command(
                     raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
                 except (DEMError, DEMIOError) as exc:
                     raise click.BadParameter(str(exc), param_hint="--dem") from exc
-            else:
-                terrain = load_terrain(dem)
-                s = point_to_work(terrain, start, "--start", False)
-                res = reach(
-                    terrain, model, s[:2], request, round_trip=round_trip,
-                    turn_at_cell=not free_turn, progress=True,
-                    max_energy=budget_wh * 3600.0 if within_budget else None,
-                )  # fmt: skip
+            terrain = load_terrain(dem)
+            s = point_to_work(terrain, start, "--start", False)
+            res = reach(
+                terrain, model, s[:2], request, round_trip=round_trip,
+                turn_at_cell=not free_turn, progress=True,
+                max_energy=budget_wh * 3600.0 if within_budget else None,
+            )  # fmt: skip
+            return res, terrain
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
+
+
+def _summary(dem, res, terrain, round_trip: bool, budget_wh) -> dict[str, Any]:
+    """The result's numbers: start (DEM CRS), reachable cells and their energy, Wh."""
+    import numpy as np
+
     wh = res.energy_j / 3600.0
     finite = wh[np.isfinite(wh)]
     sx, sy = terrain.from_work(*res.start)
@@ -270,27 +323,30 @@ def command(
     }
     if "window" in res.info:
         result["window"] = {k: v for k, v in res.info["window"].items() if k != "log"}
-    budget_j = None if budget_wh is None else budget_wh * 3600.0
-    if budget_j is not None:
-        result["budget_cells"] = int(res.mask(budget_j).sum())
-        result["budget_area_m2"] = float(res.area(terrain, budget_j).area)
-    if battery_wh is not None:
-        from energy_planner.uncertainty import confident_budget
+    return result
 
-        usable = (battery_wh - reserve_wh) * 3600.0
-        try:
-            budget_j = confident_budget(model, usable, confidence)
-        except EnergyPlannerError as exc:
-            raise click.BadParameter(str(exc), param_hint="--battery-wh") from exc
-        result["battery"] = {
-            "battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
-            "usable_wh": usable / 3600.0, "confident_budget_wh": budget_j / 3600.0,
-            "cells": int(res.mask(budget_j).sum()),
-            "area_m2": float(res.area(terrain, budget_j).area),
-        }  # fmt: skip
-        if chance_out is not None:
-            res.write_chance_geotiff(terrain, chance_out, model, usable)
-            result["chance_out"] = str(chance_out)
+
+def _battery(res, terrain, model, battery_wh, reserve_wh, confidence):
+    """The battery's record and the budget reached with chance ``confidence``, J."""
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.uncertainty import confident_budget
+
+    usable = (battery_wh - reserve_wh) * 3600.0
+    try:
+        budget_j = confident_budget(model, usable, confidence)
+    except EnergyPlannerError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh") from exc
+    record = {
+        "battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
+        "usable_wh": usable / 3600.0, "confident_budget_wh": budget_j / 3600.0,
+        "cells": int(res.mask(budget_j).sum()),
+        "area_m2": float(res.area(terrain, budget_j).area),
+    }  # fmt: skip
+    return record, budget_j
+
+
+def _add_edge_warnings(result: dict[str, Any], res, terrain) -> None:
+    """A warning per budget whose area the map's edge (or nodata) cuts."""
     budgets = [result.get("budget_wh"), result.get("battery", {}).get("confident_budget_wh")]
     for wh_b in sorted({b for b in budgets if b is not None}):
         w = res.edge_warning(terrain, wh_b * 3600.0)
@@ -300,16 +356,3 @@ def command(
                 {"budget_wh": wh_b, **{k: w.fields[k] for k in ("cells", "map_edge_cells",
                                                                "nodata_edge_cells")}}
             )  # fmt: skip
-    if out is not None:
-        res.write_geotiff(terrain, out)
-        result["out"] = str(out)
-    if geojson is not None:
-        from energy_planner.io import write_geojson
-
-        native = geojson_crs == "dem"
-        write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
-        result["geojson"] = str(geojson)
-    if plot is not None:
-        res.plot(terrain, plot, budget_j, request=request)
-        result["plot"] = str(plot)
-    emit(result, as_json, _text)

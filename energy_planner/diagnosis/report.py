@@ -213,7 +213,6 @@ def plot_suspects(d: Diagnosis, top: int = 12):
 def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     """The full report as an HTML string."""
     doc = d.to_dict()
-    th = doc["thresholds"]
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
         f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"
@@ -227,6 +226,19 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     )
     for n in doc["notes"]:
         parts.append(f"<p class='note'>{html.escape(n)}</p>")
+    parts += _suspects_section(d, doc)
+    parts += _staircase_section(d, doc)
+    parts += _residuals_section(d, doc)
+    parts += _runs_section(d, doc)
+    parts += _superposition_section(doc)
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def _suspects_section(d: Diagnosis, doc: dict[str, Any]) -> list[str]:
+    """The suspects found, those below noise and those the logs cannot test."""
+    parts: list[str] = []
+    th = doc["thresholds"]
     parts.append("<h2>Suspects: which effect is missing</h2>")
     parts.append(
         f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
@@ -255,6 +267,12 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     parts.append(
         _table(doc["unsupported"], [("name", "candidate"), ("term", "term"), ("reason", "why not")])
     )
+    return parts
+
+
+def _staircase_section(d: Diagnosis, doc: dict[str, Any]) -> list[str]:
+    """Held-out error as suspects are added one by one."""
+    parts: list[str] = []
     parts.append("<h2>Staircase: held-out error as suspects are added</h2>")
     steps = [dict(s, added=s["added"] or "(model as given)") for s in doc["staircase"]]
     parts.append(
@@ -270,6 +288,12 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     )
     if d.steps:
         parts.append(_png(plot_staircase(d)))
+    return parts
+
+
+def _residuals_section(d: Diagnosis, doc: dict[str, Any]) -> list[str]:
+    """Predicted against measured power, and where the residuals concentrate."""
+    parts: list[str] = []
     parts.append("<h2>Predicted against measured power</h2>")
     parts.append(_png(plot_predicted_vs_measured(d)))
     parts.append("<h2>Where it fails: residuals by variable</h2>")
@@ -287,6 +311,12 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
     for var, info in doc["breakdown"].items():
         parts.append(f"<h3>{html.escape(var)} ({info['kind']})</h3>")
         parts.append(_table(info["bins"], bcols, hot=lambda r: abs(r.get("t") or 0) > 3))
+    return parts
+
+
+def _runs_section(d: Diagnosis, doc: dict[str, Any]) -> list[str]:
+    """Energy of whole runs, measured and predicted."""
+    parts: list[str] = []
     parts.append("<h2>Energy of whole runs</h2>")
     parts.append(_png(plot_runs(d)))
     parts.append(
@@ -302,6 +332,12 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
             ],
         )
     )
+    return parts
+
+
+def _superposition_section(doc: dict[str, Any]) -> list[str]:
+    """How well the energies of composite runs add up."""
+    parts: list[str] = []
     parts.append("<h2>Superposition of composite paths</h2>")
     parts.append(
         "<p class='note'>Measured energy of a composite run (AB: the legs in one go; "
@@ -324,8 +360,7 @@ def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
             ],
         )
     )
-    parts.append("</body></html>")
-    return "\n".join(parts)
+    return parts
 
 
 def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner diagnosis") -> Path:

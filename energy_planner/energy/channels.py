@@ -17,6 +17,15 @@ A fitted model may have terms such as ``load_kg * speed`` or ``speed * (ground =
 A term reading a channel that nobody gave is a
 :class:`~energy_planner.errors.MissingChannelError` naming it and the channels given.
 
+Channel values are typed by the model (:func:`channel_kinds`, the one place that decides):
+a channel the formulas compare with strings (``ground == 'mud'``) is categorical and
+takes only the categories they name; any other channel is numeric and takes numbers.
+:meth:`Channels.resolve` checks the values against the model (every kernel calls it), so
+``load_kg=10kg`` or ``ground=Mud`` is a :class:`~energy_planner.errors.ChannelError`
+naming the channel, the value and what is valid. With ``allow_unknown_categories=True``
+(``--allow-unknown-category``) a category the model does not name is priced as none of
+the named ones, with a warning.
+
 Examples
 --------
 >>> ch = Channels.parse(["load_kg=10", "ground=meadow"], [])
@@ -35,6 +44,7 @@ import io
 import json
 import keyword
 import math
+import re
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -45,7 +55,15 @@ import numpy as np
 
 from energy_planner.errors import ChannelError, ChannelIOError
 
-__all__ = ["ChannelRaster", "Channels", "read_value_table", "RESERVED"]
+__all__ = [
+    "Category",
+    "ChannelKind",
+    "ChannelRaster",
+    "Channels",
+    "channel_kinds",
+    "read_value_table",
+    "RESERVED",
+]
 
 #: Names a channel may not take: the kernel's motion features and formula constants.
 RESERVED = frozenset({"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed", "pi", "g"})
@@ -104,6 +122,15 @@ def read_value_table(path: str | Path) -> dict[float, float | str]:
     {1.0: 'meadow', 2.0: 'asphalt'}
     """
     p = Path(path)
+    try:
+        return _read_value_table(p)
+    except (ChannelError, ChannelIOError) as exc:
+        exc.fields.setdefault("path", str(p))  # the file at fault, for callers
+        raise
+
+
+def _read_value_table(p: Path) -> dict[float, float | str]:
+    """:func:`read_value_table` without the ``path`` field on its errors."""
     try:
         text = p.read_text()
     except FileNotFoundError as exc:
@@ -173,6 +200,98 @@ def read_value_table(path: str | Path) -> dict[float, float | str]:
     return table
 
 
+class Category(str):
+    """A category name that is never read as a number (``Category("3")`` stays ``'3'``).
+
+    :meth:`Channels.resolve` gives the values of categorical channels as this type.
+    """
+
+    __slots__ = ()
+
+
+@dataclass(frozen=True)
+class ChannelKind:
+    """How a model reads one channel.
+
+    Attributes
+    ----------
+    name : str
+        The channel.
+    categories : tuple of str or None
+        The categories the model's formulas compare it with (sorted); ``None`` for a
+        numeric channel.
+    terms : tuple of str
+        The terms that read it.
+    """
+
+    name: str
+    categories: tuple[str, ...] | None
+    terms: tuple[str, ...]
+
+    @property
+    def is_categorical(self) -> bool:
+        """True if the formulas compare the channel with category names."""
+        return self.categories is not None
+
+    def expected(self) -> str:
+        """What a value of this channel must be, in words (for messages)."""
+        if self.categories is None:
+            return "a number"
+        return "one of the categories " + ", ".join(map(repr, self.categories))
+
+    def reader(self) -> str:
+        """The terms that read the channel, for messages."""
+        return f"term(s) {', '.join(map(repr, self.terms))}"
+
+
+def channel_kinds(model: Any) -> dict[str, ChannelKind]:
+    """Every channel ``model`` reads and its kind, decided from the model's formulas.
+
+    A channel compared with a string anywhere (``ground == 'mud'``) is categorical, its
+    categories the strings it is compared with; any other channel is numeric. This is the
+    one place that types channel values; CLI and library call it through
+    :meth:`Channels.resolve`.
+
+    Raises
+    ------
+    ChannelError
+        A channel read both as a category and as a number (the model contradicts itself).
+
+    Examples
+    --------
+    >>> from energy_planner.model import EnergyModel
+    >>> m = EnergyModel(["load_kg * speed", "speed * (ground == 'mud')"])
+    >>> {k: v.categories for k, v in channel_kinds(m).items()}
+    {'ground': ('mud',), 'load_kg': None}
+    """
+    cats: dict[str, set[str]] = {}
+    numeric: dict[str, list[str]] = {}
+    terms: dict[str, list[str]] = {}
+    for term in model.terms:
+        term_cats, term_numeric = term.parsed.channel_uses
+        for name in term.parsed.variables - RESERVED:
+            terms.setdefault(name, []).append(term.name)
+            if name in term_cats:
+                cats.setdefault(name, set()).update(term_cats[name])
+            if name in term_numeric:
+                numeric.setdefault(name, []).append(term.name)
+    both = sorted(set(cats) & set(numeric))
+    if both:
+        name = both[0]
+        raise ChannelError(
+            f"the model reads channel {name!r} both as a category (compared with "
+            f"{', '.join(map(repr, sorted(cats[name])))}) and as a number (term(s) "
+            f"{', '.join(map(repr, numeric[name]))}); a channel is one or the other",
+            value=name,
+        )
+    return {
+        name: ChannelKind(
+            name, tuple(sorted(cats[name])) if name in cats else None, tuple(terms[name])
+        )
+        for name in sorted(terms)
+    }
+
+
 @dataclass(frozen=True)
 class ChannelRaster:
     """One raster channel: a file (with an optional value table) or aligned values.
@@ -236,6 +355,15 @@ class Channels:
         Channel name -> number or category name (``--set NAME=VALUE``).
     rasters : mapping
         Channel name -> :class:`ChannelRaster` (``--channel NAME=RASTER[:TABLE]``).
+    allow_unknown_categories : bool
+        Accept a category the model's formulas do not name (``--allow-unknown-category``):
+        it is priced as none of the named categories, with a warning. Default: an error
+        listing the valid categories.
+    runtime : mapping, optional
+        Set by :meth:`resolve` (leave it out): the constants the model reads and the
+        categories the kernel renders for each (``None`` for a number). With it, the
+        constants are kernel inputs (:meth:`kernel_layout` ``runtime=True``,
+        :meth:`stack`), so a new value needs no compilation.
 
     Examples
     --------
@@ -245,6 +373,12 @@ class Channels:
 
     constants: Mapping[str, float | str] = field(default_factory=dict)
     rasters: Mapping[str, ChannelRaster] = field(default_factory=dict)
+    allow_unknown_categories: bool = False
+    #: Set by :meth:`resolve`: the constants the model reads, each with the categories
+    #: the kernel renders (``None`` for a number); they enter the kernels at run time.
+    runtime: Mapping[str, tuple[str, ...] | None] | None = field(
+        default=None, compare=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         consts: dict[str, float | str] = {}
@@ -254,6 +388,9 @@ class Channels:
                 raise ChannelError(
                     f"constant {name!r}: value {v!r} is not a number or a category name"
                 )
+            if isinstance(v, Category):
+                consts[name] = v
+                continue
             consts[name] = (
                 _parse_value(str(v), f"constant {name!r}") if isinstance(v, str) else float(v)
             )
@@ -275,7 +412,13 @@ class Channels:
 
     # ------------------------------------------------------------------ building
     @classmethod
-    def parse(cls, sets: Sequence[str] = (), channels: Sequence[str] = ()) -> Channels:
+    def parse(
+        cls,
+        sets: Sequence[str] = (),
+        channels: Sequence[str] = (),
+        *,
+        allow_unknown_categories: bool = False,
+    ) -> Channels:
         """Channels from the CLI strings ``NAME=VALUE`` and ``NAME=RASTER[:TABLE]``.
 
         A value that parses as a number is a number, anything else a category. A raster
@@ -324,13 +467,14 @@ class Channels:
             if not raster.startswith("/vsi") and "://" not in raster and not rp.exists():
                 raise ChannelIOError(
                     f"{where}: raster {raster!r} does not exist (expected a single-band "
-                    "raster, e.g. GeoTIFF)"
+                    "raster, e.g. GeoTIFF)",
+                    path=raster,
                 )
             tp = None if table is None else Path(table)
             if tp is not None:
                 read_value_table(tp)  # fail early, naming the line
             rasters[name] = ChannelRaster(name, rp, tp)
-        return cls(consts, rasters)
+        return cls(consts, rasters, allow_unknown_categories=allow_unknown_categories)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -346,8 +490,14 @@ class Channels:
     def __bool__(self) -> bool:
         return bool(self.constants or self.rasters)
 
-    def kernel_layout(self) -> list[tuple[str, tuple[str, ...] | None]]:
-        """``(name, categories or None)`` of the rasters, in the kernel's order."""
+    def kernel_layout(self, runtime: bool = False) -> list[tuple[str, tuple[str, ...] | None]]:
+        """``(name, categories or None)`` of the kernel's channel inputs, in order.
+
+        The rasters; with ``runtime`` (channels from :meth:`resolve`) also the constants
+        the model reads, after them, so that their values are inputs of the compiled
+        kernel (:meth:`stack` gives them) instead of being compiled in: the kernel's
+        source then depends on the model only, not on the values.
+        """
         out = []
         for name, r in self.rasters.items():
             cats = r.categories
@@ -356,24 +506,193 @@ class Channels:
                 if all(isinstance(v, str) for v in table.values()):
                     cats = tuple(sorted(set(table.values())))  # type: ignore[arg-type]
             out.append((name, cats))
+        if runtime and self.runtime is not None:
+            out.extend(self.runtime.items())
         return out
 
     def check(self, model: Any) -> None:
-        """Raise :class:`~energy_planner.errors.MissingChannelError` if a channel is missing.
+        """Raise if the channels do not serve ``model``.
 
-        The error names every channel the model reads and nobody gave (and the channels
-        given).
+        A :class:`~energy_planner.errors.MissingChannelError` names every channel the
+        model reads and nobody gave (and the channels given); a
+        :class:`~energy_planner.errors.ChannelError` a value of the wrong kind
+        (:meth:`resolve`).
         """
-        model.kernel_source(self.constants, self.kernel_layout())
+        ch = self.resolve(model)
+        model.kernel_source(ch.constants, ch.kernel_layout())
+
+    def resolve(self, model: Any) -> Channels:
+        """These channels with their values checked against the kinds ``model`` reads.
+
+        Numeric channels (:func:`channel_kinds`) must be numbers; categorical ones one of
+        the categories the model's formulas name (a number given for a category is
+        read as its text, ``3`` -> ``'3'``). A raster of a categorical channel needs a
+        value table of categories; a numeric channel's table maps codes to numbers.
+        Channels the model does not read are kept as they are (:meth:`unused`).
+
+        Raises
+        ------
+        ChannelError
+            Naming the channel, the value given and the valid values (numbers, or the
+            model's categories), unless ``allow_unknown_categories`` lets an unknown
+            category through (then a ``UserWarning`` says it is priced as none of them).
+
+        Examples
+        --------
+        >>> from energy_planner.model import EnergyModel
+        >>> m = EnergyModel(["load_kg * speed"], {"load_kg * speed": 7.0})
+        >>> Channels({"load_kg": "10kg"}).resolve(m)  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        energy_planner.errors.ChannelError: channel 'load_kg' = '10kg': ... expected a number...
+        """
+        kinds = channel_kinds(model)
+        consts: dict[str, float | str] = {}
+        runtime: dict[str, tuple[str, ...] | None] = {}
+        for name, v in self.constants.items():
+            kind = kinds.get(name)
+            if kind is None:
+                consts[name] = v
+                continue
+            runtime[name] = kind.categories
+            if not kind.is_categorical:
+                if isinstance(v, str):
+                    unit = re.fullmatch(r"\s*[-+]?[\d.]+(?:e[-+]?\d+)?\s*([^\d\s].*)", v, re.I)
+                    hint = (
+                        f" (give the number alone, in the unit the model was fitted with; "
+                        f"{unit.group(1)!r} is not part of it)"
+                        if unit
+                        else ""
+                    )
+                    raise ChannelError(
+                        f"channel {name!r} = {v!r}: the model reads {name} as a number "
+                        f"({kind.reader()}); expected a number, e.g. --set {name}=10{hint}",
+                        value=v,
+                        expected="a number",
+                        param="--set",
+                        channel=name,
+                    )
+                consts[name] = v
+            else:
+                text = v if isinstance(v, str) else f"{v:g}"
+                self._check_categories(kind, [text], f"channel {name!r}")
+                consts[name] = Category(text)
+                if text not in (kind.categories or ()):  # allowed unknown: its own slot
+                    runtime[name] = (*(kind.categories or ()), text)
+        for name, r in self.rasters.items():
+            kind = kinds.get(name)
+            if kind is not None:
+                self._check_raster(kind, r)
+        return replace(self, constants=consts, runtime=runtime)
+
+    def _check_categories(
+        self, kind: ChannelKind, given: Sequence[str], where: str, table: bool = False
+    ) -> None:
+        """Error (or warning when allowed) for categories ``kind`` does not name.
+
+        With ``table`` (the categories of a raster's value table, which lists every class
+        of the map) a category the model does not name is its baseline and accepted; only
+        a near miss (equal to a named category but for case or spaces) or a table that
+        names none of the model's categories is refused.
+        """
+        cats = kind.categories or ()
+        unknown = [c for c in given if c not in cats]
+        near = {c: [k for k in cats if k.casefold() == c.strip().casefold()] for c in unknown}
+        if table and not any(near.values()) and len(unknown) < len(given):
+            return
+        if table and any(near.values()):
+            unknown = [c for c in unknown if near[c]]
+        if not unknown:
+            return
+        alike = "; ".join(f"{c!r} is not {k[0]!r} (categories match exactly)" for c, k in
+                          near.items() if k)  # fmt: skip
+        msg = (
+            f"{where}: {', '.join(map(repr, unknown))} "
+            f"{'is not a category' if len(unknown) == 1 else 'are not categories'} the model "
+            f"names; the model compares {kind.name} with {', '.join(map(repr, cats))} "
+            f"({kind.reader()})" + (f"; {alike}" if alike else "")
+        )
+        if not self.allow_unknown_categories:
+            raise ChannelError(
+                f"{msg}. Give one of them, or --allow-unknown-category to price "
+                "an unknown category as none of them",
+                value=unknown[0],
+                expected=kind.expected(),
+                param="--channel" if where.startswith("raster") else "--set",
+                channel=kind.name,
+            )
+        warnings.warn(
+            f"{msg}: priced as none of them (--allow-unknown-category)",
+            UserWarning,
+            stacklevel=4,
+        )
+
+    def _check_raster(self, kind: ChannelKind, r: ChannelRaster) -> None:
+        """A raster channel's kind (numeric or coded categories) against the model's."""
+        cats = r.categories
+        table_kind = None
+        if cats is None and r.table is not None:
+            table = read_value_table(r.table)
+            if all(isinstance(v, str) for v in table.values()):
+                cats = tuple(sorted(set(table.values())))  # type: ignore[arg-type]
+            else:
+                table_kind = "numbers"
+        where = f"raster channel {kind.name!r}" + ("" if r.path is None else f" ({r.path})")
+        if not kind.is_categorical:
+            if cats is not None:
+                raise ChannelError(
+                    f"{where}: the model reads {kind.name} as a number ({kind.reader()}), "
+                    f"but the raster's value table {str(r.table)!r} maps codes to the "
+                    f"categories {', '.join(map(repr, cats))}; give a numeric raster, or a "
+                    "table of code,number rows",
+                    value=list(cats),
+                    expected="a number",
+                    param="--channel",
+                    channel=kind.name,
+                )
+            return
+        if cats is None:
+            got = (
+                f"its value table {str(r.table)!r} maps codes to numbers"
+                if table_kind
+                else "it is given as numbers per cell (no value table)"
+            )
+            raise ChannelError(
+                f"{where}: the model compares {kind.name} with the categories "
+                f"{', '.join(map(repr, kind.categories or ()))} ({kind.reader()}), but "
+                f"{got}; a raster of category codes needs a table of code,category rows: "
+                f"--channel {kind.name}=RASTER:TABLE (e.g. a CSV with the line "
+                f"1,{(kind.categories or ('category',))[0]}); or give one category for the "
+                f"whole map, --set {kind.name}={(kind.categories or ('category',))[0]}",
+                expected=kind.expected(),
+                param="--channel",
+                channel=kind.name,
+            )
+        self._check_categories(kind, list(cats), where, table=True)
 
     def unused(self, model: Any) -> list[str]:
         """Channels given that the model does not read (worth a note)."""
         return [n for n in self.names if n not in model.variables]
 
-    def stack(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        """The rasters for the kernel: ``(values (k, rows, cols) float64, nearest (k,))``."""
+    def stack(self, shape: tuple[int, int], runtime: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The channels for the kernel: ``(values (k, rows, cols) float64, nearest (k,))``.
+
+        The rasters; with ``runtime``, also the constants of :meth:`kernel_layout`
+        ``runtime=True`` (a number, or the index of the category in its layout). Without
+        rasters the constants are a ``(k, 1, 1)`` array, which the kernels read as
+        uniform (:func:`energy_planner.energy.kernels.sample_channels`); with rasters
+        each is a layer of ``shape`` holding its value.
+        """
+        consts = []
+        if runtime and self.runtime is not None:
+            for name, cats in self.runtime.items():
+                v = self.constants[name]
+                consts.append((float(cats.index(v)) if cats is not None else float(v), cats))
         if not self.rasters:
-            return np.zeros((0, 1, 1)), np.zeros(0, dtype=np.bool_)
+            if not consts:
+                return np.zeros((0, 1, 1)), np.zeros(0, dtype=np.bool_)
+            values = np.array([v for v, _ in consts], dtype=np.float64).reshape(-1, 1, 1)
+            return values, np.array([c is not None for _, c in consts], dtype=np.bool_)
         arrays = []
         for r in self.rasters.values():
             if r.values is None:
@@ -384,7 +703,11 @@ class Channels:
                     f"{tuple(shape)}; bind it to this terrain"
                 )
             arrays.append(np.asarray(r.values, dtype=np.float64))
-        nearest = np.array([r.nearest for r in self.rasters.values()], dtype=np.bool_)
+        arrays += [np.full(tuple(shape), v) for v, _ in consts]
+        nearest = np.array(
+            [r.nearest for r in self.rasters.values()] + [c is not None for _, c in consts],
+            dtype=np.bool_,
+        )
         return np.ascontiguousarray(np.stack(arrays)), nearest
 
     def value_samples(self, n: int = 5) -> dict[str, np.ndarray]:
@@ -476,7 +799,7 @@ class Channels:
                         stacklevel=2,
                     )
             rasters[name] = replace(r, values=values, categories=cats, coverage=cov)
-        return Channels(self.constants, rasters)
+        return replace(self, rasters=rasters)
 
 
 def _align(
@@ -492,7 +815,9 @@ def _align(
     try:
         src = rasterio.open(name)
     except RasterioIOError as exc:
-        raise ChannelIOError(f"cannot open channel raster {name!r} ({r.name}): {exc}") from exc
+        raise ChannelIOError(
+            f"cannot open channel raster {name!r} ({r.name}): {exc}", path=name
+        ) from exc
     with src:
         if src.count != 1:
             raise ChannelError(

@@ -66,6 +66,7 @@ import hashlib
 import math
 import threading
 from collections.abc import Mapping
+from dataclasses import replace
 from functools import lru_cache
 from typing import Any
 
@@ -447,7 +448,9 @@ def heading_cost(
         raise ModelError("the energy model has no coefficients: fit or load a fitted model")
     channels = channels if channels is not None else Channels()
     if constants:
-        channels = Channels({**channels.constants, **dict(constants)}, channels.rasters)
+        channels = replace(channels, constants={**channels.constants, **dict(constants)})
+    channels = channels.resolve(model)  # values of the kinds the model reads
+    # constants compiled in, as the energy map does (one table per physics)
     source = model.kernel_source(channels.constants, channels.kernel_layout())
     # the motion kernel's form of the gait limits (a negative backward slope gives a
     # negative tangent: never backward)

@@ -25,10 +25,13 @@ The per-motion result vector ``out`` of ``motion_full`` is read through the name
 indices ``OUT_*`` below (plain module-level ints, which numba folds as constants), never
 through bare numbers: ``out[OUT_ENERGY]``, ``table[:, OUT_CODE]``.
 
-Extra channels (:class:`energy_planner.energy.channels.Channels`): constants are compiled
-into the model's ``power`` function; rasters sit on the terrain's grid in ``data`` and are
-sampled at every sub-step (numeric: bilinear, like the gradient; categorical: the nearest
-cell's category index) and passed to ``power`` as its eighth argument.
+Extra channels (:class:`energy_planner.energy.channels.Channels`): rasters sit on the
+terrain's grid in ``data`` and are sampled at every sub-step (numeric: bilinear, like the
+gradient; categorical: the nearest cell's category index) and passed to ``power`` as its
+eighth argument. Constants (``--set``) travel the same way, after the rasters (a
+``(k, 1, 1)`` array when there is no raster): the kernels of :class:`MotionCost` depend on
+the model, not on the values, so a new value needs no compilation. (The energy map still
+compiles its constants in.)
 """
 
 from __future__ import annotations
@@ -137,12 +140,18 @@ def sample_channels(chan, nearest, x0, y0, dx, dy, x, y, values):
 
     ``chan[k, r, c]`` is channel ``k`` on the terrain grid (NaN = no value). A channel
     with ``nearest[k]`` (categorical: a category index) takes the nearest cell's value;
-    the others are bilinear between cell centres, as :func:`sample_gradient`.
+    the others are bilinear between cell centres, as :func:`sample_gradient`. A
+    ``(k, 1, 1)`` array holds uniform channels (the ``--set`` constants, given at run
+    time so that a new value needs no compilation): their values everywhere.
     """
     nch = chan.shape[0]
     if nch == 0:
         return True
     nrows, ncols = chan.shape[1], chan.shape[2]
+    if nrows == 1 and ncols == 1:  # uniform channels (constants given at run time)
+        for k in range(nch):
+            values[k] = chan[k, 0, 0]
+        return True
     fc = (x - x0) / dx
     fr = (y - y0) / dy
     if not (fc >= -0.5 and fr >= -0.5 and fc <= ncols - 0.5 and fr <= nrows - 0.5):

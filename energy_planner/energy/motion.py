@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -52,7 +53,7 @@ class MotionCost:
         Values of extra channels the model's terms read (e.g. ``payload_kg``); merged
         with ``channels.constants``.
     channels : Channels, optional
-        Extra channels: constants (compiled into the kernel) and rasters (aligned to the
+        Extra channels: constants (kernel inputs at run time) and rasters (aligned to the
         terrain's grid here if they are not yet, sampled at every sub-step).
     step : float, optional
         Integration sub-step in metres (default half the smaller cell size: the gradient is
@@ -98,7 +99,8 @@ class MotionCost:
         if clash:
             raise ChannelError(f"channel(s) {', '.join(clash)} given in constants and channels")
         if extra:
-            channels = Channels({**channels.constants, **extra}, channels.rasters)
+            channels = replace(channels, constants={**channels.constants, **extra})
+        channels = channels.resolve(model)  # values of the kinds the model reads
         if channels.rasters:
             channels = channels.bind(terrain)
         self.channels = channels
@@ -119,13 +121,13 @@ class MotionCost:
             math.inf if max_cross_slope_deg is None else math.sin(math.radians(max_cross_slope_deg))
         )
         btan, cmax = gait_limit_values(max_backward_slope_deg, max_crab_deg)
-        chan, nearest = channels.stack(gx.shape)
+        chan, nearest = channels.stack(gx.shape, runtime=True)  # constants: run-time inputs
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
             chan, nearest, btan, cmax,
         )  # fmt: skip
-        source = model.kernel_source(self.constants, channels.kernel_layout())
+        source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
         self._full, self.kernel, self._batch, self._path, self.map_kernel = make_kernels(source)
 
     def compile(self) -> MotionCost:

@@ -267,6 +267,7 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         if lim.max_cross_slope_deg is None
         else math.sin(math.radians(lim.max_cross_slope_deg))
     )
+    channels = channels.resolve(model)  # values of the kinds the model reads
     unused = channels.unused(model)
     if unused:
         notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
@@ -731,8 +732,10 @@ def _energy_map(
         mode = "terrain"
     else:
         info = _dem_info(dem, band)
-        cap = memory_cap_bytes if memory_cap_bytes is not None else memory_cap()
-        too_big = cap is not None and info.nbytes > cap
+        from energy_planner.terrain.memory import resolve_cap
+
+        cap = resolve_cap(memory_cap_bytes)  # None: the default cap
+        too_big = info.nbytes > cap
         if use_dask or (use_dask is None and too_big):
             if not info.metric_north_up:
                 raise EnergyMapError(

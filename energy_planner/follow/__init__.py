@@ -7,6 +7,7 @@
 See :mod:`energy_planner.follow.core` and ``docs/follow.md``.
 """
 
+from energy_planner.follow.calibrate import RemainingScores, calibrate_remaining
 from energy_planner.follow.core import (
     Follower,
     FollowError,
@@ -24,7 +25,9 @@ __all__ = [
     "Follower",
     "ForgettingRLS",
     "PathTerms",
+    "RemainingScores",
     "SlopeFinding",
+    "calibrate_remaining",
     "follow_log",
     "path_term_energies",
     "seed_covariance",

@@ -72,6 +72,11 @@ class FollowUpdate:
         Measured minus predicted mean power of the window before the update, W.
     event : str or None
         What the follower did at this update (a replan), in words.
+    state : str
+        ``steady`` (no change detected), ``adapting`` (a change detected: the
+        coefficients follow the log) or ``dem`` (a slope finding: the DEM is wrong here).
+    remaining_share : float
+        Share of the path's time still ahead.
     """
 
     t: float
@@ -86,6 +91,8 @@ class FollowUpdate:
     y: float
     innovation_w: float
     event: str | None = None
+    state: str = "steady"
+    remaining_share: float = 1.0
 
     def to_dict(self) -> dict[str, Any]:
         """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
@@ -102,6 +109,7 @@ class FollowUpdate:
             "y": self.y,
             "innovation_w": self.innovation_w,
             "event": self.event,
+            "state": self.state,
         }
 
 
@@ -219,6 +227,15 @@ class Follower:
         work of :func:`~energy_planner.measurements.make_windows`), so batching is what
         lets the follower run far faster than real time; it delays an update by at most
         ``batch_s`` of log time (0: window as soon as two windows have arrived).
+    dead_band : bool
+        Keep the fit's coefficients until a change of conditions is detected (default);
+        False: update them at every window. Windows whose IMU slope disagrees with the
+        DEM's (a DEM error) are never learnt from.
+    remaining_scores : RemainingScores, optional
+        The follower's own held-out errors of the remaining energy
+        (:func:`~energy_planner.follow.calibrate.calibrate_remaining`); with them the
+        interval is split-conformal on those errors (by remaining share and by whether a
+        change has been detected) instead of the model's run errors widened.
     """
 
     def __init__(
@@ -248,6 +265,8 @@ class Follower:
         replan_time: float = 2.0,
         batch_s: float = 20.0,
         change_share: float = 0.05,
+        dead_band: bool = True,
+        remaining_scores: Any = None,
     ) -> None:
         from scipy.stats import norm
 
@@ -272,6 +291,7 @@ class Follower:
             terrain, model, xy, yaw, t, speed, yaw_rate, constants=self.constants
         )
         self.goal = tuple(self.path.poses[-1])
+        self._total_s = max(self.path.remaining_s(0, 0.0), 1e-9)
         c0 = model.coef_array()
         cov, note = seed_covariance(model)
         self.notes.append(f"coefficients seeded from the fit; covariance: {note}")
@@ -286,7 +306,13 @@ class Follower:
         self.c0 = c0
         self.z = float(norm.ppf(0.5 + level / 2.0))
         self.scores = model_scores(model)
-        if self.scores is None:
+        self.remaining_scores = remaining_scores
+        if remaining_scores is not None:
+            self.notes.append(
+                "interval: split-conformal on the follower's own held-out remaining-energy "
+                f"errors ({len(remaining_scores.seeds)} calibration seeds)"
+            )
+        elif self.scores is None:
             self.notes.append(
                 "the model carries no held-out run errors: the interval is "
                 "the coefficients' uncertainty only"
@@ -319,6 +345,8 @@ class Follower:
         self._done_m = 0.0
         self._stretch: _Stretch | None = None
         self._cooldown_until = -math.inf
+        self.dead_band = bool(dead_band)
+        self._adapting = False  # a change was detected: the coefficients follow the log
 
     # ------------------------------------------------------------------ input
     def feed(self, samples: pd.DataFrame) -> list[FollowUpdate]:
@@ -461,9 +489,17 @@ class Follower:
         return out
 
     def _update(self, used_j, x, power, t_end, imu_deg, dem_deg, p_first, p_last, t_start):
-        if self._n_windows == 0:
-            # the first window holds the gait's start (a transient the fit's cleaned
-            # windows do not have): it is checked, not learnt from
+        # a window whose IMU slope disagrees with the DEM's is a DEM error, not a model
+        # error: it is checked, not learnt from (nor counted as a change of conditions)
+        dem_error = (
+            math.isfinite(imu_deg)
+            and math.isfinite(dem_deg)
+            and abs(imu_deg - dem_deg) > self.slope_tol_deg
+        )
+        # dead band: the fit's coefficients are kept until a change of conditions is
+        # detected (learning the odometry's slip on plain ground only adds error); the
+        # first window holds the gait's start (a transient the fit's windows do not have)
+        if self._n_windows == 0 or dem_error or not (self._adapting or not self.dead_band):
             innovation = float(power - x @ self.rls.coef)
         else:
             innovation = self.rls.update(x, power)
@@ -475,11 +511,13 @@ class Follower:
         # change detection on a short mean of the innovation (3 windows): beyond 4 of its
         # standard deviations and beyond change_share of the power (the model's own bias on
         # new ground is a few %)
-        self._fast_w = 0.7 * self._fast_w + 0.3 * innovation
+        if not dem_error:
+            self._fast_w = 0.7 * self._fast_w + 0.3 * innovation
         limit = max(self._bias_limit, self.change_share * self._power_w)
         if abs(self._fast_w) > limit and self._since_reset > 5:
             self.rls.reset()
             self._since_reset = 0
+            self._adapting = True
             self.events.append(
                 f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): the power departs "
                 f"from the model by {self._fast_w:+.1f} W on average (beyond "
@@ -508,6 +546,7 @@ class Follower:
                 self._motion, frac = 0, 0.0
                 r = self.path.remaining(0, 0.0)
                 self._rem_s = self.path.remaining_s(0, 0.0)
+                self._total_s = max(self._rem_s, 1e-9)
                 rem, low, high, prob = self._predict(r)
         elif (
             self.usable_j is not None
@@ -537,13 +576,32 @@ class Follower:
             p_last[1],
             innovation,
             event,
+            self.state,
+            self._rem_s / self._total_s,
         )
         self.updates.append(u)
         return u
 
+    @property
+    def state(self) -> str:
+        """``dem`` after a slope finding, ``adapting`` after a change, else ``steady``."""
+        s = self._stretch
+        if self.findings or (s is not None and len(s.imu) >= 2):
+            return "dem"
+        return "adapting" if self._adapting else "steady"
+
     def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
         """Remaining energy, its interval and the chance the battery suffices."""
         rem = float(max(r @ self.rls.coef, 0.0))
+        if self.remaining_scores is not None:
+            sc = self.remaining_scores.for_group(
+                self.state, self._rem_s / self._total_s, self.level
+            )
+            iv = interval(rem, sc, self.level)
+            prob = None
+            if self.usable_j is not None:
+                prob = success_probability(rem, sc, self.usable_j - self._used_at)
+            return rem, max(iv.low_j, 0.0), iv.high_j, prob
         # the coefficients' uncertainty, and the power the model still misses (the recent
         # mean innovation: large while it catches up with a change) over the time left
         sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)

@@ -71,6 +71,9 @@ class LoadReport:
         Tables whose current was negated (``table_current="auto"`` found it negative in
         most samples in motion, or ``"ros"``): ``path``, ``negative_share``,
         ``median_current_a`` (as read), ``n_motion``.
+    current_kept_negative_files : list of dict
+        Tables read with ``table_current="discharge_positive"`` whose current is yet
+        negative in most samples in motion (kept as read), with the same keys.
     dropped : dict
         Samples dropped while reading (ROS bags only: clock samples outside the common
         time span of all topics or too far from a source message), reason -> count.
@@ -90,6 +93,7 @@ class LoadReport:
     validation: ValidationReport | None = None
     current_sign_flipped: bool = False
     current_negated_files: list[dict[str, Any]] = field(default_factory=list)
+    current_kept_negative_files: list[dict[str, Any]] = field(default_factory=list)
     dropped: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     skipped: list[dict[str, str]] = field(default_factory=list)
@@ -105,6 +109,7 @@ class LoadReport:
             "validation": self.validation.to_dict() if self.validation else None,
             "current_sign_flipped": self.current_sign_flipped,
             "current_negated_files": [dict(f) for f in self.current_negated_files],
+            "current_kept_negative_files": [dict(f) for f in self.current_kept_negative_files],
             "dropped": dict(self.dropped),
             "notes": list(self.notes),
             "skipped": [dict(k) for k in self.skipped],
@@ -378,7 +383,11 @@ def current_sign(df: pd.DataFrame) -> dict[str, Any]:
 
 
 def _apply_current_sign(df: pd.DataFrame, path: Path, mode: str, rep: LoadReport) -> pd.DataFrame:
-    """Negate a table's current per ``table_current`` (see :func:`load_logs`)."""
+    """Negate a table's current per ``table_current`` (see :func:`load_logs`).
+
+    Records the file in ``rep`` (negated, or kept although mostly negative); the one
+    warning per load for all such files is :func:`_warn_current_sign`'s.
+    """
     sign = current_sign(df)
     entry = {
         "path": str(path),
@@ -390,28 +399,62 @@ def _apply_current_sign(df: pd.DataFrame, path: Path, mode: str, rep: LoadReport
         df = df.assign(current=-df["current"])
         rep.current_sign_flipped = True
         rep.current_negated_files.append(entry)
-        if mode == "auto":
-            msg = (
-                f"log {path}: the battery current is negative in "
-                f"{sign['negative_share']:.0%} of the {sign['n_motion']} samples in motion "
-                f"(median {sign['median_current_a']:.3g} A): read as the ROS BatteryState "
-                "sign (negative while discharging) and negated to the canonical sign "
-                "(positive while discharging). Pass table_current='discharge_positive' to "
-                "keep it as it is."
-            )
-            warnings.warn(msg, UserWarning, stacklevel=3)
-            rep.notes.append(msg)
     elif sign["ros_sign"]:  # discharge_positive, yet mostly negative: say so
-        msg = (
-            f"log {path}: the battery current is negative in {sign['negative_share']:.0%} "
-            f"of the {sign['n_motion']} samples in motion although table_current="
-            "'discharge_positive' says positive while discharging; preprocessing will drop "
-            "those samples (negative power). If the logger uses the ROS BatteryState sign, "
-            "load with table_current='ros' or 'auto'."
-        )
-        warnings.warn(msg, UserWarning, stacklevel=3)
-        rep.notes.append(msg)
+        rep.current_kept_negative_files.append(entry)
     return df
+
+
+def _files_text(entries: list[dict[str, Any]], limit: int = 3) -> str:
+    """``a.csv: negative in 100% of 113 samples in motion, median -3.66 A; ...``."""
+    shown = "; ".join(
+        f"{e['path']}: negative in {e['negative_share']:.0%} of {e['n_motion']} samples in "
+        f"motion, "
+        f"median {e['median_current_a']:.3g} A"
+        for e in entries[:limit]
+    )
+    return shown + (f"; and {len(entries) - limit} more" if len(entries) > limit else "")
+
+
+def _warn_current_sign(rep: LoadReport, mode: str) -> None:
+    """One warning for every table whose current sign was guessed or contradicts the mode."""
+    from energy_planner.errors import EnergyPlannerWarning
+
+    flipped, kept = rep.current_negated_files, rep.current_kept_negative_files
+    if flipped and mode == "auto":
+        n = len(flipped)
+        msg = (
+            f"the battery current is mostly negative while the robot moves in {n} "
+            f"log{'s' if n > 1 else ''} ({_files_text(flipped)}): read as the ROS "
+            "BatteryState sign (negative while discharging) and negated to the canonical "
+            "sign (positive while discharging)."
+        )
+        warnings.warn(
+            EnergyPlannerWarning(
+                msg,
+                api_hint="Pass table_current='discharge_positive' to keep it as it is.",
+                paths=[e["path"] for e in flipped],
+            ),
+            stacklevel=3,
+        )
+        rep.notes.append(msg)
+    if kept:
+        n = len(kept)
+        msg = (
+            f"the battery current is mostly negative while the robot moves in {n} "
+            f"log{'s' if n > 1 else ''} ({_files_text(kept)}) although "
+            "table_current='discharge_positive' says positive while discharging; "
+            "preprocessing will drop those samples (negative power)."
+        )
+        warnings.warn(
+            EnergyPlannerWarning(
+                msg,
+                api_hint="If the logger uses the ROS BatteryState sign, load with "
+                "table_current='ros' or 'auto'.",
+                paths=[e["path"] for e in kept],
+            ),
+            stacklevel=3,
+        )
+        rep.notes.append(msg)
 
 
 def load_logs(
@@ -538,6 +581,7 @@ def load_logs(
             f"no robot log among {', '.join(str(p) for p, _ in files)}; "
             "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS)
         )
+    _warn_current_sign(rep, table_current)
     _check_extra_types(frames, [f["path"] for f in rep.files])
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
     for c in samples.columns:

@@ -316,8 +316,6 @@ def load_rosbag(
     LogIOError
         The bag cannot be opened.
     """
-    from scipy.spatial.transform import Rotation, Slerp
-
     path = Path(path)
     if not path.exists():
         raise LogIOError(f"ROS bag {str(path)!r} does not exist")
@@ -332,6 +330,46 @@ def load_rosbag(
     streams, xstreams, is2 = _read_streams(path, topics, stamp, extra_topics)
     rep = LoadReport()
     dropped: dict[str, int] = {}
+    clean = _dedupe_streams(streams, topics, stamp, path, dropped)
+    keep = _clock_samples(clean, clock, topics, max_interp_gap, path, dropped)
+    tc_ns = clean[clock][0][keep]
+    tsec = tc_ns / 1e9
+    out: dict[str, Any] = {"t": tsec}
+
+    def interp(role: str, key: str) -> np.ndarray:
+        ns, vals = clean[role]
+        return np.interp(tsec, ns / 1e9, vals[key])
+
+    out.update(_orientation(clean["imu"], clock, keep, tc_ns))
+    for k in ("vx", "vy", "wz"):
+        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
+    out["voltage"] = interp("battery", "voltage")
+    out["current"] = _canonical_current(interp("battery", "current"), battery_current, path, rep)
+    for k in ("x", "y"):
+        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
+    if clock == "odom":
+        out["yaw"] = clean["odom"][1]["yaw"][keep]
+    else:
+        ns, vals = clean["odom"]
+        out["yaw"] = wrap(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
+    out.update(_extra_columns(xstreams, tc_ns))
+    name = run if run is not None else (path.stem if path.suffix == ".bag" else path.name)
+    df = pd.DataFrame(out)
+    df.insert(0, "run", str(name))
+    df = canonicalize(df, str(path))
+    _fill_report(rep, df, path, "rosbag2" if is2 else "rosbag1", str(name), topics, clock,
+                 sorted(xstreams), dropped)  # fmt: skip
+    return (df, rep) if report else df
+
+
+def _dedupe_streams(streams, topics, stamp, path: Path, dropped: dict[str, int]) -> dict:
+    """Each stream sorted by stamp with repeated stamps dropped (counted in ``dropped``).
+
+    Raises
+    ------
+    LogError
+        More than half of a stream's stamps repeat.
+    """
     clean = {}
     for role, (ns, vals) in streams.items():
         idx, ndup = _sorted_unique(ns)
@@ -348,6 +386,20 @@ def load_rosbag(
         if ndup:
             dropped[f"repeated stamp on {topics[role]}"] = ndup
         clean[role] = (ns[idx], {k: v[idx] for k, v in vals.items()})
+    return clean
+
+
+def _clock_samples(clean, clock, topics, max_interp_gap, path: Path, dropped) -> np.ndarray:
+    """Mask of the clock stream's messages kept as samples.
+
+    Kept: inside the time span common to all streams, and no other stream silent for
+    more than ``max_interp_gap`` around them (the reasons counted in ``dropped``).
+
+    Raises
+    ------
+    LogError
+        No message is kept.
+    """
     tc_ns = clean[clock][0]
     t0 = max(c[0][0] for c in clean.values())
     t1 = min(c[0][-1] for c in clean.values())
@@ -368,36 +420,34 @@ def load_rosbag(
                 (bad & keep).sum()
             )
             keep &= ~bad
-    tc_ns = tc_ns[keep]
-    if tc_ns.size == 0:
+    if not keep.any():
         raise LogError(
             f"ROS bag {str(path)!r}: no {topics[clock]} message lies in the time "
             "span common to all topics; check the topics and their stamps"
         )
-    tsec = tc_ns / 1e9
-    out: dict[str, Any] = {"t": tsec}
+    return keep
 
-    def interp(role: str, key: str) -> np.ndarray:
-        ns, vals = clean[role]
-        return np.interp(tsec, ns / 1e9, vals[key])
 
-    imu_ns, imu = clean["imu"]
+def _orientation(imu_stream, clock: str, keep: np.ndarray, tc_ns: np.ndarray) -> dict:
+    """Quaternion columns at the sample times (Slerp when the clock is not the IMU's)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    imu_ns, imu = imu_stream
     if clock == "imu":
-        for k in ("qw", "qx", "qy", "qz"):
-            out[k] = imu[k][keep]
+        return {k: imu[k][keep] for k in ("qw", "qx", "qy", "qz")}
+    tsec = tc_ns / 1e9
+    quat = np.column_stack([imu["qx"], imu["qy"], imu["qz"], imu["qw"]])
+    if imu_ns.size > 1:
+        q = Slerp(imu_ns / 1e9, Rotation.from_quat(quat))(tsec).as_quat()
     else:
-        quat = np.column_stack([imu["qx"], imu["qy"], imu["qz"], imu["qw"]])
-        if imu_ns.size > 1:
-            q = Slerp(imu_ns / 1e9, Rotation.from_quat(quat))(tsec).as_quat()
-        else:
-            q = quat[np.zeros(tsec.size, int)]
-        near = quat[np.clip(np.searchsorted(imu_ns, tc_ns), 0, imu_ns.size - 1)]
-        q *= np.where(np.sum(q * near, axis=1) < 0, -1.0, 1.0)[:, None]
-        out.update(qw=q[:, 3], qx=q[:, 0], qy=q[:, 1], qz=q[:, 2])
-    for k in ("vx", "vy", "wz"):
-        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
-    out["voltage"] = interp("battery", "voltage")
-    cur = interp("battery", "current")
+        q = quat[np.zeros(tsec.size, int)]
+    near = quat[np.clip(np.searchsorted(imu_ns, tc_ns), 0, imu_ns.size - 1)]
+    q *= np.where(np.sum(q * near, axis=1) < 0, -1.0, 1.0)[:, None]
+    return {"qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]}
+
+
+def _canonical_current(cur: np.ndarray, battery_current: str, path: Path, rep) -> np.ndarray:
+    """Battery current positive while discharging; warn when it looks charging."""
     if battery_current == "ros":
         cur = -cur
         rep.current_sign_flipped = True
@@ -418,19 +468,20 @@ def load_rosbag(
             other,
         )
         rep.notes.append(f"warning: median current {float(np.median(cur)):.3g} A < 0")
-    out["current"] = cur
-    for k in ("x", "y"):
-        out[k] = clean["odom"][1][k][keep] if clock == "odom" else interp("odom", k)
-    if clock == "odom":
-        out["yaw"] = clean["odom"][1]["yaw"][keep]
-    else:
-        ns, vals = clean["odom"]
-        out["yaw"] = wrap(np.interp(tsec, ns / 1e9, np.unwrap(vals["yaw"])))
+    return cur
+
+
+def _extra_columns(xstreams, tc_ns: np.ndarray) -> dict:
+    """Extra channels at the sample times: numbers interpolated, text held (sample and hold).
+
+    Outside a channel's own time span the value is unknown: NaN / missing.
+    """
+    tsec = tc_ns / 1e9
+    out = {}
     for col, (ns, data) in xstreams.items():
         idx, _ = _sorted_unique(ns)
         xs = ns[idx]
         vals = [data[i] for i in idx]
-        # outside the channel's own time span the value is unknown: NaN / missing
         if isinstance(vals[0], str):
             j = np.searchsorted(xs, tc_ns, side="right") - 1
             out[col] = pd.Categorical([vals[i] if i >= 0 else None for i in j])
@@ -438,23 +489,23 @@ def load_rosbag(
             out[col] = np.interp(
                 tsec, xs / 1e9, np.asarray(vals, dtype=float), left=np.nan, right=np.nan
             )
-    name = run if run is not None else (path.stem if path.suffix == ".bag" else path.name)
-    df = pd.DataFrame(out)
-    df.insert(0, "run", str(name))
-    df = canonicalize(df, str(path))
-    fmt = "rosbag2" if is2 else "rosbag1"
+    return out
+
+
+def _fill_report(rep, df, path: Path, fmt, name, topics, clock, extra, dropped) -> None:
+    """What was read, kept and dropped, in the :class:`LoadReport`."""
     rep.files.append(
         {
             "path": str(path),
             "format": fmt,
             "rows": len(df),
-            "runs": [str(name)],
+            "runs": [name],
             "topics": dict(topics),
-            "extra_topics": sorted(xstreams),
+            "extra_topics": extra,
         }
     )
     rep.n_rows = len(df)
-    rep.runs = [str(name)]
+    rep.runs = [name]
     rep.columns = list(df.columns)
     rep.extra_columns = [c for c in df.columns if c not in CANONICAL_COLUMNS]
     rep.dropped = dropped
@@ -462,7 +513,6 @@ def load_rosbag(
         f"{fmt} {path.name}: resampled onto the {topics[clock]} clock (linear in time; "
         f"{'quaternion by Slerp; ' if clock == 'odom' else ''}yaw unwrapped)"
     )
-    return (df, rep) if report else df
 
 
 def _ros_time(T, ns: int):

@@ -143,6 +143,30 @@ class Formula:
             out = _eval(self._tree, features)
         return np.asarray(out, dtype=float)
 
+    @property
+    def channel_uses(self) -> tuple[dict[str, frozenset[str]], frozenset[str]]:
+        """How the formula reads each variable: as a category or as a number.
+
+        Returns
+        -------
+        categories : dict
+            Variable -> the strings it is compared with (``ground == 'mud'``): a
+            categorical variable and the categories the formula names.
+        numeric : frozenset of str
+            Variables read as numbers: in arithmetic, in a function, or compared with a
+            number. A variable compared only with another variable is in neither.
+
+        Examples
+        --------
+        >>> cats, numeric = parse_formula("(ground == 'mud') * speed + load_kg").channel_uses
+        >>> cats, sorted(numeric)
+        ({'ground': frozenset({'mud'})}, ['load_kg', 'speed'])
+        """
+        cats: dict[str, set[str]] = {}
+        numeric: set[str] = set()
+        _uses(self._tree, cats, numeric)
+        return {k: frozenset(v) for k, v in sorted(cats.items())}, frozenset(numeric)
+
     def to_scalar_source(self, variables: Mapping[str, str], constants: Mapping[str, Any]) -> str:
         """Render as a scalar Python expression (for numba code generation).
 
@@ -313,6 +337,27 @@ def _src(node: ast.AST, variables: Mapping[str, str], constants: Mapping[str, An
         return f"(1.0 if {left} {_CMPOPS[op][1]} {right} else 0.0)"
     assert isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
     return FUNCTIONS[node.func.id][1].format(*(rec(a) for a in node.args))
+
+
+def _uses(node: ast.AST, cats: dict[str, set[str]], numeric: set[str]) -> None:
+    """Collect the variables compared with strings (``cats``) and read as numbers."""
+    if isinstance(node, ast.Name):
+        if node.id not in CONSTANTS:
+            numeric.add(node.id)
+        return
+    if isinstance(node, ast.Compare):
+        sides = (node.left, node.comparators[0])
+        for side, other in (sides, sides[::-1]):
+            if not (isinstance(side, ast.Name) and side.id not in CONSTANTS):
+                _uses(side, cats, numeric)
+            elif isinstance(other, ast.Constant) and isinstance(other.value, str):
+                cats.setdefault(side.id, set()).add(other.value)
+            elif not (isinstance(other, ast.Name) and other.id not in CONSTANTS):
+                numeric.add(side.id)  # compared with a number or an expression
+        return
+    children = node.args if isinstance(node, ast.Call) else ast.iter_child_nodes(node)
+    for child in children:
+        _uses(child, cats, numeric)
 
 
 _UNKNOWN = object()

@@ -392,10 +392,16 @@ class EnergyModel:
         try:
             doc = json.loads(path.read_text())
         except FileNotFoundError as exc:
-            raise ModelError(f"model file {str(path)!r} does not exist") from exc
+            raise ModelError(f"model file {str(path)!r} does not exist", path=path) from exc
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ModelError(f"model file {str(path)!r} is not valid JSON: {exc}") from exc
-        return cls.from_dict(doc, source=str(path))
+            raise ModelError(
+                f"model file {str(path)!r} is not valid JSON: {exc}", path=path
+            ) from exc
+        try:
+            return cls.from_dict(doc, source=str(path))
+        except ModelError as exc:
+            exc.fields.setdefault("path", str(path))  # the file at fault, for callers
+            raise
 
     @classmethod
     def default(cls) -> EnergyModel:

@@ -358,7 +358,12 @@ class RouteComparison:
         """A plain-text table of the routes, then why the detour saves (or not)."""
 
         def f(v, fmt):
-            return "-" if v is None else format(v, fmt)
+            # a missing value keeps its column's width, so the rows stay aligned
+            width = int(fmt.split(".")[0] or 0)
+            return "-".rjust(width) if v is None else format(v, fmt)
+
+        def deg(v):
+            return " " if v is None else "\u00b0"
 
         lines = [
             f"{'route':<15} {'energy J':>10} {'Wh':>7} {'dist m':>8} {'time s':>7} "
@@ -372,8 +377,9 @@ class RouteComparison:
             lines.append(
                 f"{r.name:<15} {f(r.energy_j, '10.0f')} {f(r.energy_wh, '7.2f')} "
                 f"{f(r.distance_m, '8.1f')} {f(r.duration_s, '7.0f')} "
-                f"{f(r.ascent_m, '8.1f')} {f(r.climb_grade_deg, '5.1f')}\u00b0 "
-                f"{f(r.max_slope_deg, '8.1f')}\u00b0 {f(saving, '6.1f')}%  "
+                f"{f(r.ascent_m, '8.1f')} {f(r.climb_grade_deg, '5.1f')}{deg(r.climb_grade_deg)} "
+                f"{f(r.max_slope_deg, '8.1f')}{deg(r.max_slope_deg)} {f(saving, '6.1f')}"
+                f"{'%' if saving is not None else ' '}  "
                 f"{'yes' if r.feasible else 'no: ' + str(r.reason)}"
             )
         lines += ["", *self.explain()]

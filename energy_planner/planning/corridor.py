@@ -56,6 +56,7 @@ from energy_planner.errors import (
     PlanningError,
     RasterTooLargeError,
 )
+from energy_planner.terrain.memory import DEFAULT_CAP, Cap, resolve_cap
 
 __all__ = [
     "PAD_CELLS",
@@ -158,7 +159,8 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
     DEMError
         Several bands and no ``band``; a geographic or rotated raster.
     """
-    from energy_planner.terrain.dem import _is_metric, open_dem, utm_epsg
+    from energy_planner.terrain.dem import _is_metric, utm_epsg
+    from energy_planner.terrain.load import open_dem
 
     name = str(path)
     with open_dem(name) as src:
@@ -200,13 +202,18 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
         return RasterInfo(name, (src.height, src.width), t, src.crs, int(band))
 
 
-def needs_window(info: RasterInfo, cap: int | None) -> bool:
-    """True if planning on the whole DEM would pass the memory cap ``cap`` (bytes)."""
+def needs_window(info: RasterInfo, cap: Cap = DEFAULT_CAP) -> bool:
+    """True if planning on the whole DEM would pass the memory cap ``cap``.
+
+    ``cap``: bytes, :data:`~energy_planner.terrain.memory.DEFAULT_CAP` or
+    :data:`~energy_planner.terrain.memory.NO_CAP` (:func:`~energy_planner.terrain.memory.
+    resolve_cap`).
+    """
     return _over_cap(*info.shape, cap)
 
 
-def _over_cap(rows: int, cols: int, cap: int | None) -> bool:
-    return cap is not None and float(rows) * cols * PLAN_BYTES_PER_CELL > cap
+def _over_cap(rows: int, cols: int, cap: Cap) -> bool:
+    return float(rows) * cols * PLAN_BYTES_PER_CELL > resolve_cap(cap)
 
 
 def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
@@ -282,14 +289,14 @@ def least_cost_per_metre(
     directions, headings and the gradient box; 0 when the cost reads channel rasters
     (they vary over the map, so no constant-gradient table bounds them).
     """
-    from energy_planner.planning.lattice import _move_table, lattice_headings
+    from energy_planner.planning.moves import lattice_headings, move_table
     from energy_planner.planning.search import BOUND_MARGIN, gradient_table
 
     if getattr(getattr(cost, "channels", None), "rasters", None):
         return 0.0
     headings = lattice_headings(int(n_headings))
     table, _ = gradient_table(
-        cost, headings, _move_table(headings, moves), np.asarray(lo), np.asarray(hi)
+        cost, headings, move_table(headings, moves), np.asarray(lo), np.asarray(hi)
     )
     fin = table[np.isfinite(table)]
     return float(fin.min()) * BOUND_MARGIN if fin.size else 0.0
@@ -317,12 +324,12 @@ def ellipse_box(
     return (cx - hx, cy - hy, cx + hx, cy + hy)
 
 
-def _window_cells(cap: int | None) -> tuple[int | None, int]:
-    """The cap in bytes (None: the default cap) and the most cells a window may hold."""
-    from energy_planner.terrain import memory_cap
-
-    cap = memory_cap() if cap is None else int(cap)
-    return cap, int(cap // PLAN_BYTES_PER_CELL) if cap is not None else 1 << 62
+def _window_cells(cap: Cap) -> tuple[int | None, int]:
+    """The cap in bytes (None: no cap) and the most cells a window may hold."""
+    limit = resolve_cap(cap)
+    if math.isinf(limit):
+        return None, sys.maxsize  # no cap: a window may hold any number of cells
+    return int(limit), int(limit // PLAN_BYTES_PER_CELL)
 
 
 def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
@@ -417,22 +424,121 @@ def _bound(cost, info, n_headings, moves, log, progress) -> tuple[float, list]:
     return c_min, [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])]
 
 
-def needs_windows(dem: str | Path, cap: int | None = None) -> bool:
+def needs_windows(dem: str | Path, cap: Cap = DEFAULT_CAP) -> bool:
     """True if planning on the whole of ``dem`` would pass the memory cap (header only).
 
-    ``cap`` None: the default cap (:func:`energy_planner.terrain.memory_cap`). A file
-    rasterio cannot open returns False, so that loading it reports the problem.
+    ``cap`` as :func:`~energy_planner.terrain.memory.resolve_cap` reads it (default: the
+    default cap). A file rasterio cannot open returns False, so that loading it reports
+    the problem.
     """
     import rasterio
-
-    from energy_planner.terrain import memory_cap
 
     try:
         with rasterio.open(dem) as src:
             shape = (src.height, src.width)
     except Exception:  # noqa: BLE001 - any open error is the loader's to report
         return False
-    return _over_cap(*shape, memory_cap() if cap is None else cap)
+    return _over_cap(*shape, cap)
+
+
+def _first_window(info: RasterInfo, s, g, margin: float, max_cells: int, cap):
+    """The box the start and the goal need (``must``) and the first window around it.
+
+    Raises
+    ------
+    RasterTooLargeError
+        Even ``must`` passes the cap.
+    """
+    sg = (min(s[0], g[0]), min(s[1], g[1]), max(s[0], g[0]), max(s[1], g[1]))
+    must = _grow(sg, PAD_CELLS * info.cell)
+    if info.cells(must) > max_cells:
+        raise _too_large(
+            info, "the box of the start and the goal", info.cells(must), max_cells, cap,
+            "plan through intermediate goals (each leg's box must fit), a coarser DEM "
+            "(gdalwarp -tr XRES YRES -r average), or raise ENERGY_PLANNER_MEMORY_CAP",
+        )  # fmt: skip
+    dist = math.hypot(g[0] - s[0], g[1] - s[1])
+    window = _fit_cap(info, _grow(sg, max(margin * dist, 32 * info.cell)), must, max_cells)
+    return must, window
+
+
+def _widen_unreachable(info: RasterInfo, window, must, max_cells: int, exc: PlanningError):
+    """The window doubled (within the cap) after it held no path; ``exc`` if it cannot grow."""
+    if tuple(window) == tuple(info.snap(info.bounds)):
+        raise exc
+    bigger = _fit_cap(
+        info, _grow(window, max(window[2] - window[0], window[3] - window[1])), must, max_cells
+    )
+    if bigger is None or info.cells(bigger) <= info.cells(window):
+        raise PlanningError(
+            f"{exc} (in the largest window that fits the memory cap, "
+            f"{info.cells(window)} cells; the whole DEM was not searched)",
+            limit="unreachable",
+        ) from exc
+    return bigger
+
+
+def _widen_to_ellipse(
+    info: RasterInfo, ell, window, must, max_cells: int, attempt: int, energy_j: float,
+    length_bound: float, log: _Log,
+):  # fmt: skip
+    """The next window: the ellipse's box, or the largest that fits; None to stop."""
+    need = info.snap(_grow(ell, PAD_CELLS * info.cell + info.cell))
+    if info.cells(need) <= max_cells:
+        if attempt > 0 and tuple(need) == tuple(window):
+            return None
+        log(
+            f"paths under {energy_j:.0f} J may reach {length_bound:.0f} m: widening "
+            "the window to their ellipse"
+        )
+        return need
+    bigger = _fit_cap(info, need, must, max_cells)
+    if bigger is None or info.cells(bigger) <= info.cells(window) or attempt > 0:
+        return None
+    log(
+        f"the ellipse of paths under {energy_j:.0f} J needs {info.cells(need)} cells, "
+        "above the cap: planning once more in the largest window that fits"
+    )
+    return bigger
+
+
+def _cost_and_bound(terrain, model, request, info, n_headings, moves, log, progress):
+    """The first window's compiled motion cost, ``c_min`` and its gradient box."""
+    from energy_planner.planning.limits import make_motion_cost
+
+    cost, _ = make_motion_cost(terrain, model, request)
+    cost.compile()
+    c_min, gbox = _bound(cost, info, n_headings, moves, log, progress)
+    log(f"least energy per metre anywhere on the DEM: c_min = {c_min:.2f} J/m")
+    return cost, c_min, gbox
+
+
+def _keep_last_path(exc: PlanningError, have_path: bool, log: _Log) -> bool:
+    """True to stop on a window's time-out with a path; re-raise all but "unreachable"."""
+    if getattr(exc, "limit", None) == "time" and have_path:
+        log("the time budget ran out in this window: keeping the last window's path")
+        return True
+    if getattr(exc, "limit", None) not in ("unreachable",) or isinstance(exc, InvalidStateError):
+        raise exc
+    return False
+
+
+def _time_left(budget: float, t_start: float, have_path: bool) -> float:
+    """Seconds of the ``time`` budget left (<= 0: stop and keep the path found so far).
+
+    Raises
+    ------
+    PlanningError
+        The budget ran out before any window was planned.
+    """
+    left = budget - (time.perf_counter() - t_start)
+    if left <= 0 and not have_path:
+        raise PlanningError(
+            f"the planning time budget ({budget:g} s) ran out before the first "
+            "window was planned; give more --time",
+            limit="time",
+        )
+    return left
 
 
 def plan_in_corridor(
@@ -443,7 +549,7 @@ def plan_in_corridor(
     request=None,
     *,
     band: int | None = None,
-    cap: int | None = None,
+    cap: Cap = DEFAULT_CAP,
     progress: bool = False,
     margin: float = 0.25,
     **plan_kwargs: Any,
@@ -462,9 +568,10 @@ def plan_in_corridor(
         As :func:`energy_planner.planning.plan.plan`.
     band : int, optional
         Band of a multi-band DEM.
-    cap : int, optional
-        Memory cap in bytes (default :func:`energy_planner.terrain.memory_cap`); windows
-        hold at most ``cap / PLAN_BYTES_PER_CELL`` cells.
+    cap : int, DEFAULT_CAP or NO_CAP
+        Memory cap (:func:`~energy_planner.terrain.memory.resolve_cap`; default
+        :func:`energy_planner.terrain.memory_cap`); windows hold at most
+        ``cap / PLAN_BYTES_PER_CELL`` cells.
     progress : bool
         Progress bars and the corridor's steps on stderr.
     margin : float
@@ -494,7 +601,6 @@ def plan_in_corridor(
     PlanningError
         No path in the largest window that fits the cap.
     """
-    from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import _pose, plan
     from energy_planner.request import Request
     from energy_planner.terrain import load_dem
@@ -509,93 +615,50 @@ def plan_in_corridor(
     s, g = _pose(start, "start"), _pose(goal, "goal")
     for which, p in (("start", s), ("goal", g)):
         _check_inside(info, which, p[0], p[1])
-    rows, cols = info.shape
     log(
-        f"DEM {rows} x {cols} cells needs ~{format_bytes(rows * cols * PLAN_BYTES_PER_CELL)} "
+        f"DEM {info.shape[0]} x {info.shape[1]} cells needs "
+        f"~{format_bytes(info.shape[0] * info.shape[1] * PLAN_BYTES_PER_CELL)} "
         f"to plan whole, above the memory cap {format_bytes(cap or 0)}: planning in windows "
         f"of at most {max_cells} cells"
     )
     n_headings = int(plan_kwargs.get("n_headings", 16))
     moves = str(plan_kwargs.get("moves", "all"))
-    pad = PAD_CELLS * info.cell
-    sg = (min(s[0], g[0]), min(s[1], g[1]), max(s[0], g[0]), max(s[1], g[1]))
-    must = _grow(sg, pad)
-    if info.cells(must) > max_cells:
-        raise _too_large(
-            info, "the box of the start and the goal", info.cells(must), max_cells, cap,
-            "plan through intermediate goals (each leg's box must fit), a coarser DEM "
-            "(gdalwarp -tr XRES YRES -r average), or raise ENERGY_PLANNER_MEMORY_CAP",
-        )  # fmt: skip
-    dist = math.hypot(g[0] - s[0], g[1] - s[1])
-    window = _fit_cap(info, _grow(sg, max(margin * dist, 32 * info.cell)), must, max_cells)
+    must, window = _first_window(info, s, g, margin, max_cells, cap)
     windows: list[dict[str, Any]] = []
-    best = None
-    best_terrain = None
-    c_min = None
-    gbox = None
+    best = best_terrain = c_min = gbox = ell = None
     proven = False
     length_bound = math.inf
-    ell = None
     for attempt in range(4):
         t0 = time.perf_counter()
         terrain = load_dem(info.path, band=info.band, bounds=window)
         kw = dict(plan_kwargs)
-        if c_min is None:
-            cost, _ = make_motion_cost(terrain, model, request)
-            kw["cost"] = cost  # this window's cost: plan() need not build it again
-            cost.compile()
-            c_min, gbox = _bound(cost, info, n_headings, moves, log, progress)
-            log(f"least energy per metre anywhere on the DEM: c_min = {c_min:.2f} J/m")
+        if c_min is None:  # this window's cost: plan() need not build it again
+            kw["cost"], c_min, gbox = _cost_and_bound(
+                terrain, model, request, info, n_headings, moves, log, progress
+            )
         log(
             f"window {attempt + 1}: x {window[0]:.1f}..{window[2]:.1f}, "
             f"y {window[1]:.1f}..{window[3]:.1f} ({terrain.shape[0]} x {terrain.shape[1]} cells)"
         )
         rec: dict[str, Any] = {"bounds": list(window), "shape": list(terrain.shape)}
         if budget is not None:
-            left = budget - (time.perf_counter() - t_start)
-            if left <= 0:
-                if best is None:
-                    raise PlanningError(
-                        f"the planning time budget ({budget:g} s) ran out before the first "
-                        "window was planned; give more --time",
-                        limit="time",
-                    )
+            kw["time"] = _time_left(budget, t_start, best is not None)
+            if kw["time"] <= 0:
                 log("the time budget ran out: keeping the last window's path")
                 break
-            kw["time"] = left
         try:
             res = plan(terrain, model, start, goal, request, progress=progress, **kw)
         except PlanningError as exc:
-            if getattr(exc, "limit", None) == "time" and best is not None:
-                log("the time budget ran out in this window: keeping the last window's path")
+            if _keep_last_path(exc, best is not None, log):
                 break
-            if getattr(exc, "limit", None) not in ("unreachable",) or isinstance(
-                exc, InvalidStateError
-            ):
-                raise
-            rec["energy_j"] = None
-            rec["seconds"] = time.perf_counter() - t0
+            rec.update(energy_j=None, seconds=time.perf_counter() - t0)
             windows.append(rec)
             if best is not None:
                 break
-            whole = info.snap(info.bounds)
-            if tuple(window) == tuple(whole):
-                raise
-            bigger = _fit_cap(
-                info, _grow(window, max(window[2] - window[0], window[3] - window[1])),
-                must, max_cells,
-            )  # fmt: skip
-            if bigger is None or info.cells(bigger) <= info.cells(window):
-                raise PlanningError(
-                    f"{exc} (in the largest window that fits the memory cap, "
-                    f"{info.cells(window)} cells; the whole DEM was not searched)",
-                    limit="unreachable",
-                ) from exc
+            window = _widen_unreachable(info, window, must, max_cells, exc)
             log("no path in this window: widening it")
-            window = bigger
             continue
-        rec["energy_j"] = res.energy_j
-        rec["seconds"] = time.perf_counter() - t0
+        rec.update(energy_j=res.energy_j, seconds=time.perf_counter() - t0)
         windows.append(rec)
         if best is None or res.energy_j < best.energy_j:
             best, best_terrain = res, terrain
@@ -611,24 +674,11 @@ def plan_in_corridor(
                 f"{length_bound:.0f} m and lies in the window"
             )
             break
-        need = info.snap(_grow(ell, pad + info.cell))
-        if info.cells(need) <= max_cells:
-            if attempt > 0 and tuple(need) == tuple(window):
-                break
-            log(
-                f"paths under {best.energy_j:.0f} J may reach {length_bound:.0f} m: widening "
-                "the window to their ellipse"
-            )
-            window = need
-            continue
-        bigger = _fit_cap(info, need, must, max_cells)
-        if bigger is None or info.cells(bigger) <= info.cells(window) or attempt > 0:
-            break
-        log(
-            f"the ellipse of paths under {best.energy_j:.0f} J needs {info.cells(need)} cells, "
-            "above the cap: planning once more in the largest window that fits"
+        window = _widen_to_ellipse(
+            info, ell, window, must, max_cells, attempt, best.energy_j, length_bound, log
         )
-        window = bigger
+        if window is None:
+            break
     if best is None:
         raise PlanningError(
             f"no feasible path from the start to the goal in {len(windows)} windows of DEM "
@@ -636,7 +686,6 @@ def plan_in_corridor(
             "cells); relax the limits or raise the memory cap",
             limit="unreachable",
         )
-    share = None
     if not proven and ell is not None:
         share = info.cells(windows[-1]["bounds"]) / max(info.cells(ell), 1)
         log(
@@ -644,18 +693,12 @@ def plan_in_corridor(
             f"{min(share, 1.0):.0%} of the box of paths under {best.energy_j:.0f} J)"
         )
     best.info["corridor"] = {
-        "dem_shape": list(info.shape),
-        "cap_bytes": cap,
-        "max_window_cells": max_cells,
-        "bytes_per_cell": PLAN_BYTES_PER_CELL,
-        "c_min_j_per_m": c_min,
-        "gradient_box": gbox,
+        "dem_shape": list(info.shape), "cap_bytes": cap, "max_window_cells": max_cells,
+        "bytes_per_cell": PLAN_BYTES_PER_CELL, "c_min_j_per_m": c_min, "gradient_box": gbox,
         "length_bound_m": length_bound if math.isfinite(length_bound) else None,
         "ellipse_bounds": list(ell) if ell is not None else None,
-        "windows": windows,
-        "proven": proven,
-        "log": log.lines,
-    }
+        "windows": windows, "proven": proven, "log": log.lines,
+    }  # fmt: skip
     return best, best_terrain
 
 
@@ -667,7 +710,7 @@ def reach_in_window(
     request=None,
     *,
     band: int | None = None,
-    cap: int | None = None,
+    cap: Cap = DEFAULT_CAP,
     round_trip: bool = False,
     progress: bool = False,
     **reach_kwargs: Any,

@@ -1,9 +1,13 @@
-"""Reference planner: Dijkstra on a fully built state lattice over (x, y, heading).
+"""The lattice planner: Dijkstra on a fully built state lattice over (x, y, heading).
 
-Kept for reference and benchmarks; the default planner is the full-resolution search of
+``plan(..., planner="lattice")`` and the benchmarks use it as the resolution-optimal
+reference; the default planner is the full-resolution search of
 :mod:`energy_planner.planning.search`, which has the same motion primitives and edge costs
 but prices edges on demand instead of building the graph (so at equal ``step`` both find
-the same optimum).
+the same optimum). The primitives themselves (positions, headings, move sets) live in
+:mod:`energy_planner.planning.moves`; :func:`lattice_graph` builds the graph that
+:func:`lattice_plan` searches and that reach searches forwards and backwards
+(:mod:`energy_planner.planning.reach`).
 
 The lattice places positions on a square grid (spacing ``step`` metres, aligned so that
 the start lies exactly on a node) and ``n_headings`` evenly spaced headings at each
@@ -35,30 +39,34 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
+from energy_planner.planning.moves import (
+    MOVES_16,
+    check_headings,
+    check_moves,
+    exact_ends,
+    lattice_geometry,
+    lattice_headings,
+    move_table,
+    terrain_extent,
+)
 
 __all__ = [
+    "LatticeGraph",
     "LatticeResult",
     "MOVES_16",
     "default_step",
+    "lattice_graph",
     "lattice_headings",
     "lattice_geometry",
     "lattice_plan",
     "simplify_states",
 ]
-
-#: The 16 neighbour displacements (in lattice steps), counter-clockwise from +x.
-MOVES_16: np.ndarray = np.array(
-    [
-        (1, 0), (2, 1), (1, 1), (1, 2), (0, 1), (-1, 2), (-1, 1), (-2, 1),
-        (-1, 0), (-2, -1), (-1, -1), (-1, -2), (0, -1), (1, -2), (1, -1), (2, -1),
-    ],
-    dtype=np.int64,
-)  # fmt: skip
 
 #: Edge weight given to turns in place with ``metric="distance"`` (per radian), so that a
 #: shortest path does not spin for nothing while turning stays possible.
@@ -102,15 +110,6 @@ class LatticeResult:
     info: dict = field(default_factory=dict)
 
 
-def _terrain_extent(terrain) -> tuple[float, float, float, float]:
-    """(xmin, xmax, ymin, ymax) of the terrain's cell centres in the working CRS."""
-    x0, y0, dx, dy = terrain.grid
-    rows, cols = np.shape(terrain.elevation)
-    xs = (x0, x0 + (cols - 1) * dx)
-    ys = (y0, y0 + (rows - 1) * dy)
-    return min(xs), max(xs), min(ys), max(ys)
-
-
 def default_step(terrain, max_positions: int = 20_000) -> float:
     """The DEM cell size, coarsened so the lattice has at most ``max_positions`` positions.
 
@@ -127,74 +126,10 @@ def default_step(terrain, max_positions: int = 20_000) -> float:
         Spacing in metres.
     """
     x0, y0, dx, dy = terrain.grid
-    xmin, xmax, ymin, ymax = _terrain_extent(terrain)
+    xmin, xmax, ymin, ymax = terrain_extent(terrain)
     step = max(abs(dx), abs(dy))
     area = max(xmax - xmin, step) * max(ymax - ymin, step)
     return max(step, math.sqrt(area / max_positions))
-
-
-def lattice_geometry(terrain, start_xy: tuple[float, float], step: float):
-    """Lattice positions covering the terrain, aligned so that ``start_xy`` is a node.
-
-    Returns
-    -------
-    xs, ys : ndarray
-        The lattice's x (columns) and y (rows) coordinates, increasing.
-    """
-    xmin, xmax, ymin, ymax = _terrain_extent(terrain)
-    sx, sy = start_xy
-    i0 = math.floor((sx - xmin) / step + 1e-9)
-    j0 = math.floor((sy - ymin) / step + 1e-9)
-    i1 = math.floor((xmax - sx) / step + 1e-9)
-    j1 = math.floor((ymax - sy) / step + 1e-9)
-    xs = sx + step * np.arange(-i0, i1 + 1)
-    ys = sy + step * np.arange(-j0, j1 + 1)
-    return xs, ys
-
-
-def lattice_headings(n_headings: int) -> np.ndarray:
-    """The lattice's headings, radians in [0, 2 pi).
-
-    With 16 headings they are the directions of :data:`MOVES_16` (0, 26.6, 45, 63.4,
-    90 deg, ...), so that every heading has a move straight ahead, behind and to
-    either side; otherwise they are evenly spaced.
-
-    Examples
-    --------
-    >>> np.round(np.degrees(lattice_headings(16)[:5]), 1).tolist()
-    [0.0, 26.6, 45.0, 63.4, 90.0]
-    >>> np.degrees(lattice_headings(8)).tolist()
-    [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0]
-    """
-    if n_headings == len(MOVES_16):
-        return np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0]) % (2 * np.pi)
-    return 2 * np.pi * np.arange(n_headings) / n_headings
-
-
-def _move_table(headings: np.ndarray, moves: str) -> np.ndarray:
-    """Boolean (heading, move) table of the translations allowed at each heading.
-
-    Examples
-    --------
-    >>> t = _move_table(lattice_headings(16), "axes")
-    >>> t.sum(axis=1).tolist() == [4] * 16
-    True
-    >>> [tuple(MOVES_16[m].tolist()) for m in np.nonzero(t[1])[0]]
-    [(2, 1), (-1, 2), (-2, -1), (1, -2)]
-    >>> _move_table(lattice_headings(16), "crab").sum(axis=1).tolist() == [8] * 16
-    True
-    """
-    n_headings = len(headings)
-    if moves == "all":
-        return np.ones((n_headings, len(MOVES_16)), dtype=bool)
-    ang = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
-    table = np.zeros((n_headings, len(MOVES_16)), dtype=bool)
-    n_dirs = 8 if moves == "crab" else 4
-    for h in range(n_headings):
-        for k in range(n_dirs):
-            axis = headings[h] + k * 2 * np.pi / n_dirs
-            table[h, int(np.argmin(np.abs(wrap(ang - axis))))] = True
-    return table
 
 
 def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
@@ -227,6 +162,213 @@ def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
             keep.append(k)
     keep.append(len(states) - 1)
     return states[keep]
+
+
+@dataclass
+class LatticeGraph:
+    """The state lattice over ``(position, heading)`` as a weighted directed graph.
+
+    Attributes
+    ----------
+    graph : scipy.sparse.csr_matrix, shape (n_nodes, n_nodes)
+        Node ``p * n_headings + h`` is position ``p`` (row-major over ``ys``, ``xs``) at
+        heading ``h``; every edge ``u -> v`` is weighted in its own direction.
+    xs, ys : ndarray
+        Lattice x (columns) and y (rows) coordinates, increasing.
+    headings : ndarray
+        :func:`lattice_headings` of ``n_headings``.
+    valid : ndarray of bool, shape (n_positions, n_headings)
+        The poses that break no limit.
+    step : float
+        Lattice spacing, m.
+    """
+
+    graph: Any
+    xs: np.ndarray
+    ys: np.ndarray
+    headings: np.ndarray
+    valid: np.ndarray
+    step: float
+
+    @property
+    def n_headings(self) -> int:
+        """Headings per position."""
+        return len(self.headings)
+
+    @property
+    def n_nodes(self) -> int:
+        """Positions x headings."""
+        return len(self.xs) * len(self.ys) * self.n_headings
+
+    def position(self, p) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, y)`` of position index (or indices) ``p``."""
+        j, i = np.divmod(p, len(self.xs))
+        return self.xs[i], self.ys[j]
+
+
+def _valid_poses(cost, px, py, headings) -> np.ndarray:
+    """(position, heading) table of the poses that break no limit.
+
+    A zero-length motion is finite iff its pose is valid.
+    """
+    valid = np.zeros((px.size, len(headings)), dtype=bool)
+    for h, heading in enumerate(headings):
+        th = np.full(px.size, heading)
+        valid[:, h] = np.isfinite(cost.batch(px, py, th, px, py, th))
+    return valid
+
+
+def _translation_edges(cost, xs, ys, headings, valid, moves, metric, step):
+    """Edges ``(src, dst, weight)`` of the translations at constant heading."""
+    nx, ny, H = len(xs), len(ys), len(headings)
+    jj, ii = np.divmod(np.arange(nx * ny), nx)
+    px, py = xs[ii], ys[jj]
+    move_ok = move_table(headings, moves)
+    for mi, (di, dj) in enumerate(MOVES_16):
+        ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
+        p_src = np.nonzero(ok_pos)[0]
+        p_dst = p_src + dj * nx + di
+        for h in np.nonzero(move_ok[:, mi])[0]:
+            m = valid[p_src, h] & valid[p_dst, h]
+            a, b = p_src[m], p_dst[m]
+            if a.size == 0:
+                continue
+            th = np.full(a.size, headings[h])
+            w = cost.batch(px[a], py[a], th, px[b], py[b], th)
+            f = np.isfinite(w)
+            a, b, w = a[f], b[f], w[f]
+            if metric == "distance":
+                w = np.full(a.size, step * math.hypot(di, dj))
+            yield a * H + h, b * H + h, w
+
+
+def _turn_edges(cost, px, py, headings, valid, metric):
+    """Edges ``(src, dst, weight)`` of the turns in place to the neighbouring headings."""
+    H = len(headings)
+    for h in range(H):
+        for dh in (-1, 1):
+            h2 = (h + dh) % H
+            a = np.nonzero(valid[:, h] & valid[:, h2])[0]
+            if a.size == 0:
+                continue
+            th0, th1 = np.full(a.size, headings[h]), np.full(a.size, headings[h2])
+            w = cost.batch(px[a], py[a], th0, px[a], py[a], th1)
+            f = np.isfinite(w)
+            a, w = a[f], w[f]
+            if metric == "distance":
+                w = np.full(a.size, _TURN_EPS * abs(wrap(headings[h2] - headings[h])))
+            yield a * H + h, a * H + h2, w
+
+
+def lattice_graph(
+    cost,
+    terrain,
+    start_xy: tuple[float, float],
+    step: float,
+    n_headings: int = 16,
+    moves: str = "axes",
+    metric: str = "energy",
+) -> LatticeGraph:
+    """Build the state lattice's graph: every edge priced by ``cost.batch``.
+
+    Parameters
+    ----------
+    cost : MotionCost
+        Motion cost; an infinite cost drops the edge.
+    terrain : Terrain
+        The map; the lattice covers its extent.
+    start_xy : (float, float)
+        A node of the lattice (working CRS).
+    step : float
+        Lattice spacing, m.
+    n_headings : int
+        Headings per position.
+    moves : {"axes", "crab", "all"}
+        The move set (:data:`~energy_planner.planning.moves.MOVE_SETS`).
+    metric : {"energy", "distance"}
+        Edge weight: the motion's energy, or its horizontal length (turns in place weigh
+        a tiny :data:`_TURN_EPS` per radian) on the same feasible edges.
+
+    Returns
+    -------
+    LatticeGraph
+    """
+    from scipy.sparse import csr_matrix
+
+    xs, ys = lattice_geometry(terrain, start_xy, step)
+    headings = lattice_headings(int(n_headings))
+    jj, ii = np.divmod(np.arange(len(xs) * len(ys)), len(xs))
+    px, py = xs[ii], ys[jj]
+    valid = _valid_poses(cost, px, py, headings)
+    edges = [
+        *_translation_edges(cost, xs, ys, headings, valid, moves, metric, step),
+        *_turn_edges(cost, px, py, headings, valid, metric),
+    ]
+    n = px.size * len(headings)
+    if edges:
+        src, dst, w = (np.concatenate(parts) for parts in zip(*edges, strict=True))
+    else:
+        src, dst, w = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    graph = csr_matrix((np.maximum(w, _MIN_W), (src, dst)), shape=(n, n))
+    return LatticeGraph(graph, xs, ys, headings, valid, float(step))
+
+
+def _check_options(metric: str, moves: str, n_headings: int) -> None:
+    """:class:`PlanningConfigError` for a metric, move set or heading count not offered."""
+    if metric not in ("energy", "distance"):
+        raise PlanningConfigError(
+            f"metric {metric!r} is not one of 'energy', 'distance'", value=metric, param="metric"
+        )
+    check_moves(moves)
+    check_headings(n_headings)
+
+
+def _endpoint_nodes(lat: LatticeGraph, x: float, y: float, yaw, which: str) -> np.ndarray:
+    """Graph nodes of endpoint ``which`` at the heading nearest ``yaw`` (None: every one).
+
+    Raises
+    ------
+    InvalidStateError
+        Outside the lattice, or no valid heading there.
+    """
+    xs, ys, step = lat.xs, lat.ys, lat.step
+    nx, ny = len(xs), len(ys)
+    i = int(round((x - xs[0]) / step))
+    j = int(round((y - ys[0]) / step))
+    if not (0 <= i < nx and 0 <= j < ny):
+        raise InvalidStateError(
+            f"{which} ({x:.2f}, {y:.2f}) is outside the map (lattice x {xs[0]:.2f}.."
+            f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)",
+            endpoint=which,
+            limit="map",
+            value=(x, y),
+        )
+    p = j * nx + i
+    if yaw is None:
+        hs = np.nonzero(lat.valid[p])[0]
+    else:
+        hs = np.array([int(np.argmin(np.abs(wrap(lat.headings - float(yaw)))))])
+        hs = hs[lat.valid[p, hs]]
+    if hs.size == 0:
+        raise InvalidStateError(
+            f"{which} lattice node ({xs[i]:.2f}, {ys[j]:.2f}) breaks a limit at "
+            f"{'every heading' if yaw is None else 'the requested heading'} "
+            f"(lattice step {step:.2f} m)"
+        )
+    return p * lat.n_headings + hs
+
+
+def _node_chain(pred: np.ndarray, best: int, sources: np.ndarray) -> np.ndarray:
+    """The nodes from a source to ``best``, following Dijkstra's predecessors."""
+    chain = [int(best)]
+    starts = set(sources.tolist())
+    while chain[-1] not in starts:
+        prev = int(pred[chain[-1]])
+        if prev < 0:
+            break
+        chain.append(prev)
+    chain.reverse()
+    return np.array(chain)
 
 
 def lattice_plan(
@@ -276,164 +418,38 @@ def lattice_plan(
     PlanningError
         If the goal cannot be reached on the lattice.
     """
-    from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import dijkstra
 
-    if metric not in ("energy", "distance"):
-        raise PlanningConfigError(
-            f"metric {metric!r} is not one of 'energy', 'distance'", value=metric, param="metric"
-        )
-    if moves not in ("axes", "crab", "all"):
-        raise PlanningConfigError(
-            f"moves {moves!r} is not one of 'axes', 'crab', 'all'", value=moves, param="moves"
-        )
-    if n_headings < 4:
-        raise PlanningConfigError(
-            f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
-            value=n_headings,
-            param="n_headings",
-        )
+    _check_options(metric, moves, n_headings)
     t0 = time.perf_counter()
     step = float(step) if step is not None else default_step(terrain)
-    xs, ys = lattice_geometry(terrain, (start[0], start[1]), step)
-    nx, ny = len(xs), len(ys)
-    H = int(n_headings)
-    headings = lattice_headings(H)
-    P = nx * ny
-    jj, ii = np.divmod(np.arange(P), nx)
-    px, py = xs[ii], ys[jj]
-
-    # pose validity per (position, heading): a zero-length motion is finite iff valid
-    valid = np.zeros((P, H), dtype=bool)
-    for h in range(H):
-        th = np.full(P, headings[h])
-        valid[:, h] = np.isfinite(cost.batch(px, py, th, px, py, th))
-
-    srcs: list[np.ndarray] = []
-    dsts: list[np.ndarray] = []
-    ws: list[np.ndarray] = []
-    # translations at constant heading
-    move_ok = _move_table(headings, moves)
-    for mi, (di, dj) in enumerate(MOVES_16):
-        ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
-        p_src = np.nonzero(ok_pos)[0]
-        p_dst = p_src + dj * nx + di
-        length = step * math.hypot(di, dj)
-        for h in np.nonzero(move_ok[:, mi])[0]:
-            m = valid[p_src, h] & valid[p_dst, h]
-            a, b = p_src[m], p_dst[m]
-            if a.size == 0:
-                continue
-            th = np.full(a.size, headings[h])
-            w = cost.batch(px[a], py[a], th, px[b], py[b], th)
-            f = np.isfinite(w)
-            a, b, w = a[f], b[f], w[f]
-            if metric == "distance":
-                w = np.full(a.size, length)
-            srcs.append(a * H + h)
-            dsts.append(b * H + h)
-            ws.append(w)
-    # turns in place to the neighbouring headings
-    for h in range(H):
-        for dh in (-1, 1):
-            h2 = (h + dh) % H
-            m = valid[:, h] & valid[:, h2]
-            a = np.nonzero(m)[0]
-            if a.size == 0:
-                continue
-            w = cost.batch(
-                px[a],
-                py[a],
-                np.full(a.size, headings[h]),
-                px[a],
-                py[a],
-                np.full(a.size, headings[h2]),
-            )
-            f = np.isfinite(w)
-            a, w = a[f], w[f]
-            if metric == "distance":
-                w = np.full(a.size, _TURN_EPS * abs(wrap(headings[h2] - headings[h])))
-            srcs.append(a * H + h)
-            dsts.append(a * H + h2)
-            ws.append(w)
-    N = P * H
-    src = np.concatenate(srcs) if srcs else np.zeros(0, np.int64)
-    dst = np.concatenate(dsts) if dsts else np.zeros(0, np.int64)
-    w = np.maximum(np.concatenate(ws), _MIN_W) if ws else np.zeros(0)
-    graph = csr_matrix((w, (src, dst)), shape=(N, N))
-    del srcs, dsts, ws, src, dst, w
+    lat = lattice_graph(cost, terrain, (start[0], start[1]), step, int(n_headings), moves, metric)
     t1 = time.perf_counter()
-
-    def node_index(x, y, yaw, which):
-        i = int(round((x - xs[0]) / step))
-        j = int(round((y - ys[0]) / step))
-        if not (0 <= i < nx and 0 <= j < ny):
-            raise InvalidStateError(
-                f"{which} ({x:.2f}, {y:.2f}) is outside the map (lattice x {xs[0]:.2f}.."
-                f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)",
-                endpoint=which,
-                limit="map",
-                value=(x, y),
-            )
-        p = j * nx + i
-        if yaw is None:
-            hs = np.nonzero(valid[p])[0]
-        else:
-            hs = np.array([int(np.argmin(np.abs(wrap(headings - float(yaw)))))])
-            hs = hs[valid[p, hs]]
-        if hs.size == 0:
-            raise InvalidStateError(
-                f"{which} lattice node ({px[p]:.2f}, {py[p]:.2f}) breaks a limit at "
-                f"{'every heading' if yaw is None else 'the requested heading'} "
-                f"(lattice step {step:.2f} m)"
-            )
-        return p, hs
-
-    ps, hs_start = node_index(start[0], start[1], start[2], "start")
-    pg, hs_goal = node_index(goal[0], goal[1], goal[2], "goal")
-    sources = ps * H + hs_start
+    sources = _endpoint_nodes(lat, start[0], start[1], start[2], "start")
+    goals = _endpoint_nodes(lat, goal[0], goal[1], goal[2], "goal")
     dist, pred, _src = dijkstra(
-        graph, directed=True, indices=sources, return_predecessors=True, min_only=True
+        lat.graph, directed=True, indices=sources, return_predecessors=True, min_only=True
     )
-    goals = pg * H + hs_goal
     best = goals[int(np.argmin(dist[goals]))]
     if not np.isfinite(dist[best]):
         raise PlanningError(
             f"no feasible path from start ({start[0]:.2f}, {start[1]:.2f}) to goal "
-            f"({goal[0]:.2f}, {goal[1]:.2f}) on the lattice (step {step:.2f} m, {H} headings) "
-            "under the given limits; relax the slope limits or keep-out areas"
+            f"({goal[0]:.2f}, {goal[1]:.2f}) on the lattice (step {step:.2f} m, "
+            f"{lat.n_headings} headings) under the given limits; relax the slope limits or "
+            "keep-out areas"
         )
-    chain = [int(best)]
-    while chain[-1] not in set(sources.tolist()):
-        prev = int(pred[chain[-1]])
-        if prev < 0:
-            break
-        chain.append(prev)
-    chain.reverse()
-    nodes = np.array(chain)
-    p_of, h_of = np.divmod(nodes, H)
-    states = np.column_stack([px[p_of], py[p_of], wrap(headings[h_of])])
-    # exact start and goal poses around the lattice part
-    first = states[0]
-    if start[2] is not None and abs(wrap(float(start[2]) - first[2])) > 1e-12:
-        states = np.vstack([[start[0], start[1], float(wrap(start[2]))], states])
-    last = states[-1]
-    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
-    if (
-        abs(goal[0] - last[0]) > 1e-9
-        or abs(goal[1] - last[1]) > 1e-9
-        or abs(gyaw - last[2]) > 1e-12
-    ):
-        states = np.vstack([states, [goal[0], goal[1], gyaw]])
+    p_of, h_of = np.divmod(_node_chain(pred, best, sources), lat.n_headings)
+    states = np.column_stack([*lat.position(p_of), wrap(lat.headings[h_of])])
+    states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     return LatticeResult(
         states=simplify_states(states),
         cost=float(dist[best]),
         metric=metric,
         step=step,
-        n_headings=H,
-        n_nodes=N,
-        n_edges=int(graph.nnz),
+        n_headings=lat.n_headings,
+        n_nodes=lat.n_nodes,
+        n_edges=int(lat.graph.nnz),
         build_s=t1 - t0,
         search_s=t2 - t1,
     )

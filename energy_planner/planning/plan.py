@@ -206,8 +206,15 @@ def _seed_ompl(seed: int) -> None:
 #: objective. ``False`` gives OMPL's defaults (for the before/after benchmark).
 OMPL_TUNING = True
 
+#: Hand BIT* the search's 2-D relaxed cost-to-go
+#: (:class:`~energy_planner.planning.objective.CostToGo`, through
+#: ``motionCostHeuristic(s, goal)``, with which BIT* orders and prunes its edges; RRT*
+#: and SORRT* never ask for a cost-to-go that way). ``False`` gives the distance bound
+#: alone (for the before/after benchmark).
+OMPL_COST_TO_GO = True
 
-def _ompl_setup(cost, terrain):
+
+def _ompl_setup(cost, terrain, cost_to_go=None):
     from ompl import base as ob
     from ompl import geometric as og
 
@@ -216,7 +223,7 @@ def _ompl_setup(cost, terrain):
     space = make_space(terrain)
     ss = og.SimpleSetup(space)
     si = ss.getSpaceInformation()
-    obj = EnergyObjective(si, cost)
+    obj = EnergyObjective(si, cost, cost_to_go)
     # poses that break a limit are invalid, so the tree does not grow into them (a
     # Python checker, about 1 us per pose; motions are still priced - and limited - by
     # the kernel, whose sub-steps are finer than the 2% checking resolution)
@@ -244,6 +251,7 @@ def _ompl_setup(cost, terrain):
             def checkMotion(self, s1, s2, *rest):  # noqa: N802 - OMPL's name
                 key = (s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
                 e = kernel(*key)
+                obj.priced += 1
                 if len(cache) > 200_000:
                     cache.clear()
                 cache[key] = e
@@ -292,6 +300,7 @@ def _run_ompl(
     seed: int,
     iterations: int | None,
     progress: _Progress,
+    ctg=None,
 ) -> tuple[np.ndarray, dict]:
     """Run an OMPL planner in chunks, reporting the best energy after each chunk."""
     from ompl import base as ob
@@ -300,7 +309,7 @@ def _run_ompl(
     from energy_planner.planning.objective import path_cost, path_states, set_state
 
     _seed_ompl(seed)
-    space, ss, si, obj = _ompl_setup(cost, terrain)
+    space, ss, si, obj = _ompl_setup(cost, terrain, ctg)
     start_yaws = [start[2]] if start[2] is not None else list(np.linspace(-np.pi, np.pi, 8, False))
     for yaw in start_yaws:
         s = space.allocState()
@@ -355,7 +364,9 @@ def _run_ompl(
         progress.report(best)
         if finished:
             break
-    info = {"motion_cost_calls": obj.calls}
+    info = {"motion_cost_calls": obj.calls, "motions_priced": obj.priced}
+    if ctg is not None:
+        info["cost_to_go"] = {"build_s": ctg.build_s, "h_start_j": ctg(start[0], start[1])}
     try:
         info["iterations"] = int(pl.numIterations())
     except AttributeError:
@@ -474,7 +485,8 @@ def plan(
         relaxed problem and search (a :class:`PlanningError` when they do not finish in
         time) and then ``auto``'s refinement, which gets what is left. Default: no limit
         for the search, and up to a quarter of the search's time (at least 1 s, at most
-        10 s) for the refinement. OMPL planners run for ``time`` (default 10 s). The
+        10 s) for the refinement. OMPL planners run for ``time`` (default 10 s); BIT*'s
+        cost-to-go (:data:`OMPL_COST_TO_GO`) is built before that clock starts. The
         ``lattice`` planner is not interruptible: ``time`` does not bound it.
     seed : int
         Random seed (refinement, OMPL's RNG).
@@ -564,6 +576,12 @@ def plan(
         from energy_planner.planning.search import search_module
 
         search_module(cost)
+    ctg = None
+    if planner == "bitstar" and OMPL_COST_TO_GO:
+        from energy_planner.planning.objective import CostToGo
+
+        # prepared before the clock starts, like the kernels (its time is in the info)
+        ctg = CostToGo(cost, terrain, goal_p[:2])
     budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
     prog = _Progress(
         budget if math.isfinite(budget) else 0.0,
@@ -632,7 +650,7 @@ def plan(
             prog.report(path_cost(_cost_fn(cost), states))
         else:
             states, oinfo = _run_ompl(
-                cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog
+                cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog, ctg
             )
             info.update(oinfo)
     finally:

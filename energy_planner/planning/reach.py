@@ -54,69 +54,6 @@ __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 NODATA = float("nan")  # the project's one raster nodata (energy_planner.io)
 
 
-def _graph(
-    cost, terrain, start_xy: tuple[float, float], step: float, n_headings: int,
-    moves: str = "all",
-):  # fmt: skip
-    """The lattice graph of :func:`energy_planner.planning.lattice.lattice_plan`.
-
-    Energy metric, with the search's move set ``moves``
-    (:data:`energy_planner.planning.search.MOVE_SETS`): CSR matrix over
-    ``position * H + heading``; every edge priced by the kernel in its own direction.
-    """
-    from scipy.sparse import csr_matrix
-
-    from energy_planner.planning.lattice import (
-        MOVES_16,
-        _move_table,
-        lattice_geometry,
-        lattice_headings,
-    )
-
-    xs, ys = lattice_geometry(terrain, start_xy, step)
-    nx, ny = len(xs), len(ys)
-    H = int(n_headings)
-    headings = lattice_headings(H)
-    P = nx * ny
-    jj, ii = np.divmod(np.arange(P), nx)
-    px, py = xs[ii], ys[jj]
-    valid = np.zeros((P, H), dtype=bool)
-    for h in range(H):
-        th = np.full(P, headings[h])
-        valid[:, h] = np.isfinite(cost.batch(px, py, th, px, py, th))
-    srcs, dsts, ws = [], [], []
-    move_ok = _move_table(headings, moves)
-    for mi, (di, dj) in enumerate(MOVES_16):
-        ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
-        p_src = np.nonzero(ok_pos)[0]
-        p_dst = p_src + dj * nx + di
-        for h in np.nonzero(move_ok[:, mi])[0]:
-            m = valid[p_src, h] & valid[p_dst, h]
-            a, b = p_src[m], p_dst[m]
-            th = np.full(a.size, headings[h])
-            w = cost.batch(px[a], py[a], th, px[b], py[b], th)
-            f = np.isfinite(w)
-            srcs.append(a[f] * H + h)
-            dsts.append(b[f] * H + h)
-            ws.append(w[f])
-    for h in range(H):
-        for dh in (-1, 1):
-            h2 = (h + dh) % H
-            a = np.nonzero(valid[:, h] & valid[:, h2])[0]
-            w = cost.batch(
-                px[a], py[a], np.full(a.size, headings[h]), px[a], py[a],
-                np.full(a.size, headings[h2]),
-            )  # fmt: skip
-            f = np.isfinite(w)
-            srcs.append(a[f] * H + h)
-            dsts.append(a[f] * H + h2)
-            ws.append(w[f])
-    N = P * H
-    w = np.maximum(np.concatenate(ws), 1e-12)
-    graph = csr_matrix((w, (np.concatenate(srcs), np.concatenate(dsts))), shape=(N, N))
-    return graph, xs, ys, valid
-
-
 def least_energy(
     cost,
     terrain,
@@ -161,7 +98,10 @@ def least_energy(
         return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
     from scipy.sparse.csgraph import dijkstra
 
-    graph, xs, ys, valid = _graph(cost, terrain, start_xy, step, n_headings, moves)
+    from energy_planner.planning.lattice import lattice_graph
+
+    lat = lattice_graph(cost, terrain, start_xy, step, n_headings, moves)
+    graph, xs, ys, valid = lat.graph, lat.xs, lat.ys, lat.valid
     H = int(n_headings)
     p0 = int(np.argmin(np.abs(ys - start_xy[1]))) * len(xs) + int(
         np.argmin(np.abs(xs - start_xy[0]))

@@ -48,6 +48,7 @@ import numpy as np
 
 from energy_planner.angles import wrap
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
+from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
 
 __all__ = [
     "SearchResult",
@@ -66,9 +67,6 @@ _IMPORT_LINE = (
 )
 #: Scale applied to every edge bound (covers the gradient table's spacing).
 BOUND_MARGIN = 0.99
-#: Translation sets per heading: the 4 neighbours closest to the body axes; 8 (also the
-#: obliques at 45 degrees to them: crab walking); all 16.
-MOVE_SETS = ("axes", "crab", "all")
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
 
@@ -189,25 +187,17 @@ class _Grid:
     """Lattice geometry, headings and primitives of one search."""
 
     def __init__(self, cost, terrain, start_xy, step, n_headings, moves):
-        from energy_planner.planning.lattice import (
+        from energy_planner.planning.moves import (
             MOVES_16,
-            _move_table,
+            check_headings,
+            check_moves,
             lattice_geometry,
             lattice_headings,
+            move_table,
         )
 
-        if moves not in MOVE_SETS:
-            raise PlanningConfigError(
-                f"moves {moves!r} is not one of {', '.join(map(repr, MOVE_SETS))}",
-                value=moves,
-                param="moves",
-            )
-        if int(n_headings) < 4:
-            raise PlanningConfigError(
-                f"n_headings={n_headings} is too small; use at least 4 (e.g. 16)",
-                value=n_headings,
-                param="n_headings",
-            )
+        check_moves(moves)
+        check_headings(n_headings)
         cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
         step = cell if step is None else float(step)
         if not (math.isfinite(step) and step > 0):
@@ -222,7 +212,7 @@ class _Grid:
         self.headings = np.ascontiguousarray(wrap(lattice_headings(self.H)), dtype=np.float64)
         self.moves = np.ascontiguousarray(MOVES_16, dtype=np.int64)
         self.move_len = np.hypot(self.moves[:, 0], self.moves[:, 1]).astype(np.float64)
-        self.move_ok = _move_table(lattice_headings(self.H), moves)
+        self.move_ok = move_table(lattice_headings(self.H), moves)
         k = int(self.move_ok.sum(axis=1).max())
         mo = np.full((self.H, k), -1, dtype=np.int64)
         for h in range(self.H):
@@ -274,7 +264,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
-    from energy_planner.planning.lattice import MOVES_16
+    from energy_planner.planning.moves import MOVES_16
 
     grad = cost.data[0]
     gx = grad[..., 0]
@@ -323,7 +313,7 @@ def gradient_table(
     from scipy.ndimage import minimum_filter
 
     from energy_planner.energy.heading import HeadingCost
-    from energy_planner.planning.lattice import MOVES_16
+    from energy_planner.planning.moves import MOVES_16
 
     heading = HeadingCost.of_motion_cost(cost)
     lo = np.asarray(lo, dtype=np.float64).copy()
@@ -614,7 +604,7 @@ def search_plan(
     p_of, h_of = np.divmod(chain, grid.H)
     j_of, i_of = np.divmod(p_of, grid.nx)
     states = np.column_stack([grid.xs[i_of], grid.ys[j_of], grid.headings[h_of]])
-    states = _exact_ends(states, start, goal)
+    states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     from energy_planner.planning.lattice import simplify_states
 
@@ -631,27 +621,6 @@ def search_plan(
         search_s=t2 - t1,
         info={"h_start": float(h2d[ps]), "positions": grid.P},
     )
-
-
-def _exact_ends(states: np.ndarray, start, goal) -> np.ndarray:
-    """Put the exact start and goal poses around the lattice part."""
-    first = states[0]
-    syaw = float(wrap(start[2])) if start[2] is not None else first[2]
-    if (
-        abs(start[0] - first[0]) > 1e-9
-        or abs(start[1] - first[1]) > 1e-9
-        or abs(float(wrap(syaw - first[2]))) > 1e-12
-    ):
-        states = np.vstack([[start[0], start[1], syaw], states])
-    last = states[-1]
-    gyaw = float(wrap(goal[2])) if goal[2] is not None else last[2]
-    if (
-        abs(goal[0] - last[0]) > 1e-9
-        or abs(goal[1] - last[1]) > 1e-9
-        or abs(float(wrap(gyaw - last[2]))) > 1e-12
-    ):
-        states = np.vstack([states, [goal[0], goal[1], gyaw]])
-    return states
 
 
 def reach_search(

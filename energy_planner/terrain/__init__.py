@@ -11,8 +11,9 @@ Conventions: x east, y north (metres); ``slope = atan(|grad z|)``; uphill azimut
 rasterio is imported only by :func:`load_dem` and CRS handling.
 """
 
-from energy_planner.terrain.dem import Terrain, load_dem, utm_epsg
+from energy_planner.terrain.dem import Terrain, utm_epsg
 from energy_planner.terrain.horn import aspect, gradient, hillshade, slope
+from energy_planner.terrain.load import load_dem
 from energy_planner.terrain.memory import MEMORY_CAP_ENV, check_memory, memory_cap
 from energy_planner.terrain.sample import TerrainSample
 

@@ -12,6 +12,11 @@ an optional unit (``8G``, ``512M``, ``1.5GiB``, ``2000000000``), a share of the
 machine's memory (``50%``), or ``off``. Default: 50 % of the physical memory (or of the
 cgroup limit, when lower).
 
+Every function that takes a cap (``cap=``, ``memory_cap=``, ``memory_cap_bytes=``) takes
+one value, read by :func:`resolve_cap`: a number of bytes, :data:`DEFAULT_CAP` (the cap
+above; ``None`` means the same) or :data:`NO_CAP` (no cap at all). Text (the variable,
+``--memory-cap``) is read by :func:`parse_cap`.
+
 Examples
 --------
 >>> import os
@@ -33,20 +38,23 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any
 
 from energy_planner.errors import DEMError, RasterTooLargeError
 
 __all__ = [
     "BYTES_PER_CELL",
+    "Cap",
+    "DEFAULT_CAP",
     "DEFAULT_MEMORY_SHARE",
     "LONLAT_BYTES_PER_CELL",
     "MEMORY_CAP_ENV",
+    "NO_CAP",
     "check_memory",
     "format_bytes",
     "memory_cap",
     "parse_cap",
     "parse_size",
+    "resolve_cap",
     "total_memory",
 ]
 
@@ -64,6 +72,25 @@ BYTES_PER_CELL = 64
 #: Measured peak of ``load_dem`` on a 3000 x 3000 float32 lon/lat DEM: 57 B per working
 #: cell (47 held; ``benchmarks/bench_terrain_lonlat.py``); slope and aspect add 16.
 LONLAT_BYTES_PER_CELL = 80
+
+
+class _CapChoice:
+    """A named cap that is not a number of bytes (:data:`DEFAULT_CAP`, :data:`NO_CAP`)."""
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+
+    def __repr__(self) -> str:
+        return self._name
+
+
+#: The default cap: :func:`memory_cap` (``ENERGY_PLANNER_MEMORY_CAP``, else a share of the
+#: memory). ``None`` given as a cap means the same.
+DEFAULT_CAP = _CapChoice("DEFAULT_CAP")
+#: No cap: any raster is read whole.
+NO_CAP = _CapChoice("NO_CAP")
+#: What a ``cap`` argument takes: bytes, :data:`DEFAULT_CAP` (or None) or :data:`NO_CAP`.
+Cap = int | _CapChoice | None
 
 _UNITS = {
     "": 1,
@@ -168,6 +195,28 @@ def memory_cap() -> int | None:
         ) from None
 
 
+def resolve_cap(cap: Cap = DEFAULT_CAP) -> float:
+    """The cap in bytes that ``cap`` stands for (``math.inf``: no cap).
+
+    Parameters
+    ----------
+    cap : int, DEFAULT_CAP, NO_CAP or None
+        Bytes; :data:`DEFAULT_CAP` or None: :func:`memory_cap` (which may be off);
+        :data:`NO_CAP`: no cap.
+
+    Examples
+    --------
+    >>> resolve_cap(2_000_000), resolve_cap(NO_CAP)
+    (2000000, inf)
+    """
+    if cap is NO_CAP:
+        return math.inf
+    if cap is DEFAULT_CAP or cap is None:
+        limit = memory_cap()
+        return math.inf if limit is None else limit
+    return int(cap)
+
+
 def format_bytes(n: float) -> str:
     """``"1.5 GiB"`` style size.
 
@@ -190,7 +239,7 @@ def check_memory(
     *,
     path: str | Path | None = None,
     hint: str | None = None,
-    cap: int | None | Any = ...,
+    cap: Cap = DEFAULT_CAP,
 ) -> None:
     """Raise :class:`RasterTooLargeError` if ``shape`` cells would pass the memory cap.
 
@@ -207,13 +256,13 @@ def check_memory(
     hint : str, optional
         The remedy; default: read a window, a coarser resolution, or the out-of-core
         ``energy-map --dask``.
-    cap : int or None, optional
-        Overrides :func:`memory_cap` (None = no cap).
+    cap : int, DEFAULT_CAP or NO_CAP, optional
+        The cap (:func:`resolve_cap`; default :func:`memory_cap`).
     """
-    limit = memory_cap() if cap is ... else cap
+    limit = resolve_cap(cap)
     rows, cols = (int(v) for v in shape)
     need = float(rows) * float(cols) * float(bytes_per_cell)
-    if limit is None or need <= limit:
+    if need <= limit:
         return
     if hint is None:
         k = max(2, math.ceil(math.sqrt(need / limit)))

@@ -139,7 +139,10 @@ def interval(energy_j: float, scores: np.ndarray, level: float = DEFAULT_LEVEL) 
         raise ValueError(f"level must be in (0, 1), not {level!r}")
     s = np.sort(np.asarray(scores, dtype=float))
     a = (1.0 - level) / 2.0
-    r_lo, r_hi = _conformal(s, a), _conformal(s, 1.0 - a)
+    # the lower bound is the order statistic floor((n + 1) a): a new score falls below the
+    # k-th smallest of n with probability k / (n + 1) (ceil would leave up to 1 / (n + 1)
+    # more outside on that side)
+    r_lo, r_hi = float(s[max(math.floor((s.size + 1) * a), 1) - 1]), _conformal(s, 1.0 - a)
     return EnergyInterval(float(energy_j), float(energy_j) / (1.0 + r_hi),
                           float(energy_j) / (1.0 + r_lo), float(level), int(s.size))  # fmt: skip
 

@@ -1,0 +1,250 @@
+"""Split-conformal calibration of the follower's remaining-energy interval.
+
+The model's held-out run errors (:func:`energy_planner.uncertainty.model_scores`) are the
+errors of a whole run's energy predicted before it starts. A follower's remaining energy
+is a different prediction: its error depends on how much of the path is left and on what
+the follower has seen (nothing unusual, a change of conditions it is following, a stretch
+where the DEM is wrong). This module measures those errors on simulated missions
+(seeds disjoint from any benchmark's) and keeps them as split-conformal scores
+``r = E_pred / E_true - 1`` per **group**: the follower's state (``steady``: no change
+detected; ``adapting``: a change detected, the coefficients follow the log; ``dem``: a
+slope finding was made) and the remaining share of the path (three bins). With ``n``
+exchangeable scores in a group, the interval :func:`energy_planner.uncertainty.interval`
+built on them covers a new error of the same group with probability at least the level,
+by construction (Mondrian split-conformal).
+
+Which checkpoints are scored: every one on a mission without an event, and on a mission
+with one, those after the follower has **picked the event up** (its first change detection
+or slope finding after the event's start). Before that no interval can hold a change it has
+not seen; those checkpoints are neither scored nor counted in the coverage.
+
+:func:`follow_simulated_mission` is the one implementation of "simulate a mission with an
+event and follow it" that the calibration and ``benchmarks/bench_follow.py`` share.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "RemainingScores",
+    "calibrate_remaining",
+    "follow_simulated_mission",
+    "mission_events",
+    "EVENT_NAMES",
+]
+
+#: The mid-mission events of the benchmark and the calibration.
+EVENT_NAMES = ("none", "payload", "mud", "dem_bias")
+
+#: Remaining-share bin edges of the scores.
+SHARE_EDGES = (0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0)
+
+#: The follower's states the scores are grouped by.
+STATES = ("steady", "adapting", "dem")
+
+
+def mission_events(name: str) -> tuple:
+    """The simulator's events of the named case (``none``, ``payload``, ``mud``, ``dem_bias``).
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the valid ones are listed).
+    """
+    from energy_planner.simulate.config import MissionEvent
+
+    table = {
+        "none": (),
+        "payload": (MissionEvent("payload", at=0.4, load_kg=15.0),),
+        "mud": (MissionEvent("mud", at=0.4),),
+        "dem_bias": (MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0),),
+    }
+    if name not in table:
+        raise ValueError(f"unknown event {name!r}; valid: {', '.join(table)}")
+    return table[name]
+
+
+@dataclass(frozen=True)
+class RemainingScores:
+    """Held-out errors ``E_pred / E_true - 1`` of the follower's remaining energy, by group.
+
+    Attributes
+    ----------
+    scores : dict
+        ``{state: [scores of share bin 0, bin 1, bin 2]}`` (``SHARE_EDGES``).
+    seeds : tuple of int
+        The simulated missions' seeds they come from.
+    """
+
+    scores: dict[str, list[list[float]]]
+    seeds: tuple[int, ...] = field(default=())
+
+    def for_group(self, state: str, share: float, level: float) -> np.ndarray:
+        """The scores of a group; if it holds too few for ``level``, its state's, then all.
+
+        A two-sided split-conformal interval at ``level`` needs ``n >= 2 / (1 - level) - 1``
+        scores to have finite bounds.
+        """
+        need = math.ceil(2.0 / (1.0 - level) - 1.0)
+        b = int(np.clip(np.searchsorted(SHARE_EDGES, share, side="right") - 1, 0, 2))
+        by_bin = self.scores.get(state, [[], [], []])
+        for cand in (by_bin[b], sum(by_bin, []), sum(sum(self.scores.values(), []), [])):
+            if len(cand) >= need:
+                return np.asarray(cand, dtype=float)
+        return np.asarray(sum(sum(self.scores.values(), []), []), dtype=float)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {"scores": self.scores, "seeds": list(self.seeds), "share_edges": SHARE_EDGES}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RemainingScores:
+        """Back from :meth:`to_dict`."""
+        return cls({k: [list(map(float, b)) for b in v] for k, v in d["scores"].items()},
+                   tuple(d.get("seeds", ())))  # fmt: skip
+
+
+def follow_simulated_mission(
+    seed: int,
+    event: str,
+    model: Any,
+    duration: float = 240.0,
+    rate: float = 20.0,
+    **options: Any,
+) -> dict[str, Any]:
+    """Simulate one mission with ``event`` and follow it (the plan is the walked path).
+
+    Parameters
+    ----------
+    seed : int
+        Simulator seed (the mission and its synthetic hill).
+    event : str
+        One of :data:`EVENT_NAMES`.
+    model : EnergyModel
+        The model the follower starts from.
+    duration, rate : float
+        Mission length (s) and log rate (Hz).
+    **options
+        Passed to :class:`~energy_planner.follow.Follower`.
+
+    Returns
+    -------
+    dict
+        ``follower``, ``updates``, ``t`` (update times), ``true`` (true remaining energy
+        at each update, J), ``t0``, ``t1`` (the log's span), ``t_event`` (the event's start,
+        None without one), ``picked_at`` (the follower's first change detection or slope
+        finding after the event's start, None if none), ``wall_s``, ``cpu_s``.
+    """
+    import time
+
+    from energy_planner.follow.core import Follower
+    from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
+
+    events = mission_events(event)
+    cfg = MissionConfig(
+        missions=1,
+        duration_s=duration,
+        rate_hz=rate,
+        stop_prob=0.0,
+        sideways_prob=0.0,
+        backward_prob=0.0,
+        speeds=(0.3,),
+        loads_kg=(0.0,),
+        grounds=("asphalt",),
+        events=events,
+    )
+    logs = simulate_missions(seed=seed, config=cfg).logs
+    step = max(1, int(round(0.5 * rate)))
+    k = np.r_[np.arange(0, len(logs) - 1, step), len(logs) - 1]
+    f = Follower(
+        synthetic_dem(seed),
+        model,
+        logs[["x", "y"]].to_numpy()[k],
+        logs["yaw"].to_numpy()[k],
+        logs["t"].to_numpy()[k],
+        **options,
+    )
+    t0w, t0c = time.perf_counter(), time.process_time()
+    ups = f.replay(logs, chunk_s=1.0)
+    wall, cpu = time.perf_counter() - t0w, time.process_time() - t0c
+    t = logs["t"].to_numpy()
+    p = (logs["voltage"] * logs["current"]).to_numpy()
+    total = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
+    ut = np.array([u.t for u in ups])
+    true = np.array([total - u.used_j for u in ups])
+    t_ev = None if not events else float(t[0] + events[0].at * (t[-1] - t[0]))
+    picked = None
+    if t_ev is not None:
+        hit = [u.t for u in ups if u.t >= t_ev and u.state != "steady"]
+        picked = hit[0] if hit else None
+    return {
+        "follower": f,
+        "updates": ups,
+        "t": ut,
+        "true": true,
+        "t0": float(t[0]),
+        "t1": float(t[-1]),
+        "t_event": t_ev,
+        "picked_at": picked,
+        "wall_s": wall,
+        "cpu_s": cpu,
+    }
+
+
+def counted(run: dict[str, Any], t: float) -> bool:
+    """Whether a checkpoint at ``t`` is scored/counted: no event, or after its pick-up."""
+    if run["t_event"] is None:
+        return True
+    return run["picked_at"] is not None and t >= run["picked_at"]
+
+
+def calibrate_remaining(
+    model: Any,
+    seeds: Any = range(1000, 1008),
+    events: tuple[str, ...] = EVENT_NAMES,
+    duration: float = 240.0,
+    rate: float = 20.0,
+    checkpoints: Any = None,
+    **options: Any,
+) -> RemainingScores:
+    """The follower's held-out remaining-energy errors on simulated missions.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        The model the follower starts from.
+    seeds : iterable of int
+        Simulator seeds (keep them disjoint from the seeds a result is reported on).
+    events : tuple of str
+        The event cases (:data:`EVENT_NAMES`); every seed runs every case.
+    duration, rate : float
+        Mission length (s) and log rate (Hz).
+    checkpoints : array-like, optional
+        Shares of each mission scored (default 0.2, 0.25, ..., 0.85).
+    **options
+        Passed to the :class:`~energy_planner.follow.Follower`.
+
+    Returns
+    -------
+    RemainingScores
+    """
+    cps = np.arange(0.2, 0.851, 0.05) if checkpoints is None else np.asarray(checkpoints)
+    out: dict[str, list[list[float]]] = {s: [[], [], []] for s in STATES}
+    seeds = tuple(int(s) for s in seeds)
+    for seed in seeds:
+        for ev in events:
+            run = follow_simulated_mission(seed, ev, model, duration, rate, **options)
+            for c in cps:
+                tc = run["t0"] + c * (run["t1"] - run["t0"])
+                i = int(np.argmin(np.abs(run["t"] - tc)))
+                u = run["updates"][i]
+                if not counted(run, u.t) or run["true"][i] <= 0:
+                    continue
+                b = int(np.clip(np.searchsorted(SHARE_EDGES, u.remaining_share, "right") - 1, 0, 2))
+                out[u.state][b].append(float(u.remaining_j / run["true"][i] - 1.0))
+    return RemainingScores(out, seeds)
