@@ -40,6 +40,7 @@ __all__ = [
     "fit_model",
     "as_windows",
     "cross_validate",
+    "identifiable_by_fold",
     "identify_terms",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
@@ -385,6 +386,40 @@ def identify_terms(
     return {nm: out[nm] for nm in names if nm in out}
 
 
+def identifiable_by_fold(
+    model: EnergyModel, X: np.ndarray, w: np.ndarray, table: pd.DataFrame, folds: np.ndarray
+) -> np.ndarray:
+    """Which terms each fold's training windows identify (:func:`identify_terms`).
+
+    The held-out evaluation (:func:`energy_planner.stats.heldout`, ``fit_columns``) fits
+    only these in each fold and predicts the others as 0, in ``fit``, ``diagnose`` and
+    ``discover`` alike.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its terms, in the order of the columns of ``X``.
+    X, w, table
+        Window means of the terms, window weights and the window table, as for
+        :func:`identify_terms`.
+    folds : numpy.ndarray
+        Fold of every window.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(n_folds, k)``.
+    """
+    names = model.term_names
+    n_folds = int(np.max(folds)) + 1
+    out = np.ones((n_folds, len(names)), dtype=bool)
+    for i in range(n_folds):
+        train = np.asarray(folds) != i
+        lost = identify_terms(model, X[train], w[train], table[train])
+        out[i] = [n not in lost for n in names]
+    return out
+
+
 # --------------------------------------------------------------------------- diagnostics
 def _coverage(table: pd.DataFrame) -> pd.DataFrame:
     heading = heading_class(table["alpha"].to_numpy(float), table["climb"].to_numpy(float))
@@ -567,13 +602,14 @@ def cross_validate(
 
     # the terms each fold's training runs can identify; the others are predicted as 0
     free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
-    fit_columns = np.ones((n_splits, len(names)), dtype=bool)
+    fit_columns = identifiable_by_fold(free_model, X, w, table, fold_of_window)
     for i, test_runs in enumerate(folds):
-        train = fold_of_window != i
-        lost = identify_terms(free_model, X[train], w[train], table[train])
-        fit_columns[i] = [n not in lost for n in names]
-        test = ~train
-        lost = [n for j, n in enumerate(names) if n in lost and np.any(np.abs(X[test, j]) > 0)]
+        test = fold_of_window == i
+        lost = [
+            n
+            for j, n in enumerate(names)
+            if not fit_columns[i, j] and np.any(np.abs(X[test, j]) > 0)
+        ]
         if lost:
             warnings.append(
                 f"fold {i}: the training runs cannot identify {', '.join(lost)} (the runs "

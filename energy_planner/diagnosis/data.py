@@ -68,6 +68,7 @@ class WindowData:
     _stack_key: tuple | None = field(default=None, repr=False)
     _stack: np.ndarray | None = field(default=None, repr=False)
     _stack_means: np.ndarray | None = field(default=None, repr=False)
+    _fold_cols: dict = field(default_factory=dict, repr=False)
     _features: dict | None = field(default=None, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
@@ -170,7 +171,10 @@ class WindowData:
 
         The one held-out evaluation (:func:`energy_planner.stats.heldout`): refitted on
         the other folds' windows, every sample of a held-out window predicted and floored
-        at 0, the window's prediction the mean of its floored samples.
+        at 0, the window's prediction the mean of its floored samples. As in
+        ``calibration.cross_validate``, a fold fits only the model terms its training
+        windows identify (:func:`energy_planner.calibration.fit.identifiable_by_fold`;
+        the others are predicted as 0); the extra terms are always fitted.
 
         Parameters
         ----------
@@ -203,13 +207,30 @@ class WindowData:
             X[:, k:] = self.sample_columns(extra)
             means[:, k:] = self.columns(extra)
         y, w, folds = self.power, self.weights, np.asarray(folds)
-        rows = self.key
+        rows, table = self.key, self.table
+        cache_key = (key, folds.tobytes(), None)
         if ok is not None and not np.all(ok):
             ok = np.asarray(ok, dtype=bool)
             keep = ok[self.key]
             X, rows = X[keep], (np.cumsum(ok) - 1)[self.key[keep]]
-            means, y, w, folds = means[ok], y[ok], w[ok], folds[ok]
-        return heldout(X, y, folds, w, rows=rows, means=means)
+            cache_key = (key, folds.tobytes(), ok.tobytes())
+            means, y, w, folds, table = means[ok], y[ok], w[ok], folds[ok], table[ok]
+        cols = self._identifiable(cache_key, means[:, :k], w, table, folds)
+        cols = np.column_stack([cols, np.ones((len(cols), e), dtype=bool)])
+        return heldout(X, y, folds, w, rows=rows, means=means, fit_columns=cols)
+
+    def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
+        """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""
+        from energy_planner.calibration._windows import MOTION_KIND
+        from energy_planner.calibration.fit import identifiable_by_fold
+        from energy_planner.model import EnergyModel
+
+        if key not in self._fold_cols:
+            kind = table["motion"].map(MOTION_KIND).fillna("mixed")
+            t = table.assign(kind=kind.to_numpy())
+            model = EnergyModel(terms=list(key[0]))
+            self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
+        return self._fold_cols[key]
 
     def predict(self, model) -> np.ndarray:
         """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
