@@ -224,9 +224,15 @@ class WindowData:
         from energy_planner.calibration._windows import MOTION_KIND
         from energy_planner.calibration.fit import identifiable_by_fold
         from energy_planner.model import EnergyModel
+        from energy_planner.stats import MOTIONS, classify_motion
 
         if key not in self._fold_cols:
-            kind = table["motion"].map(MOTION_KIND).fillna("mixed")
+            # the windows' motion classes as the measurements label them; other labels
+            # (hand-made samples) by classify_motion of the window's mean twist
+            cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
+            given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
+            motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
+            kind = pd.Series(motion).map(MOTION_KIND).fillna("mixed")
             t = table.assign(kind=kind.to_numpy())
             model = EnergyModel(terms=list(key[0]))
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
