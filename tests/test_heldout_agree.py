@@ -92,7 +92,7 @@ def test_cli_fit_diagnose_discover_agree(tmp_path):
     def run(*args: str) -> dict:
         res = _quiet(runner.invoke, main, [*args, "--json"])
         assert res.exit_code == 0, res.output
-        return json.loads(res.output)
+        return json.loads(res.stdout)
 
     fit = run("fit", logs, "--out", model)
     diag = run("diagnose", logs, "--model", model, "--max-steps", "0")

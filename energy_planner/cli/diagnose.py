@@ -206,11 +206,11 @@ def command(
     Checks the logs for sensor problems first and repairs them (--no-repair: report
     only), as fit and discover do. Shows the error at the level of window power (RMSE,
     MAE, R^2) and of whole runs (energy per run, superposition of composite paths),
-    where it fails (the residual by
-    slope, heading, speed, motion and every extra log channel), and a ranked list of
-    suspects: candidate effects from the catalog and from the extra channels, each
-    validated on held-out runs. Add the best one with the printed `energy-planner fit`
-    line and diagnose again, or let `energy-planner discover` walk the whole staircase.
+    where it fails (the residual by slope, heading, speed, motion and every extra log
+    channel), and a ranked list of suspects: candidate effects from the catalog and
+    from the extra channels, each validated on held-out runs. Add the best one with the
+    printed `energy-planner fit` line and diagnose again, or let `energy-planner
+    discover` walk the whole staircase.
     """
     from energy_planner.cli.fit import load_prepared, resolve_terms
     from energy_planner.diagnosis import Thresholds, diagnose

@@ -126,7 +126,7 @@ def discovered_names(specs: tuple[str, ...], windows: Any) -> tuple[Any, ...]:
     if all(" " in s for s in specs):
         return specs
     try:
-        return tuple(resolve_names(specs, window_data(windows.samples)))
+        return tuple(resolve_names(specs, window_data(windows)))
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--term") from exc
 
