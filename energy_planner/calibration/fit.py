@@ -32,15 +32,16 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
-from energy_planner.stats import independent_columns, run_folds, vif, wls
+from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
 
 __all__ = [
     "FitResult",
     "CrossValidation",
     "fit_model",
+    "as_windows",
     "cross_validate",
+    "identifiable_by_fold",
     "identify_terms",
-    "run_folds",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
 ]
@@ -159,6 +160,10 @@ class FitResult:
         Term name -> why the campaign cannot identify it; such terms are not in ``model``.
     held_at_prior : dict
         Term name -> coefficient taken from the prior model (unidentified, kept).
+    data_findings : list of dict or None
+        Every data check's result (:func:`energy_planner.measurements.prepare_logs`) when
+        the fit started from raw samples; None when it was given windows (the checks run
+        on raw samples, before cleaning).
     """
 
     model: EnergyModel
@@ -175,6 +180,7 @@ class FitResult:
     stderr_by_run: dict[str, float] = field(default_factory=dict)
     unidentified: dict[str, str] = field(default_factory=dict)
     held_at_prior: dict[str, float] = field(default_factory=dict)
+    data_findings: list[dict[str, Any]] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (``unidentified``: term -> reason, not in the model)."""
@@ -206,6 +212,7 @@ class FitResult:
             "heldout": None if self.heldout is None else self.heldout.to_dict(),
             "coverage": self.coverage.to_dict(orient="records"),
             "warnings": list(self.warnings),
+            "data_findings": self.data_findings,
         }
 
     def summary(self) -> str:
@@ -248,6 +255,10 @@ class FitResult:
             ]
         if self.warnings:
             lines += ["", "warnings:"] + [f"  - {w}" for w in self.warnings]
+        if self.data_findings is not None:
+            from energy_planner.measurements import findings_text
+
+            lines += ["", *findings_text(self.data_findings)]
         return "\n".join(lines)
 
 
@@ -373,6 +384,40 @@ def identify_terms(
             else:
                 out[nm] = "zero on every window: the campaign never exercises it"
     return {nm: out[nm] for nm in names if nm in out}
+
+
+def identifiable_by_fold(
+    model: EnergyModel, X: np.ndarray, w: np.ndarray, table: pd.DataFrame, folds: np.ndarray
+) -> np.ndarray:
+    """Which terms each fold's training windows identify (:func:`identify_terms`).
+
+    The held-out evaluation (:func:`energy_planner.stats.heldout`, ``fit_columns``) fits
+    only these in each fold and predicts the others as 0, in ``fit``, ``diagnose`` and
+    ``discover`` alike.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its terms, in the order of the columns of ``X``.
+    X, w, table
+        Window means of the terms, window weights and the window table, as for
+        :func:`identify_terms`.
+    folds : numpy.ndarray
+        Fold of every window.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(n_folds, k)``.
+    """
+    names = model.term_names
+    n_folds = int(np.max(folds)) + 1
+    out = np.ones((n_folds, len(names)), dtype=bool)
+    for i in range(n_folds):
+        train = np.asarray(folds) != i
+        lost = identify_terms(model, X[train], w[train], table[train])
+        out[i] = [n not in lost for n in names]
+    return out
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -540,7 +585,8 @@ def cross_validate(
             "(leave one run out)"
         )
         n_splits = n_runs
-    folds = run_folds(runs, n_splits, seed)
+    fold_of_window = fold_index(runs, n_splits, seed)
+    folds = [sorted(set(runs[fold_of_window == i])) for i in range(n_splits)]
     fixed = dict(fixed or {})
     all_names = model.term_names
     D_all = model.design_matrix(model_features(samples, model))  # per sample
@@ -548,42 +594,41 @@ def cross_validate(
     names = [n for n in all_names if n not in fixed]
     held = np.array([fixed[n] for n in all_names if n in fixed], dtype=float)
     D = D_all[:, free]
-    offset_sample = D_all[:, ~free] @ held if held.size else np.zeros(len(samples))
-    win = samples["window"].to_numpy()
+    offset_sample = D_all[:, ~free] @ held if held.size else None
+    _, win = np.unique(samples["window"].to_numpy(), return_inverse=True)
     X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
-    offset = pd.Series(offset_sample).groupby(win, sort=True).mean().to_numpy()
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
-    sample_run = samples["run"].astype(str).to_numpy()
 
-    run_to_fold = {r: i for i, fold in enumerate(folds) for r in fold}
-    fold_of_window = pd.Series(runs).map(run_to_fold).to_numpy(int)
-    fold_of_sample = pd.Series(sample_run).map(run_to_fold).to_numpy(int)
-    pred_sample = np.full(len(samples), np.nan)
-    coefs = []
+    # the terms each fold's training runs can identify; the others are predicted as 0
+    free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
+    fit_columns = identifiable_by_fold(free_model, X, w, table, fold_of_window)
     for i, test_runs in enumerate(folds):
         test = fold_of_window == i
-        train = ~test
-        free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
-        lost = identify_terms(free_model, X[train], w[train], table[train])
-        cols = np.array([n not in lost for n in names], dtype=bool)
-        beta = np.zeros(len(names))
-        beta[cols] = wls(X[train][:, cols], y[train] - offset[train], w[train]).coef
-        lost = [n for j, n in enumerate(names) if n in lost and np.any(np.abs(X[test, j]) > 0)]
+        lost = [
+            n
+            for j, n in enumerate(names)
+            if not fit_columns[i, j] and np.any(np.abs(X[test, j]) > 0)
+        ]
         if lost:
             warnings.append(
                 f"fold {i}: the training runs cannot identify {', '.join(lost)} (the runs "
                 f"that do are held out: {', '.join(test_runs[:6])}"
                 f"{', ...' if len(test_runs) > 6 else ''}); this fold predicts them as 0"
             )
-        coefs.append(beta)
-        smask = fold_of_sample == i
-        p = D[smask] @ beta + offset_sample[smask]
-        pred_sample[smask] = p if model.regenerative else np.maximum(p, 0.0)
-
-    pred_w = pd.Series(pred_sample).groupby(win, sort=True).mean().to_numpy()
+    ho = heldout(
+        D,
+        y,
+        fold_of_window,
+        w,
+        rows=win,
+        offset=offset_sample,
+        fit_columns=fit_columns,
+        floor=None if model.regenerative else 0.0,
+    )
+    coefs, pred_w, pred_sample = ho.coef, ho.predicted, ho.sample_predicted
     resid = pred_w - y
-    rmse = float(np.sqrt(np.mean(resid**2)))
+    rmse = ho.rmse
     mae = float(np.mean(np.abs(resid)))
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     r2 = float(1 - np.sum(resid**2) / ss_tot) if ss_tot > 0 else float("nan")
@@ -639,6 +684,29 @@ def cross_validate(
     )
 
 
+def as_windows(data: Any, *, window: float = 2.0, repair: bool = True) -> tuple[Any, Any]:
+    """Windows and data findings from raw samples, prepared logs or windows.
+
+    Raw canonical samples (a DataFrame without a ``window`` column) go through the one
+    data pipeline, :func:`energy_planner.measurements.prepare_logs` (data checks, repair,
+    cleaning, windows); a ``PreparedLogs`` brings its own findings; ``Windows`` (or
+    windowed samples) come back as they are with no findings (None): the checks run on raw
+    samples, before cleaning.
+
+    Returns
+    -------
+    tuple
+        ``(windows, findings)``, findings a list of dicts or None.
+    """
+    from energy_planner.measurements import PreparedLogs, prepare_logs
+
+    if isinstance(data, pd.DataFrame) and "window" not in data.columns:
+        data = prepare_logs(data, window=window, repair=repair)
+    if isinstance(data, PreparedLogs):
+        return data.windows, data.findings_dicts()
+    return data, None
+
+
 def fit_model(
     windows: Any,
     terms: EnergyModel | Sequence[str | Term] | None = None,
@@ -647,6 +715,8 @@ def fit_model(
     seed: int = 0,
     metadata: dict[str, Any] | None = None,
     prior: EnergyModel | None = None,
+    window: float = 2.0,
+    repair: bool = True,
 ) -> FitResult:
     """Fit all terms of a model jointly on all windows and validate it by run.
 
@@ -659,9 +729,11 @@ def fit_model(
 
     Parameters
     ----------
-    windows : Windows
+    windows : Windows, PreparedLogs or pandas.DataFrame
         Measurements contract: ``samples`` (per sample, with ``window``) and ``table``
-        (per window, with ``run``, ``duration``, ``power``, ``alpha``, ``motion``...).
+        (per window, with ``run``, ``duration``, ``power``, ``alpha``, ``motion``...); or
+        raw canonical samples, which first go through the data checks, cleaning and
+        windows (:func:`as_windows`), the findings then in ``FitResult.data_findings``.
     terms : EnergyModel, sequence of term specs, or None
         What to fit: a model (its terms; coefficients ignored), catalog names and
         formulas, or None for the paper's base model.
@@ -674,6 +746,10 @@ def fit_model(
     prior : EnergyModel, optional
         A fitted model whose coefficients stand in for the terms this campaign cannot
         identify (e.g. :meth:`EnergyModel.default`); only when the user asks.
+    window : float
+        Window length (s) when ``windows`` are raw samples.
+    repair : bool
+        Correct the data findings of raw samples before fitting (reported either way).
 
     Returns
     -------
@@ -686,6 +762,7 @@ def fit_model(
     ModelError
         A term needs a channel the logs do not have.
     """
+    windows, findings = as_windows(windows, window=window, repair=repair)
     requested = _as_model(terms)
     table = aligned_table(windows)
     samples = windows.samples
@@ -759,6 +836,11 @@ def fit_model(
             "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
             **(
                 {}
+                if findings is None
+                else {"data_findings": [f["name"] for f in findings if f["finding"]]}
+            ),
+            **(
+                {}
                 if heldout is None
                 else {
                     "heldout_power_rmse_w": round(heldout.rmse_w, 3),
@@ -790,6 +872,7 @@ def fit_model(
         stderr_by_run=se_run,
         unidentified=dict(dropped),
         held_at_prior=held,
+        data_findings=findings,
     )
 
 

@@ -113,6 +113,14 @@ window_option = click.option(
     help="Window length, s.",
 )
 
+repair_option = click.option(
+    "--repair/--no-repair",
+    "repair",
+    default=True,
+    show_default=True,
+    help="Correct the data findings (sensor problems: current sign, clock offset, odometry "
+    "slip, IMU tilt, twist noise) before fitting; --no-repair reports them only.",
+)
 
 report_option = click.option(
     "--report",

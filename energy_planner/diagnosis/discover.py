@@ -32,9 +32,9 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.diagnosis.data import WindowData, window_data
-from energy_planner.diagnosis.datacheck import DataFinding, check_data
 from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
 from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
+from energy_planner.measurements.datacheck import DataFinding
 from energy_planner.model.terms import Term
 
 #: A final held-out RMSE within this factor of the noise floor estimated from the logs is
@@ -275,7 +275,7 @@ def discover(
     """
     from energy_planner.calibration import fit_model
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements import make_windows, preprocess
+    from energy_planner.measurements import prepare_logs
     from energy_planner.model import BASE_TERMS
 
     def say(msg: str) -> None:
@@ -284,11 +284,10 @@ def discover(
 
     th = thresholds or Thresholds()
     base = list(BASE_TERMS if base_terms is None else base_terms)
-    findings, fixed = check_data(samples, repair=repair)
+    prepared = prepare_logs(samples, window=window, repair=repair)  # as fit and diagnose
+    findings, windows = prepared.findings, prepared.windows
     say("data checks done")
-    clean, _ = preprocess(fixed)
-    windows = make_windows(clean, duration=window)
-    wd = window_data(windows.samples)
+    wd = window_data(windows)
     say(f"{wd.n_windows} windows")
     from energy_planner.diagnosis.suspects import speed_levels
 
