@@ -253,9 +253,13 @@ def diagnose(
     except FitError as exc:
         notes.append(f"no suspects: {exc}")
     if ranking is not None and not ranking.suspects:
+        # worded by the noise floor the logs show, as discover words it (one conclusion)
+        from energy_planner.diagnosis.discover import conclusion
+        from energy_planner.diagnosis.metrics import noise_floor
+
         notes.append(
-            "no candidate effect is above noise: the model explains these logs as well as "
-            "the data can tell"
+            "no candidate effect is above noise; "
+            + conclusion(metrics["rmse_w"], noise_floor(wd), suspects_left=False)
         )
     if not math.isfinite(metrics["rmse_w"]):
         notes.append("no window has both a measured and a predicted power")
