@@ -22,6 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,6 +33,7 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.model.model import prepare_features
 from energy_planner.stats import independent_columns, run_folds, vif, wls
 
 __all__ = [
@@ -39,6 +41,7 @@ __all__ = [
     "CrossValidation",
     "fit_model",
     "cross_validate",
+    "identifiable",
     "identify_terms",
     "run_folds",
     "MIN_WINDOWS_PER_TERM",
@@ -314,9 +317,15 @@ def identify_terms(
     per unit rate above ``max(EXERCISE_FLOOR, EXERCISE_FRACTION * largest)`` (a grade of
     about 0.6 deg for the linear grade terms). Sensor noise alone (a few mm/s of ``vx``
     while side-stepping) makes a backward column non-zero without any backward run, so a
-    least-squares fit would happily give it a value; this rule does not. Then, in term
-    order, a column that is (numerically) a combination of the earlier identified ones
-    is not identified either (:func:`energy_planner.stats.independent_columns`).
+    least-squares fit would happily give it a value; this rule does not. A term of any
+    other kind (a formula, a channel times the base power as ``discover`` adds) is not
+    identified when it prices a motion class the campaign lacks (fewer than
+    :data:`MIN_WINDOWS_PER_TERM` windows of it): on probe motions of that class
+    (:func:`_class_probes`) its value differs from its value standing still at the same
+    slope, heading and channel values, so it says something about that motion that the
+    logs cannot have told it. Then, in term order, a column that is (numerically) a
+    combination of the earlier identified ones is not identified either
+    (:func:`energy_planner.stats.independent_columns`).
 
     Parameters
     ----------
@@ -344,8 +353,12 @@ def identify_terms(
         else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
     )
     yaw = np.abs(table["wz"].to_numpy(float))
+    absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
+            why = _prices_absent_motion(term, absent, X[:, j], table)
+            if why:
+                out[term.name] = why
             continue
         sel = kind == term.kind
         rate = (speed if _RATE_OF_KIND[term.kind] == "speed" else yaw)[sel]
@@ -373,6 +386,96 @@ def identify_terms(
             else:
                 out[nm] = "zero on every window: the campaign never exercises it"
     return {nm: out[nm] for nm in names if nm in out}
+
+
+#: Probe motions of each motion class (body velocity direction, rad; None: turn in place).
+_CLASS_DIRECTIONS = {
+    "forward": (0.0,),
+    "backward": (math.pi,),
+    "lateral": (math.pi / 2, -math.pi / 2),
+    "turning": (None,),
+}
+
+
+def _class_probes(kind: str, channels: Mapping[str, Any]) -> tuple[dict, dict]:
+    """Features of probe motions of one motion class and of standing at the same poses.
+
+    Slopes 0, 10 and 20 deg, relative headings every 45 deg, the nominal speed (turning in
+    place at the nominal yaw rate) and the given channel values.
+    """
+    from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
+    a, h = np.meshgrid(np.radians([0.0, 10.0, 20.0]), np.radians(np.arange(-180, 180, 45)))
+    a, h = a.ravel(), h.ravel()
+    moving: dict[str, list] = {k: [] for k in ("alpha", "gamma", "vx", "vy", "wz")}
+    for d in _CLASS_DIRECTIONS[kind]:
+        moving["alpha"].append(a)
+        moving["gamma"].append(h)
+        moving["vx"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.cos(d)))
+        moving["vy"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.sin(d)))
+        moving["wz"].append(np.full(a.size, DEFAULT_YAW_RATE if d is None else 0.0))
+    probe = {k: np.concatenate(v) for k, v in moving.items()}
+    n = probe["alpha"].size
+    probe["ax"] = probe["ay"] = np.zeros(n)
+    stand = {**probe, "vx": np.zeros(n), "vy": np.zeros(n), "wz": np.zeros(n)}
+    for c, v in channels.items():
+        probe[c] = stand[c] = np.full(n, v, dtype=object if isinstance(v, str) else float)
+    return probe, stand
+
+
+def _prices_absent_motion(
+    term: Term, absent: Sequence[str], column: np.ndarray, table: pd.DataFrame
+) -> str | None:
+    """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
+    if not absent:
+        return None
+    channels: dict[str, Any] = {}
+    for c in sorted(term.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            return None  # evaluated without the table's channels: nothing to probe with
+        v = table[c]
+        channels[c] = (
+            float(np.nanmedian(v.to_numpy(float)))
+            if pd.api.types.is_numeric_dtype(v)
+            else str(v.mode().iloc[0])
+        )
+    scale = float(np.nanmax(np.abs(column))) if column.size else 0.0
+    tol = 1e-6 * scale + 1e-9
+    for k in absent:
+        probe, stand = _class_probes(k, channels)
+        ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
+        diff = np.abs(np.asarray(ev[0], float) - np.asarray(ev[1], float))
+        if np.nanmax(np.broadcast_to(diff, probe["alpha"].shape)) > tol:
+            label = "turn-in-place" if k == "turning" else k
+            return (
+                f"it prices {label} motion (its value walking {label} differs from its value "
+                f"standing by up to {float(np.nanmax(diff)):.3g}), and the campaign has fewer "
+                f"than {MIN_WINDOWS_PER_TERM} {label} windows: the logs cannot have told it "
+                f"what {label} motion costs; record such runs"
+            )
+    return None
+
+
+def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dict[str, str]:
+    """Terms these windows cannot identify, with the reason (:func:`identify_terms`).
+
+    Parameters
+    ----------
+    windows : Windows
+        As for :func:`fit_model`.
+    terms : EnergyModel or sequence of term specs
+        The terms to check.
+
+    Returns
+    -------
+    dict
+        Term name -> why the windows cannot identify it (empty when all are).
+    """
+    model = _as_model(terms)
+    table = aligned_table(windows)
+    groups = windows.samples["window"].to_numpy()
+    X = model.design_matrix(model_features(windows.samples, model), groups=groups)
+    return identify_terms(model, X, table["duration"].to_numpy(float), table)
 
 
 # --------------------------------------------------------------------------- diagnostics

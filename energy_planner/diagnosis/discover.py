@@ -274,9 +274,10 @@ def discover(
     Discovery
     """
     from energy_planner.calibration import fit_model
+    from energy_planner.calibration.fit import identifiable
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements import make_windows, preprocess
-    from energy_planner.model import BASE_TERMS
+    from energy_planner.model import BASE_TERMS, resolve_term
 
     def say(msg: str) -> None:
         if progress is not None:
@@ -292,8 +293,13 @@ def discover(
     say(f"{wd.n_windows} windows")
     from energy_planner.diagnosis.suspects import speed_levels
 
+    # start from the base terms these windows identify (calibration.identifiable): a
+    # candidate built on the fitted base (a channel times P_base) must not carry the
+    # arbitrary value of a term whose motion the logs lack; fit_model drops those anyway
+    unidentified_base = identifiable(windows, base)
+    start = [t for t in base if resolve_term(t).name not in unidentified_base]
     steps, rankings = staircase(
-        wd, base, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
+        wd, start, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
     )
     metrics = []
     for r in rankings:
