@@ -6,24 +6,37 @@ walking) and carries a hidden payload (``simulate_missions``, reduced: 3 mission
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from energy_planner.calibration import fit_model
-from energy_planner.calibration.fit import identifiable
+from energy_planner.calibration._windows import aligned_table
+from energy_planner.calibration.fit import identifiable, refuse_free_walking
 from energy_planner.diagnosis.candidates import default_candidates
 from energy_planner.diagnosis.data import window_data
 from energy_planner.diagnosis.names import model_term
+from energy_planner.energy.path import path_energy
+from energy_planner.errors import NonPositivePowerError
 from energy_planner.measurements import make_windows, preprocess
-from energy_planner.model import BASE_TERMS, resolve_term
-from energy_planner.simulate import MissionConfig, simulate_missions
+from energy_planner.model import BASE_TERMS, EnergyModel, resolve_term
+from energy_planner.model.model import check_walking_power
+from energy_planner.simulate import MissionConfig, simulate_missions, true_path_energy
+from energy_planner.terrain import load_dem
+from energy_planner.uncertainty import predict_interval
+
+HILL = Path(__file__).resolve().parents[1] / "energy_planner" / "data" / "maps" / "hill.tif"
+#: 10 m across the middle of the bundled hill, walked facing +x (forward) or +y (sideways)
+XY = np.array([[500090.0, 5000100.0], [500100.0, 5000100.0]])
 
 
 @pytest.fixture(scope="module")
 def forward_missions():
     """Windows of short mission logs that never walk sideways or backward, with a payload."""
-    cfg = MissionConfig(missions=3, duration_s=120.0, sideways_prob=0.0, backward_prob=0.0)
+    cfg = MissionConfig(missions=6, duration_s=120.0, sideways_prob=0.0, backward_prob=0.0)
     camp = simulate_missions(seed=1, effects=("load",), config=cfg)
     clean, _ = preprocess(camp.logs)
     windows = make_windows(clean, duration=4.0)
@@ -76,3 +89,101 @@ def test_other_term_on_an_absent_motion_is_never_identified(forward_missions, c)
     why = identifiable(windows, [*BASE_TERMS, f"{c!r} * vy ** 2", f"{c!r} * load_kg"])
     assert "lateral" in why[resolve_term(f"{c!r} * vy ** 2").name]
     assert resolve_term(f"{c!r} * load_kg").name not in why
+
+
+@pytest.fixture(scope="module")
+def hill():
+    return load_dem(HILL)
+
+
+def _free_lunch_model(windows):
+    """The issue's model: a payload term with -165,700 on vy^2/speed, on a fitted base."""
+    unident = identifiable(windows, BASE_TERMS)
+    base = [t for t in BASE_TERMS if resolve_term(t).name not in unident]
+    fit = fit_model(windows, base, n_splits=0)
+    coefs = {**fit.model.coefficients, "load_kg*P_base": 1.0}
+    payload = model_term(
+        "load_kg*P_base",
+        "load_kg * (10 * (pos(vx) ** 2 / max(speed, 0.05)) + "
+        "-165700 * (vy ** 2 / max(speed, 0.05)))",
+    )
+    return EnergyModel([*fit.model.terms, payload], coefs)
+
+
+def test_walking_priced_at_zero_is_an_error_naming_the_term(forward_missions, hill):
+    _, windows = forward_missions
+    model = _free_lunch_model(windows)
+    # facing along the path the payload term is positive: a valid energy
+    fwd = path_energy(hill, model, XY, constants={"load_kg": 18.0})
+    assert fwd.energy_j > 0
+    # sideways it is -165,700 * 18 * v: the floor used to make the walk free (0 J)
+    with pytest.raises(NonPositivePowerError, match=r"load_kg\*P_base") as err:
+        path_energy(hill, model, XY, yaw=[np.pi / 2] * 2, constants={"load_kg": 18.0})
+    assert "sideways" in str(err.value)
+    # without a payload the same model is fine (the term is zero)
+    assert path_energy(hill, model, XY, yaw=[np.pi / 2] * 2, constants={"load_kg": 0.0})
+
+
+def test_a_fit_that_prices_walking_below_zero_is_refused(forward_missions):
+    _, windows = forward_missions
+    model = _free_lunch_model(windows)
+    model.coefficients["fwd_const"] = -5000.0  # forward walking below zero in the domain
+    with pytest.raises(NonPositivePowerError, match="fwd_const"):
+        refuse_free_walking(model, aligned_table(windows))
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    c=st.floats(-2000.0, 2000.0),
+    slope=st.floats(0.0, 40.0),
+)
+def test_check_agrees_with_the_sign_of_the_power(c, slope):
+    """Level sideways power of idle 100 W + c * vy^2/speed at 0.3 m/s is 100 + 0.3 c
+    (analytic): the check refuses exactly when that is <= 0."""
+    m = EnergyModel(["idle_power", "lat_const"], {"idle_power": 100.0, "lat_const": c})
+    ok = 100.0 + 0.3 * c > 0.0
+    if ok:
+        assert check_walking_power(m, max_slope_deg=slope, speeds=[0.3]) > 0
+    else:
+        with pytest.raises(NonPositivePowerError, match="lat_const"):
+            check_walking_power(m, max_slope_deg=slope, speeds=[0.3])
+
+
+def test_loaded_sideways_walk_costs_what_the_physics_says(forward_missions, hill):
+    """Issue 20's free lunch, end to end on reduced mission logs: discover's hand-off
+    (payload on the identified base), the unidentified motion terms held at the bundled
+    model (a prior), then 10 m on the hill with 18 kg: the simulator's true energy lies in
+    the 90 % interval, forward and sideways; and neither costs 0 J."""
+    camp, windows = forward_missions
+    unident = identifiable(windows, BASE_TERMS)
+    base = [t for t in BASE_TERMS if resolve_term(t).name not in unident]
+    term = _payload_term(windows, base)
+    fit = fit_model(windows, [*BASE_TERMS, term], n_splits=4, prior=EnergyModel.default())
+    model = fit.model
+    assert set(model.metadata["fit"]["held_at_prior"]) >= {"lat_const", "bwd_const"}
+    for yaw in (0.0, np.pi / 2):
+        pe = path_energy(hill, model, XY, yaw=[yaw, yaw], constants={"load_kg": 18.0})
+        truth = true_path_energy(
+            hill,
+            np.column_stack([XY, [yaw, yaw]]),
+            effects=camp.effects,
+            channels={"load_kg": 18.0},
+        )
+        iv = predict_interval(model, pe.energy_j)
+        assert pe.energy_j > 1000.0
+        assert iv.low_j <= truth.energy_j <= iv.high_j, (yaw, pe.energy_j, truth.energy_j, iv)
+
+
+def test_plan_refuses_a_free_route(forward_missions, tmp_path):
+    """The CLI: plan with the free-lunch model and 18 kg exits 1 naming the term."""
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+
+    _, windows = forward_missions
+    path = _free_lunch_model(windows).save(tmp_path / "free.json")
+    args = ["plan", "--dem", str(HILL), "--model", str(path), "--start", "500058,5000046",
+            "--goal", "500058,5000084", "--set", "load_kg=18"]  # fmt: skip
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 1, res.output
+    assert "load_kg*P_base" in res.output and "Traceback" not in res.output

@@ -43,6 +43,7 @@ __all__ = [
     "cross_validate",
     "identifiable",
     "identify_terms",
+    "refuse_free_walking",
     "run_folds",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
@@ -478,6 +479,75 @@ def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dic
     return identify_terms(model, X, table["duration"].to_numpy(float), table)
 
 
+#: Motion class of the windows -> gaits of :func:`energy_planner.model.check_walking_power`.
+_GAITS_OF_KIND = {
+    "forward": ("forward",),
+    "backward": ("backward",),
+    "lateral": ("sideways left", "sideways right"),
+    "turning": ("turning in place",),
+}
+
+
+def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
+    """Refuse a fitted model that prices walking at <= 0 W inside its calibration's domain.
+
+    The domain: every gait the model prices (the motion classes of the windows with at
+    least :data:`MIN_WINDOWS_PER_TERM` windows, and those of its terms), slopes up to the
+    steepest window, the 10th and 90th percentile speeds of the walking windows, and each
+    channel the model reads at its minimum, median and maximum (every category). See
+    :func:`energy_planner.model.model.check_walking_power`.
+
+    Returns
+    -------
+    int
+        Walking motions checked.
+
+    Raises
+    ------
+    NonPositivePowerError
+        The model prices a walking motion of its domain at <= 0 W (names the term).
+    """
+    from energy_planner.model.model import WALKING_SPEED, check_walking_power
+
+    kinds = table["kind"].to_numpy()
+    seen = {k for k in _GAITS_OF_KIND if int(np.sum(kinds == k)) >= MIN_WINDOWS_PER_TERM}
+    seen |= {t.kind for t in model.terms if t.kind in _GAITS_OF_KIND}
+    gaits = [g for k in _GAITS_OF_KIND if k in seen for g in _GAITS_OF_KIND[k]]
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    speeds = (
+        sorted({float(np.quantile(walking, 0.1)), float(np.quantile(walking, 0.9))})
+        if walking.size
+        else [0.3]
+    )
+    values: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            values[c] = (
+                sorted({float(f.min()), float(np.median(f)), float(f.max())}) if f.size else [0.0]
+            )
+        else:
+            values[c] = sorted(v.dropna().astype(str).unique())
+    max_slope = float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))) if len(table) else 0.0
+    return check_walking_power(
+        model,
+        values,
+        max_slope_deg=max_slope,
+        speeds=speeds,
+        gaits=gaits,
+        where="fitted on these logs, ",
+    )
+
+
 # --------------------------------------------------------------------------- diagnostics
 def _coverage(table: pd.DataFrame) -> pd.DataFrame:
     heading = heading_class(table["alpha"].to_numpy(float), table["climb"].to_numpy(float))
@@ -788,6 +858,9 @@ def fit_model(
         Too little data (names the counts and what is needed), or no term identifiable.
     ModelError
         A term needs a channel the logs do not have.
+    NonPositivePowerError
+        The fitted model prices a walking motion of its calibration's domain at <= 0 W
+        (:func:`refuse_free_walking`): it is not returned, so it cannot be saved.
     """
     requested = _as_model(terms)
     table = aligned_table(windows)
@@ -829,6 +902,7 @@ def fit_model(
     se_run = dict(zip(names, map(float, res.stderr_by_run), strict=True))
     model.coefficients = {n: coefs.get(n, held.get(n)) for n in model.term_names}
     model.stderr = {n: stderr.get(n, float("nan")) for n in model.term_names}
+    refuse_free_walking(model, table)
     resid = res.resid
     rms = float(np.sqrt(np.sum(w * resid**2) / np.sum(w)))
     vifs = vif(X, w)

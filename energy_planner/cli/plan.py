@@ -395,12 +395,14 @@ def command(
     is read by windows about the start and the goal (a corridor); the output says
     whether the window is proven to hold every cheaper path.
     """
+    from energy_planner.energy.path import check_cost_power
     from energy_planner.errors import (
         DEMError,
         DEMIOError,
         EnergyPlannerError,
         RasterTooLargeError,
     )
+    from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import plan
 
     check_planner(planner)
@@ -417,6 +419,7 @@ def command(
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
                                             **kwargs)  # fmt: skip
+            check_cost_power(make_motion_cost(terrain, model, request)[0])
         except RasterTooLargeError as exc:
             raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
         except (DEMError, DEMIOError) as exc:
@@ -428,7 +431,10 @@ def command(
         s = point_to_work(terrain, start, "--start", True)
         g = point_to_work(terrain, goal, "--goal", True)
         try:
-            res = plan(terrain, model, s, g, request, progress=True, **kwargs)
+            # a model that prices walking on this map at <= 0 W would plan a free route
+            cost, _ = make_motion_cost(terrain, model, request)
+            check_cost_power(cost)
+            res = plan(terrain, model, s, g, request, progress=True, cost=cost, **kwargs)
         except EnergyPlannerError as exc:
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)

@@ -243,6 +243,7 @@ def discover(
     repair: bool = True,
     fit_final: bool = True,
     progress=None,
+    prior: Any = None,
 ) -> Discovery:
     """Walk the staircase on raw canonical samples (module docstring).
 
@@ -268,6 +269,9 @@ def discover(
         Fit the final model on all windows (``calibration.fit_model``).
     progress : callable, optional
         Called with a short message after each stage.
+    prior : EnergyModel, optional
+        A fitted model whose coefficients stand in for the terms the logs cannot identify
+        in the final fit (``fit_model``'s ``prior``, e.g. ``EnergyModel.default()``).
 
     Returns
     -------
@@ -323,7 +327,7 @@ def discover(
     if fit_final:
         try:
             final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
-            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed)
+            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed, prior=prior)
         except EnergyPlannerError as exc:
             notes.append(f"the final fit failed: {exc}")
     return Discovery(
