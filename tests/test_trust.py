@@ -187,3 +187,89 @@ def test_plan_refuses_a_free_route(forward_missions, tmp_path):
     res = CliRunner().invoke(main, args)
     assert res.exit_code == 1, res.output
     assert "load_kg*P_base" in res.output and "Traceback" not in res.output
+
+
+# ------------------------------------------------------------------ D: calibration domain
+def test_fit_records_its_domain(forward_missions):
+    _, windows = forward_missions
+    fit = fit_model(windows, BASE_TERMS, n_splits=0)
+    dom = fit.model.metadata["fit"]["domain"]
+    table = aligned_table(windows)
+    assert dom["max_slope_deg"] == pytest.approx(np.degrees(table["alpha"].max()), abs=0.01)
+    assert "forward" in dom["gaits"] and "lateral" not in dom["gaits"]
+    lo, hi = dom["speed_m_s"]
+    assert 0.05 < lo < hi <= table["speed"].max() + 1e-3
+
+
+def _segments(durations, slopes, distances=None):
+    import pandas as pd
+
+    d = np.asarray(durations, float)
+    return pd.DataFrame(
+        {
+            "duration_s": d,
+            "distance_m": 0.3 * d if distances is None else distances,
+            "max_slope_deg": slopes,
+            "turn_deg": np.zeros(d.size),
+        }
+    )
+
+
+def _domain_model():
+    dom = {"max_slope_deg": 24.0, "speed_m_s": [0.2, 0.45], "max_turn_rate_rad_s": 0.6,
+           "gaits": {}, "channels": {"load_kg": [0.0, 15.0]}}  # fmt: skip
+    return EnergyModel(["idle_power"], {"idle_power": 100.0}, metadata={"fit": {"domain": dom}})
+
+
+def test_domain_share_is_the_duration_outside():
+    from energy_planner.uncertainty import domain_report
+
+    m = _domain_model()
+    rep = domain_report(m, _segments([1.0, 2.0, 1.0], [10.0, 30.0, 10.0]), {"load_kg": 10})
+    assert rep["outside_share"] == 0.5 and list(rep["reasons"].values()) == [0.5]
+    rep = domain_report(m, _segments([1.0, 2.0, 1.0], [10.0, 10.0, 10.0]), {"load_kg": 18})
+    assert rep["outside_share"] == 1.0 and "load_kg" in next(iter(rep["reasons"]))
+    assert (
+        domain_report(EnergyModel(["idle_power"], {"idle_power": 1.0}), _segments([1], [0])) is None
+    )
+
+
+@settings(max_examples=30, deadline=None)
+@given(a=st.floats(0.0, 1.0), b=st.floats(0.0, 1.0))
+def test_interval_widens_with_the_share_outside(a, b):
+    from energy_planner.uncertainty import predict_interval
+
+    rng = np.random.default_rng(0)
+    scores = sorted(float(x) for x in rng.normal(0.0, 0.05, 40))
+    m = EnergyModel(["idle_power"], {"idle_power": 1.0},
+                    metadata={"fit": {"heldout_run_rel_errors": scores}})  # fmt: skip
+    lo, hi = sorted((a, b))
+    narrow, wide = predict_interval(m, 1000.0, 0.9, lo), predict_interval(m, 1000.0, 0.9, hi)
+    assert wide.low_j <= narrow.low_j + 1e-9 and wide.high_j >= narrow.high_j - 1e-9
+
+
+def test_energy_cli_reports_the_share_outside(forward_missions, tmp_path):
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+
+    _, windows = forward_missions
+    unident = identifiable(windows, BASE_TERMS)
+    base = [t for t in BASE_TERMS if resolve_term(t).name not in unident]
+    fit = fit_model(windows, [*BASE_TERMS, _payload_term(windows, base)], n_splits=3)
+    path = fit.model.save(tmp_path / "m.json")
+    wp = tmp_path / "wp.csv"
+    wp.write_text("x,y\n500010,5000010\n500020,5000010\n")  # a level corner of the hill
+    out = {}
+    for load in (10, 18):
+        args = ["energy", "--dem", str(HILL), "--waypoints", str(wp), "--model", str(path),
+                "--set", f"load_kg={load}", "--json"]  # fmt: skip
+        res = CliRunner().invoke(main, args)
+        assert res.exit_code == 0, res.output
+        out[load] = __import__("json").loads(res.output)
+    assert out[18]["domain"]["outside_share"] == 1.0
+    assert any("load_kg" in k for k in out[18]["domain"]["reasons"])
+    assert not any("load_kg" in k for k in out[10]["domain"]["reasons"])
+    rel = {k: v["interval"]["high_j"] / v["interval"]["low_j"] for k, v in out.items()}
+    assert out[10]["domain"]["outside_share"] == 0.0
+    assert rel[18] > rel[10]  # the interval widens outside

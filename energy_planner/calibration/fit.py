@@ -44,6 +44,7 @@ __all__ = [
     "identifiable",
     "identify_terms",
     "refuse_free_walking",
+    "calibration_domain",
     "run_folds",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
@@ -548,6 +549,63 @@ def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
     )
 
 
+def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
+    """The ranges the calibration's windows saw (stored as ``metadata.fit.domain``).
+
+    Returns
+    -------
+    dict
+        ``max_slope_deg``; ``speed_m_s`` [min, max] of the walking windows;
+        ``max_turn_rate_rad_s``; ``gaits``: per motion class with windows, their number and
+        the [min, max] relative heading ``|gamma|`` (deg); ``channels``: per channel the
+        model reads, [min, max] (numeric) or the categories.
+    """
+    from energy_planner.model.model import WALKING_SPEED
+
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    gamma = np.degrees(np.abs(table["gamma"].to_numpy(float)))
+    kinds = table["kind"].to_numpy()
+    gaits = {}
+    for k in _GAITS_OF_KIND:
+        sel = kinds == k
+        if sel.any():
+            gaits[k] = {
+                "windows": int(sel.sum()),
+                "rel_heading_deg": [
+                    round(float(gamma[sel].min()), 2),
+                    round(float(gamma[sel].max()), 2),
+                ],
+            }
+    channels: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            if f.size:
+                channels[c] = [float(f.min()), float(f.max())]
+        else:
+            channels[c] = sorted(v.dropna().astype(str).unique())
+    return {
+        "max_slope_deg": round(float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))), 2),
+        "speed_m_s": (
+            [round(float(walking.min()), 3), round(float(walking.max()), 3)]
+            if walking.size
+            else None
+        ),
+        "max_turn_rate_rad_s": round(float(np.nanmax(np.abs(table["wz"].to_numpy(float)))), 3),
+        "gaits": gaits,
+        "channels": channels,
+    }
+
+
 # --------------------------------------------------------------------------- diagnostics
 def _coverage(table: pd.DataFrame) -> pd.DataFrame:
     heading = heading_class(table["alpha"].to_numpy(float), table["climb"].to_numpy(float))
@@ -934,6 +992,7 @@ def fit_model(
             "stderr_by_run": {n: float(f"{v:.3g}") for n, v in se_run.items()},
             "unidentified": dict(dropped),
             "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
+            "domain": calibration_domain(table, model),
             **(
                 {}
                 if heldout is None

@@ -48,6 +48,7 @@ __all__ = [
     "battery_decision",
     "confident_budget",
     "interval",
+    "domain_report",
     "model_scores",
     "predict_interval",
     "success_probability",
@@ -144,10 +145,89 @@ def interval(energy_j: float, scores: np.ndarray, level: float = DEFAULT_LEVEL) 
                           float(energy_j) / (1.0 + r_lo), float(level), int(s.size))  # fmt: skip
 
 
-def predict_interval(model: Any, energy_j: float, level: float = DEFAULT_LEVEL):
-    """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores."""
+#: Outside the calibration's domain the held-out scores are scaled by
+#: ``1 + OUTSIDE_WIDENING * share``: a path wholly outside gets an error band twice as wide.
+#: A stated assumption, not a calibrated one (no held-out run lies outside the domain).
+OUTSIDE_WIDENING = 1.0
+
+
+def predict_interval(
+    model: Any, energy_j: float, level: float = DEFAULT_LEVEL, outside_share: float = 0.0
+):
+    """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores.
+
+    ``outside_share`` (0-1, :func:`domain_report`) widens it: every held-out score ``r``
+    becomes ``r (1 + OUTSIDE_WIDENING * outside_share)`` (kept above -0.9).
+    """
     s = model_scores(model)
-    return None if s is None else interval(energy_j, s, level)
+    if s is None:
+        return None
+    if outside_share > 0:
+        s = np.maximum(s * (1.0 + OUTSIDE_WIDENING * float(outside_share)), -0.9)
+    return interval(energy_j, s, level)
+
+
+def domain_report(model: Any, segments: Any, constants: Any = None) -> dict[str, Any] | None:
+    """The share of a path outside the ranges the model's calibration saw.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its ``metadata.fit.domain`` (:func:`energy_planner.calibration.fit.calibration_domain`).
+    segments : pandas.DataFrame
+        ``PathEnergy.segments`` (``distance_m``, ``duration_s``, ``max_slope_deg``,
+        ``turn_deg``).
+    constants : mapping, optional
+        Channel constants (a value outside the channel's range puts the whole path
+        outside). Raster channels are not checked.
+
+    Returns
+    -------
+    dict or None
+        ``outside_share`` (share of the path's duration outside, 0-1) and ``reasons``
+        (reason -> share of the duration); None when the model records no domain.
+    """
+    dom = ((getattr(model, "metadata", None) or {}).get("fit") or {}).get("domain")
+    if not dom:
+        return None
+    dur = np.asarray(segments["duration_s"], dtype=float)
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
+    total = float(dur.sum())
+    if total <= 0:
+        return {"outside_share": 0.0, "reasons": {}, "domain": dom}
+    safe = np.where(dur > 0, dur, np.inf)
+    speed, rate = dist / safe, turn / safe
+    masks: dict[str, np.ndarray] = {}
+    slope = np.asarray(segments["max_slope_deg"], dtype=float)
+    masks[f"slope above {dom['max_slope_deg']:g} deg"] = slope > dom["max_slope_deg"]
+    if dom.get("speed_m_s"):
+        lo, hi = dom["speed_m_s"]
+        masks[f"speed outside {lo:g}-{hi:g} m/s"] = (speed > 0.05) & ((speed < lo) | (speed > hi))
+    masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
+        rate > dom["max_turn_rate_rad_s"] * 1.05
+    )
+    for c, v in dict(constants or {}).items():
+        seen = (dom.get("channels") or {}).get(c)
+        if seen is None:
+            continue
+        if isinstance(v, str):
+            out = v not in seen
+        else:
+            out = not (seen[0] <= float(v) <= seen[1])
+        if out:
+            masks[f"{c} = {v} outside the logs' {seen}"] = np.ones(dur.size, bool)
+    any_out = np.zeros(dur.size, bool)
+    reasons = {}
+    for why, m in masks.items():
+        if m.any():
+            reasons[why] = round(float(dur[m].sum() / total), 4)
+            any_out |= m
+    return {
+        "outside_share": round(float(dur[any_out].sum() / total), 4),
+        "reasons": reasons,
+        "domain": dom,
+    }
 
 
 def success_probability(energy_j: float, scores: np.ndarray, usable_j: float) -> float:
