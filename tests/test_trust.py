@@ -273,3 +273,25 @@ def test_energy_cli_reports_the_share_outside(forward_missions, tmp_path):
     rel = {k: v["interval"]["high_j"] / v["interval"]["low_j"] for k, v in out.items()}
     assert out[10]["domain"]["outside_share"] == 0.0
     assert rel[18] > rel[10]  # the interval widens outside
+
+
+def test_plan_stay_in_domain_keeps_the_route_on_calibrated_slopes(forward_missions, tmp_path):
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+
+    _, windows = forward_missions
+    fit = fit_model(windows, BASE_TERMS, n_splits=3)
+    path = fit.model.save(tmp_path / "m.json")
+    top = fit.model.metadata["fit"]["domain"]["max_slope_deg"]
+    args = ["plan", "--dem", str(HILL), "--model", str(path), "--start", "500010,5000010",
+            "--goal", "500040,5000040", "--stay-in-domain", "--json"]  # fmt: skip
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    out = __import__("json").loads(res.output[res.output.index("{") :])
+    assert out["limits"]["max_slope_deg"] == pytest.approx(top)
+    assert not any(k.startswith("slope") for k in out["domain"]["reasons"])
+    # a model without a recorded domain: a usage error
+    bare = EnergyModel.default().save(tmp_path / "bare.json")
+    res = CliRunner().invoke(main, [*args[:4], str(bare), *args[5:]])
+    assert res.exit_code == 2 and "domain" in res.output
