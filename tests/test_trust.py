@@ -217,7 +217,8 @@ def _segments(durations, slopes, distances=None):
 
 def _domain_model():
     dom = {"max_slope_deg": 24.0, "speed_m_s": [0.2, 0.45], "max_turn_rate_rad_s": 0.6,
-           "gaits": {}, "channels": {"load_kg": [0.0, 15.0]}}  # fmt: skip
+           "gaits": {"forward": {"windows": 9, "rel_heading_deg": [0.0, 180.0]}},
+           "channels": {"load_kg": [0.0, 15.0]}}  # fmt: skip
     return EnergyModel(["idle_power"], {"idle_power": 100.0}, metadata={"fit": {"domain": dom}})
 
 
@@ -232,6 +233,24 @@ def test_domain_share_is_the_duration_outside():
     assert (
         domain_report(EnergyModel(["idle_power"], {"idle_power": 1.0}), _segments([1], [0])) is None
     )
+
+
+@settings(max_examples=30, deadline=None)
+@given(yaw=st.floats(-np.pi, np.pi))
+def test_a_gait_the_calibration_lacks_is_outside(yaw):
+    """Walking +x with body yaw ``yaw``: forward within 45 deg, else outside (no lateral or
+    backward windows in the calibration)."""
+    from hypothesis import assume
+
+    from energy_planner.uncertainty import domain_report
+
+    assume(min(abs(abs(yaw) - np.pi / 4), abs(abs(yaw) - 3 * np.pi / 4)) > 1e-6)
+    poses = np.array([[0.0, 0.0, yaw], [3.0, 0.0, yaw]])
+    rep = domain_report(_domain_model(), _segments([10.0], [0.0]), poses=poses)
+    forward = abs(yaw) < np.pi / 4
+    assert rep["outside_share"] == (0.0 if forward else 1.0)
+    if not forward:
+        assert any(("lateral" in k) or ("backward" in k) for k in rep["reasons"])
 
 
 @settings(max_examples=30, deadline=None)

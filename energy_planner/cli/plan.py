@@ -299,7 +299,7 @@ def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | 
     ch = request.channels
     pe = path_energy(terrain, model, st[:, :2], yaw=st[:, 2], speed=request.robot.speed,
                      yaw_rate=request.robot.yaw_rate, channels=ch)  # fmt: skip
-    return domain_report(model, pe.segments, None if ch is None else ch.constants)
+    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses)
 
 
 def format_table(res: dict[str, Any]) -> str:

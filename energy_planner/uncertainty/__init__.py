@@ -167,7 +167,32 @@ def predict_interval(
     return interval(energy_j, s, level)
 
 
-def domain_report(model: Any, segments: Any, constants: Any = None) -> dict[str, Any] | None:
+def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
+    """Motion class of each segment: forward, backward, lateral or turning (in place).
+
+    From the poses (one per segment end) the direction of travel relative to the body yaw:
+    within 45 deg of it forward, of its reverse backward, else lateral; a segment that
+    does not move but turns is turning. Without poses matching the segments (the robot
+    faced along its path) every moving segment is forward.
+    """
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.abs(np.asarray(segments["turn_deg"], dtype=float))
+    out = np.where(dist > 1e-9, "forward", np.where(turn > 0, "turning", "none")).astype(object)
+    p = None if poses is None else np.asarray(poses, dtype=float)
+    if p is None or p.ndim != 2 or p.shape[0] != dist.size + 1 or p.shape[1] < 3:
+        return out
+    d = np.diff(p[:, :2], axis=0)
+    rel = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - p[:-1, 2])))
+    moving = dist > 1e-9
+    lateral = np.abs(np.abs(rel) - np.pi / 2) < np.pi / 4
+    out[moving & (np.abs(rel) > 3 * np.pi / 4)] = "backward"
+    out[moving & lateral] = "lateral"
+    return out
+
+
+def domain_report(
+    model: Any, segments: Any, constants: Any = None, poses: Any = None
+) -> dict[str, Any] | None:
     """The share of a path outside the ranges the model's calibration saw.
 
     Parameters
@@ -180,6 +205,9 @@ def domain_report(model: Any, segments: Any, constants: Any = None) -> dict[str,
     constants : mapping, optional
         Channel constants (a value outside the channel's range puts the whole path
         outside). Raster channels are not checked.
+    poses : array-like, optional
+        ``PathEnergy.poses`` (x, y, yaw per segment end): a segment walked in a gait the
+        calibration had no window of (sideways, backward, turning in place) is outside.
 
     Returns
     -------
@@ -207,6 +235,10 @@ def domain_report(model: Any, segments: Any, constants: Any = None) -> dict[str,
     masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
         rate > dom["max_turn_rate_rad_s"] * 1.05
     )
+    gaits = _segment_gaits(segments, poses)
+    for g in ("forward", "backward", "lateral", "turning"):
+        if g not in (dom.get("gaits") or {}):
+            masks[f"{g} motion, absent from the calibration"] = gaits == g
     for c, v in dict(constants or {}).items():
         seen = (dom.get("channels") or {}).get(c)
         if seen is None:
