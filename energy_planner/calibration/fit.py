@@ -22,6 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,6 +33,7 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.model.model import prepare_features
 from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
 
 __all__ = [
@@ -40,8 +42,11 @@ __all__ = [
     "fit_model",
     "as_windows",
     "cross_validate",
+    "identifiable",
     "identifiable_by_fold",
     "identify_terms",
+    "refuse_free_walking",
+    "calibration_domain",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
 ]
@@ -325,9 +330,15 @@ def identify_terms(
     per unit rate above ``max(EXERCISE_FLOOR, EXERCISE_FRACTION * largest)`` (a grade of
     about 0.6 deg for the linear grade terms). Sensor noise alone (a few mm/s of ``vx``
     while side-stepping) makes a backward column non-zero without any backward run, so a
-    least-squares fit would happily give it a value; this rule does not. Then, in term
-    order, a column that is (numerically) a combination of the earlier identified ones
-    is not identified either (:func:`energy_planner.stats.independent_columns`).
+    least-squares fit would happily give it a value; this rule does not. A term of any
+    other kind (a formula, a channel times the base power as ``discover`` adds) is not
+    identified when it prices a motion class the campaign lacks (fewer than
+    :data:`MIN_WINDOWS_PER_TERM` windows of it): on probe motions of that class
+    (:func:`_class_probes`) its value differs from its value standing still at the same
+    slope, heading and channel values, so it says something about that motion that the
+    logs cannot have told it. Then, in term order, a column that is (numerically) a
+    combination of the earlier identified ones is not identified either
+    (:func:`energy_planner.stats.independent_columns`).
 
     Parameters
     ----------
@@ -355,8 +366,12 @@ def identify_terms(
         else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
     )
     yaw = np.abs(table["wz"].to_numpy(float))
+    absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
+            why = _prices_absent_motion(term, absent, X[:, j], table)
+            if why:
+                out[term.name] = why
             continue
         sel = kind == term.kind
         rate = (speed if _RATE_OF_KIND[term.kind] == "speed" else yaw)[sel]
@@ -418,6 +433,222 @@ def identifiable_by_fold(
         lost = identify_terms(model, X[train], w[train], table[train])
         out[i] = [n not in lost for n in names]
     return out
+
+
+#: Probe motions of each motion class (body velocity direction, rad; None: turn in place).
+_CLASS_DIRECTIONS = {
+    "forward": (0.0,),
+    "backward": (math.pi,),
+    "lateral": (math.pi / 2, -math.pi / 2),
+    "turning": (None,),
+}
+
+
+def _class_probes(kind: str, channels: Mapping[str, Any]) -> tuple[dict, dict]:
+    """Features of probe motions of one motion class and of standing at the same poses.
+
+    Slopes 0, 10 and 20 deg, relative headings every 45 deg, the nominal speed (turning in
+    place at the nominal yaw rate) and the given channel values.
+    """
+    from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
+    a, h = np.meshgrid(np.radians([0.0, 10.0, 20.0]), np.radians(np.arange(-180, 180, 45)))
+    a, h = a.ravel(), h.ravel()
+    moving: dict[str, list] = {k: [] for k in ("alpha", "gamma", "vx", "vy", "wz")}
+    for d in _CLASS_DIRECTIONS[kind]:
+        moving["alpha"].append(a)
+        moving["gamma"].append(h)
+        moving["vx"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.cos(d)))
+        moving["vy"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.sin(d)))
+        moving["wz"].append(np.full(a.size, DEFAULT_YAW_RATE if d is None else 0.0))
+    probe = {k: np.concatenate(v) for k, v in moving.items()}
+    n = probe["alpha"].size
+    probe["ax"] = probe["ay"] = np.zeros(n)
+    stand = {**probe, "vx": np.zeros(n), "vy": np.zeros(n), "wz": np.zeros(n)}
+    for c, v in channels.items():
+        probe[c] = stand[c] = np.full(n, v, dtype=object if isinstance(v, str) else float)
+    return probe, stand
+
+
+def _prices_absent_motion(
+    term: Term, absent: Sequence[str], column: np.ndarray, table: pd.DataFrame
+) -> str | None:
+    """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
+    if not absent:
+        return None
+    channels: dict[str, Any] = {}
+    for c in sorted(term.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            return None  # evaluated without the table's channels: nothing to probe with
+        v = table[c]
+        channels[c] = (
+            float(np.nanmedian(v.to_numpy(float)))
+            if pd.api.types.is_numeric_dtype(v)
+            else str(v.mode().iloc[0])
+        )
+    scale = float(np.nanmax(np.abs(column))) if column.size else 0.0
+    tol = 1e-6 * scale + 1e-9
+    for k in absent:
+        probe, stand = _class_probes(k, channels)
+        ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
+        diff = np.abs(np.asarray(ev[0], float) - np.asarray(ev[1], float))
+        if np.nanmax(np.broadcast_to(diff, probe["alpha"].shape)) > tol:
+            label = "turn-in-place" if k == "turning" else k
+            return (
+                f"it prices {label} motion (its value walking {label} differs from its value "
+                f"standing by up to {float(np.nanmax(diff)):.3g}), and the campaign has fewer "
+                f"than {MIN_WINDOWS_PER_TERM} {label} windows: the logs cannot have told it "
+                f"what {label} motion costs; record such runs"
+            )
+    return None
+
+
+def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dict[str, str]:
+    """Terms these windows cannot identify, with the reason (:func:`identify_terms`).
+
+    Parameters
+    ----------
+    windows : Windows
+        As for :func:`fit_model`.
+    terms : EnergyModel or sequence of term specs
+        The terms to check.
+
+    Returns
+    -------
+    dict
+        Term name -> why the windows cannot identify it (empty when all are).
+    """
+    model = _as_model(terms)
+    table = aligned_table(windows)
+    groups = windows.samples["window"].to_numpy()
+    X = model.design_matrix(model_features(windows.samples, model), groups=groups)
+    return identify_terms(model, X, table["duration"].to_numpy(float), table)
+
+
+#: Motion class of the windows -> gaits of :func:`energy_planner.model.check_walking_power`.
+_GAITS_OF_KIND = {
+    "forward": ("forward",),
+    "backward": ("backward",),
+    "lateral": ("sideways left", "sideways right"),
+    "turning": ("turning in place",),
+}
+
+
+def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
+    """Refuse a fitted model that prices walking at <= 0 W inside its calibration's domain.
+
+    The domain: every gait the model prices (the motion classes of the windows with at
+    least :data:`MIN_WINDOWS_PER_TERM` windows, and those of its terms), slopes up to the
+    steepest window, the 10th and 90th percentile speeds of the walking windows, and each
+    channel the model reads at its minimum, median and maximum (every category). See
+    :func:`energy_planner.model.model.check_walking_power`.
+
+    Returns
+    -------
+    int
+        Walking motions checked.
+
+    Raises
+    ------
+    NonPositivePowerError
+        The model prices a walking motion of its domain at <= 0 W (names the term).
+    """
+    from energy_planner.model.model import WALKING_SPEED, check_walking_power
+
+    kinds = table["kind"].to_numpy()
+    seen = {k for k in _GAITS_OF_KIND if int(np.sum(kinds == k)) >= MIN_WINDOWS_PER_TERM}
+    seen |= {t.kind for t in model.terms if t.kind in _GAITS_OF_KIND}
+    gaits = [g for k in _GAITS_OF_KIND if k in seen for g in _GAITS_OF_KIND[k]]
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    speeds = (
+        sorted({float(np.quantile(walking, 0.1)), float(np.quantile(walking, 0.9))})
+        if walking.size
+        else [0.3]
+    )
+    values: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            values[c] = (
+                sorted({float(f.min()), float(np.median(f)), float(f.max())}) if f.size else [0.0]
+            )
+        else:
+            values[c] = sorted(v.dropna().astype(str).unique())
+    max_slope = float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))) if len(table) else 0.0
+    return check_walking_power(
+        model,
+        values,
+        max_slope_deg=max_slope,
+        speeds=speeds,
+        gaits=gaits,
+        where="fitted on these logs, ",
+    )
+
+
+def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
+    """The ranges the calibration's windows saw (stored as ``metadata.fit.domain``).
+
+    Returns
+    -------
+    dict
+        ``max_slope_deg``; ``speed_m_s`` [min, max] of the walking windows;
+        ``max_turn_rate_rad_s``; ``gaits``: per motion class with windows, their number and
+        the [min, max] relative heading ``|gamma|`` (deg); ``channels``: per channel the
+        model reads, [min, max] (numeric) or the categories.
+    """
+    from energy_planner.model.model import WALKING_SPEED
+
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    gamma = np.degrees(np.abs(table["gamma"].to_numpy(float)))
+    kinds = table["kind"].to_numpy()
+    gaits = {}
+    for k in _GAITS_OF_KIND:
+        sel = kinds == k
+        if sel.any():
+            gaits[k] = {
+                "windows": int(sel.sum()),
+                "rel_heading_deg": [
+                    round(float(gamma[sel].min()), 2),
+                    round(float(gamma[sel].max()), 2),
+                ],
+            }
+    channels: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            if f.size:
+                channels[c] = [float(f.min()), float(f.max())]
+        else:
+            channels[c] = sorted(v.dropna().astype(str).unique())
+    return {
+        "max_slope_deg": round(float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))), 2),
+        "speed_m_s": (
+            [round(float(walking.min()), 3), round(float(walking.max()), 3)]
+            if walking.size
+            else None
+        ),
+        "max_turn_rate_rad_s": round(float(np.nanmax(np.abs(table["wz"].to_numpy(float)))), 3),
+        "gaits": gaits,
+        "channels": channels,
+    }
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -761,6 +992,9 @@ def fit_model(
         Too little data (names the counts and what is needed), or no term identifiable.
     ModelError
         A term needs a channel the logs do not have.
+    NonPositivePowerError
+        The fitted model prices a walking motion of its calibration's domain at <= 0 W
+        (:func:`refuse_free_walking`): it is not returned, so it cannot be saved.
     """
     windows, findings = as_windows(windows, window=window, repair=repair)
     requested = _as_model(terms)
@@ -803,6 +1037,7 @@ def fit_model(
     se_run = dict(zip(names, map(float, res.stderr_by_run), strict=True))
     model.coefficients = {n: coefs.get(n, held.get(n)) for n in model.term_names}
     model.stderr = {n: stderr.get(n, float("nan")) for n in model.term_names}
+    refuse_free_walking(model, table)
     resid = res.resid
     rms = float(np.sqrt(np.sum(w * resid**2) / np.sum(w)))
     vifs = vif(X, w)
@@ -834,6 +1069,7 @@ def fit_model(
             "stderr_by_run": {n: float(f"{v:.3g}") for n, v in se_run.items()},
             "unidentified": dict(dropped),
             "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
+            "domain": calibration_domain(table, model),
             **(
                 {}
                 if findings is None
