@@ -127,7 +127,7 @@ def truth_rmse(camp, d, terms: Sequence[str]) -> float:
     same samples. A term that lowers it describes the simulator's physics; one found by
     noise does not.
     """
-    from energy_planner.stats import fold_index, heldout_residuals
+    from energy_planner.stats import fold_index
 
     wd, samples = d.data, d.windows.samples
     key = pd.DataFrame(
@@ -146,9 +146,8 @@ def truth_rmse(camp, d, terms: Sequence[str]) -> float:
         }
     )
     true_w = key.merge(truth, on=["run", "tk"], how="left").groupby("window")["p"].mean()
-    y = wd.power
     folds = fold_index(wd.runs, d.thresholds.n_splits, d.thresholds.seed)
-    pred = y - heldout_residuals(wd.columns(terms), y, folds, wd.weights)
+    pred = wd.heldout(terms, folds).predicted  # floored per sample, as discover scores
     return float(np.sqrt(np.mean((true_w.to_numpy(float) - pred) ** 2)))
 
 

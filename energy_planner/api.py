@@ -256,28 +256,37 @@ def _samples(logs: Any):
     return load_logs(log_files([logs] if isinstance(logs, str | Path) else list(logs)))
 
 
-def fit(logs: Any, terms: Any = None, *, window: float = 2.0, n_splits: int = 5, seed: int = 0):
+def fit(
+    logs: Any,
+    terms: Any = None,
+    *,
+    window: float = 2.0,
+    n_splits: int = 5,
+    seed: int = 0,
+    repair: bool = True,
+):
     """Fit a model from robot logs (files or folders; CSV, Parquet, ROS bags).
 
-    Loads, cleans (paper IV-B) and windows the logs, then fits ``terms`` (default: the
-    base model) jointly and validates them by run; returns the
+    Runs the data checks and repairs what they find (``repair=False``: report only), as
+    ``diagnose`` and ``discover`` do; cleans (paper IV-B) and windows the logs, then fits
+    ``terms`` (default: the base model) jointly and validates them by run; returns the
     :class:`~energy_planner.calibration.fit.FitResult` (``.model`` is the model, with the
-    held-out run errors its intervals use).
+    held-out run errors its intervals use; ``.data_findings`` the checks' results).
     """
     from energy_planner.calibration import fit_model
-    from energy_planner.measurements import make_windows, preprocess
 
     if not (window > 0 and math.isfinite(window)):
         raise ValueError(f"window must be a positive number of seconds, not {window!r}")
-    clean, _ = preprocess(_samples(logs))
-    return fit_model(make_windows(clean, duration=window), terms, n_splits=n_splits, seed=seed)
+    return fit_model(
+        _samples(logs), terms, n_splits=n_splits, seed=seed, window=window, repair=repair
+    )
 
 
 def discover(logs: Any, **kwargs: Any):
     """Find the effects the base model lacks in robot logs.
 
-    Data checks, then the staircase (:func:`energy_planner.diagnosis.discover`); returns
-    its ``Discovery``.
+    Data checks (``repair=False``: report only), then the staircase
+    (:func:`energy_planner.diagnosis.discover`); returns its ``Discovery``.
     """
     from energy_planner.diagnosis import discover as _discover
 

@@ -68,6 +68,7 @@ __all__ = [
     "MissingChannelError",
     "ModelError",
     "MotionCostError",
+    "NonPositivePowerError",
     "OutsideMapError",
     "PlanningConfigError",
     "PlanningError",
@@ -229,6 +230,10 @@ class ModelError(EnergyPlannerError, ValueError):
 
 class FormulaError(ModelError):
     """A term formula cannot be parsed or names an unknown variable or function."""
+
+
+class NonPositivePowerError(ModelError):
+    """A model prices a walking motion at zero or negative power (names the term)."""
 
 
 class LogError(EnergyPlannerError, ValueError):

@@ -19,7 +19,6 @@ from energy_planner.calibration import (
     fit_forces,
     fit_model,
     force_estimates,
-    run_folds,
 )
 from energy_planner.calibration._windows import window_energy
 from energy_planner.errors import FitError
@@ -248,25 +247,6 @@ def test_cross_validation_holds_out_the_test_runs(truth):
     row = cv.runs.set_index("run").loc["r000"]
     # trained without r000, the model predicts the truth: about -1/3 of the inflated energy
     assert row.rel_error == pytest.approx(1 / 1.5 - 1, abs=0.02)
-
-
-@settings(max_examples=30, deadline=None)
-@given(
-    n_runs=st.integers(2, 40),
-    n_splits=st.integers(2, 10),
-    seed=st.integers(0, 2**31 - 1),
-)
-def test_run_folds_partition_runs(n_runs, n_splits, seed):
-    runs = [f"run{i}" for i in range(n_runs) for _ in range(3)]
-    if n_splits > n_runs:
-        with pytest.raises(FitError, match="folds"):
-            run_folds(runs, n_splits, seed)
-        return
-    folds = run_folds(runs, n_splits, seed)
-    flat = sum(folds, [])
-    assert sorted(flat) == sorted(set(runs)) and len(flat) == n_runs
-    sizes = [len(f) for f in folds]
-    assert max(sizes) - min(sizes) <= 1
 
 
 def test_too_little_data_names_counts(truth):

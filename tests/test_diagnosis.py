@@ -76,6 +76,9 @@ def test_no_hidden_effect_no_suspect():
     # candidates were scored, not skipped: each is below noise
     assert d["n_tested"] >= 100 and len(d["below_noise"]) >= 5
     assert all(not s["above_noise"] for s in d["below_noise"])
+    # the closing note is worded by the noise floor the logs show, as discover words it
+    (note,) = [n for n in d["notes"] if n.startswith("no candidate effect is above noise")]
+    assert "noise floor" in note and "as well as the data can tell" not in note
 
 
 def test_speed_terms_unsupported_at_single_speed():

@@ -16,16 +16,15 @@ from energy_planner.diagnosis import (
     Thresholds,
     breakdown,
     diagnose,
-    heldout_rmse,
     hotspots,
     power_metrics,
     rank_suspects,
-    run_folds,
     span_residual,
     window_data,
 )
 from energy_planner.diagnosis.metrics import heading_bins, numeric_bins
 from energy_planner.model import BASE_TERMS, EnergyModel
+from energy_planner.stats import heldout
 
 #: The truth of the synthetic data: the paper's linear wrench written out as formulas (not
 #: the model's base terms, which are fitted to it: kinked grades, copper-loss squares).
@@ -167,25 +166,14 @@ def test_heading_sectors():
 
 
 # ----------------------------------------------------------------------------- CV
-@given(st.lists(st.sampled_from("abcdefgh"), min_size=6, max_size=60), st.integers(0, 5))
-@settings(max_examples=30, deadline=None)
-def test_run_folds_keep_runs_whole(runs, seed):
-    if len(set(runs)) < 2:
-        return
-    folds = run_folds(runs, 5, seed)
-    for r in set(runs):
-        assert len(set(folds[np.array(runs) == r])) == 1
-    assert folds.max() + 1 == min(5, len(set(runs)))
-
-
 def test_heldout_rmse_exact_model_is_zero_and_noise_is_sigma():
     rng = np.random.default_rng(0)
     x = np.column_stack([np.ones(400), rng.uniform(size=400)])
     folds = np.arange(400) % 5
-    assert heldout_rmse(x, x @ [3.0, 2.0], folds)[0] == pytest.approx(0.0, abs=1e-9)
-    rmse, per_fold = heldout_rmse(x, x @ [3.0, 2.0] + rng.normal(0, 0.5, 400), folds)
-    assert rmse == pytest.approx(0.5, rel=0.15)
-    assert per_fold.shape == (5,)
+    assert heldout(x, x @ [3.0, 2.0], folds).rmse == pytest.approx(0.0, abs=1e-9)
+    h = heldout(x, x @ [3.0, 2.0] + rng.normal(0, 0.5, 400), folds)
+    assert h.rmse == pytest.approx(0.5, rel=0.15)
+    assert h.fold_rmse.shape == (5,)
 
 
 def test_span_residual():

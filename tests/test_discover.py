@@ -241,7 +241,7 @@ def test_discovered_short_name_fits_the_same_term(tmp_path):
     logs.to_csv(tmp_path / "logs" / "campaign.csv", index=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = discover(logs, max_steps=1, repair=False)  # fit reads the logs unrepaired
+        d = discover(logs, max_steps=1)  # fit runs the same data checks and repairs
     name = d.term_names[-1]
     assert name == "load_kg*P_base", d.term_names
     formula = d.added[-1]

@@ -12,10 +12,8 @@ from energy_planner.stats import (
     classify_motion,
     cluster_stderr,
     fold_index,
-    heldout_residuals,
-    heldout_rmse,
+    heldout,
     independent_columns,
-    run_folds,
     span_residual,
     vif,
     wls,
@@ -90,25 +88,54 @@ def test_folds_partition_the_runs(runs, n_splits, seed):
         assert len({int(f[i]) for i, x in enumerate(runs) if x == r}) == 1
     k = min(n_splits, len(uniq))
     assert sorted(set(f.tolist())) == list(range(k))
-    folds = run_folds(runs, k, seed)
-    assert sorted(sum(folds, [])) == uniq
-    assert max(map(len, folds)) - min(map(len, folds)) <= 1
-    with pytest.raises(FitError, match="folds"):
-        run_folds(runs, len(uniq) + 1)
+    sizes = [len({r for r, fi in zip(runs, f, strict=True) if fi == i}) for i in range(k)]
+    assert sum(sizes) == len(uniq) and max(sizes) - min(sizes) <= 1
+    with pytest.raises(FitError, match="at least 2 folds"):
+        fold_index(runs, 1)
 
 
-def test_heldout_residuals_equal_explicit_refits():
+def test_heldout_equals_explicit_refits():
+    """Each fold's prediction is an ordinary weighted least-squares fit on the other folds."""
     X, y, w = _data(5, n=90, k=3)
     folds = np.arange(90) % 3
-    err = heldout_residuals(X, y, folds, w, floor=None)
+    h = heldout(X, y, folds, w, floor=None)
     for f in range(3):
         tr = folds != f
         b = np.linalg.lstsq(X[tr] * np.sqrt(w[tr])[:, None], y[tr] * np.sqrt(w[tr]), rcond=None)[0]
-        np.testing.assert_allclose(err[folds == f], y[folds == f] - X[folds == f] @ b, atol=1e-8)
-    rmse, per = heldout_rmse(X, y, folds, w)
-    assert per.shape == (3,) and rmse == pytest.approx(
-        np.sqrt(np.mean(heldout_residuals(X, y, folds, w) ** 2))
-    )
+        te = folds == f
+        np.testing.assert_allclose(h.residuals[te], y[te] - X[te] @ b, atol=1e-8)
+        np.testing.assert_allclose(h.coef[f], b, rtol=1e-8)
+    assert h.fold_rmse.shape == (3,)
+    assert h.rmse == pytest.approx(np.sqrt(np.mean(h.residuals**2)))
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), per_window=st.integers(1, 6))
+def test_heldout_floors_every_sample_then_averages(seed, per_window):
+    """A window's prediction is the mean of its samples' floored predictions.
+
+    Reference: each fold refitted by ``numpy.linalg.lstsq`` on the training windows' mean
+    regressors, every held-out sample predicted and floored by hand. With one sample per
+    window the two floors agree; with several they differ where a window mixes signs.
+    """
+    rng = np.random.default_rng(seed)
+    n = 24
+    rows = np.repeat(np.arange(n), per_window)
+    Xs = np.column_stack([np.ones(len(rows)), rng.normal(0, 2, len(rows))])
+    Xw = np.array([Xs[rows == i].mean(axis=0) for i in range(n)])
+    y = Xw @ [1.0, 3.0] + rng.normal(0, 0.3, n)
+    w = rng.uniform(0.5, 2.0, n)
+    folds = np.arange(n) % 4
+    h = heldout(Xs, y, folds, w, rows=rows)
+    for f in range(4):
+        tr = folds != f
+        sw = np.sqrt(w[tr])
+        b = np.linalg.lstsq(Xw[tr] * sw[:, None], y[tr] * sw, rcond=None)[0]
+        for i in np.flatnonzero(folds == f):
+            want = np.maximum(Xs[rows == i] @ b, 0.0).mean()
+            assert h.predicted[i] == pytest.approx(want, abs=1e-9)
+    if per_window == 1:
+        np.testing.assert_allclose(h.predicted, np.maximum(Xw @ h.coef[folds].T, 0).diagonal())
 
 
 def test_independent_columns_names_the_dependence():

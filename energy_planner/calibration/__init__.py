@@ -15,7 +15,6 @@ from energy_planner.calibration.fit import (
     FitResult,
     cross_validate,
     fit_model,
-    run_folds,
 )
 from energy_planner.calibration.forces import ForceFit, fit_forces, force_estimates
 
@@ -27,5 +26,4 @@ __all__ = [
     "fit_forces",
     "fit_model",
     "force_estimates",
-    "run_folds",
 ]

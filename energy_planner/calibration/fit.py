@@ -22,6 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,15 +33,20 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
-from energy_planner.stats import independent_columns, run_folds, vif, wls
+from energy_planner.model.model import prepare_features
+from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
 
 __all__ = [
     "FitResult",
     "CrossValidation",
     "fit_model",
+    "as_windows",
     "cross_validate",
+    "identifiable",
+    "identifiable_by_fold",
     "identify_terms",
-    "run_folds",
+    "refuse_free_walking",
+    "calibration_domain",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
 ]
@@ -159,6 +165,10 @@ class FitResult:
         Term name -> why the campaign cannot identify it; such terms are not in ``model``.
     held_at_prior : dict
         Term name -> coefficient taken from the prior model (unidentified, kept).
+    data_findings : list of dict or None
+        Every data check's result (:func:`energy_planner.measurements.prepare_logs`) when
+        the fit started from raw samples; None when it was given windows (the checks run
+        on raw samples, before cleaning).
     """
 
     model: EnergyModel
@@ -175,6 +185,7 @@ class FitResult:
     stderr_by_run: dict[str, float] = field(default_factory=dict)
     unidentified: dict[str, str] = field(default_factory=dict)
     held_at_prior: dict[str, float] = field(default_factory=dict)
+    data_findings: list[dict[str, Any]] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (``unidentified``: term -> reason, not in the model)."""
@@ -206,6 +217,7 @@ class FitResult:
             "heldout": None if self.heldout is None else self.heldout.to_dict(),
             "coverage": self.coverage.to_dict(orient="records"),
             "warnings": list(self.warnings),
+            "data_findings": self.data_findings,
         }
 
     def summary(self) -> str:
@@ -248,6 +260,10 @@ class FitResult:
             ]
         if self.warnings:
             lines += ["", "warnings:"] + [f"  - {w}" for w in self.warnings]
+        if self.data_findings is not None:
+            from energy_planner.measurements import findings_text
+
+            lines += ["", *findings_text(self.data_findings)]
         return "\n".join(lines)
 
 
@@ -314,9 +330,15 @@ def identify_terms(
     per unit rate above ``max(EXERCISE_FLOOR, EXERCISE_FRACTION * largest)`` (a grade of
     about 0.6 deg for the linear grade terms). Sensor noise alone (a few mm/s of ``vx``
     while side-stepping) makes a backward column non-zero without any backward run, so a
-    least-squares fit would happily give it a value; this rule does not. Then, in term
-    order, a column that is (numerically) a combination of the earlier identified ones
-    is not identified either (:func:`energy_planner.stats.independent_columns`).
+    least-squares fit would happily give it a value; this rule does not. A term of any
+    other kind (a formula, a channel times the base power as ``discover`` adds) is not
+    identified when it prices a motion class the campaign lacks (fewer than
+    :data:`MIN_WINDOWS_PER_TERM` windows of it): on probe motions of that class
+    (:func:`_class_probes`) its value differs from its value standing still at the same
+    slope, heading and channel values, so it says something about that motion that the
+    logs cannot have told it. Then, in term order, a column that is (numerically) a
+    combination of the earlier identified ones is not identified either
+    (:func:`energy_planner.stats.independent_columns`).
 
     Parameters
     ----------
@@ -344,8 +366,12 @@ def identify_terms(
         else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
     )
     yaw = np.abs(table["wz"].to_numpy(float))
+    absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
+            why = _prices_absent_motion(term, absent, X[:, j], table)
+            if why:
+                out[term.name] = why
             continue
         sel = kind == term.kind
         rate = (speed if _RATE_OF_KIND[term.kind] == "speed" else yaw)[sel]
@@ -373,6 +399,256 @@ def identify_terms(
             else:
                 out[nm] = "zero on every window: the campaign never exercises it"
     return {nm: out[nm] for nm in names if nm in out}
+
+
+def identifiable_by_fold(
+    model: EnergyModel, X: np.ndarray, w: np.ndarray, table: pd.DataFrame, folds: np.ndarray
+) -> np.ndarray:
+    """Which terms each fold's training windows identify (:func:`identify_terms`).
+
+    The held-out evaluation (:func:`energy_planner.stats.heldout`, ``fit_columns``) fits
+    only these in each fold and predicts the others as 0, in ``fit``, ``diagnose`` and
+    ``discover`` alike.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its terms, in the order of the columns of ``X``.
+    X, w, table
+        Window means of the terms, window weights and the window table, as for
+        :func:`identify_terms`.
+    folds : numpy.ndarray
+        Fold of every window.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(n_folds, k)``.
+    """
+    names = model.term_names
+    n_folds = int(np.max(folds)) + 1
+    out = np.ones((n_folds, len(names)), dtype=bool)
+    for i in range(n_folds):
+        train = np.asarray(folds) != i
+        lost = identify_terms(model, X[train], w[train], table[train])
+        out[i] = [n not in lost for n in names]
+    return out
+
+
+#: Probe motions of each motion class (body velocity direction, rad; None: turn in place).
+_CLASS_DIRECTIONS = {
+    "forward": (0.0,),
+    "backward": (math.pi,),
+    "lateral": (math.pi / 2, -math.pi / 2),
+    "turning": (None,),
+}
+
+
+def _class_probes(kind: str, channels: Mapping[str, Any]) -> tuple[dict, dict]:
+    """Features of probe motions of one motion class and of standing at the same poses.
+
+    Slopes 0, 10 and 20 deg, relative headings every 45 deg, the nominal speed (turning in
+    place at the nominal yaw rate) and the given channel values.
+    """
+    from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
+    a, h = np.meshgrid(np.radians([0.0, 10.0, 20.0]), np.radians(np.arange(-180, 180, 45)))
+    a, h = a.ravel(), h.ravel()
+    moving: dict[str, list] = {k: [] for k in ("alpha", "gamma", "vx", "vy", "wz")}
+    for d in _CLASS_DIRECTIONS[kind]:
+        moving["alpha"].append(a)
+        moving["gamma"].append(h)
+        moving["vx"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.cos(d)))
+        moving["vy"].append(np.full(a.size, 0.0 if d is None else DEFAULT_SPEED * math.sin(d)))
+        moving["wz"].append(np.full(a.size, DEFAULT_YAW_RATE if d is None else 0.0))
+    probe = {k: np.concatenate(v) for k, v in moving.items()}
+    n = probe["alpha"].size
+    probe["ax"] = probe["ay"] = np.zeros(n)
+    stand = {**probe, "vx": np.zeros(n), "vy": np.zeros(n), "wz": np.zeros(n)}
+    for c, v in channels.items():
+        probe[c] = stand[c] = np.full(n, v, dtype=object if isinstance(v, str) else float)
+    return probe, stand
+
+
+def _prices_absent_motion(
+    term: Term, absent: Sequence[str], column: np.ndarray, table: pd.DataFrame
+) -> str | None:
+    """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
+    if not absent:
+        return None
+    channels: dict[str, Any] = {}
+    for c in sorted(term.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            return None  # evaluated without the table's channels: nothing to probe with
+        v = table[c]
+        channels[c] = (
+            float(np.nanmedian(v.to_numpy(float)))
+            if pd.api.types.is_numeric_dtype(v)
+            else str(v.mode().iloc[0])
+        )
+    scale = float(np.nanmax(np.abs(column))) if column.size else 0.0
+    tol = 1e-6 * scale + 1e-9
+    for k in absent:
+        probe, stand = _class_probes(k, channels)
+        ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
+        diff = np.abs(np.asarray(ev[0], float) - np.asarray(ev[1], float))
+        if np.nanmax(np.broadcast_to(diff, probe["alpha"].shape)) > tol:
+            label = "turn-in-place" if k == "turning" else k
+            return (
+                f"it prices {label} motion (its value walking {label} differs from its value "
+                f"standing by up to {float(np.nanmax(diff)):.3g}), and the campaign has fewer "
+                f"than {MIN_WINDOWS_PER_TERM} {label} windows: the logs cannot have told it "
+                f"what {label} motion costs; record such runs"
+            )
+    return None
+
+
+def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dict[str, str]:
+    """Terms these windows cannot identify, with the reason (:func:`identify_terms`).
+
+    Parameters
+    ----------
+    windows : Windows
+        As for :func:`fit_model`.
+    terms : EnergyModel or sequence of term specs
+        The terms to check.
+
+    Returns
+    -------
+    dict
+        Term name -> why the windows cannot identify it (empty when all are).
+    """
+    model = _as_model(terms)
+    table = aligned_table(windows)
+    groups = windows.samples["window"].to_numpy()
+    X = model.design_matrix(model_features(windows.samples, model), groups=groups)
+    return identify_terms(model, X, table["duration"].to_numpy(float), table)
+
+
+#: Motion class of the windows -> gaits of :func:`energy_planner.model.check_walking_power`.
+_GAITS_OF_KIND = {
+    "forward": ("forward",),
+    "backward": ("backward",),
+    "lateral": ("sideways left", "sideways right"),
+    "turning": ("turning in place",),
+}
+
+
+def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
+    """Refuse a fitted model that prices walking at <= 0 W inside its calibration's domain.
+
+    The domain: every gait the model prices (the motion classes of the windows with at
+    least :data:`MIN_WINDOWS_PER_TERM` windows, and those of its terms), slopes up to the
+    steepest window, the 10th and 90th percentile speeds of the walking windows, and each
+    channel the model reads at its minimum, median and maximum (every category). See
+    :func:`energy_planner.model.model.check_walking_power`.
+
+    Returns
+    -------
+    int
+        Walking motions checked.
+
+    Raises
+    ------
+    NonPositivePowerError
+        The model prices a walking motion of its domain at <= 0 W (names the term).
+    """
+    from energy_planner.model.model import WALKING_SPEED, check_walking_power
+
+    kinds = table["kind"].to_numpy()
+    seen = {k for k in _GAITS_OF_KIND if int(np.sum(kinds == k)) >= MIN_WINDOWS_PER_TERM}
+    seen |= {t.kind for t in model.terms if t.kind in _GAITS_OF_KIND}
+    gaits = [g for k in _GAITS_OF_KIND if k in seen for g in _GAITS_OF_KIND[k]]
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    speeds = (
+        sorted({float(np.quantile(walking, 0.1)), float(np.quantile(walking, 0.9))})
+        if walking.size
+        else [0.3]
+    )
+    values: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            values[c] = (
+                sorted({float(f.min()), float(np.median(f)), float(f.max())}) if f.size else [0.0]
+            )
+        else:
+            values[c] = sorted(v.dropna().astype(str).unique())
+    max_slope = float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))) if len(table) else 0.0
+    return check_walking_power(
+        model,
+        values,
+        max_slope_deg=max_slope,
+        speeds=speeds,
+        gaits=gaits,
+        where="fitted on these logs, ",
+    )
+
+
+def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
+    """The ranges the calibration's windows saw (stored as ``metadata.fit.domain``).
+
+    Returns
+    -------
+    dict
+        ``max_slope_deg``; ``speed_m_s`` [min, max] of the walking windows;
+        ``max_turn_rate_rad_s``; ``gaits``: per motion class with windows, their number and
+        the [min, max] relative heading ``|gamma|`` (deg); ``channels``: per channel the
+        model reads, [min, max] (numeric) or the categories.
+    """
+    from energy_planner.model.model import WALKING_SPEED
+
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    walking = speed[speed > WALKING_SPEED]
+    gamma = np.degrees(np.abs(table["gamma"].to_numpy(float)))
+    kinds = table["kind"].to_numpy()
+    gaits = {}
+    for k in _GAITS_OF_KIND:
+        sel = kinds == k
+        if sel.any():
+            gaits[k] = {
+                "windows": int(sel.sum()),
+                "rel_heading_deg": [
+                    round(float(gamma[sel].min()), 2),
+                    round(float(gamma[sel].max()), 2),
+                ],
+            }
+    channels: dict[str, Any] = {}
+    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            f = f[np.isfinite(f)]
+            if f.size:
+                channels[c] = [float(f.min()), float(f.max())]
+        else:
+            channels[c] = sorted(v.dropna().astype(str).unique())
+    return {
+        "max_slope_deg": round(float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))), 2),
+        "speed_m_s": (
+            [round(float(walking.min()), 3), round(float(walking.max()), 3)]
+            if walking.size
+            else None
+        ),
+        "max_turn_rate_rad_s": round(float(np.nanmax(np.abs(table["wz"].to_numpy(float)))), 3),
+        "gaits": gaits,
+        "channels": channels,
+    }
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -540,7 +816,8 @@ def cross_validate(
             "(leave one run out)"
         )
         n_splits = n_runs
-    folds = run_folds(runs, n_splits, seed)
+    fold_of_window = fold_index(runs, n_splits, seed)
+    folds = [sorted(set(runs[fold_of_window == i])) for i in range(n_splits)]
     fixed = dict(fixed or {})
     all_names = model.term_names
     D_all = model.design_matrix(model_features(samples, model))  # per sample
@@ -548,42 +825,41 @@ def cross_validate(
     names = [n for n in all_names if n not in fixed]
     held = np.array([fixed[n] for n in all_names if n in fixed], dtype=float)
     D = D_all[:, free]
-    offset_sample = D_all[:, ~free] @ held if held.size else np.zeros(len(samples))
-    win = samples["window"].to_numpy()
+    offset_sample = D_all[:, ~free] @ held if held.size else None
+    _, win = np.unique(samples["window"].to_numpy(), return_inverse=True)
     X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
-    offset = pd.Series(offset_sample).groupby(win, sort=True).mean().to_numpy()
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
-    sample_run = samples["run"].astype(str).to_numpy()
 
-    run_to_fold = {r: i for i, fold in enumerate(folds) for r in fold}
-    fold_of_window = pd.Series(runs).map(run_to_fold).to_numpy(int)
-    fold_of_sample = pd.Series(sample_run).map(run_to_fold).to_numpy(int)
-    pred_sample = np.full(len(samples), np.nan)
-    coefs = []
+    # the terms each fold's training runs can identify; the others are predicted as 0
+    free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
+    fit_columns = identifiable_by_fold(free_model, X, w, table, fold_of_window)
     for i, test_runs in enumerate(folds):
         test = fold_of_window == i
-        train = ~test
-        free_model = EnergyModel([t for t in model.terms if t.name not in fixed])
-        lost = identify_terms(free_model, X[train], w[train], table[train])
-        cols = np.array([n not in lost for n in names], dtype=bool)
-        beta = np.zeros(len(names))
-        beta[cols] = wls(X[train][:, cols], y[train] - offset[train], w[train]).coef
-        lost = [n for j, n in enumerate(names) if n in lost and np.any(np.abs(X[test, j]) > 0)]
+        lost = [
+            n
+            for j, n in enumerate(names)
+            if not fit_columns[i, j] and np.any(np.abs(X[test, j]) > 0)
+        ]
         if lost:
             warnings.append(
                 f"fold {i}: the training runs cannot identify {', '.join(lost)} (the runs "
                 f"that do are held out: {', '.join(test_runs[:6])}"
                 f"{', ...' if len(test_runs) > 6 else ''}); this fold predicts them as 0"
             )
-        coefs.append(beta)
-        smask = fold_of_sample == i
-        p = D[smask] @ beta + offset_sample[smask]
-        pred_sample[smask] = p if model.regenerative else np.maximum(p, 0.0)
-
-    pred_w = pd.Series(pred_sample).groupby(win, sort=True).mean().to_numpy()
+    ho = heldout(
+        D,
+        y,
+        fold_of_window,
+        w,
+        rows=win,
+        offset=offset_sample,
+        fit_columns=fit_columns,
+        floor=None if model.regenerative else 0.0,
+    )
+    coefs, pred_w, pred_sample = ho.coef, ho.predicted, ho.sample_predicted
     resid = pred_w - y
-    rmse = float(np.sqrt(np.mean(resid**2)))
+    rmse = ho.rmse
     mae = float(np.mean(np.abs(resid)))
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     r2 = float(1 - np.sum(resid**2) / ss_tot) if ss_tot > 0 else float("nan")
@@ -639,6 +915,29 @@ def cross_validate(
     )
 
 
+def as_windows(data: Any, *, window: float = 2.0, repair: bool = True) -> tuple[Any, Any]:
+    """Windows and data findings from raw samples, prepared logs or windows.
+
+    Raw canonical samples (a DataFrame without a ``window`` column) go through the one
+    data pipeline, :func:`energy_planner.measurements.prepare_logs` (data checks, repair,
+    cleaning, windows); a ``PreparedLogs`` brings its own findings; ``Windows`` (or
+    windowed samples) come back as they are with no findings (None): the checks run on raw
+    samples, before cleaning.
+
+    Returns
+    -------
+    tuple
+        ``(windows, findings)``, findings a list of dicts or None.
+    """
+    from energy_planner.measurements import PreparedLogs, prepare_logs
+
+    if isinstance(data, pd.DataFrame) and "window" not in data.columns:
+        data = prepare_logs(data, window=window, repair=repair)
+    if isinstance(data, PreparedLogs):
+        return data.windows, data.findings_dicts()
+    return data, None
+
+
 def fit_model(
     windows: Any,
     terms: EnergyModel | Sequence[str | Term] | None = None,
@@ -647,6 +946,8 @@ def fit_model(
     seed: int = 0,
     metadata: dict[str, Any] | None = None,
     prior: EnergyModel | None = None,
+    window: float = 2.0,
+    repair: bool = True,
 ) -> FitResult:
     """Fit all terms of a model jointly on all windows and validate it by run.
 
@@ -659,9 +960,11 @@ def fit_model(
 
     Parameters
     ----------
-    windows : Windows
+    windows : Windows, PreparedLogs or pandas.DataFrame
         Measurements contract: ``samples`` (per sample, with ``window``) and ``table``
-        (per window, with ``run``, ``duration``, ``power``, ``alpha``, ``motion``...).
+        (per window, with ``run``, ``duration``, ``power``, ``alpha``, ``motion``...); or
+        raw canonical samples, which first go through the data checks, cleaning and
+        windows (:func:`as_windows`), the findings then in ``FitResult.data_findings``.
     terms : EnergyModel, sequence of term specs, or None
         What to fit: a model (its terms; coefficients ignored), catalog names and
         formulas, or None for the paper's base model.
@@ -674,6 +977,10 @@ def fit_model(
     prior : EnergyModel, optional
         A fitted model whose coefficients stand in for the terms this campaign cannot
         identify (e.g. :meth:`EnergyModel.default`); only when the user asks.
+    window : float
+        Window length (s) when ``windows`` are raw samples.
+    repair : bool
+        Correct the data findings of raw samples before fitting (reported either way).
 
     Returns
     -------
@@ -685,7 +992,11 @@ def fit_model(
         Too little data (names the counts and what is needed), or no term identifiable.
     ModelError
         A term needs a channel the logs do not have.
+    NonPositivePowerError
+        The fitted model prices a walking motion of its calibration's domain at <= 0 W
+        (:func:`refuse_free_walking`): it is not returned, so it cannot be saved.
     """
+    windows, findings = as_windows(windows, window=window, repair=repair)
     requested = _as_model(terms)
     table = aligned_table(windows)
     samples = windows.samples
@@ -726,6 +1037,7 @@ def fit_model(
     se_run = dict(zip(names, map(float, res.stderr_by_run), strict=True))
     model.coefficients = {n: coefs.get(n, held.get(n)) for n in model.term_names}
     model.stderr = {n: stderr.get(n, float("nan")) for n in model.term_names}
+    refuse_free_walking(model, table)
     resid = res.resid
     rms = float(np.sqrt(np.sum(w * resid**2) / np.sum(w)))
     vifs = vif(X, w)
@@ -757,6 +1069,12 @@ def fit_model(
             "stderr_by_run": {n: float(f"{v:.3g}") for n, v in se_run.items()},
             "unidentified": dict(dropped),
             "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
+            "domain": calibration_domain(table, model),
+            **(
+                {}
+                if findings is None
+                else {"data_findings": [f["name"] for f in findings if f["finding"]]}
+            ),
             **(
                 {}
                 if heldout is None
@@ -790,6 +1108,7 @@ def fit_model(
         stderr_by_run=se_run,
         unidentified=dict(dropped),
         held_at_prior=held,
+        data_findings=findings,
     )
 
 

@@ -15,6 +15,7 @@ from energy_planner.cli.options import (
     load_model_option,
     logs_argument,
     model_option,
+    repair_option,
     report_option,
     staircase_options,
     window_option,
@@ -130,6 +131,10 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
             )
     for n in doc["notes"]:
         lines.append(f"note: {n}")
+    if doc.get("data_findings") is not None:
+        from energy_planner.measurements import findings_text
+
+        lines += findings_text(doc["data_findings"])
     if report is not None:
         lines.append(f"report written to {report}")
     return "\n".join(lines)
@@ -179,6 +184,7 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
 )
 @window_option
 @staircase_options
+@repair_option
 @json_option
 def command(
     logs: tuple[Path, ...],
@@ -192,18 +198,21 @@ def command(
     alpha: float,
     min_rel: float,
     seed: int,
+    repair: bool,
     as_json: bool,
 ) -> None:
     """Compare a fitted model with LOGS and rank the physical effects it misses.
 
-    Shows the error at the level of window power (RMSE, MAE, R^2) and of whole runs
-    (energy per run, superposition of composite paths), where it fails (the residual by
-    slope, heading, speed, motion and every extra log channel), and a ranked list of
-    suspects: candidate effects from the catalog and from the extra channels, each
-    validated on held-out runs. Add the best one with the printed `energy-planner fit`
-    line and diagnose again, or let `energy-planner discover` walk the whole staircase.
+    Checks the logs for sensor problems first and repairs them (--no-repair: report
+    only), as fit and discover do. Shows the error at the level of window power (RMSE,
+    MAE, R^2) and of whole runs (energy per run, superposition of composite paths),
+    where it fails (the residual by slope, heading, speed, motion and every extra log
+    channel), and a ranked list of suspects: candidate effects from the catalog and
+    from the extra channels, each validated on held-out runs. Add the best one with the
+    printed `energy-planner fit` line and diagnose again, or let `energy-planner
+    discover` walk the whole staircase.
     """
-    from energy_planner.cli.fit import load_windows, resolve_terms
+    from energy_planner.cli.fit import load_prepared, resolve_terms
     from energy_planner.diagnosis import Thresholds, diagnose
     from energy_planner.errors import EnergyPlannerError
 
@@ -214,8 +223,8 @@ def command(
             "(energy-planner fit LOGS --out model.json)",
             param_hint="--model",
         )
-    windows = load_windows(logs, window)[0]  # (windows, reports, text, ...)
-    extra = [t.name for t in resolve_terms(terms, set(windows.samples.columns))]
+    prepared = load_prepared(logs, window, repair)[0]  # (prepared, reports, text, ...)
+    extra = [t.name for t in resolve_terms(terms, set(prepared.windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
     th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     progress = None
@@ -227,7 +236,7 @@ def command(
     try:
         d = diagnose(
             model,
-            windows,
+            prepared,
             runs_meta=runs_meta,
             thresholds=th,
             max_steps=max_steps,

@@ -14,6 +14,7 @@ from energy_planner.cli.options import (
     examples,
     json_option,
     logs_argument,
+    repair_option,
     report_option,
     staircase_options,
     window_option,
@@ -110,11 +111,7 @@ def _text(doc: dict[str, Any]) -> str:
 @report_option
 @window_option
 @staircase_options
-@click.option(
-    "--no-repair",
-    is_flag=True,
-    help="Report data findings (sensor problems) but do not correct them before fitting.",
-)
+@repair_option
 @json_option
 def command(
     logs: tuple[Path, ...],
@@ -126,7 +123,7 @@ def command(
     folds: int,
     alpha: float,
     min_rel: float,
-    no_repair: bool,
+    repair: bool,
     seed: int,
     as_json: bool,
 ) -> None:
@@ -176,7 +173,7 @@ def command(
             max_steps=max_steps,
             terms=extra,
             window=window,
-            repair=not no_repair,
+            repair=repair,
             progress=progress,
         )
     except EnergyPlannerError as exc:

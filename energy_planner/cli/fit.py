@@ -13,6 +13,7 @@ from energy_planner.cli.options import (
     examples,
     json_option,
     logs_argument,
+    repair_option,
     seed_option,
     window_option,
 )
@@ -39,17 +40,27 @@ def status(message: str) -> None:
 
 
 def load_windows(
-    paths: tuple[Path, ...], window: float, *, prints_report: bool = False
+    paths: tuple[Path, ...], window: float, repair: bool = True, *, prints_report: bool = False
 ) -> tuple[Any, dict[str, Any], str, Any]:
-    """Load logs, preprocess them and cut windows; errors become click errors.
+    """:func:`load_prepared`, with the windows in place of the prepared logs."""
+    prepared, reports, text, samples = load_prepared(paths, window, repair, prints_report)
+    return prepared.windows, reports, text, samples
 
-    Returns the windows, a dict of the load and preprocessing reports, the
-    preprocessing report as text, and the raw samples. A caller that prints the
-    preprocessing report (``prints_report``), which lists the runs preprocessing dropped,
-    gets no warning repeating them.
+
+def load_prepared(
+    paths: tuple[Path, ...], window: float, repair: bool = True, prints_report: bool = False
+) -> tuple[Any, dict[str, Any], str, Any]:
+    """Load logs, run the data checks, preprocess and cut windows; errors become click errors.
+
+    The one data pipeline of ``fit``, ``diagnose`` and ``discover``
+    (:func:`energy_planner.measurements.prepare_logs`). Returns the ``PreparedLogs``, a
+    dict of the load and preprocessing reports and the data findings, the preprocessing
+    report as text, and the raw samples. A caller that prints the preprocessing report
+    (``prints_report``), which lists the runs preprocessing dropped, gets no warning
+    repeating them.
     """
     from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
-    from energy_planner.measurements import load_logs, make_windows, preprocess
+    from energy_planner.measurements import load_logs, prepare_logs
 
     files = log_files(paths)
     status(f"loading {len(files)} log file(s) ...")
@@ -66,13 +77,14 @@ def load_windows(
         with warnings.catch_warnings():
             if prints_report:  # the report printed lists the dropped runs: say it once
                 warnings.filterwarnings("ignore", "preprocessing dropped", UserWarning)
-            clean, prep_report = preprocess(samples)
-        windows = make_windows(clean, duration=window)
+            prepared = prepare_logs(samples, window=window, repair=repair)
     except EnergyPlannerError as exc:
         raise click.ClickException(f"preprocessing failed: {exc}") from exc
+    prep_report = prepared.preprocess_report
     reports = {"load": _as_dict(load_report), "preprocessing": _as_dict(prep_report)}
-    reports["windows"] = _as_dict(windows)
-    return windows, reports, str(prep_report), samples
+    reports["windows"] = _as_dict(prepared.windows)
+    reports["data_findings"] = prepared.findings_dicts()
+    return prepared, reports, str(prep_report), samples
 
 
 def resolve_terms(specs: tuple[str, ...], available: set[str] | None = None) -> list[Any]:
@@ -120,7 +132,7 @@ def discovered_names(specs: tuple[str, ...], windows: Any) -> tuple[Any, ...]:
     if all(" " in s for s in specs):
         return specs
     try:
-        return tuple(resolve_names(specs, window_data(windows.samples)))
+        return tuple(resolve_names(specs, window_data(windows)))
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--term") from exc
 
@@ -186,6 +198,7 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     "left out of the fitted model and listed as not identified.",
 )
 @seed_option
+@repair_option
 @json_option
 def command(
     logs: tuple[Path, ...],
@@ -195,11 +208,13 @@ def command(
     folds: int,
     prior_spec: str | None,
     seed: int,
+    repair: bool,
     as_json: bool,
 ) -> None:
     """Fit the energy model of your robot from its LOGS (files or folders).
 
-    Loads and preprocesses the logs (paper IV-B), cuts windows, fits the paper's base
+    Checks the logs for sensor problems and repairs them (--no-repair: report only), as
+    diagnose and discover do; preprocesses them (paper IV-B), cuts windows, fits the paper's base
     model plus any --term jointly by weighted least squares, validates it on held-out
     runs and writes the model to --out. Terms the logs cannot identify (no runs of
     their motion, or no slopes that tell them apart) are listed and left out of the
@@ -225,12 +240,13 @@ def command(
     # syntax first: fail before loading any log (a spec without spaces may be a name that
     # discover prints, such as speed^2 or load_kg*P_base: resolved on the windows below)
     resolve_terms(tuple(t for t in terms if " " in t))
-    windows, reports, prep_text, _ = load_windows(logs, window, prints_report=True)
+    prepared, reports, prep_text, _ = load_prepared(logs, window, repair, prints_report=True)
+    windows = prepared.windows
     extra = resolve_terms(discovered_names(terms, windows), set(windows.samples.columns))
     status(f"fitting {len(BASE_TERMS) + len(extra)} terms on {len(windows.table)} windows ...")
     try:
         result = fit_model(
-            windows,
+            prepared,
             [*BASE_TERMS, *extra],
             n_splits=folds,
             seed=seed,

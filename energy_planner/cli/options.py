@@ -113,6 +113,14 @@ window_option = click.option(
     help="Window length, s.",
 )
 
+repair_option = click.option(
+    "--repair/--no-repair",
+    "repair",
+    default=True,
+    show_default=True,
+    help="Correct the data findings (sensor problems: current sign, clock offset, odometry "
+    "slip, IMU tilt, twist noise) before fitting; --no-repair reports them only.",
+)
 
 report_option = click.option(
     "--report",
@@ -450,9 +458,12 @@ def trust_options(f):
 def add_trust(
     result: dict[str, Any], model: Any, energy_j: float, level: float,
     battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
-    label: str | None = None,
+    label: str | None = None, outside_share: float = 0.0,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
+
+    ``outside_share``: the share of the path outside the calibration's domain, which
+    widens the interval (:func:`energy_planner.uncertainty.predict_interval`).
 
     A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
     route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
@@ -460,7 +471,7 @@ def add_trust(
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
-    iv = predict_interval(model, energy_j, level)
+    iv = predict_interval(model, energy_j, level, outside_share)
     result["interval"] = None if iv is None else iv.to_dict()
     if battery_wh is None:
         return
@@ -488,6 +499,12 @@ def trust_lines(res: dict[str, Any]) -> str:
                      f"{iv['calibrated_on_runs']} held-out runs")  # fmt: skip
     elif "interval" in res:
         lines.append("interval  none: the model carries no held-out run errors")
+    dom = res.get("domain")
+    if dom:
+        why = "; ".join(f"{k} ({100 * v:.0f} %)" for k, v in dom["reasons"].items())
+        wide = "; the interval is widened" if dom["outside_share"] > 0 else ""
+        lines.append(f"domain    {100 * dom['outside_share']:.0f} % of the path lies outside "
+                     f"the calibration's ranges{': ' + why if why else ''}{wide}")  # fmt: skip
     b = res.get("battery")
     if b:
         d = BatteryDecision(b["battery_wh"], b["reserve_wh"], b["usable_wh"] * 3600.0,

@@ -282,6 +282,26 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
     }
 
 
+def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | None:
+    """The share of a planned route outside the model's calibration domain, or None.
+
+    :func:`energy_planner.uncertainty.domain_report` on the route's segments
+    (:func:`energy_planner.energy.path_energy` of its poses).
+    """
+    import numpy as np
+
+    from energy_planner.energy.path import path_energy
+    from energy_planner.uncertainty import domain_report
+
+    if not (model.metadata.get("fit") or {}).get("domain"):
+        return None
+    st = np.asarray(states, dtype=float)
+    ch = request.channels
+    pe = path_energy(terrain, model, st[:, :2], yaw=st[:, 2], speed=request.robot.speed,
+                     yaw_rate=request.robot.yaw_rate, channels=ch)  # fmt: skip
+    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses)
+
+
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -356,6 +376,13 @@ def format_table(res: dict[str, Any]) -> str:
 @click.option(
     "--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="PNG plot."
 )
+@click.option(
+    "--stay-in-domain",
+    is_flag=True,
+    default=False,
+    help="Keep the plan on slopes the model's calibration saw (its metadata.fit.domain): "
+    "--max-slope becomes at most the steepest calibration window.",
+)
 @json_option
 def command(
     dem: Path,
@@ -383,6 +410,7 @@ def command(
     confidence: float,
     refuse: bool,
     plot: Path | None,
+    stay_in_domain: bool,
     as_json: bool,
 ) -> None:
     """Plan an energy-minimal path (x, y, heading) from START to GOAL over a DEM.
@@ -395,19 +423,31 @@ def command(
     is read by windows about the start and the goal (a corridor); the output says
     whether the window is proven to hold every cheaper path.
     """
+    from energy_planner.energy.path import check_cost_power
     from energy_planner.errors import (
         DEMError,
         DEMIOError,
         EnergyPlannerError,
         RasterTooLargeError,
     )
+    from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import plan
 
     check_planner(planner)
     ch = channels_from_options(sets, channels) if (sets or channels) else None
+    model = load_model_option(model_path)
+    if stay_in_domain:
+        dom = (model.metadata.get("fit") or {}).get("domain")
+        if not dom:
+            raise click.BadParameter(
+                "the model records no calibration domain (metadata.fit.domain; models "
+                "fitted before it was recorded): refit it, or drop --stay-in-domain",
+                param_hint="--stay-in-domain",
+            )
+        top = float(dom["max_slope_deg"])
+        max_slope = top if max_slope is None else min(max_slope, top)
     request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out, ch)
     cap = parse_memory_cap(memory_cap)
-    model = load_model_option(model_path)
     kwargs = dict(planner=planner, time=time_s, seed=seed, step=step, eps=eps)
     if over_memory_cap(dem, cap):
         from energy_planner.planning.corridor import plan_in_corridor
@@ -417,6 +457,7 @@ def command(
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
                                             **kwargs)  # fmt: skip
+            check_cost_power(make_motion_cost(terrain, model, request)[0])
         except RasterTooLargeError as exc:
             raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
         except (DEMError, DEMIOError) as exc:
@@ -428,12 +469,17 @@ def command(
         s = point_to_work(terrain, start, "--start", True)
         g = point_to_work(terrain, goal, "--goal", True)
         try:
-            res = plan(terrain, model, s, g, request, progress=True, **kwargs)
+            # a model that prices walking on this map at <= 0 W would plan a free route
+            cost, _ = make_motion_cost(terrain, model, request)
+            check_cost_power(cost)
+            res = plan(terrain, model, s, g, request, progress=True, cost=cost, **kwargs)
         except EnergyPlannerError as exc:
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)
     result.update(plan_context(terrain, request, model, model_path))
-    add_trust(result, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse)
+    result["domain"] = route_domain(terrain, model, res.states, request)
+    add_trust(result, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse,
+              outside_share=(result["domain"] or {}).get("outside_share", 0.0))  # fmt: skip
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:

@@ -14,7 +14,6 @@ logs after the data checks (sensor problems reported as data findings and repair
 
 from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table
 from energy_planner.diagnosis.data import WindowData, window_data
-from energy_planner.diagnosis.datacheck import DataFinding, check_data
 from energy_planner.diagnosis.discover import Discovery, discover
 from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
 from energy_planner.diagnosis.suspects import (
@@ -23,12 +22,11 @@ from energy_planner.diagnosis.suspects import (
     Step,
     Suspect,
     Thresholds,
-    heldout_rmse,
     rank_suspects,
-    run_folds,
     span_residual,
     staircase,
 )
+from energy_planner.measurements.datacheck import DataFinding, check_data
 
 __all__ = [
     "Candidate",
@@ -44,12 +42,10 @@ __all__ = [
     "WindowData",
     "breakdown",
     "diagnose",
-    "heldout_rmse",
     "hotspots",
     "infer_composites",
     "power_metrics",
     "rank_suspects",
-    "run_folds",
     "run_table",
     "span_residual",
     "staircase",

@@ -130,6 +130,7 @@ class Diagnosis:
     rankings: list[Ranking] = field(default_factory=list)
     thresholds: Thresholds = field(default_factory=Thresholds)
     notes: list[str] = field(default_factory=list)
+    data_findings: list[dict[str, Any]] | None = None
 
     @property
     def residual(self) -> np.ndarray:
@@ -174,6 +175,7 @@ class Diagnosis:
                 "seed": th.seed,
             },
             "notes": self.notes,
+            "data_findings": self.data_findings,
         }
 
 
@@ -188,6 +190,8 @@ def diagnose(
     extras: Sequence[str] | None = None,
     terms: Sequence[str] = (),
     progress=None,
+    window: float = 2.0,
+    repair: bool = True,
 ) -> Diagnosis:
     """Compare ``model`` with windowed measurements and rank the effects it misses.
 
@@ -195,8 +199,12 @@ def diagnose(
     ----------
     model : EnergyModel
         A fitted model (its terms are also the starting point of the refits).
-    samples : pandas.DataFrame
-        Windowed per-sample data, ``make_windows(clean).samples`` (or a ``Windows``).
+    samples : pandas.DataFrame, Windows or PreparedLogs
+        Windowed per-sample data, ``make_windows(clean).samples`` (or a ``Windows``); or
+        raw canonical samples, which first go through the data checks (repaired unless
+        ``repair`` is False), cleaning and windows as ``fit`` and ``discover`` do them
+        (:func:`energy_planner.calibration.fit.as_windows`); the findings are then in
+        ``Diagnosis.data_findings``.
     composites : list of dict or mapping, optional
         Composite paths for the superposition check (:func:`infer_composites` format, or
         composite run -> part runs); default inferred from ``runs_meta`` or the samples.
@@ -212,15 +220,22 @@ def diagnose(
         More candidate terms to test besides the catalog and the data-driven ones.
     progress : callable, optional
         Called with the step number after each staircase step.
+    window : float
+        Window length (s) for raw samples.
+    repair : bool
+        Correct the data findings of raw samples (reported either way).
 
     Returns
     -------
     Diagnosis
     """
+    from energy_planner.calibration.fit import as_windows
+
+    samples, findings = as_windows(samples, window=window, repair=repair)
+    wd = window_data(samples, extras)  # a Windows gives the measurements' durations
     if hasattr(samples, "samples"):
         samples = samples.samples
     th = thresholds or Thresholds()
-    wd = window_data(samples, extras)
     pred = wd.predict(model)
     metrics = power_metrics(wd.power, pred)
     notes: list[str] = []
@@ -238,10 +253,16 @@ def diagnose(
     except FitError as exc:
         notes.append(f"no suspects: {exc}")
     if ranking is not None and not ranking.suspects:
+        # worded by the noise floor the logs show, as discover words it (one conclusion)
+        from energy_planner.diagnosis.discover import conclusion
+        from energy_planner.diagnosis.metrics import noise_floor
+
         notes.append(
-            "no candidate effect is above noise: the model explains these logs as well as "
-            "the data can tell"
+            "no candidate effect is above noise; "
+            + conclusion(metrics["rmse_w"], noise_floor(wd), suspects_left=False)
         )
     if not math.isfinite(metrics["rmse_w"]):
         notes.append("no window has both a measured and a predicted power")
-    return Diagnosis(model, wd, pred, metrics, runs, bd, sup, ranking, steps, rankings, th, notes)
+    return Diagnosis(
+        model, wd, pred, metrics, runs, bd, sup, ranking, steps, rankings, th, notes, findings
+    )

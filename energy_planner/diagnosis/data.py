@@ -10,8 +10,9 @@ any term (catalog name or formula) on it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -19,6 +20,9 @@ import pandas as pd
 from energy_planner.errors import FitError, LogError
 from energy_planner.measurements.schema import CANONICAL_COLUMNS
 from energy_planner.measurements.windows import DERIVED_COLUMNS
+
+if TYPE_CHECKING:
+    from energy_planner.stats import HeldOut
 
 # Columns of the canonical samples that are not extra channels: the measurements
 # module's canonical and derived columns, plus a few common log fields.
@@ -60,6 +64,11 @@ class WindowData:
     numeric_extras: list[str] = field(default_factory=list)
     categorical_extras: list[str] = field(default_factory=list)
     _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _sample_cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _stack_key: tuple | None = field(default=None, repr=False)
+    _stack: np.ndarray | None = field(default=None, repr=False)
+    _stack_means: np.ndarray | None = field(default=None, repr=False)
+    _fold_cols: dict = field(default_factory=dict, repr=False)
     _features: dict | None = field(default=None, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
@@ -111,29 +120,123 @@ class WindowData:
             self._start_idx = np.flatnonzero(np.r_[True, self.key[1:] != self.key[:-1]])
         return self._start_idx
 
+    def _evaluate(self, terms: list[str]) -> None:
+        """Evaluate the terms not yet cached on every sample; cache samples and means."""
+        from energy_planner.model import EnergyModel, prepare_features
+
+        if self._features is None:  # DataFrame -> arrays once, not once per call
+            self._features = prepare_features(self.samples)
+        todo = list(dict.fromkeys(t for t in terms if t not in self._cache))
+        if todo:
+            per_sample = EnergyModel(terms=todo).design_matrix(self._features)
+            per_window = self.window_mean(per_sample)
+            for j, t in enumerate(todo):
+                self._sample_cache[t] = per_sample[:, j]
+                self._cache[t] = per_window[:, j]
+
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
 
-        Columns are cached by term: the staircase re-ranks the same candidates.
+        Columns are cached by term, per sample and per window: the staircase re-ranks the
+        same candidates, and the held-out evaluation floors every sample (memory: one
+        float per sample and term evaluated).
 
         Returns
         -------
         numpy.ndarray
             Shape ``(n_windows, len(terms))``.
         """
-        from energy_planner.model import EnergyModel, prepare_features
-
         terms = list(terms)
-        if self._features is None:  # DataFrame -> arrays once, not once per call
-            self._features = prepare_features(self.samples)
-        todo = list(dict.fromkeys(t for t in terms if t not in self._cache))
-        if todo:
-            per_window = self.window_mean(EnergyModel(terms=todo).design_matrix(self._features))
-            for j, t in enumerate(todo):
-                self._cache[t] = per_window[:, j]
+        self._evaluate(terms)
         if not terms:
             return np.empty((self.n_windows, 0))
         return np.column_stack([self._cache[t] for t in terms])
+
+    def sample_columns(self, terms: Iterable[str]) -> np.ndarray:
+        """Per-sample design columns of ``terms``, shape ``(n_samples, len(terms))``."""
+        terms = list(terms)
+        self._evaluate(terms)
+        if not terms:
+            return np.empty((len(self.samples), 0))
+        return np.column_stack([self._sample_cache[t] for t in terms])
+
+    def heldout(
+        self,
+        terms: Sequence[str],
+        folds: np.ndarray,
+        ok: np.ndarray | None = None,
+        extra: Sequence[str] = (),
+    ) -> HeldOut:
+        """Held-out prediction of the model ``terms + extra`` on the windows ``ok``.
+
+        The one held-out evaluation (:func:`energy_planner.stats.heldout`): refitted on
+        the other folds' windows, every sample of a held-out window predicted and floored
+        at 0, the window's prediction the mean of its floored samples. As in
+        ``calibration.cross_validate``, a fold fits only the model terms its training
+        windows identify (:func:`energy_planner.calibration.fit.identifiable_by_fold`;
+        the others are predicted as 0); the extra terms are always fitted.
+
+        Parameters
+        ----------
+        terms, extra : sequence of str
+            The model's terms and the terms tried with it (a candidate).
+        folds : numpy.ndarray
+            Fold of every window (:func:`energy_planner.stats.fold_index`).
+        ok : numpy.ndarray, optional
+            Boolean mask of the windows to use (default all); the result has one row
+            per window in ``ok``.
+
+        Returns
+        -------
+        HeldOut
+        """
+        from energy_planner.stats import heldout
+
+        key, k, e = tuple(terms), len(terms), len(extra)
+        if self._stack_key != key or self._stack.shape[1] < k + e:
+            # the model's per-sample design and window means, stacked once, with room
+            # for the extra columns (filled in place: no copy of the design per candidate)
+            width = k + max(e, 2)
+            self._stack = np.empty((len(self.samples), width), order="F")
+            self._stack[:, :k] = self.sample_columns(terms)
+            self._stack_means = np.empty((self.n_windows, width))
+            self._stack_means[:, :k] = self.columns(terms)
+            self._stack_key = key
+        X, means = self._stack[:, : k + e], self._stack_means[:, : k + e]
+        if e:
+            X[:, k:] = self.sample_columns(extra)
+            means[:, k:] = self.columns(extra)
+        y, w, folds = self.power, self.weights, np.asarray(folds)
+        rows, table = self.key, self.table
+        cache_key = (key, folds.tobytes(), None)
+        if ok is not None and not np.all(ok):
+            ok = np.asarray(ok, dtype=bool)
+            keep = ok[self.key]
+            X, rows = X[keep], (np.cumsum(ok) - 1)[self.key[keep]]
+            cache_key = (key, folds.tobytes(), ok.tobytes())
+            means, y, w, folds, table = means[ok], y[ok], w[ok], folds[ok], table[ok]
+        cols = self._identifiable(cache_key, means[:, :k], w, table, folds)
+        cols = np.column_stack([cols, np.ones((len(cols), e), dtype=bool)])
+        return heldout(X, y, folds, w, rows=rows, means=means, fit_columns=cols)
+
+    def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
+        """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""
+        from energy_planner.calibration._windows import MOTION_KIND
+        from energy_planner.calibration.fit import identifiable_by_fold
+        from energy_planner.model import EnergyModel
+        from energy_planner.stats import MOTIONS, classify_motion
+
+        if key not in self._fold_cols:
+            # the windows' motion classes as the measurements label them; other labels
+            # (hand-made samples) by classify_motion of the window's mean twist
+            cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
+            given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
+            motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
+            kind = pd.Series(motion).map(MOTION_KIND).fillna("mixed")
+            t = table.assign(kind=kind.to_numpy())
+            model = EnergyModel(terms=list(key[0]))
+            self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
+        return self._fold_cols[key]
 
     def predict(self, model) -> np.ndarray:
         """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
@@ -159,15 +262,18 @@ def _mode(series: pd.Series, key: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> WindowData:
+def window_data(samples: Any, extras: Iterable[str] | None = None) -> WindowData:
     """Build the window-level view from windowed per-sample data.
 
     Parameters
     ----------
-    samples : pandas.DataFrame
-        ``make_windows(...).samples``: per-sample ``run, t, vx, vy, wz, alpha, gamma, ax, ay,
-        power, motion, window`` and any extra channel. Samples whose ``window`` is missing or
-        negative belong to no window and are ignored.
+    samples : Windows or pandas.DataFrame
+        ``make_windows(...)`` or its ``.samples``: per-sample ``run, t, vx, vy, wz, alpha,
+        gamma, ax, ay, power, motion, window`` and any extra channel. Samples whose
+        ``window`` is missing or negative belong to no window and are ignored. Given the
+        ``Windows``, a window's ``duration`` (its fit weight) is the measurements' own (the
+        sum of its samples' intervals), as the calibration weighs it; given samples alone,
+        it is the number of samples times the run's median sample interval.
     extras : iterable of str, optional
         Extra channels to consider; default every column that is not a canonical one.
 
@@ -192,6 +298,9 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
     >>> wd.table["power"].tolist(), wd.categorical_extras, wd.table["mud"].tolist()
     ([2.0, 6.0], ['mud'], ['x', 'y'])
     """
+    wtable = None
+    if hasattr(samples, "samples") and hasattr(samples, "table"):
+        wtable, samples = samples.table, samples.samples
     missing = [c for c in REQUIRED if c not in samples.columns]
     if missing:
         raise LogError(
@@ -250,6 +359,16 @@ def window_data(samples: pd.DataFrame, extras: Iterable[str] | None = None) -> W
         lambda v: np.median(np.diff(np.sort(v.to_numpy()))) if len(v) > 1 else 1.0
     )
     table["duration"] = np.bincount(key, weights=dt.to_numpy(float), minlength=n)
+    if wtable is not None and "duration" in wtable.columns:
+        per = dict(
+            zip(
+                zip(wtable["run"].astype(str), wtable["window"].astype(np.int64), strict=True),
+                wtable["duration"].to_numpy(float),
+                strict=True,
+            )
+        )
+        keys = zip(table["run"], table["window"].astype(np.int64), strict=True)
+        table["duration"] = [per.get(k, np.nan) for k in keys]
     if "alpha" in s.columns:
         table["alpha_deg"] = np.degrees(mean("alpha"))
     if "gamma" in s.columns:  # circular mean: headings near +-180 deg must not average to 0

@@ -32,9 +32,9 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.diagnosis.data import WindowData, window_data
-from energy_planner.diagnosis.datacheck import DataFinding, check_data
 from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
 from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
+from energy_planner.measurements.datacheck import DataFinding
 from energy_planner.model.terms import Term
 
 #: A final held-out RMSE within this factor of the noise floor estimated from the logs is
@@ -243,6 +243,7 @@ def discover(
     repair: bool = True,
     fit_final: bool = True,
     progress=None,
+    prior: Any = None,
 ) -> Discovery:
     """Walk the staircase on raw canonical samples (module docstring).
 
@@ -268,15 +269,19 @@ def discover(
         Fit the final model on all windows (``calibration.fit_model``).
     progress : callable, optional
         Called with a short message after each stage.
+    prior : EnergyModel, optional
+        A fitted model whose coefficients stand in for the terms the logs cannot identify
+        in the final fit (``fit_model``'s ``prior``, e.g. ``EnergyModel.default()``).
 
     Returns
     -------
     Discovery
     """
     from energy_planner.calibration import fit_model
+    from energy_planner.calibration.fit import identifiable
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements import make_windows, preprocess
-    from energy_planner.model import BASE_TERMS
+    from energy_planner.measurements import prepare_logs
+    from energy_planner.model import BASE_TERMS, resolve_term
 
     def say(msg: str) -> None:
         if progress is not None:
@@ -284,16 +289,20 @@ def discover(
 
     th = thresholds or Thresholds()
     base = list(BASE_TERMS if base_terms is None else base_terms)
-    findings, fixed = check_data(samples, repair=repair)
+    prepared = prepare_logs(samples, window=window, repair=repair)  # as fit and diagnose
+    findings, windows = prepared.findings, prepared.windows
     say("data checks done")
-    clean, _ = preprocess(fixed)
-    windows = make_windows(clean, duration=window)
-    wd = window_data(windows.samples)
+    wd = window_data(windows)
     say(f"{wd.n_windows} windows")
     from energy_planner.diagnosis.suspects import speed_levels
 
+    # start from the base terms these windows identify (calibration.identifiable): a
+    # candidate built on the fitted base (a channel times P_base) must not carry the
+    # arbitrary value of a term whose motion the logs lack; fit_model drops those anyway
+    unidentified_base = identifiable(windows, base)
+    start = [t for t in base if resolve_term(t).name not in unidentified_base]
     steps, rankings = staircase(
-        wd, base, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
+        wd, start, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
     )
     metrics = []
     for r in rankings:
@@ -317,7 +326,7 @@ def discover(
     if fit_final:
         try:
             final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
-            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed)
+            fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed, prior=prior)
         except EnergyPlannerError as exc:
             notes.append(f"the final fit failed: {exc}")
     return Discovery(

@@ -24,9 +24,7 @@ from energy_planner.diagnosis.candidates import (
 from energy_planner.diagnosis.data import WindowData
 from energy_planner.diagnosis.names import term_spec
 from energy_planner.model.terms import Term
-from energy_planner.stats import fold_index as run_folds
-from energy_planner.stats import heldout_residuals as cv_errors
-from energy_planner.stats import span_basis, span_residual
+from energy_planner.stats import fold_index, span_basis, span_residual
 from energy_planner.stats import wls_coef as wls
 
 
@@ -179,7 +177,8 @@ def rank_suspects(
     candidates : list of Candidate, optional
         Default: :func:`default_candidates`.
     folds : numpy.ndarray, optional
-        Fold of each window (:func:`run_folds`); default from ``thresholds``.
+        Fold of each window (:func:`~energy_planner.stats.fold_index`); default from
+        ``thresholds``.
     extra : sequence of str
         More candidate terms to test (the user's own hypotheses), scored like the others.
 
@@ -192,14 +191,14 @@ def rank_suspects(
     y = wd.power
     x = wd.columns(terms)
     if folds is None:
-        folds = run_folds(wd.runs, th.n_splits, th.seed)
+        folds = fold_index(wd.runs, th.n_splits, th.seed)
     unsupported: list[dict] = []
     if candidates is None:
         candidates, bad = default_candidates(wd, terms)
         unsupported.extend(bad)
     seen = {c.term for c in candidates}
     candidates = candidates + [c for c in user_candidates(extra) if c.term not in seen]
-    ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms})
+    ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms}, list(terms))
     scored, unsup = ctx.evaluate(candidates)
     unsupported.extend(unsup)
     # the best shape per family stands for it (hinge knots refined)
@@ -247,6 +246,7 @@ class _Context:
     folds: np.ndarray
     th: Thresholds
     have: set[str]
+    terms: list = field(default_factory=list)  # the model's, in the order of x
 
     def __post_init__(self) -> None:
         self.n_folds = int(self.folds.max()) + 1
@@ -255,7 +255,7 @@ class _Context:
         self.runs = self.wd.runs
         ok = self.base_ok
         self.base_err = np.full(len(self.y), np.nan)
-        self.base_err[ok] = cv_errors(self.x[ok], self.y[ok], self.folds[ok], self.w[ok])
+        self.base_err[ok] = self.wd.heldout(self.terms, self.folds, ok).residuals
         e = self.base_err[ok]
         self.base_rmse = float(np.sqrt(np.mean(e**2)))
         self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
@@ -306,25 +306,24 @@ class _Context:
             )
         return ""
 
-    def _score(self, c: Candidate, z: np.ndarray, x: np.ndarray | None = None) -> Suspect:
-        """Held-out scores of the model (``x``, default the current one) plus ``z``."""
+    def _score(self, c: Candidate, z: np.ndarray, plus: str | None = None) -> Suspect:
+        """Held-out scores of the model (and the scored term ``plus``) plus ``z``."""
         self.n_scored += 1
-        x = self.x if x is None else x
+        more = [] if plus is None else [plus]
+        x = self.x if plus is None else np.column_stack([self.x, self.columns[plus]])
         base_ok = np.all(np.isfinite(x), axis=1) & np.isfinite(self.y)
         ok = base_ok & np.isfinite(z)
-        y, folds, w = self.y[ok], self.folds[ok], self.w[ok]
-        if x is self.x and ok.sum() == self.base_ok.sum():
+        if plus is None and ok.sum() == self.base_ok.sum():
             e0 = self.base_err[ok]
         else:  # compare on the same windows
-            e0 = cv_errors(x[ok], y, folds, w)
-        xz = np.column_stack([x[ok], z[ok]])
-        e1 = cv_errors(xz, y, folds, w)
+            e0 = self.wd.heldout(self.terms, self.folds, ok, extra=more).residuals
+        e1 = self.wd.heldout(self.terms, self.folds, ok, extra=[*more, c.term]).residuals
         before = float(np.sqrt(np.mean(e0**2)))
         after = float(np.sqrt(np.mean(e1**2)))
         t, p, n_runs = paired_run_test(e0, e1, self.runs[ok])
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
         coef = math.nan  # filled in for the suspects reported (see rank_suspects)
-        if x is self.x:
+        if plus is None:
             full = np.full(len(self.y), np.nan)
             full[ok] = e1
             self.errors[c.term] = full
@@ -424,8 +423,8 @@ class _Context:
                 continue
             zb = self.columns[s.term]
             n0 = self.n_scored
-            b_given_a = self._score(self.cands[s.term], zb, np.column_stack([self.x, za]))
-            a_given_b = self._score(self.cands[best.term], za, np.column_stack([self.x, zb]))
+            b_given_a = self._score(self.cands[s.term], zb, best.term)
+            a_given_b = self._score(self.cands[best.term], za, s.term)
             self.n_scored = n0  # side checks, not candidates of the ranking
             if not self.passes(b_given_a, p_thr) and not self.passes(a_given_b, p_thr):
                 s.above_noise = True

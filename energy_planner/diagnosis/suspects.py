@@ -84,9 +84,7 @@ from energy_planner.diagnosis.scoring import (
     rank_suspects,
 )
 from energy_planner.model.terms import Term
-from energy_planner.stats import fold_index as run_folds
-from energy_planner.stats import heldout_residuals as cv_errors
-from energy_planner.stats import heldout_rmse, span_basis, span_residual
+from energy_planner.stats import fold_index, span_basis, span_residual
 from energy_planner.stats import wls_coef as wls
 
 # The candidates live in diagnosis.candidates, their scoring in diagnosis.scoring, the
@@ -110,16 +108,13 @@ __all__ = [
     "catalog_candidates",
     "channel_candidates",
     "channel_kind",
-    "cv_errors",
     "default_candidates",
-    "heldout_rmse",
     "hinge",
     "kinetic_candidates",
     "model_term",
     "paired_run_test",
     "rank_suspects",
     "resolve_names",
-    "run_folds",
     "span_basis",
     "span_residual",
     "speed_candidates",
@@ -162,7 +157,7 @@ def staircase(
     Returns the steps (step 0 is the model as given) and the ranking made at each step.
     """
     th = thresholds or Thresholds()
-    folds = run_folds(wd.runs, th.n_splits, th.seed)
+    folds = fold_index(wd.runs, th.n_splits, th.seed)
     terms = [term_spec(t) for t in terms]
     ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]

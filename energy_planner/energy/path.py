@@ -31,10 +31,16 @@ from energy_planner.energy.kernels import (
     VIOLATIONS,
 )
 from energy_planner.energy.motion import MotionCost
-from energy_planner.errors import EnergyPlannerError, OutsideMapError
+from energy_planner.errors import EnergyPlannerError, NonPositivePowerError, OutsideMapError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
-__all__ = ["PathEnergy", "path_energy", "face_along_poses", "SEGMENT_COLUMNS"]
+__all__ = [
+    "PathEnergy",
+    "path_energy",
+    "face_along_poses",
+    "check_cost_power",
+    "SEGMENT_COLUMNS",
+]
 
 SEGMENT_COLUMNS = [
     "segment",
@@ -192,6 +198,9 @@ def path_energy(
             f"segment {s} (waypoint {s} to {s + 1}) crosses cells {VIOLATIONS[code]}"
         )
     segments = _segment_table(out, seg_of, n - 1)
+    kinds = out[:, [OUT_E_FORWARD, OUT_E_BACKWARD, OUT_E_LATERAL, OUT_E_TURNING, OUT_E_OTHER]]
+    unclamped = np.bincount(seg_of, weights=kinds.sum(axis=1), minlength=n - 1)
+    _check_path_power(cost, segments, unclamped, sideways=yaw is not None)
     return PathEnergy(
         energy_j=float(out[:, OUT_ENERGY].sum()),
         distance_m=float(out[:, OUT_DISTANCE].sum()),
@@ -199,6 +208,98 @@ def path_energy(
         segments=segments,
         poses=poses,
     )
+
+
+def check_cost_power(
+    cost: MotionCost,
+    max_slope_deg: float | None = None,
+    gaits: Any = None,
+    speeds: Any = None,
+) -> int:
+    """Refuse a model that prices walking on this map at zero or negative power.
+
+    :func:`energy_planner.model.model.check_walking_power` with the cost's channel values
+    (constants; rasters from their minimum to their maximum, every category), speed and
+    yaw rate, on slopes up to ``max_slope_deg`` (default: the map's steepest, or the
+    cost's slope limit). The kernels floor power at zero (a legged robot does not
+    regenerate), so without this a term with an arbitrary negative value would make
+    walking free; ``path_energy`` and ``plan`` call it.
+
+    Parameters
+    ----------
+    cost : MotionCost
+        The prepared cost (model, channels, speed, yaw rate, limits).
+    max_slope_deg : float, optional
+        Steepest slope checked.
+    gaits : iterable of str, optional
+        Gaits checked (default: all; see ``check_walking_power``).
+    speeds : sequence of float, optional
+        Speeds checked (default: the cost's).
+
+    Returns
+    -------
+    int
+        Number of walking motions checked.
+
+    Raises
+    ------
+    NonPositivePowerError
+        Names the motion, its power and the term with the largest negative contribution.
+    """
+    from energy_planner.model.model import WALKING_GAITS, check_walking_power
+
+    if max_slope_deg is None:
+        slope = np.asarray(cost.terrain.slope, dtype=float)
+        top = float(np.nanmax(slope)) if np.isfinite(slope).any() else 0.0
+        max_slope_deg = math.degrees(top)
+        if cost.max_slope_deg is not None:
+            max_slope_deg = min(max_slope_deg, float(cost.max_slope_deg))
+    return check_walking_power(
+        cost.model,
+        cost.channels.value_samples(),
+        max_slope_deg=max_slope_deg,
+        speeds=(cost.speed,) if speeds is None else tuple(speeds),
+        yaw_rate=cost.yaw_rate,
+        gaits=tuple(WALKING_GAITS) if gaits is None else tuple(gaits),
+    )
+
+
+def _check_path_power(
+    cost: MotionCost, segments: pd.DataFrame, unclamped: np.ndarray, sideways: bool
+) -> None:
+    """Check the walking power on a path's own slopes and speeds.
+
+    :func:`check_cost_power`, then no moving segment may cost <= 0 J where its terms sum
+    to a negative energy before the floor (``unclamped``, J: a raster channel between the
+    sampled values).
+    """
+    from energy_planner.model.model import WALKING_SPEED, WALKING_YAW_RATE
+
+    dur = segments["duration_s"].to_numpy(float)
+    dist = segments["distance_m"].to_numpy(float)
+    turn = np.radians(np.abs(segments["turn_deg"].to_numpy(float)))
+    safe = np.where(dur > 0, dur, np.inf)
+    moving = (dist / safe > WALKING_SPEED) | (turn / safe > WALKING_YAW_RATE)
+    if not moving.any():
+        return
+    v = dist[moving] / safe[moving]
+    v = v[v > WALKING_SPEED]
+    speeds = sorted({cost.speed, *(() if v.size == 0 else (float(v.min()), float(v.max())))})
+    gaits = None if sideways else ("forward", "turning in place")
+    slope = float(np.nanmax(segments["max_slope_deg"].to_numpy(float)[moving]))
+    check_cost_power(cost, max_slope_deg=slope, gaits=gaits, speeds=speeds)
+    free = np.flatnonzero(
+        moving & (segments["energy_j"].to_numpy(float) <= 0.0) & (unclamped < 0.0)
+    )
+    if free.size:
+        k = int(free[0])
+        raise NonPositivePowerError(
+            f"segment {k} (waypoint {k} to {k + 1}) walks {dist[k]:.2f} m in {dur[k]:.2f} s "
+            f"for {segments['energy_j'].iloc[k]:.3g} J (its terms sum to {unclamped[k]:.3g} J "
+            f"before the floor; {free.size} moving segment(s) cost "
+            "<= 0 J): the model prices this walking motion at zero or negative power (on "
+            "the channel values there); refit the model on logs that include this motion"
+        )
 
 
 def face_along_poses(xy: Any) -> np.ndarray:

@@ -8,8 +8,10 @@ The canonical log table and the conventions (frames, sign of the battery current
 described in :mod:`energy_planner.measurements.schema` and ``docs/measurements.md``.
 """
 
+from energy_planner.measurements.datacheck import DataFinding, check_data
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body, wrap_angle
 from energy_planner.measurements.logs import LoadReport, load_logs
+from energy_planner.measurements.prepare import PreparedLogs, findings_text, prepare_logs
 from energy_planner.measurements.preprocess import (
     STEPS,
     PreprocessParams,
@@ -52,8 +54,10 @@ __all__ = [
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
     "STEPS",
+    "DataFinding",
     "LoadReport",
     "PreprocessParams",
+    "PreparedLogs",
     "PreprocessReport",
     "StepRecord",
     "ValidationReport",
@@ -61,12 +65,14 @@ __all__ = [
     "add_power",
     "add_slope_heading",
     "body_accelerations",
+    "check_data",
     "classify_motion",
     "consistency_bound",
     "discard_low_speed",
     "drop_invalid",
     "ema",
     "ema_smooth",
+    "findings_text",
     "hampel_filter",
     "hampel_mask",
     "imu_slope_heading",
@@ -74,6 +80,7 @@ __all__ = [
     "load_rosbag",
     "make_windows",
     "mechanical_lower_bound",
+    "prepare_logs",
     "preprocess",
     "run_energies",
     "split_segments",

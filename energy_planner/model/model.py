@@ -27,12 +27,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.errors import FitError, FormulaError, ModelError
+from energy_planner.errors import FitError, FormulaError, ModelError, NonPositivePowerError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
 from energy_planner.request import DEFAULT_SPEED
 from energy_planner.stats import independent_columns, wls
 
-__all__ = ["EnergyModel", "SCHEMA", "SCHEMA_VERSION", "critical_grade", "prepare_features"]
+__all__ = [
+    "EnergyModel",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "WALKING_GAITS",
+    "WALKING_SPEED",
+    "WALKING_YAW_RATE",
+    "check_walking_power",
+    "critical_grade",
+    "prepare_features",
+]
 
 SCHEMA = "energy_planner.model"
 SCHEMA_VERSION = 1
@@ -40,6 +50,21 @@ _DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "b1_default.json"
 
 #: Features every kernel receives as arguments; everything else is a constant.
 KERNEL_ARGS = ("alpha", "gamma", "vx", "vy", "wz", "ax", "ay")
+
+#: A motion is *walking* when its body speed exceeds this (m/s) or its turning rate
+#: exceeds :data:`WALKING_YAW_RATE` (rad/s); below both the robot stands. The formulas'
+#: own low-speed guard (``max(speed, 0.05)``) uses the same speed.
+WALKING_SPEED = 0.05
+WALKING_YAW_RATE = 0.05
+#: Gaits of :func:`check_walking_power`: direction of the body velocity (rad from body x)
+#: or ``None`` for turning in place.
+WALKING_GAITS = {
+    "forward": 0.0,
+    "backward": math.pi,
+    "sideways left": math.pi / 2,
+    "sideways right": -math.pi / 2,
+    "turning in place": None,
+}
 
 
 def prepare_features(features: Mapping[str, Any] | pd.DataFrame) -> dict[str, Any]:
@@ -180,7 +205,14 @@ class EnergyModel:
         return pd.DataFrame(X * self.coef_array(), columns=self.term_names)
 
     def power(self, features: Mapping[str, Any] | pd.DataFrame) -> np.ndarray:
-        """Electrical power in W for each sample."""
+        """Electrical power in W for each sample.
+
+        Floored at zero (unless ``regenerative``): a legged robot does not regenerate, so a
+        small negative sum (a residual of the fit, standing still) costs nothing. The floor
+        must never hide a *walking* motion priced at or below zero: that is a model defect,
+        which :func:`check_walking_power` turns into an error naming the term (the fit,
+        ``path_energy`` and ``plan`` call it).
+        """
         p = self.design_matrix(features) @ self.coef_array()
         return p if self.regenerative else np.maximum(p, 0.0)
 
@@ -524,6 +556,150 @@ class EnergyModel:
         from energy_planner.model._codegen import compile_kernel
 
         return compile_kernel(self.kernel_source(constants))
+
+
+def check_walking_power(
+    model: EnergyModel,
+    channel_values: Mapping[str, Any] | None = None,
+    *,
+    max_slope_deg: float = 45.0,
+    speeds: Sequence[float] = (DEFAULT_SPEED,),
+    yaw_rate: float = 0.5,
+    gaits: Iterable[str] = tuple(WALKING_GAITS),
+    where: str = "",
+) -> int:
+    """Raise if the model prices a walking motion at zero or negative power.
+
+    The model's unclamped power (the sum of its terms, before the floor of
+    :meth:`EnergyModel.power`) is evaluated on a grid: slopes from 0 to ``max_slope_deg``
+    (2.5 deg steps), relative headings all round (10 deg steps), each gait at each speed
+    (and turning in place at ``yaw_rate``), every combination of the channel values. Every
+    grid motion is walking (:data:`WALKING_SPEED`, :data:`WALKING_YAW_RATE`), and a legged
+    robot draws power to walk: a grid motion priced at <= 0 W means a term the logs did
+    not pin down has a value that cancels the rest. A motion no term prices at all (every
+    contribution exactly 0: a hand-written model without a term for it) has no term to
+    blame and is not an error here; a fitted model always has ``idle_power``.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        A fitted model (a regenerative one is not checked: it may legitimately return
+        power).
+    channel_values : mapping, optional
+        Channel name -> value or sequence of values (numbers or categories).
+    max_slope_deg : float
+        Steepest slope checked, deg.
+    speeds : sequence of float
+        Walking speeds, m/s (each above :data:`WALKING_SPEED`).
+    yaw_rate : float
+        Turning rate of turning in place, rad/s.
+    gaits : iterable of str
+        Among ``forward``, ``backward``, ``sideways left``, ``sideways right``,
+        ``turning in place``.
+    where : str
+        Prefix of the message (what was being done, e.g. the model file).
+
+    Returns
+    -------
+    int
+        The number of grid motions checked.
+
+    Raises
+    ------
+    NonPositivePowerError
+        Names the motion priced lowest, its power, and the term with the largest negative
+        contribution there (with the other negative ones), and how many grid motions fail.
+    ModelError
+        A channel the model reads is missing from ``channel_values``.
+
+    Examples
+    --------
+    >>> m = EnergyModel(["idle_power", "lat_const"], {"idle_power": 100.0, "lat_const": -900.0})
+    >>> check_walking_power(m, gaits=["forward"])
+    684
+    >>> try:
+    ...     check_walking_power(m)
+    ... except NonPositivePowerError as exc:
+    ...     print(str(exc)[:54], "'lat_const'" in str(exc))
+    the model prices walking sideways left on level ground True
+    """
+    if model.regenerative:
+        return 0
+    gaits = list(gaits)
+    bad_gaits = [g for g in gaits if g not in WALKING_GAITS]
+    if bad_gaits:
+        raise ModelError(f"unknown gait(s) {bad_gaits}; choose among {list(WALKING_GAITS)}")
+    slopes = np.radians(np.arange(0.0, max(float(max_slope_deg), 0.0) + 1e-9, 2.5))
+    headings = np.radians(np.arange(-180.0, 180.0, 10.0))
+    rows = []
+    for g in gaits:
+        direction = WALKING_GAITS[g]
+        for v in [None] if direction is None else list(speeds):
+            a, h = np.meshgrid(slopes, headings, indexing="ij")
+            n = a.size
+            vx = 0.0 if direction is None else v * math.cos(direction)
+            vy = 0.0 if direction is None else v * math.sin(direction)
+            wz = yaw_rate if direction is None else 0.0
+            rows.append((g, v, a.ravel(), h.ravel(), np.full(n, vx), np.full(n, vy), wz))
+    alpha = np.concatenate([r[2] for r in rows])
+    gamma = np.concatenate([r[3] for r in rows])
+    vx = np.concatenate([r[4] for r in rows])
+    vy = np.concatenate([r[5] for r in rows])
+    wz = np.concatenate([np.full(r[2].size, r[6]) for r in rows])
+    gait = np.concatenate([np.full(r[2].size, r[0], dtype=object) for r in rows])
+    speed_of = np.concatenate([np.full(r[2].size, r[1] or 0.0) for r in rows])
+    base = {"alpha": alpha, "gamma": gamma, "vx": vx, "vy": vy, "wz": wz}
+    base["ax"] = base["ay"] = np.zeros(alpha.size)
+    values = {
+        k: np.atleast_1d(np.asarray(v, dtype=object)) for k, v in (channel_values or {}).items()
+    }
+    needed = sorted(model.variables - set(base) - {"speed"})
+    missing = [c for c in needed if c not in values]
+    if missing:
+        raise ModelError(
+            f"{where}the model reads channel(s) {', '.join(missing)}: give their values to "
+            "check the power of walking (--set NAME=VALUE)"
+        )
+    combos: list[dict[str, Any]] = [{}]
+    for c in needed:
+        combos = [{**d, c: val} for d in combos for val in values[c]]
+    coefs = model.coef_array()
+    checked = 0
+    worst = None
+    n_bad = 0
+    for combo in combos:
+        f = dict(base)
+        for c, val in combo.items():
+            f[c] = np.full(alpha.size, val)
+        contrib = model.design_matrix(f) * coefs
+        p = contrib.sum(axis=1)
+        checked += p.size
+        bad = (p <= 0.0) & (contrib.min(axis=1) < 0.0)
+        n_bad += int(bad.sum())
+        if bad.any():
+            i = int(np.argmin(p))
+            if worst is None or p[i] < worst[0]:
+                worst = (float(p[i]), i, combo, contrib[i])
+    if worst is None:
+        return checked
+    p_min, i, combo, contrib = worst
+    names = model.term_names
+    order = np.argsort(contrib)
+    negative = [f"{names[j]} {contrib[j]:+.1f} W" for j in order if contrib[j] < 0]
+    culprit = names[int(order[0])]
+    slope = math.degrees(alpha[i])
+    where_slope = "on level ground" if slope == 0 else f"on a {slope:g} deg slope"
+    at = f"at {speed_of[i]:g} m/s" if gait[i] != "turning in place" else f"at {yaw_rate:g} rad/s"
+    ch = "".join(f", {c} = {v}" for c, v in combo.items())
+    raise NonPositivePowerError(
+        f"{where}the model prices walking {gait[i]} {where_slope} (heading "
+        f"{math.degrees(gamma[i]):g} deg from uphill{ch}) {at} at {p_min:.1f} W, and "
+        f"{n_bad} of {checked} walking motions checked at <= 0 W; a legged robot draws power "
+        f"to walk. The term with the largest negative contribution is {culprit!r} "
+        f"(negative terms there: {'; '.join(negative)}): the logs it was fitted on cannot "
+        "have pinned it down for this motion (see metadata.fit.unidentified); refit "
+        "without it, with a prior (fit --prior), or on logs that include this motion"
+    )
 
 
 def term_names(specs: Iterable[str | Term]) -> list[str]:

@@ -1,22 +1,21 @@
 """Shared numerics: weighted least squares, folds by run, identifiability, motion classes.
 
-Everything lives in :mod:`energy_planner.stats.numerics`; see its docstring.
+Least squares, identifiability and motion classes live in
+:mod:`energy_planner.stats.numerics`; folds by run and the one held-out evaluation
+(:func:`heldout`, floored per sample) in :mod:`energy_planner.stats.heldout`.
 
->>> from energy_planner.stats import run_folds
->>> run_folds(["a", "b"], 2)
-[['a'], ['b']]
+>>> from energy_planner.stats import fold_index
+>>> fold_index(["a", "a", "b"], 2).tolist()
+[0, 0, 1]
 """
 
+from energy_planner.stats.heldout import HeldOut, fold_index, heldout
 from energy_planner.stats.numerics import (
     MOTIONS,
     WLSFit,
     classify_motion,
     cluster_stderr,
-    fold_index,
-    heldout_residuals,
-    heldout_rmse,
     independent_columns,
-    run_folds,
     span_basis,
     span_residual,
     vif,
@@ -29,11 +28,10 @@ __all__ = [
     "WLSFit",
     "classify_motion",
     "cluster_stderr",
+    "HeldOut",
     "fold_index",
-    "heldout_residuals",
-    "heldout_rmse",
+    "heldout",
     "independent_columns",
-    "run_folds",
     "span_basis",
     "span_residual",
     "vif",

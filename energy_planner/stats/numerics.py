@@ -7,9 +7,7 @@ the model's own fit (:meth:`energy_planner.model.EnergyModel.fit`) and the diagn
 * :func:`wls` - weighted least squares on column-scaled regressors, with classical and
   run-clustered (CR1 sandwich) standard errors; :func:`wls_coef` - the coefficients only,
   through the normal equations (cheap when thousands of small fits are made);
-* :func:`run_folds` / :func:`fold_index` - grouped K-fold: whole runs per fold, as lists
-  of runs or as a fold index per row; :func:`heldout_residuals` / :func:`heldout_rmse` -
-  held-out errors of a linear model validated by fold;
+* folds by run and the held-out evaluation live in :mod:`energy_planner.stats.heldout`;
 * :func:`independent_columns`, :func:`vif`, :func:`span_basis`, :func:`span_residual` -
   which columns the data can tell apart;
 * :func:`classify_motion` - the motion class of a body twist.
@@ -39,11 +37,7 @@ __all__ = [
     "WLSFit",
     "classify_motion",
     "cluster_stderr",
-    "fold_index",
-    "heldout_residuals",
-    "heldout_rmse",
     "independent_columns",
-    "run_folds",
     "span_basis",
     "span_residual",
     "vif",
@@ -232,134 +226,6 @@ def cluster_stderr(
     s = scores.to_numpy()
     V = Binv @ (s.T @ s * (g / (g - 1))) @ Binv
     return np.sqrt(np.clip(np.diag(V), 0, None))
-
-
-# --------------------------------------------------------------------------- folds by run
-def run_folds(runs: Sequence, n_splits: int, seed: int = 0) -> list[list[str]]:
-    """Assign whole runs to ``n_splits`` folds at random (grouped K-fold).
-
-    Parameters
-    ----------
-    runs : sequence
-        Run id of every row (repeats allowed; compared as strings).
-    n_splits : int
-        Number of folds, ``2 <= n_splits <= number of runs``.
-    seed : int
-        Seed of the shuffle.
-
-    Returns
-    -------
-    list of list of str
-        Disjoint, sorted lists of runs, sizes differing by at most one.
-
-    Raises
-    ------
-    FitError
-        If ``n_splits`` is out of range (names both counts).
-
-    Examples
-    --------
-    >>> folds = run_folds(["a", "a", "b", "c", "d", "e"], 2, seed=1)
-    >>> sorted(sum(folds, [])), sorted(len(f) for f in folds)
-    (['a', 'b', 'c', 'd', 'e'], [2, 3])
-    """
-    uniq = np.array(sorted({str(r) for r in runs}))
-    if not 2 <= n_splits <= len(uniq):
-        raise FitError(
-            f"cannot split {len(uniq)} run(s) into {n_splits} folds: need 2 <= folds <= runs"
-        )
-    perm = np.random.default_rng(seed).permutation(len(uniq))
-    return [sorted(map(str, part)) for part in np.array_split(uniq[perm], n_splits)]
-
-
-def fold_index(runs: Sequence | np.ndarray, n_splits: int = 5, seed: int = 0) -> np.ndarray:
-    """Fold of every row, whole runs per fold (the folds of :func:`run_folds`).
-
-    ``n_splits`` is reduced to the number of runs when there are fewer (leave one run out).
-
-    Raises
-    ------
-    FitError
-        Fewer than two runs.
-
-    Examples
-    --------
-    >>> f = fold_index(["a", "a", "b", "c", "c", "c"], n_splits=2)
-    >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
-    (True, [0, 1])
-    """
-    runs = np.asarray(runs).astype(str)
-    uniq = np.unique(runs)
-    if len(uniq) < 2:
-        raise FitError(
-            f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
-            f"({list(uniq)}); record more runs"
-        )
-    folds = run_folds(uniq.tolist(), max(2, min(n_splits, len(uniq))), seed)
-    fold_of = {r: i for i, part in enumerate(folds) for r in part}
-    return np.array([fold_of[r] for r in runs], dtype=np.int64)
-
-
-def heldout_residuals(
-    X: np.ndarray,
-    y: np.ndarray,
-    folds: np.ndarray,
-    w: np.ndarray | Sequence[float] | None = None,
-    *,
-    floor: float | None = 0.0,
-) -> np.ndarray:
-    """Held-out residuals ``y - max(X b_f, floor)`` of weighted least squares by fold.
-
-    Each fold's coefficients ``b_f`` come from the other folds' rows only; the training
-    normal equations of a fold are the totals minus the fold's own (one ``k x k`` solve per
-    fold). ``floor=None`` leaves predictions unfloored (a regenerative machine).
-
-    Examples
-    --------
-    >>> X = np.column_stack([np.ones(6), np.arange(6.0)])
-    >>> np.abs(heldout_residuals(X, 2 * np.arange(6.0), np.arange(6) % 2)).max() < 1e-9
-    np.True_
-    """
-    X = np.asarray(X, dtype=float)
-    y = np.asarray(y, dtype=float)
-    sw, Xs, scale = _scaled(X, _weights(w, len(y)))
-    yw = y * sw
-    g, r = Xs.T @ Xs, Xs.T @ yw
-    err = np.empty_like(y)
-    for f in np.unique(folds):
-        te = folds == f
-        xt = Xs[te]
-        coef = np.linalg.lstsq(g - xt.T @ xt, r - xt.T @ yw[te], rcond=1e-12)[0] / scale
-        pred = X[te] @ coef
-        err[te] = y[te] - (pred if floor is None else np.maximum(pred, floor))
-    return err
-
-
-def heldout_rmse(
-    X: np.ndarray,
-    y: np.ndarray,
-    folds: np.ndarray,
-    w: np.ndarray | Sequence[float] | None = None,
-) -> tuple[float, np.ndarray]:
-    """Pooled and per-fold held-out RMSE of ``y ~ X`` validated by fold (predictions >= 0).
-
-    The fits weigh each row by ``w``; the RMSE weighs every held-out row alike.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> x = np.column_stack([np.ones(200), rng.uniform(size=200)])
-    >>> y = x @ [1.0, 2.0] + rng.normal(0, 0.1, 200)
-    >>> rmse, per_fold = heldout_rmse(x, y, np.arange(200) % 4)
-    >>> bool(0.08 < rmse < 0.12), per_fold.shape
-    (True, (4,))
-    """
-    folds = np.asarray(folds, dtype=np.int64)
-    err = heldout_residuals(X, y, folds, w)
-    n_folds = int(folds.max()) + 1
-    sq = np.bincount(folds, weights=err**2, minlength=n_folds)
-    cnt = np.bincount(folds, minlength=n_folds)
-    return float(np.sqrt(np.mean(err**2))), np.sqrt(sq / np.maximum(cnt, 1))
 
 
 # --------------------------------------------------------------------------- identifiability

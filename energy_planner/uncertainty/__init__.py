@@ -48,6 +48,7 @@ __all__ = [
     "battery_decision",
     "confident_budget",
     "interval",
+    "domain_report",
     "model_scores",
     "predict_interval",
     "success_probability",
@@ -147,10 +148,121 @@ def interval(energy_j: float, scores: np.ndarray, level: float = DEFAULT_LEVEL) 
                           float(energy_j) / (1.0 + r_lo), float(level), int(s.size))  # fmt: skip
 
 
-def predict_interval(model: Any, energy_j: float, level: float = DEFAULT_LEVEL):
-    """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores."""
+#: Outside the calibration's domain the held-out scores are scaled by
+#: ``1 + OUTSIDE_WIDENING * share``: a path wholly outside gets an error band twice as wide.
+#: A stated assumption, not a calibrated one (no held-out run lies outside the domain).
+OUTSIDE_WIDENING = 1.0
+
+
+def predict_interval(
+    model: Any, energy_j: float, level: float = DEFAULT_LEVEL, outside_share: float = 0.0
+):
+    """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores.
+
+    ``outside_share`` (0-1, :func:`domain_report`) widens it: every held-out score ``r``
+    becomes ``r (1 + OUTSIDE_WIDENING * outside_share)`` (kept above -0.9).
+    """
     s = model_scores(model)
-    return None if s is None else interval(energy_j, s, level)
+    if s is None:
+        return None
+    if outside_share > 0:
+        s = np.maximum(s * (1.0 + OUTSIDE_WIDENING * float(outside_share)), -0.9)
+    return interval(energy_j, s, level)
+
+
+def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
+    """Motion class of each segment: forward, backward, lateral or turning (in place).
+
+    From the poses (one per segment end) the direction of travel relative to the body yaw:
+    within 45 deg of it forward, of its reverse backward, else lateral; a segment that
+    does not move but turns is turning. Without poses matching the segments (the robot
+    faced along its path) every moving segment is forward.
+    """
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.abs(np.asarray(segments["turn_deg"], dtype=float))
+    out = np.where(dist > 1e-9, "forward", np.where(turn > 0, "turning", "none")).astype(object)
+    p = None if poses is None else np.asarray(poses, dtype=float)
+    if p is None or p.ndim != 2 or p.shape[0] != dist.size + 1 or p.shape[1] < 3:
+        return out
+    d = np.diff(p[:, :2], axis=0)
+    rel = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - p[:-1, 2])))
+    moving = dist > 1e-9
+    lateral = np.abs(np.abs(rel) - np.pi / 2) < np.pi / 4
+    out[moving & (np.abs(rel) > 3 * np.pi / 4)] = "backward"
+    out[moving & lateral] = "lateral"
+    return out
+
+
+def domain_report(
+    model: Any, segments: Any, constants: Any = None, poses: Any = None
+) -> dict[str, Any] | None:
+    """The share of a path outside the ranges the model's calibration saw.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its ``metadata.fit.domain`` (:func:`energy_planner.calibration.fit.calibration_domain`).
+    segments : pandas.DataFrame
+        ``PathEnergy.segments`` (``distance_m``, ``duration_s``, ``max_slope_deg``,
+        ``turn_deg``).
+    constants : mapping, optional
+        Channel constants (a value outside the channel's range puts the whole path
+        outside). Raster channels are not checked.
+    poses : array-like, optional
+        ``PathEnergy.poses`` (x, y, yaw per segment end): a segment walked in a gait the
+        calibration had no window of (sideways, backward, turning in place) is outside.
+
+    Returns
+    -------
+    dict or None
+        ``outside_share`` (share of the path's duration outside, 0-1) and ``reasons``
+        (reason -> share of the duration); None when the model records no domain.
+    """
+    dom = ((getattr(model, "metadata", None) or {}).get("fit") or {}).get("domain")
+    if not dom:
+        return None
+    dur = np.asarray(segments["duration_s"], dtype=float)
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
+    total = float(dur.sum())
+    if total <= 0:
+        return {"outside_share": 0.0, "reasons": {}, "domain": dom}
+    safe = np.where(dur > 0, dur, np.inf)
+    speed, rate = dist / safe, turn / safe
+    masks: dict[str, np.ndarray] = {}
+    slope = np.asarray(segments["max_slope_deg"], dtype=float)
+    masks[f"slope above {dom['max_slope_deg']:g} deg"] = slope > dom["max_slope_deg"]
+    if dom.get("speed_m_s"):
+        lo, hi = dom["speed_m_s"]
+        masks[f"speed outside {lo:g}-{hi:g} m/s"] = (speed > 0.05) & ((speed < lo) | (speed > hi))
+    masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
+        rate > dom["max_turn_rate_rad_s"] * 1.05
+    )
+    gaits = _segment_gaits(segments, poses)
+    for g in ("forward", "backward", "lateral", "turning"):
+        if g not in (dom.get("gaits") or {}):
+            masks[f"{g} motion, absent from the calibration"] = gaits == g
+    for c, v in dict(constants or {}).items():
+        seen = (dom.get("channels") or {}).get(c)
+        if seen is None:
+            continue
+        if isinstance(v, str):
+            out = v not in seen
+        else:
+            out = not (seen[0] <= float(v) <= seen[1])
+        if out:
+            masks[f"{c} = {v} outside the logs' {seen}"] = np.ones(dur.size, bool)
+    any_out = np.zeros(dur.size, bool)
+    reasons = {}
+    for why, m in masks.items():
+        if m.any():
+            reasons[why] = round(float(dur[m].sum() / total), 4)
+            any_out |= m
+    return {
+        "outside_share": round(float(dur[any_out].sum() / total), 4),
+        "reasons": reasons,
+        "domain": dom,
+    }
 
 
 def success_probability(energy_j: float, scores: np.ndarray, usable_j: float) -> float:

@@ -1,0 +1,268 @@
+"""Held-out evaluation by run: the folds and the one held-out prediction.
+
+Every held-out number the package reports (``fit``, ``diagnose``, ``discover``, the
+diagnosis' candidate scores and the calibration's run-energy errors) comes from
+:func:`heldout`, on folds from :func:`fold_index`:
+
+* :func:`fold_index` - grouped K-fold: whole runs per fold, as the fold of every row;
+* :func:`heldout` - refit a linear model on the other folds, predict each fold's rows.
+
+**Where the floor applies.** The model's power is floored *per sample*,
+``P = max(sum_k c_k term_k, 0)`` (a legged robot does not regenerate), and a window's
+predicted power is the mean of its samples' floored powers, exactly as
+``EnergyModel.power`` followed by a window mean. The fit itself is linear on the window
+means of the terms (the window mean of an unfloored power is the sum of the window means
+of the terms). So :func:`heldout` takes the *per-sample* design and the window (row) of
+every sample: it forms the window means for the fit, predicts every held-out sample, floors
+it, and averages the floored samples of each window. Flooring the window mean instead
+(``max(mean_s sum_k c_k term_k, 0)``) would credit a window with the regeneration of its
+negative samples. On the simulated campaigns no held-out sample is negative (0 of 10422
+on ``CampaignConfig.small()`` seed 0, none with 30 degree slopes either), so the two
+agree there; they differ when a window mixes negative and positive samples (example
+below). ``benchmarks/bench_heldout.py`` measures the cost of flooring per sample.
+
+Examples
+--------
+>>> X = np.column_stack([np.ones(6), np.arange(6.0)])
+>>> h = heldout(X, 1.0 + 2.0 * np.arange(6.0), np.arange(6) % 2)
+>>> round(h.rmse, 9), h.coef.shape
+(0.0, (2, 2))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from energy_planner.errors import FitError
+from energy_planner.stats.numerics import _scaled, _weights
+
+__all__ = ["HeldOut", "fold_index", "heldout"]
+
+
+# --------------------------------------------------------------------------- folds by run
+def fold_index(runs: Sequence | np.ndarray, n_splits: int = 5, seed: int = 0) -> np.ndarray:
+    """Fold of every row, whole runs per fold (grouped K-fold, runs shuffled by ``seed``).
+
+    The sorted distinct runs (compared as strings) are permuted by
+    ``numpy.random.default_rng(seed)`` and split into ``n_splits`` parts whose sizes differ
+    by at most one; a row's fold is its run's part. ``n_splits`` is reduced to the number
+    of runs when there are fewer (leave one run out). The runs of fold ``i`` are
+    ``sorted(set(runs[fold_index(runs) == i]))``.
+
+    Parameters
+    ----------
+    runs : sequence
+        Run id of every row (repeats allowed).
+    n_splits : int
+        Number of folds, at least 2.
+    seed : int
+        Seed of the shuffle.
+
+    Returns
+    -------
+    numpy.ndarray
+        Fold of every row, ``int64`` in ``0 .. min(n_splits, n_runs) - 1``.
+
+    Raises
+    ------
+    FitError
+        Fewer than two runs, or fewer than two folds asked for (names both counts).
+
+    Examples
+    --------
+    >>> f = fold_index(["a", "a", "b", "c", "c", "c"], n_splits=2)
+    >>> bool(f[0] == f[1]) and bool(f[3] == f[4] == f[5]), sorted(set(f.tolist()))
+    (True, [0, 1])
+    """
+    runs = np.asarray(runs).astype(str)
+    uniq = np.unique(runs)
+    if len(uniq) < 2:
+        raise FitError(
+            f"held-out validation by run needs at least 2 runs, got {len(uniq)} "
+            f"({list(uniq)}); record more runs"
+        )
+    if n_splits < 2:
+        raise FitError(
+            f"cannot split {len(uniq)} runs into {n_splits} fold(s): need at least 2 folds"
+        )
+    n = min(n_splits, len(uniq))
+    perm = np.random.default_rng(seed).permutation(len(uniq))
+    fold_of_run = np.empty(len(uniq), dtype=np.int64)
+    for i, part in enumerate(np.array_split(perm, n)):
+        fold_of_run[part] = i
+    return fold_of_run[np.searchsorted(uniq, runs)]
+
+
+# --------------------------------------------------------------------------- held-out
+@dataclass(frozen=True)
+class HeldOut:
+    """Held-out predictions of a linear model validated by fold (:func:`heldout`).
+
+    Attributes
+    ----------
+    predicted : numpy.ndarray
+        Held-out prediction of every row (window): the mean of its samples' floored
+        predictions; NaN for a row with no finite sample prediction.
+    residuals : numpy.ndarray
+        ``y - predicted`` per row.
+    folds : numpy.ndarray
+        Fold of every row.
+    coef : numpy.ndarray
+        Coefficients fitted in each fold, shape ``(n_folds, k)`` (0 for a column the fold
+        did not fit).
+    sample_predicted : numpy.ndarray
+        Held-out floored prediction of every sample (row of ``X``).
+    """
+
+    predicted: np.ndarray
+    residuals: np.ndarray
+    folds: np.ndarray
+    coef: np.ndarray
+    sample_predicted: np.ndarray
+
+    @property
+    def rmse(self) -> float:
+        """Pooled held-out RMSE over rows (every row alike)."""
+        return float(np.sqrt(np.mean(self.residuals**2)))
+
+    @property
+    def fold_rmse(self) -> np.ndarray:
+        """Held-out RMSE of each fold's rows."""
+        n = self.coef.shape[0]
+        sq = np.bincount(self.folds, weights=self.residuals**2, minlength=n)
+        cnt = np.bincount(self.folds, minlength=n)
+        return np.sqrt(sq / np.maximum(cnt, 1))
+
+
+def _row_means(X: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:
+    """Mean of each row's samples, column by column, non-finite samples ignored."""
+    m, k = X.shape
+    ok = np.isfinite(X)
+    idx = (rows[:, None] * k + np.arange(k)).ravel()
+    tot = np.bincount(idx, weights=np.where(ok, X, 0.0).ravel(), minlength=n * k)
+    cnt = np.bincount(idx, weights=ok.ravel(), minlength=n * k)
+    out = np.full(n * k, np.nan)
+    np.divide(tot, cnt, out=out, where=cnt > 0)
+    return out.reshape(n, k)
+
+
+def heldout(
+    X: np.ndarray,
+    y: np.ndarray,
+    folds: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+    *,
+    rows: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+    fit_columns: np.ndarray | None = None,
+    floor: float | None = 0.0,
+    means: np.ndarray | None = None,
+) -> HeldOut:
+    """Held-out predictions of ``y ~ mean(X)`` by fold, floored per sample.
+
+    Each fold's coefficients come from the other folds' rows only, by weighted least
+    squares on the rows' mean regressors (columns scaled to unit weighted norm; the
+    training normal equations of a fold are the totals minus the fold's own, one
+    ``k x k`` solve per fold, minimum norm when columns are dependent). Every sample of a
+    held-out row is predicted, floored at ``floor`` (module docstring: the model's power
+    is floored per sample), and a row's prediction is the mean of its floored samples.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Per-sample design, shape ``(m, k)``: the terms evaluated on every sample.
+    y : numpy.ndarray
+        Target of every row (a window's mean measured power), shape ``(n,)``.
+    folds : numpy.ndarray
+        Fold of every row (:func:`fold_index`).
+    w : array-like, optional
+        Row weights of the fits (window durations); equal by default.
+    rows : numpy.ndarray, optional
+        Row (window) of every sample, integers in ``0 .. n - 1``; default: every sample is
+        its own row (``m == n``).
+    offset : numpy.ndarray, optional
+        Per-sample fixed part of the prediction (terms held at given coefficients): the
+        fits target ``y`` minus its row mean, and it is added to every sample's prediction
+        before the floor.
+    fit_columns : numpy.ndarray, optional
+        Boolean ``(n_folds, k)``: the columns each fold fits; the others get 0 (a term
+        the fold's training rows cannot identify). Default: all.
+    floor : float or None
+        Floor of a sample's prediction (0: no regeneration); None leaves it unfloored.
+    means : numpy.ndarray, optional
+        The rows' means of ``X`` (non-finite samples ignored), shape ``(n, k)``, when the
+        caller has them cached (the diagnosis scores hundreds of candidates on one model).
+
+    Returns
+    -------
+    HeldOut
+
+    Raises
+    ------
+    FitError
+        Shapes that do not match (names them).
+
+    Examples
+    --------
+    A window of two samples whose unfloored powers are -10 and +30 W is predicted
+    (0 + 30) / 2 = 15 W, not max((-10 + 30) / 2, 0) = 10 W:
+
+    >>> X = np.array([[-1.0], [3.0], [0.0], [2.0], [4.0]])  # P = 10 x, per sample
+    >>> rows = np.array([0, 0, 1, 2, 3])
+    >>> h = heldout(X, np.array([10.0, 0.0, 20.0, 40.0]), np.array([0, 1, 1, 1]), rows=rows)
+    >>> h.sample_predicted[:2].round(9).tolist(), round(float(h.predicted[0]), 9)
+    ([0.0, 30.0], 15.0)
+    """
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    folds = np.asarray(folds, dtype=np.int64)
+    n = len(y)
+    if X.ndim != 2:
+        raise FitError(f"the design has shape {X.shape}, expected (samples, terms)")
+    m, k = X.shape
+    rows = np.arange(m) if rows is None else np.asarray(rows, dtype=np.int64)
+    if rows.shape != (m,) or (m and (rows.min() < 0 or rows.max() >= n)):
+        raise FitError(
+            f"rows has shape {rows.shape} with values in [{rows.min() if m else 0}, "
+            f"{rows.max() if m else 0}], expected ({m},) with values in [0, {n - 1}]: "
+            "the row (window) of every sample"
+        )
+    if folds.shape != (n,):
+        raise FitError(f"folds have shape {folds.shape}, expected ({n},): one fold per row")
+    w = _weights(w, n)
+    off = np.zeros(m) if offset is None else np.asarray(offset, dtype=float)
+    Xr = _row_means(X, rows, n) if means is None else np.asarray(means, dtype=float)
+    if Xr.shape != (n, k):
+        raise FitError(f"means have shape {Xr.shape}, expected ({n}, {k}): rows x terms")
+    yr = y - (_row_means(off[:, None], rows, n)[:, 0] if offset is not None else 0.0)
+    n_folds = int(folds.max()) + 1 if n else 0
+    cols = (
+        np.ones((n_folds, k), dtype=bool)
+        if fit_columns is None
+        else np.asarray(fit_columns, dtype=bool)
+    )
+    if cols.shape != (n_folds, k):
+        raise FitError(
+            f"fit_columns has shape {cols.shape}, expected ({n_folds}, {k}): folds x terms"
+        )
+    sw, Xs, scale = _scaled(Xr, w)
+    yw = yr * sw
+    g, r = Xs.T @ Xs, Xs.T @ yw
+    coef = np.zeros((n_folds, k))
+    for f in range(n_folds):
+        te = folds == f
+        c = cols[f]
+        xt = Xs[te][:, c]
+        gf = g[np.ix_(c, c)] - xt.T @ xt
+        rf = r[c] - xt.T @ yw[te]
+        coef[f, c] = np.linalg.lstsq(gf, rf, rcond=1e-12)[0] / scale[c]
+    # every sample by its row's fold's coefficients
+    by_fold = X @ coef.T
+    pred_s = np.take_along_axis(by_fold, folds[rows][:, None], axis=1)[:, 0] + off
+    if floor is not None:
+        pred_s = np.maximum(pred_s, floor)
+    pred = _row_means(pred_s[:, None], rows, n)[:, 0]
+    return HeldOut(pred, y - pred, folds, coef, pred_s)
