@@ -58,8 +58,12 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-class DataError(click.ClickException):
-    """The inputs were read but are wrong, or the computation failed: exit status 1."""
+class _DataError(click.ClickException):
+    """The inputs were read but are wrong, or the computation failed: exit status 1.
+
+    A command-line wrapper of a library error (which carries the project's base): it never
+    leaves the command line, so it is private like the other CLI plumbing.
+    """
 
     exit_code = 1
 
@@ -153,7 +157,7 @@ def exit_status_error(exc: click.ClickException) -> click.ClickException:
     """``exc`` with the exit status the rule of this module gives its cause.
 
     A usage error (2) whose cause names a file that is there (its ``path`` field) is
-    about the file's content: a :class:`DataError` (1), unless the error blames an option
+    about the file's content: a :class:`_DataError` (1), unless the error blames an option
     that is not a file (``--start`` outside the map the file covers, ``--band``: the
     error's ``param_hint`` or its cause's ``param`` field). A data error whose cause is a
     file that is not there, or a channel value the model cannot take, is a usage error.
@@ -171,7 +175,7 @@ def exit_status_error(exc: click.ClickException) -> click.ClickException:
         option is not None and option not in FILE_PARAMS
     )
     if usage and path is not None and _file_is_there(path) and not other_param:
-        new: click.ClickException = DataError(exc.format_message())
+        new: click.ClickException = _DataError(exc.format_message())
     elif not usage and path is not None and isinstance(cause, OSError) and not _file_is_there(path):
         new = click.UsageError(exc.format_message())
     elif not usage and isinstance(cause, ChannelError) and not isinstance(cause, ChannelIOError):
