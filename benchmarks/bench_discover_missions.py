@@ -214,7 +214,7 @@ def run_case(
 
 def tilt_false_finding(seed: int, config) -> bool:
     """Whether ``imu_tilt`` is a finding on missions whose IMU is mounted without tilt."""
-    from energy_planner.diagnosis.datacheck import check_imu_tilt
+    from energy_planner.measurements.datacheck import check_imu_tilt
     from energy_planner.simulate import SensorConfig, simulate_missions
 
     sens = SensorConfig(imu_bias_deg=0.0)

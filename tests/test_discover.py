@@ -21,8 +21,8 @@ import pytest
 from click.testing import CliRunner
 
 from energy_planner.diagnosis import rank_suspects, window_data
-from energy_planner.diagnosis.datacheck import check_data
 from energy_planner.diagnosis.suspects import speed_levels
+from energy_planner.measurements.datacheck import check_data
 from energy_planner.model import BASE_TERMS, EnergyModel
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -258,3 +258,11 @@ def test_discovered_short_name_fits_the_same_term(tmp_path):
     assert fitted.terms[-1].formula == formula
     for k, v in d.model.coefficients.items():
         assert fitted.coefficients[k] == pytest.approx(v, rel=1e-6, abs=1e-9), k
+
+
+def test_datacheck_keeps_its_old_import_path():
+    """The data checks moved to measurements; the diagnosis path re-exports them."""
+    from energy_planner.diagnosis import datacheck as old
+    from energy_planner.measurements import datacheck as new
+
+    assert old.check_data is new.check_data and old.check_imu_tilt is new.check_imu_tilt

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from energy_planner.diagnosis.datacheck import (
+from energy_planner.measurements.datacheck import (
     MAX_TILT_SE_DEG,
     check_data,
     check_imu_tilt,

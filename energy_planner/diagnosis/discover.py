@@ -3,7 +3,7 @@
 ``discover`` (``energy-planner discover``) does what a person would do by hand with
 ``fit`` and ``diagnose``:
 
-1. run the data checks (:mod:`energy_planner.diagnosis.datacheck`) on the raw samples and
+1. run the data checks (:mod:`energy_planner.measurements.datacheck`) on the raw samples and
    repair what they find (a sensor problem is a *data finding*, never a model term);
 2. preprocess and cut windows as ``fit`` does;
 3. start from the base model, rank every candidate effect on held-out runs, add the best

@@ -363,7 +363,7 @@ def noise_floor(wd: WindowData) -> NoiseFloorEstimate:
     -------
     NoiseFloorEstimate
     """
-    from energy_planner.diagnosis.datacheck import _noise_sd
+    from energy_planner.measurements.datacheck import _noise_sd
 
     s = wd.samples
     if not {"voltage", "current", "power"} <= set(s.columns):

@@ -11,7 +11,7 @@ battery and sensors as :func:`~energy_planner.simulate.simulate_campaign` apply;
 other channels per mission. Besides the designed campaign's columns, the logs hold the
 pose's altitude ``z`` (m, the DEM under the robot, as exact as ``x, y``): a robot on a
 mission localizes on the map, and the IMU's tilt against the body can be checked
-against it (``imu_tilt`` in :mod:`energy_planner.diagnosis.datacheck`).
+against it (``imu_tilt`` in :mod:`energy_planner.measurements.datacheck`).
 
 Examples
 --------
