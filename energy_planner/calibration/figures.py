@@ -23,6 +23,7 @@ import pandas as pd
 
 from energy_planner.errors import EnergyPlannerError, LogError
 from energy_planner.model import EnergyModel
+from energy_planner.model.formula import MOTION_FEATURES
 
 __all__ = [
     "model_curve",
@@ -87,7 +88,7 @@ def model_curve(
 def typical_channels(samples: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
     """Typical value (median, or most common category) of each extra channel the model reads."""
     out: dict[str, Any] = {}
-    for name in model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}:
+    for name in model.variables - MOTION_FEATURES:
         if name not in samples:
             continue
         col = samples[name]

@@ -33,6 +33,7 @@ import pandas as pd
 from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.model.formula import MOTION_FEATURES
 from energy_planner.model.model import prepare_features
 from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
 
@@ -477,7 +478,7 @@ def _prices_absent_motion(
     if not absent:
         return None
     channels: dict[str, Any] = {}
-    for c in sorted(term.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+    for c in sorted(term.variables - MOTION_FEATURES):
         if c not in table:
             return None  # evaluated without the table's channels: nothing to probe with
         v = table[c]
@@ -571,7 +572,7 @@ def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
         else [0.3]
     )
     values: dict[str, Any] = {}
-    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+    for c in sorted(model.variables - MOTION_FEATURES):
         if c not in table:
             continue
         v = table[c]
@@ -627,7 +628,7 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
                 ],
             }
     channels: dict[str, Any] = {}
-    for c in sorted(model.variables - {"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"}):
+    for c in sorted(model.variables - MOTION_FEATURES):
         if c not in table:
             continue
         v = table[c]

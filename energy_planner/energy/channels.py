@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import ChannelError, ChannelIOError
+from energy_planner.model.formula import MOTION_FEATURES
 
 __all__ = [
     "Category",
@@ -66,7 +67,7 @@ __all__ = [
 ]
 
 #: Names a channel may not take: the kernel's motion features and formula constants.
-RESERVED = frozenset({"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed", "pi", "g"})
+RESERVED = MOTION_FEATURES | {"pi", "g"}
 _TABLE_SUFFIXES = (".csv", ".json", ".txt", ".tsv")
 
 

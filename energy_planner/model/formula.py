@@ -33,7 +33,11 @@ import numpy as np
 
 from energy_planner.errors import FormulaError
 
-__all__ = ["Formula", "parse_formula", "FUNCTIONS", "CONSTANTS"]
+__all__ = ["Formula", "parse_formula", "FUNCTIONS", "CONSTANTS", "MOTION_FEATURES"]
+
+#: The per-sample motion features every formula may read (the design notes); any other
+#: variable of a formula is a log channel (a payload, a ground type, a temperature).
+MOTION_FEATURES = frozenset({"alpha", "gamma", "vx", "vy", "wz", "ax", "ay", "speed"})
 
 
 def _pos(x):
