@@ -134,13 +134,21 @@ class Problem:
                      self.request, **kwargs)  # fmt: skip
 
     def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None):
-        """Energy of walking the given points (:func:`energy_planner.energy.path_energy`)."""
+        """Energy of walking the given points (:func:`energy_planner.energy.path_energy`).
+
+        The request's gait limits hold, as ``energy --max-crab/--max-backward-slope`` does:
+        a segment that breaks one is an error naming it.
+        """
+        from energy_planner.energy import MotionCost
         from energy_planner.energy import path_energy as _pe
 
         xy = self.to_work(points, crs)[:, :2]
-        r = self.request.robot
-        return _pe(self.terrain, self.model, xy, yaw=yaw, t=t, speed=r.speed,
-                   yaw_rate=r.yaw_rate, channels=self.request.channels)  # fmt: skip
+        r, lim = self.request.robot, self.request.limits
+        cost = MotionCost(self.terrain, self.model, r.speed, r.yaw_rate,
+                          channels=self.request.channels,
+                          max_backward_slope_deg=lim.max_backward_slope_deg,
+                          max_crab_deg=lim.max_crab_deg)  # fmt: skip
+        return _pe(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
 
     def compare_routes(self, start: Any, goal: Any, *, crs: Any = None, **kwargs: Any):
         """Direct vs shortest vs energy-optimal (paper Fig. 1)."""

@@ -48,3 +48,16 @@ def test_plan_chooses_windows_for_a_dem_over_the_memory_cap():
     assert "corridor" in res.info
     whole = ep.plan(PLANE, S, G)
     assert res.energy_j >= whole.energy_j * (1 - 1e-6)
+
+
+def test_problem_path_energy_holds_the_gait_limits():
+    """Problem.path_energy prices with the request's gait limits, as the energy command."""
+    line = [(500058, 5000046), (500058, 5000084)]
+    free = ep.Problem.from_dem(ep.map_path("hill"))
+    strict = ep.Problem.from_dem(ep.map_path("hill"), max_crab_deg=0)
+    # facing along the line breaks no limit: both price it the same
+    assert strict.path_energy(line).energy_j == pytest.approx(free.path_energy(line).energy_j)
+    sideways = free.path_energy(line, yaw=[0.0, 0.0])  # body x east, walking north
+    assert sideways.energy_j > 0
+    with pytest.raises(ep.EnergyPlannerError, match="crab angle"):
+        strict.path_energy(line, yaw=[0.0, 0.0])
