@@ -198,7 +198,7 @@ def main(argv: list[str] | None = None) -> None:
           f"i < {args.repeats} ({load})")  # fmt: skip
     head = (f"{'campaign':<10}{'effect':<36}{'scores':>7}{'runs':>6}{'cov90 %':>9}"
             f"{'per seed':>10}{'in-dom 90':>10}{'cov80 %':>9}{'width90 %':>11}"
-            f"{'outside %':>11}{'s':>6}  domain")  # fmt: skip
+            f"{'outside %':>11}{'s':>6}  domain of the first fit")  # fmt: skip
     print(head)
     rows = []
     for label, kind, effects in CAMPAIGNS:
