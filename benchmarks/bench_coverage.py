@@ -75,8 +75,12 @@ def _simulate(kind: str, effects: tuple[str, ...], seed: int, size: str) -> Any:
     return simulate_missions(seed=seed, effects=effects, config=cfg)
 
 
-def run_energies(model: Any, windows: Any) -> pd.DataFrame:
-    """Measured and predicted energy of every run of ``windows`` (J), as the fit's CV sums them."""
+def windowed_run_energies(model: Any, windows: Any) -> pd.DataFrame:
+    """Measured and predicted energy of every run of ``windows`` (J), as the fit's CV sums them.
+
+    Over the run's windows only (what the conformal scores measure), not the whole raw
+    log of :func:`energy_planner.measurements.run_energies`.
+    """
     from energy_planner.calibration._windows import aligned_table, window_energy
     from energy_planner.calibration.fit import model_features
 
@@ -150,7 +154,7 @@ def coverage_row(
             fit = fit_model(prepare_logs(_simulate(kind, effects, i, size).logs).windows)
             fresh = prepare_logs(_simulate(kind, effects, 1000 + i, size).logs).windows
         model = fit.model
-        runs = run_energies(model, fresh)
+        runs = windowed_run_energies(model, fresh)
         runs = runs[runs["measured_j"] > 0]
         for e_pred, e_meas in zip(runs["predicted_j"], runs["measured_j"], strict=True):
             for level in inside:
