@@ -1,0 +1,220 @@
+"""Benchmark: coverage of the split-conformal energy intervals on fresh runs, per campaign.
+
+Issue #20: nominal 90 % intervals must hold 85-95 % of held-out run energies. For each
+simulated campaign (designed campaigns with different hidden effects, and mission logs),
+the base model is fitted (:func:`energy_planner.calibration.fit_model`, 5 folds by run:
+its held-out run errors are the conformal scores) on the logs of one seed; the same
+configuration is simulated again with a *different* seed, never seen by the fit, and for
+each fresh run
+
+- the predicted energy: the fitted model's per-sample power over the run's windows,
+  integrated per window by :func:`~energy_planner.calibration._windows.window_energy`
+  and summed per run (what ``cross_validate`` does for the held-out scores);
+- the measured energy: the same integral of the logged power;
+- its 90 % and 80 % intervals (:func:`energy_planner.uncertainty.predict_interval`, no
+  widening) and whether the measured energy falls inside;
+- whether the run leaves the fit's domain (``metadata.fit.domain``): its windows as
+  path segments through :func:`energy_planner.uncertainty.domain_report` (slope, speed,
+  turning rate, channel values; gaits are not checked, the windows carry no poses).
+
+One row per campaign, pooled over ``--repeats`` fit/fresh seed pairs: coverage at 90 %
+(pooled, the range over the seed pairs, and over the fresh runs inside the domain only)
+and at 80 %, median 90 % interval width (relative to the prediction), the fit's domain
+(max slope, walking speeds, gaits) and the share of fresh runs with any part outside it,
+by kind of limit. Fresh missions walk a new synthetic hill (``simulate_missions`` draws
+the DEM from the seed), fresh designed campaigns the same ramps with new noise and
+channel values.
+
+Run::
+
+    python benchmarks/bench_coverage.py                 # small campaigns (a few minutes)
+    python benchmarks/bench_coverage.py --size medium --repeats 5  # 3 repeats, 60 missions
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+#: (label, kind, hidden effects): designed campaigns and mission logs.
+CAMPAIGNS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("campaign", "campaign", ()),
+    ("campaign", "campaign", ("load",)),
+    ("campaign", "campaign", ("ground",)),
+    ("campaign", "campaign", ("cold_joints",)),
+    ("campaign", "campaign", ("speed_dependence", "turn_while_walking")),
+    ("missions", "missions", ()),
+    ("missions", "missions", ("load",)),
+)
+
+
+def _simulate(kind: str, effects: tuple[str, ...], seed: int, size: str) -> Any:
+    """Logs of one campaign configuration at one seed."""
+    from energy_planner.simulate import (
+        CampaignConfig,
+        MissionConfig,
+        simulate_campaign,
+        simulate_missions,
+    )
+
+    if kind == "campaign":
+        cfg = CampaignConfig.small(repeats=1 if size == "small" else 3)
+        return simulate_campaign(seed=seed, effects=effects, config=cfg)
+    cfg = MissionConfig.varied(missions=20 if size == "small" else 60)
+    return simulate_missions(seed=seed, effects=effects, config=cfg)
+
+
+def windowed_run_energies(model: Any, windows: Any) -> pd.DataFrame:
+    """Measured and predicted energy of every run of ``windows`` (J), as the fit's CV sums them.
+
+    Over the run's windows only (what the conformal scores measure), not the whole raw
+    log of :func:`energy_planner.measurements.run_energies`.
+    """
+    from energy_planner.calibration._windows import aligned_table, window_energy
+    from energy_planner.calibration.fit import model_features
+
+    table = aligned_table(windows)
+    samples = windows.samples
+    power = model.power(model_features(samples, model))
+    frame = pd.DataFrame(
+        {
+            "run": table["run"].astype(str).to_numpy(),
+            "measured_j": window_energy(samples).to_numpy(),
+            "predicted_j": window_energy(samples, power).to_numpy(),
+        }
+    )
+    return frame.groupby("run", sort=True).sum()
+
+
+def outside_runs(model: Any, windows: Any) -> dict[str, set[str]]:
+    """Per run: the kinds of domain limit (slope, speed, turning, a channel) it exceeds."""
+    from energy_planner.calibration._windows import aligned_table
+    from energy_planner.uncertainty import domain_report
+
+    table = aligned_table(windows)
+    dur = table["duration"].to_numpy(float)
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    chan = set(((model.metadata.get("fit") or {}).get("domain") or {}).get("channels") or {})
+    out = {}
+    for run, idx in table.groupby(table["run"].astype(str)).indices.items():
+        seg = pd.DataFrame(
+            {
+                "distance_m": speed[idx] * dur[idx],
+                "duration_s": dur[idx],
+                "max_slope_deg": np.degrees(table["alpha"].to_numpy(float)[idx]),
+                "turn_deg": np.degrees(table["wz"].to_numpy(float)[idx] * dur[idx]),
+            }
+        )
+        # a run is outside if any window is, or a channel's least or largest value is
+        ends: list[dict[str, Any]] = [{}, {}]
+        for c in chan & set(table.columns):
+            v = table[c].iloc[idx].dropna()
+            if v.empty:
+                continue
+            if pd.api.types.is_numeric_dtype(v):
+                ends[0][c], ends[1][c] = float(v.min()), float(v.max())
+            else:
+                ends[0][c] = ends[1][c] = str(v.iloc[0])
+        reps = [domain_report(model, seg, e) for e in ends]
+        out[run] = {why.split()[0] for r in reps if r is not None for why in r["reasons"]}
+    return out
+
+
+def coverage_row(
+    label: str, kind: str, effects: tuple[str, ...], size: str, repeats: int = 1
+) -> dict[str, Any]:
+    """Fit on seed ``i``, evaluate on seed ``1000 + i``, for ``i < repeats``; pooled."""
+    from energy_planner.calibration import fit_model
+    from energy_planner.measurements import prepare_logs
+    from energy_planner.uncertainty import predict_interval
+
+    t0 = time.perf_counter()
+    inside: dict[float, list[bool]] = {0.9: [], 0.8: []}
+    width: list[float] = []
+    why: list[set[str]] = []
+    n_scores, domains, per_seed = [], [], []
+    for i in range(repeats):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = fit_model(prepare_logs(_simulate(kind, effects, i, size).logs).windows)
+            fresh = prepare_logs(_simulate(kind, effects, 1000 + i, size).logs).windows
+        model = fit.model
+        runs = windowed_run_energies(model, fresh)
+        runs = runs[runs["measured_j"] > 0]
+        for e_pred, e_meas in zip(runs["predicted_j"], runs["measured_j"], strict=True):
+            for level in inside:
+                iv = predict_interval(model, float(e_pred), level=level)
+                inside[level].append(bool(iv.low_j <= e_meas <= iv.high_j))
+                if level == 0.9:
+                    width.append((iv.high_j - iv.low_j) / e_pred if e_pred > 0 else np.nan)
+        per_seed.append(100 * float(np.mean(inside[0.9][-len(runs) :])))
+        out = outside_runs(model, fresh)
+        why += [out.get(r, set()) for r in runs.index]
+        n_scores.append(len(model.metadata["fit"]["heldout_run_rel_errors"]))
+        domains.append(model.metadata["fit"]["domain"])
+    dom = domains[0]
+    kinds = sorted(set().union(*why))
+    lo, hi = dom["speed_m_s"] or (float("nan"), float("nan"))
+    return {
+        "campaign": label,
+        "effect": "+".join(effects) or "none",
+        "scores": int(np.median(n_scores)),
+        "runs": len(why),
+        "cov90": 100 * float(np.mean(inside[0.9])),
+        "cov90_in": 100
+        * float(np.mean([c for c, w in zip(inside[0.9], why, strict=True) if not w])),
+        "cov80": 100 * float(np.mean(inside[0.8])),
+        "range90": f"{min(per_seed):.0f}-{max(per_seed):.0f}",
+        "width90": 100 * float(np.nanmedian(width)),
+        "domain": f"{dom['max_slope_deg']:.1f} deg, {lo:.2f}-{hi:.2f} m/s, "
+        + "/".join(sorted(dom["gaits"])),
+        "outside": 100 * float(np.mean([bool(w) for w in why])),
+        "why": ", ".join(f"{k} {100 * np.mean([k in w for w in why]):.1f}%" for k in kinds),
+        "s": time.perf_counter() - t0,
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Print the table (see the module docstring)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", choices=("small", "medium"), default="small")
+    ap.add_argument(
+        "--repeats", type=int, default=1, help="fit/fresh seed pairs per campaign, pooled"
+    )
+    args = ap.parse_args(argv)
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"size {args.size}; fit on seed i, fresh runs from seed 1000 + i, "
+          f"i < {args.repeats} ({load})")  # fmt: skip
+    head = (f"{'campaign':<10}{'effect':<36}{'scores':>7}{'runs':>6}{'cov90 %':>9}"
+            f"{'per seed':>10}{'in-dom 90':>10}{'cov80 %':>9}{'width90 %':>11}"
+            f"{'outside %':>11}{'s':>6}  domain of the first fit")  # fmt: skip
+    print(head)
+    rows = []
+    for label, kind, effects in CAMPAIGNS:
+        r = coverage_row(label, kind, effects, args.size, args.repeats)
+        rows.append(r)
+        print(f"{r['campaign']:<10}{r['effect']:<36}{r['scores']:>7}{r['runs']:>6}"
+              f"{r['cov90']:>9.1f}{r['range90']:>10}{r['cov90_in']:>10.1f}{r['cov80']:>9.1f}{r['width90']:>11.1f}"
+              f"{r['outside']:>11.1f}{r['s']:>6.0f}  {r['domain']}"
+              f"{'; outside: ' + r['why'] if r['why'] else ''}", flush=True)  # fmt: skip
+    ok = sum(85.0 <= r["cov90"] <= 95.0 for r in rows)
+    print(f"{ok} of {len(rows)} campaigns inside 85-95 % at nominal 90 %")
+
+
+if __name__ == "__main__":
+    main()
