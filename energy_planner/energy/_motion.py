@@ -20,6 +20,7 @@ import numpy as np
 from energy_planner.energy.kernels import (
     BLOCKED,
     GAIT_TOL,
+    IN_CHAN,
     N_KINDS,
     N_OUT,
     NO_CHANNEL,
@@ -212,7 +213,7 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
 
 @numba.njit(cache=True)
 def motion_cost(x0, y0, th0, x1, y1, th1, data):
-    out = np.empty(N_OUT + data[12].shape[0])
+    out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     motion_full(x0, y0, th0, x1, y1, th1, -1.0, data, out)
     return out[OUT_ENERGY]
 
@@ -221,7 +222,7 @@ def motion_cost(x0, y0, th0, x1, y1, th1, data):
 def motion_batch(x0, y0, th0, x1, y1, th1, data):
     n = x0.shape[0]
     res = np.empty(n)
-    out = np.empty(N_OUT + data[12].shape[0])
+    out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     for i in range(n):
         motion_full(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
         res[i] = out[OUT_ENERGY]
@@ -232,7 +233,7 @@ def motion_batch(x0, y0, th0, x1, y1, th1, data):
 def path_table(x, y, th, durations, data):
     m = x.shape[0] - 1
     table = np.empty((max(m, 0), N_OUT))
-    out = np.empty(N_OUT + data[12].shape[0])
+    out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     for i in range(m):
         motion_full(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], data, out)
         table[i, :] = out[:N_OUT]

@@ -60,6 +60,25 @@ VIOLATIONS = {
 #: Slack of the gait checks, radians (see :class:`energy_planner.request.Limits`).
 GAIT_TOL = GAIT_TOL_RAD
 
+# Named indices of the kernels' input tuple ``data`` (:attr:`MotionCost.data`), read
+# through these names on both sides (numba folds them as constants), never by number.
+#: Horn gradient, (rows, cols, 2): dz/dx, dz/dy on the working grid
+IN_GRAD = 0
+#: keep-out mask, (rows, cols) bool (size 0: none)
+IN_BLOCKED = 1
+#: centre of cell (0, 0), x and y; cell size dx (> 0) and dy (< 0), m
+IN_X0, IN_Y0, IN_DX, IN_DY = 2, 3, 4, 5
+#: nominal speed m/s, yaw rate rad/s, integration sub-step m and rad
+IN_SPEED, IN_YAW_RATE, IN_STEP, IN_ANG_STEP = 6, 7, 8, 9
+#: tangent of the slope limit, sine of the cross-slope limit
+IN_TMAX, IN_SMAX = 10, 11
+#: channel values (k, rows, cols), and which channels are sampled at the nearest cell
+IN_CHAN, IN_NEAREST = 12, 13
+#: gait limits: tangent of the backward-walking slope limit, the crab limit in radians
+IN_BTAN, IN_CMAX = 14, 15
+#: length of ``data``
+N_IN = 16
+
 # Named indices of the per-motion result vector ``out`` of ``motion_full``.
 #: energy, J
 OUT_ENERGY = 0

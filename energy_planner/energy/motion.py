@@ -11,6 +11,9 @@ import numpy as np
 
 from energy_planner.energy.channels import Channels
 from energy_planner.energy.kernels import (
+    IN_GRAD,
+    IN_X0,
+    IN_Y0,
     N_OUT,
     OK,
     OUT_CODE,
@@ -136,7 +139,7 @@ class MotionCost:
         Time-budgeted callers (planners) call this before their clock starts, so that
         a cold cache does not eat into the budget and change the result.
         """
-        x, y = self.data[2], self.data[3]  # centre of cell (0, 0): any point will do
+        x, y = self.data[IN_X0], self.data[IN_Y0]  # centre of cell (0, 0): any point will do
         self.kernel(x, y, 0.0, x, y, 0.0, self.data)
         one = np.array([x])
         zero = np.zeros(1)
@@ -178,7 +181,7 @@ class MotionCost:
         nominal speed, with a 5% margin for the grid of the search; never negative.
         """
         if not hasattr(self, "_lb"):
-            slope = np.arctan(np.hypot(self.data[0][..., 0], self.data[0][..., 1]))
+            slope = np.arctan(np.hypot(self.data[IN_GRAD][..., 0], self.data[IN_GRAD][..., 1]))
             amax = float(np.nanmax(slope)) if np.isfinite(slope).any() else 0.0
             if self.max_slope_deg is not None:
                 amax = min(amax, math.radians(self.max_slope_deg))

@@ -20,6 +20,7 @@ import numba
 import numpy as np
 
 from energy_planner.energy._motion import motion_full as kernel  # --- kernel import ---
+from energy_planner.energy.kernels import IN_CHAN, N_OUT
 
 UNSEEN = -1
 TURN_FROM_PREV = 16
@@ -301,7 +302,7 @@ def astar_chunk(
     nmv = moves_of.shape[1]
     pops = 0
     priced = 0
-    buf = np.empty(32)
+    buf = np.empty(N_OUT + data[IN_CHAN].shape[0])  # results, then channel scratch
     while n[0] > 0:
         if pops >= max_pops:
             return RUNNING, pops, priced

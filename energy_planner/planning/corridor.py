@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.energy.kernels import IN_TMAX
 from energy_planner.errors import (
     DEMError,
     InvalidStateError,
@@ -409,7 +410,7 @@ def _too_large(info: RasterInfo, what: str, cells: int, max_cells: int, cap: int
 
 def _bound(cost, info, n_headings, moves, log, progress) -> tuple[float, list]:
     """``c_min`` and the gradient box it was taken over."""
-    tmax = float(cost.data[10])
+    tmax = float(cost.data[IN_TMAX])
     if math.isfinite(tmax):
         lo, hi = np.array([-tmax, -tmax]), np.array([tmax, tmax])
         log(f"gradient box from the slope limit: |dz/dx|, |dz/dy| <= {tmax:.3f}")

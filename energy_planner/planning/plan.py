@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.angles import wrap
+from energy_planner.energy.kernels import IN_BLOCKED
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
@@ -436,7 +437,7 @@ def _request_for(request, cost):
                 value=want,
                 expected=f"{name}={have!r} as in cost=",
             )
-    if request.limits.keep_out is not None and cost.data[1].size == 0:
+    if request.limits.keep_out is not None and cost.data[IN_BLOCKED].size == 0:
         raise PlanningConfigError(
             "request= has keep-out areas but cost= was built without them; build the cost "
             "with make_motion_cost(terrain, model, request)",

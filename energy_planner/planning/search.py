@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from energy_planner.angles import wrap
+from energy_planner.energy.kernels import IN_DY, IN_GRAD, IN_X0
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
 
@@ -102,7 +103,7 @@ def _warm_up(mod, cost) -> None:
     table = np.zeros((16, 1, 1, 2, 2))
     tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.heuristic_chunk(
-        cost.data[0], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
+        cost.data[IN_GRAD], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
         np.zeros(1, i8), keys, vals, n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
     )  # fmt: skip
     mod.astar_chunk(
@@ -113,7 +114,7 @@ def _warm_up(mod, cost) -> None:
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
     mod.min_over_headings(np.zeros(16, np.float32), 1, 16)
-    mod.edge_bound(cost.data[0], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
+    mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
 @dataclass
@@ -266,7 +267,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     """
     from energy_planner.planning.moves import MOVES_16
 
-    grad = cost.data[0]
+    grad = cost.data[IN_GRAD]
     gx = grad[..., 0]
     gy = grad[..., 1]
     fin = np.isfinite(gx) & np.isfinite(gy)
@@ -363,7 +364,7 @@ def _sparse_table(table: np.ndarray) -> np.ndarray:
 
 
 def _geo(cost) -> np.ndarray:
-    return np.array(cost.data[2:6], dtype=np.float64)
+    return np.array(cost.data[IN_X0 : IN_DY + 1], dtype=np.float64)
 
 
 class _Heap:
@@ -424,7 +425,7 @@ def relaxed_cost_to_go(
     vals = np.empty(grid.P, np.int64)
     n = np.ones(1, np.int64)
     keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
-    grad = cost.data[0]
+    grad = cost.data[IN_GRAD]
     geo = _geo(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
     limit = np.full(1, np.inf)
