@@ -43,7 +43,7 @@ from energy_planner.energy.kernels import IN_BLOCKED
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 
-__all__ = ["PlanResult", "plan", "PLANNERS", "DEFAULT_EPS"]
+__all__ = ["PlanResult", "plan", "PLANNERS", "RUNNERS", "DEFAULT_EPS"]
 
 _OMPL_PLANNERS = {"rrtstar": "RRTstar", "sorrtstar": "SORRTstar", "bitstar": "BITstar"}
 
@@ -446,6 +446,111 @@ def _request_for(request, cost):
     return request
 
 
+@dataclass
+class _Run:
+    """What a planner runner needs (:data:`RUNNERS`); ``info`` collects what it reports."""
+
+    cost: Any
+    terrain: Any
+    start: tuple
+    goal: tuple
+    planner: str
+    budget: float
+    seed: int
+    iterations: int | None
+    prog: Any
+    info: dict[str, Any]
+    step: float | None
+    n_headings: int
+    moves: str
+    eps: float
+    progress: bool
+    ctg: Any = None
+
+
+def _run_search(r: _Run) -> np.ndarray:
+    """``search``: A* at the DEM's resolution; ``auto``: then the refinement."""
+    from energy_planner.planning.search import search_plan
+
+    sr = search_plan(
+        r.cost, r.terrain, r.start, r.goal, step=r.step, n_headings=r.n_headings,
+        moves=r.moves, eps=r.eps, progress=r.progress, time_budget=r.budget,
+    )  # fmt: skip
+    r.info["search"] = {
+        "step_m": sr.step,
+        "headings": sr.n_headings,
+        "eps": sr.eps,
+        "states": sr.states_total,
+        "expanded": sr.expanded,
+        "edges_priced": sr.priced,
+        "heuristic_s": sr.heuristic_s,
+        "search_s": sr.search_s,
+        "h_start_j": sr.info["h_start"],
+    }
+    r.prog.report(sr.cost)
+    if r.planner != "auto":
+        return sr.states
+    from energy_planner.planning.refine import refine_path
+
+    spent = r.prog.elapsed()
+    left = r.budget - spent if math.isfinite(r.budget) else min(max(1.0, 0.25 * spent), 10.0)
+    if left <= 0.05:
+        return sr.states
+    states, r.info["refine"] = refine_path(
+        r.cost,
+        sr.states,
+        budget=left,
+        seed=r.seed,
+        spacing=max(sr.step, float(abs(r.terrain.grid[2]))),
+        free_start_yaw=r.start[2] is None,
+        free_goal_yaw=r.goal[2] is None,
+        max_rounds=r.iterations,
+        report=r.prog.report,
+    )
+    return states
+
+
+def _run_lattice(r: _Run) -> np.ndarray:
+    """``lattice``: the full lattice graph, Dijkstra (not interruptible)."""
+    from energy_planner.planning.binding import path_cost
+    from energy_planner.planning.lattice import lattice_plan
+
+    lat = lattice_plan(
+        r.cost, r.terrain, r.start, r.goal, step=r.step, n_headings=r.n_headings, moves=r.moves
+    )
+    r.info["lattice"] = {
+        "step_m": lat.step,
+        "headings": lat.n_headings,
+        "nodes": lat.n_nodes,
+        "edges": lat.n_edges,
+        "build_s": lat.build_s,
+        "search_s": lat.search_s,
+    }
+    r.prog.report(path_cost(_cost_fn(r.cost), lat.states))
+    return lat.states
+
+
+def _run_ompl_planner(r: _Run) -> np.ndarray:
+    """An OMPL planner of :data:`_OMPL_PLANNERS` with the energy objective."""
+    states, oinfo = _run_ompl(
+        r.cost, r.terrain, r.start, r.goal, r.planner, r.budget, r.seed, r.iterations, r.prog,
+        r.ctg,
+    )  # fmt: skip
+    r.info.update(oinfo)
+    return states
+
+
+#: planner name -> the function that runs it (the one registry; its names are
+#: :data:`energy_planner.planning.PLANNERS`, in that order)
+RUNNERS: dict[str, Callable[[_Run], np.ndarray]] = {
+    "auto": _run_search,
+    "search": _run_search,
+    "lattice": _run_lattice,
+    **dict.fromkeys(_OMPL_PLANNERS, _run_ompl_planner),
+}
+assert tuple(RUNNERS) == PLANNERS, "planning.PLANNERS and plan.RUNNERS name the same planners"
+
+
 def plan(
     terrain,
     model,
@@ -591,69 +696,10 @@ def plan(
         f"plan ({planner})",
     )
     info: dict[str, Any] = {"request": request}
+    run = _Run(cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog, info,
+               step, n_headings, moves, eps, progress, ctg)  # fmt: skip
     try:
-        if planner in ("auto", "search"):
-            from energy_planner.planning.search import search_plan
-
-            sr = search_plan(
-                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves,
-                eps=eps, progress=progress, time_budget=budget,
-            )  # fmt: skip
-            info["search"] = {
-                "step_m": sr.step,
-                "headings": sr.n_headings,
-                "eps": sr.eps,
-                "states": sr.states_total,
-                "expanded": sr.expanded,
-                "edges_priced": sr.priced,
-                "heuristic_s": sr.heuristic_s,
-                "search_s": sr.search_s,
-                "h_start_j": sr.info["h_start"],
-            }
-            states = sr.states
-            prog.report(sr.cost)
-            if planner == "auto":
-                from energy_planner.planning.refine import refine_path
-
-                spent = prog.elapsed()
-                left = (
-                    budget - spent if math.isfinite(budget) else min(max(1.0, 0.25 * spent), 10.0)
-                )
-                if left > 0.05:
-                    states, rinfo = refine_path(
-                        cost,
-                        states,
-                        budget=left,
-                        seed=seed,
-                        spacing=max(sr.step, float(abs(terrain.grid[2]))),
-                        free_start_yaw=start_p[2] is None,
-                        free_goal_yaw=goal_p[2] is None,
-                        max_rounds=iterations,
-                        report=prog.report,
-                    )
-                    info["refine"] = rinfo
-        elif planner == "lattice":
-            from energy_planner.planning.binding import path_cost
-            from energy_planner.planning.lattice import lattice_plan
-
-            lat = lattice_plan(
-                cost, terrain, start_p, goal_p, step=step, n_headings=n_headings, moves=moves
-            )
-            info["lattice"] = {
-                "step_m": lat.step,
-                "headings": lat.n_headings,
-                "nodes": lat.n_nodes,
-                "edges": lat.n_edges,
-                "build_s": lat.build_s,
-                "search_s": lat.search_s,
-            }
-            states = lat.states
-            prog.report(path_cost(_cost_fn(cost), states))
-        else:
-            states, oinfo = _run_ompl(
-                cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog, ctg
-            )
-            info.update(oinfo)
+        states = RUNNERS[planner](run)
     finally:
         prog.close()
     from energy_planner.planning.lattice import simplify_states
