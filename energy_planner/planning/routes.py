@@ -1,0 +1,346 @@
+"""The results of a route comparison: :class:`Route` and :class:`RouteComparison`.
+
+Each route's poses, energy, length, climb and feasibility; the comparison's JSON form,
+text table, the physics explanation of a detour and its map plot. Built by
+:func:`energy_planner.planning.compare.compare_routes`.
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import RouteNameError
+from energy_planner.planning.gradecost import GradeCost
+
+__all__ = ["ROUTE_NAMES", "Route", "RouteComparison"]
+
+#: Route names, in report order.
+ROUTE_NAMES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
+
+
+@dataclass
+class Route:
+    """One route of a comparison (poses in the working CRS, radians).
+
+    ``same_as`` names an earlier route of the comparison that is the same path (within
+    a cell everywhere, body yaw within 15 deg); ``body_yaw_deg`` is the constant body yaw
+    from the direction of travel a route is walked with, where it has one; ``ascent_m``
+    is the total climb and ``climb_grade`` the mean grade of its climbing parts (sine of
+    the inclination).
+    """
+
+    name: str
+    states: np.ndarray | None
+    energy_j: float | None
+    distance_m: float | None
+    duration_s: float | None
+    max_slope_deg: float | None
+    feasible: bool
+    reason: str | None = None
+    saving_vs_direct: float | None = None
+    same_as: str | None = None
+    ascent_m: float | None = None
+    climb_grade: float | None = None
+    body_yaw_deg: float | None = None
+
+    @property
+    def energy_wh(self) -> float | None:
+        """Energy in Wh."""
+        return None if self.energy_j is None else self.energy_j / 3600.0
+
+    @property
+    def climb_grade_deg(self) -> float | None:
+        """Mean climbing grade as an inclination, degrees."""
+        return GradeCost.deg(self.climb_grade)
+
+    def to_dict(self, terrain=None) -> dict[str, Any]:
+        """JSON-ready dict (``waypoints`` in the DEM's CRS when ``terrain`` is given)."""
+        out: dict[str, Any] = {
+            "name": self.name,
+            "energy_j": self.energy_j,
+            "energy_wh": self.energy_wh,
+            "distance_m": self.distance_m,
+            "duration_s": self.duration_s,
+            "max_slope_deg": self.max_slope_deg,
+            "ascent_m": self.ascent_m,
+            "climb_grade_deg": self.climb_grade_deg,
+            "feasible": self.feasible,
+            "saving_vs_direct": self.saving_vs_direct,
+            "same_as": self.same_as,
+            "body_yaw_deg": self.body_yaw_deg,
+        }
+        if self.reason is not None:
+            out["reason"] = self.reason
+        if terrain is not None and self.states is not None:
+            x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
+            out["waypoints"] = [
+                {"x": float(a), "y": float(b), "yaw_deg": float(math.degrees(c))}
+                for a, b, c in zip(
+                    np.atleast_1d(x), np.atleast_1d(y), self.states[:, 2], strict=True
+                )
+            ]
+        return out
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Route:
+        """Inverse of :meth:`to_dict` (without the poses)."""
+        g = d.get("climb_grade_deg")
+        return cls(
+            d["name"], None, d["energy_j"], d["distance_m"], d["duration_s"],
+            d["max_slope_deg"], d["feasible"], d.get("reason"), d.get("saving_vs_direct"),
+            d.get("same_as"), d.get("ascent_m"),
+            None if g is None else math.sin(math.radians(g)), d.get("body_yaw_deg"),
+        )  # fmt: skip
+
+
+@dataclass
+class RouteComparison:
+    """The three routes and what produced them.
+
+    ``physics`` is :meth:`GradeCost.to_dict` of the model (the critical grade), ``None``
+    when the model cannot be evaluated without extra channels.
+    """
+
+    routes: list[Route]
+    start: tuple[float, float, float | None]
+    goal: tuple[float, float, float | None]
+    limits: dict[str, Any] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+    physics: dict[str, Any] | None = None
+
+    def route(self, name: str) -> Route:
+        """The route called ``name`` (one of :data:`ROUTE_NAMES`).
+
+        Raises
+        ------
+        RouteNameError
+            If there is no such route (a ``KeyError`` too).
+        """
+        for r in self.routes:
+            if r.name == name:
+                return r
+        raise RouteNameError(f"no route {name!r}; routes: {', '.join(r.name for r in self.routes)}")
+
+    def to_dict(self, terrain=None) -> dict[str, Any]:
+        """JSON-ready dict with ``routes`` (one entry per route), ``limits`` and ``physics``."""
+        return {
+            "routes": [r.to_dict(terrain) for r in self.routes],
+            "limits": self.limits,
+            "info": self.info,
+            "physics": self.physics,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RouteComparison:
+        """Rebuild a comparison (without poses) from :meth:`to_dict`'s output."""
+        return cls(
+            [Route.from_dict(r) for r in d["routes"]], (0.0, 0.0, None), (0.0, 0.0, None),
+            d.get("limits", {}), d.get("info", {}), d.get("physics"),
+        )  # fmt: skip
+
+    def table(self) -> str:
+        """A plain-text table of the routes, then why the detour saves (or not)."""
+
+        def f(v, fmt):
+            # a missing value keeps its column's width, so the rows stay aligned
+            width = int(fmt.split(".")[0] or 0)
+            return "-".rjust(width) if v is None else format(v, fmt)
+
+        def deg(v):
+            return " " if v is None else "\u00b0"
+
+        lines = [
+            f"{'route':<15} {'energy J':>10} {'Wh':>7} {'dist m':>8} {'time s':>7} "
+            f"{'ascent m':>8} {'climb':>6} {'max slope':>9} {'saving':>7}  feasible"
+        ]
+        for r in self.routes:
+            if r.same_as is not None:
+                lines.append(f"{r.name:<15} = {r.same_as} (the same path)")
+                continue
+            saving = None if r.saving_vs_direct is None else 100 * r.saving_vs_direct
+            lines.append(
+                f"{r.name:<15} {f(r.energy_j, '10.0f')} {f(r.energy_wh, '7.2f')} "
+                f"{f(r.distance_m, '8.1f')} {f(r.duration_s, '7.0f')} "
+                f"{f(r.ascent_m, '8.1f')} {f(r.climb_grade_deg, '5.1f')}{deg(r.climb_grade_deg)} "
+                f"{f(r.max_slope_deg, '8.1f')}{deg(r.max_slope_deg)} {f(saving, '6.1f')}"
+                f"{'%' if saving is not None else ' '}  "
+                f"{'yes' if r.feasible else 'no: ' + str(r.reason)}"
+            )
+        lines += ["", *self.explain()]
+        return "\n".join(lines)
+
+    def saving_split(self) -> list[str]:
+        """Lines splitting the energy-optimal saving into gait and route (paper Fig. 1)."""
+        try:
+            d, dy, eo = (self.route(n) for n in ("direct", "direct_best_yaw", "energy_optimal"))
+        except RouteNameError:
+            return []
+        if not (d.energy_j and dy.energy_j and eo.energy_j):
+            return []
+        gait = (d.energy_j - dy.energy_j) / d.energy_j
+        route = (dy.energy_j - eo.energy_j) / d.energy_j
+        return textwrap.wrap(
+            f"Of the {100 * (gait + route):.1f}% saving, {100 * gait:.1f} points are gait (the "
+            f"direct line walked with the body turned {dy.body_yaw_deg:+.0f} deg from the "
+            f"direction of travel) and {100 * route:.1f} points are the route.",
+            width=92,
+        )
+
+    def explain(self) -> list[str]:
+        """Lines saying why the energy-optimal route saves energy (the model's physics)."""
+        p = self.physics
+        out = [
+            "saving: energy saved against the direct line (negative: costs more); climb: mean",
+            "grade of the climbing parts.",
+        ]
+        out += self.saving_split()
+        if p is None:
+            return out
+        gstar = p.get("critical_grade_deg")
+        a, b, k = p["quadratic_a_b_k"]
+        fit = f"c(g) ~ {a:.0f} + {b:.0f} g + {k:.0f} g^2 J/m"
+        yaw = p.get("body_yaw_at_critical_deg")
+        if yaw is not None and yaw > 1.0:
+            fit += f" (cheapest gait: body turned {yaw:.0f} deg from the direction of travel)"
+        if gstar is None:
+            out += textwrap.wrap(
+                f"Physics: walking up grade g costs {fit}; per metre of height c(g)/g keeps "
+                "falling as g rises, so under this model a detour saves energy only by "
+                "avoiding limits or cross-slopes, never by climbing more gently.",
+                width=92,
+            )
+            return out
+        closed = p.get("closed_form_grade_deg")
+        out += textwrap.wrap(
+            f"Physics: walking up grade g costs {fit}. A metre of height costs c(g)/g, "
+            f"least at the critical grade g* = {gstar:.1f} deg"
+            + (f" (closed form sqrt(a/k): {closed:.1f} deg)" if closed is not None else "")
+            + ": the copper losses grow with the square of the force the legs hold against "
+            "gravity, so climbing steeper than g* costs more per metre of height than a "
+            "longer route at g*.",
+            width=92,
+        )
+        for r in self.routes:
+            if r.same_as is None and r.climb_grade_deg is not None and "per_height" in p:
+                ph = p["per_height"].get(r.name)
+                if ph is not None:
+                    out.append(
+                        f"  {r.name}: climbs at {r.climb_grade_deg:.1f} deg on average, "
+                        f"c(g)/g = {ph:.0f} J per metre of height"
+                    )
+        return out
+
+    def plot(
+        self, terrain, path: str | Path, title: str | None = None, request: Any = None
+    ) -> Path:
+        """Draw the routes over a hillshade with heading marks; write a PNG.
+
+        ``request`` (the :class:`~energy_planner.request.Request` the routes were planned
+        with) adds its keep-outs, slope-limit mask and channel rasters
+        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        """
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        path = Path(path)
+        x0, y0, dx, dy = terrain.grid
+        rows, cols = np.shape(terrain.elevation)
+        extent = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
+        fig, ax = plt.subplots(figsize=(8, 7))
+        try:
+            shade = terrain.hillshade()
+        except Exception:  # a terrain without hillshade: plain elevation
+            shade = terrain.elevation
+        ax.imshow(shade, cmap="gray", extent=extent, origin="upper", alpha=0.9)
+        cs = ax.contour(
+            np.linspace(extent[0], extent[1], cols),
+            np.linspace(extent[3], extent[2], rows),
+            terrain.elevation,
+            levels=12,
+            colors="k",
+            linewidths=0.4,
+            alpha=0.5,
+        )
+        ax.clabel(cs, fontsize=6, fmt="%.0f")
+        from energy_planner.plotting import draw_request, label_map_axes
+
+        draw_request(ax, terrain, request)
+        colors = {"direct": "tab:blue", "shortest": "tab:green", "energy_optimal": "tab:red"}
+        # zoom to the routes (with a margin), within the map
+        pts = [np.asarray(r.states)[:, :2] for r in self.routes if r.states is not None]
+        pts.append(np.array([self.start[:2], self.goal[:2]], float))
+        allp = np.vstack(pts)
+        lo, hi = allp.min(axis=0), allp.max(axis=0)
+        pad = max(25.0, 0.5 * float(np.max(hi - lo)))
+        view = (
+            max(extent[0], lo[0] - pad), min(extent[1], hi[0] + pad),
+            max(extent[2], lo[1] - pad), min(extent[3], hi[1] + pad),
+        )  # fmt: skip
+        span = max(view[1] - view[0], view[3] - view[2])
+        for r in self.routes:
+            if r.states is None:
+                continue
+            s = r.states
+            label = r.name.replace("_", " ")
+            if r.same_as is not None:
+                ax.plot([], [], " ", label=f"{label} = {r.same_as.replace('_', ' ')}")
+                continue
+            if r.energy_j is not None:
+                label += f": {r.energy_j / 1000:.1f} kJ, {r.distance_m:.0f} m"
+            if r.climb_grade_deg is not None:
+                label += f", climbs at {r.climb_grade_deg:.0f}\u00b0"
+            if not r.feasible:
+                label += " (infeasible)"
+            widths = {"direct": 2.0, "shortest": 4.5, "energy_optimal": 2.0}
+            ax.plot(
+                s[:, 0],
+                s[:, 1],
+                color=colors.get(r.name, "k"),
+                lw=widths.get(r.name, 2.0),
+                ls="--" if not r.feasible else "-",
+                alpha=0.6 if r.name == "shortest" else 1.0,
+                label=label,
+            )
+            # heading marks every ~1/25 of the map
+            from energy_planner.planning.refine import densify
+
+            d = densify(s, span / 25)
+            ax.quiver(
+                d[:, 0],
+                d[:, 1],
+                np.cos(d[:, 2]),
+                np.sin(d[:, 2]),
+                color=colors.get(r.name, "k"),
+                scale=35,
+                width=0.004,
+                alpha=0.8,
+            )
+        ax.plot(*self.start[:2], "o", color="white", mec="k", ms=9, label="start")
+        ax.plot(*self.goal[:2], "*", color="gold", mec="k", ms=14, label="goal")
+        ax.set_xlim(view[0], view[1])
+        ax.set_ylim(view[2], view[3])
+        ax.set_aspect("equal")
+        ax.ticklabel_format(useOffset=False, style="plain")
+        label_map_axes(ax, terrain.crs)
+        title = title or "Direct climb vs detour (arrows: robot heading)"
+        if self.physics and self.physics.get("critical_grade_deg") is not None:
+            title += (
+                f"\ncritical grade g* = {self.physics['critical_grade_deg']:.1f}\u00b0: "
+                "climbing steeper costs more per metre of height"
+            )
+        ax.set_title(title, fontsize=10)
+        ax.legend(loc="lower left", fontsize=8, framealpha=0.9)
+        fig.tight_layout()
+        from energy_planner.io import save_figure
+
+        save_figure(fig, path, dpi=120)
+        plt.close(fig)
+        return path
