@@ -42,16 +42,34 @@ Three ways to compute it, with equal results:
 
 from __future__ import annotations
 
-import math
 import time
-import warnings
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from energy_planner.energymap.bands import (  # noqa: F401  (re-exported: old import paths)
+    DEM_EAST,
+    GRID_EAST,
+    SUMMARY_BANDS,
+    _deg_label,
+    band_descriptions,
+    band_names,
+    block_bands,
+    heading_angles,
+)
+from energy_planner.energymap.result import (  # noqa: F401  (re-exported: old import paths)
+    _TILE,
+    EnergyMapResult,
+    _model_name,
+    _profile,
+    _result,
+    _stats,
+    _write_metadata,
+    sample_band,
+)
+from energy_planner.energymap.setup import _Setup, _setup  # noqa: F401
 from energy_planner.errors import DEMError, DEMIOError, EnergyMapError
 from energy_planner.io import open_geotiff
 from energy_planner.terrain.memory import BYTES_PER_CELL, memory_cap, parse_size
@@ -66,266 +84,9 @@ __all__ = [
     "SUMMARY_BANDS",
 ]
 
-_TILE = 128  # output tile side, cells
 #: GDAL's block cache while a map is written, MB: dirty tiles wait there until flushed,
 #: so the default (5 % of the memory) would let the cache, not the window, set the peak.
 GDAL_CACHE_MB = 64
-#: The bands after the 2 N heading bands, in order.
-SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
-
-
-def band_names(headings: int) -> list[str]:
-    """Names of the bands of a map with ``headings`` headings, in order.
-
-    Examples
-    --------
-    >>> band_names(4)  # doctest: +NORMALIZE_WHITESPACE
-    ['along_000', 'along_090', 'along_180', 'along_270', 'best_000', 'best_090',
-     'best_180', 'best_270', 'cheapest', 'dearest', 'anisotropy', 'cheapest_heading_deg']
-    """
-    degs = [_deg_label(360.0 * j / headings) for j in range(headings)]
-    return [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
-
-
-def _deg_label(d: float) -> str:
-    return f"{d:05.1f}".rstrip("0").rstrip(".").zfill(3) if d != int(d) else f"{int(d):03d}"
-
-
-#: Heading frame of a map on a metric grid: the grid's own +x axis.
-GRID_EAST = "degrees counter-clockwise from the grid's +x axis (east)"
-#: Heading frame of a map resampled onto a geographic (non-metric) DEM's grid.
-DEM_EAST = (
-    "degrees counter-clockwise from the DEM's local east (its CRS's +x direction, e.g. "
-    "increasing longitude, at the cell): the working (UTM) grid's headings rotated by the "
-    "meridian convergence"
-)
-
-
-def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str, str]]:
-    """``(name, description, units)`` of every band; ``frame`` names the heading frame."""
-    out = []
-    for j in range(headings):
-        d = 360.0 * j / headings
-        out.append(
-            (f"along_{_deg_label(d)}", f"J per map metre walking forward, facing heading "
-             f"{d:g} deg (CCW from {frame})", "J/m")
-        )  # fmt: skip
-    for j in range(headings):
-        d = 360.0 * j / headings
-        out.append(
-            (f"best_{_deg_label(d)}", f"J per map metre moving along heading {d:g} deg (CCW "
-             f"from {frame}), cheapest over the body's yaw (crabbing included)", "J/m")
-        )  # fmt: skip
-    out += [
-        ("cheapest", "least best_* over the headings, J per map metre", "J/m"),
-        ("dearest", "greatest best_* over the headings, J per map metre", "J/m"),
-        ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
-        ("cheapest_heading_deg", f"heading of the cheapest, degrees CCW from {frame}", "deg"),
-    ]
-    return out
-
-
-@dataclass
-class EnergyMapResult:
-    """What :func:`energy_map` wrote and how.
-
-    Attributes
-    ----------
-    path : pathlib.Path
-        The GeoTIFF.
-    shape : (int, int)
-        Rows, columns.
-    crs : str or None
-        CRS of the map's grid.
-    transform : tuple
-        Its geotransform (6 numbers, rasterio order).
-    headings : int
-        Number of map headings.
-    bands : list of dict
-        ``name``, ``description``, ``units`` of every band, in order.
-    mode : str
-        ``"terrain"``, ``"windowed"`` or ``"dask"``.
-    seconds : float
-        Wall time of the computation and writing.
-    stats : dict
-        Summary of the cheapest cost and the anisotropy over valid cells.
-    notes : list of str
-        Decisions a reader should know (grid, ignored options).
-    """
-
-    path: Path
-    shape: tuple[int, int]
-    crs: str | None
-    transform: tuple[float, ...]
-    headings: int
-    bands: list[dict[str, str]]
-    mode: str
-    seconds: float
-    stats: dict[str, Any] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    channels: dict[str, Any] = field(default_factory=dict)
-    heading_convention: str = GRID_EAST
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "path": str(self.path),
-            "shape": list(self.shape),
-            "crs": self.crs,
-            "transform": list(self.transform),
-            "headings": self.headings,
-            "heading_convention": self.heading_convention,
-            "bands": self.bands,
-            "mode": self.mode,
-            "seconds": self.seconds,
-            "stats": self.stats,
-            "channels": self.channels,
-            "notes": self.notes,
-        }
-
-
-# ---------------------------------------------------------------------------- computing
-def heading_angles(headings: int) -> np.ndarray:
-    """The map headings in radians, ``2 pi j / N``."""
-    return 2.0 * np.pi * np.arange(headings) / headings
-
-
-def block_bands(
-    heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int
-) -> np.ndarray:
-    """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
-
-    ``heading``: the :class:`~energy_planner.energy.heading.HeadingCost` of the map's
-    model, speed and limits (it prices ``along`` and ``best``); ``gx``, ``gy``: the cells'
-    Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``.
-    """
-    gx = np.ascontiguousarray(gx, dtype=np.float64)
-    gy = np.ascontiguousarray(gy, dtype=np.float64)
-    rows, cols = gx.shape
-    if chan.shape[0] == 0:
-        chan = np.zeros((0, rows, cols))
-    chan = np.ascontiguousarray(chan, dtype=np.float64)
-    ang = heading_angles(headings)
-    out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
-    along = out[:headings]
-    best = out[headings : 2 * headings]
-    heading.map_bands(gx, gy, chan, ang, along, best)
-    valid = ~np.isnan(best[0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cheapest = best.min(axis=0)
-        dearest = best.max(axis=0)
-        arg = np.argmin(np.where(np.isnan(best), np.inf, best), axis=0)
-        out[2 * headings] = cheapest
-        out[2 * headings + 1] = dearest
-        out[2 * headings + 2] = np.where(valid, dearest / cheapest, np.nan)
-    heading_deg = np.degrees(ang)[arg]
-    out[2 * headings + 3] = np.where(valid & np.isfinite(cheapest), heading_deg, np.nan)
-    return out
-
-
-@dataclass
-class _Setup:
-    """Model, kernel and settings shared by every way of computing a map."""
-
-    heading: Any
-    channels: Any
-    headings: int
-    speed: float
-    tmax: float
-    smax: float
-    notes: list[str]
-
-
-def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
-    from energy_planner.energy.channels import Channels
-    from energy_planner.energy.heading import HeadingCost
-    from energy_planner.errors import ModelError
-    from energy_planner.model import EnergyModel
-    from energy_planner.request import Request
-
-    if not (isinstance(headings, int | np.integer) and 1 <= headings <= 360):
-        raise EnergyMapError(
-            f"headings {headings!r} must be a whole number in 1..360",
-            value=headings,
-            expected="1..360",
-        )
-    model = EnergyModel.default() if model is None else model
-    if not model.is_fitted:
-        raise ModelError("the energy model has no coefficients: fit or load a fitted model")
-    request = Request() if request is None else request
-    if channels is None:
-        channels = request.channels if request.channels is not None else Channels()
-    elif request.channels is not None:
-        raise EnergyMapError("give channels either in the request or as channels=, not both")
-    notes = []
-    lim = request.limits
-    if getattr(lim, "keep_out", None) is not None:
-        notes.append("keep-out areas do not change an energy map (it prices every cell); ignored")
-    tmax = math.inf if lim.max_slope_deg is None else math.tan(math.radians(lim.max_slope_deg))
-    smax = (
-        math.inf
-        if lim.max_cross_slope_deg is None
-        else math.sin(math.radians(lim.max_cross_slope_deg))
-    )
-    channels = channels.resolve(model)  # values of the kinds the model reads
-    unused = channels.unused(model)
-    if unused:
-        notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
-    return _Setup(
-        heading=HeadingCost.of_request(model, request, channels),
-        channels=channels,
-        headings=int(headings),
-        speed=float(request.robot.speed),
-        tmax=tmax,
-        smax=smax,
-        notes=notes,
-    )
-
-
-def _profile(shape: tuple[int, int], transform: Any, crs: Any, nbands: int) -> dict[str, Any]:
-    """The project GeoTIFF profile (:func:`energy_planner.io.geotiff_profile`).
-
-    Tiles of :data:`_TILE`, so that a block of whole tile rows completes its tiles;
-    deflate level 1.
-    """
-    from energy_planner.io import geotiff_profile
-
-    rows, cols = shape
-    tiles: dict[str, Any] = {}
-    if rows >= _TILE and cols >= _TILE:
-        tiles = dict(tiled=True, blockxsize=_TILE, blockysize=_TILE)
-    # deflate level 1: the bands (float32 costs) hardly compress further at the default
-    # level 6, which takes 1.6x the CPU (7.3 s against 4.6 s for 2048^2 x 36 bands)
-    return geotiff_profile(shape, nbands, transform=transform, crs=crs, zlevel=1, **tiles)
-
-
-def _write_metadata(
-    dst: Any, setup: _Setup, model_name: str, mode: str, convention: str = GRID_EAST
-) -> None:
-    """Band descriptions and units, dataset tags."""
-    frame = "the DEM's local east" if convention == DEM_EAST else "east"
-    descs = band_descriptions(setup.headings, frame)
-    from energy_planner.io import describe_band
-
-    for i, (name, desc, units) in enumerate(descs, start=1):
-        describe_band(dst, i, name=name, description=desc, units=units)
-    dst.update_tags(
-        software="energy_planner energy-map",
-        model=model_name,
-        headings=str(setup.headings),
-        heading_convention=convention,
-        cost="J per metre of map (horizontal) distance through the cell centre",
-        speed_m_s=repr(setup.speed),
-        max_slope_tan=repr(setup.tmax),
-        max_cross_slope_sin=repr(setup.smax),
-        max_crab_rad=repr(setup.heading.crab),
-        max_backward_slope_tan=repr(setup.heading.back_tan),
-        best="least over the body's yaw relative to the travel (continuous minimum within "
-        "the gait limits; energy_planner.energy.heading)",
-        channels=repr(setup.channels.describe()),
-        mode=mode,
-        nodata="NaN; inf = above a slope limit",
-    )
 
 
 def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
@@ -774,68 +535,3 @@ def _energy_map(
             mode = "terrain"
     seconds = time.perf_counter() - t0
     return _result(out, setup, mode, seconds, notes, convention)
-
-
-def _model_name(model: Any) -> str:
-    if model is None:
-        return "bundled default (B1-class)"
-    meta = getattr(model, "metadata", {}) or {}
-    return str(meta.get("source") or meta.get("name") or ", ".join(model.term_names))
-
-
-def _result(
-    out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str],
-    convention: str = GRID_EAST,
-):  # fmt: skip
-    import rasterio
-
-    with rasterio.open(out) as src:
-        shape = (src.height, src.width)
-        crs = None if src.crs is None else str(src.crs)
-        transform = tuple(src.transform)[:6]
-        stats = _stats(src, setup.headings)
-    frame = "the DEM's local east" if convention == DEM_EAST else "east"
-    bands = [
-        {"name": n, "description": d, "units": u}
-        for n, d, u in band_descriptions(setup.headings, frame)
-    ]
-    if stats.get("valid_cells", 1) == 0:
-        warnings.warn(f"energy map {out} has no valid cell", UserWarning, stacklevel=3)
-    return EnergyMapResult(
-        path=out, shape=shape, crs=crs, transform=transform, headings=setup.headings,
-        bands=bands, mode=mode, seconds=seconds, stats=stats, notes=notes,
-        channels=setup.channels.describe(), heading_convention=convention,
-    )  # fmt: skip
-
-
-def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
-    """Quantiles of the cheapest cost and the anisotropy (from a decimated read)."""
-    from rasterio.enums import Resampling
-
-    scale = max(1, math.ceil(max(src.height, src.width) / max_side))
-    shape = (max(1, src.height // scale), max(1, src.width // scale))
-    i_cheap = 2 * headings + 1
-    cheap = src.read(i_cheap, out_shape=shape, resampling=Resampling.nearest).astype(float)
-    aniso = src.read(i_cheap + 2, out_shape=shape, resampling=Resampling.nearest).astype(float)
-    ok = np.isfinite(cheap)
-    out: dict[str, Any] = {"sampled_every": scale, "valid_cells": int(ok.sum())}
-    if ok.any():
-        q = np.percentile(cheap[ok], [0, 10, 50, 90, 100])
-        out["cheapest_j_per_m"] = dict(
-            zip(("min", "p10", "median", "p90", "max"), q.tolist(), strict=True)
-        )
-        a = aniso[np.isfinite(aniso)]
-        if a.size:
-            qa = np.percentile(a, [50, 90, 100])
-            out["anisotropy"] = dict(zip(("median", "p90", "max"), qa.tolist(), strict=True))
-    return out
-
-
-def sample_band(path: str | Path, name: str, rows: Sequence[int], cols: Sequence[int]):
-    """Values of band ``name`` at cells ``(rows[i], cols[i])`` of a written map."""
-    import rasterio
-
-    with rasterio.open(path) as src:
-        idx = list(src.descriptions).index(name) + 1
-        data = src.read(idx)
-    return data[np.asarray(rows), np.asarray(cols)]

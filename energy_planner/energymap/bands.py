@@ -1,0 +1,113 @@
+"""The bands of an energy map: their names, descriptions and how a block of cells is priced.
+
+``2 N`` heading bands (``along_*``, ``best_*``) then :data:`SUMMARY_BANDS`; the one
+kernel call every way of computing a map shares (:func:`block_bands`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "DEM_EAST",
+    "GRID_EAST",
+    "SUMMARY_BANDS",
+    "band_descriptions",
+    "band_names",
+    "block_bands",
+    "heading_angles",
+]
+
+#: The bands after the 2 N heading bands, in order.
+SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
+
+
+def band_names(headings: int) -> list[str]:
+    """Names of the bands of a map with ``headings`` headings, in order.
+
+    Examples
+    --------
+    >>> band_names(4)  # doctest: +NORMALIZE_WHITESPACE
+    ['along_000', 'along_090', 'along_180', 'along_270', 'best_000', 'best_090',
+     'best_180', 'best_270', 'cheapest', 'dearest', 'anisotropy', 'cheapest_heading_deg']
+    """
+    degs = [_deg_label(360.0 * j / headings) for j in range(headings)]
+    return [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
+
+
+def _deg_label(d: float) -> str:
+    return f"{d:05.1f}".rstrip("0").rstrip(".").zfill(3) if d != int(d) else f"{int(d):03d}"
+
+
+#: Heading frame of a map on a metric grid: the grid's own +x axis.
+GRID_EAST = "degrees counter-clockwise from the grid's +x axis (east)"
+#: Heading frame of a map resampled onto a geographic (non-metric) DEM's grid.
+DEM_EAST = (
+    "degrees counter-clockwise from the DEM's local east (its CRS's +x direction, e.g. "
+    "increasing longitude, at the cell): the working (UTM) grid's headings rotated by the "
+    "meridian convergence"
+)
+
+
+def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str, str]]:
+    """``(name, description, units)`` of every band; ``frame`` names the heading frame."""
+    out = []
+    for j in range(headings):
+        d = 360.0 * j / headings
+        out.append(
+            (f"along_{_deg_label(d)}", f"J per map metre walking forward, facing heading "
+             f"{d:g} deg (CCW from {frame})", "J/m")
+        )  # fmt: skip
+    for j in range(headings):
+        d = 360.0 * j / headings
+        out.append(
+            (f"best_{_deg_label(d)}", f"J per map metre moving along heading {d:g} deg (CCW "
+             f"from {frame}), cheapest over the body's yaw (crabbing included)", "J/m")
+        )  # fmt: skip
+    out += [
+        ("cheapest", "least best_* over the headings, J per map metre", "J/m"),
+        ("dearest", "greatest best_* over the headings, J per map metre", "J/m"),
+        ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
+        ("cheapest_heading_deg", f"heading of the cheapest, degrees CCW from {frame}", "deg"),
+    ]
+    return out
+
+
+def heading_angles(headings: int) -> np.ndarray:
+    """The map headings in radians, ``2 pi j / N``."""
+    return 2.0 * np.pi * np.arange(headings) / headings
+
+
+def block_bands(
+    heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int
+) -> np.ndarray:
+    """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
+
+    ``heading``: the :class:`~energy_planner.energy.heading.HeadingCost` of the map's
+    model, speed and limits (it prices ``along`` and ``best``); ``gx``, ``gy``: the cells'
+    Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``.
+    """
+    gx = np.ascontiguousarray(gx, dtype=np.float64)
+    gy = np.ascontiguousarray(gy, dtype=np.float64)
+    rows, cols = gx.shape
+    if chan.shape[0] == 0:
+        chan = np.zeros((0, rows, cols))
+    chan = np.ascontiguousarray(chan, dtype=np.float64)
+    ang = heading_angles(headings)
+    out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
+    along = out[:headings]
+    best = out[headings : 2 * headings]
+    heading.map_bands(gx, gy, chan, ang, along, best)
+    valid = ~np.isnan(best[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cheapest = best.min(axis=0)
+        dearest = best.max(axis=0)
+        arg = np.argmin(np.where(np.isnan(best), np.inf, best), axis=0)
+        out[2 * headings] = cheapest
+        out[2 * headings + 1] = dearest
+        out[2 * headings + 2] = np.where(valid, dearest / cheapest, np.nan)
+    heading_deg = np.degrees(ang)[arg]
+    out[2 * headings + 3] = np.where(valid & np.isfinite(cheapest), heading_deg, np.nan)
+    return out

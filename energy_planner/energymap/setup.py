@@ -1,0 +1,70 @@
+"""What every way of computing an energy map shares: the model's kernel, limits, channels."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import EnergyMapError
+
+
+@dataclass
+class _Setup:
+    """Model, kernel and settings shared by every way of computing a map."""
+
+    heading: Any
+    channels: Any
+    headings: int
+    speed: float
+    tmax: float
+    smax: float
+    notes: list[str]
+
+
+def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
+    from energy_planner.energy.channels import Channels
+    from energy_planner.energy.heading import HeadingCost
+    from energy_planner.errors import ModelError
+    from energy_planner.model import EnergyModel
+    from energy_planner.request import Request
+
+    if not (isinstance(headings, int | np.integer) and 1 <= headings <= 360):
+        raise EnergyMapError(
+            f"headings {headings!r} must be a whole number in 1..360",
+            value=headings,
+            expected="1..360",
+        )
+    model = EnergyModel.default() if model is None else model
+    if not model.is_fitted:
+        raise ModelError("the energy model has no coefficients: fit or load a fitted model")
+    request = Request() if request is None else request
+    if channels is None:
+        channels = request.channels if request.channels is not None else Channels()
+    elif request.channels is not None:
+        raise EnergyMapError("give channels either in the request or as channels=, not both")
+    notes = []
+    lim = request.limits
+    if getattr(lim, "keep_out", None) is not None:
+        notes.append("keep-out areas do not change an energy map (it prices every cell); ignored")
+    tmax = math.inf if lim.max_slope_deg is None else math.tan(math.radians(lim.max_slope_deg))
+    smax = (
+        math.inf
+        if lim.max_cross_slope_deg is None
+        else math.sin(math.radians(lim.max_cross_slope_deg))
+    )
+    channels = channels.resolve(model)  # values of the kinds the model reads
+    unused = channels.unused(model)
+    if unused:
+        notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
+    return _Setup(
+        heading=HeadingCost.of_request(model, request, channels),
+        channels=channels,
+        headings=int(headings),
+        speed=float(request.robot.speed),
+        tmax=tmax,
+        smax=smax,
+        notes=notes,
+    )
