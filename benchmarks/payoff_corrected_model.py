@@ -42,6 +42,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from energy_planner.uncertainty import DEFAULT_LEVEL  # noqa: E402
+
 CASES = {
     "load": {"effects": ("load",), "sets": ["load_kg=15"], "raster": False},
     "ground": {"effects": ("ground",), "sets": [], "raster": True},
@@ -94,6 +96,31 @@ def mud_strip(gm, start, goal, half_width_m: float = 4.0, span=(0.25, 0.75)):
     return GroundMap(codes, gm.names, t)
 
 
+def plan_interval(terrain, model, result, request, true_j: float, level: float) -> dict:
+    """A plan's prediction interval as ``energy-planner plan`` gives it; does it hold the truth.
+
+    The domain report (``cli.plan.route_domain``) and the interval widened by the route's
+    share outside the calibration's domain (``uncertainty.predict_interval``), the way the
+    ``plan`` command computes them; the plain (unwidened) interval is kept beside it. No
+    interval (``None``) when the model carries no held-out scores.
+    """
+    from energy_planner.cli.plan import route_domain
+    from energy_planner.uncertainty import model_scores, predict_interval
+
+    dom = route_domain(terrain, model, result.states, request)
+    share = float((dom or {}).get("outside_share", 0.0))
+    out: dict = {
+        "heldout_scores": 0 if model_scores(model) is None else int(model_scores(model).size),
+        "outside_share": None if dom is None else share,
+        "outside_reasons": None if dom is None else dom["reasons"],
+    }
+    for key, s in (("interval", share), ("interval_plain", 0.0)):
+        iv = predict_interval(model, float(result.energy_j), level, outside_share=s)
+        out[key] = None if iv is None else iv.to_dict()
+        out[f"true_inside_{key}"] = None if iv is None else bool(iv.low_j <= true_j <= iv.high_j)
+    return out
+
+
 def run(
     case: str = "ground",
     seed: int = 0,
@@ -102,6 +129,7 @@ def run(
     planner: str = "auto",
     out_dir: str | Path | None = None,
     ground: str = "strip",
+    level: float = DEFAULT_LEVEL,
 ) -> Payoff:
     """Simulate, fit the base, discover, plan with both models, charge the truth."""
     from energy_planner.calibration import fit_model
@@ -168,6 +196,7 @@ def run(
             "predicted_energy_j": float(p.energy_j),
             "true_energy_j": float(truth.energy_j),
             "distance_m": float(p.distance_m),
+            **plan_interval(terrain, model, p, request, float(truth.energy_j), level),
         }
         states = np.asarray(p.states, dtype=float)
         for other, m in models.items():  # each model's prediction of this route
@@ -200,13 +229,14 @@ def main(argv: list[str] | None = None) -> int:
         default="strip",
         help="ground layout of the ground case (see the module docstring)",
     )
+    ap.add_argument("--level", type=float, default=DEFAULT_LEVEL, help="interval level")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     from energy_planner.simulate import CampaignConfig
 
     config = CampaignConfig.small(repeats=2) if args.small else CampaignConfig()
     results = [
-        run(c, args.seed, config, args.scenario, args.planner, ground=args.ground)
+        run(c, args.seed, config, args.scenario, args.planner, ground=args.ground, level=args.level)
         for c in args.case or sorted(CASES)
     ]
     load = os.getloadavg()
@@ -216,17 +246,38 @@ def main(argv: list[str] | None = None) -> int:
     size = "CampaignConfig.small(repeats=2)" if args.small else "CampaignConfig()"
     print(f"campaigns: {size}, seed {args.seed}; scenario {args.scenario}; planner "
           f"{args.planner}; ground layout {args.ground}")  # fmt: skip
+    lv = f"{100 * args.level:g}% interval kJ"
     print(
-        f"{'case':<8}{'planned with':<32}{'model':<12}{'predicted kJ':>13}{'TRUE kJ':>10}"
-        f"{'distance m':>12}"
+        f"{'case':<8}{'planned with':<46}{'model':<12}{'predicted kJ':>13}{'TRUE kJ':>10}"
+        f"{'distance m':>12}{lv:>22}{'TRUE inside':>13}{'outside domain':>16}"
     )
     for r in results:
         for name, p in r.plans.items():
-            print(
-                f"{r.case:<8}{' '.join(r.channel_options):<32}{name:<12}"
-                f"{p['predicted_energy_j'] / 1e3:>13.2f}{p['true_energy_j'] / 1e3:>10.2f}"
-                f"{p['distance_m']:>12.1f}"
+            iv = p["interval"]
+            iv_s = (
+                "(no scores)"
+                if iv is None
+                else f"{iv['low_j'] / 1e3:.2f} .. {iv['high_j'] / 1e3:.2f}"
             )
+            inside = {None: "-", True: "yes", False: "NO"}[p["true_inside_interval"]]
+            share = p["outside_share"]
+            print(
+                f"{r.case:<8}{' '.join(r.channel_options):<46}{name:<12}"
+                f"{p['predicted_energy_j'] / 1e3:>13.2f}{p['true_energy_j'] / 1e3:>10.2f}"
+                f"{p['distance_m']:>12.1f}{iv_s:>22}{inside:>13}"
+                f"{'(no domain)' if share is None else f'{100 * share:.0f}%':>16}"
+            )
+            if p["outside_reasons"]:
+                why = "; ".join(f"{k} {100 * v:.0f}%" for k, v in p["outside_reasons"].items())
+                print(f"{'':<8}  {name} route outside the calibration: {why}")
+            pl = p["interval_plain"]
+            if pl is not None and pl != iv:
+                print(
+                    f"{'':<8}  {name} interval without the domain widening: "
+                    f"{pl['low_j'] / 1e3:.2f} .. {pl['high_j'] / 1e3:.2f} kJ, TRUE inside: "
+                    f"{'yes' if p['true_inside_interval_plain'] else 'NO'}"
+                )
+            print(f"{'':<8}  {name} model: {p['heldout_scores']} held-out run scores")
         print(
             f"{'':<8}discovered: {', '.join(r.added) or '(nothing)'}; held-out RMSE base "
             f"{r.heldout_rmse_base_w:.2f} W -> {r.heldout_rmse_discovered_w:.2f} W; TRUE "
