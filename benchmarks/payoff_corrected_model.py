@@ -19,9 +19,13 @@ Two cases, each planned with the channel option a user would give on the command
   planner crab-walks (``moves="all"``), so on ``patches`` both models usually walk the same
   straight line: a detour around a 25 m patch costs more than the mud it avoids.
 
+Each plan also gets the prediction interval ``energy-planner plan`` prints (``--level``,
+90 % by default; ``plan_interval``), whether the TRUE energy lies inside it, and the share
+of the route outside the model's calibration domain.
+
 Run::
 
-    python benchmarks/payoff_corrected_model.py [--case load|ground] [--small] [--json]
+    python benchmarks/payoff_corrected_model.py [--case load|ground] [--small] [--level L] [--json]
 """
 
 from __future__ import annotations
