@@ -554,36 +554,23 @@ def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
     NonPositivePowerError
         The model prices a walking motion of its domain at <= 0 W (names the term).
     """
-    from energy_planner.model.model import WALKING_SPEED, check_walking_power
+    from energy_planner.model.model import check_walking_power
 
     kinds = table["kind"].to_numpy()
     seen = {k for k in _GAITS_OF_KIND if int(np.sum(kinds == k)) >= MIN_WINDOWS_PER_TERM}
     seen |= {t.kind for t in model.terms if t.kind in _GAITS_OF_KIND}
     gaits = [g for k in _GAITS_OF_KIND if k in seen for g in _GAITS_OF_KIND[k]]
-    speed = (
-        table["speed"].to_numpy(float)
-        if "speed" in table
-        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
-    )
-    walking = speed[speed > WALKING_SPEED]
+    walking = _walking_speeds(table)
     speeds = (
         sorted({float(np.quantile(walking, 0.1)), float(np.quantile(walking, 0.9))})
         if walking.size
         else [0.3]
     )
-    values: dict[str, Any] = {}
-    for c in sorted(model.variables - MOTION_FEATURES):
-        if c not in table:
-            continue
-        v = table[c]
-        if pd.api.types.is_numeric_dtype(v):
-            f = v.to_numpy(float)
-            f = f[np.isfinite(f)]
-            values[c] = (
-                sorted({float(f.min()), float(np.median(f)), float(f.max())}) if f.size else [0.0]
-            )
-        else:
-            values[c] = sorted(v.dropna().astype(str).unique())
+    values: dict[str, Any] = {
+        c: v if isinstance(v, list)
+        else (sorted({float(v.min()), float(np.median(v)), float(v.max())}) if v.size else [0.0])
+        for c, v in _channel_values(table, model).items()
+    }  # fmt: skip
     max_slope = float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))) if len(table) else 0.0
     return check_walking_power(
         model,
@@ -593,6 +580,33 @@ def refuse_free_walking(model: EnergyModel, table: pd.DataFrame) -> int:
         gaits=gaits,
         where="fitted on these logs, ",
     )
+
+
+def _walking_speeds(table: pd.DataFrame) -> np.ndarray:
+    """Speeds of the windows that walk (above the standing threshold), m/s."""
+    from energy_planner.model.model import WALKING_SPEED
+
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    return speed[speed > WALKING_SPEED]
+
+
+def _channel_values(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
+    """Per log channel the model reads: its finite values (numeric) or sorted categories."""
+    out: dict[str, Any] = {}
+    for c in sorted(model.variables - MOTION_FEATURES):
+        if c not in table:
+            continue
+        v = table[c]
+        if pd.api.types.is_numeric_dtype(v):
+            f = v.to_numpy(float)
+            out[c] = f[np.isfinite(f)]
+        else:
+            out[c] = sorted(v.dropna().astype(str).unique())
+    return out
 
 
 def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any]:
@@ -606,14 +620,7 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
         the [min, max] relative heading ``|gamma|`` (deg); ``channels``: per channel the
         model reads, [min, max] (numeric) or the categories.
     """
-    from energy_planner.model.model import WALKING_SPEED
-
-    speed = (
-        table["speed"].to_numpy(float)
-        if "speed" in table
-        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
-    )
-    walking = speed[speed > WALKING_SPEED]
+    walking = _walking_speeds(table)
     gamma = np.degrees(np.abs(table["gamma"].to_numpy(float)))
     kinds = table["kind"].to_numpy()
     gaits = {}
@@ -627,18 +634,11 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
                     round(float(gamma[sel].max()), 2),
                 ],
             }
-    channels: dict[str, Any] = {}
-    for c in sorted(model.variables - MOTION_FEATURES):
-        if c not in table:
-            continue
-        v = table[c]
-        if pd.api.types.is_numeric_dtype(v):
-            f = v.to_numpy(float)
-            f = f[np.isfinite(f)]
-            if f.size:
-                channels[c] = [float(f.min()), float(f.max())]
-        else:
-            channels[c] = sorted(v.dropna().astype(str).unique())
+    channels: dict[str, Any] = {
+        c: v if isinstance(v, list) else [float(v.min()), float(v.max())]
+        for c, v in _channel_values(table, model).items()
+        if isinstance(v, list) or v.size
+    }
     return {
         "max_slope_deg": round(float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))), 2),
         "speed_m_s": (
