@@ -169,7 +169,8 @@ def check() -> None:
     def rc(x, y):
         return int(round((y - y0) / dy)), int(round((x - x0) / dx))
 
-    from energy_planner.model import EnergyModel, critical_grade
+    from energy_planner.energy.grade import critical_grade
+    from energy_planner.model import EnergyModel
 
     cg = critical_grade(EnergyModel.default())
     print(f"bundled model's critical grade: {cg['slope_deg']:.1f} deg ({cg['method']})")

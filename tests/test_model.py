@@ -9,13 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from energy_planner.energy.grade import critical_grade
 from energy_planner.errors import FitError, FormulaError, ModelError
 from energy_planner.model import (
     BASE_TERMS,
     CATALOG,
     EFFECT_TERMS,
     EnergyModel,
-    critical_grade,
     parse_formula,
 )
 
@@ -366,8 +366,14 @@ def test_critical_grade_closed_form_matches_a_search():
     g = np.sin(np.radians(np.arange(0.5, 60.0, 0.001)))
     cost = (130 + 137 / 0.3 + 720 * g + 1760 / 0.3 * g**2) / g
     assert c["grade"] == pytest.approx(g[np.argmin(cost)], abs=1e-4)
-    # with a term outside the base, the numeric search agrees with the same search
+    # a term constant at a fixed speed keeps c(g) quadratic: still the closed form
     fast = EnergyModel([*BASE_TERMS, "speed_dependence"], {**B1, "speed_dependence": 400.0})
     n = critical_grade(fast)
     cost = (130 + 137 / 0.3 + 720 * g + 1760 / 0.3 * g**2 + 400 * 0.3) / g
+    assert n["method"] == "closed form"
+    assert n["grade"] == pytest.approx(g[np.argmin(cost)], abs=1e-4)
+    # a cubic term: the numeric minimum agrees with a brute-force search
+    cubic = "pos(vx) * sin(alpha) ** 3"
+    n = critical_grade(EnergyModel([*BASE_TERMS, cubic], {**B1, cubic: 3000.0}))
+    cost = (130 + 137 / 0.3 + 720 * g + 1760 / 0.3 * g**2 + 3000 * g**3) / g
     assert n["method"] == "numeric" and n["grade"] == pytest.approx(g[np.argmin(cost)], abs=3e-4)

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from energy_planner.calibration.fit import FitResult, fit_model
-from energy_planner.model import critical_grade
+from energy_planner.energy.grade import critical_grade
 
 __all__ = ["DEFAULT_PATH", "build_default_model", "main"]
 

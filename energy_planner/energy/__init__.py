@@ -5,6 +5,7 @@
 disagree.
 """
 
+from energy_planner.energy.grade import GradeCost, critical_grade, grade_cost
 from energy_planner.energy.motion import MotionCost
 from energy_planner.energy.path import SEGMENT_COLUMNS, PathEnergy, path_energy
 from energy_planner.energy.waypoints import (
@@ -18,9 +19,12 @@ from energy_planner.energy.waypoints import (
 
 __all__ = [
     "SEGMENT_COLUMNS",
+    "GradeCost",
     "MotionCost",
     "PathEnergy",
     "Waypoints",
+    "critical_grade",
+    "grade_cost",
     "path_energy",
     "read_waypoints",
     "waypoints_to_work",

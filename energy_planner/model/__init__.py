@@ -10,7 +10,6 @@ from energy_planner.model.model import (
     SCHEMA,
     SCHEMA_VERSION,
     EnergyModel,
-    critical_grade,
     prepare_features,
 )
 from energy_planner.model.terms import (
@@ -34,7 +33,6 @@ __all__ = [
     "EnergyModel",
     "Formula",
     "Term",
-    "critical_grade",
     "parse_formula",
     "prepare_features",
     "resolve_term",

@@ -40,7 +40,6 @@ __all__ = [
     "WALKING_SPEED",
     "WALKING_YAW_RATE",
     "check_walking_power",
-    "critical_grade",
     "prepare_features",
 ]
 
@@ -705,79 +704,3 @@ def check_walking_power(
 def term_names(specs: Iterable[str | Term]) -> list[str]:
     """Resolve term specs to names (for messages and CLI output)."""
     return [resolve_term(s).name for s in specs]
-
-
-def critical_grade(model: EnergyModel, speed: float = DEFAULT_SPEED) -> dict[str, float]:
-    """Grade beyond which a detour climbs a hill for less energy than the direct line.
-
-    Walking forward straight up a grade ``g = sin(alpha)`` at ``speed`` costs
-    ``c(g) = P / v`` per metre; climbing a height ``H`` takes ``H / g`` metres, so the
-    energy ``H c(g) / g`` is least at the grade ``g*`` minimising ``c(g) / g``. On steeper
-    ground a zig-zag at ``g*`` beats the direct climb (paper Fig. 1). For the base model
-    ``c(g) = fwd_const + idle_power / v + fwd_up g + tilt_x_sq g^2 / v``, so
-    ``g* = sqrt((fwd_const v + idle_power) / tilt_x_sq)`` (``method = "closed form"``); a
-    model with other terms is minimised numerically on a 0.01 deg grid up to 60 deg.
-
-    Returns
-    -------
-    dict
-        ``grade`` (g*; inf when the cost is not convex), ``slope_deg``, ``cost_n`` (c(g*),
-        J/m), ``level_cost_n`` (c(0)) and ``method``.
-
-    Examples
-    --------
-    >>> m = EnergyModel(["fwd_const", "fwd_up", "idle_power", "tilt_x_sq"],
-    ...     {"fwd_const": 100.0, "fwd_up": 700.0, "idle_power": 120.0, "tilt_x_sq": 600.0})
-    >>> c = critical_grade(m)
-    >>> c["grade"], round(c["slope_deg"], 2), c["method"]
-    (0.5, 30.0, 'closed form')
-    """
-    coefs = model.coefficients or {}
-    closed = {"fwd_const", "fwd_up", "idle_power", "tilt_x_sq"}
-    zero_here = {"fwd_down", "fwd_brake_sq", "tilt_y_sq"}  # 0 walking forward straight up
-    forward = {t.name for t in model.terms if t.kind not in ("backward", "lateral", "turning")}
-
-    def cost(g: np.ndarray) -> np.ndarray:
-        n = g.shape[0]
-        f = {
-            "alpha": np.arcsin(g),
-            "gamma": np.zeros(n),
-            "vx": np.full(n, speed),
-            "vy": np.zeros(n),
-            "wz": np.zeros(n),
-            "ax": np.zeros(n),
-            "ay": np.zeros(n),
-        }
-        return model.power(f) / speed
-
-    level = float(cost(np.zeros(1))[0])
-    if forward - zero_here <= closed:
-        num = coefs.get("fwd_const", 0.0) * speed + coefs.get("idle_power", 0.0)
-        q = coefs.get("tilt_x_sq", 0.0)
-        if q <= 0 or num <= 0:
-            return {
-                "grade": math.inf,
-                "slope_deg": 90.0,
-                "cost_n": math.nan,
-                "level_cost_n": level,
-                "method": "closed form",
-            }
-        g = math.sqrt(num / q)
-        if g < 1:
-            return {
-                "grade": g,
-                "slope_deg": math.degrees(math.asin(g)),
-                "cost_n": float(cost(np.array([g]))[0]),
-                "level_cost_n": level,
-                "method": "closed form",
-            }
-    grid = np.sin(np.radians(np.arange(0.01, 60.0, 0.01)))
-    c = cost(grid)
-    k = int(np.argmin(c / grid))
-    return {
-        "grade": float(grid[k]),
-        "slope_deg": float(np.degrees(np.arcsin(grid[k]))),
-        "cost_n": float(c[k]),
-        "level_cost_n": level,
-        "method": "numeric",
-    }
