@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -227,12 +226,6 @@ def command(
     extra = [t.name for t in resolve_terms(terms, set(prepared.windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
     th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
-    progress = None
-    if sys.stderr.isatty():
-
-        def progress(i: int) -> None:
-            click.echo(f"staircase step {i} done", err=True)
-
     try:
         d = diagnose(
             model,
@@ -241,7 +234,7 @@ def command(
             thresholds=th,
             max_steps=max_steps,
             terms=extra,
-            progress=progress,
+            progress=None,  # a line per step when stderr is a terminal
         )
     except EnergyPlannerError as exc:
         raise click.ClickException(

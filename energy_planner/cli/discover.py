@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -158,14 +157,6 @@ def command(
 
     extra = [t.name for t in resolve_terms(terms, set(samples.columns) | set(DERIVED_COLUMNS))]
     th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=max_steps + 3, desc="discover", disable=not sys.stderr.isatty(), leave=False)
-
-    def progress(msg: str) -> None:
-        bar.set_postfix_str(msg)
-        bar.update(1)
-
     try:
         d = discover(
             samples,
@@ -174,12 +165,10 @@ def command(
             terms=extra,
             window=window,
             repair=repair,
-            progress=progress,
+            progress=None,  # a line per stage when stderr is a terminal
         )
     except EnergyPlannerError as exc:
         raise click.ClickException(f"{exc}\nhint: see docs/diagnosis.md") from exc
-    finally:
-        bar.close()
     doc = d.to_dict()
     if d.model is None:
         raise click.ClickException("the final model could not be fitted: " + "; ".join(d.notes))

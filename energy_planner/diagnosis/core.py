@@ -218,8 +218,8 @@ def diagnose(
         Extra channels to examine (default: every non-canonical column).
     terms : sequence of str
         More candidate terms to test besides the catalog and the data-driven ones.
-    progress : callable, optional
-        Called with the step number after each staircase step.
+    progress : bool, callable or Reporter, optional
+        Where each staircase step reports (:func:`energy_planner.progress.reporter`).
     window : float
         Window length (s) for raw samples.
     repair : bool

@@ -267,8 +267,9 @@ def discover(
         Correct the data findings before fitting (they are reported either way).
     fit_final : bool
         Fit the final model on all windows (``calibration.fit_model``).
-    progress : callable, optional
-        Called with a short message after each stage.
+    progress : bool, callable or Reporter, optional
+        Where each stage reports (:func:`energy_planner.progress.reporter`: None prints
+        a line per stage on a terminal's stderr; a callable gets a ``ProgressEvent``).
     prior : EnergyModel, optional
         A fitted model whose coefficients stand in for the terms the logs cannot identify
         in the final fit (``fit_model``'s ``prior``, e.g. ``EnergyModel.default()``).
@@ -282,10 +283,12 @@ def discover(
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements import prepare_logs
     from energy_planner.model import BASE_TERMS, resolve_term
+    from energy_planner.progress import reporter
+
+    rep = reporter(progress)
 
     def say(msg: str) -> None:
-        if progress is not None:
-            progress(msg)
+        rep.say(msg, stage="discover")
 
     th = thresholds or Thresholds()
     base = list(BASE_TERMS if base_terms is None else base_terms)
@@ -301,9 +304,7 @@ def discover(
     # arbitrary value of a term whose motion the logs lack; fit_model drops those anyway
     unidentified_base = identifiable(windows, base)
     start = [t for t in base if resolve_term(t).name not in unidentified_base]
-    steps, rankings = staircase(
-        wd, start, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
-    )
+    steps, rankings = staircase(wd, start, th, max_steps, extra=terms, progress=rep)
     metrics = []
     for r in rankings:
         err = r.heldout_errors

@@ -156,9 +156,12 @@ def staircase(
 
     Returns the steps (step 0 is the model as given) and the ranking made at each step.
     """
+    from energy_planner.progress import reporter
+
     th = thresholds or Thresholds()
     folds = fold_index(wd.runs, th.n_splits, th.seed)
     terms = [term_spec(t) for t in terms]
+    rep = reporter(progress)
     ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
     rankings = [ranking]
@@ -186,6 +189,5 @@ def staircase(
                 alts,
             )
         )
-        if progress is not None:
-            progress(i)
+        rep.say(f"step {i} done", stage="staircase")
     return steps, rankings

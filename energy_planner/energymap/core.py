@@ -100,12 +100,12 @@ def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
     return max(_TILE, (rows // _TILE) * _TILE)
 
 
-def _progress(iterable: Any, total: int, desc: str, progress: bool | None) -> Any:
+def _progress(iterable: Any, total: int, desc: str, progress: Any) -> Any:
     if progress is False or total < 2:
         return iterable
-    from tqdm import tqdm
+    from energy_planner.progress import reporter
 
-    return tqdm(iterable, total=total, desc=desc, unit="block", disable=None, leave=False)
+    return reporter(progress).iterate(iterable, desc, total, unit="block")
 
 
 def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, progress) -> None:

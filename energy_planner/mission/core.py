@@ -263,10 +263,10 @@ def energy_matrix(
                 for p in xy]  # fmt: skip
         grids = client.gather(futs)
     else:
-        from tqdm import tqdm
+        from energy_planner.progress import reporter
 
-        grids = [_one_site(terrain, model, request, p, *args)
-                 for p in tqdm(xy, desc="searches", unit="site", disable=not progress)]  # fmt: skip
+        sites = reporter(progress).iterate(xy, "searches", unit="site") if progress else xy
+        grids = [_one_site(terrain, model, request, p, *args) for p in sites]
     n = len(xy)
     E = np.full((n, n), np.inf)
     for i, g in enumerate(grids):

@@ -247,10 +247,10 @@ def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarra
     hi = np.full(2, -np.inf)
     valid = 0
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
+    if progress is not False:
+        from energy_planner.progress import reporter
 
-        bar = tqdm(total=rows, desc="gradient range (strips)", unit="rows", file=sys.stderr)
+        bar = reporter(progress).bar("gradient range (strips)", rows, "rows")
     # a small GDAL block cache: the pass reads every block once (the default cache, 5 % of
     # the memory, would fill up with blocks that are never read again)
     with rasterio.Env(GDAL_CACHEMAX=64), rasterio.open(info.path) as src:
@@ -382,13 +382,15 @@ def _fit_cap(
 
 @dataclass
 class _Log:
-    show: bool
+    show: Any
     lines: list[str] = field(default_factory=list)
 
     def __call__(self, text: str) -> None:
         self.lines.append(text)
-        if self.show:
-            print(f"corridor: {text}", file=sys.stderr, flush=True)
+        if self.show is not False:
+            from energy_planner.progress import reporter
+
+            reporter(self.show).say(text, stage="corridor")
 
 
 def _too_large(info: RasterInfo, what: str, cells: int, max_cells: int, cap: int, hint: str):

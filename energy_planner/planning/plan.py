@@ -29,8 +29,6 @@ in radians CCW from +x; use :meth:`PlanResult.waypoints` for the DEM's CRS.
 from __future__ import annotations
 
 import math
-import sys
-import time as _time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -153,28 +151,21 @@ def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
 
 
 class _Progress:
-    """Best-energy-so-far reporting: tqdm on stderr and/or a callback."""
+    """Best-energy-so-far of an anytime planner, on the one progress reporter."""
 
     def __init__(self, total: float, show: bool, callback: Callable | None, desc: str):
-        self.t0 = _time.perf_counter()
-        self.history: list[tuple[float, float]] = []
-        self.callback = callback
-        self.bar = None
-        if show:
-            from tqdm import tqdm
+        from energy_planner.progress import Reporter
 
-            self.bar = tqdm(
-                total=round(total, 2),
-                unit="s",
-                desc=desc,
-                file=sys.stderr,
-                disable=None,  # off when stderr is not a TTY
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s {postfix}",
-            )
+        self.rep = Reporter(show=None if show else False, callback=callback)
+        self.history: list[tuple[float, float]] = []
+        self.bar = self.rep.bar(
+            desc, round(total, 2), "s",
+            fmt="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s {postfix}",
+        )  # fmt: skip
         self.best = math.inf
 
     def elapsed(self) -> float:
-        return _time.perf_counter() - self.t0
+        return self.rep.elapsed()
 
     def report(self, energy: float) -> None:
         t = self.elapsed()
@@ -182,15 +173,10 @@ class _Progress:
             self.best = float(energy)
         if math.isfinite(self.best):
             self.history.append((t, self.best))
-        if self.callback is not None:
-            self.callback(t, self.best)
-        if self.bar is not None:
-            self.bar.n = min(round(t, 2), self.bar.total)
-            self.bar.set_postfix_str(f"best {self.best:.1f} J", refresh=True)
+        self.bar.set(round(t, 2), value=self.best, postfix=f"best {self.best:.1f} J")
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self.bar.close()
 
 
 def _seed_ompl(seed: int) -> None:
@@ -567,7 +553,7 @@ def plan(
     moves: str = "all",
     eps: float | None = None,
     iterations: int | None = None,
-    callback: Callable[[float, float], None] | None = None,
+    callback: Callable[[Any], None] | None = None,
     cost: Any = None,
 ) -> PlanResult:
     """Plan an energy-minimal SE(2) path.
@@ -614,7 +600,9 @@ def plan(
         For OMPL planners: stop after this many planner iterations instead of ``time``
         (reproducible). For ``auto``: the maximum number of refinement rounds.
     callback : callable, optional
-        ``callback(seconds, best_energy_j)`` whenever the best energy is reported.
+        ``callback(event)`` with a :class:`energy_planner.progress.ProgressEvent` at every
+        report of the anytime planners (``event.value``: the best energy so far, J;
+        ``event.elapsed``: seconds), as every progress callback of the library.
     cost : MotionCost, optional
         A prepared motion cost (from
         :func:`~energy_planner.planning.limits.make_motion_cost`). Its speed and limits

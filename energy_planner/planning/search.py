@@ -38,9 +38,7 @@ returns the least energy to every position.
 from __future__ import annotations
 
 import math
-import sys
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -385,13 +383,13 @@ class _Heap:
         self.keys, self.vals = k, v
 
 
-def _bar(show: bool, desc: str, total: int | None, unit: str):
-    if not show:
+def _bar(progress, desc: str, total: int | None, unit: str):
+    """A stage of the search on the one progress reporter (None when ``progress`` is False)."""
+    if progress is False:
         return None
-    from tqdm import tqdm
+    from energy_planner.progress import reporter
 
-    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=None,
-                mininterval=0.5, unit_scale=True)  # fmt: skip
+    return reporter(progress).bar(desc, total, unit)
 
 
 def relaxed_cost_to_go(
@@ -523,7 +521,6 @@ def search_plan(
     eps: float = 1.0,
     progress: bool = False,
     time_budget: float = math.inf,
-    callback: Callable[[str, float], None] | None = None,
 ) -> SearchResult:
     """Energy-optimal path on the (x, y, heading) primitives, without building the graph.
 
@@ -546,12 +543,11 @@ def search_plan(
     eps : float
         Heuristic weight >= 1; the path's search cost is at most ``eps`` times the optimum.
     progress : bool
-        tqdm bars on stderr (relaxed problem, then the search).
+        Bars on stderr (relaxed problem, then the search), or a callable / Reporter
+        (:func:`energy_planner.progress.reporter`).
     time_budget : float
         Seconds for the whole call (heuristic included); :class:`PlanningError` when
         exceeded.
-    callback : callable, optional
-        ``callback(stage, seconds)`` after each stage.
 
     Returns
     -------
@@ -579,8 +575,6 @@ def search_plan(
         cost, grid, pg, mod=mod, progress=progress, deadline=deadline, stop_p=ps
     )
     t1 = time.perf_counter()
-    if callback is not None:
-        callback("heuristic", t1 - t0)
     if not np.isfinite(h2d[ps]):
         raise PlanningError(
             f"no feasible path from start ({start[0]:.2f}, {start[1]:.2f}) to goal "
@@ -654,7 +648,7 @@ def reach_search(
     max_energy : float
         Stop at this energy, J (positions beyond read ``inf``).
     progress : bool
-        tqdm bar on stderr.
+        A bar on stderr, or a callable / Reporter (:func:`energy_planner.progress.reporter`).
     time_budget : float
         Seconds; :class:`PlanningError` when exceeded.
 

@@ -98,7 +98,7 @@ def simulate_campaign(
     """
     config = config or CampaignConfig()
     names, fault_names, physics, sens = switch_on(effects, faults, params, config.sensors)
-    from tqdm.auto import tqdm
+    from energy_planner.progress import track
 
     design_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)
     plan = plan_runs(config)
@@ -109,7 +109,7 @@ def simulate_campaign(
     # ---- geometry, in design order (leg B starts where leg A ended)
     geo: list[dict[str, Any]] = []
     end_of: dict[str, tuple[np.ndarray, float]] = {}
-    for spec in tqdm(plan, desc="simulating runs", disable=not progress, unit="run"):
+    for spec in track(plan, "simulating runs", progress, unit="run"):
         geo.append(_run_geometry(spec, config, psi_of[spec.slope_deg], end_of))
 
     # ---- assemble in field order on the campaign clock

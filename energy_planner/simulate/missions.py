@@ -537,7 +537,7 @@ def simulate_missions(
         ``runs`` has one row per mission (kind ``mission``); ``config`` is the
         :class:`MissionConfig`.
     """
-    from tqdm.auto import tqdm
+    from energy_planner.progress import track
 
     cfg = config or MissionConfig()
     kinds = {e.kind for e in cfg.events}
@@ -553,9 +553,7 @@ def simulate_missions(
     grounds = ground_map(terrain, cfg.grounds, seed=seed)
 
     tracks, motions = [], []
-    for _ in tqdm(
-        range(cfg.missions), desc="simulating missions", disable=not progress, unit="mission"
-    ):
+    for _ in track(range(cfg.missions), "simulating missions", progress, unit="mission"):
         tracks.append(_mission_track(path_rng, terrain, cfg))
         motions.append(_body_motion(terrain, tracks[-1], cfg.dt, _dem_bias(tracks[-1], cfg.events)))
     draws = ChannelDraws.draw(channel_rng, cfg, cfg.missions, ground=False)

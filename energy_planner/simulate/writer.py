@@ -64,9 +64,9 @@ def write_campaign(
     import pyarrow as pa
     import pyarrow.csv as pa_csv
     import pyarrow.parquet as pq
-    from tqdm.auto import tqdm
 
     from energy_planner.io import atomic_path, write_json
+    from energy_planner.progress import track
 
     written: list[Path] = []
     logs = campaign.logs
@@ -75,7 +75,7 @@ def write_campaign(
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
     try:
-        for sl in tqdm(runs_in(run), desc="writing runs", disable=not progress, unit="run"):
+        for sl in track(runs_in(run), "writing runs", progress, unit="run"):
             path = out / f"{run[sl.start]}.{fmt}"
             with atomic_path(path) as tmp:
                 if fmt == "csv":
@@ -113,7 +113,7 @@ def write_bags(campaign: Campaign, path: Path, progress: bool = False) -> list[P
             f"cannot write ROS 2 bags to {str(path)!r}: energy_planner.measurements does "
             "not provide write_rosbag; write CSV or Parquet instead"
         ) from exc
-    from tqdm.auto import tqdm
+    from energy_planner.progress import track
 
     if path.exists() and any(path.iterdir()):
         raise LogIOError(
@@ -123,8 +123,6 @@ def write_bags(campaign: Campaign, path: Path, progress: bool = False) -> list[P
     path.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     groups = campaign.logs.groupby("run", sort=False, observed=True)
-    for run, df in tqdm(
-        groups, total=len(campaign.runs), desc="writing bags", disable=not progress, unit="bag"
-    ):
+    for run, df in track(groups, "writing bags", progress, len(campaign.runs), "bag"):
         written += list(write_rosbag(df, path / str(run), version=2))
     return written

@@ -96,14 +96,10 @@ def _warp_to_utm(
     block = max(1, 250_000 // max(width, 1))  # points per PROJ call: bounds the temporaries
     starts = range(0, height, block)
     if len(starts) > 2:  # big rasters: show progress on a terminal (stderr)
-        from tqdm import tqdm
+        from energy_planner.progress import reporter
 
-        starts = tqdm(
-            starts,
-            desc=f"reprojecting {path.name} to {dst_crs}",
-            unit="block",
-            disable=None,
-            leave=False,
+        starts = reporter(None).iterate(
+            starts, f"reprojecting {path.name} to {dst_crs}", unit="block"
         )
     for r0 in starts:
         r1 = min(height, r0 + block)
