@@ -339,14 +339,10 @@ def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
     x0, y0, x1, y1 = info.bounds
     if not (x0 <= x <= x1 and y0 <= y <= y1):
         from energy_planner.errors import extent_text
+        from energy_planner.planning.limits import outside_map
 
-        raise InvalidStateError(
-            f"{which} ({x:.2f}, {y:.2f}) is outside DEM {info.path!r}, which covers "
-            f"{extent_text((x0, y0, x1, y1), info.crs)}",
-            endpoint=which,
-            limit="map",
-            value=(x, y),
-        )
+        raise outside_map(which, x, y, f"DEM {info.path!r}, which covers "
+                          f"{extent_text((x0, y0, x1, y1), info.crs)}")  # fmt: skip
 
 
 def _grow(box: Sequence[float], m: float) -> tuple[float, float, float, float]:

@@ -337,13 +337,10 @@ def _endpoint_nodes(lat: LatticeGraph, x: float, y: float, yaw, which: str) -> n
     i = int(round((x - xs[0]) / step))
     j = int(round((y - ys[0]) / step))
     if not (0 <= i < nx and 0 <= j < ny):
-        raise InvalidStateError(
-            f"{which} ({x:.2f}, {y:.2f}) is outside the map (lattice x {xs[0]:.2f}.."
-            f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)",
-            endpoint=which,
-            limit="map",
-            value=(x, y),
-        )
+        from energy_planner.planning.limits import outside_map
+
+        raise outside_map(which, x, y, f"the map (lattice x {xs[0]:.2f}..{xs[-1]:.2f}, "
+                          f"y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)")  # fmt: skip
     p = j * nx + i
     if yaw is None:
         hs = np.nonzero(lat.valid[p])[0]

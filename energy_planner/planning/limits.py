@@ -39,6 +39,7 @@ __all__ = [
     "check_endpoint",
     "check_valid_geometries",
     "fmt_xy",
+    "outside_map",
     "make_motion_cost",
     "keep_out_geometries",
 ]
@@ -89,6 +90,13 @@ def pose_limit(
         m = re.search(r"([-0-9.]+) deg >", reason)
         value = float(m.group(1)) if m else None
     return (_LIMIT_OF_CODE.get(code, "map"), reason, value)
+
+
+def outside_map(which: str, x: float, y: float, where: str) -> InvalidStateError:
+    """The error of endpoint ``which`` at ``(x, y)`` off the map; ``where`` names the extent."""
+    return InvalidStateError(
+        f"{which} ({x:.2f}, {y:.2f}) is outside {where}", endpoint=which, limit="map", value=(x, y)
+    )
 
 
 def fmt_xy(terrain, x: float, y: float) -> str:
