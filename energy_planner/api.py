@@ -1,7 +1,9 @@
 """The public verbs: ``import energy_planner as ep``.
 
-One :class:`Problem` binds a terrain, a model and a planning request (robot, limits,
-keep-outs, channels) once; every verb takes a DEM path or a :class:`Problem` and returns
+One :class:`~energy_planner.problem.Problem` binds a terrain, a model and a planning
+request (robot, limits, keep-outs, channels) once (it lives below planning, in
+:mod:`energy_planner.problem`, and is re-exported here); every verb takes a DEM path or a
+:class:`Problem` and returns
 the library's own result object, which writes and draws itself. Coordinates are in the
 DEM's own CRS unless ``crs=`` names another (lon/lat, another UTM zone, ...); yaw is in
 radians (the Python API's convention), counter-clockwise from that CRS's x axis.
@@ -22,12 +24,12 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from energy_planner.problem import Problem
 from energy_planner.terrain.memory import DEFAULT_CAP
 
 __all__ = [
@@ -62,135 +64,16 @@ def load_model(path: str | Path | None = None):
     return EnergyModel.default() if path is None else EnergyModel.load(path)
 
 
-@dataclass
-class Problem:
-    """A terrain, a model and a planning request, bound once for every verb.
-
-    Attributes
-    ----------
-    terrain : Terrain
-    model : EnergyModel
-    request : Request
-        Robot speed and yaw rate, slope limits, keep-outs, channels.
-    """
-
-    terrain: Any
-    model: Any = None
-    request: Any = None
-    _cost: Any = field(default=None, init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        from energy_planner.request import Request
-
-        if self.model is None:
-            self.model = load_model()
-        if self.request is None:
-            self.request = Request()
-
-    @classmethod
-    def from_dem(
-        cls, dem: str | Path, model: Any = None, *, band: int | None = None, **request: Any
-    ) -> Problem:
-        """Open ``dem`` and bind it to ``model`` and a request.
-
-        ``request`` keywords go to ``Request.make`` (``speed``, ``yaw_rate``,
-        ``max_slope_deg``, ``max_cross_slope_deg``, ``keep_out``, ``channels``).
-        """
-        from energy_planner.request import Request
-
-        m = load_model(model) if isinstance(model, str | Path) or model is None else model
-        return cls(open_terrain(dem, band=band), m, Request.make(**request))
-
-    @property
-    def cost(self):
-        """The motion cost of this terrain, model and request (built once)."""
-        if self._cost is None:
-            from energy_planner.planning.compare import _motion_cost
-
-            self._cost = _motion_cost(self.terrain, self.model, self.request)[0]
-        return self._cost
-
-    def to_work(self, points: Any, crs: Any = None) -> np.ndarray:
-        """Points ``(x, y[, yaw])`` in the DEM's CRS (or ``crs``) -> working CRS."""
-        arr = np.atleast_2d(np.asarray(points, dtype=float))
-        if crs is not None:
-            from energy_planner.io import reproject_xy
-
-            x, y = reproject_xy(crs, self.terrain.crs, arr[:, 0], arr[:, 1])
-        else:
-            x, y = self.terrain.to_work(arr[:, 0], arr[:, 1])
-        out = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
-        return np.column_stack([out, arr[:, 2]]) if arr.shape[1] > 2 else out
-
-    def _pose(self, p: Any, crs: Any) -> tuple:
-        return tuple(float(v) for v in self.to_work(p, crs)[0])
-
-    def plan(self, start: Any, goal: Any, *, crs: Any = None, **kwargs: Any):
-        """An energy-minimal path (:func:`energy_planner.planning.plan`)."""
-        from energy_planner.planning.plan import plan as _plan
-
-        kwargs.setdefault("progress", False)
-        return _plan(self.terrain, self.model, self._pose(start, crs), self._pose(goal, crs),
-                     self.request, **kwargs)  # fmt: skip
-
-    def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None):
-        """Energy of walking the given points (:func:`energy_planner.energy.path_energy`).
-
-        The request's gait limits hold, as ``energy --max-crab/--max-backward-slope`` does:
-        a segment that breaks one is an error naming it.
-        """
-        from energy_planner.energy import MotionCost
-        from energy_planner.energy import path_energy as _pe
-
-        xy = self.to_work(points, crs)[:, :2]
-        r, lim = self.request.robot, self.request.limits
-        cost = MotionCost(self.terrain, self.model, r.speed, r.yaw_rate,
-                          channels=self.request.channels,
-                          max_backward_slope_deg=lim.max_backward_slope_deg,
-                          max_crab_deg=lim.max_crab_deg)  # fmt: skip
-        return _pe(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
-
-    def compare_routes(self, start: Any, goal: Any, *, crs: Any = None, **kwargs: Any):
-        """Direct vs shortest vs energy-optimal (paper Fig. 1)."""
-        from energy_planner.planning.compare import compare_routes as _cr
-
-        kwargs.setdefault("progress", False)
-        return _cr(self.terrain, self.model, self._pose(start, crs), self._pose(goal, crs),
-                   self.request, **kwargs)  # fmt: skip
-
-    def reach(self, start: Any, *, crs: Any = None, **kwargs: Any):
-        """Least energy from ``start`` to every cell (:class:`~energy_planner.planning.reach.ReachMap`)."""  # noqa: E501
-        from energy_planner.planning.reach import reach as _reach
-
-        return _reach(self.terrain, self.model, self._pose(start, crs)[:2], self.request,
-                      **kwargs)  # fmt: skip
-
-    def energy_map(self, out: str | Path, **kwargs: Any):
-        """The heading-dependent energy map, written to ``out`` (GeoTIFF)."""
-        from energy_planner.energymap import energy_map as _em
-
-        return _em(self.terrain, out, self.model, request=self.request, **kwargs)
-
-    def mission(self, sites: Any, **kwargs: Any):
-        """Several sites in the least-energy order (:func:`energy_planner.mission.mission`)."""
-        from energy_planner.mission import mission as _mission
-
-        return _mission(self.terrain, self.model, sites, self.request, **kwargs)
-
-    def interval(self, energy_j: float, level: float = 0.9):
-        """The model's prediction interval of an energy (None if it carries none)."""
-        from energy_planner.uncertainty import predict_interval
-
-        return predict_interval(self.model, energy_j, level)
-
-
 def _problem(dem: Any, model: Any, request: Any) -> Problem:
     if isinstance(dem, Problem):
         return dem
-    if isinstance(model, str | Path) or model is None:
-        model = load_model(model)
     terrain = dem if hasattr(dem, "to_work") else open_terrain(dem)
     return Problem(terrain, model, request)
+
+
+def _pose(problem: Problem, p: Any, crs: Any) -> tuple:
+    """A point ``(x, y[, yaw])`` in the DEM's CRS (or ``crs``) in the working CRS."""
+    return tuple(float(v) for v in problem.to_work(p, crs)[0])
 
 
 def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,
@@ -215,7 +98,11 @@ def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = N
             res, _ = plan_in_corridor(dem, model, tuple(s), tuple(g), request, cap=memory_cap,
                                       **kwargs)  # fmt: skip
             return res
-    return _problem(dem, model, request).plan(start, goal, crs=crs, **kwargs)
+    from energy_planner.planning.plan import plan as _plan
+
+    prob = _problem(dem, model, request)
+    kwargs.setdefault("progress", False)
+    return _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), **kwargs)
 
 
 def path_energy(dem: Any, points: Any, yaw: Any = None, t: Any = None, *, model: Any = None,
@@ -227,13 +114,20 @@ def path_energy(dem: Any, points: Any, yaw: Any = None, t: Any = None, *, model:
 def compare_routes(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,
                    crs: Any = None, **kwargs: Any):  # fmt: skip
     """The direct line, the shortest and the energy-optimal path (paper Fig. 1)."""
-    return _problem(dem, model, request).compare_routes(start, goal, crs=crs, **kwargs)
+    from energy_planner.planning.compare import compare_routes as _cr
+
+    prob = _problem(dem, model, request)
+    kwargs.setdefault("progress", False)
+    return _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), **kwargs)
 
 
 def reach(dem: Any, start: Any, *, model: Any = None, request: Any = None, crs: Any = None,
           **kwargs: Any):  # fmt: skip
     """Least energy from ``start`` to every cell of ``dem``."""
-    return _problem(dem, model, request).reach(start, crs=crs, **kwargs)
+    from energy_planner.planning.reach import reach as _reach
+
+    prob = _problem(dem, model, request)
+    return _reach(prob, _pose(prob, start, crs)[:2], **kwargs)
 
 
 def energy_map(dem: Any, out: str | Path, *, model: Any = None, request: Any = None,
@@ -246,15 +140,16 @@ def energy_map(dem: Any, out: str | Path, *, model: Any = None, request: Any = N
     from energy_planner.energymap import energy_map as _em
 
     if isinstance(dem, Problem):
-        return dem.energy_map(out, **kwargs)
-    if isinstance(model, str | Path) or model is None:
-        model = load_model(model)
-    return _em(dem, out, model, request=request, **kwargs)
+        return _em(dem, out, **kwargs)
+    return _em(dem, out, load_model(model) if isinstance(model, str | Path) or model is None
+               else model, request=request, **kwargs)  # fmt: skip
 
 
 def mission(dem: Any, sites: Any, *, model: Any = None, request: Any = None, **kwargs: Any):
     """Visit ``sites`` (a file or :class:`~energy_planner.mission.Sites`) in the best order."""
-    return _problem(dem, model, request).mission(sites, **kwargs)
+    from energy_planner.mission import mission as _mission
+
+    return _mission(_problem(dem, model, request), sites, **kwargs)
 
 
 def _samples(logs: Any):

@@ -198,7 +198,7 @@ def draw_request(ax: Any, terrain: Any, request: Any = None) -> list[str]:
     """Draw a request's keep-outs, slope-limit mask and channel rasters over ``terrain``.
 
     The axes are in the terrain's working CRS. Keep-outs are read as the planner reads
-    them (:func:`energy_planner.planning.limits.keep_out_geometries`; a polygon off the
+    them (:func:`energy_planner.keepout.keep_out_geometries`; a polygon off the
     map was already reported by the command, and is not drawn); the mask shades the
     cells steeper than ``max_slope_deg``; channels are bound to the working grid.
 
@@ -209,7 +209,7 @@ def draw_request(ax: Any, terrain: Any, request: Any = None) -> list[str]:
     """
     if request is None:
         return []
-    from energy_planner.planning.limits import keep_out_geometries
+    from energy_planner.keepout import keep_out_geometries
 
     drawn: list[str] = []
     lim = request.limits

@@ -27,8 +27,8 @@ def test_plan_equals_the_plan_command():
 def test_points_in_another_crs_give_the_same_plan():
     prob = ep.Problem.from_dem(PLANE)
     lon, lat = reproject_xy("EPSG:32631", "EPSG:4326", [S[0], G[0]], [S[1], G[1]])
-    a = prob.plan(S, G)
-    b = prob.plan((lon[0], lat[0]), (lon[1], lat[1]), crs="EPSG:4326")
+    a = ep.plan(prob, S, G)
+    b = ep.plan(prob, (lon[0], lat[0]), (lon[1], lat[1]), crs="EPSG:4326")
     assert b.energy_j == pytest.approx(a.energy_j, rel=1e-6)
 
 

@@ -138,10 +138,9 @@ def test_cells_on_the_budget_contour_cost_the_budget_when_planned(hill_tif):
 
 
 def test_return_equals_two_plans_on_the_hill_and_the_turn_round_is_bounded(hill_tif):
-    from energy_planner.planning.compare import _motion_cost
     from energy_planner.planning.lattice import lattice_headings
     from energy_planner.planning.plan import plan
-    from energy_planner.request import Request
+    from energy_planner.problem import Problem
     from energy_planner.terrain import load_dem
 
     terrain = load_dem(hill_tif)
@@ -149,7 +148,7 @@ def test_return_equals_two_plans_on_the_hill_and_the_turn_round_is_bounded(hill_
     start = (X0 + 10.5, Y0 + 12.5)
     legs = reach(terrain, model, start, round_trip=True, turn_at_cell=False)
     rt = reach(terrain, model, start, round_trip=True)
-    cost, _ = _motion_cost(terrain, model, Request())
+    cost = Problem(terrain, model).cost
     th = lattice_headings(16)
     x0, y0, dx, dy = terrain.grid
     # cells over the hill, on its flank and near the nodata hole (row 40 = y0 + 40 dy)

@@ -106,6 +106,7 @@ def command(
     """
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes
+    from energy_planner.problem import Problem
     from energy_planner.request import Request
 
     check_planner(planner)
@@ -120,7 +121,7 @@ def command(
             channels=channels_from_options(sets, channels), **gait_limits(),
         )  # fmt: skip
         comp = compare_routes(
-            terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
+            Problem(terrain, model, request), s, g, planner=planner, time=time_s, seed=seed,
             progress=True,
         )  # fmt: skip
     except InvalidStateError as exc:

@@ -115,6 +115,7 @@ def command(
     from energy_planner.errors import MissingChannelError
     from energy_planner.maps import map_path, scenario, scenario_names
     from energy_planner.planning.compare import compare_routes
+    from energy_planner.problem import Problem
     from energy_planner.request import Request
     from energy_planner.terrain import load_dem
 
@@ -133,7 +134,8 @@ def command(
         max_slope_deg=max_slope, channels=channels_from_options(sets, channels), **gait_limits()
     )
     try:
-        comp = compare_routes(terrain, model, start, goal, request, time=time_s, progress=True)
+        comp = compare_routes(Problem(terrain, model, request), start, goal, time=time_s,
+                              progress=True)  # fmt: skip
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     res = comp.to_dict(terrain)

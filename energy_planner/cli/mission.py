@@ -136,6 +136,7 @@ def command(
     """
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.mission import mission, read_sites
+    from energy_planner.problem import Problem
 
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
@@ -151,8 +152,8 @@ def command(
 
         client = Client(scheduler)
     try:
-        res = mission(terrain, model, s, request, order=order, return_to_start=return_to_start,
-                      client=client, progress=True)  # fmt: skip
+        res = mission(Problem(terrain, model, request), s, order=order,
+                      return_to_start=return_to_start, client=client, progress=True)  # fmt: skip
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc
     finally:

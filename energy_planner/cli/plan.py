@@ -430,8 +430,8 @@ def command(
         EnergyPlannerError,
         RasterTooLargeError,
     )
-    from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import plan
+    from energy_planner.problem import Problem
 
     check_planner(planner)
     ch = channels_from_options(sets, channels) if (sets or channels) else None
@@ -457,7 +457,7 @@ def command(
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
                                             **kwargs)  # fmt: skip
-            check_cost_power(make_motion_cost(terrain, model, request)[0])
+            check_cost_power(Problem(terrain, model, request).cost)
         except RasterTooLargeError as exc:
             raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
         except (DEMError, DEMIOError) as exc:
@@ -470,9 +470,9 @@ def command(
         g = point_to_work(terrain, goal, "--goal", True)
         try:
             # a model that prices walking on this map at <= 0 W would plan a free route
-            cost, _ = make_motion_cost(terrain, model, request)
-            check_cost_power(cost)
-            res = plan(terrain, model, s, g, request, progress=True, cost=cost, **kwargs)
+            problem = Problem(terrain, model, request)
+            check_cost_power(problem.cost)
+            res = plan(problem, s, g, progress=True, **kwargs)
         except EnergyPlannerError as exc:
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)

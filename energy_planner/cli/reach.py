@@ -267,6 +267,7 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
         ReachEdgeWarning,
     )
     from energy_planner.planning.reach import reach
+    from energy_planner.problem import Problem
 
     try:
         with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
@@ -288,7 +289,7 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
             terrain = load_terrain(dem)
             s = point_to_work(terrain, start, "--start", False)
             res = reach(
-                terrain, model, s[:2], request, round_trip=round_trip,
+                Problem(terrain, model, request), s[:2], round_trip=round_trip,
                 turn_at_cell=not free_turn, progress=True,
                 max_energy=budget_wh * 3600.0 if within_budget else None,
             )  # fmt: skip

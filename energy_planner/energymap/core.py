@@ -420,8 +420,10 @@ def energy_map(
 
     Parameters
     ----------
-    dem : str, pathlib.Path or Terrain
-        A DEM file, or a loaded terrain (computed on its working grid).
+    dem : Problem, str, pathlib.Path or Terrain
+        A :class:`~energy_planner.problem.Problem` (its terrain, model and request; then
+        ``model`` and ``request`` are not given again), a DEM file, or a loaded terrain
+        (computed on its working grid).
     out : str or pathlib.Path
         Output GeoTIFF (overwritten).
     model : EnergyModel, optional
@@ -465,6 +467,14 @@ def energy_map(
     """
     import rasterio
 
+    from energy_planner.problem import Problem
+
+    if isinstance(dem, Problem):
+        if model is not None or request is not None:
+            raise EnergyMapError(
+                "give the model and request in the Problem, not again as model=/request="
+            )
+        dem, model, request = dem.terrain, dem.model, dem.request
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
         return _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,

@@ -29,6 +29,7 @@ import numpy as np
 from energy_planner.errors import PlanningError
 from energy_planner.mission.sites import Sites
 from energy_planner.mission.tour import order_sites
+from energy_planner.problem import takes_problem
 
 __all__ = ["Leg", "MissionResult", "energy_matrix", "mission"]
 
@@ -209,7 +210,7 @@ class MissionResult:
         return out
 
 
-def _one_site(terrain, model, request, xy, n_headings, max_energy):
+def _one_site(problem, xy, n_headings, max_energy):
     import warnings
 
     from energy_planner.errors import ReachEdgeWarning
@@ -218,15 +219,13 @@ def _one_site(terrain, model, request, xy, n_headings, max_energy):
     # max_energy only bounds the search here: the map's edge cutting it is no news
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ReachEdgeWarning)
-        return reach(terrain, model, xy, request, n_headings=n_headings,
-                     max_energy=max_energy).energy_j  # fmt: skip
+        return reach(problem, xy, n_headings=n_headings, max_energy=max_energy).energy_j
 
 
+@takes_problem(1)
 def energy_matrix(
-    terrain,
-    model,
+    problem,
     sites: Sites,
-    request=None,
     *,
     n_headings: int = 16,
     max_energy: float | None = None,
@@ -237,8 +236,10 @@ def energy_matrix(
 
     Parameters
     ----------
-    terrain, model, request
-        As for :func:`energy_planner.planning.plan`.
+    problem : Problem
+        Terrain, model and request bound once (as for
+        :func:`energy_planner.planning.plan`; the older form ``energy_matrix(terrain,
+        model, sites, request=None, ...)`` is accepted).
     sites : Sites
         On cell centres (working CRS).
     n_headings : int
@@ -255,18 +256,17 @@ def energy_matrix(
     ndarray, shape (n, n)
         ``E[i, j]``: energy from site i to site j, J (``inf`` unreachable, 0 diagonal).
     """
-    rc = sites.cells(terrain)
+    rc = sites.cells(problem.terrain)
     xy = [tuple(map(float, p)) for p in sites.xy]
     args = (n_headings, max_energy)
     if client is not None:
-        futs = [client.submit(_one_site, terrain, model, request, p, *args, pure=False)
-                for p in xy]  # fmt: skip
+        futs = [client.submit(_one_site, problem, p, *args, pure=False) for p in xy]
         grids = client.gather(futs)
     else:
         from energy_planner.progress import reporter
 
         sites = reporter(progress).iterate(xy, "searches", unit="site") if progress else xy
-        grids = [_one_site(terrain, model, request, p, *args) for p in sites]
+        grids = [_one_site(problem, p, *args) for p in sites]
     n = len(xy)
     E = np.full((n, n), np.inf)
     for i, g in enumerate(grids):
@@ -276,11 +276,10 @@ def energy_matrix(
     return E
 
 
+@takes_problem(1)
 def mission(
-    terrain,
-    model,
+    problem,
     sites: Sites | str | Path,
-    request=None,
     *,
     order: str = "best",
     return_to_start: bool = False,
@@ -294,14 +293,12 @@ def mission(
 
     Parameters
     ----------
-    terrain : Terrain
-        The map.
-    model : EnergyModel
-        A fitted energy model.
+    problem : Problem
+        Terrain, model and request (robot, limits, channels) bound once
+        (:class:`energy_planner.problem.Problem`; the older form ``mission(terrain, model,
+        sites, request=None, ...)`` is accepted).
     sites : Sites or path
         The sites, or a CSV/GeoJSON file (:func:`energy_planner.mission.read_sites`).
-    request : Request, optional
-        Robot, limits, channels (as for ``plan``).
     order : {"best", "given"}
         ``best``: the least-energy order (exact up to
         :data:`~energy_planner.mission.tour.EXACT_MAX_SITES` sites).
@@ -321,13 +318,13 @@ def mission(
     """
     from energy_planner.planning.plan import plan
 
+    terrain = problem.terrain
     if not isinstance(sites, Sites):
         from energy_planner.mission.sites import read_sites
 
         sites = read_sites(sites, terrain)
     sites = sites.on_cells(terrain)
-    E = energy_matrix(terrain, model, sites, request, n_headings=n_headings, client=client,
-                      progress=progress)  # fmt: skip
+    E = energy_matrix(problem, sites, n_headings=n_headings, client=client, progress=progress)
     o, total, method = order_sites(E, order, return_to_start)
     if not math.isfinite(total):
         bad = [(sites.names[i], sites.names[j]) for i in range(len(E)) for j in range(len(E))
@@ -340,7 +337,7 @@ def mission(
         pairs.append((o[-1], o[0]))
     legs = []
     for a, b in pairs:
-        r = plan(terrain, model, tuple(sites.xy[a]), tuple(sites.xy[b]), request,
+        r = plan(problem, tuple(sites.xy[a]), tuple(sites.xy[b]),
                  planner=planner, eps=eps, n_headings=n_headings, progress=progress)  # fmt: skip
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
                         float(r.duration_s), r.states))  # fmt: skip

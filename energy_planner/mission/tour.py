@@ -43,24 +43,13 @@ def _cost(E: np.ndarray, order: list[int], ret: bool) -> float:
 
 
 def brute_force(E: np.ndarray, return_to_start: bool = False) -> tuple[list[int], float]:
-    """The best order by trying every permutation (site 0 first).
+    """The best order by trying every permutation (site 0 first); as :func:`held_karp`.
 
-    Parameters
-    ----------
-    E : ndarray, shape (n, n)
-        Energy from row site to column site (``inf`` where unreachable).
-    return_to_start : bool
-        Add the leg back to site 0.
-
-    Returns
-    -------
-    order : list of int
-        Site indices, starting with 0.
-    energy : float
-        The tour's energy (``inf`` if no order is feasible).
+    The reference the exact solver is tested against (parameters and returns as
+    :func:`held_karp`'s).
     """
+    n = np.shape(E)[0]
     E = np.asarray(E, dtype=float)
-    n = E.shape[0]
     best, best_order = math.inf, list(range(n))
     for perm in itertools.permutations(range(1, n)):
         order = [0, *perm]
@@ -129,19 +118,8 @@ def held_karp(E: np.ndarray, return_to_start: bool = False) -> tuple[list[int], 
 def local_search(E: np.ndarray, return_to_start: bool = False) -> tuple[list[int], float]:
     """A good order for many sites: nearest neighbour, then or-opt moves to a local optimum.
 
-    Parameters
-    ----------
-    E : ndarray, shape (n, n)
-        Energy from row site to column site.
-    return_to_start : bool
-        Add the leg back to site 0.
-
-    Returns
-    -------
-    order : list of int
-        Site indices, starting with 0.
-    energy : float
-        The tour's energy.
+    Parameters and returns as :func:`held_karp`'s; the order is a local optimum, not
+    always the best.
     """
     E = np.asarray(E, dtype=float)
     n = E.shape[0]

@@ -33,7 +33,10 @@ metre of height than zig-zagging or going round at ``g*``. :func:`grade_cost` co
 route's climbing grade.
 
 Every energy is :func:`energy_planner.energy.path_energy` of the route's poses with the
-same :class:`~energy_planner.energy.MotionCost`.
+same :class:`~energy_planner.energy.MotionCost`, the problem's
+(:attr:`energy_planner.problem.Problem.cost`, every limit and keep-out area in it); the
+shortest route is planned with the same problem pricing ground distance
+(:meth:`~energy_planner.problem.Problem.distance`).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ import numpy as np
 from energy_planner.errors import EnergyPlannerError
 from energy_planner.planning.gradecost import GradeCost, grade_cost
 from energy_planner.planning.routes import ROUTE_NAMES, Route, RouteComparison
+from energy_planner.problem import takes_problem
 
 __all__ = [
     "GradeCost",
@@ -77,12 +81,13 @@ def _climb(terrain, states: np.ndarray) -> tuple[float, float | None]:
     return ascent, (ascent / length if length > 0 else None)
 
 
-def _route(name: str, states: np.ndarray, terrain, model, cost) -> Route:
-    """Price ``states`` (raises EnergyPlannerError if a motion breaks a limit)."""
+def _route(name: str, states: np.ndarray, problem) -> Route:
+    """Price ``states`` with the problem's cost (raises EnergyPlannerError past a limit)."""
     from energy_planner.energy import path_energy
 
-    pe = path_energy(terrain, model, states[:, :2], yaw=states[:, 2], cost=cost)
-    ascent, grade = _climb(terrain, states)
+    pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
+                     cost=problem.cost)  # fmt: skip
+    ascent, grade = _climb(problem.terrain, states)
     return Route(
         name=name,
         states=states,
@@ -192,17 +197,18 @@ def _edges(cost, s: np.ndarray) -> np.ndarray:
 
 
 class _Candidates:
-    """Refine several starting paths under one cost; keep the best route by a key.
+    """Refine several starting paths under one problem's cost; keep the best route by a key.
 
-    ``objective`` prices the refinement (energy, or ground distance for the shortest
-    route); every candidate is then walked as ``post(states)`` and priced by
-    :func:`_route` with the energy cost and its limits, so that only feasible routes
-    (keep-out checked exactly) compete.
+    ``objective`` (a :class:`~energy_planner.problem.Problem`: the energy one, or its
+    :meth:`~energy_planner.problem.Problem.distance` for the shortest route) prices the
+    refinement; every candidate is then walked as ``post(states)`` and priced by
+    :func:`_route` with ``problem``, whose cost holds every limit and keep-out area, so
+    that only feasible routes compete.
     """
 
-    def __init__(self, name, terrain, model, cost, geoms, key, budget, seed, post=None):
-        self.name, self.terrain, self.model, self.cost = name, terrain, model, cost
-        self.geoms, self.key, self.budget, self.seed = geoms, key, budget, seed
+    def __init__(self, name, problem, key, budget, seed, post=None):
+        self.name, self.problem, self.key = name, problem, key
+        self.budget, self.seed = budget, seed
         self.post = post or (lambda s: s)
         self.best: Route | None = None
         self.origin: str | None = None
@@ -210,68 +216,45 @@ class _Candidates:
     def offer(self, states: np.ndarray | None, origin: str, objective=None, gait=None) -> None:
         """Offer ``states`` as a candidate route.
 
-        They are refined under ``objective`` first when given; with ``gait = (start,
-        goal)``, first walked with the cheapest constant body yaw.
+        They are refined under ``objective`` (a Problem) first when given; with ``gait =
+        (start, goal)``, first walked with the cheapest constant body yaw.
         """
-        from energy_planner.planning.limits import keep_out_violation
         from energy_planner.planning.refine import densify, refine_path
 
         if states is None:
             return
         if gait is not None:
-            states, psi = _best_gait(states, objective or self.cost, *gait)
+            states, psi = _best_gait(states, (objective or self.problem).cost, *gait)
             if psi:
                 origin += f", body turned {math.degrees(psi):.0f} deg"
         tries = [(states, origin)]
-        spacing = abs(float(self.terrain.grid[2]))
+        spacing = abs(float(self.problem.terrain.grid[2]))
         # refinement densifies the path first; a path that hugs a limit can break it
         # once resampled, and then cannot be refined (it still competes as it is)
         dense = densify(states, spacing)
         if (
             objective is not None
-            and np.isfinite(objective.batch(*dense[:-1].T, *dense[1:].T)).all()
+            and np.isfinite(objective.cost.batch(*dense[:-1].T, *dense[1:].T)).all()
         ):
             refined, _ = refine_path(
-                objective, states, budget=self.budget, seed=self.seed, spacing=spacing
+                objective.cost, states, budget=self.budget, seed=self.seed, spacing=spacing
             )
             tries.insert(0, (refined, origin + ", refined"))
         for s, why in tries:
             s = self.post(s)
             try:
-                r = _route(self.name, s, self.terrain, self.model, self.cost)
+                r = _route(self.name, s, self.problem)
             except EnergyPlannerError:
-                continue
-            if keep_out_violation(s, self.geoms) is not None:
                 continue
             if self.best is None or self.key(r) < self.key(self.best) * (1 - 1e-9):
                 self.best, self.origin = r, why
 
 
-def _motion_cost(terrain, model, request, distance: bool = False):
-    """The motion cost of ``request`` (robot, limits, channels) and the keep-out polygons.
-
-    The polygons are in the working CRS
-    (:func:`energy_planner.planning.limits.make_motion_cost`). With ``distance`` the
-    "model" prices the ground distance (power = speed) under the same limits and reads no
-    channel.
-    """
-    import dataclasses
-
-    from energy_planner.model import EnergyModel
-    from energy_planner.planning.limits import make_motion_cost
-
-    if distance:
-        model = EnergyModel(["speed"], {"speed": 1.0})
-        request = dataclasses.replace(request, channels=None)
-    return make_motion_cost(terrain, model, request)
-
-
+@takes_problem(2)
 def compare_routes(
-    terrain,
-    model,
+    problem,
     start: Sequence[float],
     goal: Sequence[float],
-    request=None,
     *,
     planner: str = "auto",
     time: float = 5.0,
@@ -283,15 +266,15 @@ def compare_routes(
 
     Parameters
     ----------
-    terrain : Terrain
-        The map.
-    model : EnergyModel
-        A fitted model.
+    problem : Problem
+        Terrain, model and request (robot, limits applied to every route, keep-outs,
+        channels) bound once (:class:`energy_planner.problem.Problem`; the older form
+        ``compare_routes(terrain, model, start, goal, request=None, ...)`` is accepted).
+        Every route is priced, and planned, with its cost, so keep-out areas and limits
+        hold during planning; the shortest route is planned with
+        :meth:`~energy_planner.problem.Problem.distance`.
     start, goal : sequence of float
         ``(x, y)`` or ``(x, y, yaw)`` in the working CRS (metres, radians).
-    request : Request, optional
-        Robot (speed, yaw rate), limits (slope, cross-slope, keep-out; applied to all
-        three routes) and channels; default :class:`energy_planner.request.Request()`.
     planner, time, seed, step, progress
         Passed to :func:`energy_planner.planning.plan` for the energy-optimal route
         (``step`` also sets the shortest-path lattice). Each extra refinement gets
@@ -300,138 +283,35 @@ def compare_routes(
     Returns
     -------
     RouteComparison
-        ``routes`` in the order ``direct``, ``shortest``, ``energy_optimal``;
-        ``saving_vs_direct`` is ``(E_direct - E) / E_direct``; ``physics`` the model's
-        critical grade.
+        ``routes`` in the order ``direct``, ``direct_best_yaw``, ``shortest``,
+        ``energy_optimal``; ``saving_vs_direct`` is ``(E_direct - E) / E_direct``;
+        ``physics`` the model's critical grade.
     """
-    from energy_planner.energy import MotionCost
-    from energy_planner.planning.lattice import lattice_plan
-    from energy_planner.planning.limits import check_endpoint, keep_out_violation
-    from energy_planner.planning.plan import _pose, plan
-    from energy_planner.request import Request
+    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.planning.plan import _pose
 
-    request = Request() if request is None else request
-    s = _pose(start, "start")
-    g = _pose(goal, "goal")
-    cost, geoms = _motion_cost(terrain, model, request)
-    check_endpoint(cost, terrain, "start", s, geoms)
-    check_endpoint(cost, terrain, "goal", g, geoms)
-    lim = request.limits
-    budget = min(2.0, max(time / 4, 0.5))
-    cell = abs(float(terrain.grid[2]))
-
-    # direct line
-    d_states = _direct_states(s, g)
-    direct_ok = True
-    try:
-        bad = keep_out_violation(d_states, geoms)
-        if bad is not None:
-            raise EnergyPlannerError(bad)
-        direct = _route("direct", d_states, terrain, model, cost)
-    except EnergyPlannerError as exc:
-        direct_ok = False
-        reason = _direct_reason(cost, d_states, str(exc))
-        free = MotionCost(
-            terrain, model, request.robot.speed, request.robot.yaw_rate,
-            channels=request.channels,
-        )  # fmt: skip
-        try:
-            direct = _route("direct", d_states, terrain, model, free)
-        except EnergyPlannerError:
-            direct = Route("direct", d_states, None, None, None, None, False)
-        direct.feasible = False
-        if direct.max_slope_deg is not None and lim.max_slope_deg is not None:
-            reason += f" (the line reaches {direct.max_slope_deg:.1f} deg)"
-        direct.reason = reason
-
-    # the same line at its cheapest constant body yaw: the gait part of any saving
-    if direct_ok:
-        crab, psi = _best_gait(d_states, cost, s, g)
-        direct_yaw = _route("direct_best_yaw", crab, terrain, model, cost)
-        direct_yaw.body_yaw_deg = round(math.degrees(psi), 1)
-        direct.body_yaw_deg = 0.0
-    else:
-        direct_yaw = Route("direct_best_yaw", None, None, None, None, None, False, direct.reason)
-
-    # the distance-optimal lattice path (same limits), then the energy-optimal plan
-    dist_cost, _ = _motion_cost(terrain, model, request, distance=True)
-    dist_cost.compile()  # before the refinements' time budgets start
-    try:
-        lat_states = lattice_plan(cost, terrain, s, g, step=step, metric="distance").states
-        lat_error = None
-    except EnergyPlannerError as exc:
-        lat_states, lat_error = None, str(exc)
-    info: dict[str, Any] = {"planner": planner}
-    plan_states = None
-    plan_error = None
-    try:
-        res = plan(
-            terrain, model, s, g, planner=planner, time=time, seed=seed, progress=progress,
-            step=step, cost=cost,
-        )  # fmt: skip
-        bad = keep_out_violation(res.states, geoms)
-        if bad is not None:
-            raise EnergyPlannerError(f"the {planner} path enters a keep-out area: {bad}")
-        plan_states = res.states
-        info.update({k: v for k, v in res.info.items() if k != "request"}, time_s=res.time_s)
-    except EnergyPlannerError as exc:
-        plan_error = str(exc)
-
-    # shortest: least ground distance over the refined lattice path, the straight line
-    # and the energy-optimal path refined under the distance cost
-    short = _Candidates(
-        "shortest", terrain, model, cost, geoms, lambda r: r.distance_m, budget, seed,
-        post=lambda st: _face_along(st, s, g),
-    )  # fmt: skip
-    short.offer(lat_states, "distance lattice", dist_cost)
-    if direct_ok:
-        short.offer(d_states, "straight line")
-    short.offer(plan_states, "energy-optimal path", dist_cost)
-
-    # energy-optimal: the plan, and the shortest route / straight line refined under energy
-    best = _Candidates(
-        "energy_optimal", terrain, model, cost, geoms, lambda r: r.energy_j, budget, seed
-    )
-    best.offer(plan_states, f"plan ({planner})", cost)
-    best.offer(plan_states, f"plan ({planner})", cost, gait=(s, g))
-    if short.best is not None:
-        best.offer(short.best.states, "shortest route", cost, gait=(s, g))
-    if direct_ok:
-        best.offer(d_states, "straight line", cost, gait=(s, g))
-    if best.best is not None and not best.origin.startswith("plan"):
-        # the energy refinement of the shortest route can end shorter than it
-        short.offer(best.best.states, "energy-optimal route", dist_cost)
-        if short.best is not None:
-            best.offer(short.best.states, "shortest route")
+    s, g = _pose(start, "start"), _pose(goal, "goal")
+    for which, pose in (("start", s), ("goal", g)):
+        check_endpoint(problem.cost, problem.terrain, which, pose, problem.keep_out)
+    direct, direct_yaw = _direct_routes(problem, s, g)
+    dist = problem.distance()
+    dist.cost.compile()  # before the refinements' time budgets start
+    found = _planned_paths(problem, s, g, planner, time, seed, step, progress)
+    short, best = _refined_routes(problem, dist, s, g, direct, found, min(2.0, max(time / 4, 0.5)),
+                                  seed)  # fmt: skip
+    info = found["info"]
     info["energy_optimal_from"] = best.origin
     info["shortest_from"] = short.origin
-
     routes = [direct, direct_yaw]
-    for cand, err in ((short, lat_error or plan_error), (best, plan_error or lat_error)):
-        if cand.best is None:
-            routes.append(Route(cand.name, None, None, None, None, None, False, err))
-        else:
-            routes.append(cand.best)
-    # a route that is the same path as an earlier one says so
-    for i in range(1, len(routes)):
-        for j in range(i):
-            if routes[i].feasible and routes[j].feasible and _same_path(routes[i], routes[j], cell):
-                routes[i].same_as = routes[j].name
-                break
+    errors = (found["lattice_error"], found["plan_error"])
+    for cand, err in ((short, errors[0] or errors[1]), (best, errors[1] or errors[0])):
+        routes.append(cand.best or Route(cand.name, None, None, None, None, None, False, err))
+    _mark_same_paths(routes, abs(float(problem.terrain.grid[2])))
     if direct.energy_j:
         for r in routes:
             if r.energy_j is not None:
                 r.saving_vs_direct = (direct.energy_j - r.energy_j) / direct.energy_j
-    physics = None
-    try:
-        consts = dict(request.channels.constants) if request.channels is not None else None
-        gc = grade_cost(model, request.robot.speed, constants=consts)
-        physics = gc.to_dict()
-        physics["per_height"] = {
-            r.name: gc.per_height(r.climb_grade) for r in routes if r.climb_grade
-        }
-    except EnergyPlannerError:
-        pass  # the model needs channels that are not given as constants
+    lim = problem.request.limits
     return RouteComparison(
         routes=routes,
         start=s,
@@ -441,11 +321,113 @@ def compare_routes(
             "max_cross_slope_deg": lim.max_cross_slope_deg,
             "max_backward_slope_deg": lim.max_backward_slope_deg,
             "max_crab_deg": lim.max_crab_deg,
-            "keep_out_areas": len(geoms),
+            "keep_out_areas": len(problem.keep_out),
         },
         info=info,
-        physics=physics,
+        physics=_physics(problem, routes),
     )
+
+
+def _direct_routes(problem, s, g) -> tuple[Route, Route]:
+    """The straight line facing the goal, and walked at its cheapest constant body yaw.
+
+    A line that breaks a limit (or enters a keep-out area) is infeasible with the reason;
+    its energy is still given, priced without limits, when it stays on the map.
+    """
+    d_states = _direct_states(s, g)
+    try:
+        direct = _route("direct", d_states, problem)
+    except EnergyPlannerError as exc:
+        reason = _direct_reason(problem.cost, d_states, str(exc))
+        try:
+            direct = _route("direct", d_states, problem.unlimited())
+        except EnergyPlannerError:
+            direct = Route("direct", d_states, None, None, None, None, False)
+        direct.feasible = False
+        if direct.max_slope_deg is not None and problem.request.limits.max_slope_deg is not None:
+            reason += f" (the line reaches {direct.max_slope_deg:.1f} deg)"
+        direct.reason = reason
+        return direct, Route("direct_best_yaw", None, None, None, None, None, False, reason)
+    # the same line at its cheapest constant body yaw: the gait part of any saving
+    crab, psi = _best_gait(d_states, problem.cost, s, g)
+    direct_yaw = _route("direct_best_yaw", crab, problem)
+    direct_yaw.body_yaw_deg = round(math.degrees(psi), 1)
+    direct.body_yaw_deg = 0.0
+    return direct, direct_yaw
+
+
+def _planned_paths(problem, s, g, planner, time, seed, step, progress) -> dict[str, Any]:
+    """The distance-optimal lattice path and the energy-optimal plan, or why not."""
+    from energy_planner.planning.lattice import lattice_plan
+    from energy_planner.planning.plan import plan
+
+    out: dict[str, Any] = {"lattice": None, "lattice_error": None, "plan": None,
+                           "plan_error": None, "info": {"planner": planner}}  # fmt: skip
+    try:
+        out["lattice"] = lattice_plan(problem, s, g, step=step, metric="distance").states
+    except EnergyPlannerError as exc:
+        out["lattice_error"] = str(exc)
+    try:
+        res = plan(problem, s, g, planner=planner, time=time, seed=seed, progress=progress,
+                   step=step)  # fmt: skip
+        out["plan"] = res.states
+        out["info"].update({k: v for k, v in res.info.items() if k != "request"},
+                           time_s=res.time_s)  # fmt: skip
+    except EnergyPlannerError as exc:
+        out["plan_error"] = str(exc)
+    return out
+
+
+def _refined_routes(problem, dist, s, g, direct: Route, found, budget, seed):
+    """The shortest and the energy-optimal routes, each the best of several refinements.
+
+    Shortest: least ground distance over the distance lattice's path, the straight line
+    and the energy-optimal path refined under ``dist``; energy-optimal: the plan, and the
+    shortest route and the straight line refined under the energy (each also walked at
+    its cheapest constant body yaw).
+    """
+    d_states = direct.states if direct.feasible else None
+    plan_states = found["plan"]
+    short = _Candidates("shortest", problem, lambda r: r.distance_m, budget, seed,
+                        post=lambda st: _face_along(st, s, g))  # fmt: skip
+    short.offer(found["lattice"], "distance lattice", dist)
+    short.offer(d_states, "straight line")
+    short.offer(plan_states, "energy-optimal path", dist)
+    best = _Candidates("energy_optimal", problem, lambda r: r.energy_j, budget, seed)
+    name = f"plan ({found['info']['planner']})"
+    best.offer(plan_states, name, problem)
+    best.offer(plan_states, name, problem, gait=(s, g))
+    if short.best is not None:
+        best.offer(short.best.states, "shortest route", problem, gait=(s, g))
+    best.offer(d_states, "straight line", problem, gait=(s, g))
+    if best.best is not None and not best.origin.startswith("plan"):
+        # the energy refinement of the shortest route can end shorter than it
+        short.offer(best.best.states, "energy-optimal route", dist)
+        if short.best is not None:
+            best.offer(short.best.states, "shortest route")
+    return short, best
+
+
+def _mark_same_paths(routes: list[Route], cell: float) -> None:
+    """A route that is the same path as an earlier one says so (``same_as``)."""
+    for i in range(1, len(routes)):
+        for j in range(i):
+            if routes[i].feasible and routes[j].feasible and _same_path(routes[i], routes[j], cell):
+                routes[i].same_as = routes[j].name
+                break
+
+
+def _physics(problem, routes: list[Route]) -> dict[str, Any] | None:
+    """The model's critical grade and each route's cost per metre of height (or None)."""
+    request = problem.request
+    try:
+        consts = dict(request.channels.constants) if request.channels is not None else None
+        gc = grade_cost(problem.model, request.robot.speed, constants=consts)
+    except EnergyPlannerError:
+        return None  # the model needs channels that are not given as constants
+    physics = gc.to_dict()
+    physics["per_height"] = {r.name: gc.per_height(r.climb_grade) for r in routes if r.climb_grade}
+    return physics
 
 
 def _direct_reason(cost, states: np.ndarray, fallback: str) -> str:

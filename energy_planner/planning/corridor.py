@@ -57,6 +57,7 @@ from energy_planner.errors import (
     PlanningError,
     RasterTooLargeError,
 )
+from energy_planner.problem import Problem
 from energy_planner.terrain.memory import DEFAULT_CAP, Cap, resolve_cap
 
 __all__ = [
@@ -338,14 +339,10 @@ def _check_inside(info: RasterInfo, which: str, x: float, y: float) -> None:
     x0, y0, x1, y1 = info.bounds
     if not (x0 <= x <= x1 and y0 <= y <= y1):
         from energy_planner.errors import extent_text
+        from energy_planner.planning.limits import outside_map
 
-        raise InvalidStateError(
-            f"{which} ({x:.2f}, {y:.2f}) is outside DEM {info.path!r}, which covers "
-            f"{extent_text((x0, y0, x1, y1), info.crs)}",
-            endpoint=which,
-            limit="map",
-            value=(x, y),
-        )
+        raise outside_map(which, x, y, f"DEM {info.path!r}, which covers "
+                          f"{extent_text((x0, y0, x1, y1), info.crs)}")  # fmt: skip
 
 
 def _grow(box: Sequence[float], m: float) -> tuple[float, float, float, float]:
@@ -505,15 +502,12 @@ def _widen_to_ellipse(
     return bigger
 
 
-def _cost_and_bound(terrain, model, request, info, n_headings, moves, log, progress):
-    """The first window's compiled motion cost, ``c_min`` and its gradient box."""
-    from energy_planner.planning.limits import make_motion_cost
-
-    cost, _ = make_motion_cost(terrain, model, request)
-    cost.compile()
+def _cost_and_bound(problem, info, n_headings, moves, log, progress):
+    """The first window's motion cost compiled; ``c_min`` and its gradient box."""
+    cost = problem.cost.compile()
     c_min, gbox = _bound(cost, info, n_headings, moves, log, progress)
     log(f"least energy per metre anywhere on the DEM: c_min = {c_min:.2f} J/m")
-    return cost, c_min, gbox
+    return c_min, gbox
 
 
 def _keep_last_path(exc: PlanningError, have_path: bool, log: _Log) -> bool:
@@ -634,11 +628,10 @@ def plan_in_corridor(
     for attempt in range(4):
         t0 = time.perf_counter()
         terrain = load_dem(info.path, band=info.band, bounds=window)
+        problem = Problem(terrain, model, request)
         kw = dict(plan_kwargs)
-        if c_min is None:  # this window's cost: plan() need not build it again
-            kw["cost"], c_min, gbox = _cost_and_bound(
-                terrain, model, request, info, n_headings, moves, log, progress
-            )
+        if c_min is None:  # the first window's cost bounds every window
+            c_min, gbox = _cost_and_bound(problem, info, n_headings, moves, log, progress)
         log(
             f"window {attempt + 1}: x {window[0]:.1f}..{window[2]:.1f}, "
             f"y {window[1]:.1f}..{window[3]:.1f} ({terrain.shape[0]} x {terrain.shape[1]} cells)"
@@ -650,7 +643,7 @@ def plan_in_corridor(
                 log("the time budget ran out: keeping the last window's path")
                 break
         try:
-            res = plan(terrain, model, start, goal, request, progress=progress, **kw)
+            res = plan(problem, start, goal, progress=progress, **kw)
         except PlanningError as exc:
             if _keep_last_path(exc, best is not None, log):
                 break
@@ -738,19 +731,16 @@ def reach_in_window(
         The window the budget needs passes the memory cap (the message gives the budget
         that would fit).
     """
-    from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.reach import reach
-    from energy_planner.request import Request
     from energy_planner.terrain import load_dem
 
-    request = Request() if request is None else request
     info = raster_info(dem, band)
     cap, max_cells = _window_cells(cap)
     log = _Log(progress)
     sx, sy = float(start[0]), float(start[1])
     _check_inside(info, "start", sx, sy)
     probe = info.snap(_grow((sx, sy, sx, sy), 8 * info.cell))
-    cost, _ = make_motion_cost(load_dem(info.path, band=info.band, bounds=probe), model, request)
+    cost = Problem(load_dem(info.path, band=info.band, bounds=probe), model, request).cost
     cost.compile()
     n_headings = int(reach_kwargs.get("n_headings", 16))
     c_min, gbox = _bound(cost, info, n_headings, "all", log, progress)
@@ -780,8 +770,8 @@ def reach_in_window(
             "YRES -r average), or raise ENERGY_PLANNER_MEMORY_CAP",
         )  # fmt: skip
     terrain = load_dem(info.path, band=info.band, bounds=window)
-    res = reach(terrain, model, start, request, round_trip=round_trip, progress=progress,
-                max_energy=budget_j, **reach_kwargs)  # fmt: skip
+    res = reach(Problem(terrain, model, request), start, round_trip=round_trip,
+                progress=progress, max_energy=budget_j, **reach_kwargs)  # fmt: skip
     above = ~(res.energy_j <= budget_j)
     res.energy_j[above] = np.nan
     res.info["window"] = {

@@ -55,6 +55,7 @@ from energy_planner.planning.moves import (
     move_table,
     terrain_extent,
 )
+from energy_planner.problem import takes_problem
 
 __all__ = [
     "LatticeGraph",
@@ -336,13 +337,10 @@ def _endpoint_nodes(lat: LatticeGraph, x: float, y: float, yaw, which: str) -> n
     i = int(round((x - xs[0]) / step))
     j = int(round((y - ys[0]) / step))
     if not (0 <= i < nx and 0 <= j < ny):
-        raise InvalidStateError(
-            f"{which} ({x:.2f}, {y:.2f}) is outside the map (lattice x {xs[0]:.2f}.."
-            f"{xs[-1]:.2f}, y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)",
-            endpoint=which,
-            limit="map",
-            value=(x, y),
-        )
+        from energy_planner.planning.limits import outside_map
+
+        raise outside_map(which, x, y, f"the map (lattice x {xs[0]:.2f}..{xs[-1]:.2f}, "
+                          f"y {ys[0]:.2f}..{ys[-1]:.2f} in the working CRS)")  # fmt: skip
     p = j * nx + i
     if yaw is None:
         hs = np.nonzero(lat.valid[p])[0]
@@ -371,9 +369,9 @@ def _node_chain(pred: np.ndarray, best: int, sources: np.ndarray) -> np.ndarray:
     return np.array(chain)
 
 
+@takes_problem(2)
 def lattice_plan(
-    cost,
-    terrain,
+    problem,
     start: tuple[float, float, float | None],
     goal: tuple[float, float, float | None],
     *,
@@ -386,10 +384,10 @@ def lattice_plan(
 
     Parameters
     ----------
-    cost : MotionCost
-        Motion cost (its ``batch`` prices every edge; limits make edges infinite).
-    terrain : Terrain
-        The map; the lattice covers its extent.
+    problem : Problem
+        Terrain (the lattice covers its extent) and motion cost (``problem.cost.batch``
+        prices every edge; limits make edges infinite), :class:`energy_planner.problem.Problem`;
+        the older form ``lattice_plan(cost, terrain, start, goal, ...)`` is accepted.
     start, goal : tuple
         ``(x, y, yaw)`` in the working CRS, yaw in radians or ``None`` (free: the search
         picks the best lattice heading).
@@ -421,6 +419,7 @@ def lattice_plan(
     from scipy.sparse.csgraph import dijkstra
 
     _check_options(metric, moves, n_headings)
+    cost, terrain = problem.cost, problem.terrain
     t0 = time.perf_counter()
     step = float(step) if step is not None else default_step(terrain)
     lat = lattice_graph(cost, terrain, (start[0], start[1]), step, int(n_headings), moves, metric)

@@ -31,15 +31,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from energy_planner.angles import wrap
-from energy_planner.energy.kernels import IN_BLOCKED
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
+from energy_planner.problem import takes_problem
 
 __all__ = ["PlanResult", "plan", "PLANNERS", "RUNNERS", "DEFAULT_EPS"]
 
@@ -383,61 +382,11 @@ def _with_exact_goal(states: np.ndarray, goal) -> np.ndarray:
 DEFAULT_EPS = 1.05
 
 
-def _request_for(request, cost):
-    """The request to plan with: ``request``, or one derived from ``cost``.
-
-    Never both disagreeing (``cost=`` used to override speed and limits silently).
-    """
-    from energy_planner.request import Request
-
-    if cost is None:
-        return request if request is not None else Request()
-    derived = getattr(cost, "request", None)
-    if derived is None:
-        derived = Request.make(
-            speed=cost.speed,
-            yaw_rate=cost.yaw_rate,
-            max_slope_deg=cost.max_slope_deg,
-            max_cross_slope_deg=cost.max_cross_slope_deg,
-            max_backward_slope_deg=getattr(cost, "max_backward_slope_deg", None),
-            max_crab_deg=getattr(cost, "max_crab_deg", None),
-        )
-    if request is None:
-        return derived
-    pairs = [
-        ("speed", request.robot.speed, cost.speed),
-        ("yaw_rate", request.robot.yaw_rate, cost.yaw_rate),
-        ("max_slope_deg", request.limits.max_slope_deg, cost.max_slope_deg),
-        ("max_cross_slope_deg", request.limits.max_cross_slope_deg, cost.max_cross_slope_deg),
-        ("max_backward_slope_deg", request.limits.max_backward_slope_deg,
-         getattr(cost, "max_backward_slope_deg", None)),
-        ("max_crab_deg", request.limits.max_crab_deg, getattr(cost, "max_crab_deg", None)),
-    ]  # fmt: skip
-    for name, want, have in pairs:
-        same = want == have or (want is not None and have is not None and math.isclose(want, have))
-        if not same:
-            raise PlanningConfigError(
-                f"cost= was built with {name}={have!r} but request= asks for {name}={want!r}; "
-                "give one of them (build the cost with make_motion_cost(terrain, model, request))",
-                param=name,
-                value=want,
-                expected=f"{name}={have!r} as in cost=",
-            )
-    if request.limits.keep_out is not None and cost.data[IN_BLOCKED].size == 0:
-        raise PlanningConfigError(
-            "request= has keep-out areas but cost= was built without them; build the cost "
-            "with make_motion_cost(terrain, model, request)",
-            param="keep_out",
-        )
-    return request
-
-
 @dataclass
 class _Run:
     """What a planner runner needs (:data:`RUNNERS`); ``info`` collects what it reports."""
 
-    cost: Any
-    terrain: Any
+    problem: Any
     start: tuple
     goal: tuple
     planner: str
@@ -453,13 +402,23 @@ class _Run:
     progress: bool
     ctg: Any = None
 
+    @property
+    def cost(self):
+        """The problem's motion cost (every limit in it)."""
+        return self.problem.cost
+
+    @property
+    def terrain(self):
+        """The problem's terrain."""
+        return self.problem.terrain
+
 
 def _run_search(r: _Run) -> np.ndarray:
     """``search``: A* at the DEM's resolution; ``auto``: then the refinement."""
     from energy_planner.planning.search import search_plan
 
     sr = search_plan(
-        r.cost, r.terrain, r.start, r.goal, step=r.step, n_headings=r.n_headings,
+        r.problem, r.start, r.goal, step=r.step, n_headings=r.n_headings,
         moves=r.moves, eps=r.eps, progress=r.progress, time_budget=r.budget,
     )  # fmt: skip
     r.info["search"] = {
@@ -502,7 +461,7 @@ def _run_lattice(r: _Run) -> np.ndarray:
     from energy_planner.planning.lattice import lattice_plan
 
     lat = lattice_plan(
-        r.cost, r.terrain, r.start, r.goal, step=r.step, n_headings=r.n_headings, moves=r.moves
+        r.problem, r.start, r.goal, step=r.step, n_headings=r.n_headings, moves=r.moves
     )
     r.info["lattice"] = {
         "step_m": lat.step,
@@ -537,12 +496,11 @@ RUNNERS: dict[str, Callable[[_Run], np.ndarray]] = {
 assert tuple(RUNNERS) == PLANNERS, "planning.PLANNERS and plan.RUNNERS name the same planners"
 
 
+@takes_problem(2)
 def plan(
-    terrain,
-    model,
+    problem,
     start: Sequence[float],
     goal: Sequence[float],
-    request=None,
     *,
     planner: str = "auto",
     time: float | None = None,
@@ -554,22 +512,20 @@ def plan(
     eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[Any], None] | None = None,
-    cost: Any = None,
 ) -> PlanResult:
     """Plan an energy-minimal SE(2) path.
 
     Parameters
     ----------
-    terrain : Terrain
-        The map.
-    model : EnergyModel
-        A fitted energy model.
+    problem : Problem
+        Terrain, model and request (robot, limits, keep-outs, channels) bound once
+        (:class:`energy_planner.problem.Problem`); every planner prices with its
+        :attr:`~energy_planner.problem.Problem.cost`. The older form ``plan(terrain,
+        model, start, goal, request=None, ..., cost=None)`` is accepted
+        (:func:`energy_planner.problem.takes_problem`).
     start, goal : sequence of float
         ``(x, y)`` or ``(x, y, yaw)`` in the working CRS (metres; yaw radians CCW from
         +x). Without a yaw the planner chooses the best one.
-    request : Request, optional
-        Robot speed and yaw rate, slope limits, keep-out areas, channels
-        (:class:`energy_planner.request.Request`; default ``Request()``).
     planner : str
         One of :data:`energy_planner.planning.PLANNERS`.
     time : float, optional
@@ -603,11 +559,6 @@ def plan(
         ``callback(event)`` with a :class:`energy_planner.progress.ProgressEvent` at every
         report of the anytime planners (``event.value``: the best energy so far, J;
         ``event.elapsed``: seconds), as every progress callback of the library.
-    cost : MotionCost, optional
-        A prepared motion cost (from
-        :func:`~energy_planner.planning.limits.make_motion_cost`). Its speed and limits
-        define the request; a ``request`` that disagrees raises
-        :class:`PlanningConfigError`.
 
     Returns
     -------
@@ -618,20 +569,12 @@ def plan(
     InvalidStateError
         If the start or goal breaks a limit (fields ``endpoint``, ``limit``, ``value``).
     PlanningConfigError
-        Unknown planner, bad parameters, invalid keep-out polygons, ``cost`` and
-        ``request`` disagreeing.
+        Unknown planner, bad parameters, invalid keep-out polygons (older form:
+        ``cost`` and ``request`` disagreeing).
     PlanningError
         No feasible path, or the budget ran out (field ``limit="time"``).
     """
-    from energy_planner.energy import path_energy
-    from energy_planner.planning.limits import (
-        check_endpoint,
-        check_valid_geometries,
-        keep_out_violation,
-        load_keep_out,
-        make_motion_cost,
-        to_work_geometries,
-    )
+    from energy_planner.planning.limits import check_endpoint, keep_out_violation
 
     if planner not in PLANNERS:
         raise PlanningConfigError(
@@ -646,36 +589,14 @@ def plan(
     eps = DEFAULT_EPS if eps is None else float(eps)
     start_p = _pose(start, "start")
     goal_p = _pose(goal, "goal")
-    request = _request_for(request, cost)
-    geoms: list[Any] = []
-    if cost is None:
-        cost, geoms = make_motion_cost(terrain, model, request)
-    elif request.limits.keep_out is not None:
-        ko = request.limits.keep_out
-        raw = load_keep_out(ko) if isinstance(ko, str | Path) else ko
-        if not isinstance(ko, str | Path):
-            check_valid_geometries(raw)
-        geoms = to_work_geometries(raw, terrain)
+    terrain, cost, geoms = problem.terrain, problem.cost, problem.keep_out
     check_endpoint(cost, terrain, "start", start_p, geoms)
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
 
     if math.hypot(goal_p[0] - start_p[0], goal_p[1] - start_p[1]) <= 1e-9:
-        return _stay(terrain, model, cost, start_p, goal_p, planner, seed)
+        return _stay(problem, start_p, goal_p, planner, seed)
 
-    # compile the kernels before the clock starts (numba compiles on first call)
-    cost.compile()
-    warm = _cost_fn(cost)
-    warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
-    if planner in ("auto", "search"):
-        from energy_planner.planning.search import search_module
-
-        search_module(cost)
-    ctg = None
-    if planner == "bitstar" and OMPL_COST_TO_GO:
-        from energy_planner.planning.objective import CostToGo
-
-        # prepared before the clock starts, like the kernels (its time is in the info)
-        ctg = CostToGo(cost, terrain, goal_p[:2])
+    ctg = _warm_up(problem, planner, start_p, goal_p)
     budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
     prog = _Progress(
         budget if math.isfinite(budget) else 0.0,
@@ -683,8 +604,8 @@ def plan(
         callback,
         f"plan ({planner})",
     )
-    info: dict[str, Any] = {"request": request}
-    run = _Run(cost, terrain, start_p, goal_p, planner, budget, seed, iterations, prog, info,
+    info: dict[str, Any] = {"request": problem.request}
+    run = _Run(problem, start_p, goal_p, planner, budget, seed, iterations, prog, info,
                step, n_headings, moves, eps, progress, ctg)  # fmt: skip
     try:
         states = RUNNERS[planner](run)
@@ -696,29 +617,50 @@ def plan(
     bad = keep_out_violation(states, geoms)
     if bad is not None:
         raise PlanningError(f"the {planner} path enters a keep-out area: {bad}", limit="keep_out")
-    try:
-        pe = path_energy(terrain, model, states[:, :2], yaw=states[:, 2], cost=cost)
-    except EnergyPlannerError as exc:
-        raise PlanningError(f"the {planner} path is not feasible: {exc}") from exc
-    return PlanResult(
-        states=states,
-        energy_j=pe.energy_j,
-        distance_m=pe.distance_m,
-        duration_s=pe.duration_s,
-        planner=planner,
-        history=prog.history,
-        time_s=prog.elapsed(),
-        seed=seed,
-        info=info,
-    )
+    return _priced(problem, states, f"the {planner} path is not feasible", planner=planner,
+                   history=prog.history, time_s=prog.elapsed(), seed=seed, info=info)  # fmt: skip
 
 
-def _stay(terrain, model, cost, start_p, goal_p, planner: str, seed: int) -> PlanResult:
-    """Start and goal at the same position: stay, turning in place if both yaws are given."""
-    from energy_planner.angles import wrap
+def _warm_up(problem, planner: str, start_p, goal_p):
+    """Compile the kernels before the clock starts (numba compiles on first call).
+
+    Returns BIT*'s cost-to-go (:data:`OMPL_COST_TO_GO`), prepared before the clock too
+    (its time is in the info), or None.
+    """
+    cost = problem.cost.compile()
+    warm = _cost_fn(cost)
+    warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
+    if planner in ("auto", "search"):
+        from energy_planner.planning.search import search_module
+
+        search_module(cost)
+    if planner == "bitstar" and OMPL_COST_TO_GO:
+        from energy_planner.planning.objective import CostToGo
+
+        return CostToGo(cost, problem.terrain, goal_p[:2])
+    return None
+
+
+def _priced(problem, states: np.ndarray, what: str, **fields: Any) -> PlanResult:
+    """``states`` priced by :func:`energy_planner.energy.path_energy` with the problem's cost.
+
+    A motion that breaks a limit raises :class:`PlanningError` starting with ``what``.
+    """
     from energy_planner.energy import path_energy
 
+    try:
+        pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
+                         cost=problem.cost)  # fmt: skip
+    except EnergyPlannerError as exc:
+        raise PlanningError(f"{what}: {exc}") from exc
+    return PlanResult(states=states, energy_j=pe.energy_j, distance_m=pe.distance_m,
+                      duration_s=pe.duration_s, **fields)  # fmt: skip
+
+
+def _stay(problem, start_p, goal_p, planner: str, seed: int) -> PlanResult:
+    """Start and goal at the same position: stay, turning in place if both yaws are given."""
     x, y = start_p[0], start_p[1]
+    cost = problem.cost
     if start_p[2] is not None:
         y0 = float(wrap(start_p[2]))
     elif goal_p[2] is not None:
@@ -731,19 +673,9 @@ def _stay(terrain, model, cost, start_p, goal_p, planner: str, seed: int) -> Pla
         )  # fmt: skip
     y1 = float(wrap(goal_p[2])) if goal_p[2] is not None else y0
     states = np.array([[x, y, y0], [x, y, y1]])
-    try:
-        pe = path_energy(terrain, model, states[:, :2], yaw=states[:, 2], cost=cost)
-    except EnergyPlannerError as exc:
-        raise PlanningError(f"turning in place at the start is not feasible: {exc}") from exc
-    return PlanResult(
-        states=states,
-        energy_j=pe.energy_j,
-        distance_m=pe.distance_m,
-        duration_s=pe.duration_s,
-        planner=planner,
-        seed=seed,
-        info={"trivial": "start and goal are the same position"},
-    )
+    return _priced(problem, states, "turning in place at the start is not feasible",
+                   planner=planner, seed=seed,
+                   info={"trivial": "start and goal are the same position"})  # fmt: skip
 
 
 def _cost_fn(cost):

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import InvalidStateError, PlanningError, ReachEdgeWarning
+from energy_planner.problem import takes_problem
 
 __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 
@@ -54,9 +55,9 @@ __all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
 NODATA = float("nan")  # the project's one raster nodata (energy_planner.io)
 
 
+@takes_problem(1)
 def least_energy(
-    cost,
-    terrain,
+    problem,
     start_xy: tuple[float, float],
     *,
     step: float,
@@ -69,7 +70,9 @@ def least_energy(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """Least energy from ``start_xy`` (any initial heading) to every search position.
 
-    The one boundary between :func:`reach` and the search. One way: the planner's own
+    The one boundary between :func:`reach` and the search (priced by ``problem.cost``,
+    :class:`~energy_planner.problem.Problem`; the older form ``least_energy(cost,
+    terrain, start_xy, ...)`` is accepted). One way: the planner's own
     full-resolution search without a goal
     (:func:`energy_planner.planning.search.reach_search`). Round trip: the lattice graph
     with the same move set ``moves`` and edge costs, searched forwards and backwards
@@ -88,6 +91,7 @@ def least_energy(
     search : str
         Which search produced it.
     """
+    cost, terrain = problem.cost, problem.terrain
     if not round_trip:
         from energy_planner.planning.search import reach_search
 
@@ -372,11 +376,10 @@ class ReachMap:
         return path
 
 
+@takes_problem(1)
 def reach(
-    terrain,
-    model,
+    problem,
     start: Sequence[float],
-    request=None,
     *,
     round_trip: bool = False,
     turn_at_cell: bool = True,
@@ -388,14 +391,12 @@ def reach(
 
     Parameters
     ----------
-    terrain : Terrain
-        The map; the result is on its working grid.
-    model : EnergyModel
-        A fitted model.
+    problem : Problem
+        Terrain (the result is on its working grid), model and request (robot, limits,
+        channels) bound once (:class:`energy_planner.problem.Problem`; the older form
+        ``reach(terrain, model, start, request=None, ...)`` is accepted).
     start : sequence of float
         ``(x, y)`` in the working CRS; moved to the centre of its cell.
-    request : Request, optional
-        Robot, limits and channels (default :class:`energy_planner.request.Request()`).
     round_trip : bool
         Cost of going to each cell and back to the start.
     turn_at_cell : bool
@@ -427,12 +428,10 @@ def reach(
         With ``max_energy``: cells reached within it touch the edge of the map or of its
         nodata, so the area within the budget is cut there (:meth:`ReachMap.edge_cells`).
     """
-    from energy_planner.planning.compare import _motion_cost
     from energy_planner.planning.limits import check_endpoint, fmt_xy
     from energy_planner.planning.plan import _pose
-    from energy_planner.request import Request
 
-    request = Request() if request is None else request
+    terrain = problem.terrain
     sx, sy, _ = _pose(start, "start")
     x0, y0, dx, dy = terrain.grid
     rows, cols = terrain.shape
@@ -450,15 +449,15 @@ def reach(
             endpoint="start", value=(sx, sy), limit="map", bounds=sb, crs=str(terrain.source_crs),
         )  # fmt: skip
     s = (x0 + c * dx, y0 + r * dy)
-    cost, geoms = _motion_cost(terrain, model, request)
-    check_endpoint(cost, terrain, "start", (s[0], s[1], None), geoms)
+    cost = problem.cost
+    check_endpoint(cost, terrain, "start", (s[0], s[1], None), problem.keep_out)
     cost.compile()
     t0 = time.perf_counter()
     step = abs(float(dx))
     if abs(abs(dy) - step) > 1e-9 * step:
         raise PlanningError(f"reach needs square cells; the working grid has {dx} x {-dy} m")
     xs, ys, grid, search = least_energy(
-        cost, terrain, s, step=step, n_headings=n_headings, round_trip=round_trip,
+        problem, s, step=step, n_headings=n_headings, round_trip=round_trip,
         turn_at_cell=turn_at_cell, progress=progress,
         max_energy=math.inf if max_energy is None else float(max_energy),
     )  # fmt: skip

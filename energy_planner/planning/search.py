@@ -48,6 +48,7 @@ from energy_planner.angles import wrap
 from energy_planner.energy.kernels import IN_DY, IN_GRAD, IN_X0
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
+from energy_planner.problem import takes_problem
 
 __all__ = [
     "SearchResult",
@@ -509,9 +510,9 @@ def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *
     return status, int(out[0]), g, code, expanded, priced
 
 
+@takes_problem(2)
 def search_plan(
-    cost,
-    terrain,
+    problem,
     start: tuple[float, float, float | None],
     goal: tuple[float, float, float | None],
     *,
@@ -526,10 +527,10 @@ def search_plan(
 
     Parameters
     ----------
-    cost : MotionCost
-        Prices every edge (limits make edges infinite).
-    terrain : Terrain
-        The map; positions cover its extent.
+    problem : Problem
+        Terrain (positions cover its extent) and motion cost (``problem.cost`` prices
+        every edge; limits make edges infinite), :class:`energy_planner.problem.Problem`;
+        the older form ``search_plan(cost, terrain, start, goal, ...)`` is accepted.
     start, goal : tuple
         ``(x, y, yaw)`` in the working CRS, yaw in radians or ``None`` (free).
     step : float, optional
@@ -562,6 +563,7 @@ def search_plan(
     """
     if not (eps >= 1.0 and math.isfinite(eps)):
         raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
+    cost, terrain = problem.cost, problem.terrain
     t0 = time.perf_counter()
     deadline = t0 + time_budget
     grid = _Grid(cost, terrain, (start[0], start[1]), step, n_headings, moves)

@@ -1,0 +1,305 @@
+"""One planning problem: terrain, model and request bound once, below every planner.
+
+A :class:`Problem` binds a :class:`~energy_planner.terrain.Terrain`, an
+:class:`~energy_planner.model.EnergyModel` and a :class:`~energy_planner.request.Request`
+(robot speed and yaw rate, slope and gait limits, keep-out areas, channels) and derives,
+once, what every planner and product needs from them:
+
+* :attr:`Problem.keep_out`: the keep-out polygons on the working grid
+  (:mod:`energy_planner.keepout`), and :attr:`Problem.blocked` their raster;
+* :attr:`Problem.cost`: the one :class:`~energy_planner.energy.MotionCost` with every
+  limit in its kernel (slope, cross-slope, keep-out mask, gait), so a path planned under
+  it never enters a keep-out area or breaks a limit.
+
+Every planner (``plan`` with the search, the lattice or OMPL) and every product
+(``compare_routes``, ``reach``, ``energy_map``, ``energy_matrix``, ``mission``) takes a
+Problem as its first argument; data flows one way, from here into planning. Variants
+(:meth:`Problem.distance`, :meth:`Problem.unlimited`, :meth:`Problem.gait_only`) are
+Problems too, so that a cost is never assembled by hand elsewhere.
+
+This module imports only the terrain, model, energy, keep-out and request layers.
+
+Examples
+--------
+>>> import numpy as np
+>>> from energy_planner.terrain import Terrain
+>>> t = Terrain.from_array(np.zeros((10, 10)), resolution=1.0)
+>>> p = Problem(t)
+>>> p.cost is p.cost, round(p.cost(1.5, 1.5, 0.0, 4.5, 1.5, 0.0), 1) > 0
+(True, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import PlanningConfigError
+from energy_planner.request import Limits, Request
+
+__all__ = ["Problem", "takes_problem"]
+
+
+def _load_model(model: Any):
+    from energy_planner.model import EnergyModel
+
+    if model is None:
+        return EnergyModel.default()
+    if isinstance(model, str | Path):
+        return EnergyModel.load(model)
+    return model
+
+
+@dataclass
+class Problem:
+    """A terrain, a model and a planning request, bound once for every planner and product.
+
+    Attributes
+    ----------
+    terrain : Terrain
+        The map (working grid).
+    model : EnergyModel
+        Default: the bundled model; a path is loaded.
+    request : Request
+        Robot speed and yaw rate, slope and gait limits, keep-outs, channels
+        (default ``Request()``).
+    """
+
+    terrain: Any
+    model: Any = None
+    request: Any = None
+    _cost: Any = field(default=None, init=False, repr=False, compare=False)
+    _keep_out: Any = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        self.model = _load_model(self.model)
+        if self.request is None:
+            self.request = Request()
+        elif not isinstance(self.request, Request):
+            raise PlanningConfigError(
+                f"request must be an energy_planner.request.Request, got "
+                f"{type(self.request).__name__}",
+                param="request",
+                value=self.request,
+            )
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the compiled cost (a dask worker builds its own)."""
+        return {**self.__dict__, "_cost": None}
+
+    @classmethod
+    def from_dem(
+        cls, dem: str | Path, model: Any = None, *, band: int | None = None, **request: Any
+    ) -> Problem:
+        """Open ``dem`` (any CRS) and bind it to ``model`` and a request.
+
+        ``request`` keywords go to :meth:`Request.make` (``speed``, ``yaw_rate``,
+        ``max_slope_deg``, ``max_cross_slope_deg``, ``keep_out``, ``channels``, gait
+        limits).
+        """
+        from energy_planner.terrain import load_dem
+
+        return cls(load_dem(dem, band=band), model, Request.make(**request))
+
+    @classmethod
+    def of_cost(cls, cost: Any, request: Request | None = None) -> Problem:
+        """The Problem a prepared motion cost was built for, bound to that cost.
+
+        ``request``, when given, must agree with the cost's speed, yaw rate and limits
+        (a :class:`PlanningConfigError` naming the first that differs otherwise).
+        """
+        derived = getattr(cost, "request", None)
+        if derived is None:
+            derived = Request.make(
+                speed=cost.speed, yaw_rate=cost.yaw_rate, max_slope_deg=cost.max_slope_deg,
+                max_cross_slope_deg=cost.max_cross_slope_deg,
+                max_backward_slope_deg=getattr(cost, "max_backward_slope_deg", None),
+                max_crab_deg=getattr(cost, "max_crab_deg", None),
+                channels=getattr(cost, "channels", None),
+            )  # fmt: skip
+        if request is not None:
+            _check_agrees(request, cost)
+        p = cls(cost.terrain, cost.model, request if request is not None else derived)
+        p._cost = cost
+        return p
+
+    @property
+    def keep_out(self) -> list[Any]:
+        """The request's keep-out polygons in the working CRS (read once; [] without)."""
+        if self._keep_out is None:
+            from energy_planner.keepout import keep_out_geometries
+
+            self._keep_out = keep_out_geometries(self.request.limits.keep_out, self.terrain)
+        return self._keep_out
+
+    @property
+    def blocked(self) -> np.ndarray | None:
+        """Cells the keep-out areas block (the cost kernel's mask), None without any."""
+        from energy_planner.keepout import rasterize_keep_out
+
+        return rasterize_keep_out(self.keep_out, self.terrain) if self.keep_out else None
+
+    @property
+    def cost(self):
+        """The motion cost of this terrain, model and request, with every limit (built once)."""
+        if self._cost is None:
+            from energy_planner.energy import MotionCost
+
+            lim, robot = self.request.limits, self.request.robot
+            kwargs: dict[str, Any] = {}
+            if self.request.channels is not None:
+                kwargs["channels"] = self.request.channels
+            cost = MotionCost(
+                self.terrain,
+                self.model,
+                speed=robot.speed,
+                yaw_rate=robot.yaw_rate,
+                max_slope_deg=lim.max_slope_deg,
+                max_cross_slope_deg=lim.max_cross_slope_deg,
+                max_backward_slope_deg=lim.max_backward_slope_deg,
+                max_crab_deg=lim.max_crab_deg,
+                blocked=self.blocked,
+                **kwargs,
+            )
+            cost.request = self.request
+            self._cost = cost
+        return self._cost
+
+    def replace(self, *, model: Any = None, request: Request | None = None) -> Problem:
+        """The same terrain with another model and/or request (keep-outs kept if unchanged)."""
+        p = Problem(self.terrain, self.model if model is None else model,
+                    self.request if request is None else request)  # fmt: skip
+        if p.request.limits.keep_out is self.request.limits.keep_out:
+            p._keep_out = self._keep_out
+        return p
+
+    def distance(self) -> Problem:
+        """The same problem with the ground distance as its energy, under the same limits.
+
+        The model's power is the speed (1 J per metre walked along the ground); it reads
+        no channel, so the request's channels are dropped.
+        """
+        from energy_planner.model import EnergyModel
+
+        return self.replace(
+            model=EnergyModel(["speed"], {"speed": 1.0}),
+            request=dataclasses.replace(self.request, channels=None),
+        )
+
+    def unlimited(self) -> Problem:
+        """The same problem without any limit (to price a path that breaks one)."""
+        return self.replace(request=dataclasses.replace(self.request, limits=Limits()))
+
+    def gait_only(self) -> Problem:
+        """The same problem with only its gait limits (what pricing given points holds)."""
+        lim = self.request.limits
+        gait = Limits(max_backward_slope_deg=lim.max_backward_slope_deg,
+                      max_crab_deg=lim.max_crab_deg)  # fmt: skip
+        return self.replace(request=dataclasses.replace(self.request, limits=gait))
+
+    def to_work(self, points: Any, crs: Any = None) -> np.ndarray:
+        """Points ``(x, y[, yaw])`` in the DEM's CRS (or ``crs``) -> working CRS."""
+        arr = np.atleast_2d(np.asarray(points, dtype=float))
+        if crs is not None:
+            from energy_planner.io import reproject_xy
+
+            x, y = reproject_xy(crs, self.terrain.crs, arr[:, 0], arr[:, 1])
+        else:
+            x, y = self.terrain.to_work(arr[:, 0], arr[:, 1])
+        out = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
+        return np.column_stack([out, arr[:, 2]]) if arr.shape[1] > 2 else out
+
+    def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None):
+        """Energy of walking the given points (:func:`energy_planner.energy.path_energy`).
+
+        The request's gait limits hold (:meth:`gait_only`), as ``energy --max-crab``
+        does: a segment that breaks one is an error naming it.
+        """
+        from energy_planner.energy import path_energy
+
+        xy = self.to_work(points, crs)[:, :2]
+        return path_energy(self.terrain, self.model, xy, yaw=yaw, t=t,
+                           cost=self.gait_only().cost)  # fmt: skip
+
+
+def _check_agrees(request: Request, cost: Any) -> None:
+    """Raise :class:`PlanningConfigError` if ``cost`` was built for another request."""
+    pairs = [
+        ("speed", request.robot.speed, cost.speed),
+        ("yaw_rate", request.robot.yaw_rate, cost.yaw_rate),
+        ("max_slope_deg", request.limits.max_slope_deg, cost.max_slope_deg),
+        ("max_cross_slope_deg", request.limits.max_cross_slope_deg, cost.max_cross_slope_deg),
+        ("max_backward_slope_deg", request.limits.max_backward_slope_deg,
+         getattr(cost, "max_backward_slope_deg", None)),
+        ("max_crab_deg", request.limits.max_crab_deg, getattr(cost, "max_crab_deg", None)),
+    ]  # fmt: skip
+    for name, want, have in pairs:
+        same = want == have or (want is not None and have is not None and math.isclose(want, have))
+        if not same:
+            raise PlanningConfigError(
+                f"cost= was built with {name}={have!r} but request= asks for {name}={want!r}; "
+                "give one of them (or a Problem(terrain, model, request))",
+                param=name,
+                value=want,
+                expected=f"{name}={have!r} as in cost=",
+            )
+    from energy_planner.energy.kernels import IN_BLOCKED
+
+    if request.limits.keep_out is not None and cost.data[IN_BLOCKED].size == 0:
+        raise PlanningConfigError(
+            "request= has keep-out areas but cost= was built without them; give a "
+            "Problem(terrain, model, request)",
+            param="keep_out",
+        )
+
+
+def takes_problem(n_args: int) -> Callable:
+    """Let ``fn(problem, *args, **kw)`` also be called in the older forms.
+
+    ``fn(terrain, model, *args, request=None, **kw)``: ``request`` positional right after
+    the ``n_args`` arguments or as a keyword; a prepared motion cost may come as
+    ``cost=``. ``fn(cost, terrain, *args, **kw)``: a prepared
+    :class:`~energy_planner.energy.MotionCost` and its terrain (the lower-level planners'
+    form). Both become one :class:`Problem`; nothing else changes.
+    """
+
+    def deco(fn: Callable) -> Callable:
+        @functools.wraps(fn)
+        def wrapper(first: Any, *args: Any, **kwargs: Any) -> Any:
+            if not isinstance(first, Problem):
+                first, args, kwargs = _bind(first, args, kwargs, n_args)
+            return fn(first, *args, **kwargs)
+
+        return wrapper
+
+    return deco
+
+
+def _bind(first: Any, args: tuple, kwargs: dict, n_args: int) -> tuple[Problem, tuple, dict]:
+    """The :class:`Problem` of an older call form (see :func:`takes_problem`)."""
+    if hasattr(first, "kernel") and hasattr(first, "data"):  # (cost, terrain, ...)
+        if args and args[0] is not first.terrain:
+            raise PlanningConfigError("cost= and terrain= are for different terrains",
+                                      param="terrain")  # fmt: skip
+        return Problem.of_cost(first), args[1:], kwargs
+    if not args:
+        raise TypeError("give a Problem, or a terrain and a model")
+    model, rest = args[0], list(args[1:])
+    request = kwargs.pop("request", None)
+    if len(rest) > n_args:
+        if request is not None:
+            raise TypeError("request given twice (positional and request=)")
+        request = rest.pop(n_args)
+    cost = kwargs.pop("cost", None)
+    if cost is not None:
+        problem = Problem.of_cost(cost, request)
+    else:
+        problem = Problem(first, model, request)
+    return problem, tuple(rest), kwargs
