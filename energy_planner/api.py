@@ -177,11 +177,19 @@ class Problem:
 
         return _mission(self.terrain, self.model, sites, self.request, **kwargs)
 
-    def interval(self, energy_j: float, level: float = 0.9):
-        """The model's prediction interval of an energy (None if it carries none)."""
+    def interval(
+        self, energy_j: float, level: float = 0.9, *, duration_s: float | None = None,
+        outside_share: float = 0.0,
+    ):  # fmt: skip
+        """The model's prediction interval of an energy (None if it carries none).
+
+        ``duration_s`` (the path's) and ``outside_share`` (of it outside the calibration's
+        domain) are inputs of the fit's error model
+        (:func:`energy_planner.uncertainty.predict_interval`).
+        """
         from energy_planner.uncertainty import predict_interval
 
-        return predict_interval(self.model, energy_j, level)
+        return predict_interval(self.model, energy_j, level, outside_share, duration_s)
 
 
 def _problem(dem: Any, model: Any, request: Any) -> Problem:

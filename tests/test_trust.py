@@ -289,7 +289,8 @@ def test_energy_cli_reports_the_share_outside(forward_missions, tmp_path):
     assert out[18]["domain"]["outside_share"] == 1.0
     assert any("load_kg" in k for k in out[18]["domain"]["reasons"])
     assert not any("load_kg" in k for k in out[10]["domain"]["reasons"])
-    rel = {k: v["interval"]["high_j"] / v["interval"]["low_j"] for k, v in out.items()}
+    rel = {k: (v["interval"]["high_j"] - v["interval"]["low_j"]) / v["energy_j"]
+           for k, v in out.items()}  # fmt: skip
     assert out[10]["domain"]["outside_share"] == 0.0
     assert rel[18] > rel[10]  # the interval widens outside
 
