@@ -1128,28 +1128,49 @@ def _error_model(
 ) -> Any:  # fmt: skip
     """The run-to-run error model of the held-out runs (:mod:`energy_planner.uncertainty.errormodel`).
 
-    Each run's coefficient variance is ``g^T V g`` with ``g`` its term energies (the
-    fitted columns' window means times the window durations, summed) and ``V`` the
-    fit's run-clustered covariance; its share outside the domain is measured against
-    the ranges of its fold's training runs.
+    A run's coefficient variance is ``g^T V g`` with ``g`` its term energies (the fitted
+    columns' window means times the window durations, summed) and ``V`` a run-clustered
+    covariance: of its fold's fit for the held-out errors (which hold it), of the full
+    fit for new predictions (``rho2``, pooled over the runs as a share of ``E^2``). Its
+    share outside the domain is measured against the ranges of its fold's training runs.
     """  # noqa: E501
-    from energy_planner.stats import cluster_covariance
+    from energy_planner.stats import cluster_covariance, wls_coef
     from energy_planner.uncertainty.domain import heldout_outside_shares
     from energy_planner.uncertainty.errormodel import fit_error_model
 
     runs = table["run"].astype(str).to_numpy()
-    V = cluster_covariance(X, res.resid, w, runs)
-    g = pd.DataFrame(X * w[:, None]).groupby(runs, sort=True).sum()
-    pvar = np.einsum("ij,jk,ik->i", g.to_numpy(), np.nan_to_num(V), g.to_numpy())
+    energy = X * w[:, None]  # term energies of each window
+
+    def run_variance(V: np.ndarray, rows: np.ndarray) -> pd.Series:
+        g = pd.DataFrame(energy[rows]).groupby(runs[rows], sort=True).sum()
+        return pd.Series(np.einsum("ij,jk,ik->i", g.to_numpy(), V, g.to_numpy()), g.index)
+
+    everything = np.ones(len(runs), bool)
+    V = np.nan_to_num(cluster_covariance(X, res.resid, w, runs))
+    full = run_variance(V, everything)
+    # each held-out run was predicted by its fold's fit, whose coefficients err more
+    # than the full fit's: its error holds that fold's coefficient variance
+    fold = cv.windows["fold"].to_numpy()
+    y = res.resid + X @ res.coef
+    parts = []
+    for k in np.unique(fold):
+        tr = fold != k
+        coef = wls_coef(X[tr], y[tr], w[tr])
+        Vk = np.nan_to_num(cluster_covariance(X[tr], y[tr] - X[tr] @ coef, w[tr], runs[tr]))
+        parts.append(run_variance(Vk, ~tr))
     per_run = cv.runs.set_index(cv.runs["run"].astype(str))
-    share = heldout_outside_shares(table, model, cv.windows["fold"].to_numpy())
+    pred = per_run["predicted_j"].to_numpy(float)
+    ok = pred > 0
+    rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
+    share = heldout_outside_shares(table, model, fold)
     return fit_error_model(
-        per_run["predicted_j"].to_numpy(float),
+        pred,
         per_run["measured_j"].to_numpy(float),
         per_run["duration_s"].to_numpy(float),
-        pd.Series(pvar, index=g.index).reindex(per_run.index).to_numpy(float),
+        pd.concat(parts).reindex(per_run.index).to_numpy(float),
         share.reindex(per_run.index).fillna(0.0).to_numpy(float),
         per_run["fold"].to_numpy(),
+        param_rel_var=rho2,
     )
 
 

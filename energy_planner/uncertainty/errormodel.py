@@ -231,6 +231,8 @@ def fit_error_model(
     param_var_j2: Any = None,
     outside_share: Any = None,
     fold: Any = None,
+    *,
+    param_rel_var: float | None = None,
 ) -> ErrorModel | None:
     """Fit the error scale on held-out runs and their normalized conformal scores.
 
@@ -240,7 +242,12 @@ def fit_error_model(
         Per held-out run: its predicted energy (by a fit without it), its measured
         energy and its duration.
     param_var_j2 : array-like, optional
-        Per run ``g^T V g``: the fit's coefficient covariance carried to its energy.
+        Per run ``g^T V g``: the coefficient covariance of the fit that predicted it (its
+        fold's) carried to its energy; part of its error, removed before fitting ``b, c,
+        d`` and kept in the scale that normalizes its score.
+    param_rel_var : float, optional
+        ``rho^2`` of new predictions (the full fit's covariance as a share of
+        ``E^2``); default: the pooled ``param_var_j2 / predicted_j^2``.
     outside_share : array-like, optional
         Per run, the share of its duration outside the domain its prediction had.
     fold : array-like, optional
@@ -277,14 +284,23 @@ def fit_error_model(
     n_out = int(np.count_nonzero(share > 0))
     # the outside term is told apart from the error inside only with runs of both kinds
     with_out = min(n_out, share.size - n_out) >= MIN_OUTSIDE_RUNS
-    rho2 = float(pvar.sum() / np.sum(pred**2))
+    rho2 = float(pvar.sum() / np.sum(pred**2)) if param_rel_var is None else param_rel_var
 
-    def model_of(theta: np.ndarray, scores: np.ndarray, cross: bool) -> ErrorModel:
-        return ErrorModel(rho2, float(theta[0]), float(theta[1]),
+    def model_of(theta: np.ndarray, scores: np.ndarray, cross: bool, r2: float) -> ErrorModel:
+        return ErrorModel(r2, float(theta[0]), float(theta[1]),
                           float(theta[2]) if with_out else None, np.sort(scores),
                           float(meas.sum() / dur.sum()), n_out, cross)  # fmt: skip
 
-    theta = _fit_scale(e, pred, dur, rho2 * pred**2, share, with_out)
+    def own_sigma(th: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        # the scale of these runs' errors: their own coefficient variance and the
+        # run-to-run terms (and the share outside their fold's domain)
+        em = model_of(th, np.zeros(1), True, 0.0)
+        v = em.sigma(pred[sel], dur[sel], 0.0) ** 2 + pvar[sel]
+        if em.outside_rel_var is None:
+            return np.sqrt(v) * (1.0 + ASSUMED_OUTSIDE_FACTOR * share[sel])
+        return np.sqrt(v + em.outside_rel_var * (share[sel] * pred[sel]) ** 2)
+
+    theta = _fit_scale(e, pred, dur, pvar, share, with_out)
     labels = np.unique(folds)
     z = np.empty(pred.size)
     cross = labels.size >= 2
@@ -292,13 +308,11 @@ def fit_error_model(
         for k in labels:
             test = folds == k
             train = ~test
-            if np.count_nonzero(train) < 3:
-                th = theta
-            else:
-                th = _fit_scale(e[train], pred[train], dur[train], rho2 * pred[train] ** 2,
-                                share[train], with_out)  # fmt: skip
-            sig = model_of(th, np.zeros(1), cross).sigma(pred[test], dur[test], share[test])
-            z[test] = e[test] / sig
+            th = theta
+            if np.count_nonzero(train) >= 3:
+                th = _fit_scale(e[train], pred[train], dur[train], pvar[train], share[train],
+                                with_out)  # fmt: skip
+            z[test] = e[test] / own_sigma(th, test)
     else:
-        z = e / model_of(theta, np.zeros(1), cross).sigma(pred, dur, share)
-    return model_of(theta, z, cross)
+        z = e / own_sigma(theta, np.ones(pred.size, bool))
+    return model_of(theta, z, cross, rho2)
