@@ -162,7 +162,8 @@ class ErrorModel:
         The upper order statistic ``ceil((n + 1) (1 + level) / 2)`` exceeds ``n`` (for
         90 %: fewer than 19 scores): the conformal bound would be infinite. Then the
         normalized scores are taken as normal and the bounds are the Student-t
-        prediction interval of a new draw, ``mean +- t(n-1) s sqrt(1 + 1/n)``.
+        prediction interval of a new draw, ``mean +- t(n-1) s sqrt(1 + 1/n)``, widened to
+        the scores' range where that is wider.
         """
         n = self.scores.size
         return math.ceil((n + 1) * (1.0 + level) / 2.0) > n
@@ -173,7 +174,9 @@ class ErrorModel:
             return -math.inf, math.inf
         q = float(student_t.ppf((1.0 + level) / 2.0, z.size - 1))
         half = q * float(np.std(z, ddof=1)) * math.sqrt(1.0 + 1.0 / z.size)
-        return float(z.mean()) - half, float(z.mean()) + half
+        # never inside the scores' range, the widest a conformal bound of n scores gets
+        # (so that a higher level never gives a narrower interval)
+        return min(float(z.mean()) - half, float(z[0])), max(float(z.mean()) + half, float(z[-1]))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (stored as ``metadata.fit.error_model``)."""
