@@ -103,9 +103,10 @@ def mud_strip(gm, start, goal, half_width_m: float = 4.0, span=(0.25, 0.75)):
 def plan_interval(terrain, model, result, request, true_j: float, level: float) -> dict:
     """A plan's prediction interval as ``energy-planner plan`` gives it; does it hold the truth.
 
-    The domain report (``cli.plan.route_domain``) and the interval widened by the route's
-    share outside the calibration's domain (``uncertainty.predict_interval``), the way the
-    ``plan`` command computes them; the plain (unwidened) interval is kept beside it. No
+    The domain report (``cli.plan.route_domain``) and the interval of the fit's error model
+    at the route's duration and share outside the calibration's domain
+    (``uncertainty.predict_interval``), the way the ``plan`` command computes them; the
+    interval at share 0 is kept beside it. No
     interval (``None``) when the model carries no held-out scores.
     """
     from energy_planner.cli.plan import route_domain
@@ -119,7 +120,8 @@ def plan_interval(terrain, model, result, request, true_j: float, level: float) 
         "outside_reasons": None if dom is None else dom["reasons"],
     }
     for key, s in (("interval", share), ("interval_plain", 0.0)):
-        iv = predict_interval(model, float(result.energy_j), level, outside_share=s)
+        iv = predict_interval(model, float(result.energy_j), level, outside_share=s,
+                              duration_s=float(result.duration_s))  # fmt: skip
         out[key] = None if iv is None else iv.to_dict()
         out[f"true_inside_{key}"] = None if iv is None else bool(iv.low_j <= true_j <= iv.high_j)
     return out

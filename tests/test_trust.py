@@ -287,9 +287,11 @@ def test_energy_cli_reports_the_share_outside(forward_missions, tmp_path):
         assert res.exit_code == 0, res.output
         out[load] = __import__("json").loads(res.output)
     assert out[18]["domain"]["outside_share"] == 1.0
+    assert out[18]["domain"]["shares"]["channel load_kg"] == 1.0
     assert any("load_kg" in k for k in out[18]["domain"]["reasons"])
     assert not any("load_kg" in k for k in out[10]["domain"]["reasons"])
-    rel = {k: v["interval"]["high_j"] / v["interval"]["low_j"] for k, v in out.items()}
+    rel = {k: (v["interval"]["high_j"] - v["interval"]["low_j"]) / v["energy_j"]
+           for k, v in out.items()}  # fmt: skip
     assert out[10]["domain"]["outside_share"] == 0.0
     assert rel[18] > rel[10]  # the interval widens outside
 
@@ -310,6 +312,10 @@ def test_plan_stay_in_domain_keeps_the_route_on_calibrated_slopes(forward_missio
     out = __import__("json").loads(res.output[res.output.index("{") :])
     assert out["limits"]["max_slope_deg"] == pytest.approx(top)
     assert not any(k.startswith("slope") for k in out["domain"]["reasons"])
+    # the logs never walk sideways or backward: the plan may not either (gait limits)
+    assert out["limits"]["max_crab_deg"] == 45.0 and out["limits"]["max_backward_slope_deg"] == 0
+    assert any("crab" in n for n in out["stay_in_domain"])
+    assert out["domain"]["shares"]["gait"] == 0.0
     # a model without a recorded domain: a usage error
     bare = EnergyModel.default().save(tmp_path / "bare.json")
     res = CliRunner().invoke(main, [*args[:4], str(bare), *args[5:]])

@@ -55,13 +55,19 @@ def test_interval_covers_fresh_runs_at_its_level():
     s = fresh.samples
     pred = model.power(model_features(s, model))
     win = pd.DataFrame({"measured": window_energy(s), "predicted": window_energy(s, pred)})
+    win["duration"] = fresh.table.set_index("window")["duration"].reindex(win.index)
     run_of = s.groupby("window")["run"].first()
     per_run = win.groupby(run_of.reindex(win.index).to_numpy()).sum()
     assert len(per_run) > 80
+    # the fit's run-to-run error model is calibrated on its held-out runs
+    em = model.metadata["fit"]["error_model"]
+    assert len(em["scores"]) == fit.n_runs and em["b"] + em["c_j2_per_s"] > 0
     for level in (0.8, 0.9):
         inside = [
-            (iv := predict_interval(model, p, level)).low_j <= m <= iv.high_j
-            for p, m in zip(per_run["predicted"], per_run["measured"], strict=True)
+            (iv := predict_interval(model, p, level, duration_s=t)).low_j <= m <= iv.high_j
+            for p, m, t in zip(
+                per_run["predicted"], per_run["measured"], per_run["duration"], strict=True
+            )
         ]
         cov = float(np.mean(inside))
         print(f"coverage at {level}: {cov:.3f} over {len(inside)} fresh runs")

@@ -617,22 +617,28 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
     dict
         ``max_slope_deg``; ``speed_m_s`` [min, max] of the walking windows;
         ``max_turn_rate_rad_s``; ``gaits``: per motion class with windows, their number and
-        the [min, max] relative heading ``|gamma|`` (deg); ``channels``: per channel the
-        model reads, [min, max] (numeric) or the categories.
+        the [min, max] relative heading ``|gamma|`` (deg) of its windows on slopes above
+        :data:`energy_planner.uncertainty.domain.SLOPED_DEG` (None without any);
+        ``channels``: per channel the model reads, [min, max] (numeric) or the categories.
     """
+    from energy_planner.uncertainty.domain import SLOPED_DEG
+
     walking = _walking_speeds(table)
     gamma = np.degrees(np.abs(table["gamma"].to_numpy(float)))
+    sloped = np.degrees(table["alpha"].to_numpy(float)) > SLOPED_DEG
     kinds = table["kind"].to_numpy()
     gaits = {}
     for k in _GAITS_OF_KIND:
         sel = kinds == k
         if sel.any():
+            on = sel & sloped  # the relative heading means something on sloped ground only
             gaits[k] = {
                 "windows": int(sel.sum()),
-                "rel_heading_deg": [
-                    round(float(gamma[sel].min()), 2),
-                    round(float(gamma[sel].max()), 2),
-                ],
+                "rel_heading_deg": (
+                    [round(float(gamma[on].min()), 2), round(float(gamma[on].max()), 2)]
+                    if on.any()
+                    else None
+                ),
             }
     channels: dict[str, Any] = {
         c: v if isinstance(v, list) else [float(v.min()), float(v.max())]
@@ -1056,9 +1062,11 @@ def fit_model(
         )
 
     heldout = None
+    error_model = None
     if n_splits:
         heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed, fixed=held)
         warnings += heldout.warnings
+        error_model = _error_model(model, heldout, table, X, res, w)
     model.metadata = {
         **model.metadata,
         **(metadata or {}),
@@ -1090,6 +1098,7 @@ def fit_model(
                         round(float(v), 5) for v in heldout.runs["rel_error"].dropna()
                     ),
                     "n_splits": heldout.n_splits,
+                    **({} if error_model is None else {"error_model": error_model.to_dict()}),
                 }
             ),
         },
@@ -1110,6 +1119,58 @@ def fit_model(
         unidentified=dict(dropped),
         held_at_prior=held,
         data_findings=findings,
+    )
+
+
+def _error_model(
+    model: EnergyModel, cv: CrossValidation, table: pd.DataFrame, X: np.ndarray, res: Any,
+    w: np.ndarray,
+) -> Any:  # fmt: skip
+    """The run-to-run error model of the held-out runs (:mod:`energy_planner.uncertainty.errormodel`).
+
+    A run's coefficient variance is ``g^T V g`` with ``g`` its term energies (the fitted
+    columns' window means times the window durations, summed) and ``V`` a run-clustered
+    covariance: of its fold's fit for the held-out errors (which hold it), of the full
+    fit for new predictions (``rho2``, pooled over the runs as a share of ``E^2``). Its
+    share outside the domain is measured against the ranges of its fold's training runs.
+    """  # noqa: E501
+    from energy_planner.stats import cluster_covariance, wls_coef
+    from energy_planner.uncertainty.domain import heldout_outside_shares
+    from energy_planner.uncertainty.errormodel import fit_error_model
+
+    runs = table["run"].astype(str).to_numpy()
+    energy = X * w[:, None]  # term energies of each window
+
+    def run_variance(V: np.ndarray, rows: np.ndarray) -> pd.Series:
+        g = pd.DataFrame(energy[rows]).groupby(runs[rows], sort=True).sum()
+        return pd.Series(np.einsum("ij,jk,ik->i", g.to_numpy(), V, g.to_numpy()), g.index)
+
+    everything = np.ones(len(runs), bool)
+    V = np.nan_to_num(cluster_covariance(X, res.resid, w, runs))
+    full = run_variance(V, everything)
+    # each held-out run was predicted by its fold's fit, whose coefficients err more
+    # than the full fit's: its error holds that fold's coefficient variance
+    fold = cv.windows["fold"].to_numpy()
+    y = res.resid + X @ res.coef
+    parts = []
+    for k in np.unique(fold):
+        tr = fold != k
+        coef = wls_coef(X[tr], y[tr], w[tr])
+        Vk = np.nan_to_num(cluster_covariance(X[tr], y[tr] - X[tr] @ coef, w[tr], runs[tr]))
+        parts.append(run_variance(Vk, ~tr))
+    per_run = cv.runs.set_index(cv.runs["run"].astype(str))
+    pred = per_run["predicted_j"].to_numpy(float)
+    ok = pred > 0
+    rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
+    share = heldout_outside_shares(table, model, fold)
+    return fit_error_model(
+        pred,
+        per_run["measured_j"].to_numpy(float),
+        per_run["duration_s"].to_numpy(float),
+        pd.concat(parts).reindex(per_run.index).to_numpy(float),
+        share.reindex(per_run.index).fillna(0.0).to_numpy(float),
+        per_run["fold"].to_numpy(),
+        param_rel_var=rho2,
     )
 
 

@@ -220,9 +220,11 @@ def compute(
         raise click.ClickException(str(exc)) from exc
     out = result.to_dict()
     from energy_planner.uncertainty import domain_report
+    from energy_planner.uncertainty.domain import path_channel_values
 
     # the share of the path outside the ranges the model's calibration saw
-    out["domain"] = domain_report(model, result.segments, cost.constants, result.poses)
+    along = path_channel_values(terrain, cost.channels, result.poses)
+    out["domain"] = domain_report(model, result.segments, cost.constants, result.poses, along)
     # the kernel reports distances along the ground; add the map (horizontal) distance,
     # the one a GIS measures between the waypoints
     flat = np.hypot(*np.diff(xy, axis=0).T)
@@ -309,5 +311,6 @@ def command(
     res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **gait_limits())
     add_trust(res, load_model_option(model_path), res["energy_j"], level, battery_wh,
               reserve_wh, confidence, refuse,
-              outside_share=(res.get("domain") or {}).get("outside_share", 0.0))  # fmt: skip
+              outside_share=(res.get("domain") or {}).get("outside_share", 0.0),
+              duration_s=res["duration_s"])  # fmt: skip
     emit(res, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

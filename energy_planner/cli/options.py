@@ -458,12 +458,13 @@ def trust_options(f):
 def add_trust(
     result: dict[str, Any], model: Any, energy_j: float, level: float,
     battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
-    label: str | None = None, outside_share: float = 0.0,
+    label: str | None = None, outside_share: float = 0.0, duration_s: float | None = None,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
     ``outside_share``: the share of the path outside the calibration's domain, which
-    widens the interval (:func:`energy_planner.uncertainty.predict_interval`).
+    widens the interval (:func:`energy_planner.uncertainty.predict_interval`);
+    ``duration_s``: the path's duration, an input of the fit's error model.
 
     A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
     route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
@@ -471,12 +472,13 @@ def add_trust(
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
-    iv = predict_interval(model, energy_j, level, outside_share)
+    iv = predict_interval(model, energy_j, level, outside_share, duration_s)
     result["interval"] = None if iv is None else iv.to_dict()
     if battery_wh is None:
         return
     try:
-        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence)
+        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence, duration_s,
+                             outside_share)  # fmt: skip
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     result["battery"] = d.to_dict()
@@ -495,8 +497,9 @@ def trust_lines(res: dict[str, Any]) -> str:
     iv = res.get("interval")
     if iv:
         e = EnergyInterval(iv["energy_j"], iv["low_j"], iv["high_j"], iv["level"])
+        few = " (Student-t: too few runs)" if "Student" in iv.get("method", "") else ""
         lines.append(f"interval  {e.text()}, split-conformal on "
-                     f"{iv['calibrated_on_runs']} held-out runs")  # fmt: skip
+                     f"{iv['calibrated_on_runs']} held-out runs{few}")  # fmt: skip
     elif "interval" in res:
         lines.append("interval  none: the model carries no held-out run errors")
     dom = res.get("domain")

@@ -292,14 +292,18 @@ def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | 
 
     from energy_planner.energy.path import path_energy
     from energy_planner.uncertainty import domain_report
+    from energy_planner.uncertainty.domain import path_channel_values
 
     if not (model.metadata.get("fit") or {}).get("domain"):
         return None
     st = np.asarray(states, dtype=float)
     ch = request.channels
+    if ch is not None and ch.rasters:
+        ch = ch.bind(terrain)
     pe = path_energy(terrain, model, st[:, :2], yaw=st[:, 2], speed=request.robot.speed,
                      yaw_rate=request.robot.yaw_rate, channels=ch)  # fmt: skip
-    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses)
+    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses,
+                         path_channel_values(terrain, ch, pe.poses))  # fmt: skip
 
 
 def format_table(res: dict[str, Any]) -> str:
@@ -327,6 +331,9 @@ def format_table(res: dict[str, Any]) -> str:
                 else "NOT proven: a path leaving the window might be cheaper"
             )
         )
+    if res.get("stay_in_domain") is not None:
+        notes = "; ".join(res["stay_in_domain"]) or "the request was already inside"
+        lines.append(f"in domain {notes}")
     if res.get("out"):
         lines.append(f"path written to {res['out']}")
     if res.get("plot"):
@@ -380,8 +387,11 @@ def format_table(res: dict[str, Any]) -> str:
     "--stay-in-domain",
     is_flag=True,
     default=False,
-    help="Keep the plan on slopes the model's calibration saw (its metadata.fit.domain): "
-    "--max-slope becomes at most the steepest calibration window.",
+    help="Keep the plan inside the model's calibration domain (its metadata.fit.domain): "
+    "--max-slope at most the steepest calibration window; no sideways (--max-crab 45) or "
+    "backward walking on slopes when the logs had none; raster channel cells outside the "
+    "recorded values impassable; --speed and --yaw-rate clamped to the recorded range "
+    "(the output says what changed).",
 )
 @json_option
 def command(
@@ -436,17 +446,20 @@ def command(
     check_planner(planner)
     ch = channels_from_options(sets, channels) if (sets or channels) else None
     model = load_model_option(model_path)
-    if stay_in_domain:
-        dom = (model.metadata.get("fit") or {}).get("domain")
-        if not dom:
-            raise click.BadParameter(
-                "the model records no calibration domain (metadata.fit.domain; models "
-                "fitted before it was recorded): refit it, or drop --stay-in-domain",
-                param_hint="--stay-in-domain",
-            )
-        top = float(dom["max_slope_deg"])
-        max_slope = top if max_slope is None else min(max_slope, top)
     request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out, ch)
+    domain_notes: list[str] = []
+
+    def keep_in_domain(terrain: Any) -> None:
+        nonlocal request
+        from energy_planner.uncertainty import stay_in_domain as stay
+        from energy_planner.uncertainty.domain import DomainError
+
+        try:
+            request, notes = stay(request, model, terrain)
+        except DomainError as exc:
+            raise click.BadParameter(str(exc), param_hint="--stay-in-domain") from exc
+        domain_notes.extend(notes)
+
     cap = parse_memory_cap(memory_cap)
     kwargs = dict(planner=planner, time=time_s, seed=seed, step=step, eps=eps)
     if over_memory_cap(dem, cap):
@@ -454,6 +467,11 @@ def command(
 
         s = point_in_dem_crs(start, "--start", True)
         g = point_in_dem_crs(goal, "--goal", True)
+        if stay_in_domain:
+            keep_in_domain(None)
+            if request.channels is not None and request.channels.rasters:
+                domain_notes.append("raster channels are not masked to the domain when "
+                                    "planning by windows")  # fmt: skip
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
                                             **kwargs)  # fmt: skip
@@ -466,6 +484,8 @@ def command(
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     else:
         terrain = load_terrain(dem)
+        if stay_in_domain:
+            keep_in_domain(terrain)
         s = point_to_work(terrain, start, "--start", True)
         g = point_to_work(terrain, goal, "--goal", True)
         try:
@@ -478,8 +498,11 @@ def command(
     result = res.to_dict(terrain)
     result.update(plan_context(terrain, request, model, model_path))
     result["domain"] = route_domain(terrain, model, res.states, request)
+    if stay_in_domain:
+        result["stay_in_domain"] = domain_notes
     add_trust(result, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse,
-              outside_share=(result["domain"] or {}).get("outside_share", 0.0))  # fmt: skip
+              outside_share=(result["domain"] or {}).get("outside_share", 0.0),
+              duration_s=res.duration_s)  # fmt: skip
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:

@@ -36,6 +36,7 @@ __all__ = [
     "MOTIONS",
     "WLSFit",
     "classify_motion",
+    "cluster_covariance",
     "cluster_stderr",
     "independent_columns",
     "span_basis",
@@ -214,6 +215,23 @@ def cluster_stderr(
     >>> cluster_stderr(X, r, None, np.array(["a", "a", "b", "b"])).tolist()
     [1.0]
     """
+    return np.sqrt(np.clip(np.diag(cluster_covariance(X, resid, w, clusters)), 0, None))
+
+
+def cluster_covariance(
+    X: np.ndarray, resid: np.ndarray, w: np.ndarray | None, clusters: Sequence | np.ndarray
+) -> np.ndarray:
+    """The cluster-robust (CR1) covariance of weighted least squares, clusters = runs.
+
+    The matrix whose diagonal :func:`cluster_stderr` reports (squared); all NaN with fewer
+    than two clusters.
+
+    Examples
+    --------
+    >>> X = np.ones((4, 1)); r = np.array([1.0, 1.0, -1.0, -1.0])
+    >>> cluster_covariance(X, r, None, np.array(["a", "a", "b", "b"])).tolist()
+    [[1.0]]
+    """
     X = np.asarray(X, dtype=float)
     w = _weights(w, X.shape[0])
     B = X.T @ (X * w[:, None])
@@ -222,10 +240,9 @@ def cluster_stderr(
     scores = pd.DataFrame(X * (w * np.asarray(resid, float))[:, None]).groupby(labels).sum()
     g = scores.shape[0]
     if g < 2:
-        return np.full(X.shape[1], np.nan)
+        return np.full((X.shape[1], X.shape[1]), np.nan)
     s = scores.to_numpy()
-    V = Binv @ (s.T @ s * (g / (g - 1))) @ Binv
-    return np.sqrt(np.clip(np.diag(V), 0, None))
+    return Binv @ (s.T @ s * (g / (g - 1))) @ Binv
 
 
 # --------------------------------------------------------------------------- identifiability

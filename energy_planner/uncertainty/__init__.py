@@ -40,17 +40,23 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import EnergyPlannerError
+from energy_planner.uncertainty.domain import domain_report, stay_in_domain
+from energy_planner.uncertainty.errormodel import ErrorModel
 
 __all__ = [
     "DEFAULT_LEVEL",
     "BatteryDecision",
     "EnergyInterval",
+    "ErrorModel",
     "battery_decision",
+    "conformal_bounds",
     "confident_budget",
     "interval",
     "domain_report",
+    "model_error_model",
     "model_scores",
     "predict_interval",
+    "stay_in_domain",
     "success_probability",
 ]
 
@@ -76,6 +82,8 @@ class EnergyInterval:
         Its nominal coverage (0.9: 90 %).
     n_scores : int
         Held-out runs it was calibrated on.
+    method : str
+        How it was computed.
     """
 
     energy_j: float
@@ -83,6 +91,7 @@ class EnergyInterval:
     high_j: float
     level: float = DEFAULT_LEVEL
     n_scores: int = 0
+    method: str = "split-conformal on held-out run energies"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields (J and Wh)."""
@@ -94,7 +103,7 @@ class EnergyInterval:
             "high_wh": self.high_j / 3600.0,
             "level": self.level,
             "calibrated_on_runs": self.n_scores,
-            "method": "split-conformal on held-out run energies",
+            "method": self.method,
         }
 
     def text(self) -> str:
@@ -136,32 +145,68 @@ def interval(energy_j: float, scores: np.ndarray, level: float = DEFAULT_LEVEL) 
     -------
     EnergyInterval
     """
+    r_lo, r_hi = conformal_bounds(scores, level)
+    return EnergyInterval(float(energy_j), float(energy_j) / (1.0 + r_hi),
+                          float(energy_j) / (1.0 + r_lo), float(level),
+                          int(np.size(scores)))  # fmt: skip
+
+
+def conformal_bounds(scores: Any, level: float = DEFAULT_LEVEL) -> tuple[float, float]:
+    """The split-conformal ``(low, high)`` order statistics of held-out scores at ``level``.
+
+    With ``n`` scores and ``a = (1 - level) / 2``: the ``floor((n + 1) a)``-th smallest
+    and the ``ceil((n + 1) (1 - a))``-th smallest (1-based, clipped to 1..n). A new score
+    exchangeable with them falls below the ``k``-th smallest of ``n`` with probability
+    ``k / (n + 1)``, so it lies between the two with probability at least ``level``
+    (when neither is clipped).
+
+    Examples
+    --------
+    >>> conformal_bounds(np.arange(1.0, 20.0), 0.9)
+    (1.0, 19.0)
+    """
     if not 0.0 < level < 1.0:
         raise ValueError(f"level must be in (0, 1), not {level!r}")
     s = np.sort(np.asarray(scores, dtype=float))
     a = (1.0 - level) / 2.0
-    # the lower bound is the order statistic floor((n + 1) a): a new score falls below the
-    # k-th smallest of n with probability k / (n + 1) (ceil would leave up to 1 / (n + 1)
-    # more outside on that side)
-    r_lo, r_hi = float(s[max(math.floor((s.size + 1) * a), 1) - 1]), _conformal(s, 1.0 - a)
-    return EnergyInterval(float(energy_j), float(energy_j) / (1.0 + r_hi),
-                          float(energy_j) / (1.0 + r_lo), float(level), int(s.size))  # fmt: skip
+    return float(s[max(math.floor((s.size + 1) * a), 1) - 1]), _conformal(s, 1.0 - a)
 
 
-#: Outside the calibration's domain the held-out scores are scaled by
-#: ``1 + OUTSIDE_WIDENING * share``: a path wholly outside gets an error band twice as wide.
-#: A stated assumption, not a calibrated one (no held-out run lies outside the domain).
+#: Without an error model (a model fitted before it was recorded) the held-out relative
+#: scores are scaled by ``1 + OUTSIDE_WIDENING * share`` outside the calibration's domain:
+#: a stated assumption, not a calibrated one.
 OUTSIDE_WIDENING = 1.0
 
 
+def model_error_model(model: Any) -> ErrorModel | None:
+    """The run-to-run error model a fit recorded (``metadata.fit.error_model``), or None."""
+    d = ((getattr(model, "metadata", None) or {}).get("fit") or {}).get("error_model")
+    return None if not d else ErrorModel.from_dict(d)
+
+
 def predict_interval(
-    model: Any, energy_j: float, level: float = DEFAULT_LEVEL, outside_share: float = 0.0
-):
+    model: Any,
+    energy_j: float,
+    level: float = DEFAULT_LEVEL,
+    outside_share: float = 0.0,
+    duration_s: float | None = None,
+) -> EnergyInterval | None:
     """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores.
 
-    ``outside_share`` (0-1, :func:`domain_report`) widens it: every held-out score ``r``
-    becomes ``r (1 + OUTSIDE_WIDENING * outside_share)`` (kept above -0.9).
+    With the fit's error model (:mod:`energy_planner.uncertainty.errormodel`): the scale
+    ``sigma(E, T, share)`` times the split-conformal bounds of the normalized held-out
+    scores; ``duration_s`` is the path's duration (default: the energy over the held-out
+    runs' mean power) and ``outside_share`` (0-1, :func:`domain_report`) the share of it
+    outside the calibration's domain. Without an error model (older model files): the
+    relative held-out scores ``r``, each scaled by ``1 + OUTSIDE_WIDENING * outside_share``
+    (kept above -0.9).
     """
+    em = model_error_model(model)
+    if em is not None:
+        lo, hi = em.bounds(float(energy_j), level, duration_s, outside_share)
+        how = _EM_METHOD + (_SMALL if em.small_sample(level) else "")
+        return EnergyInterval(float(energy_j), lo, hi, float(level), int(em.scores.size),
+                              method=how)  # fmt: skip
     s = model_scores(model)
     if s is None:
         return None
@@ -170,99 +215,9 @@ def predict_interval(
     return interval(energy_j, s, level)
 
 
-def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
-    """Motion class of each segment: forward, backward, lateral or turning (in place).
-
-    From the poses (one per segment end) the direction of travel relative to the body yaw:
-    within 45 deg of it forward, of its reverse backward, else lateral; a segment that
-    does not move but turns is turning. Without poses matching the segments (the robot
-    faced along its path) every moving segment is forward.
-    """
-    dist = np.asarray(segments["distance_m"], dtype=float)
-    turn = np.abs(np.asarray(segments["turn_deg"], dtype=float))
-    out = np.where(dist > 1e-9, "forward", np.where(turn > 0, "turning", "none")).astype(object)
-    p = None if poses is None else np.asarray(poses, dtype=float)
-    if p is None or p.ndim != 2 or p.shape[0] != dist.size + 1 or p.shape[1] < 3:
-        return out
-    d = np.diff(p[:, :2], axis=0)
-    rel = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - p[:-1, 2])))
-    moving = dist > 1e-9
-    lateral = np.abs(np.abs(rel) - np.pi / 2) < np.pi / 4
-    out[moving & (np.abs(rel) > 3 * np.pi / 4)] = "backward"
-    out[moving & lateral] = "lateral"
-    return out
-
-
-def domain_report(
-    model: Any, segments: Any, constants: Any = None, poses: Any = None
-) -> dict[str, Any] | None:
-    """The share of a path outside the ranges the model's calibration saw.
-
-    Parameters
-    ----------
-    model : EnergyModel
-        Its ``metadata.fit.domain`` (:func:`energy_planner.calibration.fit.calibration_domain`).
-    segments : pandas.DataFrame
-        ``PathEnergy.segments`` (``distance_m``, ``duration_s``, ``max_slope_deg``,
-        ``turn_deg``).
-    constants : mapping, optional
-        Channel constants (a value outside the channel's range puts the whole path
-        outside). Raster channels are not checked.
-    poses : array-like, optional
-        ``PathEnergy.poses`` (x, y, yaw per segment end): a segment walked in a gait the
-        calibration had no window of (sideways, backward, turning in place) is outside.
-
-    Returns
-    -------
-    dict or None
-        ``outside_share`` (share of the path's duration outside, 0-1) and ``reasons``
-        (reason -> share of the duration); None when the model records no domain.
-    """
-    dom = ((getattr(model, "metadata", None) or {}).get("fit") or {}).get("domain")
-    if not dom:
-        return None
-    dur = np.asarray(segments["duration_s"], dtype=float)
-    dist = np.asarray(segments["distance_m"], dtype=float)
-    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
-    total = float(dur.sum())
-    if total <= 0:
-        return {"outside_share": 0.0, "reasons": {}, "domain": dom}
-    safe = np.where(dur > 0, dur, np.inf)
-    speed, rate = dist / safe, turn / safe
-    masks: dict[str, np.ndarray] = {}
-    slope = np.asarray(segments["max_slope_deg"], dtype=float)
-    masks[f"slope above {dom['max_slope_deg']:g} deg"] = slope > dom["max_slope_deg"]
-    if dom.get("speed_m_s"):
-        lo, hi = dom["speed_m_s"]
-        masks[f"speed outside {lo:g}-{hi:g} m/s"] = (speed > 0.05) & ((speed < lo) | (speed > hi))
-    masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
-        rate > dom["max_turn_rate_rad_s"] * 1.05
-    )
-    gaits = _segment_gaits(segments, poses)
-    for g in ("forward", "backward", "lateral", "turning"):
-        if g not in (dom.get("gaits") or {}):
-            masks[f"{g} motion, absent from the calibration"] = gaits == g
-    for c, v in dict(constants or {}).items():
-        seen = (dom.get("channels") or {}).get(c)
-        if seen is None:
-            continue
-        if isinstance(v, str):
-            out = v not in seen
-        else:
-            out = not (seen[0] <= float(v) <= seen[1])
-        if out:
-            masks[f"{c} = {v} outside the logs' {seen}"] = np.ones(dur.size, bool)
-    any_out = np.zeros(dur.size, bool)
-    reasons = {}
-    for why, m in masks.items():
-        if m.any():
-            reasons[why] = round(float(dur[m].sum() / total), 4)
-            any_out |= m
-    return {
-        "outside_share": round(float(dur[any_out].sum() / total), 4),
-        "reasons": reasons,
-        "domain": dom,
-    }
+_SMALL = "; too few runs for conformal bounds: Student-t bounds of the normalized errors"
+_EM_METHOD = ("split-conformal on held-out runs' errors normalized by the fitted error "
+              "scale sigma(energy, duration, share outside the domain)")  # fmt: skip
 
 
 def success_probability(energy_j: float, scores: np.ndarray, usable_j: float) -> float:
@@ -310,9 +265,14 @@ class BatteryDecision:
 
 def battery_decision(
     model: Any, energy_j: float, battery_wh: float, reserve_wh: float = 0.0,
-    confidence: float = DEFAULT_LEVEL,
+    confidence: float = DEFAULT_LEVEL, duration_s: float | None = None,
+    outside_share: float = 0.0,
 ) -> BatteryDecision:  # fmt: skip
     """The chance that a route predicted at ``energy_j`` fits in a battery.
+
+    From the same predictive distribution as :func:`predict_interval` (the fit's error
+    model with the route's ``duration_s`` and ``outside_share`` when the model has one,
+    else the relative held-out scores).
 
     Raises
     ------
@@ -323,13 +283,18 @@ def battery_decision(
     if not reserve_wh < battery_wh:
         raise BatteryError(f"the reserve ({reserve_wh:g} Wh) must be below the battery "
                            f"({battery_wh:g} Wh)", value=reserve_wh)  # fmt: skip
+    usable = (battery_wh - reserve_wh) * 3600.0
+    em = model_error_model(model)
+    if em is not None:
+        p = em.probability(float(energy_j), usable, duration_s, outside_share)
+        return BatteryDecision(float(battery_wh), float(reserve_wh), usable, p,
+                               float(confidence))  # fmt: skip
     s = model_scores(model)
     if s is None:
         raise BatteryError(
             "the model carries no held-out run errors, so it cannot give the chance that a "
             "battery suffices: refit it with cross-validation (energy-planner fit --folds 5)"
         )
-    usable = (battery_wh - reserve_wh) * 3600.0
     return BatteryDecision(float(battery_wh), float(reserve_wh), usable,
                            success_probability(energy_j, s, usable), float(confidence))  # fmt: skip
 

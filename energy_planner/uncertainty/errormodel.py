@@ -1,0 +1,321 @@
+r"""The run-to-run error model of a fit, and its normalized split-conformal scores.
+
+A fitted model predicts a run's energy :math:`\hat E`; on runs it was not fitted on, the
+error :math:`e = \hat E - E` scatters. How much depends on the run:
+
+.. math::
+
+    \sigma^2 = \underbrace{\rho^2 \hat E^2}_\text{coefficients}
+             + \underbrace{b\,\hat E^2}_\text{model error}
+             + \underbrace{c\,T}_\text{noise}
+             + \underbrace{d\,(s \hat E)^2}_\text{outside the domain}
+
+- :math:`\rho^2`: the fit's run-clustered coefficient covariance :math:`V` carried to the
+  held-out runs' energies (each run's term energies :math:`g`, :math:`g^T V g`), pooled
+  as a share of :math:`\hat E^2` (a route's term energies are not computed at planning);
+- :math:`b`: a relative error that does not average out over a run (a force the model
+  prices wrong costs the same share on every metre);
+- :math:`c`: an error whose variance grows with the duration :math:`T` (per-window noise
+  of slip, ground and sensors that partly averages out over a long run);
+- :math:`d`: the extra relative error of the share :math:`s` of the run outside the
+  domain its prediction had (held-out runs against the ranges of their fold's training
+  runs, :func:`energy_planner.uncertainty.domain.heldout_outside_shares`). Fitted only
+  when at least :data:`MIN_OUTSIDE_RUNS` held-out runs lie partly outside and as many
+  wholly inside (else :math:`d` and :math:`b` cannot be told apart); otherwise the
+  interval is widened by the assumed factor :math:`1 + s` and the model says so.
+
+:math:`b, c, d \ge 0` are fitted on the held-out runs' squared errors (non-negative least
+squares, weighted by :math:`1/\sigma^4`, three passes). Distance is not an input: at the
+calibration's speeds it is the duration times a nearly constant speed, so it adds a
+column collinear with :math:`T`.
+
+Conformal step: each held-out run's **normalized score** :math:`z = e / \sigma` uses a
+:math:`\sigma` fitted on the *other* folds' runs (cross-fitting, so that no run scales its
+own error), and the interval of a new prediction is
+
+.. math:: E \in [\hat E - z_{hi}\,\sigma,\; \hat E - z_{lo}\,\sigma]
+
+with :math:`z_{lo}, z_{hi}` the split-conformal order statistics of the scores at level
+:math:`L` (:func:`energy_planner.uncertainty.conformal_bounds`). With too few scores for
+that level (fewer than 19 at 90 %: the conformal bound would be infinite) the scores are
+taken as normal and the Student-t prediction interval of a new draw is used instead
+(:meth:`ErrorModel.small_sample`); the interval says which. A path walked twice gets
+:math:`\hat E` and :math:`T` doubled: its interval is wider in joules (by a factor between
+:math:`\sqrt 2` and 2) and no wider relative to its energy (narrower when the noise term
+matters), because independent per-window noise partly cancels and a systematic error
+does not.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import nnls
+from scipy.stats import t as student_t
+
+__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "fit_error_model"]
+
+#: Held-out runs partly outside their fold's domain needed to fit the outside term.
+MIN_OUTSIDE_RUNS = 5
+#: The assumed widening outside the domain when it cannot be fitted: sigma * (1 + share).
+ASSUMED_OUTSIDE_FACTOR = 1.0
+#: Floor of sigma relative to the energy (a degenerate fit never gives a zero interval).
+MIN_REL_SIGMA = 1e-3
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    r"""The run-to-run error scale of a fit and its normalized conformal scores.
+
+    Attributes
+    ----------
+    param_rel_var : float
+        :math:`\rho^2`, the coefficients' covariance as a share of :math:`\hat E^2`.
+    model_rel_var : float
+        :math:`b`, relative variance that does not average out.
+    noise_j2_per_s : float
+        :math:`c`, variance growing with duration, J^2/s.
+    outside_rel_var : float or None
+        :math:`d`; None: not calibrated (too few held-out runs outside), the assumed
+        factor ``1 + share`` applies.
+    scores : ndarray
+        Sorted normalized held-out errors ``(predicted - measured) / sigma``.
+    mean_power_w : float
+        Mean power of the held-out runs (their energy over their duration): the duration
+        assumed for an energy given without one.
+    n_outside : int
+        Held-out runs partly outside their fold's domain.
+    cross_fitted : bool
+        True when each score's sigma was fitted without its run's fold.
+    """
+
+    param_rel_var: float
+    model_rel_var: float
+    noise_j2_per_s: float
+    outside_rel_var: float | None
+    scores: np.ndarray = field(repr=False)
+    mean_power_w: float = float("nan")
+    n_outside: int = 0
+    cross_fitted: bool = True
+
+    def sigma(self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0) -> Any:
+        """The error scale (J) of a predicted energy of a run of ``duration_s`` seconds.
+
+        Without a duration it is ``energy_j / mean_power_w``.
+        """
+        e = np.abs(np.asarray(energy_j, dtype=float))
+        t = (e / self.mean_power_w if duration_s is None
+             else np.asarray(duration_s, dtype=float))  # fmt: skip
+        s = np.clip(np.asarray(outside_share, dtype=float), 0.0, 1.0)
+        v = (self.param_rel_var + self.model_rel_var) * e**2 + self.noise_j2_per_s * t
+        if self.outside_rel_var is not None:
+            v = v + self.outside_rel_var * (s * e) ** 2
+        sig = np.sqrt(np.maximum(v, (MIN_REL_SIGMA * e) ** 2))
+        if self.outside_rel_var is None:
+            sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * s)
+        return sig
+
+    @property
+    def outside_rule(self) -> str:
+        """How the share outside the domain widens the interval."""
+        if self.outside_rel_var is None:
+            return (f"assumed: sigma x (1 + share) ({self.n_outside} held-out runs outside; "
+                    f"{MIN_OUTSIDE_RUNS} outside and {MIN_OUTSIDE_RUNS} inside needed to "
+                    "calibrate it)")  # fmt: skip
+        return f"calibrated: d = {self.outside_rel_var:.3g} on {self.n_outside} held-out runs"
+
+    def bounds(
+        self, energy_j: float, level: float, duration_s: float | None = None,
+        outside_share: float = 0.0,
+    ) -> tuple[float, float]:  # fmt: skip
+        """The interval ``(low, high)`` on the true energy, J (low at least 0)."""
+        from energy_planner.uncertainty import conformal_bounds
+
+        if self.small_sample(level):
+            z_lo, z_hi = self._student_bounds(level)
+        else:
+            z_lo, z_hi = conformal_bounds(self.scores, level)
+        sig = float(self.sigma(energy_j, duration_s, outside_share))
+        return max(energy_j - z_hi * sig, 0.0), max(energy_j - z_lo * sig, 0.0)
+
+    def probability(
+        self, energy_j: float, usable_j: float, duration_s: float | None = None,
+        outside_share: float = 0.0,
+    ) -> float:  # fmt: skip
+        """Chance that the true energy is at most ``usable_j`` (conformal: count / (n + 1))."""
+        if usable_j <= 0:
+            return 0.0
+        sig = float(self.sigma(energy_j, duration_s, outside_share))
+        if self.small_sample(0.9):
+            z = self.scores
+            sd = float(np.std(z, ddof=1)) * np.sqrt(1.0 + 1.0 / z.size)
+            return float(student_t.sf((energy_j - usable_j) / sig, z.size - 1, z.mean(), sd))
+        ok = int(np.count_nonzero(energy_j - self.scores * sig <= usable_j))
+        return ok / (self.scores.size + 1)
+
+    def small_sample(self, level: float) -> bool:
+        """Too few scores for a two-sided conformal interval at ``level``.
+
+        The upper order statistic ``ceil((n + 1) (1 + level) / 2)`` exceeds ``n`` (for
+        90 %: fewer than 19 scores): the conformal bound would be infinite. Then the
+        normalized scores are taken as normal and the bounds are the Student-t
+        prediction interval of a new draw, ``mean +- t(n-1) s sqrt(1 + 1/n)``, widened to
+        the scores' range where that is wider.
+        """
+        n = self.scores.size
+        return math.ceil((n + 1) * (1.0 + level) / 2.0) > n
+
+    def _student_bounds(self, level: float) -> tuple[float, float]:
+        z = self.scores
+        if z.size < 2:
+            return -math.inf, math.inf
+        q = float(student_t.ppf((1.0 + level) / 2.0, z.size - 1))
+        half = q * float(np.std(z, ddof=1)) * math.sqrt(1.0 + 1.0 / z.size)
+        # never inside the scores' range, the widest a conformal bound of n scores gets
+        # (so that a higher level never gives a narrower interval)
+        return min(float(z.mean()) - half, float(z[0])), max(float(z.mean()) + half, float(z[-1]))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready (stored as ``metadata.fit.error_model``)."""
+        return {
+            "form": "sigma^2 = (rho2 + b) E^2 + c T + d (share E)^2; "
+            "interval E - z sigma, z split-conformal",
+            "rho2": float(f"{self.param_rel_var:.6g}"),
+            "b": float(f"{self.model_rel_var:.6g}"),
+            "c_j2_per_s": float(f"{self.noise_j2_per_s:.6g}"),
+            "d": None if self.outside_rel_var is None else float(f"{self.outside_rel_var:.6g}"),
+            "outside_rule": self.outside_rule,
+            "mean_power_w": float(f"{self.mean_power_w:.6g}"),
+            "n_outside": self.n_outside,
+            "cross_fitted": self.cross_fitted,
+            "scores": [round(float(z), 5) for z in self.scores],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ErrorModel:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            float(d["rho2"]), float(d["b"]), float(d["c_j2_per_s"]),
+            None if d.get("d") is None else float(d["d"]),
+            np.sort(np.asarray(d["scores"], dtype=float)), float(d["mean_power_w"]),
+            int(d.get("n_outside", 0)), bool(d.get("cross_fitted", True)),
+        )  # fmt: skip
+
+
+def _fit_scale(
+    e: np.ndarray, energy: np.ndarray, duration: np.ndarray, pvar: np.ndarray,
+    share: np.ndarray, with_outside: bool,
+) -> np.ndarray:  # fmt: skip
+    """``(b, c, d)`` >= 0 of the variance model on squared errors (IRLS on 1 / sigma^4)."""
+    cols = [energy**2, duration] + ([(share * energy) ** 2] if with_outside else [])
+    F = np.column_stack(cols)
+    y = e**2 - pvar
+    scale = np.linalg.norm(F, axis=0)
+    scale[scale == 0] = 1.0
+    w = np.ones(e.size)
+    theta = np.zeros(F.shape[1])
+    for _ in range(3):
+        sw = np.sqrt(w)
+        th, _ = nnls(F / scale * sw[:, None], y * sw)
+        theta = th / scale
+        var = np.maximum(pvar + F @ theta, (MIN_REL_SIGMA * energy) ** 2)
+        w = 1.0 / var**2
+        w /= w.mean()
+    return np.r_[theta, 0.0] if not with_outside else theta
+
+
+def fit_error_model(
+    predicted_j: Any,
+    measured_j: Any,
+    duration_s: Any,
+    param_var_j2: Any = None,
+    outside_share: Any = None,
+    fold: Any = None,
+    *,
+    param_rel_var: float | None = None,
+) -> ErrorModel | None:
+    """Fit the error scale on held-out runs and their normalized conformal scores.
+
+    Parameters
+    ----------
+    predicted_j, measured_j, duration_s : array-like
+        Per held-out run: its predicted energy (by a fit without it), its measured
+        energy and its duration.
+    param_var_j2 : array-like, optional
+        Per run ``g^T V g``: the coefficient covariance of the fit that predicted it (its
+        fold's) carried to its energy; part of its error, removed before fitting ``b, c,
+        d`` and kept in the scale that normalizes its score.
+    param_rel_var : float, optional
+        ``rho^2`` of new predictions (the full fit's covariance as a share of
+        ``E^2``); default: the pooled ``param_var_j2 / predicted_j^2``.
+    outside_share : array-like, optional
+        Per run, the share of its duration outside the domain its prediction had.
+    fold : array-like, optional
+        Per run its cross-validation fold: each score is normalized by a scale fitted on
+        the other folds' runs (with one fold, on all runs: then ``cross_fitted`` False).
+
+    Returns
+    -------
+    ErrorModel or None
+        None with fewer than 3 usable runs.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> E = rng.uniform(1e3, 1e4, 400); T = E / 100
+    >>> meas = E + rng.normal(0, 0.05 * E)
+    >>> em = fit_error_model(E, meas, T, fold=np.arange(400) % 5)
+    >>> round(em.model_rel_var ** 0.5, 2)
+    0.05
+    """
+    pred = np.asarray(predicted_j, dtype=float)
+    meas = np.asarray(measured_j, dtype=float)
+    dur = np.asarray(duration_s, dtype=float)
+    n = pred.size
+    pvar = np.zeros(n) if param_var_j2 is None else np.asarray(param_var_j2, dtype=float)
+    share = np.zeros(n) if outside_share is None else np.asarray(outside_share, dtype=float)
+    folds = np.zeros(n, int) if fold is None else np.asarray(fold)
+    ok = (np.isfinite(pred) & np.isfinite(meas) & (meas > 0) & (pred > 0) & np.isfinite(dur)
+          & (dur > 0) & np.isfinite(pvar) & np.isfinite(share))  # fmt: skip
+    pred, meas, dur, pvar, share, folds = (a[ok] for a in (pred, meas, dur, pvar, share, folds))
+    if pred.size < 3:
+        return None
+    e = pred - meas
+    n_out = int(np.count_nonzero(share > 0))
+    # the outside term is told apart from the error inside only with runs of both kinds
+    with_out = min(n_out, share.size - n_out) >= MIN_OUTSIDE_RUNS
+    rho2 = float(pvar.sum() / np.sum(pred**2)) if param_rel_var is None else param_rel_var
+
+    def model_of(theta: np.ndarray, scores: np.ndarray, cross: bool, r2: float) -> ErrorModel:
+        return ErrorModel(r2, float(theta[0]), float(theta[1]),
+                          float(theta[2]) if with_out else None, np.sort(scores),
+                          float(meas.sum() / dur.sum()), n_out, cross)  # fmt: skip
+
+    def own_sigma(th: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        # the scale of these runs' errors: their own coefficient variance and the
+        # run-to-run terms (and the share outside their fold's domain)
+        em = model_of(th, np.zeros(1), True, 0.0)
+        v = em.sigma(pred[sel], dur[sel], 0.0) ** 2 + pvar[sel]
+        if em.outside_rel_var is None:
+            return np.sqrt(v) * (1.0 + ASSUMED_OUTSIDE_FACTOR * share[sel])
+        return np.sqrt(v + em.outside_rel_var * (share[sel] * pred[sel]) ** 2)
+
+    theta = _fit_scale(e, pred, dur, pvar, share, with_out)
+    labels = np.unique(folds)
+    z = np.empty(pred.size)
+    cross = labels.size >= 2
+    if cross:
+        for k in labels:
+            test = folds == k
+            train = ~test
+            th = theta
+            if np.count_nonzero(train) >= 3:
+                th = _fit_scale(e[train], pred[train], dur[train], pvar[train], share[train],
+                                with_out)  # fmt: skip
+            z[test] = e[test] / own_sigma(th, test)
+    else:
+        z = e / own_sigma(theta, np.ones(pred.size, bool))
+    return model_of(theta, z, cross, rho2)
