@@ -162,7 +162,7 @@ def test_stay_in_domain_on_a_plane_with_a_channel_raster():
     start, goal = (X0 + 18.0, Y0 + 12.0), (X0 + 38.0, Y0 + 12.0)
     loads = {}
     for name, r in (("free", req), ("inside", inside)):
-        res = ep.Problem(flat, model, r).plan(start, goal, step=2.0)
+        res = ep.plan(ep.Problem(flat, model, r), start, goal, step=2.0)
         along = path_channel_values(flat, ch.bind(flat), res.states)["load_kg"]
         loads[name] = np.concatenate(along)
     assert loads["free"].max() == 9.0  # the straight route crosses the wall
