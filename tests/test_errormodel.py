@@ -174,3 +174,22 @@ def test_any_sample_gives_a_finite_ordered_interval(n, seed, spread, out):
     assert 0.0 <= lo9 <= lo8 <= hi8 <= hi9 and math.isfinite(hi9)
     em2 = ErrorModel.from_dict(em.to_dict())
     assert em2.bounds(1000.0, 0.9, 5.0, 0.3) == pytest.approx((lo9, hi9), rel=1e-4, abs=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    n=st.sampled_from([6, 40]),
+    seed=st.integers(0, 10_000),
+    usable=st.floats(500.0, 5000.0),
+)
+def test_probability_of_an_array_is_the_probability_of_each_energy(n, seed, usable):
+    """A reach map's chances (an array) equal the battery chance of each cell's energy."""
+    rng = np.random.default_rng(seed)
+    z = np.sort(rng.standard_normal(n))
+    em = ErrorModel(0.0, 4e-3, 50.0, None, z, mean_power_w=200.0)
+    e = rng.uniform(100.0, 6000.0, size=17)
+    got = em.probability(e, usable)
+    want = [em.probability(float(v), usable) for v in e]
+    assert got.shape == e.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert np.all(np.diff(got[np.argsort(e)]) <= 1e-12)  # dearer cells never likelier

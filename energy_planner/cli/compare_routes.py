@@ -135,7 +135,8 @@ def command(
     for r in result["routes"]:
         if r["energy_j"] is not None and r["feasible"]:
             add_trust(r, model, r["energy_j"], level, battery_wh, reserve_wh, confidence,
-                      refuse and r["name"] == "energy_optimal", label=r["name"])  # fmt: skip
+                      refuse and r["name"] == "energy_optimal", label=r["name"],
+                      duration_s=r.get("duration_s"))  # fmt: skip
     if plot is not None:
         comp.plot(terrain, plot, request=request)
         result["plot"] = str(plot)

@@ -132,10 +132,11 @@ class MissionResult:
         """
         from energy_planner.uncertainty import battery_decision
 
-        out, cum, crossed = [], 0.0, None
+        out, cum, cum_s, crossed = [], 0.0, 0.0, None
         for k, leg in enumerate(self.legs):
             cum += leg.energy_j
-            d = battery_decision(model, cum, battery_wh, reserve_wh, confidence)
+            cum_s += leg.duration_s  # the error model's duration input
+            d = battery_decision(model, cum, battery_wh, reserve_wh, confidence, cum_s)
             out.append({"leg": k, "to": self.sites.names[leg.b], "spent_j": cum,
                         "probability": d.probability, "ok": d.ok})  # fmt: skip
             if crossed is None and not d.ok:

@@ -282,11 +282,21 @@ class ReachMap:
     def chance(self, model, usable_j: float) -> np.ndarray:
         """Per cell, the chance that going there (and back) fits in ``usable_j`` joules.
 
-        :func:`energy_planner.uncertainty.success_probability` of each cell's energy, from
-        the model's held-out run errors; NaN where the cell cannot be reached.
+        The model's error model when it has one
+        (:meth:`energy_planner.uncertainty.errormodel.ErrorModel.probability`, the cell's
+        duration taken as its energy over the held-out runs' mean power), else
+        :func:`energy_planner.uncertainty.success_probability` of each cell's energy from
+        the relative held-out run errors; NaN where the cell cannot be reached.
         """
-        from energy_planner.uncertainty import BatteryError, model_scores
+        from energy_planner.uncertainty import BatteryError, model_error_model, model_scores
 
+        em = model_error_model(model)
+        if em is not None:
+            e = self.energy_j
+            ok = np.isfinite(e)
+            out = np.full(e.shape, np.nan)
+            out[ok] = em.probability(e[ok], usable_j)
+            return out
         s = model_scores(model)
         if s is None:
             raise BatteryError("the model carries no held-out run errors: refit it with "

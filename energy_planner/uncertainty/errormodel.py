@@ -142,19 +142,27 @@ class ErrorModel:
         return max(energy_j - z_hi * sig, 0.0), max(energy_j - z_lo * sig, 0.0)
 
     def probability(
-        self, energy_j: float, usable_j: float, duration_s: float | None = None,
-        outside_share: float = 0.0,
-    ) -> float:  # fmt: skip
-        """Chance that the true energy is at most ``usable_j`` (conformal: count / (n + 1))."""
+        self, energy_j: Any, usable_j: float, duration_s: Any = None,
+        outside_share: Any = 0.0,
+    ) -> Any:  # fmt: skip
+        """Chance that the true energy is at most ``usable_j`` (conformal: count / (n + 1)).
+
+        ``energy_j`` may be an array (a reach map's cells): the chance of each, same shape.
+        """
+        e = np.asarray(energy_j, dtype=float)
         if usable_j <= 0:
-            return 0.0
-        sig = float(self.sigma(energy_j, duration_s, outside_share))
+            return 0.0 if e.ndim == 0 else np.zeros(e.shape)
+        sig = np.asarray(self.sigma(e, duration_s, outside_share), dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            thr = (e - usable_j) / sig  # the run fits when its score is at least this
         if self.small_sample(0.9):
             z = self.scores
             sd = float(np.std(z, ddof=1)) * np.sqrt(1.0 + 1.0 / z.size)
-            return float(student_t.sf((energy_j - usable_j) / sig, z.size - 1, z.mean(), sd))
-        ok = int(np.count_nonzero(energy_j - self.scores * sig <= usable_j))
-        return ok / (self.scores.size + 1)
+            p = student_t.sf(thr, z.size - 1, z.mean(), sd)
+        else:
+            z = np.sort(self.scores)
+            p = (z.size - np.searchsorted(z, thr, side="left")) / (z.size + 1)
+        return float(p) if e.ndim == 0 else np.asarray(p, dtype=float)
 
     def small_sample(self, level: float) -> bool:
         """Too few scores for a two-sided conformal interval at ``level``.
@@ -191,7 +199,7 @@ class ErrorModel:
             "mean_power_w": float(f"{self.mean_power_w:.6g}"),
             "n_outside": self.n_outside,
             "cross_fitted": self.cross_fitted,
-            "scores": [round(float(z), 5) for z in self.scores],
+            "scores": [float(f"{z:.6g}") for z in self.scores],  # 6 significant digits
         }
 
     @classmethod
