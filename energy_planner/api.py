@@ -153,9 +153,16 @@ def mission(dem: Any, sites: Any, *, model: Any = None, request: Any = None, **k
 
 
 def _samples(logs: Any):
+    """Canonical samples from log paths, a DataFrame of them, or a simulated campaign."""
+    import pandas as pd
+
     from energy_planner.measurements import load_logs
     from energy_planner.measurements.logs import log_files
 
+    if isinstance(logs, pd.DataFrame):
+        return logs
+    if isinstance(getattr(logs, "logs", None), pd.DataFrame):  # a simulated Campaign
+        return logs.logs
     return load_logs(log_files([logs] if isinstance(logs, str | Path) else list(logs)))
 
 
@@ -188,8 +195,10 @@ def fit(
 def discover(logs: Any, **kwargs: Any):
     """Find the effects the base model lacks in robot logs.
 
-    Data checks (``repair=False``: report only), then the staircase
-    (:func:`energy_planner.diagnosis.discover`); returns its ``Discovery``.
+    ``logs``: log files or folders (CSV, Parquet, ROS bags), a DataFrame of canonical
+    samples, or a simulated campaign. Data checks (``repair=False``: report only), then
+    the staircase (:func:`energy_planner.diagnosis.discover`); returns its ``Discovery``
+    (``.table()``, ``.write_json``, ``.write_html``, ``.plot``).
     """
     from energy_planner.diagnosis import discover as _discover
 

@@ -506,22 +506,9 @@ def command(
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     if out is not None:
-        from energy_planner.io import write_geojson
-
-        write_geojson(out, res.to_geojson(terrain, native=geojson_crs == "dem"))
+        res.write_geojson(out, terrain, native=geojson_crs == "dem")
         result["out"] = str(out)
     if plot is not None:
-        from energy_planner.planning.compare import Route, RouteComparison
-
-        comp = RouteComparison(
-            routes=[
-                Route("energy_optimal", res.states, res.energy_j, res.distance_m,
-                      res.duration_s, None, True),
-            ],
-            start=s,
-            goal=g,
-        )  # fmt: skip
-        comp.plot(terrain, plot, title=f"Planned path ({res.planner}): {res.energy_j:.0f} J",
-                  request=request)  # fmt: skip
+        res.plot(terrain, plot, request=request)
         result["plot"] = str(plot)
     emit(result, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))

@@ -192,6 +192,32 @@ class Discovery:
             )
         return rows
 
+    def plot(self, path: Any) -> Any:
+        """The staircase (held-out RMSE and run-energy error per step); PNG at ``path``."""
+        import matplotlib.pyplot as plt
+
+        from energy_planner.diagnosis.report import plot_discovery
+        from energy_planner.io import save_figure
+
+        fig = plot_discovery(self.table())
+        try:
+            return save_figure(fig, path)
+        finally:
+            plt.close(fig)
+
+    def write_json(self, path: Any) -> Any:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    def write_html(self, path: Any, title: str = "energy_planner discover") -> Any:
+        """The self-contained HTML report (plots embedded) at ``path``."""
+        from energy_planner.diagnosis.report import render_discovery_html
+        from energy_planner.io import write_text
+
+        return write_text(path, render_discovery_html(self.to_dict(), title))
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON document (see ``docs/diagnosis.md``)."""
         last = self.rankings[-1] if self.rankings else None

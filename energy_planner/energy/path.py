@@ -97,6 +97,54 @@ class PathEnergy:
             "segments": self.segments.to_dict(orient="records"),
         }
 
+    def write_json(self, path: Any) -> Any:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
+        """The executed poses as the project's GeoJSON path document, with the totals."""
+        from energy_planner.geojson import path_document_from_work
+
+        props = {"energy_j": self.energy_j, "distance_m": self.distance_m,
+                 "duration_s": self.duration_s}  # fmt: skip
+        return path_document_from_work(terrain, self.poses, properties=props, native=native)
+
+    def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
+        """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_geojson
+
+        return write_geojson(path, self.to_geojson(terrain, native=native))
+
+    def plot(self, path: Any) -> Any:
+        """Cumulative energy and energy per metre along the path; write a PNG at ``path``."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from energy_planner.io import save_figure
+
+        seg = self.segments
+        d = np.concatenate([[0.0], np.cumsum(seg["distance_m"].to_numpy(float))])
+        e = np.concatenate([[0.0], np.cumsum(seg["energy_j"].to_numpy(float))])
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+        a1.plot(d, e / 1000.0, "-", color="C0")
+        a1.set_ylabel("cumulative energy (kJ)")
+        a1.set_title(f"{self.energy_j / 1000:.2f} kJ over {self.distance_m:.1f} m, "
+                     f"{self.duration_s:.0f} s", fontsize=10)  # fmt: skip
+        with np.errstate(invalid="ignore", divide="ignore"):
+            per_m = seg["energy_j"].to_numpy(float) / seg["distance_m"].to_numpy(float)
+        a2.step(d[1:], per_m, where="pre", color="C3")
+        a2.set_ylabel("energy per metre (J/m)")
+        a2.set_xlabel("distance along the path (m)")
+        fig.tight_layout()
+        try:
+            return save_figure(fig, path)
+        finally:
+            plt.close(fig)
+
 
 def path_energy(
     terrain: Any,

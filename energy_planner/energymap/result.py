@@ -64,6 +64,18 @@ class EnergyMapResult:
     channels: dict[str, Any] = field(default_factory=dict)
     heading_convention: str = GRID_EAST
 
+    def plot(self, png: str | Path, dem: Any = None) -> Path:
+        """Draw the map (:func:`~energy_planner.energymap.plot.plot_energy_map`) to ``png``."""
+        from energy_planner.energymap.plot import plot_energy_map
+
+        return plot_energy_map(self.path, png, dem)
+
+    def write_json(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict())
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {

@@ -134,6 +134,37 @@ class PlanResult:
             "waypoints": self.waypoints(terrain),
         }
 
+    def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
+        """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_geojson
+
+        return write_geojson(path, self.to_geojson(terrain, native=native))
+
+    def write_json(self, path: Any, terrain) -> Any:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict(terrain))
+
+    def plot(self, terrain, path: Any, *, request: Any = None, title: str | None = None) -> Any:
+        """Draw the path over the terrain's hillshade; write a PNG at ``path``.
+
+        Drawn as the energy-optimal route of a
+        :class:`~energy_planner.planning.routes.RouteComparison` (keep-outs, slope mask
+        and channels of ``request`` drawn too).
+        """
+        from energy_planner.planning.routes import Route, RouteComparison
+
+        s, g = self.states[0], self.states[-1]
+        comp = RouteComparison(
+            routes=[Route("energy_optimal", self.states, self.energy_j, self.distance_m,
+                          self.duration_s, None, True)],
+            start=(float(s[0]), float(s[1]), float(s[2])),
+            goal=(float(g[0]), float(g[1]), float(g[2])),
+        )  # fmt: skip
+        title = title or f"Planned path ({self.planner}): {self.energy_j:.0f} J"
+        return comp.plot(terrain, path, title=title, request=request)
+
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):
