@@ -244,17 +244,14 @@ def _not_repeated(arr: np.ndarray, yaw: np.ndarray | None, t: np.ndarray | None)
 
 
 def write_path(
-    path: str | Path,
-    xy: Any,
-    yaw_rad: Sequence[float] | np.ndarray | None = None,
-    *,
-    t: Sequence[float] | np.ndarray | None = None,
-    crs: Any = None,
-    properties: dict[str, Any] | None = None,
-    native: bool = False,
+    path: str | Path, xy: Any, yaw_rad: Sequence[float] | np.ndarray | None = None, **options: Any
 ) -> Path:
-    """Write :func:`path_document` to ``path`` (UTF-8 JSON) and return the path."""
-    doc = path_document(xy, yaw_rad, t=t, crs=crs, properties=properties, native=native)
+    """Write :func:`path_document` to ``path`` (UTF-8 JSON) and return the path.
+
+    ``xy``, ``yaw_rad`` and the keyword ``options`` (``t``, ``crs``, ``properties``,
+    ``native``) are those of :func:`path_document`.
+    """
+    doc = path_document(xy, yaw_rad, **options)
     p = Path(path)
     try:
         write_geojson(p, doc)
