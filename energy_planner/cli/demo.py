@@ -7,17 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    channel_options,
-    channels_from_options,
-    emit,
-    examples,
-    gait_limit_options,
-    gait_limits,
-    json_option,
-    load_model_option,
-    model_option,
-)
+from energy_planner.cli import options
 
 
 def _limits_text(res: dict[str, Any]) -> str:
@@ -57,7 +47,7 @@ def _text(res: dict[str, Any]) -> str:
 
 @click.command(
     "demo",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner demo",
         "energy-planner demo --max-slope 25 --plot demo25.png",
     ),
@@ -69,7 +59,7 @@ def _text(res: dict[str, Any]) -> str:
     show_default=True,
     help="Bundled scenario (maps/scenarios.json): hill, hill_crossing, plane.",
 )
-@model_option
+@options.model_option
 @click.option(
     "--max-slope",
     type=click.FloatRange(min=0, max=89),
@@ -92,9 +82,9 @@ def _text(res: dict[str, Any]) -> str:
     show_default=True,
     help="PNG of the routes over a hillshade.",
 )
-@gait_limit_options
-@channel_options
-@json_option
+@options.gait_limit_options
+@options.channel_options
+@options.json_option
 def command(
     scenario_name: str,
     model_path: Path | None,
@@ -125,12 +115,14 @@ def command(
             f"no scenario {scenario_name!r}; valid: {', '.join(scenario_names())}",
             param_hint="--scenario",
         ) from exc
-    model = load_model_option(model_path)
+    model = options.load_model_option(model_path)
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
     request = Request.make(
-        max_slope_deg=max_slope, channels=channels_from_options(sets, channels), **gait_limits()
+        max_slope_deg=max_slope,
+        channels=options.channels_from_options(sets, channels),
+        **options.gait_limits(),
     )
     try:
         comp = compare_routes(terrain, model, start, goal, request, time=time_s, progress=True)
@@ -149,4 +141,4 @@ def command(
         model=str(model_path) if model_path else "bundled B1-class default",
         plot=str(plot),
     )
-    emit(res, as_json, _text)
+    options.emit(res, as_json, _text)

@@ -8,18 +8,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    load_model_option,
-    logs_argument,
-    model_option,
-    repair_option,
-    report_option,
-    staircase_options,
-    window_option,
-)
+from energy_planner.cli import options
 
 
 def fit_hint(
@@ -167,13 +156,13 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
 
 @click.command(
     "diagnose",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner diagnose campaign --model b1.json --report diagnosis.html",
     ),
 )
-@logs_argument
-@model_option
-@report_option
+@options.logs_argument
+@options.model_option
+@options.report_option
 @click.option(
     "--runs",
     "runs_path",
@@ -182,10 +171,10 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     help="Run metadata CSV with columns run, composite, part (for the superposition check); "
     "default: runs.csv inside a LOGS folder, if there is one.",
 )
-@window_option
-@staircase_options
-@repair_option
-@json_option
+@options.window_option
+@options.staircase_options
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     model_path: Path | None,
@@ -216,7 +205,7 @@ def command(
     from energy_planner.diagnosis import Thresholds, diagnose
     from energy_planner.errors import EnergyPlannerError
 
-    model = load_model_option(model_path)
+    model = options.load_model_option(model_path)
     if not model.is_fitted:
         raise click.BadParameter(
             f"the model {str(model_path)!r} has no coefficients; fit it first "
@@ -271,4 +260,4 @@ def command(
                 f"cannot write {str(report)!r}: {exc}", param_hint="--report"
             ) from exc
         doc["report"] = str(report)
-    emit(doc, as_json, lambda x: _text(x, report))
+    options.emit(doc, as_json, lambda x: _text(x, report))

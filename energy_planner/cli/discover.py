@@ -9,16 +9,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    logs_argument,
-    repair_option,
-    report_option,
-    staircase_options,
-    window_option,
-)
+from energy_planner.cli import options
 
 
 def _pct(v: Any) -> str:
@@ -96,11 +87,11 @@ def _text(doc: dict[str, Any]) -> str:
 
 @click.command(
     "discover",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner discover campaign --out model.json --report discover.html",
     ),
 )
-@logs_argument
+@options.logs_argument
 @click.option(
     "--out",
     "out",
@@ -108,11 +99,11 @@ def _text(doc: dict[str, Any]) -> str:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Where to write the discovered model (JSON), fitted on all windows.",
 )
-@report_option
-@window_option
-@staircase_options
-@repair_option
-@json_option
+@options.report_option
+@options.window_option
+@options.staircase_options
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     out: Path,
@@ -209,4 +200,4 @@ def command(
                 f"cannot write {str(report)!r}: {exc}", param_hint="--report"
             ) from exc
         doc["report"] = str(report)
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)

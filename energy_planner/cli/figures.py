@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, examples, json_option, logs_argument, window_option
+from energy_planner.cli import options
 
 
 def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
@@ -43,11 +43,11 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
 
 @click.command(
     "figures",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner figures campaign --out figs --model b1.json",
     ),
 )
-@logs_argument
+@options.logs_argument
 @click.option(
     "--out",
     "out",
@@ -62,8 +62,8 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
     default=None,
     help="Energy model JSON whose curves are drawn (default: the base model fitted to LOGS).",
 )
-@window_option
-@json_option
+@options.window_option
+@options.json_option
 def command(
     logs: tuple[Path, ...], out: Path, model_path: Path | None, window: float, as_json: bool
 ) -> None:
@@ -95,7 +95,7 @@ def command(
     figures = _slope_figures(est, model, consts, out, notes)
     figures.update(_superposition_figure(logs, raw, out, notes))
     doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)
 
 
 def _model_for_curves(model_path: Path | None, windows, notes: list[str]):

@@ -8,15 +8,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    logs_argument,
-    repair_option,
-    seed_option,
-    window_option,
-)
+from energy_planner.cli import options
 from energy_planner.measurements.logs import log_files
 
 
@@ -159,12 +151,12 @@ def _runs_table(result: Any, limit: int = 12) -> str:
 
 @click.command(
     "fit",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner fit campaign --out b1.json",
         "energy-planner fit campaign --out load.json --term 'load_kg * speed'",
     ),
 )
-@logs_argument
+@options.logs_argument
 @click.option(
     "--out",
     "out",
@@ -180,7 +172,7 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     help="Add a term to the base model: a catalog name (e.g. idle_power) or a formula "
     "(e.g. 'payload_kg * speed * sin(alpha)'). Repeatable.",
 )
-@window_option
+@options.window_option
 @click.option(
     "--folds",
     type=click.IntRange(min=0),
@@ -197,9 +189,9 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     "values: a model JSON, or 'default' for the bundled model. Without it such terms are "
     "left out of the fitted model and listed as not identified.",
 )
-@seed_option
-@repair_option
-@json_option
+@options.seed_option
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     out: Path,
@@ -279,4 +271,4 @@ def command(
             ]
         )
 
-    emit(doc, as_json, text)
+    options.emit(doc, as_json, text)

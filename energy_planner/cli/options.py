@@ -2,25 +2,66 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
+from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
 )
-dem_option = click.option(
+
+
+def path_option(*decls: str, help: str, **kw: Any) -> Callable:
+    """An option naming a file (not a folder) as a :class:`~pathlib.Path`, default None.
+
+    ``decls`` and ``kw`` are those of :func:`click.option` (``required``, ``default``, ...).
+    """
+    kw.setdefault("default", None)
+    return click.option(*decls, type=click.Path(dir_okay=False, path_type=Path), help=help, **kw)
+
+
+def plot_option(help: str) -> Callable:
+    """``--plot FILE`` (a PNG), with ``help`` saying what is drawn."""
+    return path_option("--plot", help=help)
+
+
+def write_output(result: dict[str, Any], key: str, path: Path | None, write: Callable) -> None:
+    """An optional output: ``write(path)`` when ``path`` is given, and ``result[key]`` names it.
+
+    ``write`` writes through :mod:`energy_planner.io` (atomic); nothing happens for None.
+    """
+    if path is not None:
+        write(path)
+        result[key] = str(path)
+
+
+def write_geojson_output(
+    result: dict[str, Any], key: str, path: Path | None, document: Callable[[], dict], **kw: Any
+) -> None:
+    """:func:`write_output` of the GeoJSON ``document()`` (built only when ``path`` is given).
+
+    ``kw`` goes to :func:`energy_planner.io.write_geojson` (e.g. ``indent=None``).
+    """
+    if path is not None:
+        from energy_planner.io import write_geojson
+
+        write_output(result, key, path, lambda p: write_geojson(p, document(), **kw))
+
+
+dem_option = path_option(
     "--dem",
     "dem",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
 )
 #: ``--geojson-crs``: the CRS of GeoJSON outputs (io's RFC 7946 writer or the DEM's CRS).
@@ -83,12 +124,8 @@ def parse_memory_cap(value: str | None):
     return size
 
 
-model_option = click.option(
-    "--model",
-    "model_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Energy model JSON (default: the bundled B1-class model).",
+model_option = path_option(
+    "--model", "model_path", help="Energy model JSON (default: the bundled B1-class model)."
 )
 seed_option = click.option(
     "--seed",
@@ -122,12 +159,8 @@ repair_option = click.option(
     "slip, IMU tilt, twist noise) before fitting; --no-repair reports them only.",
 )
 
-report_option = click.option(
-    "--report",
-    "report",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write a self-contained HTML report (plots embedded) to this file.",
+report_option = path_option(
+    "--report", "report", help="Write a self-contained HTML report (plots embedded) to this file."
 )
 
 
@@ -297,6 +330,157 @@ yaw_rate_option = click.option(
 )
 
 
+def check_planner(planner: str) -> str:
+    """Validate ``--planner`` (click.BadParameter listing the valid names)."""
+    if planner not in PLANNER_CHOICES:
+        raise click.BadParameter(
+            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNER_CHOICES)}",
+            param_hint="--planner",
+        )
+    return planner
+
+
+#: What ``--time`` bounds, for the help texts.
+TIME_HELP = (
+    "Budget for the whole planning of {what}, seconds, counted after the kernels are compiled "
+    "(loading the DEM is not counted): the search's relaxed problem and search (an error if "
+    "they do not finish in time), then the refinement, which gets what is left. Default: no "
+    "limit for the search, and up to a quarter of its time (1-10 s) for the refinement; "
+    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted. A DEM planned "
+    "by windows (above --memory-cap) counts everything: the gradient pass and each "
+    "window's read and search."
+)
+
+
+def planning_options(what: str, time_default: float | None = 10.0):
+    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``."""
+    time_help = (
+        TIME_HELP.format(what=what)
+        if time_default is None
+        else f"Planning budget of {what}, seconds."
+    )
+
+    def deco(f):
+        for opt in reversed(
+            [
+                click.option(
+                    "--planner",
+                    default="auto",
+                    show_default=True,
+                    help=f"Planner of {what}: {', '.join(PLANNER_CHOICES)}.",
+                ),
+                click.option(
+                    "--time",
+                    "time_s",
+                    type=click.FloatRange(min=0, min_open=True),
+                    default=time_default,
+                    show_default=time_default is not None,
+                    help=time_help,
+                ),
+                seed_option,
+                limit_options,
+                speed_option,
+                yaw_rate_option,
+            ]
+        ):
+            f = opt(f)
+        return f
+
+    return deco
+
+
+def limit_options(f):
+    """--max-slope, --max-cross-slope, --keep-out and the gait limits.
+
+    The gait limits (``--max-backward-slope``, ``--max-crab``:
+    :func:`~energy_planner.cli.options.gait_limit_options`) are read with
+    :func:`~energy_planner.cli.options.gait_limits`.
+    """
+    f = gait_limit_options(f)
+    f = path_option(
+        "--keep-out",
+        "keep_out",
+        help="GeoJSON polygons the path must avoid: longitude, latitude (RFC 7946) unless "
+        "the file declares a crs; reprojected to the DEM.",
+    )(f)
+    f = click.option(
+        "--max-cross-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest slope across the robot's body, degrees.",
+    )(f)
+    f = click.option(
+        "--max-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest ground slope the path may cross, degrees.",
+    )(f)
+    return f
+
+
+def request_from_options(
+    speed: float,
+    yaw_rate: float,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    sets: tuple[str, ...] = (),
+    channels: tuple[str, ...] = (),
+):
+    """The :class:`~energy_planner.request.Request` of the planning options.
+
+    A bad value becomes ``click.BadParameter`` naming the option (from the error's
+    ``field``, never from its text).
+    """
+    from energy_planner.request import Request, RequestError
+
+    option = {
+        "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
+        "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
+        "max_backward_slope_deg": "--max-backward-slope", "max_crab_deg": "--max-crab",
+    }  # fmt: skip
+    try:
+        return Request.make(
+            **gait_limits(),
+            speed=speed,
+            yaw_rate=yaw_rate,
+            max_slope_deg=max_slope,
+            max_cross_slope_deg=max_cross_slope,
+            keep_out=keep_out,
+            channels=channels_from_options(sets, channels),
+        )
+    except RequestError as exc:
+        raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
+
+
+#: The options :func:`request_from_options` reads (a command's parameter names).
+REQUEST_PARAMS = (
+    "speed",
+    "yaw_rate",
+    "max_slope",
+    "max_cross_slope",
+    "keep_out",
+    "sets",
+    "channels",
+)
+
+
+def with_request(f):
+    """The command gets one ``request`` (:func:`request_from_options`) for its options.
+
+    Put under ``@click.command``, above the options of :data:`REQUEST_PARAMS` wherever the
+    command declares them (``--help`` keeps their order).
+    """
+    return collect("request", request_from_options, *REQUEST_PARAMS)(f)
+
+
+def request_options(f):
+    """The limits, ``--speed``, ``--yaw-rate`` and the channel options: one ``request``."""
+    for opt in (channel_options, yaw_rate_option, speed_option, limit_options):
+        f = opt(f)
+    return with_request(f)
+
+
 #: ``ctx.meta`` key of ``--allow-unknown-category`` (read by :func:`channels_from_options`).
 ALLOW_UNKNOWN_KEY = "energy_planner.allow_unknown_category"
 
@@ -442,8 +626,55 @@ def battery_options(f):
     return f
 
 
+@dataclass(frozen=True)
+class Trust:
+    """What ``--level``, the battery options and ``--refuse`` ask of a result's energy.
+
+    Attributes
+    ----------
+    level : float
+        Nominal coverage of the energy's prediction interval.
+    battery_wh : float or None
+        Battery energy, Wh (None: no battery decision).
+    reserve_wh : float
+        Energy to keep in the battery, Wh.
+    confidence : float
+        Required chance that the battery suffices.
+    refuse : bool
+        A chance below ``confidence`` is an error (exit status 1), not a warning.
+    """
+
+    level: float = 0.9
+    battery_wh: float | None = None
+    reserve_wh: float = 0.0
+    confidence: float = 0.9
+    refuse: bool = False
+
+
+def collect(name: str, build: Callable[..., Any], *params: str) -> Callable:
+    """A decorator: the command gets one value ``name`` = ``build(**params)``.
+
+    The options ``params`` stay where the command declares them (its ``--help`` is
+    unchanged); their values are taken out of the call and built into one object.
+    """
+
+    def deco(f: Callable) -> Callable:
+        @functools.wraps(f)
+        def command(*args: Any, **kwargs: Any) -> Any:
+            values = {p: kwargs.pop(p) for p in params}
+            return f(*args, **{name: build(**values)}, **kwargs)
+
+        return command
+
+    return deco
+
+
 def trust_options(f):
-    """``--level`` (interval), the battery options and ``--refuse``."""
+    """``--level`` (interval), the battery options and ``--refuse``: one ``trust`` value.
+
+    The command receives ``trust`` (a :class:`Trust`) instead of the five values.
+    """
+    f = collect("trust", Trust, "level", "battery_wh", "reserve_wh", "confidence", "refuse")(f)
     f = click.option("--refuse", is_flag=True,
                      help="Exit with an error (status 1) when the chance is below "
                      "--confidence (default: a warning).")(f)  # fmt: skip
@@ -456,33 +687,33 @@ def trust_options(f):
 
 
 def add_trust(
-    result: dict[str, Any], model: Any, energy_j: float, level: float,
-    battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
-    label: str | None = None, outside_share: float = 0.0,
+    result: dict[str, Any], model: Any, energy_j: float, trust: Trust,
+    label: str | None = None, outside_share: float = 0.0, judged: bool = True,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
-    ``outside_share``: the share of the path outside the calibration's domain, which
-    widens the interval (:func:`energy_planner.uncertainty.predict_interval`).
+    ``trust``: the command's :class:`Trust`. ``outside_share``: the share of the path
+    outside the calibration's domain, which widens the interval
+    (:func:`energy_planner.uncertainty.predict_interval`).
 
-    A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
-    route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
-    status 1).
+    A chance below ``trust.confidence`` prints a warning on stderr (naming ``label``, the
+    route, when given), or with ``trust.refuse`` (and ``judged``: the result the command
+    judges) raises a ``click.ClickException`` (exit status 1).
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
-    iv = predict_interval(model, energy_j, level, outside_share)
+    iv = predict_interval(model, energy_j, trust.level, outside_share)
     result["interval"] = None if iv is None else iv.to_dict()
-    if battery_wh is None:
+    if trust.battery_wh is None:
         return
     try:
-        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence)
+        d = battery_decision(model, energy_j, trust.battery_wh, trust.reserve_wh, trust.confidence)
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     result["battery"] = d.to_dict()
     if not d.ok:
         text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
-        if refuse:
+        if trust.refuse and judged:
             raise click.ClickException(text)
         click.echo(f"warning: {text}", err=True)
 

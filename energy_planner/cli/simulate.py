@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, examples, json_option, seed_option
+from energy_planner.cli import options
 
 
 def _effects(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
@@ -85,7 +85,7 @@ def _text(doc: dict[str, Any]) -> str:
 
 @click.command(
     "simulate",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner simulate --out campaign --small --effect load",
         "energy-planner simulate --out missions --missions 4 --dem maps/hill.tif --effect load",
     ),
@@ -97,7 +97,7 @@ def _text(doc: dict[str, Any]) -> str:
     type=click.Path(file_okay=False, path_type=Path),
     help="Output directory (created if missing).",
 )
-@seed_option
+@options.seed_option
 @click.option(
     "--effect",
     "effects",
@@ -159,7 +159,7 @@ def _text(doc: dict[str, Any]) -> str:
 @click.option(
     "--noise-free", is_flag=True, help="Perfect sensors: no noise, spikes, slip or IMU bias."
 )
-@json_option
+@options.json_option
 def command(
     out: Path,
     seed: int,
@@ -255,4 +255,4 @@ def command(
             "plot": plot_path,
         },
     }
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)

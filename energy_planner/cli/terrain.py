@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.cli.options import band_option, emit, examples, json_option
+from energy_planner.cli import options
 
 
 def _resolve_dem(dem: str) -> Path:
@@ -176,13 +176,13 @@ def _text(r: dict[str, Any]) -> str:
 
 @click.command(
     "terrain",
-    epilog=examples(
+    epilog=options.examples(
         "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
         "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
     ),
 )
 @click.argument("dem", metavar="DEM")
-@band_option
+@options.band_option
 @click.option(
     "--bounds",
     default=None,
@@ -215,7 +215,7 @@ def _text(r: dict[str, Any]) -> str:
     default=None,
     help="Write a PNG of the slope over a hillshade.",
 )
-@json_option
+@options.json_option
 def command(
     dem: str,
     band: int | None,
@@ -251,4 +251,4 @@ def command(
     if plot is not None:
         _plot(plot, terrain, np.degrees(terrain.slope), f"Slope of {path.name}")
         result["plot"] = str(plot)
-    emit(result, as_json, _text)
+    options.emit(result, as_json, _text)
