@@ -32,15 +32,13 @@ def format_table(res: dict[str, Any]) -> str:
     return text
 
 
-@click.command(
+@options.command(
     "compare-routes",
-    epilog=options.examples(
-        "energy-planner compare-routes --dem maps/hill.tif --start "
-        "500058,5000046 --goal 500058,5000109 --max-slope 30 --plot routes.png",
-        "energy-planner compare-routes --dem maps/hill.tif --start "
-        "500058,5000046 --goal 500058,5000084 --battery-wh 30 --reserve-wh 2 "
-        "--json",
-    ),
+    "energy-planner compare-routes --dem maps/hill.tif --start "
+    "500058,5000046 --goal 500058,5000109 --max-slope 30 --plot routes.png",
+    "energy-planner compare-routes --dem maps/hill.tif --start "
+    "500058,5000046 --goal 500058,5000084 --battery-wh 30 --reserve-wh 2 "
+    "--json",
 )
 @options.with_request
 @options.dem_option
@@ -56,9 +54,7 @@ def command(
     start: str,
     goal: str,
     model_path: Path | None,
-    planner: str,
-    time_s: float,
-    seed: int,
+    search: dict[str, Any],
     request: Request,
     trust: options.Trust,
     plot: Path | None,
@@ -77,14 +73,13 @@ def command(
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes
 
-    options.check_planner(planner)
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
     s = point_to_work(terrain, start, "--start", True)
     g = point_to_work(terrain, goal, "--goal", True)
     try:
         comp = compare_routes(
-            terrain, model, s, g, request, planner=planner, time=time_s, seed=seed,
+            terrain, model, s, g, request, **search,
             progress=True,
         )  # fmt: skip
     except InvalidStateError as exc:

@@ -45,18 +45,13 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
 
 
-@click.command(
-    "demo",
-    epilog=options.examples(
-        "energy-planner demo",
-        "energy-planner demo --max-slope 25 --plot demo25.png",
-    ),
+@options.command(
+    "demo", "energy-planner demo", "energy-planner demo --max-slope 25 --plot demo25.png"
 )
-@click.option(
+@options.value_option(
     "--scenario",
     "scenario_name",
     default="hill",
-    show_default=True,
     help="Bundled scenario (maps/scenarios.json): hill, hill_crossing, plane.",
 )
 @options.model_option
@@ -67,19 +62,17 @@ def _text(res: dict[str, Any]) -> str:
     help="A slope limit, degrees (a B1-class quadruped: about 25). Default: none, as in "
     "the paper's Fig. 1: the detour must pay by the model's physics alone.",
 )
-@click.option(
+@options.value_option(
     "--time",
     "time_s",
     type=click.FloatRange(min=0, min_open=True),
     default=5.0,
-    show_default=True,
     help="Planning budget of the energy-optimal route, seconds.",
 )
-@click.option(
+@options.value_option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
     default=Path("energy-planner-demo.png"),
-    show_default=True,
     help="PNG of the routes over a hillshade.",
 )
 @options.gait_limit_options

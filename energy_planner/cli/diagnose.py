@@ -154,20 +154,15 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     return meta
 
 
-@click.command(
-    "diagnose",
-    epilog=options.examples(
-        "energy-planner diagnose campaign --model b1.json --report diagnosis.html",
-    ),
+@options.command(
+    "diagnose", "energy-planner diagnose campaign --model b1.json --report diagnosis.html"
 )
 @options.logs_argument
 @options.model_option
 @options.report_option
-@click.option(
+@options.path_option(
     "--runs",
     "runs_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Run metadata CSV with columns run, composite, part (for the superposition check); "
     "default: runs.csv inside a LOGS folder, if there is one.",
 )

@@ -78,25 +78,18 @@ def _text(doc: dict[str, Any]) -> str:
         )
     for n in doc["notes"]:
         lines.append(f"note: {n}")
-    if doc.get("model"):
-        lines.append(f"model written to {doc['model']}")
-    if doc.get("report"):
-        lines.append(f"report written to {doc['report']}")
+    lines += options.written_lines(doc, {"model": "model", "report": "report"})
     return "\n".join(lines)
 
 
-@click.command(
-    "discover",
-    epilog=options.examples(
-        "energy-planner discover campaign --out model.json --report discover.html",
-    ),
+@options.command(
+    "discover", "energy-planner discover campaign --out model.json --report discover.html"
 )
 @options.logs_argument
-@click.option(
+@options.path_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Where to write the discovered model (JSON), fitted on all windows.",
 )
 @options.report_option
@@ -127,24 +120,13 @@ def command(
     the staircase: term added, its physical explanation, held-out power RMSE, run-energy
     error (median, p90) and the share of the error removed.
     """
-    from energy_planner.cli.fit import resolve_terms, status
+    from energy_planner.cli.fit import load_log_files, resolve_terms
     from energy_planner.diagnosis.discover import discover
     from energy_planner.diagnosis.suspects import Thresholds
-    from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
-    from energy_planner.measurements import load_logs
-    from energy_planner.measurements.logs import log_files
+    from energy_planner.errors import EnergyPlannerError
 
     resolve_terms(terms)  # syntax first: fail before loading any log
-    files = log_files(logs)
-    status(f"loading {len(files)} log file(s) ...")
-    try:
-        samples = load_logs(files)
-    except LogIOError as exc:
-        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
-    except LogError as exc:
-        raise click.ClickException(
-            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
-        ) from exc
+    samples = load_log_files(logs)
     from energy_planner.measurements.windows import DERIVED_COLUMNS
 
     extra = [t.name for t in resolve_terms(terms, set(samples.columns) | set(DERIVED_COLUMNS))]

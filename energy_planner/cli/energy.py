@@ -239,13 +239,11 @@ def compute(
     return out
 
 
-@click.command(
+@options.command(
     "energy",
-    epilog=options.examples(
-        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
-        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
-        "--model load.json --set load_kg=10 --battery-wh 40",
-    ),
+    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
+    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
+    "--model load.json --set load_kg=10 --battery-wh 40",
 )
 @options.dem_option
 @options.path_option(

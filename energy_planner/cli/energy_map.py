@@ -52,35 +52,27 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
-    "energy-map",
-    epilog=options.examples(
-        "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png",
-    ),
+@options.command(
+    "energy-map", "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png"
 )
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
+@options.path_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Output GeoTIFF (one band per heading and gait, then the summary bands).",
 )
 @options.model_option
-@click.option(
+@options.value_option(
     "--headings",
     type=click.IntRange(1, 360),
     default=16,
-    show_default=True,
     help="Number of map headings, 360/N degrees apart, the first east.",
 )
 @options.speed_option
 @options.gait_limit_options
 @options.channel_options
-@click.option(
-    "--plot",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG.",
+@options.path_option(
+    "--plot", help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG."
 )
 @options.band_option
 @click.option(
@@ -102,11 +94,10 @@ def format_table(res: dict[str, Any]) -> str:
     "the DEM may take in memory (64 bytes per cell, as load_dem counts) above which the "
     "map is computed out of core"
 )
-@click.option(
+@options.value_option(
     "--chunk",
     type=click.IntRange(64, 16384),
     default=512,
-    show_default=True,
     help="Chunk side (cells) of the out-of-core path.",
 )
 @options.json_option

@@ -41,25 +41,18 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
     return meta if len(meta) else None
 
 
-@click.command(
-    "figures",
-    epilog=options.examples(
-        "energy-planner figures campaign --out figs --model b1.json",
-    ),
-)
+@options.command("figures", "energy-planner figures campaign --out figs --model b1.json")
 @options.logs_argument
-@click.option(
+@options.path_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
+    folder=True,
     help="Folder for the PNG figures (created if needed).",
 )
-@click.option(
+@options.path_option(
     "--model",
     "model_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Energy model JSON whose curves are drawn (default: the base model fitted to LOGS).",
 )
 @options.window_option

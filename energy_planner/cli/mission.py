@@ -48,31 +48,26 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "mission",
-    epilog=options.examples(
-        "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
-    ),
+    "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
 )
 @options.dem_option
-@click.option(
+@options.path_option(
     "--sites",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="CSV x,y[,yaw_deg][,name] in the DEM's CRS, or GeoJSON points (lon/lat unless the "
     "file declares a crs). The first site is the start.",
 )
-@click.option(
+@options.value_option(
     "--order",
     type=click.Choice(["best", "given"]),
     default="best",
-    show_default=True,
     help="best: the least-energy order (exact up to 15 sites); given: as listed.",
 )
 @click.option("--return", "return_to_start", is_flag=True, help="Come back to the first site.")
 @click.option(
     "--scheduler",
-    default=None,
     help="Address of a dask.distributed scheduler to run the per-site searches on "
     "(default: in this process).",
 )

@@ -21,13 +21,24 @@ json_option = click.option(
 )
 
 
-def path_option(*decls: str, help: str, **kw: Any) -> Callable:
-    """An option naming a file (not a folder) as a :class:`~pathlib.Path`, default None.
+def path_option(*decls: str, help: str, folder: bool = False, **kw: Any) -> Callable:
+    """An option naming a file (a folder with ``folder``) as a :class:`~pathlib.Path`.
 
-    ``decls`` and ``kw`` are those of :func:`click.option` (``required``, ``default``, ...).
+    ``decls`` and ``kw`` are those of :func:`click.option` (``required``, ``default``, ...;
+    the default is None).
     """
     kw.setdefault("default", None)
-    return click.option(*decls, type=click.Path(dir_okay=False, path_type=Path), help=help, **kw)
+    kind = (
+        click.Path(file_okay=False, path_type=Path)
+        if folder
+        else click.Path(dir_okay=False, path_type=Path)
+    )
+    return click.option(*decls, type=kind, help=help, **kw)
+
+
+def value_option(*decls: str, default: Any, help: str, type: Any = None, **kw: Any) -> Callable:
+    """An option of type ``type`` whose ``default`` ``--help`` shows (:func:`click.option`)."""
+    return click.option(*decls, type=type, default=default, show_default=True, help=help, **kw)
 
 
 def plot_option(help: str) -> Callable:
@@ -65,11 +76,10 @@ dem_option = path_option(
     help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
 )
 #: ``--geojson-crs``: the CRS of GeoJSON outputs (io's RFC 7946 writer or the DEM's CRS).
-geojson_crs_option = click.option(
+geojson_crs_option = value_option(
     "--geojson-crs",
     type=click.Choice(["wgs84", "dem"]),
     default="wgs84",
-    show_default=True,
     help="CRS of GeoJSON outputs: 'wgs84' (RFC 7946 longitude, latitude, what GIS and web "
     "maps expect) or 'dem' (the DEM's own CRS, declared with a 'crs' member).",
 )
@@ -127,34 +137,30 @@ def parse_memory_cap(value: str | None):
 model_option = path_option(
     "--model", "model_path", help="Energy model JSON (default: the bundled B1-class model)."
 )
-seed_option = click.option(
+seed_option = value_option(
     "--seed",
     type=int,
     default=0,
-    show_default=True,
     help="Random seed (planner sampling; for fit/diagnose, the assignment of runs to folds).",
 )
-speed_option = click.option(
+speed_option = value_option(
     "--speed",
     type=click.FloatRange(min=0, min_open=True),
     default=DEFAULT_SPEED,
-    show_default=True,
     help="Nominal walking speed, m/s.",
 )
 logs_argument = click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-window_option = click.option(
+window_option = value_option(
     "--window",
     type=click.FloatRange(min=0, min_open=True),
     default=2.0,
-    show_default=True,
     help="Window length, s.",
 )
 
-repair_option = click.option(
+repair_option = value_option(
     "--repair/--no-repair",
     "repair",
     default=True,
-    show_default=True,
     help="Correct the data findings (sensor problems: current sign, clock offset, odometry "
     "slip, IMU tilt, twist noise) before fitting; --no-repair reports them only.",
 )
@@ -180,41 +186,36 @@ def staircase_options(f):
                 help="Also test this candidate term (catalog name or formula, e.g. "
                 "'load_kg * speed * sin(alpha)'). Repeatable.",
             ),
-            click.option(
+            value_option(
                 "--folds",
                 type=click.IntRange(min=2),
                 default=5,
-                show_default=True,
                 help="Folds of the held-out validation by run.",
             ),
-            click.option(
+            value_option(
                 "--max-steps",
                 type=click.IntRange(min=0),
                 default=4,
-                show_default=True,
                 help="Largest number of terms the staircase adds to the model.",
             ),
-            click.option(
+            value_option(
                 "--alpha",
                 "alpha",
                 type=click.FloatRange(min=0, max=1, min_open=True),
                 default=0.01,
-                show_default=True,
                 help="Noise rule: family-wise false-finding level of each step (one-sided "
                 "test by run, Bonferroni over the candidates).",
             ),
-            click.option(
+            value_option(
                 "--min-rel",
                 type=click.FloatRange(min=0, max=1),
                 default=0.05,
-                show_default=True,
                 help="Noise rule: the held-out RMSE must fall by at least this fraction.",
             ),
-            click.option(
+            value_option(
                 "--seed",
                 type=int,
                 default=0,
-                show_default=True,
                 help="Seed of the assignment of runs to folds.",
             ),
         )
@@ -277,6 +278,16 @@ GAIT_LIMIT_OPTIONS = {
 }
 
 
+#: The help text of each gait-limit option, in ``--help`` order.
+GAIT_LIMIT_HELP = {
+    "--max-backward-slope": "No backward walking (body x more than 90 deg from the direction "
+    "of travel) on ground steeper than this, degrees.",
+    "--max-crab": "Largest crab angle: the angle between the body's x axis and the direction "
+    "of travel (or its opposite when walking backward), degrees; 0 = face along or straight "
+    "back, 90 = any gait. Turns in place are not limited.",
+}
+
+
 def _store_gait_limit(ctx: click.Context, param: click.Parameter, value: float | None) -> None:
     field = GAIT_LIMIT_OPTIONS[param.opts[0]]
     ctx.find_root().meta.setdefault(GAIT_LIMITS_KEY, {})[field] = value
@@ -288,27 +299,10 @@ def gait_limit_options(f):
     Their values are read with :func:`gait_limits` (they are not parameters of the
     command function), so that every command with planning limits takes them the same way.
     """
-    f = click.option(
-        "--max-crab",
-        metavar="DEG",
-        type=click.FloatRange(0, 90),
-        default=None,
-        expose_value=False,
-        callback=_store_gait_limit,
-        help="Largest crab angle: the angle between the body's x axis and the direction of "
-        "travel (or its opposite when walking backward), degrees; 0 = face along or "
-        "straight back, 90 = any gait. Turns in place are not limited.",
-    )(f)
-    return click.option(
-        "--max-backward-slope",
-        metavar="DEG",
-        type=click.FloatRange(0, 90),
-        default=None,
-        expose_value=False,
-        callback=_store_gait_limit,
-        help="No backward walking (body x more than 90 deg from the direction of travel) on "
-        "ground steeper than this, degrees.",
-    )(f)
+    for name, text in reversed(GAIT_LIMIT_HELP.items()):
+        f = click.option(name, metavar="DEG", type=click.FloatRange(0, 90), default=None,
+                         expose_value=False, callback=_store_gait_limit, help=text)(f)  # fmt: skip
+    return f
 
 
 def gait_limits() -> dict[str, float | None]:
@@ -321,11 +315,10 @@ def gait_limits() -> dict[str, float | None]:
     return {field: given.get(field) for field in GAIT_LIMIT_OPTIONS.values()}
 
 
-yaw_rate_option = click.option(
+yaw_rate_option = value_option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),
     default=DEFAULT_YAW_RATE,
-    show_default=True,
     help="Nominal turning rate, rad/s.",
 )
 
@@ -352,8 +345,17 @@ TIME_HELP = (
 )
 
 
+def search_from_options(planner: str, time_s: float | None, seed: int) -> dict[str, Any]:
+    """``planner``, ``time`` and ``seed`` keywords of the planners, ``--planner`` checked."""
+    return {"planner": check_planner(planner), "time": time_s, "seed": seed}
+
+
 def planning_options(what: str, time_default: float | None = 10.0):
-    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``."""
+    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``.
+
+    The command gets ``search`` (:func:`search_from_options`) instead of ``planner``,
+    ``time_s`` and ``seed``.
+    """
     time_help = (
         TIME_HELP.format(what=what)
         if time_default is None
@@ -363,10 +365,9 @@ def planning_options(what: str, time_default: float | None = 10.0):
     def deco(f):
         for opt in reversed(
             [
-                click.option(
+                value_option(
                     "--planner",
                     default="auto",
-                    show_default=True,
                     help=f"Planner of {what}: {', '.join(PLANNER_CHOICES)}.",
                 ),
                 click.option(
@@ -384,7 +385,7 @@ def planning_options(what: str, time_default: float | None = 10.0):
             ]
         ):
             f = opt(f)
-        return f
+        return collect("search", search_from_options, "planner", "time_s", "seed")(f)
 
     return deco
 
@@ -559,6 +560,11 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+def written_lines(res: dict[str, Any], labels: dict[str, str]) -> list[str]:
+    """``"<label> written to <path>"`` for each output ``key -> label`` that ``res`` names."""
+    return [f"{label} written to {res[key]}" for key, label in labels.items() if res.get(key)]
+
+
 def emit(result: dict[str, Any], as_json: bool, text: Callable[[dict[str, Any]], str]) -> None:
     """Print ``result`` as JSON (``--json``) or through ``text`` as a human table."""
     if as_json:
@@ -607,6 +613,11 @@ def examples(*lines: str) -> str:
     tests run every one (``tests/test_examples.py``).
     """
     return "Examples:\n\n\b\n" + "\n".join(f"  $ {line}" for line in lines)
+
+
+def command(name: str, *example_lines: str) -> Callable:
+    """``@click.command(name)`` with its examples (:func:`examples`) as the epilog."""
+    return click.command(name, epilog=examples(*example_lines))
 
 
 def battery_options(f):

@@ -203,19 +203,14 @@ def format_table(res: dict[str, Any]) -> str:
                 else "NOT proven: a path leaving the window might be cheaper"
             )
         )
-    if res.get("out"):
-        lines.append(f"path written to {res['out']}")
-    if res.get("plot"):
-        lines.append(f"plot written to {res['plot']}")
+    lines += options.written_lines(res, {"out": "path", "plot": "plot"})
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "plan",
-    epilog=options.examples(
-        "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
-        "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
-    ),
+    "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
+    "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
 )
 @options.with_request
 @options.dem_option
@@ -225,13 +220,11 @@ def format_table(res: dict[str, Any]) -> str:
 @click.option(
     "--step",
     type=click.FloatRange(min=0, min_open=True),
-    default=None,
     help="Position spacing of the search, metres (default: the DEM's cell size).",
 )
 @click.option(
     "--eps",
     type=click.FloatRange(min=1.0),
-    default=None,
     help="Heuristic weight of the search: its energy is at most EPS times the optimum on "
     "its motion primitives (default 1.05; 1 = optimal, slower).",
 )
@@ -262,9 +255,7 @@ def command(
     start: str,
     goal: str,
     model_path: Path | None,
-    planner: str,
-    time_s: float,
-    seed: int,
+    search: dict[str, Any],
     request: Request,
     step: float | None,
     eps: float | None,
@@ -296,12 +287,11 @@ def command(
     from energy_planner.planning.limits import make_motion_cost
     from energy_planner.planning.plan import plan
 
-    options.check_planner(planner)
     model = load_model_option(model_path)
     if stay_in_domain:
         request = _in_domain(request, model)
     cap = parse_memory_cap(memory_cap)
-    kwargs = dict(planner=planner, time=time_s, seed=seed, step=step, eps=eps)
+    kwargs = dict(search, step=step, eps=eps)
     if over_memory_cap(dem, cap):
         from energy_planner.planning.corridor import plan_in_corridor
 

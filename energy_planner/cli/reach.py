@@ -57,12 +57,10 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "reach",
-    epilog=options.examples(
-        "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
-        "15 --out reach.tif --geojson area.geojson --plot reach.png",
-    ),
+    "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
+    "15 --out reach.tif --geojson area.geojson --plot reach.png",
 )
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
@@ -70,7 +68,6 @@ def _text(res: dict[str, Any]) -> str:
 @click.option(
     "--budget-wh",
     type=click.FloatRange(min=0, min_open=True),
-    default=None,
     help="Battery budget, Wh: the area reachable within it (GeoJSON, contour on the plot).",
 )
 @click.option(
