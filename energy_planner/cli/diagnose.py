@@ -175,13 +175,9 @@ def command(
     model_path: Path | None,
     report: Path | None,
     terms: tuple[str, ...],
+    staircase: dict[str, Any],
     runs_path: Path | None,
     window: float,
-    folds: int,
-    max_steps: int,
-    alpha: float,
-    min_rel: float,
-    seed: int,
     repair: bool,
     as_json: bool,
 ) -> None:
@@ -197,7 +193,7 @@ def command(
     discover` walk the whole staircase.
     """
     from energy_planner.cli.fit import load_prepared, resolve_terms
-    from energy_planner.diagnosis import Thresholds, diagnose
+    from energy_planner.diagnosis import diagnose
     from energy_planner.errors import EnergyPlannerError
 
     model = options.load_model_option(model_path)
@@ -210,7 +206,6 @@ def command(
     prepared = load_prepared(logs, window, repair)[0]  # (prepared, reports, text, ...)
     extra = [t.name for t in resolve_terms(terms, set(prepared.windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
-    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     progress = None
     if sys.stderr.isatty():
 
@@ -222,8 +217,7 @@ def command(
             model,
             prepared,
             runs_meta=runs_meta,
-            thresholds=th,
-            max_steps=max_steps,
+            **staircase,
             terms=extra,
             progress=progress,
         )

@@ -101,14 +101,10 @@ def command(
     logs: tuple[Path, ...],
     out: Path,
     report: Path | None,
-    max_steps: int,
     terms: tuple[str, ...],
+    staircase: dict[str, Any],
     window: float,
-    folds: int,
-    alpha: float,
-    min_rel: float,
     repair: bool,
-    seed: int,
     as_json: bool,
 ) -> None:
     """Find the effects the base model misses in LOGS and write the model that has them.
@@ -122,7 +118,6 @@ def command(
     """
     from energy_planner.cli.fit import load_log_files, resolve_terms
     from energy_planner.diagnosis.discover import discover
-    from energy_planner.diagnosis.suspects import Thresholds
     from energy_planner.errors import EnergyPlannerError
 
     resolve_terms(terms)  # syntax first: fail before loading any log
@@ -130,10 +125,14 @@ def command(
     from energy_planner.measurements.windows import DERIVED_COLUMNS
 
     extra = [t.name for t in resolve_terms(terms, set(samples.columns) | set(DERIVED_COLUMNS))]
-    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=max_steps + 3, desc="discover", disable=not sys.stderr.isatty(), leave=False)
+    bar = tqdm(
+        total=staircase["max_steps"] + 3,
+        desc="discover",
+        disable=not sys.stderr.isatty(),
+        leave=False,
+    )
 
     def progress(msg: str) -> None:
         bar.set_postfix_str(msg)
@@ -142,8 +141,7 @@ def command(
     try:
         d = discover(
             samples,
-            thresholds=th,
-            max_steps=max_steps,
+            **staircase,
             terms=extra,
             window=window,
             repair=repair,

@@ -174,7 +174,8 @@ def staircase_options(f):
     """The options of the staircase of ``diagnose`` and ``discover``, defined once.
 
     ``--term`` (extra candidates), ``--folds``, ``--max-steps``, and the noise rule
-    (``--alpha``, ``--min-rel``) with the fold ``--seed``.
+    (``--alpha``, ``--min-rel``) with the fold ``--seed``. The command gets ``terms`` and
+    ``staircase`` (:func:`staircase_from_options`) instead of the others.
     """
     for opt in reversed(
         (
@@ -221,7 +222,19 @@ def staircase_options(f):
         )
     ):
         f = opt(f)
-    return f
+    return collect(
+        "staircase", staircase_from_options, "alpha", "min_rel", "folds", "seed", "max_steps"
+    )(f)
+
+
+def staircase_from_options(
+    alpha: float, min_rel: float, folds: int, seed: int, max_steps: int
+) -> dict[str, Any]:
+    """The staircase's ``thresholds`` (noise rule and folds) and ``max_steps`` keywords."""
+    from energy_planner.diagnosis.suspects import Thresholds
+
+    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
+    return {"thresholds": th, "max_steps": max_steps}
 
 
 #: ``ctx.meta`` key of ``--points-crs`` (read by :func:`points_crs`).
