@@ -39,6 +39,14 @@ def fit_hint(
     return " ".join(shlex.quote(p) for p in parts)
 
 
+def below_noise_lines(what: str, suspects: list[dict[str, Any]]) -> list[str]:
+    """The first three candidates below noise, with the share of error each explains."""
+    if not suspects:
+        return []
+    named = (f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in suspects[:3])
+    return [f"{what}: " + ", ".join(named)]
+
+
 def _text(doc: dict[str, Any], report: Path | None) -> str:
     def f(v: Any, fmt: str = ".1f") -> str:
         return "-" if v is None else format(v, fmt)
@@ -101,12 +109,7 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
             lines.append(f"add the first one with: {doc['hint']}")
     else:
         lines.append("no suspect above noise.")
-    below = doc["below_noise"][:3]
-    if below:
-        lines.append(
-            "best below noise: "
-            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
-        )
+    lines += below_noise_lines("best below noise", doc["below_noise"])
     if doc["unsupported"]:
         lines.append(f"unsupported by these logs ({len(doc['unsupported'])}):")
         for u in doc["unsupported"][:8]:

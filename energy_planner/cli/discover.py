@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from energy_planner.cli import options
+from energy_planner.cli.diagnose import below_noise_lines
 
 
 def _pct(v: Any) -> str:
@@ -70,12 +71,7 @@ def _text(doc: dict[str, Any]) -> str:
             "the base model's held-out squared error"
         )
     lines.append("")
-    below = doc["below_noise_at_end"][:3]
-    if below:
-        lines.append(
-            "best left below noise: "
-            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
-        )
+    lines += below_noise_lines("best left below noise", doc["below_noise_at_end"])
     for n in doc["notes"]:
         lines.append(f"note: {n}")
     lines += options.written_lines(doc, {"model": "model", "report": "report"})
