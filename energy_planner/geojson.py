@@ -58,37 +58,20 @@ Examples
 
 from __future__ import annotations
 
+from energy_planner.io import path_format as _path_format
 from energy_planner.io.geojson import crs_name
-from energy_planner.io.path_format import (
-    LEGACY_YAW_FRAME,
-    PATH_FORMAT,
-    PATH_FORMAT_VERSION,
-    YAW_FRAME,
-    Waypoints,
-    path_document,
-    path_document_from_work,
-    write_path,
-    write_path_from_work,
-)
+from energy_planner.io.path_format import *  # noqa: F403 (its __all__, re-exported)
 from energy_planner.io.path_read import check_path, parse_path, read_path
 from energy_planner.io.yaw import radians_suspect, warn_if_radians, yaw_from_work, yaw_to_work
 
 __all__ = [
-    "LEGACY_YAW_FRAME",
-    "PATH_FORMAT",
-    "PATH_FORMAT_VERSION",
-    "YAW_FRAME",
-    "Waypoints",
+    *_path_format.__all__,
     "check_path",
     "crs_name",
     "parse_path",
-    "path_document",
-    "path_document_from_work",
     "radians_suspect",
     "read_path",
     "warn_if_radians",
-    "write_path",
-    "write_path_from_work",
     "yaw_from_work",
     "yaw_to_work",
 ]

@@ -112,6 +112,22 @@ def _cruise(x: pd.Series, default: float) -> float:
     return float(np.percentile(x, 75)) if x.size else default
 
 
+def _scatter_windows(ax: Any, pts: pd.DataFrame, color: Any, label: str, **kw: Any) -> None:
+    """The windows ``pts`` as points: their estimate (``value``) against slope (deg)."""
+    ax.scatter(pts["alpha_deg"], pts["value"], s=14, alpha=0.6, color=color, label=label, **kw)
+
+
+def _save(fig: Any, path: str | Path) -> None:
+    """Lay out, write (:func:`energy_planner.io.save_figure`, 110 dpi) and close ``fig``."""
+    import matplotlib.pyplot as plt
+
+    from energy_planner.io import save_figure
+
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+
+
 def plot_force_slope(
     estimates: pd.DataFrame,
     model: EnergyModel | None,
@@ -162,14 +178,7 @@ def plot_force_slope(
             ),
         ):
             pts = df[df["heading"].isin([direction, "level"])]
-            ax.scatter(
-                pts["alpha_deg"],
-                pts["value"],
-                s=14,
-                alpha=0.6,
-                color=color,
-                label=f"{label} windows (n={len(pts)})",
-            )
+            _scatter_windows(ax, pts, color, f"{label} windows (n={len(pts)})")
             summary[f"{direction}_{label}_n"] = int(len(pts))
             sloped = pts[pts["heading"] == direction]
             summary[f"{direction}_{label}_median_n"] = _median(sloped["value"], float("nan"))
@@ -195,11 +204,7 @@ def plot_force_slope(
     fig.suptitle(
         f"Force-equivalent cost against slope (curves at the cruising speed {speed:.2f} m/s)"
     )
-    fig.tight_layout()
-    from energy_planner.io import save_figure
-
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
     return summary
 
 
@@ -223,15 +228,8 @@ def plot_yaw_torque(
     fig, ax = plt.subplots(figsize=(6.5, 4.3))
     for motion, color in (("turn_left", "tab:purple"), ("turn_right", "tab:orange")):
         pts = turns[turns["motion"] == motion]
-        ax.scatter(
-            pts["alpha_deg"],
-            pts["value"],
-            s=14,
-            alpha=0.6,
-            color=color,
-            zorder=3,
-            label=f"{motion.replace('_', ' ')} windows (n={len(pts)})",
-        )
+        _scatter_windows(ax, pts, color, f"{motion.replace('_', ' ')} windows (n={len(pts)})",
+                         zorder=3)  # fmt: skip
     amax = max(float(turns["alpha_deg"].max()) if len(turns) else 0.0, 5.0) + 2.0
     grid = np.radians(np.linspace(0.0, amax, 60))
     if model is not None and model.is_fitted:
@@ -261,11 +259,7 @@ def plot_yaw_torque(
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
-    from energy_planner.io import save_figure
-
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
     return {
         "n": int(len(turns)),
         "median_torque_nm": _median(turns["value"], float("nan")),

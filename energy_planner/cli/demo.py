@@ -7,17 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    channel_options,
-    channels_from_options,
-    emit,
-    examples,
-    gait_limit_options,
-    gait_limits,
-    json_option,
-    load_model_option,
-    model_option,
-)
+from energy_planner.cli import options
 
 
 def _limits_text(res: dict[str, Any]) -> str:
@@ -55,21 +45,16 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
 
 
-@click.command(
-    "demo",
-    epilog=examples(
-        "energy-planner demo",
-        "energy-planner demo --max-slope 25 --plot demo25.png",
-    ),
+@options.command(
+    "demo", "energy-planner demo", "energy-planner demo --max-slope 25 --plot demo25.png"
 )
-@click.option(
+@options.value_option(
     "--scenario",
     "scenario_name",
     default="hill",
-    show_default=True,
     help="Bundled scenario (maps/scenarios.json): hill, hill_crossing, plane.",
 )
-@model_option
+@options.model_option
 @click.option(
     "--max-slope",
     type=click.FloatRange(min=0, max=89),
@@ -77,24 +62,22 @@ def _text(res: dict[str, Any]) -> str:
     help="A slope limit, degrees (a B1-class quadruped: about 25). Default: none, as in "
     "the paper's Fig. 1: the detour must pay by the model's physics alone.",
 )
-@click.option(
+@options.value_option(
     "--time",
     "time_s",
     type=click.FloatRange(min=0, min_open=True),
     default=5.0,
-    show_default=True,
     help="Planning budget of the energy-optimal route, seconds.",
 )
-@click.option(
+@options.value_option(
     "--plot",
     type=click.Path(dir_okay=False, path_type=Path),
     default=Path("energy-planner-demo.png"),
-    show_default=True,
     help="PNG of the routes over a hillshade.",
 )
-@gait_limit_options
-@channel_options
-@json_option
+@options.gait_limit_options
+@options.channel_options
+@options.json_option
 def command(
     scenario_name: str,
     model_path: Path | None,
@@ -126,12 +109,14 @@ def command(
             f"no scenario {scenario_name!r}; valid: {', '.join(scenario_names())}",
             param_hint="--scenario",
         ) from exc
-    model = load_model_option(model_path)
+    model = options.load_model_option(model_path)
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
     request = Request.make(
-        max_slope_deg=max_slope, channels=channels_from_options(sets, channels), **gait_limits()
+        max_slope_deg=max_slope,
+        channels=options.channels_from_options(sets, channels),
+        **options.gait_limits(),
     )
     try:
         comp = compare_routes(Problem(terrain, model, request), start, goal, time=time_s,
@@ -151,4 +136,4 @@ def command(
         model=str(model_path) if model_path else "bundled B1-class default",
         plot=str(plot),
     )
-    emit(res, as_json, _text)
+    options.emit(res, as_json, _text)

@@ -7,18 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    load_model_option,
-    logs_argument,
-    model_option,
-    repair_option,
-    report_option,
-    staircase_options,
-    window_option,
-)
+from energy_planner.cli import options
 
 
 def fit_hint(
@@ -47,6 +36,14 @@ def fit_hint(
     for t in [*extra, new_term]:
         parts += ["--term", t]
     return " ".join(shlex.quote(p) for p in parts)
+
+
+def below_noise_lines(what: str, suspects: list[dict[str, Any]]) -> list[str]:
+    """The first three candidates below noise, with the share of error each explains."""
+    if not suspects:
+        return []
+    named = (f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in suspects[:3])
+    return [f"{what}: " + ", ".join(named)]
 
 
 def _text(doc: dict[str, Any], report: Path | None) -> str:
@@ -111,12 +108,7 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
             lines.append(f"add the first one with: {doc['hint']}")
     else:
         lines.append("no suspect above noise.")
-    below = doc["below_noise"][:3]
-    if below:
-        lines.append(
-            "best below noise: "
-            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
-        )
+    lines += below_noise_lines("best below noise", doc["below_noise"])
     if doc["unsupported"]:
         lines.append(f"unsupported by these logs ({len(doc['unsupported'])}):")
         for u in doc["unsupported"][:8]:
@@ -164,39 +156,30 @@ def _runs_meta(runs_path: Path | None, logs: tuple[Path, ...]):
     return meta
 
 
-@click.command(
-    "diagnose",
-    epilog=examples(
-        "energy-planner diagnose campaign --model b1.json --report diagnosis.html",
-    ),
+@options.command(
+    "diagnose", "energy-planner diagnose campaign --model b1.json --report diagnosis.html"
 )
-@logs_argument
-@model_option
-@report_option
-@click.option(
+@options.logs_argument
+@options.model_option
+@options.report_option
+@options.path_option(
     "--runs",
     "runs_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Run metadata CSV with columns run, composite, part (for the superposition check); "
     "default: runs.csv inside a LOGS folder, if there is one.",
 )
-@window_option
-@staircase_options
-@repair_option
-@json_option
+@options.window_option
+@options.staircase_options
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     model_path: Path | None,
     report: Path | None,
     terms: tuple[str, ...],
+    staircase: dict[str, Any],
     runs_path: Path | None,
     window: float,
-    folds: int,
-    max_steps: int,
-    alpha: float,
-    min_rel: float,
-    seed: int,
     repair: bool,
     as_json: bool,
 ) -> None:
@@ -212,10 +195,10 @@ def command(
     discover` walk the whole staircase.
     """
     from energy_planner.cli.fit import load_prepared, resolve_terms
-    from energy_planner.diagnosis import Thresholds, diagnose
+    from energy_planner.diagnosis import diagnose
     from energy_planner.errors import EnergyPlannerError
 
-    model = load_model_option(model_path)
+    model = options.load_model_option(model_path)
     if not model.is_fitted:
         raise click.BadParameter(
             f"the model {str(model_path)!r} has no coefficients; fit it first "
@@ -225,14 +208,12 @@ def command(
     prepared = load_prepared(logs, window, repair)[0]  # (prepared, reports, text, ...)
     extra = [t.name for t in resolve_terms(terms, set(prepared.windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)
-    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     try:
         d = diagnose(
             model,
             prepared,
             runs_meta=runs_meta,
-            thresholds=th,
-            max_steps=max_steps,
+            **staircase,
             terms=extra,
             progress=None,  # a line per step when stderr is a terminal
         )
@@ -264,4 +245,4 @@ def command(
                 f"cannot write {str(report)!r}: {exc}", param_hint="--report"
             ) from exc
         doc["report"] = str(report)
-    emit(doc, as_json, lambda x: _text(x, report))
+    options.emit(doc, as_json, lambda x: _text(x, report))

@@ -8,16 +8,8 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    logs_argument,
-    repair_option,
-    report_option,
-    staircase_options,
-    window_option,
-)
+from energy_planner.cli import options
+from energy_planner.cli.diagnose import below_noise_lines
 
 
 def _pct(v: Any) -> str:
@@ -78,52 +70,36 @@ def _text(doc: dict[str, Any]) -> str:
             "the base model's held-out squared error"
         )
     lines.append("")
-    below = doc["below_noise_at_end"][:3]
-    if below:
-        lines.append(
-            "best left below noise: "
-            + ", ".join(f"{s['name']} ({100 * s['error_explained']:.1f}%)" for s in below)
-        )
+    lines += below_noise_lines("best left below noise", doc["below_noise_at_end"])
     for n in doc["notes"]:
         lines.append(f"note: {n}")
-    if doc.get("model"):
-        lines.append(f"model written to {doc['model']}")
-    if doc.get("report"):
-        lines.append(f"report written to {doc['report']}")
+    lines += options.written_lines(doc, {"model": "model", "report": "report"})
     return "\n".join(lines)
 
 
-@click.command(
-    "discover",
-    epilog=examples(
-        "energy-planner discover campaign --out model.json --report discover.html",
-    ),
+@options.command(
+    "discover", "energy-planner discover campaign --out model.json --report discover.html"
 )
-@logs_argument
-@click.option(
+@options.logs_argument
+@options.path_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Where to write the discovered model (JSON), fitted on all windows.",
 )
-@report_option
-@window_option
-@staircase_options
-@repair_option
-@json_option
+@options.report_option
+@options.window_option
+@options.staircase_options
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     out: Path,
     report: Path | None,
-    max_steps: int,
     terms: tuple[str, ...],
+    staircase: dict[str, Any],
     window: float,
-    folds: int,
-    alpha: float,
-    min_rel: float,
     repair: bool,
-    seed: int,
     as_json: bool,
 ) -> None:
     """Find the effects the base model misses in LOGS and write the model that has them.
@@ -135,33 +111,19 @@ def command(
     the staircase: term added, its physical explanation, held-out power RMSE, run-energy
     error (median, p90) and the share of the error removed.
     """
-    from energy_planner.cli.fit import resolve_terms, status
+    from energy_planner.cli.fit import load_log_files, resolve_terms
     from energy_planner.diagnosis.discover import discover
-    from energy_planner.diagnosis.suspects import Thresholds
-    from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
-    from energy_planner.measurements import load_logs
-    from energy_planner.measurements.logs import log_files
+    from energy_planner.errors import EnergyPlannerError
 
     resolve_terms(terms)  # syntax first: fail before loading any log
-    files = log_files(logs)
-    status(f"loading {len(files)} log file(s) ...")
-    try:
-        samples = load_logs(files)
-    except LogIOError as exc:
-        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
-    except LogError as exc:
-        raise click.ClickException(
-            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
-        ) from exc
+    samples = load_log_files(logs)
     from energy_planner.measurements.windows import DERIVED_COLUMNS
 
     extra = [t.name for t in resolve_terms(terms, set(samples.columns) | set(DERIVED_COLUMNS))]
-    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
     try:
         d = discover(
             samples,
-            thresholds=th,
-            max_steps=max_steps,
+            **staircase,
             terms=extra,
             window=window,
             repair=repair,
@@ -198,4 +160,4 @@ def command(
                 f"cannot write {str(report)!r}: {exc}", param_hint="--report"
             ) from exc
         doc["report"] = str(report)
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)

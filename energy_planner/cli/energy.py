@@ -9,24 +9,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    add_trust,
-    band_option,
-    channel_options,
-    channels_from_options,
-    dem_option,
-    emit,
-    examples,
-    gait_limit_options,
-    gait_limits,
-    json_option,
-    load_model_option,
-    model_option,
-    speed_option,
-    trust_lines,
-    trust_options,
-    yaw_rate_option,
-)
+from energy_planner.cli import options
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 
@@ -178,7 +161,7 @@ def compute(
     from energy_planner.errors import EnergyPlannerError
 
     terrain = load_terrain(dem, band)
-    model = load_model_option(model_path)
+    model = options.load_model_option(model_path)
     channels = channels if channels is not None else Channels()
     try:
         wp = read_waypoints(waypoints)
@@ -258,32 +241,29 @@ def compute(
     return out
 
 
-@click.command(
+@options.command(
     "energy",
-    epilog=examples(
-        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
-        "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
-        "--model load.json --set load_kg=10 --battery-wh 40",
-    ),
+    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
+    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
+    "--model load.json --set load_kg=10 --battery-wh 40",
 )
-@dem_option
-@click.option(
+@options.dem_option
+@options.path_option(
     "--waypoints",
     "waypoints",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Waypoints: CSV with header x,y[,yaw_deg][,t] in the DEM's CRS, or a GeoJSON "
     "LineString (optional properties.yaw_deg, properties.t lists) in longitude, latitude "
     "(RFC 7946) unless it declares a crs, as plan --out writes it.",
 )
-@model_option
-@speed_option
-@yaw_rate_option
-@band_option
-@gait_limit_options
-@channel_options
-@trust_options
-@json_option
+@options.model_option
+@options.speed_option
+@options.yaw_rate_option
+@options.band_option
+@options.gait_limit_options
+@options.channel_options
+@options.trust_options
+@options.json_option
 def command(
     dem: Path,
     waypoints: Path,
@@ -293,11 +273,7 @@ def command(
     band: int | None,
     sets: tuple[str, ...],
     channels: tuple[str, ...],
-    level: float,
-    battery_wh: float | None,
-    reserve_wh: float,
-    confidence: float,
-    refuse: bool,
+    trust: options.Trust,
     as_json: bool,
 ) -> None:
     """Energy of walking a given path over a DEM, with a per-segment breakdown.
@@ -307,10 +283,13 @@ def command(
     times it walks at --speed and turns at --yaw-rate. Channels a fitted model reads
     (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
     """
-    ch = channels_from_options(sets, channels)
-    res = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **gait_limits())
-    add_trust(res, load_model_option(model_path), res["energy_j"], level, battery_wh,
-              reserve_wh, confidence, refuse,
-              outside_share=(res.get("domain") or {}).get("outside_share", 0.0),
-              duration_s=res["duration_s"])  # fmt: skip
-    emit(res, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))
+    ch = options.channels_from_options(sets, channels)
+    res = compute(
+        dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **options.gait_limits()
+    )
+    outside = (res.get("domain") or {}).get("outside_share", 0.0)
+    model = options.load_model_option(model_path)
+    options.add_trust(
+        res, model, res["energy_j"], trust, outside_share=outside, duration_s=res["duration_s"]
+    )
+    options.emit(res, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))

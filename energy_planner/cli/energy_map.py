@@ -8,20 +8,12 @@ from typing import Any
 
 import click
 
+from energy_planner.cli import options
 from energy_planner.cli.options import (
-    band_option,
-    channel_options,
     channels_from_options,
-    emit,
-    examples,
-    gait_limit_options,
     gait_limits,
-    json_option,
     load_model_option,
-    memory_cap_option,
-    model_option,
     parse_memory_cap,
-    speed_option,
 )
 
 
@@ -60,37 +52,29 @@ def format_table(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
-    "energy-map",
-    epilog=examples(
-        "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png",
-    ),
+@options.command(
+    "energy-map", "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png"
 )
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
+@options.path_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Output GeoTIFF (one band per heading and gait, then the summary bands).",
 )
-@model_option
-@click.option(
+@options.model_option
+@options.value_option(
     "--headings",
     type=click.IntRange(1, 360),
     default=16,
-    show_default=True,
     help="Number of map headings, 360/N degrees apart, the first east.",
 )
-@speed_option
-@gait_limit_options
-@channel_options
-@click.option(
-    "--plot",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG.",
+@options.speed_option
+@options.gait_limit_options
+@options.channel_options
+@options.path_option(
+    "--plot", help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG."
 )
-@band_option
+@options.band_option
 @click.option(
     "--dask",
     "use_dask",
@@ -106,18 +90,17 @@ def format_table(res: dict[str, Any]) -> str:
     help="Run the dask path on this dask.distributed scheduler (e.g. tcp://host:8786); "
     "implies --dask. The workers must see the DEM, the output path and the kernel cache.",
 )
-@memory_cap_option(
+@options.memory_cap_option(
     "the DEM may take in memory (64 bytes per cell, as load_dem counts) above which the "
     "map is computed out of core"
 )
-@click.option(
+@options.value_option(
     "--chunk",
     type=click.IntRange(64, 16384),
     default=512,
-    show_default=True,
     help="Chunk side (cells) of the out-of-core path.",
 )
-@json_option
+@options.json_option
 def command(
     dem: Path,
     out: Path,
@@ -185,4 +168,4 @@ def command(
     result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
     if plot is not None:
         result["plot"] = str(plot_energy_map(out, plot, dem))
-    emit(result, as_json, format_table)
+    options.emit(result, as_json, format_table)

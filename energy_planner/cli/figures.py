@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, examples, json_option, logs_argument, window_option
+from energy_planner.cli import options
 
 
 def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
@@ -41,29 +41,22 @@ def _composite_meta(logs: tuple[Path, ...], samples: Any) -> Any:
     return meta if len(meta) else None
 
 
-@click.command(
-    "figures",
-    epilog=examples(
-        "energy-planner figures campaign --out figs --model b1.json",
-    ),
-)
-@logs_argument
-@click.option(
+@options.command("figures", "energy-planner figures campaign --out figs --model b1.json")
+@options.logs_argument
+@options.path_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
+    folder=True,
     help="Folder for the PNG figures (created if needed).",
 )
-@click.option(
+@options.path_option(
     "--model",
     "model_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Energy model JSON whose curves are drawn (default: the base model fitted to LOGS).",
 )
-@window_option
-@json_option
+@options.window_option
+@options.json_option
 def command(
     logs: tuple[Path, ...], out: Path, model_path: Path | None, window: float, as_json: bool
 ) -> None:
@@ -95,7 +88,7 @@ def command(
     figures = _slope_figures(est, model, consts, out, notes)
     figures.update(_superposition_figure(logs, raw, out, notes))
     doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)
 
 
 def _model_for_curves(model_path: Path | None, windows, notes: list[str]):

@@ -8,15 +8,7 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import (
-    emit,
-    examples,
-    json_option,
-    logs_argument,
-    repair_option,
-    seed_option,
-    window_option,
-)
+from energy_planner.cli import options
 from energy_planner.measurements.logs import log_files
 
 
@@ -47,6 +39,27 @@ def load_windows(
     return prepared.windows, reports, text, samples
 
 
+def load_log_files(paths: tuple[Path, ...], report: bool = False) -> Any:
+    """The samples of the log files in ``paths`` (and the load report, with ``report``).
+
+    :func:`energy_planner.measurements.load_logs`; its errors become click errors naming
+    LOGS (exit 2) or the canonical table (exit 1).
+    """
+    from energy_planner.errors import LogError, LogIOError
+    from energy_planner.measurements import load_logs
+
+    files = log_files(paths)
+    status(f"loading {len(files)} log file(s) ...")
+    try:
+        return load_logs(files, report=report)
+    except LogIOError as exc:
+        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
+    except LogError as exc:
+        raise click.ClickException(
+            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
+        ) from exc
+
+
 def load_prepared(
     paths: tuple[Path, ...], window: float, repair: bool = True, prints_report: bool = False
 ) -> tuple[Any, dict[str, Any], str, Any]:
@@ -59,19 +72,10 @@ def load_prepared(
     (``prints_report``), which lists the runs preprocessing dropped, gets no warning
     repeating them.
     """
-    from energy_planner.errors import EnergyPlannerError, LogError, LogIOError
-    from energy_planner.measurements import load_logs, prepare_logs
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements import prepare_logs
 
-    files = log_files(paths)
-    status(f"loading {len(files)} log file(s) ...")
-    try:
-        samples, load_report = load_logs(files, report=True)
-    except LogIOError as exc:
-        raise click.BadParameter(str(exc), param_hint="LOGS") from exc
-    except LogError as exc:
-        raise click.ClickException(
-            f"{exc}\nhint: logs follow the canonical table (docs/measurements.md)"
-        ) from exc
+    samples, load_report = load_log_files(paths, report=True)
     status(f"preprocessing {len(samples)} samples ...")
     try:
         with warnings.catch_warnings():
@@ -157,21 +161,13 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "fit",
-    epilog=examples(
-        "energy-planner fit campaign --out b1.json",
-        "energy-planner fit campaign --out load.json --term 'load_kg * speed'",
-    ),
+    "energy-planner fit campaign --out b1.json",
+    "energy-planner fit campaign --out load.json --term 'load_kg * speed'",
 )
-@logs_argument
-@click.option(
-    "--out",
-    "out",
-    required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Where to write the fitted model (JSON).",
-)
+@options.logs_argument
+@options.path_option("--out", "out", required=True, help="Where to write the fitted model (JSON).")
 @click.option(
     "--term",
     "terms",
@@ -180,12 +176,11 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     help="Add a term to the base model: a catalog name (e.g. idle_power) or a formula "
     "(e.g. 'payload_kg * speed * sin(alpha)'). Repeatable.",
 )
-@window_option
-@click.option(
+@options.window_option
+@options.value_option(
     "--folds",
     type=click.IntRange(min=0),
     default=5,
-    show_default=True,
     help="Folds of the cross-validation by run (0: none).",
 )
 @click.option(
@@ -197,9 +192,9 @@ def _runs_table(result: Any, limit: int = 12) -> str:
     "values: a model JSON, or 'default' for the bundled model. Without it such terms are "
     "left out of the fitted model and listed as not identified.",
 )
-@seed_option
-@repair_option
-@json_option
+@options.seed_option
+@options.repair_option
+@options.json_option
 def command(
     logs: tuple[Path, ...],
     out: Path,
@@ -279,4 +274,4 @@ def command(
             ]
         )
 
-    emit(doc, as_json, text)
+    options.emit(doc, as_json, text)

@@ -3,32 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from energy_planner.cli.options import (
-    add_trust,
-    channel_options,
-    channels_from_options,
-    dem_option,
-    emit,
-    examples,
-    geojson_crs_option,
-    json_option,
-    load_model_option,
-    model_option,
-    speed_option,
-    trust_lines,
-    trust_options,
-    yaw_rate_option,
-)
-from energy_planner.cli.plan import (
-    limit_options,
-    load_terrain,
-    planning_error,
-    request_from_options,
-)
+from energy_planner.cli import options
+from energy_planner.cli.options import load_model_option
+from energy_planner.cli.plan import load_terrain, planning_error
+
+if TYPE_CHECKING:
+    from energy_planner.request import Request
 
 
 def _text(res: dict[str, Any]) -> str:
@@ -64,46 +48,38 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "mission",
-    epilog=examples(
-        "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
-    ),
+    "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
 )
-@dem_option
-@click.option(
+@options.dem_option
+@options.path_option(
     "--sites",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="CSV x,y[,yaw_deg][,name] in the DEM's CRS, or GeoJSON points (lon/lat unless the "
     "file declares a crs). The first site is the start.",
 )
-@click.option(
+@options.value_option(
     "--order",
     type=click.Choice(["best", "given"]),
     default="best",
-    show_default=True,
     help="best: the least-energy order (exact up to 15 sites); given: as listed.",
 )
 @click.option("--return", "return_to_start", is_flag=True, help="Come back to the first site.")
 @click.option(
     "--scheduler",
-    default=None,
     help="Address of a dask.distributed scheduler to run the per-site searches on "
     "(default: in this process).",
 )
-@model_option
-@limit_options
-@speed_option
-@yaw_rate_option
-@channel_options
-@click.option("--geojson", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="GeoJSON of the legs and sites (lon/lat; see --geojson-crs).")  # fmt: skip
-@geojson_crs_option
-@trust_options
-@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="PNG of the tour over the slope map.")  # fmt: skip
-@json_option
+@options.model_option
+@options.request_options
+@options.path_option(
+    "--geojson", help="GeoJSON of the legs and sites (lon/lat; see --geojson-crs)."
+)
+@options.geojson_crs_option
+@options.trust_options
+@options.plot_option("PNG of the tour over the slope map.")
+@options.json_option
 def command(
     dem: Path,
     sites: Path,
@@ -111,20 +87,10 @@ def command(
     return_to_start: bool,
     scheduler: str | None,
     model_path: Path | None,
-    max_slope: float | None,
-    max_cross_slope: float | None,
-    keep_out: Path | None,
-    speed: float,
-    yaw_rate: float,
-    sets: tuple[str, ...],
-    channels: tuple[str, ...],
+    request: Request,
     geojson: Path | None,
     geojson_crs: str,
-    level: float,
-    battery_wh: float | None,
-    reserve_wh: float,
-    confidence: float,
-    refuse: bool,
+    trust: options.Trust,
     plot: Path | None,
     as_json: bool,
 ) -> None:
@@ -140,8 +106,6 @@ def command(
 
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
-    request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out,
-                                   channels_from_options(sets, channels))  # fmt: skip
     try:
         s = read_sites(sites, terrain)
     except EnergyPlannerError as exc:
@@ -161,15 +125,12 @@ def command(
             client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
-    if battery_wh is not None:
-        out["battery_legs"] = res.battery(model, battery_wh, reserve_wh, confidence)
-    add_trust(out, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse)
-    if geojson is not None:
-        from energy_planner.io import write_geojson
-
-        write_geojson(geojson, res.to_geojson(terrain, native=geojson_crs == "dem"))
-        out["geojson"] = str(geojson)
-    if plot is not None:
-        res.plot(terrain, plot, request=request)
-        out["plot"] = str(plot)
-    emit(out, as_json, lambda r: _text(r) + "\n" + trust_lines(r))
+    if trust.battery_wh is not None:
+        out["battery_legs"] = res.battery(model, trust.battery_wh, trust.reserve_wh,
+                                          trust.confidence)  # fmt: skip
+    options.add_trust(out, model, res.energy_j, trust)
+    options.write_geojson_output(
+        out, "geojson", geojson, lambda: res.to_geojson(terrain, native=geojson_crs == "dem")
+    )
+    options.write_output(out, "plot", plot, lambda p: res.plot(terrain, p, request=request))
+    options.emit(out, as_json, lambda r: _text(r) + "\n" + options.trust_lines(r))

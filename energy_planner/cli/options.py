@@ -2,33 +2,84 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
+from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 json_option = click.option(
     "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
 )
-dem_option = click.option(
+
+
+def path_option(*decls: str, help: str, folder: bool = False, **kw: Any) -> Callable:
+    """An option naming a file (a folder with ``folder``) as a :class:`~pathlib.Path`.
+
+    ``decls`` and ``kw`` are those of :func:`click.option` (``required``, ``default``, ...;
+    the default is None).
+    """
+    kw.setdefault("default", None)
+    kind = (
+        click.Path(file_okay=False, path_type=Path)
+        if folder
+        else click.Path(dir_okay=False, path_type=Path)
+    )
+    return click.option(*decls, type=kind, help=help, **kw)
+
+
+def value_option(*decls: str, default: Any, help: str, type: Any = None, **kw: Any) -> Callable:
+    """An option of type ``type`` whose ``default`` ``--help`` shows (:func:`click.option`)."""
+    return click.option(*decls, type=type, default=default, show_default=True, help=help, **kw)
+
+
+def plot_option(help: str) -> Callable:
+    """``--plot FILE`` (a PNG), with ``help`` saying what is drawn."""
+    return path_option("--plot", help=help)
+
+
+def write_output(result: dict[str, Any], key: str, path: Path | None, write: Callable) -> None:
+    """An optional output: ``write(path)`` when ``path`` is given, and ``result[key]`` names it.
+
+    ``write`` writes through :mod:`energy_planner.io` (atomic); nothing happens for None.
+    """
+    if path is not None:
+        write(path)
+        result[key] = str(path)
+
+
+def write_geojson_output(
+    result: dict[str, Any], key: str, path: Path | None, document: Callable[[], dict], **kw: Any
+) -> None:
+    """:func:`write_output` of the GeoJSON ``document()`` (built only when ``path`` is given).
+
+    ``kw`` goes to :func:`energy_planner.io.write_geojson` (e.g. ``indent=None``).
+    """
+    if path is not None:
+        from energy_planner.io import write_geojson
+
+        write_output(result, key, path, lambda p: write_geojson(p, document(), **kw))
+
+
+dem_option = path_option(
     "--dem",
     "dem",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
 )
 #: ``--geojson-crs``: the CRS of GeoJSON outputs (io's RFC 7946 writer or the DEM's CRS).
-geojson_crs_option = click.option(
+geojson_crs_option = value_option(
     "--geojson-crs",
     type=click.Choice(["wgs84", "dem"]),
     default="wgs84",
-    show_default=True,
     help="CRS of GeoJSON outputs: 'wgs84' (RFC 7946 longitude, latitude, what GIS and web "
     "maps expect) or 'dem' (the DEM's own CRS, declared with a 'crs' member).",
 )
@@ -83,51 +134,39 @@ def parse_memory_cap(value: str | None):
     return size
 
 
-model_option = click.option(
-    "--model",
-    "model_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Energy model JSON (default: the bundled B1-class model).",
+model_option = path_option(
+    "--model", "model_path", help="Energy model JSON (default: the bundled B1-class model)."
 )
-seed_option = click.option(
+seed_option = value_option(
     "--seed",
     type=int,
     default=0,
-    show_default=True,
     help="Random seed (planner sampling; for fit/diagnose, the assignment of runs to folds).",
 )
-speed_option = click.option(
+speed_option = value_option(
     "--speed",
     type=click.FloatRange(min=0, min_open=True),
     default=DEFAULT_SPEED,
-    show_default=True,
     help="Nominal walking speed, m/s.",
 )
 logs_argument = click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-window_option = click.option(
+window_option = value_option(
     "--window",
     type=click.FloatRange(min=0, min_open=True),
     default=2.0,
-    show_default=True,
     help="Window length, s.",
 )
 
-repair_option = click.option(
+repair_option = value_option(
     "--repair/--no-repair",
     "repair",
     default=True,
-    show_default=True,
     help="Correct the data findings (sensor problems: current sign, clock offset, odometry "
     "slip, IMU tilt, twist noise) before fitting; --no-repair reports them only.",
 )
 
-report_option = click.option(
-    "--report",
-    "report",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write a self-contained HTML report (plots embedded) to this file.",
+report_option = path_option(
+    "--report", "report", help="Write a self-contained HTML report (plots embedded) to this file."
 )
 
 
@@ -135,7 +174,8 @@ def staircase_options(f):
     """The options of the staircase of ``diagnose`` and ``discover``, defined once.
 
     ``--term`` (extra candidates), ``--folds``, ``--max-steps``, and the noise rule
-    (``--alpha``, ``--min-rel``) with the fold ``--seed``.
+    (``--alpha``, ``--min-rel``) with the fold ``--seed``. The command gets ``terms`` and
+    ``staircase`` (:func:`staircase_from_options`) instead of the others.
     """
     for opt in reversed(
         (
@@ -147,47 +187,54 @@ def staircase_options(f):
                 help="Also test this candidate term (catalog name or formula, e.g. "
                 "'load_kg * speed * sin(alpha)'). Repeatable.",
             ),
-            click.option(
+            value_option(
                 "--folds",
                 type=click.IntRange(min=2),
                 default=5,
-                show_default=True,
                 help="Folds of the held-out validation by run.",
             ),
-            click.option(
+            value_option(
                 "--max-steps",
                 type=click.IntRange(min=0),
                 default=4,
-                show_default=True,
                 help="Largest number of terms the staircase adds to the model.",
             ),
-            click.option(
+            value_option(
                 "--alpha",
                 "alpha",
                 type=click.FloatRange(min=0, max=1, min_open=True),
                 default=0.01,
-                show_default=True,
                 help="Noise rule: family-wise false-finding level of each step (one-sided "
                 "test by run, Bonferroni over the candidates).",
             ),
-            click.option(
+            value_option(
                 "--min-rel",
                 type=click.FloatRange(min=0, max=1),
                 default=0.05,
-                show_default=True,
                 help="Noise rule: the held-out RMSE must fall by at least this fraction.",
             ),
-            click.option(
+            value_option(
                 "--seed",
                 type=int,
                 default=0,
-                show_default=True,
                 help="Seed of the assignment of runs to folds.",
             ),
         )
     ):
         f = opt(f)
-    return f
+    return collect(
+        "staircase", staircase_from_options, "alpha", "min_rel", "folds", "seed", "max_steps"
+    )(f)
+
+
+def staircase_from_options(
+    alpha: float, min_rel: float, folds: int, seed: int, max_steps: int
+) -> dict[str, Any]:
+    """The staircase's ``thresholds`` (noise rule and folds) and ``max_steps`` keywords."""
+    from energy_planner.diagnosis.suspects import Thresholds
+
+    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
+    return {"thresholds": th, "max_steps": max_steps}
 
 
 #: ``ctx.meta`` key of ``--points-crs`` (read by :func:`points_crs`).
@@ -244,6 +291,16 @@ GAIT_LIMIT_OPTIONS = {
 }
 
 
+#: The help text of each gait-limit option, in ``--help`` order.
+GAIT_LIMIT_HELP = {
+    "--max-backward-slope": "No backward walking (body x more than 90 deg from the direction "
+    "of travel) on ground steeper than this, degrees.",
+    "--max-crab": "Largest crab angle: the angle between the body's x axis and the direction "
+    "of travel (or its opposite when walking backward), degrees; 0 = face along or straight "
+    "back, 90 = any gait. Turns in place are not limited.",
+}
+
+
 def _store_gait_limit(ctx: click.Context, param: click.Parameter, value: float | None) -> None:
     field = GAIT_LIMIT_OPTIONS[param.opts[0]]
     ctx.find_root().meta.setdefault(GAIT_LIMITS_KEY, {})[field] = value
@@ -255,27 +312,10 @@ def gait_limit_options(f):
     Their values are read with :func:`gait_limits` (they are not parameters of the
     command function), so that every command with planning limits takes them the same way.
     """
-    f = click.option(
-        "--max-crab",
-        metavar="DEG",
-        type=click.FloatRange(0, 90),
-        default=None,
-        expose_value=False,
-        callback=_store_gait_limit,
-        help="Largest crab angle: the angle between the body's x axis and the direction of "
-        "travel (or its opposite when walking backward), degrees; 0 = face along or "
-        "straight back, 90 = any gait. Turns in place are not limited.",
-    )(f)
-    return click.option(
-        "--max-backward-slope",
-        metavar="DEG",
-        type=click.FloatRange(0, 90),
-        default=None,
-        expose_value=False,
-        callback=_store_gait_limit,
-        help="No backward walking (body x more than 90 deg from the direction of travel) on "
-        "ground steeper than this, degrees.",
-    )(f)
+    for name, text in reversed(GAIT_LIMIT_HELP.items()):
+        f = click.option(name, metavar="DEG", type=click.FloatRange(0, 90), default=None,
+                         expose_value=False, callback=_store_gait_limit, help=text)(f)  # fmt: skip
+    return f
 
 
 def gait_limits() -> dict[str, float | None]:
@@ -288,13 +328,171 @@ def gait_limits() -> dict[str, float | None]:
     return {field: given.get(field) for field in GAIT_LIMIT_OPTIONS.values()}
 
 
-yaw_rate_option = click.option(
+yaw_rate_option = value_option(
     "--yaw-rate",
     type=click.FloatRange(min=0, min_open=True),
     default=DEFAULT_YAW_RATE,
-    show_default=True,
     help="Nominal turning rate, rad/s.",
 )
+
+
+def check_planner(planner: str) -> str:
+    """Validate ``--planner`` (click.BadParameter listing the valid names)."""
+    if planner not in PLANNER_CHOICES:
+        raise click.BadParameter(
+            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNER_CHOICES)}",
+            param_hint="--planner",
+        )
+    return planner
+
+
+#: What ``--time`` bounds, for the help texts.
+TIME_HELP = (
+    "Budget for the whole planning of {what}, seconds, counted after the kernels are compiled "
+    "(loading the DEM is not counted): the search's relaxed problem and search (an error if "
+    "they do not finish in time), then the refinement, which gets what is left. Default: no "
+    "limit for the search, and up to a quarter of its time (1-10 s) for the refinement; "
+    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted. A DEM planned "
+    "by windows (above --memory-cap) counts everything: the gradient pass and each "
+    "window's read and search."
+)
+
+
+def search_from_options(planner: str, time_s: float | None, seed: int) -> dict[str, Any]:
+    """``planner``, ``time`` and ``seed`` keywords of the planners, ``--planner`` checked."""
+    return {"planner": check_planner(planner), "time": time_s, "seed": seed}
+
+
+def planning_options(what: str, time_default: float | None = 10.0):
+    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``.
+
+    The command gets ``search`` (:func:`search_from_options`) instead of ``planner``,
+    ``time_s`` and ``seed``.
+    """
+    time_help = (
+        TIME_HELP.format(what=what)
+        if time_default is None
+        else f"Planning budget of {what}, seconds."
+    )
+
+    def deco(f):
+        for opt in reversed(
+            [
+                value_option(
+                    "--planner",
+                    default="auto",
+                    help=f"Planner of {what}: {', '.join(PLANNER_CHOICES)}.",
+                ),
+                click.option(
+                    "--time",
+                    "time_s",
+                    type=click.FloatRange(min=0, min_open=True),
+                    default=time_default,
+                    show_default=time_default is not None,
+                    help=time_help,
+                ),
+                seed_option,
+                limit_options,
+                speed_option,
+                yaw_rate_option,
+            ]
+        ):
+            f = opt(f)
+        return collect("search", search_from_options, "planner", "time_s", "seed")(f)
+
+    return deco
+
+
+def limit_options(f):
+    """--max-slope, --max-cross-slope, --keep-out and the gait limits.
+
+    The gait limits (``--max-backward-slope``, ``--max-crab``:
+    :func:`~energy_planner.cli.options.gait_limit_options`) are read with
+    :func:`~energy_planner.cli.options.gait_limits`.
+    """
+    f = gait_limit_options(f)
+    f = path_option(
+        "--keep-out",
+        "keep_out",
+        help="GeoJSON polygons the path must avoid: longitude, latitude (RFC 7946) unless "
+        "the file declares a crs; reprojected to the DEM.",
+    )(f)
+    f = click.option(
+        "--max-cross-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest slope across the robot's body, degrees.",
+    )(f)
+    f = click.option(
+        "--max-slope",
+        type=click.FloatRange(0, 90),
+        default=None,
+        help="Steepest ground slope the path may cross, degrees.",
+    )(f)
+    return f
+
+
+def request_from_options(
+    speed: float,
+    yaw_rate: float,
+    max_slope: float | None,
+    max_cross_slope: float | None,
+    keep_out: Path | None,
+    sets: tuple[str, ...] = (),
+    channels: tuple[str, ...] = (),
+):
+    """The :class:`~energy_planner.request.Request` of the planning options.
+
+    A bad value becomes ``click.BadParameter`` naming the option (from the error's
+    ``field``, never from its text).
+    """
+    from energy_planner.request import Request, RequestError
+
+    option = {
+        "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
+        "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
+        "max_backward_slope_deg": "--max-backward-slope", "max_crab_deg": "--max-crab",
+    }  # fmt: skip
+    try:
+        return Request.make(
+            **gait_limits(),
+            speed=speed,
+            yaw_rate=yaw_rate,
+            max_slope_deg=max_slope,
+            max_cross_slope_deg=max_cross_slope,
+            keep_out=keep_out,
+            channels=channels_from_options(sets, channels),
+        )
+    except RequestError as exc:
+        raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
+
+
+#: The options :func:`request_from_options` reads (a command's parameter names).
+REQUEST_PARAMS = (
+    "speed",
+    "yaw_rate",
+    "max_slope",
+    "max_cross_slope",
+    "keep_out",
+    "sets",
+    "channels",
+)
+
+
+def with_request(f):
+    """The command gets one ``request`` (:func:`request_from_options`) for its options.
+
+    Put under ``@click.command``, above the options of :data:`REQUEST_PARAMS` wherever the
+    command declares them (``--help`` keeps their order).
+    """
+    return collect("request", request_from_options, *REQUEST_PARAMS)(f)
+
+
+def request_options(f):
+    """The limits, ``--speed``, ``--yaw-rate`` and the channel options: one ``request``."""
+    for opt in (channel_options, yaw_rate_option, speed_option, limit_options):
+        f = opt(f)
+    return with_request(f)
 
 
 #: ``ctx.meta`` key of ``--allow-unknown-category`` (read by :func:`channels_from_options`).
@@ -375,6 +573,11 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+def written_lines(res: dict[str, Any], labels: dict[str, str]) -> list[str]:
+    """``"<label> written to <path>"`` for each output ``key -> label`` that ``res`` names."""
+    return [f"{label} written to {res[key]}" for key, label in labels.items() if res.get(key)]
+
+
 def emit(result: dict[str, Any], as_json: bool, text: Callable[[dict[str, Any]], str]) -> None:
     """Print ``result`` as JSON (``--json``) or through ``text`` as a human table."""
     if as_json:
@@ -425,6 +628,11 @@ def examples(*lines: str) -> str:
     return "Examples:\n\n\b\n" + "\n".join(f"  $ {line}" for line in lines)
 
 
+def command(name: str, *example_lines: str) -> Callable:
+    """``@click.command(name)`` with its examples (:func:`examples`) as the epilog."""
+    return click.command(name, epilog=examples(*example_lines))
+
+
 def battery_options(f):
     """``--battery-wh``, ``--reserve-wh`` and ``--confidence``, defined once."""
     opts = [
@@ -442,8 +650,55 @@ def battery_options(f):
     return f
 
 
+@dataclass(frozen=True)
+class Trust:
+    """What ``--level``, the battery options and ``--refuse`` ask of a result's energy.
+
+    Attributes
+    ----------
+    level : float
+        Nominal coverage of the energy's prediction interval.
+    battery_wh : float or None
+        Battery energy, Wh (None: no battery decision).
+    reserve_wh : float
+        Energy to keep in the battery, Wh.
+    confidence : float
+        Required chance that the battery suffices.
+    refuse : bool
+        A chance below ``confidence`` is an error (exit status 1), not a warning.
+    """
+
+    level: float = 0.9
+    battery_wh: float | None = None
+    reserve_wh: float = 0.0
+    confidence: float = 0.9
+    refuse: bool = False
+
+
+def collect(name: str, build: Callable[..., Any], *params: str) -> Callable:
+    """A decorator: the command gets one value ``name`` = ``build(**params)``.
+
+    The options ``params`` stay where the command declares them (its ``--help`` is
+    unchanged); their values are taken out of the call and built into one object.
+    """
+
+    def deco(f: Callable) -> Callable:
+        @functools.wraps(f)
+        def command(*args: Any, **kwargs: Any) -> Any:
+            values = {p: kwargs.pop(p) for p in params}
+            return f(*args, **{name: build(**values)}, **kwargs)
+
+        return command
+
+    return deco
+
+
 def trust_options(f):
-    """``--level`` (interval), the battery options and ``--refuse``."""
+    """``--level`` (interval), the battery options and ``--refuse``: one ``trust`` value.
+
+    The command receives ``trust`` (a :class:`Trust`) instead of the five values.
+    """
+    f = collect("trust", Trust, "level", "battery_wh", "reserve_wh", "confidence", "refuse")(f)
     f = click.option("--refuse", is_flag=True,
                      help="Exit with an error (status 1) when the chance is below "
                      "--confidence (default: a warning).")(f)  # fmt: skip
@@ -456,35 +711,35 @@ def trust_options(f):
 
 
 def add_trust(
-    result: dict[str, Any], model: Any, energy_j: float, level: float,
-    battery_wh: float | None, reserve_wh: float, confidence: float, refuse: bool,
-    label: str | None = None, outside_share: float = 0.0, duration_s: float | None = None,
+    result: dict[str, Any], model: Any, energy_j: float, trust: Trust,
+    label: str | None = None, outside_share: float = 0.0, judged: bool = True,
+    duration_s: float | None = None,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
-    ``outside_share``: the share of the path outside the calibration's domain, which
-    widens the interval (:func:`energy_planner.uncertainty.predict_interval`);
-    ``duration_s``: the path's duration, an input of the fit's error model.
+    ``trust``: the command's :class:`Trust`. ``outside_share``: the share of the path
+    outside the calibration's domain, and ``duration_s``, the path's duration: inputs of
+    the fit's error model (:func:`energy_planner.uncertainty.predict_interval`).
 
-    A chance below ``confidence`` prints a warning on stderr (naming ``label``, the
-    route, when given), or with ``refuse`` raises a ``click.ClickException`` (exit
-    status 1).
+    A chance below ``trust.confidence`` prints a warning on stderr (naming ``label``, the
+    route, when given), or with ``trust.refuse`` (and ``judged``: the result the command
+    judges) raises a ``click.ClickException`` (exit status 1).
     """
     from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
 
-    iv = predict_interval(model, energy_j, level, outside_share, duration_s)
+    iv = predict_interval(model, energy_j, trust.level, outside_share, duration_s)
     result["interval"] = None if iv is None else iv.to_dict()
-    if battery_wh is None:
+    if trust.battery_wh is None:
         return
     try:
-        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence, duration_s,
-                             outside_share)  # fmt: skip
+        d = battery_decision(model, energy_j, trust.battery_wh, trust.reserve_wh,
+                             trust.confidence, duration_s, outside_share)  # fmt: skip
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     result["battery"] = d.to_dict()
     if not d.ok:
         text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
-        if refuse:
+        if trust.refuse and judged:
             raise click.ClickException(text)
         click.echo(f"warning: {text}", err=True)
 

@@ -4,35 +4,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from energy_planner.cli.options import (
-    add_trust,
-    channel_options,
-    channels_from_options,
-    dem_option,
-    emit,
-    examples,
-    gait_limit_options,
-    gait_limits,
-    geojson_crs_option,
-    json_option,
-    load_model_option,
-    memory_cap_option,
-    model_option,
-    parse_memory_cap,
-    parse_point,
-    points_crs,
-    seed_option,
-    speed_option,
-    start_goal_options,
-    trust_lines,
-    trust_options,
-    yaw_rate_option,
-)
-from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
+from energy_planner.cli import options
+from energy_planner.cli.options import load_model_option, parse_memory_cap
+
+if TYPE_CHECKING:
+    from energy_planner.request import Request
 
 
 def load_terrain(dem: Path) -> Any:
@@ -50,8 +30,8 @@ def point_to_work(terrain: Any, value: str, hint: str, with_yaw: bool) -> tuple:
     """``X,Y[,YAW_DEG]`` in the DEM's CRS -> ``(x, y, yaw_rad | None)`` in the working CRS."""
     from energy_planner.errors import CoordinateError, OutsideMapError
 
-    p = parse_point(value, hint, with_yaw=with_yaw)
-    if points_crs() is not None and terrain.crs is not None:
+    p = options.parse_point(value, hint, with_yaw=with_yaw)
+    if options.points_crs() is not None and terrain.crs is not None:
         return _reproject_point(p, terrain.crs, hint, terrain.source_bounds, terrain.source_crs)
     try:
         x, y = terrain.to_work(p[0], p[1])
@@ -66,7 +46,7 @@ def _reproject_point(p: tuple, dst: Any, hint: str, bounds: Any, dem_crs: Any) -
     from energy_planner.errors import extent_text
     from energy_planner.io import reproject_xy, x_axis_angle
 
-    src = points_crs()
+    src = options.points_crs()
     x, y = (float(v[0]) for v in reproject_xy(src, dst, [p[0]], [p[1]]))
     if not (math.isfinite(x) and math.isfinite(y)):
         raise click.BadParameter(
@@ -92,8 +72,8 @@ def over_memory_cap(dem: Path, cap: int | None) -> bool:
 
 def point_in_dem_crs(value: str, hint: str, with_yaw: bool) -> tuple:
     """``X,Y[,YAW_DEG]`` as ``(x, y[, yaw_rad])`` in the DEM's own (projected) CRS."""
-    p = parse_point(value, hint, with_yaw=with_yaw)
-    if points_crs() is not None:  # the DEM's CRS from its header
+    p = options.parse_point(value, hint, with_yaw=with_yaw)
+    if options.points_crs() is not None:  # the DEM's CRS from its header
         import rasterio
 
         dem = click.get_current_context().params.get("dem")
@@ -103,130 +83,6 @@ def point_in_dem_crs(value: str, hint: str, with_yaw: bool) -> tuple:
             x, y, yaw = _reproject_point(p, crs, hint, (b.left, b.bottom, b.right, b.top), crs)
             return (x, y, yaw) if with_yaw and yaw is not None else (x, y)
     return (p[0], p[1], math.radians(p[2])) if len(p) == 3 else (p[0], p[1])
-
-
-def check_planner(planner: str) -> str:
-    """Validate ``--planner`` (click.BadParameter listing the valid names)."""
-    if planner not in PLANNER_CHOICES:
-        raise click.BadParameter(
-            f"unknown planner {planner!r}; valid planners: {', '.join(PLANNER_CHOICES)}",
-            param_hint="--planner",
-        )
-    return planner
-
-
-#: What ``--time`` bounds, for the help texts.
-TIME_HELP = (
-    "Budget for the whole planning of {what}, seconds, counted after the kernels are compiled "
-    "(loading the DEM is not counted): the search's relaxed problem and search (an error if "
-    "they do not finish in time), then the refinement, which gets what is left. Default: no "
-    "limit for the search, and up to a quarter of its time (1-10 s) for the refinement; "
-    "OMPL planners run for 10 s. The 'lattice' planner cannot be interrupted. A DEM planned "
-    "by windows (above --memory-cap) counts everything: the gradient pass and each "
-    "window's read and search."
-)
-
-
-def planning_options(what: str, time_default: float | None = 10.0):
-    """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``."""
-    time_help = (
-        TIME_HELP.format(what=what)
-        if time_default is None
-        else f"Planning budget of {what}, seconds."
-    )
-
-    def deco(f):
-        for opt in reversed(
-            [
-                click.option(
-                    "--planner",
-                    default="auto",
-                    show_default=True,
-                    help=f"Planner of {what}: {', '.join(PLANNER_CHOICES)}.",
-                ),
-                click.option(
-                    "--time",
-                    "time_s",
-                    type=click.FloatRange(min=0, min_open=True),
-                    default=time_default,
-                    show_default=time_default is not None,
-                    help=time_help,
-                ),
-                seed_option,
-                limit_options,
-                speed_option,
-                yaw_rate_option,
-            ]
-        ):
-            f = opt(f)
-        return f
-
-    return deco
-
-
-def limit_options(f):
-    """--max-slope, --max-cross-slope, --keep-out and the gait limits.
-
-    The gait limits (``--max-backward-slope``, ``--max-crab``:
-    :func:`~energy_planner.cli.options.gait_limit_options`) are read with
-    :func:`~energy_planner.cli.options.gait_limits`.
-    """
-    f = gait_limit_options(f)
-    f = click.option(
-        "--keep-out",
-        "keep_out",
-        type=click.Path(dir_okay=False, path_type=Path),
-        default=None,
-        help="GeoJSON polygons the path must avoid: longitude, latitude (RFC 7946) unless "
-        "the file declares a crs; reprojected to the DEM.",
-    )(f)
-    f = click.option(
-        "--max-cross-slope",
-        type=click.FloatRange(0, 90),
-        default=None,
-        help="Steepest slope across the robot's body, degrees.",
-    )(f)
-    f = click.option(
-        "--max-slope",
-        type=click.FloatRange(0, 90),
-        default=None,
-        help="Steepest ground slope the path may cross, degrees.",
-    )(f)
-    return f
-
-
-def request_from_options(
-    speed: float,
-    yaw_rate: float,
-    max_slope: float | None,
-    max_cross_slope: float | None,
-    keep_out: Path | None,
-    channels: Any = None,
-):
-    """The :class:`~energy_planner.request.Request` of the planning options.
-
-    A bad value becomes ``click.BadParameter`` naming the option (from the error's
-    ``field``, never from its text).
-    """
-    from energy_planner.request import Request, RequestError
-
-    option = {
-        "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
-        "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
-        "max_backward_slope_deg": "--max-backward-slope", "max_crab_deg": "--max-crab",
-    }  # fmt: skip
-    try:
-        return Request.make(
-            **gait_limits(),
-            speed=speed,
-            yaw_rate=yaw_rate,
-            max_slope_deg=max_slope,
-            max_cross_slope_deg=max_cross_slope,
-            keep_out=keep_out,
-            channels=channels,
-        )
-    except RequestError as exc:
-        raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
 
 
 def planning_error(exc: Exception, lighter: str = "") -> click.ClickException:
@@ -334,55 +190,45 @@ def format_table(res: dict[str, Any]) -> str:
     if res.get("stay_in_domain") is not None:
         notes = "; ".join(res["stay_in_domain"]) or "the request was already inside"
         lines.append(f"in domain {notes}")
-    if res.get("out"):
-        lines.append(f"path written to {res['out']}")
-    if res.get("plot"):
-        lines.append(f"plot written to {res['plot']}")
+    lines += options.written_lines(res, {"out": "path", "plot": "plot"})
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "plan",
-    epilog=examples(
-        "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
-        "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
-    ),
+    "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
+    "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
 )
-@dem_option
-@start_goal_options
-@model_option
-@planning_options("the path", time_default=None)
+@options.with_request
+@options.dem_option
+@options.start_goal_options
+@options.model_option
+@options.planning_options("the path", time_default=None)
 @click.option(
     "--step",
     type=click.FloatRange(min=0, min_open=True),
-    default=None,
     help="Position spacing of the search, metres (default: the DEM's cell size).",
 )
 @click.option(
     "--eps",
     type=click.FloatRange(min=1.0),
-    default=None,
     help="Heuristic weight of the search: its energy is at most EPS times the optimum on "
     "its motion primitives (default 1.05; 1 = optimal, slower).",
 )
-@channel_options
-@memory_cap_option(
+@options.channel_options
+@options.memory_cap_option(
     "planning may use (160 bytes per DEM cell); a larger DEM is planned by windows: a "
     "corridor about the start and the goal, proven to hold every cheaper path or reported "
     "as not proven"
 )
-@click.option(
+@options.path_option(
     "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Write the path as a GeoJSON LineString (yaw_deg per vertex; longitude, latitude "
     "unless --geojson-crs dem).",
 )
-@geojson_crs_option
-@trust_options
-@click.option(
-    "--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="PNG plot."
-)
+@options.geojson_crs_option
+@options.trust_options
+@options.plot_option("PNG plot.")
 @click.option(
     "--stay-in-domain",
     is_flag=True,
@@ -393,32 +239,20 @@ def format_table(res: dict[str, Any]) -> str:
     "recorded values impassable; --speed and --yaw-rate clamped to the recorded range "
     "(the output says what changed).",
 )
-@json_option
+@options.json_option
 def command(
     dem: Path,
     start: str,
     goal: str,
     model_path: Path | None,
-    planner: str,
-    time_s: float,
-    seed: int,
-    max_slope: float | None,
-    max_cross_slope: float | None,
-    keep_out: Path | None,
-    speed: float,
-    yaw_rate: float,
+    search: dict[str, Any],
+    request: Request,
     step: float | None,
     eps: float | None,
-    sets: tuple[str, ...],
-    channels: tuple[str, ...],
     memory_cap: str | None,
     out: Path | None,
     geojson_crs: str,
-    level: float,
-    battery_wh: float | None,
-    reserve_wh: float,
-    confidence: float,
-    refuse: bool,
+    trust: options.Trust,
     plot: Path | None,
     stay_in_domain: bool,
     as_json: bool,
@@ -443,10 +277,7 @@ def command(
     from energy_planner.planning.plan import plan
     from energy_planner.problem import Problem
 
-    check_planner(planner)
-    ch = channels_from_options(sets, channels) if (sets or channels) else None
     model = load_model_option(model_path)
-    request = request_from_options(speed, yaw_rate, max_slope, max_cross_slope, keep_out, ch)
     domain_notes: list[str] = []
 
     def keep_in_domain(terrain: Any) -> None:
@@ -461,7 +292,7 @@ def command(
         domain_notes.extend(notes)
 
     cap = parse_memory_cap(memory_cap)
-    kwargs = dict(planner=planner, time=time_s, seed=seed, step=step, eps=eps)
+    kwargs = dict(search, step=step, eps=eps)
     if over_memory_cap(dem, cap):
         from energy_planner.planning.corridor import plan_in_corridor
 
@@ -500,15 +331,13 @@ def command(
     result["domain"] = route_domain(terrain, model, res.states, request)
     if stay_in_domain:
         result["stay_in_domain"] = domain_notes
-    add_trust(result, model, res.energy_j, level, battery_wh, reserve_wh, confidence, refuse,
-              outside_share=(result["domain"] or {}).get("outside_share", 0.0),
-              duration_s=res.duration_s)  # fmt: skip
+    options.add_trust(result, model, res.energy_j, trust,
+                      outside_share=(result["domain"] or {}).get("outside_share", 0.0),
+                      duration_s=res.duration_s)  # fmt: skip
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
-    if out is not None:
-        res.write_geojson(out, terrain, native=geojson_crs == "dem")
-        result["out"] = str(out)
-    if plot is not None:
-        res.plot(terrain, plot, request=request)
-        result["plot"] = str(plot)
-    emit(result, as_json, lambda r: format_table(r) + "\n" + trust_lines(r))
+    options.write_output(
+        result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
+    )
+    options.write_output(result, "plot", plot, lambda p: res.plot(terrain, p, request=request))
+    options.emit(result, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))

@@ -3,35 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from energy_planner.cli.options import (
-    battery_options,
-    channel_options,
-    channels_from_options,
-    emit,
-    examples,
-    gait_limits,
-    geojson_crs_option,
-    json_option,
-    load_model_option,
-    memory_cap_option,
-    model_option,
-    parse_memory_cap,
-    points_crs_option,
-    speed_option,
-    yaw_rate_option,
-)
+from energy_planner.cli import options
+from energy_planner.cli.options import load_model_option, parse_memory_cap
 from energy_planner.cli.plan import (
-    limit_options,
     load_terrain,
     over_memory_cap,
     planning_error,
     point_in_dem_crs,
     point_to_work,
 )
+
+if TYPE_CHECKING:
+    from energy_planner.request import Request
 
 
 def _text(res: dict[str, Any]) -> str:
@@ -70,20 +57,17 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "reach",
-    epilog=examples(
-        "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
-        "15 --out reach.tif --geojson area.geojson --plot reach.png",
-    ),
+    "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
+    "15 --out reach.tif --geojson area.geojson --plot reach.png",
 )
 @click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
-@points_crs_option
+@options.points_crs_option
 @click.option(
     "--budget-wh",
     type=click.FloatRange(min=0, min_open=True),
-    default=None,
     help="Battery budget, Wh: the area reachable within it (GeoJSON, contour on the plot).",
 )
 @click.option(
@@ -104,45 +88,30 @@ def _text(res: dict[str, Any]) -> str:
     help="With --return: headings free at the cell (the sum of two `plan` calls with no "
     "yaw there); default: the robot keeps its heading and pays the turn round.",
 )
-@model_option
-@limit_options
-@speed_option
-@yaw_rate_option
-@channel_options
-@click.option(
-    "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="GeoTIFF of the least energy per cell (J), on the DEM's grid and CRS.",
+@options.model_option
+@options.request_options
+@options.path_option(
+    "--out", help="GeoTIFF of the least energy per cell (J), on the DEM's grid and CRS."
 )
-@click.option(
+@options.path_option(
     "--geojson",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="GeoJSON polygon of the area reachable within --budget-wh, or with --battery-wh the "
     "area reached with a chance of at least --confidence (longitude, latitude; see "
     "--geojson-crs).",
 )
-@geojson_crs_option
-@battery_options
-@click.option(
+@options.geojson_crs_option
+@options.battery_options
+@options.path_option(
     "--chance-out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="With --battery-wh: GeoTIFF of the chance that each cell is reached (and left, with "
     "--return) on the usable battery.",
 )
-@click.option(
-    "--plot",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="PNG: energy over a hillshade with the budget contour.",
-)
-@memory_cap_option(
+@options.plot_option("PNG: energy over a hillshade with the budget contour.")
+@options.memory_cap_option(
     "the search may use (160 bytes per DEM cell); a larger DEM is read as one window about "
     "the start, of the radius the budget can reach (needs --budget-wh)"
 )
-@json_option
+@options.json_option
 def command(
     dem: Path,
     start: str,
@@ -151,13 +120,7 @@ def command(
     within_budget: bool,
     free_turn: bool,
     model_path: Path | None,
-    max_slope: float | None,
-    max_cross_slope: float | None,
-    keep_out: Path | None,
-    speed: float,
-    yaw_rate: float,
-    sets: tuple[str, ...],
-    channels: tuple[str, ...],
+    request: Request,
     out: Path | None,
     geojson: Path | None,
     geojson_crs: str,
@@ -177,8 +140,6 @@ def command(
     within --budget-wh (its radius: the budget over the least energy per metre anywhere on
     the DEM); the outputs then cover that window, and cells above the budget are nodata.
     """
-    from energy_planner.request import Request
-
     _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, battery_wh,
                    chance_out, reserve_wh)  # fmt: skip
     cap = parse_memory_cap(memory_cap)
@@ -191,11 +152,6 @@ def command(
             param_hint="--budget-wh",
         )
     model = load_model_option(model_path)
-    request = Request.make(
-        speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope,
-        max_cross_slope_deg=max_cross_slope, keep_out=keep_out,
-        channels=channels_from_options(sets, channels), **gait_limits(),
-    )  # fmt: skip
     res, terrain = _run_reach(
         dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
         within_budget,
@@ -208,24 +164,18 @@ def command(
     if battery_wh is not None:
         result["battery"], budget_j = _battery(res, terrain, model, battery_wh, reserve_wh,
                                                confidence)  # fmt: skip
-        if chance_out is not None:
-            usable = (battery_wh - reserve_wh) * 3600.0
-            res.write_chance_geotiff(terrain, chance_out, model, usable)
-            result["chance_out"] = str(chance_out)
+        usable = (battery_wh - reserve_wh) * 3600.0
+        write = lambda p: res.write_chance_geotiff(terrain, p, model, usable)  # noqa: E731
+        options.write_output(result, "chance_out", chance_out, write)
     _add_edge_warnings(result, res, terrain)
-    if out is not None:
-        res.write_geotiff(terrain, out)
-        result["out"] = str(out)
-    if geojson is not None:
-        from energy_planner.io import write_geojson
-
-        native = geojson_crs == "dem"
-        write_geojson(geojson, res.area_geojson(terrain, budget_j, native=native), indent=None)
-        result["geojson"] = str(geojson)
-    if plot is not None:
-        res.plot(terrain, plot, budget_j, request=request)
-        result["plot"] = str(plot)
-    emit(result, as_json, _text)
+    options.write_output(result, "out", out, lambda p: res.write_geotiff(terrain, p))
+    native = geojson_crs == "dem"
+    options.write_geojson_output(result, "geojson", geojson,
+                                 lambda: res.area_geojson(terrain, budget_j, native=native),
+                                 indent=None)  # fmt: skip
+    options.write_output(result, "plot", plot,
+                         lambda p: res.plot(terrain, p, budget_j, request=request))  # fmt: skip
+    options.emit(result, as_json, _text)
 
 
 def _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, battery_wh,

@@ -8,35 +8,32 @@ from typing import Any
 
 import click
 
-from energy_planner.cli.options import emit, examples, json_option, seed_option
+from energy_planner.cli import options
+
+
+def _names(what: str, plural: str, valid: Any, value: tuple[str, ...], ctx, param):
+    """``value`` without repeats, each one of ``valid`` (``click.BadParameter`` listing them)."""
+    for name in value:
+        if name not in valid:
+            raise click.BadParameter(
+                f"unknown {what} {name!r}; valid {plural}: {', '.join(valid)} "
+                "(see docs/simulate.md)",
+                ctx=ctx,
+                param=param,
+            )
+    return tuple(dict.fromkeys(value))
 
 
 def _effects(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
     from energy_planner.simulate import EFFECTS
 
-    for name in value:
-        if name not in EFFECTS:
-            raise click.BadParameter(
-                f"unknown effect {name!r}; valid effects: {', '.join(sorted(EFFECTS))} "
-                "(see docs/simulate.md)",
-                ctx=ctx,
-                param=param,
-            )
-    return tuple(dict.fromkeys(value))
+    return _names("effect", "effects", sorted(EFFECTS), value, ctx, param)
 
 
 def _faults(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
     from energy_planner.simulate import FAULTS
 
-    for name in value:
-        if name not in FAULTS:
-            raise click.BadParameter(
-                f"unknown sensor fault {name!r}; valid faults: {', '.join(FAULTS)} "
-                "(see docs/simulate.md)",
-                ctx=ctx,
-                param=param,
-            )
-    return tuple(dict.fromkeys(value))
+    return _names("sensor fault", "faults", FAULTS, value, ctx, param)
 
 
 def _speeds(ctx: click.Context, param: click.Parameter, value: str | None):
@@ -83,21 +80,19 @@ def _text(doc: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "simulate",
-    epilog=examples(
-        "energy-planner simulate --out campaign --small --effect load",
-        "energy-planner simulate --out missions --missions 4 --dem maps/hill.tif --effect load",
-    ),
+    "energy-planner simulate --out campaign --small --effect load",
+    "energy-planner simulate --out missions --missions 4 --dem maps/hill.tif --effect load",
 )
-@click.option(
+@options.path_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
+    folder=True,
     help="Output directory (created if missing).",
 )
-@seed_option
+@options.seed_option
 @click.option(
     "--effect",
     "effects",
@@ -118,7 +113,6 @@ def _text(doc: dict[str, Any]) -> str:
 @click.option(
     "--missions",
     type=click.IntRange(min=1),
-    default=None,
     metavar="N",
     help="Write N mission logs (a robot following smooth paths over a DEM, with speed "
     "changes, stops and turns) instead of the designed campaign.",
@@ -126,40 +120,35 @@ def _text(doc: dict[str, Any]) -> str:
 @click.option(
     "--dem",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=None,
     help="DEM for --missions (default: synthetic rolling hills), e.g. maps/hill.tif.",
 )
 @click.option(
     "--speeds",
     callback=_speeds,
-    default=None,
     metavar="V1,V2,...",
     help="Walking speeds, m/s, comma-separated (default 0.3, as in the paper).",
 )
-@click.option(
+@options.value_option(
     "--format",
     "fmt",
     type=click.Choice(["csv", "parquet"]),
     default="csv",
-    show_default=True,
     help="Per-run log format.",
 )
 @click.option("--bag", is_flag=True, help="Also write one ROS 2 bag per run into OUT/bags/.")
 @click.option(
     "--small", is_flag=True, help="A tiny campaign (about 100 short runs) for a quick look."
 )
-@click.option(
+@options.path_option(
     "--plot",
     "plot",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Also write a PNG of the force-equivalent cost versus slope (uphill and "
     "downhill, forward and lateral; measured points, truth lines).",
 )
 @click.option(
     "--noise-free", is_flag=True, help="Perfect sensors: no noise, spikes, slip or IMU bias."
 )
-@json_option
+@options.json_option
 def command(
     out: Path,
     seed: int,
@@ -209,6 +198,7 @@ def command(
             "none: drop --plot or --missions",
             param_hint="--plot",
         )
+    common = dict(seed=seed, effects=effects, faults=faults, progress=progress)
     try:
         if missions is not None:
             from energy_planner.terrain import load_dem
@@ -216,19 +206,10 @@ def command(
             terrain = load_dem(dem) if dem is not None else None
             mk = MissionConfig.small if small else MissionConfig
             config = mk(missions=missions, **changes)
-            camp = simulate_missions(
-                seed=seed,
-                effects=effects,
-                config=config,
-                terrain=terrain,
-                faults=faults,
-                progress=progress,
-            )
+            camp = simulate_missions(config=config, terrain=terrain, **common)
         else:
             config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
-            camp = simulate_campaign(
-                seed=seed, effects=effects, config=config, faults=faults, progress=progress
-            )
+            camp = simulate_campaign(config=config, **common)
         files = camp.write(out, fmt=fmt, bag=bag, progress=progress)
         plot_path = camp.plot(plot) if plot is not None else None
     except EnergyPlannerError as exc:
@@ -255,4 +236,4 @@ def command(
             "plot": plot_path,
         },
     }
-    emit(doc, as_json, _text)
+    options.emit(doc, as_json, _text)

@@ -8,7 +8,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.cli.options import band_option, emit, examples, json_option
+from energy_planner.cli import options
 
 
 def _resolve_dem(dem: str) -> Path:
@@ -168,54 +168,37 @@ def _text(r: dict[str, Any]) -> str:
         f"nodata share   {r['nodata_share']:.2%} of cells "
         f"({r['no_slope_share']:.2%} without a slope: border and nodata neighbours)",
     ]
-    for key in ("slope_out", "aspect_out", "plot"):
-        if r.get(key):
-            lines.append(f"wrote          {r[key]}")
+    lines += [f"wrote          {r[k]}" for k in ("slope_out", "aspect_out", "plot") if r.get(k)]
     return "\n".join(lines)
 
 
-@click.command(
+@options.command(
     "terrain",
-    epilog=examples(
-        "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
-        "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
-    ),
+    "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
+    "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
 )
 @click.argument("dem", metavar="DEM")
-@band_option
+@options.band_option
 @click.option(
     "--bounds",
     default=None,
     metavar="XMIN,YMIN,XMAX,YMAX",
     help="Read only this window, in the DEM's own CRS (for rasters too large to load whole).",
 )
-@click.option(
+@options.value_option(
     "--decimate",
     type=click.IntRange(min=1),
     default=1,
-    show_default=True,
     help="Read every N-th cell along each axis (each the average of N x N cells).",
 )
-@click.option(
-    "--slope-out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write slope (degrees, float32, nodata NaN) as GeoTIFF.",
-)
-@click.option(
+@options.path_option("--slope-out", help="Write slope (degrees, float32, nodata NaN) as GeoTIFF.")
+@options.path_option(
     "--aspect-out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
     help="Write GIS aspect (degrees clockwise from north, downslope; nodata NaN on flat "
     "and nodata cells, where gdaldem writes -9999) as GeoTIFF.",
 )
-@click.option(
-    "--plot",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Write a PNG of the slope over a hillshade.",
-)
-@json_option
+@options.path_option("--plot", help="Write a PNG of the slope over a hillshade.")
+@options.json_option
 def command(
     dem: str,
     band: int | None,
@@ -251,4 +234,4 @@ def command(
     if plot is not None:
         _plot(plot, terrain, np.degrees(terrain.slope), f"Slope of {path.name}")
         result["plot"] = str(plot)
-    emit(result, as_json, _text)
+    options.emit(result, as_json, _text)

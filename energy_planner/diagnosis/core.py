@@ -168,11 +168,7 @@ class Diagnosis:
             "p_threshold": None if r is None else r.p_threshold,
             "staircase": [s.to_dict() for s in self.steps],
             "thresholds": {
-                "alpha": th.alpha,
-                "min_rel": th.min_rel,
-                "span_tol": th.span_tol,
-                "n_splits": th.n_splits,
-                "seed": th.seed,
+                k: getattr(th, k) for k in ("alpha", "min_rel", "span_tol", "n_splits", "seed")
             },
             "notes": self.notes,
             "data_findings": self.data_findings,

@@ -171,21 +171,34 @@ def plot_staircase(d: Diagnosis):
 
     fig, ax = plt.subplots(figsize=(7, 3.8))
     steps = d.steps
-    x = np.arange(len(steps))
-    y = np.array([s.heldout_rmse_w for s in steps])
-    lo = np.array([min(s.fold_rmse_w) for s in steps])
-    hi = np.array([max(s.fold_rmse_w) for s in steps])
-    ax.bar(x, y, width=0.6, color="C0", label="pooled held-out RMSE")
-    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4, label="fold range")
-    for xi, yi in zip(x, y, strict=True):
-        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3), fontsize=8)
-    labels = ["model as given"] + [f"+ {s.name}" for s in steps[1:]]
-    ax.set_xticks(x, labels, rotation=20, fontsize=8)
-    ax.set_ylabel("held-out RMSE (W)")
-    ax.set_ylim(bottom=0)
+    rows = [
+        {"name": s.name, "heldout_rmse_w": s.heldout_rmse_w, "fold_rmse_w": s.fold_rmse_w}
+        for s in steps
+    ]
+    _rmse_bars(ax, rows, "model as given", "pooled held-out RMSE", "held-out RMSE (W)", 20)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def _rmse_bars(ax, rows: Sequence[dict], first: str, label: str, ylabel: str, rotation: float):
+    """Held-out RMSE per staircase step as bars with the fold range; the x positions.
+
+    ``rows``: ``name``, ``heldout_rmse_w`` and ``fold_rmse_w`` of each step; the first
+    bar is labelled ``first``, the others ``+ name``.
+    """
+    x = np.arange(len(rows))
+    y = np.array([r["heldout_rmse_w"] for r in rows], float)
+    lo = np.array([min(r["fold_rmse_w"]) for r in rows], float)
+    hi = np.array([max(r["fold_rmse_w"]) for r in rows], float)
+    ax.bar(x, y, width=0.6, color="C0", label=label)
+    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4, label="fold range")
+    for xi, yi in zip(x, y, strict=True):
+        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3), fontsize=8)
+    ax.set_xticks(x, [first] + [f"+ {r['name']}" for r in rows[1:]], rotation=rotation, fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(bottom=0)
+    return x
 
 
 def plot_suspects(d: Diagnosis, top: int = 12):
@@ -385,19 +398,9 @@ def plot_discovery(table: Sequence[dict]):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    x = np.arange(len(table))
-    y = np.array([r["heldout_rmse_w"] for r in table], float)
-    lo = np.array([min(r["fold_rmse_w"]) for r in table], float)
-    hi = np.array([max(r["fold_rmse_w"]) for r in table], float)
-    ax.bar(x, y, width=0.6, color="C0", label="held-out power RMSE (W)")
-    ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", capsize=4,
-                label="fold range")  # fmt: skip
-    for xi, yi in zip(x, y, strict=True):
-        ax.annotate(f"{yi:.1f} W", (xi, yi), textcoords="offset points", xytext=(12, 3), fontsize=8)
-    labels = ["base model"] + [f"+ {r['name']}" for r in table[1:]]
-    ax.set_xticks(x, labels, rotation=15, fontsize=8)
-    ax.set_ylabel("held-out power RMSE (W)")
-    ax.set_ylim(bottom=0)
+    x = _rmse_bars(
+        ax, table, "base model", "held-out power RMSE (W)", "held-out power RMSE (W)", 15
+    )
     ax2 = ax.twinx()
     med = 100 * np.array([r["run_energy_error_median"] for r in table], float)
     p90 = 100 * np.array([r["run_energy_error_p90"] for r in table], float)

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +55,7 @@ from energy_planner.geojson import (
     yaw_from_work,
     yaw_to_work,
 )
+from energy_planner.io.path_read import read_text
 
 __all__ = [
     "WaypointError",
@@ -89,11 +89,12 @@ def read_waypoints(path: str | Path) -> Waypoints:
     Returns
     -------
     Waypoints
+        In the file's CRS.
 
     Raises
     ------
     WaypointIOError
-        The file does not exist or cannot be read.
+        No such file, or not readable as UTF-8 text.
     WaypointError
         A missing column, a non-numeric, empty or non-finite value, fewer than 2
         waypoints, times not strictly increasing, a ``yaw_deg``/``t`` list whose length
@@ -102,17 +103,10 @@ def read_waypoints(path: str | Path) -> Waypoints:
         the value.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError as exc:
-        raise WaypointIOError(
-            f"waypoint file {str(p)!r} does not exist (expected a CSV with columns "
-            "x,y[,yaw_deg][,t] or a GeoJSON LineString)",
-            path=p,
-            expected="a CSV x,y[,yaw_deg][,t] or a GeoJSON LineString",
-        ) from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise WaypointIOError(f"cannot read waypoint file {str(p)!r}: {exc}", path=p) from exc
+    text = read_text(
+        p, "waypoint file", "a CSV with columns x,y[,yaw_deg][,t] or a GeoJSON LineString",
+        expected="a CSV x,y[,yaw_deg][,t] or a GeoJSON LineString",
+    )  # fmt: skip
     suffix = p.suffix.lower()
     if suffix in (".geojson", ".json") or (
         suffix not in (".csv", ".txt", ".tsv") and text.lstrip().startswith("{")
@@ -244,50 +238,10 @@ def _is_float(s: str) -> bool:
 
 
 # ---------------------------------------------------------------------- writing
-def write_waypoints_geojson(
-    path: str | Path,
-    xy: Any,
-    yaw_rad: Sequence[float] | np.ndarray | None = None,
-    *,
-    t: Sequence[float] | np.ndarray | None = None,
-    crs: Any = None,
-    properties: dict[str, Any] | None = None,
-    native: bool = False,
-) -> Path:
-    """Write a path in the project's GeoJSON format (:func:`energy_planner.geojson.write_path`).
-
-    Kept for existing callers; ``xy`` and ``yaw_rad`` are in the DEM's own CRS (yaw CCW
-    from its +x axis). For poses on a terrain's working grid use
-    :func:`energy_planner.geojson.write_path_from_work`.
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        Output file.
-    xy : array-like, shape (n, 2)
-        Vertices in the DEM's CRS.
-    yaw_rad : array-like, shape (n,), optional
-        Body yaw in radians CCW from the CRS's x axis, written as ``properties.yaw_deg``.
-    t : array-like, shape (n,), optional
-        Times, written as ``properties.t``.
-    crs : CRS or str, optional
-        The CRS of ``xy``, recorded in the file.
-    properties : dict, optional
-        Extra feature properties (e.g. ``energy_j``).
-    native : bool
-        False: RFC 7946 longitude/latitude; True: ``crs``, declared.
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-
-    Raises
-    ------
-    WaypointError
-        Bad shapes or non-finite values.
-    """
-    return write_path(path, xy, yaw_rad, t=t, crs=crs, properties=properties, native=native)
+#: The path writer under its older name, kept for existing callers: ``xy`` and ``yaw_rad``
+#: in the DEM's own CRS (:func:`energy_planner.geojson.write_path`; for poses on a terrain's
+#: working grid, :func:`energy_planner.geojson.write_path_from_work`).
+write_waypoints_geojson = write_path
 
 
 # ---------------------------------------------------------------------- CRS

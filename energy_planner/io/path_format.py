@@ -244,17 +244,18 @@ def _not_repeated(arr: np.ndarray, yaw: np.ndarray | None, t: np.ndarray | None)
 
 
 def write_path(
-    path: str | Path,
-    xy: Any,
-    yaw_rad: Sequence[float] | np.ndarray | None = None,
-    *,
-    t: Sequence[float] | np.ndarray | None = None,
-    crs: Any = None,
-    properties: dict[str, Any] | None = None,
-    native: bool = False,
+    path: str | Path, xy: Any, yaw_rad: Sequence[float] | np.ndarray | None = None, **options: Any
 ) -> Path:
-    """Write :func:`path_document` to ``path`` (UTF-8 JSON) and return the path."""
-    doc = path_document(xy, yaw_rad, t=t, crs=crs, properties=properties, native=native)
+    """Write :func:`path_document` to ``path`` (UTF-8 JSON) and return the path.
+
+    ``xy``, ``yaw_rad`` and the keyword ``options`` (``t``, ``crs``, ``properties``,
+    ``native``) are those of :func:`path_document`.
+    """
+    return _write_document(path, path_document(xy, yaw_rad, **options))
+
+
+def _write_document(path: str | Path, doc: dict[str, Any]) -> Path:
+    """Write a path's GeoJSON ``doc`` to ``path`` (atomically); ``WaypointIOError`` if not."""
     p = Path(path)
     try:
         write_geojson(p, doc)
@@ -329,9 +330,4 @@ def write_path_from_work(
 ) -> Path:
     """Write :func:`path_document_from_work` to ``path`` and return the path."""
     doc = path_document_from_work(terrain, states, t=t, properties=properties, native=native)
-    p = Path(path)
-    try:
-        write_geojson(p, doc)
-    except OSError as exc:
-        raise WaypointIOError(f"cannot write path file {str(p)!r}: {exc}", path=p) from exc
-    return p
+    return _write_document(path, doc)

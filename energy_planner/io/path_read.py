@@ -42,15 +42,26 @@ def read_path(path: str | Path) -> Waypoints:
         file, the vertex and the value.
     """
     p = Path(path)
+    return parse_path(read_text(p, "path file", "a GeoJSON LineString"), p)
+
+
+def read_text(p: Path, what: str, form: str, expected: str | None = None) -> str:
+    """The UTF-8 text (BOM dropped) of the file ``p``, a ``what`` in the form ``form``.
+
+    Raises
+    ------
+    WaypointIOError
+        The file does not exist (naming ``form`` and, as the error's ``expected``,
+        ``expected``) or cannot be read.
+    """
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        return p.read_text(encoding="utf-8-sig")
     except FileNotFoundError as exc:
         raise WaypointIOError(
-            f"path file {str(p)!r} does not exist (expected a GeoJSON LineString)", path=p
+            f"{what} {str(p)!r} does not exist (expected {form})", path=p, expected=expected
         ) from exc
     except (OSError, UnicodeDecodeError) as exc:
-        raise WaypointIOError(f"cannot read path file {str(p)!r}: {exc}", path=p) from exc
-    return parse_path(text, p)
+        raise WaypointIOError(f"cannot read {what} {str(p)!r}: {exc}", path=p) from exc
 
 
 def parse_path(text: str, p: Path | None = None) -> Waypoints:
@@ -111,6 +122,16 @@ def _gtype(f: Any) -> Any:
     return g.get("type") if isinstance(g, dict) else None
 
 
+def _member_list(obj: dict[str, Any], key: str, kind: str, where_file: str, p: Path | None) -> list:
+    """``obj[key]``, which must be a list (``WaypointError`` naming the ``kind`` otherwise)."""
+    value = obj.get(key)
+    if not isinstance(value, list):
+        raise WaypointError(
+            f"{where_file}: {kind} without a {key!r} list", path=p, expected=f"a {key!r} list"
+        )
+    return value
+
+
 def _line_feature(
     doc: dict[str, Any], where_file: str, p: Path | None, notes: list[str]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -118,13 +139,7 @@ def _line_feature(
     kind = doc["type"]
     props: Any = {}
     if kind == "FeatureCollection":
-        feats = doc.get("features")
-        if not isinstance(feats, list):
-            raise WaypointError(
-                f"{where_file}: FeatureCollection without a 'features' list",
-                path=p,
-                expected="a 'features' list",
-            )
+        feats = _member_list(doc, "features", "FeatureCollection", where_file, p)
         lines = [(i, f) for i, f in enumerate(feats) if _gtype(f) == "LineString"]
         if len(lines) != 1:
             kinds = [_gtype(f) if isinstance(f, dict) else type(f).__name__ for f in feats]
@@ -169,13 +184,7 @@ def _coordinates(
     geom: dict[str, Any], where_file: str, p: Path | None, notes: list[str]
 ) -> np.ndarray:
     """The LineString's positions as an (n, 2) array (a z coordinate is ignored)."""
-    coords = geom.get("coordinates")
-    if not isinstance(coords, list):
-        raise WaypointError(
-            f"{where_file}: LineString without a 'coordinates' list",
-            path=p,
-            expected="a 'coordinates' list",
-        )
+    coords = _member_list(geom, "coordinates", "LineString", where_file, p)
     xy = np.zeros((len(coords), 2))
     has_z = False
     for i, c in enumerate(coords):

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import RemovedAPIError
+from energy_planner.measurements.schema import CANONICAL_COLUMNS
 from energy_planner.simulate.config import CampaignConfig
 from energy_planner.simulate.effects import check_effects
 from energy_planner.simulate.noise import NoiseFloor
@@ -33,24 +34,8 @@ from energy_planner.simulate.physics import Physics
 
 __all__ = ["Campaign", "LOG_COLUMNS", "CHANNELS", "CATEGORICAL"]
 
-#: Canonical log columns written by the simulator, in order: measurements.schema.CANONICAL_COLUMNS
-#: (a copy, so that importing the simulator does not import the log readers; a test pins them).
-LOG_COLUMNS = (
-    "run",
-    "t",
-    "qw",
-    "qx",
-    "qy",
-    "qz",
-    "vx",
-    "vy",
-    "wz",
-    "voltage",
-    "current",
-    "x",
-    "y",
-    "yaw",
-)
+#: Canonical log columns written by the simulator, in order (the log readers' own).
+LOG_COLUMNS = CANONICAL_COLUMNS
 #: Extra channels: carried mass (kg), surface (categorical), winding temperature (deg C,
 #: warming during a run), air temperature (deg C), grass height (m). The model's catalog
 #: reads none of them; each is logged in every campaign, its effect on or not.

@@ -9,34 +9,8 @@ Least squares, identifiability and motion classes live in
 [0, 0, 1]
 """
 
+from energy_planner.stats import numerics as _numerics
 from energy_planner.stats.heldout import HeldOut, fold_index, heldout
-from energy_planner.stats.numerics import (
-    MOTIONS,
-    WLSFit,
-    classify_motion,
-    cluster_covariance,
-    cluster_stderr,
-    independent_columns,
-    span_basis,
-    span_residual,
-    vif,
-    wls,
-    wls_coef,
-)
+from energy_planner.stats.numerics import *  # noqa: F403 (its __all__, re-exported)
 
-__all__ = [
-    "MOTIONS",
-    "WLSFit",
-    "classify_motion",
-    "cluster_covariance",
-    "cluster_stderr",
-    "HeldOut",
-    "fold_index",
-    "heldout",
-    "independent_columns",
-    "span_basis",
-    "span_residual",
-    "vif",
-    "wls",
-    "wls_coef",
-]
+__all__ = ["HeldOut", "fold_index", "heldout", *_numerics.__all__]

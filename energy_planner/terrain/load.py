@@ -297,26 +297,27 @@ def _pick_band(band, n: int, name: str) -> int:
     """
     if band is None:
         if n != 1:
-            raise DEMError(
+            raise _band_error(
                 f"DEM {name!r} has {n} bands; choose one with band=N (Python) or "
                 f"--band N (CLI), N in 1..{n}",
-                path=name,
-                value=n,
-                param="band",
-                expected=f"a band in 1..{n}",
-                hint="--band N",
+                name,
+                n,
+                n,
             )
         return 1
     if not (isinstance(band, int | np.integer) and 1 <= band <= n):
-        raise DEMError(
-            f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}",
-            path=name,
-            value=band,
-            param="band",
-            expected=f"a band in 1..{n}",
-            hint="--band N",
+        raise _band_error(
+            f"band {band!r} is out of range for DEM {name!r}: valid bands 1..{n}", name, band, n
         )
     return band
+
+
+def _band_error(message: str, name: str, value: Any, n: int) -> DEMError:
+    """A :class:`DEMError` on the ``band`` of DEM ``name`` (``n`` bands), for ``value``."""
+    return DEMError(
+        message, path=name, value=value, param="band", expected=f"a band in 1..{n}",
+        hint="--band N",
+    )  # fmt: skip
 
 
 def _read_band(src, band: int, window, name: str) -> np.ndarray:
