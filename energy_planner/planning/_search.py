@@ -8,10 +8,13 @@ Imported as it is, ``kernel`` is the template's level-ground placeholder model.
 
 States are ``s = p * H + h``: lattice position ``p = j * nx + i`` (x index ``i``, y index
 ``j``) and heading index ``h``. Per state the search keeps ``g`` (float32, J) and a code
-(int8): -1 never reached; 0..15 reached by translation ``MOVES[code]`` at constant heading;
-16 by a turn from heading ``h - 1``; 17 by a turn from ``h + 1``; 18 a start state; +64
-once expanded (closed). The open list is a binary heap of (key, state) with lazy deletion,
-grown by the caller when full.
+(int8): 0 never reached (then ``g`` is not read: the caller allocates ``g`` with
+``np.empty`` and the codes with ``np.zeros``, so the operating system maps only the pages
+of states the search reaches, and memory follows the states reached, not the map);
+``1 + m`` reached by translation ``MOVES[m]`` at constant heading; 17 by a turn from heading
+``h - 1``; 18 by a turn from ``h + 1``; 19 a start state; +64 once expanded (closed).
+The open list is a binary heap of (key, state) with lazy deletion, grown by the caller
+when full.
 """
 
 import math
@@ -20,12 +23,12 @@ import numba
 import numpy as np
 
 from energy_planner.energy._motion import motion_full as kernel  # --- kernel import ---
-from energy_planner.energy.kernels import IN_CHAN, N_OUT
+from energy_planner.energy.kernels import IN_CHAN, N_OUT, sample_gradient
 
-UNSEEN = -1
-TURN_FROM_PREV = 16
-TURN_FROM_NEXT = 17
-START = 18
+UNSEEN = 0
+TURN_FROM_PREV = 17
+TURN_FROM_NEXT = 18
+START = 19
 CLOSED = 64
 
 # chunk return codes
@@ -140,6 +143,41 @@ def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx
 
 
 @numba.njit(cache=True)
+def translation_refused(grad, blocked, gx0, gy0, gdx, gdy, step, tmax, xa, ya, xb, yb):
+    """Whether the motion kernel refuses the translation (xa, ya) -> (xb, yb) at every heading.
+
+    The kernel's first pass (``motion_full`` in :mod:`energy_planner.energy._motion`)
+    samples the gradient at ``n = ceil(length / step)`` midpoints and refuses the motion
+    if a sample lies outside the valid gradients, in a keep-out cell (nearest cell of
+    ``blocked``) or on ground steeper than ``tmax``; none of these depends on the heading,
+    so a translation refused here costs ``inf`` at every heading (the relaxed problem may
+    drop it and stay a lower bound). The same samples as the kernel's, in the same order
+    (``tests/test_planning_search.py`` checks the two agree).
+    """
+    ddx = xb - xa
+    ddy = yb - ya
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    n = max(1, int(math.ceil(dist / step)))
+    nr, nc = blocked.shape
+    t2 = tmax * tmax
+    for i in range(n):
+        s = (i + 0.5) / n
+        x = xa + s * ddx
+        y = ya + s * ddy
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+        if not ok:
+            return True
+        if nr > 0:
+            r = int(round((y - gy0) / gdy))
+            c = int(round((x - gx0) / gdx))
+            if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
+                return True
+        if gxs * gxs + gys * gys > t2:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
 def _sift_up(keys, vals, pos, i):
     key = keys[i]
     v = vals[i]
@@ -188,7 +226,9 @@ def _pop_indexed(keys, vals, pos, n):
 @numba.njit(cache=True)
 def heuristic_chunk(
     grad,
+    blocked,
     geo,
+    sampling,
     lat,
     moves,
     move_len,
@@ -208,7 +248,10 @@ def heuristic_chunk(
     """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
 
     ``geo`` = (x0, y0, dx, dy) of the DEM grid; ``lat`` = (xs0, ys0, step, nx, ny);
-    ``tgeo`` = (t0x, t0y, tdx, tdy) of the table. ``h`` (float64, nx * ny) holds the
+    ``tgeo`` = (t0x, t0y, tdx, tdy) of the table; ``sampling`` = (kernel step, tmax):
+    a move the kernel refuses at every heading (:func:`translation_refused`: steep,
+    keep-out, nodata) is no edge of the relaxed problem either, so ``h`` sees the same
+    barriers as the search. ``h`` (float64, nx * ny) holds the
     tentative costs-to-go (inf = not reached). The open list is an indexed heap
     (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
     never holds more than one entry per position. ``margin`` (< 1) scales every bound
@@ -222,6 +265,7 @@ def heuristic_chunk(
     nx = int(lat[3])
     ny = int(lat[4])
     t0x, t0y, tdx, tdy = tgeo[0], tgeo[1], tgeo[2], tgeo[3]
+    kstep, tmax = sampling[0], sampling[1]
     nm = moves.shape[0]
     # least bound of each move over the whole table: an edge that cannot improve h[p]
     # even at this cost is skipped without looking up its own bound
@@ -255,6 +299,9 @@ def heuristic_chunk(
             lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
             nk = key + margin * move_len[m] * step * lb
             if nk < h[p]:
+                if translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,
+                                       xb, yb):  # fmt: skip
+                    continue
                 h[p] = nk
                 i = pos[p]
                 if i < 0:
@@ -344,9 +391,9 @@ def astar_chunk(
             if not math.isfinite(e):
                 continue
             ng = gs + e
-            if ng < g[t]:
+            if code[t] == UNSEEN or ng < g[t]:
                 g[t] = ng
-                code[t] = m
+                code[t] = 1 + m
                 heap_push(keys, vals, n, ng + eps * h2d[q], t)
         for d in (-1, 1):
             h2 = (hh + d) % H
@@ -359,7 +406,7 @@ def astar_chunk(
             if not math.isfinite(e):
                 continue
             ng = gs + e
-            if ng < g[t]:
+            if code[t] == UNSEEN or ng < g[t]:
                 g[t] = ng
                 code[t] = TURN_FROM_PREV if d == 1 else TURN_FROM_NEXT
                 heap_push(keys, vals, n, ng + eps * h2d[p], t)
@@ -373,7 +420,7 @@ def trace(code, moves, nx, H, s):
     while True:
         out.append(s)
         c = code[s] % CLOSED
-        if c == START or c < 0:
+        if c == START or c == UNSEEN:
             break
         p, hh = divmod(s, H)
         if c == TURN_FROM_PREV:
@@ -382,7 +429,7 @@ def trace(code, moves, nx, H, s):
             s = p * H + (hh + 1) % H
         else:
             j, i = divmod(p, nx)
-            s = (j - moves[c, 1]) * nx + (i - moves[c, 0])
+            s = (j - moves[c - 1, 1]) * nx + (i - moves[c - 1, 0])
             s = s * H + hh
     res = np.empty(len(out), np.int64)
     for k in range(len(out)):
@@ -391,11 +438,14 @@ def trace(code, moves, nx, H, s):
 
 
 @numba.njit(cache=True)
-def min_over_headings(g, P, H):
+def min_over_headings(g, code, P, H):
+    """Least ``g`` over the headings of each position (inf where none was reached)."""
     res = np.empty(P, np.float64)
     for p in range(P):
         b = np.inf
         for hh in range(H):
+            if code[p * H + hh] == UNSEEN:
+                continue
             v = g[p * H + hh]
             if v < b:
                 b = v

@@ -676,12 +676,15 @@ def plan(
 
     # compile the kernels before the clock starts (numba compiles on first call)
     cost.compile()
-    warm = _cost_fn(cost)
-    warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     if planner in ("auto", "search"):
         from energy_planner.planning.search import search_module
 
         search_module(cost)
+    else:
+        # the Python-callable kernel (a jitclass, compiled per process: about 4 s) is
+        # needed by OMPL and the lattice's report only, not by the search
+        warm = _cost_fn(cost)
+        warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     ctg = None
     if planner == "bitstar" and OMPL_COST_TO_GO:
         from energy_planner.planning.objective import CostToGo

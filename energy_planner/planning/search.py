@@ -27,9 +27,12 @@ never exceeds the search's cost to go: with ``eps = 1`` the path is optimal on t
 primitives (the same optimum as the full lattice); with ``eps > 1`` its energy is at most
 ``eps`` times that optimum.
 
-Memory: one float32 ``g`` and one int8 code per state (5 bytes x cells x headings), the
-2-D heuristic (8 bytes per cell) and the open list. All hot loops are numba functions in
-:mod:`energy_planner.planning._search`, compiled once per energy model and cached on disk.
+Memory: one float32 ``g`` and one int8 code per state reached (5 bytes x headings per
+position the search reaches: the arrays are allocated untouched and the operating system
+maps a page only when the search first writes to it), the 2-D heuristic (float32 ``h``
+and an int32 heap index per cell: 8 bytes per cell) and the open lists. All hot loops are
+numba functions in :mod:`energy_planner.planning._search`, compiled once per energy model
+and cached on disk.
 
 Without a goal (:func:`reach_search`) the same search runs with ``h = 0`` (Dijkstra) and
 returns the least energy to every position.
@@ -47,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from energy_planner.angles import wrap
-from energy_planner.energy.kernels import IN_DY, IN_GRAD, IN_X0
+from energy_planner.energy.kernels import IN_BLOCKED, IN_DY, IN_GRAD, IN_STEP, IN_TMAX, IN_X0
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
 
@@ -103,17 +106,18 @@ def _warm_up(mod, cost) -> None:
     table = np.zeros((16, 1, 1, 2, 2))
     tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.heuristic_chunk(
-        cost.data[IN_GRAD], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
-        np.zeros(1, i8), keys, vals, n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
+        cost.data[IN_GRAD], cost.data[IN_BLOCKED], _geo(cost), _sampling(cost), lat, moves,
+        np.ones(16), table, tgeo, np.zeros(1, np.float32), np.zeros(1, np.int32), keys, vals,
+        n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
     )  # fmt: skip
     mod.astar_chunk(
-        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1), 1.0,
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1, np.float32), 1.0,
         np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1, keys, vals, n, 0, 0.0,
         np.zeros(1, i8),
     )  # fmt: skip
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
-    mod.min_over_headings(np.zeros(16, np.float32), 1, 16)
+    mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
@@ -367,6 +371,11 @@ def _geo(cost) -> np.ndarray:
     return np.array(cost.data[IN_X0 : IN_DY + 1], dtype=np.float64)
 
 
+def _sampling(cost) -> np.ndarray:
+    """(kernel sample step, tmax): what :func:`_search.translation_refused` needs."""
+    return np.array([cost.data[IN_STEP], cost.data[IN_TMAX]], dtype=np.float64)
+
+
 class _Heap:
     """Open-list arrays for the numba heap, grown on demand."""
 
@@ -413,27 +422,31 @@ def relaxed_cost_to_go(
 
     Returns
     -------
-    ndarray of float64, shape (nx * ny,)
-        J; ``inf`` where the goal cannot be reached even in the relaxed problem.
+    ndarray of float32, shape (nx * ny,)
+        J; ``inf`` where the goal cannot be reached even in the relaxed problem. (Rounding
+        to float32 moves a value by under 1e-7 of it, far inside the 1 % margin of the
+        edge bounds, :data:`BOUND_MARGIN`.)
     """
     mod = mod or search_module(cost)
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
-    h = np.full(grid.P, np.inf)
+    h = np.full(grid.P, np.inf, dtype=np.float32)
     h[goal_p] = 0.0
-    pos = np.full(grid.P, -1, dtype=np.int64)
+    pos = np.full(grid.P, -1, dtype=np.int32)
     keys = np.empty(grid.P, np.float64)
     vals = np.empty(grid.P, np.int64)
     n = np.ones(1, np.int64)
     keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
     grad = cost.data[IN_GRAD]
+    blocked = cost.data[IN_BLOCKED]
     geo = _geo(cost)
+    sampling = _sampling(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
     limit = np.full(1, np.inf)
     try:
         while True:
             code, pops = mod.heuristic_chunk(
-                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h, pos,
-                keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
+                grad, blocked, geo, sampling, grid.lat, grid.moves, grid.move_len, table, tgeo,
+                h, pos, keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
             )  # fmt: skip
             if bar is not None:
                 bar.update(pops)
@@ -450,7 +463,8 @@ def relaxed_cost_to_go(
         if bar is not None:
             bar.close()
     del pos, keys, vals
-    return np.minimum(h, limit[0])
+    np.minimum(h, np.float32(limit[0]), out=h)
+    return h
 
 
 def _start_states(cost, grid: _Grid, p: int, yaw: float | None, which: str) -> np.ndarray:
@@ -471,8 +485,9 @@ def _start_states(cost, grid: _Grid, p: int, yaw: float | None, which: str) -> n
 def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *,
                 max_key, progress, deadline, desc):  # fmt: skip
     N = grid.P * grid.H
-    g = np.full(N, np.inf, dtype=np.float32)
-    code = np.full(N, -1, dtype=np.int8)
+    # untouched pages cost no memory: g is read only where code says reached
+    g = np.empty(N, dtype=np.float32)
+    code = np.zeros(N, dtype=np.int8)
     heap = _Heap(1 << 22)
     for h in start_hs:
         s = starts_p * grid.H + int(h)
@@ -672,8 +687,7 @@ def reach_search(
         mod, cost, grid, h0, 0.0, ps, hs, -1, -1, max_key=float(max_energy),
         progress=progress, deadline=t0 + time_budget, desc="reach (x, y, heading)",
     )  # fmt: skip
-    del _code
-    e = mod.min_over_headings(g, grid.P, grid.H)
+    e = mod.min_over_headings(g, _code, grid.P, grid.H)
     e[e > max_energy] = np.inf
     return ReachResult(
         xs=grid.xs,
