@@ -178,6 +178,55 @@ def translation_refused(grad, blocked, gx0, gy0, gdx, gdy, step, tmax, xa, ya, x
 
 
 @numba.njit(cache=True)
+def unsafe_cells(grad, blocked, tmax):
+    """uint8 per DEM cell: 1 where the kernel may refuse a motion that reads the cell.
+
+    Invalid (NaN) gradient, steeper than ``tmax``, or kept out (``blocked``, may be
+    empty); see :func:`cells_safe`.
+    """
+    nr, nc = grad.shape[0], grad.shape[1]
+    out = np.zeros((nr, nc), np.uint8)
+    t2 = tmax * tmax
+    kept = blocked.shape[0] > 0
+    for r in range(nr):
+        for c in range(nc):
+            a = grad[r, c, 0]
+            b = grad[r, c, 1]
+            if not (a * a + b * b <= t2) or (kept and blocked[r, c]):
+                out[r, c] = 1
+    return out
+
+
+@numba.njit(cache=True)
+def cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb):
+    """True when no cell the kernel may read on (xa, ya) -> (xb, yb) is ``unsafe``.
+
+    Every sample of the segment reads the 4 cells around it (bilinear) and its nearest
+    cell (keep-out), all inside ``[floor(f), floor(f) + 1]`` of the endpoints' fractional
+    indices ``f``; ``unsafe[r, c]`` marks the cells whose gradient is invalid, steeper
+    than the limit, or kept out. When none is unsafe, every interpolated gradient is a
+    convex combination of gradients no steeper than the limit (so is not steeper either)
+    and :func:`translation_refused` would return False: it need not sample.
+    """
+    nr, nc = unsafe.shape
+    fa_c = (xa - gx0) / gdx
+    fb_c = (xb - gx0) / gdx
+    fa_r = (ya - gy0) / gdy
+    fb_r = (yb - gy0) / gdy
+    lo_c, hi_c = min(fa_c, fb_c), max(fa_c, fb_c)
+    lo_r, hi_r = min(fa_r, fb_r), max(fa_r, fb_r)
+    if lo_c < 0.0 or lo_r < 0.0 or hi_c > nc - 1 or hi_r > nr - 1:
+        return False
+    c1 = min(int(math.floor(hi_c)) + 1, nc - 1)
+    r1 = min(int(math.floor(hi_r)) + 1, nr - 1)
+    for r in range(int(math.floor(lo_r)), r1 + 1):
+        for c in range(int(math.floor(lo_c)), c1 + 1):
+            if unsafe[r, c]:
+                return False
+    return True
+
+
+@numba.njit(cache=True)
 def _sift_up(keys, vals, pos, i):
     key = keys[i]
     v = vals[i]
@@ -227,6 +276,7 @@ def _pop_indexed(keys, vals, pos, n):
 def heuristic_chunk(
     grad,
     blocked,
+    unsafe,
     geo,
     sampling,
     lat,
@@ -251,7 +301,8 @@ def heuristic_chunk(
     ``tgeo`` = (t0x, t0y, tdx, tdy) of the table; ``sampling`` = (kernel step, tmax):
     a move the kernel refuses at every heading (:func:`translation_refused`: steep,
     keep-out, nodata) is no edge of the relaxed problem either, so ``h`` sees the same
-    barriers as the search. ``h`` (float64, nx * ny) holds the
+    barriers as the search (sampled only near the cells marked ``unsafe``,
+    :func:`cells_safe`). ``h`` (float64, nx * ny) holds the
     tentative costs-to-go (inf = not reached). The open list is an indexed heap
     (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
     never holds more than one entry per position. ``margin`` (< 1) scales every bound
@@ -299,8 +350,10 @@ def heuristic_chunk(
             lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
             nk = key + margin * move_len[m] * step * lb
             if nk < h[p]:
-                if translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,
-                                       xb, yb):  # fmt: skip
+                if not cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb) and (
+                    translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,
+                                        xb, yb)
+                ):  # fmt: skip
                     continue
                 h[p] = nk
                 i = pos[p]

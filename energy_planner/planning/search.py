@@ -106,7 +106,8 @@ def _warm_up(mod, cost) -> None:
     table = np.zeros((16, 1, 1, 2, 2), np.float32)
     tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.heuristic_chunk(
-        cost.data[IN_GRAD], cost.data[IN_BLOCKED], _geo(cost), _sampling(cost), lat, moves,
+        cost.data[IN_GRAD], cost.data[IN_BLOCKED], np.zeros((1, 1), np.uint8), _geo(cost),
+        _sampling(cost), lat, moves,
         np.ones(16), table, tgeo, np.zeros(1, np.float32), np.zeros(1, np.int32), keys, vals,
         n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
     )  # fmt: skip
@@ -117,6 +118,7 @@ def _warm_up(mod, cost) -> None:
     )  # fmt: skip
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
+    mod.unsafe_cells(np.zeros((1, 1, 2)), np.zeros((0, 0), np.bool_), 1.0)
     mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
@@ -263,8 +265,8 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     Returns
     -------
     table : ndarray of float32, shape (16, L, L, nodes, nodes)
-        J per metre (rounded down), ``inf`` where no heading can move (limits), as a sparse table for
-        range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
+        J per metre (rounded down), ``inf`` where no heading can move (limits), as a sparse
+        table for range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
         ``[i, i + 2^a) x [j, j + 2^b)``.
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
@@ -445,6 +447,7 @@ def relaxed_cost_to_go(
     keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
     grad = cost.data[IN_GRAD]
     blocked = cost.data[IN_BLOCKED]
+    unsafe = mod.unsafe_cells(grad, blocked, float(cost.data[IN_TMAX]))
     geo = _geo(cost)
     sampling = _sampling(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
@@ -452,8 +455,8 @@ def relaxed_cost_to_go(
     try:
         while True:
             code, pops = mod.heuristic_chunk(
-                grad, blocked, geo, sampling, grid.lat, grid.moves, grid.move_len, table, tgeo,
-                h, pos, keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
+                grad, blocked, unsafe, geo, sampling, grid.lat, grid.moves, grid.move_len, table,
+                tgeo, h, pos, keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
             )  # fmt: skip
             if bar is not None:
                 bar.update(pops)
