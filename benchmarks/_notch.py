@@ -2,7 +2,7 @@
 
 ``notch_dem(extent, cell, path)``: a square of ``extent`` metres (EPSG:32631) at ``cell``
 metres: gentle hills (:func:`_hilly.hilly_elevation`, scaled to about 4 degrees) crossed
-west-east at mid-height by a ridge with 45-degree flanks that runs from the west edge to
+west-east at mid-height by a ridge 64 m high with 45-degree flanks that runs from the west edge to
 3/4 of the width (its east end is a cone, so a route can go round it), cut in the middle
 by a notch: a channel 2 m wide whose floor climbs the ridge at about 18 degrees between
 walls of about 63 degrees. The elevation is built at 1 m and averaged over each coarser
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 X0, Y0 = 500_000.0, 5_000_000.0
-#: ridge half-width at the base, as a fraction of the extent (its height equals it: 45 deg)
-RIDGE = 0.02
+#: ridge half-width at the base, m (its height equals it: 45-degree flanks)
+RIDGE = 64.0
 #: the ridge runs from the west edge to this fraction of the width
 RIDGE_END = 0.75
 #: notch: floor half-width (m), floor slope (m/m) and wall slope (m/m)
@@ -41,7 +41,7 @@ def notch_elevation(extent: int, cell: int = 1, seed: int = 7) -> np.ndarray:
     c = np.arange(L) + 0.5
     x = c[None, :]
     y = (L - c)[:, None]  # row 0 north
-    w = RIDGE * L
+    w = RIDGE
     yc = 0.5 * L
     xe = RIDGE_END * L
     d = np.hypot(np.maximum(x - xe, 0.0), y - yc)  # distance to the ridge's axis

@@ -70,11 +70,7 @@ def test_translation_refused_agrees_with_the_kernel(model, xa, ya, dx, dy, th, w
     """The relaxed problem drops exactly the translations the kernel's first pass refuses
     (the kernel is the independent side: its violation code)."""
     t = _ridge(0.7)
-    req = (
-        Request.make(max_slope_deg=30)
-        if which == "slope"
-        else Request.make(keep_out=[KEEP_OUT])
-    )
+    req = Request.make(max_slope_deg=30) if which == "slope" else Request.make(keep_out=[KEEP_OUT])
     cost, _ = make_motion_cost(t, model, req)
     mod = search_module(cost)
     d = cost.data
@@ -93,11 +89,7 @@ def test_detour_is_within_eps_of_the_optimum(model, which):
     relaxed problem sees the barrier: its ``h`` at the start exceeds the open map's by the
     detour (at least the extra length of going round x = 30 m, a third more)."""
     t = _ridge(0.7 if which == "slope" else 0.33)
-    req = (
-        Request.make(max_slope_deg=30)
-        if which == "slope"
-        else Request.make(keep_out=[KEEP_OUT])
-    )
+    req = Request.make(max_slope_deg=30) if which == "slope" else Request.make(keep_out=[KEEP_OUT])
     cost, _ = make_motion_cost(t, model, req)
     free, _ = make_motion_cost(t, model)
     opt = search_plan(cost, t, START, GOAL, eps=1.0)

@@ -295,7 +295,7 @@ def heuristic_chunk(
     stop_factor,
     limit,
 ):
-    """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
+    """Backward search of the relaxed problem (no turning, least J/m over headings).
 
     ``geo`` = (x0, y0, dx, dy) of the DEM grid; ``lat`` = (xs0, ys0, step, nx, ny);
     ``tgeo`` = (t0x, t0y, tdx, tdy) of the table; ``sampling`` = (kernel step, tmax):
@@ -306,10 +306,16 @@ def heuristic_chunk(
     tentative costs-to-go (inf = not reached). The open list is an indexed heap
     (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
     never holds more than one entry per position. ``margin`` (< 1) scales every bound
-    down. When position ``stop_p`` is settled at key ``k``, ``limit[0]`` becomes
-    ``stop_factor * k`` and the search stops at the first key above it (the caller caps
-    ``h`` at ``limit[0]``: every position not settled by then is at least that far from
-    the goal). Returns (code, pops).
+    down. Without ``stop_p`` (< 0) it is Dijkstra and settles everything it reaches.
+    With ``stop_p`` (the start ``s``) it is A* towards ``s``: keys ``h(p) + d(p)`` with
+    ``d(p) = c |p - s|``, ``c`` the least J/m of any edge (the table's minimum: a
+    consistent heuristic, so every settled ``h`` is still exact); when ``s`` is settled
+    at ``h(s)``, ``limit[0]`` becomes ``stop_factor * h(s)`` and the search stops at the
+    first key above it (``limit[1]`` receives ``c``). A position ``p`` not settled by
+    then has ``h(p) + d(p) > limit[0]``: :func:`cap_unsettled` sets its ``h`` to
+    ``limit[0] - d(p)`` (a lower bound). So only the ellipse-like region of positions a
+    path of energy ``limit[0]`` can visit is settled, not the disc around the goal.
+    Returns (code, pops).
     """
     gx0, gy0, gdx, gdy = geo[0], geo[1], geo[2], geo[3]
     xs0, ys0, step = lat[0], lat[1], lat[2]
@@ -321,8 +327,14 @@ def heuristic_chunk(
     # least bound of each move over the whole table: an edge that cannot improve h[p]
     # even at this cost is skipped without looking up its own bound
     gmin = np.empty(nm)
+    cmin = np.inf  # J per metre
     for m in range(nm):
         gmin[m] = margin * move_len[m] * step * table[m, 0, 0].min()
+        cmin = min(cmin, gmin[m] / (move_len[m] * step))
+    if stop_p < 0 or not math.isfinite(cmin):
+        cmin = 0.0
+    limit[1] = cmin
+    js, i_s = divmod(max(stop_p, 0), nx)
     pops = 0
     while n[0] > 0:
         if pops >= max_pops:
@@ -331,8 +343,9 @@ def heuristic_chunk(
             n[0] = 0
             return EXHAUSTED, pops
         key, q = _pop_indexed(keys, vals, pos, n)
+        hq = h[q]
         if q == stop_p:
-            limit[0] = stop_factor * key
+            limit[0] = stop_factor * hq
         pops += 1
         jq, iq = divmod(q, nx)
         xb = xs0 + iq * step
@@ -343,12 +356,12 @@ def heuristic_chunk(
             if ip < 0 or jp < 0 or ip >= nx or jp >= ny:
                 continue
             p = jp * nx + ip
-            if pos[p] == -2 or key + gmin[m] >= h[p]:
+            if pos[p] == -2 or hq + gmin[m] >= h[p]:
                 continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step
             lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
-            nk = key + margin * move_len[m] * step * lb
+            nk = hq + margin * move_len[m] * step * lb
             if nk < h[p]:
                 if not cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb) and (
                     translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,
@@ -360,10 +373,24 @@ def heuristic_chunk(
                 if i < 0:
                     i = n[0]
                     n[0] = i + 1
-                keys[i] = nk
+                keys[i] = nk + cmin * step * math.hypot(ip - i_s, jp - js)
                 vals[i] = p
                 _sift_up(keys, vals, pos, i)
     return EXHAUSTED, pops
+
+
+@numba.njit(cache=True)
+def cap_unsettled(h, pos, nx, stop_p, cmin, step, limit):
+    """``h[p] = max(limit - cmin |p - s|, 0)`` where the search did not settle ``p``.
+
+    ``cmin``: the least J per metre of any edge of the relaxed problem (the same as
+    :func:`heuristic_chunk`'s); ``s`` = ``stop_p``. See :func:`heuristic_chunk`.
+    """
+    js, i_s = divmod(stop_p, nx)
+    for p in range(h.shape[0]):
+        if pos[p] != -2:
+            j, i = divmod(p, nx)
+            h[p] = max(limit - cmin * step * math.hypot(i - i_s, j - js), 0.0)
 
 
 @numba.njit(cache=True)

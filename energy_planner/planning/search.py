@@ -109,7 +109,7 @@ def _warm_up(mod, cost) -> None:
         cost.data[IN_GRAD], cost.data[IN_BLOCKED], np.zeros((1, 1), np.uint8), _geo(cost),
         _sampling(cost), lat, moves,
         np.ones(16), table, tgeo, np.zeros(1, np.float32), np.zeros(1, np.int32), keys, vals,
-        n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
+        n, 0, 1.0, -1, 1.5, np.full(2, np.inf),
     )  # fmt: skip
     mod.astar_chunk(
         cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1, np.float32), 1.0,
@@ -119,6 +119,7 @@ def _warm_up(mod, cost) -> None:
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
     mod.unsafe_cells(np.zeros((1, 1, 2)), np.zeros((0, 0), np.bool_), 1.0)
+    mod.cap_unsettled(np.zeros(1, np.float32), np.zeros(1, np.int32), 1, 0, 0.0, 1.0, 1.0)
     mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
@@ -421,13 +422,15 @@ def relaxed_cost_to_go(
     progress: bool = False,
     deadline: float = math.inf,
     stop_p: int = -1,
-    stop_factor: float = 1.5,
+    stop_factor: float = 1.1,
 ) -> np.ndarray:
     """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
 
-    With ``stop_p`` >= 0 the backward Dijkstra stops at ``stop_factor`` times the cost of
-    ``stop_p`` (the start) and caps ``h`` there: still a lower bound everywhere, and the
-    search rarely looks further.
+    With ``stop_p`` >= 0 (the start ``s``) the backward search is an A* towards ``s``
+    (keys ``h(p) + c |p - s|``, ``c`` the least J/m of any relaxed edge) that stops at
+    ``stop_factor`` times ``h(s)``; a position it has not settled then gets
+    ``stop_factor * h(s) - c |p - s|`` (:func:`_search.heuristic_chunk`): still a lower
+    bound everywhere, and only the region a path of that energy can visit is settled.
 
     Returns
     -------
@@ -451,7 +454,7 @@ def relaxed_cost_to_go(
     geo = _geo(cost)
     sampling = _sampling(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
-    limit = np.full(1, np.inf)
+    limit = np.full(2, np.inf)  # stop key, least J/m of an edge
     try:
         while True:
             code, pops = mod.heuristic_chunk(
@@ -472,8 +475,10 @@ def relaxed_cost_to_go(
     finally:
         if bar is not None:
             bar.close()
-    del pos, keys, vals
-    np.minimum(h, np.float32(limit[0]), out=h)
+    del keys, vals
+    if math.isfinite(limit[0]):
+        mod.cap_unsettled(h, pos, grid.nx, stop_p, limit[1], grid.step, limit[0])
+    del pos
     return h
 
 
