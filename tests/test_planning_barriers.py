@@ -102,3 +102,26 @@ def test_detour_is_within_eps_of_the_optimum(model, which):
     assert fast.info["h_start"] >= 1.15 * open_map.info["h_start"]
     # the search no longer fills the map before it finds the way round
     assert fast.expanded <= 0.5 * fast.states_total
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 1000),
+    i0=st.integers(0, 39),
+    di=st.integers(0, 39),
+    j0=st.integers(0, 39),
+    dj=st.integers(0, 39),
+)
+def test_range_min_is_the_least_node(model, seed, i0, di, j0, dj):
+    """The sparse table's range query (blocks capped at 8 nodes, wider ranges read as
+    several blocks) returns numpy's minimum over the range."""
+    from energy_planner.planning.search import _sparse_table
+
+    t = np.random.default_rng(seed).uniform(0, 1, (2, 40, 40))
+    st_ = _sparse_table(t)
+    i1, j1 = min(i0 + di, 39), min(j0 + dj, 39)
+    cost, _ = make_motion_cost(_ridge(0.33), model)
+    got = search_module(cost).range_min(st_, 1, i0, i1, j0, j1)
+    assert got == np.float32(t[1, i0 : i1 + 1, j0 : j1 + 1].min()) or got == pytest.approx(
+        t[1, i0 : i1 + 1, j0 : j1 + 1].min(), rel=1e-6
+    )

@@ -127,19 +127,39 @@ def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx
     j0 = max(j0, 0)
     i1 = min(i1, K - 1)
     j1 = min(j1, K - 1)
-    # sparse table: table[m, a, b, i, j] = min over [i, i + 2^a) x [j, j + 2^b)
+    return range_min(table, m, i0, i1, j0, j1)
+
+
+@numba.njit(cache=True)
+def range_min(table, m, i0, i1, j0, j1):
+    """Least of ``table[m]``'s nodes ``[i0, i1] x [j0, j1]`` from its sparse table.
+
+    ``table[m, a, b, i, j]`` = min over ``[i, i + 2^a) x [j, j + 2^b)`` for ``a, b``
+    below ``table.shape[1]``; a range wider than the largest block is read as several.
+    """
     a = 0
-    while (2 << a) <= i1 - i0 + 1:
+    while (2 << a) <= i1 - i0 + 1 and a + 1 < table.shape[1]:
         a += 1
     b = 0
-    while (2 << b) <= j1 - j0 + 1:
+    while (2 << b) <= j1 - j0 + 1 and b + 1 < table.shape[2]:
         b += 1
-    i2 = i1 + 1 - (1 << a)
-    j2 = j1 + 1 - (1 << b)
-    return min(
-        min(table[m, a, b, i0, j0], table[m, a, b, i2, j0]),
-        min(table[m, a, b, i0, j2], table[m, a, b, i2, j2]),
-    )
+    wa = 1 << a
+    wb = 1 << b
+    best = np.inf
+    i = i0
+    while True:
+        ii = min(i, i1 + 1 - wa)
+        j = j0
+        while True:
+            jj = min(j, j1 + 1 - wb)
+            best = min(best, table[m, a, b, ii, jj])
+            if jj + wb > j1:
+                break
+            j += wb
+        if ii + wa > i1:
+            break
+        i += wa
+    return best
 
 
 @numba.njit(cache=True)

@@ -73,6 +73,8 @@ _IMPORT_LINE = (
 BOUND_MARGIN = 0.99
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
+#: Levels per axis of its sparse table (blocks of up to 2^(levels - 1) nodes).
+SPARSE_LEVELS = 4
 
 
 def search_module(cost):
@@ -368,7 +370,9 @@ def _sparse_table(table: np.ndarray) -> np.ndarray:
     (4.0, 4.0)
     """
     M, K, _ = table.shape
-    L = max(1, int(math.floor(math.log2(K))) + 1)
+    # blocks up to 8 nodes a side (a wider range is read as several blocks): 16 levels
+    # instead of 49 at 96 nodes, a third of the memory
+    L = max(1, min(int(math.floor(math.log2(K))) + 1, SPARSE_LEVELS))
     # float32 (half the memory: 29 MB at 96 nodes), each value rounded down so that it
     # stays a lower bound
     t32 = table.astype(np.float32)
