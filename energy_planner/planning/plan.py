@@ -493,7 +493,7 @@ def _run_search(r: _Run) -> np.ndarray:
     from energy_planner.planning.refine import refine_path
 
     spent = r.prog.elapsed()
-    left = r.budget - spent if math.isfinite(r.budget) else min(max(1.0, 0.25 * spent), 10.0)
+    left = r.budget - spent if math.isfinite(r.budget) else min(max(0.25, 0.25 * spent), 10.0)
     if left <= 0.05:
         return sr.states
     states, r.info["refine"] = refine_path(

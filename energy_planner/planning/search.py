@@ -349,11 +349,14 @@ def gradient_table(
     gxs = lo[0] + tdx * np.arange(nodes)
     gys = lo[1] + tdy * np.arange(nodes)
     GX, GY = np.meshgrid(gxs, gys, indexing="ij")
+    walkable = GX**2 + GY**2 <= tmax**2 if math.isfinite(tmax) else np.ones(GX.shape, bool)
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     table = np.full((len(MOVES_16), nodes, nodes), np.inf)
     for m, ang in enumerate(dirs):
         if move_ok[:, m].any():
-            best = heading.lower_bound(GX, GY, ang)
+            # nodes steeper than the limit cannot be walked: inf without pricing them
+            best = np.full(GX.shape, np.inf)
+            best[walkable] = heading.lower_bound(GX[walkable], GY[walkable], ang)
             table[m] = minimum_filter(best, size=3, mode="nearest") if spread else best
     table = np.maximum(table, 0.0)
     return table, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
