@@ -4,6 +4,15 @@ Usage::
 
     python benchmarks/bench_peers.py [--sizes 400,1600] [--ompl-time 10]
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
+        [--notch-extent 3200] [--repeat 1] [--no-optimum]
+
+First issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
+with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
+``--max-slope 30`` and a 30 m keep-out square over the notch (:data:`NOTCH_ROWS`): GRASS
+``r.walk`` given the same barriers (null friction) beside the default planner, alternating,
+wall and CPU time and peak RSS with their ratios, and each energy over the
+full-resolution optimum (``search`` with ``eps = 1``; ``--no-optimum`` skips it, it is
+slow at full size). Then the hilly rows:
 
 On each hilly synthetic DEM (``benchmarks/_hilly.py``, 1 m, corner to corner) it runs,
 each in its own process (peak RSS is its own):
