@@ -4,7 +4,7 @@ Usage::
 
     python benchmarks/bench_peers.py [--sizes 400,1600] [--ompl-time 10]
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
-        [--notch-extent 3200] [--repeat 1] [--no-optimum]
+        [--notch-extent 3200] [--notch-rows 0,1,2,3,4] [--repeat 1] [--no-optimum]
 
 First issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
 with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
@@ -249,7 +249,10 @@ def notch_rows(grass: str | None, extent: int, work: Path, args) -> None:
     print("| row | tool | wall s | CPU s | peak RSS GB | energy J | length m | wall ratio | "
           "CPU ratio | RSS ratio | quality | target |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for label, cell, max_slope, keep, target in NOTCH_ROWS:
+    chosen = {int(v) for v in args.notch_rows.split(",") if v}
+    for k, (label, cell, max_slope, keep, target) in enumerate(NOTCH_ROWS):
+        if k not in chosen:
+            continue
         dem = work / f"notch_{extent}_{cell}.tif"
         if not dem.exists():
             notch_dem(extent, cell, dem)
@@ -317,6 +320,9 @@ def main() -> None:
         type=int,
         default=1,
         help="runs per notch row, r.walk and the planner alternating (median)",
+    )
+    ap.add_argument(
+        "--notch-rows", default="0,1,2,3,4", help="which rows of NOTCH_ROWS to run (indices)"
     )
     ap.add_argument(
         "--no-optimum",
