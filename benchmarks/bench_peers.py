@@ -4,6 +4,15 @@ Usage::
 
     python benchmarks/bench_peers.py [--sizes 400,1600] [--ompl-time 10]
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
+        [--notch-extent 3200] [--notch-rows 0,1,2,3,4] [--repeat 1] [--no-optimum]
+
+First issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
+with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
+``--max-slope 30`` and a 30 m keep-out square over the notch (:data:`NOTCH_ROWS`): GRASS
+``r.walk`` given the same barriers (null friction) beside the default planner, alternating,
+wall and CPU time and peak RSS with their ratios, and each energy over the
+full-resolution optimum (``search`` with ``eps = 1``; ``--no-optimum`` skips it, it is
+slow at full size). Then the hilly rows:
 
 On each hilly synthetic DEM (``benchmarks/_hilly.py``, 1 m, corner to corner) it runs,
 each in its own process (peak RSS is its own):
@@ -28,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import shutil
@@ -37,6 +47,30 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+
+NOTCH_CHILD = r"""
+import json, resource, sys, time
+spec = json.loads(sys.argv[1])
+from shapely.geometry import shape
+from energy_planner.model import EnergyModel
+from energy_planner.planning.plan import plan
+from energy_planner.request import Request
+from energy_planner.terrain import load_dem
+t = load_dem(spec["dem"]); m = EnergyModel.default()
+req = Request.make(
+    max_slope_deg=spec.get("max_slope"),
+    keep_out=[shape(spec["keep_out"])] if spec.get("keep_out") else None,
+)
+s = t.to_work(*spec["start"]); g = t.to_work(*spec["goal"])
+r0 = resource.getrusage(resource.RUSAGE_SELF)
+t0 = time.perf_counter()
+r = plan(t, m, s, g, req, planner=spec["planner"], eps=spec.get("eps"), progress=False)
+wall = time.perf_counter() - t0
+r1 = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps(dict(energy=r.energy_j, time_s=wall, distance=r.distance_m,
+                      cpu_s=r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime,
+                      rss_gb=r1.ru_maxrss / 1e6)))
+"""
 
 CHILD = r"""
 import json, resource, sys, time
@@ -90,11 +124,26 @@ def ensure_grass() -> str | None:
     return shutil.which("grass")
 
 
-def run_grass(grass: str, dem: Path, size: int, work: Path) -> dict:
+def run_grass(
+    grass: str,
+    dem: Path,
+    size: int,
+    work: Path,
+    ends: tuple | None = None,
+    friction: str = "0",
+) -> dict:
+    """r.walk -k and r.drain on ``dem`` (``ends``: start and goal, default the corners).
+
+    ``friction``: an r.mapcalc expression for the friction map (``null()`` cells are
+    barriers r.walk never enters; ``slope``, Horn's slope in degrees by r.slope.aspect,
+    may be used). Returns energy (path_energy of the drained path, no limits), wall and
+    CPU time (r.walk + r.drain; the slope and friction maps are the barrier input, not
+    counted), peak RSS and length.
+    """
     sys.path.insert(0, str(HERE))
     from _hilly import corners
 
-    (sx, sy), (gx, gy) = corners(size)
+    (sx, sy), (gx, gy) = ends if ends is not None else corners(size)
     db = work / "grassdb"
     shutil.rmtree(db, ignore_errors=True)
     subprocess.run([grass, "-c", "EPSG:32631", str(db), "-e"], check=True, capture_output=True)
@@ -104,11 +153,12 @@ def run_grass(grass: str, dem: Path, size: int, work: Path) -> dict:
         "set -e\n"
         f"r.in.gdal -o input={dem} output=dem --overwrite --quiet\n"
         "g.region raster=dem\n"
-        "r.mapcalc 'friction = 0' --overwrite --quiet\n"
-        f"/usr/bin/time -f '%e %M' -o {timing} r.walk -k elevation=dem friction=friction "
+        "r.slope.aspect elevation=dem slope=slope --overwrite --quiet\n"
+        f"r.mapcalc 'friction = {friction}' --overwrite --quiet\n"
+        f"/usr/bin/time -f '%e %M %U %S' -o {timing} r.walk -k elevation=dem friction=friction "
         f"output=cost outdir=dir start_coordinates={sx},{sy} stop_coordinates={gx},{gy} "
         "--overwrite --quiet\n"
-        f"/usr/bin/time -a -f '%e %M' -o {timing} r.drain -d input=cost direction=dir "
+        f"/usr/bin/time -a -f '%e %M %U %S' -o {timing} r.drain -d input=cost direction=dir "
         f"output=drain drain=drainv start_coordinates={gx},{gy} --overwrite --quiet\n"
         "v.out.ascii input=drainv format=wkt\n"
     )
@@ -123,13 +173,18 @@ def run_grass(grass: str, dem: Path, size: int, work: Path) -> dict:
     xy.reverse()  # r.drain walks from the goal down to the start
     rows = [ln.split() for ln in timing.read_text().split("\n") if ln.strip()]
     secs = sum(float(r[0]) for r in rows)
+    cpu = sum(float(r[2]) + float(r[3]) for r in rows)
     rss = max(float(r[1]) for r in rows) / 1e6  # KB -> GB
+    length = float(sum(math.dist(p, q) for p, q in zip(xy[:-1], xy[1:], strict=True)))
     e = subprocess.run(
         [sys.executable, "-c", ENERGY, str(dem), json.dumps(xy)], capture_output=True, text=True
     )
     if e.returncode != 0:
         return {"error": f"energy of the r.walk path failed: {e.stderr.strip()[-200:]}"}
-    return {"energy": float(e.stdout.strip().splitlines()[-1]), "time_s": secs, "rss_gb": rss}
+    return {
+        "energy": float(e.stdout.strip().splitlines()[-1]), "time_s": secs, "rss_gb": rss,
+        "cpu_s": cpu, "distance": length,
+    }  # fmt: skip
 
 
 def run_plan(dem: Path, size: int, planner: str, budget: float, timeout: float) -> dict:
@@ -145,6 +200,109 @@ def run_plan(dem: Path, size: int, planner: str, budget: float, timeout: float) 
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+#: issue 21's rows: (label, cell m, max slope deg or None, 30 m keep-out over the notch,
+#: the most the default planner may take as a multiple of r.walk's time)
+NOTCH_ROWS = [
+    ("1 m, notch open, --max-slope 30", 1, 30.0, False, 1.0),
+    ("2 m, no limit (through the notch)", 2, None, False, 1.5),
+    ("2 m, --max-slope 30 closes the notch", 2, 30.0, False, 1.5),
+    ("4 m, --max-slope 30 closes the notch", 4, 30.0, False, 1.5),
+    ("1 m, 30 m keep-out over the notch", 1, None, True, 1.5),
+]
+
+
+def run_spec(spec: dict, timeout: float) -> dict:
+    """The project's planner on one notch row, in its own process (:data:`NOTCH_CHILD`)."""
+    try:
+        out = subprocess.run(
+            [sys.executable, "-c", NOTCH_CHILD, json.dumps(spec)],
+            capture_output=True, text=True, timeout=timeout,
+        )  # fmt: skip
+    except subprocess.TimeoutExpired:
+        return {"error": f"killed at {timeout:.0f} s"}
+    if out.returncode != 0:
+        return {"error": (out.stderr.strip().splitlines() or ["?"])[-1][:200]}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _median(runs: list[dict]) -> dict:
+    ok = [r for r in runs if "error" not in r]
+    if not ok:
+        return runs[-1]
+    ok.sort(key=lambda r: r["time_s"])
+    return ok[len(ok) // 2]
+
+
+def notch_rows(grass: str | None, extent: int, work: Path, args) -> None:
+    """Issue 21's table: the notch DEM at 1, 2 and 4 m, r.walk beside the default planner.
+
+    Per row, ``--repeat`` times alternating: r.walk (barriers: the cells steeper than the
+    limit, or the keep-out square, as null friction), the default planner (``auto``);
+    then once the full-resolution optimum (``search``, ``eps = 1``) the energies are
+    compared with. Ratios: the planner's over r.walk's (time: wall and CPU; RSS).
+    """
+    sys.path.insert(0, str(HERE))
+    from _notch import endpoints, keep_out_square, notch_dem
+
+    print(f"# notch DEM ({extent} m square; benchmarks/_notch.py); wall and CPU s; ratio = "
+          "project / r.walk; quality = energy / the eps = 1 search's")  # fmt: skip
+    print("| row | tool | wall s | CPU s | peak RSS GB | energy J | length m | wall ratio | "
+          "CPU ratio | RSS ratio | quality | target |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    chosen = {int(v) for v in args.notch_rows.split(",") if v}
+    for k, (label, cell, max_slope, keep, target) in enumerate(NOTCH_ROWS):
+        if k not in chosen:
+            continue
+        dem = work / f"notch_{extent}_{cell}.tif"
+        if not dem.exists():
+            notch_dem(extent, cell, dem)
+        (sx, sy), (gx, gy) = endpoints(extent, cell)
+        spec = {"dem": str(dem), "start": [sx, sy], "goal": [gx, gy], "planner": "auto"}
+        friction = "0"
+        if max_slope is not None:
+            spec["max_slope"] = max_slope
+            friction = f"if(slope > {max_slope:g}, null(), 0)"
+        if keep:
+            sq = keep_out_square(extent)
+            spec["keep_out"] = sq
+            (x0, y0), _, (x1, y1) = sq["coordinates"][0][:3]
+            friction = f"if(x() > {x0} && x() < {x1} && y() > {y0} && y() < {y1}, null(), 0)"
+        walks, autos = [], []
+        for _ in range(args.repeat):
+            if grass is None:
+                walks.append({"error": "grass-core not installed (see above)"})
+            else:
+                walks.append(run_grass(grass, dem, 0, work, ((sx, sy), (gx, gy)), friction))
+            autos.append(run_spec(spec, args.timeout))
+        rows = {"GRASS r.walk": _median(walks), "plan (auto)": _median(autos)}
+        if not args.no_optimum:
+            rows["search --eps 1 (optimum)"] = run_spec(
+                {**spec, "planner": "search", "eps": 1.0}, args.timeout
+            )
+        ref, opt = rows["GRASS r.walk"], rows.get("search --eps 1 (optimum)", {"error": ""})
+        n = extent // cell
+        for name, r in rows.items():
+            head = f"| {n}² at {cell} m: {label.split(', ', 1)[1]} | {name} |"
+            if "error" in r:
+                print(f"{head} {r['error']} | | | | | | | | | |", flush=True)
+                continue
+            rat = ["", "", ""]
+            if "error" not in ref and name != "GRASS r.walk":
+                rat = [f"{r['time_s'] / ref['time_s']:.2f}", f"{r['cpu_s'] / ref['cpu_s']:.2f}",
+                       f"{r['rss_gb'] / ref['rss_gb']:.2f}"]  # fmt: skip
+            q = "" if "error" in opt else f"{r['energy'] / opt['energy']:.4f}"
+            tgt = ""
+            if name == "plan (auto)":
+                tgt = f"time <= {target:g}x" + (", RSS <= 2x" if target == 1.0 else "")
+                tgt += ", quality <= 1.01"
+            print(
+                f"{head} {r['time_s']:.2f} | {r['cpu_s']:.2f} | {r['rss_gb']:.2f} | "
+                f"{r['energy']:.0f} | {r['distance']:.0f} | {rat[0]} | {rat[1]} | {rat[2]} | "
+                f"{q} | {tgt} |",
+                flush=True,
+            )
+
+
 def main() -> None:
     sys.path.insert(0, str(HERE))
     from _hilly import hilly_dem
@@ -155,9 +313,32 @@ def main() -> None:
     ap.add_argument("--planners", default="rrtstar,bitstar")
     ap.add_argument("--ompl-time", type=float, default=10.0)
     ap.add_argument("--timeout", type=float, default=900.0)
+    ap.add_argument("--notch-extent", type=int, default=3200,
+                    help="side of the notch DEM in metres (0: no notch rows)")  # fmt: skip
+    ap.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="runs per notch row, r.walk and the planner alternating (median)",
+    )
+    ap.add_argument(
+        "--notch-rows", default="0,1,2,3,4", help="which rows of NOTCH_ROWS to run (indices)"
+    )
+    ap.add_argument(
+        "--no-optimum",
+        action="store_true",
+        help="skip the eps = 1 search (the quality reference) of the notch rows",
+    )
     args = ap.parse_args()
     grass = ensure_grass()
     print(f"# uptime: {os.popen('uptime').read().strip()}  (2 cores shared with other jobs)")
+    if args.notch_extent:
+        with tempfile.TemporaryDirectory() as d:
+            notch_rows(grass, args.notch_extent, Path(d), args)
+        print()
+    if not [v for v in args.sizes.split(",") if v]:
+        print(f"# uptime: {os.popen('uptime').read().strip()}")
+        return
     print("# hilly DEMs at 1 m, corner to corner; energy = path_energy of each path, default "
           "model; ratios are to the project's search")  # fmt: skip
     print("| DEM | tool | time s | peak RSS GB | energy J | time ratio | RSS ratio | "

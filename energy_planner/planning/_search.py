@@ -8,10 +8,13 @@ Imported as it is, ``kernel`` is the template's level-ground placeholder model.
 
 States are ``s = p * H + h``: lattice position ``p = j * nx + i`` (x index ``i``, y index
 ``j``) and heading index ``h``. Per state the search keeps ``g`` (float32, J) and a code
-(int8): -1 never reached; 0..15 reached by translation ``MOVES[code]`` at constant heading;
-16 by a turn from heading ``h - 1``; 17 by a turn from ``h + 1``; 18 a start state; +64
-once expanded (closed). The open list is a binary heap of (key, state) with lazy deletion,
-grown by the caller when full.
+(int8): 0 never reached (then ``g`` is not read: the caller allocates ``g`` with
+``np.empty`` and the codes with ``np.zeros``, so the operating system maps only the pages
+of states the search reaches, and memory follows the states reached, not the map);
+``1 + m`` reached by translation ``MOVES[m]`` at constant heading; 17 by a turn from heading
+``h - 1``; 18 by a turn from ``h + 1``; 19 a start state; +64 once expanded (closed).
+The open list is a binary heap of (key, state) with lazy deletion, grown by the caller
+when full.
 """
 
 import math
@@ -20,12 +23,12 @@ import numba
 import numpy as np
 
 from energy_planner.energy._motion import motion_full as kernel  # --- kernel import ---
-from energy_planner.energy.kernels import IN_CHAN, N_OUT
+from energy_planner.energy.kernels import IN_CHAN, N_OUT, sample_gradient
 
-UNSEEN = -1
-TURN_FROM_PREV = 16
-TURN_FROM_NEXT = 17
-START = 18
+UNSEEN = 0
+TURN_FROM_PREV = 17
+TURN_FROM_NEXT = 18
+START = 19
 CLOSED = 64
 
 # chunk return codes
@@ -124,19 +127,123 @@ def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx
     j0 = max(j0, 0)
     i1 = min(i1, K - 1)
     j1 = min(j1, K - 1)
-    # sparse table: table[m, a, b, i, j] = min over [i, i + 2^a) x [j, j + 2^b)
+    return range_min(table, m, i0, i1, j0, j1)
+
+
+@numba.njit(cache=True)
+def range_min(table, m, i0, i1, j0, j1):
+    """Least of ``table[m]``'s nodes ``[i0, i1] x [j0, j1]`` from its sparse table.
+
+    ``table[m, a, b, i, j]`` = min over ``[i, i + 2^a) x [j, j + 2^b)`` for ``a, b``
+    below ``table.shape[1]``; a range wider than the largest block is read as several.
+    """
     a = 0
-    while (2 << a) <= i1 - i0 + 1:
+    while (2 << a) <= i1 - i0 + 1 and a + 1 < table.shape[1]:
         a += 1
     b = 0
-    while (2 << b) <= j1 - j0 + 1:
+    while (2 << b) <= j1 - j0 + 1 and b + 1 < table.shape[2]:
         b += 1
-    i2 = i1 + 1 - (1 << a)
-    j2 = j1 + 1 - (1 << b)
-    return min(
-        min(table[m, a, b, i0, j0], table[m, a, b, i2, j0]),
-        min(table[m, a, b, i0, j2], table[m, a, b, i2, j2]),
-    )
+    wa = 1 << a
+    wb = 1 << b
+    best = np.inf
+    i = i0
+    while True:
+        ii = min(i, i1 + 1 - wa)
+        j = j0
+        while True:
+            jj = min(j, j1 + 1 - wb)
+            best = min(best, table[m, a, b, ii, jj])
+            if jj + wb > j1:
+                break
+            j += wb
+        if ii + wa > i1:
+            break
+        i += wa
+    return best
+
+
+@numba.njit(cache=True)
+def translation_refused(grad, blocked, gx0, gy0, gdx, gdy, step, tmax, xa, ya, xb, yb):
+    """Whether the motion kernel refuses the translation (xa, ya) -> (xb, yb) at every heading.
+
+    The kernel's first pass (``motion_full`` in :mod:`energy_planner.energy._motion`)
+    samples the gradient at ``n = ceil(length / step)`` midpoints and refuses the motion
+    if a sample lies outside the valid gradients, in a keep-out cell (nearest cell of
+    ``blocked``) or on ground steeper than ``tmax``; none of these depends on the heading,
+    so a translation refused here costs ``inf`` at every heading (the relaxed problem may
+    drop it and stay a lower bound). The same samples as the kernel's, in the same order
+    (``tests/test_planning_search.py`` checks the two agree).
+    """
+    ddx = xb - xa
+    ddy = yb - ya
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    n = max(1, int(math.ceil(dist / step)))
+    nr, nc = blocked.shape
+    t2 = tmax * tmax
+    for i in range(n):
+        s = (i + 0.5) / n
+        x = xa + s * ddx
+        y = ya + s * ddy
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+        if not ok:
+            return True
+        if nr > 0:
+            r = int(round((y - gy0) / gdy))
+            c = int(round((x - gx0) / gdx))
+            if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
+                return True
+        if gxs * gxs + gys * gys > t2:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def unsafe_cells(grad, blocked, tmax):
+    """uint8 per DEM cell: 1 where the kernel may refuse a motion that reads the cell.
+
+    Invalid (NaN) gradient, steeper than ``tmax``, or kept out (``blocked``, may be
+    empty); see :func:`cells_safe`.
+    """
+    nr, nc = grad.shape[0], grad.shape[1]
+    out = np.zeros((nr, nc), np.uint8)
+    t2 = tmax * tmax
+    kept = blocked.shape[0] > 0
+    for r in range(nr):
+        for c in range(nc):
+            a = grad[r, c, 0]
+            b = grad[r, c, 1]
+            if not (a * a + b * b <= t2) or (kept and blocked[r, c]):
+                out[r, c] = 1
+    return out
+
+
+@numba.njit(cache=True)
+def cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb):
+    """True when no cell the kernel may read on (xa, ya) -> (xb, yb) is ``unsafe``.
+
+    Every sample of the segment reads the 4 cells around it (bilinear) and its nearest
+    cell (keep-out), all inside ``[floor(f), floor(f) + 1]`` of the endpoints' fractional
+    indices ``f``; ``unsafe[r, c]`` marks the cells whose gradient is invalid, steeper
+    than the limit, or kept out. When none is unsafe, every interpolated gradient is a
+    convex combination of gradients no steeper than the limit (so is not steeper either)
+    and :func:`translation_refused` would return False: it need not sample.
+    """
+    nr, nc = unsafe.shape
+    fa_c = (xa - gx0) / gdx
+    fb_c = (xb - gx0) / gdx
+    fa_r = (ya - gy0) / gdy
+    fb_r = (yb - gy0) / gdy
+    lo_c, hi_c = min(fa_c, fb_c), max(fa_c, fb_c)
+    lo_r, hi_r = min(fa_r, fb_r), max(fa_r, fb_r)
+    if lo_c < 0.0 or lo_r < 0.0 or hi_c > nc - 1 or hi_r > nr - 1:
+        return False
+    c1 = min(int(math.floor(hi_c)) + 1, nc - 1)
+    r1 = min(int(math.floor(hi_r)) + 1, nr - 1)
+    for r in range(int(math.floor(lo_r)), r1 + 1):
+        for c in range(int(math.floor(lo_c)), c1 + 1):
+            if unsafe[r, c]:
+                return False
+    return True
 
 
 @numba.njit(cache=True)
@@ -188,7 +295,10 @@ def _pop_indexed(keys, vals, pos, n):
 @numba.njit(cache=True)
 def heuristic_chunk(
     grad,
+    blocked,
+    unsafe,
     geo,
+    sampling,
     lat,
     moves,
     move_len,
@@ -205,29 +315,46 @@ def heuristic_chunk(
     stop_factor,
     limit,
 ):
-    """Backward Dijkstra of the relaxed problem (no turning, least J/m over headings).
+    """Backward search of the relaxed problem (no turning, least J/m over headings).
 
     ``geo`` = (x0, y0, dx, dy) of the DEM grid; ``lat`` = (xs0, ys0, step, nx, ny);
-    ``tgeo`` = (t0x, t0y, tdx, tdy) of the table. ``h`` (float64, nx * ny) holds the
+    ``tgeo`` = (t0x, t0y, tdx, tdy) of the table; ``sampling`` = (kernel step, tmax):
+    a move the kernel refuses at every heading (:func:`translation_refused`: steep,
+    keep-out, nodata) is no edge of the relaxed problem either, so ``h`` sees the same
+    barriers as the search (sampled only near the cells marked ``unsafe``,
+    :func:`cells_safe`). ``h`` (float64, nx * ny) holds the
     tentative costs-to-go (inf = not reached). The open list is an indexed heap
     (``pos[p]``: index in the heap, -1 never reached, -2 settled) with decrease-key, so it
     never holds more than one entry per position. ``margin`` (< 1) scales every bound
-    down. When position ``stop_p`` is settled at key ``k``, ``limit[0]`` becomes
-    ``stop_factor * k`` and the search stops at the first key above it (the caller caps
-    ``h`` at ``limit[0]``: every position not settled by then is at least that far from
-    the goal). Returns (code, pops).
+    down. Without ``stop_p`` (< 0) it is Dijkstra and settles everything it reaches.
+    With ``stop_p`` (the start ``s``) it is A* towards ``s``: keys ``h(p) + d(p)`` with
+    ``d(p) = c |p - s|``, ``c`` the least J/m of any edge (the table's minimum: a
+    consistent heuristic, so every settled ``h`` is still exact); when ``s`` is settled
+    at ``h(s)``, ``limit[0]`` becomes ``stop_factor * h(s)`` and the search stops at the
+    first key above it (``limit[1]`` receives ``c``). A position ``p`` not settled by
+    then has ``h(p) + d(p) > limit[0]``: :func:`cap_unsettled` sets its ``h`` to
+    ``limit[0] - d(p)`` (a lower bound). So only the ellipse-like region of positions a
+    path of energy ``limit[0]`` can visit is settled, not the disc around the goal.
+    Returns (code, pops).
     """
     gx0, gy0, gdx, gdy = geo[0], geo[1], geo[2], geo[3]
     xs0, ys0, step = lat[0], lat[1], lat[2]
     nx = int(lat[3])
     ny = int(lat[4])
     t0x, t0y, tdx, tdy = tgeo[0], tgeo[1], tgeo[2], tgeo[3]
+    kstep, tmax = sampling[0], sampling[1]
     nm = moves.shape[0]
     # least bound of each move over the whole table: an edge that cannot improve h[p]
     # even at this cost is skipped without looking up its own bound
     gmin = np.empty(nm)
+    cmin = np.inf  # J per metre
     for m in range(nm):
         gmin[m] = margin * move_len[m] * step * table[m, 0, 0].min()
+        cmin = min(cmin, gmin[m] / (move_len[m] * step))
+    if stop_p < 0 or not math.isfinite(cmin):
+        cmin = 0.0
+    limit[1] = cmin
+    js, i_s = divmod(max(stop_p, 0), nx)
     pops = 0
     while n[0] > 0:
         if pops >= max_pops:
@@ -236,8 +363,9 @@ def heuristic_chunk(
             n[0] = 0
             return EXHAUSTED, pops
         key, q = _pop_indexed(keys, vals, pos, n)
+        hq = h[q]
         if q == stop_p:
-            limit[0] = stop_factor * key
+            limit[0] = stop_factor * hq
         pops += 1
         jq, iq = divmod(q, nx)
         xb = xs0 + iq * step
@@ -248,22 +376,41 @@ def heuristic_chunk(
             if ip < 0 or jp < 0 or ip >= nx or jp >= ny:
                 continue
             p = jp * nx + ip
-            if pos[p] == -2 or key + gmin[m] >= h[p]:
+            if pos[p] == -2 or hq + gmin[m] >= h[p]:
                 continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step
             lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
-            nk = key + margin * move_len[m] * step * lb
+            nk = hq + margin * move_len[m] * step * lb
             if nk < h[p]:
+                if not cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb) and (
+                    translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,
+                                        xb, yb)
+                ):  # fmt: skip
+                    continue
                 h[p] = nk
                 i = pos[p]
                 if i < 0:
                     i = n[0]
                     n[0] = i + 1
-                keys[i] = nk
+                keys[i] = nk + cmin * step * math.hypot(ip - i_s, jp - js)
                 vals[i] = p
                 _sift_up(keys, vals, pos, i)
     return EXHAUSTED, pops
+
+
+@numba.njit(cache=True)
+def cap_unsettled(h, pos, nx, stop_p, cmin, step, limit):
+    """``h[p] = max(limit - cmin |p - s|, 0)`` where the search did not settle ``p``.
+
+    ``cmin``: the least J per metre of any edge of the relaxed problem (the same as
+    :func:`heuristic_chunk`'s); ``s`` = ``stop_p``. See :func:`heuristic_chunk`.
+    """
+    js, i_s = divmod(stop_p, nx)
+    for p in range(h.shape[0]):
+        if pos[p] != -2:
+            j, i = divmod(p, nx)
+            h[p] = max(limit - cmin * step * math.hypot(i - i_s, j - js), 0.0)
 
 
 @numba.njit(cache=True)
@@ -344,9 +491,9 @@ def astar_chunk(
             if not math.isfinite(e):
                 continue
             ng = gs + e
-            if ng < g[t]:
+            if code[t] == UNSEEN or ng < g[t]:
                 g[t] = ng
-                code[t] = m
+                code[t] = 1 + m
                 heap_push(keys, vals, n, ng + eps * h2d[q], t)
         for d in (-1, 1):
             h2 = (hh + d) % H
@@ -359,7 +506,7 @@ def astar_chunk(
             if not math.isfinite(e):
                 continue
             ng = gs + e
-            if ng < g[t]:
+            if code[t] == UNSEEN or ng < g[t]:
                 g[t] = ng
                 code[t] = TURN_FROM_PREV if d == 1 else TURN_FROM_NEXT
                 heap_push(keys, vals, n, ng + eps * h2d[p], t)
@@ -373,7 +520,7 @@ def trace(code, moves, nx, H, s):
     while True:
         out.append(s)
         c = code[s] % CLOSED
-        if c == START or c < 0:
+        if c == START or c == UNSEEN:
             break
         p, hh = divmod(s, H)
         if c == TURN_FROM_PREV:
@@ -382,7 +529,7 @@ def trace(code, moves, nx, H, s):
             s = p * H + (hh + 1) % H
         else:
             j, i = divmod(p, nx)
-            s = (j - moves[c, 1]) * nx + (i - moves[c, 0])
+            s = (j - moves[c - 1, 1]) * nx + (i - moves[c - 1, 0])
             s = s * H + hh
     res = np.empty(len(out), np.int64)
     for k in range(len(out)):
@@ -391,11 +538,14 @@ def trace(code, moves, nx, H, s):
 
 
 @numba.njit(cache=True)
-def min_over_headings(g, P, H):
+def min_over_headings(g, code, P, H):
+    """Least ``g`` over the headings of each position (inf where none was reached)."""
     res = np.empty(P, np.float64)
     for p in range(P):
         b = np.inf
         for hh in range(H):
+            if code[p * H + hh] == UNSEEN:
+                continue
             v = g[p * H + hh]
             if v < b:
                 b = v

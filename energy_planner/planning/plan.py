@@ -469,7 +469,7 @@ def _run_search(r: _Run) -> np.ndarray:
     from energy_planner.planning.refine import refine_path
 
     spent = r.prog.elapsed()
-    left = r.budget - spent if math.isfinite(r.budget) else min(max(1.0, 0.25 * spent), 10.0)
+    left = r.budget - spent if math.isfinite(r.budget) else min(max(0.25, 0.25 * spent), 10.0)
     if left <= 0.05:
         return sr.states
     states, r.info["refine"] = refine_path(
@@ -659,12 +659,15 @@ def _warm_up(problem, planner: str, start_p, goal_p):
     (its time is in the info), or None.
     """
     cost = problem.cost.compile()
-    warm = _cost_fn(cost)
-    warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     if planner in ("auto", "search"):
         from energy_planner.planning.search import search_module
 
         search_module(cost)
+    else:
+        # the Python-callable kernel (a jitclass, compiled per process: about 4 s) is
+        # needed by OMPL and the lattice's report only, not by the search
+        warm = _cost_fn(cost)
+        warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     if planner == "bitstar" and OMPL_COST_TO_GO:
         from energy_planner.planning.objective import CostToGo
 

@@ -27,9 +27,12 @@ never exceeds the search's cost to go: with ``eps = 1`` the path is optimal on t
 primitives (the same optimum as the full lattice); with ``eps > 1`` its energy is at most
 ``eps`` times that optimum.
 
-Memory: one float32 ``g`` and one int8 code per state (5 bytes x cells x headings), the
-2-D heuristic (8 bytes per cell) and the open list. All hot loops are numba functions in
-:mod:`energy_planner.planning._search`, compiled once per energy model and cached on disk.
+Memory: one float32 ``g`` and one int8 code per state reached (5 bytes x headings per
+position the search reaches: the arrays are allocated untouched and the operating system
+maps a page only when the search first writes to it), the 2-D heuristic (float32 ``h``
+and an int32 heap index per cell: 8 bytes per cell) and the open lists. All hot loops are
+numba functions in :mod:`energy_planner.planning._search`, compiled once per energy model
+and cached on disk.
 
 Without a goal (:func:`reach_search`) the same search runs with ``h = 0`` (Dijkstra) and
 returns the least energy to every position.
@@ -45,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from energy_planner.angles import wrap
-from energy_planner.energy.kernels import IN_DY, IN_GRAD, IN_X0
+from energy_planner.energy.kernels import IN_BLOCKED, IN_DY, IN_GRAD, IN_STEP, IN_TMAX, IN_X0
 from energy_planner.errors import InvalidStateError, PlanningConfigError, PlanningError
 from energy_planner.planning.moves import MOVE_SETS, exact_ends  # noqa: F401 - MOVE_SETS: documented here too
 from energy_planner.problem import takes_problem
@@ -69,6 +72,8 @@ _IMPORT_LINE = (
 BOUND_MARGIN = 0.99
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
+#: Levels per axis of its sparse table (blocks of up to 2^(levels - 1) nodes).
+SPARSE_LEVELS = 4
 
 
 def search_module(cost):
@@ -99,20 +104,24 @@ def _warm_up(mod, cost) -> None:
     lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
     moves = np.zeros((16, 2), i8)
     keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
-    table = np.zeros((16, 1, 1, 2, 2))
+    table = np.zeros((16, 1, 1, 2, 2), np.float32)
     tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.heuristic_chunk(
-        cost.data[IN_GRAD], _geo(cost), lat, moves, np.ones(16), table, tgeo, np.zeros(1),
-        np.zeros(1, i8), keys, vals, n, 0, 1.0, -1, 1.5, np.full(1, np.inf),
+        cost.data[IN_GRAD], cost.data[IN_BLOCKED], np.zeros((1, 1), np.uint8), _geo(cost),
+        _sampling(cost), lat, moves,
+        np.ones(16), table, tgeo, np.zeros(1, np.float32), np.zeros(1, np.int32), keys, vals,
+        n, 0, 1.0, -1, 1.5, np.full(2, np.inf),
     )  # fmt: skip
     mod.astar_chunk(
-        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1), 1.0,
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1, np.float32), 1.0,
         np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1, keys, vals, n, 0, 0.0,
         np.zeros(1, i8),
     )  # fmt: skip
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
-    mod.min_over_headings(np.zeros(16, np.float32), 1, 16)
+    mod.unsafe_cells(np.zeros((1, 1, 2)), np.zeros((0, 0), np.bool_), 1.0)
+    mod.cap_unsettled(np.zeros(1, np.float32), np.zeros(1, np.int32), 1, 0, 0.0, 1.0, 1.0)
+    mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
@@ -251,15 +260,16 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     gradients (clipped to the slope limit), and every move direction ``m`` of
     :data:`~energy_planner.planning.lattice.MOVES_16`, the kernel's energy of a short
     translation in direction ``m`` at each heading allowed to make it (``move_ok``), on a
-    synthetic map of that constant gradient, divided by its length; minimised over
-    headings and then over the 3 x 3 neighbouring nodes (so values between nodes are
-    covered).
+    synthetic map of that constant gradient, divided by its length, minimised over
+    headings (``gradient_table(..., spread=False)``); values between nodes are covered
+    by the range query, which takes the least over the nodes bracketing a box of
+    gradients.
 
     Returns
     -------
-    table : ndarray, shape (16, L, L, nodes, nodes)
-        J per metre, ``inf`` where no heading can move (limits), as a sparse table for
-        range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
+    table : ndarray of float32, shape (16, L, L, nodes, nodes)
+        J per metre (rounded down), ``inf`` where no heading can move (limits), as a sparse
+        table for range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
         ``[i, i + 2^a) x [j, j + 2^b)``.
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
@@ -273,13 +283,15 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     if getattr(getattr(cost, "channels", None), "rasters", None):
         # channel rasters vary over the map: the constant-gradient table cannot bound
         # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
-        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2))
+        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2), np.float32)
         return zero, np.array([-1e6, -1e6, 2e6, 2e6])
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
-    lo = np.array([float(gx[fin].min()), float(gy[fin].min())])
-    hi = np.array([float(gx[fin].max()), float(gy[fin].max())])
-    table, tgeo = gradient_table(cost, headings, move_ok, lo, hi, nodes)
+    # reductions under a mask (gx[fin] would copy the whole raster)
+    lo = np.array([float(np.min(v, where=fin, initial=np.inf)) for v in (gx, gy)])
+    hi = np.array([float(np.max(v, where=fin, initial=-np.inf)) for v in (gx, gy)])
+    del fin
+    table, tgeo = gradient_table(cost, headings, move_ok, lo, hi, nodes, spread=False)
     return _sparse_table(table), tgeo
 
 
@@ -290,6 +302,7 @@ def gradient_table(
     lo: np.ndarray,
     hi: np.ndarray,
     nodes: int = TABLE_NODES,
+    spread: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Least J per metre of each move direction over a box of constant gradients.
 
@@ -302,6 +315,12 @@ def gradient_table(
     3 x 3 neighbouring nodes (so values between nodes are covered). Its minimum is a
     lower bound of the energy per metre of any translation on ground whose gradients lie
     in the box (the corridor planner's ellipse and the windowed reach use it).
+
+    With ``spread=False`` (:func:`bound_table`) each node holds its own bound, without
+    the 3 x 3 minimum: the search's range queries (:func:`_search.edge_bound`) already
+    take the least over every node of the cells that bracket a box of gradients, so the
+    extra ring only loosened the bound (on 45-degree flanks the bound was 10-18 % under
+    the kernel, without the ring 5-9 %).
 
     Returns
     -------
@@ -329,12 +348,15 @@ def gradient_table(
     gxs = lo[0] + tdx * np.arange(nodes)
     gys = lo[1] + tdy * np.arange(nodes)
     GX, GY = np.meshgrid(gxs, gys, indexing="ij")
+    walkable = GX**2 + GY**2 <= tmax**2 if math.isfinite(tmax) else np.ones(GX.shape, bool)
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     table = np.full((len(MOVES_16), nodes, nodes), np.inf)
     for m, ang in enumerate(dirs):
         if move_ok[:, m].any():
-            best = heading.lower_bound(GX, GY, ang)
-            table[m] = minimum_filter(best, size=3, mode="nearest")
+            # nodes steeper than the limit cannot be walked: inf without pricing them
+            best = np.full(GX.shape, np.inf)
+            best[walkable] = heading.lower_bound(GX[walkable], GY[walkable], ang)
+            table[m] = minimum_filter(best, size=3, mode="nearest") if spread else best
     table = np.maximum(table, 0.0)
     return table, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
 
@@ -350,9 +372,16 @@ def _sparse_table(table: np.ndarray) -> np.ndarray:
     (4.0, 4.0)
     """
     M, K, _ = table.shape
-    L = max(1, int(math.floor(math.log2(K))) + 1)
-    st = np.full((M, L, L, K, K), np.inf)
-    st[:, 0, 0] = table
+    # blocks up to 8 nodes a side (a wider range is read as several blocks): 16 levels
+    # instead of 49 at 96 nodes, a third of the memory
+    L = max(1, min(int(math.floor(math.log2(K))) + 1, SPARSE_LEVELS))
+    # float32 (half the memory: 29 MB at 96 nodes), each value rounded down so that it
+    # stays a lower bound
+    t32 = table.astype(np.float32)
+    up = t32.astype(np.float64) > table
+    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
+    st = np.full((M, L, L, K, K), np.inf, dtype=np.float32)
+    st[:, 0, 0] = t32
     for a in range(1, L):
         w = 1 << (a - 1)
         st[:, a, 0, : K - w] = np.minimum(st[:, a - 1, 0, : K - w], st[:, a - 1, 0, w:])
@@ -364,6 +393,11 @@ def _sparse_table(table: np.ndarray) -> np.ndarray:
 
 def _geo(cost) -> np.ndarray:
     return np.array(cost.data[IN_X0 : IN_DY + 1], dtype=np.float64)
+
+
+def _sampling(cost) -> np.ndarray:
+    """(kernel sample step, tmax): what :func:`_search.translation_refused` needs."""
+    return np.array([cost.data[IN_STEP], cost.data[IN_TMAX]], dtype=np.float64)
 
 
 class _Heap:
@@ -402,37 +436,44 @@ def relaxed_cost_to_go(
     progress: bool = False,
     deadline: float = math.inf,
     stop_p: int = -1,
-    stop_factor: float = 1.5,
+    stop_factor: float = 1.1,
 ) -> np.ndarray:
     """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
 
-    With ``stop_p`` >= 0 the backward Dijkstra stops at ``stop_factor`` times the cost of
-    ``stop_p`` (the start) and caps ``h`` there: still a lower bound everywhere, and the
-    search rarely looks further.
+    With ``stop_p`` >= 0 (the start ``s``) the backward search is an A* towards ``s``
+    (keys ``h(p) + c |p - s|``, ``c`` the least J/m of any relaxed edge) that stops at
+    ``stop_factor`` times ``h(s)``; a position it has not settled then gets
+    ``stop_factor * h(s) - c |p - s|`` (:func:`_search.heuristic_chunk`): still a lower
+    bound everywhere, and only the region a path of that energy can visit is settled.
 
     Returns
     -------
-    ndarray of float64, shape (nx * ny,)
-        J; ``inf`` where the goal cannot be reached even in the relaxed problem.
+    ndarray of float32, shape (nx * ny,)
+        J; ``inf`` where the goal cannot be reached even in the relaxed problem. (Rounding
+        to float32 moves a value by under 1e-7 of it, far inside the 1 % margin of the
+        edge bounds, :data:`BOUND_MARGIN`.)
     """
     mod = mod or search_module(cost)
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
-    h = np.full(grid.P, np.inf)
+    h = np.full(grid.P, np.inf, dtype=np.float32)
     h[goal_p] = 0.0
-    pos = np.full(grid.P, -1, dtype=np.int64)
+    pos = np.full(grid.P, -1, dtype=np.int32)
     keys = np.empty(grid.P, np.float64)
     vals = np.empty(grid.P, np.int64)
     n = np.ones(1, np.int64)
     keys[0], vals[0], pos[goal_p] = 0.0, goal_p, 0
     grad = cost.data[IN_GRAD]
+    blocked = cost.data[IN_BLOCKED]
+    unsafe = mod.unsafe_cells(grad, blocked, float(cost.data[IN_TMAX]))
     geo = _geo(cost)
+    sampling = _sampling(cost)
     bar = _bar(progress, "heuristic (2-D)", grid.P, "cells")
-    limit = np.full(1, np.inf)
+    limit = np.full(2, np.inf)  # stop key, least J/m of an edge
     try:
         while True:
             code, pops = mod.heuristic_chunk(
-                grad, geo, grid.lat, grid.moves, grid.move_len, table, tgeo, h, pos,
-                keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
+                grad, blocked, unsafe, geo, sampling, grid.lat, grid.moves, grid.move_len, table,
+                tgeo, h, pos, keys, vals, n, 1_000_000, BOUND_MARGIN, stop_p, stop_factor, limit,
             )  # fmt: skip
             if bar is not None:
                 bar.update(pops)
@@ -448,8 +489,11 @@ def relaxed_cost_to_go(
     finally:
         if bar is not None:
             bar.close()
-    del pos, keys, vals
-    return np.minimum(h, limit[0])
+    del keys, vals
+    if math.isfinite(limit[0]):
+        mod.cap_unsettled(h, pos, grid.nx, stop_p, limit[1], grid.step, limit[0])
+    del pos
+    return h
 
 
 def _start_states(cost, grid: _Grid, p: int, yaw: float | None, which: str) -> np.ndarray:
@@ -467,11 +511,32 @@ def _start_states(cost, grid: _Grid, p: int, yaw: float | None, which: str) -> n
     return np.array(ok, dtype=np.int64)
 
 
+def _untouched(n: int, dtype, zero: bool = False) -> np.ndarray:
+    """A 1-D array whose memory is mapped page by page on first write.
+
+    numpy asks the kernel for transparent huge pages (2 MB) on large arrays; one write
+    then maps 2 MB, and a path that crosses the map writes into every huge page of the
+    per-state arrays. With 4 KB pages the memory follows the states reached.
+    """
+    try:
+        from numpy._core import multiarray
+    except ImportError:  # numpy < 2
+        from numpy.core import multiarray
+    setter = getattr(multiarray, "_set_madvise_hugepage", None)
+    prev = setter(False) if setter is not None else None
+    try:
+        return np.zeros(n, dtype) if zero else np.empty(n, dtype)
+    finally:
+        if setter is not None:
+            setter(prev)
+
+
 def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *,
                 max_key, progress, deadline, desc):  # fmt: skip
     N = grid.P * grid.H
-    g = np.full(N, np.inf, dtype=np.float32)
-    code = np.full(N, -1, dtype=np.int8)
+    # untouched pages cost no memory: g is read only where code says reached
+    g = _untouched(N, np.float32)
+    code = _untouched(N, np.int8, zero=True)
     heap = _Heap(1 << 22)
     for h in start_hs:
         s = starts_p * grid.H + int(h)
@@ -668,8 +733,7 @@ def reach_search(
         mod, cost, grid, h0, 0.0, ps, hs, -1, -1, max_key=float(max_energy),
         progress=progress, deadline=t0 + time_budget, desc="reach (x, y, heading)",
     )  # fmt: skip
-    del _code
-    e = mod.min_over_headings(g, grid.P, grid.H)
+    e = mod.min_over_headings(g, _code, grid.P, grid.H)
     e[e > max_energy] = np.inf
     return ReachResult(
         xs=grid.xs,
