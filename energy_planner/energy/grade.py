@@ -106,9 +106,9 @@ def grade_cost(
     Parameters
     ----------
     model : EnergyModel
-        A fitted model.
+        The fitted model whose ``c(g)`` is wanted.
     speed : float
-        Walking speed along the ground, m/s.
+        Walking speed along the ground (m/s) at every grade.
     slope : float, optional
         Walk on a plane of this slope (sine of the slope angle) instead of up the fall
         line of each grade: grade ``g <= slope`` is travelled at the relative heading
@@ -199,10 +199,8 @@ def critical_grade(
 
     Parameters
     ----------
-    model : EnergyModel
-        A fitted model.
-    speed : float
-        Walking speed along the ground, m/s.
+    model, speed
+        As :func:`grade_cost`.
     any_yaw : bool
         Take the cheapest body yaw (crab, sideways, backward) at each grade; default:
         face the direction of travel, as the paper's Fig. 1 does.
