@@ -222,7 +222,7 @@ def compute(
     from energy_planner.uncertainty import domain_report
 
     # the share of the path outside the ranges the model's calibration saw
-    out["domain"] = domain_report(model, result.segments, cost.constants, result.poses)
+    out["domain"] = domain_report(model, result.table, cost.constants, result.poses)
     # the kernel reports distances along the ground; add the map (horizontal) distance,
     # the one a GIS measures between the waypoints
     flat = np.hypot(*np.diff(xy, axis=0).T)
