@@ -1,7 +1,8 @@
 """#21 point 3: channel values are run-time inputs of every kernel, never compiled in.
 
-A second, distinct ``--set`` value must compile nothing in any command that prices
-energy (``energy``, ``plan``, ``reach``, ``energy-map``): no new generated kernel module,
+A second, distinct ``--set`` value (or numeric channel raster) must compile nothing in
+any command that prices energy (``energy``, ``plan``, ``reach``, ``energy-map``): no new
+generated kernel module,
 no numba cache miss (a compilation), no new file of compiled code in the kernel
 cache. And the numbers follow the value: on a plane rising east, walking up or down the
 fall line facing along is priced by the model's numpy formula (``EnergyModel.power``)
@@ -14,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from functools import partial
 
 import numpy as np
 import pytest
@@ -37,13 +39,18 @@ def files(tmp_path_factory):
     from affine import Affine
 
     d = tmp_path_factory.mktemp("runtime")
-    z = np.tile(100.0 + GRADE * np.arange(N, dtype=float), (N, 1))
-    dem = d / "plane.tif"
-    with rasterio.open(
-        dem, "w", driver="GTiff", width=N, height=N, count=1, dtype="float64",
-        crs="EPSG:32631", transform=Affine(1.0, 0, X0, 0, -1.0, Y0 + N),
-    ) as dst:  # fmt: skip
-        dst.write(z, 1)
+
+    def tif(path, z):
+        with rasterio.open(
+            path, "w", driver="GTiff", width=N, height=N, count=1, dtype="float64",
+            crs="EPSG:32631", transform=Affine(1.0, 0, X0, 0, -1.0, Y0 + N),
+        ) as dst:  # fmt: skip
+            dst.write(z, 1)
+        return path
+
+    dem = tif(d / "plane.tif", np.tile(100.0 + GRADE * np.arange(N, dtype=float), (N, 1)))
+    for load in (3, 41):  # a numeric channel raster per load, the same everywhere
+        tif(d / f"load_{load}.tif", np.full((N, N), float(load)))
     wp = d / "w.csv"
     wp.write_text(f"x,y\n{X0 + 10.5},{Y0 + 20.5}\n{X0 + 30.5},{Y0 + 20.5}\n")
     return {"dem": dem, "wp": wp, "model": MODEL.save(d / "load.json"), "dir": d}
@@ -87,12 +94,14 @@ def _run(args: list) -> dict:
     return json.loads(r.stdout)
 
 
-def _map_and_energy(files, load: float) -> dict:
-    """``energy-map`` and ``energy`` with ``--set load_kg=load``."""
+def _map_and_energy(files, load: float, raster: bool = False) -> dict:
+    """``energy-map`` and ``energy`` with ``--set load_kg=load`` (or a raster of it)."""
     import rasterio
 
     s = ["--model", files["model"], "--set", f"load_kg={load:g}"]
-    out = files["dir"] / f"map_{load:g}.tif"
+    if raster:
+        s = ["--model", files["model"], "--channel", f"load_kg={files['dir']}/load_{load:g}.tif"]
+    out = files["dir"] / f"map_{load:g}_{raster}.tif"
     _run(["energy-map", files["dem"], "--out", out, "--headings", "16", "--json", *s])
     with rasterio.open(out) as src:
         along_east = src.read(1)[20, 20]  # along_000: up the fall line
@@ -125,8 +134,9 @@ def _twice(doors, files, monkeypatch) -> tuple[dict, dict]:
     return first, second
 
 
-def test_a_new_set_value_compiles_nothing_in_energy_map_and_energy(files, monkeypatch):
-    first, second = _twice(_map_and_energy, files, monkeypatch)
+@pytest.mark.parametrize("raster", [False, True], ids=["set", "channel-raster"])
+def test_a_new_value_compiles_nothing_in_energy_map_and_energy(files, monkeypatch, raster):
+    first, second = _twice(partial(_map_and_energy, raster=raster), files, monkeypatch)
     for load, got in ((3.0, first), (41.0, second)):
         up = _formula_per_map_metre(load, downhill=False)
         down = _formula_per_map_metre(load, downhill=True)
