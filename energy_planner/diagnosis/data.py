@@ -43,7 +43,7 @@ REQUIRED = ("run", "t", "power", "window")
 #: recently used first out; an evicted column is evaluated again when asked for, to the
 #: same values). Without a bound a full campaign kept every candidate's column: 525 k
 #: samples x hundreds of candidates, 3 GB.
-SAMPLE_CACHE_BYTES = 192 * 2**20
+SAMPLE_CACHE_BYTES = 64 * 2**20
 #: Terms evaluated per sample at once (bounds the design matrix made in one go).
 EVAL_CHUNK = 16
 
@@ -168,6 +168,16 @@ class WindowData:
         while total > SAMPLE_CACHE_BYTES and len(cache) > 1:
             _, old = cache.popitem(last=False)
             total -= old.nbytes
+
+    def release_sample_columns(self) -> None:
+        """Let go of the per-sample columns and the stacked design.
+
+        They are caches, evaluated again if needed; ``discover`` lets them go before its
+        final fit, which builds its own design (memory).
+        """
+        self._sample_cache.clear()
+        self._stack_key = self._stack = self._stack_means = None
+        self._features = None
 
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).

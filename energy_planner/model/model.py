@@ -191,14 +191,13 @@ class EnergyModel:
         """
         f = prepare_features(features)
         n = _n_rows(f)
-        cols = []
-        for term in self.terms:
+        X = np.empty((n, len(self.terms)))  # filled in place: no second copy of the design
+        for j, term in enumerate(self.terms):
             try:
                 col = term.parsed.evaluate(f)
             except FormulaError as exc:
                 raise ModelError(f"term {term.name!r}: {exc}") from exc
-            cols.append(np.broadcast_to(col, (n,)).astype(float))
-        X = np.column_stack(cols) if cols else np.zeros((n, 0))
+            X[:, j] = np.broadcast_to(col, (n,))
         if groups is None:
             return X
         import pandas as pd
