@@ -77,7 +77,6 @@ class WindowData:
     _stack: np.ndarray | None = field(default=None, repr=False)
     _stack_means: np.ndarray | None = field(default=None, repr=False)
     _fold_cols: dict = field(default_factory=dict, repr=False)
-    _features: dict | None = field(default=None, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -137,10 +136,9 @@ class WindowData:
         :data:`SAMPLE_CACHE_BYTES` (least recently used out), so that memory does not
         grow with the number of candidates.
         """
-        from energy_planner.model import EnergyModel, prepare_features
+        from energy_planner.calibration.fit import model_features
+        from energy_planner.model import EnergyModel
 
-        if self._features is None:  # DataFrame -> arrays once, not once per call
-            self._features = prepare_features(self.samples)
         want = list(dict.fromkeys(terms))
         if into is not None:
             for t in want:
@@ -150,7 +148,10 @@ class WindowData:
         todo = [t for t in want if t not in self._cache or (into is not None and t not in into)]
         for i in range(0, len(todo), EVAL_CHUNK):
             chunk = todo[i : i + EVAL_CHUNK]
-            per_sample = EnergyModel(terms=chunk).design_matrix(self._features)
+            model = EnergyModel(terms=chunk)
+            # only the columns these terms read (all of them as arrays: 110 MB on a full
+            # campaign, held through the staircase)
+            per_sample = model.design_matrix(model_features(self.samples, model))
             per_window = self.window_mean(per_sample)
             for j, t in enumerate(chunk):
                 self._cache[t] = per_window[:, j].copy()
@@ -177,7 +178,6 @@ class WindowData:
         """
         self._sample_cache.clear()
         self._stack_key = self._stack = self._stack_means = None
-        self._features = None
 
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
