@@ -20,7 +20,9 @@ Run::
     python benchmarks/bench_discover.py --seeds 0 --effects none --missions load ground
     python benchmarks/bench_discover.py --json
 
-Prints ``uptime`` with the timings (the machine is shared).
+Prints ``uptime`` with the timings (the machine is shared), and the process's peak RSS
+(issue 21: discover on a full campaign at most 1 GB; main before the bounded column
+cache: 2.94 GB).
 """
 
 from __future__ import annotations
@@ -372,9 +374,14 @@ def main(argv: list[str] | None = None) -> int:
             f"max {np.max(ratios):.2f}; data findings: "
             + ", ".join(sorted({f for c in nulls for f in c.data_findings}) or ["none"])
         )
+    import resource
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # kB on Linux
     print(
         f"\n{elapsed:.0f} s in all; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} "
-        "(2 cores shared)"
+        f"(2 cores shared); peak RSS of this process {peak:.2f} GB (#21: at most 1 GB on a "
+        "full campaign; /usr/bin/time -v energy-planner discover LOGS --out m.json gives the "
+        "same figure for one campaign)"
     )
     return 0
 

@@ -1,31 +1,45 @@
-"""Start-up time of the command line (issue 21 point 5), each beside its baseline.
+"""Start-up time of the command line (issue 21 points 3 and 5), each beside its baseline.
 
-Rows, each the median wall time of whole processes after one warm-up run:
+Rows, each the median wall and CPU time (user + system, the child's own accounting) of
+whole processes after one warm-up run:
 
 - ``python -c pass``: the interpreter alone (the floor of any command);
 - ``--help`` as it was: a listing that imports every command module (what click's default
   ``format_commands`` did before the summaries moved into ``energy_planner.cli.COMMANDS``);
 - ``energy-planner --help`` now;
 - ``import numba`` plus the first call of one cached ``@njit`` function (the floor of any
-  command that prices energy with the compiled kernels);
-- a warm ``energy-planner energy`` of the direct climb on the bundled hill (kernels cached).
+  command that prices energy with the compiled kernels: numba's import, its typing and
+  target registries, and the scipy.linalg import its BLAS check makes);
+- a warm ``energy-planner energy`` of the direct climb on the bundled hill (kernels cached);
+- the same with a model that reads a channel (the bundled model plus ``load_kg * speed``)
+  and a ``--set load_kg=`` value never given before in each run (the model's kernels
+  cached, the value new);
+- ``energy-planner energy-map`` of the hill with such a new value (fewer runs: a baseline
+  that compiles its kernels for every value takes a minute a run).
 
-Usage: ``python benchmarks/bench_startup.py [--runs 7]``.
+With ``--baseline BIN`` (the ``bin`` directory of a virtual environment with another
+checkout installed, e.g. ``main``'s) every row also runs there, A and B in turn, and the
+table gives both medians and the median of the pairwise ratios A/B (pairs keep the ratio
+meaningful when the shared machine's speed drifts). CPU seconds move much less than wall
+seconds with the machine's load: both are printed.
+
+Usage::
+
+    python benchmarks/bench_startup.py [--runs 7] [--map-runs 3] [--baseline ../main/.venv/bin]
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-
-PY = sys.executable
-EP = str(Path(PY).parent / "energy-planner")
 
 OLD_HELP = (
     "import importlib\n"
@@ -36,47 +50,114 @@ OLD_HELP = (
     "CliRunner().invoke(main, ['--help'])\n"
 )
 NUMBA_FLOOR = "import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 1.0\nf(1.0)\n"
+LOAD_MODEL = (
+    "import sys\n"
+    "from energy_planner.model import EnergyModel\n"
+    "m = EnergyModel.default()\n"
+    "coefs = {**m.coefficients, 'load_kg * speed': 5.0}\n"
+    "EnergyModel([t.name for t in m.terms] + ['load_kg * speed'], coefs).save(sys.argv[1])\n"
+)
+#: A value of ``load_kg`` never given before: a fresh one for every run of every row.
+_FRESH = itertools.count()
+_SALT = time.time_ns() % 1_000_000
 
 
-def wall(cmd: list[str], runs: int, cwd: str) -> list[float]:
-    """Wall times of ``runs`` runs of ``cmd`` after one warm-up."""
-    out = []
-    for i in range(runs + 1):
-        t0 = time.perf_counter()
-        subprocess.run(cmd, cwd=cwd, capture_output=True, check=True)
-        if i:
-            out.append(time.perf_counter() - t0)
-    return out
+def fresh_value() -> str:
+    """A ``load_kg`` value that no earlier run (of this or another call) has used."""
+    return f"{10 + next(_FRESH) + _SALT * 1e-6:.6f}"
+
+
+def run(cmd: list[str], cwd: str) -> tuple[float, float]:
+    """Wall and CPU seconds of one whole process (``{new}`` in ``cmd``: a fresh value)."""
+    cmd = [c.replace("{new}", fresh_value()) if "{new}" in c else c for c in cmd]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, cwd=cwd, capture_output=True, check=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def rows(bin_dir: Path, hill: str, model: str) -> list[tuple[str, list[str], bool]]:
+    """``(name, command, is_map_row)`` of every row, for the environment in ``bin_dir``."""
+    py, ep = str(bin_dir / "python"), str(bin_dir / "energy-planner")
+    energy = [ep, "energy", "--dem", hill, "--waypoints", "direct.csv"]
+    return [
+        ("python -c pass (floor)", [py, "-c", "pass"], False),
+        ("--help, listing imports every command (before)", [py, "-c", OLD_HELP], False),
+        ("energy-planner --help", [ep, "--help"], False),
+        ("import numba + one cached njit call (floor)", [py, "numba_floor.py"], False),
+        ("energy, hill, warm", energy, False),
+        (
+            "energy, hill, a new --set value",
+            [*energy, "--model", model, "--set", "load_kg={new}"],
+            False,
+        ),  # fmt: skip
+        (
+            "energy-map, hill, a new --set value",
+            [
+                ep,
+                "energy-map",
+                hill,
+                "--out",
+                "map.tif",
+                "--model",
+                model,
+                "--set",
+                "load_kg={new}",
+            ],
+            True,
+        ),  # fmt: skip
+    ]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=7, help="counted runs per row")
+    ap.add_argument("--map-runs", type=int, default=3, help="counted runs of the map row")
+    ap.add_argument("--baseline", type=Path, help="bin directory of the baseline's venv")
+    ap.add_argument("--only", help="run only the rows whose name contains this text")
     args = ap.parse_args()
     from energy_planner.maps import map_path
 
+    here = Path(sys.executable).parent
+    hill = str(map_path("hill"))
     with tempfile.TemporaryDirectory() as d:
         Path(d, "direct.csv").write_text("x,y\n500058,5000046\n500058,5000109\n")
         Path(d, "numba_floor.py").write_text(NUMBA_FLOOR)
-        rows = [
-            ("python -c pass (floor)", [PY, "-c", "pass"]),
-            ("--help, listing imports every command (before)", [PY, "-c", OLD_HELP]),
-            ("energy-planner --help (now)", [EP, "--help"]),
-            ("import numba + one cached njit call (floor)", [PY, "numba_floor.py"]),
-            (
-                "energy-planner energy, hill, warm",
-                [EP, "energy", "--dem", str(map_path("hill")), "--waypoints", "direct.csv"],
-            ),
-        ]
-        print(f"load average {os.getloadavg()[0]:.1f}; median of {args.runs} runs")
-        print(f"{'command':<50} {'median s':>9} {'min s':>7} {'max s':>7}")
-        med = {}
-        for name, cmd in rows:
-            t = wall(cmd, args.runs, d)
-            med[name] = statistics.median(t)
-            print(f"{name:<50} {med[name]:>9.3f} {min(t):>7.3f} {max(t):>7.3f}")
-        before, now = rows[1][0], rows[2][0]
-        print(f"--help now / before: {med[now] / med[before]:.2f}")
+        model = str(Path(d, "load_model.json"))
+        subprocess.run([sys.executable, "-c", LOAD_MODEL, model], check=True)
+        a_rows = rows(here, hill, model)
+        b_rows = rows(args.baseline, hill, model) if args.baseline else [None] * len(a_rows)
+        against = f", B = {args.baseline}" if args.baseline else ""
+        print(f"load average {os.getloadavg()[0]:.1f}; medians of whole processes after one "
+              f"warm-up run; A = {here}{against}")  # fmt: skip
+        head = f"{'command':<48} {'runs':>4} {'A wall s':>8} {'A cpu s':>8}"
+        if args.baseline:
+            head += f" {'B wall s':>8} {'B cpu s':>8} {'A/B wall':>8} {'A/B cpu':>8}"
+        print(head)
+        for a, b in zip(a_rows, b_rows, strict=True):
+            name, cmd, is_map = a
+            if args.only and args.only not in name:
+                continue
+            n = args.map_runs if is_map else args.runs
+            ta, tb = [], []
+            for i in range(n + 1):  # the first pair warms up
+                wa = run(cmd, d)
+                wb = run(b[1], d) if b else None
+                if i:
+                    ta.append(wa)
+                    if wb:
+                        tb.append(wb)
+            line = (f"{name:<48} {n:>4} {statistics.median(t[0] for t in ta):>8.3f} "
+                    f"{statistics.median(t[1] for t in ta):>8.3f}")  # fmt: skip
+            if tb:
+                rw = statistics.median(x[0] / y[0] for x, y in zip(ta, tb, strict=True))
+                rc = statistics.median(x[1] / y[1] for x, y in zip(ta, tb, strict=True))
+                wb, cb = (statistics.median(t[k] for t in tb) for k in (0, 1))
+                line += f" {wb:>8.3f} {cb:>8.3f} {rw:>8.2f} {rc:>8.2f}"
+            print(line, flush=True)
 
 
 if __name__ == "__main__":

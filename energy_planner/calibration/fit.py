@@ -831,8 +831,9 @@ def cross_validate(
     free = np.array([n not in fixed for n in all_names], dtype=bool)
     names = [n for n in all_names if n not in fixed]
     held = np.array([fixed[n] for n in all_names if n in fixed], dtype=float)
-    D = D_all[:, free]
+    D = D_all if free.all() else D_all[:, free]  # no copy of the design when all are free
     offset_sample = D_all[:, ~free] @ held if held.size else None
+    del D_all
     _, win = np.unique(samples["window"].to_numpy(), return_inverse=True)
     X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
     y = table["power"].to_numpy(float)

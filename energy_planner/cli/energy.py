@@ -207,7 +207,7 @@ def compute(
 
     # the share of the path outside the ranges the model's calibration saw
     along = path_channel_values(terrain, cost.channels, result.poses)
-    out["domain"] = domain_report(model, result.segments, cost.constants, result.poses, along)
+    out["domain"] = domain_report(model, result.table, cost.constants, result.poses, along)
     # the kernel reports distances along the ground; add the map (horizontal) distance,
     # the one a GIS measures between the waypoints
     flat = np.hypot(*np.diff(xy, axis=0).T)

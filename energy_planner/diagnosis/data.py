@@ -10,6 +10,7 @@ any term (catalog name or formula) on it.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -38,6 +39,13 @@ KNOWN_COLUMNS = frozenset(
 MAX_CATEGORIES = 12
 
 REQUIRED = ("run", "t", "power", "window")
+#: Bytes of per-sample term columns :class:`WindowData` keeps between calls (least
+#: recently used first out; an evicted column is evaluated again when asked for, to the
+#: same values). Without a bound a full campaign kept every candidate's column: 525 k
+#: samples x hundreds of candidates, 3 GB.
+SAMPLE_CACHE_BYTES = 64 * 2**20
+#: Terms evaluated per sample at once (bounds the design matrix made in one go).
+EVAL_CHUNK = 16
 
 
 @dataclass
@@ -64,12 +72,11 @@ class WindowData:
     numeric_extras: list[str] = field(default_factory=list)
     categorical_extras: list[str] = field(default_factory=list)
     _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    _sample_cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _sample_cache: OrderedDict[str, np.ndarray] = field(default_factory=OrderedDict, repr=False)
     _stack_key: tuple | None = field(default=None, repr=False)
     _stack: np.ndarray | None = field(default=None, repr=False)
     _stack_means: np.ndarray | None = field(default=None, repr=False)
     _fold_cols: dict = field(default_factory=dict, repr=False)
-    _features: dict | None = field(default=None, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -120,26 +127,64 @@ class WindowData:
             self._start_idx = np.flatnonzero(np.r_[True, self.key[1:] != self.key[:-1]])
         return self._start_idx
 
-    def _evaluate(self, terms: list[str]) -> None:
-        """Evaluate the terms not yet cached on every sample; cache samples and means."""
-        from energy_planner.model import EnergyModel, prepare_features
+    def _evaluate(self, terms: list[str], into: dict[str, np.ndarray] | None = None) -> None:
+        """Evaluate the terms not yet cached on every sample; cache their window means.
 
-        if self._features is None:  # DataFrame -> arrays once, not once per call
-            self._features = prepare_features(self.samples)
-        todo = list(dict.fromkeys(t for t in terms if t not in self._cache))
-        if todo:
-            per_sample = EnergyModel(terms=todo).design_matrix(self._features)
+        With ``into``, the per-sample column of every term is put there (from the
+        per-sample cache, or evaluated again if the cache let it go). Terms are
+        evaluated :data:`EVAL_CHUNK` at a time and the per-sample cache holds at most
+        :data:`SAMPLE_CACHE_BYTES` (least recently used out), so that memory does not
+        grow with the number of candidates.
+        """
+        from energy_planner.calibration.fit import model_features
+        from energy_planner.model import EnergyModel
+
+        want = list(dict.fromkeys(terms))
+        if into is not None:
+            for t in want:
+                if t in self._sample_cache:
+                    into[t] = self._sample_cache[t]
+                    self._sample_cache.move_to_end(t)
+        todo = [t for t in want if t not in self._cache or (into is not None and t not in into)]
+        for i in range(0, len(todo), EVAL_CHUNK):
+            chunk = todo[i : i + EVAL_CHUNK]
+            model = EnergyModel(terms=chunk)
+            # only the columns these terms read (all of them as arrays: 110 MB on a full
+            # campaign, held through the staircase)
+            per_sample = model.design_matrix(model_features(self.samples, model))
             per_window = self.window_mean(per_sample)
-            for j, t in enumerate(todo):
-                self._sample_cache[t] = per_sample[:, j]
-                self._cache[t] = per_window[:, j]
+            for j, t in enumerate(chunk):
+                self._cache[t] = per_window[:, j].copy()
+                column = np.ascontiguousarray(per_sample[:, j])
+                if into is not None:
+                    into[t] = column
+                self._keep_sample_column(t, column)
+
+    def _keep_sample_column(self, term: str, column: np.ndarray) -> None:
+        """Put a per-sample column in the cache, dropping the least recently used."""
+        cache = self._sample_cache
+        cache[term] = column
+        cache.move_to_end(term)
+        total = sum(c.nbytes for c in cache.values())
+        while total > SAMPLE_CACHE_BYTES and len(cache) > 1:
+            _, old = cache.popitem(last=False)
+            total -= old.nbytes
+
+    def release_sample_columns(self) -> None:
+        """Let go of the per-sample columns and the stacked design.
+
+        They are caches, evaluated again if needed; ``discover`` lets them go before its
+        final fit, which builds its own design (memory).
+        """
+        self._sample_cache.clear()
+        self._stack_key = self._stack = self._stack_means = None
 
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
 
-        Columns are cached by term, per sample and per window: the staircase re-ranks the
-        same candidates, and the held-out evaluation floors every sample (memory: one
-        float per sample and term evaluated).
+        Columns are cached by term: per window all of them (the staircase re-ranks the
+        same candidates), per sample up to :data:`SAMPLE_CACHE_BYTES` (the held-out
+        evaluation floors every sample; a column let go is evaluated again).
 
         Returns
         -------
@@ -155,10 +200,11 @@ class WindowData:
     def sample_columns(self, terms: Iterable[str]) -> np.ndarray:
         """Per-sample design columns of ``terms``, shape ``(n_samples, len(terms))``."""
         terms = list(terms)
-        self._evaluate(terms)
         if not terms:
             return np.empty((len(self.samples), 0))
-        return np.column_stack([self._sample_cache[t] for t in terms])
+        got: dict[str, np.ndarray] = {}
+        self._evaluate(terms, into=got)
+        return np.column_stack([got[t] for t in terms])
 
     def heldout(
         self,

@@ -351,6 +351,7 @@ def discover(
         notes.append(conclusion(rankings[-1].heldout_rmse_w, floor, suspects_left=left))
     fit = None
     if fit_final:
+        wd.release_sample_columns()  # the final fit builds its own design (memory)
         try:
             final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
             fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed, prior=prior)

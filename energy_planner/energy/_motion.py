@@ -455,22 +455,27 @@ def cheapest_at(a, b, u0, u1, speed, smax, btan, cmax, chv):
 
 
 @numba.njit(cache=True, parallel=True)
-def cheapest_batch(gx, gy, heading, speed, smax, btan, cmax, chan):
+def cheapest_batch(gx, gy, heading, speed, smax, btan, cmax, chan, consts):
     """:func:`cheapest_at` of every ``(gx[i], gy[i], heading[i])``; channels ``chan[:, i]``.
 
-    Returns ``(J per map metre, body yaw relative to the travel)`` arrays; NaN where the
-    gradient or a channel is not finite.
+    ``consts``: the constant channels (``--set``), read after the rasters: run-time
+    inputs, so that a new value needs no compilation. Returns ``(J per map metre, body
+    yaw relative to the travel)`` arrays; NaN where the gradient or a channel is not
+    finite.
     """
     n = gx.shape[0]
     cost = np.empty(n)
     yaw = np.empty(n)
     nch = chan.shape[0]
+    ncst = consts.shape[0]
     for i in numba.prange(n):
-        chv = np.empty(nch)
+        chv = np.empty(nch + ncst)
         ok = math.isfinite(gx[i]) and math.isfinite(gy[i]) and math.isfinite(heading[i])
         for k in range(nch):
             chv[k] = chan[k, i]
             ok = ok and math.isfinite(chv[k])
+        for k in range(ncst):
+            chv[nch + k] = consts[k]
         if not ok:
             cost[i] = yaw[i] = np.nan
             continue
@@ -521,13 +526,15 @@ def _lerp_table(table, h, i0, ti, j0, j1, tj):
 
 
 @numba.njit(cache=True, parallel=True)
-def map_costs(gx, gy, chan, headings, speed, tmax, smax, btan, cmax, table, d_alpha, along,
-              best):  # fmt: skip
+def map_costs(gx, gy, chan, consts, headings, speed, tmax, smax, btan, cmax, table, d_alpha,
+              along, best):  # fmt: skip
     """Energy-map costs of a block of cells (J per metre of map distance).
 
     ``gx``, ``gy``: gradient of the block's cells, shape (rows, cols); ``chan``: raster
     channels on the same cells, shape (k, rows, cols), category indices for categorical
-    ones. ``along[j, r, c]``: walking forward along ``headings[j]`` (facing along);
+    ones; ``consts``: the constant channels (``--set``), read after the rasters (run-time
+    inputs: a new value needs no compilation). ``along[j, r, c]``: walking forward along
+    ``headings[j]`` (facing along);
     ``best[j, r, c]``: the cheapest way to move along it over the body's yaw within the
     gait limits (:func:`cheapest_at`), never above ``along``. Both bilinear in ``table``
     (of :func:`heading_table`, slope step ``d_alpha``) where the cell's slope is inside
@@ -540,6 +547,7 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, btan, cmax, table, d_al
     rows, cols = gx.shape
     nh = headings.shape[0]
     nch = chan.shape[0]
+    ncst = consts.shape[0]
     n_alpha = table.shape[1]
     n_phi = table.shape[2]
     d_phi = 2.0 * math.pi / max(n_phi, 1)
@@ -547,7 +555,9 @@ def map_costs(gx, gy, chan, headings, speed, tmax, smax, btan, cmax, table, d_al
     hc = np.cos(headings)
     hs = np.sin(headings)
     for r in numba.prange(rows):
-        chv = np.empty(nch)
+        chv = np.empty(nch + ncst)
+        for k in range(ncst):
+            chv[nch + k] = consts[k]
         for c in range(cols):
             a = gx[r, c]
             b = gy[r, c]

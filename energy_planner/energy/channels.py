@@ -4,7 +4,8 @@ A fitted model may have terms such as ``load_kg * speed`` or ``speed * (ground =
 'meadow')`` that read channels the terrain does not give. :class:`Channels` gives them:
 
 - **constants** (``--set NAME=VALUE``): a number (``load_kg=10``) or a category
-  (``ground=meadow``), compiled into the model's numba ``power`` function;
+  (``ground=meadow``), inputs of the compiled kernels at run time (a new value compiles
+  nothing);
 - **rasters** (``--channel NAME=RASTER`` or ``--channel NAME=RASTER:TABLE``): a map
   aligned to the terrain's working grid with rasterio (reprojected and resampled:
   bilinear for a numeric raster, nearest for a coded one) and sampled at every
@@ -675,6 +676,19 @@ class Channels:
         """Channels given that the model does not read (worth a note)."""
         return [n for n in self.names if n not in model.variables]
 
+    def runtime_values(self) -> np.ndarray:
+        """The constants' kernel inputs, in :meth:`kernel_layout` ``runtime=True`` order.
+
+        A number, or the index of the category in its layout; empty before
+        :meth:`resolve`. The kernels read them after the rasters.
+        """
+        out = [
+            float(cats.index(self.constants[name])) if cats is not None
+            else float(self.constants[name])
+            for name, cats in (self.runtime or {}).items()
+        ]  # fmt: skip
+        return np.array(out, dtype=np.float64)
+
     def stack(self, shape: tuple[int, int], runtime: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The channels for the kernel: ``(values (k, rows, cols) float64, nearest (k,))``.
 
@@ -686,9 +700,8 @@ class Channels:
         """
         consts = []
         if runtime and self.runtime is not None:
-            for name, cats in self.runtime.items():
-                v = self.constants[name]
-                consts.append((float(cats.index(v)) if cats is not None else float(v), cats))
+            values = self.runtime_values()
+            consts = list(zip(values.tolist(), self.runtime.values(), strict=True))
         if not self.rasters:
             if not consts:
                 return np.zeros((0, 1, 1)), np.zeros(0, dtype=np.bool_)

@@ -57,7 +57,9 @@ steeper than the table, a lookup that touches a node where no yaw may move
 (cross-slope limit), and maps with a numeric channel raster (the cost varies with it)
 are computed by the exact minimum itself; categorical channel rasters get one table
 per combination of categories met. The table is cached on disk next to the
-compiled kernels.
+compiled kernels. Channel values (``--set`` constants, raster values) are inputs of the
+compiled kernels, never compiled in: a new value builds (or loads) its table and
+compiles nothing.
 """
 
 from __future__ import annotations
@@ -101,7 +103,9 @@ class HeadingCost:
     ----------
     source : str
         The model's ``power`` source (:meth:`EnergyModel.kernel_source` with the
-        channels' constants and raster layout).
+        channels' run-time layout: the rasters, then the constants the model reads; the
+        same source as :class:`~energy_planner.energy.MotionCost`'s, so both share one
+        compiled module).
     speed : float
         Walking speed along the ground, m/s.
     tmax, smax : float
@@ -118,11 +122,15 @@ class HeadingCost:
     categorical : bool
         Every raster is categorical: one table per combination of categories met;
         otherwise (a numeric raster) no table, the exact minimum everywhere.
+    consts : tuple of float
+        The constant channels' values (``--set``; a category as its index), kernel
+        inputs after the rasters: a new value builds a new table but compiles nothing.
     """
 
     def __init__(
         self, source: str, speed: float, tmax: float, smax: float, crab: float,
         back_tan: float, rasters: int = 0, categorical: bool = False,
+        consts: tuple[float, ...] = (),
     ) -> None:  # fmt: skip
         from energy_planner.energy.kernels import kernel_module
 
@@ -134,6 +142,8 @@ class HeadingCost:
         self.back_tan = float(back_tan)
         self.rasters = int(rasters)
         self.categorical = bool(categorical)
+        self.consts = tuple(float(v) for v in consts)
+        self._consts = np.array(self.consts, dtype=np.float64)
         self._mod = kernel_module(source)
         top = min(TABLE_TOP_DEG, math.degrees(math.atan(self.tmax)))
         self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
@@ -151,7 +161,7 @@ class HeadingCost:
     def params(self) -> tuple[Any, ...]:
         """The parameters that define it (those of the constructor)."""
         return (self.source, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
-                self.rasters, self.categorical)  # fmt: skip
+                self.rasters, self.categorical, self.consts)  # fmt: skip
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -225,7 +235,7 @@ class HeadingCost:
             raise ValueError(f"chan has {chan.shape[0]} channels, the kernel reads {self.rasters}")
         flat = [np.ascontiguousarray(v.ravel()) for v in (gx, gy, h)]
         cost, yaw = self._mod.cheapest_batch(*flat, self.speed, self.smax, self.back_tan,
-                                             self.crab, chan)  # fmt: skip
+                                             self.crab, chan, self._consts)  # fmt: skip
         steep = flat[0] ** 2 + flat[1] ** 2 > self.tmax**2
         cost[steep] = np.inf
         return cost.reshape(shape), yaw.reshape(shape)
@@ -267,7 +277,7 @@ class HeadingCost:
                 stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
         part = self._mod.heading_table(
             self.speed, self.smax, self.crab, self.d_alpha, start, stop - start, self.n_phi,
-            np.asarray(values, dtype=np.float64),
+            np.asarray((*values, *self.consts), dtype=np.float64),
         )  # fmt: skip
         table[:, start:stop] = part
         entry[1] = stop
@@ -371,8 +381,8 @@ class HeadingCost:
 
     def _map(self, gx, gy, chan, ang, table, along, best) -> None:
         self._mod.map_costs(
-            gx, gy, chan, ang, self.speed, self.tmax, self.smax, self.back_tan, self.crab,
-            table, self.d_alpha, along, best,
+            gx, gy, chan, self._consts, ang, self.speed, self.tmax, self.smax, self.back_tan,
+            self.crab, table, self.d_alpha, along, best,
         )  # fmt: skip
 
 
@@ -406,8 +416,8 @@ def heading_cost(
     speed : float
         Walking speed along the ground, m/s.
     channels : Channels, optional
-        Extra channels: constants (compiled in) and rasters (their layout; the values
-        are given per call).
+        Extra channels: constants (kernel inputs at run time: a new value compiles
+        nothing) and rasters (their layout; the values are given per call).
     constants : mapping, optional
         More channel constants (merged with ``channels.constants``).
     max_slope_deg, max_cross_slope_deg : float, optional
@@ -450,8 +460,9 @@ def heading_cost(
     if constants:
         channels = replace(channels, constants={**channels.constants, **dict(constants)})
     channels = channels.resolve(model)  # values of the kinds the model reads
-    # constants compiled in, as the energy map does (one table per physics)
-    source = model.kernel_source(channels.constants, channels.kernel_layout())
+    # the constants are kernel inputs after the rasters, as in MotionCost: the source
+    # depends on the model and the channels' layout only (one table per value)
+    source = model.kernel_source(channels.constants, channels.kernel_layout(runtime=True))
     # the motion kernel's form of the gait limits (a negative backward slope gives a
     # negative tangent: never backward)
     back_tan, crab = gait_limit_values(max_backward_slope_deg, max_crab_deg)
@@ -464,6 +475,7 @@ def heading_cost(
         back_tan,
         len(channels.rasters),
         all(cats is not None for _, cats in channels.kernel_layout()),
+        tuple(channels.runtime_values().tolist()),
     )
 
 

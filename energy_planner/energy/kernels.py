@@ -30,8 +30,9 @@ terrain's grid in ``data`` and are sampled at every sub-step (numeric: bilinear,
 gradient; categorical: the nearest cell's category index) and passed to ``power`` as its
 eighth argument. Constants (``--set``) travel the same way, after the rasters (a
 ``(k, 1, 1)`` array when there is no raster): the kernels of :class:`MotionCost` depend on
-the model, not on the values, so a new value needs no compilation. (The energy map still
-compiles its constants in.)
+the model, not on the values, so a new value needs no compilation. The heading kernels
+(energy map, search heuristic, grade cost) take the same values as an input vector
+``consts`` after the rasters.
 """
 
 from __future__ import annotations
@@ -237,7 +238,7 @@ def make_kernels(power_source: str):
         invalid; ``motion_batch`` maps it over arrays; ``path_table(x, y, th, durations,
         data)`` gives the ``out`` rows of consecutive poses. ``data`` is the tuple built
         by :class:`energy_planner.energy.MotionCost`. ``map_costs(gx, gy, chan,
-        headings, speed, tmax, smax, btan, cmax, table, d_alpha, along, best)`` fills
+        consts, headings, speed, tmax, smax, btan, cmax, table, d_alpha, along, best)`` fills
         the energy-map costs of a block of cells (see
         :class:`energy_planner.energy.heading.HeadingCost`).
     """

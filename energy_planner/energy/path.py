@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from energy_planner.energy.channels import Channels
 from energy_planner.energy.kernels import (
@@ -33,6 +33,9 @@ from energy_planner.energy.kernels import (
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, NonPositivePowerError, OutsideMapError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+
+if TYPE_CHECKING:  # the table is made without pandas: ``segments`` imports it on use
+    import pandas as pd
 
 __all__ = [
     "PathEnergy",
@@ -66,12 +69,12 @@ class PathEnergy:
     ----------
     energy_j, distance_m, duration_s : float
         Totals.
-    segments : DataFrame
-        One row per segment between consecutive waypoints (columns
-        :data:`SEGMENT_COLUMNS`). Without given yaw, the turn in place at a segment's
-        first waypoint is part of that segment. Shares are the fractions of the
-        segment's work done walking forward or backward, sideways, turning, and by
-        other terms (idle power, effects).
+    table : dict of str to ndarray
+        One entry per segment between consecutive waypoints in each column of
+        :data:`SEGMENT_COLUMNS` (:attr:`segments` as plain arrays). Without given yaw,
+        the turn in place at a segment's first waypoint is part of that segment. Shares
+        are the fractions of the segment's work done walking forward or backward,
+        sideways, turning, and by other terms (idle power, effects).
     poses : ndarray
         The executed SE(2) poses ``(x, y, yaw)``, turns in place included.
     """
@@ -79,8 +82,15 @@ class PathEnergy:
     energy_j: float
     distance_m: float
     duration_s: float
-    segments: pd.DataFrame
+    table: dict[str, np.ndarray] = field(repr=False)
     poses: np.ndarray = field(repr=False)
+
+    @cached_property
+    def segments(self) -> pd.DataFrame:
+        """:attr:`table` as a DataFrame, one row per segment (pandas imported on use)."""
+        import pandas as pd
+
+        return pd.DataFrame({c: self.table[c] for c in SEGMENT_COLUMNS})
 
     @property
     def energy_wh(self) -> float:
@@ -94,7 +104,13 @@ class PathEnergy:
             "energy_wh": self.energy_wh,
             "distance_m": self.distance_m,
             "duration_s": self.duration_s,
-            "segments": self.segments.to_dict(orient="records"),
+            "segments": [
+                {
+                    c: int(v) if c == "segment" else float(v)
+                    for c, v in zip(SEGMENT_COLUMNS, row, strict=True)
+                }
+                for row in zip(*(self.table[c].tolist() for c in SEGMENT_COLUMNS), strict=True)
+            ],
         }
 
     def write_json(self, path: Any) -> Any:
@@ -126,16 +142,16 @@ class PathEnergy:
 
         from energy_planner.io import save_figure
 
-        seg = self.segments
-        d = np.concatenate([[0.0], np.cumsum(seg["distance_m"].to_numpy(float))])
-        e = np.concatenate([[0.0], np.cumsum(seg["energy_j"].to_numpy(float))])
+        seg = self.table
+        d = np.concatenate([[0.0], np.cumsum(np.asarray(seg["distance_m"], float))])
+        e = np.concatenate([[0.0], np.cumsum(np.asarray(seg["energy_j"], float))])
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
         a1.plot(d, e / 1000.0, "-", color="C0")
         a1.set_ylabel("cumulative energy (kJ)")
         a1.set_title(f"{self.energy_j / 1000:.2f} kJ over {self.distance_m:.1f} m, "
                      f"{self.duration_s:.0f} s", fontsize=10)  # fmt: skip
         with np.errstate(invalid="ignore", divide="ignore"):
-            per_m = seg["energy_j"].to_numpy(float) / seg["distance_m"].to_numpy(float)
+            per_m = np.asarray(seg["energy_j"], float) / np.asarray(seg["distance_m"], float)
         a2.step(d[1:], per_m, where="pre", color="C3")
         a2.set_ylabel("energy per metre (J/m)")
         a2.set_xlabel("distance along the path (m)")
@@ -253,7 +269,7 @@ def path_energy(
         energy_j=float(out[:, OUT_ENERGY].sum()),
         distance_m=float(out[:, OUT_DISTANCE].sum()),
         duration_s=float(out[:, OUT_DURATION].sum()),
-        segments=segments,
+        table=segments,
         poses=poses,
     )
 
@@ -313,7 +329,7 @@ def check_cost_power(
 
 
 def _check_path_power(
-    cost: MotionCost, segments: pd.DataFrame, unclamped: np.ndarray, sideways: bool
+    cost: MotionCost, segments: Mapping[str, np.ndarray], unclamped: np.ndarray, sideways: bool
 ) -> None:
     """Check the walking power on a path's own slopes and speeds.
 
@@ -323,9 +339,9 @@ def _check_path_power(
     """
     from energy_planner.model.model import WALKING_SPEED, WALKING_YAW_RATE
 
-    dur = segments["duration_s"].to_numpy(float)
-    dist = segments["distance_m"].to_numpy(float)
-    turn = np.radians(np.abs(segments["turn_deg"].to_numpy(float)))
+    dur = np.asarray(segments["duration_s"], dtype=float)
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
     safe = np.where(dur > 0, dur, np.inf)
     moving = (dist / safe > WALKING_SPEED) | (turn / safe > WALKING_YAW_RATE)
     if not moving.any():
@@ -334,16 +350,16 @@ def _check_path_power(
     v = v[v > WALKING_SPEED]
     speeds = sorted({cost.speed, *(() if v.size == 0 else (float(v.min()), float(v.max())))})
     gaits = None if sideways else ("forward", "turning in place")
-    slope = float(np.nanmax(segments["max_slope_deg"].to_numpy(float)[moving]))
+    slope = float(np.nanmax(np.asarray(segments["max_slope_deg"], dtype=float)[moving]))
     check_cost_power(cost, max_slope_deg=slope, gaits=gaits, speeds=speeds)
     free = np.flatnonzero(
-        moving & (segments["energy_j"].to_numpy(float) <= 0.0) & (unclamped < 0.0)
+        moving & (np.asarray(segments["energy_j"], dtype=float) <= 0.0) & (unclamped < 0.0)
     )
     if free.size:
         k = int(free[0])
         raise NonPositivePowerError(
             f"segment {k} (waypoint {k} to {k + 1}) walks {dist[k]:.2f} m in {dur[k]:.2f} s "
-            f"for {segments['energy_j'].iloc[k]:.3g} J (its terms sum to {unclamped[k]:.3g} J "
+            f"for {segments['energy_j'][k]:.3g} J (its terms sum to {unclamped[k]:.3g} J "
             f"before the floor; {free.size} moving segment(s) cost "
             "<= 0 J): the model prices this walking motion at zero or negative power (on "
             "the channel values there); refit the model on logs that include this motion"
@@ -396,44 +412,42 @@ def _face_along(xy: np.ndarray, seg_dt: np.ndarray | None, yaw_rate: float):
     return np.array(poses), np.array(seg_of), np.array(durations)
 
 
-def _segment_table(out: np.ndarray, seg_of: np.ndarray, n_seg: int) -> pd.DataFrame:
+def _segment_table(out: np.ndarray, seg_of: np.ndarray, n_seg: int) -> dict[str, np.ndarray]:
+    """The per-segment columns :data:`SEGMENT_COLUMNS` of the kernel's per-motion rows.
+
+    Motions (turns in place, walks) are summed into the segment ``seg_of`` names; mean
+    slope and relative heading are weighted by ground distance.
+    """
     w = np.maximum(out[:, OUT_DISTANCE], 1e-12)
-    df = pd.DataFrame(
-        {
-            "segment": seg_of,
-            "energy_j": out[:, OUT_ENERGY],
-            "duration_s": out[:, OUT_DURATION],
-            "distance_m": out[:, OUT_DISTANCE],
-            "turn": out[:, OUT_TURN],
-            "slope_x_d": out[:, OUT_MEAN_SLOPE] * w,
-            "gamma_x_d": out[:, OUT_MEAN_GAMMA] * w,
-            "w": w,
-            "max_slope": out[:, OUT_MAX_SLOPE],
-            "e_fwd": out[:, OUT_E_FORWARD] + out[:, OUT_E_BACKWARD],
-            "e_lat": out[:, OUT_E_LATERAL],
-            "e_turn": out[:, OUT_E_TURNING],
-            "e_other": out[:, OUT_E_OTHER],
-        }
-    )
-    g = df.groupby("segment").agg("sum")
-    g["max_slope"] = df.groupby("segment")["max_slope"].max()
-    g = g.reindex(range(n_seg), fill_value=0.0)
-    work = g[["e_fwd", "e_lat", "e_turn", "e_other"]].sum(axis=1).to_numpy()
+
+    def total(v: np.ndarray) -> np.ndarray:
+        return np.bincount(seg_of, weights=v, minlength=n_seg)[:n_seg]
+
+    weight = total(w)
+    has = np.bincount(seg_of, minlength=n_seg)[:n_seg] > 0
+    max_slope = np.zeros(n_seg)
+    np.maximum.at(max_slope, seg_of, out[:, OUT_MAX_SLOPE])
+    max_slope[~has] = 0.0
+    kinds = {
+        "forward_share": total(out[:, OUT_E_FORWARD] + out[:, OUT_E_BACKWARD]),
+        "lateral_share": total(out[:, OUT_E_LATERAL]),
+        "turning_share": total(out[:, OUT_E_TURNING]),
+        "other_share": total(out[:, OUT_E_OTHER]),
+    }
+    # the work of each kind summed as its shares: fwd + lat + turn + other
+    work = kinds["forward_share"] + kinds["lateral_share"] + kinds["turning_share"]
+    work = work + kinds["other_share"]
     safe = np.where(work > 0, work, np.nan)
-    table = pd.DataFrame(
-        {
+    with np.errstate(invalid="ignore", divide="ignore"):
+        table = {
             "segment": np.arange(n_seg),
-            "energy_j": g["energy_j"].to_numpy(),
-            "distance_m": g["distance_m"].to_numpy(),
-            "duration_s": g["duration_s"].to_numpy(),
-            "turn_deg": np.degrees(g["turn"].to_numpy()),
-            "mean_slope_deg": np.degrees(g["slope_x_d"] / g["w"]).to_numpy(),
-            "max_slope_deg": np.degrees(g["max_slope"]).to_numpy(),
-            "mean_rel_heading_deg": np.degrees(g["gamma_x_d"] / g["w"]).to_numpy(),
-            "forward_share": g["e_fwd"].to_numpy() / safe,
-            "lateral_share": g["e_lat"].to_numpy() / safe,
-            "turning_share": g["e_turn"].to_numpy() / safe,
-            "other_share": g["e_other"].to_numpy() / safe,
+            "energy_j": total(out[:, OUT_ENERGY]),
+            "distance_m": total(out[:, OUT_DISTANCE]),
+            "duration_s": total(out[:, OUT_DURATION]),
+            "turn_deg": np.degrees(total(out[:, OUT_TURN])),
+            "mean_slope_deg": np.degrees(total(out[:, OUT_MEAN_SLOPE] * w) / weight),
+            "max_slope_deg": np.degrees(max_slope),
+            "mean_rel_heading_deg": np.degrees(total(out[:, OUT_MEAN_GAMMA] * w) / weight),
+            **{k: v / safe for k, v in kinds.items()},
         }
-    )
-    return table[SEGMENT_COLUMNS]
+    return {c: table[c] for c in SEGMENT_COLUMNS}

@@ -95,6 +95,7 @@ def prepare_logs(
 
     findings, fixed = check_data(samples, repair=repair)
     clean, report = preprocess(fixed)
+    del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
     return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)
 
 

@@ -19,18 +19,21 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from energy_planner.errors import FitError, FormulaError, ModelError, NonPositivePowerError
 from energy_planner.model.terms import BASE_TERMS, CATALOG, KINDS, Term, resolve_term
 from energy_planner.request import DEFAULT_SPEED
 from energy_planner.stats import independent_columns, wls
+
+if TYPE_CHECKING:  # pandas is imported where a frame is made: the energy path never needs it
+    import pandas as pd
 
 __all__ = [
     "EnergyModel",
@@ -71,7 +74,8 @@ def prepare_features(features: Mapping[str, Any] | pd.DataFrame) -> dict[str, An
 
     ``speed = hypot(vx, vy)``. A DataFrame's columns become arrays.
     """
-    if isinstance(features, pd.DataFrame):
+    pandas = sys.modules.get("pandas")  # a DataFrame exists only once pandas is imported
+    if pandas is not None and isinstance(features, pandas.DataFrame):
         out: dict[str, Any] = {c: features[c].to_numpy() for c in features.columns}
     else:
         out = dict(features)
@@ -186,20 +190,23 @@ class EnergyModel:
         """
         f = prepare_features(features)
         n = _n_rows(f)
-        cols = []
-        for term in self.terms:
+        X = np.empty((n, len(self.terms)))  # filled in place: no second copy of the design
+        for j, term in enumerate(self.terms):
             try:
                 col = term.parsed.evaluate(f)
             except FormulaError as exc:
                 raise ModelError(f"term {term.name!r}: {exc}") from exc
-            cols.append(np.broadcast_to(col, (n,)).astype(float))
-        X = np.column_stack(cols) if cols else np.zeros((n, 0))
+            X[:, j] = np.broadcast_to(col, (n,))
         if groups is None:
             return X
+        import pandas as pd
+
         return pd.DataFrame(X).groupby(np.asarray(groups), sort=True).mean().to_numpy()
 
     def contributions(self, features: Mapping[str, Any] | pd.DataFrame) -> pd.DataFrame:
         """Per-sample power of each term (W), one column per term (before the floor)."""
+        import pandas as pd
+
         X = self.design_matrix(features)
         return pd.DataFrame(X * self.coef_array(), columns=self.term_names)
 
@@ -246,6 +253,8 @@ class EnergyModel:
         X = self.design_matrix(features, groups)
         y = np.asarray(power, dtype=float)
         if groups is not None and y.shape[0] != X.shape[0]:
+            import pandas as pd
+
             y = pd.Series(y).groupby(np.asarray(groups), sort=True).mean().to_numpy()
         if y.shape[0] != X.shape[0]:
             raise FitError(f"power has {y.shape[0]} values but the features {X.shape[0]} rows")

@@ -28,7 +28,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 
 from energy_planner.errors import FitError
 
@@ -237,6 +236,8 @@ def cluster_covariance(
     B = X.T @ (X * w[:, None])
     Binv = np.linalg.pinv(B)
     labels = np.asarray(clusters).astype(str)
+    import pandas as pd  # not at import: the energy path loads this module without it
+
     scores = pd.DataFrame(X * (w * np.asarray(resid, float))[:, None]).groupby(labels).sum()
     g = scores.shape[0]
     if g < 2:

@@ -1,0 +1,80 @@
+"""#21 point 4: discover's memory does not grow with the number of candidates.
+
+``WindowData`` keeps every candidate's window means but at most
+``SAMPLE_CACHE_BYTES`` of per-sample columns, evaluating ``EVAL_CHUNK`` terms at a time;
+a column let go is evaluated again. The staircase must not depend on either: with no
+per-sample cache at all and one term at a time, discover chooses the same terms with the
+same held-out numbers as with the defaults.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+
+def _discover(logs):
+    from energy_planner.diagnosis.discover import discover
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return discover(logs, max_steps=1, fit_final=False).to_dict()
+
+
+def _same(a, b, path="") -> None:
+    """Equal documents, floats to 1e-12 relative."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for k in a:
+            _same(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list | tuple):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same(x, y, f"{path}[{i}]")
+    elif isinstance(a, float):
+        assert (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=1e-12), (path, a, b)
+    else:
+        assert a == b, path
+
+
+def test_no_sample_cache_gives_the_same_staircase(monkeypatch):
+    from energy_planner.diagnosis import data
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camp = simulate_campaign(seed=1, effects=("load",), config=CampaignConfig.small())
+    logs = camp.logs.drop(columns=["ground", "air_temp_c", "grass_height_m"])
+    default = _discover(logs)
+    monkeypatch.setattr(data, "SAMPLE_CACHE_BYTES", 0)
+    monkeypatch.setattr(data, "EVAL_CHUNK", 1)
+    bare = _discover(logs)
+    _same(default, bare)
+    assert len(default["added"]) >= 1  # the load was found: the comparison is not empty
+    assert np.isfinite(default["staircase"][-1]["heldout_rmse_w"])
+
+
+def test_the_sample_cache_is_bounded(monkeypatch):
+    from energy_planner.diagnosis import data
+    from energy_planner.diagnosis.data import window_data
+    from energy_planner.measurements import prepare_logs
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camp = simulate_campaign(seed=2, config=CampaignConfig.small())
+        wd = window_data(prepare_logs(camp.logs).windows)
+    n = len(wd.samples)
+    monkeypatch.setattr(data, "SAMPLE_CACHE_BYTES", 3 * 8 * n)  # three columns
+    terms = [f"vx * {k}" for k in range(1, 11)]
+    cols = wd.sample_columns(terms)
+    # every column asked for is returned, right, though the cache keeps three
+    vx = wd.samples["vx"].to_numpy(float)
+    for k in range(10):
+        np.testing.assert_array_equal(cols[:, k], vx * (k + 1))
+    assert len(wd._sample_cache) == 3
+    # window means of every term stay: the mean of k * vx is k times the mean of vx
+    means = wd.columns(terms)
+    np.testing.assert_allclose(means, wd.window_mean(vx)[:, None] * np.arange(1, 11), rtol=1e-12)

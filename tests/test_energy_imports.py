@@ -1,0 +1,60 @@
+"""#21 point 5: the ``energy`` command's path imports no pandas (about 0.2-0.5 s of start-up).
+
+The per-segment table is computed with numpy; ``PathEnergy.segments`` builds the pandas
+frame only when asked, and holds the same numbers as the JSON rows.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+
+from energy_planner.maps import map_path
+
+CODE = (
+    "import json, sys\n"
+    "from click.testing import CliRunner\n"
+    "from energy_planner.cli import main\n"
+    "r = CliRunner().invoke(main, ['energy', '--dem', sys.argv[1], '--waypoints', sys.argv[2],"
+    " '--json'])\n"
+    "assert r.exit_code == 0, r.output\n"
+    "print(json.dumps({'pandas': 'pandas' in sys.modules, 'out': json.loads(r.stdout)}))\n"
+)
+
+
+def test_energy_command_does_not_import_pandas(tmp_path):
+    wp = tmp_path / "w.csv"
+    wp.write_text("x,y\n500058,5000046\n500058,5000080\n500090,5000080\n")
+    done = subprocess.run(
+        [sys.executable, "-c", CODE, str(map_path("hill")), str(wp)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    res = json.loads(done.stdout.strip().splitlines()[-1])
+    assert res["pandas"] is False
+    segs = res["out"]["segments"]
+    assert [s["segment"] for s in segs] == [0, 1]
+    # the segments add up to the totals
+    total = res["out"]["energy_j"]
+    assert abs(sum(s["energy_j"] for s in segs) - total) <= 1e-9 * total
+
+
+def test_segments_frame_equals_the_table():
+    from energy_planner.energy import path_energy
+    from energy_planner.model import EnergyModel
+    from energy_planner.terrain import load_dem
+
+    t = load_dem(map_path("hill"))
+    xy = np.array([[500058.0, 5000046.0], [500058.0, 5000080.0], [500090.0, 5000080.0]])
+    pe = path_energy(t, EnergyModel.default(), xy)
+    df = pe.segments
+    rows = pe.to_dict()["segments"]
+    assert list(df.columns) == list(rows[0])
+    for i, row in enumerate(rows):
+        for c, v in row.items():
+            np.testing.assert_equal(df[c].iloc[i], v)
+    # a corner: the turn in place belongs to the second segment, its time at the yaw rate
+    assert rows[0]["turn_deg"] == 0.0 and abs(rows[1]["turn_deg"] - 90.0) < 1e-9
+    assert abs(sum(r["duration_s"] for r in rows) - pe.duration_s) <= 1e-9 * pe.duration_s
