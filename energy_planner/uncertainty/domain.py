@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from energy_planner.errors import EnergyPlannerError
+
+if TYPE_CHECKING:  # pandas is imported on use: `energy` prices paths without it
+    import pandas as pd
 
 __all__ = [
     "QUANTITIES",
@@ -257,6 +259,8 @@ def window_segments(table: pd.DataFrame) -> pd.DataFrame:
         else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
     )
     slope = np.degrees(table["alpha"].to_numpy(float))
+    import pandas as pd
+
     seg = pd.DataFrame(
         {
             "distance_m": speed * dur,
@@ -299,6 +303,8 @@ def heldout_outside_shares(
             vals = {c: table[c].to_numpy()[idx] for c in chan_cols if c in dom["channels"]}
             rep = report_against(dom, seg.iloc[idx].reset_index(drop=True), None, None, vals)
             out[run] = rep["outside_share"]
+    import pandas as pd
+
     return pd.Series(out, dtype=float)
 
 
