@@ -14,21 +14,8 @@ from hypothesis import strategies as st
 import energy_planner as ep
 from energy_planner.follow import Follower, ForgettingRLS, path_term_energies, seed_covariance
 from energy_planner.model import EnergyModel
-from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
+from energy_planner.simulate import simulate_missions
 from energy_planner.simulate.config import MissionEvent
-
-# one mission, walked forward at a constant speed: the plan's timing is the log's
-CFG = MissionConfig.small(
-    missions=1,
-    duration_s=150.0,
-    stop_prob=0.0,
-    sideways_prob=0.0,
-    backward_prob=0.0,
-    speeds=(0.3,),
-    loads_kg=(0.0,),
-    grounds=("asphalt",),
-)
-SEED = 1
 
 
 @given(
@@ -109,33 +96,17 @@ def test_term_energies_price_the_path_as_path_energy_does():
     assert float((pt.energy @ m2.coef_array()).sum()) == pytest.approx(1.2 * ref.energy_j, rel=1e-9)
 
 
-def _mission(events=()):
-    camp = simulate_missions(seed=SEED, config=CFG.replace(events=tuple(events)))
-    return camp.logs
-
-
-def _follower(logs, **kw):
-    k = np.arange(0, len(logs), 10)  # the plan: the walked path every 0.5 s, with times
-    k[-1] = len(logs) - 1
-    return Follower(
-        synthetic_dem(SEED),
-        ep.load_model(),
-        logs[["x", "y"]].to_numpy()[k],
-        logs["yaw"].to_numpy()[k],
-        logs["t"].to_numpy()[k],
-        **kw,
-    )
-
-
 def _true_remaining(logs, u):
     t = logs["t"].to_numpy()
     p = (logs["voltage"] * logs["current"]).to_numpy()
     return float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t))) - u.used_j
 
 
-def test_follower_after_a_payload_pick_up_beats_the_static_prediction():
-    logs = _mission([MissionEvent("payload", at=0.3, load_kg=15.0)])
-    f = _follower(logs)
+def test_follower_after_a_payload_pick_up_beats_the_static_prediction(
+    follow_mission, make_follower
+):
+    logs = follow_mission([MissionEvent("payload", at=0.3, load_kg=15.0)])
+    f = make_follower(logs)
     ups = f.replay(logs, chunk_s=1.0)
     t0, t1 = logs["t"].iloc[0], logs["t"].iloc[-1]
     for frac in (0.6, 0.75):
@@ -152,17 +123,19 @@ def test_follower_after_a_payload_pick_up_beats_the_static_prediction():
     assert t0 + 0.3 * (t1 - t0) <= t_said <= t0 + 0.3 * (t1 - t0) + 10.0
 
 
-def test_slope_disagreement_reported_on_a_biased_stretch_and_not_on_a_clean_one():
+def test_slope_disagreement_reported_on_a_biased_stretch_and_not_on_a_clean_one(
+    follow_mission, make_follower
+):
     # stated threshold: 3 sd of the IMU's tilt error (0.3 deg bias per run, 0.05 deg per
     # sample) + 0.5 deg for the DEM's footprint: 1.4 deg; the DEM is 5 deg off over
     # 30-60 % of the mission, along the heading at the stretch's start.
-    clean_logs = _mission()
-    clean = _follower(clean_logs)
+    clean_logs = follow_mission()
+    clean = make_follower(clean_logs)
     clean.replay(clean_logs)
     assert clean.slope_tol_deg == pytest.approx(1.4, abs=0.05)
     assert clean.findings == []
-    logs = _mission([MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0)])
-    f = _follower(logs)
+    logs = follow_mission([MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0)])
+    f = make_follower(logs)
     f.replay(logs)
     assert len(f.findings) >= 1
     fd = f.findings[0]
@@ -175,13 +148,13 @@ def test_slope_disagreement_reported_on_a_biased_stretch_and_not_on_a_clean_one(
     assert math.hypot(fd.x_start - logs["x"].iloc[i], fd.y_start - logs["y"].iloc[i]) < 2.0
 
 
-def test_follow_cli_json_records(tmp_path):
+def test_follow_cli_json_records(tmp_path, follow_config):
     from energy_planner.cli import main
     from energy_planner.io.geotiff import write_geotiff  # noqa: F401 (the writer exists)
     from energy_planner.io.path_format import write_path_from_work
 
     ter = ep.open_terrain(ep.map_path("hill"))
-    cfg = CFG.replace(duration_s=40.0)
+    cfg = follow_config.replace(duration_s=40.0)
     logs = simulate_missions(seed=2, config=cfg, terrain=ter).logs
     k = np.r_[np.arange(0, len(logs), 10), len(logs) - 1]
     states = logs[["x", "y", "yaw"]].to_numpy()[k]
@@ -237,14 +210,14 @@ def test_follow_cli_json_records(tmp_path):
     assert res.exit_code == 1 and "x, y" in res.output
 
 
-def test_follower_replans_when_the_battery_chance_falls_and_says_so():
+def test_follower_replans_when_the_battery_chance_falls_and_says_so(follow_config):
     # a 40 m tilted plane (small: the replan's search is quick); the battery holds the
     # static plan with 10 % to spare, so a 15 kg payload at 30 % sinks the chance
     from energy_planner.terrain import Terrain
 
     x = np.arange(40.0)
     ter = Terrain.from_array(np.tile(0.15 * x, (40, 1)), resolution=1.0)
-    cfg = CFG.replace(
+    cfg = follow_config.replace(
         duration_s=60.0,
         waypoint_spacing_m=4.0,
         events=(MissionEvent("payload", at=0.3, load_kg=15.0),),

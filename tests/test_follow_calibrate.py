@@ -8,23 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import energy_planner as ep
-from energy_planner.follow import Follower, RemainingScores
+from energy_planner.follow import RemainingScores
 from energy_planner.follow.calibrate import calibrate_remaining, counted
-from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
 from energy_planner.simulate.config import MissionEvent
 from energy_planner.uncertainty import interval
-
-CFG = MissionConfig.small(
-    missions=1,
-    duration_s=150.0,
-    stop_prob=0.0,
-    sideways_prob=0.0,
-    backward_prob=0.0,
-    speeds=(0.3,),
-    loads_kg=(0.0,),
-    grounds=("asphalt",),
-)
-SEED = 1
 
 
 @given(
@@ -69,48 +56,38 @@ def test_group_falls_back_to_its_state_then_to_all_when_too_few():
     assert back.scores == rs.scores
 
 
-def _mission(events=()):
-    return simulate_missions(seed=SEED, config=CFG.replace(events=tuple(events))).logs
-
-
-def _follower(logs, **kw):
-    k = np.arange(0, len(logs), 10)
-    k[-1] = len(logs) - 1
-    return Follower(
-        synthetic_dem(SEED),
-        ep.load_model(),
-        logs[["x", "y"]].to_numpy()[k],
-        logs["yaw"].to_numpy()[k],
-        logs["t"].to_numpy()[k],
-        **kw,
-    )
-
-
-def test_dem_error_windows_and_the_dead_band_leave_the_fit_coefficients_unchanged():
+def test_dem_error_windows_and_the_dead_band_leave_the_fit_coefficients_unchanged(
+    follow_mission, make_follower
+):
     # A stretch where the DEM is 5 deg off: the IMU sees it (a finding), its windows are
     # DEM errors, not model errors; nothing else changes, so no change of conditions is
     # detected and the coefficients stay exactly the fit's (the dead band).
-    logs = _mission([MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0)])
-    f = _follower(logs)
+    logs = follow_mission([MissionEvent("dem_bias", at=0.3, until=0.6, slope_bias_deg=5.0)])
+    f = make_follower(logs)
     ups = f.replay(logs)
     assert f.findings
     assert not [e for e in f.events if "a change of conditions" in e]
     np.testing.assert_array_equal(f.rls.coef, ep.load_model().coef_array())
     assert {u.state for u in ups} >= {"steady", "dem"}
     # without the dead band the coefficients are learnt from every window ...
-    g = _follower(logs, dead_band=False)
+    g = make_follower(logs, dead_band=False)
     x = np.ones_like(g.c0)
     before = g.rls.coef.copy()
     g._n_windows = 1
     # ... except a window whose IMU slope disagrees with the DEM's beyond the tolerance
     g._update(0.0, x, 500.0, 10.0, 12.0, 12.0 - 2 * g.slope_tol_deg, (0, 0), (0, 0), 8.0)
     np.testing.assert_array_equal(g.rls.coef, before)
+    # and the agreeing window right after it (it straddles the stretch's end)
     g._update(0.0, x, 500.0, 12.0, 12.0, 12.0, (0, 0), (0, 0), 10.0)
+    np.testing.assert_array_equal(g.rls.coef, before)
+    g._update(0.0, x, 500.0, 14.0, 12.0, 12.0, (0, 0), (0, 0), 12.0)
     assert not np.array_equal(g.rls.coef, before)
 
 
-def test_calibrated_interval_is_the_conformal_interval_of_the_followers_group():
-    logs = _mission([MissionEvent("payload", at=0.3, load_kg=15.0)])
+def test_calibrated_interval_is_the_conformal_interval_of_the_followers_group(
+    follow_mission, make_follower
+):
+    logs = follow_mission([MissionEvent("payload", at=0.3, load_kg=15.0)])
     rng = np.random.default_rng(3)
     rs = RemainingScores(
         {
@@ -118,7 +95,7 @@ def test_calibrated_interval_is_the_conformal_interval_of_the_followers_group():
             for i, s in enumerate(("steady", "adapting", "dem"))
         }  # fmt: skip
     )
-    f = _follower(logs, remaining_scores=rs)
+    f = make_follower(logs, remaining_scores=rs)
     ups = f.replay(logs)
     assert {u.state for u in ups} == {"steady", "adapting"}
     for u in ups[::7]:

@@ -9,6 +9,7 @@ import click
 
 from energy_planner.cli.options import (
     battery_options,
+    channel_options,
     dem_option,
     emit,
     examples,
@@ -93,13 +94,7 @@ def _text(res: dict[str, Any]) -> str:
     help="Forgetting factor of the online update, per 2 s window.",
 )
 @click.option("--no-replan", is_flag=True, help="Report a low chance of success but do not replan.")
-@click.option(
-    "--set",
-    "sets",
-    multiple=True,
-    metavar="NAME=VALUE",
-    help="A channel the model reads, as a constant (repeatable).",
-)
+@channel_options
 @speed_option
 @yaw_rate_option
 @json_option
@@ -117,6 +112,7 @@ def command(
     forgetting: float,
     no_replan: bool,
     sets: tuple[str, ...],
+    channels: tuple[str, ...],
     speed: float,
     yaw_rate: float,
     as_json: bool,
@@ -150,7 +146,7 @@ def command(
         )
     terrain = load_terrain(dem, None)
     model = load_model_option(model_path)
-    constants = dict(channels_from_options(sets, ()).constants)
+    ch = channels_from_options(sets, channels)
     try:
         samples = load_logs(log)
     except (LogError, LogIOError) as exc:
@@ -169,7 +165,7 @@ def command(
             wp,
             run=run,
             speedup=speedup,
-            constants=constants,
+            channels=ch,
             battery_wh=battery_wh,
             reserve_wh=reserve_wh,
             confidence=confidence,

@@ -115,6 +115,7 @@ def follow_simulated_mission(
     model: Any,
     duration: float = 240.0,
     rate: float = 20.0,
+    known_stretch: bool = False,
     **options: Any,
 ) -> dict[str, Any]:
     """Simulate one mission with ``event`` and follow it (the plan is the walked path).
@@ -129,6 +130,10 @@ def follow_simulated_mission(
         The model the follower starts from.
     duration, rate : float
         Mission length (s) and log rate (Hz).
+    known_stretch : bool
+        Tell the follower where a ``dem_bias`` stretch ends (``bias_until_m``: the
+        distance along the path at the event's ``until``), as if the DEM's error were
+        mapped; its size is still measured online.
     **options
         Passed to :class:`~energy_planner.follow.Follower`.
 
@@ -169,10 +174,16 @@ def follow_simulated_mission(
         logs["t"].to_numpy()[k],
         **options,
     )
+    t = logs["t"].to_numpy()
+    if known_stretch and events and events[0].kind == "dem_bias":
+        t_end = t[0] + events[0].until * (t[-1] - t[0])
+        along = np.r_[0.0, np.cumsum(f.path.duration_s)]
+        f.bias_until_m = float(
+            np.interp(t_end - t[0], along, np.r_[0.0, np.cumsum(f.path.distance_m)])
+        )
     t0w, t0c = time.perf_counter(), time.process_time()
     ups = f.replay(logs, chunk_s=1.0)
     wall, cpu = time.perf_counter() - t0w, time.process_time() - t0c
-    t = logs["t"].to_numpy()
     p = (logs["voltage"] * logs["current"]).to_numpy()
     total = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
     ut = np.array([u.t for u in ups])
