@@ -38,8 +38,8 @@ def test_group_interval_covers_exchangeable_errors_at_least_at_the_level(
 
     hits = 0
     for _ in range(reps):
-        rs = RemainingScores({"steady": [list(draw(n)), [], []]})
-        sc = rs.for_group("steady", 0.1, level)
+        rs = RemainingScores({"steady": [(0.5, float(e)) for e in draw(n)]})
+        sc = rs.for_group("steady", 0.5, level)
         e_true = 1000.0
         e_pred = e_true * (1.0 + draw(1)[0])
         iv = interval(e_pred, sc, level)
@@ -48,10 +48,14 @@ def test_group_interval_covers_exchangeable_errors_at_least_at_the_level(
 
 
 def test_group_falls_back_to_its_state_then_to_all_when_too_few():
-    rs = RemainingScores({"steady": [[0.01] * 5, [0.02] * 20, []], "dem": [[0.5] * 3, [], []]})
-    assert rs.for_group("steady", 0.5, 0.9).tolist() == [0.02] * 20  # its bin: 20 >= 19
-    assert rs.for_group("steady", 0.9, 0.9).size == 25  # bin empty: the state's 25
-    assert rs.for_group("dem", 0.1, 0.9).size == 28  # state has 3: all
+    rs = RemainingScores(
+        {"steady": [(0.1, 0.01)] * 5 + [(0.5, 0.02)] * 20, "dem": [(0.1, 0.5)] * 3}
+    )
+    assert rs.for_group("steady", 0.5, 0.9).tolist() == [0.02] * 20  # its share: 20 >= 19
+    assert rs.for_group("steady", 0.51, 0.9).tolist() == [0.02] * 20  # within 0.025
+    # 5 near 0.1: the neighbourhood doubles (0.05, 0.1, 0.2, 0.4) until it holds 0.5's
+    assert rs.for_group("steady", 0.1, 0.9).size == 25
+    assert rs.for_group("dem", 0.1, 0.9).size == 28  # state has 3: every state's
     back = RemainingScores.from_dict(rs.to_dict())
     assert back.scores == rs.scores
 
@@ -110,5 +114,7 @@ def test_calibration_scores_only_what_the_follower_has_picked_up():
     assert counted({"t_event": None, "picked_at": None}, 1.0)
     rs = calibrate_remaining(ep.load_model(), seeds=[7], events=("none",), duration=60.0)
     assert rs.seeds == (7,)
-    n = sum(len(b) for b in rs.scores["steady"])
-    assert n == 14 and not any(rs.scores["adapting"]) and not any(rs.scores["dem"])
+    assert len(rs.scores["steady"]) == 14 and not rs.scores["adapting"] and not rs.scores["dem"]
+    shares = sorted(p[0] for p in rs.scores["steady"])  # remaining 80 % ... 15 %, 2 s steps
+    assert shares[0] == pytest.approx(0.15, abs=0.04) and shares[-1] == pytest.approx(0.8, abs=0.04)
+    assert RemainingScores.from_dict(rs.to_dict()) == rs

@@ -24,6 +24,7 @@ arrive. Every complete window of the log (cut by
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -34,7 +35,13 @@ import pandas as pd
 
 from energy_planner.errors import EnergyPlannerError
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
-from energy_planner.follow.terms import PathTerms, motion_term_energies, path_term_energies
+from energy_planner.follow.terms import (
+    PathTerms,
+    coefficient_channels,
+    motion_term_energies,
+    path_term_energies,
+    runtime_coefficient_model,
+)
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 from energy_planner.uncertainty import DEFAULT_LEVEL, interval, model_scores, success_probability
 
@@ -354,6 +361,7 @@ class Follower:
         self.slope_tol_deg = float(slope_tol_deg)
         self.bias_ahead_m = bias_ahead_m
         self.bias_until_m = bias_until_m
+        self._runtime_model: Any = None
         self.updates: list[FollowUpdate] = []
         self.findings: list[SlopeFinding] = []
         self.events: list[str] = []
@@ -766,16 +774,35 @@ class Follower:
             metadata=m.metadata,
         )
 
+    def replan_inputs(self) -> tuple[Any, Any]:
+        """The model and request a replan plans with: the updated coefficients at run time.
+
+        The model is :func:`~energy_planner.follow.terms.runtime_coefficient_model` of the
+        fit's (built once), the request the follower's with the current coefficients as
+        its constant channels: every replan shares one compiled motion kernel, whatever
+        the coefficients (a model with the coefficients compiled in, as
+        :meth:`current_model`, would compile a kernel per update).
+        """
+        from energy_planner.request import Request
+
+        if self._runtime_model is None:
+            self._runtime_model = runtime_coefficient_model(self.model)
+        req = self.request if self.request is not None else Request()
+        base = req.channels if req.channels is not None else self.channels
+        chans = coefficient_channels(self.rls.coef, base)
+        return self._runtime_model, dataclasses.replace(req, channels=chans)
+
     def _plan_to(self, start, goal) -> tuple[PathTerms, float, float | None] | None:
         from energy_planner.planning.plan import plan
 
+        model, request = self.replan_inputs()
         try:
             res = plan(
                 self.terrain,
-                self.current_model(),
+                model,
                 start,
                 goal,
-                self.request,
+                request,
                 time=self.replan_time,
                 progress=False,
             )

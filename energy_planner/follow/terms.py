@@ -169,3 +169,40 @@ def path_term_energies(
         terrain, model, poses, durations, speed, yaw_rate, channels
     )
     return PathTerms(poses, energy, distance, duration, list(model.term_names))
+
+
+#: Prefix of the channels that carry a runtime-coefficient model's coefficients.
+COEF_CHANNEL = "follow_coef_"
+
+
+def runtime_coefficient_model(model: Any) -> Any:
+    """``model`` with its coefficients moved out of the compiled kernel.
+
+    Term ``k`` becomes ``follow_coef_k * (formula_k)`` with a coefficient of 1 (same name,
+    kind and explanation); the coefficients travel as the constant channels
+    ``follow_coef_k`` (:func:`coefficient_channels`), which the motion kernel takes as
+    run-time inputs. The kernel's source is then the same for any coefficients: a
+    follower that replans with updated coefficients compiles it once, not per update.
+    """
+    from energy_planner.model import EnergyModel
+
+    terms = [
+        dataclasses.replace(t, formula=f"{COEF_CHANNEL}{k} * ({t.formula})")
+        for k, t in enumerate(model.terms)
+    ]
+    return EnergyModel(
+        terms,
+        {t.name: 1.0 for t in terms},
+        regenerative=model.regenerative,
+        metadata=model.metadata,
+    )
+
+
+def coefficient_channels(coef: np.ndarray, channels: Channels | None = None) -> Channels:
+    """The channels of :func:`runtime_coefficient_model` for coefficients ``coef``.
+
+    ``channels``: the channels the model itself reads, kept.
+    """
+    base = channels if channels is not None else Channels()
+    consts = {f"{COEF_CHANNEL}{k}": float(c) for k, c in enumerate(coef)}
+    return dataclasses.replace(base, constants={**dict(base.constants), **consts})
