@@ -390,15 +390,19 @@ class Follower:
         self._adapting = False  # a change was detected: the coefficients follow the log
 
     # ------------------------------------------------------------------ input
-    def feed(self, samples: pd.DataFrame) -> list[FollowUpdate]:
-        """Take newly arrived log samples; return the updates of the windows they complete."""
-        if len(samples) == 0:
-            return []
-        self._check(samples)
-        used = self._integrate_power(samples)
+    def feed(self, samples: Any) -> list[FollowUpdate]:
+        """Take newly arrived log samples; return the updates of the windows they complete.
+
+        ``samples``: a DataFrame of the canonical log table, or a mapping of its columns
+        to arrays (what :meth:`replay` feeds: no table work per chunk).
+        """
         # only what windows and the model read: extra channels cost time in make_windows
-        cols = [c for c in self._columns if c in samples.columns]
-        arrived = {c: samples[c].to_numpy() for c in cols}
+        cols = {c: np.asarray(samples[c]) for c in (*self._columns, "run") if c in samples}
+        if "t" not in cols or len(cols["t"]) == 0:
+            return []
+        self._check(cols)
+        used = self._integrate_power(cols)
+        arrived = {c: v for c, v in cols.items() if c != "run"}
         arrived["_used"] = used
         buf = (
             arrived
@@ -427,9 +431,10 @@ class Follower:
         """
         import time
 
-        t = samples["t"].to_numpy(float)
+        cols = {c: samples[c].to_numpy() for c in (*self._columns, "run") if c in samples}
+        t = cols["t"].astype(float)
         edges = np.searchsorted(t, np.arange(t[0], t[-1] + chunk_s, chunk_s), side="left")
-        edges = np.r_[edges, len(samples)]
+        edges = np.r_[edges, len(t)]
         out: list[FollowUpdate] = []
         wall0 = time.monotonic()
         for a, b in zip(edges[:-1], edges[1:], strict=True):
@@ -439,11 +444,11 @@ class Follower:
                 wait = (t[b - 1] - t[0]) / speedup - (time.monotonic() - wall0)
                 if wait > 0:
                     time.sleep(wait)
-            out += self.feed(samples.iloc[a:b])
+            out += self.feed({c: v[a:b] for c, v in cols.items()})
         return out + self.finish()
 
-    def _check(self, samples: pd.DataFrame) -> None:
-        missing = [c for c in ("x", "y") if c not in samples.columns]
+    def _check(self, samples: dict[str, np.ndarray]) -> None:
+        missing = [c for c in ("x", "y") if c not in samples]
         if missing:
             raise FollowError(
                 f"the log has no pose column(s) {', '.join(missing)}: a follower needs the "
@@ -452,7 +457,7 @@ class Follower:
                 value=missing,
                 expected="columns x, y",
             )
-        r = samples["run"].to_numpy() if "run" in samples.columns else np.array(["log"])
+        r = samples["run"] if "run" in samples else np.array(["log"])
         runs = [r[0]] if (r == r[0]).all() else list(pd.unique(r.astype(str)))
         if self._run is None:
             self._run = str(runs[0])
@@ -462,17 +467,17 @@ class Follower:
                 f"{self._run!r}): follow one mission at a time (choose it with --run)",
                 value=list(map(str, runs[:5])),
             )
-        if self._last_power is not None and samples["t"].iloc[0] <= self._last_power[0]:
+        t0 = float(samples["t"][0])
+        if self._last_power is not None and t0 <= self._last_power[0]:
             raise FollowError(
-                f"time goes back: sample at t={samples['t'].iloc[0]:g} s after "
-                f"t={self._last_power[0]:g} s",
-                value=float(samples["t"].iloc[0]),
+                f"time goes back: sample at t={t0:g} s after t={self._last_power[0]:g} s",
+                value=t0,
             )
 
-    def _integrate_power(self, samples: pd.DataFrame) -> np.ndarray:
+    def _integrate_power(self, samples: dict[str, np.ndarray]) -> np.ndarray:
         """Battery energy spent up to each new sample (trapezoids of voltage * current)."""
-        t = samples["t"].to_numpy(float)
-        p = samples["voltage"].to_numpy(float) * samples["current"].to_numpy(float)
+        t = samples["t"].astype(float)
+        p = samples["voltage"].astype(float) * samples["current"].astype(float)
         t0, p0 = self._last_power if self._last_power is not None else (t[0], p[0])
         tt, pp = np.r_[t0, t], np.r_[p0, p]
         used = self._used_j + np.cumsum(0.5 * (pp[1:] + pp[:-1]) * np.diff(tt))
