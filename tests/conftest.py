@@ -13,18 +13,9 @@ FOLLOW_SEED = 1
 @pytest.fixture(scope="session")
 def follow_config():
     """The follower tests' mission configuration (150 s, forward only, 0.3 m/s)."""
-    from energy_planner.simulate import MissionConfig
+    from energy_planner.follow.calibrate import forward_mission
 
-    return MissionConfig.small(
-        missions=1,
-        duration_s=150.0,
-        stop_prob=0.0,
-        sideways_prob=0.0,
-        backward_prob=0.0,
-        speeds=(0.3,),
-        loads_kg=(0.0,),
-        grounds=("asphalt",),
-    )
+    return forward_mission(150.0, 20.0)
 
 
 @pytest.fixture(scope="session")

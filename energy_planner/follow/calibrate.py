@@ -171,9 +171,31 @@ def bundled_scores() -> RemainingScores:
     ``docs/follow.md``): the bundled model's follower on simulated missions of every
     event case, seeds from 1000 (disjoint from the benchmark's).
     """
-    from importlib.resources import files
+    from pathlib import Path
 
-    return RemainingScores.load(files("energy_planner.data").joinpath(SCORES_FILE))
+    return RemainingScores.load(Path(__file__).resolve().parents[1] / "data" / SCORES_FILE)
+
+
+def forward_mission(duration: float = 240.0, rate: float = 20.0, events: tuple = ()) -> Any:
+    """One mission walked forward at 0.3 m/s on asphalt, unloaded, without stops.
+
+    The follower's missions (benchmark, calibration, tests): a constant gait, so the
+    plan's timing (the walked path with its times) is the log's.
+    """
+    from energy_planner.simulate import MissionConfig
+
+    return MissionConfig(
+        missions=1,
+        duration_s=duration,
+        rate_hz=rate,
+        stop_prob=0.0,
+        sideways_prob=0.0,
+        backward_prob=0.0,
+        speeds=(0.3,),
+        loads_kg=(0.0,),
+        grounds=("asphalt",),
+        events=tuple(events),
+    )
 
 
 def follow_simulated_mission(
@@ -183,6 +205,7 @@ def follow_simulated_mission(
     duration: float = 240.0,
     rate: float = 20.0,
     known_stretch: bool = False,
+    terrain: Any = None,
     **options: Any,
 ) -> dict[str, Any]:
     """Simulate one mission with ``event`` and follow it (the plan is the walked path).
@@ -201,6 +224,8 @@ def follow_simulated_mission(
         Tell the follower where a ``dem_bias`` stretch ends (``bias_until_m``: the
         distance along the path at the event's ``until``), as if the DEM's error were
         mapped; its size is still measured online.
+    terrain : Terrain, optional
+        The ground (default: the simulator's synthetic hill of ``seed``).
     **options
         Passed to :class:`~energy_planner.follow.Follower`.
 
@@ -215,26 +240,16 @@ def follow_simulated_mission(
     import time
 
     from energy_planner.follow.core import Follower
-    from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
+    from energy_planner.simulate import simulate_missions, synthetic_dem
 
     events = mission_events(event)
-    cfg = MissionConfig(
-        missions=1,
-        duration_s=duration,
-        rate_hz=rate,
-        stop_prob=0.0,
-        sideways_prob=0.0,
-        backward_prob=0.0,
-        speeds=(0.3,),
-        loads_kg=(0.0,),
-        grounds=("asphalt",),
-        events=events,
-    )
-    logs = simulate_missions(seed=seed, config=cfg).logs
+    cfg = forward_mission(duration, rate, events)
+    terrain = synthetic_dem(seed) if terrain is None else terrain
+    logs = simulate_missions(seed=seed, config=cfg, terrain=terrain).logs
     step = max(1, int(round(0.5 * rate)))
     k = np.r_[np.arange(0, len(logs) - 1, step), len(logs) - 1]
     f = Follower(
-        synthetic_dem(seed),
+        terrain,
         model,
         logs[["x", "y"]].to_numpy()[k],
         logs["yaw"].to_numpy()[k],

@@ -45,7 +45,15 @@ from energy_planner.follow.terms import (
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 from energy_planner.uncertainty import DEFAULT_LEVEL, interval, model_scores, success_probability
 
-__all__ = ["FollowUpdate", "Follower", "SlopeFinding", "FollowError", "follow_log", "walked_path"]
+__all__ = [
+    "FollowUpdate",
+    "Follower",
+    "SlopeFinding",
+    "FollowError",
+    "follow_log",
+    "imu_gradient",
+    "walked_path",
+]
 
 #: Per-sample features the windows derive (not log channels).
 _FEATURES = {"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "power"}
@@ -65,6 +73,13 @@ def imu_gradient(alpha: Any, gamma: Any, yaw: Any) -> np.ndarray:
     a, g, th = (np.asarray(v, dtype=float) for v in (alpha, gamma, yaw))
     psi = th - np.arctan2(np.sin(g), np.cos(g) * np.cos(a))
     return np.tan(a)[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
+
+
+def _conditions_text(scores: Any) -> str:
+    c = getattr(scores, "conditions", None) or {}
+    if "duration_s" not in c:
+        return ""
+    return f": simulated missions of {c['duration_s']:g} s at {c.get('rate_hz', 0):g} Hz"
 
 
 class FollowError(EnergyPlannerError, ValueError):
@@ -133,6 +148,7 @@ class FollowUpdate:
             "innovation_w": self.innovation_w,
             "event": self.event,
             "state": self.state,
+            "remaining_share": self.remaining_share,
         }
 
 
@@ -348,7 +364,9 @@ class Follower:
         if remaining_scores is not None:
             self.notes.append(
                 "interval: split-conformal on the follower's own held-out remaining-energy "
-                f"errors ({len(remaining_scores.seeds)} calibration seeds)"
+                f"errors ({len(remaining_scores.seeds)} calibration seeds"
+                + _conditions_text(remaining_scores)
+                + "), per state and remaining share"
             )
         elif self.scores is None:
             self.notes.append(
