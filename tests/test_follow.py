@@ -202,8 +202,11 @@ def test_follow_cli_json_records(tmp_path, follow_config):
 
     assert any("split-conformal on the follower's own" in n for n in doc["notes"])
     sc = bundled_scores()
-    for u in doc["updates"][::5]:
-        iv = interval(u["remaining_j"], sc.for_group(u["state"], u["remaining_share"], 0.9), 0.9)
+    assert sc.normalized  # scores in units of the follower's own spread at the checkpoint
+    for u in doc["updates"]:
+        assert u["remaining_high_j"] >= u["remaining_j"]
+        z = sc.for_group(u["state"], u["remaining_share"], 0.9)
+        iv = interval(u["remaining_j"], np.maximum(z * u["spread"], -0.9), 0.9)
         assert (u["remaining_low_j"], u["remaining_high_j"]) == pytest.approx(
             (max(iv.low_j, 0.0), iv.high_j), rel=1e-12
         )

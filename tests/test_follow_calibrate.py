@@ -93,18 +93,27 @@ def test_calibrated_interval_is_the_conformal_interval_of_the_followers_group(
 ):
     logs = follow_mission([MissionEvent("payload", at=0.3, load_kg=15.0)])
     rng = np.random.default_rng(3)
-    rs = RemainingScores(
-        {
-            s: [list(rng.normal(0.0, 0.01 * (i + 1), 30)) for _ in range(3)]
-            for i, s in enumerate(("steady", "adapting", "dem"))
-        }  # fmt: skip
-    )
-    f = make_follower(logs, remaining_scores=rs)
-    ups = f.replay(logs)
-    assert {u.state for u in ups} == {"steady", "adapting"}
-    for u in ups[::7]:
-        iv = interval(u.remaining_j, rs.for_group(u.state, u.remaining_share, 0.9), 0.9)
-        assert (u.low_j, u.high_j) == pytest.approx((max(iv.low_j, 0.0), iv.high_j))
+    scores = {
+        s: list(zip(rng.uniform(0, 1, 400).tolist(),
+                    rng.normal(0.0, 0.01 * (i + 1), 400).tolist(), strict=True))
+        for i, s in enumerate(("steady", "adapting", "dem"))
+    }  # fmt: skip
+    for normalized in (False, True):
+        rs = RemainingScores(scores, normalized=normalized)
+        f = make_follower(logs, remaining_scores=rs)
+        ups = f.replay(logs)
+        assert {u.state for u in ups} == {"steady", "adapting"}
+        for u in ups[::7]:
+            z = rs.for_group(u.state, u.remaining_share, 0.9)
+            assert 19 <= z.size < 400  # the scores near its remaining share only
+            # normalized: the scores are in units of the follower's own spread
+            sc = np.maximum(z * u.spread, -0.9) if normalized else z
+            iv = interval(u.remaining_j, sc, 0.9)
+            assert (u.low_j, u.high_j) == pytest.approx((max(iv.low_j, 0.0), iv.high_j))
+    # the spread is larger after the pick-up (the follower is catching up) than before
+    steady = [u.spread for u in ups if u.state == "steady"]
+    adapting = [u.spread for u in ups if u.state == "adapting"]
+    assert np.median(adapting) > np.median(steady)
 
 
 def test_calibration_scores_only_what_the_follower_has_picked_up():
@@ -117,4 +126,4 @@ def test_calibration_scores_only_what_the_follower_has_picked_up():
     assert len(rs.scores["steady"]) == 14 and not rs.scores["adapting"] and not rs.scores["dem"]
     shares = sorted(p[0] for p in rs.scores["steady"])  # remaining 80 % ... 15 %, 2 s steps
     assert shares[0] == pytest.approx(0.15, abs=0.04) and shares[-1] == pytest.approx(0.8, abs=0.04)
-    assert RemainingScores.from_dict(rs.to_dict()) == rs
+    assert rs.normalized and RemainingScores.from_dict(rs.to_dict()) == rs

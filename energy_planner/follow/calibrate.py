@@ -88,11 +88,18 @@ class RemainingScores:
         The simulated missions' seeds they come from.
     conditions : dict
         What they were measured on (mission length, log rate, events, checkpoints).
+    normalized : bool
+        The scores are divided by the follower's own relative spread at their checkpoint
+        (:attr:`~energy_planner.follow.FollowUpdate.spread`); a follower multiplies them
+        by its current spread (normalized split-conformal: the interval is wide where
+        the follower is unsure, e.g. soon after a large change, and narrow elsewhere,
+        with the same guarantee).
     """
 
     scores: dict[str, list[tuple[float, float]]]
     seeds: tuple[int, ...] = field(default=())
     conditions: dict[str, Any] = field(default_factory=dict)
+    normalized: bool = False
 
     def for_group(
         self, state: str, share: float, level: float, width: float = SHARE_WIDTH
@@ -125,13 +132,19 @@ class RemainingScores:
             "scores": {k: [list(p) for p in v] for k, v in self.scores.items()},
             "seeds": list(self.seeds),
             "conditions": dict(self.conditions),
+            "normalized": self.normalized,
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RemainingScores:
         """Back from :meth:`to_dict`."""
         scores = {k: [(float(a), float(b)) for a, b in v] for k, v in d["scores"].items()}
-        return cls(scores, tuple(d.get("seeds", ())), dict(d.get("conditions", {})))
+        return cls(
+            scores,
+            tuple(d.get("seeds", ())),
+            dict(d.get("conditions", {})),
+            bool(d.get("normalized", False)),
+        )
 
     def save(self, path: Any) -> Any:
         """Write the scores as JSON (through :func:`energy_planner.io.write_json`)."""
@@ -338,7 +351,7 @@ def calibrate_remaining(
                 u = run["updates"][i]
                 if not counted(run, u.t) or run["true"][i] <= 0:
                     continue
-                score = float(u.remaining_j / run["true"][i] - 1.0)
+                score = float(u.remaining_j / run["true"][i] - 1.0) / u.spread
                 out[u.state].append((float(u.remaining_share), score))
     conditions = {
         "duration_s": float(duration),
@@ -346,4 +359,4 @@ def calibrate_remaining(
         "events": list(events),
         "checkpoints": [round(float(c), 6) for c in cps],
     }
-    return RemainingScores(out, seeds, conditions)
+    return RemainingScores(out, seeds, conditions, normalized=True)

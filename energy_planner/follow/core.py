@@ -55,6 +55,10 @@ __all__ = [
     "walked_path",
 ]
 
+#: Smallest relative spread a calibrated score is normalized by (0.2 %: the order of the
+#: remaining-energy error on plain ground).
+SPREAD_FLOOR = 0.002
+
 #: Per-sample features the windows derive (not log channels).
 _FEATURES = {"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "power"}
 
@@ -115,6 +119,11 @@ class FollowUpdate:
         coefficients follow the log) or ``dem`` (a slope finding: the DEM is wrong here).
     remaining_share : float
         Share of the path's time still ahead.
+    spread : float
+        The follower's own relative uncertainty of the remaining energy (the
+        coefficients' variance and the power the model still misses over the time left,
+        over the remaining energy; at least :data:`SPREAD_FLOOR`): calibrated scores
+        are normalized by it.
     """
 
     t: float
@@ -131,6 +140,7 @@ class FollowUpdate:
     event: str | None = None
     state: str = "steady"
     remaining_share: float = 1.0
+    spread: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
@@ -149,6 +159,7 @@ class FollowUpdate:
             "event": self.event,
             "state": self.state,
             "remaining_share": self.remaining_share,
+            "spread": self.spread,
         }
 
 
@@ -399,6 +410,7 @@ class Follower:
         self._power_w = 0.0
         self.change_share = float(change_share)
         self._rem_s = 0.0
+        self._spread = SPREAD_FLOOR
         self._last_power: tuple[float, float] | None = None  # (t, p) of the last sample
         self._motion = 0
         self._done_m = 0.0
@@ -658,6 +670,7 @@ class Follower:
             event,
             self.state,
             self._rem_s / self._total_s,
+            self._spread,
         )
         self.updates.append(u)
         return u
@@ -673,18 +686,24 @@ class Follower:
     def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
         """Remaining energy, its interval and the chance the battery suffices."""
         rem = float(max(r @ self.rls.coef, 0.0))
+        # the coefficients' uncertainty, and the power the model still misses (the recent
+        # mean innovation: large while it catches up with a change) over the time left
+        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
+        self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
         if self.remaining_scores is not None:
             sc = self.remaining_scores.for_group(
                 self.state, self._rem_s / self._total_s, self.level
             )
+            if getattr(self.remaining_scores, "normalized", False):
+                # normalized conformal: the scores are in units of the spread; a relative
+                # error is > -1 (E_pred / E_true - 1), and below -0.9 would say the rest
+                # costs over ten times its prediction: clipped there (a wider interval)
+                sc = np.maximum(sc * self._spread, -0.9)
             iv = interval(rem, sc, self.level)
             prob = None
             if self.usable_j is not None:
                 prob = success_probability(rem, sc, self.usable_j - self._used_at)
             return rem, max(iv.low_j, 0.0), iv.high_j, prob
-        # the coefficients' uncertainty, and the power the model still misses (the recent
-        # mean innovation: large while it catches up with a change) over the time left
-        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
         if self.scores is not None:
             iv = interval(rem, self.scores, self.level)
             low, high = iv.low_j - self.z * sd, iv.high_j + self.z * sd
