@@ -9,10 +9,12 @@ import click
 
 from energy_planner.cli.options import (
     battery_options,
+    channel_options,
     dem_option,
     emit,
     examples,
     json_option,
+    level_option,
     load_model_option,
     model_option,
     speed_option,
@@ -71,12 +73,16 @@ def _text(res: dict[str, Any]) -> str:
 )
 @model_option
 @battery_options
+@level_option
 @click.option(
-    "--level",
-    type=click.FloatRange(0.5, 0.99),
-    default=0.9,
-    show_default=True,
-    help="Nominal coverage of the remaining energy's interval.",
+    "--scores",
+    "scores_file",
+    default=None,
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="The follower's calibrated remaining-energy errors (JSON of "
+    "RemainingScores.save, e.g. benchmarks/bench_follow.py --save-scores): the interval is "
+    "split-conformal on them. Default: the bundled scores with the bundled model; with "
+    "--model and no --scores, the model's run-error interval widened (said in the notes).",
 )
 @click.option("--run", default=None, help="The run to follow when LOG holds several.")
 @click.option(
@@ -93,13 +99,7 @@ def _text(res: dict[str, Any]) -> str:
     help="Forgetting factor of the online update, per 2 s window.",
 )
 @click.option("--no-replan", is_flag=True, help="Report a low chance of success but do not replan.")
-@click.option(
-    "--set",
-    "sets",
-    multiple=True,
-    metavar="NAME=VALUE",
-    help="A channel the model reads, as a constant (repeatable).",
-)
+@channel_options
 @speed_option
 @yaw_rate_option
 @json_option
@@ -112,11 +112,13 @@ def command(
     reserve_wh: float,
     confidence: float,
     level: float,
+    scores_file: Path | None,
     run: str | None,
     speedup: float | None,
     forgetting: float,
     no_replan: bool,
     sets: tuple[str, ...],
+    channels: tuple[str, ...],
     speed: float,
     yaw_rate: float,
     as_json: bool,
@@ -140,7 +142,8 @@ def command(
         WaypointError,
         WaypointIOError,
     )
-    from energy_planner.follow import FollowError, follow_log, walked_path
+    from energy_planner.follow import FollowError, RemainingScores, follow_log, walked_path
+    from energy_planner.follow.calibrate import bundled_scores
     from energy_planner.measurements import load_logs
 
     if battery_wh is not None and not reserve_wh < battery_wh:
@@ -150,7 +153,14 @@ def command(
         )
     terrain = load_terrain(dem, None)
     model = load_model_option(model_path)
-    constants = dict(channels_from_options(sets, ()).constants)
+    ch = channels_from_options(sets, channels)
+    try:
+        if scores_file is not None:
+            scores = RemainingScores.load(scores_file)
+        else:
+            scores = bundled_scores() if model_path is None else None
+    except FollowError as exc:
+        raise click.BadParameter(str(exc), param_hint="--scores") from exc
     try:
         samples = load_logs(log)
     except (LogError, LogIOError) as exc:
@@ -169,7 +179,8 @@ def command(
             wp,
             run=run,
             speedup=speedup,
-            constants=constants,
+            channels=ch,
+            remaining_scores=scores,
             battery_wh=battery_wh,
             reserve_wh=reserve_wh,
             confidence=confidence,

@@ -703,11 +703,14 @@ def trust_options(f):
                      help="Exit with an error (status 1) when the chance is below "
                      "--confidence (default: a warning).")(f)  # fmt: skip
     f = battery_options(f)
-    level = click.option(
-        "--level", type=click.FloatRange(0.5, 0.99), default=0.9, show_default=True,
-        help="Nominal coverage of the energy's prediction interval.",
-    )  # fmt: skip
-    return level(f)
+    return level_option(f)
+
+
+#: ``--level``: the nominal coverage of an energy's prediction interval.
+level_option = click.option(
+    "--level", type=click.FloatRange(0.5, 0.99), default=0.9, show_default=True,
+    help="Nominal coverage of the energy's prediction interval.",
+)  # fmt: skip
 
 
 def add_trust(

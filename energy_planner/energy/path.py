@@ -41,6 +41,7 @@ __all__ = [
     "PathEnergy",
     "path_energy",
     "face_along_poses",
+    "path_poses",
     "check_cost_power",
     "SEGMENT_COLUMNS",
 ]
@@ -208,11 +209,7 @@ def path_energy(
     EnergyPlannerError
         For malformed input (shapes, times not increasing).
     """
-    xy = np.asarray(xy, dtype=float)
-    if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 2:
-        raise EnergyPlannerError(f"waypoints must be an (n >= 2, 2) array of x, y; got {xy.shape}")
-    if not np.isfinite(xy).all():
-        raise EnergyPlannerError("waypoints contain NaN or infinite coordinates")
+    xy = _waypoints(xy)
     n = xy.shape[0]
     if cost is None:
         cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants, channels=channels)
@@ -224,22 +221,7 @@ def path_energy(
             f"waypoint {i} at ({xy[i, 0]:.2f}, {xy[i, 1]:.2f}) is outside the map or on "
             f"nodata ({bad.size} waypoint(s) are: {bad.tolist()[:10]})"
         )
-    if t is not None:
-        t = np.asarray(t, dtype=float)
-        if t.shape != (n,) or not np.all(np.diff(t) > 0):
-            raise EnergyPlannerError("times must have one value per waypoint and increase strictly")
-    seg_dt = None if t is None else np.diff(t)
-
-    if yaw is not None:
-        yaw = np.asarray(yaw, dtype=float)
-        if yaw.shape != (n,) or not np.isfinite(yaw).all():
-            raise EnergyPlannerError("yaw must have one finite value per waypoint")
-        poses = np.column_stack([xy, yaw])
-        seg_of = np.arange(n - 1)
-        durations = np.full(n - 1, -1.0) if seg_dt is None else seg_dt
-    else:
-        poses, seg_of, durations = _face_along(xy, seg_dt, cost.yaw_rate)
-
+    poses, seg_of, durations = path_poses(xy, yaw, t, cost.yaw_rate)
     out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations)
     invalid = np.flatnonzero(out[:, OUT_CODE] != OK)
     if invalid.size:
@@ -364,6 +346,55 @@ def _check_path_power(
             "<= 0 J): the model prices this walking motion at zero or negative power (on "
             "the channel values there); refit the model on logs that include this motion"
         )
+
+
+def _waypoints(xy: Any) -> np.ndarray:
+    xy = np.asarray(xy, dtype=float)
+    if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 2:
+        raise EnergyPlannerError(f"waypoints must be an (n >= 2, 2) array of x, y; got {xy.shape}")
+    if not np.isfinite(xy).all():
+        raise EnergyPlannerError("waypoints contain NaN or infinite coordinates")
+    return xy
+
+
+def path_poses(
+    xy: Any, yaw: Any = None, t: Any = None, yaw_rate: float = DEFAULT_YAW_RATE
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The executed motions of a path, as :func:`path_energy` walks it.
+
+    Parameters
+    ----------
+    xy, yaw, t, yaw_rate
+        As for :func:`path_energy`.
+
+    Returns
+    -------
+    poses : ndarray, shape (m, 3)
+        The executed poses ``(x, y, yaw)``, turns in place included.
+    seg_of : ndarray of int, shape (m - 1,)
+        The waypoint segment of each motion.
+    durations : ndarray, shape (m - 1,)
+        Each motion's duration, s (-1: timed by the nominal speed and yaw rate).
+
+    Raises
+    ------
+    EnergyPlannerError
+        Malformed waypoints, yaw or times (not one per waypoint, not increasing).
+    """
+    xy = _waypoints(xy)
+    n = xy.shape[0]
+    if t is not None:
+        t = np.asarray(t, dtype=float)
+        if t.shape != (n,) or not np.all(np.diff(t) > 0):
+            raise EnergyPlannerError("times must have one value per waypoint and increase strictly")
+    seg_dt = None if t is None else np.diff(t)
+    if yaw is None:
+        return _face_along(xy, seg_dt, yaw_rate)
+    yaw = np.asarray(yaw, dtype=float)
+    if yaw.shape != (n,) or not np.isfinite(yaw).all():
+        raise EnergyPlannerError("yaw must have one finite value per waypoint")
+    durations = np.full(n - 1, -1.0) if seg_dt is None else seg_dt
+    return np.column_stack([xy, yaw]), np.arange(n - 1), durations
 
 
 def face_along_poses(xy: Any) -> np.ndarray:

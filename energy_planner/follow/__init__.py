@@ -7,17 +7,23 @@
 See :mod:`energy_planner.follow.core` and ``docs/follow.md``.
 """
 
-from energy_planner.follow.calibrate import RemainingScores, calibrate_remaining
+from energy_planner.follow.calibrate import RemainingScores, bundled_scores, calibrate_remaining
 from energy_planner.follow.core import (
     Follower,
     FollowError,
     FollowUpdate,
     SlopeFinding,
     follow_log,
+    imu_gradient,
     walked_path,
 )
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
-from energy_planner.follow.terms import PathTerms, path_term_energies
+from energy_planner.follow.terms import (
+    PathTerms,
+    coefficient_channels,
+    path_term_energies,
+    runtime_coefficient_model,
+)
 
 __all__ = [
     "FollowError",
@@ -27,9 +33,13 @@ __all__ = [
     "PathTerms",
     "RemainingScores",
     "SlopeFinding",
+    "bundled_scores",
     "calibrate_remaining",
+    "coefficient_channels",
     "follow_log",
+    "imu_gradient",
     "path_term_energies",
+    "runtime_coefficient_model",
     "seed_covariance",
     "walked_path",
 ]

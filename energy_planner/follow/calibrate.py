@@ -8,10 +8,12 @@ where the DEM is wrong). This module measures those errors on simulated missions
 (seeds disjoint from any benchmark's) and keeps them as split-conformal scores
 ``r = E_pred / E_true - 1`` per **group**: the follower's state (``steady``: no change
 detected; ``adapting``: a change detected, the coefficients follow the log; ``dem``: a
-slope finding was made) and the remaining share of the path (three bins). With ``n``
-exchangeable scores in a group, the interval :func:`energy_planner.uncertainty.interval`
-built on them covers a new error of the same group with probability at least the level,
-by construction (Mondrian split-conformal).
+slope finding was made) and the remaining share of the path at the checkpoint. Every
+calibration mission is scored at the same checkpoints, so the scores of a state near one
+remaining share are one per mission; with ``n`` of them exchangeable with a new mission's
+error at that checkpoint, the interval :func:`energy_planner.uncertainty.interval` built on
+them covers it with probability at least the level, by construction (Mondrian
+split-conformal, per checkpoint: the coverage holds at each share, not only pooled).
 
 Which checkpoints are scored: every one on a mission without an event, and on a mission
 with one, those after the follower has **picked the event up** (its first change detection
@@ -32,6 +34,7 @@ import numpy as np
 
 __all__ = [
     "RemainingScores",
+    "bundled_scores",
     "calibrate_remaining",
     "follow_simulated_mission",
     "mission_events",
@@ -41,8 +44,11 @@ __all__ = [
 #: The mid-mission events of the benchmark and the calibration.
 EVENT_NAMES = ("none", "payload", "mud", "dem_bias")
 
-#: Remaining-share bin edges of the scores.
-SHARE_EDGES = (0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0)
+#: Half-width of the remaining-share neighbourhood a score group is read from.
+SHARE_WIDTH = 0.025
+
+#: The bundled model's calibrated scores (in ``energy_planner/data``).
+SCORES_FILE = "follow_scores.json"
 
 #: The follower's states the scores are grouped by.
 STATES = ("steady", "adapting", "dem")
@@ -76,37 +82,133 @@ class RemainingScores:
     Attributes
     ----------
     scores : dict
-        ``{state: [scores of share bin 0, bin 1, bin 2]}`` (``SHARE_EDGES``).
+        ``{state: [(remaining share, score), ...]}``: each score with the share of the
+        path's time still ahead at its checkpoint.
     seeds : tuple of int
         The simulated missions' seeds they come from.
+    conditions : dict
+        What they were measured on (mission length, log rate, events, checkpoints).
+    normalized : bool
+        The scores are divided by the follower's own relative spread at their checkpoint
+        (:attr:`~energy_planner.follow.FollowUpdate.spread`); a follower multiplies them
+        by its current spread (normalized split-conformal: the interval is wide where
+        the follower is unsure, e.g. soon after a large change, and narrow elsewhere,
+        with the same guarantee).
     """
 
-    scores: dict[str, list[list[float]]]
+    scores: dict[str, list[tuple[float, float]]]
     seeds: tuple[int, ...] = field(default=())
+    conditions: dict[str, Any] = field(default_factory=dict)
+    normalized: bool = False
 
-    def for_group(self, state: str, share: float, level: float) -> np.ndarray:
-        """The scores of a group; if it holds too few for ``level``, its state's, then all.
+    def for_group(
+        self, state: str, share: float, level: float, width: float = SHARE_WIDTH
+    ) -> np.ndarray:
+        """The scores of ``state`` whose remaining share is within ``width`` of ``share``.
 
-        A two-sided split-conformal interval at ``level`` needs ``n >= 2 / (1 - level) - 1``
-        scores to have finite bounds.
+        The calibration scores every mission at the same checkpoints, so the scores near
+        a checkpoint are one per mission: exchangeable with a new mission's error there
+        (split-conformal per checkpoint). Where they are fewer than a two-sided interval
+        at ``level`` needs (``n >= 2 / (1 - level) - 1``), ``width`` doubles until they
+        suffice; a state with too few at any width falls back to every state's.
         """
         need = math.ceil(2.0 / (1.0 - level) - 1.0)
-        b = int(np.clip(np.searchsorted(SHARE_EDGES, share, side="right") - 1, 0, 2))
-        by_bin = self.scores.get(state, [[], [], []])
-        for cand in (by_bin[b], sum(by_bin, []), sum(sum(self.scores.values(), []), [])):
-            if len(cand) >= need:
-                return np.asarray(cand, dtype=float)
-        return np.asarray(sum(sum(self.scores.values(), []), []), dtype=float)
+        pools = [self.scores.get(state, []), [p for v in self.scores.values() for p in v]]
+        for pool in pools:
+            arr = np.asarray(pool, dtype=float).reshape(-1, 2)
+            w = float(width)
+            while True:
+                near = arr[np.abs(arr[:, 0] - share) <= w + 1e-12, 1]
+                if near.size >= need:
+                    return near
+                if w >= 1.0:
+                    break
+                w *= 2.0
+        return np.asarray([p[1] for v in self.scores.values() for p in v], dtype=float)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields."""
-        return {"scores": self.scores, "seeds": list(self.seeds), "share_edges": SHARE_EDGES}
+        return {
+            "scores": {k: [list(p) for p in v] for k, v in self.scores.items()},
+            "seeds": list(self.seeds),
+            "conditions": dict(self.conditions),
+            "normalized": self.normalized,
+        }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RemainingScores:
         """Back from :meth:`to_dict`."""
-        return cls({k: [list(map(float, b)) for b in v] for k, v in d["scores"].items()},
-                   tuple(d.get("seeds", ())))  # fmt: skip
+        scores = {k: [(float(a), float(b)) for a, b in v] for k, v in d["scores"].items()}
+        return cls(
+            scores,
+            tuple(d.get("seeds", ())),
+            dict(d.get("conditions", {})),
+            bool(d.get("normalized", False)),
+        )
+
+    def save(self, path: Any) -> Any:
+        """Write the scores as JSON (through :func:`energy_planner.io.write_json`)."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path: Any) -> RemainingScores:
+        """Read scores written by :meth:`save`.
+
+        Raises
+        ------
+        FollowError
+            The file is not a scores file (names it and what was expected).
+        """
+        import json
+        from pathlib import Path
+
+        from energy_planner.follow.core import FollowError
+
+        p = Path(path)
+        try:
+            return cls.from_dict(json.loads(p.read_text()))
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise FollowError(
+                f"{p}: not a follower's calibrated scores file ({exc}); expected the JSON "
+                "RemainingScores.save writes: scores {state: [[share, score], ...]}",
+                value=str(p),
+            ) from exc
+
+
+def bundled_scores() -> RemainingScores:
+    """The bundled model's calibrated scores (``energy_planner/data/follow_scores.json``).
+
+    Made by ``python benchmarks/bench_follow.py --calibrate-only --save-scores`` (see
+    ``docs/follow.md``): the bundled model's follower on simulated missions of every
+    event case, seeds from 1000 (disjoint from the benchmark's).
+    """
+    from pathlib import Path
+
+    return RemainingScores.load(Path(__file__).resolve().parents[1] / "data" / SCORES_FILE)
+
+
+def forward_mission(duration: float = 240.0, rate: float = 20.0, events: tuple = ()) -> Any:
+    """One mission walked forward at 0.3 m/s on asphalt, unloaded, without stops.
+
+    The follower's missions (benchmark, calibration, tests): a constant gait, so the
+    plan's timing (the walked path with its times) is the log's.
+    """
+    from energy_planner.simulate import MissionConfig
+
+    return MissionConfig(
+        missions=1,
+        duration_s=duration,
+        rate_hz=rate,
+        stop_prob=0.0,
+        sideways_prob=0.0,
+        backward_prob=0.0,
+        speeds=(0.3,),
+        loads_kg=(0.0,),
+        grounds=("asphalt",),
+        events=tuple(events),
+    )
 
 
 def follow_simulated_mission(
@@ -115,6 +217,8 @@ def follow_simulated_mission(
     model: Any,
     duration: float = 240.0,
     rate: float = 20.0,
+    known_stretch: bool = False,
+    terrain: Any = None,
     **options: Any,
 ) -> dict[str, Any]:
     """Simulate one mission with ``event`` and follow it (the plan is the walked path).
@@ -129,6 +233,12 @@ def follow_simulated_mission(
         The model the follower starts from.
     duration, rate : float
         Mission length (s) and log rate (Hz).
+    known_stretch : bool
+        Tell the follower where a ``dem_bias`` stretch ends (``bias_until_m``: the
+        distance along the path at the event's ``until``), as if the DEM's error were
+        mapped; its size is still measured online.
+    terrain : Terrain, optional
+        The ground (default: the simulator's synthetic hill of ``seed``).
     **options
         Passed to :class:`~energy_planner.follow.Follower`.
 
@@ -143,36 +253,32 @@ def follow_simulated_mission(
     import time
 
     from energy_planner.follow.core import Follower
-    from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
+    from energy_planner.simulate import simulate_missions, synthetic_dem
 
     events = mission_events(event)
-    cfg = MissionConfig(
-        missions=1,
-        duration_s=duration,
-        rate_hz=rate,
-        stop_prob=0.0,
-        sideways_prob=0.0,
-        backward_prob=0.0,
-        speeds=(0.3,),
-        loads_kg=(0.0,),
-        grounds=("asphalt",),
-        events=events,
-    )
-    logs = simulate_missions(seed=seed, config=cfg).logs
+    cfg = forward_mission(duration, rate, events)
+    terrain = synthetic_dem(seed) if terrain is None else terrain
+    logs = simulate_missions(seed=seed, config=cfg, terrain=terrain).logs
     step = max(1, int(round(0.5 * rate)))
     k = np.r_[np.arange(0, len(logs) - 1, step), len(logs) - 1]
     f = Follower(
-        synthetic_dem(seed),
+        terrain,
         model,
         logs[["x", "y"]].to_numpy()[k],
         logs["yaw"].to_numpy()[k],
         logs["t"].to_numpy()[k],
         **options,
     )
+    t = logs["t"].to_numpy()
+    if known_stretch and events and events[0].kind == "dem_bias":
+        t_end = t[0] + events[0].until * (t[-1] - t[0])
+        along = np.r_[0.0, np.cumsum(f.path.duration_s)]
+        f.bias_until_m = float(
+            np.interp(t_end - t[0], along, np.r_[0.0, np.cumsum(f.path.distance_m)])
+        )
     t0w, t0c = time.perf_counter(), time.process_time()
     ups = f.replay(logs, chunk_s=1.0)
     wall, cpu = time.perf_counter() - t0w, time.process_time() - t0c
-    t = logs["t"].to_numpy()
     p = (logs["voltage"] * logs["current"]).to_numpy()
     total = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
     ut = np.array([u.t for u in ups])
@@ -234,7 +340,7 @@ def calibrate_remaining(
     RemainingScores
     """
     cps = np.arange(0.2, 0.851, 0.05) if checkpoints is None else np.asarray(checkpoints)
-    out: dict[str, list[list[float]]] = {s: [[], [], []] for s in STATES}
+    out: dict[str, list[tuple[float, float]]] = {s: [] for s in STATES}
     seeds = tuple(int(s) for s in seeds)
     for seed in seeds:
         for ev in events:
@@ -245,6 +351,12 @@ def calibrate_remaining(
                 u = run["updates"][i]
                 if not counted(run, u.t) or run["true"][i] <= 0:
                     continue
-                b = int(np.clip(np.searchsorted(SHARE_EDGES, u.remaining_share, "right") - 1, 0, 2))
-                out[u.state][b].append(float(u.remaining_j / run["true"][i] - 1.0))
-    return RemainingScores(out, seeds)
+                score = float(u.remaining_j / run["true"][i] - 1.0) / u.spread
+                out[u.state].append((float(u.remaining_share), score))
+    conditions = {
+        "duration_s": float(duration),
+        "rate_hz": float(rate),
+        "events": list(events),
+        "checkpoints": [round(float(c), 6) for c in cps],
+    }
+    return RemainingScores(out, seeds, conditions, normalized=True)

@@ -24,6 +24,7 @@ arrive. Every complete window of the log (cut by
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -34,14 +35,55 @@ import pandas as pd
 
 from energy_planner.errors import EnergyPlannerError
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
-from energy_planner.follow.terms import PathTerms, path_term_energies
+from energy_planner.follow.terms import (
+    PathTerms,
+    coefficient_channels,
+    motion_term_energies,
+    path_term_energies,
+    runtime_coefficient_model,
+)
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 from energy_planner.uncertainty import DEFAULT_LEVEL, interval, model_scores, success_probability
 
-__all__ = ["FollowUpdate", "Follower", "SlopeFinding", "FollowError", "follow_log", "walked_path"]
+__all__ = [
+    "FollowUpdate",
+    "Follower",
+    "SlopeFinding",
+    "FollowError",
+    "follow_log",
+    "imu_gradient",
+    "walked_path",
+]
+
+#: Smallest relative spread a calibrated score is normalized by (0.2 %: the order of the
+#: remaining-energy error on plain ground).
+SPREAD_FLOOR = 0.002
 
 #: Per-sample features the windows derive (not log channels).
 _FEATURES = {"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay", "power"}
+
+
+def imu_gradient(alpha: Any, gamma: Any, yaw: Any) -> np.ndarray:
+    """The ground's gradient ``(dz/dx, dz/dy)`` the IMU measures, shape ``(n, 2)``.
+
+    From the slope ``alpha``, the relative heading ``gamma`` (in the slope plane:
+    ``tan(gamma) = tan(yaw - psi) cos(alpha)``, design notes) and the body's yaw: the
+    uphill azimuth ``psi = yaw - atan2(sin(gamma), cos(gamma) cos(alpha))`` and the
+    gradient ``tan(alpha) (cos(psi), sin(psi))``.
+
+    >>> imu_gradient([math.atan(0.1)], [0.0], [math.pi / 2]).round(12).tolist()
+    [[0.0, 0.1]]
+    """
+    a, g, th = (np.asarray(v, dtype=float) for v in (alpha, gamma, yaw))
+    psi = th - np.arctan2(np.sin(g), np.cos(g) * np.cos(a))
+    return np.tan(a)[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
+
+
+def _conditions_text(scores: Any) -> str:
+    c = getattr(scores, "conditions", None) or {}
+    if "duration_s" not in c:
+        return ""
+    return f": simulated missions of {c['duration_s']:g} s at {c.get('rate_hz', 0):g} Hz"
 
 
 class FollowError(EnergyPlannerError, ValueError):
@@ -77,6 +119,11 @@ class FollowUpdate:
         coefficients follow the log) or ``dem`` (a slope finding: the DEM is wrong here).
     remaining_share : float
         Share of the path's time still ahead.
+    spread : float
+        The follower's own relative uncertainty of the remaining energy (the
+        coefficients' variance and the power the model still misses over the time left,
+        over the remaining energy; at least :data:`SPREAD_FLOOR`): calibrated scores
+        are normalized by it.
     """
 
     t: float
@@ -93,6 +140,7 @@ class FollowUpdate:
     event: str | None = None
     state: str = "steady"
     remaining_share: float = 1.0
+    spread: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
@@ -110,6 +158,8 @@ class FollowUpdate:
             "innovation_w": self.innovation_w,
             "event": self.event,
             "state": self.state,
+            "remaining_share": self.remaining_share,
+            "spread": self.spread,
         }
 
 
@@ -164,8 +214,10 @@ class _Stretch:
     t1: float
     p0: tuple[float, float]
     p1: tuple[float, float]
+    done0: float = 0.0  # distance done along the path at the stretch's start, m
     imu: list[float] = field(default_factory=list)
     dem: list[float] = field(default_factory=list)
+    offset: list[tuple[float, float]] = field(default_factory=list)  # IMU - DEM gradient
 
 
 class Follower:
@@ -185,8 +237,8 @@ class Follower:
         :func:`~energy_planner.energy.path_energy`.
     speed, yaw_rate : float
         Nominal speed and yaw rate (when the path has no times).
-    constants : mapping, optional
-        Channel values the model reads (``--set``).
+    channels : Channels, optional
+        Values of the channels the model reads (``--set`` / ``--channel``) on the path.
     battery_wh, reserve_wh : float, optional
         Battery and reserve, Wh; with them each update gives the chance of success.
     confidence : float
@@ -236,6 +288,17 @@ class Follower:
         (:func:`~energy_planner.follow.calibrate.calibrate_remaining`); with them the
         interval is split-conformal on those errors (by remaining share and by whether a
         change has been detected) instead of the model's run errors widened.
+    bias_ahead_m : float, optional
+        While a stretch where the IMU's slope disagrees with the DEM's is open, the rest
+        of the path is priced on the DEM tilted by the measured gradient offset (IMU
+        minus DEM, the stretch's mean) over this many ground metres ahead, and on the DEM
+        beyond. Default (None): as far ahead as the stretch has been walked so far (where
+        it ends is not observable; if the current point is anywhere in it with equal
+        chance, the median of what is left equals what has been walked). 0: never.
+    bias_until_m : float, optional
+        Where the DEM's error is known to end (a mapped stretch, e.g. earthworks the DEM
+        predates), ground metres along the path from its start: the measured offset is
+        then applied from the current pose up to there (instead of ``bias_ahead_m``).
     """
 
     def __init__(
@@ -248,7 +311,7 @@ class Follower:
         *,
         speed: float = DEFAULT_SPEED,
         yaw_rate: float = DEFAULT_YAW_RATE,
-        constants: dict[str, Any] | None = None,
+        channels: Any = None,
         battery_wh: float | None = None,
         reserve_wh: float = 0.0,
         confidence: float = DEFAULT_LEVEL,
@@ -267,6 +330,8 @@ class Follower:
         change_share: float = 0.05,
         dead_band: bool = True,
         remaining_scores: Any = None,
+        bias_ahead_m: float | None = None,
+        bias_until_m: float | None = None,
     ) -> None:
         from scipy.stats import norm
 
@@ -278,7 +343,7 @@ class Follower:
         self.terrain = terrain
         self.model = model
         self.speed, self.yaw_rate = float(speed), float(yaw_rate)
-        self.constants = dict(constants or {})
+        self.channels = channels
         self.level, self.confidence = float(level), float(confidence)
         self.window_s = float(window_s)
         self.batch_s = float(batch_s)
@@ -288,7 +353,7 @@ class Follower:
         self.sites = None if sites is None else np.atleast_2d(np.asarray(sites, dtype=float))
         self.notes: list[str] = []
         self.path = path_term_energies(
-            terrain, model, xy, yaw, t, speed, yaw_rate, constants=self.constants
+            terrain, model, xy, yaw, t, speed, yaw_rate, channels=self.channels
         )
         self.goal = tuple(self.path.poses[-1])
         self._total_s = max(self.path.remaining_s(0, 0.0), 1e-9)
@@ -310,7 +375,9 @@ class Follower:
         if remaining_scores is not None:
             self.notes.append(
                 "interval: split-conformal on the follower's own held-out remaining-energy "
-                f"errors ({len(remaining_scores.seeds)} calibration seeds)"
+                f"errors ({len(remaining_scores.seeds)} calibration seeds"
+                + _conditions_text(remaining_scores)
+                + "), per state and remaining share"
             )
         elif self.scores is None:
             self.notes.append(
@@ -321,6 +388,9 @@ class Follower:
             sd = math.hypot(imu_bias_deg, imu_noise_deg / math.sqrt(10.0))
             slope_tol_deg = 3.0 * sd + 0.5
         self.slope_tol_deg = float(slope_tol_deg)
+        self.bias_ahead_m = bias_ahead_m
+        self.bias_until_m = bias_until_m
+        self._runtime_model: Any = None
         self.updates: list[FollowUpdate] = []
         self.findings: list[SlopeFinding] = []
         self.events: list[str] = []
@@ -340,6 +410,7 @@ class Follower:
         self._power_w = 0.0
         self.change_share = float(change_share)
         self._rem_s = 0.0
+        self._spread = SPREAD_FLOOR
         self._last_power: tuple[float, float] | None = None  # (t, p) of the last sample
         self._motion = 0
         self._done_m = 0.0
@@ -349,15 +420,19 @@ class Follower:
         self._adapting = False  # a change was detected: the coefficients follow the log
 
     # ------------------------------------------------------------------ input
-    def feed(self, samples: pd.DataFrame) -> list[FollowUpdate]:
-        """Take newly arrived log samples; return the updates of the windows they complete."""
-        if len(samples) == 0:
-            return []
-        self._check(samples)
-        used = self._integrate_power(samples)
+    def feed(self, samples: Any) -> list[FollowUpdate]:
+        """Take newly arrived log samples; return the updates of the windows they complete.
+
+        ``samples``: a DataFrame of the canonical log table, or a mapping of its columns
+        to arrays (what :meth:`replay` feeds: no table work per chunk).
+        """
         # only what windows and the model read: extra channels cost time in make_windows
-        cols = [c for c in self._columns if c in samples.columns]
-        arrived = {c: samples[c].to_numpy() for c in cols}
+        cols = {c: np.asarray(samples[c]) for c in (*self._columns, "run") if c in samples}
+        if "t" not in cols or len(cols["t"]) == 0:
+            return []
+        self._check(cols)
+        used = self._integrate_power(cols)
+        arrived = {c: v for c, v in cols.items() if c != "run"}
         arrived["_used"] = used
         buf = (
             arrived
@@ -386,9 +461,10 @@ class Follower:
         """
         import time
 
-        t = samples["t"].to_numpy(float)
+        cols = {c: samples[c].to_numpy() for c in (*self._columns, "run") if c in samples}
+        t = cols["t"].astype(float)
         edges = np.searchsorted(t, np.arange(t[0], t[-1] + chunk_s, chunk_s), side="left")
-        edges = np.r_[edges, len(samples)]
+        edges = np.r_[edges, len(t)]
         out: list[FollowUpdate] = []
         wall0 = time.monotonic()
         for a, b in zip(edges[:-1], edges[1:], strict=True):
@@ -398,11 +474,11 @@ class Follower:
                 wait = (t[b - 1] - t[0]) / speedup - (time.monotonic() - wall0)
                 if wait > 0:
                     time.sleep(wait)
-            out += self.feed(samples.iloc[a:b])
+            out += self.feed({c: v[a:b] for c, v in cols.items()})
         return out + self.finish()
 
-    def _check(self, samples: pd.DataFrame) -> None:
-        missing = [c for c in ("x", "y") if c not in samples.columns]
+    def _check(self, samples: dict[str, np.ndarray]) -> None:
+        missing = [c for c in ("x", "y") if c not in samples]
         if missing:
             raise FollowError(
                 f"the log has no pose column(s) {', '.join(missing)}: a follower needs the "
@@ -411,7 +487,7 @@ class Follower:
                 value=missing,
                 expected="columns x, y",
             )
-        r = samples["run"].to_numpy() if "run" in samples.columns else np.array(["log"])
+        r = samples["run"] if "run" in samples else np.array(["log"])
         runs = [r[0]] if (r == r[0]).all() else list(pd.unique(r.astype(str)))
         if self._run is None:
             self._run = str(runs[0])
@@ -421,17 +497,17 @@ class Follower:
                 f"{self._run!r}): follow one mission at a time (choose it with --run)",
                 value=list(map(str, runs[:5])),
             )
-        if self._last_power is not None and samples["t"].iloc[0] <= self._last_power[0]:
+        t0 = float(samples["t"][0])
+        if self._last_power is not None and t0 <= self._last_power[0]:
             raise FollowError(
-                f"time goes back: sample at t={samples['t'].iloc[0]:g} s after "
-                f"t={self._last_power[0]:g} s",
-                value=float(samples["t"].iloc[0]),
+                f"time goes back: sample at t={t0:g} s after t={self._last_power[0]:g} s",
+                value=t0,
             )
 
-    def _integrate_power(self, samples: pd.DataFrame) -> np.ndarray:
+    def _integrate_power(self, samples: dict[str, np.ndarray]) -> np.ndarray:
         """Battery energy spent up to each new sample (trapezoids of voltage * current)."""
-        t = samples["t"].to_numpy(float)
-        p = samples["voltage"].to_numpy(float) * samples["current"].to_numpy(float)
+        t = samples["t"].astype(float)
+        p = samples["voltage"].astype(float) * samples["current"].astype(float)
         t0, p0 = self._last_power if self._last_power is not None else (t[0], p[0])
         tt, pp = np.r_[t0, t], np.r_[p0, p]
         used = self._used_j + np.cumsum(0.5 * (pp[1:] + pp[:-1]) * np.diff(tt))
@@ -462,11 +538,19 @@ class Follower:
         win = smp["window"].to_numpy()
         X = self.model.design_matrix(smp, groups=win)
         xs, ys = smp["x"].to_numpy(float), smp["y"].to_numpy(float)
-        dem = np.degrees(np.asarray(self.terrain.sample(xs, ys).slope, dtype=float))
+        ts = self.terrain.sample(xs, ys)
+        dem = np.degrees(np.asarray(ts.slope, dtype=float))
         # window ids are sorted: the first and last sample of each, and the DEM's mean slope
         starts = np.flatnonzero(np.r_[True, win[1:] != win[:-1]])
         ends = np.r_[starts[1:], win.size] - 1
-        dem_mean = np.add.reduceat(dem, starts) / (ends - starts + 1)
+        size = ends - starts + 1
+        dem_mean = np.add.reduceat(dem, starts) / size
+        offset = np.full((len(tab), 2), np.nan)
+        if "yaw" in smp.columns:
+            g = imu_gradient(smp["alpha"], smp["gamma"], smp["yaw"]) - np.column_stack(
+                [ts.dzdx, ts.dzdy]
+            )
+            offset = np.add.reduceat(g, starts, axis=0) / size[:, None]
         cols = {c: tab[c].to_numpy(float) for c in ("power", "t_start", "t_end", "alpha")}
         imu = np.degrees(cols["alpha"])
         used = smp["_used"].to_numpy(float)
@@ -481,6 +565,7 @@ class Follower:
                 (xs[starts[i]], ys[starts[i]]),
                 (xs[ends[i]], ys[ends[i]]),
                 cols["t_start"][i],
+                offset[i],
             )
             for i in range(len(tab))
         ]
@@ -488,7 +573,9 @@ class Follower:
         self._buf = None if final or not keep.any() else {c: v[keep] for c, v in buf.items()}
         return out
 
-    def _update(self, used_j, x, power, t_end, imu_deg, dem_deg, p_first, p_last, t_start):
+    def _update(
+        self, used_j, x, power, t_end, imu_deg, dem_deg, p_first, p_last, t_start, offset=None
+    ):
         # a window whose IMU slope disagrees with the DEM's is a DEM error, not a model
         # error: it is checked, not learnt from (nor counted as a change of conditions)
         dem_error = (
@@ -496,6 +583,9 @@ class Follower:
             and math.isfinite(dem_deg)
             and abs(imu_deg - dem_deg) > self.slope_tol_deg
         )
+        # the first window after such a stretch straddles its end (part of it walked on
+        # the wrong ground): neither learnt from nor counted either
+        dem_error = dem_error or self._stretch is not None
         # dead band: the fit's coefficients are kept until a change of conditions is
         # detected (learning the odometry's slip on plain ground only adds error); the
         # first window holds the gait's start (a transient the fit's windows do not have)
@@ -524,12 +614,14 @@ class Follower:
                 f"{limit:.1f} W): a change of conditions; the coefficients are "
                 "opened to follow it"
             )
-        self._slope_check(t_start, t_end, imu_deg, dem_deg, p_first, p_last)
+        self._slope_check(t_start, t_end, imu_deg, dem_deg, p_first, p_last, offset)
         self._motion, frac = self.path.locate(*p_last, start=self._motion)
         m = self._motion
         dist = self.path.distance_m
         self._done_m = float(dist[:m].sum() + frac * (dist[m] if m < dist.size else 0.0))
         r = self.path.remaining(m, frac)
+        static = float(max(r @ self.c0, 0.0))
+        r = self._biased_remaining(m, frac, r)
         self._used_at = float(used_j)
         self._rem_s = self.path.remaining_s(m, frac)
         rem, low, high, prob = self._predict(r)
@@ -545,6 +637,7 @@ class Follower:
             if replaced:
                 self._motion, frac = 0, 0.0
                 r = self.path.remaining(0, 0.0)
+                static = float(max(r @ self.c0, 0.0))
                 self._rem_s = self.path.remaining_s(0, 0.0)
                 self._total_s = max(self._rem_s, 1e-9)
                 rem, low, high, prob = self._predict(r)
@@ -562,7 +655,6 @@ class Follower:
                 f"left (< {100 * self.confidence:g} %); replanning is off"
             )
             self.events.append(event)
-        static = float(max(r @ self.c0, 0.0))
         u = FollowUpdate(
             t_end,
             self._done_m,
@@ -578,6 +670,7 @@ class Follower:
             event,
             self.state,
             self._rem_s / self._total_s,
+            self._spread,
         )
         self.updates.append(u)
         return u
@@ -593,18 +686,24 @@ class Follower:
     def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
         """Remaining energy, its interval and the chance the battery suffices."""
         rem = float(max(r @ self.rls.coef, 0.0))
+        # the coefficients' uncertainty, and the power the model still misses (the recent
+        # mean innovation: large while it catches up with a change) over the time left
+        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
+        self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
         if self.remaining_scores is not None:
             sc = self.remaining_scores.for_group(
                 self.state, self._rem_s / self._total_s, self.level
             )
+            if getattr(self.remaining_scores, "normalized", False):
+                # normalized conformal: the scores are in units of the spread; a relative
+                # error is > -1 (E_pred / E_true - 1), and below -0.9 would say the rest
+                # costs over ten times its prediction: clipped there (a wider interval)
+                sc = np.maximum(sc * self._spread, -0.9)
             iv = interval(rem, sc, self.level)
             prob = None
             if self.usable_j is not None:
                 prob = success_probability(rem, sc, self.usable_j - self._used_at)
             return rem, max(iv.low_j, 0.0), iv.high_j, prob
-        # the coefficients' uncertainty, and the power the model still misses (the recent
-        # mean innovation: large while it catches up with a change) over the time left
-        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
         if self.scores is not None:
             iv = interval(rem, self.scores, self.level)
             low, high = iv.low_j - self.z * sd, iv.high_j + self.z * sd
@@ -622,16 +721,18 @@ class Follower:
         return rem, max(low, 0.0), high, prob
 
     # ------------------------------------------------------------------ slope
-    def _slope_check(self, t0, t1, imu_deg, dem_deg, p0, p1) -> None:
+    def _slope_check(self, t0, t1, imu_deg, dem_deg, p0, p1, offset=None) -> None:
         if not (math.isfinite(imu_deg) and math.isfinite(dem_deg)):
             return
         if abs(imu_deg - dem_deg) > self.slope_tol_deg:
             s = self._stretch
             if s is None:
-                s = self._stretch = _Stretch(t0, t1, p0, p1)
+                s = self._stretch = _Stretch(t0, t1, p0, p1, done0=self._done_m)
             s.t1, s.p1 = t1, p1
             s.imu.append(imu_deg)
             s.dem.append(dem_deg)
+            if offset is not None and np.isfinite(offset).all():
+                s.offset.append((float(offset[0]), float(offset[1])))
         else:
             self._close_stretch()
 
@@ -652,6 +753,55 @@ class Follower:
         self.findings.append(f)
         self.events.append(f.text())
 
+    def _biased_remaining(self, m: int, frac: float, r: np.ndarray) -> np.ndarray:
+        """``r`` with the path ahead re-priced on the DEM tilted by the measured offset.
+
+        Only while a stretch of slope disagreement is open (two windows or more) and
+        its gradient offset is measured (the log has ``yaw``); over ``bias_ahead_m``
+        ground metres ahead (default: the stretch's length so far; with ``bias_until_m``
+        up to there).
+        """
+        s = self._stretch
+        if s is None or len(s.imu) < 2 or not s.offset or self.bias_ahead_m == 0:
+            return r
+        n = self.path.energy.shape[0]
+        if m >= n:
+            return r
+        ahead = self.bias_ahead_m
+        if self.bias_until_m is not None:
+            ahead = self.bias_until_m - self._done_m
+        elif ahead is None:
+            ahead = max(self._done_m - s.done0, 0.0)
+        dist = self.path.distance_m
+        # ground metres from here to the start of each motion m, m+1, ...
+        start_of = np.r_[0.0, np.cumsum(np.r_[(1.0 - frac) * dist[m], dist[m + 1 : -1]])]
+        k = m + int(np.searchsorted(start_of, ahead, side="left"))  # motions m..k-1
+        if k <= m:
+            return r
+        bx, by = np.mean(s.offset, axis=0)
+        tilted = self._tilted_terrain(float(bx), float(by))
+        poses = self.path.poses[m : k + 1]
+        e_tilt, _, _ = motion_term_energies(
+            tilted, self.model, poses, self.path.duration_s[m:k], self.speed, self.yaw_rate,
+            self.channels,
+        )  # fmt: skip
+        w = np.ones(k - m)
+        w[0] = 1.0 - frac
+        return r + w @ (e_tilt - self.path.energy[m:k])
+
+    def _tilted_terrain(self, bx: float, by: float) -> Any:
+        """The DEM with its gradient plus ``(bx, by)`` everywhere (a tilted plane added)."""
+        from energy_planner.terrain import Terrain
+
+        t = self.terrain
+        xc, yc = t.cell_centers()
+        return Terrain(
+            t.elevation + bx * (xc - xc.mean()) + by * (yc - yc.mean()),
+            t.transform,
+            t.crs,
+            gradient=(t.dzdx + bx, t.dzdy + by),
+        )
+
     # ------------------------------------------------------------------ replanning
     def current_model(self) -> Any:
         """The model with the updated coefficients."""
@@ -666,16 +816,35 @@ class Follower:
             metadata=m.metadata,
         )
 
+    def replan_inputs(self) -> tuple[Any, Any]:
+        """The model and request a replan plans with: the updated coefficients at run time.
+
+        The model is :func:`~energy_planner.follow.terms.runtime_coefficient_model` of the
+        fit's (built once), the request the follower's with the current coefficients as
+        its constant channels: every replan shares one compiled motion kernel, whatever
+        the coefficients (a model with the coefficients compiled in, as
+        :meth:`current_model`, would compile a kernel per update).
+        """
+        from energy_planner.request import Request
+
+        if self._runtime_model is None:
+            self._runtime_model = runtime_coefficient_model(self.model)
+        req = self.request if self.request is not None else Request()
+        base = req.channels if req.channels is not None else self.channels
+        chans = coefficient_channels(self.rls.coef, base)
+        return self._runtime_model, dataclasses.replace(req, channels=chans)
+
     def _plan_to(self, start, goal) -> tuple[PathTerms, float, float | None] | None:
         from energy_planner.planning.plan import plan
 
+        model, request = self.replan_inputs()
         try:
             res = plan(
                 self.terrain,
-                self.current_model(),
+                model,
                 start,
                 goal,
-                self.request,
+                request,
                 time=self.replan_time,
                 progress=False,
             )
@@ -689,7 +858,7 @@ class Follower:
             None,
             self.speed,
             self.yaw_rate,
-            constants=self.constants,
+            channels=self.channels,
         )
         rem, _, _, prob = self._predict_on(pt)
         return pt, rem, prob

@@ -13,19 +13,19 @@ coefficients by a dot product, with no new kernel.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from energy_planner.energy.channels import Channels
 from energy_planner.energy.kernels import OK, OUT_CODE, OUT_DISTANCE, OUT_DURATION, OUT_E_FORWARD
-from energy_planner.energy.path import _face_along
-from energy_planner.errors import EnergyPlannerError, OutsideMapError
+from energy_planner.energy.path import path_poses
+from energy_planner.errors import OutsideMapError
 from energy_planner.model.terms import KINDS
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
-__all__ = ["PathTerms", "path_term_energies"]
+__all__ = ["PathTerms", "motion_term_energies", "path_term_energies"]
 
 
 @dataclass
@@ -100,22 +100,19 @@ def _slot_models(model: Any) -> list[tuple[Any, list[int]]]:
     return out
 
 
-def path_term_energies(
+def motion_term_energies(
     terrain: Any,
     model: Any,
-    xy: Any,
-    yaw: Any = None,
-    t: Any = None,
+    poses: np.ndarray,
+    durations: np.ndarray,
     speed: float = DEFAULT_SPEED,
     yaw_rate: float = DEFAULT_YAW_RATE,
-    *,
-    constants: Mapping[str, Any] | None = None,
-) -> PathTerms:
-    """The integral of every term of ``model`` along each motion of a path.
+    channels: Channels | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Term energies, ground distance and duration of each motion between ``poses``.
 
-    Same inputs and timing rules as :func:`energy_planner.energy.path_energy` (working
-    CRS, optional yaw and times); ``PathTerms.energy @ model.coef_array()`` is that
-    function's per-motion energy wherever the model's power is above zero.
+    ``poses`` and ``durations`` as :func:`energy_planner.energy.path.path_poses` gives
+    them. Returns ``(energy (m - 1, k), distance_m, duration_s)``.
 
     Raises
     ------
@@ -124,19 +121,10 @@ def path_term_energies(
     """
     from energy_planner.energy import MotionCost
 
-    xy = np.asarray(xy, dtype=float)
-    if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 2:
-        raise EnergyPlannerError(f"path must be an (n >= 2, 2) array of x, y; got {xy.shape}")
-    seg_dt = None if t is None else np.diff(np.asarray(t, dtype=float))
-    if yaw is not None:
-        poses = np.column_stack([xy, np.asarray(yaw, dtype=float)])
-        durations = np.full(len(xy) - 1, -1.0) if seg_dt is None else seg_dt
-    else:
-        poses, _, durations = _face_along(xy, seg_dt, yaw_rate)
     energy = np.zeros((len(poses) - 1, len(model.terms)))
     out = None
     for m, cols in _slot_models(model):
-        cost = MotionCost(terrain, m, speed, yaw_rate, constants=constants)
+        cost = MotionCost(terrain, m, speed, yaw_rate, channels=channels)
         out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations)
         bad = np.flatnonzero(out[:, OUT_CODE] != OK)
         if bad.size:
@@ -147,10 +135,74 @@ def path_term_energies(
             )
         energy[:, cols] = out[:, OUT_E_FORWARD : OUT_E_FORWARD + len(cols)]
     assert out is not None
-    return PathTerms(
-        poses,
-        energy,
-        out[:, OUT_DISTANCE].copy(),
-        out[:, OUT_DURATION].copy(),
-        list(model.term_names),
+    return energy, out[:, OUT_DISTANCE].copy(), out[:, OUT_DURATION].copy()
+
+
+def path_term_energies(
+    terrain: Any,
+    model: Any,
+    xy: Any,
+    yaw: Any = None,
+    t: Any = None,
+    speed: float = DEFAULT_SPEED,
+    yaw_rate: float = DEFAULT_YAW_RATE,
+    *,
+    channels: Channels | None = None,
+) -> PathTerms:
+    """The integral of every term of ``model`` along each motion of a path.
+
+    The path is walked as :func:`energy_planner.energy.path_energy` walks it (its
+    :func:`~energy_planner.energy.path.path_poses`: working CRS, optional yaw and
+    times); ``PathTerms.energy @ model.coef_array()`` is that function's per-motion
+    energy wherever the model's power is above zero. ``channels``: the values of the
+    channels the model reads (``--set`` / ``--channel``).
+
+    Raises
+    ------
+    OutsideMapError
+        A motion leaves the valid map.
+    EnergyPlannerError
+        Malformed waypoints, yaw or times.
+    """
+    poses, _, durations = path_poses(xy, yaw, t, yaw_rate)
+    energy, distance, duration = motion_term_energies(
+        terrain, model, poses, durations, speed, yaw_rate, channels
     )
+    return PathTerms(poses, energy, distance, duration, list(model.term_names))
+
+
+#: Prefix of the channels that carry a runtime-coefficient model's coefficients.
+COEF_CHANNEL = "follow_coef_"
+
+
+def runtime_coefficient_model(model: Any) -> Any:
+    """``model`` with its coefficients moved out of the compiled kernel.
+
+    Term ``k`` becomes ``follow_coef_k * (formula_k)`` with a coefficient of 1 (same name,
+    kind and explanation); the coefficients travel as the constant channels
+    ``follow_coef_k`` (:func:`coefficient_channels`), which the motion kernel takes as
+    run-time inputs. The kernel's source is then the same for any coefficients: a
+    follower that replans with updated coefficients compiles it once, not per update.
+    """
+    from energy_planner.model import EnergyModel
+
+    terms = [
+        dataclasses.replace(t, formula=f"{COEF_CHANNEL}{k} * ({t.formula})")
+        for k, t in enumerate(model.terms)
+    ]
+    return EnergyModel(
+        terms,
+        {t.name: 1.0 for t in terms},
+        regenerative=model.regenerative,
+        metadata=model.metadata,
+    )
+
+
+def coefficient_channels(coef: np.ndarray, channels: Channels | None = None) -> Channels:
+    """The channels of :func:`runtime_coefficient_model` for coefficients ``coef``.
+
+    ``channels``: the channels the model itself reads, kept.
+    """
+    base = channels if channels is not None else Channels()
+    consts = {f"{COEF_CHANNEL}{k}": float(c) for k, c in enumerate(coef)}
+    return dataclasses.replace(base, constants={**dict(base.constants), **consts})
