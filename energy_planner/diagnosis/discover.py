@@ -283,7 +283,6 @@ def discover(
     """
     from energy_planner.calibration import fit_model
     from energy_planner.calibration.fit import identifiable
-    from energy_planner.diagnosis.suspects import speed_levels
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements import prepare_logs
     from energy_planner.model import BASE_TERMS, resolve_term
@@ -294,35 +293,21 @@ def discover(
 
     th = thresholds or Thresholds()
     base = list(BASE_TERMS if base_terms is None else base_terms)
-
-    def walk(prepared):
-        windows = prepared.windows
-        wd = window_data(windows)
-        say(f"{wd.n_windows} windows")
-        # start from the base terms these windows identify (calibration.identifiable): a
-        # candidate built on the fitted base (a channel times P_base) must not carry the
-        # arbitrary value of a term whose motion the logs lack; fit_model drops those anyway
-        unidentified_base = identifiable(windows, base)
-        start = [t for t in base if resolve_term(t).name not in unidentified_base]
-        steps, rankings = staircase(
-            wd, start, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
-        )
-        return windows, wd, steps, rankings
-
-    # every repair first; then each is kept only if the model the staircase ends with
-    # is not worse held out with it (prepare_logs' guard): the base model alone would
-    # judge the repairs by an error a hidden effect dominates
-    prepared = prepare_logs(samples, window=window, repair=repair, guard=False)
+    prepared = prepare_logs(samples, window=window, repair=repair, guard=guard)  # as fit
+    findings, windows = prepared.findings, prepared.windows
     say("data checks done")
-    windows, wd, steps, rankings = walk(prepared)
-    if repair and guard and any(f.repaired for f in prepared.findings):
-        ended = list(rankings[-1].terms) if rankings else None
-        judged = prepare_logs(samples, window=window, repair=True, guard_terms=ended)
-        say("repairs judged")
-        if [f.repaired for f in judged.findings] != [f.repaired for f in prepared.findings]:
-            windows, wd, steps, rankings = walk(judged)
-        prepared = judged
-    findings = prepared.findings
+    wd = window_data(windows)
+    say(f"{wd.n_windows} windows")
+    from energy_planner.diagnosis.suspects import speed_levels
+
+    # start from the base terms these windows identify (calibration.identifiable): a
+    # candidate built on the fitted base (a channel times P_base) must not carry the
+    # arbitrary value of a term whose motion the logs lack; fit_model drops those anyway
+    unidentified_base = identifiable(windows, base)
+    start = [t for t in base if resolve_term(t).name not in unidentified_base]
+    steps, rankings = staircase(
+        wd, start, th, max_steps, extra=terms, progress=lambda i: say(f"step {i} done")
+    )
     metrics = []
     for r in rankings:
         err = r.heldout_errors

@@ -40,7 +40,14 @@ import pandas as pd
 
 from energy_planner.measurements.datacheck import DataFinding, check_data
 
-__all__ = ["HeldOutScore", "PreparedLogs", "prepare_logs", "findings_text", "heldout_score"]
+__all__ = [
+    "HeldOutScore",
+    "PreparedLogs",
+    "prepare_logs",
+    "findings_text",
+    "heldout_score",
+    "yardstick_terms",
+]
 
 
 @dataclass
@@ -96,6 +103,32 @@ class HeldOutScore:
     run_mse: pd.Series
 
 
+def yardstick_terms(wd: Any) -> list[str]:
+    """The model the repair guard scores by default: the base model and the channels.
+
+    The base terms (:data:`energy_planner.model.BASE_TERMS`), and for every extra channel
+    of the logs a standing power and a force per metre: ``c`` and ``c * speed`` for a
+    numeric channel with variance, ``speed * (c == 'v')`` for each value of a categorical
+    one (2 to ``MAX_CATEGORIES`` values). A hidden effect on a channel (a payload, a
+    ground) would otherwise dominate the base model's error and drown the repairs'
+    differences; the same logs give the same yardstick in every command.
+    """
+    from energy_planner.diagnosis.data import MAX_CATEGORIES
+    from energy_planner.model import BASE_TERMS
+
+    terms = list(BASE_TERMS)
+    for ch in wd.numeric_extras:
+        v = wd.samples[ch].to_numpy(dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size and np.ptp(v) > 0:
+            terms += [ch, f"{ch} * speed"]
+    for ch in wd.categorical_extras:
+        cats = sorted(wd.samples[ch].dropna().astype(str).unique().tolist())
+        if 2 <= len(cats) <= MAX_CATEGORIES:
+            terms += [f"speed * ({ch} == {v!r})" for v in cats]
+    return terms
+
+
 def heldout_score(
     samples: pd.DataFrame, *, window: float = 2.0, terms: Sequence[Any] | None = None
 ) -> HeldOutScore:
@@ -103,8 +136,8 @@ def heldout_score(
 
     The yardstick of the repairs (:func:`prepare_logs`): the samples are cleaned
     (``preprocess``) and cut into windows as every command does, and the model ``terms``
-    (default the base model, :data:`energy_planner.model.BASE_TERMS`) is scored by the
-    one held-out evaluation (``WindowData.heldout``: 5 folds by run, seed 0, each fold
+    (default :func:`yardstick_terms`: the base model and the logs' channels) is scored
+    by the one held-out evaluation (``WindowData.heldout``: 5 folds by run, seed 0, each fold
     fitting the terms its training windows identify, floored per sample). NaN (and no
     runs) when it cannot be computed: fewer than two runs, no window.
     """
@@ -112,7 +145,6 @@ def heldout_score(
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements.preprocess import preprocess
     from energy_planner.measurements.windows import make_windows
-    from energy_planner.model import BASE_TERMS
     from energy_planner.stats import fold_index
 
     try:
@@ -121,7 +153,8 @@ def heldout_score(
             clean, _ = preprocess(samples)
             wd = window_data(make_windows(clean, duration=window).samples)
         folds = fold_index(wd.runs, 5, 0)
-        names = [getattr(t, "formula", t) for t in (BASE_TERMS if terms is None else terms)]
+        use = yardstick_terms(wd) if terms is None else terms
+        names = [getattr(t, "formula", t) for t in use]
         h = wd.heldout(names, folds)
     except (EnergyPlannerError, ValueError):
         return HeldOutScore(math.nan, pd.Series(dtype=float))
@@ -207,9 +240,9 @@ def prepare_logs(
         numbers in ``evidence["heldout_check"]`` and the summary). False: every repair
         is applied.
     guard_terms : sequence, optional
-        The model the guard scores (terms or formulas); default the base model.
-        ``discover`` passes the model its staircase ends with: a hidden effect the base
-        lacks would otherwise drown the repairs' differences.
+        The model the guard scores (terms or formulas); default
+        :func:`yardstick_terms` (the base model and the logs' channels), the same for
+        ``fit``, ``diagnose`` and ``discover``.
 
     Returns
     -------
