@@ -83,7 +83,7 @@ class PreparedLogs:
 
 #: A repair is refused when it raises the held-out error beyond noise: the pooled RMSE
 #: rises and the runs are worse with it by a one-sided signed-rank test over runs at this
-#: level (``diagnosis.scoring.paired_run_test``, the test of the candidates).
+#: level (``stats.paired_run_test``, the test of the candidates).
 REPAIR_ALPHA = 0.05
 
 
@@ -141,6 +141,8 @@ def heldout_score(
     fitting the terms its training windows identify, floored per sample). NaN (and no
     runs) when it cannot be computed: fewer than two runs, no window.
     """
+    # the one held-out evaluation with each fold's identifiable terms is the diagnosis'
+    # window view (WindowData.heldout); imported here, at call time, against the layers
     from energy_planner.diagnosis.data import window_data
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements.preprocess import preprocess
@@ -182,7 +184,7 @@ class _HeldOutGuard:
         return heldout_score(samples, window=self.window, terms=self.terms)
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
-        from energy_planner.diagnosis.scoring import paired_run_test
+        from energy_planner.stats import paired_run_test
 
         s0 = self._score(before)
         s1 = heldout_score(after, window=self.window, terms=self.terms)

@@ -9,7 +9,7 @@ Least squares, identifiability and motion classes live in
 [0, 0, 1]
 """
 
-from energy_planner.stats.heldout import HeldOut, fold_index, heldout
+from energy_planner.stats.heldout import HeldOut, fold_index, heldout, paired_run_test
 from energy_planner.stats.numerics import (
     MOTIONS,
     WLSFit,
@@ -32,6 +32,7 @@ __all__ = [
     "fold_index",
     "heldout",
     "independent_columns",
+    "paired_run_test",
     "span_basis",
     "span_residual",
     "vif",
