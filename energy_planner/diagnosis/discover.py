@@ -267,6 +267,7 @@ def discover(
     terms: Sequence[str] = (),
     window: float = 2.0,
     repair: bool = True,
+    guard: bool = True,
     fit_final: bool = True,
     progress=None,
     prior: Any = None,
@@ -291,6 +292,9 @@ def discover(
         Window length, s.
     repair : bool
         Correct the data findings before fitting (they are reported either way).
+    guard : bool
+        Keep a repair only if it does not raise the held-out error
+        (``measurements.prepare_logs``); False applies every repair.
     fit_final : bool
         Fit the final model on all windows (``calibration.fit_model``).
     progress : bool, callable or Reporter, optional
@@ -318,7 +322,7 @@ def discover(
 
     th = thresholds or Thresholds()
     base = list(BASE_TERMS if base_terms is None else base_terms)
-    prepared = prepare_logs(samples, window=window, repair=repair)  # as fit and diagnose
+    prepared = prepare_logs(samples, window=window, repair=repair, guard=guard)  # as fit
     findings, windows = prepared.findings, prepared.windows
     say("data checks done")
     wd = window_data(windows)

@@ -24,7 +24,7 @@ from energy_planner.diagnosis.candidates import (
 from energy_planner.diagnosis.data import WindowData
 from energy_planner.diagnosis.names import term_spec
 from energy_planner.model.terms import Term
-from energy_planner.stats import fold_index, span_basis, span_residual
+from energy_planner.stats import fold_index, paired_run_test, span_basis, span_residual
 from energy_planner.stats import wls_coef as wls
 
 
@@ -106,54 +106,9 @@ def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
     return np.sqrt(sq / np.maximum(n, 1))
 
 
-#: The significance test of a candidate, as reports name it (one place: the text, the
-#: HTML report and the docs read it here).
+#: The significance test of a candidate (:func:`energy_planner.stats.paired_run_test`), as
+#: reports name it (one place: the text, the HTML report and the docs read it here).
 RUN_TEST_NAME = "one-sided Wilcoxon signed-rank test by run"
-
-
-def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
-    """One-sided paired test by run that ``e1`` has smaller squared errors than ``e0``.
-
-    ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
-    independent units (held out by run; a run's windows share its ground and sensors). The
-    test is Wilcoxon's signed-rank test of ``d_r`` (:data:`RUN_TEST_NAME`;
-    ``scipy.stats.wilcoxon``, one-sided, normal approximation with tie correction, zero
-    differences dropped): an effect often lives in a few runs (those on mud, those with a
-    payload) and makes ``d_r`` very skewed, where a t-test has little power; the
-    signed-rank test counts how consistently runs improve.
-
-    Returns
-    -------
-    tuple
-        ``(z, p, n_runs)``: the standardised signed-rank statistic (> 0: ``e1`` better),
-        its one-sided p-value and the number of runs.
-
-    Examples
-    --------
-    >>> runs = np.repeat(np.arange(20), 3)
-    >>> rng = np.random.default_rng(1)
-    >>> e0 = rng.normal(0, 2, 60); e1 = e0 / 2
-    >>> z, p, n = paired_run_test(e0, e1, runs)
-    >>> bool(z > 3 and p < 1e-3), n
-    (True, 20)
-    >>> z, p, n = paired_run_test(e1, e0, runs)
-    >>> bool(z < -3 and p > 0.99)
-    True
-    """
-    from scipy.stats import wilcoxon
-
-    _, inv = np.unique(runs, return_inverse=True)
-    d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
-    n = d.size
-    scale = np.max(np.abs(d)) if n else 0.0
-    d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
-    if d.size < 2:
-        return math.nan, 1.0, n
-    res = wilcoxon(d, alternative="greater", method="approx", zero_method="wilcox")
-    z = float(res.zstatistic)
-    if not math.isfinite(z):
-        return math.nan, 1.0, n
-    return z, float(res.pvalue), n
 
 
 def rank_suspects(

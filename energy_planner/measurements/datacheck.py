@@ -22,6 +22,11 @@ raw canonical samples, each with a test of its own, and are reported as *data fi
     runs, one-sided t-test at :data:`DATA_ALPHA`, at least :data:`MIN_SLIP_PER_SIN` per unit
     ``sin(alpha)``). Repair: each run's twist is divided by its measured ratio (runs that do
     not translate: by the fitted slip at their slope).
+``odometry_scale``
+    Needs the pose ``x, y`` too. A slip at one level on every slope (the odometry reads
+    every metre a few percent short or long), which ``odometry_slip`` leaves: the mean
+    of the runs' slips differs from zero (t-test over runs). Repair: each run's twist
+    divided by its measured ratio (:func:`check_odometry_scale`).
 ``imu_tilt``
     Needs the pose with altitude ``x, y, z`` (from a source other than the IMU, e.g. a
     map-referenced localization; the simulator's mission logs have it). A robot walking
@@ -57,6 +62,7 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -72,6 +78,8 @@ MIN_OFFSET_S = 0.15
 MAX_OFFSET_IQR_S = 0.2
 #: Smallest growth of the odometry slip per unit sin(alpha) reported.
 MIN_SLIP_PER_SIN = 0.02
+#: Smallest mean odometry slip over runs (either sign) reported as a scale error, 1.
+MIN_SCALE_SLIP = 0.005
 #: Smallest net pose displacement of a run used for the slip check, m.
 MIN_DISPLACEMENT_M = 0.5
 #: Smallest root mean square over runs of the IMU tilt estimates reported, deg.
@@ -89,8 +97,8 @@ class DataFinding:
     Attributes
     ----------
     name : str
-        ``current_sign``, ``clock_offset``, ``odometry_slip``, ``imu_tilt`` or
-        ``twist_noise``.
+        ``current_sign``, ``clock_offset``, ``odometry_slip``, ``odometry_scale``,
+        ``imu_tilt`` or ``twist_noise``.
     finding : bool
         True when the check found the problem.
     summary : str
@@ -340,17 +348,47 @@ def _rotate_xy(q: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> tuple[np.ndarra
     return r00 * vx + r01 * vy, r10 * vx + r11 * vy
 
 
-def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
-    """Odometry slip that grows with slope, against the pose (see the module docstring)."""
-    if not {"x", "y"} <= set(samples.columns):
-        return (
-            DataFinding(
-                "odometry_slip",
-                False,
-                "not checked: the logs have no pose (x, y) to compare the odometry with",
-            ),
-            samples,
-        )
+@dataclass(frozen=True)
+class OdometryRatios:
+    """Per run: the legged odometry's distance against the pose's (:func:`odometry_ratios`).
+
+    Attributes
+    ----------
+    code : numpy.ndarray
+        Run code of every sample (samples sorted by run, t).
+    ratio : numpy.ndarray
+        Per run, the net horizontal displacement of the twist integrated through the IMU
+        orientation over the pose's (``1 - slip``); NaN where not ``use``.
+    sin_slope : numpy.ndarray
+        Per run, the mean ``sin(alpha)`` of its samples (IMU).
+
+    use : numpy.ndarray
+        Per run, whether its pose moved more than :data:`MIN_DISPLACEMENT_M`.
+    """
+
+    code: np.ndarray
+    ratio: np.ndarray
+    sin_slope: np.ndarray
+    use: np.ndarray
+
+
+def odometry_ratios(samples: pd.DataFrame) -> OdometryRatios:
+    """Per-run ratio of the odometry's net displacement to the pose's.
+
+    The one measurement of the odometry against the pose, shared by the ``odometry_slip``
+    and ``odometry_scale`` checks. The samples must be sorted by run and ``t`` and have
+    the pose ``x, y``.
+
+    Examples
+    --------
+    A run that walks 12 m east whose odometry reads 3 % short:
+
+    >>> t = np.arange(0, 40, 0.05)
+    >>> s = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0,
+    ...                   "vx": 0.3 * 0.97, "vy": 0.0, "x": 0.3 * t, "y": 0.0})
+    >>> round(float(odometry_ratios(s).ratio[0]), 3)
+    0.97
+    """
     code, names = _runs(samples)
     n_runs = len(names)
     q = samples[["qw", "qx", "qy", "qz"]].to_numpy(float)
@@ -360,7 +398,8 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
     same = code[1:] == code[:-1]
     dt[1:] = np.where(same, np.diff(t), 0.0)
     wx, wy = _rotate_xy(q, samples["vx"].to_numpy(float), samples["vy"].to_numpy(float))
-    # trapezoid-free: the velocity of a sample times the step that follows it ends a run short
+    # the velocity of a sample times the step that leads to it (the first sample of a run
+    # has none): the sum spans the same time as the pose's first-to-last displacement
     ox = np.bincount(code, weights=np.nan_to_num(wx * dt), minlength=n_runs)
     oy = np.bincount(code, weights=np.nan_to_num(wy * dt), minlength=n_runs)
     px, py = samples["x"].to_numpy(float), samples["y"].to_numpy(float)
@@ -373,6 +412,24 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
     sin_a = np.sqrt(np.clip(1 - cos_a**2, 0, 1))
     sin_run = np.bincount(code, weights=sin_a, minlength=n_runs) / np.bincount(code)
     use = np.isfinite(disp) & (disp > MIN_DISPLACEMENT_M) & np.isfinite(odo)
+    ratio = np.full(n_runs, np.nan)
+    ratio[use] = odo[use] / disp[use]
+    return OdometryRatios(code, ratio, sin_run, use)
+
+
+def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """Odometry slip that grows with slope, against the pose (see the module docstring)."""
+    if not {"x", "y"} <= set(samples.columns):
+        return (
+            DataFinding(
+                "odometry_slip",
+                False,
+                "not checked: the logs have no pose (x, y) to compare the odometry with",
+            ),
+            samples,
+        )
+    m = odometry_ratios(samples)
+    code, use, sin_run = m.code, m.use, m.sin_slope
     ev: dict[str, Any] = {"runs_used": int(use.sum())}
     if use.sum() < 5:
         return (
@@ -384,7 +441,7 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
             ),
             samples,
         )
-    ratio = odo[use] / disp[use]
+    ratio = m.ratio[use]
     slip = 1.0 - ratio
     xs = sin_run[use]
     a = np.column_stack([np.ones(xs.size), xs])
@@ -434,6 +491,90 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
             f"{coef[0]:.3f} + {coef[1]:.3f} sin(alpha) against the pose (t {tstat:.1f}); a "
             "sensor problem, not a physical effect: the twist of each run was rescaled by "
             "its measured slip",
+            ev,
+            repaired=True,
+        ),
+        fixed,
+    )
+
+
+def check_odometry_scale(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
+    """Odometry that reads a constant share short or long, against the pose.
+
+    ``odometry_slip`` repairs a slip that grows with slope; a slip at the same level on
+    every slope is left to this check (after a slip repair the ratios are 1 and it finds
+    nothing). Left in, the per-metre terms are fitted per *odometry* metre and priced per
+    *map* metre: a plan or the energy of given poses is off by the slip (3 % slip: about
+    +3 % energy). Per run, the ratio ``1 - slip`` of :func:`odometry_ratios`; a finding
+    when the mean slip over the runs differs from zero (two-sided t-test over runs, p <
+    :data:`DATA_ALPHA`) by at least :data:`MIN_SCALE_SLIP`. Repair: each run's twist
+    ``(vx, vy, wz)`` divided by its measured ratio (runs that do not translate: by the
+    mean ratio), so that the odometry's metres are the pose's.
+    """
+    if not {"x", "y"} <= set(samples.columns):
+        return (
+            DataFinding(
+                "odometry_scale",
+                False,
+                "not checked: the logs have no pose (x, y) to compare the odometry with",
+            ),
+            samples,
+        )
+    m = odometry_ratios(samples)
+    n_used = int(m.use.sum())
+    ev: dict[str, Any] = {"runs_used": n_used}
+    if n_used < 5:
+        return (
+            DataFinding(
+                "odometry_scale",
+                False,
+                f"not checked: {n_used} runs move more than {MIN_DISPLACEMENT_M} m",
+                ev,
+            ),
+            samples,
+        )
+    from scipy.stats import t as student
+
+    slip = 1.0 - m.ratio[m.use]
+    level = float(np.mean(slip))
+    se = float(np.std(slip, ddof=1) / math.sqrt(slip.size))
+    tstat = level / se if se > 0 else (math.inf if level != 0 else 0.0)
+    pval = float(2 * student.sf(abs(tstat), slip.size - 1))
+    ev.update(
+        {
+            "slip_mean": level,
+            "stderr": se,
+            "t": float(tstat),
+            "p_value": pval,
+            "slip_quartiles": [float(np.quantile(slip, 0.25)), float(np.quantile(slip, 0.75))],
+        }
+    )
+    short = "short" if level > 0 else "long"
+    if not (pval < DATA_ALPHA and abs(level) >= MIN_SCALE_SLIP):
+        return (
+            DataFinding(
+                "odometry_scale",
+                False,
+                f"odometry distance agrees with the pose (mean slip {level:+.3f}, t "
+                f"{tstat:.1f}; a finding from {MIN_SCALE_SLIP:.3f} at p < {DATA_ALPHA:g})",
+                ev,
+            ),
+            samples,
+        )
+    factor = np.where(m.use, m.ratio, 1.0 - level)
+    factor = np.clip(factor, 0.5, 1.5)
+    fixed = samples.copy()
+    for col in ("vx", "vy", "wz"):
+        fixed[col] = fixed[col].to_numpy(float) / factor[m.code]
+    return (
+        DataFinding(
+            "odometry_scale",
+            True,
+            f"the legged odometry reads distance {100 * abs(level):.1f} % {short} against "
+            f"the pose on every slope (mean slip {level:+.3f} over {n_used} runs, t "
+            f"{tstat:.1f}); left in, the per-metre terms would be fitted per odometry "
+            "metre and priced per map metre: the twist of each run was divided by its "
+            "measured ratio",
             ev,
             repaired=True,
         ),
@@ -702,20 +843,36 @@ CHECKS = (
     check_current_sign,
     check_clock_offset,
     check_odometry_slip,
+    check_odometry_scale,
     check_imu_tilt,
     check_twist_noise,
 )
 
 
 def check_data(
-    samples: pd.DataFrame, repair: bool = True
+    samples: pd.DataFrame,
+    repair: bool = True,
+    accept: Callable[[pd.DataFrame, pd.DataFrame, DataFinding], bool] | None = None,
 ) -> tuple[list[DataFinding], pd.DataFrame]:
     """Run every data check on raw canonical samples; return results and repaired samples.
 
     The samples come back with the findings repaired (unchanged when ``repair`` is False).
 
     The current sign is checked first (power is needed by the clock check), the clock
-    before the slip (the slip check does not use power).
+    before the slip (the slip check does not use power), the slope-dependent slip before
+    the constant scale (which its repair removes).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Raw canonical samples.
+    repair : bool
+        Apply the repairs of the findings.
+    accept : callable, optional
+        ``accept(before, after, finding) -> bool``, asked for every repair (the samples
+        without and with it): a repair it refuses is not applied (``finding.repaired``
+        False; ``accept`` records why in the finding). ``measurements.prepare_logs``
+        passes the held-out check (a repair that raises the held-out error is refused).
     """
     s = samples.assign(run=samples["run"].astype(str))
     s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
@@ -723,7 +880,9 @@ def check_data(
     cur = s
     for check in CHECKS:
         found, fixed = check(cur)
-        if repair:
+        if not repair:
+            found.repaired = False
+        elif found.repaired and (accept is None or accept(cur, fixed, found)):
             cur = fixed
         else:
             found.repaired = False

@@ -4,8 +4,11 @@ Raw canonical samples go through
 
 1. the data checks (:func:`energy_planner.measurements.datacheck.check_data`): sensor
    problems (current sign, clock offset between power and motion, odometry slip growing
-   with slope, IMU tilt, twist noise), each reported as a *data finding* and, with
-   ``repair=True`` (the default), corrected;
+   with slope, odometry scale, IMU tilt, twist noise), each reported as a *data finding*
+   and, with ``repair=True`` (the default), corrected - but a repair is kept only if the
+   held-out error does not rise (:func:`heldout_score` of a model on the windows
+   without and with it; ``guard=True``): a repair that costs accuracy is reported as
+   rejected, with the two numbers;
 2. cleaning (:func:`~energy_planner.measurements.preprocess.preprocess`, paper IV-B);
 3. windows (:func:`~energy_planner.measurements.windows.make_windows`).
 
@@ -26,14 +29,25 @@ Examples
 
 from __future__ import annotations
 
+import math
+import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from energy_planner.measurements.datacheck import DataFinding, check_data
 
-__all__ = ["PreparedLogs", "prepare_logs", "findings_text"]
+__all__ = [
+    "HeldOutScore",
+    "PreparedLogs",
+    "prepare_logs",
+    "findings_text",
+    "heldout_score",
+    "yardstick_terms",
+]
 
 
 @dataclass
@@ -67,8 +81,149 @@ class PreparedLogs:
         return [f.to_dict() for f in self.findings]
 
 
+#: A repair is refused when it raises the held-out error beyond noise: the pooled RMSE
+#: rises and the runs are worse with it by a one-sided signed-rank test over runs at this
+#: level (``stats.paired_run_test``, the test of the candidates).
+REPAIR_ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class HeldOutScore:
+    """Held-out window-power error of a model on samples (:func:`heldout_score`).
+
+    Attributes
+    ----------
+    rmse_w : float
+        Pooled held-out RMSE over the windows, W (NaN when it cannot be computed).
+    run_mse : pandas.Series
+        Mean squared held-out window error of every run, W^2, indexed by run.
+    """
+
+    rmse_w: float
+    run_mse: pd.Series
+
+
+def yardstick_terms(wd: Any) -> list[str]:
+    """The model the repair guard scores by default: the base model and the channels.
+
+    The base terms (:data:`energy_planner.model.BASE_TERMS`), and for every extra channel
+    of the logs a standing power and a force per metre: ``c`` and ``c * speed`` for a
+    numeric channel with variance, ``speed * (c == 'v')`` for each value of a categorical
+    one (2 to ``MAX_CATEGORIES`` values). A hidden effect on a channel (a payload, a
+    ground) would otherwise dominate the base model's error and drown the repairs'
+    differences; the same logs give the same yardstick in every command.
+    """
+    from energy_planner.diagnosis.data import MAX_CATEGORIES
+    from energy_planner.model import BASE_TERMS
+
+    terms = list(BASE_TERMS)
+    for ch in wd.numeric_extras:
+        v = wd.samples[ch].to_numpy(dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size and np.ptp(v) > 0:
+            terms += [ch, f"{ch} * speed"]
+    for ch in wd.categorical_extras:
+        cats = sorted(wd.samples[ch].dropna().astype(str).unique().tolist())
+        if 2 <= len(cats) <= MAX_CATEGORIES:
+            terms += [f"speed * ({ch} == {v!r})" for v in cats]
+    return terms
+
+
+def heldout_score(
+    samples: pd.DataFrame, *, window: float = 2.0, terms: Sequence[Any] | None = None
+) -> HeldOutScore:
+    """Held-out window-power error of a model's terms on raw samples cleaned and windowed.
+
+    The yardstick of the repairs (:func:`prepare_logs`): the samples are cleaned
+    (``preprocess``) and cut into windows as every command does, and the model ``terms``
+    (default :func:`yardstick_terms`: the base model and the logs' channels) is scored
+    by the one held-out evaluation (``WindowData.heldout``: 5 folds by run, seed 0, each fold
+    fitting the terms its training windows identify, floored per sample). NaN (and no
+    runs) when it cannot be computed: fewer than two runs, no window.
+    """
+    # the one held-out evaluation with each fold's identifiable terms is the diagnosis'
+    # window view (WindowData.heldout); imported here, at call time, against the layers
+    from energy_planner.diagnosis.data import window_data
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements.preprocess import preprocess
+    from energy_planner.measurements.windows import make_windows
+    from energy_planner.stats import fold_index
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the pipeline itself warns once, after
+            clean, _ = preprocess(samples)
+            wd = window_data(make_windows(clean, duration=window).samples)
+        folds = fold_index(wd.runs, 5, 0)
+        use = yardstick_terms(wd) if terms is None else terms
+        names = [getattr(t, "formula", t) for t in use]
+        h = wd.heldout(names, folds)
+    except (EnergyPlannerError, ValueError):
+        return HeldOutScore(math.nan, pd.Series(dtype=float))
+    run_mse = pd.Series(h.residuals**2).groupby(np.asarray(wd.runs)).mean()
+    return HeldOutScore(h.rmse, run_mse)
+
+
+class _HeldOutGuard:
+    """``check_data``'s ``accept``: a repair is kept unless it raises the held-out error.
+
+    Raised means: the pooled held-out RMSE is higher with the repair and the runs are
+    worse with it beyond noise (:data:`REPAIR_ALPHA`); a difference within noise keeps
+    the repair, since the check's own test found the fault. The score of the samples as
+    they stand is computed once per state (the last accepted repair's samples are the
+    next check's "before").
+    """
+
+    def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
+        self.window, self.terms = window, terms
+        self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
+
+    def _score(self, samples: pd.DataFrame) -> HeldOutScore:
+        if self._before is not None and self._before[0] is samples:
+            return self._before[1]
+        return heldout_score(samples, window=self.window, terms=self.terms)
+
+    def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
+        from energy_planner.stats import paired_run_test
+
+        s0 = self._score(before)
+        s1 = heldout_score(after, window=self.window, terms=self.terms)
+        r0, r1 = s0.rmse_w, s1.rmse_w
+        both = s0.run_mse.index.intersection(s1.run_mse.index)
+        # one "window" per run: d_r is the run's mean squared error without minus with
+        _, p, n = paired_run_test(
+            np.sqrt(s1.run_mse[both].to_numpy()),
+            np.sqrt(s0.run_mse[both].to_numpy()),
+            np.arange(len(both)),
+        )
+        keep = not (math.isfinite(r0) and math.isfinite(r1) and r1 > r0 and p < REPAIR_ALPHA)
+        finding.evidence["heldout_check"] = {
+            "rmse_without_repair_w": r0,
+            "rmse_with_repair_w": r1,
+            "p_worse": p,
+            "runs": n,
+            "kept": keep,
+        }
+        if keep:
+            self._before = (after, s1)
+        else:
+            self._before = (before, s0)
+            finding.summary += (
+                f"; the repair was NOT applied: it raises the model's held-out RMSE from "
+                f"{r0:.3f} to {r1:.3f} W, worse in the runs beyond noise (signed-rank p "
+                f"{p:.2g} over {n} runs; a repair is kept only if the held-out error does "
+                "not rise)"
+            )
+        return keep
+
+
 def prepare_logs(
-    samples: pd.DataFrame, *, window: float = 2.0, repair: bool = True
+    samples: pd.DataFrame,
+    *,
+    window: float = 2.0,
+    repair: bool = True,
+    guard: bool = True,
+    guard_terms: Sequence[Any] | None = None,
 ) -> PreparedLogs:
     """Run the data checks on raw samples, repair (optionally), clean and cut windows.
 
@@ -80,6 +235,16 @@ def prepare_logs(
         Window length, s.
     repair : bool
         Correct what the checks find before cleaning (they are reported either way).
+    guard : bool
+        Keep a repair only if the held-out error of ``guard_terms``
+        (:func:`heldout_score`) does not rise with it (beyond noise:
+        :data:`REPAIR_ALPHA`); a refused repair is reported (``repaired`` False, the
+        numbers in ``evidence["heldout_check"]`` and the summary). False: every repair
+        is applied.
+    guard_terms : sequence, optional
+        The model the guard scores (terms or formulas); default
+        :func:`yardstick_terms` (the base model and the logs' channels), the same for
+        ``fit``, ``diagnose`` and ``discover``.
 
     Returns
     -------
@@ -93,7 +258,8 @@ def prepare_logs(
     from energy_planner.measurements.preprocess import preprocess
     from energy_planner.measurements.windows import make_windows
 
-    findings, fixed = check_data(samples, repair=repair)
+    accept = _HeldOutGuard(window, guard_terms) if guard else None
+    findings, fixed = check_data(samples, repair=repair, accept=accept)
     clean, report = preprocess(fixed)
     del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
     return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)

@@ -10,7 +10,7 @@ Least squares, identifiability and motion classes live in
 """
 
 from energy_planner.stats import numerics as _numerics
-from energy_planner.stats.heldout import HeldOut, fold_index, heldout
+from energy_planner.stats.heldout import HeldOut, fold_index, heldout, paired_run_test
 from energy_planner.stats.numerics import *  # noqa: F403 (its __all__, re-exported)
 
-__all__ = ["HeldOut", "fold_index", "heldout", *_numerics.__all__]
+__all__ = ["HeldOut", "fold_index", "heldout", "paired_run_test", *_numerics.__all__]
