@@ -209,19 +209,6 @@ class MissionResult:
         return out
 
 
-def _one_site(terrain, model, request, xy, n_headings, max_energy):
-    import warnings
-
-    from energy_planner.errors import ReachEdgeWarning
-    from energy_planner.planning.reach import reach
-
-    # max_energy only bounds the search here: the map's edge cutting it is no news
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ReachEdgeWarning)
-        return reach(terrain, model, xy, request, n_headings=n_headings,
-                     max_energy=max_energy).energy_j  # fmt: skip
-
-
 def energy_matrix(
     terrain,
     model,
@@ -234,6 +221,10 @@ def energy_matrix(
     progress: bool = False,
 ) -> np.ndarray:
     """Least energy between every ordered pair of sites, one search per site.
+
+    Each search stops once every other site is settled, inside a proven window around
+    the sites (:func:`energy_planner.mission.matrix.matrix_search`, which also reports
+    the window and the states expanded); the entries equal a full search's.
 
     Parameters
     ----------
@@ -255,25 +246,11 @@ def energy_matrix(
     ndarray, shape (n, n)
         ``E[i, j]``: energy from site i to site j, J (``inf`` unreachable, 0 diagonal).
     """
-    rc = sites.cells(terrain)
-    xy = [tuple(map(float, p)) for p in sites.xy]
-    args = (n_headings, max_energy)
-    if client is not None:
-        futs = [client.submit(_one_site, terrain, model, request, p, *args, pure=False)
-                for p in xy]  # fmt: skip
-        grids = client.gather(futs)
-    else:
-        from tqdm import tqdm
+    from energy_planner.mission.matrix import matrix_search
 
-        grids = [_one_site(terrain, model, request, p, *args)
-                 for p in tqdm(xy, desc="searches", unit="site", disable=not progress)]  # fmt: skip
-    n = len(xy)
-    E = np.full((n, n), np.inf)
-    for i, g in enumerate(grids):
-        vals = g[rc[:, 0], rc[:, 1]]
-        E[i] = np.where(np.isfinite(vals), vals, np.inf)
-        E[i, i] = 0.0
-    return E
+    res = matrix_search(terrain, model, sites, request, n_headings=n_headings,
+                        max_energy=max_energy, client=client, progress=progress)  # fmt: skip
+    return res.energy_j
 
 
 def mission(

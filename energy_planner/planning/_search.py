@@ -401,3 +401,60 @@ def min_over_headings(g, P, H):
                 b = v
         res[p] = b
     return res
+
+
+@numba.njit(cache=True)
+def min_rows(rows, which, out):
+    """``out[p]`` = least of ``rows[k, p]`` over the row indices ``k`` in ``which``.
+
+    The heuristic of a search toward several goals: the least of the goals' relaxed
+    costs-to-go (``inf`` where no goal in ``which`` can be reached).
+    """
+    for p in range(out.shape[0]):
+        b = np.inf
+        for k in which:
+            v = rows[k, p]
+            if v < b:
+                b = v
+        out[p] = b
+
+
+@numba.njit(cache=True)
+def _sift_down(keys, vals, i, m):
+    k = keys[i]
+    v = vals[i]
+    while True:
+        c = 2 * i + 1
+        if c >= m:
+            break
+        if c + 1 < m and keys[c + 1] < keys[c]:
+            c += 1
+        if keys[c] >= k:
+            break
+        keys[i] = keys[c]
+        vals[i] = vals[c]
+        i = c
+    keys[i] = k
+    vals[i] = v
+
+
+@numba.njit(cache=True)
+def rekey(keys, vals, n, g, code, h2d, H):
+    """Give every open entry the key ``g + h2d`` of a new heuristic, then re-heapify.
+
+    Entries of closed states are dropped; a stale entry of a state whose ``g`` has
+    improved since gets the same key as the live one (the second pop finds it closed).
+    A* may switch to another consistent heuristic in mid-search this way: the closed
+    states keep their optimal ``g``, and the open list is ordered by the new keys.
+    """
+    m = 0
+    for k in range(n[0]):
+        s = vals[k]
+        if code[s] >= CLOSED:
+            continue
+        keys[m] = g[s] + h2d[s // H]
+        vals[m] = s
+        m += 1
+    n[0] = m
+    for i in range(m // 2 - 1, -1, -1):
+        _sift_down(keys, vals, i, m)

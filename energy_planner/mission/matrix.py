@@ -1,0 +1,289 @@
+"""The energy matrix of a mission: one early-stopped search per site, serial or on dask.
+
+Each row of the matrix is one search from a site over the planner's own motions
+(:func:`energy_planner.planning.search.targets_search`: the primitives, kernel and
+float32 energies of :func:`~energy_planner.planning.search.reach_search` and ``plan``)
+that stops as soon as every other site is settled. It is an A* toward all the other
+sites at once, guided by the least of their relaxed costs-to-go (the bound ``plan``'s
+search uses, :func:`~energy_planner.planning.search.target_heuristics`, computed once per
+site and shared by every row). Its entries equal those of a full search (Dijkstra over
+the whole map, read at the sites) up to float rounding.
+
+**Window.** The searches stand inside a box around the sites, proven by the corridor's
+argument (:mod:`energy_planner.planning.corridor`): ``c_min`` bounds the energy per
+metre of any translation from below (:func:`~energy_planner.planning.corridor.least_cost_per_metre`
+over the terrain's gradients), so a path from site ``i`` to site ``j`` cheaper than the
+window's ``E[i, j]`` (a feasible path, an upper bound) has length at most
+``E[i, j] / c_min`` and lies in the ellipse with foci ``i`` and ``j`` of that length. If
+every pair's ellipse lies inside the window, the window's matrix is the whole map's. If
+not, the window grows to the ellipses' bounding box (clipped to the map) and the searches
+run again, which proves it. A pair without a path in the window, or ``c_min = 0``
+(channel rasters), takes the whole map.
+
+**dask.** The per-site heuristics and then the per-site searches are independent tasks:
+with a ``dask.distributed`` client (a :class:`~distributed.LocalCluster`, or a
+``Client("tcp://host:8786")`` given by address) they run on its workers, with the same
+result as the serial loop. The terrain, the model and the request are sent once
+(``scatter``); each worker builds the motion cost from them (the kernels come from the
+disk cache).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["MatrixResult", "matrix_search", "window_proof"]
+
+#: Initial window: the sites' bounding box grown by this share of its larger side ...
+WINDOW_SHARE = 0.25
+#: ... and at least this many cells.
+WINDOW_MIN_CELLS = 20
+
+
+@dataclass
+class MatrixResult:
+    """The energy matrix and how it was found.
+
+    Attributes
+    ----------
+    energy_j : ndarray, shape (n, n)
+        ``E[i, j]``: least energy from site ``i`` to site ``j`` (min over the headings of
+        arrival, any heading at the start), J; ``inf`` unreachable, 0 on the diagonal.
+    info : dict
+        ``window`` (the box searched, working CRS), ``proven``, ``c_min_j_per_m``,
+        ``passes``, ``expanded`` (states, all rows), ``states_total``, ``heuristic_s``,
+        ``search_s``.
+    """
+
+    energy_j: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def _setup(terrain, model, request, n_headings, box, anchor):
+    from energy_planner.planning.compare import _motion_cost
+    from energy_planner.planning.search import search_grid
+
+    cost, _ = _motion_cost(terrain, model, request)
+    cost.compile()
+    return cost, search_grid(cost, terrain, anchor, n_headings=n_headings, box=box)
+
+
+def _heuristic_task(terrain, model, request, n_headings, box, anchor, xy):
+    from energy_planner.planning.search import target_heuristics
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    return target_heuristics(cost, grid, np.asarray(xy, float).reshape(1, 2))[0]
+
+
+def _row_task(terrain, model, request, n_headings, box, anchor, start, targets, heur,
+              max_energy):  # fmt: skip
+    from energy_planner.planning.search import targets_search
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    r = targets_search(cost, grid, start, targets, heur, max_energy=max_energy)
+    return r.energy, r.expanded, r.states_total
+
+
+def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress):
+    """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
+    anchor = tuple(map(float, uxy[0]))
+    n = len(uxy)
+    t0 = time.perf_counter()
+    args = (n_headings, box, anchor)
+    if client is not None:
+        ter_f, mod_f, req_f = client.scatter([terrain, model, request], broadcast=True, hash=False)
+        futs = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, tuple(p), pure=False)
+                for p in uxy]  # fmt: skip
+        heur = np.stack(client.gather(futs))
+        del futs
+        t1 = time.perf_counter()
+        heur_f = client.scatter(heur, broadcast=True, hash=False)
+        futs = [client.submit(_row_task, ter_f, mod_f, req_f, *args, tuple(uxy[i]), uxy, heur_f,
+                              max_energy, pure=False) for i in range(n)]  # fmt: skip
+        rows = client.gather(futs)
+        del futs, heur_f
+    else:
+        from tqdm import tqdm
+
+        from energy_planner.planning.search import target_heuristics
+
+        cost, grid = _setup(terrain, model, request, *args)
+        heur = target_heuristics(cost, grid, uxy)
+        t1 = time.perf_counter()
+        from energy_planner.planning.search import targets_search
+
+        rows = []
+        for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
+            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy)
+            rows.append((r.energy, r.expanded, r.states_total))
+    E = np.array([r[0] for r in rows]).reshape(n, n)
+    np.fill_diagonal(E, 0.0)
+    return E, {
+        "expanded": int(sum(r[1] for r in rows)),
+        "states_total": int(sum(r[2] for r in rows)),
+        "heuristic_s": t1 - t0,
+        "search_s": time.perf_counter() - t1,
+    }
+
+
+def window_proof(
+    xy: np.ndarray, E: np.ndarray, c_min: float
+) -> tuple[float, float, float, float] | None:
+    """The box that holds every path that could beat ``E`` (None: some pair is unbounded).
+
+    The union of the bounding boxes of the ellipses with foci ``xy[i]``, ``xy[j]`` and
+    length ``E[i, j] / c_min`` (:func:`energy_planner.planning.corridor.ellipse_box`),
+    over the pairs ``i != j``; None if a pair has no finite energy or ``c_min <= 0``.
+
+    Examples
+    --------
+    >>> window_proof(np.array([[0.0, 0.0], [6.0, 0.0]]), np.array([[0, 10.0], [10.0, 0]]), 1.0)
+    (-2.0, -4.0, 8.0, 4.0)
+    """
+    from energy_planner.planning.corridor import ellipse_box
+
+    if not c_min > 0:
+        return None
+    lo, hi = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf])
+    for i in range(len(xy)):
+        for j in range(len(xy)):
+            if i == j:
+                continue
+            if not math.isfinite(E[i, j]):
+                return None
+            b = ellipse_box(xy[i], xy[j], E[i, j] / c_min)
+            lo = np.minimum(lo, b[:2])
+            hi = np.maximum(hi, b[2:])
+    return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def _c_min(terrain, model, request, n_headings) -> float:
+    from energy_planner.energy.kernels import IN_GRAD
+    from energy_planner.planning.compare import _motion_cost
+    from energy_planner.planning.corridor import least_cost_per_metre
+
+    cost, _ = _motion_cost(terrain, model, request)
+    grad = cost.data[IN_GRAD]
+    fin = np.isfinite(grad[..., 0]) & np.isfinite(grad[..., 1])
+    if not fin.any():
+        return 0.0
+    lo = [float(grad[..., 0][fin].min()), float(grad[..., 1][fin].min())]
+    hi = [float(grad[..., 0][fin].max()), float(grad[..., 1][fin].max())]
+    return least_cost_per_metre(cost, lo, hi, n_headings)
+
+
+def matrix_search(
+    terrain,
+    model,
+    sites,
+    request=None,
+    *,
+    n_headings: int = 16,
+    max_energy: float | None = None,
+    client: Any = None,
+    window: bool = True,
+    progress: bool = False,
+) -> MatrixResult:
+    """Least energy between every ordered pair of sites, one early-stopped search per site.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map.
+    model : EnergyModel
+        A fitted model.
+    sites : Sites
+        On cell centres (working CRS; :meth:`~energy_planner.mission.Sites.on_cells`).
+    request : Request, optional
+        Robot, limits, channels (as for ``plan``).
+    n_headings : int
+        Search headings.
+    max_energy : float, optional
+        Stop each search at this energy (J); farther sites read ``inf`` (and the window
+        is then the whole map).
+    client : distributed.Client, optional
+        Run the heuristics and the searches on this dask cluster's workers.
+    window : bool
+        Search in a proven window around the sites (see the module); False: the whole map.
+    progress : bool
+        A progress bar over the sites on stderr (serial).
+
+    Returns
+    -------
+    MatrixResult
+
+    Raises
+    ------
+    InvalidStateError
+        If a site is off the map or breaks a limit at every heading.
+    """
+    from energy_planner.planning.compare import _motion_cost
+    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.planning.moves import terrain_extent
+    from energy_planner.request import Request
+
+    request = Request() if request is None else request
+    rc = sites.cells(terrain)
+    cost, geoms = _motion_cost(terrain, model, request)
+    for x, y in sites.xy:
+        check_endpoint(cost, terrain, "site", (float(x), float(y), None), geoms)
+    del cost
+    # sites sharing a cell share a row and a column (0 between them)
+    _, first, inv = np.unique(rc, axis=0, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    uxy = np.asarray(sites.xy, float)[first]
+    cap = math.inf if max_energy is None else float(max_energy)
+    xmin, xmax, ymin, ymax = terrain_extent(terrain)
+    full = (xmin, ymin, xmax, ymax)
+    c_min = _c_min(terrain, model, request, n_headings) if window else 0.0
+    box, proven, passes, stats = full, True, 0, []
+    if window and c_min > 0 and math.isinf(cap) and len(uxy) > 1:
+        cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
+        lo, hi = uxy.min(axis=0), uxy.max(axis=0)
+        m = max(WINDOW_SHARE * float((hi - lo).max()), WINDOW_MIN_CELLS * cell)
+        box = _clip((lo[0] - m, lo[1] - m, hi[0] + m, hi[1] + m), full)
+        proven = False
+    while True:
+        E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress)
+        passes += 1
+        stats.append(st)
+        if proven:
+            break
+        need = window_proof(uxy, E, c_min)
+        if need is not None and _inside(need, box):
+            proven = True
+            break
+        box = full if need is None else _clip(_union(need, box), full)
+        proven = box == full or need is not None  # the grown window holds every ellipse
+    out = E[np.ix_(inv, inv)]
+    np.fill_diagonal(out, 0.0)
+    info = {
+        "window": [float(v) for v in box],
+        "whole_map": box == full,
+        "proven": bool(proven),
+        "c_min_j_per_m": float(c_min),
+        "passes": passes,
+        "expanded": sum(s["expanded"] for s in stats),
+        "states_total": stats[-1]["states_total"],
+        "heuristic_s": sum(s["heuristic_s"] for s in stats),
+        "search_s": sum(s["search_s"] for s in stats),
+    }
+    return MatrixResult(out, info)
+
+
+def _clip(b, full):
+    return (max(b[0], full[0]), max(b[1], full[1]), min(b[2], full[2]), min(b[3], full[3]))
+
+
+def _union(a, b):
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+
+
+def _inside(inner, outer) -> bool:
+    return (inner[0] >= outer[0] and inner[1] >= outer[1] and inner[2] <= outer[2]
+            and inner[3] <= outer[3])  # fmt: skip
