@@ -1,11 +1,12 @@
 """A mission: several sites visited in the best order, each leg planned and priced.
 
 The energy between every pair of sites comes from **one search per site**: the planner's
-own search over (x, y, heading) without a goal (:func:`energy_planner.planning.reach.reach`,
-the same motions and kernel as :func:`energy_planner.planning.plan`), read at the other
-sites' cells. The matrix is asymmetric (uphill is not downhill). The order is then chosen
-on it (:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned
-with :func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
+own search over (x, y, heading) (the same motions and kernel as
+:func:`energy_planner.planning.reach.reach` and :func:`energy_planner.planning.plan`),
+stopped once every other site is settled (:mod:`energy_planner.mission.matrix`). The
+matrix is asymmetric (uphill is not downhill). The order is then chosen on it
+(:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned with
+:func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
 ``eps=1`` (the default here) a leg's planned energy equals its matrix entry.
 
 Sites lie on the DEM's cell centres (as :func:`~energy_planner.planning.reach.reach` moves
