@@ -25,7 +25,8 @@ from energy_planner.planning.reach import reach
 from energy_planner.request import Request
 from energy_planner.terrain import Terrain
 
-#: float32 energies summed along different (equally cheap) paths may differ in the last bits
+#: float32 energies (and float32 edge prices) summed along different (equally cheap) paths
+#: may differ in the last bits
 RTOL = 1e-6
 
 
@@ -67,8 +68,9 @@ def _full_matrix(terrain, model, sites, request=None) -> np.ndarray:
 def test_early_stopped_matrix_equals_the_full_search(knoll, model, cells):
     s = _sites(knoll, [(c + 0.0, r + 0.0) for c, r in cells])
     full = _full_matrix(knoll, model, s)
-    for window in (True, False):
-        res = matrix_search(knoll, model, s, window=window)
+    for window, edges in ((True, None), (False, False)):
+        res = matrix_search(knoll, model, s, window=window, edge_cache=edges)
+        assert res.info["edge_table"] == (edges is None)  # a small map: the table fits
         np.testing.assert_allclose(res.energy_j, full, rtol=RTOL)
         assert res.info["proven"]
         # early stop: fewer states than one full search per site

@@ -9,6 +9,14 @@ search uses, :func:`~energy_planner.planning.search.target_heuristics`, computed
 site and shared by every row). Its entries equal those of a full search (Dijkstra over
 the whole map, read at the sites) up to float rounding.
 
+**Edges priced once.** The cost of a search is the kernel pricing its edges (about ten
+per state expanded, each sampling the terrain every half cell with the model's power), not
+the heap. The sites' searches run on one lattice, so when it fits (72 bytes per state,
+:data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`) every edge of the window is
+priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of rows) and
+the searches read the prices (float32: the entries then agree with the on-demand search
+to float32 rounding).
+
 **Window.** The searches stand inside a box around the sites, proven by the corridor's
 argument (:mod:`energy_planner.planning.corridor`): ``c_min`` bounds the energy per
 metre of any translation from below (:func:`~energy_planner.planning.corridor.least_cost_per_metre`
@@ -25,7 +33,8 @@ with a ``dask.distributed`` client (a :class:`~distributed.LocalCluster`, or a
 ``Client("tcp://host:8786")`` given by address) they run on its workers, with the same
 result as the serial loop. The terrain, the model and the request are sent once
 (``scatter``); each worker builds the motion cost from them (the kernels come from the
-disk cache).
+disk cache). The edge table is priced by strips of rows on the workers, then sent to each
+of them, and the rows run in one batch per worker.
 """
 
 from __future__ import annotations
@@ -80,19 +89,45 @@ def _heuristic_task(terrain, model, request, n_headings, box, anchor, xy):
     return target_heuristics(cost, grid, np.asarray(xy, float).reshape(1, 2))[0]
 
 
-def _row_task(terrain, model, request, n_headings, box, anchor, start, targets, heur,
-              max_energy):  # fmt: skip
+def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
+    from energy_planner.planning.search import edge_table
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    return edge_table(cost, grid, rows)
+
+
+def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
+               max_energy, edges):  # fmt: skip
+    """The rows of ``starts`` (``edges``: the shared edge table, or None)."""
     from energy_planner.planning.search import targets_search
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
-    r = targets_search(cost, grid, start, targets, heur, max_energy=max_energy)
-    return r.energy, r.expanded, r.states_total
+    rows = []
+    for p in starts:
+        r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
+                           edges=edges)  # fmt: skip
+        rows.append((r.energy, r.expanded, r.states_total))
+    return rows
 
 
-def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress):
+def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
+    """Whether the edge table of the window fits: a quarter of the memory cap per process."""
+    from energy_planner.planning.search import EDGE_BYTES_PER_STATE
+    from energy_planner.terrain.memory import resolve_cap
+
+    if edge_cache is not None:
+        return bool(edge_cache)
+    cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
+    cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
+    return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.25 * resolve_cap()
+
+
+def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
+         edge_cache):  # fmt: skip
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
+    use_edges = _use_edges(terrain, box, n_headings, edge_cache)
     t0 = time.perf_counter()
     args = (n_headings, box, anchor)
     if client is not None:
@@ -103,24 +138,47 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         del futs
         t1 = time.perf_counter()
         heur_f = client.scatter(heur, broadcast=True, hash=False)
-        futs = [client.submit(_row_task, ter_f, mod_f, req_f, *args, tuple(uxy[i]), uxy, heur_f,
-                              max_energy, pure=False) for i in range(n)]  # fmt: skip
-        rows = client.gather(futs)
-        del futs, heur_f
+        nw = max(1, sum(client.nthreads().values()))
+        edges_f, t_edges = None, 0.0
+        if use_edges:  # priced by strips of rows on the workers, then shared by every row
+            from energy_planner.planning.search import search_grid
+
+            # (the lattice's geometry does not read the cost)
+            ny = len(search_grid(None, terrain, anchor, n_headings=n_headings, box=box).ys)
+            cuts = np.linspace(0, ny, min(ny, 2 * nw) + 1).astype(int)
+            futs = [client.submit(_edges_task, ter_f, mod_f, req_f, *args, (a, b), pure=False)
+                    for a, b in zip(cuts[:-1], cuts[1:], strict=True)]  # fmt: skip
+            edges_f = client.scatter(np.concatenate(client.gather(futs)), broadcast=True,
+                                     hash=False)  # fmt: skip
+            del futs
+            t_edges = time.perf_counter() - t1
+        # one batch of rows per worker with the shared table, else one task per row
+        nb = min(n, nw) if use_edges else n
+        batches = [uxy[b::nb] for b in range(nb)]
+        futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
+                              max_energy, edges_f, pure=False) for b in batches]  # fmt: skip
+        got = client.gather(futs)
+        del futs, heur_f, edges_f
+        rows = [None] * n
+        for b, res in enumerate(got):
+            for k, r in enumerate(res):
+                rows[b + k * nb] = r
     else:
         from tqdm import tqdm
 
-        from energy_planner.planning.search import target_heuristics
+        from energy_planner.planning.search import edge_table, target_heuristics, targets_search
 
         cost, grid = _setup(terrain, model, request, *args)
         heur = target_heuristics(cost, grid, uxy)
         t1 = time.perf_counter()
-        from energy_planner.planning.search import targets_search
-
+        edges = edge_table(cost, grid) if use_edges else None
+        t_edges = time.perf_counter() - t1
         rows = []
         for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
-            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy)
+            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy,
+                               edges=edges)  # fmt: skip
             rows.append((r.energy, r.expanded, r.states_total))
+        del edges
     E = np.array([r[0] for r in rows]).reshape(n, n)
     np.fill_diagonal(E, 0.0)
     return E, {
@@ -128,6 +186,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         "states_total": int(sum(r[2] for r in rows)),
         "heuristic_s": t1 - t0,
         "search_s": time.perf_counter() - t1,
+        "edge_table": use_edges,
+        "edge_table_s": t_edges if use_edges else 0.0,
     }
 
 
@@ -187,6 +247,7 @@ def matrix_search(
     max_energy: float | None = None,
     client: Any = None,
     window: bool = True,
+    edge_cache: bool | None = None,
     progress: bool = False,
 ) -> MatrixResult:
     """Least energy between every ordered pair of sites, one early-stopped search per site.
@@ -210,6 +271,11 @@ def matrix_search(
         Run the heuristics and the searches on this dask cluster's workers.
     window : bool
         Search in a proven window around the sites (see the module); False: the whole map.
+    edge_cache : bool, optional
+        Price every edge of the window once and share the prices between the sites'
+        searches (72 bytes per state per process; default: when that takes at most a
+        quarter of the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
+        Without it each search prices its edges itself (the same kernel call).
     progress : bool
         A progress bar over the sites on stderr (serial).
 
@@ -247,9 +313,10 @@ def matrix_search(
         lo, hi = uxy.min(axis=0), uxy.max(axis=0)
         m = max(WINDOW_SHARE * float((hi - lo).max()), WINDOW_MIN_CELLS * cell)
         box = _clip((lo[0] - m, lo[1] - m, hi[0] + m, hi[1] + m), full)
-        proven = False
+        proven = box == full
     while True:
-        E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress)
+        E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress,
+                     edge_cache)  # fmt: skip
         passes += 1
         stats.append(st)
         if proven:
@@ -272,6 +339,8 @@ def matrix_search(
         "states_total": stats[-1]["states_total"],
         "heuristic_s": sum(s["heuristic_s"] for s in stats),
         "search_s": sum(s["search_s"] for s in stats),
+        "edge_table": stats[-1]["edge_table"],
+        "edge_table_s": sum(s["edge_table_s"] for s in stats),
     }
     return MatrixResult(out, info)
 

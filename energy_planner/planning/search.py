@@ -64,6 +64,8 @@ __all__ = [
     "target_heuristics",
     "targets_search",
     "TargetsResult",
+    "edge_table",
+    "EDGE_BYTES_PER_STATE",
 ]
 
 _TEMPLATE = Path(__file__).with_name("_search.py")
@@ -121,6 +123,12 @@ def _warm_up(mod, cost) -> None:
     mod.min_rows(np.zeros((1, 1), np.float32), np.zeros(1, i8), np.zeros(1))
     mod.rekey(keys, vals, np.zeros(1, i8), np.zeros(16, np.float32), np.zeros(16, np.int8),
               np.zeros(1), 16)  # fmt: skip
+    mod.edge_costs(cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), 0, 0,
+                   np.zeros((0, 6), np.float32))  # fmt: skip
+    mod.astar_cached_chunk(
+        np.zeros((16, 6), np.float32), lat, 16, moves, np.zeros((16, 4), i8), np.zeros(1),
+        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
+    )  # fmt: skip
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
@@ -784,6 +792,7 @@ def targets_search(
     progress: bool = False,
     time_budget: float = math.inf,
     chunk: int = 4096,
+    edges: np.ndarray | None = None,
 ) -> TargetsResult:
     """Least energy from ``start_xy`` (any initial heading) to each of several targets.
 
@@ -819,6 +828,10 @@ def targets_search(
         Seconds; :class:`PlanningError` when exceeded.
     chunk : int
         States expanded between checks of the targets.
+    edges : ndarray, optional
+        Every edge's cost from :func:`edge_table` on ``grid`` (shared by the searches from
+        several starts: each edge priced once instead of once per search); None: edges
+        priced on demand.
 
     Returns
     -------
@@ -851,10 +864,18 @@ def targets_search(
         while remaining:
             # the last target ends the search as a goal: no expansion after it
             last = int(tp[remaining[0]]) if len(remaining) == 1 else -1
-            status, pops, pr = mod.astar_chunk(
-                cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, 1.0, g,
-                code, last, -1, heap.keys, heap.vals, heap.n, chunk, float(max_energy), out,
-            )  # fmt: skip
+            if edges is None:
+                status, pops, pr = mod.astar_chunk(
+                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, 1.0,
+                    g, code, last, -1, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
+                    out,
+                )  # fmt: skip
+            else:
+                status, pops = mod.astar_cached_chunk(
+                    edges, grid.lat, H, grid.moves, grid.moves_of, h2d, g, code, last,
+                    heap.keys, heap.vals, heap.n, chunk, float(max_energy),
+                )  # fmt: skip
+                pr = 0
             expanded += pops
             priced += pr
             if bar is not None:
@@ -886,3 +907,30 @@ def targets_search(
     energy[energy > max_energy] = np.inf
     return TargetsResult(energy=energy, expanded=expanded, priced=priced,
                          states_total=grid.P * H, time_s=time.perf_counter() - t0)  # fmt: skip
+
+
+#: Bytes per (x, y, heading) state of :func:`edge_table` (18 float32 edges: 16 moves, 2 turns).
+EDGE_BYTES_PER_STATE = 4 * 18
+
+
+def edge_table(cost, grid: _Grid, rows: tuple[int, int] | None = None) -> np.ndarray:
+    """Every edge of ``grid``'s lattice priced once by the kernel (float32, J).
+
+    ``rows`` = ``(j0, j1)``: only the states of lattice rows ``j0 .. j1 - 1`` (a strip;
+    strips stacked in order give the whole table, so they can be priced in parallel).
+
+    ``out[s, k]``: from state ``s``, the ``k``-th translation of its heading
+    (``grid.moves_of``; ``inf`` off the lattice or under a limit), then the turns in
+    place to the previous and the next heading: the edges the search prices on demand,
+    by the same kernel call. Searches from several starts on the same lattice share it
+    (:func:`targets_search` with ``edges=``).
+
+    Returns
+    -------
+    ndarray of float32, shape ((j1 - j0) * grid.nx * grid.H, grid.moves_of.shape[1] + 2)
+    """
+    mod = search_module(cost)
+    j0, j1 = (0, grid.ny) if rows is None else (int(rows[0]), int(rows[1]))
+    out = np.empty(((j1 - j0) * grid.nx * grid.H, grid.moves_of.shape[1] + 2), np.float32)
+    mod.edge_costs(cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, j0, j1, out)
+    return out
