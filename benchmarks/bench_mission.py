@@ -147,6 +147,8 @@ def main(argv: list[str] | None = None) -> dict:
         "states_total": res.info["states_total"],
         "heuristic_s": res.info["heuristic_s"],
         "search_s": res.info["search_s"],
+        "edge_table": res.info["edge_table"],
+        "edge_table_s": res.info["edge_table_s"],
     }
     if a.json:
         print(json.dumps(out, indent=2))
@@ -160,8 +162,9 @@ def main(argv: list[str] | None = None) -> dict:
     name = f"before: full Dijkstra per site ({k} timed)"
     print(f"{name:<44} {t_full:>8.1f} {t_full / t_serial:>7.2f}")
     print(f"states expanded {res.info['expanded']:,} of {res.info['states_total']:,} "
-          f"({res.info['expanded'] / res.info['states_total']:.1%}); heuristics "
-          f"{res.info['heuristic_s']:.1f} s, searches {res.info['search_s']:.1f} s; "
+          f"({res.info['expanded'] / res.info['states_total']:.1%}); serial: heuristics "
+          f"{res.info['heuristic_s']:.1f} s, edge table {res.info['edge_table_s']:.1f} s, "
+          f"searches {res.info['search_s'] - res.info['edge_table_s']:.1f} s; "
           f"window {'= the map' if res.info['whole_map'] else res.info['window']}")  # fmt: skip
     print(f"max |serial - dask| = {d_dask:g} J (same unreachable pairs: {same_inf}); "
           f"max relative difference to the full searches: {d_full:.2g}")  # fmt: skip
@@ -193,7 +196,8 @@ def scaling(sizes: list[int], target: int, n_sites: int, as_json: bool = False) 
         t0 = time.perf_counter()
         res = matrix_search(ter, model, sites)
         rows.append({"size": size, "matrix_s": time.perf_counter() - t0,
-                     "expanded": res.info["expanded"],
+                     "expanded": res.info["expanded"], "heuristic_s": res.info["heuristic_s"],
+                     "edge_table_s": res.info["edge_table_s"],
                      "states_total": res.info["states_total"]})  # fmt: skip
     cells = np.array([r["size"] ** 2 for r in rows], float)
     secs = np.array([r["matrix_s"] for r in rows])
@@ -209,9 +213,11 @@ def scaling(sizes: list[int], target: int, n_sites: int, as_json: bool = False) 
         return res
     print(f"serial matrix of {n_sites} sites (load average {load0:.1f} -> "
           f"{res['load_average_end']:.1f})")  # fmt: skip
-    print(f"{'DEM':>11} {'matrix s':>9} {'expanded / states':>26}")
+    print(f"{'DEM':>11} {'matrix s':>9} {'heuristics s':>13} {'edge table s':>13} "
+          f"{'expanded / states':>26}")  # fmt: skip
     for r in rows:
         print(f"{r['size']:>5} x {r['size']:<4} {r['matrix_s']:>9.1f} "
+              f"{r['heuristic_s']:>13.1f} {r['edge_table_s']:>13.1f} "
               f"{r['expanded']:>12,} / {r['states_total']:<12,}")  # fmt: skip
     print(f"time ~ cells^{k:.2f}; extrapolated to {target} x {target}: {pred / 3600:.1f} h "
           f"serial ({pred / 3600 / 2:.1f} h on 2 free workers)")  # fmt: skip
