@@ -82,11 +82,11 @@ def _setup(terrain, model, request, n_headings, box, anchor):
     return cost, search_grid(cost, terrain, anchor, n_headings=n_headings, box=box)
 
 
-def _heuristic_task(terrain, model, request, n_headings, box, anchor, xy):
+def _heuristic_task(terrain, model, request, n_headings, box, anchor, xys):
     from energy_planner.planning.search import target_heuristics
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
-    return target_heuristics(cost, grid, np.asarray(xy, float).reshape(1, 2))[0]
+    return target_heuristics(cost, grid, np.asarray(xys, float).reshape(-1, 2))
 
 
 def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
@@ -132,13 +132,17 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
     args = (n_headings, box, anchor)
     if client is not None:
         ter_f, mod_f, req_f = client.scatter([terrain, model, request], broadcast=True, hash=False)
-        futs = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, tuple(p), pure=False)
-                for p in uxy]  # fmt: skip
-        heur = np.stack(client.gather(futs))
+        # one batch per worker thread: each task builds the motion cost once
+        nw = max(1, sum(client.nthreads().values()))
+        nb = min(n, nw)
+        futs = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, uxy[b::nb],
+                              pure=False) for b in range(nb)]  # fmt: skip
+        heur = np.empty((n, *client.gather(futs[0]).shape[1:]), np.float32)
+        for b, h in enumerate(client.gather(futs)):
+            heur[b::nb] = h
         del futs
         t1 = time.perf_counter()
         heur_f = client.scatter(heur, broadcast=True, hash=False)
-        nw = max(1, sum(client.nthreads().values()))
         edges_f, t_edges = None, 0.0
         if use_edges:  # priced by strips of rows on the workers, then shared by every row
             from energy_planner.planning.search import search_grid
@@ -152,8 +156,7 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
                                      hash=False)  # fmt: skip
             del futs
             t_edges = time.perf_counter() - t1
-        # one batch of rows per worker with the shared table, else one task per row
-        nb = min(n, nw) if use_edges else n
+        # one batch of rows per worker thread
         batches = [uxy[b::nb] for b in range(nb)]
         futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
                               max_energy, edges_f, pure=False) for b in batches]  # fmt: skip
