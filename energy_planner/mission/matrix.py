@@ -111,7 +111,7 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets
 
 
 def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
-    """Whether the edge table of the window fits: a quarter of the memory cap per process."""
+    """Whether the edge table of the window fits: half the memory cap per process."""
     from energy_planner.planning.search import EDGE_BYTES_PER_STATE
     from energy_planner.terrain.memory import resolve_cap
 
@@ -119,7 +119,7 @@ def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
         return bool(edge_cache)
     cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
     cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
-    return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.25 * resolve_cap()
+    return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.5 * resolve_cap()
 
 
 def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
@@ -276,8 +276,8 @@ def matrix_search(
         Search in a proven window around the sites (see the module); False: the whole map.
     edge_cache : bool, optional
         Price every edge of the window once and share the prices between the sites'
-        searches (72 bytes per state per process; default: when that takes at most a
-        quarter of the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
+        searches (72 bytes per state per process; default: when that takes at most half
+        the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
         Without it each search prices its edges itself (the same kernel call).
     progress : bool
         A progress bar over the sites on stderr (serial).
