@@ -45,8 +45,8 @@ def knoll():
 
 @pytest.fixture(scope="module")
 def tilted():
-    """A 60 m x 60 m plane rising 5 % to the east, 1 m cells."""
-    y, x = np.mgrid[0:60, 0:60]
+    """A 40 m x 40 m plane rising 5 % to the east, 1 m cells."""
+    y, x = np.mgrid[0:40, 0:40]
     return Terrain.from_array(0.05 * x.astype(float), resolution=1.0, origin=(0.0, 0.0))
 
 
@@ -62,7 +62,7 @@ def _full_matrix(terrain, model, sites, request=None) -> np.ndarray:
     return np.where(np.isfinite(E), E, np.inf)
 
 
-@settings(max_examples=3, deadline=None)
+@settings(max_examples=2, deadline=None)
 @given(st.lists(st.tuples(st.integers(3, 20), st.integers(3, 20)), min_size=2, max_size=3,
                 unique=True))  # fmt: skip
 def test_early_stopped_matrix_equals_the_full_search(knoll, model, cells):
@@ -77,12 +77,13 @@ def test_early_stopped_matrix_equals_the_full_search(knoll, model, cells):
         assert res.info["expanded"] < res.info["states_total"]
 
 
-def test_window_is_proven_smaller_than_the_map_and_exact(tilted, model):
-    s = _sites(tilted, [(25, 25), (35, 28), (28, 36)])
+def test_window_is_proven_smaller_than_the_map_and_exact(tilted, model, monkeypatch):
+    monkeypatch.setattr(mx, "WINDOW_MIN_CELLS", 6)  # a small map: a narrow first window
+    s = _sites(tilted, [(15, 15), (23, 17), (17, 23)])
     res = matrix_search(tilted, model, s)
     x0, y0, x1, y1 = res.info["window"]
     assert res.info["proven"] and not res.info["whole_map"] and res.info["passes"] == 1
-    assert (x1 - x0) * (y1 - y0) < 0.8 * 59 * 59
+    assert (x1 - x0) * (y1 - y0) < 0.5 * 39 * 39
     # the ellipse of every pair lies inside: no cheaper path can leave the window
     need = mx.window_proof(s.xy, res.energy_j, res.info["c_min_j_per_m"])
     assert need[0] >= x0 and need[1] >= y0 and need[2] <= x1 and need[3] <= y1
@@ -100,8 +101,8 @@ def test_window_grows_around_a_wall(tilted, model, monkeypatch, wall_half):
     becomes the whole map. Either way the second pass equals the full search.
     """
     monkeypatch.setattr(mx, "WINDOW_MIN_CELLS", 3)
-    req = Request.make(keep_out=[box(29.4, 30 - wall_half, 30.6, 30 + wall_half)])
-    s = _sites(tilted, [(25, 30), (35, 30)])
+    req = Request.make(keep_out=[box(19.4, 20 - wall_half, 20.6, 20 + wall_half)])
+    s = _sites(tilted, [(15, 20), (25, 20)])
     res = matrix_search(tilted, model, s, req)
     assert res.info["passes"] == 2 and res.info["proven"]
     assert res.info["whole_map"] == (wall_half > 10)
@@ -111,12 +112,10 @@ def test_window_grows_around_a_wall(tilted, model, monkeypatch, wall_half):
 def test_rows_agree_with_plan_within_one_percent(knoll, model):
     s = _sites(knoll, [(3, 20), (13, 10), (20, 3)])
     E = energy_matrix(knoll, model, s)
-    for a in range(3):
-        for b in range(3):
-            if a != b:
-                p = plan(knoll, model, tuple(s.xy[a]), tuple(s.xy[b]), planner="search",
-                         eps=1.0, progress=False)  # fmt: skip
-                assert E[a, b] == pytest.approx(p.energy_j, rel=0.01)
+    for a, b in [(0, 2), (2, 0), (0, 1)]:  # across the knoll both ways, and onto its top
+        p = plan(knoll, model, tuple(s.xy[a]), tuple(s.xy[b]), planner="search", eps=1.0,
+                 progress=False)  # fmt: skip
+        assert E[a, b] == pytest.approx(p.energy_j, rel=0.01)
 
 
 def test_sites_in_one_cell_share_a_row(knoll, model):

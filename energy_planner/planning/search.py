@@ -419,12 +419,14 @@ def relaxed_cost_to_go(
     deadline: float = math.inf,
     stop_p: int = -1,
     stop_factor: float = 1.5,
+    table: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
 
     With ``stop_p`` >= 0 the backward Dijkstra stops at ``stop_factor`` times the cost of
     ``stop_p`` (the start) and caps ``h`` there: still a lower bound everywhere, and the
-    search rarely looks further.
+    search rarely looks further. ``table``: :func:`bound_table` of ``grid``, when the
+    caller solves several goals on it.
 
     Returns
     -------
@@ -432,7 +434,7 @@ def relaxed_cost_to_go(
         J; ``inf`` where the goal cannot be reached even in the relaxed problem.
     """
     mod = mod or search_module(cost)
-    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    table, tgeo = bound_table(cost, grid.headings, grid.move_ok) if table is None else table
     h = np.full(grid.P, np.inf)
     h[goal_p] = 0.0
     pos = np.full(grid.P, -1, dtype=np.int64)
@@ -749,9 +751,10 @@ def target_heuristics(
     """
     mod = search_module(cost)
     out = np.empty((len(targets_xy), grid.P), np.float32)
+    table = bound_table(cost, grid.headings, grid.move_ok)
     for k, (x, y) in enumerate(np.asarray(targets_xy, float)):
         h = relaxed_cost_to_go(cost, grid, grid.position(x, y, "target"), mod=mod,
-                               progress=progress)  # fmt: skip
+                               progress=progress, table=table)  # fmt: skip
         h32 = h.astype(np.float32)
         out[k] = np.where(h32 > h, np.nextafter(h32, np.float32(-np.inf)), h32)
     return out
