@@ -64,9 +64,10 @@ class MatrixResult:
         ``E[i, j]``: least energy from site ``i`` to site ``j`` (min over the headings of
         arrival, any heading at the start), J; ``inf`` unreachable, 0 on the diagonal.
     info : dict
-        ``window`` (the box searched, working CRS), ``proven``, ``c_min_j_per_m``,
-        ``passes``, ``expanded`` (states, all rows), ``states_total``, ``heuristic_s``,
-        ``search_s``.
+        ``window`` (the box searched, working CRS), ``whole_map``, ``proven``,
+        ``c_min_j_per_m``, ``passes``, ``expanded`` (states, all rows and passes),
+        ``states_total`` (positions x headings x rows of the last pass), ``heuristic_s``,
+        ``search_s`` (edge table included), ``edge_table`` (used), ``edge_table_s``.
     """
 
     energy_j: np.ndarray
