@@ -1,22 +1,31 @@
 """The mission's energy matrix: serial vs a 2-worker dask LocalCluster (issue 22, point 2).
 
 ``n`` sites (default 20) at random on a hilly synthetic DEM (``_hilly.py``: knolls and
-valleys, slopes up to about 25 deg), one least-energy search per site
-(:func:`energy_planner.mission.energy_matrix`), first in this process, then on a dask
-``LocalCluster`` of 2 single-threaded worker processes (the same code runs on a cluster
-given by address: ``mission --scheduler ADDRESS``). The matrices must be equal.
+valleys, slopes up to about 25 deg), one early-stopped search per site
+(:func:`energy_planner.mission.matrix.matrix_search`: an A* toward every other site at
+once, stopped when they are all settled, in a proven window), first in this process, then
+on a dask ``LocalCluster`` of 2 single-threaded worker processes (the same code runs on a
+cluster given by address: ``mission --scheduler ADDRESS``). Printed:
+
+- the matrix time, serial (baseline) and on the cluster, with the ratio;
+- the time of the search it replaces (one full Dijkstra per site over the whole map,
+  :func:`energy_planner.planning.reach.reach`), measured on ``--full-sites`` sites and
+  scaled to ``n`` (so that the table's "before" is measured, not assumed);
+- the largest difference between the serial and the cluster's matrices (must be 0), and
+  between the early-stopped rows and the full searches' rows (float32 rounding);
+- ``plan`` (``planner="search"``, ``eps=1``) on ``--legs`` random pairs against the
+  matrix: the largest relative difference (must be within 1 %).
 
 Usage::
 
-    python benchmarks/bench_mission.py              # reduced: 20 sites, 100 x 100 (2 min)
+    python benchmarks/bench_mission.py                  # reduced: 20 sites, 100 x 100
     python benchmarks/bench_mission.py --size 2000      # full size (issue 22): 20 sites, 2000^2
     python benchmarks/bench_mission.py --json
-    python benchmarks/bench_mission.py --scaling 100,200,400   # one search per size, to 2000^2
+    python benchmarks/bench_mission.py --scaling 60,100,140   # serial matrix per size, to 2000^2
 
-``--scaling`` times one site's search (:func:`energy_planner.mission.energy_matrix` on one
-site, after a warm-up that compiles the kernels) on DEMs of the given sizes, and
-extrapolates the matrix time of ``--sites`` sites on a ``--size`` DEM from the largest,
-linearly in the number of states (cells x headings).
+``--scaling`` times the serial matrix of ``--sites`` sites per DEM size (after a warm-up
+that compiles the kernels), fits ``time = a * cells^k`` over the sizes and extrapolates to
+``--size`` (default 2000).
 
 On a machine shared with other jobs the cluster's speed-up is bounded by the free cores.
 """
@@ -25,23 +34,45 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import time
 
 import numpy as np
 
 
-def main(argv: list[str] | None = None) -> dict:
-    """Run the benchmark and print its table."""
+def _problem(size: int, n_sites: int, seed: int = 0):
     from _hilly import X0, Y0, hilly_elevation
 
-    import energy_planner as ep
-    from energy_planner.mission import Sites, energy_matrix
+    from energy_planner.mission import Sites
     from energy_planner.terrain import Terrain
+
+    ter = Terrain.from_array(hilly_elevation(size), resolution=1.0, origin=(X0, Y0))
+    rng = np.random.default_rng(seed)
+    m = 5.0
+    pts = rng.uniform(m, size - m, (n_sites, 2)) + np.array([X0, Y0])
+    return ter, Sites(pts, [f"s{i}" for i in range(n_sites)]).on_cells(ter)
+
+
+def _warm(ter, model, sites, client=None) -> None:
+    """Compile the kernels (not timed): a two-site matrix."""
+    from energy_planner.mission import Sites
+    from energy_planner.mission.matrix import matrix_search
+
+    matrix_search(ter, model, Sites(sites.xy[:2], ["w0", "w1"]), client=client)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark and print its table."""
+    import energy_planner as ep
+    from energy_planner.mission.matrix import matrix_search
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--size", type=int, default=None, help="DEM size (100; --scaling: 2000)")
     ap.add_argument("--sites", type=int, default=20)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--full-sites", type=int, default=2, help="sites timed with full reach")
+    ap.add_argument("--legs", type=int, default=3, help="legs checked against plan")
     ap.add_argument("--scaling", default=None, help="comma-separated DEM sizes")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
@@ -49,16 +80,26 @@ def main(argv: list[str] | None = None) -> dict:
         sizes = [int(v) for v in a.scaling.split(",")]
         return scaling(sizes, a.size or 2000, a.sites, a.json)
     a.size = a.size or 100
-    ter = Terrain.from_array(hilly_elevation(a.size), resolution=1.0, origin=(X0, Y0))
     model = ep.load_model()
-    rng = np.random.default_rng(0)
-    m = 5.0
-    pts = rng.uniform(m, a.size - m, (a.sites, 2)) + np.array([X0, Y0])
-    sites = Sites(pts, [f"s{i}" for i in range(a.sites)]).on_cells(ter)
-    energy_matrix(ter, model, Sites(sites.xy[:1], ["warm"]))  # compile once, not timed
+    ter, sites = _problem(a.size, a.sites)
+    load0 = os.getloadavg()[0]
+    _warm(ter, model, sites)
     t0 = time.perf_counter()
-    serial = energy_matrix(ter, model, sites)
+    res = matrix_search(ter, model, sites)
     t_serial = time.perf_counter() - t0
+    serial = res.energy_j
+
+    # before: one full Dijkstra per site over the whole map, read at the sites
+    from energy_planner.planning.reach import reach
+
+    rc = sites.cells(ter)
+    k = max(1, min(a.full_sites, a.sites))
+    t0 = time.perf_counter()
+    full = np.array([reach(ter, model, tuple(p)).energy_j[rc[:, 0], rc[:, 1]]
+                     for p in sites.xy[:k]])  # fmt: skip
+    t_full = (time.perf_counter() - t0) * a.sites / k
+    full = np.where(np.isfinite(full), full, np.inf)
+    d_full = _max_rel(serial[:k], full)
 
     from distributed import Client, LocalCluster
 
@@ -68,76 +109,118 @@ def main(argv: list[str] | None = None) -> dict:
         ) as cluster,
         Client(cluster) as client,
     ):
-        client.run(lambda: __import__("energy_planner.energy.motion"))
-        energy_matrix(
-            ter, model, Sites(sites.xy[: a.workers], ["w0", "w1"][: a.workers]), client=client
-        )
+        _warm(ter, model, sites, client)
         t0 = time.perf_counter()
-        par = energy_matrix(ter, model, sites, client=client)
+        par = matrix_search(ter, model, sites, client=client).energy_j
         t_dask = time.perf_counter() - t0
-    same = bool(np.array_equal(serial, par))
-    res = {
+    d_dask = float(np.max(np.abs(np.where(np.isfinite(serial), serial - par, 0.0))))
+    same_inf = bool(np.array_equal(np.isinf(serial), np.isinf(par)))
+
+    from energy_planner.planning.plan import plan
+
+    rng = np.random.default_rng(1)
+    legs = []
+    for _ in range(a.legs):
+        i, j = rng.choice(a.sites, 2, replace=False)
+        p = plan(ter, model, tuple(sites.xy[i]), tuple(sites.xy[j]), planner="search", eps=1.0,
+                 progress=False)  # fmt: skip
+        legs.append({"from": int(i), "to": int(j), "matrix_j": float(serial[i, j]),
+                     "plan_j": float(p.energy_j),
+                     "rel_diff": float(p.energy_j / serial[i, j] - 1.0)})  # fmt: skip
+    out = {
         "size": a.size,
         "sites": a.sites,
         "workers": a.workers,
+        "load_average_start": load0,
+        "load_average_end": os.getloadavg()[0],
+        "full_search_s": t_full,
+        "full_search_sites_timed": k,
         "serial_s": t_serial,
         "dask_s": t_dask,
-        "speedup": t_serial / t_dask,
-        "same_matrix": same,
-        "finite_share": float(np.isfinite(serial).mean()),
+        "max_diff_serial_vs_dask_j": d_dask,
+        "same_unreachable": same_inf,
+        "max_rel_diff_vs_full_search": d_full,
+        "legs_vs_plan": legs,
+        "window": res.info["window"],
+        "whole_map": res.info["whole_map"],
+        "expanded": res.info["expanded"],
+        "states_total": res.info["states_total"],
+        "heuristic_s": res.info["heuristic_s"],
+        "search_s": res.info["search_s"],
+        "edge_table": res.info["edge_table"],
+        "edge_table_s": res.info["edge_table_s"],
     }
     if a.json:
-        print(json.dumps(res, indent=2))
-        return res
-    print(f"{a.sites} sites on a {a.size} x {a.size} DEM (1 m cells), one search per site")
-    print(f"{'run':<28} {'time s':>8} {'ratio':>7}")
-    print(f"{'serial (baseline)':<28} {t_serial:>8.1f} {1.0:>7.2f}")
-    print(
-        f"{f'dask LocalCluster, {a.workers} workers':<28} {t_dask:>8.1f} {t_dask / t_serial:>7.2f}"
-    )
-    print(f"same matrix: {same}; speed-up {t_serial / t_dask:.2f}x")
-    return res
+        print(json.dumps(out, indent=2))
+        return out
+    print(f"{a.sites} sites on a {a.size} x {a.size} DEM (1 m cells); load average "
+          f"{load0:.1f} -> {out['load_average_end']:.1f}")  # fmt: skip
+    print(f"{'run':<44} {'time s':>8} {'ratio':>7}")
+    print(f"{'serial, early-stopped A* (baseline)':<44} {t_serial:>8.1f} {1.0:>7.2f}")
+    name = f"dask LocalCluster, {a.workers} workers"
+    print(f"{name:<44} {t_dask:>8.1f} {t_dask / t_serial:>7.2f}")
+    name = f"before: full Dijkstra per site ({k} timed)"
+    print(f"{name:<44} {t_full:>8.1f} {t_full / t_serial:>7.2f}")
+    print(f"states expanded {res.info['expanded']:,} of {res.info['states_total']:,} "
+          f"({res.info['expanded'] / res.info['states_total']:.1%}); serial: heuristics "
+          f"{res.info['heuristic_s']:.1f} s, edge table {res.info['edge_table_s']:.1f} s, "
+          f"searches {res.info['search_s'] - res.info['edge_table_s']:.1f} s; "
+          f"window {'= the map' if res.info['whole_map'] else res.info['window']}")  # fmt: skip
+    print(f"max |serial - dask| = {d_dask:g} J (same unreachable pairs: {same_inf}); "
+          f"max relative difference to the full searches: {d_full:.2g}")  # fmt: skip
+    for leg in legs:
+        print(f"leg s{leg['from']} -> s{leg['to']}: matrix {leg['matrix_j']:.0f} J, plan "
+              f"{leg['plan_j']:.0f} J ({leg['rel_diff']:+.4%})")  # fmt: skip
+    return out
+
+
+def _max_rel(a: np.ndarray, b: np.ndarray) -> float:
+    fin = np.isfinite(a) & np.isfinite(b) & (b > 0)
+    if not np.array_equal(np.isfinite(a), np.isfinite(b)):
+        return math.inf
+    return float(np.max(np.abs(a[fin] / b[fin] - 1.0))) if fin.any() else 0.0
 
 
 def scaling(sizes: list[int], target: int, n_sites: int, as_json: bool = False) -> dict:
-    """Time one site's search per DEM size; extrapolate the full matrix from the largest."""
-    import os
-
-    from _hilly import X0, Y0, hilly_elevation
-
+    """Time the serial matrix per DEM size; fit ``a * cells^k`` and extrapolate."""
     import energy_planner as ep
-    from energy_planner.mission import Sites, energy_matrix
-    from energy_planner.terrain import Terrain
+    from energy_planner.mission.matrix import matrix_search
 
     model = ep.load_model()
     rows = []
+    load0 = os.getloadavg()[0]
     for size in sizes:
-        ter = Terrain.from_array(hilly_elevation(size), resolution=1.0, origin=(X0, Y0))
-        one = Sites(np.array([[X0 + size / 2, Y0 + size / 2]]), ["c"]).on_cells(ter)
+        ter, sites = _problem(size, n_sites)
         if not rows:
-            energy_matrix(ter, model, one)  # compile once, not timed
+            _warm(ter, model, sites)
         t0 = time.perf_counter()
-        energy_matrix(ter, model, one)
-        rows.append({"size": size, "search_s": time.perf_counter() - t0})
-    last = rows[-1]
-    per = last["search_s"] * (target / last["size"]) ** 2
-    res = {
-        "rows": rows,
-        "load_average_1min": os.getloadavg()[0],
-        "target_size": target,
-        "extrapolated_search_s": per,
-        "extrapolated_matrix_serial_s": per * n_sites,
-    }
+        res = matrix_search(ter, model, sites)
+        rows.append({"size": size, "matrix_s": time.perf_counter() - t0,
+                     "expanded": res.info["expanded"], "heuristic_s": res.info["heuristic_s"],
+                     "edge_table_s": res.info["edge_table_s"],
+                     "states_total": res.info["states_total"]})  # fmt: skip
+    cells = np.array([r["size"] ** 2 for r in rows], float)
+    secs = np.array([r["matrix_s"] for r in rows])
+    k, loga = np.polyfit(np.log(cells), np.log(secs), 1) if len(rows) > 1 else (1.0, 0.0)
+    if len(rows) == 1:
+        loga = math.log(secs[0] / cells[0])
+    pred = math.exp(loga) * float(target) ** (2 * k)
+    res = {"rows": rows, "load_average_start": load0, "load_average_end": os.getloadavg()[0],
+           "exponent_in_cells": float(k), "target_size": target,
+           "extrapolated_matrix_serial_s": pred}  # fmt: skip
     if as_json:
         print(json.dumps(res, indent=2))
         return res
-    print(f"one site's search (load average {res['load_average_1min']:.1f})")
-    print(f"{'DEM':>11} {'search s':>9} {'s per 1e4 cells':>16}")
+    print(f"serial matrix of {n_sites} sites (load average {load0:.1f} -> "
+          f"{res['load_average_end']:.1f})")  # fmt: skip
+    print(f"{'DEM':>11} {'matrix s':>9} {'heuristics s':>13} {'edge table s':>13} "
+          f"{'expanded / states':>26}")  # fmt: skip
     for r in rows:
-        print(f"{r['size']:>5} x {r['size']:<4} {r['search_s']:>9.1f} "
-              f"{r['search_s'] / r['size'] ** 2 * 1e4:>16.2f}")  # fmt: skip
-    print(f"extrapolated to {target} x {target}: {per / 60:.0f} min per search, "
-          f"{per * n_sites / 3600:.1f} h for {n_sites} sites serial")  # fmt: skip
+        print(f"{r['size']:>5} x {r['size']:<4} {r['matrix_s']:>9.1f} "
+              f"{r['heuristic_s']:>13.1f} {r['edge_table_s']:>13.1f} "
+              f"{r['expanded']:>12,} / {r['states_total']:<12,}")  # fmt: skip
+    print(f"time ~ cells^{k:.2f}; extrapolated to {target} x {target}: {pred / 3600:.1f} h "
+          f"serial ({pred / 3600 / 2:.1f} h on 2 free workers)")  # fmt: skip
     return res
 
 

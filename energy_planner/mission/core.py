@@ -1,11 +1,12 @@
 """A mission: several sites visited in the best order, each leg planned and priced.
 
 The energy between every pair of sites comes from **one search per site**: the planner's
-own search over (x, y, heading) without a goal (:func:`energy_planner.planning.reach.reach`,
-the same motions and kernel as :func:`energy_planner.planning.plan`), read at the other
-sites' cells. The matrix is asymmetric (uphill is not downhill). The order is then chosen
-on it (:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned
-with :func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
+own search over (x, y, heading) (the same motions and kernel as
+:func:`energy_planner.planning.reach.reach` and :func:`energy_planner.planning.plan`),
+stopped once every other site is settled (:mod:`energy_planner.mission.matrix`). The
+matrix is asymmetric (uphill is not downhill). The order is then chosen on it
+(:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned with
+:func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
 ``eps=1`` (the default here) a leg's planned energy equals its matrix entry.
 
 Sites lie on the DEM's cell centres (as :func:`~energy_planner.planning.reach.reach` moves
@@ -211,18 +212,6 @@ class MissionResult:
         return out
 
 
-def _one_site(problem, xy, n_headings, max_energy):
-    import warnings
-
-    from energy_planner.errors import ReachEdgeWarning
-    from energy_planner.planning.reach import reach
-
-    # max_energy only bounds the search here: the map's edge cutting it is no news
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ReachEdgeWarning)
-        return reach(problem, xy, n_headings=n_headings, max_energy=max_energy).energy_j
-
-
 @takes_problem(1)
 def energy_matrix(
     problem,
@@ -234,6 +223,10 @@ def energy_matrix(
     progress: bool = False,
 ) -> np.ndarray:
     """Least energy between every ordered pair of sites, one search per site.
+
+    Each search stops once every other site is settled, inside a proven window around
+    the sites (:func:`energy_planner.mission.matrix.matrix_search`, which also reports
+    the window and the states expanded); the entries equal a full search's.
 
     Parameters
     ----------
@@ -257,24 +250,12 @@ def energy_matrix(
     ndarray, shape (n, n)
         ``E[i, j]``: energy from site i to site j, J (``inf`` unreachable, 0 diagonal).
     """
-    rc = sites.cells(problem.terrain)
-    xy = [tuple(map(float, p)) for p in sites.xy]
-    args = (n_headings, max_energy)
-    if client is not None:
-        futs = [client.submit(_one_site, problem, p, *args, pure=False) for p in xy]
-        grids = client.gather(futs)
-    else:
-        from energy_planner.progress import reporter
+    from energy_planner.mission.matrix import matrix_search
 
-        sites = reporter(progress).iterate(xy, "searches", unit="site") if progress else xy
-        grids = [_one_site(problem, p, *args) for p in sites]
-    n = len(xy)
-    E = np.full((n, n), np.inf)
-    for i, g in enumerate(grids):
-        vals = g[rc[:, 0], rc[:, 1]]
-        E[i] = np.where(np.isfinite(vals), vals, np.inf)
-        E[i, i] = 0.0
-    return E
+    res = matrix_search(problem.terrain, problem.model, sites, problem.request,
+                        n_headings=n_headings, max_energy=max_energy, client=client,
+                        progress=progress)  # fmt: skip
+    return res.energy_j
 
 
 @takes_problem(1)

@@ -551,3 +551,165 @@ def min_over_headings(g, code, P, H):
                 b = v
         res[p] = b
     return res
+
+
+@numba.njit(cache=True)
+def min_rows(rows, which, out):
+    """``out[p]`` = least of ``rows[k, p]`` over the row indices ``k`` in ``which``.
+
+    The heuristic of a search toward several goals: the least of the goals' relaxed
+    costs-to-go (``inf`` where no goal in ``which`` can be reached).
+    """
+    for p in range(out.shape[0]):
+        b = np.inf
+        for k in which:
+            v = rows[k, p]
+            if v < b:
+                b = v
+        out[p] = b
+
+
+@numba.njit(cache=True)
+def _sift_down(keys, vals, i, m):
+    k = keys[i]
+    v = vals[i]
+    while True:
+        c = 2 * i + 1
+        if c >= m:
+            break
+        if c + 1 < m and keys[c + 1] < keys[c]:
+            c += 1
+        if keys[c] >= k:
+            break
+        keys[i] = keys[c]
+        vals[i] = vals[c]
+        i = c
+    keys[i] = k
+    vals[i] = v
+
+
+@numba.njit(cache=True)
+def rekey(keys, vals, n, g, code, h2d, H):
+    """Give every open entry the key ``g + h2d`` of a new heuristic, then re-heapify.
+
+    Entries of closed states are dropped; a stale entry of a state whose ``g`` has
+    improved since gets the same key as the live one (the second pop finds it closed).
+    A* may switch to another consistent heuristic in mid-search this way: the closed
+    states keep their optimal ``g``, and the open list is ordered by the new keys.
+    """
+    m = 0
+    for k in range(n[0]):
+        s = vals[k]
+        if code[s] >= CLOSED:
+            continue
+        keys[m] = g[s] + h2d[s // H]
+        vals[m] = s
+        m += 1
+    n[0] = m
+    for i in range(m // 2 - 1, -1, -1):
+        _sift_down(keys, vals, i, m)
+
+
+@numba.njit(cache=True)
+def edge_costs(data, lat, headings, moves, moves_of, j0, j1, out):
+    """Price every edge of lattice rows ``j0 .. j1 - 1`` once: ``out[s - j0 * nx * H, k]``.
+
+    float32 J for state ``s`` (so the rows of ``out`` follow the states of the strip).
+
+    Column ``k < K`` (``K = moves_of.shape[1]``) is the translation ``moves_of[h, k]`` at
+    constant heading (``inf`` where it leaves the lattice or there is no such move), column
+    ``K`` the turn in place to heading ``h - 1`` and ``K + 1`` to ``h + 1``: the edges
+    :func:`astar_chunk` prices on demand, priced by the same kernel call. Searches from
+    several starts over the same lattice then share them (:func:`astar_cached_chunk`).
+    """
+    xs0, ys0, step = lat[0], lat[1], lat[2]
+    nx = int(lat[3])
+    ny = int(lat[4])
+    H = headings.shape[0]
+    nmv = moves_of.shape[1]
+    buf = np.empty(N_OUT + data[IN_CHAN].shape[0])
+    for p in range(j0 * nx, j1 * nx):
+        j, i = divmod(p, nx)
+        x = xs0 + i * step
+        y = ys0 + j * step
+        for hh in range(H):
+            s = (p - j0 * nx) * H + hh
+            th = headings[hh]
+            for k in range(nmv):
+                out[s, k] = np.inf
+                m = moves_of[hh, k]
+                if m < 0:
+                    continue
+                i2 = i + moves[m, 0]
+                j2 = j + moves[m, 1]
+                if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
+                    continue
+                kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
+                out[s, k] = buf[0]
+            for d in range(2):
+                h2 = (hh + 2 * d - 1) % H
+                kernel(x, y, th, x, y, headings[h2], -1.0, data, buf)
+                out[s, nmv + d] = buf[0]
+
+
+@numba.njit(cache=True)
+def astar_cached_chunk(edges, lat, H, moves, moves_of, h2d, g, code, goal_p, keys, vals, n,
+                       max_pops, max_key):  # fmt: skip
+    """:func:`astar_chunk` with ``eps = 1`` and the edges read from :func:`edge_costs`.
+
+    The same expansion (moves, turns, closed and unreachable states skipped, codes), the
+    edge costs looked up instead of priced. ``goal_p`` < 0: no goal. Returns (code, pops).
+    """
+    nx = int(lat[3])
+    ny = int(lat[4])
+    nmv = moves_of.shape[1]
+    pops = 0
+    while n[0] > 0:
+        if pops >= max_pops:
+            return RUNNING, pops
+        if n[0] + nmv + 2 > keys.shape[0]:
+            return HEAP_FULL, pops
+        key, s = heap_pop(keys, vals, n)
+        c = code[s]
+        if c >= CLOSED:
+            continue
+        if key > max_key:
+            n[0] = 0
+            return EXHAUSTED, pops
+        code[s] = c + CLOSED
+        pops += 1
+        p, hh = divmod(s, H)
+        if p == goal_p:
+            return FOUND, pops
+        j, i = divmod(p, nx)
+        gs = g[s]
+        for k in range(nmv):
+            m = moves_of[hh, k]
+            if m < 0:
+                continue
+            i2 = i + moves[m, 0]
+            j2 = j + moves[m, 1]
+            if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
+                continue
+            q = j2 * nx + i2
+            t = q * H + hh
+            e = np.float64(edges[s, k])
+            if code[t] >= CLOSED or not math.isfinite(h2d[q]) or not math.isfinite(e):
+                continue
+            ng = gs + e
+            if ng < g[t]:
+                g[t] = ng
+                code[t] = m
+                heap_push(keys, vals, n, ng + h2d[q], t)
+        for d in range(2):
+            h2 = (hh + 2 * d - 1) % H
+            t = p * H + h2
+            e = np.float64(edges[s, nmv + d])
+            if code[t] >= CLOSED or not math.isfinite(e):
+                continue
+            ng = gs + e
+            if ng < g[t]:
+                g[t] = ng
+                code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
+                heap_push(keys, vals, n, ng + h2d[p], t)
+    return EXHAUSTED, pops

@@ -62,6 +62,12 @@ __all__ = [
     "search_plan",
     "reach_search",
     "search_module",
+    "search_grid",
+    "target_heuristics",
+    "targets_search",
+    "TargetsResult",
+    "edge_table",
+    "EDGE_BYTES_PER_STATE",
 ]
 
 _TEMPLATE = Path(__file__).with_name("_search.py")
@@ -122,6 +128,15 @@ def _warm_up(mod, cost) -> None:
     mod.unsafe_cells(np.zeros((1, 1, 2)), np.zeros((0, 0), np.bool_), 1.0)
     mod.cap_unsettled(np.zeros(1, np.float32), np.zeros(1, np.int32), 1, 0, 0.0, 1.0, 1.0)
     mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
+    mod.min_rows(np.zeros((1, 1), np.float32), np.zeros(1, i8), np.zeros(1))
+    mod.rekey(keys, vals, np.zeros(1, i8), np.zeros(16, np.float32), np.zeros(16, np.int8),
+              np.zeros(1), 16)  # fmt: skip
+    mod.edge_costs(cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), 0, 0,
+                   np.zeros((0, 6), np.float32))  # fmt: skip
+    mod.astar_cached_chunk(
+        np.zeros((16, 6), np.float32), lat, 16, moves, np.zeros((16, 4), i8), np.zeros(1),
+        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
+    )  # fmt: skip
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
 
 
@@ -437,6 +452,7 @@ def relaxed_cost_to_go(
     deadline: float = math.inf,
     stop_p: int = -1,
     stop_factor: float = 1.1,
+    table: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
 
@@ -445,6 +461,8 @@ def relaxed_cost_to_go(
     ``stop_factor`` times ``h(s)``; a position it has not settled then gets
     ``stop_factor * h(s) - c |p - s|`` (:func:`_search.heuristic_chunk`): still a lower
     bound everywhere, and only the region a path of that energy can visit is settled.
+    ``table``: :func:`bound_table` of ``grid``, when the caller solves several goals on
+    it.
 
     Returns
     -------
@@ -454,7 +472,7 @@ def relaxed_cost_to_go(
         edge bounds, :data:`BOUND_MARGIN`.)
     """
     mod = mod or search_module(cost)
-    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    table, tgeo = bound_table(cost, grid.headings, grid.move_ok) if table is None else table
     h = np.full(grid.P, np.inf, dtype=np.float32)
     h[goal_p] = 0.0
     pos = np.full(grid.P, -1, dtype=np.int32)
@@ -744,3 +762,239 @@ def reach_search(
         expanded=expanded,
         time_s=time.perf_counter() - t0,
     )
+
+
+def search_grid(
+    cost,
+    terrain,
+    anchor: tuple[float, float],
+    *,
+    step: float | None = None,
+    n_headings: int = 16,
+    moves: str = "all",
+    box: tuple[float, float, float, float] | None = None,
+) -> _Grid:
+    """The search's lattice aligned on ``anchor``, optionally cut to a window.
+
+    ``box`` = ``(xmin, ymin, xmax, ymax)`` (working CRS) keeps the positions inside it:
+    the search never stands outside the box, while its motions are still priced by the
+    kernel on the whole terrain (a motion between two positions of the box samples the
+    same gradients as on the whole map). A path found in the box is a path of the whole
+    map with the same energy.
+    """
+    grid = _Grid(cost, terrain, anchor, step, n_headings, moves)
+    if box is not None:
+        tol = 1e-9 * grid.step
+        ix = np.nonzero((grid.xs >= box[0] - tol) & (grid.xs <= box[2] + tol))[0]
+        iy = np.nonzero((grid.ys >= box[1] - tol) & (grid.ys <= box[3] + tol))[0]
+        if ix.size == 0 or iy.size == 0:
+            raise PlanningConfigError(f"the search window {tuple(box)} holds no position",
+                                      value=tuple(box), param="box")  # fmt: skip
+        grid.xs, grid.ys = grid.xs[ix[0] : ix[-1] + 1], grid.ys[iy[0] : iy[-1] + 1]
+        grid.nx, grid.ny = len(grid.xs), len(grid.ys)
+        grid.lat = np.array([grid.xs[0], grid.ys[0], grid.step, grid.nx, grid.ny], np.float64)
+        grid.P = grid.nx * grid.ny
+    return grid
+
+
+def target_heuristics(
+    cost, grid: _Grid, targets_xy: np.ndarray, *, progress: bool = False
+) -> np.ndarray:
+    """The relaxed cost-to-go of every position to each target (the A* bound), float32.
+
+    Row ``k`` is :func:`relaxed_cost_to_go` to ``targets_xy[k]`` over the whole of
+    ``grid``, rounded down to float32 (so it stays a lower bound; half the memory).
+
+    Returns
+    -------
+    ndarray of float32, shape (len(targets_xy), grid.P)
+        J; ``inf`` where the target cannot be reached even in the relaxed problem.
+    """
+    mod = search_module(cost)
+    out = np.empty((len(targets_xy), grid.P), np.float32)
+    table = bound_table(cost, grid.headings, grid.move_ok)
+    for k, (x, y) in enumerate(np.asarray(targets_xy, float)):
+        h = relaxed_cost_to_go(cost, grid, grid.position(x, y, "target"), mod=mod,
+                               progress=progress, table=table)  # fmt: skip
+        h32 = h.astype(np.float32)
+        out[k] = np.where(h32 > h, np.nextafter(h32, np.float32(-np.inf)), h32)
+    return out
+
+
+@dataclass
+class TargetsResult:
+    """Least energy from one start to several target positions.
+
+    Attributes
+    ----------
+    energy : ndarray, shape (n_targets,)
+        Least energy to each target (min over the headings of arrival), J; ``inf`` where
+        unreachable (or above ``max_energy``).
+    expanded, priced : int
+        States expanded and edges priced.
+    states_total : int
+        Positions x headings of the grid.
+    time_s : float
+        Wall time, s.
+    """
+
+    energy: np.ndarray
+    expanded: int
+    priced: int
+    states_total: int
+    time_s: float
+
+
+def targets_search(
+    cost,
+    grid: _Grid,
+    start_xy: tuple[float, float],
+    targets_xy: np.ndarray,
+    heuristics: np.ndarray,
+    *,
+    max_energy: float = math.inf,
+    progress: bool = False,
+    time_budget: float = math.inf,
+    chunk: int = 4096,
+    edges: np.ndarray | None = None,
+) -> TargetsResult:
+    """Least energy from ``start_xy`` (any initial heading) to each of several targets.
+
+    The planner's search (the same primitives, kernel and float32 ``g`` as
+    :func:`search_plan` and :func:`reach_search`) as one A* toward every target at once:
+    the heuristic is the least of the remaining targets' relaxed costs-to-go
+    (``heuristics``, from :func:`target_heuristics`), consistent as each of them is. A
+    target is settled when the first state at its position is expanded: with a
+    heuristic that is the same at every heading of a position, that state has the least
+    ``g`` over the headings, which is what :func:`reach_search` reads there and what
+    :func:`search_plan` finds with ``eps = 1`` and a goal without yaw. The settled
+    target then leaves the heuristic, which can only grow (the others' bound), and the
+    open list is re-keyed (closed states keep their optimal ``g``, so A* stays exact
+    under the new consistent heuristic). The search stops when every target is settled,
+    so it expands only what lies below the farthest target, along the ways to them.
+
+    Parameters
+    ----------
+    cost : MotionCost
+    grid : _Grid
+        From :func:`search_grid` (the same one as the heuristics').
+    start_xy : tuple
+        Start position (working CRS), any heading.
+    targets_xy : ndarray, shape (n, 2)
+        Target positions.
+    heuristics : ndarray, shape (n, grid.P)
+        Row ``k``: a consistent lower bound of the cost to target ``k``.
+    max_energy : float
+        Stop at this energy, J (farther targets read ``inf``).
+    progress : bool
+        tqdm bar on stderr.
+    time_budget : float
+        Seconds; :class:`PlanningError` when exceeded.
+    chunk : int
+        States expanded between checks of the targets.
+    edges : ndarray, optional
+        Every edge's cost from :func:`edge_table` on ``grid`` (shared by the searches from
+        several starts: each edge priced once instead of once per search); None: edges
+        priced on demand.
+
+    Returns
+    -------
+    TargetsResult
+    """
+    t0 = time.perf_counter()
+    mod = search_module(cost)
+    H = grid.H
+    ps = grid.position(start_xy[0], start_xy[1], "start")
+    tp = np.array([grid.position(x, y, "target") for x, y in np.asarray(targets_xy, float)],
+                  dtype=np.int64).reshape(-1)  # fmt: skip
+    energy = np.full(len(tp), np.inf)
+    remaining = [k for k in range(len(tp)) if math.isfinite(heuristics[k, ps])]
+    hs = _start_states(cost, grid, ps, None, "start")
+    g = np.full(grid.P * H, np.inf, dtype=np.float32)
+    code = np.full(grid.P * H, -1, dtype=np.int8)
+    heap = _Heap(1 << 16)
+    h2d = np.empty(grid.P)
+    mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+    for h in hs:
+        s = ps * H + int(h)
+        g[s] = 0.0
+        code[s] = mod.START
+        mod.heap_push(heap.keys, heap.vals, heap.n, float(h2d[ps]), s)
+    heads = np.arange(H)
+    out = np.zeros(1, np.int64)
+    expanded = priced = 0
+    bar = _bar(progress, "matrix search (x, y, heading)", None, "states")
+    try:
+        while remaining:
+            # the last target ends the search as a goal: no expansion after it
+            last = int(tp[remaining[0]]) if len(remaining) == 1 else -1
+            if edges is None:
+                status, pops, pr = mod.astar_chunk(
+                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, 1.0,
+                    g, code, last, -1, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
+                    out,
+                )  # fmt: skip
+            else:
+                status, pops = mod.astar_cached_chunk(
+                    edges, grid.lat, H, grid.moves, grid.moves_of, h2d, g, code, last,
+                    heap.keys, heap.vals, heap.n, chunk, float(max_energy),
+                )  # fmt: skip
+                pr = 0
+            expanded += pops
+            priced += pr
+            if bar is not None:
+                bar.update(pops)
+            if status == mod.HEAP_FULL:
+                heap.grow()
+                continue
+            rem = np.array(remaining, np.int64)
+            st = tp[rem, None] * H + heads
+            closed = code[st] >= mod.CLOSED
+            hit = closed.any(axis=1)
+            if hit.any():
+                for k, row, c in zip(rem[hit], st[hit], closed[hit], strict=True):
+                    energy[k] = float(g[row[c]].min())
+                remaining = [int(k) for k in rem[~hit]]
+                if remaining:
+                    mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+                    mod.rekey(heap.keys, heap.vals, heap.n, g, code, h2d, H)
+            if status in (mod.EXHAUSTED, mod.FOUND):
+                break
+            if time.perf_counter() > t0 + time_budget:
+                raise PlanningError(
+                    f"the matrix search's time budget ran out after {expanded} states "
+                    "expanded", limit="time", stage="search", expanded=expanded,
+                )  # fmt: skip
+    finally:
+        if bar is not None:
+            bar.close()
+    energy[energy > max_energy] = np.inf
+    return TargetsResult(energy=energy, expanded=expanded, priced=priced,
+                         states_total=grid.P * H, time_s=time.perf_counter() - t0)  # fmt: skip
+
+
+#: Bytes per (x, y, heading) state of :func:`edge_table` (18 float32 edges: 16 moves, 2 turns).
+EDGE_BYTES_PER_STATE = 4 * 18
+
+
+def edge_table(cost, grid: _Grid, rows: tuple[int, int] | None = None) -> np.ndarray:
+    """Every edge of ``grid``'s lattice priced once by the kernel (float32, J).
+
+    ``rows`` = ``(j0, j1)``: only the states of lattice rows ``j0 .. j1 - 1`` (a strip;
+    strips stacked in order give the whole table, so they can be priced in parallel).
+
+    ``out[s, k]``: from state ``s``, the ``k``-th translation of its heading
+    (``grid.moves_of``; ``inf`` off the lattice or under a limit), then the turns in
+    place to the previous and the next heading: the edges the search prices on demand,
+    by the same kernel call. Searches from several starts on the same lattice share it
+    (:func:`targets_search` with ``edges=``).
+
+    Returns
+    -------
+    ndarray of float32, shape ((j1 - j0) * grid.nx * grid.H, grid.moves_of.shape[1] + 2)
+    """
+    mod = search_module(cost)
+    j0, j1 = (0, grid.ny) if rows is None else (int(rows[0]), int(rows[1]))
+    out = np.empty(((j1 - j0) * grid.nx * grid.H, grid.moves_of.shape[1] + 2), np.float32)
+    mod.edge_costs(cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, j0, j1, out)
+    return out

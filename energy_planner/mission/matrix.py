@@ -1,0 +1,363 @@
+"""The energy matrix of a mission: one early-stopped search per site, serial or on dask.
+
+Each row of the matrix is one search from a site over the planner's own motions
+(:func:`energy_planner.planning.search.targets_search`: the primitives, kernel and
+float32 energies of :func:`~energy_planner.planning.search.reach_search` and ``plan``)
+that stops as soon as every other site is settled. It is an A* toward all the other
+sites at once, guided by the least of their relaxed costs-to-go (the bound ``plan``'s
+search uses, :func:`~energy_planner.planning.search.target_heuristics`, computed once per
+site and shared by every row). Its entries equal those of a full search (Dijkstra over
+the whole map, read at the sites) up to float rounding.
+
+**Edges priced once.** The cost of a search is the kernel pricing its edges (about ten
+per state expanded, each sampling the terrain every half cell with the model's power), not
+the heap. The sites' searches run on one lattice, so when it fits (72 bytes per state,
+:data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`) every edge of the window is
+priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of rows) and
+the searches read the prices (float32: the entries then agree with the on-demand search
+to float32 rounding).
+
+**Window.** The searches stand inside a box around the sites, proven by the corridor's
+argument (:mod:`energy_planner.planning.corridor`): ``c_min`` bounds the energy per
+metre of any translation from below (:func:`~energy_planner.planning.corridor.least_cost_per_metre`
+over the terrain's gradients), so a path from site ``i`` to site ``j`` cheaper than the
+window's ``E[i, j]`` (a feasible path, an upper bound) has length at most
+``E[i, j] / c_min`` and lies in the ellipse with foci ``i`` and ``j`` of that length. If
+every pair's ellipse lies inside the window, the window's matrix is the whole map's. If
+not, the window grows to the ellipses' bounding box (clipped to the map) and the searches
+run again, which proves it. A pair without a path in the window, or ``c_min = 0``
+(channel rasters), takes the whole map.
+
+**dask.** The per-site heuristics and then the per-site searches are independent tasks:
+with a ``dask.distributed`` client (a :class:`~distributed.LocalCluster`, or a
+``Client("tcp://host:8786")`` given by address) they run on its workers, with the same
+result as the serial loop. The terrain, the model and the request are sent once
+(``scatter``); each worker builds the motion cost from them (the kernels come from the
+disk cache). The edge table is priced by strips of rows on the workers, then sent to each
+of them, and the rows run in one batch per worker.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["MatrixResult", "matrix_search", "window_proof"]
+
+#: Initial window: the sites' bounding box grown by this share of its larger side ...
+WINDOW_SHARE = 0.25
+#: ... and at least this many cells.
+WINDOW_MIN_CELLS = 20
+
+
+@dataclass
+class MatrixResult:
+    """The energy matrix and how it was found.
+
+    Attributes
+    ----------
+    energy_j : ndarray, shape (n, n)
+        ``E[i, j]``: least energy from site ``i`` to site ``j`` (min over the headings of
+        arrival, any heading at the start), J; ``inf`` unreachable, 0 on the diagonal.
+    info : dict
+        ``window`` (the box searched, working CRS), ``whole_map``, ``proven``,
+        ``c_min_j_per_m``, ``passes``, ``expanded`` (states, all rows and passes),
+        ``states_total`` (positions x headings x rows of the last pass), ``heuristic_s``,
+        ``search_s`` (edge table included), ``edge_table`` (used), ``edge_table_s``.
+    """
+
+    energy_j: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def _setup(terrain, model, request, n_headings, box, anchor):
+    from energy_planner.planning.search import search_grid
+    from energy_planner.problem import Problem
+
+    cost = Problem(terrain, model, request).cost
+    cost.compile()
+    return cost, search_grid(cost, terrain, anchor, n_headings=n_headings, box=box)
+
+
+def _heuristic_task(terrain, model, request, n_headings, box, anchor, xys):
+    from energy_planner.planning.search import target_heuristics
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    return target_heuristics(cost, grid, np.asarray(xys, float).reshape(-1, 2))
+
+
+def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
+    from energy_planner.planning.search import edge_table
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    return edge_table(cost, grid, rows)
+
+
+def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
+               max_energy, edges):  # fmt: skip
+    """The rows of ``starts`` (``edges``: the shared edge table, or None)."""
+    from energy_planner.planning.search import targets_search
+
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    rows = []
+    for p in starts:
+        r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
+                           edges=edges)  # fmt: skip
+        rows.append((r.energy, r.expanded, r.states_total))
+    return rows
+
+
+def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
+    """Whether the edge table of the window fits: half the memory cap per process."""
+    from energy_planner.planning.search import EDGE_BYTES_PER_STATE
+    from energy_planner.terrain.memory import resolve_cap
+
+    if edge_cache is not None:
+        return bool(edge_cache)
+    cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
+    cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
+    return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.5 * resolve_cap()
+
+
+def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
+         edge_cache):  # fmt: skip
+    """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
+    anchor = tuple(map(float, uxy[0]))
+    n = len(uxy)
+    use_edges = _use_edges(terrain, box, n_headings, edge_cache)
+    t0 = time.perf_counter()
+    args = (n_headings, box, anchor)
+    if client is not None:
+        ter_f, mod_f, req_f = client.scatter([terrain, model, request], broadcast=True, hash=False)
+        # one batch per worker thread: each task builds the motion cost once
+        nw = max(1, sum(client.nthreads().values()))
+        nb = min(n, nw)
+        futs = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, uxy[b::nb],
+                              pure=False) for b in range(nb)]  # fmt: skip
+        heur = np.empty((n, *client.gather(futs[0]).shape[1:]), np.float32)
+        for b, h in enumerate(client.gather(futs)):
+            heur[b::nb] = h
+        del futs
+        t1 = time.perf_counter()
+        heur_f = client.scatter(heur, broadcast=True, hash=False)
+        edges_f, t_edges = None, 0.0
+        if use_edges:  # priced by strips of rows on the workers, then shared by every row
+            from energy_planner.planning.search import search_grid
+
+            # (the lattice's geometry does not read the cost)
+            ny = len(search_grid(None, terrain, anchor, n_headings=n_headings, box=box).ys)
+            cuts = np.linspace(0, ny, min(ny, 2 * nw) + 1).astype(int)
+            futs = [client.submit(_edges_task, ter_f, mod_f, req_f, *args, (a, b), pure=False)
+                    for a, b in zip(cuts[:-1], cuts[1:], strict=True)]  # fmt: skip
+            edges_f = client.scatter(np.concatenate(client.gather(futs)), broadcast=True,
+                                     hash=False)  # fmt: skip
+            del futs
+            t_edges = time.perf_counter() - t1
+        # one batch of rows per worker thread
+        batches = [uxy[b::nb] for b in range(nb)]
+        futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
+                              max_energy, edges_f, pure=False) for b in batches]  # fmt: skip
+        got = client.gather(futs)
+        del futs, heur_f, edges_f
+        rows = [None] * n
+        for b, res in enumerate(got):
+            for k, r in enumerate(res):
+                rows[b + k * nb] = r
+    else:
+        from tqdm import tqdm
+
+        from energy_planner.planning.search import edge_table, target_heuristics, targets_search
+
+        cost, grid = _setup(terrain, model, request, *args)
+        heur = target_heuristics(cost, grid, uxy)
+        t1 = time.perf_counter()
+        edges = edge_table(cost, grid) if use_edges else None
+        t_edges = time.perf_counter() - t1
+        rows = []
+        for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
+            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy,
+                               edges=edges)  # fmt: skip
+            rows.append((r.energy, r.expanded, r.states_total))
+        del edges
+    E = np.array([r[0] for r in rows]).reshape(n, n)
+    np.fill_diagonal(E, 0.0)
+    return E, {
+        "expanded": int(sum(r[1] for r in rows)),
+        "states_total": int(sum(r[2] for r in rows)),
+        "heuristic_s": t1 - t0,
+        "search_s": time.perf_counter() - t1,
+        "edge_table": use_edges,
+        "edge_table_s": t_edges if use_edges else 0.0,
+    }
+
+
+def window_proof(
+    xy: np.ndarray, E: np.ndarray, c_min: float
+) -> tuple[float, float, float, float] | None:
+    """The box that holds every path that could beat ``E`` (None: some pair is unbounded).
+
+    The union of the bounding boxes of the ellipses with foci ``xy[i]``, ``xy[j]`` and
+    length ``E[i, j] / c_min`` (:func:`energy_planner.planning.corridor.ellipse_box`),
+    over the pairs ``i != j``; None if a pair has no finite energy or ``c_min <= 0``.
+
+    Examples
+    --------
+    >>> window_proof(np.array([[0.0, 0.0], [6.0, 0.0]]), np.array([[0, 10.0], [10.0, 0]]), 1.0)
+    (-2.0, -4.0, 8.0, 4.0)
+    """
+    from energy_planner.planning.corridor import ellipse_box
+
+    if not c_min > 0:
+        return None
+    lo, hi = np.array([np.inf, np.inf]), np.array([-np.inf, -np.inf])
+    for i in range(len(xy)):
+        for j in range(len(xy)):
+            if i == j:
+                continue
+            if not math.isfinite(E[i, j]):
+                return None
+            b = ellipse_box(xy[i], xy[j], E[i, j] / c_min)
+            lo = np.minimum(lo, b[:2])
+            hi = np.maximum(hi, b[2:])
+    return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def _c_min(terrain, model, request, n_headings) -> float:
+    from energy_planner.energy.kernels import IN_GRAD
+    from energy_planner.planning.corridor import least_cost_per_metre
+    from energy_planner.problem import Problem
+
+    cost = Problem(terrain, model, request).cost
+    grad = cost.data[IN_GRAD]
+    fin = np.isfinite(grad[..., 0]) & np.isfinite(grad[..., 1])
+    if not fin.any():
+        return 0.0
+    lo = [float(grad[..., 0][fin].min()), float(grad[..., 1][fin].min())]
+    hi = [float(grad[..., 0][fin].max()), float(grad[..., 1][fin].max())]
+    return least_cost_per_metre(cost, lo, hi, n_headings)
+
+
+def matrix_search(
+    terrain,
+    model,
+    sites,
+    request=None,
+    *,
+    n_headings: int = 16,
+    max_energy: float | None = None,
+    client: Any = None,
+    window: bool = True,
+    edge_cache: bool | None = None,
+    progress: bool = False,
+) -> MatrixResult:
+    """Least energy between every ordered pair of sites, one early-stopped search per site.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map.
+    model : EnergyModel
+        A fitted model.
+    sites : Sites
+        On cell centres (working CRS; :meth:`~energy_planner.mission.Sites.on_cells`).
+    request : Request, optional
+        Robot, limits, channels (as for ``plan``).
+    n_headings : int
+        Search headings.
+    max_energy : float, optional
+        Stop each search at this energy (J); farther sites read ``inf`` (and the window
+        is then the whole map).
+    client : distributed.Client, optional
+        Run the heuristics and the searches on this dask cluster's workers.
+    window : bool
+        Search in a proven window around the sites (see the module); False: the whole map.
+    edge_cache : bool, optional
+        Price every edge of the window once and share the prices between the sites'
+        searches (72 bytes per state per process; default: when that takes at most half
+        the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
+        Without it each search prices its edges itself (the same kernel call).
+    progress : bool
+        A progress bar over the sites on stderr (serial).
+
+    Returns
+    -------
+    MatrixResult
+
+    Raises
+    ------
+    InvalidStateError
+        If a site is off the map or breaks a limit at every heading.
+    """
+    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.planning.moves import terrain_extent
+    from energy_planner.problem import Problem
+    from energy_planner.request import Request
+
+    request = Request() if request is None else request
+    rc = sites.cells(terrain)
+    prob = Problem(terrain, model, request)
+    cost, geoms = prob.cost, prob.keep_out
+    for x, y in sites.xy:
+        check_endpoint(cost, terrain, "site", (float(x), float(y), None), geoms)
+    del cost
+    # sites sharing a cell share a row and a column (0 between them)
+    _, first, inv = np.unique(rc, axis=0, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    uxy = np.asarray(sites.xy, float)[first]
+    cap = math.inf if max_energy is None else float(max_energy)
+    xmin, xmax, ymin, ymax = terrain_extent(terrain)
+    full = (xmin, ymin, xmax, ymax)
+    c_min = _c_min(terrain, model, request, n_headings) if window else 0.0
+    box, proven, passes, stats = full, True, 0, []
+    if window and c_min > 0 and math.isinf(cap) and len(uxy) > 1:
+        cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
+        lo, hi = uxy.min(axis=0), uxy.max(axis=0)
+        m = max(WINDOW_SHARE * float((hi - lo).max()), WINDOW_MIN_CELLS * cell)
+        box = _clip((lo[0] - m, lo[1] - m, hi[0] + m, hi[1] + m), full)
+        proven = box == full
+    while True:
+        E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress,
+                     edge_cache)  # fmt: skip
+        passes += 1
+        stats.append(st)
+        if proven:
+            break
+        need = window_proof(uxy, E, c_min)
+        if need is not None and _inside(need, box):
+            proven = True
+            break
+        box = full if need is None else _clip(_union(need, box), full)
+        proven = box == full or need is not None  # the grown window holds every ellipse
+    out = E[np.ix_(inv, inv)]
+    np.fill_diagonal(out, 0.0)
+    info = {
+        "window": [float(v) for v in box],
+        "whole_map": box == full,
+        "proven": bool(proven),
+        "c_min_j_per_m": float(c_min),
+        "passes": passes,
+        "expanded": sum(s["expanded"] for s in stats),
+        "states_total": stats[-1]["states_total"],
+        "heuristic_s": sum(s["heuristic_s"] for s in stats),
+        "search_s": sum(s["search_s"] for s in stats),
+        "edge_table": stats[-1]["edge_table"],
+        "edge_table_s": sum(s["edge_table_s"] for s in stats),
+    }
+    return MatrixResult(out, info)
+
+
+def _clip(b, full):
+    return (max(b[0], full[0]), max(b[1], full[1]), min(b[2], full[2]), min(b[3], full[3]))
+
+
+def _union(a, b):
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+
+
+def _inside(inner, outer) -> bool:
+    return (inner[0] >= outer[0] and inner[1] >= outer[1] and inner[2] <= outer[2]
+            and inner[3] <= outer[3])  # fmt: skip
