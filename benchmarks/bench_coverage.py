@@ -128,7 +128,7 @@ def coverage_row(
 ) -> dict[str, Any]:
     """Fit on seed ``i``, evaluate on seed ``1000 + i``, for ``i < repeats``; pooled."""
     from energy_planner.calibration import fit_model
-    from energy_planner.measurements import prepare_logs
+    from energy_planner.calibration.prepare import prepare_logs
     from energy_planner.uncertainty import interval, model_scores, predict_interval
 
     t0 = time.perf_counter()

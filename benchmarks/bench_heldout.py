@@ -30,9 +30,9 @@ import numpy as np  # noqa: E402
 
 def main(argv: list[str] | None = None) -> None:
     """Print the table (see the module docstring)."""
+    from energy_planner.calibration.prepare import prepare_logs
     from energy_planner.diagnosis import window_data
     from energy_planner.diagnosis.suspects import default_candidates
-    from energy_planner.measurements import prepare_logs
     from energy_planner.model import BASE_TERMS
     from energy_planner.simulate import CampaignConfig, simulate_campaign
     from energy_planner.stats import fold_index, heldout

@@ -5,7 +5,7 @@ three speeds, stops, turns in place) WITHOUT the pose's altitude ``z``, so the I
 cannot be checked. Two tables, each side by side *before* (every repair applied, no
 ``odometry_scale`` check: the data checks as they were) and *after* (the checks of this
 branch: ``odometry_scale``, and a repair kept only if the held-out error does not rise,
-``measurements.prepare_logs``):
+``calibration.prepare_logs``):
 
 1. per hidden effect, ``discover``'s final held-out power RMSE over the campaign's
    noise floor (``Campaign.noise_floor``: the simulator's TRUE window power against the

@@ -40,7 +40,7 @@ def _same(a, b, path="") -> None:
 
 
 def test_no_sample_cache_gives_the_same_staircase(monkeypatch):
-    from energy_planner.diagnosis import data
+    from energy_planner.calibration import windowdata as data
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
     with warnings.catch_warnings():
@@ -57,9 +57,9 @@ def test_no_sample_cache_gives_the_same_staircase(monkeypatch):
 
 
 def test_the_sample_cache_is_bounded(monkeypatch):
-    from energy_planner.diagnosis import data
-    from energy_planner.diagnosis.data import window_data
-    from energy_planner.measurements import prepare_logs
+    from energy_planner.calibration import windowdata as data
+    from energy_planner.calibration.prepare import prepare_logs
+    from energy_planner.calibration.windowdata import window_data
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
     with warnings.catch_warnings():

@@ -15,7 +15,7 @@ from b1_model import B1, b1_model  # tests/ helper
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from energy_planner.calibration.fit import calibration_domain
+from energy_planner.calibration.fit import calibration_domain, heldout_outside_shares
 from energy_planner.energy.channels import ChannelRaster, Channels
 from energy_planner.model import EnergyModel
 from energy_planner.request import Request
@@ -23,7 +23,6 @@ from energy_planner.terrain import Terrain
 from energy_planner.uncertainty import domain_report, stay_in_domain
 from energy_planner.uncertainty.domain import (
     DomainError,
-    heldout_outside_shares,
     path_channel_values,
     report_against,
 )

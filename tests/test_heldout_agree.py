@@ -2,7 +2,7 @@
 
 The held-out numbers of the three commands come from one function
 (:func:`energy_planner.stats.heldout`) on one set of folds (:func:`fold_index`), and all
-three start from raw logs through one pipeline (:func:`energy_planner.measurements.prepare_logs`).
+three start from raw logs through one pipeline (:func:`energy_planner.calibration.prepare_logs`).
 The campaign is the mechanistic simulator's (its truth is physics, not the model's formulas),
 reduced to a small one. The numbers are the same up to the rounding of window means summed
 in another order (relative 1e-9).

@@ -15,7 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from energy_planner.measurements import datacheck, prepare_logs
+from energy_planner.calibration.prepare import prepare_logs
+from energy_planner.measurements import datacheck
 from energy_planner.measurements.datacheck import (
     DataFinding,
     check_current_sign,

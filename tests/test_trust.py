@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from energy_planner.calibration import fit_model
 from energy_planner.calibration._windows import aligned_table
 from energy_planner.calibration.fit import identifiable, refuse_free_walking
+from energy_planner.calibration.windowdata import window_data
 from energy_planner.diagnosis.candidates import default_candidates
-from energy_planner.diagnosis.data import window_data
 from energy_planner.diagnosis.names import model_term
 from energy_planner.energy.path import path_energy
 from energy_planner.errors import NonPositivePowerError

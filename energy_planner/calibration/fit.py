@@ -39,6 +39,7 @@ from energy_planner.stats import fold_index, heldout, independent_columns, vif, 
 
 __all__ = [
     "FitResult",
+    "heldout_outside_shares",
     "CrossValidation",
     "fit_model",
     "as_windows",
@@ -167,7 +168,7 @@ class FitResult:
     held_at_prior : dict
         Term name -> coefficient taken from the prior model (unidentified, kept).
     data_findings : list of dict or None
-        Every data check's result (:func:`energy_planner.measurements.prepare_logs`) when
+        Every data check's result (:func:`energy_planner.calibration.prepare_logs`) when
         the fit started from raw samples; None when it was given windows (the checks run
         on raw samples, before cleaning).
     """
@@ -262,7 +263,7 @@ class FitResult:
         if self.warnings:
             lines += ["", "warnings:"] + [f"  - {w}" for w in self.warnings]
         if self.data_findings is not None:
-            from energy_planner.measurements import findings_text
+            from energy_planner.calibration.prepare import findings_text
 
             lines += ["", *findings_text(self.data_findings)]
         return "\n".join(lines)
@@ -927,7 +928,7 @@ def as_windows(data: Any, *, window: float = 2.0, repair: bool = True) -> tuple[
     """Windows and data findings from raw samples, prepared logs or windows.
 
     Raw canonical samples (a DataFrame without a ``window`` column) go through the one
-    data pipeline, :func:`energy_planner.measurements.prepare_logs` (data checks, repair,
+    data pipeline, :func:`energy_planner.calibration.prepare_logs` (data checks, repair,
     cleaning, windows); a ``PreparedLogs`` brings its own findings; ``Windows`` (or
     windowed samples) come back as they are with no findings (None): the checks run on raw
     samples, before cleaning.
@@ -937,7 +938,7 @@ def as_windows(data: Any, *, window: float = 2.0, repair: bool = True) -> tuple[
     tuple
         ``(windows, findings)``, findings a list of dicts or None.
     """
-    from energy_planner.measurements import PreparedLogs, prepare_logs
+    from energy_planner.calibration.prepare import PreparedLogs, prepare_logs
 
     if isinstance(data, pd.DataFrame) and "window" not in data.columns:
         data = prepare_logs(data, window=window, repair=repair)
@@ -1136,7 +1137,6 @@ def _error_model(
     share outside the domain is measured against the ranges of its fold's training runs.
     """  # noqa: E501
     from energy_planner.stats import cluster_covariance, wls_coef
-    from energy_planner.uncertainty.domain import heldout_outside_shares
     from energy_planner.uncertainty.errormodel import fit_error_model
 
     runs = table["run"].astype(str).to_numpy()
@@ -1178,3 +1178,36 @@ def _error_model(
 def _unit(model: EnergyModel, name: str) -> str:
     """Unit of a term's coefficient (for messages)."""
     return {t.name: t.unit for t in model.terms}[name]
+
+
+def heldout_outside_shares(
+    table: pd.DataFrame, model: Any, fold_of_window: np.ndarray
+) -> pd.Series:
+    """Per run, the share of its duration outside the domain of its fold's training runs.
+
+    In the cross-validation by run each run is predicted by a fit on the other folds; the
+    ranges those folds saw (:func:`calibration_domain`)
+    are the domain that prediction had, so the share of the held-out run outside it is
+    the input the error model (:mod:`energy_planner.uncertainty.errormodel`) relates to
+    that run's error.
+    """
+    import pandas as pd
+
+    from energy_planner.uncertainty.domain import report_against, window_segments
+
+    runs = table["run"].astype(str).to_numpy()
+    fold = np.asarray(fold_of_window)
+    seg = window_segments(table)
+    chan_cols = [c for c in table.columns if c in (model.variables or set())]
+    out: dict[str, float] = {}
+    for k in np.unique(fold):
+        train = fold != k
+        if not train.any():
+            continue
+        dom = calibration_domain(table.loc[train].reset_index(drop=True), model)
+        for run in np.unique(runs[~train]):
+            idx = np.flatnonzero(runs == run)
+            vals = {c: table[c].to_numpy()[idx] for c in chan_cols if c in dom["channels"]}
+            rep = report_against(dom, seg.iloc[idx].reset_index(drop=True), None, None, vals)
+            out[run] = rep["outside_share"]
+    return pd.Series(out, dtype=float)

@@ -123,7 +123,7 @@ def _text(doc: dict[str, Any], report: Path | None) -> str:
     for n in doc["notes"]:
         lines.append(f"note: {n}")
     if doc.get("data_findings") is not None:
-        from energy_planner.measurements import findings_text
+        from energy_planner.calibration.prepare import findings_text
 
         lines += findings_text(doc["data_findings"])
     if report is not None:

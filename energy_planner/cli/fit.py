@@ -66,14 +66,14 @@ def load_prepared(
     """Load logs, run the data checks, preprocess and cut windows; errors become click errors.
 
     The one data pipeline of ``fit``, ``diagnose`` and ``discover``
-    (:func:`energy_planner.measurements.prepare_logs`). Returns the ``PreparedLogs``, a
+    (:func:`energy_planner.calibration.prepare_logs`). Returns the ``PreparedLogs``, a
     dict of the load and preprocessing reports and the data findings, the preprocessing
     report as text, and the raw samples. A caller that prints the preprocessing report
     (``prints_report``), which lists the runs preprocessing dropped, gets no warning
     repeating them.
     """
+    from energy_planner.calibration.prepare import prepare_logs
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements import prepare_logs
 
     samples, load_report = load_log_files(paths, report=True)
     status(f"preprocessing {len(samples)} samples ...")

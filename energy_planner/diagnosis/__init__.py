@@ -12,8 +12,8 @@ logs after the data checks (sensor problems reported as data findings and repair
 (0.01, 0.05)
 """
 
+from energy_planner.calibration.windowdata import WindowData, window_data
 from energy_planner.diagnosis.core import Diagnosis, diagnose, infer_composites, run_table
-from energy_planner.diagnosis.data import WindowData, window_data
 from energy_planner.diagnosis.discover import Discovery, discover
 from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
 from energy_planner.diagnosis.suspects import (

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from energy_planner.diagnosis.data import MAX_CATEGORIES, WindowData
+from energy_planner.calibration.windowdata import MAX_CATEGORIES, WindowData
 from energy_planner.stats import wls_coef as wls
 
 #: Quantiles at which hinge terms on a numeric channel are tried.

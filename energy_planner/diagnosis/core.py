@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.calibration.windowdata import WindowData, window_data
 from energy_planner.diagnosis.metrics import breakdown, hotspots, power_metrics, superposition
 from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, staircase
 from energy_planner.errors import FitError

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.diagnosis.data import WindowData, window_data
+from energy_planner.calibration.windowdata import WindowData, window_data
 from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
 from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
 from energy_planner.measurements.datacheck import DataFinding
@@ -294,7 +294,7 @@ def discover(
         Correct the data findings before fitting (they are reported either way).
     guard : bool
         Keep a repair only if it does not raise the held-out error
-        (``measurements.prepare_logs``); False applies every repair.
+        (``calibration.prepare_logs``); False applies every repair.
     fit_final : bool
         Fit the final model on all windows (``calibration.fit_model``).
     progress : bool, callable or Reporter, optional
@@ -310,8 +310,8 @@ def discover(
     """
     from energy_planner.calibration import fit_model
     from energy_planner.calibration.fit import identifiable
+    from energy_planner.calibration.prepare import prepare_logs
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements import prepare_logs
     from energy_planner.model import BASE_TERMS, resolve_term
     from energy_planner.progress import reporter
 

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 if TYPE_CHECKING:
-    from energy_planner.diagnosis.data import WindowData
+    from energy_planner.calibration.windowdata import WindowData
 
 #: Heading sectors (centre in degrees, label); gamma = 0 faces uphill, +90 has uphill on
 #: the robot's right (design notes).

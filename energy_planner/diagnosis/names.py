@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 
+from energy_planner.calibration.windowdata import WindowData
 from energy_planner.diagnosis.candidates import Candidate, canonical, default_candidates, hinge
-from energy_planner.diagnosis.data import WindowData
 from energy_planner.model.terms import Term
 
 #: A discovered term whose formula is longer than this many characters is named in the

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from energy_planner.calibration.windowdata import WindowData
 from energy_planner.diagnosis.candidates import (
     Candidate,
     _unsup,
@@ -21,7 +22,6 @@ from energy_planner.diagnosis.candidates import (
     hinge,
     user_candidates,
 )
-from energy_planner.diagnosis.data import WindowData
 from energy_planner.diagnosis.names import term_spec
 from energy_planner.model.terms import Term
 from energy_planner.stats import fold_index, paired_run_test, span_basis, span_residual

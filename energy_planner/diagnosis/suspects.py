@@ -54,6 +54,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
+from energy_planner.calibration.windowdata import WindowData
 from energy_planner.diagnosis.candidates import (
     CHANNEL_KINDS,
     CLIMB,
@@ -73,7 +74,6 @@ from energy_planner.diagnosis.candidates import (
     speed_levels,
     user_candidates,
 )
-from energy_planner.diagnosis.data import WindowData
 from energy_planner.diagnosis.names import LONG_FORMULA, model_term, resolve_names, term_spec
 from energy_planner.diagnosis.scoring import (
     RUN_TEST_NAME,

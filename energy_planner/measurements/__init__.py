@@ -11,7 +11,6 @@ described in :mod:`energy_planner.measurements.schema` and ``docs/measurements.m
 from energy_planner.measurements.datacheck import DataFinding, check_data
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body, wrap_angle
 from energy_planner.measurements.logs import LoadReport, load_logs
-from energy_planner.measurements.prepare import PreparedLogs, findings_text, prepare_logs
 from energy_planner.measurements.preprocess import (
     STEPS,
     PreprocessParams,
@@ -57,7 +56,6 @@ __all__ = [
     "DataFinding",
     "LoadReport",
     "PreprocessParams",
-    "PreparedLogs",
     "PreprocessReport",
     "StepRecord",
     "ValidationReport",
@@ -72,7 +70,6 @@ __all__ = [
     "drop_invalid",
     "ema",
     "ema_smooth",
-    "findings_text",
     "hampel_filter",
     "hampel_mask",
     "imu_slope_heading",
@@ -80,7 +77,6 @@ __all__ = [
     "load_rosbag",
     "make_windows",
     "mechanical_lower_bound",
-    "prepare_logs",
     "preprocess",
     "run_energies",
     "split_segments",

@@ -871,7 +871,7 @@ def check_data(
     accept : callable, optional
         ``accept(before, after, finding) -> bool``, asked for every repair (the samples
         without and with it): a repair it refuses is not applied (``finding.repaired``
-        False; ``accept`` records why in the finding). ``measurements.prepare_logs``
+        False; ``accept`` records why in the finding). ``calibration.prepare_logs``
         passes the held-out check (a repair that raises the held-out error is refused).
     """
     s = samples.assign(run=samples["run"].astype(str))

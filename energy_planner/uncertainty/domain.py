@@ -27,7 +27,6 @@ __all__ = [
     "DomainError",
     "domain_of",
     "domain_report",
-    "heldout_outside_shares",
     "path_channel_values",
     "report_against",
     "stay_in_domain",
@@ -273,39 +272,6 @@ def window_segments(table: pd.DataFrame) -> pd.DataFrame:
         }
     )
     return seg
-
-
-def heldout_outside_shares(
-    table: pd.DataFrame, model: Any, fold_of_window: np.ndarray
-) -> pd.Series:
-    """Per run, the share of its duration outside the domain of its fold's training runs.
-
-    In the cross-validation by run each run is predicted by a fit on the other folds; the
-    ranges those folds saw (:func:`energy_planner.calibration.fit.calibration_domain`)
-    are the domain that prediction had, so the share of the held-out run outside it is
-    the input the error model (:mod:`energy_planner.uncertainty.errormodel`) relates to
-    that run's error.
-    """
-    from energy_planner.calibration.fit import calibration_domain
-
-    runs = table["run"].astype(str).to_numpy()
-    fold = np.asarray(fold_of_window)
-    seg = window_segments(table)
-    chan_cols = [c for c in table.columns if c in (model.variables or set())]
-    out: dict[str, float] = {}
-    for k in np.unique(fold):
-        train = fold != k
-        if not train.any():
-            continue
-        dom = calibration_domain(table.loc[train].reset_index(drop=True), model)
-        for run in np.unique(runs[~train]):
-            idx = np.flatnonzero(runs == run)
-            vals = {c: table[c].to_numpy()[idx] for c in chan_cols if c in dom["channels"]}
-            rep = report_against(dom, seg.iloc[idx].reset_index(drop=True), None, None, vals)
-            out[run] = rep["outside_share"]
-    import pandas as pd
-
-    return pd.Series(out, dtype=float)
 
 
 def stay_in_domain(request: Any, model: Any, terrain: Any = None) -> tuple[Any, list[str]]:

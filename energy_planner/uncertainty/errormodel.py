@@ -19,7 +19,7 @@ error :math:`e = \hat E - E` scatters. How much depends on the run:
   of slip, ground and sensors that partly averages out over a long run);
 - :math:`d`: the extra relative error of the share :math:`s` of the run outside the
   domain its prediction had (held-out runs against the ranges of their fold's training
-  runs, :func:`energy_planner.uncertainty.domain.heldout_outside_shares`). Fitted only
+  runs, :func:`energy_planner.calibration.fit.heldout_outside_shares`). Fitted only
   when at least :data:`MIN_OUTSIDE_RUNS` held-out runs lie partly outside and as many
   wholly inside (else :math:`d` and :math:`b` cannot be told apart); otherwise the
   interval is widened by the assumed factor :math:`1 + s` and the model says so.

@@ -113,7 +113,7 @@ def yardstick_terms(wd: Any) -> list[str]:
     ground) would otherwise dominate the base model's error and drown the repairs'
     differences; the same logs give the same yardstick in every command.
     """
-    from energy_planner.diagnosis.data import MAX_CATEGORIES
+    from energy_planner.calibration.windowdata import MAX_CATEGORIES
     from energy_planner.model import BASE_TERMS
 
     terms = list(BASE_TERMS)
@@ -142,8 +142,8 @@ def heldout_score(
     runs) when it cannot be computed: fewer than two runs, no window.
     """
     # the one held-out evaluation with each fold's identifiable terms is the diagnosis'
-    # window view (WindowData.heldout); imported here, at call time, against the layers
-    from energy_planner.diagnosis.data import window_data
+    # window view (WindowData.heldout, calibration.windowdata)
+    from energy_planner.calibration.windowdata import window_data
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements.preprocess import preprocess
     from energy_planner.measurements.windows import make_windows

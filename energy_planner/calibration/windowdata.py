@@ -1,0 +1,440 @@
+"""Window-level view of the measurements used by the diagnosis.
+
+The diagnosis works on windows (paper IV-C): the target is the mean measured power of a
+window and a term's column is the window mean of the term evaluated per sample (power is
+linear in the coefficients, so the window mean of power is the sum of the window means of
+the terms). This module turns the per-sample table of
+``energy_planner.measurements.make_windows(...).samples`` into that view, and evaluates
+any term (catalog name or formula) on it.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from energy_planner.errors import FitError, LogError
+from energy_planner.measurements.schema import CANONICAL_COLUMNS
+from energy_planner.measurements.windows import DERIVED_COLUMNS
+
+if TYPE_CHECKING:
+    from energy_planner.stats import HeldOut
+
+# Columns of the canonical samples that are not extra channels: the measurements
+# module's canonical and derived columns, plus a few common log fields.
+KNOWN_COLUMNS = frozenset(
+    {
+        *CANONICAL_COLUMNS,
+        *DERIVED_COLUMNS,
+        *("z", "az", "dt", "valid", "keep", "composite", "part"),
+    }
+)
+
+#: Categorical channels with more distinct values than this are treated as identifiers.
+MAX_CATEGORIES = 12
+
+REQUIRED = ("run", "t", "power", "window")
+#: Bytes of per-sample term columns :class:`WindowData` keeps between calls (least
+#: recently used first out; an evicted column is evaluated again when asked for, to the
+#: same values). Without a bound a full campaign kept every candidate's column: 525 k
+#: samples x hundreds of candidates, 3 GB.
+SAMPLE_CACHE_BYTES = 64 * 2**20
+#: Terms evaluated per sample at once (bounds the design matrix made in one go).
+EVAL_CHUNK = 16
+
+
+@dataclass
+class WindowData:
+    """Per-sample features and their per-window aggregation.
+
+    Attributes
+    ----------
+    samples : pandas.DataFrame
+        Per-sample features (only samples that belong to a window), ``speed`` filled in.
+    key : numpy.ndarray
+        Window index of every sample, ``0 .. n_windows - 1``.
+    table : pandas.DataFrame
+        One row per window: ``run``, ``window``, ``n``, ``power`` (mean measured power, W),
+        ``alpha_deg``, ``gamma_deg``, ``speed``, ``vx``, ``vy``, ``wz``, ``motion`` and every
+        extra channel (numeric: window mean; categorical: most frequent value).
+    numeric_extras, categorical_extras : list of str
+        Extra channels found in the samples, by kind.
+    """
+
+    samples: pd.DataFrame
+    key: np.ndarray
+    table: pd.DataFrame
+    numeric_extras: list[str] = field(default_factory=list)
+    categorical_extras: list[str] = field(default_factory=list)
+    _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _sample_cache: OrderedDict[str, np.ndarray] = field(default_factory=OrderedDict, repr=False)
+    _stack_key: tuple | None = field(default=None, repr=False)
+    _stack: np.ndarray | None = field(default=None, repr=False)
+    _stack_means: np.ndarray | None = field(default=None, repr=False)
+    _fold_cols: dict = field(default_factory=dict, repr=False)
+    _start_idx: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def n_windows(self) -> int:
+        """Number of windows."""
+        return len(self.table)
+
+    @property
+    def power(self) -> np.ndarray:
+        """Mean measured power of each window, W."""
+        return self.table["power"].to_numpy(dtype=float)
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Fit weight of each window: its duration (s) as the calibration weighs windows."""
+        return self.table["duration"].to_numpy(dtype=float)
+
+    @property
+    def runs(self) -> np.ndarray:
+        """Run identifier of each window."""
+        return self.table["run"].to_numpy()
+
+    @property
+    def extras(self) -> list[str]:
+        """All extra channels, numeric first."""
+        return [*self.numeric_extras, *self.categorical_extras]
+
+    def window_mean(self, values: np.ndarray) -> np.ndarray:
+        """Mean over each window of a per-sample array (or of each column of a matrix).
+
+        Non-finite samples are ignored; a window with no finite sample gets NaN.
+
+        Samples are stored grouped by window, so this is one ``np.add.reduceat``.
+        """
+        values = np.asarray(values, dtype=float)
+        ok = np.isfinite(values)
+        starts = self._starts
+        tot = np.add.reduceat(np.where(ok, values, 0.0), starts, axis=0)
+        cnt = np.add.reduceat(ok.astype(float), starts, axis=0)
+        out = np.full(tot.shape, np.nan)
+        np.divide(tot, cnt, out=out, where=cnt > 0)
+        return out
+
+    @property
+    def _starts(self) -> np.ndarray:
+        """Index of the first sample of each window (samples are sorted by window)."""
+        if self._start_idx is None:
+            self._start_idx = np.flatnonzero(np.r_[True, self.key[1:] != self.key[:-1]])
+        return self._start_idx
+
+    def _evaluate(self, terms: list[str], into: dict[str, np.ndarray] | None = None) -> None:
+        """Evaluate the terms not yet cached on every sample; cache their window means.
+
+        With ``into``, the per-sample column of every term is put there (from the
+        per-sample cache, or evaluated again if the cache let it go). Terms are
+        evaluated :data:`EVAL_CHUNK` at a time and the per-sample cache holds at most
+        :data:`SAMPLE_CACHE_BYTES` (least recently used out), so that memory does not
+        grow with the number of candidates.
+        """
+        from energy_planner.calibration.fit import model_features
+        from energy_planner.model import EnergyModel
+
+        want = list(dict.fromkeys(terms))
+        if into is not None:
+            for t in want:
+                if t in self._sample_cache:
+                    into[t] = self._sample_cache[t]
+                    self._sample_cache.move_to_end(t)
+        todo = [t for t in want if t not in self._cache or (into is not None and t not in into)]
+        for i in range(0, len(todo), EVAL_CHUNK):
+            chunk = todo[i : i + EVAL_CHUNK]
+            model = EnergyModel(terms=chunk)
+            # only the columns these terms read (all of them as arrays: 110 MB on a full
+            # campaign, held through the staircase)
+            per_sample = model.design_matrix(model_features(self.samples, model))
+            per_window = self.window_mean(per_sample)
+            for j, t in enumerate(chunk):
+                self._cache[t] = per_window[:, j].copy()
+                column = np.ascontiguousarray(per_sample[:, j])
+                if into is not None:
+                    into[t] = column
+                self._keep_sample_column(t, column)
+
+    def _keep_sample_column(self, term: str, column: np.ndarray) -> None:
+        """Put a per-sample column in the cache, dropping the least recently used."""
+        cache = self._sample_cache
+        cache[term] = column
+        cache.move_to_end(term)
+        total = sum(c.nbytes for c in cache.values())
+        while total > SAMPLE_CACHE_BYTES and len(cache) > 1:
+            _, old = cache.popitem(last=False)
+            total -= old.nbytes
+
+    def release_sample_columns(self) -> None:
+        """Let go of the per-sample columns and the stacked design.
+
+        They are caches, evaluated again if needed; ``discover`` lets them go before its
+        final fit, which builds its own design (memory).
+        """
+        self._sample_cache.clear()
+        self._stack_key = self._stack = self._stack_means = None
+
+    def columns(self, terms: Iterable[str]) -> np.ndarray:
+        """Window-mean design columns of ``terms`` (catalog names or formulas).
+
+        Columns are cached by term: per window all of them (the staircase re-ranks the
+        same candidates), per sample up to :data:`SAMPLE_CACHE_BYTES` (the held-out
+        evaluation floors every sample; a column let go is evaluated again).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(n_windows, len(terms))``.
+        """
+        terms = list(terms)
+        self._evaluate(terms)
+        if not terms:
+            return np.empty((self.n_windows, 0))
+        return np.column_stack([self._cache[t] for t in terms])
+
+    def sample_columns(self, terms: Iterable[str]) -> np.ndarray:
+        """Per-sample design columns of ``terms``, shape ``(n_samples, len(terms))``."""
+        terms = list(terms)
+        if not terms:
+            return np.empty((len(self.samples), 0))
+        got: dict[str, np.ndarray] = {}
+        self._evaluate(terms, into=got)
+        return np.column_stack([got[t] for t in terms])
+
+    def heldout(
+        self,
+        terms: Sequence[str],
+        folds: np.ndarray,
+        ok: np.ndarray | None = None,
+        extra: Sequence[str] = (),
+    ) -> HeldOut:
+        """Held-out prediction of the model ``terms + extra`` on the windows ``ok``.
+
+        The one held-out evaluation (:func:`energy_planner.stats.heldout`): refitted on
+        the other folds' windows, every sample of a held-out window predicted and floored
+        at 0, the window's prediction the mean of its floored samples. As in
+        ``calibration.cross_validate``, a fold fits only the model terms its training
+        windows identify (:func:`energy_planner.calibration.fit.identifiable_by_fold`;
+        the others are predicted as 0); the extra terms are always fitted.
+
+        Parameters
+        ----------
+        terms, extra : sequence of str
+            The model's terms and the terms tried with it (a candidate).
+        folds : numpy.ndarray
+            Fold of every window (:func:`energy_planner.stats.fold_index`).
+        ok : numpy.ndarray, optional
+            Boolean mask of the windows to use (default all); the result has one row
+            per window in ``ok``.
+
+        Returns
+        -------
+        HeldOut
+        """
+        from energy_planner.stats import heldout
+
+        key, k, e = tuple(terms), len(terms), len(extra)
+        if self._stack_key != key or self._stack.shape[1] < k + e:
+            # the model's per-sample design and window means, stacked once, with room
+            # for the extra columns (filled in place: no copy of the design per candidate)
+            width = k + max(e, 2)
+            self._stack = np.empty((len(self.samples), width), order="F")
+            self._stack[:, :k] = self.sample_columns(terms)
+            self._stack_means = np.empty((self.n_windows, width))
+            self._stack_means[:, :k] = self.columns(terms)
+            self._stack_key = key
+        X, means = self._stack[:, : k + e], self._stack_means[:, : k + e]
+        if e:
+            X[:, k:] = self.sample_columns(extra)
+            means[:, k:] = self.columns(extra)
+        y, w, folds = self.power, self.weights, np.asarray(folds)
+        rows, table = self.key, self.table
+        cache_key = (key, folds.tobytes(), None)
+        if ok is not None and not np.all(ok):
+            ok = np.asarray(ok, dtype=bool)
+            keep = ok[self.key]
+            X, rows = X[keep], (np.cumsum(ok) - 1)[self.key[keep]]
+            cache_key = (key, folds.tobytes(), ok.tobytes())
+            means, y, w, folds, table = means[ok], y[ok], w[ok], folds[ok], table[ok]
+        cols = self._identifiable(cache_key, means[:, :k], w, table, folds)
+        cols = np.column_stack([cols, np.ones((len(cols), e), dtype=bool)])
+        return heldout(X, y, folds, w, rows=rows, means=means, fit_columns=cols)
+
+    def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
+        """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""
+        from energy_planner.calibration._windows import MOTION_KIND
+        from energy_planner.calibration.fit import identifiable_by_fold
+        from energy_planner.model import EnergyModel
+        from energy_planner.stats import MOTIONS, classify_motion
+
+        if key not in self._fold_cols:
+            # the windows' motion classes as the measurements label them; other labels
+            # (hand-made samples) by classify_motion of the window's mean twist
+            cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
+            given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
+            motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
+            kind = pd.Series(motion).map(MOTION_KIND).fillna("mixed")
+            t = table.assign(kind=kind.to_numpy())
+            model = EnergyModel(terms=list(key[0]))
+            self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
+        return self._fold_cols[key]
+
+    def predict(self, model) -> np.ndarray:
+        """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
+        return self.window_mean(np.asarray(model.power(self.samples), dtype=float))
+
+
+def _is_numeric(series: pd.Series) -> bool:
+    return pd.api.types.is_numeric_dtype(series) and not pd.api.types.is_bool_dtype(series)
+
+
+def _mode(series: pd.Series, key: np.ndarray, n: int) -> np.ndarray:
+    """Most frequent value of a categorical per-sample series in each window (NaN-safe)."""
+    codes, uniques = pd.factorize(series, use_na_sentinel=True)
+    out = np.full(n, None, dtype=object)
+    ok = codes >= 0
+    if not ok.any():
+        return out
+    counts = np.zeros((n, len(uniques)), dtype=np.int64)
+    np.add.at(counts, (key[ok], codes[ok]), 1)
+    has = counts.sum(axis=1) > 0
+    best = counts.argmax(axis=1)
+    out[has] = np.asarray(uniques, dtype=object)[best[has]]
+    return out
+
+
+def window_data(samples: Any, extras: Iterable[str] | None = None) -> WindowData:
+    """Build the window-level view from windowed per-sample data.
+
+    Parameters
+    ----------
+    samples : Windows or pandas.DataFrame
+        ``make_windows(...)`` or its ``.samples``: per-sample ``run, t, vx, vy, wz, alpha,
+        gamma, ax, ay, power, motion, window`` and any extra channel. Samples whose
+        ``window`` is missing or negative belong to no window and are ignored. Given the
+        ``Windows``, a window's ``duration`` (its fit weight) is the measurements' own (the
+        sum of its samples' intervals), as the calibration weighs it; given samples alone,
+        it is the number of samples times the run's median sample interval.
+    extras : iterable of str, optional
+        Extra channels to consider; default every column that is not a canonical one.
+
+    Returns
+    -------
+    WindowData
+
+    Raises
+    ------
+    LogError
+        A required column is missing.
+    FitError
+        No sample belongs to a window.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"run": ["a"] * 4, "t": [0, 1, 2, 3], "power": [1.0, 3, 5, 7],
+    ...                   "window": [0, 0, 1, 1], "vx": 0.3, "vy": 0.0, "wz": 0.0,
+    ...                   "alpha": 0.0, "gamma": 0.0, "mud": ["x", "x", "y", "y"]})
+    >>> wd = window_data(s)
+    >>> wd.table["power"].tolist(), wd.categorical_extras, wd.table["mud"].tolist()
+    ([2.0, 6.0], ['mud'], ['x', 'y'])
+    """
+    wtable = None
+    if hasattr(samples, "samples") and hasattr(samples, "table"):
+        wtable, samples = samples.table, samples.samples
+    missing = [c for c in REQUIRED if c not in samples.columns]
+    if missing:
+        raise LogError(
+            f"windowed samples lack column(s) {missing}; expected the output of "
+            "energy_planner.measurements.make_windows(...).samples with columns "
+            f"{list(REQUIRED)} and the per-sample features"
+        )
+    win = pd.to_numeric(samples["window"], errors="coerce")
+    keep = win.notna().to_numpy() & (win.fillna(-1).to_numpy() >= 0)
+    keep &= np.isfinite(pd.to_numeric(samples["power"], errors="coerce").to_numpy(dtype=float))
+    s = samples.loc[keep].reset_index(drop=True).copy()
+    if s.empty:
+        raise FitError("no sample belongs to a window: nothing to diagnose (check make_windows)")
+    if "speed" not in s.columns and {"vx", "vy"} <= set(s.columns):
+        s["speed"] = np.hypot(s["vx"].to_numpy(float), s["vy"].to_numpy(float))
+    s["run"] = s["run"].astype(str)
+    # A window is identified by (run, window): window numbers may restart in each run.
+    # key = (run code, window) packed in one integer; samples sorted by it (stable in t)
+    run_code, run_names = pd.factorize(s["run"], sort=True)
+    wid = s["window"].to_numpy(dtype=np.int64)
+    wid = wid - wid.min()
+    packed = run_code.astype(np.int64) * (int(wid.max()) + 1) + wid
+    order = np.argsort(packed, kind="stable")
+    s = s.iloc[order].reset_index(drop=True)
+    uniq, key = np.unique(packed[order], return_inverse=True)
+    key = key.astype(np.int64)
+    n = len(uniq)
+    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    if extras is None:
+        extras = [c for c in s.columns if c not in KNOWN_COLUMNS]
+    extras = [c for c in extras if c in s.columns]
+
+    def mean(col: str) -> np.ndarray:
+        v = pd.to_numeric(s[col], errors="coerce").to_numpy(dtype=float)
+        ok = np.isfinite(v)
+        cnt = np.add.reduceat(ok.astype(float), first)
+        tot = np.add.reduceat(np.where(ok, v, 0.0), first)
+        out = np.full(n, np.nan)
+        np.divide(tot, cnt, out=out, where=cnt > 0)
+        return out
+
+    table = pd.DataFrame(
+        {
+            "run": np.asarray(run_names, dtype=object)[run_code[order][first]].astype(str),
+            "window": s["window"].to_numpy()[first],
+            "n": np.bincount(key, minlength=n),
+            "power": mean("power"),
+        }
+    )
+    if "t" in s.columns:
+        t = s["t"].to_numpy(dtype=float)
+        table["t_start"] = np.minimum.reduceat(t, first)
+        table["t_end"] = np.maximum.reduceat(t, first)
+    # duration: samples x the run's median sample interval (a window of 1 sample counts too)
+    dt = s.groupby("run", sort=False)["t"].transform(
+        lambda v: np.median(np.diff(np.sort(v.to_numpy()))) if len(v) > 1 else 1.0
+    )
+    table["duration"] = np.bincount(key, weights=dt.to_numpy(float), minlength=n)
+    if wtable is not None and "duration" in wtable.columns:
+        per = dict(
+            zip(
+                zip(wtable["run"].astype(str), wtable["window"].astype(np.int64), strict=True),
+                wtable["duration"].to_numpy(float),
+                strict=True,
+            )
+        )
+        keys = zip(table["run"], table["window"].astype(np.int64), strict=True)
+        table["duration"] = [per.get(k, np.nan) for k in keys]
+    if "alpha" in s.columns:
+        table["alpha_deg"] = np.degrees(mean("alpha"))
+    if "gamma" in s.columns:  # circular mean: headings near +-180 deg must not average to 0
+        g = s["gamma"].to_numpy(dtype=float)
+        s["_sin_g"], s["_cos_g"] = np.sin(g), np.cos(g)
+        table["gamma_deg"] = np.degrees(np.arctan2(mean("_sin_g"), mean("_cos_g")))
+        s = s.drop(columns=["_sin_g", "_cos_g"])
+    for col in ("speed", "vx", "vy", "wz"):
+        if col in s.columns:
+            table[col] = mean(col)
+    if "motion" in s.columns:
+        table["motion"] = _mode(s["motion"].astype(object), key, n)
+    numeric, categorical = [], []
+    for col in extras:
+        if _is_numeric(s[col]) or pd.api.types.is_bool_dtype(s[col]):
+            if pd.api.types.is_bool_dtype(s[col]):
+                s[col] = s[col].astype(float)
+            table[col] = mean(col)
+            numeric.append(col)
+        else:
+            table[col] = _mode(s[col].astype(object), key, n)
+            categorical.append(col)
+    return WindowData(s, key, table, numeric, categorical)
