@@ -29,7 +29,7 @@ def test_hill_detour_beats_the_direct_climb():
     s = terrain.to_work(*sc["start"])
     g = terrain.to_work(*sc["goal"])
     direct = path_energy(terrain, model, [s, g])
-    res = plan(terrain, model, s, g, planner="auto", time=10, progress=False)
+    res = plan(terrain, model, s, g, planner="auto", time=60, progress=False)
     lattice_ref = res.history[0][1]  # energy of the lattice path the refinement starts from
     assert res.energy_j < 0.8 * direct.energy_j
     assert res.energy_j <= lattice_ref * (1 + 1e-9)
