@@ -2,8 +2,8 @@
 
 Every ``energy_planner.X`` import, at module level or inside a function (a call-time
 import is still a dependency), is an edge between top-level units (subpackages and
-modules). The graph must have no cycle, except the one pair named in ``ALLOWED`` with its
-reason.
+modules); imports under ``if TYPE_CHECKING:`` (names for annotations, never run) are not.
+The graph must have no cycle.
 """
 
 from __future__ import annotations
@@ -17,13 +17,6 @@ import energy_planner
 
 ROOT = Path(energy_planner.__file__).parent
 
-#: (importer, imported) edges that close a cycle on purpose, with why.
-ALLOWED = {
-    # Request holds Channels (energy/channels.py, which needs the model's formulas);
-    # request.py builds an empty one as its default at call time.
-    ("request", "energy"),
-}
-
 
 def _edges() -> dict[str, set[str]]:
     edges: dict[str, set[str]] = collections.defaultdict(set)
@@ -31,7 +24,17 @@ def _edges() -> dict[str, set[str]]:
         unit = f.relative_to(ROOT).parts[0].removesuffix(".py")
         if unit == "__init__":
             continue
-        for node in ast.walk(ast.parse(f.read_text())):
+        tree = ast.parse(f.read_text())
+        typing_only = {
+            id(n)
+            for block in ast.walk(tree)
+            if isinstance(block, ast.If) and "TYPE_CHECKING" in ast.unparse(block.test)
+            for stmt in block.body
+            for n in ast.walk(stmt)
+        }
+        for node in ast.walk(tree):
+            if id(node) in typing_only:
+                continue
             names = []
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
                 "energy_planner."
@@ -41,7 +44,7 @@ def _edges() -> dict[str, set[str]]:
                 names = [a.name for a in node.names if a.name.startswith("energy_planner.")]
             for name in names:
                 other = name.split(".")[1]
-                if other != unit and (unit, other) not in ALLOWED:
+                if other != unit:
                     edges[unit].add(other)
     return edges
 
@@ -59,15 +62,3 @@ def test_the_units_import_one_way():
                       ("calibration", "diagnosis"), ("planning", "mission"),
                       ("uncertainty", "follow"), ("api", "cli")]:  # fmt: skip
         assert pos[low] < pos[high], (low, high)
-
-
-def test_the_allowed_exceptions_still_exist():
-    """An exception that is no longer needed is taken off the list."""
-    for unit, other in ALLOWED:
-        text = "\n".join(p.read_text() for p in ROOT.glob(f"{unit}*.py"))
-        text += (
-            "\n".join(p.read_text() for p in (ROOT / unit).rglob("*.py"))
-            if (ROOT / unit).is_dir()
-            else ""
-        )
-        assert f"energy_planner.{other}." in text or f"energy_planner.{other} " in text
