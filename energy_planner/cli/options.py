@@ -27,7 +27,8 @@ def path_option(*decls: str, help: str, folder: bool = False, **kw: Any) -> Call
     ``decls`` and ``kw`` are those of :func:`click.option` (``required``, ``default``, ...;
     the default is None).
     """
-    kw.setdefault("default", None)
+    if not kw.get("required"):  # click >= 8.3 fills a required option from default=None
+        kw.setdefault("default", None)
     kind = (
         click.Path(file_okay=False, path_type=Path)
         if folder

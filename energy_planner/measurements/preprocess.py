@@ -603,9 +603,10 @@ def preprocess(
     samples = samples.assign(run=samples["run"].astype(str))
     samples = samples.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
     report = PreprocessReport(n_input=len(samples), params=params)
-    df = samples
     counts = samples["run"].value_counts()
     alive = set(counts.index)
+    df = samples
+    del samples  # the sorted copy lives on only as long as the steps need it (memory)
     for step in STEPS:
         df, rec = step(df, params)
         report.steps.append(rec)
