@@ -187,17 +187,23 @@ def run_grass(
     }  # fmt: skip
 
 
-def run_plan(dem: Path, size: int, planner: str, budget: float, timeout: float) -> dict:
+def _child(args: list[str], timeout: float) -> dict:
+    """``python -c ARGS...`` in its own process, so that its peak RSS is its own.
+
+    Its last stdout line is the JSON result; ``{"error": ...}`` when it fails or times out.
+    """
     try:
-        out = subprocess.run(
-            [sys.executable, "-c", CHILD, str(HERE), str(dem), str(size), planner, str(budget)],
-            capture_output=True, text=True, timeout=timeout,
-        )  # fmt: skip
+        out = subprocess.run([sys.executable, "-c", *args], capture_output=True, text=True,
+                             timeout=timeout)  # fmt: skip
     except subprocess.TimeoutExpired:
         return {"error": f"killed at {timeout:.0f} s"}
     if out.returncode != 0:
         return {"error": (out.stderr.strip().splitlines() or ["?"])[-1][:200]}
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def run_plan(dem: Path, size: int, planner: str, budget: float, timeout: float) -> dict:
+    return _child([CHILD, str(HERE), str(dem), str(size), planner, str(budget)], timeout)
 
 
 #: issue 21's rows: (label, cell m, max slope deg or None, 30 m keep-out over the notch,
@@ -213,16 +219,7 @@ NOTCH_ROWS = [
 
 def run_spec(spec: dict, timeout: float) -> dict:
     """The project's planner on one notch row, in its own process (:data:`NOTCH_CHILD`)."""
-    try:
-        out = subprocess.run(
-            [sys.executable, "-c", NOTCH_CHILD, json.dumps(spec)],
-            capture_output=True, text=True, timeout=timeout,
-        )  # fmt: skip
-    except subprocess.TimeoutExpired:
-        return {"error": f"killed at {timeout:.0f} s"}
-    if out.returncode != 0:
-        return {"error": (out.stderr.strip().splitlines() or ["?"])[-1][:200]}
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return _child([NOTCH_CHILD, json.dumps(spec)], timeout)
 
 
 def _median(runs: list[dict]) -> dict:
