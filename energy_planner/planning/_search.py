@@ -60,22 +60,9 @@ def heap_pop(keys, vals, n):
     m = n[0] - 1
     n[0] = m
     if m > 0:
-        k = keys[m]
-        v = vals[m]
-        i = 0
-        while True:
-            c = 2 * i + 1
-            if c >= m:
-                break
-            if c + 1 < m and keys[c + 1] < keys[c]:
-                c += 1
-            if keys[c] >= k:
-                break
-            keys[i] = keys[c]
-            vals[i] = vals[c]
-            i = c
-        keys[i] = k
-        vals[i] = v
+        keys[0] = keys[m]
+        vals[0] = vals[m]
+        _sift_down(keys, vals, 0, m)
     return key, val
 
 
