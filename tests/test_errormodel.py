@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.model import EnergyModel
@@ -152,6 +152,7 @@ def test_probability_agrees_with_the_interval():
 
 
 @settings(max_examples=40, deadline=None)
+@example(n=3, seed=3, spread=0.17148613420032557, out=0.25)  # a bound near 0: rounding cancelled
 @given(
     n=st.integers(3, 60),
     seed=st.integers(0, 2**16),

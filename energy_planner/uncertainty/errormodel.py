@@ -191,15 +191,16 @@ class ErrorModel:
         return {
             "form": "sigma^2 = (rho2 + b) E^2 + c T + d (share E)^2; "
             "interval E - z sigma, z split-conformal",
-            "rho2": float(f"{self.param_rel_var:.6g}"),
-            "b": float(f"{self.model_rel_var:.6g}"),
-            "c_j2_per_s": float(f"{self.noise_j2_per_s:.6g}"),
-            "d": None if self.outside_rel_var is None else float(f"{self.outside_rel_var:.6g}"),
+            "rho2": float(self.param_rel_var),
+            "b": float(self.model_rel_var),
+            "c_j2_per_s": float(self.noise_j2_per_s),
+            "d": None if self.outside_rel_var is None else float(self.outside_rel_var),
             "outside_rule": self.outside_rule,
-            "mean_power_w": float(f"{self.mean_power_w:.6g}"),
+            "mean_power_w": float(self.mean_power_w),
             "n_outside": self.n_outside,
             "cross_fitted": self.cross_fitted,
-            "scores": [float(f"{z:.6g}") for z in self.scores],  # 6 significant digits
+            # full precision: a bound near zero is E - z sigma, where rounding cancels
+            "scores": [float(z) for z in self.scores],
         }
 
     @classmethod
