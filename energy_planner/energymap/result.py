@@ -173,14 +173,28 @@ def _result(
 
 
 def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
-    """Quantiles of the cheapest cost and the anisotropy (from a decimated read)."""
-    from rasterio.enums import Resampling
+    """Quantiles of the cheapest cost and the anisotropy (every ``scale``-th cell).
+
+    Read by windows of whole tile rows and decimated by slicing (the cell at the middle
+    of each ``scale x scale`` square): GDAL's own decimated read (``out_shape``) of a
+    deflated, tiled file decompresses each tile once per output line, 5 CPU s for a
+    2048^2 map against 0.05 s for a full read.
+    """
+    from rasterio.windows import Window
 
     scale = max(1, math.ceil(max(src.height, src.width) / max_side))
-    shape = (max(1, src.height // scale), max(1, src.width // scale))
     i_cheap = 2 * headings + 1
-    cheap = src.read(i_cheap, out_shape=shape, resampling=Resampling.nearest).astype(float)
-    aniso = src.read(i_cheap + 2, out_shape=shape, resampling=Resampling.nearest).astype(float)
+    step = max(int(src.block_shapes[0][0]), 1)
+    step = max(step, (1024 // step) * step)
+    off = scale // 2
+    cheap_parts, aniso_parts = [], []
+    for r0 in range(0, src.height, step):
+        win = Window(0, r0, src.width, min(step, src.height - r0))
+        first = (off - r0) % scale  # first row of the window that is sampled
+        for i, parts in ((i_cheap, cheap_parts), (i_cheap + 2, aniso_parts)):
+            parts.append(src.read(i, window=win)[first::scale, off::scale].astype(float))
+    cheap = np.concatenate(cheap_parts).ravel()
+    aniso = np.concatenate(aniso_parts).ravel()
     ok = np.isfinite(cheap)
     out: dict[str, Any] = {"sampled_every": scale, "valid_cells": int(ok.sum())}
     if ok.any():
