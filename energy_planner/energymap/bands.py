@@ -100,14 +100,7 @@ def block_bands(
     along = out[:headings]
     best = out[headings : 2 * headings]
     heading.map_bands(gx, gy, chan, ang, along, best)
-    valid = ~np.isnan(best[0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cheapest = best.min(axis=0)
-        dearest = best.max(axis=0)
-        arg = np.argmin(np.where(np.isnan(best), np.inf, best), axis=0)
-        out[2 * headings] = cheapest
-        out[2 * headings + 1] = dearest
-        out[2 * headings + 2] = np.where(valid, dearest / cheapest, np.nan)
-    heading_deg = np.degrees(ang)[arg]
-    out[2 * headings + 3] = np.where(valid & np.isfinite(cheapest), heading_deg, np.nan)
+    from energy_planner.energymap._summary import summary_bands
+
+    summary_bands(best, np.degrees(ang), out[2 * headings :])
     return out

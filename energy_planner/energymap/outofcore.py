@@ -112,8 +112,9 @@ def compute_dask(
         lock: Any = Lock("energy_planner-energy-map-write")
     else:
         lock = threading.Lock()
-    prof = _profile(info.shape, t, info.crs, nb)
-    opts = {k: prof[k] for k in ("compress", "predictor", "BIGTIFF") if k in prof}
+    prof = _profile(info.shape, t, info.crs, nb, setup.compress)
+    keys = ("compress", "predictor", "zlevel", "zstd_level", "NUM_THREADS", "BIGTIFF")
+    opts = {k: prof[k] for k in keys if k in prof}
     if prof.get("tiled"):
         opts.update(tiled=True, blockxsize=256, blockysize=256)
     show = progress if progress is not None else sys.stderr.isatty()

@@ -22,9 +22,12 @@ class _Setup:
     tmax: float
     smax: float
     notes: list[str]
+    compress: str = "deflate"
 
 
-def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
+def _setup(
+    model: Any, request: Any, channels: Any, headings: int, compress: str = "deflate"
+) -> _Setup:
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.heading import HeadingCost
     from energy_planner.errors import ModelError
@@ -36,6 +39,14 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
             f"headings {headings!r} must be a whole number in 1..360",
             value=headings,
             expected="1..360",
+        )
+    from energy_planner.io import COMPRESSIONS
+
+    if str(compress).lower() not in COMPRESSIONS:
+        raise EnergyMapError(
+            f"compression {compress!r} is not one of {', '.join(COMPRESSIONS)}",
+            value=compress,
+            expected=", ".join(COMPRESSIONS),
         )
     model = EnergyModel.default() if model is None else model
     if not model.is_fitted:
@@ -67,4 +78,5 @@ def _setup(model: Any, request: Any, channels: Any, headings: int) -> _Setup:
         tmax=tmax,
         smax=smax,
         notes=notes,
+        compress=str(compress).lower(),
     )

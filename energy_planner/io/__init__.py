@@ -37,7 +37,9 @@ from energy_planner.io.geojson import (
     x_axis_angle,
 )
 from energy_planner.io.geotiff import (
+    COMPRESSIONS,
     NODATA,
+    compression_options,
     describe_band,
     geotiff_profile,
     open_geotiff,
@@ -45,10 +47,12 @@ from energy_planner.io.geotiff import (
 )
 
 __all__ = [
+    "COMPRESSIONS",
     "NODATA",
     "RFC7946_CRS",
     "Geometries",
     "atomic_path",
+    "compression_options",
     "content_id",
     "crs_name",
     "declared_crs",

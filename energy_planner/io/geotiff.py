@@ -41,12 +41,70 @@ import numpy as np
 
 from energy_planner.io.atomic import atomic_path
 
-__all__ = ["NODATA", "TILE", "describe_band", "geotiff_profile", "open_geotiff", "write_geotiff"]
+__all__ = [
+    "COMPRESSIONS",
+    "NODATA",
+    "TILE",
+    "compression_options",
+    "describe_band",
+    "geotiff_profile",
+    "open_geotiff",
+    "write_geotiff",
+]
 
 #: The nodata value of floating-point rasters.
 NODATA = float("nan")
 #: Tile size of tiled rasters.
 TILE = 256
+#: Compressions :func:`compression_options` knows, fastest to write last.
+COMPRESSIONS = ("deflate", "zstd", "none")
+
+
+def compression_options(
+    compress: str, *, floating: bool = True, threads: int | str | None = None
+) -> dict[str, Any]:
+    """GDAL creation options of a compression, at its fastest level, for large rasters.
+
+    Parameters
+    ----------
+    compress : {"deflate", "zstd", "none"}
+        ``deflate`` (level 1) reads everywhere (any GDAL, libtiff, QGIS, tifffile);
+        ``zstd`` (level 1; GDAL >= 2.3) writes about 1.5x faster at the same size;
+        ``none`` writes fastest and is about 1.8x larger for float costs.
+    floating : bool
+        Floating-point bands: the floating-point predictor (3), else the horizontal
+        one (2).
+    threads : int or "ALL_CPUS", optional
+        GDAL's ``NUM_THREADS``: tiles are compressed by that many worker threads while
+        the caller computes the next window (None: in the writing thread).
+
+    Returns
+    -------
+    dict
+        Creation options for :func:`geotiff_profile` / ``rasterio.open``.
+
+    Raises
+    ------
+    ValueError
+        ``compress`` is not one of :data:`COMPRESSIONS`.
+
+    Examples
+    --------
+    >>> compression_options("zstd")
+    {'compress': 'zstd', 'predictor': 3, 'zstd_level': 1}
+    >>> compression_options("none", threads="ALL_CPUS")
+    {'compress': 'none'}
+    """
+    name = str(compress).lower()
+    if name not in COMPRESSIONS:
+        raise ValueError(f"compression {compress!r} is not one of {', '.join(COMPRESSIONS)}")
+    if name == "none":
+        return {"compress": "none"}
+    opts: dict[str, Any] = {"compress": name, "predictor": 3 if floating else 2}
+    opts["zlevel" if name == "deflate" else "zstd_level"] = 1
+    if threads is not None:
+        opts["NUM_THREADS"] = str(threads)
+    return opts
 
 
 def geotiff_profile(
@@ -94,6 +152,8 @@ def geotiff_profile(
     if rows >= TILE and cols >= TILE:
         prof.update(tiled=True, blockxsize=TILE, blockysize=TILE)
     prof.update(creation)
+    if str(prof.get("compress")).lower() == "none":
+        prof.pop("predictor", None)  # GDAL warns of a predictor without compression
     return prof
 
 

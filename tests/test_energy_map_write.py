@@ -1,0 +1,136 @@
+"""How an energy map is written: the summary bands' compiled pass against NumPy, the
+compression options round-tripping the values exactly, and the three ways of computing a
+map (in memory, windowed, dask) writing the same values, bit for bit."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import rasterio
+from affine import Affine
+from b1_model import b1_model  # tests/ helper
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from energy_planner.cli import main
+from energy_planner.energymap import energy_map
+from energy_planner.energymap._summary import summary_bands
+from energy_planner.errors import EnergyMapError
+from energy_planner.io import COMPRESSIONS, compression_options
+from energy_planner.terrain import load_dem
+
+MODEL = b1_model()
+
+
+def numpy_summary(best: np.ndarray, ang: np.ndarray) -> np.ndarray:
+    """The summary bands by NumPy's reductions (how the map computed them before)."""
+    out = np.empty((4, *best.shape[1:]), np.float32)
+    valid = ~np.isnan(best[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cheapest = best.min(axis=0)
+        dearest = best.max(axis=0)
+        arg = np.argmin(np.where(np.isnan(best), np.inf, best), axis=0)
+        out[0], out[1] = cheapest, dearest
+        out[2] = np.where(valid, dearest / cheapest, np.nan)
+    out[3] = np.where(valid & np.isfinite(cheapest), np.degrees(ang)[arg], np.nan)
+    return out
+
+
+# + 0.0: no negative zero (NumPy's SIMD min returns either zero of a tie; costs are never -0)
+values = st.sampled_from([0.0, 1.0, 2.5, 600.0, np.inf, np.nan]) | st.floats(
+    -1e4, 1e4, width=32
+).map(lambda v: v + 0.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 9).flatmap(lambda n: arrays(np.float32, (n, 3, 5), elements=values)))
+def test_summary_bands_equal_numpys_reductions(best):
+    """cheapest, dearest, their ratio and the first cheapest heading, NaN and inf included."""
+    n = best.shape[0]
+    ang = 2 * np.pi * np.arange(n) / n
+    out = np.full((4, 3, 5), 7.0, np.float32)
+    summary_bands(best, np.degrees(ang), out)
+    np.testing.assert_array_equal(out, numpy_summary(best, ang))
+
+
+@pytest.fixture(scope="module")
+def hills(tmp_path_factory):
+    """200 x 140 cells of hills with a nodata patch (windows of 128 rows: two of them)."""
+    d = tmp_path_factory.mktemp("emw")
+    rows, cols = 200, 140
+    x = np.arange(cols) * 2.0
+    y = np.arange(rows)[:, None] * 2.0
+    z = 30 * np.sin(x / 50) * np.cos(y / 35) + 0.05 * x + 3 * np.sin((x + 2 * y) / 11)
+    z[120:132, 40:70] = -9999.0
+    path = d / "hills.tif"
+    prof = dict(
+        driver="GTiff", width=cols, height=rows, count=1, dtype="float32", nodata=-9999.0,
+        crs="EPSG:32631", transform=Affine(2.0, 0, 500000.0, 0, -2.0, 5000400.0),
+    )  # fmt: skip
+    with rasterio.open(path, "w", **prof) as dst:
+        dst.write(z.astype(np.float32), 1)
+    ref = d / "ref.tif"
+    energy_map(load_dem(path), ref, MODEL, headings=8)
+    with rasterio.open(ref) as src:
+        return path, src.read()
+
+
+def read(path):
+    with rasterio.open(path) as src:
+        return src.read(), src.compression, src.profile
+
+
+def test_three_paths_write_the_same_values(hills, tmp_path):
+    """In memory (Terrain), windowed and dask (chunks of 64) maps: max difference 0."""
+    dem, ref = hills
+    assert np.isfinite(ref).any() and np.isnan(ref).any()
+    win, dsk = tmp_path / "win.tif", tmp_path / "dask.tif"
+    assert energy_map(dem, win, MODEL, headings=8).mode == "windowed"
+    assert energy_map(dem, dsk, MODEL, headings=8, use_dask=True, chunk=64).mode == "dask"
+    for path in (win, dsk):
+        np.testing.assert_array_equal(read(path)[0], ref)
+
+
+@pytest.mark.parametrize("compress", COMPRESSIONS)
+def test_compression_round_trips_the_values(hills, tmp_path, compress):
+    """Every compression, windowed and dask: the file says which, the values are the map's."""
+    dem, ref = hills
+    for use_dask in (False, True):
+        out = tmp_path / f"{compress}_{use_dask}.tif"
+        energy_map(dem, out, MODEL, headings=8, compress=compress, use_dask=use_dask, chunk=128)
+        data, comp, prof = read(out)
+        np.testing.assert_array_equal(data, ref)
+        assert (comp.value.lower() if comp else "none") == compress
+        assert prof["dtype"] == "float32" and prof["count"] == 2 * 8 + 4
+
+
+def test_compression_options_and_errors(hills, tmp_path):
+    assert compression_options("deflate") == {"compress": "deflate", "predictor": 3, "zlevel": 1}
+    assert compression_options("ZSTD", floating=False, threads=2) == {
+        "compress": "zstd", "predictor": 2, "zstd_level": 1, "NUM_THREADS": "2"
+    }  # fmt: skip
+    with pytest.raises(ValueError, match="lzma.*deflate, zstd, none"):
+        compression_options("lzma")
+    dem, _ = hills
+    with pytest.raises(EnergyMapError, match="'lzma' is not one of deflate, zstd, none"):
+        energy_map(dem, tmp_path / "x.tif", MODEL, compress="lzma")
+    assert not (tmp_path / "x.tif").exists()
+
+
+def test_cli_compress_option(hills, tmp_path):
+    dem, ref = hills
+    model = MODEL.save(tmp_path / "m.json")
+    out = tmp_path / "cli.tif"
+    base = ["energy-map", str(dem), "--out", str(out), "--model", str(model), "--headings", "8"]
+    r = CliRunner().invoke(main, [*base, "--compress", "zstd", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["mode"] == "windowed"
+    data, comp, _ = read(out)
+    assert comp.value.lower() == "zstd"
+    np.testing.assert_array_equal(data, ref)
+    r = CliRunner().invoke(main, [*base, "--compress", "lzma"])
+    assert r.exit_code == 2 and "deflate" in r.output and "zstd" in r.output
