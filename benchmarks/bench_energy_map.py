@@ -4,7 +4,9 @@ Usage::
 
     python benchmarks/bench_energy_map.py --kernel [--sizes 1024 2048 4096] [--headings 16]
     python benchmarks/bench_energy_map.py [--size 4096] [--headings 16] [--chunk 512]
-        [--skip-large] [--workdir /tmp/bench_energy_map]
+        [--skip-large] [--workdir /tmp/bench_energy_map] [--baseline-python PYTHON]
+        [--compress zstd] [--also-compress deflate none]
+    python benchmarks/bench_energy_map.py --stages [--size 4096] [--compress zstd]
 
 ``--kernel``: the map's computation alone (no GeoTIFF), old against new, each size in
 its own process (peak RSS from ``os.wait4``) on the synthetic DEM's in-memory gradient,
@@ -22,10 +24,10 @@ Columns: wall seconds, CPU seconds, cell-headings per second of wall and per CPU
 the ratio new / old of the latter, peak RSS. The load average is printed with the
 table: on a shared machine compare within one table, and by CPU seconds.
 
-Every run is a fresh Python process (``python -m energy_planner.cli energy-map ...``
-through :func:`run_one`), so its peak resident memory (``os.wait4``'s ``ru_maxrss``) is its
-own; the kernel is compiled (cached on disk) by a warm-up run first, so the times are
-the map's, not numba's. Rows, side by side:
+End to end (the default): every run is a fresh Python process
+(``energy-planner energy-map ...`` through :func:`run_one`), so its peak resident memory
+(``os.wait4``'s ``ru_maxrss``) is its own; the kernel is compiled (cached on disk) by a
+warm-up run first, so the times are the map's, not numba's. Rows, side by side:
 
 - ``jacksboro``: the bundled lon/lat DEM (loaded and warped to UTM: the *terrain* path);
 - ``SIZE^2 terrain`` (baseline): a synthetic metric DEM of SIZE x SIZE cells loaded whole
@@ -33,10 +35,21 @@ the map's, not numba's. Rows, side by side:
 - ``SIZE^2 windowed``: the same DEM read by windows of rows (the default for a metric DEM);
 - ``SIZE^2 dask``: the same with dask arrays (``--dask``, threads of this machine).
 
-Columns: wall time, peak RSS, both as ratios to the baseline, cells/s, and the largest
-difference between each large map and the baseline's (they must be equal). The machine
-load (``uptime``) is printed next to the table: on a shared machine, times are only
-comparable within one table.
+Columns: wall time, CPU time (user + sys of the process and all its threads, from
+``os.wait4``), peak RSS, the CPU as a ratio to the in-memory row, and the largest
+difference between each large map and the in-memory one's (they must be equal).
+``--baseline-python`` (e.g. main's venv: ``/work/main/.venv/bin/python``) runs every row
+again with that interpreter's ``energy_planner`` (its own ``energy-planner`` script
+beside it, without ``--compress``) and prints its wall, CPU and RSS beside this tree's,
+with the ratio baseline / this of the CPU. ``--also-compress`` adds windowed rows with
+other compressions. The machine load (``uptime``) is printed next to the table: on a
+shared machine compare CPU seconds; wall times are mostly waiting for a CPU.
+
+``--stages``: one windowed map in this process, the time of each stage (reading the
+DEM, the gradient, the heading table (disk cache), the kernel, the summary bands, the
+GeoTIFF write, closing the file, the summary statistics) and the CPU seconds of each
+thread (the main thread, numba's workers, GDAL's compression workers), so that the
+two-core wall time can be argued from CPU seconds on a loaded machine.
 """
 
 from __future__ import annotations
@@ -84,17 +97,23 @@ from energy_planner.energymap import energy_map
 from energy_planner.terrain import load_dem
 t0 = time.perf_counter()
 terrain = load_dem(sys.argv[1])
-res = energy_map(terrain, sys.argv[2], headings=int(sys.argv[3]), progress=False)
+kw = {"compress": sys.argv[4]} if len(sys.argv) > 4 else {}
+res = energy_map(terrain, sys.argv[2], headings=int(sys.argv[3]), progress=False, **kw)
 print(json.dumps({"seconds": time.perf_counter() - t0, "mode": res.mode}))
 """
 
 
-def run_one(args: list[str], terrain: bool = False) -> dict:
-    """Run one map in a fresh process; wall seconds, peak RSS (MB), its JSON."""
+def run_one(args: list[str], terrain: bool = False, python: str | None = None) -> dict:
+    """Run one map in a fresh process; wall and CPU seconds, peak RSS (MB), its JSON.
+
+    ``python``: the interpreter (default this one); the CLI is the ``energy-planner``
+    script beside it, run from its repository.
+    """
+    exe = Path(python or sys.executable)
     if terrain:
-        cmd = [sys.executable, "-c", _TERRAIN_SCRIPT, *args]
+        cmd = [str(exe), "-c", _TERRAIN_SCRIPT, *args]
     else:
-        cmd = [str(Path(sys.executable).with_name("energy-planner")), "energy-map", *args, "--json"]
+        cmd = [str(exe.with_name("energy-planner")), "energy-map", *args, "--json"]
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=ROOT)
     out = p.stdout.read()  # type: ignore[union-attr]
@@ -103,7 +122,8 @@ def run_one(args: list[str], terrain: bool = False) -> dict:
     if status != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed with status {status}")
     doc = json.loads(out)
-    return {"wall_s": wall, "rss_mb": usage.ru_maxrss / 1024.0, "doc": doc}
+    cpu = usage.ru_utime + usage.ru_stime
+    return {"wall_s": wall, "cpu_s": cpu, "rss_mb": usage.ru_maxrss / 1024.0, "doc": doc}
 
 
 def max_diff(a: Path, b: Path) -> float:
@@ -290,6 +310,99 @@ def kernel_table(sizes: list[int], headings: int, old_max: int = 2048) -> None:
                   f"{r['rss']:.0f} |")  # fmt: skip
 
 
+def _thread_cpu() -> dict[str, float]:
+    """CPU seconds (user + sys) of each thread of this process (``main`` or its id)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    out: dict[str, float] = {}
+    for task in Path(f"/proc/{os.getpid()}/task").iterdir():
+        try:
+            name = (task / "comm").read_text().strip()
+            f = (task / "stat").read_text().rsplit(") ", 1)[1].split()
+        except OSError:
+            continue
+        cpu = (int(f[11]) + int(f[12])) / tick
+        key = "main" if task.name == str(os.getpid()) else f"{name} {task.name}"
+        out[key] = cpu
+    return out
+
+
+def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
+    """Profile one windowed map in this process, stage by stage; prints markdown tables."""
+    import time as _time
+    from collections import defaultdict
+
+    import rasterio.io
+
+    import energy_planner.energy.heading as heading_mod
+    import energy_planner.energymap.bands as bands_mod
+    import energy_planner.energymap.core as core
+    import energy_planner.terrain.horn as horn
+    from energy_planner.energymap import _summary
+
+    dem = make_dem(workdir / f"dem_{size}.tif", size)
+    acc: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0])
+
+    def cpu() -> float:
+        t = os.times()
+        return t.user + t.system
+
+    def timed(owner, name, label):
+        f = getattr(owner, name)
+
+        def g(*a, **k):
+            w, c = _time.perf_counter(), cpu()
+            try:
+                return f(*a, **k)
+            finally:
+                acc[label][0] += _time.perf_counter() - w
+                acc[label][1] += cpu() - c
+
+        setattr(owner, name, g)
+
+    timed(core, "_read_rows", "read DEM rows")
+    timed(horn, "horn_gradient", "gradient (Horn)")
+    timed(heading_mod.HeadingCost, "table", "heading table (disk cache)")
+    timed(heading_mod.HeadingCost, "_map", "kernel (along, best)")
+    timed(_summary, "_summary", "summary bands")
+    timed(rasterio.io.DatasetWriter, "write", "GeoTIFF write (compress)")
+    timed(rasterio.io.DatasetWriter, "close", "GeoTIFF close (flush)")
+    timed(core, "_result", "statistics read back")
+    del bands_mod
+    from energy_planner.energymap import energy_map
+
+    out = workdir / f"stages_{compress}.tif"
+    # load the kernels first (the CLI's start-up): not a stage of the map
+    energy_map(make_dem(workdir / "dem_256.tif", 256), out, headings=headings,
+               progress=False, compress=compress)  # fmt: skip
+    acc.clear()
+    before = _thread_cpu()
+    w0, c0 = _time.perf_counter(), cpu()
+    res = energy_map(dem, out, headings=headings, progress=False, compress=compress)
+    wall, total = _time.perf_counter() - w0, cpu() - c0
+    after = _thread_cpu()
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"energy-map stages, {size}^2, {headings} headings, {res.mode}, compress={compress}; "
+          f"machine: {os.cpu_count()} cores; {load}")  # fmt: skip
+    print()
+    print("| stage | wall s | CPU s (all threads while in it) |")
+    print("|---|---|---|")
+    for k, (w, c) in acc.items():
+        print(f"| {k} | {w:.2f} | {c:.2f} |")
+    print(f"| **whole map** | {wall:.2f} | {total:.2f} |")
+    print()
+    print("| thread | CPU s |")
+    print("|---|---|")
+    for k in sorted(after, key=lambda k: -(after[k] - before.get(k, 0.0))):
+        d = after[k] - before.get(k, 0.0)
+        if d >= 0.01:
+            print(f"| {k} | {d:.2f} |")
+    main = after.get("main", 0.0) - before.get("main", 0.0)
+    print()
+    print(f"Two free cores: at least max(main thread, all / 2) = "
+          f"{max(main, total / 2):.1f} s; at most main + others / 2 = "
+          f"{main + (total - main) / 2:.1f} s (plus start-up).")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kernel", action="store_true", help="old vs new map kernel only")
@@ -300,42 +413,93 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=512)
     ap.add_argument("--skip-large", action="store_true")
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/bench_energy_map"))
+    ap.add_argument(
+        "--baseline-python",
+        default=None,
+        help="interpreter whose energy_planner is the baseline (e.g. main's venv)",
+    )
+    ap.add_argument("--compress", default="zstd", help="this tree's --compress")
+    ap.add_argument(
+        "--also-compress", nargs="*", default=[], help="more windowed rows with these compressions"
+    )
+    ap.add_argument("--stages", action="store_true", help="profile one windowed map by stage")
     a = ap.parse_args()
     if a.kernel:
         kernel_table(a.sizes, a.headings, a.old_max)
         return
     a.workdir.mkdir(parents=True, exist_ok=True)
+    if a.stages:
+        stage_table(a.size, a.headings, a.compress, a.workdir)
+        return
     h = str(a.headings)
+    comp = ["--compress", a.compress]
     jack = ROOT / "maps" / "jacksboro_fault_dem.tif"
-    # warm-up: compile (or load) the kernel once
-    run_one([str(jack), "--out", str(a.workdir / "warm.tif"), "--headings", h])
+    pythons = [None] + ([a.baseline_python] if a.baseline_python else [])
+    for py in pythons:  # warm-up: compile (or load) the kernels once
+        extra = comp if py is None else []
+        run_one([str(jack), "--out", str(a.workdir / "warm.tif"), "--headings", h, *extra],
+                python=py)  # fmt: skip
+
+    def both(args: list[str], terrain: bool = False, name: str = "") -> tuple[dict, dict | None]:
+        mine = run_one([*args, *(comp if not terrain else [a.compress])], terrain)
+        base = None
+        if a.baseline_python:
+            bargs = [x.replace(".tif", "_base.tif") if x.endswith(".tif") and "dem_" not in x
+                     and "jacksboro" not in x else x for x in args]  # fmt: skip
+            base = run_one(bargs, terrain, python=a.baseline_python)
+        return mine, base
+
     rows = []
-    r = run_one([str(jack), "--out", str(a.workdir / "jack.tif"), "--headings", h])
-    rows.append(("jacksboro (lon/lat -> UTM)", r, None, r["doc"]["shape"]))
+    r, b = both([str(jack), "--out", str(a.workdir / "jack.tif"), "--headings", h])
+    rows.append(("jacksboro (lon/lat -> UTM)", r, b, None, r["doc"]["shape"]))
     if not a.skip_large:
         dem = make_dem(a.workdir / f"dem_{a.size}.tif", a.size)
         base_out = a.workdir / "terrain.tif"
-        base = run_one([str(dem), str(base_out), h], terrain=True)
+        r, b = both([str(dem), str(base_out), h], terrain=True)
         shape = [a.size, a.size]
-        rows.append((f"{a.size}^2 terrain (baseline)", base, 0.0, shape))
-        for name, extra in [("windowed", []), ("dask", ["--dask", "--chunk", str(a.chunk)])]:
+        rows.append((f"{a.size}^2 in memory (load_dem)", r, b, 0.0, shape))
+        runs = [("windowed", []), ("dask", ["--dask", "--chunk", str(a.chunk)])]
+        for name, extra in runs:
             out = a.workdir / f"{name}.tif"
-            r = run_one([str(dem), "--out", str(out), "--headings", h, *extra])
-            rows.append((f"{a.size}^2 {name}", r, max_diff(out, base_out), shape))
+            r, b = both([str(dem), "--out", str(out), "--headings", h, *extra])
+            rows.append((f"{a.size}^2 {name}", r, b, max_diff(out, base_out), shape))
+        for c in a.also_compress:
+            out = a.workdir / f"windowed_{c}.tif"
+            r = run_one([str(dem), "--out", str(out), "--headings", h, "--compress", c])
+            rows.append((f"{a.size}^2 windowed, --compress {c}", r, None,
+                         max_diff(out, base_out), shape))  # fmt: skip
     load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-    print(f"energy-map, {a.headings} headings; machine: {os.cpu_count()} cores; {load}")
+    print(f"energy-map, {a.headings} headings, --compress {a.compress}; machine: "
+          f"{os.cpu_count()} cores; {load}")  # fmt: skip
     print()
-    print("| run | cells | wall s | peak RSS MB | time / baseline | RSS / baseline | "
-          "cells/s | max rel. diff vs baseline |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
-    base_row = next((r for r in rows if "baseline" in r[0]), None)
-    for name, r, diff, shape in rows:
+    base_hdr = " baseline wall s | baseline CPU s | baseline RSS MB | CPU baseline / this |"
+    print(
+        "| run | cells | wall s | CPU s | peak RSS MB | CPU / in-memory |"
+        + (base_hdr if a.baseline_python else "")
+        + " max rel. diff vs in-memory |"
+    )
+    print("|---|---|---|---|---|---|" + ("---|---|---|---|" if a.baseline_python else "")
+          + "---|")  # fmt: skip
+    ref = next((r for r in rows if r[3] == 0.0), None)
+    for name, r, b, diff, shape in rows:
         cells = shape[0] * shape[1]
-        tr = f"{r['wall_s'] / base_row[1]['wall_s']:.2f}" if base_row else "-"
-        mr = f"{r['rss_mb'] / base_row[1]['rss_mb']:.2f}" if base_row else "-"
+        ratio = f"{r['cpu_s'] / ref[1]['cpu_s']:.2f}" if ref else "-"
         d = "-" if diff is None else f"{diff:.1e}"
-        print(f"| {name} | {cells:,} | {r['wall_s']:.1f} | {r['rss_mb']:.0f} | {tr} | {mr} | "
-              f"{cells / r['wall_s']:,.0f} | {d} |")  # fmt: skip
+        line = (f"| {name} | {cells:,} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+                f"{r['rss_mb']:.0f} | {ratio} |")  # fmt: skip
+        if a.baseline_python:
+            if b is None:
+                line += " - | - | - | - |"
+            else:
+                line += (f" {b['wall_s']:.1f} | {b['cpu_s']:.1f} | {b['rss_mb']:.0f} | "
+                         f"{b['cpu_s'] / r['cpu_s']:.2f} |")  # fmt: skip
+        print(line + f" {d} |")
+    if a.baseline_python and not a.skip_large:
+        print()
+        for name in ("terrain", "windowed", "dask"):
+            mine, theirs = a.workdir / f"{name}.tif", a.workdir / f"{name}_base.tif"
+            print(f"- {name}: max rel. diff between this tree's map and the baseline's: "
+                  f"{max_diff(mine, theirs):.1e}")  # fmt: skip
 
 
 if __name__ == "__main__":

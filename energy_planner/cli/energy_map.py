@@ -15,7 +15,7 @@ from energy_planner.cli.options import (
     load_model_option,
     parse_memory_cap,
 )
-from energy_planner.energymap.core import DEFAULT_COMPRESS
+from energy_planner.energymap.setup import DEFAULT_COMPRESS
 from energy_planner.io.geotiff import COMPRESSIONS
 
 
@@ -107,8 +107,9 @@ def format_table(res: dict[str, Any]) -> str:
     type=click.Choice(COMPRESSIONS, case_sensitive=False),
     default=DEFAULT_COMPRESS,
     show_default=True,
-    help="Compression of the GeoTIFF: deflate reads everywhere; zstd writes faster at the "
-    "same size (GDAL >= 2.3); none writes fastest, about 1.8x larger. Same values.",
+    help="Compression of the GeoTIFF: zstd writes 1.7x faster than deflate at the same size "
+    "(GDAL >= 2.3 reads it); deflate reads everywhere; none writes fastest, 1.8x larger. "
+    "Same values.",
 )
 @options.json_option
 def command(

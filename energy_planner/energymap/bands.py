@@ -81,13 +81,16 @@ def heading_angles(headings: int) -> np.ndarray:
 
 
 def block_bands(
-    heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int
-) -> np.ndarray:
+    heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int,
+    out: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
     """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
 
     ``heading``: the :class:`~energy_planner.energy.heading.HeadingCost` of the map's
     model, speed and limits (it prices ``along`` and ``best``); ``gx``, ``gy``: the cells'
-    Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``.
+    Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``;
+    ``out``: a C-contiguous float32 array of that shape to fill (a window's buffer reused
+    from one window to the next: no fresh pages to fault in), else a new one.
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -96,7 +99,9 @@ def block_bands(
         chan = np.zeros((0, rows, cols))
     chan = np.ascontiguousarray(chan, dtype=np.float64)
     ang = heading_angles(headings)
-    out = np.empty((2 * headings + 4, rows, cols), dtype=np.float32)
+    shape = (2 * headings + 4, rows, cols)
+    if out is None or out.shape != shape:
+        out = np.empty(shape, dtype=np.float32)
     along = out[:headings]
     best = out[headings : 2 * headings]
     heading.map_bands(gx, gy, chan, ang, along, best)

@@ -20,7 +20,26 @@ from energy_planner.energymap.setup import _Setup
 
 __all__ = ["EnergyMapResult", "sample_band"]
 
-_TILE = 128  # output tile side, cells
+_TILE = 128  # output tile side, cells (the smaller one: see _tile)
+_BIG_TILE = 256
+#: Bytes of arrays per window of rows (bands as float32 + the gradient and temporaries)
+#: up to which the output takes the larger tiles.
+_BIG_TILE_BYTES = 256e6
+
+
+def _bytes_per_row(cols: int, nbands: int) -> int:
+    """Bytes of arrays a window holds per row: the bands (float32) and gradient temporaries."""
+    return cols * (nbands * 4 + 80)
+
+
+def _tile(cols: int, nbands: int) -> int:
+    """Output tile side: 256 while a window of 256 rows takes at most 256 MB, else 128.
+
+    Tiles of 256 compress with 20 % less CPU than tiles of 128 (fewer, larger
+    compression calls: 15.7 against 18.8 CPU s for a 4096^2 map); a window holds whole
+    rows of tiles, so on a very wide DEM the smaller tile bounds its memory.
+    """
+    return _BIG_TILE if _BIG_TILE * _bytes_per_row(cols, nbands) <= _BIG_TILE_BYTES else _TILE
 
 
 @dataclass
@@ -99,7 +118,7 @@ def _profile(
 ) -> dict[str, Any]:
     """The project GeoTIFF profile (:func:`energy_planner.io.geotiff_profile`).
 
-    Tiles of :data:`_TILE`, so that a block of whole tile rows completes its tiles;
+    Tiles of :func:`_tile`, so that a block of whole tile rows completes its tiles;
     ``compress`` at its fastest level (:func:`energy_planner.io.compression_options`),
     the tiles compressed by GDAL's worker threads (``NUM_THREADS=ALL_CPUS``) while the
     next window is computed.
@@ -108,7 +127,10 @@ def _profile(
 
     rows, cols = shape
     tiles: dict[str, Any] = {}
-    if rows >= _TILE and cols >= _TILE:
+    side = _tile(cols, nbands)
+    if rows >= side and cols >= side:
+        tiles = dict(tiled=True, blockxsize=side, blockysize=side)
+    elif rows >= _TILE and cols >= _TILE:
         tiles = dict(tiled=True, blockxsize=_TILE, blockysize=_TILE)
     # level 1: the bands (float32 costs) hardly compress further at deflate's default
     # level 6, which takes 1.6x the CPU (7.3 s against 4.6 s for 2048^2 x 36 bands)

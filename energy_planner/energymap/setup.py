@@ -10,6 +10,12 @@ import numpy as np
 
 from energy_planner.errors import EnergyMapError
 
+#: Compression of a map's GeoTIFF unless asked otherwise (see :func:`energy_map`).
+#: zstd: 9.5 CPU s to compress a 4096^2 map's 36 bands where deflate takes 16.6, at the
+#: same size (1.34 GB); every GDAL since 2.3 (2018) reads it (``--compress deflate`` for
+#: older readers).
+DEFAULT_COMPRESS = "zstd"
+
 
 @dataclass
 class _Setup:
@@ -22,11 +28,11 @@ class _Setup:
     tmax: float
     smax: float
     notes: list[str]
-    compress: str = "deflate"
+    compress: str = DEFAULT_COMPRESS
 
 
 def _setup(
-    model: Any, request: Any, channels: Any, headings: int, compress: str = "deflate"
+    model: Any, request: Any, channels: Any, headings: int, compress: str = DEFAULT_COMPRESS
 ) -> _Setup:
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.heading import HeadingCost
