@@ -127,7 +127,10 @@ def run_one(args: list[str], terrain: bool = False, python: str | None = None) -
 
 
 def max_diff(a: Path, b: Path) -> float:
-    """Largest relative difference between two maps (finite cells), by windows."""
+    """Largest relative difference between two maps, by windows.
+
+    Over the cells finite in both; ``inf`` if their NaN or ``+inf`` cells differ.
+    """
     import rasterio
 
     worst = 0.0
@@ -135,7 +138,9 @@ def max_diff(a: Path, b: Path) -> float:
         for _, win in sa.block_windows(1):
             x = sa.read(window=win).astype(float)
             y = sb.read(window=win).astype(float)
-            if not np.array_equal(np.isnan(x), np.isnan(y)):
+            if not np.array_equal(np.isnan(x), np.isnan(y)) or not np.array_equal(
+                np.isinf(x) & (x > 0), np.isinf(y) & (y > 0)
+            ):
                 return math.inf
             ok = np.isfinite(x) & np.isfinite(y)
             if ok.any():
