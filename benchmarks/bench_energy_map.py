@@ -60,6 +60,7 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -115,7 +116,10 @@ def run_one(args: list[str], terrain: bool = False, python: str | None = None) -
     else:
         cmd = [str(exe.with_name("energy-planner")), "energy-map", *args, "--json"]
     t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=ROOT)
+    # run outside any checkout: ``python -c`` puts the working directory first on
+    # sys.path, where this tree's energy_planner would shadow the baseline's
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                         cwd=tempfile.gettempdir())  # fmt: skip
     out = p.stdout.read()  # type: ignore[union-attr]
     _, status, usage = os.wait4(p.pid, 0)
     wall = time.perf_counter() - t0
@@ -429,6 +433,7 @@ def main() -> None:
     )
     ap.add_argument("--stages", action="store_true", help="profile one windowed map by stage")
     a = ap.parse_args()
+    a.workdir = a.workdir.resolve()
     if a.kernel:
         kernel_table(a.sizes, a.headings, a.old_max)
         return
@@ -473,6 +478,12 @@ def main() -> None:
             r = run_one([str(dem), "--out", str(out), "--headings", h, "--compress", c])
             rows.append((f"{a.size}^2 windowed, --compress {c}", r, None,
                          max_diff(out, base_out), shape))  # fmt: skip
+    for py in pythons:
+        where = subprocess.run(
+            [py or sys.executable, "-c", "import energy_planner; print(energy_planner.__file__)"],
+            capture_output=True, text=True, cwd=tempfile.gettempdir(),
+        ).stdout.strip()  # fmt: skip
+        print(f"{'baseline' if py else 'this tree'}: {where}")
     load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
     print(f"energy-map, {a.headings} headings, --compress {a.compress}; machine: "
           f"{os.cpu_count()} cores; {load}")  # fmt: skip
