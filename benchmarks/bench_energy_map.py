@@ -138,7 +138,9 @@ def max_diff(a: Path, b: Path) -> float:
     import rasterio
 
     worst = 0.0
-    with rasterio.open(a) as sa, rasterio.open(b) as sb:
+    # GDAL's block cache held small: the runs are forked from this process, and a child's
+    # peak RSS (wait4) counts this process's resident pages at the fork
+    with rasterio.Env(GDAL_CACHEMAX=64), rasterio.open(a) as sa, rasterio.open(b) as sb:
         for _, win in sa.block_windows(1):
             x = sa.read(window=win).astype(float)
             y = sb.read(window=win).astype(float)
