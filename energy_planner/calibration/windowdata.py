@@ -45,7 +45,7 @@ REQUIRED = ("run", "t", "power", "window")
 #: samples x hundreds of candidates, 3 GB.
 SAMPLE_CACHE_BYTES = 64 * 2**20
 #: Terms evaluated per sample at once (bounds the design matrix made in one go).
-EVAL_CHUNK = 16
+EVAL_CHUNK = 8
 
 
 @dataclass

@@ -875,7 +875,14 @@ def check_data(
         passes the held-out check (a repair that raises the held-out error is refused).
     """
     s = samples.assign(run=samples["run"].astype(str))
-    s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    run = s["run"].to_numpy(dtype=object)
+    t = s["t"].to_numpy(dtype=float)
+    same = run[1:] == run[:-1]
+    if np.all((run[1:] > run[:-1]) | (same & (t[1:] >= t[:-1]))):
+        s = s.reset_index(drop=True)  # sorted already (load_logs sorts): no copy (memory)
+    else:
+        s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    del run, t, same
     out = []
     cur = s
     for check in CHECKS:
