@@ -126,3 +126,26 @@ def test_check_data_on_sorted_logs_equals_shuffled():
     assert [f.to_dict() for f in f0] == [f.to_dict() for f in f1]
     pd.testing.assert_frame_equal(a.reset_index(drop=True), b.reset_index(drop=True))
     assert any(f.repaired for f in f0)  # a repair was applied: the comparison is not empty
+
+
+def test_grouped_design_in_chunks_equals_the_window_means_of_the_whole_design():
+    """design_matrix(groups=...) evaluates 8 terms at a time; same as grouping the whole."""
+    from energy_planner.model import EnergyModel
+
+    rng = np.random.default_rng(4)
+    n = 500
+    f = pd.DataFrame({"vx": rng.uniform(0, 0.5, n), "vy": rng.normal(0, 0.1, n),
+                      "wz": rng.normal(0, 0.2, n), "alpha": rng.uniform(0, 0.4, n),
+                      "gamma": rng.uniform(-3, 3, n)})  # fmt: skip
+    f["speed"] = np.hypot(f["vx"], f["vy"])
+    terms = [f"vx * {k}" for k in range(1, 12)] + ["abs(vy)", "abs(wz) * sin(alpha)"]
+    m = EnergyModel(terms)
+    groups = rng.integers(0, 37, n)
+    whole = m.design_matrix(f)
+    means = pd.DataFrame(whole).groupby(groups, sort=True).mean().to_numpy()
+    got = m.design_matrix(f, groups=groups)
+    assert got.shape == (37, len(terms))
+    np.testing.assert_allclose(got, means, rtol=1e-12, atol=0)
+    # and against the definition: column k of the first 11 is k times the mean of vx
+    vx = pd.Series(f["vx"].to_numpy()).groupby(groups, sort=True).mean().to_numpy()
+    np.testing.assert_allclose(got[:, :11], vx[:, None] * np.arange(1, 12), rtol=1e-12)
