@@ -233,7 +233,9 @@ def _discover_child(python: str, campaign: str, out: str) -> tuple[float, float,
     cmd = [python, "-c", "from energy_planner.cli import main; main()", "discover", campaign,
            "--out", out]  # fmt: skip
     t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    # cwd "/": "-c" puts the working directory first on sys.path, which would import this
+    # tree's energy_planner under the baseline's interpreter too
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd="/")
     text = p.stdout.read()
     _, status, usage = os.wait4(p.pid, 0)
     p.returncode = os.waitstatus_to_exitcode(status)
@@ -260,7 +262,8 @@ def memory(baseline: str | None, campaign: str) -> int:
         runs.insert(0, ("baseline", baseline))
     got = {}
     for name, python in runs:
-        got[name] = _discover_child(python, campaign, str(Path(campaign).parent / "m.json"))
+        out = str(Path(campaign).resolve().parent / "m.json")
+        got[name] = _discover_child(python, str(Path(campaign).resolve()), out)
         print(f"  {name}: {got[name][0]:.2f} GB, {got[name][1]:.0f} s", file=sys.stderr)
 
     def staircase(text: str) -> list[str]:
