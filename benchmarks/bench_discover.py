@@ -19,6 +19,14 @@ Run::
     python benchmarks/bench_discover.py --size medium --effects none --null-speeds 0.2,0.3,0.45
     python benchmarks/bench_discover.py --seeds 0 --effects none --missions load ground
     python benchmarks/bench_discover.py --json
+    python benchmarks/bench_discover.py --memory --baseline /work/main/.venv/bin/python
+
+``--memory`` (issue 21 point 4) runs ``energy-planner discover`` on one full campaign
+hiding a load (simulated once into ``--campaign``, default ``benchmarks/results/campaign``)
+in child processes, under this interpreter and under ``--baseline`` (one whose
+``energy_planner`` is main's), and prints each one's peak RSS (the child's ``ru_maxrss``,
+what ``/usr/bin/time -v`` reports as maximum resident set size), its wall time, and whether
+the two printed the same staircase and held-out numbers.
 
 Prints ``uptime`` with the timings (the machine is shared), and the process's peak RSS
 (issue 21: discover on a full campaign at most 1 GB; main before the bounded column
@@ -218,8 +226,71 @@ def variant_cases() -> list[tuple[str, ...]]:
     return [(n,) for n, e in EFFECTS.items() if not e.target]
 
 
+def _discover_child(python: str, campaign: str, out: str) -> tuple[float, float, str]:
+    """Run ``energy-planner discover`` under ``python``; (peak RSS GB, wall s, stdout)."""
+    import subprocess
+
+    cmd = [python, "-c", "from energy_planner.cli import main; main()", "discover", campaign,
+           "--out", out]  # fmt: skip
+    t0 = time.perf_counter()
+    # cwd "/": "-c" puts the working directory first on sys.path, which would import this
+    # tree's energy_planner under the baseline's interpreter too
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd="/")
+    text = p.stdout.read()
+    _, status, usage = os.wait4(p.pid, 0)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed with exit status {p.returncode}")
+    return usage.ru_maxrss / 2**20, wall, text  # ru_maxrss in kB on Linux
+
+
+def memory(baseline: str | None, campaign: str) -> int:
+    """Peak RSS of ``discover`` on a full campaign hiding a load: this tree and a baseline."""
+    from pathlib import Path
+
+    if not (Path(campaign) / "campaign.json").exists():
+        import subprocess
+
+        subprocess.run(
+            [sys.executable, "-c", "from energy_planner.cli import main; main()", "simulate",
+             "--out", campaign, "--effect", "load"],
+            check=True, stdout=subprocess.DEVNULL,
+        )  # fmt: skip
+    runs = [("this tree", sys.executable)]
+    if baseline:
+        runs.insert(0, ("baseline", baseline))
+    got = {}
+    for name, python in runs:
+        out = str(Path(campaign).resolve().parent / "m.json")
+        got[name] = _discover_child(python, str(Path(campaign).resolve()), out)
+        print(f"  {name}: {got[name][0]:.2f} GB, {got[name][1]:.0f} s", file=sys.stderr)
+
+    def staircase(text: str) -> list[str]:
+        return [ln for ln in text.splitlines() if not ln.startswith("model written")]
+
+    base = got.get("baseline")
+    print(f"\ndiscover on {campaign} (#21: at most 1 GB on a full campaign hiding a load)")
+    print(f"{'run':<12}{'peak RSS GB':>12}{'ratio':>8}{'wall s':>8}  same output as baseline")
+    for name, (peak, wall, text) in got.items():
+        ratio = f"{peak / base[0]:.2f}" if base else "-"
+        same = "-" if base is None else str(staircase(text) == staircase(base[2]))
+        print(f"{name:<12}{peak:>12.2f}{ratio:>8}{wall:>8.0f}  {same}")
+    load = os.getloadavg()
+    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (2 cores shared)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--memory",
+        action="store_true",
+        help="peak RSS of discover on a full campaign hiding a load, this tree beside "
+        "--baseline (module docstring)",
+    )
+    ap.add_argument("--baseline", default=None, help="python of the baseline (main's venv)")
+    ap.add_argument("--campaign", default="benchmarks/results/campaign")
     ap.add_argument(
         "--size",
         choices=("small", "medium", "full"),
@@ -254,6 +325,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-steps", type=int, default=4)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.memory:
+        return memory(args.baseline, args.campaign)
     from energy_planner.simulate import CampaignConfig
 
     sizes = {

@@ -836,7 +836,7 @@ def cross_validate(
     offset_sample = D_all[:, ~free] @ held if held.size else None
     del D_all
     _, win = np.unique(samples["window"].to_numpy(), return_inverse=True)
-    X = pd.DataFrame(D).groupby(win, sort=True).mean().to_numpy()
+    X = pd.DataFrame(D, copy=False).groupby(win, sort=True).mean().to_numpy()  # no copy of D
     y = table["power"].to_numpy(float)
     w = table["duration"].to_numpy(float)
 
@@ -865,6 +865,7 @@ def cross_validate(
         offset=offset_sample,
         fit_columns=fit_columns,
         floor=None if model.regenerative else 0.0,
+        means=X,  # the window means above: heldout need not form them again (memory)
     )
     coefs, pred_w, pred_sample = ho.coef, ho.predicted, ho.sample_predicted
     resid = pred_w - y

@@ -153,7 +153,10 @@ def heldout_score(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
             clean, _ = preprocess(samples)
-            wd = window_data(make_windows(clean, duration=window).samples)
+            windows = make_windows(clean, duration=window)
+            del clean  # the cleaned copy: not held while the window view is built (memory)
+            wd = window_data(windows.samples)
+            del windows
         folds = fold_index(wd.runs, 5, 0)
         use = yardstick_terms(wd) if terms is None else terms
         names = [getattr(t, "formula", t) for t in use]

@@ -45,7 +45,7 @@ REQUIRED = ("run", "t", "power", "window")
 #: samples x hundreds of candidates, 3 GB.
 SAMPLE_CACHE_BYTES = 64 * 2**20
 #: Terms evaluated per sample at once (bounds the design matrix made in one go).
-EVAL_CHUNK = 16
+EVAL_CHUNK = 8
 
 
 @dataclass
@@ -127,25 +127,28 @@ class WindowData:
             self._start_idx = np.flatnonzero(np.r_[True, self.key[1:] != self.key[:-1]])
         return self._start_idx
 
-    def _evaluate(self, terms: list[str], into: dict[str, np.ndarray] | None = None) -> None:
+    def _evaluate(self, terms: list[str], sink: Any = None) -> None:
         """Evaluate the terms not yet cached on every sample; cache their window means.
 
-        With ``into``, the per-sample column of every term is put there (from the
-        per-sample cache, or evaluated again if the cache let it go). Terms are
-        evaluated :data:`EVAL_CHUNK` at a time and the per-sample cache holds at most
-        :data:`SAMPLE_CACHE_BYTES` (least recently used out), so that memory does not
-        grow with the number of candidates.
+        With ``sink``, ``sink(term, column)`` is called with the per-sample column of
+        every term (from the per-sample cache, or evaluated again if the cache let it
+        go); the caller copies it where it wants it, so that no term's column is held
+        beyond the chunk being evaluated. Terms are evaluated :data:`EVAL_CHUNK` at a
+        time and the per-sample cache holds at most :data:`SAMPLE_CACHE_BYTES` (least
+        recently used out), so that memory does not grow with the number of candidates.
         """
         from energy_planner.calibration.fit import model_features
         from energy_planner.model import EnergyModel
 
         want = list(dict.fromkeys(terms))
-        if into is not None:
+        done: set[str] = set()
+        if sink is not None:
             for t in want:
                 if t in self._sample_cache:
-                    into[t] = self._sample_cache[t]
+                    sink(t, self._sample_cache[t])
                     self._sample_cache.move_to_end(t)
-        todo = [t for t in want if t not in self._cache or (into is not None and t not in into)]
+                    done.add(t)
+        todo = [t for t in want if t not in self._cache or (sink is not None and t not in done)]
         for i in range(0, len(todo), EVAL_CHUNK):
             chunk = todo[i : i + EVAL_CHUNK]
             model = EnergyModel(terms=chunk)
@@ -155,10 +158,10 @@ class WindowData:
             per_window = self.window_mean(per_sample)
             for j, t in enumerate(chunk):
                 self._cache[t] = per_window[:, j].copy()
-                column = np.ascontiguousarray(per_sample[:, j])
-                if into is not None:
-                    into[t] = column
-                self._keep_sample_column(t, column)
+                if sink is not None:
+                    sink(t, per_sample[:, j])
+                self._keep_sample_column(t, np.ascontiguousarray(per_sample[:, j]))
+            del per_sample, per_window  # before the next chunk is evaluated (memory)
 
     def _keep_sample_column(self, term: str, column: np.ndarray) -> None:
         """Put a per-sample column in the cache, dropping the least recently used."""
@@ -197,14 +200,28 @@ class WindowData:
             return np.empty((self.n_windows, 0))
         return np.column_stack([self._cache[t] for t in terms])
 
-    def sample_columns(self, terms: Iterable[str]) -> np.ndarray:
-        """Per-sample design columns of ``terms``, shape ``(n_samples, len(terms))``."""
+    def sample_columns(self, terms: Iterable[str], out: np.ndarray | None = None) -> np.ndarray:
+        """Per-sample design columns of ``terms``, shape ``(n_samples, len(terms))``.
+
+        With ``out`` (that shape, e.g. columns of a larger array), the columns are
+        written there and ``out`` is returned: each column is copied once, straight
+        from its evaluation, with no stacked intermediate (memory).
+        """
         terms = list(terms)
+        if out is None:
+            out = np.empty((len(self.samples), len(terms)), order="F")
         if not terms:
-            return np.empty((len(self.samples), 0))
-        got: dict[str, np.ndarray] = {}
-        self._evaluate(terms, into=got)
-        return np.column_stack([got[t] for t in terms])
+            return out
+        where: dict[str, list[int]] = {}
+        for j, t in enumerate(terms):
+            where.setdefault(t, []).append(j)
+
+        def sink(term: str, column: np.ndarray) -> None:
+            for j in where[term]:
+                out[:, j] = column
+
+        self._evaluate(terms, sink=sink)
+        return out
 
     def heldout(
         self,
@@ -243,14 +260,15 @@ class WindowData:
             # the model's per-sample design and window means, stacked once, with room
             # for the extra columns (filled in place: no copy of the design per candidate)
             width = k + max(e, 2)
+            self._stack = self._stack_means = None  # the old model's, let go first (memory)
             self._stack = np.empty((len(self.samples), width), order="F")
-            self._stack[:, :k] = self.sample_columns(terms)
+            self.sample_columns(terms, out=self._stack[:, :k])
             self._stack_means = np.empty((self.n_windows, width))
             self._stack_means[:, :k] = self.columns(terms)
             self._stack_key = key
         X, means = self._stack[:, : k + e], self._stack_means[:, : k + e]
         if e:
-            X[:, k:] = self.sample_columns(extra)
+            self.sample_columns(extra, out=X[:, k:])
             means[:, k:] = self.columns(extra)
         y, w, folds = self.power, self.weights, np.asarray(folds)
         rows, table = self.key, self.table

@@ -153,7 +153,7 @@ def check_current_sign(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
         )
     bad_runs = [str(r) for r in names[bad]]
     ev.update({"runs": bad_runs[:20], "n_runs": len(bad_runs)})
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     flip = bad[code]
     fixed.loc[flip, "current"] = -fixed.loc[flip, "current"]
     what = "every run" if bad.all() else f"{len(bad_runs)} of {len(names)} runs"
@@ -319,7 +319,7 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
             ),
             samples,
         )
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     for col in ("voltage", "current"):
         fixed[col] = _shift_within_runs(fixed[col].to_numpy(float), code, -k)
     fixed = fixed[np.isfinite(fixed["current"].to_numpy(float))].reset_index(drop=True)
@@ -480,7 +480,7 @@ def check_odometry_slip(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFram
     factor = 1.0 - (coef[0] + coef[1] * sin_run)  # fitted ratio for every run
     factor[use] = ratio
     factor = np.clip(factor, 0.5, 1.5)
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     for col in ("vx", "vy", "wz"):
         fixed[col] = fixed[col].to_numpy(float) / factor[code]
     return (
@@ -563,7 +563,7 @@ def check_odometry_scale(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFra
         )
     factor = np.where(m.use, m.ratio, 1.0 - level)
     factor = np.clip(factor, 0.5, 1.5)
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     for col in ("vx", "vy", "wz"):
         fixed[col] = fixed[col].to_numpy(float) / factor[m.code]
     return (
@@ -775,7 +775,7 @@ def check_imu_tilt(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]:
     rv[:, 1] = -np.where(est["pitch_used"], est["pitch"], 0.0)
     cols = ["qw", "qx", "qy", "qz"]
     q = _rotate_by(samples[cols].to_numpy(float), rv[code])
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     fixed[cols] = np.where(q[:, :1] < 0, -q, q)
     return (
         DataFinding(
@@ -820,7 +820,7 @@ def check_twist_noise(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame]
     ev = {"noise_sd": sds, "rectified_mean": rect}
     if max(rect.values()) <= MAX_RECTIFIED:
         return DataFinding("twist_noise", False, "twist noise is negligible", ev), samples
-    fixed = samples.copy()
+    fixed = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     for c, sd in sds.items():
         v = fixed[c].to_numpy(float)
         fixed[c] = np.where(np.abs(v) < 3 * sd, 0.0, v)
@@ -875,7 +875,14 @@ def check_data(
         passes the held-out check (a repair that raises the held-out error is refused).
     """
     s = samples.assign(run=samples["run"].astype(str))
-    s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    run = s["run"].to_numpy(dtype=object)
+    t = s["t"].to_numpy(dtype=float)
+    same = run[1:] == run[:-1]
+    if np.all((run[1:] > run[:-1]) | (same & (t[1:] >= t[:-1]))):
+        s = s.reset_index(drop=True)  # sorted already (load_logs sorts): no copy (memory)
+    else:
+        s = s.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
+    del run, t, same
     out = []
     cur = s
     for check in CHECKS:

@@ -643,3 +643,12 @@ def _release_arrow_memory() -> None:
     pa = sys.modules.get("pyarrow")
     if pa is not None:
         pa.default_memory_pool().release_unused()
+    # the C heap keeps the freed pages of the 572 parsed tables too: glibc gives them back
+    # on malloc_trim (a full campaign: 410 -> 300 MB resident after loading; issue 21)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL("libc.so.6").malloc_trim(0)
+        except (OSError, AttributeError):  # not glibc (musl): nothing to give back this way
+            pass

@@ -386,7 +386,7 @@ def split_segments(
     A step longer than ``max_gap`` s starts a new segment. Nothing is removed; the note
     counts the gaps.
     """
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     seg = np.zeros(len(out), dtype=np.int64)
     n_gaps = 0
     t = out["t"].to_numpy(dtype=float)
@@ -404,7 +404,7 @@ def add_power(
     samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
 ) -> tuple[pd.DataFrame, StepRecord]:
     """Add electrical power ``power = voltage * current`` (W)."""
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     out["power"] = out["voltage"].to_numpy(dtype=float) * out["current"].to_numpy(dtype=float)
     return out, StepRecord("add_power", len(samples), len(out), {}, "power = voltage * current")
 
@@ -433,7 +433,7 @@ def ema_smooth(
     samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
 ) -> tuple[pd.DataFrame, StepRecord]:
     """EMA (time constant ``ema_tau`` s) of ``ema_columns``, per run and segment."""
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     t = out["t"].to_numpy(dtype=float)
     for c in params.ema_columns:
         if c not in out.columns:
@@ -459,7 +459,7 @@ def body_accelerations(
     Per run and segment, by second-order central differences on the sample times
     (``numpy.gradient``; one-sided at the ends, 0 in a one-sample segment).
     """
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     t = out["t"].to_numpy(dtype=float)
     for src, dst in (("vx", "ax"), ("vy", "ay")):
         v = out[src].to_numpy(dtype=float)
@@ -477,7 +477,7 @@ def add_slope_heading(
     samples: pd.DataFrame, params: PreprocessParams = PreprocessParams()
 ) -> tuple[pd.DataFrame, StepRecord]:
     """Add ``alpha``, ``gamma`` (rad) from the IMU quaternion and ``speed`` (m/s)."""
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     q = [out[c].to_numpy(dtype=float) for c in ("qw", "qx", "qy", "qz")]
     out["alpha"], out["gamma"] = imu_slope_heading(*q, heading=params.heading)
     out["speed"] = np.hypot(out["vx"].to_numpy(dtype=float), out["vy"].to_numpy(dtype=float))

@@ -96,7 +96,7 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
     """Add power, alpha, gamma, speed, ax, ay where absent (raw, unsmoothed logs)."""
     from energy_planner.measurements.preprocess import segment_slices
 
-    out = samples.copy()
+    out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     if "power" not in out.columns:
         out["power"] = out["voltage"].to_numpy(float) * out["current"].to_numpy(float)
     if "alpha" not in out.columns or "gamma" not in out.columns:

@@ -190,6 +190,20 @@ class EnergyModel:
         """
         f = prepare_features(features)
         n = _n_rows(f)
+        if groups is not None:
+            # group means 8 terms at a time (each column's mean is its own): the
+            # per-sample design is never whole (memory: discover's final fit)
+            import pandas as pd
+
+            g = np.asarray(groups)
+            parts = [
+                pd.DataFrame(EnergyModel(self.terms[i : i + 8]).design_matrix(f), copy=False)
+                .groupby(g, sort=True)
+                .mean()
+                .to_numpy()
+                for i in range(0, len(self.terms), 8)
+            ]
+            return np.hstack(parts) if parts else np.empty((len(np.unique(g)), 0))
         X = np.empty((n, len(self.terms)))  # filled in place: no second copy of the design
         for j, term in enumerate(self.terms):
             try:
@@ -197,11 +211,7 @@ class EnergyModel:
             except FormulaError as exc:
                 raise ModelError(f"term {term.name!r}: {exc}") from exc
             X[:, j] = np.broadcast_to(col, (n,))
-        if groups is None:
-            return X
-        import pandas as pd
-
-        return pd.DataFrame(X).groupby(np.asarray(groups), sort=True).mean().to_numpy()
+        return X
 
     def contributions(self, features: Mapping[str, Any] | pd.DataFrame) -> pd.DataFrame:
         """Per-sample power of each term (W), one column per term (before the floor)."""
