@@ -36,6 +36,7 @@ from energy_planner.calibration._windows import (
     aligned_table,
     heading_class,
     window_energy,
+    window_kind,
 )
 from energy_planner.errors import FitError
 from energy_planner.model import BASE_TERMS, STANDING_TERMS, EnergyModel, Term
@@ -281,11 +282,12 @@ def base_terms(windows: Any) -> list[str]:
     """The base model for these windows: the paper's terms, and the gait's running power.
 
     :data:`~energy_planner.model.BASE_TERMS`, plus
-    :data:`~energy_planner.model.STANDING_TERMS` (``gait_power``) when at least
-    :data:`MIN_WINDOWS_PER_TERM` windows stand (:func:`~energy_planner.calibration._windows.
-    window_kind`): then ``idle_power`` is fitted as the standing power and ``gait_power``
-    as what walking or turning adds to it. Without standing windows the two are one
-    constant on the walking windows, and ``idle_power`` alone holds both.
+    :data:`~energy_planner.model.STANDING_TERMS` (``gait_power``, ``gait_tilt_x_sq``) when
+    at least :data:`MIN_WINDOWS_PER_TERM` windows stand
+    (:func:`~energy_planner.calibration._windows.window_kind`): then ``idle_power`` and
+    ``tilt_x_sq`` are fitted as the standing power and the STANDING_TERMS as what walking
+    or turning adds to it. Without standing windows they are the same columns on the
+    walking windows, and ``idle_power`` and ``tilt_x_sq`` alone hold both.
 
     Parameters
     ----------
@@ -296,11 +298,9 @@ def base_terms(windows: Any) -> list[str]:
     Examples
     --------
     >>> t = pd.DataFrame({"speed": [0.3] * 3 + [0.0] * 3, "wz": 0.0})
-    >>> base_terms(t)[-1], len(base_terms(t.iloc[:4]))
-    ('gait_power', 17)
+    >>> base_terms(t)[-2:], len(base_terms(t.iloc[:4]))
+    (['gait_power', 'gait_tilt_x_sq'], 17)
     """
-    from energy_planner.calibration._windows import window_kind
-
     table = windows if isinstance(windows, pd.DataFrame) else windows.table
     if len(table) == 0:
         return list(BASE_TERMS)
@@ -388,9 +388,8 @@ def identify_terms(
     logs cannot have told it. A term that prices every motion class alike and standing
     differently (``gait_power``: what walking adds to standing) is told by the standing
     windows instead: it needs :data:`MIN_WINDOWS_PER_TERM` of them. Then, in term order, a
-    column that is (numerically) a
-    combination of the earlier identified ones is not identified either
-    (:func:`energy_planner.stats.independent_columns`).
+    column that is (numerically) a combination of the earlier identified ones is not
+    identified either (:func:`energy_planner.stats.independent_columns`).
 
     Parameters
     ----------
