@@ -1,11 +1,12 @@
-"""Benchmark: mission logs without altitude, before and after the odometry scale and repair guard.
+"""Benchmark: mission logs without altitude, before and after the standing power is fitted.
 
 Issue 20 point 4. Mission logs (``simulate_missions``: curved paths over rolling hills,
 three speeds, stops, turns in place) WITHOUT the pose's altitude ``z``, so the IMU tilt
-cannot be checked. Two tables, each side by side *before* (every repair applied, no
-``odometry_scale`` check: the data checks as they were) and *after* (the checks of this
-branch: ``odometry_scale``, and a repair kept only if the held-out error does not rise,
-``calibration.prepare_logs``):
+cannot be checked. Two tables, each side by side *before* (cleaning drops the samples at
+rest, paper IV-B, so ``idle_power`` is fitted on walking windows only: the library as it
+was) and *after* (the stops stay in the windows, ``calibration.prepare.CLEANING``, and
+the base model gets the running gait's power ``gait_power`` when the logs hold standing,
+``calibration.fit.base_terms``: ``idle_power`` is then the standing power):
 
 1. per hidden effect, ``discover``'s final held-out power RMSE over the campaign's
    noise floor (``Campaign.noise_floor``: the simulator's TRUE window power against the
@@ -21,7 +22,8 @@ branch: ``odometry_scale``, and a repair kept only if the held-out error does no
 
 Run::
 
-    python benchmarks/bench_missions_odometry.py --missions 16 --duration 90   # reduced
+    python benchmarks/bench_missions_odometry.py --effects --phases default varied \
+        --missions 24 --duration 90 --held-out 10      # reduced pose table: ~8 min
     python benchmarks/bench_missions_odometry.py        # full: 30 x 120 s, 20 held out
     python benchmarks/bench_missions_odometry.py --phases varied --missions 60 --duration 60
     python benchmarks/bench_missions_odometry.py --json
@@ -49,21 +51,22 @@ import pandas as pd  # noqa: E402
 
 
 @contextlib.contextmanager
-def checks_before():
-    """The data checks as they were before this change: no ``odometry_scale`` check."""
-    from energy_planner.measurements import datacheck
+def stops_dropped():
+    """The library as it was before the standing power: cleaning drops the samples at rest."""
+    from energy_planner.calibration import prepare
+    from energy_planner.measurements.preprocess import PreprocessParams
 
-    saved = datacheck.CHECKS
-    datacheck.CHECKS = tuple(c for c in saved if c is not datacheck.check_odometry_scale)
+    saved = prepare.CLEANING
+    prepare.CLEANING = PreprocessParams()
     try:
         yield
     finally:
-        datacheck.CHECKS = saved
+        prepare.CLEANING = saved
 
 
 VARIANTS = {
-    "before": dict(repair=True, guard=False),
-    "after": dict(repair=True, guard=True),
+    "before": dict(repair=True),
+    "after": dict(repair=True),
     "no repair": dict(repair=False),
 }
 
@@ -72,7 +75,7 @@ def run_discover(logs: pd.DataFrame, variant: str, max_steps: int, fit_final: bo
     """``discover`` on ``logs`` as ``variant`` (before / after / no repair)."""
     from energy_planner.diagnosis.discover import discover
 
-    ctx = checks_before() if variant == "before" else contextlib.nullcontext()
+    ctx = stops_dropped() if variant == "before" else contextlib.nullcontext()
     with ctx, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return discover(logs, max_steps=max_steps, fit_final=fit_final, **VARIANTS[variant])
@@ -169,17 +172,21 @@ def pose_energy(model, held, terrain, step: int) -> dict:
     }
 
 
-def pose_rows(seed, cfg, held_missions, max_steps, step) -> list[dict]:
+SENSORS = {
+    "default": ("default sensors", {}),
+    "short": ("odometry 3 % short", dict(slip_mean=0.03, slip_per_sin_slope=0.0)),
+}
+
+
+def pose_rows(seed, cfg, held_missions, max_steps, step, sensors=tuple(SENSORS)) -> list[dict]:
     """Table 2: logged-pose energy of held-out missions, per sensor set and variant."""
     from energy_planner.simulate import SensorConfig, simulate_missions, synthetic_dem
 
     terrain = synthetic_dem(seed)
     rows = []
-    for label, sens in (
-        ("default sensors", SensorConfig()),
-        ("odometry 3 % short", SensorConfig(slip_mean=0.03, slip_per_sin_slope=0.0)),
-    ):
-        c = cfg.replace(sensors=sens)
+    for key in sensors:
+        label, kw = SENSORS[key]
+        c = cfg.replace(sensors=SensorConfig(**kw))
         camp = simulate_missions(seed=seed, effects=("load",), config=c, terrain=terrain)
         hc = c.replace(missions=held_missions)
         held = simulate_missions(seed=seed + 1000, effects=("load",), config=hc, terrain=terrain)
@@ -189,11 +196,22 @@ def pose_rows(seed, cfg, held_missions, max_steps, step) -> list[dict]:
             d = run_discover(camp.logs.drop(columns="z"), v, max_steps, fit_final=True)
             row[v] = pose_energy(d.model, held, terrain, step)
             row[v]["repaired"] = [f.name for f in d.data_findings if f.repaired]
+            row[v]["added"] = [r["name"] for r in d.table()[1:]]
+            co = d.model.coefficients
+            row[v]["idle_power_w"] = co.get("idle_power")
+            row[v]["gait_power_w"] = co.get("gait_power")
             row[v]["seconds"] = time.perf_counter() - t0
             print(f"  {label} {v}: median {100 * row[v]['median']:+.2f} % "
                   f"({row[v]['seconds']:.0f} s)", file=sys.stderr)  # fmt: skip
         rows.append(row)
     return rows
+
+
+def _classes_text(r: dict) -> str:
+    return "; ".join(
+        f"{c} {100 * v['share']:.0f} % {100 * v['error']:+.0f} % ({100 * v['of_total']:+.1f})"
+        for c, v in r["classes"].items()
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -204,53 +222,70 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--missions", type=int, default=30)
     ap.add_argument("--duration", type=float, default=120.0, help="s per mission")
     ap.add_argument("--held-out", type=int, default=20, help="held-out missions")
-    ap.add_argument("--phases", choices=("default", "varied"), default="default")
+    ap.add_argument("--phases", nargs="+", choices=("default", "varied"), default=["default"])
+    ap.add_argument("--sensors", nargs="+", choices=tuple(SENSORS), default=list(SENSORS))
     ap.add_argument("--max-steps", type=int, default=4)
     ap.add_argument("--pose-step", type=int, default=1, help="use every k-th logged pose")
     ap.add_argument("--no-pose", action="store_true", help="skip the pose-energy table")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    cfg = config(args.phases, args.missions, args.duration)
     t0 = time.perf_counter()
-    floors = floor_rows(args.effects, args.seed, cfg, args.max_steps)
-    poses = [] if args.no_pose else pose_rows(
-        args.seed, cfg, args.held_out, args.max_steps, args.pose_step)  # fmt: skip
+    floors, poses = {}, {}
+    for ph in args.phases:
+        cfg = config(ph, args.missions, args.duration)
+        floors[ph] = floor_rows(args.effects, args.seed, cfg, args.max_steps)
+        poses[ph] = (
+            []
+            if args.no_pose
+            else pose_rows(
+                args.seed, cfg, args.held_out, args.max_steps, args.pose_step, args.sensors
+            )
+        )
     elapsed = time.perf_counter() - t0
     load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-    what = (f"{args.missions} missions x {args.duration:g} s at 20 Hz, {args.phases} phases, "
-            f"seed {args.seed}, no altitude z")  # fmt: skip
+    what = (f"{args.missions} missions x {args.duration:g} s at 20 Hz, seed {args.seed}, "
+            "no altitude z")  # fmt: skip
     if args.json:
         doc = {"config": what, "floor": floors, "pose_energy": poses, "elapsed_s": elapsed,
                "uptime": load}  # fmt: skip
         print(json.dumps(doc, indent=2, default=float))
         return 0
-    print(f"\ndiscover on mission logs without altitude: {what}")
-    print(f"{'hidden effect':<14}{'before':>8}{'after':>8}{'no repair':>11}  "
-          f"{'repairs refused (after)':<28}terms added (after)")  # fmt: skip
-    for r in floors:
-        print(
-            f"{r['effect']:<14}{r['before']['ratio']:>7.2f}x{r['after']['ratio']:>7.2f}x"
-            f"{r['no repair']['ratio']:>10.2f}x  {', '.join(r['after']['refused']) or '-':<28}"
-            f"{'; '.join(r['after']['added']) or '(none)'}"
-        )
-    n_before = sum(r["before"]["ratio"] <= 1.2 for r in floors)
-    n_after = sum(r["after"]["ratio"] <= 1.2 for r in floors)
-    print(f"within 1.2x the floor: before {n_before}/{len(floors)}, after {n_after}/{len(floors)}")
-    if poses:
+    for ph in args.phases:
+        if not floors[ph]:
+            continue
+        print(f"\ndiscover on mission logs without altitude: {what}, {ph} phases")
+        print(f"{'hidden effect':<14}{'before':>8}{'after':>8}{'no repair':>11}  "
+              f"{'repairs refused (after)':<28}terms added (after)")  # fmt: skip
+        for r in floors[ph]:
+            print(
+                f"{r['effect']:<14}{r['before']['ratio']:>7.2f}x{r['after']['ratio']:>7.2f}x"
+                f"{r['no repair']['ratio']:>10.2f}x  "
+                f"{', '.join(r['after']['refused']) or '-':<28}"
+                f"{'; '.join(r['after']['added']) or '(none)'}"
+            )
+        n_before = sum(r["before"]["ratio"] <= 1.2 for r in floors[ph])
+        n_after = sum(r["after"]["ratio"] <= 1.2 for r in floors[ph])
+        n = len(floors[ph])
+        print(f"within 1.2x the floor: before {n_before}/{n}, after {n_after}/{n}")
+    if any(poses.values()):
         print(f"\nenergy of {args.held_out} held-out missions' logged poses (every "
               f"{args.pose_step}. pose, their load_kg) against the measured battery energy; "
-              "model discovered on missions hiding a payload")  # fmt: skip
-        print(f"{'sensors':<22}{'before: median':>15}{'p90 |e|':>9}{'after: median':>15}"
-              f"{'p90 |e|':>9}  by motion (after): energy share, error (of total)")  # fmt: skip
-        for r in poses:
-            b, a = r["before"], r["after"]
-            cls = "; ".join(
-                f"{c} {100 * v['share']:.0f} % {100 * v['error']:+.0f} % "
-                f"({100 * v['of_total']:+.1f})"
-                for c, v in a["classes"].items()
-            )
-            print(f"{r['sensors']:<22}{100 * b['median']:>+14.2f}%{100 * b['p90_abs']:>8.2f}%"
-                  f"{100 * a['median']:>+14.2f}%{100 * a['p90_abs']:>8.2f}%  {cls}")  # fmt: skip
+              f"model discovered on missions hiding a payload ({what})")  # fmt: skip
+        print(f"{'phases':<9}{'sensors':<20}{'before: median':>15}{'p90 |e|':>9}"
+              f"{'after: median':>15}{'p90 |e|':>9}  idle / gait W (after)")  # fmt: skip
+        for ph in args.phases:
+            for r in poses[ph]:
+                b, a = r["before"], r["after"]
+                gait = a["gait_power_w"]
+                print(f"{ph:<9}{r['sensors']:<20}{100 * b['median']:>+14.2f}%"
+                      f"{100 * b['p90_abs']:>8.2f}%{100 * a['median']:>+14.2f}%"
+                      f"{100 * a['p90_abs']:>8.2f}%  {a['idle_power_w']:.1f} / "
+                      f"{'-' if gait is None else f'{gait:.1f}'}")  # fmt: skip
+        print("\nby motion: share of the true energy, error of the class (points of the total)")
+        for ph in args.phases:
+            for r in poses[ph]:
+                for v in ("before", "after"):
+                    print(f"{ph:<9}{r['sensors']:<20}{v:<7} {_classes_text(r[v])}")
     print(f"\n{elapsed:.0f} s in all; {load}")
     return 0
 

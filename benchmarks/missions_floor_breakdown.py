@@ -2,11 +2,12 @@
 
 Simulates missions with no hidden effect, runs ``discover``'s data checks, windows and
 base-model ranking (no step), and prints per window class (steady walking, speed ramps,
-turns in place) the base model's held-out power RMSE against the campaign's noise floor
-(true against measured window power), with the ``imu_tilt`` repair and without it (the
-same logs without the pose altitude ``z``). Then, on the steady windows, the base model
-fitted to the TRUE power with the true features, with the measured ones, and with the
-measured ones but the true slope and heading: what the measured features cost.
+turns in place, standing: the stops cleaning keeps) the base model's held-out power RMSE
+against the campaign's noise floor (true against measured window power), with the
+``imu_tilt`` repair and without it (the same logs without the pose altitude ``z``).
+Then, on the steady windows, the base model fitted to the TRUE power with the true
+features, with the measured ones, and with the measured ones but the true slope and
+heading: what the measured features cost.
 
 Run::
 
@@ -69,8 +70,11 @@ def breakdown(camp, logs: pd.DataFrame) -> dict:
     g = pd.DataFrame({"sp": speed, "wz": np.abs(tr["wz"])}).groupby(win)
     dsp = (g["sp"].max() - g["sp"].min()).to_numpy()
     cls = np.where(dsp > 0.03, "speed ramp", np.where(g["wz"].max() > 0.3, "turn", "steady"))
+    # the stops the cleaning keeps (calibration.prepare.clean_logs): at rest throughout
+    still = ((g["sp"].max() < 0.05) & (g["wz"].max() < 0.05)).to_numpy()
+    cls = np.where(still, "standing", cls)
     rows = {}
-    for c in ("steady", "speed ramp", "turn", "all"):
+    for c in ("steady", "speed ramp", "turn", "standing", "all"):
         k = np.ones(len(cls), bool) if c == "all" else cls == c
         rows[c] = (int(k.sum()), _rms(err[k]), _rms(noise[k]))
 

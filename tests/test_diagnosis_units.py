@@ -273,8 +273,7 @@ def test_single_run_gives_comparison_without_suspects():
 # ----------------------------------------------------------------------------- CLI
 @pytest.fixture(scope="module")
 def campaign_dir(tmp_path_factory):
-    from energy_planner.calibration import fit_model
-    from energy_planner.measurements import make_windows, preprocess
+    from energy_planner.calibration import fit_model, prepare_logs
     from energy_planner.simulate import CampaignConfig, SensorConfig, simulate_campaign
 
     d = tmp_path_factory.mktemp("camp")
@@ -290,8 +289,10 @@ def campaign_dir(tmp_path_factory):
         seed=3, effects=("vegetation",), config=CampaignConfig.small(sensors=sensors)
     )
     camp.write(d / "logs")
-    windows = make_windows(preprocess(camp.logs)[0], duration=2.0)
-    fit_model(windows, BASE_TERMS, n_splits=0).model.save(d / "base.json")
+    # the base model as ``fit`` makes it on these logs (the same pipeline as diagnose:
+    # the stops are kept and the base gets the gait's running power)
+    windows = prepare_logs(camp.logs).windows
+    fit_model(windows, n_splits=0).model.save(d / "base.json")
     return d
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "aligned_table",
     "heading_class",
     "window_climb_fraction",
+    "window_kind",
     "window_energy",
     "MOTION_KIND",
     "STRAIGHT_KINDS",
@@ -37,6 +38,32 @@ MOTION_KIND: dict[str, str] = {
 }
 #: Kinds whose force is power / speed (N); the turning kind gives power / |wz| (N m).
 STRAIGHT_KINDS = ("forward", "backward", "lateral")
+#: Kind of a window in which the robot stands (mean speed and yaw rate below walking).
+STANDING = "standing"
+
+
+def window_kind(motion: Any, speed: Any, wz: Any) -> np.ndarray:
+    """Kind of the base terms each window exercises, from its motion class and mean twist.
+
+    :data:`MOTION_KIND` of the motion class (``mixed`` for the others), and
+    :data:`STANDING` where the window's mean speed and yaw rate are below walking
+    (:data:`energy_planner.model.model.WALKING_SPEED`, ``WALKING_YAW_RATE``), whatever
+    the sensor noise made of its class.
+
+    Examples
+    --------
+    >>> window_kind(["forward", "mixed", "forward", "turn_left"], [0.3, 0.0, 0.01, 0.0],
+    ...             [0.0, 0.0, 0.0, 0.5]).tolist()
+    ['forward', 'standing', 'standing', 'turning']
+    """
+    from energy_planner.model.model import WALKING_SPEED, WALKING_YAW_RATE
+
+    kind = pd.Series(np.asarray(motion, dtype=object)).map(MOTION_KIND).fillna("mixed")
+    still = (np.asarray(speed, dtype=float) < WALKING_SPEED) & (
+        np.abs(np.asarray(wz, dtype=float)) < WALKING_YAW_RATE
+    )
+    return np.where(still, STANDING, kind.to_numpy(dtype=object)).astype(object)
+
 
 _REQUIRED_SAMPLES = ("run", "t", "vx", "vy", "wz", "alpha", "gamma", "power", "window")
 _REQUIRED_TABLE = ("run", "window", "duration", "power")
@@ -63,8 +90,9 @@ def aligned_table(windows: Any) -> pd.DataFrame:
     -------
     pandas.DataFrame
         ``windows.table`` sorted by ``window``, with ``motion`` filled in by
-        :func:`energy_planner.stats.classify_motion` when the table has none, and the
-        per-window mean climb fraction ``climb`` (see :func:`window_climb_fraction`).
+        :func:`energy_planner.stats.classify_motion` when the table has none, the
+        per-window mean climb fraction ``climb`` (see :func:`window_climb_fraction`) and
+        ``kind`` (:func:`window_kind`).
 
     Raises
     ------
@@ -91,7 +119,12 @@ def aligned_table(windows: Any) -> pd.DataFrame:
         )
     climb = window_climb_fraction(samples)
     table["climb"] = climb.reindex(table["window"]).to_numpy()
-    table["kind"] = table["motion"].map(MOTION_KIND).fillna("mixed")
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    table["kind"] = window_kind(table["motion"].to_numpy(), speed, table["wz"].to_numpy(float))
     return table
 
 

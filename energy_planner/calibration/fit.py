@@ -25,14 +25,21 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from energy_planner.calibration._windows import aligned_table, heading_class, window_energy
+from energy_planner.calibration._windows import (
+    STANDING,
+    aligned_table,
+    heading_class,
+    window_energy,
+    window_kind,
+)
 from energy_planner.errors import FitError
-from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.model import BASE_TERMS, STANDING_TERMS, EnergyModel, Term
 from energy_planner.model.formula import MOTION_FEATURES
 from energy_planner.model.model import prepare_features
 from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
@@ -43,6 +50,7 @@ __all__ = [
     "CrossValidation",
     "fit_model",
     "as_windows",
+    "base_terms",
     "cross_validate",
     "identifiable",
     "identifiable_by_fold",
@@ -270,9 +278,48 @@ class FitResult:
 
 
 # --------------------------------------------------------------------------- helpers
-def _as_model(model_or_terms: EnergyModel | Sequence[str | Term] | None) -> EnergyModel:
+def base_terms(windows: Any) -> list[str]:
+    """The base model for these windows: the paper's terms, and the gait's running power.
+
+    :data:`~energy_planner.model.BASE_TERMS`, plus
+    :data:`~energy_planner.model.STANDING_TERMS` (``gait_power``, ``gait_tilt_x_sq``) when
+    at least :data:`MIN_WINDOWS_PER_TERM` windows stand
+    (:func:`~energy_planner.calibration._windows.window_kind`): then ``idle_power`` and
+    ``tilt_x_sq`` are fitted as the standing power and the STANDING_TERMS as what walking
+    or turning adds to it. Without standing windows they are the same columns on the
+    walking windows, and ``idle_power`` and ``tilt_x_sq`` alone hold both.
+
+    Parameters
+    ----------
+    windows : Windows, WindowData or pandas.DataFrame
+        Windows (their ``table``) or a window table with ``motion`` (optional), ``speed``
+        (or ``vx``, ``vy``) and ``wz``.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"speed": [0.3] * 3 + [0.0] * 3, "wz": 0.0})
+    >>> base_terms(t)[-2:], len(base_terms(t.iloc[:4]))
+    (['gait_power', 'gait_tilt_x_sq'], 17)
+    """
+    table = windows if isinstance(windows, pd.DataFrame) else windows.table
+    if len(table) == 0:
+        return list(BASE_TERMS)
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    motion = table["motion"].to_numpy() if "motion" in table else np.full(len(table), "mixed")
+    kind = window_kind(motion, speed, table["wz"].to_numpy(float))
+    standing = int(np.sum(kind == STANDING)) >= MIN_WINDOWS_PER_TERM
+    return [*BASE_TERMS, *(STANDING_TERMS if standing else ())]
+
+
+def _as_model(
+    model_or_terms: EnergyModel | Sequence[str | Term] | None, windows: Any = None
+) -> EnergyModel:
     if model_or_terms is None:
-        return EnergyModel(BASE_TERMS)
+        return EnergyModel(BASE_TERMS if windows is None else base_terms(windows))
     if isinstance(model_or_terms, EnergyModel):
         return EnergyModel(
             list(model_or_terms.terms),
@@ -338,9 +385,11 @@ def identify_terms(
     :data:`MIN_WINDOWS_PER_TERM` windows of it): on probe motions of that class
     (:func:`_class_probes`) its value differs from its value standing still at the same
     slope, heading and channel values, so it says something about that motion that the
-    logs cannot have told it. Then, in term order, a column that is (numerically) a
-    combination of the earlier identified ones is not identified either
-    (:func:`energy_planner.stats.independent_columns`).
+    logs cannot have told it. A term that prices every motion class alike and standing
+    differently (``gait_power``: what walking adds to standing) is told by the standing
+    windows instead: it needs :data:`MIN_WINDOWS_PER_TERM` of them. Then, in term order, a
+    column that is (numerically) a combination of the earlier identified ones is not
+    identified either (:func:`energy_planner.stats.independent_columns`).
 
     Parameters
     ----------
@@ -369,9 +418,10 @@ def identify_terms(
     )
     yaw = np.abs(table["wz"].to_numpy(float))
     absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
+    n_standing = int(np.sum(kind == STANDING))
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
-            why = _prices_absent_motion(term, absent, X[:, j], table)
+            why = _prices_absent_motion(term, absent, X[:, j], table, n_standing)
             if why:
                 out[term.name] = why
             continue
@@ -472,11 +522,40 @@ def _class_probes(kind: str, channels: Mapping[str, Any]) -> tuple[dict, dict]:
     return probe, stand
 
 
+def _evaluate(term: Term, features: dict) -> np.ndarray:
+    v = term.parsed.evaluate(prepare_features(features))
+    return np.broadcast_to(np.asarray(v, dtype=float), features["alpha"].shape)
+
+
+@lru_cache(maxsize=1024)
+def _moving_vs_standing(term: Term, channels: tuple) -> float:
+    """How much a term prices moving over standing when it prices every motion class alike.
+
+    0 when it prices a class differently from another (or moving as standing); else the
+    largest difference between its value moving and standing on :func:`_class_probes`.
+    """
+    n = None
+    moving, standing = [], []
+    for k in _CLASS_DIRECTIONS:
+        probe, stand = _class_probes(k, dict(channels))
+        n = n or probe["alpha"].size // len(_CLASS_DIRECTIONS[k])
+        moving.append(_evaluate(term, probe).reshape(-1, n))
+        standing.append(_evaluate(term, stand)[:n])
+    rows = np.vstack(moving)
+    if not np.allclose(rows, rows[0], rtol=1e-9, atol=1e-12):
+        return 0.0
+    return float(np.max(np.abs(rows[0] - standing[0])))
+
+
 def _prices_absent_motion(
-    term: Term, absent: Sequence[str], column: np.ndarray, table: pd.DataFrame
+    term: Term,
+    absent: Sequence[str],
+    column: np.ndarray,
+    table: pd.DataFrame,
+    n_standing: int | None = None,
 ) -> str | None:
     """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
-    if not absent:
+    if not absent and n_standing is None:
         return None
     channels: dict[str, Any] = {}
     for c in sorted(term.variables - MOTION_FEATURES):
@@ -490,6 +569,17 @@ def _prices_absent_motion(
         )
     scale = float(np.nanmax(np.abs(column))) if column.size else 0.0
     tol = 1e-6 * scale + 1e-9
+    if n_standing is not None:
+        gait = _moving_vs_standing(term, tuple(sorted(channels.items())))
+        if gait > tol:
+            if n_standing >= MIN_WINDOWS_PER_TERM:
+                return None  # every motion alike: the standing windows tell it
+            return (
+                f"it prices moving against standing (by up to {gait:.3g}, the same for every "
+                f"motion), and the campaign has {n_standing} standing window(s) (need "
+                f"{MIN_WINDOWS_PER_TERM}): the logs cannot tell it from idle_power; keep the "
+                "stops in the logs"
+            )
     for k in absent:
         probe, stand = _class_probes(k, channels)
         ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
@@ -520,7 +610,7 @@ def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dic
     dict
         Term name -> why the windows cannot identify it (empty when all are).
     """
-    model = _as_model(terms)
+    model = _as_model(terms, windows)
     table = aligned_table(windows)
     groups = windows.samples["window"].to_numpy()
     X = model.design_matrix(model_features(windows.samples, model), groups=groups)
@@ -787,7 +877,7 @@ def cross_validate(
     ----------
     model_or_terms : EnergyModel, sequence of term specs, or None
         The terms to validate (a model's coefficients are ignored: each fold refits
-        them); None means the base model.
+        them); None means the base model (:func:`base_terms`).
     windows : Windows
         Measurements contract: ``samples`` and ``table``.
     n_splits : int
@@ -808,7 +898,7 @@ def cross_validate(
     FitError
         Fewer than two runs, or missing columns.
     """
-    model = _as_model(model_or_terms)
+    model = _as_model(model_or_terms, windows)
     table = aligned_table(windows)
     samples = windows.samples
     runs = table["run"].astype(str).to_numpy()
@@ -977,7 +1067,8 @@ def fit_model(
         windows (:func:`as_windows`), the findings then in ``FitResult.data_findings``.
     terms : EnergyModel, sequence of term specs, or None
         What to fit: a model (its terms; coefficients ignored), catalog names and
-        formulas, or None for the paper's base model.
+        formulas, or None for the base model (:func:`base_terms`: the paper's, and
+        ``gait_power`` when the logs hold standing).
     n_splits : int
         Folds of the by-run cross-validation; 0 skips it.
     seed : int
@@ -1007,7 +1098,7 @@ def fit_model(
         (:func:`refuse_free_walking`): it is not returned, so it cannot be saved.
     """
     windows, findings = as_windows(windows, window=window, repair=repair)
-    requested = _as_model(terms)
+    requested = _as_model(terms, windows)
     table = aligned_table(windows)
     samples = windows.samples
     n_windows = len(table)

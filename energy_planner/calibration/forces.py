@@ -24,9 +24,9 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.calibration._windows import STRAIGHT_KINDS, aligned_table, heading_class
-from energy_planner.calibration.fit import model_features
+from energy_planner.calibration.fit import base_terms, model_features
 from energy_planner.errors import FitError
-from energy_planner.model import BASE_TERMS, EnergyModel, Term
+from energy_planner.model import EnergyModel, Term
 from energy_planner.stats import independent_columns, wls
 
 __all__ = ["ForceFit", "force_estimates", "fit_forces", "MOTION_KINDS"]
@@ -126,7 +126,7 @@ class ForceFit:
 
 
 def fit_forces(
-    windows: Any, terms: Sequence[str | Term] = BASE_TERMS, *, level_deg: float = 2.0
+    windows: Any, terms: Sequence[str | Term] | None = None, *, level_deg: float = 2.0
 ) -> ForceFit:
     """Fit each motion's force as a compact function of slope and heading.
 
@@ -141,8 +141,9 @@ def fit_forces(
     ----------
     windows : Windows
         Measurements contract.
-    terms : sequence of term specs
-        Terms to fit (default: the base model).
+    terms : sequence of term specs, optional
+        Terms to fit (default: the base model of these windows,
+        :func:`energy_planner.calibration.fit.base_terms`).
     level_deg : float
         Passed to :func:`force_estimates`.
 
@@ -156,7 +157,8 @@ def fit_forces(
         A kind with fewer windows than its terms + 1 (the message names the kind and the
         counts), or a per-second term the joint fit cannot identify.
     """
-    model = EnergyModel(list(terms))
+    terms = list(base_terms(windows) if terms is None else terms)
+    model = EnergyModel(terms)
     others = [j for j, t in enumerate(model.terms) if t.kind not in MOTION_KINDS]
     est = force_estimates(windows, level_deg=level_deg)
     table = aligned_table(windows)

@@ -9,7 +9,8 @@ Raw canonical samples go through
    held-out error does not rise (:func:`heldout_score` of a model on the windows
    without and with it; ``guard=True``): a repair that costs accuracy is reported as
    rejected, with the two numbers;
-2. cleaning (:func:`~energy_planner.measurements.preprocess.preprocess`, paper IV-B);
+2. cleaning (:func:`clean_logs`: :func:`~energy_planner.measurements.preprocess.preprocess`,
+   paper IV-B, but the stops stay: the standing power is fitted on them);
 3. windows (:func:`~energy_planner.measurements.windows.make_windows`).
 
 Every command and Python verb that starts from logs calls :func:`prepare_logs`, so the
@@ -39,10 +40,14 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.measurements.datacheck import DataFinding, check_data
+from energy_planner.measurements.preprocess import PreprocessParams
 
 __all__ = [
+    "CLEANING",
     "HeldOutScore",
+    "MIN_STOP_S",
     "PreparedLogs",
+    "clean_logs",
     "prepare_logs",
     "findings_text",
     "heldout_score",
@@ -81,6 +86,78 @@ class PreparedLogs:
         return [f.to_dict() for f in self.findings]
 
 
+#: Cleaning as the paper's IV-B, but no sample is discarded for a low speed there
+#: (``min_speed`` and ``min_yaw_rate`` 0): :func:`clean_logs` drops the low-speed samples
+#: that are not stops. The standing windows tell the standing power (``idle_power``)
+#: from what the gait adds while walking (``gait_power``, ``calibration.fit.base_terms``);
+#: without them the fit's constant is the walking one, and a robot standing is priced at
+#: the power of a robot walking (+70 % on mission logs).
+CLEANING = PreprocessParams(min_speed=0.0, min_yaw_rate=0.0)
+#: A stretch of low-speed samples (below ``PreprocessParams().min_speed`` and
+#: ``min_yaw_rate``, the paper's rule) lasting at least this long (s) is a stop and stays;
+#: a shorter one is the end of a speed ramp (the gait starting or stopping), dropped.
+MIN_STOP_S = 1.0
+
+
+def clean_logs(samples: pd.DataFrame) -> tuple[pd.DataFrame, Any]:
+    """Clean raw samples as every command does: paper IV-B, keeping the stops.
+
+    :func:`~energy_planner.measurements.preprocess.preprocess` with :data:`CLEANING`, then
+    the low-speed samples (the paper's rule, ``PreprocessParams()``) are dropped unless
+    they belong to a stretch of at least :data:`MIN_STOP_S` within one gap-free segment
+    (the step ``discard_speed_ramps`` of the report). A speed ramp passes the low speeds in
+    a fraction of a second, with a power neither standing nor walking; a stop lasts.
+
+    Returns
+    -------
+    clean : pandas.DataFrame
+    report : PreprocessReport
+        With the step ``discard_speed_ramps`` last.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 6, 0.1)  # a 1 s speed ramp from rest, a 2 s stop
+    >>> vx = np.where((t > 2) & (t < 4), 0.0, np.minimum(t, 1.0) * 0.3)
+    >>> s = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0,
+    ...     "vx": vx, "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": 4.0})
+    >>> clean, rep = clean_logs(s)
+    >>> rep.steps[-1].name, rep.steps[-1].n_removed, int((clean["speed"] < 0.05).sum())
+    ('discard_speed_ramps', 3, 16)
+    """
+    from energy_planner.measurements.preprocess import StepRecord, preprocess, segment_slices
+
+    clean, report = preprocess(samples, CLEANING)
+    rule = PreprocessParams()
+    low = (np.hypot(clean["vx"].to_numpy(float), clean["vy"].to_numpy(float)) < rule.min_speed) & (
+        np.abs(clean["wz"].to_numpy(float)) < rule.min_yaw_rate
+    )
+    t = clean["t"].to_numpy(float)
+    drop = np.zeros(len(clean), dtype=bool)
+    for sl in segment_slices(clean):
+        lo = low[sl]
+        if not lo.any():
+            continue
+        edges = np.flatnonzero(np.diff(np.r_[0, lo.astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            end = min(b, lo.size - 1)  # the stretch lasts until the next sample
+            if t[sl][end] - t[sl][a] < MIN_STOP_S:
+                drop[sl.start + a : sl.start + b] = True
+    reason = (
+        f"speed < {rule.min_speed:g} m/s and |wz| < {rule.min_yaw_rate:g} rad/s for less "
+        f"than {MIN_STOP_S:g} s (a speed ramp, not a stop)"
+    )
+    report.steps.append(
+        StepRecord(
+            "discard_speed_ramps",
+            len(clean),
+            int(len(clean) - drop.sum()),
+            {reason: int(drop.sum())} if drop.any() else {},
+            note=f"low-speed stretches of at least {MIN_STOP_S:g} s are stops, kept",
+        )
+    )
+    return clean.loc[~drop].reset_index(drop=True), report
+
+
 #: A repair is refused when it raises the held-out error beyond noise: the pooled RMSE
 #: rises and the runs are worse with it by a one-sided signed-rank test over runs at this
 #: level (``stats.paired_run_test``, the test of the candidates).
@@ -106,17 +183,17 @@ class HeldOutScore:
 def yardstick_terms(wd: Any) -> list[str]:
     """The model the repair guard scores by default: the base model and the channels.
 
-    The base terms (:data:`energy_planner.model.BASE_TERMS`), and for every extra channel
+    The base terms (:func:`energy_planner.calibration.fit.base_terms`), and for every extra channel
     of the logs a standing power and a force per metre: ``c`` and ``c * speed`` for a
     numeric channel with variance, ``speed * (c == 'v')`` for each value of a categorical
     one (2 to ``MAX_CATEGORIES`` values). A hidden effect on a channel (a payload, a
     ground) would otherwise dominate the base model's error and drown the repairs'
     differences; the same logs give the same yardstick in every command.
     """
+    from energy_planner.calibration.fit import base_terms
     from energy_planner.calibration.windowdata import MAX_CATEGORIES
-    from energy_planner.model import BASE_TERMS
 
-    terms = list(BASE_TERMS)
+    terms = base_terms(wd)
     for ch in wd.numeric_extras:
         v = wd.samples[ch].to_numpy(dtype=float)
         v = v[np.isfinite(v)]
@@ -145,14 +222,13 @@ def heldout_score(
     # window view (WindowData.heldout, calibration.windowdata)
     from energy_planner.calibration.windowdata import window_data
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements.preprocess import preprocess
     from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
-            clean, _ = preprocess(samples)
+            clean, _ = clean_logs(samples)
             windows = make_windows(clean, duration=window)
             del clean  # the cleaned copy: not held while the window view is built (memory)
             wd = window_data(windows.samples)
@@ -258,12 +334,11 @@ def prepare_logs(
     LogError
         Missing columns or a non-positive window (from cleaning and windows).
     """
-    from energy_planner.measurements.preprocess import preprocess
     from energy_planner.measurements.windows import make_windows
 
     accept = _HeldOutGuard(window, guard_terms) if guard else None
     findings, fixed = check_data(samples, repair=repair, accept=accept)
-    clean, report = preprocess(fixed)
+    clean, report = clean_logs(fixed)
     del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
     return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)
 

@@ -285,7 +285,7 @@ class WindowData:
 
     def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
         """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""
-        from energy_planner.calibration._windows import MOTION_KIND
+        from energy_planner.calibration._windows import window_kind
         from energy_planner.calibration.fit import identifiable_by_fold
         from energy_planner.model import EnergyModel
         from energy_planner.stats import MOTIONS, classify_motion
@@ -296,8 +296,8 @@ class WindowData:
             cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
             given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
             motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
-            kind = pd.Series(motion).map(MOTION_KIND).fillna("mixed")
-            t = table.assign(kind=kind.to_numpy())
+            kind = window_kind(motion, table["speed"].to_numpy(float), table["wz"].to_numpy(float))
+            t = table.assign(kind=kind)
             model = EnergyModel(terms=list(key[0]))
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
         return self._fold_cols[key]

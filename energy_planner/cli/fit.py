@@ -209,15 +209,17 @@ def command(
     """Fit the energy model of your robot from its LOGS (files or folders).
 
     Checks the logs for sensor problems and repairs them (--no-repair: report only), as
-    diagnose and discover do; preprocesses them (paper IV-B), cuts windows, fits the paper's base
-    model plus any --term jointly by weighted least squares, validates it on held-out
+    diagnose and discover do; preprocesses them (paper IV-B, keeping the stops), cuts
+    windows, fits the base model (the paper's, and the gait's running power when the logs
+    hold standing) plus any --term jointly by weighted least squares, validates it on held-out
     runs and writes the model to --out. Terms the logs cannot identify (no runs of
     their motion, or no slopes that tell them apart) are listed and left out of the
     model, or held at --prior's values; warnings say what else the data cannot support.
     """
     from energy_planner.calibration import fit_model
+    from energy_planner.calibration.fit import base_terms
     from energy_planner.errors import EnergyPlannerError, FitError
-    from energy_planner.model import BASE_TERMS, EnergyModel
+    from energy_planner.model import EnergyModel
 
     if folds == 1:
         raise click.BadParameter("use 0 (no validation) or 2 or more folds", param_hint="--folds")
@@ -237,12 +239,14 @@ def command(
     resolve_terms(tuple(t for t in terms if " " in t))
     prepared, reports, prep_text, _ = load_prepared(logs, window, repair, prints_report=True)
     windows = prepared.windows
+    base = base_terms(windows)  # the paper's, and gait_power when the logs hold standing
     extra = resolve_terms(discovered_names(terms, windows), set(windows.samples.columns))
-    status(f"fitting {len(BASE_TERMS) + len(extra)} terms on {len(windows.table)} windows ...")
+    extra = [t for t in extra if t.name not in base]
+    status(f"fitting {len(base) + len(extra)} terms on {len(windows.table)} windows ...")
     try:
         result = fit_model(
             prepared,
-            [*BASE_TERMS, *extra],
+            [*base, *extra],
             n_splits=folds,
             seed=seed,
             metadata={"source": [str(p) for p in logs], "window_s": window},

@@ -141,12 +141,12 @@ def _nonlinear_in_speed(formula: str) -> bool:
 
 def catalog_candidates(model_terms: Iterable[str], wd: WindowData) -> list[Candidate]:
     """Catalog effects the model does not yet have, plus surface type per value."""
-    from energy_planner.model import BASE_TERMS, CATALOG
+    from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
 
     have = {canonical(t) for t in model_terms}
     out = []
     for name, term in CATALOG.items():
-        if name in BASE_TERMS or name in have:
+        if name in BASE_TERMS or name in STANDING_TERMS or name in have:
             continue
         formula = term.formula
         if formula in have:
@@ -410,11 +410,11 @@ def _base_products(ch: str, model_terms: Iterable[str]) -> list[tuple[str, str, 
 
     A load scales the lifting work, the copper losses of holding a slope, ...
     """
-    from energy_planner.model import BASE_TERMS, CATALOG
+    from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
 
     out = []
     for name in model_terms:
-        if name not in BASE_TERMS or CATALOG[name].formula.strip() == "1":
+        if name not in (*BASE_TERMS, *STANDING_TERMS) or CATALOG[name].formula.strip() == "1":
             continue
         t = CATALOG[name]
         expl = t.explanation.split(":")[0]
@@ -435,11 +435,12 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
     A channel that scales every force of the gait (a mass) or every copper loss (the
     winding resistance). The coefficients are the current fit's, written into the term.
     """
-    from energy_planner.model import BASE_TERMS, CATALOG
+    from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
 
     if not coef:
         return []
-    base = [t for t in model_terms if t in BASE_TERMS and np.isfinite(coef.get(t, np.nan))]
+    family = (*BASE_TERMS, *STANDING_TERMS)  # the base, with the gait's running power
+    base = [t for t in model_terms if t in family and np.isfinite(coef.get(t, np.nan))]
     out = []
     whole = _reads_as(
         ch,

@@ -281,7 +281,8 @@ def discover(
         ``logs`` give them.
     base_terms : sequence of str, optional
         Where the staircase starts; default the base model
-        (:data:`energy_planner.model.BASE_TERMS`).
+        (:func:`energy_planner.calibration.fit.base_terms`: the paper's terms, and
+        ``gait_power`` when the logs hold standing).
     thresholds : Thresholds, optional
         Noise and support rules.
     max_steps : int
@@ -309,10 +310,11 @@ def discover(
     Discovery
     """
     from energy_planner.calibration import fit_model
+    from energy_planner.calibration.fit import base_terms as default_base
     from energy_planner.calibration.fit import identifiable
     from energy_planner.calibration.prepare import prepare_logs
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.model import BASE_TERMS, resolve_term
+    from energy_planner.model import resolve_term
     from energy_planner.progress import reporter
 
     rep = reporter(progress)
@@ -321,9 +323,9 @@ def discover(
         rep.say(msg, stage="discover")
 
     th = thresholds or Thresholds()
-    base = list(BASE_TERMS if base_terms is None else base_terms)
     prepared = prepare_logs(samples, window=window, repair=repair, guard=guard)  # as fit
     findings, windows = prepared.findings, prepared.windows
+    base = list(default_base(windows) if base_terms is None else base_terms)
     say("data checks done")
     wd = window_data(windows)
     say(f"{wd.n_windows} windows")

@@ -94,7 +94,8 @@ def resolve_names(
     wd : WindowData
         The windows the terms will be fitted on.
     base_terms : sequence of str, optional
-        The model the terms are added to; default the base model.
+        The model the terms are added to; default the base model of these windows
+        (:func:`energy_planner.calibration.fit.base_terms`, as ``discover`` starts).
 
     Returns
     -------
@@ -113,9 +114,10 @@ def resolve_names(
     ...               window_data(s))
     ['pos(2.5 - load_kg)', 'speed * pos(load_kg - 1)', 'idle_power', 'vx * vy']
     """
-    from energy_planner.model import BASE_TERMS, CATALOG
+    from energy_planner.calibration.fit import base_terms as default_base
+    from energy_planner.model import CATALOG
 
-    context = [term_spec(t) for t in (BASE_TERMS if base_terms is None else base_terms)]
+    context = [term_spec(t) for t in (default_base(wd) if base_terms is None else base_terms)]
     out: list[str | Term] = []
     for spec in specs:
         found = None

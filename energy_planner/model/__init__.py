@@ -17,6 +17,7 @@ from energy_planner.model.terms import (
     CATALOG,
     EFFECT_TERMS,
     KINDS,
+    STANDING_TERMS,
     Term,
     resolve_term,
 )
@@ -30,6 +31,7 @@ __all__ = [
     "KINDS",
     "SCHEMA",
     "SCHEMA_VERSION",
+    "STANDING_TERMS",
     "EnergyModel",
     "Formula",
     "Term",

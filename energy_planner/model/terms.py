@@ -36,6 +36,13 @@ term satisfies the mirror symmetry ``P(alpha, gamma, vx, vy, wz) = P(alpha, -gam
 -vy, -wz)``; along one direction of motion the per-metre terms are linear in the rate (the
 paper's superposition), and energy stays additive along a path with the per-second terms.
 
+Standing costs less per second than walking: the running gait (stance legs carrying the
+body with peak forces, swing legs lifted) draws ``gait_power`` on top of the standing
+power ``idle``, and copper losses of holding the slope along the body
+(``gait_tilt_x_sq``) on top of standing's ``k_x sx^2``, while the robot walks or turns
+(:data:`STANDING_TERMS`, fitted when the logs hold standing: without it the two cannot be
+told apart and the walking values stand for both).
+
 Examples
 --------
 >>> BASE_TERMS[:3]
@@ -54,7 +61,15 @@ from functools import cached_property
 from energy_planner.errors import FormulaError, ModelError
 from energy_planner.model.formula import Formula, parse_formula
 
-__all__ = ["Term", "CATALOG", "BASE_TERMS", "EFFECT_TERMS", "resolve_term", "KINDS"]
+__all__ = [
+    "Term",
+    "CATALOG",
+    "BASE_TERMS",
+    "STANDING_TERMS",
+    "EFFECT_TERMS",
+    "resolve_term",
+    "KINDS",
+]
 
 #: What kind of work a term stands for; used for the forward/lateral/turning shares.
 KINDS = ("forward", "backward", "lateral", "turning", "other")
@@ -198,8 +213,9 @@ _BASE = [
     _t(
         "idle_power",
         "1",
-        "power drawn per second whatever the motion: electronics, and the copper losses of "
-        "carrying the body while the gait runs (paid once, not per direction of motion)",
+        "power drawn per second whatever the motion, standing included: electronics, and the "
+        "copper losses of holding the body up (with no standing in the logs, also the "
+        "running gait's power, gait_power)",
         "W",
         "other",
     ),
@@ -245,6 +261,32 @@ _BASE = [
     ),
 ]
 
+#: The running gait: on while walking or turning in place, fully above 0.05 m/s or rad/s.
+_GAIT = "min(max(speed, abs(wz)) / 0.05, 1)"
+
+#: Walking or turning on top of standing (fitted when the logs hold standing windows).
+_STANDING = [
+    _t(
+        "gait_power",
+        _GAIT,
+        "power the running gait draws per second on top of standing, whatever the direction: "
+        "stance legs carry the body with peak forces (copper losses) and swing legs are "
+        "lifted (paid while walking or turning in place; fully on above 0.05 m/s or rad/s)",
+        "W",
+        "other",
+    ),
+    _t(
+        "gait_tilt_x_sq",
+        f"{_GAIT} * ({_TILT_X}) ** 2",
+        "walking, the stance legs hold the slope load along body x with peak forces (a "
+        "half-sine stance force: the mean of its square grows by pi^2 / (8 duty factor)): "
+        "copper losses on top of standing's tilt_x_sq (across the slope the wide stance holds "
+        "the load on short levers, standing or walking: tilt_y_sq prices both)",
+        "W",
+        "other",
+    ),
+]
+
 _EFFECTS = [
     _t(
         "speed_dependence",
@@ -277,9 +319,13 @@ _EFFECTS = [
 ]
 
 #: Every named term: the base set and the physical effects.
-CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_EFFECTS)}
+CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_STANDING, *_EFFECTS)}
 #: The paper's model (wrench from alpha and gamma only).
 BASE_TERMS: tuple[str, ...] = tuple(t.name for t in _BASE)
+#: Added to the base model when the logs hold standing (``calibration.fit.base_terms``):
+#: then ``idle_power`` is the standing power and ``gait_power`` what walking adds to it.
+#: Without standing they cannot be told apart, and ``idle_power`` holds both.
+STANDING_TERMS: tuple[str, ...] = tuple(t.name for t in _STANDING)
 #: The catalog's physical effects, none of which the base model contains (uphill/downhill
 #: asymmetry, cross-slope roll and copper losses on slopes are base terms now).
 EFFECT_TERMS: tuple[str, ...] = tuple(t.name for t in _EFFECTS)
