@@ -104,6 +104,8 @@ def test_detour_is_within_eps_of_the_optimum(model, which):
     # straight: 27 m; round (30, 20): 2 * hypot(9.5, 13.5) = 33 m
     # h at the start is tight (each kernel sample priced at its own gradient: within 5 %)
     assert fast.info["h_start"] >= 0.95 * opt.cost
+    # the run proves its own bound: cost / h(start) times the optimum
+    assert fast.cost <= fast.info["certified"] * opt.cost * (1 + 1e-6)
     if which == "keep_out":
         # straight through the notch (cheap, floor at 0.33) is what a barrier-blind h
         # would bound: 27 m; round (30, 20): 2 * hypot(9.5, 13.5) = 33 m
