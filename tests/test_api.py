@@ -16,19 +16,24 @@ S, G = (500010.0, 5000020.0), (500080.0, 5000070.0)
 
 
 def test_plan_equals_the_plan_command():
+    # the search planner: auto's refinement ends on a time budget, so two auto runs under
+    # load may differ (the CLI has no --iterations); the search is deterministic
     r = CliRunner().invoke(main, ["plan", "--dem", PLANE, "--start", "500010,5000020",
-                                  "--goal", "500080,5000070", "--json"])  # fmt: skip
+                                  "--goal", "500080,5000070", "--planner", "search",
+                                  "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
     cli = json.loads(r.stdout[r.stdout.index("{") :])
-    res = ep.plan(PLANE, S, G)
+    res = ep.plan(PLANE, S, G, planner="search")
     assert res.energy_j == pytest.approx(cli["energy_j"], rel=1e-9)
 
 
 def test_points_in_another_crs_give_the_same_plan():
     prob = ep.Problem.from_dem(PLANE)
     lon, lat = reproject_xy("EPSG:32631", "EPSG:4326", [S[0], G[0]], [S[1], G[1]])
-    a = ep.plan(prob, S, G)
-    b = ep.plan(prob, (lon[0], lat[0]), (lon[1], lat[1]), crs="EPSG:4326")
+    # refinement rounds, not its time budget, end both (reproducible under any load)
+    kw = {"iterations": 40, "time": 60.0}
+    a = ep.plan(prob, S, G, **kw)
+    b = ep.plan(prob, (lon[0], lat[0]), (lon[1], lat[1]), crs="EPSG:4326", **kw)
     assert b.energy_j == pytest.approx(a.energy_j, rel=1e-6)
 
 
@@ -44,9 +49,10 @@ def test_path_energy_adds_over_concatenated_segments():
 
 
 def test_plan_chooses_windows_for_a_dem_over_the_memory_cap():
-    res = ep.plan(PLANE, S, G, memory_cap=1_000_000)  # 100 x 100 cells need 1.6 MB whole
+    kw = {"iterations": 40, "time": 60.0}  # reproducible refinement (rounds, not time)
+    res = ep.plan(PLANE, S, G, memory_cap=1_000_000, **kw)  # 100 x 100 cells need 1.6 MB whole
     assert "corridor" in res.info
-    whole = ep.plan(PLANE, S, G)
+    whole = ep.plan(PLANE, S, G, **kw)
     assert res.energy_j >= whole.energy_j * (1 - 1e-6)
 
 

@@ -85,9 +85,12 @@ def test_translation_refused_agrees_with_the_kernel(model, xa, ya, dx, dy, th, w
 def test_detour_is_within_eps_of_the_optimum(model, which):
     """With the notch closed (slope limit: its floor climbs at 35 degrees; keep-out: a
     square over it) the route goes round the ridge's east end; the default eps's cost is
-    within eps of the eps = 1 optimum, ``h`` at the start is below that optimum, and the
-    relaxed problem sees the barrier: its ``h`` at the start exceeds the open map's by the
-    detour (at least the extra length of going round x = 30 m, a third more)."""
+    within eps of the eps = 1 optimum, ``h`` at the start is below that optimum and within
+    5 % of it, and the relaxed problem sees the barrier: with the keep-out over a notch
+    that is cheap to climb, its ``h`` at the start exceeds the open map's by the detour
+    (at least the extra length of going round x = 30 m, a third more). (The notch closed
+    by the slope limit climbs at 35 degrees: the open map's way over the ridge costs
+    about as much as the way round.)"""
     t = _ridge(0.7 if which == "slope" else 0.33)
     req = Request.make(max_slope_deg=30) if which == "slope" else Request.make(keep_out=[KEEP_OUT])
     cost, _ = make_motion_cost(t, model, req)
@@ -99,29 +102,13 @@ def test_detour_is_within_eps_of_the_optimum(model, which):
     assert opt.cost * (1 - 1e-6) <= fast.cost <= 1.05 * opt.cost
     assert opt.info["h_start"] <= opt.cost * (1 + 1e-6)
     # straight: 27 m; round (30, 20): 2 * hypot(9.5, 13.5) = 33 m
-    assert fast.info["h_start"] >= 1.15 * open_map.info["h_start"]
+    # h at the start is tight (each kernel sample priced at its own gradient: within 5 %)
+    assert fast.info["h_start"] >= 0.95 * opt.cost
+    # the run proves its own bound: cost / h(start) times the optimum
+    assert fast.cost <= fast.info["certified"] * opt.cost * (1 + 1e-6)
+    if which == "keep_out":
+        # straight through the notch (cheap, floor at 0.33) is what a barrier-blind h
+        # would bound: 27 m; round (30, 20): 2 * hypot(9.5, 13.5) = 33 m
+        assert fast.info["h_start"] >= 1.15 * open_map.info["h_start"]
     # the search no longer fills the map before it finds the way round
     assert fast.expanded <= 0.5 * fast.states_total
-
-
-@settings(max_examples=40, deadline=None)
-@given(
-    seed=st.integers(0, 1000),
-    i0=st.integers(0, 39),
-    di=st.integers(0, 39),
-    j0=st.integers(0, 39),
-    dj=st.integers(0, 39),
-)
-def test_range_min_is_the_least_node(model, seed, i0, di, j0, dj):
-    """The sparse table's range query (blocks capped at 8 nodes, wider ranges read as
-    several blocks) returns numpy's minimum over the range."""
-    from energy_planner.planning.search import _sparse_table
-
-    t = np.random.default_rng(seed).uniform(0, 1, (2, 40, 40))
-    st_ = _sparse_table(t)
-    i1, j1 = min(i0 + di, 39), min(j0 + dj, 39)
-    cost, _ = make_motion_cost(_ridge(0.33), model)
-    got = search_module(cost).range_min(st_, 1, i0, i1, j0, j1)
-    assert got == np.float32(t[1, i0 : i1 + 1, j0 : j1 + 1].min()) or got == pytest.approx(
-        t[1, i0 : i1 + 1, j0 : j1 + 1].min(), rel=1e-6
-    )

@@ -12,6 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.energy import MotionCost, path_energy
+from energy_planner.energy.kernels import IN_STEP, IN_TMAX
+from energy_planner.errors import InvalidStateError, PlanningError
 from energy_planner.maps import map_path
 from energy_planner.model import EnergyModel
 from energy_planner.planning.lattice import lattice_plan
@@ -51,39 +53,100 @@ def _bumpy(seed: int, size: int = 24, amp: float = 4.0) -> Terrain:
     return Terrain.from_function(z, size=(size, size))
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def _crest(seed: int, size: int = 24) -> Terrain:
+    """A random sharp crest 4 m high over a tilt: moves straddle it.
+
+    Its flanks climb at 17-29 degrees (walkable under a 30-degree limit) or 37-45
+    degrees (a band at most 8 m wide); it runs NW-SE through the centre, so the SW and
+    NE corners (5.5 m or more from it) are walkable either way.
+    """
+    rng = np.random.default_rng(seed)
+    ang = rng.uniform(0.1, 0.5 * np.pi - 0.1)
+    flank = rng.uniform(0.3, 0.55) if rng.uniform() < 0.5 else rng.uniform(0.75, 1.0)
+    tilt = rng.uniform(-0.05, 0.05, 2)
+
+    def z(x, y):
+        d = (x - size / 2) * np.cos(ang) + (y - size / 2) * np.sin(ang)
+        return np.maximum(4.0 - flank * np.abs(d), 0.0) + tilt[0] * x + tilt[1] * y
+
+    return Terrain.from_function(z, size=(size, size))
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     seed=st.integers(0, 10_000),
     p=st.integers(0, 10_000),
     cross=st.sampled_from([None, 25.0]),
+    slope=st.sampled_from([None, 30.0]),
     moves=st.sampled_from(["all", "crab", "axes"]),
+    crest=st.booleans(),
 )
-def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross, moves):
+def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross, slope, moves, crest):
     """Every translation the search can make costs at least the heuristic's bound of it,
     at every heading allowed to make it (the kernel is the independent side): with
-    ``moves="all"`` also every crab edge (body yaw off the direction of travel)."""
-    t = _bumpy(seed)
-    cost, _ = make_motion_cost(t, model, Request.make(max_cross_slope_deg=cross))
+    ``moves="all"`` also every crab edge (body yaw off the direction of travel), on moves
+    over a sharp crest (the bound prices each of the kernel's samples at its own
+    gradient) and near a slope limit (nodes beyond it are inf)."""
+    t = _crest(seed) if crest else _bumpy(seed)
+    req = Request.make(max_cross_slope_deg=cross, max_slope_deg=slope)
+    cost, _ = make_motion_cost(t, model, req)
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, moves)
     mod = search_module(cost)
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    tmin = table.min(axis=(1, 2)).astype(float)
     geo = np.array(cost.data[2:6], dtype=float)
-    # an interior position (the Horn gradient of the outer cells is undefined)
-    i, j = 2 + p % (grid.nx - 4), 2 + (p // grid.nx) % (grid.ny - 4)
-    xa, ya = grid.xs[i], grid.ys[j]
+    kstep, tmax = float(cost.data[IN_STEP]), float(cost.data[IN_TMAX])
     checked = 0
-    for m, (di, dj) in enumerate(grid.moves):
-        if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
-            continue
-        xb, yb = grid.xs[i + di], grid.ys[j + dj]
-        lb = mod.edge_bound(cost.data[0], *geo, xa, ya, xb, yb, table, m, *tgeo)
-        lb *= BOUND_MARGIN * grid.move_len[m] * grid.step
-        for h in np.nonzero(grid.move_ok[:, m])[0]:
-            th = grid.headings[h]
-            e = cost(xa, ya, th, xb, yb, th)
-            assert lb <= e * (1 + 1e-9), (m, h, lb, e)
-            checked += math.isfinite(e)
+    rng = np.random.default_rng(p)
+    # interior positions (the Horn gradient of the outer cells is undefined)
+    ii = [2, grid.nx - 3, *rng.integers(2, grid.nx - 2, 2)]
+    jj = [2, grid.ny - 3, *rng.integers(2, grid.ny - 2, 2)]
+    for i, j in zip(ii, jj, strict=True):
+        xa, ya = grid.xs[i], grid.ys[j]
+        for m, (di, dj) in enumerate(grid.moves):
+            if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
+                continue
+            xb, yb = grid.xs[i + di], grid.ys[j + dj]
+            lb = mod.edge_bound(cost.data[0], *geo, kstep, tmax, xa, ya, xb, yb, table, tmin, m,
+                                *tgeo)  # fmt: skip
+            lb *= BOUND_MARGIN
+            for h in np.nonzero(grid.move_ok[:, m])[0]:
+                th = grid.headings[h]
+                e = cost(xa, ya, th, xb, yb, th)
+                assert lb <= e * (1 + 1e-9), (m, h, lb, e)
+                checked += math.isfinite(e)
     assert checked > 0
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), p=st.integers(0, 10_000), slope=st.sampled_from([None, 30.0]))
+def test_relaxed_cost_to_go_is_below_the_optimum_from_random_states(model, seed, p, slope):
+    """Admissibility of the whole relaxed problem (turning free, each sample at its
+    cheapest yaw): from random positions of a random crest, ``h`` is at most the
+    optimal cost to the goal found by the search with ``eps = 1`` (whose optimality is
+    checked against the built lattice below)."""
+    t = _crest(seed, size=16)
+    cost, _ = make_motion_cost(t, model, Request.make(max_slope_deg=slope))
+    goal = (2.5, 2.5, None)  # off the crest
+    grid = _Grid(cost, t, goal[:2], None, 16, "all")
+    h = relaxed_cost_to_go(cost, grid, grid.position(goal[0], goal[1], "goal"))
+    # random positions the relaxed problem reaches (the others have h = inf), not too
+    # steep to stand on
+    X, Y = np.meshgrid(grid.xs, grid.ys)
+    ok = np.isfinite(h) & (h > 0) & (np.degrees(t.sample(X.ravel(), Y.ravel()).slope) < 28)
+    cand = np.nonzero(ok)[0]
+    tried = 0
+    for q in np.random.default_rng(p).choice(cand, size=min(6, cand.size), replace=False):
+        x, y = grid.xy(q)
+        hp = float(h[grid.position(x, y, "start")])
+        try:
+            r = search_plan(cost, t, (float(x), float(y), None), goal, eps=1.0)
+        except (PlanningError, InvalidStateError):
+            continue  # unreachable or a limit at the position: nothing to bound
+        assert hp <= r.cost * (1 + 1e-6), (x, y, hp, r.cost)
+        assert hp >= 0.8 * r.cost or r.cost < 1.0  # and tight (the old box bound: 0.6)
+        tried += 1
+    assert tried > 0
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -36,9 +36,10 @@ S, G = (3.0, 4.0, 0.0), (20.0, 18.0)
 KEEP_OUT = box(15.2, 4.2, 17.8, 9.8)
 
 #: energy_j, distance_m, poses of plan(..., planner=name, seed=1) on main (OMPL planners
-#: with iterations=100)
+#: with iterations=100); the search's since its bound prices each kernel sample (a tighter
+#: h makes eps = 1.05 greedier: 0.07 % above the lattice's optimum here, was equal)
 PLAN_ON_MAIN = {
-    "search": (20313.55941857894, 23.140106250979272, 6),
+    "search": (20327.531203323364, 23.14719485666655, 5),
     "lattice": (20313.55941857894, 23.140106250979272, 6),
     "rrtstar": (23894.63137568071, 25.07031542968444, 9),
     "sorrtstar": (21564.387776897915, 23.239977576124605, 6),

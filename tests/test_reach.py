@@ -133,7 +133,10 @@ def test_cells_on_the_budget_contour_cost_the_budget_when_planned(hill_tif):
         goal = (x0 + c * dx, y0 + r * dy)
         for planner in ("search", "lattice"):  # the default planner's search, the reference
             p = plan(terrain, model, res.start, goal, planner=planner, step=1.0, progress=False)
-            assert p.energy_j == pytest.approx(res.energy_j[r, c], rel=0.01)
+            if planner == "lattice":
+                assert p.energy_j == pytest.approx(res.energy_j[r, c], rel=0.01)
+            else:  # weighted A*: within its eps (DEFAULT_EPS) of the optimum
+                assert 0.99 * res.energy_j[r, c] <= p.energy_j <= 1.05 * res.energy_j[r, c]
             assert p.energy_j == pytest.approx(budget, rel=0.03)
 
 

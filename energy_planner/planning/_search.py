@@ -67,86 +67,48 @@ def heap_pop(keys, vals, n):
 
 
 @numba.njit(cache=True)
-def edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy):
-    """Lower bound of J per metre of translation ``m`` from (xa, ya) to (xb, yb).
+def edge_bound(grad, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya, xb, yb, table, tmin, m, t0x,
+               t0y, tdx, tdy):  # fmt: skip
+    """Lower bound of the kernel's energy (J) of translation ``m`` from (xa, ya) to (xb, yb).
 
-    Every kernel sample of the motion interpolates the gradient of DEM cells inside the
-    bounding box of the two endpoints' cell indices, so its gradient lies in the box of
-    those cells' gradients; ``table[m]`` holds the least J per metre over headings at each
-    gradient node (already minimised over neighbouring nodes), as a 2-D sparse table for
-    range minima (``table[m, a, b, i, j]`` = min over ``[i, i + 2^a) x [j, j + 2^b)``).
-    Returns inf when no cell of the box is valid or the box lies outside the table (every
-    sample above the limit).
+    The kernel (``motion_full``) prices a translation of map length ``L`` as ``n =
+    ceil(L / kstep)`` samples at the midpoints of equal parts, each ``L / n`` map metres
+    walked on the gradient interpolated there: at constant heading and speed, a sample's
+    energy is ``L / n`` times the J per map metre of walking on that gradient at that
+    yaw. The same samples are taken here, each priced by the cheapest yaw at its own
+    gradient: ``table[m]`` (J per map metre over a grid of gradients, the least over
+    body yaws) interpolated bilinearly there. Where a node around the sample is ``inf``
+    (steeper than the limit ``tmax``, or no yaw may move) the sample takes ``tmin[m]``,
+    the least of ``table[m]``; a sample outside the valid terrain or steeper than
+    ``tmax`` is refused by the kernel at every heading: ``inf``. The caller scales the
+    sum down by its margin (the table's interpolation error).
     """
-    nr, nc = grad.shape[0], grad.shape[1]
-    fa_c = (xa - gx0) / gdx
-    fb_c = (xb - gx0) / gdx
-    fa_r = (ya - gy0) / gdy
-    fb_r = (yb - gy0) / gdy
-    # (a sample within 1e-7 cells of a cell line gives the far cell a weight < 1e-7)
-    c0 = max(int(math.floor(min(fa_c, fb_c) + 1e-7)), 0)
-    c1 = min(int(math.ceil(max(fa_c, fb_c) - 1e-7)), nc - 1)
-    r0 = max(int(math.floor(min(fa_r, fb_r) + 1e-7)), 0)
-    r1 = min(int(math.ceil(max(fa_r, fb_r) - 1e-7)), nr - 1)
-    lox = np.inf
-    hix = -np.inf
-    loy = np.inf
-    hiy = -np.inf
-    for r in range(r0, r1 + 1):
-        for c in range(c0, c1 + 1):
-            a = grad[r, c, 0]
-            b = grad[r, c, 1]
-            if math.isfinite(a) and math.isfinite(b):
-                lox = min(lox, a)
-                hix = max(hix, a)
-                loy = min(loy, b)
-                hiy = max(hiy, b)
-    if not (lox <= hix):
-        return np.inf
-    K = table.shape[3]
-    i0 = int(math.floor((lox - t0x) / tdx))
-    i1 = int(math.ceil((hix - t0x) / tdx))
-    j0 = int(math.floor((loy - t0y) / tdy))
-    j1 = int(math.ceil((hiy - t0y) / tdy))
-    if i1 < 0 or j1 < 0 or i0 > K - 1 or j0 > K - 1:
-        return np.inf
-    i0 = max(i0, 0)
-    j0 = max(j0, 0)
-    i1 = min(i1, K - 1)
-    j1 = min(j1, K - 1)
-    return range_min(table, m, i0, i1, j0, j1)
-
-
-@numba.njit(cache=True)
-def range_min(table, m, i0, i1, j0, j1):
-    """Least of ``table[m]``'s nodes ``[i0, i1] x [j0, j1]`` from its sparse table.
-
-    ``table[m, a, b, i, j]`` = min over ``[i, i + 2^a) x [j, j + 2^b)`` for ``a, b``
-    below ``table.shape[1]``; a range wider than the largest block is read as several.
-    """
-    a = 0
-    while (2 << a) <= i1 - i0 + 1 and a + 1 < table.shape[1]:
-        a += 1
-    b = 0
-    while (2 << b) <= j1 - j0 + 1 and b + 1 < table.shape[2]:
-        b += 1
-    wa = 1 << a
-    wb = 1 << b
-    best = np.inf
-    i = i0
-    while True:
-        ii = min(i, i1 + 1 - wa)
-        j = j0
-        while True:
-            jj = min(j, j1 + 1 - wb)
-            best = min(best, table[m, a, b, ii, jj])
-            if jj + wb > j1:
-                break
-            j += wb
-        if ii + wa > i1:
-            break
-        i += wa
-    return best
+    ddx = xb - xa
+    ddy = yb - ya
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    n = max(1, int(math.ceil(dist / kstep)))
+    K = table.shape[1]
+    total = 0.0
+    for i in range(n):
+        s = (i + 0.5) / n
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, xa + s * ddx, ya + s * ddy)
+        if not ok or gxs * gxs + gys * gys > tmax * tmax:
+            return np.inf
+        fx = (gxs - t0x) / tdx
+        fy = (gys - t0y) / tdy
+        if not (fx >= 0.0 and fy >= 0.0 and fx <= K - 1 and fy <= K - 1):
+            return np.inf  # the table spans every walkable gradient of the terrain
+        i0 = min(int(fx), K - 2)
+        j0 = min(int(fy), K - 2)
+        tx = fx - i0
+        ty = fy - j0
+        v = (1.0 - tx) * ((1.0 - ty) * table[m, i0, j0] + ty * table[m, i0, j0 + 1]) + tx * (
+            (1.0 - ty) * table[m, i0 + 1, j0] + ty * table[m, i0 + 1, j0 + 1]
+        )
+        if not math.isfinite(v):
+            v = tmin[m]
+        total += v
+    return total * dist / n
 
 
 @numba.njit(cache=True)
@@ -334,10 +296,12 @@ def heuristic_chunk(
     # least bound of each move over the whole table: an edge that cannot improve h[p]
     # even at this cost is skipped without looking up its own bound
     gmin = np.empty(nm)
+    tmin = np.empty(nm)
     cmin = np.inf  # J per metre
     for m in range(nm):
-        gmin[m] = margin * move_len[m] * step * table[m, 0, 0].min()
-        cmin = min(cmin, gmin[m] / (move_len[m] * step))
+        tmin[m] = table[m].min()
+        gmin[m] = margin * move_len[m] * step * tmin[m]
+        cmin = min(cmin, margin * tmin[m])
     if stop_p < 0 or not math.isfinite(cmin):
         cmin = 0.0
     limit[1] = cmin
@@ -367,8 +331,9 @@ def heuristic_chunk(
                 continue
             xa = xs0 + ip * step
             ya = ys0 + jp * step
-            lb = edge_bound(grad, gx0, gy0, gdx, gdy, xa, ya, xb, yb, table, m, t0x, t0y, tdx, tdy)
-            nk = hq + margin * move_len[m] * step * lb
+            lb = edge_bound(grad, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya, xb, yb, table, tmin,
+                            m, t0x, t0y, tdx, tdy)  # fmt: skip
+            nk = hq + margin * lb
             if nk < h[p]:
                 if not cells_safe(unsafe, gx0, gy0, gdx, gdy, xa, ya, xb, yb) and (
                     translation_refused(grad, blocked, gx0, gy0, gdx, gdy, kstep, tmax, xa, ya,

@@ -462,6 +462,7 @@ def _run_search(r: _Run) -> np.ndarray:
         "heuristic_s": sr.heuristic_s,
         "search_s": sr.search_s,
         "h_start_j": sr.info["h_start"],
+        "certified": sr.info["certified"],
     }
     r.prog.report(sr.cost)
     if r.planner != "auto":

@@ -14,18 +14,20 @@ by the motion kernel (:class:`energy_planner.energy.MotionCost`, the same numba 
 that prices every other path) when the search first reaches it.
 
 The search is A* with keys ``g + eps * h``. The heuristic ``h`` is the exact solution of a
-relaxed problem solved once on the 2-D grid of positions (a backward Dijkstra from the
+relaxed problem solved once on the 2-D grid of positions (a backward search from the
 goal): no turning, and every translation priced by a lower bound of its kernel cost over
-all headings. The bound is the project's one cheapest way to move along a heading
+all headings. The kernel prices a translation as a sum over its sub-steps (at each, the
+gradient interpolated from the DEM); the bound takes the same sub-steps, each priced by
+the project's one cheapest way to move along a heading
 (:class:`energy_planner.energy.heading.HeadingCost`: the least energy per metre over every
-body yaw, priced by the kernel's own gait cost), tabulated for each move direction over a
-grid of constant gradients ``g`` and minimised over neighbouring table nodes; a motion samples
-gradients interpolated from the DEM cells in its bounding box, so its energy is at least
-its length times the table's minimum over the box of those cells' gradients. A 1 % margin
-covers the table's spacing. Turns cost >= 0 (the model's power is clipped at 0), so ``h``
-never exceeds the search's cost to go: with ``eps = 1`` the path is optimal on these
-primitives (the same optimum as the full lattice); with ``eps > 1`` its energy is at most
-``eps`` times that optimum.
+body yaw, priced by the kernel's own gait cost) at that sub-step's own gradient, read
+from a table over a grid of gradients for each move direction (:func:`bound_table`) by
+bilinear interpolation. A 1 % margin covers the interpolation. Turns cost >= 0 (the
+model's power is clipped at 0), so ``h`` never exceeds the search's cost to go: with
+``eps = 1`` the path is optimal on these primitives (the same optimum as the full
+lattice); with ``eps > 1`` its energy is at most ``eps`` times that optimum, and at most
+``cost / h(start)`` times it (``info["certified"]``: the bound the run itself proves,
+usually far below ``eps``).
 
 Memory: one float32 ``g`` and one int8 code per state reached (5 bytes x headings per
 position the search reaches: the arrays are allocated untouched and the operating system
@@ -78,8 +80,6 @@ _IMPORT_LINE = (
 BOUND_MARGIN = 0.99
 #: Nodes per axis of the gradient table.
 TABLE_NODES = 96
-#: Levels per axis of its sparse table (blocks of up to 2^(levels - 1) nodes).
-SPARSE_LEVELS = 4
 
 
 def search_module(cost):
@@ -110,7 +110,7 @@ def _warm_up(mod, cost) -> None:
     lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
     moves = np.zeros((16, 2), i8)
     keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
-    table = np.zeros((16, 1, 1, 2, 2), np.float32)
+    table = np.zeros((16, 2, 2), np.float32)
     tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.heuristic_chunk(
         cost.data[IN_GRAD], cost.data[IN_BLOCKED], np.zeros((1, 1), np.uint8), _geo(cost),
@@ -137,7 +137,8 @@ def _warm_up(mod, cost) -> None:
         np.zeros((16, 6), np.float32), lat, 16, moves, np.zeros((16, 4), i8), np.zeros(1),
         np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
     )  # fmt: skip
-    mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 0.0, 0.0, 0.0, 0.0, table, 0, *tgeo)
+    mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, table,
+                   np.zeros(16), 0, *tgeo)  # fmt: skip
 
 
 @dataclass
@@ -165,7 +166,9 @@ class SearchResult:
     heuristic_s, search_s : float
         Wall time of the relaxed problem and of the search, s.
     info : dict
-        Lower bound ``h`` at the start (``h_start``) and other details.
+        Lower bound ``h`` at the start (``h_start``, J: no path on the primitives costs
+        less), ``certified`` (``cost / h_start``: the path's cost is at most this times
+        the optimum, whatever ``eps``) and other details.
     """
 
     states: np.ndarray
@@ -269,26 +272,28 @@ class _Grid:
 
 
 def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TABLE_NODES):
-    """Least J per metre of each move direction on constant-gradient ground.
+    """Least J per map metre of each move direction at each node of a grid of gradients.
 
     For every gradient ``(gx, gy)`` on a ``nodes x nodes`` grid spanning the terrain's
     gradients (clipped to the slope limit), and every move direction ``m`` of
-    :data:`~energy_planner.planning.lattice.MOVES_16`, the kernel's energy of a short
-    translation in direction ``m`` at each heading allowed to make it (``move_ok``), on a
-    synthetic map of that constant gradient, divided by its length, minimised over
-    headings (``gradient_table(..., spread=False)``); values between nodes are covered
-    by the range query, which takes the least over the nodes bracketing a box of
-    gradients.
+    :data:`~energy_planner.planning.lattice.MOVES_16` that some heading may make
+    (``move_ok``), the cheapest way to move in that direction on ground of that gradient
+    over every body yaw the gait limits allow
+    (:class:`energy_planner.energy.heading.HeadingCost`, its table looked up bilinearly:
+    the energy map's ``best``). The search's edge bound (:func:`_search.edge_bound`)
+    interpolates it bilinearly at each sample of a motion, and scales the sum by
+    :data:`BOUND_MARGIN` (which covers both interpolations; the kernel is checked to be
+    above it in ``tests/test_planning_search.py``).
 
     Returns
     -------
-    table : ndarray of float32, shape (16, L, L, nodes, nodes)
-        J per metre (rounded down), ``inf`` where no heading can move (limits), as a sparse
-        table for range minima: ``table[m, a, b, i, j]`` is the minimum over nodes
-        ``[i, i + 2^a) x [j, j + 2^b)``.
+    table : ndarray of float32, shape (16, nodes, nodes)
+        J per metre (rounded down), ``inf`` where no heading can move (limits) or the node
+        is steeper than the slope limit.
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
+    from energy_planner.energy.heading import HeadingCost
     from energy_planner.planning.moves import MOVES_16
 
     grad = cost.data[IN_GRAD]
@@ -298,7 +303,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     if getattr(getattr(cost, "channels", None), "rasters", None):
         # channel rasters vary over the map: the constant-gradient table cannot bound
         # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
-        zero = np.zeros((len(MOVES_16), 1, 1, 2, 2), np.float32)
+        zero = np.zeros((len(MOVES_16), 2, 2), np.float32)
         return zero, np.array([-1e6, -1e6, 2e6, 2e6])
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
@@ -306,8 +311,36 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     lo = np.array([float(np.min(v, where=fin, initial=np.inf)) for v in (gx, gy)])
     hi = np.array([float(np.max(v, where=fin, initial=-np.inf)) for v in (gx, gy)])
     del fin
-    table, tgeo = gradient_table(cost, headings, move_ok, lo, hi, nodes, spread=False)
-    return _sparse_table(table), tgeo
+    heading = HeadingCost.of_motion_cost(cost)
+    lo, hi, tgeo = _table_grid(lo, hi, heading.tmax, nodes)
+    GX, GY = np.meshgrid(lo[0] + tgeo[2] * np.arange(nodes), lo[1] + tgeo[3] * np.arange(nodes),
+                         indexing="ij")  # fmt: skip
+    dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
+    along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
+    best = np.empty_like(along)
+    heading.map_bands(GX, GY, np.zeros((0, nodes, nodes)), dirs, along, best)
+    table = best.astype(np.float64)
+    table[~move_ok.any(axis=0)] = np.inf
+    table = np.maximum(table, 0.0)
+    # float32, each value rounded down so that it stays a lower bound
+    t32 = table.astype(np.float32)
+    up = t32.astype(np.float64) > table
+    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
+    return np.ascontiguousarray(t32), tgeo
+
+
+def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
+    """The gradient grid of a table: ``lo .. hi`` clipped to ``+-tmax``, 1 % wider."""
+    lo = np.asarray(lo, dtype=np.float64).copy()
+    hi = np.asarray(hi, dtype=np.float64).copy()
+    if math.isfinite(tmax):
+        lo = np.maximum(lo, -tmax)
+        hi = np.minimum(hi, tmax)
+    span = np.maximum(hi - lo, 1e-6)
+    lo = lo - 0.01 * span
+    hi = hi + 0.01 * span
+    tdx, tdy = (hi - lo) / (nodes - 1)
+    return lo, hi, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
 
 
 def gradient_table(
@@ -317,25 +350,19 @@ def gradient_table(
     lo: np.ndarray,
     hi: np.ndarray,
     nodes: int = TABLE_NODES,
-    spread: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Least J per metre of each move direction over a box of constant gradients.
 
-    The table behind :func:`bound_table`, for any gradient box ``lo .. hi`` (``(gx, gy)``
-    m/m, east and north), clipped to the slope limit of ``cost``. Each node holds the
-    cheapest way to move in the move's direction on ground of that gradient, over every
-    body yaw the gait limits allow (:class:`energy_planner.energy.heading.HeadingCost`,
-    its lower bound: below the kernel's energy of any translation there at any heading,
-    so also below the lattice headings that may make the move), then the least over the
-    3 x 3 neighbouring nodes (so values between nodes are covered). Its minimum is a
-    lower bound of the energy per metre of any translation on ground whose gradients lie
-    in the box (the corridor planner's ellipse and the windowed reach use it).
-
-    With ``spread=False`` (:func:`bound_table`) each node holds its own bound, without
-    the 3 x 3 minimum: the search's range queries (:func:`_search.edge_bound`) already
-    take the least over every node of the cells that bracket a box of gradients, so the
-    extra ring only loosened the bound (on 45-degree flanks the bound was 10-18 % under
-    the kernel, without the ring 5-9 %).
+    For any gradient box ``lo .. hi`` (``(gx, gy)`` m/m, east and north), clipped to the
+    slope limit of ``cost``. Each node holds the cheapest way to move in the move's
+    direction on ground of that gradient, over every body yaw the gait limits allow
+    (:class:`energy_planner.energy.heading.HeadingCost`, its lower bound: below the
+    kernel's energy of any translation there at any heading, so also below the lattice
+    headings that may make the move), then the least over the 3 x 3 neighbouring nodes
+    (so values between nodes are covered). Its minimum is a lower bound of the energy
+    per metre of any translation on ground whose gradients lie in the box (the corridor
+    planner's ellipse and the windowed reach use it; the search's own table, priced at
+    each sample of a motion, is :func:`bound_table`).
 
     Returns
     -------
@@ -350,18 +377,10 @@ def gradient_table(
     from energy_planner.planning.moves import MOVES_16
 
     heading = HeadingCost.of_motion_cost(cost)
-    lo = np.asarray(lo, dtype=np.float64).copy()
-    hi = np.asarray(hi, dtype=np.float64).copy()
     tmax = heading.tmax
-    if math.isfinite(tmax):
-        lo = np.maximum(lo, -tmax)
-        hi = np.minimum(hi, tmax)
-    span = np.maximum(hi - lo, 1e-6)
-    lo = lo - 0.01 * span
-    hi = hi + 0.01 * span
-    tdx, tdy = (hi - lo) / (nodes - 1)
-    gxs = lo[0] + tdx * np.arange(nodes)
-    gys = lo[1] + tdy * np.arange(nodes)
+    lo, hi, tgeo = _table_grid(lo, hi, tmax, nodes)
+    gxs = lo[0] + tgeo[2] * np.arange(nodes)
+    gys = lo[1] + tgeo[3] * np.arange(nodes)
     GX, GY = np.meshgrid(gxs, gys, indexing="ij")
     walkable = GX**2 + GY**2 <= tmax**2 if math.isfinite(tmax) else np.ones(GX.shape, bool)
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
@@ -371,39 +390,9 @@ def gradient_table(
             # nodes steeper than the limit cannot be walked: inf without pricing them
             best = np.full(GX.shape, np.inf)
             best[walkable] = heading.lower_bound(GX[walkable], GY[walkable], ang)
-            table[m] = minimum_filter(best, size=3, mode="nearest") if spread else best
+            table[m] = minimum_filter(best, size=3, mode="nearest")
     table = np.maximum(table, 0.0)
-    return table, np.array([lo[0], lo[1], tdx, tdy], dtype=np.float64)
-
-
-def _sparse_table(table: np.ndarray) -> np.ndarray:
-    """``st[m, a, b, i, j]`` = min of ``table[m]`` over ``[i, i + 2^a) x [j, j + 2^b)``.
-
-    Examples
-    --------
-    >>> t = np.arange(16.0).reshape(1, 4, 4)[:, ::-1, ::-1].copy()
-    >>> st = _sparse_table(t)
-    >>> float(st[0, 1, 1, 1, 2]), float(t[0, 1:3, 2:4].min())
-    (4.0, 4.0)
-    """
-    M, K, _ = table.shape
-    # blocks up to 8 nodes a side (a wider range is read as several blocks): 16 levels
-    # instead of 49 at 96 nodes, a third of the memory
-    L = max(1, min(int(math.floor(math.log2(K))) + 1, SPARSE_LEVELS))
-    # float32 (half the memory: 29 MB at 96 nodes), each value rounded down so that it
-    # stays a lower bound
-    t32 = table.astype(np.float32)
-    up = t32.astype(np.float64) > table
-    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
-    st = np.full((M, L, L, K, K), np.inf, dtype=np.float32)
-    st[:, 0, 0] = t32
-    for a in range(1, L):
-        w = 1 << (a - 1)
-        st[:, a, 0, : K - w] = np.minimum(st[:, a - 1, 0, : K - w], st[:, a - 1, 0, w:])
-    for b in range(1, L):
-        w = 1 << (b - 1)
-        st[:, :, b, :, : K - w] = np.minimum(st[:, :, b - 1, :, : K - w], st[:, :, b - 1, :, w:])
-    return np.ascontiguousarray(st)
+    return table, tgeo
 
 
 def _geo(cost) -> np.ndarray:
@@ -451,7 +440,7 @@ def relaxed_cost_to_go(
     progress: bool = False,
     deadline: float = math.inf,
     stop_p: int = -1,
-    stop_factor: float = 1.1,
+    stop_factor: float = 1.04,
     table: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The admissible heuristic: least relaxed cost from every position to ``goal_p``.
@@ -699,7 +688,14 @@ def search_plan(
         states_total=grid.P * grid.H,
         heuristic_s=t1 - t0,
         search_s=t2 - t1,
-        info={"h_start": float(h2d[ps]), "positions": grid.P},
+        info={
+            "h_start": float(h2d[ps]),
+            "positions": grid.P,
+            # h(start) is a lower bound of the optimum: cost / h(start) bounds the ratio
+            "certified": total / float(h2d[ps])
+            if h2d[ps] > 0
+            else (1.0 if total <= 0 else math.inf),
+        },
     )
 
 
