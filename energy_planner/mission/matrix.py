@@ -98,7 +98,7 @@ def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
 
 
 def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
-               max_energy, edges):  # fmt: skip
+               max_energy, edges, eps):  # fmt: skip
     """The rows of ``starts`` (``edges``: the shared edge table, or None)."""
     from energy_planner.planning.search import targets_search
 
@@ -106,29 +106,36 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets
     rows = []
     for p in starts:
         r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
-                           edges=edges)  # fmt: skip
+                           edges=edges, eps=eps)  # fmt: skip
         rows.append((r.energy, r.expanded, r.states_total))
     return rows
 
 
-def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
-    """Whether the edge table of the window fits: half the memory cap per process."""
+def _use_edges(terrain, box, n_headings, edge_cache, eps) -> bool:
+    """Whether to price the window's edge table: ``eps == 1`` and it fits.
+
+    It fits in half the memory cap per process. With ``eps > 1`` the weighted searches
+    expand a narrow band along the ways to the sites (a few % of the window's states,
+    :func:`matrix_search`), so pricing their edges on demand costs less than the table.
+    """
     from energy_planner.planning.search import EDGE_BYTES_PER_STATE
     from energy_planner.terrain.memory import resolve_cap
 
     if edge_cache is not None:
         return bool(edge_cache)
+    if eps != 1.0:
+        return False
     cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
     cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
     return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.5 * resolve_cap()
 
 
 def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
-         edge_cache):  # fmt: skip
+         edge_cache, eps):  # fmt: skip
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
-    use_edges = _use_edges(terrain, box, n_headings, edge_cache)
+    use_edges = _use_edges(terrain, box, n_headings, edge_cache, eps)
     t0 = time.perf_counter()
     args = (n_headings, box, anchor)
     if client is not None:
@@ -160,7 +167,7 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         # one batch of rows per worker thread
         batches = [uxy[b::nb] for b in range(nb)]
         futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
-                              max_energy, edges_f, pure=False) for b in batches]  # fmt: skip
+                              max_energy, edges_f, eps, pure=False) for b in batches]  # fmt: skip
         got = client.gather(futs)
         del futs, heur_f, edges_f
         rows = [None] * n
@@ -180,7 +187,7 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         rows = []
         for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
             r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy,
-                               edges=edges)  # fmt: skip
+                               edges=edges, eps=eps)  # fmt: skip
             rows.append((r.energy, r.expanded, r.states_total))
         del edges
     E = np.array([r[0] for r in rows]).reshape(n, n)
@@ -252,6 +259,7 @@ def matrix_search(
     client: Any = None,
     window: bool = True,
     edge_cache: bool | None = None,
+    eps: float = 1.0,
     progress: bool = False,
 ) -> MatrixResult:
     """Least energy between every ordered pair of sites, one early-stopped search per site.
@@ -280,6 +288,12 @@ def matrix_search(
         searches (72 bytes per state per process; default: when that takes at most half
         the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
         Without it each search prices its edges itself (the same kernel call).
+        Default with ``eps > 1``: no table (see :func:`_use_edges`).
+    eps : float
+        Heuristic weight >= 1 of every search (as ``plan``'s ``eps``): each entry is at
+        most ``eps`` times the least energy between the two sites (1: the least energy;
+        the plan's default :data:`~energy_planner.planning.plan.DEFAULT_EPS` expands
+        far fewer states on a large map).
     progress : bool
         A progress bar over the sites on stderr (serial).
 
@@ -291,12 +305,17 @@ def matrix_search(
     ------
     InvalidStateError
         If a site is off the map or breaks a limit at every heading.
+    PlanningConfigError
+        If ``eps`` is below 1 or not finite.
     """
+    from energy_planner.errors import PlanningConfigError
     from energy_planner.planning.limits import check_endpoint
     from energy_planner.planning.moves import terrain_extent
     from energy_planner.problem import Problem
     from energy_planner.request import Request
 
+    if not (eps >= 1.0 and math.isfinite(eps)):
+        raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
     request = Request() if request is None else request
     rc = sites.cells(terrain)
     prob = Problem(terrain, model, request)
@@ -321,7 +340,7 @@ def matrix_search(
         proven = box == full
     while True:
         E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress,
-                     edge_cache)  # fmt: skip
+                     edge_cache, float(eps))  # fmt: skip
         passes += 1
         stats.append(st)
         if proven:

@@ -857,6 +857,7 @@ def targets_search(
     time_budget: float = math.inf,
     chunk: int = 4096,
     edges: np.ndarray | None = None,
+    eps: float = 1.0,
 ) -> TargetsResult:
     """Least energy from ``start_xy`` (any initial heading) to each of several targets.
 
@@ -895,12 +896,20 @@ def targets_search(
     edges : ndarray, optional
         Every edge's cost from :func:`edge_table` on ``grid`` (shared by the searches from
         several starts: each edge priced once instead of once per search); None: edges
-        priced on demand.
+        priced on demand (then ``g`` and the codes are mapped page by page as the search
+        reaches them, as :func:`search_plan`'s).
+    eps : float
+        Heuristic weight >= 1 (keys ``g + eps * h``, as :func:`search_plan`'s). Each
+        target's energy is then at most ``eps`` times its optimum: the weighted A*
+        bound holds for each target, since the least of the remaining targets' bounds is
+        a consistent lower bound of the cost to each of them (with 1 the optimum).
 
     Returns
     -------
     TargetsResult
     """
+    if not (eps >= 1.0 and math.isfinite(eps)):
+        raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
     t0 = time.perf_counter()
     mod = search_module(cost)
     H = grid.H
@@ -910,11 +919,17 @@ def targets_search(
     energy = np.full(len(tp), np.inf)
     remaining = [k for k in range(len(tp)) if math.isfinite(heuristics[k, ps])]
     hs = _start_states(cost, grid, ps, None, "start")
-    g = np.full(grid.P * H, np.inf, dtype=np.float32)
-    code = np.full(grid.P * H, -1, dtype=np.int8)
+    if edges is None:  # astar_chunk reads g only where the code says reached
+        g = _untouched(grid.P * H, np.float32)
+        code = _untouched(grid.P * H, np.int8, zero=True)
+    else:  # astar_cached_chunk compares with g everywhere
+        g = np.full(grid.P * H, np.inf, dtype=np.float32)
+        code = np.full(grid.P * H, -1, dtype=np.int8)
     heap = _Heap(1 << 16)
     h2d = np.empty(grid.P)
     mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+    if eps != 1.0:  # the kernels key g + h2d: h2d holds eps * h
+        h2d *= eps
     for h in hs:
         s = ps * H + int(h)
         g[s] = 0.0
@@ -957,6 +972,8 @@ def targets_search(
                 remaining = [int(k) for k in rem[~hit]]
                 if remaining:
                     mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+                    if eps != 1.0:
+                        h2d *= eps
                     mod.rekey(heap.keys, heap.vals, heap.n, g, code, h2d, H)
             if status in (mod.EXHAUSTED, mod.FOUND):
                 break
