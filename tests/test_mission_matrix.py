@@ -106,6 +106,23 @@ def test_weighted_matrix_expands_fewer_states(tilted, model):
     assert np.all(ratio >= 1 - RTOL) and np.all(ratio <= 1.05 * (1 + RTOL))
 
 
+def test_lazy_edge_cache_prices_each_state_once_and_keeps_the_optimum(knoll, model,
+                                                                      monkeypatch):  # fmt: skip
+    """A cache filled as the rows expand states: the full search's matrix, fewer prices."""
+    s = _sites(knoll, [(3, 20), (13, 10), (20, 3), (4, 4)])
+    full = _full_matrix(knoll, model, s)
+    monkeypatch.setattr(mx, "_table_fits", lambda *a: False)  # as on a map too large for it
+    lazy = matrix_search(knoll, model, s, window=False)
+    own = matrix_search(knoll, model, s, window=False, edge_cache=False)
+    assert lazy.info["edges"] == "lazy" and own.info["edges"] == "on demand"
+    np.testing.assert_allclose(lazy.energy_j, full, rtol=RTOL)
+    np.testing.assert_allclose(own.energy_j, full, rtol=RTOL)
+    # each state's 18 edges at most once over the four rows; the rows alone price more
+    assert lazy.info["priced"] <= 18 * lazy.info["states_total"]
+    assert lazy.info["priced"] < own.info["priced"]
+    assert lazy.info["expanded"] == own.info["expanded"]
+
+
 def test_window_is_proven_smaller_than_the_map_and_exact(tilted, model, monkeypatch):
     monkeypatch.setattr(mx, "WINDOW_MIN_CELLS", 6)  # a small map: a narrow first window
     s = _sites(tilted, [(15, 15), (23, 17), (17, 23)])

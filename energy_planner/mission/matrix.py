@@ -67,7 +67,9 @@ class MatrixResult:
         ``window`` (the box searched, working CRS), ``whole_map``, ``proven``,
         ``c_min_j_per_m``, ``passes``, ``expanded`` (states, all rows and passes),
         ``states_total`` (positions x headings x rows of the last pass), ``heuristic_s``,
-        ``search_s`` (edge table included), ``edge_table`` (used), ``edge_table_s``.
+        ``search_s`` (edge table included), ``edge_table`` (used), ``edges`` (``"table"``,
+        ``"lazy"`` or ``"on demand"``, :func:`_edge_mode`), ``priced`` (edges priced by
+        the searches, all passes; the table's not counted), ``edge_table_s``.
     """
 
     energy_j: np.ndarray
@@ -98,33 +100,43 @@ def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
 
 
 def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
-               max_energy, edges, eps):  # fmt: skip
-    """The rows of ``starts`` (``edges``: the shared edge table, or None)."""
-    from energy_planner.planning.search import targets_search
+               max_energy, edges, eps, lazy):  # fmt: skip
+    """The rows of ``starts``.
+
+    ``edges``: the shared edge table, or None; ``lazy``: one edge cache for these rows.
+    """
+    from energy_planner.planning.search import edge_cache, targets_search
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    cache = edge_cache(grid) if lazy else None
     rows = []
     for p in starts:
         r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
-                           edges=edges, eps=eps)  # fmt: skip
-        rows.append((r.energy, r.expanded, r.states_total))
+                           edges=edges, eps=eps, cache=cache)  # fmt: skip
+        rows.append((r.energy, r.expanded, r.states_total, r.priced))
     return rows
 
 
-def _use_edges(terrain, box, n_headings, edge_cache, eps) -> bool:
-    """Whether to price the window's edge table: ``eps == 1`` and it fits.
+def _edge_mode(terrain, box, n_headings, edge_cache, eps) -> str:
+    """How the searches get their edges: ``"table"``, ``"lazy"`` or ``"on demand"``.
 
-    It fits in half the memory cap per process. With ``eps > 1`` the weighted searches
-    expand a narrow band along the ways to the sites (a few % of the window's states,
-    :func:`matrix_search`), so pricing their edges on demand costs less than the table.
+    ``edge_cache`` True: the window's whole table; False: each search prices its own.
+    Default: the whole table when ``eps == 1`` and it fits (half the memory cap per
+    process), else the lazy cache (:func:`~energy_planner.planning.search.edge_cache`:
+    a state's edges priced when a search first expands it, shared by the next rows). With
+    ``eps > 1`` the weighted searches expand narrow bands along the ways to the sites (a
+    few % of the window's states per row on a large map), so most of the table would
+    never be read.
     """
+    if edge_cache is not None:
+        return "table" if edge_cache else "on demand"
+    return "table" if eps == 1.0 and _table_fits(terrain, box, n_headings) else "lazy"
+
+
+def _table_fits(terrain, box, n_headings) -> bool:
     from energy_planner.planning.search import EDGE_BYTES_PER_STATE
     from energy_planner.terrain.memory import resolve_cap
 
-    if edge_cache is not None:
-        return bool(edge_cache)
-    if eps != 1.0:
-        return False
     cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
     cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
     return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.5 * resolve_cap()
@@ -135,7 +147,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
-    use_edges = _use_edges(terrain, box, n_headings, edge_cache, eps)
+    mode = _edge_mode(terrain, box, n_headings, edge_cache, eps)
+    use_edges, lazy = mode == "table", mode == "lazy"
     t0 = time.perf_counter()
     args = (n_headings, box, anchor)
     if client is not None:
@@ -167,7 +180,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         # one batch of rows per worker thread
         batches = [uxy[b::nb] for b in range(nb)]
         futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
-                              max_energy, edges_f, eps, pure=False) for b in batches]  # fmt: skip
+                              max_energy, edges_f, eps, lazy, pure=False)
+                for b in batches]  # fmt: skip
         got = client.gather(futs)
         del futs, heur_f, edges_f
         rows = [None] * n
@@ -177,19 +191,21 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
     else:
         from tqdm import tqdm
 
-        from energy_planner.planning.search import edge_table, target_heuristics, targets_search
+        from energy_planner.planning import search
 
         cost, grid = _setup(terrain, model, request, *args)
-        heur = target_heuristics(cost, grid, uxy)
+        heur = search.target_heuristics(cost, grid, uxy)
         t1 = time.perf_counter()
-        edges = edge_table(cost, grid) if use_edges else None
+        edges = search.edge_table(cost, grid) if use_edges else None
+        cache = search.edge_cache(grid) if lazy else None
         t_edges = time.perf_counter() - t1
         rows = []
         for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
-            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy,
-                               edges=edges, eps=eps)  # fmt: skip
-            rows.append((r.energy, r.expanded, r.states_total))
-        del edges
+            r = search.targets_search(cost, grid, tuple(uxy[i]), uxy, heur,
+                                      max_energy=max_energy, edges=edges, eps=eps,
+                                      cache=cache)  # fmt: skip
+            rows.append((r.energy, r.expanded, r.states_total, r.priced))
+        del edges, cache
     E = np.array([r[0] for r in rows]).reshape(n, n)
     np.fill_diagonal(E, 0.0)
     return E, {
@@ -198,6 +214,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         "heuristic_s": t1 - t0,
         "search_s": time.perf_counter() - t1,
         "edge_table": use_edges,
+        "edges": mode,
+        "priced": int(sum(r[3] for r in rows)),
         "edge_table_s": t_edges if use_edges else 0.0,
     }
 
@@ -288,7 +306,8 @@ def matrix_search(
         searches (72 bytes per state per process; default: when that takes at most half
         the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
         Without it each search prices its edges itself (the same kernel call).
-        Default with ``eps > 1``: no table (see :func:`_use_edges`).
+        Default: the table with ``eps = 1`` when it fits, else a cache filled as the
+        searches expand states (:func:`_edge_mode`).
     eps : float
         Heuristic weight >= 1 of every search (as ``plan``'s ``eps``): each entry is at
         most ``eps`` times the least energy between the two sites (1: the least energy;
@@ -364,6 +383,8 @@ def matrix_search(
         "heuristic_s": sum(s["heuristic_s"] for s in stats),
         "search_s": sum(s["search_s"] for s in stats),
         "edge_table": stats[-1]["edge_table"],
+        "edges": stats[-1]["edges"],
+        "priced": sum(s["priced"] for s in stats),
         "edge_table_s": sum(s["edge_table_s"] for s in stats),
     }
     return MatrixResult(out, info)
