@@ -93,6 +93,14 @@ def _extrapolate(rows: list[dict], target: int) -> tuple[float, float]:
     return float(k), math.exp(loga) * float(target) ** (2 * k)
 
 
+def _note(text: str) -> None:
+    """A line on stderr as each stage ends (a long run keeps what it measured)."""
+    import sys
+
+    print(f"[{time.strftime('%H:%M:%S')} load {os.getloadavg()[0]:.1f}] {text}",
+          file=sys.stderr, flush=True)  # fmt: skip
+
+
 def _peak_rss_gb() -> float:
     """Peak resident memory of the calling process, GB (Linux: ru_maxrss in kB)."""
     import resource
@@ -130,11 +138,13 @@ def main(argv: list[str] | None = None) -> dict:
     old = None
     if a.old_sizes:
         old = _old_method([int(v) for v in a.old_sizes.split(",")], a.size, a.sites, model)
+        _note(f"old method {old}")
     t0 = time.perf_counter()
     res = matrix_search(ter, model, sites, eps=a.eps)
     t_serial = time.perf_counter() - t0
     rss_serial = _peak_rss_gb()
     serial = res.energy_j
+    _note(f"serial {t_serial:.1f} s, peak RSS {rss_serial:.2f} GB, {res.info}")
 
     t_full = d_full = None
     k = max(0, min(a.full_sites, a.sites))
@@ -162,6 +172,7 @@ def main(argv: list[str] | None = None) -> dict:
         par = matrix_search(ter, model, sites, client=client, eps=a.eps).energy_j
         t_dask = time.perf_counter() - t0
         rss_workers = sorted(client.run(_peak_rss_gb).values())
+    _note(f"dask {t_dask:.1f} s, workers' peak RSS {rss_workers} GB")
     d_dask = float(np.max(np.abs(np.where(np.isfinite(serial), serial - par, 0.0))))
     same_inf = bool(np.array_equal(np.isinf(serial), np.isinf(par)))
 
@@ -180,6 +191,7 @@ def main(argv: list[str] | None = None) -> dict:
             leg[f"{name}_s"] = time.perf_counter() - t0
             leg[f"rel_diff_{name}"] = float(serial[i, j] / p.energy_j - 1.0)
         legs.append(leg)
+        _note(f"leg {leg}")
     out = {
         "size": a.size,
         "sites": a.sites,
@@ -205,6 +217,8 @@ def main(argv: list[str] | None = None) -> dict:
         "heuristic_s": res.info["heuristic_s"],
         "search_s": res.info["search_s"],
         "edge_table": res.info["edge_table"],
+        "edges": res.info["edges"],
+        "priced": res.info["priced"],
         "edge_table_s": res.info["edge_table_s"],
     }
     if a.json:
@@ -227,9 +241,10 @@ def main(argv: list[str] | None = None) -> dict:
     if t_full is not None:
         name = f"before: full Dijkstra per site ({k} timed)"
         print(f"{name:<58} {t_full:>8.1f} {t_full / t_serial:>7.2f}")
-    print(f"states expanded {res.info['expanded']:,} of {res.info['states_total']:,} per row "
-          f"x {a.sites} rows ({res.info['expanded'] / res.info['states_total'] / a.sites:.2%}"
-          f" per row); serial: heuristics {res.info['heuristic_s']:.1f} s, edge table "
+    print(f"states expanded {res.info['expanded']:,} of {res.info['states_total']:,} "
+          f"(positions x headings x rows: {res.info['expanded'] / res.info['states_total']:.2%}"
+          f"), edges priced {res.info['priced']:,} ({res.info['edges']}); serial: heuristics "
+          f"{res.info['heuristic_s']:.1f} s, edge table "
           f"{res.info['edge_table_s']:.1f} s, searches "
           f"{res.info['search_s'] - res.info['edge_table_s']:.1f} s; window "
           f"{'= the map' if res.info['whole_map'] else res.info['window']}")  # fmt: skip
