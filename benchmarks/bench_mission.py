@@ -61,11 +61,27 @@ def _problem(size: int, n_sites: int, seed: int = 0):
 
 
 def _warm(ter, model, sites, client=None) -> None:
-    """Compile the kernels (not timed): a two-site matrix."""
+    """Compile the kernels (not timed): a two-site matrix in a small window.
+
+    The first site and a point 5 cells from it, each way of pricing edges (the table at
+    eps 1, the lazy cache at eps > 1).
+    """
     from energy_planner.mission import Sites
     from energy_planner.mission.matrix import matrix_search
 
-    matrix_search(ter, model, Sites(sites.xy[:2], ["w0", "w1"]), client=client)
+    p = sites.xy[0]
+    q = p + np.where(p < np.array(ter_extent(ter)[:2]), 5.0, -5.0)
+    two = Sites(np.array([p, q]), ["w0", "w1"]).on_cells(ter)
+    for eps in (1.0, 1.05):
+        matrix_search(ter, model, two, client=client, eps=eps)
+
+
+def ter_extent(ter) -> tuple[float, float, float, float]:
+    """(x centre, y centre, width, height) of the map (working CRS)."""
+    from energy_planner.planning.moves import terrain_extent
+
+    xmin, xmax, ymin, ymax = terrain_extent(ter)
+    return (xmin + xmax) / 2, (ymin + ymax) / 2, xmax - xmin, ymax - ymin
 
 
 def _old_method(sizes: list[int], target: int, n_sites: int, model) -> dict:

@@ -199,3 +199,24 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout[r.stdout.index("{") :])
     np.testing.assert_allclose(np.array(out["matrix_j"], float), serial, rtol=RTOL)
+
+
+def test_mission_command_takes_eps(tmp_path, knoll, model):
+    """``mission --eps``: the weighted matrix and legs; below 1 a usage error (exit 2)."""
+    from energy_planner.cli import main
+    from energy_planner.io import write_geotiff
+
+    s = _sites(knoll, [(3, 20), (20, 3), (13, 10)])
+    dem = tmp_path / "knoll.tif"
+    write_geotiff(dem, knoll.elevation, transform=knoll.transform, crs=knoll.crs)
+    (tmp_path / "sites.csv").write_text("x,y,name\n" + "".join(
+        f"{x},{y},s{k}\n" for k, (x, y) in enumerate(s.xy)))  # fmt: skip
+    args = ["mission", "--dem", str(dem), "--sites", str(tmp_path / "sites.csv"), "--json"]
+    r = CliRunner().invoke(main, [*args, "--eps", "1.05"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout[r.stdout.index("{") :])
+    assert out["eps"] == 1.05
+    np.testing.assert_allclose(np.array(out["matrix_j"], float),
+                               energy_matrix(knoll, model, s, eps=1.05), rtol=RTOL)  # fmt: skip
+    bad = CliRunner().invoke(main, [*args, "--eps", "0.5"])
+    assert bad.exit_code == 2 and "--eps" in bad.output and "Traceback" not in bad.output
