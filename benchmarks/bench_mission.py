@@ -137,7 +137,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--eps", type=float, default=DEFAULT_EPS, help="the searches' weight")
     ap.add_argument("--full-sites", type=int, default=0,
                     help="sites timed with a full reach (small maps only)")  # fmt: skip
-    ap.add_argument("--old-sizes", default="100,200",
+    ap.add_argument("--old-sizes", default="200,300,400",
                     help="DEM sizes timing the last session's method ('' to skip)")  # fmt: skip
     ap.add_argument("--legs", type=int, default=3, help="legs checked against plan")
     ap.add_argument("--scaling", default=None, help="comma-separated DEM sizes")
