@@ -118,9 +118,21 @@ def _note(text: str) -> None:
 
 
 def _peak_rss_gb() -> float:
-    """Peak resident memory of the calling process, GB (Linux: ru_maxrss in kB)."""
+    """Peak resident memory of the calling process, GB.
+
+    Linux: ``VmHWM`` of ``/proc/self/status``, the peak of this address space.
+    (``ru_maxrss`` is inherited across fork and exec: a dask worker spawned after the
+    serial run reported the parent's peak.) Elsewhere ``ru_maxrss`` (kB).
+    """
     import resource
 
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1e6
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
 
 
