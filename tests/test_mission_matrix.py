@@ -77,6 +77,52 @@ def test_early_stopped_matrix_equals_the_full_search(knoll, model, cells):
         assert res.info["expanded"] < res.info["states_total"]
 
 
+@settings(max_examples=3, deadline=None)
+@given(st.lists(st.tuples(st.integers(3, 20), st.integers(3, 20)), min_size=2, max_size=3,
+                unique=True), st.sampled_from([1.05, 1.5]))  # fmt: skip
+def test_weighted_matrix_is_within_eps_of_the_full_search(knoll, model, cells, eps):
+    """The weighted A* bound, per target: optimum <= entry <= eps * optimum."""
+    s = _sites(knoll, [(c + 0.0, r + 0.0) for c, r in cells])
+    full = _full_matrix(knoll, model, s)
+    res = matrix_search(knoll, model, s, eps=eps)
+    assert not res.info["edge_table"] and res.info["proven"]
+    E = res.energy_j
+    np.testing.assert_array_equal(np.isfinite(E), np.isfinite(full))
+    fin = np.isfinite(full) & (full > 0)
+    assert np.all(E[fin] >= full[fin] * (1 - RTOL))
+    assert np.all(E[fin] <= eps * full[fin] * (1 + RTOL))
+
+
+def test_weighted_matrix_expands_fewer_states(tilted, model):
+    """Across the tilted plane and back: eps > 1 expands fewer states for entries in bound."""
+    s = _sites(tilted, [(4, 6), (35, 33), (6, 34)])
+    full = _full_matrix(tilted, model, s)
+    exact = matrix_search(tilted, model, s, window=False, edge_cache=False)
+    weighted = matrix_search(tilted, model, s, window=False, eps=1.05)
+    np.testing.assert_allclose(exact.energy_j, full, rtol=RTOL)
+    assert weighted.info["expanded"] < exact.info["expanded"]
+    off = ~np.eye(3, dtype=bool)
+    ratio = weighted.energy_j[off] / full[off]
+    assert np.all(ratio >= 1 - RTOL) and np.all(ratio <= 1.05 * (1 + RTOL))
+
+
+def test_lazy_edge_cache_prices_each_state_once_and_keeps_the_optimum(knoll, model,
+                                                                      monkeypatch):  # fmt: skip
+    """A cache filled as the rows expand states: the full search's matrix, fewer prices."""
+    s = _sites(knoll, [(3, 20), (13, 10), (20, 3), (4, 4)])
+    full = _full_matrix(knoll, model, s)
+    monkeypatch.setattr(mx, "_table_fits", lambda *a: False)  # as on a map too large for it
+    lazy = matrix_search(knoll, model, s, window=False)
+    own = matrix_search(knoll, model, s, window=False, edge_cache=False)
+    assert lazy.info["edges"] == "lazy" and own.info["edges"] == "on demand"
+    np.testing.assert_allclose(lazy.energy_j, full, rtol=RTOL)
+    np.testing.assert_allclose(own.energy_j, full, rtol=RTOL)
+    # each state's 18 edges at most once over the four rows; the rows alone price more
+    assert lazy.info["priced"] <= 18 * lazy.info["states_total"]
+    assert lazy.info["priced"] < own.info["priced"]
+    assert lazy.info["expanded"] == own.info["expanded"]
+
+
 def test_window_is_proven_smaller_than_the_map_and_exact(tilted, model, monkeypatch):
     monkeypatch.setattr(mx, "WINDOW_MIN_CELLS", 6)  # a small map: a narrow first window
     s = _sites(tilted, [(15, 15), (23, 17), (17, 23)])
@@ -109,9 +155,10 @@ def test_window_grows_around_a_wall(tilted, model, monkeypatch, wall_half):
     np.testing.assert_allclose(res.energy_j, _full_matrix(tilted, model, s, req), rtol=RTOL)
 
 
-def test_rows_agree_with_plan_within_one_percent(knoll, model):
+@pytest.mark.parametrize("eps", [1.0, 1.05])
+def test_rows_agree_with_plan_within_one_percent(knoll, model, eps):
     s = _sites(knoll, [(3, 20), (13, 10), (20, 3)])
-    E = energy_matrix(knoll, model, s)
+    E = energy_matrix(knoll, model, s, eps=eps)
     for a, b in [(0, 2), (2, 0), (0, 1)]:  # across the knoll both ways, and onto its top
         p = plan(knoll, model, tuple(s.xy[a]), tuple(s.xy[b]), planner="search", eps=1.0,
                  progress=False)  # fmt: skip
@@ -142,10 +189,34 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
         address = cluster.scheduler_address
         with distributed.Client(address) as client:
             par = energy_matrix(knoll, model, s, client=client)
+            par_w = energy_matrix(knoll, model, s, client=client, eps=1.05)
         args = ["mission", "--dem", str(dem), "--sites", str(tmp_path / "sites.csv"),
                 "--order", "given", "--scheduler", address, "--json"]  # fmt: skip
         r = CliRunner().invoke(__import__("energy_planner.cli", fromlist=["main"]).main, args)
     np.testing.assert_array_equal(serial, par)
+    # the weighted searches too: no edge table, each row priced on demand the same way
+    np.testing.assert_array_equal(energy_matrix(knoll, model, s, eps=1.05), par_w)
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout[r.stdout.index("{") :])
     np.testing.assert_allclose(np.array(out["matrix_j"], float), serial, rtol=RTOL)
+
+
+def test_mission_command_takes_eps(tmp_path, knoll, model):
+    """``mission --eps``: the weighted matrix and legs; below 1 a usage error (exit 2)."""
+    from energy_planner.cli import main
+    from energy_planner.io import write_geotiff
+
+    s = _sites(knoll, [(3, 20), (20, 3), (13, 10)])
+    dem = tmp_path / "knoll.tif"
+    write_geotiff(dem, knoll.elevation, transform=knoll.transform, crs=knoll.crs)
+    (tmp_path / "sites.csv").write_text("x,y,name\n" + "".join(
+        f"{x},{y},s{k}\n" for k, (x, y) in enumerate(s.xy)))  # fmt: skip
+    args = ["mission", "--dem", str(dem), "--sites", str(tmp_path / "sites.csv"), "--json"]
+    r = CliRunner().invoke(main, [*args, "--eps", "1.05"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout[r.stdout.index("{") :])
+    assert out["eps"] == 1.05
+    np.testing.assert_allclose(np.array(out["matrix_j"], float),
+                               energy_matrix(knoll, model, s, eps=1.05), rtol=RTOL)  # fmt: skip
+    bad = CliRunner().invoke(main, [*args, "--eps", "0.5"])
+    assert bad.exit_code == 2 and "--eps" in bad.output and "Traceback" not in bad.output

@@ -66,6 +66,14 @@ def _text(res: dict[str, Any]) -> str:
     help="best: the least-energy order (exact up to 15 sites); given: as listed.",
 )
 @click.option("--return", "return_to_start", is_flag=True, help="Come back to the first site.")
+@options.value_option(
+    "--eps",
+    type=click.FloatRange(min=1.0),
+    default=1.0,
+    help="Heuristic weight of the per-site searches and of each leg's plan: every energy "
+    "at most EPS times the least (1: the least; plan's default 1.05 expands far fewer "
+    "states on a large map).",
+)
 @click.option(
     "--scheduler",
     help="Address of a dask.distributed scheduler to run the per-site searches on "
@@ -85,6 +93,7 @@ def command(
     sites: Path,
     order: str,
     return_to_start: bool,
+    eps: float,
     scheduler: str | None,
     model_path: Path | None,
     request: Request,
@@ -117,7 +126,8 @@ def command(
         client = Client(scheduler)
     try:
         res = mission(Problem(terrain, model, request), s, order=order,
-                      return_to_start=return_to_start, client=client, progress=True)  # fmt: skip
+                      return_to_start=return_to_start, eps=eps, client=client,
+                      progress=True)  # fmt: skip
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc
     finally:
@@ -125,6 +135,7 @@ def command(
             client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
+    out["eps"] = eps
     if trust.battery_wh is not None:
         out["battery_legs"] = res.battery(model, trust.battery_wh, trust.reserve_wh,
                                           trust.confidence)  # fmt: skip

@@ -220,13 +220,15 @@ def energy_matrix(
     n_headings: int = 16,
     max_energy: float | None = None,
     client: Any = None,
+    eps: float = 1.0,
     progress: bool = False,
 ) -> np.ndarray:
     """Least energy between every ordered pair of sites, one search per site.
 
     Each search stops once every other site is settled, inside a proven window around
     the sites (:func:`energy_planner.mission.matrix.matrix_search`, which also reports
-    the window and the states expanded); the entries equal a full search's.
+    the window and the states expanded); the entries equal a full search's (with
+    ``eps > 1``: at most ``eps`` times it).
 
     Parameters
     ----------
@@ -242,6 +244,8 @@ def energy_matrix(
         Stop each search at this energy (J); farther sites get ``inf``.
     client : distributed.Client, optional
         Run the searches on this dask cluster's workers (same result as serial).
+    eps : float
+        Heuristic weight of the searches, as ``plan``'s (1: the least energies).
     progress : bool
         A progress bar over the sites on stderr.
 
@@ -254,7 +258,7 @@ def energy_matrix(
 
     res = matrix_search(problem.terrain, problem.model, sites, problem.request,
                         n_headings=n_headings, max_energy=max_energy, client=client,
-                        progress=progress)  # fmt: skip
+                        eps=eps, progress=progress)  # fmt: skip
     return res.energy_j
 
 
@@ -288,7 +292,8 @@ def mission(
         Come back to the first site.
     planner, eps, n_headings
         The planner for each leg's path (default: the optimal search, whose energy equals
-        the matrix's).
+        the matrix's); ``eps`` weighs the matrix's searches too (each entry at most
+        ``eps`` times the least energy).
     client : distributed.Client, optional
         Run the per-site searches on a dask cluster.
     progress : bool
@@ -306,7 +311,8 @@ def mission(
 
         sites = read_sites(sites, terrain)
     sites = sites.on_cells(terrain)
-    E = energy_matrix(problem, sites, n_headings=n_headings, client=client, progress=progress)
+    E = energy_matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
+                      progress=progress)  # fmt: skip
     o, total, method = order_sites(E, order, return_to_start)
     if not math.isfinite(total):
         bad = [(sites.names[i], sites.names[j]) for i in range(len(E)) for j in range(len(E))

@@ -7,15 +7,29 @@ that stops as soon as every other site is settled. It is an A* toward all the ot
 sites at once, guided by the least of their relaxed costs-to-go (the bound ``plan``'s
 search uses, :func:`~energy_planner.planning.search.target_heuristics`, computed once per
 site and shared by every row). Its entries equal those of a full search (Dijkstra over
-the whole map, read at the sites) up to float rounding.
+the whole map, read at the sites) up to float rounding (with ``eps = 1``).
 
-**Edges priced once.** The cost of a search is the kernel pricing its edges (about ten
-per state expanded, each sampling the terrain every half cell with the model's power), not
-the heap. The sites' searches run on one lattice, so when it fits (72 bytes per state,
-:data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`) every edge of the window is
-priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of rows) and
-the searches read the prices (float32: the entries then agree with the on-demand search
-to float32 rounding).
+**Weighted (eps).** With ``eps > 1`` (``plan``'s default is 1.05) each search keys its
+states ``g + eps * h``: the weighted A* bound holds for every site at once (``h``, the
+least of the remaining sites' bounds, is a consistent lower bound of the cost to each of
+them), so each entry is at most ``eps`` times the least energy (the tests check it
+against the full search). On a large map this is what makes the matrix affordable: at
+eps 1 a search widens around every way to a site by the bound's slack (the relaxed
+bound is 4-6 % under the true cost on the hilly benchmark DEM), at 1.05 it keeps to
+narrow bands (20 sites, states expanded per row: 11 % at 200² against 20 % at eps 1;
+4.9 % at 500², 2.3 % at 1000²).
+
+**Edges priced once.** The cost of a search is the kernel pricing its edges (18 per state
+expanded, each sampling the terrain every half cell with the model's power), not the
+heap. The sites' searches run on one lattice, so with ``eps = 1`` when it fits (72 bytes
+per state, :data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`) every edge of
+the window is priced once (:func:`~energy_planner.planning.search.edge_table`, by strips
+of rows) and the searches read the prices (float32: the entries then agree with the
+on-demand search to float32 rounding). Otherwise (``eps > 1``, whose searches read a few
+% of the table, or a table too large) the searches share a cache filled as they go
+(:func:`~energy_planner.planning.search.edge_cache`): a state's edges are priced when a
+row first expands it and read by the later rows (per process; on dask, per batch of
+rows), and its memory follows the states expanded.
 
 **Window.** The searches stand inside a box around the sites, proven by the corridor's
 argument (:mod:`energy_planner.planning.corridor`): ``c_min`` bounds the energy per
@@ -23,7 +37,9 @@ metre of any translation from below (:func:`~energy_planner.planning.corridor.le
 over the terrain's gradients), so a path from site ``i`` to site ``j`` cheaper than the
 window's ``E[i, j]`` (a feasible path, an upper bound) has length at most
 ``E[i, j] / c_min`` and lies in the ellipse with foci ``i`` and ``j`` of that length. If
-every pair's ellipse lies inside the window, the window's matrix is the whole map's. If
+every pair's ellipse lies inside the window, the window's matrix is the whole map's
+(with ``eps > 1``: the whole map's least energy lies in the window, and each entry is
+at most ``eps`` times it). If
 not, the window grows to the ellipses' bounding box (clipped to the map) and the searches
 run again, which proves it. A pair without a path in the window, or ``c_min = 0``
 (channel rasters), takes the whole map.
@@ -67,7 +83,9 @@ class MatrixResult:
         ``window`` (the box searched, working CRS), ``whole_map``, ``proven``,
         ``c_min_j_per_m``, ``passes``, ``expanded`` (states, all rows and passes),
         ``states_total`` (positions x headings x rows of the last pass), ``heuristic_s``,
-        ``search_s`` (edge table included), ``edge_table`` (used), ``edge_table_s``.
+        ``search_s`` (edge table included), ``edge_table`` (used), ``edges`` (``"table"``,
+        ``"lazy"`` or ``"on demand"``, :func:`_edge_mode`), ``priced`` (edges priced by
+        the searches, all passes; the table's not counted), ``edge_table_s``.
     """
 
     energy_j: np.ndarray
@@ -98,37 +116,55 @@ def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
 
 
 def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
-               max_energy, edges):  # fmt: skip
-    """The rows of ``starts`` (``edges``: the shared edge table, or None)."""
-    from energy_planner.planning.search import targets_search
+               max_energy, edges, eps, lazy):  # fmt: skip
+    """The rows of ``starts``.
+
+    ``edges``: the shared edge table, or None; ``lazy``: one edge cache for these rows.
+    """
+    from energy_planner.planning.search import edge_cache, targets_search
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    cache = edge_cache(grid) if lazy else None
     rows = []
     for p in starts:
         r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
-                           edges=edges)  # fmt: skip
-        rows.append((r.energy, r.expanded, r.states_total))
+                           edges=edges, eps=eps, cache=cache)  # fmt: skip
+        rows.append((r.energy, r.expanded, r.states_total, r.priced))
     return rows
 
 
-def _use_edges(terrain, box, n_headings, edge_cache) -> bool:
-    """Whether the edge table of the window fits: half the memory cap per process."""
+def _edge_mode(terrain, box, n_headings, edge_cache, eps) -> str:
+    """How the searches get their edges: ``"table"``, ``"lazy"`` or ``"on demand"``.
+
+    ``edge_cache`` True: the window's whole table; False: each search prices its own.
+    Default: the whole table when ``eps == 1`` and it fits (half the memory cap per
+    process), else the lazy cache (:func:`~energy_planner.planning.search.edge_cache`:
+    a state's edges priced when a search first expands it, shared by the next rows). With
+    ``eps > 1`` the weighted searches expand narrow bands along the ways to the sites (a
+    few % of the window's states per row on a large map), so most of the table would
+    never be read.
+    """
+    if edge_cache is not None:
+        return "table" if edge_cache else "on demand"
+    return "table" if eps == 1.0 and _table_fits(terrain, box, n_headings) else "lazy"
+
+
+def _table_fits(terrain, box, n_headings) -> bool:
     from energy_planner.planning.search import EDGE_BYTES_PER_STATE
     from energy_planner.terrain.memory import resolve_cap
 
-    if edge_cache is not None:
-        return bool(edge_cache)
     cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
     cells = ((box[2] - box[0]) / cell + 1) * ((box[3] - box[1]) / cell + 1)
     return cells * n_headings * EDGE_BYTES_PER_STATE <= 0.5 * resolve_cap()
 
 
 def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
-         edge_cache):  # fmt: skip
+         edge_cache, eps):  # fmt: skip
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
-    use_edges = _use_edges(terrain, box, n_headings, edge_cache)
+    mode = _edge_mode(terrain, box, n_headings, edge_cache, eps)
+    use_edges, lazy = mode == "table", mode == "lazy"
     t0 = time.perf_counter()
     args = (n_headings, box, anchor)
     if client is not None:
@@ -160,7 +196,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         # one batch of rows per worker thread
         batches = [uxy[b::nb] for b in range(nb)]
         futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
-                              max_energy, edges_f, pure=False) for b in batches]  # fmt: skip
+                              max_energy, edges_f, eps, lazy, pure=False)
+                for b in batches]  # fmt: skip
         got = client.gather(futs)
         del futs, heur_f, edges_f
         rows = [None] * n
@@ -170,19 +207,21 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
     else:
         from tqdm import tqdm
 
-        from energy_planner.planning.search import edge_table, target_heuristics, targets_search
+        from energy_planner.planning import search
 
         cost, grid = _setup(terrain, model, request, *args)
-        heur = target_heuristics(cost, grid, uxy)
+        heur = search.target_heuristics(cost, grid, uxy)
         t1 = time.perf_counter()
-        edges = edge_table(cost, grid) if use_edges else None
+        edges = search.edge_table(cost, grid) if use_edges else None
+        cache = search.edge_cache(grid) if lazy else None
         t_edges = time.perf_counter() - t1
         rows = []
         for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
-            r = targets_search(cost, grid, tuple(uxy[i]), uxy, heur, max_energy=max_energy,
-                               edges=edges)  # fmt: skip
-            rows.append((r.energy, r.expanded, r.states_total))
-        del edges
+            r = search.targets_search(cost, grid, tuple(uxy[i]), uxy, heur,
+                                      max_energy=max_energy, edges=edges, eps=eps,
+                                      cache=cache)  # fmt: skip
+            rows.append((r.energy, r.expanded, r.states_total, r.priced))
+        del edges, cache
     E = np.array([r[0] for r in rows]).reshape(n, n)
     np.fill_diagonal(E, 0.0)
     return E, {
@@ -191,6 +230,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         "heuristic_s": t1 - t0,
         "search_s": time.perf_counter() - t1,
         "edge_table": use_edges,
+        "edges": mode,
+        "priced": int(sum(r[3] for r in rows)),
         "edge_table_s": t_edges if use_edges else 0.0,
     }
 
@@ -252,6 +293,7 @@ def matrix_search(
     client: Any = None,
     window: bool = True,
     edge_cache: bool | None = None,
+    eps: float = 1.0,
     progress: bool = False,
 ) -> MatrixResult:
     """Least energy between every ordered pair of sites, one early-stopped search per site.
@@ -280,6 +322,13 @@ def matrix_search(
         searches (72 bytes per state per process; default: when that takes at most half
         the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
         Without it each search prices its edges itself (the same kernel call).
+        Default: the table with ``eps = 1`` when it fits, else a cache filled as the
+        searches expand states (:func:`_edge_mode`).
+    eps : float
+        Heuristic weight >= 1 of every search (as ``plan``'s ``eps``): each entry is at
+        most ``eps`` times the least energy between the two sites (1: the least energy;
+        the plan's default :data:`~energy_planner.planning.plan.DEFAULT_EPS` expands
+        far fewer states on a large map).
     progress : bool
         A progress bar over the sites on stderr (serial).
 
@@ -291,12 +340,17 @@ def matrix_search(
     ------
     InvalidStateError
         If a site is off the map or breaks a limit at every heading.
+    PlanningConfigError
+        If ``eps`` is below 1 or not finite.
     """
+    from energy_planner.errors import PlanningConfigError
     from energy_planner.planning.limits import check_endpoint
     from energy_planner.planning.moves import terrain_extent
     from energy_planner.problem import Problem
     from energy_planner.request import Request
 
+    if not (eps >= 1.0 and math.isfinite(eps)):
+        raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
     request = Request() if request is None else request
     rc = sites.cells(terrain)
     prob = Problem(terrain, model, request)
@@ -321,7 +375,7 @@ def matrix_search(
         proven = box == full
     while True:
         E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress,
-                     edge_cache)  # fmt: skip
+                     edge_cache, float(eps))  # fmt: skip
         passes += 1
         stats.append(st)
         if proven:
@@ -345,6 +399,8 @@ def matrix_search(
         "heuristic_s": sum(s["heuristic_s"] for s in stats),
         "search_s": sum(s["search_s"] for s in stats),
         "edge_table": stats[-1]["edge_table"],
+        "edges": stats[-1]["edges"],
+        "priced": sum(s["priced"] for s in stats),
         "edge_table_s": sum(s["edge_table_s"] for s in stats),
     }
     return MatrixResult(out, info)

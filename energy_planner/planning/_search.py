@@ -665,3 +665,97 @@ def astar_cached_chunk(edges, lat, H, moves, moves_of, h2d, g, code, goal_p, key
                 code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
                 heap_push(keys, vals, n, ng + h2d[p], t)
     return EXHAUSTED, pops
+
+
+@numba.njit(cache=True)
+def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p, keys, vals,
+                     n, max_pops, max_key, edges, done):  # fmt: skip
+    """:func:`astar_cached_chunk` with the table filled on first need (a shared edge cache).
+
+    When state ``s`` is expanded and ``done[s]`` is 0, its row of ``edges`` (the columns of
+    :func:`edge_costs`: its translations, then the turns to ``h - 1`` and ``h + 1``) is
+    priced by the same kernel calls and ``done[s]`` set to 1; the expansion then reads the
+    row. Searches from several starts on the same lattice share ``edges`` and ``done``, so
+    each state's edges are priced at most once, and only for the states some search
+    expands. ``g`` is read only where ``code`` says reached (as :func:`astar_chunk`'s; the
+    caller may leave ``g``, ``edges`` unwritten and ``code``, ``done`` zero). Keys are
+    ``g + h2d``; ``goal_p`` < 0: no goal. Returns (code, pops, edges priced).
+    """
+    xs0, ys0, step = lat[0], lat[1], lat[2]
+    nx = int(lat[3])
+    ny = int(lat[4])
+    H = headings.shape[0]
+    nmv = moves_of.shape[1]
+    pops = 0
+    priced = 0
+    buf = np.empty(N_OUT + data[IN_CHAN].shape[0])
+    while n[0] > 0:
+        if pops >= max_pops:
+            return RUNNING, pops, priced
+        if n[0] + nmv + 2 > keys.shape[0]:
+            return HEAP_FULL, pops, priced
+        key, s = heap_pop(keys, vals, n)
+        c = code[s]
+        if c >= CLOSED:
+            continue
+        if key > max_key:
+            n[0] = 0
+            return EXHAUSTED, pops, priced
+        code[s] = c + CLOSED
+        pops += 1
+        p, hh = divmod(s, H)
+        if p == goal_p:
+            return FOUND, pops, priced
+        j, i = divmod(p, nx)
+        if done[s] == 0:
+            x = xs0 + i * step
+            y = ys0 + j * step
+            th = headings[hh]
+            for k in range(nmv):
+                edges[s, k] = np.inf
+                m = moves_of[hh, k]
+                if m < 0:
+                    continue
+                i2 = i + moves[m, 0]
+                j2 = j + moves[m, 1]
+                if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
+                    continue
+                kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
+                edges[s, k] = buf[0]
+                priced += 1
+            for d in range(2):
+                kernel(x, y, th, x, y, headings[(hh + 2 * d - 1) % H], -1.0, data, buf)
+                edges[s, nmv + d] = buf[0]
+                priced += 1
+            done[s] = 1
+        gs = g[s]
+        for k in range(nmv):
+            m = moves_of[hh, k]
+            if m < 0:
+                continue
+            i2 = i + moves[m, 0]
+            j2 = j + moves[m, 1]
+            if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
+                continue
+            q = j2 * nx + i2
+            t = q * H + hh
+            e = np.float64(edges[s, k])
+            if code[t] >= CLOSED or not math.isfinite(h2d[q]) or not math.isfinite(e):
+                continue
+            ng = gs + e
+            if code[t] == UNSEEN or ng < g[t]:
+                g[t] = ng
+                code[t] = 1 + m
+                heap_push(keys, vals, n, ng + h2d[q], t)
+        for d in range(2):
+            h2 = (hh + 2 * d - 1) % H
+            t = p * H + h2
+            e = np.float64(edges[s, nmv + d])
+            if code[t] >= CLOSED or not math.isfinite(e):
+                continue
+            ng = gs + e
+            if code[t] == UNSEEN or ng < g[t]:
+                g[t] = ng
+                code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
+                heap_push(keys, vals, n, ng + h2d[p], t)
+    return EXHAUSTED, pops, priced

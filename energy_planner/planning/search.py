@@ -69,6 +69,7 @@ __all__ = [
     "targets_search",
     "TargetsResult",
     "edge_table",
+    "edge_cache",
     "EDGE_BYTES_PER_STATE",
 ]
 
@@ -139,6 +140,11 @@ def _warm_up(mod, cost) -> None:
     )  # fmt: skip
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, table,
                    np.zeros(16), 0, *tgeo)  # fmt: skip
+    mod.astar_lazy_chunk(
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1),
+        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
+        np.zeros((16, 6), np.float32), np.zeros(16, np.uint8),
+    )  # fmt: skip
 
 
 @dataclass
@@ -853,6 +859,8 @@ def targets_search(
     time_budget: float = math.inf,
     chunk: int = 4096,
     edges: np.ndarray | None = None,
+    eps: float = 1.0,
+    cache: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> TargetsResult:
     """Least energy from ``start_xy`` (any initial heading) to each of several targets.
 
@@ -891,12 +899,24 @@ def targets_search(
     edges : ndarray, optional
         Every edge's cost from :func:`edge_table` on ``grid`` (shared by the searches from
         several starts: each edge priced once instead of once per search); None: edges
-        priced on demand.
+        priced on demand (then ``g`` and the codes are mapped page by page as the search
+        reaches them, as :func:`search_plan`'s).
+    eps : float
+        Heuristic weight >= 1 (keys ``g + eps * h``, as :func:`search_plan`'s). Each
+        target's energy is then at most ``eps`` times its optimum: the weighted A*
+        bound holds for each target, since the least of the remaining targets' bounds is
+        a consistent lower bound of the cost to each of them (with 1 the optimum).
+    cache : tuple, optional
+        :func:`edge_cache` of ``grid`` (instead of ``edges``): each state's edges are
+        priced when a search first expands it and kept for the next searches on
+        ``grid`` (the same prices as ``edges``, for only the states expanded).
 
     Returns
     -------
     TargetsResult
     """
+    if not (eps >= 1.0 and math.isfinite(eps)):
+        raise PlanningConfigError(f"eps must be >= 1, got {eps!r}", value=eps, param="eps")
     t0 = time.perf_counter()
     mod = search_module(cost)
     H = grid.H
@@ -906,11 +926,17 @@ def targets_search(
     energy = np.full(len(tp), np.inf)
     remaining = [k for k in range(len(tp)) if math.isfinite(heuristics[k, ps])]
     hs = _start_states(cost, grid, ps, None, "start")
-    g = np.full(grid.P * H, np.inf, dtype=np.float32)
-    code = np.full(grid.P * H, -1, dtype=np.int8)
+    if edges is None:  # astar_chunk (and the lazy one) read g only where the code says reached
+        g = _untouched(grid.P * H, np.float32)
+        code = _untouched(grid.P * H, np.int8, zero=True)
+    else:  # astar_cached_chunk compares with g everywhere
+        g = np.full(grid.P * H, np.inf, dtype=np.float32)
+        code = np.full(grid.P * H, -1, dtype=np.int8)
     heap = _Heap(1 << 16)
     h2d = np.empty(grid.P)
     mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+    if eps != 1.0:  # the kernels key g + h2d: h2d holds eps * h
+        h2d *= eps
     for h in hs:
         s = ps * H + int(h)
         g[s] = 0.0
@@ -924,7 +950,13 @@ def targets_search(
         while remaining:
             # the last target ends the search as a goal: no expansion after it
             last = int(tp[remaining[0]]) if len(remaining) == 1 else -1
-            if edges is None:
+            if cache is not None:
+                status, pops, pr = mod.astar_lazy_chunk(
+                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, g,
+                    code, last, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
+                    cache[0], cache[1],
+                )  # fmt: skip
+            elif edges is None:
                 status, pops, pr = mod.astar_chunk(
                     cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, 1.0,
                     g, code, last, -1, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
@@ -953,6 +985,8 @@ def targets_search(
                 remaining = [int(k) for k in rem[~hit]]
                 if remaining:
                     mod.min_rows(heuristics, np.array(remaining, np.int64), h2d)
+                    if eps != 1.0:
+                        h2d *= eps
                     mod.rekey(heap.keys, heap.vals, heap.n, g, code, h2d, H)
             if status in (mod.EXHAUSTED, mod.FOUND):
                 break
@@ -971,6 +1005,19 @@ def targets_search(
 
 #: Bytes per (x, y, heading) state of :func:`edge_table` (18 float32 edges: 16 moves, 2 turns).
 EDGE_BYTES_PER_STATE = 4 * 18
+
+
+def edge_cache(grid: _Grid) -> tuple[np.ndarray, np.ndarray]:
+    """An empty shared edge cache of ``grid``: :func:`edge_table`'s rows, filled on demand.
+
+    ``(edges, done)``: float32 ``(grid.P * grid.H, grid.moves_of.shape[1] + 2)`` and a
+    uint8 flag per state, both mapped page by page when first written
+    (:func:`targets_search` with ``cache=``), so their memory follows the states the
+    searches expand (at most :data:`EDGE_BYTES_PER_STATE` + 1 bytes per state).
+    """
+    N = grid.P * grid.H
+    edges = _untouched(N * (grid.moves_of.shape[1] + 2), np.float32)
+    return edges.reshape(N, -1), _untouched(N, np.uint8, zero=True)
 
 
 def edge_table(cost, grid: _Grid, rows: tuple[int, int] | None = None) -> np.ndarray:
