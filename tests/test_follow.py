@@ -299,7 +299,7 @@ def test_repricing_with_a_slope_offset_is_the_energy_on_the_tilted_ground(bx, by
     f = Follower(ter, m, xy, yaw, t, bias_until_m=1e9)
     f._stretch = _Stretch(0.0, 1.0, (0, 0), (0, 0), imu=[1.0, 1.0], dem=[0.0, 0.0],
                           offset=[(bx, by)] * 2)  # fmt: skip
-    r = f._biased_remaining(0, 0.0, f.path.remaining(0, 0.0))
+    r, _ = f._biased_remaining(0, 0.0, f.path.remaining(0, 0.0))
     ref = ep.path_energy(tilted, xy, yaw=yaw, t=t, model=m)
     assert float(r @ m.coef_array()) == pytest.approx(ref.energy_j, rel=1e-9)
 
