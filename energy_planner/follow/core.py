@@ -79,6 +79,11 @@ def imu_gradient(alpha: Any, gamma: Any, yaw: Any) -> np.ndarray:
     return np.tan(a)[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
 
 
+def _finite_or_none(v: float) -> float | None:
+    """``v``, or None where it was not measured (NaN): JSON has no NaN."""
+    return float(v) if math.isfinite(v) else None
+
+
 def _conditions_text(scores: Any) -> str:
     c = getattr(scores, "conditions", None) or {}
     if "duration_s" not in c:
@@ -198,9 +203,9 @@ class SlopeFinding:
             "difference_deg": self.difference_deg,
             "threshold_deg": self.threshold_deg,
             "n_windows": self.n_windows,
-            "gradient_offset_deg": self.offset_deg,
-            "distance_m": self.distance_m,
-            "length_m": self.length_m,
+            "gradient_offset_deg": _finite_or_none(self.offset_deg),
+            "distance_m": _finite_or_none(self.distance_m),
+            "length_m": _finite_or_none(self.length_m),
         }
 
     def text(self) -> str:
