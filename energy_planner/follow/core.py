@@ -555,8 +555,14 @@ class Follower:
     # ------------------------------------------------------------------ updates
     def _process(self, buf: dict[str, np.ndarray], final: bool) -> list[FollowUpdate]:
         from energy_planner.measurements import make_windows
+        from energy_planner.measurements.preprocess import PreprocessParams, hampel_mask
 
-        frame = pd.DataFrame(buf)
+        # the fit's outlier filter on power (its windows had current spikes removed): a
+        # spike would read as a change of conditions. The energy spent keeps them.
+        pp = PreprocessParams()
+        power = buf["voltage"].astype(float) * buf["current"].astype(float)
+        ok = ~hampel_mask(power, pp.hampel_half_window, pp.hampel_n_sigma, pp.hampel_min_scale_w)
+        frame = pd.DataFrame(buf if ok.all() else {c: v[ok] for c, v in buf.items()})
         frame.insert(0, "run", np.full(len(frame), self._run, dtype=object))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # a short buffer may drop its tail
