@@ -33,8 +33,9 @@ Three parts:
    many missions of other seeds (:func:`energy_planner.follow.calibrate_remaining`,
    seeds 1000, 1001, ...; or ``--scores FILE``). Counted: every checkpoint without an
    event, and with one the checkpoints after the follower picked it up. Each cell prints
-   its count ``n`` and the 95 % binomial range of a cell whose true coverage is 90 %:
-   85-95 % is a meaningful target only when that range fits in it (n >= 139).
+   its count ``n``, the 95 % binomial range of a cell whose true coverage is 90 % (85-95 %
+   is a meaningful target only when that range fits in it: n >= 139; the default 300
+   gives 86.3-93.3 %) and the exact (Clopper-Pearson) 95 % interval of its coverage.
 3. **Speed**: a 200 Hz log replayed, CPU time, against the required 100x real time.
 
 Acceptance (issue 22): after each event the updated median error is at most half the
@@ -44,7 +45,7 @@ Usage::
 
     python benchmarks/bench_follow.py              # reduced (docs/follow.md)
     python benchmarks/bench_follow.py --missions 40 --duration 600 --rate 200 \
-        --coverage-missions 300 --coverage-duration 240 --coverage-rate 20   # full size
+        --coverage-missions 600 --coverage-duration 240 --coverage-rate 20   # full size
     python benchmarks/bench_follow.py --coverage-only \
         --save-scores energy_planner/data/follow_scores.json   # the bundled scores
     python benchmarks/bench_follow.py --json
@@ -345,7 +346,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--missions", type=int, default=12)
     ap.add_argument("--duration", type=float, default=240.0)
     ap.add_argument("--rate", type=float, default=20.0)
-    ap.add_argument("--coverage-missions", type=int, default=150)
+    ap.add_argument("--coverage-missions", type=int, default=300)
     ap.add_argument("--coverage-duration", type=float, default=60.0)
     ap.add_argument("--coverage-rate", type=float, default=10.0)
     ap.add_argument("--scores", default=None, help="calibrated scores (RemainingScores.save)")
