@@ -723,17 +723,6 @@ class Follower:
             return "dem"
         return "adapting" if self._adapting else "steady"
 
-    def _missed_w(self) -> float:
-        """The power the model still misses, W.
-
-        The slow mean innovation (the RLS's memory); while adapting to a detected change,
-        the recent (3-window) one if larger: the step the coefficients have not learnt
-        yet, which scales the interval with the change's size (a payload, mud).
-        """
-        if self._adapting and self.dead_band:
-            return max(abs(self._bias_w), abs(self._fast_w))
-        return abs(self._bias_w)
-
     def _predict(
         self, r: np.ndarray, extra_var: float = 0.0
     ) -> tuple[float, float, float, float | None]:
@@ -747,7 +736,7 @@ class Follower:
         # mean innovation: large while it catches up with a change) over the time left,
         # and where a DEM error ends ahead
         sd = math.sqrt(
-            self.rls.variance_of(r) + (self._missed_w() * self._rem_s) ** 2 + max(extra_var, 0.0)
+            self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2 + max(extra_var, 0.0)
         )
         self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
         if self.remaining_scores is not None:
