@@ -299,7 +299,7 @@ def test_repricing_with_a_slope_offset_is_the_energy_on_the_tilted_ground(bx, by
     f = Follower(ter, m, xy, yaw, t, bias_until_m=1e9)
     f._stretch = _Stretch(0.0, 1.0, (0, 0), (0, 0), imu=[1.0, 1.0], dem=[0.0, 0.0],
                           offset=[(bx, by)] * 2)  # fmt: skip
-    r = f._biased_remaining(0, 0.0, f.path.remaining(0, 0.0))
+    r, _ = f._biased_remaining(0, 0.0, f.path.remaining(0, 0.0))
     ref = ep.path_energy(tilted, xy, yaw=yaw, t=t, model=m)
     assert float(r @ m.coef_array()) == pytest.approx(ref.energy_j, rel=1e-9)
 
@@ -357,3 +357,20 @@ def test_replans_share_one_kernel_whatever_the_coefficients(follow_mission, make
     feats["speed"] = np.hypot(feats["vx"], feats["vy"])
     with_coef = {**feats, **{k: np.full(n, v) for k, v in r2.channels.constants.items()}}
     np.testing.assert_allclose(m2.power(with_coef), f.current_model().power(feats), rtol=1e-12)
+
+
+def test_current_spikes_are_not_a_change_of_conditions(follow_mission, make_follower):
+    # Five isolated current spikes of 20 A (about 1 kW for one sample: +24 W on a 2 s
+    # window's mean at 20 Hz, beyond the change detector's ~10 W) are sensor outliers,
+    # which the fit's Hampel filter removed from its windows. The follower filters them
+    # the same way: no change detected, the same predictions as without them; only the
+    # energy spent (measured) keeps them.
+    logs = follow_mission()
+    spiked = logs.copy()
+    rows = np.linspace(200, len(logs) - 200, 5).astype(int)
+    spiked.loc[rows, "current"] += 20.0
+    a, b = make_follower(logs), make_follower(spiked)
+    ua, ub = a.replay(logs), b.replay(spiked)
+    assert b.changes == [] and a.changes == []
+    assert [u.remaining_j for u in ub] == pytest.approx([u.remaining_j for u in ua], rel=1e-12)
+    assert ub[-1].used_j > ua[-1].used_j

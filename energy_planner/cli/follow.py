@@ -39,10 +39,12 @@ def _text(res: dict[str, Any]) -> str:
         f"low/high: {100 * res['level']:g} % interval; static: the fit's coefficients"
     )
     for f in res["slope_findings"]:
+        off = f.get("gradient_offset_deg")
+        grad = "" if off is None else f", the ground's gradient off by {off:.1f} deg"
         lines.append(
             f"slope    the IMU measures {f['imu_slope_deg']:.1f} deg where the DEM gives "
-            f"{f['dem_slope_deg']:.1f} deg ({f['difference_deg']:+.1f} deg, beyond the "
-            f"sensors' {f['threshold_deg']:.1f} deg) from ({f['from'][0]:.1f}, "
+            f"{f['dem_slope_deg']:.1f} deg ({f['difference_deg']:+.1f} deg{grad}, beyond "
+            f"the sensors' {f['threshold_deg']:.1f} deg) from ({f['from'][0]:.1f}, "
             f"{f['from'][1]:.1f}) to ({f['to'][0]:.1f}, {f['to'][1]:.1f}), "
             f"t {f['t_start']:.0f}-{f['t_end']:.0f} s"
         )

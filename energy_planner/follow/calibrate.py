@@ -37,6 +37,7 @@ __all__ = [
     "bundled_scores",
     "calibrate_remaining",
     "follow_simulated_mission",
+    "dem_stretch_lengths",
     "mission_events",
     "EVENT_NAMES",
 ]
@@ -94,12 +95,18 @@ class RemainingScores:
         by its current spread (normalized split-conformal: the interval is wide where
         the follower is unsure, e.g. soon after a large change, and narrow elsewhere,
         with the same guarantee).
+    dem_lengths_m : tuple of float
+        Lengths (ground metres along the path) of the DEM errors the calibration's
+        followers found (:attr:`~energy_planner.follow.SlopeFinding.length_m`): a
+        follower extrapolates an open DEM error over those longer than it
+        (``Follower(stretch_lengths_m=...)``, which defaults to these).
     """
 
     scores: dict[str, list[tuple[float, float]]]
     seeds: tuple[int, ...] = field(default=())
     conditions: dict[str, Any] = field(default_factory=dict)
     normalized: bool = False
+    dem_lengths_m: tuple[float, ...] = field(default=())
 
     def for_group(
         self, state: str, share: float, level: float, width: float = SHARE_WIDTH
@@ -133,6 +140,7 @@ class RemainingScores:
             "seeds": list(self.seeds),
             "conditions": dict(self.conditions),
             "normalized": self.normalized,
+            "dem_lengths_m": list(self.dem_lengths_m),
         }
 
     @classmethod
@@ -144,6 +152,7 @@ class RemainingScores:
             tuple(d.get("seeds", ())),
             dict(d.get("conditions", {})),
             bool(d.get("normalized", False)),
+            tuple(float(v) for v in d.get("dem_lengths_m", ())),
         )
 
     def save(self, path: Any) -> Any:
@@ -302,6 +311,27 @@ def follow_simulated_mission(
     }
 
 
+def dem_stretch_lengths(
+    model: Any,
+    seeds: Any,
+    duration: float = 240.0,
+    rate: float = 20.0,
+    **options: Any,
+) -> dict[int, list[float]]:
+    """The lengths of the DEM errors a follower finds on ``dem_bias`` missions, by seed.
+
+    What a follower's ``stretch_lengths_m`` is made of: the slope findings'
+    :attr:`~energy_planner.follow.SlopeFinding.length_m` (ground metres), one list per
+    simulator seed (keep the seeds disjoint from those a result is reported on). The
+    findings do not depend on how the path ahead is priced.
+    """
+    out: dict[int, list[float]] = {}
+    for seed in (int(v) for v in seeds):
+        run = follow_simulated_mission(seed, "dem_bias", model, duration, rate, **options)
+        out[seed] = [float(f.length_m) for f in run["follower"].findings]
+    return out
+
+
 def counted(run: dict[str, Any], t: float) -> bool:
     """Whether a checkpoint at ``t`` is scored/counted: no event, or after its pick-up."""
     if run["t_event"] is None:
@@ -338,13 +368,23 @@ def calibrate_remaining(
     Returns
     -------
     RemainingScores
+        With the DEM errors' lengths the followers found (``dem_lengths_m``). Each
+        mission is scored by a follower that extrapolates DEM errors over the lengths
+        found on the **other** seeds (cross-fitted: a mission's own length never
+        informs its own score).
     """
     cps = np.arange(0.2, 0.851, 0.05) if checkpoints is None else np.asarray(checkpoints)
     out: dict[str, list[tuple[float, float]]] = {s: [] for s in STATES}
     seeds = tuple(int(s) for s in seeds)
+    lengths: dict[int, list[float]] = {}
+    if "dem_bias" in events and "stretch_lengths_m" not in options:
+        lengths = dem_stretch_lengths(model, seeds, duration, rate, **options)
     for seed in seeds:
+        opts = dict(options)
+        if lengths:
+            opts["stretch_lengths_m"] = [v for k, ls in lengths.items() if k != seed for v in ls]
         for ev in events:
-            run = follow_simulated_mission(seed, ev, model, duration, rate, **options)
+            run = follow_simulated_mission(seed, ev, model, duration, rate, **opts)
             for c in cps:
                 tc = run["t0"] + c * (run["t1"] - run["t0"])
                 i = int(np.argmin(np.abs(run["t"] - tc)))
@@ -359,4 +399,5 @@ def calibrate_remaining(
         "events": list(events),
         "checkpoints": [round(float(c), 6) for c in cps],
     }
-    return RemainingScores(out, seeds, conditions, normalized=True)
+    found = tuple(v for ls in lengths.values() for v in ls)
+    return RemainingScores(out, seeds, conditions, normalized=True, dem_lengths_m=found)

@@ -79,6 +79,11 @@ def imu_gradient(alpha: Any, gamma: Any, yaw: Any) -> np.ndarray:
     return np.tan(a)[:, None] * np.column_stack([np.cos(psi), np.sin(psi)])
 
 
+def _finite_or_none(v: float) -> float | None:
+    """``v``, or None where it was not measured (NaN): JSON has no NaN."""
+    return float(v) if math.isfinite(v) else None
+
+
 def _conditions_text(scores: Any) -> str:
     c = getattr(scores, "conditions", None) or {}
     if "duration_s" not in c:
@@ -177,6 +182,9 @@ class SlopeFinding:
     dem_slope_deg: float
     threshold_deg: float
     n_windows: int
+    offset_deg: float = math.nan
+    distance_m: float = math.nan
+    length_m: float = math.nan
 
     @property
     def difference_deg(self) -> float:
@@ -195,14 +203,22 @@ class SlopeFinding:
             "difference_deg": self.difference_deg,
             "threshold_deg": self.threshold_deg,
             "n_windows": self.n_windows,
+            "gradient_offset_deg": _finite_or_none(self.offset_deg),
+            "distance_m": _finite_or_none(self.distance_m),
+            "length_m": _finite_or_none(self.length_m),
         }
 
     def text(self) -> str:
         """One line for people."""
+        grad = (
+            f", the ground's gradient off by {self.offset_deg:.1f} deg"
+            if math.isfinite(self.offset_deg)
+            else ""
+        )
         return (
             f"slope: the IMU measures {self.imu_slope_deg:.1f} deg where the DEM gives "
-            f"{self.dem_slope_deg:.1f} deg ({self.difference_deg:+.1f} deg, beyond the "
-            f"sensors' {self.threshold_deg:.1f} deg) from ({self.x_start:.1f}, "
+            f"{self.dem_slope_deg:.1f} deg ({self.difference_deg:+.1f} deg{grad}, beyond "
+            f"the sensors' {self.threshold_deg:.1f} deg) from ({self.x_start:.1f}, "
             f"{self.y_start:.1f}) to ({self.x_end:.1f}, {self.y_end:.1f}), "
             f"t {self.t_start:.0f}-{self.t_end:.0f} s"
         )
@@ -289,16 +305,25 @@ class Follower:
         interval is split-conformal on those errors (by remaining share and by whether a
         change has been detected) instead of the model's run errors widened.
     bias_ahead_m : float, optional
-        While a stretch where the IMU's slope disagrees with the DEM's is open, the rest
-        of the path is priced on the DEM tilted by the measured gradient offset (IMU
-        minus DEM, the stretch's mean) over this many ground metres ahead, and on the DEM
-        beyond. Default (None): as far ahead as the stretch has been walked so far (where
-        it ends is not observable; if the current point is anywhere in it with equal
-        chance, the median of what is left equals what has been walked). 0: never.
+        While a stretch where the IMU's ground disagrees with the DEM's is open, the
+        rest of the path is priced on the DEM tilted by the measured gradient offset
+        (IMU minus DEM, the stretch's mean less the IMU's own offset where the two
+        agree) over this many ground metres ahead, and on the DEM beyond. Default
+        (None): by ``stretch_lengths_m``, else as far ahead as the stretch has been
+        walked so far (where it ends is not observable; if the current point is
+        anywhere in it with equal chance, the median of what is left equals what has
+        been walked). 0: never.
     bias_until_m : float, optional
         Where the DEM's error is known to end (a mapped stretch, e.g. earthworks the DEM
         predates), ground metres along the path from its start: the measured offset is
         then applied from the current pose up to there (instead of ``bias_ahead_m``).
+    stretch_lengths_m : array-like, optional
+        Lengths (ground metres) of the DEM errors found before on this DEM or its kind
+        (the slope findings of earlier or calibration missions,
+        :attr:`SlopeFinding.length_m`); default: those stored with ``remaining_scores``.
+        An open stretch is extrapolated over each of those longer than it is so far
+        (what is left of them), equally likely: the mean re-priced energy, and the
+        spread of where it ends in the interval.
     """
 
     def __init__(
@@ -332,6 +357,7 @@ class Follower:
         remaining_scores: Any = None,
         bias_ahead_m: float | None = None,
         bias_until_m: float | None = None,
+        stretch_lengths_m: Any = None,
     ) -> None:
         from scipy.stats import norm
 
@@ -390,9 +416,20 @@ class Follower:
         self.slope_tol_deg = float(slope_tol_deg)
         self.bias_ahead_m = bias_ahead_m
         self.bias_until_m = bias_until_m
+        self.imu_bias_deg = float(imu_bias_deg)
+        if stretch_lengths_m is None and remaining_scores is not None:
+            stretch_lengths_m = getattr(remaining_scores, "dem_lengths_m", None) or None
+        self.stretch_lengths_m = (
+            None
+            if stretch_lengths_m is None
+            else np.sort(np.asarray(stretch_lengths_m, dtype=float).ravel())
+        )
+        self._agree_sum = np.zeros(2)
+        self._agree_n = 0
         self._runtime_model: Any = None
         self.updates: list[FollowUpdate] = []
         self.findings: list[SlopeFinding] = []
+        self.changes: list[float] = []  # times of the detected changes of conditions, s
         self.events: list[str] = []
         from energy_planner.measurements import CANONICAL_COLUMNS
 
@@ -518,8 +555,14 @@ class Follower:
     # ------------------------------------------------------------------ updates
     def _process(self, buf: dict[str, np.ndarray], final: bool) -> list[FollowUpdate]:
         from energy_planner.measurements import make_windows
+        from energy_planner.measurements.preprocess import PreprocessParams, hampel_mask
 
-        frame = pd.DataFrame(buf)
+        # the fit's outlier filter on power (its windows had current spikes removed): a
+        # spike would read as a change of conditions. The energy spent keeps them.
+        pp = PreprocessParams()
+        power = buf["voltage"].astype(float) * buf["current"].astype(float)
+        ok = ~hampel_mask(power, pp.hampel_half_window, pp.hampel_n_sigma, pp.hampel_min_scale_w)
+        frame = pd.DataFrame(buf if ok.all() else {c: v[ok] for c, v in buf.items()})
         frame.insert(0, "run", np.full(len(frame), self._run, dtype=object))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # a short buffer may drop its tail
@@ -578,11 +621,7 @@ class Follower:
     ):
         # a window whose IMU slope disagrees with the DEM's is a DEM error, not a model
         # error: it is checked, not learnt from (nor counted as a change of conditions)
-        dem_error = (
-            math.isfinite(imu_deg)
-            and math.isfinite(dem_deg)
-            and abs(imu_deg - dem_deg) > self.slope_tol_deg
-        )
+        dem_error = self._disagreement(imu_deg, dem_deg, offset) > self.slope_tol_deg
         # the first window after such a stretch straddles its end (part of it walked on
         # the wrong ground): neither learnt from nor counted either
         dem_error = dem_error or self._stretch is not None
@@ -608,6 +647,7 @@ class Follower:
             self.rls.reset()
             self._since_reset = 0
             self._adapting = True
+            self.changes.append(float(t_end))
             self.events.append(
                 f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): the power departs "
                 f"from the model by {self._fast_w:+.1f} W on average (beyond "
@@ -621,10 +661,10 @@ class Follower:
         self._done_m = float(dist[:m].sum() + frac * (dist[m] if m < dist.size else 0.0))
         r = self.path.remaining(m, frac)
         static = float(max(r @ self.c0, 0.0))
-        r = self._biased_remaining(m, frac, r)
+        r, extra_var = self._biased_remaining(m, frac, r)
         self._used_at = float(used_j)
         self._rem_s = self.path.remaining_s(m, frac)
-        rem, low, high, prob = self._predict(r)
+        rem, low, high, prob = self._predict(r, extra_var)
         event = None
         if (
             self.usable_j is not None
@@ -683,12 +723,21 @@ class Follower:
             return "dem"
         return "adapting" if self._adapting else "steady"
 
-    def _predict(self, r: np.ndarray) -> tuple[float, float, float, float | None]:
-        """Remaining energy, its interval and the chance the battery suffices."""
+    def _predict(
+        self, r: np.ndarray, extra_var: float = 0.0
+    ) -> tuple[float, float, float, float | None]:
+        """Remaining energy, its interval and the chance the battery suffices.
+
+        ``extra_var``: variance of the DEM error's extrapolation ahead, J^2
+        (:meth:`_biased_remaining`).
+        """
         rem = float(max(r @ self.rls.coef, 0.0))
-        # the coefficients' uncertainty, and the power the model still misses (the recent
-        # mean innovation: large while it catches up with a change) over the time left
-        sd = math.sqrt(self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2)
+        # the coefficients' uncertainty, the power the model still misses (the recent
+        # mean innovation: large while it catches up with a change) over the time left,
+        # and where a DEM error ends ahead
+        sd = math.sqrt(
+            self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2 + max(extra_var, 0.0)
+        )
         self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
         if self.remaining_scores is not None:
             sc = self.remaining_scores.for_group(
@@ -721,10 +770,26 @@ class Follower:
         return rem, max(low, 0.0), high, prob
 
     # ------------------------------------------------------------------ slope
+    @staticmethod
+    def _disagreement(imu_deg: float, dem_deg: float, offset: Any = None) -> float:
+        """How far the IMU's ground is from the DEM's, degrees (NaN: not measured).
+
+        The angle of the gradient offset (IMU minus DEM gradient, :func:`imu_gradient`)
+        when the log has the yaw: a DEM error across the path changes the slope's
+        direction more than its size (5 deg across a 15 deg slope: 0.7 deg of slope,
+        5 deg of gradient); else the difference of the slopes.
+        """
+        if offset is not None and np.isfinite(offset).all():
+            return math.degrees(math.atan(math.hypot(float(offset[0]), float(offset[1]))))
+        if math.isfinite(imu_deg) and math.isfinite(dem_deg):
+            return abs(imu_deg - dem_deg)
+        return math.nan
+
     def _slope_check(self, t0, t1, imu_deg, dem_deg, p0, p1, offset=None) -> None:
-        if not (math.isfinite(imu_deg) and math.isfinite(dem_deg)):
+        gap = self._disagreement(imu_deg, dem_deg, offset)
+        if not math.isfinite(gap):
             return
-        if abs(imu_deg - dem_deg) > self.slope_tol_deg:
+        if gap > self.slope_tol_deg:
             s = self._stretch
             if s is None:
                 s = self._stretch = _Stretch(t0, t1, p0, p1, done0=self._done_m)
@@ -734,6 +799,11 @@ class Follower:
             if offset is not None and np.isfinite(offset).all():
                 s.offset.append((float(offset[0]), float(offset[1])))
         else:
+            if self._stretch is None and offset is not None and np.isfinite(offset).all():
+                # where the IMU agrees with the DEM: its own offset (the IMU's tilt bias
+                # and the DEM's footprint), taken out of a stretch's measured offset
+                self._agree_sum += np.asarray(offset, dtype=float)
+                self._agree_n += 1
             self._close_stretch()
 
     def _close_stretch(self) -> None:
@@ -749,45 +819,99 @@ class Follower:
             float(np.mean(s.dem)),
             self.slope_tol_deg,
             len(s.imu),
+            math.degrees(math.atan(float(np.hypot(*self._stretch_offset(s))))),
+            s.done0,
+            max(self._done_m - s.done0, 0.0),
         )
         self.findings.append(f)
         self.events.append(f.text())
 
-    def _biased_remaining(self, m: int, frac: float, r: np.ndarray) -> np.ndarray:
+    def _stretch_offset(self, s: _Stretch) -> np.ndarray:
+        """The DEM's measured gradient error over an open stretch (NaN without yaw).
+
+        The stretch's mean IMU-minus-DEM gradient, less the mean of the windows where the
+        two agreed (the IMU's own tilt bias and the DEM's footprint, there all along).
+        """
+        if not s.offset:
+            return np.full(2, np.nan)
+        base = self._agree_sum / self._agree_n if self._agree_n else np.zeros(2)
+        return np.mean(s.offset, axis=0) - base
+
+    def _ahead_samples(self, walked: float) -> np.ndarray | None:
+        """How far ahead the open DEM error may still last, ground metres (equally likely).
+
+        From the lengths of the DEM errors found before (``stretch_lengths_m``): those
+        longer than what this one has lasted so far, less that (the lengths' empirical
+        distribution conditioned on having lasted ``walked``); None if none is longer.
+        """
+        lengths = self.stretch_lengths_m
+        if lengths is None:
+            return None
+        left = lengths[lengths > walked] - walked
+        return left if left.size else None
+
+    def _biased_remaining(self, m: int, frac: float, r: np.ndarray) -> tuple[np.ndarray, float]:
         """``r`` with the path ahead re-priced on the DEM tilted by the measured offset.
 
-        Only while a stretch of slope disagreement is open (two windows or more) and
-        its gradient offset is measured (the log has ``yaw``); over ``bias_ahead_m``
-        ground metres ahead (default: the stretch's length so far; with ``bias_until_m``
-        up to there).
+        Only while a stretch of IMU-vs-DEM disagreement is open (two windows or more)
+        and its gradient offset is measured (the log has ``yaw``). How far ahead the
+        error lasts (where the stretch ends cannot be seen from the log): up to
+        ``bias_until_m`` when it is known; ``bias_ahead_m`` when given; else the lengths
+        of DEM errors found before (``stretch_lengths_m``) that are longer than this one
+        so far, each equally likely (the mean of the re-priced energies); else, or when
+        this one is longer than all of them, as far as it has been walked (the median
+        of what is left for a point anywhere in a stretch of unknown length).
+
+        Returns
+        -------
+        tuple
+            The term energies and the variance of the re-priced energy, J^2: the spread
+            over where the error ends (with no lengths to go by: the whole extrapolation
+            as its standard deviation) and the offset's own uncertainty (the IMU's
+            per-run tilt bias, ``imu_bias_deg``).
         """
         s = self._stretch
         if s is None or len(s.imu) < 2 or not s.offset or self.bias_ahead_m == 0:
-            return r
+            return r, 0.0
         n = self.path.energy.shape[0]
         if m >= n:
-            return r
-        ahead = self.bias_ahead_m
+            return r, 0.0
+        walked = max(self._done_m - s.done0, 0.0)
+        unknown = False
         if self.bias_until_m is not None:
-            ahead = self.bias_until_m - self._done_m
-        elif ahead is None:
-            ahead = max(self._done_m - s.done0, 0.0)
+            ahead = np.array([self.bias_until_m - self._done_m])
+        elif self.bias_ahead_m is not None:
+            ahead = np.array([float(self.bias_ahead_m)])
+        else:
+            got = self._ahead_samples(walked)
+            unknown = got is None
+            ahead = np.array([walked]) if got is None else got
         dist = self.path.distance_m
-        # ground metres from here to the start of each motion m, m+1, ...
-        start_of = np.r_[0.0, np.cumsum(np.r_[(1.0 - frac) * dist[m], dist[m + 1 : -1]])]
-        k = m + int(np.searchsorted(start_of, ahead, side="left"))  # motions m..k-1
-        if k <= m:
-            return r
-        bx, by = np.mean(s.offset, axis=0)
-        tilted = self._tilted_terrain(float(bx), float(by))
+        # ground metres from here to the end of each motion m, m+1, ...
+        ends = np.cumsum(np.r_[(1.0 - frac) * dist[m], dist[m + 1 :]])
+        k = min(m + int(np.searchsorted(ends, float(ahead.max()), side="left")) + 1, n)
+        if float(ahead.max()) <= 0.0:
+            return r, 0.0
+        offset = self._stretch_offset(s)
+        tilted = self._tilted_terrain(float(offset[0]), float(offset[1]))
         poses = self.path.poses[m : k + 1]
         e_tilt, _, _ = motion_term_energies(
             tilted, self.model, poses, self.path.duration_s[m:k], self.speed, self.yaw_rate,
             self.channels,
         )  # fmt: skip
-        w = np.ones(k - m)
-        w[0] = 1.0 - frac
-        return r + w @ (e_tilt - self.path.energy[m:k])
+        extra = e_tilt - self.path.energy[m:k]
+        extra[0] *= 1.0 - frac
+        # the extra term energies up to each distance ahead, linear within a motion
+        cum = np.vstack([np.zeros((1, extra.shape[1])), np.cumsum(extra, axis=0)])
+        at = np.r_[0.0, ends[: k - m]]
+        upto = np.column_stack([np.interp(ahead, at, cum[:, q]) for q in range(cum.shape[1])])
+        mean = upto.mean(axis=0)
+        e = upto @ self.rls.coef
+        var = float(np.var(e)) + (float(e[0]) ** 2 if unknown else 0.0)
+        size = float(np.hypot(*offset))
+        rel = math.tan(math.radians(self.imu_bias_deg)) / max(size, 1e-9)
+        var += (rel * float(mean @ self.rls.coef)) ** 2
+        return r + mean, var
 
     def _tilted_terrain(self, bx: float, by: float) -> Any:
         """The DEM with its gradient plus ``(bx, by)`` everywhere (a tilted plane added)."""
@@ -908,6 +1032,7 @@ class Follower:
         return {
             "updates": [u.to_dict() for u in self.updates],
             "slope_findings": [f.to_dict() for f in self.findings],
+            "changes_t": list(self.changes),
             "events": list(self.events),
             "notes": list(self.notes),
             "coefficients": dict(
