@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.diagnosis import (
@@ -474,6 +474,7 @@ def test_explanations_follow_the_channel_the_term_reads():
     shift=st.floats(-10.0, 10.0),
     seed=st.integers(0, 2**16),
 )
+@example(sd=1.0, n=10, shift=0.0, seed=10621)  # 0.920 of sd: 2.6 standard errors
 @settings(max_examples=15, deadline=None)
 def test_noise_floor_of_white_noise_and_a_known_shift(sd, n, shift, seed):
     """Analytic case: raw power = a constant plus white noise of sd ``sd``; the smoothed
@@ -497,8 +498,13 @@ def test_noise_floor_of_white_noise_and_a_known_shift(sd, n, shift, seed):
     fl = noise_floor(window_data(s))
     assert fl.n_windows == n_win
     assert fl.smoothing_shift_w == pytest.approx(abs(shift), abs=1e-9)
-    assert fl.sample_sd_w == pytest.approx(sd, rel=0.08)
-    assert fl.rmse_w == pytest.approx(np.sqrt(shift**2 + sd**2 / n), rel=0.08)
+    # The estimator is a MAD of successive differences: efficiency ~0.37 of the sample sd,
+    # and successive differences share a sample (about 2/3 of them independent). Its
+    # relative standard error is then 1 / sqrt(2 * 0.37 * 2/3 * diffs): 3.1 % at n = 10,
+    # 1.2 % at n = 60. Five of them: a fixed 8 % failed at n = 10 (seed 10621: 0.920).
+    rel = 5.0 / np.sqrt(2 * 0.37 * (2 / 3) * (n - 1) * n_win)
+    assert fl.sample_sd_w == pytest.approx(sd, rel=rel)
+    assert fl.rmse_w == pytest.approx(np.sqrt(shift**2 + sd**2 / n), rel=rel)
 
 
 def test_suspects_split_keeps_the_old_import_path():
