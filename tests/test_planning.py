@@ -163,6 +163,28 @@ def test_keep_out_is_respected(flat, model):
     assert res.states[:, 1].max() > 32.0 or res.states[:, 1].min() < 8.0
 
 
+def test_default_refinement_is_a_floor_of_rounds_not_of_seconds(ramp):
+    """Without a time budget the refinement runs at least REFINE_MIN_ROUNDS rounds (on a
+    small map the search's quarter is milliseconds), and its path still respects the
+    closed form of the zigzag test (no path climbs H for less than 2 H sqrt(c0 k)) while
+    never costing more than the search's own path."""
+    from energy_planner.planning.plan import REFINE_MIN_ROUNDS
+
+    s = 0.5
+    g = s / math.sqrt(5)
+    u = g / math.sqrt(1 + g * g)
+    c0 = 100.0
+    k = c0 / u**2
+    m = _quad_model(c0, k)
+    start, goal = (30.0, 5.0), (30.0, 45.0)
+    closed_form = 2 * s * (goal[1] - start[1]) * math.sqrt(c0 * k)
+    search = plan(ramp, m, start, goal, planner="search", step=1.0, progress=False)
+    auto = plan(ramp, m, start, goal, planner="auto", step=1.0, progress=False)
+    rounds = auto.info["refine"]["rounds"]
+    assert rounds >= REFINE_MIN_ROUNDS or auto.info["refine"]["converged"]
+    assert closed_form * (1 - 1e-6) <= auto.energy_j <= search.energy_j * (1 + 1e-9)
+
+
 def test_same_seed_same_path(flat, model):
     # the refinement stops at convergence or after 25 rounds, long before 30 s
     kw = dict(planner="auto", time=30, iterations=25, progress=False,

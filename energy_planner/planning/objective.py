@@ -89,7 +89,7 @@ class CostToGo:
         t0 = time.perf_counter()
         grid = _Grid(cost, terrain, (float(goal_xy[0]), float(goal_xy[1])), step, 16, "all")
         pg = grid.position(float(goal_xy[0]), float(goal_xy[1]), "goal")
-        h = relaxed_cost_to_go(cost, grid, pg, mod=search_module(cost))
+        h = relaxed_cost_to_go(cost, grid, pg, mod=search_module(cost, "path"))
         # inf = no relaxed path from that position: keep no information there rather
         # than prune a state that a continuous motion might still get through
         h = np.where(np.isfinite(h), h, 0.0) * float(margin)

@@ -129,6 +129,7 @@ def refine_path(
     free_start_yaw: bool = False,
     free_goal_yaw: bool = False,
     max_rounds: int | None = None,
+    min_rounds: int = 0,
     candidates: int = 8,
     tol: float = 2e-5,
     report: Callable[[float], None] | None = None,
@@ -151,6 +152,10 @@ def refine_path(
         Whether the first/last yaw may change (positions never do).
     max_rounds : int, optional
         Stop after this many rounds.
+    min_rounds : int
+        Run at least this many rounds (unless converged or ``max_rounds`` is smaller),
+        even past ``budget``: a floor of work rather than of seconds, the same on a fast
+        and a slow machine.
     candidates : int
         Candidates per pose and round.
     tol : float
@@ -187,7 +192,9 @@ def refine_path(
     converged = False
     if report is not None:
         report(total)
-    while _time.perf_counter() - t0 < budget and (max_rounds is None or rounds < max_rounds):
+    while (rounds < min_rounds or _time.perf_counter() - t0 < budget) and (
+        max_rounds is None or rounds < max_rounds
+    ):
         rounds += 1
         before = total
         tried = accepted = 0

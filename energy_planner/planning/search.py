@@ -83,14 +83,24 @@ BOUND_MARGIN = 0.99
 TABLE_NODES = 96
 
 
-def search_module(cost):
+#: The groups of numba functions :func:`search_module` loads before a clock starts:
+#: ``path`` what :func:`search_plan` calls (the relaxed problem and the A*), ``all`` every
+#: function (the multi-target, reach and edge-table searches too). Loading one from
+#: numba's disk cache costs a few ms; a plan loads only its own.
+KERNEL_GROUPS = ("path", "all")
+
+
+def search_module(cost, kernels: str = "all"):
     """The numba search functions compiled against ``cost``'s motion kernel (cached).
 
-    The functions are compiled (or loaded from numba's disk cache) here, by a call on a
-    problem with nothing to do, so that a planner's time budget does not pay for it.
+    The functions of the group ``kernels`` (:data:`KERNEL_GROUPS`) are compiled (or
+    loaded from numba's disk cache) here, by a call on a problem with nothing to do, so
+    that a planner's time budget does not pay for it; the others load on first use.
     """
     from energy_planner.model._codegen import load_generated_module
 
+    if kernels not in KERNEL_GROUPS:
+        raise ValueError(f"unknown kernel group {kernels!r}; valid: {', '.join(KERNEL_GROUPS)}")
     mod_name = cost.kernel.py_func.__module__
     if mod_name == "energy_planner.energy._motion":
         import energy_planner.planning._search as mod
@@ -99,14 +109,17 @@ def search_module(cost):
         assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
         text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
         mod = load_generated_module(text, prefix="search")
-    if not getattr(mod, "_warm", False):
-        _warm_up(mod, cost)
-        mod._warm = True
+    warm = getattr(mod, "_warm", set())
+    for group in KERNEL_GROUPS[: KERNEL_GROUPS.index(kernels) + 1]:
+        if group not in warm:
+            _WARM_UP[group](mod, cost)
+            warm.add(group)
+    mod._warm = warm
     return mod
 
 
-def _warm_up(mod, cost) -> None:
-    """Call every numba function of ``mod`` once with empty work (compiles them)."""
+def _warm_up_path(mod, cost) -> None:
+    """Call the numba functions of :func:`search_plan` once with empty work (compiles them)."""
     i8 = np.int64
     lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
     moves = np.zeros((16, 2), i8)
@@ -128,6 +141,16 @@ def _warm_up(mod, cost) -> None:
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
     mod.unsafe_cells(np.zeros((1, 1, 2)), np.zeros((0, 0), np.bool_), 1.0)
     mod.cap_unsettled(np.zeros(1, np.float32), np.zeros(1, np.int32), 1, 0, 0.0, 1.0, 1.0)
+
+
+def _warm_up_rest(mod, cost) -> None:
+    """Call the other numba functions of ``mod`` once with empty work (compiles them)."""
+    i8 = np.int64
+    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
+    moves = np.zeros((16, 2), i8)
+    keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
+    table = np.zeros((16, 2, 2), np.float32)
+    tgeo = np.array([0.0, 0.0, 1.0, 1.0])
     mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.min_rows(np.zeros((1, 1), np.float32), np.zeros(1, i8), np.zeros(1))
     mod.rekey(keys, vals, np.zeros(1, i8), np.zeros(16, np.float32), np.zeros(16, np.int8),
@@ -145,6 +168,10 @@ def _warm_up(mod, cost) -> None:
         np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
         np.zeros((16, 6), np.float32), np.zeros(16, np.uint8),
     )  # fmt: skip
+
+
+#: group of :data:`KERNEL_GROUPS` -> the warm-up that loads its functions
+_WARM_UP = {"path": _warm_up_path, "all": _warm_up_rest}
 
 
 @dataclass
@@ -466,7 +493,7 @@ def relaxed_cost_to_go(
         to float32 moves a value by under 1e-7 of it, far inside the 1 % margin of the
         edge bounds, :data:`BOUND_MARGIN`.)
     """
-    mod = mod or search_module(cost)
+    mod = mod or search_module(cost, "path")
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok) if table is None else table
     h = np.full(grid.P, np.inf, dtype=np.float32)
     h[goal_p] = 0.0
@@ -645,7 +672,7 @@ def search_plan(
     t0 = time.perf_counter()
     deadline = t0 + time_budget
     grid = _Grid(cost, terrain, (start[0], start[1]), step, n_headings, moves)
-    mod = search_module(cost)
+    mod = search_module(cost, "path")
     ps = grid.position(start[0], start[1], "start")
     pg = grid.position(goal[0], goal[1], "goal")
     hs_start = _start_states(cost, grid, ps, start[2], "start")
