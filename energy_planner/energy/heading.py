@@ -5,8 +5,9 @@ of map does it cost, at the least, to move along this heading on this ground?" f
 
 - the energy map's ``best_*`` and ``cheapest`` bands (:mod:`energy_planner.energymap`);
 - the planner's 2-D heuristic, a lower bound of every motion the search prices
-  (:func:`energy_planner.planning.search.gradient_table`, which also bounds the corridor
-  planner's and the windowed reach's windows);
+  (:func:`energy_planner.planning.search.bound_table`, read at each sample of a motion),
+  and the bound of the corridor planner's and the windowed reach's windows
+  (:func:`energy_planner.planning.search.gradient_table`);
 - compare-routes' cost of climbing a grade and its critical grade with the best yaw
   (:func:`energy_planner.planning.compare.grade_cost`).
 
