@@ -196,7 +196,7 @@ def test_follow_cli_json_records(tmp_path, follow_config):
     d = [u["distance_m"] for u in doc["updates"]]
     assert d == sorted(d) and d[-1] > 0.8 * float(np.hypot(*np.diff(states[:, :2], axis=0).T).sum())
     # the bundled model: the interval is split-conformal on the bundled calibrated scores
-    # of the update's group (state, remaining share)
+    # of the update's group (state, adapting by its step; remaining share)
     from energy_planner.follow.calibrate import bundled_scores
     from energy_planner.uncertainty import interval
 
@@ -205,7 +205,7 @@ def test_follow_cli_json_records(tmp_path, follow_config):
     assert sc.normalized  # scores in units of the follower's own spread at the checkpoint
     for u in doc["updates"]:
         assert u["remaining_high_j"] >= u["remaining_j"]
-        z = sc.for_group(u["state"], u["remaining_share"], 0.9)
+        z = sc.for_group(u["group"], u["remaining_share"], 0.9)
         iv = interval(u["remaining_j"], np.maximum(z * u["spread"], -0.9), 0.9)
         assert (u["remaining_low_j"], u["remaining_high_j"]) == pytest.approx(
             (max(iv.low_j, 0.0), iv.high_j), rel=1e-12

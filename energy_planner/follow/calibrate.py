@@ -8,7 +8,10 @@ where the DEM is wrong). This module measures those errors on simulated missions
 (seeds disjoint from any benchmark's) and keeps them as split-conformal scores
 ``r = E_pred / E_true - 1`` per **group**: the follower's state (``steady``: no change
 detected; ``adapting``: a change detected, the coefficients follow the log; ``dem``: a
-slope finding was made) and the remaining share of the path at the checkpoint. Every
+slope finding was made), with ``adapting`` split in two by the relative size of the
+detected change (:attr:`~energy_planner.follow.FollowUpdate.step`; ``adapting_small`` /
+``adapting_large`` at the calibration's median, :func:`score_group`), and the remaining
+share of the path at the checkpoint. Every
 calibration mission is scored at the same checkpoints, so the scores of a state near one
 remaining share are one per mission; with ``n`` of them exchangeable with a new mission's
 error at that checkpoint, the interval :func:`energy_planner.uncertainty.interval` built on
@@ -35,6 +38,7 @@ import numpy as np
 __all__ = [
     "RemainingScores",
     "bundled_scores",
+    "score_group",
     "calibrate_remaining",
     "follow_simulated_mission",
     "dem_stretch_lengths",
@@ -53,6 +57,38 @@ SCORES_FILE = "follow_scores.json"
 
 #: The follower's states the scores are grouped by.
 STATES = ("steady", "adapting", "dem")
+
+#: The score groups: the states, ``adapting`` split by the detected change's size
+#: (:func:`score_group`).
+GROUPS = ("steady", "adapting_small", "adapting_large", "dem")
+
+
+def score_group(state: str, step: float, step_split: float | None) -> str:
+    """The score group of a follower in ``state`` whose largest detected change was ``step``.
+
+    ``adapting`` is split by the relative size of the detected change (the short mean
+    innovation at detection over the recent power,
+    :attr:`~energy_planner.follow.FollowUpdate.step`): ``adapting_large`` above
+    ``step_split``, else ``adapting_small``. A follower knows its step at run time (not the
+    event's cause); the normalized errors of a large change (a payload) and of a small one
+    (mud) differ in scale, so a Mondrian split by it covers each alike. Without a split
+    (scores calibrated before it) the group is the state.
+
+    Examples
+    --------
+    >>> score_group("adapting", 0.12, 0.08), score_group("adapting", 0.05, 0.08)
+    ('adapting_large', 'adapting_small')
+    >>> score_group("steady", 0.12, 0.08), score_group("adapting", 0.12, None)
+    ('steady', 'adapting')
+    """
+    if state != "adapting" or step_split is None:
+        return state
+    return "adapting_large" if abs(step) > step_split else "adapting_small"
+
+
+def group_state(group: str) -> str:
+    """The follower's state a score group belongs to (``adapting_large`` -> ``adapting``)."""
+    return group.split("_", 1)[0]
 
 
 def mission_events(name: str) -> tuple:
@@ -83,8 +119,9 @@ class RemainingScores:
     Attributes
     ----------
     scores : dict
-        ``{state: [(remaining share, score), ...]}``: each score with the share of the
-        path's time still ahead at its checkpoint.
+        ``{group: [(remaining share, score), ...]}``: each score with the share of the
+        path's time still ahead at its checkpoint; the groups are :data:`GROUPS` (or
+        :data:`STATES`, scores calibrated without ``step_split``).
     seeds : tuple of int
         The simulated missions' seeds they come from.
     conditions : dict
@@ -100,6 +137,11 @@ class RemainingScores:
         followers found (:attr:`~energy_planner.follow.SlopeFinding.length_m`): a
         follower extrapolates an open DEM error over those longer than it
         (``Follower(stretch_lengths_m=...)``, which defaults to these).
+    step_split : float or None
+        The detected change's relative size that splits ``adapting`` into
+        ``adapting_small`` and ``adapting_large`` (:func:`score_group`): the median of the
+        calibration's adapting checkpoints (two equal groups, fixed by the calibration's
+        steps, never by its scores). None: no split.
     """
 
     scores: dict[str, list[tuple[float, float]]]
@@ -107,20 +149,29 @@ class RemainingScores:
     conditions: dict[str, Any] = field(default_factory=dict)
     normalized: bool = False
     dem_lengths_m: tuple[float, ...] = field(default=())
+    step_split: float | None = None
 
     def for_group(
-        self, state: str, share: float, level: float, width: float = SHARE_WIDTH
+        self, group: str, share: float, level: float, width: float = SHARE_WIDTH
     ) -> np.ndarray:
-        """The scores of ``state`` whose remaining share is within ``width`` of ``share``.
+        """The scores of ``group`` whose remaining share is within ``width`` of ``share``.
 
         The calibration scores every mission at the same checkpoints, so the scores near
         a checkpoint are one per mission: exchangeable with a new mission's error there
         (split-conformal per checkpoint). Where they are fewer than a two-sided interval
         at ``level`` needs (``n >= 2 / (1 - level) - 1``), ``width`` doubles until they
-        suffice; a state with too few at any width falls back to every state's.
+        suffice; a group with too few at any width falls back to its state's (every group
+        of the state, e.g. both ``adapting`` groups; a state's name reads them all), then
+        to every state's.
         """
-        need = math.ceil(2.0 / (1.0 - level) - 1.0)
-        pools = [self.scores.get(state, []), [p for v in self.scores.values() for p in v]]
+        # 1e-9: 2 / (1 - 0.9) is 20.000000000000004 in floating point (19 suffice at 0.9)
+        need = math.ceil(2.0 / (1.0 - level) - 1.0 - 1e-9)
+        state = group_state(group)
+        pools = [
+            self.scores.get(group, []),
+            [p for k, v in self.scores.items() if group_state(k) == state for p in v],
+            [p for v in self.scores.values() for p in v],
+        ]
         for pool in pools:
             arr = np.asarray(pool, dtype=float).reshape(-1, 2)
             w = float(width)
@@ -141,6 +192,7 @@ class RemainingScores:
             "conditions": dict(self.conditions),
             "normalized": self.normalized,
             "dem_lengths_m": list(self.dem_lengths_m),
+            "step_split": self.step_split,
         }
 
     @classmethod
@@ -153,6 +205,7 @@ class RemainingScores:
             dict(d.get("conditions", {})),
             bool(d.get("normalized", False)),
             tuple(float(v) for v in d.get("dem_lengths_m", ())),
+            None if d.get("step_split") is None else float(d["step_split"]),
         )
 
     def save(self, path: Any) -> Any:
@@ -189,7 +242,7 @@ class RemainingScores:
 def bundled_scores() -> RemainingScores:
     """The bundled model's calibrated scores (``energy_planner/data/follow_scores.json``).
 
-    Made by ``python benchmarks/bench_follow.py --calibrate-only --save-scores`` (see
+    Made by ``python benchmarks/bench_follow.py --coverage-only --save-scores`` (see
     ``docs/follow.md``): the bundled model's follower on simulated missions of every
     event case, seeds from 1000 (disjoint from the benchmark's).
     """
@@ -368,13 +421,15 @@ def calibrate_remaining(
     Returns
     -------
     RemainingScores
-        With the DEM errors' lengths the followers found (``dem_lengths_m``). Each
+        Grouped by :data:`GROUPS` with ``step_split`` the median detected step of the
+        ``adapting`` checkpoints (:func:`score_group`; by :data:`STATES` when none is
+        adapting). With the DEM errors' lengths the followers found (``dem_lengths_m``). Each
         mission is scored by a follower that extrapolates DEM errors over the lengths
         found on the **other** seeds (cross-fitted: a mission's own length never
         informs its own score).
     """
     cps = np.arange(0.2, 0.851, 0.05) if checkpoints is None else np.asarray(checkpoints)
-    out: dict[str, list[tuple[float, float]]] = {s: [] for s in STATES}
+    rows: list[tuple[str, float, float, float]] = []  # state, step, share, score
     seeds = tuple(int(s) for s in seeds)
     lengths: dict[int, list[float]] = {}
     if "dem_bias" in events and "stretch_lengths_m" not in options:
@@ -392,7 +447,14 @@ def calibrate_remaining(
                 if not counted(run, u.t) or run["true"][i] <= 0:
                     continue
                 score = float(u.remaining_j / run["true"][i] - 1.0) / u.spread
-                out[u.state].append((float(u.remaining_share), score))
+                rows.append((u.state, float(u.step), float(u.remaining_share), score))
+    steps = [abs(r[1]) for r in rows if r[0] == "adapting"]
+    split = float(np.median(steps)) if steps else None
+    out: dict[str, list[tuple[float, float]]] = {
+        g: [] for g in (GROUPS if split is not None else STATES)
+    }
+    for state, step, share, score in rows:
+        out[score_group(state, step, split)].append((share, score))
     conditions = {
         "duration_s": float(duration),
         "rate_hz": float(rate),
@@ -400,4 +462,6 @@ def calibrate_remaining(
         "checkpoints": [round(float(c), 6) for c in cps],
     }
     found = tuple(v for ls in lengths.values() for v in ls)
-    return RemainingScores(out, seeds, conditions, normalized=True, dem_lengths_m=found)
+    return RemainingScores(
+        out, seeds, conditions, normalized=True, dem_lengths_m=found, step_split=split
+    )

@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import EnergyPlannerError
+from energy_planner.follow.calibrate import score_group
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
 from energy_planner.follow.terms import (
     PathTerms,
@@ -129,6 +130,14 @@ class FollowUpdate:
         coefficients' variance and the power the model still misses over the time left,
         over the remaining energy; at least :data:`SPREAD_FLOOR`): calibrated scores
         are normalized by it.
+    step : float
+        Relative size of the largest change of conditions detected so far: the short
+        mean innovation at its detection over the recent mean power (signed; 0 before
+        any).
+    group : str
+        The calibrated scores' group the interval was read from
+        (:func:`~energy_planner.follow.calibrate.score_group`: the state, with
+        ``adapting`` split into ``adapting_small`` / ``adapting_large`` by ``step``).
     """
 
     t: float
@@ -146,6 +155,8 @@ class FollowUpdate:
     state: str = "steady"
     remaining_share: float = 1.0
     spread: float = 0.0
+    step: float = 0.0
+    group: str = "steady"
 
     def to_dict(self) -> dict[str, Any]:
         """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
@@ -165,6 +176,8 @@ class FollowUpdate:
             "state": self.state,
             "remaining_share": self.remaining_share,
             "spread": self.spread,
+            "step": self.step,
+            "group": self.group,
         }
 
 
@@ -403,7 +416,8 @@ class Follower:
                 "interval: split-conformal on the follower's own held-out remaining-energy "
                 f"errors ({len(remaining_scores.seeds)} calibration seeds"
                 + _conditions_text(remaining_scores)
-                + "), per state and remaining share"
+                + "), per group (state; adapting by the detected change's size) "
+                "and remaining share"
             )
         elif self.scores is None:
             self.notes.append(
@@ -455,6 +469,7 @@ class Follower:
         self._cooldown_until = -math.inf
         self.dead_band = bool(dead_band)
         self._adapting = False  # a change was detected: the coefficients follow the log
+        self._step = 0.0  # the largest detected change's relative size (score_group)
 
     # ------------------------------------------------------------------ input
     def feed(self, samples: Any) -> list[FollowUpdate]:
@@ -647,6 +662,10 @@ class Follower:
             self.rls.reset()
             self._since_reset = 0
             self._adapting = True
+            # the largest change detected so far: a second detection while the
+            # coefficients still catch up with a large change is the rest of that change
+            step = self._fast_w / max(abs(self._power_w), 1e-9)
+            self._step = step if abs(step) > abs(self._step) else self._step
             self.changes.append(float(t_end))
             self.events.append(
                 f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): the power departs "
@@ -711,6 +730,8 @@ class Follower:
             self.state,
             self._rem_s / self._total_s,
             self._spread,
+            self._step,
+            self.group,
         )
         self.updates.append(u)
         return u
@@ -722,6 +743,12 @@ class Follower:
         if self.findings or (s is not None and len(s.imu) >= 2):
             return "dem"
         return "adapting" if self._adapting else "steady"
+
+    @property
+    def group(self) -> str:
+        """The calibrated scores' group of the follower now (:func:`score_group`)."""
+        split = getattr(self.remaining_scores, "step_split", None)
+        return score_group(self.state, self._step, split)
 
     def _predict(
         self, r: np.ndarray, extra_var: float = 0.0
@@ -741,7 +768,7 @@ class Follower:
         self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
         if self.remaining_scores is not None:
             sc = self.remaining_scores.for_group(
-                self.state, self._rem_s / self._total_s, self.level
+                self.group, self._rem_s / self._total_s, self.level
             )
             if getattr(self.remaining_scores, "normalized", False):
                 # normalized conformal: the scores are in units of the spread; a relative
