@@ -315,8 +315,10 @@ class Follower:
     remaining_scores : RemainingScores, optional
         The follower's own held-out errors of the remaining energy
         (:func:`~energy_planner.follow.calibrate.calibrate_remaining`); with them the
-        interval is split-conformal on those errors (by remaining share and by whether a
-        change has been detected) instead of the model's run errors widened.
+        interval is split-conformal on those errors (by remaining share and by group:
+        the state, with ``adapting`` split by the detected change's size,
+        :func:`~energy_planner.follow.calibrate.score_group`) instead of the model's run
+        errors widened.
     bias_ahead_m : float, optional
         While a stretch where the IMU's ground disagrees with the DEM's is open, the
         rest of the path is priced on the DEM tilted by the measured gradient offset
