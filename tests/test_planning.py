@@ -76,6 +76,20 @@ def test_auto_on_flat_ground_stays_on_the_line(flat, model):
     assert res.energy_j <= straight.energy_j * 1.001
 
 
+def _zigzag_case():
+    """The zigzag test's plane (grade 0.5 up +y) and quadratic model whose critical grade
+    the lattice move (2, 1) climbs at: ``(s, c0, k, model, start, goal, E*)`` with
+    ``E* = 2 H sqrt(c0 k)`` the least energy of any climb (docstring below)."""
+    s = 0.5
+    g = s / math.sqrt(5)
+    u = g / math.sqrt(1 + g * g)
+    c0 = 100.0
+    k = c0 / u**2
+    start, goal = (30.0, 5.0), (30.0, 45.0)
+    closed_form = 2 * s * (goal[1] - start[1]) * math.sqrt(c0 * k)
+    return s, c0, k, _quad_model(c0, k), start, goal, closed_form
+
+
 def test_zigzag_at_the_critical_grade_matches_closed_form(ramp):
     r"""On a plane, walking forward along a direction of inclination beta (the path's
     angle above the horizontal, :math:`\sin\beta = \sin\alpha\cos\gamma`) costs
@@ -91,15 +105,8 @@ def test_zigzag_at_the_critical_grade_matches_closed_form(ramp):
     :math:`u = (s/\sqrt5) / \sqrt{1 + s^2/5}`; k is chosen so that this is the critical
     grade, so the lattice can realise the optimum exactly.
     """
-    s = 0.5
-    g = s / math.sqrt(5)
-    u = g / math.sqrt(1 + g * g)
-    c0 = 100.0
-    k = c0 / u**2
-    m = _quad_model(c0, k)
-    start, goal = (30.0, 5.0), (30.0, 45.0)
+    s, c0, k, m, start, goal, closed_form = _zigzag_case()
     height = s * (goal[1] - start[1])
-    closed_form = 2 * height * math.sqrt(c0 * k)
     lat = plan(ramp, m, start, goal, planner="lattice", step=1.0, progress=False)
     assert lat.energy_j == pytest.approx(closed_form, rel=1e-6)
     # it zigzags: legs cross the slope, none goes straight up
@@ -170,14 +177,7 @@ def test_default_refinement_is_a_floor_of_rounds_not_of_seconds(ramp):
     never costing more than the search's own path."""
     from energy_planner.planning.plan import REFINE_MIN_ROUNDS
 
-    s = 0.5
-    g = s / math.sqrt(5)
-    u = g / math.sqrt(1 + g * g)
-    c0 = 100.0
-    k = c0 / u**2
-    m = _quad_model(c0, k)
-    start, goal = (30.0, 5.0), (30.0, 45.0)
-    closed_form = 2 * s * (goal[1] - start[1]) * math.sqrt(c0 * k)
+    _, _, _, m, start, goal, closed_form = _zigzag_case()
     search = plan(ramp, m, start, goal, planner="search", step=1.0, progress=False)
     auto = plan(ramp, m, start, goal, planner="auto", step=1.0, progress=False)
     rounds = auto.info["refine"]["rounds"]

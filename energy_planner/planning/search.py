@@ -118,14 +118,19 @@ def search_module(cost, kernels: str = "all"):
     return mod
 
 
+def _empty_work() -> tuple:
+    """Arguments of a search with nothing to do: lattice, moves, heap, table, table geometry."""
+    i8 = np.int64
+    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
+    heap = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
+    table = np.zeros((16, 2, 2), np.float32)
+    return lat, np.zeros((16, 2), i8), heap, table, np.array([0.0, 0.0, 1.0, 1.0])
+
+
 def _warm_up_path(mod, cost) -> None:
     """Call the numba functions of :func:`search_plan` once with empty work (compiles them)."""
     i8 = np.int64
-    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
-    moves = np.zeros((16, 2), i8)
-    keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
-    table = np.zeros((16, 2, 2), np.float32)
-    tgeo = np.array([0.0, 0.0, 1.0, 1.0])
+    lat, moves, (keys, vals, n), table, tgeo = _empty_work()
     mod.heuristic_chunk(
         cost.data[IN_GRAD], cost.data[IN_BLOCKED], np.zeros((1, 1), np.uint8), _geo(cost),
         _sampling(cost), lat, moves,
@@ -146,11 +151,7 @@ def _warm_up_path(mod, cost) -> None:
 def _warm_up_rest(mod, cost) -> None:
     """Call the other numba functions of ``mod`` once with empty work (compiles them)."""
     i8 = np.int64
-    lat = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
-    moves = np.zeros((16, 2), i8)
-    keys, vals, n = np.zeros(4), np.zeros(4, i8), np.zeros(1, i8)
-    table = np.zeros((16, 2, 2), np.float32)
-    tgeo = np.array([0.0, 0.0, 1.0, 1.0])
+    lat, moves, (keys, vals, n), table, tgeo = _empty_work()
     mod.min_over_headings(np.zeros(16, np.float32), np.zeros(16, np.int8), 1, 16)
     mod.min_rows(np.zeros((1, 1), np.float32), np.zeros(1, i8), np.zeros(1))
     mod.rekey(keys, vals, np.zeros(1, i8), np.zeros(16, np.float32), np.zeros(16, np.int8),
