@@ -415,7 +415,7 @@ DEFAULT_EPS = 1.05
 #: ``auto``'s refinement without a time budget: a quarter of the search's time, at most
 #: 10 s, and at least :data:`REFINE_MIN_ROUNDS` rounds (a floor of work, not of seconds:
 #: the first rounds' shortcuts and pose moves give most of the gain, e.g. 1.7 % above the
-#: ``eps = 1`` optimum to 0.9 % below it on the 800² notch DEM of ``bench_peers.py``).
+#: ``eps = 1`` optimum to about 1 % below it on the 800² notch DEM of ``bench_peers.py``).
 REFINE_SHARE, REFINE_MAX_S, REFINE_MIN_ROUNDS = 0.25, 10.0, 4
 
 
