@@ -33,6 +33,7 @@ CLOSED = 64
 
 # chunk return codes
 RUNNING, FOUND, EXHAUSTED, HEAP_FULL = 0, 1, 2, 3
+OPENED = 4  # next_open: a state to expand
 
 
 @numba.njit(cache=True)
@@ -64,6 +65,33 @@ def heap_pop(keys, vals, n):
         vals[0] = vals[m]
         _sift_down(keys, vals, 0, m)
     return key, val
+
+
+@numba.njit(cache=True)
+def next_open(keys, vals, n, code, pops, max_pops, room, max_key):
+    """Pop the best state of the open list that is not closed yet, and close it.
+
+    The one loop head of the A* expansions (:func:`astar_chunk`, :func:`astar_cached_chunk`,
+    :func:`astar_lazy_chunk`). Returns ``(status, s)``: ``OPENED`` and the state, or
+    ``RUNNING`` (``pops`` reached ``max_pops``), ``HEAP_FULL`` (fewer than ``room`` free
+    entries left for the state's successors) or ``EXHAUSTED`` (the list is empty, or its
+    best key is above ``max_key``: the list is then emptied) with ``s = -1``.
+    """
+    while n[0] > 0:
+        if pops >= max_pops:
+            return RUNNING, -1
+        if n[0] + room > keys.shape[0]:
+            return HEAP_FULL, -1
+        key, s = heap_pop(keys, vals, n)
+        c = code[s]
+        if c >= CLOSED:
+            continue
+        if key > max_key:
+            n[0] = 0
+            return EXHAUSTED, -1
+        code[s] = c + CLOSED
+        return OPENED, s
+    return EXHAUSTED, -1
 
 
 @numba.njit(cache=True)
@@ -402,19 +430,10 @@ def astar_chunk(
     pops = 0
     priced = 0
     buf = np.empty(N_OUT + data[IN_CHAN].shape[0])  # results, then channel scratch
-    while n[0] > 0:
-        if pops >= max_pops:
-            return RUNNING, pops, priced
-        if n[0] + nmv + 2 > keys.shape[0]:
-            return HEAP_FULL, pops, priced
-        key, s = heap_pop(keys, vals, n)
-        c = code[s]
-        if c >= CLOSED:
-            continue
-        if key > max_key:
-            n[0] = 0
-            return EXHAUSTED, pops, priced
-        code[s] = c + CLOSED
+    while True:
+        status, s = next_open(keys, vals, n, code, pops, max_pops, nmv + 2, max_key)
+        if status != OPENED:
+            return status, pops, priced
         pops += 1
         p, hh = divmod(s, H)
         if p == goal_p and (goal_h < 0 or hh == goal_h):
@@ -462,7 +481,6 @@ def astar_chunk(
                 g[t] = ng
                 code[t] = TURN_FROM_PREV if d == 1 else TURN_FROM_NEXT
                 heap_push(keys, vals, n, ng + eps * h2d[p], t)
-    return EXHAUSTED, pops, priced
 
 
 @numba.njit(cache=True)
@@ -616,19 +634,10 @@ def astar_cached_chunk(edges, lat, H, moves, moves_of, h2d, g, code, goal_p, key
     ny = int(lat[4])
     nmv = moves_of.shape[1]
     pops = 0
-    while n[0] > 0:
-        if pops >= max_pops:
-            return RUNNING, pops
-        if n[0] + nmv + 2 > keys.shape[0]:
-            return HEAP_FULL, pops
-        key, s = heap_pop(keys, vals, n)
-        c = code[s]
-        if c >= CLOSED:
-            continue
-        if key > max_key:
-            n[0] = 0
-            return EXHAUSTED, pops
-        code[s] = c + CLOSED
+    while True:
+        status, s = next_open(keys, vals, n, code, pops, max_pops, nmv + 2, max_key)
+        if status != OPENED:
+            return status, pops
         pops += 1
         p, hh = divmod(s, H)
         if p == goal_p:
@@ -664,7 +673,6 @@ def astar_cached_chunk(edges, lat, H, moves, moves_of, h2d, g, code, goal_p, key
                 g[t] = ng
                 code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
                 heap_push(keys, vals, n, ng + h2d[p], t)
-    return EXHAUSTED, pops
 
 
 @numba.njit(cache=True)
@@ -689,19 +697,10 @@ def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p,
     pops = 0
     priced = 0
     buf = np.empty(N_OUT + data[IN_CHAN].shape[0])
-    while n[0] > 0:
-        if pops >= max_pops:
-            return RUNNING, pops, priced
-        if n[0] + nmv + 2 > keys.shape[0]:
-            return HEAP_FULL, pops, priced
-        key, s = heap_pop(keys, vals, n)
-        c = code[s]
-        if c >= CLOSED:
-            continue
-        if key > max_key:
-            n[0] = 0
-            return EXHAUSTED, pops, priced
-        code[s] = c + CLOSED
+    while True:
+        status, s = next_open(keys, vals, n, code, pops, max_pops, nmv + 2, max_key)
+        if status != OPENED:
+            return status, pops, priced
         pops += 1
         p, hh = divmod(s, H)
         if p == goal_p:
@@ -758,4 +757,3 @@ def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p,
                 g[t] = ng
                 code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
                 heap_push(keys, vals, n, ng + h2d[p], t)
-    return EXHAUSTED, pops, priced
