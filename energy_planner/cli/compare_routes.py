@@ -48,6 +48,7 @@ def format_table(res: dict[str, Any]) -> str:
 @options.channel_options
 @options.trust_options
 @options.plot_option("PNG: the three routes over a hillshade with heading marks.")
+@options.html_option("The routes over the hillshade; hover a vertex for its segment.")
 @options.json_option
 def command(
     dem: Path,
@@ -58,6 +59,7 @@ def command(
     request: Request,
     trust: options.Trust,
     plot: Path | None,
+    html: Path | None,
     as_json: bool,
 ) -> None:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
@@ -97,4 +99,7 @@ def command(
                               judged=r["name"] == "energy_optimal",
                               duration_s=r.get("duration_s"))  # fmt: skip
     options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
+    options.write_output(
+        result, "html", html, lambda p: comp.write_html(p, Problem(terrain, model, request))
+    )
     options.emit(result, as_json, format_table)

@@ -76,6 +76,7 @@ def format_table(res: dict[str, Any]) -> str:
 @options.path_option(
     "--plot", help="Also draw the map (cheapest cost over a hillshade, arrows) to this PNG."
 )
+@options.html_option("The map's bands over the hillshade, with a band chooser.")
 @options.band_option
 @click.option(
     "--dask",
@@ -121,6 +122,7 @@ def command(
     sets: tuple[str, ...],
     channels: tuple[str, ...],
     plot: Path | None,
+    html: Path | None,
     band: int | None,
     use_dask: bool | None,
     scheduler: str | None,
@@ -180,4 +182,5 @@ def command(
     result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
     if plot is not None:
         result["plot"] = str(plot_energy_map(out, plot, dem))
+    options.write_output(result, "html", html, lambda p: res.write_html(p, dem))
     options.emit(result, as_json, format_table)

@@ -13,11 +13,13 @@ from energy_planner.cli.options import (
     dem_option,
     emit,
     examples,
+    html_option,
     json_option,
     level_option,
     load_model_option,
     model_option,
     speed_option,
+    write_output,
     yaw_rate_option,
 )
 
@@ -104,6 +106,7 @@ def _text(res: dict[str, Any]) -> str:
 @channel_options
 @speed_option
 @yaw_rate_option
+@html_option("The path, the walked poses and each update's remaining energy.")
 @json_option
 def command(
     log: Path,
@@ -123,6 +126,7 @@ def command(
     channels: tuple[str, ...],
     speed: float,
     yaw_rate: float,
+    html: Path | None,
     as_json: bool,
 ) -> None:
     """Replay LOG (a robot log) against the plan in --path and follow the rest of it.
@@ -200,4 +204,5 @@ def command(
     walked = "the log's own poses"
     out.update({"log": str(log), "dem": str(dem), "level": level,
                 "path": walked if path_file is None else str(path_file)})  # fmt: skip
+    write_output(out, "html", html, f.write_html)
     emit(out, as_json, _text)

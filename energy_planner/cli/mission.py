@@ -87,6 +87,10 @@ def _text(res: dict[str, Any]) -> str:
 @options.geojson_crs_option
 @options.trust_options
 @options.plot_option("PNG of the tour over the slope map.")
+@options.html_option(
+    "The sites and legs over the hillshade; hover a leg for its energy "
+    "and, with --battery-wh, its battery chance."
+)
 @options.json_option
 def command(
     dem: Path,
@@ -101,6 +105,7 @@ def command(
     geojson_crs: str,
     trust: options.Trust,
     plot: Path | None,
+    html: Path | None,
     as_json: bool,
 ) -> None:
     """Visit the sites of --sites in the least-energy (or given) order over DEM.
@@ -144,4 +149,12 @@ def command(
         out, "geojson", geojson, lambda: res.to_geojson(terrain, native=geojson_crs == "dem")
     )
     options.write_output(out, "plot", plot, lambda p: res.plot(terrain, p, request=request))
+    options.write_output(
+        out,
+        "html",
+        html,
+        lambda p: res.write_html(
+            p, Problem(terrain, model, request), battery=out.get("battery_legs")
+        ),
+    )
     options.emit(out, as_json, lambda r: _text(r) + "\n" + options.trust_lines(r))

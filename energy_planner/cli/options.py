@@ -47,6 +47,15 @@ def plot_option(help: str) -> Callable:
     return path_option("--plot", help=help)
 
 
+def html_option(help: str) -> Callable:
+    """``--html FILE``: one self-contained page (:mod:`energy_planner.webmap`), offline."""
+    return path_option(
+        "--html",
+        help=help + " One self-contained HTML file (Plotly inlined): opens in any browser, "
+        "no network needed.",
+    )
+
+
 def write_output(result: dict[str, Any], key: str, path: Path | None, write: Callable) -> None:
     """An optional output: ``write(path)`` when ``path`` is given, and ``result[key]`` names it.
 

@@ -229,6 +229,7 @@ def format_table(res: dict[str, Any]) -> str:
 @options.geojson_crs_option
 @options.trust_options
 @options.plot_option("PNG plot.")
+@options.html_option("The path over the hillshade; hover a vertex for its segment.")
 @click.option(
     "--stay-in-domain",
     is_flag=True,
@@ -254,6 +255,7 @@ def command(
     geojson_crs: str,
     trust: options.Trust,
     plot: Path | None,
+    html: Path | None,
     stay_in_domain: bool,
     as_json: bool,
 ) -> None:
@@ -340,4 +342,7 @@ def command(
         result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
     )
     options.write_output(result, "plot", plot, lambda p: res.plot(terrain, p, request=request))
+    options.write_output(
+        result, "html", html, lambda p: res.write_html(p, Problem(terrain, model, request))
+    )
     options.emit(result, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))

@@ -107,6 +107,10 @@ def _text(res: dict[str, Any]) -> str:
     "--return) on the usable battery.",
 )
 @options.plot_option("PNG: energy over a hillshade with the budget contour.")
+@options.html_option(
+    "Energy to every cell over the hillshade, the budget contour (at "
+    "--confidence with --battery-wh) and the battery chance."
+)
 @options.memory_cap_option(
     "the search may use (160 bytes per DEM cell); a larger DEM is read as one window about "
     "the start, of the radius the budget can reach (needs --budget-wh)"
@@ -129,6 +133,7 @@ def command(
     confidence: float,
     chance_out: Path | None,
     plot: Path | None,
+    html: Path | None,
     memory_cap: str | None,
     as_json: bool,
 ) -> None:
@@ -175,6 +180,13 @@ def command(
                                  indent=None)  # fmt: skip
     options.write_output(result, "plot", plot,
                          lambda p: res.plot(terrain, p, budget_j, request=request))  # fmt: skip
+    usable_j = None if battery_wh is None else (battery_wh - reserve_wh) * 3600.0
+    options.write_output(
+        result,
+        "html",
+        html,
+        lambda p: res.write_html(p, terrain, budget_j, model=model, usable_j=usable_j),
+    )
     options.emit(result, as_json, _text)
 
 

@@ -83,6 +83,17 @@ class EnergyMapResult:
     channels: dict[str, Any] = field(default_factory=dict)
     heading_convention: str = GRID_EAST
 
+    def write_html(self, path: str | Path, dem: Any = None) -> Path:
+        """One self-contained HTML page with a band chooser.
+
+        See :func:`energy_planner.webmap.energy_map_page`.
+
+        ``dem`` (a path or Terrain) gives the hillshade underneath.
+        """
+        from energy_planner.webmap import energy_map_page
+
+        return energy_map_page(self.path, dem, path)
+
     def plot(self, png: str | Path, dem: Any = None) -> Path:
         """Draw the map (:func:`~energy_planner.energymap.plot.plot_energy_map`) to ``png``."""
         from energy_planner.energymap.plot import plot_energy_map

@@ -1056,6 +1056,18 @@ class Follower:
         return msg, False
 
     # ------------------------------------------------------------------ results
+    def write_html(self, path: Any) -> Any:
+        """One self-contained HTML page (:func:`energy_planner.webmap.follow_page`).
+
+        The path being followed (after any replan), the poses of the updates and, on
+        hover, each update's time, energy used, remaining energy with its interval and
+        battery chance.
+        """
+        from energy_planner.webmap import follow_page
+
+        walked = [(u.x, u.y) for u in self.updates]
+        return follow_page(self.terrain, path, walked, self.updates, self.path.poses[:, :2])
+
     def to_dict(self) -> dict[str, Any]:
         """Updates, slope findings, events and notes (for ``--json``)."""
         return {

@@ -163,6 +163,15 @@ class MissionResult:
             props.append({"site": self.sites.names[i], "visit": self.order.index(i)})
         return feature_collection(zip(geoms, props, strict=True), crs=terrain.crs, native=native)
 
+    def write_html(self, path: str | Path, problem: Any, battery: dict | None = None) -> Path:
+        """One self-contained HTML page (:func:`energy_planner.webmap.mission_page`).
+
+        ``battery`` is :meth:`battery`'s result: each leg's hover gives its chance.
+        """
+        from energy_planner.webmap import mission_page
+
+        return mission_page(problem, self, path, battery)
+
     def plot(self, terrain, path: str | Path, request: Any = None) -> Path:
         """PNG: legs over a hillshade, sites numbered in visiting order.
 

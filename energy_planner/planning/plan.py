@@ -165,6 +165,16 @@ class PlanResult:
         title = title or f"Planned path ({self.planner}): {self.energy_j:.0f} J"
         return comp.plot(terrain, path, title=title, request=request)
 
+    def write_html(self, path: Any, problem: Any) -> Any:
+        """One self-contained HTML page of the path (:func:`energy_planner.webmap.plan_page`).
+
+        ``problem`` is the :class:`~energy_planner.problem.Problem` it was planned on: the
+        hover of each vertex prices the segment that starts there with its model.
+        """
+        from energy_planner.webmap import plan_page
+
+        return plan_page(problem, self, path)
+
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):

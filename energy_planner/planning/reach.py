@@ -334,6 +334,26 @@ class ReachMap:
             tags={"software": "energy_planner reach"},
         )  # fmt: skip
 
+    def write_html(
+        self,
+        path: str | Path,
+        terrain,
+        budget_j: float | None = None,
+        *,
+        model: Any = None,
+        usable_j: float | None = None,
+    ) -> Path:
+        """One self-contained HTML page (:func:`energy_planner.webmap.reach_page`).
+
+        The energy to every cell (Wh), the contour of ``budget_j`` and, given ``model``
+        and the battery's ``usable_j``, the chance the battery suffices to each cell
+        (:meth:`chance`).
+        """
+        from energy_planner.webmap import reach_page
+
+        chance = None if model is None or usable_j is None else self.chance(model, usable_j)
+        return reach_page(terrain, self, path, budget_j, chance)
+
     def plot(
         self, terrain, path: str | Path, budget_j: float | None = None, request: Any = None
     ) -> Path:

@@ -236,6 +236,15 @@ class RouteComparison:
                     )
         return out
 
+    def write_html(self, path: str | Path, problem: Any) -> Path:
+        """One self-contained HTML page of the routes (:func:`energy_planner.webmap.routes_page`).
+
+        ``problem`` is the :class:`~energy_planner.problem.Problem` they were planned on.
+        """
+        from energy_planner.webmap import routes_page
+
+        return routes_page(problem, self, path)
+
     def plot(
         self, terrain, path: str | Path, title: str | None = None, request: Any = None
     ) -> Path:
