@@ -1,7 +1,7 @@
 """The HTML pages of every product render in a real headless Chromium with the network blocked.
 
-Each page (plan, compare-routes, reach, mission, energy-map, follow) is written by the
-library, opened from disk in Debian's Chromium driven by Playwright with every request
+Each page (plan, compare-routes, reach, mission, energy-map, follow) is written by its
+command's ``--html``, opened from disk in Debian's Chromium driven by Playwright with every request
 other than the file itself aborted, and checked: it draws its traces, makes no network
 request, raises no script error; hovering a route vertex shows that segment's energy, which
 must equal the per-segment energy of ``path_energy`` (an independent call).
@@ -52,34 +52,52 @@ def small():
 
 
 @pytest.fixture(scope="module")
-def pages(small, tmp_path_factory, make_follower, follow_mission):
-    """Every product's page, written by the library."""
+def pages(small, tmp_path_factory):
+    """Every product's page, written by its command as a user runs it (``--html``).
+
+    Checks the wiring on the way: each command exits 0 and names the page in ``--json``.
+    The plan's page is also written by the library, for the hover check.
+    """
+    import json
+
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+    from energy_planner.io import write_geotiff
+    from energy_planner.simulate import simulate_missions
+    from energy_planner.simulate.missions import MissionConfig
+
     d = tmp_path_factory.mktemp("html")
     prob = small
-    s, g = (10.5, 10.5), (50.5, 48.5)
-    res = ep.plan(prob, s, g, time=0.5)
-    out = {"plan": res.write_html(d / "plan.html", prob)}
-    comp = ep.compare_routes(prob, s, g, time=0.5)
-    out["routes"] = comp.write_html(d / "routes.html", prob)
-    reach = ep.reach(prob, s)
-    out["reach"] = reach.write_html(d / "reach.html", prob.terrain, 2.0 * 3600,
-                                    model=prob.model, usable_j=3.0 * 3600)  # fmt: skip
-    from energy_planner.mission import Sites, mission
-
-    sites = Sites(np.array([[10.5, 10.5], [50.5, 12.5], [30.5, 50.5]]), ["a", "b", "c"])
-    m = mission(prob, sites)
-    out["mission"] = m.write_html(d / "mission.html", prob, m.battery(prob.model, 30.0))
     dem = d / "hill.tif"
-    from energy_planner.io import write_geotiff
-
     write_geotiff(dem, prob.terrain.elevation, transform=prob.terrain.transform,
                   crs=prob.terrain.crs)  # fmt: skip
-    emap = ep.energy_map(dem, d / "map.tif", headings=4)
-    out["energy_map"] = emap.write_html(d / "map.html", dem)
-    logs = follow_mission()
-    f = make_follower(logs, battery_wh=30.0)
-    f.replay(logs)
-    out["follow"] = f.write_html(d / "follow.html")
+    sites = d / "sites.csv"
+    sites.write_text("name,x,y\na,10.5,10.5\nb,50.5,12.5\nc,30.5,50.5\n")
+    logs = d / "run.csv"
+    cfg = MissionConfig(missions=1, duration_s=20.0, stop_prob=0.0, sideways_prob=0.0,
+                        backward_prob=0.0, speeds=(0.3,), loads_kg=(0.0,),
+                        grounds=("asphalt",))  # fmt: skip
+    simulate_missions(seed=5, config=cfg, terrain=prob.terrain).logs.to_csv(logs, index=False)
+    pts = ["--start", "10.5,10.5", "--goal", "50.5,48.5"]
+    battery = ["--battery-wh", "30"]
+    runs = {
+        "plan": ["plan", "--dem", str(dem), *pts, "--time", "0.3"],
+        "routes": ["compare-routes", "--dem", str(dem), *pts, "--time", "0.3"],
+        "reach": ["reach", str(dem), "--start", "10.5,10.5", "--budget-wh", "2", *battery],
+        "mission": ["mission", "--dem", str(dem), "--sites", str(sites), *battery],
+        "energy_map": ["energy-map", str(dem), "--out", str(d / "m.tif"), "--headings", "4"],
+        "follow": ["follow", str(logs), "--dem", str(dem), "--no-replan", *battery],
+    }
+    out = {}
+    for name, args in runs.items():
+        page = d / f"{name}.html"
+        r = CliRunner().invoke(main, [*args, "--html", str(page), "--json"])
+        assert r.exit_code == 0, (name, r.output)
+        assert json.loads(r.stdout)["html"] == str(page), name
+        out[name] = page
+    res = ep.plan(prob, (10.5, 10.5), (50.5, 48.5), time=0.3)
+    out["plan_library"] = res.write_html(d / "plan_library.html", prob)
     return {"paths": out, "plan": res, "problem": prob}
 
 
@@ -135,7 +153,7 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
                 "() => { const gd = document.getElementById('energy-planner-map');"
                 " return gd._fullData.map(d => d.type); }"
             )
-            if name == "plan":
+            if name == "plan_library":
                 # hover the middle vertex of the route, as a user moves the mouse there
                 i = len(plan.states) // 2
                 xy = page.evaluate(
@@ -155,8 +173,9 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
         browser.close()
     assert asked == [] and errors == []
     assert drawn["plan"].count("scatter") == 2  # the route, start and goal
+    assert drawn["plan_library"] == drawn["plan"]
     assert drawn["routes"].count("scatter") >= 3
     assert drawn["reach"].count("heatmap") == 2 and "contour" in drawn["reach"]
     assert drawn["mission"].count("scatter") == 3  # two legs, the sites
     assert drawn["energy_map"].count("heatmap") >= 3  # the band chooser's bands
-    assert "scatter" in drawn["follow"]
+    assert drawn["follow"].count("scatter") == 3  # the path, the walked poses, the updates
