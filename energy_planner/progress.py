@@ -3,11 +3,18 @@
 Every library function that takes long accepts ``progress=`` and passes it to
 :func:`reporter`, which turns it into a :class:`Reporter`:
 
-* ``None`` (the default of most functions): a bar on stderr when stderr is a terminal;
-* ``True`` / ``False``: a bar on stderr always (unless it is not a terminal: tqdm's own
-  rule, so logs and CI output stay clean) / never;
+* ``None`` (the default of most functions): a bar on stderr when stderr is a terminal,
+  nothing otherwise;
+* ``True``: report on stderr: a bar on a terminal, and in a log (stderr not a terminal)
+  one plain line per stage when it has run for :data:`LOG_EVERY_S` seconds, then one
+  every :data:`LOG_EVERY_S` seconds and one when it ends: no carriage returns, no bars
+  (what the commands pass);
+* ``False``: nothing on stderr;
 * a callable: called with one :class:`ProgressEvent` at every update, and no bar;
 * a :class:`Reporter`: used as is (both a bar and a callback, or a custom subclass).
+
+:func:`quiet` (the command line's ``--quiet``) turns every ``None`` and ``True`` into
+``False`` for the rest of the process; callbacks still get their events.
 
 One callback signature for every computation: ``callback(event)``, where the event says
 the stage, how far it is (``done`` of ``total`` ``unit``), a message, and a value (the
@@ -28,13 +35,34 @@ Examples
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-__all__ = ["ProgressEvent", "ProgressLike", "Reporter", "reporter", "track"]
+__all__ = ["LOG_EVERY_S", "ProgressEvent", "ProgressLike", "Reporter", "quiet", "reporter",
+           "track"]  # fmt: skip
+
+#: In a log (stderr not a terminal), seconds between a running stage's lines
+#: (``ENERGY_PLANNER_PROGRESS_EVERY`` sets it; 0 reports every update).
+LOG_EVERY_S = float(os.environ.get("ENERGY_PLANNER_PROGRESS_EVERY", "10"))
+_QUIET = False
+
+
+def quiet(on: bool = True) -> None:
+    """Silence every reporter made from here on (``--quiet``): no bars, no lines."""
+    global _QUIET
+    _QUIET = bool(on)
+
+
+def _is_tty() -> bool:
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # a closed or replaced stderr
+        return False
+
 
 T = TypeVar("T")
 
@@ -76,7 +104,9 @@ class _Bar:
         self.done: float = 0
         self.value: float | None = None
         self.tqdm = None
-        if rep.show is not False:
+        self.logged = self.t0 = time.perf_counter()
+        self.log = rep.show is True and not _is_tty()  # plain lines in a log
+        if rep.show is not False and not self.log:
             from tqdm import tqdm
 
             kw: dict[str, Any] = {"bar_format": fmt} if fmt else {}
@@ -86,7 +116,30 @@ class _Bar:
             )  # fmt: skip
         self._emit()
 
+    def _line(self, final: bool = False) -> None:
+        """In a log: a line once the stage has run LOG_EVERY_S, then every LOG_EVERY_S."""
+        if not self.log:
+            return
+        now = time.perf_counter()
+        if final:
+            if now - self.t0 < LOG_EVERY_S:
+                return  # a short stage leaves no line
+        elif now - self.logged < LOG_EVERY_S:
+            return
+        self.logged = now
+        unit = f" {self.unit}" if self.unit else ""
+        if self.total:
+            share = 100 * min(self.done / self.total, 1)
+            how = f"{share:.0f}% ({self.done:g}/{self.total:g}{unit})"
+        else:
+            how = f"{self.done:g}{unit}"
+        best = f", best {self.value:.6g}" if self.value is not None else ""
+        what = "done" if final else "running"
+        print(f"{self.stage}: {what}, {how}{best}, {now - self.t0:.1f} s", file=sys.stderr,
+              flush=True)  # fmt: skip
+
     def _emit(self, message: str | None = None) -> None:
+        self._line()
         if self.rep.callback is not None:
             self.rep.callback(
                 ProgressEvent(self.stage, self.done, self.total, self.unit, message,
@@ -112,7 +165,10 @@ class _Bar:
         self._emit()
 
     def close(self) -> None:
-        """End the stage (the bar is removed from the terminal)."""
+        """End the stage (the bar is removed from the terminal; a log gets its last line)."""
+        if self.log:
+            self._line(final=True)
+            self.log = False
         if self.tqdm is not None:
             self.tqdm.close()
             self.tqdm = None
@@ -130,8 +186,8 @@ class Reporter:
     Parameters
     ----------
     show : bool or None
-        Draw bars and print messages on stderr: True, False, or None (only when stderr
-        is a terminal).
+        True: bars on a terminal, plain lines every :data:`LOG_EVERY_S` in a log; None:
+        bars only on a terminal; False: nothing on stderr (also after :func:`quiet`).
     callback : callable, optional
         ``callback(event: ProgressEvent)`` at every update.
     """
@@ -139,7 +195,7 @@ class Reporter:
     def __init__(
         self, show: bool | None = None, callback: Callable[[ProgressEvent], None] | None = None
     ) -> None:
-        self.show = show
+        self.show = False if _QUIET else show
         self.callback = callback
         self.t0 = time.perf_counter()
 
@@ -166,7 +222,7 @@ class Reporter:
 
     def say(self, message: str, stage: str = "") -> None:
         """A line for people: on stderr (when shown) and to the callback."""
-        if self.show or (self.show is None and sys.stderr.isatty()):
+        if self.show or (self.show is None and _is_tty()):
             prefix = f"{stage}: " if stage else ""
             print(f"{prefix}{message}", file=sys.stderr, flush=True)
         if self.callback is not None:
@@ -182,7 +238,7 @@ def reporter(progress: ProgressLike = None) -> Reporter:
     if isinstance(progress, Reporter):
         return progress
     if progress is None or isinstance(progress, bool):
-        return Reporter(show=progress)
+        return Reporter(show=False if _QUIET else progress)
     if callable(progress):
         return Reporter(show=False, callback=progress)
     raise TypeError(

@@ -67,3 +67,76 @@ def test_the_simulator_and_discover_report_through_the_same_callback():
     assert text[0] == "data checks done"
     assert {e.stage for e in msgs} <= {"discover", "staircase"}
     assert [e.message for e in msgs if e.stage == "staircase"] == ["step 1 done"]
+
+
+def test_in_a_log_a_shown_stage_writes_plain_lines_not_bars(capsys, monkeypatch):
+    import energy_planner.progress as progress
+
+    monkeypatch.setattr(progress, "LOG_EVERY_S", 0.0)  # a line at every update
+    for _ in track(range(3), "blocks", True, unit="block"):
+        pass
+    err = capsys.readouterr().err  # capsys: stderr is not a terminal, as in a log
+    assert "\r" not in err and "|" not in err  # no bar
+    lines = err.splitlines()
+    assert lines[-1].startswith("blocks: done, 100% (3/3 block)")
+    assert any(line.startswith("blocks: running, 33% (1/3 block)") for line in lines)
+    # a stage shorter than the log interval leaves no line; None never writes in a log
+    monkeypatch.setattr(progress, "LOG_EVERY_S", 3600.0)
+    list(track(range(3), "short", True))
+    list(track(range(3), "library default", None))
+    assert capsys.readouterr().err == ""
+
+
+def test_quiet_silences_every_reporter_but_not_the_callbacks(capsys, monkeypatch):
+    import energy_planner.progress as progress
+
+    monkeypatch.setattr(progress, "LOG_EVERY_S", 0.0)
+    seen: list[ProgressEvent] = []
+    try:
+        progress.quiet()
+        list(track(range(2), "blocks", True))
+        Reporter(show=True).say("loud")
+        list(track(range(2), "blocks", seen.append))
+    finally:
+        progress.quiet(False)
+    assert capsys.readouterr().err == ""
+    assert [e.done for e in seen] == [0, 1, 2]
+
+
+def test_a_command_reports_in_a_log_and_is_silent_with_quiet(tmp_path, monkeypatch):
+    # mission's matrix and legs report through the one reporter: lines in a log (stderr
+    # not a terminal), none with --quiet; stdout holds only the JSON either way
+    import json
+
+    from click.testing import CliRunner
+
+    import energy_planner.progress as progress
+    from energy_planner.cli import main
+    from energy_planner.io import write_geotiff
+    from energy_planner.terrain import Terrain
+
+    monkeypatch.setattr(progress, "LOG_EVERY_S", 0.0)
+    t = Terrain.from_function(lambda x, y: 0.05 * x + 0.02 * y, size=(30, 30))
+    dem = tmp_path / "dem.tif"
+    write_geotiff(dem, t.elevation, transform=t.transform, crs=t.crs)
+    sites = tmp_path / "sites.csv"
+    sites.write_text("name,x,y\na,5.5,5.5\nb,25.5,8.5\nc,12.5,24.5\n")
+    args = ["mission", "--dem", str(dem), "--sites", str(sites), "--json"]
+    loud = CliRunner().invoke(main, args)
+    assert loud.exit_code == 0, loud.output
+    assert json.loads(loud.stdout)["legs"]
+    assert "matrix searches: running" in loud.stderr and "legs: done" in loud.stderr
+    assert "\r" not in loud.stderr
+    for quiet_args in (["-q", *args], [*args, "--quiet"]):
+        q = CliRunner().invoke(main, quiet_args)
+        assert q.exit_code == 0, q.output
+        assert json.loads(q.stdout) == {**json.loads(loud.stdout), **_timing(json.loads(q.stdout))}
+        assert q.stderr == ""
+    # the flag holds for its own invocation only (one process, several CliRunner calls)
+    assert CliRunner().invoke(main, ["terrain", str(dem), "--json"]).exit_code == 0
+    assert progress._QUIET is False
+
+
+def _timing(doc):
+    # what differs between two runs of the same mission: wall times
+    return {k: v for k, v in doc.items() if k.endswith("_s") and "duration" not in k}

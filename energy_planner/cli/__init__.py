@@ -243,8 +243,18 @@ class LazyGroup(click.Group):
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="energy_planner")
-def main() -> None:
+@click.option(
+    "-q",
+    "--quiet",
+    is_flag=True,
+    help="No progress on stderr (bars on a terminal, a line every 10 s in a log); warnings "
+    "and errors are still printed. Results go to stdout either way.",
+)
+def main(quiet: bool) -> None:
     """Plan energy-minimal routes for legged robots on sloping ground.
 
     Start with `energy-planner demo`.
     """
+    from energy_planner.progress import quiet as _quiet
+
+    _quiet(quiet)  # each invocation starts from the flag (a command's own -q may add it)

@@ -215,7 +215,7 @@ def command(
             runs_meta=runs_meta,
             **staircase,
             terms=extra,
-            progress=None,  # a line per step when stderr is a terminal
+            progress=True,  # a line per step on stderr (not with --quiet)
         )
     except EnergyPlannerError as exc:
         raise click.ClickException(

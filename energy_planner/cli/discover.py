@@ -127,7 +127,7 @@ def command(
             terms=extra,
             window=window,
             repair=repair,
-            progress=None,  # a line per stage when stderr is a terminal
+            progress=True,  # a line per stage on stderr (not with --quiet)
         )
     except EnergyPlannerError as exc:
         raise click.ClickException(f"{exc}\nhint: see docs/diagnosis.md") from exc

@@ -167,6 +167,7 @@ def command(
             res = energy_map(
                 dem, out, model, headings=headings, request=request, band=band,
                 use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk, compress=compress,
+                progress=True,
             )  # fmt: skip
     except DEMIOError as exc:
         raise click.BadParameter(str(exc), param_hint="DEM") from exc

@@ -24,11 +24,13 @@ def _as_dict(report: Any) -> Any:
 
 
 def status(message: str) -> None:
-    """Progress line on stderr, only when a person watches a terminal."""
-    import sys
+    """A progress line on stderr, on a terminal and in a log (not with ``--quiet``).
 
-    if sys.stderr.isatty():
-        click.echo(message, err=True)
+    Through the one progress reporter (:func:`energy_planner.progress.reporter`).
+    """
+    from energy_planner.progress import reporter
+
+    reporter(True).say(message)
 
 
 def load_windows(

@@ -16,9 +16,32 @@ import numpy as np
 from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
-json_option = click.option(
-    "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
+
+def _quiet(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    if value:
+        from energy_planner.progress import quiet
+
+        quiet()
+
+
+#: ``-q/--quiet`` of every command that prints a result (the group takes it too).
+quiet_option = click.option(
+    "-q",
+    "--quiet",
+    is_flag=True,
+    expose_value=False,
+    is_eager=True,
+    callback=_quiet,
+    help="No progress on stderr (bars on a terminal, a line every 10 s in a log).",
 )
+
+
+def json_option(f: Callable) -> Callable:
+    """``--json`` (print the result as JSON) and ``-q/--quiet`` (no progress on stderr)."""
+    f = click.option(
+        "--json", "as_json", is_flag=True, help="Print the result as JSON instead of a table."
+    )(f)
+    return quiet_option(f)
 
 
 def path_option(*decls: str, help: str, folder: bool = False, **kw: Any) -> Callable:

@@ -332,8 +332,10 @@ def mission(
     pairs = list(zip(o[:-1], o[1:], strict=True))
     if return_to_start and len(o) > 1:
         pairs.append((o[-1], o[0]))
+    from energy_planner.progress import track
+
     legs = []
-    for a, b in pairs:
+    for a, b in track(pairs, "legs", progress or False, unit="leg"):
         r = plan(problem, tuple(sites.xy[a]), tuple(sites.xy[b]),
                  planner=planner, eps=eps, n_headings=n_headings, progress=progress)  # fmt: skip
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),

@@ -205,9 +205,8 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
             for k, r in enumerate(res):
                 rows[b + k * nb] = r
     else:
-        from tqdm import tqdm
-
         from energy_planner.planning import search
+        from energy_planner.progress import track
 
         cost, grid = _setup(terrain, model, request, *args)
         heur = search.target_heuristics(cost, grid, uxy)
@@ -216,7 +215,7 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         cache = search.edge_cache(grid) if lazy else None
         t_edges = time.perf_counter() - t1
         rows = []
-        for i in tqdm(range(n), desc="searches", unit="site", disable=not progress):
+        for i in track(range(n), "matrix searches", progress or False, unit="site"):
             r = search.targets_search(cost, grid, tuple(uxy[i]), uxy, heur,
                                       max_energy=max_energy, edges=edges, eps=eps,
                                       cache=cache)  # fmt: skip

@@ -196,12 +196,15 @@ class _Progress:
     def __init__(self, total: float, show: bool, callback: Callable | None, desc: str):
         from energy_planner.progress import Reporter
 
-        self.rep = Reporter(show=None if show else False, callback=callback)
+        self.rep = Reporter(show=True if show else False, callback=callback)
         self.history: list[tuple[float, float]] = []
-        self.bar = self.rep.bar(
-            desc, round(total, 2), "s",
-            fmt="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s {postfix}",
-        )  # fmt: skip
+        if total > 0:
+            self.bar = self.rep.bar(
+                desc, round(total, 2), "s",
+                fmt="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s {postfix}",
+            )  # fmt: skip
+        else:  # no time budget: the seconds so far and the best energy
+            self.bar = self.rep.bar(desc, None, "s", fmt="{desc}: {n:.1f} s {postfix}")
         self.best = math.inf
 
     def elapsed(self) -> float:
@@ -653,7 +656,7 @@ def plan(
     budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
     prog = _Progress(
         budget if math.isfinite(budget) else 0.0,
-        progress and planner in _OMPL_PLANNERS,
+        progress is True or (progress is None and planner in _OMPL_PLANNERS),
         callback,
         f"plan ({planner})",
     )
