@@ -2,8 +2,8 @@
 
 The public API is at the top level (``import energy_planner as ep``)::
 
-    prob = ep.Problem.from_dem("maps/hill.tif", max_slope_deg=30)   # terrain+model+limits
-    res = ep.plan(prob, start, goal)          # or ep.plan("maps/hill.tif", start, goal)
+    prob = ep.Problem.from_dem("hill", max_slope_deg=30)   # terrain+model+limits
+    res = ep.plan(prob, start, goal)          # or ep.plan("hill", start, goal)
     ep.path_energy(prob, points), ep.compare_routes(...), ep.reach(...),
     ep.energy_map(...), ep.mission(...), ep.fit(logs), ep.discover(logs)
     ep.predict_interval(model, energy_j), ep.battery_decision(model, energy_j, wh)

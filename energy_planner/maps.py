@@ -14,7 +14,7 @@ from typing import Any
 
 from energy_planner.errors import DEMIOError
 
-__all__ = ["MAPS_DIR", "map_names", "map_path", "scenario", "scenario_names"]
+__all__ = ["MAPS_DIR", "map_names", "map_path", "resolve", "scenario", "scenario_names"]
 
 
 def _maps_dir() -> Path:
@@ -36,6 +36,8 @@ _FILES = {
     "plane": "plane.tif",
     "jacksboro": "jacksboro_fault_dem.tif",
 }
+#: Other bundled files :func:`map_path` finds by name (not DEMs: not in :func:`map_names`).
+_OTHER = {"hill_sites": "hill_sites.csv", "scenarios": "scenarios.json"}
 
 
 def map_names() -> list[str]:
@@ -50,24 +52,53 @@ def map_names() -> list[str]:
 def map_path(name: str) -> Path:
     """Path of a bundled map by name (``hill``, ``plane``, ``jacksboro``).
 
-    A file name (``"hill.tif"``) is accepted too.
+    A file name (``"hill.tif"``) is accepted too, and the other bundled files by name:
+    ``hill_sites`` (the hill's mission sites, CSV).
+
+    >>> map_path("hill_sites").name
+    'hill_sites.csv'
 
     Raises
     ------
     DEMIOError
         Unknown name (the message lists the valid ones) or missing file.
     """
-    key = name[:-4] if name.endswith(".tif") else name
+    key = Path(name).stem if Path(name).suffix in (".tif", ".csv", ".json") else name
     key = "jacksboro" if key == "jacksboro_fault_dem" else key
-    if key not in _FILES:
-        raise DEMIOError(f"no bundled map named {name!r}; valid names: {', '.join(map_names())}")
-    path = MAPS_DIR / _FILES[key]
+    files = {**_FILES, **_OTHER}
+    if key not in files:
+        raise DEMIOError(
+            f"no bundled map named {name!r}; valid names: {', '.join(map_names())} "
+            f"(and the files {', '.join(sorted(_OTHER))})"
+        )
+    path = MAPS_DIR / files[key]
     if not path.exists():
         raise DEMIOError(
             f"bundled map {name!r} is missing at {path}; regenerate it with the scripts "
             "in maps/ of the source (make_synthetic.py, make_jacksboro.py)"
         )
     return path
+
+
+def resolve(path_or_name: str | Path) -> Path:
+    """A file that exists, else a bundled file by name, else the path as given.
+
+    What every door that takes a DEM or a sites file does with its argument, so that
+    ``--dem hill`` and ``ep.Problem.from_dem("hill")`` work from any folder; a path that
+    exists always wins over a name.
+
+    >>> resolve("hill") == map_path("hill")
+    True
+    >>> str(resolve("no/such/file.tif"))
+    'no/such/file.tif'
+    """
+    p = Path(path_or_name)
+    if p.exists() or len(p.parts) != 1:
+        return p
+    try:
+        return map_path(str(path_or_name))
+    except DEMIOError:
+        return p
 
 
 def _scenarios() -> dict[str, Any]:

@@ -64,7 +64,9 @@ def _check_warning_lines(stderr: str, cmd: str) -> list[str]:
 @pytest.mark.parametrize("cmd", ["fit", "discover"])
 def test_ros_signed_campaign_gives_one_warning_line_with_the_count(campaign, tmp_path, cmd):
     n_logs = len(list(campaign.glob("*.csv")))
-    r = CliRunner().invoke(main, [cmd, str(campaign), "--out", str(tmp_path / "m.json")])
+    # --quiet: no progress lines (a log gets them otherwise), the warnings still printed
+    args = [cmd, str(campaign), "--out", str(tmp_path / "m.json"), "--quiet"]
+    r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
     warn = _check_warning_lines(r.stderr, cmd)
     sign = [ln for ln in warn if "battery current" in ln]

@@ -34,9 +34,9 @@ def format_table(res: dict[str, Any]) -> str:
 
 @options.command(
     "compare-routes",
-    "energy-planner compare-routes --dem maps/hill.tif --start "
+    "energy-planner compare-routes --dem hill --start "
     "500058,5000046 --goal 500058,5000109 --max-slope 30 --plot routes.png",
-    "energy-planner compare-routes --dem maps/hill.tif --start "
+    "energy-planner compare-routes --dem hill --start "
     "500058,5000046 --goal 500058,5000084 --battery-wh 30 --reserve-wh 2 "
     "--json",
 )

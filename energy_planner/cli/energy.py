@@ -243,8 +243,8 @@ def compute(
 
 @options.command(
     "energy",
-    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson",
-    "energy-planner energy --dem maps/hill.tif --waypoints path.geojson "
+    "energy-planner energy --dem hill --waypoints path.geojson",
+    "energy-planner energy --dem hill --waypoints path.geojson "
     "--model load.json --set load_kg=10 --battery-wh 40",
 )
 @options.dem_option

@@ -55,9 +55,9 @@ def format_table(res: dict[str, Any]) -> str:
 
 
 @options.command(
-    "energy-map", "energy-planner energy-map maps/hill.tif --out hill_energy.tif --plot hill.png"
+    "energy-map", "energy-planner energy-map hill --out hill_energy.tif --plot hill.png"
 )
-@click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
+@options.dem_argument
 @options.path_option(
     "--out",
     required=True,

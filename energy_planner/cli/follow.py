@@ -61,8 +61,7 @@ def _text(res: dict[str, Any]) -> str:
 @click.command(
     "follow",
     epilog=examples(
-        "energy-planner follow missions/mission_000.csv --dem maps/hill.tif "
-        "--battery-wh 40 --reserve-wh 5",
+        "energy-planner follow missions/mission_000.csv --dem hill --battery-wh 40 --reserve-wh 5",
     ),
 )
 @click.argument("log", type=click.Path(exists=True, path_type=Path))

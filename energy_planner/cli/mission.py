@@ -50,14 +50,15 @@ def _text(res: dict[str, Any]) -> str:
 
 @options.command(
     "mission",
-    "energy-planner mission --dem maps/hill.tif --sites maps/hill_sites.csv --return --json",
+    "energy-planner mission --dem hill --sites hill_sites --return --json",
 )
 @options.dem_option
 @options.path_option(
     "--sites",
     required=True,
+    callback=options.bundled,
     help="CSV x,y[,yaw_deg][,name] in the DEM's CRS, or GeoJSON points (lon/lat unless the "
-    "file declares a crs). The first site is the start.",
+    "file declares a crs), or a bundled file's name (hill_sites). The first site is the start.",
 )
 @options.value_option(
     "--order",

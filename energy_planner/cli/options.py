@@ -102,11 +102,29 @@ def write_geojson_output(
         write_output(result, key, path, lambda p: write_geojson(p, document(), **kw))
 
 
+def bundled(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    """Click callback: a file name that does not exist but names a bundled file becomes it.
+
+    ``--dem hill``, ``--sites hill_sites`` (:func:`energy_planner.maps.resolve`).
+    """
+    if value is None:
+        return None
+    from energy_planner.maps import resolve
+
+    return resolve(value)
+
+
 dem_option = path_option(
     "--dem",
     "dem",
     required=True,
-    help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF).",
+    callback=bundled,
+    help="DEM raster (any single-band raster rasterio opens, e.g. GeoTIFF), or a bundled "
+    "map's name: hill, plane, jacksboro.",
+)
+#: The DEM as the first argument (``energy-map DEM``, ``reach DEM``).
+dem_argument = click.argument(
+    "dem", type=click.Path(dir_okay=False, path_type=Path), callback=bundled
 )
 #: ``--geojson-crs``: the CRS of GeoJSON outputs (io's RFC 7946 writer or the DEM's CRS).
 geojson_crs_option = value_option(

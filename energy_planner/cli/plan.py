@@ -196,7 +196,7 @@ def format_table(res: dict[str, Any]) -> str:
 
 @options.command(
     "plan",
-    "energy-planner plan --dem maps/hill.tif --start 500058,5000046 --goal "
+    "energy-planner plan --dem hill --start 500058,5000046 --goal "
     "500058,5000109 --max-slope 30 --out path.geojson --plot path.png",
 )
 @options.with_request

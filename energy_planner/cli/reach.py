@@ -59,10 +59,10 @@ def _text(res: dict[str, Any]) -> str:
 
 @options.command(
     "reach",
-    "energy-planner reach maps/hill.tif --start 500058,5000046 --budget-wh "
+    "energy-planner reach hill --start 500058,5000046 --budget-wh "
     "15 --out reach.tif --geojson area.geojson --plot reach.png",
 )
-@click.argument("dem", type=click.Path(dir_okay=False, path_type=Path))
+@options.dem_argument
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
 @options.points_crs_option
 @click.option(

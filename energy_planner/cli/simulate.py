@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +82,7 @@ def _text(doc: dict[str, Any]) -> str:
 @options.command(
     "simulate",
     "energy-planner simulate --out campaign --small --effect load",
-    "energy-planner simulate --out missions --missions 4 --dem maps/hill.tif --effect load",
+    "energy-planner simulate --out missions --missions 4 --dem hill --effect load",
 )
 @options.path_option(
     "--out",
@@ -119,8 +118,10 @@ def _text(doc: dict[str, Any]) -> str:
 )
 @click.option(
     "--dem",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="DEM for --missions (default: synthetic rolling hills), e.g. maps/hill.tif.",
+    type=click.Path(dir_okay=False, path_type=Path),
+    callback=options.bundled,
+    help="DEM for --missions (default: synthetic rolling hills), a file or a bundled map's "
+    "name, e.g. hill.",
 )
 @click.option(
     "--speeds",
@@ -189,7 +190,7 @@ def command(
         changes["speeds"] = speeds
     if noise_free:
         changes["sensors"] = SensorConfig.ideal()
-    progress = sys.stderr.isatty()
+    progress = True  # the one reporter: a bar on a terminal, lines in a log, none with -q
     if dem is not None and missions is None:
         raise click.BadParameter("--dem is only used with --missions N", param_hint="--dem")
     if plot is not None and missions is not None:

@@ -13,14 +13,9 @@ from energy_planner.cli import options
 
 def _resolve_dem(dem: str) -> Path:
     """A path, or the name of a bundled map (``hill``, ``plane``, ``jacksboro``)."""
-    p = Path(dem)
-    if p.exists():
-        return p
-    from energy_planner.maps import map_names, map_path
+    from energy_planner.maps import resolve
 
-    if dem in map_names():
-        return map_path(dem)
-    return p
+    return resolve(dem)
 
 
 def _parse_bounds(value: str | None) -> tuple[float, float, float, float] | None:
@@ -174,7 +169,7 @@ def _text(r: dict[str, Any]) -> str:
 
 @options.command(
     "terrain",
-    "energy-planner terrain maps/hill.tif --slope-out slope.tif --aspect-out aspect.tif",
+    "energy-planner terrain hill --slope-out slope.tif --aspect-out aspect.tif",
     "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
 )
 @click.argument("dem", metavar="DEM")

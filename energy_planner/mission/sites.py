@@ -150,8 +150,9 @@ def read_sites(path: str | Path, terrain, crs: Any = None) -> Sites:
         Unreadable file, missing columns, fewer than two sites.
     """
     from energy_planner.io.geojson import reproject_xy
+    from energy_planner.maps import resolve
 
-    p = Path(path)
+    p = resolve(path)  # a file, or a bundled file's name ("hill_sites")
     if not p.is_file():
         raise WaypointError(f"sites file {str(p)!r} does not exist", path=str(p))
     if p.suffix.lower() in (".geojson", ".json"):

@@ -250,7 +250,9 @@ def load_dem(
     >>> t.crs.to_epsg(), t.resolution
     (32631, (1.0, 1.0))
     """
-    p = Path(path)
+    from energy_planner.maps import resolve
+
+    p = resolve(path)  # a file, or a bundled map's name ("hill")
     name = str(path)
     src = open_dem(name)
     with src:
