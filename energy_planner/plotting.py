@@ -69,7 +69,13 @@ def crs_label(crs: Any) -> str:
 
 
 def label_map_axes(ax: Any, crs: Any) -> None:
-    """``x (EPSG:n, m)`` / ``y (...)``, or longitude/latitude in degrees for a lon/lat CRS."""
+    """``x (EPSG:n, m)`` / ``y (...)``, or longitude/latitude in degrees for a lon/lat CRS.
+
+    The ticks are plain numbers (no offset, no exponent) and few enough along x that
+    seven-digit projected coordinates do not overlap.
+    """
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
     name = crs_label(crs)
     geographic = bool(getattr(crs, "is_geographic", False))
     if geographic:
@@ -78,6 +84,11 @@ def label_map_axes(ax: Any, crs: Any) -> None:
     else:
         ax.set_xlabel(f"x ({name}, m)")
         ax.set_ylabel(f"y ({name}, m)")
+    for axis, bins in ((ax.xaxis, 4), (ax.yaxis, 6)):
+        fmt = ScalarFormatter(useOffset=False)
+        fmt.set_scientific(False)
+        axis.set_major_formatter(fmt)
+        axis.set_major_locator(MaxNLocator(bins, steps=[1, 2, 2.5, 5, 10]))
 
 
 def grid_extent(shape: tuple[int, int], transform: Any) -> tuple[float, float, float, float]:

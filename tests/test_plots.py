@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from shapely.geometry import box
 
+import energy_planner as ep
 from energy_planner.energy.channels import ChannelRaster, Channels
 from energy_planner.plotting import crs_label, label_map_axes
 from energy_planner.request import Limits, Request
@@ -289,3 +290,36 @@ def test_the_reach_command_passes_its_request_to_the_plot(valley, figures, tmp_p
     assert [p for p in ax.patches if p.get_gid() == "keep_out"]
     assert [i for i in ax.images if i.get_gid() == "slope_mask"]
     assert ax.get_xlabel() == "x (EPSG:32631, m)"
+
+
+def test_terrain_plot_of_a_lon_lat_dem_is_in_its_own_crs(figures, tmp_path):
+    # the slope rasters `terrain` writes are on the DEM's own grid: so is its plot
+    from click.testing import CliRunner
+
+    from energy_planner.cli import main
+
+    r = CliRunner().invoke(main, ["terrain", "jacksboro", "--plot", str(tmp_path / "s.png")])
+    assert r.exit_code == 0, r.output
+    ax = figures[0].axes[0]
+    assert ax.get_xlabel() == "longitude (EPSG:4326, deg)"
+    assert ax.get_ylabel() == "latitude (EPSG:4326, deg)"
+    left, right = ax.get_xlim()
+    assert -180 < left < right < 180
+
+
+def test_map_axes_keep_seven_digit_ticks_apart(figures, tmp_path):
+    # at most five x ticks on an 8-inch route plot over UTM northings/eastings (they
+    # overlapped at 10 m steps), plain numbers without offset
+    from energy_planner.planning.routes import Route, RouteComparison
+
+    hill = ep.open_terrain("hill")
+    s = np.array([[500058.0, 5000046.0, 1.57], [500058.0, 5000084.0, 1.57]])
+    comp = RouteComparison(routes=[Route("direct", s, 1.0, 38.0, 127.0, None, True)],
+                           start=tuple(s[0]), goal=tuple(s[-1]))  # fmt: skip
+    comp.plot(hill, tmp_path / "p.png")
+    ax = figures[0].axes[0]
+    figures[0].canvas.draw()
+    lo, hi = ax.get_xlim()
+    ticks = [v for v in ax.get_xticks() if lo <= v <= hi]
+    assert 2 <= len(ticks) <= 5, ticks
+    assert all(t.get_text().isdigit() for t in ax.get_xticklabels() if t.get_text())

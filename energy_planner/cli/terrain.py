@@ -67,25 +67,39 @@ def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> N
     )  # fmt: skip
 
 
-def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
+def _plot(path: Path, terrain, title: str) -> None:
+    """The slope over a hillshade on the DEM's own grid and CRS (as the rasters written)."""
+    import math
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    left, bottom, right, top = terrain.bounds
-    extent = (left, right, bottom, top)
+    from energy_planner.plotting import grid_extent, label_map_axes
+    from energy_planner.terrain.horn import hillshade
+
+    grid = terrain.native_grid
+    slope_deg = np.degrees(grid.slope)
+    t = grid.transform
+    extent = grid_extent(slope_deg.shape, t)
+    geographic = grid.crs is not None and grid.crs.is_geographic
+    if geographic:  # degrees -> ground metres at the grid's middle latitude
+        lat = math.radians(t.f + 0.5 * slope_deg.shape[0] * t.e)
+        shade = hillshade(grid.elevation, (abs(t.a) * 111320.0 * math.cos(lat),
+                                           abs(t.e) * 110574.0))  # fmt: skip
+    else:
+        shade = hillshade(grid.elevation, t)
     fig, ax = plt.subplots(figsize=(7.5, 6.5), layout="constrained")
-    ax.imshow(terrain.hillshade(), cmap="gray", extent=extent, vmin=0, vmax=1)
+    ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1)
     finite = slope_deg[np.isfinite(slope_deg)]
     vmax = float(np.percentile(finite, 99.5)) if finite.size else 1.0
     im = ax.imshow(slope_deg, cmap="magma_r", alpha=0.6, extent=extent, vmin=0, vmax=vmax)
     fig.colorbar(im, ax=ax, label="slope (deg, Horn)")
-    crs = terrain.crs.to_string() if terrain.crs is not None else "local metres"
-    ax.set_xlabel(f"x east (m, {crs})")
-    ax.set_ylabel("y north (m)")
+    if geographic:  # a degree of longitude is cos(lat) of one of latitude on the ground
+        ax.set_aspect(1.0 / max(math.cos(lat), 1e-6))
+    label_map_axes(ax, grid.crs)
     ax.set_title(title)
-    ax.ticklabel_format(useOffset=False, style="plain")
     path.parent.mkdir(parents=True, exist_ok=True)
     from energy_planner.io import save_figure
 
@@ -227,6 +241,6 @@ def command(
                "GIS aspect: downslope direction, degrees clockwise from north")  # fmt: skip
         result["aspect_out"] = str(aspect_out)
     if plot is not None:
-        _plot(plot, terrain, np.degrees(terrain.slope), f"Slope of {path.name}")
+        _plot(plot, terrain, f"Slope of {path.name}")
         result["plot"] = str(plot)
     options.emit(result, as_json, _text)

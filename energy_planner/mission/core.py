@@ -185,7 +185,7 @@ class MissionResult:
 
         from energy_planner.io import save_figure
 
-        fig, ax = plt.subplots(figsize=(7, 6))
+        fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
         x0, y0, dx, dy = terrain.grid
         rows, cols = terrain.shape
         ext = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
@@ -196,27 +196,26 @@ class MissionResult:
         if draw_request(ax, terrain, request):
             ax.set_xlim(ext[0], ext[1])
             ax.set_ylim(ext[2], ext[3])
-        for leg in self.legs:
-            ax.plot(leg.states[:, 0], leg.states[:, 1], lw=2)
+        names = self.sites.names
+        for k, leg in enumerate(self.legs):
+            ax.plot(leg.states[:, 0], leg.states[:, 1], lw=2,
+                    label=f"leg {k + 1}: {names[leg.a]} \u2192 {names[leg.b]}, "
+                          f"{leg.energy_j / 1000:.1f} kJ")  # fmt: skip
+        cx = 0.5 * (ext[0] + ext[1])
         for k, i in enumerate(self.order):
             x, y = self.sites.xy[i]
             ax.plot(x, y, "o", color="tab:red")
-            ax.annotate(f"{k}: {self.sites.names[i]}", (x, y), textcoords="offset points",
-                        xytext=(4, 4))  # fmt: skip
+            right = x > cx  # labels point into the map, so none is clipped at its edge
+            box = dict(boxstyle="round,pad=0.15", fc="white", alpha=0.7, lw=0)
+            ax.annotate(f"{k}: {names[i]}", (x, y), textcoords="offset points",
+                        xytext=(-5 if right else 5, 5), ha="right" if right else "left",
+                        bbox=box)  # fmt: skip
         ax.set_title(f"mission: {self.energy_j / 1000:.1f} kJ, {self.distance_m:.0f} m "
                      f"({self.method})")  # fmt: skip
-        from matplotlib.ticker import MaxNLocator, ScalarFormatter
-
-        for axis in (ax.xaxis, ax.yaxis):  # plain metres, no offset or exponent
-            fmt = ScalarFormatter(useOffset=False)
-            fmt.set_scientific(False)
-            axis.set_major_formatter(fmt)
-            axis.set_major_locator(MaxNLocator(5))
-        ax.tick_params(axis="x", labelrotation=20)
         label_map_axes(ax, terrain.crs)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
-        out = save_figure(fig, path, dpi=110)
+        out = save_figure(fig, path, dpi=110, bbox_inches="tight", pad_inches=0.15)
         plt.close(fig)
         return out
 

@@ -278,7 +278,7 @@ class RouteComparison:
             linewidths=0.4,
             alpha=0.5,
         )
-        ax.clabel(cs, fontsize=6, fmt="%.0f")
+        ax.clabel(cs, fontsize=6, fmt="%.0f m")  # elevation contours
         from energy_planner.plotting import draw_request, label_map_axes
 
         draw_request(ax, terrain, request)

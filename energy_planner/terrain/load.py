@@ -253,7 +253,7 @@ def load_dem(
     from energy_planner.maps import resolve
 
     p = resolve(path)  # a file, or a bundled map's name ("hill")
-    name = str(path)
+    name = str(p)
     src = open_dem(name)
     with src:
         n = src.count
