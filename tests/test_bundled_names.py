@@ -47,3 +47,10 @@ def _wp(d):
     p = d / "wp.csv"
     p.write_text("x,y\n500058,5000046\n500058,5000060\n")
     return p
+
+
+def test_ep_mission_stays_the_verb_after_its_package_is_imported():
+    import energy_planner.mission  # noqa: F401 - sets ep.mission to the package
+
+    sites = ep.read_sites("hill_sites", ep.open_terrain("hill"))
+    assert callable(ep.mission) and len(sites) == 3

@@ -5,6 +5,9 @@
 ([0, 1, 2], 6.0)
 """
 
+import sys
+import types
+
 from energy_planner.mission.core import Leg, MissionResult, energy_matrix, mission
 from energy_planner.mission.sites import Sites, read_sites
 from energy_planner.mission.tour import EXACT_MAX_SITES, brute_force, held_karp, order_sites
@@ -21,3 +24,21 @@ __all__ = [
     "order_sites",
     "read_sites",
 ]
+
+
+class _VerbModule(types.ModuleType):
+    """The missions package, callable as the top-level verb ``ep.mission``.
+
+    Importing ``energy_planner.mission`` sets the package's attribute ``mission`` to this
+    module (Python's import system does), hiding the verb of the same name: calling the
+    module calls :func:`energy_planner.api.mission`, so ``ep.mission(...)`` works whatever
+    was imported first.
+    """
+
+    def __call__(self, *args, **kwargs):
+        from energy_planner.api import mission as verb
+
+        return verb(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _VerbModule
