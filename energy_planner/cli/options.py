@@ -114,6 +114,21 @@ def bundled(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
     return resolve(value)
 
 
+def bundled_existing(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+    """:func:`bundled`, then a file that does not exist is a usage error naming it."""
+    path = bundled(ctx, param, value)
+    if path is not None and not path.exists():
+        from energy_planner.maps import map_names
+
+        raise click.BadParameter(
+            f"file {str(value)!r} does not exist (nor is it a bundled map's name: "
+            f"{', '.join(map_names())})",
+            ctx=ctx,
+            param=param,
+        )
+    return path
+
+
 dem_option = path_option(
     "--dem",
     "dem",

@@ -119,7 +119,7 @@ def _text(doc: dict[str, Any]) -> str:
 @click.option(
     "--dem",
     type=click.Path(dir_okay=False, path_type=Path),
-    callback=options.bundled,
+    callback=options.bundled_existing,
     help="DEM for --missions (default: synthetic rolling hills), a file or a bundled map's "
     "name, e.g. hill.",
 )
