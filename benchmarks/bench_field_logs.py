@@ -351,6 +351,18 @@ def print_tables(
             f"{m['floor_ratio']:>8.2f}  {_ok(m):<5}"
             f"{_pct(m['baseline_median'], True):>19}{_pct(m['baseline_p90_abs']):>9}"
         )
+    sims = [s for s in sets if s.name.startswith("sim-")]
+    pool = [m for s in sims for m in s.missions]
+    if pool:
+        e = np.array([m.error for m in pool])
+        cov = np.array([m.covered for m in pool])
+        n_met = sum(s.summary()["n"] > 0 and _ok(s.summary()) == "yyyy" for s in sims)
+        print(
+            f"{'sim pooled':<14}{e.size:>4}{_pct(float(np.median(e)), True):>9}"
+            f"{_pct(float(np.quantile(np.abs(e), 0.9))):>9}"
+            f"{str(int(cov.sum())) + '/' + str(e.size):>10}   ({cov.mean():.0%} in the intervals); "
+            f"simulated campaigns meeting every target: {n_met}/{len(sims)}"
+        )
     print(
         "met: y/n for median, p90, coverage, x floor (floor: the simulator's TRUE floor for "
         "simulated sets, the floor discover estimates from the logs for field logs)"
