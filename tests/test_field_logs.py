@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 FIXTURE = Path(__file__).parent / "fixtures" / "robot_b"
 
@@ -107,3 +109,34 @@ def test_walked_path_takes_each_pose_at_the_time_it_was_logged():
     assert walk.size > 0.9 * (len(wp.t) - 2)
     assert np.allclose(first_t[code[walk]], t[walk])  # the time the pose was first logged
     assert len(wp.t) < 0.75 * len(g)  # one waypoint per pose update, not per sample
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    holds=st.lists(st.integers(1, 6), min_size=2, max_size=40),
+    resting=st.lists(st.booleans(), min_size=40, max_size=40),
+)
+def test_fresh_poses_keeps_each_pose_once_while_moving(holds, resting):
+    """A pose held for ``h`` samples: kept once while moving, every sample at rest."""
+    from energy_planner.follow import fresh_poses
+
+    block = np.repeat(np.arange(len(holds)), holds)
+    rest = np.asarray(resting[: len(holds)])[block]
+    n = block.size
+    s = pd.DataFrame(
+        {
+            "t": 0.1 * np.arange(n),
+            "x": 0.12 * block,
+            "y": 5.0,
+            "yaw": 0.3 + 0.01 * block,
+            "vx": np.where(rest, 0.0, 0.3),
+            "vy": 0.0,
+            "wz": 0.0,
+        }
+    )
+    want = np.r_[True, block[1:] != block[:-1]] | rest
+    if n >= 3:
+        want[-1] = True
+    else:
+        want[:] = True
+    assert fresh_poses(s).tolist() == want.tolist()
