@@ -39,11 +39,29 @@ next arrives; priced with the repeats' times the robot stands and then sprints.
 Run::
 
     python benchmarks/bench_field_logs.py --field-logs ../shared/field-logs/robot-b \
-        --campaigns 3                          # robot-b + 3 simulated campaigns with a load
+        --campaigns 3     # robot-b + 3 campaigns of 30 + 20 missions x 120 s (~15 min)
     python benchmarks/bench_field_logs.py --campaigns 0          # robot-b only (~1 min)
     python benchmarks/bench_field_logs.py --field-logs tests/fixtures/robot_b --campaigns 0
-    python benchmarks/bench_field_logs.py --no-field --campaigns 3 --missions 30 --duration 120
+    python benchmarks/bench_field_logs.py --no-field --phases varied --missions 60 \
+        --duration 60     # the discovery campaign (MissionConfig.varied), 20 held out
     python benchmarks/bench_field_logs.py --json
+
+Measured (2 shared cores; the per-mission tables with ``--per-mission``):
+
+========================= ======== ========= ========= ======== ==========================
+data set                  median   p90 |e|   in 90 %   x floor  baseline (every pose)
+========================= ======== ========= ========= ======== ==========================
+robot-b (12 + 12)         -0.16 %  1.79 %    12/12     2.00     +4.01 %, p90 6.00 %
+default phases, seed 0    +0.44 %  4.69 %    18/20     1.73     +0.25 %, p90 4.87 %
+default phases, seed 1    +0.05 %  2.50 %    20/20     2.00     -0.13 %, p90 2.79 %
+default phases, seed 2    discover wrote no model (its final fit prices a motion < 0 W)
+varied phases, seed 0     -0.85 %  3.49 %    19/20     1.25     -1.07 %, p90 4.31 %
+varied phases, seed 1     -0.26 %  3.07 %    17/20     1.24     -0.84 %, p90 3.53 %
+varied phases, seed 2     -0.65 %  2.93 %    17/20     1.06     -1.38 %, p90 3.31 %
+========================= ======== ========= ========= ======== ==========================
+
+(robot-b's x floor is against the floor ``discover`` estimates from its logs; the
+simulated ones against the simulator's true floor.)
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
@@ -414,9 +432,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-field", action="store_true", help="skip the field logs")
     ap.add_argument("--campaigns", type=int, default=3, help="simulated campaigns (seeds 0..N-1)")
     ap.add_argument("--seeds", type=int, nargs="*", default=None, help="instead of --campaigns")
-    ap.add_argument("--missions", type=int, default=24, help="simulated missions for discover")
+    ap.add_argument("--missions", type=int, default=30, help="simulated missions for discover")
     ap.add_argument("--held-out", type=int, default=20, help="simulated held-out missions")
-    ap.add_argument("--duration", type=float, default=90.0, help="s per simulated mission")
+    ap.add_argument("--duration", type=float, default=120.0, help="s per simulated mission")
     ap.add_argument("--rate", type=float, default=20.0, help="simulated log rate, Hz")
     ap.add_argument(
         "--loads",
