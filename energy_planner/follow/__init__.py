@@ -14,6 +14,7 @@ from energy_planner.follow.core import (
     FollowUpdate,
     SlopeFinding,
     follow_log,
+    fresh_poses,
     imu_gradient,
     walked_path,
 )
@@ -37,6 +38,7 @@ __all__ = [
     "calibrate_remaining",
     "coefficient_channels",
     "follow_log",
+    "fresh_poses",
     "imu_gradient",
     "path_term_energies",
     "runtime_coefficient_model",

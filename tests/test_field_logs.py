@@ -1,0 +1,142 @@
+"""A robot whose physics this project did not write: robot-b's logs, a reduced subset.
+
+``tests/fixtures/robot_b`` (see its README) holds 6 training missions (their first 120 s)
+and 2 whole test missions of a quadruped's field logs, with the map they walked. There is
+no true power, only the battery, as on a real robot. The model is fitted on the training
+missions; the energy of each test mission's logged poses (``follow.walked_path`` priced by
+``energy.path_energy`` with the poses' times, as ``energy --waypoints`` prices them) is
+compared with the battery energy the mission measured. ``benchmarks/bench_field_logs.py``
+runs the full logs (12 + 12 missions).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+FIXTURE = Path(__file__).parent / "fixtures" / "robot_b"
+
+#: Largest |predicted / measured - 1| allowed for a test mission's logged-pose energy.
+#: Measured: on the full logs (discover on 12 missions, 12 held out) the errors lie within
+#: -1.9 % .. +1.3 % (median -0.2 %, p90 1.8 %); fitted on this subset, m009 +0.1 % and
+#: m011 -1.3 %. The failures it must catch are larger: the odometry's 7 % short reading
+#: left unrepaired puts both missions at +3.5 .. +4.7 %, and every 10 Hz logged pose
+#: priced with its repeats (the localisation is held at 2.5 Hz) at +4 % on the full logs.
+TOLERANCE = 0.025
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    """``ep.fit`` on the fixture's training missions (data checks and repairs included)."""
+    import energy_planner as ep
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return ep.fit(FIXTURE / "train")
+
+
+def _mission(name: str) -> pd.DataFrame:
+    return pd.read_parquet(FIXTURE / "test" / f"{name}.parquet").sort_values("t")
+
+
+def test_odometry_scale_is_measured_as_the_logs_show(fitted):
+    """The repair's slip equals the odometry's distance against the pose's, summed by hand."""
+    found = {f["name"]: f for f in fitted.data_findings}
+    scale = found["odometry_scale"]
+    assert scale["finding"] and scale["repaired"]
+    slips = []
+    for f in sorted((FIXTURE / "train").glob("*.parquet")):
+        g = pd.read_parquet(f).sort_values("t")
+        dt = np.diff(g["t"].to_numpy(float))
+        odo = np.sum(np.hypot(g["vx"], g["vy"]).to_numpy(float)[1:] * dt)
+        pose = np.sum(np.hypot(np.diff(g["x"].to_numpy(float)), np.diff(g["y"].to_numpy(float))))
+        slips.append(1.0 - odo / pose)
+    # path lengths, not the check's net displacements: the same slip within a point
+    assert scale["evidence"]["slip_mean"] == pytest.approx(np.mean(slips), abs=0.01)
+    assert 0.05 < np.mean(slips) < 0.09
+
+
+@pytest.mark.parametrize("name", ["m009", "m011"])
+def test_logged_pose_energy_matches_the_battery(fitted, name):
+    """Energy of a held-out mission's logged poses against the battery energy it measured."""
+    from energy_planner.energy import path_energy
+    from energy_planner.follow import walked_path
+    from energy_planner.measurements import run_energies
+    from energy_planner.terrain import load_dem
+    from energy_planner.uncertainty import domain_report, predict_interval
+
+    model = fitted.model
+    terrain = load_dem(FIXTURE / "ridge.tif")
+    g = _mission(name)
+    wp = walked_path(g)
+    e = path_energy(terrain, model, wp.xy, yaw=wp.yaw_rad, t=wp.t)
+    p = g["voltage"].to_numpy(float) * g["current"].to_numpy(float)
+    by_hand = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(g["t"].to_numpy(float))))
+    measured = float(run_energies(g)["measured_j"].iloc[0])
+    assert measured == pytest.approx(by_hand, rel=1e-9)
+    assert e.duration_s == pytest.approx(g["t"].iloc[-1] - g["t"].iloc[0], abs=0.5)
+    assert abs(e.energy_j / measured - 1.0) <= TOLERANCE
+    dom = domain_report(model, e.table, {}, e.poses, {})
+    iv = predict_interval(
+        model, e.energy_j, outside_share=dom["outside_share"], duration_s=e.duration_s
+    )
+    assert iv is not None
+    assert math.isfinite(iv.low_j) and math.isfinite(iv.high_j)
+    assert 0 < iv.low_j <= e.energy_j <= iv.high_j
+
+
+def test_walked_path_takes_each_pose_at_the_time_it_was_logged():
+    """The localisation is slower than the 10 Hz log (held 1-3 samples): waypoints are new poses."""
+    from energy_planner.follow import walked_path
+
+    g = _mission("m009").reset_index(drop=True)
+    t = g["t"].to_numpy(float) - float(g["t"].iloc[0])
+    code = pd.Series(list(zip(g["x"], g["y"], g["yaw"], strict=True))).factorize()[0]
+    first_t = pd.Series(t).groupby(code).min().to_numpy()
+    moving = (np.hypot(g["vx"], g["vy"]) >= 0.05).to_numpy() | (np.abs(g["wz"]) >= 0.05).to_numpy()
+    assert np.mean(code[1:][moving[1:]] == code[:-1][moving[1:]]) > 0.25  # the log repeats poses
+    wp = walked_path(g, every_s=0.1)
+    i = np.searchsorted(t, wp.t)
+    assert np.allclose(t[i], wp.t)
+    walk = i[1:-1][moving[i[1:-1]]]  # the last sample is kept as it is; at rest, repeats stay
+    assert walk.size > 0.9 * (len(wp.t) - 2)
+    assert np.allclose(first_t[code[walk]], t[walk])  # the time the pose was first logged
+    assert len(wp.t) < 0.75 * len(g)  # one waypoint per pose update, not per sample
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    holds=st.lists(st.integers(1, 6), min_size=2, max_size=40),
+    resting=st.lists(st.booleans(), min_size=40, max_size=40),
+)
+def test_fresh_poses_keeps_each_pose_once_while_moving(holds, resting):
+    """A pose held for ``h`` samples: kept once while moving, every sample at rest."""
+    from energy_planner.follow import fresh_poses
+
+    block = np.repeat(np.arange(len(holds)), holds)
+    rest = np.asarray(resting[: len(holds)])[block]
+    n = block.size
+    s = pd.DataFrame(
+        {
+            "t": 0.1 * np.arange(n),
+            "x": 0.12 * block,
+            "y": 5.0,
+            "yaw": 0.3 + 0.01 * block,
+            "vx": np.where(rest, 0.0, 0.3),
+            "vy": 0.0,
+            "wz": 0.0,
+        }
+    )
+    want = np.r_[True, block[1:] != block[:-1]] | rest
+    if n >= 3:
+        want[-1] = True
+    else:
+        want[:] = True
+    assert fresh_poses(s).tolist() == want.tolist()
