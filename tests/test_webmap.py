@@ -148,7 +148,7 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
         drawn = {}
         for name, p in pages["paths"].items():
             page.goto(p.as_uri())
-            page.wait_for_selector("#energy-planner-map .main-svg", timeout=60000)
+            page.wait_for_selector("#energy-planner-map .main-svg", timeout=180000)
             drawn[name] = page.evaluate(
                 "() => { const gd = document.getElementById('energy-planner-map');"
                 " return gd._fullData.map(d => d.type); }"
@@ -166,7 +166,7 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
                     i,
                 )
                 page.mouse.move(*xy)
-                page.wait_for_selector(".hoverlayer .hovertext", timeout=10000)
+                page.wait_for_selector(".hoverlayer .hovertext", timeout=60000)
                 shown = page.text_content(".hoverlayer")
                 want = re.search(r"energy ([\d,.]+ J)", hover_expected[i]).group(1)
                 assert f"segment {i + 1} of" in shown and want in shown, shown
