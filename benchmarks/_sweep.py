@@ -124,7 +124,7 @@ def expect_error(r: Run, *needles: str) -> Verdict:
     if r.traceback:
         return Verdict(r.error or "traceback", False, "traceback")
     if r.rc == 0:
-        return Verdict(_first_line(r.out) or "(exit 0)", False, "accepted: expected an error")
+        return Verdict(_summary(r) or "(exit 0)", False, "accepted: expected an error")
     line = r.error
     missing = [n for n in needles if n.lower() not in line.lower()]
     if missing:
@@ -141,7 +141,7 @@ def expect_value(
     if r.rc != 0:
         return Verdict(r.error, False, f"refused: expected {want:g}{unit}")
     if got is None:
-        return Verdict(_first_line(r.out), False, "no value in the output")
+        return Verdict(_summary(r), False, "no value in the output")
     answer = f"{got:.4g}{unit} (truth {want:.4g}{unit})"
     if warn is not None:
         hits = [w for w in r.warnings if warn.lower() in w.lower()]
@@ -151,6 +151,15 @@ def expect_value(
     if abs(got - want) > tol:
         return Verdict(answer, False, f"wrong by {got - want:+.3g}{unit} (tolerance {tol:g})")
     return Verdict(answer, True)
+
+
+def _summary(r: Run) -> str:
+    """A result in a line: the numbers of JSON output (``energy_j``, ...), else its first line."""
+    if isinstance(r.data, dict):
+        nums = [f"{k}={v:.6g}" for k, v in r.data.items() if isinstance(v, int | float)]
+        if nums:
+            return "exit 0: " + ", ".join(nums[:4])
+    return _first_line(r.out)
 
 
 def _first_line(text: str) -> str:

@@ -156,3 +156,25 @@ def test_web_mercator_plane_reads_its_ground_slope(tmp_path):
     slope = np.degrees(t.native_grid.slope)
     assert np.nanmax(np.abs(slope - math.degrees(math.atan(0.1)))) < 1e-4
     assert t.crs.to_epsg() == 32631  # carried to a grid in ground metres
+
+
+def test_a_point_inside_the_map_without_slope_names_the_real_cause():
+    from energy_planner.errors import InvalidStateError
+    from energy_planner.planning.limits import check_endpoint
+    from energy_planner.problem import Problem
+    from energy_planner.terrain import Terrain
+
+    z = hills()
+    z[holes()] = np.nan
+    t = Terrain.from_array(z, resolution=RES, origin=(X0, Y0))
+    x0, y0, dx, dy = t.grid
+    on_void = (x0 + 20 * dx, y0 + 22 * dy)  # row 22, column 20: in the hole
+    beside = (x0 + 20 * dx, y0 + 19 * dy)  # row 19: next to it
+    assert t.invalid_reason(*on_void) == "on a nodata cell (row 22, column 20 of the working grid)"
+    assert t.invalid_reason(*beside).startswith("next to a nodata cell")
+    assert t.invalid_reason(x0 - 50, y0) == "outside the map"
+    assert t.invalid_reason(x0 + 5 * dx, y0 + 5 * dy) is None
+    cost = Problem(t, MODEL).cost
+    with pytest.raises(InvalidStateError, match="invalid: on a nodata cell") as exc:
+        check_endpoint(cost, t, "start", (*on_void, None))
+    assert "outside" not in str(exc.value).split(";")[0]
