@@ -178,3 +178,18 @@ def test_a_point_inside_the_map_without_slope_names_the_real_cause():
     with pytest.raises(InvalidStateError, match="invalid: on a nodata cell") as exc:
         check_endpoint(cost, t, "start", (*on_void, None))
     assert "outside" not in str(exc.value).split(";")[0]
+
+
+def test_a_scaled_numeric_channel_raster_reads_its_values(tmp_path):
+    """A payload map stored as int16 tenths of a kilogram (scale 0.1) reads as kilograms."""
+    from energy_planner.energy.channels import Channels
+    from energy_planner.terrain import Terrain
+
+    kg = np.linspace(0.0, 30.0, N)[None].repeat(N, 0)
+    plain = write(tmp_path / "kg.tif", kg)
+    tenths = write(tmp_path / "tenths.tif", np.round(kg * 10), "int16", scale=0.1)
+    t = Terrain.from_array(hills(), resolution=RES, origin=(X0, Y0))
+    got, want = (
+        Channels.parse([], [f"load_kg={f}"]).bind(t).stack(t.shape)[0][0] for f in (tenths, plain)
+    )
+    np.testing.assert_allclose(got, np.round(want * 10) / 10, rtol=0, atol=1e-9)

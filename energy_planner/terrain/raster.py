@@ -67,14 +67,17 @@ def vertical_unit(unit: str | None, name: str, crs: Any = None) -> float:
 
     Examples
     --------
-    >>> vertical_unit("ft", "dem.tif"), vertical_unit("", "dem.tif")
-    (0.3048, 1.0)
+    >>> vertical_unit("ft", "dem.tif"), vertical_unit("", "dem.tif"), vertical_unit("m asl", "x")
+    (0.3048, 1.0, 1.0)
     """
     key = " ".join((unit or "").strip().lower().split())
     if key == "" and crs is not None:
         return _crs_vertical_unit(crs)
     if key in _UNITS:
         return _UNITS[key]
+    first = key.split(" ")[0]
+    if first in _UNITS and first not in ("us", "intl", "international", "survey"):
+        return _UNITS[first]  # "m asl", "metres above sea level"
     raise DEMError(
         f"DEM {name!r} gives its elevations in {unit!r}, which is not a length unit this "
         "reader knows; expected m, dm, cm, mm, ft or US survey foot (set it with "
