@@ -342,15 +342,11 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
 
     n = setup.headings
     nb = 2 * n + 4
-    from energy_planner.terrain.raster import band_reading, find_voids
+    from energy_planner.terrain.raster import band_reading
 
-    with rasterio.open(info.path) as src:
+    with rasterio.open(info.path) as src:  # load_dem warned of undeclared voids
         reading = band_reading(src, info.band, info.path)
-        z = np.ma.filled(src.read(info.band, masked=True).astype(np.float64), np.nan)
-    np.putmask(z, ~np.isfinite(z), np.nan)
-    find_voids(z, reading, warn=False)  # load_dem warned
-    dem_valid = np.isfinite(z)
-    del z
+        dem_valid = np.isfinite(reading.read(src, find=True, warn=False))
     prof = _profile(info.shape, info.transform, info.crs, nb, setup.compress)
     with rasterio.open(work) as w, open_geotiff(out, **prof) as dst:
         wt, wcrs = w.transform, w.crs

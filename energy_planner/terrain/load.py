@@ -26,7 +26,7 @@ from energy_planner.terrain.native import (
     metric_scale,
     native_gradient,
 )
-from energy_planner.terrain.raster import BandReading, band_reading, find_voids
+from energy_planner.terrain.raster import BandReading, band_reading
 from energy_planner.terrain.sample import bilinear
 
 __all__ = ["load_dem", "open_dem"]
@@ -357,33 +357,19 @@ def _read_band(src, reading: BandReading, window, name: str) -> np.ndarray:
     from rasterio._err import CPLE_BaseError
     from rasterio.errors import RasterioIOError
 
-    band = reading.band
-    try:
-        if window is None:
-            data = src.read(int(band), masked=True)
-        else:
-            from rasterio.enums import Resampling
+    kwargs: dict[str, Any] = {}
+    if window is not None:
+        from rasterio.enums import Resampling
 
-            data = src.read(
-                int(band),
-                window=window[0],
-                out_shape=window[1],
-                masked=True,
-                resampling=Resampling.average,
-            )
+        kwargs = dict(window=window[0], out_shape=window[1], resampling=Resampling.average)
+    try:
+        return reading.read(src, find=window is None, **kwargs)
     except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
         raise DEMIOError(
-            f"cannot read band {band} of DEM {name!r}: {exc}",
+            f"cannot read band {reading.band} of DEM {name!r}: {exc}",
             path=name,
             expected="a readable raster (is the file truncated?)",
         ) from exc
-    z = np.ma.filled(data.astype(np.float64), np.nan)
-    np.putmask(z, ~np.isfinite(z), np.nan)
-    if window is None:
-        find_voids(z, reading)
-    else:
-        reading.mask_voids(z)
-    return reading.to_metres(z)
 
 
 def _check_georeferenced(src, transform, name: str) -> None:

@@ -149,16 +149,21 @@ class BandReading:
         for value, _ in self.voids:
             stored[stored == value] = np.nan
 
-    def read(self, src: Any, **kwargs: Any) -> np.ndarray:
+    def read(self, src: Any, find: bool = False, warn: bool = True, **kwargs: Any) -> np.ndarray:
         """``src.read(band, masked=True, **kwargs)`` in metres, float64, NaN invalid.
 
-        Masked cells, NaN and infinities become NaN; the file's undeclared voids
-        (:attr:`voids`) too; then scale, offset and unit are applied.
+        Masked cells, NaN and infinities become NaN; undeclared voids too: the file's
+        (:attr:`voids`), or with ``find`` those of this array (:func:`find_voids`, for a
+        read of the whole band; ``warn``: with its warning); then scale, offset and unit
+        are applied.
         """
         data = src.read(self.band, masked=True, **kwargs)
         z = np.ma.filled(data.astype(np.float64), np.nan)
         np.putmask(z, ~np.isfinite(z), np.nan)
-        self.mask_voids(z)
+        if find:
+            find_voids(z, self, warn=warn)
+        else:
+            self.mask_voids(z)
         return self.to_metres(z)
 
 
