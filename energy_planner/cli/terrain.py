@@ -127,7 +127,7 @@ def summarize(terrain) -> dict[str, Any]:
     if terrain.native is not None:  # Horn ran on the DEM's own (non-metric) grid
         from energy_planner.terrain.native import native_steps
 
-        sx, sy = native_steps(grid.transform, grid.elevation.shape[0], grid.crs)
+        sx, sy = native_steps(grid.transform, grid.elevation.shape[0], grid.crs, grid.scale)
         sx, sy = np.abs(np.atleast_1d(sx)), np.abs(np.atleast_1d(sy))
         cell_m = [float(sx.min()), float(sx.max()), float(sy.min()), float(sy.max())]
     return {

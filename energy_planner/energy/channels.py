@@ -865,7 +865,11 @@ def _align(
             dst_nodata=np.nan,
             resampling=Resampling.nearest if coded else Resampling.bilinear,
         )
-    if not coded:
+        scale = float(src.scales[0]) if src.scales and src.scales[0] is not None else 1.0
+        offset = float(src.offsets[0]) if src.offsets and src.offsets[0] is not None else 0.0
+    if not coded:  # values as GDAL describes them (codes are the stored ones)
+        if scale != 1.0 or offset != 0.0:
+            dst = dst * scale + offset
         return dst, None
     table = read_value_table(r.table)  # type: ignore[arg-type]
     codes = np.array(sorted(table), dtype=np.float64)

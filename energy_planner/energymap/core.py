@@ -149,7 +149,8 @@ def _dem_info(dem: str | Path, band: int | None) -> _DemInfo:
     import rasterio
     from rasterio.errors import RasterioIOError
 
-    from energy_planner.terrain.dem import _is_metric
+    from energy_planner.terrain.native import metric_scale
+    from energy_planner.terrain.raster import band_reading
 
     name = str(dem)
     if not name.startswith("/vsi") and "://" not in name and not Path(name).exists():
@@ -179,24 +180,28 @@ def _dem_info(dem: str | Path, band: int | None) -> _DemInfo:
             )
         t = src.transform
         north_up = t.b == 0 and t.d == 0 and t.a > 0 and t.e < 0
+        band_reading(src, int(band), name)  # a unit or scale it cannot read: said now
+        metric = src.crs is None or (north_up and metric_scale(src.crs, src.bounds, name).metric)
         return _DemInfo(
             path=name,
             band=int(band),
             shape=(src.height, src.width),
             transform=t,
             crs=src.crs,
-            metric_north_up=north_up and _is_metric(src.crs),
+            metric_north_up=north_up and metric,
             nbytes=BYTES_PER_CELL * src.height * src.width,
         )
 
 
-def _read_rows(src: Any, band: int, r0: int, r1: int) -> np.ndarray:
-    """Rows ``r0 .. r1`` (may pass the edges: NaN there) as float64 with NaN nodata.
+def _read_rows(src: Any, reading: Any, r0: int, r1: int) -> np.ndarray:
+    """Rows ``r0 .. r1`` (may pass the edges: NaN there) in metres, float64, NaN nodata.
 
     Read straight into the float64 array (GDAL converts); a DEM whose only mask is its
     nodata value is masked by comparing with it, any other mask (alpha, a mask band) by
-    reading it.
+    reading it; then the file's undeclared voids, scale, offset and unit
+    (:class:`~energy_planner.terrain.raster.BandReading`).
     """
+    band = reading.band
     from rasterio.enums import MaskFlags
     from rasterio.windows import Window
 
@@ -215,7 +220,8 @@ def _read_rows(src: Any, band: int, r0: int, r1: int) -> np.ndarray:
         elif flags != [MaskFlags.all_valid]:
             part[src.read_masks(band, window=win) == 0] = np.nan
     np.putmask(z, np.isinf(z), np.nan)
-    return z
+    reading.mask_voids(z)
+    return reading.to_metres(z)
 
 
 def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress):
@@ -225,6 +231,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
     from rasterio.windows import transform as window_transform
 
     from energy_planner.terrain.horn import horn_gradient
+    from energy_planner.terrain.raster import band_reading
 
     rows, cols = info.shape
     t = info.transform
@@ -237,9 +244,10 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
         rasterio.open(info.path) as src,
         open_geotiff(out, **_profile(info.shape, t, info.crs, nb, setup.compress)) as dst,
     ):
+        reading = band_reading(src, info.band, info.path, scan=True)
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
-            z = _read_rows(src, info.band, r0 - 1, r1 + 1)
+            z = _read_rows(src, reading, r0 - 1, r1 + 1)
             any_valid = any_valid or bool(np.isfinite(z).any())
             gx, gy = horn_gradient(z, t.a, t.e)
             gx, gy = gx[1:-1], gy[1:-1]
@@ -334,10 +342,11 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
 
     n = setup.headings
     nb = 2 * n + 4
-    with rasterio.open(info.path) as src:
-        z = src.read(info.band, masked=True)
-        dem_valid = ~np.ma.getmaskarray(z) & np.isfinite(np.ma.filled(z.astype(float), np.nan))
-    del z
+    from energy_planner.terrain.raster import band_reading
+
+    with rasterio.open(info.path) as src:  # load_dem warned of undeclared voids
+        reading = band_reading(src, info.band, info.path)
+        dem_valid = np.isfinite(reading.read(src, find=True, warn=False))
     prof = _profile(info.shape, info.transform, info.crs, nb, setup.compress)
     with rasterio.open(work) as w, open_geotiff(out, **prof) as dst:
         wt, wcrs = w.transform, w.crs

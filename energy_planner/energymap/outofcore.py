@@ -1,6 +1,8 @@
 """The out-of-core energy map: dask arrays over a DEM read by chunks.
 
-The DEM is opened lazily with rioxarray (``chunks``), the Horn gradient is computed per
+The DEM is read lazily by chunks through the one reader of DEM values
+(:class:`~energy_planner.terrain.raster.BandReading`: masks, scale, offset, unit,
+undeclared voids), the Horn gradient is computed per
 chunk with :func:`dask.array.map_overlap` (depth 1: one halo cell for the 3 x 3 stencil,
 NaN beyond the map's edge, so the map's border is NaN exactly as in the in-memory
 :func:`energy_planner.terrain.horn.horn_gradient`), and every band per chunk with
@@ -37,6 +39,16 @@ def _horn_component(z: np.ndarray, step_x: float, step_y: float, which: int) -> 
 
     z = np.where(np.isfinite(z), z, np.nan)
     return horn_gradient(z, step_x, step_y)[which]
+
+
+def _read_block(block_info: Any = None, *, path: str, reading: Any) -> np.ndarray:
+    """One chunk of the DEM in metres, NaN invalid (the one reader: ``reading.read``)."""
+    import rasterio
+    from rasterio.windows import Window
+
+    (r0, r1), (c0, c1) = block_info[None]["array-location"]
+    with rasterio.open(path) as src:
+        return reading.read(src, window=Window(c0, r0, c1 - c0, r1 - r0))
 
 
 def gradient_dask(z: Any, step_x: float, step_y: float) -> tuple[Any, Any]:
@@ -128,14 +140,23 @@ def compute_dask(
     from energy_planner.energymap.core import _profile
 
     chunk = max(64, int(chunk))
+    import dask.array as da
+    import rasterio
+
+    from energy_planner.terrain.raster import band_reading
+
     arr = rioxarray.open_rasterio(
         info.path, chunks={"band": 1, "y": chunk, "x": chunk}, masked=True, lock=False
     )
-    z = arr.sel(band=info.band).data.astype(np.float64)
+    with rasterio.open(info.path) as src:
+        reading = band_reading(src, info.band, info.path, scan=True)
+    z = da.map_blocks(
+        _read_block, dtype=np.float64, chunks=arr.sel(band=info.band).data.chunks,
+        meta=np.empty((0, 0)), path=info.path, reading=reading,
+    )  # fmt: skip
     t = info.transform
     gx, gy = gradient_dask(z, t.a, t.e)
     nb = 2 * setup.headings + 4
-    import dask.array as da
 
     bands = da.map_blocks(
         _bands_block, gx, gy, new_axis=0, chunks=((nb,), *gx.chunks), dtype=np.float32,

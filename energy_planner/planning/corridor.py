@@ -161,8 +161,10 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
     DEMError
         Several bands and no ``band``; a geographic or rotated raster.
     """
-    from energy_planner.terrain.dem import _is_metric, utm_epsg
+    from energy_planner.terrain.dem import utm_epsg
     from energy_planner.terrain.load import open_dem
+    from energy_planner.terrain.native import metric_scale
+    from energy_planner.terrain.raster import band_reading
 
     name = str(path)
     with open_dem(name) as src:
@@ -185,22 +187,23 @@ def raster_info(path: str | Path, band: int | None = None) -> RasterInfo:
                 value=tuple(t)[:6],
                 expected="a north-up geotransform",
             )
-        if src.crs is not None and not _is_metric(src.crs):
+        if src.crs is not None and not metric_scale(src.crs, src.bounds, name).metric:
             from rasterio.warp import transform_bounds
 
             lon0, lat0, lon1, lat1 = transform_bounds(src.crs, "EPSG:4326", *src.bounds)
             epsg = utm_epsg(0.5 * (lon0 + lon1), 0.5 * (lat0 + lat1))
             raise DEMError(
-                f"DEM {name!r} ({src.height} x {src.width} cells) is in {src.crs}, not in "
-                "metres, and too large to load whole: planning by windows needs a projected "
-                f"DEM. Warp it once: gdalwarp -t_srs EPSG:{epsg} -r bilinear "
-                f"{name} dem_utm.tif",
+                f"DEM {name!r} ({src.height} x {src.width} cells) is in {src.crs}, whose "
+                "units are not ground metres, and too large to load whole: planning by "
+                "windows needs a DEM in ground metres (UTM). Warp it once: gdalwarp -t_srs "
+                f"EPSG:{epsg} -r bilinear {name} dem_utm.tif",
                 path=name,
                 value=str(src.crs),
                 crs=str(src.crs),
                 expected="a projected CRS in metres",
                 hint=f"gdalwarp -t_srs EPSG:{epsg}",
             )
+        band_reading(src, int(band), name)  # a unit or scale it cannot read: said now
         return RasterInfo(name, (src.height, src.width), t, src.crs, int(band))
 
 
@@ -241,6 +244,7 @@ def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarra
     from rasterio.windows import Window
 
     from energy_planner.terrain.horn import horn_gradient
+    from energy_planner.terrain.raster import band_reading
 
     rows, cols = info.shape
     step = max(8, STRIP_CELLS // max(cols, 1))
@@ -255,11 +259,11 @@ def gradient_box(info: RasterInfo, *, progress: bool = False) -> tuple[np.ndarra
     # a small GDAL block cache: the pass reads every block once (the default cache, 5 % of
     # the memory, would fill up with blocks that are never read again)
     with rasterio.Env(GDAL_CACHEMAX=64), rasterio.open(info.path) as src:
+        reading = band_reading(src, info.band, info.path, scan=True)
         for r0 in range(0, rows, step):
             r1 = min(rows, r0 + step)
             a, b = max(0, r0 - 1), min(rows, r1 + 1)
-            z = src.read(info.band, window=Window(0, a, cols, b - a), masked=True)
-            z = np.ma.filled(z.astype(np.float64), np.nan)
+            z = reading.read(src, window=Window(0, a, cols, b - a))
             gx, gy = horn_gradient(z, float(info.transform.a), float(info.transform.e))
             k0, k1 = r0 - a, r0 - a + (r1 - r0)
             gx, gy = gx[k0:k1], gy[k0:k1]

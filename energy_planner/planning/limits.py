@@ -128,6 +128,8 @@ def check_endpoint(
             where, extra = _map_hint(terrain, which, float(sx), float(sy))
             if extra["outside"]:
                 reason = "outside the map"
+            elif hasattr(terrain, "invalid_reason"):  # inside: say which cell is missing
+                reason = terrain.invalid_reason(x, y) or reason
         raise InvalidStateError(
             f"{which} {fmt_xy(terrain, x, y)}{yaw_txt} is invalid: {reason}; {where}",
             endpoint=which,

@@ -9,7 +9,12 @@ rasterio opens; :meth:`Terrain.from_array` and
 Decisions (see also ``docs/terrain.md``):
 
 - Nodata and NaN cells become NaN in ``elevation``; every later quantity is NaN where it
-  would need them (Horn window, bilinear sampling). Nothing is filled in.
+  would need them (Horn window, bilinear sampling). Nothing is filled in. Stored values
+  become metres as GDAL describes them (masks, scale and offset, the band's unit,
+  undeclared voids): :mod:`energy_planner.terrain.raster`.
+- A projected CRS whose units are not ground metres (web-mercator) is handled like a
+  geographic one when it is cylindrical, else refused with the ``gdalwarp`` command
+  (:func:`energy_planner.terrain.native.metric_scale`).
 - A geographic CRS (degrees), or a projected CRS whose linear unit is not the metre, gets
   Horn on its own grid with each row's geodesic cell size (:attr:`Terrain.native_grid`,
   :mod:`energy_planner.terrain.native`) and a working grid in the local UTM zone (WGS 84,
@@ -420,6 +425,29 @@ class Terrain:
         s = self.sample(x, y)
         ok = np.isfinite(s.dzdx) & np.isfinite(s.dzdy)
         return bool(ok) if np.ndim(ok) == 0 else ok
+
+    def invalid_reason(self, x: float, y: float) -> str | None:
+        """Why the working-CRS point ``(x, y)`` has no slope; None if it has one.
+
+        One of: ``"outside the map"``; ``"on a nodata cell (row R, column C of the
+        working grid)"``; ``"next to a nodata cell or the map's edge: the slope needs
+        the 3 x 3 cells around each of the cells it is read from"``.
+        """
+        if self.contains(x, y):
+            return None
+        left, bottom, right, top = self.bounds
+        if not (left <= x <= right and bottom <= y <= top):
+            return "outside the map"
+        x0, y0, dx, dy = self.grid
+        rows, cols = self.shape
+        r = min(max(int(round((y - y0) / dy)), 0), rows - 1)
+        c = min(max(int(round((x - x0) / dx)), 0), cols - 1)
+        if not np.isfinite(self.elevation[r, c]):
+            return f"on a nodata cell (row {r}, column {c} of the working grid)"
+        return (
+            "next to a nodata cell or the map's edge: the slope needs the 3 x 3 cells "
+            "around each of the cells it is read from"
+        )
 
     @property
     def source_bounds(self) -> tuple[float, float, float, float]:

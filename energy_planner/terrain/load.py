@@ -18,23 +18,30 @@ import numpy as np
 from affine import Affine
 
 from energy_planner.errors import DEMError, DEMIOError, extent_text
-from energy_planner.terrain.dem import Terrain, _is_metric, _north_up, utm_epsg
+from energy_planner.terrain.dem import Terrain, _north_up, utm_epsg
 from energy_planner.terrain.memory import BYTES_PER_CELL, LONLAT_BYTES_PER_CELL, check_memory
-from energy_planner.terrain.native import NativeGrid, gradient_to_work, native_gradient
+from energy_planner.terrain.native import (
+    NativeGrid,
+    gradient_to_work,
+    metric_scale,
+    native_gradient,
+)
+from energy_planner.terrain.raster import BandReading, band_reading
 from energy_planner.terrain.sample import bilinear
 
 __all__ = ["load_dem", "open_dem"]
 
 
 def _warp_to_utm(
-    z: np.ndarray, transform: Affine, crs: Any, path: Path
-) -> tuple[np.ndarray, Affine, Any, tuple[np.ndarray, np.ndarray]]:
+    z: np.ndarray, transform: Affine, crs: Any, path: Path, scale: Any = None
+) -> tuple[np.ndarray, Affine, Any, tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware).
 
     Returns the working elevation, transform and CRS, and the working gradient: the
     native Horn gradient ``grads`` of ``z`` (:func:`~energy_planner.terrain.native.
     native_gradient`, ``transform`` north-up) carried to the working cell centres and
-    axes by :func:`~energy_planner.terrain.native.gradient_to_work`.
+    axes by :func:`~energy_planner.terrain.native.gradient_to_work`. ``scale``: the
+    CRS's :func:`~energy_planner.terrain.native.metric_scale` over the DEM.
     """
     from rasterio.crs import CRS
     from rasterio.transform import array_bounds
@@ -86,7 +93,7 @@ def _warp_to_utm(
         transform.a,
         transform.e,
     )
-    grads = native_gradient(z, transform, crs)
+    grads = native_gradient(z, transform, crs, scale)
     zw = np.empty((height, width))
     gxw = np.empty((height, width))
     gyw = np.empty((height, width))
@@ -111,7 +118,7 @@ def _warp_to_utm(
         (zb,) = bilinear((z,), src_grid, sx[1:-1, 1:-1], sy[1:-1, 1:-1])
         zw[r0:r1] = zb
         gxw[r0:r1], gyw[r0:r1] = gradient_to_work(
-            grads, transform, crs, sx, sy, (dst_transform.a, dst_transform.e)
+            grads, transform, crs, sx, sy, (dst_transform.a, dst_transform.e), scale
         )
     return zw, dst_transform, dst_crs, grads, (gxw, gyw)
 
@@ -213,7 +220,9 @@ def load_dem(
     Parameters
     ----------
     path : str or pathlib.Path
-        Any raster rasterio opens (GeoTIFF, ...). Elevation in metres.
+        Any raster rasterio opens (GeoTIFF, ...). Its values become metres as GDAL
+        describes them: nodata and masks, scale and offset, the band's unit; undeclared
+        voids (-9999, ...) are masked with a warning (:mod:`energy_planner.terrain.raster`).
     band : int or None
         1-based band to read; required when the raster has several bands.
     bounds : (xmin, ymin, xmax, ymax), optional
@@ -237,8 +246,9 @@ def load_dem(
         The file does not exist or rasterio cannot open it.
     DEMError
         Several bands and no ``band``; ``band`` out of range; every cell nodata; a
-        rotated geotransform. Fields: ``path``, ``value``, ``param="band"`` when the
-        remedy is another band.
+        rotated geotransform; an unknown vertical unit; a projected CRS whose units are
+        not ground metres and that is not cylindrical (with the ``gdalwarp`` to use).
+        Fields: ``path``, ``value``, ``param="band"`` when the remedy is another band.
     RasterTooLargeError
         The DEM's decoded size would pass the memory cap
         (:func:`~energy_planner.terrain.memory.memory_cap`); raised before reading.
@@ -269,11 +279,24 @@ def load_dem(
             )
         )
         check_memory(shape, BYTES_PER_CELL, f"DEM {name!r}{part}", path=name)
-        nodata = src.nodatavals[int(band) - 1]
-        z = _read_band(src, band, None if bounds is None and decimate == 1 else (win, shape), name)
-        crs = src.crs
         _check_georeferenced(src, transform, name)
-    z[~np.isfinite(z)] = np.nan
+        nodata = src.nodatavals[int(band) - 1]
+        whole = bounds is None and decimate == 1
+        reading = band_reading(src, band, name, scan=not whole)
+        if reading.voids and decimate > 1:
+            raise DEMError(
+                f"DEM {name!r} marks voids with {reading.voids[0][0]:g} without declaring "
+                "it as nodata, and a decimated read would average them into the "
+                f"elevations; declare it first: gdal_edit.py -a_nodata "
+                f"{reading.voids[0][0]:g} {name}",
+                path=name,
+                value=reading.voids[0][0],
+                param="decimate",
+                expected="a declared nodata value",
+                hint=f"gdal_edit.py -a_nodata {reading.voids[0][0]:g}",
+            )
+        z = _read_band(src, reading, None if whole else (win, shape), name)
+        crs = src.crs
     _check_some_valid(z, nodata, band, n, name)
     work_z, work_t, work_crs, native, work_grad = _working_grid(z, transform, crs, name, p)
     return Terrain(
@@ -322,8 +345,11 @@ def _band_error(message: str, name: str, value: Any, n: int) -> DEMError:
     )  # fmt: skip
 
 
-def _read_band(src, band: int, window, name: str) -> np.ndarray:
-    """Band ``band`` as float64 with NaN for nodata; ``window`` ``(win, out_shape)`` or None.
+def _read_band(src, reading: BandReading, window, name: str) -> np.ndarray:
+    """The band in metres, float64, NaN invalid; ``window`` ``(win, out_shape)`` or None.
+
+    A whole read finds undeclared voids itself (and warns); a window uses the file's
+    (``reading.voids``).
 
     Raises
     ------
@@ -333,26 +359,19 @@ def _read_band(src, band: int, window, name: str) -> np.ndarray:
     from rasterio._err import CPLE_BaseError
     from rasterio.errors import RasterioIOError
 
-    try:
-        if window is None:
-            data = src.read(int(band), masked=True)
-        else:
-            from rasterio.enums import Resampling
+    kwargs: dict[str, Any] = {}
+    if window is not None:
+        from rasterio.enums import Resampling
 
-            data = src.read(
-                int(band),
-                window=window[0],
-                out_shape=window[1],
-                masked=True,
-                resampling=Resampling.average,
-            )
+        kwargs = dict(window=window[0], out_shape=window[1], resampling=Resampling.average)
+    try:
+        return reading.read(src, find=window is None, **kwargs)
     except (RasterioIOError, CPLE_BaseError) as exc:  # truncated or corrupt file
         raise DEMIOError(
-            f"cannot read band {band} of DEM {name!r}: {exc}",
+            f"cannot read band {reading.band} of DEM {name!r}: {exc}",
             path=name,
             expected="a readable raster (is the file truncated?)",
         ) from exc
-    return np.ma.filled(data.astype(np.float64), np.nan)
 
 
 def _check_georeferenced(src, transform, name: str) -> None:
@@ -414,12 +433,15 @@ def _working_grid(z: np.ndarray, transform, crs, name: str, p: Path):
             stacklevel=3,
         )
         return z, transform, None, None, None
-    if _is_metric(crs):
+    from rasterio.transform import array_bounds
+
+    scale = metric_scale(crs, array_bounds(*z.shape, transform), name)
+    if scale.metric:
         return z, transform, crs, None, None
-    # Horn on the DEM's own grid (geodesic spacing), carried to the working grid
+    # Horn on the DEM's own grid (ground spacing of each row), carried to the working grid
     (z,), north_up = _north_up([z], transform)
-    work_z, work_t, work_crs, grads, work_grad = _warp_to_utm(z, north_up, crs, p)
-    native = NativeGrid(z, *grads, north_up, crs)
+    work_z, work_t, work_crs, grads, work_grad = _warp_to_utm(z, north_up, crs, p, scale)
+    native = NativeGrid(z, *grads, north_up, crs, scale)
     if not np.isfinite(work_z).any():
         raise DEMError(
             f"DEM {name!r} has no valid cell after reprojection to {work_crs}",

@@ -1,4 +1,4 @@
-"""Horn on a DEM's own grid when its CRS is not metric (longitude/latitude, feet).
+"""Horn on a DEM's own grid when its CRS is not metric (longitude/latitude, feet, Mercator).
 
 A longitude/latitude DEM is not resampled before its slopes are computed: resampling
 smooths them (on the bundled Jacksboro DEM the UTM round trip lowered slopes by 0.72 deg
@@ -10,7 +10,9 @@ median against Horn on the native grid). Instead:
    radii of curvature of the CRS's ellipsoid, closed form), which is the geodesic
    distance between neighbouring cell centres to ~1e-9 for arc-second cells. The gradient
    is towards local east and true north. For a projected CRS in another unit than the
-   metre (US feet) the steps are the pixel size times the unit's length in metres.
+   metre (US feet) the steps are the pixel size times the unit's length in metres; for a
+   cylindrical one whose map metres are not ground metres (web-mercator) each row's
+   ground steps from the exact inverse projection (:func:`metric_scale`).
 2. :func:`gradient_to_work`: the planners' metric working grid (UTM, see
    :mod:`energy_planner.terrain.dem`) takes that gradient at each of its cell centres,
    bilinear in the two components (as :meth:`Terrain.sample` does), and turns it into its
@@ -27,8 +29,10 @@ interpolation of the gradient.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,18 +50,35 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+#: Map units may differ from ground metres by this share (after the CRS's unit) and the
+#: DEM still be read as metric: 0.5 % (a UTM grid is within 0.1 % inside its zone).
+GROUND_TOLERANCE = 0.005
+
+
+@dataclass(frozen=True, eq=False)
 class _Scale:
-    """How many metres one unit of a CRS's coordinates is, along x and y."""
+    """How many ground metres one unit of a CRS's coordinates is, along x and y."""
 
     geographic: bool
     unit_m: float  # projected: metres per unit
     unit_rad: float  # geographic: radians per angular unit
     a: float  # semi-major axis, m
     e2: float  # first eccentricity squared
+    ground: Any = None  # projected, map metres not ground metres: _GroundJacobian
 
-    def at(self, y: np.ndarray) -> tuple[np.ndarray | float, np.ndarray | float]:
-        """Metres per unit of x and of y at coordinate ``y`` (latitude if geographic)."""
+    @property
+    def metric(self) -> bool:
+        """True if the coordinates are ground metres (within :data:`GROUND_TOLERANCE`)."""
+        return not self.geographic and self.ground is None and abs(self.unit_m - 1.0) < 1e-12
+
+    def at(self, y: np.ndarray, x: Any = None) -> tuple[np.ndarray | float, np.ndarray | float]:
+        """Ground metres per unit of x and of y at ``(x, y)`` (``y`` latitude if geographic).
+
+        ``x`` matters only for a projected CRS whose scale is not 1 (then it depends on
+        ``y`` alone, :func:`metric_scale` checked it; ``x`` defaults to the DEM's centre).
+        """
+        if self.ground is not None:
+            return self.ground.steps(x, y)
         if not self.geographic:
             return self.unit_m, self.unit_m
         phi = np.asarray(y, dtype=np.float64) * self.unit_rad
@@ -68,18 +89,88 @@ class _Scale:
         return self.unit_rad * n * np.cos(phi), self.unit_rad * m
 
 
-def metric_scale(crs: Any) -> _Scale:
-    """The metric scale of a non-metric CRS (see :meth:`_Scale.at`).
+class _GroundJacobian:
+    """Ground metres per map unit of a projected CRS, from its exact inverse projection.
+
+    At map point ``(x, y)``: the geodetic ``(lon, lat)`` of ``(x +- h, y)`` and
+    ``(x, y +- h)`` (central differences, ``h`` one map unit), and the ellipsoid's radii of
+    curvature turn the changes into metres east and north on the ground.
+    """
+
+    def __init__(self, pc: Any, x_ref: float) -> None:
+        from pyproj import Transformer
+
+        geod = pc.geodetic_crs
+        self.to_geo = Transformer.from_crs(pc, geod, always_xy=True)
+        ell = geod.ellipsoid
+        a = float(ell.semi_major_metre)
+        b = float(ell.semi_minor_metre)
+        self.a, self.e2 = a, 1.0 - (b / a) ** 2
+        self.x_ref = float(x_ref)
+
+    def jacobian(self, x: Any, y: Any) -> tuple[np.ndarray, ...]:
+        """``(east_x, north_x, east_y, north_y)``: ground metres per map unit of x and y."""
+        x = np.asarray(self.x_ref if x is None else x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        x, y = np.broadcast_arrays(x, y)
+        h = 1.0
+        lon = []
+        lat = []
+        for dx, dy in ((h, 0.0), (-h, 0.0), (0.0, h), (0.0, -h)):
+            lo, la = self.to_geo.transform(x + dx, y + dy)
+            lon.append(np.asarray(lo, dtype=np.float64))
+            lat.append(np.asarray(la, dtype=np.float64))
+        phi = np.radians(0.25 * (lat[0] + lat[1] + lat[2] + lat[3]))
+        w = np.sqrt(1.0 - self.e2 * np.sin(phi) ** 2)
+        k_east = self.a / w * np.cos(phi) * (math.pi / 180.0)  # metres per degree of lon
+        k_north = self.a * (1.0 - self.e2) / w**3 * (math.pi / 180.0)
+        dlon_x = ((lon[0] - lon[1] + 180.0) % 360.0 - 180.0) / (2 * h)
+        dlon_y = ((lon[2] - lon[3] + 180.0) % 360.0 - 180.0) / (2 * h)
+        return (
+            k_east * dlon_x,
+            k_north * (lat[0] - lat[1]) / (2 * h),
+            k_east * dlon_y,
+            k_north * (lat[2] - lat[3]) / (2 * h),
+        )
+
+    def steps(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Ground metres per map unit along x and along y (axes east and north)."""
+        ex, nx, ey, ny = self.jacobian(x, y)
+        return np.hypot(ex, nx), np.hypot(ey, ny)
+
+
+def metric_scale(
+    crs: Any, bounds: Sequence[float] | None = None, name: str | None = None
+) -> _Scale:
+    """The ground scale of a CRS's coordinates (see :meth:`_Scale.at`).
 
     Parameters
     ----------
     crs : rasterio.crs.CRS
         A geographic CRS (angles on an ellipsoid) or a projected CRS in any linear unit.
+    bounds : (left, bottom, right, top), optional
+        The DEM's extent in ``crs``. With it, a projected CRS is checked on a 5 x 5 grid of
+        points: where its map units are ground metres times the unit's length (within
+        :data:`GROUND_TOLERANCE`), as for UTM, the scale is the unit's length; where not
+        (web-mercator: 1.41 map metres per ground metre at 45 deg N) but the map's axes
+        point east and north and the scale depends on ``y`` only (Mercator and the other
+        cylindrical projections), the scale is the exact one at each point; otherwise
+        the DEM is refused.
+    name : str, optional
+        The DEM's file, for the error.
 
     Returns
     -------
     _Scale
-        ``.at(y)`` gives metres per unit of x and y at ``y``.
+        ``.at(y)`` gives ground metres per unit of x and y at ``y``; ``.metric`` is True
+        when the coordinates are ground metres.
+
+    Raises
+    ------
+    DEMError
+        A projected CRS whose scale differs from 1 over the DEM and varies along x or
+        turns the axes (a conic or azimuthal projection far from its true scale): the
+        message gives the ``gdalwarp`` command to the DEM's UTM zone.
 
     Examples
     --------
@@ -90,6 +181,10 @@ def metric_scale(crs: Any) -> _Scale:
     >>> kx, ky = metric_scale(CRS.from_epsg(2229)).at(0.0)  # California zone 5, US feet
     >>> round(kx, 12), round(ky, 12)  # 1200/3937 m, everywhere
     (0.304800609601, 0.304800609601)
+    >>> s = metric_scale(CRS.from_epsg(3857), (333000.0, 5621000.0, 334000.0, 5622000.0))
+    >>> kx, ky = s.at(5621500.0)  # web-mercator at 45 deg N: 0.71 ground m per map m
+    >>> s.metric, round(float(kx), 4), round(float(ky), 4)
+    (False, 0.7083, 0.7059)
     """
     from pyproj import CRS as ProjCRS
 
@@ -101,10 +196,56 @@ def metric_scale(crs: Any) -> _Scale:
         unit = pc.axis_info[0].unit_conversion_factor if pc.axis_info else math.pi / 180.0
         return _Scale(True, 1.0, float(unit), a, 1.0 - (b / a) ** 2)
     _, factor = crs.linear_units_factor
-    return _Scale(False, float(factor), 1.0, 0.0, 0.0)
+    plain = _Scale(False, float(factor), 1.0, 0.0, 0.0)
+    if bounds is None or pc.geodetic_crs is None:
+        return plain
+    left, bottom, right, top = (float(v) for v in bounds)
+    ground = _GroundJacobian(pc, 0.5 * (left + right))
+    xs, ys = np.meshgrid(np.linspace(left, right, 5), np.linspace(bottom, top, 5))
+    with np.errstate(invalid="ignore"):
+        ex, nx, ey, ny = ground.jacobian(xs, ys)
+    kx, ky = np.hypot(ex, nx), np.hypot(ey, ny)
+    if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(ky))):
+        return plain  # outside the projection's domain: the warp or the sampling says so
+    rel = np.concatenate([kx.ravel(), ky.ravel()]) / float(factor)
+    if np.all(np.abs(rel - 1.0) <= GROUND_TOLERANCE):
+        return plain
+    turned = np.abs(np.arctan2(nx, ex)).max() + np.abs(np.arctan2(ey, ny)).max()
+    along_x = max(np.ptp(kx, axis=1).max() / kx.mean(), np.ptp(ky, axis=1).max() / ky.mean())
+    if turned < 1e-7 and along_x < 1e-7:
+        return _Scale(False, float(factor), 1.0, 0.0, 0.0, ground)
+    from energy_planner.errors import DEMError
+    from energy_planner.terrain.dem import utm_epsg
+
+    lon, lat = ground.to_geo.transform(0.5 * (left + right), 0.5 * (bottom + top))
+    epsg = utm_epsg(float(lon), float(lat))
+    dem = f"DEM {name!r}" if name else "the DEM"
+    out = f"{Path(name).stem}_utm.tif" if name else "dem_utm.tif"
+    fix = (
+        f"warp it to its UTM zone first: gdalwarp -t_srs EPSG:{epsg} -r bilinear "
+        f"{name or 'dem.tif'} {out}"
+    )
+    if crs.to_epsg() == epsg:  # a UTM DEM reaching far beyond its zone
+        fix = (
+            "it reaches far beyond its UTM zone: cut it into parts of one zone each, "
+            f"each warped to its zone (gdalwarp -t_srs EPSG:326ZZ -te ... {name or 'dem.tif'} "
+            "part.tif)"
+        )
+    raise DEMError(
+        f"{dem} is in {crs}, whose map units are {1 / rel.max():.3f} .. {1 / rel.min():.3f} "
+        "per ground metre over the DEM (not ground metres: slopes and distances would be "
+        f"off by that much); {fix}",
+        path=name,
+        value=str(crs),
+        crs=str(crs),
+        expected="a CRS whose map metres are ground metres (UTM, a national grid)",
+        hint=f"gdalwarp -t_srs EPSG:{epsg} -r bilinear",
+    )
 
 
-def native_steps(transform: Affine, rows: int, crs: Any) -> tuple[Any, Any]:
+def native_steps(
+    transform: Affine, rows: int, crs: Any, scale: _Scale | None = None
+) -> tuple[Any, Any]:
     """Signed metric steps of a grid per column and per row, for each row.
 
     Parameters
@@ -115,6 +256,8 @@ def native_steps(transform: Affine, rows: int, crs: Any) -> tuple[Any, Any]:
         Number of rows.
     crs : rasterio.crs.CRS
         Geographic or projected (any linear unit).
+    scale : _Scale, optional
+        :func:`metric_scale` of ``crs`` over the DEM (default: from ``crs`` alone).
 
     Returns
     -------
@@ -124,11 +267,13 @@ def native_steps(transform: Affine, rows: int, crs: Any) -> tuple[Any, Any]:
         :func:`~energy_planner.terrain.horn.horn_gradient`.
     """
     y = transform.f + (np.arange(rows) + 0.5) * transform.e
-    kx, ky = metric_scale(crs).at(y)
+    kx, ky = (scale or metric_scale(crs)).at(y)
     return transform.a * kx, transform.e * ky
 
 
-def native_gradient(z: np.ndarray, transform: Affine, crs: Any) -> tuple[np.ndarray, np.ndarray]:
+def native_gradient(
+    z: np.ndarray, transform: Affine, crs: Any, scale: _Scale | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Horn gradient of a DEM on its own non-metric grid, in metres per metre.
 
     Returns
@@ -137,7 +282,7 @@ def native_gradient(z: np.ndarray, transform: Affine, crs: Any) -> tuple[np.ndar
         Towards local east and true north for a geographic CRS (along the CRS's x and y
         axes for a projected one); NaN on the border and around invalid cells.
     """
-    sx, sy = native_steps(transform, z.shape[0], crs)
+    sx, sy = native_steps(transform, z.shape[0], crs, scale)
     return horn_gradient(z, sx, sy)
 
 
@@ -163,6 +308,7 @@ class NativeGrid:
     dzdy: np.ndarray
     transform: Affine
     crs: Any
+    scale: Any = None  # metric_scale of the CRS over the DEM (native_steps)
 
     @cached_property
     def slope(self) -> np.ndarray:
@@ -182,6 +328,7 @@ def gradient_to_work(
     src_x: np.ndarray,
     src_y: np.ndarray,
     work_step: tuple[float, float],
+    scale: _Scale | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The native gradient at working cell centres, in the working grid's axes.
 
@@ -198,6 +345,8 @@ def gradient_to_work(
         of their neighbours (one row above and below, one column each side).
     work_step : (float, float)
         Working grid steps per column and per row (``dy < 0``), metres.
+    scale : _Scale, optional
+        :func:`metric_scale` of ``crs`` over the DEM (default: from ``crs`` alone).
 
     Returns
     -------
@@ -213,8 +362,8 @@ def gradient_to_work(
     )
     cx, cy = src_x[1:-1, 1:-1], src_y[1:-1, 1:-1]
     ge, gn = bilinear(grads, grid, cx, cy)
-    scale = metric_scale(crs)
-    kx, ky = scale.at(cy)
+    scale = scale or metric_scale(crs)
+    kx, ky = scale.at(cy, cx)
     dx, dy = work_step
     # d(source x, y) / d(working x) and / d(working y): central differences over the ring
     # (row r - 1 is the neighbour at +y when dy < 0)
