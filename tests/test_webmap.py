@@ -143,6 +143,7 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
 
         ctx.route("**/*", route)
         page = ctx.new_page()
+        page.set_default_timeout(180000)  # a loaded CI machine parses 5 MB pages slowly
         errors: list[str] = []
         page.on("pageerror", lambda e: errors.append(str(e)))
         drawn = {}
