@@ -189,7 +189,7 @@ def main() -> None:
         head = f"{'command':<48} {'runs':>4} {'A wall s':>8} {'A cpu s':>8}"
         if args.baseline:
             head += f" {'B wall s':>8} {'B cpu s':>8} {'A/B wall':>8} {'A/B cpu':>8}"
-        head += f" {'gdaldem s':>9} {'A/gdaldem':>9} {'target s':>8}"
+        head += f" {'gdal wall':>9} {'gdal cpu':>8} {'A/gdal wall':>11} {'target s':>8}"
         print(head)
         for a, b in zip(a_rows, b_rows, strict=True):
             name, cmd, is_map = a
@@ -216,9 +216,10 @@ def main() -> None:
                 line += f" {wb:>8.3f} {cb:>8.3f} {rw:>8.2f} {rc:>8.2f}"
             if tg:
                 rg = statistics.median(x[0] / y[0] for x, y in zip(ta, tg, strict=True))
-                line += f" {statistics.median(t[0] for t in tg):>9.3f} {rg:>9.1f}"
+                gw, gc = (statistics.median(t[k] for t in tg) for k in (0, 1))
+                line += f" {gw:>9.3f} {gc:>8.3f} {rg:>11.1f}"
             else:
-                line += f" {'-':>9} {'-':>9}"
+                line += f" {'-':>9} {'-':>8} {'-':>11}"
             target = next((v for k, v in TARGETS.items() if name.startswith(k)), None)
             if target is not None:
                 met = statistics.median(t[0] for t in ta) <= target
