@@ -141,6 +141,11 @@ class MotionCost:
         )  # fmt: skip
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
         self._aot = precompiled_module(self.source) if precompiled else None
+        self._fns: dict[str, Any] = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without compiled code (a dask worker loads the kernels itself)."""
+        return {**self.__dict__, "_aot": None, "_fns": {}}
 
     @property
     def kernel(self) -> Any:
@@ -154,7 +159,10 @@ class MotionCost:
 
     def _fn(self, name: str) -> Any:
         """Kernel ``name``: the precompiled one if there is one, else numba's."""
-        return getattr(self._aot or kernel_module(self.source), name)
+        fn = self._fns.get(name)
+        if fn is None:
+            fn = self._fns[name] = getattr(self._aot or kernel_module(self.source), name)
+        return fn
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
