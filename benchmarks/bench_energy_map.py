@@ -45,6 +45,15 @@ with the ratio baseline / this of the CPU. ``--also-compress`` adds windowed row
 other compressions. The machine load (``uptime``) is printed next to the table: on a
 shared machine compare CPU seconds; wall times are mostly waiting for a CPU.
 
+``--pace``: the command against the disk and a GIS tool, in one run, on a SIZE^2 DEM
+(``--size 2048``): ``gdaldem slope`` of the DEM (a GIS tool's whole job on it, when
+gdal-bin is installed); ``energy-map`` with the default bands (``best_*`` and the
+summary, N + 4 float32 bands, zstd) against the target (2.5 s), and with ``--bands all``
+(2 N + 4 bands: the earlier default); each with the bytes it wrote. The floor beside
+them: the time to write the same bytes to the same disk (a file of that size, written
+and closed) plus the map kernel's compute at its cells-per-second on this machine
+(``HeadingCost.map_bands`` over the DEM's gradient in this process, both cores).
+
 ``--stages``: one windowed map in this process, the time of each stage (reading the
 DEM, the gradient, the heading table (disk cache), the kernel, the summary bands, the
 GeoTIFF write, closing the file, the summary statistics) and the CPU seconds of each
@@ -414,6 +423,96 @@ def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
           f"{main + (total - main) / 2:.1f} s (plus start-up).")  # fmt: skip
 
 
+def _write_seconds(nbytes: int, path: Path) -> float:
+    """Seconds to write ``nbytes`` (incompressible) to a new file at ``path`` and close it."""
+    block = np.random.default_rng(0).integers(0, 255, 1 << 24, dtype=np.uint8).tobytes()
+    t0 = time.perf_counter()
+    with open(path, "wb") as f:
+        left = nbytes
+        while left > 0:
+            f.write(block[: min(left, len(block))])
+            left -= len(block)
+    seconds = time.perf_counter() - t0
+    path.unlink()
+    return seconds
+
+
+def _kernel_seconds(dem: Path, headings: int) -> float:
+    """Wall seconds of the map kernel over ``dem``'s gradient (table built beforehand)."""
+    from energy_planner.energymap.bands import heading_angles
+    from energy_planner.energymap.setup import _setup
+    from energy_planner.terrain import load_dem
+
+    t = load_dem(dem)
+    gx, gy = np.ascontiguousarray(t.dzdx), np.ascontiguousarray(t.dzdy)
+    setup = _setup(None, None, None, headings)
+    ang = heading_angles(headings)
+    rows = 256
+    along = np.empty((headings, rows, gx.shape[1]), np.float32)
+    best = np.empty_like(along)
+    chan = np.zeros((0, 1, 1))
+    setup.heading.map_bands(gx[:rows], gy[:rows], chan, ang, along, best)  # warm: table
+    t0 = time.perf_counter()
+    for r0 in range(0, gx.shape[0], rows):
+        r1 = min(gx.shape[0], r0 + rows)
+        n = r1 - r0
+        setup.heading.map_bands(gx[r0:r1], gy[r0:r1], chan, ang, along[:, :n], best[:, :n])
+    return time.perf_counter() - t0
+
+
+def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
+    """``--pace``: see the module docstring."""
+    import shutil
+    import statistics
+
+    dem = make_dem(workdir / f"dem_{size}.tif", size)
+    h = str(headings)
+    run_one([str(dem), "--out", str(workdir / "warm.tif"), "--headings", h])  # kernels
+    gdaldem = shutil.which("gdaldem")
+    cases = [
+        ("energy-map (default: --bands best)", []),
+        ("energy-map --bands all", ["--bands", "all"]),
+    ]
+    res: dict[str, list[float]] = {name: [] for name, _ in cases}
+    cpu: dict[str, list[float]] = {name: [] for name, _ in cases}
+    size_b: dict[str, int] = {}
+    gd: list[float] = []
+    for _ in range(runs):  # in turn, so that the machine's load drifts over all rows alike
+        if gdaldem:
+            t0 = time.perf_counter()
+            subprocess.run([gdaldem, "slope", "-q", str(dem), str(workdir / "slope.tif")],
+                           check=True)  # fmt: skip
+            gd.append(time.perf_counter() - t0)
+        for name, extra in cases:
+            out = workdir / f"pace{len(extra)}.tif"
+            r = run_one([str(dem), "--out", str(out), "--headings", h, *extra])
+            res[name].append(r["wall_s"])
+            cpu[name].append(r["cpu_s"])
+            size_b[name] = out.stat().st_size
+    kernel = _kernel_seconds(dem, headings)
+    cells = size * size * headings
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"python {' '.join(sys.argv)}")
+    print(f"energy-map pace, {size}^2 DEM, {headings} headings, median of {runs} runs in "
+          f"turn; machine: {os.cpu_count()} cores; {load}")  # fmt: skip
+    print(f"map kernel: {kernel:.2f} s for {cells:,} cell-headings "
+          f"({cells / kernel / 1e6:.0f} M/s, this process)")  # fmt: skip
+    print()
+    print("| run | wall s | CPU s | MB written | floor: write its bytes + kernel, s | "
+          "wall / gdaldem | target s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
+    g = statistics.median(gd) if gd else None
+    if g is not None:
+        print(f"| gdaldem slope | {g:.2f} | - | - | - | 1.0 | - |")
+    for name, _ in cases:
+        wall = statistics.median(res[name])
+        floor = _write_seconds(size_b[name], workdir / "bytes.bin") + kernel
+        target = "2.5 " + ("met" if wall <= 2.5 else "NOT met") if "default" in name else "-"
+        ratio = f"{wall / g:.1f}" if g else "- (no gdaldem)"
+        print(f"| {name} | {wall:.2f} | {statistics.median(cpu[name]):.2f} | "
+              f"{size_b[name] / 1e6:.0f} | {floor:.2f} | {ratio} | {target} |")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kernel", action="store_true", help="old vs new map kernel only")
@@ -441,6 +540,8 @@ def main() -> None:
         "--also-compress", nargs="*", default=[], help="more windowed rows with these compressions"
     )
     ap.add_argument("--stages", action="store_true", help="profile one windowed map by stage")
+    ap.add_argument("--pace", action="store_true", help="the map against the disk and gdaldem")
+    ap.add_argument("--runs", type=int, default=3, help="runs per --pace row (median)")
     a = ap.parse_args()
     a.workdir = a.workdir.resolve()
     if a.kernel:
@@ -449,6 +550,9 @@ def main() -> None:
     a.workdir.mkdir(parents=True, exist_ok=True)
     if a.stages:
         stage_table(a.size, a.headings, a.compress, a.workdir)
+        return
+    if a.pace:
+        pace_table(a.size, a.headings, a.workdir, a.runs)
         return
     h = str(a.headings)
     comp = ["--compress", a.compress]

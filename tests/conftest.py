@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
+
+# precompiled kernel modules take ~10 s to build per model: only the tests that check
+# them build one (tests/test_energy_imports.py); the others price with numba's kernels
+os.environ.setdefault("ENERGY_PLANNER_PRECOMPILE", "0")
 
 #: The follower's tests: one mission walked forward at a constant speed (the plan's
 #: timing is the log's), on the synthetic hill of seed FOLLOW_SEED.

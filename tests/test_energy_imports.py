@@ -58,3 +58,58 @@ def test_segments_frame_equals_the_table():
     # a corner: the turn in place belongs to the second segment, its time at the yaw rate
     assert rows[0]["turn_deg"] == 0.0 and abs(rows[1]["turn_deg"] - 90.0) < 1e-9
     assert abs(sum(r["duration_s"] for r in rows) - pe.duration_s) <= 1e-9 * pe.duration_s
+
+
+FRESH = (
+    "import json, sys\n"
+    "from click.testing import CliRunner\n"
+    "from energy_planner.cli import main\n"
+    "r = CliRunner().invoke(main, ['energy', '--dem', sys.argv[1], '--waypoints', sys.argv[2],"
+    " '--json', '--model', sys.argv[3], '--set', 'load_kg=' + sys.argv[4]])\n"
+    "assert r.exit_code == 0, r.output\n"
+    "heavy = [m for m in ('numba', 'scipy.stats', 'scipy.special', 'pandas') if m in sys.modules]\n"
+    "print(json.dumps({'heavy': heavy, 'out': json.loads(r.stdout)}))\n"
+)
+
+
+def test_precompiled_energy_loads_no_numba_and_prices_as_numba(tmp_path):
+    """``energy`` runs the model's precompiled kernels: numba, scipy.stats and
+    scipy.special stay unloaded, a new ``--set`` value compiles nothing, and every
+    segment's energy is the numba kernels' to the last bit (the same code, compiled
+    ahead of time); the load term adds what its formula says."""
+    import os
+
+    from energy_planner.energy import path_energy
+    from energy_planner.model import EnergyModel
+    from energy_planner.terrain import load_dem
+
+    base = EnergyModel.default()
+    model = EnergyModel(
+        [t.name for t in base.terms] + ["load_kg * speed"],
+        {**base.coefficients, "load_kg * speed": 5.0},
+    )
+    path = tmp_path / "load.json"
+    model.save(path)
+    wp = tmp_path / "w.csv"
+    wp.write_text("x,y\n500058,5000046\n500058,5000080\n500090,5000080\n")
+    xy = np.array([[500058.0, 5000046.0], [500058.0, 5000080.0], [500090.0, 5000080.0]])
+    terrain = load_dem(map_path("hill"))
+    env = {**os.environ, "ENERGY_PLANNER_PRECOMPILE": "1"}
+    totals = []
+    for load in (7.25, 31.5):  # the second value: the module built for the first serves
+        done = subprocess.run(
+            [sys.executable, "-c", FRESH, str(map_path("hill")), str(wp), str(path), str(load)],
+            capture_output=True, text=True, check=True, env=env,
+        )  # fmt: skip
+        res = json.loads(done.stdout.strip().splitlines()[-1])
+        assert res["heavy"] == []
+        if load == 31.5:
+            assert "compiling" not in done.stderr
+        ref = path_energy(terrain, model, xy, constants={"load_kg": load})  # numba's kernels
+        got = [s["energy_j"] for s in res["out"]["segments"]]
+        assert got == [r["energy_j"] for r in ref.to_dict()["segments"]]
+        totals.append((res["out"]["energy_j"], res["out"]["distance_m"]))
+    # 5 W per kg and m/s, integrated over the walk (the turn in place has no speed):
+    # 24.25 kg more adds 5 * 24.25 J per metre walked
+    (e0, d0), (e1, d1) = totals
+    assert d0 == d1 and abs((e1 - e0) - 5.0 * 24.25 * d0) < 1e-9 * e1

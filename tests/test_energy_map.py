@@ -4,6 +4,7 @@ the in-memory one."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -17,12 +18,16 @@ from click.testing import CliRunner
 from energy_planner.cli import main
 from energy_planner.energy import MotionCost, path_energy
 from energy_planner.energy.channels import Channels
-from energy_planner.energymap import band_names, energy_map, parse_size
+from energy_planner.energymap import band_names, parse_size
+from energy_planner.energymap import energy_map as _energy_map
 from energy_planner.errors import EnergyMapError, MissingChannelError
 from energy_planner.maps import map_path
 from energy_planner.request import Limits, Request
 from energy_planner.terrain import load_dem
 
+#: These tests read the along_* bands and the full band layout: every map holds all bands
+#: (the default, bands="best", is checked in test_energy_map_write.py and the CLI test).
+energy_map = functools.partial(_energy_map, bands="all")
 MODEL = b1_model()
 X0, Y0 = 500000.0, 5000000.0
 H = 16
@@ -303,7 +308,8 @@ def test_out_of_core_on_a_distributed_cluster(bumpy, tmp_path):
         n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
     ) as cluster:
         args = ["energy-map", dem, "--out", out, "--model", model_file, "--headings", "4",
-                "--chunk", "64", "--scheduler", cluster.scheduler_address, "--json"]  # fmt: skip
+                "--chunk", "64", "--scheduler", cluster.scheduler_address, "--json",
+                "--bands", "all"]  # fmt: skip
         r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["mode"] == "dask"
@@ -331,7 +337,9 @@ def test_cli_energy_map_json_plot_and_errors(plane, tmp_path):
     r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
     res = json.loads(r.stdout)
-    assert res["headings"] == 8 and len(res["bands"]) == 20 and png.stat().st_size > 10_000
+    # the default bands: best_* and the four summary bands
+    assert res["headings"] == 8 and len(res["bands"]) == 12 and png.stat().st_size > 10_000
+    assert [b["name"] for b in res["bands"]] == band_names(8, "best")
     assert res["stats"]["cheapest_j_per_m"]["min"] == pytest.approx(
         forward_analytic(12.0, 0.0, 180.0), rel=1e-5
     )

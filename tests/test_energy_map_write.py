@@ -105,7 +105,7 @@ def test_compression_round_trips_the_values(hills, tmp_path, compress):
         data, comp, prof = read(out)
         np.testing.assert_array_equal(data, ref)
         assert (comp.value.lower() if comp else "none") == compress
-        assert prof["dtype"] == "float32" and prof["count"] == 2 * 8 + 4
+        assert prof["dtype"] == "float32" and prof["count"] == 8 + 4  # the default bands
 
 
 def test_compression_options_and_errors(hills, tmp_path):
@@ -134,3 +134,40 @@ def test_cli_compress_option(hills, tmp_path):
     np.testing.assert_array_equal(data, ref)
     r = CliRunner().invoke(main, [*base, "--compress", "lzma"])
     assert r.exit_code == 2 and "deflate" in r.output and "zstd" in r.output
+
+
+def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path):
+    """bands="best" (the default) writes the full layout's last N + 4 bands, bit for bit,
+    named so, in every way of computing a map (in memory, windowed, dask, and a
+    geographic DEM resampled onto its grid); --bands all writes all 2 N + 4."""
+    from energy_planner.energymap import band_names
+
+    dem, ref = hills
+    assert ref.shape[0] == 8 + 4  # the fixture's map: the default bands
+    full = tmp_path / "full.tif"
+    energy_map(load_dem(dem), full, MODEL, headings=8, bands="all")
+    data = read(full)[0]
+    assert data.shape[0] == 2 * 8 + 4
+    np.testing.assert_array_equal(data[8:], ref)
+    for path, kw in ((tmp_path / "w.tif", {}), (tmp_path / "d.tif", {"use_dask": True})):
+        energy_map(dem, path, MODEL, headings=8, chunk=64, **kw)
+        with rasterio.open(path) as src:
+            assert list(src.descriptions) == band_names(8, "best")
+            assert src.tags()["bands"] == "best"
+            np.testing.assert_array_equal(src.read(), data[8:])
+    # a geographic DEM (a corner of the hills): resampled onto its grid band by band
+    with rasterio.open(dem) as src:
+        z = src.read(1)[:48, :48]
+        prof = dict(src.profile, crs="EPSG:4326", width=48, height=48,
+                    transform=Affine(2e-5, 0, 3.0, 0, -2e-5, 45.0))  # fmt: skip
+    geo = tmp_path / "geo.tif"
+    with rasterio.open(geo, "w", **prof) as dst:
+        dst.write(z, 1)
+    a, b = tmp_path / "ga.tif", tmp_path / "gb.tif"
+    energy_map(geo, a, MODEL, headings=8, bands="all")
+    energy_map(geo, b, MODEL, headings=8)
+    ga, gb = read(a)[0], read(b)[0]
+    assert np.isfinite(gb).any()
+    np.testing.assert_array_equal(gb, ga[8:])
+    with pytest.raises(EnergyMapError, match="bands 'some'"):
+        energy_map(dem, tmp_path / "x.tif", MODEL, headings=8, bands="some")

@@ -192,6 +192,7 @@ def compute(
             cost = MotionCost(
                 terrain, model, speed, yaw_rate, channels=channels,
                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
+                precompiled=True,  # loads without numba (built once per machine and model)
             )  # fmt: skip
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages

@@ -15,6 +15,7 @@ from energy_planner.cli.options import (
     load_model_option,
     parse_memory_cap,
 )
+from energy_planner.energymap.bands import BAND_SETS, DEFAULT_BANDS
 from energy_planner.energymap.setup import DEFAULT_COMPRESS
 from energy_planner.io.geotiff import COMPRESSIONS
 
@@ -47,8 +48,9 @@ def format_table(res: dict[str, Any]) -> str:
         )
     if res.get("plot"):
         lines.append(f"plot      {res['plot']}")
+    heads = "along_*, best_*" if len(res["bands"]) > res["headings"] + 4 else "best_*"
     lines.append("bands     " + ", ".join(b["name"] for b in res["bands"][-4:]) + " after the "
-                 f"{2 * res['headings']} heading bands along_*, best_* (J/m)")  # fmt: skip
+                 f"{len(res['bands']) - 4} heading bands {heads} (J/m)")  # fmt: skip
     for note in res.get("notes", []):
         lines.append(f"note: {note}")
     return "\n".join(lines)
@@ -112,6 +114,14 @@ def format_table(res: dict[str, Any]) -> str:
     "(GDAL >= 2.3 reads it); deflate reads everywhere; none writes fastest, 1.8x larger. "
     "Same values.",
 )
+@click.option(
+    "--bands",
+    type=click.Choice(BAND_SETS),
+    default=DEFAULT_BANDS,
+    show_default=True,
+    help="Bands written: best (best_* per heading and the four summary bands) or all "
+    "(also along_*, walking facing each heading: 2N+4 float32 bands).",
+)
 @options.json_option
 def command(
     dem: Path,
@@ -129,13 +139,14 @@ def command(
     memory_cap: str | None,
     chunk: int,
     compress: str,
+    bands: str,
     as_json: bool,
 ) -> None:
     """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
 
-    For every cell: the cost of walking through it facing along each heading
-    (along_*), the cheapest way along it over the body yaws the gait limits allow,
-    crabbing included (best_*), the
+    For every cell: the cheapest way along each heading over the body yaws the gait
+    limits allow, crabbing included (best_*), with --bands all also the cost of walking
+    through it facing along each heading (along_*), the
     cheapest and dearest heading cost, their ratio and the cheapest heading. Same model
     physics as `energy` (a short straight motion through the cell centre, per metre of
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
@@ -167,7 +178,7 @@ def command(
             res = energy_map(
                 dem, out, model, headings=headings, request=request, band=band,
                 use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk, compress=compress,
-                progress=True,
+                bands=bands, progress=True,
             )  # fmt: skip
     except DEMIOError as exc:
         raise click.BadParameter(str(exc), param_hint="DEM") from exc

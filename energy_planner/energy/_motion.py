@@ -17,6 +17,7 @@ import math
 import numba
 import numpy as np
 
+from energy_planner.energy._sampling import sample_channels, sample_gradient, wrap_angle
 from energy_planner.energy.kernels import (
     BLOCKED,
     GAIT_TOL,
@@ -38,9 +39,6 @@ from energy_planner.energy.kernels import (
     TOO_CRAB,
     TOO_CROSS,
     TOO_STEEP,
-    sample_channels,
-    sample_gradient,
-    wrap_angle,
 )
 
 

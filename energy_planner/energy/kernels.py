@@ -38,12 +38,9 @@ the model, not on the values, so a new value needs no compilation. The heading k
 from __future__ import annotations
 
 import hashlib
-import math
 import re
 from functools import lru_cache
 from pathlib import Path
-
-import numba
 
 from energy_planner.request import GAIT_TOL_RAD
 
@@ -119,100 +116,9 @@ OUT_NAMES = (
 N_KINDS = 5
 
 
-@numba.njit(cache=True)
-def sample_gradient(grad, x0, y0, dx, dy, x, y):
-    """Bilinear gradient at (x, y); returns (ok, dz/dx, dz/dy).
-
-    ``grad[r, c]`` holds (dz/dx, dz/dy) of cell (r, c), interleaved so that one lookup
-    touches one cache line per corner.
-    """
-    nrows, ncols = grad.shape[0], grad.shape[1]
-    fc = (x - x0) / dx
-    fr = (y - y0) / dy
-    if not (fc >= 0.0 and fr >= 0.0 and fc <= ncols - 1 and fr <= nrows - 1):
-        return False, 0.0, 0.0
-    c = min(int(fc), ncols - 2) if ncols > 1 else 0
-    r = min(int(fr), nrows - 2) if nrows > 1 else 0
-    tc = fc - c
-    tr = fr - r
-    c1 = min(c + 1, ncols - 1)
-    r1 = min(r + 1, nrows - 1)
-    a00, b00 = grad[r, c, 0], grad[r, c, 1]
-    a01, b01 = grad[r, c1, 0], grad[r, c1, 1]
-    a10, b10 = grad[r1, c, 0], grad[r1, c, 1]
-    a11, b11 = grad[r1, c1, 0], grad[r1, c1, 1]
-    if not math.isfinite(a00 + a01 + a10 + a11 + b00 + b01 + b10 + b11):
-        return False, 0.0, 0.0
-    w00 = (1 - tr) * (1 - tc)
-    w01 = (1 - tr) * tc
-    w10 = tr * (1 - tc)
-    w11 = tr * tc
-    return (
-        True,
-        w00 * a00 + w01 * a01 + w10 * a10 + w11 * a11,
-        w00 * b00 + w01 * b01 + w10 * b10 + w11 * b11,
-    )
-
-
-@numba.njit(cache=True)
-def sample_channels(chan, nearest, x0, y0, dx, dy, x, y, values):
-    """Fill ``values[k]`` with channel ``k`` at (x, y); False if one has no value there.
-
-    ``chan[k, r, c]`` is channel ``k`` on the terrain grid (NaN = no value). A channel
-    with ``nearest[k]`` (categorical: a category index) takes the nearest cell's value;
-    the others are bilinear between cell centres, as :func:`sample_gradient`. A
-    ``(k, 1, 1)`` array holds uniform channels (the ``--set`` constants, given at run
-    time so that a new value needs no compilation): their values everywhere.
-    """
-    nch = chan.shape[0]
-    if nch == 0:
-        return True
-    nrows, ncols = chan.shape[1], chan.shape[2]
-    if nrows == 1 and ncols == 1:  # uniform channels (constants given at run time)
-        for k in range(nch):
-            values[k] = chan[k, 0, 0]
-        return True
-    fc = (x - x0) / dx
-    fr = (y - y0) / dy
-    if not (fc >= -0.5 and fr >= -0.5 and fc <= ncols - 0.5 and fr <= nrows - 0.5):
-        return False
-    rn = min(max(int(math.floor(fr + 0.5)), 0), nrows - 1)
-    cn = min(max(int(math.floor(fc + 0.5)), 0), ncols - 1)
-    fcb = min(max(fc, 0.0), ncols - 1.0)
-    frb = min(max(fr, 0.0), nrows - 1.0)
-    c = min(int(fcb), ncols - 2) if ncols > 1 else 0
-    r = min(int(frb), nrows - 2) if nrows > 1 else 0
-    tc = fcb - c
-    tr = frb - r
-    c1 = min(c + 1, ncols - 1)
-    r1 = min(r + 1, nrows - 1)
-    for k in range(nch):
-        if nearest[k]:
-            v = chan[k, rn, cn]
-        else:
-            v = (
-                (1 - tr) * (1 - tc) * chan[k, r, c]
-                + (1 - tr) * tc * chan[k, r, c1]
-                + tr * (1 - tc) * chan[k, r1, c]
-                + tr * tc * chan[k, r1, c1]
-            )
-        if not math.isfinite(v):
-            return False
-        values[k] = v
-    return True
-
-
-@numba.njit(cache=True)
-def wrap_angle(a):
-    """Wrap to (-pi, pi]."""
-    two_pi = 2.0 * math.pi
-    a = (a + math.pi) - two_pi * math.floor((a + math.pi) / two_pi)  # in [0, 2 pi)
-    if a <= 0.0:
-        a += two_pi
-    return a - math.pi
-
-
 _TEMPLATE = Path(__file__).with_name("_motion.py")
+#: The files whose functions the kernel modules call (their hash names the modules).
+_HELPERS = (Path(__file__), Path(__file__).with_name("_sampling.py"))
 _POWER_BLOCK = re.compile(r"# --- power: replaced per model ---\n.*?# --- end power ---\n", re.S)
 
 
@@ -246,16 +152,13 @@ def make_kernels(power_source: str):
     return mod.motion_full, mod.motion_cost, mod.motion_batch, mod.path_table, mod.map_costs
 
 
-@lru_cache(maxsize=64)
-def kernel_module(power_source: str):
-    """The compiled module of one model's kernels (see :func:`make_kernels`).
+def motion_source(power_source: str) -> str:
+    """The text of one model's kernel module: ``_motion.py`` with the model's ``power``.
 
-    Besides the functions :func:`make_kernels` returns, it holds the cheapest way to move
-    along a heading over the body's yaw (``cheapest_at``, ``cheapest_batch``,
-    ``heading_table``), which :mod:`energy_planner.energy.heading` wraps.
+    The hash of the helpers (this file and ``_sampling.py``) heads the text: numba's cache
+    does not see changes to the functions a cached function calls, so a change to them
+    gives a new module name (and a new compilation).
     """
-    from energy_planner.model._codegen import load_generated_module
-
     block = (
         "# --- power: replaced per model ---\n@numba.njit(cache=True)\n"
         + power_source
@@ -263,8 +166,65 @@ def kernel_module(power_source: str):
     )
     text, n = _POWER_BLOCK.subn(lambda _: block, _TEMPLATE.read_text())
     assert n == 1, "the power markers of _motion.py are missing"
-    # numba's cache does not see changes to the helpers this file defines: put their
-    # hash into the generated text so that a change gives a new module name
-    helpers = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-    text = f"# kernels.py {helpers}\n" + text
-    return load_generated_module(text, prefix="motion")
+    helpers = hashlib.sha256(b"".join(p.read_bytes() for p in _HELPERS)).hexdigest()[:16]
+    return f"# kernels.py {helpers}\n" + text
+
+
+@lru_cache(maxsize=64)
+def kernel_module(power_source: str):
+    """The compiled module of one model's kernels (see :func:`make_kernels`).
+
+    Besides the functions :func:`make_kernels` returns, it holds the cheapest way to move
+    along a heading over the body's yaw (``cheapest_at``, ``cheapest_batch``,
+    ``heading_table``), which :mod:`energy_planner.energy.heading` wraps. Its functions
+    compile on first use, or load from numba's cache on disk.
+    """
+    from energy_planner.model._codegen import load_generated_module
+
+    return load_generated_module(motion_source(power_source), prefix="motion")
+
+
+#: The functions of a precompiled kernel module (:func:`precompiled_module`).
+PRECOMPILED = ("motion_cost", "motion_batch", "path_table")
+
+
+def precompiled_module(power_source: str, build: bool = True):
+    """One model's motion kernels compiled ahead of time, or None where they cannot be.
+
+    A command that prices given motions (``energy``) spends more on loading numba (its
+    import, its typing registries, the cached kernels' index) than on its work. A
+    precompiled module (numba's ahead-of-time compiler, a C extension in the kernel cache
+    directory) holds :data:`PRECOMPILED` of the model's kernels, the same code as
+    :func:`kernel_module`'s, and imports in milliseconds without numba. It is built once
+    per machine and model (about 10 s of compilation, said on stderr) and then loaded.
+
+    Parameters
+    ----------
+    power_source : str
+        The model's ``power`` source, as for :func:`make_kernels`.
+    build : bool
+        Build the module when it is not in the cache yet (else return None then).
+
+    Returns
+    -------
+    module or None
+        None when it is not built and ``build`` is False, when building is switched off
+        (``ENERGY_PLANNER_PRECOMPILE=0``) or when it failed on this machine (no C
+        compiler, say; the reason is kept beside it as ``<name>.failed`` and the numba
+        kernels serve instead).
+    """
+    import os
+
+    from energy_planner.model._codegen import load_precompiled
+
+    build = build and os.environ.get("ENERGY_PLANNER_PRECOMPILE", "1") != "0"
+    return load_precompiled(motion_source(power_source), prefix="aot", build=build)
+
+
+def __getattr__(name: str):
+    # the numba helpers, imported on first use (importing this module stays numba-free)
+    if name in ("sample_gradient", "sample_channels", "wrap_angle"):
+        from energy_planner.energy import _sampling
+
+        return getattr(_sampling, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

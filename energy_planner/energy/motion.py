@@ -20,7 +20,8 @@ from energy_planner.energy.kernels import (
     TOO_CROSS,
     TOO_STEEP,
     VIOLATIONS,
-    make_kernels,
+    kernel_module,
+    precompiled_module,
 )
 from energy_planner.errors import ChannelError, ModelError, MotionCostError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
@@ -63,6 +64,13 @@ class MotionCost:
         bilinear between cell centres, so the midpoint rule at half-cell steps resolves it).
     ang_step : float
         Integration sub-step for rotations, radians.
+    precompiled : bool
+        Price motions asked from Python (:meth:`__call__`, :meth:`batch`,
+        :meth:`details`) with the model's precompiled kernel module
+        (:func:`energy_planner.energy.kernels.precompiled_module`: built once per machine
+        and model, then loaded without numba), not with numba's kernels. Same numbers;
+        for commands whose work is small beside numba's start-up. The numba kernels
+        (:attr:`kernel`, :attr:`map_kernel`, the planners') load on first use either way.
     """
 
     def __init__(
@@ -81,6 +89,7 @@ class MotionCost:
         channels: Channels | None = None,
         step: float | None = None,
         ang_step: float = 0.05,
+        precompiled: bool = False,
     ) -> None:
         if not (speed > 0 and yaw_rate > 0):
             raise MotionCostError(
@@ -130,8 +139,30 @@ class MotionCost:
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
             chan, nearest, btan, cmax,
         )  # fmt: skip
-        source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
-        self._full, self.kernel, self._batch, self._path, self.map_kernel = make_kernels(source)
+        self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
+        self._aot = precompiled_module(self.source) if precompiled else None
+        self._fns: dict[str, Any] = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without compiled code (a dask worker loads the kernels itself)."""
+        return {**self.__dict__, "_aot": None, "_fns": {}}
+
+    @property
+    def kernel(self) -> Any:
+        """The numba kernel ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` (J or inf)."""
+        return kernel_module(self.source).motion_cost
+
+    @property
+    def map_kernel(self) -> Any:
+        """The numba kernel of the energy map's costs (``map_costs``, see ``make_kernels``)."""
+        return kernel_module(self.source).map_costs
+
+    def _fn(self, name: str) -> Any:
+        """Kernel ``name``: the precompiled one if there is one, else numba's."""
+        fn = self._fns.get(name)
+        if fn is None:
+            fn = self._fns[name] = getattr(self._aot or kernel_module(self.source), name)
+        return fn
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
@@ -141,20 +172,21 @@ class MotionCost:
         """
         x, y = self.data[IN_X0], self.data[IN_Y0]  # centre of cell (0, 0): any point will do
         self.kernel(x, y, 0.0, x, y, 0.0, self.data)
+        self(x, y, 0.0, x, y, 0.0)
         one = np.array([x])
         zero = np.zeros(1)
-        self._batch(one, one * 0 + y, zero, one, one * 0 + y, zero, self.data)
-        self._path(np.array([x, x]), np.array([y, y]), np.zeros(2), np.full(1, -1.0), self.data)
+        self.batch(one, one * 0 + y, zero, one, one * 0 + y, zero)
+        self.details(np.array([x, x]), np.array([y, y]), np.zeros(2), np.full(1, -1.0))
         return self
 
     def __call__(self, x0: float, y0: float, th0: float, x1: float, y1: float, th1: float):
         """Energy in J of one motion, ``inf`` if it breaks a limit or leaves the map."""
-        return self.kernel(x0, y0, th0, x1, y1, th1, self.data)
+        return self._fn("motion_cost")(x0, y0, th0, x1, y1, th1, self.data)
 
     def batch(self, x0, y0, th0, x1, y1, th1) -> np.ndarray:
         """Vectorized :meth:`__call__` over equal-length arrays."""
         arrs = [np.ascontiguousarray(a, dtype=np.float64) for a in (x0, y0, th0, x1, y1, th1)]
-        return self._batch(*arrs, self.data)
+        return self._fn("motion_batch")(*arrs, self.data)
 
     def details(self, x, y, th, durations=None) -> np.ndarray:
         """Per-motion results along a pose sequence, shape ``(n - 1, N_OUT)``.
@@ -168,7 +200,7 @@ class MotionCost:
         if durations is None:
             durations = np.full(max(len(x) - 1, 0), -1.0)
         durations = np.ascontiguousarray(durations, dtype=np.float64)
-        out = self._path(x, y, th, durations, self.data)
+        out = self._fn("path_table")(x, y, th, durations, self.data)
         assert out.shape[1] == N_OUT
         return out
 

@@ -7,6 +7,8 @@ draws it over a hillshade. See ``docs/energy_map.md``.
 """
 
 from energy_planner.energymap.core import (
+    BAND_SETS,
+    DEFAULT_BANDS,
     SUMMARY_BANDS,
     EnergyMapError,
     EnergyMapResult,
@@ -18,6 +20,8 @@ from energy_planner.energymap.core import (
 from energy_planner.energymap.plot import plot_energy_map
 
 __all__ = [
+    "BAND_SETS",
+    "DEFAULT_BANDS",
     "SUMMARY_BANDS",
     "EnergyMapError",
     "EnergyMapResult",

@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "BAND_SETS",
+    "DEFAULT_BANDS",
     "DEM_EAST",
     "GRID_EAST",
     "SUMMARY_BANDS",
@@ -22,10 +24,32 @@ __all__ = [
 
 #: The bands after the 2 N heading bands, in order.
 SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
+#: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4) or
+#: ``all`` (``along_*`` too, 2 N + 4). Both are computed; ``along_*`` is written only when
+#: asked, so a user who wants the cheapest heading does not pay for writing them.
+BAND_SETS = ("best", "all")
+#: The bands written unless asked otherwise.
+DEFAULT_BANDS = "best"
 
 
-def band_names(headings: int) -> list[str]:
+def first_band(headings: int, bands: str) -> int:
+    """Index (0-based) in the full layout of :func:`band_names` of a file's first band.
+
+    The written bands are the full layout's from there on: ``best`` leaves out the N
+    ``along_*`` bands that lead it.
+
+    Examples
+    --------
+    >>> first_band(16, "best"), first_band(16, "all")
+    (16, 0)
+    """
+    return headings if bands == "best" else 0
+
+
+def band_names(headings: int, bands: str = "all") -> list[str]:
     """Names of the bands of a map with ``headings`` headings, in order.
+
+    ``bands``: the set written (:data:`BAND_SETS`); ``all``: the full layout.
 
     Examples
     --------
@@ -34,7 +58,8 @@ def band_names(headings: int) -> list[str]:
      'best_180', 'best_270', 'cheapest', 'dearest', 'anisotropy', 'cheapest_heading_deg']
     """
     degs = [_deg_label(360.0 * j / headings) for j in range(headings)]
-    return [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
+    names = [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
+    return names[first_band(headings, bands) :]
 
 
 def _deg_label(d: float) -> str:
@@ -51,8 +76,13 @@ DEM_EAST = (
 )
 
 
-def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str, str]]:
-    """``(name, description, units)`` of every band; ``frame`` names the heading frame."""
+def band_descriptions(
+    headings: int, frame: str = "east", bands: str = "all"
+) -> list[tuple[str, str, str]]:
+    """``(name, description, units)`` of every band written.
+
+    ``bands``: the set written, as for :func:`band_names`; ``frame`` names the heading frame.
+    """
     out = []
     for j in range(headings):
         d = 360.0 * j / headings
@@ -72,7 +102,7 @@ def band_descriptions(headings: int, frame: str = "east") -> list[tuple[str, str
         ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
         ("cheapest_heading_deg", f"heading of the cheapest, degrees CCW from {frame}", "deg"),
     ]
-    return out
+    return out[first_band(headings, bands) :]
 
 
 def heading_angles(headings: int) -> np.ndarray:

@@ -14,7 +14,8 @@ motion through the cell centre divided by its map length.
 
 Bands (float32, NaN = nodata; ``inf`` = above a slope limit):
 
-- ``along_<deg>`` (N bands): walking forward, facing along the heading;
+- ``along_<deg>`` (N bands, written with ``bands="all"``): walking forward, facing along
+  the heading;
 - ``best_<deg>`` (N bands): the cheapest way to move along the heading, over every body
   yaw the gait limits allow (crabbing included: the continuous minimum of
   :class:`energy_planner.energy.heading.HeadingCost`, the one the planners use);
@@ -43,13 +44,15 @@ Three ways to compute it, with equal results:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from energy_planner.energymap.bands import (  # noqa: F401  (re-exported: old import paths)
+    BAND_SETS,
+    DEFAULT_BANDS,
     DEM_EAST,
     GRID_EAST,
     SUMMARY_BANDS,
@@ -120,7 +123,7 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
     chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
     step = _rows_per_block(cols, nb)
     starts = range(0, rows, step)
-    prof = _profile(terrain.shape, terrain.transform, terrain.crs, nb, setup.compress)
+    prof = _profile(terrain.shape, terrain.transform, terrain.crs, setup.nbands, setup.compress)
     buf = None
     with open_geotiff(out, **prof) as dst:
         for r0 in _progress(starts, len(starts), "energy map", progress):
@@ -130,7 +133,7 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
                 setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings,
                 buf,
             )  # fmt: skip
-            dst.write(bands, window=Window(0, r0, cols, r1 - r0))
+            dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
 
 
@@ -242,7 +245,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
     buf = None
     with (
         rasterio.open(info.path) as src,
-        open_geotiff(out, **_profile(info.shape, t, info.crs, nb, setup.compress)) as dst,
+        open_geotiff(out, **_profile(info.shape, t, info.crs, setup.nbands, setup.compress)) as dst,
     ):
         reading = band_reading(src, info.band, info.path, scan=True)
         for r0 in _progress(starts, len(starts), "energy map", progress):
@@ -258,7 +261,7 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
             else:
                 chan = np.zeros((0, 1, 1))
             buf = bands = block_bands(setup.heading, gx, gy, chan, setup.headings, buf)
-            dst.write(bands, window=Window(0, r0, cols, r1 - r0))
+            dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:
         out.unlink(missing_ok=True)
@@ -341,13 +344,13 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
     from rasterio.enums import Resampling
 
     n = setup.headings
-    nb = 2 * n + 4
+    first = setup.first  # the working map holds every band, the output setup.bands
     from energy_planner.terrain.raster import band_reading
 
     with rasterio.open(info.path) as src:  # load_dem warned of undeclared voids
         reading = band_reading(src, info.band, info.path)
         dem_valid = np.isfinite(reading.read(src, find=True, warn=False))
-    prof = _profile(info.shape, info.transform, info.crs, nb, setup.compress)
+    prof = _profile(info.shape, info.transform, info.crs, setup.nbands, setup.compress)
     with rasterio.open(work) as w, open_geotiff(out, **prof) as dst:
         wt, wcrs = w.transform, w.crs
         args = (wt, wcrs, info.shape, info.transform, info.crs)
@@ -367,10 +370,10 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
         k_int = np.floor(k).astype(int)
         frac = k - k_int
 
-        def put(i: int, arr: np.ndarray) -> None:
-            dst.write(np.where(valid, arr, np.nan).astype(np.float32), i + 1)
+        def put(i: int, arr: np.ndarray) -> None:  # i: 0-based in the full band layout
+            dst.write(np.where(valid, arr, np.nan).astype(np.float32), i + 1 - first)
 
-        for g in range(2):  # along_*, best_*
+        for g in range(first // n, 2):  # along_* (when written), best_*
             cache: dict[int, np.ndarray] = {}
             for j in range(n):
                 k0 = (j + k_int) % n
@@ -424,7 +427,7 @@ def _compute_on_dem_grid(
     os.close(fd)
     work = Path(name)
     try:
-        _compute_terrain(terrain, work, setup, model_name, progress)
+        _compute_terrain(terrain, work, replace(setup, bands="all"), model_name, progress)
         _to_dem_grid(work, info, out, setup, model_name)
     finally:
         work.unlink(missing_ok=True)
@@ -445,6 +448,7 @@ def energy_map(
     chunk: int = 512,
     progress: bool | None = None,
     compress: str = DEFAULT_COMPRESS,
+    bands: str = DEFAULT_BANDS,
 ) -> EnergyMapResult:
     """Write the heading-dependent energy map of a DEM to a GeoTIFF.
 
@@ -486,6 +490,11 @@ def energy_map(
         ``zstd`` (default) writes 1.7x faster than ``deflate`` at the same size (GDAL >=
         2.3 reads it); ``deflate`` reads everywhere; ``none`` writes fastest, about 1.8x
         larger. The values are the same.
+    bands : {"best", "all"}
+        Which bands the file holds: ``best`` (default) the ``best_*`` heading bands and
+        the four summary bands (N + 4 float32 bands); ``all`` also the ``along_*`` bands
+        (walking facing along each heading; 2 N + 4 bands, nearly twice the bytes to
+        write). Both are computed either way.
 
     Returns
     -------
@@ -496,7 +505,7 @@ def energy_map(
     DEMIOError, DEMError
         Unreadable DEM, bad band, no valid cell.
     EnergyMapError
-        Bad headings or compression, or the out-of-core path asked for a DEM that is
+        Bad headings, compression or bands, or the out-of-core path asked for a DEM that is
         not in a metric CRS.
     MissingChannelError
         The model reads a channel nobody gave.
@@ -514,19 +523,19 @@ def energy_map(
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
         return _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
-            chunk, progress, compress,
+            chunk, progress, compress, bands,
         )  # fmt: skip
 
 
 def _energy_map(
     dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes, chunk,
-    progress, compress,
+    progress, compress, bands,
 ) -> EnergyMapResult:  # fmt: skip
     from energy_planner.terrain import Terrain
 
     t0 = time.perf_counter()
     out = Path(out)
-    setup = _setup(model, request, channels, headings, compress)
+    setup = _setup(model, request, channels, headings, compress, bands)
     model_name = _model_name(model)
     notes = list(setup.notes)
     convention = GRID_EAST

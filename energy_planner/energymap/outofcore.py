@@ -156,13 +156,13 @@ def compute_dask(
     )  # fmt: skip
     t = info.transform
     gx, gy = gradient_dask(z, t.a, t.e)
-    nb = 2 * setup.headings + 4
 
     bands = da.map_blocks(
-        _bands_block, gx, gy, new_axis=0, chunks=((nb,), *gx.chunks), dtype=np.float32,
-        heading=setup.heading, headings=setup.headings, channels=setup.channels,
-        transform=t, crs=info.crs,
-    )  # fmt: skip
+        _bands_block, gx, gy, new_axis=0, chunks=((2 * setup.headings + 4,), *gx.chunks),
+        dtype=np.float32, heading=setup.heading, headings=setup.headings,
+        channels=setup.channels, transform=t, crs=info.crs,
+    )[setup.first :]  # fmt: skip
+    nb = setup.nbands
     show = progress if progress is not None else sys.stderr.isatty()
     client = _client()
     if client is None:

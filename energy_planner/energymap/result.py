@@ -154,13 +154,14 @@ def _write_metadata(
 ) -> None:
     """Band descriptions and units, dataset tags."""
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
-    descs = band_descriptions(setup.headings, frame)
+    descs = band_descriptions(setup.headings, frame, setup.bands)
     from energy_planner.io import describe_band
 
     for i, (name, desc, units) in enumerate(descs, start=1):
         describe_band(dst, i, name=name, description=desc, units=units)
     dst.update_tags(
         software="energy_planner energy-map",
+        bands=setup.bands,
         model=model_name,
         headings=str(setup.headings),
         heading_convention=convention,
@@ -195,11 +196,11 @@ def _result(
         shape = (src.height, src.width)
         crs = None if src.crs is None else str(src.crs)
         transform = tuple(src.transform)[:6]
-        stats = _stats(src, setup.headings)
+        stats = _stats(src)
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
     bands = [
         {"name": n, "description": d, "units": u}
-        for n, d, u in band_descriptions(setup.headings, frame)
+        for n, d, u in band_descriptions(setup.headings, frame, setup.bands)
     ]
     if stats.get("valid_cells", 1) == 0:
         warnings.warn(f"energy map {out} has no valid cell", UserWarning, stacklevel=3)
@@ -210,7 +211,7 @@ def _result(
     )  # fmt: skip
 
 
-def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
+def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
     """Quantiles of the cheapest cost and the anisotropy (every ``scale``-th cell).
 
     Read by windows of whole tile rows and decimated by slicing (the cell at the middle
@@ -221,7 +222,8 @@ def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
     from rasterio.windows import Window
 
     scale = max(1, math.ceil(max(src.height, src.width) / max_side))
-    i_cheap = 2 * headings + 1
+    names = list(src.descriptions)
+    i_cheap, i_aniso = names.index("cheapest") + 1, names.index("anisotropy") + 1
     step = max(int(src.block_shapes[0][0]), 1)
     step = max(step, (1024 // step) * step)
     off = scale // 2
@@ -229,7 +231,7 @@ def _stats(src: Any, headings: int, max_side: int = 1024) -> dict[str, Any]:
     for r0 in range(0, src.height, step):
         win = Window(0, r0, src.width, min(step, src.height - r0))
         first = (off - r0) % scale  # first row of the window that is sampled
-        for i, parts in ((i_cheap, cheap_parts), (i_cheap + 2, aniso_parts)):
+        for i, parts in ((i_cheap, cheap_parts), (i_aniso, aniso_parts)):
             parts.append(src.read(i, window=win)[first::scale, off::scale].astype(float))
     cheap = np.concatenate(cheap_parts).ravel()
     aniso = np.concatenate(aniso_parts).ravel()

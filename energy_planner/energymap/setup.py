@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.energymap.bands import BAND_SETS, DEFAULT_BANDS, first_band
 from energy_planner.errors import EnergyMapError
 
 #: Compression of a map's GeoTIFF unless asked otherwise (see :func:`energy_map`).
@@ -29,11 +30,23 @@ class _Setup:
     smax: float
     notes: list[str]
     compress: str = DEFAULT_COMPRESS
+    bands: str = DEFAULT_BANDS
+
+    @property
+    def first(self) -> int:
+        """Index in the full band layout of the first band written (``first_band``)."""
+        return first_band(self.headings, self.bands)
+
+    @property
+    def nbands(self) -> int:
+        """Number of bands written."""
+        return 2 * self.headings + 4 - self.first
 
 
 def _setup(
-    model: Any, request: Any, channels: Any, headings: int, compress: str = DEFAULT_COMPRESS
-) -> _Setup:
+    model: Any, request: Any, channels: Any, headings: int, compress: str = DEFAULT_COMPRESS,
+    bands: str = DEFAULT_BANDS,
+) -> _Setup:  # fmt: skip
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.heading import HeadingCost
     from energy_planner.errors import ModelError
@@ -53,6 +66,12 @@ def _setup(
             f"compression {compress!r} is not one of {', '.join(COMPRESSIONS)}",
             value=compress,
             expected=", ".join(COMPRESSIONS),
+        )
+    if bands not in BAND_SETS:
+        raise EnergyMapError(
+            f"bands {bands!r} is not one of {', '.join(BAND_SETS)}",
+            value=bands,
+            expected=", ".join(BAND_SETS),
         )
     model = EnergyModel.default() if model is None else model
     if not model.is_fitted:
@@ -85,4 +104,5 @@ def _setup(
         smax=smax,
         notes=notes,
         compress=str(compress).lower(),
+        bands=bands,
     )

@@ -6,6 +6,11 @@ by its hash in the kernel cache directory and imported from there, so numba's
 ``cache=True`` keeps the machine code between runs: a model is compiled once per
 machine, not once per command.
 
+A module whose numba cache is empty says so on stderr, once per process ("compiling the
+model's kernels, once: ~10 s"): the wait is once per machine and model. A module can
+also be compiled ahead of time into a C extension (:func:`load_precompiled`), which
+loads without numba.
+
 The directory is ``$ENERGY_PLANNER_CACHE`` if set, else ``$XDG_CACHE_HOME/energy_planner``
 or ``~/.cache/energy_planner``, else a temporary directory.
 """
@@ -21,6 +26,16 @@ from pathlib import Path
 from types import ModuleType
 
 _MODULES: dict[str, ModuleType] = {}
+#: What a process prints on stderr before its first compilation of a model's kernels.
+COMPILING_NOTE = "compiling the model's kernels, once: ~10 s"
+_NOTED: list[bool] = []
+
+
+def note_compiling() -> None:
+    """Say on stderr, once per process, that the model's kernels compile now."""
+    if not _NOTED:
+        _NOTED.append(True)
+        print(COMPILING_NOTE, file=sys.stderr, flush=True)
 
 
 def cache_dir() -> Path:
@@ -56,10 +71,62 @@ def load_generated_module(text: str, prefix: str) -> ModuleType:
         from energy_planner.io import write_text
 
         write_text(path, text)  # atomic: parallel processes never read half a file
+    if not any(path.parent.joinpath("__pycache__").glob(f"{path.stem}.*.nbi")):
+        note_compiling()  # numba has cached none of its functions yet
     spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    _MODULES[name] = mod
+    return mod
+
+
+def load_precompiled(text: str, prefix: str, build: bool = True) -> ModuleType | None:
+    """The ahead-of-time compiled C extension of the kernel module ``text``, or None.
+
+    The extension (``<cache>/energy_planner_<prefix>_<hash><ext>``, named by the hash
+    of the text and the numpy version it was built against) is built once by
+    :mod:`energy_planner.energy._precompile` in a child process, into a temporary
+    directory renamed into place when complete. None: not built and ``build`` is False,
+    or the build failed on this machine (its output is kept in ``<name>.failed``, and
+    it is not tried again).
+    """
+    import importlib.machinery
+    import subprocess
+
+    import numpy as np
+
+    key = hashlib.sha256(f"{text}\nnumpy {np.__version__}".encode()).hexdigest()[:20]
+    name = f"energy_planner_{prefix}_{key}"
+    mod = _MODULES.get(name)
+    if mod is not None:
+        return mod
+    d = cache_dir()
+    path = d / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
+    failed = d / f"{name}.failed"
+    if not path.exists():
+        if not build or failed.exists():
+            return None
+        source = d / f"{prefix}_{key}.py"
+        from energy_planner.io import write_text
+
+        write_text(source, text)
+        note_compiling()
+        with tempfile.TemporaryDirectory(dir=d) as tmp:
+            run = subprocess.run(
+                [sys.executable, "-m", "energy_planner.energy._precompile", str(source),
+                 name, tmp],
+                capture_output=True, text=True,
+            )  # fmt: skip
+            built = Path(tmp) / path.name
+            if run.returncode != 0 or not built.exists():
+                write_text(failed, f"{run.stdout}\n{run.stderr}")
+                return None
+            os.replace(built, path)  # atomic: other processes see all of it or nothing
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     _MODULES[name] = mod
     return mod

@@ -53,8 +53,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.optimize import nnls
-from scipy.stats import t as student_t
 
 __all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "fit_error_model"]
 
@@ -158,7 +156,9 @@ class ErrorModel:
         if self.small_sample(0.9):
             z = self.scores
             sd = float(np.std(z, ddof=1)) * np.sqrt(1.0 + 1.0 / z.size)
-            p = student_t.sf(thr, z.size - 1, z.mean(), sd)
+            from scipy.special import stdtr  # scipy.stats costs seconds to import
+
+            p = stdtr(z.size - 1, (z.mean() - thr) / sd)  # P(T > (thr - mean) / sd)
         else:
             z = np.sort(self.scores)
             p = (z.size - np.searchsorted(z, thr, side="left")) / (z.size + 1)
@@ -180,7 +180,9 @@ class ErrorModel:
         z = self.scores
         if z.size < 2:
             return -math.inf, math.inf
-        q = float(student_t.ppf((1.0 + level) / 2.0, z.size - 1))
+        from scipy.special import stdtrit  # scipy.stats costs seconds to import
+
+        q = float(stdtrit(z.size - 1, (1.0 + level) / 2.0))
         half = q * float(np.std(z, ddof=1)) * math.sqrt(1.0 + 1.0 / z.size)
         # never inside the scores' range, the widest a conformal bound of n scores gets
         # (so that a higher level never gives a narrower interval)
@@ -219,6 +221,8 @@ def _fit_scale(
     share: np.ndarray, with_outside: bool,
 ) -> np.ndarray:  # fmt: skip
     """``(b, c, d)`` >= 0 of the variance model on squared errors (IRLS on 1 / sigma^4)."""
+    from scipy.optimize import nnls  # imported when fitting only
+
     cols = [energy**2, duration] + ([(share * energy) ** 2] if with_outside else [])
     F = np.column_stack(cols)
     y = e**2 - pvar

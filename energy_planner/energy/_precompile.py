@@ -1,0 +1,63 @@
+"""Build a precompiled kernel module: ``python -m energy_planner.energy._precompile``.
+
+Arguments: the kernel module's source file (written by
+:func:`energy_planner.model._codegen.load_precompiled`), the extension's name and the
+directory to write it to. The functions :data:`energy_planner.energy.kernels.PRECOMPILED`
+of the module are compiled by numba's ahead-of-time compiler (``numba.pycc``) with the
+types of :attr:`energy_planner.energy.MotionCost.data`: the same code as the numba
+kernels, in a C extension that imports without numba. Run in a child process so that
+the caller never imports numba and a failed build cannot harm it.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+import warnings
+
+
+def data_type():
+    """The numba type of :attr:`energy_planner.energy.MotionCost.data` (``IN_*`` order)."""
+    from numba import types
+
+    f8 = types.float64
+    grid3 = types.Array(f8, 3, "C")
+    return types.Tuple(
+        (
+            grid3,  # IN_GRAD
+            types.Array(types.boolean, 2, "C"),  # IN_BLOCKED
+            *(f8,) * 10,  # IN_X0 .. IN_SMAX
+            grid3,  # IN_CHAN
+            types.Array(types.boolean, 1, "C"),  # IN_NEAREST
+            f8,  # IN_BTAN
+            f8,  # IN_CMAX
+        )
+    )
+
+
+def build(source: str, name: str, out_dir: str) -> None:
+    """Compile the kernels of the module in ``source`` into ``out_dir/<name><ext>``."""
+    from numba import types
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # numba.pycc's pending-deprecation notice
+        from numba.pycc import CC
+
+    spec = importlib.util.spec_from_file_location(f"{name}_source", source)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    f8, a1 = types.float64, types.Array(types.float64, 1, "C")
+    data = data_type()
+    cc = CC(name)
+    cc.output_dir = out_dir
+    cc.verbose = False
+    cc.export("motion_cost", f8(f8, f8, f8, f8, f8, f8, data))(mod.motion_cost.py_func)
+    cc.export("motion_batch", a1(a1, a1, a1, a1, a1, a1, data))(mod.motion_batch.py_func)
+    table = types.Array(f8, 2, "C")
+    cc.export("path_table", table(a1, a1, a1, a1, data))(mod.path_table.py_func)
+    cc.compile()
+
+
+if __name__ == "__main__":
+    build(*sys.argv[1:4])
