@@ -103,16 +103,15 @@ def mud_strip(gm, start, goal, half_width_m: float = 4.0, span=(0.25, 0.75)):
 def plan_interval(terrain, model, result, request, true_j: float, level: float) -> dict:
     """A plan's prediction interval as ``energy-planner plan`` gives it; does it hold the truth.
 
-    The domain report (``cli.plan.route_domain``) and the interval of the fit's error model
+    The plan's own domain report (``result.domain``) and the interval of the fit's error model
     at the route's duration and share outside the calibration's domain
     (``uncertainty.predict_interval``), the way the ``plan`` command computes them; the
     interval at share 0 is kept beside it. No
     interval (``None``) when the model carries no held-out scores.
     """
-    from energy_planner.cli.plan import route_domain
     from energy_planner.uncertainty import model_scores, predict_interval
 
-    dom = route_domain(terrain, model, result.states, request)
+    dom = result.domain
     share = float((dom or {}).get("outside_share", 0.0))
     out: dict = {
         "heldout_scores": 0 if model_scores(model) is None else int(model_scores(model).size),

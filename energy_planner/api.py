@@ -106,9 +106,14 @@ def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = N
 
 
 def path_energy(dem: Any, points: Any, yaw: Any = None, t: Any = None, *, model: Any = None,
-                request: Any = None, crs: Any = None):  # fmt: skip
-    """Energy of walking ``points`` (DEM CRS, or ``crs``) over ``dem``."""
-    return _problem(dem, model, request).path_energy(points, yaw, t, crs=crs)
+                request: Any = None, crs: Any = None, **trust: Any):  # fmt: skip
+    """Energy of walking ``points`` (DEM CRS, or ``crs``) over ``dem``.
+
+    The result carries its interval, domain report and, with ``battery_wh=`` (and
+    ``reserve_wh=``, ``confidence=``), the battery's verdict; ``level=`` sets the
+    interval's coverage (:class:`energy_planner.trust.Trust`).
+    """
+    return _problem(dem, model, request).path_energy(points, yaw, t, crs=crs, **trust)
 
 
 def compare_routes(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,

@@ -207,7 +207,9 @@ class Problem:
     def to_work(self, points: Any, crs: Any = None) -> np.ndarray:
         """Points ``(x, y[, yaw])`` in the DEM's CRS (or ``crs``) -> working CRS."""
         arr = np.atleast_2d(np.asarray(points, dtype=float))
-        if crs is not None:
+        if crs is not None and crs == self.terrain.crs:  # already on the working grid
+            x, y = arr[:, 0], arr[:, 1]
+        elif crs is not None:
             from energy_planner.io import reproject_xy
 
             x, y = reproject_xy(crs, self.terrain.crs, arr[:, 0], arr[:, 1])
@@ -216,17 +218,31 @@ class Problem:
         out = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
         return np.column_stack([out, arr[:, 2]]) if arr.shape[1] > 2 else out
 
-    def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None):
-        """Energy of walking the given points (:func:`energy_planner.energy.path_energy`).
+    def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None,
+                    **trust: Any):  # fmt: skip
+        """Energy of walking the given points, with its interval, domain and battery verdict.
 
-        The request's gait limits hold (:meth:`gait_only`), as ``energy --max-crab``
-        does: a segment that breaks one is an error naming it.
+        :func:`energy_planner.energy.path_energy` of the points; the result's
+        ``assessment`` (``.interval``, ``.domain``, ``.battery``) is
+        :func:`energy_planner.uncertainty.assess.assess_path` with the
+        :class:`~energy_planner.trust.Trust` keywords ``level``, ``battery_wh``,
+        ``reserve_wh``, ``confidence``. The request's gait limits hold
+        (:meth:`gait_only`), as ``energy --max-crab`` does: a segment that breaks one is
+        an error naming it.
         """
         from energy_planner.energy import path_energy
+        from energy_planner.trust import Trust
+        from energy_planner.uncertainty.assess import assess_path
 
+        want = Trust.pop(trust)
+        if trust:
+            raise TypeError(f"path_energy() got unexpected keyword(s) {', '.join(trust)}")
         xy = self.to_work(points, crs)[:, :2]
-        return path_energy(self.terrain, self.model, xy, yaw=yaw, t=t,
-                           cost=self.gait_only().cost)  # fmt: skip
+        gait = self.gait_only()
+        cost = self.cost if gait.request == self.request else gait.cost
+        pe = path_energy(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
+        pe.assessment = assess_path(self.model, pe, cost, want)
+        return pe
 
 
 def _check_agrees(request: Request, cost: Any) -> None:

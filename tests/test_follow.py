@@ -206,9 +206,14 @@ def test_follow_cli_json_records(tmp_path, follow_config):
     for u in doc["updates"]:
         assert u["remaining_high_j"] >= u["remaining_j"]
         z = sc.for_group(u["group"], u["remaining_share"], 0.9)
-        iv = interval(u["remaining_j"], np.maximum(z * u["spread"], -0.9), 0.9)
+        sc_u = np.maximum(z * u["spread"], -0.9)
+        iv = interval(u["model_remaining_j"], sc_u, 0.9)
         assert (u["remaining_low_j"], u["remaining_high_j"]) == pytest.approx(
             (max(iv.low_j, 0.0), iv.high_j), rel=1e-12
+        )
+        # the estimate: the median of the same predictive distribution
+        assert u["remaining_j"] == pytest.approx(
+            u["model_remaining_j"] / (1.0 + np.median(sc_u)), rel=1e-12
         )
     # a log without a pose is a data error (exit 1) that says what is missing
     logs.drop(columns=["x", "y"]).to_csv(tmp_path / "nopose.csv", index=False)
@@ -372,5 +377,8 @@ def test_current_spikes_are_not_a_change_of_conditions(follow_mission, make_foll
     a, b = make_follower(logs), make_follower(spiked)
     ua, ub = a.replay(logs), b.replay(spiked)
     assert b.changes == [] and a.changes == []
-    assert [u.remaining_j for u in ub] == pytest.approx([u.remaining_j for u in ua], rel=1e-12)
+    assert [u.model_j for u in ub] == pytest.approx([u.model_j for u in ua], rel=1e-12)
+    # the estimate reads the calibrated errors in units of the follower's spread, whose
+    # window means lose the spikes' samples: the same to 1e-4
+    assert [u.remaining_j for u in ub] == pytest.approx([u.remaining_j for u in ua], rel=1e-4)
     assert ub[-1].used_j > ua[-1].used_j

@@ -113,8 +113,9 @@ def test_calibrated_interval_is_the_conformal_interval_of_the_followers_group(
             assert 19 <= z.size < 400  # the scores near its remaining share only
             # normalized: the scores are in units of the follower's own spread
             sc = np.maximum(z * u.spread, -0.9) if normalized else z
-            iv = interval(u.remaining_j, sc, 0.9)
+            iv = interval(u.model_j, sc, 0.9)
             assert (u.low_j, u.high_j) == pytest.approx((max(iv.low_j, 0.0), iv.high_j))
+            assert u.low_j <= u.remaining_j <= u.high_j
     # the spread is larger after the pick-up (the follower is catching up) than before
     steady = [u.spread for u in ups if u.state == "steady"]
     adapting = [u.spread for u in ups if u.state == "adapting"]
@@ -251,7 +252,7 @@ def test_a_large_payload_lands_in_the_large_step_group_and_no_event_stays_steady
     # the interval is read from that group's scores
     u = detected[-1]
     z = rs.for_group("adapting_large", u.remaining_share, 0.9)
-    iv = interval(u.remaining_j, np.maximum(z * u.spread, -0.9), 0.9)
+    iv = interval(u.model_j, np.maximum(z * u.spread, -0.9), 0.9)
     assert (u.low_j, u.high_j) == pytest.approx((max(iv.low_j, 0.0), iv.high_j))
     # without an event: never leaves steady, no step
     g = make_follower(base, remaining_scores=rs)

@@ -87,19 +87,26 @@ def test_matrix_is_asymmetric_and_agrees_with_plan(hill, model):
 def test_best_order_on_a_map_matches_brute_force_and_legs_match_plan(hill, model):
     rng = np.random.default_rng(7)
     pts = rng.uniform(3, 37, (7, 2))
-    res = mission(hill, model, _sites(hill, pts), order="best", return_to_start=True)
+    given = Sites(pts, [f"s{i}" for i in range(len(pts))])
+    res = mission(hill, model, given, order="best", return_to_start=True)
     _, best = brute_force(res.matrix_j, True)
     assert res.info["matrix_energy_j"] == pytest.approx(best, rel=1e-9)
     assert len(res.legs) == 7
     for leg in res.legs:
-        assert leg.energy_j == pytest.approx(leg.matrix_energy_j, rel=0.01)
+        # planned as `plan` plans it from the given sites (the search at eps 1.05, then
+        # refined off its motions); the matrix: the optimal search between the sites'
+        # cell centres (up to 0.7 m away on legs of 10-30 m): close, not equal
+        assert leg.energy_j == pytest.approx(leg.matrix_energy_j, rel=0.15)
+    for leg in res.legs[:2]:  # the same leg asked of `plan`
+        p = plan(hill, model, tuple(pts[leg.a]), tuple(pts[leg.b]), progress=False)
+        assert leg.energy_j == pytest.approx(p.energy_j, rel=0.005)
     assert res.energy_j == pytest.approx(sum(leg.energy_j for leg in res.legs))
     # a battery between the energy spent after leg k and after leg k + 1 (the widest gap)
     cum = np.cumsum([leg.energy_j for leg in res.legs])
     k = int(np.argmax(cum[1:] / cum[:-1]))
     assert cum[k + 1] / cum[k] > 1.1
     usable_wh = np.sqrt(cum[k] * cum[k + 1]) / 3600.0
-    b = res.battery(model, battery_wh=usable_wh + 1.0, reserve_wh=1.0, confidence=0.9)
+    b = res.battery_by_leg(model, battery_wh=usable_wh + 1.0, reserve_wh=1.0, confidence=0.9)
     p = [leg["probability"] for leg in b["legs"]]
     assert all(x >= y for x, y in zip(p, p[1:], strict=False))
     assert b["reserve_crossed_at"] == k + 1 and p[k] > 0.9 and p[k + 1] < 0.1

@@ -15,18 +15,16 @@ if TYPE_CHECKING:
     from energy_planner.request import Request
 
 
-def format_table(res: dict[str, Any]) -> str:
+def format_table(comp: Any, res: dict[str, Any]) -> str:
     """The comparison as a table (energy, Wh, distance, duration, max slope, saving).
 
-    Below it, each priced route's prediction interval and, with a battery, its chance.
+    Below it, each priced route's own assessment: its prediction interval, domain and,
+    with a battery, its chance.
     """
-    from energy_planner.planning.compare import RouteComparison
-
-    text = RouteComparison.from_dict(res).table()
-    for r in res["routes"]:
-        lines = options.trust_lines(r)
-        if lines and r.get("same_as") is None:
-            text += f"\n{r['name']}:\n  " + lines.replace("\n", "\n  ")
+    text = comp.table()
+    for r in comp.routes:
+        if r.assessment is not None and r.same_as is None:
+            text += f"\n{r.name}:\n  " + r.assessment.text().replace("\n", "\n  ")
     if res.get("plot"):
         text += f"\nplot written to {res['plot']}"
     return text
@@ -75,16 +73,17 @@ def command(
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
     from energy_planner.planning.compare import compare_routes
     from energy_planner.problem import Problem
+    from energy_planner.uncertainty import BatteryError
 
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
     s = point_to_work(terrain, start, "--start", True)
     g = point_to_work(terrain, goal, "--goal", True)
     try:
-        comp = compare_routes(
-            Problem(terrain, model, request), s, g, **search,
-            progress=True,
-        )  # fmt: skip
+        comp = compare_routes(Problem(terrain, model, request), s, g, **search, progress=True,
+                              trust=trust)  # fmt: skip
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     except InvalidStateError as exc:
         hint = "--start" if str(exc).startswith("start") else "--goal"
         raise click.BadParameter(str(exc), param_hint=hint) from exc
@@ -93,13 +92,10 @@ def command(
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
     result = comp.to_dict(terrain)
-    for r in result["routes"]:
-        if r["energy_j"] is not None and r["feasible"]:
-            options.add_trust(r, model, r["energy_j"], trust, label=r["name"],
-                              judged=r["name"] == "energy_optimal",
-                              duration_s=r.get("duration_s"))  # fmt: skip
+    for r in comp.routes:
+        options.judge(r.battery, trust, label=r.name, judged=r.name == "energy_optimal")
     options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
     options.write_output(
         result, "html", html, lambda p: comp.write_html(p, Problem(terrain, model, request))
     )
-    options.emit(result, as_json, format_table)
+    options.emit(result, as_json, lambda res: format_table(comp, res))

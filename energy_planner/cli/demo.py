@@ -25,9 +25,7 @@ def _limits_text(res: dict[str, Any]) -> str:
     return ", ".join(words) or "none (the detour must pay by physics alone)"
 
 
-def _text(res: dict[str, Any]) -> str:
-    from energy_planner.cli.compare_routes import format_table
-
+def _text(comp: Any, res: dict[str, Any]) -> str:
     head = [
         f"scenario   {res['scenario']}: {res['description']}",
         f"map        {res['map']}",
@@ -42,7 +40,8 @@ def _text(res: dict[str, Any]) -> str:
         "Next: energy-planner compare-routes --dem DEM --start X,Y --goal X,Y (your map),",
         "      energy-planner simulate / fit / diagnose (calibrate your robot from its logs).",
     ]
-    return "\n".join(head) + format_table(res) + "\n" + "\n".join(tail)
+    table = comp.table() + (f"\nplot written to {res['plot']}" if res.get("plot") else "")
+    return "\n".join(head) + table + "\n" + "\n".join(tail)
 
 
 @options.command(
@@ -136,4 +135,4 @@ def command(
         model=str(model_path) if model_path else "bundled B1-class default",
         plot=str(plot),
     )
-    options.emit(res, as_json, _text)
+    options.emit(res, as_json, lambda r: _text(comp, r))

@@ -140,8 +140,13 @@ def compute(
     channels: Any = None,
     max_backward_slope_deg: float | None = None,
     max_crab_deg: float | None = None,
-) -> dict[str, Any]:
-    """The command's work, returning the JSON-ready result (click errors on bad input).
+    trust: Any = None,
+) -> tuple[Any, dict[str, Any]]:
+    """The command's work: the priced path and its context (click errors on bad input).
+
+    Returns the :class:`~energy_planner.energy.path.PathEnergy` (with its assessment for
+    ``trust``, a :class:`~energy_planner.trust.Trust`) and what the command adds to its
+    :meth:`~energy_planner.energy.path.PathEnergy.to_dict`: the inputs and notes.
 
     ``channels`` is a :class:`~energy_planner.energy.channels.Channels` (``--set`` /
     ``--channel``) or None. ``max_backward_slope_deg`` and ``max_crab_deg`` are the gait
@@ -150,7 +155,7 @@ def compute(
     """
     import numpy as np
 
-    from energy_planner.energy import MotionCost, path_energy
+    from energy_planner.energy import MotionCost
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.waypoints import (
         WaypointError,
@@ -159,6 +164,9 @@ def compute(
         waypoints_to_work,
     )
     from energy_planner.errors import EnergyPlannerError
+    from energy_planner.problem import Problem
+    from energy_planner.request import Request
+    from energy_planner.uncertainty import BatteryError
 
     terrain = load_terrain(dem, band)
     model = options.load_model_option(model_path)
@@ -189,32 +197,27 @@ def compute(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
             # channel rasters that leave part of the DEM uncovered, or have no CRS
+            request = Request.make(
+                speed=speed, yaw_rate=yaw_rate, channels=channels,
+                max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
+            )  # fmt: skip
             cost = MotionCost(
                 terrain, model, speed, yaw_rate, channels=channels,
                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
                 precompiled=True,  # loads without numba (built once per machine and model)
             )  # fmt: skip
+            problem = Problem.of_cost(cost, request)
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages
         check_waypoints(terrain, cost, np.column_stack([np.atleast_1d(xs), np.atleast_1d(ys)]), xy)
-        result = path_energy(terrain, model, xy, yaw=yaw, t=wp.t, cost=cost)
+        result = problem.path_energy(xy, yaw, wp.t, crs=terrain.crs, trust=trust)
     except click.ClickException:
         raise
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
-    out = result.to_dict()
-    from energy_planner.uncertainty import domain_report
-    from energy_planner.uncertainty.domain import path_channel_values
-
-    # the share of the path outside the ranges the model's calibration saw
-    along = path_channel_values(terrain, cost.channels, result.poses)
-    out["domain"] = domain_report(model, result.table, cost.constants, result.poses, along)
-    # the kernel reports distances along the ground; add the map (horizontal) distance,
-    # the one a GIS measures between the waypoints
-    flat = np.hypot(*np.diff(xy, axis=0).T)
-    out["map_distance_m"] = float(flat.sum())
-    for seg, d in zip(out["segments"], flat, strict=True):
-        seg["map_distance_m"] = float(d)
+    out: dict[str, Any] = {}
     if (
         wp.declared_crs
         and terrain.crs is not None
@@ -239,7 +242,7 @@ def compute(
             "notes": notes,
         }
     )
-    return out
+    return result, out
 
 
 @options.command(
@@ -285,12 +288,8 @@ def command(
     (payload, ground type) are given with --set NAME=VALUE or --channel NAME=RASTER[:TABLE].
     """
     ch = options.channels_from_options(sets, channels)
-    res = compute(
-        dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **options.gait_limits()
-    )
-    outside = (res.get("domain") or {}).get("outside_share", 0.0)
-    model = options.load_model_option(model_path)
-    options.add_trust(
-        res, model, res["energy_j"], trust, outside_share=outside, duration_s=res["duration_s"]
-    )
-    options.emit(res, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))
+    pe, context = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch,
+                          trust=trust, **options.gait_limits())  # fmt: skip
+    res = {**pe.to_dict(), **context}
+    options.judge(pe.battery, trust)
+    options.emit(res, as_json, lambda r: format_table(r) + "\n" + pe.assessment.text())

@@ -37,8 +37,9 @@ def _text(res: dict[str, Any]) -> str:
             f"{u['static_remaining_j']:>9.0f} {'-' if p is None else f'{100 * p:.0f}%':>7}"
         )
     lines.append(
-        "remaining: the rest of the path priced with the updated coefficients; "
-        f"low/high: {100 * res['level']:g} % interval; static: the fit's coefficients"
+        "remaining: the rest of the path priced with the updated coefficients, its "
+        f"calibrated bias taken out; low/high: {100 * res['level']:g} % interval; static: "
+        "the fit's coefficients"
     )
     for f in res["slope_findings"]:
         off = f.get("gradient_offset_deg")
@@ -84,8 +85,9 @@ def _text(res: dict[str, Any]) -> str:
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     help="The follower's calibrated remaining-energy errors (JSON of "
     "RemainingScores.save, e.g. benchmarks/bench_follow.py --save-scores): the interval is "
-    "split-conformal on them. Default: the bundled scores with the bundled model; with "
-    "--model and no --scores, the model's run-error interval widened (said in the notes).",
+    "split-conformal on them. Default: the bundled scores with the bundled model (as "
+    "ep.Follower); with another model and no --scores, the model's run-error interval "
+    "widened (said in the notes).",
 )
 @click.option("--run", default=None, help="The run to follow when LOG holds several.")
 @click.option(
@@ -148,7 +150,6 @@ def command(
         WaypointIOError,
     )
     from energy_planner.follow import FollowError, RemainingScores, follow_log, walked_path
-    from energy_planner.follow.calibrate import bundled_scores
     from energy_planner.measurements import load_logs
 
     if battery_wh is not None and not reserve_wh < battery_wh:
@@ -160,10 +161,8 @@ def command(
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
     try:
-        if scores_file is not None:
-            scores = RemainingScores.load(scores_file)
-        else:
-            scores = bundled_scores() if model_path is None else None
+        # default: the library's (the bundled scores with the bundled model)
+        scores = "auto" if scores_file is None else RemainingScores.load(scores_file)
     except FollowError as exc:
         raise click.BadParameter(str(exc), param_hint="--scores") from exc
     try:
@@ -201,7 +200,7 @@ def command(
         raise click.ClickException(str(exc)) from exc
     out = f.to_dict()
     walked = "the log's own poses"
-    out.update({"log": str(log), "dem": str(dem), "level": level,
+    out.update({"log": str(log), "dem": str(dem),
                 "path": walked if path_file is None else str(path_file)})  # fmt: skip
     write_output(out, "html", html, f.write_html)
     emit(out, as_json, _text)

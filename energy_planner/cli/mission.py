@@ -71,9 +71,9 @@ def _text(res: dict[str, Any]) -> str:
     "--eps",
     type=click.FloatRange(min=1.0),
     default=1.0,
-    help="Heuristic weight of the per-site searches and of each leg's plan: every energy "
-    "at most EPS times the least (1: the least; plan's default 1.05 expands far fewer "
-    "states on a large map).",
+    help="Heuristic weight of the per-site searches that choose the order: every energy "
+    "at most EPS times the least (1: the least; 1.05 expands far fewer states on a large "
+    "map). Each leg is then planned as `plan` plans it (its defaults).",
 )
 @click.option(
     "--scheduler",
@@ -113,11 +113,13 @@ def command(
 
     The energy from each site to every other comes from one search per site (the
     planner's own motions and kernel; uphill differs from downhill), the order from
-    Held-Karp (exact) or OR-Tools beyond 15 sites, and each leg is then planned.
+    Held-Karp (exact) or OR-Tools beyond 15 sites, and each leg is then planned from its
+    site to the next as `plan` plans it.
     """
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.mission import mission, read_sites
     from energy_planner.problem import Problem
+    from energy_planner.uncertainty import BatteryError
 
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
@@ -133,7 +135,9 @@ def command(
     try:
         res = mission(Problem(terrain, model, request), s, order=order,
                       return_to_start=return_to_start, eps=eps, client=client,
-                      progress=True)  # fmt: skip
+                      progress=True, trust=trust)  # fmt: skip
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc
     finally:
@@ -141,11 +145,7 @@ def command(
             client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
-    out["eps"] = eps
-    if trust.battery_wh is not None:
-        out["battery_legs"] = res.battery(model, trust.battery_wh, trust.reserve_wh,
-                                          trust.confidence)  # fmt: skip
-    options.add_trust(out, model, res.energy_j, trust)
+    options.judge(res.battery, trust)
     options.write_geojson_output(
         out, "geojson", geojson, lambda: res.to_geojson(terrain, native=geojson_crs == "dem")
     )
@@ -158,4 +158,4 @@ def command(
             p, Problem(terrain, model, request), battery=out.get("battery_legs")
         ),
     )
-    options.emit(out, as_json, lambda r: _text(r) + "\n" + options.trust_lines(r))
+    options.emit(out, as_json, lambda r: _text(r) + "\n" + res.assessment.text())

@@ -15,6 +15,7 @@ import numpy as np
 
 from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+from energy_planner.trust import Trust as _LibraryTrust
 
 
 def _quiet(ctx: click.Context, param: click.Parameter, value: bool) -> None:
@@ -718,27 +719,14 @@ def battery_options(f):
 
 
 @dataclass(frozen=True)
-class Trust:
+class Trust(_LibraryTrust):
     """What ``--level``, the battery options and ``--refuse`` ask of a result's energy.
 
-    Attributes
-    ----------
-    level : float
-        Nominal coverage of the energy's prediction interval.
-    battery_wh : float or None
-        Battery energy, Wh (None: no battery decision).
-    reserve_wh : float
-        Energy to keep in the battery, Wh.
-    confidence : float
-        Required chance that the battery suffices.
-    refuse : bool
-        A chance below ``confidence`` is an error (exit status 1), not a warning.
+    The library's :class:`~energy_planner.trust.Trust` (``level``, ``battery_wh``,
+    ``reserve_wh``, ``confidence``), handed to the verbs as it is, and ``refuse``: a
+    chance below ``confidence`` is an error (exit status 1), not a warning.
     """
 
-    level: float = 0.9
-    battery_wh: float | None = None
-    reserve_wh: float = 0.0
-    confidence: float = 0.9
     refuse: bool = False
 
 
@@ -780,62 +768,18 @@ level_option = click.option(
 )  # fmt: skip
 
 
-def add_trust(
-    result: dict[str, Any], model: Any, energy_j: float, trust: Trust,
-    label: str | None = None, outside_share: float = 0.0, judged: bool = True,
-    duration_s: float | None = None,
-) -> None:  # fmt: skip
-    """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
+def judge(decision: Any, trust: Trust, label: str | None = None, judged: bool = True) -> None:
+    """Say a battery verdict below the required chance: a warning, or with ``--refuse`` an error.
 
-    ``trust``: the command's :class:`Trust`. ``outside_share``: the share of the path
-    outside the calibration's domain, and ``duration_s``, the path's duration: inputs of
-    the fit's error model (:func:`energy_planner.uncertainty.predict_interval`).
-
-    A chance below ``trust.confidence`` prints a warning on stderr (naming ``label``, the
+    ``decision`` is the result's own ``battery`` (a
+    :class:`~energy_planner.uncertainty.BatteryDecision`, or None: nothing to say).
+    Below ``trust.confidence`` it prints a warning on stderr (naming ``label``, the
     route, when given), or with ``trust.refuse`` (and ``judged``: the result the command
     judges) raises a ``click.ClickException`` (exit status 1).
     """
-    from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
-
-    iv = predict_interval(model, energy_j, trust.level, outside_share, duration_s)
-    result["interval"] = None if iv is None else iv.to_dict()
-    if trust.battery_wh is None:
+    if decision is None or decision.ok:
         return
-    try:
-        d = battery_decision(model, energy_j, trust.battery_wh, trust.reserve_wh,
-                             trust.confidence, duration_s, outside_share)  # fmt: skip
-    except BatteryError as exc:
-        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
-    result["battery"] = d.to_dict()
-    if not d.ok:
-        text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
-        if trust.refuse and judged:
-            raise click.ClickException(text)
-        click.echo(f"warning: {text}", err=True)
-
-
-def trust_lines(res: dict[str, Any]) -> str:
-    """The interval and battery lines of a result (empty when it has neither)."""
-    from energy_planner.uncertainty import BatteryDecision, EnergyInterval
-
-    lines = []
-    iv = res.get("interval")
-    if iv:
-        e = EnergyInterval(iv["energy_j"], iv["low_j"], iv["high_j"], iv["level"])
-        few = " (Student-t: too few runs)" if "Student" in iv.get("method", "") else ""
-        lines.append(f"interval  {e.text()}, split-conformal on "
-                     f"{iv['calibrated_on_runs']} held-out runs{few}")  # fmt: skip
-    elif "interval" in res:
-        lines.append("interval  none: the model carries no held-out run errors")
-    dom = res.get("domain")
-    if dom:
-        why = "; ".join(f"{k} ({100 * v:.0f} %)" for k, v in dom["reasons"].items())
-        wide = "; the interval is widened" if dom["outside_share"] > 0 else ""
-        lines.append(f"domain    {100 * dom['outside_share']:.0f} % of the path lies outside "
-                     f"the calibration's ranges{': ' + why if why else ''}{wide}")  # fmt: skip
-    b = res.get("battery")
-    if b:
-        d = BatteryDecision(b["battery_wh"], b["reserve_wh"], b["usable_wh"] * 3600.0,
-                            b["probability"], b["confidence"])  # fmt: skip
-        lines.append(d.text())
-    return "\n".join(lines)
+    text = decision.text().strip() if label is None else f"{label}: {decision.text().strip()}"
+    if trust.refuse and judged:
+        raise click.ClickException(text)
+    click.echo(f"warning: {text}", err=True)

@@ -138,30 +138,6 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
     }
 
 
-def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | None:
-    """The share of a planned route outside the model's calibration domain, or None.
-
-    :func:`energy_planner.uncertainty.domain_report` on the route's segments
-    (:func:`energy_planner.energy.path_energy` of its poses).
-    """
-    import numpy as np
-
-    from energy_planner.energy.path import path_energy
-    from energy_planner.uncertainty import domain_report
-    from energy_planner.uncertainty.domain import path_channel_values
-
-    if not (model.metadata.get("fit") or {}).get("domain"):
-        return None
-    st = np.asarray(states, dtype=float)
-    ch = request.channels
-    if ch is not None and ch.rasters:
-        ch = ch.bind(terrain)
-    pe = path_energy(terrain, model, st[:, :2], yaw=st[:, 2], speed=request.robot.speed,
-                     yaw_rate=request.robot.yaw_rate, channels=ch)  # fmt: skip
-    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses,
-                         path_channel_values(terrain, ch, pe.poses))  # fmt: skip
-
-
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -278,6 +254,7 @@ def command(
     )
     from energy_planner.planning.plan import plan
     from energy_planner.problem import Problem
+    from energy_planner.uncertainty import BatteryError
 
     model = load_model_option(model_path)
     domain_notes: list[str] = []
@@ -307,12 +284,14 @@ def command(
                                     "planning by windows")  # fmt: skip
         try:
             res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
-                                            **kwargs)  # fmt: skip
+                                            trust=trust, **kwargs)  # fmt: skip
             check_cost_power(Problem(terrain, model, request).cost)
         except RasterTooLargeError as exc:
             raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
         except (DEMError, DEMIOError) as exc:
             raise click.BadParameter(str(exc), param_hint="--dem") from exc
+        except BatteryError as exc:
+            raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
         except EnergyPlannerError as exc:
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     else:
@@ -325,19 +304,16 @@ def command(
             # a model that prices walking on this map at <= 0 W would plan a free route
             problem = Problem(terrain, model, request)
             check_cost_power(problem.cost)
-            res = plan(problem, s, g, progress=True, **kwargs)
+            res = plan(problem, s, g, progress=True, trust=trust, **kwargs)
+        except BatteryError as exc:
+            raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
         except EnergyPlannerError as exc:
             raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     result = res.to_dict(terrain)
     result.update(plan_context(terrain, request, model, model_path))
-    result["domain"] = route_domain(terrain, model, res.states, request)
     if stay_in_domain:
         result["stay_in_domain"] = domain_notes
-    options.add_trust(result, model, res.energy_j, trust,
-                      outside_share=(result["domain"] or {}).get("outside_share", 0.0),
-                      duration_s=res.duration_s)  # fmt: skip
-    if "corridor" in res.info:
-        result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
+    options.judge(res.battery, trust)
     options.write_output(
         result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
     )
@@ -345,4 +321,4 @@ def command(
     options.write_output(
         result, "html", html, lambda p: res.write_html(p, Problem(terrain, model, request))
     )
-    options.emit(result, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))
+    options.emit(result, as_json, lambda r: format_table(r) + "\n" + res.assessment.text())

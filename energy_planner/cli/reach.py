@@ -157,22 +157,19 @@ def command(
             param_hint="--budget-wh",
         )
     model = load_model_option(model_path)
+    trust = options.Trust(battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)
     res, terrain = _run_reach(
         dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
-        within_budget,
+        within_budget, trust,
     )  # fmt: skip
-    result = _summary(dem, res, terrain, round_trip, budget_wh)
-    budget_j = None if budget_wh is None else budget_wh * 3600.0
-    if budget_j is not None:
-        result["budget_cells"] = int(res.mask(budget_j).sum())
-        result["budget_area_m2"] = float(res.area(terrain, budget_j).area)
-    if battery_wh is not None:
-        result["battery"], budget_j = _battery(res, terrain, model, battery_wh, reserve_wh,
-                                               confidence)  # fmt: skip
-        usable = (battery_wh - reserve_wh) * 3600.0
+    result = {"dem": str(dem), **res.to_dict(terrain, budget_wh)}
+    if res.battery is not None:
+        usable = res.battery["usable_wh"] * 3600.0
         write = lambda p: res.write_chance_geotiff(terrain, p, model, usable)  # noqa: E731
         options.write_output(result, "chance_out", chance_out, write)
-    _add_edge_warnings(result, res, terrain)
+    budget_j = None if budget_wh is None else budget_wh * 3600.0
+    if res.battery is not None:
+        budget_j = res.battery["confident_budget_wh"] * 3600.0
     options.write_output(result, "out", out, lambda p: res.write_geotiff(terrain, p))
     native = geojson_crs == "dem"
     options.write_geojson_output(result, "geojson", geojson,
@@ -215,7 +212,7 @@ def _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, bat
 
 
 def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
-               within_budget):  # fmt: skip
+               within_budget, trust):  # fmt: skip
     """The reach map and its terrain: the DEM whole, or one window within ``cap``.
 
     Errors become ``click.BadParameter`` naming the option to change (exit 2).
@@ -230,6 +227,7 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
     )
     from energy_planner.planning.reach import reach
     from energy_planner.problem import Problem
+    from energy_planner.uncertainty import BatteryError
 
     try:
         with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
@@ -243,6 +241,7 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
                     return reach_in_window(
                         dem, model, s, budget_wh * 3600.0, request, cap=cap,
                         round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
+                        trust=trust,
                     )  # fmt: skip
                 except RasterTooLargeError as exc:
                     raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
@@ -253,69 +252,14 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
             res = reach(
                 Problem(terrain, model, request), s[:2], round_trip=round_trip,
                 turn_at_cell=not free_turn, progress=True,
-                max_energy=budget_wh * 3600.0 if within_budget else None,
+                max_energy=budget_wh * 3600.0 if within_budget else None, trust=trust,
             )  # fmt: skip
             return res, terrain
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh") from exc
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
-
-
-def _summary(dem, res, terrain, round_trip: bool, budget_wh) -> dict[str, Any]:
-    """The result's numbers: start (DEM CRS), reachable cells and their energy, Wh."""
-    import numpy as np
-
-    wh = res.energy_j / 3600.0
-    finite = wh[np.isfinite(wh)]
-    sx, sy = terrain.from_work(*res.start)
-    result: dict[str, Any] = {
-        "dem": str(dem),
-        "start": [float(sx), float(sy)],
-        "round_trip": round_trip,
-        "turn_at_cell": res.info.get("turn_at_cell"),
-        "reachable_cells": int(finite.size),
-        "min_wh": float(finite.min()),
-        "median_wh": float(np.median(finite)),
-        "max_wh": float(finite.max()),
-        "budget_wh": budget_wh,
-        "search": res.info["search"],
-        "time_s": res.info["time_s"],
-    }
-    if "window" in res.info:
-        result["window"] = {k: v for k, v in res.info["window"].items() if k != "log"}
-    return result
-
-
-def _battery(res, terrain, model, battery_wh, reserve_wh, confidence):
-    """The battery's record and the budget reached with chance ``confidence``, J."""
-    from energy_planner.errors import EnergyPlannerError
-    from energy_planner.uncertainty import confident_budget
-
-    usable = (battery_wh - reserve_wh) * 3600.0
-    try:
-        budget_j = confident_budget(model, usable, confidence)
-    except EnergyPlannerError as exc:
-        raise click.BadParameter(str(exc), param_hint="--battery-wh") from exc
-    record = {
-        "battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
-        "usable_wh": usable / 3600.0, "confident_budget_wh": budget_j / 3600.0,
-        "cells": int(res.mask(budget_j).sum()),
-        "area_m2": float(res.area(terrain, budget_j).area),
-    }  # fmt: skip
-    return record, budget_j
-
-
-def _add_edge_warnings(result: dict[str, Any], res, terrain) -> None:
-    """A warning per budget whose area the map's edge (or nodata) cuts."""
-    budgets = [result.get("budget_wh"), result.get("battery", {}).get("confident_budget_wh")]
-    for wh_b in sorted({b for b in budgets if b is not None}):
-        w = res.edge_warning(terrain, wh_b * 3600.0)
-        if w is not None:
-            result.setdefault("warnings", []).append(str(w))
-            result.setdefault("edge_cut", []).append(
-                {"budget_wh": wh_b, **{k: w.fields[k] for k in ("cells", "map_edge_cells",
-                                                               "nodata_edge_cells")}}
-            )  # fmt: skip

@@ -33,6 +33,7 @@ from energy_planner.energy.kernels import (
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, NonPositivePowerError, OutsideMapError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+from energy_planner.trust import Assessed
 
 if TYPE_CHECKING:  # the table is made without pandas: ``segments`` imports it on use
     import pandas as pd
@@ -63,7 +64,7 @@ SEGMENT_COLUMNS = [
 
 
 @dataclass
-class PathEnergy:
+class PathEnergy(Assessed):
     """Energy breakdown of a path.
 
     Attributes
@@ -78,6 +79,15 @@ class PathEnergy:
         sideways, turning, and by other terms (idle power, effects).
     poses : ndarray
         The executed SE(2) poses ``(x, y, yaw)``, turns in place included.
+    map_distance_m : ndarray
+        Per segment, the horizontal distance between its waypoints on the working grid
+        (what a GIS measures; ``distance_m`` is along the ground).
+    assessment : Assessment or None
+        The energy's interval, domain report and battery verdict
+        (:class:`~energy_planner.trust.Assessment`; :attr:`interval`, :attr:`domain`,
+        :attr:`battery`), set by the verbs (``ep.path_energy``,
+        :meth:`~energy_planner.problem.Problem.path_energy`); None from this module's
+        :func:`path_energy`.
     """
 
     energy_j: float
@@ -85,6 +95,8 @@ class PathEnergy:
     duration_s: float
     table: dict[str, np.ndarray] = field(repr=False)
     poses: np.ndarray = field(repr=False)
+    map_distance_m: np.ndarray | None = field(default=None, repr=False)
+    assessment: Any = field(default=None, repr=False)
 
     @cached_property
     def segments(self) -> pd.DataFrame:
@@ -99,20 +111,30 @@ class PathEnergy:
         return self.energy_j / 3600.0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict with keys energy_j, energy_wh, distance_m, duration_s, segments."""
-        return {
+        """JSON-ready dict: totals, ``segments`` and, when assessed, the assessment's keys.
+
+        Keys ``energy_j``, ``energy_wh``, ``distance_m``, ``map_distance_m``,
+        ``duration_s``, ``segments`` (each with its ``map_distance_m``) and, assessed,
+        ``interval``, ``domain`` (and ``battery`` with a battery).
+        """
+        flat = self.map_distance_m
+        segs = [
+            {c: int(v) if c == "segment" else float(v)
+             for c, v in zip(SEGMENT_COLUMNS, row, strict=True)}
+            for row in zip(*(self.table[c].tolist() for c in SEGMENT_COLUMNS), strict=True)
+        ]  # fmt: skip
+        out: dict[str, Any] = {
             "energy_j": self.energy_j,
             "energy_wh": self.energy_wh,
             "distance_m": self.distance_m,
             "duration_s": self.duration_s,
-            "segments": [
-                {
-                    c: int(v) if c == "segment" else float(v)
-                    for c, v in zip(SEGMENT_COLUMNS, row, strict=True)
-                }
-                for row in zip(*(self.table[c].tolist() for c in SEGMENT_COLUMNS), strict=True)
-            ],
+            "segments": segs,
         }
+        if flat is not None:
+            out["map_distance_m"] = float(np.sum(flat))
+            for seg, d in zip(segs, flat, strict=True):
+                seg["map_distance_m"] = float(d)
+        return {**out, **self.assessment_dict()}
 
     def write_json(self, path: Any) -> Any:
         """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
@@ -253,6 +275,7 @@ def path_energy(
         duration_s=float(out[:, OUT_DURATION].sum()),
         table=segments,
         poses=poses,
+        map_distance_m=np.hypot(*np.diff(xy, axis=0).T),
     )
 
 

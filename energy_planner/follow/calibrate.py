@@ -317,6 +317,7 @@ def follow_simulated_mission(
     from energy_planner.follow.core import Follower
     from energy_planner.simulate import simulate_missions, synthetic_dem
 
+    options.setdefault("remaining_scores", None)  # the raw errors: no scores to start from
     events = mission_events(event)
     cfg = forward_mission(duration, rate, events)
     terrain = synthetic_dem(seed) if terrain is None else terrain
@@ -446,7 +447,7 @@ def calibrate_remaining(
                 u = run["updates"][i]
                 if not counted(run, u.t) or run["true"][i] <= 0:
                     continue
-                score = float(u.remaining_j / run["true"][i] - 1.0) / u.spread
+                score = float(u.model_j / run["true"][i] - 1.0) / u.spread
                 rows.append((u.state, float(u.step), float(u.remaining_share), score))
     steps = [abs(r[1]) for r in rows if r[0] == "adapting"]
     split = float(np.median(steps)) if steps else None

@@ -93,6 +93,45 @@ def _conditions_text(scores: Any) -> str:
     return f": simulated missions of {c['duration_s']:g} s at {c.get('rate_hz', 0):g} Hz"
 
 
+def _path_domain(terrain, model, xy, yaw, t, speed, yaw_rate, channels) -> dict | None:
+    """The plan's path's share outside the model's calibration domain (None: no domain).
+
+    :func:`energy_planner.uncertainty.assess.path_domain` of the path priced as given.
+    """
+    from energy_planner.uncertainty.assess import path_domain
+    from energy_planner.uncertainty.domain import domain_of
+
+    if not domain_of(model):
+        return None
+    from energy_planner.energy import MotionCost, path_energy
+
+    cost = MotionCost(terrain, model, speed, yaw_rate, channels=channels)
+    pe = path_energy(terrain, model, np.asarray(xy, dtype=float), yaw=yaw, t=t, cost=cost)
+    return path_domain(model, pe, cost)
+
+
+def default_scores(model: Any, which: str, notes: list[str]) -> Any:
+    """The follower's calibrated scores by default (``"auto"``), or None.
+
+    The bundled scores (:func:`~energy_planner.follow.calibrate.bundled_scores`) when
+    ``model`` is the bundled model (the same coefficients and terms: they were calibrated
+    on it); else None, and a note says the interval is the model's run errors widened.
+    """
+    from energy_planner.follow.calibrate import bundled_scores
+    from energy_planner.io import content_id
+    from energy_planner.model import EnergyModel
+
+    if which != "auto":
+        raise FollowError(f"remaining_scores must be RemainingScores, 'auto' or None, not "
+                          f"{which!r}", value=which)  # fmt: skip
+    if content_id(model.to_dict()) == content_id(EnergyModel.default().to_dict()):
+        return bundled_scores()
+    notes.append("no calibrated remaining-energy errors for this model (the bundled ones "
+                 "are the bundled model's): the interval is the model's run errors widened "
+                 "by the coefficients' uncertainty (give calibrated scores: --scores)")  # fmt: skip
+    return None
+
+
 class FollowError(EnergyPlannerError, ValueError):
     """Log samples a follower cannot use (missing pose, several runs, time going back)."""
 
@@ -108,7 +147,13 @@ class FollowUpdate:
     distance_m : float
         Distance done along the plan's path (ground metres) at the window's last pose.
     remaining_j, low_j, high_j : float
-        Energy of the rest of the path with the updated coefficients, and its interval.
+        Energy of the rest of the path and its interval: the median of the follower's
+        predictive distribution (:attr:`model_j` over one plus the median of the
+        calibrated errors the interval is made of, so that it lies in its interval).
+        The errors measure how far :attr:`model_j` is from the truth in the follower's
+        state (e.g. soon after a change is detected, the coefficients have not caught
+        up yet and the priced rest is short of the truth): the estimate takes that
+        known bias out.
     static_j : float
         The same with the fit's coefficients (no online update).
     probability : float or None
@@ -139,6 +184,14 @@ class FollowUpdate:
         The calibrated scores' group the interval was read from
         (:func:`~energy_planner.follow.calibrate.score_group`: the state, with
         ``adapting`` split into ``adapting_small`` / ``adapting_large`` by ``step``).
+    model_j : float
+        The rest of the path priced with the updated coefficients (and a DEM error's
+        extrapolation), before the calibrated bias is taken out: what the calibrated
+        errors ``model_j / E_true - 1`` are measured on
+        (:func:`~energy_planner.follow.calibrate.calibrate_remaining`).
+    battery_ok : bool or None
+        The battery's verdict: :attr:`probability` at least the required confidence
+        (None without a battery).
     """
 
     t: float
@@ -158,6 +211,8 @@ class FollowUpdate:
     spread: float = 0.0
     step: float = 0.0
     group: str = "steady"
+    model_j: float = math.nan
+    battery_ok: bool | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
@@ -179,6 +234,8 @@ class FollowUpdate:
             "spread": self.spread,
             "step": self.step,
             "group": self.group,
+            "model_remaining_j": self.model_j,
+            "battery_ok": self.battery_ok,
         }
 
 
@@ -313,13 +370,15 @@ class Follower:
         Keep the fit's coefficients until a change of conditions is detected (default);
         False: update them at every window. Windows whose IMU slope disagrees with the
         DEM's (a DEM error) are never learnt from.
-    remaining_scores : RemainingScores, optional
+    remaining_scores : RemainingScores, "auto" or None
         The follower's own held-out errors of the remaining energy
         (:func:`~energy_planner.follow.calibrate.calibrate_remaining`); with them the
         interval is split-conformal on those errors (by remaining share and by group:
         the state, with ``adapting`` split by the detected change's size,
         :func:`~energy_planner.follow.calibrate.score_group`) instead of the model's run
-        errors widened.
+        errors widened. ``"auto"`` (default, as the ``follow`` command): the bundled
+        scores (:func:`~energy_planner.follow.calibrate.bundled_scores`) when ``model``
+        is the bundled model, else None (they were calibrated on it; said in the notes).
     bias_ahead_m : float, optional
         While a stretch where the IMU's ground disagrees with the DEM's is open, the
         rest of the path is priced on the DEM tilted by the measured gradient offset
@@ -370,7 +429,7 @@ class Follower:
         batch_s: float = 20.0,
         change_share: float = 0.05,
         dead_band: bool = True,
-        remaining_scores: Any = None,
+        remaining_scores: Any = "auto",
         bias_ahead_m: float | None = None,
         bias_until_m: float | None = None,
         stretch_lengths_m: Any = None,
@@ -398,6 +457,7 @@ class Follower:
             terrain, model, xy, yaw, t, speed, yaw_rate, channels=self.channels
         )
         self.goal = tuple(self.path.poses[-1])
+        self.domain = _path_domain(terrain, model, xy, yaw, t, speed, yaw_rate, channels)
         self._total_s = max(self.path.remaining_s(0, 0.0), 1e-9)
         c0 = model.coef_array()
         cov, note = seed_covariance(model)
@@ -413,6 +473,8 @@ class Follower:
         self.c0 = c0
         self.z = float(norm.ppf(0.5 + level / 2.0))
         self.scores = model_scores(model)
+        if isinstance(remaining_scores, str):
+            remaining_scores = default_scores(model, remaining_scores, self.notes)
         self.remaining_scores = remaining_scores
         if remaining_scores is not None:
             self.notes.append(
@@ -473,6 +535,7 @@ class Follower:
         self.dead_band = bool(dead_band)
         self._adapting = False  # a change was detected: the coefficients follow the log
         self._step = 0.0  # the largest detected change's relative size (score_group)
+        self._model_j = math.nan  # the last raw remaining energy (before the bias)
 
     # ------------------------------------------------------------------ input
     def feed(self, samples: Any) -> list[FollowUpdate]:
@@ -687,6 +750,7 @@ class Follower:
         self._used_at = float(used_j)
         self._rem_s = self.path.remaining_s(m, frac)
         rem, low, high, prob = self._predict(r, extra_var)
+        model_j = self._model_j
         event = None
         if (
             self.usable_j is not None
@@ -703,6 +767,7 @@ class Follower:
                 self._rem_s = self.path.remaining_s(0, 0.0)
                 self._total_s = max(self._rem_s, 1e-9)
                 rem, low, high, prob = self._predict(r)
+                model_j = self._model_j
         elif (
             self.usable_j is not None
             and prob is not None
@@ -735,6 +800,8 @@ class Follower:
             self._spread,
             self._step,
             self.group,
+            model_j,
+            None if prob is None else bool(prob >= self.confidence),
         )
         self.updates.append(u)
         return u
@@ -759,16 +826,23 @@ class Follower:
         """Remaining energy, its interval and the chance the battery suffices.
 
         ``extra_var``: variance of the DEM error's extrapolation ahead, J^2
-        (:meth:`_biased_remaining`).
+        (:meth:`_biased_remaining`). The rest priced with the current coefficients
+        (``raw``, kept in ``self._model_j``) and the scores of its errors
+        ``raw / E_true - 1`` (the calibrated ones, or the model's run errors) make one
+        predictive distribution of the true rest, ``raw / (1 + score)``: the interval is
+        its conformal bounds, the chance its share within the battery, and the estimate
+        its median, ``raw / (1 + median score)``, which lies inside the interval.
         """
-        rem = float(max(r @ self.rls.coef, 0.0))
+        raw = float(max(r @ self.rls.coef, 0.0))
+        self._model_j = raw
         # the coefficients' uncertainty, the power the model still misses (the recent
         # mean innovation: large while it catches up with a change) over the time left,
         # and where a DEM error ends ahead
         sd = math.sqrt(
             self.rls.variance_of(r) + (self._bias_w * self._rem_s) ** 2 + max(extra_var, 0.0)
         )
-        self._spread = max(sd / max(rem, 1e-9), SPREAD_FLOOR)
+        self._spread = max(sd / max(raw, 1e-9), SPREAD_FLOOR)
+        left = None if self.usable_j is None else self.usable_j - self._used_at
         if self.remaining_scores is not None:
             sc = self.remaining_scores.for_group(
                 self.group, self._rem_s / self._total_s, self.level
@@ -778,25 +852,23 @@ class Follower:
                 # error is > -1 (E_pred / E_true - 1), and below -0.9 would say the rest
                 # costs over ten times its prediction: clipped there (a wider interval)
                 sc = np.maximum(sc * self._spread, -0.9)
-            iv = interval(rem, sc, self.level)
-            prob = None
-            if self.usable_j is not None:
-                prob = success_probability(rem, sc, self.usable_j - self._used_at)
-            return rem, max(iv.low_j, 0.0), iv.high_j, prob
-        if self.scores is not None:
-            iv = interval(rem, self.scores, self.level)
+            iv = interval(raw, sc, self.level)
+            prob = None if left is None else success_probability(raw, sc, left)
+            low, high = iv.low_j, iv.high_j
+        elif self.scores is not None:
+            sc = self.scores
+            iv = interval(raw, sc, self.level)
             low, high = iv.low_j - self.z * sd, iv.high_j + self.z * sd
+            prob = None if left is None else success_probability(raw, sc, left)
         else:
-            low, high = rem - self.z * sd, rem + self.z * sd
-        prob = None
-        if self.usable_j is not None:
-            left = self.usable_j - self._used_at
-            if self.scores is not None:
-                prob = success_probability(rem, self.scores, left)
-            else:
+            sc = None
+            low, high = raw - self.z * sd, raw + self.z * sd
+            prob = None
+            if left is not None:
                 from scipy.stats import norm
 
-                prob = float(norm.cdf((left - rem) / max(sd, 1e-9)))
+                prob = float(norm.cdf((left - raw) / max(sd, 1e-9)))
+        rem = raw if sc is None else raw / (1.0 + float(np.median(sc)))
         return rem, max(low, 0.0), high, prob
 
     # ------------------------------------------------------------------ slope
@@ -1070,7 +1142,10 @@ class Follower:
         return follow_page(self.terrain, path, walked, self.updates, self.path.poses[:, :2])
 
     def to_dict(self) -> dict[str, Any]:
-        """Updates, slope findings, events and notes (for ``--json``)."""
+        """Updates, slope findings, events, notes, the battery asked and the path's domain.
+
+        What ``follow --json`` prints (with the log's, DEM's and path's names).
+        """
         return {
             "updates": [u.to_dict() for u in self.updates],
             "slope_findings": [f.to_dict() for f in self.findings],
@@ -1081,6 +1156,11 @@ class Follower:
                 zip(self.model.term_names, map(float, self.rls.coef), strict=True)
             ),
             "slope_tolerance_deg": self.slope_tol_deg,
+            "level": self.level,
+            "confidence": self.confidence,
+            "battery_wh": self.battery_wh,
+            "reserve_wh": self.reserve_wh,
+            "domain": self.domain,
         }
 
 

@@ -6,11 +6,13 @@ own search over (x, y, heading) (the same motions and kernel as
 stopped once every other site is settled (:mod:`energy_planner.mission.matrix`). The
 matrix is asymmetric (uphill is not downhill). The order is then chosen on it
 (:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned with
-:func:`energy_planner.planning.plan` for its path; with ``planner="search"`` and
-``eps=1`` (the default here) a leg's planned energy equals its matrix entry.
+:func:`energy_planner.planning.plan` from its site to the next, with ``plan``'s own
+defaults (the search, then the refinement of its path): a leg costs what ``plan`` says
+for the same two sites. With ``planner="search"``, ``leg_eps=1`` and the sites on cell
+centres, a leg's planned energy equals its matrix entry; the refinement makes it lower.
 
-Sites lie on the DEM's cell centres (as :func:`~energy_planner.planning.reach.reach` moves
-its start), so that the matrix and the legs price the same poses; the moved distance is
+The matrix's searches stand on the DEM's cell centres (as
+:func:`~energy_planner.planning.reach.reach` moves its start); the moved distance is
 reported. Headings are free at every site.
 
 The per-site searches are independent: with a ``dask.distributed`` client they run in
@@ -31,13 +33,19 @@ from energy_planner.errors import PlanningError
 from energy_planner.mission.sites import Sites
 from energy_planner.mission.tour import order_sites
 from energy_planner.problem import takes_problem
+from energy_planner.trust import Assessed, Assessment
 
 __all__ = ["Leg", "MissionResult", "energy_matrix", "mission"]
 
 
 @dataclass(frozen=True)
-class Leg:
-    """One leg of a tour: from site ``a`` to site ``b``, planned."""
+class Leg(Assessed):
+    """One leg of a tour: from site ``a`` to site ``b``, planned as ``plan`` plans it.
+
+    ``assessment``: the leg's own interval and domain report (the plan's); with a battery,
+    the verdict on the energy spent from the start up to the end of this leg (the
+    robot has walked the legs before it on the same battery).
+    """
 
     a: int
     b: int
@@ -46,10 +54,11 @@ class Leg:
     distance_m: float
     duration_s: float
     states: np.ndarray = field(repr=False)
+    assessment: Any = field(default=None, repr=False, compare=False)
 
 
 @dataclass
-class MissionResult:
+class MissionResult(Assessed):
     """A planned mission: the order, its legs, totals and the energy matrix.
 
     Attributes
@@ -66,6 +75,12 @@ class MissionResult:
         How the order was chosen.
     return_to_start : bool
         Whether the tour comes back to the first site.
+    assessment : Assessment or None
+        The whole tour's interval (its energy and duration), its domain report (the
+        legs' reports weighted by duration) and, with a battery, its verdict.
+    battery_legs : dict or None
+        With a battery: :meth:`battery_by_leg` of the tour (the chance after each leg, where the
+        reserve is crossed).
     """
 
     sites: Sites
@@ -75,6 +90,8 @@ class MissionResult:
     method: str
     return_to_start: bool
     info: dict[str, Any] = field(default_factory=dict)
+    assessment: Any = field(default=None, repr=False)
+    battery_legs: dict[str, Any] | None = field(default=None, repr=False)
 
     @property
     def energy_j(self) -> float:
@@ -92,9 +109,9 @@ class MissionResult:
         return float(sum(leg.duration_s for leg in self.legs))
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary: order, legs, totals, the matrix."""
+        """JSON-ready summary: order, legs, totals, the matrix and the assessments."""
         names = self.sites.names
-        return {
+        out = {
             "order": [names[i] for i in self.order],
             "order_index": list(self.order),
             "method": self.method,
@@ -111,6 +128,7 @@ class MissionResult:
                     "matrix_energy_j": leg.matrix_energy_j,
                     "distance_m": leg.distance_m,
                     "duration_s": leg.duration_s,
+                    **leg.assessment_dict(),
                 }
                 for leg in self.legs
             ],  # fmt: skip
@@ -119,32 +137,27 @@ class MissionResult:
                 [None if not math.isfinite(v) else float(v) for v in row] for row in self.matrix_j
             ],  # fmt: skip
             **self.info,
+            **self.assessment_dict(),
         }
+        if self.battery_legs is not None:
+            out["battery_legs"] = self.battery_legs
+        return out
 
-    def battery(
+    def battery_by_leg(
         self, model, battery_wh: float, reserve_wh: float = 0.0, confidence: float = 0.9
     ) -> dict[str, Any]:
         """The chance of finishing each leg on one battery, and where the reserve is crossed.
 
         After leg ``k`` the robot has spent the sum of legs ``0..k``; its chance of
-        success is :func:`energy_planner.uncertainty.battery_decision` of that sum (the
-        model's split-conformal run errors). ``reserve_crossed_at`` names the first leg
-        whose chance falls below ``confidence`` (None: the whole tour fits).
+        success is :func:`energy_planner.uncertainty.assess.assess` of that sum (its
+        duration, and the legs' domain reports weighted by duration). ``reserve_crossed_at``
+        names the first leg whose chance falls below ``confidence`` (None: the whole tour
+        fits).
         """
-        from energy_planner.uncertainty import battery_decision
+        from energy_planner.trust import Trust
 
-        out, cum, cum_s, crossed = [], 0.0, 0.0, None
-        for k, leg in enumerate(self.legs):
-            cum += leg.energy_j
-            cum_s += leg.duration_s  # the error model's duration input
-            d = battery_decision(model, cum, battery_wh, reserve_wh, confidence, cum_s)
-            out.append({"leg": k, "to": self.sites.names[leg.b], "spent_j": cum,
-                        "probability": d.probability, "ok": d.ok})  # fmt: skip
-            if crossed is None and not d.ok:
-                crossed = k
-        return {"battery_wh": battery_wh, "reserve_wh": reserve_wh, "confidence": confidence,
-                "legs": out, "reserve_crossed_at": crossed,
-                "probability": out[-1]["probability"] if out else 1.0}  # fmt: skip
+        trust = Trust(battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)
+        return _battery_legs(self, model, trust, set_legs=False)[0]
 
     def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
         """RFC 7946 FeatureCollection: one LineString per leg and one Point per site."""
@@ -166,11 +179,12 @@ class MissionResult:
     def write_html(self, path: str | Path, problem: Any, battery: dict | None = None) -> Path:
         """One self-contained HTML page (:func:`energy_planner.webmap.mission_page`).
 
-        ``battery`` is :meth:`battery`'s result: each leg's hover gives its chance.
+        ``battery`` is :meth:`battery_by_leg`'s result (default: :attr:`battery_legs`, set
+        when the mission was planned with a battery): each leg's hover gives its chance.
         """
         from energy_planner.webmap import mission_page
 
-        return mission_page(problem, self, path, battery)
+        return mission_page(problem, self, path, battery or self.battery_legs)
 
     def plot(self, terrain, path: str | Path, request: Any = None) -> Path:
         """PNG: legs over a hillshade, sites numbered in visiting order.
@@ -277,11 +291,13 @@ def mission(
     *,
     order: str = "best",
     return_to_start: bool = False,
-    planner: str = "search",
+    planner: str = "auto",
     eps: float = 1.0,
+    leg_eps: float | None = None,
     n_headings: int = 16,
     client: Any = None,
     progress: bool = False,
+    **trust: Any,
 ) -> MissionResult:
     """Visit several sites in the given or the least-energy order and plan every leg.
 
@@ -298,27 +314,41 @@ def mission(
         :data:`~energy_planner.mission.tour.EXACT_MAX_SITES` sites).
     return_to_start : bool
         Come back to the first site.
-    planner, eps, n_headings
-        The planner for each leg's path (default: the optimal search, whose energy equals
-        the matrix's); ``eps`` weighs the matrix's searches too (each entry at most
-        ``eps`` times the least energy).
+    planner, eps, leg_eps, n_headings
+        Each leg is planned from its site to the next as
+        :func:`energy_planner.planning.plan` plans it: ``planner`` (default, as
+        ``plan``'s: the search, then the refinement of its path), ``leg_eps`` (default:
+        ``plan``'s :data:`~energy_planner.planning.plan.DEFAULT_EPS`), ``n_headings``;
+        so a leg's energy is the one ``plan`` gives for the same sites. ``eps`` weighs
+        the matrix's searches (each entry at most ``eps`` times the least energy on the
+        search's motions; the order is chosen on them).
     client : distributed.Client, optional
         Run the per-site searches on a dask cluster.
     progress : bool
         Progress on stderr.
+    **trust
+        ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
+        (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): the tour's and each
+        leg's ``assessment``, and with a battery ``battery_legs``.
 
     Returns
     -------
     MissionResult
     """
     from energy_planner.planning.plan import plan
+    from energy_planner.trust import Trust
+
+    want = Trust.pop(trust)
+    if trust:
+        raise TypeError(f"mission() got unexpected keyword(s) {', '.join(trust)}")
 
     terrain = problem.terrain
     if not isinstance(sites, Sites):
         from energy_planner.mission.sites import read_sites
 
         sites = read_sites(sites, terrain)
-    sites = sites.on_cells(terrain)
+    given = sites
+    sites = sites.on_cells(terrain)  # where the matrix's searches stand
     E = energy_matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
                       progress=progress)  # fmt: skip
     o, total, method = order_sites(E, order, return_to_start)
@@ -335,9 +365,52 @@ def mission(
 
     legs = []
     for a, b in track(pairs, "legs", progress or False, unit="leg"):
-        r = plan(problem, tuple(sites.xy[a]), tuple(sites.xy[b]),
-                 planner=planner, eps=eps, n_headings=n_headings, progress=progress)  # fmt: skip
+        # from the sites as given, as `plan` from one site to the next plans the leg
+        r = plan(problem, tuple(given.xy[a]), tuple(given.xy[b]), planner=planner,
+                 eps=leg_eps, n_headings=n_headings, progress=progress,
+                 level=want.level)  # fmt: skip
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
-                        float(r.duration_s), r.states))  # fmt: skip
-    return MissionResult(sites, o, legs, E, method, return_to_start,
-                         info={"matrix_energy_j": float(total), "planner": planner})  # fmt: skip
+                        float(r.duration_s), r.states, r.assessment))  # fmt: skip
+    res = MissionResult(sites, o, legs, E, method, return_to_start,
+                        info={"matrix_energy_j": float(total), "planner": planner,
+                              "eps": eps})  # fmt: skip
+    res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)
+    return res
+
+
+def _battery_legs(
+    res: MissionResult, model: Any, trust: Any, set_legs: bool = True
+) -> tuple[dict | None, Assessment]:
+    """The tour's battery record (None without a battery) and the whole tour's assessment.
+
+    Each leg's verdict is :func:`energy_planner.uncertainty.assess.assess` of the energy
+    spent up to its end (its duration, the legs' domain reports so far weighted by
+    duration); with ``set_legs`` the legs take it into their assessment.
+    """
+    import dataclasses
+
+    from energy_planner.uncertainty.assess import assess, sum_domain
+
+    rows, parts, cum, cum_s, crossed, whole = [], [], 0.0, 0.0, None, None
+    for k, leg in enumerate(res.legs):
+        cum += leg.energy_j
+        cum_s += leg.duration_s  # the error model's duration input
+        parts.append((leg.domain, leg.duration_s))
+        whole = assess(model, cum, duration_s=cum_s, domain=sum_domain(parts), trust=trust)
+        d = whole.battery
+        if d is not None and set_legs:
+            own = leg.assessment or Assessment()
+            object.__setattr__(leg, "assessment", dataclasses.replace(own, battery=d))
+        if d is not None:
+            rows.append({"leg": k, "to": res.sites.names[leg.b], "spent_j": cum,
+                         "probability": d.probability, "ok": d.ok})  # fmt: skip
+            if crossed is None and not d.ok:
+                crossed = k
+    if whole is None:
+        whole = assess(model, 0.0, trust=trust)
+    if trust.battery_wh is None:
+        return None, whole
+    record = {"battery_wh": trust.battery_wh, "reserve_wh": trust.reserve_wh,
+              "confidence": trust.confidence, "legs": rows, "reserve_crossed_at": crossed,
+              "probability": rows[-1]["probability"] if rows else 1.0}  # fmt: skip
+    return record, whole

@@ -101,6 +101,20 @@ def _route(name: str, states: np.ndarray, problem) -> Route:
     )
 
 
+def _assessed(problem, states: np.ndarray, trust: Any):
+    """A route's assessment: its poses priced with the problem's cost, then assessed.
+
+    Interval, domain report, battery verdict
+    (:func:`energy_planner.uncertainty.assess.assess_path`).
+    """
+    from energy_planner.energy import path_energy
+    from energy_planner.uncertainty.assess import assess_path
+
+    pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
+                     cost=problem.cost)  # fmt: skip
+    return assess_path(problem.model, pe, problem.cost, trust)
+
+
 def _face_along(states: np.ndarray, start, goal) -> np.ndarray:
     """Poses that walk forward along each segment of ``states`` and turn at corners.
 
@@ -261,6 +275,7 @@ def compare_routes(
     seed: int = 0,
     step: float | None = None,
     progress: bool = True,
+    **trust: Any,
 ) -> RouteComparison:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
 
@@ -279,6 +294,10 @@ def compare_routes(
         Passed to :func:`energy_planner.planning.plan` for the energy-optimal route
         (``step`` also sets the shortest-path lattice). Each extra refinement gets
         ``min(2, max(time / 4, 0.5))`` seconds.
+    **trust
+        ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
+        (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): each feasible route's
+        ``assessment`` (interval, domain report, battery verdict).
 
     Returns
     -------
@@ -289,7 +308,11 @@ def compare_routes(
     """
     from energy_planner.planning.limits import check_endpoint
     from energy_planner.planning.plan import _pose
+    from energy_planner.trust import Trust
 
+    want = Trust.pop(trust)
+    if trust:
+        raise TypeError(f"compare_routes() got unexpected keyword(s) {', '.join(trust)}")
     s, g = _pose(start, "start"), _pose(goal, "goal")
     for which, pose in (("start", s), ("goal", g)):
         check_endpoint(problem.cost, problem.terrain, which, pose, problem.keep_out)
@@ -311,6 +334,9 @@ def compare_routes(
         for r in routes:
             if r.energy_j is not None:
                 r.saving_vs_direct = (direct.energy_j - r.energy_j) / direct.energy_j
+    for r in routes:
+        if r.feasible and r.states is not None and r.energy_j is not None:
+            r.assessment = _assessed(problem, r.states, want)
     lim = problem.request.limits
     return RouteComparison(
         routes=routes,

@@ -39,6 +39,7 @@ from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 from energy_planner.problem import takes_problem
+from energy_planner.trust import Assessed
 
 __all__ = ["PlanResult", "plan", "PLANNERS", "RUNNERS", "DEFAULT_EPS"]
 
@@ -46,8 +47,8 @@ _OMPL_PLANNERS = {"rrtstar": "RRTstar", "sorrtstar": "SORRTstar", "bitstar": "BI
 
 
 @dataclass
-class PlanResult:
-    """A planned path and its energy.
+class PlanResult(Assessed):
+    """A planned path and its energy, with its interval, domain and battery verdict.
 
     Attributes
     ----------
@@ -65,6 +66,10 @@ class PlanResult:
         The random seed used.
     info : dict
         Planner details (lattice size, iterations, motion-cost calls, ...).
+    assessment : Assessment or None
+        The energy's interval, the share of the path outside the calibration's domain
+        and, given a battery, its verdict (:class:`~energy_planner.trust.Assessment`;
+        :attr:`interval`, :attr:`domain`, :attr:`battery`).
     """
 
     states: np.ndarray
@@ -76,6 +81,7 @@ class PlanResult:
     time_s: float = 0.0
     seed: int = 0
     info: dict[str, Any] = field(default_factory=dict)
+    assessment: Any = field(default=None, repr=False)
 
     @property
     def energy_wh(self) -> float:
@@ -121,8 +127,11 @@ class PlanResult:
         )
 
     def to_dict(self, terrain) -> dict[str, Any]:
-        """JSON-ready summary (waypoints in the DEM's CRS)."""
-        return {
+        """JSON-ready summary (waypoints in the DEM's CRS), with the assessment's keys.
+
+        ``corridor`` (a DEM read by windows: without its log) when the plan has one.
+        """
+        out = {
             "energy_j": self.energy_j,
             "energy_wh": self.energy_wh,
             "distance_m": self.distance_m,
@@ -132,7 +141,11 @@ class PlanResult:
             "time_s": self.time_s,
             "history": [list(h) for h in self.history],
             "waypoints": self.waypoints(terrain),
+            **self.assessment_dict(),
         }
+        if "corridor" in self.info:
+            out["corridor"] = {k: v for k, v in self.info["corridor"].items() if k != "log"}
+        return out
 
     def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
         """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
@@ -567,6 +580,7 @@ def plan(
     eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[Any], None] | None = None,
+    **trust: Any,
 ) -> PlanResult:
     """Plan an energy-minimal SE(2) path.
 
@@ -615,6 +629,10 @@ def plan(
         ``callback(event)`` with a :class:`energy_planner.progress.ProgressEvent` at every
         report of the anytime planners (``event.value``: the best energy so far, J;
         ``event.elapsed``: seconds), as every progress callback of the library.
+    **trust
+        ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
+        (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): the result's
+        ``assessment`` (interval at ``level``, domain report, battery verdict).
 
     Returns
     -------
@@ -631,7 +649,11 @@ def plan(
         No feasible path, or the budget ran out (field ``limit="time"``).
     """
     from energy_planner.planning.limits import check_endpoint, keep_out_violation
+    from energy_planner.trust import Trust
 
+    want = Trust.pop(trust)
+    if trust:
+        raise TypeError(f"plan() got unexpected keyword(s) {', '.join(trust)}")
     if planner not in PLANNERS:
         raise PlanningConfigError(
             f"unknown planner {planner!r}; valid planners: {', '.join(PLANNERS)}",
@@ -650,7 +672,7 @@ def plan(
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
 
     if math.hypot(goal_p[0] - start_p[0], goal_p[1] - start_p[1]) <= 1e-9:
-        return _stay(problem, start_p, goal_p, planner, seed)
+        return _stay(problem, start_p, goal_p, planner, seed, want)
 
     ctg = _warm_up(problem, planner, start_p, goal_p)
     budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
@@ -673,8 +695,9 @@ def plan(
     bad = keep_out_violation(states, geoms)
     if bad is not None:
         raise PlanningError(f"the {planner} path enters a keep-out area: {bad}", limit="keep_out")
-    return _priced(problem, states, f"the {planner} path is not feasible", planner=planner,
-                   history=prog.history, time_s=prog.elapsed(), seed=seed, info=info)  # fmt: skip
+    return _priced(problem, states, f"the {planner} path is not feasible", want,
+                   planner=planner, history=prog.history, time_s=prog.elapsed(), seed=seed,
+                   info=info)  # fmt: skip
 
 
 def _warm_up(problem, planner: str, start_p, goal_p):
@@ -700,12 +723,14 @@ def _warm_up(problem, planner: str, start_p, goal_p):
     return None
 
 
-def _priced(problem, states: np.ndarray, what: str, **fields: Any) -> PlanResult:
+def _priced(problem, states: np.ndarray, what: str, trust: Any, **fields: Any) -> PlanResult:
     """``states`` priced by :func:`energy_planner.energy.path_energy` with the problem's cost.
 
+    With its assessment for ``trust`` (:func:`energy_planner.uncertainty.assess.assess_path`).
     A motion that breaks a limit raises :class:`PlanningError` starting with ``what``.
     """
     from energy_planner.energy import path_energy
+    from energy_planner.uncertainty.assess import assess_path
 
     try:
         pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
@@ -713,10 +738,12 @@ def _priced(problem, states: np.ndarray, what: str, **fields: Any) -> PlanResult
     except EnergyPlannerError as exc:
         raise PlanningError(f"{what}: {exc}") from exc
     return PlanResult(states=states, energy_j=pe.energy_j, distance_m=pe.distance_m,
-                      duration_s=pe.duration_s, **fields)  # fmt: skip
+                      duration_s=pe.duration_s,
+                      assessment=assess_path(problem.model, pe, problem.cost, trust),
+                      **fields)  # fmt: skip
 
 
-def _stay(problem, start_p, goal_p, planner: str, seed: int) -> PlanResult:
+def _stay(problem, start_p, goal_p, planner: str, seed: int, trust: Any) -> PlanResult:
     """Start and goal at the same position: stay, turning in place if both yaws are given."""
     x, y = start_p[0], start_p[1]
     cost = problem.cost
@@ -732,7 +759,7 @@ def _stay(problem, start_p, goal_p, planner: str, seed: int) -> PlanResult:
         )  # fmt: skip
     y1 = float(wrap(goal_p[2])) if goal_p[2] is not None else y0
     states = np.array([[x, y, y0], [x, y, y1]])
-    return _priced(problem, states, "turning in place at the start is not feasible",
+    return _priced(problem, states, "turning in place at the start is not feasible", trust,
                    planner=planner, seed=seed,
                    info={"trivial": "start and goal are the same position"})  # fmt: skip
 

@@ -49,7 +49,7 @@ import numpy as np
 from energy_planner.errors import InvalidStateError, PlanningError, ReachEdgeWarning
 from energy_planner.problem import takes_problem
 
-__all__ = ["ReachMap", "least_energy", "reach", "NODATA"]
+__all__ = ["ReachMap", "battery_area", "least_energy", "reach", "NODATA"]
 
 #: Nodata value of the written GeoTIFF.
 NODATA = float("nan")  # the project's one raster nodata (energy_planner.io)
@@ -152,6 +152,10 @@ class ReachMap:
         Search spacing, m.
     info : dict
         Search details (time, states).
+    battery : dict or None
+        Given a battery (``reach(..., battery_wh=...)``): the battery's verdict on the
+        map, :func:`battery_area` (the largest predicted energy reached with the required
+        chance, and the cells and area within it).
     """
 
     energy_j: np.ndarray
@@ -159,6 +163,47 @@ class ReachMap:
     round_trip: bool
     step: float
     info: dict[str, Any] = field(default_factory=dict)
+    battery: dict[str, Any] | None = field(default=None, repr=False)
+
+    def to_dict(self, terrain, budget_wh: float | None = None) -> dict[str, Any]:
+        """JSON-ready summary: the start (DEM CRS), the reachable cells and their energy.
+
+        With ``budget_wh``: the cells and area within it; with a battery, its record
+        (:attr:`battery`); a warning per budget whose area the map's edge (or nodata)
+        cuts (``warnings``, ``edge_cut``).
+        """
+        wh = self.energy_j / 3600.0
+        finite = wh[np.isfinite(wh)]
+        sx, sy = terrain.from_work(*self.start)
+        out: dict[str, Any] = {
+            "start": [float(sx), float(sy)],
+            "round_trip": self.round_trip,
+            "turn_at_cell": self.info.get("turn_at_cell"),
+            "reachable_cells": int(finite.size),
+            "min_wh": float(finite.min()),
+            "median_wh": float(np.median(finite)),
+            "max_wh": float(finite.max()),
+            "budget_wh": budget_wh,
+            "search": self.info["search"],
+            "time_s": self.info["time_s"],
+        }
+        if "window" in self.info:
+            out["window"] = {k: v for k, v in self.info["window"].items() if k != "log"}
+        if budget_wh is not None:
+            out["budget_cells"] = int(self.mask(budget_wh * 3600.0).sum())
+            out["budget_area_m2"] = float(self.area(terrain, budget_wh * 3600.0).area)
+        if self.battery is not None:
+            out["battery"] = dict(self.battery)
+        budgets = [budget_wh, (self.battery or {}).get("confident_budget_wh")]
+        for b in sorted({b for b in budgets if b is not None}):
+            w = self.edge_warning(terrain, b * 3600.0)
+            if w is not None:
+                out.setdefault("warnings", []).append(str(w))
+                out.setdefault("edge_cut", []).append(
+                    {"budget_wh": b, **{k: w.fields[k] for k in ("cells", "map_edge_cells",
+                                                                "nodata_edge_cells")}}
+                )  # fmt: skip
+        return out
 
     def mask(self, budget_j: float) -> np.ndarray:
         """Cells reachable within ``budget_j`` joules."""
@@ -416,6 +461,7 @@ def reach(
     n_headings: int = 16,
     progress: bool = False,
     max_energy: float | None = None,
+    **trust: Any,
 ) -> ReachMap:
     """Least energy from ``start`` to every cell (or to go there and back).
 
@@ -442,6 +488,10 @@ def reach(
     max_energy : float, optional
         Search only as far as this energy, J (a budget): exact for every cell within it,
         the others NaN; much faster than the whole map when the budget is small.
+    **trust
+        ``battery_wh``, ``reserve_wh``, ``confidence`` (and ``level``;
+        :class:`~energy_planner.trust.Trust`, or ``trust=`` one): with a battery, the
+        result's :attr:`ReachMap.battery` (:func:`battery_area`).
 
     Returns
     -------
@@ -460,7 +510,11 @@ def reach(
     """
     from energy_planner.planning.limits import check_endpoint, fmt_xy
     from energy_planner.planning.plan import _pose
+    from energy_planner.trust import Trust
 
+    want = Trust.pop(trust)
+    if trust:
+        raise TypeError(f"reach() got unexpected keyword(s) {', '.join(trust)}")
     terrain = problem.terrain
     sx, sy, _ = _pose(start, "start")
     x0, y0, dx, dy = terrain.grid
@@ -506,8 +560,37 @@ def reach(
               "turn_at_cell": bool(turn_at_cell) if round_trip else None,
               "time_s": time.perf_counter() - t0},
     )  # fmt: skip
+    if want.battery_wh is not None:
+        res.battery = battery_area(res, terrain, problem.model, want)
     if max_energy is not None and math.isfinite(max_energy):
         w = res.edge_warning(terrain, max_energy)
         if w is not None:
             warnings.warn(w, stacklevel=2)
     return res
+
+
+def battery_area(res: ReachMap, terrain: Any, model: Any, trust: Any) -> dict[str, Any]:
+    """A battery's verdict on a reach map: what is reached with the required chance.
+
+    :func:`energy_planner.uncertainty.confident_budget` of the usable energy (battery
+    less reserve) at ``trust.confidence``: the largest predicted energy whose chance of
+    fitting is at least that; the cells (and their area) within it.
+
+    Raises
+    ------
+    BatteryError
+        The model carries no held-out run errors, or the reserve is not below the battery.
+    """
+    from energy_planner.uncertainty import BatteryError, confident_budget
+
+    if not trust.reserve_wh < trust.battery_wh:
+        raise BatteryError(f"the reserve ({trust.reserve_wh:g} Wh) must be below the battery "
+                           f"({trust.battery_wh:g} Wh)", value=trust.reserve_wh)  # fmt: skip
+    usable = trust.usable_j
+    budget_j = confident_budget(model, usable, trust.confidence)
+    return {
+        "battery_wh": trust.battery_wh, "reserve_wh": trust.reserve_wh,
+        "confidence": trust.confidence, "usable_wh": usable / 3600.0,
+        "confident_budget_wh": budget_j / 3600.0, "cells": int(res.mask(budget_j).sum()),
+        "area_m2": float(res.area(terrain, budget_j).area),
+    }  # fmt: skip

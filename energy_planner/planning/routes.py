@@ -17,6 +17,7 @@ import numpy as np
 
 from energy_planner.errors import RouteNameError
 from energy_planner.planning.gradecost import GradeCost
+from energy_planner.trust import Assessed
 
 __all__ = ["ROUTE_NAMES", "Route", "RouteComparison"]
 
@@ -25,14 +26,15 @@ ROUTE_NAMES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
 
 
 @dataclass
-class Route:
+class Route(Assessed):
     """One route of a comparison (poses in the working CRS, radians).
 
     ``same_as`` names an earlier route of the comparison that is the same path (within
     a cell everywhere, body yaw within 15 deg); ``body_yaw_deg`` is the constant body yaw
     from the direction of travel a route is walked with, where it has one; ``ascent_m``
     is the total climb and ``climb_grade`` the mean grade of its climbing parts (sine of
-    the inclination).
+    the inclination). A feasible route carries its ``assessment`` (interval, domain
+    report, battery verdict: :class:`~energy_planner.trust.Assessment`).
     """
 
     name: str
@@ -48,6 +50,7 @@ class Route:
     ascent_m: float | None = None
     climb_grade: float | None = None
     body_yaw_deg: float | None = None
+    assessment: Any = field(default=None, repr=False, compare=False)
 
     @property
     def energy_wh(self) -> float | None:
@@ -77,6 +80,7 @@ class Route:
         }
         if self.reason is not None:
             out["reason"] = self.reason
+        out.update(self.assessment_dict())
         if terrain is not None and self.states is not None:
             x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
             out["waypoints"] = [
