@@ -394,7 +394,7 @@ def mission_page(
 ) -> Path:
     """``mission --html``: the sites in visiting order and each leg with its energy.
 
-    ``battery`` is the mission's battery decision (:meth:`MissionResult.battery`): the
+    ``battery`` is the mission's battery decision (:meth:`MissionResult.battery_by_leg`): the
     chance after each leg is shown on that leg's hover.
     """
     sites = mission.sites
