@@ -590,6 +590,13 @@ def _prices_absent_motion(
             )
     if not absent:
         return None
+    parts = _additive_parts(term)
+    if len(parts) > 1:  # a sum is told when each of its parts is
+        for part in parts:
+            why = _prices_absent_motion(part, absent, column, table, n_standing, present)
+            if why:
+                return why
+        return None
     told = max((_prices_class(term, k, channels) for k in present), default=0.0)
     for k in absent:
         diff = _prices_class(term, k, channels)
@@ -603,6 +610,33 @@ def _prices_absent_motion(
                 f"the logs cannot have told it what {label} motion costs; record such runs"
             )
     return None
+
+
+def _additive_parts(term: Term) -> list[Term]:
+    """The terms of a sum, a factor without motion distributed over them.
+
+    ``load_kg * (2 * pos(vx) + 3 * gait)`` -> ``load_kg * (2 * pos(vx))``,
+    ``load_kg * (3 * gait)``: what a channel times the fitted base is made of. A formula
+    that is not a sum is its own only part.
+    """
+    import ast
+
+    def split(node: ast.expr) -> list[ast.expr]:
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+            return split(node.left) + split(node.right)
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
+            for factor, rest in ((node.left, node.right), (node.right, node.left)):
+                names = {n.id for n in ast.walk(factor) if isinstance(n, ast.Name)}
+                if not names & MOTION_FEATURES:
+                    inner = split(rest)
+                    if len(inner) > 1:
+                        return [ast.BinOp(factor, ast.Mult(), p) for p in inner]
+        return [node]
+
+    nodes = split(term.parsed._tree)
+    if len(nodes) < 2:
+        return [term]
+    return [Term(name=f"{term.name}[{i}]", formula=ast.unparse(n)) for i, n in enumerate(nodes)]
 
 
 def _prices_class(term: Term, kind: str, channels: Mapping[str, Any]) -> float:
