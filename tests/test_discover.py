@@ -129,6 +129,21 @@ def test_cli_discover(tmp_path):
         assert 0 <= s["run_energy_error_median"] <= s["run_energy_error_p90"]
     model = EnergyModel.load(out)
     assert model.term_names == doc["terms"] and model.is_fitted
+    # what discover reports is what it writes: the model read back from its file, scored
+    # by the one held-out evaluation on the same logs and folds, gives the last step's RMSE
+    from energy_planner.calibration.prepare import prepare_logs
+    from energy_planner.cli.fit import load_log_files
+    from energy_planner.diagnosis.names import term_spec
+    from energy_planner.stats import fold_index
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        wd = window_data(prepare_logs(load_log_files([tmp_path / "logs"])).windows)
+    th = doc["thresholds"]
+    folds = fold_index(wd.runs, th["n_splits"], th["seed"])
+    h = wd.heldout([term_spec(t) for t in model.terms], folds)
+    assert h.rmse == pytest.approx(steps[-1]["heldout_rmse_w"], rel=1e-9)
+    assert doc["dropped"] == [] and all(s["dropped"] == [] for s in steps)
     html = report.read_text()
     assert 'src="http' not in html and "<script" not in html
     assert html.count('src="data:image/png;base64,') >= 1

@@ -6,6 +6,7 @@ walking) and carries a hidden payload (``simulate_missions``, reduced: 3 mission
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -320,3 +321,65 @@ def test_plan_stay_in_domain_keeps_the_route_on_calibrated_slopes(forward_missio
     bare = EnergyModel.default().save(tmp_path / "bare.json")
     res = CliRunner().invoke(main, [*args[:4], str(bare), *args[5:]])
     assert res.exit_code == 2 and "domain" in res.output
+
+
+# --------------------------------------------------------------------------- issue 28.1
+@pytest.fixture(scope="module")
+def loaded_missions_with_stops():
+    """Forward-only missions with stops (the base then has gait_power) and a payload."""
+    from energy_planner.calibration.prepare import clean_logs
+
+    cfg = MissionConfig(missions=6, duration_s=120.0, rate_hz=20.0, sideways_prob=0.0,
+                        backward_prob=0.0, stop_prob=0.6, stop_s=5.0,
+                        loads_kg=(0.0, 9.0, 18.0, 27.0))  # fmt: skip
+    camp = simulate_missions(seed=1, effects=("load",), config=cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean, _ = clean_logs(camp.logs.drop(columns="z"))
+    return make_windows(clean, duration=2.0)
+
+
+def test_payload_on_a_base_with_the_gait_power_is_written(loaded_missions_with_stops):
+    """gait_power prices every walk alike, backward too: a payload times that base prices
+    backward walking no more than forward walking, which the logs hold, so the refit
+    keeps it (it used to be dropped for pricing backward motion, and the staircase
+    reported it as added while the written model lacked it)."""
+    from energy_planner.calibration.fit import base_terms
+    from energy_planner.diagnosis.names import term_spec
+    from energy_planner.stats import fold_index
+
+    windows = loaded_missions_with_stops
+    base = base_terms(windows)
+    unident = identifiable(windows, base)
+    start = [t for t in base if resolve_term(t).name not in unident]
+    assert "gait_power" in start and "bwd_const" not in start
+    term = _payload_term(windows, start)
+    wd = window_data(windows)
+    folds = fold_index(wd.runs, 3)
+    assert wd.unidentified([*start, term_spec(term)], folds) == {}
+    fit = fit_model(windows, [*base, term], n_splits=0)
+    assert "load_kg*P_base" in fit.model.term_names
+    assert fit.model.coefficients["load_kg*P_base"] > 0
+
+
+def test_a_suspect_the_refit_drops_is_reported_and_the_next_is_tried(
+    loaded_missions_with_stops,
+):
+    from energy_planner.calibration.fit import base_terms
+    from energy_planner.diagnosis.scoring import Ranking, Suspect
+    from energy_planner.diagnosis.suspects import _first_kept
+    from energy_planner.stats import fold_index
+
+    windows = loaded_missions_with_stops
+    wd = window_data(windows)
+    start = [t for t in base_terms(windows) if resolve_term(t).name not in identifiable(
+        windows, base_terms(windows))]  # fmt: skip
+
+    def suspect(term):
+        return Suspect(term, term, [], "", "data", 0.5, 1.0, 2.0, 1.0, 3.0, 1e-4, 6, 100)
+
+    lateral, load = suspect("load_kg * vy ** 2"), suspect("load_kg")
+    ranking = Ranking(start, 2.0, [], [lateral, load], [])
+    assert _first_kept(wd, list(start), ranking, fold_index(wd.runs, 3)) is load
+    (d,) = ranking.dropped
+    assert d["term"] == "load_kg * vy ** 2" and "lateral" in d["reason"]

@@ -385,9 +385,15 @@ def identify_terms(
     :data:`MIN_WINDOWS_PER_TERM` windows of it): on probe motions of that class
     (:func:`_class_probes`) its value differs from its value standing still at the same
     slope, heading and channel values, so it says something about that motion that the
-    logs cannot have told it. A term that prices every motion class alike and standing
-    differently (``gait_power``: what walking adds to standing) is told by the standing
-    windows instead: it needs :data:`MIN_WINDOWS_PER_TERM` of them. Then, in term order, a
+    logs cannot have told it; unless a motion class the logs hold prices it at least as
+    much (the largest difference from standing over the probes): then the logs told its
+    coefficient on that motion, and the absent motion is priced by its formula in
+    proportion, as the identified base prices it (``load_kg * speed`` on logs that walk
+    forward only; ``load_kg*P_base`` on a base with ``gait_power``, which prices every
+    walk alike), while ``vy ** 2`` from forward walking is not. A term that prices every
+    motion class alike and standing differently (``gait_power``: what walking adds to
+    standing) is told by the standing windows instead: it needs
+    :data:`MIN_WINDOWS_PER_TERM` of them. Then, in term order, a
     column that is (numerically) a combination of the earlier identified ones is not
     identified either (:func:`energy_planner.stats.independent_columns`).
 
@@ -418,10 +424,11 @@ def identify_terms(
     )
     yaw = np.abs(table["wz"].to_numpy(float))
     absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
+    present = [k for k in _RATE_OF_KIND if k not in absent]
     n_standing = int(np.sum(kind == STANDING))
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
-            why = _prices_absent_motion(term, absent, X[:, j], table, n_standing)
+            why = _prices_absent_motion(term, absent, X[:, j], table, n_standing, present)
             if why:
                 out[term.name] = why
             continue
@@ -553,6 +560,7 @@ def _prices_absent_motion(
     column: np.ndarray,
     table: pd.DataFrame,
     n_standing: int | None = None,
+    present: Sequence[str] = (),
 ) -> str | None:
     """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
     if not absent and n_standing is None:
@@ -580,19 +588,64 @@ def _prices_absent_motion(
                 f"{MIN_WINDOWS_PER_TERM}): the logs cannot tell it from idle_power; keep the "
                 "stops in the logs"
             )
+    if not absent:
+        return None
+    parts = _additive_parts(term)
+    if len(parts) > 1:  # a sum is told when each of its parts is
+        for part in parts:
+            why = _prices_absent_motion(part, absent, column, table, n_standing, present)
+            if why:
+                return why
+        return None
+    told = max((_prices_class(term, k, channels) for k in present), default=0.0)
     for k in absent:
-        probe, stand = _class_probes(k, channels)
-        ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
-        diff = np.abs(np.asarray(ev[0], float) - np.asarray(ev[1], float))
-        if np.nanmax(np.broadcast_to(diff, probe["alpha"].shape)) > tol:
+        diff = _prices_class(term, k, channels)
+        if diff > tol and diff > told * (1.0 + 1e-9):
             label = "turn-in-place" if k == "turning" else k
+            held = f"up to {told:.3g}" if told > tol else "nothing"
             return (
                 f"it prices {label} motion (its value walking {label} differs from its value "
-                f"standing by up to {float(np.nanmax(diff)):.3g}), and the campaign has fewer "
-                f"than {MIN_WINDOWS_PER_TERM} {label} windows: the logs cannot have told it "
-                f"what {label} motion costs; record such runs"
+                f"standing by up to {diff:.3g}; on the motions the logs hold, by {held}), "
+                f"and the campaign has fewer than {MIN_WINDOWS_PER_TERM} {label} windows: "
+                f"the logs cannot have told it what {label} motion costs; record such runs"
             )
     return None
+
+
+def _additive_parts(term: Term) -> list[Term]:
+    """The terms of a sum, a factor without motion distributed over them.
+
+    ``load_kg * (2 * pos(vx) + 3 * gait)`` -> ``load_kg * (2 * pos(vx))``,
+    ``load_kg * (3 * gait)``: what a channel times the fitted base is made of. A formula
+    that is not a sum is its own only part.
+    """
+    import ast
+
+    def split(node: ast.expr) -> list[ast.expr]:
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+            return split(node.left) + split(node.right)
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
+            for factor, rest in ((node.left, node.right), (node.right, node.left)):
+                names = {n.id for n in ast.walk(factor) if isinstance(n, ast.Name)}
+                if not names & MOTION_FEATURES:
+                    inner = split(rest)
+                    if len(inner) > 1:
+                        return [ast.BinOp(factor, ast.Mult(), p) for p in inner]
+        return [node]
+
+    nodes = split(term.parsed._tree)
+    if len(nodes) < 2:
+        return [term]
+    return [Term(name=f"{term.name}[{i}]", formula=ast.unparse(n)) for i, n in enumerate(nodes)]
+
+
+def _prices_class(term: Term, kind: str, channels: Mapping[str, Any]) -> float:
+    """Largest difference of a term's value on probes of a motion class from standing."""
+    probe, stand = _class_probes(kind, channels)
+    ev = [term.parsed.evaluate(prepare_features(f)) for f in (probe, stand)]
+    diff = np.abs(np.asarray(ev[0], float) - np.asarray(ev[1], float))
+    diff = np.broadcast_to(diff, probe["alpha"].shape)
+    return float(np.nanmax(diff)) if np.isfinite(diff).any() else 0.0
 
 
 def identifiable(windows: Any, terms: EnergyModel | Sequence[str | Term]) -> dict[str, str]:

@@ -7,8 +7,9 @@ Raw canonical samples go through
    with slope, odometry scale, IMU tilt, twist noise), each reported as a *data finding*
    and, with ``repair=True`` (the default), corrected - but a repair is kept only if the
    held-out error does not rise (:func:`heldout_score` of a model on the windows
-   without and with it; ``guard=True``): a repair that costs accuracy is reported as
-   rejected, with the two numbers;
+   without and with it; ``guard=True``; a repair that changes units, :data:`UNIT_REPAIRS`,
+   by the held-out runs' energies predicted from the pose, :func:`energy_score`): a
+   repair that costs accuracy is reported as rejected, with the two numbers;
 2. cleaning (:func:`clean_logs`: :func:`~energy_planner.measurements.preprocess.preprocess`,
    paper IV-B, but the stops stay: the standing power is fitted on them);
 3. windows (:func:`~energy_planner.measurements.windows.make_windows`).
@@ -44,13 +45,17 @@ from energy_planner.measurements.preprocess import PreprocessParams
 
 __all__ = [
     "CLEANING",
+    "EnergyScore",
     "HeldOutScore",
     "MIN_STOP_S",
     "PreparedLogs",
     "clean_logs",
     "prepare_logs",
+    "energy_score",
     "findings_text",
     "heldout_score",
+    "pose_twist",
+    "UNIT_REPAIRS",
     "yardstick_terms",
 ]
 
@@ -243,6 +248,157 @@ def heldout_score(
     return HeldOutScore(h.rmse, run_mse)
 
 
+#: The data findings whose repair changes the units of the logs (the odometry's metre, the
+#: power's sign, its clock). Windows fitted and scored in the logs' own units cannot see
+#: a unit error (the coefficients absorb it), so these repairs are judged by what the
+#: model is for: the energy of a path in map metres (:func:`energy_score`).
+UNIT_REPAIRS = frozenset({"current_sign", "clock_offset", "odometry_slip", "odometry_scale"})
+#: Half-width of the central difference that turns the pose track into a velocity, s.
+POSE_HALF_WIDTH_S = 0.5
+
+
+def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
+    """The samples with their twist taken from the pose track instead of the odometry.
+
+    Per run (samples in time order within each run), the pose's horizontal velocity is a
+    central difference over +-:data:`POSE_HALF_WIDTH_S` (``x, y`` interpolated in time),
+    and the body twist ``vx, vy`` is the one whose horizontal projection through the IMU
+    orientation it is (the inverse of the projection ``odometry_ratios`` compares with
+    the pose: the body moves in its own x-y plane, so the ground speed on a slope is
+    read, not the map speed); ``wz`` is the rate of the pose's ``yaw`` when the logs
+    have it. ``speed``, ``ax``, ``ay`` follow. A twist in map metres whatever the
+    odometry's scale, for :func:`energy_score`.
+
+    Examples
+    --------
+    Level ground, the body turned 90 deg (facing +y), walking +y at 0.3 m/s while the
+    odometry reads 5 % short:
+
+    >>> t = np.arange(0, 10, 0.1)
+    >>> c = np.sqrt(0.5)
+    >>> s = pd.DataFrame({"run": "a", "t": t, "qw": c, "qx": 0.0, "qy": 0.0, "qz": c,
+    ...                   "vx": 0.285, "vy": 0.0, "wz": 0.0, "x": 0.0, "y": 0.3 * t})
+    >>> p = pose_twist(s)
+    >>> round(float(p["vx"].mean()), 6), round(float(p["vy"].abs().max()), 6)
+    (0.3, 0.0)
+    """
+    from energy_planner.measurements.datacheck import _rotate_xy
+
+    out = samples.copy(deep=False)
+    run = out["run"].astype(str).to_numpy()
+    t = out["t"].to_numpy(float)
+    h = POSE_HALF_WIDTH_S
+    rate = {c: np.full(len(out), np.nan) for c in ("x", "y", "yaw") if c in out}
+    acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
+    starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+    bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
+    for a, b in bounds:
+        tt = t[a:b]
+        lo, hi = np.maximum(tt - h, tt[0]), np.minimum(tt + h, tt[-1])
+        span = hi - lo
+        for c in rate:
+            v = out[c].to_numpy(float)[a:b]
+            if c == "yaw":
+                v = np.unwrap(v)
+            ok = np.isfinite(v)
+            if ok.sum() < 2:
+                continue
+            d = np.interp(hi, tt[ok], v[ok]) - np.interp(lo, tt[ok], v[ok])
+            rate[c][a:b] = np.where(span > 0, d / np.where(span > 0, span, 1.0), 0.0)
+    q = out[["qw", "qx", "qy", "qz"]].to_numpy(float)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    r00, r10 = _rotate_xy(q, np.ones(len(q)), np.zeros(len(q)))
+    r01, r11 = _rotate_xy(q, np.zeros(len(q)), np.ones(len(q)))
+    det = r00 * r11 - r01 * r10
+    wx, wy = rate["x"], rate["y"]
+    out["vx"] = (r11 * wx - r01 * wy) / det
+    out["vy"] = (r00 * wy - r10 * wx) / det
+    if "yaw" in rate:
+        out["wz"] = rate["yaw"]
+    out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
+    for a, b in bounds:
+        if b - a > 1:
+            for src, dst in (("vx", "ax"), ("vy", "ay")):
+                acc[dst][a:b] = np.gradient(out[src].to_numpy(float)[a:b], t[a:b])
+    out["ax"], out["ay"] = acc["ax"], acc["ay"]
+    return out
+
+
+@dataclass(frozen=True)
+class EnergyScore:
+    """Held-out run energies predicted from the pose track (:func:`energy_score`).
+
+    Attributes
+    ----------
+    rel_error : pandas.Series
+        Per held-out run, ``E_pred / E_meas - 1``: the energy predicted from the pose
+        track (:func:`pose_twist`) by the fit that did not see the run, against the
+        measured battery energy of the same windows; indexed by run.
+    """
+
+    rel_error: pd.Series
+
+    @property
+    def median_abs(self) -> float:
+        """Median over runs of ``|E_pred / E_meas - 1|`` (NaN without runs)."""
+        e = self.rel_error.abs().dropna()
+        return float(e.median()) if len(e) else math.nan
+
+
+def energy_score(
+    samples: pd.DataFrame, *, window: float = 2.0, terms: Sequence[Any] | None = None
+) -> EnergyScore | None:
+    """Held-out error of run energies predicted from the map poses, on raw samples.
+
+    The yardstick of the repairs that change units (:data:`UNIT_REPAIRS`): the samples
+    are cleaned and windowed as every command does, the model ``terms`` (default
+    :func:`yardstick_terms`) is fitted by fold on the windows as logged (5 folds by run,
+    seed 0, the one held-out evaluation ``WindowData.heldout``), and each held-out run's
+    energy is predicted from its pose track (:func:`pose_twist`: the twist in map
+    metres; slope and heading from the IMU), floored per sample, a window's energy its
+    mean power times its duration, against the measured energy of the same windows.
+
+    Returns
+    -------
+    EnergyScore or None
+        None when the samples have no pose ``x, y``; an empty score when it cannot be
+        computed (fewer than two runs, no window).
+    """
+    from energy_planner.calibration.windowdata import WindowData, window_data
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements.windows import make_windows
+    from energy_planner.stats import fold_index
+
+    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the pipeline itself warns once, after
+            clean, _ = clean_logs(samples)
+            windows = make_windows(clean, duration=window)
+            del clean
+            wd = window_data(windows)
+            del windows
+        folds = fold_index(wd.runs, 5, 0)
+        use = yardstick_terms(wd) if terms is None else terms
+        names = [getattr(t, "formula", t) for t in use]
+        h = wd.heldout(names, folds)
+        on_map = WindowData(
+            pose_twist(wd.samples), wd.key, wd.table, wd.numeric_extras, wd.categorical_extras
+        )
+        X = on_map.sample_columns(names)
+    except (EnergyPlannerError, ValueError):
+        return EnergyScore(pd.Series(dtype=float))
+    fold = folds[wd.key]
+    p = np.maximum(np.einsum("ij,ij->i", X, h.coef[fold]), 0.0)
+    p[~np.all(np.isfinite(X), axis=1)] = np.nan
+    dur = wd.weights
+    pred = pd.Series(wd.window_mean(p) * dur).groupby(wd.runs).sum(min_count=1)
+    meas = pd.Series(wd.power * dur).groupby(wd.runs).sum(min_count=1)
+    rel = (pred / meas.where(meas > 0) - 1.0).replace([np.inf, -np.inf], np.nan)
+    return EnergyScore(rel)
+
+
 class _HeldOutGuard:
     """``check_data``'s ``accept``: a repair is kept unless it raises the held-out error.
 
@@ -263,6 +419,47 @@ class _HeldOutGuard:
         return heldout_score(samples, window=self.window, terms=self.terms)
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
+        if finding.name in UNIT_REPAIRS:
+            e0 = energy_score(before, window=self.window, terms=self.terms)
+            if e0 is not None:
+                e1 = energy_score(after, window=self.window, terms=self.terms)
+                keep = self._by_energy(e0, e1, finding)
+                if keep:
+                    self._before = None  # the samples changed: scored afresh next time
+                return keep
+        return self._by_power(before, after, finding)
+
+    def _by_energy(self, e0: EnergyScore, e1: EnergyScore, finding: DataFinding) -> bool:
+        """A unit repair: kept unless the held-out run energies get worse with it."""
+        from energy_planner.stats import paired_run_test
+
+        both = e0.rel_error.dropna().index.intersection(e1.rel_error.dropna().index)
+        a0, a1 = e0.median_abs, e1.median_abs
+        _, p, n = paired_run_test(
+            e1.rel_error[both].to_numpy(float), e0.rel_error[both].to_numpy(float),
+            np.arange(len(both)),
+        )  # fmt: skip
+        keep = not (math.isfinite(a0) and math.isfinite(a1) and a1 > a0 and p < REPAIR_ALPHA)
+        finding.evidence["heldout_check"] = {
+            "yardstick": "run energy from the pose",
+            "energy_error_without_repair": a0,
+            "energy_error_with_repair": a1,
+            "p_worse": p,
+            "runs": n,
+            "kept": keep,
+        }
+        if not keep:
+            finding.summary += (
+                f"; the repair was NOT applied: it raises the error of the held-out runs' "
+                f"energies predicted from the pose from {100 * a0:.2f} % to {100 * a1:.2f} % "
+                f"(median), worse in the runs beyond noise (signed-rank p {p:.2g} over {n} "
+                "runs; a repair of units is kept only if the energy of the path in map "
+                "metres does not get worse)"
+            )
+        return keep
+
+    def _by_power(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
+        """Any other repair: kept unless the held-out window-power error rises with it."""
         from energy_planner.stats import paired_run_test
 
         s0 = self._score(before)

@@ -285,26 +285,72 @@ class WindowData:
 
     def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
         """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""
-        from energy_planner.calibration._windows import window_kind
         from energy_planner.calibration.fit import identifiable_by_fold
         from energy_planner.model import EnergyModel
-        from energy_planner.stats import MOTIONS, classify_motion
 
         if key not in self._fold_cols:
-            # the windows' motion classes as the measurements label them; other labels
-            # (hand-made samples) by classify_motion of the window's mean twist
-            cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
-            given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
-            motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
-            kind = window_kind(motion, table["speed"].to_numpy(float), table["wz"].to_numpy(float))
-            t = table.assign(kind=kind)
             model = EnergyModel(terms=list(key[0]))
+            t = _with_kind(table)
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
         return self._fold_cols[key]
+
+    def unidentified(self, terms: Sequence[str], folds: np.ndarray) -> dict[str, str]:
+        """Terms a refit of the model ``terms`` leaves out, each with the reason.
+
+        The rule of the final fit (:func:`~energy_planner.calibration.fit.identify_terms`
+        on all windows) and of the held-out evaluation (the same on each fold's training
+        windows, :meth:`heldout`): a term named here is not in the model that is written,
+        or is predicted as 0 in some fold. Keys are the terms as given.
+
+        Parameters
+        ----------
+        terms : sequence of str
+            The model's terms (catalog names or formulas).
+        folds : numpy.ndarray
+            Fold of every window.
+
+        Returns
+        -------
+        dict
+            Term -> why (the first fold that leaves it out is named).
+        """
+        from energy_planner.calibration.fit import identify_terms
+        from energy_planner.model import EnergyModel
+
+        terms = list(terms)
+        model = EnergyModel(terms=terms)
+        names = model.term_names
+        X, w, t = self.columns(terms), self.weights, _with_kind(self.table)
+        folds = np.asarray(folds)
+        out: dict[str, str] = {}
+        for f in [None, *range(int(folds.max()) + 1)]:
+            train = np.ones(len(t), dtype=bool) if f is None else folds != f
+            lost = identify_terms(model, X[train], w[train], t[train])
+            for term, name in zip(terms, names, strict=True):
+                if name in lost and term not in out:
+                    where = "all windows" if f is None else f"the training runs of fold {f}"
+                    out[term] = f"{lost[name]} (on {where})"
+        return out
 
     def predict(self, model) -> np.ndarray:
         """Window mean of the model's per-sample power (clamped at 0 as the model does)."""
         return self.window_mean(np.asarray(model.power(self.samples), dtype=float))
+
+
+def _with_kind(table: pd.DataFrame) -> pd.DataFrame:
+    """The window table with the calibration's motion ``kind`` of every window.
+
+    The windows' motion classes as the measurements label them; other labels (hand-made
+    samples) by ``classify_motion`` of the window's mean twist.
+    """
+    from energy_planner.calibration._windows import window_kind
+    from energy_planner.stats import MOTIONS, classify_motion
+
+    cls = classify_motion(*(table[c].to_numpy(float) for c in ("vx", "vy", "wz")))
+    given = table["motion"] if "motion" in table else pd.Series(None, index=table.index)
+    motion = np.where(given.isin(MOTIONS).to_numpy(), given.to_numpy(), cls)
+    kind = window_kind(motion, table["speed"].to_numpy(float), table["wz"].to_numpy(float))
+    return table.assign(kind=kind)
 
 
 def _is_numeric(series: pd.Series) -> bool:

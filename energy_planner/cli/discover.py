@@ -64,6 +64,12 @@ def _text(doc: dict[str, Any]) -> str:
             lines.append(f"       {r['explanation']}")
         for a in r["alternatives"]:
             lines.append(f"       or, equally well (the data cannot tell them apart): {a['name']}")
+        for d in r.get("dropped", []):
+            lines.append(f"       tried first, left out by the refit: {d['name']} ({d['reason']})")
+    last = doc["staircase"][-1]["step"] if doc["staircase"] else 0
+    for d in doc.get("dropped", []):
+        if d["step"] > last:
+            lines.append(f"  not added, left out by the refit: {d['name']} ({d['reason']})")
     if len(doc["staircase"]) > 1:
         lines.append(
             f"error removed in total: {_pct(doc['staircase'][-1]['error_removed_total'])} of "

@@ -172,7 +172,8 @@ class Discovery:
         rows = []
         first = self.step_metrics[0]["heldout_rmse_w"] if self.step_metrics else math.nan
         fl = math.nan if self.floor is None else self.floor.rmse_w
-        for s, m in zip(self.steps, self.step_metrics, strict=True):
+        for i, (s, m) in enumerate(zip(self.steps, self.step_metrics, strict=True)):
+            tried = self.rankings[i - 1].dropped if i and i <= len(self.rankings) else []
             removed_total = 1.0 - (m["heldout_rmse_w"] / first) ** 2 if first > 0 else math.nan
             rows.append(
                 {
@@ -188,9 +189,15 @@ class Discovery:
                     "error_removed": s.error_explained,
                     "error_removed_total": removed_total,
                     "fold_rmse_w": s.fold_rmse_w,
+                    "dropped": [dict(d) for d in tried],
                 }
             )
         return rows
+
+    @property
+    def dropped(self) -> list[dict[str, Any]]:
+        """Suspects above noise a refit left out, with the step that tried them and why."""
+        return [{"step": i + 1, **d} for i, r in enumerate(self.rankings) for d in r.dropped]
 
     def plot(self, path: Any) -> Any:
         """The staircase (held-out RMSE and run-energy error per step); PNG at ``path``."""
@@ -226,6 +233,7 @@ class Discovery:
         return {
             "base_terms": list(self.base_terms),
             "added": self.added,
+            "dropped": self.dropped,
             "terms": self.term_names,
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
@@ -351,7 +359,8 @@ def discover(
     floor = noise_floor(wd)
     notes = []
     if rankings:
-        left = bool(rankings[-1].suspects)
+        last = rankings[-1]
+        left = len(last.suspects) > len(last.dropped)  # the others a refit would leave out
         if left:
             notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
         notes.append(conclusion(rankings[-1].heldout_rmse_w, floor, suspects_left=left))
@@ -359,10 +368,19 @@ def discover(
     if fit_final:
         wd.release_sample_columns()  # the final fit builds its own design (memory)
         try:
-            final = [*base, *(model_term(s.name, s.added, s.explanation) for s in steps[1:])]
+            added = [model_term(s.name, s.added, s.explanation) for s in steps[1:]]
+            final = [*base, *added]
             fit = fit_model(windows, final, n_splits=th.n_splits, seed=th.seed, prior=prior)
         except EnergyPlannerError as exc:
             notes.append(f"the final fit failed: {exc}")
+        else:
+            names = {t.name if isinstance(t, Term) else resolve_term(t).name for t in added}
+            lost = [n for n in fit.unidentified if n in names]
+            if lost:  # the staircase checked this rule: a disagreement is a defect
+                notes.append(
+                    "the final fit left out term(s) the staircase added: "
+                    + "; ".join(f"{n}: {fit.unidentified[n]}" for n in lost)
+                )
     return Discovery(
         base_terms=base,
         steps=steps,

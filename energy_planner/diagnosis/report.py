@@ -453,11 +453,13 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
     rows = []
     for r in table:
         alts = "; ".join(f"{a['name']} ({a['term']})" for a in r["alternatives"])
+        left = "; ".join(f"{d['name']}: {d['reason']}" for d in r.get("dropped", []))
         rows.append(
             dict(
                 r,
                 added=r["added"] or "(base model)",
                 alternatives=alts or "-",
+                left_out=left or "-",
                 med=None if r["run_energy_error_median"] is None
                 else 100 * r["run_energy_error_median"],
                 p90=None if r["run_energy_error_p90"] is None else 100 * r["run_energy_error_p90"],
@@ -473,6 +475,7 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
                 ("added", "term added"),
                 ("explanation", "physical explanation"),
                 ("alternatives", "or equally (confounded)"),
+                ("left_out", "tried first, left out by the refit"),
                 ("heldout_rmse_w", "held-out RMSE (W)"),
                 ("floor_ratio", "x noise floor"),
                 ("med", "run energy error, median (%)"),

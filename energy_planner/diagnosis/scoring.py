@@ -98,6 +98,9 @@ class Ranking:
     n_tested: int = 0
     p_threshold: float = math.nan
     heldout_errors: np.ndarray | None = field(default=None, repr=False)
+    #: suspects above noise that a refit with them leaves out (``term``, ``name``,
+    #: ``reason``), best first: the staircase tried them before the one it added
+    dropped: list[dict] = field(default_factory=list)
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:

@@ -154,6 +154,12 @@ def staircase(
 ) -> tuple[list[Step], list[Ranking]]:
     """Greedy forward selection: add the best suspect, refit, re-rank, while above noise.
 
+    A suspect that the refit with it would leave out (:meth:`WindowData.unidentified`:
+    the final fit on all windows, or a fold's fit, cannot identify it) is not added: it
+    is recorded in its ranking's ``dropped``, with the reason, and the next suspect is
+    tried. So every term added is in the model that is fitted and written, and a step's
+    held-out RMSE is that model's.
+
     Returns the steps (step 0 is the model as given) and the ranking made at each step.
     """
     from energy_planner.progress import reporter
@@ -166,14 +172,14 @@ def staircase(
     steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
     rankings = [ranking]
     for i in range(1, max_steps + 1):
-        if not ranking.suspects:
+        best = _first_kept(wd, terms, ranking, folds)
+        if best is None:
             break
-        best = ranking.suspects[0]
         alts = [
             {"name": a.name, "term": a.term, "explanation": a.explanation,
              "heldout_rmse_w": a.heldout_rmse_w}
             for a in ranking.alternatives
-        ]  # fmt: skip
+        ] if best is ranking.suspects[0] else []  # fmt: skip
         terms.append(best.term)
         ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
         rankings.append(ranking)
@@ -191,3 +197,13 @@ def staircase(
         )
         rep.say(f"step {i} done", stage="staircase")
     return steps, rankings
+
+
+def _first_kept(wd: WindowData, terms: list[str], ranking: Ranking, folds) -> Suspect | None:
+    """The best suspect of ``ranking`` that a refit keeps; the others tried go to ``dropped``."""
+    for s in ranking.suspects:
+        why = wd.unidentified([*terms, s.term], folds).get(s.term)
+        if not why:
+            return s
+        ranking.dropped.append({"term": s.term, "name": s.name, "reason": why})
+    return None
