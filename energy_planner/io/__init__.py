@@ -6,7 +6,8 @@ Every file the project writes goes through this package:
   the destination's folder is created if missing; the destination keeps its previous
   content when the write fails or the process gets SIGTERM or SIGKILL (a killed write's
   leftover is removed by the next write: :func:`remove_stale`). :func:`atomic_dir` does
-  the same for a whole folder (swapped in one step). :func:`write_text`, :func:`write_bytes`, :func:`write_json` use it.
+  the same for a whole folder (swapped in one step). :func:`write_text`,
+  :func:`write_bytes`, :func:`write_json` use it.
 * :func:`write_geotiff` / :func:`open_geotiff` - the one GeoTIFF writer (NaN nodata for
   floats, GDAL band units and descriptions, tags).
 * :func:`write_geojson` / :func:`feature_collection` - RFC 7946 (WGS 84 lon/lat) by
