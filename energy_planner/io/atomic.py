@@ -219,7 +219,7 @@ def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write
     Examples
     --------
     >>> import errno
-    >>> str(output_error("/no/such/map.tif", OSError(errno.ENOSPC, "No space left")))[:72]
+    >>> str(output_error("/no/such/map.tif", OSError(errno.ENOSPC, "No space left")))[:73]
     "cannot write '/no/such/map.tif': no space left on the device; nothing was"
     """
     import errno
