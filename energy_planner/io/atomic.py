@@ -231,14 +231,19 @@ def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write
         exc = exc.__cause__
     if isinstance(exc, EnergyPlannerError):
         return exc
-    why = {
-        errno.ENOSPC: "no space left on the device",
-        errno.EDQUOT: "disk quota exceeded",
-        errno.EACCES: "permission denied",
-        errno.EPERM: "permission denied",
-        errno.EROFS: "the file system is read-only",
-        errno.EISDIR: "it is a folder",
-    }.get(exc.errno or -1, exc.strerror or str(exc))
+    why = (
+        {
+            errno.ENOSPC: "no space left on the device",
+            errno.EDQUOT: "disk quota exceeded",
+            errno.EACCES: "permission denied",
+            errno.EPERM: "permission denied",
+            errno.EROFS: "the file system is read-only",
+            errno.EISDIR: "it is a folder",
+        }.get(exc.errno or -1)
+        or _full_disk(dest)
+        or exc.strerror
+        or str(exc)
+    )
     if not dest.exists():
         kept = "nothing was written"
     else:
@@ -250,6 +255,23 @@ def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write
         value=exc.strerror or str(exc),
         expected="a writable folder with free space",
     )
+
+
+def _full_disk(dest: Path) -> str | None:
+    """The words for a full disk when ``dest``'s file system is (nearly) full, else None.
+
+    Writers such as GDAL report a full disk without its errno ("Write failed").
+    """
+    for d in (dest.parent, *dest.parent.parents):
+        if d.exists():
+            try:
+                st = os.statvfs(d)
+            except (OSError, AttributeError):
+                return None
+            if st.f_bavail * st.f_frsize < 64 * 1024:
+                return f"no space left on the device ({d})"
+            return None
+    return None
 
 
 def _reraise(dest: Path, exc: OSError, doing: str = "write") -> None:
