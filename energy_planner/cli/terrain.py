@@ -64,7 +64,6 @@ def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> N
     """Write one band on ``grid`` (a :class:`~energy_planner.terrain.native.NativeGrid`)."""
     from energy_planner.io import write_geotiff
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     write_geotiff(
         path, np.where(np.isfinite(data), data, np.nan), transform=grid.transform,
         crs=grid.crs, names=[name], units=["deg"], descriptions=[description],
@@ -91,7 +90,6 @@ def _plot(path: Path, terrain, slope_deg: np.ndarray, title: str) -> None:
     ax.set_ylabel("y north (m)")
     ax.set_title(title)
     ax.ticklabel_format(useOffset=False, style="plain")
-    path.parent.mkdir(parents=True, exist_ok=True)
     from energy_planner.io import save_figure
 
     save_figure(fig, path, dpi=120)
