@@ -87,8 +87,10 @@ class LoadReport:
         Anything else worth knowing (resampling method, conversions).
     skipped : list of dict
         Tables found by scanning a folder that have none of the log columns (e.g. a
-        ``runs.csv`` list of runs), with the reason. A table named explicitly, or one
-        with some but not all required columns, is an error instead.
+        ``runs.csv`` list of runs), and files a crashed logger left without samples (zero
+        bytes, a header only, a Parquet file without its footer), each with the reason
+        (``path``, ``reason``). A table named explicitly that is not a log, or one with
+        some but not all required columns, is an error instead.
     """
 
     files: list[dict[str, Any]] = field(default_factory=list)
