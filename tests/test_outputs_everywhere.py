@@ -210,3 +210,17 @@ def test_library_writer_refuses_a_non_empty_folder(tmp_path):
         with atomic_dir(tmp_path):
             pass
     assert [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_an_energy_map_of_a_lonlat_dem_into_a_missing_folder_leaves_no_scratch(tmp_path):
+    """A lon/lat DEM's map is computed in a scratch file beside --out, then resampled."""
+    yy, xx = np.mgrid[0:N, 0:N]
+    z = (3.0 * np.exp(-((xx - 15.0) ** 2 + (yy - 15.0) ** 2) / 60.0)).astype("float32")
+    dem = tmp_path / "lonlat.tif"
+    prof = dict(driver="GTiff", height=N, width=N, count=1, dtype="float32", crs="EPSG:4326")
+    with rasterio.open(dem, "w", transform=from_origin(3.0, 45.0, 2e-5, 2e-5), **prof) as dst:
+        dst.write(z, 1)
+    out = tmp_path / "new" / "map.tif"
+    r = CliRunner().invoke(main, ["energy-map", str(dem), "--out", str(out), "--headings", "4"])
+    assert r.exit_code == 0, r.output
+    assert [p.name for p in out.parent.iterdir()] == ["map.tif"]

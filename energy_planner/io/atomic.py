@@ -57,6 +57,7 @@ __all__ = [
     "output_error",
     "remove_stale",
     "save_figure",
+    "scratch_path",
     "write_bytes",
     "write_json",
     "write_text",
@@ -111,7 +112,7 @@ def _mode_for(dest: Path) -> int:
 
 #: The temporary name of a file being written: ``.<stem>.<pid>.<random>.tmp<suffix>``
 #: (the writer's process id, so that a later write can tell a dead writer's leftover).
-_TMP_FILE = r"\.{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp{suffix}"
+_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}"
 #: The temporary folder of a folder (or a file written by name) being made:
 #: ``.<name>.<pid>.<random>.tmp``.
 _TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
@@ -184,10 +185,14 @@ def remove_stale(dest: str | os.PathLike[str]) -> list[Path]:
         re.compile(_TMP_FILE.format(stem=re.escape(dest.stem), suffix=re.escape(dest.suffix))),
         re.compile(_TMP_DIR.format(name=re.escape(dest.name))),
     )
-    head = f".{dest.stem}."
+    head = f"{dest.stem}."
     removed: list[Path] = []
-    try:
-        entries = [e for e in os.scandir(parent) if e.name.startswith(head)]
+    try:  # a temporary name of a temporary file (a scratch file written atomically) too
+        entries = [
+            e
+            for e in os.scandir(parent)
+            if e.name[:1] == "." and e.name.lstrip(".").startswith(head)
+        ]
     except OSError:
         return removed
     for e in entries:
@@ -364,6 +369,33 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
         if not done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def scratch_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden scratch file beside ``dest`` (its folder made), removed at the end.
+
+    For work files an output needs on the same disk (an energy map computed on the
+    working grid before it is resampled onto ``dest``'s). The name is a temporary name of
+    ``dest`` (``.<stem>.<pid>.<random>.tmp<suffix>``, locked while in use), so what a
+    SIGKILL leaves is removed by the next write to ``dest`` (:func:`remove_stale`).
+    """
+    dest = Path(dest)
+    parent = _make_parent(dest)
+    remove_stale(dest)
+    try:
+        fd, name = tempfile.mkstemp(
+            dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
+        )
+    except OSError as exc:
+        _reraise(dest, exc)
+    _lock(fd)
+    try:
+        yield Path(name)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(name)
         os.close(fd)
 
 
