@@ -120,7 +120,7 @@ _TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
 
 def _alive(pid: int) -> bool:
     """True if a process ``pid`` exists (or may: not ours to signal)."""
-    if pid == os.getpid():
+    if pid == os.getpid() or os.name == "nt":  # Windows: os.kill would end the process
         return True
     try:
         os.kill(pid, 0)
@@ -427,15 +427,20 @@ def _holder(dest: Path, parent: Path) -> Iterator[Path]:
         )
     except OSError as exc:
         _reraise(dest, exc)
-    fd = os.open(holder, os.O_RDONLY)
-    _lock(fd)
+    try:
+        fd: int | None = os.open(holder, os.O_RDONLY)
+    except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
+        fd = None
+    if fd is not None:
+        _lock(fd)
     try:
         yield holder
     except BaseException:
         shutil.rmtree(holder, ignore_errors=True)
         raise
     finally:
-        os.close(fd)
+        if fd is not None:
+            os.close(fd)
 
 
 def _exchange(a: Path, b: Path) -> bool:
