@@ -69,6 +69,7 @@ __all__ = [
     "ModelError",
     "MotionCostError",
     "NonPositivePowerError",
+    "OutputError",
     "OutsideMapError",
     "PlanningConfigError",
     "PlanningError",
@@ -242,6 +243,10 @@ class LogError(EnergyPlannerError, ValueError):
 
 class LogIOError(EnergyPlannerError, OSError):
     """A robot log file cannot be found or read."""
+
+
+class OutputError(EnergyPlannerError, OSError):
+    """An output cannot be written: an unwritable folder, a full disk, a folder as a file."""
 
 
 class FitError(EnergyPlannerError, ValueError):

@@ -15,7 +15,7 @@ def test_demo_shows_fig1_a_longer_route_that_costs_less_with_no_limit(tmp_path):
     route is a different path from the direct climb and from the shortest route, costs
     less than the direct climb, and climbs more gently than the model's critical grade
     lets the direct line do."""
-    png = tmp_path / "demo.png"
+    png = tmp_path / "new" / "demo.png"  # its folder is made (test_outputs_everywhere)
     r = CliRunner().invoke(main, ["demo", "--time", "2", "--plot", str(png), "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.stdout)

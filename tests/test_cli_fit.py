@@ -21,7 +21,7 @@ def logs(tmp_path_factory):
 
 
 def test_fit_json(logs, tmp_path):
-    out = tmp_path / "model.json"
+    out = tmp_path / "new" / "model.json"  # its folder is made (test_outputs_everywhere)
     r = CliRunner().invoke(
         main,
         [
@@ -102,7 +102,7 @@ def test_fit_missing_path(tmp_path):
 
 
 def test_figures_json(logs, tmp_path):
-    out = tmp_path / "figs"
+    out = tmp_path / "new" / "figs"  # its folder is made (test_outputs_everywhere)
     r = CliRunner().invoke(main, ["figures", str(logs), "--out", str(out), "--json"])
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)

@@ -299,7 +299,7 @@ def campaign_dir(tmp_path_factory):
 def test_cli_json_and_report(campaign_dir):
     from energy_planner.cli import main
 
-    report = campaign_dir / "report.html"
+    report = campaign_dir / "new" / "report.html"  # its folder is made
     res = CliRunner().invoke(
         main,
         [

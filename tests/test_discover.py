@@ -114,7 +114,7 @@ def test_cli_discover(tmp_path):
 
     camp = _campaign(effects=("ground",), seed=1)
     camp.write(tmp_path / "logs")
-    out, report = tmp_path / "m.json", tmp_path / "r.html"
+    out, report = tmp_path / "new" / "m.json", tmp_path / "new2" / "r.html"  # folders made
     runner = CliRunner()
     args = ["discover", str(tmp_path / "logs"), "--out", str(out), "--max-steps", "2"]
     res = runner.invoke(main, [*args, "--json", "--report", str(report)])

@@ -115,9 +115,11 @@ def test_discharge_positive_keeps_the_sign_but_says_why_windows_vanish(tmp_path)
     with pytest.warns(UserWarning, match=r"ros\.csv.*table_current='ros' or 'auto'"):
         s = load_logs(tmp_path, table_current="discharge_positive")
     assert (s["current"] == -6.0).all()
-    with pytest.warns(UserWarning, match=r"'ros'.*every sample removed.*consistency_bound"):
-        _, rep = preprocess(s)
-    assert rep.dropped_runs[0]["run"] == "ros" and rep.dropped_runs[0]["n_samples"] == 250
+    with (
+        pytest.warns(UserWarning, match=r"'ros'.*every sample removed.*consistency_bound"),
+        pytest.raises(LogError, match=r"every one of the 250 samples.*consistency_bound: power"),
+    ):
+        preprocess(s)  # nothing left: the error lists each removal
 
 
 def test_regenerative_moments_do_not_flip(tmp_path):

@@ -349,7 +349,7 @@ def test_write_ros2_bags(tmp_path):
     back = load_rosbag(bags[0])
     assert len(back) == len(camp.logs)
     assert np.allclose(back["current"], camp.logs["current"], rtol=1e-6, atol=1e-5)
-    with pytest.raises(EnergyPlannerError, match="already holds bags"):
+    with pytest.raises(EnergyPlannerError, match="is not empty"):
         camp.write(tmp_path, bag=True)
 
 

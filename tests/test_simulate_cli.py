@@ -134,5 +134,6 @@ def test_unwritable_output_is_a_click_error(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     res = CliRunner().invoke(main, ["simulate", "--out", str(blocker / "sub"), "--small"])
-    assert res.exit_code == 1
-    assert "cannot create output directory" in res.output and "hint" in res.output
+    assert res.exit_code == 2  # a path that cannot be: a usage error (cli.exit_status_error)
+    assert "cannot create the folder of" in res.output and "is a file" in res.output
+    assert "hint" in res.output

@@ -238,11 +238,8 @@ def command(
         from energy_planner.diagnosis.report import write_report
 
         try:
-            report.parent.mkdir(parents=True, exist_ok=True)
             write_report(d, report)
         except OSError as exc:
-            raise click.BadParameter(
-                f"cannot write {str(report)!r}: {exc}", param_hint="--report"
-            ) from exc
+            raise click.BadParameter(str(exc), param_hint="--report") from exc
         doc["report"] = str(report)
     options.emit(doc, as_json, lambda x: _text(x, report))

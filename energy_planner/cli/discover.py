@@ -148,22 +148,18 @@ def command(
             f.name for f in d.data_findings if f.finding]},
     }  # fmt: skip
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
         d.model.save(out)
     except OSError as exc:
-        raise click.BadParameter(f"cannot write {str(out)!r}: {exc}", param_hint="--out") from exc
+        raise click.BadParameter(str(exc), param_hint="--out") from exc
     doc["model"] = str(out)
     if report is not None:
         from energy_planner.diagnosis.report import render_discovery_html
 
         try:
-            report.parent.mkdir(parents=True, exist_ok=True)
             from energy_planner.io import write_text
 
             write_text(report, render_discovery_html(doc))
         except OSError as exc:
-            raise click.BadParameter(
-                f"cannot write {str(report)!r}: {exc}", param_hint="--report"
-            ) from exc
+            raise click.BadParameter(str(exc), param_hint="--report") from exc
         doc["report"] = str(report)
     options.emit(doc, as_json, _text)

@@ -261,10 +261,9 @@ def command(
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
         result.model.save(out)
     except OSError as exc:
-        raise click.BadParameter(f"cannot write {str(out)!r}: {exc}", param_hint="--out") from exc
+        raise click.BadParameter(str(exc), param_hint="--out") from exc
 
     doc = {"model": str(out), **reports, "fit": result.to_dict()}
 

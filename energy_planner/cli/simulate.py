@@ -89,7 +89,13 @@ def _text(doc: dict[str, Any]) -> str:
     "out",
     required=True,
     folder=True,
-    help="Output directory (created if missing).",
+    help="Output directory (created if missing; must be empty unless --overwrite).",
+)
+@click.option(
+    "--overwrite",
+    is_flag=True,
+    help="Replace a non-empty --out folder whole (written beside it, then swapped in: "
+    "never a mix of old and new files).",
 )
 @options.seed_option
 @click.option(
@@ -152,6 +158,7 @@ def _text(doc: dict[str, Any]) -> str:
 @options.json_option
 def command(
     out: Path,
+    overwrite: bool,
     seed: int,
     effects: tuple[str, ...],
     faults: tuple[str, ...],
@@ -176,6 +183,7 @@ def command(
     --missions N the robot follows smooth paths over a DEM instead.
     """
     from energy_planner.errors import EnergyPlannerError
+    from energy_planner.io import check_folder_output
     from energy_planner.simulate import (
         EFFECTS,
         CampaignConfig,
@@ -201,6 +209,7 @@ def command(
         )
     common = dict(seed=seed, effects=effects, faults=faults, progress=progress)
     try:
+        check_folder_output(out, overwrite=overwrite)  # before the work, not after
         if missions is not None:
             from energy_planner.terrain import load_dem
 
@@ -211,11 +220,12 @@ def command(
         else:
             config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
             camp = simulate_campaign(config=config, **common)
-        files = camp.write(out, fmt=fmt, bag=bag, progress=progress)
+        files = camp.write(out, fmt=fmt, bag=bag, progress=progress, overwrite=overwrite)
         plot_path = camp.plot(plot) if plot is not None else None
     except EnergyPlannerError as exc:
         raise click.ClickException(
-            f"{exc}\nhint: check --out is writable and empty of old bags; "
+            f"{exc}\nhint: --out must be a writable, empty or new folder (--overwrite "
+            "replaces it); "
             "`energy-planner simulate --help` lists the options"
         ) from exc
     doc = {

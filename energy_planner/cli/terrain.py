@@ -59,7 +59,6 @@ def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> N
     """Write one band on ``grid`` (a :class:`~energy_planner.terrain.native.NativeGrid`)."""
     from energy_planner.io import write_geotiff
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     write_geotiff(
         path, np.where(np.isfinite(data), data, np.nan), transform=grid.transform,
         crs=grid.crs, names=[name], units=["deg"], descriptions=[description],
@@ -100,7 +99,6 @@ def _plot(path: Path, terrain, title: str) -> None:
         ax.set_aspect(1.0 / max(math.cos(lat), 1e-6))
     label_map_axes(ax, grid.crs)
     ax.set_title(title)
-    path.parent.mkdir(parents=True, exist_ok=True)
     from energy_planner.io import save_figure
 
     save_figure(fig, path, dpi=120)

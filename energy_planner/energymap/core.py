@@ -418,19 +418,12 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
 def _compute_on_dem_grid(
     terrain: Any, info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress
 ) -> None:
-    """Map on the working grid (a temporary file next to ``out``), then onto the DEM's."""
-    import tempfile
+    """Map on the working grid (a hidden scratch file next to ``out``), then onto the DEM's."""
+    from energy_planner.io import scratch_path
 
-    fd, name = tempfile.mkstemp(suffix=".working.tif", prefix=out.stem, dir=out.parent)
-    import os
-
-    os.close(fd)
-    work = Path(name)
-    try:
+    with scratch_path(out) as work:
         _compute_terrain(terrain, work, replace(setup, bands="all"), model_name, progress)
         _to_dem_grid(work, info, out, setup, model_name)
-    finally:
-        work.unlink(missing_ok=True)
 
 
 # ---------------------------------------------------------------------------- the API

@@ -3,8 +3,11 @@
 Every file the project writes goes through this package:
 
 * :func:`atomic_path` - a temporary file beside the destination, renamed when complete;
-  the destination keeps its previous content when the write fails or the process gets
-  SIGTERM. :func:`write_text`, :func:`write_bytes`, :func:`write_json` use it.
+  the destination's folder is created if missing; the destination keeps its previous
+  content when the write fails or the process gets SIGTERM or SIGKILL (a killed write's
+  leftover is removed by the next write: :func:`remove_stale`). :func:`atomic_dir` does
+  the same for a whole folder (swapped in one step). :func:`write_text`,
+  :func:`write_bytes`, :func:`write_json` use it.
 * :func:`write_geotiff` / :func:`open_geotiff` - the one GeoTIFF writer (NaN nodata for
   floats, GDAL band units and descriptions, tags).
 * :func:`write_geojson` / :func:`feature_collection` - RFC 7946 (WGS 84 lon/lat) by
@@ -16,9 +19,14 @@ Every file the project writes goes through this package:
 from __future__ import annotations
 
 from energy_planner.io.atomic import (
+    atomic_dir,
     atomic_path,
+    check_folder_output,
     content_id,
+    output_error,
+    remove_stale,
     save_figure,
+    scratch_path,
     write_bytes,
     write_json,
     write_text,
@@ -51,7 +59,9 @@ __all__ = [
     "NODATA",
     "RFC7946_CRS",
     "Geometries",
+    "atomic_dir",
     "atomic_path",
+    "check_folder_output",
     "compression_options",
     "content_id",
     "crs_name",
@@ -61,10 +71,13 @@ __all__ = [
     "geotiff_profile",
     "is_lonlat",
     "open_geotiff",
+    "output_error",
     "read_geometries",
+    "remove_stale",
     "reproject_geometries",
     "reproject_xy",
     "save_figure",
+    "scratch_path",
     "write_bytes",
     "write_geojson",
     "write_geotiff",

@@ -5,14 +5,22 @@ Every file the project writes goes through :func:`atomic_path` (directly or thro
 writers). The destination therefore holds either the previous file or the complete new
 one, never a partial one:
 
+* the destination's folder is created if missing (one rule for every output of every
+  command); a folder that cannot be written, a full disk or a destination that is a
+  folder raise :class:`~energy_planner.errors.OutputError` naming the path;
 * on success the temporary file is renamed over the destination (:func:`os.replace`,
   atomic on POSIX and Windows within one file system);
 * on an exception, or a SIGTERM (turned into ``SystemExit(143)`` while the file is being
   written, in the main thread), the temporary file is removed and the destination is
   left as it was.
 
-The temporary file keeps the destination's suffix (``.map.tif`` -> ``.map.<random>.tmp.tif``)
-so that writers that choose a format from the name (rasterio, matplotlib) still do.
+The temporary file keeps the destination's suffix (``map.tif`` ->
+``.map.<pid>.<random>.tmp.tif``) so that writers that choose a format from the name
+(rasterio, matplotlib) still do. A SIGKILL cannot clean up: the hidden temporary file it
+leaves is removed by the next write to the same destination (:func:`remove_stale`; the
+writer's process id is in the name and a live writer holds a lock on it, so concurrent
+writers never remove each other's files). A whole folder (a simulated campaign) is
+written with :func:`atomic_dir`: filled beside, then swapped in one step.
 
 Examples
 --------
@@ -42,9 +50,14 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "atomic_dir",
     "atomic_path",
+    "check_folder_output",
     "content_id",
+    "output_error",
+    "remove_stale",
     "save_figure",
+    "scratch_path",
     "write_bytes",
     "write_json",
     "write_text",
@@ -97,6 +110,200 @@ def _mode_for(dest: Path) -> int:
         return 0o666 & ~_UMASK
 
 
+#: The temporary name of a file being written: ``.<stem>.<pid>.<random>.tmp<suffix>``
+#: (the writer's process id, so that a later write can tell a dead writer's leftover).
+_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}"
+#: The temporary folder of a folder (or a file written by name) being made:
+#: ``.<name>.<pid>.<random>.tmp``.
+_TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
+
+
+def _alive(pid: int) -> bool:
+    """True if a process ``pid`` exists (or may: not ours to signal)."""
+    if pid == os.getpid() or os.name == "nt":  # Windows: os.kill would end the process
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+def _lock(fd: int) -> bool:
+    """Take an exclusive lock on ``fd`` without waiting; False if someone holds it."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: the process id alone decides
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    except OSError:  # pragma: no cover - a file system without locks: the pid decides
+        return True
+    return True
+
+
+def _held(path: Path) -> bool:
+    """True if a live writer holds ``path`` (its lock; a file or a folder)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return True  # gone already, or not ours to read: leave it
+    try:
+        return not _lock(fd)
+    finally:
+        os.close(fd)
+
+
+def remove_stale(dest: str | os.PathLike[str]) -> list[Path]:
+    """Remove what killed writers of ``dest`` left beside it; return the removed paths.
+
+    A write that gets SIGKILL (or loses power) cannot clean up: its temporary file
+    ``.<stem>.<pid>.<random>.tmp<suffix>`` (or folder ``.<name>.<pid>.<random>.tmp``)
+    stays beside the destination. Every write to ``dest`` calls this first: a leftover
+    is removed when its writer's process is gone and no one holds its lock (a live
+    writer holds an exclusive ``flock`` on it while it writes), so two processes writing
+    the same output never remove each other's work.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / ".map.999999999.abc123.tmp.tif").write_bytes(b"half a map")
+    >>> [p.name for p in remove_stale(d / "map.tif")], list(d.iterdir())
+    (['.map.999999999.abc123.tmp.tif'], [])
+    """
+    import re
+    import shutil
+
+    dest = Path(dest)
+    parent = dest.parent if str(dest.parent) else Path(".")
+    pats = (
+        re.compile(_TMP_FILE.format(stem=re.escape(dest.stem), suffix=re.escape(dest.suffix))),
+        re.compile(_TMP_DIR.format(name=re.escape(dest.name))),
+    )
+    head = f"{dest.stem}."
+    removed: list[Path] = []
+    try:  # a temporary name of a temporary file (a scratch file written atomically) too
+        entries = [
+            e
+            for e in os.scandir(parent)
+            if e.name[:1] == "." and e.name.lstrip(".").startswith(head)
+        ]
+    except OSError:
+        return removed
+    for e in entries:
+        m = next((m for m in (p.fullmatch(e.name) for p in pats) if m), None)
+        if m is None or _alive(int(m.group(1))):
+            continue
+        path = Path(e.path)
+        if _held(path):
+            continue
+        try:
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+        except OSError:
+            continue
+        removed.append(path)
+    return removed
+
+
+def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write") -> Exception:
+    """An :class:`~energy_planner.errors.OutputError` for ``exc`` met writing ``dest``.
+
+    The message names ``dest``, the cause in words (a full disk, permission denied, ...)
+    and that ``dest`` keeps its previous content. Library errors other than an
+    ``OutputError`` come back as they are; an ``OutputError`` about a file inside
+    ``dest`` (a folder being written whole) is told again about ``dest``.
+
+    Examples
+    --------
+    >>> import errno
+    >>> str(output_error("/no/such/map.tif", OSError(errno.ENOSPC, "No space left")))[:73]
+    "cannot write '/no/such/map.tif': no space left on the device; nothing was"
+    """
+    import errno
+
+    from energy_planner.errors import EnergyPlannerError, OutputError
+
+    dest = Path(dest)
+    if isinstance(exc, OutputError) and isinstance(exc.__cause__, OSError):
+        exc = exc.__cause__
+    if isinstance(exc, EnergyPlannerError):
+        return exc
+    why = (
+        {
+            errno.ENOSPC: "no space left on the device",
+            errno.EDQUOT: "disk quota exceeded",
+            errno.EACCES: "permission denied",
+            errno.EPERM: "permission denied",
+            errno.EROFS: "the file system is read-only",
+            errno.EISDIR: "it is a folder",
+        }.get(exc.errno or -1)
+        or _full_disk(dest)
+        or exc.strerror
+        or str(exc)
+    )
+    if not dest.exists():
+        kept = "nothing was written"
+    else:
+        kept = f"the previous {'folder' if dest.is_dir() else 'file'} is kept"
+    return OutputError(
+        f"cannot {doing} {str(dest)!r}: {why}; {kept}. Expected a writable folder with "
+        "free space (choose another path or free some space)",
+        path=str(dest),
+        value=exc.strerror or str(exc),
+        expected="a writable folder with free space",
+    )
+
+
+def _full_disk(dest: Path) -> str | None:
+    """The words for a full disk when ``dest``'s file system is (nearly) full, else None.
+
+    Writers such as GDAL report a full disk without its errno ("Write failed").
+    """
+    for d in (dest.parent, *dest.parent.parents):
+        if d.exists():
+            try:
+                st = os.statvfs(d)
+            except (OSError, AttributeError):
+                return None
+            if st.f_bavail * st.f_frsize < 64 * 1024:
+                return f"no space left on the device ({d})"
+            return None
+    return None
+
+
+def _reraise(dest: Path, exc: OSError, doing: str = "write") -> None:
+    """Raise ``exc`` as an :class:`~energy_planner.errors.OutputError` (library errors as is)."""
+    err = output_error(dest, exc, doing)
+    if err is exc:
+        raise exc
+    raise err from exc
+
+
+def _make_parent(dest: Path) -> Path:
+    """Create ``dest``'s folder (and its parents) if missing; the one rule of outputs."""
+    parent = dest.parent if str(dest.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        import errno
+
+        blocker = next((p for p in (parent, *parent.parents) if p.is_file()), None)
+        if blocker is not None or exc.errno == errno.EEXIST:
+            exc = NotADirectoryError(
+                errno.ENOTDIR, f"{str(blocker or parent)!r} is a file, not a folder"
+            )
+        _reraise(dest, exc, "create the folder of")
+    return parent
+
+
 @contextlib.contextmanager
 def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``dest``; rename it to ``dest`` on success.
@@ -104,7 +311,8 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
     Parameters
     ----------
     dest : str or path-like
-        The file to (re)write. Its directory must exist.
+        The file to (re)write. Its folder is created if missing (the one rule for every
+        output of every command).
     create : bool
         True: the temporary path is an empty file. False: it does not exist yet (for
         writers that refuse an existing path or make a directory, such as ROS bag
@@ -118,55 +326,263 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
 
     Raises
     ------
-    OSError
-        The directory does not exist or is not writable.
+    energy_planner.errors.OutputError
+        The folder cannot be created or written, the disk is full, or ``dest`` is a
+        folder (an ``OSError`` too). ``dest`` keeps its previous content.
 
     Notes
     -----
     On an exception (including ``SystemExit(143)`` from SIGTERM and
     :class:`KeyboardInterrupt`) the temporary file is removed and the exception
     propagates; ``dest`` is untouched. A SIGKILL leaves ``dest`` untouched too, and a
-    stray ``.<name>.<random>.tmp<suffix>`` file beside it.
+    hidden ``.<stem>.<pid>.<random>.tmp<suffix>`` file beside it, which the next write
+    to ``dest`` removes (:func:`remove_stale`: its writer is gone and holds no lock).
     """
     dest = Path(dest)
+    parent = _make_parent(dest)
+    remove_stale(dest)
     if not create:
-        with _atomic_new(dest) as tmp:
+        with _atomic_new(dest, parent) as tmp:
             yield tmp
         return
-    fd, name = tempfile.mkstemp(
-        dir=dest.parent if str(dest.parent) else ".",
-        prefix=f".{dest.stem}.",
-        suffix=f".tmp{dest.suffix}",
-    )
-    os.close(fd)
+    if dest.is_dir():
+        raise output_error(dest, IsADirectoryError(21, "Is a directory"))
+    try:
+        fd, name = tempfile.mkstemp(
+            dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
+        )
+    except OSError as exc:
+        _reraise(dest, exc)
+    _lock(fd)  # held until the file is renamed or removed: remove_stale leaves it alone
     tmp = Path(name)
     done = False
     try:
         with _sigterm_raises():
-            yield tmp
-            os.chmod(tmp, _mode_for(dest))
-            os.replace(tmp, dest)
+            try:
+                yield tmp
+                os.chmod(tmp, _mode_for(dest))
+                os.replace(tmp, dest)
+            except OSError as exc:
+                _reraise(dest, exc)
             done = True
     finally:
         if not done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
+        os.close(fd)
 
 
 @contextlib.contextmanager
-def _atomic_new(dest: Path) -> Iterator[Path]:
+def scratch_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden scratch file beside ``dest`` (its folder made), removed at the end.
+
+    For work files an output needs on the same disk (an energy map computed on the
+    working grid before it is resampled onto ``dest``'s). The name is a temporary name of
+    ``dest`` (``.<stem>.<pid>.<random>.tmp<suffix>``, locked while in use), so what a
+    SIGKILL leaves is removed by the next write to ``dest`` (:func:`remove_stale`).
+    """
+    dest = Path(dest)
+    parent = _make_parent(dest)
+    remove_stale(dest)
+    try:
+        fd, name = tempfile.mkstemp(
+            dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
+        )
+    except OSError as exc:
+        _reraise(dest, exc)
+    _lock(fd)
+    try:
+        yield Path(name)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(name)
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def _atomic_new(dest: Path, parent: Path) -> Iterator[Path]:
     """:func:`atomic_path` with ``create=False``: a fresh name in a private temp folder."""
     import shutil
 
-    parent = dest.parent if str(dest.parent) else Path(".")
-    holder = Path(tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}.", suffix=".tmp"))
-    tmp = holder / dest.name
-    try:
+    with _holder(dest, parent) as holder:
+        tmp = holder / dest.name
         with _sigterm_raises():
-            yield tmp
-            os.replace(tmp, dest)
-    finally:
+            try:
+                yield tmp
+                os.replace(tmp, dest)
+            except OSError as exc:
+                _reraise(dest, exc)
+            finally:
+                shutil.rmtree(holder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _holder(dest: Path, parent: Path) -> Iterator[Path]:
+    """A locked temporary folder ``.<name>.<pid>.<random>.tmp`` beside ``dest``."""
+    import shutil
+
+    try:
+        holder = Path(
+            tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}.{os.getpid()}.", suffix=".tmp")
+        )
+    except OSError as exc:
+        _reraise(dest, exc)
+    try:
+        fd: int | None = os.open(holder, os.O_RDONLY)
+    except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
+        fd = None
+    if fd is not None:
+        _lock(fd)
+    try:
+        yield holder
+    except BaseException:
         shutil.rmtree(holder, ignore_errors=True)
+        raise
+    finally:
+        if fd is not None:
+            os.close(fd)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the paths ``a`` and ``b`` in one step (Linux ``renameat2``); False if unsupported."""
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):  # pragma: no cover - glibc < 2.28, musl
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    rc = renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    import errno
+
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):  # the file system cannot
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def folder_entries(path: Path, limit: int = 5) -> tuple[int, list[str]]:
+    """The number of entries in folder ``path`` and the first ``limit`` names, sorted."""
+    names = sorted(p.name for p in path.iterdir())
+    return len(names), names[:limit]
+
+
+def check_folder_output(dest: str | os.PathLike[str], *, overwrite: bool = False) -> bool:
+    """Raise unless ``dest`` may be written as a whole folder; True if it exists.
+
+    The check :func:`atomic_dir` makes, for a command to make before its work: ``dest``
+    is new, an empty folder, or a non-empty one to be replaced (``overwrite``). Its
+    parent folder is created if missing.
+
+    Raises
+    ------
+    energy_planner.errors.OutputError
+        ``dest`` is a file, a non-empty folder without ``overwrite``, or its parent
+        cannot be created.
+    """
+    from energy_planner.errors import OutputError
+
+    dest = Path(dest)
+    _make_parent(dest)
+    exists = dest.exists() or dest.is_symlink()
+    if exists and not dest.is_dir():
+        raise OutputError(
+            f"output folder {str(dest)!r} is a file; expected a folder (or a new name)",
+            path=str(dest),
+            expected="a folder",
+        )
+    if exists and not overwrite:
+        n, first = folder_entries(dest)
+        if n:
+            raise OutputError(
+                f"output folder {str(dest)!r} is not empty ({n} entries: "
+                f"{', '.join(first)}{', ...' if n > len(first) else ''}); expected an empty "
+                "or new folder: choose another one, or replace it whole with --overwrite "
+                "(overwrite=True)",
+                path=str(dest),
+                value=n,
+                expected="an empty or new folder, or --overwrite",
+            )
+    return exists
+
+
+@contextlib.contextmanager
+def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iterator[Path]:
+    """Yield an empty temporary folder beside ``dest``; it becomes ``dest`` on success.
+
+    For outputs that are a whole folder (a simulated campaign): readers see the previous
+    folder or the complete new one, never a mix of old and new files.
+
+    Parameters
+    ----------
+    dest : str or path-like
+        The folder to make. Its parent is created if missing.
+    overwrite : bool
+        Replace a non-empty ``dest`` whole. Without it a non-empty ``dest`` is refused
+        (an empty one is replaced).
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary folder ``.<name>.<pid>.<random>.tmp``, to be filled.
+
+    Raises
+    ------
+    energy_planner.errors.OutputError
+        ``dest`` is not empty (and not ``overwrite``), is a file, or cannot be written.
+
+    Notes
+    -----
+    On success the folders are swapped in one step (Linux ``renameat2`` with
+    ``RENAME_EXCHANGE``) and the old content, now in the temporary folder, is removed.
+    Where the file system cannot swap, ``dest`` is moved aside first and then replaced:
+    a kill between the two renames leaves no ``dest`` (the old content is in a hidden
+    folder beside it). On an exception the temporary folder is removed; after a SIGKILL
+    the next write to ``dest`` removes it (:func:`remove_stale`).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp()) / "campaign"
+    >>> with atomic_dir(d) as tmp:
+    ...     _ = (tmp / "a.csv").write_text("old")
+    >>> with atomic_dir(d, overwrite=True) as tmp:
+    ...     _ = (tmp / "b.csv").write_text("new")
+    >>> sorted(p.name for p in d.iterdir()), sorted(p.name for p in d.parent.iterdir())
+    (['b.csv'], ['campaign'])
+    """
+    import shutil
+
+    dest = Path(dest)
+    parent = _make_parent(dest)
+    remove_stale(dest)
+    exists = check_folder_output(dest, overwrite=overwrite)
+    with _holder(dest, parent) as holder, _sigterm_raises():
+        yield holder
+        try:
+            if not exists:
+                os.rename(holder, dest)
+            elif _exchange(holder, dest):
+                shutil.rmtree(holder, ignore_errors=True)
+            else:  # pragma: no cover - file systems without an atomic swap
+                aside = Path(
+                    tempfile.mkdtemp(
+                        dir=parent, prefix=f".{dest.name}.{os.getpid()}.", suffix=".tmp"
+                    )
+                )
+                os.rename(dest, aside / "old")
+                os.rename(holder, dest)
+                shutil.rmtree(aside, ignore_errors=True)
+        except OSError as exc:
+            shutil.rmtree(holder, ignore_errors=True)
+            _reraise(dest, exc)
 
 
 def write_bytes(dest: str | os.PathLike[str], data: bytes) -> Path:

@@ -45,7 +45,9 @@ raw canonical samples, each with a test of its own, and are reported as *data fi
     power noise, that was the largest error left to the base model.
 
 Each check reports what it measured whether or not it is a finding (``evidence``), so a
-clean log says *why* it is clean.
+clean log says *why* it is clean. Every check measures within the gap-free stretches of
+a run (a time step longer than ``MAX_GAP_S`` splits it, as preprocessing does), never
+across a gap.
 
 Examples
 --------
@@ -68,6 +70,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+
+from energy_planner.measurements.schema import MAX_GAP_S
 
 #: Level of each data check's test (one test per check).
 DATA_ALPHA = 1e-3
@@ -121,8 +125,42 @@ class DataFinding:
 
 
 def _runs(samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """Run code of each sample (samples sorted by run, t) and the run names."""
-    code, names = pd.factorize(samples["run"].astype(str), sort=True)
+    """Code of each sample's gap-free stretch of a run, and the stretches' names.
+
+    The samples are sorted by run and t. A time step longer than
+    :data:`~energy_planner.measurements.schema.MAX_GAP_S` splits a run (as preprocessing
+    does): every check measures within a stretch, never across a gap (a 10-minute pause
+    would otherwise read as 10 minutes of odometry at the speed of the sample after it).
+    A run without gaps is one stretch named as the run; the parts of a split run are
+    named ``"<run> (part k)"``.
+
+    Examples
+    --------
+    >>> s = pd.DataFrame({"run": ["a", "a", "a", "b"], "t": [0.0, 0.1, 600.0, 0.0]})
+    >>> code, names = _runs(s)
+    >>> code.tolist(), names.tolist()
+    ([0, 0, 1, 2], ['a (part 1)', 'a (part 2)', 'b'])
+    """
+    run = samples["run"].astype(str).to_numpy(dtype=object)
+    t = samples["t"].to_numpy(float)
+    if len(run) == 0:
+        return np.zeros(0, dtype=np.int64), np.asarray([], dtype=object)
+    same = run[1:] == run[:-1]
+    gap = same & (np.diff(t) > MAX_GAP_S)
+    if not gap.any():
+        code, names = pd.factorize(run, sort=True)
+        return code.astype(np.int64), np.asarray(names, dtype=object)
+    start = np.r_[True, ~same | gap]
+    code = np.cumsum(start) - 1
+    first = np.flatnonzero(start)
+    split_runs = set(run[1:][gap])
+    names = []
+    k = 0
+    for i, a in enumerate(first):
+        if i and run[a] != run[first[i - 1]]:
+            k = 0
+        k += 1
+        names.append(f"{run[a]} (part {k})" if run[a] in split_runs else str(run[a]))
     return code.astype(np.int64), np.asarray(names, dtype=object)
 
 
@@ -323,6 +361,8 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
     for col in ("voltage", "current"):
         fixed[col] = _shift_within_runs(fixed[col].to_numpy(float), code, -k)
     fixed = fixed[np.isfinite(fixed["current"].to_numpy(float))].reset_index(drop=True)
+    n_lost = len(samples) - len(fixed)
+    ev["samples_dropped"] = n_lost
     later = "later" if k > 0 else "earlier"
     return (
         DataFinding(
@@ -330,7 +370,8 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
             True,
             f"the power stream is stamped {abs(k) * dt:.2f} s {later} than the motion it "
             f"pays for (clock offset between the streams, median over {offsets.size} runs); "
-            "shifted back",
+            f"shifted back ({n_lost} samples at the ends of the runs had no power left and "
+            "were dropped)",
             ev,
             repaired=True,
         ),

@@ -9,6 +9,7 @@ ROS 2 bags (folders with ``metadata.yaml``) are read by
 from __future__ import annotations
 
 import logging
+import os
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -19,6 +20,11 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import LogError, LogIOError
+from energy_planner.measurements.conventions import (
+    check_magnitudes,
+    parquet_units,
+    to_canonical_units,
+)
 from energy_planner.measurements.schema import (
     CANONICAL_COLUMNS,
     MAX_GAP_S,
@@ -81,8 +87,10 @@ class LoadReport:
         Anything else worth knowing (resampling method, conversions).
     skipped : list of dict
         Tables found by scanning a folder that have none of the log columns (e.g. a
-        ``runs.csv`` list of runs), with the reason. A table named explicitly, or one
-        with some but not all required columns, is an error instead.
+        ``runs.csv`` list of runs), and files a crashed logger left without samples (zero
+        bytes, a header only, a Parquet file without its footer), each with the reason
+        (``path``, ``reason``). A table named explicitly that is not a log, or one with
+        some but not all required columns, is an error instead.
     """
 
     files: list[dict[str, Any]] = field(default_factory=list)
@@ -204,16 +212,69 @@ def _expand(paths: str | Path | Iterable[str | Path]) -> list[tuple[Path, bool]]
     return out
 
 
-def _read_table(path: Path) -> pd.DataFrame:
+def _read_table(path: Path) -> tuple[pd.DataFrame | None, list[str], str | None]:
+    """The table in ``path``, notes on it, and why it was skipped (None when read).
+
+    What a logger that crashed leaves behind is skipped with the reason (a zero-byte
+    file, a header without samples, a Parquet file without its footer); a CSV whose last
+    line has no line end was cut short mid-write: that line is dropped, with a note.
+    Anything else unreadable raises :class:`LogIOError`.
+    """
     fmt = TABLE_SUFFIXES[path.suffix.lower()]
+    crashed = "a logger that crashed, or was stopped, before writing it?"
     try:
-        if fmt == "csv":
-            return pd.read_csv(path)
-        return pd.read_parquet(path)
-    except (OSError, ValueError, pd.errors.ParserError) as err:
+        size = path.stat().st_size
+    except OSError as err:
         raise LogIOError(
             f"cannot read {fmt} log {str(path)!r}: {err}", path=path, expected=f"a {fmt} table"
         ) from err
+    if size == 0:
+        return None, [], f"empty file (0 bytes): {crashed}"
+    notes: list[str] = []
+    try:
+        if fmt == "csv":
+            try:
+                df = pd.read_csv(path)
+            except pd.errors.EmptyDataError:
+                return None, [], f"no header and no samples: {crashed}"
+            with open(path, "rb") as f:
+                f.seek(-1, os.SEEK_END)
+                cut = f.read(1) not in (b"\n", b"\r")
+            if cut and len(df):
+                df = df.iloc[:-1]
+                notes.append(
+                    f"{path}: the last line has no line end (cut short: a logger that "
+                    "crashed mid-write?); dropped"
+                )
+        else:
+            df = pd.read_parquet(path)
+    except (OSError, ValueError, pd.errors.ParserError) as err:
+        if fmt == "parquet" and not _has_parquet_footer(path):
+            return (
+                None,
+                [],
+                (
+                    f"truncated Parquet ({size} bytes, no footer: a logger that crashed before "
+                    "closing the file?)"
+                ),
+            )
+        raise LogIOError(
+            f"cannot read {fmt} log {str(path)!r}: {err}", path=path, expected=f"a {fmt} table"
+        ) from err
+    if len(df) == 0:
+        return None, notes, f"a header but no samples: {crashed}"
+    return df, notes, None
+
+
+def _has_parquet_footer(path: Path) -> bool:
+    """True if ``path`` starts and ends with Parquet's magic bytes (a complete file)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+            f.seek(-4, os.SEEK_END)
+            return head == b"PAR1" and f.read(4) == b"PAR1"
+    except OSError:
+        return False
 
 
 #: An extra column whose non-missing values parse as numbers at least this often is a
@@ -404,6 +465,20 @@ def _apply_current_sign(df: pd.DataFrame, path: Path, mode: str, rep: LoadReport
     return df
 
 
+def _warn_skipped(rep: LoadReport) -> None:
+    """One warning naming the files skipped because a crashed logger left them unreadable."""
+    crashed = [k for k in rep.skipped if "not a robot log" not in k["reason"]]
+    if not crashed:
+        return
+    from energy_planner.errors import EnergyPlannerWarning
+
+    shown = "; ".join(f"{k['path']}: {k['reason']}" for k in crashed[:5])
+    more = f"; and {len(crashed) - 5} more" if len(crashed) > 5 else ""
+    msg = f"skipped {len(crashed)} log file(s) that hold no samples: {shown}{more}"
+    warnings.warn(EnergyPlannerWarning(msg, paths=[k["path"] for k in crashed]), stacklevel=3)
+    rep.notes.append(msg)
+
+
 def _files_text(entries: list[dict[str, Any]], limit: int = 3) -> str:
     """``a.csv: negative in 100% of 113 samples in motion, median -3.66 A; ...``."""
     shown = "; ".join(
@@ -532,8 +607,16 @@ def load_logs(
     owner: dict[str, str] = {}
     for path, scanned in files:
         if path.suffix.lower() in TABLE_SUFFIXES:
-            df = _read_table(path)
             fmt = TABLE_SUFFIXES[path.suffix.lower()]
+            df, notes, skip = _read_table(path)
+            rep.notes.extend(notes)
+            if df is None:
+                rep.skipped.append({"path": str(path), "reason": str(skip)})
+                log.info("skipped %s: %s", path, skip)
+                continue
+            declared = parquet_units(path) if fmt == "parquet" else {}
+            df, notes = to_canonical_units(df, str(path), declared)
+            rep.notes.extend(notes)
             if scanned and not set(REQUIRED_COLUMNS) & set(df.columns):
                 # a table in the folder that is not a log at all (e.g. a run list)
                 rep.skipped.append(
@@ -545,6 +628,7 @@ def load_logs(
                 log.info("skipped %s: it has none of the log columns", path)
                 continue
             check_columns(df.columns, str(path), need_run=False)
+            check_magnitudes(df, str(path))
             if "run" not in df.columns:
                 df.insert(0, "run", path.stem)
             else:
@@ -577,10 +661,18 @@ def load_logs(
         rep.files.append({"path": str(path), "format": fmt, "rows": len(df), "runs": runs})
         frames.append(df)
     if not frames:
+        why = "; ".join(f"{k['path']}: {k['reason']}" for k in rep.skipped[:10])
         raise LogIOError(
-            f"no robot log among {', '.join(str(p) for p, _ in files)}; "
-            "expected tables with the columns " + ", ".join(REQUIRED_COLUMNS)
+            f"no robot log among {', '.join(str(p) for p, _ in files)}"
+            + (f" (skipped {len(rep.skipped)}: {why})" if why else "")
+            + "; expected tables with the columns "
+            + ", ".join(REQUIRED_COLUMNS),
+            path=str(files[0][0]),
+            value=[k["path"] for k in rep.skipped],
+            expected="tables with the columns " + ", ".join(REQUIRED_COLUMNS),
         )
+    if rep.skipped:
+        _warn_skipped(rep)
     _warn_current_sign(rep, table_current)
     _check_extra_types(frames, [f["path"] for f in rep.files])
     samples = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]

@@ -211,6 +211,18 @@ class PreprocessReport:
             expected=", ".join(s.name for s in self.steps),
         )
 
+    def removal_text(self) -> str:
+        """Every removal, ``step: reason: count``, joined by ``; `` (``nothing removed``).
+
+        Examples
+        --------
+        >>> rep = PreprocessReport(10, [StepRecord("drop_invalid", 10, 0, {"non-finite t": 10})])
+        >>> rep.removal_text()
+        'drop_invalid: non-finite t: 10'
+        """
+        parts = [f"{s.name}: {k}: {n}" for s in self.steps for k, n in s.removed.items() if n]
+        return "; ".join(parts) or "nothing removed"
+
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""
         return {
@@ -582,7 +594,8 @@ def preprocess(
     Raises
     ------
     energy_planner.errors.LogError
-        A required column is missing or time is not increasing within a run.
+        A required column is missing, time is not increasing within a run, or the steps
+        removed every sample (the message lists each step's removals and why).
 
     Examples
     --------
@@ -624,6 +637,16 @@ def preprocess(
             )
         alive &= left
     warn_dropped_runs(report.dropped_runs, "preprocessing")
+    if report.n_input and len(df) == 0:
+        raise LogError(
+            f"preprocessing removed every one of the {report.n_input} samples: "
+            f"{report.removal_text()}; expected samples of a robot at work (voltage "
+            f"{params.voltage_min:g}..{params.voltage_max:g} V, power "
+            f"{params.min_power_w:g}..{params.max_power_w:g} W, moving or turning); "
+            "see docs/measurements.md",
+            value=report.removed,
+            expected="samples that pass the cleaning steps",
+        )
     return df, report
 
 

@@ -12,7 +12,11 @@ also be compiled ahead of time into a C extension (:func:`load_precompiled`), wh
 loads without numba.
 
 The directory is ``$ENERGY_PLANNER_CACHE`` if set, else ``$XDG_CACHE_HOME/energy_planner``
-or ``~/.cache/energy_planner``, else a temporary directory.
+or ``~/.cache/energy_planner``. When it cannot be written (a read-only folder, a full
+disk) a warning names it and the kernels are compiled into a temporary directory
+instead; nothing in the unwritable folder is touched. Generated files are written
+atomically (:func:`energy_planner.io.write_text`) and numba writes its cache files
+through a temporary name too, so processes sharing the cache never read half a file.
 """
 
 from __future__ import annotations
@@ -47,16 +51,51 @@ def cache_dir() -> Path:
         base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
         candidates = [Path(base) / "energy_planner"]
     candidates.append(Path(tempfile.gettempdir()) / f"energy_planner-{os.getuid()}")
+    failed: list[str] = []
     for d in candidates:
         try:
             (d / "kernels").mkdir(parents=True, exist_ok=True)
-            probe = d / "kernels" / ".write-test"
+            probe = d / "kernels" / f".write-test.{os.getpid()}"
             probe.write_text("")
             probe.unlink()
-            return d / "kernels"
-        except OSError:
+        except OSError as exc:
+            failed.append(f"{d}: {exc.strerror or exc}")
             continue
-    raise OSError(f"no writable kernel cache directory among {candidates}")
+        if failed:
+            _warn_cache_fallback(failed[0], d)
+        return d / "kernels"
+    from energy_planner.errors import OutputError
+
+    raise OutputError(
+        f"no writable kernel cache folder ({'; '.join(failed)}); expected a writable "
+        "folder: set ENERGY_PLANNER_CACHE to one",
+        value=[str(c) for c in candidates],
+        expected="a writable folder (ENERGY_PLANNER_CACHE)",
+        hint="set ENERGY_PLANNER_CACHE to a writable folder",
+    )
+
+
+_WARNED: set[str] = set()
+
+
+def _warn_cache_fallback(failed: str, used: Path) -> None:
+    """Say once per process that the configured kernel cache could not be written."""
+    if failed in _WARNED:
+        return
+    _WARNED.add(failed)
+    import warnings
+
+    from energy_planner.errors import EnergyPlannerWarning
+
+    warnings.warn(
+        EnergyPlannerWarning(
+            f"the kernel cache folder cannot be written ({failed}): compiling into {used} "
+            "instead (nothing in the read-only folder is changed; set ENERGY_PLANNER_CACHE "
+            "to a writable folder to keep the compiled kernels)",
+            path=failed.split(":")[0],
+        ),
+        stacklevel=3,
+    )
 
 
 def load_generated_module(text: str, prefix: str) -> ModuleType:

@@ -105,15 +105,21 @@ class Campaign:
         )
 
     def write(
-        self, out_dir: str | Path, fmt: str = "csv", bag: bool = False, progress: bool = False
+        self,
+        out_dir: str | Path,
+        fmt: str = "csv",
+        bag: bool = False,
+        progress: bool = False,
+        overwrite: bool = False,
     ) -> list[Path]:
         """Write the campaign to ``out_dir``: one log per run, the run table, the truth.
 
-        Parameters and files: :func:`~energy_planner.simulate.writer.write_campaign`.
+        ``out_dir`` must be empty or new; ``overwrite=True`` replaces it whole. Parameters
+        and files: :func:`~energy_planner.simulate.writer.write_campaign`.
         """
         from energy_planner.simulate.writer import write_campaign
 
-        return write_campaign(self, out_dir, fmt, bag, progress)
+        return write_campaign(self, out_dir, fmt, bag, progress, overwrite=overwrite)
 
     def run_energies(self) -> pd.Series:
         """Measured energy per run, J: trapezoid integral of logged ``voltage * current``."""

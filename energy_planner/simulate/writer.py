@@ -21,8 +21,9 @@ def write_campaign(
     fmt: str = "csv",
     bag: bool = False,
     progress: bool = False,
+    overwrite: bool = False,
 ) -> list[Path]:
-    """Write the campaign to ``out_dir``.
+    """Write the campaign to ``out_dir``, whole: the previous content or the new, never a mix.
 
     Files: ``<run>.csv`` (or ``.parquet``) per run, ``runs.csv``, ``physics.json``
     (robot parameters and effects of the truth), ``campaign.json`` (seed, effects,
@@ -34,13 +35,18 @@ def write_campaign(
     Parameters
     ----------
     out_dir : path
-        Directory (created if missing).
+        Directory (created if missing). It must be empty or new unless ``overwrite``.
     fmt : {"csv", "parquet"}
         Per-run log format.
     bag : bool
         Also write a ROS 2 bag (needs :func:`energy_planner.measurements.write_rosbag`).
     progress : bool
         Show a progress bar on stderr.
+    overwrite : bool
+        Replace a non-empty ``out_dir`` whole: the campaign is written into a temporary
+        folder beside it and swapped in when complete
+        (:func:`energy_planner.io.atomic_dir`), so an older campaign's files never mix
+        with the new ones.
 
     Returns
     -------
@@ -51,16 +57,27 @@ def write_campaign(
     ------
     LogError
         Unknown ``fmt``.
+    OutputError
+        ``out_dir`` is not empty (without ``overwrite``), cannot be created or written,
+        or the disk is full (``out_dir`` keeps what it held).
     LogIOError
-        ``out_dir`` cannot be created or written, or the bag writer is missing.
+        The bag writer is missing.
     """
     if fmt not in ("csv", "parquet"):
         raise LogError(f"unknown log format {fmt!r}; expected 'csv' or 'parquet'")
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise LogIOError(f"cannot create output directory {str(out)!r}: {exc}") from exc
+    from energy_planner.io import atomic_dir, output_error
+
+    final = Path(out_dir)
+    with atomic_dir(final, overwrite=overwrite) as out:
+        try:
+            written = _write_files(campaign, out, fmt, bag, progress)
+        except OSError as exc:  # a full disk, a folder made read-only meanwhile
+            raise output_error(final, exc) from exc
+    return [final / p.relative_to(out) for p in written]
+
+
+def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: bool) -> list[Path]:
+    """Write the campaign's files into the (temporary) folder ``out``."""
     import pyarrow as pa
     import pyarrow.csv as pa_csv
     import pyarrow.parquet as pq
@@ -74,22 +91,19 @@ def write_campaign(
         logs = logs.assign(**{c: logs[c].astype(str) for c in CATEGORICAL})
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
-    try:
-        for sl in track(runs_in(run), "writing runs", progress, unit="run"):
-            path = out / f"{run[sl.start]}.{fmt}"
-            with atomic_path(path) as tmp:
-                if fmt == "csv":
-                    pa_csv.write_csv(table.slice(sl.start, sl.stop - sl.start), tmp)
-                else:
-                    pq.write_table(table.slice(sl.start, sl.stop - sl.start), tmp)
-            written.append(path)
-        runs_path = out / "runs.csv"
-        with atomic_path(runs_path) as tmp:
-            campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
-        truth_path = write_json(out / "physics.json", campaign.physics_dict())
-        meta_path = write_json(out / "campaign.json", campaign.metadata())
-    except OSError as exc:
-        raise LogIOError(f"cannot write the campaign to {str(out)!r}: {exc}") from exc
+    for sl in track(runs_in(run), "writing runs", progress, unit="run"):
+        path = out / f"{run[sl.start]}.{fmt}"
+        with atomic_path(path) as tmp:
+            if fmt == "csv":
+                pa_csv.write_csv(table.slice(sl.start, sl.stop - sl.start), tmp)
+            else:
+                pq.write_table(table.slice(sl.start, sl.stop - sl.start), tmp)
+        written.append(path)
+    runs_path = out / "runs.csv"
+    with atomic_path(runs_path) as tmp:
+        campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
+    truth_path = write_json(out / "physics.json", campaign.physics_dict())
+    meta_path = write_json(out / "campaign.json", campaign.metadata())
     written += [runs_path, truth_path, meta_path]
     if campaign.ground_map is not None:
         written += list(campaign.ground_map.write(out / "ground.tif", out / "ground.csv"))

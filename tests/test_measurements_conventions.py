@@ -1,0 +1,251 @@
+"""Robot logs as loggers write them: units, time forms, crashed loggers, gaps.
+
+Every conversion is checked against the same log written in canonical units (the
+reference), never against the converter's own formulas.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from energy_planner.errors import LogError, LogIOError
+from energy_planner.measurements import load_logs, preprocess
+from energy_planner.measurements.datacheck import _runs, check_data, odometry_ratios
+
+EPOCH = 1_700_000_000
+
+
+def _log(run: str = "a", n: int = 200, seed: int = 0) -> pd.DataFrame:
+    """A robot walking east at 0.3 m/s on flat ground, 50 Hz, with its pose."""
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(n) * 0.02, 6)
+    return pd.DataFrame(
+        {
+            "run": run,
+            "t": t,
+            "qw": 1.0,
+            "qx": 0.0,
+            "qy": 0.0,
+            "qz": 0.0,
+            "vx": 0.3,
+            "vy": 0.0,
+            "wz": 0.0,
+            "voltage": np.round(48.0 + rng.normal(0, 0.1, n), 4),
+            "current": np.round(5.0 + rng.normal(0, 0.2, n), 4),
+            "x": 0.3 * t,
+            "y": 0.0,
+        }
+    )
+
+
+def _load(path, **kw):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        samples, rep = load_logs(path, report=True, **kw)
+    return samples, rep, [str(w.message) for w in caught]
+
+
+# ------------------------------------------------------------------------------ units
+
+
+@pytest.mark.parametrize(
+    ("columns", "scale"),
+    [
+        ({"voltage": "voltage_mv", "current": "current_ma"}, {"voltage": 1e3, "current": 1e3}),
+        ({"voltage": "voltage_v", "current": "current_a"}, {"voltage": 1.0, "current": 1.0}),
+        ({"voltage": "voltage_kv"}, {"voltage": 1e-3}),
+    ],
+)
+def test_a_unit_in_the_column_name_is_converted(tmp_path, columns, scale):
+    ref = _log()
+    raw = ref.assign(**{c: ref[c] * k for c, k in scale.items()}).rename(columns=columns)
+    raw.to_csv(tmp_path / "a.csv", index=False)
+    got, rep, _ = _load(tmp_path / "a.csv")
+    for c in ("voltage", "current"):
+        np.testing.assert_allclose(got[c], ref[c], rtol=1e-12)
+    assert any(f"{columns['voltage']!r} read as 'voltage'" in n for n in rep.notes)
+
+
+def test_a_parquet_fields_unit_metadata_is_honoured(tmp_path):
+    ref = _log()
+    table = pa.Table.from_pandas(ref.assign(voltage=ref.voltage * 1000), preserve_index=False)
+    i = table.schema.get_field_index("voltage")
+    table = table.cast(table.schema.set(i, table.schema.field(i).with_metadata({"unit": "mV"})))
+    pq.write_table(table, tmp_path / "a.parquet")
+    got, rep, _ = _load(tmp_path / "a.parquet")
+    np.testing.assert_allclose(got["voltage"], ref["voltage"], rtol=1e-12)
+    assert any("'voltage' in mV converted to V" in n for n in rep.notes)
+
+
+def test_an_unknown_declared_unit_is_an_error(tmp_path):
+    table = pa.Table.from_pandas(_log(), preserve_index=False)
+    i = table.schema.get_field_index("current")
+    table = table.cast(
+        table.schema.set(i, table.schema.field(i).with_metadata({"unit": "furlong"}))
+    )
+    pq.write_table(table, tmp_path / "a.parquet")
+    with pytest.raises(LogError, match="'current' declares the unit 'furlong'"):
+        load_logs(tmp_path / "a.parquet")
+
+
+@pytest.mark.parametrize(
+    ("column", "factor", "message", "fix"),
+    [
+        ("voltage", 1000.0, "voltage in mV?", "voltage_mv"),
+        ("voltage", 0.001, "voltage in kV?", "voltage_kv"),
+        ("current", 1000.0, "current in mA?", "current_ma"),
+    ],
+)
+def test_a_magnitude_only_another_unit_explains_is_named_with_the_fix(
+    tmp_path, column, factor, message, fix
+):
+    ref = _log()
+    ref.assign(**{column: ref[column] * factor}).to_csv(tmp_path / "a.csv", index=False)
+    with pytest.raises(LogError, match=message) as err:
+        load_logs(tmp_path / "a.csv")
+    assert fix in str(err.value) and "a.csv" in str(err.value)
+    assert err.value.column == column
+
+
+# ------------------------------------------------------------------------------- time
+
+
+def _time_forms(ref: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    ns = ((EPOCH + ref["t"]) * 1e9).round().astype("int64")
+    return {
+        "ns integers": ref.assign(t=ns),
+        "ms integers": ref.assign(t=(ns // 1_000_000)),
+        "ISO 8601 text": ref.assign(
+            t=pd.to_datetime(ns, unit="ns", utc=True).map(lambda x: x.isoformat())
+        ),
+        "t_ns column": ref.drop(columns="t").assign(t_ns=ns),
+        "timestamp column": ref.drop(columns="t").assign(
+            timestamp=pd.to_datetime(ns, unit="ns", utc=True).map(lambda x: x.isoformat())
+        ),
+    }
+
+
+@pytest.mark.parametrize("form", list(_time_forms(_log())))
+def test_time_in_the_forms_loggers_write_it(tmp_path, form):
+    ref = _log()
+    _time_forms(ref)[form].to_csv(tmp_path / "a.csv", index=False)
+    got, _, _ = _load(tmp_path / "a.csv")
+    np.testing.assert_allclose(got["t"] - EPOCH, ref["t"], atol=2e-6)
+
+
+def test_parquet_datetimes_are_seconds_since_the_epoch(tmp_path):
+    ref = _log()
+    when = pd.to_datetime(((EPOCH + ref["t"]) * 1e9).round().astype("int64"), unit="ns")
+    ref.assign(t=when).to_parquet(tmp_path / "a.parquet")
+    got, rep, _ = _load(tmp_path / "a.parquet")
+    np.testing.assert_allclose(got["t"] - EPOCH, ref["t"], atol=2e-6)
+    assert any("datetimes" in n for n in rep.notes)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    unit=st.sampled_from(["s", "ms", "us", "ns"]),
+    start=st.integers(1_000_000_000, 2_000_000_000),
+    period_ms=st.integers(5, 100),
+)
+def test_epoch_times_in_any_unit_come_back_as_the_same_seconds(unit, start, period_ms):
+    from energy_planner.measurements.conventions import to_canonical_units
+
+    k = {"s": 1, "ms": 10**3, "us": 10**6, "ns": 10**9}[unit]
+    if unit == "s":  # seconds come as floats
+        ticks = start + np.arange(20) * period_ms / 1000
+    else:
+        ticks = start * k + np.arange(20, dtype=np.int64) * (period_ms * k // 1000)
+    df = pd.DataFrame({f"t_{unit}": ticks})
+    out, _ = to_canonical_units(df, "x.csv")
+    expect = start + np.arange(20) * period_ms / 1000
+    np.testing.assert_allclose(out["t"].to_numpy(float), expect, rtol=0, atol=1e-6)
+
+
+# ---------------------------------------------------------------- crashed loggers
+
+
+def test_a_last_line_cut_short_is_dropped_with_a_note(tmp_path):
+    ref = _log()
+    p = tmp_path / "a.csv"
+    ref.to_csv(p, index=False)
+    p.write_bytes(p.read_bytes()[:-30])  # the logger died in the middle of the last row
+    got, rep, _ = _load(p)
+    assert len(got) == len(ref) - 1
+    np.testing.assert_allclose(got["current"], ref["current"].iloc[:-1])
+    assert any("cut short" in n for n in rep.notes)
+
+
+@pytest.mark.parametrize("what", ["zero bytes", "header only", "truncated parquet"])
+def test_what_a_crashed_logger_leaves_is_skipped_with_a_note(tmp_path, what):
+    _log("good").to_csv(tmp_path / "good.csv", index=False)
+    if what == "zero bytes":
+        bad = tmp_path / "crashed.csv"
+        bad.write_bytes(b"")
+        reason = "empty file (0 bytes)"
+    elif what == "header only":
+        bad = tmp_path / "crashed.csv"
+        _log().iloc[:0].to_csv(bad, index=False)
+        reason = "a header but no samples"
+    else:
+        bad = tmp_path / "crashed.parquet"
+        _log("crashed").to_parquet(bad)
+        bad.write_bytes(bad.read_bytes()[:-200])
+        reason = "truncated Parquet"
+    got, rep, warned = _load(tmp_path)
+    assert list(got["run"].unique()) == ["good"]
+    assert rep.skipped == [{"path": str(bad), "reason": rep.skipped[0]["reason"]}]
+    assert reason in rep.skipped[0]["reason"] and "crashed" in rep.skipped[0]["reason"]
+    assert any(reason in w and str(bad) in w for w in warned)
+    # named alone: the error lists it
+    with pytest.raises(LogIOError, match=re.escape(reason)):
+        load_logs(bad)
+
+
+# ------------------------------------------------------------------------------- gaps
+
+
+def _paused(ref: pd.DataFrame, at: int, pause_s: float) -> pd.DataFrame:
+    """``ref`` with the robot standing ``pause_s`` seconds before sample ``at`` (no logs)."""
+    out = ref.copy()
+    out.loc[at:, "t"] += pause_s
+    return out
+
+
+def test_a_gap_splits_the_run_for_every_check():
+    ref = _log(n=400)
+    code, names = _runs(_paused(ref, 200, 600.0))
+    assert code.tolist() == [0] * 200 + [1] * 200
+    assert names.tolist() == ["a (part 1)", "a (part 2)"]
+
+
+def test_odometry_is_not_measured_across_a_ten_minute_pause():
+    ref = pd.concat([_log(f"r{i}", n=400, seed=i) for i in range(6)], ignore_index=True)
+    paused = pd.concat(
+        [_paused(g, g.index[200], 600.0) for _, g in ref.groupby("run")], ignore_index=True
+    )
+    # the odometry agrees with the pose, paused or not (before: 12000 % long)
+    ratios = odometry_ratios(paused).ratio
+    np.testing.assert_allclose(ratios, 1.0, rtol=1e-9)
+    found = {f.name: f for f in check_data(paused)[0]}
+    assert not found["odometry_scale"].finding, found["odometry_scale"].summary
+
+
+def test_when_preprocessing_leaves_nothing_the_error_lists_each_removal():
+    ref = _log()
+    ref.loc[:99, "voltage"] = 0.0  # a battery monitor that read nothing
+    ref.loc[100:, "vx"] = 0.0  # then the robot stood still
+    with pytest.raises(LogError, match="removed every one of the 200 samples") as err:
+        preprocess(ref)
+    text = str(err.value)
+    assert "drop_invalid: voltage outside 5..1000 V: 100" in text
+    assert "discard_low_speed: speed < 0.05 m/s" in text and ": 100" in text
