@@ -202,12 +202,10 @@ def compute(
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
     out = result.to_dict()
-    from energy_planner.uncertainty import domain_report
-    from energy_planner.uncertainty.domain import path_channel_values
+    from energy_planner.uncertainty import path_domain
 
-    # the share of the path outside the ranges the model's calibration saw
-    along = path_channel_values(terrain, cost.channels, result.poses)
-    out["domain"] = domain_report(model, result.table, cost.constants, result.poses, along)
+    # the share of the path outside the ranges the model's calibration saw, per metre
+    out["domain"] = path_domain(model, terrain, result, cost.channels)
     # the kernel reports distances along the ground; add the map (horizontal) distance,
     # the one a GIS measures between the waypoints
     flat = np.hypot(*np.diff(xy, axis=0).T)
@@ -287,9 +285,8 @@ def command(
     res = compute(
         dem, waypoints, model_path, speed, yaw_rate, band, channels=ch, **options.gait_limits()
     )
-    outside = (res.get("domain") or {}).get("outside_share", 0.0)
     model = options.load_model_option(model_path)
     options.add_trust(
-        res, model, res["energy_j"], trust, outside_share=outside, duration_s=res["duration_s"]
+        res, model, res["energy_j"], trust, duration_s=res["duration_s"], domain=res.get("domain")
     )
     options.emit(res, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))

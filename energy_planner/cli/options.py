@@ -717,36 +717,44 @@ level_option = click.option(
 
 def add_trust(
     result: dict[str, Any], model: Any, energy_j: float, trust: Trust,
-    label: str | None = None, outside_share: float = 0.0, judged: bool = True,
-    duration_s: float | None = None,
+    label: str | None = None, judged: bool = True, duration_s: float | None = None,
+    domain: dict[str, Any] | None = None,
 ) -> None:  # fmt: skip
     """Add the energy's ``interval`` and, with a battery, the ``battery`` decision.
 
-    ``trust``: the command's :class:`Trust`. ``outside_share``: the share of the path
-    outside the calibration's domain, and ``duration_s``, the path's duration: inputs of
-    the fit's error model (:func:`energy_planner.uncertainty.predict_interval`).
+    :func:`energy_planner.uncertainty.path_trust` of the path (its ``duration_s`` and
+    ``domain`` report, :func:`energy_planner.uncertainty.path_domain`) at the command's
+    :class:`Trust`. A battery decision refused beyond the calibrated ranges is
+    ``battery: null`` with ``battery_refused`` (and an error with ``trust.refuse``).
 
     A chance below ``trust.confidence`` prints a warning on stderr (naming ``label``, the
     route, when given), or with ``trust.refuse`` (and ``judged``: the result the command
     judges) raises a ``click.ClickException`` (exit status 1).
     """
-    from energy_planner.uncertainty import BatteryError, battery_decision, predict_interval
+    from energy_planner.uncertainty import BatteryError, path_trust
 
-    iv = predict_interval(model, energy_j, trust.level, outside_share, duration_s)
-    result["interval"] = None if iv is None else iv.to_dict()
-    if trust.battery_wh is None:
-        return
     try:
-        d = battery_decision(model, energy_j, trust.battery_wh, trust.reserve_wh,
-                             trust.confidence, duration_s, outside_share)  # fmt: skip
+        t = path_trust(model, energy_j, duration_s, domain, level=trust.level,
+                       battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
+                       confidence=trust.confidence)  # fmt: skip
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
-    result["battery"] = d.to_dict()
-    if not d.ok:
-        text = d.text().strip() if label is None else f"{label}: {d.text().strip()}"
-        if trust.refuse and judged:
-            raise click.ClickException(text)
-        click.echo(f"warning: {text}", err=True)
+    got = t.to_dict()
+    result["interval"] = got["interval"]
+    for k in ("battery", "battery_refused"):
+        if k in got:
+            result[k] = got[k]
+    text = None
+    if t.battery_refused is not None:
+        text = t.battery_refused
+    elif t.battery is not None and not t.battery.ok:
+        text = t.battery.text().strip()
+    if text is None:
+        return
+    text = text if label is None else f"{label}: {text}"
+    if trust.refuse and judged:
+        raise click.ClickException(text)
+    click.echo(f"warning: {text}", err=True)
 
 
 def trust_lines(res: dict[str, Any]) -> str:
@@ -756,7 +764,8 @@ def trust_lines(res: dict[str, Any]) -> str:
     lines = []
     iv = res.get("interval")
     if iv:
-        e = EnergyInterval(iv["energy_j"], iv["low_j"], iv["high_j"], iv["level"])
+        e = EnergyInterval(iv["energy_j"], iv["low_j"], iv["high_j"], iv["level"],
+                           not_calibrated=tuple(iv.get("not_calibrated") or ()))  # fmt: skip
         few = " (Student-t: too few runs)" if "Student" in iv.get("method", "") else ""
         lines.append(f"interval  {e.text()}, split-conformal on "
                      f"{iv['calibrated_on_runs']} held-out runs{few}")  # fmt: skip
@@ -768,6 +777,8 @@ def trust_lines(res: dict[str, Any]) -> str:
         wide = "; the interval is widened" if dom["outside_share"] > 0 else ""
         lines.append(f"domain    {100 * dom['outside_share']:.0f} % of the path lies outside "
                      f"the calibration's ranges{': ' + why if why else ''}{wide}")  # fmt: skip
+    if res.get("battery_refused"):
+        lines.append(f"battery   {res['battery_refused']}")
     b = res.get("battery")
     if b:
         d = BatteryDecision(b["battery_wh"], b["reserve_wh"], b["usable_wh"] * 3600.0,

@@ -141,14 +141,13 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
 def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | None:
     """The share of a planned route outside the model's calibration domain, or None.
 
-    :func:`energy_planner.uncertainty.domain_report` on the route's segments
+    :func:`energy_planner.uncertainty.path_domain` of the route
     (:func:`energy_planner.energy.path_energy` of its poses).
     """
     import numpy as np
 
     from energy_planner.energy.path import path_energy
-    from energy_planner.uncertainty import domain_report
-    from energy_planner.uncertainty.domain import path_channel_values
+    from energy_planner.uncertainty import path_domain
 
     if not (model.metadata.get("fit") or {}).get("domain"):
         return None
@@ -158,8 +157,7 @@ def route_domain(terrain: Any, model: Any, states: Any, request: Any) -> dict | 
         ch = ch.bind(terrain)
     pe = path_energy(terrain, model, st[:, :2], yaw=st[:, 2], speed=request.robot.speed,
                      yaw_rate=request.robot.yaw_rate, channels=ch)  # fmt: skip
-    return domain_report(model, pe.segments, None if ch is None else ch.constants, pe.poses,
-                         path_channel_values(terrain, ch, pe.poses))  # fmt: skip
+    return path_domain(model, terrain, pe, ch)
 
 
 def format_table(res: dict[str, Any]) -> str:
@@ -331,9 +329,8 @@ def command(
     result["domain"] = route_domain(terrain, model, res.states, request)
     if stay_in_domain:
         result["stay_in_domain"] = domain_notes
-    options.add_trust(result, model, res.energy_j, trust,
-                      outside_share=(result["domain"] or {}).get("outside_share", 0.0),
-                      duration_s=res.duration_s)  # fmt: skip
+    options.add_trust(result, model, res.energy_j, trust, duration_s=res.duration_s,
+                      domain=result["domain"])  # fmt: skip
     if "corridor" in res.info:
         result["corridor"] = {k: v for k, v in res.info["corridor"].items() if k != "log"}
     options.write_output(
