@@ -52,6 +52,7 @@ CASES: tuple[tuple[str, tuple[str, ...], float | None], ...] = (
     ("plain", (), None),
     ("load 10 kg", ("load",), 10.0),
     ("load 20 kg", ("load",), 20.0),
+    ("load 30 kg", ("load",), 30.0),
 )
 
 

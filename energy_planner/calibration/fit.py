@@ -1314,7 +1314,7 @@ def heldout_outside_shares(
 #: beyond a range (:func:`extrapolation_growth`).
 EXTREME_SHARE = (0.1, 0.4)
 #: Fewest held-out runs beyond the rest's range for a growth to be measured.
-MIN_EXTREME_RUNS = 2
+MIN_EXTREME_RUNS = 3
 #: The held-out runs must go beyond the rest's range by at least this share of its width
 #: (median of their farthest window), else the quantity does not spread enough to measure.
 MIN_EXCESS_SHARE = 0.2
