@@ -1432,8 +1432,11 @@ def extrapolation_growth(
                 whys.append(f"{side}: too few runs to hold out the most extreme")
                 continue
             test = np.isin(runs, held)
-            tv = v[~test]
-            lo, hi = float(np.nanmin(tv)), float(np.nanmax(tv))
+            tv = v[~test][np.isfinite(v[~test])]
+            if not tv.size:
+                whys.append(f"{side}: the other runs have no value")
+                continue
+            lo, hi = float(tv.min()), float(tv.max())
             lim = (lo, np.inf) if side == "low" else (-np.inf, hi)
             beyond = _beyond(*lim, v)
             width = max(hi - lo, 1e-12)
