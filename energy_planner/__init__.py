@@ -7,6 +7,7 @@ The public API is at the top level (``import energy_planner as ep``)::
     ep.path_energy(prob, points), ep.compare_routes(...), ep.reach(...),
     ep.energy_map(...), ep.mission(...), ep.fit(logs), ep.discover(logs)
     ep.predict_interval(model, energy_j), ep.battery_decision(model, energy_j, wh)
+    ep.path_trust(model, energy_j, duration_s, ep.path_domain(model, terrain, path_energy))
 
 Data flows one way (see ``docs/architecture.md``)::
 
@@ -47,6 +48,8 @@ _LAZY: dict[str, str] = {
     "EnergyInterval": "energy_planner.uncertainty",
     "predict_interval": "energy_planner.uncertainty",
     "battery_decision": "energy_planner.uncertainty",
+    "path_domain": "energy_planner.uncertainty",
+    "path_trust": "energy_planner.uncertainty",
     "success_probability": "energy_planner.uncertainty",
     "map_path": "energy_planner.maps",
     "Follower": "energy_planner.follow",

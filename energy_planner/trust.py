@@ -83,12 +83,16 @@ class Assessment:
         :func:`energy_planner.uncertainty.domain_report` of the path (None: the model
         records no calibration domain).
     battery : BatteryDecision or None
-        The chance the battery suffices (None: no battery was given).
+        The chance the battery suffices (None: no battery was given, or refused).
+    battery_refused : str or None
+        Why no battery decision was given although a battery was: the path goes beyond
+        the calibration's ranges where the error's growth could not be measured.
     """
 
     interval: Any = None
     domain: dict[str, Any] | None = None
     battery: Any = None
+    battery_refused: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``interval``, ``domain`` and (with a battery) ``battery``, JSON-ready."""
@@ -98,6 +102,9 @@ class Assessment:
         }
         if self.battery is not None:
             out["battery"] = self.battery.to_dict()
+        if self.battery_refused is not None:
+            out["battery"] = None
+            out["battery_refused"] = self.battery_refused
         return out
 
     def text(self) -> str:
@@ -116,6 +123,8 @@ class Assessment:
             lines.append(f"domain    {100 * dom['outside_share']:.0f} % of the path lies "
                          f"outside the calibration's ranges{': ' + why if why else ''}"
                          f"{wide}")  # fmt: skip
+        if self.battery_refused is not None:
+            lines.append(f"battery   {self.battery_refused}")
         if self.battery is not None:
             lines.append(self.battery.text())
         return "\n".join(lines)

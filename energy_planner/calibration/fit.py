@@ -22,6 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -47,6 +48,7 @@ from energy_planner.stats import fold_index, heldout, independent_columns, vif, 
 __all__ = [
     "FitResult",
     "heldout_outside_shares",
+    "extrapolation_growth",
     "CrossValidation",
     "fit_model",
     "as_windows",
@@ -1214,6 +1216,9 @@ def fit_model(
         heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed, fixed=held)
         warnings += heldout.warnings
         error_model = _error_model(model, heldout, table, X, res, w)
+        if error_model is not None:
+            growth = extrapolation_growth(model, table, X, y, w, error_model, offset, names)
+            error_model = dataclasses.replace(error_model, extrapolation=growth)
     model.metadata = {
         **model.metadata,
         **(metadata or {}),
@@ -1356,3 +1361,172 @@ def heldout_outside_shares(
             rep = report_against(dom, seg.iloc[idx].reset_index(drop=True), None, None, vals)
             out[run] = rep["outside_share"]
     return pd.Series(out, dtype=float)
+
+
+#: Share of the runs held out at most, and the fewest, when measuring the error growth
+#: beyond a range (:func:`extrapolation_growth`).
+EXTREME_SHARE = (0.1, 0.4)
+#: Fewest held-out runs beyond the rest's range for a growth to be measured.
+MIN_EXTREME_RUNS = 3
+#: The held-out runs must go beyond the rest's range by at least this share of its width
+#: (median of their farthest window), else the quantity does not spread enough to measure.
+MIN_EXCESS_SHARE = 0.2
+
+
+def _quantity_values(
+    table: pd.DataFrame, model: EnergyModel
+) -> dict[str, tuple[np.ndarray, str, tuple[str, ...]]]:
+    """Per numeric quantity of the domain: its value per window, its unit and its sides."""
+    from energy_planner.model.model import WALKING_SPEED
+
+    out = {"slope": (np.degrees(table["alpha"].to_numpy(float)), "deg", ("high",))}
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    out["speed"] = (np.where(speed > WALKING_SPEED, speed, np.nan), "m/s", ("low", "high"))
+    for c, v in _channel_values(table, model).items():
+        if not isinstance(v, list):
+            out[f"channel {c}"] = (table[c].to_numpy(float), c, ("low", "high"))
+    return out
+
+
+def _extreme_runs(ext: pd.Series) -> list[str]:
+    """The runs with the most extreme values: cut at the widest gap within the top 10-40 %.
+
+    ``ext``: per run its extreme (the larger the more extreme). Designed campaigns come
+    in levels (slopes 0, 5, ... 20 deg): the widest gap keeps a level whole.
+    """
+    e = ext.dropna().sort_values(ascending=False)
+    n = e.size
+    k_lo = max(MIN_EXTREME_RUNS, math.ceil(EXTREME_SHARE[0] * n))
+    k_hi = min(math.floor(EXTREME_SHARE[1] * n), n - MIN_RUNS)
+    if k_hi < k_lo:
+        return []
+    v = e.to_numpy(float)
+    gaps = v[k_lo - 1 : k_hi] - v[k_lo : k_hi + 1]
+    if not gaps.size or gaps.max() <= 0:
+        return []
+    k = k_lo + int(np.argmax(gaps))
+    return [str(r) for r in e.index[:k]]
+
+
+def extrapolation_growth(
+    model: EnergyModel,
+    table: pd.DataFrame,
+    X: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    error_model: Any,
+    offset: np.ndarray | None = None,
+    columns: Sequence[str] | None = None,
+) -> dict[str, dict[str, Any]]:
+    r"""How the run-energy error grows beyond each numeric range of the domain.
+
+    For each numeric quantity the domain records (slope; walking speed; each numeric
+    channel the model reads) and each side of its range (slope: the steepest; speed and
+    channels: the lowest and the highest): the runs with the most extreme values (cut at
+    the widest gap between run extremes within the top 10-40 % of runs) are held out, the
+    model's fitted columns are refitted on the rest (one weighted least squares each) and
+    the held-out runs' energies predicted. A held-out run goes ``u`` beyond the rest's
+    range (each window's distance beyond it, averaged over the run's duration, as
+    :func:`energy_planner.uncertainty.domain_report` averages a path's ``excess``); its
+    relative error ``r = (E_pred - E) / E_pred`` has the inside variance ``v`` of the error
+    model plus the growth:
+
+    .. math:: r^2 \approx v + g^2 u^2, \qquad
+              g^2 = \max\Big(0, \frac{\sum u^2 (r^2 - v)}{\sum u^4}\Big)
+
+    pooled over both sides. Not measured (``growth_per_unit`` None, with ``why``) when
+    fewer than :data:`MIN_EXTREME_RUNS` runs can be held out beyond the rest's range, when
+    they go beyond it by less than :data:`MIN_EXCESS_SHARE` of its width, or when the rest
+    cannot identify a term.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        The fitted model (its fitted terms are the columns of ``X``).
+    table : pandas.DataFrame
+        The window table (``run``, ``alpha``, speed, channels).
+    X, y, w : numpy.ndarray
+        Window means of the fitted columns, window power (W), durations (s).
+    error_model : ErrorModel
+        The fit's error model (the inside variance ``v``).
+    offset : numpy.ndarray, optional
+        Power of the terms held at a prior, per window (W).
+    columns : sequence of str, optional
+        The terms of the columns of ``X`` (default: all of the model's).
+
+    Returns
+    -------
+    dict
+        Quantity (``slope``, ``speed``, ``channel NAME``) -> ``growth_per_unit``
+        (relative error per unit beyond the range, or None), ``unit``, ``held_out_runs``,
+        ``excess`` ([min, max] of the held-out runs' ``u``), ``rms_rel_error`` of the
+        held-out runs, or ``why`` it was not measured.
+    """
+    from energy_planner.stats import wls_coef
+    from energy_planner.uncertainty.domain import _beyond
+
+    runs = table["run"].astype(str).to_numpy()
+    off = np.zeros(len(y)) if offset is None else np.asarray(offset, float)
+    names = list(model.term_names if columns is None else columns)
+    fitted = EnergyModel([next(t for t in model.terms if t.name == n) for n in names])
+    out: dict[str, dict[str, Any]] = {}
+    for q, (v, unit, sides) in _quantity_values(table, model).items():
+        per_run = pd.Series(v).groupby(runs)
+        pts: list[tuple[float, float, float]] = []
+        whys: list[str] = []
+        for side in sides:
+            ext = per_run.max() if side == "high" else -per_run.min()
+            held = _extreme_runs(ext)
+            if not held:
+                whys.append(f"{side}: too few runs to hold out the most extreme")
+                continue
+            test = np.isin(runs, held)
+            tv = v[~test][np.isfinite(v[~test])]
+            if not tv.size:
+                whys.append(f"{side}: the other runs have no value")
+                continue
+            lo, hi = float(tv.min()), float(tv.max())
+            lim = (lo, np.inf) if side == "low" else (-np.inf, hi)
+            beyond = _beyond(*lim, v)
+            width = max(hi - lo, 1e-12)
+            peak = pd.Series(beyond[test]).groupby(runs[test]).max()
+            if (peak > 0).sum() < MIN_EXTREME_RUNS or peak.median() < MIN_EXCESS_SHARE * width:
+                whys.append(f"{side}: the most extreme runs go too little beyond the rest "
+                            f"({peak.median():.3g} {unit} beyond {lo:.3g}-{hi:.3g})")  # fmt: skip
+                continue
+            lost = identify_terms(fitted, X[~test], w[~test], table[~test])
+            if lost:
+                whys.append(f"{side}: without the most extreme runs the rest cannot identify "
+                            + ", ".join(lost))  # fmt: skip
+                continue
+            coef = wls_coef(X[~test], y[~test] - off[~test], w[~test])
+            p = X[test] @ coef + off[test]
+            if not model.regenerative:
+                p = np.maximum(p, 0.0)
+            df = pd.DataFrame({"run": runs[test], "pred": p * w[test], "meas": y[test] * w[test],
+                               "t": w[test], "u": beyond[test] * w[test]})  # fmt: skip
+            g = df.groupby("run").sum()
+            g = g[(g["pred"] > 0) & (g["u"] > 0)]
+            for pr, me, t, uw in g[["pred", "meas", "t", "u"]].itertuples(index=False):
+                r = (pr - me) / pr
+                inside = float(error_model.sigma(pr, t)) / pr
+                pts.append((uw / t, r, inside**2))
+        if len(pts) < MIN_EXTREME_RUNS:
+            why = "; ".join(whys) or "too few held-out runs beyond the range"
+            out[q] = {"growth_per_unit": None, "unit": unit, "why": why}
+            continue
+        u, r, vin = (np.array(a) for a in zip(*pts, strict=True))
+        g2 = max(float(np.sum(u**2 * (r**2 - vin)) / np.sum(u**4)), 0.0)
+        out[q] = {
+            "growth_per_unit": float(math.sqrt(g2)),
+            "unit": unit,
+            "held_out_runs": int(u.size),
+            "excess": [float(u.min()), float(u.max())],
+            "rms_rel_error": float(np.sqrt(np.mean(r**2))),
+            **({"not_measured_sides": "; ".join(whys)} if whys else {}),
+        }
+    return out

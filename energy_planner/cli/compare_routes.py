@@ -93,7 +93,7 @@ def command(
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
     result = comp.to_dict(terrain)
     for r in comp.routes:
-        options.judge(r.battery, trust, label=r.name, judged=r.name == "energy_optimal")
+        options.judge(r, trust, label=r.name, judged=r.name == "energy_optimal")
     options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
     options.write_output(
         result, "html", html, lambda p: comp.write_html(p, Problem(terrain, model, request))

@@ -291,5 +291,5 @@ def command(
     pe, context = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch,
                           trust=trust, **options.gait_limits())  # fmt: skip
     res = {**pe.to_dict(), **context}
-    options.judge(pe.battery, trust)
+    options.judge(pe, trust)
     options.emit(res, as_json, lambda r: format_table(r) + "\n" + pe.assessment.text())

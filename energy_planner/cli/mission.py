@@ -145,7 +145,7 @@ def command(
             client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
-    options.judge(res.battery, trust)
+    options.judge(res, trust)
     options.write_geojson_output(
         out, "geojson", geojson, lambda: res.to_geojson(terrain, native=geojson_crs == "dem")
     )

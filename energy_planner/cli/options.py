@@ -768,18 +768,26 @@ level_option = click.option(
 )  # fmt: skip
 
 
-def judge(decision: Any, trust: Trust, label: str | None = None, judged: bool = True) -> None:
-    """Say a battery verdict below the required chance: a warning, or with ``--refuse`` an error.
+def judge(result: Any, trust: Trust, label: str | None = None, judged: bool = True) -> None:
+    """Say a battery verdict below the required chance, or a refused one: a warning or an error.
 
-    ``decision`` is the result's own ``battery`` (a
-    :class:`~energy_planner.uncertainty.BatteryDecision`, or None: nothing to say).
-    Below ``trust.confidence`` it prints a warning on stderr (naming ``label``, the
+    ``result`` carries an assessment (:class:`~energy_planner.trust.Assessed`): its
+    ``battery`` (a :class:`~energy_planner.uncertainty.BatteryDecision`, or None) and its
+    ``battery_refused`` (why no decision was given beyond the calibrated ranges). Below
+    ``trust.confidence``, or refused, it prints a warning on stderr (naming ``label``, the
     route, when given), or with ``trust.refuse`` (and ``judged``: the result the command
     judges) raises a ``click.ClickException`` (exit status 1).
     """
-    if decision is None or decision.ok:
+    a = getattr(result, "assessment", None)
+    refused = None if a is None else a.battery_refused
+    decision = None if a is None else a.battery
+    if refused is not None:
+        text = refused
+    elif decision is not None and not decision.ok:
+        text = decision.text().strip()
+    else:
         return
-    text = decision.text().strip() if label is None else f"{label}: {decision.text().strip()}"
+    text = text if label is None else f"{label}: {text}"
     if trust.refuse and judged:
         raise click.ClickException(text)
     click.echo(f"warning: {text}", err=True)

@@ -313,7 +313,7 @@ def command(
     result.update(plan_context(terrain, request, model, model_path))
     if stay_in_domain:
         result["stay_in_domain"] = domain_notes
-    options.judge(res.battery, trust)
+    options.judge(res, trust)
     options.write_output(
         result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
     )

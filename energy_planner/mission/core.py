@@ -398,9 +398,10 @@ def _battery_legs(
         parts.append((leg.domain, leg.duration_s))
         whole = assess(model, cum, duration_s=cum_s, domain=sum_domain(parts), trust=trust)
         d = whole.battery
-        if d is not None and set_legs:
+        if set_legs and (d is not None or whole.battery_refused is not None):
             own = leg.assessment or Assessment()
-            object.__setattr__(leg, "assessment", dataclasses.replace(own, battery=d))
+            object.__setattr__(leg, "assessment", dataclasses.replace(
+                own, battery=d, battery_refused=whole.battery_refused))  # fmt: skip
         if d is not None:
             rows.append({"leg": k, "to": res.sites.names[leg.b], "spent_j": cum,
                          "probability": d.probability, "ok": d.ok})  # fmt: skip

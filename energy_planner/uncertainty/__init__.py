@@ -15,10 +15,16 @@ The same scores give the whole predictive distribution, so the chance that the t
 fits in a usable battery energy ``U`` is the share of scores with ``E / (1 + r) <= U``
 (:func:`success_probability`).
 
-What it does not know: a path far longer than the calibration's runs (errors that average
-out make the interval conservative there), and a path on slopes, headings or channel values
-the campaign never saw (the interval is only as good as the model there). A model without
-held-out scores (an old file, or ``fit --folds 0``) has no interval: ``None``, said so.
+Outside the calibration's domain (:mod:`energy_planner.uncertainty.domain`): a path that
+goes beyond a numeric range (slope, speed, a numeric channel) is widened by the growth of
+the error the fit measured by holding out its most extreme runs
+(:class:`~energy_planner.uncertainty.errormodel.ErrorModel`, ``extrapolation``), given the
+path's domain report (``domain=``, :func:`path_domain`); what no measured growth covers is
+*not calibrated*: the interval says so and :func:`battery_decision` refuses to decide on
+it. :func:`path_trust` gives a path's interval, domain and battery decision at once, as
+every door reports them. A path far longer than the calibration's runs makes the interval
+conservative (errors that average out). A model without held-out scores (an old file, or
+``fit --folds 0``) has no interval: ``None``, said so.
 
 Examples
 --------
@@ -34,13 +40,14 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from energy_planner.errors import EnergyPlannerError
-from energy_planner.uncertainty.domain import domain_report, stay_in_domain
+from energy_planner.uncertainty.domain import domain_report, path_domain, stay_in_domain
 from energy_planner.uncertainty.errormodel import ErrorModel
 
 __all__ = [
@@ -48,6 +55,8 @@ __all__ = [
     "BatteryDecision",
     "EnergyInterval",
     "ErrorModel",
+    "ExtrapolationError",
+    "PathTrust",
     "battery_decision",
     "conformal_bounds",
     "confident_budget",
@@ -55,6 +64,8 @@ __all__ = [
     "domain_report",
     "model_error_model",
     "model_scores",
+    "path_domain",
+    "path_trust",
     "predict_interval",
     "stay_in_domain",
     "success_probability",
@@ -66,6 +77,10 @@ DEFAULT_LEVEL = 0.9
 
 class BatteryError(EnergyPlannerError, ValueError):
     """A battery's chance of getting through is below the required confidence."""
+
+
+class ExtrapolationError(BatteryError):
+    """No battery decision: part of the path lies where the error growth was not measured."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +99,10 @@ class EnergyInterval:
         Held-out runs it was calibrated on.
     method : str
         How it was computed.
+    not_calibrated : tuple of str
+        Empty when the whole interval is calibrated; else ``"quantity: why"`` for each
+        range the path leaves where the fit could not measure how the error grows (the
+        bounds there rest on an assumed widening).
     """
 
     energy_j: float
@@ -92,6 +111,12 @@ class EnergyInterval:
     level: float = DEFAULT_LEVEL
     n_scores: int = 0
     method: str = "split-conformal on held-out run energies"
+    not_calibrated: tuple[str, ...] = ()
+
+    @property
+    def calibrated(self) -> bool:
+        """True unless part of the path lies where the error growth was not measured."""
+        return not self.not_calibrated
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields (J and Wh)."""
@@ -104,11 +129,16 @@ class EnergyInterval:
             "level": self.level,
             "calibrated_on_runs": self.n_scores,
             "method": self.method,
+            "calibrated": self.calibrated,
+            "not_calibrated": list(self.not_calibrated),
         }
 
     def text(self) -> str:
-        """``"[a .. b] J (90 %)"``."""
-        return f"[{self.low_j:.0f} .. {self.high_j:.0f}] J ({100 * self.level:g} %)"
+        """``"[a .. b] J (90 %)"``, and ``NOT calibrated ...`` when it is not."""
+        t = f"[{self.low_j:.0f} .. {self.high_j:.0f}] J ({100 * self.level:g} %)"
+        if self.not_calibrated:
+            t += " NOT calibrated beyond the logs' ranges (" + "; ".join(self.not_calibrated) + ")"
+        return t
 
 
 def model_scores(model: Any) -> np.ndarray | None:
@@ -184,35 +214,85 @@ def model_error_model(model: Any) -> ErrorModel | None:
     return None if not d else ErrorModel.from_dict(d)
 
 
+def _outside(model: Any, em: ErrorModel | None, outside_share: float,
+             domain: Any) -> Any:  # fmt: skip
+    """The :class:`~energy_planner.uncertainty.errormodel.Outside` of a prediction.
+
+    With a domain report: what the fit's measured growth covers, and the rest; with only a
+    share: all of it by the share (not calibrated unless the error model fitted ``d``).
+    """
+    from energy_planner.uncertainty.errormodel import Outside
+
+    if domain is not None:
+        if em is not None:
+            return em.outside(domain)
+        share = float(domain.get("outside_share") or 0.0)
+        return Outside(0.0, share, (), ("the model records no error model",) if share else ())
+    share = float(outside_share or 0.0)
+    loose = ("a share outside given without the path's domain report",) if share > 0 else ()
+    return Outside(0.0, share, (), loose)
+
+
+def _not_calibrated(em: ErrorModel | None, out: Any) -> tuple[str, ...]:
+    """The quantities outside where the interval rests on an assumption."""
+    if out.share > 0 and (em is None or em.outside_rel_var is None):
+        return tuple(out.not_measured)
+    return ()
+
+
 def predict_interval(
     model: Any,
     energy_j: float,
     level: float = DEFAULT_LEVEL,
     outside_share: float = 0.0,
     duration_s: float | None = None,
+    *,
+    domain: Mapping[str, Any] | None = None,
 ) -> EnergyInterval | None:
     """The interval of ``energy_j`` predicted by ``model``, or None if it carries no scores.
 
     With the fit's error model (:mod:`energy_planner.uncertainty.errormodel`): the scale
-    ``sigma(E, T, share)`` times the split-conformal bounds of the normalized held-out
+    ``sigma(E, T, outside)`` times the split-conformal bounds of the normalized held-out
     scores; ``duration_s`` is the path's duration (default: the energy over the held-out
-    runs' mean power) and ``outside_share`` (0-1, :func:`domain_report`) the share of it
-    outside the calibration's domain. Without an error model (older model files): the
-    relative held-out scores ``r``, each scaled by ``1 + OUTSIDE_WIDENING * outside_share``
-    (kept above -0.9).
+    runs' mean power). ``domain``, the path's domain report (:func:`path_domain`,
+    :func:`domain_report`), widens it by the growth of the error the fit measured beyond
+    each numeric range, for the distance the path goes beyond it; what no measured
+    growth covers widens it by its share (the fitted ``d``, or the assumed ``1 + share``,
+    then ``not_calibrated`` names it). ``outside_share`` (0-1) without a report: all of
+    it by the share. Without an error model (older model files): the relative held-out
+    scores ``r``, each scaled by ``1 + OUTSIDE_WIDENING * share`` (kept above -0.9), not
+    calibrated outside.
+
+    Examples
+    --------
+    >>> from energy_planner.model import EnergyModel
+    >>> em = ErrorModel(0.0, 1e-4, 0.0, None, np.linspace(-1.645, 1.645, 199), 100.0,
+    ...                 extrapolation={"slope": {"growth_per_unit": 0.01}})
+    >>> m = EnergyModel(["idle_power"], {"idle_power": 100.0},
+    ...                 metadata={"fit": {"error_model": em.to_dict()}})
+    >>> dom = {"shares": {"slope": 0.5}, "excess": {"slope": 3.0}}  # 3 deg beyond on average
+    >>> iv = predict_interval(m, 1000.0, domain=dom)  # sigma = 1000 sqrt(1e-4 + 0.03^2) J
+    >>> round(float((iv.high_j - 1000.0) / (1000.0 * np.sqrt(1e-4 + 0.03**2))), 3), iv.calibrated
+    (1.512, True)
     """
     em = model_error_model(model)
+    out = _outside(model, em, outside_share, domain)
+    loose = _not_calibrated(em, out)
     if em is not None:
-        lo, hi = em.bounds(float(energy_j), level, duration_s, outside_share)
+        lo, hi = em.bounds(float(energy_j), level, duration_s, out.share, out.extra_rel_var)
         how = _EM_METHOD + (_SMALL if em.small_sample(level) else "")
+        if out.measured:
+            how += "; beyond the range of " + ", ".join(out.measured) + " by the measured growth"
         return EnergyInterval(float(energy_j), lo, hi, float(level), int(em.scores.size),
-                              method=how)  # fmt: skip
+                              method=how, not_calibrated=loose)  # fmt: skip
     s = model_scores(model)
     if s is None:
         return None
-    if outside_share > 0:
-        s = np.maximum(s * (1.0 + OUTSIDE_WIDENING * float(outside_share)), -0.9)
-    return interval(energy_j, s, level)
+    if out.share > 0:
+        s = np.maximum(s * (1.0 + OUTSIDE_WIDENING * float(out.share)), -0.9)
+    iv = interval(energy_j, s, level)
+    return EnergyInterval(iv.energy_j, iv.low_j, iv.high_j, iv.level, iv.n_scores, iv.method,
+                          loose)  # fmt: skip
 
 
 _SMALL = "; too few runs for conformal bounds: Student-t bounds of the normalized errors"
@@ -266,27 +346,41 @@ class BatteryDecision:
 def battery_decision(
     model: Any, energy_j: float, battery_wh: float, reserve_wh: float = 0.0,
     confidence: float = DEFAULT_LEVEL, duration_s: float | None = None,
-    outside_share: float = 0.0,
+    outside_share: float = 0.0, *, domain: Mapping[str, Any] | None = None,
 ) -> BatteryDecision:  # fmt: skip
     """The chance that a route predicted at ``energy_j`` fits in a battery.
 
     From the same predictive distribution as :func:`predict_interval` (the fit's error
-    model with the route's ``duration_s`` and ``outside_share`` when the model has one,
-    else the relative held-out scores).
+    model with the route's ``duration_s`` and its ``domain`` report or ``outside_share``
+    when the model has one, else the relative held-out scores).
 
     Raises
     ------
     BatteryError
         The model carries no held-out scores (refit it with cross-validation), or the
         reserve is not below the battery.
+    ExtrapolationError
+        Part of the route lies beyond the calibration's ranges where the fit could not
+        measure how its error grows: no chance is given there (names the quantities).
     """
     if not reserve_wh < battery_wh:
         raise BatteryError(f"the reserve ({reserve_wh:g} Wh) must be below the battery "
                            f"({battery_wh:g} Wh)", value=reserve_wh)  # fmt: skip
     usable = (battery_wh - reserve_wh) * 3600.0
     em = model_error_model(model)
+    out = _outside(model, em, outside_share, domain)
+    loose = _not_calibrated(em, out)
+    if loose:
+        raise ExtrapolationError(
+            f"no battery decision: {100 * out.share:.0f} % of the route lies outside the "
+            "calibration's ranges where the fit could not measure how the error grows ("
+            + "; ".join(loose)
+            + "); keep the route inside (plan --stay-in-domain) or refit "
+            "on logs that cover it",
+            value=out.share,
+        )
     if em is not None:
-        p = em.probability(float(energy_j), usable, duration_s, outside_share)
+        p = em.probability(float(energy_j), usable, duration_s, out.share, out.extra_rel_var)
         return BatteryDecision(float(battery_wh), float(reserve_wh), usable, p,
                                float(confidence))  # fmt: skip
     s = model_scores(model)
@@ -297,6 +391,78 @@ def battery_decision(
         )
     return BatteryDecision(float(battery_wh), float(reserve_wh), usable,
                            success_probability(energy_j, s, usable), float(confidence))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PathTrust:
+    """What a path's energy can be trusted to: its interval, domain and battery decision.
+
+    Attributes
+    ----------
+    interval : EnergyInterval or None
+        None when the model carries no held-out scores.
+    domain : dict or None
+        The path's domain report (:func:`path_domain`); None without a recorded domain.
+    battery : BatteryDecision or None
+        With a battery: the chance it suffices; None without one or when refused.
+    battery_refused : str or None
+        Why no battery decision was given (:class:`ExtrapolationError`).
+    """
+
+    interval: EnergyInterval | None
+    domain: dict[str, Any] | None = None
+    battery: BatteryDecision | None = None
+    battery_refused: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """``interval``, ``domain``; given a battery, ``battery`` (or ``battery_refused``)."""
+        out: dict[str, Any] = {
+            "interval": None if self.interval is None else self.interval.to_dict(),
+            "domain": self.domain,
+        }
+        if self.battery is not None:
+            out["battery"] = self.battery.to_dict()
+        if self.battery_refused is not None:
+            out["battery"] = None
+            out["battery_refused"] = self.battery_refused
+        return out
+
+
+def path_trust(
+    model: Any,
+    energy_j: float,
+    duration_s: float | None = None,
+    domain: Mapping[str, Any] | None = None,
+    *,
+    level: float = DEFAULT_LEVEL,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = DEFAULT_LEVEL,
+) -> PathTrust:
+    """A path's interval, its domain and, given a battery, the chance it suffices.
+
+    The one combination of :func:`predict_interval` and :func:`battery_decision` with the
+    path's domain report (:func:`path_domain`) that every door uses (``energy``,
+    ``plan`` and the result objects): the same ``duration_s`` and ``domain`` go into
+    both. A battery decision beyond the ranges where the error growth was not measured
+    is refused (``battery_refused`` says why) rather than given with false confidence.
+
+    Raises
+    ------
+    BatteryError
+        A battery is given but the model carries no held-out scores, or the reserve is
+        not below the battery.
+    """
+    iv = predict_interval(model, energy_j, level, duration_s=duration_s, domain=domain or {})
+    dom = None if domain is None else dict(domain)
+    if battery_wh is None:
+        return PathTrust(iv, dom)
+    try:
+        d = battery_decision(model, energy_j, battery_wh, reserve_wh, confidence, duration_s,
+                             domain=domain or {})  # fmt: skip
+    except ExtrapolationError as exc:
+        return PathTrust(iv, dom, None, str(exc))
+    return PathTrust(iv, dom, d)
 
 
 def confident_budget(model_or_scores: Any, usable_j: float, confidence: float) -> float:

@@ -52,16 +52,13 @@ def assess(
         A battery was given and the model carries no held-out run errors, or the reserve
         is not below the battery.
     """
-    from energy_planner.uncertainty import battery_decision, predict_interval
+    from energy_planner.uncertainty import path_trust
 
     trust = trust or Trust()
-    share = float((domain or {}).get("outside_share", 0.0))
-    iv = predict_interval(model, energy_j, trust.level, share, duration_s)
-    bat = None
-    if trust.battery_wh is not None:
-        bat = battery_decision(model, energy_j, trust.battery_wh, trust.reserve_wh,
-                               trust.confidence, duration_s, share)  # fmt: skip
-    return Assessment(iv, domain, bat)
+    t = path_trust(model, energy_j, duration_s, domain, level=trust.level,
+                   battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
+                   confidence=trust.confidence)  # fmt: skip
+    return Assessment(t.interval, domain, t.battery, t.battery_refused)
 
 
 def path_domain(model: Any, priced: Any, cost: Any) -> dict[str, Any] | None:
@@ -69,18 +66,12 @@ def path_domain(model: Any, priced: Any, cost: Any) -> dict[str, Any] | None:
 
     ``priced`` is the path's :class:`~energy_planner.energy.path.PathEnergy`, ``cost``
     the :class:`~energy_planner.energy.MotionCost` that priced it (its channel constants
-    and rasters are the values along the path).
+    and rasters are the values along the path): counted per metre walked by
+    :func:`energy_planner.uncertainty.domain.path_domain`.
     """
-    from energy_planner.uncertainty.domain import (
-        domain_of,
-        domain_report,
-        path_channel_values,
-    )
+    from energy_planner.uncertainty.domain import path_domain as per_metre
 
-    if not domain_of(model):
-        return None
-    along = path_channel_values(cost.terrain, cost.channels, priced.poses)
-    return domain_report(model, priced.segments, cost.constants, priced.poses, along)
+    return per_metre(model, cost.terrain, priced, cost.channels)
 
 
 def assess_path(model: Any, priced: Any, cost: Any, trust: Trust | None = None) -> Assessment:
@@ -107,9 +98,18 @@ def sum_domain(parts: list[tuple[dict[str, Any] | None, float]]) -> dict[str, An
         return {k: round(sum(d.get(key, {}).get(k, 0.0) * t for d, t in have) / total, 4)
                 for k in names}  # fmt: skip
 
+    peak: dict[str, float] = {}
+    for d, _ in have:
+        for k, v in (d.get("max_excess") or {}).items():
+            peak[k] = max(peak.get(k, 0.0), v)
     return {
         "outside_share": round(sum(d["outside_share"] * t for d, t in have) / total, 4),
+        "outside_m": round(sum(d.get("outside_m", 0.0) for d, _ in have), 3),
         "reasons": {k: v for k, v in mix("reasons").items() if v > 0},
         "shares": mix("shares"),
+        # the distance beyond each range, averaged over the whole path's duration as
+        # domain_report averages it along one path (what the error's growth scales)
+        "excess": mix("excess"),
+        "max_excess": peak,
         "domain": have[0][0].get("domain"),
     }

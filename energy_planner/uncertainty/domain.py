@@ -4,8 +4,12 @@ A fitted model records the ranges its calibration windows saw
 (:func:`energy_planner.calibration.fit.calibration_domain`, ``metadata.fit.domain``):
 slope, relative heading per gait, walking speed, turning rate and the values of each
 channel it reads. :func:`domain_report` gives the share of a path's duration outside each
-of them; :func:`stay_in_domain` turns the domain into a planning request that keeps a plan
-inside it as far as the planner's limits can.
+of them, and by how far it lies beyond the numeric ranges (its ``excess``: the input of the
+calibrated widening of :func:`energy_planner.uncertainty.predict_interval`);
+:func:`path_domain` does it for a priced path over a terrain, sampling the slope and the
+raster channels along every motion at the energy integration's sub-steps, so that a share
+is counted per metre walked, not per segment. :func:`stay_in_domain` turns the domain into
+a planning request that keeps a plan inside it as far as the planner's limits can.
 """
 
 from __future__ import annotations
@@ -27,7 +31,10 @@ __all__ = [
     "DomainError",
     "domain_of",
     "domain_report",
+    "motion_segments",
     "path_channel_values",
+    "path_domain",
+    "path_samples",
     "report_against",
     "stay_in_domain",
     "window_segments",
@@ -40,6 +47,9 @@ SLOPED_DEG = 3.0
 HEADING_SLACK_DEG = 2.0
 #: The quantities whose shares :func:`domain_report` gives (channels as ``channel NAME``).
 QUANTITIES = ("slope", "gait", "relative_heading", "speed", "turning_rate")
+#: Units of the quantities whose distance beyond their range is measured (``excess``);
+#: numeric channels are measured in their own unit.
+EXCESS_UNITS = {"slope": "deg", "speed": "m/s"}
 
 
 class DomainError(EnergyPlannerError, ValueError):
@@ -79,10 +89,42 @@ def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
 
 def _channel_outside(seen: Any, values: np.ndarray) -> np.ndarray:
     """Per value: outside the recorded range (numeric) or not among the categories."""
-    if isinstance(seen, list) and seen and isinstance(seen[0], str):
+    if _categorical(seen):
         return np.array([v is not None and str(v) not in seen for v in values], dtype=bool)
-    f = np.array([np.nan if v is None or isinstance(v, str) else float(v) for v in values])
+    f = _numbers(values)
     return np.isfinite(f) & ((f < seen[0]) | (f > seen[1]))
+
+
+def _categorical(seen: Any) -> bool:
+    return isinstance(seen, list) and bool(seen) and isinstance(seen[0], str)
+
+
+def _numbers(values: Any) -> np.ndarray:
+    v = np.atleast_1d(np.asarray(values, dtype=object))
+    return np.array([np.nan if x is None or isinstance(x, str) else float(x) for x in v])
+
+
+def _beyond(lo: float, hi: float, values: Any) -> np.ndarray:
+    """Distance of each value beyond ``[lo, hi]`` (0 inside, NaN-safe), in its unit."""
+    f = np.asarray(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        d = np.maximum(np.maximum(lo - f, f - hi), 0.0)
+    return np.where(np.isfinite(d), d, 0.0)
+
+
+def _weighted(per_seg: Any, weights: Any, fn: Any) -> np.ndarray:
+    """Per segment the weighted mean of ``fn(samples)`` (samples along it, or one value)."""
+    out = np.zeros(len(per_seg))
+    for i, v in enumerate(per_seg):
+        x = np.asarray(fn(np.atleast_1d(v)), dtype=float)
+        if x.size == 0:
+            continue
+        w = None if weights is None else np.asarray(weights[i], dtype=float)
+        if w is None or w.size != x.size or not np.sum(w) > 0:
+            out[i] = float(np.mean(x))
+        else:
+            out[i] = float(np.sum(w * x) / np.sum(w))
+    return out
 
 
 def report_against(
@@ -91,32 +133,60 @@ def report_against(
     constants: Mapping[str, Any] | None = None,
     poses: Any = None,
     channel_values: Mapping[str, Any] | None = None,
+    along: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """:func:`domain_report` against a domain dict (the core; see there)."""
+    """:func:`domain_report` against a domain dict (the core; see there).
+
+    ``along`` (:func:`path_samples`): per segment the samples of the slope (``slope_deg``)
+    and of the raster channels along it, with their ``weight`` (metres walked): the share
+    of a segment outside a range is the share of its metres outside, and its excess the
+    mean distance beyond the range over those metres. Without it a segment is outside by
+    its ``max_slope_deg`` (a calibration window: its mean slope).
+    """
     dur = np.asarray(segments["duration_s"], dtype=float)
     dist = np.asarray(segments["distance_m"], dtype=float)
     turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
     total = float(dur.sum())
     if total <= 0:
-        return {"outside_share": 0.0, "reasons": {}, "shares": {}, "domain": dict(dom)}
+        return {"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
+                "max_excess": {}, "domain": dict(dom)}  # fmt: skip
     safe = np.where(dur > 0, dur, np.inf)
     speed, rate = dist / safe, turn / safe
-    masks: dict[str, tuple[str, np.ndarray]] = {}
-    slope = np.asarray(segments["max_slope_deg"], dtype=float)
-    masks[f"slope above {dom['max_slope_deg']:g} deg"] = ("slope", slope > dom["max_slope_deg"])
+    along = dict(along or {})
+    weights = along.get("weight")
+    # quantity -> (reason, share of each segment outside, its excess per segment or None,
+    # the largest excess of a sample)
+    masks: dict[str, tuple[str, np.ndarray, np.ndarray | None, float]] = {}
+    top = float(dom["max_slope_deg"])
+    if "slope_deg" in along:
+        s_out = _weighted(along["slope_deg"], weights, lambda v: v > top)
+        s_exc = _weighted(along["slope_deg"], weights, lambda v: _beyond(-np.inf, top, v))
+        peak = max((float(np.max(_beyond(-np.inf, top, v))) for v in along["slope_deg"]
+                    if np.size(v)), default=0.0)  # fmt: skip
+    else:
+        slope = np.asarray(segments["max_slope_deg"], dtype=float)
+        s_out = (slope > top).astype(float)
+        s_exc = _beyond(-np.inf, top, slope)
+        peak = float(np.max(s_exc)) if s_exc.size else 0.0
+    masks[f"slope above {top:g} deg"] = ("slope", s_out, s_exc, peak)
     if dom.get("speed_m_s"):
         lo, hi = dom["speed_m_s"]
+        walking = speed > 0.05
+        exc = np.where(walking, _beyond(lo, hi, speed), 0.0)
         masks[f"speed outside {lo:g}-{hi:g} m/s"] = (
-            "speed", (speed > 0.05) & ((speed < lo) | (speed > hi))
+            "speed", (walking & ((speed < lo) | (speed > hi))).astype(float), exc,
+            float(exc.max()) if exc.size else 0.0,
         )  # fmt: skip
     masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
-        "turning_rate", rate > dom["max_turn_rate_rad_s"] * 1.05
+        "turning_rate", (rate > dom["max_turn_rate_rad_s"] * 1.05).astype(float), None, 0.0
     )  # fmt: skip
     gaits = _segment_gaits(segments, poses)
     recorded = dom.get("gaits") or {}
     for g in ("forward", "backward", "lateral", "turning"):
         if g not in recorded:
-            masks[f"{g} motion, absent from the calibration"] = ("gait", gaits == g)
+            masks[f"{g} motion, absent from the calibration"] = (
+                "gait", (gaits == g).astype(float), None, 0.0
+            )  # fmt: skip
     if "mean_rel_heading_deg" in segments:
         gamma = np.abs(np.asarray(segments["mean_rel_heading_deg"], dtype=float))
         mean_slope = np.asarray(segments.get("mean_slope_deg", segments["max_slope_deg"]), float)
@@ -128,34 +198,45 @@ def report_against(
             lo, hi = rng[0] - HEADING_SLACK_DEG, rng[1] + HEADING_SLACK_DEG
             out = (gaits == g) & sloped & ((gamma < lo) | (gamma > hi))
             masks[f"{g} at relative heading outside {rng[0]:g}-{rng[1]:g} deg"] = (
-                "relative_heading", out
+                "relative_heading", out.astype(float), None, 0.0
             )  # fmt: skip
     seen_ch = dom.get("channels") or {}
     per_seg: dict[str, Any] = dict(channel_values or {})
+    ch_weights: dict[str, Any] = {}
+    for c, v in along.items():
+        if c not in ("weight", "slope_deg"):
+            per_seg[c], ch_weights[c] = v, weights
     for c, v in dict(constants or {}).items():
         per_seg.setdefault(c, np.full(dur.size, v, dtype=object))
     for c, vals in per_seg.items():
         seen = seen_ch.get(c)
         if seen is None or len(vals) != dur.size:
             continue
-        if any(isinstance(v, np.ndarray) for v in vals):  # samples along each segment
-            out = np.array([np.mean(_channel_outside(seen, np.atleast_1d(v))) if np.size(v)
-                            else 0.0 for v in vals])  # fmt: skip
-        else:
-            out = _channel_outside(seen, vals).astype(float)
+        w = ch_weights.get(c)
+        out = _weighted(vals, w, lambda v, seen=seen: _channel_outside(seen, v))
+        exc, peak = None, 0.0
+        if not _categorical(seen):
+            exc = _weighted(vals, w, lambda v, seen=seen: _beyond(seen[0], seen[1], _numbers(v)))
+            peak = max((float(np.max(_beyond(seen[0], seen[1], _numbers(v)))) for v in vals
+                        if np.size(v)), default=0.0)  # fmt: skip
         what = f"{c} outside the logs' {seen}"
         if c in (constants or {}):
             what = f"{c} = {vals[0]} outside the logs' {seen}"
-        masks[what] = (f"channel {c}", out)
-    # a mask is the share of each segment outside (0 or 1, or a fraction of the samples
-    # along it); the share outside several ranges is at least the largest of them
+        masks[what] = (f"channel {c}", out, exc, peak)
+    # a mask is the share of each segment outside (0 or 1, or the share of its metres);
+    # the share outside several ranges is at least the largest of them
     any_out = np.zeros(dur.size)
     reasons: dict[str, float] = {}
     shares: dict[str, float] = {q: 0.0 for q in QUANTITIES}
+    excess: dict[str, float] = {}
+    max_excess: dict[str, float] = {}
     by_q: dict[str, np.ndarray] = {}
-    for why, (q, m) in masks.items():
+    for why, (q, m, exc, peak) in masks.items():
         m = np.asarray(m, dtype=float)
         by_q[q] = np.maximum(by_q.get(q, np.zeros(dur.size)), m)
+        if exc is not None:
+            excess[q] = max(excess.get(q, 0.0), round(float(np.sum(dur * exc) / total), 6))
+            max_excess[q] = max(max_excess.get(q, 0.0), round(peak, 6))
         if m.any():
             reasons[why] = round(float(np.sum(dur * m) / total), 4)
             any_out = np.maximum(any_out, m)
@@ -163,8 +244,11 @@ def report_against(
         shares[q] = round(float(np.sum(dur * m) / total), 4)
     return {
         "outside_share": round(float(np.sum(dur * any_out) / total), 4),
+        "outside_m": round(float(np.sum(dist * any_out)), 3),
         "reasons": reasons,
         "shares": shares,
+        "excess": excess,
+        "max_excess": max_excess,
         "domain": dict(dom),
     }
 
@@ -175,6 +259,7 @@ def domain_report(
     constants: Any = None,
     poses: Any = None,
     channel_values: Mapping[str, Any] | None = None,
+    along: Mapping[str, Any] | None = None,
 ) -> dict[str, Any] | None:
     """The share of a path outside the ranges the model's calibration saw.
 
@@ -197,52 +282,179 @@ def domain_report(
         Channel name -> per segment one value, or an array of values sampled along it
         (a raster channel along the path, :func:`path_channel_values`): the share of
         the samples outside the recorded range counts.
+    along : mapping, optional
+        :func:`path_samples` of the path: slope and raster channels per metre along each
+        segment (:func:`path_domain` builds it).
 
     Returns
     -------
     dict or None
-        ``outside_share`` (share of the path's duration outside, 0-1), ``reasons``
-        (reason -> share of the duration), ``shares`` (quantity -> share outside it:
-        ``slope``, ``gait``, ``relative_heading``, ``speed``, ``turning_rate``,
-        ``channel NAME``) and ``domain``; None when the model records no domain.
+        ``outside_share`` (share of the path's duration outside, 0-1), ``outside_m``
+        (metres outside), ``reasons`` (reason -> share of the duration), ``shares``
+        (quantity -> share outside it: ``slope``, ``gait``, ``relative_heading``,
+        ``speed``, ``turning_rate``, ``channel NAME``), ``excess`` (per numeric quantity:
+        slope in deg, speed in m/s, a channel in its unit, the distance beyond its range
+        averaged over the path's duration, 0 inside), ``max_excess`` (the farthest
+        sample) and ``domain``; None when the model records no domain.
     """
     dom = domain_of(model)
     if not dom:
         return None
-    return report_against(dom, segments, constants, poses, channel_values)
+    return report_against(dom, segments, constants, poses, channel_values, along)
 
 
-def path_channel_values(terrain: Any, channels: Any, poses: Any) -> dict[str, list[Any]]:
-    """Per raster channel, its values along each segment (nearest cell, every half cell).
+def motion_segments(poses: Any, n_segments: int | None = None) -> np.ndarray:
+    """The path segment of each motion between consecutive ``poses``.
 
-    ``channels`` must be bound to ``terrain`` (:meth:`Channels.bind`); categorical values
-    come back as category names. Returns, per channel, one array of samples per segment
-    between consecutive ``poses`` (``{}`` without raster channels).
+    :func:`energy_planner.energy.path_energy` walks a segment as a turn in place at its
+    first waypoint (when the heading changes) and the walk: with more motions than
+    segments, each turn in place (no displacement) belongs to the walk that follows it.
+    With as many motions as segments (or ``n_segments`` None), motion ``k`` is segment
+    ``k``.
+
+    >>> motion_segments([[0, 0, 0], [1, 0, 0], [1, 0, 1.5], [1, 2, 1.5]], 2).tolist()
+    [0, 1, 1]
     """
-    if channels is None or not getattr(channels, "rasters", None):
-        return {}
     p = np.asarray(poses, dtype=float)
-    x0, y0, dx, dy = (float(v) for v in terrain.grid)  # centre of cell (0, 0)
-    step = 0.5 * min(abs(dx), abs(dy))
-    cells = []
-    for a, b in zip(p[:-1, :2], p[1:, :2], strict=True):
-        k = max(int(np.ceil(np.hypot(*(b - a)) / step)), 1) + 1
-        xy = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
-        r = np.clip(np.rint((xy[:, 1] - y0) / dy).astype(int), 0, terrain.shape[0] - 1)
-        c = np.clip(np.rint((xy[:, 0] - x0) / dx).astype(int), 0, terrain.shape[1] - 1)
-        cells.append((r, c))
-    out: dict[str, list[Any]] = {}
-    for name, ras in channels.rasters.items():
+    m = max(p.shape[0] - 1, 0)
+    if n_segments is None or m == n_segments:
+        return np.arange(m)
+    still = np.hypot(*np.diff(p[:, :2], axis=0).T) == 0.0
+    turn = still & (np.abs(np.diff(p[:, 2])) > 0)
+    seg = np.cumsum(~turn) - (~turn)  # walks before each motion
+    if int(np.count_nonzero(~turn)) != n_segments:
+        raise DomainError(f"{m} motions do not make {n_segments} segments (turns in place "
+                          "before each walk expected)")  # fmt: skip
+    return np.minimum(seg, n_segments - 1)
+
+
+def path_samples(
+    terrain: Any,
+    poses: Any,
+    channels: Any = None,
+    n_segments: int | None = None,
+    step: float | None = None,
+) -> dict[str, list[np.ndarray]]:
+    """The slope and the raster channels sampled along a path, per segment.
+
+    Each motion between consecutive ``poses`` is cut as the energy integration cuts it
+    (:func:`energy_planner.energy._motion.motion_full`): ``n = ceil(length / step)``
+    pieces, ``step`` half the smaller cell size, each sampled at its midpoint (the slope
+    from the bilinear gradient; numeric rasters bilinear, categorical ones at the nearest
+    cell, as the kernel reads them). A piece weighs its length along the ground; a turn in
+    place is one sample of weight 0 unless its segment has no walk (then weight 1).
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map (working CRS).
+    poses : array-like, shape (m + 1, 3)
+        The executed poses (``PathEnergy.poses``; x, y in the working CRS).
+    channels : Channels, optional
+        Bound to ``terrain`` (:meth:`Channels.bind`); its rasters are sampled.
+    n_segments : int, optional
+        Number of path segments: the motions are grouped by :func:`motion_segments`
+        (default: one segment per motion).
+    step : float, optional
+        Largest piece, m.
+
+    Returns
+    -------
+    dict
+        ``weight`` (m), ``slope_deg`` and each raster channel (numbers, or category names):
+        per segment an array of its samples.
+    """
+    from energy_planner.terrain.sample import bilinear
+
+    p = np.asarray(poses, dtype=float)
+    x0, y0, dx, dy = (float(v) for v in terrain.grid)
+    h = float(step) if step else 0.5 * min(abs(dx), abs(dy))
+    seg = motion_segments(p, n_segments)
+    n_seg = int(seg.max()) + 1 if seg.size else 0
+    a, b = p[:-1, :2], p[1:, :2]
+    length = np.hypot(*(b - a).T)
+    n = np.maximum(np.ceil(length / h).astype(int), 1)
+    owner = np.repeat(np.arange(length.size), n)
+    k = np.arange(owner.size) - np.repeat(np.cumsum(n) - n, n)
+    frac = (k + 0.5) / n[owner]
+    xy = a[owner] + frac[:, None] * (b - a)[owner]
+    smp = terrain.sample(xy[:, 0], xy[:, 1])
+    gx, gy = np.asarray(smp.dzdx, float), np.asarray(smp.dzdy, float)
+    piece = (length / n)[owner]
+    unit = (b - a) / np.where(length > 0, length, 1.0)[:, None]
+    rise = np.nan_to_num(gx * unit[owner, 0] + gy * unit[owner, 1])  # dz per map metre
+    w = piece * np.sqrt(1.0 + rise**2)  # metres along the ground, as the kernel's distance
+    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    walks = np.bincount(seg, weights=length, minlength=n_seg) > 0
+    w = np.where(piece > 0, w, np.where(walks[seg[owner]], 0.0, 1.0))
+    cols: dict[str, np.ndarray] = {"weight": w, "slope_deg": slope}
+    rasters = getattr(channels, "rasters", None) or {}
+    r = np.clip(np.rint((xy[:, 1] - y0) / dy).astype(int), 0, terrain.shape[0] - 1)
+    c = np.clip(np.rint((xy[:, 0] - x0) / dx).astype(int), 0, terrain.shape[1] - 1)
+    for name, ras in rasters.items():
         if ras.values is None:
             continue
         vals = np.asarray(ras.values, dtype=float)
-        per = [vals[r, c] for r, c in cells]
+        near = vals[r, c]
         if ras.categories is not None:
             cats = ras.categories
-            per = [np.array([cats[int(x)] if np.isfinite(x) else None for x in v], dtype=object)
-                   for v in per]  # fmt: skip
-        out[name] = per
-    return out
+            cols[name] = np.array([cats[int(v)] if np.isfinite(v) else None for v in near],
+                                  dtype=object)  # fmt: skip
+        else:
+            (lin,) = bilinear((vals,), terrain.grid, xy[:, 0], xy[:, 1])
+            cols[name] = np.where(np.isfinite(lin), lin, near)
+    of_seg = seg[owner]
+    cut = np.flatnonzero(np.diff(of_seg)) + 1
+    return {name: np.split(v, cut) for name, v in cols.items()}
+
+
+def path_channel_values(terrain: Any, channels: Any, poses: Any) -> dict[str, list[Any]]:
+    """Per raster channel, its values along each motion between consecutive ``poses``.
+
+    ``channels`` must be bound to ``terrain`` (:meth:`Channels.bind`); categorical values
+    come back as category names. The samples of :func:`path_samples` (one list per
+    motion; ``{}`` without raster channels).
+    """
+    if channels is None or not getattr(channels, "rasters", None):
+        return {}
+    got = path_samples(terrain, poses, channels)
+    return {k: v for k, v in got.items() if k not in ("weight", "slope_deg")}
+
+
+def path_domain(model: Any, terrain: Any, path: Any, channels: Any = None) -> dict[str, Any] | None:
+    """The calibration domain of a priced path: :func:`domain_report` per metre walked.
+
+    The one way every door (``energy``, ``plan``, the result objects) reports the domain
+    of a path: the slope and the raster channels are sampled along every motion at the
+    energy integration's sub-steps (:func:`path_samples`), so a segment only part of
+    which is steeper than the calibration is outside for that part.
+
+    Parameters
+    ----------
+    model : EnergyModel
+        Its ``metadata.fit.domain``.
+    terrain : Terrain
+        The map the path was priced on.
+    path : PathEnergy
+        :func:`energy_planner.energy.path_energy` of the path (``table``, ``poses``).
+    channels : Channels, optional
+        The channels it was priced with (constants; rasters, bound to ``terrain`` here).
+
+    Returns
+    -------
+    dict or None
+        As :func:`domain_report`; None when the model records no domain.
+    """
+    dom = domain_of(model)
+    if not dom:
+        return None
+    if channels is not None and getattr(channels, "rasters", None):
+        channels = channels.bind(terrain)
+    table = path.table
+    n_seg = len(table["duration_s"])
+    along = path_samples(terrain, path.poses, channels, n_seg) if n_seg else None
+    consts = None if channels is None else dict(channels.constants)
+    return report_against(dom, table, consts, path.poses, None, along)
 
 
 def window_segments(table: pd.DataFrame) -> pd.DataFrame:

@@ -24,6 +24,19 @@ error :math:`e = \hat E - E` scatters. How much depends on the run:
   wholly inside (else :math:`d` and :math:`b` cannot be told apart); otherwise the
   interval is widened by the assumed factor :math:`1 + s` and the model says so.
 
+Beyond a numeric range (slope, speed, a numeric channel) the share is replaced by how far
+the path goes: the fit holds out its most extreme runs of each range, refits on the rest
+and measures how the relative run-energy error grows with the mean distance ``u`` beyond
+the range (:func:`energy_planner.calibration.fit.extrapolation_growth`, stored here as
+``extrapolation``). A path ``u_q`` beyond range ``q`` adds
+
+.. math:: \hat E^2 \sum_q (g_q u_q)^2
+
+to :math:`\sigma^2` (:meth:`ErrorModel.outside`). Only what no growth covers (a range whose
+growth could not be measured, a gait, heading or category the logs lack) goes by the share
+:math:`s`; without a fitted :math:`d` that part is *not calibrated*: the interval says so
+and no battery decision is given on it.
+
 :math:`b, c, d \ge 0` are fitted on the held-out runs' squared errors (non-negative least
 squares, weighted by :math:`1/\sigma^4`, three passes). Distance is not an input: at the
 calibration's speeds it is the duration times a nearly constant speed, so it adds a
@@ -54,7 +67,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "fit_error_model"]
+__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model"]
 
 #: Held-out runs partly outside their fold's domain needed to fit the outside term.
 MIN_OUTSIDE_RUNS = 5
@@ -88,6 +101,12 @@ class ErrorModel:
         Held-out runs partly outside their fold's domain.
     cross_fitted : bool
         True when each score's sigma was fitted without its run's fold.
+    extrapolation : dict
+        Per numeric quantity of the domain (``slope``, ``speed``, ``channel NAME``) the
+        measured growth of the relative error beyond its range (``growth_per_unit``) or
+        why it could not be measured
+        (:func:`energy_planner.calibration.fit.extrapolation_growth`); empty for a model
+        fitted before it was recorded.
     """
 
     param_rel_var: float
@@ -98,23 +117,62 @@ class ErrorModel:
     mean_power_w: float = float("nan")
     n_outside: int = 0
     cross_fitted: bool = True
+    extrapolation: dict = field(default_factory=dict)
 
-    def sigma(self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0) -> Any:
+    def sigma(
+        self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0,
+        extra_rel_var: float = 0.0,
+    ) -> Any:  # fmt: skip
         """The error scale (J) of a predicted energy of a run of ``duration_s`` seconds.
 
-        Without a duration it is ``energy_j / mean_power_w``.
+        Without a duration it is ``energy_j / mean_power_w``. ``outside_share``: the share
+        of the run outside the domain that no measured growth covers; ``extra_rel_var``:
+        the measured growth's relative variance beyond the ranges (:meth:`outside`).
         """
         e = np.abs(np.asarray(energy_j, dtype=float))
         t = (e / self.mean_power_w if duration_s is None
              else np.asarray(duration_s, dtype=float))  # fmt: skip
         s = np.clip(np.asarray(outside_share, dtype=float), 0.0, 1.0)
-        v = (self.param_rel_var + self.model_rel_var) * e**2 + self.noise_j2_per_s * t
+        v = (self.param_rel_var + self.model_rel_var + float(extra_rel_var)) * e**2
+        v = v + self.noise_j2_per_s * t
         if self.outside_rel_var is not None:
             v = v + self.outside_rel_var * (s * e) ** 2
         sig = np.sqrt(np.maximum(v, (MIN_REL_SIGMA * e) ** 2))
         if self.outside_rel_var is None:
             sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * s)
         return sig
+
+    def outside(self, domain: Any) -> Outside:
+        """How a path's domain report widens its interval (:class:`Outside`).
+
+        The report: :func:`energy_planner.uncertainty.domain_report`. Each numeric
+        quantity beyond its range by ``u`` (the report's ``excess``) with a
+        measured growth ``g`` adds ``(g u)^2`` to the relative variance; the largest share
+        outside a quantity no growth covers is the share the ``d`` term (or, without it,
+        the assumed factor ``1 + s``) widens, and is *not calibrated* when ``d`` was not
+        fitted.
+        """
+        if not domain:
+            return Outside(0.0, 0.0, (), ())
+        extra, used, loose = 0.0, [], []
+        shares = domain.get("shares") or {}
+        excess = domain.get("excess") or {}
+        share = 0.0
+        for q, sh in shares.items():
+            if not sh > 0:
+                continue
+            rec = self.extrapolation.get(q) or {}
+            g = rec.get("growth_per_unit")
+            if q in excess and g is not None:
+                extra += (float(g) * float(excess[q])) ** 2
+                used.append(q)
+            else:
+                share = max(share, float(sh))
+                why = rec.get("why") or ("no growth recorded (a model fitted before it was"
+                                         " measured)" if q in excess else
+                                         "not a numeric range: no distance to measure")  # fmt: skip
+                loose.append(f"{q}: {why}")
+        return Outside(extra, share, tuple(used), tuple(loose))
 
     @property
     def outside_rule(self) -> str:
@@ -127,7 +185,7 @@ class ErrorModel:
 
     def bounds(
         self, energy_j: float, level: float, duration_s: float | None = None,
-        outside_share: float = 0.0,
+        outside_share: float = 0.0, extra_rel_var: float = 0.0,
     ) -> tuple[float, float]:  # fmt: skip
         """The interval ``(low, high)`` on the true energy, J (low at least 0)."""
         from energy_planner.uncertainty import conformal_bounds
@@ -136,12 +194,12 @@ class ErrorModel:
             z_lo, z_hi = self._student_bounds(level)
         else:
             z_lo, z_hi = conformal_bounds(self.scores, level)
-        sig = float(self.sigma(energy_j, duration_s, outside_share))
+        sig = float(self.sigma(energy_j, duration_s, outside_share, extra_rel_var))
         return max(energy_j - z_hi * sig, 0.0), max(energy_j - z_lo * sig, 0.0)
 
     def probability(
         self, energy_j: Any, usable_j: float, duration_s: Any = None,
-        outside_share: Any = 0.0,
+        outside_share: Any = 0.0, extra_rel_var: float = 0.0,
     ) -> Any:  # fmt: skip
         """Chance that the true energy is at most ``usable_j`` (conformal: count / (n + 1)).
 
@@ -150,7 +208,7 @@ class ErrorModel:
         e = np.asarray(energy_j, dtype=float)
         if usable_j <= 0:
             return 0.0 if e.ndim == 0 else np.zeros(e.shape)
-        sig = np.asarray(self.sigma(e, duration_s, outside_share), dtype=float)
+        sig = np.asarray(self.sigma(e, duration_s, outside_share, extra_rel_var), dtype=float)
         with np.errstate(invalid="ignore", divide="ignore"):
             thr = (e - usable_j) / sig  # the run fits when its score is at least this
         if self.small_sample(0.9):
@@ -201,6 +259,7 @@ class ErrorModel:
             "mean_power_w": float(self.mean_power_w),
             "n_outside": self.n_outside,
             "cross_fitted": self.cross_fitted,
+            "extrapolation": self.extrapolation,
             # full precision: a bound near zero is E - z sigma, where rounding cancels
             "scores": [float(z) for z in self.scores],
         }
@@ -213,7 +272,30 @@ class ErrorModel:
             None if d.get("d") is None else float(d["d"]),
             np.sort(np.asarray(d["scores"], dtype=float)), float(d["mean_power_w"]),
             int(d.get("n_outside", 0)), bool(d.get("cross_fitted", True)),
+            dict(d.get("extrapolation") or {}),
         )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Outside:
+    """How the part of a path outside the calibration's domain widens its interval.
+
+    Attributes
+    ----------
+    extra_rel_var : float
+        ``sum_q (g_q u_q)^2``: the measured growth beyond the numeric ranges.
+    share : float
+        The share of the path outside a quantity no growth covers.
+    measured : tuple of str
+        The quantities widened by their measured growth.
+    not_measured : tuple of str
+        ``"quantity: why"`` for each quantity outside without a measured growth.
+    """
+
+    extra_rel_var: float
+    share: float
+    measured: tuple[str, ...]
+    not_measured: tuple[str, ...]
 
 
 def _fit_scale(

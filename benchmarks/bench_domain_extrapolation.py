@@ -1,0 +1,230 @@
+"""Benchmark: intervals beyond the logs, fitted on slopes up to 20 deg, planned up to 30 deg.
+
+A designed campaign is simulated on ramps of 0-20 deg (``energy_planner.simulate``: its
+physics is mechanistic, not the model's formulas) and the base model is fitted on it
+(:func:`energy_planner.calibration.fit_model`, 5 folds by run: the error model and the
+measured growth of the error beyond each range). Paths then cross a steeper synthetic
+hill (a Gaussian bump whose steepest slope is 30 deg):
+
+- straight crossings at offsets from the summit (as ``energy --waypoints`` prices them),
+  so that their steepest slope spreads from the campaign's range to 30 deg;
+- energy-optimal plans (``ep.plan``, no slope limit) between points around the hill.
+
+Each path's predicted energy is the model's; its true energy is the simulator's physics
+along the same poses (:func:`energy_planner.simulate.true_path_energy`, the campaign's
+hidden effects and channel values). Its nominal 90 % interval is computed two ways, side
+by side:
+
+- ``before``: the share of the path outside the domain counted per segment (a segment
+  steeper than the campaign anywhere is wholly outside) and the interval widened by the
+  assumed factor ``1 + share`` (what ``energy`` and ``plan`` printed before);
+- ``after``: :func:`energy_planner.uncertainty.path_domain` (per metre walked, with the
+  distance beyond each range) and :func:`energy_planner.uncertainty.predict_interval`
+  with that report (the growth the fit measured by holding out its steepest runs).
+
+The table gives, per case, the coverage of the true energy by each (target: 85-95 %),
+the median relative width and the share of paths beyond the campaign's slopes.
+
+Run::
+
+    python benchmarks/bench_domain_extrapolation.py            # about 2 min on 2 cores
+    python benchmarks/bench_domain_extrapolation.py --paths 40 --seeds 0 1 2
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+X0, Y0 = 500_000.0, 5_000_000.0
+#: (case, hidden effects, the load the paths are walked with: None, inside or beyond)
+CASES: tuple[tuple[str, tuple[str, ...], float | None], ...] = (
+    ("plain", (), None),
+    ("load 10 kg", ("load",), 10.0),
+    ("load 20 kg", ("load",), 20.0),
+    ("load 30 kg", ("load",), 30.0),
+)
+
+
+def steep_hill(size: int = 160, sigma: float = 25.0, top_deg: float = 30.0) -> Any:
+    """A Gaussian hill on a 1 m grid whose steepest slope is ``top_deg``."""
+    from energy_planner.terrain import Terrain
+
+    height = np.tan(np.radians(top_deg)) * sigma * np.exp(0.5)  # max |grad| = H/sigma e^-1/2
+    c = (size - 1) / 2.0
+    yy, xx = np.mgrid[0:size, 0:size].astype(float)
+    z = height * np.exp(-((xx - c) ** 2 + (yy - c) ** 2) / (2 * sigma**2))
+    return Terrain.from_array(z, resolution=1.0, origin=(X0, Y0))
+
+
+def fit_campaign(effects: tuple[str, ...], seed: int) -> Any:
+    """A model fitted on a campaign of ramps up to 20 deg.
+
+    The base model; with a hidden load, the base plus the load term ``discover`` finds
+    (``load_kg*P_base``: the channel times the fitted base power), so that the model
+    reads ``load_kg`` and its domain records the loads of the campaign (0-15 kg).
+    """
+    from energy_planner.calibration import fit_model, prepare_logs
+    from energy_planner.model.terms import CATALOG
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    cfg = CampaignConfig.small(slopes_deg=(0.0, 5.0, 10.0, 15.0, 20.0), repeats=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camp = simulate_campaign(seed=seed, effects=effects, config=cfg)
+        prep = prepare_logs(camp.logs)
+        if "load" not in effects:
+            return camp, fit_model(prep, seed=seed).model
+        base = fit_model(prep, n_splits=0).model
+        parts = [f"{c:.4g} * ({CATALOG[t].formula})" for t, c in base.coefficients.items()
+                 if t in CATALOG and c != 0]  # fmt: skip
+        term = f"load_kg * ({' + '.join(parts)})"
+        return camp, fit_model(prep, [*base.term_names, term], seed=seed).model
+
+
+def crossings(terrain: Any, n: int, rng: Any) -> list[np.ndarray]:
+    """Straight lines across the hill at random headings and offsets from the summit."""
+    size = terrain.shape[0]
+    c = np.array([X0 + (size - 1) / 2.0, Y0 + (size - 1) / 2.0])  # summit (cell centres)
+    half = 0.42 * size
+    out = []
+    for _ in range(n):
+        th = rng.uniform(0, np.pi)
+        off = rng.uniform(0.0, 40.0)
+        d = np.array([np.cos(th), np.sin(th)])
+        nrm = np.array([-d[1], d[0]])
+        mid = c + off * nrm
+        out.append(np.array([mid - half * d, mid + half * d]))
+    return out
+
+
+def plans(terrain: Any, model: Any, request: Any, n: int, rng: Any) -> list[Any]:
+    """Energy-optimal plans between random points on opposite sides of the hill."""
+    import energy_planner as ep
+
+    size = terrain.shape[0]
+    c = np.array([X0 + (size - 1) / 2.0, Y0 + (size - 1) / 2.0])
+    prob = ep.Problem(terrain, model, request)
+    out = []
+    for _ in range(n):
+        th = rng.uniform(0, 2 * np.pi)
+        r = 0.4 * size
+        a = c + r * np.array([np.cos(th), np.sin(th)])
+        b = c - r * np.array([np.cos(th + rng.uniform(-0.5, 0.5)), np.sin(th)])
+        res = ep.plan(prob, tuple(a), tuple(b), step=2.0, progress=False)
+        out.append(np.asarray(res.states, dtype=float))
+    return out
+
+
+def before_share(model: Any, pe: Any, constants: Any) -> float:
+    """The share outside counted per segment (the report before it sampled each metre)."""
+    from energy_planner.uncertainty import domain_report
+
+    return float(domain_report(model, pe.segments, constants, pe.poses)["outside_share"])
+
+
+def run_case(case: str, effects: tuple[str, ...], load: float | None, seed: int,
+             n_paths: int, n_plans: int, level: float) -> list[dict]:  # fmt: skip
+    """One row per path: predicted, true, both intervals."""
+    from energy_planner.energy.channels import Channels
+    from energy_planner.energy.path import path_energy
+    from energy_planner.request import Request
+    from energy_planner.simulate import true_path_energy
+    from energy_planner.uncertainty import path_domain, predict_interval
+
+    camp, model = fit_campaign(effects, seed)
+    terrain = steep_hill()
+    consts = {} if load is None else {"load_kg": load}
+    ch = Channels(consts) if consts else None
+    rng = np.random.default_rng(100 + seed)
+    paths = [("straight", p) for p in crossings(terrain, n_paths, rng)]
+    request = Request.make(channels=ch)
+    paths += [("plan", s) for s in plans(terrain, model, request, n_plans, rng)]
+    rows = []
+    for kind, st in paths:
+        yaw = st[:, 2] if st.shape[1] == 3 else None
+        pe = path_energy(terrain, model, st[:, :2], yaw=yaw, channels=ch)
+        truth = true_path_energy(terrain, pe.poses, effects=camp.effects, channels=consts)
+        dom = path_domain(model, terrain, pe, ch)
+        old = before_share(model, pe, consts or None)
+        ivs = {
+            "before": predict_interval(model, pe.energy_j, level, old, pe.duration_s),
+            "after": predict_interval(model, pe.energy_j, level, duration_s=pe.duration_s,
+                                      domain=dom),
+        }  # fmt: skip
+        row = {"case": case, "seed": seed, "kind": kind, "pred": pe.energy_j,
+               "true": truth.energy_j, "max_slope": float(pe.table["max_slope_deg"].max()),
+               "share_before": old, "share_after": dom["outside_share"],
+               "excess_slope": dom["excess"].get("slope", 0.0),
+               "calibrated": ivs["after"].calibrated}  # fmt: skip
+        for k, iv in ivs.items():
+            row[f"in_{k}"] = bool(iv.low_j <= truth.energy_j <= iv.high_j)
+            row[f"width_{k}"] = (iv.high_j - iv.low_j) / pe.energy_j
+        rows.append(row)
+    growth = model.metadata["fit"]["error_model"]["extrapolation"]
+    g = {q: v.get("growth_per_unit") for q, v in growth.items()}
+    print(f"  {case}, seed {seed}: fitted domain max slope "
+          f"{model.metadata['fit']['domain']['max_slope_deg']} deg; growth per unit {g}",
+          flush=True)  # fmt: skip
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--paths", type=int, default=20, help="straight crossings per case")
+    ap.add_argument("--plans", type=int, default=6, help="energy-optimal plans per case")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0])
+    ap.add_argument("--level", type=float, default=0.9)
+    ap.add_argument("--cases", nargs="+", default=[c[0] for c in CASES])
+    args = ap.parse_args(argv)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()  # fmt: skip
+    t0 = time.perf_counter()
+    rows = []
+    for case, effects, load in CASES:
+        if case not in args.cases:
+            continue
+        for seed in args.seeds:
+            rows += run_case(case, effects, load, seed, args.paths, args.plans, args.level)
+    import pandas as pd
+
+    df = pd.DataFrame(rows)
+    df["err"] = df["pred"] / df["true"] - 1.0
+    print(f"\nnominal {100 * args.level:g} % intervals of the simulator's true energy; fit on "
+          f"slopes <= 20 deg, paths over a hill up to 30 deg (commit {commit}, "
+          f"{time.perf_counter() - t0:.0f} s)")  # fmt: skip
+    head = (f"{'case':<12}{'paths':>6}{'beyond':>7}{'med err':>9}{'p90 |err|':>10}"
+            f"{'cover before':>13}{'cover after':>12}{'width before':>13}{'width after':>12}"
+            f"{'uncalibrated':>13}")  # fmt: skip
+    print(head)
+    for key, g in [*df.groupby("case", sort=False), ("all", df)]:
+        beyond = g["excess_slope"] > 0
+        print(f"{key:<12}{len(g):>6}{beyond.sum():>7}{100 * g['err'].median():>8.1f}%"
+              f"{100 * g['err'].abs().quantile(0.9):>9.1f}%"
+              f"{100 * g['in_before'].mean():>12.1f}%{100 * g['in_after'].mean():>11.1f}%"
+              f"{100 * g['width_before'].median():>12.1f}%{100 * g['width_after'].median():>11.1f}%"
+              f"{(~g['calibrated']).sum():>13}")  # fmt: skip
+    bey = df[df["excess_slope"] > 0]
+    if len(bey):
+        print(
+            f"paths beyond 20 deg only ({len(bey)}): coverage before "
+            f"{100 * bey['in_before'].mean():.1f} %, after {100 * bey['in_after'].mean():.1f} %"
+        )
+    print(
+        "\ncommand: python benchmarks/bench_domain_extrapolation.py "
+        + " ".join(argv if argv is not None else __import__("sys").argv[1:])
+    )
+
+
+if __name__ == "__main__":
+    main()
