@@ -29,6 +29,8 @@ def format_table(res: dict[str, Any]) -> str:
             text += f"\n{r['name']}:\n  " + lines.replace("\n", "\n  ")
     if res.get("plot"):
         text += f"\nplot written to {res['plot']}"
+    if res.get("bag"):
+        text += f"\nROS 2 bag written to {res['bag']}"
     return text
 
 
@@ -48,6 +50,7 @@ def format_table(res: dict[str, Any]) -> str:
 @options.channel_options
 @options.trust_options
 @options.plot_option("PNG: the three routes over a hillshade with heading marks.")
+@options.bag_options
 @options.json_option
 def command(
     dem: Path,
@@ -58,6 +61,8 @@ def command(
     request: Request,
     trust: options.Trust,
     plot: Path | None,
+    bag: Path | None,
+    bag_frame: str,
     as_json: bool,
 ) -> None:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
@@ -97,4 +102,7 @@ def command(
                               judged=r["name"] == "energy_optimal",
                               duration_s=r.get("duration_s"))  # fmt: skip
     options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
+    options.write_bag_output(
+        result, bag, lambda p: comp.write_bag(p, terrain, request=request, frame=bag_frame)
+    )
     options.emit(result, as_json, format_table)

@@ -190,7 +190,7 @@ def format_table(res: dict[str, Any]) -> str:
     if res.get("stay_in_domain") is not None:
         notes = "; ".join(res["stay_in_domain"]) or "the request was already inside"
         lines.append(f"in domain {notes}")
-    lines += options.written_lines(res, {"out": "path", "plot": "plot"})
+    lines += options.written_lines(res, {"out": "path", "plot": "plot", "bag": "ROS 2 bag"})
     return "\n".join(lines)
 
 
@@ -227,6 +227,7 @@ def format_table(res: dict[str, Any]) -> str:
     "unless --geojson-crs dem).",
 )
 @options.geojson_crs_option
+@options.bag_options
 @options.trust_options
 @options.plot_option("PNG plot.")
 @click.option(
@@ -252,6 +253,8 @@ def command(
     memory_cap: str | None,
     out: Path | None,
     geojson_crs: str,
+    bag: Path | None,
+    bag_frame: str,
     trust: options.Trust,
     plot: Path | None,
     stay_in_domain: bool,
@@ -340,4 +343,7 @@ def command(
         result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
     )
     options.write_output(result, "plot", plot, lambda p: res.plot(terrain, p, request=request))
+    options.write_bag_output(
+        result, bag, lambda p: res.write_bag(p, terrain, request=request, frame=bag_frame)
+    )
     options.emit(result, as_json, lambda r: format_table(r) + "\n" + options.trust_lines(r))

@@ -165,6 +165,34 @@ class PlanResult:
         title = title or f"Planned path ({self.planner}): {self.energy_j:.0f} J"
         return comp.plot(terrain, path, title=title, request=request)
 
+    def write_bag(
+        self,
+        path: Any,
+        terrain,
+        *,
+        request: Any = None,
+        frame: str = "map",
+        topic: str = "/energy_planner/plan",
+        storage: str = "mcap",
+    ) -> dict[str, Any]:
+        """Write the path as a ``nav_msgs/msg/Path`` into a new ROS 2 bag folder ``path``.
+
+        Poses in the map frame ``frame`` (:mod:`energy_planner.io.ros2`: the working CRS
+        shifted to the grid's south-west corner, REP 103 axes, yaw as a quaternion about
+        z), stamped with the time the robot reaches each (at ``request``'s speed and
+        yaw rate, default :class:`~energy_planner.request.Request`: give the request the
+        plan was made with; another is an error). Returns the frame and conventions
+        (:meth:`energy_planner.io.ros2.MapFrame.to_dict`), also in the bag's metadata.
+        """
+        from energy_planner.energy.path import vertex_times
+        from energy_planner.io.ros2 import write_path_bag
+
+        t = vertex_times(terrain, self.states, request, duration_s=self.duration_s, what="the plan")
+        info = {"energy_j": self.energy_j, "distance_m": self.distance_m,
+                "duration_s": self.duration_s, "planner": self.planner}  # fmt: skip
+        return write_path_bag(path, {topic: (self.states, t)}, terrain, frame=frame,
+                              storage=storage, info={topic: info})  # fmt: skip
+
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):
