@@ -309,3 +309,22 @@ def test_mission_bag_has_one_topic_per_leg_with_running_stamps(tmp_path, hill_mi
         pe = prob.path_energy(w.xy, yaw=w.yaw_rad, t=w.t)
         assert pe.energy_j == pytest.approx(leg.energy_j, rel=1e-9)
         end += leg.duration_s
+
+
+def test_compare_routes_bag_has_one_topic_per_route(tmp_path):
+    from energy_planner.planning.compare import compare_routes
+
+    prob = Problem(_hill(), EnergyModel.default(), Request.make(speed=0.5))
+    comp = compare_routes(prob, (500004.5, 5000004.5), (500030.5, 5000030.5), time=0.5,
+                          progress=False)  # fmt: skip
+    with pytest.raises(WaypointError, match="give the request"):  # planned at 0.5 m/s
+        comp.write_bag(tmp_path / "wrong", prob.terrain)
+    comp.write_bag(tmp_path / "r", prob.terrain, request=prob.request)
+    msgs = _messages(tmp_path / "r")
+    routes = [r for r in comp.routes if r.states is not None and r.energy_j is not None]
+    assert sorted(msgs) == sorted(f"/energy_planner/routes/{r.name}" for r in routes)
+    for r in routes:
+        w = read_path_bag(tmp_path / "r", f"/energy_planner/routes/{r.name}")
+        assert w.t[0] == 0.0 and w.t[-1] == pytest.approx(r.duration_s, abs=2e-9)
+        pe = prob.unlimited().path_energy(w.xy, yaw=w.yaw_rad, t=w.t)
+        assert pe.energy_j == pytest.approx(r.energy_j, rel=1e-9)
