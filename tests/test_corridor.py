@@ -95,7 +95,7 @@ def test_a_proven_window_gives_the_whole_maps_energy(bumpy_tif, model, whole):
     assert w[0] <= e[0] and w[1] <= e[1] and e[2] <= w[2] and e[3] <= w[3]
 
 
-def test_an_unproven_window_is_never_cheaper_and_says_so(bumpy_tif, model, whole):
+def test_an_unproven_window_is_never_cheaper_and_says_so(bumpy_tif, model, whole, tmp_path):
     res, terrain = plan_in_corridor(
         bumpy_tif, model, START, GOAL, planner="search", eps=1.0, cap=_cap(70 * 75)
     )
@@ -106,6 +106,10 @@ def test_an_unproven_window_is_never_cheaper_and_says_so(bumpy_tif, model, whole
     assert np.all((res.states[:, 0] > x0) & (res.states[:, 0] < x1))
     assert np.all((res.states[:, 1] > y0) & (res.states[:, 1] < y1))
     assert any("NOT proven" in line for line in c["log"])
+    # a ROS bag of a plan by windows is in the whole DEM's frame, not its window's
+    assert (x0, y0) != (X0, Y0)
+    assert res.write_bag(tmp_path / "bag", terrain)["origin"] == [X0, Y0, 0.0]
+    assert whole.write_bag(tmp_path / "whole", load_dem(bumpy_tif))["origin"] == [X0, Y0, 0.0]
 
 
 def test_the_start_goal_box_must_fit_the_cap(bumpy_tif, model):

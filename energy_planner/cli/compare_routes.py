@@ -27,6 +27,8 @@ def format_table(comp: Any, res: dict[str, Any]) -> str:
             text += f"\n{r.name}:\n  " + r.assessment.text().replace("\n", "\n  ")
     if res.get("plot"):
         text += f"\nplot written to {res['plot']}"
+    if res.get("bag"):
+        text += f"\nROS 2 bag written to {res['bag']}"
     return text
 
 
@@ -47,6 +49,7 @@ def format_table(comp: Any, res: dict[str, Any]) -> str:
 @options.trust_options
 @options.plot_option("PNG: the three routes over a hillshade with heading marks.")
 @options.html_option("The routes over the hillshade; hover a vertex for its segment.")
+@options.bag_options
 @options.json_option
 def command(
     dem: Path,
@@ -58,6 +61,8 @@ def command(
     trust: options.Trust,
     plot: Path | None,
     html: Path | None,
+    bag: Path | None,
+    bag_frame: str,
     as_json: bool,
 ) -> None:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
@@ -97,5 +102,8 @@ def command(
     options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
     options.write_output(
         result, "html", html, lambda p: comp.write_html(p, Problem(terrain, model, request))
+    )
+    options.write_bag_output(
+        result, bag, lambda p: comp.write_bag(p, terrain, request=request, frame=bag_frame)
     )
     options.emit(result, as_json, lambda res: format_table(comp, res))

@@ -141,6 +141,7 @@ def compute(
     max_backward_slope_deg: float | None = None,
     max_crab_deg: float | None = None,
     trust: Any = None,
+    bag_topic: str | None = None,
 ) -> tuple[Any, dict[str, Any]]:
     """The command's work: the priced path and its context (click errors on bad input).
 
@@ -151,7 +152,7 @@ def compute(
     ``channels`` is a :class:`~energy_planner.energy.channels.Channels` (``--set`` /
     ``--channel``) or None. ``max_backward_slope_deg`` and ``max_crab_deg`` are the gait
     limits (:class:`~energy_planner.request.Limits`): a segment that breaks one is an
-    error naming it.
+    error naming it. ``bag_topic``: the topic of a ROS bag ``waypoints``.
     """
     import numpy as np
 
@@ -172,13 +173,13 @@ def compute(
     model = options.load_model_option(model_path)
     channels = channels if channels is not None else Channels()
     try:
-        wp = read_waypoints(waypoints)
+        wp = read_waypoints(waypoints, bag_topic)
     except WaypointIOError as exc:
         raise click.BadParameter(str(exc), param_hint="--waypoints") from exc
     except WaypointError as exc:
         raise click.ClickException(
-            f"{exc}\nhint: a CSV with a header x,y[,yaw_deg][,t] or a GeoJSON LineString, "
-            "in the DEM's CRS (docs/energy.md)"
+            f"{exc}\nhint: a CSV with a header x,y[,yaw_deg][,t], a GeoJSON LineString in "
+            "the DEM's CRS or a ROS bag with a nav_msgs/Path (docs/energy.md)"
         ) from exc
     notes = list(wp.notes)
     if wp.t is not None:
@@ -252,13 +253,19 @@ def compute(
     "--model load.json --set load_kg=10 --battery-wh 40",
 )
 @options.dem_option
-@options.path_option(
+@click.option(
     "--waypoints",
     "waypoints",
     required=True,
+    type=click.Path(path_type=Path),
     help="Waypoints: CSV with header x,y[,yaw_deg][,t] in the DEM's CRS, or a GeoJSON "
     "LineString (optional properties.yaw_deg, properties.t lists) in longitude, latitude "
-    "(RFC 7946) unless it declares a crs, as plan --out writes it.",
+    "(RFC 7946) unless it declares a crs, as plan --out writes it, or a ROS bag (folder) "
+    "with a nav_msgs/Path (or Odometry, PoseStamped messages), as plan --bag writes it.",
+)
+@click.option(
+    "--bag-topic",
+    help="The topic of a --waypoints ROS bag to read (default: its only path topic).",
 )
 @options.model_option
 @options.speed_option
@@ -271,6 +278,7 @@ def compute(
 def command(
     dem: Path,
     waypoints: Path,
+    bag_topic: str | None,
     model_path: Path | None,
     speed: float,
     yaw_rate: float,
@@ -289,7 +297,7 @@ def command(
     """
     ch = options.channels_from_options(sets, channels)
     pe, context = compute(dem, waypoints, model_path, speed, yaw_rate, band, channels=ch,
-                          trust=trust, **options.gait_limits())  # fmt: skip
+                          trust=trust, bag_topic=bag_topic, **options.gait_limits())  # fmt: skip
     res = {**pe.to_dict(), **context}
     options.judge(pe, trust)
     options.emit(res, as_json, lambda r: format_table(r) + "\n" + pe.assessment.text())

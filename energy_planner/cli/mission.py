@@ -42,7 +42,8 @@ def _text(res: dict[str, Any]) -> str:
         k = b["reserve_crossed_at"]
         lines.append("the whole tour stays above the reserve at the required confidence"
                      if k is None else f"the reserve is crossed on leg {k}")  # fmt: skip
-    for key, label in (("geojson", "GeoJSON"), ("plot", "plot")):
+    for key, label in (("geojson", "GeoJSON"), ("plot", "plot"), ("bag", "ROS 2 bag"),
+                       ("nav2_graph", "Nav2 graph")):  # fmt: skip
         if res.get(key):
             lines.append(f"{label:<8} {res[key]}")
     return "\n".join(lines)
@@ -92,6 +93,14 @@ def _text(res: dict[str, Any]) -> str:
     "The sites and legs over the hillshade; hover a leg for its energy "
     "and, with --battery-wh, its battery chance."
 )
+@options.bag_options
+@options.path_option(
+    "--nav2-graph",
+    help="Write the sites and legs as a Nav2 Route Server graph (GeoJSON in the --bag-frame "
+    "frame): every ordered pair of sites an edge whose cost is its energy in J, with its "
+    "duration, interval and battery chance in its metadata (the pairs outside the tour are "
+    "planned too).",
+)
 @options.json_option
 def command(
     dem: Path,
@@ -107,6 +116,9 @@ def command(
     trust: options.Trust,
     plot: Path | None,
     html: Path | None,
+    bag: Path | None,
+    bag_frame: str,
+    nav2_graph: Path | None,
     as_json: bool,
 ) -> None:
     """Visit the sites of --sites in the least-energy (or given) order over DEM.
@@ -133,7 +145,8 @@ def command(
 
         client = Client(scheduler)
     try:
-        res = mission(Problem(terrain, model, request), s, order=order,
+        problem = Problem(terrain, model, request)
+        res = mission(problem, s, order=order,
                       return_to_start=return_to_start, eps=eps, client=client,
                       progress=True, trust=trust)  # fmt: skip
     except BatteryError as exc:
@@ -154,8 +167,21 @@ def command(
         out,
         "html",
         html,
-        lambda p: res.write_html(
-            p, Problem(terrain, model, request), battery=out.get("battery_legs")
-        ),
+        lambda p: res.write_html(p, problem, battery=out.get("battery_legs")),
     )
+    options.write_bag_output(
+        out, bag, lambda p: res.write_bag(p, terrain, request=request, frame=bag_frame)
+    )
+    if nav2_graph is not None:
+        try:
+            graph = res.write_nav2_graph(
+                nav2_graph, problem, eps=eps, level=trust.level, battery_wh=trust.battery_wh,
+                reserve_wh=trust.reserve_wh, confidence=trust.confidence, frame=bag_frame,
+                progress=True,
+            )  # fmt: skip
+        except EnergyPlannerError as exc:
+            raise click.BadParameter(str(exc), param_hint="--nav2-graph") from exc
+        out["nav2_graph"] = graph["path"]
+        out["nav2_graph_edges"] = graph["edges"]
+        out.setdefault("bag_frame", graph["frame"])
     options.emit(out, as_json, lambda r: _text(r) + "\n" + res.assessment.text())

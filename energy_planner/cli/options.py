@@ -791,3 +791,37 @@ def judge(result: Any, trust: Trust, label: str | None = None, judged: bool = Tr
     if trust.refuse and judged:
         raise click.ClickException(text)
     click.echo(f"warning: {text}", err=True)
+
+
+def bag_options(fn: Callable) -> Callable:
+    """``--bag DIR`` (a new ROS 2 bag folder of ``nav_msgs/Path``) and ``--bag-frame NAME``."""
+    fn = value_option(
+        "--bag-frame",
+        default="map",
+        help="The frame of --bag's poses: the DEM's (working) CRS shifted to the grid's "
+        "south-west corner, REP 103 axes; the shift is in the bag's metadata and the JSON.",
+    )(fn)
+    return path_option(
+        "--bag",
+        folder=True,
+        help="Write the path(s) as nav_msgs/msg/Path into a new ROS 2 bag folder (MCAP), "
+        "stamped with the planned times.",
+    )(fn)
+
+
+def write_bag_output(result: dict[str, Any], path: Path | None, write: Callable) -> None:
+    """``--bag``: ``write(path)`` returns the frame; ``result`` gets ``bag`` and ``bag_frame``.
+
+    A library error (the folder exists, a bad frame name) becomes a ``click.BadParameter``
+    of ``--bag``.
+    """
+    if path is None:
+        return
+    from energy_planner.errors import EnergyPlannerError
+
+    try:
+        frame = write(path)
+    except EnergyPlannerError as exc:
+        raise click.BadParameter(str(exc), param_hint="--bag") from exc
+    result["bag"] = str(path)
+    result["bag_frame"] = frame

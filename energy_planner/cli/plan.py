@@ -166,7 +166,7 @@ def format_table(res: dict[str, Any]) -> str:
     if res.get("stay_in_domain") is not None:
         notes = "; ".join(res["stay_in_domain"]) or "the request was already inside"
         lines.append(f"in domain {notes}")
-    lines += options.written_lines(res, {"out": "path", "plot": "plot"})
+    lines += options.written_lines(res, {"out": "path", "plot": "plot", "bag": "ROS 2 bag"})
     return "\n".join(lines)
 
 
@@ -203,6 +203,7 @@ def format_table(res: dict[str, Any]) -> str:
     "unless --geojson-crs dem).",
 )
 @options.geojson_crs_option
+@options.bag_options
 @options.trust_options
 @options.plot_option("PNG plot.")
 @options.html_option("The path over the hillshade; hover a vertex for its segment.")
@@ -229,6 +230,8 @@ def command(
     memory_cap: str | None,
     out: Path | None,
     geojson_crs: str,
+    bag: Path | None,
+    bag_frame: str,
     trust: options.Trust,
     plot: Path | None,
     html: Path | None,
@@ -320,5 +323,8 @@ def command(
     options.write_output(result, "plot", plot, lambda p: res.plot(terrain, p, request=request))
     options.write_output(
         result, "html", html, lambda p: res.write_html(p, Problem(terrain, model, request))
+    )
+    options.write_bag_output(
+        result, bag, lambda p: res.write_bag(p, terrain, request=request, frame=bag_frame)
     )
     options.emit(result, as_json, lambda r: format_table(r) + "\n" + res.assessment.text())

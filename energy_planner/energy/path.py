@@ -43,6 +43,7 @@ __all__ = [
     "path_energy",
     "face_along_poses",
     "path_poses",
+    "vertex_times",
     "check_cost_power",
     "SEGMENT_COLUMNS",
 ]
@@ -418,6 +419,83 @@ def path_poses(
         raise EnergyPlannerError("yaw must have one finite value per waypoint")
     durations = np.full(n - 1, -1.0) if seg_dt is None else seg_dt
     return np.column_stack([xy, yaw]), np.arange(n - 1), durations
+
+
+def vertex_times(
+    terrain: Any,
+    states: Any,
+    request: Any = None,
+    *,
+    duration_s: float | None = None,
+    what: str = "the path",
+) -> np.ndarray:
+    """When the robot reaches each pose of a path, as :func:`path_energy` times it.
+
+    Each motion between two poses lasts ``max(ground length / speed, |turn| / yaw_rate)``
+    (the kernel's timing, :func:`energy_planner.energy._motion.motion_full`), so the
+    times of a planned path are those its energy was integrated over.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The map (ground lengths follow its slopes).
+    states : array-like, shape (n, 3)
+        Poses ``x, y, yaw`` in the working CRS (metres, radians), n >= 2.
+    request : Request, optional
+        Its robot's speed and yaw rate: those the path was planned with (default
+        :class:`~energy_planner.request.Request`).
+    duration_s : float, optional
+        The path's own duration: the last time must agree (1e-6 relative), so that a
+        plan made at another speed is an error, not a silently wrong set of times.
+    what : str
+        The path's name in that error.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Seconds from the first pose (0), strictly increasing where the robot moves.
+
+    Raises
+    ------
+    WaypointError
+        The times disagree with ``duration_s``.
+
+    Examples
+    --------
+    >>> from energy_planner.request import Request
+    >>> from energy_planner.terrain import Terrain
+    >>> flat = Terrain.from_function(lambda x, y: 0 * x, size=(20, 20))
+    >>> x0, y0 = flat.grid[:2]
+    >>> st = [[x0 + 2, y0 - 2, 0.0], [x0 + 5, y0 - 2, 0.0], [x0 + 5, y0 - 2, 1.0]]
+    >>> vertex_times(flat, st, Request.make(speed=0.5, yaw_rate=0.25)).round(6).tolist()
+    [0.0, 6.0, 10.0]
+    """
+    from energy_planner.errors import WaypointError
+    from energy_planner.model import EnergyModel
+    from energy_planner.request import Request
+
+    s = np.asarray(states, dtype=float)
+    if s.ndim != 2 or s.shape[1] != 3:
+        raise EnergyPlannerError(
+            f"states must be an (n, 3) array of x, y, yaw; got shape {s.shape}",
+            value=s.shape,
+            expected="(n, 3)",
+        )
+    # any model gives the durations: the ground distance (power = speed) needs no channel
+    robot = (request if request is not None else Request()).robot
+    length = EnergyModel(["speed"], {"speed": 1.0})
+    pe = path_energy(terrain, length, s[:, :2], yaw=s[:, 2], speed=robot.speed,
+                     yaw_rate=robot.yaw_rate)  # fmt: skip
+    t = np.concatenate([[0.0], np.cumsum(pe.table["duration_s"])])
+    if duration_s is not None and not math.isclose(t[-1], duration_s, rel_tol=1e-6, abs_tol=1e-6):
+        raise WaypointError(
+            f"{what} lasts {duration_s:.6g} s, but its poses at {robot.speed:g} m/s and "
+            f"{robot.yaw_rate:g} rad/s take {t[-1]:.6g} s: give the request it was planned "
+            "with (request=)",
+            value=float(t[-1]),
+            expected=f"{duration_s:.6g} s",
+        )
+    return t
 
 
 def face_along_poses(xy: Any) -> np.ndarray:

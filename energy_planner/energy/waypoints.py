@@ -1,6 +1,6 @@
 r"""Read waypoint files (CSV or GeoJSON LineString, in the DEM's own CRS) and convert them.
 
-Two formats describe a path to evaluate (``energy-planner energy``) or a planned path
+Three formats describe a path to evaluate (``energy-planner energy``) or a planned path
 (the planner writes the GeoJSON form, :mod:`energy_planner.geojson`):
 
 CSV
@@ -15,6 +15,11 @@ GeoJSON
     ``FeatureCollection`` with exactly one LineString feature, coordinates in the DEM's
     CRS. Optional ``properties.yaw_deg`` and ``properties.t``: lists with one value per
     vertex. Older planner files (yaw in the working grid's frame) are read with a note.
+ROS bag
+    A ``nav_msgs/msg/Path`` (or ``Odometry`` / ``PoseStamped`` messages, one pose
+    each), as ``plan --bag`` writes it (:mod:`energy_planner.io.ros2`: the map frame
+    and its CRS in the bag's metadata; without them, the frame's x, y are taken in the
+    DEM's CRS).
 
 Yaw is degrees in files and radians in :class:`Waypoints` (design notes: files and the
 command line give ``yaw_deg``, the Python API uses radians), counter-clockwise from the
@@ -75,16 +80,20 @@ _YAW_LOOKALIKES = {"yaw", "yaw_rad", "theta", "heading", "heading_deg", "psi"}
 
 
 # ---------------------------------------------------------------------- reading
-def read_waypoints(path: str | Path) -> Waypoints:
-    """Read waypoints from a CSV file or a GeoJSON LineString.
+def read_waypoints(path: str | Path, topic: str | None = None) -> Waypoints:
+    """Read waypoints from a CSV file, a GeoJSON LineString or a ROS bag.
 
     The format is chosen by the extension (``.csv``, ``.txt``, ``.tsv`` -> CSV;
-    ``.geojson``, ``.json`` -> GeoJSON), else by the first character (``{`` -> GeoJSON).
+    ``.geojson``, ``.json`` -> GeoJSON; a folder or ``.bag``, ``.mcap``, ``.db3`` -> a
+    ROS bag, :func:`energy_planner.io.ros2.read_path_bag`), else by the first character
+    (``{`` -> GeoJSON).
 
     Parameters
     ----------
     path : str or pathlib.Path
-        The file (see the module docstring for both formats).
+        The file (see the module docstring for the formats).
+    topic : str, optional
+        A ROS bag's topic to read (default: its only path topic).
 
     Returns
     -------
@@ -103,6 +112,10 @@ def read_waypoints(path: str | Path) -> Waypoints:
         the value.
     """
     p = Path(path)
+    from energy_planner.io.ros2 import is_bag, read_path_bag
+
+    if is_bag(p):
+        return read_path_bag(p, topic)
     text = read_text(
         p, "waypoint file", "a CSV with columns x,y[,yaw_deg][,t] or a GeoJSON LineString",
         expected="a CSV x,y[,yaw_deg][,t] or a GeoJSON LineString",

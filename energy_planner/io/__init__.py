@@ -14,6 +14,10 @@ Every file the project writes goes through this package:
   default, or the data's own CRS declared with the ``crs`` member.
 * :func:`read_geometries` - GeoJSON geometries with their CRS (RFC 7946 lon/lat unless
   the file declares one), to be reprojected with :func:`reproject_geometries`.
+
+Submodules for robots: :mod:`~energy_planner.io.bag` (ROS bag readers and writers),
+:mod:`~energy_planner.io.ros2` (paths as ``nav_msgs/Path`` bags in a map frame, and back)
+and :mod:`~energy_planner.io.nav2` (Nav2 Route Server graphs).
 """
 
 from __future__ import annotations

@@ -42,6 +42,15 @@ import pandas as pd
 
 from energy_planner.angles import wrap
 from energy_planner.errors import LogError, LogIOError
+from energy_planner.io.bag import (
+    decoder,
+    open_reader,
+    open_writer,
+    quaternion_yaw,
+    ros_time,
+    topics_listing,
+    typestore,
+)
 from energy_planner.measurements.logs import LoadReport, canonicalize
 from energy_planner.measurements.schema import CANONICAL_COLUMNS, REQUIRED_COLUMNS
 
@@ -67,14 +76,6 @@ _FLOAT64 = "std_msgs/msg/Float64"
 _STRING = "std_msgs/msg/String"
 
 
-@functools.lru_cache(maxsize=2)
-def _typestore(version: int):
-    """The rosbags typestore (cached: its message serializers compile on first use)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    return get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
-
-
 def _stamp_ns(msg, bag_ns: int, stamp: str) -> int:
     if stamp == "bag":
         return int(bag_ns)
@@ -82,41 +83,8 @@ def _stamp_ns(msg, bag_ns: int, stamp: str) -> int:
     return int(s.sec) * 1_000_000_000 + int(s.nanosec)
 
 
-def _yaw(qw, qx, qy, qz) -> float:
-    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
-def _topics_listing(reader) -> str:
-    return ", ".join(
-        f"{c.topic} ({c.msgtype})" for c in sorted(reader.connections, key=lambda c: c.topic)
-    )
-
-
 class _NonStandardTypes(Exception):
     """A topic's type definition differs from the standard one: use AnyReader."""
-
-
-def _open_reader(path: Path, fast: bool):
-    """Open a bag: a plain rosbag1/rosbag2 reader or an AnyReader, and whether it is ROS 2.
-
-    ``fast``: the plain reader, standard types decoded by the cached typestore; else an
-    AnyReader (types from the bag's own definitions).
-    """
-    try:
-        if not fast:
-            from rosbags.highlevel import AnyReader
-
-            reader = AnyReader([path], default_typestore=_typestore(2))
-            return reader, reader.is2
-        if path.is_dir():
-            from rosbags.rosbag2 import Reader as Reader2
-
-            return Reader2(path), True
-        from rosbags.rosbag1 import Reader as Reader1
-
-        return Reader1(path), False
-    except Exception as err:  # rosbags raises its own error classes
-        raise LogIOError(f"cannot open ROS bag {str(path)!r}: {err}") from err
 
 
 def _read_streams(
@@ -126,7 +94,7 @@ def _read_streams(
     extra_topics: Mapping[str, str] | None,
     fast: bool = True,
 ):
-    reader, is2 = _open_reader(path, fast)
+    reader, is2 = open_reader(path, fast, LogIOError)
     try:
         reader.open()
     except Exception as err:  # rosbags raises its own error classes
@@ -137,13 +105,13 @@ def _read_streams(
             if topic not in by_topic:
                 raise LogError(
                     f"ROS bag {str(path)!r} has no topic {topic!r} (for {MSGTYPES[role]}); "
-                    f"topics in the bag: {_topics_listing(reader)}"
+                    f"topics in the bag: {topics_listing(reader)}"
                 )
             if by_topic[topic].msgtype != MSGTYPES[role]:
                 raise LogError(
                     f"ROS bag {str(path)!r}: topic {topic!r} carries "
                     f"{by_topic[topic].msgtype}, expected {MSGTYPES[role]}; topics in the "
-                    f"bag: {_topics_listing(reader)}"
+                    f"bag: {topics_listing(reader)}"
                 )
         extras = dict(extra_topics or {})
         if extra_topics is None:
@@ -154,7 +122,7 @@ def _read_streams(
             if topic not in by_topic:
                 raise LogError(
                     f"ROS bag {str(path)!r} has no topic {topic!r} (extra channel {col!r}); "
-                    f"topics in the bag: {_topics_listing(reader)}"
+                    f"topics in the bag: {topics_listing(reader)}"
                 )
         role_of = {t: r for r, t in topics.items()}
         col_of = {t: c for c, t in extras.items()}
@@ -162,7 +130,7 @@ def _read_streams(
         xrows: dict[str, list] = {c: [] for c in extras}
         conns = [by_topic[t] for t in (*topics.values(), *extras.values())]
         if fast:
-            decoders = {c.id: _fast_decoder(c, is2) for c in conns}
+            decoders = {c.id: decoder(c, is2) for c in conns}
             if any(d is None for d in decoders.values()):
                 raise _NonStandardTypes
         else:
@@ -194,7 +162,7 @@ def _read_streams(
                         tw.angular.z,
                         p.position.x,
                         p.position.y,
-                        _yaw(o.w, o.x, o.y, o.z),
+                        quaternion_yaw(o.w, o.x, o.y, o.z),
                     )
                 )
             else:
@@ -227,31 +195,6 @@ def _read_streams(
 
 def _reader_decode(reader, msgtype: str, raw):
     return reader.deserialize(raw, msgtype)
-
-
-def _fast_decoder(conn, is2: bool):
-    """Deserializer from the cached standard typestore, or None for a non-standard type.
-
-    Used when the bag's definition of the type is the standard one (same digest); with
-    None the reader's own typestore, built from the bag's embedded definitions, decodes
-    it (slower, always right).
-    """
-    ts = _typestore(2 if is2 else 1)
-    if conn.msgtype not in ts.types or not conn.digest:
-        return None
-    try:
-        digest = ts.hash_rihs01(conn.msgtype) if is2 else ts.generate_msgdef(conn.msgtype)[1]
-    except Exception:  # noqa: BLE001 - any failure: use the reader's definitions
-        return None
-    if digest != conn.digest:
-        return None
-    if is2:
-        return functools.partial(_decode, ts.deserialize_cdr, conn.msgtype)
-    return functools.partial(_decode, ts.deserialize_ros1, conn.msgtype)
-
-
-def _decode(fn, msgtype: str, raw):
-    return fn(raw, msgtype)
 
 
 def _sorted_unique(ns: np.ndarray) -> tuple[np.ndarray, int]:
@@ -515,30 +458,10 @@ def _fill_report(rep, df, path: Path, fmt, name, topics, clock, extra, dropped) 
     )
 
 
-def _ros_time(T, ns: int):
-    return T["builtin_interfaces/msg/Time"](
-        sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000)
-    )
-
-
 def _header(T, ros1: bool, ns: int, frame: str, seq: int):
     if ros1:
-        return T["std_msgs/msg/Header"](seq=seq, stamp=_ros_time(T, ns), frame_id=frame)
-    return T["std_msgs/msg/Header"](stamp=_ros_time(T, ns), frame_id=frame)
-
-
-def _open_writer(path: Path, version: int, storage: str):
-    if version == 1:
-        from rosbags.rosbag1 import Writer
-
-        return Writer(path)
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-    try:
-        return Writer(path, version=9, storage_plugin=plugin)
-    except TypeError:  # rosbags 0.10 has no version argument
-        return Writer(path, storage_plugin=plugin)
+        return T["std_msgs/msg/Header"](seq=seq, stamp=ros_time(T, ns), frame_id=frame)
+    return T["std_msgs/msg/Header"](stamp=ros_time(T, ns), frame_id=frame)
 
 
 def write_rosbag(
@@ -630,7 +553,7 @@ def write_rosbag(
 def _write_one(
     df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, str], extras: bool, storage: str
 ) -> None:
-    ts = _typestore(version)
+    ts = typestore(version)
     T = ts.types
     ros1 = version == 1
     ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
@@ -642,7 +565,7 @@ def _write_one(
     stamps = np.round(col["t"] * 1e9).astype(np.int64)
     Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
     nan = float("nan")
-    with _open_writer(path, version, storage) as w:
+    with open_writer(path, version, storage) as w:
         conn = {r: w.add_connection(tops[r], MSGTYPES[r], typestore=ts) for r in MSGTYPES}
         xconn = {}
         for c in extra_cols:

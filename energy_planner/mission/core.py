@@ -233,6 +233,56 @@ class MissionResult(Assessed):
         plt.close(fig)
         return out
 
+    def write_bag(
+        self,
+        path: str | Path,
+        terrain,
+        *,
+        request: Any = None,
+        frame: str = "map",
+        storage: str = "mcap",
+    ) -> dict[str, Any]:
+        """Write each leg as a ``nav_msgs/msg/Path`` on its own topic into a ROS 2 bag.
+
+        Topics ``/energy_planner/mission/leg_<k>`` (k = 0, 1, ... in visiting order), so
+        that a robot can follow one leg, stop at its site and take the next. The stamps
+        run on through the mission (leg ``k`` starts when leg ``k - 1`` ends); frame
+        and stamps as :meth:`energy_planner.planning.plan.PlanResult.write_bag`
+        (``request``: the one the mission was planned with). Returns the frame and
+        conventions.
+        """
+        from energy_planner.energy.path import vertex_times
+        from energy_planner.io.ros2 import write_path_bag
+
+        paths, info, start = {}, {}, 0.0
+        names = self.sites.names
+        for k, leg in enumerate(self.legs):
+            topic = f"/energy_planner/mission/leg_{k}"
+            t = vertex_times(
+                terrain, leg.states, request, duration_s=leg.duration_s, what=f"leg {k}"
+            )
+            paths[topic] = (leg.states, start + t)
+            info[topic] = {"leg": k, "from": names[leg.a], "to": names[leg.b],
+                           "energy_j": leg.energy_j, "distance_m": leg.distance_m,
+                           "duration_s": leg.duration_s, "start_s": start}  # fmt: skip
+            start += float(t[-1])
+        return write_path_bag(path, paths, terrain, frame=frame, storage=storage, info=info)
+
+    def write_nav2_graph(self, path: str | Path, problem: Any, **options: Any) -> dict[str, Any]:
+        """Write the sites and legs as a Nav2 Route Server graph (GeoJSON) at ``path``.
+
+        Every ordered pair of sites is a directed edge whose ``cost`` is its energy in J
+        (both directions, each with its own cost), with its duration, interval and, with
+        a battery, its chance in ``metadata``; the pairs outside the tour are planned on
+        ``problem`` (the one the mission was planned on). ``options``: ``eps``,
+        ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``, ``frame``,
+        ``progress`` (:func:`energy_planner.mission.graph.route_graph`). Returns the
+        path, the counts and the frame.
+        """
+        from energy_planner.mission.graph import write_nav2_graph
+
+        return write_nav2_graph(path, problem, self, **options)
+
 
 @takes_problem(1)
 def energy_matrix(

@@ -693,7 +693,8 @@ def plan_in_corridor(
             f"{min(share, 1.0):.0%} of the box of paths under {best.energy_j:.0f} J)"
         )
     best.info["corridor"] = {
-        "dem_shape": list(info.shape), "cap_bytes": cap, "max_window_cells": max_cells,
+        "dem_shape": list(info.shape), "dem_bounds": [float(v) for v in info.bounds],
+        "cap_bytes": cap, "max_window_cells": max_cells,
         "bytes_per_cell": PLAN_BYTES_PER_CELL, "c_min_j_per_m": c_min, "gradient_box": gbox,
         "length_bound_m": length_bound if math.isfinite(length_bound) else None,
         "ellipse_bounds": list(ell) if ell is not None else None,

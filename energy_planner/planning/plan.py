@@ -188,6 +188,40 @@ class PlanResult(Assessed):
 
         return plan_page(problem, self, path)
 
+    def write_bag(
+        self,
+        path: Any,
+        terrain,
+        *,
+        request: Any = None,
+        frame: str = "map",
+        topic: str = "/energy_planner/plan",
+        storage: str = "mcap",
+        origin: Sequence[float] | None = None,
+    ) -> dict[str, Any]:
+        """Write the path as a ``nav_msgs/msg/Path`` into a new ROS 2 bag folder ``path``.
+
+        Poses in the map frame ``frame`` (:mod:`energy_planner.io.ros2`: the working CRS
+        shifted to the grid's south-west corner, REP 103 axes, yaw as a quaternion about
+        z), stamped with the time the robot reaches each (at ``request``'s speed and
+        yaw rate, default :class:`~energy_planner.request.Request`: give the request the
+        plan was made with; another is an error). ``origin``: another origin of the frame
+        (working CRS); a plan made by windows (``info["corridor"]``) keeps the whole DEM's
+        south-west corner, not its window's. Returns the frame and conventions
+        (:meth:`energy_planner.io.ros2.MapFrame.to_dict`), also in the bag's metadata.
+        """
+        from energy_planner.energy.path import vertex_times
+        from energy_planner.io.ros2 import write_path_bag
+
+        t = vertex_times(terrain, self.states, request, duration_s=self.duration_s, what="the plan")
+        info = {"energy_j": self.energy_j, "distance_m": self.distance_m,
+                "duration_s": self.duration_s, "planner": self.planner}  # fmt: skip
+        dem_bounds = self.info.get("corridor", {}).get("dem_bounds")
+        if origin is None and dem_bounds is not None:
+            origin = dem_bounds[:2]
+        return write_path_bag(path, {topic: (self.states, t)}, terrain, frame=frame,
+                              origin=origin, storage=storage, info={topic: info})  # fmt: skip
+
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
     if len(p) not in (2, 3):

@@ -357,3 +357,35 @@ class RouteComparison:
         save_figure(fig, path, dpi=120)
         plt.close(fig)
         return path
+
+    def write_bag(
+        self,
+        path: Any,
+        terrain,
+        *,
+        request: Any = None,
+        frame: str = "map",
+        storage: str = "mcap",
+    ) -> dict[str, Any]:
+        """Write each route as a ``nav_msgs/msg/Path`` on its own topic into a ROS 2 bag.
+
+        Topics ``/energy_planner/routes/<name>`` (the routes with poses and an energy:
+        an infeasible route has none), each stamped from 0; frame and stamps as
+        :meth:`energy_planner.planning.plan.PlanResult.write_bag` (``request``: the one
+        the routes were planned with). Returns the frame and conventions.
+        """
+        from energy_planner.energy.path import vertex_times
+        from energy_planner.io.ros2 import write_path_bag
+
+        paths, info = {}, {}
+        for r in self.routes:
+            if r.states is None or r.energy_j is None:
+                continue
+            topic = f"/energy_planner/routes/{r.name}"
+            t = vertex_times(
+                terrain, r.states, request, duration_s=r.duration_s, what=f"route {r.name!r}"
+            )
+            paths[topic] = (r.states, t)
+            info[topic] = {"route": r.name, "energy_j": r.energy_j, "distance_m": r.distance_m,
+                           "duration_s": r.duration_s, "same_as": r.same_as}  # fmt: skip
+        return write_path_bag(path, paths, terrain, frame=frame, storage=storage, info=info)
