@@ -285,7 +285,9 @@ def test_mission_graph_passes_the_route_servers_loader(tmp_path, hill_mission):
     assert set(cost) == {(a, b) for a in range(3) for b in range(3) if a != b}
     for a, b in cost:  # both directions, each its own energy: uphill is not downhill
         assert cost[a, b] != cost[b, a]
-        assert cost[a, b] == pytest.approx(res.matrix_j[a, b], rel=0.01)
+        # each edge is planned as `plan` plans (refined): at most the matrix's search
+        # energy between the same cells, and not far below it
+        assert 0.85 * res.matrix_j[a, b] <= cost[a, b] <= 1.01 * res.matrix_j[a, b]
     assert cost[0, 1] > 1.2 * cost[1, 0]  # to the hilltop costs more than from it
     for k, leg in enumerate(res.legs):  # the tour's legs are its edges, unchanged
         meta = next(m for _, a, b, _, m in edges if (a, b) == (leg.a, leg.b))
