@@ -65,10 +65,7 @@ def load_model(path: str | Path | None = None):
 
 
 def _problem(dem: Any, model: Any, request: Any) -> Problem:
-    if isinstance(dem, Problem):
-        return dem
-    terrain = dem if hasattr(dem, "to_work") else open_terrain(dem)
-    return Problem(terrain, model, request)
+    return Problem.coerce(dem, model, request)
 
 
 def _pose(problem: Problem, p: Any, crs: Any) -> tuple:

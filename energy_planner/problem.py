@@ -109,6 +109,22 @@ class Problem:
         return cls(load_dem(dem, band=band), model, Request.make(**request))
 
     @classmethod
+    def coerce(cls, dem: Any, model: Any = None, request: Request | None = None) -> Problem:
+        """A Problem as is, or one built on a Terrain or a DEM (a path or a bundled name).
+
+        What every verb does with its first argument (``ep.plan("hill", ...)``).
+        """
+        if isinstance(dem, cls):
+            return dem
+        if hasattr(dem, "to_work"):
+            terrain = dem
+        else:
+            from energy_planner.terrain import load_dem
+
+            terrain = load_dem(dem)
+        return cls(terrain, model, request)
+
+    @classmethod
     def of_cost(cls, cost: Any, request: Request | None = None) -> Problem:
         """The Problem a prepared motion cost was built for, bound to that cost.
 

@@ -51,9 +51,13 @@ KEEP_OUT = box(NOTCH_X - 4, SIZE / 2 - 4, NOTCH_X + 4, SIZE / 2 + 4)
 
 def _refused_by_kernel(cost, xa, ya, xb, yb, th) -> bool:
     out = np.zeros(N_OUT + cost.data[12].shape[0])
-    from energy_planner.energy.kernels import VIOLATIONS  # noqa: F401 - codes documented there
+    from energy_planner.energy.kernels import (
+        VIOLATIONS,  # noqa: F401 - codes documented there
+        kernel_module,
+    )
 
-    cost._full(xa, ya, th, xb, yb, th, -1.0, cost.data, out)
+    # the numba kernel's full output (its violation code), as the planners' kernels see it
+    kernel_module(cost.source).motion_full(xa, ya, th, xb, yb, th, -1.0, cost.data, out)
     return int(out[OUT_CODE]) in (1, 2, 4)  # outside/nodata, too steep, keep-out
 
 

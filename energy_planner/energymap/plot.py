@@ -262,3 +262,41 @@ def plot_energy_map(
     save_figure(fig, png)
     plt.close(fig)
     return png
+
+
+def energy_map_page(map_path: str | Path, dem: Any, path: str | Path, title=None) -> Path:
+    """``energy-map --html``: the map's bands over the hillshade, with a band chooser.
+
+    One self-contained page (:class:`energy_planner.webmap.WebMap`).
+
+    The summary bands (cheapest cost, the cheapest heading, anisotropy) and the cost
+    walking each heading at its best body yaw (``best_*``) are offered; read decimated
+    to :data:`MAX_SIDE` pixels.
+    """
+    import rasterio
+    from rasterio.enums import Resampling
+
+    from energy_planner.webmap import MAX_SIDE, WebMap
+
+    with rasterio.open(map_path) as src:
+        names = list(src.descriptions)
+        shape, t = _decimated_grid(src, MAX_SIDE)
+        shade = _hillshade_on(dem, shape, t, src.crs) if dem is not None else None
+        page = WebMap.of_grid(title or f"Energy map {Path(map_path).name}", shade, t, shape,
+                              src.crs)  # fmt: skip
+        wanted = [("cheapest", "J/m", "Viridis"), ("cheapest_heading_deg", "° CCW from east",
+                  "HSV"), ("anisotropy", "ratio", "Magma")]  # fmt: skip
+        wanted += [(n, "J/m", "Viridis") for n in names if n.startswith("best_")]
+        for n, unit, cs in wanted:
+            if n not in names:
+                continue
+            how = Resampling.nearest if n == "cheapest_heading_deg" else Resampling.average
+            i = names.index(n)
+            v = src.read(i + 1, out_shape=shape, resampling=how).astype(float)
+            v = v * src.scales[i] + src.offsets[i]  # scaled-integer bands read as values
+            v[~np.isfinite(v)] = np.nan
+            label = {"cheapest": "cheapest cost", "cheapest_heading_deg": "cheapest heading"}.get(
+                n, n.replace("best_", "heading ") + "°" if n.startswith("best_") else n
+            )
+            page.add_raster(label, v, unit, colorscale=cs, visible=n == "cheapest", transform=t)
+    return page.write(path)

@@ -86,11 +86,11 @@ class EnergyMapResult:
     def write_html(self, path: str | Path, dem: Any = None) -> Path:
         """One self-contained HTML page with a band chooser.
 
-        See :func:`energy_planner.webmap.energy_map_page`.
+        See :func:`energy_planner.energymap.plot.energy_map_page`.
 
         ``dem`` (a path or Terrain) gives the hillshade underneath.
         """
-        from energy_planner.webmap import energy_map_page
+        from energy_planner.energymap.plot import energy_map_page
 
         return energy_map_page(self.path, dem, path)
 

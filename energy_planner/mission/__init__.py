@@ -31,14 +31,14 @@ class _VerbModule(types.ModuleType):
 
     Importing ``energy_planner.mission`` sets the package's attribute ``mission`` to this
     module (Python's import system does), hiding the verb of the same name: calling the
-    module calls :func:`energy_planner.api.mission`, so ``ep.mission(...)`` works whatever
-    was imported first.
+    module does what :func:`energy_planner.api.mission` does, so ``ep.mission(...)`` works
+    whatever was imported first.
     """
 
-    def __call__(self, *args, **kwargs):
-        from energy_planner.api import mission as verb
+    def __call__(self, dem, sites, *, model=None, request=None, **kwargs):
+        from energy_planner.problem import Problem
 
-        return verb(*args, **kwargs)
+        return mission(Problem.coerce(dem, model, request), sites, **kwargs)
 
 
 sys.modules[__name__].__class__ = _VerbModule
