@@ -55,7 +55,8 @@ def test_segments_frame_equals_the_table():
     assert list(df.columns) == [c for c in rows[0] if c != "map_distance_m"]
     for i, row in enumerate(rows):
         for c, v in row.items():
-            np.testing.assert_equal(df[c].iloc[i], v)
+            if c != "map_distance_m":
+                np.testing.assert_equal(df[c].iloc[i], v)
     # a corner: the turn in place belongs to the second segment, its time at the yaw rate
     assert rows[0]["turn_deg"] == 0.0 and abs(rows[1]["turn_deg"] - 90.0) < 1e-9
     assert abs(sum(r["duration_s"] for r in rows) - pe.duration_s) <= 1e-9 * pe.duration_s
