@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import EnergyPlannerError
+from energy_planner.trust import Assessment
 from energy_planner.uncertainty.domain import domain_report, path_domain, stay_in_domain
 from energy_planner.uncertainty.errormodel import ErrorModel
 
@@ -393,39 +394,9 @@ def battery_decision(
                            success_probability(energy_j, s, usable), float(confidence))  # fmt: skip
 
 
-@dataclass(frozen=True)
-class PathTrust:
-    """What a path's energy can be trusted to: its interval, domain and battery decision.
-
-    Attributes
-    ----------
-    interval : EnergyInterval or None
-        None when the model carries no held-out scores.
-    domain : dict or None
-        The path's domain report (:func:`path_domain`); None without a recorded domain.
-    battery : BatteryDecision or None
-        With a battery: the chance it suffices; None without one or when refused.
-    battery_refused : str or None
-        Why no battery decision was given (:class:`ExtrapolationError`).
-    """
-
-    interval: EnergyInterval | None
-    domain: dict[str, Any] | None = None
-    battery: BatteryDecision | None = None
-    battery_refused: str | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """``interval``, ``domain``; given a battery, ``battery`` (or ``battery_refused``)."""
-        out: dict[str, Any] = {
-            "interval": None if self.interval is None else self.interval.to_dict(),
-            "domain": self.domain,
-        }
-        if self.battery is not None:
-            out["battery"] = self.battery.to_dict()
-        if self.battery_refused is not None:
-            out["battery"] = None
-            out["battery_refused"] = self.battery_refused
-        return out
+#: What :func:`path_trust` returns: the one record of a path's interval, domain and
+#: battery decision (or why it was refused), the assessment every result carries.
+PathTrust = Assessment
 
 
 def path_trust(
