@@ -77,8 +77,15 @@ def test_scaled_int_with_undeclared_voids_reads_as_the_plain_dem(scaled):
     np.testing.assert_allclose(t.dzdx, ref.dzdx, rtol=0, atol=1e-9)
 
 
-def test_every_door_reads_the_scaled_dem_alike(scaled, tmp_path):
-    """Whole (terrain), windowed and dask energy maps, the corridor's strips and a window."""
+@pytest.mark.parametrize("local", [False, True], ids=["scanned-first", "window-by-window"])
+def test_every_door_reads_the_scaled_dem_alike(scaled, tmp_path, local, monkeypatch):
+    """Whole (terrain), windowed and dask energy maps, the corridor's strips and a window.
+
+    Also as a file too large to scan first (``SCAN_CELLS`` below its size): each window
+    finds its own voids, with the same cells as the scan.
+    """
+    if local:
+        monkeypatch.setattr("energy_planner.terrain.raster.SCAN_CELLS", 100)
     stored, plain = scaled
     ref_map = tmp_path / "ref.tif"
     energy_map(load_dem(plain), ref_map, MODEL, headings=4)

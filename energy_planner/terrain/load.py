@@ -282,7 +282,9 @@ def load_dem(
         _check_georeferenced(src, transform, name)
         nodata = src.nodatavals[int(band) - 1]
         whole = bounds is None and decimate == 1
-        reading = band_reading(src, band, name, scan=not whole)
+        reading = band_reading(
+            src, band, name, scan=False if whole else ("full" if decimate > 1 else True)
+        )
         if reading.voids and decimate > 1:
             raise DEMError(
                 f"DEM {name!r} marks voids with {reading.voids[0][0]:g} without declaring "

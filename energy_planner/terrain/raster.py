@@ -15,7 +15,10 @@ the corridor's strips) decodes them here, so that they agree:
   :data:`VOID_VALUES`), far outside the other cells (further from them than their own
   range), or any value beyond 1e15 m, gets those cells masked with a
   ``UserWarning`` naming the value, the count and the ``gdal_edit.py -a_nodata`` that
-  declares it. A file read by windows is scanned once for them (:func:`band_reading`).
+  declares it. A file read by windows is scanned once for them (:func:`band_reading`)
+  when it holds up to :data:`SCAN_CELLS` cells; in a larger file each window finds its
+  own (the rule above within the window; one warning per file and value), so that a
+  corridor or an energy map of a large DEM reads its cells once, not twice.
 """
 
 from __future__ import annotations
@@ -42,6 +45,10 @@ VOID_VALUES = (
 
 #: A value this far from sea level (metres) is a void whatever the other cells hold.
 IMPOSSIBLE_M = 1e15
+
+#: Windowed readers of a file of up to this many cells scan it whole for undeclared voids
+#: first (exact counts; a fraction of a second); larger files find them window by window.
+SCAN_CELLS = 16_000_000
 
 #: Metres per vertical unit, by the unit names GDAL writers use (lower case).
 _UNITS = {
@@ -121,6 +128,9 @@ class BandReading:
     voids : tuple of (float, int)
         Undeclared void values found in the file (stored value, cells), for windowed
         reads; empty when the band is declared or none were found.
+    local : bool
+        True if the file was too large to scan first (:data:`SCAN_CELLS`): every read
+        finds the undeclared voids of its own window (:meth:`mask_voids`).
     """
 
     path: str
@@ -130,6 +140,7 @@ class BandReading:
     unit_m: float = 1.0
     declared: bool = False
     voids: tuple[tuple[float, int], ...] = ()
+    local: bool = False
 
     @property
     def identity(self) -> bool:
@@ -145,7 +156,14 @@ class BandReading:
         return z
 
     def mask_voids(self, stored: np.ndarray) -> None:
-        """Set the cells of :attr:`voids` to NaN in ``stored`` (float64, in place)."""
+        """Set the cells of :attr:`voids` to NaN in ``stored`` (float64, in place).
+
+        With :attr:`local`, the voids of this window (:func:`find_voids`), warned once
+        per file and value.
+        """
+        if self.local and not self.declared:
+            _find_local(stored, self)
+            return
         for value, _ in self.voids:
             stored[stored == value] = np.nan
 
@@ -160,7 +178,7 @@ class BandReading:
         data = src.read(self.band, masked=True, **kwargs)
         z = np.ma.filled(data.astype(np.float64), np.nan)
         np.putmask(z, ~np.isfinite(z), np.nan)
-        if find:
+        if find and not self.local:
             find_voids(z, self, warn=warn)
         else:
             self.mask_voids(z)
@@ -170,14 +188,17 @@ class BandReading:
 _SCANNED: dict[tuple, BandReading] = {}
 
 
-def band_reading(src: Any, band: int, name: str, scan: bool = False) -> BandReading:
+def band_reading(src: Any, band: int, name: str, scan: bool | str = False) -> BandReading:
     """The :class:`BandReading` of band ``band`` of the open dataset ``src``.
 
     ``scan``: when the band declares no nodata and no mask, read the whole file once, in
     strips of rows, for undeclared voids (:func:`find_voids`; a ``UserWarning`` names
     them). For readers that see the file by windows; a whole read finds them itself
     (:func:`find_voids` on its array). A file is scanned once per version (its size and
-    modification time): the corridor's windows of one DEM share the scan.
+    modification time): the corridor's windows of one DEM share the scan. A file of more
+    than :data:`SCAN_CELLS` cells is not scanned: its reading is :attr:`~BandReading.local`
+    (each window finds its own), unless ``scan="full"`` (a decimated read, which would
+    average voids into its cells, needs to know them first).
 
     Raises
     ------
@@ -202,6 +223,8 @@ def band_reading(src: Any, band: int, name: str, scan: bool = False) -> BandRead
     reading = BandReading(name, int(band), scale, offset, unit_m, declared)
     if not scan or declared:
         return reading
+    if scan != "full" and src.height * src.width > SCAN_CELLS:
+        return BandReading(name, int(band), scale, offset, unit_m, declared, local=True)
     try:
         st = Path(name).stat()
         key: tuple | None = (str(Path(name).resolve()), st.st_size, st.st_mtime_ns, int(band))
@@ -303,11 +326,29 @@ def find_voids(
     return voids
 
 
+_WARNED: set[tuple[str, float]] = set()
+
+
+def _find_local(stored: np.ndarray, reading: BandReading) -> None:
+    """The undeclared voids of one window of a :attr:`~BandReading.local` reading.
+
+    Set to NaN in place; a value is warned of once per file.
+    """
+    voids = find_voids(stored, reading, warn=False)
+    new = tuple((v, n) for v, n in voids if (reading.path, v) not in _WARNED)
+    if new:
+        _WARNED.update((reading.path, v) for v, _ in new)
+        warn_voids(new, reading.path, where=" in the first window read that holds them")
+
+
 def warn_voids(
-    voids: tuple[tuple[float, int], ...], name: str, rest: tuple[float, float] | None = None
+    voids: tuple[tuple[float, int], ...],
+    name: str,
+    rest: tuple[float, float] | None = None,
+    where: str = "",
 ) -> None:
     """The ``UserWarning`` that names undeclared void values and their counts."""
-    what = ", ".join(f"{n} cells of {v:g}" for v, n in voids[:3])
+    what = ", ".join(f"{n} cells of {v:g}" for v, n in voids[:3]) + where
     if len(voids) > 3:
         what += f" and {len(voids) - 3} more values"
     among = f" (the other cells are {rest[0]:.6g} .. {rest[1]:.6g} m)" if rest is not None else ""
