@@ -117,9 +117,20 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def _mode(s: pd.Series):
-    vc = s.value_counts(sort=True, dropna=True)
-    return vc.index[0] if len(vc) else None
+def _modes(window: np.ndarray, values: pd.Series, windows: pd.Index) -> list:
+    """The most frequent value of each window, in the order of ``windows``.
+
+    Ties: the value that comes first; None where the window holds no value. One grouping
+    of all the samples, not one ``value_counts`` per window.
+    """
+    ok = values.notna().to_numpy()
+    sub = pd.DataFrame({"w": window[ok], "v": values.to_numpy(object)[ok], "i": np.flatnonzero(ok)})
+    if sub.empty:
+        return [None] * len(windows)
+    counts = sub.groupby(["w", "v"], sort=False).agg(n=("i", "size"), first=("i", "min"))
+    counts = counts.reset_index().sort_values(["w", "n", "first"], ascending=[True, False, True])
+    best = counts.drop_duplicates("w").set_index("w")["v"]
+    return [best.get(w) for w in windows]
 
 
 def make_windows(
@@ -308,7 +319,7 @@ def _table(df: pd.DataFrame, dt: np.ndarray, duration: float) -> pd.DataFrame:
         if pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]):
             tab[c] = g[c].mean()
         else:
-            tab[c] = g[c].agg(_mode)
+            tab[c] = _modes(df["window"].to_numpy(), df[c], tab.index)
             if isinstance(df[c].dtype, pd.CategoricalDtype):
                 tab[c] = pd.Categorical(tab[c], categories=df[c].cat.categories)
     extras = [c for c in tab.columns if c not in cols]
