@@ -345,7 +345,7 @@ class SpeedSupport:
     def line(self, model_terms: Sequence[str]) -> str:
         """One line for the fit's report: which speed terms the model has, or why none."""
         have = [n for n in model_terms if n in SPEED_TERMS]
-        gait = [n for n in model_terms if GAIT_CHANNEL in n]
+        gait = [n for n in model_terms if f"{GAIT_CHANNEL} ==" in n]
         if self.supported and have:
             return (
                 f"speed terms: identified ({', '.join(have)}"
