@@ -34,6 +34,7 @@ from energy_planner.simulate import (
     simulate_campaign,
     true_cost_per_metre,
     true_optimum_speed,
+    true_path_energy,
 )
 from energy_planner.uncertainty import predict_interval
 from energy_planner.uncertainty.domain import (
@@ -180,3 +181,21 @@ def test_simulate_cli_speed_range_and_gaits(tmp_path):
     assert bad.exit_code == 2 and "LOW:HIGH" in bad.output
     bad = CliRunner().invoke(main, ["simulate", "--out", str(tmp_path / "x"), "--gaits", "run"])
     assert bad.exit_code == 2 and "walk" in bad.output
+
+
+def test_true_path_energy_walks_a_speed_profile_with_gaits():
+    """The truth of a path at a speed per segment: each leg's energy is its length times
+    the truth's cost per metre at that speed and gait (the same physics, per sample)."""
+    from energy_planner.terrain import Terrain
+
+    a = math.radians(10)
+    plane = Terrain.from_function(lambda x, y: math.tan(a) * y, size=(60.0, 60.0), resolution=1.0)
+    up = [[30.0, 5.0, math.pi / 2], [30.0, 25.0, math.pi / 2], [30.0, 45.0, math.pi / 2]]
+    gaits = GaitSchedule()
+    got = true_path_energy(plane, up, speed=[0.3, 0.9], gaits=gaits)
+    phys = Physics(gaits=gaits)
+    cost = true_cost_per_metre(phys, [0.3, 0.9], 10.0)["cost_n"]
+    assert got.segments["energy_j"].to_numpy() == pytest.approx(cost * 20.0 / math.cos(a))
+    assert got.duration_s == pytest.approx(20.0 / math.cos(a) * (1 / 0.3 + 1 / 0.9))
+    with pytest.raises(Exception, match="one per segment"):
+        true_path_energy(plane, up, speed=[0.3, 0.6, 0.9])
