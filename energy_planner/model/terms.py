@@ -454,4 +454,23 @@ def resolve_term(spec: str | Term) -> Term:
         raise FormulaError(
             f"{exc} (a term is a catalog name - {', '.join(CATALOG)} - or a formula)"
         ) from exc
-    return Term(name=parsed.text, formula=parsed.text)
+    return _known_gait_term(parsed.text) or Term(name=parsed.text, formula=parsed.text)
+
+
+def _known_gait_term(text: str) -> Term | None:
+    """A gait channel's term (:func:`gait_terms`) written as its formula, explained.
+
+    >>> _known_gait_term("(gait == 'trot') * speed").unit
+    'N'
+    """
+    import re
+
+    m = re.fullmatch(rf"\(?{GAIT_CHANNEL} == '([^']+)'\)?(?: \* (.+))?", text)
+    if m is None:
+        return None
+    shape = parse_formula(m.group(2)).text if m.group(2) else "1"
+    for form, words, unit in _GAIT_SHAPES:
+        if (parse_formula(form).text if form != "1" else "1") == shape:
+            expl = words.format(g=m.group(1), ref="the reference gait")
+            return Term(text, text, expl, unit, "other")
+    return None
