@@ -177,13 +177,7 @@ class GaitSchedule:
         )
 
     def gait_of(self, speed: Any, alpha: Any) -> np.ndarray:
-        """The gait of each sample from its (commanded) speed, m/s, and slope, rad.
-
-        Raises
-        ------
-        ConfigError
-            Never for valid schedules (the gaits are checked at construction).
-        """
+        """The gait of each sample (names) from its commanded speed, m/s, and slope, rad."""
         v = np.asarray(speed, dtype=float)
         a = np.broadcast_to(np.asarray(alpha, dtype=float), v.shape)
         names = [g for g in self.gaits if g != "crawl"]
