@@ -8,6 +8,9 @@
   range (the per-second holding terms depend on the heading).
 * Fig. 3 - :func:`plot_superposition`: measured energy of composite paths against the
   sum of their parts (runs labelled ``A``, ``B``, ``AB``, ``C`` within a composite).
+* :func:`plot_speed_cost`: cost per metre ``P / v`` (J/m) against speed, per slope and
+  relative heading (uphill, across, downhill), steady forward windows per gait over the
+  model's curves per gait, with the optimum speed marked (logs across speeds).
 
 matplotlib (Agg backend) is imported inside the plotting functions.
 """
@@ -31,6 +34,8 @@ __all__ = [
     "plot_yaw_torque",
     "superposition_table",
     "plot_superposition",
+    "plot_speed_cost",
+    "speed_panels",
     "run_energy",
 ]
 
@@ -397,3 +402,165 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
         "mean_abs_rel_ab": float(np.nanmean(np.abs(rel_ab))) if np.isfinite(rel_ab).any() else None,
         "mean_abs_rel_c": float(np.nanmean(np.abs(rel_c))) if np.isfinite(rel_c).any() else None,
     }
+
+
+#: Relative heading classes of the speed figure: name -> (gamma drawn, deg; |gamma| range).
+_HEADING_CLASSES = {"uphill": (0.0, 0.0, 30.0), "across": (90.0, 60.0, 120.0),
+                    "downhill": (180.0, 150.0, 180.0)}  # fmt: skip
+_GAIT_COLORS = ("tab:green", "tab:orange", "tab:purple", "tab:brown")
+
+
+def speed_panels(table: pd.DataFrame, max_slopes: int = 3) -> list[dict[str, Any]]:
+    """The panels of :func:`plot_speed_cost`: slope levels times relative heading classes.
+
+    Steady forward windows (speed above 0.05 m/s, mean acceleration below 0.05 m/s^2).
+    The slopes are the logs' groups of slopes (separated by gaps of more than 2 deg, as a
+    campaign's ramps are) when there are at most ``max_slopes``, else ``max_slopes``
+    quantile bins; level ground (below 3 deg) is one
+    panel, sloped ground a panel per heading class with windows.
+
+    Returns
+    -------
+    list of dict
+        ``label``, ``slope_deg`` (the bin's median), ``heading_deg`` (0, 90 or 180),
+        ``rows`` (boolean mask of ``table``).
+    """
+    from energy_planner.uncertainty.domain import SLOPED_DEG
+
+    speed = table["speed"].to_numpy(float)
+    steady = (table["kind"].to_numpy() == "forward") & (speed > 0.05)
+    if {"ax", "ay"} <= set(table.columns):
+        acc = np.hypot(table["ax"].to_numpy(float), table["ay"].to_numpy(float))
+        steady &= np.nan_to_num(acc, nan=np.inf) < 0.05
+    slope = np.degrees(table["alpha"].to_numpy(float))
+    gamma = np.abs(np.degrees(table["gamma"].to_numpy(float)))
+    level = slope < SLOPED_DEG
+    panels = []
+    if (steady & level).any():
+        panels.append({"label": "level", "slope_deg": 0.0, "heading_deg": 0.0,
+                       "rows": steady & level})  # fmt: skip
+    sloped = steady & ~level
+    if sloped.any():
+        values = np.sort(slope[sloped])
+        cut = np.flatnonzero(np.diff(values) > 2.0)  # a campaign's ramps: gaps > 2 deg
+        groups = np.split(values, cut + 1)
+        if len(groups) <= max_slopes:
+            bins = [(float(g[0]), float(g[-1])) for g in groups]
+        else:
+            q = np.quantile(slope[sloped], np.linspace(0, 1, max_slopes + 1))
+            bins = list(zip(q[:-1], q[1:], strict=True))
+        for k, (lo, hi) in enumerate(bins):
+            in_bin = (
+                sloped & (slope >= lo) & ((slope <= hi) if k == len(bins) - 1 else (slope < hi))
+            )
+            if not in_bin.any():
+                continue
+            med = float(np.median(slope[in_bin]))
+            for name, (g, glo, ghi) in _HEADING_CLASSES.items():
+                rows = in_bin & (gamma >= glo) & (gamma <= ghi)
+                if rows.any():
+                    panels.append({"label": f"{med:.0f} deg, {name}", "slope_deg": med,
+                                   "heading_deg": g, "rows": rows})  # fmt: skip
+    return panels
+
+
+def plot_speed_cost(
+    table: pd.DataFrame,
+    model: EnergyModel | None,
+    path: str | Path,
+    *,
+    constants: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Cost per metre against speed, per slope and relative heading, per gait (a PNG).
+
+    Each panel (:func:`speed_panels`) shows the steady forward windows (``P / v``, J/m)
+    coloured by their gait (the ``gait`` channel, when the logs have it), the model's cost
+    per metre per gait over the speeds the logs walked it at
+    (:func:`energy_planner.calibration.speed.cost_curves`), and its optimum speed marked.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The window table (:func:`~energy_planner.calibration._windows.aligned_table`:
+        ``speed``, ``power``, ``alpha``, ``gamma``, ``kind``; ``gait`` optional).
+    model : EnergyModel or None
+        The fitted model (None: windows only).
+    path : str or Path
+        PNG to write.
+    constants : mapping, optional
+        Values of the channels the model reads other than ``gait`` (typical values).
+
+    Returns
+    -------
+    dict
+        ``panels``: per panel its label, slope, heading, windows and the model's optimum
+        (``optimum_speed``, ``optimum_cost_n``, ``optimum_gait``, ``interior``).
+
+    Raises
+    ------
+    LogError
+        No steady forward windows to draw.
+    """
+    from energy_planner.calibration.speed import cost_curves, optimum_speed
+    from energy_planner.model import GAIT_CHANNEL
+
+    panels = speed_panels(table)
+    if not panels:
+        raise LogError("no steady forward windows: the cost against speed cannot be drawn")
+    consts = {k: v for k, v in dict(constants or {}).items() if k != GAIT_CHANNEL}
+    gaits = (
+        sorted(table[GAIT_CHANNEL].dropna().astype(str).unique()) if GAIT_CHANNEL in table else []
+    )
+    color = {g: _GAIT_COLORS[i % len(_GAIT_COLORS)] for i, g in enumerate(gaits)}
+    plt = _pyplot()
+    ncol = min(3, len(panels))
+    nrow = -(-len(panels) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
+    speed = table["speed"].to_numpy(float)
+    cost = table["power"].to_numpy(float) / np.where(speed > 0, speed, np.nan)
+    out = []
+    for ax, panel in zip(axes.ravel(), panels, strict=False):
+        rows = panel["rows"]
+        if gaits:
+            g_of = table[GAIT_CHANNEL].astype(str).to_numpy()
+            for g in gaits:
+                sel = rows & (g_of == g)
+                if sel.any():
+                    ax.scatter(speed[sel], cost[sel], s=10, alpha=0.45, color=color[g],
+                               label=f"{g} windows")  # fmt: skip
+        else:
+            ax.scatter(speed[rows], cost[rows], s=10, alpha=0.45, color="tab:gray",
+                       label="windows")  # fmt: skip
+        rec: dict[str, Any] = {k: panel[k] for k in ("label", "slope_deg", "heading_deg")}
+        rec["windows"] = int(rows.sum())
+        if model is not None and model.is_fitted:
+            try:
+                curves = cost_curves(model, panel["slope_deg"], panel["heading_deg"],
+                                     channels=consts)  # fmt: skip
+                best = optimum_speed(model, panel["slope_deg"], panel["heading_deg"],
+                                     channels=consts)  # fmt: skip
+            except EnergyPlannerError:
+                curves, best = {}, None
+            for g, c in curves.items():
+                ax.plot(c["speed"], c["cost_n"], color=color.get(g, "k"), lw=1.8,
+                        label=f"model, {g}" if g else "model")  # fmt: skip
+            if best is not None:
+                ax.axvline(best["speed"], color="k", ls=":", lw=1)
+                ax.plot([best["speed"]], [best["cost_n"]], marker="*", ms=13, color="k",
+                        label=f"optimum {best['speed']:.2f} m/s")  # fmt: skip
+                rec.update(optimum_speed=round(best["speed"], 3),
+                           optimum_cost_n=round(best["cost_n"], 1),
+                           optimum_gait=best["gait"], interior=bool(best["interior"]))  # fmt: skip
+        ax.set_title(panel["label"], fontsize=10)
+        ax.set_xlabel("speed (m/s)")
+        ax.set_ylabel("cost per metre P/v (J/m)")
+        finite = cost[rows][np.isfinite(cost[rows])]
+        if finite.size:
+            ax.set_ylim(0.0, float(np.percentile(finite, 99)) * 1.15)
+        ax.legend(fontsize=7)
+        out.append(rec)
+    for ax in axes.ravel()[len(panels) :]:
+        ax.set_visible(False)
+    fig.suptitle("Cost per metre against speed (steady forward windows; optimum marked)")
+    _save(fig, path)
+    return {"panels": out}

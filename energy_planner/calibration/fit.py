@@ -40,7 +40,15 @@ from energy_planner.calibration._windows import (
     window_kind,
 )
 from energy_planner.errors import FitError
-from energy_planner.model import BASE_TERMS, STANDING_TERMS, EnergyModel, Term
+from energy_planner.model import (
+    BASE_TERMS,
+    GAIT_CHANNEL,
+    SPEED_TERMS,
+    STANDING_TERMS,
+    EnergyModel,
+    Term,
+    gait_terms,
+)
 from energy_planner.model.formula import MOTION_FEATURES
 from energy_planner.model.model import prepare_features
 from energy_planner.stats import fold_index, heldout, independent_columns, vif, wls
@@ -59,6 +67,8 @@ __all__ = [
     "identify_terms",
     "refuse_free_walking",
     "calibration_domain",
+    "speed_support",
+    "SpeedSupport",
     "MIN_WINDOWS_PER_TERM",
     "MIN_RUNS",
 ]
@@ -73,6 +83,11 @@ STEEP_DEG = 5.0
 VIF_WARN = 100.0
 #: Relative spread of the runs' cruising speeds under which a campaign is single-speed.
 SINGLE_SPEED_SPREAD = 0.1
+#: The logs identify how the cost depends on speed (:func:`speed_support`) when the 90th
+#: percentile of their steady walking speeds is at least this times the 10th.
+SPEED_RANGE_RATIO = 3.0
+#: Windows whose mean acceleration is below this (m/s^2) walk at a steady speed.
+STEADY_ACCEL = 0.05
 #: Per-sample features of the motion itself (not log channels).
 _KINEMATIC = frozenset({"alpha", "gamma", "vx", "vy", "wz", "speed", "ax", "ay"})
 
@@ -198,6 +213,7 @@ class FitResult:
     unidentified: dict[str, str] = field(default_factory=dict)
     held_at_prior: dict[str, float] = field(default_factory=dict)
     data_findings: list[dict[str, Any]] | None = None
+    speed_terms: SpeedSupport | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (``unidentified``: term -> reason, not in the model)."""
@@ -230,6 +246,7 @@ class FitResult:
             "coverage": self.coverage.to_dict(orient="records"),
             "warnings": list(self.warnings),
             "data_findings": self.data_findings,
+            "speed_terms": None if self.speed_terms is None else self.speed_terms.to_dict(),
         }
 
     def summary(self) -> str:
@@ -255,6 +272,8 @@ class FitResult:
         if self.unidentified:
             lines += ["", "not identified by this campaign (left out of the model):"]
             lines += [f"  {n:<{nw - 2}} {why}" for n, why in self.unidentified.items()]
+        if self.speed_terms is not None:
+            lines += ["", self.speed_terms.line(self.model.term_names)]
         if self.held_at_prior:
             lines += ["", "not identified, held at the prior's value:"]
             lines += [f"  {n:<{nw - 2}} {c:.2f}" for n, c in self.held_at_prior.items()]
@@ -280,10 +299,150 @@ class FitResult:
 
 
 # --------------------------------------------------------------------------- helpers
+@dataclass(frozen=True)
+class SpeedSupport:
+    """Whether the logs identify how the cost depends on speed, and the gaits they name.
+
+    Attributes
+    ----------
+    supported : bool
+        The steady walking speeds span at least :data:`SPEED_RANGE_RATIO` (90th over 10th
+        percentile): then the base model gets :data:`~energy_planner.model.SPEED_TERMS`
+        (and the gait channel's terms) and its cost per metre has an optimum speed.
+    speed_p10, speed_p90 : float or None
+        10th and 90th percentile of the steady walking windows' speeds, m/s.
+    n_windows : int
+        Steady walking windows.
+    gaits : dict
+        Gait (value of the channel ``gait``) -> [min, max] speed of its walking windows,
+        m/s; empty without a gait channel.
+    reference_gait : str or None
+        The gait the others are priced against (the slowest).
+    reason : str
+        Why the speed terms are or are not supported, in words.
+    """
+
+    supported: bool
+    speed_p10: float | None
+    speed_p90: float | None
+    n_windows: int
+    gaits: dict[str, list[float]]
+    reference_gait: str | None
+    reason: str
+
+    def terms(self) -> list[str | Term]:
+        """The terms these logs add to the base model (none when not supported)."""
+        if not self.supported:
+            return []
+        # across speeds the speed changes between them carry kinetic energy of the order
+        # of the speed terms' (a ramp to 1.2 m/s pays ~M v a = 36 W): the catalog's
+        # acceleration prices it, so that the speed terms do not absorb it
+        extra: list[str | Term] = [*SPEED_TERMS, "acceleration"]
+        if self.reference_gait is not None and len(self.gaits) >= 2:
+            extra += gait_terms(list(self.gaits), self.reference_gait)
+        return extra
+
+    def line(self, model_terms: Sequence[str]) -> str:
+        """One line for the fit's report: which speed terms the model has, or why none."""
+        have = [n for n in model_terms if n in SPEED_TERMS]
+        gait = [n for n in model_terms if f"{GAIT_CHANNEL} ==" in n]
+        if self.supported and have:
+            return (
+                f"speed terms: identified ({', '.join(have)}"
+                + (f"; {len(gait)} gait terms against {self.reference_gait!r}" if gait else "")
+                + f"): {self.reason}"
+            )
+        return f"speed terms: unsupported ({self.reason})"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready (``supported``, the percentiles, ``gaits``, ``reason``)."""
+        return {
+            "supported": self.supported,
+            "speed_p10_m_s": self.speed_p10,
+            "speed_p90_m_s": self.speed_p90,
+            "n_windows": self.n_windows,
+            "gaits": dict(self.gaits),
+            "reference_gait": self.reference_gait,
+            "terms": [t if isinstance(t, str) else t.name for t in self.terms()],
+            "reason": self.reason,
+        }
+
+
+def speed_support(windows: Any) -> SpeedSupport:
+    """Do the logs identify how the cost depends on speed? From the steady walking windows.
+
+    A window walks steadily when its speed exceeds the standing threshold (0.05 m/s) and
+    its mean acceleration is below :data:`STEADY_ACCEL` (the ramps at run starts and ends
+    are not other speeds). The speed terms are supported when the 90th percentile of those
+    speeds is at least :data:`SPEED_RANGE_RATIO` times the 10th, in at least
+    :data:`MIN_WINDOWS_PER_TERM` times as many windows as there are speed terms: over a
+    narrower range the curvature of the cost in speed is lost in the per-metre and
+    per-second terms, and an optimum speed would be an extrapolation. A categorical
+    channel ``gait`` with two or more values (each in at least
+    :data:`MIN_WINDOWS_PER_TERM` walking windows) adds its terms
+    (:func:`energy_planner.model.gait_terms`) against the slowest gait.
+
+    Parameters
+    ----------
+    windows : Windows, WindowData or pandas.DataFrame
+        Windows (their ``table``) or a window table with ``speed`` (or ``vx, vy``).
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"speed": np.repeat([0.3, 0.6, 0.9], 10), "wz": 0.0})
+    >>> speed_support(t).supported, speed_support(t.iloc[:10]).supported
+    (True, False)
+    """
+    table = windows if isinstance(windows, pd.DataFrame) else windows.table
+    speed = (
+        table["speed"].to_numpy(float)
+        if "speed" in table
+        else np.hypot(table["vx"].to_numpy(float), table["vy"].to_numpy(float))
+    )
+    from energy_planner.model.model import WALKING_SPEED
+
+    steady = np.isfinite(speed) & (speed > WALKING_SPEED)
+    if {"ax", "ay"} <= set(table.columns):
+        acc = np.hypot(table["ax"].to_numpy(float), table["ay"].to_numpy(float))
+        steady &= np.nan_to_num(acc, nan=np.inf) < STEADY_ACCEL
+    walking = speed[steady]
+    gaits: dict[str, list[float]] = {}
+    reference = None
+    if GAIT_CHANNEL in table.columns:
+        g = table[GAIT_CHANNEL].astype(str).to_numpy()
+        walk = np.isfinite(speed) & (speed > WALKING_SPEED) & (table[GAIT_CHANNEL].notna())
+        means = {}
+        for name in sorted(set(g[walk])):
+            sel = walk & (g == name)
+            if int(sel.sum()) >= MIN_WINDOWS_PER_TERM:
+                gaits[name] = [round(float(speed[sel].min()), 3), round(float(speed[sel].max()), 3)]
+                means[name] = float(np.mean(speed[sel]))
+        reference = min(means, key=lambda k: (means[k], k)) if means else None
+    need = MIN_WINDOWS_PER_TERM * len(SPEED_TERMS)
+    if walking.size < max(need, 10):
+        return SpeedSupport(False, None, None, int(walking.size), gaits, reference,
+                            f"{walking.size} steady walking window(s), need {max(need, 10)} at "
+                            "several speeds")  # fmt: skip
+    lo, hi = (float(q) for q in np.quantile(walking, [0.1, 0.9]))
+    span = f"steady walking {lo:.2f}-{hi:.2f} m/s (10th-90th percentile)"
+    if hi < SPEED_RANGE_RATIO * lo:
+        return SpeedSupport(
+            False, round(lo, 3), round(hi, 3), int(walking.size), gaits, reference,
+            f"{span}: a range of at least {SPEED_RANGE_RATIO:g}x (e.g. 0.2-0.6 m/s) is "
+            "needed to identify how the cost per metre changes with speed; the model's cost "
+            "per metre holds at the logged speeds, and it has no optimum speed (record runs "
+            "across speeds, e.g. simulate --across-speeds)",
+        )  # fmt: skip
+    return SpeedSupport(True, round(lo, 3), round(hi, 3), int(walking.size), gaits, reference,
+                        span)  # fmt: skip
+
+
 def base_terms(windows: Any) -> list[str]:
     """The base model for these windows: the paper's terms, and the gait's running power.
 
     :data:`~energy_planner.model.BASE_TERMS`, plus
+    :data:`~energy_planner.model.SPEED_TERMS` and the gait channel's terms when the logs
+    span a range of speeds (:func:`speed_support`), plus
     :data:`~energy_planner.model.STANDING_TERMS` (``gait_power``, ``gait_tilt_x_sq``) when
     at least :data:`MIN_WINDOWS_PER_TERM` windows stand
     (:func:`~energy_planner.calibration._windows.window_kind`): then ``idle_power`` and
@@ -314,7 +473,8 @@ def base_terms(windows: Any) -> list[str]:
     motion = table["motion"].to_numpy() if "motion" in table else np.full(len(table), "mixed")
     kind = window_kind(motion, speed, table["wz"].to_numpy(float))
     standing = int(np.sum(kind == STANDING)) >= MIN_WINDOWS_PER_TERM
-    return [*BASE_TERMS, *(STANDING_TERMS if standing else ())]
+    speed_terms = [t if isinstance(t, str) else t.name for t in speed_support(table).terms()]
+    return [*BASE_TERMS, *(STANDING_TERMS if standing else ()), *speed_terms]
 
 
 def _as_model(
@@ -765,7 +925,9 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
         ``max_turn_rate_rad_s``; ``gaits``: per motion class with windows, their number and
         the [min, max] relative heading ``|gamma|`` (deg) of its windows on slopes above
         :data:`energy_planner.uncertainty.domain.SLOPED_DEG` (None without any);
-        ``channels``: per channel the model reads, [min, max] (numeric) or the categories.
+        ``channels``: per channel the model reads, [min, max] (numeric) or the categories;
+        ``gait_speed_m_s`` (when the model reads the ``gait`` channel): per gait the [min,
+        max] speed of its walking windows.
     """
     from energy_planner.uncertainty.domain import SLOPED_DEG
 
@@ -791,7 +953,12 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
         for c, v in _channel_values(table, model).items()
         if isinstance(v, list) or v.size
     }
+    out: dict[str, Any] = {}
+    if GAIT_CHANNEL in model.variables:
+        # the speeds the controller walked each gait at: a plan prices a gait there only
+        out["gait_speed_m_s"] = speed_support(table).gaits
     return {
+        **out,
         "max_slope_deg": round(float(np.degrees(np.nanmax(table["alpha"].to_numpy(float)))), 2),
         "speed_m_s": (
             [round(float(walking.min()), 3), round(float(walking.max()), 3)]
@@ -1219,11 +1386,17 @@ def fit_model(
         if error_model is not None:
             growth = extrapolation_growth(model, table, X, y, w, error_model, offset, names)
             error_model = dataclasses.replace(error_model, extrapolation=growth)
+    support = speed_support(table)
     model.metadata = {
         **model.metadata,
         **(metadata or {}),
         "fit": {
             "method": "joint weighted least squares on window means (weights: duration)",
+            "speed_terms": {
+                "supported": support.supported,
+                "in_model": [n for n in model.term_names if n in SPEED_TERMS],
+                "reason": support.reason,
+            },
             "n_windows": n_windows,
             "n_runs": n_runs,
             "residual_rms_w": round(rms, 3),
@@ -1271,6 +1444,7 @@ def fit_model(
         unidentified=dict(dropped),
         held_at_prior=held,
         data_findings=findings,
+        speed_terms=support,
     )
 
 

@@ -36,6 +36,8 @@ def _text(doc: dict[str, Any]) -> str:
         )
     elif fl:
         lines.append(f"noise floor: {fl['method']}")
+    if doc.get("speed_terms"):
+        lines.append(doc["speed_terms"]["line"])
     lines.append("")
     lines.append(
         f"  {'step':<5}{'term added':<40}{'held-out RMSE':>14}{'x floor':>9}"

@@ -66,7 +66,9 @@ def command(
     downhill, forward and lateral, with the model's curves; yaw_torque.png (Fig. 5):
     P/|w| of turns in place against slope; superposition.png (Fig. 3): energy of
     composite paths against the sum of their parts (needs runs.csv with columns run,
-    composite, part next to the logs, or composite/part columns in the logs).
+    composite, part next to the logs, or composite/part columns in the logs);
+    speed_cost.png: cost per metre against speed per slope and relative heading (and per
+    gait), windows over the model's curves and its optimum speed (logs across speeds).
     """
     from energy_planner.calibration import force_estimates
     from energy_planner.calibration.figures import typical_channels
@@ -86,6 +88,7 @@ def command(
         raise click.BadParameter(f"cannot create {str(out)!r}: {exc}", param_hint="--out") from exc
     consts = typical_channels(windows.samples, model) if model is not None else {}
     figures = _slope_figures(est, model, consts, out, notes)
+    figures.update(_speed_figure(windows, model, consts, out, notes))
     figures.update(_superposition_figure(logs, raw, out, notes))
     doc = {"out": str(out), "model": model_src, "figures": figures, "notes": notes, **reports}
     options.emit(doc, as_json, _text)
@@ -131,6 +134,26 @@ def _slope_figures(est, model, consts, out: Path, notes: list[str]) -> dict[str,
     else:
         notes.append("no turn-in-place windows: yaw_torque.png (Fig. 5) not drawn")
     return figures
+
+
+def _speed_figure(windows, model, consts, out: Path, notes: list[str]) -> dict[str, Any]:
+    """The cost per metre against speed, when the logs span a range of speeds."""
+    from energy_planner.calibration._windows import aligned_table
+    from energy_planner.calibration.figures import plot_speed_cost
+    from energy_planner.calibration.fit import speed_support
+    from energy_planner.errors import EnergyPlannerError
+
+    support = speed_support(windows)
+    if not support.supported:
+        notes.append(f"speed_cost.png not drawn: speed terms unsupported ({support.reason})")
+        return {}
+    path = out / "speed_cost.png"
+    try:
+        got = plot_speed_cost(aligned_table(windows), model, path, constants=consts)
+    except EnergyPlannerError as exc:
+        notes.append(f"speed_cost.png not drawn: {exc}")
+        return {}
+    return {"speed_cost": {"path": str(path), **got}}
 
 
 def _superposition_figure(logs, raw, out: Path, notes: list[str]) -> dict[str, Any]:
@@ -179,6 +202,17 @@ def _text(d: dict[str, Any]) -> str:
             f"  {s['path']}: Fig. 5, {s['n']} turn windows, median yaw torque "
             f"{s['median_torque_nm']:.1f} N m"
         )
+    if "speed_cost" in f:
+        s = f["speed_cost"]
+        lines.append(f"  {s['path']}: cost per metre against speed (optimum per panel)")
+        for p in s["panels"]:
+            best = (
+                f"optimum {p['optimum_speed']:.2f} m/s ({p['optimum_gait'] or 'one gait'}), "
+                f"{p['optimum_cost_n']:.0f} J/m" + ("" if p["interior"] else " (at a range end)")
+                if "optimum_speed" in p
+                else "no model curve"
+            )
+            lines.append(f"      {p['label']:<18} {p['windows']:>4} windows; {best}")
     if "superposition" in f:
         s = f["superposition"]
         rel = s["mean_abs_rel_ab"]

@@ -38,17 +38,51 @@ def _faults(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]):
 def _speeds(ctx: click.Context, param: click.Parameter, value: str | None):
     if value is None:
         return None
+    if ":" in value:  # a range LOW:HIGH[:N]
+        from energy_planner.simulate.config import ConfigError, speed_grid
+
+        parts = value.split(":")
+        try:
+            if len(parts) not in (2, 3):
+                raise ValueError(value)
+            n = int(parts[2]) if len(parts) == 3 else 8
+            return speed_grid(float(parts[0]), float(parts[1]), n)
+        except (ValueError, ConfigError):
+            raise click.BadParameter(
+                f"{value!r} is not a speed range LOW:HIGH[:N] with 0 < LOW < HIGH <= 3 m/s "
+                "and N >= 2 speeds, e.g. 0.15:1.2 (8 speeds) or 0.15:1.2:5",
+                ctx=ctx,
+                param=param,
+            ) from None
     try:
         speeds = tuple(float(v) for v in value.split(",") if v.strip())
     except ValueError:
         speeds = ()
     if not speeds or not all(0 < v <= 3 for v in speeds):
         raise click.BadParameter(
-            f"{value!r} is not a comma-separated list of speeds in (0, 3] m/s, e.g. 0.2,0.3,0.45",
+            f"{value!r} is not a comma-separated list of speeds in (0, 3] m/s, e.g. 0.2,0.3,0.45 "
+            "(or a range LOW:HIGH[:N], e.g. 0.15:1.2)",
             ctx=ctx,
             param=param,
         )
     return speeds
+
+
+def _gaits(ctx: click.Context, param: click.Parameter, value: str | None):
+    if value is None:
+        return None
+    from energy_planner.simulate.gaits import GAITS
+
+    names = tuple(v.strip() for v in value.split(",") if v.strip())
+    bad = [n for n in names if n not in GAITS]
+    if not names or bad or len(set(names)) != len(names):
+        raise click.BadParameter(
+            f"{value!r} is not a comma-separated list of distinct gaits from "
+            f"{', '.join(GAITS)}, e.g. walk,trot",
+            ctx=ctx,
+            param=param,
+        )
+    return names
 
 
 def _text(doc: dict[str, Any]) -> str:
@@ -66,6 +100,12 @@ def _text(doc: dict[str, Any]) -> str:
     for e in doc["effects"]:
         ch = f" [channel {e['channel']}]" if e["channel"] else ""
         lines.append(f"  {e['name']}{ch}: {e['explanation']}")
+    if doc.get("gaits"):
+        g = doc["gaits"]["schedule"]
+        lines.append(
+            f"gaits: {', '.join(g['gaits'])} (trot from {g['trot_speed']:g} m/s), logged as "
+            "the channel gait; speeds " + ", ".join(f"{v:g}" for v in doc["speeds"]) + " m/s"
+        )
     lines.append(f"sensor faults: {', '.join(s['faults']) or 'none'}")
     f = doc["files"]
     lines.append(
@@ -133,7 +173,31 @@ def _text(doc: dict[str, Any]) -> str:
     "--speeds",
     callback=_speeds,
     metavar="V1,V2,...",
-    help="Walking speeds, m/s, comma-separated (default 0.3, as in the paper).",
+    help="Walking speeds, m/s, comma-separated (default 0.3, as in the paper), or a range "
+    "LOW:HIGH[:N] of N evenly spaced speeds (default 8), e.g. 0.15:1.2.",
+)
+@click.option(
+    "--gaits",
+    callback=_gaits,
+    metavar="G1,G2,...",
+    help="The controller's gaits across speeds, logged as the channel gait: walk below "
+    "--trot-speed, trot from it, crawl on steep ground (e.g. walk,trot). Stride and duty "
+    "factor then follow the speed (docs/simulate.md). Default: the base robot's one gait.",
+)
+@click.option(
+    "--trot-speed",
+    type=click.FloatRange(0, 3, min_open=True),
+    default=0.5,
+    show_default=True,
+    metavar="M/S",
+    help="With --gaits: the speed from which the controller trots.",
+)
+@click.option(
+    "--across-speeds",
+    is_flag=True,
+    help="Preset: 8 speeds from 0.15 to 1.2 m/s, walking and trotting (--speeds and "
+    "--gaits override it); with --small a short campaign. Identifies the speed terms and "
+    "the optimum speed (fit, figures --speed).",
 )
 @options.value_option(
     "--format",
@@ -165,6 +229,9 @@ def command(
     missions: int | None,
     dem: Path | None,
     speeds: tuple[float, ...] | None,
+    gaits: tuple[str, ...] | None,
+    trot_speed: float,
+    across_speeds: bool,
     fmt: str,
     bag: bool,
     small: bool,
@@ -192,10 +259,15 @@ def command(
         simulate_campaign,
         simulate_missions,
     )
+    from energy_planner.simulate.gaits import GaitSchedule
 
     changes: dict[str, Any] = {}
     if speeds is not None:
         changes["speeds"] = speeds
+    if gaits is not None:
+        changes["gaits"] = GaitSchedule(gaits, trot_speed=trot_speed)
+    elif across_speeds:
+        changes["gaits"] = GaitSchedule(trot_speed=trot_speed)
     if noise_free:
         changes["sensors"] = SensorConfig.ideal()
     progress = True  # the one reporter: a bar on a terminal, lines in a log, none with -q
@@ -215,10 +287,16 @@ def command(
 
             terrain = load_dem(dem) if dem is not None else None
             mk = MissionConfig.small if small else MissionConfig
+            if across_speeds:
+                preset = MissionConfig.across_speeds()
+                changes = {"speeds": preset.speeds, "gaits": preset.gaits, **changes}
             config = mk(missions=missions, **changes)
             camp = simulate_missions(config=config, terrain=terrain, **common)
+        elif across_speeds:
+            config = CampaignConfig.across_speeds(small=small, **changes)
         else:
             config = CampaignConfig.small(**changes) if small else CampaignConfig(**changes)
+        if missions is None:
             camp = simulate_campaign(config=config, **common)
         files = camp.write(out, fmt=fmt, bag=bag, progress=progress, overwrite=overwrite)
         plot_path = camp.plot(plot) if plot is not None else None
@@ -236,6 +314,8 @@ def command(
             {"name": n, "channel": EFFECTS[n].channel, "explanation": EFFECTS[n].explanation}
             for n in camp.effects
         ],
+        "speeds": list(config.speeds),
+        "gaits": camp.physics_dict().get("gaits"),
         "files": {
             "out": out,
             "format": fmt,

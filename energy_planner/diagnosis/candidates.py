@@ -141,12 +141,14 @@ def _nonlinear_in_speed(formula: str) -> bool:
 
 def catalog_candidates(model_terms: Iterable[str], wd: WindowData) -> list[Candidate]:
     """Catalog effects the model does not yet have, plus surface type per value."""
-    from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
+    from energy_planner.model import BASE_TERMS, CATALOG, SPEED_TERMS, STANDING_TERMS
 
     have = {canonical(t) for t in model_terms}
     out = []
     for name, term in CATALOG.items():
-        if name in BASE_TERMS or name in STANDING_TERMS or name in have:
+        # the speed terms join the base when the logs span a range of speeds
+        # (calibration.fit.speed_support); speed_candidates tries their shapes
+        if name in BASE_TERMS or name in STANDING_TERMS or name in SPEED_TERMS or name in have:
             continue
         formula = term.formula
         if formula in have:

@@ -136,6 +136,7 @@ class Discovery:
     n_runs: int
     speeds: dict[str, Any]
     floor: NoiseFloorEstimate | None = None
+    speed_terms: dict[str, Any] | None = None  # calibration.fit.speed_support, as a dict
     fit: Any = None  # calibration FitResult of the final model, or None
     notes: list[str] = field(default_factory=list)
     data: WindowData | None = field(default=None, repr=False)
@@ -238,6 +239,7 @@ class Discovery:
             "n_windows": self.n_windows,
             "n_runs": self.n_runs,
             "speeds": self.speeds,
+            "speed_terms": self.speed_terms,
             "staircase": self.table(),
             "noise_floor": None if self.floor is None else self.floor.to_dict(),
             "data_findings": [f.to_dict() for f in self.data_findings],
@@ -364,6 +366,9 @@ def discover(
         if left:
             notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
         notes.append(conclusion(rankings[-1].heldout_rmse_w, floor, suspects_left=left))
+    from energy_planner.calibration.fit import speed_support
+
+    support = speed_support(windows)
     fit = None
     if fit_final:
         wd.release_sample_columns()  # the final fit builds its own design (memory)
@@ -392,6 +397,10 @@ def discover(
         n_runs=int(len(np.unique(wd.runs))),
         speeds=speed_levels(wd),
         floor=floor,
+        speed_terms={
+            **support.to_dict(),
+            "line": support.line([resolve_term(t).name for t in start]),
+        },  # fmt: skip
         fit=fit,
         notes=notes,
         data=wd,

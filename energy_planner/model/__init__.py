@@ -16,9 +16,12 @@ from energy_planner.model.terms import (
     BASE_TERMS,
     CATALOG,
     EFFECT_TERMS,
+    GAIT_CHANNEL,
     KINDS,
+    SPEED_TERMS,
     STANDING_TERMS,
     Term,
+    gait_terms,
     resolve_term,
 )
 
@@ -32,6 +35,9 @@ __all__ = [
     "SCHEMA",
     "SCHEMA_VERSION",
     "STANDING_TERMS",
+    "SPEED_TERMS",
+    "GAIT_CHANNEL",
+    "gait_terms",
     "EnergyModel",
     "Formula",
     "Term",

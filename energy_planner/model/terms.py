@@ -66,7 +66,10 @@ __all__ = [
     "CATALOG",
     "BASE_TERMS",
     "STANDING_TERMS",
+    "SPEED_TERMS",
     "EFFECT_TERMS",
+    "GAIT_CHANNEL",
+    "gait_terms",
     "resolve_term",
     "KINDS",
 ]
@@ -287,6 +290,97 @@ _STANDING = [
     ),
 ]
 
+#: How the cost depends on the walking speed (fitted when the logs span a range of speeds,
+#: ``calibration.fit.speed_support``): with them the cost per metre has an optimum speed.
+_SPEED = [
+    *(
+        _t(
+            f"{prefix}_speed_sq",
+            rate,
+            f"force per metre {words} that grows with speed: touch-downs per second and "
+            "their impact speed both grow with it",
+            "N s/m",
+            kind,
+        )
+        for prefix, kind, rate, words in (
+            ("fwd", "forward", "pos(vx) ** 2", "walking forward"),
+            ("bwd", "backward", "pos(-vx) ** 2", "walking backward"),
+            ("lat", "lateral", "vy ** 2", "side-stepping"),
+        )
+    ),
+    _t(
+        "speed_cubed",
+        "speed ** 3",
+        "swing-leg losses: the legs swing faster and more often as the robot speeds up, so "
+        "their kinetic losses grow faster than the square of the speed per metre",
+        "W s^3/m^3",
+        "other",
+    ),
+    _t(
+        "speed_tilt_x_sq",
+        f"speed * ({_TILT_X}) ** 2",
+        "the stance shortens as the robot speeds up, so the copper losses of holding the "
+        "slope load along the body grow with speed (peak forces grow as the stance shortens)",
+        "W s/m",
+        "other",
+    ),
+    _t(
+        "speed_tilt_y_sq",
+        f"speed * ({_TILT_Y}) ** 2",
+        "the copper losses of holding the cross slope grow with speed (shorter stance)",
+        "W s/m",
+        "other",
+    ),
+    _t(
+        "speed_fwd_brake_sq",
+        f"speed * min(pos(vx) / 0.05, 1) * pos(-{_TILT_X}) ** 2",
+        "braking walking forward downhill: its copper losses grow with speed (shorter stance)",
+        "W s/m",
+        "forward",
+    ),
+]
+
+#: The categorical log channel that names the gait (``walk``, ``trot``, ...), as legged
+#: controllers report it; its terms: :func:`gait_terms`.
+GAIT_CHANNEL = "gait"
+
+#: Per gait other than the reference one: (formula times the gait's indicator, what it is).
+_GAIT_SHAPES = (
+    ("1", "power per second of {g} over {ref} (stance copper losses, foot lifting)", "W"),
+    ("speed", "force per metre of {g} over {ref} (touch-downs, gearbox)", "N"),
+    ("speed ** 2", "swing and impact losses of {g} over {ref}, growing with speed", "N s/m"),
+    (f"({_TILT_X}) ** 2", "copper losses of holding the slope along the body, {g} over {ref}",
+     "W"),
+    (f"({_TILT_Y}) ** 2", "copper losses of holding the cross slope, {g} over {ref}", "W"),
+    (f"min(pos(vx) / 0.05, 1) * pos(-{_TILT_X}) ** 2",
+     "braking walking forward downhill, {g} over {ref}", "W"),
+)  # fmt: skip
+
+
+def gait_terms(gaits: list[str] | tuple[str, ...], reference: str) -> list[Term]:
+    """The terms of a gait channel: each gait but ``reference`` differs from it.
+
+    A gait changes the stance (duty factor), the stride and the touch-downs, so per gait
+    the standing-like per-second power, the force per metre, its growth with speed and
+    the copper losses of holding a slope differ: :data:`_GAIT_SHAPES` times the gait's
+    indicator ``(gait == 'g')`` on the categorical channel :data:`GAIT_CHANNEL`.
+
+    Examples
+    --------
+    >>> [t.name for t in gait_terms(["walk", "trot"], "walk")][:2]
+    ["gait == 'trot'", "(gait == 'trot') * speed"]
+    """
+    out = []
+    for g in gaits:
+        if g == reference:
+            continue
+        is_g = f"({GAIT_CHANNEL} == {g!r})"
+        for shape, words, unit in _GAIT_SHAPES:
+            text = parse_formula(is_g if shape == "1" else f"{is_g} * {shape}").text
+            out.append(Term(text, text, words.format(g=g, ref=reference), unit, "other"))
+    return out
+
+
 _EFFECTS = [
     _t(
         "speed_dependence",
@@ -319,13 +413,16 @@ _EFFECTS = [
 ]
 
 #: Every named term: the base set and the physical effects.
-CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_STANDING, *_EFFECTS)}
+CATALOG: dict[str, Term] = {t.name: t for t in (*_BASE, *_STANDING, *_SPEED, *_EFFECTS)}
 #: The paper's model (wrench from alpha and gamma only).
 BASE_TERMS: tuple[str, ...] = tuple(t.name for t in _BASE)
 #: Added to the base model when the logs hold standing (``calibration.fit.base_terms``):
 #: then ``idle_power`` is the standing power and ``gait_power`` what walking adds to it.
 #: Without standing they cannot be told apart, and ``idle_power`` holds both.
 STANDING_TERMS: tuple[str, ...] = tuple(t.name for t in _STANDING)
+#: Added to the base model when the logs span a range of walking speeds
+#: (``calibration.fit.speed_support``): how the cost depends on speed.
+SPEED_TERMS: tuple[str, ...] = tuple(t.name for t in _SPEED)
 #: The catalog's physical effects, none of which the base model contains (uphill/downhill
 #: asymmetry, cross-slope roll and copper losses on slopes are base terms now).
 EFFECT_TERMS: tuple[str, ...] = tuple(t.name for t in _EFFECTS)
@@ -357,4 +454,23 @@ def resolve_term(spec: str | Term) -> Term:
         raise FormulaError(
             f"{exc} (a term is a catalog name - {', '.join(CATALOG)} - or a formula)"
         ) from exc
-    return Term(name=parsed.text, formula=parsed.text)
+    return _known_gait_term(parsed.text) or Term(name=parsed.text, formula=parsed.text)
+
+
+def _known_gait_term(text: str) -> Term | None:
+    """A gait channel's term (:func:`gait_terms`) written as its formula, explained.
+
+    >>> _known_gait_term("(gait == 'trot') * speed").unit
+    'N'
+    """
+    import re
+
+    m = re.fullmatch(rf"\(?{GAIT_CHANNEL} == '([^']+)'\)?(?: \* (.+))?", text)
+    if m is None:
+        return None
+    shape = parse_formula(m.group(2)).text if m.group(2) else "1"
+    for form, words, unit in _GAIT_SHAPES:
+        if (parse_formula(form).text if form != "1" else "1") == shape:
+            expl = words.format(g=m.group(1), ref="the reference gait")
+            return Term(text, text, expl, unit, "other")
+    return None

@@ -39,6 +39,13 @@ from energy_planner.simulate.effects import (
     effect_table,
     truth_model,
 )
+from energy_planner.simulate.gaits import (
+    GAITS,
+    Gait,
+    GaitSchedule,
+    true_cost_per_metre,
+    true_optimum_speed,
+)
 from energy_planner.simulate.missions import (
     GroundMap,
     MissionConfig,
@@ -60,6 +67,7 @@ __all__ = [
     "COMPONENTS",
     "EFFECTS",
     "FAULTS",
+    "GAITS",
     "GROUNDS",
     "HIDDEN_EFFECTS",
     "LOG_COLUMNS",
@@ -68,6 +76,8 @@ __all__ = [
     "CampaignConfig",
     "ConfigError",
     "Effect",
+    "Gait",
+    "GaitSchedule",
     "GroundMap",
     "MissionConfig",
     "NoiseFloor",
@@ -85,6 +95,8 @@ __all__ = [
     "simulate_campaign",
     "simulate_missions",
     "synthetic_dem",
+    "true_cost_per_metre",
+    "true_optimum_speed",
     "true_path_energy",
     "truth_model",
 ]

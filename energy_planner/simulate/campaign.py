@@ -97,7 +97,9 @@ def simulate_campaign(
         Unknown effect or fault.
     """
     config = config or CampaignConfig()
-    names, fault_names, physics, sens = switch_on(effects, faults, params, config.sensors)
+    names, fault_names, physics, sens = switch_on(
+        effects, faults, params, config.sensors, config.gaits
+    )
     from energy_planner.progress import track
 
     design_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)

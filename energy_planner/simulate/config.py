@@ -33,6 +33,7 @@ __all__ = [
     "EVENT_KINDS",
     "check_fields",
     "shared_rules",
+    "speed_grid",
 ]
 
 
@@ -153,7 +154,33 @@ def shared_rules() -> dict[str, Rule]:
         "grass_height_range_m": (low_high(0.0), "(low, high) with 0 <= low <= high, m"),
         "sensors": (lambda v, c=None: isinstance(v, SensorConfig), "a SensorConfig"),
         "battery": (lambda v, c=None: isinstance(v, BatteryConfig), "a BatteryConfig"),
+        "gaits": _gaits_rule(),
     }
+
+
+def _gaits_rule() -> Rule:
+    def test(v: Any, _c: Any = None) -> bool:
+        from energy_planner.simulate.gaits import GaitSchedule
+
+        return v is None or isinstance(v, GaitSchedule)
+
+    return (test, "None (the base robot's one gait) or a GaitSchedule")
+
+
+def speed_grid(lo: float, hi: float, n: int = 8) -> tuple[float, ...]:
+    """``n`` evenly spaced speeds from ``lo`` to ``hi``, m/s, rounded to the mm/s.
+
+    >>> speed_grid(0.15, 1.2)
+    (0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.05, 1.2)
+    >>> try:
+    ...     speed_grid(0.5, 0.2)
+    ... except ConfigError as err:
+    ...     print(err)
+    speed range = (0.5, 0.2, 8) is invalid: expected 0 < low < high <= 3 m/s and n >= 2
+    """
+    ok = is_number(lo) and is_number(hi) and 0 < lo < hi <= 3 and positive_int(n) and n >= 2
+    _check(ok, "speed range", (lo, hi, n), "0 < low < high <= 3 m/s and n >= 2")
+    return tuple(round(lo + (hi - lo) * k / (n - 1), 3) for k in range(n))
 
 
 #: Mid-mission events: kind -> the physics it changes (see :class:`MissionEvent`).
@@ -444,6 +471,11 @@ class CampaignConfig:
         Sensor imperfections (:meth:`SensorConfig.ideal` for none).
     battery : BatteryConfig
         Battery pack.
+    gaits : GaitSchedule or None
+        The controller's gaits across speeds (:mod:`energy_planner.simulate.gaits`):
+        speed-dependent stride and duty factor, a walk below a transition speed and a trot
+        above, logged as the categorical channel ``gait``. None (default): the base
+        robot's one gait, no ``gait`` channel.
     """
 
     slopes_deg: tuple[float, ...] = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0)
@@ -472,6 +504,7 @@ class CampaignConfig:
     grass_height_range_m: tuple[float, float] = (0.0, 0.4)
     sensors: SensorConfig = field(default_factory=SensorConfig)
     battery: BatteryConfig = field(default_factory=BatteryConfig)
+    gaits: Any = None
 
     def __post_init__(self) -> None:
         check_fields(self, _campaign_rules())
@@ -500,6 +533,43 @@ class CampaignConfig:
             composite_legs_m=(1.2, 0.9),
             arc_radius_m=1.0,
         )
+        base.update(overrides)
+        return cls(**base)
+
+    @classmethod
+    def across_speeds(cls, small: bool = False, **overrides: Any) -> CampaignConfig:
+        """A campaign over a range of speeds, walking and trotting (identifies the speed).
+
+        Straight runs at 8 speeds from 0.15 to 1.2 m/s (walk below 0.5 m/s, trot from it;
+        :class:`~energy_planner.simulate.gaits.GaitSchedule`) on slopes of 0-24 deg at
+        eight headings, turns, arcs at the speeds up to 0.6 m/s and standing; no
+        composites. ``small``: three slopes, four headings, forward and sideways, 6 s runs
+        (for tests).
+
+        >>> c = CampaignConfig.across_speeds(small=True)
+        >>> c.speeds[0], c.speeds[-1], c.gaits.gaits
+        (0.15, 1.2, ('walk', 'trot'))
+        """
+        from energy_planner.simulate.gaits import GaitSchedule
+
+        base: dict[str, Any] = dict(
+            slopes_deg=(0.0, 8.0, 16.0, 24.0),
+            speeds=speed_grid(0.15, 1.2),
+            gaits=GaitSchedule(),
+            repeats=1,
+            run_s=12.0,
+            rate_hz=20.0,
+            gap_s=2.0,
+            composite_slopes_deg=(),
+        )
+        if small:
+            base.update(
+                slopes_deg=(0.0, 10.0, 20.0),
+                headings_deg=(0.0, 90.0, 180.0, -90.0),
+                motions=("forward", "left"),
+                run_s=6.0,
+                arcs=False,
+            )
         base.update(overrides)
         return cls(**base)
 

@@ -105,6 +105,9 @@ class MissionConfig:
         switches on the ``load`` effect and a ``mud`` event the ``ground`` effect (the
         missions' drawn loads and ground patches then count too: give ``loads_kg=(0.0,)``
         and ``grounds=("asphalt",)`` for a baseline without them).
+    gaits : GaitSchedule or None
+        The controller's gaits across speeds, logged as the channel ``gait``, as in
+        :class:`~energy_planner.simulate.CampaignConfig` (None: the base robot's one gait).
     """
 
     missions: int = 8
@@ -129,6 +132,7 @@ class MissionConfig:
     sensors: SensorConfig = field(default_factory=SensorConfig)
     battery: BatteryConfig = field(default_factory=BatteryConfig)
     events: tuple[MissionEvent, ...] = ()
+    gaits: Any = None
 
     def __post_init__(self) -> None:
         check_fields(self, _mission_rules())
@@ -171,6 +175,20 @@ class MissionConfig:
             sideways_prob=0.25,
             backward_prob=0.2,
         )
+        base.update(overrides)
+        return cls(**base)
+
+    @classmethod
+    def across_speeds(cls, **overrides: Any) -> MissionConfig:
+        """Missions whose phases walk at 8 speeds from 0.15 to 1.2 m/s, walking and trotting.
+
+        >>> MissionConfig.across_speeds().gaits.trot_speed
+        0.5
+        """
+        from energy_planner.simulate.config import speed_grid
+        from energy_planner.simulate.gaits import GaitSchedule
+
+        base: dict[str, Any] = dict(speeds=speed_grid(0.15, 1.2), gaits=GaitSchedule())
         base.update(overrides)
         return cls(**base)
 
@@ -546,7 +564,7 @@ def simulate_missions(
         + (("load",) if "payload" in kinds else ())
         + (("ground",) if "mud" in kinds else ())
     )
-    names, fault_names, physics, sens = switch_on(effects, faults, params, cfg.sensors)
+    names, fault_names, physics, sens = switch_on(effects, faults, params, cfg.sensors, cfg.gaits)
     if terrain is None:
         terrain = synthetic_dem(seed)
     path_rng, channel_rng, noise_rng = np.random.default_rng(seed).spawn(3)

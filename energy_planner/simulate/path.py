@@ -89,10 +89,11 @@ def true_path_energy(
     states: Any,
     effects: Iterable[str] = (),
     channels: Mapping[str, Any] | None = None,
-    speed: float = 0.3,
+    speed: Any = 0.3,
     yaw_rate: float = 0.5,
     *,
     params: RobotParams | None = None,
+    gaits: Any = None,
     step_m: float = 0.25,
     ang_step: float = 0.1,
 ) -> PathTruth:
@@ -110,10 +111,16 @@ def true_path_energy(
     channels : mapping, optional
         Channel values the effects read: constants (``{"load_kg": 10}``), callables
         ``f(x, y)`` or rasters with ``.sample(x, y)``.
-    speed, yaw_rate : float
-        Walking speed along the surface (m/s) and turning rate (rad/s).
+    speed : float or array-like
+        Walking speed along the surface, m/s: one for the whole path, or one per segment
+        (a speed profile, ``n - 1`` values).
+    yaw_rate : float
+        Turning rate, rad/s.
     params : RobotParams, optional
         Robot parameters of the truth.
+    gaits : GaitSchedule, optional
+        The truth's gaits across speeds (:mod:`energy_planner.simulate.gaits`; e.g.
+        ``campaign.physics.gaits``): the gait of each motion follows its speed and slope.
     step_m, ang_step : float
         Largest sub-step, m and rad.
 
@@ -137,7 +144,13 @@ def true_path_energy(
         )
     if not np.isfinite(st).all():
         raise EnergyPlannerError("states contain NaN or infinite values")
-    if not (speed > 0 and yaw_rate > 0):
+    v_seg = np.asarray(speed, dtype=float)
+    if v_seg.ndim > 1 or (v_seg.ndim == 1 and v_seg.size != st.shape[0] - 1):
+        raise EnergyPlannerError(
+            f"speed must be one value or one per segment ({st.shape[0] - 1}); got shape "
+            f"{v_seg.shape}"
+        )
+    if not (np.all(v_seg > 0) and yaw_rate > 0):
         raise EnergyPlannerError(
             f"speed = {speed!r} m/s and yaw_rate = {yaw_rate!r} rad/s must both be > 0"
         )
@@ -145,7 +158,7 @@ def true_path_energy(
         from energy_planner.energy.path import face_along_poses
 
         st = face_along_poses(st[:, :2])
-    physics = Physics(params, effects)
+    physics = Physics(params, effects, gaits=gaits)
     x0, y0, th0 = st[:-1, 0], st[:-1, 1], st[:-1, 2]
     ddx, ddy = np.diff(st[:, 0]), np.diff(st[:, 1])
     dth = wrap(np.diff(st[:, 2]))
@@ -177,7 +190,7 @@ def true_path_energy(
     dz = gx * hx + gy * hy
     ds = np.sqrt(hx * hx + hy * hy + dz * dz)
     surface = np.bincount(seg, weights=ds, minlength=len(dist_h))
-    T = np.maximum(surface / speed, np.abs(dth) / yaw_rate)
+    T = np.maximum(surface / v_seg, np.abs(dth) / yaw_rate)
     Ts = T[seg]
     surf_s = surface[seg]
     dt = np.where(surf_s > 0, Ts * ds / np.where(surf_s > 0, surf_s, 1.0), Ts / n_sub[seg])

@@ -353,10 +353,18 @@ class Physics:
     ``grass_height_m``).
     """
 
-    def __init__(self, params: RobotParams | None = None, effects: Iterable[str] = ()) -> None:
+    def __init__(
+        self,
+        params: RobotParams | None = None,
+        effects: Iterable[str] = (),
+        gaits: Any = None,
+    ) -> None:
         from energy_planner.simulate.effects import check_effects
 
         self.effects = check_effects(effects)
+        #: The controller's gaits (:class:`~energy_planner.simulate.gaits.GaitSchedule`),
+        #: or None for the base robot's single gait (speed-independent stride).
+        self.gaits = gaits
         base = params or RobotParams()
         self.base_params = base
         from energy_planner.simulate.effects import EFFECTS
@@ -366,6 +374,8 @@ class Physics:
         self.params = base
 
     def __repr__(self) -> str:
+        if self.gaits is not None:
+            return f"Physics(effects={self.effects!r}, gaits={self.gaits.gaits!r})"
         return f"Physics(effects={self.effects!r})"
 
     def needs(self) -> tuple[str, ...]:
@@ -392,10 +402,20 @@ class Physics:
                     expected=f"features with the channel {ch!r}",
                 )
         m = _Motion.of(features, self.params, set(self.effects))
+        steps = None  # per sample (duty, stride frequency, impact) of the gaits
+        if self.gaits is not None:
+            from energy_planner.simulate.gaits import gait_arrays
+
+            codes = features.get("gait")
+            if codes is None:
+                codes = self.gaits.gait_of(m.speed, m.alpha)
+            codes = np.broadcast_to(np.asarray(codes, dtype=object), (m.n,))
+            steps = gait_arrays(codes, m.speed)
+        duty = None if steps is None else steps[0]
         mechanical, descent, sinkage = _mechanical(m)
-        copper = _copper(m, descent)
-        collisions, stride_f = _collisions(m)
-        swing, terrain = _swing_and_grass(m, stride_f)
+        copper = _copper(m, descent, duty)
+        collisions, stride_f = _collisions(m, steps)
+        swing, terrain = _swing_and_grass(m, stride_f, duty)
         terrain = terrain + sinkage * m.weight * m.speed / m.p.lift_efficiency
         gearbox, turning = _gearbox(m), _turning(m)
         gait = copper + mechanical + collisions + swing + gearbox + turning + terrain
@@ -518,8 +538,11 @@ def _ground_codes(ground: Any, n: int) -> np.ndarray:
     return codes
 
 
-def _copper(m: _Motion, descent: np.ndarray) -> np.ndarray:
-    """Joule losses in the windings from the legs' share of the ground reaction."""
+def _copper(m: _Motion, descent: np.ndarray, duty: Any = None) -> np.ndarray:
+    """Joule losses in the windings from the legs' share of the ground reaction.
+
+    ``duty``: per-sample duty factors of the gaits (default the robot's one).
+    """
     p, vx = m.p, m.vx
     f_x, f_y, f_z = m.forces
     r_factor: Any = 1.0
@@ -541,7 +564,8 @@ def _copper(m: _Motion, descent: np.ndarray) -> np.ndarray:
     moving_x = np.clip(np.abs(vx) / p.gait_on_speed, 0.0, 1.0)
     k_brake = np.where(vx > 0, k_bf, k_bb)
     k_x = np.where(braking, moving_x * k_brake + (1 - moving_x) * k_push, k_push)
-    share = 1.0 + m.activity * (p.stance_profile_factor / p.duty_factor - 1.0)
+    d = p.duty_factor if duty is None else duty
+    share = 1.0 + m.activity * (p.stance_profile_factor / d - 1.0)
     h = p.com_height_m
     pitch, roll = (h / p.half_length_m) ** 2, (h / p.half_width_m) ** 2
     return (
@@ -551,12 +575,19 @@ def _copper(m: _Motion, descent: np.ndarray) -> np.ndarray:
     )
 
 
-def _collisions(m: _Motion) -> tuple[np.ndarray, np.ndarray]:
-    """Touch-down losses, and the stride frequency (Hz) per sample."""
+def _collisions(m: _Motion, gait: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Touch-down losses, and the stride frequency (Hz) per sample.
+
+    ``gait``: per-sample ``(duty, stride frequency, impact factor)`` of the gaits
+    (:func:`~energy_planner.simulate.gaits.gait_arrays`); then the gaits set the stride
+    frequency and scale the touch-downs, and ``speed_dependence`` has nothing to add.
+    """
     p = m.p
     coll = p.collision_forward * m.w_fwd + p.collision_backward * m.w_bwd
     coll = coll + p.collision_lateral * m.w_lat
     collisions = coll * m.weight * m.speed / p.lift_efficiency
+    if gait is not None:
+        return collisions * gait[2], gait[1]
     stride_f = np.full(m.n, p.stride_frequency_hz)
     if "speed_dependence" in m.on:
         # fixed stride length: the frequency follows the speed, and so do the number
@@ -566,8 +597,13 @@ def _collisions(m: _Motion) -> tuple[np.ndarray, np.ndarray]:
     return collisions, stride_f
 
 
-def _swing_and_grass(m: _Motion, stride_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Swinging the legs (lift and kinetic), and the drag of grass stems (terrain)."""
+def _swing_and_grass(
+    m: _Motion, stride_f: np.ndarray, duty: Any = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Swinging the legs (lift and kinetic), and the drag of grass stems (terrain).
+
+    ``duty``: per-sample duty factors of the gaits (default the robot's one).
+    """
     p, speed = m.p, m.speed
     clearance = p.step_clearance_m
     terrain = np.zeros(m.n)
@@ -577,7 +613,10 @@ def _swing_and_grass(m: _Motion, stride_f: np.ndarray) -> tuple[np.ndarray, np.n
         terrain = terrain + VEGETATION_DRAG_N_PER_M * grass * speed  # stems drag on the legs
     lift = m.activity * 4 * stride_f * p.leg_mass_kg * p.gravity * clearance / p.swing_efficiency
     lat_factor = 1.0 + (p.swing_lateral_factor - 1.0) * m.w_lat
-    swing_v = speed / (1.0 - p.duty_factor) if p.duty_factor < 1 else speed
+    if duty is not None:
+        swing_v = speed / (1.0 - duty)
+    else:
+        swing_v = speed / (1.0 - p.duty_factor) if p.duty_factor < 1 else speed
     kinetic = 4 * stride_f * p.leg_mass_kg * swing_v**2 * lat_factor / p.swing_efficiency
     return lift + kinetic, terrain
 

@@ -161,9 +161,12 @@ def _balanced(rng: np.random.Generator, values: tuple, n: int) -> np.ndarray:
 
 
 def switch_on(
-    effects: Iterable[str], faults: Iterable[str], params: Any, sensors: Any
+    effects: Iterable[str], faults: Iterable[str], params: Any, sensors: Any, gaits: Any = None
 ) -> tuple[tuple[str, ...], tuple[str, ...], Physics, Any]:
     """The effects and faults checked, the truth with the effects, the sensors with the faults.
+
+    ``gaits``: the controller's :class:`~energy_planner.simulate.gaits.GaitSchedule` (None:
+    the base robot's one gait).
 
     Raises
     ------
@@ -173,7 +176,8 @@ def switch_on(
     from energy_planner.simulate.effects import check_effects, check_faults
 
     names, fault_names = check_effects(effects), check_faults(faults)
-    return names, fault_names, Physics(params, names), sensors.with_faults(fault_names)
+    physics = Physics(params, names, gaits=gaits)
+    return names, fault_names, physics, sensors.with_faults(fault_names)
 
 
 def sensor_offsets(rng: np.random.Generator, sens: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -237,6 +241,10 @@ def logs_from_truth(
         "t_gait": tr.t_run,
         **tr.channels,
     }
+    gait = None
+    if physics.gaits is not None:  # the controller picks its gait and reports it
+        gait = physics.gaits.gait_of(np.hypot(tr.vx, tr.vy), tr.alpha)
+        features["gait"] = gait
     power = physics.power(features)
     expected = physics.expected_power(features)
     runs = run_slices(sizes)
@@ -258,6 +266,8 @@ def logs_from_truth(
             "grass_height_m": ch["grass_height_m"],
         }
     )
+    if gait is not None:
+        logs["gait"] = pd.Categorical(gait, categories=list(physics.gaits.gaits))
     true_samples = pd.DataFrame(
         {
             "run": tr.run,

@@ -155,11 +155,22 @@ class Campaign:
 
     def physics_dict(self) -> dict[str, Any]:
         """The truth as plain data: effects and every robot parameter with its unit."""
-        return {
+        out: dict[str, Any] = {
             "generator": "energy_planner.simulate.physics",
             "effects": list(self.effects),
             "params": self.physics.params.table(),
         }
+        if self.physics.gaits is not None:
+            g = self.physics.gaits
+            out["gaits"] = {
+                "schedule": {
+                    "gaits": list(g.gaits),
+                    "trot_speed": g.trot_speed,
+                    "crawl_slope_deg": g.crawl_slope_deg,
+                },
+                "params": g.table(),
+            }
+        return out
 
     def metadata(self) -> dict[str, Any]:
         """Seed, effects, faults, counts and every parameter, JSON-ready."""
@@ -170,7 +181,7 @@ class Campaign:
             "faults": list(self.faults),
             "runs": len(self.runs),
             "samples": len(self.logs),
-            "config": asdict(self.config),
+            "config": _config_dict(self.config),
         }
 
     def features(self) -> dict[str, np.ndarray]:
@@ -183,6 +194,8 @@ class Campaign:
         for ch in CHANNELS:
             col = self.logs[ch]
             f[ch] = col.astype(str).to_numpy() if ch in CATEGORICAL else col.to_numpy(float)
+        if "gait" in self.logs:
+            f["gait"] = self.logs["gait"].astype(str).to_numpy()
         return f
 
     def effect_shares(self, effects: Iterable[str] | None = None) -> pd.DataFrame:
@@ -204,10 +217,11 @@ class Campaign:
         names = list(EFFECTS) if effects is None else list(check_effects(effects))
         f = self.features()
         params = self.physics.base_params
-        base = Physics(params).expected_power(f)
+        gaits = self.physics.gaits
+        base = Physics(params, gaits=gaits).expected_power(f)
         rows = []
         for name in names:
-            contrib = Physics(params, (name,)).expected_power(f) - base
+            contrib = Physics(params, (name,), gaits=gaits).expected_power(f) - base
             active = np.abs(contrib) > 1e-2
             rows.append(
                 {
@@ -247,3 +261,14 @@ class Campaign:
             "mean_power_w": float(self.true_samples["power"].mean()),
             "battery_packs": int(self.runs["battery_pack"].max()) + 1,
         }
+
+
+def _config_dict(config: Any) -> dict[str, Any]:
+    """The config as plain data, ``gaits`` only when the campaign has gaits.
+
+    A campaign without gaits writes the files it wrote before gaits existed.
+    """
+    doc = asdict(config)
+    if doc.get("gaits") is None:
+        doc.pop("gaits", None)
+    return doc

@@ -88,7 +88,8 @@ def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: b
     written: list[Path] = []
     logs = campaign.logs
     if fmt == "csv":
-        logs = logs.assign(**{c: logs[c].astype(str) for c in CATEGORICAL})
+        cats = [c for c in (*CATEGORICAL, "gait") if c in logs]
+        logs = logs.assign(**{c: logs[c].astype(str) for c in cats})
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
     for sl in track(runs_in(run), "writing runs", progress, unit="run"):

@@ -30,6 +30,8 @@ __all__ = [
     "SLOPED_DEG",
     "DomainError",
     "domain_of",
+    "gait_speed_ranges",
+    "speed_range",
     "domain_report",
     "motion_segments",
     "path_channel_values",
@@ -59,6 +61,41 @@ class DomainError(EnergyPlannerError, ValueError):
 def domain_of(model: Any) -> dict[str, Any] | None:
     """The ``metadata.fit.domain`` a model records, or None."""
     return ((getattr(model, "metadata", None) or {}).get("fit") or {}).get("domain") or None
+
+
+def speed_range(model: Any) -> tuple[float, float] | None:
+    """The walking speeds a model's calibration covers, ``(low, high)`` in m/s, or None.
+
+    The slowest and fastest walking window of the fit (``metadata.fit.domain.speed_m_s``):
+    a plan that walks outside it is outside the domain (its interval widens, and
+    ``stay_in_domain`` clamps its speed into it). None for a model that records no domain
+    or no walking.
+
+    Examples
+    --------
+    >>> from energy_planner.model import EnergyModel
+    >>> m = EnergyModel(metadata={"fit": {"domain": {"speed_m_s": [0.15, 1.2]}}})
+    >>> speed_range(m), speed_range(EnergyModel())
+    ((0.15, 1.2), None)
+    """
+    dom = domain_of(model) or {}
+    rng = dom.get("speed_m_s")
+    return (float(rng[0]), float(rng[1])) if rng else None
+
+
+def gait_speed_ranges(model: Any) -> dict[str, tuple[float, float]]:
+    """Per gait of the ``gait`` channel, the speeds the calibration walked it at (m/s).
+
+    Empty for a model that does not read a gait channel. A gait is priced only within its
+    range: the controller chose it there, and the logs say nothing of it elsewhere.
+
+    >>> from energy_planner.model import EnergyModel
+    >>> dom = {"gait_speed_m_s": {"walk": [0.1, 0.5], "trot": [0.5, 1.2]}}
+    >>> gait_speed_ranges(EnergyModel(metadata={"fit": {"domain": dom}}))
+    {'walk': (0.1, 0.5), 'trot': (0.5, 1.2)}
+    """
+    dom = domain_of(model) or {}
+    return {g: (float(r[0]), float(r[1])) for g, r in (dom.get("gait_speed_m_s") or {}).items()}
 
 
 def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
