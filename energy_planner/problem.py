@@ -258,6 +258,7 @@ class Problem:
         cost = self.cost if gait.request == self.request else gait.cost
         pe = path_energy(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
         pe.assessment = assess_path(self.model, pe, cost, want)
+        pe.problem = self
         return pe
 
 

@@ -514,10 +514,12 @@ def energy_map(
             )
         dem, model, request = dem.terrain, dem.model, dem.request
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
-        return _energy_map(
+        res = _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
             chunk, progress, compress, bands,
         )  # fmt: skip
+    res.dem = dem
+    return res
 
 
 def _energy_map(
