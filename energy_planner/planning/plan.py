@@ -220,8 +220,9 @@ class PlanResult(Result, Assessed):
         z), stamped with the time the robot reaches each (at the speed and yaw rate of
         the request it was planned with; ``request=`` another is an error). ``origin``:
         another origin of the frame (working CRS); a plan made by windows
-        (``info["corridor"]``) keeps the whole DEM's south-west corner, not its window's. Returns the frame and conventions
-        (:meth:`energy_planner.io.ros2.MapFrame.to_dict`), also in the bag's metadata.
+        (``info["corridor"]``) keeps the whole DEM's south-west corner, not its window's.
+        Returns the frame and conventions (:meth:`energy_planner.io.ros2.MapFrame.to_dict`),
+        also in the bag's metadata.
         """
         from energy_planner.energy.path import write_paths_bag
 
