@@ -318,6 +318,8 @@ def plan(
         >>> res = ep.plan("hill", (500058, 5000046), (500058, 5000084), max_slope_deg=30,
         ...               channels={{"load_kg": 0}}, time=2)  # doctest: +SKIP
     """
+    from energy_planner.energy.path import check_cost_power
+
     given = dict(speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope_deg,
                  max_cross_slope_deg=max_cross_slope_deg, keep_out=keep_out,
                  max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
@@ -339,17 +341,24 @@ def plan(
                                  "points in the DEM's CRS")  # fmt: skip
             if stay_in_domain:
                 req = _in_domain(req, m, None, notes)
+                if req.channels is not None and req.channels.rasters:
+                    notes.append("raster channels are not masked to the domain when "
+                                 "planning by windows")  # fmt: skip
             s, g = (tuple(np.asarray(p, dtype=float)) for p in (start, goal))
             res, terrain = plan_in_corridor(path, m, s, g, req, cap=memory_cap,
                                             progress=progress, **kwargs)  # fmt: skip
+            prob = Problem(terrain, m, req)
+            check_cost_power(prob.cost)
             if notes is not None:
                 res.info["stay_in_domain"] = notes
-            return _bound(res, Problem(terrain, m, req))
+            return _bound(res, prob)
     from energy_planner.planning.plan import plan as _plan
 
     prob = _problem(dem, model, request, **given)
     if stay_in_domain:
         prob = prob.replace(request=_in_domain(prob.request, prob.model, prob.terrain, notes))
+    # a model that prices walking on this map at <= 0 W would plan a free route
+    check_cost_power(prob.cost)
     res = _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), progress=progress,
                 **kwargs)  # fmt: skip
     if notes is not None:
