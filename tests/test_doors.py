@@ -118,8 +118,8 @@ def test_reach(model_file):
     printed = cli("reach", str(HILL), "--start", "{},{}".format(*START), "--budget-wh", "1",
                   "--within-budget", "--model", str(model_file), *BATTERY_ARGS)  # fmt: skip
     prob = ep.Problem.from_dem(HILL, ep.load_model(model_file))
-    res = ep.reach(prob, START, max_energy=3600.0, **BATTERY)
-    same(printed, res.to_dict(prob.terrain, budget_wh=1.0), {"dem"}, "reach")
+    res = ep.reach(prob, START, budget_wh=1.0, within_budget=True, **BATTERY)
+    same(printed, res.to_dict(), {"dem"}, "reach")  # it remembers its terrain and budget
     assert printed["battery"]["cells"] > 0
 
 
