@@ -105,12 +105,15 @@ def _short(v: Any) -> str:
     if isinstance(v, np.ndarray):
         return f"<array {'x'.join(str(n) for n in v.shape)}>"
     if isinstance(v, float | np.floating):
-        return f"{float(v):.6g}"
+        return f"{float(v):.10g}"
     if isinstance(v, dict):
         return f"<dict of {len(v)}>"
-    if isinstance(v, list | tuple) and len(v) > 4:
+    scalar = (int, float, str, bool, type(None), np.number)
+    if isinstance(v, list | tuple) and (len(v) > 4 or not all(isinstance(x, scalar) for x in v)):
         return f"<{type(v).__name__} of {len(v)}>"
     if isinstance(v, list | tuple):
         return "(" + ", ".join(_short(x) for x in v) + ("," if len(v) == 1 else "") + ")"
+    if not isinstance(v, str | Result) and hasattr(v, "__len__"):
+        return f"<{type(v).__name__} of {len(v)}>"
     text = repr(v)
     return text if len(text) <= 60 else text[:57] + "..."

@@ -26,8 +26,8 @@ __all__ = ["ROUTE_NAMES", "Route", "RouteComparison"]
 ROUTE_NAMES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
 
 
-@dataclass
-class Route(Assessed):
+@dataclass(repr=False)
+class Route(Result, Assessed):
     """One route of a comparison (poses in the working CRS, radians).
 
     ``same_as`` names an earlier route of the comparison that is the same path (within
