@@ -513,6 +513,10 @@ def energy_map(
                 "give the model and request in the Problem, not again as model=/request="
             )
         dem, model, request = dem.terrain, dem.model, dem.request
+    elif isinstance(dem, str | Path):
+        from energy_planner.maps import resolve
+
+        dem = resolve(dem)  # a file, or a bundled map's name ("hill")
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
         res = _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
