@@ -222,6 +222,21 @@ def _problem(dem: Any, model: Any, request: Any, **given: Any) -> Problem:
     return Problem.coerce(_dem(dem), model, _request(request, **given))
 
 
+#: The keywords of a verb that make its request (robot, limits, channels), as its
+#: command's options do.
+REQUEST_KEYS = ("speed", "yaw_rate", "max_slope_deg", "max_cross_slope_deg", "keep_out",
+                "max_backward_slope_deg", "max_crab_deg", "channels",
+                "allow_unknown_category")  # fmt: skip
+#: The keywords of a verb that ask for an interval and a battery's verdict
+#: (:class:`~energy_planner.trust.Trust`).
+TRUST_KEYS = ("level", "battery_wh", "reserve_wh", "confidence")
+
+
+def _take(values: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    """The entries of a verb's ``locals()`` named in ``keys`` (those it has)."""
+    return {k: values[k] for k in keys if k in values}
+
+
 def _dem(dem: Any) -> Any:
     """A DEM path or bundled map name as a path; anything else as it is."""
     if isinstance(dem, str | Path):
@@ -320,14 +335,10 @@ def plan(
     """
     from energy_planner.energy.path import check_cost_power
 
-    given = dict(speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope_deg,
-                 max_cross_slope_deg=max_cross_slope_deg, keep_out=keep_out,
-                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
-                 channels=channels, allow_unknown_category=allow_unknown_category)  # fmt: skip
+    given = _take(locals(), REQUEST_KEYS)
     kwargs = dict(planner=planner, time=time, seed=seed, step=step, eps=eps,
                   n_headings=n_headings, moves=moves, iterations=iterations, callback=callback,
-                  level=level, battery_wh=battery_wh, reserve_wh=reserve_wh,
-                  confidence=confidence)  # fmt: skip
+                  **_take(locals(), TRUST_KEYS))  # fmt: skip
     notes: list[str] | None = [] if stay_in_domain else None
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, plan_in_corridor
@@ -439,9 +450,7 @@ def path_energy(
             With its interval, domain report and, given a battery, its verdict; it
             remembers its Problem (``write_geojson(path)``, ``write_json(path)``).
     """
-    given = dict(speed=speed, yaw_rate=yaw_rate, max_backward_slope_deg=max_backward_slope_deg,
-                 max_crab_deg=max_crab_deg, channels=channels,
-                 allow_unknown_category=allow_unknown_category)  # fmt: skip
+    given = _take(locals(), REQUEST_KEYS)
     if band is not None and isinstance(dem, str | Path):
         dem = open_terrain(dem, band=band)
     prob = _problem(dem, model, request, **given)
@@ -452,8 +461,7 @@ def path_energy(
         xy, yaw = waypoints_to_work(prob.terrain, wp)
         t, crs = wp.t, prob.terrain.crs
         waypoints = xy
-    pe = prob.path_energy(waypoints, yaw, t, crs=crs, level=level, battery_wh=battery_wh,
-                          reserve_wh=reserve_wh, confidence=confidence)  # fmt: skip
+    pe = prob.path_energy(waypoints, yaw, t, crs=crs, **_take(locals(), TRUST_KEYS))
     return _bound(pe, prob)
 
 
@@ -510,14 +518,10 @@ def compare_routes(
     """
     from energy_planner.planning.compare import compare_routes as _cr
 
-    prob = _problem(dem, model, request, speed=speed, yaw_rate=yaw_rate,
-                    max_slope_deg=max_slope_deg, max_cross_slope_deg=max_cross_slope_deg,
-                    keep_out=keep_out, max_backward_slope_deg=max_backward_slope_deg,
-                    max_crab_deg=max_crab_deg, channels=channels,
-                    allow_unknown_category=allow_unknown_category)  # fmt: skip
+    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
     comp = _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), planner=planner,
-               time=time, seed=seed, step=step, progress=progress, level=level,
-               battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)  # fmt: skip
+               time=time, seed=seed, step=step, progress=progress,
+               **_take(locals(), TRUST_KEYS))  # fmt: skip
     return _bound(comp, prob)
 
 
@@ -599,11 +603,8 @@ def reach(
     if within_budget and budget_wh is None:
         raise PlanningConfigError("give budget_wh with within_budget", param="within_budget",
                                   value=within_budget)  # fmt: skip
-    trust = dict(battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)
-    given = dict(speed=speed, yaw_rate=yaw_rate, max_slope_deg=max_slope_deg,
-                 max_cross_slope_deg=max_cross_slope_deg, keep_out=keep_out,
-                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
-                 channels=channels, allow_unknown_category=allow_unknown_category)  # fmt: skip
+    trust = _take(locals(), TRUST_KEYS)
+    given = _take(locals(), REQUEST_KEYS)
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, reach_in_window
 
@@ -718,10 +719,7 @@ def energy_map(
         kwargs["compress"] = compress
     if bands is not None:
         kwargs["bands"] = bands
-    given = dict(speed=speed, max_slope_deg=max_slope_deg,
-                 max_cross_slope_deg=max_cross_slope_deg,
-                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
-                 channels=channels, allow_unknown_category=allow_unknown_category)  # fmt: skip
+    given = _take(locals(), REQUEST_KEYS)
     own = None
     if isinstance(client, str):
         from distributed import Client
@@ -805,11 +803,7 @@ def mission(
     """
     from energy_planner.mission import mission as _mission
 
-    prob = _problem(dem, model, request, speed=speed, yaw_rate=yaw_rate,
-                    max_slope_deg=max_slope_deg, max_cross_slope_deg=max_cross_slope_deg,
-                    keep_out=keep_out, max_backward_slope_deg=max_backward_slope_deg,
-                    max_crab_deg=max_crab_deg, channels=channels,
-                    allow_unknown_category=allow_unknown_category)  # fmt: skip
+    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
     if isinstance(sites, str | Path):
         sites = _dem(sites)
     own = None
@@ -820,8 +814,7 @@ def mission(
     try:
         res = _mission(prob, sites, order=order, return_to_start=return_to_start, eps=eps,
                        client=client, planner=planner, leg_eps=leg_eps, n_headings=n_headings,
-                       progress=progress, level=level, battery_wh=battery_wh,
-                       reserve_wh=reserve_wh, confidence=confidence)  # fmt: skip
+                       progress=progress, **_take(locals(), TRUST_KEYS))  # fmt: skip
     finally:
         if own is not None:
             own.close()
