@@ -155,9 +155,10 @@ _DEM_DOC = """\
 
 def _doc(fn: Any) -> Any:
     """Fill a verb's docstring with the parameter texts every verb shares."""
-    fn.__doc__ = fn.__doc__.format(
-        dem=_DEM_DOC, common=_COMMON_DOC, trust=_TRUST_DOC, planning=_PLANNING_DOC
-    )
+    parts = {"dem": _DEM_DOC, "common": _COMMON_DOC, "trust": _TRUST_DOC,
+             "planning": _PLANNING_DOC}  # fmt: skip
+    # each part stands at the docstring's indentation, which its first line takes
+    fn.__doc__ = fn.__doc__.format(**{k: v[4:] for k, v in parts.items()})
     return fn
 
 
@@ -297,41 +298,41 @@ def plan(
     Parameters
     ----------
     {dem}
-        start, goal : sequence of float
-            ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians CCW
-            from its x axis (``--start``, ``--goal``); without a yaw the planner chooses.
-        crs : str, optional
-            CRS of ``start`` and ``goal`` (``--points-crs``), e.g. ``"EPSG:4326"``.
+    start, goal : sequence of float
+        ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians CCW
+        from its x axis (``--start``, ``--goal``); without a yaw the planner chooses.
+    crs : str, optional
+        CRS of ``start`` and ``goal`` (``--points-crs``), e.g. ``"EPSG:4326"``.
     {common}
     {planning}
-        step : float, optional
-            Position spacing of the search, metres (``--step``; default: the cell size).
-        eps : float, optional
-            Heuristic weight of the search (``--eps``; default 1.05, 1 = optimal).
-        memory_cap : int, DEFAULT_CAP or NO_CAP
-            Memory planning may use, bytes (``--memory-cap``); a DEM file too large for it
-            is planned by windows (``info["corridor"]`` says whether proven).
-        stay_in_domain : bool
-            Keep the plan inside the model's calibration domain (``--stay-in-domain``;
-            what changed is in ``info["stay_in_domain"]``).
+    step : float, optional
+        Position spacing of the search, metres (``--step``; default: the cell size).
+    eps : float, optional
+        Heuristic weight of the search (``--eps``; default 1.05, 1 = optimal).
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory planning may use, bytes (``--memory-cap``); a DEM file too large for it
+        is planned by windows (``info["corridor"]`` says whether proven).
+    stay_in_domain : bool
+        Keep the plan inside the model's calibration domain (``--stay-in-domain``;
+        what changed is in ``info["stay_in_domain"]``).
     {trust}
-        n_headings, moves, iterations, callback
-            Search headings, move set, OMPL iterations and progress callback
-            (:func:`energy_planner.planning.plan`).
-        progress : bool
-            Progress on stderr (the command shows it unless ``--quiet``).
+    n_headings, moves, iterations, callback
+        Search headings, move set, OMPL iterations and progress callback
+        (:func:`energy_planner.planning.plan`).
+    progress : bool
+        Progress on stderr (the command shows it unless ``--quiet``).
 
     Returns
     -------
-        PlanResult
-            Remembers its Problem: ``res.write_geojson(path)``, ``res.plot(path)``,
-            ``res.write_bag(path)``, ``res.write_html(path)``, ``res.write_json(path)``.
+    PlanResult
+        Remembers its Problem: ``res.write_geojson(path)``, ``res.plot(path)``,
+        ``res.write_bag(path)``, ``res.write_html(path)``, ``res.write_json(path)``.
 
     Examples
     --------
-        >>> import energy_planner as ep
-        >>> res = ep.plan("hill", (500058, 5000046), (500058, 5000084), max_slope_deg=30,
-        ...               channels={{"load_kg": 0}}, time=2)  # doctest: +SKIP
+    >>> import energy_planner as ep
+    >>> res = ep.plan("hill", (500058, 5000046), (500058, 5000084), max_slope_deg=30,
+    ...               channels={{"load_kg": 0}}, time=2)  # doctest: +SKIP
     """
     from energy_planner.energy.path import check_cost_power
 
@@ -416,39 +417,39 @@ def path_energy(
     Parameters
     ----------
     {dem}
-        waypoints : path or array-like
-            A waypoint file as ``energy --waypoints`` reads it (CSV ``x,y[,yaw_deg][,t]``,
-            GeoJSON LineString, ROS 2 bag; its yaw and times are used), or points ``(x, y)``
-            in the DEM's CRS (or ``crs``).
-        yaw, t : array-like, optional
-            With points: yaw per point (radians, CCW from x) and times (s).
-        crs : str, optional
-            CRS of the points (a file declares its own).
-        bag_topic : str, optional
-            The topic of a ROS bag ``waypoints`` (``--bag-topic``).
-        band : int, optional
-            1-based band of a multi-band DEM file (``--band``).
-        model : EnergyModel or path, optional
-            The energy model (``--model``; default: the bundled B1-class model).
-        request : Request, optional
-            A whole request; the keywords below replace its fields.
-        speed, yaw_rate : float, optional
-            Nominal speed (m/s) and turning rate (rad/s) where the waypoints have no times
-            (``--speed``, ``--yaw-rate``).
-        max_backward_slope_deg, max_crab_deg : float, optional
-            Gait limits (``--max-backward-slope``, ``--max-crab``): a segment that breaks
-            one is an error naming it.
-        channels : dict or Channels, optional
-            Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
-        allow_unknown_category : bool
-            Accept a category the model does not name (``--allow-unknown-category``).
+    waypoints : path or array-like
+        A waypoint file as ``energy --waypoints`` reads it (CSV ``x,y[,yaw_deg][,t]``,
+        GeoJSON LineString, ROS 2 bag; its yaw and times are used), or points ``(x, y)``
+        in the DEM's CRS (or ``crs``).
+    yaw, t : array-like, optional
+        With points: yaw per point (radians, CCW from x) and times (s).
+    crs : str, optional
+        CRS of the points (a file declares its own).
+    bag_topic : str, optional
+        The topic of a ROS bag ``waypoints`` (``--bag-topic``).
+    band : int, optional
+        1-based band of a multi-band DEM file (``--band``).
+    model : EnergyModel or path, optional
+        The energy model (``--model``; default: the bundled B1-class model).
+    request : Request, optional
+        A whole request; the keywords below replace its fields.
+    speed, yaw_rate : float, optional
+        Nominal speed (m/s) and turning rate (rad/s) where the waypoints have no times
+        (``--speed``, ``--yaw-rate``).
+    max_backward_slope_deg, max_crab_deg : float, optional
+        Gait limits (``--max-backward-slope``, ``--max-crab``): a segment that breaks
+        one is an error naming it.
+    channels : dict or Channels, optional
+        Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
+    allow_unknown_category : bool
+        Accept a category the model does not name (``--allow-unknown-category``).
     {trust}
 
     Returns
     -------
-        PathEnergy
-            With its interval, domain report and, given a battery, its verdict; it
-            remembers its Problem (``write_geojson(path)``, ``write_json(path)``).
+    PathEnergy
+        With its interval, domain report and, given a battery, its verdict; it
+        remembers its Problem (``write_geojson(path)``, ``write_json(path)``).
     """
     given = _take(locals(), REQUEST_KEYS)
     if band is not None and isinstance(dem, str | Path):
@@ -498,23 +499,23 @@ def compare_routes(
     Parameters
     ----------
     {dem}
-        start, goal : sequence of float
-            ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians.
-        crs : str, optional
-            CRS of ``start`` and ``goal`` (``--points-crs``).
+    start, goal : sequence of float
+        ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians.
+    crs : str, optional
+        CRS of ``start`` and ``goal`` (``--points-crs``).
     {common}
     {planning}
-        step : float, optional
-            Position spacing of the searches, metres.
+    step : float, optional
+        Position spacing of the searches, metres.
     {trust}
-        progress : bool
-            Progress on stderr.
+    progress : bool
+        Progress on stderr.
 
     Returns
     -------
-        RouteComparison
-            The routes (paper Fig. 1), each assessed; remembers its Problem
-            (``plot(path)``, ``write_bag(path)``, ``write_html(path)``, ``write_json(path)``).
+    RouteComparison
+        The routes (paper Fig. 1), each assessed; remembers its Problem
+        (``plot(path)``, ``write_bag(path)``, ``write_html(path)``, ``write_json(path)``).
     """
     from energy_planner.planning.compare import compare_routes as _cr
 
@@ -558,41 +559,41 @@ def reach(
     Parameters
     ----------
     {dem}
-        start : sequence of float
-            ``(x, y)`` in the DEM's CRS (or ``crs``); moved to the centre of its cell.
-        crs : str, optional
-            CRS of ``start`` (``--points-crs``).
-        budget_wh : float, optional
-            Battery budget, Wh (``--budget-wh``): the result's area, contour and GeoJSON
-            are those within it.
-        return_to_start : bool
-            The cost of going to each cell and coming back (``--return``).
-        within_budget : bool
-            Search only as far as ``budget_wh`` (``--within-budget``; cells above it NaN).
-        free_turn : bool
-            With ``return_to_start``: headings free at the cell (``--free-turn``).
+    start : sequence of float
+        ``(x, y)`` in the DEM's CRS (or ``crs``); moved to the centre of its cell.
+    crs : str, optional
+        CRS of ``start`` (``--points-crs``).
+    budget_wh : float, optional
+        Battery budget, Wh (``--budget-wh``): the result's area, contour and GeoJSON
+        are those within it.
+    return_to_start : bool
+        The cost of going to each cell and coming back (``--return``).
+    within_budget : bool
+        Search only as far as ``budget_wh`` (``--within-budget``; cells above it NaN).
+    free_turn : bool
+        With ``return_to_start``: headings free at the cell (``--free-turn``).
     {common}
-        battery_wh : float, optional
-            Battery energy, Wh (``--battery-wh``): the area reached with a chance of at
-            least ``confidence`` (``result.battery``).
-        reserve_wh : float
-            Energy to keep in the battery, Wh (``--reserve-wh``).
-        confidence : float
-            Required chance that the battery suffices (``--confidence``).
-        memory_cap : int, DEFAULT_CAP or NO_CAP
-            Memory the search may use, bytes (``--memory-cap``); a DEM file too large for
-            it is read as one window about the start that the budget can reach (needs
-            ``budget_wh``).
-        n_headings : int
-            Search headings.
-        progress : bool
-            Progress on stderr.
+    battery_wh : float, optional
+        Battery energy, Wh (``--battery-wh``): the area reached with a chance of at
+        least ``confidence`` (``result.battery``).
+    reserve_wh : float
+        Energy to keep in the battery, Wh (``--reserve-wh``).
+    confidence : float
+        Required chance that the battery suffices (``--confidence``).
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory the search may use, bytes (``--memory-cap``); a DEM file too large for
+        it is read as one window about the start that the budget can reach (needs
+        ``budget_wh``).
+    n_headings : int
+        Search headings.
+    progress : bool
+        Progress on stderr.
 
     Returns
     -------
-        ReachMap
-            Remembers its Problem and budget: ``write_geotiff(path)``, ``write_geojson(path)``,
-            ``plot(path)``, ``write_html(path)``, ``write_json(path)``.
+    ReachMap
+        Remembers its Problem and budget: ``write_geotiff(path)``, ``write_geojson(path)``,
+        ``plot(path)``, ``write_html(path)``, ``write_json(path)``.
     """
     from energy_planner.errors import PlanningConfigError
     from energy_planner.planning.reach import reach as _reach
@@ -663,52 +664,52 @@ def energy_map(
 ):
     """The heading-dependent energy map of ``dem``, written to ``out`` (``energy-map``).
 
-        A DEM path is handed to the energy map as a path, so that it decides between memory,
-        windows and dask.
+    A DEM path is handed to the energy map as a path, so that it decides between memory,
+    windows and dask.
 
     Parameters
     ----------
     {dem}
-        out : str or path
-            The GeoTIFF to write (``--out``).
-        model : EnergyModel or path, optional
-            The energy model (``--model``; default: the bundled B1-class model).
-        request : Request, optional
-            A whole request; the keywords below replace its fields.
-        headings : int
-            Number of map headings, 360/N degrees apart, the first east (``--headings``).
-        speed : float, optional
-            Nominal walking speed, m/s (``--speed``).
-        max_slope_deg, max_cross_slope_deg : float, optional
-            Slope limits: cells or headings beyond them cost inf.
-        max_backward_slope_deg, max_crab_deg : float, optional
-            Gait limits (``--max-backward-slope``, ``--max-crab``).
-        channels : dict or Channels, optional
-            Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
-        allow_unknown_category : bool
-            Accept a category the model does not name (``--allow-unknown-category``).
-        band : int, optional
-            1-based band of a multi-band DEM (``--band``).
-        use_dask : bool, optional
-            Compute out of core with dask (``--dask``; None: when the DEM would not fit
-            ``memory_cap``).
-        client : distributed.Client or str, optional
-            A dask.distributed client or scheduler address (``--scheduler``); implies dask.
-        memory_cap : int, DEFAULT_CAP or NO_CAP
-            Memory the DEM may take (``--memory-cap``).
-        chunk : int
-            Chunk side of the out-of-core path, cells (``--chunk``).
-        compress : {{"zstd", "deflate", "none"}}, optional
-            GeoTIFF compression (``--compress``; default zstd).
-        bands : {{"best", "all"}}, optional
-            Bands written (``--bands``; default best).
-        progress : bool
-            Progress on stderr.
+    out : str or path
+        The GeoTIFF to write (``--out``).
+    model : EnergyModel or path, optional
+        The energy model (``--model``; default: the bundled B1-class model).
+    request : Request, optional
+        A whole request; the keywords below replace its fields.
+    headings : int
+        Number of map headings, 360/N degrees apart, the first east (``--headings``).
+    speed : float, optional
+        Nominal walking speed, m/s (``--speed``).
+    max_slope_deg, max_cross_slope_deg : float, optional
+        Slope limits: cells or headings beyond them cost inf.
+    max_backward_slope_deg, max_crab_deg : float, optional
+        Gait limits (``--max-backward-slope``, ``--max-crab``).
+    channels : dict or Channels, optional
+        Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
+    allow_unknown_category : bool
+        Accept a category the model does not name (``--allow-unknown-category``).
+    band : int, optional
+        1-based band of a multi-band DEM (``--band``).
+    use_dask : bool, optional
+        Compute out of core with dask (``--dask``; None: when the DEM would not fit
+        ``memory_cap``).
+    client : distributed.Client or str, optional
+        A dask.distributed client or scheduler address (``--scheduler``); implies dask.
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory the DEM may take (``--memory-cap``).
+    chunk : int
+        Chunk side of the out-of-core path, cells (``--chunk``).
+    compress : {{"zstd", "deflate", "none"}}, optional
+        GeoTIFF compression (``--compress``; default zstd).
+    bands : {{"best", "all"}}, optional
+        Bands written (``--bands``; default best).
+    progress : bool
+        Progress on stderr.
 
     Returns
     -------
-        EnergyMapResult
-            ``plot(path)``, ``write_html(path)``, ``write_json(path)`` (it remembers its DEM).
+    EnergyMapResult
+        ``plot(path)``, ``write_html(path)``, ``write_json(path)`` (it remembers its DEM).
     """
     from energy_planner.energymap import energy_map as _em
 
@@ -774,32 +775,32 @@ def mission(
     Parameters
     ----------
     {dem}
-        sites : path, name or Sites
-            A CSV ``x,y[,yaw_deg][,name]`` in the DEM's CRS or GeoJSON points
-            (``--sites``), a bundled file's name (``"hill_sites"``), or
-            :class:`~energy_planner.mission.Sites`. The first site is the start.
-        order : {{"best", "given"}}
-            ``best``: the least-energy order; ``given``: as listed (``--order``).
-        return_to_start : bool
-            Come back to the first site (``--return``).
-        eps : float
-            Heuristic weight of the per-site searches that choose the order (``--eps``).
-        client : distributed.Client or str, optional
-            Run the per-site searches on a dask cluster, or on the scheduler at this
-            address (``--scheduler``).
+    sites : path, name or Sites
+        A CSV ``x,y[,yaw_deg][,name]`` in the DEM's CRS or GeoJSON points
+        (``--sites``), a bundled file's name (``"hill_sites"``), or
+        :class:`~energy_planner.mission.Sites`. The first site is the start.
+    order : {{"best", "given"}}
+        ``best``: the least-energy order; ``given``: as listed (``--order``).
+    return_to_start : bool
+        Come back to the first site (``--return``).
+    eps : float
+        Heuristic weight of the per-site searches that choose the order (``--eps``).
+    client : distributed.Client or str, optional
+        Run the per-site searches on a dask cluster, or on the scheduler at this
+        address (``--scheduler``).
     {common}
     {trust}
-        planner, leg_eps, n_headings
-            How each leg is planned (as :func:`plan` plans it).
-        progress : bool
-            Progress on stderr.
+    planner, leg_eps, n_headings
+        How each leg is planned (as :func:`plan` plans it).
+    progress : bool
+        Progress on stderr.
 
     Returns
     -------
-        MissionResult
-            Remembers its Problem: ``write_geojson(path)``, ``plot(path)``,
-            ``write_bag(path)``, ``write_html(path)``, ``write_nav2_graph(path)``,
-            ``write_json(path)``.
+    MissionResult
+        Remembers its Problem: ``write_geojson(path)``, ``plot(path)``,
+        ``write_bag(path)``, ``write_html(path)``, ``write_nav2_graph(path)``,
+        ``write_json(path)``.
     """
     from energy_planner.mission import mission as _mission
 
