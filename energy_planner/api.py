@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.problem import Problem
+from energy_planner.problem import REQUEST_KEYS, Problem, request_with, verb_doc
 from energy_planner.terrain.memory import DEFAULT_CAP
+from energy_planner.trust import TRUST_KEYS
 
 __all__ = [
     "CLI_NAMES",
@@ -40,7 +41,7 @@ __all__ = [
     "energy_map",
     "fit",
     "load_model",
-    "mission",
+    "mission",  # noqa: F822 (module __getattr__)
     "open_terrain",
     "path_energy",
     "plan",
@@ -98,144 +99,27 @@ CLI_NAMES: dict[str, str | dict[str, str]] = {
     "--quiet": "output",  # progress=False is the Python default
 }
 
-_COMMON_DOC = """\
-    model : EnergyModel or path, optional
-        The energy model (``--model``; default: the bundled B1-class model).
-    request : Request, optional
-        A whole :class:`~energy_planner.request.Request`; the keywords below replace
-        its fields (default: the Problem's request, else ``Request()``).
-    speed : float, optional
-        Nominal walking speed, m/s (``--speed``; default 0.3).
-    yaw_rate : float, optional
-        Nominal turning rate, rad/s (``--yaw-rate``; default 0.5).
-    max_slope_deg : float, optional
-        Steepest ground slope the path may cross, degrees (``--max-slope``).
-    max_cross_slope_deg : float, optional
-        Steepest slope across the robot's body, degrees (``--max-cross-slope``).
-    keep_out : path or geometries, optional
-        Keep-out polygons (``--keep-out``): a GeoJSON file or shapely geometries in the
-        DEM's CRS (:class:`~energy_planner.request.Limits`).
-    max_backward_slope_deg : float, optional
-        No backward walking on ground steeper than this, degrees
-        (``--max-backward-slope``).
-    max_crab_deg : float, optional
-        Largest crab angle, degrees (``--max-crab``).
-    channels : dict or Channels, optional
-        Values of the extra channels the model reads (``--set``, ``--channel``): a
-        number or a category name per channel (``{"load_kg": 10, "ground": "meadow"}``),
-        a :class:`pathlib.Path` of a raster, or ``(raster, value_table)`` paths.
-    allow_unknown_category : bool
-        Accept a category the model does not name (``--allow-unknown-category``)."""
 
-_TRUST_DOC = """\
-    level : float
-        Nominal coverage of the energy's prediction interval (``--level``).
-    battery_wh : float, optional
-        Battery energy, Wh (``--battery-wh``): the chance that it suffices.
-    reserve_wh : float
-        Energy to keep in the battery, Wh (``--reserve-wh``).
-    confidence : float
-        Required chance that the battery suffices (``--confidence``)."""
+def __getattr__(name: str) -> Any:
+    """``mission``, imported on first use (``import energy_planner.api`` stays light).
 
-_PLANNING_DOC = """\
-    planner : str
-        ``auto``, ``search``, ``lattice`` or an OMPL planner (``--planner``;
-        :data:`energy_planner.planning.PLANNERS`).
-    time : float, optional
-        Planning budget, seconds (``--time``).
-    seed : int
-        Random seed (``--seed``)."""
+    The verb lives in the missions package (:mod:`energy_planner.mission.verb`).
+    """
+    if name == "mission":
+        from energy_planner.mission.verb import mission
 
-_DEM_DOC = """\
-    dem : str, path, Terrain or Problem
-        A DEM file, a bundled map's name (``"hill"``, ``"plane"``, ``"jacksboro"``), a
-        loaded :class:`~energy_planner.terrain.Terrain`, or a :class:`Problem` (its
-        model and request, which the keywords below replace)."""
-
-
-def _doc(fn: Any) -> Any:
-    """Fill a verb's docstring with the parameter texts every verb shares."""
-    parts = {"dem": _DEM_DOC, "common": _COMMON_DOC, "trust": _TRUST_DOC,
-             "planning": _PLANNING_DOC}  # fmt: skip
-    # each part stands at the docstring's indentation, which its first line takes
-    fn.__doc__ = fn.__doc__.format(**{k: v[4:] for k, v in parts.items()})
-    return fn
-
-
-def _channels(channels: Any, allow_unknown_category: bool) -> Any:
-    """``channels=`` as a :class:`~energy_planner.energy.channels.Channels` (None stays None)."""
-    from energy_planner.energy.channels import ChannelRaster, Channels
-
-    if channels is None:
-        return Channels(allow_unknown_categories=True) if allow_unknown_category else None
-    if isinstance(channels, Channels):
-        if allow_unknown_category and not channels.allow_unknown_categories:
-            import dataclasses
-
-            return dataclasses.replace(channels, allow_unknown_categories=True)
-        return channels
-    consts, rasters = {}, {}
-    for name, v in dict(channels).items():
-        if isinstance(v, ChannelRaster):
-            rasters[name] = v
-        elif isinstance(v, Path):
-            rasters[name] = ChannelRaster(name, v, None)
-        elif isinstance(v, tuple) and len(v) == 2:
-            rasters[name] = ChannelRaster(name, Path(v[0]), None if v[1] is None else Path(v[1]))
-        else:
-            consts[name] = v
-    return Channels(consts, rasters, allow_unknown_categories=allow_unknown_category)
-
-
-def _request(base: Any, **given: Any) -> Any:
-    """``base`` (a Request or None) with the fields given (not None) replaced."""
-    import dataclasses
-
-    from energy_planner.request import Request, RequestError
-
-    allow = given.pop("allow_unknown_category", False)
-    ch = _channels(given.pop("channels", None), allow)
-    given = {k: v for k, v in given.items() if v is not None}
-    if not given and ch is None:
-        return base
-    if base is not None and not isinstance(base, Request):
-        raise RequestError(
-            f"request must be an energy_planner.request.Request, got {type(base).__name__}",
-            field="request",
-            value=base,
-        )
-    base = base if base is not None else Request()
-    robot = {k: given.pop(k) for k in ("speed", "yaw_rate") if k in given}
-    return Request(
-        robot=dataclasses.replace(base.robot, **robot),
-        limits=dataclasses.replace(base.limits, **given),
-        channels=base.channels if ch is None else ch,
-    )
-
-
-def _problem(dem: Any, model: Any, request: Any, **given: Any) -> Problem:
-    """The verb's :class:`Problem`: ``dem`` coerced, ``model`` and the keywords applied."""
-    if isinstance(dem, Problem):
-        req = _request(request if request is not None else dem.request, **given)
-        if model is None and req is dem.request:
-            return dem
-        return dem.replace(model=model, request=req)
-    return Problem.coerce(_dem(dem), model, _request(request, **given))
-
-
-#: The keywords of a verb that make its request (robot, limits, channels), as its
-#: command's options do.
-REQUEST_KEYS = ("speed", "yaw_rate", "max_slope_deg", "max_cross_slope_deg", "keep_out",
-                "max_backward_slope_deg", "max_crab_deg", "channels",
-                "allow_unknown_category")  # fmt: skip
-#: The keywords of a verb that ask for an interval and a battery's verdict
-#: (:class:`~energy_planner.trust.Trust`).
-TRUST_KEYS = ("level", "battery_wh", "reserve_wh", "confidence")
+        return mission
+    raise AttributeError(f"module 'energy_planner.api' has no attribute {name!r}")
 
 
 def _take(values: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
     """The entries of a verb's ``locals()`` named in ``keys`` (those it has)."""
     return {k: values[k] for k in keys if k in values}
+
+
+def _problem(dem: Any, model: Any, request: Any, **given: Any) -> Problem:
+    """The verb's :class:`Problem` (:meth:`Problem.coerce`: keywords applied)."""
+    return Problem.coerce(_dem(dem), model, request, **given)
 
 
 def _dem(dem: Any) -> Any:
@@ -258,7 +142,7 @@ def _bound(result: Any, problem: Problem) -> Any:
     return result
 
 
-@_doc
+@verb_doc
 def plan(
     dem: Any,
     start: Any,
@@ -347,7 +231,7 @@ def plan(
         path = _dem(dem)
         if needs_windows(path, memory_cap):
             m = load_model(model) if isinstance(model, str | Path) or model is None else model
-            req = _request(request, **given)
+            req = request_with(request, **given)
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "points in the DEM's CRS")  # fmt: skip
@@ -389,7 +273,7 @@ def _in_domain(request: Any, model: Any, terrain: Any, notes: list[str] | None) 
     return req
 
 
-@_doc
+@verb_doc
 def path_energy(
     dem: Any,
     waypoints: Any,
@@ -466,7 +350,7 @@ def path_energy(
     return _bound(pe, prob)
 
 
-@_doc
+@verb_doc
 def compare_routes(
     dem: Any,
     start: Any,
@@ -526,7 +410,7 @@ def compare_routes(
     return _bound(comp, prob)
 
 
-@_doc
+@verb_doc
 def reach(
     dem: Any,
     start: Any,
@@ -621,7 +505,7 @@ def reach(
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "start in the DEM's CRS")  # fmt: skip
             m = load_model(model) if isinstance(model, str | Path) or model is None else model
-            req = _request(request, **given)
+            req = request_with(request, **given)
             s = tuple(float(v) for v in np.asarray(start, dtype=float)[:2])
             rm, terrain = reach_in_window(
                 path, m, s, budget_wh * 3600.0, req, cap=memory_cap,
@@ -638,7 +522,7 @@ def reach(
     return _bound(rm, prob)
 
 
-@_doc
+@verb_doc
 def energy_map(
     dem: Any,
     out: str | Path,
@@ -733,93 +617,12 @@ def energy_map(
             res = _em(_problem(dem, model, request, **given), out, **kwargs)
         else:
             m = load_model(model) if isinstance(model, str | Path) or model is None else model
-            res = _em(_dem(dem), out, m, request=_request(request, **given), **kwargs)
+            res = _em(_dem(dem), out, m, request=request_with(request, **given), **kwargs)
     finally:
         if own is not None:
             own.close()
     res.dem = dem.terrain if isinstance(dem, Problem) else _dem(dem)
     return res
-
-
-@_doc
-def mission(
-    dem: Any,
-    sites: Any,
-    *,
-    order: str = "best",
-    return_to_start: bool = False,
-    eps: float = 1.0,
-    client: Any = None,
-    model: Any = None,
-    request: Any = None,
-    speed: float | None = None,
-    yaw_rate: float | None = None,
-    max_slope_deg: float | None = None,
-    max_cross_slope_deg: float | None = None,
-    keep_out: Any = None,
-    max_backward_slope_deg: float | None = None,
-    max_crab_deg: float | None = None,
-    channels: Any = None,
-    allow_unknown_category: bool = False,
-    level: float = 0.9,
-    battery_wh: float | None = None,
-    reserve_wh: float = 0.0,
-    confidence: float = 0.9,
-    planner: str = "auto",
-    leg_eps: float | None = None,
-    n_headings: int = 16,
-    progress: bool = False,
-):
-    """Visit ``sites`` in the least-energy (or given) order (the ``mission`` command).
-
-    Parameters
-    ----------
-    {dem}
-    sites : path, name or Sites
-        A CSV ``x,y[,yaw_deg][,name]`` in the DEM's CRS or GeoJSON points
-        (``--sites``), a bundled file's name (``"hill_sites"``), or
-        :class:`~energy_planner.mission.Sites`. The first site is the start.
-    order : {{"best", "given"}}
-        ``best``: the least-energy order; ``given``: as listed (``--order``).
-    return_to_start : bool
-        Come back to the first site (``--return``).
-    eps : float
-        Heuristic weight of the per-site searches that choose the order (``--eps``).
-    client : distributed.Client or str, optional
-        Run the per-site searches on a dask cluster, or on the scheduler at this
-        address (``--scheduler``).
-    {common}
-    {trust}
-    planner, leg_eps, n_headings
-        How each leg is planned (as :func:`plan` plans it).
-    progress : bool
-        Progress on stderr.
-
-    Returns
-    -------
-    MissionResult
-        Remembers its Problem: ``write_geojson(path)``, ``plot(path)``,
-        ``write_bag(path)``, ``write_html(path)``, ``write_nav2_graph(path)``,
-        ``write_json(path)``.
-    """
-    from energy_planner.mission import mission as _mission
-
-    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
-    if isinstance(sites, str | Path):
-        sites = _dem(sites)
-    own = None
-    if isinstance(client, str):
-        from distributed import Client
-
-        client = own = Client(client)
-    try:
-        res = _mission(prob, sites, order=order, return_to_start=return_to_start, eps=eps,
-                       client=client, planner=planner, leg_eps=leg_eps, n_headings=n_headings,
-                       progress=progress, **_take(locals(), TRUST_KEYS))  # fmt: skip
-    finally:
-        if own is not None:
-            own.close()
-    return _bound(res, prob)
 
 
 def _samples(logs: Any):

@@ -77,16 +77,12 @@ class Result:
         return self.problem.request
 
     def _problem_for(self, problem: Any = None) -> Any:
-        """``problem`` if given (a Problem, or a Terrain made into one), else the remembered one."""
+        """``problem`` if given, else the remembered one (an error without either)."""
         if problem is None:
             if self.problem is None:
                 raise ValueError(f"this {type(self).__name__} does not know its Problem: give one")
             return self.problem
-        if hasattr(problem, "cost"):
-            return problem
-        from energy_planner.problem import Problem
-
-        return Problem(problem)
+        return problem
 
     def __repr__(self) -> str:
         """Class name and the scalar fields (arrays by shape), at most :data:`REPR_MAX` chars."""

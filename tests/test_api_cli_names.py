@@ -98,6 +98,7 @@ def test_the_top_level_names_are_the_verbs():
     assert ep.plan is api.plan and ep.reach is api.reach and ep.energy_map is api.energy_map
     # ep.mission may be the missions package (imported above): it calls the verb
     assert inspect.signature(ep.mission) == inspect.signature(api.mission)
+    assert "return_to_start : bool" in inspect.getdoc(ep.mission)  # help(ep.mission) too
 
 
 @pytest.mark.parametrize("command", sorted(VERBS))

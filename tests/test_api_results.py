@@ -16,6 +16,7 @@ import energy_planner as ep
 from energy_planner import api
 from energy_planner.energy.channels import Channels
 from energy_planner.mission import Sites
+from energy_planner.problem import request_with
 from energy_planner.request import Request
 from energy_planner.results import REPR_MAX
 
@@ -97,12 +98,14 @@ def test_keywords_replace_the_problems_request(prob):
 
 
 def test_channels_take_a_dict_of_values():
-    ch = api._channels({"load_kg": 10, "ground": "meadow"}, False)
+    ch = Channels.coerce({"load_kg": 10, "ground": "meadow"})
     assert ch == Channels({"load_kg": 10.0, "ground": "meadow"})
-    req = api._request(None, channels={"load_kg": 10}, speed=0.4, max_slope_deg=25)
+    req = request_with(None, channels={"load_kg": 10}, speed=0.4, max_slope_deg=25)
     assert req.channels.constants == {"load_kg": 10.0}
     assert (req.robot.speed, req.limits.max_slope_deg) == (0.4, 25.0)
-    assert api._request(None) is None  # nothing given: the Problem's own request
+    assert request_with(None) is None  # nothing given: the Problem's own request
+    kept = request_with(req, max_crab_deg=45)  # the other fields as they were
+    assert kept.channels is req.channels and kept.limits.max_slope_deg == 25.0
 
 
 def test_bundled_names_work_wherever_a_path_does(tmp_path):

@@ -36,7 +36,7 @@ class _VerbModule(types.ModuleType):
     """
 
     def __call__(self, *args, **kwargs):
-        from energy_planner.api import mission as verb
+        from energy_planner.mission.verb import mission as verb
 
         return verb(*args, **kwargs)
 
@@ -45,9 +45,19 @@ class _VerbModule(types.ModuleType):
         """The verb's signature (``inspect.signature(ep.mission)``, ``help``'s first line)."""
         import inspect
 
-        from energy_planner.api import mission as verb
+        from energy_planner.mission.verb import mission as verb
 
         return inspect.signature(verb)
 
 
 sys.modules[__name__].__class__ = _VerbModule
+
+
+def _verb_help() -> str:
+    """The package's help ends with the verb's, so ``help(ep.mission)`` lists its options."""
+    from energy_planner.mission.verb import mission as verb
+
+    return f"{__doc__}\n\nCalled as ``ep.mission(dem, sites, ...)``: {verb.__doc__}"
+
+
+__doc__ = _verb_help()
