@@ -80,7 +80,7 @@ def mission(
     given = {k: v for k, v in locals().items() if k in REQUEST_KEYS}
     trust = {k: v for k, v in locals().items() if k in TRUST_KEYS}
     from energy_planner.maps import resolve
-    from energy_planner.mission.core import mission as _mission
+    from energy_planner.mission import mission as _mission  # the planner (core.mission)
 
     prob = Problem.coerce(dem, model, request, **given)  # a DEM file or a bundled name
     if isinstance(sites, str | Path):
