@@ -29,17 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.problem import Problem
+from energy_planner.problem import REQUEST_KEYS, Problem, request_with, verb_doc
 from energy_planner.terrain.memory import DEFAULT_CAP
+from energy_planner.trust import TRUST_KEYS
 
 __all__ = [
+    "CLI_NAMES",
     "Problem",
     "compare_routes",
     "discover",
     "energy_map",
     "fit",
     "load_model",
-    "mission",
+    "mission",  # noqa: F822 (module __getattr__)
     "open_terrain",
     "path_energy",
     "plan",
@@ -64,8 +66,69 @@ def load_model(path: str | Path | None = None):
     return EnergyModel.default() if path is None else EnergyModel.load(path)
 
 
-def _problem(dem: Any, model: Any, request: Any) -> Problem:
-    return Problem.coerce(dem, model, request)
+#: How every option of the commands that have a verb here (``plan``, ``energy``,
+#: ``compare-routes``, ``reach``, ``mission``, ``energy-map``) reaches Python. An option
+#: whose name (dashes as underscores) is a keyword of the verb is that keyword; the others
+#: are listed here, ONE table: ``"keyword"`` (the verb's keyword of another name), or
+#: ``"result.METHOD"`` (an output: the result writes it, ``res.METHOD(path)``), or
+#: ``"output"`` (how the command prints: no Python counterpart). A dict maps a command
+#: to its meaning where commands differ. ``tests/test_api_cli_names.py`` checks that
+#: every option of those commands is one or the other.
+CLI_NAMES: dict[str, str | dict[str, str]] = {
+    "--max-slope": "max_slope_deg",
+    "--max-cross-slope": "max_cross_slope_deg",
+    "--max-backward-slope": "max_backward_slope_deg",
+    "--max-crab": "max_crab_deg",
+    "--set": "channels",
+    "--channel": "channels",
+    "--return": "return_to_start",
+    "--points-crs": "crs",
+    "--dask": "use_dask",
+    "--scheduler": {"mission": "client", "energy-map": "client"},
+    "--out": {"plan": "result.write_geojson", "reach": "result.write_geotiff"},
+    "--geojson": {"reach": "result.write_geojson", "mission": "result.write_geojson"},
+    "--geojson-crs": "result.write_geojson",  # native=True for 'dem'
+    "--chance-out": "result.write_chance_geotiff",
+    "--plot": "result.plot",
+    "--html": "result.write_html",
+    "--bag": "result.write_bag",
+    "--bag-frame": "result.write_bag",  # frame=
+    "--nav2-graph": "result.write_nav2_graph",
+    "--refuse": "output",  # exit status 1 below --confidence: result.assessment.battery.ok
+    "--json": "output",  # result.to_dict()
+    "--quiet": "output",  # progress=False is the Python default
+}
+
+
+def __getattr__(name: str) -> Any:
+    """``mission``, imported on first use (``import energy_planner.api`` stays light).
+
+    The verb lives in the missions package (:mod:`energy_planner.mission.verb`).
+    """
+    if name == "mission":
+        from energy_planner.mission.verb import mission
+
+        return mission
+    raise AttributeError(f"module 'energy_planner.api' has no attribute {name!r}")
+
+
+def _take(values: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    """The entries of a verb's ``locals()`` named in ``keys`` (those it has)."""
+    return {k: values[k] for k in keys if k in values}
+
+
+def _problem(dem: Any, model: Any, request: Any, **given: Any) -> Problem:
+    """The verb's :class:`Problem` (:meth:`Problem.coerce`: keywords applied)."""
+    return Problem.coerce(_dem(dem), model, request, **given)
+
+
+def _dem(dem: Any) -> Any:
+    """A DEM path or bundled map name as a path; anything else as it is."""
+    if isinstance(dem, str | Path):
+        from energy_planner.maps import resolve
+
+        return resolve(dem)
+    return dem
 
 
 def _pose(problem: Problem, p: Any, crs: Any) -> tuple:
@@ -73,85 +136,493 @@ def _pose(problem: Problem, p: Any, crs: Any) -> tuple:
     return tuple(float(v) for v in problem.to_work(p, crs)[0])
 
 
-def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,
-         crs: Any = None, memory_cap: Any = DEFAULT_CAP, **kwargs: Any):  # fmt: skip
-    """Plan an energy-minimal path from ``start`` to ``goal``.
+def _bound(result: Any, problem: Problem) -> Any:
+    """``result`` with its Problem (terrain, model, request) remembered."""
+    result.problem = problem
+    return result
 
-    ``dem`` is a path, a Terrain or a :class:`Problem`. A DEM path too large for the memory
-    cap (``memory_cap``: bytes, ``DEFAULT_CAP`` or ``NO_CAP``, as
-    :func:`energy_planner.terrain.memory.resolve_cap` reads it) is read by windows; the
-    result's ``info["corridor"]`` says whether the window is proven.
+
+@verb_doc
+def plan(
+    dem: Any,
+    start: Any,
+    goal: Any,
+    *,
+    crs: Any = None,
+    model: Any = None,
+    request: Any = None,
+    speed: float | None = None,
+    yaw_rate: float | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    keep_out: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    planner: str = "auto",
+    time: float | None = None,
+    seed: int = 0,
+    step: float | None = None,
+    eps: float | None = None,
+    memory_cap: Any = DEFAULT_CAP,
+    stay_in_domain: bool = False,
+    level: float = 0.9,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = 0.9,
+    n_headings: int = 16,
+    moves: str = "all",
+    iterations: int | None = None,
+    callback: Any = None,
+    progress: bool = False,
+):
+    """Plan an energy-minimal path from ``start`` to ``goal`` (the ``plan`` command).
+
+    Parameters
+    ----------
+    {dem}
+    start, goal : sequence of float
+        ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians CCW
+        from its x axis (``--start``, ``--goal``); without a yaw the planner chooses.
+    crs : str, optional
+        CRS of ``start`` and ``goal`` (``--points-crs``), e.g. ``"EPSG:4326"``.
+    {common}
+    {planning}
+    step : float, optional
+        Position spacing of the search, metres (``--step``; default: the cell size).
+    eps : float, optional
+        Heuristic weight of the search (``--eps``; default 1.05, 1 = optimal).
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory planning may use, bytes (``--memory-cap``); a DEM file too large for it
+        is planned by windows (``info["corridor"]`` says whether proven).
+    stay_in_domain : bool
+        Keep the plan inside the model's calibration domain (``--stay-in-domain``;
+        what changed is in ``info["stay_in_domain"]``).
+    {trust}
+    n_headings, moves, iterations, callback
+        Search headings, move set, OMPL iterations and progress callback
+        (:func:`energy_planner.planning.plan`).
+    progress : bool
+        Progress on stderr (the command shows it unless ``--quiet``).
+
+    Returns
+    -------
+    PlanResult
+        Remembers its Problem: ``res.write_geojson(path)``, ``res.plot(path)``,
+        ``res.write_bag(path)``, ``res.write_html(path)``, ``res.write_json(path)``.
+
+    Examples
+    --------
+    >>> import energy_planner as ep
+    >>> res = ep.plan("hill", (500058, 5000046), (500058, 5000084), max_slope_deg=30,
+    ...               channels={{"load_kg": 0}}, time=2)  # doctest: +SKIP
     """
+    from energy_planner.energy.path import check_cost_power
+
+    given = _take(locals(), REQUEST_KEYS)
+    kwargs = dict(planner=planner, time=time, seed=seed, step=step, eps=eps,
+                  n_headings=n_headings, moves=moves, iterations=iterations, callback=callback,
+                  **_take(locals(), TRUST_KEYS))  # fmt: skip
+    notes: list[str] | None = [] if stay_in_domain else None
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, plan_in_corridor
 
-        if needs_windows(dem, memory_cap):
-            if isinstance(model, str | Path) or model is None:
-                model = load_model(model)
-            s, g = (np.asarray(p, dtype=float) for p in (start, goal))
+        path = _dem(dem)
+        if needs_windows(path, memory_cap):
+            m = load_model(model) if isinstance(model, str | Path) or model is None else model
+            req = request_with(request, **given)
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "points in the DEM's CRS")  # fmt: skip
-            res, _ = plan_in_corridor(dem, model, tuple(s), tuple(g), request, cap=memory_cap,
-                                      **kwargs)  # fmt: skip
-            return res
+            if stay_in_domain:
+                req = _in_domain(req, m, None, notes)
+                if req.channels is not None and req.channels.rasters:
+                    notes.append("raster channels are not masked to the domain when "
+                                 "planning by windows")  # fmt: skip
+            s, g = (tuple(np.asarray(p, dtype=float)) for p in (start, goal))
+            res, terrain = plan_in_corridor(path, m, s, g, req, cap=memory_cap,
+                                            progress=progress, **kwargs)  # fmt: skip
+            prob = Problem(terrain, m, req)
+            check_cost_power(prob.cost)
+            if notes is not None:
+                res.info["stay_in_domain"] = notes
+            return _bound(res, prob)
     from energy_planner.planning.plan import plan as _plan
 
-    prob = _problem(dem, model, request)
-    kwargs.setdefault("progress", False)
-    return _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), **kwargs)
+    prob = _problem(dem, model, request, **given)
+    if stay_in_domain:
+        prob = prob.replace(request=_in_domain(prob.request, prob.model, prob.terrain, notes))
+    # a model that prices walking on this map at <= 0 W would plan a free route
+    check_cost_power(prob.cost)
+    res = _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), progress=progress,
+                **kwargs)  # fmt: skip
+    if notes is not None:
+        res.info["stay_in_domain"] = notes
+    return _bound(res, prob)
 
 
-def path_energy(dem: Any, points: Any, yaw: Any = None, t: Any = None, *, model: Any = None,
-                request: Any = None, crs: Any = None, **trust: Any):  # fmt: skip
-    """Energy of walking ``points`` (DEM CRS, or ``crs``) over ``dem``.
+def _in_domain(request: Any, model: Any, terrain: Any, notes: list[str] | None) -> Any:
+    """``request`` kept inside the model's calibration domain; ``notes`` say what changed."""
+    from energy_planner.request import Request
+    from energy_planner.uncertainty import stay_in_domain
 
-    The result carries its interval, domain report and, with ``battery_wh=`` (and
-    ``reserve_wh=``, ``confidence=``), the battery's verdict; ``level=`` sets the
-    interval's coverage (:class:`energy_planner.trust.Trust`).
+    req, said = stay_in_domain(request if request is not None else Request(), model, terrain)
+    if notes is not None:
+        notes.extend(said)
+    return req
+
+
+@verb_doc
+def path_energy(
+    dem: Any,
+    waypoints: Any,
+    yaw: Any = None,
+    t: Any = None,
+    *,
+    crs: Any = None,
+    bag_topic: str | None = None,
+    band: int | None = None,
+    model: Any = None,
+    request: Any = None,
+    speed: float | None = None,
+    yaw_rate: float | None = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    level: float = 0.9,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = 0.9,
+):
+    """Energy of walking given waypoints over ``dem`` (the ``energy`` command).
+
+    Parameters
+    ----------
+    {dem}
+    waypoints : path or array-like
+        A waypoint file as ``energy --waypoints`` reads it (CSV ``x,y[,yaw_deg][,t]``,
+        GeoJSON LineString, ROS 2 bag; its yaw and times are used), or points ``(x, y)``
+        in the DEM's CRS (or ``crs``).
+    yaw, t : array-like, optional
+        With points: yaw per point (radians, CCW from x) and times (s).
+    crs : str, optional
+        CRS of the points (a file declares its own).
+    bag_topic : str, optional
+        The topic of a ROS bag ``waypoints`` (``--bag-topic``).
+    band : int, optional
+        1-based band of a multi-band DEM file (``--band``).
+    model : EnergyModel or path, optional
+        The energy model (``--model``; default: the bundled B1-class model).
+    request : Request, optional
+        A whole request; the keywords below replace its fields.
+    speed, yaw_rate : float, optional
+        Nominal speed (m/s) and turning rate (rad/s) where the waypoints have no times
+        (``--speed``, ``--yaw-rate``).
+    max_backward_slope_deg, max_crab_deg : float, optional
+        Gait limits (``--max-backward-slope``, ``--max-crab``): a segment that breaks
+        one is an error naming it.
+    channels : dict or Channels, optional
+        Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
+    allow_unknown_category : bool
+        Accept a category the model does not name (``--allow-unknown-category``).
+    {trust}
+
+    Returns
+    -------
+    PathEnergy
+        With its interval, domain report and, given a battery, its verdict; it
+        remembers its Problem (``write_geojson(path)``, ``write_json(path)``).
     """
-    return _problem(dem, model, request).path_energy(points, yaw, t, crs=crs, **trust)
+    given = _take(locals(), REQUEST_KEYS)
+    if band is not None and isinstance(dem, str | Path):
+        dem = open_terrain(dem, band=band)
+    prob = _problem(dem, model, request, **given)
+    if isinstance(waypoints, str | Path):
+        from energy_planner.energy.waypoints import read_waypoints, waypoints_to_work
+
+        wp = read_waypoints(waypoints, bag_topic)
+        xy, yaw = waypoints_to_work(prob.terrain, wp)
+        t, crs = wp.t, prob.terrain.crs
+        waypoints = xy
+    pe = prob.path_energy(waypoints, yaw, t, crs=crs, **_take(locals(), TRUST_KEYS))
+    return _bound(pe, prob)
 
 
-def compare_routes(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = None,
-                   crs: Any = None, **kwargs: Any):  # fmt: skip
-    """The direct line, the shortest and the energy-optimal path (paper Fig. 1)."""
+@verb_doc
+def compare_routes(
+    dem: Any,
+    start: Any,
+    goal: Any,
+    *,
+    crs: Any = None,
+    model: Any = None,
+    request: Any = None,
+    speed: float | None = None,
+    yaw_rate: float | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    keep_out: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    planner: str = "auto",
+    time: float = 10.0,
+    seed: int = 0,
+    step: float | None = None,
+    level: float = 0.9,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = 0.9,
+    progress: bool = False,
+):
+    """The direct line, the shortest and the energy-optimal path (``compare-routes``).
+
+    Parameters
+    ----------
+    {dem}
+    start, goal : sequence of float
+        ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians.
+    crs : str, optional
+        CRS of ``start`` and ``goal`` (``--points-crs``).
+    {common}
+    {planning}
+    step : float, optional
+        Position spacing of the searches, metres.
+    {trust}
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    RouteComparison
+        The routes (paper Fig. 1), each assessed; remembers its Problem
+        (``plot(path)``, ``write_bag(path)``, ``write_html(path)``, ``write_json(path)``).
+    """
     from energy_planner.planning.compare import compare_routes as _cr
 
-    prob = _problem(dem, model, request)
-    kwargs.setdefault("progress", False)
-    return _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), **kwargs)
+    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
+    comp = _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), planner=planner,
+               time=time, seed=seed, step=step, progress=progress,
+               **_take(locals(), TRUST_KEYS))  # fmt: skip
+    return _bound(comp, prob)
 
 
-def reach(dem: Any, start: Any, *, model: Any = None, request: Any = None, crs: Any = None,
-          **kwargs: Any):  # fmt: skip
-    """Least energy from ``start`` to every cell of ``dem``."""
+@verb_doc
+def reach(
+    dem: Any,
+    start: Any,
+    *,
+    crs: Any = None,
+    budget_wh: float | None = None,
+    return_to_start: bool = False,
+    within_budget: bool = False,
+    free_turn: bool = False,
+    model: Any = None,
+    request: Any = None,
+    speed: float | None = None,
+    yaw_rate: float | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    keep_out: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = 0.9,
+    memory_cap: Any = DEFAULT_CAP,
+    n_headings: int = 16,
+    progress: bool = False,
+):
+    """Least energy from ``start`` to every cell of ``dem`` (the ``reach`` command).
+
+    Parameters
+    ----------
+    {dem}
+    start : sequence of float
+        ``(x, y)`` in the DEM's CRS (or ``crs``); moved to the centre of its cell.
+    crs : str, optional
+        CRS of ``start`` (``--points-crs``).
+    budget_wh : float, optional
+        Battery budget, Wh (``--budget-wh``): the result's area, contour and GeoJSON
+        are those within it.
+    return_to_start : bool
+        The cost of going to each cell and coming back (``--return``).
+    within_budget : bool
+        Search only as far as ``budget_wh`` (``--within-budget``; cells above it NaN).
+    free_turn : bool
+        With ``return_to_start``: headings free at the cell (``--free-turn``).
+    {common}
+    battery_wh : float, optional
+        Battery energy, Wh (``--battery-wh``): the area reached with a chance of at
+        least ``confidence`` (``result.battery``).
+    reserve_wh : float
+        Energy to keep in the battery, Wh (``--reserve-wh``).
+    confidence : float
+        Required chance that the battery suffices (``--confidence``).
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory the search may use, bytes (``--memory-cap``); a DEM file too large for
+        it is read as one window about the start that the budget can reach (needs
+        ``budget_wh``).
+    n_headings : int
+        Search headings.
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    ReachMap
+        Remembers its Problem and budget: ``write_geotiff(path)``, ``write_geojson(path)``,
+        ``plot(path)``, ``write_html(path)``, ``write_json(path)``.
+    """
+    from energy_planner.errors import PlanningConfigError
     from energy_planner.planning.reach import reach as _reach
 
-    prob = _problem(dem, model, request)
-    return _reach(prob, _pose(prob, start, crs)[:2], **kwargs)
+    if free_turn and not return_to_start:
+        raise PlanningConfigError("free_turn applies to return_to_start only",
+                                  param="free_turn", value=free_turn)  # fmt: skip
+    if within_budget and budget_wh is None:
+        raise PlanningConfigError("give budget_wh with within_budget", param="within_budget",
+                                  value=within_budget)  # fmt: skip
+    trust = _take(locals(), TRUST_KEYS)
+    given = _take(locals(), REQUEST_KEYS)
+    if isinstance(dem, str | Path):
+        from energy_planner.planning.corridor import needs_windows, reach_in_window
+
+        path = _dem(dem)
+        if needs_windows(path, memory_cap):
+            if budget_wh is None:
+                raise PlanningConfigError(
+                    f"DEM {str(path)!r} is too large for the memory cap to be searched "
+                    "whole; give budget_wh to search only the window the budget can reach",
+                    param="budget_wh", value=None,
+                )  # fmt: skip
+            if crs is not None:
+                raise ValueError("crs= is not supported on a DEM read by windows; give the "
+                                 "start in the DEM's CRS")  # fmt: skip
+            m = load_model(model) if isinstance(model, str | Path) or model is None else model
+            req = request_with(request, **given)
+            s = tuple(float(v) for v in np.asarray(start, dtype=float)[:2])
+            rm, terrain = reach_in_window(
+                path, m, s, budget_wh * 3600.0, req, cap=memory_cap,
+                round_trip=return_to_start, turn_at_cell=not free_turn, progress=progress,
+                n_headings=n_headings, **trust,
+            )  # fmt: skip
+            rm.budget_wh = budget_wh
+            return _bound(rm, Problem(terrain, m, req))
+    prob = _problem(dem, model, request, **given)
+    rm = _reach(prob, _pose(prob, start, crs)[:2], round_trip=return_to_start,
+                turn_at_cell=not free_turn, n_headings=n_headings, progress=progress,
+                max_energy=budget_wh * 3600.0 if within_budget else None, **trust)  # fmt: skip
+    rm.budget_wh = budget_wh
+    return _bound(rm, prob)
 
 
-def energy_map(dem: Any, out: str | Path, *, model: Any = None, request: Any = None,
-               **kwargs: Any):  # fmt: skip
-    """The heading-dependent energy map of ``dem``, written to ``out``.
+@verb_doc
+def energy_map(
+    dem: Any,
+    out: str | Path,
+    *,
+    model: Any = None,
+    request: Any = None,
+    headings: int = 16,
+    speed: float | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    band: int | None = None,
+    use_dask: bool | None = None,
+    client: Any = None,
+    memory_cap: Any = DEFAULT_CAP,
+    chunk: int = 512,
+    compress: str | None = None,
+    bands: str | None = None,
+    progress: bool = False,
+):
+    """The heading-dependent energy map of ``dem``, written to ``out`` (``energy-map``).
 
     A DEM path is handed to the energy map as a path, so that it decides between memory,
-    windows and dask (``memory_cap_bytes=``, ``use_dask=``).
+    windows and dask.
+
+    Parameters
+    ----------
+    {dem}
+    out : str or path
+        The GeoTIFF to write (``--out``).
+    model : EnergyModel or path, optional
+        The energy model (``--model``; default: the bundled B1-class model).
+    request : Request, optional
+        A whole request; the keywords below replace its fields.
+    headings : int
+        Number of map headings, 360/N degrees apart, the first east (``--headings``).
+    speed : float, optional
+        Nominal walking speed, m/s (``--speed``).
+    max_slope_deg, max_cross_slope_deg : float, optional
+        Slope limits: cells or headings beyond them cost inf.
+    max_backward_slope_deg, max_crab_deg : float, optional
+        Gait limits (``--max-backward-slope``, ``--max-crab``).
+    channels : dict or Channels, optional
+        Channel values (``--set``, ``--channel``), as :func:`plan` takes them.
+    allow_unknown_category : bool
+        Accept a category the model does not name (``--allow-unknown-category``).
+    band : int, optional
+        1-based band of a multi-band DEM (``--band``).
+    use_dask : bool, optional
+        Compute out of core with dask (``--dask``; None: when the DEM would not fit
+        ``memory_cap``).
+    client : distributed.Client or str, optional
+        A dask.distributed client or scheduler address (``--scheduler``); implies dask.
+    memory_cap : int, DEFAULT_CAP or NO_CAP
+        Memory the DEM may take (``--memory-cap``).
+    chunk : int
+        Chunk side of the out-of-core path, cells (``--chunk``).
+    compress : {{"zstd", "deflate", "none"}}, optional
+        GeoTIFF compression (``--compress``; default zstd).
+    bands : {{"best", "all"}}, optional
+        Bands written (``--bands``; default best).
+    progress : bool
+        Progress on stderr.
+
+    Returns
+    -------
+    EnergyMapResult
+        ``plot(path)``, ``write_html(path)``, ``write_json(path)`` (it remembers its DEM).
     """
     from energy_planner.energymap import energy_map as _em
 
-    if isinstance(dem, Problem):
-        return _em(dem, out, **kwargs)
-    return _em(dem, out, load_model(model) if isinstance(model, str | Path) or model is None
-               else model, request=request, **kwargs)  # fmt: skip
+    kwargs: dict[str, Any] = dict(headings=headings, band=band, use_dask=use_dask,
+                                  chunk=chunk, progress=progress,
+                                  memory_cap_bytes=memory_cap)  # fmt: skip
+    if compress is not None:
+        kwargs["compress"] = compress
+    if bands is not None:
+        kwargs["bands"] = bands
+    given = _take(locals(), REQUEST_KEYS)
+    own = None
+    if isinstance(client, str):
+        from distributed import Client
 
-
-def mission(dem: Any, sites: Any, *, model: Any = None, request: Any = None, **kwargs: Any):
-    """Visit ``sites`` (a file or :class:`~energy_planner.mission.Sites`) in the best order."""
-    from energy_planner.mission import mission as _mission
-
-    return _mission(_problem(dem, model, request), sites, **kwargs)
+        client = own = Client(client, timeout=30)
+    if client is not None:
+        kwargs["use_dask"] = True
+    try:
+        if isinstance(dem, Problem):
+            res = _em(_problem(dem, model, request, **given), out, **kwargs)
+        else:
+            m = load_model(model) if isinstance(model, str | Path) or model is None else model
+            res = _em(_dem(dem), out, m, request=request_with(request, **given), **kwargs)
+    finally:
+        if own is not None:
+            own.close()
+    res.dem = dem.terrain if isinstance(dem, Problem) else _dem(dem)
+    return res
 
 
 def _samples(logs: Any):

@@ -44,7 +44,113 @@ import numpy as np
 from energy_planner.errors import PlanningConfigError
 from energy_planner.request import Limits, Request
 
-__all__ = ["Problem", "takes_problem"]
+__all__ = ["REQUEST_KEYS", "Problem", "request_with", "takes_problem", "verb_doc"]
+
+#: The keywords of a verb that make its request (robot, limits, channels), named and in
+#: the units of its command's options (``--max-slope`` is ``max_slope_deg``).
+REQUEST_KEYS = ("speed", "yaw_rate", "max_slope_deg", "max_cross_slope_deg", "keep_out",
+                "max_backward_slope_deg", "max_crab_deg", "channels",
+                "allow_unknown_category")  # fmt: skip
+
+
+def request_with(base: Request | None, **given: Any) -> Request | None:
+    """``base`` (a Request or None) with the :data:`REQUEST_KEYS` given (not None) replaced.
+
+    ``channels`` as :meth:`~energy_planner.energy.channels.Channels.coerce` takes it.
+    Nothing given: ``base`` as it is (None stays None).
+
+    >>> request_with(None, max_slope_deg=25, channels={"load_kg": 10}).limits.max_slope_deg
+    25.0
+    >>> request_with(None) is None
+    True
+    """
+    from energy_planner.energy.channels import Channels
+    from energy_planner.request import RequestError
+
+    allow = bool(given.pop("allow_unknown_category", False))
+    ch = Channels.coerce(given.pop("channels", None), allow)
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given and ch is None:
+        return base
+    if base is not None and not isinstance(base, Request):
+        raise RequestError(
+            f"request must be an energy_planner.request.Request, got {type(base).__name__}",
+            field="request",
+            value=base,
+        )
+    base = base if base is not None else Request()
+    robot = {k: given.pop(k) for k in ("speed", "yaw_rate") if k in given}
+    return Request(
+        robot=dataclasses.replace(base.robot, **robot),
+        limits=dataclasses.replace(base.limits, **given),
+        channels=base.channels if ch is None else ch,
+    )
+
+
+#: Parameter texts every verb shares (numpydoc), filled in by :func:`verb_doc`.
+VERB_DOCS = {
+    "dem": """\
+dem : str, path, Terrain or Problem
+    A DEM file, a bundled map's name (``"hill"``, ``"plane"``, ``"jacksboro"``), a
+    loaded :class:`~energy_planner.terrain.Terrain`, or a :class:`Problem` (its
+    model and request, which the keywords below replace).""",
+    "common": """\
+model : EnergyModel or path, optional
+    The energy model (``--model``; default: the bundled B1-class model).
+request : Request, optional
+    A whole :class:`~energy_planner.request.Request`; the keywords below replace
+    its fields (default: the Problem's request, else ``Request()``).
+speed : float, optional
+    Nominal walking speed, m/s (``--speed``; default 0.3).
+yaw_rate : float, optional
+    Nominal turning rate, rad/s (``--yaw-rate``; default 0.5).
+max_slope_deg : float, optional
+    Steepest ground slope the path may cross, degrees (``--max-slope``).
+max_cross_slope_deg : float, optional
+    Steepest slope across the robot's body, degrees (``--max-cross-slope``).
+keep_out : path or geometries, optional
+    Keep-out polygons (``--keep-out``): a GeoJSON file or shapely geometries in the
+    DEM's CRS (:class:`~energy_planner.request.Limits`).
+max_backward_slope_deg : float, optional
+    No backward walking on ground steeper than this, degrees
+    (``--max-backward-slope``).
+max_crab_deg : float, optional
+    Largest crab angle, degrees (``--max-crab``).
+channels : dict or Channels, optional
+    Values of the extra channels the model reads (``--set``, ``--channel``): a
+    number or a category name per channel (``{"load_kg": 10, "ground": "meadow"}``),
+    a :class:`pathlib.Path` of a raster, or ``(raster, value_table)`` paths.
+allow_unknown_category : bool
+    Accept a category the model does not name (``--allow-unknown-category``).""",
+    "trust": """\
+level : float
+    Nominal coverage of the energy's prediction interval (``--level``).
+battery_wh : float, optional
+    Battery energy, Wh (``--battery-wh``): the chance that it suffices.
+reserve_wh : float
+    Energy to keep in the battery, Wh (``--reserve-wh``).
+confidence : float
+    Required chance that the battery suffices (``--confidence``).""",
+    "planning": """\
+planner : str
+    ``auto``, ``search``, ``lattice`` or an OMPL planner (``--planner``;
+    :data:`energy_planner.planning.PLANNERS`).
+time : float, optional
+    Planning budget, seconds (``--time``).
+seed : int
+    Random seed (``--seed``).""",
+}
+
+
+def verb_doc(fn: Callable) -> Callable:
+    """Fill a verb's docstring placeholders (``{dem}``, ``{common}``, ...) from :data:`VERB_DOCS`.
+
+    A placeholder stands on its own line at the docstring's indentation (4 spaces), which
+    its text's first line takes; its other lines get the same.
+    """
+    parts = {k: v.replace("\n", "\n    ") for k, v in VERB_DOCS.items()}
+    fn.__doc__ = fn.__doc__.format(**parts)
+    return fn
 
 
 def _load_model(model: Any):
@@ -109,13 +215,21 @@ class Problem:
         return cls(load_dem(dem, band=band), model, Request.make(**request))
 
     @classmethod
-    def coerce(cls, dem: Any, model: Any = None, request: Request | None = None) -> Problem:
+    def coerce(
+        cls, dem: Any, model: Any = None, request: Request | None = None, **given: Any
+    ) -> Problem:
         """A Problem as is, or one built on a Terrain or a DEM (a path or a bundled name).
 
-        What every verb does with its first argument (``ep.plan("hill", ...)``).
+        What every verb does with its first argument (``ep.plan("hill", ...)``). ``model``,
+        ``request`` and the :data:`REQUEST_KEYS` given (:func:`request_with`) replace a
+        Problem's own (the Problem itself is not changed).
         """
         if isinstance(dem, cls):
-            return dem
+            req = request_with(request if request is not None else dem.request, **given)
+            if model is None and req is dem.request:
+                return dem
+            return dem.replace(model=model, request=req)
+        request = request_with(request, **given)
         if hasattr(dem, "to_work"):
             terrain = dem
         else:
@@ -258,6 +372,7 @@ class Problem:
         cost = self.cost if gait.request == self.request else gait.cost
         pe = path_energy(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
         pe.assessment = assess_path(self.model, pe, cost, want)
+        pe.problem = self
         return pe
 
 

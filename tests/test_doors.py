@@ -95,8 +95,9 @@ def test_energy(model_file, tmp_path):
     wp.write_text(f"x,y\n{START[0]},{START[1]}\n{GOAL[0]},{GOAL[1]}\n500066,5000066\n")
     printed = cli("energy", "--dem", str(HILL), "--waypoints", str(wp), "--model",
                   str(model_file), *BATTERY_ARGS)  # fmt: skip
+    pe = ep.path_energy(HILL, wp, model=ep.load_model(model_file), **BATTERY)  # the same file
     pts = [START, GOAL, (500066.0, 5000066.0)]
-    pe = ep.path_energy(HILL, pts, model=ep.load_model(model_file), **BATTERY)
+    assert ep.path_energy(HILL, pts, model=model_file).energy_j == pe.energy_j  # or points
     inputs = {"waypoints", "dem", "working_crs", "yaw_given", "times_given", "speed",
               "yaw_rate", "channels", "notes"}  # fmt: skip
     same(printed, pe.to_dict(), inputs, "energy")
@@ -118,8 +119,8 @@ def test_reach(model_file):
     printed = cli("reach", str(HILL), "--start", "{},{}".format(*START), "--budget-wh", "1",
                   "--within-budget", "--model", str(model_file), *BATTERY_ARGS)  # fmt: skip
     prob = ep.Problem.from_dem(HILL, ep.load_model(model_file))
-    res = ep.reach(prob, START, max_energy=3600.0, **BATTERY)
-    same(printed, res.to_dict(prob.terrain, budget_wh=1.0), {"dem"}, "reach")
+    res = ep.reach(prob, START, budget_wh=1.0, within_budget=True, **BATTERY)
+    same(printed, res.to_dict(), {"dem"}, "reach")  # it remembers its terrain and budget
     assert printed["battery"]["cells"] > 0
 
 

@@ -323,3 +323,31 @@ def test_map_axes_keep_seven_digit_ticks_apart(figures, tmp_path):
     ticks = [v for v in ax.get_xticks() if lo <= v <= hi]
     assert 2 <= len(ticks) <= 5, ticks
     assert all(t.get_text().isdigit() for t in ax.get_xticklabels() if t.get_text())
+
+
+def test_energy_map_of_a_lon_lat_dem_is_in_its_own_crs(tmp_path, figures):
+    """The map is on the DEM's grid (lon/lat here): the plot too, in degrees, with units."""
+    from rasterio.transform import from_origin
+
+    from energy_planner.energymap import plot_energy_map
+    from energy_planner.energymap.core import band_names
+    from energy_planner.io import write_geotiff
+
+    names = band_names(4)
+    data = np.ones((len(names), 12, 16))
+    data[names.index("cheapest")] = np.arange(1.0, 193.0).reshape(12, 16)
+    data[names.index("cheapest_heading_deg")] = 90.0
+    left, top, res = -84.3, 36.6, 0.005  # inside the bundled lon/lat map (jacksboro)
+    tif = write_geotiff(tmp_path / "ll.tif", data, transform=from_origin(left, top, res, res),
+                        crs="EPSG:4326", names=names)  # fmt: skip
+    plot_energy_map(tif, tmp_path / "ll.png", "jacksboro")  # its hillshade, by name
+    ax, cax = figures[0].axes
+    assert ax.get_xlabel() == "longitude (EPSG:4326, deg)"
+    assert ax.get_ylabel() == "latitude (EPSG:4326, deg)"
+    assert ax.get_xlim() == pytest.approx((left, left + 16 * res))
+    assert ax.get_ylim() == pytest.approx((top - 12 * res, top))
+    assert "J per map metre" in cax.get_ylabel()
+    assert len(ax.images) >= 2  # the hillshade under the cost
+    # a degree of longitude is cos(latitude) of one of latitude on the ground
+    lat = math.radians(top - 6 * res)
+    assert ax.get_aspect() == pytest.approx(1 / math.cos(lat), rel=1e-6)

@@ -25,14 +25,16 @@ def prob():
 
 def test_a_plan_writes_its_geojson_json_and_plot(prob, tmp_path):
     res = ep.plan(prob, (500058, 5000046), (500058, 5000084), planner="search")
-    gj = json.loads(res.write_geojson(tmp_path / "p.geojson", prob.terrain).read_text())
+    # the result remembers its terrain: every writer takes the destination only
+    gj = json.loads(res.write_geojson(tmp_path / "p.geojson").read_text())
     assert gj == json.loads(json.dumps(res.to_geojson(prob.terrain)))
     props = gj["features"][0]["properties"]
     assert props["energy_j"] == pytest.approx(res.energy_j)
-    doc = json.loads(res.write_json(tmp_path / "p.json", prob.terrain).read_text())
+    doc = json.loads(res.write_json(tmp_path / "p.json").read_text())
     assert doc["energy_j"] == pytest.approx(res.energy_j)
     assert len(doc["waypoints"]) == len(res.states)
-    assert res.plot(prob.terrain, tmp_path / "p.png").read_bytes()[:8] == PNG
+    assert res.plot(tmp_path / "p.png").read_bytes()[:8] == PNG
+    assert res.plot(prob.terrain, tmp_path / "q.png").read_bytes()[:8] == PNG  # older order
 
 
 def test_a_path_energy_writes_what_it_holds_and_draws_energy_along_the_path(prob, tmp_path):
@@ -41,7 +43,7 @@ def test_a_path_energy_writes_what_it_holds_and_draws_energy_along_the_path(prob
     doc = json.loads(pe.write_json(tmp_path / "e.json").read_text())
     assert doc["energy_j"] == pytest.approx(pe.energy_j)
     assert sum(s["energy_j"] for s in doc["segments"]) == pytest.approx(pe.energy_j)
-    gj = json.loads(pe.write_geojson(tmp_path / "e.geojson", prob.terrain, native=True).read_text())
+    gj = json.loads(pe.write_geojson(tmp_path / "e.geojson", native=True).read_text())
     xy = np.array(gj["features"][0]["geometry"]["coordinates"])[:, :2]
     np.testing.assert_allclose(xy[0], pts[0], atol=1e-6)
     np.testing.assert_allclose(xy[-1], pts[-1], atol=1e-6)
@@ -50,7 +52,7 @@ def test_a_path_energy_writes_what_it_holds_and_draws_energy_along_the_path(prob
 
 def test_an_energy_map_result_draws_itself_and_writes_its_summary(prob, tmp_path):
     r = ep.energy_map(HILL, tmp_path / "m.tif", headings=8)
-    assert r.plot(tmp_path / "m.png", HILL).read_bytes()[:8] == PNG
+    assert r.plot(tmp_path / "m.png").read_bytes()[:8] == PNG  # over its own DEM
     doc = json.loads(r.write_json(tmp_path / "m.json").read_text())
     assert doc["path"] == str(r.path) and doc["headings"] == 8
 

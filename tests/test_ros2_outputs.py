@@ -300,7 +300,7 @@ def test_mission_graph_passes_the_route_servers_loader(tmp_path, hill_mission):
 
 def test_mission_bag_has_one_topic_per_leg_with_running_stamps(tmp_path, hill_mission):
     prob, res = hill_mission
-    res.write_bag(tmp_path / "m", prob.terrain)
+    res.write_bag(tmp_path / "m")
     msgs = _messages(tmp_path / "m")
     assert sorted(msgs) == [f"/energy_planner/mission/leg_{k}" for k in range(len(res.legs))]
     end = 0.0
@@ -320,8 +320,8 @@ def test_compare_routes_bag_has_one_topic_per_route(tmp_path):
     comp = compare_routes(prob, (500004.5, 5000004.5), (500030.5, 5000030.5), time=0.5,
                           progress=False)  # fmt: skip
     with pytest.raises(WaypointError, match="give the request"):  # planned at 0.5 m/s
-        comp.write_bag(tmp_path / "wrong", prob.terrain)
-    comp.write_bag(tmp_path / "r", prob.terrain, request=prob.request)
+        comp.write_bag(tmp_path / "wrong", request=Request())
+    comp.write_bag(tmp_path / "r")  # with the terrain and request it was planned on
     msgs = _messages(tmp_path / "r")
     routes = [r for r in comp.routes if r.states is not None and r.energy_j is not None]
     assert sorted(msgs) == sorted(f"/energy_planner/routes/{r.name}" for r in routes)

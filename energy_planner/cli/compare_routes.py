@@ -75,18 +75,20 @@ def command(
     and each route's prediction interval (``--level``) and, with ``--battery-wh``, the
     chance that it fits in the battery (``--refuse`` judges the energy-optimal route).
     """
+    from energy_planner.api import compare_routes
+    from energy_planner.cli.plan import _xy_yaw
     from energy_planner.errors import EnergyPlannerError, InvalidStateError, MissingChannelError
-    from energy_planner.planning.compare import compare_routes
-    from energy_planner.problem import Problem
     from energy_planner.uncertainty import BatteryError
 
     terrain = load_terrain(dem)
     model = load_model_option(model_path)
-    s = point_to_work(terrain, start, "--start", True)
-    g = point_to_work(terrain, goal, "--goal", True)
+    s = _xy_yaw(point_to_work(terrain, start, "--start", True))
+    g = _xy_yaw(point_to_work(terrain, goal, "--goal", True))
     try:
-        comp = compare_routes(Problem(terrain, model, request), s, g, **search, progress=True,
-                              trust=trust)  # fmt: skip
+        comp = compare_routes(terrain, s, g, crs=terrain.crs, model=model, request=request,
+                              **search, level=trust.level, battery_wh=trust.battery_wh,
+                              reserve_wh=trust.reserve_wh, confidence=trust.confidence,
+                              progress=True)  # fmt: skip
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     except InvalidStateError as exc:
@@ -96,14 +98,10 @@ def command(
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc  # --keep-out errors name the option (exit 2)
-    result = comp.to_dict(terrain)
+    result = comp.to_dict()
     for r in comp.routes:
         options.judge(r, trust, label=r.name, judged=r.name == "energy_optimal")
-    options.write_output(result, "plot", plot, lambda p: comp.plot(terrain, p, request=request))
-    options.write_output(
-        result, "html", html, lambda p: comp.write_html(p, Problem(terrain, model, request))
-    )
-    options.write_bag_output(
-        result, bag, lambda p: comp.write_bag(p, terrain, request=request, frame=bag_frame)
-    )
+    options.write_output(result, "plot", plot, comp.plot)
+    options.write_output(result, "html", html, comp.write_html)
+    options.write_bag_output(result, bag, lambda p: comp.write_bag(p, frame=bag_frame))
     options.emit(result, as_json, lambda res: format_table(comp, res))

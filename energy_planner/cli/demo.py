@@ -122,8 +122,8 @@ def command(
                               progress=True)  # fmt: skip
     except MissingChannelError as exc:
         raise click.BadParameter(str(exc), param_hint="--set/--channel") from exc
-    res = comp.to_dict(terrain)
-    comp.plot(terrain, plot, title=f"energy-planner demo: {scenario_name}", request=request)
+    res = comp.to_dict()  # the comparison remembers its terrain and request
+    comp.plot(plot, title=f"energy-planner demo: {scenario_name}")
     res.update(
         scenario=scenario_name,
         description=sc["description"],

@@ -153,32 +153,19 @@ def command(
     computed on its UTM working grid and resampled back (bilinear), headings then CCW
     from the DEM's local east (the meridian convergence applied).
     """
-    from energy_planner.energymap import energy_map, plot_energy_map
+    from energy_planner.api import energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError
-    from energy_planner.request import Limits, Request, Robot
 
     cap = parse_memory_cap(memory_cap)
     model = load_model_option(model_path)
     ch = channels_from_options(sets, channels)
-    request = Request(robot=Robot(speed=speed), limits=Limits(**gait_limits()), channels=ch)
-    client = None
-    if scheduler is not None:
-        from distributed import Client
-
-        try:
-            client = Client(scheduler, timeout=30)
-        except (OSError, TimeoutError) as exc:
-            raise click.BadParameter(
-                f"cannot reach the dask scheduler {scheduler!r}: {exc}", param_hint="--scheduler"
-            ) from exc
-        use_dask = True
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UserWarning)
             res = energy_map(
-                dem, out, model, headings=headings, request=request, band=band,
-                use_dask=use_dask, memory_cap_bytes=cap, chunk=chunk, compress=compress,
-                bands=bands, progress=True,
+                dem, out, model=model, headings=headings, speed=speed, **gait_limits(),
+                channels=ch, band=band, use_dask=use_dask, client=scheduler,
+                memory_cap=cap, chunk=chunk, compress=compress, bands=bands, progress=True,
             )  # fmt: skip
     except DEMIOError as exc:
         raise click.BadParameter(str(exc), param_hint="DEM") from exc
@@ -187,12 +174,14 @@ def command(
         raise click.BadParameter(str(exc), param_hint=hint) from exc
     except EnergyPlannerError as exc:
         raise click.ClickException(str(exc)) from exc
-    finally:
-        if client is not None:
-            client.close()
+    except (OSError, TimeoutError) as exc:
+        if scheduler is None:
+            raise
+        raise click.BadParameter(
+            f"cannot reach the dask scheduler {scheduler!r}: {exc}", param_hint="--scheduler"
+        ) from exc
     result = res.to_dict()
     result["notes"] += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
-    if plot is not None:
-        result["plot"] = str(plot_energy_map(out, plot, dem))
-    options.write_output(result, "html", html, lambda p: res.write_html(p, dem))
+    options.write_output(result, "plot", plot, res.plot)
+    options.write_output(result, "html", html, res.write_html)
     options.emit(result, as_json, format_table)

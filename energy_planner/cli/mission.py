@@ -128,9 +128,9 @@ def command(
     Held-Karp (exact) or OR-Tools beyond 15 sites, and each leg is then planned from its
     site to the next as `plan` plans it.
     """
+    from energy_planner.api import mission
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.mission import mission, read_sites
-    from energy_planner.problem import Problem
+    from energy_planner.mission import read_sites
     from energy_planner.uncertainty import BatteryError
 
     terrain = load_terrain(dem)
@@ -139,43 +139,27 @@ def command(
         s = read_sites(sites, terrain)
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--sites") from exc
-    client = None
-    if scheduler is not None:
-        from distributed import Client
-
-        client = Client(scheduler)
     try:
-        problem = Problem(terrain, model, request)
-        res = mission(problem, s, order=order,
-                      return_to_start=return_to_start, eps=eps, client=client,
-                      progress=True, trust=trust)  # fmt: skip
+        res = mission(terrain, s, order=order, return_to_start=return_to_start, eps=eps,
+                      client=scheduler, model=model, request=request, level=trust.level,
+                      battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
+                      confidence=trust.confidence, progress=True)  # fmt: skip
     except BatteryError as exc:
         raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
     except EnergyPlannerError as exc:
         raise planning_error(exc) from exc
-    finally:
-        if client is not None:
-            client.close()
     out = res.to_dict()
     out["dem"] = str(dem)
     options.judge(res, trust)
-    options.write_geojson_output(
-        out, "geojson", geojson, lambda: res.to_geojson(terrain, native=geojson_crs == "dem")
-    )
-    options.write_output(out, "plot", plot, lambda p: res.plot(terrain, p, request=request))
-    options.write_output(
-        out,
-        "html",
-        html,
-        lambda p: res.write_html(p, problem, battery=out.get("battery_legs")),
-    )
-    options.write_bag_output(
-        out, bag, lambda p: res.write_bag(p, terrain, request=request, frame=bag_frame)
-    )
+    options.write_output(out, "geojson", geojson,
+                         lambda p: res.write_geojson(p, native=geojson_crs == "dem"))  # fmt: skip
+    options.write_output(out, "plot", plot, res.plot)
+    options.write_output(out, "html", html, res.write_html)
+    options.write_bag_output(out, bag, lambda p: res.write_bag(p, frame=bag_frame))
     if nav2_graph is not None:
         try:
             graph = res.write_nav2_graph(
-                nav2_graph, problem, eps=eps, level=trust.level, battery_wh=trust.battery_wh,
+                nav2_graph, eps=eps, level=trust.level, battery_wh=trust.battery_wh,
                 reserve_wh=trust.reserve_wh, confidence=trust.confidence, frame=bag_frame,
                 progress=True,
             )  # fmt: skip

@@ -248,83 +248,54 @@ def command(
     is read by windows about the start and the goal (a corridor); the output says
     whether the window is proven to hold every cheaper path.
     """
-    from energy_planner.energy.path import check_cost_power
+    from energy_planner.api import plan
     from energy_planner.errors import (
         DEMError,
         DEMIOError,
         EnergyPlannerError,
         RasterTooLargeError,
     )
-    from energy_planner.planning.plan import plan
-    from energy_planner.problem import Problem
     from energy_planner.uncertainty import BatteryError
+    from energy_planner.uncertainty.domain import DomainError
 
     model = load_model_option(model_path)
-    domain_notes: list[str] = []
-
-    def keep_in_domain(terrain: Any) -> None:
-        nonlocal request
-        from energy_planner.uncertainty import stay_in_domain as stay
-        from energy_planner.uncertainty.domain import DomainError
-
-        try:
-            request, notes = stay(request, model, terrain)
-        except DomainError as exc:
-            raise click.BadParameter(str(exc), param_hint="--stay-in-domain") from exc
-        domain_notes.extend(notes)
-
     cap = parse_memory_cap(memory_cap)
-    kwargs = dict(search, step=step, eps=eps)
-    if over_memory_cap(dem, cap):
-        from energy_planner.planning.corridor import plan_in_corridor
-
+    if over_memory_cap(dem, cap):  # the library plans it by windows; points in the DEM's CRS
+        where, crs = dem, None
         s = point_in_dem_crs(start, "--start", True)
         g = point_in_dem_crs(goal, "--goal", True)
-        if stay_in_domain:
-            keep_in_domain(None)
-            if request.channels is not None and request.channels.rasters:
-                domain_notes.append("raster channels are not masked to the domain when "
-                                    "planning by windows")  # fmt: skip
-        try:
-            res, terrain = plan_in_corridor(dem, model, s, g, request, cap=cap, progress=True,
-                                            trust=trust, **kwargs)  # fmt: skip
-            check_cost_power(Problem(terrain, model, request).cost)
-        except RasterTooLargeError as exc:
-            raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
-        except (DEMError, DEMIOError) as exc:
-            raise click.BadParameter(str(exc), param_hint="--dem") from exc
-        except BatteryError as exc:
-            raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
-        except EnergyPlannerError as exc:
-            raise planning_error(exc, "a coarser --step or a larger --eps") from exc
     else:
-        terrain = load_terrain(dem)
-        if stay_in_domain:
-            keep_in_domain(terrain)
-        s = point_to_work(terrain, start, "--start", True)
-        g = point_to_work(terrain, goal, "--goal", True)
-        try:
-            # a model that prices walking on this map at <= 0 W would plan a free route
-            problem = Problem(terrain, model, request)
-            check_cost_power(problem.cost)
-            res = plan(problem, s, g, progress=True, trust=trust, **kwargs)
-        except BatteryError as exc:
-            raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
-        except EnergyPlannerError as exc:
-            raise planning_error(exc, "a coarser --step or a larger --eps") from exc
-    result = res.to_dict(terrain)
+        where = load_terrain(dem)
+        crs = where.crs
+        s, g = (_xy_yaw(point_to_work(where, p, f"--{h}", True))
+                for p, h in ((start, "start"), (goal, "goal")))  # fmt: skip
+    try:
+        res = plan(where, s, g, crs=crs, model=model, request=request, **search, step=step,
+                   eps=eps, memory_cap=cap, stay_in_domain=stay_in_domain, level=trust.level,
+                   battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
+                   confidence=trust.confidence, progress=True)  # fmt: skip
+    except RasterTooLargeError as exc:
+        raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
+    except (DEMError, DEMIOError) as exc:
+        raise click.BadParameter(str(exc), param_hint="--dem") from exc
+    except DomainError as exc:
+        raise click.BadParameter(str(exc), param_hint="--stay-in-domain") from exc
+    except BatteryError as exc:
+        raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc
+    except EnergyPlannerError as exc:
+        raise planning_error(exc, "a coarser --step or a larger --eps") from exc
+    terrain, request = res.problem.terrain, res.problem.request
+    result = res.to_dict()
     result.update(plan_context(terrain, request, model, model_path))
-    if stay_in_domain:
-        result["stay_in_domain"] = domain_notes
     options.judge(res, trust)
-    options.write_output(
-        result, "out", out, lambda p: res.write_geojson(p, terrain, native=geojson_crs == "dem")
-    )
-    options.write_output(result, "plot", plot, lambda p: res.plot(terrain, p, request=request))
-    options.write_output(
-        result, "html", html, lambda p: res.write_html(p, Problem(terrain, model, request))
-    )
-    options.write_bag_output(
-        result, bag, lambda p: res.write_bag(p, terrain, request=request, frame=bag_frame)
-    )
+    options.write_output(result, "out", out,
+                         lambda p: res.write_geojson(p, native=geojson_crs == "dem"))  # fmt: skip
+    options.write_output(result, "plot", plot, res.plot)
+    options.write_output(result, "html", html, res.write_html)
+    options.write_bag_output(result, bag, lambda p: res.write_bag(p, frame=bag_frame))
     options.emit(result, as_json, lambda r: format_table(r) + "\n" + res.assessment.text())
+
+
+def _xy_yaw(p: tuple) -> tuple:
+    """``(x, y, yaw | None)`` as ``(x, y)`` or ``(x, y, yaw)`` (what the verbs take)."""
+    return p[:2] if p[2] is None else p

@@ -157,33 +157,16 @@ def command(
             param_hint="--budget-wh",
         )
     model = load_model_option(model_path)
-    trust = options.Trust(battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)
-    res, terrain = _run_reach(
-        dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
-        within_budget, trust,
-    )  # fmt: skip
-    result = {"dem": str(dem), **res.to_dict(terrain, budget_wh)}
-    if res.battery is not None:
-        usable = res.battery["usable_wh"] * 3600.0
-        write = lambda p: res.write_chance_geotiff(terrain, p, model, usable)  # noqa: E731
-        options.write_output(result, "chance_out", chance_out, write)
-    budget_j = None if budget_wh is None else budget_wh * 3600.0
-    if res.battery is not None:
-        budget_j = res.battery["confident_budget_wh"] * 3600.0
-    options.write_output(result, "out", out, lambda p: res.write_geotiff(terrain, p))
+    res = _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
+                     free_turn, within_budget, battery_wh, reserve_wh, confidence)  # fmt: skip
+    result = {"dem": str(dem), **res.to_dict()}
+    options.write_output(result, "chance_out", chance_out, res.write_chance_geotiff)
+    options.write_output(result, "out", out, res.write_geotiff)
     native = geojson_crs == "dem"
-    options.write_geojson_output(result, "geojson", geojson,
-                                 lambda: res.area_geojson(terrain, budget_j, native=native),
-                                 indent=None)  # fmt: skip
-    options.write_output(result, "plot", plot,
-                         lambda p: res.plot(terrain, p, budget_j, request=request))  # fmt: skip
-    usable_j = None if battery_wh is None else (battery_wh - reserve_wh) * 3600.0
-    options.write_output(
-        result,
-        "html",
-        html,
-        lambda p: res.write_html(p, terrain, budget_j, model=model, usable_j=usable_j),
-    )
+    options.write_output(result, "geojson", geojson,
+                         lambda p: res.write_geojson(p, native=native))  # fmt: skip
+    options.write_output(result, "plot", plot, res.plot)
+    options.write_output(result, "html", html, res.write_html)
     options.emit(result, as_json, _text)
 
 
@@ -212,49 +195,43 @@ def _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, bat
 
 
 def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
-               within_budget, trust):  # fmt: skip
-    """The reach map and its terrain: the DEM whole, or one window within ``cap``.
+               within_budget, battery_wh, reserve_wh, confidence):  # fmt: skip
+    """The reach map (:func:`energy_planner.api.reach`): the DEM whole, or one window.
 
     Errors become ``click.BadParameter`` naming the option to change (exit 2).
     """
     import warnings
 
+    from energy_planner.api import reach
     from energy_planner.errors import (
+        DEMError,
+        DEMIOError,
         EnergyPlannerError,
         InvalidStateError,
         MissingChannelError,
+        RasterTooLargeError,
         ReachEdgeWarning,
     )
-    from energy_planner.planning.reach import reach
-    from energy_planner.problem import Problem
     from energy_planner.uncertainty import BatteryError
 
+    if windowed:  # the library reads the window; the start in the DEM's CRS
+        where, crs, s = dem, None, point_in_dem_crs(start, "--start", False)
+    else:
+        where = load_terrain(dem)
+        crs, s = where.crs, point_to_work(where, start, "--start", False)[:2]
     try:
-        with warnings.catch_warnings():  # the CLI reports the map's edge for each budget below
+        with warnings.catch_warnings():  # the CLI reports the map's edge for each budget
             warnings.filterwarnings("ignore", category=ReachEdgeWarning)
-            if windowed:
-                from energy_planner.errors import DEMError, DEMIOError, RasterTooLargeError
-                from energy_planner.planning.corridor import reach_in_window
-
-                s = point_in_dem_crs(start, "--start", False)
-                try:
-                    return reach_in_window(
-                        dem, model, s, budget_wh * 3600.0, request, cap=cap,
-                        round_trip=round_trip, turn_at_cell=not free_turn, progress=True,
-                        trust=trust,
-                    )  # fmt: skip
-                except RasterTooLargeError as exc:
-                    raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
-                except (DEMError, DEMIOError) as exc:
-                    raise click.BadParameter(str(exc), param_hint="--dem") from exc
-            terrain = load_terrain(dem)
-            s = point_to_work(terrain, start, "--start", False)
-            res = reach(
-                Problem(terrain, model, request), s[:2], round_trip=round_trip,
-                turn_at_cell=not free_turn, progress=True,
-                max_energy=budget_wh * 3600.0 if within_budget else None, trust=trust,
+            return reach(
+                where, s, crs=crs, budget_wh=budget_wh, return_to_start=round_trip,
+                within_budget=within_budget, free_turn=free_turn, model=model,
+                request=request, battery_wh=battery_wh, reserve_wh=reserve_wh,
+                confidence=confidence, memory_cap=cap, progress=True,
             )  # fmt: skip
-            return res, terrain
+    except RasterTooLargeError as exc:
+        raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc
+    except (DEMError, DEMIOError) as exc:
+        raise click.BadParameter(str(exc), param_hint="--dem") from exc
     except InvalidStateError as exc:
         raise click.BadParameter(str(exc), param_hint="--start") from exc
     except BatteryError as exc:

@@ -182,7 +182,7 @@ def _text(r: dict[str, Any]) -> str:
 @options.command(
     "terrain",
     "energy-planner terrain hill --slope-out slope.tif --aspect-out aspect.tif",
-    "energy-planner terrain maps/jacksboro_fault_dem.tif --plot jacksboro.png --json",
+    "energy-planner terrain jacksboro --plot jacksboro.png --json",
 )
 @click.argument("dem", metavar="DEM")
 @options.band_option

@@ -414,6 +414,39 @@ class Channels:
 
     # ------------------------------------------------------------------ building
     @classmethod
+    def coerce(cls, value: Any, allow_unknown_categories: bool = False) -> Channels | None:
+        """The channels of a verb's ``channels=`` keyword (None stays None).
+
+        A :class:`Channels` as it is; a mapping of channel name to a number or a category
+        name (``--set``), a :class:`pathlib.Path` of a raster or ``(raster, table)``
+        paths (``--channel``), or a :class:`ChannelRaster`.
+
+        >>> Channels.coerce({"load_kg": 10, "ground": "meadow"}).constants
+        {'load_kg': 10.0, 'ground': 'meadow'}
+        """
+        if value is None:
+            return cls(allow_unknown_categories=True) if allow_unknown_categories else None
+        if isinstance(value, Channels):
+            if allow_unknown_categories and not value.allow_unknown_categories:
+                import dataclasses
+
+                return dataclasses.replace(value, allow_unknown_categories=True)
+            return value
+        consts: dict[str, Any] = {}
+        rasters: dict[str, ChannelRaster] = {}
+        for name, v in dict(value).items():
+            if isinstance(v, ChannelRaster):
+                rasters[name] = v
+            elif isinstance(v, Path):
+                rasters[name] = ChannelRaster(name, v, None)
+            elif isinstance(v, tuple) and len(v) == 2:
+                rasters[name] = ChannelRaster(name, Path(v[0]),
+                                              None if v[1] is None else Path(v[1]))  # fmt: skip
+            else:
+                consts[name] = v
+        return cls(consts, rasters, allow_unknown_categories=allow_unknown_categories)
+
+    @classmethod
     def parse(
         cls,
         sets: Sequence[str] = (),

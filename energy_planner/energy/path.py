@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -33,6 +33,7 @@ from energy_planner.energy.kernels import (
 from energy_planner.energy.motion import MotionCost
 from energy_planner.errors import EnergyPlannerError, NonPositivePowerError, OutsideMapError
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
+from energy_planner.results import Result
 from energy_planner.trust import Assessed
 
 if TYPE_CHECKING:  # the table is made without pandas: ``segments`` imports it on use
@@ -64,8 +65,8 @@ SEGMENT_COLUMNS = [
 ]
 
 
-@dataclass
-class PathEnergy(Assessed):
+@dataclass(repr=False)
+class PathEnergy(Result, Assessed):
     """Energy breakdown of a path.
 
     Attributes
@@ -143,15 +144,19 @@ class PathEnergy(Assessed):
 
         return write_json(path, self.to_dict())
 
-    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
-        """The executed poses as the project's GeoJSON path document, with the totals."""
+    def to_geojson(self, terrain: Any = None, *, native: bool = False) -> dict[str, Any]:
+        """The executed poses as the project's GeoJSON path document, with the totals.
+
+        ``terrain``: default the one the energy was computed on.
+        """
         from energy_planner.geojson import path_document_from_work
 
         props = {"energy_j": self.energy_j, "distance_m": self.distance_m,
                  "duration_s": self.duration_s}  # fmt: skip
-        return path_document_from_work(terrain, self.poses, properties=props, native=native)
+        return path_document_from_work(self._terrain(terrain), self.poses, properties=props,
+                                       native=native)  # fmt: skip
 
-    def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
+    def write_geojson(self, path: Any, terrain: Any = None, *, native: bool = False) -> Any:
         """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
         from energy_planner.io import write_geojson
 
@@ -496,6 +501,56 @@ def vertex_times(
             expected=f"{duration_s:.6g} s",
         )
     return t
+
+
+def write_paths_bag(
+    path: Any,
+    paths: Sequence[tuple[str, Any, float, str, dict[str, Any]]],
+    terrain: Any,
+    request: Any = None,
+    *,
+    frame: str = "map",
+    storage: str = "mcap",
+    origin: Sequence[float] | None = None,
+    chain: bool = False,
+) -> dict[str, Any]:
+    """Write planned paths into a new ROS 2 bag, each stamped as :func:`vertex_times` times it.
+
+    The one writer of every result's ``write_bag``
+    (:meth:`~energy_planner.planning.plan.PlanResult.write_bag`, a route comparison's,
+    a mission's).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The bag folder to create.
+    paths : sequence of (topic, states, duration_s, what, info)
+        Each path's topic, poses (n, 3, working CRS), its own duration (checked against
+        the times), its name in errors and the metadata of its topic.
+    terrain, request
+        The map and the request the paths were planned with (their speed and yaw rate).
+    frame, storage, origin
+        As :func:`energy_planner.io.ros2.write_path_bag`.
+    chain : bool
+        Each path starts when the one before ends (a mission's legs; ``info`` gets
+        ``start_s``); default: each from 0.
+
+    Returns
+    -------
+    dict
+        The frame and conventions (:meth:`energy_planner.io.ros2.MapFrame.to_dict`).
+    """
+    from energy_planner.io.ros2 import write_path_bag
+
+    stamped, info, start = {}, {}, 0.0
+    for topic, states, duration_s, what, meta in paths:
+        t = vertex_times(terrain, states, request, duration_s=duration_s, what=what)
+        stamped[topic] = (states, start + t if chain else t)
+        info[topic] = {**meta, "start_s": start} if chain else dict(meta)
+        if chain:
+            start += float(t[-1])
+    return write_path_bag(path, stamped, terrain, frame=frame, origin=origin, storage=storage,
+                          info=info)  # fmt: skip
 
 
 def face_along_poses(xy: Any) -> np.ndarray:

@@ -513,11 +513,17 @@ def energy_map(
                 "give the model and request in the Problem, not again as model=/request="
             )
         dem, model, request = dem.terrain, dem.model, dem.request
+    elif isinstance(dem, str | Path):
+        from energy_planner.maps import resolve
+
+        dem = resolve(dem)  # a file, or a bundled map's name ("hill")
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
-        return _energy_map(
+        res = _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
             chunk, progress, compress, bands,
         )  # fmt: skip
+    res.dem = dem
+    return res
 
 
 def _energy_map(

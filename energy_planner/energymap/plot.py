@@ -53,7 +53,9 @@ def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) ->
             dst_nodata=np.nan, resampling=Resampling.average,
         )  # fmt: skip
     else:
-        with rasterio.open(dem) as src:
+        from energy_planner.maps import resolve
+
+        with rasterio.open(resolve(dem)) as src:  # a file, or a bundled map's name
             reproject(
                 source=rasterio.band(src, 1), destination=z, src_transform=src.transform,
                 src_crs=src.crs or crs, src_nodata=src.nodata, dst_transform=transform,

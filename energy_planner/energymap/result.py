@@ -17,6 +17,7 @@ import numpy as np
 
 from energy_planner.energymap.bands import DEM_EAST, GRID_EAST, band_descriptions
 from energy_planner.energymap.setup import _Setup
+from energy_planner.results import Result
 
 __all__ = ["EnergyMapResult", "sample_band"]
 
@@ -42,8 +43,8 @@ def _tile(cols: int, nbands: int) -> int:
     return _BIG_TILE if _BIG_TILE * _bytes_per_row(cols, nbands) <= _BIG_TILE_BYTES else _TILE
 
 
-@dataclass
-class EnergyMapResult:
+@dataclass(repr=False)
+class EnergyMapResult(Result):
     """What :func:`energy_map` wrote and how.
 
     Attributes
@@ -68,6 +69,9 @@ class EnergyMapResult:
         Summary of the cheapest cost and the anisotropy over valid cells.
     notes : list of str
         Decisions a reader should know (grid, ignored options).
+    dem : path or Terrain or None
+        The DEM the map was computed from (the hillshade of :meth:`plot` and
+        :meth:`write_html`).
     """
 
     path: Path
@@ -82,23 +86,27 @@ class EnergyMapResult:
     notes: list[str] = field(default_factory=list)
     channels: dict[str, Any] = field(default_factory=dict)
     heading_convention: str = GRID_EAST
+    dem: Any = field(default=None, repr=False, compare=False)
 
     def write_html(self, path: str | Path, dem: Any = None) -> Path:
         """One self-contained HTML page with a band chooser.
 
         See :func:`energy_planner.energymap.plot.energy_map_page`.
 
-        ``dem`` (a path or Terrain) gives the hillshade underneath.
+        ``dem`` (a path or Terrain; default the map's own) gives the hillshade underneath.
         """
         from energy_planner.energymap.plot import energy_map_page
 
-        return energy_map_page(self.path, dem, path)
+        return energy_map_page(self.path, self.dem if dem is None else dem, path)
 
     def plot(self, png: str | Path, dem: Any = None) -> Path:
-        """Draw the map (:func:`~energy_planner.energymap.plot.plot_energy_map`) to ``png``."""
+        """Draw the map (:func:`~energy_planner.energymap.plot.plot_energy_map`) to ``png``.
+
+        ``dem`` (a path or Terrain; default the map's own) gives the hillshade underneath.
+        """
         from energy_planner.energymap.plot import plot_energy_map
 
-        return plot_energy_map(self.path, png, dem)
+        return plot_energy_map(self.path, png, self.dem if dem is None else dem)
 
     def write_json(self, path: str | Path) -> Path:
         """Write :meth:`to_dict` to ``path`` atomically; returns the path."""

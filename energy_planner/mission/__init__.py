@@ -35,10 +35,29 @@ class _VerbModule(types.ModuleType):
     whatever was imported first.
     """
 
-    def __call__(self, dem, sites, *, model=None, request=None, **kwargs):
-        from energy_planner.problem import Problem
+    def __call__(self, *args, **kwargs):
+        from energy_planner.mission.verb import mission as verb
 
-        return mission(Problem.coerce(dem, model, request), sites, **kwargs)
+        return verb(*args, **kwargs)
+
+    @property
+    def __signature__(self):
+        """The verb's signature (``inspect.signature(ep.mission)``, ``help``'s first line)."""
+        import inspect
+
+        from energy_planner.mission.verb import mission as verb
+
+        return inspect.signature(verb)
 
 
 sys.modules[__name__].__class__ = _VerbModule
+
+
+def _verb_help() -> str:
+    """The package's help ends with the verb's, so ``help(ep.mission)`` lists its options."""
+    from energy_planner.mission.verb import mission as verb
+
+    return f"{__doc__}\n\nCalled as ``ep.mission(dem, sites, ...)``: {verb.__doc__}"
+
+
+__doc__ = _verb_help()

@@ -33,6 +33,7 @@ from energy_planner.errors import PlanningError
 from energy_planner.mission.sites import Sites
 from energy_planner.mission.tour import order_sites
 from energy_planner.problem import takes_problem
+from energy_planner.results import Result, path_first
 from energy_planner.trust import Assessed, Assessment
 
 __all__ = ["Leg", "MissionResult", "energy_matrix", "mission"]
@@ -57,8 +58,8 @@ class Leg(Assessed):
     assessment: Any = field(default=None, repr=False, compare=False)
 
 
-@dataclass
-class MissionResult(Assessed):
+@dataclass(repr=False)
+class MissionResult(Result, Assessed):
     """A planned mission: the order, its legs, totals and the energy matrix.
 
     Attributes
@@ -81,6 +82,9 @@ class MissionResult(Assessed):
     battery_legs : dict or None
         With a battery: :meth:`battery_by_leg` of the tour (the chance after each leg, where the
         reserve is crossed).
+    problem : Problem or None
+        The terrain, model and request it was planned on
+        (:class:`~energy_planner.results.Result`): the writers need no terrain.
     """
 
     sites: Sites
@@ -159,7 +163,19 @@ class MissionResult(Assessed):
         trust = Trust(battery_wh=battery_wh, reserve_wh=reserve_wh, confidence=confidence)
         return _battery_legs(self, model, trust, set_legs=False)[0]
 
-    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
+    def write_json(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict())
+
+    def write_geojson(self, path: str | Path, terrain: Any = None, *, native: bool = False) -> Path:
+        """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_geojson
+
+        return write_geojson(path, self.to_geojson(terrain, native=native))
+
+    def to_geojson(self, terrain: Any = None, *, native: bool = False) -> dict[str, Any]:
         """RFC 7946 FeatureCollection: one LineString per leg and one Point per site."""
         from shapely.geometry import LineString, Point
 
@@ -174,24 +190,32 @@ class MissionResult(Assessed):
         for i in self.order:
             geoms.append(Point(self.sites.xy[i]))
             props.append({"site": self.sites.names[i], "visit": self.order.index(i)})
-        return feature_collection(zip(geoms, props, strict=True), crs=terrain.crs, native=native)
+        crs = self._terrain(terrain).crs
+        return feature_collection(zip(geoms, props, strict=True), crs=crs, native=native)
 
-    def write_html(self, path: str | Path, problem: Any, battery: dict | None = None) -> Path:
+    def write_html(
+        self, path: str | Path, problem: Any = None, battery: dict | None = None
+    ) -> Path:
         """One self-contained HTML page (:func:`energy_planner.webmap.mission_page`).
 
-        ``battery`` is :meth:`battery_by_leg`'s result (default: :attr:`battery_legs`, set
-        when the mission was planned with a battery): each leg's hover gives its chance.
+        ``problem``: default the one the mission was planned on. ``battery`` is
+        :meth:`battery_by_leg`'s result (default: :attr:`battery_legs`, set when the
+        mission was planned with a battery): each leg's hover gives its chance.
         """
         from energy_planner.webmap import mission_page
 
-        return mission_page(problem, self, path, battery or self.battery_legs)
+        return mission_page(self._problem_for(problem), self, path,
+                            battery or self.battery_legs)  # fmt: skip
 
-    def plot(self, terrain, path: str | Path, request: Any = None) -> Path:
+    def plot(self, path: str | Path, terrain: Any = None, request: Any = None) -> Path:
         """PNG: legs over a hillshade, sites numbered in visiting order.
 
-        ``request`` adds its keep-outs, slope-limit mask and channel rasters
-        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        The request it was planned with (or ``request``) adds its keep-outs, slope-limit
+        mask and channel rasters (:func:`energy_planner.plotting.draw_request`). The axes
+        name the working CRS.
         """
+        path, terrain = path_first(path, terrain)
+        terrain, request = self._terrain(terrain), self._request(request)
         import matplotlib
 
         matplotlib.use("Agg")
@@ -236,7 +260,7 @@ class MissionResult(Assessed):
     def write_bag(
         self,
         path: str | Path,
-        terrain,
+        terrain: Any = None,
         *,
         request: Any = None,
         frame: str = "map",
@@ -248,40 +272,37 @@ class MissionResult(Assessed):
         that a robot can follow one leg, stop at its site and take the next. The stamps
         run on through the mission (leg ``k`` starts when leg ``k - 1`` ends); frame
         and stamps as :meth:`energy_planner.planning.plan.PlanResult.write_bag`
-        (``request``: the one the mission was planned with). Returns the frame and
-        conventions.
+        (``request``: by default the one the mission was planned with). Returns the frame
+        and conventions.
         """
-        from energy_planner.energy.path import vertex_times
-        from energy_planner.io.ros2 import write_path_bag
+        from energy_planner.energy.path import write_paths_bag
 
-        paths, info, start = {}, {}, 0.0
         names = self.sites.names
-        for k, leg in enumerate(self.legs):
-            topic = f"/energy_planner/mission/leg_{k}"
-            t = vertex_times(
-                terrain, leg.states, request, duration_s=leg.duration_s, what=f"leg {k}"
-            )
-            paths[topic] = (leg.states, start + t)
-            info[topic] = {"leg": k, "from": names[leg.a], "to": names[leg.b],
-                           "energy_j": leg.energy_j, "distance_m": leg.distance_m,
-                           "duration_s": leg.duration_s, "start_s": start}  # fmt: skip
-            start += float(t[-1])
-        return write_path_bag(path, paths, terrain, frame=frame, storage=storage, info=info)
+        paths = [
+            (f"/energy_planner/mission/leg_{k}", leg.states, leg.duration_s, f"leg {k}",
+             {"leg": k, "from": names[leg.a], "to": names[leg.b], "energy_j": leg.energy_j,
+              "distance_m": leg.distance_m, "duration_s": leg.duration_s})
+            for k, leg in enumerate(self.legs)
+        ]  # fmt: skip
+        return write_paths_bag(path, paths, self._terrain(terrain), self._request(request),
+                               frame=frame, storage=storage, chain=True)  # fmt: skip
 
-    def write_nav2_graph(self, path: str | Path, problem: Any, **options: Any) -> dict[str, Any]:
+    def write_nav2_graph(
+        self, path: str | Path, problem: Any = None, **options: Any
+    ) -> dict[str, Any]:
         """Write the sites and legs as a Nav2 Route Server graph (GeoJSON) at ``path``.
 
         Every ordered pair of sites is a directed edge whose ``cost`` is its energy in J
         (both directions, each with its own cost), with its duration, interval and, with
         a battery, its chance in ``metadata``; the pairs outside the tour are planned on
-        ``problem`` (the one the mission was planned on). ``options``: ``eps``,
+        ``problem`` (default: the one the mission was planned on). ``options``: ``eps``,
         ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``, ``frame``,
         ``progress`` (:func:`energy_planner.mission.graph.route_graph`). Returns the
         path, the counts and the frame.
         """
         from energy_planner.mission.graph import write_nav2_graph
 
-        return write_nav2_graph(path, problem, self, **options)
+        return write_nav2_graph(path, self._problem_for(problem), self, **options)
 
 
 @takes_problem(1)
@@ -425,6 +446,7 @@ def mission(
                         info={"matrix_energy_j": float(total), "planner": planner,
                               "eps": eps})  # fmt: skip
     res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)
+    res.problem = problem
     return res
 
 

@@ -338,7 +338,7 @@ def compare_routes(
         if r.feasible and r.states is not None and r.energy_j is not None:
             r.assessment = _assessed(problem, r.states, want)
     lim = problem.request.limits
-    return RouteComparison(
+    comp = RouteComparison(
         routes=routes,
         start=s,
         goal=g,
@@ -352,6 +352,8 @@ def compare_routes(
         info=info,
         physics=_physics(problem, routes),
     )
+    comp.problem = problem
+    return comp
 
 
 def _direct_routes(problem, s, g) -> tuple[Route, Route]:

@@ -39,6 +39,7 @@ from energy_planner.angles import wrap
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning import PLANNERS
 from energy_planner.problem import takes_problem
+from energy_planner.results import Result, path_first
 from energy_planner.trust import Assessed
 
 __all__ = ["PlanResult", "plan", "PLANNERS", "RUNNERS", "DEFAULT_EPS"]
@@ -46,8 +47,8 @@ __all__ = ["PlanResult", "plan", "PLANNERS", "RUNNERS", "DEFAULT_EPS"]
 _OMPL_PLANNERS = {"rrtstar": "RRTstar", "sorrtstar": "SORRTstar", "bitstar": "BITstar"}
 
 
-@dataclass
-class PlanResult(Assessed):
+@dataclass(repr=False)
+class PlanResult(Result, Assessed):
     """A planned path and its energy, with its interval, domain and battery verdict.
 
     Attributes
@@ -70,6 +71,9 @@ class PlanResult(Assessed):
         The energy's interval, the share of the path outside the calibration's domain
         and, given a battery, its verdict (:class:`~energy_planner.trust.Assessment`;
         :attr:`interval`, :attr:`domain`, :attr:`battery`).
+    problem : Problem or None
+        The terrain, model and request it was planned on
+        (:class:`~energy_planner.results.Result`): the writers need no terrain.
     """
 
     states: np.ndarray
@@ -88,7 +92,7 @@ class PlanResult(Assessed):
         """Energy in Wh."""
         return self.energy_j / 3600.0
 
-    def waypoints(self, terrain) -> list[dict[str, float]]:
+    def waypoints(self, terrain: Any = None) -> list[dict[str, float]]:
         """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.
 
         ``yaw_deg`` is CCW from the +x axis of the DEM's CRS at the vertex (local east on
@@ -96,6 +100,7 @@ class PlanResult(Assessed):
         """
         from energy_planner.geojson import yaw_from_work
 
+        terrain = self._terrain(terrain)
         x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
         x, y = np.atleast_1d(x), np.atleast_1d(y)
         yaw = np.atleast_1d(
@@ -106,7 +111,7 @@ class PlanResult(Assessed):
             for a, b, c in zip(x, y, np.degrees(yaw), strict=True)
         ]
 
-    def to_geojson(self, terrain, *, native: bool = False) -> dict[str, Any]:
+    def to_geojson(self, terrain: Any = None, *, native: bool = False) -> dict[str, Any]:
         """The project's GeoJSON path document (:mod:`energy_planner.geojson`).
 
         RFC 7946 longitude/latitude (``native=True``: the DEM's CRS, declared), with
@@ -115,7 +120,7 @@ class PlanResult(Assessed):
         from energy_planner.geojson import path_document_from_work
 
         return path_document_from_work(
-            terrain,
+            self._terrain(terrain),
             self.states,
             properties={
                 "energy_j": self.energy_j,
@@ -126,10 +131,11 @@ class PlanResult(Assessed):
             native=native,
         )
 
-    def to_dict(self, terrain) -> dict[str, Any]:
+    def to_dict(self, terrain: Any = None) -> dict[str, Any]:
         """JSON-ready summary (waypoints in the DEM's CRS), with the assessment's keys.
 
-        ``corridor`` (a DEM read by windows: without its log) when the plan has one.
+        ``corridor`` (a DEM read by windows: without its log) when the plan has one;
+        ``stay_in_domain`` (what keeping to the calibration's domain changed) when asked.
         """
         out = {
             "energy_j": self.energy_j,
@@ -145,28 +151,35 @@ class PlanResult(Assessed):
         }
         if "corridor" in self.info:
             out["corridor"] = {k: v for k, v in self.info["corridor"].items() if k != "log"}
+        if "stay_in_domain" in self.info:
+            out["stay_in_domain"] = list(self.info["stay_in_domain"])
         return out
 
-    def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
+    def write_geojson(self, path: Any, terrain: Any = None, *, native: bool = False) -> Any:
         """Write :meth:`to_geojson` to ``path`` atomically; returns the path."""
         from energy_planner.io import write_geojson
 
         return write_geojson(path, self.to_geojson(terrain, native=native))
 
-    def write_json(self, path: Any, terrain) -> Any:
+    def write_json(self, path: Any, terrain: Any = None) -> Any:
         """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
         from energy_planner.io import write_json
 
         return write_json(path, self.to_dict(terrain))
 
-    def plot(self, terrain, path: Any, *, request: Any = None, title: str | None = None) -> Any:
+    def plot(
+        self, path: Any, terrain: Any = None, *, request: Any = None, title: str | None = None
+    ) -> Any:
         """Draw the path over the terrain's hillshade; write a PNG at ``path``.
 
         Drawn as the energy-optimal route of a
         :class:`~energy_planner.planning.routes.RouteComparison` (keep-outs, slope mask
-        and channels of ``request`` drawn too).
+        and channels of the request drawn too). ``terrain``, ``request``: default those
+        it was planned on.
         """
         from energy_planner.planning.routes import Route, RouteComparison
+
+        path, terrain = path_first(path, terrain)
 
         s, g = self.states[0], self.states[-1]
         comp = RouteComparison(
@@ -176,22 +189,23 @@ class PlanResult(Assessed):
             goal=(float(g[0]), float(g[1]), float(g[2])),
         )  # fmt: skip
         title = title or f"Planned path ({self.planner}): {self.energy_j:.0f} J"
-        return comp.plot(terrain, path, title=title, request=request)
+        comp.problem = self.problem
+        return comp.plot(path, terrain, title=title, request=request)
 
-    def write_html(self, path: Any, problem: Any) -> Any:
+    def write_html(self, path: Any, problem: Any = None) -> Any:
         """One self-contained HTML page of the path (:func:`energy_planner.webmap.plan_page`).
 
-        ``problem`` is the :class:`~energy_planner.problem.Problem` it was planned on: the
-        hover of each vertex prices the segment that starts there with its model.
+        ``problem``: default the :class:`~energy_planner.problem.Problem` it was planned
+        on; the hover of each vertex prices the segment that starts there with its model.
         """
         from energy_planner.webmap import plan_page
 
-        return plan_page(problem, self, path)
+        return plan_page(self._problem_for(problem), self, path)
 
     def write_bag(
         self,
         path: Any,
-        terrain,
+        terrain: Any = None,
         *,
         request: Any = None,
         frame: str = "map",
@@ -203,24 +217,25 @@ class PlanResult(Assessed):
 
         Poses in the map frame ``frame`` (:mod:`energy_planner.io.ros2`: the working CRS
         shifted to the grid's south-west corner, REP 103 axes, yaw as a quaternion about
-        z), stamped with the time the robot reaches each (at ``request``'s speed and
-        yaw rate, default :class:`~energy_planner.request.Request`: give the request the
-        plan was made with; another is an error). ``origin``: another origin of the frame
-        (working CRS); a plan made by windows (``info["corridor"]``) keeps the whole DEM's
-        south-west corner, not its window's. Returns the frame and conventions
-        (:meth:`energy_planner.io.ros2.MapFrame.to_dict`), also in the bag's metadata.
+        z), stamped with the time the robot reaches each (at the speed and yaw rate of
+        the request it was planned with; ``request=`` another is an error). ``origin``:
+        another origin of the frame (working CRS); a plan made by windows
+        (``info["corridor"]``) keeps the whole DEM's south-west corner, not its window's.
+        Returns the frame and conventions (:meth:`energy_planner.io.ros2.MapFrame.to_dict`),
+        also in the bag's metadata.
         """
-        from energy_planner.energy.path import vertex_times
-        from energy_planner.io.ros2 import write_path_bag
+        from energy_planner.energy.path import write_paths_bag
 
-        t = vertex_times(terrain, self.states, request, duration_s=self.duration_s, what="the plan")
         info = {"energy_j": self.energy_j, "distance_m": self.distance_m,
                 "duration_s": self.duration_s, "planner": self.planner}  # fmt: skip
         dem_bounds = self.info.get("corridor", {}).get("dem_bounds")
         if origin is None and dem_bounds is not None:
             origin = dem_bounds[:2]
-        return write_path_bag(path, {topic: (self.states, t)}, terrain, frame=frame,
-                              origin=origin, storage=storage, info={topic: info})  # fmt: skip
+        return write_paths_bag(
+            path, [(topic, self.states, self.duration_s, "the plan", info)],
+            self._terrain(terrain), self._request(request), frame=frame, storage=storage,
+            origin=origin,
+        )  # fmt: skip
 
 
 def _pose(p: Sequence[float], which: str) -> tuple[float, float, float | None]:
@@ -771,10 +786,12 @@ def _priced(problem, states: np.ndarray, what: str, trust: Any, **fields: Any) -
                          cost=problem.cost)  # fmt: skip
     except EnergyPlannerError as exc:
         raise PlanningError(f"{what}: {exc}") from exc
-    return PlanResult(states=states, energy_j=pe.energy_j, distance_m=pe.distance_m,
-                      duration_s=pe.duration_s,
-                      assessment=assess_path(problem.model, pe, problem.cost, trust),
-                      **fields)  # fmt: skip
+    res = PlanResult(states=states, energy_j=pe.energy_j, distance_m=pe.distance_m,
+                     duration_s=pe.duration_s,
+                     assessment=assess_path(problem.model, pe, problem.cost, trust),
+                     **fields)  # fmt: skip
+    res.problem = problem
+    return res
 
 
 def _stay(problem, start_p, goal_p, planner: str, seed: int, trust: Any) -> PlanResult:

@@ -48,6 +48,7 @@ import numpy as np
 
 from energy_planner.errors import InvalidStateError, PlanningError, ReachEdgeWarning
 from energy_planner.problem import takes_problem
+from energy_planner.results import Result, path_first
 
 __all__ = ["ReachMap", "battery_area", "least_energy", "reach", "NODATA"]
 
@@ -135,8 +136,8 @@ def least_energy(
     )
 
 
-@dataclass
-class ReachMap:
+@dataclass(repr=False)
+class ReachMap(Result):
     """Least energy from a start to every cell of the terrain's working grid.
 
     Attributes
@@ -156,6 +157,13 @@ class ReachMap:
         Given a battery (``reach(..., battery_wh=...)``): the battery's verdict on the
         map, :func:`battery_area` (the largest predicted energy reached with the required
         chance, and the cells and area within it).
+    budget_wh : float or None
+        The budget the map is read against (``ep.reach(..., budget_wh=)``): the default
+        of :meth:`to_dict`, and with :attr:`battery` of the area, contour and GeoJSON
+        (:attr:`budget_j`).
+    problem : Problem or None
+        The terrain, model and request it was computed on
+        (:class:`~energy_planner.results.Result`): the writers need no terrain.
     """
 
     energy_j: np.ndarray
@@ -164,14 +172,34 @@ class ReachMap:
     step: float
     info: dict[str, Any] = field(default_factory=dict)
     battery: dict[str, Any] | None = field(default=None, repr=False)
+    budget_wh: float | None = None
 
-    def to_dict(self, terrain, budget_wh: float | None = None) -> dict[str, Any]:
+    @property
+    def budget_j(self) -> float | None:
+        """The budget the area is drawn at, J.
+
+        With a battery, the energy reached with the required chance
+        (``battery["confident_budget_wh"]``), else :attr:`budget_wh`.
+        """
+        if self.battery is not None:
+            return float(self.battery["confident_budget_wh"]) * 3600.0
+        return None if self.budget_wh is None else float(self.budget_wh) * 3600.0
+
+    def write_json(self, path: str | Path, terrain: Any = None) -> Path:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict(terrain))
+
+    def to_dict(self, terrain: Any = None, budget_wh: float | None = None) -> dict[str, Any]:
         """JSON-ready summary: the start (DEM CRS), the reachable cells and their energy.
 
-        With ``budget_wh``: the cells and area within it; with a battery, its record
-        (:attr:`battery`); a warning per budget whose area the map's edge (or nodata)
-        cuts (``warnings``, ``edge_cut``).
+        With ``budget_wh`` (default :attr:`budget_wh`): the cells and area within it; with
+        a battery, its record (:attr:`battery`); a warning per budget whose area the map's
+        edge (or nodata) cuts (``warnings``, ``edge_cut``).
         """
+        terrain = self._terrain(terrain)
+        budget_wh = self.budget_wh if budget_wh is None else budget_wh
         wh = self.energy_j / 3600.0
         finite = wh[np.isfinite(wh)]
         sx, sy = terrain.from_work(*self.start)
@@ -288,16 +316,24 @@ class ReachMap:
         ]
         return unary_union(polys)
 
-    def area_geojson(self, terrain, budget_j: float, *, native: bool = False) -> dict[str, Any]:
+    def area_geojson(
+        self, terrain: Any = None, budget_j: float | None = None, *, native: bool = False
+    ) -> dict[str, Any]:
         """A GeoJSON FeatureCollection with the area reachable within ``budget_j``.
 
         RFC 7946 (longitude, latitude; what QGIS, geopandas and web maps expect) by
         default; ``native=True`` writes the DEM's own CRS and declares it with the
-        ``crs`` member (:func:`energy_planner.io.feature_collection`).
+        ``crs`` member (:func:`energy_planner.io.feature_collection`). ``budget_j``:
+        default :attr:`budget_j`.
         """
         from shapely.ops import transform as shp_transform
 
         from energy_planner.io import crs_name, feature_collection
+
+        terrain = self._terrain(terrain)
+        budget_j = self.budget_j if budget_j is None else budget_j
+        if budget_j is None:
+            raise ValueError("no budget: give budget_j (or reach with budget_wh or battery_wh)")
 
         work = self.area(terrain, budget_j)
         geom, crs = work, terrain.crs
@@ -314,12 +350,28 @@ class ReachMap:
         }
         return feature_collection([(geom, props)], crs=crs, native=native)
 
-    def write_geotiff(self, terrain, path: str | Path) -> Path:
+    def write_geojson(
+        self,
+        path: str | Path,
+        terrain: Any = None,
+        *,
+        budget_j: float | None = None,
+        native: bool = False,
+    ) -> Path:
+        """Write :meth:`area_geojson` (the area within the budget) to ``path`` atomically."""
+        from energy_planner.io import write_geojson
+
+        path, terrain = path_first(path, terrain)
+        doc = self.area_geojson(terrain, budget_j, native=native)
+        return write_geojson(path, doc, indent=None)
+
+    def write_geotiff(self, path: str | Path, terrain: Any = None) -> Path:
         """Write ``energy_j`` (J, float32, nodata NaN) on the DEM's grid and CRS.
 
         A DEM in longitude/latitude gets the working grid's values resampled to its own
         grid (nearest cell).
         """
+        path, terrain = path_first(path, terrain)
         what = "go and come back" if self.round_trip else "reach"
         return self._write(terrain, path, self.energy_j, "energy_j", "J",
                            f"least energy to {what} the cell from the start, J")  # fmt: skip
@@ -352,14 +404,34 @@ class ReachMap:
             out = count / (s.size + 1.0)
         return np.where(np.isfinite(e), out, np.nan)
 
-    def write_chance_geotiff(self, terrain, path: str | Path, model, usable_j: float) -> Path:
-        """Write :meth:`chance` (0-1, float32, nodata NaN) on the DEM's grid and CRS."""
+    def write_chance_geotiff(
+        self, path: str | Path, terrain: Any = None, model: Any = None, usable_j: Any = None
+    ) -> Path:
+        """Write :meth:`chance` (0-1, float32, nodata NaN) on the DEM's grid and CRS.
+
+        ``model`` and ``usable_j``: default the model it was computed with and the
+        battery's usable energy (:attr:`battery`).
+        """
+        path, terrain = path_first(path, terrain)
+        model, usable_j = self._battery_inputs(model, usable_j)
+        if usable_j is None:
+            raise ValueError("no battery: give usable_j (or reach with battery_wh)")
         what = "go there and come back" if self.round_trip else "reach the cell"
         return self._write(terrain, path, self.chance(model, usable_j), "chance", "1",
                            f"chance to {what} within {usable_j / 3600:.2f} Wh usable")  # fmt: skip
 
+    def _battery_inputs(self, model: Any, usable_j: Any) -> tuple[Any, Any]:
+        """``model`` and ``usable_j``, by default the Problem's model and the battery's."""
+        if model is None and self.problem is not None:
+            model = self.problem.model
+        if usable_j is None and self.battery is not None:
+            usable_j = float(self.battery["usable_wh"]) * 3600.0
+        return model, usable_j
+
     def _write(self, terrain, path, values, name: str, unit: str, desc: str) -> Path:
         from energy_planner.io import write_geotiff
+
+        terrain = self._terrain(terrain)
 
         data = np.where(np.isfinite(values), values, NODATA).astype(np.float32)
         transform, crs = terrain.transform, terrain.crs
@@ -382,7 +454,7 @@ class ReachMap:
     def write_html(
         self,
         path: str | Path,
-        terrain,
+        terrain: Any = None,
         budget_j: float | None = None,
         *,
         model: Any = None,
@@ -390,21 +462,30 @@ class ReachMap:
     ) -> Path:
         """One self-contained HTML page (:func:`energy_planner.webmap.reach_page`).
 
-        The energy to every cell (Wh), the contour of ``budget_j`` and, given ``model``
-        and the battery's ``usable_j``, the chance the battery suffices to each cell
-        (:meth:`chance`).
+        The energy to every cell (Wh), the contour of ``budget_j`` (default
+        :attr:`budget_j`) and, with a battery (or ``model`` and ``usable_j``), the chance
+        the battery suffices to each cell (:meth:`chance`).
         """
         from energy_planner.webmap import reach_page
 
+        path, terrain = path_first(path, terrain)
+        terrain = self._terrain(terrain)
+        budget_j = self.budget_j if budget_j is None else budget_j
+        model, usable_j = self._battery_inputs(model, usable_j)
         chance = None if model is None or usable_j is None else self.chance(model, usable_j)
         return reach_page(terrain, self, path, budget_j, chance)
 
     def plot(
-        self, terrain, path: str | Path, budget_j: float | None = None, request: Any = None
+        self,
+        path: str | Path,
+        terrain: Any = None,
+        budget_j: float | None = None,
+        request: Any = None,
     ) -> Path:
         """PNG: energy (Wh) over a hillshade, the budget contour and the start.
 
-        ``request`` adds its keep-outs, slope-limit mask and channel rasters
+        ``budget_j``: default :attr:`budget_j`. The request it was computed with (or
+        ``request``) adds its keep-outs, slope-limit mask and channel rasters
         (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
         """
         import matplotlib
@@ -412,6 +493,9 @@ class ReachMap:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        path, terrain = path_first(path, terrain)
+        terrain, request = self._terrain(terrain), self._request(request)
+        budget_j = self.budget_j if budget_j is None else budget_j
         path = Path(path)
         x0, y0, dx, dy = terrain.grid
         rows, cols = self.energy_j.shape
@@ -566,6 +650,7 @@ def reach(
         w = res.edge_warning(terrain, max_energy)
         if w is not None:
             warnings.warn(w, stacklevel=2)
+    res.problem = problem
     return res
 
 

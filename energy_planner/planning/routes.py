@@ -17,6 +17,7 @@ import numpy as np
 
 from energy_planner.errors import RouteNameError
 from energy_planner.planning.gradecost import GradeCost
+from energy_planner.results import Result, path_first
 from energy_planner.trust import Assessed
 
 __all__ = ["ROUTE_NAMES", "Route", "RouteComparison"]
@@ -25,8 +26,8 @@ __all__ = ["ROUTE_NAMES", "Route", "RouteComparison"]
 ROUTE_NAMES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
 
 
-@dataclass
-class Route(Assessed):
+@dataclass(repr=False)
+class Route(Result, Assessed):
     """One route of a comparison (poses in the working CRS, radians).
 
     ``same_as`` names an earlier route of the comparison that is the same path (within
@@ -103,12 +104,14 @@ class Route(Assessed):
         )  # fmt: skip
 
 
-@dataclass
-class RouteComparison:
+@dataclass(repr=False)
+class RouteComparison(Result):
     """The three routes and what produced them.
 
     ``physics`` is :meth:`GradeCost.to_dict` of the model (the critical grade), ``None``
-    when the model cannot be evaluated without extra channels.
+    when the model cannot be evaluated without extra channels. ``problem``: the
+    terrain, model and request the routes were planned on
+    (:class:`~energy_planner.results.Result`), so that the writers need no terrain.
     """
 
     routes: list[Route]
@@ -131,14 +134,26 @@ class RouteComparison:
                 return r
         raise RouteNameError(f"no route {name!r}; routes: {', '.join(r.name for r in self.routes)}")
 
-    def to_dict(self, terrain=None) -> dict[str, Any]:
-        """JSON-ready dict with ``routes`` (one entry per route), ``limits`` and ``physics``."""
+    def to_dict(self, terrain: Any = None) -> dict[str, Any]:
+        """JSON-ready dict with ``routes`` (one entry per route), ``limits`` and ``physics``.
+
+        Each route's ``waypoints`` in the DEM's CRS when the terrain is known (given, or
+        the one the routes were planned on).
+        """
+        if terrain is None and self.problem is not None:
+            terrain = self.problem.terrain
         return {
             "routes": [r.to_dict(terrain) for r in self.routes],
             "limits": self.limits,
             "info": self.info,
             "physics": self.physics,
         }
+
+    def write_json(self, path: str | Path, terrain: Any = None) -> Path:
+        """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
+        from energy_planner.io import write_json
+
+        return write_json(path, self.to_dict(terrain))
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RouteComparison:
@@ -240,29 +255,36 @@ class RouteComparison:
                     )
         return out
 
-    def write_html(self, path: str | Path, problem: Any) -> Path:
+    def write_html(self, path: str | Path, problem: Any = None) -> Path:
         """One self-contained HTML page of the routes (:func:`energy_planner.webmap.routes_page`).
 
-        ``problem`` is the :class:`~energy_planner.problem.Problem` they were planned on.
+        ``problem``: default the :class:`~energy_planner.problem.Problem` they were
+        planned on.
         """
         from energy_planner.webmap import routes_page
 
-        return routes_page(problem, self, path)
+        return routes_page(self._problem_for(problem), self, path)
 
     def plot(
-        self, terrain, path: str | Path, title: str | None = None, request: Any = None
+        self,
+        path: str | Path,
+        terrain: Any = None,
+        title: str | None = None,
+        request: Any = None,
     ) -> Path:
         """Draw the routes over a hillshade with heading marks; write a PNG.
 
-        ``request`` (the :class:`~energy_planner.request.Request` the routes were planned
-        with) adds its keep-outs, slope-limit mask and channel rasters
-        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        The request the routes were planned with (or ``request``) adds its keep-outs,
+        slope-limit mask and channel rasters (:func:`energy_planner.plotting.draw_request`).
+        The axes name the working CRS.
         """
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        path, terrain = path_first(path, terrain)
+        terrain, request = self._terrain(terrain), self._request(request)
         path = Path(path)
         x0, y0, dx, dy = terrain.grid
         rows, cols = np.shape(terrain.elevation)
@@ -361,7 +383,7 @@ class RouteComparison:
     def write_bag(
         self,
         path: Any,
-        terrain,
+        terrain: Any = None,
         *,
         request: Any = None,
         frame: str = "map",
@@ -372,20 +394,16 @@ class RouteComparison:
         Topics ``/energy_planner/routes/<name>`` (the routes with poses and an energy:
         an infeasible route has none), each stamped from 0; frame and stamps as
         :meth:`energy_planner.planning.plan.PlanResult.write_bag` (``request``: the one
-        the routes were planned with). Returns the frame and conventions.
+        the routes were planned with, by default). Returns the frame and conventions.
         """
-        from energy_planner.energy.path import vertex_times
-        from energy_planner.io.ros2 import write_path_bag
+        from energy_planner.energy.path import write_paths_bag
 
-        paths, info = {}, {}
-        for r in self.routes:
-            if r.states is None or r.energy_j is None:
-                continue
-            topic = f"/energy_planner/routes/{r.name}"
-            t = vertex_times(
-                terrain, r.states, request, duration_s=r.duration_s, what=f"route {r.name!r}"
-            )
-            paths[topic] = (r.states, t)
-            info[topic] = {"route": r.name, "energy_j": r.energy_j, "distance_m": r.distance_m,
-                           "duration_s": r.duration_s, "same_as": r.same_as}  # fmt: skip
-        return write_path_bag(path, paths, terrain, frame=frame, storage=storage, info=info)
+        paths = [
+            (f"/energy_planner/routes/{r.name}", r.states, r.duration_s, f"route {r.name!r}",
+             {"route": r.name, "energy_j": r.energy_j, "distance_m": r.distance_m,
+              "duration_s": r.duration_s, "same_as": r.same_as})
+            for r in self.routes
+            if r.states is not None and r.energy_j is not None
+        ]  # fmt: skip
+        return write_paths_bag(path, paths, self._terrain(terrain), self._request(request),
+                               frame=frame, storage=storage)  # fmt: skip
