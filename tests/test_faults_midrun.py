@@ -315,3 +315,222 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         write_json(tmp_path / "m.json", {"a": 1})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+
+
+# ------------------------------------------------------ every writing command, killed
+
+#: A fork server: imports the whole library once, then for each job forks a child that
+#: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL after
+#: ``delay`` s (None: let it finish). Forking keeps each command's start cheap, so that
+#: every writing command can be killed at a few random points in a few seconds.
+SERVER = textwrap.dedent(
+    """
+    import importlib, json, os, pkgutil, signal, sys, time
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot
+    import energy_planner
+    for m in pkgutil.walk_packages(energy_planner.__path__, "energy_planner."):
+        try:
+            importlib.import_module(m.name)
+        except Exception:
+            pass
+    from energy_planner.cli import main
+    print("ready", flush=True)
+    for line in sys.stdin:
+        job = json.loads(line)
+        t0 = time.monotonic()
+        pid = os.fork()
+        if pid == 0:
+            os.chdir(job["cwd"])
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, 1)
+            os.dup2(null, 2)
+            code = 0
+            try:
+                main(job["args"])
+            except SystemExit as e:
+                code = e.code if isinstance(e.code, int) else 1
+            except BaseException:
+                code = 99
+            os._exit(code)
+        delay, killed = job["delay"], False
+        while True:
+            done, status = os.waitpid(pid, 0 if delay is None else os.WNOHANG)
+            if done:
+                break
+            if time.monotonic() - t0 >= delay:
+                os.kill(pid, signal.SIGKILL)
+                _, status = os.waitpid(pid, 0)
+                killed = True
+                break
+            time.sleep(0.002)
+        print(json.dumps({"code": os.waitstatus_to_exitcode(status), "killed": killed,
+                          "elapsed": time.monotonic() - t0}), flush=True)
+    """
+)
+
+START, GOAL = "500010,5000010", "500040,5000050"
+
+#: Every command that writes, with its outputs (relative to its folder) and inputs
+#: (``{name}``: a file of the ``inputs`` fixture). ``energy`` prints only: not here.
+COMMANDS: dict[str, list[str]] = {
+    "terrain": ["terrain", "{dem}", "--slope-out", "o/slope.tif", "--aspect-out",
+                "o/aspect.tif", "--plot", "o/slope.png"],
+    "plan": ["plan", "--dem", "{dem}", "--start", START, "--goal", GOAL, "--out",
+             "o/path.geojson", "--plot", "o/path.png", "--html", "o/path.html"],
+    "compare-routes": ["compare-routes", "--dem", "{dem}", "--start", START, "--goal", GOAL,
+                       "--time", "0.2", "--plot", "o/routes.png", "--html", "o/routes.html"],
+    "reach": ["reach", "{dem}", "--start", START, "--budget-wh", "1", "--battery-wh", "2",
+              "--out", "o/reach.tif", "--chance-out", "o/chance.tif", "--geojson",
+              "o/reach.geojson", "--plot", "o/reach.png"],
+    "mission": ["mission", "--dem", "{dem}", "--sites", "{sites}", "--geojson",
+                "o/tour.geojson", "--plot", "o/tour.png", "--nav2-graph", "o/graph.geojson"],
+    "energy-map": ["energy-map", "{dem}", "--headings", "4", "--out", "o/map.tif", "--plot",
+                   "o/map.png", "--html", "o/map.html"],
+    "fit": ["fit", "{logs}", "--out", "o/model.json"],
+    "discover": ["discover", "{logs}", "--out", "o/model.json", "--report", "o/report.html",
+                 "--folds", "2", "--max-steps", "1"],
+    "diagnose": ["diagnose", "{logs}", "--report", "o/report.html", "--folds", "2",
+                 "--max-steps", "1"],
+    "figures": ["figures", "{logs}", "--out", "o/figures"],
+    "simulate": ["simulate", "--small", "--seed", "2", "--out", "o/campaign", "--overwrite",
+                 "--plot", "o/fig4.png"],
+    "follow": ["follow", "{walk}", "--dem", "hill", "--html", "o/follow.html"],
+    "demo": ["demo", "--scenario", "plane", "--time", "0.5", "--plot", "o/demo.png"],
+}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """A 60 m hill, sites on it, a tiny campaign's logs and a 20 s walk on the bundled hill."""
+    import energy_planner as ep
+    from energy_planner.follow.calibrate import forward_mission
+    from energy_planner.simulate import CampaignConfig, simulate_campaign, simulate_missions
+
+    d = tmp_path_factory.mktemp("killed")
+    n = 30
+    yy, xx = np.mgrid[0:n, 0:n]
+    z = (4.0 * np.exp(-((xx - 15.0) ** 2 + (yy - 15.0) ** 2) / 80.0)).astype("float32")
+    prof = dict(driver="GTiff", height=n, width=n, count=1, dtype="float32", crs="EPSG:32631")
+    from rasterio.transform import from_origin
+
+    with rasterio.open(d / "dem.tif", "w", transform=from_origin(5e5, 5000060, 2, 2), **prof) as f:
+        f.write(z, 1)
+    (d / "sites.csv").write_text("x,y\n500010,5000010\n500040,5000050\n500012,5000045\n")
+    tiny = CampaignConfig.small(
+        slopes_deg=(0.0, 20.0), headings_deg=(0.0, 180.0), run_s=4.0, arcs=False, stand=False,
+        composite_slopes_deg=(),
+    )  # fmt: skip
+    simulate_campaign(seed=1, config=tiny).write(d / "logs")
+    walk = forward_mission(150.0, 20.0).replace(duration_s=20.0)
+    hill = ep.open_terrain(ep.map_path("hill"))
+    simulate_missions(seed=2, config=walk, terrain=hill).logs.to_csv(d / "walk.csv", index=False)
+    return {
+        "dem": d / "dem.tif",
+        "sites": d / "sites.csv",
+        "logs": d / "logs",
+        "walk": d / "walk.csv",
+    }
+
+
+@pytest.fixture(scope="module")
+def fork_server():
+    """``run(cwd, args, delay)``: one command in a forked child, killed after ``delay`` s."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SERVER], env=_env(), stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert proc.stdout.readline().strip() == "ready"
+
+    def run(cwd: Path, args: list[str], delay: float | None) -> dict:
+        proc.stdin.write(json.dumps({"cwd": str(cwd), "args": args, "delay": delay}) + "\n")
+        proc.stdin.flush()
+        return json.loads(proc.stdout.readline())
+
+    try:
+        yield run
+    finally:
+        proc.stdin.close()
+        proc.wait(timeout=60)
+
+
+def _outputs(args: list[str]) -> list[str]:
+    return [a for a in args if a.startswith("o/")]
+
+
+def _whole(path: Path) -> None:
+    """``path`` is one complete output of its kind (a folder: each of its files)."""
+    if path.is_dir():
+        files = [p for p in path.rglob("*") if p.is_file() and not p.name.startswith(".")]
+        assert files, f"{path} is empty"
+        for p in files:
+            _whole(p)
+        if (path / "campaign.json").exists():  # a campaign: every run its table lists
+            json.loads((path / "campaign.json").read_text())
+            runs = pd.read_csv(path / "runs.csv")
+            assert all((path / f"{r}.csv").is_file() for r in runs["run"]), path
+        return
+    data = path.read_bytes()
+    assert data, f"{path} is empty"
+    if path.suffix in (".json", ".geojson"):
+        json.loads(data)
+    elif path.suffix == ".tif":
+        with rasterio.open(path) as src:
+            src.read()
+    elif path.suffix == ".png":
+        assert data[-8:-4] == b"IEND", f"{path} is cut short"  # a PNG's last chunk
+    elif path.suffix == ".html":
+        assert data.rstrip().endswith(b"</html>"), f"{path} is cut short"
+    elif path.suffix == ".csv":
+        assert data.endswith(b"\n"), f"{path} is cut short"
+        pd.read_csv(path)
+
+
+def _snapshot(root: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts)
+    }
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="POSIX fork and signals")
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_writing_command_killed_at_random_points(command, inputs, fork_server, tmp_path):
+    """SIGKILL at seeded random points: each output is the previous one or the whole new one.
+
+    The command first runs to the end (its outputs are the previous ones), then is killed
+    at two random moments of a run. After each kill every output is there and whole (never
+    gone, never cut short), nothing but hidden temporary files is beside them, and those
+    are what the next write removes (:func:`energy_planner.io.remove_stale`: their writer
+    is dead).
+    """
+    from energy_planner.io import remove_stale
+
+    args = [a.format(**{k: str(v) for k, v in inputs.items()}) for a in COMMANDS[command]]
+    first = fork_server(tmp_path, args, None)
+    assert first["code"] == 0, f"{command} failed: {first}"
+    outs = [tmp_path / o for o in _outputs(args)]
+    for p in outs:
+        _whole(p)
+    previous = _snapshot(tmp_path / "o")
+    rng = random.Random(f"{SEED}:{command}")  # FAULT_SEED=... to vary
+    for _ in range(2):
+        delay = rng.uniform(0.1, 1.0) * first["elapsed"]
+        got = fork_server(tmp_path, args, delay)
+        assert got["killed"] or got["code"] == 0, f"{command} after {delay:.2f} s: {got}"
+        for p in outs:
+            assert p.exists(), f"{command} killed after {delay:.2f} s: {p.name} is gone"
+            _whole(p)
+        now = _snapshot(tmp_path / "o")
+        assert set(now) == set(previous), f"{command}: new visible files {set(now) ^ set(previous)}"
+    # what the kills left: only hidden temporary files of the outputs, which the next
+    # write of each removes
+    for p in outs:
+        remove_stale(p)
+        if p.is_dir():
+            for q in p.rglob("*"):
+                remove_stale(q)
+    left = sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "o").rglob(".*"))
+    assert left == [], f"{command}: left beside its outputs: {left}"
