@@ -534,3 +534,43 @@ def test_every_writing_command_killed_at_random_points(command, inputs, fork_ser
                 remove_stale(q)
     left = sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "o").rglob(".*"))
     assert left == [], f"{command}: left beside its outputs: {left}"
+
+
+def test_commands_onto_a_full_disk_are_one_clear_line_and_keep_the_previous_outputs(tmp_path):
+    """The commands themselves, not only the writers: GDAL's failed flush is caught too.
+
+    An energy map written by windows reported a full disk only in GDAL's log and renamed
+    the cut-short file over the previous map (then a traceback reading it back).
+    """
+    from click.testing import CliRunner
+    from faults import small_disk  # tests/ helper
+    from rasterio.transform import from_origin
+
+    from energy_planner.cli import main
+
+    n = 300  # its 4-heading energy map: 2.9 MB of float32, its slope map 0.36 MB x 3
+    z = np.random.default_rng(0).random((n, n)).astype("float32")
+    prof = dict(driver="GTiff", height=n, width=n, count=1, dtype="float32", crs="EPSG:32631")
+    dem = tmp_path / "dem.tif"
+    with rasterio.open(dem, "w", transform=from_origin(5e5, 5e6 + n, 1, 1), **prof) as dst:
+        dst.write(z, 1)
+    with small_disk(tmp_path / "disk", "1m") as disk:
+        (disk / "map.tif").write_bytes(b"the previous map")
+        (disk / "slope.tif").write_bytes(b"the previous slope map")
+        for args in (
+            ["energy-map", str(dem), "--headings", "4", "--out", str(disk / "map.tif")],
+            ["terrain", str(dem), "--slope-out", str(disk / "slope.tif"), "--aspect-out",
+             str(disk / "aspect.tif"), "--plot", str(disk / "slope.png")],
+        ):  # fmt: skip
+            r = CliRunner().invoke(main, args)
+            assert r.exit_code != 0 and "Traceback" not in r.output, r.output
+            assert "no space left on the device" in r.output, r.output
+        assert (disk / "map.tif").read_bytes() == b"the previous map"  # 2.9 MB: never fits
+        # terrain's outputs: each the previous one, or whole (those written before the
+        # disk filled); nothing else on the disk
+        if (disk / "slope.tif").read_bytes() != b"the previous slope map":
+            _whole(disk / "slope.tif")
+        for p in disk.glob("aspect.tif"):
+            _whole(p)
+        names = {p.name for p in disk.iterdir()}
+        assert {"map.tif", "slope.tif"} <= names <= {"map.tif", "slope.tif", "aspect.tif"}
