@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -320,12 +321,13 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 # ------------------------------------------------------ every writing command, killed
 
 #: A fork server: imports the whole library once, then for each job forks a child that
-#: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL after
-#: ``delay`` s (None: let it finish). Forking keeps each command's start cheap, so that
-#: every writing command can be killed at a few random points in a few seconds.
+#: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL ``delay``
+#: s after its start, or after it starts writing its first output (a temporary file
+#: made beside it). Forking keeps each command's start cheap, so that every writing
+#: command can be killed at a few random points in a few seconds.
 SERVER = textwrap.dedent(
     """
-    import importlib, json, os, pkgutil, signal, sys, time
+    import importlib, json, os, pkgutil, select, signal, sys, tempfile, time
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot
@@ -337,12 +339,28 @@ SERVER = textwrap.dedent(
             pass
     from energy_planner.cli import main
     print("ready", flush=True)
+
+    def telling(make, w, cwd):
+        def wrapped(*a, **k):  # a temporary file or folder beside an output: writing
+            if os.path.realpath(k.get("dir") or "/").startswith(cwd):
+                try:
+                    os.write(w, b"w")
+                except OSError:
+                    pass
+            return make(*a, **k)
+        return wrapped
+
     for line in sys.stdin:
         job = json.loads(line)
+        r, w = os.pipe()
         t0 = time.monotonic()
         pid = os.fork()
         if pid == 0:
-            os.chdir(job["cwd"])
+            os.close(r)
+            cwd = os.path.realpath(job["cwd"])
+            tempfile.mkstemp = telling(tempfile.mkstemp, w, cwd)
+            tempfile.mkdtemp = telling(tempfile.mkdtemp, w, cwd)
+            os.chdir(cwd)
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
             os.dup2(null, 2)
@@ -354,19 +372,26 @@ SERVER = textwrap.dedent(
             except BaseException:
                 code = 99
             os._exit(code)
-        delay, killed = job["delay"], False
+        os.close(w)
+        # the delay counts from the start, or ("after_write") from the first output write
+        start, wrote, killed = (None if job["after_write"] else t0), None, False
         while True:
-            done, status = os.waitpid(pid, 0 if delay is None else os.WNOHANG)
+            done, status = os.waitpid(pid, os.WNOHANG)
             if done:
                 break
-            if time.monotonic() - t0 >= delay:
+            ready = select.select([r], [], [], 0.002)[0]
+            if ready and os.read(r, 64) and wrote is None:
+                wrote = time.monotonic()
+                start = start or wrote
+            if start is not None and time.monotonic() - start >= job["delay"]:
                 os.kill(pid, signal.SIGKILL)
                 _, status = os.waitpid(pid, 0)
                 killed = True
                 break
-            time.sleep(0.002)
+        os.close(r)
         print(json.dumps({"code": os.waitstatus_to_exitcode(status), "killed": killed,
-                          "elapsed": time.monotonic() - t0}), flush=True)
+                          "elapsed": time.monotonic() - t0,
+                          "wrote": None if wrote is None else wrote - t0}), flush=True)
     """
 )
 
@@ -436,15 +461,16 @@ def inputs(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fork_server():
-    """``run(cwd, args, delay)``: one command in a forked child, killed after ``delay`` s."""
+    """``run(cwd, args, delay, after_write)``: one command in a forked child, killed."""
     proc = subprocess.Popen(
         [sys.executable, "-c", SERVER], env=_env(), stdin=subprocess.PIPE,
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip
     assert proc.stdout.readline().strip() == "ready"
 
-    def run(cwd: Path, args: list[str], delay: float | None) -> dict:
-        proc.stdin.write(json.dumps({"cwd": str(cwd), "args": args, "delay": delay}) + "\n")
+    def run(cwd: Path, args: list[str], delay: float, after_write: bool) -> dict:
+        job = {"cwd": str(cwd), "args": args, "delay": delay, "after_write": after_write}
+        proc.stdin.write(json.dumps(job) + "\n")
         proc.stdin.flush()
         return json.loads(proc.stdout.readline())
 
@@ -487,12 +513,29 @@ def _whole(path: Path) -> None:
         pd.read_csv(path)
 
 
-def _snapshot(root: Path) -> dict[str, bytes]:
-    return {
-        str(p.relative_to(root)): p.read_bytes()
-        for p in sorted(root.rglob("*"))
-        if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts)
-    }
+def _previous(path: Path) -> None:
+    """Write a small, whole output of ``path``'s kind: the previous output."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix in (".json", ".geojson"):
+        path.write_text('{"previous": true}')
+    elif path.suffix == ".html":
+        path.write_text("<html>the previous report</html>")
+    elif path.suffix == ".png":
+        import matplotlib.pyplot as plt
+
+        plt.imsave(path, np.zeros((2, 2)))
+    elif path.suffix == ".tif":
+        from rasterio.transform import from_origin
+
+        prof = dict(driver="GTiff", height=1, width=1, count=1, dtype="float32")
+        with rasterio.open(path, "w", transform=from_origin(0, 1, 1, 1), **prof) as dst:
+            dst.write(np.zeros((1, 1, 1), "float32"))
+    elif path.name == "campaign":  # a campaign of no run
+        path.mkdir()
+        (path / "campaign.json").write_text('{"previous": true}')
+        (path / "runs.csv").write_text("run\n")
+    else:  # a folder of figures
+        _previous(path / "previous.png")
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="POSIX fork and signals")
@@ -500,38 +543,39 @@ def _snapshot(root: Path) -> dict[str, bytes]:
 def test_every_writing_command_killed_at_random_points(command, inputs, fork_server, tmp_path):
     """SIGKILL at seeded random points: each output is the previous one or the whole new one.
 
-    The command first runs to the end (its outputs are the previous ones), then is killed
-    at two random moments of a run. After each kill every output is there and whole (never
-    gone, never cut short), nothing but hidden temporary files is beside them, and those
-    are what the next write removes (:func:`energy_planner.io.remove_stale`: their writer
-    is dead).
+    Each output first holds a previous version. The command is killed twice: at a random
+    moment up to 0.3 s after it starts writing its outputs, and at a random moment of its
+    work before that. After each kill every output is there and whole (the previous one
+    or the complete new one: never gone, never cut short), every visible file is whole,
+    and what is beside them is only hidden temporary files that the next write removes
+    (:func:`energy_planner.io.remove_stale`: their writer is dead).
     """
     from energy_planner.io import remove_stale
 
     args = [a.format(**{k: str(v) for k, v in inputs.items()}) for a in COMMANDS[command]]
-    first = fork_server(tmp_path, args, None)
-    assert first["code"] == 0, f"{command} failed: {first}"
     outs = [tmp_path / o for o in _outputs(args)]
     for p in outs:
-        _whole(p)
-    previous = _snapshot(tmp_path / "o")
+        _previous(p)
     rng = random.Random(f"{SEED}:{command}")  # FAULT_SEED=... to vary
-    for _ in range(2):
-        delay = rng.uniform(0.1, 1.0) * first["elapsed"]
-        got = fork_server(tmp_path, args, delay)
-        assert got["killed"] or got["code"] == 0, f"{command} after {delay:.2f} s: {got}"
+    wrote = None
+    for after_write in (True, False):  # in its writing, then in its work before
+        delay = rng.uniform(0.0, 0.3) if after_write else rng.uniform(0.1, 1.0) * wrote
+        got = fork_server(tmp_path, args, delay, after_write)
+        assert got["killed"] or got["code"] == 0, f"{command}: {got}"
+        assert got["wrote"] is not None or not after_write, f"{command} wrote nothing: {got}"
+        wrote = wrote or got["wrote"]
         for p in outs:
             assert p.exists(), f"{command} killed after {delay:.2f} s: {p.name} is gone"
             _whole(p)
-        now = _snapshot(tmp_path / "o")
-        assert set(now) == set(previous), f"{command}: new visible files {set(now) ^ set(previous)}"
-    # what the kills left: only hidden temporary files of the outputs, which the next
-    # write of each removes
-    for p in outs:
-        remove_stale(p)
-        if p.is_dir():
-            for q in p.rglob("*"):
-                remove_stale(q)
+        for p in (tmp_path / "o").rglob("*"):
+            if p.is_file() and not any(x.startswith(".") for x in p.relative_to(tmp_path).parts):
+                _whole(p)
+    # what the kills left: only hidden temporary files of outputs, each of which the next
+    # write of its output removes
+    for h in sorted((tmp_path / "o").rglob(".*"), reverse=True):
+        m = re.fullmatch(r"\.(.+)\.\d+\.[A-Za-z0-9_]+\.tmp(\.[^.]+)?", h.name)
+        assert m, f"{command} left {h}, not a temporary file of an output"
+        remove_stale(h.parent / (m.group(1) + (m.group(2) or "")))
     left = sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "o").rglob(".*"))
     assert left == [], f"{command}: left beside its outputs: {left}"
 
