@@ -6,8 +6,11 @@ with one of these writers: JSON (fit, discover, models), text (HTML reports), Ge
 and a whole folder (simulate). A child process writes each of them over and over (every
 version complete and recognisable) and is killed with SIGKILL at a random moment; each
 output must then be a complete version, and the next write must leave nothing beside
-it. Two commands run through the real CLI as well: ``simulate --overwrite`` killed
-mid-campaign and two ``energy-map`` runs writing one output at once.
+it. Every writing command is then killed itself (through the CLI's ``main``, forked from
+a server that imported the library once), in its writing and in its work before: each
+output stays the previous one or the whole new one. Also: ``simulate --overwrite`` killed
+mid-campaign, two ``energy-map`` runs writing one output at once, and ``energy-map`` and
+``terrain`` onto a full disk.
 """
 
 from __future__ import annotations
