@@ -151,11 +151,17 @@ def _big_dem(path: Path) -> Path:
     return path
 
 
-@case(TOPIC, "simulate --out into a folder holding an older campaign")
-def simulate_into_old_campaign(tmp: Path) -> Verdict:
+def _old_campaign(tmp: Path) -> Path:
+    """A folder holding an older campaign's log."""
     out = tmp / "campaign"
     out.mkdir()
     (out / "old_run.csv").write_text("an older campaign's log")
+    return out
+
+
+@case(TOPIC, "simulate --out into a folder holding an older campaign")
+def simulate_into_old_campaign(tmp: Path) -> Verdict:
+    out = _old_campaign(tmp)
     r = run(tmp, "simulate", "--out", out, "--small")
     v = expect_error(r, "is not empty", "--overwrite")
     if v.handled and sorted(p.name for p in out.iterdir()) != ["old_run.csv"]:
@@ -165,9 +171,7 @@ def simulate_into_old_campaign(tmp: Path) -> Verdict:
 
 @case(TOPIC, "simulate --out OLD --overwrite: the older campaign replaced whole")
 def simulate_overwrite(tmp: Path) -> Verdict:
-    out = tmp / "campaign"
-    out.mkdir()
-    (out / "old_run.csv").write_text("an older campaign's log")
+    out = _old_campaign(tmp)
     r = run(tmp, "simulate", "--out", out, "--small", "--overwrite")
     if r.traceback or r.rc != 0:
         return Verdict(r.error or "traceback", False, "refused")

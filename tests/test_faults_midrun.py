@@ -6,8 +6,11 @@ with one of these writers: JSON (fit, discover, models), text (HTML reports), Ge
 and a whole folder (simulate). A child process writes each of them over and over (every
 version complete and recognisable) and is killed with SIGKILL at a random moment; each
 output must then be a complete version, and the next write must leave nothing beside
-it. Two commands run through the real CLI as well: ``simulate --overwrite`` killed
-mid-campaign and two ``energy-map`` runs writing one output at once.
+it. Every writing command is then killed itself (through the CLI's ``main``, forked from
+a server that imported the library once), in its writing and in its work before: each
+output stays the previous one or the whole new one. Also: ``simulate --overwrite`` killed
+mid-campaign, two ``energy-map`` runs writing one output at once, and ``energy-map`` and
+``terrain`` onto a full disk.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -315,3 +319,305 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         write_json(tmp_path / "m.json", {"a": 1})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+
+
+# ------------------------------------------------------ every writing command, killed
+
+#: A fork server: imports the whole library once, then for each job forks a child that
+#: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL ``delay``
+#: s after its start, or after it starts writing its first output (a temporary file
+#: made beside it). Forking keeps each command's start cheap, so that every writing
+#: command can be killed at a few random points in a few seconds.
+SERVER = textwrap.dedent(
+    """
+    import importlib, json, os, pkgutil, select, signal, sys, tempfile, time
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot
+    import energy_planner
+    for m in pkgutil.walk_packages(energy_planner.__path__, "energy_planner."):
+        try:
+            importlib.import_module(m.name)
+        except Exception:
+            pass
+    from energy_planner.cli import main
+    print("ready", flush=True)
+
+    def telling(make, w, cwd):
+        def wrapped(*a, **k):  # a temporary file or folder beside an output: writing
+            if os.path.realpath(k.get("dir") or "/").startswith(cwd):
+                try:
+                    os.write(w, b"w")
+                except OSError:
+                    pass
+            return make(*a, **k)
+        return wrapped
+
+    for line in sys.stdin:
+        job = json.loads(line)
+        r, w = os.pipe()
+        t0 = time.monotonic()
+        pid = os.fork()
+        if pid == 0:
+            os.close(r)
+            cwd = os.path.realpath(job["cwd"])
+            tempfile.mkstemp = telling(tempfile.mkstemp, w, cwd)
+            tempfile.mkdtemp = telling(tempfile.mkdtemp, w, cwd)
+            os.chdir(cwd)
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, 1)
+            os.dup2(null, 2)
+            code = 0
+            try:
+                main(job["args"])
+            except SystemExit as e:
+                code = e.code if isinstance(e.code, int) else 1
+            except BaseException:
+                code = 99
+            os._exit(code)
+        os.close(w)
+        # the delay counts from the start, or ("after_write") from the first output write
+        start, wrote, killed = (None if job["after_write"] else t0), None, False
+        while True:
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                break
+            ready = select.select([r], [], [], 0.002)[0]
+            if ready and os.read(r, 64) and wrote is None:
+                wrote = time.monotonic()
+                start = start or wrote
+            if start is not None and time.monotonic() - start >= job["delay"]:
+                os.kill(pid, signal.SIGKILL)
+                _, status = os.waitpid(pid, 0)
+                killed = True
+                break
+        os.close(r)
+        print(json.dumps({"code": os.waitstatus_to_exitcode(status), "killed": killed,
+                          "elapsed": time.monotonic() - t0,
+                          "wrote": None if wrote is None else wrote - t0}), flush=True)
+    """
+)
+
+START, GOAL = "500010,5000010", "500040,5000050"
+
+#: Every command that writes, with its outputs (relative to its folder) and inputs
+#: (``{name}``: a file of the ``inputs`` fixture). ``energy`` prints only: not here.
+COMMANDS: dict[str, list[str]] = {
+    "terrain": ["terrain", "{dem}", "--slope-out", "o/slope.tif", "--aspect-out",
+                "o/aspect.tif", "--plot", "o/slope.png"],
+    "plan": ["plan", "--dem", "{dem}", "--start", START, "--goal", GOAL, "--out",
+             "o/path.geojson", "--plot", "o/path.png", "--html", "o/path.html"],
+    "compare-routes": ["compare-routes", "--dem", "{dem}", "--start", START, "--goal", GOAL,
+                       "--time", "0.2", "--plot", "o/routes.png", "--html", "o/routes.html"],
+    "reach": ["reach", "{dem}", "--start", START, "--budget-wh", "1", "--battery-wh", "2",
+              "--out", "o/reach.tif", "--chance-out", "o/chance.tif", "--geojson",
+              "o/reach.geojson", "--plot", "o/reach.png"],
+    "mission": ["mission", "--dem", "{dem}", "--sites", "{sites}", "--geojson",
+                "o/tour.geojson", "--plot", "o/tour.png", "--nav2-graph", "o/graph.geojson"],
+    "energy-map": ["energy-map", "{dem}", "--headings", "4", "--out", "o/map.tif", "--plot",
+                   "o/map.png", "--html", "o/map.html"],
+    "fit": ["fit", "{logs}", "--out", "o/model.json"],
+    "discover": ["discover", "{logs}", "--out", "o/model.json", "--report", "o/report.html",
+                 "--folds", "2", "--max-steps", "1"],
+    "diagnose": ["diagnose", "{logs}", "--report", "o/report.html", "--folds", "2",
+                 "--max-steps", "1"],
+    "figures": ["figures", "{logs}", "--out", "o/figures"],
+    "simulate": ["simulate", "--small", "--seed", "2", "--out", "o/campaign", "--overwrite",
+                 "--plot", "o/fig4.png"],
+    "follow": ["follow", "{walk}", "--dem", "hill", "--html", "o/follow.html"],
+    "demo": ["demo", "--scenario", "plane", "--time", "0.5", "--plot", "o/demo.png"],
+}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """A 60 m hill, sites on it, a tiny campaign's logs and a 20 s walk on the bundled hill."""
+    import energy_planner as ep
+    from energy_planner.follow.calibrate import forward_mission
+    from energy_planner.simulate import CampaignConfig, simulate_campaign, simulate_missions
+
+    d = tmp_path_factory.mktemp("killed")
+    n = 30
+    yy, xx = np.mgrid[0:n, 0:n]
+    z = (4.0 * np.exp(-((xx - 15.0) ** 2 + (yy - 15.0) ** 2) / 80.0)).astype("float32")
+    prof = dict(driver="GTiff", height=n, width=n, count=1, dtype="float32", crs="EPSG:32631")
+    from rasterio.transform import from_origin
+
+    with rasterio.open(d / "dem.tif", "w", transform=from_origin(5e5, 5000060, 2, 2), **prof) as f:
+        f.write(z, 1)
+    (d / "sites.csv").write_text("x,y\n500010,5000010\n500040,5000050\n500012,5000045\n")
+    tiny = CampaignConfig.small(
+        slopes_deg=(0.0, 20.0), headings_deg=(0.0, 180.0), run_s=4.0, arcs=False, stand=False,
+        composite_slopes_deg=(),
+    )  # fmt: skip
+    simulate_campaign(seed=1, config=tiny).write(d / "logs")
+    walk = forward_mission(150.0, 20.0).replace(duration_s=20.0)
+    hill = ep.open_terrain(ep.map_path("hill"))
+    simulate_missions(seed=2, config=walk, terrain=hill).logs.to_csv(d / "walk.csv", index=False)
+    return {
+        "dem": d / "dem.tif",
+        "sites": d / "sites.csv",
+        "logs": d / "logs",
+        "walk": d / "walk.csv",
+    }
+
+
+@pytest.fixture(scope="module")
+def fork_server():
+    """``run(cwd, args, delay, after_write)``: one command in a forked child, killed."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SERVER], env=_env(), stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert proc.stdout.readline().strip() == "ready"
+
+    def run(cwd: Path, args: list[str], delay: float, after_write: bool) -> dict:
+        job = {"cwd": str(cwd), "args": args, "delay": delay, "after_write": after_write}
+        proc.stdin.write(json.dumps(job) + "\n")
+        proc.stdin.flush()
+        return json.loads(proc.stdout.readline())
+
+    try:
+        yield run
+    finally:
+        proc.stdin.close()
+        proc.wait(timeout=60)
+
+
+def _outputs(args: list[str]) -> list[str]:
+    return [a for a in args if a.startswith("o/")]
+
+
+def _whole(path: Path) -> None:
+    """``path`` is one complete output of its kind (a folder: each of its files)."""
+    if path.is_dir():
+        files = [p for p in path.rglob("*") if p.is_file() and not p.name.startswith(".")]
+        assert files, f"{path} is empty"
+        for p in files:
+            _whole(p)
+        if (path / "campaign.json").exists():  # a campaign: every run its table lists
+            json.loads((path / "campaign.json").read_text())
+            runs = pd.read_csv(path / "runs.csv")
+            assert all((path / f"{r}.csv").is_file() for r in runs["run"]), path
+        return
+    data = path.read_bytes()
+    assert data, f"{path} is empty"
+    if path.suffix in (".json", ".geojson"):
+        json.loads(data)
+    elif path.suffix == ".tif":
+        with rasterio.open(path) as src:
+            src.read()
+    elif path.suffix == ".png":
+        assert data[-8:-4] == b"IEND", f"{path} is cut short"  # a PNG's last chunk
+    elif path.suffix == ".html":
+        assert data.rstrip().endswith(b"</html>"), f"{path} is cut short"
+    elif path.suffix == ".csv":
+        assert data.endswith(b"\n"), f"{path} is cut short"
+        pd.read_csv(path)
+
+
+def _previous(path: Path) -> None:
+    """Write a small, whole output of ``path``'s kind: the previous output."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix in (".json", ".geojson"):
+        path.write_text('{"previous": true}')
+    elif path.suffix == ".html":
+        path.write_text("<html>the previous report</html>")
+    elif path.suffix == ".png":
+        import matplotlib.pyplot as plt
+
+        plt.imsave(path, np.zeros((2, 2)))
+    elif path.suffix == ".tif":
+        from rasterio.transform import from_origin
+
+        prof = dict(driver="GTiff", height=1, width=1, count=1, dtype="float32")
+        with rasterio.open(path, "w", transform=from_origin(0, 1, 1, 1), **prof) as dst:
+            dst.write(np.zeros((1, 1, 1), "float32"))
+    elif path.name == "campaign":  # a campaign of no run
+        path.mkdir()
+        (path / "campaign.json").write_text('{"previous": true}')
+        (path / "runs.csv").write_text("run\n")
+    else:  # a folder of figures
+        _previous(path / "previous.png")
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="POSIX fork and signals")
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_writing_command_killed_at_random_points(command, inputs, fork_server, tmp_path):
+    """SIGKILL at seeded random points: each output is the previous one or the whole new one.
+
+    Each output first holds a previous version. The command is killed twice: at a random
+    moment up to 0.3 s after it starts writing its outputs, and at a random moment of its
+    work before that. After each kill every output is there and whole (the previous one
+    or the complete new one: never gone, never cut short), every visible file is whole,
+    and what is beside them is only hidden temporary files that the next write removes
+    (:func:`energy_planner.io.remove_stale`: their writer is dead).
+    """
+    from energy_planner.io import remove_stale
+
+    args = [a.format(**{k: str(v) for k, v in inputs.items()}) for a in COMMANDS[command]]
+    outs = [tmp_path / o for o in _outputs(args)]
+    for p in outs:
+        _previous(p)
+    rng = random.Random(f"{SEED}:{command}")  # FAULT_SEED=... to vary
+    wrote = None
+    for after_write in (True, False):  # in its writing, then in its work before
+        delay = rng.uniform(0.0, 0.3) if after_write else rng.uniform(0.1, 1.0) * wrote
+        got = fork_server(tmp_path, args, delay, after_write)
+        assert got["killed"] or got["code"] == 0, f"{command}: {got}"
+        assert got["wrote"] is not None or not after_write, f"{command} wrote nothing: {got}"
+        wrote = wrote or got["wrote"]
+        for p in outs:
+            assert p.exists(), f"{command} killed after {delay:.2f} s: {p.name} is gone"
+            _whole(p)
+        for p in (tmp_path / "o").rglob("*"):
+            if p.is_file() and not any(x.startswith(".") for x in p.relative_to(tmp_path).parts):
+                _whole(p)
+    # what the kills left: only hidden temporary files of outputs, each of which the next
+    # write of its output removes
+    for h in sorted((tmp_path / "o").rglob(".*"), reverse=True):
+        m = re.fullmatch(r"\.(.+)\.\d+\.[A-Za-z0-9_]+\.tmp(\.[^.]+)?", h.name)
+        assert m, f"{command} left {h}, not a temporary file of an output"
+        remove_stale(h.parent / (m.group(1) + (m.group(2) or "")))
+    left = sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "o").rglob(".*"))
+    assert left == [], f"{command}: left beside its outputs: {left}"
+
+
+def test_commands_onto_a_full_disk_are_one_clear_line_and_keep_the_previous_outputs(tmp_path):
+    """The commands themselves, not only the writers: GDAL's failed flush is caught too.
+
+    An energy map written by windows reported a full disk only in GDAL's log and renamed
+    the cut-short file over the previous map (then a traceback reading it back).
+    """
+    from click.testing import CliRunner
+    from faults import small_disk  # tests/ helper
+    from rasterio.transform import from_origin
+
+    from energy_planner.cli import main
+
+    n = 300  # its 4-heading energy map: 2.9 MB of float32, its slope map 0.36 MB x 3
+    z = np.random.default_rng(0).random((n, n)).astype("float32")
+    prof = dict(driver="GTiff", height=n, width=n, count=1, dtype="float32", crs="EPSG:32631")
+    dem = tmp_path / "dem.tif"
+    with rasterio.open(dem, "w", transform=from_origin(5e5, 5e6 + n, 1, 1), **prof) as dst:
+        dst.write(z, 1)
+    with small_disk(tmp_path / "disk", "1m") as disk:
+        (disk / "map.tif").write_bytes(b"the previous map")
+        (disk / "slope.tif").write_bytes(b"the previous slope map")
+        for args in (
+            ["energy-map", str(dem), "--headings", "4", "--out", str(disk / "map.tif")],
+            ["terrain", str(dem), "--slope-out", str(disk / "slope.tif"), "--aspect-out",
+             str(disk / "aspect.tif"), "--plot", str(disk / "slope.png")],
+        ):  # fmt: skip
+            r = CliRunner().invoke(main, args)
+            assert r.exit_code != 0 and "Traceback" not in r.output, r.output
+            assert "no space left on the device" in r.output, r.output
+        assert (disk / "map.tif").read_bytes() == b"the previous map"  # 2.9 MB: never fits
+        # terrain's outputs: each the previous one, or whole (those written before the
+        # disk filled); nothing else on the disk
+        if (disk / "slope.tif").read_bytes() != b"the previous slope map":
+            _whole(disk / "slope.tif")
+        for p in disk.glob("aspect.tif"):
+            _whole(p)
+        names = {p.name for p in disk.iterdir()}
+        assert {"map.tif", "slope.tif"} <= names <= {"map.tif", "slope.tif", "aspect.tif"}

@@ -18,16 +18,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from energy_planner.errors import LogError, LogIOError
-from energy_planner.measurements import load_logs, preprocess
+from energy_planner.measurements import load_logs, make_windows, preprocess, run_energies
 from energy_planner.measurements.datacheck import _runs, check_data, odometry_ratios
+from energy_planner.measurements.schema import time_gaps, validate_log
 
 EPOCH = 1_700_000_000
 
 
-def _log(run: str = "a", n: int = 200, seed: int = 0) -> pd.DataFrame:
+def _log(run: str = "a", n: int = 200, seed: int = 0, rate_hz: float = 50.0) -> pd.DataFrame:
     """A robot walking east at 0.3 m/s on flat ground, 50 Hz, with its pose."""
     rng = np.random.default_rng(seed)
-    t = np.round(np.arange(n) * 0.02, 6)
+    t = np.round(np.arange(n) / rate_hz, 6)
     return pd.DataFrame(
         {
             "run": run,
@@ -228,16 +229,113 @@ def test_a_gap_splits_the_run_for_every_check():
     assert names.tolist() == ["a (part 1)", "a (part 2)"]
 
 
-def test_odometry_is_not_measured_across_a_ten_minute_pause():
-    ref = pd.concat([_log(f"r{i}", n=400, seed=i) for i in range(6)], ignore_index=True)
+@pytest.mark.parametrize("rate_hz", [10.0, 50.0])
+def test_odometry_is_not_measured_across_a_ten_minute_pause(rate_hz):
+    ref = pd.concat(
+        [_log(f"r{i}", n=400, seed=i, rate_hz=rate_hz) for i in range(6)], ignore_index=True
+    )
     paused = pd.concat(
         [_paused(g, g.index[200], 600.0) for _, g in ref.groupby("run")], ignore_index=True
     )
+    code, names = _runs(paused)  # two stretches per run
+    assert len(names) == 12 and names[:2].tolist() == ["r0 (part 1)", "r0 (part 2)"]
     # the odometry agrees with the pose, paused or not (before: 12000 % long)
     ratios = odometry_ratios(paused).ratio
     np.testing.assert_allclose(ratios, 1.0, rtol=1e-9)
     found = {f.name: f for f in check_data(paused)[0]}
     assert not found["odometry_scale"].finding, found["odometry_scale"].summary
+    # preprocessing says how many gaps split which run
+    note = preprocess(paused)[1].step("split_segments").note
+    assert note.startswith("6 time gap(s) (a step longer than 5 sample periods): run r0 split")
+    assert f"run r5 split in 2 at 1 gap (> {5 / rate_hz:.3g} s); 12 segment(s)" in note
+
+
+@pytest.mark.parametrize("rate_hz", [0.5, 1.0])
+def test_a_slow_log_is_never_split_at_every_sample(rate_hz):
+    """A 1 Hz or 0.5 Hz logger (sample steps of 1-2 s, with jitter) keeps its run whole."""
+    rng = np.random.default_rng(3)
+    log = _log(n=120, rate_hz=rate_hz)
+    log["t"] = np.cumsum(np.r_[0.0, rng.uniform(0.7, 1.3, 119) / rate_hz])
+    log["x"] = 0.3 * log["t"]
+    gaps = time_gaps(log["run"], log["t"])
+    assert gaps.n_gaps == {} and gaps.threshold["a"] == pytest.approx(5 / rate_hz, rel=0.1)
+    assert _runs(log)[1].tolist() == ["a"]
+    assert run_energies(log)["n_gaps"].tolist() == [0]
+    assert validate_log(log).gaps == []
+    clean, rep = preprocess(log)
+    assert clean["segment"].max() == 0 and rep.step("split_segments").note.startswith("no time gap")
+    np.testing.assert_allclose(odometry_ratios(log).ratio, 1.0, rtol=1e-9)
+
+
+def test_a_100hz_log_with_a_03s_hole_splits_in_two():
+    log = _paused(_log(n=300, rate_hz=100.0), 150, 0.3)  # the step there: 0.31 s
+    gaps = time_gaps(log["run"], log["t"])
+    assert gaps.n_gaps == {"a": 1} and gaps.threshold["a"] == pytest.approx(0.05)
+    assert np.flatnonzero(gaps.step).tolist() == [149]
+    code, names = _runs(log)
+    assert names.tolist() == ["a (part 1)", "a (part 2)"] and (code == (log.index >= 150)).all()
+    e = run_energies(log).iloc[0]  # the hole is not integrated
+    assert e["n_gaps"] == 1 and e["gap_s"] == pytest.approx(0.31)
+    assert e["duration_s"] == pytest.approx(2.98)
+    clean = preprocess(log)[0]
+    assert (clean["segment"] == (clean["t"] > 1.6)).all() and clean["segment"].max() == 1
+    w = make_windows(log, duration=0.5)  # windows start again after the hole
+    assert w.table["t_start"].round(6).tolist() == [0.0, 0.5, 1.0, 1.8, 2.3, 2.8]
+    # the fixed threshold a caller may still give: a 0.5 s one bridges the hole
+    assert time_gaps(log["run"], log["t"], max_gap=0.5).n_gaps == {}
+
+
+def _split(ref: pd.DataFrame, at: int) -> pd.DataFrame:
+    """``ref``'s run ``a`` cut at row ``at`` into two runs ``a1`` and ``a2``."""
+    out = ref.copy()
+    a = (out["run"] == "a").to_numpy()
+    out.loc[a, "run"] = np.where(np.arange(len(out))[a] < at, "a1", "a2")
+    return out
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    rate_hz=st.sampled_from([0.5, 1.0, 10.0, 50.0, 100.0]),
+    n=st.integers(40, 160),
+    at=st.floats(0.15, 0.85),
+    pause_periods=st.floats(6.0, 1e5),
+    seed=st.integers(0, 2**16),
+)
+def test_a_long_pause_only_splits_the_run(rate_hz, n, at, pause_periods, seed):
+    """Inserting a long pause into a run changes nothing but splitting it there.
+
+    Every per-run quantity of the paused log (measured energy, windows, cleaned power,
+    the odometry against the pose) equals that of the same log cut into two runs at the
+    pause; the other run is untouched.
+    """
+    rng = np.random.default_rng(seed)
+    a = _log("a", n=n, seed=seed, rate_hz=rate_hz)
+    a["t"] = np.cumsum(np.r_[0.0, rng.uniform(0.8, 1.2, n - 1) / rate_hz])
+    a["vx"] = rng.choice([0.3, 0.25, -0.3], n)
+    a["x"] = np.r_[0.0, np.cumsum(a["vx"].to_numpy()[1:] * np.diff(a["t"]))]
+    ref = pd.concat([a, _log("b", n=60, seed=seed + 1, rate_hz=20.0)], ignore_index=True)
+    k = int(at * n)
+    paused = _paused(ref, k, pause_periods / rate_hz)
+    paused.loc[paused["run"] == "b", "t"] = ref.loc[ref["run"] == "b", "t"]
+    split = _split(paused, k)
+    assert time_gaps(paused["run"], paused["t"]).n_gaps == {"a": 1}
+    assert time_gaps(split["run"], split["t"]).n_gaps == {}
+    # measured energy: the parts' sum
+    ep, es = run_energies(paused).set_index("run"), run_energies(split).set_index("run")
+    for col in ("measured_j", "duration_s"):
+        assert ep.loc["a", col] == pytest.approx(es.loc[["a1", "a2"], col].sum(), rel=1e-12)
+        assert ep.loc["b", col] == es.loc["b", col]
+    # windows: the same ones, with the same energies
+    wp, ws = (make_windows(x.drop(columns=["x", "y"]), 1.5).table for x in (paused, split))
+    cols = ["t_start", "duration", "n", "power", "energy_j", "motion"]
+    pd.testing.assert_frame_equal(wp[cols], ws[cols])
+    # cleaned samples: the same ones, with the same power
+    cp, cs = (preprocess(x.drop(columns=["x", "y"]))[0] for x in (paused, split))
+    np.testing.assert_array_equal(cp["power"], cs["power"])
+    np.testing.assert_array_equal(cp["t"], cs["t"])
+    # the data checks: the same stretches, the same odometry ratios
+    assert (_runs(paused)[0] == _runs(split)[0]).all()
+    np.testing.assert_array_equal(odometry_ratios(paused).ratio, odometry_ratios(split).ratio)
 
 
 def test_when_preprocessing_leaves_nothing_the_error_lists_each_removal():

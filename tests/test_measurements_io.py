@@ -133,7 +133,8 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     assert len(s) == 10
     assert lrep.validation.n_nan == {"qx": 1, "current": 1}
     text = str(lrep)
-    assert "voltage outside 5..1000 V" in text and "time gaps > 0.5 s" in text
+    assert "voltage outside 5..1000 V" in text
+    assert "1 time gap(s) (a step longer than 5 sample periods): run r split in 2" in text
     assert "IMU quaternions far from unit norm (dropped by preprocess): 1" in text
 
 

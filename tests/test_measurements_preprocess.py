@@ -81,7 +81,10 @@ def test_gap_splits_run_into_segments_and_is_counted():
     out, rec = split_segments(pd.concat([df, df2], ignore_index=True), P)
     assert list(out["segment"]) == [0] * 5 + [1] * 5 + [0] * 4
     assert rec.n_removed == 0
-    assert rec.note.startswith("1 gap(s) > 0.5 s; 3 segment(s)")
+    assert rec.note == (
+        "1 time gap(s) (a step longer than 5 sample periods): "
+        "run r split in 2 at 1 gap (> 0.5 s); 3 segment(s)"
+    )
 
 
 # ------------------------------------------------------------------ Hampel

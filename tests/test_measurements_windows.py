@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -195,7 +197,7 @@ def test_run_energies_never_bridges_a_gap():
     e = run_energies(df).iloc[0]
     assert e["measured_j"] == pytest.approx(100.0 * 0.3)
     assert e["n_gaps"] == 1 and e["gap_s"] == pytest.approx(4.8)
-    assert run_energies(df, max_gap=None)["measured_j"].iloc[0] == pytest.approx(510.0)
+    assert run_energies(df, max_gap=math.inf)["measured_j"].iloc[0] == pytest.approx(510.0)
     with pytest.raises(LogError, match="current"):
         run_energies(df.drop(columns="current"))
 

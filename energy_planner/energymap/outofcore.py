@@ -187,9 +187,11 @@ def compute_dask(
     import rasterio
 
     from energy_planner.io import atomic_path
+    from energy_planner.io.geotiff import check_written
 
     with atomic_path(out) as tmp:
         xarr.rio.to_raster(tmp, lock=lock, dtype="float32", **opts)
         with rasterio.open(tmp, "r+") as dst:
             _write_metadata(dst, setup, model_name, "dask")
+        check_written(tmp)  # GDAL only logs a write that failed at close (a full disk)
     del rioxarray  # imported for the .rio accessor

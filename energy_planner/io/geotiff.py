@@ -45,6 +45,7 @@ __all__ = [
     "COMPRESSIONS",
     "NODATA",
     "TILE",
+    "check_written",
     "compression_options",
     "describe_band",
     "geotiff_profile",
@@ -236,9 +237,46 @@ def open_geotiff(dest: str | os.PathLike[str], **profile: Any) -> Iterator[Any]:
         nodata=profile.pop("nodata", None),
         **profile,
     )
-    with atomic_path(dest) as tmp, rasterio.open(tmp, "w", **prof) as dst:
-        yield dst
-        _units_from_tags(dst)
+    with atomic_path(dest) as tmp:
+        with rasterio.open(tmp, "w", **prof) as dst:
+            yield dst
+            _units_from_tags(dst)
+        check_written(tmp)
+
+
+def check_written(path: str | os.PathLike[str]) -> None:
+    """Raise ``OSError`` unless the GeoTIFF just written at ``path`` is whole.
+
+    GDAL reports a write that fails when it flushes its blocks at close (a full disk)
+    only in its log, and the file is left cut short: a caller that renamed it over the
+    previous output would lose both. Checked: the disk still has room (a disk left with
+    less than 64 KiB is taken as full: ``ENOSPC``) and the file opens (its directory,
+    written last, is there).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> bad = pathlib.Path(tempfile.mkdtemp()) / "cut.tif"
+    >>> _ = bad.write_bytes(b"II*" + bytes(13))
+    >>> check_written(bad)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    OSError: [Errno 5] the GeoTIFF written is not whole (...)
+    """
+    import errno
+
+    import rasterio
+
+    from energy_planner.io.atomic import _full_disk
+
+    full = _full_disk(Path(path))
+    if full:
+        raise OSError(errno.ENOSPC, full)
+    try:
+        with rasterio.open(path) as src:
+            src.profile  # noqa: B018 - reads the directory
+    except rasterio.errors.RasterioIOError as exc:
+        raise OSError(errno.EIO, f"the GeoTIFF written is not whole ({exc})") from exc
 
 
 def _per_band(values: Sequence[Any] | None, count: int, what: str) -> list[Any]:

@@ -46,8 +46,9 @@ raw canonical samples, each with a test of its own, and are reported as *data fi
 
 Each check reports what it measured whether or not it is a finding (``evidence``), so a
 clean log says *why* it is clean. Every check measures within the gap-free stretches of
-a run (a time step longer than ``MAX_GAP_S`` splits it, as preprocessing does), never
-across a gap.
+a run (a time gap, longer than five of the run's sample periods, splits it, as
+preprocessing does: :func:`~energy_planner.measurements.schema.time_gaps`), never across
+a gap.
 
 Examples
 --------
@@ -71,7 +72,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from energy_planner.measurements.schema import MAX_GAP_S
+from energy_planner.measurements.schema import time_gaps
 
 #: Level of each data check's test (one test per check).
 DATA_ALPHA = 1e-3
@@ -127,8 +128,8 @@ class DataFinding:
 def _runs(samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """Code of each sample's gap-free stretch of a run, and the stretches' names.
 
-    The samples are sorted by run and t. A time step longer than
-    :data:`~energy_planner.measurements.schema.MAX_GAP_S` splits a run (as preprocessing
+    The samples are sorted by run and t. A time gap
+    (:func:`~energy_planner.measurements.schema.time_gaps`) splits a run (as preprocessing
     does): every check measures within a stretch, never across a gap (a 10-minute pause
     would otherwise read as 10 minutes of odometry at the speed of the sample after it).
     A run without gaps is one stretch named as the run; the parts of a split run are
@@ -136,17 +137,17 @@ def _runs(samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
     Examples
     --------
-    >>> s = pd.DataFrame({"run": ["a", "a", "a", "b"], "t": [0.0, 0.1, 600.0, 0.0]})
+    >>> s = pd.DataFrame({"run": ["a", "a", "a", "a", "b"], "t": [0.0, 0.1, 0.2, 600.0, 0.0]})
     >>> code, names = _runs(s)
     >>> code.tolist(), names.tolist()
-    ([0, 0, 1, 2], ['a (part 1)', 'a (part 2)', 'b'])
+    ([0, 0, 0, 1, 2], ['a (part 1)', 'a (part 2)', 'b'])
     """
     run = samples["run"].astype(str).to_numpy(dtype=object)
     t = samples["t"].to_numpy(float)
     if len(run) == 0:
         return np.zeros(0, dtype=np.int64), np.asarray([], dtype=object)
     same = run[1:] == run[:-1]
-    gap = same & (np.diff(t) > MAX_GAP_S)
+    gap = time_gaps(run, t).step
     if not gap.any():
         code, names = pd.factorize(run, sort=True)
         return code.astype(np.int64), np.asarray(names, dtype=object)

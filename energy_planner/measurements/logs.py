@@ -27,7 +27,6 @@ from energy_planner.measurements.conventions import (
 )
 from energy_planner.measurements.schema import (
     CANONICAL_COLUMNS,
-    MAX_GAP_S,
     OPTIONAL_COLUMNS,
     REQUIRED_COLUMNS,
     VOLTAGE_RANGE,
@@ -149,7 +148,7 @@ class LoadReport:
                     f"{v.n_bad_quaternion}"
                 )
             if v.gaps:
-                lines.append(f"time gaps > {v.max_gap:g} s (runs split there): {len(v.gaps)}")
+                lines.append(f"{v.gap_text} (preprocessing splits the runs there)")
         if self.current_sign_flipped:
             lines.append(
                 "battery current negated: ROS BatteryState is negative while "
@@ -537,7 +536,7 @@ def load_logs(
     *,
     report: bool = False,
     voltage_range: tuple[float, float] = VOLTAGE_RANGE,
-    max_gap: float = MAX_GAP_S,
+    max_gap: float | None = None,
     table_current: str = "auto",
     **bag_options: Any,
 ) -> pd.DataFrame | tuple[pd.DataFrame, LoadReport]:

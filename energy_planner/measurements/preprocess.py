@@ -6,8 +6,9 @@
    voltage outside ``voltage_min..voltage_max`` or an IMU quaternion far from unit norm
    (counted per reason);
 2. :func:`split_segments` - number the gap-free segments of each run (column
-   ``segment``); a time step longer than ``max_gap`` starts a new segment, so nothing
-   later (filters, derivatives, windows) bridges a gap;
+   ``segment``); a time gap (longer than five of the run's sample periods, or than
+   ``max_gap`` if given: :func:`~energy_planner.measurements.schema.time_gaps`) starts a
+   new segment, so nothing later (filters, derivatives, windows) bridges a gap;
 3. :func:`add_power` - electrical power ``power = voltage * current`` (W);
 4. :func:`hampel_filter` - median-type outlier filter on power: drop samples further
    than ``hampel_n_sigma`` robust standard deviations from the running median;
@@ -40,12 +41,12 @@ import pandas as pd
 from energy_planner.errors import LogError, UnknownNameError
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body
 from energy_planner.measurements.schema import (
-    MAX_GAP_S,
     REQUIRED_COLUMNS,
     VOLTAGE_RANGE,
     check_columns,
     check_runs,
     check_time,
+    time_gaps,
 )
 
 G = 9.81
@@ -59,8 +60,10 @@ class PreprocessParams:
     ----------
     voltage_min, voltage_max : float
         Plausible battery voltage, V (default 5..1000). Outside: dropped, counted.
-    max_gap : float
-        Longest time step, s, inside a segment (default 0.5). Longer: a new segment.
+    max_gap : float, optional
+        Longest time step, s, inside a segment. Default (None): five times the run's
+        sample period (:func:`~energy_planner.measurements.schema.time_gaps`). Longer: a
+        new segment.
     hampel_half_window : int
         Samples on each side of the Hampel window (default 10, i.e. 21 samples; 0.42 s
         at 50 Hz).
@@ -104,7 +107,7 @@ class PreprocessParams:
 
     voltage_min: float = VOLTAGE_RANGE[0]
     voltage_max: float = VOLTAGE_RANGE[1]
-    max_gap: float = MAX_GAP_S
+    max_gap: float | None = None
     hampel_half_window: int = 10
     hampel_n_sigma: float = 4.0
     hampel_min_scale_w: float = 1.0
@@ -135,7 +138,7 @@ class PreprocessParams:
             "voltage_min",
             "0 <= voltage_min < voltage_max",
         )
-        need(self.max_gap > 0, "max_gap", "a time step > 0 s")
+        need(self.max_gap is None or self.max_gap > 0, "max_gap", "a time step > 0 s or None")
         need(
             int(self.hampel_half_window) == self.hampel_half_window
             and self.hampel_half_window >= 1,
@@ -395,20 +398,21 @@ def split_segments(
 ) -> tuple[pd.DataFrame, StepRecord]:
     """Add ``segment`` (int, from 0 within each run), split at time gaps.
 
-    A step longer than ``max_gap`` s starts a new segment. Nothing is removed; the note
-    counts the gaps.
+    A time gap (:func:`~energy_planner.measurements.schema.time_gaps`: a step longer than
+    five of the run's sample periods, or than ``max_gap`` s if given) starts a new
+    segment. The samples must be sorted by run and ``t``. Nothing is removed; the note
+    says how many gaps split which run.
     """
     out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
-    seg = np.zeros(len(out), dtype=np.int64)
-    n_gaps = 0
-    t = out["t"].to_numpy(dtype=float)
-    for sl in segment_slices(out.drop(columns=["segment"], errors="ignore")):
-        new = np.concatenate([[False], np.diff(t[sl]) > params.max_gap])
-        seg[sl] = np.cumsum(new)
-        n_gaps += int(new.sum())
-    out["segment"] = seg
+    run = out["run"].astype(str).to_numpy()
+    gaps = time_gaps(run, out["t"].to_numpy(dtype=float), max_gap=params.max_gap)
+    new = np.r_[False, gaps.step][: len(run)]
+    start = np.r_[True, run[1:] != run[:-1]][: len(run)]
+    total = np.cumsum(new)  # the gaps since the run's first sample:
+    seg = total - total[np.flatnonzero(start)][np.cumsum(start) - 1]
+    out["segment"] = seg.astype(np.int64)
     n_seg = len(segment_slices(out))
-    note = f"{n_gaps} gap(s) > {params.max_gap:g} s; {n_seg} segment(s)"
+    note = f"{gaps.describe()}; {n_seg} segment(s)"
     return out, StepRecord("split_segments", len(samples), len(out), {}, note)
 
 

@@ -51,8 +51,11 @@ CANONICAL_COLUMNS: tuple[str, ...] = ("run", *REQUIRED_COLUMNS, *OPTIONAL_COLUMN
 
 #: Default plausible battery voltage range, V (outside: the sample is dropped, counted).
 VOLTAGE_RANGE: tuple[float, float] = (5.0, 1000.0)
-#: Default longest time step, s, that is not a gap.
-MAX_GAP_S: float = 0.5
+#: A time step longer than this many of its run's sample periods (the median time step
+#: of the run) is a gap: the run is split there (:func:`time_gaps`). Five periods leave
+#: a logger's jitter and a few dropped samples alone (a 1 Hz log is never split at every
+#: sample) and still split a 100 Hz log at a 0.3 s hole.
+GAP_PERIODS: float = 5.0
 
 
 @dataclass
@@ -73,10 +76,15 @@ class ValidationReport:
         Number of finite IMU quaternions whose norm is off 1 by more than 0.1 (e.g. all
         zeros from a driver without orientation).
     gaps : list of dict
-        One entry per time step longer than ``max_gap`` (s): ``run``, ``t_before``,
-        ``t_after``, ``dt``. Preprocessing splits the run there into segments.
-    voltage_range, max_gap : tuple of float, float
-        The thresholds used.
+        One entry per time gap (:func:`time_gaps`): ``run``, ``t_before``, ``t_after``,
+        ``dt``. Preprocessing splits the run there into segments.
+    voltage_range : tuple of float
+        The voltage range used.
+    max_gap : float or None
+        The fixed gap threshold given, s, or None: each run's own (:data:`GAP_PERIODS`
+        sample periods).
+    gap_text : str
+        One line: how many gaps split which run (:meth:`TimeGaps.describe`).
     """
 
     n_rows: int
@@ -86,7 +94,8 @@ class ValidationReport:
     n_bad_quaternion: int = 0
     gaps: list[dict[str, Any]] = field(default_factory=list)
     voltage_range: tuple[float, float] = VOLTAGE_RANGE
-    max_gap: float = MAX_GAP_S
+    max_gap: float | None = None
+    gap_text: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for ``--json``)."""
@@ -100,6 +109,7 @@ class ValidationReport:
             "gaps": [dict(g) for g in self.gaps],
             "voltage_range": list(self.voltage_range),
             "max_gap": self.max_gap,
+            "gap_text": self.gap_text,
         }
 
 
@@ -213,12 +223,128 @@ def _by_run(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return order, c[1:] == c[:-1]
 
 
+@dataclass(frozen=True)
+class TimeGaps:
+    """The time gaps of a log: where its runs are split (see :func:`time_gaps`).
+
+    Attributes
+    ----------
+    step : numpy.ndarray of bool
+        One per step between consecutive rows (``n - 1``): True where the step stays
+        within a run and is longer than the run's threshold.
+    threshold : dict
+        Per run (str), the longest step that is not a gap, s (``inf`` for a run of fewer
+        than two samples).
+    period : dict
+        Per run (str), its sample period: the median of its positive time steps, s (NaN
+        for a run of fewer than two samples).
+    n_gaps : dict
+        Number of gaps per run, for the runs that have any (sorted by run).
+    max_gap : float or None
+        The fixed threshold given, or None when each run's own sample period set it.
+    """
+
+    step: np.ndarray
+    threshold: dict[str, float]
+    period: dict[str, float]
+    n_gaps: dict[str, int]
+    max_gap: float | None = None
+
+    def describe(self) -> str:
+        """One line: how many gaps split which run, and the rule.
+
+        Examples
+        --------
+        >>> g = time_gaps(["a"] * 4 + ["b"] * 3, [0, 1, 2, 60, 0, 0.1, 0.2])
+        >>> g.describe()
+        '1 time gap(s) (a step longer than 5 sample periods): run a split in 2 at 1 gap (> 5 s)'
+        """
+        rule = (
+            f"a step longer than {self.max_gap:g} s"
+            if self.max_gap is not None
+            else f"a step longer than {GAP_PERIODS:g} sample periods"
+        )
+        gaps = self.n_gaps
+        if not gaps:
+            return f"no time gap ({rule})"
+        shown = [
+            f"run {r} split in {n + 1} at {n} gap{'s' if n > 1 else ''} "
+            f"(> {self.threshold[r]:.3g} s)"
+            for r, n in list(gaps.items())[:10]
+        ]
+        more = f"; and {len(gaps) - 10} more run(s)" if len(gaps) > 10 else ""
+        return f"{sum(gaps.values())} time gap(s) ({rule}): {'; '.join(shown)}{more}"
+
+
+def time_gaps(run, t, *, max_gap: float | None = None) -> TimeGaps:
+    """Which time steps of a log are gaps: the one rule every step that splits runs uses.
+
+    A step is a gap when it is longer than :data:`GAP_PERIODS` times its run's sample
+    period (the median of the run's positive time steps), so the rule follows the log's
+    own rate: a 1 Hz log is never split at every sample, a 100 Hz log is split at a
+    0.3 s hole. A fixed ``max_gap`` (s) replaces the rule for every run.
+
+    Parameters
+    ----------
+    run : array-like
+        Run id of each row. The rows of a run must be consecutive and in time order
+        (sorted by run and ``t``).
+    t : array-like of float
+        Time of each row, s.
+    max_gap : float, optional
+        A fixed longest step that is not a gap, s, instead of the runs' own rates.
+
+    Returns
+    -------
+    TimeGaps
+
+    Examples
+    --------
+    A 1 Hz run stays whole; a 100 Hz run with a 0.3 s hole is split there:
+
+    >>> t = np.r_[np.arange(10.0), 0.01 * np.arange(50), 0.8 + 0.01 * np.arange(50)]
+    >>> g = time_gaps(["slow"] * 10 + ["fast"] * 100, t)
+    >>> g.n_gaps, g.threshold["slow"], round(g.threshold["fast"], 6)
+    ({'fast': 1}, 5.0, 0.05)
+    >>> int(np.flatnonzero(g.step)[0])
+    59
+    """
+    run = np.asarray(run, dtype=object).astype(str)
+    t = np.asarray(t, dtype=float)
+    if run.shape != t.shape:
+        raise LogError(f"time_gaps: {run.size} run ids for {t.size} times; expected one each")
+    dt = np.diff(t)
+    same = run[1:] == run[:-1]
+    uniq, code = np.unique(run, return_inverse=True)
+    names = [str(r) for r in uniq]
+    step_run = code[1:].astype(np.int64)
+    ok = same & (dt > 0)
+    period = pd.Series(dt[ok]).groupby(step_run[ok]).median()
+    periods = np.full(len(names), np.nan)
+    periods[period.index.to_numpy(dtype=np.int64)] = period.to_numpy(float)
+    if max_gap is not None:
+        if not max_gap > 0:
+            raise LogError(f"max_gap={max_gap!r} s; expected a time step > 0 s", value=max_gap)
+        per_run = np.full(len(names), float(max_gap))
+    else:  # a run without two distinct times has no step to split
+        per_run = np.where(np.isfinite(periods), GAP_PERIODS * periods, np.inf)
+    step = same & (dt > per_run[step_run])
+    counts = np.bincount(step_run[step], minlength=len(names))
+    return TimeGaps(
+        step=step,
+        threshold={r: float(v) for r, v in zip(names, per_run, strict=True)},
+        period={r: float(v) for r, v in zip(names, periods, strict=True)},
+        n_gaps={r: int(n) for r, n in zip(names, counts, strict=True) if n},
+        max_gap=None if max_gap is None else float(max_gap),
+    )
+
+
 def validate_log(
     samples: pd.DataFrame,
     source: str | None = None,
     *,
     voltage_range: tuple[float, float] = VOLTAGE_RANGE,
-    max_gap: float = MAX_GAP_S,
+    max_gap: float | None = None,
 ) -> ValidationReport:
     """Check a canonical log table; raise on structural faults, count the rest.
 
@@ -231,8 +357,9 @@ def validate_log(
     voltage_range : (float, float)
         Plausible battery voltage, V. Samples outside it are counted here and dropped
         (counted) by :func:`~energy_planner.measurements.preprocess`; they are not an error.
-    max_gap : float
-        Longest time step, s, that is not a gap. Gaps are listed here; preprocessing
+    max_gap : float, optional
+        Longest time step, s, that is not a gap; default: :data:`GAP_PERIODS` times each
+        run's sample period (:func:`time_gaps`). Gaps are listed here; preprocessing
         splits the run into segments at each gap (windows never cross one).
 
     Returns
@@ -248,12 +375,12 @@ def validate_log(
     Examples
     --------
     >>> import pandas as pd
-    >>> df = pd.DataFrame({"run": "a", "t": [0.0, 0.1, 2.0], "qw": 1.0, "qx": 0.0,
-    ...     "qy": 0.0, "qz": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0,
-    ...     "voltage": [50.0, 0.0, 50.0], "current": 4.0})
+    >>> df = pd.DataFrame({"run": "a", "t": [0.0, 0.1, 0.2, 0.3, 2.0], "qw": 1.0,
+    ...     "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3, "vy": 0.0, "wz": 0.0,
+    ...     "voltage": [50.0, 0.0, 50.0, 50.0, 50.0], "current": 4.0})
     >>> r = validate_log(df)
     >>> r.n_bad_voltage, len(r.gaps), r.gaps[0]["dt"]
-    (1, 1, 1.9)
+    (1, 1, 1.7)
     """
     check_columns(samples.columns, source)
     check_runs(samples, source)
@@ -279,10 +406,11 @@ def validate_log(
     gaps = []
     runs = samples["run"].astype(str).to_numpy()
     t = samples["t"].to_numpy(dtype=float)
-    order, same = _by_run(runs)
+    order, _ = _by_run(runs)
     ts, rs = t[order], runs[order]
     dt = np.diff(ts)
-    for i in np.flatnonzero(same & (dt > max_gap)):
+    found = time_gaps(rs, ts, max_gap=max_gap)
+    for i in np.flatnonzero(found.step):
         gaps.append(
             {
                 "run": str(rs[i]),
@@ -300,5 +428,6 @@ def validate_log(
         n_bad_quaternion=n_bad_q,
         gaps=gaps,
         voltage_range=(float(lo), float(hi)),
-        max_gap=float(max_gap),
+        max_gap=found.max_gap,
+        gap_text=found.describe(),
     )

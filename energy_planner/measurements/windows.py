@@ -17,7 +17,7 @@ import pandas as pd
 
 from energy_planner.errors import LogError
 from energy_planner.measurements.imu import imu_slope_heading
-from energy_planner.measurements.schema import MAX_GAP_S, check_columns, check_runs
+from energy_planner.measurements.schema import check_columns, check_runs, time_gaps
 from energy_planner.stats import MOTIONS, classify_motion
 
 __all__ = [
@@ -137,7 +137,7 @@ def make_windows(
     samples: pd.DataFrame,
     duration: float = 2.0,
     *,
-    max_gap: float = MAX_GAP_S,
+    max_gap: float | None = None,
     min_fraction: float = 0.5,
     min_samples: int = 3,
     motion_length: float = 0.5,
@@ -146,7 +146,9 @@ def make_windows(
     """Cut samples into short windows within a run, segment and motion class.
 
     Consecutive samples form a block while the run, the ``segment`` (if present) and the
-    motion class stay the same and no time step exceeds ``max_gap``. Each block is cut
+    motion class stay the same and no time step is a gap (longer than five of the run's
+    sample periods, or than ``max_gap`` s if given:
+    :func:`~energy_planner.measurements.schema.time_gaps`). Each block is cut
     at ``t0 + k * duration``. Sample ``i`` stands for the interval to the next sample of
     its block (the last one for the block's previous step), so a window's ``duration`` is
     the sum of its sample intervals, ``t_end = t_start + duration`` and ``energy_j =
@@ -208,7 +210,8 @@ def make_windows(
     run = df["run"].to_numpy()
     motion = df["motion"].to_numpy()
     dt_next = np.diff(t)
-    brk = (run[1:] != run[:-1]) | (motion[1:] != motion[:-1]) | (dt_next > max_gap)
+    gap = time_gaps(run, t, max_gap=max_gap).step
+    brk = (run[1:] != run[:-1]) | (motion[1:] != motion[:-1]) | gap
     if "segment" in df.columns:
         seg = df["segment"].to_numpy()
         brk |= seg[1:] != seg[:-1]
@@ -326,17 +329,18 @@ def _table(df: pd.DataFrame, dt: np.ndarray, duration: float) -> pd.DataFrame:
     return tab[cols + extras].reset_index(drop=True)
 
 
-def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) -> pd.DataFrame:
+def run_energies(samples: pd.DataFrame, *, max_gap: float | None = None) -> pd.DataFrame:
     """Measured electrical energy of each run: trapezoidal integral of voltage * current.
 
     Parameters
     ----------
     samples : pandas.DataFrame
         Canonical samples (raw: ``voltage * current``; the ``power`` column is not used).
-    max_gap : float or None
-        Time steps longer than this (s) are not integrated (a gap is never bridged); they
-        are counted in ``n_gaps`` and their total length in ``gap_s``. ``None``
-        integrates every step.
+    max_gap : float, optional
+        Time gaps are not integrated (a gap is never bridged); they are counted in
+        ``n_gaps`` and their total length in ``gap_s``. A gap is a step longer than five
+        of the run's sample periods (:func:`~energy_planner.measurements.schema.time_gaps`),
+        or than ``max_gap`` s if given (``math.inf`` integrates every step).
 
     Returns
     -------
@@ -346,10 +350,10 @@ def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) ->
 
     Examples
     --------
-    >>> df = pd.DataFrame({"run": "a", "t": [0.0, 0.5, 1.0, 3.0], "voltage": 50.0,
+    >>> df = pd.DataFrame({"run": "a", "t": [0.0, 0.5, 1.0, 4.0], "voltage": 50.0,
     ...                    "current": [2.0, 4.0, 4.0, 4.0]})
     >>> run_energies(df)[["run", "duration_s", "measured_j", "n_gaps", "gap_s"]].to_numpy().tolist()
-    [['a', 1.0, 175.0, 1, 2.0]]
+    [['a', 1.0, 175.0, 1, 3.0]]
     """
     missing = [c for c in ("run", "t", "voltage", "current") if c not in samples.columns]
     if missing:
@@ -358,12 +362,13 @@ def run_energies(samples: pd.DataFrame, *, max_gap: float | None = MAX_GAP_S) ->
         )
     check_runs(samples, "samples given to run_energies")
     df = samples.assign(run=samples["run"].astype(str)).sort_values(["run", "t"], kind="stable")
+    df["_gap"] = np.r_[time_gaps(df["run"], df["t"], max_gap=max_gap).step, False][: len(df)]
     rows = []
     for run, g in df.groupby("run", sort=True):
         t = g["t"].to_numpy(float)
         p = g["voltage"].to_numpy(float) * g["current"].to_numpy(float)
         dt = np.diff(t)
-        gap = dt > max_gap if max_gap is not None else np.zeros(dt.size, bool)
+        gap = g["_gap"].to_numpy()[:-1]
         use = ~gap
         e = float(np.sum(0.5 * (p[1:] + p[:-1])[use] * dt[use]))
         rows.append(
