@@ -41,6 +41,7 @@ __all__ = [
     "load_model",
     "mission",
     "open_terrain",
+    "pareto",
     "path_energy",
     "plan",
     "reach",
@@ -100,6 +101,22 @@ def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = N
     prob = _problem(dem, model, request)
     kwargs.setdefault("progress", False)
     return _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), **kwargs)
+
+
+def pareto(dem: Any, start: Any, goal: Any, n: int = 9, *, model: Any = None,
+           request: Any = None, crs: Any = None, **kwargs: Any):  # fmt: skip
+    """The energy-time front from ``start`` to ``goal``: ``n`` plans over a sweep of lambda.
+
+    Each point minimises energy + lambda x time over routes and speeds within ``speed=``
+    (default ``"auto"``: the range the model's logs cover); only the front's convex hull
+    is found (:func:`energy_planner.planning.speed.pareto`). ``plan(..., deadline=...)``
+    gives the least-energy path that arrives in time.
+    """
+    from energy_planner.planning.speed import pareto as _pareto
+
+    prob = _problem(dem, model, request)
+    kwargs.setdefault("progress", False)
+    return _pareto(prob, _pose(prob, start, crs), _pose(prob, goal, crs), n, **kwargs)
 
 
 def path_energy(dem: Any, points: Any, yaw: Any = None, t: Any = None, *, model: Any = None,

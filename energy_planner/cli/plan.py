@@ -138,6 +138,14 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
     }
 
 
+def _emit_front(front, terrain, request, model, model_path, plot, as_json) -> None:
+    """Print (and with --plot draw) the energy-time front of ``plan --pareto``."""
+    result = front.to_dict(terrain)
+    result.update(plan_context(terrain, request, model, model_path))
+    options.write_output(result, "plot", plot, front.plot)
+    options.emit(result, as_json, lambda r: front.text())
+
+
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -151,6 +159,16 @@ def format_table(res: dict[str, Any]) -> str:
         # degrees (a geographic DEM) to 6 decimals, metres to 2
         nd = 6 if max(abs(w["x"]), abs(w["y"])) <= 360 else 2
         lines.append(f"  {w['x']:>16.{nd}f} {w['y']:>16.{nd}f} {w['yaw_deg']:>8.1f}")
+    prof = [p["speed_m_s"] for p in res.get("speed_profile", []) if p["speed_m_s"] > 0]
+    if prof:
+        sp = res.get("speed", {})
+        lo, hi = sp.get("speed_range") or (min(prof), max(prof))
+        lines.insert(4, f"speed     {min(prof):.2f}-{max(prof):.2f} m/s chosen per motion "
+                        f"within {lo:g}-{hi:g} m/s ({sp.get('speed_law', '')})")  # fmt: skip
+    d = res.get("deadline")
+    if d:
+        lines.insert(4, f"deadline  {d['deadline_s']:g} s met (lambda {d['lambda_j_per_s']:.1f} "
+                        f"J/s after {len(d['plans'])} plans)")  # fmt: skip
     c = res.get("corridor")
     if c:
         last = c["windows"][-1]["shape"]
@@ -179,7 +197,21 @@ def format_table(res: dict[str, Any]) -> str:
 @options.dem_option
 @options.start_goal_options
 @options.model_option
-@options.planning_options("the path", time_default=None)
+@options.planning_options("the path", time_default=None, speed_range=True)
+@click.option(
+    "--deadline",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds: the least-energy path that arrives in time, route and each motion's speed "
+    "chosen together (minimises energy + lambda x time, lambda by bisection); speeds within "
+    "--speed MIN:MAX (default auto). An error gives the fastest path's time when none can.",
+)
+@click.option(
+    "--pareto",
+    type=click.IntRange(min=2),
+    help="Plan N points of the energy-time front (a sweep of lambda in energy + lambda x "
+    "time: the front's convex hull), each with its energy interval, duration and speed "
+    "profile; --plot draws the front; speeds within --speed (default auto).",
+)
 @click.option(
     "--step",
     type=click.FloatRange(min=0, min_open=True),
@@ -237,6 +269,8 @@ def command(
     html: Path | None,
     stay_in_domain: bool,
     as_json: bool,
+    deadline: float | None = None,
+    pareto: int | None = None,
 ) -> None:
     """Plan an energy-minimal path (x, y, heading) from START to GOAL over a DEM.
 
@@ -275,7 +309,30 @@ def command(
 
     cap = parse_memory_cap(memory_cap)
     kwargs = dict(search, step=step, eps=eps)
+    speed = options.speed_choice()
+    if (deadline is not None or pareto is not None) and speed is None:
+        speed = "auto"
+    if speed is not None:
+        kwargs["speed"] = speed
+    if deadline is not None:
+        kwargs["deadline"] = deadline
+    if pareto is not None:
+        if deadline is not None:
+            raise click.BadParameter("give --pareto or --deadline, not both", param_hint="--pareto")
+        for name, value in (("--out", out), ("--html", html), ("--bag", bag)):
+            if value is not None:
+                raise click.BadParameter(
+                    f"{name} writes one path; --pareto plans {pareto} (use --json for all of "
+                    "them, --plot for the front)",
+                    param_hint=name,
+                )
     if over_memory_cap(dem, cap):
+        if speed is not None or deadline is not None or pareto is not None:
+            raise click.BadParameter(
+                f"{dem}: the DEM is planned by windows (over --memory-cap), where the speed is "
+                "the nominal one; expected a fixed --speed V, or raise --memory-cap",
+                param_hint="--speed/--deadline/--pareto",
+            )
         from energy_planner.planning.corridor import plan_in_corridor
 
         s = point_in_dem_crs(start, "--start", True)
@@ -307,6 +364,13 @@ def command(
             # a model that prices walking on this map at <= 0 W would plan a free route
             problem = Problem(terrain, model, request)
             check_cost_power(problem.cost)
+            if pareto is not None:
+                from energy_planner.planning.speed import pareto as energy_time_front
+
+                kwargs.setdefault("speed", "auto")
+                front = energy_time_front(problem, s, g, pareto, progress=False, trust=trust,
+                                          **kwargs)  # fmt: skip
+                return _emit_front(front, terrain, request, model, model_path, plot, as_json)
             res = plan(problem, s, g, progress=True, trust=trust, **kwargs)
         except BatteryError as exc:
             raise click.BadParameter(str(exc), param_hint="--battery-wh/--reserve-wh") from exc

@@ -173,6 +173,8 @@ class PlanResult(Assessed):
             out["speed_profile"] = self.speed_profile()
             out["speed"] = {k: self.info[k] for k in ("speed_range", "time_weight", "speed_law")
                             if k in self.info}  # fmt: skip
+        if "deadline" in self.info:
+            out["deadline"] = self.info["deadline"]
         return out
 
     def write_geojson(self, path: Any, terrain, *, native: bool = False) -> Any:
