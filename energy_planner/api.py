@@ -93,6 +93,16 @@ def plan(dem: Any, start: Any, goal: Any, *, model: Any = None, request: Any = N
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "points in the DEM's CRS")  # fmt: skip
+            if any(kwargs.get(k) for k in ("speed", "deadline", "time_weight")):
+                from energy_planner.errors import PlanningConfigError
+
+                raise PlanningConfigError(
+                    f"{dem}: a DEM read by windows (over memory_cap) is planned at the "
+                    "request's speed; expected no speed=, deadline= or time_weight= (give the "
+                    "speed in request=), or a larger memory_cap",
+                    value=kwargs.get("speed"),
+                    param="speed",
+                )
             res, _ = plan_in_corridor(dem, model, tuple(s), tuple(g), request, cap=memory_cap,
                                       **kwargs)  # fmt: skip
             return res
