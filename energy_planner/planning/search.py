@@ -356,10 +356,23 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
     best = np.empty_like(along)
     table = np.full(along.shape, np.inf)
-    for speed in bound_speeds(cost):
+    speeds = bound_speeds(cost)
+    lam = float(getattr(cost, "time_weight", 0.0))
+    if len(speeds) > 1:
+        # a sample's gradient is a convex combination of cells' gradients: nodes steeper
+        # than the steepest cell by two spacings are never read by the bilinear lookup, so
+        # they are left inf (edge_bound then takes the table's least: still a bound) rather
+        # than priced at every speed (the exact minimum, above the heading table's slopes)
+        gmax = float(np.nanmax(np.hypot(gx, gy)))
+        far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
+        GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
+    for speed in speeds:
         hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
         hc.map_bands(GX, GY, np.zeros((0, nodes, nodes)), dirs, along, best)
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / speed)
         table = np.minimum(table, best)
+    table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
     # float32, each value rounded down so that it stays a lower bound
@@ -383,7 +396,9 @@ def bound_speeds(cost) -> np.ndarray:
     least over the whole range by a fraction of the spacing's square: the search's
     :data:`BOUND_MARGIN` covers it where the curve is flat near its minimum; elsewhere the
     bound may exceed a motion's cost by a little, which only weakens the optimality
-    certificate (``eps``), not the path. A time price only adds to every motion's cost.
+    certificate (``eps``), not the path. With a time price ``lambda`` the bound at each
+    speed adds ``lambda / v`` (a map metre lasts at least ``1 / v``), so that a dear second
+    keeps the heuristic as tight as a free one.
     """
     rng = getattr(cost, "speed_range", None)
     if rng is None:
