@@ -33,6 +33,7 @@ _LAZY: dict[str, str] = {
     "open_terrain": "energy_planner.api",
     "load_model": "energy_planner.api",
     "plan": "energy_planner.api",
+    "pareto": "energy_planner.api",
     "path_energy": "energy_planner.api",
     "compare_routes": "energy_planner.api",
     "reach": "energy_planner.api",

@@ -43,6 +43,7 @@ __all__ = [
     "load_model",
     "mission",  # noqa: F822 (module __getattr__)
     "open_terrain",
+    "pareto",
     "path_energy",
     "plan",
     "reach",
@@ -151,7 +152,7 @@ def plan(
     crs: Any = None,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -165,6 +166,8 @@ def plan(
     seed: int = 0,
     step: float | None = None,
     eps: float | None = None,
+    deadline: float | None = None,
+    time_weight: float | None = None,
     memory_cap: Any = DEFAULT_CAP,
     stay_in_domain: bool = False,
     level: float = 0.9,
@@ -193,6 +196,13 @@ def plan(
         Position spacing of the search, metres (``--step``; default: the cell size).
     eps : float, optional
         Heuristic weight of the search (``--eps``; default 1.05, 1 = optimal).
+    deadline : float, optional
+        Seconds (``--deadline``): the least-energy path that arrives in time, route and
+        each motion's speed chosen together (energy + lambda x time, lambda by
+        bisection); speeds within ``speed`` (default ``"auto"``).
+    time_weight : float, optional
+        lambda, J per second: minimise energy + lambda x time (one point of
+        :func:`pareto`'s front).
     memory_cap : int, DEFAULT_CAP or NO_CAP
         Memory planning may use, bytes (``--memory-cap``); a DEM file too large for it
         is planned by windows (``info["corridor"]`` says whether proven).
@@ -205,6 +215,14 @@ def plan(
         (:func:`energy_planner.planning.plan`).
     progress : bool
         Progress on stderr (the command shows it unless ``--quiet``).
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, as ``--speed V``: every motion walks at it) or a
+    range the motions choose from, ``(vmin, vmax)`` or ``"auto"`` (``--speed MIN:MAX``,
+    ``--speed auto``: the range the model's logs cover); each motion then walks at its
+    own least-energy speed (closed form) and the path carries its speed profile
+    (``times``, ``speed_profile()``).
 
     Returns
     -------
@@ -221,6 +239,13 @@ def plan(
     from energy_planner.energy.path import check_cost_power
 
     given = _take(locals(), REQUEST_KEYS)
+    choice: dict[str, Any] = {}  # the motions choose their speed (a range, a deadline)
+    if speed is not None and not isinstance(speed, int | float):
+        choice["speed"] = given.pop("speed")
+    if deadline is not None:
+        choice.update(deadline=deadline, speed=choice.get("speed", "auto"))
+    if time_weight is not None:
+        choice.update(time_weight=time_weight, speed=choice.get("speed", "auto"))
     kwargs = dict(planner=planner, time=time, seed=seed, step=step, eps=eps,
                   n_headings=n_headings, moves=moves, iterations=iterations, callback=callback,
                   **_take(locals(), TRUST_KEYS))  # fmt: skip
@@ -235,6 +260,16 @@ def plan(
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "points in the DEM's CRS")  # fmt: skip
+            if choice:
+                from energy_planner.errors import PlanningConfigError
+
+                raise PlanningConfigError(
+                    f"{dem}: a DEM read by windows (over memory_cap) is planned at the "
+                    "request's speed; expected a fixed speed= (m/s) and no deadline= or "
+                    "time_weight=, or a larger memory_cap",
+                    value=choice.get("speed"),
+                    param="speed",
+                )
             if stay_in_domain:
                 req = _in_domain(req, m, None, notes)
                 if req.channels is not None and req.channels.rasters:
@@ -256,10 +291,87 @@ def plan(
     # a model that prices walking on this map at <= 0 W would plan a free route
     check_cost_power(prob.cost)
     res = _plan(prob, _pose(prob, start, crs), _pose(prob, goal, crs), progress=progress,
-                **kwargs)  # fmt: skip
+                **kwargs, **choice)  # fmt: skip
     if notes is not None:
         res.info["stay_in_domain"] = notes
     return _bound(res, prob)
+
+
+@verb_doc
+def pareto(
+    dem: Any,
+    start: Any,
+    goal: Any,
+    n: int = 9,
+    *,
+    crs: Any = None,
+    model: Any = None,
+    request: Any = None,
+    speed: Any = "auto",
+    yaw_rate: float | None = None,
+    max_slope_deg: float | None = None,
+    max_cross_slope_deg: float | None = None,
+    keep_out: Any = None,
+    max_backward_slope_deg: float | None = None,
+    max_crab_deg: float | None = None,
+    channels: Any = None,
+    allow_unknown_category: bool = False,
+    planner: str = "auto",
+    time: float | None = None,
+    seed: int = 0,
+    step: float | None = None,
+    eps: float | None = None,
+    level: float = 0.9,
+    battery_wh: float | None = None,
+    reserve_wh: float = 0.0,
+    confidence: float = 0.9,
+    progress: bool = False,
+):
+    """The energy-time front from ``start`` to ``goal`` (``plan --pareto N``).
+
+    ``n`` plans over a sweep of lambda, each minimising energy + lambda x time over
+    routes and each motion's speed; only the front's convex hull is found
+    (:func:`energy_planner.planning.speed.pareto`). ``plan(..., deadline=...)`` gives the
+    least-energy path that arrives in time.
+
+    Parameters
+    ----------
+    {dem}
+    start, goal : sequence of float
+        ``(x, y)`` or ``(x, y, yaw)`` in the DEM's CRS (or ``crs``), yaw in radians.
+    n : int
+        Points of the front (``--pareto N``), at least 2.
+    crs : str, optional
+        CRS of ``start`` and ``goal`` (``--points-crs``).
+    {common}
+    {planning}
+    step : float, optional
+        Position spacing of the search, metres (``--step``).
+    eps : float, optional
+        Heuristic weight of the search (``--eps``).
+    {trust}
+    progress : bool
+        Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` here is the range of speeds the motions choose from: ``(vmin, vmax)`` or
+    ``"auto"`` (the range the model's logs cover; the default).
+
+    Returns
+    -------
+    ParetoFront
+        Its plans (each a :class:`PlanResult` with its interval, duration and speed
+        profile), ``to_dict()``, ``text()`` and ``plot(path)``.
+    """
+    from energy_planner.planning.speed import pareto as _pareto
+
+    given = _take(locals(), REQUEST_KEYS)
+    given.pop("speed", None)  # the range is the front's, not the request's nominal speed
+    prob = _problem(dem, model, request, **given)
+    return _pareto(prob, _pose(prob, start, crs), _pose(prob, goal, crs), n, speed=speed,
+                   planner=planner, time=time, seed=seed, step=step, eps=eps,
+                   progress=progress, **_take(locals(), TRUST_KEYS))  # fmt: skip
 
 
 def _in_domain(request: Any, model: Any, terrain: Any, notes: list[str] | None) -> Any:

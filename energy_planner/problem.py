@@ -280,27 +280,51 @@ class Problem:
     def cost(self):
         """The motion cost of this terrain, model and request, with every limit (built once)."""
         if self._cost is None:
-            from energy_planner.energy import MotionCost
-
-            lim, robot = self.request.limits, self.request.robot
-            kwargs: dict[str, Any] = {}
-            if self.request.channels is not None:
-                kwargs["channels"] = self.request.channels
-            cost = MotionCost(
-                self.terrain,
-                self.model,
-                speed=robot.speed,
-                yaw_rate=robot.yaw_rate,
-                max_slope_deg=lim.max_slope_deg,
-                max_cross_slope_deg=lim.max_cross_slope_deg,
-                max_backward_slope_deg=lim.max_backward_slope_deg,
-                max_crab_deg=lim.max_crab_deg,
-                blocked=self.blocked,
-                **kwargs,
-            )
-            cost.request = self.request
-            self._cost = cost
+            self._cost = self._make_cost()
         return self._cost
+
+    def _make_cost(self, **speed: Any):
+        """A :class:`~energy_planner.energy.MotionCost` of this problem.
+
+        ``speed``: its ``speed_range`` and ``time_weight``, if any.
+        """
+        from energy_planner.energy import MotionCost
+
+        lim, robot = self.request.limits, self.request.robot
+        kwargs: dict[str, Any] = {}
+        if self.request.channels is not None:
+            kwargs["channels"] = self.request.channels
+        cost = MotionCost(
+            self.terrain,
+            self.model,
+            speed=robot.speed,
+            yaw_rate=robot.yaw_rate,
+            max_slope_deg=lim.max_slope_deg,
+            max_cross_slope_deg=lim.max_cross_slope_deg,
+            max_backward_slope_deg=lim.max_backward_slope_deg,
+            max_crab_deg=lim.max_crab_deg,
+            blocked=self.blocked,
+            **kwargs,
+            **speed,
+        )
+        cost.request = self.request
+        return cost
+
+    def with_speed(
+        self, speed_range: tuple[float, float] | None, time_weight: float = 0.0
+    ) -> Problem:
+        """The same problem whose motions choose their ground speed in ``speed_range``.
+
+        Each translation walks at the speed that minimises its energy plus ``time_weight``
+        (J/s) times its duration (:mod:`energy_planner.energy.speed`); the request's
+        nominal speed stays the one of turns' neighbours and of given waypoints without
+        times. ``speed_range`` None with no time weight: this problem.
+        """
+        if speed_range is None and not time_weight:
+            return self
+        p = self.replace()
+        p._cost = self._make_cost(speed_range=speed_range, time_weight=time_weight)
+        return p
 
     def replace(self, *, model: Any = None, request: Request | None = None) -> Problem:
         """The same terrain with another model and/or request (keep-outs kept if unchanged)."""

@@ -216,6 +216,43 @@ speed_option = value_option(
     default=DEFAULT_SPEED,
     help="Nominal walking speed, m/s.",
 )
+
+
+class SpeedSpec(click.ParamType):
+    """``--speed`` of ``plan``: ``V`` (fixed, m/s), ``MIN:MAX`` (a range) or ``auto``.
+
+    A number converts to a float (the other commands' ``--speed``); a range to a pair,
+    ``auto`` stays the string (:func:`energy_planner.planning.speed.resolve_speed`).
+    """
+
+    name = "V|MIN:MAX|auto"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        """A float, a ``(vmin, vmax)`` pair or ``"auto"``; a bad value fails naming it."""
+        if isinstance(value, float | int | tuple):
+            return value
+        from energy_planner.errors import PlanningConfigError
+        from energy_planner.planning.speed import resolve_speed
+
+        if str(value).strip() == "auto":
+            return "auto"
+        try:
+            return resolve_speed(str(value), None)
+        except PlanningConfigError as exc:
+            self.fail(f"{value!r}: {exc}", param, ctx)
+
+
+#: ``ctx.meta`` key of a ``--speed`` range or ``auto`` (read by ``plan``).
+SPEED_RANGE_KEY = "energy_planner.speed_range"
+
+plan_speed_option = value_option(
+    "--speed",
+    type=SpeedSpec(),
+    default=DEFAULT_SPEED,
+    help="Walking speed along the ground, m/s: V (every motion at V), MIN:MAX (each motion "
+    "at its own least-energy speed in the range, chosen in closed form; the path carries "
+    "its speed profile) or auto (the range of speeds the model's logs cover).",
+)
 logs_argument = click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 window_option = value_option(
     "--window",
@@ -431,11 +468,12 @@ def search_from_options(planner: str, time_s: float | None, seed: int) -> dict[s
     return {"planner": check_planner(planner), "time": time_s, "seed": seed}
 
 
-def planning_options(what: str, time_default: float | None = 10.0):
+def planning_options(what: str, time_default: float | None = 10.0, speed_range: bool = False):
     """--planner, --time, --seed, the limits, --speed and --yaw-rate, for planning ``what``.
 
     The command gets ``search`` (:func:`search_from_options`) instead of ``planner``,
-    ``time_s`` and ``seed``.
+    ``time_s`` and ``seed``. ``speed_range``: ``--speed`` also takes ``MIN:MAX`` and
+    ``auto`` (:class:`SpeedSpec`; the command reads it with :func:`speed_choice`).
     """
     time_help = (
         TIME_HELP.format(what=what)
@@ -461,7 +499,7 @@ def planning_options(what: str, time_default: float | None = 10.0):
                 ),
                 seed_option,
                 limit_options,
-                speed_option,
+                plan_speed_option if speed_range else speed_option,
                 yaw_rate_option,
             ]
         ):
@@ -516,6 +554,9 @@ def request_from_options(
     """
     from energy_planner.request import Request, RequestError
 
+    if not isinstance(speed, float | int):  # a range or auto (plan's --speed): the nominal
+        click.get_current_context().meta[SPEED_RANGE_KEY] = speed  # speed stays the default
+        speed = DEFAULT_SPEED
     option = {
         "speed": "--speed", "yaw_rate": "--yaw-rate", "max_slope_deg": "--max-slope",
         "max_cross_slope_deg": "--max-cross-slope", "keep_out": "--keep-out",
@@ -533,6 +574,11 @@ def request_from_options(
         )
     except RequestError as exc:
         raise click.BadParameter(str(exc), param_hint=option.get(exc.field, exc.field)) from exc
+
+
+def speed_choice() -> Any:
+    """The ``--speed`` range or ``auto`` of this command (:class:`SpeedSpec`), or None."""
+    return click.get_current_context().meta.get(SPEED_RANGE_KEY)
 
 
 #: The options :func:`request_from_options` reads (a command's parameter names).

@@ -138,6 +138,14 @@ def plan_context(terrain: Any, request: Any, model: Any, model_path: Path | None
     }
 
 
+def _emit_front(front, terrain, request, model, model_path, plot, as_json) -> None:
+    """Print (and with --plot draw) the energy-time front of ``plan --pareto``."""
+    result = front.to_dict(terrain)
+    result.update(plan_context(terrain, request, model, model_path))
+    options.write_output(result, "plot", plot, front.plot)
+    options.emit(result, as_json, lambda r: front.text())
+
+
 def format_table(res: dict[str, Any]) -> str:
     """Human-readable summary."""
     lines = [
@@ -151,6 +159,16 @@ def format_table(res: dict[str, Any]) -> str:
         # degrees (a geographic DEM) to 6 decimals, metres to 2
         nd = 6 if max(abs(w["x"]), abs(w["y"])) <= 360 else 2
         lines.append(f"  {w['x']:>16.{nd}f} {w['y']:>16.{nd}f} {w['yaw_deg']:>8.1f}")
+    prof = [p["speed_m_s"] for p in res.get("speed_profile", []) if p["speed_m_s"] > 0]
+    if prof:
+        sp = res.get("speed", {})
+        lo, hi = sp.get("speed_range") or (min(prof), max(prof))
+        lines.insert(4, f"speed     {min(prof):.2f}-{max(prof):.2f} m/s chosen per motion "
+                        f"within {lo:g}-{hi:g} m/s ({sp.get('speed_law', '')})")  # fmt: skip
+    d = res.get("deadline")
+    if d:
+        lines.insert(4, f"deadline  {d['deadline_s']:g} s met (lambda {d['lambda_j_per_s']:.1f} "
+                        f"J/s after {len(d['plans'])} plans)")  # fmt: skip
     c = res.get("corridor")
     if c:
         last = c["windows"][-1]["shape"]
@@ -179,7 +197,21 @@ def format_table(res: dict[str, Any]) -> str:
 @options.dem_option
 @options.start_goal_options
 @options.model_option
-@options.planning_options("the path", time_default=None)
+@options.planning_options("the path", time_default=None, speed_range=True)
+@click.option(
+    "--deadline",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds: the least-energy path that arrives in time, route and each motion's speed "
+    "chosen together (minimises energy + lambda x time, lambda by bisection); speeds within "
+    "--speed MIN:MAX (default auto). An error gives the fastest path's time when none can.",
+)
+@click.option(
+    "--pareto",
+    type=click.IntRange(min=2),
+    help="Plan N points of the energy-time front (a sweep of lambda in energy + lambda x "
+    "time: the front's convex hull), each with its energy interval, duration and speed "
+    "profile; --plot draws the front; speeds within --speed (default auto).",
+)
 @click.option(
     "--step",
     type=click.FloatRange(min=0, min_open=True),
@@ -237,6 +269,8 @@ def command(
     html: Path | None,
     stay_in_domain: bool,
     as_json: bool,
+    deadline: float | None = None,
+    pareto: int | None = None,
 ) -> None:
     """Plan an energy-minimal path (x, y, heading) from START to GOAL over a DEM.
 
@@ -260,7 +294,29 @@ def command(
 
     model = load_model_option(model_path)
     cap = parse_memory_cap(memory_cap)
+    speed = options.speed_choice()
+    if (deadline is not None or pareto is not None) and speed is None:
+        speed = "auto"
+    choice: dict[str, Any] = {} if speed is None else {"speed": speed}
+    if deadline is not None:
+        choice["deadline"] = deadline
+    if pareto is not None:
+        if deadline is not None:
+            raise click.BadParameter("give --pareto or --deadline, not both", param_hint="--pareto")
+        for name, value in (("--out", out), ("--html", html), ("--bag", bag)):
+            if value is not None:
+                raise click.BadParameter(
+                    f"{name} writes one path; --pareto plans {pareto} (use --json for all of "
+                    "them, --plot for the front)",
+                    param_hint=name,
+                )
     if over_memory_cap(dem, cap):  # the library plans it by windows; points in the DEM's CRS
+        if choice or pareto is not None:
+            raise click.BadParameter(
+                f"{dem}: the DEM is planned by windows (over --memory-cap), where the speed is "
+                "the nominal one; expected a fixed --speed V, or raise --memory-cap",
+                param_hint="--speed/--deadline/--pareto",
+            )
         where, crs = dem, None
         s = point_in_dem_crs(start, "--start", True)
         g = point_in_dem_crs(goal, "--goal", True)
@@ -269,11 +325,21 @@ def command(
         crs = where.crs
         s, g = (_xy_yaw(point_to_work(where, p, f"--{h}", True))
                 for p, h in ((start, "start"), (goal, "goal")))  # fmt: skip
+    trust_kw = dict(level=trust.level, battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
+                    confidence=trust.confidence)  # fmt: skip
     try:
+        if pareto is not None:
+            from energy_planner.api import pareto as energy_time_front
+
+            front = energy_time_front(where, s, g, pareto, crs=crs, model=model,
+                                      request=request, **search, step=step, eps=eps,
+                                      **choice, **trust_kw)  # fmt: skip
+            prob = front.problem
+            return _emit_front(front, prob.terrain, prob.request, model, model_path, plot,
+                               as_json)  # fmt: skip
         res = plan(where, s, g, crs=crs, model=model, request=request, **search, step=step,
-                   eps=eps, memory_cap=cap, stay_in_domain=stay_in_domain, level=trust.level,
-                   battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
-                   confidence=trust.confidence, progress=True)  # fmt: skip
+                   eps=eps, memory_cap=cap, stay_in_domain=stay_in_domain, progress=True,
+                   **choice, **trust_kw)  # fmt: skip
     except RasterTooLargeError as exc:
         raise click.BadParameter(str(exc), param_hint="--memory-cap") from exc
     except (DEMError, DEMIOError) as exc:

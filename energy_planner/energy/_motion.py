@@ -17,14 +17,37 @@ import math
 import numba
 import numpy as np
 
+from energy_planner.energy._laurent import laurent_argmin, laurent_value
 from energy_planner.energy._sampling import sample_channels, sample_gradient, wrap_angle
 from energy_planner.energy.kernels import (
     BLOCKED,
     GAIT_TOL,
+    IN_ANG_STEP,
+    IN_BLOCKED,
+    IN_BTAN,
     IN_CHAN,
+    IN_CMAX,
+    IN_DX,
+    IN_DY,
+    IN_EXPS,
+    IN_GRAD,
+    IN_NEAREST,
+    IN_NODES,
+    IN_SMAX,
+    IN_SPEED,
+    IN_STEP,
+    IN_TIME_WEIGHT,
+    IN_TMAX,
+    IN_VINV,
+    IN_VMAX,
+    IN_VMIN,
+    IN_X0,
+    IN_Y0,
+    IN_YAW_RATE,
     N_KINDS,
     N_OUT,
     NO_CHANNEL,
+    OK,
     OUT_CODE,
     OUT_DISTANCE,
     OUT_DURATION,
@@ -115,9 +138,53 @@ def gait_violation(gxs, gys, vx, vy, dist, btan, cmax):
 
 
 @numba.njit(cache=True)
+def first_pass(x0, y0, ddx, ddy, n, data, chv):
+    """Pass 1 of a motion: check the limits at its ``n`` sub-steps, measure its ground length.
+
+    Returns ``(code, surface, gx, gy)``: :data:`OK` or the violation, the length along the
+    surface (m) and the last sample's gradient. ``chv`` receives the sampled channels.
+    """
+    grad = data[IN_GRAD]
+    blocked = data[IN_BLOCKED]
+    gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
+    tmax = data[IN_TMAX]
+    chan = data[IN_CHAN]
+    nearest = data[IN_NEAREST]
+    nch = chan.shape[0]
+    nr, nc = blocked.shape
+    hx = ddx / n
+    hy = ddy / n
+    surface = 0.0
+    gxs = gys = 0.0
+    for i in range(n):
+        s = (i + 0.5) / n
+        x = x0 + s * ddx
+        y = y0 + s * ddy
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+        if not ok:
+            return OUTSIDE, surface, gxs, gys
+        if nr > 0:
+            r = int(round((y - gy0) / gdy))
+            c = int(round((x - gx0) / gdx))
+            if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
+                return BLOCKED, surface, gxs, gys
+        if gxs * gxs + gys * gys > tmax * tmax:
+            return TOO_STEEP, surface, gxs, gys
+        if nch > 0 and not sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv):
+            return NO_CHANNEL, surface, gxs, gys
+        dz = gxs * hx + gys * hy
+        surface += math.sqrt(hx * hx + hy * hy + dz * dz)
+    return OK, surface, gxs, gys
+
+
+@numba.njit(cache=True)
 def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
-    (grad, blocked, gx0, gy0, gdx, gdy, speed, yaw_rate, step, ang_step, tmax, smax, chan,
-     nearest, btan, cmax) = data  # fmt: skip
+    grad = data[IN_GRAD]
+    gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
+    speed, yaw_rate, step, ang_step = (data[IN_SPEED], data[IN_YAW_RATE], data[IN_STEP],
+                                       data[IN_ANG_STEP])  # fmt: skip
+    smax, chan, nearest, btan, cmax = (data[IN_SMAX], data[IN_CHAN], data[IN_NEAREST],
+                                       data[IN_BTAN], data[IN_CMAX])  # fmt: skip
     ddx = x1 - x0
     ddy = y1 - y0
     dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -131,37 +198,13 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     chv = out[N_OUT : N_OUT + nch]
     # pass 1: check the limits and measure the surface length (pass 2 samples the
     # gradient again: cheaper than allocating a buffer per motion)
-    nr, nc = blocked.shape
     hx = ddx / n
     hy = ddy / n
-    surface = 0.0
-    gxs = gys = 0.0
-    for i in range(n):
-        s = (i + 0.5) / n
-        x = x0 + s * ddx
-        y = y0 + s * ddy
-        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
-        if not ok:
-            out[OUT_CODE] = OUTSIDE
-            out[OUT_ENERGY] = np.inf
-            return
-        if nr > 0:
-            r = int(round((y - gy0) / gdy))
-            c = int(round((x - gx0) / gdx))
-            if 0 <= r < nr and 0 <= c < nc and blocked[r, c]:
-                out[OUT_CODE] = BLOCKED
-                out[OUT_ENERGY] = np.inf
-                return
-        if gxs * gxs + gys * gys > tmax * tmax:
-            out[OUT_CODE] = TOO_STEEP
-            out[OUT_ENERGY] = np.inf
-            return
-        if nch > 0 and not sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv):
-            out[OUT_CODE] = NO_CHANNEL
-            out[OUT_ENERGY] = np.inf
-            return
-        dz = gxs * hx + gys * hy
-        surface += math.sqrt(hx * hx + hy * hy + dz * dz)
+    code, surface, gxs, gys = first_pass(x0, y0, ddx, ddy, n, data, chv)
+    if code != OK:
+        out[OUT_CODE] = code
+        out[OUT_ENERGY] = np.inf
+        return
     T = duration
     if T <= 0.0:
         T = max(surface / speed, abs(dth) / yaw_rate)
@@ -210,9 +253,197 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
 
 
 @numba.njit(cache=True)
+def speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, speeds, data, chv, energy):
+    """Energy (J) of a translation at each ground speed of ``speeds``, into ``energy``.
+
+    Pass 2 of :func:`motion_full` at constant ground speed ``v`` (its sub-steps, slope
+    frame, tilted body velocity and limits), for several speeds at once: the body twist
+    of a sub-step is ``v`` times the one at unit speed (``wz = v dth / surface``), its
+    time ``ds / v``, so the geometry is sampled once and only ``power`` is called per
+    speed. Returns :data:`OK` or the violation code (cross-slope, gait limits).
+    """
+    grad = data[IN_GRAD]
+    gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
+    smax, chan, nearest = data[IN_SMAX], data[IN_CHAN], data[IN_NEAREST]
+    btan, cmax = data[IN_BTAN], data[IN_CMAX]
+    nch = chan.shape[0]
+    m = speeds.shape[0]
+    for j in range(m):
+        energy[j] = 0.0
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    hx = ddx / n
+    hy = ddy / n
+    w = dth / surface
+    for i in range(n):
+        s = (i + 0.5) / n
+        x = x0 + s * ddx
+        y = y0 + s * ddy
+        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+        if nch > 0:
+            sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
+        dz = gxs * hx + gys * hy
+        ds = math.sqrt(hx * hx + hy * hy + dz * dz)
+        th = th0 + s * dth
+        alpha, gamma = slope_frame(gxs, gys, th)
+        if math.sin(alpha) * abs(math.sin(gamma)) > smax:
+            return TOO_CROSS
+        ux, uy = body_velocity(gxs, gys, th, hx / ds, hy / ds, dz / ds)
+        code = gait_violation(gxs, gys, ux, uy, dist, btan, cmax)
+        if code != 0:
+            return code
+        for j in range(m):
+            v = speeds[j]
+            p, kinds = power(alpha, gamma, v * ux, v * uy, v * w, 0.0, 0.0, chv)
+            energy[j] += p * ds / v
+    return OK
+
+
+#: Golden-section iterations of a motion whose energy is not a Laurent polynomial in
+#: speed (the bracket shrinks to 0.618^30, 5e-7, of the speed range).
+SPEED_GOLDEN_ITERS = 30
+#: Relative tolerance of the check of the Laurent fit of a motion (as
+#: :data:`energy_planner.energy.speed.FIT_RTOL`).
+SPEED_FIT_RTOL = 1e-7
+
+
+@numba.njit(cache=True)
+def _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, e):
+    """Energy + ``lam`` x time of the translation at ground speed ``v`` (inf: a limit)."""
+    one[0] = v
+    if speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, data, chv, e) != OK:
+        return np.inf
+    return e[0] + lam * surface / v
+
+
+@numba.njit(cache=True)
+def motion_best(x0, y0, th0, x1, y1, th1, duration, data, out):
+    """:func:`motion_full` at the ground speed that minimises energy + lambda x time.
+
+    The speed range ``[IN_VMIN, IN_VMAX]`` and the price of a second ``lambda``
+    (``IN_TIME_WEIGHT``, J/s) come from ``data``. A translation's energy is a Laurent
+    polynomial in its speed (:mod:`energy_planner.energy.speed`): it is priced at the
+    node speeds ``IN_NODES`` in one pass (:func:`speed_pass`), its coefficients solved
+    (``IN_VINV``), checked at the last node, and minimised in closed form
+    (:func:`energy_planner.energy._laurent.laurent_argmin`); where the check fails, by
+    golden section over the range. A motion that also turns may not be faster than its
+    turn allows (``surface * yaw_rate / |dth|``). Turns in place, and motions given a
+    ``duration``, are :func:`motion_full`'s.
+
+    Fills ``out[OUT_ENERGY]`` with energy + lambda x duration (the objective; the energy
+    when lambda is 0), ``OUT_DURATION``, ``OUT_DISTANCE``, ``OUT_TURN`` and ``OUT_CODE``;
+    the other entries are 0 (price the chosen durations with :func:`path_table` for
+    them).
+    """
+    vmin, vmax, lam = data[IN_VMIN], data[IN_VMAX], data[IN_TIME_WEIGHT]
+    step, ang_step, yaw_rate = data[IN_STEP], data[IN_ANG_STEP], data[IN_YAW_RATE]
+    ddx = x1 - x0
+    ddy = y1 - y0
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    if duration > 0.0 or dist <= 0.0:
+        motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)
+        out[OUT_ENERGY] += lam * out[OUT_DURATION]
+        return
+    dth = wrap_angle(th1 - th0)
+    n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
+    for k in range(N_OUT):
+        out[k] = 0.0
+    out[OUT_TURN] = abs(dth)
+    chv = out[N_OUT : N_OUT + data[IN_CHAN].shape[0]]
+    code, surface, gxs, gys = first_pass(x0, y0, ddx, ddy, n, data, chv)
+    if code != OK:
+        out[OUT_CODE] = code
+        out[OUT_ENERGY] = np.inf
+        return
+    hi = vmax
+    if dth != 0.0:
+        hi = min(hi, surface * yaw_rate / abs(dth))
+    lo = min(vmin, hi)
+    exps = data[IN_EXPS]
+    nodes = data[IN_NODES]
+    vinv = data[IN_VINV]
+    k = nodes.shape[0] - 1
+    one = np.empty(1)
+    e1 = np.empty(1)
+    best_v = lo
+    best_f = np.inf
+    solved = False
+    if k > 0 and hi > lo:
+        energy = np.empty(k + 1)
+        code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, nodes, data, chv, energy)
+        if code != OK:
+            out[OUT_CODE] = code
+            out[OUT_ENERGY] = np.inf
+            return
+        c = np.zeros(k)
+        scale = 0.0
+        for a in range(k):
+            for b in range(k):
+                c[a] += vinv[a, b] * energy[b]
+        for a in range(k + 1):
+            scale = max(scale, abs(energy[a]))
+        pred = laurent_value(c, exps, nodes[k])
+        if abs(pred - energy[k]) <= SPEED_FIT_RTOL * scale + 1e-12:
+            for a in range(k):
+                if exps[a] == -1.0:
+                    c[a] += lam * surface
+            best_v = laurent_argmin(c, exps, lo, hi)
+            best_f = laurent_value(c, exps, best_v)
+            solved = True
+    if not solved:
+        if hi > lo:  # golden section over the range (assumes one minimum in it)
+            g = 0.3819660112501051
+            a_, b_ = lo, hi
+            xa = a_ + g * (b_ - a_)
+            xb = b_ - g * (b_ - a_)
+            fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv, one, e1)
+            fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv, one, e1)
+            for _ in range(SPEED_GOLDEN_ITERS):
+                if fa <= fb:
+                    b_, xb, fb = xb, xa, fa
+                    xa = a_ + g * (b_ - a_)
+                    fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv,
+                                     one, e1)  # fmt: skip
+                else:
+                    a_, xa, fa = xa, xb, fb
+                    xb = b_ - g * (b_ - a_)
+                    fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv,
+                                     one, e1)  # fmt: skip
+            best_v, best_f = (xa, fa) if fa <= fb else (xb, fb)
+            for v in (lo, hi):
+                f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, e1)
+                if f < best_f:
+                    best_v, best_f = v, f
+        else:
+            best_v = lo
+            best_f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, lo, lam, data, chv, one,
+                                 e1)  # fmt: skip
+        if not math.isfinite(best_f):
+            code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, data, chv, e1)
+            out[OUT_CODE] = code if code != OK else TOO_CROSS
+            out[OUT_ENERGY] = np.inf
+            return
+    out[OUT_ENERGY] = best_f
+    out[OUT_DURATION] = surface / best_v
+    out[OUT_DISTANCE] = surface
+
+
+@numba.njit(cache=True)
+def motion_priced(x0, y0, th0, x1, y1, th1, duration, data, out):
+    """The motion at its chosen speed, or at the nominal one.
+
+    :func:`motion_best` when ``data`` gives a speed range or a time price, else
+    :func:`motion_full` (the nominal speed: the fixed-speed code, unchanged).
+    """
+    if data[IN_VMAX] > data[IN_VMIN] or data[IN_TIME_WEIGHT] > 0.0:
+        motion_best(x0, y0, th0, x1, y1, th1, duration, data, out)
+    else:
+        motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)
+
+
+@numba.njit(cache=True)
 def motion_cost(x0, y0, th0, x1, y1, th1, data):
     out = np.empty(N_OUT + data[IN_CHAN].shape[0])
-    motion_full(x0, y0, th0, x1, y1, th1, -1.0, data, out)
+    motion_priced(x0, y0, th0, x1, y1, th1, -1.0, data, out)
     return out[OUT_ENERGY]
 
 
@@ -222,8 +453,24 @@ def motion_batch(x0, y0, th0, x1, y1, th1, data):
     res = np.empty(n)
     out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     for i in range(n):
-        motion_full(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
+        motion_priced(x0[i], y0[i], th0[i], x1[i], y1[i], th1[i], -1.0, data, out)
         res[i] = out[OUT_ENERGY]
+    return res
+
+
+@numba.njit(cache=True)
+def path_speeds(x, y, th, data):
+    """Durations (s) of consecutive motions at their best speeds (:func:`motion_priced`).
+
+    ``inf`` for a motion that breaks a limit. Price the poses with these durations
+    (:func:`path_table`) for the energy and its breakdown.
+    """
+    m = x.shape[0] - 1
+    res = np.empty(max(m, 0))
+    out = np.empty(N_OUT + data[IN_CHAN].shape[0])
+    for i in range(m):
+        motion_priced(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], -1.0, data, out)
+        res[i] = out[OUT_DURATION] if math.isfinite(out[OUT_ENERGY]) else np.inf
     return res
 
 

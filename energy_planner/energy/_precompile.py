@@ -31,6 +31,12 @@ def data_type():
             types.Array(types.boolean, 1, "C"),  # IN_NEAREST
             f8,  # IN_BTAN
             f8,  # IN_CMAX
+            f8,  # IN_VMIN
+            f8,  # IN_VMAX
+            f8,  # IN_TIME_WEIGHT
+            types.Array(f8, 1, "C"),  # IN_EXPS
+            types.Array(f8, 1, "C"),  # IN_NODES
+            types.Array(f8, 2, "C"),  # IN_VINV
         )
     )
 

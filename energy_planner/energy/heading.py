@@ -168,19 +168,20 @@ class HeadingCost:
     @classmethod
     def of_motion_cost(
         cls, cost: Any, *, max_crab_deg: float | None = None,
-        max_backward_slope_deg: float | None = None,
+        max_backward_slope_deg: float | None = None, speed: float | None = None,
     ) -> HeadingCost:  # fmt: skip
         """The heading cost of a :class:`~energy_planner.energy.MotionCost`'s physics.
 
-        Its model, speed, channels and slope limits; the gait limits given here, or the
-        cost's own ``max_crab_deg`` / ``max_backward_slope_deg`` if it has them.
+        Its model, speed (or ``speed``: one of a cost's speed range), channels and slope
+        limits; the gait limits given here, or the cost's own ``max_crab_deg`` /
+        ``max_backward_slope_deg`` if it has them.
         """
         if max_crab_deg is None:
             max_crab_deg = getattr(cost, "max_crab_deg", None)
         if max_backward_slope_deg is None:
             max_backward_slope_deg = getattr(cost, "max_backward_slope_deg", None)
         return heading_cost(
-            cost.model, speed=cost.speed, channels=cost.channels,
+            cost.model, speed=cost.speed if speed is None else speed, channels=cost.channels,
             max_slope_deg=cost.max_slope_deg, max_cross_slope_deg=cost.max_cross_slope_deg,
             max_crab_deg=max_crab_deg, max_backward_slope_deg=max_backward_slope_deg,
         )  # fmt: skip

@@ -74,8 +74,13 @@ IN_TMAX, IN_SMAX = 10, 11
 IN_CHAN, IN_NEAREST = 12, 13
 #: gait limits: tangent of the backward-walking slope limit, the crab limit in radians
 IN_BTAN, IN_CMAX = 14, 15
+#: the speed choice (:mod:`energy_planner.energy.speed`): ground speed range m/s (equal:
+#: the nominal speed, fixed), the price of a second J/s (``lambda``), the Laurent
+#: exponents of energy in speed, the speeds at which they are solved for (one more to check
+#: the fit) and the inverse matrix of that solve
+IN_VMIN, IN_VMAX, IN_TIME_WEIGHT, IN_EXPS, IN_NODES, IN_VINV = 16, 17, 18, 19, 20, 21
 #: length of ``data``
-N_IN = 16
+N_IN = 22
 
 # Named indices of the per-motion result vector ``out`` of ``motion_full``.
 #: energy, J
@@ -118,7 +123,11 @@ N_KINDS = 5
 
 _TEMPLATE = Path(__file__).with_name("_motion.py")
 #: The files whose functions the kernel modules call (their hash names the modules).
-_HELPERS = (Path(__file__), Path(__file__).with_name("_sampling.py"))
+_HELPERS = (
+    Path(__file__),
+    Path(__file__).with_name("_sampling.py"),
+    Path(__file__).with_name("_laurent.py"),
+)
 _POWER_BLOCK = re.compile(r"# --- power: replaced per model ---\n.*?# --- end power ---\n", re.S)
 
 

@@ -64,6 +64,16 @@ class MotionCost:
         bilinear between cell centres, so the midpoint rule at half-cell steps resolves it).
     ang_step : float
         Integration sub-step for rotations, radians.
+    speed_range : (float, float), optional
+        Ground speed range ``(vmin, vmax)``, m/s: every translation priced from Python
+        (:meth:`__call__`, :meth:`batch`), by the search and the refinement walks at the
+        speed in the range that minimises its energy (plus ``time_weight`` times its
+        duration), chosen in closed form (:mod:`energy_planner.energy.speed`;
+        :meth:`best_durations` gives the chosen durations of a path). None: every motion
+        at ``speed`` (the fixed-speed kernels, unchanged).
+    time_weight : float
+        The price of a second, J/s (``lambda`` >= 0): motions minimise energy + lambda x
+        duration (a deadline's Lagrangian, :func:`energy_planner.planning.speed.plan_deadline`).
     precompiled : bool
         Price motions asked from Python (:meth:`__call__`, :meth:`batch`,
         :meth:`details`) with the model's precompiled kernel module
@@ -89,6 +99,8 @@ class MotionCost:
         channels: Channels | None = None,
         step: float | None = None,
         ang_step: float = 0.05,
+        speed_range: tuple[float, float] | None = None,
+        time_weight: float = 0.0,
         precompiled: bool = False,
     ) -> None:
         if not (speed > 0 and yaw_rate > 0):
@@ -134,14 +146,32 @@ class MotionCost:
         )
         btan, cmax = gait_limit_values(max_backward_slope_deg, max_crab_deg)
         chan, nearest = channels.stack(gx.shape, runtime=True)  # constants: run-time inputs
+        self.speed_range, self.time_weight, self.speed_law, speed_in = _speed_inputs(
+            model, self.speed, speed_range, time_weight, self.constants
+        )
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
-            chan, nearest, btan, cmax,
+            chan, nearest, btan, cmax, *speed_in,
         )  # fmt: skip
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
         self._aot = precompiled_module(self.source) if precompiled else None
         self._fns: dict[str, Any] = {}
+
+    @property
+    def ranged(self) -> bool:
+        """Motions choose their speed (a speed range or a time price), not the nominal one."""
+        return self.speed_range is not None or self.time_weight > 0
+
+    def best_durations(self, x, y, th) -> np.ndarray:
+        """Durations (s) of the motions between consecutive poses at their chosen speeds.
+
+        The speeds :meth:`__call__` prices them at (the nominal speed and yaw rate without
+        a range); ``inf`` where a motion breaks a limit. Give them to :meth:`details` (or
+        ``t`` to :func:`energy_planner.energy.path_energy`) for the energy and its breakdown.
+        """
+        x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
+        return kernel_module(self.source).path_speeds(x, y, th, self.data)
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without compiled code (a dask worker loads the kernels itself)."""
@@ -210,18 +240,22 @@ class MotionCost:
 
         The minimum of power / speed over slopes up to the terrain's steepest (or the
         limit), all headings, all directions of motion and speeds from a tenth of to the
-        nominal speed, with a 5% margin for the grid of the search; never negative.
+        nominal speed (and over the speed range), with a 5% margin for the grid of the
+        search; never negative.
         """
         if not hasattr(self, "_lb"):
             slope = np.arctan(np.hypot(self.data[IN_GRAD][..., 0], self.data[IN_GRAD][..., 1]))
             amax = float(np.nanmax(slope)) if np.isfinite(slope).any() else 0.0
             if self.max_slope_deg is not None:
                 amax = min(amax, math.radians(self.max_slope_deg))
+            speeds = self.speed * np.array([0.1, 0.25, 0.5, 0.75, 1.0])
+            if self.speed_range is not None:  # and the range (a time price only adds)
+                speeds = np.concatenate([speeds, np.geomspace(*self.speed_range, 9)])
             a, g, b, v = np.meshgrid(
                 np.linspace(0, amax, 16),
                 np.linspace(-np.pi, np.pi, 37),
                 np.linspace(-np.pi, np.pi, 37),
-                self.speed * np.array([0.1, 0.25, 0.5, 0.75, 1.0]),
+                speeds,
                 indexing="ij",
             )
             feats = {
@@ -254,6 +288,32 @@ class MotionCost:
             cross = math.degrees(math.asin(math.sin(math.radians(slope)) * abs(math.sin(gamma))))
             return f"cross-slope {cross:.1f} deg > limit {self.max_cross_slope_deg:g} deg"
         return VIOLATIONS[code]
+
+
+def _speed_inputs(
+    model: Any, speed: float, speed_range: Any, time_weight: float, constants: Mapping[str, Any]
+) -> tuple[tuple[float, float] | None, float, Any, tuple]:
+    """``(speed_range, time_weight, law, kernel inputs IN_VMIN .. IN_VINV)`` of a cost."""
+    if not (isinstance(time_weight, int | float) and math.isfinite(time_weight)
+            and time_weight >= 0):  # fmt: skip
+        raise MotionCostError(f"time_weight must be a finite number >= 0 J/s, got {time_weight!r}")
+    if speed_range is None:
+        empty = (np.zeros(0), np.zeros(0), np.zeros((0, 0)))
+        return None, float(time_weight), None, (speed, speed, float(time_weight), *empty)
+    from energy_planner.energy.speed import speed_law, speed_nodes
+
+    try:
+        lo, hi = (float(v) for v in speed_range)
+    except (TypeError, ValueError):
+        raise MotionCostError(
+            f"speed_range must be (vmin, vmax) in m/s, got {speed_range!r}"
+        ) from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise MotionCostError(f"speed_range must satisfy 0 < vmin <= vmax m/s, got {lo:g}, {hi:g}")
+    law = speed_law(model, constants)
+    nodes, inverse = speed_nodes(law, lo, hi)
+    exps = np.asarray(law.exponents if law.polynomial else (), dtype=np.float64)
+    return (lo, hi), float(time_weight), law, (lo, hi, float(time_weight), exps, nodes, inverse)
 
 
 def gait_limit_values(

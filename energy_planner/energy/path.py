@@ -524,9 +524,11 @@ def write_paths_bag(
     ----------
     path : str or pathlib.Path
         The bag folder to create.
-    paths : sequence of (topic, states, duration_s, what, info)
+    paths : sequence of (topic, states, duration_s, what, info[, times])
         Each path's topic, poses (n, 3, working CRS), its own duration (checked against
-        the times), its name in errors and the metadata of its topic.
+        the times), its name in errors and the metadata of its topic; optionally its
+        own times per pose (s; a plan whose motions chose their speed), else the
+        request's speed and yaw rate time it.
     terrain, request
         The map and the request the paths were planned with (their speed and yaw rate).
     frame, storage, origin
@@ -543,8 +545,11 @@ def write_paths_bag(
     from energy_planner.io.ros2 import write_path_bag
 
     stamped, info, start = {}, {}, 0.0
-    for topic, states, duration_s, what, meta in paths:
-        t = vertex_times(terrain, states, request, duration_s=duration_s, what=what)
+    for topic, states, duration_s, what, meta, *own in paths:
+        if own and own[0] is not None:
+            t = np.asarray(own[0], dtype=float)
+        else:
+            t = vertex_times(terrain, states, request, duration_s=duration_s, what=what)
         stamped[topic] = (states, start + t if chain else t)
         info[topic] = {**meta, "start_s": start} if chain else dict(meta)
         if chain:

@@ -74,6 +74,10 @@ class PlanResult(Result, Assessed):
     problem : Problem or None
         The terrain, model and request it was planned on
         (:class:`~energy_planner.results.Result`): the writers need no terrain.
+    times : ndarray or None
+        Seconds at each pose when the motions chose their speed (``plan(speed=(vmin,
+        vmax))``, a deadline): the speed profile, which ``energy --waypoints`` of the
+        written GeoJSON follows. None at the nominal speed.
     """
 
     states: np.ndarray
@@ -86,11 +90,29 @@ class PlanResult(Result, Assessed):
     seed: int = 0
     info: dict[str, Any] = field(default_factory=dict)
     assessment: Any = field(default=None, repr=False)
+    times: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def energy_wh(self) -> float:
         """Energy in Wh."""
         return self.energy_j / 3600.0
+
+    def speed_profile(self) -> list[dict[str, float]]:
+        """Per segment: ``distance_m``, ``duration_s`` and ``speed_m_s`` (ground; 0 turning).
+
+        Empty at the nominal speed (:attr:`times` None).
+        """
+        if self.times is None:
+            return []
+        dt = np.diff(self.times)
+        dist = self.info.get("segment_distance_m")
+        if dist is None:
+            dist = np.hypot(*np.diff(self.states[:, :2], axis=0).T)
+        return [
+            {"distance_m": float(d), "duration_s": float(t),
+             "speed_m_s": float(d / t) if d > 1e-9 else 0.0}
+            for d, t in zip(dist, dt, strict=True)
+        ]  # fmt: skip
 
     def waypoints(self, terrain: Any = None) -> list[dict[str, float]]:
         """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.
@@ -122,6 +144,7 @@ class PlanResult(Result, Assessed):
         return path_document_from_work(
             self._terrain(terrain),
             self.states,
+            t=None if self.times is None else [float(v) for v in self.times],
             properties={
                 "energy_j": self.energy_j,
                 "distance_m": self.distance_m,
@@ -153,6 +176,13 @@ class PlanResult(Result, Assessed):
             out["corridor"] = {k: v for k, v in self.info["corridor"].items() if k != "log"}
         if "stay_in_domain" in self.info:
             out["stay_in_domain"] = list(self.info["stay_in_domain"])
+        if self.times is not None:
+            out["times_s"] = [float(v) for v in self.times]
+            out["speed_profile"] = self.speed_profile()
+            out["speed"] = {k: self.info[k] for k in ("speed_range", "time_weight", "speed_law")
+                            if k in self.info}  # fmt: skip
+        if "deadline" in self.info:
+            out["deadline"] = self.info["deadline"]
         return out
 
     def write_geojson(self, path: Any, terrain: Any = None, *, native: bool = False) -> Any:
@@ -226,13 +256,14 @@ class PlanResult(Result, Assessed):
         """
         from energy_planner.energy.path import write_paths_bag
 
+        times = self.times
         info = {"energy_j": self.energy_j, "distance_m": self.distance_m,
                 "duration_s": self.duration_s, "planner": self.planner}  # fmt: skip
         dem_bounds = self.info.get("corridor", {}).get("dem_bounds")
         if origin is None and dem_bounds is not None:
             origin = dem_bounds[:2]
         return write_paths_bag(
-            path, [(topic, self.states, self.duration_s, "the plan", info)],
+            path, [(topic, self.states, self.duration_s, "the plan", info, times)],
             self._terrain(terrain), self._request(request), frame=frame, storage=storage,
             origin=origin,
         )  # fmt: skip
@@ -629,6 +660,9 @@ def plan(
     eps: float | None = None,
     iterations: int | None = None,
     callback: Callable[[Any], None] | None = None,
+    speed: Any = None,
+    deadline: float | None = None,
+    time_weight: float = 0.0,
     **trust: Any,
 ) -> PlanResult:
     """Plan an energy-minimal SE(2) path.
@@ -678,6 +712,22 @@ def plan(
         ``callback(event)`` with a :class:`energy_planner.progress.ProgressEvent` at every
         report of the anytime planners (``event.value``: the best energy so far, J;
         ``event.elapsed``: seconds), as every progress callback of the library.
+    speed : float, (float, float) or "auto", optional
+        Ground speed, m/s. A number: every motion at that speed (the request's nominal
+        speed otherwise; the fixed-speed planner, unchanged). ``(vmin, vmax)``: each
+        motion of the search and the refinement walks at its own best speed in the range
+        (:mod:`energy_planner.energy.speed`, closed form), and the result carries the
+        speed profile (:attr:`PlanResult.times`). ``"auto"``: the range of speeds the
+        model's calibration logged (:func:`energy_planner.planning.speed.speed_range_of`).
+    deadline : float, optional
+        Seconds: the least-energy path that arrives in time, speed and route chosen
+        together (:func:`energy_planner.planning.speed.plan_deadline`: minimises energy +
+        lambda x time, lambda found by bisection). Needs a speed range (default
+        ``"auto"``). A :class:`PlanningError` gives the fastest path's time when no path
+        can.
+    time_weight : float
+        ``lambda``, J/s: minimise energy + lambda x duration (a point of the energy-time
+        front, :func:`energy_planner.planning.speed.pareto`).
     **trust
         ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
         (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): the result's
@@ -700,6 +750,18 @@ def plan(
     from energy_planner.planning.limits import check_endpoint, keep_out_violation
     from energy_planner.trust import Trust
 
+    if deadline is not None:
+        from energy_planner.planning.speed import plan_deadline
+
+        return plan_deadline(
+            problem, start, goal, deadline, speed=speed, planner=planner, time=time, seed=seed,
+            progress=progress, step=step, n_headings=n_headings, moves=moves, eps=eps,
+            iterations=iterations, callback=callback, **trust,
+        )  # fmt: skip
+    if speed is not None or time_weight:
+        from energy_planner.planning.speed import with_speed
+
+        problem = with_speed(problem, speed, time_weight)
     want = Trust.pop(trust)
     if trust:
         raise TypeError(f"plan() got unexpected keyword(s) {', '.join(trust)}")
@@ -781,14 +843,27 @@ def _priced(problem, states: np.ndarray, what: str, trust: Any, **fields: Any) -
     from energy_planner.energy import path_energy
     from energy_planner.uncertainty.assess import assess_path
 
+    cost = problem.cost
+    t = None
+    if cost.ranged:  # the speeds the motions chose: their durations time the poses
+        dt = cost.best_durations(states[:, 0], states[:, 1], states[:, 2])
+        if not np.isfinite(dt).all():
+            raise PlanningError(f"{what}: a motion breaks a limit at every speed of the range")
+        t = np.concatenate([[0.0], np.cumsum(dt)])
+        fields["info"] = {**fields.get("info", {}), "speed_range": cost.speed_range,
+                          "time_weight": cost.time_weight}  # fmt: skip
+        if cost.speed_law is not None:
+            fields["info"]["speed_law"] = cost.speed_law.note
     try:
-        pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
-                         cost=problem.cost)  # fmt: skip
+        pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2], t=t,
+                         cost=cost)  # fmt: skip
     except EnergyPlannerError as exc:
         raise PlanningError(f"{what}: {exc}") from exc
+    if t is not None:
+        fields["info"]["segment_distance_m"] = np.asarray(pe.table["distance_m"], float).tolist()
     res = PlanResult(states=states, energy_j=pe.energy_j, distance_m=pe.distance_m,
                      duration_s=pe.duration_s,
-                     assessment=assess_path(problem.model, pe, problem.cost, trust),
+                     assessment=assess_path(problem.model, pe, cost, trust), times=t,
                      **fields)  # fmt: skip
     res.problem = problem
     return res

@@ -102,12 +102,15 @@ def search_module(cost, kernels: str = "all"):
     if kernels not in KERNEL_GROUPS:
         raise ValueError(f"unknown kernel group {kernels!r}; valid: {', '.join(KERNEL_GROUPS)}")
     mod_name = cost.kernel.py_func.__module__
-    if mod_name == "energy_planner.energy._motion":
+    # a cost that chooses its speed prices edges by motion_best (the fixed-speed search
+    # keeps motion_full: its code and numbers are unchanged)
+    fn = "motion_best" if getattr(cost, "ranged", False) else "motion_full"
+    if mod_name == "energy_planner.energy._motion" and fn == "motion_full":
         import energy_planner.planning._search as mod
     else:
         text = _TEMPLATE.read_text()
         assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
-        text = text.replace(_IMPORT_LINE, f"from {mod_name} import motion_full as kernel")
+        text = text.replace(_IMPORT_LINE, f"from {mod_name} import {fn} as kernel")
         mod = load_generated_module(text, prefix="search")
     warm = getattr(mod, "_warm", set())
     for group in KERNEL_GROUPS[: KERNEL_GROUPS.index(kernels) + 1]:
@@ -352,8 +355,24 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
     best = np.empty_like(along)
-    heading.map_bands(GX, GY, np.zeros((0, nodes, nodes)), dirs, along, best)
-    table = best.astype(np.float64)
+    table = np.full(along.shape, np.inf)
+    speeds = bound_speeds(cost)
+    lam = float(getattr(cost, "time_weight", 0.0))
+    if len(speeds) > 1:
+        # a sample's gradient is a convex combination of cells' gradients: nodes steeper
+        # than the steepest cell by two spacings are never read by the bilinear lookup, so
+        # they are left inf (edge_bound then takes the table's least: still a bound) rather
+        # than priced at every speed (the exact minimum, above the heading table's slopes)
+        gmax = float(np.nanmax(np.hypot(gx, gy)))
+        far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
+        GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
+    for speed in speeds:
+        hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
+        hc.map_bands(GX, GY, np.zeros((0, nodes, nodes)), dirs, along, best)
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / speed)
+        table = np.minimum(table, best)
+    table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
     # float32, each value rounded down so that it stays a lower bound
@@ -361,6 +380,30 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     up = t32.astype(np.float64) > table
     t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
     return np.ascontiguousarray(t32), tgeo
+
+
+#: Speeds of a cost that chooses its speed over which the search's bound is the least
+#: (geometric over the range, ends included).
+SPEED_BOUND_NODES = 7
+
+
+def bound_speeds(cost) -> np.ndarray:
+    """The speeds the bound of :func:`bound_table` is least over.
+
+    The nominal speed of a fixed-speed cost; :data:`SPEED_BOUND_NODES` speeds spread
+    geometrically over a cost's speed range. Energy per metre is smooth in speed with its
+    least inside or at an end of the range, so the least over these nodes is above the
+    least over the whole range by a fraction of the spacing's square: the search's
+    :data:`BOUND_MARGIN` covers it where the curve is flat near its minimum; elsewhere the
+    bound may exceed a motion's cost by a little, which only weakens the optimality
+    certificate (``eps``), not the path. With a time price ``lambda`` the bound at each
+    speed adds ``lambda / v`` (a map metre lasts at least ``1 / v``), so that a dear second
+    keeps the heuristic as tight as a free one.
+    """
+    rng = getattr(cost, "speed_range", None)
+    if rng is None:
+        return np.array([cost.speed])
+    return np.geomspace(rng[0], rng[1], SPEED_BOUND_NODES)
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):

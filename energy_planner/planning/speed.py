@@ -1,0 +1,385 @@
+"""Speed as a decision: the speed range, a deadline, and the energy-time front.
+
+:func:`energy_planner.planning.plan.plan` walks each motion at its best speed within a
+range (``speed=(vmin, vmax)``: :mod:`energy_planner.energy.speed`, closed form per motion).
+Trading energy for time is its Lagrangian: minimise ``energy + lambda x time`` (each
+motion's speed then minimises its own ``E + lambda T``, the same closed form with one more
+``1 / v`` term), for a price of a second ``lambda`` >= 0 (J/s):
+
+- :func:`plan_deadline`: the least ``lambda`` whose path arrives in time, by bisection;
+  the least-energy path on time among those the sweep priced. Speed and route change
+  together: a dearer second may favour the direct climb over the detour.
+- :func:`pareto`: the energy-time front from a sweep of ``lambda``. A Lagrangian sweep
+  finds only the points of the front's **convex hull**: a path on a concave stretch of the
+  front (cheaper than the chord between its neighbours in neither energy nor time) is
+  never the minimum of ``E + lambda T`` for any ``lambda``, so it is not reported; the
+  points between two reported ones are not known to be reachable.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from energy_planner.errors import EnergyPlannerWarning, PlanningConfigError, PlanningError
+
+__all__ = [
+    "speed_range_of",
+    "resolve_speed",
+    "with_speed",
+    "plan_deadline",
+    "pareto",
+    "ParetoFront",
+    "DEADLINE_ITERS",
+]
+
+#: Bisection steps of :func:`plan_deadline` on ``log(lambda)`` after the bracket is found.
+DEADLINE_ITERS = 6
+#: ``lambda`` of the fastest path, in units of the least-energy path's mean power: the
+#: time then weighs 100 times the energy, every motion walks at the top of the range.
+FASTEST_WEIGHT = 100.0
+
+
+def speed_range_of(model: Any) -> tuple[float, float] | None:
+    """The range of walking speeds the model's calibration logged, m/s.
+
+    The fit's domain (``metadata.fit.domain.speed_m_s``), else the simulated campaign's
+    speeds (``metadata.campaign.speeds_m_s``). None (with a warning) when the logs hold
+    one speed: the speed terms are not identified, and a plan keeps its nominal speed.
+
+    Raises
+    ------
+    PlanningConfigError
+        If the model records no logged speeds at all.
+    """
+    from energy_planner.uncertainty.domain import domain_of
+
+    meta = getattr(model, "metadata", None) or {}
+    dom = domain_of(model) or {}
+    rng = dom.get("speed_m_s")
+    if not rng:
+        speeds = (meta.get("campaign") or {}).get("speeds_m_s")
+        rng = [min(speeds), max(speeds)] if speeds else None
+    if not rng:
+        raise PlanningConfigError(
+            "speed 'auto' needs the speeds the model's logs cover, and the model records "
+            "none (metadata.fit.domain.speed_m_s); expected a model fitted from logs, or "
+            "give the range as MIN:MAX (m/s)",
+            value="auto",
+            param="speed",
+        )
+    lo, hi = float(rng[0]), float(rng[1])
+    if not hi > lo:
+        warnings.warn(
+            EnergyPlannerWarning(
+                f"the model's logs hold one walking speed ({lo:g} m/s): its speed terms are "
+                "not identified, so every motion keeps the nominal speed",
+                api_hint="give speed=(vmin, vmax) to choose within a range anyway",
+                cli_hint="give --speed MIN:MAX to choose within a range anyway",
+            ),
+            stacklevel=3,
+        )
+        return None
+    return lo, hi
+
+
+def resolve_speed(speed: Any, model: Any) -> float | tuple[float, float] | None:
+    """A speed argument as a number (fixed), a ``(vmin, vmax)`` range, or None.
+
+    ``speed``: None, a number, a pair, ``"auto"`` (:func:`speed_range_of`) or a string
+    ``"V"`` / ``"MIN:MAX"`` (the command line's form).
+    """
+    if speed is None:
+        return None
+    if isinstance(speed, str):
+        text = speed.strip()
+        if text == "auto":
+            return speed_range_of(model)
+        parts = text.split(":")
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            vals = []
+        if len(vals) not in (1, 2):
+            raise PlanningConfigError(
+                f"speed {speed!r} is not a speed; expected V, MIN:MAX (m/s) or auto",
+                value=speed,
+                param="speed",
+            )
+        speed = vals[0] if len(vals) == 1 else tuple(vals)
+    if isinstance(speed, int | float):
+        v = float(speed)
+        if not (math.isfinite(v) and v > 0):
+            raise PlanningConfigError(
+                f"speed must be > 0 m/s, got {speed!r}", value=speed, param="speed"
+            )
+        return v
+    try:
+        lo, hi = (float(v) for v in speed)
+    except (TypeError, ValueError):
+        raise PlanningConfigError(
+            f"speed must be a number, (vmin, vmax) or 'auto', got {speed!r}",
+            value=speed,
+            param="speed",
+        ) from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise PlanningConfigError(
+            f"speed range must satisfy 0 < vmin <= vmax m/s, got {lo:g}:{hi:g}",
+            value=(lo, hi),
+            param="speed",
+        )
+    return lo, hi
+
+
+def with_speed(problem: Any, speed: Any, time_weight: float = 0.0) -> Any:
+    """``problem`` with the speed choice of ``speed`` (:func:`resolve_speed`) and ``lambda``.
+
+    A number replaces the request's nominal speed (the fixed-speed planner); a range
+    makes every motion choose its speed (:meth:`energy_planner.problem.Problem.with_speed`).
+    """
+    import dataclasses
+
+    spec = resolve_speed(speed, problem.model)
+    if isinstance(spec, float):
+        robot = dataclasses.replace(problem.request.robot, speed=spec)
+        problem = problem.replace(request=dataclasses.replace(problem.request, robot=robot))
+        spec = None
+    if not (isinstance(time_weight, int | float) and math.isfinite(time_weight)
+            and time_weight >= 0):  # fmt: skip
+        raise PlanningConfigError(
+            f"time_weight must be a finite number >= 0 J/s, got {time_weight!r}",
+            value=time_weight,
+            param="time_weight",
+        )
+    return problem.with_speed(spec, float(time_weight))
+
+
+def _plan(problem, start, goal, speed, lam, kw):
+    from energy_planner.planning.plan import plan
+
+    return plan(problem, start, goal, speed=speed, time_weight=lam, **kw)
+
+
+def plan_deadline(
+    problem: Any,
+    start: Sequence[float],
+    goal: Sequence[float],
+    deadline: float,
+    *,
+    speed: Any = "auto",
+    **kw: Any,
+) -> Any:
+    """The least-energy path that arrives within ``deadline`` seconds.
+
+    Minimises ``energy + lambda x time`` over routes and each motion's speed within
+    ``speed`` (:func:`resolve_speed`; default the logged range), with ``lambda`` found
+    by bisection: ``lambda = 0`` (the least-energy path) if it is in time; else the
+    bracket grows by 4 from the least-energy path's mean power until a path is in time,
+    then :data:`DEADLINE_ITERS` bisections on ``log(lambda)``. The path returned is the
+    least-energy one in time among those priced (a point of the front's convex hull, see
+    the module docstring). ``kw``: :func:`~energy_planner.planning.plan.plan`'s.
+
+    Returns
+    -------
+    PlanResult
+        With ``info["deadline"]``: the deadline, ``lambda``, the plans priced.
+
+    Raises
+    ------
+    PlanningError
+        ``limit="deadline"``: no path arrives in time; the message and ``value`` give the
+        fastest path's duration.
+    """
+    if not (isinstance(deadline, int | float) and math.isfinite(deadline) and deadline > 0):
+        raise PlanningConfigError(
+            f"deadline must be > 0 seconds, got {deadline!r}", value=deadline, param="deadline"
+        )
+    if speed is None:
+        speed = "auto"
+    speed = resolve_speed(speed, problem.model)
+    tried: list[tuple[float, float, float]] = []
+
+    def run(lam: float):
+        res = _plan(problem, start, goal, speed, lam, kw)
+        tried.append((lam, res.energy_j, res.duration_s))
+        return res
+
+    def done(res, lam: float):
+        res.info["deadline"] = {"deadline_s": float(deadline), "lambda_j_per_s": lam,
+                                "plans": [list(t) for t in tried]}  # fmt: skip
+        return res
+
+    base = run(0.0)
+    if base.duration_s <= deadline:
+        return done(base, 0.0)
+    power = base.energy_j / max(base.duration_s, 1e-9)
+    fastest_lam = FASTEST_WEIGHT * power
+    lo, hi, best = 0.0, power, None
+    while True:
+        res = run(hi)
+        if res.duration_s <= deadline:
+            best = (res, hi)
+            break
+        lo = hi
+        if hi >= fastest_lam:
+            raise PlanningError(
+                f"no path arrives within {deadline:g} s: the fastest path found takes "
+                f"{res.duration_s:.1f} s ({res.energy_j:.0f} J, every motion at the top of "
+                "the speed range); give a later deadline or a higher top speed",
+                limit="deadline",
+                value=float(res.duration_s),
+            )
+        hi = min(4.0 * hi, fastest_lam)
+    for _ in range(DEADLINE_ITERS):
+        mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
+        res = run(mid)
+        if res.duration_s <= deadline:
+            hi = mid
+            if res.energy_j < best[0].energy_j:
+                best = (res, mid)
+        else:
+            lo = mid
+    return done(*best)
+
+
+@dataclass
+class ParetoFront:
+    """The energy-time front of a start and goal: one path per price of a second.
+
+    Attributes
+    ----------
+    lambdas : list of float
+        ``lambda`` (J/s) of each point, increasing.
+    plans : list of PlanResult
+        The path of each ``lambda``: energy (with its interval), duration and speed
+        profile.
+    note : str
+        What the front is: its convex hull only (see the module docstring).
+    """
+
+    lambdas: list[float]
+    plans: list[Any]
+    note: str = field(
+        default="a Lagrangian sweep (min energy + lambda x time): these are the points of "
+        "the front's convex hull; a path on a concave stretch of the front is not found"
+    )
+
+    @property
+    def problem(self) -> Any:
+        """The Problem the front was planned on (its plans remember it)."""
+        return getattr(self.plans[0], "problem", None) if self.plans else None
+
+    def __repr__(self) -> str:
+        e = [round(p.energy_j) for p in self.plans]
+        t = [round(p.duration_s) for p in self.plans]
+        return f"ParetoFront({len(self.plans)} points, energy {e} J, duration {t} s)"[:300]
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per point: lambda, energy and its interval, duration, distance, speeds."""
+        out = []
+        for lam, p in zip(self.lambdas, self.plans, strict=True):
+            iv = getattr(p.assessment, "interval", None)
+            prof = p.speed_profile()
+            walk = [s["speed_m_s"] for s in prof if s["speed_m_s"] > 0]
+            out.append({
+                "lambda_j_per_s": lam,
+                "energy_j": p.energy_j,
+                "energy_low_j": None if iv is None else iv.low_j,
+                "energy_high_j": None if iv is None else iv.high_j,
+                "duration_s": p.duration_s,
+                "distance_m": p.distance_m,
+                "speed_min_m_s": min(walk) if walk else None,
+                "speed_max_m_s": max(walk) if walk else None,
+            })  # fmt: skip
+        return out
+
+    def text(self) -> str:
+        """The front as a table for people."""
+        lines = [
+            f"{'lambda J/s':>10}  {'energy J':>9}  {'interval J':>17}  {'time s':>8}  "
+            f"{'dist m':>7}  {'speed m/s':>11}"
+        ]
+        for r in self.rows():
+            iv = ("-" if r["energy_low_j"] is None
+                  else f"{r['energy_low_j']:.0f}-{r['energy_high_j']:.0f}")  # fmt: skip
+            sp = ("-" if r["speed_min_m_s"] is None
+                  else f"{r['speed_min_m_s']:.2f}-{r['speed_max_m_s']:.2f}")  # fmt: skip
+            lines.append(
+                f"{r['lambda_j_per_s']:>10.1f}  {r['energy_j']:>9.0f}  {iv:>17}  "
+                f"{r['duration_s']:>8.1f}  {r['distance_m']:>7.1f}  {sp:>11}"
+            )
+        lines.append(f"note: {self.note}")
+        return "\n".join(lines)
+
+    def to_dict(self, terrain: Any = None) -> dict[str, Any]:
+        """JSON-ready: the rows, each with its plan (waypoints, times, speed profile)."""
+        return {
+            "note": self.note,
+            "points": [
+                {**row, "plan": p.to_dict(terrain)}
+                for row, p in zip(self.rows(), self.plans, strict=True)
+            ],
+        }
+
+    def plot(self, path: Any, title: str | None = None) -> Any:
+        """Energy against duration, with the intervals; a PNG at ``path`` (written atomically)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from energy_planner.io.atomic import save_figure
+
+        rows = self.rows()
+        t = np.array([r["duration_s"] for r in rows])
+        e = np.array([r["energy_j"] for r in rows])
+        fig, ax = plt.subplots(figsize=(6, 4))
+        if all(r["energy_low_j"] is not None for r in rows):
+            lo = e - np.array([r["energy_low_j"] for r in rows])
+            hi = np.array([r["energy_high_j"] for r in rows]) - e
+            ax.errorbar(t, e, yerr=[lo, hi], fmt="none", ecolor="0.6", capsize=3)
+        ax.plot(t, e, "o-", color="C0")
+        for r in rows:
+            ax.annotate(f"{r['lambda_j_per_s']:.0f}", (r["duration_s"], r["energy_j"]),
+                        textcoords="offset points", xytext=(4, 4), fontsize=7)  # fmt: skip
+        ax.set_xlabel("duration (s)")
+        ax.set_ylabel("energy (J)")
+        ax.set_title(title or "Energy-time front (labels: lambda, J/s; convex hull only)")
+        fig.tight_layout()
+        save_figure(fig, path, dpi=120)
+        plt.close(fig)
+        return path
+
+
+def pareto(
+    problem: Any,
+    start: Sequence[float],
+    goal: Sequence[float],
+    n: int = 9,
+    *,
+    speed: Any = "auto",
+    **kw: Any,
+) -> ParetoFront:
+    """The energy-time front from ``n`` plans over a sweep of the price of a second.
+
+    ``lambda = 0`` (the least-energy path), then ``n - 1`` values spread geometrically
+    from 0.05 to :data:`FASTEST_WEIGHT` times that path's mean power (the last: every
+    motion at the top of the range). Points whose path and timing repeat the previous
+    one are kept (the front has fewer distinct points than ``n`` then). ``kw``:
+    :func:`~energy_planner.planning.plan.plan`'s.
+    """
+    if not (isinstance(n, int) and n >= 2):
+        raise PlanningConfigError(f"pareto needs n >= 2 points, got {n!r}", value=n, param="n")
+    if speed is None:
+        speed = "auto"
+    speed = resolve_speed(speed, problem.model)
+    base = _plan(problem, start, goal, speed, 0.0, kw)
+    power = base.energy_j / max(base.duration_s, 1e-9)
+    lams = [0.0, *np.geomspace(0.05 * power, FASTEST_WEIGHT * power, n - 1).tolist()]
+    plans = [base] + [_plan(problem, start, goal, speed, lam, kw) for lam in lams[1:]]
+    return ParetoFront(lams, plans)

@@ -1,0 +1,152 @@
+"""Planning with the speed as a decision, on a plane where every number is calculus.
+
+The model's power is ``a v + b + c v^2`` whatever the slope and heading: a metre costs
+``a + b / v + c v`` (least at ``v* = sqrt(b / c)``) and lasts ``1 / v``. With a price of a
+second ``lambda`` a metre costs ``a + (b + lambda) / v + c v``: least at ``sqrt((b +
+lambda) / c)``. On a straight path of ground length ``L`` at one speed, a deadline ``D``
+asks for ``v = L / D`` when that is above ``v*`` (energy per metre is convex in ``v``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import energy_planner as ep
+from energy_planner.cli import main
+from energy_planner.errors import PlanningError
+from energy_planner.model import EnergyModel
+from energy_planner.problem import Problem
+from energy_planner.terrain import Terrain
+
+A, B, C = 120.0, 40.0, 100.0
+V_STAR = math.sqrt(B / C)
+RANGE = (0.2, 1.5)
+
+
+def _model() -> EnergyModel:
+    m = EnergyModel(["speed", "1", "speed ** 2"], {"speed": A, "1": B, "speed ** 2": C})
+    m.metadata = {
+        "fit": {
+            "domain": {
+                "speed_m_s": list(RANGE), "max_slope_deg": 30.0, "max_turn_rate_rad_s": 0.6,
+                "gaits": {}, "channels": {},
+            }
+        }
+    }  # fmt: skip
+    return m
+
+
+def _per_metre(v):
+    return A + B / v + C * v
+
+
+@pytest.fixture(scope="module")
+def plane():
+    """A 12 % grade along x, 30 m x 12 m: start and goal on the x axis of the lattice."""
+    t = Terrain.from_function(lambda x, y: 0.12 * x, size=(30, 12), resolution=1.0)
+    p = Problem(t, _model())
+    x0, y0 = t.grid[0], t.grid[1]
+    return p, (x0 + 2.0, y0 - 5.0, 0.0), (x0 + 26.0, y0 - 5.0)
+
+
+def _walks(res):
+    return [s for s in res.speed_profile() if s["speed_m_s"] > 0]
+
+
+def test_each_motion_walks_at_sqrt_b_over_c(plane):
+    p, s, g = plane
+    res = ep.plan(p, s, g, speed=RANGE, progress=False)
+    walks = _walks(res)
+    assert walks and all(w["speed_m_s"] == pytest.approx(V_STAR, rel=0.01) for w in walks)
+    assert res.energy_j == pytest.approx(res.distance_m * _per_metre(V_STAR), rel=1e-6)
+    assert res.times[-1] == pytest.approx(res.duration_s, rel=1e-12)
+    fixed = ep.plan(p, s, g, progress=False)  # the nominal 0.3 m/s
+    assert fixed.times is None
+    assert fixed.energy_j == pytest.approx(fixed.distance_m * _per_metre(0.3), rel=1e-6)
+
+
+def test_range_clamps_the_speed(plane):
+    """The search's translations keep their heading: each walks at the range's floor.
+
+    (A motion that turns while it walks may be slower: its turn takes |dyaw| / yaw_rate.)
+    """
+    p, s, g = plane
+    res = ep.plan(p, s, g, speed=(0.8, 1.2), planner="search", progress=False)
+    assert _walks(res)
+    assert all(w["speed_m_s"] == pytest.approx(0.8, rel=1e-6) for w in _walks(res))
+
+
+def test_deadline_walks_as_slowly_as_it_may(plane):
+    p, s, g = plane
+    free = ep.plan(p, s, g, speed=RANGE, progress=False)
+    length = free.distance_m
+    deadline = length / 1.0  # needs 1 m/s, above v* = 0.63
+    res = ep.plan(p, s, g, speed=RANGE, deadline=deadline, progress=False)
+    assert res.duration_s <= deadline
+    v = length / res.duration_s
+    assert 1.0 <= v <= 1.05
+    assert res.energy_j == pytest.approx(length * _per_metre(1.0), rel=0.01)
+    assert res.info["deadline"]["lambda_j_per_s"] > 0
+    # a deadline the free plan meets changes nothing
+    easy = ep.plan(p, s, g, speed=RANGE, deadline=free.duration_s * 1.5, progress=False)
+    assert easy.energy_j == pytest.approx(free.energy_j, rel=1e-12)
+
+
+def test_deadline_no_path_can_gives_the_fastest_time(plane):
+    p, s, g = plane
+    length = ep.plan(p, s, g, speed=RANGE, progress=False).distance_m
+    with pytest.raises(PlanningError, match="fastest") as info:
+        ep.plan(p, s, g, speed=RANGE, deadline=length / 2.0, progress=False)
+    assert info.value.value == pytest.approx(length / RANGE[1], rel=1e-6)
+
+
+def test_pareto_front_is_the_analytic_one(plane):
+    p, s, g = plane
+    front = ep.pareto(p, s, g, 4, speed=RANGE, progress=False)
+    rows = front.rows()
+    assert len(rows) == 4 and "convex hull" in front.note
+    for lam, r in zip(front.lambdas, rows, strict=True):
+        v = min(max(math.sqrt((B + lam) / C), RANGE[0]), RANGE[1])
+        assert r["speed_max_m_s"] == pytest.approx(v, rel=1e-6)
+        assert r["energy_j"] == pytest.approx(r["distance_m"] * _per_metre(v), rel=1e-6)
+    assert np.all(np.diff([r["duration_s"] for r in rows]) <= 1e-9)
+    assert np.all(np.diff([r["energy_j"] for r in rows]) >= -1e-9)
+
+
+def test_cli_speed_auto_and_energy_of_the_written_path(tmp_path):
+    """``plan --speed auto --out``: ``energy --waypoints`` of the file gives its energy."""
+    model = tmp_path / "m.json"
+    _model().save(model)
+    out = tmp_path / "p.geojson"
+    run = CliRunner().invoke(main, [
+        "plan", "--dem", "plane", "--start", "500010,5000010", "--goal", "500060,5000040",
+        "--model", str(model), "--speed", "auto", "--out", str(out), "--json",
+    ])  # fmt: skip
+    assert run.exit_code == 0, run.output
+    planned = json.loads(run.stdout)
+    assert planned["speed"]["speed_range"] == list(RANGE)
+    assert all(
+        s["speed_m_s"] == pytest.approx(V_STAR, rel=0.01)
+        for s in planned["speed_profile"]
+        if s["speed_m_s"] > 0
+    )
+    props = json.loads(out.read_text())["features"][0]["properties"]
+    assert "t" in props and props["t"][-1] == pytest.approx(planned["duration_s"])
+    run = CliRunner().invoke(
+        main, ["energy", "--dem", "plane", "--waypoints", str(out), "--model", str(model),
+               "--json"],
+    )  # fmt: skip
+    assert run.exit_code == 0, run.output
+    assert json.loads(run.stdout)["energy_j"] == pytest.approx(planned["energy_j"], rel=1e-3)
+
+
+def test_cli_bad_speed_names_the_value():
+    run = CliRunner().invoke(main, ["plan", "--dem", "plane", "--start", "500010,5000010",
+                                    "--goal", "500060,5000040", "--speed", "1.5:0.2"])  # fmt: skip
+    assert run.exit_code == 2
+    assert "1.5:0.2" in run.output and "--speed" in run.output
