@@ -72,6 +72,8 @@ def load_model(path: str | Path | None = None):
 #: whose name (dashes as underscores) is a keyword of the verb is that keyword; the others
 #: are listed here, ONE table: ``"keyword"`` (the verb's keyword of another name), or
 #: ``"result.METHOD"`` (an output: the result writes it, ``res.METHOD(path)``), or
+#: ``"ep.VERB:KEYWORD"`` (the option turns the command into another verb of this module,
+#: e.g. ``plan --pareto N`` is ``ep.pareto(..., n=N)``), or
 #: ``"output"`` (how the command prints: no Python counterpart). A dict maps a command
 #: to its meaning where commands differ. ``tests/test_api_cli_names.py`` checks that
 #: every option of those commands is one or the other.
@@ -95,6 +97,7 @@ CLI_NAMES: dict[str, str | dict[str, str]] = {
     "--bag": "result.write_bag",
     "--bag-frame": "result.write_bag",  # frame=
     "--nav2-graph": "result.write_nav2_graph",
+    "--pareto": {"plan": "ep.pareto:n"},
     "--refuse": "output",  # exit status 1 below --confidence: result.assessment.battery.ok
     "--json": "output",  # result.to_dict()
     "--quiet": "output",  # progress=False is the Python default

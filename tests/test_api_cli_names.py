@@ -78,6 +78,10 @@ def test_every_option_has_its_python_keyword_or_writer(command):
             continue
         if name.startswith("result."):
             assert callable(getattr(result, name.split(".", 1)[1], None)), (command, option, name)
+        elif name.startswith("ep."):  # another verb: plan --pareto N is ep.pareto(n=N)
+            other, keyword = name[3:].split(":")
+            assert keyword in inspect.signature(getattr(api, other)).parameters, (option, name)
+            assert getattr(ep, other) is getattr(api, other), name
         else:
             assert name in keywords, (command, option, name)
             kind = keywords[name].kind
