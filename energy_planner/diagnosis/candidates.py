@@ -433,7 +433,10 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
     """``ch`` times the fitted base power, and times its copper (squared-force) part.
 
     A channel that scales every force of the gait (a mass) or every copper loss (the
-    winding resistance). The coefficients are the current fit's, written into the term.
+    winding resistance). The coefficients are the current fit's, written into the term;
+    the scaled power is clipped at 0 (``pos``) as the power a gait draws is: where the
+    fitted parts sum below 0 (a backward or downhill motion the base prices poorly) a
+    carried mass must not make the robot regenerate in proportion to it.
     """
     from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
 
@@ -472,7 +475,9 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
         if not parts:
             continue
         variables = sorted({v for t in names for v in CATALOG[t].variables})
-        out.append((f"{ch}*{label}", f"{ch} * ({' + '.join(parts)})", expl, variables))
+        # the power a gait draws is never negative (legged robots do not regenerate): the
+        # channel scales that, not a sum whose fitted parts may go below 0 somewhere
+        out.append((f"{ch}*{label}", f"{ch} * pos({' + '.join(parts)})", expl, variables))
     return out
 
 
