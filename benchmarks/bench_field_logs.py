@@ -46,22 +46,23 @@ Run::
         --duration 60     # the discovery campaign (MissionConfig.varied), 20 held out
     python benchmarks/bench_field_logs.py --json
 
-Measured (2 shared cores; the per-mission tables with ``--per-mission``):
+Measured (2 shared cores, load ~10; the per-mission tables with ``--per-mission``)::
 
-========================= ======== ========= ========= ======== ==========================
-data set                  median   p90 |e|   in 90 %   x floor  baseline (every pose)
-========================= ======== ========= ========= ======== ==========================
-robot-b (12 + 12)         -0.16 %  1.79 %    12/12     2.00     +4.01 %, p90 6.00 %
-default phases, seed 0    +0.44 %  4.69 %    18/20     1.73     +0.25 %, p90 4.87 %
-default phases, seed 1    +0.05 %  2.50 %    20/20     2.00     -0.13 %, p90 2.79 %
-default phases, seed 2    discover wrote no model (its final fit prices a motion < 0 W)
-varied phases, seed 0     -0.85 %  3.49 %    19/20     1.25     -1.07 %, p90 4.31 %
-varied phases, seed 1     -0.26 %  3.07 %    17/20     1.24     -0.84 %, p90 3.53 %
-varied phases, seed 2     -0.65 %  2.93 %    17/20     1.06     -1.38 %, p90 3.31 %
-========================= ======== ========= ========= ======== ==========================
+    data set       n   median  p90 |e|   in 90%  binom 95%  x floor  met
+    target             +-1.50%  <=5.00%  85%-95%             <=1.20
+    robot-b       12   -0.16%    1.79%    12/12       8-12     2.00  yynn
+    robot-b swap  12   +0.61%    2.08%    12/12       8-12     2.04  yynn   (--swap)
+    sim-load-0    20   +0.44%    4.69%    16/20      15-20     1.73  yynn
+    sim-load-1    20   +0.05%    2.50%    20/20      15-20     2.00  yynn
+    sim-load-2    20   +0.24%    2.19%    20/20      15-20     2.03  yynn
 
-(robot-b's x floor is against the floor ``discover`` estimates from its logs; the
-simulated ones against the simulator's true floor.)
+(sim-load-2 wrote no model before ``load_kg*P_base`` was clipped at 0: the load times a
+base that went below 0 walking backward downhill priced that walk at -283 W.) With 12
+or 20 missions a calibrated 90 % interval holds all of them in 28 % / 12 % of samples:
+the coverage column is to be read against its binomial band. Robot-b's x floor is
+against the floor ``discover`` estimates from its logs (white, Gaussian battery noise:
+``tests/test_field_logs.py``); its model's held-out window errors are correlated over
+tens of seconds (lag-1 0.57, 20 s 0.38): an effect no candidate captures, not noise.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
