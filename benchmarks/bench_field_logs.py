@@ -55,6 +55,10 @@ Measured (2 shared cores, load ~10; the per-mission tables with ``--per-mission`
     sim-load-0    20   +0.44%    4.69%    16/20      15-20     1.73  yynn
     sim-load-1    20   +0.05%    2.50%    20/20      15-20     2.00  yynn
     sim-load-2    20   +0.24%    2.19%    20/20      15-20     2.03  yynn
+    --phases varied --missions 60 --duration 60:
+    sim-load-0    20   -0.85%    3.49%    19/20      15-20     1.25  yyyn
+    sim-load-1    20   -0.26%    3.07%    17/20      15-20     1.24  yyyn
+    sim-load-2    20   -0.65%    2.93%    17/20      15-20     1.06  yyyy
 
 (sim-load-2 wrote no model before ``load_kg*P_base`` was clipped at 0: the load times a
 base that went below 0 walking backward downhill priced that walk at -283 W.) With 12
