@@ -27,8 +27,28 @@ the median relative width and the share of paths beyond the campaign's slopes.
 
 Run::
 
-    python benchmarks/bench_domain_extrapolation.py            # about 2 min on 2 cores
-    python benchmarks/bench_domain_extrapolation.py --paths 40 --seeds 0 1 2
+    python benchmarks/bench_domain_extrapolation.py            # 3 seeds, ~8 min on 2 cores
+    python benchmarks/bench_domain_extrapolation.py --paths 40 --seeds 0 1 2 3 4
+
+Each seed is one fitted campaign (the three load cases share it): all the paths of one
+fit share its extrapolation error, so coverage is a statistic over seeds, not paths.
+Measured (3 seeds, 26 paths per case and seed, load average ~10 on 2 cores, 1590 s)::
+
+    case         paths beyond  med err p90 |err| cover after  met |e|/half p90 width after
+    plain           78     61     0.7%      1.3%       71.8%    n         1.35        2.0%
+    load 10 kg      78     62     1.0%      1.5%      100.0%    n         0.61        5.1%
+    load 20 kg      78     61    -1.0%      3.0%      100.0%    n         0.62       10.0%
+    load 30 kg      78     60    -4.7%      7.9%      100.0%    n         0.82       26.6%
+    seed 0         104     80    -0.3%      7.8%      100.0%    n         0.58        8.9%
+    seed 1         104     81     0.4%      4.1%       88.5%    y         1.13        8.3%
+    seed 2         104     83     0.2%      6.6%       90.4%    y         0.92        6.2%
+    all            312    244     0.2%      5.9%       92.9%    y         0.85        7.3%
+
+(seed 0 alone before the error model measured its noise from the windows: plain 100 %
+at width 6.1 %, the load cases 100 % at 8.8 / 13.7 / 32.7 %.) The plain fit of seed 1
+measures no growth beyond its slopes (``growth_per_unit`` 0: its held-out steepest runs
+err no more than their noise), and its paths' 0.7 % extrapolation error falls outside
+intervals of +-1 %.
 """
 
 from __future__ import annotations
@@ -47,6 +67,8 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 X0, Y0 = 500_000.0, 5_000_000.0
+#: Issue 28's "Done when": nominal 90 % intervals hold the true energy of 85-95 % of plans.
+TARGET_COVERAGE = (0.85, 0.95)
 #: (case, hidden effects, the load the paths are walked with: None, inside or beyond)
 CASES: tuple[tuple[str, tuple[str, ...], float | None], ...] = (
     ("plain", (), None),
@@ -170,6 +192,8 @@ def run_case(case: str, effects: tuple[str, ...], load: float | None, seed: int,
         for k, iv in ivs.items():
             row[f"in_{k}"] = bool(iv.low_j <= truth.energy_j <= iv.high_j)
             row[f"width_{k}"] = (iv.high_j - iv.low_j) / pe.energy_j
+            half = (iv.high_j if truth.energy_j > pe.energy_j else iv.low_j) - pe.energy_j
+            row[f"ratio_{k}"] = abs(truth.energy_j - pe.energy_j) / max(abs(half), 1e-9)
         rows.append(row)
     growth = model.metadata["fit"]["error_model"]["extrapolation"]
     g = {q: v.get("growth_per_unit") for q, v in growth.items()}
@@ -183,7 +207,14 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", type=int, default=20, help="straight crossings per case")
     ap.add_argument("--plans", type=int, default=6, help="energy-optimal plans per case")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0])
+    ap.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=[0, 1, 2],
+        help="campaigns: each fit's extrapolation error is one draw shared by "
+        "all its paths, so coverage needs several",
+    )
     ap.add_argument("--level", type=float, default=0.9)
     ap.add_argument("--cases", nargs="+", default=[c[0] for c in CASES])
     args = ap.parse_args(argv)
@@ -203,17 +234,29 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\nnominal {100 * args.level:g} % intervals of the simulator's true energy; fit on "
           f"slopes <= 20 deg, paths over a hill up to 30 deg (commit {commit}, "
           f"{time.perf_counter() - t0:.0f} s)")  # fmt: skip
+    lo, hi = TARGET_COVERAGE
     head = (f"{'case':<12}{'paths':>6}{'beyond':>7}{'med err':>9}{'p90 |err|':>10}"
-            f"{'cover before':>13}{'cover after':>12}{'width before':>13}{'width after':>12}"
+            f"{'cover before':>13}{'cover after':>12}{'target':>9}{'met':>4}"
+            f"{'|e|/half p90':>13}{'width before':>13}{'width after':>12}"
             f"{'uncalibrated':>13}")  # fmt: skip
     print(head)
-    for key, g in [*df.groupby("case", sort=False), ("all", df)]:
+    groups = [*df.groupby("case", sort=False)]
+    if len(args.seeds) > 1:
+        groups += [(f"seed {k}", g) for k, g in df.groupby("seed", sort=True)]
+    for key, g in [*groups, ("all", df)]:
         beyond = g["excess_slope"] > 0
+        cov = g["in_after"].mean()
+        met = "y" if lo <= cov <= hi else "n"
         print(f"{key:<12}{len(g):>6}{beyond.sum():>7}{100 * g['err'].median():>8.1f}%"
               f"{100 * g['err'].abs().quantile(0.9):>9.1f}%"
-              f"{100 * g['in_before'].mean():>12.1f}%{100 * g['in_after'].mean():>11.1f}%"
+              f"{100 * g['in_before'].mean():>12.1f}%{100 * cov:>11.1f}%"
+              f"{f'{lo:.0%}-{hi:.0%}':>9}{met:>4}{g['ratio_after'].quantile(0.9):>13.2f}"
               f"{100 * g['width_before'].median():>12.1f}%{100 * g['width_after'].median():>11.1f}%"
               f"{(~g['calibrated']).sum():>13}")  # fmt: skip
+    print(
+        "|e|/half p90: the 90th percentile of each path's |true - predicted| over its "
+        "interval's half-width on that side (1.0 at nominal coverage; below 1: too wide)"
+    )
     bey = df[df["excess_slope"] > 0]
     if len(bey):
         print(

@@ -46,22 +46,27 @@ Run::
         --duration 60     # the discovery campaign (MissionConfig.varied), 20 held out
     python benchmarks/bench_field_logs.py --json
 
-Measured (2 shared cores; the per-mission tables with ``--per-mission``):
+Measured (2 shared cores, load ~10; the per-mission tables with ``--per-mission``)::
 
-========================= ======== ========= ========= ======== ==========================
-data set                  median   p90 |e|   in 90 %   x floor  baseline (every pose)
-========================= ======== ========= ========= ======== ==========================
-robot-b (12 + 12)         -0.16 %  1.79 %    12/12     2.00     +4.01 %, p90 6.00 %
-default phases, seed 0    +0.44 %  4.69 %    18/20     1.73     +0.25 %, p90 4.87 %
-default phases, seed 1    +0.05 %  2.50 %    20/20     2.00     -0.13 %, p90 2.79 %
-default phases, seed 2    discover wrote no model (its final fit prices a motion < 0 W)
-varied phases, seed 0     -0.85 %  3.49 %    19/20     1.25     -1.07 %, p90 4.31 %
-varied phases, seed 1     -0.26 %  3.07 %    17/20     1.24     -0.84 %, p90 3.53 %
-varied phases, seed 2     -0.65 %  2.93 %    17/20     1.06     -1.38 %, p90 3.31 %
-========================= ======== ========= ========= ======== ==========================
+    data set       n   median  p90 |e|   in 90%  binom 95%  x floor  met
+    target             +-1.50%  <=5.00%  85%-95%             <=1.20
+    robot-b       12   -0.16%    1.79%    12/12       8-12     2.00  yynn
+    robot-b swap  12   +0.61%    2.08%    12/12       8-12     2.04  yynn   (--swap)
+    sim-load-0    20   +0.44%    4.69%    16/20      15-20     1.73  yynn
+    sim-load-1    20   +0.05%    2.50%    20/20      15-20     2.00  yynn
+    sim-load-2    20   +0.24%    2.19%    20/20      15-20     2.03  yynn
+    --phases varied --missions 60 --duration 60:
+    sim-load-0    20   -0.85%    3.49%    19/20      15-20     1.25  yyyn
+    sim-load-1    20   -0.26%    3.07%    17/20      15-20     1.24  yyyn
+    sim-load-2    20   -0.65%    2.93%    17/20      15-20     1.06  yyyy
 
-(robot-b's x floor is against the floor ``discover`` estimates from its logs; the
-simulated ones against the simulator's true floor.)
+(sim-load-2 wrote no model before ``load_kg*P_base`` was clipped at 0: the load times a
+base that went below 0 walking backward downhill priced that walk at -283 W.) With 12
+or 20 missions a calibrated 90 % interval holds all of them in 28 % / 12 % of samples:
+the coverage column is to be read against its binomial band. Robot-b's x floor is
+against the floor ``discover`` estimates from its logs (white, Gaussian battery noise:
+``tests/test_field_logs.py``); its model's held-out window errors are correlated over
+tens of seconds (lag-1 0.57, 20 s 0.38): an effect no candidate captures, not noise.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
@@ -89,7 +94,13 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_FIELD_LOGS = REPO.parent / "shared" / "field-logs" / "robot-b"
+#: ``shared/field-logs/robot-b`` in the first folder above the repository that has it (a
+#: checkout beside ``shared/`` or a work tree further down)
+DEFAULT_FIELD_LOGS = next(
+    (p / "shared" / "field-logs" / "robot-b" for p in REPO.parents
+     if (p / "shared" / "field-logs" / "robot-b").is_dir()),
+    REPO.parent / "shared" / "field-logs" / "robot-b",
+)  # fmt: skip
 
 #: Issue 28's "Done when": median error within +-1.5 %, p90 |error| within 5 %, nominal
 #: 90 % intervals holding 85-95 % of the missions, discover within 1.2x the noise floor.
@@ -277,8 +288,26 @@ def run_dataset(
     )
 
 
-def field_dataset(root: Path, max_steps: int, pose_every: float) -> DataSet:
-    """``robot-b`` (or its fixture subset): discover on ``train/``, predict ``test/``."""
+def binomial_band(n: int, level: float = 0.9, mass: float = 0.95) -> tuple[int, int]:
+    """The central ``mass`` band of how many of ``n`` calibrated intervals hold their truth.
+
+    A count outside it says the intervals of nominal ``level`` are miscalibrated.
+
+    With 12 missions a calibrated 90 % interval holds all 12 in 28 % of samples and 11 in
+    38 %: the 85-95 % target is then met by exactly 11 of 12, which is chance.
+    """
+    from scipy.stats import binom
+
+    a = (1.0 - mass) / 2.0
+    return int(binom.ppf(a, n, level)), int(binom.isf(a, n, level))
+
+
+def field_dataset(root: Path, max_steps: int, pose_every: float, swap: bool = False) -> DataSet:
+    """``robot-b`` (or its fixture subset): discover on ``train/``, predict ``test/``.
+
+    ``swap``: the other way round (discover on ``test/``, predict ``train/``): a second
+    sample of held-out missions from the same logs.
+    """
     import energy_planner as ep
 
     missing = [p for p in ("train", "test", "ridge.tif") if not (root / p).exists()]
@@ -287,9 +316,11 @@ def field_dataset(root: Path, max_steps: int, pose_every: float) -> DataSet:
             f"error: --field-logs {root}: no {', '.join(missing)} there; expected "
             "train/, test/ and ridge.tif (or pass --no-field)"
         )
-    tests = [pd.read_parquet(f) for f in sorted((root / "test").glob("*.parquet"))]
+    fit_on, held = ("test", "train") if swap else ("train", "test")
+    tests = [pd.read_parquet(f) for f in sorted((root / held).glob("*.parquet"))]
     terrain = ep.open_terrain(root / "ridge.tif")
-    return run_dataset(root.name, root / "train", tests, terrain, max_steps, pose_every)
+    name = root.name + (" swap" if swap else "")
+    return run_dataset(name, root / fit_on, tests, terrain, max_steps, pose_every)
 
 
 def sim_dataset(seed: int, args: argparse.Namespace) -> DataSet:
@@ -346,12 +377,12 @@ def print_tables(
     lo, hi = TARGETS["coverage"]
     print(f"\nenergy of held-out missions' logged poses against their battery energy ({what})")
     print(
-        f"{'data set':<14}{'n':>4}{'median':>9}{'p90 |e|':>9}{'in 90%':>10}"
+        f"{'data set':<14}{'n':>4}{'median':>9}{'p90 |e|':>9}{'in 90%':>10}{'binom 95%':>10}"
         f"{'RMSE W':>8}{'floor W':>8}{'x floor':>8}  {'met':<5}"
         f"{'| baseline: median':>19}{'p90 |e|':>9}"
     )
     print(
-        f"{'target':<14}{'':>4}{'+-1.50%':>9}{'<=5.00%':>9}{f'{lo:.0%}-{hi:.0%}':>10}"
+        f"{'target':<14}{'':>4}{'+-1.50%':>9}{'<=5.00%':>9}{f'{lo:.0%}-{hi:.0%}':>10}{'':>10}"
         f"{'':>8}{'':>8}{'<=1.20':>8}  {'':<5}{'| every logged pose':>19}"
     )
     for s in sets:
@@ -363,9 +394,11 @@ def print_tables(
                 f"{s.final_rmse_w / floor:.2f}x the floor"
             )
             continue
+        band = "{}-{}".format(*binomial_band(m["n"]))
         print(
             f"{s.name:<14}{m['n']:>4}{_pct(m['median'], True):>9}{_pct(m['p90_abs']):>9}"
-            f"{str(m['covered']) + '/' + str(m['n']):>10}{s.final_rmse_w:>8.2f}{floor:>8.2f}"
+            f"{str(m['covered']) + '/' + str(m['n']):>10}{band:>10}"
+            f"{s.final_rmse_w:>8.2f}{floor:>8.2f}"
             f"{m['floor_ratio']:>8.2f}  {_ok(m):<5}"
             f"{_pct(m['baseline_median'], True):>19}{_pct(m['baseline_p90_abs']):>9}"
         )
@@ -383,7 +416,8 @@ def print_tables(
         )
     print(
         "met: y/n for median, p90, coverage, x floor (floor: the simulator's TRUE floor for "
-        "simulated sets, the floor discover estimates from the logs for field logs)"
+        "simulated sets, the floor discover estimates from the logs for field logs); binom "
+        "95%: the counts a calibrated 90 % interval gives in 95 % of samples of that size"
     )
     for s in sets:
         floors = f"floor from the logs {s.floor_w:.2f} W"
@@ -430,6 +464,11 @@ def main(argv: list[str] | None = None) -> int:
         help="robot-b: a folder with train/, test/ and ridge.tif",
     )
     ap.add_argument("--no-field", action="store_true", help="skip the field logs")
+    ap.add_argument(
+        "--swap",
+        action="store_true",
+        help="also discover on the field logs' test/ and predict train/ (twice the missions)",
+    )
     ap.add_argument("--campaigns", type=int, default=3, help="simulated campaigns (seeds 0..N-1)")
     ap.add_argument("--seeds", type=int, nargs="*", default=None, help="instead of --campaigns")
     ap.add_argument("--missions", type=int, default=30, help="simulated missions for discover")
@@ -458,8 +497,9 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     sets: list[DataSet] = []
     if not args.no_field:
-        sets.append(field_dataset(args.field_logs, args.max_steps, args.pose_every))
-        print(f"  {sets[-1].name}: {sets[-1].seconds:.0f} s", file=sys.stderr)
+        for swap in (False, True) if args.swap else (False,):
+            sets.append(field_dataset(args.field_logs, args.max_steps, args.pose_every, swap))
+            print(f"  {sets[-1].name}: {sets[-1].seconds:.0f} s", file=sys.stderr)
     seeds = list(range(args.campaigns)) if args.seeds is None else args.seeds
     for seed in seeds:
         sets.append(sim_dataset(seed, args))

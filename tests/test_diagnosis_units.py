@@ -461,6 +461,9 @@ def test_explanations_follow_the_channel_the_term_reads():
     assert "temperature" in expl["motor_temp*P_base"]
     assert "winding resistance" in expl["motor_temp*P_copper"]
     assert "mass" in expl["load_kg*P_base"] and "mass" in expl["load_kg*climb"]
+    # copper losses grow with the square of a mass: a shape for a mass only
+    assert "square of load_kg" in expl["load_kg_sq*P_copper"]
+    assert not any(n.endswith("_sq*P_copper") for n in expl if not n.startswith("load_kg"))
     for c in cands:  # no candidate of a temperature or of an unknown channel is a mass
         if c.channel in ("motor_temp", "foo_level"):
             assert "mass" not in c.explanation and "carried" not in c.explanation, c

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from energy_planner.model import EnergyModel
 from energy_planner.uncertainty import conformal_bounds, predict_interval
-from energy_planner.uncertainty.errormodel import ErrorModel, fit_error_model
+from energy_planner.uncertainty.errormodel import ErrorModel, fit_error_model, within_run_noise
 
 
 def _runs(rng, n, b, c, power=250.0):
@@ -194,3 +194,45 @@ def test_probability_of_an_array_is_the_probability_of_each_energy(n, seed, usab
     assert got.shape == e.shape
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert np.all(np.diff(got[np.argsort(e)]) <= 1e-12)  # dearer cells never likelier
+
+
+def _windowed_runs(rng, n, b, c, k=3, d=2.0):
+    """``n`` runs of ``k`` windows of ``d`` s (one duration, as a designed campaign's):
+    each run a systematic relative error of variance ``b`` on every window and white
+    noise of variance ``c d`` per window. Returns the per-run arrays and the windows."""
+    power = rng.uniform(200.0, 300.0, n)
+    pw = np.repeat(power * d, k)  # predicted window energies
+    rho = np.repeat(rng.normal(0.0, math.sqrt(b), n), k)
+    ew = rho * pw + rng.normal(0.0, math.sqrt(c * d), n * k)  # predicted - measured
+    run = np.repeat(np.arange(n), k)
+    pred = np.bincount(run, pw)
+    err = np.bincount(run, ew)
+    return pred, pred - err, np.full(n, k * d), (run, ew, pw, np.full(n * k, d))
+
+
+def test_window_errors_tell_noise_from_a_systematic_error_on_runs_of_one_duration():
+    """Runs all 6 s long cannot tell ``c T`` from ``b E^2`` by their run errors; their
+    windows can (:func:`within_run_noise`). With them the fit recovers ``b`` and ``c``,
+    and a path 100 times longer than the runs gets an interval that holds a fresh path's
+    error at its nominal level (binomial band); without them the noise is priced as
+    systematic and the long path's interval is too wide."""
+    rng = np.random.default_rng(11)
+    b, c = 5e-5, 80.0  # on a 6 s run the noise dominates; on a 600 s path b does
+    pred, meas, t, (run, ew, pw, dw) = _windowed_runs(rng, 1000, b, c)
+    w = within_run_noise(run, ew, pw, dw)
+    assert (w["dof"] == 2).all() and w["t_eff"].to_numpy() == pytest.approx(4.0)
+    fold = np.arange(pred.size) % 5
+    em = fit_error_model(pred, meas, t, fold=fold,
+                         within=(w["ss"], w["t_eff"], w["dof"]))  # fmt: skip
+    assert em.noise_j2_per_s == pytest.approx(c, rel=0.1)
+    assert em.model_rel_var == pytest.approx(b, rel=0.4)
+    old = fit_error_model(pred, meas, t, fold=fold)
+    # fresh paths of 600 s: the same law
+    n = 2000
+    e_true = rng.uniform(200.0, 300.0, n) * 600.0
+    err = rng.normal(0.0, np.sqrt(b * e_true**2 + c * 600.0))
+    cov = _coverage(em, e_true + err, e_true, np.full(n, 600.0), 0.9)
+    assert 0.85 <= cov <= 0.95, cov
+    true_sigma = math.sqrt(b * 1.5e5**2 + c * 600.0)
+    assert em.sigma(1.5e5, 600.0) == pytest.approx(true_sigma, rel=0.2)
+    assert old.sigma(1.5e5, 600.0) > 1.15 * true_sigma

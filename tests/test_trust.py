@@ -383,3 +383,26 @@ def test_a_suspect_the_refit_drops_is_reported_and_the_next_is_tried(
     assert _first_kept(wd, list(start), ranking, fold_index(wd.runs, 3)) is load
     (d,) = ranking.dropped
     assert d["term"] == "load_kg * vy ** 2" and "lateral" in d["reason"]
+
+
+def test_a_mass_scales_the_power_the_gait_draws_never_below_zero():
+    """``load_kg*P_base`` is the channel times the fitted base power, clipped at 0: where
+    the base's fitted parts sum below 0 (a backward downhill motion priced poorly) a carried
+    mass adds nothing, rather than a regeneration in proportion to the mass."""
+    from energy_planner.diagnosis.candidates import _scaled_base
+    from energy_planner.model import resolve_term
+    from energy_planner.model.terms import Term
+
+    def _f():  # walking backward at 0.3 m/s, facing uphill on 2 and 20 deg
+        a = np.radians([2.0, 20.0])
+        return {"vx": np.array([-0.3, -0.3]), "speed": np.array([0.3, 0.3]), "alpha": a,
+                "gamma": np.zeros(2)}  # fmt: skip
+
+    coef = {"bwd_const": 100.0, "bwd_down": -900.0}
+    name, formula, _, _ = _scaled_base("load_kg", list(coef), coef)[0]
+    assert name == "load_kg*P_base"
+    base = sum(c * resolve_term(t).parsed.evaluate(_f()) for t, c in coef.items())
+    got = Term(name, formula).parsed.evaluate({**_f(), "load_kg": np.array([10.0, 10.0])})
+    # by hand: 10 kg times the base power where it is positive, 0 where it is not
+    np.testing.assert_allclose(got, 10.0 * np.maximum(base, 0.0))
+    assert base.min() < 0 < base.max()

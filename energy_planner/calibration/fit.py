@@ -1461,7 +1461,7 @@ def _error_model(
     share outside the domain is measured against the ranges of its fold's training runs.
     """  # noqa: E501
     from energy_planner.stats import cluster_covariance, wls_coef
-    from energy_planner.uncertainty.errormodel import fit_error_model
+    from energy_planner.uncertainty.errormodel import fit_error_model, within_run_noise
 
     runs = table["run"].astype(str).to_numpy()
     energy = X * w[:, None]  # term energies of each window
@@ -1488,6 +1488,15 @@ def _error_model(
     ok = pred > 0
     rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
     share = heldout_outside_shares(table, model, fold)
+    # the windows' errors within each run measure the error that averages out over a run
+    cw = cv.windows
+    within = within_run_noise(
+        cw["run"].astype(str).to_numpy(),
+        ((cw["predicted_w"] - cw["measured_w"]) * cw["duration"]).to_numpy(float),
+        (cw["predicted_w"] * cw["duration"]).to_numpy(float),
+        cw["duration"].to_numpy(float),
+    )
+    within = within.reindex(per_run.index).fillna(0.0)  # no windows: no rows (dof 0)
     return fit_error_model(
         pred,
         per_run["measured_j"].to_numpy(float),
@@ -1496,6 +1505,7 @@ def _error_model(
         share.reindex(per_run.index).fillna(0.0).to_numpy(float),
         per_run["fold"].to_numpy(),
         param_rel_var=rho2,
+        within=(within["ss"].to_numpy(), within["t_eff"].to_numpy(), within["dof"].to_numpy()),
     )
 
 

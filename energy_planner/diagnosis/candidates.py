@@ -435,7 +435,10 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
     """``ch`` times the fitted base power, and times its copper (squared-force) part.
 
     A channel that scales every force of the gait (a mass) or every copper loss (the
-    winding resistance). The coefficients are the current fit's, written into the term.
+    winding resistance). The coefficients are the current fit's, written into the term;
+    the scaled power is clipped at 0 (``pos``) as the power a gait draws is: where the
+    fitted parts sum below 0 (a backward or downhill motion the base prices poorly) a
+    carried mass must not make the robot regenerate in proportion to it.
     """
     from energy_planner.model import BASE_TERMS, CATALOG, STANDING_TERMS
 
@@ -463,18 +466,31 @@ def _scaled_base(ch: str, model_terms: Sequence[str], coef: dict[str, float] | N
         },
         "what {ch} measures scales the copper losses; the logs do not say why",
     )
-    for label, names, expl in (
-        ("P_base", base, f"the fitted base power (every term of the gait) grows in "
+    sq = [t for t in base if t.endswith("_sq")]
+    shapes = [
+        ("*P_base", ch, base, f"the fitted base power (every term of the gait) grows in "
          f"proportion to {ch}; {whole}"),
-        ("P_copper", [t for t in base if t.endswith("_sq")],
-         f"the base's copper (I^2 R) losses (its squared-force terms) grow in proportion to "
-         f"{ch}; {copper}"),
-    ):  # fmt: skip
+        ("*P_copper", ch, sq, f"the base's copper (I^2 R) losses (its squared-force terms) "
+         f"grow in proportion to {ch}; {copper}"),
+    ]  # fmt: skip
+    if channel_kind(ch) == "mass":
+        # forces grow with the mass m0 + ch, copper losses with their square:
+        # (1 + ch / m0)^2 = 1 + 2 ch / m0 + (ch / m0)^2, the second order a shape of its own
+        shapes.append((
+            "_sq*P_copper", f"{ch} ** 2", sq,
+            f"the base's copper (I^2 R) losses grow with the square of {ch}: {ch} reads as "
+            "a carried mass, the leg forces grow in proportion to the whole mass and their "
+            "copper losses with its square (the part in proportion to it is "
+            f"{ch}*P_copper)",
+        ))  # fmt: skip
+    for label, factor, names, expl in shapes:
         parts = [f"{coef[t]:.4g} * ({CATALOG[t].formula})" for t in names if coef[t] != 0]
         if not parts:
             continue
         variables = sorted({v for t in names for v in CATALOG[t].variables})
-        out.append((f"{ch}*{label}", f"{ch} * ({' + '.join(parts)})", expl, variables))
+        # the power a gait draws is never negative (legged robots do not regenerate): the
+        # channel scales that, not a sum whose fitted parts may go below 0 somewhere
+        out.append((f"{ch}{label}", f"{factor} * pos({' + '.join(parts)})", expl, variables))
     return out
 
 

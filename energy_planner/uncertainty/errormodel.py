@@ -16,7 +16,11 @@ error :math:`e = \hat E - E` scatters. How much depends on the run:
 - :math:`b`: a relative error that does not average out over a run (a force the model
   prices wrong costs the same share on every metre);
 - :math:`c`: an error whose variance grows with the duration :math:`T` (per-window noise
-  of slip, ground and sensors that partly averages out over a long run);
+  of slip, ground and sensors that partly averages out over a long run), measured from
+  the held-out windows' errors within each run once the run's own relative error is
+  removed (:func:`within_run_noise`): runs of one duration (a designed campaign's) cannot
+  tell it from :math:`b` by their run errors, and a path far longer than them would
+  otherwise be priced as if all their noise were systematic;
 - :math:`d`: the extra relative error of the share :math:`s` of the run outside the
   domain its prediction had (held-out runs against the ranges of their fold's training
   runs, :func:`energy_planner.calibration.fit.heldout_outside_shares`). Fitted only
@@ -37,8 +41,9 @@ growth could not be measured, a gait, heading or category the logs lack) goes by
 :math:`s`; without a fitted :math:`d` that part is *not calibrated*: the interval says so
 and no battery decision is given on it.
 
-:math:`b, c, d \ge 0` are fitted on the held-out runs' squared errors (non-negative least
-squares, weighted by :math:`1/\sigma^4`, three passes). Distance is not an input: at the
+:math:`b, d \ge 0` (and :math:`c` when no windows are given) are fitted on the held-out
+runs' squared errors net of :math:`c\,T` (non-negative least squares, weighted by
+:math:`1/\sigma^4`, three passes). Distance is not an input: at the
 calibration's speeds it is the duration times a nearly constant speed, so it adds a
 column collinear with :math:`T`.
 
@@ -67,7 +72,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model"]
+__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model", "within_run_noise"]
 
 #: Held-out runs partly outside their fold's domain needed to fit the outside term.
 MIN_OUTSIDE_RUNS = 5
@@ -300,14 +305,29 @@ class Outside:
 
 def _fit_scale(
     e: np.ndarray, energy: np.ndarray, duration: np.ndarray, pvar: np.ndarray,
-    share: np.ndarray, with_outside: bool,
+    share: np.ndarray, with_outside: bool, within: tuple[np.ndarray, ...] | None = None,
 ) -> np.ndarray:  # fmt: skip
-    """``(b, c, d)`` >= 0 of the variance model on squared errors (IRLS on 1 / sigma^4)."""
+    """``(b, c, d)`` >= 0 of the variance model on squared errors (IRLS on 1 / sigma^4).
+
+    ``within``: per run ``(ss, t_eff, dof)`` of :func:`within_run_noise`, whose
+    expectation is ``c t_eff`` whatever the run's systematic error: ``c`` is then their
+    pooled moment ``sum ss / sum t_eff`` and only ``b`` (and ``d``) are fitted on the
+    run errors, net of ``c T``. Without them ``c`` is fitted with ``b`` on the run
+    errors alone (identified only when the runs' durations and energies vary apart).
+    """
     from scipy.optimize import nnls  # imported when fitting only
 
-    cols = [energy**2, duration] + ([(share * energy) ** 2] if with_outside else [])
+    c_fixed = None
+    if within is not None:
+        ss, t_eff, k = within
+        use = (k > 0) & (t_eff > 0) & np.isfinite(ss)
+        if use.any():
+            c_fixed = float(np.sum(ss[use]) / np.sum(t_eff[use]))
+    cols = [energy**2] + ([duration] if c_fixed is None else [])
+    cols += [(share * energy) ** 2] if with_outside else []
     F = np.column_stack(cols)
-    y = e**2 - pvar
+    known = pvar + (0.0 if c_fixed is None else c_fixed * duration)
+    y = e**2 - known
     scale = np.linalg.norm(F, axis=0)
     scale[scale == 0] = 1.0
     w = np.ones(e.size)
@@ -316,10 +336,70 @@ def _fit_scale(
         sw = np.sqrt(w)
         th, _ = nnls(F / scale * sw[:, None], y * sw)
         theta = th / scale
-        var = np.maximum(pvar + F @ theta, (MIN_REL_SIGMA * energy) ** 2)
+        var = np.maximum(known + F @ theta, (MIN_REL_SIGMA * energy) ** 2)
         w = 1.0 / var**2
         w /= w.mean()
+    if c_fixed is not None:
+        theta = np.r_[theta[0], c_fixed, theta[1:]]
     return np.r_[theta, 0.0] if not with_outside else theta
+
+
+def within_run_noise(run: Any, error_j: Any, predicted_j: Any, duration_s: Any) -> Any:
+    r"""Per run, what its windows' errors say about the error that averages out.
+
+    A run's error is the sum of its windows' errors :math:`e_w`. The part of it that
+    averages out over the run (sensor noise, slip, ground, a force mispriced on some
+    windows and not others) is independent from window to window with variance
+    :math:`c\,d_w`; the part that does not is the same share :math:`\rho` of every
+    window's energy :math:`\hat E_w` (a systematic relative error). Removing the run's own
+    share, :math:`r_w = e_w - a_w e` with :math:`a_w = \hat E_w / \hat E` and
+    :math:`e = \sum e_w`, leaves the first alone:
+
+    .. math:: E\Big[\sum_w r_w^2\Big] = c\,\Big(T - 2\sum_w a_w d_w
+              + T \sum_w a_w^2\Big) = c\,T_\text{eff}
+
+    with ``k - 1`` degrees of freedom for ``k`` windows. Runs of a single duration (a
+    designed campaign's) cannot tell ``c T`` from ``b E^2`` by their run errors alone;
+    these rows can.
+
+    Parameters
+    ----------
+    run : array-like
+        Run of each window.
+    error_j, predicted_j, duration_s : array-like
+        Per window: held-out predicted minus measured energy (J), predicted energy (J),
+        duration (s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index: run (sorted); columns ``ss`` (:math:`\sum_w r_w^2`, J^2), ``t_eff``
+        (:math:`T_\text{eff}`, s) and ``dof`` (``k - 1``).
+
+    Examples
+    --------
+    Three equal windows of pure noise: the expectation is ``c T (1 - 1/k)``.
+
+    >>> w = within_run_noise(["a"] * 3, [1.0, -1.0, 0.0], [5.0] * 3, [2.0] * 3)
+    >>> w.loc["a"].tolist()
+    [2.0, 4.0, 2.0]
+    """
+    import pandas as pd
+
+    df = pd.DataFrame({"run": np.asarray(run), "e": np.asarray(error_j, float),
+                       "p": np.asarray(predicted_j, float),
+                       "d": np.asarray(duration_s, float)})  # fmt: skip
+    df = df[np.isfinite(df["e"]) & np.isfinite(df["p"]) & (df["d"] > 0)]
+    g = df.groupby("run", sort=True)
+    tot = g[["e", "p", "d"]].transform("sum")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.where(tot["p"] > 0, df["p"] / tot["p"], np.nan)
+    df = df.assign(r2=(df["e"] - a * tot["e"]) ** 2, ad=a * df["d"], a2=a**2)
+    agg = df.groupby("run", sort=True).agg(ss=("r2", "sum"), ad=("ad", "sum"),
+                                          a2=("a2", "sum"), t=("d", "sum"),
+                                          k=("d", "size"))  # fmt: skip
+    t_eff = (agg["t"] - 2 * agg["ad"] + agg["t"] * agg["a2"]).clip(lower=0.0)
+    return pd.DataFrame({"ss": agg["ss"], "t_eff": t_eff, "dof": agg["k"] - 1.0}).astype(float)
 
 
 def fit_error_model(
@@ -331,6 +411,7 @@ def fit_error_model(
     fold: Any = None,
     *,
     param_rel_var: float | None = None,
+    within: tuple[Any, Any, Any] | None = None,
 ) -> ErrorModel | None:
     """Fit the error scale on held-out runs and their normalized conformal scores.
 
@@ -351,6 +432,11 @@ def fit_error_model(
     fold : array-like, optional
         Per run its cross-validation fold: each score is normalized by a scale fitted on
         the other folds' runs (with one fold, on all runs: then ``cross_fitted`` False).
+    within : tuple of array-like, optional
+        Per run (same order) ``(ss, t_eff, dof)`` of :func:`within_run_noise`: its
+        windows' errors, which measure the noise term ``c`` apart from ``b`` (without
+        them, runs of one duration cannot tell an error that averages out over a long
+        path from one that does not).
 
     Returns
     -------
@@ -373,9 +459,13 @@ def fit_error_model(
     pvar = np.zeros(n) if param_var_j2 is None else np.asarray(param_var_j2, dtype=float)
     share = np.zeros(n) if outside_share is None else np.asarray(outside_share, dtype=float)
     folds = np.zeros(n, int) if fold is None else np.asarray(fold)
+    wr = (np.zeros((3, n)) if within is None
+          else np.vstack([np.asarray(a, dtype=float) for a in within]))  # fmt: skip
     ok = (np.isfinite(pred) & np.isfinite(meas) & (meas > 0) & (pred > 0) & np.isfinite(dur)
           & (dur > 0) & np.isfinite(pvar) & np.isfinite(share))  # fmt: skip
     pred, meas, dur, pvar, share, folds = (a[ok] for a in (pred, meas, dur, pvar, share, folds))
+    wr = wr[:, ok]
+    has_within = within is not None and bool(np.any(wr[2] > 0))
     if pred.size < 3:
         return None
     e = pred - meas
@@ -398,7 +488,10 @@ def fit_error_model(
             return np.sqrt(v) * (1.0 + ASSUMED_OUTSIDE_FACTOR * share[sel])
         return np.sqrt(v + em.outside_rel_var * (share[sel] * pred[sel]) ** 2)
 
-    theta = _fit_scale(e, pred, dur, pvar, share, with_out)
+    def rows(sel: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        return (wr[0][sel], wr[1][sel], wr[2][sel]) if has_within else None
+
+    theta = _fit_scale(e, pred, dur, pvar, share, with_out, rows(np.ones(pred.size, bool)))
     labels = np.unique(folds)
     z = np.empty(pred.size)
     cross = labels.size >= 2
@@ -409,7 +502,7 @@ def fit_error_model(
             th = theta
             if np.count_nonzero(train) >= 3:
                 th = _fit_scale(e[train], pred[train], dur[train], pvar[train], share[train],
-                                with_out)  # fmt: skip
+                                with_out, rows(train))  # fmt: skip
             z[test] = e[test] / own_sigma(th, test)
     else:
         z = e / own_sigma(theta, np.ones(pred.size, bool))
