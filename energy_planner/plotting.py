@@ -136,7 +136,7 @@ class MapFrame:
     >>> from energy_planner.terrain import Terrain
     >>> f = MapFrame(Terrain.from_function(lambda x, y: 0 * x, size=(4, 3)))
     >>> f.reprojected, f.aspect, f.extent
-    (False, 1.0, (0.0, 3.0, 0.0, 4.0))
+    (False, 1.0, (0.0, 4.0, 0.0, 3.0))
     """
 
     terrain: Any
