@@ -34,6 +34,7 @@ import numpy as np
 __all__ = [
     "MapFrame",
     "crs_label",
+    "degree_aspect",
     "label_map_axes",
     "grid_extent",
     "draw_keep_out",
@@ -112,6 +113,20 @@ def grid_extent(shape: tuple[int, int], transform: Any) -> tuple[float, float, f
     return (left, left + cols * transform.a, top + rows * transform.e, top)
 
 
+def degree_aspect(bottom: float, top: float) -> float:
+    """Axes aspect of a lon/lat map between two latitudes: ``1 / cos`` of their middle.
+
+    A degree of longitude is ``cos(latitude)`` of a degree of latitude on the ground;
+    drawn so, the map keeps the ground's shape.
+
+    Examples
+    --------
+    >>> round(degree_aspect(59.0, 61.0), 12)
+    2.0
+    """
+    return 1.0 / max(math.cos(math.radians(0.5 * (bottom + top))), 1e-6)
+
+
 @dataclass(frozen=True, eq=False)
 class MapFrame:
     """Where a map of a terrain is drawn: the DEM's own CRS and grid.
@@ -177,7 +192,7 @@ class MapFrame:
         if not self.geographic:
             return 1.0
         left, right, bottom, top = self.extent
-        return 1.0 / max(math.cos(math.radians(0.5 * (bottom + top))), 1e-6)
+        return degree_aspect(bottom, top)
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
         """1-D cell-centre coordinates ``(x of each column, y of each row)``."""

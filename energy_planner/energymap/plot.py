@@ -216,7 +216,7 @@ def plot_energy_map(
     if extend != "neither":
         label += f"\ncolour scale clipped at p2..p98: {fmt_num(vmin, 4)}..{fmt_num(vmax, 4)} J/m"
     cb.set_label(label)
-    from energy_planner.plotting import draw_channels, draw_mask, label_map_axes
+    from energy_planner.plotting import degree_aspect, draw_channels, draw_mask, label_map_axes
 
     draw_mask(ax, blocked, extent, _limit_label(tags))
     bound = _channels_on(tags, shape, t, crs)
@@ -234,7 +234,7 @@ def plot_energy_map(
     # lon/lat map: a degree of longitude is cos(lat) of one of latitude on the ground
     kx = 1.0
     if crs is not None and crs.is_geographic:
-        kx = 1.0 / max(math.cos(math.radians(0.5 * (top + bottom))), 1e-6)
+        kx = degree_aspect(bottom, top)
         ax.set_aspect(kx)
     u, v = np.cos(h[directed]) * kx, np.sin(h[directed])
     norm = np.hypot(u, v)
