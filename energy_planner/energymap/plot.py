@@ -63,10 +63,11 @@ def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) ->
             )  # fmt: skip
     if not np.isfinite(z).any():
         return None
-    if crs is not None and crs.is_geographic:  # degrees -> metres for the slope
-        lat = math.radians(transform.f + 0.5 * shape[0] * transform.e)
-        return hillshade(z, (abs(transform.a) * 111320.0 * math.cos(lat),
-                             abs(transform.e) * 110574.0))  # fmt: skip
+    if crs is not None and crs.is_geographic:  # geodesic Horn on the lon/lat grid
+        from energy_planner.terrain.horn import shade
+        from energy_planner.terrain.native import native_gradient
+
+        return shade(*native_gradient(z, transform, crs))
     return hillshade(z, transform)
 
 
