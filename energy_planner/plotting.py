@@ -5,8 +5,11 @@ The plots of ``plan``, ``compare-routes`` and ``demo``
 (:meth:`energy_planner.planning.reach.ReachMap.plot`), ``mission``
 (:meth:`energy_planner.mission.MissionResult.plot`) and ``energy-map``
 (:func:`energy_planner.energymap.plot_energy_map`) label their axes with the CRS they are
-drawn in (``x (EPSG:32631, m)``; a lon/lat DEM is planned on a UTM working grid, and
-that grid's CRS is named) and draw what the command was given:
+drawn in and draw in the DEM's own CRS (:class:`MapFrame`): a DEM in metres as it is
+planned (``x (EPSG:32631, m)``), a longitude/latitude DEM (planned on a UTM working grid)
+on its own grid in degrees (``longitude (EPSG:4326, deg)``), as a GIS shows it, with the
+routes, sites and outlines converted from the working CRS. They draw what the command
+was given:
 
 - keep-out polygons (hatched red patches, ``gid="keep_out"``),
 - the cells a slope limit forbids (a hatched mask, ``gid="slope_mask"``),
@@ -19,14 +22,19 @@ callers can find them.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 __all__ = [
+    "MapFrame",
     "crs_label",
+    "degree_aspect",
     "label_map_axes",
     "grid_extent",
     "draw_keep_out",
@@ -82,8 +90,9 @@ def label_map_axes(ax: Any, crs: Any) -> None:
         ax.set_xlabel(f"longitude ({name}, deg)")
         ax.set_ylabel(f"latitude ({name}, deg)")
     else:
-        ax.set_xlabel(f"x ({name}, m)")
-        ax.set_ylabel(f"y ({name}, m)")
+        unit = _linear_unit(crs)
+        ax.set_xlabel(f"x ({name}, {unit})")
+        ax.set_ylabel(f"y ({name}, {unit})")
     for axis, bins in ((ax.xaxis, 4), (ax.yaxis, 6)):
         fmt = ScalarFormatter(useOffset=False)
         fmt.set_scientific(False)
@@ -91,11 +100,187 @@ def label_map_axes(ax: Any, crs: Any) -> None:
         axis.set_major_locator(MaxNLocator(bins, steps=[1, 2, 2.5, 5, 10]))
 
 
+def _linear_unit(crs: Any) -> str:
+    """``m``, or the name of a projected CRS's other linear unit (``US survey foot``)."""
+    unit = str(getattr(crs, "linear_units", "") or "metre")
+    return "m" if unit.lower() in ("metre", "meter", "m", "unknown") else unit
+
+
 def grid_extent(shape: tuple[int, int], transform: Any) -> tuple[float, float, float, float]:
     """``(left, right, bottom, top)`` of a north-up grid, for ``imshow(extent=...)``."""
     rows, cols = shape
     left, top = transform.c, transform.f
     return (left, left + cols * transform.a, top + rows * transform.e, top)
+
+
+def degree_aspect(bottom: float, top: float) -> float:
+    """Axes aspect of a lon/lat map between two latitudes: ``1 / cos`` of their middle.
+
+    A degree of longitude is ``cos(latitude)`` of a degree of latitude on the ground;
+    drawn so, the map keeps the ground's shape.
+
+    Examples
+    --------
+    >>> round(degree_aspect(59.0, 61.0), 12)
+    2.0
+    """
+    return 1.0 / max(math.cos(math.radians(0.5 * (bottom + top))), 1e-6)
+
+
+@dataclass(frozen=True, eq=False)
+class MapFrame:
+    """Where a map of a terrain is drawn: the DEM's own CRS and grid.
+
+    A DEM planned on its own grid (projected, in metres) is drawn on it, exactly as it is
+    planned. A DEM the planner works on in another CRS (a longitude/latitude DEM, planned
+    on a UTM grid) is drawn on its own grid (:attr:`Terrain.native_grid
+    <energy_planner.terrain.Terrain.native_grid>`, what ``terrain`` writes): its
+    hillshade and slope from the geodesic Horn gradient, the working grid's rasters
+    resampled onto it (nearest cell), the working CRS's points converted with
+    :meth:`Terrain.from_work <energy_planner.terrain.Terrain.from_work>`, and a degree of
+    longitude drawn ``cos(latitude)`` of a degree of latitude (the aspect
+    ``1 / cos(lat)`` at the grid's middle), so that the map keeps the ground's shape.
+
+    Parameters
+    ----------
+    terrain : Terrain
+        The terrain the plot draws (its working grid, its source CRS and grid).
+
+    Examples
+    --------
+    >>> from energy_planner.terrain import Terrain
+    >>> f = MapFrame(Terrain.from_function(lambda x, y: 0 * x, size=(4, 3)))
+    >>> f.reprojected, f.aspect, f.extent
+    (False, 1.0, (0.0, 4.0, 0.0, 3.0))
+    """
+
+    terrain: Any
+
+    @property
+    def reprojected(self) -> bool:
+        """True when the DEM's own grid is not the working grid (a lon/lat DEM)."""
+        return getattr(self.terrain, "native", None) is not None
+
+    @cached_property
+    def grid(self) -> Any:
+        """The grid drawn: the DEM's own (:class:`~energy_planner.terrain.native.NativeGrid`)."""
+        return self.terrain.native_grid
+
+    @property
+    def crs(self) -> Any:
+        """The CRS drawn in: the DEM's own."""
+        return self.grid.crs
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` of the drawn grid."""
+        return tuple(np.shape(self.grid.elevation))  # type: ignore[return-value]
+
+    @property
+    def geographic(self) -> bool:
+        """True for a longitude/latitude CRS (axes in degrees)."""
+        return bool(getattr(self.crs, "is_geographic", False))
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """``(left, right, bottom, top)`` of the drawn grid (:func:`grid_extent`)."""
+        return grid_extent(self.shape, self.grid.transform)
+
+    @property
+    def aspect(self) -> float:
+        """y/x scale of the axes: 1, or ``1 / cos(lat)`` at the grid's middle in degrees."""
+        if not self.geographic:
+            return 1.0
+        left, right, bottom, top = self.extent
+        return degree_aspect(bottom, top)
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """1-D cell-centre coordinates ``(x of each column, y of each row)``."""
+        t = self.grid.transform
+        rows, cols = self.shape
+        return t.c + t.a * (np.arange(cols) + 0.5), t.f + t.e * (np.arange(rows) + 0.5)
+
+    def hillshade(self) -> np.ndarray:
+        """Hillshade in [0, 1] of the drawn grid."""
+        if not self.reprojected:
+            return self.terrain.hillshade()
+        return self.grid.hillshade()
+
+    def slope_deg(self) -> np.ndarray:
+        """Slope of the drawn grid, degrees (Horn; geodesic on a lon/lat grid)."""
+        if not self.reprojected:
+            return np.degrees(self.terrain.slope)
+        return np.degrees(self.grid.slope)
+
+    def xy(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Working-CRS coordinates in the drawn CRS (unchanged when not reprojected)."""
+        if not self.reprojected:
+            return np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        u, v = self.terrain.from_work(x, y)
+        return np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+
+    def geometry(self, geom: Any) -> Any:
+        """A shapely geometry of the working CRS in the drawn CRS."""
+        if not self.reprojected:
+            return geom
+        from shapely.ops import transform
+
+        return transform(lambda x, y, z=None: self.xy(x, y), geom)
+
+    def raster(self, values: np.ndarray) -> np.ndarray:
+        """A working-grid raster on the drawn grid (nearest cell; NaN outside the map)."""
+        v = np.asarray(values, dtype=float)
+        if not self.reprojected:
+            return v
+        from rasterio.warp import Resampling, reproject
+
+        out = np.full(self.shape, np.nan)
+        t = self.terrain
+        reproject(
+            source=v, destination=out, src_transform=t.transform, src_crs=t.crs,
+            dst_transform=self.grid.transform, dst_crs=self.crs, src_nodata=np.nan,
+            dst_nodata=np.nan, resampling=Resampling.nearest,
+        )  # fmt: skip
+        return out
+
+    def directions(
+        self, x: np.ndarray, y: np.ndarray, heading: np.ndarray, step: float = 1.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Points and unit arrows of headings (radians CCW from the working x axis).
+
+        Returns ``(x, y, u, v)`` in the drawn CRS, ``(u, v)`` as the axes show them
+        (:attr:`aspect` applied), for ``quiver``. ``step``: working metres between a point
+        and the one along its heading that turns the direction.
+        """
+        c, s = np.cos(heading), np.sin(heading)
+        if not self.reprojected:
+            return np.asarray(x), np.asarray(y), c, s
+        px, py = self.xy(x, y)
+        qx, qy = self.xy(np.asarray(x) + step * c, np.asarray(y) + step * s)
+        u, v = (qx - px) / self.aspect, qy - py
+        n = np.hypot(u, v)
+        n[n == 0] = 1.0
+        return px, py, u / n, v / n
+
+    def view(self, box: Sequence[float]) -> tuple[float, float, float, float]:
+        """A working-CRS ``(left, right, bottom, top)`` as drawn, clipped to :attr:`extent`."""
+        if not self.reprojected:
+            return tuple(float(b) for b in box)  # type: ignore[return-value]
+        left, right, bottom, top = box
+        k = np.linspace(0.0, 1.0, 21)
+        xs = np.r_[left + (right - left) * k, np.full(21, right),
+                   right - (right - left) * k, np.full(21, left)]  # fmt: skip
+        ys = np.r_[np.full(21, bottom), bottom + (top - bottom) * k,
+                   np.full(21, top), top - (top - bottom) * k]  # fmt: skip
+        u, v = self.xy(xs, ys)
+        e = self.extent
+        return (max(e[0], float(u.min())), min(e[1], float(u.max())),
+                max(e[2], float(v.min())), min(e[3], float(v.max())))  # fmt: skip
+
+    def finish(self, ax: Any) -> None:
+        """Label the axes in the drawn CRS (:func:`label_map_axes`) and set the aspect."""
+        ax.set_aspect(self.aspect if self.geographic else "equal")
+        label_map_axes(ax, self.crs)
 
 
 def _patch_path(geom: Any):
@@ -208,10 +393,12 @@ def draw_channels(ax: Any, channels: Any, shape: tuple[int, int], transform: Any
 def draw_request(ax: Any, terrain: Any, request: Any = None) -> list[str]:
     """Draw a request's keep-outs, slope-limit mask and channel rasters over ``terrain``.
 
-    The axes are in the terrain's working CRS. Keep-outs are read as the planner reads
-    them (:func:`energy_planner.keepout.keep_out_geometries`; a polygon off the
-    map was already reported by the command, and is not drawn); the mask shades the
-    cells steeper than ``max_slope_deg``; channels are bound to the working grid.
+    The axes are in the DEM's own CRS (:class:`MapFrame`; ``terrain`` may be one).
+    Keep-outs are read as the planner reads them
+    (:func:`energy_planner.keepout.keep_out_geometries`; a polygon off the map was
+    already reported by the command, and is not drawn); the mask shades the working
+    cells steeper than ``max_slope_deg`` (those the planner forbids); channels are bound
+    to the drawn grid.
 
     Returns
     -------
@@ -222,28 +409,28 @@ def draw_request(ax: Any, terrain: Any, request: Any = None) -> list[str]:
         return []
     from energy_planner.keepout import keep_out_geometries
 
+    frame = terrain if isinstance(terrain, MapFrame) else MapFrame(terrain)
+    terrain = frame.terrain
     drawn: list[str] = []
     lim = request.limits
     if lim.keep_out is not None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             geoms = keep_out_geometries(lim.keep_out, terrain)
-        if draw_keep_out(ax, geoms):
+        if draw_keep_out(ax, [frame.geometry(g) for g in geoms]):
             drawn.append("keep_out")
-    extent = grid_extent(terrain.shape, terrain.transform)
     if lim.max_slope_deg is not None:
         with np.errstate(invalid="ignore"):
-            steep = np.degrees(terrain.slope) > lim.max_slope_deg
+            steep = frame.raster(np.degrees(terrain.slope) > lim.max_slope_deg) > 0.5
         label = f"steeper than {lim.max_slope_deg:g}\u00b0 (slope limit)"
-        if draw_mask(ax, steep, extent, label) is not None:
+        if draw_mask(ax, steep, frame.extent, label) is not None:
             drawn.append("slope_mask")
     ch = request.channels
     if ch is not None and ch.rasters:
+        shape, transform = frame.shape, frame.grid.transform
         bound = ch.bind_grid(
-            terrain.shape, terrain.transform, terrain.crs,
+            shape, transform, frame.crs,
             default_crs=getattr(terrain, "source_crs", None), quiet=True,
         )  # fmt: skip
-        drawn += [
-            f"channel:{n}" for n in draw_channels(ax, bound, terrain.shape, terrain.transform)
-        ]
+        drawn += [f"channel:{n}" for n in draw_channels(ax, bound, shape, transform)]
     return drawn

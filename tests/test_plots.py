@@ -165,7 +165,8 @@ def test_crs_labels():
     assert "Transverse Mercator" in crs_label("+proj=tmerc +lon_0=3 +ellps=WGS84 +units=m")
 
 
-def test_a_lon_lat_dem_is_plotted_in_its_named_utm_working_crs(figures, tmp_path):
+def test_a_lon_lat_dem_is_plotted_in_its_own_crs_not_the_working_utm(figures, tmp_path):
+    # planned on a UTM working grid, drawn in the DEM's own lon/lat, as a GIS shows it
     from energy_planner.maps import map_path
     from energy_planner.planning.reach import ReachMap
     from energy_planner.terrain import load_dem
@@ -175,7 +176,12 @@ def test_a_lon_lat_dem_is_plotted_in_its_named_utm_working_crs(figures, tmp_path
     res = ReachMap(energy_j=np.full(t.shape, 1.0), start=t.to_work(*_centre(t)),
                    round_trip=False, step=1.0)  # fmt: skip
     res.plot(t, tmp_path / "r.png")
-    assert figures[0].axes[0].get_xlabel() == "x (EPSG:32616, m)"
+    ax = figures[0].axes[0]
+    assert ax.get_xlabel() == "longitude (EPSG:4326, deg)"
+    assert ax.get_ylabel() == "latitude (EPSG:4326, deg)"
+    b = t.source_bounds
+    assert ax.get_xlim() == pytest.approx((b[0], b[2]))
+    assert ax.get_ylim() == pytest.approx((b[1], b[3]))
 
 
 def _centre(t):

@@ -68,36 +68,23 @@ def _write(path: Path, data: np.ndarray, grid, name: str, description: str) -> N
 
 def _plot(path: Path, terrain, title: str) -> None:
     """The slope over a hillshade on the DEM's own grid and CRS (as the rasters written)."""
-    import math
-
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from energy_planner.plotting import grid_extent, label_map_axes
-    from energy_planner.terrain.horn import hillshade
+    from energy_planner.plotting import MapFrame
 
-    grid = terrain.native_grid
-    slope_deg = np.degrees(grid.slope)
-    t = grid.transform
-    extent = grid_extent(slope_deg.shape, t)
-    geographic = grid.crs is not None and grid.crs.is_geographic
-    if geographic:  # degrees -> ground metres at the grid's middle latitude
-        lat = math.radians(t.f + 0.5 * slope_deg.shape[0] * t.e)
-        shade = hillshade(grid.elevation, (abs(t.a) * 111320.0 * math.cos(lat),
-                                           abs(t.e) * 110574.0))  # fmt: skip
-    else:
-        shade = hillshade(grid.elevation, t)
+    frame = MapFrame(terrain)
+    slope_deg = np.degrees(frame.grid.slope)
+    extent = frame.extent
     fig, ax = plt.subplots(figsize=(7.5, 6.5), layout="constrained")
-    ax.imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=1)
+    ax.imshow(frame.hillshade(), cmap="gray", extent=extent, vmin=0, vmax=1)
     finite = slope_deg[np.isfinite(slope_deg)]
     vmax = float(np.percentile(finite, 99.5)) if finite.size else 1.0
     im = ax.imshow(slope_deg, cmap="magma_r", alpha=0.6, extent=extent, vmin=0, vmax=vmax)
     fig.colorbar(im, ax=ax, label="slope (deg, Horn)")
-    if geographic:  # a degree of longitude is cos(lat) of one of latitude on the ground
-        ax.set_aspect(1.0 / max(math.cos(lat), 1e-6))
-    label_map_axes(ax, grid.crs)
+    frame.finish(ax)
     ax.set_title(title)
     from energy_planner.io import save_figure
 

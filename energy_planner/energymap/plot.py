@@ -63,10 +63,11 @@ def _hillshade_on(dem: Any, shape: tuple[int, int], transform: Any, crs: Any) ->
             )  # fmt: skip
     if not np.isfinite(z).any():
         return None
-    if crs is not None and crs.is_geographic:  # degrees -> metres for the slope
-        lat = math.radians(transform.f + 0.5 * shape[0] * transform.e)
-        return hillshade(z, (abs(transform.a) * 111320.0 * math.cos(lat),
-                             abs(transform.e) * 110574.0))  # fmt: skip
+    if crs is not None and crs.is_geographic:  # geodesic Horn on the lon/lat grid
+        from energy_planner.terrain.horn import shade
+        from energy_planner.terrain.native import native_gradient
+
+        return shade(*native_gradient(z, transform, crs))
     return hillshade(z, transform)
 
 
@@ -216,7 +217,7 @@ def plot_energy_map(
     if extend != "neither":
         label += f"\ncolour scale clipped at p2..p98: {fmt_num(vmin, 4)}..{fmt_num(vmax, 4)} J/m"
     cb.set_label(label)
-    from energy_planner.plotting import draw_channels, draw_mask, label_map_axes
+    from energy_planner.plotting import degree_aspect, draw_channels, draw_mask, label_map_axes
 
     draw_mask(ax, blocked, extent, _limit_label(tags))
     bound = _channels_on(tags, shape, t, crs)
@@ -234,7 +235,7 @@ def plot_energy_map(
     # lon/lat map: a degree of longitude is cos(lat) of one of latitude on the ground
     kx = 1.0
     if crs is not None and crs.is_geographic:
-        kx = 1.0 / max(math.cos(math.radians(0.5 * (top + bottom))), 1e-6)
+        kx = degree_aspect(bottom, top)
         ax.set_aspect(kx)
     u, v = np.cos(h[directed]) * kx, np.sin(h[directed])
     norm = np.hypot(u, v)

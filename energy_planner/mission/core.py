@@ -211,8 +211,9 @@ class MissionResult(Result, Assessed):
         """PNG: legs over a hillshade, sites numbered in visiting order.
 
         The request it was planned with (or ``request``) adds its keep-outs, slope-limit
-        mask and channel rasters (:func:`energy_planner.plotting.draw_request`). The axes
-        name the working CRS.
+        mask and channel rasters (:func:`energy_planner.plotting.draw_request`). The map
+        is drawn in the DEM's own CRS (:class:`energy_planner.plotting.MapFrame`: degrees
+        for a longitude/latitude DEM), its axes named with their units.
         """
         path, terrain = path_first(path, terrain)
         terrain, request = self._terrain(terrain), self._request(request)
@@ -222,27 +223,28 @@ class MissionResult(Result, Assessed):
         import matplotlib.pyplot as plt
 
         from energy_planner.io import save_figure
+        from energy_planner.plotting import MapFrame, draw_request
 
+        frame = MapFrame(terrain)
         fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
-        x0, y0, dx, dy = terrain.grid
-        rows, cols = terrain.shape
-        ext = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
-        im = ax.imshow(np.degrees(terrain.slope), extent=ext, cmap="Greys", origin="upper")
+        ext = frame.extent
+        im = ax.imshow(frame.slope_deg(), extent=ext, cmap="Greys", origin="upper")
         fig.colorbar(im, ax=ax, label="slope (deg)")
-        from energy_planner.plotting import draw_request, label_map_axes
-
-        if draw_request(ax, terrain, request):
+        if draw_request(ax, frame, request):
             ax.set_xlim(ext[0], ext[1])
             ax.set_ylim(ext[2], ext[3])
         names = self.sites.names
         for k, leg in enumerate(self.legs):
-            ax.plot(leg.states[:, 0], leg.states[:, 1], lw=2,
-                    label=f"leg {k + 1}: {names[leg.a]} \u2192 {names[leg.b]}, "
-                          f"{leg.energy_j / 1000:.1f} kJ")  # fmt: skip
+            line = ax.plot(*frame.xy(leg.states[:, 0], leg.states[:, 1]), lw=2,
+                           label=f"leg {k + 1}: {names[leg.a]} \u2192 {names[leg.b]}, "
+                                 f"{leg.energy_j / 1000:.1f} kJ")[0]  # fmt: skip
+            line.set_gid(f"leg:{k}")
         cx = 0.5 * (ext[0] + ext[1])
+        sxy = np.asarray(self.sites.xy, dtype=float)
+        sx, sy = frame.xy(sxy[:, 0], sxy[:, 1])
         for k, i in enumerate(self.order):
-            x, y = self.sites.xy[i]
-            ax.plot(x, y, "o", color="tab:red")
+            x, y = float(sx[i]), float(sy[i])
+            ax.plot(x, y, "o", color="tab:red", gid=f"site:{i}")
             right = x > cx  # labels point into the map, so none is clipped at its edge
             box = dict(boxstyle="round,pad=0.15", fc="white", alpha=0.7, lw=0)
             ax.annotate(f"{k}: {names[i]}", (x, y), textcoords="offset points",
@@ -250,7 +252,7 @@ class MissionResult(Result, Assessed):
                         bbox=box)  # fmt: skip
         ax.set_title(f"mission: {self.energy_j / 1000:.1f} kJ, {self.distance_m:.0f} m "
                      f"({self.method})")  # fmt: skip
-        label_map_axes(ax, terrain.crs)
+        frame.finish(ax)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
         out = save_figure(fig, path, dpi=110, bbox_inches="tight", pad_inches=0.15)

@@ -486,45 +486,50 @@ class ReachMap(Result):
 
         ``budget_j``: default :attr:`budget_j`. The request it was computed with (or
         ``request``) adds its keep-outs, slope-limit mask and channel rasters
-        (:func:`energy_planner.plotting.draw_request`). The axes name the working CRS.
+        (:func:`energy_planner.plotting.draw_request`). The map is drawn in the DEM's own
+        CRS (:class:`energy_planner.plotting.MapFrame`: degrees for a longitude/latitude
+        DEM, the energies resampled onto its grid), its axes named with their units.
         """
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        from energy_planner.plotting import MapFrame, draw_request
+
         path, terrain = path_first(path, terrain)
         terrain, request = self._terrain(terrain), self._request(request)
         budget_j = self.budget_j if budget_j is None else budget_j
         path = Path(path)
-        x0, y0, dx, dy = terrain.grid
-        rows, cols = self.energy_j.shape
-        extent = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
+        frame = MapFrame(terrain)
+        extent = frame.extent
         fig, ax = plt.subplots(figsize=(8, 7))
-        ax.imshow(terrain.hillshade(), cmap="gray", extent=extent, origin="upper")
-        wh = self.energy_j / 3600.0
+        ax.imshow(frame.hillshade(), cmap="gray", extent=extent, origin="upper")
+        wh = frame.raster(self.energy_j / 3600.0)
         im = ax.imshow(wh, cmap="viridis", extent=extent, origin="upper", alpha=0.6)
         fig.colorbar(
             im, ax=ax, shrink=0.8,
             label="energy to go and come back, Wh" if self.round_trip else "energy to reach, Wh",
         )  # fmt: skip
         if budget_j is not None and np.isfinite(wh).any() and np.nanmin(wh) < budget_j / 3600:
-            xc = x0 + dx * np.arange(cols)
-            yc = y0 + dy * np.arange(rows)
-            ax.contour(
+            if frame.reprojected:
+                xc, yc = frame.centres()
+            else:
+                x0, y0, dx, dy = terrain.grid
+                rows, cols = self.energy_j.shape
+                xc, yc = x0 + dx * np.arange(cols), y0 + dy * np.arange(rows)
+            budget = ax.contour(
                 xc, yc, np.where(np.isfinite(wh), wh, np.nanmax(wh) * 2),
                 levels=[budget_j / 3600.0], colors="red", linewidths=2,
             )  # fmt: skip
+            budget.set_gid("budget")
             ax.plot([], [], color="red", lw=2, label=f"budget {budget_j / 3600:.1f} Wh")
-        from energy_planner.plotting import draw_request, label_map_axes
-
-        draw_request(ax, terrain, request)
-        ax.plot(*self.start, "o", color="white", mec="k", ms=9, label="start")
+        draw_request(ax, frame, request)
+        ax.plot(*frame.xy(*self.start[:2]), "o", color="white", mec="k", ms=9, label="start")
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
-        ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        label_map_axes(ax, terrain.crs)
+        frame.finish(ax)
         ax.set_title("Battery reach" + (" (out and back)" if self.round_trip else ""))
         ax.legend(loc="lower left", fontsize=8)
         fig.tight_layout()

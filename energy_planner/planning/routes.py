@@ -276,50 +276,55 @@ class RouteComparison(Result):
 
         The request the routes were planned with (or ``request``) adds its keep-outs,
         slope-limit mask and channel rasters (:func:`energy_planner.plotting.draw_request`).
-        The axes name the working CRS.
+        The map is drawn in the DEM's own CRS (:class:`energy_planner.plotting.MapFrame`:
+        degrees for a longitude/latitude DEM), its axes named with their units.
         """
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        from energy_planner.plotting import MapFrame, draw_request
+
         path, terrain = path_first(path, terrain)
         terrain, request = self._terrain(terrain), self._request(request)
         path = Path(path)
-        x0, y0, dx, dy = terrain.grid
-        rows, cols = np.shape(terrain.elevation)
-        extent = (x0 - dx / 2, x0 + (cols - 0.5) * dx, y0 + (rows - 0.5) * dy, y0 - dy / 2)
+        frame = MapFrame(terrain)
+        rows, cols = frame.shape
+        extent = frame.extent
         fig, ax = plt.subplots(figsize=(8, 7))
         try:
-            shade = terrain.hillshade()
+            shade = frame.hillshade()
         except Exception:  # a terrain without hillshade: plain elevation
-            shade = terrain.elevation
+            shade = frame.grid.elevation
         ax.imshow(shade, cmap="gray", extent=extent, origin="upper", alpha=0.9)
         cs = ax.contour(
             np.linspace(extent[0], extent[1], cols),
             np.linspace(extent[3], extent[2], rows),
-            terrain.elevation,
+            frame.grid.elevation,
             levels=12,
             colors="k",
             linewidths=0.4,
             alpha=0.5,
         )
         ax.clabel(cs, fontsize=6, fmt="%.0f m")  # elevation contours
-        from energy_planner.plotting import draw_request, label_map_axes
-
-        draw_request(ax, terrain, request)
+        draw_request(ax, frame, request)
         colors = {"direct": "tab:blue", "shortest": "tab:green", "energy_optimal": "tab:red"}
-        # zoom to the routes (with a margin), within the map
+        # zoom to the routes (with a margin), within the map (working metres)
+        x0, y0, dx, dy = terrain.grid
+        wrows, wcols = np.shape(terrain.elevation)
+        work = (x0 - dx / 2, x0 + (wcols - 0.5) * dx, y0 + (wrows - 0.5) * dy, y0 - dy / 2)
         pts = [np.asarray(r.states)[:, :2] for r in self.routes if r.states is not None]
         pts.append(np.array([self.start[:2], self.goal[:2]], float))
         allp = np.vstack(pts)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
         pad = max(25.0, 0.5 * float(np.max(hi - lo)))
-        view = (
-            max(extent[0], lo[0] - pad), min(extent[1], hi[0] + pad),
-            max(extent[2], lo[1] - pad), min(extent[3], hi[1] + pad),
+        box = (
+            max(work[0], lo[0] - pad), min(work[1], hi[0] + pad),
+            max(work[2], lo[1] - pad), min(work[3], hi[1] + pad),
         )  # fmt: skip
-        span = max(view[1] - view[0], view[3] - view[2])
+        span = max(box[1] - box[0], box[3] - box[2])
+        view = frame.view(box)
         for r in self.routes:
             if r.states is None:
                 continue
@@ -335,36 +340,32 @@ class RouteComparison(Result):
             if not r.feasible:
                 label += " (infeasible)"
             widths = {"direct": 2.0, "shortest": 4.5, "energy_optimal": 2.0}
-            ax.plot(
-                s[:, 0],
-                s[:, 1],
+            line = ax.plot(
+                *frame.xy(s[:, 0], s[:, 1]),
                 color=colors.get(r.name, "k"),
                 lw=widths.get(r.name, 2.0),
                 ls="--" if not r.feasible else "-",
                 alpha=0.6 if r.name == "shortest" else 1.0,
                 label=label,
-            )
+            )[0]
+            line.set_gid(f"route:{r.name}")
             # heading marks every ~1/25 of the map
             from energy_planner.planning.refine import densify
 
             d = densify(s, span / 25)
             ax.quiver(
-                d[:, 0],
-                d[:, 1],
-                np.cos(d[:, 2]),
-                np.sin(d[:, 2]),
+                *frame.directions(d[:, 0], d[:, 1], d[:, 2]),
                 color=colors.get(r.name, "k"),
                 scale=35,
                 width=0.004,
                 alpha=0.8,
             )
-        ax.plot(*self.start[:2], "o", color="white", mec="k", ms=9, label="start")
-        ax.plot(*self.goal[:2], "*", color="gold", mec="k", ms=14, label="goal")
+        ax.plot(*frame.xy(*self.start[:2]), "o", color="white", mec="k", ms=9, label="start")
+        ax.plot(*frame.xy(*self.goal[:2]), "*", color="gold", mec="k", ms=14, label="goal")
         ax.set_xlim(view[0], view[1])
         ax.set_ylim(view[2], view[3])
-        ax.set_aspect("equal")
         ax.ticklabel_format(useOffset=False, style="plain")
-        label_map_axes(ax, terrain.crs)
+        frame.finish(ax)
         title = title or "Direct climb vs detour (arrows: robot heading)"
         if self.physics and self.physics.get("critical_grade_deg") is not None:
             title += (

@@ -61,6 +61,7 @@ __all__ = [
     "hillshade",
     "horn_gradient",
     "pixel_steps",
+    "shade",
     "slope",
 ]
 
@@ -347,12 +348,29 @@ def hillshade(
     True
     """
     gx, gy = gradient(dem, transform_or_resolution)
-    gx *= z_factor
-    gy *= z_factor
+    return shade(gx * z_factor, gy * z_factor, azimuth, altitude)
+
+
+def shade(
+    dzdx: np.ndarray, dzdy: np.ndarray, azimuth: float = 315.0, altitude: float = 45.0
+) -> np.ndarray:
+    """Lambertian hillshade in [0, 1] of a gradient (metres per metre, east and north).
+
+    What :func:`hillshade` draws once it has the gradient; a grid whose gradient is
+    known (a longitude/latitude DEM's geodesic Horn gradient,
+    :class:`~energy_planner.terrain.native.NativeGrid`) is shaded from it directly.
+
+    Examples
+    --------
+    >>> flat = np.zeros(1)
+    >>> bool(np.isclose(shade(flat, flat)[0], math.sin(math.radians(45))))
+    True
+    """
+    gx, gy = np.asarray(dzdx, dtype=float), np.asarray(dzdy, dtype=float)
     az = math.radians(azimuth)
     alt = math.radians(altitude)
     # unit vector towards the sun in (east, north, up)
     sun = (math.sin(az) * math.cos(alt), math.cos(az) * math.cos(alt), math.sin(alt))
     # surface normal (-gx, -gy, 1) / norm
-    shade = (-gx * sun[0] - gy * sun[1] + sun[2]) / np.sqrt(1.0 + gx * gx + gy * gy)
-    return np.clip(shade, 0.0, 1.0)
+    lit = (-gx * sun[0] - gy * sun[1] + sun[2]) / np.sqrt(1.0 + gx * gx + gy * gy)
+    return np.clip(lit, 0.0, 1.0)

@@ -38,7 +38,12 @@ from typing import Any
 import numpy as np
 from affine import Affine
 
-from energy_planner.terrain.horn import aspect_from_gradient, horn_gradient, slope_from_gradient
+from energy_planner.terrain.horn import (
+    aspect_from_gradient,
+    horn_gradient,
+    shade,
+    slope_from_gradient,
+)
 from energy_planner.terrain.sample import bilinear
 
 __all__ = [
@@ -319,6 +324,10 @@ class NativeGrid:
     def aspect_deg(self) -> np.ndarray:
         """GIS aspect (downslope, degrees clockwise from the grid's north; NaN if flat)."""
         return aspect_from_gradient(self.dzdx, self.dzdy, degrees=True)
+
+    def hillshade(self, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
+        """Hillshade in [0, 1] of the grid, from its Horn gradient (:func:`horn.shade`)."""
+        return shade(self.dzdx, self.dzdy, azimuth, altitude)
 
 
 def gradient_to_work(
