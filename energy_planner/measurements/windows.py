@@ -118,6 +118,18 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
 
 
 def _mode(s: pd.Series):
+    """A window's most frequent value of a non-numeric channel: the first of ``value_counts``.
+
+    Ties go to the first value ``value_counts`` ranks; all values missing give None (a
+    categorical channel: its first category, every count being 0). Most windows hold one
+    value (a ground type changes a few times per run): then a categorical channel's mode is
+    that value without counting (what ``value_counts`` gives, at a fraction of its cost).
+    """
+    if isinstance(s.dtype, pd.CategoricalDtype):
+        codes = s.array.codes
+        codes = codes[codes >= 0]
+        if codes.size and (codes == codes[0]).all():
+            return s.cat.categories[codes[0]]
     vc = s.value_counts(sort=True, dropna=True)
     return vc.index[0] if len(vc) else None
 
