@@ -54,6 +54,14 @@ def _campaign(effect: str | None, seed: int = 0):
     return camp, windows, base
 
 
+@functools.cache
+def _clean_diagnosis():
+    """The diagnosis of the campaign with no hidden effect (with its runs' table, one step
+    allowed): computed once for the three tests of the ``diagnosis_clean`` xdist group."""
+    camp, windows, base = _campaign(None)
+    return diagnose(base, windows, runs_meta=camp.runs, max_steps=1)
+
+
 @pytest.mark.parametrize("effect", CHANNEL_EFFECTS)
 def test_diagnosis_names_the_hidden_channel(effect):
     camp, windows, base = _campaign(effect)
@@ -68,9 +76,9 @@ def test_diagnosis_names_the_hidden_channel(effect):
     assert top["p_value"] < top["p_threshold"]
 
 
+@pytest.mark.xdist_group("diagnosis_clean")
 def test_no_hidden_effect_no_suspect():
-    camp, windows, base = _campaign(None)
-    d = diagnose(base, windows, runs_meta=camp.runs, max_steps=1).to_dict()
+    d = _clean_diagnosis().to_dict()
     assert d["suspects"] == [], d["suspects"]
     assert len(d["staircase"]) == 1
     # candidates were scored, not skipped: each is below noise
@@ -81,18 +89,21 @@ def test_no_hidden_effect_no_suspect():
     assert "noise floor" in note and "as well as the data can tell" not in note
 
 
+@pytest.mark.xdist_group("diagnosis_clean")
 def test_speed_terms_unsupported_at_single_speed():
-    camp, windows, base = _campaign(None)
-    d = diagnose(base, windows, max_steps=0).to_dict()
+    d = _clean_diagnosis().to_dict()  # nothing added (test_no_hidden_effect_no_suspect)
     names = {u["name"]: u["reason"] for u in d["unsupported"]}
     assert "one walking speed" in names["speed_dependence"]
     assert all(s["name"] != "speed_dependence" for s in d["suspects"] + d["below_noise"])
 
 
+@pytest.mark.xdist_group("diagnosis_clean")
 def test_superposition_and_run_energies():
-    """Measured E(AB) vs E(A) + E(B) on the composite runs, and per-run energies."""
-    camp, windows, base = _campaign(None)
-    d = diagnose(base, windows, runs_meta=camp.runs, max_steps=0)
+    """Measured E(AB) vs E(A) + E(B) on the composite runs, and per-run energies (of the
+    base model: the clean campaign's diagnosis adds no term)."""
+    camp = _campaign(None)[0]
+    d = _clean_diagnosis()
+    assert len(d.to_dict()["staircase"]) == 1  # the base model alone
     doc = d.to_dict()
     concat = [s for s in doc["superposition"] if s["kind"] == "concatenation"]
     assert concat, "the campaign has composite runs"

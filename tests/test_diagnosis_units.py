@@ -296,6 +296,7 @@ def campaign_dir(tmp_path_factory):
     return d
 
 
+@pytest.mark.xdist_group("campaign_dir")  # one worker builds the fixture
 def test_cli_json_and_report(campaign_dir):
     from energy_planner.cli import main
 
@@ -346,6 +347,7 @@ def test_cli_json_and_report(campaign_dir):
     assert "t-test" not in html
 
 
+@pytest.mark.xdist_group("campaign_dir")  # one worker builds the fixture
 def test_cli_text_and_errors(campaign_dir):
     from energy_planner.cli import main
 

@@ -93,6 +93,17 @@ def _campaign(effects=(), faults=(), seed=0):
         )
 
 
+@functools.cache
+def _discover(effects=(), max_steps=0):
+    """``discover`` (no final fit) on :func:`_campaign`, computed once per worker for the
+    tests of the ``discover_floor`` group (xdist runs a group's tests in one worker)."""
+    from energy_planner.diagnosis.discover import discover
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return discover(_campaign(effects=effects).logs, max_steps=max_steps, fit_final=False)
+
+
 def test_sensor_faults_are_data_findings():
     camp = _campaign(faults=("clock_offset", "ros_current_sign", "slope_slip"))
     found, fixed = check_data(camp.logs)
@@ -160,51 +171,68 @@ def test_cli_discover(tmp_path):
 
 
 def test_reduced_acceptance():
-    """Hidden channel effect found within two steps; nothing found where nothing hides."""
+    """Hidden channel effect found within two steps (nothing found where nothing hides:
+    the next test; two tests, one campaign each, so that xdist runs them side by side)."""
     from energy_planner.simulate import CampaignConfig
 
-    bench = _bench()
-    cfg = CampaignConfig.small()
-    case = bench.run_case(("load",), 0, cfg, max_steps=2)
+    case = _bench().run_case(("load",), 0, CampaignConfig.small(), max_steps=2)
     assert case.found, case.added_names
     assert case.final_rmse_w < 0.5 * case.base_rmse_w
-    null = bench.run_case((), 2, cfg, max_steps=2)
+
+
+def test_reduced_acceptance_null():
+    from energy_planner.simulate import CampaignConfig
+
+    null = _bench().run_case((), 2, CampaignConfig.small(), max_steps=2)
     assert null.added == [], null.added
     assert "clock_offset" not in null.data_findings
 
 
-def test_reduced_acceptance_fans_speed_and_not_targets():
-    """Cooling fans (air_temp_c) and a speed dependence (v and v^3 swing losses, several
-    speeds) are found within two steps and end within 1.2x the noise floor; the speed
-    dependence needs two speed shapes. The effect too small to see adds nothing."""
-    from energy_planner.simulate import EFFECTS, HIDDEN_EFFECTS, CampaignConfig
+# Cooling fans (air_temp_c) and a speed dependence (v and v^3 swing losses, several speeds)
+# are found within two steps and end within 1.2x the noise floor; the speed dependence
+# needs two speed shapes. The effect too small to see adds nothing. Three tests, one
+# campaign each, so that xdist runs them side by side.
+
+
+def test_reduced_acceptance_fans():
+    from energy_planner.simulate import CampaignConfig
 
     bench = _bench()
-    cfg = CampaignConfig.small()
-    fans = bench.run_case(("idle_power",), 0, cfg, max_steps=2)
+    fans = bench.run_case(("idle_power",), 0, CampaignConfig.small(), max_steps=2)
     assert fans.found and fans.hit_steps == [1], fans.added_names
     assert all("air_temp_c" in t for t in fans.added)
     assert fans.ratio <= 1.2 < fans.base_rmse_w / fans.noise_floor_w
-    speed = bench.run_case(("speed_dependence",), 0, cfg, max_steps=2)
+
+
+def test_reduced_acceptance_speed():
+    from energy_planner.simulate import CampaignConfig
+
+    bench = _bench()
+    speed = bench.run_case(("speed_dependence",), 0, CampaignConfig.small(), max_steps=2)
     assert speed.found and len(speed.added) == 2, speed.added_names
     assert all(bench.matches(t, "speed_dependence") for t in speed.added)
     assert speed.ratio <= 1.2, speed.ratio
+
+
+def test_reduced_acceptance_not_targets():
+    from energy_planner.simulate import EFFECTS, HIDDEN_EFFECTS, CampaignConfig
+
+    bench = _bench()
     assert "acceleration" not in HIDDEN_EFFECTS and not EFFECTS["acceleration"].target
-    acc = bench.run_case(("acceleration",), 0, cfg, max_steps=2)
+    acc = bench.run_case(("acceleration",), 0, CampaignConfig.small(), max_steps=2)
     assert acc.added == [] and acc.ratio <= 1.2, acc.added_names
 
 
+@pytest.mark.xdist_group("discover_floor")
 def test_noise_floor_from_the_logs_tracks_the_simulators_truth():
     """The floor discover estimates from the logs alone against the simulator's floor from
-    the true power (``Campaign.noise_floor``) on the same windows: within 15 %."""
-    from energy_planner.diagnosis.discover import discover
+    the true power (``Campaign.noise_floor``) on the same windows: within 15 %. (The floor
+    is estimated from the prepared logs, before any step: the discovers of the next test.)"""
     from energy_planner.diagnosis.metrics import noise_floor
 
-    for effects in ((), ("load",)):
+    for effects, steps in (((), 1), (("load",), 0)):
         camp = _campaign(effects=effects)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            d = discover(camp.logs, max_steps=0, fit_final=False)
+        d = _discover(effects, steps)
         est = noise_floor(d.data)
         truth = camp.noise_floor(d.windows).rmse_w
         assert 0.85 < est.rmse_w / truth < 1.15, (effects, est, truth)
@@ -213,18 +241,17 @@ def test_noise_floor_from_the_logs_tracks_the_simulators_truth():
         assert d.to_dict()["noise_floor"]["rmse_w"] == est.rmse_w
 
 
+@pytest.mark.xdist_group("discover_floor")
 def test_discover_words_its_conclusion_by_the_noise_floor():
     """A load discover is stopped from adding (max steps 0): it says the model does NOT
     explain the logs, with the ratio; on a clean campaign: within the floor."""
     import re
 
     from energy_planner.cli.discover import _text
-    from energy_planner.diagnosis.discover import WITHIN_FLOOR, discover
+    from energy_planner.diagnosis.discover import WITHIN_FLOOR
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        hidden = discover(_campaign(effects=("load",)).logs, max_steps=0, fit_final=False)
-        clean = discover(_campaign().logs, max_steps=1, fit_final=False)
+    hidden = _discover(("load",), 0)
+    clean = _discover((), 1)
     doc = hidden.to_dict()
     note = doc["notes"][-1]
     assert "does NOT explain these logs" in note and "explains these logs within" not in note

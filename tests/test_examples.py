@@ -6,7 +6,9 @@ source runs in a fresh folder holding ``maps/`` (the bundled maps, as in a check
 its lines in order, so a line may use what an earlier line of the same source wrote; a
 page's ```python blocks run in that order too (README.md's included: this is where they
 run).
-The help examples run as one tutorial in the order of :data:`HELP_ORDER`.
+The help examples form one tutorial in the order of :data:`HELP_ORDER`; it runs as the
+independent chains of :data:`HELP_CHAINS` (each in its own folder, so xdist runs them side
+by side), which together cover every example of the tutorial, each chain in its order.
 
 Where a docs block shows what a command prints, every shown line that carries numbers
 must be printed too (the line with the same first word), with the same numbers within
@@ -35,6 +37,17 @@ HELP_ORDER = [
     "simulate", "fit", "figures", "diagnose", "discover", "terrain", "plan", "energy",
     "compare-routes", "reach", "energy-map", "mission", "follow", "demo",
 ]  # fmt: skip
+#: the tutorial as independent chains: ``(command, i)`` is the command's i-th help example,
+#: ``command`` alone all of them. A chain runs in a fresh folder, so it holds every example
+#: whose files a later example of it reads (calibration: the campaign and the fitted models,
+#: with the planned path that ``energy`` prices by them; missions: the simulated missions).
+HELP_CHAINS: dict[str, list[str | tuple[str, int]]] = {
+    "calibration": [("simulate", 0), "fit", "figures", "diagnose", "discover", "plan",
+                    "energy"],
+    "planning": ["terrain", "compare-routes", "reach", "energy-map"],
+    "missions": [("simulate", 1), "mission", "follow"],
+    "demo": ["demo"],
+}  # fmt: skip
 RTOL = 0.03
 NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")
 
@@ -171,13 +184,36 @@ def test_every_command_has_examples():
         assert "\\b" not in out and "\b" not in out, name
 
 
-def test_help_examples_run_as_printed(tmp_path):
+def chain_examples(chain: list[str | tuple[str, int]]) -> list[tuple[str, str]]:
+    """A chain's ``(command, example line)`` pairs, in the chain's order."""
+    out = []
+    for step in chain:
+        name, i = (step, None) if isinstance(step, str) else step
+        lines = help_examples(name)
+        out += [(name, cmd) for cmd in (lines if i is None else [lines[i]])]
+    return out
+
+
+def test_help_chains_cover_the_tutorial_in_order():
+    """Every help example is in exactly one chain, and each chain keeps the tutorial's order
+    (an example runs after the ones before it in the tutorial that its chain holds)."""
+    tutorial = [(name, cmd) for name in HELP_ORDER for cmd in help_examples(name)]
+    chains = [chain_examples(c) for c in HELP_CHAINS.values()]
+    assert sorted(x for c in chains for x in c) == sorted(tutorial)
+    assert len({x for c in chains for x in c}) == len(tutorial)  # none twice
+    for chain in chains:
+        assert chain == [x for x in tutorial if x in chain], chain
+    with pytest.raises(IndexError):  # a step naming an example the help does not show
+        chain_examples([("simulate", 99)])
+
+
+@pytest.mark.parametrize("chain", list(HELP_CHAINS))
+def test_help_examples_run_as_printed(chain, tmp_path):
     cwd = _workdir(tmp_path)
-    for name in HELP_ORDER:
-        for cmd in help_examples(name):
-            assert cmd.startswith(f"energy-planner {name}"), cmd
-            r = run(cmd, cwd)
-            assert r.returncode == 0, f"{name} --help example {cmd!r}:\n{r.stdout}\n{r.stderr}"
+    for name, cmd in chain_examples(HELP_CHAINS[chain]):
+        assert cmd.startswith(f"energy-planner {name}"), cmd
+        r = run(cmd, cwd)
+        assert r.returncode == 0, f"{name} --help example {cmd!r}:\n{r.stdout}\n{r.stderr}"
 
 
 @pytest.mark.parametrize("page", DOCS, ids=lambda p: p.name)

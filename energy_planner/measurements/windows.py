@@ -120,17 +120,27 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
 def _modes(window: np.ndarray, values: pd.Series, windows: pd.Index) -> list:
     """The most frequent value of each window, in the order of ``windows``.
 
-    Ties: the value that comes first; None where the window holds no value. One grouping
-    of all the samples, not one ``value_counts`` per window.
+    Ties as ``value_counts`` ranks them: the first category of a categorical, else the
+    value that comes first; None where the window holds no value. One grouping of all
+    the samples, not one ``value_counts`` per window.
     """
     ok = values.notna().to_numpy()
-    sub = pd.DataFrame({"w": window[ok], "v": values.to_numpy(object)[ok], "i": np.flatnonzero(ok)})
+    if isinstance(values.dtype, pd.CategoricalDtype):
+        order = values.cat.codes.to_numpy()[ok]
+    else:
+        order = np.flatnonzero(ok)
+    sub = pd.DataFrame({"w": window[ok], "v": values.to_numpy(object)[ok], "i": order})
     if sub.empty:
         return [None] * len(windows)
     counts = sub.groupby(["w", "v"], sort=False).agg(n=("i", "size"), first=("i", "min"))
     counts = counts.reset_index().sort_values(["w", "n", "first"], ascending=[True, False, True])
     best = counts.drop_duplicates("w").set_index("w")["v"]
     return [best.get(w) for w in windows]
+
+
+def _mode(s: pd.Series):
+    """The mode of one window's values (:func:`_modes` of a single window)."""
+    return _modes(np.zeros(len(s), dtype=np.int64), s, pd.Index([0]))[0]
 
 
 def make_windows(
