@@ -66,7 +66,17 @@ or 20 missions a calibrated 90 % interval holds all of them in 28 % / 12 % of sa
 the coverage column is to be read against its binomial band. Robot-b's x floor is
 against the floor ``discover`` estimates from its logs (white, Gaussian battery noise:
 ``tests/test_field_logs.py``); its model's held-out window errors are correlated over
-tens of seconds (lag-1 0.57, 20 s 0.38): an effect no candidate captures, not noise.
+tens of seconds (lag-1 0.57, 20 s 0.38), and only on slopes: walking across a slope the
+base's copper losses in the square of the sideways load underprice gentle slopes (+8 W
+at 6-18 deg) and overprice steep ones (-13..-23 W at 24-30 deg). The holding candidate
+``tilt_y_abs`` (a cost in proportion to the load) is the best one on either half
+(train: 7.19 -> 5.08 W, coefficient 135 W; test: 7.13 -> 5.12 W, 130 W), but is not
+added: it improves 10 / 11 of the 12 runs (signed-rank p 0.006 / 0.0019 against
+``alpha / m`` = 0.001 / 0.0008), and with 12 runs the test's normal approximation cannot
+go below p = 0.0011 however consistent the runs. Given as a base term (``base_terms``),
+robot-b reads 1.41x the floor, median -0.11 %, p90 0.83 %, 12/12 (swap: 1.47x, +0.17 %,
+1.73 %, 12/12); with ``turn_while_walking`` too, 1.27x, -0.02 %, 0.76 %, 12/12. What is
+left is mostly a constant offset per mission (sd ~3 W) that no logged column explains.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """

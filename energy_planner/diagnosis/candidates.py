@@ -338,6 +338,43 @@ def kinetic_candidates(wd: WindowData) -> list[Candidate]:
     ]
 
 
+def holding_candidates(wd: WindowData) -> list[Candidate]:
+    """Shapes of a holding cost in proportion to the slope load, beside its square.
+
+    The base prices holding a slope by copper losses, the square of the load
+    (``tilt_x_sq``, ``tilt_y_sq``). Losses in proportion to the load itself are as
+    common in a drive: the motor drivers' conduction and switching losses grow with the
+    current (not its square), gearbox and joint friction with the torque carried. With
+    both, the holding power is concave in the square: more than the square prices on
+    gentle slopes, less on steep ones. ``wd`` is not read: the shapes are the same for any
+    logs (on level ground they have no variance and are unsupported).
+
+    >>> [c.term for c in holding_candidates(None)]
+    ['abs(sin(alpha) * cos(gamma))', 'abs(sin(alpha) * sin(gamma))']
+    """
+    # the grades the base's tilt_x_sq and tilt_y_sq square
+    from energy_planner.model.terms import _TILT_X, _TILT_Y
+
+    out = []
+    for name, tilt, words in (
+        ("tilt_x_abs", _TILT_X, "along the body x axis (up or down the slope)"),
+        ("tilt_y_abs", _TILT_Y, "across the body (the sideways load and the roll moment)"),
+    ):
+        out.append(
+            Candidate(
+                name,
+                f"abs({tilt})",
+                ["alpha", "gamma"],
+                f"holding the slope load {words} costs in proportion to the load, beside "
+                "the copper losses in its square: motor-driver losses that grow with the "
+                "current, gearbox and joint friction that grow with the torque "
+                "(W per unit of the grade's sine)",
+                "motion",
+            )
+        )
+    return out
+
+
 def user_candidates(specs: Iterable[str]) -> list[Candidate]:
     """Candidates from term specs (catalog names or formulas) a user wants tested.
 
@@ -630,7 +667,7 @@ def default_candidates(
     data, bad = channel_candidates(
         wd, [c.term for c in cands] + [c.formula for c in cands], speeds["several"], terms, coef
     )
-    cands = cands + kinetic_candidates(wd) + speed_candidates(wd) + data
+    cands = cands + kinetic_candidates(wd) + holding_candidates(wd) + speed_candidates(wd) + data
     out, unsupported = [], list(bad)
     have = {canonical(t) for t in terms}
     for c in cands:

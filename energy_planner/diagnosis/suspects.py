@@ -15,6 +15,9 @@ explanation. Candidates come from
   channel by held-out error stands for the channel (a best hinge gets its knot refined);
 - speed-change shapes (:func:`kinetic_candidates`): ``abs(ax vx + ay vy)`` and
   ``pos(-(ax vx + ay vy))`` next to the catalog's ``acceleration``;
+- holding shapes (:func:`holding_candidates`): ``abs(sin(alpha) cos(gamma))`` and
+  ``abs(sin(alpha) sin(gamma))``, a cost of the slope load in proportion to it next to the
+  base's copper losses in its square;
 - speed shapes (``speed ** 2``, ``speed ** 3``, per gait ``pos(vx) ** 2``, ``pos(-vx) ** 2``,
   ``vy ** 2``, hinges in speed), tried only when the logs hold several walking speeds
   (:func:`speed_levels`): at one speed they are the motion terms again;
@@ -69,6 +72,7 @@ from energy_planner.diagnosis.candidates import (
     channel_kind,
     default_candidates,
     hinge,
+    holding_candidates,
     kinetic_candidates,
     speed_candidates,
     speed_levels,
@@ -110,6 +114,7 @@ __all__ = [
     "channel_kind",
     "default_candidates",
     "hinge",
+    "holding_candidates",
     "kinetic_candidates",
     "model_term",
     "paired_run_test",
