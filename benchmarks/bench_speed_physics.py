@@ -23,8 +23,7 @@ segment = its surface length / its duration) and checked against the targets:
 Usage::
 
     python benchmarks/bench_speed_physics.py            # full campaign, 3 pairs, 12 missions
-    python benchmarks/bench_speed_physics.py --small    # the test's campaign (forward and
-                                                        # left only: see --max-crab)
+    python benchmarks/bench_speed_physics.py --small --forward-only  # the test's campaign
 """
 
 from __future__ import annotations
@@ -216,10 +215,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pareto", type=int, default=7, help="front points")
     ap.add_argument("--step", type=float, default=2.0, help="search spacing, m")
     ap.add_argument(
-        "--max-crab",
-        type=float,
-        default=None,
-        help="max_crab_deg of the plans (the small campaign walks no backward)",
+        "--forward-only",
+        action="store_true",
+        help="max_crab_deg=0 and max_backward_slope_deg=0 (the small campaign walks only "
+        "forward and to the left: its model extrapolates the rest)",
     )
     ap.add_argument("--missions", type=int, default=12, help="held-out missions (0: skip d)")
     ap.add_argument("--duration", type=float, default=120.0, help="s per mission")
@@ -234,17 +233,18 @@ def main(argv: list[str] | None = None) -> int:
     fit_s = time.perf_counter() - t0
     terrain = ep.open_terrain("hill")
     kw: dict[str, Any] = {"step": args.step}
-    if args.max_crab is not None:
-        kw["max_crab_deg"] = args.max_crab
+    if args.forward_only:
+        kw.update(max_crab_deg=0.0, max_backward_slope_deg=0.0)
     vrange = speed_range_of(model)
     t1 = time.perf_counter()
     pairs = [run_pair(terrain, camp, model, s, g, vrange, kw, args.pareto)
              for s, g in PAIRS[: args.pairs]]  # fmt: skip
     plan_s = time.perf_counter() - t1
-    d = (heldout_missions(model, args.seed, args.missions, args.duration) if args.missions
-         else {"n": 0, "covered": 0, "band": [0, 0], "median": float("nan"), "met": False})  # fmt: skip
+    skip = {"n": 0, "covered": 0, "band": [0, 0], "median": float("nan"), "met": False}
+    d = heldout_missions(model, args.seed, args.missions, args.duration) if args.missions else skip
     doc = {"campaign": "small" if args.small else "full", "terms": len(model.term_names),
-           "range": list(vrange), "fit_s": fit_s, "plan_s": plan_s, "pairs": pairs, "d": d}  # fmt: skip
+           "range": list(vrange), "fit_s": fit_s, "plan_s": plan_s, "pairs": pairs,
+           "d": d}  # fmt: skip
     print(json.dumps(doc, indent=2) if args.json else report(doc))
     return 0
 
