@@ -18,7 +18,9 @@ segment = its surface length / its duration) and checked against the targets:
 (d) the energy of held-out across-speed missions' logged poses, with their times
     (``bench_field_logs.mission_energy``: ``follow.walked_path`` then
     ``energy.path_energy`` and the ``energy`` command's interval), holds their measured
-    battery energy at the nominal 90 % coverage (read against the binomial band).
+    battery energy at the nominal 90 % coverage (read against the binomial band); by the
+    planning model and by ``discover`` on training missions across speeds (the path of
+    single-speed logs, ``bench_field_logs.run_dataset``).
 
 Usage::
 
@@ -143,9 +145,16 @@ def run_pair(terrain, camp, model, start, goal, vrange, kw, n_pareto) -> dict[st
     return out  # fmt: skip
 
 
-def heldout_missions(model: Any, seed: int, n: int, duration: float) -> dict[str, Any]:
-    """Target (d): held-out across-speed missions against their intervals."""
-    from bench_field_logs import binomial_band, mission_energy
+def heldout_missions(
+    model: Any, seed: int, n: int, duration: float, train: int = 0, max_steps: int = 4
+) -> dict[str, dict[str, Any]]:
+    """Target (d): held-out across-speed missions against their intervals.
+
+    Two models: the planning model (fitted on the campaign) and, with ``train`` > 0, the
+    single-speed logs' path (``bench_field_logs.run_dataset``: ``ep.discover`` on
+    ``train`` training missions across speeds, its model written and read back).
+    """
+    from bench_field_logs import binomial_band, mission_energy, run_dataset
 
     from energy_planner.simulate import MissionConfig, simulate_missions, synthetic_dem
     from energy_planner.simulate.gaits import GaitSchedule
@@ -156,14 +165,29 @@ def heldout_missions(model: Any, seed: int, n: int, duration: float) -> dict[str
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         held = simulate_missions(seed=seed + 1000, config=cfg, terrain=terrain)
-    logs = held.logs.drop(columns="z")
-    ms = [mission_energy(terrain, model, g, 0.5) for _, g in logs.groupby("run", sort=True)]
-    err = np.array([m.error for m in ms])
-    covered = int(sum(m.covered for m in ms))
-    lo, hi = binomial_band(len(ms))
-    return {"n": len(ms), "covered": covered, "band": [lo, hi], "median": float(np.median(err)),
-            "p90_abs": float(np.quantile(np.abs(err), 0.9)),
-            "met": bool(lo <= covered <= hi)}  # fmt: skip
+    tests = [g for _, g in held.logs.drop(columns="z").groupby("run", sort=True)]
+    sets = {"campaign fit": [mission_energy(terrain, model, g, 0.5) for g in tests]}
+    if train:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            camp = simulate_missions(seed=seed, config=cfg.replace(missions=train),
+                                     terrain=terrain)  # fmt: skip
+        ds = run_dataset("discover", camp.logs.drop(columns="z"), tests, terrain, max_steps,
+                         0.5, camp=camp)  # fmt: skip
+        sets[f"discover on {train} missions"] = ds.missions
+    out = {}
+    for name, ms in sets.items():
+        if not ms:
+            continue
+        err = np.array([m.error for m in ms])
+        covered = int(sum(m.covered for m in ms))
+        lo, hi = binomial_band(len(ms))
+        width = np.median([(m.high_j - m.low_j) / (2 * m.predicted_j) for m in ms])
+        out[name] = {"n": len(ms), "covered": covered, "band": [lo, hi],
+                     "median": float(np.median(err)), "half_width": float(width),
+                     "p90_abs": float(np.quantile(np.abs(err), 0.9)),
+                     "met": bool(lo <= covered <= hi)}  # fmt: skip
+    return out
 
 
 def _met(ok: bool) -> str:
@@ -196,13 +220,16 @@ def report(doc: dict[str, Any]) -> str:
         ]  # fmt: skip
         for name, num, ok in rows:
             lines.append(f"{i:<5}{name:<46}{num:<36}{'' if ok is None else _met(ok)}")
-    d = doc["d"]
-    lines.append(
-        f"{'all':<5}{'(d) held-out missions in 90% (binom 95%)':<46}"
-        f"{d['covered']}/{d['n']} (band {d['band'][0]}-{d['band'][1]}; median "
-        f"{100 * d['median']:+.1f}%)".ljust(36)
-        + _met(d["met"])
-    )
+    for name, d in doc["d"].items():
+        lines.append(
+            f"{'all':<5}{'(d) held-out missions in 90%, ' + name:<46}"
+            f"{d['covered']}/{d['n']} (band {d['band'][0]}-{d['band'][1]})".ljust(36)
+            + _met(d["met"])
+        )
+        lines.append(
+            f"{'':<5}{'    error median; interval half-width':<46}"
+            f"{100 * d['median']:+.2f}%; +-{100 * d['half_width']:.2f}%"
+        )
     return "\n".join(lines)
 
 
@@ -221,6 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         "forward and to the left: its model extrapolates the rest)",
     )
     ap.add_argument("--missions", type=int, default=12, help="held-out missions (0: skip d)")
+    ap.add_argument("--train", type=int, default=20, help="training missions for discover")
     ap.add_argument("--duration", type=float, default=120.0, help="s per mission")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)  # fmt: skip
@@ -240,8 +268,8 @@ def main(argv: list[str] | None = None) -> int:
     pairs = [run_pair(terrain, camp, model, s, g, vrange, kw, args.pareto)
              for s, g in PAIRS[: args.pairs]]  # fmt: skip
     plan_s = time.perf_counter() - t1
-    skip = {"n": 0, "covered": 0, "band": [0, 0], "median": float("nan"), "met": False}
-    d = heldout_missions(model, args.seed, args.missions, args.duration) if args.missions else skip
+    d = (heldout_missions(model, args.seed, args.missions, args.duration, args.train)
+         if args.missions else {})  # fmt: skip
     doc = {"campaign": "small" if args.small else "full", "terms": len(model.term_names),
            "range": list(vrange), "fit_s": fit_s, "plan_s": plan_s, "pairs": pairs,
            "d": d}  # fmt: skip
