@@ -265,3 +265,31 @@ def test_lonlat_memory_budget_counts_the_native_grid(monkeypatch):
     assert exc.value.size_bytes == 393 * 373 * LONLAT_BYTES_PER_CELL
     monkeypatch.setenv(MEMORY_CAP_ENV, "12000000")
     assert load_dem(map_path("jacksboro")).shape == (393, 373)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    zone=st.integers(1, 60),
+    south=st.booleans(),
+    easting=st.floats(-500_000.0, 1_500_000.0),
+    northing=st.floats(100_000.0, 9_000_000.0),
+)
+def test_transverse_mercator_shortcut_agrees_with_pyproj(zone, south, easting, northing):
+    """The closed-form UTM check never calls metric what pyproj's factors do not."""
+    from pyproj import CRS as ProjCRS
+    from pyproj import Proj
+    from rasterio.crs import CRS
+
+    from energy_planner.terrain.native import GROUND_TOLERANCE, _transverse_mercator_within
+
+    epsg = (32700 if south else 32600) + zone
+    bounds = (easting, northing, easting + 500.0, northing + 500.0)
+    if not _transverse_mercator_within(CRS.from_epsg(epsg), bounds):
+        return
+    proj = ProjCRS.from_epsg(epsg)
+    for x in (bounds[0], bounds[2]):
+        for y in (bounds[1], bounds[3]):
+            lon, lat = Transformer.from_crs(proj, proj.geodetic_crs, always_xy=True).transform(x, y)
+            factors = Proj(proj).get_factors(lon, lat)
+            assert abs(factors.meridional_scale - 1.0) <= GROUND_TOLERANCE
+            assert abs(factors.parallel_scale - 1.0) <= GROUND_TOLERANCE

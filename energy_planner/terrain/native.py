@@ -144,6 +144,44 @@ class _GroundJacobian:
         return np.hypot(ex, nx), np.hypot(ey, ny)
 
 
+def _transverse_mercator_within(crs: Any, bounds: Sequence[float]) -> bool:
+    """True if ``crs`` is transverse Mercator (UTM) with ground metres over ``bounds``.
+
+    The scale of a transverse Mercator projection at a distance ``x`` from its central
+    meridian is ``k0 * (1 + x**2 / (2 * k0**2 * R**2) + ...)`` (Snyder, *Map
+    Projections: A Working Manual*, eq. 8-11), so the check that
+    :func:`metric_scale` makes on a grid of points is answered in closed form, without
+    importing pyproj (a tenth of a second of every command's start-up). The bound
+    keeps a margin: a case near :data:`GROUND_TOLERANCE` goes to the exact check.
+
+    Examples
+    --------
+    >>> from rasterio.crs import CRS
+    >>> _transverse_mercator_within(CRS.from_epsg(32631), (500000, 5e6, 500200, 5000200))
+    True
+    >>> _transverse_mercator_within(CRS.from_epsg(32631), (-2e6, 5e6, -1.9e6, 5.1e6))
+    False
+    >>> _transverse_mercator_within(CRS.from_epsg(3857), (0, 5e6, 200, 5000200))
+    False
+    """
+    try:
+        params = crs.to_dict()
+        factor = float(crs.linear_units_factor[1])
+    except Exception:  # noqa: BLE001 - not a CRS this shortcut reads: the exact check
+        return False
+    if params.get("proj") == "utm":
+        k0, x0 = 0.9996, 500000.0
+    elif params.get("proj") == "tmerc":
+        k0, x0 = float(params.get("k_0", params.get("k", 1.0))), float(params.get("x_0", 0.0))
+    else:
+        return False
+    x_far = max(abs(float(bounds[0]) * factor - x0), abs(float(bounds[2]) * factor - x0))
+    radius = 6356752.0  # the smallest radius of curvature of the common ellipsoids, metres
+    k_far = k0 * (1.0 + 1.05 * (x_far / (k0 * radius)) ** 2 / 2.0)  # 5 % margin on the term
+    margin = 0.8 * GROUND_TOLERANCE
+    return abs(k0 - 1.0) <= margin and abs(k_far - 1.0) <= margin
+
+
 def metric_scale(
     crs: Any, bounds: Sequence[float] | None = None, name: str | None = None
 ) -> _Scale:
@@ -191,6 +229,8 @@ def metric_scale(
     >>> s.metric, round(float(kx), 4), round(float(ky), 4)
     (False, 0.7083, 0.7059)
     """
+    if bounds is not None and _transverse_mercator_within(crs, bounds):
+        return _Scale(False, float(crs.linear_units_factor[1]), 1.0, 0.0, 0.0)
     from pyproj import CRS as ProjCRS
 
     pc = ProjCRS.from_user_input(crs.to_wkt())

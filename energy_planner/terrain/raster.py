@@ -96,8 +96,14 @@ def vertical_unit(unit: str | None, name: str, crs: Any = None) -> float:
 
 
 def _crs_vertical_unit(crs: Any) -> float:
-    """Metres per unit of a compound CRS's vertical axis (1 without one)."""
+    """Metres per unit of a compound CRS's vertical axis (1 without one).
+
+    A CRS whose WKT names no vertical part is answered without importing pyproj (its
+    import costs a command's start-up a tenth of a second).
+    """
     try:
+        if "VERT" not in crs.to_wkt().upper():
+            return 1.0
         from pyproj import CRS as ProjCRS
 
         pc = ProjCRS.from_user_input(crs.to_wkt())
