@@ -251,3 +251,29 @@ def test_plan_energy_equals_energy_of_its_waypoints(tmp_path, model, name, start
     res = plan(terrain, model, s, g, planner="search", progress=False)
     e = _energy_of_written_path(tmp_path, terrain, model, res)
     assert e == pytest.approx(res.energy_j, rel=1e-3)
+
+
+def test_bound_table_from_the_cache_is_the_computed_one(model):
+    """The bound's ``best`` bands read back from the process memo and from the disk cache
+    are the ones :meth:`HeadingCost.map_bands` computes, bit for bit."""
+    from energy_planner.model._codegen import cache_dir
+    from energy_planner.planning import search
+
+    t = _bumpy(7)
+    cost, _ = make_motion_cost(t, model, Request.make())
+    grid = _Grid(cost, t, (1.5, 2.5), None, 16, "all")
+
+    def cold():
+        search._BEST_MEMO.clear()
+        for f in cache_dir().glob("bound_*.npy"):
+            f.unlink(missing_ok=True)
+
+    cold()
+    computed, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    memo, _ = bound_table(cost, grid.headings, grid.move_ok)
+    search._BEST_MEMO.clear()
+    disk, tgeo2 = bound_table(cost, grid.headings, grid.move_ok)
+    assert list(cache_dir().glob("bound_*.npy"))
+    np.testing.assert_array_equal(memo, computed)
+    np.testing.assert_array_equal(disk, computed)
+    np.testing.assert_array_equal(tgeo2, tgeo)

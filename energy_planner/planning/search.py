@@ -368,7 +368,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
     for speed in speeds:
         hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
-        hc.map_bands(GX, GY, np.zeros((0, nodes, nodes)), dirs, along, best)
+        best = _best_bands(hc, GX, GY, dirs, along)
         if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
             best = best + np.float32(lam / speed)
         table = np.minimum(table, best)
@@ -380,6 +380,61 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     up = t32.astype(np.float64) > table
     t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
     return np.ascontiguousarray(t32), tgeo
+
+
+#: Least J per map metre over the body's yaw (``best``) of the bound's gradient grids,
+#: by :func:`_best_key`: plans on one map with one model (a mission's legs, the deadline's
+#: bisection, a Pareto sweep, later commands) price its grid once. Kept in this process
+#: (the last :data:`_BEST_MEMO_SIZE`) and in the kernel cache folder.
+_BEST_MEMO: dict[str, np.ndarray] = {}
+_BEST_MEMO_SIZE = 32
+
+
+def _best_key(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray) -> str:
+    """The cache key of ``hc``'s ``best`` bands on the gradient grid ``GX, GY``."""
+    import hashlib
+
+    h = hashlib.sha256(hc._key().encode())
+    for arr in (GX, GY, dirs):
+        h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    return h.hexdigest()[:24]
+
+
+def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray):
+    """``hc``'s ``best`` bands (float32, ``(len(dirs),) + GX.shape``) on a gradient grid.
+
+    Computed by :meth:`~energy_planner.energy.heading.HeadingCost.map_bands` once per
+    physics (model, speed, limits, channel values) and grid, then read from
+    :data:`_BEST_MEMO` or the kernel cache folder (``bound_<key>.npy``): the values are
+    the same bit for bit, and the nodes steeper than the heading table (computed by the
+    exact minimum, most of the time of a table) are paid once per map and model.
+    """
+    from energy_planner.io import atomic_path
+    from energy_planner.model._codegen import cache_dir
+
+    key = _best_key(hc, GX, GY, dirs)
+    hit = _BEST_MEMO.get(key)
+    path = cache_dir() / f"bound_{key}.npy"
+    if hit is None:
+        try:
+            arr = np.load(path, allow_pickle=False)
+            if arr.shape == along.shape and arr.dtype == np.float32:
+                hit = arr
+        except (OSError, ValueError):
+            pass
+    if hit is None:
+        best = np.empty_like(along)
+        hc.map_bands(GX, GY, np.zeros((0,) + GX.shape), dirs, along, best)
+        hit = best
+        try:
+            with atomic_path(path) as tmp, open(tmp, "wb") as f:
+                np.save(f, hit)
+        except OSError:
+            pass  # the cache is an optimisation only
+    _BEST_MEMO[key] = hit
+    while len(_BEST_MEMO) > _BEST_MEMO_SIZE:
+        _BEST_MEMO.pop(next(iter(_BEST_MEMO)))
+    return hit.copy()
 
 
 #: Speeds of a cost that chooses its speed over which the search's bound is the least
