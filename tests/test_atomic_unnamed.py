@@ -129,6 +129,7 @@ def test_text_figures_tables_and_arrays_write_through_the_link(tmp_path, mode):
     during(lambda p: pq.write_table(table, p), "run.parquet")
     during(lambda p: np.save(p, np.arange(5)), "table.npy")
     during(lambda p: fig.savefig(p, dpi=30), "plot.png")
+    save_figure(fig, tmp_path / "figure.svg")  # the format from the suffix
     plt.close(fig)
     write_json(tmp_path / "model.json", {"a": 1})
     write_text(tmp_path / "report.html", "<html></html>")
@@ -138,6 +139,7 @@ def test_text_figures_tables_and_arrays_write_through_the_link(tmp_path, mode):
     assert pq.read_table(tmp_path / "run.parquet").equals(table)
     assert np.load(tmp_path / "table.npy").tolist() == [0, 1, 2, 3, 4]
     assert (tmp_path / "plot.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (tmp_path / "figure.svg").read_text().rstrip().endswith("</svg>")
     assert json.loads((tmp_path / "model.json").read_text()) == {"a": 1}
     assert _mine() == []
 
