@@ -134,7 +134,9 @@ def test_text_figures_tables_and_arrays_write_through_the_link(tmp_path, mode):
     write_json(tmp_path / "model.json", {"a": 1})
     write_text(tmp_path / "report.html", "<html></html>")
     write_geojson(tmp_path / "path.geojson", {"type": "FeatureCollection", "features": []})
-    assert _beside(tmp_path) == sorted([*done, "model.json", "report.html", "path.geojson"])
+    assert _beside(tmp_path) == sorted(
+        [*done, "figure.svg", "model.json", "report.html", "path.geojson"]
+    )
     assert pd.read_csv(tmp_path / "run.csv")["v"].tolist() == [48.0, 47.9]
     assert pq.read_table(tmp_path / "run.parquet").equals(table)
     assert np.load(tmp_path / "table.npy").tolist() == [0, 1, 2, 3, 4]
