@@ -463,7 +463,9 @@ def _carry_sidecars(folder: Path, name: str, dest: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterator[Path]:
+def atomic_path(
+    dest: str | os.PathLike[str], *, create: bool = True, shared: bool = False
+) -> Iterator[Path]:
     """Yield a temporary path with ``dest``'s name; it becomes ``dest`` on success.
 
     Parameters
@@ -475,6 +477,9 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
         True: the temporary path is an empty file. False: it does not exist yet (for
         writers that refuse an existing path or make a directory, such as ROS bag
         writers); a directory is moved to ``dest``, which must not exist then.
+    shared : bool
+        The path is opened by other machines too (the workers of a dask cluster): a
+        hidden file beside ``dest``, as where files cannot be unnamed.
 
     Yields
     ------
@@ -514,7 +519,7 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
     if dest.is_dir():
         raise output_error(dest, IsADirectoryError(21, "Is a directory"))
     try:
-        fd = _open_unnamed(parent, 0o600)
+        fd = None if shared else _open_unnamed(parent, 0o600)
     except OSError as exc:
         _reraise(dest, exc)
     if fd is None:
