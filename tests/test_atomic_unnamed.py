@@ -239,3 +239,28 @@ def test_a_killed_writers_private_folders_are_removed_by_the_next(tmp_path, monk
     with atomic.atomic_dir(tmp_path / "out" / "campaign") as work:
         (work / "a.csv").write_text("t\n0\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["out", live.name, other.name])
+
+
+def test_a_killed_named_writers_sidecars_are_removed_with_it(tmp_path):
+    left = [".plain.999999999.ab12.tmp.tif", ".plain.999999999.ab12.tmp.tif.aux.xml"]
+    for n in left:
+        (tmp_path / n).write_bytes(b"half")
+    assert sorted(p.name for p in atomic.remove_stale(tmp_path / "plain.tif")) == left
+    assert _beside(tmp_path) == []
+
+
+def test_no_room_for_the_private_link_falls_back_to_a_named_file(tmp_path, monkeypatch):
+    import contextlib
+    import errno
+
+    @contextlib.contextmanager
+    def full(fd, name):
+        raise OSError(errno.ENOSPC, "No space left on device")
+        yield  # pragma: no cover
+
+    monkeypatch.setattr(atomic, "_reach", full)
+    dest = tmp_path / "m.json"
+    with atomic_path(dest) as tmp:
+        assert tmp.parent == tmp_path  # beside, named
+        tmp.write_text("{}")
+    assert dest.read_text() == "{}" and _beside(tmp_path) == ["m.json"]

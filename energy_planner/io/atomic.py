@@ -124,8 +124,9 @@ def _mode_for(dest: Path) -> int:
 
 
 #: The temporary name of a file being written: ``.<stem>.<pid>.<random>.tmp<suffix>``
-#: (the writer's process id, so that a later write can tell a dead writer's leftover).
-_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}"
+#: (the writer's process id, so that a later write can tell a dead writer's leftover),
+#: and of the GDAL sidecars written beside it.
+_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}(?:\.aux\.xml|\.ovr|\.msk)?"
 #: The temporary folder of a folder (or a file written by name) being made:
 #: ``.<name>.<pid>.<random>.tmp``.
 _TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
@@ -522,16 +523,22 @@ def atomic_path(
         fd = None if shared else _open_unnamed(parent, 0o600)
     except OSError as exc:
         _reraise(dest, exc)
-    if fd is None:
-        with _atomic_named(dest, parent) as tmp:
-            yield tmp
-        return
-    _lock(fd)  # the name it gets at the end is held: remove_stale leaves it alone
-    named: Path | None = None
-    try:
-        with _sigterm_raises():
+    with contextlib.ExitStack() as stack:
+        if fd is not None:
+            stack.callback(os.close, fd)
             try:
-                with _reach(fd, dest.name) as (link, priv):
+                link, priv = stack.enter_context(_reach(fd, dest.name))
+            except OSError:  # no private folder for the link (a full /tmp): a named file
+                fd = None
+        if fd is None:
+            with _atomic_named(dest, parent) as tmp:
+                yield tmp
+            return
+        _lock(fd)  # the name it gets at the end is held: remove_stale leaves it alone
+        named: Path | None = None
+        try:
+            with _sigterm_raises():
+                try:
                     yield link
                     _take_back(link, fd)
                     os.fchmod(fd, _mode_for(dest))
@@ -539,13 +546,12 @@ def atomic_path(
                     os.replace(named, dest)  # a kill between the two leaves ``named``
                     named = None
                     _carry_sidecars(priv, link.name, dest)
-            except OSError as exc:
-                _reraise(dest, exc)
-    finally:
-        if named is not None:
-            with contextlib.suppress(OSError):
-                named.unlink()
-        os.close(fd)
+                except OSError as exc:
+                    _reraise(dest, exc)
+        finally:
+            if named is not None:
+                with contextlib.suppress(OSError):
+                    named.unlink()
 
 
 @contextlib.contextmanager
