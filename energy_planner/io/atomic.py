@@ -279,16 +279,19 @@ def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write
 def _full_disk(dest: Path) -> str | None:
     """The words for a full disk when ``dest``'s file system is (nearly) full, else None.
 
-    Writers such as GDAL report a full disk without its errno ("Write failed").
+    Writers such as GDAL report a full disk without its errno ("Write failed"). The file
+    system is the one of ``dest`` itself when it exists (a link to an unnamed file is
+    followed to the file's), else of its nearest existing folder.
     """
-    for d in (dest.parent, *dest.parent.parents):
+    for d in (dest, dest.parent, *dest.parent.parents):
         if d.exists():
             try:
                 st = os.statvfs(d)
             except (OSError, AttributeError):
                 return None
             if st.f_bavail * st.f_frsize < 64 * 1024:
-                return f"no space left on the device ({d})"
+                where = d if d.is_dir() else Path(os.path.realpath(d)).parent  # a link's file
+                return f"no space left on the device ({where})"
             return None
     return None
 
