@@ -60,7 +60,7 @@ import tempfile
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 __all__ = [
     "atomic_dir",
@@ -296,7 +296,7 @@ def _full_disk(dest: Path) -> str | None:
     return None
 
 
-def _reraise(dest: Path, exc: OSError, doing: str = "write") -> None:
+def _reraise(dest: Path, exc: OSError, doing: str = "write") -> NoReturn:
     """Raise ``exc`` as an :class:`~energy_planner.errors.OutputError` (library errors as is)."""
     err = output_error(dest, exc, doing)
     if err is exc:
@@ -361,11 +361,22 @@ def _private_dir(base: Path | None = None, *, sweep: bool = False) -> Iterator[P
     processes left there is removed first (:func:`_sweep`: by each process once, or
     every time with ``sweep``).
     """
-    import shutil
-
     base = Path(base or tempfile.gettempdir())
     _sweep(base, again=sweep)
-    d = Path(tempfile.mkdtemp(dir=base, prefix=f"{_PRIVATE}.{os.getpid()}."))
+    with _locked_folder(base, f"{_PRIVATE}.{os.getpid()}.") as d:
+        yield d
+
+
+@contextlib.contextmanager
+def _locked_folder(base: Path, prefix: str, suffix: str = "") -> Iterator[Path]:
+    """A new folder ``<prefix><random><suffix>`` in ``base``, locked while in use, then removed.
+
+    The lock (``flock``) tells :func:`remove_stale` and :func:`_sweep` that its writer
+    lives, whatever its process id says (another pid namespace).
+    """
+    import shutil
+
+    d = Path(tempfile.mkdtemp(dir=base, prefix=prefix, suffix=suffix))
     try:
         fd: int | None = os.open(d, os.O_RDONLY)
     except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
@@ -711,26 +722,13 @@ def _atomic_new(dest: Path, parent: Path) -> Iterator[Path]:
 @contextlib.contextmanager
 def _holder(dest: Path, parent: Path) -> Iterator[Path]:
     """A locked temporary folder ``.<name>.<pid>.<random>.tmp`` beside ``dest``, then removed."""
-    import shutil
-
-    try:
-        holder = Path(
-            tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}.{os.getpid()}.", suffix=".tmp")
-        )
-    except OSError as exc:
-        _reraise(dest, exc)
-    try:
-        fd: int | None = os.open(holder, os.O_RDONLY)
-    except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
-        fd = None
-    if fd is not None:
-        _lock(fd)
-    try:
+    with contextlib.ExitStack() as stack:
+        try:
+            prefix = f".{dest.name}.{os.getpid()}."
+            holder = stack.enter_context(_locked_folder(parent, prefix, ".tmp"))
+        except OSError as exc:
+            _reraise(dest, exc)
         yield holder
-    finally:
-        shutil.rmtree(holder, ignore_errors=True)
-        if fd is not None:
-            os.close(fd)
 
 
 def _exchange(a: Path, b: Path) -> bool:
