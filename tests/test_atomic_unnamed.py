@@ -264,3 +264,29 @@ def test_no_room_for_the_private_link_falls_back_to_a_named_file(tmp_path, monke
         assert tmp.parent == tmp_path  # beside, named
         tmp.write_text("{}")
     assert dest.read_text() == "{}" and _beside(tmp_path) == ["m.json"]
+
+
+def test_folders_are_built_in_the_cache_when_the_temporary_folder_is_elsewhere(
+    tmp_path, monkeypatch
+):
+    """The temporary folder on another mount: the user's cache, else a folder beside."""
+    other = tmp_path / "other_mount"
+    other.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(other))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    real = atomic._mount_of
+    monkeypatch.setattr(
+        atomic, "_mount_of",
+        lambda p: "other" if os.path.realpath(p).startswith(str(other)) else real(p),
+    )  # fmt: skip
+    with atomic_dir(tmp_path / "out" / "campaign") as work:
+        assert work.parent.parent == tmp_path / "cache" / "energy_planner" / "work"
+        (work / "a.csv").write_text("t\n0\n")
+        assert _beside(tmp_path / "out") == []
+    monkeypatch.setenv("XDG_CACHE_HOME", str(other / "cache"))  # the cache too: beside
+    with atomic_dir(tmp_path / "out" / "c2") as work:
+        assert work.parent.parent == tmp_path / "out" and work.parent.name.startswith(".c2.")
+        (work / "b.csv").write_text("t\n0\n")
+    assert _beside(tmp_path / "out") == ["c2", "campaign"]
+    assert (tmp_path / "out" / "campaign" / "a.csv").is_file()
+    assert list((tmp_path / "cache" / "energy_planner" / "work").iterdir()) == []

@@ -676,8 +676,11 @@ def _staging_base(parent: Path) -> Path | None:
     mine = _mount_of(parent)
     if mine is None:
         return None
-    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    for base in (Path(tempfile.gettempdir()), cache / "energy_planner" / "work"):
+    bases = [Path(tempfile.gettempdir())]
+    with contextlib.suppress(RuntimeError, KeyError):  # no home folder
+        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+        bases.append(cache / "energy_planner" / "work")
+    for base in bases:
         with contextlib.suppress(OSError, RuntimeError):
             if _mount_of(base) != mine or base.resolve() == parent.resolve():
                 continue
