@@ -290,3 +290,25 @@ def test_folders_are_built_in_the_cache_when_the_temporary_folder_is_elsewhere(
     assert _beside(tmp_path / "out") == ["c2", "campaign"]
     assert (tmp_path / "out" / "campaign" / "a.csv").is_file()
     assert list((tmp_path / "cache" / "energy_planner" / "work").iterdir()) == []
+
+
+@pytest.mark.skipif(not __import__("shutil").which("gdaladdo"), reason="no gdaladdo")
+def test_another_process_reaches_the_file_and_its_ovr_follows(tmp_path, mode):
+    """``gdaladdo -ro`` (another process) reaches the file, its ``.ovr`` lands beside dest."""
+    import subprocess
+
+    dest = tmp_path / "map.tif"
+    prof = dict(driver="GTiff", height=64, width=64, count=1, dtype="float32",
+                crs="EPSG:32631", transform=from_origin(5e5, 5e6, 1, 1),
+                compress="deflate")  # fmt: skip
+    with atomic_path(dest) as tmp:
+        with rasterio.open(tmp, "w", **prof) as dst:
+            dst.write(np.arange(64 * 64, dtype="float32").reshape(1, 64, 64))
+        run = subprocess.run(["gdaladdo", "-ro", str(tmp), "2", "4"], capture_output=True,
+                             text=True)  # fmt: skip
+        assert run.returncode == 0, run.stderr
+    assert _beside(tmp_path) == ["map.tif", "map.tif.ovr"]
+    with rasterio.open(dest) as src:
+        assert src.overviews(1) == [2, 4]  # read from the .ovr beside it
+    with rasterio.open(dest, OVERVIEW_LEVEL=1) as ov:
+        assert ov.shape == (16, 16)
