@@ -45,8 +45,9 @@ def _beside(folder: Path, *keep: str) -> list[str]:
 
 
 def _mine() -> list[Path]:
-    """This process's private folders in the temporary folder."""
-    return sorted(Path(tempfile.gettempdir()).glob(f"energy_planner.{os.getpid()}.*"))
+    """What this process's private folders in the temporary folder hold (links, folders)."""
+    mine = Path(tempfile.gettempdir()).glob(f"energy_planner.{os.getpid()}.*")
+    return sorted(p for d in mine for p in d.iterdir())
 
 
 def _write_energy_map_like(path: Path, n: int = 300) -> np.ndarray:
@@ -80,7 +81,7 @@ def test_gdal_writes_an_energy_map_through_the_link(tmp_path, mode):
         assert src.units[0] == "Wh" and src.descriptions[0] == "cost_e"
         assert src.overviews(1) == [2, 4] and src.tags()["software"] == "test"
         assert src.compression.name.lower() == "deflate" and src.block_shapes[0] == (256, 256)
-    assert _mine() == []  # the private folder of the link is gone
+    assert _mine() == []  # the link is gone
 
 
 def test_gdal_sidecars_follow_the_file(tmp_path, mode):
@@ -312,3 +313,12 @@ def test_another_process_reaches_the_file_and_its_ovr_follows(tmp_path, mode):
         assert src.overviews(1) == [2, 4]  # read from the .ovr beside it
     with rasterio.open(dest, OVERVIEW_LEVEL=1) as ov:
         assert ov.shape == (16, 16)
+
+
+def test_two_writes_of_one_name_at_once_get_links_of_their_own(tmp_path):
+    a, b = tmp_path / "a" / "m.json", tmp_path / "b" / "m.json"
+    with atomic_path(a) as ta, atomic_path(b) as tb:
+        assert ta != tb and ta.name == tb.name == "m.json"
+        ta.write_text("1")
+        tb.write_text("2")
+    assert (a.read_text(), b.read_text()) == ("1", "2") and _mine() == []

@@ -126,7 +126,7 @@ def _mode_for(dest: Path) -> int:
 #: The temporary name of a file being written: ``.<stem>.<pid>.<random>.tmp<suffix>``
 #: (the writer's process id, so that a later write can tell a dead writer's leftover),
 #: and of the GDAL sidecars written beside it.
-_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}(?:\.aux\.xml|\.ovr|\.msk)?"
+_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}(?:\.ovr|\.msk)?(?:\.aux\.xml)?"
 #: The temporary folder of a folder (or a file written by name) being made:
 #: ``.<name>.<pid>.<random>.tmp``.
 _TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
@@ -416,13 +416,86 @@ def _fd_path(fd: int) -> str:
     return f"/proc/{os.getpid()}/fd/{fd}"
 
 
+#: This process's private folder of links: ``{pid: (folder, its locked fd)}``.
+_LINKS: dict[int, tuple[Path, int | None]] = {}
+_LINKS_LOCK = threading.Lock()
+
+
+def _links_folder() -> Path:
+    """The private folder of the process's links, in the temporary folder.
+
+    Made once a process (a folder made and removed for each write costs a few ms on
+    some disks), locked while the process lives, removed at its exit; what a killed
+    process leaves is removed by the next one (:func:`_sweep`).
+    """
+    import atexit
+
+    pid = os.getpid()
+    with _LINKS_LOCK:
+        got = _LINKS.get(pid)
+        if got is not None and got[0].is_dir():
+            return got[0]
+        if got is not None and got[1] is not None:  # removed meanwhile (a /tmp cleaner)
+            with contextlib.suppress(OSError):
+                os.close(got[1])
+        base = Path(tempfile.gettempdir())
+        _sweep(base)
+        folder = Path(tempfile.mkdtemp(dir=base, prefix=f"{_PRIVATE}.{pid}."))
+        try:
+            fd: int | None = os.open(folder, os.O_RDONLY)
+        except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
+            fd = None
+        if fd is not None:
+            _lock(fd)
+        if not _LINKS:
+            atexit.register(_remove_links_folder)
+        _LINKS[pid] = (folder, fd)
+        return folder
+
+
+def _remove_links_folder() -> None:
+    """Remove this process's private folder of links (at exit)."""
+    import shutil
+
+    got = _LINKS.pop(os.getpid(), None)
+    if got is not None:
+        shutil.rmtree(got[0], ignore_errors=True)
+        if got[1] is not None:
+            with contextlib.suppress(OSError):
+                os.close(got[1])
+
+
+#: The sidecar files GDAL may write beside a raster (``<name><suffix>``).
+_SIDECARS = (".aux.xml", ".ovr", ".ovr.aux.xml", ".msk", ".msk.aux.xml")
+
+
 @contextlib.contextmanager
-def _reach(fd: int, name: str) -> Iterator[tuple[Path, Path]]:
-    """A link named ``name`` to unnamed file ``fd`` in a private folder: (link, folder)."""
-    with _private_dir() as priv:
-        link = priv / name
+def _reach(fd: int, name: str) -> Iterator[Path]:
+    """A link named ``name`` to unnamed file ``fd`` in this process's private folder.
+
+    When another thread writes a file of the same name at the same time, the link is in
+    a folder of its own. The link (and any sidecar beside it) is removed at the end.
+    """
+    import shutil
+
+    folder = _links_folder()
+    own = None
+    link = folder / name
+    try:
         os.symlink(_fd_path(fd), link)
-        yield link, priv
+    except FileExistsError:
+        own = Path(tempfile.mkdtemp(dir=folder))
+        link = own / name
+        os.symlink(_fd_path(fd), link)
+    try:
+        yield link
+    finally:
+        if own is not None:
+            shutil.rmtree(own, ignore_errors=True)
+        else:
+            for p in (link, *(link.with_name(name + s) for s in _SIDECARS)):
+                with contextlib.suppress(OSError):
+                    p.unlink()
 
 
 def _take_back(link: Path, fd: int) -> None:
@@ -461,20 +534,25 @@ def _name(fd: int, dest: Path, parent: Path) -> Path:
         os.close(proc)
 
 
-def _carry_sidecars(folder: Path, name: str, dest: Path) -> None:
-    """Write the sidecars a writer made beside ``folder / name`` beside ``dest``.
+def _carry_sidecars(written: Path, dest: Path, move: bool = False) -> None:
+    """Put the sidecars a writer made beside file ``written`` beside ``dest``.
 
     GDAL may write ``<name>.aux.xml`` or ``<name>.ovr`` next to the file it writes (a
-    dataset it cannot describe inside the file): they become ``<dest>.aux.xml`` ...,
-    each written atomically, after ``dest``.
+    dataset it cannot describe inside the file, external overviews): they become
+    ``<dest>.aux.xml`` ..., after ``dest``: renamed (``move``, the same folder) or copied
+    atomically (from the private folder).
     """
     import shutil
 
-    for p in sorted(folder.iterdir()):
-        if p.name == name or not p.name.startswith(name) or not p.is_file():
+    for s in _SIDECARS:
+        side = written.with_name(written.name + s)
+        if not side.is_file():
             continue
-        with atomic_path(dest.with_name(dest.name + p.name[len(name) :])) as tmp:
-            shutil.copyfile(p, tmp)
+        if move:
+            os.replace(side, dest.with_name(dest.name + s))
+            continue
+        with atomic_path(dest.with_name(dest.name + s)) as tmp:
+            shutil.copyfile(side, tmp)
 
 
 @contextlib.contextmanager
@@ -541,7 +619,7 @@ def atomic_path(
         if fd is not None:
             stack.callback(os.close, fd)
             try:
-                link, priv = stack.enter_context(_reach(fd, dest.name))
+                link = stack.enter_context(_reach(fd, dest.name))
             except OSError:  # no private folder for the link (a full /tmp): a named file
                 fd = None
         if fd is None:
@@ -559,7 +637,7 @@ def atomic_path(
                     named = _name(fd, dest, parent)
                     os.replace(named, dest)  # a kill between the two leaves ``named``
                     named = None
-                    _carry_sidecars(priv, link.name, dest)
+                    _carry_sidecars(link, dest)
                 except OSError as exc:
                     _reraise(dest, exc)
         finally:
@@ -571,8 +649,6 @@ def atomic_path(
 @contextlib.contextmanager
 def _atomic_named(dest: Path, parent: Path) -> Iterator[Path]:
     """:func:`atomic_path` where files cannot be unnamed: a hidden file beside ``dest``."""
-    import glob
-
     try:
         fd, name = tempfile.mkstemp(
             dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
@@ -589,17 +665,16 @@ def _atomic_named(dest: Path, parent: Path) -> Iterator[Path]:
                 os.chmod(tmp, _mode_for(dest))
                 os.replace(tmp, dest)
                 done = True
-                for side in sorted(parent.glob(f"{glob.escape(tmp.name)}?*")):
-                    os.replace(side, dest.with_name(dest.name + side.name[len(tmp.name) :]))
+                _carry_sidecars(tmp, dest, move=True)
             except OSError as exc:
                 _reraise(dest, exc)
     finally:
         if not done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
-            for side in parent.glob(f"{glob.escape(tmp.name)}?*"):
+            for s in _SIDECARS:
                 with contextlib.suppress(OSError):
-                    side.unlink()
+                    tmp.with_name(tmp.name + s).unlink()
         os.close(fd)
 
 
@@ -631,7 +706,7 @@ def scratch_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
         if name:
             yield Path(name)
         else:
-            with _reach(fd, dest.name) as (link, _):
+            with _reach(fd, dest.name) as link:
                 yield link
     finally:
         if name:
