@@ -274,6 +274,7 @@ def test_folders_are_built_in_the_cache_when_the_temporary_folder_is_elsewhere(
     other = tmp_path / "other_mount"
     other.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(other))
+    monkeypatch.delenv("ENERGY_PLANNER_CACHE", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     real = atomic._mount_of
     monkeypatch.setattr(

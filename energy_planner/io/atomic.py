@@ -65,6 +65,7 @@ from typing import Any, NoReturn
 __all__ = [
     "atomic_dir",
     "atomic_path",
+    "cache_root",
     "check_folder_output",
     "content_id",
     "output_error",
@@ -741,20 +742,43 @@ def _mount_of(path: Path) -> str | None:
     return best
 
 
+def cache_root() -> Path:
+    """The project's cache folder (not created): kernels, work folders.
+
+    ``$ENERGY_PLANNER_CACHE`` if set, else ``$XDG_CACHE_HOME/energy_planner``, else
+    ``~/.cache/energy_planner``.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = os.environ.get("ENERGY_PLANNER_CACHE")
+    >>> os.environ["ENERGY_PLANNER_CACHE"] = "/data/cache"
+    >>> str(cache_root())
+    '/data/cache'
+    >>> if before is None:
+    ...     del os.environ["ENERGY_PLANNER_CACHE"]
+    ... else:
+    ...     os.environ["ENERGY_PLANNER_CACHE"] = before
+    """
+    env = os.environ.get("ENERGY_PLANNER_CACHE")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "energy_planner"
+
+
 def _staging_base(parent: Path) -> Path | None:
     """A folder on ``parent``'s mount, not ``parent``, to build folders in; None if none.
 
-    Tried: the temporary folder (:func:`tempfile.gettempdir`), then the user's cache
-    (``$XDG_CACHE_HOME/energy_planner/work``, default ``~/.cache/...``). A folder built
-    there is moved to its destination by one rename: nothing is ever beside it.
+    Tried: the temporary folder (:func:`tempfile.gettempdir`), then ``work`` in the
+    project's cache folder (:func:`cache_root`). A folder built there is moved to its
+    destination by one rename: nothing is ever beside it.
     """
     mine = _mount_of(parent)
     if mine is None:
         return None
     bases = [Path(tempfile.gettempdir())]
     with contextlib.suppress(RuntimeError, KeyError):  # no home folder
-        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-        bases.append(cache / "energy_planner" / "work")
+        bases.append(cache_root() / "work")
     for base in bases:
         with contextlib.suppress(OSError, RuntimeError):
             if _mount_of(base) != mine or base.resolve() == parent.resolve():
