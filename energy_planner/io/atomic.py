@@ -10,10 +10,12 @@ one, never a partial one, and a killed write leaves nothing beside it:
   folder raise :class:`~energy_planner.errors.OutputError` naming the path;
 * on Linux the new file is an *unnamed* file on the destination's file system
   (``O_TMPFILE``): it has no name until it is complete, so a SIGKILL (or a power cut)
-  while it is written leaves nothing anywhere. Writers that need a path whose suffix
-  chooses the format (rasterio/GDAL, matplotlib, pyarrow) are given a symbolic link
-  with the destination's name in a private temporary folder (not beside the
-  destination) that reaches the file (``/proc/<pid>/fd/<fd>``). When the block ends
+  while it is written leaves nothing beside the destination. Writers that need a path
+  whose suffix chooses the format (rasterio/GDAL, matplotlib, pyarrow) are given a
+  symbolic link with the destination's name that reaches the file
+  (``/proc/<pid>/fd/<fd>``), in the process's private folder
+  ``energy_planner.<pid>.<random>`` of the temporary folder (removed at exit; after a
+  kill, by the next process that writes). When the block ends
   the file gets a hidden name beside the destination (``linkat``) that is at once
   renamed over it (:func:`os.replace`, atomic on POSIX within one file system);
 * elsewhere (another system, a file system without ``O_TMPFILE``) the file is written
@@ -31,9 +33,9 @@ the writer's process id is in the name and a live writer holds a lock on it, so
 concurrent writers never remove each other's files). A whole folder (a simulated
 campaign, a ROS bag) is written with :func:`atomic_dir` (or ``atomic_path(...,
 create=False)``): built in a private folder on the same file system when there is one
-(the temporary folder, or the user's cache), and moved in at once, so a kill leaves
-nothing beside it either; where there is none, built in a hidden folder
-``.<name>.<pid>.<random>.tmp`` beside it that the next write removes.
+(the temporary folder, or the project's cache folder :func:`cache_root`), and moved in
+at once, so a kill leaves nothing beside it either; where there is none, built in a
+hidden folder ``.<name>.<pid>.<random>.tmp`` beside it that the next write removes.
 
 Examples
 --------
@@ -922,7 +924,7 @@ def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iter
     ------
     pathlib.Path
         The temporary folder, named ``dest.name``, to be filled: in a private folder on
-        ``dest``'s mount (:func:`tempfile.gettempdir` or the user's cache) when one is
+        ``dest``'s mount (:func:`tempfile.gettempdir` or :func:`cache_root`) when one is
         there, else in a hidden ``.<name>.<pid>.<random>.tmp`` beside ``dest``.
 
     Raises
