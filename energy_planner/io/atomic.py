@@ -325,7 +325,7 @@ def _make_parent(dest: Path) -> Path:
 
 
 #: The private folders of writes (links to unnamed files, folders being built):
-#: ``energy_planner.<pid>.<random>``, in the temporary folder (or the user's cache).
+#: ``energy_planner.<pid>.<random>``, in the temporary folder (or the cache folder).
 _PRIVATE = "energy_planner"
 _SWEPT: set[tuple[int, str]] = set()
 
