@@ -70,3 +70,24 @@ def read_only_dir(path: Path, files: dict[str, bytes] | None = None) -> Iterator
         yield path
     finally:
         _umount(path)
+
+
+def named_files(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make ``energy_planner.io`` write as where files cannot be unnamed (no ``O_TMPFILE``).
+
+    ``os.open`` with ``O_TMPFILE`` fails with ``EOPNOTSUPP``, as on a file system without
+    it: the writers fall back to a hidden temporary name beside the destination.
+    """
+    import errno
+
+    from energy_planner.io import atomic
+
+    real_open = os.open
+    flag = getattr(os, "O_TMPFILE", 0)
+
+    def refusing(path, flags, *args, **kwargs):
+        if flag and flags & flag == flag:
+            raise OSError(errno.EOPNOTSUPP, "Operation not supported", str(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(atomic.os, "open", refusing)

@@ -5,12 +5,23 @@ with one of these writers: JSON (fit, discover, models), text (HTML reports), Ge
 (plan, mission, reach), GeoTIFF (terrain, energy-map, reach), PNG (every ``--plot``)
 and a whole folder (simulate). A child process writes each of them over and over (every
 version complete and recognisable) and is killed with SIGKILL at a random moment; each
-output must then be a complete version, and the next write must leave nothing beside
-it. Every writing command is then killed itself (through the CLI's ``main``, forked from
-a server that imported the library once), in its writing and in its work before: each
-output stays the previous one or the whole new one. Also: ``simulate --overwrite`` killed
-mid-campaign, two ``energy-map`` runs writing one output at once, and ``energy-map`` and
-``terrain`` onto a full disk.
+output must then be a complete version with nothing beside it. Every writing command is
+then killed itself (through the CLI's ``main``, forked from a server that imported the
+library once), in its writing and in its work before: each output stays the previous one
+or the whole new one, and its folder holds nothing else. Also: ``simulate --overwrite``
+killed mid-campaign, two ``energy-map`` runs writing one output at once, and
+``energy-map`` and ``terrain`` onto a full disk.
+
+What a SIGKILL may leave beside an output, exactly (:mod:`energy_planner.io.atomic`):
+a file is unnamed until it is complete, then named ``.<stem>.<pid>.<random>.tmp<suffix>``
+and renamed over the output by the next system call; a kill between those two calls (a
+few microseconds) leaves that hidden name holding the *complete* new file, which the
+next write removes. A folder is built in a private folder on the same mount (the
+temporary folder here) and moved in by one rename: nothing is left beside it. Only where
+no such private folder exists (the temporary folder on another mount) is it built in a
+hidden ``.<name>.<pid>.<random>.tmp`` folder beside it, which a kill leaves and the next
+write removes. The private folders a kill leaves in the temporary folder are removed by
+the next process that builds a folder.
 """
 
 from __future__ import annotations
@@ -22,6 +33,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -48,6 +60,10 @@ WRITER = textwrap.dedent(
     from energy_planner import io
 
     d = Path(sys.argv[1])
+    if sys.argv[2:] == ["fallback"]:  # as where files cannot be unnamed, folders not moved
+        from energy_planner.io import atomic
+        atomic._open_unnamed = lambda parent, mode: None
+        atomic._staging_base = lambda parent: None
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.imshow(np.random.default_rng(0).random((400, 400)))
     k = 0
@@ -105,6 +121,41 @@ def _leftovers(d: Path) -> list[str]:
     return sorted(p.name for p in d.rglob(".*"))
 
 
+#: The only name a SIGKILL can leave beside an output file: its complete new version,
+#: named for the rename over it (``.<stem>.<pid>.<random>.tmp<suffix>``).
+NAMED = re.compile(r"\.(.+)\.(\d+)\.[A-Za-z0-9_]+\.tmp(\.[^.]+)?")
+
+
+def _window_leftovers(folder: Path, outputs: list[Path], fallback: bool = False) -> list[Path]:
+    """What a kill left beside ``outputs`` in ``folder``, checked: see the module's notes.
+
+    Nothing, or (a kill between naming a complete file and renaming it over its output)
+    one hidden file named after one of ``outputs`` and holding a complete version of it.
+    Where folders cannot be built in a private folder on ``folder``'s mount, also the
+    hidden work folder of a folder output. ``fallback``: files could not be unnamed nor
+    folders built in a private folder; then one hidden file (maybe partial) or folder
+    named after an output. Returns them.
+    """
+    from energy_planner.io import atomic
+
+    staged = atomic._staging_base(folder) is not None and not fallback
+    hidden = sorted(p for p in folder.rglob(".*"))
+    files = [h for h in hidden if h.is_file()]
+    for h in hidden:
+        m = NAMED.fullmatch(h.name)
+        assert m, f"{h} is beside the outputs and is not a name of one"
+        out = h.parent / (m.group(1) + (m.group(3) or ""))
+        if h.is_dir():
+            assert not staged and out in outputs, f"{h}: a folder's hidden work folder"
+            continue
+        inside = out in outputs or any(o in out.parents for o in outputs)  # a folder's file
+        assert inside, f"{h} is not a temporary name of an output"
+        if not fallback:
+            _whole(h)  # named only when complete
+    assert len(files) <= 1 or fallback, f"more than one named temporary file: {files}"
+    return hidden
+
+
 def _env(**extra: str) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(ROOT), **extra}
 
@@ -114,8 +165,9 @@ def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cle
     rng = random.Random(SEED)
     for attempt in range(3):
         d = tmp_path / f"try{attempt}"
+        fallback = attempt == 2  # the last as where files cannot be unnamed
         proc = subprocess.Popen(
-            [sys.executable, "-c", WRITER, str(d)],
+            [sys.executable, "-c", WRITER, str(d), *(["fallback"] if fallback else [])],
             env=_env(),
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
@@ -130,6 +182,12 @@ def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cle
             if proc.poll() is None:
                 proc.kill()
         _complete(d)
+        outputs = [d / "out" / n for n in ("model.json", "report.html", "path.geojson",
+                                           "map.tif", "plot.png")] + [d / "campaign"]  # fmt: skip
+        left = _window_leftovers(d, outputs, fallback)
+        assert {p.name for p in (d / "out").iterdir()} - {p.name for p in left} <= {
+            p.name for p in outputs
+        }
         # the next write of each output removes what the killed writer left beside it
         from energy_planner import io
 
@@ -143,12 +201,21 @@ def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cle
             (tmp / "campaign.json").write_text('{"version": 0, "runs": 0}')
         _complete(d)
         assert _leftovers(d) == [], f"attempt {attempt}: {_leftovers(d)}"
+        # and the private folders the killed writer left in the temporary folder
+        assert not list(Path(tempfile.gettempdir()).glob(f"energy_planner.{proc.pid}.*"))
 
 
-def test_a_live_writers_temp_file_is_never_removed(tmp_path):
-    """Two writers of one output: the second's cleanup leaves the first's file alone."""
+def test_a_live_writers_temp_file_is_never_removed(tmp_path, monkeypatch):
+    """Two writers of one output: the second's cleanup leaves the first's file alone.
+
+    Hidden temporary names beside an output exist where files cannot be unnamed (forced
+    here in both processes), and for an instant before each rename where they can.
+    """
+    from faults import named_files  # tests/ helper
+
     from energy_planner.io import atomic_path, remove_stale
 
+    named_files(monkeypatch)
     dest = tmp_path / "m.json"
     with atomic_path(dest) as mine:
         mine.write_text("being written")
@@ -158,11 +225,12 @@ def test_a_live_writers_temp_file_is_never_removed(tmp_path):
             [
                 sys.executable,
                 "-c",
-                "import sys, time; from energy_planner.io import atomic_path\n"
+                "import sys, time, pytest; from energy_planner.io import atomic_path\n"
+                "from faults import named_files; named_files(pytest.MonkeyPatch())\n"
                 f"with atomic_path({str(dest)!r}) as t:\n"
                 "    t.write_text('theirs'); print(t, flush=True); time.sleep(30)",
             ],
-            env=_env(),
+            env=_env(PYTHONPATH=f"{ROOT}{os.pathsep}{ROOT / 'tests'}"),
             stdout=subprocess.PIPE,
             text=True,
         )
@@ -180,6 +248,7 @@ def test_a_live_writers_temp_file_is_never_removed(tmp_path):
 
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
 def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_path):
+    from energy_planner.io.atomic import _staging_base
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
     out = tmp_path / "campaign"
@@ -191,9 +260,19 @@ def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_pat
          "--small", "--seed", "2", "--overwrite"],
         env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
-    try:  # kill it once it writes the new campaign beside the old one
+    # the new campaign is built in a private folder on the same mount (the temporary
+    # folder, as here), or where there is none in a hidden folder beside the old one
+    private = Path(tempfile.gettempdir())
+    staged = _staging_base(tmp_path) is not None
+
+    def building() -> bool:
+        return any(private.glob(f"energy_planner.{proc.pid}.*/campaign/*.csv")) or any(
+            tmp_path.glob(".campaign.*.tmp/campaign/*.csv")
+        )
+
+    try:  # kill it once it writes the new campaign
         t0 = time.monotonic()
-        while not any(tmp_path.glob(".campaign.*.tmp/*.csv")) and time.monotonic() - t0 < 120:
+        while not building() and time.monotonic() - t0 < 120:
             if proc.poll() is not None:
                 break
             time.sleep(0.01)
@@ -209,8 +288,11 @@ def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_pat
         runs = pd.read_csv(out / "runs.csv")
         assert meta["seed"] == 2 and set(runs["run"] + ".csv") <= set(now)
         assert not set(before) - set(now) - {"runs.csv", "campaign.json", "physics.json"}
+    if staged:  # built in the temporary folder: nothing beside the campaign
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["campaign"]
     simulate_campaign(seed=3, config=small).write(out, overwrite=True)  # cleans the leftover
     assert sorted(p.name for p in tmp_path.iterdir()) == ["campaign"]
+    assert not list(private.glob(f"energy_planner.{proc.pid}.*"))  # and the private folder
 
 
 #: Each of the two runs: compile a new kernel into a shared cold cache, then run an
@@ -325,12 +407,13 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 
 #: A fork server: imports the whole library once, then for each job forks a child that
 #: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL ``delay``
-#: s after its start, or after it starts writing its first output (a temporary file
-#: made beside it). Forking keeps each command's start cheap, so that every writing
+#: s after its start, or after it starts writing its first output (the writer of an
+#: output in its folder starts: ``energy_planner.io.atomic.remove_stale``, which every
+#: write calls first). Forking keeps each command's start cheap, so that every writing
 #: command can be killed at a few random points in a few seconds.
 SERVER = textwrap.dedent(
     """
-    import importlib, json, os, pkgutil, select, signal, sys, tempfile, time
+    import importlib, json, os, pkgutil, select, signal, sys, time
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot
@@ -343,14 +426,16 @@ SERVER = textwrap.dedent(
     from energy_planner.cli import main
     print("ready", flush=True)
 
-    def telling(make, w, cwd):
-        def wrapped(*a, **k):  # a temporary file or folder beside an output: writing
-            if os.path.realpath(k.get("dir") or "/").startswith(cwd):
+    from energy_planner.io import atomic
+
+    def telling(start, w, cwd):
+        def wrapped(dest, *a, **k):  # the write of an output in the folder starts
+            if os.path.realpath(dest).startswith(cwd):
                 try:
                     os.write(w, b"w")
                 except OSError:
                     pass
-            return make(*a, **k)
+            return start(dest, *a, **k)
         return wrapped
 
     for line in sys.stdin:
@@ -361,8 +446,7 @@ SERVER = textwrap.dedent(
         if pid == 0:
             os.close(r)
             cwd = os.path.realpath(job["cwd"])
-            tempfile.mkstemp = telling(tempfile.mkstemp, w, cwd)
-            tempfile.mkdtemp = telling(tempfile.mkdtemp, w, cwd)
+            atomic.remove_stale = telling(atomic.remove_stale, w, cwd)
             os.chdir(cwd)
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
@@ -393,6 +477,7 @@ SERVER = textwrap.dedent(
                 break
         os.close(r)
         print(json.dumps({"code": os.waitstatus_to_exitcode(status), "killed": killed,
+                          "pid": pid,
                           "elapsed": time.monotonic() - t0,
                           "wrote": None if wrote is None else wrote - t0}), flush=True)
     """
@@ -550,20 +635,25 @@ def test_every_writing_command_killed_at_random_points(command, inputs, fork_ser
     moment up to 0.3 s after it starts writing its outputs, and at a random moment of its
     work before that. After each kill every output is there and whole (the previous one
     or the complete new one: never gone, never cut short), every visible file is whole,
-    and what is beside them is only hidden temporary files that the next write removes
-    (:func:`energy_planner.io.remove_stale`: their writer is dead).
+    and the output folder holds the outputs and nothing else (but what the module's
+    notes allow: a complete new file under a hidden name, left by a kill between the
+    two system calls that name it and rename it over its output). The private folders
+    the killed command left in the temporary folder are removed by the next folder
+    output's writer.
     """
-    from energy_planner.io import remove_stale
+    from energy_planner.io import atomic
 
     args = [a.format(**{k: str(v) for k, v in inputs.items()}) for a in COMMANDS[command]]
     outs = [tmp_path / o for o in _outputs(args)]
     for p in outs:
         _previous(p)
+    top = {p.relative_to(tmp_path / "o").parts[0] for p in outs}
     rng = random.Random(f"{SEED}:{command}")  # FAULT_SEED=... to vary
-    wrote = None
+    wrote, pids = None, []
     for after_write in (True, False):  # in its writing, then in its work before
         delay = rng.uniform(0.0, 0.3) if after_write else rng.uniform(0.1, 1.0) * wrote
         got = fork_server(tmp_path, args, delay, after_write)
+        pids.append(got["pid"])
         assert got["killed"] or got["code"] == 0, f"{command}: {got}"
         assert got["wrote"] is not None or not after_write, f"{command} wrote nothing: {got}"
         wrote = wrote or got["wrote"]
@@ -573,14 +663,18 @@ def test_every_writing_command_killed_at_random_points(command, inputs, fork_ser
         for p in (tmp_path / "o").rglob("*"):
             if p.is_file() and not any(x.startswith(".") for x in p.relative_to(tmp_path).parts):
                 _whole(p)
-    # what the kills left: only hidden temporary files of outputs, each of which the next
-    # write of its output removes
-    for h in sorted((tmp_path / "o").rglob(".*"), reverse=True):
-        m = re.fullmatch(r"\.(.+)\.\d+\.[A-Za-z0-9_]+\.tmp(\.[^.]+)?", h.name)
-        assert m, f"{command} left {h}, not a temporary file of an output"
-        remove_stale(h.parent / (m.group(1) + (m.group(2) or "")))
+        # nothing beside the outputs (but the one complete file a kill may leave named)
+        left = _window_leftovers(tmp_path / "o", outs)
+        visible = {p.name for p in (tmp_path / "o").iterdir()} - {p.name for p in left}
+        assert visible == top, f"{command} left {sorted(visible - top)} beside its outputs"
+        for h in left:  # the next write of its output removes it
+            m = NAMED.fullmatch(h.name)
+            atomic.remove_stale(h.parent / (m.group(1) + (m.group(3) or "")))
     left = sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "o").rglob(".*"))
     assert left == [], f"{command}: left beside its outputs: {left}"
+    atomic._sweep(Path(tempfile.gettempdir()), again=True)  # as the next folder output does
+    for pid in pids:
+        assert not list(Path(tempfile.gettempdir()).glob(f"energy_planner.{pid}.*")), command
 
 
 def test_commands_onto_a_full_disk_are_one_clear_line_and_keep_the_previous_outputs(tmp_path):

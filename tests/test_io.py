@@ -34,11 +34,18 @@ def _env() -> dict[str, str]:
 
 
 # ---------------------------------------------------------------------- atomic
-def test_atomic_success_replaces_and_keeps_suffix(tmp_path):
+@pytest.mark.parametrize("unnamed", [True, False], ids=["unnamed", "named"])
+def test_atomic_success_replaces_and_keeps_suffix(tmp_path, unnamed, monkeypatch):
+    from faults import named_files  # tests/ helper
+
+    if not unnamed:
+        named_files(monkeypatch)
     dest = tmp_path / "map.tif"
     dest.write_text("old")
     with atomic_path(dest) as tmp:
-        assert tmp.parent == tmp_path and tmp.suffix == ".tif" and tmp != dest
+        assert tmp.suffix == ".tif" and tmp != dest
+        # an unnamed file (Linux) is not beside the destination; a named one is
+        assert (tmp.parent == tmp_path) == (not unnamed)
         tmp.write_text("new")
         assert dest.read_text() == "old"
     assert dest.read_text() == "new"

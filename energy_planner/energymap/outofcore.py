@@ -189,7 +189,7 @@ def compute_dask(
     from energy_planner.io import atomic_path
     from energy_planner.io.geotiff import check_written
 
-    with atomic_path(out) as tmp:
+    with atomic_path(out, shared=True) as tmp:  # the workers write it: a name they reach
         xarr.rio.to_raster(tmp, lock=lock, dtype="float32", **opts)
         with rasterio.open(tmp, "r+") as dst:
             _write_metadata(dst, setup, model_name, "dask")

@@ -2,12 +2,13 @@
 
 Every file the project writes goes through this package:
 
-* :func:`atomic_path` - a temporary file beside the destination, renamed when complete;
-  the destination's folder is created if missing; the destination keeps its previous
-  content when the write fails or the process gets SIGTERM or SIGKILL (a killed write's
-  leftover is removed by the next write: :func:`remove_stale`). :func:`atomic_dir` does
-  the same for a whole folder (swapped in one step). :func:`write_text`,
-  :func:`write_bytes`, :func:`write_json` use it.
+* :func:`atomic_path` - a temporary file (on Linux unnamed, elsewhere a hidden one beside
+  the destination) renamed over the destination when complete; the destination's folder
+  is created if missing; the destination keeps its previous content when the write fails
+  or the process gets SIGTERM or SIGKILL, and a SIGKILL leaves nothing beside it but
+  what the next write removes (:func:`remove_stale`). :func:`atomic_dir` does the same
+  for a whole folder (built in a private folder on the same mount, swapped in one step).
+  :func:`write_text`, :func:`write_bytes`, :func:`write_json` use it.
 * :func:`write_geotiff` / :func:`open_geotiff` - the one GeoTIFF writer (NaN nodata for
   floats, GDAL band units and descriptions, tags).
 * :func:`write_geojson` / :func:`feature_collection` - RFC 7946 (WGS 84 lon/lat) by

@@ -1,26 +1,41 @@
-"""Atomic file output: a temporary file beside the destination, renamed when complete.
+"""Atomic file output: the destination holds the previous file or the complete new one.
 
 Every file the project writes goes through :func:`atomic_path` (directly or through
 :func:`write_text`, :func:`write_bytes`, :func:`write_json` and the GeoTIFF/GeoJSON
 writers). The destination therefore holds either the previous file or the complete new
-one, never a partial one:
+one, never a partial one, and a killed write leaves nothing beside it:
 
 * the destination's folder is created if missing (one rule for every output of every
   command); a folder that cannot be written, a full disk or a destination that is a
   folder raise :class:`~energy_planner.errors.OutputError` naming the path;
-* on success the temporary file is renamed over the destination (:func:`os.replace`,
-  atomic on POSIX and Windows within one file system);
+* on Linux the new file is an *unnamed* file on the destination's file system
+  (``O_TMPFILE``): it has no name until it is complete, so a SIGKILL (or a power cut)
+  while it is written leaves nothing beside the destination. Writers that need a path
+  whose suffix chooses the format (rasterio/GDAL, matplotlib, pyarrow) are given a
+  symbolic link with the destination's name that reaches the file
+  (``/proc/<pid>/fd/<fd>``), in the process's private folder
+  ``energy_planner.<pid>.<random>`` of the temporary folder (removed at exit; after a
+  kill, by the next process that writes). When the block ends
+  the file gets a hidden name beside the destination (``linkat``) that is at once
+  renamed over it (:func:`os.replace`, atomic on POSIX within one file system);
+* elsewhere (another system, a file system without ``O_TMPFILE``) the file is written
+  under a hidden temporary name beside the destination,
+  ``.<stem>.<pid>.<random>.tmp<suffix>``, renamed when complete;
 * on an exception, or a SIGTERM (turned into ``SystemExit(143)`` while the file is being
   written, in the main thread), the temporary file is removed and the destination is
   left as it was.
 
-The temporary file keeps the destination's suffix (``map.tif`` ->
-``.map.<pid>.<random>.tmp.tif``) so that writers that choose a format from the name
-(rasterio, matplotlib) still do. A SIGKILL cannot clean up: the hidden temporary file it
-leaves is removed by the next write to the same destination (:func:`remove_stale`; the
-writer's process id is in the name and a live writer holds a lock on it, so concurrent
-writers never remove each other's files). A whole folder (a simulated campaign) is
-written with :func:`atomic_dir`: filled beside, then swapped in one step.
+What a SIGKILL can leave beside the destination is therefore a hidden
+``.<stem>.<pid>.<random>.tmp<suffix>`` file: during the whole write where files cannot
+be unnamed, and on Linux only between the two system calls that name and rename a
+complete file. The next write to the same destination removes it (:func:`remove_stale`;
+the writer's process id is in the name and a live writer holds a lock on it, so
+concurrent writers never remove each other's files). A whole folder (a simulated
+campaign, a ROS bag) is written with :func:`atomic_dir` (or ``atomic_path(...,
+create=False)``): built in a private folder on the same file system when there is one
+(the temporary folder, or the project's cache folder :func:`cache_root`), and moved in
+at once, so a kill leaves nothing beside it either; where there is none, built in a
+hidden folder ``.<name>.<pid>.<random>.tmp`` beside it that the next write removes.
 
 Examples
 --------
@@ -47,11 +62,12 @@ import tempfile
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 __all__ = [
     "atomic_dir",
     "atomic_path",
+    "cache_root",
     "check_folder_output",
     "content_id",
     "output_error",
@@ -111,8 +127,9 @@ def _mode_for(dest: Path) -> int:
 
 
 #: The temporary name of a file being written: ``.<stem>.<pid>.<random>.tmp<suffix>``
-#: (the writer's process id, so that a later write can tell a dead writer's leftover).
-_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}"
+#: (the writer's process id, so that a later write can tell a dead writer's leftover),
+#: and of the GDAL sidecars written beside it.
+_TMP_FILE = r"\.+{stem}\.(\d+)\.[A-Za-z0-9_]+\.tmp(?:\..*)?{suffix}(?:\.ovr|\.msk)?(?:\.aux\.xml)?"
 #: The temporary folder of a folder (or a file written by name) being made:
 #: ``.<name>.<pid>.<random>.tmp``.
 _TMP_DIR = r"\.{name}\.(\d+)\.[A-Za-z0-9_]+\.tmp"
@@ -265,21 +282,24 @@ def output_error(dest: str | os.PathLike[str], exc: OSError, doing: str = "write
 def _full_disk(dest: Path) -> str | None:
     """The words for a full disk when ``dest``'s file system is (nearly) full, else None.
 
-    Writers such as GDAL report a full disk without its errno ("Write failed").
+    Writers such as GDAL report a full disk without its errno ("Write failed"). The file
+    system is the one of ``dest`` itself when it exists (a link to an unnamed file is
+    followed to the file's), else of its nearest existing folder.
     """
-    for d in (dest.parent, *dest.parent.parents):
+    for d in (dest, dest.parent, *dest.parent.parents):
         if d.exists():
             try:
                 st = os.statvfs(d)
             except (OSError, AttributeError):
                 return None
             if st.f_bavail * st.f_frsize < 64 * 1024:
-                return f"no space left on the device ({d})"
+                where = d if d.is_dir() else Path(os.path.realpath(d)).parent  # a link's file
+                return f"no space left on the device ({where})"
             return None
     return None
 
 
-def _reraise(dest: Path, exc: OSError, doing: str = "write") -> None:
+def _reraise(dest: Path, exc: OSError, doing: str = "write") -> NoReturn:
     """Raise ``exc`` as an :class:`~energy_planner.errors.OutputError` (library errors as is)."""
     err = output_error(dest, exc, doing)
     if err is exc:
@@ -304,9 +324,245 @@ def _make_parent(dest: Path) -> Path:
     return parent
 
 
+#: The private folders of writes (links to unnamed files, folders being built):
+#: ``energy_planner.<pid>.<random>``, in the temporary folder (or the cache folder).
+_PRIVATE = "energy_planner"
+_SWEPT: set[tuple[int, str]] = set()
+
+
+def _sweep(base: Path, again: bool = False) -> None:
+    """Remove the private folders in ``base`` that killed writers left (once a process).
+
+    A folder is removed when its writer's process is gone and no one holds its lock.
+    """
+    import re
+    import shutil
+
+    key = (os.getpid(), str(base))
+    if key in _SWEPT and not again:
+        return
+    _SWEPT.add(key)
+    pat = re.compile(rf"{_PRIVATE}\.(\d+)\.[A-Za-z0-9_]+")
+    try:
+        entries = [e for e in os.scandir(base) if e.name.startswith(f"{_PRIVATE}.")]
+    except OSError:
+        return
+    for e in entries:
+        m = pat.fullmatch(e.name)
+        if m is None or _alive(int(m.group(1))) or _held(Path(e.path)):
+            continue
+        with contextlib.suppress(OSError):
+            if e.is_dir(follow_symlinks=False):
+                shutil.rmtree(e.path)
+
+
 @contextlib.contextmanager
-def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterator[Path]:
-    """Yield a temporary path beside ``dest``; rename it to ``dest`` on success.
+def _private_dir(base: Path | None = None, *, sweep: bool = False) -> Iterator[Path]:
+    """A new locked folder ``energy_planner.<pid>.<random>`` in ``base``, removed at the end.
+
+    ``base`` defaults to the temporary folder (:func:`tempfile.gettempdir`). What killed
+    processes left there is removed first (:func:`_sweep`: by each process once, or
+    every time with ``sweep``).
+    """
+    base = Path(base or tempfile.gettempdir())
+    _sweep(base, again=sweep)
+    with _locked_folder(base, f"{_PRIVATE}.{os.getpid()}.") as d:
+        yield d
+
+
+@contextlib.contextmanager
+def _locked_folder(base: Path, prefix: str, suffix: str = "") -> Iterator[Path]:
+    """A new folder ``<prefix><random><suffix>`` in ``base``, locked while in use, then removed.
+
+    The lock (``flock``) tells :func:`remove_stale` and :func:`_sweep` that its writer
+    lives, whatever its process id says (another pid namespace).
+    """
+    import shutil
+
+    d = Path(tempfile.mkdtemp(dir=base, prefix=prefix, suffix=suffix))
+    try:
+        fd: int | None = os.open(d, os.O_RDONLY)
+    except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
+        fd = None
+    if fd is not None:
+        _lock(fd)
+    try:
+        yield d
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+        if fd is not None:
+            os.close(fd)
+
+
+def _open_unnamed(parent: Path, mode: int) -> int | None:
+    """An unnamed file (``O_TMPFILE``) on ``parent``'s file system; None where unsupported.
+
+    Unsupported: not Linux, no ``/proc`` to reach it by a path, or a file system (or
+    kernel) without ``O_TMPFILE`` (``EOPNOTSUPP``, ``EISDIR``, ``EINVAL``). Other errors
+    (permission denied, a full disk, a read-only file system) are raised.
+    """
+    import errno
+
+    flag = getattr(os, "O_TMPFILE", None)
+    if flag is None or not os.path.isdir("/proc/self/fd"):
+        return None
+    try:
+        return os.open(parent, flag | os.O_RDWR, mode)
+    except OSError as exc:
+        if exc.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOSYS):
+            return None
+        raise
+
+
+def _fd_path(fd: int) -> str:
+    """The path that reaches open file ``fd`` of this process, from any process."""
+    return f"/proc/{os.getpid()}/fd/{fd}"
+
+
+#: This process's private folder of links: ``{pid: (folder, its locked fd)}``.
+_LINKS: dict[int, tuple[Path, int | None]] = {}
+_LINKS_LOCK = threading.Lock()
+
+
+def _links_folder() -> Path:
+    """The private folder of the process's links, in the temporary folder.
+
+    Made once a process (a folder made and removed for each write costs a few ms on
+    some disks), locked while the process lives, removed at its exit; what a killed
+    process leaves is removed by the next one (:func:`_sweep`).
+    """
+    import atexit
+
+    pid = os.getpid()
+    with _LINKS_LOCK:
+        got = _LINKS.get(pid)
+        if got is not None and got[0].is_dir():
+            return got[0]
+        if got is not None and got[1] is not None:  # removed meanwhile (a /tmp cleaner)
+            with contextlib.suppress(OSError):
+                os.close(got[1])
+        base = Path(tempfile.gettempdir())
+        _sweep(base)
+        folder = Path(tempfile.mkdtemp(dir=base, prefix=f"{_PRIVATE}.{pid}."))
+        try:
+            fd: int | None = os.open(folder, os.O_RDONLY)
+        except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
+            fd = None
+        if fd is not None:
+            _lock(fd)
+        if not _LINKS:
+            atexit.register(_remove_links_folder)
+        _LINKS[pid] = (folder, fd)
+        return folder
+
+
+def _remove_links_folder() -> None:
+    """Remove this process's private folder of links (at exit)."""
+    import shutil
+
+    got = _LINKS.pop(os.getpid(), None)
+    if got is not None:
+        shutil.rmtree(got[0], ignore_errors=True)
+        if got[1] is not None:
+            with contextlib.suppress(OSError):
+                os.close(got[1])
+
+
+#: The sidecar files GDAL may write beside a raster (``<name><suffix>``).
+_SIDECARS = (".aux.xml", ".ovr", ".ovr.aux.xml", ".msk", ".msk.aux.xml")
+
+
+@contextlib.contextmanager
+def _reach(fd: int, name: str) -> Iterator[Path]:
+    """A link named ``name`` to unnamed file ``fd`` in this process's private folder.
+
+    When another thread writes a file of the same name at the same time, the link is in
+    a folder of its own. The link (and any sidecar beside it) is removed at the end.
+    """
+    import shutil
+
+    folder = _links_folder()
+    own = None
+    link = folder / name
+    try:
+        os.symlink(_fd_path(fd), link)
+    except FileExistsError:
+        own = Path(tempfile.mkdtemp(dir=folder))
+        link = own / name
+        os.symlink(_fd_path(fd), link)
+    try:
+        yield link
+    finally:
+        if own is not None:
+            shutil.rmtree(own, ignore_errors=True)
+        else:
+            for p in (link, *(link.with_name(name + s) for s in _SIDECARS)):
+                with contextlib.suppress(OSError):
+                    p.unlink()
+
+
+def _take_back(link: Path, fd: int) -> None:
+    """Make ``fd`` hold what the writer left at ``link``.
+
+    A writer that replaced the link by a file of its own (a rename over it) wrote there:
+    that file is copied into ``fd``. A writer that removed it left nothing to rename:
+    ``FileNotFoundError`` (as for a named temporary file removed).
+    """
+    import shutil
+
+    if link.is_symlink() and os.readlink(link) == _fd_path(fd):
+        return
+    if not link.is_file() or link.is_symlink():
+        raise FileNotFoundError(2, "the temporary file was removed by its writer", str(link))
+    os.ftruncate(fd, 0)
+    os.lseek(fd, 0, os.SEEK_SET)
+    with open(link, "rb") as src, open(os.dup(fd), "wb") as out:
+        shutil.copyfileobj(src, out, 1 << 20)
+
+
+def _name(fd: int, dest: Path, parent: Path) -> Path:
+    """Give unnamed file ``fd`` a hidden temporary name of ``dest`` in ``parent``."""
+    import secrets
+
+    proc = os.open("/proc/self/fd", os.O_RDONLY)
+    try:
+        while True:
+            tmp = parent / f".{dest.stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp{dest.suffix}"
+            try:  # linkat(AT_SYMLINK_FOLLOW) through /proc: no privilege needed
+                os.link(str(fd), tmp, src_dir_fd=proc, follow_symlinks=True)
+            except FileExistsError:  # pragma: no cover - 32 random bits taken
+                continue
+            return tmp
+    finally:
+        os.close(proc)
+
+
+def _carry_sidecars(written: Path, dest: Path, move: bool = False) -> None:
+    """Put the sidecars a writer made beside file ``written`` beside ``dest``.
+
+    GDAL may write ``<name>.aux.xml`` or ``<name>.ovr`` next to the file it writes (a
+    dataset it cannot describe inside the file, external overviews): they become
+    ``<dest>.aux.xml`` ..., after ``dest``: renamed (``move``, the same folder) or copied
+    atomically (from the private folder).
+    """
+    import shutil
+
+    for s in _SIDECARS:
+        side = written.with_name(written.name + s)
+        if not side.is_file():
+            continue
+        if move:
+            os.replace(side, dest.with_name(dest.name + s))
+            continue
+        with atomic_path(dest.with_name(dest.name + s)) as tmp:
+            shutil.copyfile(side, tmp)
+
+
+@contextlib.contextmanager
+def atomic_path(
+    dest: str | os.PathLike[str], *, create: bool = True, shared: bool = False
+) -> Iterator[Path]:
+    """Yield a temporary path with ``dest``'s name; it becomes ``dest`` on success.
 
     Parameters
     ----------
@@ -316,13 +572,20 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
     create : bool
         True: the temporary path is an empty file. False: it does not exist yet (for
         writers that refuse an existing path or make a directory, such as ROS bag
-        writers); a directory is renamed to ``dest``, which must not exist then.
+        writers); a directory is moved to ``dest``, which must not exist then.
+    shared : bool
+        The path is opened by other machines too (the workers of a dask cluster): a
+        hidden file beside ``dest``, as where files cannot be unnamed.
 
     Yields
     ------
     pathlib.Path
-        An empty temporary file in the same directory, with the same suffix. Write it
-        completely (close it) before the block ends.
+        ``create=True``: an empty temporary file with ``dest``'s suffix (on Linux a link,
+        in a private temporary folder, to an unnamed file on ``dest``'s file system;
+        elsewhere a hidden file beside ``dest``). Write it completely (close it) before
+        the block ends; sidecar files written beside it (``<name>.aux.xml``) follow it.
+        ``create=False``: a new name ``dest.name`` in a private folder on ``dest``'s
+        file system (or in a hidden folder beside ``dest`` where there is none).
 
     Raises
     ------
@@ -334,9 +597,13 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
     -----
     On an exception (including ``SystemExit(143)`` from SIGTERM and
     :class:`KeyboardInterrupt`) the temporary file is removed and the exception
-    propagates; ``dest`` is untouched. A SIGKILL leaves ``dest`` untouched too, and a
-    hidden ``.<stem>.<pid>.<random>.tmp<suffix>`` file beside it, which the next write
-    to ``dest`` removes (:func:`remove_stale`: its writer is gone and holds no lock).
+    propagates; ``dest`` is untouched. A SIGKILL leaves ``dest`` untouched too. On Linux
+    it leaves nothing beside ``dest``, except when it falls between the two system calls
+    that name the complete file (``linkat`` of ``/proc/self/fd/<fd>`` to a hidden
+    ``.<stem>.<pid>.<random>.tmp<suffix>``) and rename it over ``dest``; where files
+    cannot be unnamed that hidden file exists during the whole write. Either way the
+    next write to ``dest`` removes it (:func:`remove_stale`: its writer is gone and
+    holds no lock).
     """
     dest = Path(dest)
     parent = _make_parent(dest)
@@ -347,6 +614,44 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
         return
     if dest.is_dir():
         raise output_error(dest, IsADirectoryError(21, "Is a directory"))
+    try:
+        fd = None if shared else _open_unnamed(parent, 0o600)
+    except OSError as exc:
+        _reraise(dest, exc)
+    with contextlib.ExitStack() as stack:
+        if fd is not None:
+            stack.callback(os.close, fd)
+            try:
+                link = stack.enter_context(_reach(fd, dest.name))
+            except OSError:  # no private folder for the link (a full /tmp): a named file
+                fd = None
+        if fd is None:
+            with _atomic_named(dest, parent) as tmp:
+                yield tmp
+            return
+        _lock(fd)  # the name it gets at the end is held: remove_stale leaves it alone
+        named: Path | None = None
+        try:
+            with _sigterm_raises():
+                try:
+                    yield link
+                    _take_back(link, fd)
+                    os.fchmod(fd, _mode_for(dest))
+                    named = _name(fd, dest, parent)
+                    os.replace(named, dest)  # a kill between the two leaves ``named``
+                    named = None
+                    _carry_sidecars(link, dest)
+                except OSError as exc:
+                    _reraise(dest, exc)
+        finally:
+            if named is not None:
+                with contextlib.suppress(OSError):
+                    named.unlink()
+
+
+@contextlib.contextmanager
+def _atomic_named(dest: Path, parent: Path) -> Iterator[Path]:
+    """:func:`atomic_path` where files cannot be unnamed: a hidden file beside ``dest``."""
     try:
         fd, name = tempfile.mkstemp(
             dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
@@ -362,85 +667,172 @@ def atomic_path(dest: str | os.PathLike[str], *, create: bool = True) -> Iterato
                 yield tmp
                 os.chmod(tmp, _mode_for(dest))
                 os.replace(tmp, dest)
+                done = True
+                _carry_sidecars(tmp, dest, move=True)
             except OSError as exc:
                 _reraise(dest, exc)
-            done = True
     finally:
         if not done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
+            for s in _SIDECARS:
+                with contextlib.suppress(OSError):
+                    tmp.with_name(tmp.name + s).unlink()
         os.close(fd)
 
 
 @contextlib.contextmanager
 def scratch_path(dest: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a hidden scratch file beside ``dest`` (its folder made), removed at the end.
+    """Yield a scratch file on ``dest``'s file system (its folder made), gone at the end.
 
     For work files an output needs on the same disk (an energy map computed on the
-    working grid before it is resampled onto ``dest``'s). The name is a temporary name of
-    ``dest`` (``.<stem>.<pid>.<random>.tmp<suffix>``, locked while in use), so what a
-    SIGKILL leaves is removed by the next write to ``dest`` (:func:`remove_stale`).
+    working grid before it is resampled onto ``dest``'s). On Linux it is an unnamed file
+    reached by a link in a private temporary folder, so a SIGKILL leaves nothing beside
+    ``dest``; elsewhere it is a temporary name of ``dest``
+    (``.<stem>.<pid>.<random>.tmp<suffix>``, locked while in use) that the next write to
+    ``dest`` removes after a SIGKILL (:func:`remove_stale`).
     """
     dest = Path(dest)
     parent = _make_parent(dest)
     remove_stale(dest)
+    name = ""
     try:
-        fd, name = tempfile.mkstemp(
-            dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
-        )
+        fd = _open_unnamed(parent, 0o600)
+        if fd is None:
+            fd, name = tempfile.mkstemp(
+                dir=parent, prefix=f".{dest.stem}.{os.getpid()}.", suffix=f".tmp{dest.suffix}"
+            )
     except OSError as exc:
         _reraise(dest, exc)
     _lock(fd)
     try:
-        yield Path(name)
+        if name:
+            yield Path(name)
+        else:
+            with _reach(fd, dest.name) as link:
+                yield link
     finally:
-        with contextlib.suppress(OSError):
-            os.unlink(name)
+        if name:
+            with contextlib.suppress(OSError):
+                os.unlink(name)
         os.close(fd)
+
+
+def _mount_of(path: Path) -> str | None:
+    """The id of the mount that holds ``path`` (existing or not); None if unknown.
+
+    Read from ``/proc/self/mountinfo``: the deepest mount point above ``path``'s real
+    path (the last one mounted there). A rename works within one mount only.
+    """
+    import re
+
+    try:
+        with open("/proc/self/mountinfo", encoding="utf-8", errors="surrogateescape") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    real = os.path.realpath(path)
+    best, depth = None, -1
+    for line in lines:
+        fields = line.split()
+        if len(fields) < 5:
+            continue
+        point = re.sub(r"\\([0-7]{3})", lambda m: chr(int(m.group(1), 8)), fields[4])
+        inside = real == point or real.startswith(point.rstrip("/") + "/")
+        if inside and len(point) >= depth:
+            best, depth = fields[0], len(point)
+    return best
+
+
+def cache_root() -> Path:
+    """The project's cache folder (not created): kernels, work folders.
+
+    ``$ENERGY_PLANNER_CACHE`` if set, else ``$XDG_CACHE_HOME/energy_planner``, else
+    ``~/.cache/energy_planner``.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = os.environ.get("ENERGY_PLANNER_CACHE")
+    >>> os.environ["ENERGY_PLANNER_CACHE"] = "/data/cache"
+    >>> str(cache_root())
+    '/data/cache'
+    >>> if before is None:
+    ...     del os.environ["ENERGY_PLANNER_CACHE"]
+    ... else:
+    ...     os.environ["ENERGY_PLANNER_CACHE"] = before
+    """
+    env = os.environ.get("ENERGY_PLANNER_CACHE")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "energy_planner"
+
+
+def _staging_base(parent: Path) -> Path | None:
+    """A folder on ``parent``'s mount, not ``parent``, to build folders in; None if none.
+
+    Tried: the temporary folder (:func:`tempfile.gettempdir`), then ``work`` in the
+    project's cache folder (:func:`cache_root`). A folder built there is moved to its
+    destination by one rename: nothing is ever beside it.
+    """
+    mine = _mount_of(parent)
+    if mine is None:
+        return None
+    bases = [Path(tempfile.gettempdir())]
+    with contextlib.suppress(RuntimeError, KeyError):  # no home folder
+        bases.append(cache_root() / "work")
+    for base in bases:
+        with contextlib.suppress(OSError, RuntimeError):
+            if _mount_of(base) != mine or base.resolve() == parent.resolve():
+                continue
+            base.mkdir(parents=True, exist_ok=True)
+            if os.access(base, os.W_OK | os.X_OK) and _mount_of(base) == mine:
+                return base
+    return None
+
+
+@contextlib.contextmanager
+def _work_folder(dest: Path, parent: Path) -> Iterator[Path]:
+    """An empty folder on ``dest``'s mount to build ``dest`` in (as ``dest.name`` in it).
+
+    A private folder of :func:`_staging_base` when there is one (a kill leaves nothing
+    beside ``dest``; the next private folder made there removes it), else a hidden
+    ``.<name>.<pid>.<random>.tmp`` beside ``dest`` (the next write to ``dest`` removes it
+    after a kill: :func:`remove_stale`). Removed at the end with what it still holds.
+    """
+    base = _staging_base(parent)
+    with contextlib.ExitStack() as stack:
+        holder = None
+        if base is not None:
+            with contextlib.suppress(OSError):  # then beside
+                holder = stack.enter_context(_private_dir(base, sweep=True))
+        if holder is None:
+            holder = stack.enter_context(_holder(dest, parent))
+        yield holder
 
 
 @contextlib.contextmanager
 def _atomic_new(dest: Path, parent: Path) -> Iterator[Path]:
-    """:func:`atomic_path` with ``create=False``: a fresh name in a private temp folder."""
-    import shutil
-
-    with _holder(dest, parent) as holder:
+    """:func:`atomic_path` with ``create=False``: a fresh name in a private folder."""
+    with _work_folder(dest, parent) as holder, _sigterm_raises():
         tmp = holder / dest.name
-        with _sigterm_raises():
-            try:
-                yield tmp
-                os.replace(tmp, dest)
-            except OSError as exc:
-                _reraise(dest, exc)
-            finally:
-                shutil.rmtree(holder, ignore_errors=True)
+        try:
+            yield tmp
+            os.replace(tmp, dest)
+        except OSError as exc:
+            _reraise(dest, exc)
 
 
 @contextlib.contextmanager
 def _holder(dest: Path, parent: Path) -> Iterator[Path]:
-    """A locked temporary folder ``.<name>.<pid>.<random>.tmp`` beside ``dest``."""
-    import shutil
-
-    try:
-        holder = Path(
-            tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}.{os.getpid()}.", suffix=".tmp")
-        )
-    except OSError as exc:
-        _reraise(dest, exc)
-    try:
-        fd: int | None = os.open(holder, os.O_RDONLY)
-    except OSError:  # pragma: no cover - a folder cannot be opened here (Windows)
-        fd = None
-    if fd is not None:
-        _lock(fd)
-    try:
+    """A locked temporary folder ``.<name>.<pid>.<random>.tmp`` beside ``dest``, then removed."""
+    with contextlib.ExitStack() as stack:
+        try:
+            prefix = f".{dest.name}.{os.getpid()}."
+            holder = stack.enter_context(_locked_folder(parent, prefix, ".tmp"))
+        except OSError as exc:
+            _reraise(dest, exc)
         yield holder
-    except BaseException:
-        shutil.rmtree(holder, ignore_errors=True)
-        raise
-    finally:
-        if fd is not None:
-            os.close(fd)
 
 
 def _exchange(a: Path, b: Path) -> bool:
@@ -515,7 +907,7 @@ def check_folder_output(dest: str | os.PathLike[str], *, overwrite: bool = False
 
 @contextlib.contextmanager
 def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iterator[Path]:
-    """Yield an empty temporary folder beside ``dest``; it becomes ``dest`` on success.
+    """Yield an empty temporary folder; it becomes ``dest`` on success.
 
     For outputs that are a whole folder (a simulated campaign): readers see the previous
     folder or the complete new one, never a mix of old and new files.
@@ -531,7 +923,9 @@ def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iter
     Yields
     ------
     pathlib.Path
-        The temporary folder ``.<name>.<pid>.<random>.tmp``, to be filled.
+        The temporary folder, named ``dest.name``, to be filled: in a private folder on
+        ``dest``'s mount (:func:`tempfile.gettempdir` or :func:`cache_root`) when one is
+        there, else in a hidden ``.<name>.<pid>.<random>.tmp`` beside ``dest``.
 
     Raises
     ------
@@ -544,8 +938,14 @@ def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iter
     ``RENAME_EXCHANGE``) and the old content, now in the temporary folder, is removed.
     Where the file system cannot swap, ``dest`` is moved aside first and then replaced:
     a kill between the two renames leaves no ``dest`` (the old content is in a hidden
-    folder beside it). On an exception the temporary folder is removed; after a SIGKILL
-    the next write to ``dest`` removes it (:func:`remove_stale`).
+    folder beside it). On an exception the temporary folder is removed.
+
+    A SIGKILL leaves ``dest`` as it was, or complete. A folder cannot be unnamed, so the
+    one built is somewhere until it is moved in: built in a private folder (the first
+    case above) a kill leaves nothing beside ``dest``, and the next folder output made
+    by any process removes the private folder (its writer is dead); built beside
+    ``dest`` a kill leaves the hidden ``.<name>.<pid>.<random>.tmp`` folder, which the
+    next write to ``dest`` removes (:func:`remove_stale`).
 
     Examples
     --------
@@ -564,24 +964,26 @@ def atomic_dir(dest: str | os.PathLike[str], *, overwrite: bool = False) -> Iter
     parent = _make_parent(dest)
     remove_stale(dest)
     exists = check_folder_output(dest, overwrite=overwrite)
-    with _holder(dest, parent) as holder, _sigterm_raises():
-        yield holder
+    with _work_folder(dest, parent) as holder, _sigterm_raises():
+        work = holder / dest.name
+        try:
+            work.mkdir()
+        except OSError as exc:
+            _reraise(dest, exc)
+        yield work
         try:
             if not exists:
-                os.rename(holder, dest)
-            elif _exchange(holder, dest):
-                shutil.rmtree(holder, ignore_errors=True)
-            else:  # pragma: no cover - file systems without an atomic swap
+                os.rename(work, dest)
+            elif not _exchange(work, dest):  # pragma: no cover - no atomic swap here
                 aside = Path(
                     tempfile.mkdtemp(
                         dir=parent, prefix=f".{dest.name}.{os.getpid()}.", suffix=".tmp"
                     )
                 )
                 os.rename(dest, aside / "old")
-                os.rename(holder, dest)
+                os.rename(work, dest)
                 shutil.rmtree(aside, ignore_errors=True)
         except OSError as exc:
-            shutil.rmtree(holder, ignore_errors=True)
             _reraise(dest, exc)
 
 

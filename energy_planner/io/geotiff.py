@@ -9,8 +9,8 @@ Conventions of every raster the project writes:
   tags repeat them (``name``, ``description``, ``units``) with any others;
 * DEFLATE compression (predictor 3 for floats), tiles of 256 for rasters of at least
   256 x 256 cells, BigTIFF when needed;
-* written to a temporary file beside the destination and renamed when complete
-  (:func:`energy_planner.io.atomic_path`).
+* written to a temporary (on Linux unnamed) file and renamed over the destination when
+  complete (:func:`energy_planner.io.atomic_path`).
 
 :func:`write_geotiff` writes arrays; :func:`open_geotiff` yields an open dataset for
 writers that fill windows one by one. Both turn a band tag ``units`` into the GDAL unit

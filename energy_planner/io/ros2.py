@@ -188,8 +188,8 @@ def write_path_bag(
     Parameters
     ----------
     path : str or pathlib.Path
-        The bag folder to create (must not exist). Written atomically: into a temporary
-        folder beside it, renamed when complete.
+        The bag folder to create (must not exist). Written atomically: into a private
+        folder on the same file system, renamed when complete.
     paths : mapping
         Topic -> ``(states, times)``: poses ``x, y, yaw`` (n, 3) in the working CRS
         (metres, radians) and the time of each pose (n,), s.

@@ -44,12 +44,9 @@ def note_compiling() -> None:
 
 def cache_dir() -> Path:
     """The directory that holds generated kernel modules (created if needed)."""
-    env = os.environ.get("ENERGY_PLANNER_CACHE")
-    if env:
-        candidates = [Path(env)]
-    else:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-        candidates = [Path(base) / "energy_planner"]
+    from energy_planner.io.atomic import cache_root
+
+    candidates = [cache_root()]
     candidates.append(Path(tempfile.gettempdir()) / f"energy_planner-{os.getuid()}")
     failed: list[str] = []
     for d in candidates:

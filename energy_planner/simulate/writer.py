@@ -1,7 +1,7 @@
 """Write a simulated campaign: one log per run (CSV or Parquet), the run table, the truth.
 
-Every file goes through :mod:`energy_planner.io` (written beside its destination and
-renamed when complete); ROS 2 bags through :func:`energy_planner.measurements.write_rosbag`.
+Every file goes through :mod:`energy_planner.io` (unnamed until complete, then renamed
+over its destination); ROS 2 bags through :func:`energy_planner.measurements.write_rosbag`.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def write_campaign(
         Show a progress bar on stderr.
     overwrite : bool
         Replace a non-empty ``out_dir`` whole: the campaign is written into a temporary
-        folder beside it and swapped in when complete
+        folder on the same file system and swapped in when complete
         (:func:`energy_planner.io.atomic_dir`), so an older campaign's files never mix
         with the new ones.
 
