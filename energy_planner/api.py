@@ -474,7 +474,7 @@ def compare_routes(
     crs: Any = None,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -487,6 +487,8 @@ def compare_routes(
     time: float = 10.0,
     seed: int = 0,
     step: float | None = None,
+    deadline: float | None = None,
+    pareto: int | None = None,
     level: float = 0.9,
     battery_wh: float | None = None,
     reserve_wh: float = 0.0,
@@ -506,9 +508,23 @@ def compare_routes(
     {planning}
     step : float, optional
         Position spacing of the searches, metres.
+    deadline : float, optional
+        Seconds (``--deadline``): each route walked at the least-energy speed profile
+        that arrives in time, and the energy-optimal route the least-energy one in time
+        (the plan under the deadline among them); speeds within ``speed`` (default
+        ``"auto"``).
+    pareto : int, optional
+        Points of each route's energy-time front (``--pareto N``; ``fronts`` of the
+        result); speeds within ``speed`` (default ``"auto"``).
     {trust}
     progress : bool
         Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, ``--speed V``) or a range each motion of every route
+    chooses its speed from, ``(vmin, vmax)`` or ``"auto"`` (``--speed MIN:MAX``,
+    ``--speed auto``); each route then carries its speed profile.
 
     Returns
     -------
@@ -518,9 +534,13 @@ def compare_routes(
     """
     from energy_planner.planning.compare import compare_routes as _cr
 
-    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
+    given = _take(locals(), REQUEST_KEYS)
+    choice = {"deadline": deadline, "pareto": pareto}
+    if speed is not None and not isinstance(speed, int | float):
+        choice["speed"] = given.pop("speed")  # a range: chosen per motion
+    prob = _problem(dem, model, request, **given)
     comp = _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), planner=planner,
-               time=time, seed=seed, step=step, progress=progress,
+               time=time, seed=seed, step=step, progress=progress, **choice,
                **_take(locals(), TRUST_KEYS))  # fmt: skip
     return _bound(comp, prob)
 

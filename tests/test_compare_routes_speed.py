@@ -1,0 +1,211 @@
+"""compare-routes with the speed as a decision: a range, a deadline, the energy-time front.
+
+On a plane with a model whose power is ``a v + b + c v^2`` at any slope and heading (the
+model of ``tests/test_plan_speed.py``), every number is calculus: a metre costs ``a + b / v
++ c v``, least at ``v* = sqrt(b / c)``; a route of ground length ``L`` due within ``D``
+seconds, with ``L / D`` above ``v*``, walks at ``L / D`` (the cost per metre is convex in
+``v``). On a window of the bundled hill, a model whose cost per metre is convex in the
+grade (the detour model of ``tests/test_compare_routes.py``) plus standing power and swing
+losses makes the least-energy route a detour at its best speed; a deadline that asks for
+speed makes the straight climb the least-energy route in time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import energy_planner as ep
+from energy_planner.cli import main
+from energy_planner.errors import PlanningConfigError, PlanningError
+from energy_planner.model import EnergyModel
+from energy_planner.planning.speed import route_front, timed, timed_deadline
+from energy_planner.problem import Problem
+from energy_planner.terrain import Terrain
+
+A, B, C = 120.0, 40.0, 100.0  # power a v + b + c v^2
+V_STAR = math.sqrt(B / C)
+RANGE = (0.2, 1.5)
+
+
+def _model() -> EnergyModel:
+    m = EnergyModel(["speed", "1", "speed ** 2"], {"speed": A, "1": B, "speed ** 2": C})
+    dom = {"speed_m_s": list(RANGE), "max_slope_deg": 30.0, "max_turn_rate_rad_s": 0.6,
+           "gaits": {}, "channels": {}}  # fmt: skip
+    m.metadata = {"fit": {"domain": dom}}
+    return m
+
+
+def _per_metre(v):
+    return A + B / v + C * v
+
+
+def _detour_model() -> EnergyModel:
+    """Forward cost per metre 600 + 1000 g + 15000 g^2 at grade g (critical grade 11.5 deg),
+    dearer backward and sideways, plus 200 W standing and swing losses 800 v^2 W."""
+    from energy_planner.model.terms import resolve_term
+
+    g = "sin(alpha) * cos(gamma)"
+    spec = {
+        "pos(vx)": 600.0, f"pos(vx) * {g}": 1000.0, f"pos(vx) * ({g}) ** 2": 15000.0,
+        "pos(-vx)": 15600.0, f"-pos(-vx) * {g}": 1000.0,
+        "abs(vy)": 15600.0, "-vy * sin(alpha) * sin(gamma)": 1000.0,
+        "1": 200.0, "speed ** 2": 800.0,
+    }  # fmt: skip
+    terms = [resolve_term(f) for f in spec]
+    return EnergyModel(terms, {t.name: v for t, v in zip(terms, spec.values(), strict=True)})
+
+
+def _spy(monkeypatch) -> list:
+    """Keep what the library's compare_routes returns to the command."""
+    import energy_planner.planning.compare as mod
+
+    real, kept = mod.compare_routes, []
+
+    def spy(*a, **k):
+        kept.append(real(*a, **k))
+        return kept[-1]
+
+    monkeypatch.setattr(mod, "compare_routes", spy)
+    return kept
+
+
+def _json_equal(printed: dict, obj: dict) -> bool:
+    """``printed`` is ``obj`` as JSON, besides the wall-clock times and the outputs written."""
+    from energy_planner.cli.options import _jsonable
+
+    def strip(d):
+        if isinstance(d, dict):
+            return {k: strip(v) for k, v in d.items() if k not in ("time_s", "plot")}
+        if isinstance(d, list):
+            return [strip(v) for v in d]
+        return d
+
+    return strip(printed) == strip(json.loads(json.dumps(_jsonable(obj))))
+
+
+@pytest.fixture(scope="module")
+def plane():
+    t = Terrain.from_function(lambda x, y: 0.12 * x, size=(30, 12), resolution=1.0)
+    x0, y0 = t.grid[0], t.grid[1]
+    return Problem(t, _model()), (x0 + 2.0, y0 - 5.0), (x0 + 26.0, y0 - 5.0)
+
+
+def _walks(route):
+    return [p["speed_m_s"] for p in route.speed_profile() if p["speed_m_s"] > 0]
+
+
+def test_a_fixed_route_walks_at_sqrt_b_over_c_and_at_length_over_deadline(plane):
+    p, s, g = plane
+    line = np.array([[*s, 0.0], [*g, 0.0]])
+    free = timed(p, line, speed=RANGE)
+    assert free.speed_profile()[0]["speed_m_s"] == pytest.approx(V_STAR, rel=1e-6)
+    length = free.distance_m
+    assert free.energy_j == pytest.approx(length * _per_metre(V_STAR), rel=1e-9)
+    late = timed_deadline(p, line, length / 1.1, speed=RANGE)
+    v = length / late.duration_s
+    assert late.duration_s <= length / 1.1
+    assert v == pytest.approx(1.1, rel=2e-4)
+    assert late.energy_j == pytest.approx(length * _per_metre(1.1), rel=1e-3)
+    # a deadline the free timing meets changes nothing
+    easy = timed_deadline(p, line, 2 * free.duration_s, speed=RANGE)
+    assert easy.energy_j == free.energy_j and easy.info["deadline"]["lambda_j_per_s"] == 0
+    with pytest.raises(PlanningError, match="top of the speed range") as info:
+        timed_deadline(p, line, length / 2.0, speed=RANGE)
+    assert info.value.value == pytest.approx(length / RANGE[1], rel=1e-6)
+    # each point of a route's front: the closed form sqrt((b + lambda) / c), clamped
+    front = route_front(p, line, [0.0, 10.0, 1000.0], speed=RANGE)
+    for lam, row in zip(front.lambdas, front.rows(), strict=True):
+        v = min(max(math.sqrt((B + lam) / C), RANGE[0]), RANGE[1])
+        assert row["speed_max_m_s"] == pytest.approx(v, rel=1e-6)
+        assert row["energy_j"] == pytest.approx(length * _per_metre(v), rel=1e-9)
+
+
+def test_compare_routes_at_the_best_speed_and_under_a_deadline(plane):
+    p, s, g = plane
+    fixed = ep.compare_routes(p, s, g, time=1)  # the nominal 0.3 m/s, as always
+    assert all(r.times is None for r in fixed.routes) and "speed chosen" not in fixed.table()
+    comp = ep.compare_routes(p, s, g, speed=RANGE, time=1)
+    direct = comp.route("direct")
+    assert _walks(direct) == [pytest.approx(V_STAR, rel=1e-6)]
+    assert direct.energy_j == pytest.approx(direct.distance_m * _per_metre(V_STAR), rel=1e-9)
+    assert direct.to_dict()["speed_profile"][0]["speed_m_s"] == pytest.approx(V_STAR)
+    assert "speed chosen per motion within 0.2-1.5 m/s" in comp.table()
+    deadline = direct.distance_m / 1.2
+    late = ep.compare_routes(p, s, g, speed=RANGE, deadline=deadline, time=1)
+    d = late.route("direct")
+    assert d.duration_s <= deadline and d.deadline["on_time"]
+    assert _walks(d) == [pytest.approx(1.2, rel=2e-4)]
+    assert d.energy_j == pytest.approx(d.distance_m * _per_metre(1.2), rel=1e-3)
+    best = late.route("energy_optimal")
+    assert best.duration_s <= deadline and best.energy_j <= d.energy_j * (1 + 1e-9)
+    info = late.info["deadline"]
+    assert info["deadline_s"] == deadline and info["energy_optimal_from"]
+    assert {c["route"] for c in info["candidates"]} >= {"direct", "plan under the deadline"}
+    assert "the least energy in time" in late.table()
+    with pytest.raises(PlanningConfigError, match="not both"):
+        ep.compare_routes(p, s, g, speed=RANGE, deadline=deadline, pareto=3)
+
+
+@pytest.fixture(scope="module")
+def hill():
+    """A 36 m x 28 m window of the bundled hill; the detour model with speed terms."""
+    from energy_planner.terrain import load_dem
+
+    model = _detour_model()  # v* = 0.5 m/s
+    terrain = load_dem(ep.map_path("hill"), bounds=(500040, 5000040, 500076, 5000068))
+    return Problem(terrain, model), (500058.0, 5000046.0), (500058.0, 5000062.0)
+
+
+def test_a_deadline_favours_the_direct_climb_over_the_detour(hill):
+    p, s, g = hill
+    free = ep.compare_routes(p, s, g, speed=(0.2, 2.0), time=0.5)
+    direct, detour = free.route("direct"), free.route("energy_optimal")
+    # at its best speed, the least-energy route is a detour, cheaper than the climb
+    assert detour.same_as is None and detour.distance_m > 1.05 * direct.distance_m
+    assert detour.energy_j < 0.9 * direct.energy_j
+    deadline = direct.distance_m / 1.5
+    late = ep.compare_routes(p, s, g, speed=(0.2, 2.0), deadline=deadline, time=0.5)
+    best, line = late.route("energy_optimal"), late.route("direct")
+    assert best.duration_s <= deadline and line.duration_s <= deadline
+    # in time, the least-energy route is the straight climb: the detour is late, or dearer
+    assert best.distance_m < 1.02 * direct.distance_m
+    found = next(c for c in late.info["deadline"]["candidates"]
+                 if c["route"].startswith("energy_optimal"))  # fmt: skip
+    assert not found["on_time"] or found["energy_j"] > line.energy_j
+    # the climb's energy in time is the energy command's for its poses at those times
+    pe = ep.path_energy(p, line.states[:, :2], yaw=line.states[:, 2], t=line.times)
+    assert pe.energy_j == pytest.approx(line.energy_j, rel=1e-9)
+
+
+def test_cli_deadline_and_pareto_print_what_the_library_returns(tmp_path, monkeypatch):
+    model = tmp_path / "m.json"
+    _model().save(model)
+    args = ["compare-routes", "--dem", "plane", "--start", "500010,5000010", "--goal",
+            "500040,5000010", "--model", str(model), "--time", "0.5"]  # fmt: skip
+    kept = _spy(monkeypatch)
+    run = CliRunner().invoke(main, [*args, "--deadline", "25", "--json"])
+    assert run.exit_code == 0, run.output
+    printed = json.loads(run.stdout)
+    assert _json_equal(printed, kept[-1].to_dict())
+    assert printed["info"]["deadline"]["deadline_s"] == 25
+    assert printed["info"]["speed"]["speed_range"] == list(RANGE)  # auto: the logged range
+    d = next(r for r in printed["routes"] if r["name"] == "direct")
+    assert d["duration_s"] <= 25 and d["deadline"]["on_time"]
+    plot = tmp_path / "front.png"
+    run = CliRunner().invoke(main, [*args, "--pareto", "3", "--plot", str(plot), "--json"])
+    assert run.exit_code == 0, run.output
+    printed = json.loads(run.stdout)
+    assert _json_equal(printed, kept[-1].to_dict())
+    assert plot.stat().st_size > 0 and printed["plot"] == str(plot)
+    fronts = printed["fronts"]
+    assert set(fronts) >= {"direct", "energy_optimal"}
+    rows = fronts["direct"]["points"]
+    assert len(rows) == 3 and rows[0]["speed_max_m_s"] == pytest.approx(V_STAR, rel=1e-6)
+    assert np.all(np.diff([r["duration_s"] for r in rows]) < 0)
+    run = CliRunner().invoke(main, [*args, "--pareto", "3"])
+    assert run.exit_code == 0 and "energy-time front of direct" in run.output
