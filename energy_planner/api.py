@@ -557,7 +557,7 @@ def reach(
     free_turn: bool = False,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -570,6 +570,7 @@ def reach(
     reserve_wh: float = 0.0,
     confidence: float = 0.9,
     memory_cap: Any = DEFAULT_CAP,
+    max_time: float | None = None,
     n_headings: int = 16,
     progress: bool = False,
 ):
@@ -603,10 +604,20 @@ def reach(
         Memory the search may use, bytes (``--memory-cap``); a DEM file too large for
         it is read as one window about the start that the budget can reach (needs
         ``budget_wh``).
+    max_time : float, optional
+        Seconds (``--max-time``): only the cells some path reaches (and leaves, with
+        ``return_to_start``) within this time, every motion at the top of ``speed``;
+        the least time per cell is ``result.time_s``.
     n_headings : int
         Search headings.
     progress : bool
         Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, ``--speed V``) or a range each motion chooses its
+    least-energy speed from, ``(vmin, vmax)`` or ``"auto"`` (``--speed MIN:MAX``,
+    ``--speed auto``; the range the model's logs cover).
 
     Returns
     -------
@@ -625,6 +636,9 @@ def reach(
                                   value=within_budget)  # fmt: skip
     trust = _take(locals(), TRUST_KEYS)
     given = _take(locals(), REQUEST_KEYS)
+    ranged = None
+    if speed is not None and not isinstance(speed, int | float):
+        ranged = given.pop("speed")  # each motion chooses its speed in the range
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, reach_in_window
 
@@ -639,6 +653,13 @@ def reach(
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "start in the DEM's CRS")  # fmt: skip
+            if ranged is not None or max_time is not None:
+                raise PlanningConfigError(
+                    f"{dem}: a DEM read as a window (over memory_cap) is searched at the "
+                    "request's speed; expected a fixed speed= (m/s) and no max_time=, or a "
+                    "larger memory_cap",
+                    param="speed", value=ranged,
+                )  # fmt: skip
             m = load_model(model) if isinstance(model, str | Path) or model is None else model
             req = request_with(request, **given)
             s = tuple(float(v) for v in np.asarray(start, dtype=float)[:2])
@@ -650,9 +671,15 @@ def reach(
             rm.budget_wh = budget_wh
             return _bound(rm, Problem(terrain, m, req))
     prob = _problem(dem, model, request, **given)
-    rm = _reach(prob, _pose(prob, start, crs)[:2], round_trip=return_to_start,
+    pose = _pose(prob, start, crs)[:2]
+    if ranged is not None:
+        from energy_planner.planning.speed import with_speed
+
+        prob = with_speed(prob, ranged)
+    rm = _reach(prob, pose, round_trip=return_to_start,
                 turn_at_cell=not free_turn, n_headings=n_headings, progress=progress,
-                max_energy=budget_wh * 3600.0 if within_budget else None, **trust)  # fmt: skip
+                max_energy=budget_wh * 3600.0 if within_budget else None, max_time=max_time,
+                **trust)  # fmt: skip
     rm.budget_wh = budget_wh
     return _bound(rm, prob)
 

@@ -174,27 +174,39 @@ def test_a_deadline_favours_the_direct_climb_over_the_detour(hill):
     assert best.duration_s <= deadline and line.duration_s <= deadline
     # in time, the least-energy route is the straight climb: the detour is late, or dearer
     assert best.distance_m < 1.02 * direct.distance_m
-    found = next(c for c in late.info["deadline"]["candidates"]
-                 if c["route"].startswith("energy_optimal"))  # fmt: skip
-    assert not found["on_time"] or found["energy_j"] > line.energy_j
+    # the detour found without the deadline, walked to arrive in time: late, or dearer
+    try:
+        walked = timed_deadline(p, detour.states, deadline, speed=(0.2, 2.0))
+    except PlanningError as exc:
+        assert exc.limit == "deadline" and exc.value > deadline
+    else:
+        assert walked.energy_j > line.energy_j
     # the climb's energy in time is the energy command's for its poses at those times
     pe = ep.path_energy(p, line.states[:, :2], yaw=line.states[:, 2], t=line.times)
     assert pe.energy_j == pytest.approx(line.energy_j, rel=1e-9)
 
 
-def test_cli_deadline_and_pareto_print_what_the_library_returns(tmp_path, monkeypatch):
+@pytest.fixture(scope="module")
+def ramp(tmp_path_factory):
+    """A GeoTIFF of a 12 % grade along x, 30 m x 12 m, and the plane model's file."""
     import rasterio
     from rasterio.transform import from_origin
 
-    model = tmp_path / "m.json"
+    where = tmp_path_factory.mktemp("ramp")
+    model = where / "m.json"
     _model().save(model)
-    dem = tmp_path / "ramp.tif"  # a 12 % grade along x, 30 m x 12 m
+    dem = where / "ramp.tif"
     z = np.tile(0.12 * (np.arange(30) + 0.5), (12, 1))
     with rasterio.open(
         dem, "w", driver="GTiff", height=12, width=30, count=1, dtype="float64",
         crs="EPSG:32631", transform=from_origin(500000.0, 5000012.0, 1.0, 1.0),
     ) as dst:  # fmt: skip
         dst.write(z, 1)
+    return dem, model
+
+
+def test_cli_deadline_and_pareto_print_what_the_library_returns(ramp, tmp_path, monkeypatch):
+    dem, model = ramp
     args = ["compare-routes", "--dem", str(dem), "--start", "500002,5000006", "--goal",
             "500026,5000006", "--model", str(model), "--time", "0.5"]  # fmt: skip
     kept = _spy(monkeypatch)
@@ -219,3 +231,47 @@ def test_cli_deadline_and_pareto_print_what_the_library_returns(tmp_path, monkey
     assert len(rows) == 3 and rows[0]["speed_max_m_s"] == pytest.approx(V_STAR, rel=1e-6)
     assert np.all(np.diff([r["duration_s"] for r in rows]) < 0)
     assert "energy-time front of direct" in kept[-1].table()
+
+
+# --- reach bounded in time -------------------------------------------------------------
+
+
+def test_reach_within_a_time_walks_at_the_best_speed_and_bounds_by_the_fastest():
+    """On level ground: along the lattice's axes the least energy is ``d (a + 2 sqrt(b c))``
+    (each motion at ``v*``) and the least time ``d / vmax``; ``max_time`` keeps the cells
+    reached within it."""
+    t = Terrain.from_function(lambda x, y: 0.0 * x, size=(25, 25), resolution=1.0)
+    p = Problem(t, _model())
+    x0, y0 = t.grid[0], t.grid[1]
+    s = (x0 + 12.0, y0 - 12.0)
+    res = ep.reach(p, s, speed=RANGE, max_time=6.0)
+    row = res.energy_j[12]  # the row of the start, west to east
+    d = np.abs(np.arange(25) - 12.0)
+    axis = np.isfinite(row)
+    assert list(np.nonzero(axis)[0]) == list(range(3, 22))  # 9 m at 1.5 m/s: 6 s
+    np.testing.assert_allclose(row[axis], d[axis] * (A + 2 * math.sqrt(B * C)), rtol=1e-5)
+    np.testing.assert_allclose(res.time_s[12][axis], d[axis] / RANGE[1], rtol=1e-5)
+    out = res.to_dict()
+    assert out["time_bound"]["max_time_s"] == 6.0 and out["time_bound"]["top_speed_m_s"] == 1.5
+    assert out["speed"]["speed_range"] == list(RANGE)
+    fixed = ep.reach(p, s, budget_wh=1.0)  # the nominal 0.3 m/s, no bound: as before
+    assert fixed.time_s is None and "time_bound" not in fixed.to_dict()
+    inner = slice(1, 24)  # the map's border cells are not searched
+    np.testing.assert_allclose(fixed.energy_j[12, inner], d[inner] * _per_metre(0.3), rtol=1e-5)
+
+
+def test_cli_reach_max_time_prints_what_the_library_returns(ramp, tmp_path):
+    dem, model = ramp
+    args = ["reach", str(dem), "--start", "500015,5000006", "--model", str(model), "--speed",
+            "auto", "--max-time", "6"]  # fmt: skip
+    plot = tmp_path / "r.png"
+    run = CliRunner().invoke(main, [*args, "--plot", str(plot), "--json"])
+    assert run.exit_code == 0, run.output
+    printed = json.loads(run.stdout)
+    res = ep.reach(str(dem), (500015, 5000006), model=str(model), speed="auto", max_time=6.0)
+    assert _json_equal(printed, {"dem": str(dem), **res.to_dict()})
+    assert printed["time_bound"]["top_speed_m_s"] == RANGE[1]
+    assert 0 < printed["time_bound"]["least_time_max_s"] <= 6.0
+    assert plot.stat().st_size > 0
+    run = CliRunner().invoke(main, args)
+    assert "within 6 s" in run.output and "least-energy speed within 0.2-1.5" in run.output
