@@ -1,4 +1,4 @@
-"""compare-routes with the speed as a decision: a range, a deadline, the energy-time front.
+"""The speed as a decision in compare-routes, reach and mission: a range, a deadline, a front.
 
 On a plane with a model whose power is ``a v + b + c v^2`` at any slope and heading (the
 model of ``tests/test_plan_speed.py``), every number is calculus: a metre costs ``a + b / v
@@ -22,6 +22,7 @@ from click.testing import CliRunner
 import energy_planner as ep
 from energy_planner.cli import main
 from energy_planner.errors import PlanningConfigError, PlanningError
+from energy_planner.mission import Sites
 from energy_planner.model import EnergyModel
 from energy_planner.planning.speed import route_front, timed, timed_deadline
 from energy_planner.problem import Problem
@@ -275,3 +276,52 @@ def test_cli_reach_max_time_prints_what_the_library_returns(ramp, tmp_path):
     assert plot.stat().st_size > 0
     run = CliRunner().invoke(main, args)
     assert "within 6 s" in run.output and "least-energy speed within 0.2-1.5" in run.output
+
+
+# --- a mission within a time budget ----------------------------------------------------
+
+
+def test_mission_within_a_time_budget_walks_every_leg_at_length_over_budget():
+    """Level ground, three sites 10 m apart along the lattice's axes: each leg is a
+    straight line, one price of a second walks every leg at the same speed, so a budget
+    ``T`` for the 20 m tour asks for ``20 / T`` m/s on every leg."""
+    t = Terrain.from_function(lambda x, y: 0.0 * x, size=(16, 16), resolution=1.0)
+    p = Problem(t, _model())
+    x0, y0 = t.grid[0], t.grid[1]
+    sites = Sites(np.array([[x0 + 3, y0 - 3], [x0 + 13, y0 - 3], [x0 + 13, y0 - 13]]),
+                  ["a", "b", "c"])  # fmt: skip
+    free = ep.mission(p, sites, speed=RANGE)
+    assert free.order == [0, 1, 2] and free.distance_m == pytest.approx(20.0)
+    assert free.energy_j == pytest.approx(20.0 * _per_metre(V_STAR), rel=1e-6)
+    assert all(leg.speed_profile()[0]["speed_m_s"] == pytest.approx(V_STAR, rel=1e-6)
+               for leg in free.legs)  # fmt: skip
+    res = ep.mission(p, sites, time_budget=20.0)  # speeds within the logged range
+    v = res.distance_m / res.duration_s
+    assert res.duration_s <= 20.0 and 1.0 <= v <= 1.03
+    assert res.energy_j == pytest.approx(20.0 * _per_metre(v), rel=1e-6)
+    assert res.energy_j == pytest.approx(20.0 * _per_metre(1.0), rel=0.01)
+    d = res.to_dict()
+    assert d["time_budget"]["time_budget_s"] == 20.0 and d["time_budget"]["lambda_j_per_s"] > 0
+    assert d["legs"][0]["speed_max_m_s"] == pytest.approx(v, rel=1e-6)
+
+
+def test_cli_mission_time_budget_prints_what_the_library_returns(ramp, tmp_path, monkeypatch):
+    import energy_planner.mission as pkg
+
+    dem, model = ramp
+    csv = tmp_path / "sites.csv"
+    csv.write_text("x,y,name\n500003.5,5000006.5,a\n500013.5,5000006.5,b\n500023.5,5000006.5,c\n")
+    real, kept = pkg.mission, []
+
+    def spy(*a, **k):
+        kept.append(real(*a, **k))
+        return kept[-1]
+
+    monkeypatch.setattr(pkg, "mission", spy)
+    run = CliRunner().invoke(main, ["mission", "--dem", str(dem), "--sites", str(csv), "--model",
+                                    str(model), "--time-budget", "20", "--json"])  # fmt: skip
+    assert run.exit_code == 0, run.output
+    printed = json.loads(run.stdout)
+    assert _json_equal(printed, {**kept[-1].to_dict(), "dem": str(dem)})
+    assert printed["duration_s"] <= 20 and printed["time_budget"]["time_budget_s"] == 20
+    assert printed["speed"]["speed_range"] == list(RANGE)
