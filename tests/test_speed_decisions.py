@@ -325,3 +325,68 @@ def test_cli_mission_time_budget_prints_what_the_library_returns(ramp, tmp_path,
     assert _json_equal(printed, {**kept[-1].to_dict(), "dem": str(dem)})
     assert printed["duration_s"] <= 20 and printed["time_budget"]["time_budget_s"] == 20
     assert printed["speed"]["speed_range"] == list(RANGE)
+
+
+# --- following a mission with a deadline -----------------------------------------------
+
+
+def test_follower_says_whether_the_deadline_holds_and_the_speed_that_keeps_it(
+    follow_mission, make_follower
+):
+    """The mission walks forward at a constant 0.3 m/s and the plan's times are the log's:
+    the slack is the deadline less the walk's duration at every update, and the speed that
+    keeps a deadline ``D`` after ``e`` seconds is ``0.3 (T - e) / (D - e)``."""
+    logs = follow_mission()
+    t = logs["t"].to_numpy()
+    total = float(t[-1] - t[0])
+    v = float(np.hypot(*np.diff(logs[["x", "y"]].to_numpy(), axis=0).T).sum()) / total
+    assert v == pytest.approx(0.3, rel=0.02)
+    for share in (1.2, 0.75):
+        deadline = share * total
+        f = make_follower(logs, deadline=deadline)
+        ups = f.replay(logs)
+        assert len(ups) > 20
+        for u in ups[:-1]:
+            e = u.t - t[0]
+            assert u.deadline_slack_s == pytest.approx(deadline - total, abs=1.5)
+            if e >= deadline:  # past it: no speed keeps it
+                assert u.speed_to_keep_m_s == math.inf
+                continue
+            keep = v * (total - e) / (deadline - e)  # (the path's ground metres: 0.005 m/s)
+            assert u.speed_to_keep_m_s == pytest.approx(keep, rel=0.03, abs=0.005)
+            assert u.to_dict()["deadline_ok"] == (share > 1)
+        lost = [ev for ev in f.events if "before the deadline" in ev]
+        assert len(lost) == (0 if share > 1 else 1)
+        assert f.to_dict()["deadline_s"] == deadline
+    assert "deadline_ok" not in make_follower(logs).replay(logs[:400])[0].to_dict()
+
+
+def test_cli_follow_deadline_prints_what_the_follower_returns(tmp_path, follow_config):
+    from energy_planner.energy.waypoints import read_waypoints
+    from energy_planner.follow import follow_log
+    from energy_planner.io.path_format import write_path_from_work
+    from energy_planner.simulate import simulate_missions
+
+    ter = ep.open_terrain(ep.map_path("hill"))
+    logs = simulate_missions(seed=2, config=follow_config.replace(duration_s=30.0),
+                             terrain=ter).logs  # fmt: skip
+    k = np.r_[np.arange(0, len(logs), 10), len(logs) - 1]
+    path = write_path_from_work(tmp_path / "plan.geojson", ter,
+                                logs[["x", "y", "yaw"]].to_numpy()[k],
+                                t=logs["t"].to_numpy()[k])  # fmt: skip
+    log = tmp_path / "run.csv"
+    logs.to_csv(log, index=False)
+    args = ["follow", str(log), "--dem", str(ep.map_path("hill")), "--path", str(path),
+            "--deadline", "20"]  # fmt: skip
+    run = CliRunner().invoke(main, [*args, "--json"])
+    assert run.exit_code == 0, run.output
+    printed = json.loads(run.stdout)
+    from energy_planner.measurements import load_logs
+
+    f = follow_log(ter, ep.load_model(), load_logs(log), read_waypoints(path), deadline=20.0)
+    assert _json_equal(printed, {**f.to_dict(), "log": str(log), "dem": printed["dem"],
+                                 "path": str(path)})  # fmt: skip
+    assert printed["deadline_s"] == 20 and not printed["updates"][0]["deadline_ok"]
+    assert any("before the deadline" in e for e in printed["events"])
+    run = CliRunner().invoke(main, args)
+    assert "slack s" in run.output and "keep m/s" in run.output
