@@ -1,4 +1,4 @@
-"""The speed as a decision in compare-routes, reach and mission: a range, a deadline, a front.
+"""The speed as a decision in compare-routes, reach, mission and follow: a range, a deadline.
 
 On a plane with a model whose power is ``a v + b + c v^2`` at any slope and heading (the
 model of ``tests/test_plan_speed.py``), every number is calculus: a metre costs ``a + b / v
