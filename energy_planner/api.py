@@ -474,7 +474,7 @@ def compare_routes(
     crs: Any = None,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -487,6 +487,8 @@ def compare_routes(
     time: float = 10.0,
     seed: int = 0,
     step: float | None = None,
+    deadline: float | None = None,
+    pareto: int | None = None,
     level: float = 0.9,
     battery_wh: float | None = None,
     reserve_wh: float = 0.0,
@@ -506,9 +508,23 @@ def compare_routes(
     {planning}
     step : float, optional
         Position spacing of the searches, metres.
+    deadline : float, optional
+        Seconds (``--deadline``): each route walked at the least-energy speed profile
+        that arrives in time, and the energy-optimal route the least-energy one in time
+        (the plan under the deadline among them); speeds within ``speed`` (default
+        ``"auto"``).
+    pareto : int, optional
+        Points of each route's energy-time front (``--pareto N``; ``fronts`` of the
+        result); speeds within ``speed`` (default ``"auto"``).
     {trust}
     progress : bool
         Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, ``--speed V``) or a range each motion of every route
+    chooses its speed from, ``(vmin, vmax)`` or ``"auto"`` (``--speed MIN:MAX``,
+    ``--speed auto``); each route then carries its speed profile.
 
     Returns
     -------
@@ -518,9 +534,13 @@ def compare_routes(
     """
     from energy_planner.planning.compare import compare_routes as _cr
 
-    prob = _problem(dem, model, request, **_take(locals(), REQUEST_KEYS))
+    given = _take(locals(), REQUEST_KEYS)
+    choice = {"deadline": deadline, "pareto": pareto}
+    if speed is not None and not isinstance(speed, int | float):
+        choice["speed"] = given.pop("speed")  # a range: chosen per motion
+    prob = _problem(dem, model, request, **given)
     comp = _cr(prob, _pose(prob, start, crs), _pose(prob, goal, crs), planner=planner,
-               time=time, seed=seed, step=step, progress=progress,
+               time=time, seed=seed, step=step, progress=progress, **choice,
                **_take(locals(), TRUST_KEYS))  # fmt: skip
     return _bound(comp, prob)
 
@@ -537,7 +557,7 @@ def reach(
     free_turn: bool = False,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -550,6 +570,7 @@ def reach(
     reserve_wh: float = 0.0,
     confidence: float = 0.9,
     memory_cap: Any = DEFAULT_CAP,
+    max_time: float | None = None,
     n_headings: int = 16,
     progress: bool = False,
 ):
@@ -583,10 +604,20 @@ def reach(
         Memory the search may use, bytes (``--memory-cap``); a DEM file too large for
         it is read as one window about the start that the budget can reach (needs
         ``budget_wh``).
+    max_time : float, optional
+        Seconds (``--max-time``): only the cells some path reaches (and leaves, with
+        ``return_to_start``) within this time, every motion at the top of ``speed``;
+        the least time per cell is ``result.time_s``.
     n_headings : int
         Search headings.
     progress : bool
         Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, ``--speed V``) or a range each motion chooses its
+    least-energy speed from, ``(vmin, vmax)`` or ``"auto"`` (``--speed MIN:MAX``,
+    ``--speed auto``; the range the model's logs cover).
 
     Returns
     -------
@@ -605,6 +636,9 @@ def reach(
                                   value=within_budget)  # fmt: skip
     trust = _take(locals(), TRUST_KEYS)
     given = _take(locals(), REQUEST_KEYS)
+    ranged = None
+    if speed is not None and not isinstance(speed, int | float):
+        ranged = given.pop("speed")  # each motion chooses its speed in the range
     if isinstance(dem, str | Path):
         from energy_planner.planning.corridor import needs_windows, reach_in_window
 
@@ -619,6 +653,13 @@ def reach(
             if crs is not None:
                 raise ValueError("crs= is not supported on a DEM read by windows; give the "
                                  "start in the DEM's CRS")  # fmt: skip
+            if ranged is not None or max_time is not None:
+                raise PlanningConfigError(
+                    f"{dem}: a DEM read as a window (over memory_cap) is searched at the "
+                    "request's speed; expected a fixed speed= (m/s) and no max_time=, or a "
+                    "larger memory_cap",
+                    param="speed", value=ranged,
+                )  # fmt: skip
             m = load_model(model) if isinstance(model, str | Path) or model is None else model
             req = request_with(request, **given)
             s = tuple(float(v) for v in np.asarray(start, dtype=float)[:2])
@@ -630,9 +671,15 @@ def reach(
             rm.budget_wh = budget_wh
             return _bound(rm, Problem(terrain, m, req))
     prob = _problem(dem, model, request, **given)
-    rm = _reach(prob, _pose(prob, start, crs)[:2], round_trip=return_to_start,
+    pose = _pose(prob, start, crs)[:2]
+    if ranged is not None:
+        from energy_planner.planning.speed import with_speed
+
+        prob = with_speed(prob, ranged)
+    rm = _reach(prob, pose, round_trip=return_to_start,
                 turn_at_cell=not free_turn, n_headings=n_headings, progress=progress,
-                max_energy=budget_wh * 3600.0 if within_budget else None, **trust)  # fmt: skip
+                max_energy=budget_wh * 3600.0 if within_budget else None, max_time=max_time,
+                **trust)  # fmt: skip
     rm.budget_wh = budget_wh
     return _bound(rm, prob)
 

@@ -347,6 +347,24 @@ class Problem:
             request=dataclasses.replace(self.request, channels=None),
         )
 
+    def duration(self, speed: float | None = None) -> Problem:
+        """The same problem with the time as its energy (1 J per second), same limits.
+
+        Every translation at ``speed`` (default the request's nominal speed), turns at
+        its yaw rate: the cost of a motion is its duration in seconds (the least one
+        when ``speed`` is the top of a speed range). The model reads no channel, so the
+        request's channels are dropped.
+        """
+        from energy_planner.model import EnergyModel
+
+        robot = self.request.robot
+        if speed is not None:
+            robot = dataclasses.replace(robot, speed=float(speed))
+        return self.replace(
+            model=EnergyModel(["1"], {"1": 1.0}),
+            request=dataclasses.replace(self.request, robot=robot, channels=None),
+        )
+
     def unlimited(self) -> Problem:
         """The same problem without any limit (to price a path that breaks one)."""
         return self.replace(request=dataclasses.replace(self.request, limits=Limits()))

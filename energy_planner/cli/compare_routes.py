@@ -44,7 +44,23 @@ def format_table(comp: Any, res: dict[str, Any]) -> str:
 @options.dem_option
 @options.start_goal_options
 @options.model_option
-@options.planning_options("the energy-optimal route")
+@options.planning_options("the energy-optimal route", speed_range=True)
+@click.option(
+    "--deadline",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds: each route walked at the least-energy speed profile that arrives in "
+    "time, and the energy-optimal route the least-energy one in time (the plan under the "
+    "deadline among them: a deadline may favour the direct climb); speeds within --speed "
+    "MIN:MAX (default auto).",
+)
+@click.option(
+    "--pareto",
+    type=click.IntRange(min=2),
+    help="N points of each route's energy-time front (energy + lambda x time swept over "
+    "lambda; the energy-optimal route planned per lambda), each with its energy interval, "
+    "duration and speed profile; --plot draws the fronts; speeds within --speed (default "
+    "auto).",
+)
 @options.channel_options
 @options.trust_options
 @options.plot_option("PNG: the three routes over a hillshade with heading marks.")
@@ -64,6 +80,8 @@ def command(
     bag: Path | None,
     bag_frame: str,
     as_json: bool,
+    deadline: float | None = None,
+    pareto: int | None = None,
 ) -> None:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
 
@@ -74,6 +92,11 @@ def command(
     grade at which a metre of height is cheapest), which explains the detour's saving,
     and each route's prediction interval (``--level``) and, with ``--battery-wh``, the
     chance that it fits in the battery (``--refuse`` judges the energy-optimal route).
+
+    With ``--speed MIN:MAX`` (or ``auto``) every route walks each motion at its own
+    least-energy speed; ``--deadline`` walks each at the least-energy timing that arrives
+    in time and names the least-energy route in time; ``--pareto N`` adds each route's
+    energy-time front (``--plot`` then draws the fronts).
     """
     from energy_planner.api import compare_routes
     from energy_planner.cli.plan import _xy_yaw
@@ -84,9 +107,14 @@ def command(
     model = load_model_option(model_path)
     s = _xy_yaw(point_to_work(terrain, start, "--start", True))
     g = _xy_yaw(point_to_work(terrain, goal, "--goal", True))
+    if deadline is not None and pareto is not None:
+        raise click.BadParameter("give --pareto or --deadline, not both", param_hint="--pareto")
+    speed = options.speed_choice()
+    choice: dict[str, Any] = {} if speed is None else {"speed": speed}
     try:
         comp = compare_routes(terrain, s, g, crs=terrain.crs, model=model, request=request,
-                              **search, level=trust.level, battery_wh=trust.battery_wh,
+                              **search, **choice, deadline=deadline, pareto=pareto,
+                              level=trust.level, battery_wh=trust.battery_wh,
                               reserve_wh=trust.reserve_wh, confidence=trust.confidence,
                               progress=True)  # fmt: skip
     except BatteryError as exc:
@@ -101,7 +129,7 @@ def command(
     result = comp.to_dict()
     for r in comp.routes:
         options.judge(r, trust, label=r.name, judged=r.name == "energy_optimal")
-    options.write_output(result, "plot", plot, comp.plot)
+    options.write_output(result, "plot", plot, comp.plot_fronts if comp.fronts else comp.plot)
     options.write_output(result, "html", html, comp.write_html)
     options.write_bag_output(result, bag, lambda p: comp.write_bag(p, frame=bag_frame))
     options.emit(result, as_json, lambda res: format_table(comp, res))

@@ -29,12 +29,22 @@ def _text(res: dict[str, Any]) -> str:
         f"{'t s':>7} {'done m':>7} {'remaining J':>12} {'low J':>9} {'high J':>9} "
         f"{'static J':>9} {'chance':>7}"
     ]
+    timed = res.get("deadline_s") is not None
+    if timed:
+        lines[0] += f" {'slack s':>8} {'keep m/s':>8}"
     for u in res["updates"]:
         p = u["success_probability"]
         lines.append(
             f"{u['t']:>7.0f} {u['distance_m']:>7.1f} {u['remaining_j']:>12.0f} "
             f"{u['remaining_low_j']:>9.0f} {u['remaining_high_j']:>9.0f} "
             f"{u['static_remaining_j']:>9.0f} {'-' if p is None else f'{100 * p:.0f}%':>7}"
+        )
+        if timed:
+            lines[-1] += f" {u['deadline_slack_s']:>8.0f} {u['speed_to_keep_m_s']:>8.2f}"
+    if timed:
+        lines.append(
+            f"deadline {res['deadline_s']:g} s from the log's start: slack, the time left once "
+            "the rest is walked at the plan's pace; keep, the mean speed that arrives in time"
         )
     lines.append(
         "remaining: the rest of the path priced with the updated coefficients, its "
@@ -104,6 +114,13 @@ def _text(res: dict[str, Any]) -> str:
     help="Forgetting factor of the online update, per 2 s window.",
 )
 @click.option("--no-replan", is_flag=True, help="Report a low chance of success but do not replan.")
+@click.option(
+    "--deadline",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds from the log's start by which the robot must reach the path's end: each "
+    "update says whether the rest still fits at the plan's pace (slack) and the mean speed "
+    "that arrives in time; losing it is an event.",
+)
 @channel_options
 @speed_option
 @yaw_rate_option
@@ -129,6 +146,7 @@ def command(
     yaw_rate: float,
     html: Path | None,
     as_json: bool,
+    deadline: float | None = None,
 ) -> None:
     """Replay LOG (a robot log) against the plan in --path and follow the rest of it.
 
@@ -193,6 +211,7 @@ def command(
             replan=not no_replan,
             speed=speed,
             yaw_rate=yaw_rate,
+            deadline=deadline,
         )
     except FollowError as exc:
         raise click.ClickException(f"{log}: {exc}") from exc

@@ -28,6 +28,20 @@ def _text(res: dict[str, Any]) -> str:
     )
     lines.append(f"order: {' -> '.join(res['order'])}" + (" (and back)" if res["return"] else ""))
     lines.append(f"chosen by: {res['method']}; energies between sites from one search per site")
+    sp = res.get("speed")
+    if sp:
+        lo, hi = sp["speed_range"]
+        lines.append(
+            f"speed: each motion at its least-energy speed within {lo:g}-{hi:g} m/s"
+            + (f" (lambda {sp['time_weight']:.1f} J/s)" if sp["time_weight"] else "")
+        )
+    tb = res.get("time_budget")
+    if tb:
+        lines.append(
+            f"time budget {tb['time_budget_s']:g} s met: the tour takes "
+            f"{res['duration_s']:.1f} s (lambda {tb['lambda_j_per_s']:.1f} J/s after "
+            f"{len(tb['tours'])} tours priced)"
+        )
     moved = [s for s in res["sites"] if s["moved_m"] > 0.01]
     if moved:
         lines.append(f"{len(moved)} site(s) moved onto their cell centres, at most "
@@ -81,8 +95,15 @@ def _text(res: dict[str, Any]) -> str:
     help="Address of a dask.distributed scheduler to run the per-site searches on "
     "(default: in this process).",
 )
+@click.option(
+    "--time-budget",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds for the whole tour: the order and each leg's route and speeds chosen "
+    "together (the least energy in time: energy + lambda x time, one lambda for every leg, "
+    "by bisection); speeds within --speed MIN:MAX (default auto).",
+)
 @options.model_option
-@options.request_options
+@options.ranged_request_options
 @options.path_option(
     "--geojson", help="GeoJSON of the legs and sites (lon/lat; see --geojson-crs)."
 )
@@ -120,6 +141,7 @@ def command(
     bag_frame: str,
     nav2_graph: Path | None,
     as_json: bool,
+    time_budget: float | None = None,
 ) -> None:
     """Visit the sites of --sites in the least-energy (or given) order over DEM.
 
@@ -139,9 +161,13 @@ def command(
         s = read_sites(sites, terrain)
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--sites") from exc
+    choice: dict[str, Any] = {"time_budget": time_budget}
+    if options.speed_choice() is not None:
+        choice["speed"] = options.speed_choice()
     try:
         res = mission(terrain, s, order=order, return_to_start=return_to_start, eps=eps,
-                      client=scheduler, model=model, request=request, level=trust.level,
+                      client=scheduler, model=model, request=request, **choice,
+                      level=trust.level,
                       battery_wh=trust.battery_wh, reserve_wh=trust.reserve_wh,
                       confidence=trust.confidence, progress=True)  # fmt: skip
     except BatteryError as exc:

@@ -609,6 +609,17 @@ def request_options(f):
     return with_request(f)
 
 
+def ranged_request_options(f):
+    """:func:`request_options` whose ``--speed`` also takes ``MIN:MAX`` and ``auto``.
+
+    The command reads a range with :func:`speed_choice` (the request keeps the nominal
+    speed).
+    """
+    for opt in (channel_options, yaw_rate_option, plan_speed_option, limit_options):
+        f = opt(f)
+    return with_request(f)
+
+
 #: ``ctx.meta`` key of ``--allow-unknown-category`` (read by :func:`channels_from_options`).
 ALLOW_UNKNOWN_KEY = "energy_planner.allow_unknown_category"
 

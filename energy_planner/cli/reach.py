@@ -52,6 +52,18 @@ def _text(res: dict[str, Any]) -> str:
             f"{w['shape'][0]} x {w['shape'][1]} cells (radius {w['radius_m']:.0f} m, "
             f"c_min {w['c_min_j_per_m']:.1f} J/m); cells above the budget left nodata"
         )
+    tb = res.get("time_bound")
+    if tb:
+        far = tb["least_time_max_s"]
+        lines.append(
+            f"within {tb['max_time_s']:g} s: the cells above (the farthest in "
+            f"{'-' if far is None else f'{far:.0f}'} s, every motion at "
+            f"{tb['top_speed_m_s']:g} m/s, turning at {tb['yaw_rate_rad_s']:g} rad/s)"
+        )
+    sp = res.get("speed")
+    if sp:
+        lo, hi = sp["speed_range"]
+        lines.append(f"speed        each motion at its least-energy speed within {lo:g}-{hi:g} m/s")
     lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
     lines += [f"warning      {w}" for w in res.get("warnings", [])]
     return "\n".join(lines)
@@ -88,8 +100,15 @@ def _text(res: dict[str, Any]) -> str:
     help="With --return: headings free at the cell (the sum of two `plan` calls with no "
     "yaw there); default: the robot keeps its heading and pays the turn round.",
 )
+@click.option(
+    "--max-time",
+    type=click.FloatRange(min=0, min_open=True),
+    help="Seconds: only the cells some path reaches (and leaves, with --return) within this "
+    "time, every motion at the top of --speed (MIN:MAX, or the fixed speed); the energies "
+    "stay the least ones, each motion at its best speed with a range.",
+)
 @options.model_option
-@options.request_options
+@options.ranged_request_options
 @options.path_option(
     "--out", help="GeoTIFF of the least energy per cell (J), on the DEM's grid and CRS."
 )
@@ -136,6 +155,7 @@ def command(
     html: Path | None,
     memory_cap: str | None,
     as_json: bool,
+    max_time: float | None = None,
 ) -> None:
     """Least energy to reach every cell of DEM from --start (or to go and come back).
 
@@ -157,8 +177,12 @@ def command(
             param_hint="--budget-wh",
         )
     model = load_model_option(model_path)
+    choice = {"max_time": max_time}
+    if options.speed_choice() is not None:
+        choice["speed"] = options.speed_choice()
     res = _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
-                     free_turn, within_budget, battery_wh, reserve_wh, confidence)  # fmt: skip
+                     free_turn, within_budget, battery_wh, reserve_wh, confidence,
+                     choice)  # fmt: skip
     result = {"dem": str(dem), **res.to_dict()}
     options.write_output(result, "chance_out", chance_out, res.write_chance_geotiff)
     options.write_output(result, "out", out, res.write_geotiff)
@@ -195,7 +219,7 @@ def _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, bat
 
 
 def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip, free_turn,
-               within_budget, battery_wh, reserve_wh, confidence):  # fmt: skip
+               within_budget, battery_wh, reserve_wh, confidence, choice):  # fmt: skip
     """The reach map (:func:`energy_planner.api.reach`): the DEM whole, or one window.
 
     Errors become ``click.BadParameter`` naming the option to change (exit 2).
@@ -226,7 +250,7 @@ def _run_reach(dem, start, model, request, cap, windowed, budget_wh, round_trip,
                 where, s, crs=crs, budget_wh=budget_wh, return_to_start=round_trip,
                 within_budget=within_budget, free_turn=free_turn, model=model,
                 request=request, battery_wh=battery_wh, reserve_wh=reserve_wh,
-                confidence=confidence, memory_cap=cap, progress=True,
+                confidence=confidence, memory_cap=cap, progress=True, **choice,
             )  # fmt: skip
     except RasterTooLargeError as exc:
         raise click.BadParameter(str(exc), param_hint="--budget-wh") from exc

@@ -192,6 +192,14 @@ class FollowUpdate:
     battery_ok : bool or None
         The battery's verdict: :attr:`probability` at least the required confidence
         (None without a battery).
+    deadline_slack_s : float or None
+        With a deadline: the time it leaves once the rest of the path is walked at the
+        plan's own pace (its times, or the nominal speed), s; negative: at that pace the
+        robot arrives late (None without a deadline).
+    speed_to_keep_m_s : float or None
+        With a deadline: the mean ground speed over the rest of the path that arrives
+        exactly at the deadline (the ground distance left over the time left; turns in
+        place not counted); ``inf`` once the deadline has passed.
     """
 
     t: float
@@ -213,10 +221,16 @@ class FollowUpdate:
     group: str = "steady"
     model_j: float = math.nan
     battery_ok: bool | None = None
+    deadline_slack_s: float | None = None
+    speed_to_keep_m_s: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``--json`` record: time, distance, remaining energy with bounds, chance."""
-        return {
+        """The ``--json`` record: time, distance, remaining energy with bounds, chance.
+
+        With a deadline (:class:`Follower`'s ``deadline``): ``deadline_ok``,
+        ``deadline_slack_s`` and ``speed_to_keep_m_s``.
+        """
+        out = {
             "t": self.t,
             "distance_m": self.distance_m,
             "remaining_j": self.remaining_j,
@@ -237,6 +251,11 @@ class FollowUpdate:
             "model_remaining_j": self.model_j,
             "battery_ok": self.battery_ok,
         }
+        if self.deadline_slack_s is not None:
+            out["deadline_ok"] = self.deadline_slack_s >= 0
+            out["deadline_slack_s"] = self.deadline_slack_s
+            out["speed_to_keep_m_s"] = self.speed_to_keep_m_s
+        return out
 
 
 @dataclass(frozen=True)
@@ -399,6 +418,12 @@ class Follower:
         An open stretch is extrapolated over each of those longer than it is so far
         (what is left of them), equally likely: the mean re-priced energy, and the
         spread of where it ends in the interval.
+    deadline : float, optional
+        Seconds from the log's first sample by which the robot must reach the path's
+        end: each update says whether the rest still fits at the plan's pace
+        (:attr:`FollowUpdate.deadline_slack_s`) and the mean speed that arrives in time
+        (:attr:`FollowUpdate.speed_to_keep_m_s`); the first update at which it no longer
+        fits is an event.
     """
 
     def __init__(
@@ -433,8 +458,15 @@ class Follower:
         bias_ahead_m: float | None = None,
         bias_until_m: float | None = None,
         stretch_lengths_m: Any = None,
+        deadline: float | None = None,
     ) -> None:
         from scipy.stats import norm
+
+        if deadline is not None and not (math.isfinite(deadline) and deadline > 0):
+            raise FollowError(f"the deadline must be > 0 seconds, got {deadline!r}",
+                              value=deadline)  # fmt: skip
+        self.deadline = None if deadline is None else float(deadline)
+        self._t_first: float | None = None  # the log's first time: the deadline's origin
 
         if battery_wh is not None and not reserve_wh < battery_wh:
             raise FollowError(
@@ -549,6 +581,8 @@ class Follower:
         if "t" not in cols or len(cols["t"]) == 0:
             return []
         self._check(cols)
+        if self._t_first is None:
+            self._t_first = float(cols["t"][0])
         used = self._integrate_power(cols)
         arrived = {c: v for c, v in cols.items() if c != "run"}
         arrived["_used"] = used
@@ -782,6 +816,7 @@ class Follower:
                 f"left (< {100 * self.confidence:g} %); replanning is off"
             )
             self.events.append(event)
+        slack, keep = self._deadline(t_end, m, frac, p_last)
         u = FollowUpdate(
             t_end,
             self._done_m,
@@ -802,9 +837,33 @@ class Follower:
             self.group,
             model_j,
             None if prob is None else bool(prob >= self.confidence),
+            slack,
+            keep,
         )
         self.updates.append(u)
         return u
+
+    def _deadline(self, t_end, m, frac, p_last) -> tuple[float | None, float | None]:
+        """``(slack, speed to keep)`` of the deadline at this update (None without one).
+
+        The first update whose slack is negative (after one that was not) is an event.
+        """
+        if self.deadline is None:
+            return None, None
+        dist = self.path.distance_m
+        left_m = float(dist[m:].sum() - frac * (dist[m] if m < dist.size else 0.0))
+        left_s = self.deadline - (t_end - (self._t_first or 0.0))
+        slack = float(left_s - self._rem_s)
+        keep = float(max(left_m, 0.0) / left_s) if left_s > 0 else math.inf
+        was_ok = all(u.deadline_slack_s is None or u.deadline_slack_s >= 0 for u in self.updates)
+        if slack < 0 and was_ok:
+            self.events.append(
+                f"t={t_end:.0f} s at ({p_last[0]:.1f}, {p_last[1]:.1f}): at the plan's pace "
+                f"the rest takes {self._rem_s:.0f} s and {max(left_s, 0.0):.0f} s are left "
+                f"before the deadline: it holds only at {keep:.2f} m/s on average over the "
+                f"{left_m:.0f} m left"
+            )
+        return slack, keep
 
     @property
     def state(self) -> str:
@@ -1161,6 +1220,7 @@ class Follower:
             "battery_wh": self.battery_wh,
             "reserve_wh": self.reserve_wh,
             "domain": self.domain,
+            **({} if self.deadline is None else {"deadline_s": self.deadline}),
         }
 
 

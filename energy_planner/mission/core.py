@@ -56,6 +56,16 @@ class Leg(Assessed):
     duration_s: float
     states: np.ndarray = field(repr=False)
     assessment: Any = field(default=None, repr=False, compare=False)
+    times: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    def speed_profile(self) -> list[dict[str, float]]:
+        """Per segment: distance, duration, ground speed, where the leg chose its speeds.
+
+        Empty at the nominal speed (:func:`energy_planner.planning.speed.speed_profile`).
+        """
+        from energy_planner.planning.speed import speed_profile
+
+        return speed_profile(self.states, self.times)
 
 
 @dataclass(repr=False)
@@ -132,6 +142,7 @@ class MissionResult(Result, Assessed):
                     "matrix_energy_j": leg.matrix_energy_j,
                     "distance_m": leg.distance_m,
                     "duration_s": leg.duration_s,
+                    **_leg_speeds(leg),
                     **leg.assessment_dict(),
                 }
                 for leg in self.legs
@@ -307,6 +318,15 @@ class MissionResult(Result, Assessed):
         return write_nav2_graph(path, self._problem_for(problem), self, **options)
 
 
+def _leg_speeds(leg: Leg) -> dict[str, Any]:
+    """A leg's walking speeds for its JSON (empty at the nominal speed)."""
+    walk = [p["speed_m_s"] for p in leg.speed_profile() if p["speed_m_s"] > 0]
+    if not walk:
+        return {}
+    return {"speed_min_m_s": min(walk), "speed_max_m_s": max(walk),
+            "times_s": [float(v) for v in leg.times]}  # fmt: skip
+
+
 @takes_problem(1)
 def energy_matrix(
     problem,
@@ -351,9 +371,11 @@ def energy_matrix(
     """
     from energy_planner.mission.matrix import matrix_search
 
+    cost = problem.cost  # its speed choice, if the motions choose their speed
+    speed = (cost.speed_range, cost.time_weight) if cost.ranged else None
     res = matrix_search(problem.terrain, problem.model, sites, problem.request,
                         n_headings=n_headings, max_energy=max_energy, client=client,
-                        eps=eps, progress=progress)  # fmt: skip
+                        eps=eps, progress=progress, speed=speed)  # fmt: skip
     return res.energy_j
 
 
@@ -370,6 +392,8 @@ def mission(
     n_headings: int = 16,
     client: Any = None,
     progress: bool = False,
+    speed: Any = None,
+    time_budget: float | None = None,
     **trust: Any,
 ) -> MissionResult:
     """Visit several sites in the given or the least-energy order and plan every leg.
@@ -399,6 +423,20 @@ def mission(
         Run the per-site searches on a dask cluster.
     progress : bool
         Progress on stderr.
+    speed : float, (float, float) or "auto", optional
+        A number: every leg at that speed. A range (``"auto"``: the one the model's logs
+        cover): each motion of the matrix's searches and of every leg walks at its own
+        least-energy speed in it (legs planned as ``plan(..., speed=(vmin, vmax))`` plans
+        them), and each leg carries its times.
+    time_budget : float, optional
+        Seconds for the whole tour (speeds within ``speed``, default ``"auto"``): the
+        order and every leg's route and speeds minimise energy + lambda x time together
+        (the matrix and the legs priced with the same ``lambda``, so each second is worth
+        the same on every leg), with ``lambda`` the least one whose tour is in time, by
+        bisection (:data:`~energy_planner.planning.speed.DEADLINE_ITERS` steps after the
+        bracket); ``info["time_budget"]`` lists the tours priced. ``matrix_j`` then holds
+        energy + lambda x time. A :class:`PlanningError` (``limit="deadline"``) gives the
+        fastest tour's duration when none is in time.
     **trust
         ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
         (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): the tour's and each
@@ -408,18 +446,103 @@ def mission(
     -------
     MissionResult
     """
-    from energy_planner.planning.plan import plan
     from energy_planner.trust import Trust
 
     want = Trust.pop(trust)
     if trust:
         raise TypeError(f"mission() got unexpected keyword(s) {', '.join(trust)}")
-
     terrain = problem.terrain
     if not isinstance(sites, Sites):
         from energy_planner.mission.sites import read_sites
 
         sites = read_sites(sites, terrain)
+    kw = dict(order=order, return_to_start=return_to_start, planner=planner, eps=eps,
+              leg_eps=leg_eps, n_headings=n_headings, client=client, progress=progress,
+              want=want)  # fmt: skip
+    if speed is None and time_budget is None:
+        return _tour(problem, sites, **kw)
+    from energy_planner.planning.speed import resolve_speed, with_speed
+
+    spec = resolve_speed("auto" if speed is None else speed, problem.model)
+    problem = with_speed(problem, spec)  # a number: the nominal speed, as before
+    if time_budget is None:
+        return _tour(problem, sites, **kw)
+    if problem.cost.speed_range is None:
+        from energy_planner.errors import PlanningConfigError
+
+        raise PlanningConfigError(
+            "a time budget needs a speed range (vmin, vmax) or 'auto' from a model whose "
+            f"logs cover several speeds, got speed={speed!r}", value=speed, param="speed",
+        )  # fmt: skip
+    return _in_time(problem, sites, float(time_budget), kw)
+
+
+def _in_time(problem, sites, budget: float, kw: dict) -> MissionResult:
+    """The least-energy tour (order, routes and speeds) whose duration is within ``budget``.
+
+    Every tour minimises energy + lambda x time (:func:`_tour` on the problem priced at
+    ``lambda``); ``lambda`` 0 if that tour is in time, else the bracket grows by 4 from
+    its mean power until a tour is in time, then bisections on ``log(lambda)``, as
+    :func:`energy_planner.planning.speed.plan_deadline` does for one path.
+    """
+    from energy_planner.errors import PlanningConfigError
+    from energy_planner.planning.speed import DEADLINE_ITERS, FASTEST_WEIGHT
+
+    if not (math.isfinite(budget) and budget > 0):
+        raise PlanningConfigError(f"time_budget must be > 0 seconds, got {budget!r}",
+                                  value=budget, param="time_budget")  # fmt: skip
+    rng = problem.cost.speed_range
+    tried: list[list[float]] = []
+
+    def run(lam: float) -> MissionResult:
+        res = _tour(problem.with_speed(rng, lam), sites, **kw)
+        tried.append([lam, res.energy_j, res.duration_s])
+        return res
+
+    def done(res: MissionResult, lam: float) -> MissionResult:
+        res.info["time_budget"] = {"time_budget_s": budget, "lambda_j_per_s": lam,
+                                   "tours": [list(t) for t in tried]}  # fmt: skip
+        res.problem = problem
+        return res
+
+    base = run(0.0)
+    if base.duration_s <= budget:
+        return done(base, 0.0)
+    power = base.energy_j / max(base.duration_s, 1e-9)
+    lo, hi = 0.0, power
+    while True:
+        res = run(hi)
+        if res.duration_s <= budget:
+            best = (res, hi)
+            break
+        lo = hi
+        if hi >= FASTEST_WEIGHT * power:
+            raise PlanningError(
+                f"no tour visits the sites within {budget:g} s: the fastest found takes "
+                f"{res.duration_s:.1f} s ({res.energy_j:.0f} J, every motion at the top of the "
+                "speed range); give a larger time budget or a higher top speed",
+                limit="deadline", value=float(res.duration_s),
+            )  # fmt: skip
+        hi = min(4.0 * hi, FASTEST_WEIGHT * power)
+    for _ in range(DEADLINE_ITERS):
+        mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
+        res = run(mid)
+        if res.duration_s <= budget:
+            hi = mid
+            if res.energy_j < best[0].energy_j:
+                best = (res, mid)
+        else:
+            lo = mid
+    return done(*best)
+
+
+def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_eps, n_headings,
+          client, progress, want) -> MissionResult:  # fmt: skip
+    """The mission on ``problem`` (its motions' speed choice and price of a second)."""
+    from energy_planner.planning.plan import plan
+
+    terrain = problem.terrain
+
     given = sites
     sites = sites.on_cells(terrain)  # where the matrix's searches stand
     E = energy_matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
@@ -443,10 +566,13 @@ def mission(
                  eps=leg_eps, n_headings=n_headings, progress=progress,
                  level=want.level)  # fmt: skip
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
-                        float(r.duration_s), r.states, r.assessment))  # fmt: skip
-    res = MissionResult(sites, o, legs, E, method, return_to_start,
-                        info={"matrix_energy_j": float(total), "planner": planner,
-                              "eps": eps})  # fmt: skip
+                        float(r.duration_s), r.states, r.assessment, r.times))  # fmt: skip
+    info = {"matrix_energy_j": float(total), "planner": planner, "eps": eps}
+    cost = problem.cost
+    if cost.speed_range is not None:
+        info["speed"] = {"speed_range": list(cost.speed_range), "time_weight": cost.time_weight,
+                         "speed_law": cost.speed_law.note}  # fmt: skip
+    res = MissionResult(sites, o, legs, E, method, return_to_start, info=info)
     res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)
     res.problem = problem
     return res

@@ -92,30 +92,42 @@ class MatrixResult:
     info: dict[str, Any] = field(default_factory=dict)
 
 
-def _setup(terrain, model, request, n_headings, box, anchor):
+def _setup(terrain, model, request, n_headings, box, anchor, speed=None):
+    """The motion cost (with ``speed``: ``(speed_range, time_weight)``) and the search grid."""
     from energy_planner.planning.search import search_grid
-    from energy_planner.problem import Problem
 
-    cost = Problem(terrain, model, request).cost
+    cost = _cost(terrain, model, request, speed)
     cost.compile()
     return cost, search_grid(cost, terrain, anchor, n_headings=n_headings, box=box)
 
 
-def _heuristic_task(terrain, model, request, n_headings, box, anchor, xys):
+def _cost(terrain, model, request, speed):
+    """The problem's motion cost, each motion choosing its speed with ``speed``.
+
+    ``speed``: ``(speed_range, time_weight)``
+    (:meth:`~energy_planner.problem.Problem.with_speed`), or None.
+    """
+    from energy_planner.problem import Problem
+
+    prob = Problem(terrain, model, request)
+    return (prob if speed is None else prob.with_speed(*speed)).cost
+
+
+def _heuristic_task(terrain, model, request, n_headings, box, anchor, speed, xys):
     from energy_planner.planning.search import target_heuristics
 
-    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
     return target_heuristics(cost, grid, np.asarray(xys, float).reshape(-1, 2))
 
 
-def _edges_task(terrain, model, request, n_headings, box, anchor, rows):
+def _edges_task(terrain, model, request, n_headings, box, anchor, speed, rows):
     from energy_planner.planning.search import edge_table
 
-    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
     return edge_table(cost, grid, rows)
 
 
-def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets, heur,
+def _rows_task(terrain, model, request, n_headings, box, anchor, speed, starts, targets, heur,
                max_energy, edges, eps, lazy):  # fmt: skip
     """The rows of ``starts``.
 
@@ -123,7 +135,7 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, starts, targets
     """
     from energy_planner.planning.search import edge_cache, targets_search
 
-    cost, grid = _setup(terrain, model, request, n_headings, box, anchor)
+    cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
     cache = edge_cache(grid) if lazy else None
     rows = []
     for p in starts:
@@ -159,14 +171,14 @@ def _table_fits(terrain, box, n_headings) -> bool:
 
 
 def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, progress,
-         edge_cache, eps):  # fmt: skip
+         edge_cache, eps, speed=None):  # fmt: skip
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
     mode = _edge_mode(terrain, box, n_headings, edge_cache, eps)
     use_edges, lazy = mode == "table", mode == "lazy"
     t0 = time.perf_counter()
-    args = (n_headings, box, anchor)
+    args = (n_headings, box, anchor, speed)
     if client is not None:
         ter_f, mod_f, req_f = client.scatter([terrain, model, request], broadcast=True, hash=False)
         # one batch per worker thread: each task builds the motion cost once
@@ -266,12 +278,13 @@ def window_proof(
     return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
-def _c_min(terrain, model, request, n_headings) -> float:
+def _c_min(terrain, model, request, n_headings, speed=None) -> float:
     from energy_planner.energy.kernels import IN_GRAD
     from energy_planner.planning.corridor import least_cost_per_metre
-    from energy_planner.problem import Problem
 
-    cost = Problem(terrain, model, request).cost
+    cost = _cost(terrain, model, request, speed)
+    if speed is not None:  # a bound over the speed range (and a time price only adds)
+        return cost.min_cost_per_metre
     grad = cost.data[IN_GRAD]
     fin = np.isfinite(grad[..., 0]) & np.isfinite(grad[..., 1])
     if not fin.any():
@@ -294,6 +307,7 @@ def matrix_search(
     edge_cache: bool | None = None,
     eps: float = 1.0,
     progress: bool = False,
+    speed: tuple[tuple[float, float], float] | None = None,
 ) -> MatrixResult:
     """Least energy between every ordered pair of sites, one early-stopped search per site.
 
@@ -330,6 +344,10 @@ def matrix_search(
         far fewer states on a large map).
     progress : bool
         A progress bar over the sites on stderr (serial).
+    speed : ((float, float), float), optional
+        ``(speed_range, time_weight)``: each motion walks at its own speed in the range
+        minimising energy + ``time_weight`` x time, and the entries are that sum
+        (:meth:`~energy_planner.problem.Problem.with_speed`).
 
     Returns
     -------
@@ -364,7 +382,7 @@ def matrix_search(
     cap = math.inf if max_energy is None else float(max_energy)
     xmin, xmax, ymin, ymax = terrain_extent(terrain)
     full = (xmin, ymin, xmax, ymax)
-    c_min = _c_min(terrain, model, request, n_headings) if window else 0.0
+    c_min = _c_min(terrain, model, request, n_headings, speed) if window else 0.0
     box, proven, passes, stats = full, True, 0, []
     if window and c_min > 0 and math.isinf(cap) and len(uxy) > 1:
         cell = float(min(abs(terrain.grid[2]), abs(terrain.grid[3])))
@@ -374,7 +392,7 @@ def matrix_search(
         proven = box == full
     while True:
         E, st = _run(terrain, model, request, uxy, n_headings, box, cap, client, progress,
-                     edge_cache, float(eps))  # fmt: skip
+                     edge_cache, float(eps), speed)  # fmt: skip
         passes += 1
         stats.append(st)
         if proven:

@@ -27,7 +27,7 @@ def mission(
     client: Any = None,
     model: Any = None,
     request: Any = None,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     yaw_rate: float | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
@@ -43,6 +43,7 @@ def mission(
     planner: str = "auto",
     leg_eps: float | None = None,
     n_headings: int = 16,
+    time_budget: float | None = None,
     progress: bool = False,
 ):
     """Visit ``sites`` in the least-energy (or given) order (the ``mission`` command).
@@ -67,8 +68,19 @@ def mission(
     {trust}
     planner, leg_eps, n_headings
         How each leg is planned (as :func:`plan` plans it).
+    time_budget : float, optional
+        Seconds for the whole tour (``--time-budget``): the order and each leg's route and
+        speeds chosen together, the least energy in time (energy + lambda x time, one
+        ``lambda`` for every leg, by bisection); speeds within ``speed`` (default
+        ``"auto"``).
     progress : bool
         Progress on stderr.
+
+    Notes
+    -----
+    ``speed`` is a fixed speed (m/s, ``--speed V``) or a range each motion of the matrix's
+    searches and of the legs chooses its least-energy speed from, ``(vmin, vmax)`` or
+    ``"auto"`` (``--speed MIN:MAX``, ``--speed auto``).
 
     Returns
     -------
@@ -78,6 +90,9 @@ def mission(
         ``write_json(path)``.
     """
     given = {k: v for k, v in locals().items() if k in REQUEST_KEYS}
+    choice = {"time_budget": time_budget}
+    if speed is not None and not isinstance(speed, int | float):
+        choice["speed"] = given.pop("speed")  # a range: chosen per motion
     trust = {k: v for k, v in locals().items() if k in TRUST_KEYS}
     from energy_planner.maps import resolve
     from energy_planner.mission import mission as _mission  # the planner (core.mission)
@@ -93,7 +108,7 @@ def mission(
     try:
         res = _mission(prob, sites, order=order, return_to_start=return_to_start, eps=eps,
                        client=client, planner=planner, leg_eps=leg_eps, n_headings=n_headings,
-                       progress=progress, **trust)  # fmt: skip
+                       progress=progress, **choice, **trust)  # fmt: skip
     finally:
         if own is not None:
             own.close()

@@ -41,13 +41,14 @@ shortest route is planned with the same problem pricing ground distance
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from energy_planner.errors import EnergyPlannerError
+from energy_planner.errors import EnergyPlannerError, PlanningConfigError, PlanningError
 from energy_planner.planning.gradecost import GradeCost, grade_cost
 from energy_planner.planning.routes import ROUTE_NAMES, Route, RouteComparison
 from energy_planner.problem import takes_problem
@@ -81,12 +82,32 @@ def _climb(terrain, states: np.ndarray) -> tuple[float, float | None]:
     return ascent, (ascent / length if length > 0 else None)
 
 
-def _route(name: str, states: np.ndarray, problem) -> Route:
-    """Price ``states`` with the problem's cost (raises EnergyPlannerError past a limit)."""
+def _walk(problem, states: np.ndarray, t: np.ndarray | None = None):
+    """``states`` priced with the problem's cost: ``(PathEnergy, times or None)``.
+
+    Where the motions choose their speed (a speed range, a price of a second) each walks
+    at its chosen speed and the poses get their times, as a plan's do; given ``t``
+    (seconds per pose), at those times.
+    """
     from energy_planner.energy import path_energy
 
-    pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
-                     cost=problem.cost)  # fmt: skip
+    cost = problem.cost
+    if t is None and cost.ranged:
+        dt = cost.best_durations(states[:, 0], states[:, 1], states[:, 2])
+        if not np.isfinite(dt).all():
+            raise EnergyPlannerError("a motion breaks a limit at every speed of the range")
+        t = np.concatenate([[0.0], np.cumsum(dt)])
+    pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2], t=t,
+                     cost=cost)  # fmt: skip
+    return pe, t
+
+
+def _route(name: str, states: np.ndarray, problem, t: np.ndarray | None = None) -> Route:
+    """Price ``states`` with the problem's cost (raises EnergyPlannerError past a limit).
+
+    ``t``: seconds at each pose (else the chosen speeds', or the nominal speed's).
+    """
+    pe, t = _walk(problem, states, t)
     ascent, grade = _climb(problem.terrain, states)
     return Route(
         name=name,
@@ -98,20 +119,20 @@ def _route(name: str, states: np.ndarray, problem) -> Route:
         feasible=True,
         ascent_m=ascent,
         climb_grade=grade,
+        times=t,
+        segment_distance_m=None if t is None else np.asarray(pe.table["distance_m"], float),
     )
 
 
-def _assessed(problem, states: np.ndarray, trust: Any):
+def _assessed(problem, states: np.ndarray, trust: Any, times: np.ndarray | None = None):
     """A route's assessment: its poses priced with the problem's cost, then assessed.
 
     Interval, domain report, battery verdict
-    (:func:`energy_planner.uncertainty.assess.assess_path`).
+    (:func:`energy_planner.uncertainty.assess.assess_path`); ``times``: the route's own.
     """
-    from energy_planner.energy import path_energy
     from energy_planner.uncertainty.assess import assess_path
 
-    pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
-                     cost=problem.cost)  # fmt: skip
+    pe, _ = _walk(problem, states, times)
     return assess_path(problem.model, pe, problem.cost, trust)
 
 
@@ -275,6 +296,9 @@ def compare_routes(
     seed: int = 0,
     step: float | None = None,
     progress: bool = True,
+    speed: Any = None,
+    deadline: float | None = None,
+    pareto: int | None = None,
     **trust: Any,
 ) -> RouteComparison:
     """Compare the direct line, the shortest feasible path and the energy-optimal path.
@@ -294,6 +318,26 @@ def compare_routes(
         Passed to :func:`energy_planner.planning.plan` for the energy-optimal route
         (``step`` also sets the shortest-path lattice). Each extra refinement gets
         ``min(2, max(time / 4, 0.5))`` seconds.
+    speed : float, (float, float) or "auto", optional
+        A number: every route at that speed (the request's nominal speed otherwise).
+        A range (``"auto"``: the one the model's logs cover,
+        :func:`~energy_planner.planning.speed.resolve_speed`): every route is walked at
+        its best speed profile, each motion at its least-energy speed in the range, and
+        the energy-optimal route is planned with the speeds chosen; each route carries
+        its ``times`` and :meth:`~Route.speed_profile`.
+    deadline : float, optional
+        Seconds (speeds within ``speed``, default ``"auto"``): each route walked at the
+        least-energy speed profile that arrives in time
+        (:func:`~energy_planner.planning.speed.timed_deadline`; ``Route.deadline`` says
+        whether it can, and ``lambda``), and the energy-optimal route is the least-energy
+        one in time among them and the plan under the deadline
+        (:func:`~energy_planner.planning.speed.plan_deadline`): a deadline may favour
+        the direct climb over the detour. ``info["deadline"]`` says which it is.
+    pareto : int, optional
+        ``N`` points of each route's energy-time front (``fronts``, by route name): the
+        energy-optimal one from :func:`~energy_planner.planning.speed.pareto` (the route
+        changes with ``lambda``: the front's convex hull), each other distinct route
+        walked at the same ``lambda`` values (:func:`~energy_planner.planning.speed.route_front`).
     **trust
         ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
         (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): each feasible route's
@@ -304,7 +348,7 @@ def compare_routes(
     RouteComparison
         ``routes`` in the order ``direct``, ``direct_best_yaw``, ``shortest``,
         ``energy_optimal``; ``saving_vs_direct`` is ``(E_direct - E) / E_direct``;
-        ``physics`` the model's critical grade.
+        ``physics`` the model's critical grade; ``fronts`` with ``pareto``.
     """
     from energy_planner.planning.limits import check_endpoint
     from energy_planner.planning.plan import _pose
@@ -313,13 +357,30 @@ def compare_routes(
     want = Trust.pop(trust)
     if trust:
         raise TypeError(f"compare_routes() got unexpected keyword(s) {', '.join(trust)}")
+    if deadline is not None and pareto is not None:
+        raise PlanningConfigError("give a deadline or a pareto front, not both",
+                                  value=pareto, param="pareto")  # fmt: skip
+    spec, fixed = None, problem  # the limits do not depend on the speed: the lattice's
+    if speed is not None or deadline is not None or pareto is not None:
+        from energy_planner.planning.speed import resolve_speed, with_speed
+
+        spec = resolve_speed("auto" if speed is None else speed, problem.model)
+        problem = with_speed(problem, spec)  # a number: the nominal speed, as before
+        spec = problem.cost.speed_range
+        if spec is None and (deadline is not None or pareto is not None):
+            raise PlanningConfigError(
+                "a deadline or a front needs a speed range (vmin, vmax) or 'auto' from a "
+                f"model whose logs cover several speeds, got speed={speed!r}",
+                value=speed,
+                param="speed",
+            )
     s, g = _pose(start, "start"), _pose(goal, "goal")
     for which, pose in (("start", s), ("goal", g)):
         check_endpoint(problem.cost, problem.terrain, which, pose, problem.keep_out)
     direct, direct_yaw = _direct_routes(problem, s, g)
     dist = problem.distance()
     dist.cost.compile()  # before the refinements' time budgets start
-    found = _planned_paths(problem, s, g, planner, time, seed, step, progress)
+    found = _planned_paths(problem, fixed, s, g, planner, time, seed, step, progress)
     short, best = _refined_routes(problem, dist, s, g, direct, found, min(2.0, max(time / 4, 0.5)),
                                   seed)  # fmt: skip
     info = found["info"]
@@ -329,6 +390,9 @@ def compare_routes(
     errors = (found["lattice_error"], found["plan_error"])
     for cand, err in ((short, errors[0] or errors[1]), (best, errors[1] or errors[0])):
         routes.append(cand.best or Route(cand.name, None, None, None, None, None, False, err))
+    plan_kw = dict(planner=planner, time=time, seed=seed, step=step, progress=progress)
+    if deadline is not None:
+        _meet_deadline(problem, routes, s, g, deadline, spec, plan_kw, info)
     _mark_same_paths(routes, abs(float(problem.terrain.grid[2])))
     if direct.energy_j:
         for r in routes:
@@ -336,7 +400,7 @@ def compare_routes(
                 r.saving_vs_direct = (direct.energy_j - r.energy_j) / direct.energy_j
     for r in routes:
         if r.feasible and r.states is not None and r.energy_j is not None:
-            r.assessment = _assessed(problem, r.states, want)
+            r.assessment = _assessed(problem, r.states, want, r.times)
     lim = problem.request.limits
     comp = RouteComparison(
         routes=routes,
@@ -352,8 +416,101 @@ def compare_routes(
         info=info,
         physics=_physics(problem, routes),
     )
+    if spec is not None:
+        info["speed"] = {"speed_range": list(spec) if spec else None,
+                         "speed_law": problem.cost.speed_law.note
+                         if problem.cost.speed_law is not None else None}  # fmt: skip
+    if pareto is not None:
+        comp.fronts = _fronts(problem, routes, s, g, pareto, spec, plan_kw)
     comp.problem = problem
     return comp
+
+
+def _meet_deadline(problem, routes, s, g, deadline, spec, plan_kw, info) -> None:
+    """Each route walked at its least-energy timing in time; the best of them energy-optimal.
+
+    The energy-optimal route becomes the least-energy one in time among the routes (each
+    retimed, :func:`~energy_planner.planning.speed.timed_deadline`; the energy-optimal one
+    found without the deadline too) and the plan under the deadline
+    (:func:`~energy_planner.planning.speed.plan_deadline`, retimed the same way); none in
+    time: it says so with the fastest duration. ``info["deadline"]["candidates"]`` lists
+    each with its energy and duration in time (or its fastest duration).
+    """
+    from energy_planner.planning.speed import plan_deadline, timed_deadline
+
+    cands: list[dict[str, Any]] = []
+    winners: list[tuple[Route, str]] = []
+
+    def retime(r: Route, states, label: str) -> Route:
+        row: dict[str, Any] = {"route": label}
+        try:
+            res = timed_deadline(problem, states, deadline, speed=spec, name=label)
+        except PlanningError as exc:
+            if getattr(exc, "limit", None) != "deadline":
+                raise
+            r.deadline = {"on_time": False, "lambda_j_per_s": None, "fastest_s": exc.value}
+            cands.append({**row, "on_time": False, "energy_j": None, "duration_s": None,
+                          "lambda_j_per_s": None, "fastest_s": exc.value})  # fmt: skip
+            return r
+        out = _route(r.name, res.states, problem, res.times)  # at the deadline's timing
+        out.body_yaw_deg = r.body_yaw_deg
+        lam = res.info["deadline"]["lambda_j_per_s"]
+        out.deadline = {"on_time": True, "lambda_j_per_s": lam, "fastest_s": None}
+        cands.append({**row, "on_time": True, "energy_j": out.energy_j,
+                      "duration_s": out.duration_s, "lambda_j_per_s": lam,
+                      "fastest_s": None})  # fmt: skip
+        winners.append((out, label))
+        return out
+
+    for i, r in enumerate(routes):
+        if r.feasible and r.states is not None:
+            label = r.name + (" (found without the deadline)" if r.name == "energy_optimal" else "")
+            routes[i] = retime(r, r.states, label)
+    try:
+        planned = plan_deadline(problem, s, g, deadline, speed=spec, **plan_kw)
+        cand = Route("energy_optimal", planned.states, None, None, None, None, True)
+        retime(cand, planned.states, "plan under the deadline")
+    except PlanningError as exc:
+        if getattr(exc, "limit", None) != "deadline":
+            raise
+    eo = next(i for i, r in enumerate(routes) if r.name == "energy_optimal")
+    d_info: dict[str, Any] = {"deadline_s": float(deadline), "energy_optimal_from": None,
+                              "candidates": cands}  # fmt: skip
+    if winners:
+        best, label = min(winners, key=lambda rl: rl[0].energy_j)
+        routes[eo] = dataclasses.replace(best, name="energy_optimal", same_as=None)
+        d_info["energy_optimal_from"] = label
+    else:
+        fastest = [c["fastest_s"] for c in cands if c["fastest_s"] is not None]
+        fast = min(fastest) if fastest else None
+        routes[eo] = Route("energy_optimal", None, None, None, None, None, False,
+                           f"no route arrives within {deadline:g} s"
+                           + ("" if fast is None else f"; the fastest takes {fast:.1f} s"),
+                           deadline={"on_time": False, "lambda_j_per_s": None,
+                                     "fastest_s": fast})  # fmt: skip
+    info["deadline"] = d_info
+
+
+def _fronts(problem, routes, s, g, n, spec, plan_kw) -> dict[str, Any]:
+    """Each distinct route's energy-time front; the energy-optimal one planned per lambda."""
+    from energy_planner.planning.speed import pareto, route_front
+
+    fronts: dict[str, Any] = {}
+    try:
+        fronts["energy_optimal"] = pareto(problem, s, g, n, speed=spec, **plan_kw)
+        lams = fronts["energy_optimal"].lambdas
+    except PlanningError:
+        best = next(r for r in routes if r.name == "energy_optimal")
+        if best.energy_j is None:
+            return fronts
+        from energy_planner.planning.speed import front_lambdas
+
+        lams = front_lambdas(best.energy_j / max(best.duration_s, 1e-9), n)
+    for r in routes:
+        if r.name == "energy_optimal" or not r.feasible or r.states is None or r.same_as:
+            continue
+        fronts[r.name] = route_front(problem, r.states, lams, speed=spec, name=r.name)
+    return dict(sorted(fronts.items(), key=lambda kv: ROUTE_NAMES.index(kv[0])))
 
 
 def _direct_routes(problem, s, g) -> tuple[Route, Route]:
@@ -384,22 +541,27 @@ def _direct_routes(problem, s, g) -> tuple[Route, Route]:
     return direct, direct_yaw
 
 
-def _planned_paths(problem, s, g, planner, time, seed, step, progress) -> dict[str, Any]:
-    """The distance-optimal lattice path and the energy-optimal plan, or why not."""
+def _planned_paths(problem, fixed, s, g, planner, time, seed, step, progress) -> dict[str, Any]:
+    """The distance-optimal lattice path and the energy-optimal plan, or why not.
+
+    ``fixed``: the problem at the nominal speed, whose cost tells the lattice which edges
+    break a limit (the same at every speed, and cheaper to price).
+    """
     from energy_planner.planning.lattice import lattice_plan
     from energy_planner.planning.plan import plan
 
     out: dict[str, Any] = {"lattice": None, "lattice_error": None, "plan": None,
                            "plan_error": None, "info": {"planner": planner}}  # fmt: skip
     try:
-        out["lattice"] = lattice_plan(problem, s, g, step=step, metric="distance").states
+        out["lattice"] = lattice_plan(fixed, s, g, step=step, metric="distance").states
     except EnergyPlannerError as exc:
         out["lattice_error"] = str(exc)
     try:
         res = plan(problem, s, g, planner=planner, time=time, seed=seed, progress=progress,
                    step=step)  # fmt: skip
         out["plan"] = res.states
-        out["info"].update({k: v for k, v in res.info.items() if k != "request"},
+        skip = ("request", "segment_distance_m", "speed_range", "time_weight", "speed_law")
+        out["info"].update({k: v for k, v in res.info.items() if k not in skip},
                            time_s=res.time_s)  # fmt: skip
     except EnergyPlannerError as exc:
         out["plan_error"] = str(exc)

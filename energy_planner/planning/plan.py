@@ -102,17 +102,9 @@ class PlanResult(Result, Assessed):
 
         Empty at the nominal speed (:attr:`times` None).
         """
-        if self.times is None:
-            return []
-        dt = np.diff(self.times)
-        dist = self.info.get("segment_distance_m")
-        if dist is None:
-            dist = np.hypot(*np.diff(self.states[:, :2], axis=0).T)
-        return [
-            {"distance_m": float(d), "duration_s": float(t),
-             "speed_m_s": float(d / t) if d > 1e-9 else 0.0}
-            for d, t in zip(dist, dt, strict=True)
-        ]  # fmt: skip
+        from energy_planner.planning.speed import speed_profile
+
+        return speed_profile(self.states, self.times, self.info.get("segment_distance_m"))
 
     def waypoints(self, terrain: Any = None) -> list[dict[str, float]]:
         """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.

@@ -157,6 +157,10 @@ class ReachMap(Result):
         Given a battery (``reach(..., battery_wh=...)``): the battery's verdict on the
         map, :func:`battery_area` (the largest predicted energy reached with the required
         chance, and the cells and area within it).
+    time_s : ndarray or None
+        With ``reach(..., max_time=)``: the least time to each cell (s; round trip: to
+        go and come back) within that bound, NaN beyond; ``info["time_bound"]`` the bound,
+        the top speed and the yaw rate it was priced at.
     budget_wh : float or None
         The budget the map is read against (``ep.reach(..., budget_wh=)``): the default
         of :meth:`to_dict`, and with :attr:`battery` of the area, contour and GeoJSON
@@ -173,6 +177,7 @@ class ReachMap(Result):
     info: dict[str, Any] = field(default_factory=dict)
     battery: dict[str, Any] | None = field(default=None, repr=False)
     budget_wh: float | None = None
+    time_s: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def budget_j(self) -> float | None:
@@ -217,6 +222,12 @@ class ReachMap(Result):
         }
         if "window" in self.info:
             out["window"] = {k: v for k, v in self.info["window"].items() if k != "log"}
+        if "speed" in self.info:
+            out["speed"] = dict(self.info["speed"])
+        if "time_bound" in self.info and self.time_s is not None:
+            t = self.time_s[np.isfinite(self.energy_j)]
+            far = float(t.max()) if t.size else None
+            out["time_bound"] = {**self.info["time_bound"], "least_time_max_s": far}
         if budget_wh is not None:
             out["budget_cells"] = int(self.mask(budget_wh * 3600.0).sum())
             out["budget_area_m2"] = float(self.area(terrain, budget_wh * 3600.0).area)
@@ -550,6 +561,7 @@ def reach(
     n_headings: int = 16,
     progress: bool = False,
     max_energy: float | None = None,
+    max_time: float | None = None,
     **trust: Any,
 ) -> ReachMap:
     """Least energy from ``start`` to every cell (or to go there and back).
@@ -577,6 +589,15 @@ def reach(
     max_energy : float, optional
         Search only as far as this energy, J (a budget): exact for every cell within it,
         the others NaN; much faster than the whole map when the budget is small.
+    max_time : float, optional
+        Seconds: only the cells some path reaches (and leaves, round trip) within this
+        time, the others NaN. The least time to each cell is the same search priced in
+        seconds (:meth:`~energy_planner.problem.Problem.duration`: every translation at
+        the top of the problem's speed range, or at its fixed speed; turns at the yaw
+        rate); it is :attr:`ReachMap.time_s`. Each kept cell's energy stays the least
+        energy (each motion at its best speed where the problem has a speed range,
+        :meth:`~energy_planner.problem.Problem.with_speed`); the path of least energy may
+        itself take longer than ``max_time``, and arriving in time may then cost more.
     **trust
         ``battery_wh``, ``reserve_wh``, ``confidence`` (and ``level``;
         :class:`~energy_planner.trust.Trust`, or ``trust=`` one): with a battery, the
@@ -640,6 +661,11 @@ def reach(
     out = np.full((rows, cols), np.nan)
     out[np.ix_(ri, ci)] = grid
     out[~np.isfinite(out)] = np.nan
+    times, bound = None, None
+    if max_time is not None:
+        times, bound = _least_time(problem, s, step, n_headings, round_trip, turn_at_cell,
+                                   float(max_time))  # fmt: skip
+        out[~(times <= max_time)] = np.nan
     res = ReachMap(
         energy_j=out,
         start=s,
@@ -648,7 +674,13 @@ def reach(
         info={"search": search, "states": int(grid.size * n_headings),
               "turn_at_cell": bool(turn_at_cell) if round_trip else None,
               "time_s": time.perf_counter() - t0},
+        time_s=times,
     )  # fmt: skip
+    if bound is not None:
+        res.info["time_bound"] = bound
+    if cost.speed_range is not None:
+        res.info["speed"] = {"speed_range": list(cost.speed_range),
+                             "speed_law": cost.speed_law.note}  # fmt: skip
     if want.battery_wh is not None:
         res.battery = battery_area(res, terrain, problem.model, want)
     if max_energy is not None and math.isfinite(max_energy):
@@ -657,6 +689,35 @@ def reach(
             warnings.warn(w, stacklevel=2)
     res.problem = problem
     return res
+
+
+def _least_time(problem, s, step, n_headings, round_trip, turn_at_cell, max_time):
+    """The least time (s) to each cell within ``max_time``, and the bound's record.
+
+    :func:`least_energy` of :meth:`~energy_planner.problem.Problem.duration` at the top
+    speed (of the range, or the fixed speed), searched only as far as ``max_time``.
+    """
+    from energy_planner.errors import PlanningConfigError
+
+    if not (math.isfinite(max_time) and max_time > 0):
+        raise PlanningConfigError(f"max_time must be > 0 seconds, got {max_time!r}",
+                                  value=max_time, param="max_time")  # fmt: skip
+    cost = problem.cost
+    top = cost.speed_range[1] if cost.speed_range is not None else cost.speed
+    terrain = problem.terrain
+    x0, y0, dx, dy = terrain.grid
+    xs, ys, grid, _ = least_energy(
+        problem.duration(top), s, step=step, n_headings=n_headings, round_trip=round_trip,
+        turn_at_cell=turn_at_cell, max_energy=max_time,
+    )  # fmt: skip
+    times = np.full(terrain.shape, np.nan)
+    ci = np.rint((xs - x0) / dx).astype(int)
+    ri = np.rint((ys - y0) / dy).astype(int)
+    times[np.ix_(ri, ci)] = grid
+    times[~np.isfinite(times)] = np.nan
+    bound = {"max_time_s": max_time, "top_speed_m_s": float(top),
+             "yaw_rate_rad_s": float(cost.yaw_rate)}  # fmt: skip
+    return times, bound
 
 
 def battery_area(res: ReachMap, terrain: Any, model: Any, trust: Any) -> dict[str, Any]:

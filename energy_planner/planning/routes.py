@@ -52,6 +52,26 @@ class Route(Result, Assessed):
     climb_grade: float | None = None
     body_yaw_deg: float | None = None
     assessment: Any = field(default=None, repr=False, compare=False)
+    times: np.ndarray | None = field(default=None, repr=False, compare=False)
+    segment_distance_m: np.ndarray | None = field(default=None, repr=False, compare=False)
+    deadline: dict[str, Any] | None = None
+
+    def speed_profile(self) -> list[dict[str, float]]:
+        """Per segment: distance, duration and ground speed, where the route chose its speeds.
+
+        Empty at the nominal speed (:attr:`times` None); see
+        :func:`energy_planner.planning.speed.speed_profile`.
+        """
+        from energy_planner.planning.speed import speed_profile
+
+        if self.states is None:
+            return []
+        return speed_profile(self.states, self.times, self.segment_distance_m)
+
+    def speed_range_m_s(self) -> tuple[float, float] | None:
+        """The least and greatest walking speed of the profile (None without one)."""
+        walk = [p["speed_m_s"] for p in self.speed_profile() if p["speed_m_s"] > 0]
+        return (min(walk), max(walk)) if walk else None
 
     @property
     def energy_wh(self) -> float | None:
@@ -81,6 +101,11 @@ class Route(Result, Assessed):
         }
         if self.reason is not None:
             out["reason"] = self.reason
+        if self.times is not None and self.states is not None:
+            out["times_s"] = [float(v) for v in self.times]
+            out["speed_profile"] = self.speed_profile()
+        if self.deadline is not None:
+            out["deadline"] = dict(self.deadline)
         out.update(self.assessment_dict())
         if terrain is not None and self.states is not None:
             x, y = terrain.from_work(self.states[:, 0], self.states[:, 1])
@@ -101,6 +126,7 @@ class Route(Result, Assessed):
             d["max_slope_deg"], d["feasible"], d.get("reason"), d.get("saving_vs_direct"),
             d.get("same_as"), d.get("ascent_m"),
             None if g is None else math.sin(math.radians(g)), d.get("body_yaw_deg"),
+            deadline=d.get("deadline"),
         )  # fmt: skip
 
 
@@ -120,6 +146,7 @@ class RouteComparison(Result):
     limits: dict[str, Any] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
     physics: dict[str, Any] | None = None
+    fronts: dict[str, Any] = field(default_factory=dict)
 
     def route(self, name: str) -> Route:
         """The route called ``name`` (one of :data:`ROUTE_NAMES`).
@@ -142,12 +169,15 @@ class RouteComparison(Result):
         """
         if terrain is None and self.problem is not None:
             terrain = self.problem.terrain
-        return {
+        out = {
             "routes": [r.to_dict(terrain) for r in self.routes],
             "limits": self.limits,
             "info": self.info,
             "physics": self.physics,
         }
+        if self.fronts:
+            out["fronts"] = {n: f.to_dict(terrain) for n, f in self.fronts.items()}
+        return out
 
     def write_json(self, path: str | Path, terrain: Any = None) -> Path:
         """Write :meth:`to_dict` to ``path`` atomically; returns the path."""
@@ -191,8 +221,44 @@ class RouteComparison(Result):
                 f"{'%' if saving is not None else ' '}  "
                 f"{'yes' if r.feasible else 'no: ' + str(r.reason)}"
             )
+        lines += self.speed_lines()
         lines += ["", *self.explain()]
+        for name, front in self.fronts.items():
+            lines += ["", f"energy-time front of {name}:", *front.text().splitlines()]
         return "\n".join(lines)
+
+    def speed_lines(self) -> list[str]:
+        """Lines on the speeds the routes chose and, under a deadline, who arrives in time.
+
+        None at the nominal speed (the table is then as it always was).
+        """
+        out = []
+        timed = [r for r in self.routes if r.same_as is None and r.times is not None]
+        if timed:
+            sp = self.info.get("speed") or {}
+            rng = sp.get("speed_range")
+            within = f" within {rng[0]:g}-{rng[1]:g} m/s" if rng else ""
+            out.append(f"speed chosen per motion{within}:")
+            for r in timed:
+                v = r.speed_range_m_s()
+                txt = "-" if v is None else f"{v[0]:.2f}-{v[1]:.2f} m/s"
+                out.append(f"  {r.name:<15} {txt}")
+        d = self.info.get("deadline")
+        if d:
+            out.append(f"deadline {d['deadline_s']:g} s, each route at its least-energy timing "
+                       "in time:")  # fmt: skip
+            for c in d.get("candidates", []):
+                if c["on_time"]:
+                    out.append(f"  {c['route']:<42} {c['energy_j']:>9.0f} J  "
+                               f"{c['duration_s']:>7.1f} s  (lambda "
+                               f"{c['lambda_j_per_s']:.1f} J/s)")  # fmt: skip
+                else:
+                    out.append(f"  {c['route']:<42} late: {c['fastest_s']:.1f} s at the top "
+                               "speed")  # fmt: skip
+            if d.get("energy_optimal_from"):
+                out.append(f"  the least energy in time (energy_optimal): "
+                           f"{d['energy_optimal_from']}")  # fmt: skip
+        return out
 
     def saving_split(self) -> list[str]:
         """Lines splitting the energy-optimal saving into gait and route (paper Fig. 1)."""
@@ -254,6 +320,15 @@ class RouteComparison(Result):
                         f"c(g)/g = {ph:.0f} J per metre of height"
                     )
         return out
+
+    def plot_fronts(self, path: str | Path, title: str | None = None) -> Path:
+        """Draw the routes' energy-time fronts (:attr:`fronts`), one curve each; a PNG."""
+        from energy_planner.planning.speed import plot_fronts
+
+        if not self.fronts:
+            raise RouteNameError("no energy-time fronts: compare the routes with pareto=N")
+        return plot_fronts(self.fronts, path, title or "Energy-time front of each route "
+                           "(labels: lambda, J/s)")  # fmt: skip
 
     def write_html(self, path: str | Path, problem: Any = None) -> Path:
         """One self-contained HTML page of the routes (:func:`energy_planner.webmap.routes_page`).

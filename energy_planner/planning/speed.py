@@ -14,6 +14,13 @@ motion's speed then minimises its own ``E + lambda T``, the same closed form wit
   front (cheaper than the chord between its neighbours in neither energy nor time) is
   never the minimum of ``E + lambda T`` for any ``lambda``, so it is not reported; the
   points between two reported ones are not known to be reachable.
+
+A route whose poses are given (the direct climb, the shortest route of
+:func:`~energy_planner.planning.compare.compare_routes`, a mission's leg) is timed the same
+way without a search: :func:`timed` walks its poses at each motion's best speed for a
+``lambda``, :func:`timed_deadline` finds the least ``lambda`` whose timing is in time (one
+route: its duration falls as ``lambda`` grows, so the bisection closes on the deadline),
+and :func:`route_front` sweeps ``lambda`` over it.
 """
 
 from __future__ import annotations
@@ -36,6 +43,12 @@ __all__ = [
     "pareto",
     "ParetoFront",
     "DEADLINE_ITERS",
+    "timed",
+    "timed_deadline",
+    "route_front",
+    "front_lambdas",
+    "speed_profile",
+    "plot_fronts",
 ]
 
 #: Bisection steps of :func:`plan_deadline` on ``log(lambda)`` after the bracket is found.
@@ -43,6 +56,37 @@ DEADLINE_ITERS = 6
 #: ``lambda`` of the fastest path, in units of the least-energy path's mean power: the
 #: time then weighs 100 times the energy, every motion walks at the top of the range.
 FASTEST_WEIGHT = 100.0
+#: Bisections of :func:`timed_deadline` on ``log(lambda)`` (it stops earlier once the
+#: route arrives within :data:`ROUTE_DEADLINE_RTOL` of the deadline).
+ROUTE_DEADLINE_ITERS = 40
+#: A timed route whose duration is within this fraction below the deadline is not slowed
+#: further (its energy is then within about this fraction of the constrained optimum).
+ROUTE_DEADLINE_RTOL = 1e-4
+
+
+def speed_profile(states: Any, times: Any, distances: Any = None) -> list[dict[str, float]]:
+    """Per segment of a timed path: ``distance_m``, ``duration_s`` and ``speed_m_s``.
+
+    ``times``: seconds at each pose; ``distances``: ground length of each segment (metres;
+    default the horizontal one). A segment that only turns has speed 0. Empty without times.
+
+    Examples
+    --------
+    >>> speed_profile([[0, 0, 0], [3, 4, 0], [3, 4, 1]], [0.0, 10.0, 12.0])[:2]
+    [{'distance_m': 5.0, 'duration_s': 10.0, 'speed_m_s': 0.5}, \
+{'distance_m': 0.0, 'duration_s': 2.0, 'speed_m_s': 0.0}]
+    """
+    if times is None:
+        return []
+    states = np.asarray(states, dtype=float)
+    dt = np.diff(np.asarray(times, dtype=float))
+    if distances is None:
+        distances = np.hypot(*np.diff(states[:, :2], axis=0).T)
+    return [
+        {"distance_m": float(d), "duration_s": float(t),
+         "speed_m_s": float(d / t) if d > 1e-9 else 0.0}
+        for d, t in zip(distances, dt, strict=True)
+    ]  # fmt: skip
 
 
 def speed_range_of(model: Any) -> tuple[float, float] | None:
@@ -165,6 +209,13 @@ def _plan(problem, start, goal, speed, lam, kw):
     return plan(problem, start, goal, speed=speed, time_weight=lam, **kw)
 
 
+def _check_deadline(deadline: Any) -> None:
+    if not (isinstance(deadline, int | float) and math.isfinite(deadline) and deadline > 0):
+        raise PlanningConfigError(
+            f"deadline must be > 0 seconds, got {deadline!r}", value=deadline, param="deadline"
+        )
+
+
 def plan_deadline(
     problem: Any,
     start: Sequence[float],
@@ -195,10 +246,7 @@ def plan_deadline(
         ``limit="deadline"``: no path arrives in time; the message and ``value`` give the
         fastest path's duration.
     """
-    if not (isinstance(deadline, int | float) and math.isfinite(deadline) and deadline > 0):
-        raise PlanningConfigError(
-            f"deadline must be > 0 seconds, got {deadline!r}", value=deadline, param="deadline"
-        )
+    _check_deadline(deadline)
     if speed is None:
         speed = "auto"
     speed = resolve_speed(speed, problem.model)
@@ -328,32 +376,45 @@ class ParetoFront:
 
     def plot(self, path: Any, title: str | None = None) -> Any:
         """Energy against duration, with the intervals; a PNG at ``path`` (written atomically)."""
-        import matplotlib
+        return plot_fronts({"": self}, path, title)
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
 
-        from energy_planner.io.atomic import save_figure
+def plot_fronts(fronts: dict[str, ParetoFront], path: Any, title: str | None = None) -> Any:
+    """Energy against duration of one or more fronts (labelled by their keys); a PNG.
 
-        rows = self.rows()
+    Each point with its energy interval (where every point has one) and its ``lambda``
+    (J/s); written atomically at ``path``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from energy_planner.io.atomic import save_figure
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for i, (label, front) in enumerate(fronts.items()):
+        rows = front.rows()
         t = np.array([r["duration_s"] for r in rows])
         e = np.array([r["energy_j"] for r in rows])
-        fig, ax = plt.subplots(figsize=(6, 4))
+        color = f"C{i % 10}"
         if all(r["energy_low_j"] is not None for r in rows):
             lo = e - np.array([r["energy_low_j"] for r in rows])
             hi = np.array([r["energy_high_j"] for r in rows]) - e
-            ax.errorbar(t, e, yerr=[lo, hi], fmt="none", ecolor="0.6", capsize=3)
-        ax.plot(t, e, "o-", color="C0")
+            ax.errorbar(t, e, yerr=[lo, hi], fmt="none", ecolor=color, alpha=0.4, capsize=3)
+        ax.plot(t, e, "o-", color=color, label=label.replace("_", " ") or None)
         for r in rows:
             ax.annotate(f"{r['lambda_j_per_s']:.0f}", (r["duration_s"], r["energy_j"]),
                         textcoords="offset points", xytext=(4, 4), fontsize=7)  # fmt: skip
-        ax.set_xlabel("duration (s)")
-        ax.set_ylabel("energy (J)")
-        ax.set_title(title or "Energy-time front (labels: lambda, J/s; convex hull only)")
-        fig.tight_layout()
-        save_figure(fig, path, dpi=120)
-        plt.close(fig)
-        return path
+    ax.set_xlabel("duration (s)")
+    ax.set_ylabel("energy (J)")
+    ax.set_title(title or "Energy-time front (labels: lambda, J/s; convex hull only)")
+    if any(fronts):
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def pareto(
@@ -379,7 +440,147 @@ def pareto(
         speed = "auto"
     speed = resolve_speed(speed, problem.model)
     base = _plan(problem, start, goal, speed, 0.0, kw)
-    power = base.energy_j / max(base.duration_s, 1e-9)
-    lams = [0.0, *np.geomspace(0.05 * power, FASTEST_WEIGHT * power, n - 1).tolist()]
+    lams = front_lambdas(base.energy_j / max(base.duration_s, 1e-9), n)
     plans = [base] + [_plan(problem, start, goal, speed, lam, kw) for lam in lams[1:]]
     return ParetoFront(lams, plans)
+
+
+def front_lambdas(power: float, n: int) -> list[float]:
+    """The prices of a second a front of ``n`` points sweeps: 0, then geometric.
+
+    ``n - 1`` values from 0.05 to :data:`FASTEST_WEIGHT` times ``power`` (J/s: the mean
+    power of the least-energy path).
+
+    Examples
+    --------
+    >>> [round(v, 2) for v in front_lambdas(10.0, 3)]
+    [0.0, 0.5, 1000.0]
+    """
+    if not (isinstance(n, int) and n >= 2):
+        raise PlanningConfigError(f"a front needs n >= 2 points, got {n!r}", value=n, param="n")
+    return [0.0, *np.geomspace(0.05 * power, FASTEST_WEIGHT * power, n - 1).tolist()]
+
+
+def timed(
+    problem: Any,
+    states: Any,
+    *,
+    speed: Any = "auto",
+    time_weight: float = 0.0,
+    name: str = "route",
+    **trust: Any,
+) -> Any:
+    """Given poses walked at each motion's best speed: energy, duration and speed profile.
+
+    The poses stay as they are; each motion walks at the speed within ``speed``
+    (:func:`resolve_speed`) that minimises its energy plus ``time_weight`` times its
+    duration (the same choice as the planner's, :meth:`MotionCost.best_durations
+    <energy_planner.energy.MotionCost.best_durations>`), priced as a plan is
+    (:func:`energy_planner.planning.plan.plan`'s pricing, with its assessment for
+    ``trust``: ``level``, ``battery_wh``, ...). A fixed speed walks every motion at it.
+
+    Parameters
+    ----------
+    problem : Problem
+    states : array_like, shape (n, 3)
+        Poses ``x, y, yaw`` in the working CRS (metres, radians).
+    speed : float, (float, float) or "auto"
+    time_weight : float
+        ``lambda``, J/s.
+    name : str
+        The result's ``planner`` (what the poses are), and the error's subject.
+
+    Returns
+    -------
+    PlanResult
+
+    Raises
+    ------
+    PlanningError
+        A motion breaks a limit (at every speed of the range).
+    """
+    from energy_planner.planning.plan import _priced
+    from energy_planner.trust import Trust
+
+    want = Trust.pop(trust)
+    if trust:
+        raise TypeError(f"timed() got unexpected keyword(s) {', '.join(trust)}")
+    states = np.asarray(states, dtype=float)
+    prob = with_speed(problem, speed, time_weight)
+    return _priced(prob, states, f"the {name} is not feasible", want, planner=name)
+
+
+def timed_deadline(
+    problem: Any,
+    states: Any,
+    deadline: float,
+    *,
+    speed: Any = "auto",
+    name: str = "route",
+    **trust: Any,
+) -> Any:
+    """Given poses walked in at most ``deadline`` seconds with the least energy.
+
+    ``lambda = 0`` (each motion at its least-energy speed) if that is in time; else the
+    least ``lambda`` whose timing (:func:`timed`) is in time, by bisection on
+    ``log(lambda)`` (:data:`ROUTE_DEADLINE_ITERS`, stopping within
+    :data:`ROUTE_DEADLINE_RTOL` of the deadline). The route is fixed, so its duration
+    falls as ``lambda`` grows, and each motion's speed is the least-energy one for its
+    share of the time: the route's least energy in time. ``info["deadline"]`` holds the
+    deadline and ``lambda``.
+
+    Raises
+    ------
+    PlanningError
+        ``limit="deadline"``: the route cannot arrive in time even with every motion at
+        the top of the range; ``value`` is that fastest duration.
+    """
+    _check_deadline(deadline)
+    spec = resolve_speed("auto" if speed is None else speed, problem.model)
+
+    def run(lam: float):
+        return timed(problem, states, speed=spec, time_weight=lam, name=name, **trust)
+
+    def done(res, lam: float):
+        res.info["deadline"] = {"deadline_s": float(deadline), "lambda_j_per_s": float(lam)}
+        return res
+
+    base = run(0.0)
+    if base.duration_s <= deadline:
+        return done(base, 0.0)
+    power = base.energy_j / max(base.duration_s, 1e-9)
+    hi = FASTEST_WEIGHT * power
+    best = run(hi)
+    if best.duration_s > deadline:
+        raise PlanningError(
+            f"the {name} cannot arrive within {deadline:g} s: it takes {best.duration_s:.1f} "
+            f"s with every motion at the top of the speed range ({best.energy_j:.0f} J)",
+            limit="deadline",
+            value=float(best.duration_s),
+        )
+    lo = 1e-6 * power
+    for _ in range(ROUTE_DEADLINE_ITERS):
+        if best.duration_s >= deadline * (1 - ROUTE_DEADLINE_RTOL):
+            break
+        mid = math.sqrt(lo * hi)
+        res = run(mid)
+        if res.duration_s <= deadline:
+            hi, best = mid, res
+        else:
+            lo = mid
+    return done(best, hi)
+
+
+def route_front(
+    problem: Any, states: Any, lambdas: Sequence[float], *, speed: Any = "auto", name: str = "route"
+) -> ParetoFront:
+    """The energy-time front of given poses: :func:`timed` at each ``lambda``.
+
+    The route stays; only its speed profile changes (each motion's least ``E + lambda
+    T``), so the front is exact for this route (no hull to miss: each motion's cost is
+    convex in its duration where the speed's closed form holds).
+    """
+    spec = resolve_speed("auto" if speed is None else speed, problem.model)
+    lams = [float(v) for v in lambdas]
+    plans = [timed(problem, states, speed=spec, time_weight=lam, name=name) for lam in lams]
+    return ParetoFront(lams, plans, note="one route walked at each lambda's speed profile")
