@@ -28,34 +28,26 @@ from typing import Any
 
 from energy_planner.errors import EnergyPlannerError, PlanningConfigError
 
-__all__ = ["SpeedScene", "gait_speed_ranges", "speed_scene"]
+__all__ = ["SpeedScene", "speed_scene"]
 
 #: The routes priced, in table order.
 SCENE_ROUTES = ("direct", "direct_best_yaw", "shortest", "energy_optimal")
 
 
-def gait_speed_ranges(model: Any) -> dict[str, tuple[float, float]]:
-    """The speeds each gait was logged at (``metadata.fit.domain.gait_speed_m_s``).
+def _gaits(model: Any) -> dict[str, tuple[float, float]]:
+    """The model's gaits and their logged speeds; an error naming the model without."""
+    from energy_planner.calibration.speed import gait_ranges
 
-    >>> from energy_planner.model import EnergyModel
-    >>> sorted(gait_speed_ranges(EnergyModel.load("b1_speeds")))
-    ['trot', 'walk']
-
-    Raises
-    ------
-    PlanningConfigError
-        The model's logs name no gait (fit on logs without a ``gait`` channel).
-    """
-    dom = ((model.metadata or {}).get("fit") or {}).get("domain") or {}
-    ranges = dom.get("gait_speed_m_s") or {}
+    ranges = gait_ranges(model)
     if not ranges:
         raise PlanningConfigError(
-            "the model's logs name no gait (metadata.fit.domain.gait_speed_m_s is empty): "
-            "give a model fitted on logs with a gait channel, e.g. --model b1_speeds",
+            "the model's logs name no gait (no gait channel, or no speeds per gait in "
+            "metadata.fit.domain.gait_speed_m_s): give a model fitted on logs with a gait "
+            "channel, e.g. --model b1_speeds",
             value=getattr(model, "source", None),
             param="model",
         )
-    return {str(g): (float(r[0]), float(r[1])) for g, r in ranges.items()}
+    return {str(g): (float(lo), float(hi)) for g, (lo, hi) in ranges.items()}
 
 
 @dataclasses.dataclass
@@ -182,7 +174,7 @@ def speed_scene(
 def _scene(problem, start, goal, deadline, deadline_factor, time, seed, progress) -> SpeedScene:
     from energy_planner.planning.compare import compare_routes
 
-    gaits = gait_speed_ranges(problem.model)
+    gaits = _gaits(problem.model)
     v = float(problem.request.robot.speed)
     home = [g for g, (lo, hi) in gaits.items() if lo <= v <= hi]
     if not home:
