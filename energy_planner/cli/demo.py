@@ -45,10 +45,7 @@ def _text(comp: Any, res: dict[str, Any]) -> str:
 
 
 @options.command(
-    "demo",
-    "energy-planner demo",
-    "energy-planner demo --max-slope 25 --plot demo25.png",
-    "energy-planner demo --speeds --time 1",
+    "demo", "energy-planner demo", "energy-planner demo --max-slope 25 --plot demo25.png"
 )
 @options.value_option(
     "--scenario",
@@ -112,6 +109,10 @@ def command(
 
     Below the table: the model's critical grade (where a metre of height is cheapest)
     and each route's climbing grade, which say why the longer route costs less.
+
+    With --speeds: each route at the fixed speed, at its best speed and gait, and under a
+    deadline, and the saving split into body yaw, route, speed and gait
+    (energy_planner.planning.scene.speed_scene; --json prints its to_dict()).
     """
     from energy_planner.errors import MissingChannelError
     from energy_planner.maps import map_path, scenario, scenario_names
