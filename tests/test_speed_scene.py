@@ -42,14 +42,21 @@ def test_parts_add_up_and_best_speed_saves(scene):
     _, sc = scene
     direct, opt = sc.row("direct"), sc.row("energy_optimal")
     total = sc.parts["total_j"]
-    assert sum(sc.parts[k] for k in ("body_yaw", "route", "speed", "gait")) == pytest.approx(total)
-    assert total == pytest.approx(direct["fixed_j"] - opt["best_j"], rel=1e-9)
+    parts = ("body_yaw", "route", "speed", "gait", "route_with_speed")
+    assert sum(sc.parts[k] for k in parts) == pytest.approx(total)
+    best = min(opt["best_j"], sc.row("planned_at_best_speed")["best_j"])
+    assert total == pytest.approx(direct["fixed_j"] - best, rel=1e-9)
+    assert sc.parts["route_with_speed"] >= 0
     for r in sc.rows:
-        assert r["best_j"] <= r["fixed_j"]  # the fixed speed is one choice of the range
+        if r["fixed_j"] is not None:  # the fixed speed is one choice of the range
+            assert r["best_j"] <= r["fixed_j"]
         if r["deadline_j"] is not None:  # in time, and never cheaper than unconstrained
             assert r["deadline_s"] <= sc.deadline_s * (1 + 1e-3)
             assert r["deadline_j"] >= r["best_j"] * (1 - 1e-6)
-    assert opt["deadline_j"] is not None and opt["deadline_j"] > opt["best_j"]  # it binds
+    slowest = max(r["best_s"] for r in sc.rows)  # the deadline binds on some route
+    assert slowest > sc.deadline_s
+    binds = [r for r in sc.rows if r["best_s"] > sc.deadline_s and r["deadline_j"] is not None]
+    assert all(r["deadline_j"] > r["best_j"] for r in binds)
 
 
 def test_direct_best_speed_is_the_per_metre_minimum_on_a_plane():
@@ -84,7 +91,12 @@ def test_to_dict_is_json_and_cli_refuses_a_deadline_alone(scene):
     from energy_planner.cli import main
 
     d = json.loads(json.dumps(scene[1].to_dict()))  # what demo --speeds --json prints
-    assert [r["route"] for r in d["rows"]] == ["direct", "direct_best_yaw", "shortest",
-                                               "energy_optimal"]  # fmt: skip
+    assert [r["route"] for r in d["rows"]] == [
+        "direct",
+        "direct_best_yaw",
+        "shortest",
+        "energy_optimal",
+        "planned_at_best_speed",
+    ]
     got = CliRunner().invoke(main, ["demo", "--deadline", "10"])
     assert got.exit_code == 2 and "--deadline needs --speeds" in got.output
