@@ -61,7 +61,11 @@ def open_terrain(path: str | Path, *, band: int | None = None):
 
 
 def load_model(path: str | Path | None = None):
-    """The bundled B1-class model (``path=None``) or a model file."""
+    """The bundled B1-class model (``path=None``), a model file, or a bundled model by name.
+
+    Names: ``"b1_default"`` (0.3 m/s), ``"b1_speeds"`` (0.15-1.2 m/s, walk and trot;
+    :data:`energy_planner.model.model.BUNDLED_MODELS`).
+    """
     from energy_planner.model import EnergyModel
 
     return EnergyModel.default() if path is None else EnergyModel.load(path)

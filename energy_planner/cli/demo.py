@@ -74,6 +74,20 @@ def _text(comp: Any, res: dict[str, Any]) -> str:
     default=Path("energy-planner-demo.png"),
     help="PNG of the routes over a hillshade.",
 )
+@click.option(
+    "--speeds",
+    "speeds",
+    is_flag=True,
+    help="The routes at the fixed 0.3 m/s, at their best speed and gait, and under a "
+    "deadline (--deadline, default 0.9 x the best plan's duration), with what body yaw, "
+    "route, speed and gait each save; model default: the bundled b1_speeds. No plot.",
+)
+@options.value_option(
+    "--deadline",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="With --speeds: the deadline, seconds.",
+)
 @options.gait_limit_options
 @options.channel_options
 @options.json_option
@@ -83,6 +97,8 @@ def command(
     max_slope: float | None,
     time_s: float,
     plot: Path,
+    speeds: bool,
+    deadline: float | None,
     sets: tuple[str, ...],
     channels: tuple[str, ...],
     as_json: bool,
@@ -93,6 +109,10 @@ def command(
 
     Below the table: the model's critical grade (where a metre of height is cheapest)
     and each route's climbing grade, which say why the longer route costs less.
+
+    With --speeds: each route at the fixed speed, at its best speed and gait, and under a
+    deadline, and the saving split into body yaw, route, speed and gait
+    (energy_planner.planning.scene.speed_scene; --json prints its to_dict()).
     """
     from energy_planner.errors import MissingChannelError
     from energy_planner.maps import map_path, scenario, scenario_names
@@ -108,7 +128,10 @@ def command(
             f"no scenario {scenario_name!r}; valid: {', '.join(scenario_names())}",
             param_hint="--scenario",
         ) from exc
-    model = options.load_model_option(model_path)
+    if deadline is not None and not speeds:
+        raise click.BadParameter("--deadline needs --speeds", param_hint="--deadline")
+    model = options.load_model_option(Path("b1_speeds") if speeds and model_path is None
+                                      else model_path)  # fmt: skip
     terrain = load_dem(map_path(sc["map"]))
     start = terrain.to_work(*sc["start"])
     goal = terrain.to_work(*sc["goal"])
@@ -117,6 +140,9 @@ def command(
         channels=options.channels_from_options(sets, channels),
         **options.gait_limits(),
     )
+    if speeds:
+        _speeds(Problem(terrain, model, request), start, goal, deadline, time_s, as_json)
+        return
     try:
         comp = compare_routes(Problem(terrain, model, request), start, goal, time=time_s,
                               progress=True)  # fmt: skip
@@ -136,3 +162,15 @@ def command(
         plot=str(plot),
     )
     options.emit(res, as_json, lambda r: _text(comp, r))
+
+
+def _speeds(problem, start, goal, deadline, time_s, as_json) -> None:
+    """``demo --speeds``: :func:`energy_planner.planning.scene.speed_scene`, printed."""
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.planning.scene import speed_scene
+
+    try:
+        scene = speed_scene(problem, start, goal, deadline=deadline, time=time_s, progress=True)
+    except EnergyPlannerError as exc:
+        raise click.ClickException(str(exc)) from exc
+    options.emit(scene.to_dict(), as_json, lambda _: scene.table())

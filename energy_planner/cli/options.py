@@ -202,7 +202,10 @@ def parse_memory_cap(value: str | None):
 
 
 model_option = path_option(
-    "--model", "model_path", help="Energy model JSON (default: the bundled B1-class model)."
+    "--model",
+    "model_path",
+    help="Energy model JSON, or a bundled model by name: b1_default (the default, "
+    "0.3 m/s), b1_speeds (0.15-1.2 m/s, walk and trot).",
 )
 seed_option = value_option(
     "--seed",

@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # pandas is imported where a frame is made: the energy path n
 
 __all__ = [
     "EnergyModel",
+    "BUNDLED_MODELS",
     "SCHEMA",
     "SCHEMA_VERSION",
     "WALKING_GAITS",
@@ -49,6 +50,12 @@ __all__ = [
 SCHEMA = "energy_planner.model"
 SCHEMA_VERSION = 1
 _DEFAULT_PATH = Path(__file__).resolve().parents[1] / "data" / "b1_default.json"
+#: The bundled models by name (package data): what :meth:`EnergyModel.load` finds when
+#: given a name that is not a file (``--model b1_speeds``, ``ep.load_model("b1_speeds")``).
+BUNDLED_MODELS = {
+    "b1_default": _DEFAULT_PATH,  # 0.3 m/s, one gait: the paper's robot
+    "b1_speeds": _DEFAULT_PATH.parent / "b1_speeds.json",  # 0.15-1.2 m/s, walk and trot
+}
 
 #: Features every kernel receives as arguments; everything else is a constant.
 KERNEL_ARGS = ("alpha", "gamma", "vx", "vy", "wz", "ax", "ay")
@@ -431,7 +438,13 @@ class EnergyModel:
 
     @classmethod
     def load(cls, path: str | Path) -> EnergyModel:
-        """Read a model saved by :meth:`save`.
+        """Read a model saved by :meth:`save`, or a bundled model by name.
+
+        A path that exists wins; else a name of :data:`BUNDLED_MODELS` (``"b1_speeds"``,
+        the simulator's across-speeds model, walk and trot) is that bundled file.
+
+        >>> EnergyModel.load("b1_speeds").metadata["fit"]["speed_terms"]["supported"]
+        True
 
         Raises
         ------
@@ -439,10 +452,16 @@ class EnergyModel:
             If the file is missing, not JSON, or does not follow the schema.
         """
         path = Path(path)
+        if not path.exists() and len(path.parts) == 1 and path.stem in BUNDLED_MODELS:
+            path = BUNDLED_MODELS[path.stem]
         try:
             doc = json.loads(path.read_text())
         except FileNotFoundError as exc:
-            raise ModelError(f"model file {str(path)!r} does not exist", path=path) from exc
+            raise ModelError(
+                f"model file {str(path)!r} does not exist (bundled models by name: "
+                f"{', '.join(BUNDLED_MODELS)})",
+                path=path,
+            ) from exc
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ModelError(
                 f"model file {str(path)!r} is not valid JSON: {exc}", path=path
