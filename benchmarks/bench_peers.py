@@ -5,8 +5,18 @@ Usage::
     python benchmarks/bench_peers.py [--sizes 400,1600] [--ompl-time 10]
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
         [--notch-extent 3200] [--notch-rows 0,1,2,3,4] [--repeat 1] [--no-optimum]
+        [--mission-size 2000] [--mission-sites 20] [--mission-max-slope 15]
+        [--mission-eps 1.05] [--mission-workers 2] [--mission-legs 3] [--quick]
 
-First issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
+First issue 32's mission row (``--mission-size``, 0 to skip; :func:`mission_rows`): the
+energy matrix of 20 random sites on the 2000² hilly DEM against the GIS way to the same
+costs, one ``r.walk`` per site with the other sites as stop points, the same barriers
+(cells steeper than 15°), alternating; wall and CPU time with their ratios (target: the
+matrix no slower than the loop); the matrix on a dask LocalCluster, its CPU time over
+every process against the serial run's (target: at most 10 % more); and legs against
+``plan``. ``--quick``: the mission row on 1000², the notch rows at 800 m, no hilly rows.
+
+Then issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
 with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
 ``--max-slope 30`` and a 30 m keep-out square over the notch (:data:`NOTCH_ROWS`): GRASS
 ``r.walk`` given the same barriers (null friction) beside the default planner, alternating,
