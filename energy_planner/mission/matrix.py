@@ -13,8 +13,8 @@ the whole map, read at the sites) up to float rounding (with ``eps = 1``).
 another goal, so its edges are priced once for all of them (:func:`relaxed_table`, 64
 bytes per position, when it takes at most a quarter of the memory cap) and each site's
 bound is a Dijkstra that reads them (:func:`relaxed_heuristics`): on the 2000² benchmark
-DEM the 20 bounds took 128 CPU s priced per site, 18 s for the table and about 1.5-2 s
-per Dijkstra now. Otherwise each bound prices its own edges
+DEM the 20 bounds took 128 CPU s priced per site; now 18 CPU s for the table and about 2
+CPU s per Dijkstra (at load 8 on 2 cores). Otherwise each bound prices its own edges
 (:func:`~energy_planner.planning.search.target_heuristics`).
 
 **Weighted (eps).** With ``eps > 1`` (``plan``'s default is 1.05) each search keys its
