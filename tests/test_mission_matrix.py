@@ -178,7 +178,7 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
     distributed = pytest.importorskip("distributed")
     from energy_planner.io import write_geotiff
 
-    s = _sites(knoll, [(3, 20), (20, 3)])
+    s = _sites(knoll, [(3, 20), (20, 3), (13, 10)])  # 2 workers: a batch of 2 rows
     serial = energy_matrix(knoll, model, s)
     dem = tmp_path / "knoll.tif"
     write_geotiff(dem, knoll.elevation, transform=knoll.transform, crs=knoll.crs)

@@ -293,17 +293,17 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
                                      hash=False)  # fmt: skip
             del futs
             t_edges = time.perf_counter() - t1
-        # one batch of rows per worker thread
-        batches = [uxy[b::nb] for b in range(nb)]
-        futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, b, uxy, heur_f,
+        # one batch of rows per worker thread, each of neighbouring sites (_batches)
+        batches = _batches(uxy, nb)
+        futs = [client.submit(_rows_task, ter_f, mod_f, req_f, *args, uxy[b], uxy, heur_f,
                               max_energy, edges_f, eps, lazy, pure=False)
                 for b in batches]  # fmt: skip
         got = client.gather(futs)
         del futs, heur_f, edges_f
         rows = [None] * n
-        for b, res in enumerate(got):
-            for k, r in enumerate(res):
-                rows[b + k * nb] = r
+        for b, res in zip(batches, got, strict=True):
+            for i, r in zip(b, res, strict=True):
+                rows[i] = r
     else:
         from energy_planner.planning import search
         from energy_planner.progress import track
@@ -336,6 +336,24 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         "priced": int(sum(r[3] for r in rows)),
         "edge_table_s": t_edges if use_edges else 0.0,
     }
+
+
+def _batches(xy: np.ndarray, nb: int) -> list[np.ndarray]:
+    """``nb`` runs of consecutive sites along the longer side of their bounding box.
+
+    On a cluster each batch of rows fills its own edge cache (one per worker process):
+    the searches from neighbouring sites expand much the same states on their ways to the
+    others, so batches of neighbours price fewer edges twice than sites dealt in turn
+    (20 sites on the 1000² benchmark DEM, 2 batches: 20 % more edges priced than one
+    cache, against 40 % dealt in turn).
+
+    Examples
+    --------
+    >>> [b.tolist() for b in _batches(np.array([[0.0, 0], [9, 1], [1, 2], [8, 0]]), 2)]
+    [[0, 2], [3, 1]]
+    """
+    ax = int(np.argmax(np.ptp(xy, axis=0)))
+    return [b for b in np.array_split(np.argsort(xy[:, ax], kind="stable"), nb) if b.size]
 
 
 def window_proof(
