@@ -457,7 +457,9 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
     friction = f"if(slope > {lim:g}, null(), 0)"
     rng = np.random.default_rng(1)
     legs = [[int(v) for v in rng.choice(n, 2, replace=False)] for _ in range(args.mission_legs)]
-    _child([MISSION_CHILD, json.dumps({**spec, "sites": sites[:2]})], args.timeout)  # warm-up
+    _child(
+        [MISSION_CHILD, json.dumps({**spec, "sites": sites[:2]})], args.mission_timeout
+    )  # warm-up
     walks, mats = [], []
     for k in range(args.repeat):
         if grass is None:
@@ -466,7 +468,7 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
             walks.append(run_grass_loop(grass, dem, sites, work, friction))
         last = k == args.repeat - 1
         mats.append(_child([MISSION_CHILD, json.dumps({**spec, "legs": legs if last else []})],
-                           args.timeout))  # fmt: skip
+                           args.mission_timeout))  # fmt: skip
     print(f"# mission matrix: {n} sites on the {size}² hilly DEM at 1 m, cells steeper than "
           f"{lim:g}° are barriers on both sides; {args.repeat} run(s) each, alternating, "
           "median; ratio = project / r.walk loop")  # fmt: skip
@@ -499,7 +501,7 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
                   if "error" not in r))  # fmt: skip
     if args.mission_workers and "error" not in mat:
         d = _child([MISSION_CHILD, json.dumps({**spec, "workers": args.mission_workers})],
-                   args.timeout)  # fmt: skip
+                   args.mission_timeout)  # fmt: skip
         if "error" in d:
             print(f"| dask LocalCluster, {args.mission_workers} workers | {d['error']} "
                   "| | | | | | |")  # fmt: skip
@@ -573,6 +575,9 @@ def main() -> None:
         help="dask LocalCluster workers of the mission row's CPU check (0: skip)",
     )
     ap.add_argument("--mission-legs", type=int, default=3, help="legs checked against plan")
+    ap.add_argument("--mission-timeout", type=float, default=3600.0,
+                    help="seconds for each run of the mission row (the matrix at load 10 on "
+                    "2 cores took 1123 s)")  # fmt: skip
     ap.add_argument("--quick", action="store_true",
                     help="reduced sizes: notch 800, mission 1000², no hilly rows")  # fmt: skip
     args = ap.parse_args()
