@@ -5,8 +5,18 @@ Usage::
     python benchmarks/bench_peers.py [--sizes 400,1600] [--ompl-time 10]
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
         [--notch-extent 3200] [--notch-rows 0,1,2,3,4] [--repeat 1] [--no-optimum]
+        [--mission-size 2000] [--mission-sites 20] [--mission-max-slope 15]
+        [--mission-eps 1.05] [--mission-workers 2] [--mission-legs 3] [--quick]
 
-First issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
+First issue 32's mission row (``--mission-size``, 0 to skip; :func:`mission_rows`): the
+energy matrix of 20 random sites on the 2000² hilly DEM against the GIS way to the same
+costs, one ``r.walk`` per site with the other sites as stop points, the same barriers
+(cells steeper than 15°), alternating; wall and CPU time with their ratios (target: the
+matrix no slower than the loop); the matrix on a dask LocalCluster, its CPU time over
+every process against the serial run's (target: at most 10 % more); and legs against
+``plan``. ``--quick``: the mission row on 1000², the notch rows at 800 m, no hilly rows.
+
+Then issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
 with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
 ``--max-slope 30`` and a 30 m keep-out square over the notch (:data:`NOTCH_ROWS`): GRASS
 ``r.walk`` given the same barriers (null friction) beside the default planner, alternating,
@@ -104,6 +114,74 @@ print(path_energy(t, m, np.column_stack([x, y])).energy_j)
 """
 
 
+MISSION_CHILD = r"""
+import json, resource, sys, time
+import numpy as np
+spec = json.loads(sys.argv[1])
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+def hwm():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1e6
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+
+from energy_planner.mission import Sites
+from energy_planner.mission.matrix import matrix_search
+from energy_planner.model import EnergyModel
+from energy_planner.request import Request
+from energy_planner.terrain import load_dem
+m = EnergyModel.default()
+req = Request.make(max_slope_deg=spec.get("max_slope"))
+xy = np.array(spec["sites"], float)
+names = [f"s{i}" for i in range(len(xy))]
+client = None
+if spec.get("workers"):
+    from distributed import Client, LocalCluster
+    cluster = LocalCluster(n_workers=spec["workers"], threads_per_worker=1, processes=True,
+                           dashboard_address=None)
+    client = Client(cluster)
+    t = load_dem(spec["dem"])
+    two = Sites(xy[:2], names[:2]).on_cells(t)
+    matrix_search(t, m, two, req, eps=spec["eps"], client=client)  # load the kernels
+
+    import psutil
+
+    def wcpu():  # the workers and their nannies (the scheduler runs in this process)
+        return sum(sum(p.cpu_times()[:2]) for p in psutil.Process().children(recursive=True))
+    w0 = wcpu()
+c0, t0 = cpu(), time.perf_counter()
+t = load_dem(spec["dem"])
+sites = Sites(np.column_stack(t.to_work(xy[:, 0], xy[:, 1])), names).on_cells(t)
+res = matrix_search(t, m, sites, req, eps=spec["eps"], client=client)
+wall = time.perf_counter() - t0
+c = cpu() - c0
+out = dict(time_s=wall, cpu_s=c, rss_gb=hwm(), info={k: v for k, v in res.info.items()
+           if k in ("heuristic_s", "search_s", "expanded", "priced", "whole_map", "edges")},
+           finite=int(np.isfinite(res.energy_j).sum()))
+if client is not None:
+    out["worker_cpu_s"] = wcpu() - w0
+    out["cpu_s"] = c + out["worker_cpu_s"]
+    out["workers_rss_gb"] = sorted(client.run(hwm).values())
+    client.close()
+    cluster.close()
+legs = []
+if spec.get("legs"):
+    from energy_planner.planning.plan import plan
+    for i, j in spec["legs"]:
+        a, b = tuple(sites.xy[i]), tuple(sites.xy[j])
+        same = plan(t, m, a, b, req, planner="search", eps=1.0, progress=False)
+        auto = plan(t, m, a, b, req, progress=False)
+        legs.append([i, j, float(res.energy_j[i, j]), float(same.energy_j), float(auto.energy_j)])
+out["legs"] = legs
+print(json.dumps(out))
+"""
+
+
 def ensure_grass() -> str | None:
     """The ``grass`` executable, installing grass-core if needed; None with the reason."""
     exe = shutil.which("grass")
@@ -184,6 +262,51 @@ def run_grass(
     return {
         "energy": float(e.stdout.strip().splitlines()[-1]), "time_s": secs, "rss_gb": rss,
         "cpu_s": cpu, "distance": length,
+    }  # fmt: skip
+
+
+def run_grass_loop(grass: str, dem: Path, sites: list, work: Path, friction: str = "0") -> dict:
+    """One ``r.walk -k`` per site over ``dem``: the GIS way to a mission's matrix.
+
+    Each run starts at its site with the other sites as stop points (r.walk stops once
+    they are all reached) and writes no direction map (the matrix needs only the costs,
+    read with ``r.what``, not timed). ``friction`` as :func:`run_grass` (barriers: null).
+    Returns the wall and CPU time of the runs together, their peak RSS and how many of
+    the n (n - 1) costs are finite.
+    """
+    db = work / "grassdb"
+    shutil.rmtree(db, ignore_errors=True)
+    subprocess.run([grass, "-c", "EPSG:32631", str(db), "-e"], check=True, capture_output=True)
+    timing = work / "timing.txt"
+    timing.unlink(missing_ok=True)
+    lines = [
+        "set -e",
+        f"r.in.gdal -o input={dem} output=dem --overwrite --quiet",
+        "g.region raster=dem",
+        "r.slope.aspect elevation=dem slope=slope --overwrite --quiet",
+        f"r.mapcalc 'friction = {friction}' --overwrite --quiet",
+    ]
+    for k, (x, y) in enumerate(sites):
+        stops = ",".join(f"{a},{b}" for j, (a, b) in enumerate(sites) if j != k)
+        lines += [
+            f"/usr/bin/time -a -f '%e %M %U %S' -o {timing} r.walk -k elevation=dem "
+            f"friction=friction output=cost start_coordinates={x},{y} "
+            f"stop_coordinates={stops} --overwrite --quiet",
+            f"r.what map=cost coordinates={stops}",
+        ]
+    script = work / "loop.sh"
+    script.write_text("\n".join(lines) + "\n")
+    out = subprocess.run([grass, str(db / "PERMANENT"), "--exec", "bash", str(script)],
+                         capture_output=True, text=True)  # fmt: skip
+    if out.returncode != 0 or not timing.exists():
+        return {"error": f"r.walk failed: {out.stderr.strip()[-200:]}"}
+    rows = [ln.split() for ln in timing.read_text().split("\n") if ln.strip()]
+    vals = [ln.split("|")[-1] for ln in out.stdout.split("\n") if ln.count("|") >= 3]
+    finite = sum(1 for v in vals if v.strip() not in ("", "*") and math.isfinite(float(v)))
+    return {
+        "time_s": sum(float(r[0]) for r in rows), "runs": len(rows), "finite": finite,
+        "cpu_s": sum(float(r[2]) + float(r[3]) for r in rows),
+        "rss_gb": max(float(r[1]) for r in rows) / 1e6,
     }  # fmt: skip
 
 
@@ -300,6 +423,106 @@ def notch_rows(grass: str | None, extent: int, work: Path, args) -> None:
             )
 
 
+def mission_sites(size: int, n: int, seed: int = 0) -> list[tuple[float, float]]:
+    """``n`` random cell centres of the ``size``² hilly DEM, 5 cells inside its edges."""
+    import numpy as np
+    from _hilly import X0, Y0
+
+    rng = np.random.default_rng(seed)
+    cells = np.floor(rng.uniform(5, size - 5, (n, 2)))
+    return [(X0 + i + 0.5, Y0 + j + 0.5) for i, j in cells]
+
+
+def mission_rows(grass: str | None, work: Path, args) -> None:
+    """Issue 32's mission row: the matrix of ``--mission-sites`` sites against r.walk per site.
+
+    On the hilly DEM of ``--mission-size`` (1 m), the same barriers on both sides (cells
+    steeper than ``--mission-max-slope``: null friction for r.walk, the slope limit for
+    the project), ``--repeat`` times alternating: the r.walk loop (:func:`run_grass_loop`)
+    and the project's matrix (:func:`energy_planner.mission.matrix.matrix_search` at
+    ``--mission-eps``, in its own process, the DEM's loading included). Then the matrix
+    on a dask LocalCluster of ``--mission-workers`` processes (0: skip), its CPU time
+    (this process with the scheduler, plus the workers and their nannies) against the
+    serial run's; and ``--mission-legs`` legs against ``plan`` (its defaults, the same
+    limit): the matrix entry over plan's energy.
+    """
+    import numpy as np
+    from _hilly import hilly_dem
+
+    size, n = args.mission_size, args.mission_sites
+    dem = hilly_dem(size, work / f"hilly_{size}.tif")
+    sites = mission_sites(size, n)
+    lim = args.mission_max_slope
+    spec = {"dem": str(dem), "sites": sites, "max_slope": lim, "eps": args.mission_eps}
+    friction = f"if(slope > {lim:g}, null(), 0)"
+    rng = np.random.default_rng(1)
+    legs = [[int(v) for v in rng.choice(n, 2, replace=False)] for _ in range(args.mission_legs)]
+    _child(
+        [MISSION_CHILD, json.dumps({**spec, "sites": sites[:2]})], args.mission_timeout
+    )  # warm-up
+    walks, mats = [], []
+    for k in range(args.repeat):
+        if grass is None:
+            walks.append({"error": "grass-core not installed (see above)"})
+        else:
+            walks.append(run_grass_loop(grass, dem, sites, work, friction))
+        last = k == args.repeat - 1
+        mats.append(_child([MISSION_CHILD, json.dumps({**spec, "legs": legs if last else []})],
+                           args.mission_timeout))  # fmt: skip
+    print(f"# mission matrix: {n} sites on the {size}² hilly DEM at 1 m, cells steeper than "
+          f"{lim:g}° are barriers on both sides; {args.repeat} run(s) each, alternating, "
+          "median; ratio = project / r.walk loop")  # fmt: skip
+    print("| run | wall s | CPU s | peak RSS GB | costs found | wall ratio | CPU ratio | target |")
+    print("|---|---|---|---|---|---|---|---|")
+    walk, mat = _median(walks), _median(mats)
+    if "error" in walk:
+        print(f"| {n} × r.walk -k (one per site, the others as stop points) | {walk['error']} "
+              "| | | | | | |")  # fmt: skip
+    else:
+        print(f"| {n} × r.walk -k (one per site, the others as stop points) | "
+              f"{walk['time_s']:.1f} | {walk['cpu_s']:.1f} | {walk['rss_gb']:.2f} | "
+              f"{walk['finite']} of {n * (n - 1)} | | | |")  # fmt: skip
+    if "error" in mat:
+        print(f"| matrix_search (eps {args.mission_eps:g}) | {mat['error']} | | | | | | |")
+    else:
+        rat = ["", ""]
+        if "error" not in walk:
+            rat = [f"{mat['time_s'] / walk['time_s']:.2f}", f"{mat['cpu_s'] / walk['cpu_s']:.2f}"]
+        i = mat["info"]
+        print(f"| matrix_search (eps {args.mission_eps:g}, serial) | {mat['time_s']:.1f} | "
+              f"{mat['cpu_s']:.1f} | {mat['rss_gb']:.2f} | {mat['finite']} of {n * (n - 1) + n}"
+              f" | {rat[0]} | {rat[1]} | no slower than the loop (<= 1.00) |")  # fmt: skip
+        print(f"# matrix: heuristics {i['heuristic_s']:.1f} s, searches {i['search_s']:.1f} s "
+              f"(wall), {i['expanded']:,} states expanded, {i['priced']:,} edges priced "
+              f"({i['edges']}); runs: " + ", ".join(
+                  f"{r['time_s']:.1f} s / {r['cpu_s']:.1f} CPU s" for r in mats if "error" not in r)
+              + "; r.walk loops: " + ", ".join(
+                  f"{r['time_s']:.1f} s / {r['cpu_s']:.1f} CPU s" for r in walks
+                  if "error" not in r))  # fmt: skip
+    if args.mission_workers and "error" not in mat:
+        d = _child([MISSION_CHILD, json.dumps({**spec, "workers": args.mission_workers})],
+                   args.mission_timeout)  # fmt: skip
+        if "error" in d:
+            print(f"| dask LocalCluster, {args.mission_workers} workers | {d['error']} "
+                  "| | | | | | |")  # fmt: skip
+        else:
+            print(f"| dask LocalCluster, {args.mission_workers} workers (CPU: all processes) "
+                  f"| {d['time_s']:.1f} | {d['cpu_s']:.1f} | "
+                  f"{'/'.join(f'{v:.2f}' for v in d['workers_rss_gb'])} | {d['finite']} | "
+                  f"{d['time_s'] / mat['time_s']:.2f} (to serial) | "
+                  f"{d['cpu_s'] / mat['cpu_s']:.2f} (to serial) | CPU <= 1.10x serial |"
+            )  # fmt: skip
+    if "error" not in mat and mat["legs"]:
+        legs = mat["legs"]
+        worst = max(abs(e / p - 1.0) for _, _, e, p, _ in legs)
+        print("# legs, matrix entry / plan's energy - 1 (the same limit): against "
+              "plan --planner search --eps 1 (the matrix's motions): "
+              + ", ".join(f"s{i}->s{j} {e / p - 1.0:+.3%}" for i, j, e, p, _ in legs)
+              + f"; largest {worst:.3%} (target <= 0.5 %); against plan's defaults (the "
+              "search, then the refinement of its path, which the matrix does not do): "
+              + ", ".join(f"{e / q - 1.0:+.3%}" for _, _, e, _, q in legs))  # fmt: skip
+
+
 def main() -> None:
     sys.path.insert(0, str(HERE))
     from _hilly import hilly_dem
@@ -326,9 +549,46 @@ def main() -> None:
         action="store_true",
         help="skip the eps = 1 search (the quality reference) of the notch rows",
     )
+    ap.add_argument(
+        "--mission-size",
+        type=int,
+        default=2000,
+        help="side of the mission row's hilly DEM, cells (0: no mission row)",
+    )
+    ap.add_argument("--mission-sites", type=int, default=20)
+    ap.add_argument(
+        "--mission-max-slope",
+        type=float,
+        default=15.0,
+        help="barriers of the mission row: cells steeper than this, degrees",
+    )
+    ap.add_argument(
+        "--mission-eps",
+        type=float,
+        default=1.05,
+        help="the matrix's eps (mission --eps; plan's default 1.05)",
+    )
+    ap.add_argument(
+        "--mission-workers",
+        type=int,
+        default=2,
+        help="dask LocalCluster workers of the mission row's CPU check (0: skip)",
+    )
+    ap.add_argument("--mission-legs", type=int, default=3, help="legs checked against plan")
+    ap.add_argument("--mission-timeout", type=float, default=3600.0,
+                    help="seconds for each run of the mission row (the matrix at load 10 on "
+                    "2 cores took 1123 s)")  # fmt: skip
+    ap.add_argument("--quick", action="store_true",
+                    help="reduced sizes: notch 800, mission 1000², no hilly rows")  # fmt: skip
     args = ap.parse_args()
+    if args.quick:
+        args.notch_extent, args.mission_size, args.sizes = 800, 1000, ""
     grass = ensure_grass()
     print(f"# uptime: {os.popen('uptime').read().strip()}  (2 cores shared with other jobs)")
+    if args.mission_size:
+        with tempfile.TemporaryDirectory() as d:
+            mission_rows(grass, Path(d), args)
+        print()
     if args.notch_extent:
         with tempfile.TemporaryDirectory() as d:
             notch_rows(grass, args.notch_extent, Path(d), args)

@@ -178,7 +178,7 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
     distributed = pytest.importorskip("distributed")
     from energy_planner.io import write_geotiff
 
-    s = _sites(knoll, [(3, 20), (20, 3)])
+    s = _sites(knoll, [(3, 20), (20, 3), (13, 10)])  # 2 workers: a batch of 2 rows
     serial = energy_matrix(knoll, model, s)
     dem = tmp_path / "knoll.tif"
     write_geotiff(dem, knoll.elevation, transform=knoll.transform, crs=knoll.crs)
@@ -220,3 +220,30 @@ def test_mission_command_takes_eps(tmp_path, knoll, model):
                                energy_matrix(knoll, model, s, eps=1.05), rtol=RTOL)  # fmt: skip
     bad = CliRunner().invoke(main, [*args, "--eps", "0.5"])
     assert bad.exit_code == 2 and "--eps" in bad.output and "Traceback" not in bad.output
+
+
+def test_relaxed_table_heuristics_equal_the_planner_s_relaxed_problem(knoll, model):
+    """The shared relaxed edges give each site the planner's own bound (up to float32).
+
+    The reference is :func:`~energy_planner.planning.search.relaxed_cost_to_go`, which prices
+    every edge itself; a keep-out square and a slope limit make some edges refused. Strips
+    of rows stacked in order are the whole table.
+    """
+    from energy_planner.planning.search import relaxed_cost_to_go, search_grid
+    from energy_planner.problem import Problem
+
+    req = Request.make(max_slope_deg=12.0, keep_out=[box(8.5, 14.5, 11.5, 17.5)])
+    cost = Problem(knoll, model, req).cost
+    cost.compile()
+    s = _sites(knoll, [(3, 20), (20, 3), (13, 3)])
+    grid = search_grid(cost, knoll, tuple(s.xy[0]), n_headings=16)
+    table = mx.relaxed_table(cost, grid)
+    strips = np.concatenate([mx.relaxed_table(cost, grid, r) for r in ((0, 7), (7, 8), (8, 24))])
+    np.testing.assert_array_equal(strips, table)
+    got = mx.relaxed_heuristics(grid, table, s.xy)
+    for k, (x, y) in enumerate(s.xy):
+        ref = relaxed_cost_to_go(cost, grid, grid.position(x, y, "target"))
+        np.testing.assert_array_equal(np.isfinite(got[k]), np.isfinite(ref))
+        assert (~np.isfinite(ref)).any()  # the keep-out and the limit cut some cells off
+        fin = np.isfinite(ref)
+        np.testing.assert_allclose(got[k][fin], ref[fin], rtol=RTOL, atol=1e-3)
