@@ -1,8 +1,8 @@
 """Scoring candidates on held-out runs: the run test, the noise rule, the ranking.
 
-The rules (held-out by run, the signed-rank test by run, Bonferroni over the candidates
-scored, the smallest relative gain, confounded suspects) are told in
-:mod:`energy_planner.diagnosis.suspects`.
+The rules (held-out by run, the signed-rank test by run, the choice tested nested by fold,
+Bonferroni over the candidates scored, the smallest relative gain, confounded suspects)
+are told in :mod:`energy_planner.diagnosis.suspects`.
 """
 
 from __future__ import annotations
@@ -36,8 +36,10 @@ class Thresholds:
     Attributes
     ----------
     alpha : float
-        Family-wise false-finding level of one ranking: the p-value of a candidate's
-        one-sided test by run must be below ``alpha / m`` (``m`` candidates scored).
+        Family-wise false-finding level of one ranking: choosing a candidate (nested by
+        fold, :class:`ChoiceTest`) must pass at ``alpha``; then the best candidate's
+        one-sided test by run at ``alpha``, another's at ``alpha / m`` (``m`` candidates
+        scored).
     min_rel : float
         Smallest relative reduction of the pooled held-out RMSE that counts.
     span_tol : float
