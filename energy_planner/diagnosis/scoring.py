@@ -368,7 +368,8 @@ class _Context:
             return None
         Z = np.column_stack([self.columns[t][ok] for t in terms])
         folds = self.folds[ok]
-        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok])
+        cols = self.wd.identifiable_nested(self.terms, self.folds, ok)
+        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok], fit_columns=cols)
         e0 = self.base_err[ok]
         e1 = e0.copy()
         for f, j in enumerate(pick):
