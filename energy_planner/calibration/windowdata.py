@@ -294,33 +294,6 @@ class WindowData:
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
         return self._fold_cols[key]
 
-    def identifiable_nested(
-        self, terms: Sequence[str], folds: np.ndarray, ok: np.ndarray
-    ) -> np.ndarray:
-        """The model terms each pair of held-out folds leaves identifiable.
-
-        ``out[f, g]`` is :func:`~energy_planner.calibration.fit.identify_terms` on the
-        windows ``ok`` of the folds other than ``f`` and ``g`` (``f == g``: other than
-        ``f``): the fit of an inner fold of the choice by fold
-        (:func:`energy_planner.stats.heldout.choice_by_fold`), as :meth:`heldout` fits an
-        outer one. Boolean ``(n_folds, n_folds, k)``.
-        """
-        from energy_planner.calibration.fit import identify_terms
-        from energy_planner.model import EnergyModel
-
-        model = EnergyModel(terms=list(terms))
-        names = model.term_names
-        X, w, t = self.columns(list(terms)), self.weights, _with_kind(self.table)
-        folds = np.asarray(folds)
-        n = int(folds.max()) + 1
-        out = np.ones((n, n, len(names)), dtype=bool)
-        for f in range(n):
-            for g in range(f, n):
-                train = ok & (folds != f) & (folds != g)
-                lost = identify_terms(model, X[train], w[train], t[train])
-                out[f, g] = out[g, f] = [m not in lost for m in names]
-        return out
-
     def unidentified(self, terms: Sequence[str], folds: np.ndarray) -> dict[str, str]:
         """Terms a refit of the model ``terms`` leaves out, each with the reason.
 

@@ -368,8 +368,7 @@ class _Context:
             return None
         Z = np.column_stack([self.columns[t][ok] for t in terms])
         folds = self.folds[ok]
-        cols = self.wd.identifiable_nested(self.terms, self.folds, ok)
-        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok], fit_columns=cols)
+        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok])
         e0 = self.base_err[ok]
         e1 = e0.copy()
         for f, j in enumerate(pick):

@@ -282,7 +282,6 @@ def choice_by_fold(
     y: np.ndarray,
     folds: np.ndarray,
     w: np.ndarray | Sequence[float] | None = None,
-    fit_columns: np.ndarray | None = None,
 ) -> np.ndarray:
     """For each fold, the candidate column that the other folds alone would add to ``X``.
 
@@ -309,11 +308,6 @@ def choice_by_fold(
         Fold of every row (:func:`fold_index`).
     w : array-like, optional
         Row weights of the fits; equal by default.
-    fit_columns : numpy.ndarray, optional
-        Boolean ``(n_folds, n_folds, k)``: the columns of ``X`` fitted when folds ``f`` and
-        ``g`` are both held out (the others predicted as 0, as :func:`heldout`'s
-        ``fit_columns``: a term the remaining rows cannot identify would extrapolate
-        wildly); the candidate is always fitted. Default: all.
 
     Returns
     -------
@@ -342,13 +336,6 @@ def choice_by_fold(
         )
     w = _weights(w, n)
     n_folds = int(folds.max()) + 1 if n else 0
-    cols = (
-        np.ones((n_folds, n_folds, k), dtype=bool)
-        if fit_columns is None
-        else np.asarray(fit_columns, dtype=bool)
-    )
-    if cols.shape != (n_folds, n_folds, k):
-        raise FitError(f"fit_columns has shape {cols.shape}, expected ({n_folds}, {n_folds}, {k})")
     best = np.full(n_folds, -1, dtype=np.int64)
     gain = np.zeros(n_folds)
     base: dict[bytes, np.ndarray] = {}
@@ -360,8 +347,8 @@ def choice_by_fold(
         stats = _fold_stats(A, y[ok], w[ok], folds[ok], n_folds)
         key = ok.tobytes()
         if key not in base:  # the model without the candidate, on the same rows
-            base[key] = _inner_sse(stats, cols, n_folds)
-        sse0, sse1 = base[key], _inner_sse(stats, cols, n_folds, extra=True)
+            base[key] = _inner_sse(stats, k, n_folds)
+        sse0, sse1 = base[key], _inner_sse(stats, k + 1, n_folds)
         g = np.where(sse0 > 0, 1.0 - sse1 / np.where(sse0 > 0, sse0, 1.0), 0.0)
         better = g > gain
         best[better], gain[better] = j, g[better]
@@ -381,26 +368,22 @@ def _fold_stats(A, y, w, folds, n_folds):
     return out
 
 
-def _inner_sse(stats, cols: np.ndarray, n_folds: int, extra: bool = False) -> np.ndarray:
-    """Per outer fold, the inner held-out squared error of the model (and the candidate).
+def _inner_sse(stats, c: int, n_folds: int) -> np.ndarray:
+    """Per outer fold, the inner held-out squared error of the first ``c`` columns.
 
-    Over the other folds, each predicted by a fit on the folds that are neither, on the
-    columns ``cols[f, g]`` of the model (and the last one, the candidate, when ``extra``),
-    from the statistics of :func:`_fold_stats`: a fold's error is ``y.y - 2 b.r + b.G b``.
+    Over the other folds, each predicted by a fit on the folds that are neither (from the
+    statistics of :func:`_fold_stats`: a fold's error is ``y.y - 2 b.r + b.G b``).
     """
-    gw = np.array([s[0] for s in stats])
-    rw = np.array([s[1] for s in stats])
+    gw = np.array([s[0][:c, :c] for s in stats])
+    rw = np.array([s[1][:c] for s in stats])
     gt, rt = gw.sum(axis=0), rw.sum(axis=0)
     out = np.zeros(n_folds)
     for f in range(n_folds):
         for g in range(n_folds):
             if g == f or stats[g][5] == 0:
                 continue
-            c = np.append(cols[f, g], extra)
-            b = np.linalg.lstsq(
-                (gt - gw[f] - gw[g])[np.ix_(c, c)], (rt - rw[f] - rw[g])[c], rcond=1e-12
-            )[0]
-            G, r, q = stats[g][2][np.ix_(c, c)], stats[g][3][c], stats[g][4]
+            b = np.linalg.lstsq(gt - gw[f] - gw[g], rt - rw[f] - rw[g], rcond=1e-12)[0]
+            G, r, q = stats[g][2][:c, :c], stats[g][3][:c], stats[g][4]
             out[f] += q - 2.0 * b @ r + b @ G @ b
     return out
 
