@@ -294,6 +294,14 @@ def choice_by_fold(
     the held-out errors of fold ``f`` with its choice are an honest held-out measure of
     *choosing* a candidate, whatever the number of candidates (nested cross-validation).
 
+    Every column of ``X`` is fitted in the inner folds (minimum norm), where :func:`heldout`
+    fits only what a fold identifies: a model term that two or three runs support can
+    then extrapolate wildly in an inner fold that holds them out, and the folds choose at
+    random. That costs the choice power (on mission logs with a load, the default-phase
+    campaigns of ``benchmarks/bench_field_logs.py``), never its level. Fitting only the
+    identifiable model terms in the inner folds is not enough: a candidate then stands in
+    for the term left out and is chosen, to extrapolate in the outer fold.
+
     Parameters
     ----------
     X : numpy.ndarray
