@@ -312,7 +312,8 @@ def staircase_options(f):
                 type=click.FloatRange(min=0, max=1, min_open=True),
                 default=0.01,
                 help="Noise rule: family-wise false-finding level of each step (one-sided "
-                "test by run, Bonferroni over the candidates).",
+                "test by run of choosing at all, each fold choosing on its training runs; "
+                "then the best at this level, the others Bonferroni over the candidates).",
             ),
             value_option(
                 "--min-rel",

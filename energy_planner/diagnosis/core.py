@@ -166,6 +166,7 @@ class Diagnosis:
             "alternatives": [] if r is None else [s.to_dict() for s in r.alternatives],
             "n_tested": 0 if r is None else r.n_tested,
             "p_threshold": None if r is None else r.p_threshold,
+            "choice": None if r is None or r.choice is None else r.choice.to_dict(),
             "staircase": [s.to_dict() for s in self.steps],
             "thresholds": {
                 k: getattr(th, k) for k in ("alpha", "min_rel", "span_tol", "n_splits", "seed")

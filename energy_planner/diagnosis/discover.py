@@ -248,6 +248,7 @@ class Discovery:
             else [s.to_dict() for s in last.below_noise[:5]],
             "unsupported_at_end": [] if last is None else last.unsupported,
             "n_tested": [r.n_tested for r in self.rankings],
+            "choice": [None if r.choice is None else r.choice.to_dict() for r in self.rankings],
             "thresholds": {
                 "alpha": th.alpha,
                 "min_rel": th.min_rel,

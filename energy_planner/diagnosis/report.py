@@ -255,9 +255,12 @@ def _suspects_section(d: Diagnosis, doc: dict[str, Any]) -> list[str]:
     parts.append("<h2>Suspects: which effect is missing</h2>")
     parts.append(
         f"<p class='note'>Each candidate is one more term, refitted and validated on held-out "
-        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when a "
-        f"{RUN_TEST_NAME} of its held-out error reduction has p &lt; "
-        f"{th['alpha']} / {doc['n_tested']} candidates (Bonferroni) and the pooled held-out "
+        f"runs ({th['n_splits']} folds by run). A suspect is <i>above noise</i> when "
+        f"choosing at all passes (each fold's choice, made on its training runs alone, "
+        f"lowers the error of the runs it did not see: a {RUN_TEST_NAME} at p &lt; "
+        f"{th['alpha']}), then a {RUN_TEST_NAME} of its own held-out error reduction has "
+        f"p &lt; {th['alpha']} for the best and p &lt; {th['alpha']} / {doc['n_tested']} "
+        f"candidates (Bonferroni) for the others, and the pooled held-out "
         f"RMSE falls by at least {100 * th['min_rel']:.0f}%. Add one with <code>energy-planner "
         f"fit LOGS --out model.json --term TERM</code>, or let <code>energy-planner discover"
         f"</code> walk the staircase.</p>"
@@ -486,10 +489,13 @@ def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> 
         )
     )
     parts.append(
-        f"<p class='note'>Rule: a candidate is added when a {RUN_TEST_NAME} of "
-        f"its held-out error reduction has p below {th['alpha']} / (candidates tested: "
-        f"{', '.join(map(str, doc['n_tested']))} at each step) and it lowers the held-out "
-        f"RMSE by at least {100 * th['min_rel']:.0f}%. Folds: {th['n_splits']} by run.</p>"
+        f"<p class='note'>Rule: at each step, choosing a candidate must lower the error "
+        f"of the runs no choice saw (each fold's choice made on its training runs alone: a "
+        f"{RUN_TEST_NAME} at p below {th['alpha']}); then the best candidate is added when "
+        f"its own test has p below {th['alpha']} (another: below {th['alpha']} / "
+        f"candidates tested, {', '.join(map(str, doc['n_tested']))} at each step) and it "
+        f"lowers the held-out RMSE by at least {100 * th['min_rel']:.0f}%. Folds: "
+        f"{th['n_splits']} by run.</p>"
     )
     parts.append("<h2>Best candidates left below noise</h2>")
     parts.append(

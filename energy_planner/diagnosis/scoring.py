@@ -1,8 +1,8 @@
 """Scoring candidates on held-out runs: the run test, the noise rule, the ranking.
 
-The rules (held-out by run, the signed-rank test by run, Bonferroni over the candidates
-scored, the smallest relative gain, confounded suspects) are told in
-:mod:`energy_planner.diagnosis.suspects`.
+The rules (held-out by run, the signed-rank test by run, the choice tested nested by fold,
+Bonferroni over the candidates scored, the smallest relative gain, confounded suspects)
+are told in :mod:`energy_planner.diagnosis.suspects`.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from energy_planner.diagnosis.names import term_spec
 from energy_planner.model.terms import Term
 from energy_planner.stats import fold_index, paired_run_test, span_basis, span_residual
 from energy_planner.stats import wls_coef as wls
+from energy_planner.stats.heldout import choice_by_fold
 
 
 @dataclass(frozen=True)
@@ -35,8 +36,10 @@ class Thresholds:
     Attributes
     ----------
     alpha : float
-        Family-wise false-finding level of one ranking: the p-value of a candidate's
-        one-sided test by run must be below ``alpha / m`` (``m`` candidates scored).
+        Family-wise false-finding level of one ranking: choosing a candidate (nested by
+        fold, :class:`ChoiceTest`) must pass at ``alpha``; then the best candidate's
+        one-sided test by run at ``alpha``, another's at ``alpha / m`` (``m`` candidates
+        scored).
     min_rel : float
         Smallest relative reduction of the pooled held-out RMSE that counts.
     span_tol : float
@@ -101,6 +104,47 @@ class Ranking:
     #: suspects above noise that a refit with them leaves out (``term``, ``name``,
     #: ``reason``), best first: the staircase tried them before the one it added
     dropped: list[dict] = field(default_factory=list)
+    #: the test of the choice itself (:class:`ChoiceTest`), None when nothing was scored
+    choice: ChoiceTest | None = None
+
+
+@dataclass(frozen=True)
+class ChoiceTest:
+    """The held-out test of choosing the best candidate (nested by fold).
+
+    For each fold, the candidate its training folds alone choose
+    (:func:`energy_planner.stats.heldout.choice_by_fold`); the held-out errors of every
+    fold's windows with its own choice, against the model's, by the run test.
+
+    Attributes
+    ----------
+    chosen : list of str or None
+        The term each fold's training folds chose (None: none improves there).
+    heldout_rmse_w : float
+        Pooled held-out RMSE of the windows with their fold's choice, W.
+    z, p_value : float
+        The run test's statistic and one-sided p-value.
+    n_runs : int
+        Runs in the test.
+    p_threshold : float
+        The level the p-value must be below (its share of ``Thresholds.alpha``).
+    """
+
+    chosen: list[str | None]
+    heldout_rmse_w: float
+    z: float
+    p_value: float
+    n_runs: int
+    p_threshold: float
+
+    @property
+    def passed(self) -> bool:
+        """Choosing a candidate lowers the held-out error beyond noise."""
+        return bool(self.p_value < self.p_threshold)
+
+    def to_dict(self) -> dict:
+        """JSON-friendly dict."""
+        return asdict(self) | {"passed": self.passed}
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
@@ -159,6 +203,8 @@ def rank_suspects(
     ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms}, list(terms))
     scored, unsup = ctx.evaluate(candidates)
     unsupported.extend(unsup)
+    # the candidates fixed before any look at the errors (the refined knots are not)
+    a_priori = [s.term for s, _ in scored]
     # the best shape per family stands for it (hinge knots refined)
     best: dict[str, tuple[Suspect, Candidate]] = {}
     rest: list[Suspect] = []
@@ -178,6 +224,14 @@ def rank_suspects(
     # best first; on a tie (complementary shapes: grass = not mud when a channel has two
     # values) the extra cost (positive coefficient) is named rather than a saving
     final.sort(key=lambda s: (-round(s.error_explained, 9), not s.coefficient > 0))
+    # the gate (suspects' docstring, *Above noise*): choosing at all, tested at alpha on
+    # errors no choice saw; only then the best at alpha and the others at alpha / m
+    choice = ctx.choice_test(a_priori, th.alpha)
+    if choice is None or not choice.passed:
+        for s in final:
+            s.above_noise = False
+    elif final and not final[0].above_noise:
+        ctx.decide(final[0], th.alpha)
     suspects = [s for s in final if s.above_noise]
     alternatives = ctx.alternatives(suspects[0], p_thr) if suspects else []
     return Ranking(
@@ -191,6 +245,7 @@ def rank_suspects(
         n_tested=m,
         p_threshold=p_thr,
         heldout_errors=ctx.base_err,
+        choice=choice,
     )
 
 
@@ -303,6 +358,32 @@ class _Context:
             n_windows=int(ok.sum()),
             coefficient=coef,
             channel=c.channel,
+        )
+
+    def choice_test(self, terms: list[str], level: float) -> ChoiceTest | None:
+        """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``."""
+        terms = [t for t in terms if t in self.columns]
+        ok = self.base_ok
+        if not terms or not ok.any():
+            return None
+        Z = np.column_stack([self.columns[t][ok] for t in terms])
+        folds = self.folds[ok]
+        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok])
+        e0 = self.base_err[ok]
+        e1 = e0.copy()
+        for f, j in enumerate(pick):
+            if j >= 0:
+                ej = self.errors[terms[j]][ok]
+                there = (folds == f) & np.isfinite(ej)
+                e1[there] = ej[there]
+        z, p, n = paired_run_test(e0, e1, self.runs[ok])
+        return ChoiceTest(
+            chosen=[terms[j] if j >= 0 else None for j in pick],
+            heldout_rmse_w=float(np.sqrt(np.mean(e1**2))),
+            z=z,
+            p_value=p,
+            n_runs=n,
+            p_threshold=level,
         )
 
     def coefficient(self, term: str) -> float:

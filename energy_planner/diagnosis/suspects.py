@@ -34,14 +34,23 @@ projection on the model's columns is below ``span_tol`` (default 0.05).
 
 *Above noise* (a finding). With ``d_r`` the reduction of run ``r``'s mean held-out squared
 window error when the candidate is added (same held-out windows with and without it), a
-one-sided signed-rank test over the runs (:func:`paired_run_test`) asks that runs improve
-consistently; its p-value must be below
-``alpha / m`` where ``m`` is the number of candidates scored in this ranking (Bonferroni: the
-chance that *any* of them passes by luck is at most ``alpha``, default 1 %), AND the pooled
-held-out RMSE must fall by at least ``min_rel`` (default 5 %) of its current value. The first
-rule controls the false-finding rate whatever the number of candidates; the second keeps
-out gains too small to matter (a real but negligible structure of the residual). Measured
-rates are in docs/diagnosis.md.
+one-sided signed-rank test over the runs (:func:`paired_run_test`; exact p for few runs)
+asks that runs improve consistently. A ranking decides in a fixed sequence, so that the
+chance that *anything* passes by luck is at most ``alpha`` (default 1 %) per step:
+
+1. *choosing* must be worth it: for each fold, the candidate its training folds alone
+   choose (:func:`energy_planner.stats.heldout.choice_by_fold`); the held-out errors of each
+   fold's windows with its own choice must pass the test at ``alpha``
+   (:class:`~energy_planner.diagnosis.scoring.ChoiceTest`, ``Ranking.choice``). No choice
+   saw the errors it is tested on: one test, whatever the number of candidates;
+2. then the best candidate passes when its own p-value is below ``alpha``, any other when
+   its p-value is below ``alpha / m`` where ``m`` is the number of candidates scored in this
+   ranking (Bonferroni);
+
+AND the pooled held-out RMSE must fall by at least ``min_rel`` (default 5 %) of its
+current value. The tests control the false-finding rate whatever the number of
+candidates; the last rule keeps out gains too small to matter (a real but negligible
+structure of the residual). Measured rates are in docs/diagnosis.md.
 
 ``error_explained`` is the fraction of the current held-out mean squared error that the
 candidate removes, ``1 - MSE_cv(with) / MSE_cv(without)``.

@@ -40,7 +40,14 @@ import numpy as np
 from energy_planner.errors import FitError
 from energy_planner.stats.numerics import _scaled, _weights
 
-__all__ = ["HeldOut", "fold_index", "heldout", "paired_run_test"]
+__all__ = [
+    "EXACT_MAX_RUNS",
+    "HeldOut",
+    "choice_by_fold",
+    "fold_index",
+    "heldout",
+    "paired_run_test",
+]
 
 
 # --------------------------------------------------------------------------- folds by run
@@ -269,16 +276,148 @@ def heldout(
     return HeldOut(pred, y - pred, folds, coef, pred_s)
 
 
+def choice_by_fold(
+    X: np.ndarray,
+    Z: np.ndarray,
+    y: np.ndarray,
+    folds: np.ndarray,
+    w: np.ndarray | Sequence[float] | None = None,
+) -> np.ndarray:
+    """For each fold, the candidate column that the other folds alone would add to ``X``.
+
+    The choice is made as the diagnosis makes it on all runs (the candidate with the
+    smallest held-out error), but on fold ``f``'s training folds only: each candidate
+    ``Z[:, j]`` is scored by the held-out squared error of ``y ~ [X, z_j]`` over the
+    training folds, each predicted by a fit on the others (weighted least squares on
+    columns scaled to unit norm, minimum norm, unfloored, row by row), relative to the
+    same of ``y ~ X`` on the same rows. The rows of fold ``f`` never enter its choice, so
+    the held-out errors of fold ``f`` with its choice are an honest held-out measure of
+    *choosing* a candidate, whatever the number of candidates (nested cross-validation).
+
+    Every column of ``X`` is fitted in the inner folds (minimum norm), where :func:`heldout`
+    fits only what a fold identifies: a model term that two or three runs support can
+    then extrapolate wildly in an inner fold that holds them out, and the folds choose at
+    random. That costs the choice power (on mission logs with a load, the default-phase
+    campaigns of ``benchmarks/bench_field_logs.py``), never its level. Fitting only the
+    identifiable model terms in the inner folds is not enough: a candidate then stands in
+    for the term left out and is chosen, to extrapolate in the outer fold.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        The model's columns, shape ``(n, k)`` (rows with a non-finite value must be left
+        out by the caller).
+    Z : numpy.ndarray
+        Candidate columns, shape ``(n, m)``; a NaN leaves that row out of the candidate's
+        score (and out of the score of ``X`` it is compared with).
+    y : numpy.ndarray
+        Target, shape ``(n,)``.
+    folds : numpy.ndarray
+        Fold of every row (:func:`fold_index`).
+    w : array-like, optional
+        Row weights of the fits; equal by default.
+
+    Returns
+    -------
+    numpy.ndarray
+        Index of the chosen column per fold, ``int64`` of shape ``(n_folds,)``; -1 where
+        no candidate lowers the training folds' held-out error.
+
+    Examples
+    --------
+    Only the second candidate carries signal; every fold's training folds see it:
+
+    >>> rng = np.random.default_rng(0)
+    >>> x = np.ones((40, 1)); Z = rng.normal(size=(40, 3))
+    >>> y = 2.0 + 3.0 * Z[:, 1] + rng.normal(0, 0.1, 40)
+    >>> choice_by_fold(x, Z, y, np.arange(40) % 4).tolist()
+    [1, 1, 1, 1]
+    """
+    X = np.asarray(X, dtype=float)
+    Z = np.asarray(Z, dtype=float)
+    y = np.asarray(y, dtype=float)
+    folds = np.asarray(folds, dtype=np.int64)
+    n, k = X.shape
+    if Z.ndim != 2 or Z.shape[0] != n or y.shape != (n,) or folds.shape != (n,):
+        raise FitError(
+            f"X {X.shape}, Z {Z.shape}, y {y.shape} and folds {folds.shape} must share their rows"
+        )
+    w = _weights(w, n)
+    n_folds = int(folds.max()) + 1 if n else 0
+    best = np.full(n_folds, -1, dtype=np.int64)
+    gain = np.zeros(n_folds)
+    base: dict[bytes, np.ndarray] = {}
+    for j in range(Z.shape[1]):
+        ok = np.isfinite(Z[:, j])
+        if ok.sum() <= k + 1:
+            continue
+        A = np.column_stack([X[ok], Z[ok, j]])
+        stats = _fold_stats(A, y[ok], w[ok], folds[ok], n_folds)
+        key = ok.tobytes()
+        if key not in base:  # the model without the candidate, on the same rows
+            base[key] = _inner_sse(stats, k, n_folds)
+        sse0, sse1 = base[key], _inner_sse(stats, k + 1, n_folds)
+        g = np.where(sse0 > 0, 1.0 - sse1 / np.where(sse0 > 0, sse0, 1.0), 0.0)
+        better = g > gain
+        best[better], gain[better] = j, g[better]
+    return best
+
+
+def _fold_stats(A, y, w, folds, n_folds):
+    """Per fold: weighted Gram and moment (fits), plain Gram, moment and ``y.y`` (errors)."""
+    _, As, scale = _scaled(A, w)
+    As = A / scale  # unit weighted norm, unweighted rows
+    out = []
+    for f in range(n_folds):
+        te = folds == f
+        a, yy, ww = As[te], y[te], w[te]
+        aw = a * ww[:, None]
+        out.append((aw.T @ a, aw.T @ yy, a.T @ a, a.T @ yy, float(yy @ yy), int(te.sum())))
+    return out
+
+
+def _inner_sse(stats, c: int, n_folds: int) -> np.ndarray:
+    """Per outer fold, the inner held-out squared error of the first ``c`` columns.
+
+    Over the other folds, each predicted by a fit on the folds that are neither (from the
+    statistics of :func:`_fold_stats`: a fold's error is ``y.y - 2 b.r + b.G b``).
+    """
+    gw = np.array([s[0][:c, :c] for s in stats])
+    rw = np.array([s[1][:c] for s in stats])
+    gt, rt = gw.sum(axis=0), rw.sum(axis=0)
+    out = np.zeros(n_folds)
+    for f in range(n_folds):
+        for g in range(n_folds):
+            if g == f or stats[g][5] == 0:
+                continue
+            b = np.linalg.lstsq(gt - gw[f] - gw[g], rt - rw[f] - rw[g], rcond=1e-12)[0]
+            G, r, q = stats[g][2][:c, :c], stats[g][3][:c], stats[g][4]
+            out[f] += q - 2.0 * b @ r + b @ G @ b
+    return out
+
+
+#: Up to this many runs without tied differences, :func:`paired_run_test` takes its p-value
+#: from the exact null distribution of the signed-rank statistic (all ``2 ** n`` sign
+#: patterns equally likely) rather than its normal approximation. With 12 runs the
+#: approximation cannot go below p = 0.0011 however consistent the runs (all 12 better),
+#: where the exact p is ``2 ** -12`` = 0.00024: a few runs must be able to show an effect
+#: at the level the diagnosis asks for.
+EXACT_MAX_RUNS = 25
+
+
 def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
     """One-sided paired test by run that ``e1`` has smaller squared errors than ``e0``.
 
     ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
     independent units (held out by run; a run's windows share its ground and sensors). The
     test is Wilcoxon's signed-rank test of ``d_r`` (the diagnosis names it
-    ``RUN_TEST_NAME``; ``scipy.stats.wilcoxon``, one-sided, normal approximation with tie
-    correction, zero differences dropped): an effect often lives in a few runs (those on
-    mud, those with a payload) and makes ``d_r`` very skewed, where a t-test has little
-    power; the signed-rank test counts how consistently runs improve.
+    ``RUN_TEST_NAME``; ``scipy.stats.wilcoxon``, one-sided, zero differences dropped): an
+    effect often lives in a few runs (those on mud, those with a payload) and makes ``d_r``
+    very skewed, where a t-test has little power; the signed-rank test counts how
+    consistently runs improve. The p-value is exact (the null distribution of the statistic
+    over the ``2 ** n`` sign patterns) for at most :data:`EXACT_MAX_RUNS` runs without tied
+    ``|d_r|``, and the normal approximation with tie correction otherwise; the statistic
+    ``z`` is always the standardised one (normal approximation).
 
     Returns
     -------
@@ -297,6 +436,12 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     >>> z, p, n = paired_run_test(e1, e0, runs)
     >>> bool(z < -3 and p > 0.99)
     True
+
+    Twelve runs that all improve: exactly one sign pattern in ``2 ** 12`` is as extreme.
+
+    >>> _, p, n = paired_run_test(np.full(12, 2.0) + np.arange(12), np.ones(12), np.arange(12))
+    >>> p == 2.0**-12, n
+    (True, 12)
     """
     from scipy.stats import wilcoxon
 
@@ -311,4 +456,7 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     z = float(res.zstatistic)
     if not math.isfinite(z):
         return math.nan, 1.0, n
-    return z, float(res.pvalue), n
+    p = float(res.pvalue)
+    if d.size <= EXACT_MAX_RUNS and np.unique(np.abs(d)).size == d.size:
+        p = float(wilcoxon(d, alternative="greater", method="exact").pvalue)
+    return z, p, n
