@@ -18,6 +18,7 @@ another machine); ``...`` in a shown line ends what is compared of it.
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shlex
@@ -152,6 +153,14 @@ def check_shown(shown: list[str], printed: str, cmd: str) -> None:
         assert any(close(ln) for ln in cands), f"{cmd!r}: shown {want!r}, printed {cands!r}"
 
 
+@functools.cache
+def benchmark_help(script: Path) -> subprocess.CompletedProcess:
+    """``python SCRIPT --help``, run once per script (a page names one script many times)."""
+    return subprocess.run(
+        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120
+    )
+
+
 def check_benchmark(cmd: str) -> None:
     """A ``python benchmarks/X.py ARGS`` line: the script exists and knows every option.
 
@@ -163,9 +172,7 @@ def check_benchmark(cmd: str) -> None:
     assert words[0] == "python" and words[1].startswith("benchmarks/"), cmd
     script = ROOT / words[1]
     assert script.exists(), f"{cmd!r}: no {script}"
-    r = subprocess.run(
-        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120
-    )
+    r = benchmark_help(script)
     assert r.returncode == 0, f"{cmd!r}: --help failed\n{r.stderr}"
     for w in words[2:]:
         if w.startswith("--"):
