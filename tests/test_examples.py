@@ -58,8 +58,11 @@ SELF_CONTAINED = ("demo",)
 #: it once and replays its output and its files (:func:`run`). The calibration examples of
 #: README.md, docs/*.md and the help's tutorial share their campaigns and fits this way.
 REPLAYABLE = ("simulate", "fit", "figures", "diagnose", "discover")
-#: the pages and help chains that share those runs: one xdist group, so one worker
-CALIBRATION_EXAMPLES = ("README.md", "calibration.md", "diagnosis.md", "energy.md", "calibration")
+#: the pages and help chains that share those runs, by xdist group (a group runs in one
+#: worker): the load campaign and its fits; the campaign with a ground effect and a fault
+SHARED_RUNS = {"calibration": "load-campaign", "calibration.md": "load-campaign",
+               "energy.md": "load-campaign", "README.md": "fault-campaign",
+               "diagnosis.md": "fault-campaign"}  # fmt: skip
 RTOL = 0.03
 NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")
 
@@ -301,10 +304,9 @@ def test_help_chains_cover_the_tutorial_in_order():
 
 
 def _grouped(names: list, name_of=str) -> list:
-    """``names`` as parameters, those of :data:`CALIBRATION_EXAMPLES` in one xdist group."""
-    group = pytest.mark.xdist_group("calibration-examples")
-    return [pytest.param(n, marks=group) if name_of(n) in CALIBRATION_EXAMPLES else n
-            for n in names]  # fmt: skip
+    """``names`` as parameters, those of :data:`SHARED_RUNS` in their xdist groups."""
+    return [pytest.param(n, marks=pytest.mark.xdist_group(SHARED_RUNS[name_of(n)]))
+            if name_of(n) in SHARED_RUNS else n for n in names]  # fmt: skip
 
 
 @pytest.mark.parametrize("chain", _grouped(list(HELP_CHAINS)))
