@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
 import pytest
+
+# one BLAS thread per process, set before anything imports numpy (which loads OpenBLAS):
+# the suite runs one xdist worker per core, and OpenBLAS's own threads then spin against
+# the other worker's; a 483 x 33 SVD (the identifiability check of every fold's fit) took
+# 100 ms of CPU instead of 1.3 ms on a busy 2-core machine (tests/test_speed_physics.py:
+# 40.9 -> 14.0 s CPU). CLI subprocesses inherit it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 # precompiled kernel modules take ~10 s to build per model: only the tests that check
 # them build one (tests/test_energy_imports.py); the others price with numba's kernels
@@ -47,6 +54,8 @@ def make_follower():
 
     The plan is the walked path every 0.5 s (every 10th sample at 20 Hz) with its times.
     """
+    import numpy as np
+
     import energy_planner as ep
     from energy_planner.follow import Follower
     from energy_planner.simulate import synthetic_dem

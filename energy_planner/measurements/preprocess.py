@@ -278,25 +278,11 @@ def segment_slices(samples: pd.DataFrame) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)]
 
 
-_EMA_KERNEL: Callable | None = None
-
-
 def _ema_kernel() -> Callable:
-    global _EMA_KERNEL
-    if _EMA_KERNEL is None:
-        import numba
+    # numba is imported when a log is smoothed, not with the package
+    from energy_planner.measurements._ema import ema_kernel
 
-        @numba.njit(cache=False)
-        def kernel(x, t, tau):  # pragma: no cover - compiled
-            y = np.empty_like(x)
-            y[0] = x[0]
-            for i in range(1, x.size):
-                a = 1.0 - np.exp(-(t[i] - t[i - 1]) / tau)
-                y[i] = y[i - 1] + a * (x[i] - y[i - 1])
-            return y
-
-        _EMA_KERNEL = kernel
-    return _EMA_KERNEL
+    return ema_kernel
 
 
 def ema(x, t, tau: float) -> np.ndarray:
