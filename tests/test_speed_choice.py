@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.energy.speed import best_speed, speed_law
@@ -85,6 +85,7 @@ def test_kinked_model_falls_back_to_the_scalar_minimisation():
     lo=st.floats(0.05, 1.0),
     width=st.floats(0.0, 2.0),
 )
+@example(b=1.0, c=1.0, lo=1.0, width=3.783509259812634e-09)  # a range of a few nm/s
 def test_clamped_and_monotone_in_b_over_c(b, c, lo, width):
     """Always inside the range, equal to the clamped optimum, and rising with b / c."""
     hi = lo + width

@@ -219,8 +219,8 @@ def speed_nodes(law: SpeedLaw, vmin: float, vmax: float) -> tuple[np.ndarray, np
     """The speeds at which the Laurent coefficients are solved for, and the inverse matrix.
 
     ``K = len(law.exponents)`` speeds spread geometrically over ``[vmin, vmax]`` (over
-    ``[vmin, 2 vmin]`` when the range is a single speed), then one more between the first
-    two for the check. Returns ``(nodes, inverse)``: ``nodes`` of length ``K + 1``,
+    ``[vmin, 2 vmin]`` when the range is a single speed or narrower than 1 %), then one
+    more between the first two for the check. Returns ``(nodes, inverse)``: ``nodes`` of length ``K + 1``,
     ``inverse`` the ``K x K`` inverse of ``M[j, k] = nodes[j] ** exponents[k]``, so
     that the coefficients are ``inverse @ E(nodes[:K])``. A law that is not polynomial
     gives ``K = 0``: no nodes, an empty matrix.
@@ -228,7 +228,9 @@ def speed_nodes(law: SpeedLaw, vmin: float, vmax: float) -> tuple[np.ndarray, np
     k = len(law.exponents) if law.polynomial else 0
     if k == 0:
         return np.zeros(0), np.zeros((0, 0))
-    hi = vmax if vmax > vmin * (1 + 1e-9) else 2.0 * vmin
+    # a range narrower than 1 % would make the matrix (nearly) singular: the law is a
+    # polynomial everywhere, so its coefficients are solved on [vmin, 2 vmin] instead
+    hi = vmax if vmax > vmin * 1.01 else 2.0 * vmin
     base = np.geomspace(vmin, hi, k) if k > 1 else np.array([math.sqrt(vmin * hi)])
     check = math.sqrt(base[0] * base[1]) if k > 1 else 0.5 * (vmin + base[0]) + 0.25 * vmin
     nodes = np.append(base, check)
