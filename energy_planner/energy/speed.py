@@ -220,9 +220,10 @@ def speed_nodes(law: SpeedLaw, vmin: float, vmax: float) -> tuple[np.ndarray, np
 
     ``K = len(law.exponents)`` speeds spread geometrically over ``[vmin, vmax]`` (over
     ``[vmin, 2 vmin]`` when the range is a single speed or narrower than 1 %), then one
-    more between the first two for the check. Returns ``(nodes, inverse)``: ``nodes`` of length ``K + 1``,
-    ``inverse`` the ``K x K`` inverse of ``M[j, k] = nodes[j] ** exponents[k]``, so
-    that the coefficients are ``inverse @ E(nodes[:K])``. A law that is not polynomial
+    more between the first two for the check. Returns ``(nodes, inverse)``: ``nodes`` of
+    length ``K + 1``, ``inverse`` the ``K x K`` inverse of
+    ``M[j, k] = nodes[j] ** exponents[k]``, so that the coefficients are
+    ``inverse @ E(nodes[:K])``. A law that is not polynomial
     gives ``K = 0``: no nodes, an empty matrix.
     """
     k = len(law.exponents) if law.polynomial else 0
