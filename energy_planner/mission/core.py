@@ -486,7 +486,7 @@ def _in_time(problem, sites, budget: float, kw: dict) -> MissionResult:
     :func:`energy_planner.planning.speed.plan_deadline` does for one path.
     """
     from energy_planner.errors import PlanningConfigError
-    from energy_planner.planning.speed import DEADLINE_ITERS, FASTEST_WEIGHT
+    from energy_planner.planning.speed import bisect_time_price
 
     if not (math.isfinite(budget) and budget > 0):
         raise PlanningConfigError(f"time_budget must be > 0 seconds, got {budget!r}",
@@ -505,35 +505,12 @@ def _in_time(problem, sites, budget: float, kw: dict) -> MissionResult:
         res.problem = problem
         return res
 
-    base = run(0.0)
-    if base.duration_s <= budget:
-        return done(base, 0.0)
-    power = base.energy_j / max(base.duration_s, 1e-9)
-    lo, hi = 0.0, power
-    while True:
-        res = run(hi)
-        if res.duration_s <= budget:
-            best = (res, hi)
-            break
-        lo = hi
-        if hi >= FASTEST_WEIGHT * power:
-            raise PlanningError(
-                f"no tour visits the sites within {budget:g} s: the fastest found takes "
-                f"{res.duration_s:.1f} s ({res.energy_j:.0f} J, every motion at the top of the "
-                "speed range); give a larger time budget or a higher top speed",
-                limit="deadline", value=float(res.duration_s),
-            )  # fmt: skip
-        hi = min(4.0 * hi, FASTEST_WEIGHT * power)
-    for _ in range(DEADLINE_ITERS):
-        mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
-        res = run(mid)
-        if res.duration_s <= budget:
-            hi = mid
-            if res.energy_j < best[0].energy_j:
-                best = (res, mid)
-        else:
-            lo = mid
-    return done(*best)
+    late = (
+        f"no tour visits the sites within {budget:g} s: the fastest found takes "
+        "{duration:.1f} s ({energy:.0f} J, every motion at the top of the speed range); "
+        "give a larger time budget or a higher top speed"
+    )
+    return done(*bisect_time_price(run, budget, late))
 
 
 def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_eps, n_headings,

@@ -43,6 +43,7 @@ __all__ = [
     "pareto",
     "ParetoFront",
     "DEADLINE_ITERS",
+    "bisect_time_price",
     "timed",
     "timed_deadline",
     "route_front",
@@ -262,12 +263,37 @@ def plan_deadline(
                                 "plans": [list(t) for t in tried]}  # fmt: skip
         return res
 
+    late = (
+        f"no path arrives within {deadline:g} s: the fastest path found takes "
+        "{duration:.1f} s ({energy:.0f} J, every motion at the top of the speed range); "
+        "give a later deadline or a higher top speed"
+    )
+    return done(*bisect_time_price(run, deadline, late))
+
+
+def bisect_time_price(run: Any, deadline: float, late: str) -> tuple[Any, float]:
+    """The least-energy result in time over a bisection on the price of a second.
+
+    ``run(lam)`` plans (a path, a tour) minimising ``energy + lam x time`` and returns a
+    result with ``energy_j`` and ``duration_s``. ``lam = 0`` if that result is in time;
+    else the bracket grows by 4 from its mean power until a result is in time (up to
+    :data:`FASTEST_WEIGHT` times that power: every motion at the top of the speed
+    range), then :data:`DEADLINE_ITERS` bisections on ``log(lambda)``. Returns the
+    least-energy result in time among those priced and its ``lambda``.
+
+    Raises
+    ------
+    PlanningError
+        ``limit="deadline"``: nothing arrives in time; ``late`` (formatted with the
+        fastest result's ``duration`` and ``energy``) is the message, ``value`` its
+        duration.
+    """
     base = run(0.0)
     if base.duration_s <= deadline:
-        return done(base, 0.0)
+        return base, 0.0
     power = base.energy_j / max(base.duration_s, 1e-9)
     fastest_lam = FASTEST_WEIGHT * power
-    lo, hi, best = 0.0, power, None
+    lo, hi = 0.0, power
     while True:
         res = run(hi)
         if res.duration_s <= deadline:
@@ -276,9 +302,7 @@ def plan_deadline(
         lo = hi
         if hi >= fastest_lam:
             raise PlanningError(
-                f"no path arrives within {deadline:g} s: the fastest path found takes "
-                f"{res.duration_s:.1f} s ({res.energy_j:.0f} J, every motion at the top of "
-                "the speed range); give a later deadline or a higher top speed",
+                late.format(duration=res.duration_s, energy=res.energy_j),
                 limit="deadline",
                 value=float(res.duration_s),
             )
@@ -292,7 +316,7 @@ def plan_deadline(
                 best = (res, mid)
         else:
             lo = mid
-    return done(*best)
+    return best
 
 
 @dataclass
