@@ -28,3 +28,18 @@ def test_named_inputs_match_the_data_tuple():
     assert math.isclose(d[k.IN_BTAN], math.tan(math.radians(10)))
     assert math.isclose(d[k.IN_CMAX], math.radians(20))
     assert d[k.IN_CHAN].ndim == 3
+
+
+def test_the_cost_reads_the_terrain_gradient_without_a_copy():
+    """A Terrain's gradient is the kernels' input as it is; a terrain without ``grad``
+    (a window, a test double) gets its two components stacked."""
+    t = Terrain.from_function(lambda x, y: 0.1 * x + 0.05 * y, size=(20, 30), resolution=2.0)
+    cost = MotionCost(t, EnergyModel.default(), 0.4, 0.6)
+    assert cost.data[k.IN_GRAD] is t.grad
+
+    class Bare:
+        grid, dzdx, dzdy = t.grid, np.array(t.dzdx), np.array(t.dzdy)
+
+    bare = MotionCost(Bare(), EnergyModel.default(), 0.4, 0.6).data[k.IN_GRAD]
+    assert bare.flags.c_contiguous and bare is not t.grad
+    np.testing.assert_array_equal(bare, t.grad)

@@ -164,8 +164,27 @@ def test_hillshade_of_plane_matches_lambert():
 
 def test_outputs_are_c_contiguous_float64():
     t = Terrain.from_array(np.asfortranarray(np.random.default_rng(0).random((8, 9))))
-    for a in (t.elevation, t.dzdx, t.dzdy):
+    for a in (t.elevation, t.grad):
         assert a.dtype == np.float64 and a.flags.c_contiguous
+    assert t.grad.shape == (8, 9, 2)
+    # one copy of the gradient: the components are views of it, equal to Horn's own
+    assert t.dzdx.base is t.grad and t.dzdy.base is t.grad
+    gx, gy = horn_gradient(t.elevation, 1.0, -1.0)
+    assert gx.flags.c_contiguous and gy.flags.c_contiguous
+    np.testing.assert_array_equal(t.dzdx, gx)
+    np.testing.assert_array_equal(t.dzdy, gy)
+
+
+def test_gradient_views_survive_pickling():
+    """A pickled Terrain (a dask worker's) holds one gradient, its views made again."""
+    import pickle
+
+    t = Terrain.from_function(lambda x, y: 0.1 * x - 0.2 * y, size=(6, 5))
+    u = pickle.loads(pickle.dumps(t))
+    assert u.dzdx.base is u.grad and u.dzdy.base is u.grad
+    np.testing.assert_array_equal(u.grad, t.grad)
+    u.grad[2, 2] = (7.0, 8.0)
+    assert (u.dzdx[2, 2], u.dzdy[2, 2]) == (7.0, 8.0)
 
 
 def test_radians_option():

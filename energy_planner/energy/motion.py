@@ -40,7 +40,9 @@ class MotionCost:
     Parameters
     ----------
     terrain : Terrain
-        Provides ``grid`` (x0, y0, dx, dy), ``dzdx`` and ``dzdy``.
+        Provides ``grid`` (x0, y0, dx, dy), ``dzdx`` and ``dzdy``; its ``grad`` (as
+        :attr:`Terrain.grad <energy_planner.terrain.Terrain.grad>`), when it has one,
+        is read as it is, else the two components are stacked into a copy.
     model : EnergyModel
         A fitted model.
     speed, yaw_rate : float
@@ -131,9 +133,8 @@ class MotionCost:
         self.constants = dict(channels.constants)
         x0, y0, dx, dy = (float(v) for v in terrain.grid)
         self.step = float(step) if step else 0.5 * min(abs(dx), abs(dy))
-        gx = np.asarray(terrain.dzdx, dtype=np.float64)
-        gy = np.asarray(terrain.dzdy, dtype=np.float64)
-        grad = np.ascontiguousarray(np.stack([gx, gy], axis=-1))
+        grad = _shared_gradient(terrain)
+        gx = grad[..., 0]
         if blocked is None:
             mask = np.zeros((0, 0), dtype=np.bool_)
         else:
@@ -347,3 +348,23 @@ def _combinations(samples: Mapping[str, np.ndarray]) -> list[dict[str, Any]]:
     for name, values in samples.items():
         combos = [{**c, name: v} for c in combos for v in values]
     return combos
+
+
+def _shared_gradient(terrain: Any) -> np.ndarray:
+    """The terrain's gradient as the kernels read it: ``(rows, cols, 2)`` float64, C order.
+
+    A :class:`~energy_planner.terrain.Terrain` keeps it in that layout (``grad``): shared,
+    not copied (on a 3200 x 3200 DEM a copy is 164 MB). Other terrains (windows, test
+    doubles) give ``dzdx`` and ``dzdy``, stacked here.
+    """
+    g = getattr(terrain, "grad", None)
+    gx = np.asarray(terrain.dzdx)
+    if (
+        isinstance(g, np.ndarray)
+        and g.dtype == np.float64
+        and g.flags.c_contiguous
+        and g.shape == (*gx.shape, 2)
+    ):
+        return g
+    gy = np.asarray(terrain.dzdy, dtype=np.float64)
+    return np.ascontiguousarray(np.stack([gx.astype(np.float64, copy=False), gy], axis=-1))

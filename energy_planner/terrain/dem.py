@@ -140,16 +140,21 @@ class Terrain:
         Horn slope and aspect on the DEM's own grid when that grid is not metric
         (longitude/latitude): :func:`load_dem` computes them there and derives ``dzdx``,
         ``dzdy`` from them. None when the working grid is the DEM's grid.
-    gradient : (ndarray, ndarray) or None
+    gradient : (ndarray, ndarray), ndarray of shape (rows, cols, 2), or None
         Init only: the working grid's gradient when it is not Horn of ``elevation`` on
         this grid (a geographic DEM's native gradient carried over); None computes Horn.
-        Needs a north-up grid; float64 C-contiguous arrays are kept, not copied, and set
-        to NaN in place where a component or the elevation is invalid.
+        Needs a north-up grid; a float64 C-contiguous ``(rows, cols, 2)`` array is kept,
+        not copied (a pair is stacked into one), and set to NaN in place where a
+        component or the elevation is invalid.
 
     Attributes
     ----------
+    grad : ndarray of float64, shape (rows, cols, 2), C-contiguous
+        Horn gradient ``(dz/dx, dz/dy)`` of each cell (m/m), NaN where not computable.
+        The one copy of the gradient: ``dzdx`` and ``dzdy`` are views of it, and the
+        motion-cost kernels read it as it is (:class:`~energy_planner.energy.MotionCost`).
     dzdx, dzdy : ndarray of float64
-        Horn gradient towards east and north (m/m), NaN where not computable.
+        Horn gradient towards east and north (views of ``grad``, not C-contiguous).
 
     Notes
     -----
@@ -175,11 +180,12 @@ class Terrain:
     source_shape: tuple[int, int] | None = None
     path: Path | None = None
     native: NativeGrid | None = None
-    gradient: InitVar[tuple[np.ndarray, np.ndarray] | None] = None
+    gradient: InitVar[tuple[np.ndarray, np.ndarray] | np.ndarray | None] = None
+    grad: np.ndarray = field(init=False)
     dzdx: np.ndarray = field(init=False)
     dzdy: np.ndarray = field(init=False)
 
-    def __post_init__(self, gradient: tuple[np.ndarray, np.ndarray] | None) -> None:
+    def __post_init__(self, gradient: tuple[np.ndarray, np.ndarray] | np.ndarray | None) -> None:
         z = np.asarray(self.elevation)
         if z.ndim != 2:
             raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
@@ -202,18 +208,31 @@ class Terrain:
         if self.source_shape is None:
             self.source_shape = (rows, cols)
         if gradient is None:
-            self.dzdx, self.dzdy = horn_gradient(z, t.a, t.e)
+            self.grad = np.empty((rows, cols, 2))
+            horn_gradient(z, t.a, t.e, out=self.grad)
         else:
-            gx, gy = (np.ascontiguousarray(g, dtype=np.float64) for g in gradient)
-            if gx.shape != z.shape or gy.shape != z.shape:
-                raise DEMError(
-                    f"gradient shapes {gx.shape}, {gy.shape}: expected the elevation's "
-                    f"shape {z.shape}"
-                )
-            bad = ~(np.isfinite(gx) & np.isfinite(gy) & np.isfinite(z))
-            gx[bad] = np.nan
-            gy[bad] = np.nan
-            self.dzdx, self.dzdy = gx, gy
+            if isinstance(gradient, np.ndarray) and gradient.shape == (rows, cols, 2):
+                g = np.ascontiguousarray(gradient, dtype=np.float64)
+            else:
+                gx, gy = (np.asarray(v, dtype=np.float64) for v in gradient)
+                if gx.shape != z.shape or gy.shape != z.shape:
+                    raise DEMError(
+                        f"gradient shapes {gx.shape}, {gy.shape}: expected the elevation's "
+                        f"shape {z.shape}"
+                    )
+                g = np.stack([gx, gy], axis=-1)
+            bad = ~(np.isfinite(g[..., 0]) & np.isfinite(g[..., 1]) & np.isfinite(z))
+            g[bad] = np.nan
+            self.grad = g
+        self.dzdx, self.dzdy = self.grad[..., 0], self.grad[..., 1]
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without ``dzdx``/``dzdy``: views of ``grad``, made again on loading."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("dzdx", "dzdy")}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self.dzdx, self.dzdy = self.grad[..., 0], self.grad[..., 1]
 
     # ------------------------------------------------------------------ construction
     @classmethod

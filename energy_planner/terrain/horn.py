@@ -140,7 +140,10 @@ def _per_row(step: float | np.ndarray, rows: int, name: str) -> float | np.ndarr
 
 
 def horn_gradient(
-    z: np.ndarray, step_x: float | np.ndarray, step_y: float | np.ndarray
+    z: np.ndarray,
+    step_x: float | np.ndarray,
+    step_y: float | np.ndarray,
+    out: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Horn gradient of a grid with signed steps (see :func:`pixel_steps`).
 
@@ -154,12 +157,16 @@ def horn_gradient(
         on a longitude/latitude grid, where a column step is ``cos(latitude)`` times
         shorter towards the poles (see :mod:`energy_planner.terrain.native`). Row ``r``'s
         differences are divided by row ``r``'s steps (the window's centre row).
+    out : ndarray of float64, shape (rows, cols, 2), optional
+        Where to write the gradient, the two components of a cell side by side (the
+        layout the motion-cost kernels read); the results are then views of it, not
+        C-contiguous.
 
     Returns
     -------
-    dzdx, dzdy : ndarray of float64, C-contiguous
-        dz/dx (east) and dz/dy (north); NaN on the border and wherever the 3 x 3 window
-        touches a NaN.
+    dzdx, dzdy : ndarray of float64
+        dz/dx (east) and dz/dy (north), C-contiguous unless ``out`` is given; NaN on the
+        border and wherever the 3 x 3 window touches a NaN.
 
     Examples
     --------
@@ -172,8 +179,17 @@ def horn_gradient(
     if z.ndim != 2:
         raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
     rows, cols = z.shape
-    dzdx = np.full((rows, cols), np.nan)
-    dzdy = np.full((rows, cols), np.nan)
+    if out is None:
+        dzdx = np.full((rows, cols), np.nan)
+        dzdy = np.full((rows, cols), np.nan)
+    else:
+        if out.shape != (rows, cols, 2) or out.dtype != np.float64:
+            raise DEMError(
+                f"out has shape {out.shape} and dtype {out.dtype}; expected float64 of "
+                f"shape {(rows, cols, 2)}"
+            )
+        out.fill(np.nan)
+        dzdx, dzdy = out[..., 0], out[..., 1]
     if rows < 3 or cols < 3:
         return dzdx, dzdy
     top, mid, bot = z[:-2], z[1:-1], z[2:]

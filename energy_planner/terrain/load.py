@@ -34,13 +34,14 @@ __all__ = ["load_dem", "open_dem"]
 
 def _warp_to_utm(
     z: np.ndarray, transform: Affine, crs: Any, path: Path, scale: Any = None
-) -> tuple[np.ndarray, Affine, Any, tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+) -> tuple[np.ndarray, Affine, Any, tuple[np.ndarray, np.ndarray], np.ndarray]:
     """Reproject a non-metric DEM to its local UTM zone (bilinear, NaN-aware).
 
-    Returns the working elevation, transform and CRS, and the working gradient: the
-    native Horn gradient ``grads`` of ``z`` (:func:`~energy_planner.terrain.native.
-    native_gradient`, ``transform`` north-up) carried to the working cell centres and
-    axes by :func:`~energy_planner.terrain.native.gradient_to_work`. ``scale``: the
+    Returns the working elevation, transform and CRS, the native Horn gradient ``grads``
+    of ``z`` (:func:`~energy_planner.terrain.native.native_gradient`, ``transform``
+    north-up), and the working gradient, ``(height, width, 2)`` as :attr:`Terrain.grad`:
+    ``grads`` carried to the working cell centres and axes by
+    :func:`~energy_planner.terrain.native.gradient_to_work`. ``scale``: the
     CRS's :func:`~energy_planner.terrain.native.metric_scale` over the DEM.
     """
     from rasterio.crs import CRS
@@ -95,8 +96,8 @@ def _warp_to_utm(
     )
     grads = native_gradient(z, transform, crs, scale)
     zw = np.empty((height, width))
-    gxw = np.empty((height, width))
-    gyw = np.empty((height, width))
+    gw = np.empty((height, width, 2))  # kept by the Terrain as it is (no copy)
+    gxw, gyw = gw[..., 0], gw[..., 1]
     # working cell centres with a ring of neighbours (one column each side), for the
     # Jacobian of the back-projection in gradient_to_work
     xs_dst = dst_transform.c + (np.arange(-1, width + 1) + 0.5) * dst_transform.a
@@ -120,7 +121,7 @@ def _warp_to_utm(
         gxw[r0:r1], gyw[r0:r1] = gradient_to_work(
             grads, transform, crs, sx, sy, (dst_transform.a, dst_transform.e), scale
         )
-    return zw, dst_transform, dst_crs, grads, (gxw, gyw)
+    return zw, dst_transform, dst_crs, grads, gw
 
 
 def _read_window(
