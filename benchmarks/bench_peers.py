@@ -413,7 +413,7 @@ def notch_rows(grass: str | None, extent: int, work: Path, args) -> None:
             q = "" if "error" in opt else f"{r['energy'] / opt['energy']:.4f}"
             tgt = ""
             if name == "plan (auto)":
-                tgt = f"time <= {target:g}x" + (", RSS <= 2x" if target == 1.0 else "")
+                tgt = f"time <= {target:g}x" + (", RSS <= 1.5x" if target == 1.0 else "")
                 tgt += ", quality <= 1.01"
             print(
                 f"{head} {r['time_s']:.2f} | {r['cpu_s']:.2f} | {r['rss_gb']:.2f} | "
