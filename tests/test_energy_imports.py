@@ -115,3 +115,42 @@ def test_precompiled_energy_loads_no_numba_and_prices_as_numba(tmp_path):
     # 24.25 kg more adds 5 * 24.25 J per metre walked
     (e0, d0), (e1, d1) = totals
     assert d0 == d1 and abs((e1 - e0) - 5.0 * 24.25 * d0) < 1e-9 * e1
+
+
+MAP = (
+    "import json, sys\n"
+    "from click.testing import CliRunner\n"
+    "from energy_planner.cli import main\n"
+    "r = CliRunner().invoke(main, ['energy-map', 'hill', '--out', sys.argv[1], '--bands', 'all',"
+    " '--max-crab', '20', '--max-backward-slope', '5', '--json'])\n"
+    "assert r.exit_code == 0, r.output\n"
+    "print(json.dumps({'numba': 'numba' in sys.modules}))\n"
+)
+
+
+def test_precompiled_energy_map_loads_no_numba_and_writes_numbas_values(tmp_path):
+    """``energy-map`` runs the model's precompiled map kernels (``map_costs`` and the
+    summary bands, in threads over each block's rows): numba stays unloaded, and every
+    band is the numba kernels' to the last bit, under gait limits."""
+    import os
+
+    import rasterio
+
+    from energy_planner.energymap.bands import block_bands
+    from energy_planner.energymap.setup import _setup
+    from energy_planner.request import Request
+    from energy_planner.terrain import load_dem
+
+    out = tmp_path / "map.tif"
+    env = {**os.environ, "ENERGY_PLANNER_PRECOMPILE": "1"}
+    done = subprocess.run([sys.executable, "-c", MAP, str(out)], capture_output=True,
+                          text=True, check=True, env=env)  # fmt: skip
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == {"numba": False}
+    with rasterio.open(out) as src:
+        got = src.read()
+    t = load_dem(map_path("hill"))
+    req = Request.make(max_crab_deg=20.0, max_backward_slope_deg=5.0)
+    setup = _setup(None, req, None, 16)
+    ref = block_bands(setup.heading, t.dzdx, t.dzdy, np.zeros((0, 1, 1)), 16)  # numba's
+    assert np.isfinite(ref).any() and not np.array_equal(ref[:16], ref[16:32])
+    np.testing.assert_array_equal(got, ref)

@@ -1,12 +1,15 @@
 """Build a precompiled kernel module: ``python -m energy_planner.energy._precompile``.
 
 Arguments: the kernel module's source file (written by
-:func:`energy_planner.model._codegen.load_precompiled`), the extension's name and the
-directory to write it to. The functions :data:`energy_planner.energy.kernels.PRECOMPILED`
-of the module are compiled by numba's ahead-of-time compiler (``numba.pycc``) with the
-types of :attr:`energy_planner.energy.MotionCost.data`: the same code as the numba
-kernels, in a C extension that imports without numba. Run in a child process so that
-the caller never imports numba and a failed build cannot harm it.
+:func:`energy_planner.model._codegen.load_precompiled`), the extension's name, the
+directory to write it to and what to build (``motion``, the default, or ``map``). The
+functions :data:`energy_planner.energy.kernels.PRECOMPILED` of the module are compiled by
+numba's ahead-of-time compiler (``numba.pycc``) with the types of
+:attr:`energy_planner.energy.MotionCost.data`: the same code as the numba kernels, in a C
+extension that imports without numba; ``map``: the energy map's
+:data:`energy_planner.energy.kernels.PRECOMPILED_MAP`, which release the GIL (numba's
+``nogil``) so that threads can share a block. Run in a child process so that the caller
+never imports numba and a failed build cannot harm it.
 """
 
 from __future__ import annotations
@@ -65,5 +68,46 @@ def build(source: str, name: str, out_dir: str) -> None:
     cc.compile()
 
 
+def build_map(source: str, name: str, out_dir: str) -> None:
+    """Compile the energy map's kernels of the module in ``source`` (GIL released)."""
+    from numba import types
+    from numba.core.compiler import Flags
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import numba.pycc.compiler as pycc_compiler
+        from numba.pycc import CC
+
+    class _NoGil(Flags):  # numba.pycc has no option for it: its flags, with nogil
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            self.release_gil = True
+
+    spec = importlib.util.spec_from_file_location(f"{name}_source", source)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    f8, f4 = types.float64, types.float32
+    c1, c3 = types.Array(f8, 1, "C"), types.Array(f8, 3, "C")
+    a2, a3, b3 = types.Array(f8, 2, "A"), types.Array(f8, 3, "A"), types.Array(f4, 3, "A")
+    cc = CC(name)
+    cc.output_dir = out_dir
+    cc.verbose = False
+    # map_costs(gx, gy, chan, consts, headings, speed, tmax, smax, btan, cmax, table,
+    #           d_alpha, along, best): a block's rows may be any slice of the caller's
+    sig = types.void(a2, a2, a3, c1, c1, f8, f8, f8, f8, f8, c3, f8, b3, b3)
+    cc.export("map_costs", sig)(mod.map_costs.py_func)
+    cc.export("summary", types.void(b3, c1, b3))(mod.summary.py_func)
+    i8 = types.int64
+    table = c3(f8, f8, f8, f8, i8, i8, i8, c1)  # heading_table(speed, smax, cmax, d_alpha,
+    cc.export("heading_table", table)(mod.heading_table.py_func)  # i_start, n_rows, n_phi, chv)
+    saved = pycc_compiler.Flags
+    pycc_compiler.Flags = _NoGil
+    try:
+        cc.compile()
+    finally:
+        pycc_compiler.Flags = saved
+
+
 if __name__ == "__main__":
-    build(*sys.argv[1:4])
+    (build_map if sys.argv[4:5] == ["map"] else build)(*sys.argv[1:4])

@@ -89,6 +89,10 @@ TABLE_TOP_DEG = 60.0
 _ROWS_PER_BUILD = 10
 
 
+#: Not looked up yet (:meth:`HeadingCost.precompiled_map`).
+_UNSET = object()
+
+
 def _angle(deg: float | None, fn: Any) -> float:
     """``fn(radians(deg))``, ``inf`` for None (no limit)."""
     return math.inf if deg is None else float(fn(math.radians(deg)))
@@ -133,8 +137,6 @@ class HeadingCost:
         back_tan: float, rasters: int = 0, categorical: bool = False,
         consts: tuple[float, ...] = (),
     ) -> None:  # fmt: skip
-        from energy_planner.energy.kernels import kernel_module
-
         self.source = source
         self.speed = float(speed)
         self.tmax = float(tmax)
@@ -145,7 +147,8 @@ class HeadingCost:
         self.categorical = bool(categorical)
         self.consts = tuple(float(v) for v in consts)
         self._consts = np.array(self.consts, dtype=np.float64)
-        self._mod = kernel_module(source)
+        self._numba: Any = None  # numba's kernel module, loaded on first use
+        self._aot: Any = _UNSET  # the precompiled map module (precompiled_map)
         top = min(TABLE_TOP_DEG, math.degrees(math.atan(self.tmax)))
         self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
         self.n_alpha = max(2, int(math.ceil(top / TABLE_D_ALPHA_DEG - 1e-9)) + 1)
@@ -154,6 +157,32 @@ class HeadingCost:
         # table and the number of rows built
         self._tables: dict[tuple[float, ...], list[Any]] = {}
         self._lock = threading.Lock()
+
+    @property
+    def _mod(self) -> Any:
+        """The model's numba kernel module, loaded on first use.
+
+        (:func:`~energy_planner.energy.kernels.kernel_module`): a map from precompiled
+        kernels and a cached table never loads numba.
+        """
+        if self._numba is None:
+            from energy_planner.energy.kernels import kernel_module
+
+            self._numba = kernel_module(self.source)
+        return self._numba
+
+    def precompiled_map(self) -> Any:
+        """The model's precompiled energy-map kernels, or None where there are none.
+
+        :func:`~energy_planner.energy.kernels.precompiled_map_module` (built once per
+        machine and model; None when building is off or failed): ``map_costs`` and
+        ``summary``, GIL-free, run in threads over a block's rows (:func:`run_by_rows`).
+        """
+        if self._aot is _UNSET:
+            from energy_planner.energy.kernels import precompiled_map_module
+
+            self._aot = precompiled_map_module(self.source)
+        return self._aot
 
     def __reduce__(self):  # the dask workers rebuild it from its parameters (cached)
         return (_cached, self.params)
@@ -277,11 +306,23 @@ class HeadingCost:
                 if start >= need:
                     return
                 stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
-        part = self._mod.heading_table(
-            self.speed, self.smax, self.crab, self.d_alpha, start, stop - start, self.n_phi,
-            np.asarray((*values, *self.consts), dtype=np.float64),
-        )  # fmt: skip
-        table[:, start:stop] = part
+        chv = np.asarray((*values, *self.consts), dtype=np.float64)
+        aot = None if self._aot is _UNSET else self._aot
+        if aot is None:
+            part = self._mod.heading_table(
+                self.speed, self.smax, self.crab, self.d_alpha, start, stop - start,
+                self.n_phi, chv,
+            )  # fmt: skip
+            table[:, start:stop] = part
+        else:  # each node on its own: rows built in pieces equal rows built whole
+
+            def rows(a: int, b: int) -> None:
+                table[:, start + a : start + b] = aot.heading_table(
+                    self.speed, self.smax, self.crab, self.d_alpha, start + a, b - a,
+                    self.n_phi, chv,
+                )  # fmt: skip
+
+            run_by_rows(rows, stop - start)
         entry[1] = stop
         _save_table(key, table[:, :stop])
 
@@ -339,7 +380,7 @@ class HeadingCost:
     # ------------------------------------------------------------------ the map
     def map_bands(
         self, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: np.ndarray,
-        along: np.ndarray, best: np.ndarray,
+        along: np.ndarray, best: np.ndarray, precompiled: bool = False,
     ) -> None:  # fmt: skip
         """Fill the energy map's ``along`` and ``best`` bands of a block of cells.
 
@@ -347,9 +388,13 @@ class HeadingCost:
         rasters; ``headings``: radians; ``along``, ``best``: ``(N, rows, cols)``
         outputs (float32). ``along`` walks forward facing the heading; ``best`` is the
         cheapest way over the allowed yaws (never above ``along``). Both from the table,
-        or exactly where the table does not serve.
+        or exactly where the table does not serve. ``precompiled``: with the model's
+        precompiled kernels (:meth:`precompiled_map`) where there are some, the same
+        code and values as numba's.
         """
         ang = np.ascontiguousarray(headings, dtype=np.float64)
+        if precompiled:
+            self.precompiled_map()  # a table not on disk is built by it too
         with np.errstate(invalid="ignore"):
             g2 = gx * gx + gy * gy
             ok = np.isfinite(g2) & (g2 <= self.tmax * self.tmax)
@@ -357,7 +402,7 @@ class HeadingCost:
             table = np.zeros((3, 0, 0))  # a numeric raster: the exact minimum everywhere
             if not self.rasters:
                 table = np.ascontiguousarray(self.table(_top(g2[ok])))
-            self._map(gx, gy, chan, ang, table, along, best)
+            self._map(gx, gy, chan, ang, table, along, best, precompiled)
             return
         # categorical rasters: one pass per combination of categories in the block, the
         # other cells masked (NaN), each with that combination's table
@@ -377,15 +422,52 @@ class HeadingCost:
             table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
             nan = np.full(gx.shape, np.nan)
             self._map(np.where(cells, gx, nan), np.where(cells, gy, nan), chan, ang,
-                      np.ascontiguousarray(table), a, b)  # fmt: skip
+                      np.ascontiguousarray(table), a, b, precompiled)  # fmt: skip
             along[:, cells] = a[:, cells]
             best[:, cells] = b[:, cells]
 
-    def _map(self, gx, gy, chan, ang, table, along, best) -> None:
-        self._mod.map_costs(
-            gx, gy, chan, self._consts, ang, self.speed, self.tmax, self.smax, self.back_tan,
-            self.crab, table, self.d_alpha, along, best,
-        )  # fmt: skip
+    def _map(self, gx, gy, chan, ang, table, along, best, precompiled: bool = False) -> None:
+        aot = self.precompiled_map() if precompiled else None
+        if aot is None:
+            self._mod.map_costs(
+                gx, gy, chan, self._consts, ang, self.speed, self.tmax, self.smax,
+                self.back_tan, self.crab, table, self.d_alpha, along, best,
+            )  # fmt: skip
+            return
+        per_row = chan.shape[1:] == gx.shape  # rasters on the block's cells, else a stub
+
+        def rows(a: int, b: int) -> None:
+            aot.map_costs(
+                gx[a:b], gy[a:b], chan[:, a:b] if per_row else chan, self._consts, ang,
+                self.speed, self.tmax, self.smax, self.back_tan, self.crab, table,
+                self.d_alpha, along[:, a:b], best[:, a:b],
+            )  # fmt: skip
+
+        run_by_rows(rows, gx.shape[0])
+
+
+def run_by_rows(fn: Any, rows: int) -> None:
+    """``fn(a, b)`` over consecutive row ranges covering ``0 .. rows``, one per core, in threads.
+
+    For the precompiled map kernels, which release the GIL (numba's own kernels spread a
+    block over the cores with ``prange``).
+    """
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    n = max(1, min(cores, rows))
+    cuts = [rows * k // n for k in range(n + 1)]
+    if n == 1:
+        fn(0, rows)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(n) as pool:
+        for f in [pool.submit(fn, a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]:
+            f.result()
 
 
 def _top(g2: np.ndarray) -> float:

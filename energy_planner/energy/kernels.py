@@ -230,6 +230,46 @@ def precompiled_module(power_source: str, build: bool = True):
     return load_precompiled(motion_source(power_source), prefix="aot", build=build)
 
 
+#: The functions of a precompiled energy-map module (:func:`precompiled_map_module`).
+PRECOMPILED_MAP = ("map_costs", "summary", "heading_table")
+_SUMMARY = Path(__file__).parents[1] / "energymap" / "_summary.py"
+
+
+def map_source(power_source: str) -> str:
+    """The text of one model's energy-map module: its kernel module and the summary bands.
+
+    :func:`motion_source` followed by ``energymap/_summary.py`` (read as text, so that
+    this stays numba-free): the functions :data:`PRECOMPILED_MAP` compile from it, and
+    its hash names the extension.
+    """
+    summary = _SUMMARY.read_text().replace("from __future__ import annotations\n", "")
+    return (
+        f"# precompiled: {', '.join(PRECOMPILED_MAP)}\n"
+        + motion_source(power_source)
+        + "\n\n# --- the energy map's summary bands (energymap/_summary.py) ---\n"
+        + summary.replace("_summary(", "summary(")
+    )
+
+
+def precompiled_map_module(power_source: str, build: bool = True):
+    """One model's energy-map kernels compiled ahead of time, or None where they cannot be.
+
+    As :func:`precompiled_module` (built once per machine and model, said on stderr;
+    ``ENERGY_PLANNER_PRECOMPILE=0`` switches building off), for :data:`PRECOMPILED_MAP`:
+    ``map_costs`` (the kernel of :meth:`~energy_planner.energy.heading.HeadingCost.
+    map_bands`), ``summary`` (:func:`energy_planner.energymap._summary.summary_bands`)
+    and ``heading_table`` (the table of a new speed or limit, when it is not on disk).
+    They release the GIL, so that threads share a block's rows: a map then loads no numba
+    (its import and its cache's typing take about 1.4 s, more than a 2048^2 map's kernel).
+    """
+    import os
+
+    from energy_planner.model._codegen import load_precompiled
+
+    build = build and os.environ.get("ENERGY_PLANNER_PRECOMPILE", "1") != "0"
+    return load_precompiled(map_source(power_source), prefix="aotmap", build=build, kind="map")
+
+
 def __getattr__(name: str):
     # the numba helpers, imported on first use (importing this module stays numba-free)
     if name in ("sample_gradient", "sample_channels", "wrap_angle"):

@@ -2,8 +2,10 @@
 
 Compiled with numba (``prange`` over rows, cached on disk), so that the four summary
 bands cost one read of ``best`` instead of NumPy's six whole-block passes and their
-temporaries. The values are NumPy's (see :func:`summary_bands`): the test compares them
-with the NumPy expressions on random blocks with NaN and inf.
+temporaries; the same function is in the model's precompiled map module
+(:func:`energy_planner.energy.kernels.precompiled_map_module`, as ``summary``), which a
+map uses when it is built. The values are NumPy's (see :func:`summary_bands`): the test
+compares them with the NumPy expressions on random blocks with NaN and inf.
 """
 
 from __future__ import annotations
@@ -49,7 +51,17 @@ def _summary(best, heading_deg, out):  # pragma: no cover - compiled
             out[0, r, c] = lo
             out[1, r, c] = hi
             valid = not math.isnan(best[0, r, c])
-            out[2, r, c] = hi / lo if valid else nan32
+            if not valid:
+                ratio = nan32
+            elif lo != 0.0:
+                ratio = hi / lo
+            elif hi > 0.0:  # x / 0 as IEEE 754 says, spelled out: the precompiled
+                ratio = inf32  # module's division raises on a zero divisor
+            elif hi < 0.0:
+                ratio = -inf32
+            else:
+                ratio = nan32
+            out[2, r, c] = ratio
             if valid and math.isfinite(lo):
                 out[3, r, c] = np.float32(heading_deg[arg[c]])
             else:

@@ -112,7 +112,7 @@ def heading_angles(headings: int) -> np.ndarray:
 
 def block_bands(
     heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int,
-    out: np.ndarray | None = None,
+    out: np.ndarray | None = None, precompiled: bool = False,
 ) -> np.ndarray:  # fmt: skip
     """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
 
@@ -121,6 +121,9 @@ def block_bands(
     Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``;
     ``out``: a C-contiguous float32 array of that shape to fill (a window's buffer reused
     from one window to the next: no fresh pages to fault in), else a new one.
+    ``precompiled``: with the model's precompiled map kernels where there are some
+    (:meth:`~energy_planner.energy.heading.HeadingCost.precompiled_map`: no numba to
+    load; the same values).
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -134,8 +137,16 @@ def block_bands(
         out = np.empty(shape, dtype=np.float32)
     along = out[:headings]
     best = out[headings : 2 * headings]
-    heading.map_bands(gx, gy, chan, ang, along, best)
-    from energy_planner.energymap._summary import summary_bands
+    heading.map_bands(gx, gy, chan, ang, along, best, precompiled)
+    aot = heading.precompiled_map() if precompiled else None
+    summary = out[2 * headings :]
+    if aot is None:
+        from energy_planner.energymap._summary import summary_bands
 
-    summary_bands(best, np.degrees(ang), out[2 * headings :])
+        summary_bands(best, np.degrees(ang), summary)
+    else:
+        from energy_planner.energy.heading import run_by_rows
+
+        deg = np.degrees(ang)
+        run_by_rows(lambda a, b: aot.summary(best[:, a:b], deg, summary[:, a:b]), rows)
     return out

@@ -131,7 +131,7 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
             chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
             buf = bands = block_bands(
                 setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings,
-                buf,
+                buf, precompiled=True,
             )  # fmt: skip
             dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
@@ -260,7 +260,9 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
                 chan, _ = ch.stack((r1 - r0, cols))
             else:
                 chan = np.zeros((0, 1, 1))
-            buf = bands = block_bands(setup.heading, gx, gy, chan, setup.headings, buf)
+            buf = bands = block_bands(
+                setup.heading, gx, gy, chan, setup.headings, buf, precompiled=True
+            )
             dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:

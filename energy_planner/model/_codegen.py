@@ -118,7 +118,9 @@ def load_generated_module(text: str, prefix: str) -> ModuleType:
     return mod
 
 
-def load_precompiled(text: str, prefix: str, build: bool = True) -> ModuleType | None:
+def load_precompiled(
+    text: str, prefix: str, build: bool = True, kind: str = "motion"
+) -> ModuleType | None:
     """The ahead-of-time compiled C extension of the kernel module ``text``, or None.
 
     The extension (``<cache>/energy_planner_<prefix>_<hash><ext>``, named by the hash
@@ -126,7 +128,9 @@ def load_precompiled(text: str, prefix: str, build: bool = True) -> ModuleType |
     :mod:`energy_planner.energy._precompile` in a child process, into a temporary
     directory renamed into place when complete. None: not built and ``build`` is False,
     or the build failed on this machine (its output is kept in ``<name>.failed``, and
-    it is not tried again).
+    it is not tried again). ``kind``: the functions built, ``motion``
+    (:data:`~energy_planner.energy.kernels.PRECOMPILED`) or ``map``
+    (:data:`~energy_planner.energy.kernels.PRECOMPILED_MAP`).
     """
     import importlib.machinery
     import subprocess
@@ -152,7 +156,7 @@ def load_precompiled(text: str, prefix: str, build: bool = True) -> ModuleType |
         with tempfile.TemporaryDirectory(dir=d) as tmp:
             run = subprocess.run(
                 [sys.executable, "-m", "energy_planner.energy._precompile", str(source),
-                 name, tmp],
+                 name, tmp, kind],
                 capture_output=True, text=True,
             )  # fmt: skip
             built = Path(tmp) / path.name
