@@ -48,8 +48,9 @@ shared machine compare CPU seconds; wall times are mostly waiting for a CPU.
 ``--pace``: the command against the disk and a GIS tool, in one run, on a SIZE^2 DEM
 (``--size 2048``): ``gdaldem slope`` of the DEM (a GIS tool's whole job on it, when
 gdal-bin is installed); ``energy-map`` with the default bands (``best_*`` and the
-summary, N + 4 float32 bands, zstd) against the target (2.5 s), and with ``--bands all``
-(2 N + 4 bands: the earlier default); each with the bytes it wrote. The floor beside
+summary, N + 4 float32 bands, zstd) against the target (2.5 s), with ``--bands all``
+(2 N + 4 bands: the earlier default) and with ``--bands summary`` (the 4 summary bands);
+each with the bytes it wrote. The floor beside
 them: the time to write the same bytes to the same disk (a file of that size, written
 and closed) plus the map kernel's compute at its cells-per-second on this machine
 (``HeadingCost.map_bands`` over the DEM's gradient in this process, both cores).
@@ -472,6 +473,7 @@ def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
     cases = [
         ("energy-map (default: --bands best)", []),
         ("energy-map --bands all", ["--bands", "all"]),
+        ("energy-map --bands summary", ["--bands", "summary"]),
     ]
     res: dict[str, list[float]] = {name: [] for name, _ in cases}
     cpu: dict[str, list[float]] = {name: [] for name, _ in cases}
@@ -484,7 +486,7 @@ def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
                            check=True)  # fmt: skip
             gd.append(time.perf_counter() - t0)
         for name, extra in cases:
-            out = workdir / f"pace{len(extra)}.tif"
+            out = workdir / f"pace{'_'.join(extra)}.tif"
             r = run_one([str(dem), "--out", str(out), "--headings", h, *extra])
             res[name].append(r["wall_s"])
             cpu[name].append(r["cpu_s"])

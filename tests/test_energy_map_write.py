@@ -139,7 +139,8 @@ def test_cli_compress_option(hills, tmp_path):
 def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path):
     """bands="best" (the default) writes the full layout's last N + 4 bands, bit for bit,
     named so, in every way of computing a map (in memory, windowed, dask, and a
-    geographic DEM resampled onto its grid); --bands all writes all 2 N + 4."""
+    geographic DEM resampled onto its grid); --bands all writes all 2 N + 4, --bands summary
+    the last 4."""
     from energy_planner.energymap import band_names
 
     dem, ref = hills
@@ -155,6 +156,10 @@ def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path)
             assert list(src.descriptions) == band_names(8, "best")
             assert src.tags()["bands"] == "best"
             np.testing.assert_array_equal(src.read(), data[8:])
+    energy_map(dem, tmp_path / "s.tif", MODEL, headings=8, bands="summary")
+    with rasterio.open(tmp_path / "s.tif") as src:
+        assert list(src.descriptions) == band_names(8, "summary") == band_names(8)[16:]
+        np.testing.assert_array_equal(src.read(), data[16:])
     # a geographic DEM (a corner of the hills): resampled onto its grid band by band
     with rasterio.open(dem) as src:
         z = src.read(1)[:48, :48]
@@ -169,5 +174,7 @@ def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path)
     ga, gb = read(a)[0], read(b)[0]
     assert np.isfinite(gb).any()
     np.testing.assert_array_equal(gb, ga[8:])
+    energy_map(geo, tmp_path / "gs.tif", MODEL, headings=8, bands="summary")
+    np.testing.assert_array_equal(read(tmp_path / "gs.tif")[0], ga[16:])
     with pytest.raises(EnergyMapError, match="bands 'some'"):
         energy_map(dem, tmp_path / "x.tif", MODEL, headings=8, bands="some")

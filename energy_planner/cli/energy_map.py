@@ -49,8 +49,10 @@ def format_table(res: dict[str, Any]) -> str:
     if res.get("plot"):
         lines.append(f"plot      {res['plot']}")
     heads = "along_*, best_*" if len(res["bands"]) > res["headings"] + 4 else "best_*"
-    lines.append("bands     " + ", ".join(b["name"] for b in res["bands"][-4:]) + " after the "
-                 f"{len(res['bands']) - 4} heading bands {heads} (J/m)")  # fmt: skip
+    summary = ", ".join(b["name"] for b in res["bands"][-4:])
+    if len(res["bands"]) > 4:
+        summary += f" after the {len(res['bands']) - 4} heading bands {heads} (J/m)"
+    lines.append("bands     " + summary)
     for note in res.get("notes", []):
         lines.append(f"note: {note}")
     return "\n".join(lines)
@@ -119,8 +121,10 @@ def format_table(res: dict[str, Any]) -> str:
     type=click.Choice(BAND_SETS),
     default=DEFAULT_BANDS,
     show_default=True,
-    help="Bands written: best (best_* per heading and the four summary bands) or all "
-    "(also along_*, walking facing each heading: 2N+4 float32 bands).",
+    help="Bands written: best (best_* per heading and the four summary bands), all "
+    "(also along_*, walking facing each heading: 2N+4 float32 bands) or summary (the four "
+    "summary bands: the cheapest heading and its cost, the dearest, their ratio; the "
+    "fastest to write).",
 )
 @options.json_option
 def command(

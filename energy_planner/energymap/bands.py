@@ -24,10 +24,12 @@ __all__ = [
 
 #: The bands after the 2 N heading bands, in order.
 SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
-#: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4) or
-#: ``all`` (``along_*`` too, 2 N + 4). Both are computed; ``along_*`` is written only when
-#: asked, so a user who wants the cheapest heading does not pay for writing them.
-BAND_SETS = ("best", "all")
+#: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4),
+#: ``all`` (``along_*`` too, 2 N + 4) or ``summary`` (the four summary bands: the cheapest
+#: heading and its cost, the dearest, their ratio). All are computed; the heading bands are
+#: written only when asked, so a user who wants the cheapest heading does not pay for
+#: compressing and writing them.
+BAND_SETS = ("best", "all", "summary")
 #: The bands written unless asked otherwise.
 DEFAULT_BANDS = "best"
 
@@ -36,14 +38,14 @@ def first_band(headings: int, bands: str) -> int:
     """Index (0-based) in the full layout of :func:`band_names` of a file's first band.
 
     The written bands are the full layout's from there on: ``best`` leaves out the N
-    ``along_*`` bands that lead it.
+    ``along_*`` bands that lead it, ``summary`` the 2 N heading bands.
 
     Examples
     --------
-    >>> first_band(16, "best"), first_band(16, "all")
-    (16, 0)
+    >>> first_band(16, "best"), first_band(16, "all"), first_band(16, "summary")
+    (16, 0, 32)
     """
-    return headings if bands == "best" else 0
+    return {"best": headings, "summary": 2 * headings}.get(bands, 0)
 
 
 def band_names(headings: int, bands: str = "all") -> list[str]:

@@ -195,8 +195,9 @@ def plot_energy_map(
         blocked = np.isposinf(band("cheapest", Resampling.nearest))
         head = band("cheapest_heading_deg", Resampling.nearest)
         aniso = band("anisotropy", Resampling.nearest)
-        headings = sum(n.startswith("best_") for n in names)
         tags = src.tags()
+        # the map's tag (a --bands summary map has no best_* band to count)
+        headings = int(tags.get("headings") or sum(n.startswith("best_") for n in names))
     rows, cols = shape
     left, top = t.c, t.f
     right, bottom = left + cols * t.a, top + rows * t.e
