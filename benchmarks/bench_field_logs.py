@@ -241,14 +241,20 @@ def mission_energy(terrain: Any, model: Any, g: pd.DataFrame, pose_every: float)
     )
 
 
-def discover_and_write(train: Any, out: Path, max_steps: int) -> tuple[Any, Any]:
-    """``ep.discover`` on ``train``; the model written to ``out`` and read back."""
+def discover_and_write(
+    train: Any, out: Path, max_steps: int, terrain: Any = None
+) -> tuple[Any, Any]:
+    """``ep.discover`` on ``train``; the model written to ``out`` and read back.
+
+    ``terrain``: the map, from which logs without altitude get it (``discover``'s
+    ``terrain``: the IMU's tilt is then checked against the pose).
+    """
     import energy_planner as ep
     from energy_planner.model import EnergyModel
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = ep.discover(train, max_steps=max_steps, progress=False)
+        d = ep.discover(train, max_steps=max_steps, progress=False, terrain=terrain)
     if d.model is None:  # as the command: nothing written, say why
         return d, None
     d.model.save(out)
@@ -263,11 +269,17 @@ def run_dataset(
     max_steps: int,
     pose_every: float,
     camp: Any = None,
+    map_altitude: bool = True,
 ) -> DataSet:
-    """Discover on ``train``, predict every mission of ``tests``."""
+    """Discover on ``train``, predict every mission of ``tests``.
+
+    ``map_altitude``: discover is given the map (logs without altitude get it from it).
+    """
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        d, model = discover_and_write(train, Path(tmp) / f"{name}.json", max_steps)
+        d, model = discover_and_write(
+            train, Path(tmp) / f"{name}.json", max_steps, terrain if map_altitude else None
+        )
     failure = None
     if model is None:
         failure = "discover wrote no model: " + " ".join(n for n in d.notes if "fit" in n)
@@ -309,7 +321,9 @@ def binomial_band(n: int, level: float = 0.9, mass: float = 0.95) -> tuple[int, 
     return int(binom.ppf(a, n, level)), int(binom.isf(a, n, level))
 
 
-def field_dataset(root: Path, max_steps: int, pose_every: float, swap: bool = False) -> DataSet:
+def field_dataset(
+    root: Path, max_steps: int, pose_every: float, swap: bool = False, map_altitude: bool = True
+) -> DataSet:
     """``robot-b`` (or its fixture subset): discover on ``train/``, predict ``test/``.
 
     ``swap``: the other way round (discover on ``test/``, predict ``train/``): a second
@@ -327,7 +341,9 @@ def field_dataset(root: Path, max_steps: int, pose_every: float, swap: bool = Fa
     tests = [pd.read_parquet(f) for f in sorted((root / held).glob("*.parquet"))]
     terrain = ep.open_terrain(root / "ridge.tif")
     name = root.name + (" swap" if swap else "")
-    return run_dataset(name, root / fit_on, tests, terrain, max_steps, pose_every)
+    return run_dataset(
+        name, root / fit_on, tests, terrain, max_steps, pose_every, map_altitude=map_altitude
+    )
 
 
 def sim_dataset(seed: int, args: argparse.Namespace) -> DataSet:
@@ -359,6 +375,7 @@ def sim_dataset(seed: int, args: argparse.Namespace) -> DataSet:
         args.max_steps,
         args.pose_every,
         camp=camp,
+        map_altitude=not args.no_map_altitude,
     )
 
 
@@ -497,6 +514,11 @@ def main(argv: list[str] | None = None) -> int:
         default=0.5,
         help="one logged pose every this many s (follow.walked_path)",
     )
+    ap.add_argument(
+        "--no-map-altitude",
+        action="store_true",
+        help="discover without the map (logs without altitude: the IMU tilt is not checked)",
+    )
     ap.add_argument("--per-mission", action="store_true", help="a row per mission too")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--save", type=Path, default=None, help="also write the JSON to this file")
@@ -505,7 +527,12 @@ def main(argv: list[str] | None = None) -> int:
     sets: list[DataSet] = []
     if not args.no_field:
         for swap in (False, True) if args.swap else (False,):
-            sets.append(field_dataset(args.field_logs, args.max_steps, args.pose_every, swap))
+            sets.append(
+                field_dataset(
+                    args.field_logs, args.max_steps, args.pose_every, swap,
+                    not args.no_map_altitude,
+                )
+            )  # fmt: skip
             print(f"  {sets[-1].name}: {sets[-1].seconds:.0f} s", file=sys.stderr)
     seeds = list(range(args.campaigns)) if args.seeds is None else args.seeds
     for seed in seeds:
@@ -519,7 +546,8 @@ def main(argv: list[str] | None = None) -> int:
     what = (
         f"simulated: {args.missions} + {args.held_out} held-out missions x "
         f"{args.duration:g} s at {args.rate:g} Hz, {args.phases} phases, loads "
-        f"{'/'.join(f'{v:g}' for v in args.loads)} kg, no z; poses every "
+        f"{'/'.join(f'{v:g}' for v in args.loads)} kg, no z (discover "
+        f"{'without' if args.no_map_altitude else 'with'} the map's altitude); poses every "
         f"{args.pose_every:g} s"
     )
     doc = {
