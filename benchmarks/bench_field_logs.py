@@ -89,9 +89,9 @@ normalized errors ``(measured - predicted) / (half-width / 1.645)`` had an RMS o
 Default-phase campaigns (``MissionConfig()``: 30 x 120 s, sideways 0.15 and backward 0.1
 after a stop) against varied-phase ones: a direction of walking on a slope that only one
 or two runs hold. Held out by run, the fold without that run predicts it with no data for
-it. On seed 1 the 16 backward windows (1 % of the windows, all but a few in one mission)
-hold 32 % of the final squared error (errors -65 to -99 W); on seed 2 with the map the 39
-sideways-left windows of one mission hold 64 % (-95 to -125 W). They also steer the next
+it. On seed 1 the backward windows are 16 of 1752, in two missions; the 7 of one of them
+hold 31 % of the final squared error (errors -65 to -99 W). On seed 2 with the map, 38 of
+the 39 sideways-left windows are in one mission and hold 64 % (-95 to -125 W). They also steer the next
 step: on seed 1 every fold's training runs choose a different channel times a backward or
 sideways term that fits those windows (choice test p 0.37), and the staircase stops. The
 forward windows are left at 1.15x the floor within runs, with a per-run offset (RMS 4.4 W)
