@@ -56,6 +56,7 @@ __all__ = [
     "heldout_score",
     "pose_twist",
     "UNIT_REPAIRS",
+    "altitude_from_map",
     "yardstick_terms",
 ]
 
