@@ -88,18 +88,18 @@ normalized errors ``(measured - predicted) / (half-width / 1.645)`` had an RMS o
 
 Default-phase campaigns (``MissionConfig()``: 30 x 120 s, sideways 0.15 and backward 0.1
 after a stop) against varied-phase ones: a direction of walking on a slope that only one
-or two runs hold. Held out by run, the fold without that run predicts it with no data for
-it. On seed 1 the backward windows are 16 of 1752, in two missions; the 7 of one of them
-hold 31 % of the final squared error (errors -65 to -99 W). On seed 2 with the map, 38 of
-the 39 sideways-left windows are in one mission and hold 64 % (-95 to -125 W). They also steer the next
-step: on seed 1 every fold's training runs choose a different channel times a backward or
-sideways term that fits those windows (choice test p 0.37), and the staircase stops. The
-forward windows are left at 1.15x the floor within runs, with a per-run offset (RMS 4.4 W)
-that follows the load's square (r 0.66: copper losses in the carried mass, a term discover
-does not reach) and each run's IMU tilt (r 0.48 with the pitch tilt: field-like logs without
-altitude cannot check it; ``--map-altitude`` does, 2.00 -> 1.44x on seed 1, but seed 2 then
-loses its sideways run's fold to 3.15x). The varied-phase campaigns walk every direction in
-many runs.
+or two runs hold. Held out by run, the fold without that run predicts it with no data
+for it. On seed 1 the backward windows are 16 of 1752, in two missions; the 7 of one of
+them hold 31 % of the final squared error (errors -65 to -99 W). On seed 2 with the map,
+38 of the 39 sideways-left windows are in one mission and hold 64 % (-95 to -125 W).
+They also steer the next step: on seed 1 every fold's training runs choose a different
+channel times a backward or sideways term that fits those windows (choice test p 0.37),
+and the staircase stops. The forward windows are left at 1.15x the floor within runs,
+with a per-run offset (RMS 4.4 W) that follows the load's square (r 0.66: copper losses
+in the carried mass, a term discover does not reach) and each run's IMU tilt (r 0.48
+with the pitch tilt: field-like logs without altitude cannot check it; ``--map-
+altitude`` does, 2.00 -> 1.44x on seed 1, but seed 2 then loses its sideways run's fold
+to 3.15x). The varied-phase campaigns walk every direction in many runs.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
