@@ -97,8 +97,8 @@ channel times a backward or sideways term that fits those windows (choice test p
 and the staircase stops. The forward windows are left at 1.15x the floor within runs,
 with a per-run offset (RMS 4.4 W) that follows the load's square (r 0.66: copper losses
 in the carried mass, a term discover does not reach) and each run's IMU tilt (r 0.48
-with the pitch tilt: field-like logs without altitude cannot check it; ``--map-
-altitude`` does, 2.00 -> 1.44x on seed 1, but seed 2 then loses its sideways run's fold
+with the pitch tilt: field-like logs without altitude cannot check it;
+``--map-altitude`` does, 2.00 -> 1.44x on seed 1, but seed 2 then loses its sideways run's fold
 to 3.15x). The varied-phase campaigns walk every direction in many runs.
 
 Prints ``uptime`` with the timings (the machine is shared).
