@@ -56,6 +56,7 @@ __all__ = [
     "heldout_score",
     "pose_twist",
     "UNIT_REPAIRS",
+    "altitude_from_map",
     "yardstick_terms",
 ]
 
@@ -500,6 +501,7 @@ def prepare_logs(
     repair: bool = True,
     guard: bool = True,
     guard_terms: Sequence[Any] | None = None,
+    terrain: Any = None,
 ) -> PreparedLogs:
     """Run the data checks on raw samples, repair (optionally), clean and cut windows.
 
@@ -521,6 +523,11 @@ def prepare_logs(
         The model the guard scores (terms or formulas); default
         :func:`yardstick_terms` (the base model and the logs' channels), the same for
         ``fit``, ``diagnose`` and ``discover``.
+    terrain : Terrain, optional
+        The map the robot walked (the DEM of its poses ``x, y``, in the DEM's own CRS).
+        When the logs hold a pose without altitude, ``z`` is read from the map under it
+        (:func:`altitude_from_map`), so that the IMU's tilt can be checked against the
+        pose (the ``imu_tilt`` check; without altitude it is not checked).
 
     Returns
     -------
@@ -533,11 +540,53 @@ def prepare_logs(
     """
     from energy_planner.measurements.windows import make_windows
 
+    if terrain is not None:
+        samples = altitude_from_map(samples, terrain)
     accept = _HeldOutGuard(window, guard_terms) if guard else None
     findings, fixed = check_data(samples, repair=repair, accept=accept)
     clean, report = clean_logs(fixed)
     del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
     return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)
+
+
+def altitude_from_map(samples: pd.DataFrame, terrain: Any) -> pd.DataFrame:
+    """The samples with the altitude ``z`` of the map under each pose ``x, y``.
+
+    Samples that already hold ``z``, or no pose, are returned as they are. The pose is in
+    the map's own CRS (``terrain.source_crs``); a pose off the map gets NaN (the
+    ``imu_tilt`` check leaves its chords out).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Canonical samples.
+    terrain : Terrain
+        The map (:func:`energy_planner.open_terrain`).
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Examples
+    --------
+    >>> import energy_planner as ep
+    >>> hill = ep.open_terrain("hill")
+    >>> x0, y0 = hill.source_bounds[0] + 50.0, hill.source_bounds[1] + 50.0
+    >>> s = pd.DataFrame({"x": [x0], "y": [y0]})
+    >>> z = altitude_from_map(s, hill)["z"].iloc[0]
+    >>> bool(z == hill.sample(*hill.to_work(x0, y0)).elevation)
+    True
+    """
+    if "z" in samples.columns or not {"x", "y"} <= set(samples.columns):
+        return samples
+    x = samples["x"].to_numpy(float)
+    y = samples["y"].to_numpy(float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    z = np.full(len(samples), np.nan)
+    if ok.any():
+        wx, wy = terrain.to_work(x[ok], y[ok])
+        z[ok] = np.asarray(terrain.sample(wx, wy).elevation, dtype=float)
+    return samples.assign(z=z)
 
 
 def findings_text(findings: list[dict[str, Any]] | list[DataFinding]) -> list[str]:

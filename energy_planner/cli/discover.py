@@ -99,6 +99,13 @@ def _text(doc: dict[str, Any]) -> str:
 @options.window_option
 @options.staircase_options
 @options.repair_option
+@options.path_option(
+    "--dem",
+    "dem",
+    callback=options.bundled,
+    help="The map the logs' poses lie on (their x, y in its CRS): logs without altitude get "
+    "it from the map, and the IMU's tilt is checked against the pose.",
+)
 @options.json_option
 def command(
     logs: tuple[Path, ...],
@@ -108,6 +115,7 @@ def command(
     staircase: dict[str, Any],
     window: float,
     repair: bool,
+    dem: Path | None,
     as_json: bool,
 ) -> None:
     """Find the effects the base model misses in LOGS and write the model that has them.
@@ -124,6 +132,9 @@ def command(
     from energy_planner.errors import EnergyPlannerError
 
     resolve_terms(terms)  # syntax first: fail before loading any log
+    from energy_planner.cli.energy import load_terrain
+
+    terrain = None if dem is None else load_terrain(dem, None)
     samples = load_log_files(logs)
     from energy_planner.measurements.windows import DERIVED_COLUMNS
 
@@ -135,6 +146,7 @@ def command(
             terms=extra,
             window=window,
             repair=repair,
+            terrain=terrain,
             progress=True,  # a line per stage on stderr (not with --quiet)
         )
     except EnergyPlannerError as exc:

@@ -282,6 +282,7 @@ def discover(
     fit_final: bool = True,
     progress=None,
     prior: Any = None,
+    terrain: Any = None,
 ) -> Discovery:
     """Walk the staircase on raw canonical samples (module docstring).
 
@@ -315,6 +316,9 @@ def discover(
     prior : EnergyModel, optional
         A fitted model whose coefficients stand in for the terms the logs cannot identify
         in the final fit (``fit_model``'s ``prior``, e.g. ``EnergyModel.default()``).
+    terrain : Terrain, optional
+        The map the logs' poses lie on: logs without altitude get it from the map, and the
+        IMU's tilt is checked against it (``calibration.prepare_logs``).
 
     Returns
     -------
@@ -334,7 +338,9 @@ def discover(
         rep.say(msg, stage="discover")
 
     th = thresholds or Thresholds()
-    prepared = prepare_logs(samples, window=window, repair=repair, guard=guard)  # as fit
+    prepared = prepare_logs(
+        samples, window=window, repair=repair, guard=guard, terrain=terrain
+    )  # as fit
     findings, windows = prepared.findings, prepared.windows
     base = list(default_base(windows) if base_terms is None else base_terms)
     say("data checks done")
