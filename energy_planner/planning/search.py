@@ -59,6 +59,7 @@ __all__ = [
     "SearchResult",
     "ReachResult",
     "bound_table",
+    "prune_bound_cache",
     "gradient_table",
     "relaxed_cost_to_go",
     "search_plan",
@@ -407,7 +408,8 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
     physics (model, speed, limits, channel values) and grid, then read from
     :data:`_BEST_MEMO` or the kernel cache folder (``bound_<key>.npy``): the values are
     the same bit for bit, and the nodes steeper than the heading table (computed by the
-    exact minimum, most of the time of a table) are paid once per map and model.
+    exact minimum, most of the time of a table) are paid once per map and model. The
+    folder keeps the most recently used tables (:func:`prune_bound_cache`).
     """
     from energy_planner.io import atomic_path
     from energy_planner.model._codegen import cache_dir
@@ -420,6 +422,7 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
             arr = np.load(path, allow_pickle=False)
             if arr.shape == along.shape and arr.dtype == np.float32:
                 hit = arr
+                path.touch()  # recently used: kept by the pruning below
         except (OSError, ValueError):
             pass
     if hit is None:
@@ -429,12 +432,60 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
         try:
             with atomic_path(path) as tmp, open(tmp, "wb") as f:
                 np.save(f, hit)
+            prune_bound_cache(path.parent)
         except OSError:
             pass  # the cache is an optimisation only
     _BEST_MEMO[key] = hit
     while len(_BEST_MEMO) > _BEST_MEMO_SIZE:
         _BEST_MEMO.pop(next(iter(_BEST_MEMO)))
     return hit.copy()
+
+
+#: The bound tables kept on disk (``bound_*.npy`` in the kernel cache folder): the most
+#: recently used this many (each ``16 x TABLE_NODES^2`` float32, 0.6 MB: 38 MB in all) ...
+BOUND_CACHE_FILES = 64
+#: ... and at most this many bytes.
+BOUND_CACHE_BYTES = 64 * 2**20
+
+
+def prune_bound_cache(folder: Path, keep: int | None = None, max_bytes: int | None = None) -> int:
+    """Delete the least recently used bound tables of ``folder`` beyond the cache's limits.
+
+    Keeps the ``keep`` (default :data:`BOUND_CACHE_FILES`) most recently used
+    ``bound_*.npy`` files (a read touches its file), and of those at most ``max_bytes``
+    (default :data:`BOUND_CACHE_BYTES`). A file another process removes first is skipped.
+    Returns the number of files deleted.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> for k in range(5):
+    ...     f = d / f"bound_{k}.npy"
+    ...     _ = f.write_bytes(b"x" * 10)
+    ...     os.utime(f, (k, k))
+    >>> prune_bound_cache(d, keep=3), sorted(p.name for p in d.iterdir())
+    (2, ['bound_2.npy', 'bound_3.npy', 'bound_4.npy'])
+    >>> prune_bound_cache(d, max_bytes=15), sorted(p.name for p in d.iterdir())
+    (2, ['bound_4.npy'])
+    """
+    keep = BOUND_CACHE_FILES if keep is None else keep
+    max_bytes = BOUND_CACHE_BYTES if max_bytes is None else max_bytes
+    files = []
+    for f in Path(folder).glob("bound_*.npy"):
+        try:
+            st = f.stat()
+        except OSError:
+            continue
+        files.append((st.st_mtime, st.st_size, f))
+    files.sort(key=lambda t: t[0], reverse=True)  # newest first
+    total, gone = 0, 0
+    for k, (_, size, f) in enumerate(files):
+        total += size
+        if k >= keep or total > max_bytes:
+            f.unlink(missing_ok=True)
+            gone += 1
+    return gone
 
 
 #: Speeds of a cost that chooses its speed over which the search's bound is the least
