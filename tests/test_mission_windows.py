@@ -116,6 +116,34 @@ def test_windows_read_from_the_sites_file_and_bad_ones_named(scene, tmp_path):
         sites.with_windows({"d": (None, 3)})
 
 
+def test_windows_read_from_geojson_properties(scene, tmp_path):
+    p, sites = scene
+    feats = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": list(xy)},
+              "properties": {"name": n, **w}}
+             for xy, n, w in zip(sites.xy.tolist(), sites.names,
+                                 [{}, {"arrive_after": 30}, {"arrive_before": 90.5}],
+                                 strict=True)]  # fmt: skip
+    f = tmp_path / "s.geojson"
+    crs = {"type": "name", "properties": {"name": "EPSG:32631"}}
+    f.write_text(json.dumps({"type": "FeatureCollection", "features": feats, "crs": crs}))
+    read = read_sites(f, p.terrain)
+    assert read.names == sites.names
+    np.testing.assert_array_equal(read.windows, [[np.nan, np.nan], [30, np.nan], [np.nan, 90.5]])
+    assert read.to_dicts()[1]["arrive_after_s"] == 30.0
+
+
+def test_a_round_trip_returns_before_the_start_window_closes(scene):
+    """With ``return_to_start`` the start's ``arrive_before`` bounds the return: the way
+    back from ``c`` to ``a`` is 14.1 m, and the tour of 34.1 m due in 40 s walks every
+    leg at one speed (one price of a second), 34.1 / 40 m/s."""
+    p, sites = scene
+    res = ep.mission(p, sites, order="given", return_to_start=True, windows={"a": (None, 40.0)})
+    length = 20 + 10 * math.sqrt(2)
+    assert res.info["windows"]["stops"][-1]["arrive_s"] == pytest.approx(40.0, rel=1e-3)
+    for leg in res.legs:
+        assert leg.speed_profile()[0]["speed_m_s"] == pytest.approx(length / 40.0, rel=0.01)
+
+
 def test_cli_windows_print_what_the_library_returns(scene, tmp_path, monkeypatch):
     import rasterio
     from rasterio.transform import from_origin
