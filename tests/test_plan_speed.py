@@ -70,6 +70,26 @@ def test_each_motion_walks_at_sqrt_b_over_c(plane):
     assert fixed.energy_j == pytest.approx(fixed.distance_m * _per_metre(0.3), rel=1e-6)
 
 
+@pytest.mark.parametrize("lam", [0.0, 60.0])
+def test_lattice_motions_take_their_best_speed_as_the_search_does(plane, lam):
+    """The lattice prices every edge with the search's kernel at its own speed: each motion
+    walks at ``sqrt((b + lambda) / c)``, the lattice's energy and time are the search's; a
+    fixed speed walks it at 0.3 m/s as before (no times)."""
+    p, s, g = plane
+    v = math.sqrt((B + lam) / C)
+    lat = ep.plan(p, s, g, speed=RANGE, time_weight=lam, planner="lattice", progress=False)
+    walks = _walks(lat)
+    assert walks and all(w["speed_m_s"] == pytest.approx(v, rel=1e-6) for w in walks)
+    assert lat.energy_j == pytest.approx(lat.distance_m * _per_metre(v), rel=1e-6)
+    srch = ep.plan(p, s, g, speed=RANGE, time_weight=lam, planner="search", eps=1.0,
+                   progress=False)  # fmt: skip
+    assert lat.energy_j == pytest.approx(srch.energy_j, rel=1e-9)
+    assert lat.duration_s == pytest.approx(srch.duration_s, rel=1e-9)
+    fixed = ep.plan(p, s, g, planner="lattice", progress=False)
+    assert fixed.times is None
+    assert fixed.energy_j == pytest.approx(fixed.distance_m * _per_metre(0.3), rel=1e-6)
+
+
 def test_range_clamps_the_speed(plane):
     """The search's translations keep their heading: each walks at the range's floor.
 

@@ -35,6 +35,13 @@ def _text(res: dict[str, Any]) -> str:
             f"speed: each motion at its least-energy speed within {lo:g}-{hi:g} m/s"
             + (f" (lambda {sp['time_weight']:.1f} J/s)" if sp["time_weight"] else "")
         )
+    win = res.get("windows")
+    if win:
+        for stop in win["stops"][1:]:
+            wait = (f", waits {stop['wait_s']:.1f} s ({stop['wait_j']:.0f} J at "
+                    f"{stop['standing_power_w']:.0f} W)" if stop["wait_s"] > 0 else "")  # fmt: skip
+            lines.append(f"at {stop['site']}: arrives {stop['arrive_s']:.1f} s{wait}")
+        lines.append(f"every arrival window kept ({win['wait_energy_j']:.0f} J waiting)")
     tb = res.get("time_budget")
     if tb:
         lines.append(
@@ -63,6 +70,21 @@ def _text(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _windows(given: tuple[str, ...]) -> dict[str, tuple[str, str]] | None:
+    """``--window NAME=AFTER:BEFORE`` options as ``{name: (after, before)}`` (None: none)."""
+    out: dict[str, tuple[str, str]] = {}
+    for text in given:
+        name, eq, span = text.rpartition("=")
+        after, colon, before = span.partition(":")
+        if not (eq and colon and name.strip()):
+            raise click.BadParameter(
+                f"{text!r} is not NAME=AFTER:BEFORE (seconds from the start, either empty)",
+                param_hint="--window",
+            )
+        out[name.strip()] = (after, before)
+    return out or None
+
+
 @options.command(
     "mission",
     "energy-planner mission --dem hill --sites hill_sites --return --json",
@@ -72,8 +94,10 @@ def _text(res: dict[str, Any]) -> str:
     "--sites",
     required=True,
     callback=options.bundled,
-    help="CSV x,y[,yaw_deg][,name] in the DEM's CRS, or GeoJSON points (lon/lat unless the "
-    "file declares a crs), or a bundled file's name (hill_sites). The first site is the start.",
+    help="CSV x,y[,yaw_deg][,name][,arrive_after][,arrive_before] in the DEM's CRS, or "
+    "GeoJSON points (lon/lat unless the file declares a crs; properties name, arrive_after, "
+    "arrive_before), or a bundled file's name (hill_sites). The first site is the start. "
+    "arrive_after/arrive_before: the site's arrival window, seconds from the start.",
 )
 @options.value_option(
     "--order",
@@ -101,6 +125,16 @@ def _text(res: dict[str, Any]) -> str:
     help="Seconds for the whole tour: the order and each leg's route and speeds chosen "
     "together (the least energy in time: energy + lambda x time, one lambda for every leg, "
     "by bisection); speeds within --speed MIN:MAX (default auto).",
+)
+@click.option(
+    "--window",
+    "window",
+    multiple=True,
+    metavar="NAME=AFTER:BEFORE",
+    help="Arrival window of the site NAME, seconds from the start (either side empty: open; "
+    "repeatable; replaces the sites file's arrive_after/arrive_before). The order and each "
+    "leg's speeds (within --speed, default auto) keep every window; a robot early at a "
+    "site waits there at the model's standing power.",
 )
 @options.model_option
 @options.ranged_request_options
@@ -142,6 +176,7 @@ def command(
     nav2_graph: Path | None,
     as_json: bool,
     time_budget: float | None = None,
+    window: tuple[str, ...] = (),
 ) -> None:
     """Visit the sites of --sites in the least-energy (or given) order over DEM.
 
@@ -161,7 +196,7 @@ def command(
         s = read_sites(sites, terrain)
     except EnergyPlannerError as exc:
         raise click.BadParameter(str(exc), param_hint="--sites") from exc
-    choice: dict[str, Any] = {"time_budget": time_budget}
+    choice: dict[str, Any] = {"time_budget": time_budget, "windows": _windows(window)}
     if options.speed_choice() is not None:
         choice["speed"] = options.speed_choice()
     try:

@@ -45,7 +45,9 @@ class Leg(Assessed):
 
     ``assessment``: the leg's own interval and domain report (the plan's); with a battery,
     the verdict on the energy spent from the start up to the end of this leg (the
-    robot has walked the legs before it on the same battery).
+    robot has walked the legs before it on the same battery). ``wait_s`` / ``wait_j``:
+    with arrival windows, how long the robot waits at ``b`` for its window to open and
+    what that costs at the standing power (0 otherwise).
     """
 
     a: int
@@ -57,6 +59,8 @@ class Leg(Assessed):
     states: np.ndarray = field(repr=False)
     assessment: Any = field(default=None, repr=False, compare=False)
     times: np.ndarray | None = field(default=None, repr=False, compare=False)
+    wait_s: float = 0.0
+    wait_j: float = 0.0
 
     def speed_profile(self) -> list[dict[str, float]]:
         """Per segment: distance, duration, ground speed, where the leg chose its speeds.
@@ -109,8 +113,8 @@ class MissionResult(Result, Assessed):
 
     @property
     def energy_j(self) -> float:
-        """Total planned energy, J."""
-        return float(sum(leg.energy_j for leg in self.legs))
+        """Total planned energy, J (the legs', and the waits for windows to open)."""
+        return float(sum(leg.energy_j + leg.wait_j for leg in self.legs))
 
     @property
     def distance_m(self) -> float:
@@ -142,6 +146,7 @@ class MissionResult(Result, Assessed):
                     "matrix_energy_j": leg.matrix_energy_j,
                     "distance_m": leg.distance_m,
                     "duration_s": leg.duration_s,
+                    **({"wait_s": leg.wait_s, "wait_j": leg.wait_j} if leg.wait_s else {}),
                     **_leg_speeds(leg),
                     **leg.assessment_dict(),
                 }
@@ -394,6 +399,7 @@ def mission(
     progress: bool = False,
     speed: Any = None,
     time_budget: float | None = None,
+    windows: Any = None,
     **trust: Any,
 ) -> MissionResult:
     """Visit several sites in the given or the least-energy order and plan every leg.
@@ -437,6 +443,16 @@ def mission(
         bracket); ``info["time_budget"]`` lists the tours priced. ``matrix_j`` then holds
         energy + lambda x time. A :class:`PlanningError` (``limit="deadline"``) gives the
         fastest tour's duration when none is in time.
+    windows : mapping or sequence, optional
+        Per-site arrival windows, seconds from the start: ``{name: (after, before)}``
+        (None for an open end) or one pair per site; they replace the windows read from
+        the sites file (``arrive_after`` / ``arrive_before``). The order and each leg's
+        speeds keep every window (speeds within ``speed``, default ``"auto"``): a leg
+        walks its ``plan`` route faster where a window asks for it, and a robot early at a
+        site waits at the model's standing power (:mod:`energy_planner.mission.windows`).
+        ``info["windows"]`` gives each stop's arrival, wait and its energy; the tour's
+        energy includes the waits. A :class:`PlanningError` (``limit="window"``) names
+        the site no order reaches in time and its earliest arrival.
     **trust
         ``level``, ``battery_wh``, ``reserve_wh``, ``confidence``
         (:class:`~energy_planner.trust.Trust`, or ``trust=`` one): the tour's and each
@@ -456,15 +472,27 @@ def mission(
         from energy_planner.mission.sites import read_sites
 
         sites = read_sites(sites, terrain)
+    sites = sites.with_windows(windows)
     kw = dict(order=order, return_to_start=return_to_start, planner=planner, eps=eps,
               leg_eps=leg_eps, n_headings=n_headings, client=client, progress=progress,
               want=want)  # fmt: skip
-    if speed is None and time_budget is None:
+    timed = sites.windows is not None
+    if speed is None and time_budget is None and not timed:
         return _tour(problem, sites, **kw)
     from energy_planner.planning.speed import resolve_speed, with_speed
 
     spec = resolve_speed("auto" if speed is None else speed, problem.model)
     problem = with_speed(problem, spec)  # a number: the nominal speed, as before
+    if timed:
+        if time_budget is not None:
+            from energy_planner.errors import PlanningConfigError
+
+            raise PlanningConfigError(
+                "give a time budget or arrival windows, not both (a budget for the whole "
+                "tour is the last site's arrive_before)", value=time_budget,
+                param="time_budget",
+            )  # fmt: skip
+        return _tour(problem, sites, speed=spec, **kw)
     if time_budget is None:
         return _tour(problem, sites, **kw)
     if problem.cost.speed_range is None:
@@ -514,8 +542,12 @@ def _in_time(problem, sites, budget: float, kw: dict) -> MissionResult:
 
 
 def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_eps, n_headings,
-          client, progress, want) -> MissionResult:  # fmt: skip
-    """The mission on ``problem`` (its motions' speed choice and price of a second)."""
+          client, progress, want, speed=None) -> MissionResult:  # fmt: skip
+    """The mission on ``problem`` (its motions' speed choice and price of a second).
+
+    With the sites' arrival windows, the order and the legs' speeds keep them
+    (:func:`energy_planner.mission.windows.in_windows`; ``speed`` the resolved speed).
+    """
     from energy_planner.planning.plan import plan
 
     terrain = problem.terrain
@@ -524,6 +556,11 @@ def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_ep
     sites = sites.on_cells(terrain)  # where the matrix's searches stand
     E = energy_matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
                       progress=progress)  # fmt: skip
+    if sites.windows is not None:
+        return _windowed(problem, given, sites, E, speed, order=order,
+                         return_to_start=return_to_start, planner=planner, eps=eps,
+                         leg_eps=leg_eps, n_headings=n_headings, progress=progress,
+                         want=want)  # fmt: skip
     o, total, method = order_sites(E, order, return_to_start)
     if not math.isfinite(total):
         bad = [(sites.names[i], sites.names[j]) for i in range(len(E)) for j in range(len(E))
@@ -545,10 +582,66 @@ def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_ep
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
                         float(r.duration_s), r.states, r.assessment, r.times))  # fmt: skip
     info = {"matrix_energy_j": float(total), "planner": planner, "eps": eps}
+    info.update(_speed_info(problem))
+    res = MissionResult(sites, o, legs, E, method, return_to_start, info=info)
+    res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)
+    res.problem = problem
+    return res
+
+
+def _speed_info(problem) -> dict[str, Any]:
+    """The tour's speed choice for its info (empty at a fixed speed)."""
     cost = problem.cost
-    if cost.speed_range is not None:
-        info["speed"] = {"speed_range": list(cost.speed_range), "time_weight": cost.time_weight,
-                         "speed_law": cost.speed_law.note}  # fmt: skip
+    if cost.speed_range is None:
+        return {}
+    return {"speed": {"speed_range": list(cost.speed_range), "time_weight": cost.time_weight,
+                      "speed_law": cost.speed_law.note}}  # fmt: skip
+
+
+def _windowed(problem, given, sites, E, speed, *, order, return_to_start, planner, eps, leg_eps,
+              n_headings, progress, want) -> MissionResult:  # fmt: skip
+    """The mission in the sites' windows.
+
+    Each pair's leg is planned once, as ``plan`` plans it; the order and speeds are
+    :func:`energy_planner.mission.windows.in_windows`'.
+    """
+    from energy_planner.mission.tour import _cost
+    from energy_planner.mission.windows import in_windows
+    from energy_planner.planning.plan import plan
+
+    planned: dict[tuple[int, int], Any] = {}
+
+    def legs_of(a: int, b: int) -> np.ndarray:
+        if (a, b) not in planned:
+            planned[a, b] = plan(problem, tuple(given.xy[a]), tuple(given.xy[b]),
+                                 planner=planner, eps=leg_eps, n_headings=n_headings,
+                                 progress=progress, level=want.level).states  # fmt: skip
+        return planned[a, b]
+
+    s, method, tried = in_windows(problem, sites, E, speed, legs_of, order=order,
+                                  return_to_start=return_to_start)  # fmt: skip
+    legs = []
+    for k, (a, b) in enumerate(zip(s.stops[:-1], s.stops[1:], strict=True)):
+        r = s.legs[k]
+        legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
+                        float(r.duration_s), r.states, r.assessment, r.times,
+                        float(s.wait[k + 1]), float(s.wait_j[k + 1])))  # fmt: skip
+    o = s.stops[:-1] if return_to_start and len(s.stops) > 1 else list(s.stops)
+    from energy_planner.mission.windows import standing_power
+
+    power = standing_power(problem, sites.xy)
+    info: dict[str, Any] = {
+        "matrix_energy_j": _cost(E, o, return_to_start), "planner": planner, "eps": eps,
+        "windows": {
+            "stops": [{"site": sites.names[i], "arrive_s": float(s.arrive[k]),
+                       "wait_s": float(s.wait[k]), "depart_s": float(s.depart[k]),
+                       "standing_power_w": float(power[i]), "wait_j": float(s.wait_j[k])}
+                      for k, i in enumerate(s.stops)],
+            "lambda_j_per_s": [float(v) for v in s.lambdas],
+            "wait_energy_j": float(s.wait_j.sum()), "orders_scheduled": tried,
+        },
+    }  # fmt: skip
+    info.update(_speed_info(problem))
     res = MissionResult(sites, o, legs, E, method, return_to_start, info=info)
     res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)
     res.problem = problem
@@ -570,7 +663,7 @@ def _battery_legs(
 
     rows, parts, cum, cum_s, crossed, whole = [], [], 0.0, 0.0, None, None
     for k, leg in enumerate(res.legs):
-        cum += leg.energy_j
+        cum += leg.energy_j + leg.wait_j
         cum_s += leg.duration_s  # the error model's duration input
         parts.append((leg.domain, leg.duration_s))
         whole = assess(model, cum, duration_s=cum_s, domain=sum_domain(parts), trust=trust)

@@ -44,6 +44,7 @@ def mission(
     leg_eps: float | None = None,
     n_headings: int = 16,
     time_budget: float | None = None,
+    windows: Any = None,
     progress: bool = False,
 ):
     """Visit ``sites`` in the least-energy (or given) order (the ``mission`` command).
@@ -73,6 +74,12 @@ def mission(
         speeds chosen together, the least energy in time (energy + lambda x time, one
         ``lambda`` for every leg, by bisection); speeds within ``speed`` (default
         ``"auto"``).
+    windows : mapping or sequence, optional
+        Per-site arrival windows in seconds from the start, ``{{name: (after, before)}}``
+        (None: an open end) or one pair per site; default the sites file's
+        ``arrive_after`` / ``arrive_before``. The order and each leg's speeds keep every
+        window; a robot early at a site waits at the model's standing power
+        (:mod:`energy_planner.mission.windows`).
     progress : bool
         Progress on stderr.
 
@@ -90,7 +97,7 @@ def mission(
         ``write_json(path)``.
     """
     given = {k: v for k, v in locals().items() if k in REQUEST_KEYS}
-    choice = {"time_budget": time_budget}
+    choice = {"time_budget": time_budget, "windows": windows}
     if speed is not None and not isinstance(speed, int | float):
         choice["speed"] = given.pop("speed")  # a range: chosen per motion
     trust = {k: v for k, v in locals().items() if k in TRUST_KEYS}

@@ -46,6 +46,7 @@ __all__ = [
     "bisect_time_price",
     "timed",
     "timed_deadline",
+    "close_on_deadline",
     "route_front",
     "front_lambdas",
     "speed_profile",
@@ -582,7 +583,19 @@ def timed_deadline(
             limit="deadline",
             value=float(best.duration_s),
         )
-    lo = 1e-6 * power
+    return done(*close_on_deadline(run, deadline, 1e-6 * power, hi, best))
+
+
+def close_on_deadline(
+    run: Any, deadline: float, lo: float, hi: float, best: Any
+) -> tuple[Any, float]:
+    """Slow a fixed route down to its deadline: bisection on ``log(lambda)`` in ``[lo, hi]``.
+
+    ``run(lam)`` times the route (:func:`timed`, or several legs together) and returns a
+    result with ``duration_s``, non-increasing in ``lam``; ``best = run(hi)`` is in time.
+    Stops after :data:`ROUTE_DEADLINE_ITERS` steps or once the result in time is within
+    :data:`ROUTE_DEADLINE_RTOL` of the deadline. Returns it and its ``lambda``.
+    """
     for _ in range(ROUTE_DEADLINE_ITERS):
         if best.duration_s >= deadline * (1 - ROUTE_DEADLINE_RTOL):
             break
@@ -592,7 +605,7 @@ def timed_deadline(
             hi, best = mid, res
         else:
             lo = mid
-    return done(best, hi)
+    return best, hi
 
 
 def route_front(
