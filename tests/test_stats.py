@@ -6,7 +6,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.errors import FitError
@@ -172,13 +172,20 @@ def test_classify_motion_mirror(vx, vy, wz):
     assert b == swap.get(a, a)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=15, deadline=None)
 @given(
     seed=st.integers(0, 10_000),
-    n=st.integers(1, 60),
+    n=st.integers(14, 60),  # fewer with ties: scipy's test over 2**n patterns, ~1 s each
     grid=st.sampled_from([0.0, 0.5, 1.0]),  # > 0: differences on a grid (ties, zeros)
     alternative=st.sampled_from(["two-sided", "greater", "less"]),
 )
+# each branch of "auto": exact (no ties, <= 50), every sign pattern (ties, <= 13), normal
+@example(seed=1, n=12, grid=0.0, alternative="greater")
+@example(seed=2, n=9, grid=1.0, alternative="two-sided")
+@example(seed=5, n=6, grid=0.5, alternative="greater")
+@example(seed=6, n=1, grid=0.0, alternative="less")
+@example(seed=3, n=30, grid=0.5, alternative="less")
+@example(seed=4, n=55, grid=0.0, alternative="two-sided")
 def test_signed_rank_test_gives_scipys_numbers(seed, n, grid, alternative):
     """The signed-rank test without scipy.stats: scipy.stats.wilcoxon's statistic, z and
     p-value to the last bit, for every method (auto: exact, over every sign pattern or
