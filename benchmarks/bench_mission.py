@@ -63,8 +63,8 @@ def _problem(size: int, n_sites: int, seed: int = 0):
 def _warm(ter, model, sites, client=None) -> None:
     """Compile the kernels (not timed): a two-site matrix in a small window.
 
-    The first site and a point 5 cells from it, each way of pricing edges (the table at
-    eps 1, the lazy cache at eps > 1).
+    The first site and a point 5 cells from it, each way of pricing edges (the lazy cache
+    at eps 1 and 1.05, the whole table of the old method).
     """
     from energy_planner.mission import Sites
     from energy_planner.mission.matrix import matrix_search
@@ -72,8 +72,8 @@ def _warm(ter, model, sites, client=None) -> None:
     p = sites.xy[0]
     q = p + np.where(p < np.array(ter_extent(ter)[:2]), 5.0, -5.0)
     two = Sites(np.array([p, q]), ["w0", "w1"]).on_cells(ter)
-    for eps in (1.0, 1.05):
-        matrix_search(ter, model, two, client=client, eps=eps)
+    for eps, table in ((1.0, None), (1.05, None), (1.0, True)):
+        matrix_search(ter, model, two, client=client, eps=eps, edge_cache=table)
 
 
 def ter_extent(ter) -> tuple[float, float, float, float]:
@@ -92,7 +92,7 @@ def _old_method(sizes: list[int], target: int, n_sites: int, model) -> dict:
     for size in sizes:
         ter, sites = _problem(size, n_sites)
         t0 = time.perf_counter()
-        matrix_search(ter, model, sites, eps=1.0)
+        matrix_search(ter, model, sites, eps=1.0, edge_cache=True)
         rows.append({"size": size, "matrix_s": time.perf_counter() - t0})
     k, pred = _extrapolate(rows, target)
     return {"rows": rows, "exponent_in_cells": k, "extrapolated_s": pred}

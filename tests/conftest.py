@@ -73,3 +73,19 @@ def make_follower():
         )
 
     return make
+
+
+@pytest.fixture(scope="session")
+def load_discovery():
+    """``(campaign, discovery, simulate_events, discover_events)``: the small campaign with
+    a hidden load (seed 0) and ``ep.discover(max_steps=1, fit_final=False)`` on its logs, with
+    the progress events each reported (computed once per worker; its readers share the
+    xdist group ``load_discovery``, so one worker computes it)."""
+    import energy_planner as ep
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    sim_events: list = []
+    c = simulate_campaign(0, ["load"], CampaignConfig.small(), progress=sim_events.append)
+    events: list = []
+    d = ep.discover(c.logs, max_steps=1, fit_final=False, progress=events.append)
+    return c, d, sim_events, events

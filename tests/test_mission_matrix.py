@@ -68,9 +68,9 @@ def _full_matrix(terrain, model, sites, request=None) -> np.ndarray:
 def test_early_stopped_matrix_equals_the_full_search(knoll, model, cells):
     s = _sites(knoll, [(c + 0.0, r + 0.0) for c, r in cells])
     full = _full_matrix(knoll, model, s)
-    for window, edges in ((True, None), (False, False)):
+    for window, edges in ((True, None), (False, True)):
         res = matrix_search(knoll, model, s, window=window, edge_cache=edges)
-        assert res.info["edge_table"] == (edges is None)  # a small map: the table fits
+        assert res.info["edges"] == ("table" if edges else "lazy")  # serial: the cache
         np.testing.assert_allclose(res.energy_j, full, rtol=RTOL)
         assert res.info["proven"]
         # early stop: fewer states than one full search per site
@@ -106,15 +106,17 @@ def test_weighted_matrix_expands_fewer_states(tilted, model):
     assert np.all(ratio >= 1 - RTOL) and np.all(ratio <= 1.05 * (1 + RTOL))
 
 
-def test_lazy_edge_cache_prices_each_state_once_and_keeps_the_optimum(knoll, model,
-                                                                      monkeypatch):  # fmt: skip
-    """A cache filled as the rows expand states: the full search's matrix, fewer prices."""
+def test_lazy_edge_cache_prices_each_state_once_and_keeps_the_optimum(knoll, model):
+    """A cache filled as the rows expand states: the full search's matrix, fewer prices,
+    and exactly the entries of the whole edge table (the same float32 kernel prices)."""
     s = _sites(knoll, [(3, 20), (13, 10), (20, 3), (4, 4)])
     full = _full_matrix(knoll, model, s)
-    monkeypatch.setattr(mx, "_table_fits", lambda *a: False)  # as on a map too large for it
     lazy = matrix_search(knoll, model, s, window=False)
     own = matrix_search(knoll, model, s, window=False, edge_cache=False)
+    table = matrix_search(knoll, model, s, window=False, edge_cache=True)
     assert lazy.info["edges"] == "lazy" and own.info["edges"] == "on demand"
+    assert table.info["edges"] == "table"
+    np.testing.assert_array_equal(lazy.energy_j, table.energy_j)
     np.testing.assert_allclose(lazy.energy_j, full, rtol=RTOL)
     np.testing.assert_allclose(own.energy_j, full, rtol=RTOL)
     # each state's 18 edges at most once over the four rows; the rows alone price more
@@ -190,10 +192,14 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
         with distributed.Client(address) as client:
             par = energy_matrix(knoll, model, s, client=client)
             par_w = energy_matrix(knoll, model, s, client=client, eps=1.05)
+            # the whole table priced by strips on the workers (dask's default for many sites)
+            par_t = matrix_search(knoll, model, s, client=client, edge_cache=True)
         args = ["mission", "--dem", str(dem), "--sites", str(tmp_path / "sites.csv"),
                 "--order", "given", "--scheduler", address, "--json"]  # fmt: skip
         r = CliRunner().invoke(__import__("energy_planner.cli", fromlist=["main"]).main, args)
     np.testing.assert_array_equal(serial, par)
+    assert par_t.info["edges"] == "table"
+    np.testing.assert_array_equal(serial, par_t.energy_j)
     # the weighted searches too: no edge table, each row priced on demand the same way
     np.testing.assert_array_equal(energy_matrix(knoll, model, s, eps=1.05), par_w)
     assert r.exit_code == 0, r.output

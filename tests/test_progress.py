@@ -53,16 +53,13 @@ def test_the_search_reports_its_stages_through_a_callback():
     assert heur[-1] <= 20 * 20  # cells settled, at most every cell once
 
 
-def test_the_simulator_and_discover_report_through_the_same_callback():
-    from energy_planner.diagnosis import discover
-    from energy_planner.simulate import CampaignConfig, simulate_campaign
-
-    seen: list[ProgressEvent] = []
-    c = simulate_campaign(0, ["load"], CampaignConfig.small(), progress=seen.append)
+@pytest.mark.xdist_group("load_discovery")  # shares conftest.load_discovery
+def test_the_simulator_and_discover_report_through_the_same_callback(load_discovery):
+    # the load campaign simulated and discovered with progress=seen.append / msgs.append
+    c, _, seen, msgs = load_discovery
+    assert all(isinstance(e, ProgressEvent) for e in seen + msgs)
     runs = [e for e in seen if e.stage == "simulating runs"]
     assert runs and runs[-1].done == runs[-1].total == len(c.runs)
-    msgs: list[ProgressEvent] = []
-    discover(c.logs, max_steps=1, fit_final=False, progress=msgs.append)
     text = [e.message for e in msgs if e.message]
     assert text[0] == "data checks done"
     assert {e.stage for e in msgs} <= {"discover", "staircase"}

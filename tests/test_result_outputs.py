@@ -57,11 +57,9 @@ def test_an_energy_map_result_draws_itself_and_writes_its_summary(prob, tmp_path
     assert doc["path"] == str(r.path) and doc["headings"] == 8
 
 
-def test_a_discovery_writes_its_report_and_draws_its_staircase(tmp_path):
-    from energy_planner.simulate import CampaignConfig, simulate_campaign
-
-    c = simulate_campaign(0, ["load"], CampaignConfig.small())
-    d = ep.discover(c.logs, max_steps=1, fit_final=False, progress=False)
+@pytest.mark.xdist_group("load_discovery")  # shares conftest.load_discovery
+def test_a_discovery_writes_its_report_and_draws_its_staircase(load_discovery, tmp_path):
+    d = load_discovery[1]  # discover(max_steps=1, fit_final=False) of the load campaign
     doc = json.loads(d.write_json(tmp_path / "d.json").read_text())
     assert [r["heldout_rmse_w"] for r in doc["staircase"]] == pytest.approx(
         [r["heldout_rmse_w"] for r in d.table()]

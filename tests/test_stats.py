@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.errors import FitError
@@ -168,3 +170,62 @@ def test_classify_motion_mirror(vx, vy, wz):
         "turn_right": "turn_left",
     }
     assert b == swap.get(a, a)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n=st.integers(14, 60),  # fewer with ties: scipy's test over 2**n patterns, ~1 s each
+    grid=st.sampled_from([0.0, 0.5, 1.0]),  # > 0: differences on a grid (ties, zeros)
+    alternative=st.sampled_from(["two-sided", "greater", "less"]),
+)
+# each branch of "auto": exact (no ties, <= 50), every sign pattern (ties, <= 13), normal
+@example(seed=1, n=12, grid=0.0, alternative="greater")
+@example(seed=2, n=9, grid=1.0, alternative="two-sided")
+@example(seed=5, n=6, grid=0.5, alternative="greater")
+@example(seed=6, n=1, grid=0.0, alternative="less")
+@example(seed=3, n=30, grid=0.5, alternative="less")
+@example(seed=4, n=55, grid=0.0, alternative="two-sided")
+def test_signed_rank_test_gives_scipys_numbers(seed, n, grid, alternative):
+    """The signed-rank test without scipy.stats: scipy.stats.wilcoxon's statistic, z and
+    p-value to the last bit, for every method (auto: exact, over every sign pattern or
+    the normal approximation), with and without ties and zeros."""
+    from scipy.stats import wilcoxon
+
+    from energy_planner.stats.signedrank import signed_rank_test
+
+    rng = np.random.default_rng(seed)
+    d = rng.normal(0.3, 1.0, n) * 3
+    if grid:
+        d = np.round(d / grid) * grid
+    if not np.any(d != 0):
+        d[0] = 1.0
+    for method in ("auto", "asymptotic", "exact"):
+        kw = dict(alternative=alternative, method=method, zero_method="wilcox")
+        if method == "exact" and (np.any(d == 0) or np.unique(np.abs(d)).size < d.size):
+            continue  # scipy's exact null holds only without ties and zeros
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy warns of ties / small samples
+            ref = wilcoxon(d, **kw)
+        r_plus, z, p = signed_rank_test(d, alternative, method)
+        assert p == float(ref.pvalue), (method, d)
+        if alternative != "two-sided":
+            assert r_plus == float(ref.statistic)
+        if method == "asymptotic":
+            assert abs(z) == abs(float(ref.zstatistic))
+
+
+def test_distribution_functions_are_scipy_stats():
+    """The t, chi-squared and normal functions the checks call (scipy.special) are the
+    ones scipy.stats gives, inf and a zero statistic included."""
+    from scipy import special, stats
+
+    x = np.array([-np.inf, -3.2, -0.4, 0.0, 0.7, 2.5, 40.0, np.inf])
+    for df in (1, 4, 37):
+        np.testing.assert_array_equal(special.stdtr(df, -x), stats.t.sf(x, df))
+        xp = np.abs(x)
+        np.testing.assert_array_equal(special.chdtrc(df, xp), stats.chi2.sf(xp, df))
+    np.testing.assert_array_equal(special.ndtr(x), stats.norm.cdf(x))
+    q = np.array([0.0, 1e-9, 0.025, 0.5, 0.95, 1.0])
+    np.testing.assert_array_equal(special.ndtri(q), stats.norm.ppf(q))
+    np.testing.assert_array_equal(-special.ndtri(q), stats.norm.isf(q))

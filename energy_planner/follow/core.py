@@ -460,7 +460,7 @@ class Follower:
         stretch_lengths_m: Any = None,
         deadline: float | None = None,
     ) -> None:
-        from scipy.stats import norm
+        from scipy.special import ndtri  # the normal quantile (scipy.stats: ~1 s to import)
 
         if deadline is not None and not (math.isfinite(deadline) and deadline > 0):
             raise FollowError(f"the deadline must be > 0 seconds, got {deadline!r}",
@@ -503,7 +503,7 @@ class Follower:
         cap = (0.5 * np.abs(c0) + 3.0 * np.sqrt(np.diag(cov))) ** 2
         self.rls = ForgettingRLS(c0, cov, noise_w**2, forgetting, cap)
         self.c0 = c0
-        self.z = float(norm.ppf(0.5 + level / 2.0))
+        self.z = float(ndtri(0.5 + level / 2.0))
         self.scores = model_scores(model)
         if isinstance(remaining_scores, str):
             remaining_scores = default_scores(model, remaining_scores, self.notes)
@@ -924,9 +924,9 @@ class Follower:
             low, high = raw - self.z * sd, raw + self.z * sd
             prob = None
             if left is not None:
-                from scipy.stats import norm
+                from scipy.special import ndtr
 
-                prob = float(norm.cdf((left - raw) / max(sd, 1e-9)))
+                prob = float(ndtr((left - raw) / max(sd, 1e-9)))
         rem = raw if sc is None else raw / (1.0 + float(np.median(sc)))
         return rem, max(low, 0.0), high, prob
 

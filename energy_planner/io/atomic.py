@@ -198,10 +198,6 @@ def remove_stale(dest: str | os.PathLike[str]) -> list[Path]:
 
     dest = Path(dest)
     parent = dest.parent if str(dest.parent) else Path(".")
-    pats = (
-        re.compile(_TMP_FILE.format(stem=re.escape(dest.stem), suffix=re.escape(dest.suffix))),
-        re.compile(_TMP_DIR.format(name=re.escape(dest.name))),
-    )
     head = f"{dest.stem}."
     removed: list[Path] = []
     try:  # a temporary name of a temporary file (a scratch file written atomically) too
@@ -212,6 +208,12 @@ def remove_stale(dest: str | os.PathLike[str]) -> list[Path]:
         ]
     except OSError:
         return removed
+    if not entries:  # the usual case: the patterns (one compile per name) are not needed
+        return removed
+    pats = (
+        re.compile(_TMP_FILE.format(stem=re.escape(dest.stem), suffix=re.escape(dest.suffix))),
+        re.compile(_TMP_DIR.format(name=re.escape(dest.name))),
+    )
     for e in entries:
         m = next((m for m in (p.fullmatch(e.name) for p in pats) if m), None)
         if m is None or _alive(int(m.group(1))):

@@ -29,15 +29,16 @@ narrow bands (20 sites, states expanded per row: 11 % at 200² against 20 % at e
 
 **Edges priced once.** The cost of a search is the kernel pricing its edges (18 per state
 expanded, each sampling the terrain every half cell with the model's power), not the
-heap. The sites' searches run on one lattice, so with ``eps = 1`` when it fits (72 bytes
-per state, :data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`) every edge of
-the window is priced once (:func:`~energy_planner.planning.search.edge_table`, by strips
-of rows) and the searches read the prices (float32: the entries then agree with the
-on-demand search to float32 rounding). Otherwise (``eps > 1``, whose searches read a few
-% of the table, or a table too large) the searches share a cache filled as they go
+heap. The sites' searches run on one lattice, so they share a cache filled as they go
 (:func:`~energy_planner.planning.search.edge_cache`): a state's edges are priced when a
 row first expands it and read by the later rows (per process; on dask, per batch of
-rows), and its memory follows the states expanded.
+rows), and its memory follows the states expanded. Alternatively every edge of the
+window is priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of
+rows, 72 bytes per state, :data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`)
+and the searches read the prices: both are float32 prices of the same kernel call, so
+the entries are the same, and they agree with the on-demand search to float32
+rounding. One cache never prices more than the table, so the table is used only on dask
+with ``eps = 1`` and many sites (:func:`_edge_mode`).
 
 **Window.** The searches stand inside a box around the sites, proven by the corridor's
 argument (:mod:`energy_planner.planning.corridor`): ``c_min`` bounds the energy per
@@ -238,20 +239,48 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, speed, starts, 
     return rows
 
 
-def _edge_mode(terrain, box, n_headings, edge_cache, eps) -> str:
+#: The whole edge table only for at least this many sites (and several processes): the
+#: rows of a few sites read a small share of the window's edges (3 sites on the bundled
+#: hill at eps 1: 7 % of its states; 8, 20 and 40 sites: about half).
+TABLE_MIN_SITES = 8
+
+
+def _edge_mode(terrain, box, n_headings, edge_cache, eps, n_sites=2, n_caches=1) -> str:
     """How the searches get their edges: ``"table"``, ``"lazy"`` or ``"on demand"``.
 
     ``edge_cache`` True: the window's whole table; False: each search prices its own.
-    Default: the whole table when ``eps == 1`` and it fits (half the memory cap per
-    process), else the lazy cache (:func:`~energy_planner.planning.search.edge_cache`:
-    a state's edges priced when a search first expands it, shared by the next rows). With
-    ``eps > 1`` the weighted searches expand narrow bands along the ways to the sites (a
-    few % of the window's states per row on a large map), so most of the table would
-    never be read.
+    Default: a cache filled as the searches go
+    (:func:`~energy_planner.planning.search.edge_cache`: a state's edges priced when a
+    search first expands it, shared by the next rows), which prices an edge by the
+    table's kernel call but only for the states the rows expand. The rows of one cache
+    never price more than the table, so one process (``n_caches == 1``) keeps the cache:
+    on the bundled hill at eps 1, serial, the whole matrix took 4.4 CPU s against 27.8 s
+    with the table for its 3 sites (the rows expand 7 % of the window's states), 6.5
+    against 18.6 s for 8 sites, 9.6 against 24.4 s for 20 and 14.9 against 30.6 s for 40
+    (about half the window), the same entries. On dask each batch of rows fills its own
+    cache (``n_caches`` batches, pricing some states more than once) while the table is
+    priced once by strips on every worker: there the table is kept for ``eps == 1`` and
+    at least :data:`TABLE_MIN_SITES` sites when it fits (half the memory cap per
+    process). With ``eps > 1`` the weighted searches expand narrow bands along the ways
+    to the sites (a few % of the window's states per row on a large map), so most of a
+    table would never be read.
+
+    Examples
+    --------
+    >>> from energy_planner.terrain import Terrain
+    >>> t = Terrain.from_array(np.zeros((20, 20)), resolution=1.0, origin=(0.0, 0.0))
+    >>> box = (0.0, 0.0, 19.0, 19.0)
+    >>> _edge_mode(t, box, 16, None, 1.0, n_sites=3), _edge_mode(t, box, 16, None, 1.0, 20, 1)
+    ('lazy', 'lazy')
+    >>> _edge_mode(t, box, 16, None, 1.0, 20, 2), _edge_mode(t, box, 16, None, 1.05, 20, 2)
+    ('table', 'lazy')
+    >>> _edge_mode(t, box, 16, True, 1.05), _edge_mode(t, box, 16, False, 1.0)
+    ('table', 'on demand')
     """
     if edge_cache is not None:
         return "table" if edge_cache else "on demand"
-    return "table" if eps == 1.0 and _table_fits(terrain, box, n_headings) else "lazy"
+    table = eps == 1.0 and n_caches >= 2 and n_sites >= TABLE_MIN_SITES
+    return "table" if table and _table_fits(terrain, box, n_headings) else "lazy"
 
 
 def _table_fits(terrain, box, n_headings) -> bool:
@@ -268,7 +297,10 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
     """One pass: the matrix between the distinct positions ``uxy`` inside ``box``."""
     anchor = tuple(map(float, uxy[0]))
     n = len(uxy)
-    mode = _edge_mode(terrain, box, n_headings, edge_cache, eps)
+    # one batch of rows per worker thread: each task builds the motion cost once
+    nw = 1 if client is None else max(1, sum(client.nthreads().values()))
+    nb = min(n, nw)
+    mode = _edge_mode(terrain, box, n_headings, edge_cache, eps, n, nb)
     use_edges, lazy = mode == "table", mode == "lazy"
     t0 = time.perf_counter()
     args = (n_headings, box, anchor, speed)
@@ -276,9 +308,6 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         from energy_planner.planning.search import search_grid
 
         ter_f, mod_f, req_f = client.scatter([terrain, model, request], broadcast=True, hash=False)
-        # one batch per worker thread: each task builds the motion cost once
-        nw = max(1, sum(client.nthreads().values()))
-        nb = min(n, nw)
         # (the lattice's geometry does not read the cost)
         grid0 = search_grid(None, terrain, anchor, n_headings=n_headings, box=box)
         ny = grid0.ny
@@ -452,12 +481,12 @@ def matrix_search(
     window : bool
         Search in a proven window around the sites (see the module); False: the whole map.
     edge_cache : bool, optional
-        Price every edge of the window once and share the prices between the sites'
-        searches (72 bytes per state per process; default: when that takes at most half
-        the memory cap, :func:`energy_planner.terrain.memory.resolve_cap`).
-        Without it each search prices its edges itself (the same kernel call).
-        Default: the table with ``eps = 1`` when it fits, else a cache filled as the
-        searches expand states (:func:`_edge_mode`).
+        True: price every edge of the window once and share the prices between the
+        sites' searches (72 bytes per state per process). False: each search prices its
+        edges itself (the same kernel call). Default: a cache filled as the searches
+        expand states, or on dask with ``eps = 1`` and many sites the table when it takes
+        at most half the memory cap (:func:`energy_planner.terrain.memory.resolve_cap`;
+        :func:`_edge_mode`).
     eps : float
         Heuristic weight >= 1 of every search (as ``plan``'s ``eps``): each entry is at
         most ``eps`` times the least energy between the two sites (1: the least energy;

@@ -411,7 +411,8 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
     independent units (held out by run; a run's windows share its ground and sensors). The
     test is Wilcoxon's signed-rank test of ``d_r`` (the diagnosis names it
-    ``RUN_TEST_NAME``; ``scipy.stats.wilcoxon``, one-sided, zero differences dropped): an
+    ``RUN_TEST_NAME``; :func:`~energy_planner.stats.signedrank.signed_rank_test`, as
+    ``scipy.stats.wilcoxon``, one-sided, zero differences dropped): an
     effect often lives in a few runs (those on mud, those with a payload) and makes ``d_r``
     very skewed, where a t-test has little power; the signed-rank test counts how
     consistently runs improve. The p-value is exact (the null distribution of the statistic
@@ -443,7 +444,7 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     >>> p == 2.0**-12, n
     (True, 12)
     """
-    from scipy.stats import wilcoxon
+    from energy_planner.stats.signedrank import signed_rank_test
 
     _, inv = np.unique(runs, return_inverse=True)
     d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
@@ -452,11 +453,9 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
     if d.size < 2:
         return math.nan, 1.0, n
-    res = wilcoxon(d, alternative="greater", method="approx", zero_method="wilcox")
-    z = float(res.zstatistic)
+    _, z, p = signed_rank_test(d, "greater", "asymptotic")
     if not math.isfinite(z):
         return math.nan, 1.0, n
-    p = float(res.pvalue)
     if d.size <= EXACT_MAX_RUNS and np.unique(np.abs(d)).size == d.size:
-        p = float(wilcoxon(d, alternative="greater", method="exact").pvalue)
+        p = signed_rank_test(d, "greater", "exact")[2]
     return z, p, n
