@@ -90,39 +90,6 @@ def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross, slope, moves
     t = _crest(seed) if crest else _bumpy(seed)
     req = Request.make(max_cross_slope_deg=cross, max_slope_deg=slope)
     cost, _ = make_motion_cost(t, model, req)
-    _check_edge_bounds(cost, t, moves, p)
-
-
-def _swing_model() -> EnergyModel:
-    """The bundled model with swing losses growing with speed: an interior optimum speed
-    that moves with the slope (its per-second copper losses grow on a slope)."""
-    base = EnergyModel.default()
-    coefs = dict(zip(base.term_names, base.coef_array(), strict=True))
-    return EnergyModel([*base.term_names, "speed_dependence"],
-                       {**coefs, "speed_dependence": 150.0})  # fmt: skip
-
-
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(
-    seed=st.integers(0, 10_000),
-    p=st.integers(0, 10_000),
-    lam=st.sampled_from([0.0, 40.0, 2000.0]),
-    crest=st.booleans(),
-)
-def test_edge_bound_over_a_speed_range_never_exceeds_the_kernel(seed, p, lam, crest):
-    """With a speed range, one table (the top speed's, shifted by the most the model's
-    speed terms can save in the range) bounds every motion at its own best speed and
-    price of a second ``lambda`` (the kernel's ``E + lambda T``, the independent side)."""
-    from energy_planner.problem import Problem
-
-    t = _crest(seed) if crest else _bumpy(seed)
-    cost = Problem(t, _swing_model()).with_speed((0.15, 1.2), lam).cost
-    _check_edge_bounds(cost, t, "all", p)
-
-
-def _check_edge_bounds(cost, t, moves: str, p: int) -> None:
-    """The search's edge bound of every move from a few positions is at most the kernel's
-    cost of it at every heading allowed to make it."""
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, moves)
     mod = search_module(cost)
     table, tgeo = bound_table(cost, grid.headings, grid.move_ok)

@@ -355,24 +355,24 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
                          indexing="ij")  # fmt: skip
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
+    best = np.empty_like(along)
+    table = np.full(along.shape, np.inf)
+    speeds = bound_speeds(cost)
     lam = float(getattr(cost, "time_weight", 0.0))
-    ranged = getattr(cost, "speed_range", None) is not None
-    if ranged:
+    if len(speeds) > 1:
         # a sample's gradient is a convex combination of cells' gradients: nodes steeper
         # than the steepest cell by two spacings are never read by the bilinear lookup, so
         # they are left inf (edge_bound then takes the table's least: still a bound) rather
-        # than priced (the exact minimum, above the heading table's slopes)
+        # than priced at every speed (the exact minimum, above the heading table's slopes)
         gmax = float(np.nanmax(np.hypot(gx, gy)))
         far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
-    speed = bound_speed(cost)
-    hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
-    best = _best_bands(hc, GX, GY, dirs, along)
-    if ranged:  # one table for the whole range: the top speed's, shifted
-        best = _range_bound(cost, best.astype(np.float64), GX, GY, dirs, lam)
-    elif lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
-        best = best + np.float32(lam / speed)
-    table = best.astype(np.float64)
+    for speed in speeds:
+        hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
+        best = _best_bands(hc, GX, GY, dirs, along)
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / speed)
+        table = np.minimum(table, best)
     table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
@@ -381,118 +381,6 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     up = t32.astype(np.float64) > table
     t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
     return np.ascontiguousarray(t32), tgeo
-
-
-#: Speeds at which :func:`range_shift` compares the model's speed terms (geometric over
-#: the range, ends included) ...
-SHIFT_SPEEDS = 33
-#: ... and its grid of motion states: slope step, and steps of the relative heading and
-#: of the direction of travel in the body frame (degrees).
-SHIFT_GRID_DEG = (1.0, 10.0, 10.0)
-
-
-def range_shift(cost, slope: np.ndarray, time_weight: float = 0.0) -> np.ndarray:
-    """How far below its top speed's a motion's J per ground metre can fall in the range.
-
-    At each slope of ``slope`` (radians): the least over the speeds ``v`` of the range
-    of ``D(v) + lambda / v``, with ``D(v)`` the least over motion states on that slope
-    (every relative heading and direction of travel, no turning) of ``N(s, v) - N(s,
-    vmax)``, where ``N`` is the energy per ground metre of the model's terms whose
-    power is not proportional to the speed (those that are cost the same per metre at
-    every speed and cancel): the standing and copper losses, the swing losses, the terms
-    with a kink in speed. Wherever the power at ``vmax`` is positive, the cost of a metre
-    at any speed ``v`` and body yaw is at least its cost at ``vmax`` plus this shift
-    (:func:`bound_table`). Speeds, slopes (the least of the two grid slopes around each),
-    headings and directions are sampled (:data:`SHIFT_SPEEDS`, :data:`SHIFT_GRID_DEG`);
-    the search's :data:`BOUND_MARGIN` covers what falls between.
-    """
-    from energy_planner.energy.speed import _channel_values
-
-    model = cost.model
-    vmin, vmax = (float(v) for v in cost.speed_range)
-    speeds = np.geomspace(vmin, vmax, SHIFT_SPEEDS)
-    chans = _channel_values(model, getattr(cost, "constants", None))
-    key = (_model_key(model), tuple(sorted(chans.items())), vmin, vmax)
-    drop = _SHIFT_MEMO.get(key)
-    if drop is None:
-        drop = _SHIFT_MEMO[key] = _speed_terms_drop(model, cost.speed_law, speeds, chans)
-    shift = np.min(drop + time_weight / speeds, axis=1)  # per grid slope
-    shift = np.minimum(shift[:-1], shift[1:])  # the least of the two around a slope
-    slope = np.asarray(slope, dtype=float)
-    i = np.clip(np.floor(np.nan_to_num(slope) / math.radians(SHIFT_GRID_DEG[0])), 0,
-                len(shift) - 1).astype(int)  # fmt: skip
-    return shift[i]
-
-
-#: :func:`range_shift`'s ``D(v)`` by model, channel values and range.
-_SHIFT_MEMO: dict[tuple, np.ndarray] = {}
-
-
-def _model_key(model) -> str:
-    import hashlib
-    import json
-
-    text = json.dumps([model.term_names, model.coef_array().tolist()], sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _speed_terms_drop(model, law, speeds, chans) -> np.ndarray:
-    """``D(v)`` of :func:`range_shift`, shape ``(slopes, speeds)`` (0 at the top speed).
-
-    Slopes from 0 to 90 degrees by ``SHIFT_GRID_DEG[0]``.
-    """
-    from energy_planner.energy.speed import _features
-    from energy_planner.model import EnergyModel
-
-    names = [t.name for t in model.terms]
-    coefs = model.coef_array()
-    homog = [j for j, t in enumerate(model.terms)
-             if law.degrees.get(t.name, 1) not in (1, None)]  # fmt: skip
-    kinked = [j for j, t in enumerate(model.terms)
-              if t.name in law.degrees and law.degrees[t.name] is None]  # fmt: skip
-    da, dg, dt = (math.radians(v) for v in SHIFT_GRID_DEG)
-    alpha = np.arange(0.0, math.pi / 2 + 1e-9, da)
-    if not homog and not kinked:
-        return np.zeros((len(alpha), len(speeds)))
-    gamma = np.arange(-math.pi, math.pi, dg)
-    travel = np.arange(-math.pi, math.pi, dt)
-    A, G, T = (a.ravel() for a in np.meshgrid(alpha, gamma, travel, indexing="ij"))
-    vmax = float(speeds[-1])
-
-    def columns(sub: list[int], v: float) -> np.ndarray:
-        part = EnergyModel([model.terms[j] for j in sub], {names[j]: coefs[j] for j in sub})
-        return part.design_matrix(_features(np.full(A.shape, v), A, G, T, 0.0, chans))
-
-    # homogeneous terms: a term of degree d at speed v is its value at vmax times
-    # (v / vmax)^d; per metre, divided by v
-    ref = columns(homog, vmax) * coefs[homog] if homog else np.zeros((A.size, 0))
-    degs = np.array([law.degrees[names[j]] for j in homog], dtype=float)
-    kin_ref = columns(kinked, vmax) @ coefs[kinked] if kinked else 0.0
-    top_n = (ref.sum(axis=1) + kin_ref) / vmax
-    out = np.zeros((len(alpha), len(speeds)))
-    for i, v in enumerate(speeds[:-1]):
-        n = ref @ (v / vmax) ** degs
-        if kinked:
-            n = n + columns(kinked, float(v)) @ coefs[kinked]
-        out[:, i] = (n / v - top_n).reshape(len(alpha), -1).min(axis=1)
-    return out
-
-
-def _range_bound(cost, best, GX, GY, dirs, lam: float) -> np.ndarray:
-    """The range's bound from the table ``best`` at its top speed (:func:`range_shift`).
-
-    A map metre along direction ``d`` on gradient ``(gx, gy)`` is ``k = sqrt(1 + (gx cos d
-    + gy sin d)^2)`` ground metres: the least J per map metre over the range's speeds
-    and the body's yaws (plus ``lam`` per second) is at least ``best + k x shift`` where
-    the power at the top speed is positive (``best > 0``), and ``k lam / vmax`` anyway.
-    """
-    with np.errstate(invalid="ignore"):
-        c, s = np.cos(dirs)[:, None, None], np.sin(dirs)[:, None, None]
-        k = np.sqrt(1.0 + (c * GX + s * GY) ** 2)
-        shift = range_shift(cost, np.arctan(np.hypot(GX, GY)), lam)
-        floor = k * (lam / float(cost.speed_range[1]))
-        out = np.where(best > 0, best + k * shift, floor)
-        return np.maximum(out, floor)
 
 
 #: Least J per map metre over the body's yaw (``best``) of the bound's gradient grids,
@@ -600,15 +488,28 @@ def prune_bound_cache(folder: Path, keep: int | None = None, max_bytes: int | No
     return gone
 
 
-def bound_speed(cost) -> float:
-    """The speed the table of :func:`bound_table` is priced at.
+#: Speeds of a cost that chooses its speed over which the search's bound is the least
+#: (geometric over the range, ends included).
+SPEED_BOUND_NODES = 7
 
-    The nominal speed of a fixed-speed cost; the top of a cost's speed range, whose table
-    :func:`range_shift` then shifts down to a bound over the whole range (one table,
-    however wide the range: the first plan on a map prices one, not one per speed).
+
+def bound_speeds(cost) -> np.ndarray:
+    """The speeds the bound of :func:`bound_table` is least over.
+
+    The nominal speed of a fixed-speed cost; :data:`SPEED_BOUND_NODES` speeds spread
+    geometrically over a cost's speed range. Energy per metre is smooth in speed with its
+    least inside or at an end of the range, so the least over these nodes is above the
+    least over the whole range by a fraction of the spacing's square: the search's
+    :data:`BOUND_MARGIN` covers it where the curve is flat near its minimum; elsewhere the
+    bound may exceed a motion's cost by a little, which only weakens the optimality
+    certificate (``eps``), not the path. With a time price ``lambda`` the bound at each
+    speed adds ``lambda / v`` (a map metre lasts at least ``1 / v``), so that a dear second
+    keeps the heuristic as tight as a free one.
     """
     rng = getattr(cost, "speed_range", None)
-    return float(cost.speed if rng is None else rng[1])
+    if rng is None:
+        return np.array([cost.speed])
+    return np.geomspace(rng[0], rng[1], SPEED_BOUND_NODES)
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
