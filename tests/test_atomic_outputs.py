@@ -71,7 +71,11 @@ def test_energy_map_stopped_mid_write_keeps_the_previous_map(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
-    if code == 0:  # finished before the signal: then the map is complete
+    finished = out.read_bytes() != b"the previous good map"
+    if code in (0, -signal.SIGTERM) and finished:
+        # the map was in place before the signal (a 512^2 map writes in well under a
+        # second; the signal then found the statistics or the exit, where SIGTERM keeps
+        # its default action): then the map is complete
         with rasterio.open(out) as src:
             assert src.count == 16 + 4  # best_* and the summary bands (the default)
     else:
