@@ -177,7 +177,7 @@ def test_discover_adds_the_cross_slope_holding_cost(discovered):
     overprices steep ones by ~13-23 W (24-30 deg) on the full logs. A holding cost in
     proportion to the load (``tilt_y_abs`` = ``abs(sin(alpha) sin(gamma))``: driver losses
     that grow with the current, friction with the torque) is what the logs show: on the full
-    logs it takes the held-out RMSE from 7.19 to 5.08 W (floor 3.59 W). On this subset
+    logs it takes the held-out RMSE from 6.76 to 4.44 W (floor 3.59 W). On this subset
     discover must add it as its first step: the training folds of every fold choose it
     alone, it removes more than half the squared error, it is a cost (positive
     coefficient), and all 12 runs improve: the exact signed-rank p is then one sign
