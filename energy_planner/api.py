@@ -711,6 +711,7 @@ def energy_map(
     chunk: int = 512,
     compress: str | None = None,
     bands: str | None = None,
+    encoding: str | None = None,
     progress: bool = False,
 ):
     """The heading-dependent energy map of ``dem``, written to ``out`` (``energy-map``).
@@ -754,6 +755,9 @@ def energy_map(
         GeoTIFF compression (``--compress``; default zstd).
     bands : {{"best", "all"}}, optional
         Bands written (``--bands``; default best).
+    encoding : {{"uint16", "float32"}}, optional
+        How the bands are stored (``--encoding``; default uint16: scaled integers, to
+        0.125 J/m; :mod:`energy_planner.energymap.encoding`).
     progress : bool
         Progress on stderr.
 
@@ -771,6 +775,8 @@ def energy_map(
         kwargs["compress"] = compress
     if bands is not None:
         kwargs["bands"] = bands
+    if encoding is not None:
+        kwargs["encoding"] = encoding
     given = _take(locals(), REQUEST_KEYS)
     own = None
     if isinstance(client, str):

@@ -16,6 +16,7 @@ from energy_planner.cli.options import (
     parse_memory_cap,
 )
 from energy_planner.energymap.bands import BAND_SETS, DEFAULT_BANDS
+from energy_planner.energymap.encoding import DEFAULT_ENCODING, ENCODINGS
 from energy_planner.energymap.setup import DEFAULT_COMPRESS
 from energy_planner.io.geotiff import COMPRESSIONS
 
@@ -126,6 +127,15 @@ def format_table(res: dict[str, Any]) -> str:
     "summary bands: the cheapest heading and its cost, the dearest, their ratio; the "
     "fastest to write).",
 )
+@click.option(
+    "--encoding",
+    type=click.Choice(ENCODINGS),
+    default=DEFAULT_ENCODING,
+    show_default=True,
+    help="How the bands are stored: uint16 (scaled integers with GDAL scale and offset, "
+    "0.25 J/m steps, code 0 nodata, 65535 inf; a quarter of float32's bytes; a map with a "
+    "cost above 16,383 J/m falls back to float32) or float32 (the values as computed).",
+)
 @options.json_option
 def command(
     dem: Path,
@@ -144,6 +154,7 @@ def command(
     chunk: int,
     compress: str,
     bands: str,
+    encoding: str,
     as_json: bool,
 ) -> None:
     """Heading-dependent energy map of DEM: J per metre of walking in each of N headings.
@@ -169,7 +180,8 @@ def command(
             res = energy_map(
                 dem, out, model=model, headings=headings, speed=speed, **gait_limits(),
                 channels=ch, band=band, use_dask=use_dask, client=scheduler,
-                memory_cap=cap, chunk=chunk, compress=compress, bands=bands, progress=True,
+                memory_cap=cap, chunk=chunk, compress=compress, bands=bands, encoding=encoding,
+                progress=True,
             )  # fmt: skip
     except DEMIOError as exc:
         raise click.BadParameter(str(exc), param_hint="DEM") from exc

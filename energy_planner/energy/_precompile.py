@@ -98,6 +98,8 @@ def build_map(source: str, name: str, out_dir: str) -> None:
     sig = types.void(a2, a2, a3, c1, c1, f8, f8, f8, f8, f8, c3, f8, b3, b3)
     cc.export("map_costs", sig)(mod.map_costs.py_func)
     cc.export("summary", types.void(b3, c1, b3))(mod.summary.py_func)
+    u3 = types.Array(types.uint16, 3, "A")
+    cc.export("encode", types.int64(b3, c1, u3))(mod.encode.py_func)
     i8 = types.int64
     table = c3(f8, f8, f8, f8, i8, i8, i8, c1)  # heading_table(speed, smax, cmax, d_alpha,
     cc.export("heading_table", table)(mod.heading_table.py_func)  # i_start, n_rows, n_phi, chv)

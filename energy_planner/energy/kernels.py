@@ -231,7 +231,7 @@ def precompiled_module(power_source: str, build: bool = True):
 
 
 #: The functions of a precompiled energy-map module (:func:`precompiled_map_module`).
-PRECOMPILED_MAP = ("map_costs", "summary", "heading_table")
+PRECOMPILED_MAP = ("map_costs", "summary", "encode", "heading_table")
 _SUMMARY = Path(__file__).parents[1] / "energymap" / "_summary.py"
 
 

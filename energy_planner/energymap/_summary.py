@@ -80,3 +80,31 @@ def summary_bands(best: np.ndarray, heading_deg: np.ndarray, out: np.ndarray) ->
     ``-0.0``.)
     """
     _summary(best, np.ascontiguousarray(heading_deg, dtype=np.float64), out)
+
+
+@numba.njit(cache=True, parallel=True)
+def encode(src, inv_step, out):  # pragma: no cover - compiled
+    """``uint16`` codes of float32 bands ``src`` (see :mod:`energy_planner.energymap.encoding`).
+
+    ``out[i] = round(src[i] * inv_step[i]) + 1`` (halves up), 0 for NaN, 65535 for
+    ``+inf``; returns how many finite values (or ``-inf``) fall outside ``0 .. 65533``
+    steps (their codes are left 65535).
+    """
+    nb, rows, cols = src.shape
+    bad = 0
+    for r in numba.prange(rows):
+        for i in range(nb):
+            s = inv_step[i]
+            for c in range(cols):
+                v = src[i, r, c]
+                if math.isnan(v):
+                    out[i, r, c] = 0
+                    continue
+                q = v * s + 1.5
+                if q >= 1.0 and q < 65535.0:
+                    out[i, r, c] = np.uint16(int(q))
+                else:
+                    out[i, r, c] = 65535
+                    if not (v > 0.0 and math.isinf(v)):
+                        bad += 1
+    return bad

@@ -62,6 +62,7 @@ from energy_planner.energymap.bands import (  # noqa: F401  (re-exported: old im
     block_bands,
     heading_angles,
 )
+from energy_planner.energymap.encoding import DEFAULT_ENCODING
 from energy_planner.energymap.result import (  # noqa: F401  (re-exported: old import paths)
     _TILE,
     EnergyMapResult,
@@ -123,8 +124,9 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
     chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
     step = _rows_per_block(cols, nb)
     starts = range(0, rows, step)
-    prof = _profile(terrain.shape, terrain.transform, terrain.crs, setup.nbands, setup.compress)
-    buf = None
+    prof = _profile(terrain.shape, terrain.transform, terrain.crs, setup.nbands, setup.compress,
+                    setup.encoding)  # fmt: skip
+    buf = qbuf = None
     with open_geotiff(out, **prof) as dst:
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
@@ -133,8 +135,22 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
                 setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings,
                 buf, precompiled=True,
             )  # fmt: skip
-            dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
+            qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
+            dst.write(data, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
+
+
+def _encoded(setup: _Setup, block: np.ndarray, out: np.ndarray | None) -> np.ndarray:
+    """The bands of a block as the file stores them (``setup.encoding``).
+
+    ``uint16``: :func:`~energy_planner.energymap.encoding.encode_block` into ``out``
+    (reused from window to window); ``float32``: the block itself.
+    """
+    if setup.encoding == "float32":
+        return block
+    from energy_planner.energymap.encoding import encode_block
+
+    return encode_block(block, setup.steps, out, aot=setup.heading.precompiled_map())
 
 
 @dataclass
@@ -242,11 +258,9 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
     step = _rows_per_block(cols, nb)
     starts = range(0, rows, step)
     any_valid = False
-    buf = None
-    with (
-        rasterio.open(info.path) as src,
-        open_geotiff(out, **_profile(info.shape, t, info.crs, setup.nbands, setup.compress)) as dst,
-    ):
+    buf = qbuf = None
+    prof = _profile(info.shape, t, info.crs, setup.nbands, setup.compress, setup.encoding)
+    with rasterio.open(info.path) as src, open_geotiff(out, **prof) as dst:
         reading = band_reading(src, info.band, info.path, scan=True)
         for r0 in _progress(starts, len(starts), "energy map", progress):
             r1 = min(rows, r0 + step)
@@ -263,7 +277,8 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
             buf = bands = block_bands(
                 setup.heading, gx, gy, chan, setup.headings, buf, precompiled=True
             )
-            dst.write(bands[setup.first :], window=Window(0, r0, cols, r1 - r0))
+            qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
+            dst.write(data, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:
         out.unlink(missing_ok=True)
@@ -352,7 +367,9 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
     with rasterio.open(info.path) as src:  # load_dem warned of undeclared voids
         reading = band_reading(src, info.band, info.path)
         dem_valid = np.isfinite(reading.read(src, find=True, warn=False))
-    prof = _profile(info.shape, info.transform, info.crs, setup.nbands, setup.compress)
+    prof = _profile(info.shape, info.transform, info.crs, setup.nbands, setup.compress,
+                    setup.encoding)  # fmt: skip
+    steps = setup.steps
     with rasterio.open(work) as w, open_geotiff(out, **prof) as dst:
         wt, wcrs = w.transform, w.crs
         args = (wt, wcrs, info.shape, info.transform, info.crs)
@@ -373,7 +390,12 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
         frac = k - k_int
 
         def put(i: int, arr: np.ndarray) -> None:  # i: 0-based in the full band layout
-            dst.write(np.where(valid, arr, np.nan).astype(np.float32), i + 1 - first)
+            band = np.where(valid, arr, np.nan).astype(np.float32)[None]
+            if setup.encoding != "float32":
+                from energy_planner.energymap.encoding import encode_block
+
+                band = encode_block(band, steps[i - first : i - first + 1])
+            dst.write(band[0], i + 1 - first)
 
         for g in range(first // n, 2):  # along_* (when written), best_*
             cache: dict[int, np.ndarray] = {}
@@ -424,7 +446,8 @@ def _compute_on_dem_grid(
     from energy_planner.io import scratch_path
 
     with scratch_path(out) as work:
-        _compute_terrain(terrain, work, replace(setup, bands="all"), model_name, progress)
+        whole = replace(setup, bands="all", encoding="float32")  # resampled as values
+        _compute_terrain(terrain, work, whole, model_name, progress)
         _to_dem_grid(work, info, out, setup, model_name)
 
 
@@ -444,6 +467,7 @@ def energy_map(
     progress: bool | None = None,
     compress: str = DEFAULT_COMPRESS,
     bands: str = DEFAULT_BANDS,
+    encoding: str = DEFAULT_ENCODING,
 ) -> EnergyMapResult:
     """Write the heading-dependent energy map of a DEM to a GeoTIFF.
 
@@ -490,6 +514,13 @@ def energy_map(
         the four summary bands (N + 4 float32 bands); ``all`` also the ``along_*`` bands
         (walking facing along each heading; 2 N + 4 bands, nearly twice the bytes to
         write). Both are computed either way.
+    encoding : {"uint16", "float32"}
+        How the bands are stored (:mod:`energy_planner.energymap.encoding`): ``uint16``
+        (default) scaled integers with GDAL scale and offset, to 0.125 J/m (half of
+        :data:`~energy_planner.energymap.encoding.COST_STEP`), a quarter of float32's
+        bytes; a map with a cost beyond their range (above 16,383 J/m) is written as
+        float32 and says so in its notes. ``float32``: the values as computed.
+        :func:`~energy_planner.energymap.encoding.read_band` reads either as values.
 
     Returns
     -------
@@ -522,7 +553,7 @@ def energy_map(
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
         res = _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
-            chunk, progress, compress, bands,
+            chunk, progress, compress, bands, encoding,
         )  # fmt: skip
     res.dem = dem
     return res
@@ -530,15 +561,39 @@ def energy_map(
 
 def _energy_map(
     dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes, chunk,
-    progress, compress, bands,
+    progress, compress, bands, encoding,
 ) -> EnergyMapResult:  # fmt: skip
-    from energy_planner.terrain import Terrain
+    from energy_planner.energymap.encoding import COST_STEP, EncodingOverflow
 
     t0 = time.perf_counter()
     out = Path(out)
-    setup = _setup(model, request, channels, headings, compress, bands)
-    model_name = _model_name(model)
+    setup = _setup(model, request, channels, headings, compress, bands, encoding)
     notes = list(setup.notes)
+    try:
+        mode, convention = _compute(
+            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
+        )
+    except EncodingOverflow:
+        setup = replace(setup, encoding="float32")
+        notes[:] = list(setup.notes)  # the first attempt's notes come again
+        notes.append(
+            f"a value lies beyond the uint16 encoding's range (costs 0 .. {65533 * COST_STEP:g} "
+            "J/m): the map is written as float32"
+        )
+        mode, convention = _compute(
+            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
+        )
+    seconds = time.perf_counter() - t0
+    return _result(out, setup, mode, seconds, notes, convention)
+
+
+def _compute(
+    dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
+) -> tuple[str, str]:  # fmt: skip
+    """Compute and write the map by the path that suits ``dem``; its mode and heading frame."""
+    from energy_planner.terrain import Terrain
+
+    model_name = _model_name(model)
     convention = GRID_EAST
     if isinstance(dem, Terrain):
         if use_dask:
@@ -589,5 +644,4 @@ def _energy_map(
             _compute_on_dem_grid(terrain, info, out, setup, model_name, progress)
             convention = DEM_EAST
             mode = "terrain"
-    seconds = time.perf_counter() - t0
-    return _result(out, setup, mode, seconds, notes, convention)
+    return mode, convention

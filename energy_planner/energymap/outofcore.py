@@ -73,6 +73,12 @@ def _bands_block(gx, gy, *, heading, headings, channels, transform, crs, block_i
         return block_bands(heading, gx, gy, chan, headings)
 
 
+def _encode_block(block: np.ndarray, *, steps: np.ndarray) -> np.ndarray:
+    from energy_planner.energymap.encoding import encode_block
+
+    return encode_block(np.ascontiguousarray(block), steps)
+
+
 class _WindowWriter:
     """A ``dask.array.store`` target: each block is written to one open GeoTIFF."""
 
@@ -103,7 +109,7 @@ def _store_local(bands: Any, out: Path, setup: _Setup, model_name: str, info: _D
     from energy_planner.io import open_geotiff
 
     nb = bands.shape[0]
-    prof = _profile(info.shape, info.transform, info.crs, nb, setup.compress)
+    prof = _profile(info.shape, info.transform, info.crs, nb, setup.compress, setup.encoding)
     bar: Any = contextlib.nullcontext()
     if show:
         from dask.diagnostics import ProgressBar
@@ -162,6 +168,8 @@ def compute_dask(
         dtype=np.float32, heading=setup.heading, headings=setup.headings,
         channels=setup.channels, transform=t, crs=info.crs,
     )[setup.first :]  # fmt: skip
+    if setup.encoding == "uint16":
+        bands = bands.map_blocks(_encode_block, steps=setup.steps, dtype=np.uint16)
     nb = setup.nbands
     show = progress if progress is not None else sys.stderr.isatty()
     client = _client()
@@ -177,9 +185,10 @@ def compute_dask(
         coords={"band": np.arange(1, nb + 1), "y": arr.y.values, "x": arr.x.values},
     )
     xarr = xarr.rio.write_crs(info.crs).rio.write_transform(t)
-    xarr = xarr.rio.write_nodata(np.nan, encoded=False)
+    ints = setup.encoding == "uint16"
+    xarr = xarr.rio.write_nodata(0 if ints else np.nan, encoded=False)
     lock: Any = Lock("energy_planner-energy-map-write")
-    prof = _profile(info.shape, t, info.crs, nb, setup.compress)
+    prof = _profile(info.shape, t, info.crs, nb, setup.compress, setup.encoding)
     keys = ("compress", "predictor", "zlevel", "zstd_level", "BIGTIFF", "interleave")
     opts = {k: prof[k] for k in keys if k in prof}
     if prof.get("tiled"):
@@ -190,7 +199,7 @@ def compute_dask(
     from energy_planner.io.geotiff import check_written
 
     with atomic_path(out, shared=True) as tmp:  # the workers write it: a name they reach
-        xarr.rio.to_raster(tmp, lock=lock, dtype="float32", **opts)
+        xarr.rio.to_raster(tmp, lock=lock, dtype=prof["dtype"], **opts)
         with rasterio.open(tmp, "r+") as dst:
             _write_metadata(dst, setup, model_name, "dask")
         check_written(tmp)  # GDAL only logs a write that failed at close (a full disk)

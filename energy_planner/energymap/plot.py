@@ -182,13 +182,16 @@ def plot_energy_map(
     import rasterio
     from rasterio.enums import Resampling
 
+    from energy_planner.energymap.encoding import read_band
+
     with rasterio.open(map_path) as src:
         names = list(src.descriptions)
         shape, t = _decimated_grid(src, max_side)
         crs = src.crs
 
         def band(name: str, how: Any) -> np.ndarray:
-            return src.read(names.index(name) + 1, out_shape=shape, resampling=how).astype(float)
+            return read_band(src, names.index(name) + 1, out_shape=shape,
+                             resampling=how).astype(float)  # fmt: skip
 
         cheap = band("cheapest", Resampling.average)
         # inf marks a cell above a slope limit at every heading (the map's nodata tag)
@@ -280,6 +283,7 @@ def energy_map_page(map_path: str | Path, dem: Any, path: str | Path, title=None
     import rasterio
     from rasterio.enums import Resampling
 
+    from energy_planner.energymap.encoding import read_band
     from energy_planner.webmap import MAX_SIDE, WebMap
 
     with rasterio.open(map_path) as src:
@@ -296,8 +300,7 @@ def energy_map_page(map_path: str | Path, dem: Any, path: str | Path, title=None
                 continue
             how = Resampling.nearest if n == "cheapest_heading_deg" else Resampling.average
             i = names.index(n)
-            v = src.read(i + 1, out_shape=shape, resampling=how).astype(float)
-            v = v * src.scales[i] + src.offsets[i]  # scaled-integer bands read as values
+            v = read_band(src, i + 1, out_shape=shape, resampling=how).astype(float)
             v[~np.isfinite(v)] = np.nan
             label = {"cheapest": "cheapest cost", "cheapest_heading_deg": "cheapest heading"}.get(
                 n, n.replace("best_", "heading ") + "°" if n.startswith("best_") else n

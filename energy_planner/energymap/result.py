@@ -133,14 +133,17 @@ class EnergyMapResult(Result):
 
 
 def _profile(
-    shape: tuple[int, int], transform: Any, crs: Any, nbands: int, compress: str = "deflate"
-) -> dict[str, Any]:
+    shape: tuple[int, int], transform: Any, crs: Any, nbands: int, compress: str = "deflate",
+    encoding: str = "float32",
+) -> dict[str, Any]:  # fmt: skip
     """The project GeoTIFF profile (:func:`energy_planner.io.geotiff_profile`).
 
     Tiles of :func:`_tile`, so that a block of whole tile rows completes its tiles;
     ``compress`` at its fastest level (:func:`energy_planner.io.compression_options`),
     the tiles compressed by GDAL's worker threads (``NUM_THREADS=ALL_CPUS``) while the
-    next window is computed.
+    next window is computed. ``encoding``: ``float32`` (NaN nodata, floating-point
+    predictor) or ``uint16`` (:mod:`~energy_planner.energymap.encoding`: code 0 nodata,
+    horizontal predictor).
     """
     from energy_planner.io import compression_options, geotiff_profile
 
@@ -153,8 +156,10 @@ def _profile(
         tiles = dict(tiled=True, blockxsize=_TILE, blockysize=_TILE)
     # level 1: the bands (float32 costs) hardly compress further at deflate's default
     # level 6, which takes 1.6x the CPU (7.3 s against 4.6 s for 2048^2 x 36 bands)
-    comp = compression_options(compress, threads="ALL_CPUS")
-    return geotiff_profile(shape, nbands, transform=transform, crs=crs, **comp, **tiles)
+    ints = encoding == "uint16"
+    comp = compression_options(compress, floating=not ints, threads="ALL_CPUS")
+    kind: dict[str, Any] = dict(dtype="uint16", nodata=0) if ints else {}
+    return geotiff_profile(shape, nbands, transform=transform, crs=crs, **comp, **tiles, **kind)
 
 
 def _write_metadata(
@@ -167,6 +172,20 @@ def _write_metadata(
 
     for i, (name, desc, units) in enumerate(descs, start=1):
         describe_band(dst, i, name=name, description=desc, units=units)
+    if dst.dtypes[0] == "uint16":
+        from energy_planner.energymap.encoding import INF_CODE
+
+        steps = setup.steps
+        dst.scales = tuple(float(x) for x in steps)
+        dst.offsets = tuple(-float(x) for x in steps)
+        dst.update_tags(
+            encoding="uint16: value = code * scale + offset (offset = -scale); code 0 is "
+            f"nodata (NaN), code {INF_CODE} is inf; precision scale / 2",
+            inf_code=str(INF_CODE),
+            nodata=f"code 0 (NaN); code {INF_CODE} = inf (above a slope limit)",
+        )
+    else:
+        dst.update_tags(encoding="float32")
     dst.update_tags(
         software="energy_planner energy-map",
         bands=setup.bands,
@@ -229,6 +248,8 @@ def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
     """
     from rasterio.windows import Window
 
+    from energy_planner.energymap.encoding import read_band
+
     scale = max(1, math.ceil(max(src.height, src.width) / max_side))
     names = list(src.descriptions)
     i_cheap, i_aniso = names.index("cheapest") + 1, names.index("anisotropy") + 1
@@ -240,7 +261,7 @@ def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
         win = Window(0, r0, src.width, min(step, src.height - r0))
         first = (off - r0) % scale  # first row of the window that is sampled
         for i, parts in ((i_cheap, cheap_parts), (i_aniso, aniso_parts)):
-            parts.append(src.read(i, window=win)[first::scale, off::scale].astype(float))
+            parts.append(read_band(src, i, window=win)[first::scale, off::scale].astype(float))
     cheap = np.concatenate(cheap_parts).ravel()
     aniso = np.concatenate(aniso_parts).ravel()
     ok = np.isfinite(cheap)
@@ -258,10 +279,16 @@ def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
 
 
 def sample_band(path: str | Path, name: str, rows: Sequence[int], cols: Sequence[int]):
-    """Values of band ``name`` at cells ``(rows[i], cols[i])`` of a written map."""
+    """Values of band ``name`` at cells ``(rows[i], cols[i])`` of a written map.
+
+    Float values whatever the map's encoding (:func:`~energy_planner.energymap.encoding.
+    read_band`).
+    """
     import rasterio
+
+    from energy_planner.energymap.encoding import read_band
 
     with rasterio.open(path) as src:
         idx = list(src.descriptions).index(name) + 1
-        data = src.read(idx)
+        data = read_band(src, idx)
     return data[np.asarray(rows), np.asarray(cols)]

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.energymap.bands import BAND_SETS, DEFAULT_BANDS, first_band
+from energy_planner.energymap.bands import BAND_SETS, DEFAULT_BANDS, band_names, first_band
+from energy_planner.energymap.encoding import DEFAULT_ENCODING, ENCODINGS
 from energy_planner.errors import EnergyMapError
 
 #: Compression of a map's GeoTIFF unless asked otherwise (see :func:`energy_map`).
@@ -31,6 +32,7 @@ class _Setup:
     notes: list[str]
     compress: str = DEFAULT_COMPRESS
     bands: str = DEFAULT_BANDS
+    encoding: str = DEFAULT_ENCODING
 
     @property
     def first(self) -> int:
@@ -42,10 +44,17 @@ class _Setup:
         """Number of bands written."""
         return 2 * self.headings + 4 - self.first
 
+    @property
+    def steps(self) -> np.ndarray:
+        """The ``uint16`` scale of each band written (``encoding.band_steps``)."""
+        from energy_planner.energymap.encoding import band_steps
+
+        return band_steps(self.headings, band_names(self.headings, self.bands))
+
 
 def _setup(
     model: Any, request: Any, channels: Any, headings: int, compress: str = DEFAULT_COMPRESS,
-    bands: str = DEFAULT_BANDS,
+    bands: str = DEFAULT_BANDS, encoding: str = DEFAULT_ENCODING,
 ) -> _Setup:  # fmt: skip
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.heading import HeadingCost
@@ -72,6 +81,12 @@ def _setup(
             f"bands {bands!r} is not one of {', '.join(BAND_SETS)}",
             value=bands,
             expected=", ".join(BAND_SETS),
+        )
+    if encoding not in ENCODINGS:
+        raise EnergyMapError(
+            f"encoding {encoding!r} is not one of {', '.join(ENCODINGS)}",
+            value=encoding,
+            expected=", ".join(ENCODINGS),
         )
     model = EnergyModel.default() if model is None else model
     if not model.is_fitted:
@@ -105,4 +120,5 @@ def _setup(
         notes=notes,
         compress=str(compress).lower(),
         bands=bands,
+        encoding=encoding,
     )
