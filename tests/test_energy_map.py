@@ -20,14 +20,17 @@ from energy_planner.energy import MotionCost, path_energy
 from energy_planner.energy.channels import Channels
 from energy_planner.energymap import band_names, parse_size
 from energy_planner.energymap import energy_map as _energy_map
+from energy_planner.energymap.encoding import read_band
 from energy_planner.errors import EnergyMapError, MissingChannelError
 from energy_planner.maps import map_path
 from energy_planner.request import Limits, Request
 from energy_planner.terrain import load_dem
 
 #: These tests read the along_* bands and the full band layout: every map holds all bands
-#: (the default, bands="best", is checked in test_energy_map_write.py and the CLI test).
-energy_map = functools.partial(_energy_map, bands="all")
+#: (the default, bands="best", is checked in test_energy_map_write.py and the CLI test),
+#: as computed (float32: the default uint16 encoding's round trip is checked in
+#: test_energy_map_write.py against these values).
+energy_map = functools.partial(_energy_map, bands="all", encoding="float32")
 MODEL = b1_model()
 X0, Y0 = 500000.0, 5000000.0
 H = 16
@@ -55,8 +58,10 @@ def plane_z(n, slope_deg, psi_deg, res=1.0):
 
 
 def read(path):
+    """Every band as values (a uint16 map decoded), the band names, the dataset."""
     with rasterio.open(path) as src:
-        return src.read(), list(src.descriptions), src
+        data = np.stack([read_band(src, i) for i in range(1, src.count + 1)])
+        return data, list(src.descriptions), src
 
 
 @pytest.fixture(scope="module")
@@ -309,7 +314,7 @@ def test_out_of_core_on_a_distributed_cluster(bumpy, tmp_path):
     ) as cluster:
         args = ["energy-map", dem, "--out", out, "--model", model_file, "--headings", "4",
                 "--chunk", "64", "--scheduler", cluster.scheduler_address, "--json",
-                "--bands", "all"]  # fmt: skip
+                "--bands", "all", "--encoding", "float32"]  # fmt: skip
         r = CliRunner().invoke(main, list(map(str, args)))
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["mode"] == "dask"

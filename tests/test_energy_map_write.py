@@ -1,6 +1,7 @@
 """How an energy map is written: the summary bands' compiled pass against NumPy, the
-compression options round-tripping the values exactly, and the three ways of computing a
-map (in memory, windowed, dask) writing the same values, bit for bit."""
+compression options round-tripping the values exactly, the three ways of computing a
+map (in memory, windowed, dask) writing the same values, bit for bit, and the default
+uint16 encoding against the float32 map."""
 
 from __future__ import annotations
 
@@ -18,9 +19,11 @@ from hypothesis.extra.numpy import arrays
 
 from energy_planner.cli import main
 from energy_planner.energymap import energy_map
-from energy_planner.energymap._summary import summary_bands
+from energy_planner.energymap._summary import encode, summary_bands
+from energy_planner.energymap.encoding import read_band
 from energy_planner.errors import EnergyMapError
 from energy_planner.io import COMPRESSIONS, compression_options
+from energy_planner.request import Limits, Request, Robot
 from energy_planner.terrain import load_dem
 
 MODEL = b1_model()
@@ -105,7 +108,7 @@ def test_compression_round_trips_the_values(hills, tmp_path, compress):
         data, comp, prof = read(out)
         np.testing.assert_array_equal(data, ref)
         assert (comp.value.lower() if comp else "none") == compress
-        assert prof["dtype"] == "float32" and prof["count"] == 8 + 4  # the default bands
+        assert prof["dtype"] == "uint16" and prof["count"] == 8 + 4  # the default bands
 
 
 def test_compression_options_and_errors(hills, tmp_path):
@@ -178,3 +181,67 @@ def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path)
     np.testing.assert_array_equal(read(tmp_path / "gs.tif")[0], ga[16:])
     with pytest.raises(EnergyMapError, match="bands 'some'"):
         energy_map(dem, tmp_path / "x.tif", MODEL, headings=8, bands="some")
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float32, (2, 3, 5), elements=st.floats(0, 16383, width=32) | values))
+def test_uint16_codes_are_the_nearest_step(block):
+    """encode: code = 1 + the nearest multiple of the step (0 NaN, 65535 inf), counted
+    out of range where a finite value (or -inf) has no code; by NumPy's rounding here."""
+    steps = np.array([0.25, 1 / 4096])
+    out = np.full(block.shape, 7, np.uint16)
+    bad = encode(block, 1.0 / steps, out)
+    x = block.astype(np.float64) / steps[:, None, None]
+    with np.errstate(invalid="ignore"):
+        inside = np.isfinite(x) & (x >= -0.5) & (x < 65533.5)
+    assert bad == int((~inside & ~np.isnan(x) & ~np.isposinf(x)).sum())
+    assert (out[np.isnan(x)] == 0).all() and (out[np.isposinf(x)] == 65535).all()
+    got = (out[inside].astype(np.float64) - 1) * np.broadcast_to(steps[:, None, None], x.shape)[
+        inside
+    ]
+    exact = block.astype(np.float64)[inside]
+    assert np.abs(got - exact).max(initial=0) <= np.broadcast_to(steps[:, None, None] / 2, x.shape)[
+        inside
+    ].max(initial=0)
+
+
+def test_uint16_map_is_the_float32_map_to_half_a_step(hills, tmp_path):
+    """The default encoding against the float map computed alongside: every band within
+    half its step (0.125 J/m; 1/8192 of a ratio; the headings exactly), the same NaN and
+    inf cells, decoded by the file's own GDAL scale, offset and nodata (rasterio's masked
+    read) as any GDAL reader would, and by read_band; a cost beyond the range (a slow
+    robot: over 16,383 J/m) writes float32 and says so."""
+    dem, _ = hills
+    req = Request(limits=Limits(max_slope_deg=20.0, max_cross_slope_deg=12.0))
+    f, q = tmp_path / "f.tif", tmp_path / "q.tif"
+    energy_map(dem, f, MODEL, headings=8, request=req, encoding="float32", bands="all")
+    res = energy_map(dem, q, MODEL, headings=8, request=req, bands="all")
+    with rasterio.open(f) as a, rasterio.open(q) as b:
+        assert a.dtypes[0] == "float32" and set(b.dtypes) == {"uint16"}
+        assert b.tags()["inf_code"] == "65535"
+        for i in range(1, b.count + 1):
+            want = a.read(i).astype(np.float64)
+            step = b.scales[i - 1]
+            name = b.descriptions[i - 1]
+            expect = {"anisotropy": 1 / 4096, "cheapest_heading_deg": 45.0}.get(name, 0.25)
+            assert step == expect and b.offsets[i - 1] == -step
+            codes = b.read(i, masked=True)  # nodata (code 0) masked by GDAL's declaration
+            got = codes.filled(0).astype(np.float64) * step - step
+            assert np.array_equal(codes.mask, np.isnan(want)), name
+            assert np.array_equal(codes.filled(0) == 65535, np.isposinf(want)), name
+            ok = np.isfinite(want)
+            assert ok.any() and np.abs(got[ok] - want[ok]).max() <= step / 2, name
+            np.testing.assert_array_equal(read_band(b, i)[ok], got[ok])
+            if name == "cheapest_heading_deg":
+                np.testing.assert_allclose(got[ok], want[ok], atol=1e-4)
+        assert np.isposinf(a.read()).any() and np.isnan(a.read()).any()
+    # the statistics: from the float values in both
+    assert res.stats == energy_map(dem, f, MODEL, headings=8, request=req,
+                                   encoding="float32").stats  # fmt: skip
+    slow = energy_map(dem, q, MODEL, headings=8, request=Request(robot=Robot(speed=0.02)))
+    with rasterio.open(q) as b:
+        assert b.dtypes[0] == "float32" and b.tags()["encoding"] == "float32"
+        assert np.nanmax(b.read(b.descriptions.index("cheapest") + 1)) > 16383.25
+    assert any("float32" in n for n in slow.notes)
+    with pytest.raises(EnergyMapError, match="encoding 'f16'"):
+        energy_map(dem, tmp_path / "x.tif", MODEL, encoding="f16")

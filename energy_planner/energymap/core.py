@@ -70,6 +70,7 @@ from energy_planner.energymap.result import (  # noqa: F401  (re-exported: old i
     _model_name,
     _profile,
     _result,
+    _Samples,
     _stats,
     _tile,
     _write_metadata,
@@ -115,8 +116,14 @@ def _progress(iterable: Any, total: int, desc: str, progress: Any) -> Any:
     return reporter(progress).iterate(iterable, desc, total, unit="block")
 
 
-def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, progress) -> None:
-    """From a loaded Terrain: windows of rows of its gradient, written as they come."""
+def _compute_terrain(
+    terrain: Any, out: Path, setup: _Setup, model_name: str, progress, samples=None
+) -> None:
+    """From a loaded Terrain: windows of rows of its gradient, written as they come.
+
+    ``samples``: a :class:`~energy_planner.energymap.result._Samples` that takes the
+    statistics' cells from each window.
+    """
     from rasterio.windows import Window
 
     rows, cols = terrain.shape
@@ -135,6 +142,8 @@ def _compute_terrain(terrain: Any, out: Path, setup: _Setup, model_name: str, pr
                 setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings,
                 buf, precompiled=True,
             )  # fmt: skip
+            if samples is not None:
+                samples.add(bands, r0)
             qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
             dst.write(data, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "terrain")
@@ -243,8 +252,13 @@ def _read_rows(src: Any, reading: Any, r0: int, r1: int) -> np.ndarray:
     return reading.to_metres(z)
 
 
-def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress):
-    """A metric north-up DEM read by windows of rows with a one-row halo."""
+def _compute_windowed(
+    info: _DemInfo, out: Path, setup: _Setup, model_name: str, progress, samples=None
+) -> None:
+    """A metric north-up DEM read by windows of rows with a one-row halo.
+
+    ``samples``: as :func:`_compute_terrain`.
+    """
     import rasterio
     from rasterio.windows import Window
     from rasterio.windows import transform as window_transform
@@ -277,6 +291,8 @@ def _compute_windowed(info: _DemInfo, out: Path, setup: _Setup, model_name: str,
             buf = bands = block_bands(
                 setup.heading, gx, gy, chan, setup.headings, buf, precompiled=True
             )
+            if samples is not None:
+                samples.add(bands, r0)
             qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
             dst.write(data, window=Window(0, r0, cols, r1 - r0))
         _write_metadata(dst, setup, model_name, "windowed")
@@ -569,11 +585,14 @@ def _energy_map(
     out = Path(out)
     setup = _setup(model, request, channels, headings, compress, bands, encoding)
     notes = list(setup.notes)
+    samples: list[_Samples] = []
     try:
         mode, convention = _compute(
-            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
-        )
+            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes,
+            samples,
+        )  # fmt: skip
     except EncodingOverflow:
+        samples.clear()
         setup = replace(setup, encoding="float32")
         notes[:] = list(setup.notes)  # the first attempt's notes come again
         notes.append(
@@ -581,16 +600,21 @@ def _energy_map(
             "J/m): the map is written as float32"
         )
         mode, convention = _compute(
-            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
-        )
+            dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes,
+            samples,
+        )  # fmt: skip
     seconds = time.perf_counter() - t0
-    return _result(out, setup, mode, seconds, notes, convention)
+    return _result(out, setup, mode, seconds, notes, convention, samples[0] if samples else None)
 
 
 def _compute(
-    dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes
+    dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes, samples
 ) -> tuple[str, str]:  # fmt: skip
-    """Compute and write the map by the path that suits ``dem``; its mode and heading frame."""
+    """Compute and write the map by the path that suits ``dem``; its mode and heading frame.
+
+    ``samples``: gets the statistics' cells where the path computes the map on the
+    output's grid by windows (else the statistics are read back from the file).
+    """
     from energy_planner.terrain import Terrain
 
     model_name = _model_name(model)
@@ -600,7 +624,8 @@ def _compute(
             raise EnergyMapError(
                 "the dask path reads a DEM file by chunks; give the file, not a Terrain"
             )
-        _compute_terrain(dem, out, setup, model_name, progress)
+        samples.append(_Samples(dem.shape, setup.headings))
+        _compute_terrain(dem, out, setup, model_name, progress, samples[0])
         mode = "terrain"
     else:
         info = _dem_info(dem, band)
@@ -630,7 +655,8 @@ def _compute(
             compute_dask(info, out, setup, model_name, chunk=chunk, progress=progress)
             mode = "dask"
         elif info.metric_north_up:
-            _compute_windowed(info, out, setup, model_name, progress)
+            samples.append(_Samples(info.shape, setup.headings))
+            _compute_windowed(info, out, setup, model_name, progress, samples[0])
             mode = "windowed"
         else:
             from energy_planner.terrain import load_dem

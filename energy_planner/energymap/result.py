@@ -215,15 +215,16 @@ def _model_name(model: Any) -> str:
 
 def _result(
     out: Path, setup: _Setup, mode: str, seconds: float, notes: list[str],
-    convention: str = GRID_EAST,
+    convention: str = GRID_EAST, samples: _Samples | None = None,
 ):  # fmt: skip
+    """The result of a written map; its statistics from ``samples``, else read back."""
     import rasterio
 
     with rasterio.open(out) as src:
         shape = (src.height, src.width)
         crs = None if src.crs is None else str(src.crs)
         transform = tuple(src.transform)[:6]
-        stats = _stats(src)
+        stats = _stats(src) if samples is None else samples.stats()
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
     bands = [
         {"name": n, "description": d, "units": u}
@@ -262,6 +263,36 @@ def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
         first = (off - r0) % scale  # first row of the window that is sampled
         for i, parts in ((i_cheap, cheap_parts), (i_aniso, aniso_parts)):
             parts.append(read_band(src, i, window=win)[first::scale, off::scale].astype(float))
+    return _stats_of(cheap_parts, aniso_parts, scale)
+
+
+class _Samples:
+    """The cells :func:`_stats` reads back, taken from the windows as they are computed.
+
+    The same cells (every ``scale``-th row and column from ``scale // 2``) of the float
+    values, before any encoding: a windowed map's statistics need no read-back.
+    """
+
+    def __init__(self, shape: tuple[int, int], headings: int, max_side: int = 1024) -> None:
+        self.scale = max(1, math.ceil(max(shape) / max_side))
+        self.off = self.scale // 2
+        self.i_cheap, self.i_aniso = 2 * headings, 2 * headings + 2  # in the full layout
+        self.cheap: list[np.ndarray] = []
+        self.aniso: list[np.ndarray] = []
+
+    def add(self, bands: np.ndarray, r0: int) -> None:
+        """Take the sampled cells of a window's bands (full layout) starting at row ``r0``."""
+        first, off, k = (self.off - r0) % self.scale, self.off, self.scale
+        self.cheap.append(bands[self.i_cheap, first::k, off::k].astype(float))
+        self.aniso.append(bands[self.i_aniso, first::k, off::k].astype(float))
+
+    def stats(self) -> dict[str, Any]:
+        """As :func:`_stats` would read them."""
+        return _stats_of(self.cheap, self.aniso, self.scale)
+
+
+def _stats_of(cheap_parts: list, aniso_parts: list, scale: int) -> dict[str, Any]:
+    """Quantiles of the sampled cheapest costs and anisotropies (:func:`_stats`)."""
     cheap = np.concatenate(cheap_parts).ravel()
     aniso = np.concatenate(aniso_parts).ravel()
     ok = np.isfinite(cheap)
