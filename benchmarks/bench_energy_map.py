@@ -127,9 +127,13 @@ def run_one(args: list[str], terrain: bool = False, python: str | None = None) -
         cmd = [str(exe.with_name("energy-planner")), "energy-map", *args, "--json"]
     t0 = time.perf_counter()
     # run outside any checkout: ``python -c`` puts the working directory first on
-    # sys.path, where this tree's energy_planner would shadow the baseline's
+    # sys.path, where this tree's energy_planner would shadow the baseline's; nor may
+    # this tree's PYTHONPATH reach the baseline (which may be the same venv)
+    env = None
+    if python is not None:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                         cwd=tempfile.gettempdir())  # fmt: skip
+                         cwd=tempfile.gettempdir(), env=env)  # fmt: skip
     out = p.stdout.read()  # type: ignore[union-attr]
     _, status, usage = os.wait4(p.pid, 0)
     wall = time.perf_counter() - t0
@@ -357,6 +361,7 @@ def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
     import energy_planner.energy.heading as heading_mod
     import energy_planner.energymap.bands as bands_mod
     import energy_planner.energymap.core as core
+    import energy_planner.energymap.encoding as encoding_mod
     import energy_planner.terrain.horn as horn
     from energy_planner.energymap import _summary
 
@@ -385,9 +390,10 @@ def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
     timed(heading_mod.HeadingCost, "table", "heading table (disk cache)")
     timed(heading_mod.HeadingCost, "_map", "kernel (along, best)")
     timed(_summary, "_summary", "summary bands")
-    timed(rasterio.io.DatasetWriter, "write", "GeoTIFF write (compress)")
+    timed(encoding_mod, "encode_block", "encode (uint16)")
+    timed(rasterio.io.DatasetWriter, "write", "GeoTIFF write (compress; in its own thread)")
     timed(rasterio.io.DatasetWriter, "close", "GeoTIFF close (flush)")
-    timed(core, "_result", "statistics read back")
+    timed(core, "_result", "result (statistics read back unless sampled in the windows)")
     del bands_mod
     from energy_planner.energymap import energy_map
 
@@ -461,7 +467,9 @@ def _kernel_seconds(dem: Path, headings: int) -> float:
     return time.perf_counter() - t0
 
 
-def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
+def pace_table(
+    size: int, headings: int, workdir: Path, runs: int, baseline: str | None = None
+) -> None:
     """``--pace``: see the module docstring."""
     import shutil
     import statistics
@@ -469,14 +477,22 @@ def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
     dem = make_dem(workdir / f"dem_{size}.tif", size)
     h = str(headings)
     run_one([str(dem), "--out", str(workdir / "warm.tif"), "--headings", h])  # kernels
+    if baseline:
+        run_one([str(dem), "--out", str(workdir / "warm.tif"), "--headings", h], python=baseline)
     gdaldem = shutil.which("gdaldem")
-    cases = [
-        ("energy-map (default: --bands best)", []),
-        ("energy-map --bands all", ["--bands", "all"]),
-        ("energy-map --bands summary", ["--bands", "summary"]),
+    cases: list[tuple[str, list[str], str | None]] = [
+        ("energy-map (default: --bands best)", [], None),
+        ("energy-map --encoding float32", ["--encoding", "float32"], None),
+        ("energy-map --bands all", ["--bands", "all"], None),
+        ("energy-map --bands summary", ["--bands", "summary"], None),
     ]
-    res: dict[str, list[float]] = {name: [] for name, _ in cases}
-    cpu: dict[str, list[float]] = {name: [] for name, _ in cases}
+    if baseline:
+        cases += [
+            ("baseline: energy-map (default)", [], baseline),
+            ("baseline: energy-map --bands summary", ["--bands", "summary"], baseline),
+        ]
+    res: dict[str, list[float]] = {name: [] for name, *_ in cases}
+    cpu: dict[str, list[float]] = {name: [] for name, *_ in cases}
     size_b: dict[str, int] = {}
     gd: list[float] = []
     for _ in range(runs):  # in turn, so that the machine's load drifts over all rows alike
@@ -485,9 +501,9 @@ def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
             subprocess.run([gdaldem, "slope", "-q", str(dem), str(workdir / "slope.tif")],
                            check=True)  # fmt: skip
             gd.append(time.perf_counter() - t0)
-        for name, extra in cases:
-            out = workdir / f"pace{'_'.join(extra)}.tif"
-            r = run_one([str(dem), "--out", str(out), "--headings", h, *extra])
+        for name, extra, py in cases:
+            out = workdir / f"pace{'_'.join(extra)}{'_base' if py else ''}.tif"
+            r = run_one([str(dem), "--out", str(out), "--headings", h, *extra], python=py)
             res[name].append(r["wall_s"])
             cpu[name].append(r["cpu_s"])
             size_b[name] = out.stat().st_size
@@ -506,10 +522,11 @@ def pace_table(size: int, headings: int, workdir: Path, runs: int) -> None:
     g = statistics.median(gd) if gd else None
     if g is not None:
         print(f"| gdaldem slope | {g:.2f} | - | - | - | 1.0 | - |")
-    for name, _ in cases:
+    for name, *_ in cases:
         wall = statistics.median(res[name])
         floor = _write_seconds(size_b[name], workdir / "bytes.bin") + kernel
-        target = "2.5 " + ("met" if wall <= 2.5 else "NOT met") if "default" in name else "-"
+        mine = "default" in name and not name.startswith("baseline")
+        target = "2.5 " + ("met" if wall <= 2.5 else "NOT met") if mine else "-"
         ratio = f"{wall / g:.1f}" if g else "- (no gdaldem)"
         print(f"| {name} | {wall:.2f} | {statistics.median(cpu[name]):.2f} | "
               f"{size_b[name] / 1e6:.0f} | {floor:.2f} | {ratio} | {target} |")  # fmt: skip
@@ -554,7 +571,7 @@ def main() -> None:
         stage_table(a.size, a.headings, a.compress, a.workdir)
         return
     if a.pace:
-        pace_table(a.size, a.headings, a.workdir, a.runs)
+        pace_table(a.size, a.headings, a.workdir, a.runs, a.baseline_python)
         return
     h = str(a.headings)
     comp = ["--compress", a.compress]

@@ -124,29 +124,89 @@ def _compute_terrain(
     ``samples``: a :class:`~energy_planner.energymap.result._Samples` that takes the
     statistics' cells from each window.
     """
-    from rasterio.windows import Window
-
     rows, cols = terrain.shape
-    nb = 2 * setup.headings + 4
     chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
-    step = _rows_per_block(cols, nb)
-    starts = range(0, rows, step)
     prof = _profile(terrain.shape, terrain.transform, terrain.crs, setup.nbands, setup.compress,
                     setup.encoding)  # fmt: skip
-    buf = qbuf = None
+
+    def block(r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
+        return terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan
+
     with open_geotiff(out, **prof) as dst:
-        for r0 in _progress(starts, len(starts), "energy map", progress):
+        _map_by_windows(dst, setup, terrain.shape, block, progress, samples)
+        _write_metadata(dst, setup, model_name, "terrain")
+
+
+class _BackgroundWriter:
+    """Writes each window in a thread of its own while the caller computes the next.
+
+    One write in flight: :meth:`write` first waits for the one before, so the caller
+    alternates two buffers. GDAL's write releases Python's lock, and its worker threads
+    compress the tiles; the next window's reading, gradient, kernel and encoding run
+    beside them.
+    """
+
+    def __init__(self, dst: Any) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.dst = dst
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="energy-map-write")
+        self._job: Any = None
+
+    def write(self, data: np.ndarray, window: Any) -> None:
+        """Write ``data`` at ``window`` once the previous write is done; return at once."""
+        self.wait()
+        self._job = self._pool.submit(self.dst.write, data, window=window)
+
+    def wait(self) -> None:
+        """Wait for the write in flight (its error raised here)."""
+        job, self._job = self._job, None
+        if job is not None:
+            job.result()
+
+    def __enter__(self) -> _BackgroundWriter:
+        return self
+
+    def __exit__(self, exc_type: Any, *_: Any) -> None:
+        try:
+            if exc_type is None:
+                self.wait()
+            elif self._job is not None:
+                self._job.exception()  # let it finish; the first error is the one raised
+        finally:
+            self._pool.shutdown(wait=True)
+
+
+def _map_by_windows(
+    dst: Any, setup: _Setup, shape: tuple[int, int], block: Any, progress: Any, samples: Any
+) -> None:
+    """Compute the map by windows of whole tile rows and write them as they come.
+
+    ``block(r0, r1)``: the gradient and channel rasters of rows ``r0 .. r1``. Each
+    window is written (:class:`_BackgroundWriter`) while the next is computed, from one
+    of two buffers in turn; ``samples`` (a :class:`~energy_planner.energymap.result.
+    _Samples`) takes the statistics' cells of each window.
+    """
+    from rasterio.windows import Window
+
+    rows, cols = shape
+    step = _rows_per_block(cols, 2 * setup.headings + 4)
+    starts = range(0, rows, step)
+    bufs: list[Any] = [None, None]  # float bands: one, or two when they are what is written
+    codes: list[Any] = [None, None]
+    with _BackgroundWriter(dst) as writer:
+        for k, r0 in enumerate(_progress(starts, len(starts), "energy map", progress)):
             r1 = min(rows, r0 + step)
-            chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
-            buf = bands = block_bands(
-                setup.heading, terrain.dzdx[r0:r1], terrain.dzdy[r0:r1], chan, setup.headings,
-                buf, precompiled=True,
-            )  # fmt: skip
+            gx, gy, chan = block(r0, r1)
+            b = k % 2 if setup.encoding == "float32" else 0
+            bufs[b] = bands = block_bands(
+                setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True
+            )
             if samples is not None:
                 samples.add(bands, r0)
-            qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
-            dst.write(data, window=Window(0, r0, cols, r1 - r0))
-        _write_metadata(dst, setup, model_name, "terrain")
+            codes[k % 2] = data = _encoded(setup, bands[setup.first :], codes[k % 2])
+            writer.write(data, Window(0, r0, cols, r1 - r0))
 
 
 def _encoded(setup: _Setup, block: np.ndarray, out: np.ndarray | None) -> np.ndarray:
@@ -268,33 +328,25 @@ def _compute_windowed(
 
     rows, cols = info.shape
     t = info.transform
-    nb = 2 * setup.headings + 4
-    step = _rows_per_block(cols, nb)
-    starts = range(0, rows, step)
     any_valid = False
-    buf = qbuf = None
     prof = _profile(info.shape, t, info.crs, setup.nbands, setup.compress, setup.encoding)
     with rasterio.open(info.path) as src, open_geotiff(out, **prof) as dst:
         reading = band_reading(src, info.band, info.path, scan=True)
-        for r0 in _progress(starts, len(starts), "energy map", progress):
-            r1 = min(rows, r0 + step)
+
+        def block(r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            nonlocal any_valid
             z = _read_rows(src, reading, r0 - 1, r1 + 1)
             any_valid = any_valid or bool(np.isfinite(z).any())
             gx, gy = horn_gradient(z, t.a, t.e)
-            gx, gy = gx[1:-1], gy[1:-1]
             if setup.channels.rasters:
                 wt = window_transform(Window(0, r0, cols, r1 - r0), t)
                 ch = setup.channels.bind_grid((r1 - r0, cols), wt, info.crs, quiet=True)
                 chan, _ = ch.stack((r1 - r0, cols))
             else:
                 chan = np.zeros((0, 1, 1))
-            buf = bands = block_bands(
-                setup.heading, gx, gy, chan, setup.headings, buf, precompiled=True
-            )
-            if samples is not None:
-                samples.add(bands, r0)
-            qbuf = data = _encoded(setup, bands[setup.first :], qbuf)
-            dst.write(data, window=Window(0, r0, cols, r1 - r0))
+            return gx[1:-1], gy[1:-1], chan
+
+        _map_by_windows(dst, setup, info.shape, block, progress, samples)
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:
         out.unlink(missing_ok=True)
