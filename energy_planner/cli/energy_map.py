@@ -134,7 +134,8 @@ def format_table(res: dict[str, Any]) -> str:
     show_default=True,
     help="How the bands are stored: uint16 (scaled integers with GDAL scale and offset, "
     "0.25 J/m steps, code 0 nodata, 65535 inf; a quarter of float32's bytes; a map with a "
-    "cost above 16,383 J/m falls back to float32) or float32 (the values as computed).",
+    "cost above 16,383 J/m or an anisotropy above 64 falls back to float32) or float32 "
+    "(the values as computed).",
 )
 @options.json_option
 def command(

@@ -631,7 +631,7 @@ def _energy_map(
     dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes, chunk,
     progress, compress, bands, encoding,
 ) -> EnergyMapResult:  # fmt: skip
-    from energy_planner.energymap.encoding import COST_STEP, EncodingOverflow
+    from energy_planner.energymap.encoding import COST_STEP, RATIO_STEP, EncodingOverflow
 
     t0 = time.perf_counter()
     out = Path(out)
@@ -649,7 +649,7 @@ def _energy_map(
         notes[:] = list(setup.notes)  # the first attempt's notes come again
         notes.append(
             f"a value lies beyond the uint16 encoding's range (costs 0 .. {65533 * COST_STEP:g} "
-            "J/m): the map is written as float32"
+            f"J/m, anisotropy up to {65533 * RATIO_STEP:.0f}): the map is written as float32"
         )
         mode, convention = _compute(
             dem, out, model, setup, band, use_dask, memory_cap_bytes, chunk, progress, notes,

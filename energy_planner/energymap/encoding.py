@@ -13,8 +13,9 @@ so a decoded value is within ``scale / 2`` of the float32 one): J/m bands
 (``along_*``, ``best_*``, ``cheapest``, ``dearest``) :data:`COST_STEP` (0.25 J/m, up
 to 16,383.25 J/m), ``anisotropy`` :data:`RATIO_STEP` (1/4096, up to 16.0),
 ``cheapest_heading_deg`` ``360 / N`` degrees (the headings exactly). A map with a finite
-value outside a band's range (a cost above 16,383 J/m: a cliff, or a negative one) is
-written as float32 instead, and says so.
+value outside a band's range (a cost above 16,383 J/m, a cliff; a negative one; an anisotropy
+above 64, where a model prices some heading near zero) is written as float32 instead,
+and says so.
 
 The same bytes hold half as many bits as float32 and compress to about a quarter of
 its size (43 MB against 179 MB for a 2048 x 2048 map's 20 bands), with less CPU: the
@@ -50,8 +51,9 @@ DEFAULT_ENCODING = "uint16"
 #: have under the bundled model (about 590 J/m), well below the heading table's 0.3 %
 #: and the model's 1-2 % error on held-out runs.
 COST_STEP = 0.25
-#: Precision of the anisotropy (a ratio >= 1) in ``uint16``.
-RATIO_STEP = 1.0 / 4096.0
+#: Precision of the anisotropy (a ratio >= 1) in ``uint16``: 1/1024 (5e-4 of a ratio
+#: of 1), up to 64.
+RATIO_STEP = 1.0 / 1024.0
 #: The code of a nodata cell (NaN).
 NODATA_CODE = 0
 #: The code of ``inf`` (a cell or heading above a slope limit).
@@ -68,7 +70,7 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
     Examples
     --------
     >>> band_steps(16, ["best_000", "cheapest", "anisotropy", "cheapest_heading_deg"])
-    array([2.50000000e-01, 2.50000000e-01, 2.44140625e-04, 2.25000000e+01])
+    array([2.50000000e-01, 2.50000000e-01, 9.76562500e-04, 2.25000000e+01])
     """
     out = []
     for n in names:
@@ -134,9 +136,10 @@ def read_band(
     """Band ``index`` (1-based) of an open energy map as float values, whatever its encoding.
 
     float32 maps are read as they are; ``uint16`` maps are decoded (:func:`decode`).
-    ``out_shape`` and ``resampling``: a decimated read (GDAL's); of a ``uint16`` map
-    with ``average`` resampling, a cell whose source cells include an ``inf`` is ``inf``
-    (as float32's average would be), found by a ``max`` read.
+    ``out_shape`` and ``resampling``: a decimated read (GDAL's). Of a ``uint16`` map
+    with a resampling other than ``nearest``, the codes are averaged (nodata left out)
+    and a cell is ``inf`` where the nearest source cell is (GDAL reads no ``max``): a
+    picture's approximation, not the float map's average.
     """
     kw: dict[str, Any] = {"window": window}
     if out_shape is not None:
@@ -151,6 +154,6 @@ def read_band(
     v[codes == NODATA_CODE] = np.nan
     top = codes
     if out_shape is not None and resampling not in (None, Resampling.nearest):
-        top = src.read(index, window=window, out_shape=out_shape, resampling=Resampling.max)
+        top = src.read(index, window=window, out_shape=out_shape, resampling=Resampling.nearest)
     v[top == INF_CODE] = np.inf
     return v
