@@ -234,7 +234,7 @@ def _map_bands(tmp_path, t, model, request, name):
     from energy_planner.energymap import energy_map
 
     out = energy_map(t, tmp_path / f"{name}.tif", model, headings=8, request=request,
-                     progress=False).path  # fmt: skip
+                     progress=False, encoding="float32").path  # fmt: skip
     with rasterio.open(out) as src:
         return {d: src.read(i + 1) for i, d in enumerate(src.descriptions)}
 

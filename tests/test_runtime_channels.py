@@ -109,7 +109,7 @@ def _map_and_energy(files, load: float, raster: bool = False) -> dict:
         s = ["--model", files["model"], "--channel", f"load_kg={files['dir']}/load_{load:g}.tif"]
     out = files["dir"] / f"map_{load:g}_{raster}.tif"
     _run(["energy-map", files["dem"], "--out", out, "--headings", "16", "--json", "--bands",
-          "all", *s])  # fmt: skip
+          "all", "--encoding", "float32", *s])  # fmt: skip
     with rasterio.open(out) as src:
         along_east = src.read(1)[20, 20]  # along_000: up the fall line
         along_west = src.read(9)[20, 20]  # along_180: down it
