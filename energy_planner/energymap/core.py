@@ -462,7 +462,8 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
             if setup.encoding != "float32":
                 from energy_planner.energymap.encoding import encode_block
 
-                band = encode_block(band, steps[i - first : i - first + 1])
+                aot = setup.heading.precompiled_map()  # built by the working map
+                band = encode_block(band, steps[i - first : i - first + 1], aot=aot)
             dst.write(band[0], i + 1 - first)
 
         for g in range(first // n, 2):  # along_* (when written), best_*
