@@ -48,9 +48,11 @@ shared machine compare CPU seconds; wall times are mostly waiting for a CPU.
 ``--pace``: the command against the disk and a GIS tool, in one run, on a SIZE^2 DEM
 (``--size 2048``): ``gdaldem slope`` of the DEM (a GIS tool's whole job on it, when
 gdal-bin is installed); ``energy-map`` with the default bands (``best_*`` and the
-summary, N + 4 float32 bands, zstd) against the target (2.5 s), with ``--bands all``
-(2 N + 4 bands: the earlier default) and with ``--bands summary`` (the 4 summary bands);
-each with the bytes it wrote. The floor beside
+summary, N + 4 bands stored as scaled uint16, zstd) against the target (2.5 s), with
+``--encoding float32``, with ``--bands all`` (2 N + 4 bands) and with ``--bands summary``
+(the 4 summary bands); each with the bytes it wrote; with ``--baseline-python`` also
+that interpreter's ``energy-map`` (default bands, and ``--bands summary``) in the same
+rounds. The floor beside
 them: the time to write the same bytes to the same disk (a file of that size, written
 and closed) plus the map kernel's compute at its cells-per-second on this machine
 (``HeadingCost.map_bands`` over the DEM's gradient in this process, both cores).

@@ -133,7 +133,8 @@ def test_energy_map_takes_the_problem(problem, tmp_path):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        energy_map(problem, tmp_path / "em.tif", headings=8, progress=False, bands="all")
+        energy_map(problem, tmp_path / "em.tif", headings=8, progress=False, bands="all",
+                   encoding="float32")  # fmt: skip
     with rasterio.open(tmp_path / "em.tif") as src:
         a = src.read()
     assert a.shape[0] == 20
