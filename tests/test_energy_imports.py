@@ -122,16 +122,17 @@ MAP = (
     "from click.testing import CliRunner\n"
     "from energy_planner.cli import main\n"
     "r = CliRunner().invoke(main, ['energy-map', 'hill', '--out', sys.argv[1], '--bands', 'all',"
-    " '--max-crab', '20', '--max-backward-slope', '5', '--json'])\n"
+    " '--max-crab', '20', '--max-backward-slope', '5', '--encoding', 'float32', '--json'])\n"
     "assert r.exit_code == 0, r.output\n"
     "print(json.dumps({'numba': 'numba' in sys.modules}))\n"
 )
 
 
 def test_precompiled_energy_map_loads_no_numba_and_writes_numbas_values(tmp_path):
-    """``energy-map`` runs the model's precompiled map kernels (``map_costs`` and the
-    summary bands, in threads over each block's rows): numba stays unloaded, and every
-    band is the numba kernels' to the last bit, under gait limits."""
+    """``energy-map`` runs the model's precompiled map kernels (``map_costs``, the
+    summary bands and the uint16 encoding, in threads over each block's rows): numba
+    stays unloaded, every band is the numba kernels' to the last bit, under gait limits,
+    and so are the codes of the encoding."""
     import os
 
     import rasterio
@@ -154,3 +155,12 @@ def test_precompiled_energy_map_loads_no_numba_and_writes_numbas_values(tmp_path
     ref = block_bands(setup.heading, t.dzdx, t.dzdy, np.zeros((0, 1, 1)), 16)  # numba's
     assert np.isfinite(ref).any() and not np.array_equal(ref[:16], ref[16:32])
     np.testing.assert_array_equal(got, ref)
+    # the precompiled uint16 encoding (threads over the rows) gives numba's codes
+    from energy_planner.energy.kernels import precompiled_map_module
+    from energy_planner.energymap.bands import band_names
+    from energy_planner.energymap.encoding import band_steps, encode_block
+
+    aot = precompiled_map_module(setup.heading.source, build=False)  # built by the run
+    assert aot is not None
+    steps = band_steps(16, band_names(16))
+    np.testing.assert_array_equal(encode_block(ref, steps, aot=aot), encode_block(ref, steps))
