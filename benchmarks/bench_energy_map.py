@@ -57,11 +57,36 @@ them: the time to write the same bytes to the same disk (a file of that size, wr
 and closed) plus the map kernel's compute at its cells-per-second on this machine
 (``HeadingCost.map_bands`` over the DEM's gradient in this process, both cores).
 
+Start-up counts compiling the package's modules where Python keeps no byte code
+(``PYTHONDONTWRITEBYTECODE``, a fresh checkout): 0.2-0.5 CPU s here. An installed
+package has its ``.pyc`` files; run the benchmark with byte-code caching on, e.g.
+``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python ...`` (the warm-up
+run writes them, for the baseline too, outside its checkout).
+
 ``--stages``: one windowed map in this process, the time of each stage (reading the
 DEM, the gradient, the heading table (disk cache), the kernel, the summary bands, the
 GeoTIFF write, closing the file, the summary statistics) and the CPU seconds of each
 thread (the main thread, numba's workers, GDAL's compression workers), so that the
 two-core wall time can be argued from CPU seconds on a loaded machine.
+
+Measured (2 cores shared with other jobs, load 6-10; CPU s of the whole process; main's
+``energy-planner`` as the baseline in the same rounds; docs/energy_map.md has the rest):
+
+=====================================================  ======  ========  ==========
+run (2048^2 DEM, 16 headings)                          CPU s   MB        main CPU s
+=====================================================  ======  ========  ==========
+default (20 bands, uint16)                             4.57    45        5.37 (179)
+``--encoding float32``                                 5.26    179       -
+``--bands all`` (36 bands)                             5.66    84        -
+``--bands summary`` (4 bands)                          3.44    8         3.54 (29)
+map alone, ``--stages`` (default bands)                4.12    -         5.00
+=====================================================  ======  ========  ==========
+
+Commands: ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python
+benchmarks/bench_energy_map.py --pace --size 2048 --runs 2 --baseline-python
+/work/main/.venv/bin/python`` (the first four rows); ``python
+benchmarks/bench_energy_map.py --stages --size 2048`` in this tree and in main's (the
+last).
 """
 
 from __future__ import annotations
