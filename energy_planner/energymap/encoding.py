@@ -70,7 +70,7 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
     Examples
     --------
     >>> band_steps(16, ["best_000", "cheapest", "anisotropy", "cheapest_heading_deg"])
-    array([2.50000000e-01, 2.50000000e-01, 9.76562500e-04, 2.25000000e+01])
+    array([2.500000e-01, 2.500000e-01, 9.765625e-04, 2.250000e+01])
     """
     out = []
     for n in names:
