@@ -229,7 +229,7 @@ def test_uint16_map_is_the_float32_map_to_half_a_step(hills, tmp_path):
             want = a.read(i).astype(np.float64)
             step = b.scales[i - 1]
             name = b.descriptions[i - 1]
-            expect = {"anisotropy": 1 / 1024, "cheapest_heading_deg": 45.0}.get(name, 0.25)
+            expect = {"anisotropy": 1 / 1024, "cheapest_heading_deg": 1 / 128}.get(name, 0.25)
             assert step == expect and b.offsets[i - 1] == -step
             codes = b.read(i, masked=True)  # nodata (code 0) masked by GDAL's declaration
             got = codes.filled(0).astype(np.float64) * step - step
@@ -238,10 +238,34 @@ def test_uint16_map_is_the_float32_map_to_half_a_step(hills, tmp_path):
             ok = np.isfinite(want)
             assert ok.any() and np.abs(got[ok] - want[ok]).max() <= step / 2, name
             np.testing.assert_array_equal(read_band(b, i)[ok], got[ok])
-            if name == "cheapest_heading_deg":
-                np.testing.assert_allclose(got[ok], want[ok], atol=1e-4)
+            if name == "cheapest_heading_deg":  # multiples of 45: exactly
+                np.testing.assert_array_equal(got[ok], want[ok])
         assert np.isposinf(a.read()).any() and np.isnan(a.read()).any()
     assert res.stats == ff.stats  # from the float values in both
+    # the other ways of computing a map encode alike: dask (the same codes as the
+    # windowed map) and a geographic DEM resampled onto its grid (band by band)
+    d = tmp_path / "d.tif"
+    energy_map(dem, d, model, headings=8, request=req, bands="all", use_dask=True, chunk=64)
+    with rasterio.open(q) as b, rasterio.open(d) as c:
+        assert c.dtypes[0] == "uint16"
+        np.testing.assert_array_equal(c.read(), b.read())
+    with rasterio.open(dem) as src:
+        z = src.read(1)[:48, :48]
+        prof = dict(src.profile, crs="EPSG:4326", width=48, height=48,
+                    transform=Affine(2e-5, 0, 3.0, 0, -2e-5, 45.0))  # fmt: skip
+    geo = tmp_path / "geo.tif"
+    with rasterio.open(geo, "w", **prof) as dst:
+        dst.write(z, 1)
+    gf, gq = tmp_path / "gf.tif", tmp_path / "gq.tif"
+    energy_map(geo, gf, model, headings=8, encoding="float32")
+    energy_map(geo, gq, model, headings=8)
+    with rasterio.open(gf) as a, rasterio.open(gq) as b:
+        assert b.dtypes[0] == "uint16"
+        for i in range(1, b.count + 1):
+            want, got = a.read(i).astype(np.float64), read_band(b, i)
+            assert np.array_equal(np.isnan(want), np.isnan(got))
+            ok = np.isfinite(want)
+            assert ok.any() and np.abs(got[ok] - want[ok]).max() <= b.scales[i - 1] / 2
     wide = energy_map(dem, q, MODEL, headings=8)
     with rasterio.open(q) as b:
         assert b.dtypes[0] == "float32" and b.tags()["encoding"] == "float32"

@@ -12,7 +12,10 @@ The scale of each band is its precision (the value is rounded to the nearest mul
 so a decoded value is within ``scale / 2`` of the float32 one): J/m bands
 (``along_*``, ``best_*``, ``cheapest``, ``dearest``) :data:`COST_STEP` (0.25 J/m, up
 to 16,383.25 J/m), ``anisotropy`` :data:`RATIO_STEP` (1/4096, up to 16.0),
-``cheapest_heading_deg`` ``360 / N`` degrees (the headings exactly). A map with a finite
+``cheapest_heading_deg`` :data:`HEADING_STEP` (1/128 degree: the
+headings of a metric grid exactly when ``360 / N`` is a multiple of it, as for 16 or
+360 headings; a map resampled onto a geographic DEM's grid, its headings rotated by the
+meridian convergence, to 0.004 degrees). A map with a finite
 value outside a band's range (a cost above 16,383 J/m, a cliff; a negative one; an anisotropy
 above 64, where a model prices some heading near zero) is written as float32 instead,
 and says so.
@@ -34,6 +37,7 @@ __all__ = [
     "COST_STEP",
     "DEFAULT_ENCODING",
     "ENCODINGS",
+    "HEADING_STEP",
     "INF_CODE",
     "NODATA_CODE",
     "RATIO_STEP",
@@ -54,6 +58,8 @@ COST_STEP = 0.25
 #: Precision of the anisotropy (a ratio >= 1) in ``uint16``: 1/1024 (5e-4 of a ratio
 #: of 1), up to 64.
 RATIO_STEP = 1.0 / 1024.0
+#: Precision of the cheapest heading in ``uint16``, degrees (up to 512).
+HEADING_STEP = 1.0 / 128.0
 #: The code of a nodata cell (NaN).
 NODATA_CODE = 0
 #: The code of ``inf`` (a cell or heading above a slope limit).
@@ -70,14 +76,14 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
     Examples
     --------
     >>> band_steps(16, ["best_000", "cheapest", "anisotropy", "cheapest_heading_deg"])
-    array([2.500000e-01, 2.500000e-01, 9.765625e-04, 2.250000e+01])
+    array([0.25      , 0.25      , 0.00097656, 0.0078125 ])
     """
     out = []
     for n in names:
         if n == "anisotropy":
             out.append(RATIO_STEP)
         elif n == "cheapest_heading_deg":
-            out.append(360.0 / headings)
+            out.append(HEADING_STEP)
         else:
             out.append(COST_STEP)
     return np.array(out, dtype=np.float64)
