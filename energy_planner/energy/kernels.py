@@ -86,7 +86,12 @@ IN_VMIN, IN_VMAX, IN_TIME_WEIGHT, IN_EXPS, IN_NODES, IN_VINV = 16, 17, 18, 19, 2
 #: check, ``(gaits, K + 1)``) and the inverse matrices of those solves
 #: (``(gaits, K, K)``); the exponents are ``IN_EXPS`` (every gait's, together)
 IN_GAIT_SLOT, IN_GAIT_CODES, IN_GAIT_LO, IN_GAIT_HI, IN_GAIT_NODES, IN_GAIT_VINV = (
-    22, 23, 24, 25, 26, 27,
+    22,
+    23,
+    24,
+    25,
+    26,
+    27,
 )
 #: length of ``data``
 N_IN = 28

@@ -76,15 +76,15 @@ class MotionCost:
         The price of a second, J/s (``lambda`` >= 0): motions minimise energy + lambda x
         duration (a deadline's Lagrangian, :func:`energy_planner.planning.speed.plan_deadline`).
     gait_choice : bool, optional
-        Every motion also chooses its gait, where the model names gaits (a ``gait``
-        channel, and the speeds its logs walked each gait at,
-        :func:`energy_planner.uncertainty.domain.gait_speed_ranges`): each gait within its
-        own logged speeds (clipped to ``speed_range``), the cheapest (gait, speed) pair
-        kept (:attr:`gaits`; :meth:`best_timing` reports each motion's). Default (None):
-        on with a ``speed_range`` when the channels do not give the gait; False: off (a
-        model that reads the gait then needs it as a channel, as before); True: on
-        whatever the range (a fixed speed walks the gait given per motion to
-        :meth:`details`, or the first of :attr:`gaits`).
+        Where the model names gaits (a ``gait`` channel, and the speeds its logs walked
+        each gait at, :func:`energy_planner.uncertainty.domain.gait_speed_ranges`) and
+        the channels do not give the gait: with a ``speed_range`` every motion chooses
+        its gait, each gait within its own logged speeds (clipped to the range), the
+        cheapest (gait, speed) pair kept (:attr:`gaits`; :meth:`best_timing` reports
+        each motion's); at the nominal speed, motions walk the gait whose logged speeds
+        hold it (:attr:`nominal_gait`), or the gait given per motion to :meth:`details`.
+        Default (None) or True: so; False: off (the model then needs the gait as a
+        channel).
     precompiled : bool
         Price motions asked from Python (:meth:`__call__`, :meth:`batch`,
         :meth:`details`) with the model's precompiled kernel module
@@ -139,8 +139,10 @@ class MotionCost:
         channels = channels.resolve(model)  # values of the kinds the model reads
         self.gaits: tuple[str, ...] = ()
         self.gait_ranges: dict[str, tuple[float, float]] = {}
-        if _wants_gaits(model, channels, speed_range, gait_choice):
-            channels, self.gaits = _gait_channels(model, channels)
+        self.nominal_gait: str | None = None
+        if _wants_gaits(model, channels, gait_choice):
+            channels, self.gaits = _gait_channels(model, channels, float(speed))
+            self.nominal_gait = str(channels.constants[GAIT_CHANNEL])
         if channels.rasters:
             channels = channels.bind(terrain)
         self.channels = channels
@@ -396,31 +398,40 @@ def _no_gait_inputs() -> tuple:
             np.zeros((0, 0, 0)))  # fmt: skip
 
 
-def _wants_gaits(model: Any, channels: Channels, speed_range: Any, choice: bool | None) -> bool:
+def _wants_gaits(model: Any, channels: Channels, choice: bool | None) -> bool:
     """Whether a cost chooses its gait (see :class:`MotionCost`'s ``gait_choice``)."""
     from energy_planner.calibration.speed import gait_ranges
 
-    if choice is False or GAIT_CHANNEL in channels.names or not gait_ranges(model):
-        return False
-    return bool(choice) or speed_range is not None
+    return not (choice is False or GAIT_CHANNEL in channels.names or not gait_ranges(model))
 
 
-def _gait_channels(model: Any, channels: Channels) -> tuple[Channels, tuple[str, ...]]:
+def _gait_channels(
+    model: Any, channels: Channels, speed: float
+) -> tuple[Channels, tuple[str, ...]]:
     """``channels`` with the gait as a run-time constant over every gait, and the gaits.
 
     The gait channel's categories in the kernel: those the model's formulas name, then
     the other gaits its logs walked (the reference gait, priced as none of the named
-    ones); its value, the first (overridden per motion by the kernels).
+    ones). Its value (the gait of a motion at the nominal ``speed``): the gait whose
+    logged speeds hold ``speed`` (the narrowest range if several), else the one whose
+    range is nearest; the kernels override it per motion where they choose.
     """
     from energy_planner.calibration.speed import gait_ranges
     from energy_planner.energy.channels import Category, channel_kinds
 
+    logged = gait_ranges(model)
     named = tuple(channel_kinds(model)[GAIT_CHANNEL].categories or ())
-    cats = named + tuple(sorted(g for g in gait_ranges(model) if g not in named))
+    cats = named + tuple(sorted(g for g in logged if g not in named))
+    nominal = min(
+        (g for g in cats if g in logged),
+        key=lambda g: (max(logged[g][0] - speed, speed - logged[g][1], 0.0),
+                       logged[g][1] - logged[g][0]),
+    )  # fmt: skip
     channels = replace(
         channels,
-        constants={**channels.constants, GAIT_CHANNEL: Category(cats[0])},
+        constants={**channels.constants, GAIT_CHANNEL: Category(nominal)},
         runtime={**(channels.runtime or {}), GAIT_CHANNEL: cats},
+        allow_unknown_categories=True,  # the reference gait: none the formulas name
     )
     return channels, cats
 

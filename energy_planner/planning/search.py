@@ -366,8 +366,9 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
         gmax = float(np.nanmax(np.hypot(gx, gy)))
         far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
-    for speed in speeds:
-        hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
+    for gait, speed in bound_points(cost, speeds):
+        hc = (heading if gait is None and speed == heading.speed
+              else HeadingCost.of_motion_cost(cost, speed=speed, gait=gait))  # fmt: skip
         best = _best_bands(hc, GX, GY, dirs, along)
         if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
             best = best + np.float32(lam / speed)
@@ -459,6 +460,20 @@ def bound_speeds(cost) -> np.ndarray:
     if rng is None:
         return np.array([cost.speed])
     return np.geomspace(rng[0], rng[1], SPEED_BOUND_NODES)
+
+
+def bound_points(cost, speeds: np.ndarray) -> list[tuple[str | None, float]]:
+    """The (gait, speed) pairs the bound of :func:`bound_table` is least over.
+
+    ``speeds`` (:func:`bound_speeds`) in the cost's own channels; where the motions
+    choose their gait (:attr:`~energy_planner.energy.MotionCost.gaits`), each gait at
+    :data:`SPEED_BOUND_NODES` speeds over its own range.
+    """
+    ranges = getattr(cost, "gait_ranges", None) if getattr(cost, "gaits", ()) else None
+    if not ranges or cost.speed_range is None:
+        return [(None, float(v)) for v in speeds]
+    return [(g, float(v)) for g, (lo, hi) in ranges.items()
+            for v in np.geomspace(lo, hi, SPEED_BOUND_NODES)]  # fmt: skip
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
@@ -808,9 +823,10 @@ def search_plan(
     states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     from energy_planner.planning.lattice import simplify_states
+    from energy_planner.planning.speed import gait_changes
 
     return SearchResult(
-        states=simplify_states(states),
+        states=simplify_states(states, keep=gait_changes(cost, states)),
         cost=total,
         step=grid.step,
         n_headings=grid.H,
