@@ -466,14 +466,22 @@ def bound_points(cost, speeds: np.ndarray) -> list[tuple[str | None, float]]:
     """The (gait, speed) pairs the bound of :func:`bound_table` is least over.
 
     ``speeds`` (:func:`bound_speeds`) in the cost's own channels; where the motions
-    choose their gait (:attr:`~energy_planner.energy.MotionCost.gaits`), each gait at
-    :data:`SPEED_BOUND_NODES` speeds over its own range.
+    choose their gait (:attr:`~energy_planner.energy.MotionCost.gaits`), each gait over its
+    own range, at speeds no further apart (in ratio) than :data:`SPEED_BOUND_NODES` over
+    the whole range (at least 3 per gait): the table's work grows with the gaits' share of
+    the range, not with their number.
     """
     ranges = getattr(cost, "gait_ranges", None) if getattr(cost, "gaits", ()) else None
     if not ranges or cost.speed_range is None:
         return [(None, float(v)) for v in speeds]
-    return [(g, float(v)) for g, (lo, hi) in ranges.items()
-            for v in np.geomspace(lo, hi, SPEED_BOUND_NODES)]  # fmt: skip
+    lo_all = min(lo for lo, _ in ranges.values())
+    span = math.log(max(hi for _, hi in ranges.values()) / lo_all)
+    out = []
+    for g, (lo, hi) in ranges.items():
+        share = math.log(hi / lo) / span if span > 0 else 0.0
+        n = max(3, math.ceil((SPEED_BOUND_NODES - 1) * share - 1e-9) + 1)
+        out += [(g, float(v)) for v in np.geomspace(lo, hi, n)]
+    return out
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
