@@ -260,13 +260,12 @@ def _scene(problem, start, goal, deadline, deadline_factor, time, seed, progress
     parts["total_j"] = sum(parts.values())
     notes = [
         f"Routes planned at {v:g} m/s, then retimed (poses kept): each motion in its",
-        "least-energy gait and speed within that gait's logged speeds ("
-        + ", ".join(f"{g} {lo:.2f}-{hi:.2f} m/s" for g, (lo, hi) in gaits.items())
-        + ");",
-        f"mixed: the motions walk both. {PLANNED}: planned with the gaits and speeds",
-        "chosen (replanned: what it saves on the energy-optimal route retimed). Under the",
-        "deadline: each route's least-energy timing in time (cannot: too slow even at the",
-        "top speed).",
+        "least-energy gait and speed, each gait within its logged speeds",
+        "(" + ", ".join(f"{g} {lo:.2f}-{hi:.2f} m/s" for g, (lo, hi) in gaits.items()) + ");",
+        f"mixed: the motions walk both. {PLANNED}: planned with the gaits and",
+        "speeds chosen (replanned: what it saves on the energy-optimal route retimed).",
+        "Under the deadline: each route's least-energy timing in time (cannot: too slow",
+        "even at the top speed).",
     ]
     return SpeedScene(nominal_speed=v, nominal_gait=gait0, gaits=gaits, deadline_s=float(deadline),
                       rows=rows, parts=parts, baseline_j=base, notes=notes)  # fmt: skip
