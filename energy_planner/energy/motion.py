@@ -400,9 +400,11 @@ def _no_gait_inputs() -> tuple:
 
 def _wants_gaits(model: Any, channels: Channels, choice: bool | None) -> bool:
     """Whether a cost chooses its gait (see :class:`MotionCost`'s ``gait_choice``)."""
-    from energy_planner.calibration.speed import gait_ranges
+    from energy_planner.uncertainty.domain import gait_speed_ranges
 
-    return not (choice is False or GAIT_CHANNEL in channels.names or not gait_ranges(model))
+    if choice is False or GAIT_CHANNEL in channels.names or GAIT_CHANNEL not in model.variables:
+        return False
+    return bool(gait_speed_ranges(model))
 
 
 def _gait_channels(
@@ -416,8 +418,8 @@ def _gait_channels(
     logged speeds hold ``speed`` (the narrowest range if several), else the one whose
     range is nearest; the kernels override it per motion where they choose.
     """
-    from energy_planner.calibration.speed import gait_ranges
     from energy_planner.energy.channels import Category, channel_kinds
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
 
     logged = gait_ranges(model)
     named = tuple(channel_kinds(model)[GAIT_CHANNEL].categories or ())
@@ -457,8 +459,8 @@ def _gait_inputs(
     MotionCostError
         No gait's logged speeds meet ``speed_range``.
     """
-    from energy_planner.calibration.speed import gait_ranges
     from energy_planner.energy.speed import SpeedLaw, speed_law, speed_nodes
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
 
     names = [name for name, _ in channels.kernel_layout(runtime=True)]
     slot = float(names.index(GAIT_CHANNEL))
