@@ -30,6 +30,12 @@ from energy_planner.energy.kernels import (
     IN_DX,
     IN_DY,
     IN_EXPS,
+    IN_GAIT_CODES,
+    IN_GAIT_HI,
+    IN_GAIT_LO,
+    IN_GAIT_NODES,
+    IN_GAIT_SLOT,
+    IN_GAIT_VINV,
     IN_GRAD,
     IN_NEAREST,
     IN_NODES,
@@ -53,6 +59,7 @@ from energy_planner.energy.kernels import (
     OUT_DURATION,
     OUT_E_FORWARD,
     OUT_ENERGY,
+    OUT_GAIT,
     OUT_MAX_SLOPE,
     OUT_MEAN_GAMMA,
     OUT_MEAN_SLOPE,
@@ -179,12 +186,24 @@ def first_pass(x0, y0, ddx, ddy, n, data, chv):
 
 @numba.njit(cache=True)
 def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
+    motion_at(x0, y0, th0, x1, y1, th1, duration, -1, data, out)
+
+
+@numba.njit(cache=True)
+def motion_at(x0, y0, th0, x1, y1, th1, duration, gait, data, out):
+    """:func:`motion_full` in gait ``gait`` of the gait choice (``IN_GAIT_CODES``).
+
+    ``gait`` -1: the channels as sampled (the fixed-gait code, unchanged); else the gait
+    channel takes that gait's category at every sub-step. ``out[OUT_GAIT]`` = ``gait``.
+    """
     grad = data[IN_GRAD]
     gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
     speed, yaw_rate, step, ang_step = (data[IN_SPEED], data[IN_YAW_RATE], data[IN_STEP],
                                        data[IN_ANG_STEP])  # fmt: skip
     smax, chan, nearest, btan, cmax = (data[IN_SMAX], data[IN_CHAN], data[IN_NEAREST],
                                        data[IN_BTAN], data[IN_CMAX])  # fmt: skip
+    slot = int(data[IN_GAIT_SLOT]) if gait >= 0 else -1
+    gcode = data[IN_GAIT_CODES][gait] if gait >= 0 else 0.0
     ddx = x1 - x0
     ddy = y1 - y0
     dist = math.sqrt(ddx * ddx + ddy * ddy)
@@ -193,6 +212,7 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     for k in range(N_OUT):
         out[k] = 0.0
     out[OUT_TURN] = abs(dth)
+    out[OUT_GAIT] = gait
     # sampled channel values: scratch space after the results (no allocation per motion)
     nch = chan.shape[0]
     chv = out[N_OUT : N_OUT + nch]
@@ -224,6 +244,8 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
         ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
         if nch > 0:
             sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
+            if slot >= 0:
+                chv[slot] = gcode
         dz = gxs * hx + gys * hy
         ds = math.sqrt(hx * hx + hy * hy + dz * dz)
         dt = T / n if surface <= 0.0 else T * ds / surface
@@ -253,14 +275,16 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
 
 
 @numba.njit(cache=True)
-def speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, speeds, data, chv, energy):
+def speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, speeds, codes, slot, data, chv, energy):
     """Energy (J) of a translation at each ground speed of ``speeds``, into ``energy``.
 
     Pass 2 of :func:`motion_full` at constant ground speed ``v`` (its sub-steps, slope
     frame, tilted body velocity and limits), for several speeds at once: the body twist
     of a sub-step is ``v`` times the one at unit speed (``wz = v dth / surface``), its
     time ``ds / v``, so the geometry is sampled once and only ``power`` is called per
-    speed. Returns :data:`OK` or the violation code (cross-slope, gait limits).
+    speed. With ``slot`` >= 0 (the gait choice) speed ``j`` walks in the gait of category
+    code ``codes[j]`` (the gait channel, sampled channel ``slot``); -1: the channels as
+    sampled. Returns :data:`OK` or the violation code (cross-slope, gait limits).
     """
     grad = data[IN_GRAD]
     gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
@@ -293,6 +317,8 @@ def speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, speeds, data, chv, energy
             return code
         for j in range(m):
             v = speeds[j]
+            if slot >= 0:
+                chv[slot] = codes[j]
             p, kinds = power(alpha, gamma, v * ux, v * uy, v * w, 0.0, 0.0, chv)
             energy[j] += p * ds / v
     return OK
@@ -307,73 +333,36 @@ SPEED_FIT_RTOL = 1e-7
 
 
 @numba.njit(cache=True)
-def _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, e):
-    """Energy + ``lam`` x time of the translation at ground speed ``v`` (inf: a limit)."""
+def _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, onec, slot, e):
+    """Energy + ``lam`` x time of the translation at ground speed ``v`` (inf: a limit).
+
+    In the gait of code ``onec[0]`` when ``slot`` >= 0 (:func:`speed_pass`).
+    """
     one[0] = v
-    if speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, data, chv, e) != OK:
+    if speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, onec, slot, data, chv, e) != OK:
         return np.inf
     return e[0] + lam * surface / v
 
 
 @numba.njit(cache=True)
-def motion_best(x0, y0, th0, x1, y1, th1, duration, data, out):
-    """:func:`motion_full` at the ground speed that minimises energy + lambda x time.
+def _best_in_range(x0, y0, th0, ddx, ddy, dth, n, surface, lam, data, chv, energy, nodes, vinv,
+                   lo, hi, code, slot):  # fmt: skip
+    """``(v, energy + lam x time)``: the best ground speed of a translation in ``[lo, hi]``.
 
-    The speed range ``[IN_VMIN, IN_VMAX]`` and the price of a second ``lambda``
-    (``IN_TIME_WEIGHT``, J/s) come from ``data``. A translation's energy is a Laurent
-    polynomial in its speed (:mod:`energy_planner.energy.speed`): it is priced at the
-    node speeds ``IN_NODES`` in one pass (:func:`speed_pass`), its coefficients solved
-    (``IN_VINV``), checked at the last node, and minimised in closed form
-    (:func:`energy_planner.energy._laurent.laurent_argmin`); where the check fails, by
-    golden section over the range. A motion that also turns may not be faster than its
-    turn allows (``surface * yaw_rate / |dth|``). Turns in place, and motions given a
-    ``duration``, are :func:`motion_full`'s.
-
-    Fills ``out[OUT_ENERGY]`` with energy + lambda x duration (the objective; the energy
-    when lambda is 0), ``OUT_DURATION``, ``OUT_DISTANCE``, ``OUT_TURN`` and ``OUT_CODE``;
-    the other entries are 0 (price the chosen durations with :func:`path_table` for
-    them).
+    ``energy``: the translation's energy at the node speeds ``nodes`` (:func:`speed_pass`;
+    unread when ``nodes`` is empty or ``hi <= lo``), ``vinv`` the inverse matrix of their
+    solve: the Laurent coefficients, checked at the last node, minimised in closed form;
+    where the check fails, golden section over the range; a single speed is priced
+    there. ``code``, ``slot``: the gait (:func:`speed_pass`; ``slot`` -1: none).
     """
-    vmin, vmax, lam = data[IN_VMIN], data[IN_VMAX], data[IN_TIME_WEIGHT]
-    step, ang_step, yaw_rate = data[IN_STEP], data[IN_ANG_STEP], data[IN_YAW_RATE]
-    ddx = x1 - x0
-    ddy = y1 - y0
-    dist = math.sqrt(ddx * ddx + ddy * ddy)
-    if duration > 0.0 or dist <= 0.0:
-        motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)
-        out[OUT_ENERGY] += lam * out[OUT_DURATION]
-        return
-    dth = wrap_angle(th1 - th0)
-    n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
-    for k in range(N_OUT):
-        out[k] = 0.0
-    out[OUT_TURN] = abs(dth)
-    chv = out[N_OUT : N_OUT + data[IN_CHAN].shape[0]]
-    code, surface, gxs, gys = first_pass(x0, y0, ddx, ddy, n, data, chv)
-    if code != OK:
-        out[OUT_CODE] = code
-        out[OUT_ENERGY] = np.inf
-        return
-    hi = vmax
-    if dth != 0.0:
-        hi = min(hi, surface * yaw_rate / abs(dth))
-    lo = min(vmin, hi)
     exps = data[IN_EXPS]
-    nodes = data[IN_NODES]
-    vinv = data[IN_VINV]
     k = nodes.shape[0] - 1
     one = np.empty(1)
+    onec = np.full(1, code)
     e1 = np.empty(1)
     best_v = lo
     best_f = np.inf
-    solved = False
     if k > 0 and hi > lo:
-        energy = np.empty(k + 1)
-        code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, nodes, data, chv, energy)
-        if code != OK:
-            out[OUT_CODE] = code
-            out[OUT_ENERGY] = np.inf
-            return
         c = np.zeros(k)
         scale = 0.0
         for a in range(k):
@@ -388,40 +377,152 @@ def motion_best(x0, y0, th0, x1, y1, th1, duration, data, out):
                     c[a] += lam * surface
             best_v = laurent_argmin(c, exps, lo, hi)
             best_f = laurent_value(c, exps, best_v)
-            solved = True
-    if not solved:
-        if hi > lo:  # golden section over the range (assumes one minimum in it)
-            g = 0.3819660112501051
-            a_, b_ = lo, hi
-            xa = a_ + g * (b_ - a_)
-            xb = b_ - g * (b_ - a_)
-            fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv, one, e1)
-            fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv, one, e1)
-            for _ in range(SPEED_GOLDEN_ITERS):
-                if fa <= fb:
-                    b_, xb, fb = xb, xa, fa
-                    xa = a_ + g * (b_ - a_)
-                    fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv,
-                                     one, e1)  # fmt: skip
-                else:
-                    a_, xa, fa = xa, xb, fb
-                    xb = b_ - g * (b_ - a_)
-                    fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv,
-                                     one, e1)  # fmt: skip
-            best_v, best_f = (xa, fa) if fa <= fb else (xb, fb)
-            for v in (lo, hi):
-                f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, e1)
-                if f < best_f:
-                    best_v, best_f = v, f
-        else:
-            best_v = lo
-            best_f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, lo, lam, data, chv, one,
-                                 e1)  # fmt: skip
-        if not math.isfinite(best_f):
-            code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, data, chv, e1)
-            out[OUT_CODE] = code if code != OK else TOO_CROSS
-            out[OUT_ENERGY] = np.inf
-            return
+            return best_v, best_f
+    if hi > lo:  # golden section over the range (assumes one minimum in it)
+        g = 0.3819660112501051
+        a_, b_ = lo, hi
+        xa = a_ + g * (b_ - a_)
+        xb = b_ - g * (b_ - a_)
+        fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv, one, onec,
+                         slot, e1)  # fmt: skip
+        fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv, one, onec,
+                         slot, e1)  # fmt: skip
+        for _ in range(SPEED_GOLDEN_ITERS):
+            if fa <= fb:
+                b_, xb, fb = xb, xa, fa
+                xa = a_ + g * (b_ - a_)
+                fa = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xa, lam, data, chv,
+                                 one, onec, slot, e1)  # fmt: skip
+            else:
+                a_, xa, fa = xa, xb, fb
+                xb = b_ - g * (b_ - a_)
+                fb = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, xb, lam, data, chv,
+                                 one, onec, slot, e1)  # fmt: skip
+        best_v, best_f = (xa, fa) if fa <= fb else (xb, fb)
+        for v in (lo, hi):
+            f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, v, lam, data, chv, one, onec,
+                            slot, e1)  # fmt: skip
+            if f < best_f:
+                best_v, best_f = v, f
+    else:
+        best_v = lo
+        best_f = _speed_cost(x0, y0, th0, ddx, ddy, dth, n, surface, lo, lam, data, chv, one,
+                             onec, slot, e1)  # fmt: skip
+    return best_v, best_f
+
+
+@numba.njit(cache=True)
+def motion_best(x0, y0, th0, x1, y1, th1, duration, data, out):
+    """:func:`motion_full` at the ground speed (and gait) that minimises energy + lambda x time.
+
+    The speed range ``[IN_VMIN, IN_VMAX]`` and the price of a second ``lambda``
+    (``IN_TIME_WEIGHT``, J/s) come from ``data``. A translation's energy is a Laurent
+    polynomial in its speed (:mod:`energy_planner.energy.speed`): it is priced at the
+    node speeds ``IN_NODES`` in one pass (:func:`speed_pass`), its coefficients solved
+    (``IN_VINV``), checked at the last node, and minimised in closed form
+    (:func:`energy_planner.energy._laurent.laurent_argmin`); where the check fails, by
+    golden section over the range (:func:`_best_in_range`). A motion that also turns may
+    not be faster than its turn allows (``surface * yaw_rate / |dth|``). Turns in place,
+    and motions given a ``duration``, are :func:`motion_full`'s.
+
+    With a gait choice (``IN_GAIT_SLOT`` >= 0) the same per gait, within the gait's own
+    speeds: one pass prices every gait's nodes (the geometry sampled once), each gait's
+    least is in closed form, and the least over the gaits is taken (the first on ties);
+    a turn in place takes the gait whose turn costs least. ``out[OUT_GAIT]`` is the gait
+    walked (-1 without a choice).
+
+    Fills ``out[OUT_ENERGY]`` with energy + lambda x duration (the objective; the energy
+    when lambda is 0), ``OUT_DURATION``, ``OUT_DISTANCE``, ``OUT_TURN``, ``OUT_GAIT`` and
+    ``OUT_CODE``; the other entries are 0 (price the chosen durations with
+    :func:`path_table` for them).
+    """
+    vmin, vmax, lam = data[IN_VMIN], data[IN_VMAX], data[IN_TIME_WEIGHT]
+    step, ang_step, yaw_rate = data[IN_STEP], data[IN_ANG_STEP], data[IN_YAW_RATE]
+    ng = data[IN_GAIT_LO].shape[0]
+    slot = int(data[IN_GAIT_SLOT]) if ng > 0 else -1
+    codes = data[IN_GAIT_CODES]
+    ddx = x1 - x0
+    ddy = y1 - y0
+    dist = math.sqrt(ddx * ddx + ddy * ddy)
+    if duration > 0.0 or dist <= 0.0:
+        if slot < 0:
+            motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)
+        else:  # the gait whose motion costs least
+            best_e = np.inf
+            best_g = 0
+            for g in range(ng):
+                motion_at(x0, y0, th0, x1, y1, th1, duration, g, data, out)
+                if out[OUT_ENERGY] < best_e:
+                    best_e, best_g = out[OUT_ENERGY], g
+            motion_at(x0, y0, th0, x1, y1, th1, duration, best_g, data, out)
+        out[OUT_ENERGY] += lam * out[OUT_DURATION]
+        return
+    dth = wrap_angle(th1 - th0)
+    n = max(1, int(math.ceil(dist / step)), int(math.ceil(abs(dth) / ang_step)))
+    for k in range(N_OUT):
+        out[k] = 0.0
+    out[OUT_TURN] = abs(dth)
+    out[OUT_GAIT] = -1.0
+    chv = out[N_OUT : N_OUT + data[IN_CHAN].shape[0]]
+    code, surface, gxs, gys = first_pass(x0, y0, ddx, ddy, n, data, chv)
+    if code != OK:
+        out[OUT_CODE] = code
+        out[OUT_ENERGY] = np.inf
+        return
+    turn_hi = np.inf
+    if dth != 0.0:
+        turn_hi = surface * yaw_rate / abs(dth)
+    best_v = vmin
+    best_f = np.inf
+    if slot < 0:
+        hi = min(vmax, turn_hi)
+        lo = min(vmin, hi)
+        nodes = data[IN_NODES]
+        k = nodes.shape[0] - 1
+        energy = np.empty(max(k + 1, 0))
+        if k > 0 and hi > lo:
+            code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, nodes, codes, -1, data, chv,
+                              energy)  # fmt: skip
+            if code != OK:
+                out[OUT_CODE] = code
+                out[OUT_ENERGY] = np.inf
+                return
+        best_v, best_f = _best_in_range(x0, y0, th0, ddx, ddy, dth, n, surface, lam, data, chv,
+                                        energy, nodes, data[IN_VINV], lo, hi, 0.0, -1)  # fmt: skip
+    else:
+        gnodes = data[IN_GAIT_NODES]
+        gvinv = data[IN_GAIT_VINV]
+        kk = gnodes.shape[1]
+        energy = np.empty(ng * kk)
+        if kk > 1:  # every gait's nodes in one pass
+            flat = np.empty(ng * kk)
+            fcodes = np.empty(ng * kk)
+            for g in range(ng):
+                for j in range(kk):
+                    flat[g * kk + j] = gnodes[g, j]
+                    fcodes[g * kk + j] = codes[g]
+            code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, flat, fcodes, slot, data,
+                              chv, energy)  # fmt: skip
+            if code != OK:
+                out[OUT_CODE] = code
+                out[OUT_ENERGY] = np.inf
+                return
+        for g in range(ng):
+            hi = min(data[IN_GAIT_HI][g], turn_hi)
+            lo = min(data[IN_GAIT_LO][g], hi)
+            v, f = _best_in_range(x0, y0, th0, ddx, ddy, dth, n, surface, lam, data, chv,
+                                  energy[g * kk : (g + 1) * kk], gnodes[g], gvinv[g], lo, hi,
+                                  codes[g], slot)  # fmt: skip
+            if f < best_f:
+                best_v, best_f = v, f
+                out[OUT_GAIT] = g
+    if not math.isfinite(best_f):
+        one = np.full(1, best_v)
+        e1 = np.empty(1)
+        code = speed_pass(x0, y0, th0, ddx, ddy, dth, n, surface, one, codes, -1, data, chv, e1)
+        out[OUT_CODE] = code if code != OK else TOO_CROSS
+        out[OUT_ENERGY] = np.inf
+        return
     out[OUT_ENERGY] = best_f
     out[OUT_DURATION] = surface / best_v
     out[OUT_DISTANCE] = surface
@@ -431,10 +532,12 @@ def motion_best(x0, y0, th0, x1, y1, th1, duration, data, out):
 def motion_priced(x0, y0, th0, x1, y1, th1, duration, data, out):
     """The motion at its chosen speed, or at the nominal one.
 
-    :func:`motion_best` when ``data`` gives a speed range or a time price, else
-    :func:`motion_full` (the nominal speed: the fixed-speed code, unchanged).
+    :func:`motion_best` when ``data`` gives a speed range, a time price or gaits to
+    choose among, else :func:`motion_full` (the nominal speed: the fixed-speed code,
+    unchanged).
     """
-    if data[IN_VMAX] > data[IN_VMIN] or data[IN_TIME_WEIGHT] > 0.0:
+    if (data[IN_VMAX] > data[IN_VMIN] or data[IN_TIME_WEIGHT] > 0.0
+            or data[IN_GAIT_LO].shape[0] > 0):  # fmt: skip
         motion_best(x0, y0, th0, x1, y1, th1, duration, data, out)
     else:
         motion_full(x0, y0, th0, x1, y1, th1, duration, data, out)
@@ -460,27 +563,31 @@ def motion_batch(x0, y0, th0, x1, y1, th1, data):
 
 @numba.njit(cache=True)
 def path_speeds(x, y, th, data):
-    """Durations (s) of consecutive motions at their best speeds (:func:`motion_priced`).
+    """Durations (s) and gaits of consecutive motions at their best speeds (:func:`motion_priced`).
 
-    ``inf`` for a motion that breaks a limit. Price the poses with these durations
+    Shape ``(m, 2)``: the duration (``inf`` for a motion that breaks a limit) and the gait
+    walked (an index of the gait choice, -1 without one). Price the poses with these
     (:func:`path_table`) for the energy and its breakdown.
     """
     m = x.shape[0] - 1
-    res = np.empty(max(m, 0))
+    res = np.empty((max(m, 0), 2))
     out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     for i in range(m):
+        out[OUT_GAIT] = -1.0
         motion_priced(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], -1.0, data, out)
-        res[i] = out[OUT_DURATION] if math.isfinite(out[OUT_ENERGY]) else np.inf
+        res[i, 0] = out[OUT_DURATION] if math.isfinite(out[OUT_ENERGY]) else np.inf
+        res[i, 1] = out[OUT_GAIT]
     return res
 
 
 @numba.njit(cache=True)
-def path_table(x, y, th, durations, data):
+def path_table(x, y, th, durations, gaits, data):
     m = x.shape[0] - 1
     table = np.empty((max(m, 0), N_OUT))
     out = np.empty(N_OUT + data[IN_CHAN].shape[0])
     for i in range(m):
-        motion_full(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], data, out)
+        motion_at(x[i], y[i], th[i], x[i + 1], y[i + 1], th[i + 1], durations[i], int(gaits[i]),
+                  data, out)  # fmt: skip
         table[i, :] = out[:N_OUT]
     return table
 

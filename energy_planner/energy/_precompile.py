@@ -40,6 +40,12 @@ def data_type():
             types.Array(f8, 1, "C"),  # IN_EXPS
             types.Array(f8, 1, "C"),  # IN_NODES
             types.Array(f8, 2, "C"),  # IN_VINV
+            f8,  # IN_GAIT_SLOT
+            types.Array(f8, 1, "C"),  # IN_GAIT_CODES
+            types.Array(f8, 1, "C"),  # IN_GAIT_LO
+            types.Array(f8, 1, "C"),  # IN_GAIT_HI
+            types.Array(f8, 2, "C"),  # IN_GAIT_NODES
+            types.Array(f8, 3, "C"),  # IN_GAIT_VINV
         )
     )
 
@@ -64,7 +70,7 @@ def build(source: str, name: str, out_dir: str) -> None:
     cc.export("motion_cost", f8(f8, f8, f8, f8, f8, f8, data))(mod.motion_cost.py_func)
     cc.export("motion_batch", a1(a1, a1, a1, a1, a1, a1, data))(mod.motion_batch.py_func)
     table = types.Array(f8, 2, "C")
-    cc.export("path_table", table(a1, a1, a1, a1, data))(mod.path_table.py_func)
+    cc.export("path_table", table(a1, a1, a1, a1, a1, data))(mod.path_table.py_func)
     cc.compile()
 
 

@@ -79,8 +79,22 @@ IN_BTAN, IN_CMAX = 14, 15
 #: exponents of energy in speed, the speeds at which they are solved for (one more to check
 #: the fit) and the inverse matrix of that solve
 IN_VMIN, IN_VMAX, IN_TIME_WEIGHT, IN_EXPS, IN_NODES, IN_VINV = 16, 17, 18, 19, 20, 21
+#: the gait choice (a model that names gaits, its gait channel not given): the index of
+#: the gait channel among the sampled channels (-1: no choice, the arrays below empty),
+#: per gait its category code, its speed range m/s (the range clipped to the speeds its
+#: logs walked it at), the speeds its Laurent coefficients are solved at (one more to
+#: check, ``(gaits, K + 1)``) and the inverse matrices of those solves
+#: (``(gaits, K, K)``); the exponents are ``IN_EXPS`` (every gait's, together)
+IN_GAIT_SLOT, IN_GAIT_CODES, IN_GAIT_LO, IN_GAIT_HI, IN_GAIT_NODES, IN_GAIT_VINV = (
+    22,
+    23,
+    24,
+    25,
+    26,
+    27,
+)
 #: length of ``data``
-N_IN = 22
+N_IN = 28
 
 # Named indices of the per-motion result vector ``out`` of ``motion_full``.
 #: energy, J
@@ -109,13 +123,15 @@ OUT_E_TURNING = 10
 OUT_E_OTHER = 11
 #: violation code (:data:`OK` or a key of :data:`VIOLATIONS`), stored as a float
 OUT_CODE = 12
+#: the gait walked: its index in the gait choice (``IN_GAIT_CODES``), -1 without one
+OUT_GAIT = 13
 #: Length of the per-motion result vector of ``motion_full``.
-N_OUT = 13
+N_OUT = 14
 #: Column names of ``out`` in index order (for tables and messages).
 OUT_NAMES = (
     "energy_j", "duration_s", "distance_m", "turn_rad", "mean_slope_rad", "mean_gamma_rad",
     "max_slope_rad", "e_forward_j", "e_backward_j", "e_lateral_j", "e_turning_j", "e_other_j",
-    "code",
+    "code", "gait",
 )  # fmt: skip
 #: Number of energy-by-kind entries (forward, backward, lateral, turning, other).
 N_KINDS = 5
@@ -151,7 +167,8 @@ def make_kernels(power_source: str):
         by kind (forward, backward, lateral, turning, other), violation code.
         ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` returns the energy or ``inf`` if
         invalid; ``motion_batch`` maps it over arrays; ``path_table(x, y, th, durations,
-        data)`` gives the ``out`` rows of consecutive poses. ``data`` is the tuple built
+        gaits, data)`` gives the ``out`` rows of consecutive poses (each motion in its
+        gait of ``gaits``, an index of the gait choice, or -1). ``data`` is the tuple built
         by :class:`energy_planner.energy.MotionCost`. ``map_costs(gx, gy, chan,
         consts, headings, speed, tmax, smax, btan, cmax, table, d_alpha, along, best)`` fills
         the energy-map costs of a block of cells (see

@@ -365,14 +365,18 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
         gmax = float(np.nanmax(np.hypot(gx, gy)))
         far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
-    speed = bound_speed(cost)
-    hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
-    best = _best_bands(hc, GX, GY, dirs, along)
-    if ranged:  # one table for the whole range: the top speed's, shifted
-        best = _range_bound(cost, best.astype(np.float64), GX, GY, dirs, lam)
-    elif lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
-        best = best + np.float32(lam / speed)
-    table = best.astype(np.float64)
+    if ranged:  # one table per gait: its top speed's, shifted over its range
+        table = np.full(along.shape, np.inf)
+        for gait, (vlo, vhi) in bound_ranges(cost):
+            hc = HeadingCost.of_motion_cost(cost, speed=vhi, gait=gait)
+            best = _best_bands(hc, GX, GY, dirs, along).astype(np.float64)
+            best = _range_bound(cost, best, GX, GY, dirs, lam, gait=gait, vrange=(vlo, vhi))
+            table = np.minimum(table, best)
+    else:
+        best = _best_bands(heading, GX, GY, dirs, along)
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / cost.speed)
+        table = best.astype(np.float64)
     table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
@@ -391,7 +395,10 @@ SHIFT_SPEEDS = 33
 SHIFT_GRID_DEG = (1.0, 10.0, 10.0)
 
 
-def range_shift(cost, slope: np.ndarray, time_weight: float = 0.0) -> np.ndarray:
+def range_shift(
+    cost, slope: np.ndarray, time_weight: float = 0.0, *, gait: str | None = None,
+    vrange: tuple[float, float] | None = None,
+) -> np.ndarray:  # fmt: skip
     """How far below its top speed's a motion's J per ground metre can fall in the range.
 
     At each slope of ``slope`` (radians): the least over the speeds ``v`` of the range
@@ -404,14 +411,21 @@ def range_shift(cost, slope: np.ndarray, time_weight: float = 0.0) -> np.ndarray
     at any speed ``v`` and body yaw is at least its cost at ``vmax`` plus this shift
     (:func:`bound_table`). Speeds, slopes (the least of the two grid slopes around each),
     headings and directions are sampled (:data:`SHIFT_SPEEDS`, :data:`SHIFT_GRID_DEG`);
-    the search's :data:`BOUND_MARGIN` covers what falls between.
+    the search's :data:`BOUND_MARGIN` covers what falls between. ``gait``, ``vrange``: one
+    gait a cost chooses among, walked over its own speed range (default: the cost's
+    channels and speed range).
     """
     from energy_planner.energy.speed import _channel_values
 
     model = cost.model
-    vmin, vmax = (float(v) for v in cost.speed_range)
+    vmin, vmax = (float(v) for v in (cost.speed_range if vrange is None else vrange))
     speeds = np.geomspace(vmin, vmax, SHIFT_SPEEDS)
-    chans = _channel_values(model, getattr(cost, "constants", None))
+    consts = dict(getattr(cost, "constants", None) or {})
+    if gait is not None:
+        from energy_planner.model import GAIT_CHANNEL
+
+        consts[GAIT_CHANNEL] = str(gait)
+    chans = _channel_values(model, consts)
     key = (_model_key(model), tuple(sorted(chans.items())), vmin, vmax)
     drop = _SHIFT_MEMO.get(key)
     if drop is None:
@@ -478,7 +492,10 @@ def _speed_terms_drop(model, law, speeds, chans) -> np.ndarray:
     return out
 
 
-def _range_bound(cost, best, GX, GY, dirs, lam: float) -> np.ndarray:
+def _range_bound(
+    cost, best, GX, GY, dirs, lam: float, *, gait: str | None = None,
+    vrange: tuple[float, float] | None = None,
+) -> np.ndarray:  # fmt: skip
     """The range's bound from the table ``best`` at its top speed (:func:`range_shift`).
 
     A map metre along direction ``d`` on gradient ``(gx, gy)`` is ``k = sqrt(1 + (gx cos d
@@ -489,8 +506,8 @@ def _range_bound(cost, best, GX, GY, dirs, lam: float) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         c, s = np.cos(dirs)[:, None, None], np.sin(dirs)[:, None, None]
         k = np.sqrt(1.0 + (c * GX + s * GY) ** 2)
-        shift = range_shift(cost, np.arctan(np.hypot(GX, GY)), lam)
-        floor = k * (lam / float(cost.speed_range[1]))
+        shift = range_shift(cost, np.arctan(np.hypot(GX, GY)), lam, gait=gait, vrange=vrange)
+        floor = k * (lam / float((cost.speed_range if vrange is None else vrange)[1]))
         out = np.where(best > 0, best + k * shift, floor)
         return np.maximum(out, floor)
 
@@ -600,15 +617,18 @@ def prune_bound_cache(folder: Path, keep: int | None = None, max_bytes: int | No
     return gone
 
 
-def bound_speed(cost) -> float:
-    """The speed the table of :func:`bound_table` is priced at.
+def bound_ranges(cost) -> list[tuple[str | None, tuple[float, float]]]:
+    """The (gait, speed range) pairs whose shifted tables :func:`bound_table` takes the least of.
 
-    The nominal speed of a fixed-speed cost; the top of a cost's speed range, whose table
-    :func:`range_shift` then shifts down to a bound over the whole range (one table,
-    however wide the range: the first plan on a map prices one, not one per speed).
+    The cost's speed range in its own channels (gait ``None``); where the motions choose
+    their gait (:attr:`~energy_planner.energy.MotionCost.gaits`), each gait over its own
+    range (:attr:`~energy_planner.energy.MotionCost.gait_ranges`): one table per gait.
     """
-    rng = getattr(cost, "speed_range", None)
-    return float(cost.speed if rng is None else rng[1])
+    ranges = getattr(cost, "gait_ranges", None) if getattr(cost, "gaits", ()) else None
+    if not ranges:
+        lo, hi = cost.speed_range
+        return [(None, (float(lo), float(hi)))]
+    return [(g, (float(lo), float(hi))) for g, (lo, hi) in ranges.items()]
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
@@ -958,9 +978,10 @@ def search_plan(
     states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     from energy_planner.planning.lattice import simplify_states
+    from energy_planner.planning.speed import gait_changes
 
     return SearchResult(
-        states=simplify_states(states),
+        states=simplify_states(states, keep=gait_changes(cost, states)),
         cost=total,
         step=grid.step,
         n_headings=grid.H,
