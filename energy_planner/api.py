@@ -102,6 +102,7 @@ CLI_NAMES: dict[str, str | dict[str, str]] = {
     "--bag-frame": "result.write_bag",  # frame=
     "--nav2-graph": "result.write_nav2_graph",
     "--pareto": {"plan": "ep.pareto:n"},
+    "--window": {"mission": "windows"},
     "--refuse": "output",  # exit status 1 below --confidence: result.assessment.battery.ok
     "--json": "output",  # result.to_dict()
     "--quiet": "output",  # progress=False is the Python default

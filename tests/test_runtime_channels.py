@@ -137,7 +137,11 @@ def _twice(doors, files, monkeypatch) -> tuple[dict, dict]:
     second = doors(files, 41.0)  # a value never seen before
     after = _compiled()
     assert after[0] == before[0]  # the same kernel modules, no numba cache miss
-    assert after[1] == before[1]  # no compiled code added to the kernel cache
+    # no new kernel module written for this process (the folder's files of the same modules
+    # may still change: the cache is shared with the other workers, which compile the same
+    # model's kernels at the same time; a module this process wrote would be imported, and
+    # the first assert would see it)
+    assert set(after[1]) >= set(before[1])
     return first, second
 
 
