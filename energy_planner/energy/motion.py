@@ -24,6 +24,7 @@ from energy_planner.energy.kernels import (
     precompiled_module,
 )
 from energy_planner.errors import ChannelError, ModelError, MotionCostError
+from energy_planner.model import GAIT_CHANNEL
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["MotionCost", "gait_limit_values"]
@@ -76,6 +77,16 @@ class MotionCost:
     time_weight : float
         The price of a second, J/s (``lambda`` >= 0): motions minimise energy + lambda x
         duration (a deadline's Lagrangian, :func:`energy_planner.planning.speed.plan_deadline`).
+    gait_choice : bool, optional
+        Where the model names gaits (a ``gait`` channel, and the speeds its logs walked
+        each gait at, :func:`energy_planner.uncertainty.domain.gait_speed_ranges`) and
+        the channels do not give the gait: with a ``speed_range`` every motion chooses
+        its gait, each gait within its own logged speeds (clipped to the range), the
+        cheapest (gait, speed) pair kept (:attr:`gaits`; :meth:`best_timing` reports
+        each motion's); at the nominal speed, motions walk the gait whose logged speeds
+        hold it (:attr:`nominal_gait`), or the gait given per motion to :meth:`details`.
+        Default (None) or True: so; False: off (the model then needs the gait as a
+        channel).
     precompiled : bool
         Price motions asked from Python (:meth:`__call__`, :meth:`batch`,
         :meth:`details`) with the model's precompiled kernel module
@@ -104,6 +115,7 @@ class MotionCost:
         speed_range: tuple[float, float] | None = None,
         time_weight: float = 0.0,
         precompiled: bool = False,
+        gait_choice: bool | None = None,
     ) -> None:
         if not (speed > 0 and yaw_rate > 0):
             raise MotionCostError(
@@ -127,6 +139,12 @@ class MotionCost:
         if extra:
             channels = replace(channels, constants={**channels.constants, **extra})
         channels = channels.resolve(model)  # values of the kinds the model reads
+        self.gaits: tuple[str, ...] = ()
+        self.gait_ranges: dict[str, tuple[float, float]] = {}
+        self.nominal_gait: str | None = None
+        if _wants_gaits(model, channels, gait_choice):
+            channels, self.gaits = _gait_channels(model, channels, float(speed))
+            self.nominal_gait = str(channels.constants[GAIT_CHANNEL])
         if channels.rasters:
             channels = channels.bind(terrain)
         self.channels = channels
@@ -150,10 +168,17 @@ class MotionCost:
         self.speed_range, self.time_weight, self.speed_law, speed_in = _speed_inputs(
             model, self.speed, speed_range, time_weight, self.constants
         )
+        gait_in = _no_gait_inputs()
+        if self.gaits:
+            self.gait_ranges, law, ranged_in, gait_in = _gait_inputs(
+                model, self.gaits, channels, speed_range, self.time_weight
+            )
+            if ranged_in is not None:  # the kernel's gaits: those within the range
+                self.gaits, self.speed_law, speed_in = tuple(self.gait_ranges), law, ranged_in
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
-            chan, nearest, btan, cmax, *speed_in,
+            chan, nearest, btan, cmax, *speed_in, *gait_in,
         )  # fmt: skip
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
         self._aot = precompiled_module(self.source) if precompiled else None
@@ -171,8 +196,52 @@ class MotionCost:
         a range); ``inf`` where a motion breaks a limit. Give them to :meth:`details` (or
         ``t`` to :func:`energy_planner.energy.path_energy`) for the energy and its breakdown.
         """
+        return self.best_timing(x, y, th)[0]
+
+    def best_timing(self, x, y, th) -> tuple[np.ndarray, list[str | None] | None]:
+        """Durations (s) and gaits of the motions between consecutive poses as chosen.
+
+        The durations of :meth:`best_durations`; the gaits (names of :attr:`gaits`, None
+        for a motion in none, e.g. one that breaks a limit) where the motions choose their
+        gait, else None.
+        """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
-        return kernel_module(self.source).path_speeds(x, y, th, self.data)
+        res = kernel_module(self.source).path_speeds(x, y, th, self.data)
+        if not self.gaits:
+            return res[:, 0], None
+        return res[:, 0], [self.gaits[int(g)] if g >= 0 else None for g in res[:, 1]]
+
+    def gait_indices(self, gaits: Any, where: str = "gait") -> np.ndarray:
+        """The kernel's gait index of each gait name (None: -1, the default gait).
+
+        Raises
+        ------
+        MotionCostError
+            A name that is none of :attr:`gaits` (naming it and ``where``), or gaits given
+            to a cost that does not choose its gait.
+        """
+        names = list(gaits)
+        if not self.gaits:
+            if all(g is None for g in names):
+                return np.full(len(names), -1.0)
+            raise MotionCostError(
+                f"{where}: gaits given ({sorted({str(g) for g in names if g is not None})}) "
+                "but the model names no gaits it chooses among (no gait channel with the "
+                "speeds per gait in metadata.fit.domain.gait_speed_m_s), or the gait is "
+                "fixed by a channel; expected a model fitted on logs with a gait channel"
+            )
+        out = np.empty(len(names))
+        for i, g in enumerate(names):
+            if g is None:
+                out[i] = -1.0
+            elif g in self.gaits:
+                out[i] = float(self.gaits.index(g))
+            else:
+                raise MotionCostError(
+                    f"{where}: gait {g!r} of segment {i} is not one the model names; "
+                    f"expected one of {', '.join(self.gaits)}"
+                )
+        return out
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without compiled code (a dask worker loads the kernels itself)."""
@@ -219,19 +288,23 @@ class MotionCost:
         arrs = [np.ascontiguousarray(a, dtype=np.float64) for a in (x0, y0, th0, x1, y1, th1)]
         return self._fn("motion_batch")(*arrs, self.data)
 
-    def details(self, x, y, th, durations=None) -> np.ndarray:
+    def details(self, x, y, th, durations=None, gaits=None) -> np.ndarray:
         """Per-motion results along a pose sequence, shape ``(n - 1, N_OUT)``.
 
         Columns, read through the named indices ``OUT_*`` of
         :mod:`energy_planner.energy.kernels`: energy J, duration s, distance m, |turn|
         rad, mean slope rad, mean |gamma| rad, max slope rad, energy by kind (forward,
-        backward, lateral, turning, other), violation code.
+        backward, lateral, turning, other), violation code, gait. ``gaits``: each
+        motion's gait, an index of :attr:`gaits` (:meth:`gait_indices`; -1 or None: the
+        channels' own).
         """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
+        m = max(len(x) - 1, 0)
         if durations is None:
-            durations = np.full(max(len(x) - 1, 0), -1.0)
+            durations = np.full(m, -1.0)
         durations = np.ascontiguousarray(durations, dtype=np.float64)
-        out = self._fn("path_table")(x, y, th, durations, self.data)
+        gaits = np.full(m, -1.0) if gaits is None else np.ascontiguousarray(gaits, np.float64)
+        out = self._fn("path_table")(x, y, th, durations, gaits, self.data)
         assert out.shape[1] == N_OUT
         return out
 
@@ -265,7 +338,10 @@ class MotionCost:
                 "ay": np.zeros(a.size),
             }  # fmt: skip
             per_m = np.inf
-            for combo in _combinations(self.channels.value_samples()):
+            samples = self.channels.value_samples()
+            if self.gaits:  # every gait the motions may choose
+                samples[GAIT_CHANNEL] = np.array(self.gaits, dtype=object)
+            for combo in _combinations(samples):
                 for k, val in combo.items():
                     feats[k] = np.full(a.size, val)
                 per_m = min(per_m, float((self.model.power(feats) / v.ravel()).min()))
@@ -315,6 +391,125 @@ def _speed_inputs(
     nodes, inverse = speed_nodes(law, lo, hi)
     exps = np.asarray(law.exponents if law.polynomial else (), dtype=np.float64)
     return (lo, hi), float(time_weight), law, (lo, hi, float(time_weight), exps, nodes, inverse)
+
+
+def _no_gait_inputs() -> tuple:
+    """Kernel inputs ``IN_GAIT_SLOT .. IN_GAIT_VINV`` without a gait choice."""
+    return (-1.0, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 0)),
+            np.zeros((0, 0, 0)))  # fmt: skip
+
+
+def _wants_gaits(model: Any, channels: Channels, choice: bool | None) -> bool:
+    """Whether a cost chooses its gait (see :class:`MotionCost`'s ``gait_choice``)."""
+    from energy_planner.uncertainty.domain import gait_speed_ranges
+
+    if choice is False or GAIT_CHANNEL in channels.names or GAIT_CHANNEL not in model.variables:
+        return False
+    return bool(gait_speed_ranges(model))
+
+
+def _gait_channels(
+    model: Any, channels: Channels, speed: float
+) -> tuple[Channels, tuple[str, ...]]:
+    """``channels`` with the gait as a run-time constant over every gait, and the gaits.
+
+    The gait channel's categories in the kernel: those the model's formulas name, then
+    the other gaits its logs walked (the reference gait, priced as none of the named
+    ones). Its value (the gait of a motion at the nominal ``speed``): the gait whose
+    logged speeds hold ``speed`` (the narrowest range if several), else the one whose
+    range is nearest; the kernels override it per motion where they choose.
+    """
+    from energy_planner.energy.channels import Category, channel_kinds
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
+
+    logged = gait_ranges(model)
+    named = tuple(channel_kinds(model)[GAIT_CHANNEL].categories or ())
+    cats = named + tuple(sorted(g for g in logged if g not in named))
+    nominal = min(
+        (g for g in cats if g in logged),
+        key=lambda g: (max(logged[g][0] - speed, speed - logged[g][1], 0.0),
+                       logged[g][1] - logged[g][0]),
+    )  # fmt: skip
+    channels = replace(
+        channels,
+        constants={**channels.constants, GAIT_CHANNEL: Category(nominal)},
+        runtime={**(channels.runtime or {}), GAIT_CHANNEL: cats},
+        allow_unknown_categories=True,  # the reference gait: none the formulas name
+    )
+    return channels, cats
+
+
+def _gait_inputs(
+    model: Any,
+    gaits: tuple[str, ...],
+    channels: Channels,
+    speed_range: Any,
+    time_weight: float,
+) -> tuple[dict[str, tuple[float, float]], Any, tuple | None, tuple]:
+    """The gait choice's ranges, speed law and kernel inputs.
+
+    Each gait within the speeds its logs walked it at, clipped to ``speed_range`` (the
+    gaits whose speeds miss it are left out); one speed law over every gait (the union
+    of their Laurent exponents). Without ``speed_range`` the motions keep the nominal
+    speed and the channels' gait (a gait is given per motion to
+    :meth:`MotionCost.details`): every gait, no ranges. Returns ``(ranges, law, inputs
+    IN_VMIN .. IN_VINV or None, inputs IN_GAIT_SLOT .. IN_GAIT_VINV)``.
+
+    Raises
+    ------
+    MotionCostError
+        No gait's logged speeds meet ``speed_range``.
+    """
+    from energy_planner.energy.speed import SpeedLaw, speed_law, speed_nodes
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
+
+    names = [name for name, _ in channels.kernel_layout(runtime=True)]
+    slot = float(names.index(GAIT_CHANNEL))
+    logged = gait_ranges(model)
+    if speed_range is None:
+        codes = np.arange(len(gaits), dtype=np.float64)
+        ranges = {g: logged[g] for g in gaits if g in logged}
+        return ranges, None, None, (slot, codes, *_no_gait_inputs()[2:])
+    lo, hi = (float(v) for v in speed_range)
+    ranges = {}
+    for g in gaits:
+        if g in logged:
+            a, b = max(lo, logged[g][0]), min(hi, logged[g][1])
+            if b >= a:
+                ranges[g] = (a, b)
+    if not ranges:
+        have = ", ".join(f"{g} {a:g}-{b:g}" for g, (a, b) in logged.items())
+        raise MotionCostError(
+            f"no gait's logged speeds ({have} m/s) meet the speed range {lo:g}-{hi:g} m/s; "
+            "expected a range that overlaps the logs'"
+        )
+    consts = dict(channels.constants)
+    laws = [speed_law(model, {**consts, GAIT_CHANNEL: g}) for g in ranges]
+    degrees: dict[str, int | None] = {}
+    for law in laws:
+        for name, d in law.degrees.items():
+            degrees[name] = d if degrees.get(name, d) == d else None
+    polynomial = all(law.polynomial for law in laws)
+    exps = sorted({e for law in laws for e in law.exponents}) if polynomial else [-1]
+    law = SpeedLaw(tuple(exps), degrees, polynomial)
+    solves = [speed_nodes(law, a, b) for a, b in ranges.values()]
+    k = len(solves[0][0])
+    nodes = np.ascontiguousarray(np.array([s[0] for s in solves]).reshape(len(ranges), k))
+    inv = np.ascontiguousarray(
+        np.array([s[1] for s in solves]).reshape(len(ranges), max(k - 1, 0), max(k - 1, 0))
+    )
+    vmin, vmax = min(r[0] for r in ranges.values()), max(r[1] for r in ranges.values())
+    e = np.asarray(law.exponents if law.polynomial else (), dtype=np.float64)
+    speed_in = (vmin, vmax, float(time_weight), e, *speed_nodes(law, vmin, vmax))
+    gait_in = (
+        slot,
+        np.array([float(gaits.index(g)) for g in ranges]),
+        np.array([r[0] for r in ranges.values()]),
+        np.array([r[1] for r in ranges.values()]),
+        nodes,
+        inv,
+    )
+    return ranges, law, speed_in, gait_in
 
 
 def gait_limit_values(
