@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.energy.channels import Channels
+from energy_planner.energy.gait_kernels import gait_kernel_module
 from energy_planner.energy.kernels import (
     IN_GRAD,
     IN_X0,
@@ -168,20 +169,22 @@ class MotionCost:
         self.speed_range, self.time_weight, self.speed_law, speed_in = _speed_inputs(
             model, self.speed, speed_range, time_weight, self.constants
         )
-        gait_in = _no_gait_inputs()
-        if self.gaits:
-            self.gait_ranges, law, ranged_in, gait_in = _gait_inputs(
-                model, self.gaits, channels, speed_range, self.time_weight
-            )
-            if ranged_in is not None:  # the kernel's gaits: those within the range
-                self.gaits, self.speed_law, speed_in = tuple(self.gait_ranges), law, ranged_in
         self.data = (
             grad, mask, x0, y0, dx, dy,
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
-            chan, nearest, btan, cmax, *speed_in, *gait_in,
+            chan, nearest, btan, cmax, *speed_in,
         )  # fmt: skip
+        if self.gaits:  # one input tuple per gait after the nominal gait's (gait_kernels)
+            self.gait_ranges, law, gait_data, self.gaits = _gait_inputs(
+                model, self.gaits, channels, self.data, gx.shape, speed_range, self.time_weight
+            )
+            if law is not None:
+                self.speed_law = law
+            self.data = (*self.data, gait_data)
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
-        self._aot = precompiled_module(self.source) if precompiled else None
+        # a model without gaits: the module (and the cache key) of the motion kernels
+        self._module = gait_kernel_module if self.gaits else kernel_module
+        self._aot = precompiled_module(self.source) if precompiled and not self.gaits else None
         self._fns: dict[str, Any] = {}
 
     @property
@@ -206,9 +209,10 @@ class MotionCost:
         gait, else None.
         """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
-        res = kernel_module(self.source).path_speeds(x, y, th, self.data)
+        mod = self._module(self.source)
         if not self.gaits:
-            return res[:, 0], None
+            return mod.path_speeds(x, y, th, self.data), None
+        res = mod.gait_speeds(x, y, th, self.data)
         return res[:, 0], [self.gaits[int(g)] if g >= 0 else None for g in res[:, 1]]
 
     def gait_indices(self, gaits: Any, where: str = "gait") -> np.ndarray:
@@ -245,24 +249,38 @@ class MotionCost:
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without compiled code (a dask worker loads the kernels itself)."""
-        return {**self.__dict__, "_aot": None, "_fns": {}}
+        return {**self.__dict__, "_aot": None, "_fns": {}, "_module": None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._module = gait_kernel_module if self.gaits else kernel_module
 
     @property
     def kernel(self) -> Any:
-        """The numba kernel ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` (J or inf)."""
-        return kernel_module(self.source).motion_cost
+        """The numba kernel ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` (J or inf).
+
+        Where the motions choose their gait, ``gait_cost`` of :mod:`energy_planner.energy.
+        gait_kernels`' module (the same signature).
+        """
+        return self._fn_numba("motion_cost")
 
     @property
     def map_kernel(self) -> Any:
         """The numba kernel of the energy map's costs (``map_costs``, see ``make_kernels``)."""
-        return kernel_module(self.source).map_costs
+        return self._module(self.source).map_costs
 
     def _fn(self, name: str) -> Any:
         """Kernel ``name``: the precompiled one if there is one, else numba's."""
         fn = self._fns.get(name)
         if fn is None:
-            fn = self._fns[name] = getattr(self._aot or kernel_module(self.source), name)
+            fn = self._fns[name] = (
+                getattr(self._aot, name) if self._aot is not None else self._fn_numba(name)
+            )
         return fn
+
+    def _fn_numba(self, name: str) -> Any:
+        """The numba kernel ``name`` (its gait-choosing form where the motions choose)."""
+        return getattr(self._module(self.source), _GAIT_FORMS[name] if self.gaits else name)
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
@@ -303,8 +321,13 @@ class MotionCost:
         if durations is None:
             durations = np.full(m, -1.0)
         durations = np.ascontiguousarray(durations, dtype=np.float64)
-        gaits = np.full(m, -1.0) if gaits is None else np.ascontiguousarray(gaits, np.float64)
-        out = self._fn("path_table")(x, y, th, durations, gaits, self.data)
+        if not self.gaits:
+            if gaits is not None and np.any(np.asarray(gaits, dtype=np.float64) >= 0):
+                raise MotionCostError("gaits given to a cost that does not choose its gait")
+            out = self._fn("path_table")(x, y, th, durations, self.data)
+        else:
+            gaits = np.full(m, -1.0) if gaits is None else np.ascontiguousarray(gaits, np.float64)
+            out = self._fn("path_table")(x, y, th, durations, gaits, self.data)
         assert out.shape[1] == N_OUT
         return out
 
@@ -393,10 +416,13 @@ def _speed_inputs(
     return (lo, hi), float(time_weight), law, (lo, hi, float(time_weight), exps, nodes, inverse)
 
 
-def _no_gait_inputs() -> tuple:
-    """Kernel inputs ``IN_GAIT_SLOT .. IN_GAIT_VINV`` without a gait choice."""
-    return (-1.0, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, 0)),
-            np.zeros((0, 0, 0)))  # fmt: skip
+#: The gait-choosing form of each kernel a cost calls (:mod:`energy_planner.energy._gait`).
+_GAIT_FORMS = {
+    "motion_cost": "gait_cost",
+    "motion_batch": "gait_batch",
+    "path_table": "gait_table",
+    "path_speeds": "gait_speeds",
+}
 
 
 def _wants_gaits(model: Any, channels: Channels, choice: bool | None) -> bool:
@@ -443,73 +469,72 @@ def _gait_inputs(
     model: Any,
     gaits: tuple[str, ...],
     channels: Channels,
+    data: tuple,
+    shape: tuple[int, int],
     speed_range: Any,
     time_weight: float,
-) -> tuple[dict[str, tuple[float, float]], Any, tuple | None, tuple]:
-    """The gait choice's ranges, speed law and kernel inputs.
+) -> tuple[dict[str, tuple[float, float]], Any, tuple, tuple[str, ...]]:
+    """The gait choice's ranges, speed law, per-gait kernel inputs and gaits.
 
     Each gait within the speeds its logs walked it at, clipped to ``speed_range`` (the
-    gaits whose speeds miss it are left out); one speed law over every gait (the union
-    of their Laurent exponents). Without ``speed_range`` the motions keep the nominal
-    speed and the channels' gait (a gait is given per motion to
-    :meth:`MotionCost.details`): every gait, no ranges. Returns ``(ranges, law, inputs
-    IN_VMIN .. IN_VINV or None, inputs IN_GAIT_SLOT .. IN_GAIT_VINV)``.
+    gaits whose speeds miss it are left out); its inputs are ``data`` (the nominal
+    gait's, :attr:`MotionCost.data`) with the gait's channel values and its own speed
+    range and speed law's nodes (:mod:`energy_planner.energy.gait_kernels`). Without
+    ``speed_range`` the motions keep the nominal speed and gait (a gait is given per
+    motion to :meth:`MotionCost.details`): every gait, its logged range, the nominal
+    speed. The law returned covers every gait (the union of their Laurent exponents;
+    None without a range). Returns ``(ranges, law, per-gait inputs, gaits)``.
 
     Raises
     ------
     MotionCostError
         No gait's logged speeds meet ``speed_range``.
     """
-    from energy_planner.energy.speed import SpeedLaw, speed_law, speed_nodes
+    from energy_planner.energy.channels import Category
+    from energy_planner.energy.kernels import IN_CHAN, IN_SPEED, IN_VMIN
+    from energy_planner.energy.speed import SpeedLaw
     from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
 
-    names = [name for name, _ in channels.kernel_layout(runtime=True)]
-    slot = float(names.index(GAIT_CHANNEL))
     logged = gait_ranges(model)
     if speed_range is None:
-        codes = np.arange(len(gaits), dtype=np.float64)
         ranges = {g: logged[g] for g in gaits if g in logged}
-        return ranges, None, None, (slot, codes, *_no_gait_inputs()[2:])
-    lo, hi = (float(v) for v in speed_range)
-    ranges = {}
-    for g in gaits:
-        if g in logged:
-            a, b = max(lo, logged[g][0]), min(hi, logged[g][1])
-            if b >= a:
-                ranges[g] = (a, b)
-    if not ranges:
-        have = ", ".join(f"{g} {a:g}-{b:g}" for g, (a, b) in logged.items())
-        raise MotionCostError(
-            f"no gait's logged speeds ({have} m/s) meet the speed range {lo:g}-{hi:g} m/s; "
-            "expected a range that overlaps the logs'"
-        )
+    else:
+        lo, hi = (float(v) for v in speed_range)
+        ranges = {}
+        for g in gaits:
+            if g in logged:
+                a, b = max(lo, logged[g][0]), min(hi, logged[g][1])
+                if b >= a:
+                    ranges[g] = (a, b)
+        if not ranges:
+            have = ", ".join(f"{g} {a:g}-{b:g}" for g, (a, b) in logged.items())
+            raise MotionCostError(
+                f"no gait's logged speeds ({have} m/s) meet the speed range {lo:g}-{hi:g} "
+                "m/s; expected a range that overlaps the logs'"
+            )
+        gaits = tuple(ranges)  # the kernel's gaits: those within the range
     consts = dict(channels.constants)
-    laws = [speed_law(model, {**consts, GAIT_CHANNEL: g}) for g in ranges]
+    per_gait = []
+    laws = []
+    for g in gaits:
+        mine = replace(channels, constants={**consts, GAIT_CHANNEL: Category(g)})
+        chan, _ = mine.stack(shape, runtime=True)
+        speed_in = data[IN_VMIN:]
+        if speed_range is not None:
+            _, _, law, speed_in = _speed_inputs(
+                model, data[IN_SPEED], ranges[g], time_weight, {**consts, GAIT_CHANNEL: g}
+            )
+            laws.append(law)
+        per_gait.append((*data[:IN_CHAN], chan, *data[IN_CHAN + 1 : IN_VMIN], *speed_in))
+    if not laws:
+        return ranges, None, tuple(per_gait), gaits
     degrees: dict[str, int | None] = {}
     for law in laws:
         for name, d in law.degrees.items():
             degrees[name] = d if degrees.get(name, d) == d else None
     polynomial = all(law.polynomial for law in laws)
     exps = sorted({e for law in laws for e in law.exponents}) if polynomial else [-1]
-    law = SpeedLaw(tuple(exps), degrees, polynomial)
-    solves = [speed_nodes(law, a, b) for a, b in ranges.values()]
-    k = len(solves[0][0])
-    nodes = np.ascontiguousarray(np.array([s[0] for s in solves]).reshape(len(ranges), k))
-    inv = np.ascontiguousarray(
-        np.array([s[1] for s in solves]).reshape(len(ranges), max(k - 1, 0), max(k - 1, 0))
-    )
-    vmin, vmax = min(r[0] for r in ranges.values()), max(r[1] for r in ranges.values())
-    e = np.asarray(law.exponents if law.polynomial else (), dtype=np.float64)
-    speed_in = (vmin, vmax, float(time_weight), e, *speed_nodes(law, vmin, vmax))
-    gait_in = (
-        slot,
-        np.array([float(gaits.index(g)) for g in ranges]),
-        np.array([r[0] for r in ranges.values()]),
-        np.array([r[1] for r in ranges.values()]),
-        nodes,
-        inv,
-    )
-    return ranges, law, speed_in, gait_in
+    return ranges, SpeedLaw(tuple(exps), degrees, polynomial), tuple(per_gait), gaits
 
 
 def gait_limit_values(

@@ -104,8 +104,11 @@ def search_module(cost, kernels: str = "all"):
         raise ValueError(f"unknown kernel group {kernels!r}; valid: {', '.join(KERNEL_GROUPS)}")
     mod_name = cost.kernel.py_func.__module__
     # a cost that chooses its speed prices edges by motion_best (the fixed-speed search
-    # keeps motion_full: its code and numbers are unchanged)
+    # keeps motion_full: its code and numbers are unchanged), one that chooses its gait
+    # by gait_best (energy/_gait.py)
     fn = "motion_best" if getattr(cost, "ranged", False) else "motion_full"
+    if getattr(cost, "gaits", ()):
+        fn = "gait_best"
     if mod_name == "energy_planner.energy._motion" and fn == "motion_full":
         import energy_planner.planning._search as mod
     else:
