@@ -139,3 +139,18 @@ def test_plan_changes_gait_mid_path_and_energy_reads_it_back(two_regimes, tmp_pa
     run = CliRunner().invoke(main, ["energy", "--dem", str(dem), "--waypoints", str(bad),
                                     "--model", str(model)])  # fmt: skip
     assert run.exit_code != 0 and "gallop" in run.output and "walk" in run.output
+
+
+def test_mission_legs_carry_their_gaits_as_plan_prices_them(two_regimes):
+    """A mission's leg is the plan between its sites: its JSON gives each segment's gait."""
+    from energy_planner.mission import Sites
+
+    p, _, _ = two_regimes
+    sites = Sites(np.array([[500002.5, 5000005.5], [500027.5, 5000005.5]]), ["flat", "slope"])
+    res = ep.mission(p, sites, order="given", speed=(0.2, 1.5), planner="search")
+    (leg,) = res.to_dict()["legs"]
+    alone = ep.plan(p, (500002.5, 5000005.5), (500027.5, 5000005.5), speed=(0.2, 1.5),
+                    planner="search", progress=False)  # fmt: skip
+    assert leg["gaits"] == alone.gaits and len(leg["gaits"]) == len(leg["times_s"]) - 1
+    assert leg["gaits"][0] == "trot" and leg["gaits"][-1] == "walk"
+    assert leg["energy_j"] == pytest.approx(alone.energy_j, rel=1e-6)
