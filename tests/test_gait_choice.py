@@ -72,6 +72,27 @@ def test_each_motion_takes_the_hand_computed_gait_and_speed(grade):
     assert cost(x[0], y[0], 0.0, x[1], y[1], 0.0) == pytest.approx(ground * per_m, rel=0.01)
 
 
+def test_only_a_cost_that_chooses_its_gait_compiles_the_gait_choice():
+    """A model without gaits (or with its gait given) over a speed range keeps the motion
+    kernels' module and inputs (none of the gait choice is compiled for it); a model that
+    chooses its gait adds the choice after those very kernels."""
+    from energy_planner.energy.gait_kernels import gait_source
+    from energy_planner.energy.kernels import N_IN, kernel_module, motion_source
+
+    t = Terrain.from_function(lambda x, y: 0.0 * x, size=(8, 8), resolution=1.0)
+    for cost in (
+        MotionCost(t, EnergyModel.default(), speed_range=(0.2, 1.0)),
+        MotionCost(t, _model(), speed_range=(0.2, 1.5), constants={"gait": "walk"}),
+    ):
+        assert cost.gaits == () and len(cost.data) == N_IN
+        assert "gait_best" not in motion_source(cost.source)
+        assert cost._kernels() is kernel_module(cost.source)
+    chooses = MotionCost(t, _model(), speed_range=(0.2, 1.5))
+    assert chooses.gaits == ("trot", "walk") and len(chooses.data) == N_IN + 1
+    assert motion_source(chooses.source) in gait_source(chooses.source)
+    assert chooses.kernel.py_func.__name__ == "gait_cost"
+
+
 def test_fixed_gait_channel_keeps_one_gait():
     """The gait given as a channel: no choice (today's behaviour), the range unclipped."""
     t = Terrain.from_function(lambda x, y: 0.0 * x, size=(24, 12), resolution=1.0)

@@ -95,6 +95,8 @@ class MotionCost:
         and model, then loaded without numba), not with numba's kernels. Same numbers;
         for commands whose work is small beside numba's start-up. The numba kernels
         (:attr:`kernel`, :attr:`map_kernel`, the planners') load on first use either way.
+        A cost that chooses its gait has none (its inputs hold one tuple per gait, whose
+        number is part of their type): numba's kernels serve it.
     """
 
     def __init__(
@@ -182,8 +184,6 @@ class MotionCost:
                 self.speed_law = law
             self.data = (*self.data, gait_data)
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
-        # a model without gaits: the module (and the cache key) of the motion kernels
-        self._module = gait_kernel_module if self.gaits else kernel_module
         self._aot = precompiled_module(self.source) if precompiled and not self.gaits else None
         self._fns: dict[str, Any] = {}
 
@@ -209,7 +209,7 @@ class MotionCost:
         gait, else None.
         """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
-        mod = self._module(self.source)
+        mod = self._kernels()
         if not self.gaits:
             return mod.path_speeds(x, y, th, self.data), None
         res = mod.gait_speeds(x, y, th, self.data)
@@ -249,11 +249,16 @@ class MotionCost:
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without compiled code (a dask worker loads the kernels itself)."""
-        return {**self.__dict__, "_aot": None, "_fns": {}, "_module": None}
+        return {**self.__dict__, "_aot": None, "_fns": {}}
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._module = gait_kernel_module if self.gaits else kernel_module
+    def _kernels(self) -> Any:
+        """The compiled kernel module of this cost.
+
+        The motion kernels (:func:`~energy_planner.energy.kernels.kernel_module`); where
+        the motions choose their gait, :func:`~energy_planner.energy.gait_kernels.
+        gait_kernel_module` (the same kernels and the gait choice's).
+        """
+        return (gait_kernel_module if self.gaits else kernel_module)(self.source)
 
     @property
     def kernel(self) -> Any:
@@ -267,7 +272,7 @@ class MotionCost:
     @property
     def map_kernel(self) -> Any:
         """The numba kernel of the energy map's costs (``map_costs``, see ``make_kernels``)."""
-        return self._module(self.source).map_costs
+        return self._kernels().map_costs
 
     def _fn(self, name: str) -> Any:
         """Kernel ``name``: the precompiled one if there is one, else numba's."""
@@ -280,7 +285,7 @@ class MotionCost:
 
     def _fn_numba(self, name: str) -> Any:
         """The numba kernel ``name`` (its gait-choosing form where the motions choose)."""
-        return getattr(self._module(self.source), _GAIT_FORMS[name] if self.gaits else name)
+        return getattr(self._kernels(), _GAIT_FORMS[name] if self.gaits else name)
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
