@@ -82,7 +82,7 @@ def test_only_a_cost_that_chooses_its_gait_compiles_the_gait_choice():
     t = Terrain.from_function(lambda x, y: 0.0 * x, size=(8, 8), resolution=1.0)
     for cost in (
         MotionCost(t, EnergyModel.default(), speed_range=(0.2, 1.0)),
-        MotionCost(t, _model(), speed_range=(0.2, 1.5), constants={"gait": "walk"}),
+        MotionCost(t, _model(), speed_range=(0.2, 1.5), constants={"gait": "trot"}),
     ):
         assert cost.gaits == () and len(cost.data) == N_IN
         assert "gait_best" not in motion_source(cost.source)
