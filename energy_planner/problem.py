@@ -391,7 +391,7 @@ class Problem:
         return np.column_stack([out, arr[:, 2]]) if arr.shape[1] > 2 else out
 
     def path_energy(self, points: Any, yaw: Any = None, t: Any = None, *, crs: Any = None,
-                    **trust: Any):  # fmt: skip
+                    segment_gaits: Any = None, **trust: Any):  # fmt: skip
         """Energy of walking the given points, with its interval, domain and battery verdict.
 
         :func:`energy_planner.energy.path_energy` of the points; the result's
@@ -400,7 +400,8 @@ class Problem:
         :class:`~energy_planner.trust.Trust` keywords ``level``, ``battery_wh``,
         ``reserve_wh``, ``confidence``. The request's gait limits hold
         (:meth:`gait_only`), as ``energy --max-crab`` does: a segment that breaks one is
-        an error naming it.
+        an error naming it. ``segment_gaits``: each segment's gait (a plan's, for a model that names
+        gaits; see :func:`~energy_planner.energy.path_energy`).
         """
         from energy_planner.energy import path_energy
         from energy_planner.trust import Trust
@@ -412,7 +413,10 @@ class Problem:
         xy = self.to_work(points, crs)[:, :2]
         gait = self.gait_only()
         cost = self.cost if gait.request == self.request else gait.cost
-        pe = path_energy(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost)
+        if segment_gaits is not None and not cost.gaits:  # the cost walks a given gait
+            cost = gait._make_cost(gait_choice=True)
+        pe = path_energy(self.terrain, self.model, xy, yaw=yaw, t=t, cost=cost,
+                         gait=segment_gaits)  # fmt: skip
         pe.assessment = assess_path(self.model, pe, cost, want)
         pe.problem = self
         return pe

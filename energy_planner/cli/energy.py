@@ -165,6 +165,7 @@ def compute(
         waypoints_to_work,
     )
     from energy_planner.errors import EnergyPlannerError
+    from energy_planner.io.path_format import segment_gaits
     from energy_planner.problem import Problem
     from energy_planner.request import Request
     from energy_planner.uncertainty import BatteryError
@@ -181,7 +182,13 @@ def compute(
             f"{exc}\nhint: a CSV with a header x,y[,yaw_deg][,t], a GeoJSON LineString in "
             "the DEM's CRS or a ROS bag with a nav_msgs/Path (docs/energy.md)"
         ) from exc
+    try:
+        gaits = segment_gaits(wp)
+    except WaypointError as exc:
+        raise click.BadParameter(str(exc), param_hint="--waypoints") from exc
     notes = list(wp.notes)
+    if gaits is not None:
+        notes.append("each segment walked in the gait the file gives (properties.gait)")
     if wp.t is not None:
         notes.append(
             "times from the file set the speed and turning rate; --speed and --yaw-rate "
@@ -206,12 +213,14 @@ def compute(
                 terrain, model, speed, yaw_rate, channels=channels,
                 max_backward_slope_deg=max_backward_slope_deg, max_crab_deg=max_crab_deg,
                 precompiled=True,  # loads without numba (built once per machine and model)
+                gait_choice=True if gaits is not None else None,
             )  # fmt: skip
             problem = Problem.of_cost(cost, request)
         notes += [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
         xs, ys = terrain.from_work(xy[:, 0], xy[:, 1])  # the DEM's CRS, for messages
         check_waypoints(terrain, cost, np.column_stack([np.atleast_1d(xs), np.atleast_1d(ys)]), xy)
-        result = problem.path_energy(xy, yaw, wp.t, crs=terrain.crs, trust=trust)
+        result = problem.path_energy(xy, yaw, wp.t, crs=terrain.crs, segment_gaits=gaits,
+                                     trust=trust)  # fmt: skip
     except click.ClickException:
         raise
     except BatteryError as exc:

@@ -68,6 +68,7 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
+import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 from functools import lru_cache
@@ -198,22 +199,37 @@ class HeadingCost:
     def of_motion_cost(
         cls, cost: Any, *, max_crab_deg: float | None = None,
         max_backward_slope_deg: float | None = None, speed: float | None = None,
+        gait: str | None = None,
     ) -> HeadingCost:  # fmt: skip
         """The heading cost of a :class:`~energy_planner.energy.MotionCost`'s physics.
 
         Its model, speed (or ``speed``: one of a cost's speed range), channels and slope
         limits; the gait limits given here, or the cost's own ``max_crab_deg`` /
-        ``max_backward_slope_deg`` if it has them.
+        ``max_backward_slope_deg`` if it has them. ``gait``: one of the gaits a cost
+        chooses among (:attr:`MotionCost.gaits`), walked everywhere.
         """
+        channels = cost.channels
+        if gait is None and getattr(cost, "gaits", ()):  # the gait at the nominal speed
+            gait = cost.nominal_gait
+        if gait is not None:
+            from energy_planner.model import GAIT_CHANNEL
+
+            channels = replace(
+                channels, constants={**channels.constants, GAIT_CHANNEL: str(gait)},
+                allow_unknown_categories=True,
+            )  # fmt: skip
         if max_crab_deg is None:
             max_crab_deg = getattr(cost, "max_crab_deg", None)
         if max_backward_slope_deg is None:
             max_backward_slope_deg = getattr(cost, "max_backward_slope_deg", None)
-        return heading_cost(
-            cost.model, speed=cost.speed if speed is None else speed, channels=cost.channels,
-            max_slope_deg=cost.max_slope_deg, max_cross_slope_deg=cost.max_cross_slope_deg,
-            max_crab_deg=max_crab_deg, max_backward_slope_deg=max_backward_slope_deg,
-        )  # fmt: skip
+        with warnings.catch_warnings():
+            if gait is not None:  # a gait the model does not name: its reference gait
+                warnings.filterwarnings("ignore", message="channel 'gait'")
+            return heading_cost(
+                cost.model, speed=cost.speed if speed is None else speed, channels=channels,
+                max_slope_deg=cost.max_slope_deg, max_cross_slope_deg=cost.max_cross_slope_deg,
+                max_crab_deg=max_crab_deg, max_backward_slope_deg=max_backward_slope_deg,
+            )  # fmt: skip
 
     @classmethod
     def of_request(cls, model: Any, request: Any = None, channels: Any = None) -> HeadingCost:

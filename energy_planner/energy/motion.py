@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.energy.channels import Channels
+from energy_planner.energy.gait_kernels import gait_kernel_module
 from energy_planner.energy.kernels import (
     IN_GRAD,
     IN_X0,
@@ -24,6 +25,7 @@ from energy_planner.energy.kernels import (
     precompiled_module,
 )
 from energy_planner.errors import ChannelError, ModelError, MotionCostError
+from energy_planner.model import GAIT_CHANNEL
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 __all__ = ["MotionCost", "gait_limit_values"]
@@ -76,6 +78,16 @@ class MotionCost:
     time_weight : float
         The price of a second, J/s (``lambda`` >= 0): motions minimise energy + lambda x
         duration (a deadline's Lagrangian, :func:`energy_planner.planning.speed.plan_deadline`).
+    gait_choice : bool, optional
+        Where the model names gaits (a ``gait`` channel, and the speeds its logs walked
+        each gait at, :func:`energy_planner.uncertainty.domain.gait_speed_ranges`) and
+        the channels do not give the gait: with a ``speed_range`` every motion chooses
+        its gait, each gait within its own logged speeds (clipped to the range), the
+        cheapest (gait, speed) pair kept (:attr:`gaits`; :meth:`best_timing` reports
+        each motion's); at the nominal speed, motions walk the gait whose logged speeds
+        hold it (:attr:`nominal_gait`), or the gait given per motion to :meth:`details`.
+        Default (None) or True: so; False: off (the model then needs the gait as a
+        channel).
     precompiled : bool
         Price motions asked from Python (:meth:`__call__`, :meth:`batch`,
         :meth:`details`) with the model's precompiled kernel module
@@ -83,6 +95,8 @@ class MotionCost:
         and model, then loaded without numba), not with numba's kernels. Same numbers;
         for commands whose work is small beside numba's start-up. The numba kernels
         (:attr:`kernel`, :attr:`map_kernel`, the planners') load on first use either way.
+        A cost that chooses its gait has none (its inputs hold one tuple per gait, whose
+        number is part of their type): numba's kernels serve it.
     """
 
     def __init__(
@@ -104,6 +118,7 @@ class MotionCost:
         speed_range: tuple[float, float] | None = None,
         time_weight: float = 0.0,
         precompiled: bool = False,
+        gait_choice: bool | None = None,
     ) -> None:
         if not (speed > 0 and yaw_rate > 0):
             raise MotionCostError(
@@ -127,6 +142,12 @@ class MotionCost:
         if extra:
             channels = replace(channels, constants={**channels.constants, **extra})
         channels = channels.resolve(model)  # values of the kinds the model reads
+        self.gaits: tuple[str, ...] = ()
+        self.gait_ranges: dict[str, tuple[float, float]] = {}
+        self.nominal_gait: str | None = None
+        if _wants_gaits(model, channels, gait_choice):
+            channels, self.gaits = _gait_channels(model, channels, float(speed))
+            self.nominal_gait = str(channels.constants[GAIT_CHANNEL])
         if channels.rasters:
             channels = channels.bind(terrain)
         self.channels = channels
@@ -155,8 +176,15 @@ class MotionCost:
             self.speed, self.yaw_rate, self.step, float(ang_step), tmax, smax,
             chan, nearest, btan, cmax, *speed_in,
         )  # fmt: skip
+        if self.gaits:  # one input tuple per gait after the nominal gait's (gait_kernels)
+            self.gait_ranges, law, gait_data, self.gaits = _gait_inputs(
+                model, self.gaits, channels, self.data, gx.shape, speed_range, self.time_weight
+            )
+            if law is not None:
+                self.speed_law = law
+            self.data = (*self.data, gait_data)
         self.source = model.kernel_source(self.constants, channels.kernel_layout(runtime=True))
-        self._aot = precompiled_module(self.source) if precompiled else None
+        self._aot = precompiled_module(self.source) if precompiled and not self.gaits else None
         self._fns: dict[str, Any] = {}
 
     @property
@@ -171,29 +199,93 @@ class MotionCost:
         a range); ``inf`` where a motion breaks a limit. Give them to :meth:`details` (or
         ``t`` to :func:`energy_planner.energy.path_energy`) for the energy and its breakdown.
         """
+        return self.best_timing(x, y, th)[0]
+
+    def best_timing(self, x, y, th) -> tuple[np.ndarray, list[str | None] | None]:
+        """Durations (s) and gaits of the motions between consecutive poses as chosen.
+
+        The durations of :meth:`best_durations`; the gaits (names of :attr:`gaits`, None
+        for a motion in none, e.g. one that breaks a limit) where the motions choose their
+        gait, else None.
+        """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
-        return kernel_module(self.source).path_speeds(x, y, th, self.data)
+        mod = self._kernels()
+        if not self.gaits:
+            return mod.path_speeds(x, y, th, self.data), None
+        res = mod.gait_speeds(x, y, th, self.data)
+        return res[:, 0], [self.gaits[int(g)] if g >= 0 else None for g in res[:, 1]]
+
+    def gait_indices(self, gaits: Any, where: str = "gait") -> np.ndarray:
+        """The kernel's gait index of each gait name (None: -1, the default gait).
+
+        Raises
+        ------
+        MotionCostError
+            A name that is none of :attr:`gaits` (naming it and ``where``), or gaits given
+            to a cost that does not choose its gait.
+        """
+        names = list(gaits)
+        if not self.gaits:
+            if all(g is None for g in names):
+                return np.full(len(names), -1.0)
+            raise MotionCostError(
+                f"{where}: gaits given ({sorted({str(g) for g in names if g is not None})}) "
+                "but the model names no gaits it chooses among (no gait channel with the "
+                "speeds per gait in metadata.fit.domain.gait_speed_m_s), or the gait is "
+                "fixed by a channel; expected a model fitted on logs with a gait channel"
+            )
+        out = np.empty(len(names))
+        for i, g in enumerate(names):
+            if g is None:
+                out[i] = -1.0
+            elif g in self.gaits:
+                out[i] = float(self.gaits.index(g))
+            else:
+                raise MotionCostError(
+                    f"{where}: gait {g!r} of segment {i} is not one the model names; "
+                    f"expected one of {', '.join(self.gaits)}"
+                )
+        return out
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without compiled code (a dask worker loads the kernels itself)."""
         return {**self.__dict__, "_aot": None, "_fns": {}}
 
+    def _kernels(self) -> Any:
+        """The compiled kernel module of this cost.
+
+        The motion kernels (:func:`~energy_planner.energy.kernels.kernel_module`); where
+        the motions choose their gait, :func:`~energy_planner.energy.gait_kernels.
+        gait_kernel_module` (the same kernels and the gait choice's).
+        """
+        return (gait_kernel_module if self.gaits else kernel_module)(self.source)
+
     @property
     def kernel(self) -> Any:
-        """The numba kernel ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` (J or inf)."""
-        return kernel_module(self.source).motion_cost
+        """The numba kernel ``motion_cost(x0, y0, th0, x1, y1, th1, data)`` (J or inf).
+
+        Where the motions choose their gait, ``gait_cost`` of :mod:`energy_planner.energy.
+        gait_kernels`' module (the same signature).
+        """
+        return self._fn_numba("motion_cost")
 
     @property
     def map_kernel(self) -> Any:
         """The numba kernel of the energy map's costs (``map_costs``, see ``make_kernels``)."""
-        return kernel_module(self.source).map_costs
+        return self._kernels().map_costs
 
     def _fn(self, name: str) -> Any:
         """Kernel ``name``: the precompiled one if there is one, else numba's."""
         fn = self._fns.get(name)
         if fn is None:
-            fn = self._fns[name] = getattr(self._aot or kernel_module(self.source), name)
+            fn = self._fns[name] = (
+                getattr(self._aot, name) if self._aot is not None else self._fn_numba(name)
+            )
         return fn
+
+    def _fn_numba(self, name: str) -> Any:
+        """The numba kernel ``name`` (its gait-choosing form where the motions choose)."""
+        return getattr(self._kernels(), _GAIT_FORMS[name] if self.gaits else name)
 
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
@@ -219,19 +311,28 @@ class MotionCost:
         arrs = [np.ascontiguousarray(a, dtype=np.float64) for a in (x0, y0, th0, x1, y1, th1)]
         return self._fn("motion_batch")(*arrs, self.data)
 
-    def details(self, x, y, th, durations=None) -> np.ndarray:
+    def details(self, x, y, th, durations=None, gaits=None) -> np.ndarray:
         """Per-motion results along a pose sequence, shape ``(n - 1, N_OUT)``.
 
         Columns, read through the named indices ``OUT_*`` of
         :mod:`energy_planner.energy.kernels`: energy J, duration s, distance m, |turn|
         rad, mean slope rad, mean |gamma| rad, max slope rad, energy by kind (forward,
-        backward, lateral, turning, other), violation code.
+        backward, lateral, turning, other), violation code, gait. ``gaits``: each
+        motion's gait, an index of :attr:`gaits` (:meth:`gait_indices`; -1 or None: the
+        channels' own).
         """
         x, y, th = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, th))
+        m = max(len(x) - 1, 0)
         if durations is None:
-            durations = np.full(max(len(x) - 1, 0), -1.0)
+            durations = np.full(m, -1.0)
         durations = np.ascontiguousarray(durations, dtype=np.float64)
-        out = self._fn("path_table")(x, y, th, durations, self.data)
+        if not self.gaits:
+            if gaits is not None and np.any(np.asarray(gaits, dtype=np.float64) >= 0):
+                raise MotionCostError("gaits given to a cost that does not choose its gait")
+            out = self._fn("path_table")(x, y, th, durations, self.data)
+        else:
+            gaits = np.full(m, -1.0) if gaits is None else np.ascontiguousarray(gaits, np.float64)
+            out = self._fn("path_table")(x, y, th, durations, gaits, self.data)
         assert out.shape[1] == N_OUT
         return out
 
@@ -265,7 +366,10 @@ class MotionCost:
                 "ay": np.zeros(a.size),
             }  # fmt: skip
             per_m = np.inf
-            for combo in _combinations(self.channels.value_samples()):
+            samples = self.channels.value_samples()
+            if self.gaits:  # every gait the motions may choose
+                samples[GAIT_CHANNEL] = np.array(self.gaits, dtype=object)
+            for combo in _combinations(samples):
                 for k, val in combo.items():
                     feats[k] = np.full(a.size, val)
                 per_m = min(per_m, float((self.model.power(feats) / v.ravel()).min()))
@@ -315,6 +419,127 @@ def _speed_inputs(
     nodes, inverse = speed_nodes(law, lo, hi)
     exps = np.asarray(law.exponents if law.polynomial else (), dtype=np.float64)
     return (lo, hi), float(time_weight), law, (lo, hi, float(time_weight), exps, nodes, inverse)
+
+
+#: The gait-choosing form of each kernel a cost calls (:mod:`energy_planner.energy._gait`).
+_GAIT_FORMS = {
+    "motion_cost": "gait_cost",
+    "motion_batch": "gait_batch",
+    "path_table": "gait_table",
+    "path_speeds": "gait_speeds",
+}
+
+
+def _wants_gaits(model: Any, channels: Channels, choice: bool | None) -> bool:
+    """Whether a cost chooses its gait (see :class:`MotionCost`'s ``gait_choice``)."""
+    from energy_planner.uncertainty.domain import gait_speed_ranges
+
+    if choice is False or GAIT_CHANNEL in channels.names or GAIT_CHANNEL not in model.variables:
+        return False
+    return bool(gait_speed_ranges(model))
+
+
+def _gait_channels(
+    model: Any, channels: Channels, speed: float
+) -> tuple[Channels, tuple[str, ...]]:
+    """``channels`` with the gait as a run-time constant over every gait, and the gaits.
+
+    The gait channel's categories in the kernel: those the model's formulas name, then
+    the other gaits its logs walked (the reference gait, priced as none of the named
+    ones). Its value (the gait of a motion at the nominal ``speed``): the gait whose
+    logged speeds hold ``speed`` (the narrowest range if several), else the one whose
+    range is nearest; the kernels override it per motion where they choose.
+    """
+    from energy_planner.energy.channels import Category, channel_kinds
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
+
+    logged = gait_ranges(model)
+    named = tuple(channel_kinds(model)[GAIT_CHANNEL].categories or ())
+    cats = named + tuple(sorted(g for g in logged if g not in named))
+    nominal = min(
+        (g for g in cats if g in logged),
+        key=lambda g: (max(logged[g][0] - speed, speed - logged[g][1], 0.0),
+                       logged[g][1] - logged[g][0]),
+    )  # fmt: skip
+    channels = replace(
+        channels,
+        constants={**channels.constants, GAIT_CHANNEL: Category(nominal)},
+        runtime={**(channels.runtime or {}), GAIT_CHANNEL: cats},
+        allow_unknown_categories=True,  # the reference gait: none the formulas name
+    )
+    return channels, cats
+
+
+def _gait_inputs(
+    model: Any,
+    gaits: tuple[str, ...],
+    channels: Channels,
+    data: tuple,
+    shape: tuple[int, int],
+    speed_range: Any,
+    time_weight: float,
+) -> tuple[dict[str, tuple[float, float]], Any, tuple, tuple[str, ...]]:
+    """The gait choice's ranges, speed law, per-gait kernel inputs and gaits.
+
+    Each gait within the speeds its logs walked it at, clipped to ``speed_range`` (the
+    gaits whose speeds miss it are left out); its inputs are ``data`` (the nominal
+    gait's, :attr:`MotionCost.data`) with the gait's channel values and its own speed
+    range and speed law's nodes (:mod:`energy_planner.energy.gait_kernels`). Without
+    ``speed_range`` the motions keep the nominal speed and gait (a gait is given per
+    motion to :meth:`MotionCost.details`): every gait, its logged range, the nominal
+    speed. The law returned covers every gait (the union of their Laurent exponents;
+    None without a range). Returns ``(ranges, law, per-gait inputs, gaits)``.
+
+    Raises
+    ------
+    MotionCostError
+        No gait's logged speeds meet ``speed_range``.
+    """
+    from energy_planner.energy.channels import Category
+    from energy_planner.energy.kernels import IN_CHAN, IN_SPEED, IN_VMIN
+    from energy_planner.energy.speed import SpeedLaw
+    from energy_planner.uncertainty.domain import gait_speed_ranges as gait_ranges
+
+    logged = gait_ranges(model)
+    if speed_range is None:
+        ranges = {g: logged[g] for g in gaits if g in logged}
+    else:
+        lo, hi = (float(v) for v in speed_range)
+        ranges = {}
+        for g in gaits:
+            if g in logged:
+                a, b = max(lo, logged[g][0]), min(hi, logged[g][1])
+                if b >= a:
+                    ranges[g] = (a, b)
+        if not ranges:
+            have = ", ".join(f"{g} {a:g}-{b:g}" for g, (a, b) in logged.items())
+            raise MotionCostError(
+                f"no gait's logged speeds ({have} m/s) meet the speed range {lo:g}-{hi:g} "
+                "m/s; expected a range that overlaps the logs'"
+            )
+        gaits = tuple(ranges)  # the kernel's gaits: those within the range
+    consts = dict(channels.constants)
+    per_gait = []
+    laws = []
+    for g in gaits:
+        mine = replace(channels, constants={**consts, GAIT_CHANNEL: Category(g)})
+        chan, _ = mine.stack(shape, runtime=True)
+        speed_in = data[IN_VMIN:]
+        if speed_range is not None:
+            _, _, law, speed_in = _speed_inputs(
+                model, data[IN_SPEED], ranges[g], time_weight, {**consts, GAIT_CHANNEL: g}
+            )
+            laws.append(law)
+        per_gait.append((*data[:IN_CHAN], chan, *data[IN_CHAN + 1 : IN_VMIN], *speed_in))
+    if not laws:
+        return ranges, None, tuple(per_gait), gaits
+    degrees: dict[str, int | None] = {}
+    for law in laws:
+        for name, d in law.degrees.items():
+            degrees[name] = d if degrees.get(name, d) == d else None
+    polynomial = all(law.polynomial for law in laws)
+    exps = sorted({e for law in laws for e in law.exponents}) if polynomial else [-1]
+    return ranges, SpeedLaw(tuple(exps), degrees, polynomial), tuple(per_gait), gaits
 
 
 def gait_limit_values(

@@ -203,6 +203,7 @@ def path_energy(
     constants: Mapping[str, Any] | None = None,
     channels: Channels | None = None,
     cost: MotionCost | None = None,
+    gait: Any = None,
 ) -> PathEnergy:
     """Energy of walking through waypoints (working CRS, metres).
 
@@ -229,6 +230,10 @@ def path_energy(
         Extra channels as constants and rasters (see :class:`MotionCost`).
     cost : MotionCost, optional
         Reuse a prepared :class:`MotionCost` (its speed and yaw rate apply).
+    gait : sequence of str or None, shape (n - 1,), optional
+        The gait of each segment (a plan's choice, :attr:`MotionCost.gaits`; None: the
+        channels' own), for a model that names gaits; the cost must choose its gait
+        (``gait_choice``; built so when ``cost`` is not given).
 
     Raises
     ------
@@ -240,7 +245,16 @@ def path_energy(
     xy = _waypoints(xy)
     n = xy.shape[0]
     if cost is None:
-        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants, channels=channels)
+        cost = MotionCost(terrain, model, speed, yaw_rate, constants=constants, channels=channels,
+                          gait_choice=True if gait is not None else None)  # fmt: skip
+    seg_gaits = None
+    if gait is not None:
+        gait = list(gait)
+        if len(gait) != n - 1:
+            raise EnergyPlannerError(
+                f"gait has {len(gait)} entries for {n - 1} segments; expected one per segment"
+            )
+        seg_gaits = cost.gait_indices(gait)
     samples = terrain.sample(xy[:, 0], xy[:, 1])
     bad = np.flatnonzero(~np.isfinite(np.asarray(samples.slope, dtype=float)))
     if bad.size:
@@ -250,7 +264,8 @@ def path_energy(
             f"nodata ({bad.size} waypoint(s) are: {bad.tolist()[:10]})"
         )
     poses, seg_of, durations = path_poses(xy, yaw, t, cost.yaw_rate)
-    out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations)
+    gaits = None if seg_gaits is None else seg_gaits[seg_of]
+    out = cost.details(poses[:, 0], poses[:, 1], poses[:, 2], durations, gaits)
     invalid = np.flatnonzero(out[:, OUT_CODE] != OK)
     if invalid.size:
         k = int(invalid[0])

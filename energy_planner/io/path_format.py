@@ -32,6 +32,7 @@ __all__ = [
     "Waypoints",
     "path_document",
     "path_document_from_work",
+    "segment_gaits",
     "write_path",
     "write_path_from_work",
 ]
@@ -122,6 +123,7 @@ def path_document(
     crs: Any = None,
     properties: dict[str, Any] | None = None,
     native: bool = False,
+    gait: Sequence[str | None] | None = None,
 ) -> dict[str, Any]:
     """The GeoJSON dict of a path (see the module docstring for the format).
 
@@ -142,6 +144,9 @@ def path_document(
     native : bool
         False (default): RFC 7946, longitude/latitude (yaw from local east), no ``crs``
         member. True: coordinates in ``crs``, declared with the ``crs`` member.
+    gait : sequence of str or None, shape (n - 1,), optional
+        The gait of each segment (a plan that chose it); written as the vertex property
+        ``gait``, the gait of the segment each vertex starts (null at the last vertex).
 
     Returns
     -------
@@ -182,6 +187,8 @@ def path_document(
         props["yaw_deg"] = [math.degrees(v) for v in yaw[keep]]
     if times is not None:
         props["t"] = [float(v) for v in times[keep]]
+    if gait is not None:
+        props["gait"] = _vertex_gaits(gait, keep)
     for k, v in (properties or {}).items():
         if k in props:
             raise WaypointError(
@@ -201,6 +208,60 @@ def path_document(
         }
     ]
     return doc
+
+
+def _vertex_gaits(gait: Sequence[str | None], keep: np.ndarray) -> list[str | None]:
+    """Per kept vertex, the gait of the segment it starts (null at the last).
+
+    A dropped vertex repeats the one before it: the kept vertex then starts the segment
+    after the repeat, and takes its gait.
+    """
+    g = list(gait)
+    n = keep.size
+    if len(g) != n - 1:
+        raise WaypointError(
+            f"gait has {len(g)} entries for {n - 1} segments",
+            value=len(g),
+            expected="one gait per segment",
+        )
+    per_vertex = [None if v is None else str(v) for v in g] + [None]
+    kept = np.flatnonzero(keep).tolist()
+    nxt = kept[1:] + [n]
+    return [per_vertex[q - 1] if q < n else None for q in nxt]
+
+
+def segment_gaits(wp: Waypoints) -> list[str | None] | None:
+    """The gait of each segment of a path read back (vertex property ``gait``), or None.
+
+    Raises
+    ------
+    WaypointError
+        A ``gait`` list of the wrong length or with a value that is not a gait name
+        (naming the file, the vertex and the value).
+    """
+    g = wp.properties.get("gait")
+    if g is None:
+        return None
+    where = f"waypoint file {str(wp.path)!r}" if wp.path is not None else "GeoJSON path"
+    n = len(wp)
+    if not isinstance(g, list) or len(g) != n:
+        raise WaypointError(
+            f"{where}: properties.gait must be a list of one gait name (or null) per vertex "
+            f"({n}); got {g!r:.80}",
+            path=wp.path,
+            value=g if not isinstance(g, list) else len(g),
+            expected=f"a list of {n} gait names or nulls",
+        )
+    for i, v in enumerate(g):
+        if v is not None and not (isinstance(v, str) and v.strip()):
+            raise WaypointError(
+                f"{where}: properties.gait at vertex {i} is {v!r}; expected a gait name "
+                "(as the model names them, e.g. 'walk') or null",
+                path=wp.path,
+                value=v,
+                expected="a gait name or null",
+            )
+    return list(g[:-1])
 
 
 def _to_lonlat(
@@ -271,6 +332,7 @@ def path_document_from_work(
     t: Sequence[float] | np.ndarray | None = None,
     properties: dict[str, Any] | None = None,
     native: bool = False,
+    gait: Sequence[str | None] | None = None,
 ) -> dict[str, Any]:
     """The GeoJSON dict of poses on a terrain's working grid.
 
@@ -280,7 +342,7 @@ def path_document_from_work(
         Gives ``from_work`` and the CRSs.
     states : array-like, shape (n, 2) or (n, 3)
         ``x, y[, yaw]`` in the working CRS (metres; yaw radians CCW from the grid's +x).
-    t, properties
+    t, properties, gait
         As in :func:`path_document`.
     native : bool
         False (default): RFC 7946 longitude/latitude, yaw from local east. True: the
@@ -314,9 +376,10 @@ def path_document_from_work(
         xy = np.column_stack([np.atleast_1d(x), np.atleast_1d(y)])
         yaw = yaw_from_work(terrain, s[:, 0], s[:, 1], s[:, 2]) if s.shape[1] == 3 else None
         crs = getattr(terrain, "source_crs", None)
-        return path_document(xy, yaw, t=t, crs=crs, properties=properties, native=True)
+        return path_document(xy, yaw, t=t, crs=crs, properties=properties, native=True,
+                             gait=gait)  # fmt: skip
     yaw = s[:, 2] if s.shape[1] == 3 else None
-    return path_document(s[:, :2], yaw, t=t, crs=work, properties=properties)
+    return path_document(s[:, :2], yaw, t=t, crs=work, properties=properties, gait=gait)
 
 
 def write_path_from_work(

@@ -47,7 +47,9 @@ class Leg(Assessed):
     the verdict on the energy spent from the start up to the end of this leg (the
     robot has walked the legs before it on the same battery). ``wait_s`` / ``wait_j``:
     with arrival windows, how long the robot waits at ``b`` for its window to open and
-    what that costs at the standing power (0 otherwise).
+    what that costs at the standing power (0 otherwise). ``gaits``: each segment's gait
+    where the motions chose it (a model that names gaits, over a speed range), as
+    :attr:`~energy_planner.planning.plan.PlanResult.gaits`.
     """
 
     a: int
@@ -61,15 +63,17 @@ class Leg(Assessed):
     times: np.ndarray | None = field(default=None, repr=False, compare=False)
     wait_s: float = 0.0
     wait_j: float = 0.0
+    gaits: list[str | None] | None = field(default=None, repr=False, compare=False)
 
-    def speed_profile(self) -> list[dict[str, float]]:
+    def speed_profile(self) -> list[dict[str, Any]]:
         """Per segment: distance, duration, ground speed, where the leg chose its speeds.
 
-        Empty at the nominal speed (:func:`energy_planner.planning.speed.speed_profile`).
+        And ``gait`` where it chose its gaits. Empty at the nominal speed
+        (:func:`energy_planner.planning.speed.speed_profile`).
         """
         from energy_planner.planning.speed import speed_profile
 
-        return speed_profile(self.states, self.times)
+        return speed_profile(self.states, self.times, gaits=self.gaits)
 
 
 @dataclass(repr=False)
@@ -328,8 +332,11 @@ def _leg_speeds(leg: Leg) -> dict[str, Any]:
     walk = [p["speed_m_s"] for p in leg.speed_profile() if p["speed_m_s"] > 0]
     if not walk:
         return {}
-    return {"speed_min_m_s": min(walk), "speed_max_m_s": max(walk),
-            "times_s": [float(v) for v in leg.times]}  # fmt: skip
+    out = {"speed_min_m_s": min(walk), "speed_max_m_s": max(walk),
+           "times_s": [float(v) for v in leg.times]}  # fmt: skip
+    if leg.gaits is not None:  # each segment's gait (between times_s[i] and times_s[i + 1])
+        out["gaits"] = list(leg.gaits)
+    return out
 
 
 @takes_problem(1)
@@ -580,7 +587,8 @@ def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_ep
                  eps=leg_eps, n_headings=n_headings, progress=progress,
                  level=want.level)  # fmt: skip
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
-                        float(r.duration_s), r.states, r.assessment, r.times))  # fmt: skip
+                        float(r.duration_s), r.states, r.assessment, r.times,
+                        gaits=r.gaits))  # fmt: skip
     info = {"matrix_energy_j": float(total), "planner": planner, "eps": eps}
     info.update(_speed_info(problem))
     res = MissionResult(sites, o, legs, E, method, return_to_start, info=info)
@@ -625,7 +633,7 @@ def _windowed(problem, given, sites, E, speed, *, order, return_to_start, planne
         r = s.legs[k]
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
                         float(r.duration_s), r.states, r.assessment, r.times,
-                        float(s.wait[k + 1]), float(s.wait_j[k + 1])))  # fmt: skip
+                        float(s.wait[k + 1]), float(s.wait_j[k + 1]), gaits=r.gaits))  # fmt: skip
     o = s.stops[:-1] if return_to_start and len(s.stops) > 1 else list(s.stops)
     from energy_planner.mission.windows import standing_power
 

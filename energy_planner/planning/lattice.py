@@ -133,11 +133,13 @@ def default_step(terrain, max_positions: int = 20_000) -> float:
     return max(step, math.sqrt(area / max_positions))
 
 
-def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+def simplify_states(states: np.ndarray, tol: float = 1e-9, keep: Any = None) -> np.ndarray:
     """Drop repeated poses and interior poses on a straight, constant-yaw run.
 
     The energy of a straight motion at constant yaw is the integral of the same
     per-metre cost, so merging collinear steps does not change it (up to sampling).
+    ``keep``: a mask of poses kept whatever (where the motions change gait,
+    :func:`energy_planner.planning.speed.gait_changes`: one motion walks one gait).
 
     Examples
     --------
@@ -147,11 +149,19 @@ def simplify_states(states: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """
     states = np.asarray(states, float)
     dup = np.r_[False, np.all(np.abs(np.diff(states, axis=0)) <= tol, axis=1)]
+    pinned = np.zeros(len(states), bool) if keep is None else np.asarray(keep, bool).copy()
+    if keep is not None:  # a dropped repeat passes its pin to the pose it repeats
+        for k in np.flatnonzero(dup & pinned):
+            pinned[k - 1] = True
     states = states[~dup]
+    pinned = pinned[~dup]
     if len(states) <= 2:
         return states.copy()
     keep = [0]
     for k in range(1, len(states) - 1):
+        if pinned[k]:
+            keep.append(k)
+            continue
         a, b, c = states[keep[-1]], states[k], states[k + 1]
         same_yaw = abs(wrap(b[2] - a[2])) < tol and abs(wrap(c[2] - b[2])) < tol
         u = b[:2] - a[:2]

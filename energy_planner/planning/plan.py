@@ -97,14 +97,25 @@ class PlanResult(Result, Assessed):
         """Energy in Wh."""
         return self.energy_j / 3600.0
 
-    def speed_profile(self) -> list[dict[str, float]]:
+    def speed_profile(self) -> list[dict[str, Any]]:
         """Per segment: ``distance_m``, ``duration_s`` and ``speed_m_s`` (ground; 0 turning).
+
+        And ``gait`` where the motions chose their gait (:attr:`gaits`).
 
         Empty at the nominal speed (:attr:`times` None).
         """
         from energy_planner.planning.speed import speed_profile
 
-        return speed_profile(self.states, self.times, self.info.get("segment_distance_m"))
+        return speed_profile(self.states, self.times, self.info.get("segment_distance_m"),
+                             self.info.get("gaits"))  # fmt: skip
+
+    @property
+    def gaits(self) -> list[str | None] | None:
+        """The gait of each segment where the motions chose it, else None.
+
+        (A model that names gaits, planned over a speed range.)
+        """
+        return self.info.get("gaits")
 
     def waypoints(self, terrain: Any = None) -> list[dict[str, float]]:
         """Poses in the DEM's CRS: dicts with ``x``, ``y``, ``yaw_deg``.
@@ -137,6 +148,7 @@ class PlanResult(Result, Assessed):
             self._terrain(terrain),
             self.states,
             t=None if self.times is None else [float(v) for v in self.times],
+            gait=self.gaits,
             properties={
                 "energy_j": self.energy_j,
                 "distance_m": self.distance_m,
@@ -171,8 +183,8 @@ class PlanResult(Result, Assessed):
         if self.times is not None:
             out["times_s"] = [float(v) for v in self.times]
             out["speed_profile"] = self.speed_profile()
-            out["speed"] = {k: self.info[k] for k in ("speed_range", "time_weight", "speed_law")
-                            if k in self.info}  # fmt: skip
+            out["speed"] = {k: self.info[k] for k in ("speed_range", "time_weight", "speed_law",
+                                                      "gait_ranges") if k in self.info}  # fmt: skip
         if "deadline" in self.info:
             out["deadline"] = self.info["deadline"]
         return out
@@ -793,8 +805,9 @@ def plan(
     finally:
         prog.close()
     from energy_planner.planning.lattice import simplify_states
+    from energy_planner.planning.speed import gait_changes
 
-    states = simplify_states(states)
+    states = simplify_states(states, keep=gait_changes(problem.cost, states))
     bad = keep_out_violation(states, geoms)
     if bad is not None:
         raise PlanningError(f"the {planner} path enters a keep-out area: {bad}", limit="keep_out")
@@ -837,8 +850,9 @@ def _priced(problem, states: np.ndarray, what: str, trust: Any, **fields: Any) -
 
     cost = problem.cost
     t = None
+    gaits = None
     if cost.ranged:  # the speeds the motions chose: their durations time the poses
-        dt = cost.best_durations(states[:, 0], states[:, 1], states[:, 2])
+        dt, gaits = cost.best_timing(states[:, 0], states[:, 1], states[:, 2])
         if not np.isfinite(dt).all():
             raise PlanningError(f"{what}: a motion breaks a limit at every speed of the range")
         t = np.concatenate([[0.0], np.cumsum(dt)])
@@ -846,9 +860,12 @@ def _priced(problem, states: np.ndarray, what: str, trust: Any, **fields: Any) -
                           "time_weight": cost.time_weight}  # fmt: skip
         if cost.speed_law is not None:
             fields["info"]["speed_law"] = cost.speed_law.note
+        if gaits is not None:  # and the gaits they chose
+            fields["info"]["gaits"] = gaits
+            fields["info"]["gait_ranges"] = {g: list(r) for g, r in cost.gait_ranges.items()}
     try:
         pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2], t=t,
-                         cost=cost)  # fmt: skip
+                         cost=cost, gait=gaits)  # fmt: skip
     except EnergyPlannerError as exc:
         raise PlanningError(f"{what}: {exc}") from exc
     if t is not None:

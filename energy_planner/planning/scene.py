@@ -9,16 +9,16 @@ the direct climb at the nominal speed into what each choice contributes:
 * **route**: ``direct_best_yaw`` -> ``energy_optimal``, at the nominal speed;
 * **speed**: the energy-optimal route retimed at each motion's least-energy speed within the
   nominal speed's gait (its logged speeds);
-* **gait**: the same route at its best speed in the cheapest gait the model knows;
-* **replanned** (``route_with_speed``): the route planned with each motion's speed chosen
-  (:func:`~energy_planner.planning.plan.plan` with the gait's speed range, in each gait, the
-  cheaper kept: row ``planned_at_best_speed``) where it beats the energy-optimal route
-  retimed (else 0): speed and route chosen together.
+* **gait**: the same route with each motion's gait chosen too (each gait within its logged
+  speeds, ``metadata.fit.domain.gait_speed_m_s``: the motion's cheapest gait and speed);
+* **replanned** (``route_with_speed``): the route planned with each motion's gait and speed
+  chosen (:func:`~energy_planner.planning.plan.plan` over the gaits' speeds: row
+  ``planned_at_best_speed``) where it beats the energy-optimal route retimed (else 0):
+  gait, speed and route chosen together.
 
-The parts telescope: they add up to the total saving. The gait is a constant channel of a
-plan (one gait per route): each route is walked in every gait the model's logs name, within
-that gait's logged speeds (``metadata.fit.domain.gait_speed_m_s``), and the cheaper is kept.
-The other routes' poses are those planned at the nominal speed; only their timing changes
+The parts telescope: they add up to the total saving. A row's gait is the one its motions
+walk, ``mixed`` where they walk several. The other routes' poses are those planned at the
+nominal speed; only their timing (and gaits) change
 (:func:`~energy_planner.planning.speed.timed`,
 :func:`~energy_planner.planning.speed.timed_deadline`).
 """
@@ -129,23 +129,29 @@ def _gait_problem(problem: Any, gait: str) -> Any:
     return problem.replace(request=dataclasses.replace(problem.request, channels=ch))
 
 
-def _best(problem, states, gaits, name, deadline=None):
-    """The cheapest gait's timing: ``(energy, duration, gait)`` or Nones."""
+def _gait_label(gaits: Any) -> str | None:
+    """The gait a timed route walks: its name, ``mixed`` for several, None without."""
+    walked = sorted({g for g in gaits or () if g is not None})
+    return None if not walked else walked[0] if len(walked) == 1 else "mixed"
+
+
+def _timed(problem, states, speed, name, deadline=None):
+    """``(energy, duration, gait)`` of a route retimed, or Nones where it cannot be walked.
+
+    Each motion's gait and speed chosen where ``problem`` leaves the gait open.
+    """
     from energy_planner.planning.speed import timed, timed_deadline
 
-    best = (None, None, None)
-    for g, rng in gaits.items():
-        prob = _gait_problem(problem, g)
-        try:
-            if deadline is None:
-                res = timed(prob, states, speed=rng, name=name)
-            else:
-                res = timed_deadline(prob, states, deadline, speed=rng, name=name)
-        except EnergyPlannerError:
-            continue  # this gait cannot walk it (a limit, or too slow for the deadline)
-        if best[0] is None or res.energy_j < best[0]:
-            best = (float(res.energy_j), float(res.duration_s), g)
-    return best
+    try:
+        if deadline is None:
+            res = timed(problem, states, speed=speed, name=name)
+        else:
+            res = timed_deadline(problem, states, deadline, speed=speed, name=name)
+    except EnergyPlannerError:
+        return None, None, None  # a limit, or too slow for the deadline
+    given = getattr(problem.request.channels, "constants", None) or {}
+    gait = _gait_label(res.gaits) or given.get("gait")
+    return float(res.energy_j), float(res.duration_s), None if gait is None else str(gait)
 
 
 def speed_scene(
@@ -202,6 +208,7 @@ def _scene(problem, start, goal, deadline, deadline_factor, time, seed, progress
         )
     gait0 = min(home, key=lambda g: gaits[g][1] - gaits[g][0])  # the narrowest holding it
     fixed = _gait_problem(problem, gait0)
+    span = (min(lo for lo, _ in gaits.values()), max(hi for _, hi in gaits.values()))
     comp = compare_routes(fixed, start, goal, time=time, seed=seed, progress=progress)
     rows, states = [], {}
     for name in SCENE_ROUTES:
@@ -213,41 +220,36 @@ def _scene(problem, start, goal, deadline, deadline_factor, time, seed, progress
         fixed_j = None if st is None else float(r.energy_j if r.energy_j is not None else 0)
         row = {"route": name, "fixed_j": fixed_j,
                "fixed_s": None if st is None else float(r.duration_s)}  # fmt: skip
-        e, s, g = (None, None, None) if st is None else _best(problem, st, gaits, name)
+        e, s, g = (None, None, None) if st is None else _timed(problem, st, span, name)
         row.update(best_j=e, best_s=s, best_gait=g)
         rows.append(row)
     opt = next(r for r in rows if r["route"] == "energy_optimal")
     if opt["best_j"] is None:
         raise EnergyPlannerError("the energy-optimal route cannot be walked at any speed")
-    found = None  # the route planned with the speeds chosen, in each gait; the cheaper
-    for g, rng in gaits.items():
-        try:
-            res = plan(with_speed(_gait_problem(problem, g), rng), start, goal, time=time,
-                       seed=seed, progress=progress)  # fmt: skip
-        except EnergyPlannerError:
-            continue
-        if found is None or res.energy_j < found.energy_j:
-            found, gait_found = res, g
     row = {"route": PLANNED, "fixed_j": None, "fixed_s": None, "best_j": None, "best_s": None,
            "best_gait": None}  # fmt: skip
+    states[PLANNED] = None
+    try:  # the route planned with each motion's gait and speed chosen
+        found = plan(with_speed(problem, span), start, goal, time=time, seed=seed,
+                     progress=progress)  # fmt: skip
+    except EnergyPlannerError:
+        found = None
     if found is not None:
         states[PLANNED] = np.asarray(found.states, float)
         row.update(best_j=float(found.energy_j), best_s=float(found.duration_s),
-                   best_gait=gait_found)  # fmt: skip
-    else:
-        states[PLANNED] = None
+                   best_gait=_gait_label(found.gaits))  # fmt: skip
     rows.append(row)
     best = min((r for r in rows[-2:] if r["best_j"] is not None), key=lambda r: r["best_j"])
     if deadline is None:
         deadline = deadline_factor * best["best_s"]
     for row in rows:
         st = states[row["route"]]
-        e, s, g = (None, None, None) if st is None else _best(problem, st, gaits, row["route"],
-                                                              deadline)  # fmt: skip
+        e, s, g = (None, None, None) if st is None else _timed(problem, st, span, row["route"],
+                                                               deadline)  # fmt: skip
         row.update(deadline_j=e, deadline_s=s, deadline_gait=g)
     direct = rows[0]
     base = direct["fixed_j"]
-    speed_only = _best(problem, states["energy_optimal"], {gait0: gaits[gait0]}, "route")[0]
+    speed_only = _timed(fixed, states["energy_optimal"], gaits[gait0], "route")[0]
     parts = {
         "body_yaw": base - rows[1]["fixed_j"],
         "route": rows[1]["fixed_j"] - opt["fixed_j"],
@@ -257,13 +259,13 @@ def _scene(problem, start, goal, deadline, deadline_factor, time, seed, progress
     }
     parts["total_j"] = sum(parts.values())
     notes = [
-        f"Routes planned at {v:g} m/s, then retimed (poses kept): each motion at its least-energy",
-        "speed within a gait's logged speeds ("
-        + ", ".join(f"{g} {lo:.2f}-{hi:.2f} m/s" for g, (lo, hi) in gaits.items())
-        + "), one gait",
-        f"per route, the cheaper kept; {PLANNED}: planned with those speeds (replanned:",
-        "what it saves on the energy-optimal route retimed). Under the deadline: each",
-        "route's least-energy timing in time (cannot: too slow even at the top speed).",
+        f"Routes planned at {v:g} m/s, then retimed (poses kept): each motion in its",
+        "least-energy gait and speed, each gait within its logged speeds",
+        "(" + ", ".join(f"{g} {lo:.2f}-{hi:.2f} m/s" for g, (lo, hi) in gaits.items()) + ");",
+        f"mixed: the motions walk both. {PLANNED}: planned with the gaits and",
+        "speeds chosen (replanned: what it saves on the energy-optimal route retimed).",
+        "Under the deadline: each route's least-energy timing in time (cannot: too slow",
+        "even at the top speed).",
     ]
     return SpeedScene(nominal_speed=v, nominal_gait=gait0, gaits=gaits, deadline_s=float(deadline),
                       rows=rows, parts=parts, baseline_j=base, notes=notes)  # fmt: skip

@@ -104,8 +104,11 @@ def search_module(cost, kernels: str = "all"):
         raise ValueError(f"unknown kernel group {kernels!r}; valid: {', '.join(KERNEL_GROUPS)}")
     mod_name = cost.kernel.py_func.__module__
     # a cost that chooses its speed prices edges by motion_best (the fixed-speed search
-    # keeps motion_full: its code and numbers are unchanged)
+    # keeps motion_full: its code and numbers are unchanged), one that chooses its gait
+    # by gait_best (energy/_gait.py)
     fn = "motion_best" if getattr(cost, "ranged", False) else "motion_full"
+    if getattr(cost, "gaits", ()):
+        fn = "gait_best"
     if mod_name == "energy_planner.energy._motion" and fn == "motion_full":
         import energy_planner.planning._search as mod
     else:
@@ -357,9 +360,9 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
     best = np.empty_like(along)
     table = np.full(along.shape, np.inf)
-    speeds = bound_speeds(cost)
+    nodes_by_gait = bound_speeds(cost)
     lam = float(getattr(cost, "time_weight", 0.0))
-    if len(speeds) > 1:
+    if sum(len(speeds) for _, speeds in nodes_by_gait) > 1:
         # a sample's gradient is a convex combination of cells' gradients: nodes steeper
         # than the steepest cell by two spacings are never read by the bilinear lookup, so
         # they are left inf (edge_bound then takes the table's least: still a bound) rather
@@ -367,12 +370,16 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
         gmax = float(np.nanmax(np.hypot(gx, gy)))
         far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
-    for speed in speeds:
-        hc = heading if speed == heading.speed else HeadingCost.of_motion_cost(cost, speed=speed)
-        best = _best_bands(hc, GX, GY, dirs, along)
-        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
-            best = best + np.float32(lam / speed)
-        table = np.minimum(table, best)
+    for gait, speeds in nodes_by_gait:
+        for speed in speeds:
+            if gait is None and speed == heading.speed:
+                hc = heading
+            else:  # gait None: the cost's own channels
+                hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait)
+            best = _best_bands(hc, GX, GY, dirs, along)
+            if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+                best = best + np.float32(lam / speed)
+            table = np.minimum(table, best)
     table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
@@ -489,27 +496,47 @@ def prune_bound_cache(folder: Path, keep: int | None = None, max_bytes: int | No
 
 
 #: Speeds of a cost that chooses its speed over which the search's bound is the least
-#: (geometric over the range, ends included).
+#: (geometric over the range, ends included; where the motions choose their gait, no
+#: further apart in ratio than these over the gaits' whole range).
 SPEED_BOUND_NODES = 7
 
 
-def bound_speeds(cost) -> np.ndarray:
-    """The speeds the bound of :func:`bound_table` is least over.
+def bound_speeds(cost) -> list[tuple[str | None, np.ndarray]]:
+    """The (gait, speeds) whose tables :func:`bound_table` takes the least of.
 
-    The nominal speed of a fixed-speed cost; :data:`SPEED_BOUND_NODES` speeds spread
-    geometrically over a cost's speed range. Energy per metre is smooth in speed with its
-    least inside or at an end of the range, so the least over these nodes is above the
-    least over the whole range by a fraction of the spacing's square: the search's
-    :data:`BOUND_MARGIN` covers it where the curve is flat near its minimum; elsewhere the
-    bound may exceed a motion's cost by a little, which only weakens the optimality
-    certificate (``eps``), not the path. With a time price ``lambda`` the bound at each
-    speed adds ``lambda / v`` (a map metre lasts at least ``1 / v``), so that a dear second
-    keeps the heuristic as tight as a free one.
+    A fixed-speed cost: gait ``None`` at its nominal speed. A cost that chooses its speed:
+    :data:`SPEED_BOUND_NODES` speeds spread geometrically over its range (gait ``None``,
+    the cost's own channels). Energy per metre is smooth in speed with its least inside
+    or at an end of the range, so the least over these nodes is above the least over the
+    whole range by a fraction of the spacing's square: the search's :data:`BOUND_MARGIN`
+    covers it where the curve is flat near its minimum; elsewhere the bound may exceed a
+    motion's cost by a little, which only weakens the optimality certificate (``eps``),
+    not the path. With a time price ``lambda`` the bound at each speed adds ``lambda /
+    v`` (a map metre lasts at least ``1 / v``), so that a dear second keeps the heuristic
+    as tight as a free one.
+
+    Where the motions also choose their gait (:attr:`~energy_planner.energy.MotionCost.
+    gaits`): each gait at node speeds over its own range (:attr:`~energy_planner.energy.
+    MotionCost.gait_ranges`), no further apart than :data:`SPEED_BOUND_NODES` over the
+    whole range (at least 3 per gait). One table per speed range, its top speed's shifted
+    down by what the speed terms can save, was tried: it is looser (on the bundled hill
+    the speed-choosing plan took 4.35 s against about 1 s; with ``b1_speeds``, one shifted
+    table per gait, 8.4 s against 1.0 s).
     """
     rng = getattr(cost, "speed_range", None)
     if rng is None:
-        return np.array([cost.speed])
-    return np.geomspace(rng[0], rng[1], SPEED_BOUND_NODES)
+        return [(None, np.array([cost.speed]))]
+    ranges = getattr(cost, "gait_ranges", None) if getattr(cost, "gaits", ()) else None
+    if not ranges:
+        return [(None, np.geomspace(rng[0], rng[1], SPEED_BOUND_NODES))]
+    lo_all = min(lo for lo, _ in ranges.values())
+    span = math.log(max(hi for _, hi in ranges.values()) / lo_all)
+    out = []
+    for g, (lo, hi) in ranges.items():
+        share = math.log(hi / lo) / span if span > 0 else 0.0
+        n = max(3, math.ceil((SPEED_BOUND_NODES - 1) * share - 1e-9) + 1)
+        out.append((g, np.geomspace(lo, hi, n)))
+    return out
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):
@@ -859,9 +886,10 @@ def search_plan(
     states = exact_ends(states, start, goal)
     t2 = time.perf_counter()
     from energy_planner.planning.lattice import simplify_states
+    from energy_planner.planning.speed import gait_changes
 
     return SearchResult(
-        states=simplify_states(states),
+        states=simplify_states(states, keep=gait_changes(cost, states)),
         cost=total,
         step=grid.step,
         n_headings=grid.H,

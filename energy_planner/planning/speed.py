@@ -36,6 +36,7 @@ import numpy as np
 from energy_planner.errors import EnergyPlannerWarning, PlanningConfigError, PlanningError
 
 __all__ = [
+    "gait_changes",
     "speed_range_of",
     "resolve_speed",
     "with_speed",
@@ -66,11 +67,14 @@ ROUTE_DEADLINE_ITERS = 40
 ROUTE_DEADLINE_RTOL = 1e-4
 
 
-def speed_profile(states: Any, times: Any, distances: Any = None) -> list[dict[str, float]]:
+def speed_profile(
+    states: Any, times: Any, distances: Any = None, gaits: Any = None
+) -> list[dict[str, Any]]:
     """Per segment of a timed path: ``distance_m``, ``duration_s`` and ``speed_m_s``.
 
     ``times``: seconds at each pose; ``distances``: ground length of each segment (metres;
-    default the horizontal one). A segment that only turns has speed 0. Empty without times.
+    default the horizontal one); ``gaits``: each segment's gait, given as ``gait`` (where
+    the motions chose it). A segment that only turns has speed 0. Empty without times.
 
     Examples
     --------
@@ -84,11 +88,37 @@ def speed_profile(states: Any, times: Any, distances: Any = None) -> list[dict[s
     dt = np.diff(np.asarray(times, dtype=float))
     if distances is None:
         distances = np.hypot(*np.diff(states[:, :2], axis=0).T)
-    return [
+    out = [
         {"distance_m": float(d), "duration_s": float(t),
          "speed_m_s": float(d / t) if d > 1e-9 else 0.0}
         for d, t in zip(distances, dt, strict=True)
     ]  # fmt: skip
+    if gaits is not None:
+        for seg, g in zip(out, gaits, strict=True):
+            seg["gait"] = g
+    return out
+
+
+def gait_changes(cost: Any, states: Any) -> np.ndarray | None:
+    """Mask of the poses where the motions' chosen gait changes (None: no gait choice).
+
+    A pose between a motion walked in one gait and the next in another (as the cost
+    chooses them, :meth:`~energy_planner.energy.MotionCost.best_timing`): merging the two
+    motions into one would walk both in one gait.
+    """
+    if not (getattr(cost, "gaits", ()) and getattr(cost, "ranged", False)):
+        return None
+    s = np.asarray(states, dtype=float)
+    if len(s) < 3:
+        return None
+    _, gaits = cost.best_timing(s[:, 0], s[:, 1], s[:, 2])
+    g = np.array([-1 if v is None else cost.gaits.index(v) for v in gaits])
+    walk = np.hypot(*np.diff(s[:, :2], axis=0).T) > 1e-9
+    out = np.zeros(len(s), bool)
+    idx = np.flatnonzero(walk)  # turns in place do not break a run's gait
+    change = idx[1:][g[idx[1:]] != g[idx[:-1]]]
+    out[change] = True
+    return out
 
 
 def speed_range_of(model: Any) -> tuple[float, float] | None:
