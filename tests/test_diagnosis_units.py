@@ -631,3 +631,25 @@ def test_suspects_split_keeps_the_old_import_path():
     for mod, names_ in moved.items():
         for name in names_:
             assert getattr(suspects, name) is getattr(mod, name), (mod.__name__, name)
+
+
+def test_a_way_of_walking_only_one_run_holds_is_scored_apart():
+    """A run that alone walks backward (80 W dearer than the forward terms price it) is
+    predicted, held out, by folds that never saw backward walking: its windows are outside
+    their fold's support, reported apart, and neither the RMSE nor the tests read them."""
+    s = _null_missions(0)
+    back = s["run"] == "r03"
+    s.loc[back, "vx"] = -0.3
+    s.loc[back, "motion"] = "backward"
+    s.loc[back, "power"] += 80.0
+    wd = window_data(s)
+    terms = ["idle_power", "fwd_const", "fwd_up", "fwd_down", "bwd_const", "bwd_up", "bwd_down"]
+    r = rank_suspects(wd, terms, candidates=[], extra=NULL_CANDIDATES)
+    inside = r.supported
+    assert (~inside).sum() == (wd.runs == "r03").sum() and not inside[wd.runs == "r03"].any()
+    e = r.heldout_errors
+    assert r.heldout_rmse_w == pytest.approx(np.sqrt(np.mean(e[inside] ** 2)), rel=1e-12)
+    assert r.outside["n_windows"] == (~inside).sum() and r.outside["n_runs"] == 1
+    assert r.outside["rmse_w"] == pytest.approx(np.sqrt(np.mean(e[~inside] ** 2)), rel=1e-12)
+    assert r.outside["rmse_w"] > 60.0 > 3 * r.heldout_rmse_w  # the extrapolation, apart
+    assert r.choice is not None and r.choice.n_runs == 11  # the other runs only

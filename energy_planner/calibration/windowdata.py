@@ -294,6 +294,62 @@ class WindowData:
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
         return self._fold_cols[key]
 
+    def fold_support(self, folds: np.ndarray) -> np.ndarray:
+        """Whether each window's fold has training runs that walk as it walks.
+
+        A window's *direction* is its motion kind (forward, backward, lateral, turning,
+        standing, mixed; :func:`_with_kind`). A window is *supported* when the other
+        folds hold at least :data:`~energy_planner.calibration.fit.MIN_WINDOWS_PER_TERM`
+        windows of its direction from at least
+        :data:`~energy_planner.calibration.fit.MIN_RUNS` runs. An unsupported window is
+        predicted by a fit that has not seen its way of walking (a direction only one or
+        two runs hold): its error is an extrapolation (what the interval's widening
+        outside the domain is for), not evidence for or against a term, and the diagnosis
+        scores it apart (:mod:`energy_planner.diagnosis.scoring`).
+
+        Split further by the grade along the travel (up, down, level), a designed
+        campaign of short one-motion runs leaves a bin to one or two runs and its main
+        effect to the windows left (a ground type then no longer passed the choice test on
+        ``tests/test_discover.py``'s small campaign): by direction only.
+
+        Parameters
+        ----------
+        folds : numpy.ndarray
+            Fold of every window.
+
+        Returns
+        -------
+        numpy.ndarray
+            Boolean, one per window.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> t = pd.DataFrame({"run": list("aaabbbcccddd"), "vx": [0.3] * 9 + [-0.3] * 3,
+        ...                   "vy": 0.0, "wz": 0.0, "speed": 0.3, "power": 1.0})
+        >>> wd = WindowData(pd.DataFrame(), np.zeros(12, int), t)
+        >>> folds = np.repeat([0, 1, 2, 0], 3)  # by run: a and d in fold 0
+        >>> wd.fold_support(folds).reshape(4, 3)[:, 0].tolist()  # d alone walks backward
+        [True, True, True, False]
+        """
+        from energy_planner.calibration.fit import MIN_RUNS, MIN_WINDOWS_PER_TERM
+
+        t = _with_kind(self.table)
+        bins = pd.factorize(pd.Series(t["kind"].to_numpy(dtype=object).astype(str)))[0]
+        runs = pd.factorize(pd.Series(t["run"].to_numpy()))[0]
+        folds = np.asarray(folds)
+        out = np.zeros(len(t), dtype=bool)
+        for f in np.unique(folds):
+            train = folds != f
+            tb, tr = bins[train], runs[train]
+            n_win = np.bincount(tb, minlength=bins.max() + 1)
+            pairs = np.unique(np.column_stack([tb, tr]), axis=0)
+            n_run = np.bincount(pairs[:, 0], minlength=bins.max() + 1)
+            good = (n_win >= MIN_WINDOWS_PER_TERM) & (n_run >= MIN_RUNS)
+            here = folds == f
+            out[here] = good[bins[here]]
+        return out
+
     def unidentified(self, terms: Sequence[str], folds: np.ndarray) -> dict[str, str]:
         """Terms a refit of the model ``terms`` leaves out, each with the reason.
 

@@ -72,6 +72,15 @@ def _text(doc: dict[str, Any]) -> str:
     for d in doc.get("dropped", []):
         if d["step"] > last:
             lines.append(f"  not added, left out by the refit: {d['name']} ({d['reason']})")
+    out = doc["staircase"][-1].get("outside_support") if doc["staircase"] else None
+    if out and out["n_windows"]:
+        lines.append(
+            f"held-out RMSE over the windows a fold's training runs walk as they do; "
+            f"{out['n_windows']} window(s) of {out['n_runs']} run(s) walk in a way no other "
+            f"fold's runs do (direction or grade along the travel): {out['rmse_w']:.2f} W "
+            f"there ({_pct(out['share_sq_error'])} of the squared error), an extrapolation, "
+            "scored apart"
+        )
     if len(doc["staircase"]) > 1:
         lines.append(
             f"error removed in total: {_pct(doc['staircase'][-1]['error_removed_total'])} of "

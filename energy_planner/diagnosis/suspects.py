@@ -152,6 +152,8 @@ class Step:
     error_explained: float | None
     explanation: str = ""
     alternatives: list[dict] = field(default_factory=list)
+    #: the windows outside their fold's support, scored apart (``Ranking.outside``)
+    outside: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
@@ -183,7 +185,10 @@ def staircase(
     terms = [term_spec(t) for t in terms]
     rep = reporter(progress)
     ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
-    steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
+    steps = [
+        Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None,
+             outside=ranking.outside)
+    ]  # fmt: skip
     rankings = [ranking]
     for i in range(1, max_steps + 1):
         best = _first_kept(wd, terms, ranking, folds)
@@ -207,6 +212,7 @@ def staircase(
                 best.error_explained,
                 best.explanation,
                 alts,
+                ranking.outside,
             )
         )
         rep.say(f"step {i} done", stage="staircase")
