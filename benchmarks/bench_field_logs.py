@@ -181,6 +181,10 @@ class DataSet:
     seconds: float
     model_terms: list[str] = field(default_factory=list)
     failure: str | None = None
+    #: the windows outside their fold's support (discover scores them apart) and the
+    #: final held-out RMSE over every window, them included
+    outside: dict[str, Any] = field(default_factory=dict)
+    final_rmse_all_w: float = float("nan")
 
     def summary(self) -> dict[str, Any]:
         """Median error, p90 |error|, coverage, floor ratio, and the baseline's."""
@@ -313,6 +317,8 @@ def run_dataset(
         [] if model is None else [mission_energy(terrain, model, g, pose_every) for g in tests]
     )
     rows = d.table()
+    err = d.rankings[-1].heldout_errors
+    rmse_all = float(np.sqrt(np.nanmean(err**2))) if err is not None else float("nan")
     true_floor = float("nan") if camp is None else float(camp.noise_floor(d.windows).rmse_w)
     return DataSet(
         failure=failure,
@@ -330,6 +336,8 @@ def run_dataset(
         missions=missions,
         seconds=time.perf_counter() - t0,
         model_terms=[] if model is None else list(model.term_names),
+        outside=dict(rows[-1].get("outside_support") or {}),
+        final_rmse_all_w=rmse_all,
     )
 
 
@@ -403,6 +411,11 @@ def sim_dataset(seed: int, args: argparse.Namespace) -> DataSet:
         camp=camp,
         map_altitude=args.map_altitude,
     )
+
+
+def floor_of(s: DataSet) -> float:
+    """The floor a data set's ratio is against: the TRUE one when known, else the logs'."""
+    return s.true_floor_w if np.isfinite(s.true_floor_w) else s.floor_w
 
 
 def _pct(v: float, signed: bool = False) -> str:
@@ -479,6 +492,14 @@ def print_tables(
             f"{s.final_rmse_w:.2f} W ({floors}); written model: {len(s.model_terms)} terms "
             f"({s.seconds:.0f} s)"
         )
+        if s.outside.get("n_windows"):
+            o = s.outside
+            print(
+                f"  outside their fold's support (a direction of walking no other fold's runs "
+                f"hold; scored apart): {o['n_windows']} windows of {o['n_runs']} run(s), "
+                f"{o['rmse_w']:.2f} W, {o['share_sq_error']:.0%} of the squared error; every "
+                f"window: {s.final_rmse_all_w:.2f} W ({s.final_rmse_all_w / floor_of(s):.2f}x)"
+            )
         if s.failure:
             print(f"  {s.failure}")
         if not per_mission:

@@ -412,14 +412,16 @@ class _Context:
     def choice_test(self, terms: list[str], level: float) -> ChoiceTest | None:
         """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``."""
         terms = [t for t in terms if t in self.columns]
-        # the supported windows only: a fold whose training runs lack a way of walking
-        # extrapolates it, and the folds would choose whatever fits that extrapolation
-        ok = self.base_ok & self.inside
-        if not terms or not ok.any():
+        ok = self.base_ok
+        # scored on the supported windows only: a fold whose training runs lack a way of
+        # walking extrapolates it, and the folds would choose whatever fits that
+        # extrapolation; every window still enters the fits
+        sup = self.inside[ok]
+        if not terms or not (ok & self.inside).any():
             return None
         Z = np.column_stack([self.columns[t][ok] for t in terms])
         folds = self.folds[ok]
-        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok])
+        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok], scored=sup)
         e0 = self.base_err[ok]
         e1 = e0.copy()
         for f, j in enumerate(pick):
@@ -427,7 +429,8 @@ class _Context:
                 ej = self.errors[terms[j]][ok]
                 there = (folds == f) & np.isfinite(ej)
                 e1[there] = ej[there]
-        z, p, n = paired_run_test(e0, e1, self.runs[ok])
+        e0, e1, runs = e0[sup], e1[sup], self.runs[ok][sup]
+        z, p, n = paired_run_test(e0, e1, runs)
         return ChoiceTest(
             chosen=[terms[j] if j >= 0 else None for j in pick],
             heldout_rmse_w=float(np.sqrt(np.mean(e1**2))),
