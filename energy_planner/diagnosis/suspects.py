@@ -9,7 +9,8 @@ explanation. Candidates come from
   numeric ``x`` (standing power), ``x * speed`` (force per metre), ``x * pos(climb)`` and
   ``x * pos(-climb)`` (a mass lifted and lowered: ``climb = sin(alpha) * (vx cos(gamma) -
   vy sin(gamma))`` is the rate of climb along the motion), ``x * speed * sin(alpha)`` (a load
-  on any slope), ``abs(wz) * x`` (turning), hinges ``pos(q - x)``, ``pos(x - q)`` and the same
+  on any slope), ``abs(wz) * x`` (turning), ``x ** 2`` for a channel whose name reads
+  as a mass (copper losses of supporting it), hinges ``pos(q - x)``, ``pos(x - q)`` and the same
   times speed at data quantiles ``q``; categorical ``(c == 'v')``, ``speed * (c == 'v')``,
   ``(c == 'v') * pos(climb)`` and ``abs(wz) * (c == 'v')`` per value. The best shape per
   channel by held-out error stands for the channel (a best hinge gets its knot refined);
@@ -25,7 +26,10 @@ explanation. Candidates come from
 
 Each candidate is scored by the held-out error of the model refitted with it, validated
 by run (grouped K-fold: all windows of a run are in the same fold, so a run is never
-predicted by a fit that saw it).
+predicted by a fit that saw it). A window whose fold's training runs do not walk as it
+does (its direction and grade along the travel: ``WindowData.fold_support``) is an
+extrapolation: it enters every fit, but the scores, tests and the choice are over the
+other windows, and its error is reported apart (``Ranking.outside``).
 
 *Unsupported* (listed, never ranked): the candidate needs a channel the logs lack, its
 column has no variance or no finite value, or its column is nearly in the span of the
