@@ -640,7 +640,7 @@ def test_suspects_split_keeps_the_old_import_path():
 def test_a_way_of_walking_only_one_run_holds_is_scored_apart():
     """A run that alone walks backward (80 W dearer than the forward terms price it) is
     predicted, held out, by folds that never saw backward walking: its windows are outside
-    their fold's support, reported apart, and neither the RMSE nor the tests read them."""
+    their fold's support, reported apart, and no score or test reads them."""
     s = _null_missions(0)
     back = s["run"] == "r03"
     s.loc[back, "vx"] = -0.3
@@ -652,10 +652,11 @@ def test_a_way_of_walking_only_one_run_holds_is_scored_apart():
     inside = r.supported
     assert (~inside).sum() == (wd.runs == "r03").sum() and not inside[wd.runs == "r03"].any()
     e = r.heldout_errors
-    assert r.heldout_rmse_w == pytest.approx(np.sqrt(np.mean(e[inside] ** 2)), rel=1e-12)
+    assert r.supported_rmse_w == pytest.approx(np.sqrt(np.mean(e[inside] ** 2)), rel=1e-12)
+    assert r.heldout_rmse_w == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-12)  # as fit's
     assert r.outside["n_windows"] == (~inside).sum() and r.outside["n_runs"] == 1
     assert r.outside["rmse_w"] == pytest.approx(np.sqrt(np.mean(e[~inside] ** 2)), rel=1e-12)
-    assert r.outside["rmse_w"] > 60.0 > 3 * r.heldout_rmse_w  # the extrapolation, apart
+    assert r.outside["rmse_w"] > 60.0 > 3 * r.supported_rmse_w  # the extrapolation, apart
     assert r.choice is not None and r.choice.n_runs == 11  # the other runs only
 
 

@@ -106,9 +106,11 @@ class Ranking:
     dropped: list[dict] = field(default_factory=list)
     #: the test of the choice itself (:class:`ChoiceTest`), None when nothing was scored
     choice: ChoiceTest | None = None
-    #: the windows no fold's training runs walk as they walk (:func:`outside_support`),
-    #: scored apart: ``heldout_rmse_w`` and every test are over the others
+    #: the windows their fold's training runs do not walk as they walk
+    #: (:func:`outside_support`): every score and test is over the others
+    #: (``supported_rmse_w``); ``heldout_rmse_w`` is over every window, as ``fit``'s
     outside: dict = field(default_factory=dict)
+    supported_rmse_w: float = math.nan
     #: which windows are supported by their fold (``WindowData.fold_support``)
     supported: np.ndarray | None = field(default=None, repr=False)
 
@@ -253,6 +255,7 @@ def rank_suspects(
         heldout_errors=ctx.base_err,
         choice=choice,
         outside=outside,
+        supported_rmse_w=ctx.supported_rmse,
         supported=ctx.inside,
     )
 
@@ -317,9 +320,10 @@ class _Context:
         self.inside = self.wd.fold_support(self.folds)
         if not (ok & self.inside).any():  # nothing supported: score every window
             self.inside = np.ones(len(self.y), dtype=bool)
-        e = self.base_err[ok & self.inside]
+        e = self.base_err[ok]  # the model's held-out RMSE: every window (as fit's)
         self.base_rmse = float(np.sqrt(np.mean(e**2)))
-        self.base_fold = _fold_rmse(e, self.folds[ok & self.inside], self.n_folds)
+        self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
+        self.supported_rmse = float(np.sqrt(np.mean(self.base_err[ok & self.inside] ** 2)))
         self.available = set(self.wd.samples.columns) | {"speed"}
         self.basis = span_basis(self.x[ok])
         self.n_scored = 0
