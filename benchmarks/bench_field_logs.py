@@ -131,11 +131,11 @@ part), and the per-run offsets not due to the load (IMU tilt) leave too few runs
 consistently better. Seeds 0 and 2 stop after ``load_kg*P_base`` as before (choice p 0.59
 and 0.15): on seed 2 the forward windows steeper than 8 deg are off by -25 W on average
 at load 0 (one mission's 47 uphill windows are off by -25.5 W) and +20 W at load 27, a
-slope range per load that few missions hold, inside the "forward, up" bin. The second cause's candidate,
-``load_kg ** 2`` (the square of a carried mass: copper losses of supporting it), is now
-tried on every mass channel; on its own it changes no staircase (measured on seeds 0-2
-before the support rule: 1.73 / 2.00 / 2.03x, no step added). The 1.2x target is not met
-on these campaigns.
+slope range per load that few missions hold, inside the "forward, up" bin. The second
+cause's candidate, ``load_kg ** 2`` (the square of a carried mass: copper losses of
+supporting it), is now tried on every mass channel; on its own it changes no staircase
+(measured on seeds 0-2 before the support rule: 1.73 / 2.00 / 2.03x, no step added). The
+1.2x target is not met on these campaigns.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
