@@ -52,10 +52,16 @@ Measured (2 shared cores, load ~7; the per-mission tables with ``--per-mission``
     target             +-1.50%  <=5.00%  85%-95%             <=1.20
     robot-b       12   -0.04%    1.19%    11/12       8-12     1.07  yyyy
     robot-b swap  12   -0.23%    1.11%    11/12       8-12     1.04  yyyy   (--swap)
+    sim-load-0    20   +0.45%    4.70%    16/20      15-20     1.73  yynn   supported 1.74
+    sim-load-1    20   -0.24%    2.30%    20/20      15-20     1.79  yynn   supported 1.41
+    sim-load-2    20   +0.22%    2.19%    20/20      15-20     2.03  yynn   supported 1.88
+                                                                         pooled 56/60
+    before the windows outside their fold's support were scored apart:
     sim-load-0    20   +0.45%    4.70%    16/20      15-20     1.73  yynn
     sim-load-1    20   +0.05%    2.50%    20/20      15-20     2.00  yynn
     sim-load-2    20   +0.22%    2.19%    20/20      15-20     2.03  yynn   pooled 56/60
-    --map-altitude (discover given the map: the IMU tilt is checked and repaired):
+    --map-altitude (measured before, not rerun; discover given the map: the IMU tilt is
+    checked and repaired):
     sim-load-0    20   -0.05%    4.36%    13/20      15-20     1.49  yynn
     sim-load-1    20   -0.08%    1.57%    16/20      15-20     1.44  yynn
     sim-load-2    20   +0.09%    2.03%    19/20      15-20     3.15  yyyn   pooled 48/60
@@ -100,6 +106,36 @@ in the carried mass, a term discover does not reach) and each run's IMU tilt (r 
 with the pitch tilt: field-like logs without altitude cannot check it;
 ``--map-altitude`` does, 2.00 -> 1.44x on seed 1, but seed 2 then loses its sideways run's fold
 to 3.15x). The varied-phase campaigns walk every direction in many runs.
+
+Now ``discover`` scores those windows apart (``WindowData.fold_support``: a window whose
+direction of walking, with its grade along the travel, its fold's training runs hold in
+fewer than 3 windows from fewer than 2 runs, is an extrapolation; it enters every fit, not
+the candidates' scores, tests or choice). The x floor column stays over every window (as
+``fit`` reports it); the line under each data set gives the unsupported windows' error
+apart and the RMSE of the others ("supported"). Measured (``--no-field --campaigns 3``,
+190 s at load 5-6; robot-b with ``--campaigns 0 --swap``: no window outside support, its
+rows above unchanged):
+
+    data set     outside support         their RMSE  share of sq. error  supported
+    sim-load-0   64 windows of 3 runs      6.65 W          2 %            1.74x
+    sim-load-1   18 windows of 4 runs     50.02 W         39 %            1.41x
+    sim-load-2   80 windows of 4 runs     19.22 W         18 %            1.88x
+
+On seed 1 that closes the first cause: scored apart, the choice test passes (p 0.005, was
+0.37) and the staircase adds ``load_kg*speed^2``: 9.05 -> 8.11 W over every window
+(2.00 -> 1.79x), 1.41x over the supported ones. The next step would be a shape of
+the load (``load_kg ** 2``, 6.37 -> 5.87 W supported, 1.30x), but its choice fails (p 0.12): the
+folds choose among ``pos(18 - load_kg)``, ``pos(load_kg - 18)``, ``pos(load_kg - 9)`` and
+``load_kg ** 2``, which four load levels cannot tell apart (three numbers past the linear
+part), and the per-run offsets not due to the load (IMU tilt) leave too few runs
+consistently better. Seeds 0 and 2 stop after ``load_kg*P_base`` as before (choice p 0.59
+and 0.15): on seed 2 the forward windows steeper than 8 deg are off by -25 W on average
+at load 0 (one mission's 47 uphill windows are off by -25.5 W) and +20 W at load 27, a
+slope range per load that few missions hold, inside the "forward, up" bin. The second
+cause's candidate, ``load_kg ** 2`` (the square of a carried mass: copper losses of
+supporting it), is now tried on every mass channel; on its own it changes no staircase
+(measured on seeds 0-2 before the support rule: 1.73 / 2.00 / 2.03x, no step added). The
+1.2x target is not met on these campaigns.
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
@@ -181,6 +217,10 @@ class DataSet:
     seconds: float
     model_terms: list[str] = field(default_factory=list)
     failure: str | None = None
+    #: the windows outside their fold's support (discover scores them apart) and the
+    #: final held-out RMSE over the others
+    outside: dict[str, Any] = field(default_factory=dict)
+    final_rmse_supported_w: float = float("nan")
 
     def summary(self) -> dict[str, Any]:
         """Median error, p90 |error|, coverage, floor ratio, and the baseline's."""
@@ -330,6 +370,8 @@ def run_dataset(
         missions=missions,
         seconds=time.perf_counter() - t0,
         model_terms=[] if model is None else list(model.term_names),
+        outside=dict(rows[-1].get("outside_support") or {}),
+        final_rmse_supported_w=float(rows[-1].get("supported_rmse_w", float("nan"))),
     )
 
 
@@ -403,6 +445,11 @@ def sim_dataset(seed: int, args: argparse.Namespace) -> DataSet:
         camp=camp,
         map_altitude=args.map_altitude,
     )
+
+
+def floor_of(s: DataSet) -> float:
+    """The floor a data set's ratio is against: the TRUE one when known, else the logs'."""
+    return s.true_floor_w if np.isfinite(s.true_floor_w) else s.floor_w
 
 
 def _pct(v: float, signed: bool = False) -> str:
@@ -479,6 +526,15 @@ def print_tables(
             f"{s.final_rmse_w:.2f} W ({floors}); written model: {len(s.model_terms)} terms "
             f"({s.seconds:.0f} s)"
         )
+        if s.outside.get("n_windows"):
+            o = s.outside
+            print(
+                f"  outside their fold's support (a direction of walking no other fold's runs "
+                f"hold; scored apart): {o['n_windows']} windows of {o['n_runs']} run(s), "
+                f"{o['rmse_w']:.2f} W, {o['share_sq_error']:.0%} of the squared error; the "
+                f"others: {s.final_rmse_supported_w:.2f} W "
+                f"({s.final_rmse_supported_w / floor_of(s):.2f}x)"
+            )
         if s.failure:
             print(f"  {s.failure}")
         if not per_mission:

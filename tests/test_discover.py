@@ -154,6 +154,15 @@ def test_cli_discover(tmp_path):
     folds = fold_index(wd.runs, th["n_splits"], th["seed"])
     h = wd.heldout([term_spec(t) for t in model.terms], folds)
     assert h.rmse == pytest.approx(steps[-1]["heldout_rmse_w"], rel=1e-9)
+    # the windows their fold supports (the candidates' scores), and the others apart
+    inside = wd.fold_support(folds)
+    e = h.residuals
+    sup = np.sqrt(np.mean(e[inside] ** 2))
+    assert sup == pytest.approx(steps[-1]["supported_rmse_w"], rel=1e-9)
+    out = steps[-1]["outside_support"]
+    assert out["n_windows"] == int((~inside).sum())
+    if out["n_windows"]:
+        assert out["rmse_w"] == pytest.approx(np.sqrt(np.mean(e[~inside] ** 2)), rel=1e-9)
     assert doc["dropped"] == [] and all(s["dropped"] == [] for s in steps)
     html = report.read_text()
     assert 'src="http' not in html and "<script" not in html

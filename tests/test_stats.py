@@ -229,3 +229,23 @@ def test_distribution_functions_are_scipy_stats():
     q = np.array([0.0, 1e-9, 0.025, 0.5, 0.95, 1.0])
     np.testing.assert_array_equal(special.ndtri(q), stats.norm.ppf(q))
     np.testing.assert_array_equal(-special.ndtri(q), stats.norm.isf(q))
+
+
+def test_choice_by_fold_scores_only_the_scored_rows_but_fits_all():
+    """Four rows (one per fold) that a second candidate alone prices, 20 W off: scored, the
+    folds choose it (they are most of the error); left unscored, the folds choose the
+    candidate that carries the signal of the other rows (the unscored rows still enter the
+    fits)."""
+    from energy_planner.stats.heldout import choice_by_fold
+
+    rng = np.random.default_rng(1)
+    n = 60
+    folds = np.arange(n) % 4
+    s = rng.normal(size=n)
+    odd = np.zeros(n)
+    odd[:4] = 1.0
+    y = 2.0 + 3.0 * s + 20.0 * odd + rng.normal(0, 0.1, n)
+    X, Z = np.ones((n, 1)), np.column_stack([s, odd])
+    assert choice_by_fold(X, Z, y, folds).tolist() == [1, 1, 1, 1]
+    assert choice_by_fold(X, Z, y, folds, scored=odd == 0).tolist() == [0, 0, 0, 0]
+    assert (choice_by_fold(X, Z, y, folds, scored=np.ones(n, bool)) == [1, 1, 1, 1]).all()

@@ -44,6 +44,9 @@ REQUIRED = ("run", "t", "power", "window")
 #: same values). Without a bound a full campaign kept every candidate's column: 525 k
 #: samples x hundreds of candidates, 3 GB.
 SAMPLE_CACHE_BYTES = 64 * 2**20
+#: A walking window whose grade along its travel is within this many degrees of level is
+#: level for :meth:`WindowData.fold_support`; beyond it, up or down.
+SUPPORT_LEVEL_DEG = 2.0
 #: Terms evaluated per sample at once (bounds the design matrix made in one go).
 EVAL_CHUNK = 8
 
@@ -293,6 +296,74 @@ class WindowData:
             t = _with_kind(table)
             self._fold_cols[key] = identifiable_by_fold(model, X, w, t, folds)
         return self._fold_cols[key]
+
+    def fold_support(self, folds: np.ndarray) -> np.ndarray:
+        """Whether each window's fold has training runs that walk as it walks.
+
+        A window's *direction bin* is its motion kind (forward, backward, lateral,
+        turning, standing, mixed; :func:`_with_kind`) and, walking, the grade along its
+        travel: up, down or level (within :data:`SUPPORT_LEVEL_DEG`; a lateral window by
+        the side it steps to, left the mirror of right). A window is *supported* when the
+        other folds hold at least
+        :data:`~energy_planner.calibration.fit.MIN_WINDOWS_PER_TERM` windows of its bin
+        from at least :data:`~energy_planner.calibration.fit.MIN_RUNS` runs. An
+        unsupported window is predicted by a fit that has not seen its way of walking (a
+        direction only one or two runs hold): its error is an extrapolation (what the
+        interval's widening outside the domain is for), not evidence for or against a
+        term, and the diagnosis scores it apart (:mod:`energy_planner.diagnosis.scoring`;
+        it still enters every fit).
+
+        Parameters
+        ----------
+        folds : numpy.ndarray
+            Fold of every window.
+
+        Returns
+        -------
+        numpy.ndarray
+            Boolean, one per window.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> t = pd.DataFrame({"run": list("aaabbbcccddd"), "vx": [0.3] * 9 + [-0.3] * 3,
+        ...                   "vy": 0.0, "wz": 0.0, "speed": 0.3, "power": 1.0})
+        >>> wd = WindowData(pd.DataFrame(), np.zeros(12, int), t)
+        >>> folds = np.repeat([0, 1, 2, 0], 3)  # by run: a and d in fold 0
+        >>> wd.fold_support(folds).reshape(4, 3)[:, 0].tolist()  # d alone walks backward
+        [True, True, True, False]
+        """
+        from energy_planner.calibration.fit import MIN_RUNS, MIN_WINDOWS_PER_TERM
+
+        t = _with_kind(self.table)
+        kind = t["kind"].to_numpy(dtype=object).astype(str)
+        side = np.full(len(t), "", dtype=object)
+        if {"alpha_deg", "gamma_deg"} <= set(t.columns):
+            a = np.radians(t["alpha_deg"].to_numpy(float))
+            g = np.radians(t["gamma_deg"].to_numpy(float))
+            sx, sy = np.sin(a) * np.cos(g), np.sin(a) * np.sin(g)
+            vy = t["vy"].to_numpy(float)
+            grade = np.select(
+                [kind == "forward", kind == "backward", kind == "lateral"],
+                [sx, -sx, -np.sign(vy) * sy],
+                0.0,
+            )
+            lim = np.sin(np.radians(SUPPORT_LEVEL_DEG))
+            side = np.where(grade > lim, "/up", np.where(grade < -lim, "/down", ""))
+        bins = pd.factorize(pd.Series(kind + side.astype(str)))[0]
+        runs = pd.factorize(pd.Series(t["run"].to_numpy()))[0]
+        folds = np.asarray(folds)
+        out = np.zeros(len(t), dtype=bool)
+        for f in np.unique(folds):
+            train = folds != f
+            tb, tr = bins[train], runs[train]
+            n_win = np.bincount(tb, minlength=bins.max() + 1)
+            pairs = np.unique(np.column_stack([tb, tr]), axis=0)
+            n_run = np.bincount(pairs[:, 0], minlength=bins.max() + 1)
+            good = (n_win >= MIN_WINDOWS_PER_TERM) & (n_run >= MIN_RUNS)
+            here = folds == f
+            out[here] = good[bins[here]]
+        return out
 
     def unidentified(self, terms: Sequence[str], folds: np.ndarray) -> dict[str, str]:
         """Terms a refit of the model ``terms`` leaves out, each with the reason.

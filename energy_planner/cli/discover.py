@@ -72,6 +72,16 @@ def _text(doc: dict[str, Any]) -> str:
     for d in doc.get("dropped", []):
         if d["step"] > last:
             lines.append(f"  not added, left out by the refit: {d['name']} ({d['reason']})")
+    out = doc["staircase"][-1].get("outside_support") if doc["staircase"] else None
+    if out and out["n_windows"]:
+        sup = doc["staircase"][-1].get("supported_rmse_w")
+        lines.append(
+            f"{out['n_windows']} window(s) of {out['n_runs']} run(s) walk in a way their "
+            f"fold's training runs do not (direction, grade along the travel): held-out "
+            f"RMSE {out['rmse_w']:.2f} W there ({_pct(out['share_sq_error'])} of the squared "
+            f"error), an extrapolation; the candidates are scored on the others "
+            f"({sup:.2f} W)"
+        )
     if len(doc["staircase"]) > 1:
         lines.append(
             f"error removed in total: {_pct(doc['staircase'][-1]['error_removed_total'])} of "

@@ -432,6 +432,21 @@ def _numeric_shapes(ch: str, several_speeds: bool) -> list[tuple[str, str, str, 
         ),
         (f"{ch}*turn", f"abs(wz) * {ch}", f"the cost of turning grows with {ch}", ["wz"]),
     ]
+    if mass:
+        # the legs support the whole mass m0 + x at every moment, standing or walking:
+        # joint torques and motor currents grow with it, copper losses with its square,
+        # (m0 + x)^2 = m0^2 + 2 m0 x + x^2; the part in proportion to x is the shape x
+        shapes.append(
+            (
+                f"{ch}^2",
+                f"{ch} ** 2",
+                f"a power in the square of {ch} at every moment, standing or walking: {ch} "
+                "reads as a carried mass, the legs' joint torques and motor currents grow "
+                "with the whole mass they support, their copper (I^2 R) losses with its "
+                f"square (the part in proportion to it is the shape {ch})",
+                [],
+            )
+        )
     if several_speeds:
         shapes.append(
             (

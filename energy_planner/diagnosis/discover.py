@@ -184,6 +184,8 @@ class Discovery:
                     "explanation": s.explanation,
                     "alternatives": s.alternatives,
                     "heldout_rmse_w": m["heldout_rmse_w"],
+                    "supported_rmse_w": s.supported_rmse_w,
+                    "outside_support": dict(s.outside),
                     "floor_ratio": m["heldout_rmse_w"] / fl if fl > 0 else math.nan,
                     "run_energy_error_median": m["run_energy_error_median"],
                     "run_energy_error_p90": m["run_energy_error_p90"],

@@ -106,6 +106,13 @@ class Ranking:
     dropped: list[dict] = field(default_factory=list)
     #: the test of the choice itself (:class:`ChoiceTest`), None when nothing was scored
     choice: ChoiceTest | None = None
+    #: the windows their fold's training runs do not walk as they walk
+    #: (:func:`outside_support`): every score and test is over the others
+    #: (``supported_rmse_w``); ``heldout_rmse_w`` is over every window, as ``fit``'s
+    outside: dict = field(default_factory=dict)
+    supported_rmse_w: float = math.nan
+    #: which windows are supported by their fold (``WindowData.fold_support``)
+    supported: np.ndarray | None = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)
@@ -201,6 +208,7 @@ def rank_suspects(
     seen = {c.term for c in candidates}
     candidates = candidates + [c for c in user_candidates(extra) if c.term not in seen]
     ctx = _Context(wd, x, y, folds, th, {canonical(t) for t in terms}, list(terms))
+    outside = outside_support(ctx.base_err, ctx.inside, wd.runs)
     scored, unsup = ctx.evaluate(candidates)
     unsupported.extend(unsup)
     # the candidates fixed before any look at the errors (the refined knots are not)
@@ -246,7 +254,46 @@ def rank_suspects(
         p_threshold=p_thr,
         heldout_errors=ctx.base_err,
         choice=choice,
+        outside=outside,
+        supported_rmse_w=ctx.supported_rmse,
+        supported=ctx.inside,
     )
+
+
+def outside_support(err: np.ndarray, inside: np.ndarray, runs: np.ndarray) -> dict:
+    """The held-out error of the windows outside their fold's support, apart.
+
+    Parameters
+    ----------
+    err : numpy.ndarray
+        Held-out error of every window (NaN: not scored).
+    inside : numpy.ndarray
+        Whether each window's fold supports it (``WindowData.fold_support``).
+    runs : numpy.ndarray
+        Run of every window.
+
+    Returns
+    -------
+    dict
+        ``n_windows``, ``n_runs``, ``rmse_w`` (NaN when there are none) and
+        ``share_sq_error`` (their share of the squared held-out error of all windows).
+
+    Examples
+    --------
+    >>> outside_support(np.array([1.0, 1.0, 7.0]), np.array([True, True, False]),
+    ...                 np.array(["a", "a", "b"]))
+    {'n_windows': 1, 'n_runs': 1, 'rmse_w': 7.0, 'share_sq_error': 0.9607843137254902}
+    """
+    ok = np.isfinite(err)
+    out = ok & ~np.asarray(inside, dtype=bool)
+    total = float(np.sum(err[ok] ** 2))
+    sq = float(np.sum(err[out] ** 2))
+    return {
+        "n_windows": int(out.sum()),
+        "n_runs": int(len(np.unique(np.asarray(runs)[out]))),
+        "rmse_w": float(np.sqrt(sq / out.sum())) if out.any() else math.nan,
+        "share_sq_error": sq / total if total > 0 else 0.0,
+    }
 
 
 @dataclass
@@ -269,9 +316,14 @@ class _Context:
         ok = self.base_ok
         self.base_err = np.full(len(self.y), np.nan)
         self.base_err[ok] = self.wd.heldout(self.terms, self.folds, ok).residuals
-        e = self.base_err[ok]
+        # the windows their fold's training runs support: every score is over these
+        self.inside = self.wd.fold_support(self.folds)
+        if not (ok & self.inside).any():  # nothing supported: score every window
+            self.inside = np.ones(len(self.y), dtype=bool)
+        e = self.base_err[ok]  # the model's held-out RMSE: every window (as fit's)
         self.base_rmse = float(np.sqrt(np.mean(e**2)))
         self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
+        self.supported_rmse = float(np.sqrt(np.mean(self.base_err[ok & self.inside] ** 2)))
         self.available = set(self.wd.samples.columns) | {"speed"}
         self.basis = span_basis(self.x[ok])
         self.n_scored = 0
@@ -331,9 +383,10 @@ class _Context:
         else:  # compare on the same windows
             e0 = self.wd.heldout(self.terms, self.folds, ok, extra=more).residuals
         e1 = self.wd.heldout(self.terms, self.folds, ok, extra=[*more, c.term]).residuals
-        before = float(np.sqrt(np.mean(e0**2)))
-        after = float(np.sqrt(np.mean(e1**2)))
-        t, p, n_runs = paired_run_test(e0, e1, self.runs[ok])
+        sup = self.inside[ok]  # the scores: over the supported windows
+        before = float(np.sqrt(np.mean(e0[sup] ** 2)))
+        after = float(np.sqrt(np.mean(e1[sup] ** 2)))
+        t, p, n_runs = paired_run_test(e0[sup], e1[sup], self.runs[ok][sup])
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
         coef = math.nan  # filled in for the suspects reported (see rank_suspects)
         if plus is None:
@@ -355,7 +408,7 @@ class _Context:
             z_by_run=t,
             p_value=p,
             n_runs=n_runs,
-            n_windows=int(ok.sum()),
+            n_windows=int((ok & self.inside).sum()),
             coefficient=coef,
             channel=c.channel,
         )
@@ -364,11 +417,15 @@ class _Context:
         """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``."""
         terms = [t for t in terms if t in self.columns]
         ok = self.base_ok
-        if not terms or not ok.any():
+        # scored on the supported windows only: a fold whose training runs lack a way of
+        # walking extrapolates it, and the folds would choose whatever fits that
+        # extrapolation; every window still enters the fits
+        sup = self.inside[ok]
+        if not terms or not (ok & self.inside).any():
             return None
         Z = np.column_stack([self.columns[t][ok] for t in terms])
         folds = self.folds[ok]
-        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok])
+        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok], scored=sup)
         e0 = self.base_err[ok]
         e1 = e0.copy()
         for f, j in enumerate(pick):
@@ -376,7 +433,8 @@ class _Context:
                 ej = self.errors[terms[j]][ok]
                 there = (folds == f) & np.isfinite(ej)
                 e1[there] = ej[there]
-        z, p, n = paired_run_test(e0, e1, self.runs[ok])
+        e0, e1, runs = e0[sup], e1[sup], self.runs[ok][sup]
+        z, p, n = paired_run_test(e0, e1, runs)
         return ChoiceTest(
             chosen=[terms[j] if j >= 0 else None for j in pick],
             heldout_rmse_w=float(np.sqrt(np.mean(e1**2))),
@@ -455,7 +513,7 @@ class _Context:
         za = self.columns[best.term]
         for s in picked:
             eb = self.errors[s.term]
-            ok = np.isfinite(ea) & np.isfinite(eb)
+            ok = np.isfinite(ea) & np.isfinite(eb) & self.inside
             t_ab, _, n = paired_run_test(eb[ok], ea[ok], self.runs[ok])  # > 0: A better
             crit = float(-ndtri(self.th.confound_alpha / 2))
             if not (abs(t_ab) < crit):

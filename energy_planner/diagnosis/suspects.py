@@ -9,7 +9,8 @@ explanation. Candidates come from
   numeric ``x`` (standing power), ``x * speed`` (force per metre), ``x * pos(climb)`` and
   ``x * pos(-climb)`` (a mass lifted and lowered: ``climb = sin(alpha) * (vx cos(gamma) -
   vy sin(gamma))`` is the rate of climb along the motion), ``x * speed * sin(alpha)`` (a load
-  on any slope), ``abs(wz) * x`` (turning), hinges ``pos(q - x)``, ``pos(x - q)`` and the same
+  on any slope), ``abs(wz) * x`` (turning), ``x ** 2`` for a channel whose name reads
+  as a mass (copper losses of supporting it), hinges ``pos(q - x)``, ``pos(x - q)`` and the same
   times speed at data quantiles ``q``; categorical ``(c == 'v')``, ``speed * (c == 'v')``,
   ``(c == 'v') * pos(climb)`` and ``abs(wz) * (c == 'v')`` per value. The best shape per
   channel by held-out error stands for the channel (a best hinge gets its knot refined);
@@ -25,7 +26,11 @@ explanation. Candidates come from
 
 Each candidate is scored by the held-out error of the model refitted with it, validated
 by run (grouped K-fold: all windows of a run are in the same fold, so a run is never
-predicted by a fit that saw it).
+predicted by a fit that saw it). A window whose fold's training runs do not walk as it
+does (its direction and grade along the travel: ``WindowData.fold_support``) is an
+extrapolation: it enters every fit, but the candidates' scores, tests and the choice are
+over the other windows, and its error is reported apart (``Ranking.outside``); the
+model's held-out RMSE stays over every window, as ``fit`` reports it.
 
 *Unsupported* (listed, never ranked): the candidate needs a channel the logs lack, its
 column has no variance or no finite value, or its column is nearly in the span of the
@@ -63,6 +68,7 @@ noise once the other is in the model, the data cannot tell them apart: ``B`` is 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
@@ -152,6 +158,10 @@ class Step:
     error_explained: float | None
     explanation: str = ""
     alternatives: list[dict] = field(default_factory=list)
+    #: the windows outside their fold's support, scored apart (``Ranking.outside``), and
+    #: the held-out RMSE of the others (``Ranking.supported_rmse_w``)
+    outside: dict = field(default_factory=dict)
+    supported_rmse_w: float = math.nan
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
@@ -183,7 +193,10 @@ def staircase(
     terms = [term_spec(t) for t in terms]
     rep = reporter(progress)
     ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
-    steps = [Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None)]
+    steps = [
+        Step(0, None, None, ranking.heldout_rmse_w, ranking.fold_rmse_w, None,
+             outside=ranking.outside, supported_rmse_w=ranking.supported_rmse_w)
+    ]  # fmt: skip
     rankings = [ranking]
     for i in range(1, max_steps + 1):
         best = _first_kept(wd, terms, ranking, folds)
@@ -207,6 +220,8 @@ def staircase(
                 best.error_explained,
                 best.explanation,
                 alts,
+                ranking.outside,
+                ranking.supported_rmse_w,
             )
         )
         rep.say(f"step {i} done", stage="staircase")

@@ -282,6 +282,7 @@ def choice_by_fold(
     y: np.ndarray,
     folds: np.ndarray,
     w: np.ndarray | Sequence[float] | None = None,
+    scored: np.ndarray | None = None,
 ) -> np.ndarray:
     """For each fold, the candidate column that the other folds alone would add to ``X``.
 
@@ -316,6 +317,11 @@ def choice_by_fold(
         Fold of every row (:func:`fold_index`).
     w : array-like, optional
         Row weights of the fits; equal by default.
+    scored : numpy.ndarray, optional
+        Boolean: the rows whose inner held-out errors score a candidate (default all).
+        The others still enter every fit: rows that extrapolate (a way of walking that
+        their fold's training runs lack) are not scored, but the fits still learn from
+        them.
 
     Returns
     -------
@@ -343,6 +349,7 @@ def choice_by_fold(
             f"X {X.shape}, Z {Z.shape}, y {y.shape} and folds {folds.shape} must share their rows"
         )
     w = _weights(w, n)
+    scored = np.ones(n, dtype=bool) if scored is None else np.asarray(scored, dtype=bool)
     n_folds = int(folds.max()) + 1 if n else 0
     best = np.full(n_folds, -1, dtype=np.int64)
     gain = np.zeros(n_folds)
@@ -352,7 +359,7 @@ def choice_by_fold(
         if ok.sum() <= k + 1:
             continue
         A = np.column_stack([X[ok], Z[ok, j]])
-        stats = _fold_stats(A, y[ok], w[ok], folds[ok], n_folds)
+        stats = _fold_stats(A, y[ok], w[ok], folds[ok], n_folds, scored[ok])
         key = ok.tobytes()
         if key not in base:  # the model without the candidate, on the same rows
             base[key] = _inner_sse(stats, k, n_folds)
@@ -363,16 +370,22 @@ def choice_by_fold(
     return best
 
 
-def _fold_stats(A, y, w, folds, n_folds):
-    """Per fold: weighted Gram and moment (fits), plain Gram, moment and ``y.y`` (errors)."""
+def _fold_stats(A, y, w, folds, n_folds, scored=None):
+    """Per fold: weighted Gram and moment (fits), plain Gram, moment and ``y.y`` (errors).
+
+    The fits use every row of the fold, the errors only its ``scored`` rows (default all).
+    """
     _, As, scale = _scaled(A, w)
     As = A / scale  # unit weighted norm, unweighted rows
+    scored = np.ones(len(y), dtype=bool) if scored is None else scored
     out = []
     for f in range(n_folds):
         te = folds == f
         a, yy, ww = As[te], y[te], w[te]
         aw = a * ww[:, None]
-        out.append((aw.T @ a, aw.T @ yy, a.T @ a, a.T @ yy, float(yy @ yy), int(te.sum())))
+        sc = scored[te]  # the errors: the scored rows only
+        a_s, y_s = a[sc], yy[sc]
+        out.append((aw.T @ a, aw.T @ yy, a_s.T @ a_s, a_s.T @ y_s, float(y_s @ y_s), int(te.sum())))
     return out
 
 
