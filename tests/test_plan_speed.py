@@ -170,3 +170,37 @@ def test_cli_bad_speed_names_the_value():
                                     "--goal", "500060,5000040", "--speed", "1.5:0.2"])  # fmt: skip
     assert run.exit_code == 2
     assert "1.5:0.2" in run.output and "--speed" in run.output
+
+
+def test_refinement_keeps_shortcut_prices_and_finds_the_same_path(plane, monkeypatch):
+    """A cost that chooses its speed keeps its shortcuts' prices across rounds (each is
+    priced at several speeds): the refined path is the one the refinement finds pricing
+    every shortcut again (the memo emptied before every pass), in fewer motions priced,
+    and it ends at the closed form's least energy of the straight line."""
+    from energy_planner.planning import refine
+
+    p, s, g = plane
+    cost = p.with_speed(RANGE).cost.compile()
+    rng = np.random.default_rng(5)
+    xs = np.linspace(s[0], g[0], 13)
+    ys = s[1] + rng.uniform(-1.5, 1.5, 13) * np.r_[0, np.ones(11), 0]
+    states = np.column_stack([xs, ys, np.zeros(13)])
+    kw = dict(budget=0.0, seed=2, spacing=1.0, max_rounds=5, min_rounds=5)
+    kept, info = refine.refine_path(cost, states, **kw)
+    monkeypatch.setattr(refine, "MEMO_SIZE", -1)
+    again, info2 = refine.refine_path(cost, states, **kw)
+    assert np.array_equal(kept, again)
+    assert info["evaluations"] <= info2["evaluations"]
+    # a pass over poses whose shortcuts are all kept prices nothing, and gives what
+    # pricing them again gives
+    dense = refine.densify(states, 1.0)
+    e0 = refine._edge_costs(cost, dense)
+    memo: dict = {}
+    first = refine._shortcut_pass(cost, dense, e0, 3, memo)
+    second = refine._shortcut_pass(cost, dense, e0, 3, memo)
+    fresh = refine._shortcut_pass(cost, dense, e0, 3)
+    assert first[2] > 0 and second[2] == 0 and fresh[2] == first[2]
+    for a, b in ((first, second), (first, fresh)):
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    e = float(refine._edge_costs(cost, kept).sum())
+    assert e == pytest.approx((g[0] - s[0]) * math.hypot(1, 0.12) * _per_metre(V_STAR), rel=0.02)
