@@ -136,6 +136,17 @@ def test_pareto_front_is_the_analytic_one(plane):
         assert r["energy_j"] == pytest.approx(r["distance_m"] * _per_metre(v), rel=1e-6)
     assert np.all(np.diff([r["duration_s"] for r in rows]) <= 1e-9)
     assert np.all(np.diff([r["energy_j"] for r in rows]) >= -1e-9)
+    # the dearest second's point walks the route planned before it at its own speeds:
+    # within the least-energy search's certificate of the front's lower bound (the
+    # search's bound of the energy plus lambda times the line at the top speed)
+    found = front.plans[0].info["search"]
+    line = g[0] - s[0]
+    last = front.plans[-1]
+    assert "retimed" in last.info
+    bound = found["h_start_j"] + front.lambdas[-1] * line / RANGE[1]
+    cost = last.energy_j + front.lambdas[-1] * last.duration_s
+    assert cost == pytest.approx(last.info["retimed"]["certified"] * bound, rel=1e-9)
+    assert cost <= found["certified"] * bound
 
 
 def test_cli_speed_auto_and_energy_of_the_written_path(tmp_path):
