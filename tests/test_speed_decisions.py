@@ -394,10 +394,10 @@ def test_cli_follow_deadline_prints_what_the_follower_returns(tmp_path, follow_c
 
 def test_pareto_plans_anew_where_the_route_changes(hill):
     """On the hill the least-energy route is a detour and the straight climb is the
-    fastest: walking the detour faster is not within the least-energy search's
-    certificate of the front's lower bound (the search's bound of the energy plus lambda
-    times the straight line at the top speed), so the dearest second's point is planned
-    anew, and is the straight climb."""
+    fastest: walking the detour faster is not within eps of the front's lower bound (the
+    least-energy search's bound of the energy plus lambda times the straight line at the
+    top speed), so the dearest second's point is planned anew, and is the straight
+    climb."""
     p, s, g = hill
     front = ep.pareto(p, s, g, 4, speed=(0.2, 2.0), time=0.5)
     line = math.hypot(g[0] - s[0], g[1] - s[1])

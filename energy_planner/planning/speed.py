@@ -461,12 +461,11 @@ def pareto(
     :func:`~energy_planner.planning.plan.plan`'s.
 
     Each point first walks the route of the last point planned at its own ``lambda``'s
-    speeds (:func:`retimed`), and keeps it when that is certified as well as the
-    least-energy search's own path: its ``energy + lambda x time`` at most that path's
-    certificate (its cost over the search's lower bound, at most ``eps``) times a lower
-    bound of every path's (the search's bound of the energy, plus ``lambda`` times the
-    straight line at the top speed). Otherwise (where another route may be better: the
-    bound is loose where the least-energy and the fastest routes differ) it is planned.
+    speeds (:func:`retimed`), and keeps it when that carries a search's certificate: its
+    ``energy + lambda x time`` at most ``eps`` times a lower bound of every path's (the
+    least-energy search's bound of the energy, plus ``lambda`` times the straight line
+    at the top speed). Otherwise (where another route may be better: the bound is loose
+    where the least-energy and the fastest routes differ) it is planned.
     ``info["retimed"]`` says which route a point walks and its certificate.
     """
     if not (isinstance(n, int) and n >= 2):
@@ -478,13 +477,10 @@ def pareto(
     lams = front_lambdas(base.energy_j / max(base.duration_s, 1e-9), n)
     # every path of the search's primitives costs at least this energy (the least-energy
     # search's bound; none from a planner other than the search)
-    found = base.info.get("search") or {}
-    lower, cert = found.get("h_start_j"), found.get("certified")
+    lower = (base.info.get("search") or {}).get("h_start_j")
     plans, route = [base], (base, 0.0)
     for lam in lams[1:]:
-        res = None
-        if lower is not None and cert is not None:
-            res = retimed(problem, route, start, goal, lam, lower, cert, kw)
+        res = None if lower is None else retimed(problem, route, start, goal, lam, lower, kw)
         if res is None:
             res = _plan(problem, start, goal, speed, lam, kw)
             route = (res, lam)
@@ -499,7 +495,6 @@ def retimed(
     goal: Sequence[float],
     lam: float,
     lower_j: float,
-    certified: float,
     kw: dict[str, Any],
 ) -> Any:
     """A planned route walked at another price of a second, where that is certified.
@@ -510,9 +505,10 @@ def retimed(
     primitives costs at least ``lower_j + lam x D / vmax``: ``lower_j`` a lower bound of
     its energy (the least-energy search's ``h_start``), ``D`` the straight line from
     start to goal and ``vmax`` the top of the range (no motion is faster). The retimed
-    route is returned when its ``energy + lam x time`` is at most ``certified`` (the
-    certificate to match, capped at the search's ``eps``: ``kw``, default
-    :data:`~energy_planner.planning.plan.DEFAULT_EPS`) times that bound; else None.
+    route is returned when its ``energy + lam x time`` is at most the search's ``eps``
+    (``kw``, default :data:`~energy_planner.planning.plan.DEFAULT_EPS`) times that bound:
+    the certificate a search's path carries (its cost at most ``eps`` times the optimum
+    on the primitives); else None.
     """
     from energy_planner.planning.plan import DEFAULT_EPS
     from energy_planner.trust import Trust
@@ -528,7 +524,7 @@ def retimed(
     res = timed(problem, plan0.states, speed=tuple(rng), time_weight=lam, name=plan0.planner,
                 trust=want)  # fmt: skip
     objective = res.energy_j + lam * res.duration_s
-    if not (bound > 0 and objective <= min(eps, float(certified)) * bound):
+    if not (bound > 0 and objective <= eps * bound):
         return None
     res.info["retimed"] = {"from_lambda_j_per_s": float(lam0), "certified": objective / bound}
     return res
