@@ -126,6 +126,8 @@ def test_deadline_no_path_can_gives_the_fastest_time(plane):
 
 
 def test_pareto_front_is_the_analytic_one(plane):
+    from energy_planner.planning.plan import DEFAULT_EPS
+
     p, s, g = plane
     front = ep.pareto(p, s, g, 4, speed=RANGE, progress=False)
     rows = front.rows()
@@ -136,6 +138,17 @@ def test_pareto_front_is_the_analytic_one(plane):
         assert r["energy_j"] == pytest.approx(r["distance_m"] * _per_metre(v), rel=1e-6)
     assert np.all(np.diff([r["duration_s"] for r in rows]) <= 1e-9)
     assert np.all(np.diff([r["energy_j"] for r in rows]) >= -1e-9)
+    # the dearest second's point walks the route planned before it at its own speeds:
+    # within eps of the front's lower bound (the least-energy search's bound of the
+    # energy plus lambda times the line at the top speed)
+    found = front.plans[0].info["search"]
+    line = g[0] - s[0]
+    last = front.plans[-1]
+    assert "retimed" in last.info
+    bound = found["h_start_j"] + front.lambdas[-1] * line / RANGE[1]
+    cost = last.energy_j + front.lambdas[-1] * last.duration_s
+    assert cost == pytest.approx(last.info["retimed"]["certified"] * bound, rel=1e-9)
+    assert cost <= DEFAULT_EPS * bound
 
 
 def test_cli_speed_auto_and_energy_of_the_written_path(tmp_path):
@@ -170,3 +183,37 @@ def test_cli_bad_speed_names_the_value():
                                     "--goal", "500060,5000040", "--speed", "1.5:0.2"])  # fmt: skip
     assert run.exit_code == 2
     assert "1.5:0.2" in run.output and "--speed" in run.output
+
+
+def test_refinement_keeps_shortcut_prices_and_finds_the_same_path(plane, monkeypatch):
+    """A cost that chooses its speed keeps its shortcuts' prices across rounds (each is
+    priced at several speeds): the refined path is the one the refinement finds pricing
+    every shortcut again (the memo emptied before every pass), in fewer motions priced,
+    and it ends at the closed form's least energy of the straight line."""
+    from energy_planner.planning import refine
+
+    p, s, g = plane
+    cost = p.with_speed(RANGE).cost.compile()
+    rng = np.random.default_rng(5)
+    xs = np.linspace(s[0], g[0], 13)
+    ys = s[1] + rng.uniform(-1.5, 1.5, 13) * np.r_[0, np.ones(11), 0]
+    states = np.column_stack([xs, ys, np.zeros(13)])
+    kw = dict(budget=0.0, seed=2, spacing=1.0, max_rounds=5, min_rounds=5)
+    kept, info = refine.refine_path(cost, states, **kw)
+    monkeypatch.setattr(refine, "MEMO_SIZE", -1)
+    again, info2 = refine.refine_path(cost, states, **kw)
+    assert np.array_equal(kept, again)
+    assert info["evaluations"] <= info2["evaluations"]
+    # a pass over poses whose shortcuts are all kept prices nothing, and gives what
+    # pricing them again gives
+    dense = refine.densify(states, 1.0)
+    e0 = refine._edge_costs(cost, dense)
+    memo: dict = {}
+    first = refine._shortcut_pass(cost, dense, e0, 3, memo)
+    second = refine._shortcut_pass(cost, dense, e0, 3, memo)
+    fresh = refine._shortcut_pass(cost, dense, e0, 3)
+    assert first[2] > 0 and second[2] == 0 and fresh[2] == first[2]
+    for a, b in ((first, second), (first, fresh)):
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    e = float(refine._edge_costs(cost, kept).sum())
+    assert e == pytest.approx((g[0] - s[0]) * math.hypot(1, 0.12) * _per_metre(V_STAR), rel=0.02)

@@ -277,3 +277,64 @@ def test_bound_table_from_the_cache_is_the_computed_one(model):
     np.testing.assert_array_equal(memo, computed)
     np.testing.assert_array_equal(disk, computed)
     np.testing.assert_array_equal(tgeo2, tgeo)
+
+
+def _steep_crest(seed: int, size: int = 24) -> Terrain:
+    """A crest whose flanks climb at 55-68 degrees over a tilt: gradients beyond the
+    heading table's default 60 degrees (the bound of a speed range reads its own table
+    there, :data:`~energy_planner.planning.search.RANGED_TOP_STEP_DEG`)."""
+    rng = np.random.default_rng(seed)
+    ang = rng.uniform(0.0, np.pi)
+    flank = rng.uniform(1.45, 2.5)
+    tilt = rng.uniform(-0.1, 0.1, 2)
+
+    def z(x, y):
+        d = (x - size / 2) * np.cos(ang) + (y - size / 2) * np.sin(ang)
+        return np.maximum(6.0 - flank * np.abs(d), 0.0) + tilt[0] * x + tilt[1] * y
+
+    return Terrain.from_function(z, size=(size, size))
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 10_000),
+    p=st.integers(0, 10_000),
+    lam=st.sampled_from([0.0, 300.0]),
+    steep=st.booleans(),
+)
+def test_bound_of_a_speed_range_never_exceeds_the_kernel(seed, p, lam, steep):
+    """A motion that chooses its speed (and pays ``lam`` J per second) costs at least the
+    heuristic's bound of it, at every heading allowed to make it: the bound is the least
+    over speeds of heading tables that reach the terrain's steepest gradients (60-68
+    degrees on the steep crest, where the fixed speed's bound takes the exact minimum).
+    The kernel (``motion_best``: each motion's speed in closed form) is the independent
+    side."""
+    from test_speed_decisions import _detour_model
+
+    from energy_planner.problem import Problem
+
+    t = _steep_crest(seed) if steep else _bumpy(seed, amp=8.0)
+    cost = Problem(t, _detour_model()).with_speed((0.2, 2.0), lam).cost.compile()
+    grid = _Grid(cost, t, (1.5, 2.5), None, 16, "all")
+    mod = search_module(cost)
+    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    tmin = table.min(axis=(1, 2)).astype(float)
+    geo = np.array(cost.data[2:6], dtype=float)
+    kstep, tmax = float(cost.data[IN_STEP]), float(cost.data[IN_TMAX])
+    rng = np.random.default_rng(p)
+    checked = tight = 0
+    for i, j in zip(rng.integers(2, grid.nx - 3, 6), rng.integers(2, grid.ny - 3, 6), strict=True):
+        xa, ya = grid.xs[i], grid.ys[j]
+        for m, (di, dj) in enumerate(grid.moves):
+            if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
+                continue
+            xb, yb = grid.xs[i + di], grid.ys[j + dj]
+            lb = BOUND_MARGIN * mod.edge_bound(cost.data[0], *geo, kstep, tmax, xa, ya, xb, yb,
+                                               table, tmin, m, *tgeo)  # fmt: skip
+            for h in np.nonzero(grid.move_ok[:, m])[0]:
+                th = grid.headings[h]
+                e = cost(xa, ya, th, xb, yb, th)
+                assert lb <= e * (1 + 1e-9), (m, h, lb, e)
+                checked += math.isfinite(e)
+                tight += math.isfinite(e) and lb > 0.5 * e
+    assert checked > 0 and tight > 0  # a bound of 0 would pass the first alone

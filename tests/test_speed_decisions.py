@@ -390,3 +390,21 @@ def test_cli_follow_deadline_prints_what_the_follower_returns(tmp_path, follow_c
     assert any("before the deadline" in e for e in printed["events"])
     run = CliRunner().invoke(main, args)
     assert "slack s" in run.output and "keep m/s" in run.output
+
+
+def test_pareto_plans_anew_where_the_route_changes(hill):
+    """On the hill the least-energy route is a detour and the straight climb is the
+    fastest: walking the detour faster is not within eps of the front's lower bound (the
+    least-energy search's bound of the energy plus lambda times the straight line at the
+    top speed), so the dearest second's point is planned anew, and is the straight
+    climb."""
+    p, s, g = hill
+    front = ep.pareto(p, s, g, 4, speed=(0.2, 2.0), time=0.5)
+    line = math.hypot(g[0] - s[0], g[1] - s[1])
+
+    def length(pt):
+        return float(np.hypot(*np.diff(pt.states[:, :2], axis=0).T).sum())
+
+    assert length(front.plans[0]) > 1.05 * line  # the detour
+    last = front.plans[-1]
+    assert "retimed" not in last.info and length(last) < 1.001 * line

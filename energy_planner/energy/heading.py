@@ -131,12 +131,16 @@ class HeadingCost:
     consts : tuple of float
         The constant channels' values (``--set``; a category as its index), kernel
         inputs after the rasters: a new value builds a new table but compiles nothing.
+    top_deg : float
+        Steepest slope the table holds, degrees (default :data:`TABLE_TOP_DEG`; steeper
+        cells take the exact minimum). A table with a higher top has the same rows
+        below the default's (each node is computed on its own) and starts from them.
     """
 
     def __init__(
         self, source: str, speed: float, tmax: float, smax: float, crab: float,
         back_tan: float, rasters: int = 0, categorical: bool = False,
-        consts: tuple[float, ...] = (),
+        consts: tuple[float, ...] = (), top_deg: float = TABLE_TOP_DEG,
     ) -> None:  # fmt: skip
         self.source = source
         self.speed = float(speed)
@@ -150,7 +154,8 @@ class HeadingCost:
         self._consts = np.array(self.consts, dtype=np.float64)
         self._numba: Any = None  # numba's kernel module, loaded on first use
         self._aot: Any = _UNSET  # the precompiled map module (precompiled_map)
-        top = min(TABLE_TOP_DEG, math.degrees(math.atan(self.tmax)))
+        self.top_deg = float(top_deg)
+        top = min(self.top_deg, math.degrees(math.atan(self.tmax)))
         self.d_alpha = math.radians(TABLE_D_ALPHA_DEG)
         self.n_alpha = max(2, int(math.ceil(top / TABLE_D_ALPHA_DEG - 1e-9)) + 1)
         self.n_phi = int(round(360.0 / TABLE_D_PHI_DEG))
@@ -192,21 +197,22 @@ class HeadingCost:
     def params(self) -> tuple[Any, ...]:
         """The parameters that define it (those of the constructor)."""
         return (self.source, self.speed, self.tmax, self.smax, self.crab, self.back_tan,
-                self.rasters, self.categorical, self.consts)  # fmt: skip
+                self.rasters, self.categorical, self.consts, self.top_deg)  # fmt: skip
 
     # ------------------------------------------------------------------ constructors
     @classmethod
     def of_motion_cost(
         cls, cost: Any, *, max_crab_deg: float | None = None,
         max_backward_slope_deg: float | None = None, speed: float | None = None,
-        gait: str | None = None,
+        gait: str | None = None, top_deg: float = TABLE_TOP_DEG,
     ) -> HeadingCost:  # fmt: skip
         """The heading cost of a :class:`~energy_planner.energy.MotionCost`'s physics.
 
         Its model, speed (or ``speed``: one of a cost's speed range), channels and slope
         limits; the gait limits given here, or the cost's own ``max_crab_deg`` /
         ``max_backward_slope_deg`` if it has them. ``gait``: one of the gaits a cost
-        chooses among (:attr:`MotionCost.gaits`), walked everywhere.
+        chooses among (:attr:`MotionCost.gaits`), walked everywhere; ``top_deg``: the
+        table's steepest slope.
         """
         channels = cost.channels
         if gait is None and getattr(cost, "gaits", ()):  # the gait at the nominal speed
@@ -229,6 +235,7 @@ class HeadingCost:
                 cost.model, speed=cost.speed if speed is None else speed, channels=channels,
                 max_slope_deg=cost.max_slope_deg, max_cross_slope_deg=cost.max_cross_slope_deg,
                 max_crab_deg=max_crab_deg, max_backward_slope_deg=max_backward_slope_deg,
+                top_deg=top_deg,
             )  # fmt: skip
 
     @classmethod
@@ -315,6 +322,8 @@ class HeadingCost:
         stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
         if start == 0:
             cached = _load_table(key)
+            if cached is None and self.top_deg != TABLE_TOP_DEG:  # the default's rows
+                cached = _load_table(self._key(values, TABLE_TOP_DEG))
             if cached is not None and cached.shape[2] == self.n_phi:
                 rows = min(cached.shape[1], self.n_alpha)
                 table[:, :rows] = cached[:, :rows]
@@ -342,10 +351,14 @@ class HeadingCost:
         entry[1] = stop
         _save_table(key, table[:, :stop])
 
-    def _key(self, values: tuple[float, ...] = ()) -> str:
+    def _key(self, values: tuple[float, ...] = (), top_deg: float | None = None) -> str:
         from energy_planner.energy import kernels
 
-        text = repr((self.params, values, TABLE_D_ALPHA_DEG, TABLE_D_PHI_DEG))
+        top = self.top_deg if top_deg is None else top_deg
+        # the default top is not in the text: the tables cached before it was a
+        # parameter keep their keys
+        params = (*self.params[:-1], *(() if top == TABLE_TOP_DEG else (top,)))
+        text = repr((params, values, TABLE_D_ALPHA_DEG, TABLE_D_PHI_DEG))
         helpers = (kernels._TEMPLATE.read_bytes(), text.encode())
         return hashlib.sha256(b"\0".join(helpers)).hexdigest()[:24]
 
@@ -506,6 +519,7 @@ def heading_cost(
     max_cross_slope_deg: float | None = None,
     max_crab_deg: float | None = None,
     max_backward_slope_deg: float | None = None,
+    top_deg: float = TABLE_TOP_DEG,
 ) -> HeadingCost:
     """The cheapest way to move along a heading under a model, speed and limits.
 
@@ -531,6 +545,8 @@ def heading_cost(
         No backward walking (body x more than 90 degrees from the travel) on ground
         steeper than this, degrees (None: anywhere; negative: nowhere, not even on flat
         ground).
+    top_deg : float
+        Steepest slope of the table, degrees (steeper cells: the exact minimum).
 
     Returns
     -------
@@ -576,6 +592,7 @@ def heading_cost(
         len(channels.rasters),
         all(cats is not None for _, cats in channels.kernel_layout()),
         tuple(channels.runtime_values().tolist()),
+        float(top_deg),
     )
 
 

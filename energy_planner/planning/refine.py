@@ -63,18 +63,60 @@ def _edge_costs(cost, s: np.ndarray) -> np.ndarray:
     return cost.batch(s[:-1, 0], s[:-1, 1], s[:-1, 2], s[1:, 0], s[1:, 1], s[1:, 2])
 
 
-def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int):
-    """Try every shortcut from pose i to pose i + gap; apply the best non-overlapping ones."""
+def _shortcut_prices(cost, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Shortcuts from poses ``a`` to poses ``b``: rows ``direct, t1, walk, t2`` (J).
+
+    ``direct``: straight at the poses' yaws; ``t1 + walk + t2``: turn to face along,
+    walk, turn back.
+    """
+    h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
+    return np.array([
+        cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2]),
+        cost.batch(a[:, 0], a[:, 1], a[:, 2], a[:, 0], a[:, 1], h),
+        cost.batch(a[:, 0], a[:, 1], h, b[:, 0], b[:, 1], h),
+        cost.batch(b[:, 0], b[:, 1], h, b[:, 0], b[:, 1], b[:, 2]),
+    ]).reshape(4, len(a))  # fmt: skip
+
+
+#: Shortcut prices a refinement keeps (``memo`` of :func:`_shortcut_pass`): beyond this
+#: many, the memo starts again.
+MEMO_SIZE = 500_000
+
+
+def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int, memo: dict | None = None):
+    """Try every shortcut from pose i to pose i + gap; apply the best non-overlapping ones.
+
+    ``memo``: prices of shortcuts by their end poses (bytes), kept across passes and
+    rounds: a shortcut whose ends did not move is not priced again (the same kernel on
+    the same poses gives the same numbers).
+    """
     n = len(s)
     i = np.arange(0, n - gap)
     csum = np.concatenate([[0.0], np.cumsum(e)])
     old = csum[i + gap] - csum[i]
     a, b = s[i], s[i + gap]
-    direct = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
+    if memo is None:
+        direct, t1, walk, t2 = _shortcut_prices(cost, a, b)
+        evals = 4 * len(i)
+    else:
+        ends = np.ascontiguousarray(np.hstack([a, b]))
+        keys = [row.tobytes() for row in ends]
+        got = [memo.get(k) for k in keys]
+        miss = np.array([g is None for g in got], dtype=bool)
+        prices = np.empty((4, len(i)))
+        if miss.any():
+            new = _shortcut_prices(cost, a[miss], b[miss])
+            prices[:, miss] = new
+            if len(memo) > MEMO_SIZE:
+                memo.clear()
+            for k, col in zip(np.nonzero(miss)[0], new.T, strict=True):
+                memo[keys[k]] = col
+        hit = np.nonzero(~miss)[0]
+        if hit.size:
+            prices[:, hit] = np.array([got[k] for k in hit]).T
+        direct, t1, walk, t2 = prices
+        evals = 4 * int(miss.sum())
     h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
-    t1 = cost.batch(a[:, 0], a[:, 1], a[:, 2], a[:, 0], a[:, 1], h)
-    walk = cost.batch(a[:, 0], a[:, 1], h, b[:, 0], b[:, 1], h)
-    t2 = cost.batch(b[:, 0], b[:, 1], h, b[:, 0], b[:, 1], b[:, 2])
     facing = t1 + walk + t2
     use_b = facing < direct
     new = np.where(use_b, facing, direct)
@@ -82,7 +124,6 @@ def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int):
     # infeasible one (inf - inf would be NaN)
     gain = np.where(np.isfinite(old), old - new, np.where(np.isfinite(new), np.inf, 0.0))
     good = np.nonzero(gain > 1e-9 * np.where(np.isfinite(old), np.maximum(old, 1.0), 1.0))[0]
-    evals = 4 * len(i)
     if good.size == 0:
         return s, e, evals
     taken = np.zeros(n, dtype=bool)  # poses inside or at the ends of a taken shortcut
@@ -187,6 +228,10 @@ def refine_path(
     total = float(e.sum())
     sig_xy, sig_yaw = 0.5 * spacing, 0.3
     evals = len(e)
+    # a cost that chooses its speed prices each motion at several speeds: the shortcuts
+    # whose ends stay put are not priced again in later rounds (a fixed speed's are
+    # cheap, and its rounds fill a time budget: its results stay as they were)
+    memo: dict | None = {} if getattr(cost, "ranged", False) else None
     rounds = 0
     calm = 0
     converged = False
@@ -253,7 +298,7 @@ def refine_path(
             n = len(s)
             if n <= gap:
                 break
-            s, e, k = _shortcut_pass(cost, s, e, gap)
+            s, e, k = _shortcut_pass(cost, s, e, gap, memo)
             evals += k
         total = float(e.sum())
         rate = accepted / max(tried, 1)

@@ -334,7 +334,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
-    from energy_planner.energy.heading import HeadingCost
+    from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost
     from energy_planner.planning.moves import MOVES_16
 
     grad = cost.data[IN_GRAD]
@@ -362,24 +362,35 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     table = np.full(along.shape, np.inf)
     nodes_by_gait = bound_speeds(cost)
     lam = float(getattr(cost, "time_weight", 0.0))
-    if sum(len(speeds) for _, speeds in nodes_by_gait) > 1:
+    top = TABLE_TOP_DEG
+    n_nodes = sum(len(speeds) for _, speeds in nodes_by_gait)
+    if n_nodes > 1:
         # a sample's gradient is a convex combination of cells' gradients: nodes steeper
         # than the steepest cell by two spacings are never read by the bilinear lookup, so
-        # they are left inf (edge_bound then takes the table's least: still a bound) rather
-        # than priced at every speed (the exact minimum, above the heading table's slopes)
-        gmax = float(np.nanmax(np.hypot(gx, gy)))
-        far = np.hypot(GX, GY) > gmax + 2.0 * max(tgeo[2], tgeo[3])
+        # they are left inf (edge_bound then takes the table's least: still a bound)
+        gmax = float(np.nanmax(np.hypot(gx, gy))) + 2.0 * max(tgeo[2], tgeo[3])
+        far = np.hypot(GX, GY) > gmax
         GX, GY = np.where(far, np.nan, GX), np.where(far, np.nan, GY)
+        # the others from heading tables that reach them (computed once per machine,
+        # model and speed, as the kernels), not by the exact minimum at each node of
+        # each map at each speed, which was most of a plan's time on steep ground
+        top = max(TABLE_TOP_DEG, min(RANGED_TOP_MAX_DEG, RANGED_TOP_STEP_DEG * math.ceil(
+            (math.degrees(math.atan(gmax)) + 1.0) / RANGED_TOP_STEP_DEG)))  # fmt: skip
     for gait, speeds in nodes_by_gait:
         for speed in speeds:
-            if gait is None and speed == heading.speed:
+            if gait is None and speed == heading.speed and top == TABLE_TOP_DEG:
                 hc = heading
             else:  # gait None: the cost's own channels
-                hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait)
+                hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait, top_deg=top)
             best = _best_bands(hc, GX, GY, dirs, along)
             if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
                 best = best + np.float32(lam / speed)
             table = np.minimum(table, best)
+    if n_nodes > 1:  # the least between the speed nodes (the widest spacing of any gait)
+        law = getattr(cost, "speed_law", None)
+        exps = law.exponents if law is not None and law.polynomial else (-2, 2)
+        ratio = max(float(s[1] / s[0]) for _, s in nodes_by_gait if len(s) > 1)
+        table = table * (1.0 - speed_dip(ratio, (*exps, -1)))
     table[np.isnan(table)] = np.inf  # the nodes left out above
     table[~move_ok.any(axis=0)] = np.inf
     table = np.maximum(table, 0.0)
@@ -495,6 +506,14 @@ def prune_bound_cache(folder: Path, keep: int | None = None, max_bytes: int | No
     return gone
 
 
+#: The heading tables of a cost that chooses its speed reach the terrain's steepest
+#: gradient node (and one degree more), rounded up to this step (degrees: maps share
+#: tables), ...
+RANGED_TOP_STEP_DEG = 5.0
+#: ... and at most this (degrees; steeper nodes take the exact minimum).
+RANGED_TOP_MAX_DEG = 85.0
+
+
 #: Speeds of a cost that chooses its speed over which the search's bound is the least
 #: (geometric over the range, ends included; where the motions choose their gait, no
 #: further apart in ratio than these over the gaits' whole range).
@@ -506,14 +525,10 @@ def bound_speeds(cost) -> list[tuple[str | None, np.ndarray]]:
 
     A fixed-speed cost: gait ``None`` at its nominal speed. A cost that chooses its speed:
     :data:`SPEED_BOUND_NODES` speeds spread geometrically over its range (gait ``None``,
-    the cost's own channels). Energy per metre is smooth in speed with its least inside
-    or at an end of the range, so the least over these nodes is above the least over the
-    whole range by a fraction of the spacing's square: the search's :data:`BOUND_MARGIN`
-    covers it where the curve is flat near its minimum; elsewhere the bound may exceed a
-    motion's cost by a little, which only weakens the optimality certificate (``eps``),
-    not the path. With a time price ``lambda`` the bound at each speed adds ``lambda /
-    v`` (a map metre lasts at least ``1 / v``), so that a dear second keeps the heuristic
-    as tight as a free one.
+    the cost's own channels). With a time price ``lambda`` the bound at each speed adds
+    ``lambda / v`` (a map metre lasts at least ``1 / v``), so that a dear second keeps the
+    heuristic as tight as a free one. Between two nodes the energy per metre may dip below
+    both: :func:`speed_dip` scales the least over the nodes down by that dip.
 
     Where the motions also choose their gait (:attr:`~energy_planner.energy.MotionCost.
     gaits`): each gait at node speeds over its own range (:attr:`~energy_planner.energy.
@@ -537,6 +552,33 @@ def bound_speeds(cost) -> list[tuple[str | None, np.ndarray]]:
         n = max(3, math.ceil((SPEED_BOUND_NODES - 1) * share - 1e-9) + 1)
         out.append((g, np.geomspace(lo, hi, n)))
     return out
+
+
+def speed_dip(ratio: float, exponents) -> float:
+    """How far below both ends a metre's cost may dip between two speeds ``ratio`` apart.
+
+    A motion's energy per metre at ground speed ``v`` is a Laurent polynomial ``sum_d
+    c_d v^d`` (:mod:`energy_planner.energy.speed`; the time price adds ``lambda / v``),
+    whose terms of degree other than 0 have ``c_d >= 0`` (standing and copper power per
+    second, swing losses). Between speeds ``v`` and ``ratio x v`` its least may lie below
+    the lesser end: the most, as a fraction of that end, for the family ``v^dmin + D
+    v^dmax`` of the extreme exponents ``dmin < 0 < dmax`` with equal ends (none when the
+    exponents are all of one sign: the cost is then monotone).
+
+    Examples
+    --------
+    >>> round(speed_dip(1.468, (-1, 0, 1)), 4)  # 7 nodes over 0.2-2 m/s: 1.8 %
+    0.0181
+    >>> speed_dip(1.5, (-1, 0))
+    0.0
+    """
+    dmin, dmax = float(min(exponents)), float(max(exponents))
+    q = float(ratio)
+    if not (dmin < 0 < dmax) or q <= 1.0:
+        return 0.0
+    d = (1.0 - q**dmin) / (q**dmax - 1.0)  # ends equal: 1 + d = q^dmin + d q^dmax
+    r = (-dmin / (d * dmax)) ** (1.0 / (dmax - dmin))  # the least of r^dmin + d r^dmax
+    return max(0.0, 1.0 - (r**dmin + d * r**dmax) / (1.0 + d))
 
 
 def _table_grid(lo: np.ndarray, hi: np.ndarray, tmax: float, nodes: int):

@@ -50,6 +50,7 @@ __all__ = [
     "close_on_deadline",
     "route_front",
     "front_lambdas",
+    "retimed",
     "speed_profile",
     "plot_fronts",
 ]
@@ -488,6 +489,14 @@ def pareto(
     motion at the top of the range). Points whose path and timing repeat the previous
     one are kept (the front has fewer distinct points than ``n`` then). ``kw``:
     :func:`~energy_planner.planning.plan.plan`'s.
+
+    Each point first walks the route of the last point planned at its own ``lambda``'s
+    speeds (:func:`retimed`), and keeps it when that carries a search's certificate: its
+    ``energy + lambda x time`` at most ``eps`` times a lower bound of every path's (the
+    least-energy search's bound of the energy, plus ``lambda`` times the straight line
+    at the top speed). Otherwise (where another route may be better: the bound is loose
+    where the least-energy and the fastest routes differ) it is planned.
+    ``info["retimed"]`` says which route a point walks and its certificate.
     """
     if not (isinstance(n, int) and n >= 2):
         raise PlanningConfigError(f"pareto needs n >= 2 points, got {n!r}", value=n, param="n")
@@ -496,8 +505,59 @@ def pareto(
     speed = resolve_speed(speed, problem.model)
     base = _plan(problem, start, goal, speed, 0.0, kw)
     lams = front_lambdas(base.energy_j / max(base.duration_s, 1e-9), n)
-    plans = [base] + [_plan(problem, start, goal, speed, lam, kw) for lam in lams[1:]]
+    # every path of the search's primitives costs at least this energy (the least-energy
+    # search's bound; none from a planner other than the search)
+    lower = (base.info.get("search") or {}).get("h_start_j")
+    plans, route = [base], (base, 0.0)
+    for lam in lams[1:]:
+        res = None if lower is None else retimed(problem, route, start, goal, lam, lower, kw)
+        if res is None:
+            res = _plan(problem, start, goal, speed, lam, kw)
+            route = (res, lam)
+        plans.append(res)
     return ParetoFront(lams, plans)
+
+
+def retimed(
+    problem: Any,
+    route: tuple[Any, float],
+    start: Sequence[float],
+    goal: Sequence[float],
+    lam: float,
+    lower_j: float,
+    kw: dict[str, Any],
+) -> Any:
+    """A planned route walked at another price of a second, where that is certified.
+
+    ``route``: a plan with a speed range (its ``info["speed_range"]``) and the
+    ``lambda`` it was planned at. Its poses walk at each motion's best speed for ``lam``
+    (:func:`timed`, with the trust keywords of ``kw``). Every path of the search's
+    primitives costs at least ``lower_j + lam x D / vmax``: ``lower_j`` a lower bound of
+    its energy (the least-energy search's ``h_start``), ``D`` the straight line from
+    start to goal and ``vmax`` the top of the range (no motion is faster). The retimed
+    route is returned when its ``energy + lam x time`` is at most the search's ``eps``
+    (``kw``, default :data:`~energy_planner.planning.plan.DEFAULT_EPS`) times that bound:
+    the certificate a search's path carries (its cost at most ``eps`` times the optimum
+    on the primitives); else None.
+    """
+    from energy_planner.planning.plan import DEFAULT_EPS
+    from energy_planner.trust import Trust
+
+    plan0, lam0 = route
+    rng = plan0.info.get("speed_range")
+    if rng is None:
+        return None
+    eps = DEFAULT_EPS if kw.get("eps") is None else float(kw["eps"])
+    line = math.hypot(goal[0] - start[0], goal[1] - start[1])
+    bound = float(lower_j) + lam * line / float(rng[1])
+    want = Trust.pop(dict(kw))
+    res = timed(problem, plan0.states, speed=tuple(rng), time_weight=lam, name=plan0.planner,
+                trust=want)  # fmt: skip
+    objective = res.energy_j + lam * res.duration_s
+    if not (bound > 0 and objective <= eps * bound):
+        return None
+    res.info["retimed"] = {"from_lambda_j_per_s": float(lam0), "certified": objective / bound}
+    return res
 
 
 def front_lambdas(power: float, n: int) -> list[float]:
