@@ -148,9 +148,14 @@ def test_start_goal_in_another_crs_are_reprojected():
     assert abs(w0["x"] - s[0]) < 1e-3 and abs(w0["y"] - s[1]) < 1e-3
     assert w0["yaw_deg"] == pytest.approx(north, abs=1e-4) and abs(north - 90) > 1e-4
     assert b["energy_j"] == pytest.approx(a["energy_j"], rel=5e-3)
+    # reach within a small budget: the start is what is checked, not the whole hill's
+    # search (10 s; --within-budget stops at the budget)
     r = CliRunner().invoke(main, ["reach", hill, "--points-crs", "EPSG:4326", "--start",
-                                  f"{slon!r},{slat!r}", "--json"])  # fmt: skip
+                                  f"{slon!r},{slat!r}", "--budget-wh", "2", "--within-budget",
+                                  "--json"])  # fmt: skip
     assert r.exit_code == 0, r.output
+    rs = json.loads(r.stdout)["start"]  # the DEM cell of the reprojected start
+    assert abs(rs[0] - s[0]) <= 0.5 and abs(rs[1] - s[1]) <= 0.5, rs
     bad = CliRunner().invoke(main, [*base, "--points-crs", "EPSG:4326", "--start",
                                     f"{s[0]},{s[1]}", "--goal", f"{glon},{glat}"])  # fmt: skip
     assert bad.exit_code == 2 and "--points-crs" in bad.output and "covers x 500000" in bad.output

