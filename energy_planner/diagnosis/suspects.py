@@ -58,7 +58,9 @@ candidates; the last rule keeps out gains too small to matter (a real but neglig
 structure of the residual). Measured rates are in docs/diagnosis.md.
 
 ``error_explained`` is the fraction of the current held-out mean squared error that the
-candidate removes, ``1 - MSE_cv(with) / MSE_cv(without)``.
+candidate removes, ``1 - MSE_cv(with) / MSE_cv(without)``, over the supported windows; a
+staircase step's is over every window, from its held-out RMSE and the step's before (the
+table's RMSE column).
 
 *Confounded* suspects: when another above-noise suspect ``B`` is not significantly worse than
 the best one ``A`` (two-sided paired test by run at 5 %), and neither adds anything above
@@ -208,8 +210,12 @@ def staircase(
             for a in ranking.alternatives
         ] if best is ranking.suspects[0] else []  # fmt: skip
         terms.append(best.term)
+        before = ranking.heldout_rmse_w
         ranking = rank_suspects(wd, terms, th, folds=folds, extra=extra)
         rankings.append(ranking)
+        # the step's share of the error over every window, as its RMSE column (the
+        # candidate's own score, over the supported windows only, may differ)
+        removed = 1.0 - (ranking.heldout_rmse_w / before) ** 2 if before > 0 else 0.0
         steps.append(
             Step(
                 i,
@@ -217,7 +223,7 @@ def staircase(
                 best.name,
                 ranking.heldout_rmse_w,
                 ranking.fold_rmse_w,
-                best.error_explained,
+                removed,
                 best.explanation,
                 alts,
                 ranking.outside,

@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.errors import EnergyMapError
+
 __all__ = [
     "COST_STEP",
     "DEFAULT_ENCODING",
@@ -66,7 +68,7 @@ NODATA_CODE = 0
 INF_CODE = 65535
 
 
-class EncodingOverflow(Exception):
+class EncodingOverflow(EnergyMapError, OverflowError):
     """A finite value outside a band's ``uint16`` range: the map is written as float32."""
 
 
