@@ -405,8 +405,7 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 
 # ------------------------------------------------------ every writing command, killed
 
-#: A fork server: imports the whole library (and loads the common kernels) once, then for
-#: each job forks a child that
+#: A fork server: imports the whole library once, then for each job forks a child that
 #: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL ``delay``
 #: s after its start, or after it starts writing its first output (the writer of an
 #: output in its folder starts: ``energy_planner.io.atomic.remove_stale``, which every
@@ -425,15 +424,6 @@ SERVER = textwrap.dedent(
         except Exception:
             pass
     from energy_planner.cli import main
-    # the kernels a child would load from numba's cache at its first call (the log
-    # smoother of fit, diagnose, discover, figures; the bundled model's motion and search
-    # kernels of the planning commands: 0.5-1 s of CPU per child), loaded once here
-    import numpy as np
-    from energy_planner.measurements.preprocess import ema
-    ema(np.zeros(3), np.arange(3.0), 1.0)
-    plane = energy_planner.Problem.from_dem("plane")
-    x0, y0 = plane.terrain.grid[0], plane.terrain.grid[1]
-    energy_planner.plan(plane, (x0 + 5, y0 - 5), (x0 + 12, y0 - 9), time=0.1)
     print("ready", flush=True)
 
     from energy_planner.io import atomic
