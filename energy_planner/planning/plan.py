@@ -789,7 +789,7 @@ def plan(
     if math.hypot(goal_p[0] - start_p[0], goal_p[1] - start_p[1]) <= 1e-9:
         return _stay(problem, start_p, goal_p, planner, seed, want)
 
-    ctg = _warm_up(problem, planner, start_p, goal_p)
+    ctg = _warm_up(problem, planner, start_p, goal_p, step, n_headings, moves)
     budget = time if time is not None else (10.0 if planner in _OMPL_PLANNERS else math.inf)
     prog = _Progress(
         budget if math.isfinite(budget) else 0.0,
@@ -816,8 +816,12 @@ def plan(
                    info=info)  # fmt: skip
 
 
-def _warm_up(problem, planner: str, start_p, goal_p):
+def _warm_up(problem, planner: str, start_p, goal_p, step=None, n_headings=16, moves="all"):
     """Compile the kernels before the clock starts (numba compiles on first call).
+
+    The search's bound tables too (:func:`~energy_planner.planning.search.prepare_bound`):
+    on a cold cache a speed range's heading tables are built once per machine (seconds),
+    which would eat a time budget and change the plan.
 
     Returns BIT*'s cost-to-go (:data:`OMPL_COST_TO_GO`), prepared before the clock too
     (its time is in the info), or None.
@@ -827,6 +831,9 @@ def _warm_up(problem, planner: str, start_p, goal_p):
         from energy_planner.planning.search import search_module
 
         search_module(cost, "path")
+        from energy_planner.planning.search import prepare_bound
+
+        prepare_bound(problem, start_p, step, n_headings, moves)
     else:
         # the Python-callable kernel (a jitclass, compiled per process: about 4 s) is
         # needed by OMPL and the lattice's report only, not by the search

@@ -60,6 +60,7 @@ __all__ = [
     "ReachResult",
     "bound_table",
     "prune_bound_cache",
+    "prepare_bound",
     "gradient_table",
     "relaxed_cost_to_go",
     "search_plan",
@@ -457,6 +458,17 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
     while len(_BEST_MEMO) > _BEST_MEMO_SIZE:
         _BEST_MEMO.pop(next(iter(_BEST_MEMO)))
     return hit.copy()
+
+
+def prepare_bound(problem, start, step=None, n_headings: int = 16, moves: str = "all") -> None:
+    """Price the search's bound tables of ``problem`` now (kept in this process and on disk).
+
+    :func:`search_plan` then reads them: time-budgeted callers call this before their
+    clock starts, as they compile the kernels, so that a cold cache (a speed range's heading
+    tables, built once per machine) does not eat the budget and change the plan.
+    """
+    grid = _Grid(problem.cost, problem.terrain, (start[0], start[1]), step, n_headings, moves)
+    bound_table(problem.cost, grid.headings, grid.move_ok)
 
 
 #: The bound tables kept on disk (``bound_*.npy`` in the kernel cache folder): the most
