@@ -49,6 +49,18 @@ values = st.sampled_from([0.0, 1.0, 2.5, 600.0, np.inf, np.nan]) | st.floats(
 ).map(lambda v: v + 0.0)
 
 
+def _geographic_corner(dem, tmp_path):
+    """A 48 x 48 corner of ``dem`` declared in lon/lat (EPSG:4326), written to ``geo.tif``."""
+    with rasterio.open(dem) as src:
+        z = src.read(1)[:48, :48]
+        prof = dict(src.profile, crs="EPSG:4326", width=48, height=48,
+                    transform=Affine(2e-5, 0, 3.0, 0, -2e-5, 45.0))  # fmt: skip
+    geo = tmp_path / "geo.tif"
+    with rasterio.open(geo, "w", **prof) as dst:
+        dst.write(z, 1)
+    return geo
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.integers(1, 9).flatmap(lambda n: arrays(np.float32, (n, 3, 5), elements=values)))
 def test_summary_bands_equal_numpys_reductions(best):
@@ -166,13 +178,7 @@ def test_default_bands_are_the_full_maps_best_and_summary_bands(hills, tmp_path)
         assert list(src.descriptions) == band_names(8, "summary") == band_names(8)[16:]
         np.testing.assert_array_equal(src.read(), data[16:])
     # a geographic DEM (a corner of the hills): resampled onto its grid band by band
-    with rasterio.open(dem) as src:
-        z = src.read(1)[:48, :48]
-        prof = dict(src.profile, crs="EPSG:4326", width=48, height=48,
-                    transform=Affine(2e-5, 0, 3.0, 0, -2e-5, 45.0))  # fmt: skip
-    geo = tmp_path / "geo.tif"
-    with rasterio.open(geo, "w", **prof) as dst:
-        dst.write(z, 1)
+    geo = _geographic_corner(dem, tmp_path)
     a, b = tmp_path / "ga.tif", tmp_path / "gb.tif"
     energy_map(geo, a, MODEL, headings=8, bands="all")
     energy_map(geo, b, MODEL, headings=8)
@@ -249,13 +255,7 @@ def test_uint16_map_is_the_float32_map_to_half_a_step(hills, tmp_path):
     with rasterio.open(q) as b, rasterio.open(d) as c:
         assert c.dtypes[0] == "uint16"
         np.testing.assert_array_equal(c.read(), b.read())
-    with rasterio.open(dem) as src:
-        z = src.read(1)[:48, :48]
-        prof = dict(src.profile, crs="EPSG:4326", width=48, height=48,
-                    transform=Affine(2e-5, 0, 3.0, 0, -2e-5, 45.0))  # fmt: skip
-    geo = tmp_path / "geo.tif"
-    with rasterio.open(geo, "w", **prof) as dst:
-        dst.write(z, 1)
+    geo = _geographic_corner(dem, tmp_path)
     gf, gq = tmp_path / "gf.tif", tmp_path / "gq.tif"
     energy_map(geo, gf, model, headings=8, encoding="float32")
     energy_map(geo, gq, model, headings=8)
