@@ -63,19 +63,102 @@ def _edge_costs(cost, s: np.ndarray) -> np.ndarray:
     return cost.batch(s[:-1, 0], s[:-1, 1], s[:-1, 2], s[1:, 0], s[1:, 1], s[1:, 2])
 
 
-def _shortcut_prices(cost, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _shortcut_prices(cost, a: np.ndarray, b: np.ndarray, direct=None) -> np.ndarray:
     """Shortcuts from poses ``a`` to poses ``b``: rows ``direct, t1, walk, t2`` (J).
 
     ``direct``: straight at the poses' yaws; ``t1 + walk + t2``: turn to face along,
-    walk, turn back.
+    walk, turn back. ``direct`` (optional mask): the shortcuts whose ``direct`` is
+    priced; the others' is NaN.
     """
     h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
+    if direct is None:
+        first = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
+    else:
+        first = np.full(len(a), np.nan)
+        d = np.asarray(direct, bool)
+        if d.any():
+            first[d] = cost.batch(a[d, 0], a[d, 1], a[d, 2], b[d, 0], b[d, 1], b[d, 2])
     return np.array([
-        cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2]),
+        first,
         cost.batch(a[:, 0], a[:, 1], a[:, 2], a[:, 0], a[:, 1], h),
         cost.batch(a[:, 0], a[:, 1], h, b[:, 0], b[:, 1], h),
         cost.batch(b[:, 0], b[:, 1], h, b[:, 0], b[:, 1], b[:, 2]),
     ]).reshape(4, len(a))  # fmt: skip
+
+
+#: Tolerance (rad) of :func:`_straight_spans`: a run of motions whose yaws and directions
+#: agree to it is one straight line walked at one yaw (2e-7 m off line over 2 m).
+STRAIGHT_TOL = 1e-7
+
+
+def _straight_runs(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Straight walks of ``s``, to :data:`STRAIGHT_TOL`: ``(dirs, one_yaw, along)``.
+
+    Per motion its direction and whether it walks at one yaw; per pose between two
+    motions whether they walk the same direction.
+    """
+    d = np.diff(s, axis=0)
+    dirs = np.arctan2(d[:, 1], d[:, 0])
+    one_yaw = (np.abs(wrap(d[:, 2])) <= STRAIGHT_TOL) & (np.hypot(d[:, 0], d[:, 1]) > 0)
+    along = np.abs(wrap(np.diff(dirs))) <= STRAIGHT_TOL
+    return dirs, one_yaw, along
+
+
+def _straight_spans(s: np.ndarray, gap: int) -> tuple[np.ndarray, np.ndarray]:
+    """Which shortcuts from pose ``i`` to ``i + gap`` only merge one straight walk.
+
+    ``straight[i]``: the motions from pose ``i`` to ``i + gap`` all walk the same
+    direction at the same constant yaw (collinear poses, no turn); ``forward[i]``: and
+    that yaw faces along. For a cost that chooses its speed, such a shortcut's
+    ``direct`` motion is the same walk at one speed for all of it, where the motions it
+    replaces each take their own best speed: never cheaper (up to the sampling of the
+    motions), so it is not priced; a forward one's turn-walk-turn is that same walk.
+
+    Examples
+    --------
+    >>> s = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 1, 0.0]])
+    >>> [m.tolist() for m in _straight_spans(s, 2)]
+    [[True, False], [True, False]]
+    >>> [m.tolist() for m in _straight_spans(s[:, [0, 1, 0]] * [1, 1, 0] + [0, 0, 1.0], 2)]
+    [[True, False], [False, False]]
+    """
+    dirs, one_yaw, along = _straight_runs(s)
+    cm = np.r_[0, np.cumsum(~one_yaw)]
+    cj = np.r_[0, np.cumsum(~along)]
+    i = np.arange(0, len(s) - gap)
+    straight = (cm[i + gap] == cm[i]) & (cj[i + gap - 1] == cj[i])
+    forward = straight & (
+        np.abs(wrap(s[i, 2] - dirs[np.minimum(i, len(dirs) - 1)])) <= STRAIGHT_TOL
+    )
+    return straight, forward
+
+
+def _merge_straight(cost, s: np.ndarray, e: np.ndarray):
+    """Drop the poses inside straight runs walked at one yaw (gait changes kept).
+
+    As :func:`~energy_planner.planning.lattice.simplify_states` does to the planned path.
+    For a cost that chooses its speed: such a run's motions each take their own best
+    speed, which its one merged motion cannot (the merged path costs a little more, but it
+    is the path the planner returns); merged, later rounds perturb and shortcut a few
+    poses rather than every densified one. Returns ``(s, e, priced)``: the merged motions
+    priced, and how many.
+    """
+    from energy_planner.planning.speed import gait_changes
+
+    _, one_yaw, along = _straight_runs(s)
+    drop = np.r_[False, one_yaw[:-1] & one_yaw[1:] & along, False]
+    pins = gait_changes(cost, s)
+    if pins is not None:
+        drop &= ~pins
+    if not drop.any():
+        return s, e, 0
+    kept = np.flatnonzero(~drop)
+    e2 = e[kept[:-1]].copy()
+    merged = np.flatnonzero(np.diff(kept) > 1)
+    if merged.size:
+        a, b = s[kept[merged]], s[kept[merged + 1]]
+        e2[merged] = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
+    return s[kept], e2, int(merged.size)
 
 
 #: Shortcut prices a refinement keeps (``memo`` of :func:`_shortcut_pass`): beyond this
@@ -95,27 +178,39 @@ def _shortcut_pass(cost, s: np.ndarray, e: np.ndarray, gap: int, memo: dict | No
     csum = np.concatenate([[0.0], np.cumsum(e)])
     old = csum[i + gap] - csum[i]
     a, b = s[i], s[i + gap]
-    if memo is None:
+    if getattr(cost, "ranged", False):  # the shortcuts that cannot gain are not priced
+        straight, forward = _straight_spans(s, gap)
+    else:
+        straight = forward = np.zeros(len(i), dtype=bool)
+    if memo is None and not straight.any():
         direct, t1, walk, t2 = _shortcut_prices(cost, a, b)
         evals = 4 * len(i)
     else:
-        ends = np.ascontiguousarray(np.hstack([a, b]))
-        keys = [row.tobytes() for row in ends]
-        got = [memo.get(k) for k in keys]
-        miss = np.array([g is None for g in got], dtype=bool)
-        prices = np.empty((4, len(i)))
+        prices = np.full((4, len(i)), np.inf)
+        miss = ~forward
+        if memo is not None:
+            ends = np.ascontiguousarray(np.hstack([a, b]))
+            keys = [row.tobytes() for row in ends]
+            # a kept price whose direct motion was not priced (a straight run then)
+            # serves a straight run only
+            got = [memo.get(k) if m else None for k, m in zip(keys, miss, strict=True)]
+            hit = np.array([g is not None and (straight[k] or not np.isnan(g[0]))
+                            for k, g in enumerate(got)], dtype=bool)  # fmt: skip
+            miss &= ~hit
+            if hit.any():
+                prices[:, hit] = np.array([got[k] for k in np.nonzero(hit)[0]]).T
+        evals = 0
         if miss.any():
-            new = _shortcut_prices(cost, a[miss], b[miss])
+            new = _shortcut_prices(cost, a[miss], b[miss], direct=~straight[miss])
             prices[:, miss] = new
-            if len(memo) > MEMO_SIZE:
-                memo.clear()
-            for k, col in zip(np.nonzero(miss)[0], new.T, strict=True):
-                memo[keys[k]] = col
-        hit = np.nonzero(~miss)[0]
-        if hit.size:
-            prices[:, hit] = np.array([got[k] for k in hit]).T
+            evals = 3 * int(miss.sum()) + int((~straight[miss]).sum())
+            if memo is not None:
+                if len(memo) > MEMO_SIZE:
+                    memo.clear()
+                for k, col in zip(np.nonzero(miss)[0], new.T, strict=True):
+                    memo[keys[k]] = col
+        prices[0, np.isnan(prices[0])] = np.inf
         direct, t1, walk, t2 = prices
-        evals = 4 * int(miss.sum())
     h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
     facing = t1 + walk + t2
     use_b = facing < direct
@@ -231,7 +326,8 @@ def refine_path(
     # a cost that chooses its speed prices each motion at several speeds: the shortcuts
     # whose ends stay put are not priced again in later rounds (a fixed speed's are
     # cheap, and its rounds fill a time budget: its results stay as they were)
-    memo: dict | None = {} if getattr(cost, "ranged", False) else None
+    ranged = bool(getattr(cost, "ranged", False))
+    memo: dict | None = {} if ranged else None
     rounds = 0
     calm = 0
     converged = False
@@ -299,6 +395,9 @@ def refine_path(
             if n <= gap:
                 break
             s, e, k = _shortcut_pass(cost, s, e, gap, memo)
+            evals += k
+        if ranged:
+            s, e, k = _merge_straight(cost, s, e)
             evals += k
         total = float(e.sum())
         rate = accepted / max(tried, 1)
