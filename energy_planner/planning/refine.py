@@ -31,6 +31,7 @@ from collections.abc import Callable
 import numpy as np
 
 from energy_planner.angles import wrap
+from energy_planner.energy.kernels import OUT_DISTANCE
 
 __all__ = ["densify", "refine_path"]
 
@@ -147,9 +148,22 @@ def _merge_straight(cost, s: np.ndarray, e: np.ndarray):
 
     _, one_yaw, along = _straight_runs(s)
     drop = np.r_[False, one_yaw[:-1] & one_yaw[1:] & along, False]
+    if not drop.any():
+        return s, e, 0
+    # only where the two motions walk at nearly the same speed: the merged one loses
+    # (to second order) what their different speeds saved
+    dt, _ = cost.best_timing(s[:, 0], s[:, 1], s[:, 2])
+    v = cost.details(s[:, 0], s[:, 1], s[:, 2], dt)[:, OUT_DISTANCE] / dt
+    drop[1:-1] &= np.abs(v[1:] - v[:-1]) <= MERGE_SPEED_RTOL * np.maximum(v[1:], v[:-1])
     pins = gait_changes(cost, s)
     if pins is not None:
         drop &= ~pins
+    # only long runs: a short one's poses are where the next rounds bend the path
+    edges = np.diff(np.r_[0, drop.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    for a, b in zip(starts, ends, strict=True):
+        if b - a + 1 < MERGE_MIN_RUN:
+            drop[a:b] = False
     if not drop.any():
         return s, e, 0
     kept = np.flatnonzero(~drop)
@@ -159,6 +173,12 @@ def _merge_straight(cost, s: np.ndarray, e: np.ndarray):
         a, b = s[kept[merged]], s[kept[merged + 1]]
         e2[merged] = cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2])
     return s[kept], e2, int(merged.size)
+
+
+#: Relative difference of speed under which :func:`_merge_straight` merges two motions.
+MERGE_SPEED_RTOL = 0.01
+#: Motions a straight run has at least for :func:`_merge_straight` to merge it.
+MERGE_MIN_RUN = 16
 
 
 #: Shortcut prices a refinement keeps (``memo`` of :func:`_shortcut_pass`): beyond this
