@@ -335,6 +335,23 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
+    # a cost that chooses its speed keeps its tables (the least over its speeds' tables,
+    # each read from the cache, and a pass over the map's gradients: about 0.1 s on
+    # 1600^2): a plan prices them before its clock (prepare_bound), then in its search
+    kept = None
+    if getattr(cost, "ranged", False):
+        kept = cost.__dict__.setdefault("_bound_tables", {})
+        key = (np.asarray(headings).tobytes(), np.asarray(move_ok).tobytes(), int(nodes))
+        if key in kept:
+            return tuple(a.copy() for a in kept[key])
+    out = _bound_table(cost, headings, move_ok, nodes)
+    if kept is not None:
+        kept[key] = tuple(a.copy() for a in out)
+    return out
+
+
+def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
+    """:func:`bound_table`, computed."""
     from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost
     from energy_planner.planning.moves import MOVES_16
 
