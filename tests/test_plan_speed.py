@@ -217,3 +217,28 @@ def test_refinement_keeps_shortcut_prices_and_finds_the_same_path(plane, monkeyp
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
     e = float(refine._edge_costs(cost, kept).sum())
     assert e == pytest.approx((g[0] - s[0]) * math.hypot(1, 0.12) * _per_metre(V_STAR), rel=0.02)
+
+
+def test_refinement_leaves_straight_runs_unpriced_and_merges_the_long_ones(plane):
+    """A cost that chooses its speed: a shortcut over poses on one straight line at one yaw
+    walks it at one speed where each motion took its own, so it is not priced (forward:
+    nothing; crab: only turn-walk-turn); a run of at least ``MERGE_MIN_RUN`` motions at
+    one speed becomes one motion, a shorter one is kept, and on the plane (every motion
+    at ``v*``) the merged path costs the closed form's ``L (a + b / v* + c v*)``."""
+    from energy_planner.planning import refine
+
+    p, s, g = plane
+    cost = p.with_speed(RANGE).cost.compile()
+    for yaw, per_shortcut in ((0.0, 0), (0.4, 3)):
+        line = refine.densify(np.array([[s[0], s[1], yaw], [s[0] + 20.0, s[1], yaw]]), 1.0)
+        e = refine._edge_costs(cost, line)
+        out, e2, priced = refine._shortcut_pass(cost, line, e, 3, {})
+        assert priced == per_shortcut * (len(line) - 3)
+        assert np.array_equal(out, line) and np.array_equal(e2, e)
+    for n, merged in ((refine.MERGE_MIN_RUN - 6, False), (refine.MERGE_MIN_RUN + 4, True)):
+        line = refine.densify(np.array([[s[0], s[1], 0.0], [s[0] + n, s[1], 0.0]]), 1.0)
+        e = refine._edge_costs(cost, line)
+        out, e2, priced = refine._merge_straight(cost, line, e)
+        assert (len(out), priced) == ((2, 1) if merged else (len(line), 0))
+        run = n * math.hypot(1.0, 0.12)  # ground length on the 12 % grade
+        assert e2.sum() == pytest.approx(run * _per_metre(V_STAR), rel=1e-6)
