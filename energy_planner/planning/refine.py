@@ -8,7 +8,10 @@ Used by the ``auto`` planner to remove a lattice path's discretisation (16 headi
    (a pose's two adjacent motions are all that change); a candidate is kept only if it
    lowers the energy of those two motions;
 2. tries shortcuts: replacing the poses between ``i`` and ``i + gap`` by one straight
-   motion when that costs less (gaps 2, 3, 4, 6, 8, ...).
+   motion when that costs less (gaps 2, 3, 4, 6, 8, ...);
+3. with a cost that chooses its speed, merges each long straight run walked at one yaw
+   and one speed into one motion (its shortcuts never gain: each motion of the run takes
+   its own best speed, a shortcut one speed for all; they are not priced).
 
 Turns in place are first spread along the following motion (turning while walking), so
 that single-pose moves can bend the path. The step size adapts to the acceptance rate.
