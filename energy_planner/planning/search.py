@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -313,6 +314,11 @@ class _Grid:
         return int(np.argmin(np.abs(wrap(self.headings - float(yaw)))))
 
 
+#: The bound tables of each cost that chooses its speed (:func:`bound_table`), as long as
+#: the cost lives.
+_RANGED_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TABLE_NODES):
     """Least J per map metre of each move direction at each node of a grid of gradients.
 
@@ -340,7 +346,7 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     # 1600^2): a plan prices them before its clock (prepare_bound), then in its search
     kept = None
     if getattr(cost, "ranged", False):
-        kept = cost.__dict__.setdefault("_bound_tables", {})
+        kept = _RANGED_TABLES.setdefault(cost, {})
         key = (np.asarray(headings).tobytes(), np.asarray(move_ok).tobytes(), int(nodes))
         if key in kept:
             return tuple(a.copy() for a in kept[key])
