@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import importlib.util
 import os
 import re
 import sys
@@ -231,6 +230,8 @@ def _command_modules() -> set[str]:
         try:
             names.update(f.split(".", 1)[0] for f in os.listdir(folder))
         except OSError:  # not a folder (a zip): ask the import system
+            import importlib.util
+
             return {
                 mod
                 for mod, _ in COMMANDS.values()
