@@ -137,7 +137,7 @@ def search_module(cost, kernels: str = "all"):
 PRECOMPILED_SEARCH = (
     "heuristic_chunk", "astar_chunk", "heap_push", "trace", "unsafe_cells", "cap_unsettled",
 )  # fmt: skip
-_PRECOMPILED: dict[str, Any] = {}
+_PRECOMPILED: dict[str, Any] = {}  # the model's kernel source -> its functions
 
 
 def precompiled_search(cost):
@@ -161,6 +161,9 @@ def precompiled_search(cost):
     """
     if getattr(cost, "ranged", False) or getattr(cost, "gaits", ()):
         return None
+    ns = _PRECOMPILED.get(cost.source)
+    if ns is not None:
+        return ns
     from energy_planner.energy.kernels import motion_source
     from energy_planner.model._codegen import load_precompiled
 
@@ -176,12 +179,10 @@ def precompiled_search(cost):
     ext = load_precompiled(text, prefix="aotsearch", build=build, kind="search")
     if ext is None:
         return None
-    ns = _PRECOMPILED.get(ext.__name__)
-    if ns is None:
-        from types import SimpleNamespace
+    from types import SimpleNamespace
 
-        fns = {name: getattr(ext, name) for name in PRECOMPILED_SEARCH}
-        ns = _PRECOMPILED[ext.__name__] = SimpleNamespace(**_search_constants(), **fns)
+    fns = {name: getattr(ext, name) for name in PRECOMPILED_SEARCH}
+    ns = _PRECOMPILED[cost.source] = SimpleNamespace(**_search_constants(), **fns)
     return ns
 
 
