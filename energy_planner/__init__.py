@@ -23,12 +23,11 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from energy_planner.errors import EnergyPlannerError
-
 __version__ = "0.1.0"
 
 #: public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "EnergyPlannerError": "energy_planner.errors",
     "Problem": "energy_planner.api",
     "open_terrain": "energy_planner.api",
     "load_model": "energy_planner.api",
@@ -56,7 +55,7 @@ _LAZY: dict[str, str] = {
     "Follower": "energy_planner.follow",
 }
 
-__all__ = ["EnergyPlannerError", "__version__", *_LAZY]
+__all__ = ["__version__", *_LAZY]
 
 
 def __getattr__(name: str) -> Any:

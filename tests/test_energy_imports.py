@@ -164,3 +164,59 @@ def test_precompiled_energy_map_loads_no_numba_and_writes_numbas_values(tmp_path
     assert aot is not None
     steps = band_steps(16, band_names(16))
     np.testing.assert_array_equal(encode_block(ref, steps, aot=aot), encode_block(ref, steps))
+
+
+PLAN = (
+    "import json, sys\n"
+    "from energy_planner.energy.channels import Channels\n"
+    "from energy_planner.model import EnergyModel\n"
+    "from energy_planner.request import Request\n"
+    "from energy_planner.terrain import load_dem\n"
+    "from energy_planner.planning.plan import plan\n"
+    "t = load_dem(sys.argv[1]); m = EnergyModel.load(sys.argv[2])\n"
+    "ch = Channels(constants={'load_kg': 7.25})\n"
+    "req = Request.make(max_slope_deg=float(sys.argv[3]), channels=ch)\n"
+    "r = plan(t, m, (500010.0, 5000010.0), (500110.0, 5000090.0), req, progress=False,\n"
+    "         iterations=4)\n"
+    "print(json.dumps({'numba': 'numba' in sys.modules, 'states': r.states.tolist(),\n"
+    "                  'energy': r.energy_j}))\n"
+)
+
+
+def test_precompiled_plan_loads_no_numba_and_plans_as_numba(tmp_path, monkeypatch):
+    """``plan`` (``auto``, a fixed speed) runs the model's precompiled motion and search
+    kernels (:func:`energy_planner.planning.search.precompiled_search`): numba stays
+    unloaded, and the path, pose for pose, and its energy are those of the numba
+    kernels (the same code, compiled ahead of time), under a slope limit that binds
+    (the path without it costs about 13 % less)."""
+    import os
+
+    from energy_planner.energy import MotionCost
+    from energy_planner.energy.channels import Channels
+    from energy_planner.model import EnergyModel
+    from energy_planner.planning.plan import plan
+    from energy_planner.request import Request
+    from energy_planner.terrain import load_dem
+
+    base = EnergyModel.default()
+    model = EnergyModel(  # the model of the energy test above: its motion module serves
+        [t.name for t in base.terms] + ["load_kg * speed"],
+        {**base.coefficients, "load_kg * speed": 5.0},
+    )
+    path = tmp_path / "load.json"
+    model.save(path)
+    # numba's kernels first (they price the search's bound table, kept on disk, which
+    # the precompiled run reads: a new table's heading rows are numba's)
+    monkeypatch.setattr(MotionCost, "precompile", lambda self: False)
+    req = Request.make(max_slope_deg=16.0, channels=Channels(constants={"load_kg": 7.25}))
+    ref = plan(load_dem(map_path("hill")), model, (500010.0, 5000010.0), (500110.0, 5000090.0),
+               req, progress=False, iterations=4)  # fmt: skip
+    env = {**os.environ, "ENERGY_PLANNER_PRECOMPILE": "1"}
+    done = subprocess.run(
+        [sys.executable, "-c", PLAN, str(map_path("hill")), str(path), "16"],
+        capture_output=True, text=True, check=True, env=env,
+    )  # fmt: skip
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["numba"] is False
+    assert got["energy"] == ref.energy_j
+    np.testing.assert_array_equal(np.array(got["states"]), ref.states)

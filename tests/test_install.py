@@ -8,6 +8,7 @@ import tomllib
 from importlib.resources import files
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 import energy_planner
@@ -84,6 +85,22 @@ def test_help_lists_every_command_without_importing_them():
         assert name in out.stdout
         assert summary.split()[0] in out.stdout
         assert len(summary) <= 62, f"{name}: summary wraps in an 80-column terminal"
+
+
+@pytest.mark.parametrize("columns", ["100", "60", "30", "0", "x", None])
+def test_help_is_as_wide_as_clicks(monkeypatch, columns):
+    """The command list's help formatter (computed without importing shutil) is as wide
+    as click's own, from ``COLUMNS`` or, off a terminal, 80 columns."""
+    import click
+
+    from energy_planner.cli import main
+
+    if columns is None:
+        monkeypatch.delenv("COLUMNS", raising=False)
+    else:
+        monkeypatch.setenv("COLUMNS", columns)
+    ctx = main.context_class(main)
+    assert ctx.make_formatter().width == click.HelpFormatter().width
 
 
 def test_command_summaries_name_real_modules():

@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import importlib.util
 import os
 import re
+import sys
 import warnings
 from collections.abc import Iterator
 from typing import Any
@@ -188,15 +188,66 @@ def exit_status_error(exc: click.ClickException) -> click.ClickException:
     return new
 
 
+def _terminal_columns() -> int:
+    """Columns of the terminal as :func:`shutil.get_terminal_size` gives them, without it.
+
+    ``COLUMNS`` when set, else the width of stdout's terminal, else 80. (Importing
+    :mod:`shutil` imports the bz2, lzma and zlib modules: a few ms of ``--help``.)
+    """
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns if columns > 0 else 80
+
+
+class _Context(click.Context):
+    """click's context, its help formatter as wide as click's without importing shutil."""
+
+    def make_formatter(self) -> click.HelpFormatter:
+        """The help formatter, as wide as click makes it.
+
+        ``terminal_width``, click's ``FORCED_WIDTH`` under its test runner, else the
+        terminal's columns, at most ``max_content_width`` (80), less 2, at least 50.
+        """
+        import click.formatting
+
+        width = self.terminal_width
+        if width is None and click.formatting.FORCED_WIDTH is None:
+            width = max(min(_terminal_columns(), self.max_content_width or 80) - 2, 50)
+        return self.formatter_class(width=width, max_width=self.max_content_width)
+
+
+def _command_modules() -> set[str]:
+    """Names of the modules of this package's folder(s), listed once (no import search)."""
+    names: set[str] = set()
+    for folder in __path__:
+        try:
+            names.update(f.split(".", 1)[0] for f in os.listdir(folder))
+        except OSError:  # not a folder (a zip): ask the import system
+            import importlib.util
+
+            return {
+                mod
+                for mod, _ in COMMANDS.values()
+                if importlib.util.find_spec(f"energy_planner.cli.{mod}") is not None
+            }
+    return names
+
+
 class LazyGroup(click.Group):
     """A click group that imports a sub-command's module only when it is used."""
 
+    context_class = _Context
+
     def _available(self) -> dict[str, str]:
-        return {
-            name: mod
-            for name, (mod, _) in COMMANDS.items()
-            if importlib.util.find_spec(f"energy_planner.cli.{mod}") is not None
-        }
+        there = _command_modules()
+        return {name: mod for name, (mod, _) in COMMANDS.items() if mod in there}
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         """Return the sorted names of the sub-commands whose modules are installed."""

@@ -13,7 +13,7 @@ from typing import Any
 import click
 import numpy as np
 
-from energy_planner.planning import PLANNERS as PLANNER_CHOICES  # cheap: no ompl import
+from energy_planner.planners import PLANNERS as PLANNER_CHOICES  # no planner imported
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 from energy_planner.trust import Trust as _LibraryTrust
 

@@ -2,7 +2,8 @@
 
 Arguments: the kernel module's source file (written by
 :func:`energy_planner.model._codegen.load_precompiled`), the extension's name, the
-directory to write it to and what to build (``motion``, the default, or ``map``). The
+directory to write it to and what to build (``motion``, the default, ``map`` or
+``search``, :func:`build_search`). The
 functions :data:`energy_planner.energy.kernels.PRECOMPILED` of the module are compiled by
 numba's ahead-of-time compiler (``numba.pycc``) with the types of
 :attr:`energy_planner.energy.MotionCost.data`: the same code as the numba kernels, in a C
@@ -111,5 +112,55 @@ def build_map(source: str, name: str, out_dir: str) -> None:
         pycc_compiler.Flags = saved
 
 
+def build_search(source: str, name: str, out_dir: str) -> None:
+    """Compile the search functions a plan calls (``search_module``'s ``path`` group).
+
+    ``source``: the model's kernel module followed by ``planning/_search.py`` whose kernel
+    is the fixed-speed ``motion_full`` (:func:`energy_planner.planning.search.
+    precompiled_search`). The types are those the numba search is called with.
+    """
+    from numba import types
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from numba.pycc import CC
+
+    spec = importlib.util.spec_from_file_location(f"{name}_source", source)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    f8, f4, i8, i4 = types.float64, types.float32, types.int64, types.int32
+    u1, i1, b1 = types.uint8, types.int8, types.boolean
+
+    def a(dt, nd):
+        return types.Array(dt, nd, "C")
+
+    cc = CC(name)
+    cc.output_dir = out_dir
+    cc.verbose = False
+    # heuristic_chunk(grad, blocked, unsafe, geo, sampling, lat, moves, move_len, table,
+    #                 tgeo, h, pos, keys, vals, n, max_pops, margin, stop_p, stop_factor, limit)
+    sig = types.UniTuple(i8, 2)(
+        a(f8, 3), a(b1, 2), a(u1, 2), a(f8, 1), a(f8, 1), a(f8, 1), a(i8, 2), a(f8, 1),
+        a(f4, 3), a(f8, 1), a(f4, 1), a(i4, 1), a(f8, 1), a(i8, 1), a(i8, 1), i8, f8, i8, f8,
+        a(f8, 1),
+    )  # fmt: skip
+    cc.export("heuristic_chunk", sig)(mod.heuristic_chunk.py_func)
+    # astar_chunk(data, lat, headings, moves, moves_of, h2d, eps, g, code, goal_p, goal_h,
+    #             keys, vals, n, max_pops, max_key, out)
+    sig = types.UniTuple(i8, 3)(
+        data_type(), a(f8, 1), a(f8, 1), a(i8, 2), a(i8, 2), a(f4, 1), f8, a(f4, 1), a(i1, 1),
+        i8, i8, a(f8, 1), a(i8, 1), a(i8, 1), i8, f8, a(i8, 1),
+    )  # fmt: skip
+    cc.export("astar_chunk", sig)(mod.astar_chunk.py_func)
+    cc.export("heap_push", b1(a(f8, 1), a(i8, 1), a(i8, 1), f8, i8))(mod.heap_push.py_func)
+    cc.export("trace", a(i8, 1)(a(i1, 1), a(i8, 2), i8, i8, i8))(mod.trace.py_func)
+    cc.export("unsafe_cells", a(u1, 2)(a(f8, 3), a(b1, 2), f8))(mod.unsafe_cells.py_func)
+    sig = types.void(a(f4, 1), a(i4, 1), i8, i8, f8, f8, f8)
+    cc.export("cap_unsettled", sig)(mod.cap_unsettled.py_func)
+    cc.compile()
+
+
 if __name__ == "__main__":
-    (build_map if sys.argv[4:5] == ["map"] else build)(*sys.argv[1:4])
+    builders = {"map": build_map, "search": build_search}
+    builders.get(sys.argv[4] if len(sys.argv) > 4 else "motion", build)(*sys.argv[1:4])

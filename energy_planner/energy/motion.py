@@ -287,6 +287,27 @@ class MotionCost:
         """The numba kernel ``name`` (its gait-choosing form where the motions choose)."""
         return getattr(self._kernels(), _GAIT_FORMS[name] if self.gaits else name)
 
+    @property
+    def precompiled(self) -> bool:
+        """Whether the kernels are served by the precompiled module (no numba loaded).
+
+        See :meth:`precompile` and ``precompiled=`` of the constructor.
+        """
+        return self._aot is not None
+
+    def precompile(self) -> bool:
+        """Serve the kernels from the model's precompiled module, where there is one.
+
+        :func:`energy_planner.energy.kernels.precompiled_module`: built once per machine
+        and model (unless ``ENERGY_PLANNER_PRECOMPILE=0``), then imported without numba.
+        A cost whose motions choose their gait keeps numba's kernels. Returns
+        :attr:`precompiled`.
+        """
+        if self._aot is None and not self.gaits:
+            self._aot = precompiled_module(self.source)
+            self._fns = {}
+        return self._aot is not None
+
     def compile(self) -> MotionCost:
         """Compile (or load from the disk cache) every kernel now, not on first use.
 
@@ -294,7 +315,8 @@ class MotionCost:
         a cold cache does not eat into the budget and change the result.
         """
         x, y = self.data[IN_X0], self.data[IN_Y0]  # centre of cell (0, 0): any point will do
-        self.kernel(x, y, 0.0, x, y, 0.0, self.data)
+        if self._aot is None:  # (precompiled: numba stays unloaded until a caller needs it)
+            self.kernel(x, y, 0.0, x, y, 0.0, self.data)
         self(x, y, 0.0, x, y, 0.0)
         one = np.array([x])
         zero = np.zeros(1)

@@ -129,8 +129,9 @@ def load_precompiled(
     directory renamed into place when complete. None: not built and ``build`` is False,
     or the build failed on this machine (its output is kept in ``<name>.failed``, and
     it is not tried again). ``kind``: the functions built, ``motion``
-    (:data:`~energy_planner.energy.kernels.PRECOMPILED`) or ``map``
-    (:data:`~energy_planner.energy.kernels.PRECOMPILED_MAP`).
+    (:data:`~energy_planner.energy.kernels.PRECOMPILED`), ``map``
+    (:data:`~energy_planner.energy.kernels.PRECOMPILED_MAP`) or ``search``
+    (:data:`~energy_planner.planning.search.PRECOMPILED_SEARCH`).
     """
     import importlib.machinery
     import subprocess

@@ -10,8 +10,9 @@ importing this package is cheap.
 
 from __future__ import annotations
 
-#: Planner names accepted by :func:`plan`.
-PLANNERS: tuple[str, ...] = ("auto", "search", "lattice", "rrtstar", "sorrtstar", "bitstar")
+#: Planner names accepted by :func:`plan` (defined in :mod:`energy_planner.planners`, which
+#: a command imports to list them without importing the planners).
+from energy_planner.planners import PLANNERS
 
 __all__ = ["PLANNERS", "plan", "PlanResult", "compare_routes", "RouteComparison"]
 

@@ -783,6 +783,11 @@ def plan(
     start_p = _pose(start, "start")
     goal_p = _pose(goal, "goal")
     terrain, cost, geoms = problem.terrain, problem.cost, problem.keep_out
+    if planner in ("auto", "search") and not cost.ranged:
+        # the motion and search kernels compiled ahead of time (once per machine and
+        # model): a plan then loads no numba, whose import and registries cost more
+        # than a small map's search (search.precompiled_search)
+        cost.precompile()
     check_endpoint(cost, terrain, "start", start_p, geoms)
     check_endpoint(cost, terrain, "goal", goal_p, geoms)
 

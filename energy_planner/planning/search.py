@@ -43,10 +43,12 @@ returns the least energy to every position.
 from __future__ import annotations
 
 import math
+import os
 import time
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -104,6 +106,10 @@ def search_module(cost, kernels: str = "all"):
 
     if kernels not in KERNEL_GROUPS:
         raise ValueError(f"unknown kernel group {kernels!r}; valid: {', '.join(KERNEL_GROUPS)}")
+    if kernels == "path" and getattr(cost, "precompiled", False):
+        aot = precompiled_search(cost)
+        if aot is not None:
+            return aot
     mod_name = cost.kernel.py_func.__module__
     # a cost that chooses its speed prices edges by motion_best (the fixed-speed search
     # keeps motion_full: its code and numbers are unchanged), one that chooses its gait
@@ -125,6 +131,81 @@ def search_module(cost, kernels: str = "all"):
             warm.add(group)
     mod._warm = warm
     return mod
+
+
+#: The functions of :func:`search_plan` (``search_module``'s ``path`` group) that a
+#: precompiled search module holds (:func:`precompiled_search`).
+PRECOMPILED_SEARCH = (
+    "heuristic_chunk", "astar_chunk", "heap_push", "trace", "unsafe_cells", "cap_unsettled",
+)  # fmt: skip
+_PRECOMPILED: dict[str, Any] = {}  # the model's kernel source -> its functions
+
+
+def precompiled_search(cost):
+    """The search functions of a plan compiled ahead of time for ``cost``, or None.
+
+    A plan on a small map spends more on loading numba (its import, its typing
+    registries, the cached functions' index: about 0.4 s) than on its search. For a cost
+    at a fixed speed and gait whose motion kernels are precompiled
+    (:attr:`energy_planner.energy.MotionCost.precompiled`), the functions
+    :data:`PRECOMPILED_SEARCH` are compiled by numba's ahead-of-time compiler from the
+    same source as :func:`search_module`'s (the model's kernel module followed by
+    ``_search.py``, its kernel ``motion_full``) into a C extension in the kernel cache,
+    built once per machine and model (said on stderr) and then imported without numba.
+
+    Returns
+    -------
+    namespace or None
+        The functions and ``_search.py``'s constants (``START``, ``FOUND``, ...); None
+        for a cost that chooses its speed or gait, or where the extension cannot be
+        built (then :func:`search_module` loads the numba functions).
+    """
+    if getattr(cost, "ranged", False) or getattr(cost, "gaits", ()):
+        return None
+    ns = _PRECOMPILED.get(cost.source)
+    if ns is not None:
+        return ns
+    from energy_planner.energy.kernels import motion_source
+    from energy_planner.model._codegen import load_precompiled
+
+    text = _TEMPLATE.read_text()
+    assert _IMPORT_LINE in text, "the kernel import marker of _search.py is missing"
+    text = (
+        f"# precompiled: {', '.join(PRECOMPILED_SEARCH)}\n"
+        + motion_source(cost.source)
+        + "\n\n# --- the search (planning/_search.py), its kernel motion_full ---\n"
+        + text.replace(_IMPORT_LINE, "kernel = motion_full")
+    )
+    build = os.environ.get("ENERGY_PLANNER_PRECOMPILE", "1") != "0"
+    ext = load_precompiled(text, prefix="aotsearch", build=build, kind="search")
+    if ext is None:
+        return None
+    from types import SimpleNamespace
+
+    fns = {name: getattr(ext, name) for name in PRECOMPILED_SEARCH}
+    ns = _PRECOMPILED[cost.source] = SimpleNamespace(**_search_constants(), **fns)
+    return ns
+
+
+def _search_constants() -> dict[str, int]:
+    """The integer constants of ``_search.py`` (state codes, chunk return codes), read as text.
+
+    A precompiled module holds functions only; reading the template's plain assignments
+    keeps the one definition without importing numba.
+    """
+    import ast
+
+    out: dict[str, int] = {}
+    for node in ast.parse(_TEMPLATE.read_text()).body:
+        if not (isinstance(node, ast.Assign) and len(node.targets) == 1):
+            continue
+        target, value = node.targets[0], node.value
+        names = target.elts if isinstance(target, ast.Tuple) else [target]
+        values = value.elts if isinstance(value, ast.Tuple) else [value]
+        for n, v in zip(names, values, strict=False):
+            if isinstance(n, ast.Name) and n.id.isupper() and isinstance(v, ast.Constant):
+                out[n.id] = v.value
+    return out
 
 
 def _empty_work() -> tuple:
