@@ -160,6 +160,12 @@ Where the rest lies, against the simulator's truth (``missions_floor_breakdown.p
   supported 8.99 -> 7.03 / 6.80 W) while the folds choose by pooled error
   ``load_kg*P_copper`` (6.52 W, p 0.11 by run: a few runs' large errors); choosing by the
   runs' consistency instead (tried, not kept) gives a choice p of 0.045, still above 0.01.
+  The whole family at once is no answer either, held out by run (each fold fitting what
+  it identifies): on seed 0 with the tilt repaired 5.89 W over the supported windows
+  (1.12x) but 91 W over every window, the load times the backward and sideways terms
+  extrapolating in the folds without them (55 W / 1.66x supported without the map; seed 2
+  without the map 56 W supported); the load times the forward, tilt and gait terms only
+  is worse than ``load_kg*P_base`` (seed 0: 11.0 W, 8.6 W with the map).
 
 Prints ``uptime`` with the timings (the machine is shared).
 """
