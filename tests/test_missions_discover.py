@@ -107,3 +107,49 @@ def test_discover_on_missions_finds_the_hidden_surface_at_the_noise_floor():
     assert rows[0]["heldout_rmse_w"] > 2.5 * floor  # the surface is far above noise
     # measured 0.95 (seed 0); the same logs without the altitude (tilt not repaired) 1.2-1.6
     assert rows[-1]["heldout_rmse_w"] <= 1.2 * floor
+
+
+def test_a_carried_mass_is_in_the_span_of_the_channels_candidates():
+    """The load's physics is expressible by the candidates a mass channel gets.
+
+    The simulator's truth of missions with a carried load (``load_kg``: gravity work,
+    touch-downs, copper losses in the square of the mass; physics, not the model's
+    formulas), steady samples, true features: fitted by the base terms and every
+    single-term candidate of the channel (``load_kg`` times each base term, ``load_kg``,
+    ``load_kg ** 2``), the power left over is a small fraction of what the load moves, and
+    of the base alone. What discover's staircase must reach on such logs is then a set of
+    these terms (``benchmarks/missions_floor_breakdown.py --loads``: one step at a time it
+    stops after ``load_kg*P_base``), not a shape the library lacks.
+    """
+    from energy_planner.calibration.windowdata import WindowData
+    from energy_planner.diagnosis.candidates import channel_candidates
+    from energy_planner.model import BASE_TERMS, STANDING_TERMS, EnergyModel, prepare_features
+
+    cfg = MissionConfig(missions=8, duration_s=60.0, rate_hz=10.0, loads_kg=(0.0, 9.0, 18.0, 27.0))
+    camp = simulate_missions(seed=1, effects=("load",), config=cfg)
+    ts, logs = camp.true_samples, camp.logs
+    assert np.array_equal(ts["t"].to_numpy(), logs["t"].to_numpy())
+    steady = (np.hypot(ts["ax"], ts["ay"]) < 0.02) & (np.abs(ts["wz"]) < 0.05)
+    cols = ("alpha", "gamma", "vx", "vy", "wz", "ax", "ay")
+    feat = pd.DataFrame({c: ts[c].to_numpy(float) for c in cols})
+    feat = feat.assign(load_kg=logs["load_kg"].to_numpy(float))[steady.to_numpy()]
+    truth = ts["power_expected"].to_numpy(float)[steady.to_numpy()]
+    base = [*BASE_TERMS, *STANDING_TERMS]
+    wd = WindowData(feat, np.arange(len(feat)), pd.DataFrame(), numeric_extras=["load_kg"])
+    cands, _ = channel_candidates(wd, several_speeds=False, model_terms=base)
+    names = {"load_kg", "load_kg^2", *(f"load_kg*{t}" for t in base)}
+    products = [c.term for c in cands if c.name in names]
+    assert {"load_kg", "load_kg ** 2"} <= set(products) and len(products) > 15
+
+    def rms_left(terms):
+        x = np.asarray(EnergyModel(terms=terms).design_matrix(prepare_features(feat)))
+        b, *_ = np.linalg.lstsq(x, truth, rcond=None)
+        return float(np.sqrt(np.mean((truth - x @ b) ** 2)))
+
+    alone = rms_left(base)
+    with_shapes = rms_left([*base, "load_kg", "load_kg ** 2"])
+    with_products = rms_left([*base, *products])
+    # measured: 27.0 W (base), 3.6 W (+ load_kg, load_kg ** 2), 0.40 W (+ every product)
+    assert alone > 15.0
+    assert with_shapes > 2.0
+    assert with_products < 0.05 * alone and with_products < 1.0
