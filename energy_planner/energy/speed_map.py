@@ -229,6 +229,4 @@ def ranged_heading_cost(
     tail, _ = speed_tail(model, dict(resolved.constants), lo, hi,
                          fixed.rasters + len(fixed.consts))  # fmt: skip
     p = fixed.params
-    return _ranged_cached(
-        ranged_power_source(p[0]), 1.0, *p[2:8], (*p[8], *tail), *p[9:]
-    )
+    return _ranged_cached(ranged_power_source(p[0]), 1.0, *p[2:8], (*p[8], *tail), *p[9:])

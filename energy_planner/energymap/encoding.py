@@ -12,7 +12,8 @@ The scale of each band is its precision (the value is rounded to the nearest mul
 so a decoded value is within ``scale / 2`` of the float32 one): J/m bands
 (``along_*``, ``best_*``, ``cheapest``, ``dearest``) :data:`COST_STEP` (0.25 J/m, up
 to 16,383.25 J/m), ``anisotropy`` :data:`RATIO_STEP` (1/4096, up to 16.0),
-``cheapest_heading_deg`` :data:`HEADING_STEP` (1/128 degree: the
+``cheapest_speed`` (a map at the best speed) :data:`SPEED_STEP` (1/2048 m/s, up to
+32 m/s), ``cheapest_heading_deg`` :data:`HEADING_STEP` (1/128 degree: the
 headings of a metric grid exactly when ``360 / N`` is a multiple of it, as for 16 or
 360 headings; a map resampled onto a geographic DEM's grid, its headings rotated by the
 meridian convergence, to 0.004 degrees). A map with a finite
@@ -43,6 +44,7 @@ __all__ = [
     "INF_CODE",
     "NODATA_CODE",
     "RATIO_STEP",
+    "SPEED_STEP",
     "band_steps",
     "decode",
     "encode_block",
@@ -62,6 +64,8 @@ COST_STEP = 0.25
 RATIO_STEP = 1.0 / 1024.0
 #: Precision of the cheapest heading in ``uint16``, degrees (up to 512).
 HEADING_STEP = 1.0 / 128.0
+#: Precision of the ground speed band (``cheapest_speed``) in ``uint16``, m/s (up to 32).
+SPEED_STEP = 1.0 / 2048.0
 #: The code of a nodata cell (NaN).
 NODATA_CODE = 0
 #: The code of ``inf`` (a cell or heading above a slope limit).
@@ -86,6 +90,8 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
             out.append(RATIO_STEP)
         elif n == "cheapest_heading_deg":
             out.append(HEADING_STEP)
+        elif n == "cheapest_speed":
+            out.append(SPEED_STEP)
         else:
             out.append(COST_STEP)
     return np.array(out, dtype=np.float64)
