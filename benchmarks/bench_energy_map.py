@@ -7,6 +7,8 @@ Usage::
         [--skip-large] [--workdir /tmp/bench_energy_map] [--baseline-python PYTHON]
         [--compress zstd] [--also-compress deflate none]
     python benchmarks/bench_energy_map.py --stages [--size 4096] [--compress zstd]
+    python benchmarks/bench_energy_map.py --speed MIN:MAX [--fixed-speed V] [--size 2048]
+        [--runs 2] [--model NAME] [--set NAME=VALUE ...]
 
 ``--kernel``: the map's computation alone (no GeoTIFF), old against new, each size in
 its own process (peak RSS from ``os.wait4``) on the synthetic DEM's in-memory gradient,
@@ -62,6 +64,13 @@ Start-up counts compiling the package's modules where Python keeps no byte code
 package has its ``.pyc`` files; run the benchmark with byte-code caching on, e.g.
 ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python ...`` (the warm-up
 run writes them, for the baseline too, outside its checkout).
+
+``--speed MIN:MAX`` (or ``auto``): the map at the best speed of a range against the map
+at one fixed speed (``--fixed-speed``, default the range's top), on the SIZE^2 DEM with
+the default bands, ``--runs`` fresh processes each, alternating, after one warm-up run of
+each (the range's heading table is built once per machine, model and range: the
+warm-up's time is printed apart). Columns: median wall and CPU seconds, and their ratio
+to the fixed-speed map's.
 
 ``--stages``: one windowed map in this process, the time of each stage (reading the
 DEM, the gradient, the heading table (disk cache), the kernel, the summary bands, the
@@ -559,6 +568,43 @@ def pace_table(
               f"{size_b[name] / 1e6:.0f} | {floor:.2f} | {ratio} | {target} |")  # fmt: skip
 
 
+def speed_rows(
+    size: int, headings: int, workdir: Path, runs: int, speed: str, fixed: str | None,
+    model: str | None, sets: list[str],
+) -> None:  # fmt: skip
+    """The map at the best speed of ``speed`` against one at a fixed speed (see ``--speed``)."""
+    import statistics
+
+    dem = make_dem(workdir / f"dem_{size}.tif", size)
+    common = [str(dem), "--headings", str(headings)]
+    if model:
+        common += ["--model", model]
+    for kv in sets:
+        common += ["--set", kv]
+    if fixed is None:
+        fixed = speed.split(":")[-1] if ":" in speed else None
+    cases = {"fixed": ["--speed", fixed] if fixed else [], "range": ["--speed", speed]}
+    times: dict[str, list[dict]] = {k: [] for k in cases}
+    for name, extra in cases.items():  # warm-up: kernels and heading tables
+        r = run_one([*common, "--out", str(workdir / f"speed_{name}.tif"), *extra])
+        print(f"warm-up {name}: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} CPU s", flush=True)
+    for _ in range(runs):
+        for name, extra in cases.items():
+            times[name].append(run_one([*common, "--out", str(workdir / f"speed_{name}.tif"),
+                                        *extra]))  # fmt: skip
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"energy-map {size}^2, {headings} headings, model {model or 'default'}; "
+          f"{os.cpu_count()} cores; {load}")  # fmt: skip
+    print("| map | --speed | wall s (median) | CPU s (median) | wall / fixed | CPU / fixed |")
+    print("|---|---|---|---|---|---|")
+    med = {k: (statistics.median(r["wall_s"] for r in v), statistics.median(r["cpu_s"] for r in v))
+           for k, v in times.items()}  # fmt: skip
+    for name, extra in cases.items():
+        w, c = med[name]
+        print(f"| {name} | {extra[1] if extra else 'default'} | {w:.2f} | {c:.2f} | "
+              f"{w / med['fixed'][0]:.2f} | {c / med['fixed'][1]:.2f} |")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kernel", action="store_true", help="old vs new map kernel only")
@@ -588,6 +634,10 @@ def main() -> None:
     ap.add_argument("--stages", action="store_true", help="profile one windowed map by stage")
     ap.add_argument("--pace", action="store_true", help="the map against the disk and gdaldem")
     ap.add_argument("--runs", type=int, default=3, help="runs per --pace row (median)")
+    ap.add_argument("--speed", default=None, help="a range MIN:MAX or auto: ranged vs fixed")
+    ap.add_argument("--fixed-speed", default=None, help="the fixed speed (default: the top)")
+    ap.add_argument("--model", default=None, help="energy-map --model of the --speed rows")
+    ap.add_argument("--set", action="append", default=[], help="energy-map --set (--speed rows)")
     a = ap.parse_args()
     a.workdir = a.workdir.resolve()
     if a.kernel:
@@ -599,6 +649,9 @@ def main() -> None:
         return
     if a.pace:
         pace_table(a.size, a.headings, a.workdir, a.runs, a.baseline_python)
+        return
+    if a.speed:
+        speed_rows(a.size, a.headings, a.workdir, a.runs, a.speed, a.fixed_speed, a.model, a.set)
         return
     h = str(a.headings)
     comp = ["--compress", a.compress]

@@ -78,13 +78,13 @@ def bumpy(tmp_path_factory):
 
 
 def test_range_map_is_the_least_over_fixed_speed_maps(bumpy, tmp_path):
-    """Below every fixed-speed map of the range, and equal to the least of a fine grid."""
+    """Below every fixed-speed map of the range, and equal to the least of a grid of 21."""
     lo, hi = 0.2, 1.5
     ranged, _ = _read(energy_map(bumpy, tmp_path / "r.tif", MODEL, headings=H,
                                  speed_range=(lo, hi)).path)  # fmt: skip
     names = [f"best_{45 * j:03d}" for j in range(H)] + ["cheapest"]
     grid = {n: np.full(ranged[n].shape, np.inf) for n in names}
-    for k, v in enumerate(np.geomspace(lo, hi, 41)):
+    for k, v in enumerate(np.geomspace(lo, hi, 21)):
         fixed, _ = _read(energy_map(bumpy, tmp_path / f"f{k}.tif", MODEL, headings=H,
                                     speed_range=float(v)).path)  # fmt: skip
         assert "cheapest_speed" not in fixed
@@ -95,7 +95,7 @@ def test_range_map_is_the_least_over_fixed_speed_maps(bumpy, tmp_path):
     for n in names:
         ok = np.isfinite(grid[n])
         assert ok.sum() > 100
-        # the grid's least is above the true least by its spacing's curvature (< 0.1 %)
+        # the grid (speeds 1.1 apart) misses the least by its curvature: < 0.1 %
         np.testing.assert_allclose(ranged[n][ok], grid[n][ok], rtol=1e-3)
     v = ranged["cheapest_speed"][np.isfinite(ranged["cheapest"])]
     assert np.all((v >= lo * (1 - 1e-6)) & (v <= hi * (1 + 1e-6)))
