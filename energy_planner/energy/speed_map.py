@@ -123,6 +123,11 @@ class RangedHeadingCost(HeadingCost):
         """None: the ranged map runs numba's kernels."""
         return None
 
+    def _key(self, values: tuple[float, ...] = (), top_deg: float | None = None) -> str:
+        """The table's cache key: the fixed-speed key's text, and ``_speedmap.py``'s."""
+        base = super()._key(values, top_deg)
+        return hashlib.sha256(base.encode() + _TEMPLATE.read_bytes()).hexdigest()[:24]
+
     def __reduce__(self):
         return (_ranged_cached, self.params)
 
