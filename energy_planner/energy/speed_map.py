@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import math
 import re
+import warnings
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -28,7 +29,14 @@ import numpy as np
 
 from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost, heading_cost
 
-__all__ = ["RangedHeadingCost", "ranged_heading_cost", "speed_map_source", "speed_tail"]
+__all__ = [
+    "GaitChoice",
+    "RangedHeadingCost",
+    "gait_choice",
+    "ranged_heading_cost",
+    "speed_map_source",
+    "speed_tail",
+]
 
 _TEMPLATE = Path(__file__).with_name("_speedmap.py")
 #: The imports of ``_speedmap.py`` that stand for the generated module's own functions.
@@ -112,6 +120,8 @@ class RangedHeadingCost(HeadingCost):
 
     _TABLE_KERNEL = "speed_heading_table"
     _TABLE_DEPTH = 6
+    #: The bands it adds after the energy map's summary bands (:meth:`fill_speed_bands`).
+    speed_band_names = ("cheapest_speed",)
 
     @property
     def _mod(self) -> Any:
@@ -177,6 +187,10 @@ class RangedHeadingCost(HeadingCost):
                          np.ascontiguousarray(table), res)  # fmt: skip
             out[cells] = res[cells]
 
+    def fill_speed_bands(self, gx, gy, chan, heading, out, best=None) -> None:
+        """The bands of :attr:`speed_band_names` into ``out`` (``(1, rows, cols)``)."""
+        self.cheapest_speed(gx, gy, chan, heading, out[0])
+
     def _speeds(self, gx, gy, chan, head, table, res) -> None:
         self._mod.map_speeds(
             gx, gy, chan, self._consts, head, self.tmax, self.smax, self.back_tan, self.crab,
@@ -235,3 +249,126 @@ def ranged_heading_cost(
                          fixed.rasters + len(fixed.consts))  # fmt: skip
     p = fixed.params
     return _ranged_cached(ranged_power_source(p[0]), 1.0, *p[2:8], (*p[8], *tail), *p[9:])
+
+
+class GaitChoice:
+    """Each cell and heading in the gait and at the speed that cost it least.
+
+    The gaits of a model that names them (the motions' choice, :class:`~energy_planner.
+    energy.MotionCost`'s ``gaits``), each a :class:`RangedHeadingCost` within its logged
+    speeds clipped to the range: ``along`` and ``best`` are the least over the gaits;
+    the bands ``cheapest_speed`` and ``cheapest_gait`` (the gait's index in
+    :attr:`gaits`) are those of the gait cheapest along the cheapest heading. Build it
+    with :func:`gait_choice`.
+    """
+
+    speed_band_names = ("cheapest_speed", "cheapest_gait")
+
+    def __init__(self, gaits: tuple[str, ...], costs: list[RangedHeadingCost]) -> None:
+        self.gaits = tuple(gaits)
+        self.costs = list(costs)
+        first = self.costs[0]
+        self.tmax, self.smax, self.crab, self.back_tan = (
+            first.tmax, first.smax, first.crab, first.back_tan
+        )  # fmt: skip
+        self.ranges = {g: c.speed_range for g, c in zip(self.gaits, self.costs, strict=True)}
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The least and greatest speed over the gaits' ranges, m/s."""
+        return min(r[0] for r in self.ranges.values()), max(r[1] for r in self.ranges.values())
+
+    def precompiled_map(self) -> Any:
+        """None: numba's kernels."""
+        return None
+
+    def map_bands(self, gx, gy, chan, headings, along, best, precompiled=False) -> None:
+        """``along`` and ``best`` least over the gaits (as :meth:`HeadingCost.map_bands`)."""
+        a = np.empty_like(along)
+        b = np.empty_like(best)
+        for k, hc in enumerate(self.costs):
+            hc.map_bands(gx, gy, chan, headings, a, b)
+            if k == 0:
+                along[:] = a
+                best[:] = b
+            else:
+                np.minimum(along, a, out=along)
+                np.minimum(best, b, out=best)
+
+    def fill_speed_bands(self, gx, gy, chan, heading, out, best=None) -> None:
+        """``cheapest_speed`` and ``cheapest_gait`` into ``out`` (``(2, rows, cols)``).
+
+        ``best``: the map's ``best`` bands (N headings), whose heading nearest
+        ``heading`` is the cheapest one; each gait prices it again (its ``best`` band at
+        that heading) and the cheapest gait's speed is kept (the first on ties).
+        """
+        n = best.shape[0]
+        fin = np.isfinite(heading)
+        j = np.where(fin, np.rint(np.where(fin, heading, 0.0) / (2 * np.pi / n)), 0).astype(int) % n
+        ang = 2 * np.pi * np.arange(n) / n
+        keep = np.full(heading.shape, np.inf)
+        out[0] = np.nan
+        out[1] = np.nan
+        a = np.empty_like(best)
+        b = np.empty_like(best)
+        v = np.empty(heading.shape, np.float32)
+        for k, hc in enumerate(self.costs):
+            hc.map_bands(gx, gy, chan, ang, a, b)
+            cost = np.take_along_axis(b, j[None], axis=0)[0].astype(np.float64)
+            better = fin & np.isfinite(cost) & (cost < keep)
+            if not better.any():
+                continue
+            hc.cheapest_speed(gx, gy, chan, heading, v)
+            keep[better] = cost[better]
+            out[0][better] = v[better]
+            out[1][better] = k
+
+
+def gait_choice(
+    model: Any, speed_range: tuple[float, float], channels: Any, **limits: Any
+) -> GaitChoice | None:
+    """The gait choice of a map at the best speed, or None where the model names no gaits.
+
+    As the motions choose (:class:`~energy_planner.energy.MotionCost`'s ``gait_choice``):
+    where the model reads a gait channel, its logs name the speeds of each gait
+    (:func:`~energy_planner.uncertainty.domain.gait_speed_ranges`) and ``channels`` (the
+    resolved channels) do not give the gait, each gait within its logged speeds clipped
+    to ``speed_range``. ``limits``: :func:`ranged_heading_cost`'s.
+
+    Raises
+    ------
+    MotionCostError
+        No gait's logged speeds meet the range.
+    """
+    from dataclasses import replace
+
+    from energy_planner.energy.channels import Category
+    from energy_planner.energy.motion import _gait_channels, _wants_gaits
+    from energy_planner.errors import MotionCostError
+    from energy_planner.model import GAIT_CHANNEL
+    from energy_planner.uncertainty.domain import gait_speed_ranges
+
+    if not _wants_gaits(model, channels, None):
+        return None
+    lo, hi = (float(v) for v in speed_range)
+    base, gaits = _gait_channels(model, channels, lo)
+    logged = gait_speed_ranges(model)
+    names, costs = [], []
+    for g in gaits:
+        if g not in logged:
+            continue
+        a, b = max(lo, logged[g][0]), min(hi, logged[g][1])
+        if b < a:
+            continue
+        mine = replace(base, constants={**base.constants, GAIT_CHANNEL: Category(g)})
+        names.append(g)
+        with warnings.catch_warnings():  # the reference gait: priced as none named
+            warnings.filterwarnings("ignore", message="channel 'gait'")
+            costs.append(ranged_heading_cost(model, (a, b), channels=mine, **limits))
+    if not costs:
+        have = ", ".join(f"{g} {a:g}-{b:g}" for g, (a, b) in logged.items())
+        raise MotionCostError(
+            f"no gait's logged speeds ({have} m/s) meet the speed range {lo:g}-{hi:g} m/s; "
+            "expected a range that overlaps the logs'"
+        )
+    return GaitChoice(tuple(names), costs)

@@ -86,13 +86,14 @@ DEM_EAST = (
 
 def band_descriptions(
     headings: int, frame: str = "east", bands: str = "all", extra: tuple[str, ...] = (),
-    speed_range: tuple[float, float] | None = None,
+    speed_range: tuple[float, float] | None = None, gaits: tuple[str, ...] = (),
 ) -> list[tuple[str, str, str]]:  # fmt: skip
     """``(name, description, units)`` of every band written.
 
     ``bands``: the set written, as for :func:`band_names`; ``frame`` names the heading
-    frame; ``extra``: the bands after the summary ones (:data:`SPEED_BANDS`), of a map
-    at the best speed within ``speed_range`` (m/s).
+    frame; ``extra``: the bands after the summary ones (:data:`SPEED_BANDS`, and
+    ``cheapest_gait``), of a map at the best speed within ``speed_range`` (m/s) and, with
+    ``gaits``, in the best of them.
     """
     out = []
     for j in range(headings):
@@ -118,6 +119,9 @@ def band_descriptions(
         "cheapest_speed": (f"ground speed of the cheapest: the best in {lo:g}..{hi:g} m/s of "
                            "its heading and body yaw (each cost band is at its own best "
                            "speed)", "m/s"),
+        "cheapest_gait": ("gait of the cheapest, by code: " + ", ".join(
+            f"{k} = {g}" for k, g in enumerate(gaits)) + " (each cost band in its own "
+            "best gait)", "1"),
     }  # fmt: skip
     return out[first_band(headings, bands) :] + [(n, *what[n]) for n in extra]
 
@@ -172,7 +176,7 @@ def block_bands(
     if extra:
         with np.errstate(invalid="ignore"):
             head = np.radians(summary[3].astype(np.float64))
-        heading.cheapest_speed(gx, gy, chan, head, out[2 * headings + 4])
+        heading.fill_speed_bands(gx, gy, chan, head, out[2 * headings + 4 :], best)
     return out
 
 
@@ -180,6 +184,7 @@ def speed_bands(heading: Any) -> tuple[str, ...]:
     """The bands after the summary bands of a map priced by ``heading``.
 
     :data:`SPEED_BANDS` for a :class:`~energy_planner.energy.speed_map.RangedHeadingCost`
-    (each yaw at its best speed), else none.
+    (each yaw at its best speed), and ``cheapest_gait`` after it for a
+    :class:`~energy_planner.energy.speed_map.GaitChoice`; else none.
     """
-    return SPEED_BANDS if hasattr(heading, "cheapest_speed") else ()
+    return tuple(getattr(heading, "speed_band_names", ()))

@@ -12,8 +12,7 @@ The scale of each band is its precision (the value is rounded to the nearest mul
 so a decoded value is within ``scale / 2`` of the float32 one): J/m bands
 (``along_*``, ``best_*``, ``cheapest``, ``dearest``) :data:`COST_STEP` (0.25 J/m, up
 to 16,383.25 J/m), ``anisotropy`` :data:`RATIO_STEP` (1/4096, up to 16.0),
-``cheapest_speed`` (a map at the best speed) :data:`SPEED_STEP` (1/2048 m/s, up to
-32 m/s), ``cheapest_heading_deg`` :data:`HEADING_STEP` (1/128 degree: the
+``cheapest_heading_deg`` :data:`HEADING_STEP` (1/128 degree: the
 headings of a metric grid exactly when ``360 / N`` is a multiple of it, as for 16 or
 360 headings; a map resampled onto a geographic DEM's grid, its headings rotated by the
 meridian convergence, to 0.004 degrees). A map with a finite
@@ -24,6 +23,9 @@ and says so.
 The same bytes hold half as many bits as float32 and compress to about a quarter of
 its size (43 MB against 179 MB for a 2048 x 2048 map's 20 bands), with less CPU: the
 integer predictor and zstd have less to do.
+
+A map at the best speed of a range adds ``cheapest_speed`` at :data:`SPEED_STEP`
+(1/2048 m/s, up to 32 m/s) and, choosing the gait, ``cheapest_gait`` at 1 (its code).
 
 :func:`read_band` reads a band of either kind as float values (NaN and inf restored).
 """
@@ -92,6 +94,8 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
             out.append(HEADING_STEP)
         elif n == "cheapest_speed":
             out.append(SPEED_STEP)
+        elif n == "cheapest_gait":  # a code: 0, 1, ...
+            out.append(1.0)
         else:
             out.append(COST_STEP)
     return np.array(out, dtype=np.float64)

@@ -75,6 +75,9 @@ class EnergyMapResult(Result):
     speed_range : (float, float) or None
         ``(vmin, vmax)`` m/s where every cell and heading is priced at its best speed
         (with the band ``cheapest_speed``); None: one fixed speed.
+    gaits : list of str
+        The gaits each cell and heading chose among (the codes of ``cheapest_gait``, in
+        order), where the model names them; else empty.
     """
 
     path: Path
@@ -91,6 +94,7 @@ class EnergyMapResult(Result):
     heading_convention: str = GRID_EAST
     dem: Any = field(default=None, repr=False, compare=False)
     speed_range: tuple[float, float] | None = None
+    gaits: list[str] = field(default_factory=list)
 
     def write_html(self, path: str | Path, dem: Any = None) -> Path:
         """One self-contained HTML page with a band chooser.
@@ -136,6 +140,7 @@ class EnergyMapResult(Result):
             **(
                 {} if self.speed_range is None else {"speed_range_m_s": list(self.speed_range)}
             ),  # fmt: skip
+            **({"gaits": list(self.gaits)} if self.gaits else {}),
         }
 
 
@@ -174,7 +179,9 @@ def _write_metadata(
 ) -> None:
     """Band descriptions and units, dataset tags."""
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
-    descs = band_descriptions(setup.headings, frame, setup.bands, setup.extra, setup.speed_range)
+    descs = band_descriptions(
+        setup.headings, frame, setup.bands, setup.extra, setup.speed_range, setup.gaits
+    )
     from energy_planner.io import describe_band
 
     for i, (name, desc, units) in enumerate(descs, start=1):
@@ -210,6 +217,16 @@ def _write_metadata(
                 "cheapest heading's",
             }
         ),
+        **(
+            {
+                "gaits": ", ".join(
+                    f"{k}={g} {a:g}-{b:g} m/s"
+                    for k, (g, (a, b)) in enumerate(setup.heading.ranges.items())
+                )
+            }
+            if setup.gaits
+            else {}
+        ),  # fmt: skip
         max_slope_tan=repr(setup.tmax),
         max_cross_slope_sin=repr(setup.smax),
         max_crab_rad=repr(setup.heading.crab),
@@ -245,7 +262,7 @@ def _result(
     bands = [
         {"name": n, "description": d, "units": u}
         for n, d, u in band_descriptions(
-            setup.headings, frame, setup.bands, setup.extra, setup.speed_range
+            setup.headings, frame, setup.bands, setup.extra, setup.speed_range, setup.gaits
         )
     ]
     if stats.get("valid_cells", 1) == 0:
@@ -254,7 +271,7 @@ def _result(
         path=out, shape=shape, crs=crs, transform=transform, headings=setup.headings,
         bands=bands, mode=mode, seconds=seconds, stats=stats, notes=notes,
         channels=setup.channels.describe(), heading_convention=convention,
-        speed_range=setup.speed_range,
+        speed_range=setup.speed_range, gaits=list(setup.gaits),
     )  # fmt: skip
 
 

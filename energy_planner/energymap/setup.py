@@ -48,6 +48,11 @@ class _Setup:
         return speed_bands(self.heading)
 
     @property
+    def gaits(self) -> tuple[str, ...]:
+        """The gaits each cell chooses among (codes of ``cheapest_gait``), else none."""
+        return tuple(getattr(self.heading, "gaits", ()))
+
+    @property
     def full(self) -> int:
         """Number of bands of the full layout (every band computed)."""
         return 2 * self.headings + 4 + len(self.extra)
@@ -132,14 +137,17 @@ def _setup(
     if speed_range is None:
         heading = HeadingCost.of_request(model, request, channels)
     else:
-        from energy_planner.energy.speed_map import ranged_heading_cost
+        from energy_planner.energy.speed_map import gait_choice, ranged_heading_cost
 
-        heading = ranged_heading_cost(
-            model, speed_range, channels=channels, max_slope_deg=lim.max_slope_deg,
-            max_cross_slope_deg=lim.max_cross_slope_deg,
+        limits = dict(
+            max_slope_deg=lim.max_slope_deg, max_cross_slope_deg=lim.max_cross_slope_deg,
             max_crab_deg=getattr(lim, "max_crab_deg", None),
             max_backward_slope_deg=getattr(lim, "max_backward_slope_deg", None),
         )  # fmt: skip
+        # where the model names gaits and the channels do not give one: each in its best
+        heading = gait_choice(model, speed_range, channels, **limits)
+        if heading is None:
+            heading = ranged_heading_cost(model, speed_range, channels=channels, **limits)
     return _Setup(
         heading=heading,
         channels=channels,
