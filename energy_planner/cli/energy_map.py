@@ -71,8 +71,7 @@ def format_table(res: dict[str, Any]) -> str:
 @options.command(
     "energy-map",
     "energy-planner energy-map hill --out hill_energy.tif --plot hill.png",
-    "energy-planner energy-map plane --out plane_trot.tif --model b1_speeds --set gait=trot "
-    "--speed 0.45:1.2",
+    "energy-planner energy-map plane --out plane_speed.tif --model b1_speeds --speed auto",
 )
 @options.dem_argument
 @options.path_option(
