@@ -163,3 +163,43 @@ def test_cli_inverted_range_is_a_usage_error(flat, tmp_path):
                                     "--speed", "1.2:0.6"])  # fmt: skip
     assert res.exit_code == 2
     assert "0 < vmin <= vmax" in res.output
+
+
+def test_gaits_each_heading_in_its_cheapest_gait_and_speed(tmp_path):
+    """A model that names gaits (b1_speeds: walk, trot), no gait given: ``along_*`` is
+    the energy per map metre of a 1 m motion facing along as the planners price it,
+    choosing gait and speed (``MotionCost`` with the range: ``gait_best``), and
+    ``cheapest_gait`` / ``cheapest_speed`` are that motion's gait and speed where walking
+    forward is the cheapest way (a 12-degree plane whose headings fall on table nodes)."""
+    from energy_planner import load_model
+
+    model = load_model("b1_speeds")
+    dem = write_tif(tmp_path / "plane.tif", plane_z(8, 12.0, 30.0))
+    res = energy_map(dem, tmp_path / "m.tif", model, headings=H, speed_range="auto")
+    bands, tags = _read(res.path)
+    assert res.gaits == ["trot", "walk"]
+    assert "0=trot" in tags["gaits"] and "1=walk" in tags["gaits"]
+    assert res.to_dict()["gaits"] == ["trot", "walk"]
+    ter = load_dem(dem)
+    cost = MotionCost(ter, model, speed_range=res.speed_range)
+    assert cost.gaits == ("trot", "walk")
+    x0, y0, dx, dy = ter.grid
+    r, c = 4, 4
+    x, y = x0 + c * dx, y0 + r * dy
+    checked = 0
+    for j in range(H):
+        h = 2 * math.pi * j / H
+        pts = [(x - 0.5 * math.cos(h), y - 0.5 * math.sin(h)),
+               (x + 0.5 * math.cos(h), y + 0.5 * math.sin(h))]  # fmt: skip
+        e = cost(*pts[0], h, *pts[1], h)
+        assert bands[f"along_{45 * j:03d}"][r, c] == pytest.approx(e, rel=1e-5)
+        dur, gaits = cost.best_timing(*(np.array(v) for v in zip(*pts, strict=True)),
+                                      np.array([h, h]))  # fmt: skip
+        if j == round(bands["cheapest_heading_deg"][r, c] / 45) % H and bands["cheapest"][
+            r, c
+        ] == pytest.approx(e, rel=1e-6):
+            assert res.gaits[int(bands["cheapest_gait"][r, c])] == gaits[0]
+            ground = math.hypot(1.0, math.tan(math.radians(12.0)) * math.cos(h - math.pi / 6))
+            assert bands["cheapest_speed"][r, c] == pytest.approx(ground / dur[0], rel=1e-3)
+            checked += 1
+    assert checked == 1  # walking forward is the cheapest way here (downhill)
