@@ -66,7 +66,9 @@ package has its ``.pyc`` files; run the benchmark with byte-code caching on, e.g
 run writes them, for the baseline too, outside its checkout).
 
 ``--speed MIN:MAX`` (or ``auto``): the map at the best speed of a range against the map
-at one fixed speed (``--fixed-speed``, default the range's top), on the SIZE^2 DEM with
+at one fixed speed (``--fixed-speed``, default the range's top; ``--fixed-set`` gives
+that row alone channel values, e.g. the gait a model that names gaits needs at a fixed
+speed, where the range's row chooses it), on the SIZE^2 DEM with
 the default bands, ``--runs`` fresh processes each, alternating, after one warm-up run of
 each (the range's heading table is built once per machine, model and range: the
 warm-up's time is printed apart). Columns: median wall and CPU seconds, and their ratio
@@ -570,7 +572,7 @@ def pace_table(
 
 def speed_rows(
     size: int, headings: int, workdir: Path, runs: int, speed: str, fixed: str | None,
-    model: str | None, sets: list[str],
+    model: str | None, sets: list[str], fixed_sets: list[str] = (),
 ) -> None:  # fmt: skip
     """The map at the best speed of ``speed`` against one at a fixed speed (see ``--speed``)."""
     import statistics
@@ -583,7 +585,9 @@ def speed_rows(
         common += ["--set", kv]
     if fixed is None:
         fixed = speed.split(":")[-1] if ":" in speed else None
-    cases = {"fixed": ["--speed", fixed] if fixed else [], "range": ["--speed", speed]}
+    fixed_extra = [w for kv in fixed_sets for w in ("--set", kv)]
+    cases = {"fixed": (["--speed", fixed] if fixed else []) + fixed_extra,
+             "range": ["--speed", speed]}  # fmt: skip
     times: dict[str, list[dict]] = {k: [] for k in cases}
     for name, extra in cases.items():  # warm-up: kernels and heading tables
         r = run_one([*common, "--out", str(workdir / f"speed_{name}.tif"), *extra])
@@ -601,7 +605,7 @@ def speed_rows(
            for k, v in times.items()}  # fmt: skip
     for name, extra in cases.items():
         w, c = med[name]
-        print(f"| {name} | {extra[1] if extra else 'default'} | {w:.2f} | {c:.2f} | "
+        print(f"| {name} | {' '.join(extra) or 'default'} | {w:.2f} | {c:.2f} | "
               f"{w / med['fixed'][0]:.2f} | {c / med['fixed'][1]:.2f} |")  # fmt: skip
 
 
@@ -638,6 +642,9 @@ def main() -> None:
     ap.add_argument("--fixed-speed", default=None, help="the fixed speed (default: the top)")
     ap.add_argument("--model", default=None, help="energy-map --model of the --speed rows")
     ap.add_argument("--set", action="append", default=[], help="energy-map --set (--speed rows)")
+    ap.add_argument(
+        "--fixed-set", action="append", default=[], help="--set of the fixed-speed row only"
+    )
     a = ap.parse_args()
     a.workdir = a.workdir.resolve()
     if a.kernel:
@@ -651,7 +658,8 @@ def main() -> None:
         pace_table(a.size, a.headings, a.workdir, a.runs, a.baseline_python)
         return
     if a.speed:
-        speed_rows(a.size, a.headings, a.workdir, a.runs, a.speed, a.fixed_speed, a.model, a.set)
+        speed_rows(a.size, a.headings, a.workdir, a.runs, a.speed, a.fixed_speed, a.model, a.set,
+                   a.fixed_set)  # fmt: skip
         return
     h = str(a.headings)
     comp = ["--compress", a.compress]

@@ -65,17 +65,17 @@ def ranged_power_source(power_source: str) -> str:
 def speed_map_source(ranged_source: str) -> str:
     """The text of the module: the motion kernels with ``ranged_source``, then ``_speedmap.py``.
 
-    ``ranged_source``: :func:`ranged_power_source` of a model's power. The hash of this
-    file heads it.
+    ``ranged_source``: :func:`ranged_power_source` of a model's power. The text holds
+    every function it compiles (the helpers ``_motion.py`` imports are hashed in the
+    motion kernels' header), so a change to this file's Python compiles nothing.
     """
     from energy_planner.energy.kernels import motion_source
 
     text = _TEMPLATE.read_text().replace("from __future__ import annotations\n", "")
     text, n = _IMPORTS.subn("", text)
     assert n == 2, "the import markers of _speedmap.py are missing"
-    here = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
     return (
-        f"# speed_map.py {here}\n"
+        "# speed_map.py\n"
         + motion_source(ranged_source)
         + "\n\n# --- the best speed of each heading (energy/_speedmap.py) ---\n"
         + text
