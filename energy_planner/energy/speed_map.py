@@ -285,15 +285,20 @@ class GaitChoice:
     def map_bands(self, gx, gy, chan, headings, along, best, precompiled=False) -> None:
         """``along`` and ``best`` least over the gaits (as :meth:`HeadingCost.map_bands`)."""
         a = np.empty_like(along)
-        b = np.empty_like(best)
+        kept = []
         for k, hc in enumerate(self.costs):
+            b = np.empty_like(best)
             hc.map_bands(gx, gy, chan, headings, a, b)
+            kept.append(b)
             if k == 0:
                 along[:] = a
                 best[:] = b
             else:
                 np.minimum(along, a, out=along)
                 np.minimum(best, b, out=best)
+        # each gait's best bands, for fill_speed_bands of the same block (block_bands
+        # calls it next, in the same thread; the dask path holds a lock around both)
+        self._kept = (gx, headings, kept)
 
     def fill_speed_bands(self, gx, gy, chan, heading, out, best=None) -> None:
         """``cheapest_speed`` and ``cheapest_gait`` into ``out`` (``(2, rows, cols)``).
@@ -309,11 +314,17 @@ class GaitChoice:
         keep = np.full(heading.shape, np.inf)
         out[0] = np.nan
         out[1] = np.nan
+        kept = getattr(self, "_kept", None)
+        same = (kept is not None and kept[0] is gx and len(kept[1]) == n
+                and np.allclose(kept[1], ang))  # fmt: skip
         a = np.empty_like(best)
-        b = np.empty_like(best)
         v = np.empty(heading.shape, np.float32)
         for k, hc in enumerate(self.costs):
-            hc.map_bands(gx, gy, chan, ang, a, b)
+            if same:
+                b = kept[2][k]
+            else:
+                b = np.empty_like(best)
+                hc.map_bands(gx, gy, chan, ang, a, b)
             cost = np.take_along_axis(b, j[None], axis=0)[0].astype(np.float64)
             better = fin & np.isfinite(cost) & (cost < keep)
             if not better.any():
@@ -322,6 +333,7 @@ class GaitChoice:
             keep[better] = cost[better]
             out[0][better] = v[better]
             out[1][better] = k
+        self._kept = None
 
 
 def gait_choice(
