@@ -93,6 +93,11 @@ default (20 bands, uint16)                             4.57    45        5.37 (1
 map alone, ``--stages`` (default bands)                4.12    -         5.00
 =====================================================  ======  ========  ==========
 
+``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
+0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
+0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s
+against 11.18 s, 5.04 CPU s (2.31x wall, 2.10x CPU).
+
 Commands: ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python
 benchmarks/bench_energy_map.py --pace --size 2048 --runs 2 --baseline-python
 /work/main/.venv/bin/python`` (the first four rows); ``python
