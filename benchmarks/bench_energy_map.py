@@ -7,6 +7,8 @@ Usage::
         [--skip-large] [--workdir /tmp/bench_energy_map] [--baseline-python PYTHON]
         [--compress zstd] [--also-compress deflate none]
     python benchmarks/bench_energy_map.py --stages [--size 4096] [--compress zstd]
+    python benchmarks/bench_energy_map.py --speed MIN:MAX [--fixed-speed V] [--size 2048]
+        [--runs 2] [--model NAME] [--set NAME=VALUE ...]
 
 ``--kernel``: the map's computation alone (no GeoTIFF), old against new, each size in
 its own process (peak RSS from ``os.wait4``) on the synthetic DEM's in-memory gradient,
@@ -63,6 +65,15 @@ package has its ``.pyc`` files; run the benchmark with byte-code caching on, e.g
 ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python ...`` (the warm-up
 run writes them, for the baseline too, outside its checkout).
 
+``--speed MIN:MAX`` (or ``auto``): the map at the best speed of a range against the map
+at one fixed speed (``--fixed-speed``, default the range's top; ``--fixed-set`` gives
+that row alone channel values, e.g. the gait a model that names gaits needs at a fixed
+speed, where the range's row chooses it), on the SIZE^2 DEM with
+the default bands, ``--runs`` fresh processes each, alternating, after one warm-up run of
+each (the range's heading table is built once per machine, model and range: the
+warm-up's time is printed apart). Columns: median wall and CPU seconds, and their ratio
+to the fixed-speed map's.
+
 ``--stages``: one windowed map in this process, the time of each stage (reading the
 DEM, the gradient, the heading table (disk cache), the kernel, the summary bands, the
 GeoTIFF write, closing the file, the summary statistics) and the CPU seconds of each
@@ -81,6 +92,11 @@ default (20 bands, uint16)                             4.57    45        5.37 (1
 ``--bands summary`` (4 bands)                          3.44    8         3.54 (29)
 map alone, ``--stages`` (default bands)                4.12    -         5.00
 =====================================================  ======  ========  ==========
+
+``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
+0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
+0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s
+against 11.18 s, 5.04 CPU s (2.31x wall, 2.10x CPU).
 
 Commands: ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python
 benchmarks/bench_energy_map.py --pace --size 2048 --runs 2 --baseline-python
@@ -559,6 +575,45 @@ def pace_table(
               f"{size_b[name] / 1e6:.0f} | {floor:.2f} | {ratio} | {target} |")  # fmt: skip
 
 
+def speed_rows(
+    size: int, headings: int, workdir: Path, runs: int, speed: str, fixed: str | None,
+    model: str | None, sets: list[str], fixed_sets: list[str] = (),
+) -> None:  # fmt: skip
+    """The map at the best speed of ``speed`` against one at a fixed speed (see ``--speed``)."""
+    import statistics
+
+    dem = make_dem(workdir / f"dem_{size}.tif", size)
+    common = [str(dem), "--headings", str(headings)]
+    if model:
+        common += ["--model", model]
+    for kv in sets:
+        common += ["--set", kv]
+    if fixed is None:
+        fixed = speed.split(":")[-1] if ":" in speed else None
+    fixed_extra = [w for kv in fixed_sets for w in ("--set", kv)]
+    cases = {"fixed": (["--speed", fixed] if fixed else []) + fixed_extra,
+             "range": ["--speed", speed]}  # fmt: skip
+    times: dict[str, list[dict]] = {k: [] for k in cases}
+    for name, extra in cases.items():  # warm-up: kernels and heading tables
+        r = run_one([*common, "--out", str(workdir / f"speed_{name}.tif"), *extra])
+        print(f"warm-up {name}: {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} CPU s", flush=True)
+    for _ in range(runs):
+        for name, extra in cases.items():
+            times[name].append(run_one([*common, "--out", str(workdir / f"speed_{name}.tif"),
+                                        *extra]))  # fmt: skip
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"energy-map {size}^2, {headings} headings, model {model or 'default'}; "
+          f"{os.cpu_count()} cores; {load}")  # fmt: skip
+    print("| map | --speed | wall s (median) | CPU s (median) | wall / fixed | CPU / fixed |")
+    print("|---|---|---|---|---|---|")
+    med = {k: (statistics.median(r["wall_s"] for r in v), statistics.median(r["cpu_s"] for r in v))
+           for k, v in times.items()}  # fmt: skip
+    for name, extra in cases.items():
+        w, c = med[name]
+        print(f"| {name} | {' '.join(extra) or 'default'} | {w:.2f} | {c:.2f} | "
+              f"{w / med['fixed'][0]:.2f} | {c / med['fixed'][1]:.2f} |")  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kernel", action="store_true", help="old vs new map kernel only")
@@ -588,6 +643,13 @@ def main() -> None:
     ap.add_argument("--stages", action="store_true", help="profile one windowed map by stage")
     ap.add_argument("--pace", action="store_true", help="the map against the disk and gdaldem")
     ap.add_argument("--runs", type=int, default=3, help="runs per --pace row (median)")
+    ap.add_argument("--speed", default=None, help="a range MIN:MAX or auto: ranged vs fixed")
+    ap.add_argument("--fixed-speed", default=None, help="the fixed speed (default: the top)")
+    ap.add_argument("--model", default=None, help="energy-map --model of the --speed rows")
+    ap.add_argument("--set", action="append", default=[], help="energy-map --set (--speed rows)")
+    ap.add_argument(
+        "--fixed-set", action="append", default=[], help="--set of the fixed-speed row only"
+    )
     a = ap.parse_args()
     a.workdir = a.workdir.resolve()
     if a.kernel:
@@ -599,6 +661,10 @@ def main() -> None:
         return
     if a.pace:
         pace_table(a.size, a.headings, a.workdir, a.runs, a.baseline_python)
+        return
+    if a.speed:
+        speed_rows(a.size, a.headings, a.workdir, a.runs, a.speed, a.fixed_speed, a.model, a.set,
+                   a.fixed_set)  # fmt: skip
         return
     h = str(a.headings)
     comp = ["--compress", a.compress]

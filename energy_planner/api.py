@@ -697,7 +697,7 @@ def energy_map(
     model: Any = None,
     request: Any = None,
     headings: int = 16,
-    speed: float | None = None,
+    speed: float | tuple[float, float] | str | None = None,
     max_slope_deg: float | None = None,
     max_cross_slope_deg: float | None = None,
     max_backward_slope_deg: float | None = None,
@@ -730,8 +730,11 @@ def energy_map(
         A whole request; the keywords below replace its fields.
     headings : int
         Number of map headings, 360/N degrees apart, the first east (``--headings``).
-    speed : float, optional
-        Nominal walking speed, m/s (``--speed``).
+    speed : float, (float, float) or str, optional
+        Walking speed along the ground, m/s, as :func:`plan` takes it (``--speed``): a
+        number (every cell at it), or a range ``(vmin, vmax)`` / ``"auto"`` (the speeds
+        the model's logs cover): each cell, heading and body yaw at its own best speed
+        in the range, and the band ``cheapest_speed`` (m/s).
     max_slope_deg, max_cross_slope_deg : float, optional
         Slope limits: cells or headings beyond them cost inf.
     max_backward_slope_deg, max_crab_deg : float, optional
@@ -777,6 +780,8 @@ def energy_map(
         kwargs["bands"] = bands
     if encoding is not None:
         kwargs["encoding"] = encoding
+    if speed is not None and not isinstance(speed, int | float):  # a range, or auto
+        kwargs["speed_range"], speed = speed, None
     given = _take(locals(), REQUEST_KEYS)
     own = None
     if isinstance(client, str):

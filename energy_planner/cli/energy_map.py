@@ -42,6 +42,14 @@ def format_table(res: dict[str, Any]) -> str:
             f"over {s['valid_cells']} valid cells"
             + (f" (sampled every {s['sampled_every']})" if s["sampled_every"] > 1 else "")
         )
+    rng = res.get("speed_range_m_s")
+    if rng:
+        v = s.get("cheapest_speed_m_s")
+        lines.append(
+            f"speed     each cell and heading at its best speed within {rng[0]:g}-{rng[1]:g} m/s"
+            + (f"; cheapest heading's {v['min']:.2f} .. {v['max']:.2f} m/s (median "
+               f"{v['median']:.2f})" if v else "")
+        )  # fmt: skip
     a = s.get("anisotropy")
     if a:
         lines.append(
@@ -49,10 +57,11 @@ def format_table(res: dict[str, Any]) -> str:
         )
     if res.get("plot"):
         lines.append(f"plot      {res['plot']}")
-    heads = "along_*, best_*" if len(res["bands"]) > res["headings"] + 4 else "best_*"
-    summary = ", ".join(b["name"] for b in res["bands"][-4:])
-    if len(res["bands"]) > 4:
-        summary += f" after the {len(res['bands']) - 4} heading bands {heads} (J/m)"
+    tail = 5 if rng else 4  # the summary bands (and the speed band)
+    heads = "along_*, best_*" if len(res["bands"]) > res["headings"] + tail else "best_*"
+    summary = ", ".join(b["name"] for b in res["bands"][-tail:])
+    if len(res["bands"]) > tail:
+        summary += f" after the {len(res['bands']) - tail} heading bands {heads} (J/m)"
     lines.append("bands     " + summary)
     for note in res.get("notes", []):
         lines.append(f"note: {note}")
@@ -60,7 +69,9 @@ def format_table(res: dict[str, Any]) -> str:
 
 
 @options.command(
-    "energy-map", "energy-planner energy-map hill --out hill_energy.tif --plot hill.png"
+    "energy-map",
+    "energy-planner energy-map hill --out hill_energy.tif --plot hill.png",
+    "energy-planner energy-map plane --out plane_speed.tif --model b1_speeds --speed auto",
 )
 @options.dem_argument
 @options.path_option(
@@ -75,7 +86,7 @@ def format_table(res: dict[str, Any]) -> str:
     default=16,
     help="Number of map headings, 360/N degrees apart, the first east.",
 )
-@options.speed_option
+@options.plan_speed_option
 @options.gait_limit_options
 @options.channel_options
 @options.path_option(
@@ -143,7 +154,7 @@ def command(
     out: Path,
     model_path: Path | None,
     headings: int,
-    speed: float,
+    speed: Any,
     sets: tuple[str, ...],
     channels: tuple[str, ...],
     plot: Path | None,
@@ -167,7 +178,9 @@ def command(
     physics as `energy` (a short straight motion through the cell centre, per metre of
     map distance). The map is on the DEM's grid and CRS: a DEM in a geographic CRS is
     computed on its UTM working grid and resampled back (bilinear), headings then CCW
-    from the DEM's local east (the meridian convergence applied).
+    from the DEM's local east (the meridian convergence applied). With --speed MIN:MAX
+    or auto, every cell, heading and body yaw walks at its own least-energy speed in the
+    range (as plan's motions), and the band cheapest_speed gives the cheapest heading's.
     """
     from energy_planner.api import energy_map
     from energy_planner.errors import DEMError, DEMIOError, EnergyPlannerError

@@ -137,6 +137,11 @@ class HeadingCost:
         below the default's (each node is computed on its own) and starts from them.
     """
 
+    #: The kernel that builds the table's rows, and the number of layers it returns (the
+    #: three costs; a subclass may add layers after them).
+    _TABLE_KERNEL = "heading_table"
+    _TABLE_DEPTH = 3
+
     def __init__(
         self, source: str, speed: float, tmax: float, smax: float, crab: float,
         back_tan: float, rasters: int = 0, categorical: bool = False,
@@ -311,7 +316,8 @@ class HeadingCost:
         with self._lock:
             entry = self._tables.get(values)
             if entry is None:
-                entry = self._tables[values] = [np.full((3, self.n_alpha, self.n_phi), np.nan), 0]
+                shape = (self._TABLE_DEPTH, self.n_alpha, self.n_phi)
+                entry = self._tables[values] = [np.full(shape, np.nan), 0]
             if need > entry[1]:
                 self._grow(entry, need, values)
             return entry[0][:, : entry[1]]
@@ -321,9 +327,9 @@ class HeadingCost:
         key = self._key(values)
         stop = min(self.n_alpha, max(need, start + _ROWS_PER_BUILD))
         if start == 0:
-            cached = _load_table(key)
+            cached = _load_table(key, self._TABLE_DEPTH)
             if cached is None and self.top_deg != TABLE_TOP_DEG:  # the default's rows
-                cached = _load_table(self._key(values, TABLE_TOP_DEG))
+                cached = _load_table(self._key(values, TABLE_TOP_DEG), self._TABLE_DEPTH)
             if cached is not None and cached.shape[2] == self.n_phi:
                 rows = min(cached.shape[1], self.n_alpha)
                 table[:, :rows] = cached[:, :rows]
@@ -334,7 +340,7 @@ class HeadingCost:
         chv = np.asarray((*values, *self.consts), dtype=np.float64)
         aot = None if self._aot is _UNSET else self._aot
         if aot is None:
-            part = self._mod.heading_table(
+            part = getattr(self._mod, self._TABLE_KERNEL)(
                 self.speed, self.smax, self.crab, self.d_alpha, start, stop - start,
                 self.n_phi, chv,
             )  # fmt: skip
@@ -602,12 +608,12 @@ def _table_path(key: str):
     return cache_dir() / f"heading_{key}.npy"
 
 
-def _load_table(key: str) -> np.ndarray | None:
+def _load_table(key: str, depth: int = 3) -> np.ndarray | None:
     try:
         arr = np.load(_table_path(key), allow_pickle=False)
     except (OSError, ValueError):
         return None
-    return arr if arr.ndim == 3 and arr.shape[0] == 3 else None
+    return arr if arr.ndim == 3 and arr.shape[0] == depth else None
 
 
 def _save_table(key: str, table: np.ndarray) -> None:

@@ -6,12 +6,14 @@ kernel call every way of computing a map shares (:func:`block_bands`).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 __all__ = [
     "BAND_SETS",
+    "SPEED_BANDS",
     "DEFAULT_BANDS",
     "DEM_EAST",
     "GRID_EAST",
@@ -24,6 +26,9 @@ __all__ = [
 
 #: The bands after the 2 N heading bands, in order.
 SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
+#: The bands after the summary bands of a map at the best speed of a range (a robot that
+#: chooses its speed: :func:`energy_planner.energymap.energy_map`'s ``speed_range``).
+SPEED_BANDS = ("cheapest_speed",)
 #: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4),
 #: ``all`` (``along_*`` too, 2 N + 4) or ``summary`` (the four summary bands: the cheapest
 #: heading and its cost, the dearest, their ratio). All are computed; the heading bands are
@@ -48,10 +53,11 @@ def first_band(headings: int, bands: str) -> int:
     return {"best": headings, "summary": 2 * headings}.get(bands, 0)
 
 
-def band_names(headings: int, bands: str = "all") -> list[str]:
+def band_names(headings: int, bands: str = "all", extra: tuple[str, ...] = ()) -> list[str]:
     """Names of the bands of a map with ``headings`` headings, in order.
 
-    ``bands``: the set written (:data:`BAND_SETS`); ``all``: the full layout.
+    ``bands``: the set written (:data:`BAND_SETS`); ``all``: the full layout. ``extra``:
+    bands after the summary ones (:data:`SPEED_BANDS` for a map at the best speed).
 
     Examples
     --------
@@ -61,7 +67,7 @@ def band_names(headings: int, bands: str = "all") -> list[str]:
     """
     degs = [_deg_label(360.0 * j / headings) for j in range(headings)]
     names = [f"along_{d}" for d in degs] + [f"best_{d}" for d in degs] + list(SUMMARY_BANDS)
-    return names[first_band(headings, bands) :]
+    return names[first_band(headings, bands) :] + list(extra)
 
 
 def _deg_label(d: float) -> str:
@@ -79,11 +85,15 @@ DEM_EAST = (
 
 
 def band_descriptions(
-    headings: int, frame: str = "east", bands: str = "all"
-) -> list[tuple[str, str, str]]:
+    headings: int, frame: str = "east", bands: str = "all", extra: tuple[str, ...] = (),
+    speed_range: tuple[float, float] | None = None, gaits: tuple[str, ...] = (),
+) -> list[tuple[str, str, str]]:  # fmt: skip
     """``(name, description, units)`` of every band written.
 
-    ``bands``: the set written, as for :func:`band_names`; ``frame`` names the heading frame.
+    ``bands``: the set written, as for :func:`band_names`; ``frame`` names the heading
+    frame; ``extra``: the bands after the summary ones (:data:`SPEED_BANDS`, and
+    ``cheapest_gait``), of a map at the best speed within ``speed_range`` (m/s) and, with
+    ``gaits``, in the best of them.
     """
     out = []
     for j in range(headings):
@@ -104,7 +114,16 @@ def band_descriptions(
         ("anisotropy", "dearest / cheapest (inf where the cheapest costs nothing)", "1"),
         ("cheapest_heading_deg", f"heading of the cheapest, degrees CCW from {frame}", "deg"),
     ]
-    return out[first_band(headings, bands) :]
+    lo, hi = speed_range if speed_range is not None else (math.nan, math.nan)
+    what = {
+        "cheapest_speed": (f"ground speed of the cheapest: the best in {lo:g}..{hi:g} m/s of "
+                           "its heading and body yaw (each cost band is at its own best "
+                           "speed)", "m/s"),
+        "cheapest_gait": ("gait of the cheapest, by code: " + ", ".join(
+            f"{k} = {g}" for k, g in enumerate(gaits)) + " (each cost band in its own "
+            "best gait)", "1"),
+    }  # fmt: skip
+    return out[first_band(headings, bands) :] + [(n, *what[n]) for n in extra]
 
 
 def heading_angles(headings: int) -> np.ndarray:
@@ -116,10 +135,12 @@ def block_bands(
     heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int,
     out: np.ndarray | None = None, precompiled: bool = False,
 ) -> np.ndarray:  # fmt: skip
-    """Every band of a block of cells, float32 ``(2 N + 4, rows, cols)``.
+    """Every band of a block of cells, float32 ``(2 N + 4 + E, rows, cols)``.
 
     ``heading``: the :class:`~energy_planner.energy.heading.HeadingCost` of the map's
-    model, speed and limits (it prices ``along`` and ``best``); ``gx``, ``gy``: the cells'
+    model, speed and limits (it prices ``along`` and ``best``), or a
+    :class:`~energy_planner.energy.speed_map.RangedHeadingCost` (each yaw at its best
+    speed: then ``E = 1``, the :data:`SPEED_BANDS`, else 0); ``gx``, ``gy``: the cells'
     Horn gradient; ``chan``: raster channels on the same cells ``(k, rows, cols)``;
     ``out``: a C-contiguous float32 array of that shape to fill (a window's buffer reused
     from one window to the next: no fresh pages to fault in), else a new one.
@@ -134,14 +155,15 @@ def block_bands(
         chan = np.zeros((0, rows, cols))
     chan = np.ascontiguousarray(chan, dtype=np.float64)
     ang = heading_angles(headings)
-    shape = (2 * headings + 4, rows, cols)
+    extra = len(speed_bands(heading))
+    shape = (2 * headings + 4 + extra, rows, cols)
     if out is None or out.shape != shape:
         out = np.empty(shape, dtype=np.float32)
     along = out[:headings]
     best = out[headings : 2 * headings]
     heading.map_bands(gx, gy, chan, ang, along, best, precompiled)
     aot = heading.precompiled_map() if precompiled else None
-    summary = out[2 * headings :]
+    summary = out[2 * headings : 2 * headings + 4]
     if aot is None:
         from energy_planner.energymap._summary import summary_bands
 
@@ -151,4 +173,18 @@ def block_bands(
 
         deg = np.degrees(ang)
         run_by_rows(lambda a, b: aot.summary(best[:, a:b], deg, summary[:, a:b]), rows)
+    if extra:
+        with np.errstate(invalid="ignore"):
+            head = np.radians(summary[3].astype(np.float64))
+        heading.fill_speed_bands(gx, gy, chan, head, out[2 * headings + 4 :], best)
     return out
+
+
+def speed_bands(heading: Any) -> tuple[str, ...]:
+    """The bands after the summary bands of a map priced by ``heading``.
+
+    :data:`SPEED_BANDS` for a :class:`~energy_planner.energy.speed_map.RangedHeadingCost`
+    (each yaw at its best speed), and ``cheapest_gait`` after it for a
+    :class:`~energy_planner.energy.speed_map.GaitChoice`; else none.
+    """
+    return tuple(getattr(heading, "speed_band_names", ()))

@@ -191,7 +191,7 @@ def _map_by_windows(
     from rasterio.windows import Window
 
     rows, cols = shape
-    step = _rows_per_block(cols, 2 * setup.headings + 4)
+    step = _rows_per_block(cols, setup.full)
     starts = range(0, rows, step)
     bufs: list[Any] = [None, None]  # float bands: one, or two when they are what is written
     codes: list[Any] = [None, None]
@@ -497,6 +497,8 @@ def _to_dem_grid(work: Path, info: _DemInfo, out: Path, setup: _Setup, model_nam
             rel = np.mod(head - theta, 360.0)
         rel = np.where(rel >= 360.0, 0.0, rel)
         put(2 * n + 3, np.where(np.isfinite(head), rel, np.nan))
+        for e in range(len(setup.extra)):  # the cheapest heading's speed: bilinear too
+            put(2 * n + 4 + e, cost(2 * n + 4 + e))
         _write_metadata(dst, setup, model_name, "terrain", DEM_EAST)
         dst.update_tags(
             working_grid_crs=str(wcrs),
@@ -537,6 +539,7 @@ def energy_map(
     compress: str = DEFAULT_COMPRESS,
     bands: str = DEFAULT_BANDS,
     encoding: str = DEFAULT_ENCODING,
+    speed_range: Any = None,
 ) -> EnergyMapResult:
     """Write the heading-dependent energy map of a DEM to a GeoTIFF.
 
@@ -590,6 +593,15 @@ def energy_map(
         bytes; a map with a cost beyond their range (above 16,383 J/m) is written as
         float32 and says so in its notes. ``float32``: the values as computed.
         :func:`~energy_planner.energymap.encoding.read_band` reads either as values.
+    speed_range : (float, float), str or float, optional
+        Walk each cell and heading at its best ground speed: ``(vmin, vmax)`` in m/s,
+        ``"MIN:MAX"``, or ``"auto"`` (the speeds the model's logs cover), as
+        :func:`energy_planner.planning.speed.resolve_speed` reads them for ``plan``. Every
+        body yaw takes the speed of the range that minimises its energy per metre (the
+        closed form of the planners' motions), so ``best_*`` is the least over yaw and
+        speed; the band ``cheapest_speed`` (m/s) gives the speed of the cheapest
+        heading. A number is a fixed speed (the request's speed replaced); None
+        (default): the request's speed.
 
     Returns
     -------
@@ -602,6 +614,9 @@ def energy_map(
     EnergyMapError
         Bad headings, compression or bands, or the out-of-core path asked for a DEM that is
         not in a metric CRS.
+    PlanningConfigError
+        A speed range that is not ``0 < vmin <= vmax`` (or ``auto`` for a model whose
+        logs record no speeds).
     MissingChannelError
         The model reads a channel nobody gave.
     """
@@ -615,28 +630,51 @@ def energy_map(
                 "give the model and request in the Problem, not again as model=/request="
             )
         dem, model, request = dem.terrain, dem.model, dem.request
-    elif isinstance(dem, str | Path):
+    if speed_range is not None:
+        speed_range, request = _speed_choice(speed_range, model, request)
+    if isinstance(dem, str | Path):
         from energy_planner.maps import resolve
 
         dem = resolve(dem)  # a file, or a bundled map's name ("hill")
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_MB):
         res = _energy_map(
             dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes,
-            chunk, progress, compress, bands, encoding,
+            chunk, progress, compress, bands, encoding, speed_range,
         )  # fmt: skip
     res.dem = dem
     return res
 
 
+def _speed_choice(speed: Any, model: Any, request: Any) -> tuple[Any, Any]:
+    """``(range or None, request)`` of a map's ``speed_range`` (as ``plan`` reads ``speed``).
+
+    :func:`~energy_planner.planning.speed.resolve_speed`: a range stays one; a number
+    becomes the request's speed (a fixed-speed map); ``auto`` for logs of one speed
+    (None, with its warning) keeps the request's speed.
+    """
+    import dataclasses
+
+    from energy_planner.model import EnergyModel
+    from energy_planner.planning.speed import resolve_speed
+    from energy_planner.request import Request
+
+    spec = resolve_speed(speed, EnergyModel.default() if model is None else model)
+    if isinstance(spec, float):
+        request = Request() if request is None else request
+        robot = dataclasses.replace(request.robot, speed=spec)
+        return None, dataclasses.replace(request, robot=robot)
+    return spec, request
+
+
 def _energy_map(
     dem, out, model, headings, request, channels, band, use_dask, memory_cap_bytes, chunk,
-    progress, compress, bands, encoding,
+    progress, compress, bands, encoding, speed_range=None,
 ) -> EnergyMapResult:  # fmt: skip
     from energy_planner.energymap.encoding import COST_STEP, RATIO_STEP, EncodingOverflow
 
     t0 = time.perf_counter()
     out = Path(out)
-    setup = _setup(model, request, channels, headings, compress, bands, encoding)
+    setup = _setup(model, request, channels, headings, compress, bands, encoding, speed_range)
     notes = list(setup.notes)
     samples: list[_Samples] = []
     try:
@@ -677,7 +715,7 @@ def _compute(
             raise EnergyMapError(
                 "the dask path reads a DEM file by chunks; give the file, not a Terrain"
             )
-        samples.append(_Samples(dem.shape, setup.headings))
+        samples.append(_Samples(dem.shape, setup.headings, speed=bool(setup.extra)))
         _compute_terrain(dem, out, setup, model_name, progress, samples[0])
         mode = "terrain"
     else:
@@ -708,7 +746,7 @@ def _compute(
             compute_dask(info, out, setup, model_name, chunk=chunk, progress=progress)
             mode = "dask"
         elif info.metric_north_up:
-            samples.append(_Samples(info.shape, setup.headings))
+            samples.append(_Samples(info.shape, setup.headings, speed=bool(setup.extra)))
             _compute_windowed(info, out, setup, model_name, progress, samples[0])
             mode = "windowed"
         else:

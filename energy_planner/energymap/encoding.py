@@ -24,6 +24,9 @@ The same bytes hold half as many bits as float32 and compress to about a quarter
 its size (43 MB against 179 MB for a 2048 x 2048 map's 20 bands), with less CPU: the
 integer predictor and zstd have less to do.
 
+A map at the best speed of a range adds ``cheapest_speed`` at :data:`SPEED_STEP`
+(1/2048 m/s, up to 32 m/s) and, choosing the gait, ``cheapest_gait`` at 1 (its code).
+
 :func:`read_band` reads a band of either kind as float values (NaN and inf restored).
 """
 
@@ -43,6 +46,7 @@ __all__ = [
     "INF_CODE",
     "NODATA_CODE",
     "RATIO_STEP",
+    "SPEED_STEP",
     "band_steps",
     "decode",
     "encode_block",
@@ -62,6 +66,8 @@ COST_STEP = 0.25
 RATIO_STEP = 1.0 / 1024.0
 #: Precision of the cheapest heading in ``uint16``, degrees (up to 512).
 HEADING_STEP = 1.0 / 128.0
+#: Precision of the ground speed band (``cheapest_speed``) in ``uint16``, m/s (up to 32).
+SPEED_STEP = 1.0 / 2048.0
 #: The code of a nodata cell (NaN).
 NODATA_CODE = 0
 #: The code of ``inf`` (a cell or heading above a slope limit).
@@ -86,6 +92,10 @@ def band_steps(headings: int, names: list[str]) -> np.ndarray:
             out.append(RATIO_STEP)
         elif n == "cheapest_heading_deg":
             out.append(HEADING_STEP)
+        elif n == "cheapest_speed":
+            out.append(SPEED_STEP)
+        elif n == "cheapest_gait":  # a code: 0, 1, ...
+            out.append(1.0)
         else:
             out.append(COST_STEP)
     return np.array(out, dtype=np.float64)

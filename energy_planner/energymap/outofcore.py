@@ -164,7 +164,7 @@ def compute_dask(
     gx, gy = gradient_dask(z, t.a, t.e)
 
     bands = da.map_blocks(
-        _bands_block, gx, gy, new_axis=0, chunks=((2 * setup.headings + 4,), *gx.chunks),
+        _bands_block, gx, gy, new_axis=0, chunks=((setup.full,), *gx.chunks),
         dtype=np.float32, heading=setup.heading, headings=setup.headings,
         channels=setup.channels, transform=t, crs=info.crs,
     )[setup.first :]  # fmt: skip

@@ -72,6 +72,12 @@ class EnergyMapResult(Result):
     dem : path or Terrain or None
         The DEM the map was computed from (the hillshade of :meth:`plot` and
         :meth:`write_html`).
+    speed_range : (float, float) or None
+        ``(vmin, vmax)`` m/s where every cell and heading is priced at its best speed
+        (with the band ``cheapest_speed``); None: one fixed speed.
+    gaits : list of str
+        The gaits each cell and heading chose among (the codes of ``cheapest_gait``, in
+        order), where the model names them; else empty.
     """
 
     path: Path
@@ -87,6 +93,8 @@ class EnergyMapResult(Result):
     channels: dict[str, Any] = field(default_factory=dict)
     heading_convention: str = GRID_EAST
     dem: Any = field(default=None, repr=False, compare=False)
+    speed_range: tuple[float, float] | None = None
+    gaits: list[str] = field(default_factory=list)
 
     def write_html(self, path: str | Path, dem: Any = None) -> Path:
         """One self-contained HTML page with a band chooser.
@@ -129,6 +137,10 @@ class EnergyMapResult(Result):
             "stats": self.stats,
             "channels": self.channels,
             "notes": self.notes,
+            **(
+                {} if self.speed_range is None else {"speed_range_m_s": list(self.speed_range)}
+            ),  # fmt: skip
+            **({"gaits": list(self.gaits)} if self.gaits else {}),
         }
 
 
@@ -167,7 +179,9 @@ def _write_metadata(
 ) -> None:
     """Band descriptions and units, dataset tags."""
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
-    descs = band_descriptions(setup.headings, frame, setup.bands)
+    descs = band_descriptions(
+        setup.headings, frame, setup.bands, setup.extra, setup.speed_range, setup.gaits
+    )
     from energy_planner.io import describe_band
 
     for i, (name, desc, units) in enumerate(descs, start=1):
@@ -193,7 +207,26 @@ def _write_metadata(
         headings=str(setup.headings),
         heading_convention=convention,
         cost="J per metre of map (horizontal) distance through the cell centre",
-        speed_m_s=repr(setup.speed),
+        **(
+            {"speed_m_s": repr(setup.speed)}
+            if setup.speed_range is None
+            else {
+                "speed_range_m_s": "{!r}:{!r}".format(*setup.speed_range),
+                "speed": "each body yaw of each cell and heading at its best ground speed "
+                "in the range (energy_planner.energy.speed_map); cheapest_speed: the "
+                "cheapest heading's",
+            }
+        ),
+        **(
+            {
+                "gaits": ", ".join(
+                    f"{k}={g} {a:g}-{b:g} m/s"
+                    for k, (g, (a, b)) in enumerate(setup.heading.ranges.items())
+                )
+            }
+            if setup.gaits
+            else {}
+        ),  # fmt: skip
         max_slope_tan=repr(setup.tmax),
         max_cross_slope_sin=repr(setup.smax),
         max_crab_rad=repr(setup.heading.crab),
@@ -228,7 +261,9 @@ def _result(
     frame = "the DEM's local east" if convention == DEM_EAST else "east"
     bands = [
         {"name": n, "description": d, "units": u}
-        for n, d, u in band_descriptions(setup.headings, frame, setup.bands)
+        for n, d, u in band_descriptions(
+            setup.headings, frame, setup.bands, setup.extra, setup.speed_range, setup.gaits
+        )
     ]
     if stats.get("valid_cells", 1) == 0:
         warnings.warn(f"energy map {out} has no valid cell", UserWarning, stacklevel=3)
@@ -236,6 +271,7 @@ def _result(
         path=out, shape=shape, crs=crs, transform=transform, headings=setup.headings,
         bands=bands, mode=mode, seconds=seconds, stats=stats, notes=notes,
         channels=setup.channels.describe(), heading_convention=convention,
+        speed_range=setup.speed_range, gaits=list(setup.gaits),
     )  # fmt: skip
 
 
@@ -254,16 +290,22 @@ def _stats(src: Any, max_side: int = 1024) -> dict[str, Any]:
     scale = max(1, math.ceil(max(src.height, src.width) / max_side))
     names = list(src.descriptions)
     i_cheap, i_aniso = names.index("cheapest") + 1, names.index("anisotropy") + 1
+    i_speed = names.index("cheapest_speed") + 1 if "cheapest_speed" in names else None
     step = max(int(src.block_shapes[0][0]), 1)
     step = max(step, (1024 // step) * step)
     off = scale // 2
-    cheap_parts, aniso_parts = [], []
+    cheap_parts: list = []
+    aniso_parts: list = []
+    speed_parts: list = []
+    which = [(i_cheap, cheap_parts), (i_aniso, aniso_parts)]
+    if i_speed is not None:
+        which.append((i_speed, speed_parts))
     for r0 in range(0, src.height, step):
         win = Window(0, r0, src.width, min(step, src.height - r0))
         first = (off - r0) % scale  # first row of the window that is sampled
-        for i, parts in ((i_cheap, cheap_parts), (i_aniso, aniso_parts)):
+        for i, parts in which:
             parts.append(read_band(src, i, window=win)[first::scale, off::scale].astype(float))
-    return _stats_of(cheap_parts, aniso_parts, scale)
+    return _stats_of(cheap_parts, aniso_parts, scale, speed_parts)
 
 
 class _Samples:
@@ -273,26 +315,38 @@ class _Samples:
     values, before any encoding: a windowed map's statistics need no read-back.
     """
 
-    def __init__(self, shape: tuple[int, int], headings: int, max_side: int = 1024) -> None:
+    def __init__(
+        self, shape: tuple[int, int], headings: int, max_side: int = 1024, speed: bool = False
+    ) -> None:
         self.scale = max(1, math.ceil(max(shape) / max_side))
         self.off = self.scale // 2
         self.i_cheap, self.i_aniso = 2 * headings, 2 * headings + 2  # in the full layout
+        self.i_speed = 2 * headings + 4 if speed else None  # cheapest_speed
         self.cheap: list[np.ndarray] = []
         self.aniso: list[np.ndarray] = []
+        self.speed: list[np.ndarray] = []
 
     def add(self, bands: np.ndarray, r0: int) -> None:
         """Take the sampled cells of a window's bands (full layout) starting at row ``r0``."""
         first, off, k = (self.off - r0) % self.scale, self.off, self.scale
         self.cheap.append(bands[self.i_cheap, first::k, off::k].astype(float))
         self.aniso.append(bands[self.i_aniso, first::k, off::k].astype(float))
+        if self.i_speed is not None:
+            self.speed.append(bands[self.i_speed, first::k, off::k].astype(float))
 
     def stats(self) -> dict[str, Any]:
         """As :func:`_stats` would read them."""
-        return _stats_of(self.cheap, self.aniso, self.scale)
+        return _stats_of(self.cheap, self.aniso, self.scale, self.speed)
 
 
-def _stats_of(cheap_parts: list, aniso_parts: list, scale: int) -> dict[str, Any]:
-    """Quantiles of the sampled cheapest costs and anisotropies (:func:`_stats`)."""
+def _stats_of(
+    cheap_parts: list, aniso_parts: list, scale: int, speed_parts: list | None = None
+) -> dict[str, Any]:
+    """Quantiles of the sampled cheapest costs, anisotropies and speeds (:func:`_stats`).
+
+    ``speed_parts`` (a map at the best speed): ``cheapest_speed_m_s``, the quantiles of
+    the cheapest heading's speed.
+    """
     cheap = np.concatenate(cheap_parts).ravel()
     aniso = np.concatenate(aniso_parts).ravel()
     ok = np.isfinite(cheap)
@@ -306,6 +360,13 @@ def _stats_of(cheap_parts: list, aniso_parts: list, scale: int) -> dict[str, Any
         if a.size:
             qa = np.percentile(a, [50, 90, 100])
             out["anisotropy"] = dict(zip(("median", "p90", "max"), qa.tolist(), strict=True))
+        sp = np.concatenate(speed_parts).ravel() if speed_parts else np.zeros(0)
+        sp = sp[np.isfinite(sp)]
+        if sp.size:
+            qs = np.percentile(sp, [0, 10, 50, 90, 100])
+            out["cheapest_speed_m_s"] = dict(
+                zip(("min", "p10", "median", "p90", "max"), qs.tolist(), strict=True)
+            )
     return out
 
 

@@ -33,6 +33,29 @@ class _Setup:
     compress: str = DEFAULT_COMPRESS
     bands: str = DEFAULT_BANDS
     encoding: str = DEFAULT_ENCODING
+    #: ``(vmin, vmax)`` m/s where each cell and heading is priced at its best speed
+    speed_range: tuple[float, float] | None = None
+
+    @property
+    def extra(self) -> tuple[str, ...]:
+        """The bands after the summary bands.
+
+        :data:`~energy_planner.energymap.bands.SPEED_BANDS` at the best speed of a range,
+        else none.
+        """
+        from energy_planner.energymap.bands import speed_bands
+
+        return speed_bands(self.heading)
+
+    @property
+    def gaits(self) -> tuple[str, ...]:
+        """The gaits each cell chooses among (codes of ``cheapest_gait``), else none."""
+        return tuple(getattr(self.heading, "gaits", ()))
+
+    @property
+    def full(self) -> int:
+        """Number of bands of the full layout (every band computed)."""
+        return 2 * self.headings + 4 + len(self.extra)
 
     @property
     def first(self) -> int:
@@ -42,20 +65,21 @@ class _Setup:
     @property
     def nbands(self) -> int:
         """Number of bands written."""
-        return 2 * self.headings + 4 - self.first
+        return self.full - self.first
 
     @property
     def steps(self) -> np.ndarray:
         """The ``uint16`` scale of each band written (``encoding.band_steps``)."""
         from energy_planner.energymap.encoding import band_steps
 
-        return band_steps(self.headings, band_names(self.headings, self.bands))
+        return band_steps(self.headings, band_names(self.headings, self.bands, self.extra))
 
 
 def _setup(
     model: Any, request: Any, channels: Any, headings: int, compress: str = DEFAULT_COMPRESS,
-    bands: str = DEFAULT_BANDS, encoding: str = DEFAULT_ENCODING,
+    bands: str = DEFAULT_BANDS, encoding: str = DEFAULT_ENCODING, speed_range: Any = None,
 ) -> _Setup:  # fmt: skip
+    """The shared setup; ``speed_range``: a resolved ``(vmin, vmax)`` (m/s) or None."""
     from energy_planner.energy.channels import Channels
     from energy_planner.energy.heading import HeadingCost
     from energy_planner.errors import ModelError
@@ -110,8 +134,22 @@ def _setup(
     unused = channels.unused(model)
     if unused:
         notes.append(f"the model does not read channel(s) {', '.join(unused)}; ignored")
+    if speed_range is None:
+        heading = HeadingCost.of_request(model, request, channels)
+    else:
+        from energy_planner.energy.speed_map import gait_choice, ranged_heading_cost
+
+        limits = dict(
+            max_slope_deg=lim.max_slope_deg, max_cross_slope_deg=lim.max_cross_slope_deg,
+            max_crab_deg=getattr(lim, "max_crab_deg", None),
+            max_backward_slope_deg=getattr(lim, "max_backward_slope_deg", None),
+        )  # fmt: skip
+        # where the model names gaits and the channels do not give one: each in its best
+        heading = gait_choice(model, speed_range, channels, **limits)
+        if heading is None:
+            heading = ranged_heading_cost(model, speed_range, channels=channels, **limits)
     return _Setup(
-        heading=HeadingCost.of_request(model, request, channels),
+        heading=heading,
         channels=channels,
         headings=int(headings),
         speed=float(request.robot.speed),
@@ -121,4 +159,5 @@ def _setup(
         compress=str(compress).lower(),
         bands=bands,
         encoding=encoding,
+        speed_range=None if speed_range is None else tuple(speed_range),
     )
