@@ -50,7 +50,6 @@ def _mission(name: str) -> pd.DataFrame:
     return pd.read_parquet(FIXTURE / "test" / f"{name}.parquet").sort_values("t")
 
 
-@pytest.mark.xdist_group("field_logs_discovered")  # one worker builds the module's discovered
 def test_odometry_scale_is_measured_as_the_logs_show(discovered):
     """The repair's slip equals the odometry's distance against the pose's, summed by hand."""
     found = {f.name: f.to_dict() for f in discovered.data_findings}
@@ -68,7 +67,6 @@ def test_odometry_scale_is_measured_as_the_logs_show(discovered):
     assert 0.05 < np.mean(slips) < 0.09
 
 
-@pytest.mark.xdist_group("field_logs_discovered")  # one worker builds the module's discovered
 @pytest.mark.parametrize("name", ["m009", "m011"])
 def test_logged_pose_energy_matches_the_battery(discovered, name):
     """Energy of a held-out mission's logged poses against the battery energy it measured."""
@@ -172,7 +170,6 @@ def test_battery_noise_is_white_so_the_floor_from_the_logs_is_fair():
     assert abs(np.mean(kurt)) < 0.5
 
 
-@pytest.mark.xdist_group("field_logs_discovered")  # one worker builds the module's discovered
 def test_discover_adds_the_cross_slope_holding_cost(discovered):
     """Robot-b's held-out window errors swing by +-25 W over minutes, and only on slopes:
     walking across a slope (|cos(gamma)| < 0.3) the base model (copper losses in the square

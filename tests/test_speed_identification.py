@@ -76,7 +76,6 @@ def test_physics_optimum_is_interior_and_moves_with_slope_heading_and_load():
     assert c["cost_n"][1] < c["cost_n"][0] and c["cost_n"][1] < c["cost_n"][2]
 
 
-@pytest.mark.xdist_group("speed_across")  # one worker builds the module's across
 def test_campaign_logs_the_gait_and_single_speed_logs_do_not(across):
     camp, _, _ = across
     by_gait = camp.logs.groupby("gait", observed=True)
@@ -88,7 +87,6 @@ def test_campaign_logs_the_gait_and_single_speed_logs_do_not(across):
     assert "gait" not in plain.logs and plain.physics.gaits is None
 
 
-@pytest.mark.xdist_group("speed_across")  # one worker builds the module's across
 def test_fit_recovers_the_optimum_speed_of_the_physics(across):
     camp, w, res = across
     floor = camp.noise_floor(w).rmse_w
@@ -107,7 +105,6 @@ def test_fit_recovers_the_optimum_speed_of_the_physics(across):
         assert paid <= 1.01 * truth["cost_n"], (slope, heading, got, truth)
 
 
-@pytest.mark.xdist_group("speed_across")  # one worker builds the module's across
 def test_gait_channel_is_identified(across):
     _, _, res = across
     gait_terms = [n for n in res.model.term_names if "gait ==" in n]
@@ -142,7 +139,6 @@ def test_single_speed_fit_says_the_speed_terms_are_unsupported():
     assert res.model.metadata["fit"]["speed_terms"]["supported"] is False
 
 
-@pytest.mark.xdist_group("speed_across")  # one worker builds the module's across
 def test_speed_outside_the_logged_range_is_outside_the_domain(across):
     _, _, res = across
     lo, hi = speed_range(res.model)
@@ -166,7 +162,6 @@ def test_speed_outside_the_logged_range_is_outside_the_domain(across):
     assert req.robot.speed == hi and any("clamped" in n for n in notes)
 
 
-@pytest.mark.xdist_group("speed_across")  # one worker builds the module's across
 def test_speed_figure_marks_the_optimum(across, tmp_path):
     _, w, res = across
     got = plot_speed_cost(aligned_table(w), res.model, tmp_path / "s.png")

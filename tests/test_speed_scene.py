@@ -38,7 +38,6 @@ def test_bundled_model_by_name():
     assert any("--across-speeds" in c for c in m.metadata["made_by"])
 
 
-@pytest.mark.xdist_group("speed_scene")  # one worker builds the module's scene
 def test_parts_add_up_and_best_speed_saves(scene):
     _, sc = scene
     direct, opt = sc.row("direct"), sc.row("energy_optimal")
@@ -88,7 +87,6 @@ def test_model_without_gaits_is_refused():
                     terrain.to_work(*B))  # fmt: skip
 
 
-@pytest.mark.xdist_group("speed_scene")  # one worker builds the module's scene
 def test_to_dict_is_json_and_cli_refuses_a_deadline_alone(scene):
     from energy_planner.cli import main
 

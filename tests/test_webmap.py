@@ -101,7 +101,6 @@ def pages(small, tmp_path_factory):
     return {"paths": out, "plan": res, "problem": prob}
 
 
-@pytest.mark.xdist_group("webmap_small")  # one worker builds small and pages
 def test_route_hover_texts_are_the_segments_of_path_energy(small):
     # independent of the browser: the hover of vertex i is segment i of path_energy
     states = np.array([[10.5, 10.5, 0.0], [30.5, 12.5, 0.3], [50.5, 40.5, 1.2]])
@@ -116,7 +115,6 @@ def test_route_hover_texts_are_the_segments_of_path_energy(small):
     assert f"{pe.energy_j:,.0f} J" in hover[-1]
 
 
-@pytest.mark.xdist_group("webmap_small")  # one worker builds small and pages
 def test_every_page_is_self_contained(pages):
     for name, p in pages["paths"].items():
         text = p.read_text()
@@ -126,7 +124,6 @@ def test_every_page_is_self_contained(pages):
         assert len(text) > 3_000_000, name  # plotly.js (about 4.6 MB) is inlined
 
 
-@pytest.mark.xdist_group("webmap_small")  # one worker builds small and pages
 def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
     sync_playwright = _browser_or_skip()
     plan = pages["plan"]
