@@ -46,7 +46,6 @@ def scene():
     return camp, model, terrain, kw, s, g, auto
 
 
-@pytest.mark.xdist_group("speed_physics")  # one worker builds the module's scene
 def test_chosen_speed_beats_best_constant_and_nominal_by_physics(scene):
     camp, model, terrain, kw, s, g, auto = scene
     nom = ep.plan(terrain, s, g, model=model, **kw)
@@ -61,7 +60,6 @@ def test_chosen_speed_beats_best_constant_and_nominal_by_physics(scene):
     assert e_auto <= 0.95 * e_nom
 
 
-@pytest.mark.xdist_group("speed_physics")  # one worker builds the module's scene
 def test_deadline_is_met_by_the_physics_duration(scene):
     camp, model, terrain, kw, s, g, auto = scene
     deadline = 0.8 * auto.duration_s
