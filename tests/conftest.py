@@ -89,3 +89,42 @@ def load_discovery():
     events: list = []
     d = ep.discover(c.logs, max_steps=1, fit_final=False, progress=events.append)
     return c, d, sim_events, events
+
+
+def pytest_collection_modifyitems(config, items):
+    """xdist groups: the readers of a module fixture share one; each group's tests get the id
+    ``--dist loadgroup`` reads.
+
+    ``--dist loadgroup`` hands single tests to whichever worker is free, so the readers of
+    a module-scoped fixture alternate between workers and each worker builds it (a campaign
+    fit twice: 39 and 38 s of ``test_speed_physics`` setup in one run). The tests that read
+    a module fixture of their own file get one group per file (a test with a group of its
+    own keeps it); xdist sends the groups first, largest first, so they do not hold up the
+    end of the run.
+
+    pytest-xdist 3.8 marks a group by setting ``item._nodeid`` to ``<id>@<group>``, which
+    pytest 9 no longer reads (a node's id is ``item._id``): every group was ignored, and the
+    readers of a shared fixture or of the examples' shared runs each computed them on their
+    own worker. The same id is set here where xdist's did not take.
+    """
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        if info is None or item.get_closest_marker("xdist_group") is not None:
+            continue
+        module = item.nodeid.split("::")[0]
+        if any(
+            defs[-1].scope == "module" and defs[-1].baseid == module
+            for name in info.names_closure
+            if (defs := info.name2fixturedefs.get(name))
+        ):
+            item.add_marker(pytest.mark.xdist_group(f"{module}-fixtures"))
+    if not getattr(config.option, "loadgroup", False):
+        return  # not an xdist worker of --dist loadgroup
+    from _pytest.nodeid import NodeId
+
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})  # fmt: skip
+        suffix = "@" + "_".join(names)
+        if names and not item.nodeid.endswith(suffix):
+            item._id = NodeId.parse(item.nodeid + suffix)

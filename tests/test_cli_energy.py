@@ -176,9 +176,11 @@ def test_model_option_and_multiband_dem(tmp_path):
     w = csv(tmp_path, [a, b])
     r = run("--dem", tif, "--waypoints", w)
     assert r.exit_code == 2 and "--band" in r.output
-    mp = b1_model({k: 2 * v for k, v in B1.items()}).save(tmp_path / "m.json")
-    res = run_json("--dem", tif, "--band", 2, "--waypoints", w, "--model", mp)
-    e = 2 * (C["fwd_const"] + C["fwd_grade"] * SA) * 60.0 / CA
+    # B1 plus 5 W per kg per m/s of load (a model other tests compile too): 10 J/m at 2 kg
+    mp = b1_model(extra={"load_kg * speed": 5.0}).save(tmp_path / "m.json")
+    args = ("--waypoints", w, "--model", mp, "--set", "load_kg=2")
+    res = run_json("--dem", tif, "--band", 2, *args)
+    e = (C["fwd_const"] + C["fwd_grade"] * SA + 5.0 * 2) * 60.0 / CA
     assert res["energy_j"] == pytest.approx(e, rel=1e-6)
 
 

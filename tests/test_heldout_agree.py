@@ -41,6 +41,7 @@ def _quiet(f, *args, **kwargs):
         return f(*args, **kwargs)
 
 
+@pytest.mark.xdist_group("heldout_campaign")  # one worker simulates _campaign()
 def test_fit_diagnose_discover_report_the_same_heldout_numbers():
     logs = _campaign().logs
     fit = _quiet(fit_model, logs, BASE_TERMS, n_splits=5, seed=0)
@@ -82,6 +83,7 @@ def test_diagnose_repairs_a_clock_offset_like_discover():
     assert same.repaired and same.summary == clock["summary"]
 
 
+@pytest.mark.xdist_group("heldout_campaign")  # one worker simulates _campaign()
 def test_cli_fit_diagnose_discover_agree(tmp_path):
     from energy_planner.cli import main
 
