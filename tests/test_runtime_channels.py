@@ -130,7 +130,7 @@ def _plan_and_reach(files, load: float) -> dict:
 def _twice(doors, files, monkeypatch) -> tuple[dict, dict]:
     """``doors`` with load 3, then with load 41; asserts the second compiled nothing."""
     # the heading tables of both values are built here, not read from an earlier run
-    monkeypatch.setattr("energy_planner.energy.heading._load_table", lambda key: None)
+    monkeypatch.setattr("energy_planner.energy.heading._load_table", lambda key, depth=3: None)
     monkeypatch.setattr("energy_planner.energy.heading._save_table", lambda key, t: None)
     first = doors(files, 3.0)  # compiles (or loads) whatever these commands need
     before = _compiled()
