@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost, heading_cost
+from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost, _top, heading_cost
 
 __all__ = [
     "GaitChoice",
@@ -196,10 +196,6 @@ class RangedHeadingCost(HeadingCost):
             gx, gy, chan, self._consts, head, self.tmax, self.smax, self.back_tan, self.crab,
             table, self.d_alpha, res,
         )  # fmt: skip
-
-
-def _top(g2: np.ndarray) -> float:
-    return float(np.arctan(np.sqrt(g2.max()))) if g2.size else 0.0
 
 
 @lru_cache(maxsize=32)
