@@ -441,25 +441,36 @@ class HeadingCost:
             return
         # categorical rasters: one pass per combination of categories in the block, the
         # other cells masked (NaN), each with that combination's table
-        flat = chan.reshape(chan.shape[0], -1)
-        fin = np.isfinite(flat).all(axis=0)
         along[:] = np.nan
         best[:] = np.nan
-        if not fin.any():
-            return
-        combos, which = np.unique(flat[:, fin], axis=1, return_inverse=True)
-        index = np.full(fin.size, -1)
-        index[fin] = which.ravel()
-        index = index.reshape(gx.shape)
         a, b = np.empty_like(along), np.empty_like(best)
-        for k in range(combos.shape[1]):
-            cells = index == k
-            table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
+        for cells, table in self._combination_tables(chan, g2, ok):
             nan = np.full(gx.shape, np.nan)
             self._map(np.where(cells, gx, nan), np.where(cells, gy, nan), chan, ang,
                       np.ascontiguousarray(table), a, b, precompiled)  # fmt: skip
             along[:, cells] = a[:, cells]
             best[:, cells] = b[:, cells]
+
+    def _combination_tables(self, chan, g2, ok):
+        """``(cells, table)`` for each combination of the categorical rasters in a block.
+
+        ``chan``: the block's channel rasters ``(n, rows, cols)``; ``g2``: squared gradients;
+        ``ok``: cells within the slope limit. ``cells`` masks the cells (all channels
+        finite) with that combination; ``table`` is its heading table up to the steepest of
+        them. Nothing where no cell has every channel.
+        """
+        flat = chan.reshape(chan.shape[0], -1)
+        fin = np.isfinite(flat).all(axis=0)
+        if not fin.any():
+            return
+        combos, which = np.unique(flat[:, fin], axis=1, return_inverse=True)
+        index = np.full(fin.size, -1)
+        index[fin] = which.ravel()
+        index = index.reshape(g2.shape)
+        for k in range(combos.shape[1]):
+            cells = index == k
+            table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
+            yield cells, table
 
     def _map(self, gx, gy, chan, ang, table, along, best, precompiled: bool = False) -> None:
         aot = self.precompiled_map() if precompiled else None

@@ -171,18 +171,8 @@ class RangedHeadingCost(HeadingCost):
             self._speeds(gx, gy, chan, head, table, res)
             out[:] = res
             return
-        flat = chan.reshape(chan.shape[0], -1)
-        fin = np.isfinite(flat).all(axis=0)
         out[:] = np.nan
-        if not fin.any():
-            return
-        combos, which = np.unique(flat[:, fin], axis=1, return_inverse=True)
-        index = np.full(fin.size, -1)
-        index[fin] = which.ravel()
-        index = index.reshape(gx.shape)
-        for k in range(combos.shape[1]):
-            cells = index == k
-            table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
+        for cells, table in self._combination_tables(chan, g2, ok):
             self._speeds(gx, gy, chan, np.where(cells, head, np.nan),
                          np.ascontiguousarray(table), res)  # fmt: skip
             out[cells] = res[cells]
