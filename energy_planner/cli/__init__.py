@@ -68,9 +68,9 @@ class _DataError(click.ClickException):
     exit_code = 1
 
 
-_VARYING = re.compile(
-    r"'[^']*'|\"[^\"]*\"|\S*[/\\]\S*|[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?%?", re.I
-)
+#: What varies between warnings of one kind (quoted names, paths, numbers), a pattern
+#: compiled at the first warning (by :mod:`re`'s cache), not by every start of the command.
+_VARYING = r"(?i)'[^']*'|\"[^\"]*\"|\S*[/\\]\S*|[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?%?"
 
 
 def _warning_text(message: Any) -> str:
@@ -92,7 +92,7 @@ class WarningSummary:
     def add(self, message: Any, category: type[Warning]) -> None:
         """Record one warning (a ``warnings.showwarning`` replacement calls this)."""
         text = _warning_text(message)
-        key = (category.__name__, _VARYING.sub("#", text))
+        key = (category.__name__, re.sub(_VARYING, "#", text))
         group = self.groups.setdefault(key, [text, 0, set()])
         group[1] += 1
         group[2].add(text)
