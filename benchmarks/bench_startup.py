@@ -26,6 +26,9 @@ wall time is within it. Without ``gdaldem`` on the path (``apt-get install gdal-
 that column says so. The children run with ``PYTHONDONTWRITEBYTECODE`` unset, as an
 installed package runs (its modules' bytecode cached, under the temporary directory),
 whatever this shell sets; the baseline runs without ``PYTHONPATH`` (its own package).
+The header says whether each environment's interpreter imports setuptools'
+editable-install finder at every start (an install made before the project's
+``package-dir`` setting: ``pip install -e .`` again drops it).
 
 With ``--baseline BIN`` (the ``bin`` directory of a virtual environment with another
 checkout installed, e.g. ``main``'s) every row also runs there, A and B in turn, and the
@@ -122,6 +125,19 @@ def run(cmd: list[str], cwd: str, env: dict[str, str] | None = None) -> tuple[fl
     return wall, cpu
 
 
+def editable_finder(bin_dir: Path, env: dict[str, str]) -> str:
+    """``yes`` if a start of ``bin_dir``'s python imports setuptools' editable-install finder.
+
+    A flat-layout ``pip install -e .`` without ``package-dir`` puts that finder (and its
+    pathlib and urllib imports) in every start of every command; the project's
+    ``package-dir = {"" = "."}`` makes it a plain path in a ``.pth`` file instead.
+    """
+    code = "import sys; print(any(m.startswith('__editable__') for m in sys.modules))"
+    out = subprocess.run([str(bin_dir / "python"), "-c", code], capture_output=True,
+                         text=True, env=env, check=True).stdout  # fmt: skip
+    return "yes" if out.strip() == "True" else "no"
+
+
 def rows(bin_dir: Path, hill: str, model: str) -> list[tuple[str, list[str], bool]]:
     """``(name, command, is_map_row)`` of every row, for the environment in ``bin_dir``."""
     py, ep = str(bin_dir / "python"), str(bin_dir / "energy-planner")
@@ -186,6 +202,10 @@ def main() -> None:
               f"warm-up run; A = {here}{against}; gdaldem = `gdaldem slope` of the hill, "
               f"run in turn with each row"
               + ("" if gdal else " (not installed: apt-get install gdal-bin)"))  # fmt: skip
+        finder = f"A {editable_finder(here, ENV)}"
+        if args.baseline:
+            finder += f", B {editable_finder(args.baseline, BASE_ENV)}"
+        print(f"setuptools' editable-install finder imported by every start: {finder}")
         head = f"{'command':<48} {'runs':>4} {'A wall s':>8} {'A cpu s':>8}"
         if args.baseline:
             head += f" {'B wall s':>8} {'B cpu s':>8} {'A/B wall':>8} {'A/B cpu':>8}"
