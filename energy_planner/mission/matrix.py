@@ -197,13 +197,15 @@ def _relaxed_fits(grid) -> bool:
 def _heuristic_task(terrain, model, request, n_headings, box, anchor, speed, xys, edges=None):
     """The heuristics' rows of the targets ``xys``.
 
-    Over ``edges`` (:func:`relaxed_table`) if given, else
+    Over ``edges`` (:func:`relaxed_table`, or its strips of rows in order) if given, else
     :func:`~energy_planner.planning.search.target_heuristics`.
     """
     from energy_planner.planning.search import target_heuristics
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
     xys = np.asarray(xys, float).reshape(-1, 2)
+    if isinstance(edges, list):  # strips of rows, in order
+        edges = np.concatenate(edges)
     if edges is not None:
         return relaxed_heuristics(grid, edges, xys)
     return target_heuristics(cost, grid, xys)
@@ -225,11 +227,13 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, speed, starts, 
                max_energy, edges, eps, lazy):  # fmt: skip
     """The rows of ``starts``.
 
-    ``edges``: the shared edge table, or None; ``lazy``: one edge cache for these rows.
+    ``heur``: the heuristics' rows, or their parts (:func:`_stack`); ``edges``: the
+    shared edge table, or None; ``lazy``: one edge cache for these rows.
     """
     from energy_planner.planning.search import edge_cache, targets_search
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
+    heur = _stack(heur)
     cache = edge_cache(grid) if lazy else None
     rows = []
     for p in starts:
@@ -260,11 +264,12 @@ def _round_task(terrain, model, request, n_headings, box, anchor, speed, starts,
     """
     from energy_planner.planning.search import _untouched, edge_cache, targets_search
 
-    if key not in _BATCHES:
+    if key not in _BATCHES:  # its first round: the heuristics' parts come with it
         cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
         cache = edge_cache(grid)
-        _BATCHES[key] = (cost, grid, cache, _untouched(cache[1].size, np.uint8, zero=True))
-    cost, grid, cache, seen = _BATCHES[key]
+        _BATCHES[key] = (cost, grid, cache, _untouched(cache[1].size, np.uint8, zero=True),
+                         _stack(heur))  # fmt: skip
+    cost, grid, cache, seen, heur = _BATCHES[key]
     edges, done = cache
     for _, (idx, vals) in incoming:  # the other batches' results
         edges[idx] = vals
@@ -278,6 +283,20 @@ def _round_task(terrain, model, request, n_headings, box, anchor, speed, starts,
     new = np.flatnonzero(done != seen)
     seen[new] = 1
     return rows, (new, edges[new])
+
+
+def _stack(parts) -> np.ndarray:
+    """The heuristics' rows from the per-batch parts (part ``b``: rows ``b::len(parts)``).
+
+    An array is returned as it is.
+    """
+    if not isinstance(parts, list):
+        return parts
+    nb = len(parts)
+    out = np.empty((sum(len(p) for p in parts), parts[0].shape[1]), np.float32)
+    for b, part in enumerate(parts):
+        out[b::nb] = part
+    return out
 
 
 def _drop_batches(token: str) -> int:
@@ -316,8 +335,9 @@ def _lazy_rounds(client, fixed, uxy, batches, heur_f, max_energy, eps) -> list:
                 if chunk.size == 0:
                     continue
                 incoming = [f for o, f in enumerate(prev) if o != b and f is not None]
-                cur[b] = client.submit(_round_task, *fixed, uxy[chunk], uxy, heur_f,
-                                       max_energy, eps, (token, b), prev[b], incoming,
+                cur[b] = client.submit(_round_task, *fixed, uxy[chunk], uxy,
+                                       heur_f if r == 0 else None, max_energy, eps,
+                                       (token, b), prev[b], incoming,
                                        workers=[slots[b % len(slots)]],
                                        allow_other_workers=False, pure=False)  # fmt: skip
                 out[b].append(client.submit(operator.getitem, cur[b], 0, pure=False,
@@ -405,18 +425,18 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         cuts = np.linspace(0, ny, min(ny, 2 * nw) + 1).astype(int)
         rel_f = None
         if _relaxed_fits(grid0):  # the relaxed edges by strips of rows, shared by every site
-            futs = [client.submit(_relaxed_task, ter_f, mod_f, req_f, *args, (a, b), pure=False)
-                    for a, b in zip(cuts[:-1], cuts[1:], strict=True)]  # fmt: skip
-            rel_f = client.scatter(np.concatenate(client.gather(futs)), broadcast=True,
-                                   hash=False)  # fmt: skip
-        futs = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, uxy[b::nb], rel_f,
-                              pure=False) for b in range(nb)]  # fmt: skip
-        heur = np.empty((n, grid0.P), np.float32)
-        for b, h in enumerate(client.gather(futs)):
-            heur[b::nb] = h
-        del futs, rel_f
+            rel_f = [client.submit(_relaxed_task, ter_f, mod_f, req_f, *args, (a, b),
+                                   pure=False)
+                     for a, b in zip(cuts[:-1], cuts[1:], strict=True)]  # fmt: skip
+        # the strips and the heuristics' rows stay on the workers: the tasks that read them
+        # take them from the workers that made them, not through the client
+        heur_f = [client.submit(_heuristic_task, ter_f, mod_f, req_f, *args, uxy[b::nb], rel_f,
+                                pure=False) for b in range(nb)]  # fmt: skip
+        from distributed import wait
+
+        wait(heur_f)
+        del rel_f
         t1 = time.perf_counter()
-        heur_f = client.scatter(heur, broadcast=True, hash=False)
         edges_f, t_edges = None, 0.0
         if use_edges:  # priced by strips of rows on the workers, then shared by every row
             futs = [client.submit(_edges_task, ter_f, mod_f, req_f, *args, (a, b), pure=False)
