@@ -163,36 +163,28 @@ def test_mission_legs_are_plans_and_its_order_the_best_on_plans_legs(hill, model
     assert 5 <= check["legs_planned"] <= 15
 
 
-def test_dask_cluster_gives_the_serial_matrix(hill, model):
+def test_dask_cluster_gives_the_serial_matrix_and_shares_the_edges(hill, model, monkeypatch):
+    # the serial matrix on two workers; the two batches of rows sharing each round's new
+    # edges price fewer than two caches kept apart (all the rows in one round)
     distributed = pytest.importorskip("distributed")
+    from energy_planner.mission import matrix
+
     s = _sites(hill, [(4.5, 35.5), (22.5, 21.5), (35.5, 6.5), (10.5, 10.5)])
+    s5 = _sites(hill, [(4.5, 35.5), (22.5, 21.5), (35.5, 6.5), (10.5, 10.5), (30.5, 30.5)])
     serial = energy_matrix(hill, model, s)
+    serial5 = matrix.matrix_search(hill, model, s5, window=False)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:  # fmt: skip
         with distributed.Client(cluster) as client:
             par = energy_matrix(hill, model, s, client=client)
-    np.testing.assert_array_equal(serial, par)
-
-
-def test_dask_batches_share_the_edges_they_price(hill, model, monkeypatch):
-    # two batches of rows on two workers: sharing each round's new edges with the other
-    # batch prices fewer edges than two caches kept apart (all the rows in one round),
-    # and both give the serial matrix
-    distributed = pytest.importorskip("distributed")
-    from energy_planner.mission import matrix
-
-    s = _sites(hill, [(4.5, 35.5), (22.5, 21.5), (35.5, 6.5), (10.5, 10.5), (30.5, 30.5)])
-    serial = matrix.matrix_search(hill, model, s, window=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:  # fmt: skip
-        with distributed.Client(cluster) as client:
-            shared = matrix.matrix_search(hill, model, s, window=False, client=client)
+            shared = matrix.matrix_search(hill, model, s5, window=False, client=client)
             monkeypatch.setattr(matrix, "ROWS_PER_ROUND", 10)
-            apart = matrix.matrix_search(hill, model, s, window=False, client=client)
+            apart = matrix.matrix_search(hill, model, s5, window=False, client=client)
             assert not matrix._BATCHES  # freed on the workers (one process here)
-    np.testing.assert_array_equal(serial.energy_j, shared.energy_j)
-    np.testing.assert_array_equal(serial.energy_j, apart.energy_j)
-    assert serial.info["priced"] <= shared.info["priced"] < apart.info["priced"]
+    np.testing.assert_array_equal(serial, par)
+    np.testing.assert_array_equal(serial5.energy_j, shared.energy_j)
+    np.testing.assert_array_equal(serial5.energy_j, apart.energy_j)
+    assert serial5.info["priced"] <= shared.info["priced"] < apart.info["priced"]
 
 
 def test_cli_mission_reads_lonlat_geojson_sites(tmp_path, hill):
