@@ -156,6 +156,16 @@ if spec.get("workers"):
     def wcpu():  # the workers and their nannies (the scheduler runs in this process)
         return sum(sum(p.cpu_times()[:2]) for p in psutil.Process().children(recursive=True))
     w0 = wcpu()
+
+    def threads():  # each thread of a worker: the task thread and the event loop apart
+        import threading
+        names = {t.native_id: t.name for t in threading.enumerate()}
+        return {names.get(t.id, str(t.id)): t.user_time + t.system_time
+                for t in psutil.Process().threads()}
+    th0 = client.run(threads)
+else:  # the same warm-up in this process: the kernels loaded before the clock starts
+    t = load_dem(spec["dem"])
+    matrix_search(t, m, Sites(xy[:2], names[:2]).on_cells(t), req, eps=spec["eps"])
 c0, t0 = cpu(), time.perf_counter()
 t = load_dem(spec["dem"])
 sites = Sites(np.column_stack(t.to_work(xy[:, 0], xy[:, 1])), names)
@@ -173,6 +183,10 @@ if client is not None:
     out["worker_cpu_s"] = wcpu() - w0
     out["cpu_s"] = c + out["worker_cpu_s"]
     out["workers_rss_gb"] = sorted(client.run(hwm).values())
+    th1 = client.run(threads)
+    d = [(k, v - th0[w].get(k, 0.0)) for w in th1 for k, v in th1[w].items()]
+    out["task_cpu_s"] = sum(v for k, v in d if "Dask-Default-Threads" in k)
+    out["loop_cpu_s"] = sum(v for k, v in d if k == "MainThread")
     client.close()
     cluster.close()
 legs = []
@@ -466,7 +480,9 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
     )  # warm-up
     walks, mats = [], []
     for k in range(args.repeat):
-        if grass is None:
+        if args.no_grass:
+            walks.append({"error": "skipped (--no-grass)"})
+        elif grass is None:
             walks.append({"error": "grass-core not installed (see above)"})
         else:
             walks.append(run_grass_loop(grass, dem, sites, work, friction))
@@ -527,8 +543,10 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
             )  # fmt: skip
             print(f"# dask: matrix {d['info']['matrix_s']:.1f} s wall, {d['info']['priced']:,} "
                   f"edges priced (serial {mat['info']['priced']:,}), workers "
-                  f"{d['worker_cpu_s']:.1f} CPU s, this process (client and scheduler) "
-                  f"{d['cpu_s'] - d['worker_cpu_s']:.1f} CPU s")  # fmt: skip
+                  f"{d['worker_cpu_s']:.1f} CPU s (their tasks' threads {d['task_cpu_s']:.1f}, "
+                  f"their event loops {d['loop_cpu_s']:.1f}), this process (client and "
+                  f"scheduler, the legs included) {d['cpu_s'] - d['worker_cpu_s']:.1f} CPU s; "
+                  f"serial matrix {sm:.1f} CPU s")  # fmt: skip
     if "error" not in mat and mat["legs"]:
         legs = mat["legs"]
         worst = max(abs(e / p - 1.0) for _, _, _, e, p in legs)
@@ -596,6 +614,11 @@ def main() -> None:
     ap.add_argument("--mission-timeout", type=float, default=3600.0,
                     help="seconds for each run of the mission row (the matrix at load 10 on "
                     "2 cores took 1123 s)")  # fmt: skip
+    ap.add_argument(
+        "--no-grass",
+        action="store_true",
+        help="the mission row without the r.walk loop (the dask check alone)",
+    )
     ap.add_argument("--quick", action="store_true",
                     help="reduced sizes: notch 800, mission 1000², no hilly rows")  # fmt: skip
     args = ap.parse_args()
