@@ -32,7 +32,8 @@ expanded, each sampling the terrain every half cell with the model's power), not
 heap. The sites' searches run on one lattice, so they share a cache filled as they go
 (:func:`~energy_planner.planning.search.edge_cache`): a state's edges are priced when a
 row first expands it and read by the later rows (per process; on dask, per batch of
-rows), and its memory follows the states expanded. Alternatively every edge of the
+rows, the batches passing each other what they priced after every round:
+:func:`_lazy_rounds`), and its memory follows the states expanded. Alternatively every edge of the
 window is priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of
 rows, 72 bytes per state, :data:`~energy_planner.planning.search.EDGE_BYTES_PER_STATE`)
 and the searches read the prices: both are float32 prices of the same kernel call, so
@@ -59,8 +60,11 @@ with a ``dask.distributed`` client (a :class:`~distributed.LocalCluster`, or a
 ``Client("tcp://host:8786")`` given by address) they run on its workers, with the same
 result as the serial loop. The terrain, the model and the request are sent once
 (``scatter``); each worker builds the motion cost from them (the kernels come from the
-disk cache). The edge table is priced by strips of rows on the workers, then sent to each
-of them, and the rows run in one batch per worker.
+disk cache). The relaxed table's strips and the heuristics' rows stay on the workers
+(the tasks that read them fetch them from the workers that made them). The rows run in one
+batch per worker thread, in rounds that share the edges they priced (:func:`_lazy_rounds`);
+the whole edge table, when used, is priced by strips of rows on the workers, then sent to
+each of them.
 """
 
 from __future__ import annotations
