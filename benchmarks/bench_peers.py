@@ -6,15 +6,17 @@ Usage::
         [--lattice-sizes 400] [--planners rrtstar,bitstar]
         [--notch-extent 3200] [--notch-rows 0,1,2,3,4] [--repeat 1] [--no-optimum]
         [--mission-size 2000] [--mission-sites 20] [--mission-max-slope 15]
-        [--mission-eps 1.05] [--mission-workers 2] [--mission-legs 3] [--quick]
+        [--mission-eps 1.05] [--mission-workers 2] [--mission-legs 19] [--quick]
 
 First issue 32's mission row (``--mission-size``, 0 to skip; :func:`mission_rows`): the
-energy matrix of 20 random sites on the 2000² hilly DEM against the GIS way to the same
-costs, one ``r.walk`` per site with the other sites as stop points, the same barriers
-(cells steeper than 15°), alternating; wall and CPU time with their ratios (target: the
-matrix no slower than the loop); the matrix on a dask LocalCluster, its CPU time over
-every process against the serial run's (target: at most 10 % more); and legs against
-``plan``. ``--quick``: the mission row on 1000², the notch rows at 800 m, no hilly rows.
+mission of 20 random sites on the 2000² hilly DEM (the energy matrix, the order settled
+on ``plan``'s legs, every leg planned) against the GIS way to the pairs' costs, one
+``r.walk`` per site with the other sites as stop points, the same barriers (cells steeper
+than 15°), alternating; wall and CPU time with their ratios (target: the mission no
+slower than the loop); the matrix on a dask LocalCluster, its CPU time over every process
+against the serial run's (target: at most 10 % more); and the tour's legs against
+``plan`` asked for each (target: within 0.5 %). ``--quick``: the mission row on 1000², the
+notch rows at 800 m, no hilly rows.
 
 Then issue 21's table (``--notch-extent``, 0 to skip; 800 for a reduced run): a ridge
 with a narrow notch (``benchmarks/_notch.py``) at 1, 2 and 4 m, with and without
@@ -130,7 +132,7 @@ def hwm():
                 return int(line.split()[1]) / 1e6
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
 
-from energy_planner.mission import Sites
+from energy_planner.mission import Sites, mission
 from energy_planner.mission.matrix import matrix_search
 from energy_planner.model import EnergyModel
 from energy_planner.request import Request
@@ -154,29 +156,46 @@ if spec.get("workers"):
     def wcpu():  # the workers and their nannies (the scheduler runs in this process)
         return sum(sum(p.cpu_times()[:2]) for p in psutil.Process().children(recursive=True))
     w0 = wcpu()
+
+    def threads():  # each thread of a worker: the task thread and the event loop apart
+        import threading
+        names = {t.native_id: t.name for t in threading.enumerate()}
+        return {names.get(t.id, str(t.id)): t.user_time + t.system_time
+                for t in psutil.Process().threads()}
+    th0 = client.run(threads)
+else:  # the same warm-up in this process: the kernels loaded before the clock starts
+    t = load_dem(spec["dem"])
+    matrix_search(t, m, Sites(xy[:2], names[:2]).on_cells(t), req, eps=spec["eps"])
 c0, t0 = cpu(), time.perf_counter()
 t = load_dem(spec["dem"])
-sites = Sites(np.column_stack(t.to_work(xy[:, 0], xy[:, 1])), names).on_cells(t)
-res = matrix_search(t, m, sites, req, eps=spec["eps"], client=client)
+sites = Sites(np.column_stack(t.to_work(xy[:, 0], xy[:, 1])), names)
+# the whole mission: the matrix, the order settled on plan's legs, the legs planned
+res = mission(t, m, sites, req, eps=spec["eps"], client=client, progress=False)
 wall = time.perf_counter() - t0
 c = cpu() - c0
-out = dict(time_s=wall, cpu_s=c, rss_gb=hwm(), info={k: v for k, v in res.info.items()
-           if k in ("heuristic_s", "search_s", "expanded", "priced", "whole_map", "edges")},
-           finite=int(np.isfinite(res.energy_j).sum()))
+E = res.matrix_j
+i = res.info
+out = dict(time_s=wall, cpu_s=c, rss_gb=hwm(), info={**i["matrix"], **{
+           k: i[k] for k in ("matrix_s", "matrix_cpu_s", "legs_s", "legs_cpu_s")},
+           "order_check": i.get("order_check"), "method": res.method},
+           finite=int(np.isfinite(E).sum()))
 if client is not None:
     out["worker_cpu_s"] = wcpu() - w0
     out["cpu_s"] = c + out["worker_cpu_s"]
     out["workers_rss_gb"] = sorted(client.run(hwm).values())
+    th1 = client.run(threads)
+    d = [(k, v - th0[w].get(k, 0.0)) for w in th1 for k, v in th1[w].items()]
+    out["task_cpu_s"] = sum(v for k, v in d if "Dask-Default-Threads" in k)
+    out["loop_cpu_s"] = sum(v for k, v in d if k == "MainThread")
     client.close()
     cluster.close()
 legs = []
-if spec.get("legs"):
+if spec.get("legs"):  # each leg the mission reports against plan asked for it
     from energy_planner.planning.plan import plan
-    for i, j in spec["legs"]:
-        a, b = tuple(sites.xy[i]), tuple(sites.xy[j])
-        same = plan(t, m, a, b, req, planner="search", eps=1.0, progress=False)
+    for leg in res.legs[: spec["legs"]]:
+        a, b = tuple(sites.xy[leg.a]), tuple(sites.xy[leg.b])
         auto = plan(t, m, a, b, req, progress=False)
-        legs.append([i, j, float(res.energy_j[i, j]), float(same.energy_j), float(auto.energy_j)])
+        legs.append([leg.a, leg.b, float(E[leg.a, leg.b]), leg.energy_j, float(auto.energy_j)])
 out["legs"] = legs
 print(json.dumps(out))
 """
@@ -434,19 +453,20 @@ def mission_sites(size: int, n: int, seed: int = 0) -> list[tuple[float, float]]
 
 
 def mission_rows(grass: str | None, work: Path, args) -> None:
-    """Issue 32's mission row: the matrix of ``--mission-sites`` sites against r.walk per site.
+    """Issue 32's mission row: the mission of ``--mission-sites`` sites against r.walk per site.
 
     On the hilly DEM of ``--mission-size`` (1 m), the same barriers on both sides (cells
     steeper than ``--mission-max-slope``: null friction for r.walk, the slope limit for
     the project), ``--repeat`` times alternating: the r.walk loop (:func:`run_grass_loop`)
-    and the project's matrix (:func:`energy_planner.mission.matrix.matrix_search` at
-    ``--mission-eps``, in its own process, the DEM's loading included). Then the matrix
-    on a dask LocalCluster of ``--mission-workers`` processes (0: skip), its CPU time
-    (this process with the scheduler, plus the workers and their nannies) against the
-    serial run's; and ``--mission-legs`` legs against ``plan`` (its defaults, the same
-    limit): the matrix entry over plan's energy.
+    and the project's whole mission (:func:`energy_planner.mission.mission` with the
+    matrix at ``--mission-eps``: the matrix, the order settled on ``plan``'s legs, every
+    leg planned; in its own process, the DEM's loading included), its matrix's share
+    apart. Then the mission with the matrix on a dask LocalCluster of
+    ``--mission-workers`` processes (0: skip), its CPU time (this process with the
+    scheduler, plus the workers and their nannies) against the serial run's, whole and
+    the matrix's; and the first ``--mission-legs`` legs of the tour against ``plan``
+    asked for each (its defaults, the same limit).
     """
-    import numpy as np
     from _hilly import hilly_dem
 
     size, n = args.mission_size, args.mission_sites
@@ -455,21 +475,22 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
     lim = args.mission_max_slope
     spec = {"dem": str(dem), "sites": sites, "max_slope": lim, "eps": args.mission_eps}
     friction = f"if(slope > {lim:g}, null(), 0)"
-    rng = np.random.default_rng(1)
-    legs = [[int(v) for v in rng.choice(n, 2, replace=False)] for _ in range(args.mission_legs)]
     _child(
         [MISSION_CHILD, json.dumps({**spec, "sites": sites[:2]})], args.mission_timeout
     )  # warm-up
     walks, mats = [], []
     for k in range(args.repeat):
-        if grass is None:
+        if args.no_grass:
+            walks.append({"error": "skipped (--no-grass)"})
+        elif grass is None:
             walks.append({"error": "grass-core not installed (see above)"})
         else:
             walks.append(run_grass_loop(grass, dem, sites, work, friction))
         last = k == args.repeat - 1
-        mats.append(_child([MISSION_CHILD, json.dumps({**spec, "legs": legs if last else []})],
+        mats.append(_child([MISSION_CHILD, json.dumps({**spec, "legs": args.mission_legs
+                                                       if last else 0})],
                            args.mission_timeout))  # fmt: skip
-    print(f"# mission matrix: {n} sites on the {size}² hilly DEM at 1 m, cells steeper than "
+    print(f"# mission: {n} sites on the {size}² hilly DEM at 1 m, cells steeper than "
           f"{lim:g}° are barriers on both sides; {args.repeat} run(s) each, alternating, "
           "median; ratio = project / r.walk loop")  # fmt: skip
     print("| run | wall s | CPU s | peak RSS GB | costs found | wall ratio | CPU ratio | target |")
@@ -482,19 +503,23 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
         print(f"| {n} × r.walk -k (one per site, the others as stop points) | "
               f"{walk['time_s']:.1f} | {walk['cpu_s']:.1f} | {walk['rss_gb']:.2f} | "
               f"{walk['finite']} of {n * (n - 1)} | | | |")  # fmt: skip
+    name = f"mission (matrix eps {args.mission_eps:g}, order settled on plan's legs, legs planned)"
     if "error" in mat:
-        print(f"| matrix_search (eps {args.mission_eps:g}) | {mat['error']} | | | | | | |")
+        print(f"| {name} | {mat['error']} | | | | | | |")
     else:
         rat = ["", ""]
         if "error" not in walk:
             rat = [f"{mat['time_s'] / walk['time_s']:.2f}", f"{mat['cpu_s'] / walk['cpu_s']:.2f}"]
         i = mat["info"]
-        print(f"| matrix_search (eps {args.mission_eps:g}, serial) | {mat['time_s']:.1f} | "
-              f"{mat['cpu_s']:.1f} | {mat['rss_gb']:.2f} | {mat['finite']} of {n * (n - 1) + n}"
+        print(f"| {name}, serial | {mat['time_s']:.1f} | {mat['cpu_s']:.1f} | "
+              f"{mat['rss_gb']:.2f} | {mat['finite']} of {n * (n - 1) + n}"
               f" | {rat[0]} | {rat[1]} | no slower than the loop (<= 1.00) |")  # fmt: skip
-        print(f"# matrix: heuristics {i['heuristic_s']:.1f} s, searches {i['search_s']:.1f} s "
-              f"(wall), {i['expanded']:,} states expanded, {i['priced']:,} edges priced "
-              f"({i['edges']}); runs: " + ", ".join(
+        oc = i.get("order_check") or {}
+        print(f"# mission: matrix {i['matrix_s']:.1f} s / {i['matrix_cpu_s']:.1f} CPU s "
+              f"({i['expanded']:,} states expanded, {i['priced']:,} edges priced, {i['edges']}"
+              f"), order and legs {i['legs_s']:.1f} s / {i['legs_cpu_s']:.1f} CPU s "
+              f"({oc.get('legs_planned')} legs planned, {oc.get('orders')} orders, "
+              f"{i['method']}); runs: " + ", ".join(
                   f"{r['time_s']:.1f} s / {r['cpu_s']:.1f} CPU s" for r in mats if "error" not in r)
               + "; r.walk loops: " + ", ".join(
                   f"{r['time_s']:.1f} s / {r['cpu_s']:.1f} CPU s" for r in walks
@@ -506,21 +531,31 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
             print(f"| dask LocalCluster, {args.mission_workers} workers | {d['error']} "
                   "| | | | | | |")  # fmt: skip
         else:
-            print(f"| dask LocalCluster, {args.mission_workers} workers (CPU: all processes) "
-                  f"| {d['time_s']:.1f} | {d['cpu_s']:.1f} | "
+            # the matrix's CPU over every process: the whole less the legs (this process)
+            dm = d["cpu_s"] - d["info"]["legs_cpu_s"]
+            sm = mat["info"]["matrix_cpu_s"]
+            print(f"| the mission, matrix on a dask LocalCluster of {args.mission_workers} "
+                  f"workers (CPU: all processes) | {d['time_s']:.1f} | {d['cpu_s']:.1f} | "
                   f"{'/'.join(f'{v:.2f}' for v in d['workers_rss_gb'])} | {d['finite']} | "
                   f"{d['time_s'] / mat['time_s']:.2f} (to serial) | "
-                  f"{d['cpu_s'] / mat['cpu_s']:.2f} (to serial) | CPU <= 1.10x serial |"
+                  f"{d['cpu_s'] / mat['cpu_s']:.2f} (to serial; the matrix's: {dm:.1f} / "
+                  f"{sm:.1f} = {dm / sm:.2f}) | CPU <= 1.10x serial |"
             )  # fmt: skip
+            print(f"# dask: matrix {d['info']['matrix_s']:.1f} s wall, {d['info']['priced']:,} "
+                  f"edges priced (serial {mat['info']['priced']:,}), workers "
+                  f"{d['worker_cpu_s']:.1f} CPU s (their tasks' threads {d['task_cpu_s']:.1f}, "
+                  f"their event loops {d['loop_cpu_s']:.1f}), this process (client and "
+                  f"scheduler, the legs included) {d['cpu_s'] - d['worker_cpu_s']:.1f} CPU s; "
+                  f"serial matrix {sm:.1f} CPU s")  # fmt: skip
     if "error" not in mat and mat["legs"]:
         legs = mat["legs"]
-        worst = max(abs(e / p - 1.0) for _, _, e, p, _ in legs)
-        print("# legs, matrix entry / plan's energy - 1 (the same limit): against "
-              "plan --planner search --eps 1 (the matrix's motions): "
-              + ", ".join(f"s{i}->s{j} {e / p - 1.0:+.3%}" for i, j, e, p, _ in legs)
-              + f"; largest {worst:.3%} (target <= 0.5 %); against plan's defaults (the "
-              "search, then the refinement of its path, which the matrix does not do): "
-              + ", ".join(f"{e / q - 1.0:+.3%}" for _, _, e, _, q in legs))  # fmt: skip
+        worst = max(abs(e / p - 1.0) for _, _, _, e, p in legs)
+        print("# the mission's legs against plan asked for each (its defaults, the same "
+              "limit), leg / plan - 1: "
+              + ", ".join(f"s{i}->s{j} {e / p - 1.0:+.3%}" for i, j, _, e, p in legs)
+              + f"; largest {worst:.3%} (target <= 0.5 %); the matrix entries (bounds the "
+              "order is settled on) over plan's: "
+              + ", ".join(f"{m / p - 1.0:+.3%}" for _, _, m, _, p in legs))  # fmt: skip
 
 
 def main() -> None:
@@ -574,10 +609,16 @@ def main() -> None:
         default=2,
         help="dask LocalCluster workers of the mission row's CPU check (0: skip)",
     )
-    ap.add_argument("--mission-legs", type=int, default=3, help="legs checked against plan")
+    ap.add_argument("--mission-legs", type=int, default=19,
+                    help="legs of the tour checked against plan")  # fmt: skip
     ap.add_argument("--mission-timeout", type=float, default=3600.0,
                     help="seconds for each run of the mission row (the matrix at load 10 on "
                     "2 cores took 1123 s)")  # fmt: skip
+    ap.add_argument(
+        "--no-grass",
+        action="store_true",
+        help="the mission row without the r.walk loop (the dask check alone)",
+    )
     ap.add_argument("--quick", action="store_true",
                     help="reduced sizes: notch 800, mission 1000², no hilly rows")  # fmt: skip
     args = ap.parse_args()

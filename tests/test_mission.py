@@ -25,6 +25,7 @@ from energy_planner.mission import (
     mission,
     order_sites,
     read_sites,
+    settle_order,
 )
 from energy_planner.model import EnergyModel
 from energy_planner.planning.plan import plan
@@ -45,6 +46,34 @@ def test_held_karp_equals_brute_force(E, ret):
     assert o1[0] == 0 and sorted(o1) == list(range(len(E)))
     legs = list(zip(o1[:-1], o1[1:], strict=True)) + ([(o1[-1], 0)] if ret else [])
     assert sum(E[a, b] for a, b in legs) == pytest.approx(c1, rel=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(2, 7).flatmap(
+        lambda n: st.tuples(
+            arrays(float, (n, n), elements=st.floats(0.5, 100, allow_nan=False)),
+            arrays(float, (n, n), elements=st.floats(1.0, 1.1, allow_nan=False)),
+        )
+    ),
+    st.booleans(),
+)
+def test_settled_order_is_the_best_on_the_true_legs(mats, ret):
+    # bounds below the true legs (true / eps, eps up to 1.1): pricing only the legs the
+    # bounds point to ends on an order brute force over the true legs cannot beat
+    true, eps = mats
+    calls = []
+
+    def price(a, b):
+        calls.append((a, b))
+        return true[a, b]
+
+    s = settle_order(true / eps, price, ret)
+    _, best = brute_force(true, ret)
+    assert s.proven and s.energy == pytest.approx(best, rel=1e-12)
+    legs = list(zip(s.order[:-1], s.order[1:], strict=True)) + ([(s.order[-1], 0)] if ret else [])
+    assert all(leg in s.priced for leg in legs) and len(set(calls)) == len(calls)
+    assert s.energy == pytest.approx(sum(true[a, b] for a, b in legs), rel=1e-12)
 
 
 def test_many_sites_use_a_solver_and_beat_the_given_order():
@@ -112,15 +141,50 @@ def test_best_order_on_a_map_matches_brute_force_and_legs_match_plan(hill, model
     assert b["reserve_crossed_at"] == k + 1 and p[k] > 0.9 and p[k + 1] < 0.1
 
 
-def test_dask_cluster_gives_the_serial_matrix(hill, model):
+def test_mission_legs_are_plans_and_its_order_the_best_on_plans_legs(hill, model):
+    # the matrix at eps 1.05 only bounds the legs; each leg the mission reports is within
+    # 0.5 % of `plan` asked for it, and no order of plan's own legs (every pair planned
+    # here, independently) beats the mission's order by more than that
+    rng = np.random.default_rng(11)
+    pts = rng.uniform(3, 37, (5, 2))
+    res = mission(hill, model, Sites(pts, [f"s{i}" for i in range(5)]), eps=1.05,
+                  return_to_start=True)  # fmt: skip
+    P = np.zeros((5, 5))
+    for a in range(5):
+        for b in range(5):
+            if a != b:
+                P[a, b] = plan(hill, model, tuple(pts[a]), tuple(pts[b]), progress=False).energy_j
+    for leg in res.legs:
+        assert leg.energy_j == pytest.approx(P[leg.a, leg.b], rel=0.005)
+    _, best = brute_force(P, True)
+    assert res.energy_j <= best * 1.005
+    check = res.info["order_check"]
+    assert check["proven"] and check["bound_j"] == pytest.approx(res.energy_j, rel=1e-9)
+    assert 5 <= check["legs_planned"] <= 15
+
+
+def test_dask_cluster_gives_the_serial_matrix_and_shares_the_edges(hill, model, monkeypatch):
+    # the serial matrix on two workers; the two batches of rows sharing each round's new
+    # edges price fewer than two caches kept apart (all the rows in one round)
     distributed = pytest.importorskip("distributed")
+    from energy_planner.mission import matrix
+
     s = _sites(hill, [(4.5, 35.5), (22.5, 21.5), (35.5, 6.5), (10.5, 10.5)])
+    s5 = _sites(hill, [(4.5, 35.5), (22.5, 21.5), (35.5, 6.5), (10.5, 10.5), (30.5, 30.5)])
     serial = energy_matrix(hill, model, s)
+    serial5 = matrix.matrix_search(hill, model, s5, window=False)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:  # fmt: skip
         with distributed.Client(cluster) as client:
             par = energy_matrix(hill, model, s, client=client)
+            shared = matrix.matrix_search(hill, model, s5, window=False, client=client)
+            monkeypatch.setattr(matrix, "ROWS_PER_ROUND", 10)
+            apart = matrix.matrix_search(hill, model, s5, window=False, client=client)
+            assert not matrix._BATCHES  # freed on the workers (one process here)
     np.testing.assert_array_equal(serial, par)
+    np.testing.assert_array_equal(serial5.energy_j, shared.energy_j)
+    np.testing.assert_array_equal(serial5.energy_j, apart.energy_j)
+    assert serial5.info["priced"] <= shared.info["priced"] < apart.info["priced"]
 
 
 def test_cli_mission_reads_lonlat_geojson_sites(tmp_path, hill):

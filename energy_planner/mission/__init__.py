@@ -10,18 +10,27 @@ import types
 
 from energy_planner.mission.core import Leg, MissionResult, energy_matrix, mission
 from energy_planner.mission.sites import Sites, read_sites
-from energy_planner.mission.tour import EXACT_MAX_SITES, brute_force, held_karp, order_sites
+from energy_planner.mission.tour import (
+    EXACT_MAX_SITES,
+    SettledOrder,
+    brute_force,
+    held_karp,
+    order_sites,
+    settle_order,
+)
 
 __all__ = [
     "EXACT_MAX_SITES",
     "Leg",
     "MissionResult",
+    "SettledOrder",
     "Sites",
     "brute_force",
     "energy_matrix",
     "held_karp",
     "mission",
     "order_sites",
+    "settle_order",
     "read_sites",
 ]
 

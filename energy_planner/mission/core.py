@@ -4,12 +4,21 @@ The energy between every pair of sites comes from **one search per site**: the p
 own search over (x, y, heading) (the same motions and kernel as
 :func:`energy_planner.planning.reach.reach` and :func:`energy_planner.planning.plan`),
 stopped once every other site is settled (:mod:`energy_planner.mission.matrix`). The
-matrix is asymmetric (uphill is not downhill). The order is then chosen on it
-(:mod:`energy_planner.mission.tour`), and each leg of the chosen order is planned with
+matrix is asymmetric (uphill is not downhill). Each leg of a tour is planned with
 :func:`energy_planner.planning.plan` from its site to the next, with ``plan``'s own
 defaults (the search, then the refinement of its path): a leg costs what ``plan`` says
 for the same two sites. With ``planner="search"``, ``leg_eps=1`` and the sites on cell
 centres, a leg's planned energy equals its matrix entry; the refinement makes it lower.
+
+The matrix only bounds the legs (an entry at ``eps`` is at most ``eps`` times the least
+energy, so ``entry / eps`` bounds it from below), so the order is settled on plan's legs
+(:func:`energy_planner.mission.tour.settle_order`): chosen on the bounds, its legs
+planned and put in place of their bounds, chosen again until its legs are all planned,
+at most :data:`ORDER_MAX_PRICED` legs planned per leg of the tour. Up to
+:data:`~energy_planner.mission.tour.EXACT_MAX_SITES` sites no order then costs less
+given the bounds (``info["order_check"]["proven"]``; the bounds hold for the search's
+energies, which the refinement can undercut by about 1 %); beyond, the solver's one
+order is planned.
 
 The matrix's searches stand on the DEM's cell centres (as
 :func:`~energy_planner.planning.reach.reach` moves its start); the moved distance is
@@ -23,6 +32,7 @@ address), with the same result as the serial loop.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,6 +47,11 @@ from energy_planner.results import Result, path_first
 from energy_planner.trust import Assessed, Assessment
 
 __all__ = ["Leg", "MissionResult", "energy_matrix", "mission"]
+
+
+#: At most this many legs planned per leg of the tour while settling the order
+#: (:func:`energy_planner.mission.tour.settle_order`; legs whose bounds could change it).
+ORDER_MAX_PRICED = 3
 
 
 @dataclass(frozen=True)
@@ -381,14 +396,18 @@ def energy_matrix(
     ndarray, shape (n, n)
         ``E[i, j]``: energy from site i to site j, J (``inf`` unreachable, 0 diagonal).
     """
+    return _matrix(problem, sites, n_headings=n_headings, max_energy=max_energy, client=client,
+                   eps=eps, progress=progress).energy_j  # fmt: skip
+
+
+def _matrix(problem, sites, **kw):
+    """:func:`~energy_planner.mission.matrix.matrix_search` on ``problem`` (its speed choice)."""
     from energy_planner.mission.matrix import matrix_search
 
     cost = problem.cost  # its speed choice, if the motions choose their speed
     speed = (cost.speed_range, cost.time_weight) if cost.ranged else None
-    res = matrix_search(problem.terrain, problem.model, sites, problem.request,
-                        n_headings=n_headings, max_energy=max_energy, client=client,
-                        eps=eps, progress=progress, speed=speed)  # fmt: skip
-    return res.energy_j
+    return matrix_search(problem.terrain, problem.model, sites, problem.request, speed=speed,
+                         **kw)  # fmt: skip
 
 
 @takes_problem(1)
@@ -555,41 +574,91 @@ def _tour(problem, sites: Sites, *, order, return_to_start, planner, eps, leg_ep
     With the sites' arrival windows, the order and the legs' speeds keep them
     (:func:`energy_planner.mission.windows.in_windows`; ``speed`` the resolved speed).
     """
-    from energy_planner.planning.plan import plan
-
-    terrain = problem.terrain
-
     given = sites
-    sites = sites.on_cells(terrain)  # where the matrix's searches stand
-    E = energy_matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
-                      progress=progress)  # fmt: skip
+    sites = sites.on_cells(problem.terrain)  # where the matrix's searches stand
+    t0, c0 = time.perf_counter(), time.process_time()
+    mat = _matrix(problem, sites, n_headings=n_headings, client=client, eps=eps,
+                  progress=progress)  # fmt: skip
+    E = mat.energy_j
+    t1, c1 = time.perf_counter(), time.process_time()
+    # where the time went (CPU: this process; on dask the searches run on the workers)
+    timing = {"matrix_s": t1 - t0, "matrix_cpu_s": c1 - c0}
     if sites.windows is not None:
-        return _windowed(problem, given, sites, E, speed, order=order,
-                         return_to_start=return_to_start, planner=planner, eps=eps,
-                         leg_eps=leg_eps, n_headings=n_headings, progress=progress,
-                         want=want)  # fmt: skip
-    o, total, method = order_sites(E, order, return_to_start)
-    if not math.isfinite(total):
-        bad = [(sites.names[i], sites.names[j]) for i in range(len(E)) for j in range(len(E))
-               if not math.isfinite(E[i, j])]  # fmt: skip
-        raise PlanningError(
-            f"no tour visits every site: no path between {bad[:5]} (slope limits, keep-outs "
-            "or the map's edge separate them)", value=bad[:5])  # fmt: skip
-    pairs = list(zip(o[:-1], o[1:], strict=True))
-    if return_to_start and len(o) > 1:
-        pairs.append((o[-1], o[0]))
-    from energy_planner.progress import track
+        res = _windowed(problem, given, sites, E, speed, order=order,
+                        return_to_start=return_to_start, planner=planner, eps=eps,
+                        leg_eps=leg_eps, n_headings=n_headings, progress=progress,
+                        want=want)  # fmt: skip
+    else:
+        res = _ordered(problem, given, sites, E, order=order, return_to_start=return_to_start,
+                       planner=planner, eps=eps, leg_eps=leg_eps, n_headings=n_headings,
+                       progress=progress, want=want)  # fmt: skip
+    timing.update(legs_s=time.perf_counter() - t1, legs_cpu_s=time.process_time() - c1)
+    res.info["matrix"] = {k: mat.info[k] for k in MATRIX_INFO}
+    res.info.update(timing)
+    return res
 
+
+#: The matrix's :attr:`~energy_planner.mission.matrix.MatrixResult.info` a mission reports
+#: (``info["matrix"]``; its wall and CPU seconds in ``info["matrix_s"]`` and
+#: ``info["matrix_cpu_s"]``, the order's and the legs' in ``legs_s`` and ``legs_cpu_s``).
+MATRIX_INFO = ("window", "whole_map", "proven", "passes", "expanded", "priced", "edges")
+
+
+def _ordered(problem, given, sites, E, *, order, return_to_start, planner, eps, leg_eps,
+             n_headings, progress, want) -> MissionResult:  # fmt: skip
+    """The mission's order and legs on the matrix ``E`` (no windows)."""
+    from energy_planner.planning.plan import plan
+    from energy_planner.progress import reporter
+
+    planned: dict[tuple[int, int], Any] = {}
+    with reporter(progress or False).bar("legs", None, "leg") as bar:
+
+        def leg_plan(a: int, b: int) -> float:
+            # from the sites as given, as `plan` from one site to the next plans the leg
+            planned[a, b] = plan(problem, tuple(given.xy[a]), tuple(given.xy[b]),
+                                 planner=planner, eps=leg_eps, n_headings=n_headings,
+                                 progress=progress, level=want.level)  # fmt: skip
+            bar.update(1)
+            return float(planned[a, b].energy_j)
+
+        settled = None
+        if order == "best":  # the order on the matrix's bounds, settled on plan's legs
+            from energy_planner.mission.tour import settle_order
+
+            tour_legs = len(E) - 1 + (return_to_start and len(E) > 1)
+            settled = settle_order(E / eps, leg_plan, return_to_start,
+                                   max_priced=ORDER_MAX_PRICED * tour_legs)  # fmt: skip
+            o, total, method = settled.order, settled.energy, settled.method
+        else:
+            o, total, method = order_sites(E, order, return_to_start)
+        if not math.isfinite(total):
+            bad = [(sites.names[i], sites.names[j]) for i in range(len(E))
+                   for j in range(len(E)) if not math.isfinite(E[i, j])]  # fmt: skip
+            raise PlanningError(
+                f"no tour visits every site: no path between {bad[:5]} (slope limits, "
+                "keep-outs or the map's edge separate them)", value=bad[:5])  # fmt: skip
+        pairs = list(zip(o[:-1], o[1:], strict=True))
+        if return_to_start and len(o) > 1:
+            pairs.append((o[-1], o[0]))
+        for a, b in pairs:
+            if (a, b) not in planned:
+                leg_plan(a, b)
     legs = []
-    for a, b in track(pairs, "legs", progress or False, unit="leg"):
-        # from the sites as given, as `plan` from one site to the next plans the leg
-        r = plan(problem, tuple(given.xy[a]), tuple(given.xy[b]), planner=planner,
-                 eps=leg_eps, n_headings=n_headings, progress=progress,
-                 level=want.level)  # fmt: skip
+    for a, b in pairs:
+        r = planned[a, b]
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
                         float(r.duration_s), r.states, r.assessment, r.times,
                         gaits=r.gaits))  # fmt: skip
-    info = {"matrix_energy_j": float(total), "planner": planner, "eps": eps}
+    from energy_planner.mission.tour import _cost
+
+    info = {"matrix_energy_j": _cost(E, o, return_to_start), "planner": planner, "eps": eps}
+    if settled is not None:
+        info["order_check"] = {
+            "legs_planned": len(planned),
+            "orders": settled.rounds,
+            "proven": settled.proven,
+            "bound_j": None if math.isnan(settled.bound) else settled.bound,
+        }
     info.update(_speed_info(problem))
     res = MissionResult(sites, o, legs, E, method, return_to_start, info=info)
     res.battery_legs, res.assessment = _battery_legs(res, problem.model, want)

@@ -26,10 +26,20 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["EXACT_MAX_SITES", "brute_force", "held_karp", "local_search", "order_sites"]
+__all__ = [
+    "EXACT_MAX_SITES",
+    "SettledOrder",
+    "brute_force",
+    "held_karp",
+    "local_search",
+    "order_sites",
+    "settle_order",
+]
 
 #: Up to this many sites (depot included) the best order is exact (Held-Karp).
 EXACT_MAX_SITES = 15
@@ -174,6 +184,103 @@ def order_sites(
         o, c = local_search(E, return_to_start)
         return o, c, "nearest neighbour + or-opt (not proven)"
     return o, _cost(E, o, return_to_start), "or-tools guided local search (not proven)"
+
+
+@dataclass
+class SettledOrder:
+    """An order whose legs are all priced, and how far it is proven (:func:`settle_order`).
+
+    Attributes
+    ----------
+    order : list of int
+        Visiting order (site 0 first).
+    energy : float
+        Its energy: the sum of its priced legs.
+    method : str
+        How the last order was chosen (:func:`order_sites`).
+    priced : dict
+        ``(a, b) -> value``: every leg priced, the order's and the others tried.
+    rounds : int
+        Orders chosen.
+    proven : bool
+        True when no order can cost less given the bounds: the order is exact
+        (:func:`held_karp`) on the bounds with the priced legs in place, and every one
+        of its own legs is priced (so its energy there is its true energy).
+    bound : float
+        The least energy of any order given the bounds (with ``proven``: ``energy``
+        itself; otherwise the last exact order's cost on the bounds, or ``nan``).
+    """
+
+    order: list[int]
+    energy: float
+    method: str
+    priced: dict[tuple[int, int], float] = field(default_factory=dict)
+    rounds: int = 0
+    proven: bool = False
+    bound: float = math.nan
+
+
+def settle_order(
+    lower: np.ndarray,
+    price: Callable[[int, int], float],
+    return_to_start: bool = False,
+    *,
+    max_priced: int | None = None,
+    time_limit_s: int = 3,
+) -> SettledOrder:
+    """The best order when only bounds of the legs are known and pricing a leg costs.
+
+    ``lower[a, b]`` bounds leg ``a -> b``'s energy from below (a matrix entry over its
+    search's ``eps``: a weighted search finds at most ``eps`` times the least energy);
+    ``price(a, b)`` gives its energy (``plan``'s). The order is chosen on the bounds;
+    its legs not yet priced are priced and take their energy in place of the bound, and
+    the order is chosen again, until the order's legs are all priced: then no order
+    costs less given the bounds (each leg of another order costs at least its bound, or
+    its price), when the order is exact (at most :data:`EXACT_MAX_SITES` sites). Beyond
+    that (a solver's order, not proven) one order is priced. ``max_priced`` caps the
+    legs priced: the best fully priced order so far is returned, not proven.
+
+    Examples
+    --------
+    >>> true = np.array([[0, 4, 2], [1, 0, 3], [3, 1, 0]], float)
+    >>> s = settle_order(true / 1.5, lambda a, b: true[a, b])
+    >>> s.order, s.energy, s.proven, s.rounds
+    ([0, 2, 1], 3.0, True, 2)
+    >>> brute_force(true)
+    ([0, 2, 1], 3.0)
+    """
+    M = np.array(lower, dtype=float)
+    n = M.shape[0]
+    exact = n <= EXACT_MAX_SITES
+    known = np.eye(n, dtype=bool)
+    priced: dict[tuple[int, int], float] = {}
+    best: SettledOrder | None = None
+    rounds = 0
+    while True:
+        o, c, method = order_sites(M, "best", return_to_start, time_limit_s)
+        rounds += 1
+        legs = list(zip(o[:-1], o[1:], strict=True))
+        if return_to_start and n > 1:
+            legs.append((o[-1], o[0]))
+        new = [(a, b) for a, b in legs if not known[a, b]]
+        if not math.isfinite(c) or not new:  # its legs all priced: exact on the bounds
+            done = SettledOrder(o, c, method, priced, rounds, exact and math.isfinite(c),
+                                c if exact else math.nan)  # fmt: skip
+            if best is None or not done.energy > best.energy:
+                return done
+            best.rounds, best.bound = rounds, done.bound
+            return best
+        for a, b in new:
+            priced[a, b] = M[a, b] = float(price(a, b))
+            known[a, b] = True
+        energy = float(sum(M[a, b] for a, b in legs))
+        if best is None or energy < best.energy:
+            best = SettledOrder(o, energy, method, priced, rounds)
+        full = max_priced is not None and len(priced) >= max_priced
+        if not exact or full:
+            best.rounds = rounds
+            best.bound = c if exact else math.nan
+            return best
 
 
 def _ortools(E: np.ndarray, return_to_start: bool, seconds: int = 3) -> list[int]:
