@@ -41,7 +41,7 @@ import numpy as np
 
 from energy_planner.errors import PlanningError
 from energy_planner.mission.sites import Sites
-from energy_planner.mission.tour import order_sites
+from energy_planner.mission.tour import _cost, order_legs, order_sites, settle_order
 from energy_planner.problem import takes_problem
 from energy_planner.results import Result, path_first
 from energy_planner.trust import Assessed, Assessment
@@ -623,11 +623,9 @@ def _ordered(problem, given, sites, E, *, order, return_to_start, planner, eps, 
 
         settled = None
         if order == "best":  # the order on the matrix's bounds, settled on plan's legs
-            from energy_planner.mission.tour import settle_order
-
-            tour_legs = len(E) - 1 + (return_to_start and len(E) > 1)
+            n_legs = len(order_legs(list(range(len(E))), return_to_start))
             settled = settle_order(E / eps, leg_plan, return_to_start,
-                                   max_priced=ORDER_MAX_PRICED * tour_legs)  # fmt: skip
+                                   max_priced=ORDER_MAX_PRICED * n_legs)  # fmt: skip
             o, total, method = settled.order, settled.energy, settled.method
         else:
             o, total, method = order_sites(E, order, return_to_start)
@@ -637,9 +635,7 @@ def _ordered(problem, given, sites, E, *, order, return_to_start, planner, eps, 
             raise PlanningError(
                 f"no tour visits every site: no path between {bad[:5]} (slope limits, "
                 "keep-outs or the map's edge separate them)", value=bad[:5])  # fmt: skip
-        pairs = list(zip(o[:-1], o[1:], strict=True))
-        if return_to_start and len(o) > 1:
-            pairs.append((o[-1], o[0]))
+        pairs = order_legs(o, return_to_start)
         for a, b in pairs:
             if (a, b) not in planned:
                 leg_plan(a, b)
@@ -649,8 +645,6 @@ def _ordered(problem, given, sites, E, *, order, return_to_start, planner, eps, 
         legs.append(Leg(a, b, float(r.energy_j), float(E[a, b]), float(r.distance_m),
                         float(r.duration_s), r.states, r.assessment, r.times,
                         gaits=r.gaits))  # fmt: skip
-    from energy_planner.mission.tour import _cost
-
     info = {"matrix_energy_j": _cost(E, o, return_to_start), "planner": planner, "eps": eps}
     if settled is not None:
         info["order_check"] = {
@@ -682,7 +676,6 @@ def _windowed(problem, given, sites, E, speed, *, order, return_to_start, planne
     Each pair's leg is planned once, as ``plan`` plans it; the order and speeds are
     :func:`energy_planner.mission.windows.in_windows`'.
     """
-    from energy_planner.mission.tour import _cost
     from energy_planner.mission.windows import in_windows
     from energy_planner.planning.plan import plan
 

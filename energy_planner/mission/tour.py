@@ -37,6 +37,7 @@ __all__ = [
     "brute_force",
     "held_karp",
     "local_search",
+    "order_legs",
     "order_sites",
     "settle_order",
 ]
@@ -45,11 +46,22 @@ __all__ = [
 EXACT_MAX_SITES = 15
 
 
-def _cost(E: np.ndarray, order: list[int], ret: bool) -> float:
+def order_legs(order: list[int], return_to_start: bool = False) -> list[tuple[int, int]]:
+    """The legs ``(a, b)`` of a visiting order, with the way back to site 0 if asked.
+
+    Examples
+    --------
+    >>> order_legs([0, 2, 1], return_to_start=True)
+    [(0, 2), (2, 1), (1, 0)]
+    """
     legs = list(zip(order[:-1], order[1:], strict=True))
-    if ret and len(order) > 1:
+    if return_to_start and len(order) > 1:
         legs.append((order[-1], order[0]))
-    return float(sum(E[a, b] for a, b in legs))
+    return legs
+
+
+def _cost(E: np.ndarray, order: list[int], ret: bool) -> float:
+    return float(sum(E[a, b] for a, b in order_legs(order, ret)))
 
 
 def brute_force(E: np.ndarray, return_to_start: bool = False) -> tuple[list[int], float]:
@@ -259,9 +271,7 @@ def settle_order(
     while True:
         o, c, method = order_sites(M, "best", return_to_start, time_limit_s)
         rounds += 1
-        legs = list(zip(o[:-1], o[1:], strict=True))
-        if return_to_start and n > 1:
-            legs.append((o[-1], o[0]))
+        legs = order_legs(o, return_to_start)
         new = [(a, b) for a, b in legs if not known[a, b]]
         if not math.isfinite(c) or not new:  # its legs all priced: exact on the bounds
             done = SettledOrder(o, c, method, priced, rounds, exact and math.isfinite(c),
