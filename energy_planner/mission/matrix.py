@@ -234,17 +234,25 @@ def _rows_task(terrain, model, request, n_headings, box, anchor, speed, starts, 
     ``heur``: the heuristics' rows, or their parts (:func:`_stack`); ``edges``: the
     shared edge table, or None; ``lazy``: one edge cache for these rows.
     """
-    from energy_planner.planning.search import edge_cache, targets_search
+    from energy_planner.planning.search import edge_cache
 
     cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
     heur = _stack(heur)
     cache = edge_cache(grid) if lazy else None
-    rows = []
-    for p in starts:
-        r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
-                           edges=edges, eps=eps, cache=cache)  # fmt: skip
-        rows.append((r.energy, r.expanded, r.states_total, r.priced))
-    return rows
+    return [_row(cost, grid, p, targets, heur, max_energy, eps, edges, cache) for p in starts]
+
+
+def _row(cost, grid, start, targets, heur, max_energy, eps, edges=None, cache=None) -> tuple:
+    """One site's row: ``(energy to each target, expanded, states_total, priced)``.
+
+    :func:`~energy_planner.planning.search.targets_search` from ``start``, over the edge
+    table ``edges`` or the edge cache ``cache`` if given.
+    """
+    from energy_planner.planning.search import targets_search
+
+    r = targets_search(cost, grid, tuple(start), targets, heur, max_energy=max_energy,
+                       edges=edges, eps=eps, cache=cache)  # fmt: skip
+    return r.energy, r.expanded, r.states_total, r.priced
 
 
 #: Rows of each batch between two exchanges of the batches' new edges (dask, lazy cache).
@@ -266,7 +274,7 @@ def _round_task(terrain, model, request, n_headings, box, anchor, speed, starts,
     batch's previous round (only its order matters). Returns the rows (as
     :func:`_rows_task`'s) and the states whose edges this round priced, with their edges.
     """
-    from energy_planner.planning.search import _untouched, edge_cache, targets_search
+    from energy_planner.planning.search import _untouched, edge_cache
 
     if key not in _BATCHES:  # its first round: the heuristics' parts come with it
         cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
@@ -279,11 +287,7 @@ def _round_task(terrain, model, request, n_headings, box, anchor, speed, starts,
         edges[idx] = vals
         done[idx] = 1
         seen[idx] = 1
-    rows = []
-    for p in starts:
-        r = targets_search(cost, grid, tuple(p), targets, heur, max_energy=max_energy,
-                           eps=eps, cache=cache)  # fmt: skip
-        rows.append((r.energy, r.expanded, r.states_total, r.priced))
+    rows = [_row(cost, grid, p, targets, heur, max_energy, eps, cache=cache) for p in starts]
     new = np.flatnonzero(done != seen)
     seen[new] = 1
     return rows, (new, edges[new])
@@ -480,10 +484,7 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         t_edges = time.perf_counter() - t1
         rows = []
         for i in track(range(n), "matrix searches", progress or False, unit="site"):
-            r = search.targets_search(cost, grid, tuple(uxy[i]), uxy, heur,
-                                      max_energy=max_energy, edges=edges, eps=eps,
-                                      cache=cache)  # fmt: skip
-            rows.append((r.energy, r.expanded, r.states_total, r.priced))
+            rows.append(_row(cost, grid, uxy[i], uxy, heur, max_energy, eps, edges, cache))
         del edges, cache
     E = np.array([r[0] for r in rows]).reshape(n, n)
     np.fill_diagonal(E, 0.0)
