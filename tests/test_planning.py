@@ -256,3 +256,30 @@ def test_richer_lattices_are_never_worse(ramp, model):
     dist = lattice_plan(cost, ramp, s, g, step=2.0, metric="distance")
     d = math.hypot(42.0, 32.0)
     assert d <= dist.cost <= d * 1.03
+
+
+@pytest.mark.parametrize("goal", [(50.0, 10.0, None), (50.0, 44.0, 0.0), (12.0, 50.0, None)])
+def test_distance_lattice_prices_only_what_the_shortest_path_can_use(model, goal):
+    """The shortest feasible path priced inside a growing ellipse is the one Dijkstra
+    finds on the whole distance lattice (same length, same poses), for fewer edges."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from energy_planner.planning.lattice import _endpoint_nodes, lattice_graph
+
+    # a ridge along x = 30 too steep for the limit, open only near y = 52
+    wall = Terrain.from_function(
+        lambda x, y: 6.0 * np.exp(-((x - 30.0) ** 2) / 8.0) * (np.abs(y - 52.0) > 5.0),
+        size=(60, 60),
+    )  # fmt: skip
+    cost, _ = make_motion_cost(wall, model, max_slope_deg=25.0)
+    s = (8.0, 10.0, None)
+    got = lattice_plan(cost, wall, s, goal, step=2.0, metric="distance")
+    full = lattice_graph(cost, wall, s[:2], 2.0, 16, "axes", "distance")
+    src = _endpoint_nodes(full, *s, "start")
+    dst = _endpoint_nodes(full, *goal, "goal")
+    dist = dijkstra(full.graph, directed=True, indices=src, min_only=True)
+    assert got.cost == pytest.approx(float(dist[dst].min()), rel=1e-12)
+    assert got.n_edges < full.graph.nnz
+    # the ridge forces the detour through the gap where the goal lies beyond it
+    if goal[0] > 30:
+        assert got.cost > math.hypot(goal[0] - s[0], goal[1] - s[1]) * 1.1

@@ -31,7 +31,10 @@ optimum on the lattice: the resolution-optimal energy that the sampling-based pl
 are compared with.
 
 With ``metric="distance"`` the same graph (same limits) is searched with the
-horizontal length of each edge as its weight: the shortest feasible path.
+horizontal length of each edge as its weight: the shortest feasible path. Its edges are
+priced only where such a path can pass (inside an ellipse about the start and the goal
+that grows until the path found fits in it), so a short route on a large map prices a
+small part of the lattice.
 """
 
 from __future__ import annotations
@@ -94,7 +97,7 @@ class LatticeResult:
     n_headings : int
         Headings per position.
     n_nodes, n_edges : int
-        Size of the searched graph.
+        Size of the searched graph (with ``metric="distance"``: the edges priced).
     build_s, search_s : float
         Wall time to build the graph (edge costs included) and to search it, s.
     """
@@ -229,8 +232,12 @@ def _valid_poses(cost, px, py, headings) -> np.ndarray:
     return valid
 
 
-def _translation_edges(cost, xs, ys, headings, valid, moves, metric, step):
-    """Edges ``(src, dst, weight)`` of the translations at constant heading."""
+def _translation_edges(cost, xs, ys, headings, valid, moves, metric, step, done=None):
+    """Edges ``(src, dst, weight)`` of the translations at constant heading.
+
+    ``done``: a mask of positions whose edges among themselves are already priced
+    (:func:`_distance_search`): those edges are left out.
+    """
     nx, ny, H = len(xs), len(ys), len(headings)
     jj, ii = np.divmod(np.arange(nx * ny), nx)
     px, py = xs[ii], ys[jj]
@@ -239,6 +246,9 @@ def _translation_edges(cost, xs, ys, headings, valid, moves, metric, step):
         ok_pos = (ii + di >= 0) & (ii + di < nx) & (jj + dj >= 0) & (jj + dj < ny)
         p_src = np.nonzero(ok_pos)[0]
         p_dst = p_src + dj * nx + di
+        if done is not None:
+            keep = ~(done[p_src] & done[p_dst])
+            p_src, p_dst = p_src[keep], p_dst[keep]
         for h in np.nonzero(move_ok[:, mi])[0]:
             m = valid[p_src, h] & valid[p_dst, h]
             a, b = p_src[m], p_dst[m]
@@ -253,13 +263,17 @@ def _translation_edges(cost, xs, ys, headings, valid, moves, metric, step):
             yield a * H + h, b * H + h, w
 
 
-def _turn_edges(cost, px, py, headings, valid, metric):
-    """Edges ``(src, dst, weight)`` of the turns in place to the neighbouring headings."""
+def _turn_edges(cost, px, py, headings, valid, metric, done=None):
+    """Edges ``(src, dst, weight)`` of the turns in place to the neighbouring headings.
+
+    ``done``: a mask of positions whose turns are already priced (left out).
+    """
     H = len(headings)
+    todo = np.ones(px.size, bool) if done is None else ~done
     for h in range(H):
         for dh in (-1, 1):
             h2 = (h + dh) % H
-            a = np.nonzero(valid[:, h] & valid[:, h2])[0]
+            a = np.nonzero(valid[:, h] & valid[:, h2] & todo)[0]
             if a.size == 0:
                 continue
             th0, th1 = np.full(a.size, headings[h]), np.full(a.size, headings[h2])
@@ -304,8 +318,6 @@ def lattice_graph(
     -------
     LatticeGraph
     """
-    from scipy.sparse import csr_matrix
-
     xs, ys = lattice_geometry(terrain, start_xy, step)
     headings = lattice_headings(int(n_headings))
     jj, ii = np.divmod(np.arange(len(xs) * len(ys)), len(xs))
@@ -315,13 +327,71 @@ def lattice_graph(
         *_translation_edges(cost, xs, ys, headings, valid, moves, metric, step),
         *_turn_edges(cost, px, py, headings, valid, metric),
     ]
-    n = px.size * len(headings)
+    return _graph(edges, xs, ys, headings, valid, step)
+
+
+def _graph(edges: list, xs, ys, headings, valid, step) -> LatticeGraph:
+    """The :class:`LatticeGraph` of the edge parts ``(src, dst, weight)``."""
+    from scipy.sparse import csr_matrix
+
+    n = len(xs) * len(ys) * len(headings)
     if edges:
         src, dst, w = (np.concatenate(parts) for parts in zip(*edges, strict=True))
     else:
         src, dst, w = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     graph = csr_matrix((np.maximum(w, _MIN_W), (src, dst)), shape=(n, n))
     return LatticeGraph(graph, xs, ys, headings, valid, float(step))
+
+
+#: :func:`_distance_search`: the first bound on the shortest path's length, as a factor of
+#: the start-goal distance (a lattice path along the 16 move directions is at most 2.8 %
+#: longer than the straight line), and the factor it grows by while no path fits in it
+_FIRST_BOUND, _BOUND_GROWTH = 1.04, 1.5
+
+
+def _distance_search(cost, terrain, start, goal, step, n_headings, moves) -> LatticeGraph:
+    """The distance lattice restricted to the positions its shortest path can pass.
+
+    A lattice path of length ``L`` from ``s`` to ``g`` stays in the ellipse
+    ``|p - s| + |p - g| <= L`` (its parts are at least as long as straight lines). So the
+    edges are priced inside the ellipse of a bound ``L`` only, growing ``L`` (pricing the
+    new ring's poses and edges) until the shortest path inside is no longer than ``L``:
+    then no path that leaves the ellipse is shorter, and the restricted graph's shortest
+    path is a shortest path of the whole lattice (the same length; where several paths
+    are equally short, Dijkstra's order over the fewer edges may pick another of them).
+    Where the straight line is open this prices a thin ellipse instead of the whole map;
+    a detour, the ellipse of its length.
+    """
+    xs, ys = lattice_geometry(terrain, (start[0], start[1]), step)
+    headings = lattice_headings(int(n_headings))
+    jj, ii = np.divmod(np.arange(len(xs) * len(ys)), len(xs))
+    px, py = xs[ii], ys[jj]
+    gi = np.clip(np.round((goal[0] - xs[0]) / step), 0, len(xs) - 1)
+    gj = np.clip(np.round((goal[1] - ys[0]) / step), 0, len(ys) - 1)
+    gx, gy = xs[int(gi)], ys[int(gj)]
+    reach = np.hypot(px - start[0], py - start[1]) + np.hypot(px - gx, py - gy)
+    bound = max(_FIRST_BOUND * math.hypot(gx - start[0], gy - start[1]), 2 * step)
+    valid = np.zeros((px.size, len(headings)), dtype=bool)
+    done = np.zeros(px.size, bool)
+    edges: list = []
+    while True:
+        inside = reach <= bound * (1 + 1e-9)
+        new = inside & ~done
+        valid[new] = _valid_poses(cost, px[new], py[new], headings)
+        edges += [
+            *_translation_edges(cost, xs, ys, headings, valid, moves, "distance", step, done),
+            *_turn_edges(cost, px, py, headings, valid, "distance", done),
+        ]
+        done = inside
+        lat = _graph(edges, xs, ys, headings, valid, step)
+        if done.all():
+            return lat
+        length = _shortest(lat, start, goal)[0]
+        if length <= bound:
+            return lat
+        bound = (
+            min(length, _BOUND_GROWTH * bound) if math.isfinite(length) else _BOUND_GROWTH * bound
+        )
 
 
 def _check_options(metric: str, moves: str, n_headings: int) -> None:
@@ -364,6 +434,25 @@ def _endpoint_nodes(lat: LatticeGraph, x: float, y: float, yaw, which: str) -> n
             f"(lattice step {step:.2f} m)"
         )
     return p * lat.n_headings + hs
+
+
+def _shortest(lat: LatticeGraph, start, goal) -> tuple[float, int, np.ndarray, np.ndarray]:
+    """Dijkstra from the start's nodes: ``(cost, best goal node, sources, predecessors)``.
+
+    Raises
+    ------
+    InvalidStateError
+        An endpoint outside the lattice or breaking a limit at its headings.
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    sources = _endpoint_nodes(lat, start[0], start[1], start[2], "start")
+    goals = _endpoint_nodes(lat, goal[0], goal[1], goal[2], "goal")
+    dist, pred, _src = dijkstra(
+        lat.graph, directed=True, indices=sources, return_predecessors=True, min_only=True
+    )
+    best = goals[int(np.argmin(dist[goals]))]
+    return float(dist[best]), int(best), sources, pred
 
 
 def _node_chain(pred: np.ndarray, best: int, sources: np.ndarray) -> np.ndarray:
@@ -426,21 +515,17 @@ def lattice_plan(
     PlanningError
         If the goal cannot be reached on the lattice.
     """
-    from scipy.sparse.csgraph import dijkstra
-
     _check_options(metric, moves, n_headings)
     cost, terrain = problem.cost, problem.terrain
     t0 = time.perf_counter()
     step = float(step) if step is not None else default_step(terrain)
-    lat = lattice_graph(cost, terrain, (start[0], start[1]), step, int(n_headings), moves, metric)
+    if metric == "distance":
+        lat = _distance_search(cost, terrain, start, goal, step, int(n_headings), moves)
+    else:
+        lat = lattice_graph(cost, terrain, (start[0], start[1]), step, int(n_headings), moves)
     t1 = time.perf_counter()
-    sources = _endpoint_nodes(lat, start[0], start[1], start[2], "start")
-    goals = _endpoint_nodes(lat, goal[0], goal[1], goal[2], "goal")
-    dist, pred, _src = dijkstra(
-        lat.graph, directed=True, indices=sources, return_predecessors=True, min_only=True
-    )
-    best = goals[int(np.argmin(dist[goals]))]
-    if not np.isfinite(dist[best]):
+    length, best, sources, pred = _shortest(lat, start, goal)
+    if not np.isfinite(length):
         raise PlanningError(
             f"no feasible path from start ({start[0]:.2f}, {start[1]:.2f}) to goal "
             f"({goal[0]:.2f}, {goal[1]:.2f}) on the lattice (step {step:.2f} m, "
@@ -453,7 +538,7 @@ def lattice_plan(
     t2 = time.perf_counter()
     return LatticeResult(
         states=simplify_states(states),
-        cost=float(dist[best]),
+        cost=float(length),
         metric=metric,
         step=step,
         n_headings=lat.n_headings,
