@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -161,14 +162,33 @@ def speed_law(model: Any, constants: Mapping[str, Any] | None = None) -> SpeedLa
     model : EnergyModel
     constants : mapping, optional
         Values of the channels the terms read (others are taken as 1).
+
+    Notes
+    -----
+    The law depends on the terms and the channel values only, not on the coefficients:
+    it is computed once per such pair (every cost with a speed range asks for it, and a
+    deadline or a front builds dozens of costs on one model).
     """
+    key = (tuple(model.terms), tuple(_channel_values(model, constants).items()))
+    try:
+        hash(key)
+    except TypeError:  # a channel value that cannot be a key
+        return _speed_law.__wrapped__(*key)
+    return _speed_law(*key)
+
+
+@lru_cache(maxsize=32)
+def _speed_law(terms: tuple, chan_items: tuple) -> SpeedLaw:
+    """:func:`speed_law` of the model of ``terms`` with these channel values."""
+    from energy_planner.model import EnergyModel
+
+    model, chans = EnergyModel(terms), dict(chan_items)
     rng = np.random.default_rng(12345)
     n = 256
     alpha = rng.uniform(0.0, math.radians(35.0), n)
     gamma = rng.uniform(-math.pi, math.pi, n)
     travel = rng.uniform(-math.pi, math.pi, n)
     turn = np.where(np.arange(n) % 2 == 0, 0.0, rng.uniform(-0.5, 0.5, n))
-    chans = _channel_values(model, constants)
     cols = [
         model.design_matrix(_features(np.full(n, v), alpha, gamma, travel, turn, chans))
         for v in _PROBE
