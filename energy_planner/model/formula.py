@@ -27,6 +27,7 @@ import ast
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -147,9 +148,12 @@ class Formula:
             out = _eval(self._tree, features)
         return np.asarray(out, dtype=float)
 
-    @property
+    @cached_property
     def channel_uses(self) -> tuple[dict[str, frozenset[str]], frozenset[str]]:
         """How the formula reads each variable: as a category or as a number.
+
+        Walked once per formula (every cost and every priced path types its model's
+        channels, :func:`energy_planner.energy.channels.channel_kinds`).
 
         Returns
         -------
