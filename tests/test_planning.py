@@ -283,3 +283,14 @@ def test_distance_lattice_prices_only_what_the_shortest_path_can_use(model, goal
     # the ridge forces the detour through the gap where the goal lies beyond it
     if goal[0] > 30:
         assert got.cost > math.hypot(goal[0] - s[0], goal[1] - s[1]) * 1.1
+
+
+def test_distance_lattice_without_a_path_says_so(model):
+    """A ridge closed from edge to edge: no shortest path, after pricing the whole map."""
+    closed = Terrain.from_function(
+        lambda x, y: 6.0 * np.exp(-((x - 30.0) ** 2) / 8.0) + 0.0 * y, size=(60, 60)
+    )
+    cost, _ = make_motion_cost(closed, model, max_slope_deg=25.0)
+    with pytest.raises(PlanningError, match="no feasible path"):
+        lattice_plan(cost, closed, (8.0, 10.0, None), (50.0, 10.0, None), step=2.0,
+                     metric="distance")  # fmt: skip
