@@ -496,7 +496,8 @@ def lattice_plan(
         Headings per position (a multiple of 4 keeps the axes).
     metric : {"energy", "distance"}
         Edge weight: the motion's energy, or its horizontal length (shortest feasible
-        path under the same limits).
+        path under the same limits; its edges priced only where it can pass,
+        :func:`_distance_search`).
     moves : {"axes", "crab", "all"}
         ``"axes"``: at each heading, the neighbour move closest to each body axis
         (forward, left, backward, right) - 4 translations per node, the paper's motion
