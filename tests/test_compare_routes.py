@@ -317,8 +317,22 @@ def test_route_lookup_error_is_a_project_error_and_a_key_error(dem):
 
 def test_compare_routes_cli_reads_channels(dem, tmp_path):
     """--set feeds a channel the model reads: a payload term ``c * payload_kg * speed``
-    adds ``c * payload_kg`` J per metre to every route (the direct line analytically)."""
-    path, _ = dem
+    adds ``c * payload_kg`` J per metre to every route (the direct line analytically).
+
+    The ridge's southern third (y 0-20 m, where the direct line runs along y = 10 m): the
+    direct line and its energies are the whole map's, and the routes the command plans
+    besides cost a third."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    _, terrain = dem
+    path = tmp_path / "south.tif"
+    z = terrain.elevation[40:]  # row 0 is the north edge (y = 60 m)
+    with rasterio.open(
+        path, "w", driver="GTiff", height=z.shape[0], width=z.shape[1], count=1,
+        dtype="float64", crs="EPSG:32631", transform=from_origin(500000.0, 5000020.0, 1.0, 1.0),
+    ) as dst:  # fmt: skip
+        dst.write(z, 1)
     base = EnergyModel.default()
     c = 9.81
     model = EnergyModel([*base.term_specs, "payload"], {**base.coefficients, "payload": c})
