@@ -39,6 +39,24 @@ def dem(tmp_path_factory):
     return path, t
 
 
+@pytest.fixture(scope="module")
+def south(dem, tmp_path_factory):
+    """The ridge's southern third (y 0-20 m, below its foot) as a GeoTIFF: a line along
+    y = 10 m is the same there as on the whole map, and the routes a command plans besides
+    cost a third."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    z = dem[1].elevation[40:]  # row 0 is the north edge (y = 60 m)
+    path = tmp_path_factory.mktemp("south") / "south.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", height=z.shape[0], width=z.shape[1], count=1,
+        dtype="float64", crs="EPSG:32631", transform=from_origin(500000.0, 5000020.0, 1.0, 1.0),
+    ) as dst:  # fmt: skip
+        dst.write(z, 1)
+    return path
+
+
 def test_compare_routes_reports_an_infeasible_direct_line(dem):
     _, terrain = dem
     model = EnergyModel.default()
@@ -65,7 +83,7 @@ def test_compare_routes_reports_an_infeasible_direct_line(dem):
     )
 
 
-def test_compare_routes_cli_json_and_plot(dem, tmp_path):
+def test_compare_routes_cli_json_and_plot(dem, south, tmp_path):
     path, _ = dem
     png = tmp_path / "routes.png"
     res = CliRunner().invoke(
@@ -83,11 +101,11 @@ def test_compare_routes_cli_json_and_plot(dem, tmp_path):
     assert routes["direct"]["feasible"] is False and "limit 20 deg" in routes["direct"]["reason"]
     assert routes["energy_optimal"]["feasible"] is True
     assert png.stat().st_size > 10_000
-    # the text table names every route
+    # the text table names every route (the layout: on the southern third, a third the work)
     res = CliRunner().invoke(
         main,
-        ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
-         "500015,5000050", "--time", "1", "--planner", "lattice"],
+        ["compare-routes", "--dem", str(south), "--start", "500015,5000010", "--goal",
+         "500040,5000010", "--time", "1", "--planner", "lattice"],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert all(n in res.output for n in ("direct", "shortest", "energy_optimal"))
@@ -315,10 +333,11 @@ def test_route_lookup_error_is_a_project_error_and_a_key_error(dem):
         comp.route("fastest")
 
 
-def test_compare_routes_cli_reads_channels(dem, tmp_path):
+def test_compare_routes_cli_reads_channels(south, tmp_path):
     """--set feeds a channel the model reads: a payload term ``c * payload_kg * speed``
-    adds ``c * payload_kg`` J per metre to every route (the direct line analytically)."""
-    path, _ = dem
+    adds ``c * payload_kg`` J per metre to every route (the direct line analytically).
+    On the ridge's southern third (:func:`south`), where the direct line runs."""
+    path = south
     base = EnergyModel.default()
     c = 9.81
     model = EnergyModel([*base.term_specs, "payload"], {**base.coefficients, "payload": c})

@@ -128,7 +128,10 @@ def test_cells_on_the_budget_contour_cost_the_budget_when_planned(hill_tif):
     rows, cols = np.nonzero(edge & (res.energy_j > 0.98 * budget))
     rng = np.random.default_rng(0)
     x0, y0, dx, dy = terrain.grid
-    for k in rng.choice(rows.size, size=4, replace=False):
+    # two of the contour cells (the first two of the four drawn before): each cell's check
+    # is the same (a plan by each planner, at the same tolerances), and a lattice plan of
+    # this map is 1.5 s of CPU
+    for k in rng.choice(rows.size, size=4, replace=False)[:2]:
         r, c = rows[k], cols[k]
         goal = (x0 + c * dx, y0 + r * dy)
         for planner in ("search", "lattice"):  # the default planner's search, the reference
