@@ -208,7 +208,12 @@ def _map_by_windows(
             codes[k % 2] = data = _encoded(setup, bands[setup.first :], codes[k % 2])
             writer.write(data, Window(0, r0, cols, r1 - r0))
         if samples is not None:
-            samples.stats()  # beside the last window's write (the result takes them)
+            # beside the last window's write (the result takes them), in the memory of the
+            # buffers no longer needed (the one in flight stays referenced by the writer)
+            bands = data = gx = gy = chan = None
+            bufs.clear()
+            codes.clear()
+            samples.stats()
 
 
 def _encoded(setup: _Setup, block: np.ndarray, out: np.ndarray | None) -> np.ndarray:
