@@ -142,9 +142,10 @@ class _BackgroundWriter:
     """Writes each window in a thread of its own while the caller computes the next.
 
     One write in flight: :meth:`write` first waits for the one before, so the caller
-    alternates two buffers. GDAL's write releases Python's lock, and its worker threads
-    compress the tiles; the next window's reading, gradient, kernel and encoding run
-    beside them.
+    alternates two buffers. GDAL's write releases Python's lock and compresses the tiles
+    (in this thread for ``uint16`` bands, in GDAL's worker threads for ``float32``:
+    :func:`~energy_planner.energymap.result._compress_threads`); the next window's
+    reading, gradient, kernel and encoding run beside it.
     """
 
     def __init__(self, dst: Any) -> None:
