@@ -177,18 +177,31 @@ def _profile(
     return geotiff_profile(shape, nbands, transform=transform, crs=crs, **comp, **tiles, **kind)
 
 
-def _compress_threads(encoding: str) -> str | None:
-    """GDAL's ``NUM_THREADS`` for a map written from a thread of its own: None for ``uint16``.
+def _compress_threads(encoding: str, cores: int | None = None) -> str | None:
+    """GDAL's ``NUM_THREADS`` for a map written from a thread of its own (None: that thread).
 
-    ``uint16`` tiles compress with less CPU than the map takes to compute (1.0 against
-    about 2.6 CPU s for a 2048 x 2048 map's 20 bands), so one thread keeps pace with the
-    computation, and GDAL's worker threads would only add their hand-offs (each tile
-    copied to a scratch TIFF and back: 0.2-0.25 CPU s more for the same map).
-    ``float32`` bands take twice the bytes and the floating-point predictor (4.3 CPU s
-    for 36 bands): one thread would hold the computation back, so GDAL's workers
-    (``ALL_CPUS``) share them.
+    On ``cores`` (default: those this process may run on) of at most 2, ``uint16`` tiles
+    are compressed by the writing thread itself: they take less CPU than the map takes
+    to compute (about 1.0 against 2.6 CPU s for a 2048 x 2048 map's 20 bands), so one
+    thread keeps pace with the computation, and GDAL's worker threads would only add
+    their hand-offs (0.2-0.25 CPU s more for the same map, each tile compressed in a
+    scratch TIFF of its own). With more cores the computation would outrun one
+    compressing thread (it keeps pace while its CPU times ``cores - 1`` stays below the
+    computation's), and ``float32`` bands take twice the bytes and the floating-point
+    predictor (4.3 CPU s for 36 bands): GDAL's workers (``ALL_CPUS``) share them.
+
+    Examples
+    --------
+    >>> _compress_threads("uint16", cores=2), _compress_threads("uint16", cores=8)
+    (None, 'ALL_CPUS')
+    >>> _compress_threads("float32", cores=2)
+    'ALL_CPUS'
     """
-    return None if encoding == "uint16" else "ALL_CPUS"
+    if cores is None:
+        from energy_planner.energy.heading import usable_cores
+
+        cores = usable_cores()
+    return None if encoding == "uint16" and cores <= 2 else "ALL_CPUS"
 
 
 def _write_metadata(
