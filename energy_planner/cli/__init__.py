@@ -309,3 +309,26 @@ def main(quiet: bool) -> None:
     from energy_planner.progress import quiet as _quiet
 
     _quiet(quiet)  # each invocation starts from the flag (a command's own -q may add it)
+    _skip_exit_collection()
+
+
+def _skip_exit_collection() -> None:
+    """At exit, spare the interpreter its last garbage collection (once per process).
+
+    Python's shutdown walks every object the command imported or made (numpy, rasterio,
+    the model) for reference cycles, about 40 ms of CPU on the command's critical path
+    after its result is written; the process frees their memory anyway. ``gc.freeze``
+    at exit moves them out of the collector's reach; files and datasets are closed by
+    their context managers before then, and objects still reachable are torn down as
+    before.
+    """
+    global _EXIT_HOOKED
+    if not _EXIT_HOOKED:
+        import atexit
+        import gc
+
+        atexit.register(gc.freeze)
+        _EXIT_HOOKED = True
+
+
+_EXIT_HOOKED = False
