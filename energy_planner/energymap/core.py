@@ -143,9 +143,9 @@ class _BackgroundWriter:
 
     One write in flight: :meth:`write` first waits for the one before, so the caller
     alternates two buffers. GDAL's write releases Python's lock and compresses the tiles
-    (in this thread for ``uint16`` bands, in GDAL's worker threads for ``float32``:
-    :func:`~energy_planner.energymap.result._compress_threads`); the next window's
-    reading, gradient, kernel and encoding run beside it.
+    (in this thread for ``uint16`` bands on up to two cores, else in GDAL's worker
+    threads: :func:`~energy_planner.energymap.result._compress_threads`); the next
+    window's reading, gradient, kernel and encoding run beside it.
     """
 
     def __init__(self, dst: Any) -> None:
