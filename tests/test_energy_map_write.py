@@ -273,3 +273,23 @@ def test_uint16_map_is_the_float32_map_to_half_a_step(hills, tmp_path):
     assert any("written as float32" in n for n in wide.notes)
     with pytest.raises(EnergyMapError, match="encoding 'f16'"):
         energy_map(dem, tmp_path / "x.tif", MODEL, encoding="f16")
+
+
+def test_writer_thread_compresses_the_same_file_as_gdals_workers(hills, tmp_path, monkeypatch):
+    """uint16 tiles compressed by the writing thread (two cores) or by GDAL's workers
+    (more cores): the same codes, scales and statistics, and the same compressed bytes."""
+    import energy_planner.energymap.result as result
+
+    dem, _ = hills
+    maps = {}
+    for threads in (None, "ALL_CPUS"):
+        monkeypatch.setattr(result, "_compress_threads", lambda enc, cores=None, t=threads: t)
+        out = tmp_path / f"{threads}.tif"
+        res = energy_map(dem, out, headings=8)  # the bundled model: uint16 codes
+        with rasterio.open(out) as src:
+            assert src.dtypes[0] == "uint16" and src.block_shapes[0] == (128, 128)
+            maps[threads] = (src.read(), src.scales, res.stats, out.read_bytes())
+    (codes, scales, stats, raw), (codes2, scales2, stats2, raw2) = maps.values()
+    assert (codes > 0).any() and (codes == 0).any()  # values and the nodata patch
+    np.testing.assert_array_equal(codes, codes2)
+    assert scales == scales2 and stats == stats2 and raw == raw2

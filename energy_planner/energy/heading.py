@@ -492,19 +492,23 @@ class HeadingCost:
         run_by_rows(rows, gx.shape[0])
 
 
+def usable_cores() -> int:
+    """The number of cores this process may run on (its CPU affinity, else all)."""
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def run_by_rows(fn: Any, rows: int) -> None:
     """``fn(a, b)`` over consecutive row ranges covering ``0 .. rows``, one per core, in threads.
 
     For the precompiled map kernels, which release the GIL (numba's own kernels spread a
     block over the cores with ``prange``).
     """
-    import os
-
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    n = max(1, min(cores, rows))
+    n = max(1, min(usable_cores(), rows))
     cuts = [rows * k // n for k in range(n + 1)]
     if n == 1:
         fn(0, rows)

@@ -127,7 +127,7 @@ def _compute_terrain(
     rows, cols = terrain.shape
     chan_all, _ = setup.channels.bind(terrain).stack(terrain.shape)
     prof = _profile(terrain.shape, terrain.transform, terrain.crs, setup.nbands, setup.compress,
-                    setup.encoding)  # fmt: skip
+                    setup.encoding, writer_thread=True)  # fmt: skip
 
     def block(r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         chan = chan_all[:, r0:r1] if chan_all.shape[0] else chan_all
@@ -142,9 +142,10 @@ class _BackgroundWriter:
     """Writes each window in a thread of its own while the caller computes the next.
 
     One write in flight: :meth:`write` first waits for the one before, so the caller
-    alternates two buffers. GDAL's write releases Python's lock, and its worker threads
-    compress the tiles; the next window's reading, gradient, kernel and encoding run
-    beside them.
+    alternates two buffers. GDAL's write releases Python's lock and compresses the tiles
+    (in this thread for ``uint16`` bands on up to two cores, else in GDAL's worker
+    threads: :func:`~energy_planner.energymap.result._compress_threads`); the next
+    window's reading, gradient, kernel and encoding run beside it.
     """
 
     def __init__(self, dst: Any) -> None:
@@ -207,6 +208,13 @@ def _map_by_windows(
                 samples.add(bands, r0)
             codes[k % 2] = data = _encoded(setup, bands[setup.first :], codes[k % 2])
             writer.write(data, Window(0, r0, cols, r1 - r0))
+        if samples is not None:
+            # beside the last window's write (the result takes them), in the memory of the
+            # buffers no longer needed (the one in flight stays referenced by the writer)
+            bands = data = gx = gy = chan = None
+            bufs.clear()
+            codes.clear()
+            samples.stats()
 
 
 def _encoded(setup: _Setup, block: np.ndarray, out: np.ndarray | None) -> np.ndarray:
@@ -329,7 +337,8 @@ def _compute_windowed(
     rows, cols = info.shape
     t = info.transform
     any_valid = False
-    prof = _profile(info.shape, t, info.crs, setup.nbands, setup.compress, setup.encoding)
+    prof = _profile(info.shape, t, info.crs, setup.nbands, setup.compress, setup.encoding,
+                    writer_thread=True)  # fmt: skip
     with rasterio.open(info.path) as src, open_geotiff(out, **prof) as dst:
         reading = band_reading(src, info.band, info.path, scan=True)
 
