@@ -64,7 +64,9 @@ disk cache). The relaxed table's strips and the heuristics' rows stay on the wor
 (the tasks that read them fetch them from the workers that made them). The rows run in one
 batch per worker thread, in rounds that share the edges they priced (:func:`_lazy_rounds`);
 the whole edge table, when used, is priced by strips of rows on the workers, then sent to
-each of them.
+each of them. What such a cluster spends beside these long tasks is its processes'
+periodic work (profiler, event-loop ticks, system and memory monitors): a cluster running
+the matrix should be started with :data:`CLUSTER_CONFIG`.
 """
 
 from __future__ import annotations
