@@ -5,8 +5,9 @@ valleys, slopes up to about 25 deg), one early-stopped search per site
 (:func:`energy_planner.mission.matrix.matrix_search`: an A* toward every other site at
 once, keys ``g + eps * h`` with ``eps`` the plan's default 1.05, stopped when they are all
 settled, in a proven window), first in this process, then on a dask ``LocalCluster`` of 2
-single-threaded worker processes (the same code runs on a cluster given by address:
-``mission --scheduler ADDRESS``). Printed:
+single-threaded worker processes configured with
+:data:`~energy_planner.mission.matrix.CLUSTER_CONFIG` (the same code runs on a cluster
+given by address: ``mission --scheduler ADDRESS``). Printed:
 
 - the matrix time, serial (baseline) and on the cluster, with the ratio, and the peak
   resident memory of this process and of each worker;
@@ -187,9 +188,13 @@ def main(argv: list[str] | None = None) -> dict:
         full = np.where(np.isfinite(full), full, np.inf)
         d_full = _max_rel(serial[:k], full)
 
+    import dask
     from distributed import Client, LocalCluster
 
+    from energy_planner.mission.matrix import CLUSTER_CONFIG
+
     with (
+        dask.config.set(CLUSTER_CONFIG),  # what docs/routes.md tells a cluster's user to set
         LocalCluster(
             n_workers=a.workers, threads_per_worker=1, processes=True, dashboard_address=None
         ) as cluster,

@@ -143,7 +143,10 @@ xy = np.array(spec["sites"], float)
 names = [f"s{i}" for i in range(len(xy))]
 client = None
 if spec.get("workers"):
+    import dask
     from distributed import Client, LocalCluster
+    from energy_planner.mission.matrix import CLUSTER_CONFIG
+    dask.config.set(CLUSTER_CONFIG)  # what docs/routes.md tells a cluster's user to set
     cluster = LocalCluster(n_workers=spec["workers"], threads_per_worker=1, processes=True,
                            dashboard_address=None)
     client = Client(cluster)
@@ -462,7 +465,9 @@ def mission_rows(grass: str | None, work: Path, args) -> None:
     matrix at ``--mission-eps``: the matrix, the order settled on ``plan``'s legs, every
     leg planned; in its own process, the DEM's loading included), its matrix's share
     apart. Then the mission with the matrix on a dask LocalCluster of
-    ``--mission-workers`` processes (0: skip), its CPU time (this process with the
+    ``--mission-workers`` processes (0: skip; configured with
+    :data:`~energy_planner.mission.matrix.CLUSTER_CONFIG`, as docs/routes.md tells a
+    cluster's user), its CPU time (this process with the
     scheduler, plus the workers and their nannies) against the serial run's, whole and
     the matrix's; and the first ``--mission-legs`` legs of the tour against ``plan``
     asked for each (its defaults, the same limit).

@@ -186,8 +186,14 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
     write_geotiff(dem, knoll.elevation, transform=knoll.transform, crs=knoll.crs)
     (tmp_path / "sites.csv").write_text("x,y,name\n" + "".join(
         f"{x},{y},s{k}\n" for k, (x, y) in enumerate(s.xy)))  # fmt: skip
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:  # fmt: skip
+    import dask
+
+    with (
+        dask.config.set(mx.CLUSTER_CONFIG),
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+    ):  # the configuration docs/routes.md tells a cluster's user to set
         address = cluster.scheduler_address
         with distributed.Client(address) as client:
             par = energy_matrix(knoll, model, s, client=client)
@@ -205,6 +211,19 @@ def test_a_cluster_given_by_address_gives_the_serial_matrix(tmp_path, knoll, mod
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout[r.stdout.index("{") :])
     np.testing.assert_allclose(np.array(out["matrix_j"], float), serial, rtol=RTOL)
+
+
+def test_cluster_config_names_dask_settings():
+    """Every key of CLUSTER_CONFIG is one of dask's settings (a misspelt one does nothing)."""
+    pytest.importorskip("distributed")
+    import dask
+    from dask.utils import parse_timedelta
+
+    for key, value in mx.CLUSTER_CONFIG.items():
+        default = dask.config.get(key)  # KeyError if dask has no such setting
+        assert type(value) is type(default), key
+        if isinstance(value, str):  # an interval
+            assert parse_timedelta(value) > 0, key
 
 
 def test_mission_command_takes_eps(tmp_path, knoll, model):

@@ -117,7 +117,8 @@ def _windows(given: tuple[str, ...]) -> dict[str, tuple[str, str]] | None:
 @click.option(
     "--scheduler",
     help="Address of a dask.distributed scheduler to run the per-site searches on "
-    "(default: in this process).",
+    "(default: in this process); start its processes with the settings of "
+    "energy_planner.mission.matrix.CLUSTER_CONFIG (docs/routes.md).",
 )
 @click.option(
     "--time-budget",
