@@ -37,6 +37,15 @@ from typing import Any
 
 import click
 
+# one BLAS thread, set before any command imports numpy (which loads OpenBLAS): the
+# commands' linear algebra is small (a fold's fit: tens of terms over hundreds of windows),
+# and OpenBLAS's threads cost more than they give there, spinning against each other and
+# any other work: diagnose on the small simulated campaign took 14.8 instead of 20.9 CPU s
+# of a busy 2-core machine, discover 16.2 instead of 22.5, the printed numbers identical.
+# Set the variable to use more.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
 # command name -> (module in energy_planner.cli, one-line summary for the command list).
 # The summaries live here so that ``energy-planner --help`` lists the commands without
 # importing them (numpy, pandas and numba stay unloaded); a command's own ``--help``
