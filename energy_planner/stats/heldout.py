@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from energy_planner.errors import FitError
-from energy_planner.stats.numerics import _scaled, _weights
+from energy_planner.stats.numerics import _scaled, _weights, solve_min_norm
 
 __all__ = [
     "EXACT_MAX_RUNS",
@@ -259,14 +259,20 @@ def heldout(
     sw, Xs, scale = _scaled(Xr, w)
     yw = yr * sw
     g, r = Xs.T @ Xs, Xs.T @ yw
-    coef = np.zeros((n_folds, k))
+    # every fold's training normal equations, solved at once; a column the fold does not
+    # fit is a zero row and column (a zero coefficient, as the smaller system gives)
+    gs, rs = np.empty((n_folds, k, k)), np.empty((n_folds, k))
     for f in range(n_folds):
         te = folds == f
-        c = cols[f]
-        xt = Xs[te][:, c]
-        gf = g[np.ix_(c, c)] - xt.T @ xt
-        rf = r[c] - xt.T @ yw[te]
-        coef[f, c] = np.linalg.lstsq(gf, rf, rcond=1e-12)[0] / scale[c]
+        xt = Xs[te]
+        gs[f] = g - xt.T @ xt
+        rs[f] = r - xt.T @ yw[te]
+    off_f = ~cols
+    gs[off_f] = 0.0
+    gs.transpose(0, 2, 1)[off_f] = 0.0
+    rs[off_f] = 0.0
+    coef = solve_min_norm(gs, rs, hermitian=True) / scale
+    coef[off_f] = 0.0
     # every sample by its row's fold's coefficients
     by_fold = X @ coef.T
     pred_s = np.take_along_axis(by_fold, folds[rows][:, None], axis=1)[:, 0] + off
@@ -398,14 +404,18 @@ def _inner_sse(stats, c: int, n_folds: int) -> np.ndarray:
     gw = np.array([s[0][:c, :c] for s in stats])
     rw = np.array([s[1][:c] for s in stats])
     gt, rt = gw.sum(axis=0), rw.sum(axis=0)
+    pairs = [(f, g) for f in range(n_folds) for g in range(n_folds) if g != f and stats[g][5] > 0]
     out = np.zeros(n_folds)
-    for f in range(n_folds):
-        for g in range(n_folds):
-            if g == f or stats[g][5] == 0:
-                continue
-            b = np.linalg.lstsq(gt - gw[f] - gw[g], rt - rw[f] - rw[g], rcond=1e-12)[0]
-            G, r, q = stats[g][2][:c, :c], stats[g][3][:c], stats[g][4]
-            out[f] += q - 2.0 * b @ r + b @ G @ b
+    if not pairs:
+        return out
+    fi, gi = np.array(pairs).T
+    b = solve_min_norm(gt - gw[fi] - gw[gi], rt - rw[fi] - rw[gi], hermitian=True)
+    G = np.array([s[2][:c, :c] for s in stats])[gi]
+    r = np.array([s[3][:c] for s in stats])[gi]
+    q = np.array([s[4] for s in stats])[gi]
+    err = q - 2.0 * np.einsum("pi,pi->p", b, r) + np.einsum("pi,pij,pj->p", b, G, b)
+    for f, e in zip(fi, err, strict=True):  # summed in the order of the loop it replaces
+        out[f] += e
     return out
 
 
