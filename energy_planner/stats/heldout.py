@@ -274,7 +274,12 @@ def heldout(
     coef = solve_min_norm(gs, rs, hermitian=True) / scale
     coef[off_f] = 0.0
     # every sample by its row's fold's coefficients
-    by_fold = X @ coef.T
+    # one matrix-vector product per fold: a threaded BLAS spends far longer starting its
+    # threads on this thin product (m x k by k x n_folds) than computing it when the
+    # cores are busy (12 ms against 0.5 ms at a load of 4 on 2 cores)
+    by_fold = np.empty((m, n_folds))
+    for f in range(n_folds):
+        by_fold[:, f] = X @ coef[f]
     pred_s = np.take_along_axis(by_fold, folds[rows][:, None], axis=1)[:, 0] + off
     if floor is not None:
         pred_s = np.maximum(pred_s, floor)
