@@ -16,6 +16,7 @@ from energy_planner.stats import (
     fold_index,
     heldout,
     independent_columns,
+    solve_min_norm,
     span_residual,
     vif,
     wls,
@@ -249,3 +250,41 @@ def test_choice_by_fold_scores_only_the_scored_rows_but_fits_all():
     assert choice_by_fold(X, Z, y, folds).tolist() == [1, 1, 1, 1]
     assert choice_by_fold(X, Z, y, folds, scored=odd == 0).tolist() == [0, 0, 0, 0]
     assert (choice_by_fold(X, Z, y, folds, scored=np.ones(n, bool)) == [1, 1, 1, 1]).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    k=st.integers(1, 8),
+    rank_drop=st.integers(0, 2),
+    hermitian=st.booleans(),
+)
+def test_solve_min_norm_is_lstsq_per_system(seed, k, rank_drop, hermitian):
+    """The batched minimum-norm solve gives numpy's lstsq solution of every system,
+    normal equations of full rank or with dependent columns alike."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(6, 30, k))
+    for j in range(min(rank_drop, k - 1)):  # a column that copies another: rank-deficient
+        a[:, :, k - 1 - j] = 2.0 * a[:, :, 0]
+    A = a.transpose(0, 2, 1) @ a
+    if not hermitian:
+        A = A + rng.normal(0, 0.1, A.shape) * (rank_drop == 0)
+    b = rng.normal(size=(6, k))
+    got = solve_min_norm(A, b, hermitian=hermitian)
+    want = np.array([np.linalg.lstsq(A[i], b[i], rcond=1e-12)[0] for i in range(6)])
+    scale = np.abs(want).max() + 1.0
+    assert np.allclose(got, want, rtol=1e-7, atol=1e-7 * scale)
+
+
+def test_heldout_fold_without_a_column_predicts_it_as_zero():
+    """A column a fold does not fit gets coefficient 0 there, and the other columns the
+    fit of the smaller design (the heldout of the design without that column)."""
+    X, y, w = _data(3)[:3]
+    folds = np.arange(len(y)) % 4
+    cols = np.ones((4, X.shape[1]), dtype=bool)
+    cols[2, 3] = False
+    h = heldout(X, y, folds, w, fit_columns=cols)
+    small = heldout(X[:, :3], y, folds, w)
+    assert h.coef[2, 3] == 0.0
+    assert np.allclose(h.coef[2, :3], small.coef[2], rtol=1e-9)
+    assert np.allclose(h.predicted[folds == 2], small.predicted[folds == 2], rtol=1e-9)
