@@ -62,15 +62,19 @@ def _stride(shape: tuple[int, int], max_side: int) -> int:
 
 
 def _png_uri(gray: np.ndarray) -> str:
-    """An inline PNG (data URI) of a 0..1 array; NaN transparent."""
-    from matplotlib.image import imsave
+    """An inline PNG (data URI) of a 0..1 array; NaN transparent.
+
+    Encoded by Pillow directly (what matplotlib's ``imsave`` calls, without importing
+    matplotlib: a page that draws no matplotlib figure does not pay its import).
+    """
+    from PIL import Image
 
     g = np.clip(np.nan_to_num(gray, nan=0.0), 0.0, 1.0)
     rgba = np.empty(gray.shape + (4,), dtype=np.uint8)
     rgba[..., :3] = (g * 255).astype(np.uint8)[..., None]
     rgba[..., 3] = np.where(np.isfinite(gray), 255, 0)
     buf = io.BytesIO()
-    imsave(buf, rgba, format="png")
+    Image.fromarray(rgba, mode="RGBA").save(buf, format="png")
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 

@@ -111,7 +111,7 @@ def test_compare_routes_cli_json_and_plot(dem, south, tmp_path):
     assert all(n in res.output for n in ("direct", "shortest", "energy_optimal"))
 
 
-def test_compare_routes_cli_interval_and_battery_per_route(dem):
+def test_compare_routes_cli_interval_and_battery_per_route(dem, south):
     """Each feasible route carries its interval and battery chance; --refuse judges the best."""
     from energy_planner.uncertainty import battery_decision, predict_interval
 
@@ -132,13 +132,19 @@ def test_compare_routes_cli_interval_and_battery_per_route(dem):
         assert (iv["low_j"], iv["high_j"]) == pytest.approx((want.low_j, want.high_j))
         d = battery_decision(model, r["energy_j"], 30.0, 2.0, 0.9)
         assert r["battery"]["probability"] == pytest.approx(d.probability)
-    # a battery too small for the energy-optimal route: a warning naming it, or exit 1
-    best = routes["energy_optimal"]["energy_j"] / 3600.0
-    small = ["--battery-wh", f"{0.8 * best:.3f}"]
-    res = CliRunner().invoke(main, [*base, *small])
-    assert res.exit_code == 0 and "warning: energy_optimal:" in res.stderr
-    res = CliRunner().invoke(main, [*base, *small, "--refuse"])
-    assert res.exit_code == 1 and "energy_optimal" in res.output
+    # a battery too small for the energy-optimal route: a warning naming it, or exit 1. On the
+    # southern third (a third of the planning; its route measured 4.41 Wh), so that the two
+    # runs below cost less than the one above; the --json run checks the battery is too small.
+    on_south = ["compare-routes", "--dem", str(south), "--start", "500015,5000010",
+                "--goal", "500040,5000010", "--max-slope", "20", "--time", "1",
+                "--planner", "lattice", "--battery-wh", "3.5"]  # fmt: skip
+    res = CliRunner().invoke(main, [*on_south, "--json"])
+    assert res.exit_code == 0 and "warning: energy_optimal:" in res.stderr, res.output
+    best = {r["name"]: r for r in json.loads(res.stdout)["routes"]}["energy_optimal"]
+    assert 0.7 < 3.5 / (best["energy_j"] / 3600.0) < 0.9  # just too small, as 80 % of it
+    assert best["battery"]["ok"] is False
+    res = CliRunner().invoke(main, [*on_south, "--refuse"])
+    assert res.exit_code == 1 and "Error: energy_optimal:" in res.output, res.output
 
 
 def test_plan_cli_json_geojson(dem, tmp_path):
