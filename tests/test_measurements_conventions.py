@@ -152,6 +152,16 @@ def test_parquet_datetimes_are_seconds_since_the_epoch(tmp_path):
     assert any("datetimes" in n for n in rep.notes)
 
 
+def test_a_time_no_robot_logged_is_named_not_a_pandas_overflow(tmp_path):
+    # ISO text of the year 779 parses (pandas keeps it at second resolution) but has no
+    # nanoseconds since 1970 in 64 bits: found by tests/test_fuzz_loaders.py
+    p = tmp_path / "a.csv"
+    p.write_text("t,qw,qx,qy,qz,vx,vy,wz,voltage,current\n0779-6\n")
+    with pytest.raises(LogError, match=r"column 't' holds the time 0779-06-01.*1678-2261") as e:
+        load_logs(p)
+    assert str(p) in str(e.value)
+
+
 @settings(max_examples=30, deadline=None)
 @given(
     unit=st.sampled_from(["s", "ms", "us", "ns"]),

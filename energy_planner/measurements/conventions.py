@@ -95,7 +95,7 @@ def _time_seconds(col: pd.Series, source: str, notes: list[str], name: str) -> p
     if isinstance(col.dtype, pd.DatetimeTZDtype) or pd.api.types.is_datetime64_any_dtype(col):
         ts = pd.to_datetime(col, utc=True)
         notes.append(f"{source}: {name!r} read as datetimes; t = seconds since 1970 (UTC)")
-        return _epoch_seconds(ts)
+        return _epoch_seconds(ts, source, name)
     if col.dtype == object or pd.api.types.is_string_dtype(col):
         num = pd.to_numeric(col, errors="coerce")
         if num.notna().sum() >= 0.5 * col.notna().sum():
@@ -106,7 +106,7 @@ def _time_seconds(col: pd.Series, source: str, notes: list[str], name: str) -> p
             except (ValueError, TypeError):
                 return col  # check_time names the first value that is not a time
             notes.append(f"{source}: {name!r} read as ISO 8601 times; t = seconds since 1970 (UTC)")
-            return _epoch_seconds(ts)
+            return _epoch_seconds(ts, source, name)
     if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
         v = pd.to_numeric(col, errors="coerce")
         med = float(np.nanmedian(np.abs(v.to_numpy(float)))) if v.notna().any() else 0.0
@@ -120,9 +120,30 @@ def _time_seconds(col: pd.Series, source: str, notes: list[str], name: str) -> p
     return col
 
 
-def _epoch_seconds(ts: pd.Series) -> pd.Series:
-    """UTC datetimes (any resolution) as float seconds since 1970."""
-    ns = ts.dt.as_unit("ns").astype("int64").to_numpy()
+def _epoch_seconds(ts: pd.Series, source: str, name: str) -> pd.Series:
+    """UTC datetimes (any resolution) as float seconds since 1970.
+
+    Raises
+    ------
+    LogError
+        A time outside the years 1678-2261 (nanoseconds since 1970 in 64 bits): no robot
+        logged it; the column is most likely not a time.
+    """
+    try:
+        ns = ts.dt.as_unit("ns").astype("int64").to_numpy()
+    except pd.errors.OutOfBoundsDatetime:
+        lo, hi = pd.Timestamp.min.tz_localize("UTC"), pd.Timestamp.max.tz_localize("UTC")
+        bad = ts[(ts < lo) | (ts > hi)]
+        value = bad.iloc[0] if len(bad) else ts.dropna().iloc[0]
+        raise LogError(
+            f"log {source}: column {name!r} holds the time {value}, outside the years "
+            "1678-2261; expected times of the log (datetimes, ISO 8601 text, or epoch "
+            "seconds/ms/us/ns)",
+            path=source,
+            column=name,
+            value=str(value),
+            expected="a time between the years 1678 and 2261",
+        ) from None
     out = pd.Series(_ns_to_s(ns), index=ts.index)
     out[ts.isna().to_numpy()] = np.nan
     return out
