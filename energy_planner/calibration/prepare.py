@@ -239,17 +239,20 @@ class _Windowed:
     ----------
     windows : Windows or None
         ``make_windows(clean_logs(samples)[0], duration=window)``; None when cleaning or
-        cutting failed (an ``EnergyPlannerError`` or ``ValueError``: no score).
+        cutting failed (``error``).
     report : PreprocessReport or None
         What cleaning removed.
     caught : list
         The warnings cleaning and cutting raised (``warnings.WarningMessage``), kept to be
         raised again when these windows become the pipeline's result.
+    error : Exception or None
+        The ``EnergyPlannerError`` or ``ValueError`` of a failed cleaning or cut.
     """
 
     windows: Any
     report: Any
     caught: list[Any]
+    error: Exception | None = None
 
 
 def _windowed(samples: pd.DataFrame, window: float) -> _Windowed:
@@ -262,8 +265,8 @@ def _windowed(samples: pd.DataFrame, window: float) -> _Windowed:
         try:
             clean, report = clean_logs(samples)
             windows = make_windows(clean, duration=window)
-        except (EnergyPlannerError, ValueError):
-            return _Windowed(None, None, list(caught))
+        except (EnergyPlannerError, ValueError) as exc:
+            return _Windowed(None, None, list(caught), exc)
     return _Windowed(windows, report, list(caught))
 
 
