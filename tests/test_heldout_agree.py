@@ -15,7 +15,6 @@ import json
 import warnings
 
 import numpy as np
-import pandas as pd
 import pytest
 from click.testing import CliRunner
 
@@ -113,43 +112,3 @@ def test_cli_fit_diagnose_discover_agree(tmp_path):
     assert [f["name"] for f in fit["fit"]["data_findings"]] == checks
     off = run("fit", logs, "--out", model, "--no-repair", "--folds", "0")
     assert not any(f["repaired"] for f in off["data_findings"])
-
-
-def test_shared_windows_equal_fresh_ones(monkeypatch):
-    """The repair guard cleans and windows each state of the samples once, and
-    ``prepare_logs`` reuses the windows of the state it ends in: the findings, their
-    held-out numbers and the windows equal those computed afresh for every score, and the
-    cleaning's warnings still reach the caller once."""
-    from energy_planner.calibration import prepare
-    from energy_planner.measurements.datacheck import check_data
-    from energy_planner.measurements.windows import make_windows
-
-    logs = _campaign(("clock_offset",)).logs
-    logs = logs[logs["run"].isin(logs["run"].unique()[::3])]  # 32 runs: enough to repair
-    dead = logs[logs["run"] == logs["run"].iloc[0]].assign(run="dead", voltage=0.0)
-    logs = pd.concat([logs, dead], ignore_index=True)
-    with pytest.warns(UserWarning, match="preprocessing dropped 1 whole run") as caught:
-        shared = prepare.prepare_logs(logs)
-    assert sum("preprocessing dropped" in str(w.message) for w in caught) == 1
-    kept = [f.name for f in shared.findings if f.repaired]
-    assert "clock_offset" in kept and len(kept) >= 2  # several states: sharing is used
-
-    # afresh: a new state for every score (each cleans and windows its samples, as
-    # heldout_score and energy_score do); the final windows cut from the repaired samples
-    def fresh_state(self, samples):
-        st = prepare._State(samples)
-        self._states.append(st)
-        return st
-
-    monkeypatch.setattr(prepare._HeldOutGuard, "_state", fresh_state)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        findings, fixed = check_data(logs, accept=prepare._HeldOutGuard(2.0, None))
-        clean, report = prepare.clean_logs(fixed)
-        windows = make_windows(clean, duration=2.0)
-    assert shared.findings_dicts() == [f.to_dict() for f in findings]
-    pd.testing.assert_frame_equal(shared.windows.table, windows.table, check_exact=True)
-    pd.testing.assert_frame_equal(shared.windows.samples, windows.samples, check_exact=True)
-    assert str(shared.preprocess_report) == str(report)
-    checks = [f.evidence["heldout_check"] for f in shared.findings if f.repaired]
-    assert all(np.isfinite(list(c.values())[1]) for c in checks)  # scored, not NaN

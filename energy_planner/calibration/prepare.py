@@ -224,66 +224,21 @@ def heldout_score(
     fitting the terms its training windows identify, floored per sample). NaN (and no
     runs) when it cannot be computed: fewer than two runs, no window.
     """
-    return _heldout_of(_windowed(samples, window), terms)
-
-
-@dataclass
-class _Windowed:
-    """Raw samples cleaned and cut into windows once, for every score of them.
-
-    The repair guard scores one state of the samples (the same samples with the same
-    repairs) by the held-out window power and by the run energies, and the state it ends
-    with is the one :func:`prepare_logs` windows: one cleaning and one cut serve them all.
-
-    Attributes
-    ----------
-    windows : Windows or None
-        ``make_windows(clean_logs(samples)[0], duration=window)``; None when cleaning or
-        cutting failed (``error``).
-    report : PreprocessReport or None
-        What cleaning removed.
-    caught : list
-        The warnings cleaning and cutting raised (``warnings.WarningMessage``), kept to be
-        raised again when these windows become the pipeline's result.
-    error : Exception or None
-        The ``EnergyPlannerError`` or ``ValueError`` of a failed cleaning or cut.
-    """
-
-    windows: Any
-    report: Any
-    caught: list[Any]
-    error: Exception | None = None
-
-
-def _windowed(samples: pd.DataFrame, window: float) -> _Windowed:
-    """Clean ``samples`` and cut windows as every command does (:class:`_Windowed`)."""
-    from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements.windows import make_windows
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")  # kept, raised again if these are the result
-        try:
-            clean, report = clean_logs(samples)
-            windows = make_windows(clean, duration=window)
-        except (EnergyPlannerError, ValueError) as exc:
-            return _Windowed(None, None, list(caught), exc)
-    return _Windowed(windows, report, list(caught))
-
-
-def _heldout_of(w: _Windowed, terms: Sequence[Any] | None) -> HeldOutScore:
-    """:func:`heldout_score` of samples already cleaned and windowed."""
     # the one held-out evaluation with each fold's identifiable terms is the diagnosis'
     # window view (WindowData.heldout, calibration.windowdata)
     from energy_planner.calibration.windowdata import window_data
     from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
-    if w.windows is None:
-        return HeldOutScore(math.nan, pd.Series(dtype=float))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
-            wd = window_data(w.windows.samples)
+            clean, _ = clean_logs(samples)
+            windows = make_windows(clean, duration=window)
+            del clean  # the cleaned copy: not held while the window view is built (memory)
+            wd = window_data(windows.samples)
+            del windows
         folds = fold_index(wd.runs, 5, 0)
         use = yardstick_terms(wd) if terms is None else terms
         names = [getattr(t, "formula", t) for t in use]
@@ -335,7 +290,6 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     t = out["t"].to_numpy(float)
     h = POSE_HALF_WIDTH_S
     rate = {c: np.full(len(out), np.nan) for c in ("x", "y", "yaw") if c in out}
-    pose = {c: out[c].to_numpy(float) for c in rate}  # once, not per run
     acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
     starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
     bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
@@ -344,7 +298,7 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
         lo, hi = np.maximum(tt - h, tt[0]), np.minimum(tt + h, tt[-1])
         span = hi - lo
         for c in rate:
-            v = pose[c][a:b]
+            v = out[c].to_numpy(float)[a:b]
             if c == "yaw":
                 v = np.unwrap(v)
             ok = np.isfinite(v)
@@ -363,11 +317,10 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     if "yaw" in rate:
         out["wz"] = rate["yaw"]
     out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
-    body = {"ax": out["vx"].to_numpy(float), "ay": out["vy"].to_numpy(float)}
     for a, b in bounds:
         if b - a > 1:
-            for dst, v in body.items():
-                acc[dst][a:b] = np.gradient(v[a:b], t[a:b])
+            for src, dst in (("vx", "ax"), ("vy", "ay")):
+                acc[dst][a:b] = np.gradient(out[src].to_numpy(float)[a:b], t[a:b])
     out["ax"], out["ay"] = acc["ax"], acc["ay"]
     return out
 
@@ -412,28 +365,21 @@ def energy_score(
         None when the samples have no pose ``x, y``; an empty score when it cannot be
         computed (fewer than two runs, no window).
     """
-    if not _has_pose(samples):
-        return None
-    return _energy_of(_windowed(samples, window), terms)
-
-
-def _has_pose(samples: pd.DataFrame) -> bool:
-    """Whether :func:`energy_score` can score ``samples``: a pose and an orientation."""
-    return {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns)
-
-
-def _energy_of(w: _Windowed, terms: Sequence[Any] | None) -> EnergyScore:
-    """:func:`energy_score` of samples with a pose, already cleaned and windowed."""
     from energy_planner.calibration.windowdata import WindowData, window_data
     from energy_planner.errors import EnergyPlannerError
+    from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
-    if w.windows is None:
-        return EnergyScore(pd.Series(dtype=float))
+    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
+        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
-            wd = window_data(w.windows)
+            clean, _ = clean_logs(samples)
+            windows = make_windows(clean, duration=window)
+            del clean
+            wd = window_data(windows)
+            del windows
         folds = fold_index(wd.runs, 5, 0)
         use = yardstick_terms(wd) if terms is None else terms
         names = [getattr(t, "formula", t) for t in use]
@@ -454,78 +400,35 @@ def _energy_of(w: _Windowed, terms: Sequence[Any] | None) -> EnergyScore:
     return EnergyScore(rel)
 
 
-@dataclass
-class _State:
-    """One state of the samples the repair guard scores, and what is known of it."""
-
-    samples: pd.DataFrame
-    windowed: _Windowed | None = None
-    heldout: HeldOutScore | None = None
-    energy: EnergyScore | None = None
-
-
 class _HeldOutGuard:
     """``check_data``'s ``accept``: a repair is kept unless it raises the held-out error.
 
     Raised means: the pooled held-out RMSE is higher with the repair and the runs are
     worse with it beyond noise (:data:`REPAIR_ALPHA`); a difference within noise keeps
-    the repair, since the check's own test found the fault. Each state of the samples
-    (the same samples with the same repairs: the same object, as ``check_data`` passes
-    the last accepted repair's samples as the next check's "before") is cleaned and
-    windowed once, and each of its scores computed once; only the state the samples
-    stand in after a call is kept (its windows are :func:`prepare_logs`' result when no
-    later repair is kept).
+    the repair, since the check's own test found the fault. The score of the samples as
+    they stand is computed once per state (the last accepted repair's samples are the
+    next check's "before").
     """
 
     def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
         self.window, self.terms = window, terms
-        self._states: list[_State] = []
+        self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
 
-    def _state(self, samples: pd.DataFrame) -> _State:
-        for st in self._states:
-            if st.samples is samples:
-                return st
-        st = _State(samples)
-        self._states.append(st)
-        return st
-
-    def _windowed(self, st: _State) -> _Windowed:
-        if st.windowed is None:
-            st.windowed = _windowed(st.samples, self.window)
-        return st.windowed
-
-    def _heldout(self, samples: pd.DataFrame) -> HeldOutScore:
-        st = self._state(samples)
-        if st.heldout is None:
-            st.heldout = _heldout_of(self._windowed(st), self.terms)
-        return st.heldout
-
-    def _energy(self, samples: pd.DataFrame) -> EnergyScore | None:
-        if not _has_pose(samples):
-            return None
-        st = self._state(samples)
-        if st.energy is None:
-            st.energy = _energy_of(self._windowed(st), self.terms)
-        return st.energy
-
-    def windowed(self, samples: pd.DataFrame) -> _Windowed | None:
-        """The windows of ``samples`` if this guard cut them (and cleaning succeeded)."""
-        for st in self._states:
-            if st.samples is samples and st.windowed is not None:
-                return st.windowed if st.windowed.windows is not None else None
-        return None
+    def _score(self, samples: pd.DataFrame) -> HeldOutScore:
+        if self._before is not None and self._before[0] is samples:
+            return self._before[1]
+        return heldout_score(samples, window=self.window, terms=self.terms)
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
-        keep = None
         if finding.name in UNIT_REPAIRS:
-            e0 = self._energy(before)
+            e0 = energy_score(before, window=self.window, terms=self.terms)
             if e0 is not None:
-                keep = self._by_energy(e0, self._energy(after), finding)
-        if keep is None:
-            keep = self._by_power(before, after, finding)
-        now = after if keep else before
-        self._states = [st for st in self._states if st.samples is now]
-        return keep
+                e1 = energy_score(after, window=self.window, terms=self.terms)
+                keep = self._by_energy(e0, e1, finding)
+                if keep:
+                    self._before = None  # the samples changed: scored afresh next time
+                return keep
+        return self._by_power(before, after, finding)
 
     def _by_energy(self, e0: EnergyScore, e1: EnergyScore, finding: DataFinding) -> bool:
         """A unit repair: kept unless the held-out run energies get worse with it."""
@@ -560,8 +463,8 @@ class _HeldOutGuard:
         """Any other repair: kept unless the held-out window-power error rises with it."""
         from energy_planner.stats import paired_run_test
 
-        s0 = self._heldout(before)
-        s1 = self._heldout(after)
+        s0 = self._score(before)
+        s1 = heldout_score(after, window=self.window, terms=self.terms)
         r0, r1 = s0.rmse_w, s1.rmse_w
         both = s0.run_mse.index.intersection(s1.run_mse.index)
         # one "window" per run: d_r is the run's mean squared error without minus with
@@ -578,7 +481,10 @@ class _HeldOutGuard:
             "runs": n,
             "kept": keep,
         }
-        if not keep:
+        if keep:
+            self._before = (after, s1)
+        else:
+            self._before = (before, s0)
             finding.summary += (
                 f"; the repair was NOT applied: it raises the model's held-out RMSE from "
                 f"{r0:.3f} to {r1:.3f} W, worse in the runs beyond noise (signed-rank p "
@@ -638,12 +544,6 @@ def prepare_logs(
         samples = altitude_from_map(samples, terrain)
     accept = _HeldOutGuard(window, guard_terms) if guard else None
     findings, fixed = check_data(samples, repair=repair, accept=accept)
-    done = accept.windowed(fixed) if accept is not None else None
-    if done is not None:  # the guard cleaned and cut the samples as they stand: reused
-        del fixed, accept
-        for w in done.caught:  # the warnings of that cleaning, raised once now
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
-        return PreparedLogs(done.windows, findings, repair, done.report)
     clean, report = clean_logs(fixed)
     del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
     return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)
