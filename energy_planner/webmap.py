@@ -74,7 +74,7 @@ def _png_uri(gray: np.ndarray) -> str:
     rgba[..., :3] = (g * 255).astype(np.uint8)[..., None]
     rgba[..., 3] = np.where(np.isfinite(gray), 255, 0)
     buf = io.BytesIO()
-    Image.fromarray(rgba, mode="RGBA").save(buf, format="png")
+    Image.fromarray(rgba).save(buf, format="png")  # (h, w, 4) uint8: RGBA
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
