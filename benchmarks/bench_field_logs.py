@@ -49,8 +49,9 @@ Run::
 Measured (2 shared cores; the per-mission tables with ``--per-mission``). The robot-b rows
 and the ``--phases varied`` rows on main 02b8eea (``--campaigns 0 --swap``: 98 s, load
 average 1.4-4.8; ``--no-field --phases varied --missions 60 --duration 60 --campaigns 3``:
-161 s, load 3.6-5.0; the same with ``--map-altitude``: 149 s, load 4.5-2.8); the default-phase
-rows at load ~7, before::
+161 s, load 3.6-5.0; the same with ``--map-altitude``: 149 s, load 4.5-2.8). The
+default-phase sim-load rows and the two blocks under them are earlier runs (load ~7), not
+rerun::
 
     data set       n   median  p90 |e|   in 90%  binom 95%  x floor  met
     target             +-1.50%  <=5.00%  85%-95%             <=1.20
@@ -64,8 +65,8 @@ rows at load ~7, before::
     sim-load-0    20   +0.45%    4.70%    16/20      15-20     1.73  yynn
     sim-load-1    20   +0.05%    2.50%    20/20      15-20     2.00  yynn
     sim-load-2    20   +0.22%    2.19%    20/20      15-20     2.03  yynn   pooled 56/60
-    --map-altitude (measured before, not rerun; discover given the map: the IMU tilt is
-    checked and repaired):
+    default phases with --map-altitude (discover given the map: the IMU tilt is checked
+    and repaired):
     sim-load-0    20   -0.05%    4.36%    13/20      15-20     1.49  yynn
     sim-load-1    20   -0.08%    1.57%    16/20      15-20     1.44  yynn
     sim-load-2    20   +0.09%    2.03%    19/20      15-20     3.15  yyyn   pooled 48/60
