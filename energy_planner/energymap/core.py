@@ -202,11 +202,13 @@ def _map_by_windows(
             gx, gy, chan = block(r0, r1)
             b = k % 2 if setup.encoding == "float32" else 0
             bufs[b] = bands = block_bands(
-                setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True
-            )
+                setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True,
+                along=setup.along,
+            )  # fmt: skip
             if samples is not None:
-                samples.add(bands, r0)
-            codes[k % 2] = data = _encoded(setup, bands[setup.first :], codes[k % 2])
+                samples.add(bands, r0, setup.computed)
+            data = bands[setup.first - setup.computed :]
+            codes[k % 2] = data = _encoded(setup, data, codes[k % 2])
             writer.write(data, Window(0, r0, cols, r1 - r0))
         if samples is not None:
             # beside the last window's write (the result takes them), in the memory of the
