@@ -31,9 +31,10 @@ SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
 SPEED_BANDS = ("cheapest_speed",)
 #: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4),
 #: ``all`` (``along_*`` too, 2 N + 4) or ``summary`` (the four summary bands: the cheapest
-#: heading and its cost, the dearest, their ratio). All are computed; the heading bands are
-#: written only when asked, so a user who wants the cheapest heading does not pay for
-#: compressing and writing them.
+#: heading and its cost, the dearest, their ratio). The heading bands are written only
+#: when asked, so a user who wants the cheapest heading does not pay for compressing and
+#: writing them, and the ``along_*`` bands are kept in memory only with ``all``
+#: (:func:`block_bands`'s ``along``).
 BAND_SETS = ("best", "all", "summary")
 #: The bands written unless asked otherwise.
 DEFAULT_BANDS = "best"
