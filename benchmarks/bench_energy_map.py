@@ -104,7 +104,8 @@ kernel puts the walking-forward values into one plane with a stride of 0 along t
 headings; load 2.4-2.9, main 02b8eea in the same rounds, byte code cached): ``--pace``
 default 4.63 CPU s (main 5.05), ``--bands summary`` 3.32 (3.56), ``--encoding float32``
 5.82, ``--bands all`` 6.19; paired runs in turn (whole command, ``os.wait4``), median of
-8 pairs 4.43 CPU s against 4.75 (0.93x), peak RSS 210 MB against 244, fastest wall 2.51 s
+8 pairs 4.43 CPU s against 4.75 (0.93x; 8 more at load 3.3-5: 4.75 against 4.87,
+0.98x), peak RSS 210 MB against 244, fastest wall 2.51 s
 against 2.55; ``--bands summary`` 6 pairs 3.42 against 3.64 (0.95x). The same bytes as
 main's (``cmp``: default, ``--bands all``, ``--bands summary``, ``--encoding float32``).
 
