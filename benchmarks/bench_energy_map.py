@@ -99,6 +99,16 @@ exit collection (load 8-9, main in the same rounds): default 4.74 CPU s (main 4.
 ``--bands summary`` 3.51 (3.57), ``--encoding float32`` 5.69, ``--bands all`` 5.88; the
 map alone (``--stages``) 4.29 (4.53). The same bytes as main's.
 
+With the ``along_*`` bands kept out of the windows unless written (the precompiled
+kernel puts the walking-forward values into one plane with a stride of 0 along the
+headings; load 2.4-2.9, main 02b8eea in the same rounds, byte code cached): ``--pace``
+default 4.63 CPU s (main 5.05), ``--bands summary`` 3.32 (3.56), ``--encoding float32``
+5.82, ``--bands all`` 6.19; paired runs in turn (whole command, ``os.wait4``), median of
+8 pairs 4.43 CPU s against 4.75 (0.93x; 8 more at load 3.3-5: 4.75 against 4.87,
+0.98x), peak RSS 210 MB against 244, fastest wall 2.51 s
+against 2.55; ``--bands summary`` 6 pairs 3.42 against 3.64 (0.95x). The same bytes as
+main's (``cmp``: default, ``--bands all``, ``--bands summary``, ``--encoding float32``).
+
 ``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
 0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
 0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s

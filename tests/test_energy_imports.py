@@ -166,6 +166,78 @@ def test_precompiled_energy_map_loads_no_numba_and_writes_numbas_values(tmp_path
     np.testing.assert_array_equal(encode_block(ref, steps, aot=aot), encode_block(ref, steps))
 
 
+def _recording(monkeypatch, cls, seen):
+    """Record the stride along the headings of the ``along`` bands ``cls.map_bands`` gets."""
+    orig = cls.map_bands
+
+    def map_bands(self, gx, gy, chan, ang, along, best, precompiled=False):
+        seen.append(along.strides[0])
+        return orig(self, gx, gy, chan, ang, along, best, precompiled)
+
+    monkeypatch.setattr(cls, "map_bands", map_bands)
+
+
+def test_blocks_without_along_bands_equal_the_full_blocks(tmp_path, monkeypatch):
+    """``block_bands(along=False)`` (a file without the ``along_*`` bands) gives the full
+    block's ``best_*`` and summary bands to the last bit, by numba's kernels (the along
+    values into a scratch block) and by the precompiled ones (into one plane that every
+    heading overwrites: a view with a stride of 0 along the headings); on the bundled
+    hill under gait limits, and with a categorical land-cover raster (one kernel pass per
+    category)."""
+    import rasterio
+    from affine import Affine
+    from b1_model import b1_model  # tests/ helper
+
+    from energy_planner.energy.channels import Channels
+    from energy_planner.energy.heading import HeadingCost
+    from energy_planner.energymap.bands import block_bands
+    from energy_planner.energymap.setup import _setup
+    from energy_planner.request import Request
+    from energy_planner.terrain import load_dem
+
+    monkeypatch.setenv("ENERGY_PLANNER_PRECOMPILE", "1")
+    hill = load_dem(map_path("hill"))
+    req = Request.make(max_crab_deg=20.0, max_backward_slope_deg=5.0)
+    # a cover raster on the hill's grid: meadow (costs 250 W per m/s more) on its west half
+    rows, cols = hill.shape
+    cover = tmp_path / "cover.tif"
+    prof = dict(driver="GTiff", width=cols, height=rows, count=1, dtype="float64",
+                crs=hill.crs, transform=Affine(*tuple(hill.transform)[:6]))  # fmt: skip
+    with rasterio.open(cover, "w", **prof) as dst:
+        dst.write(np.where(np.arange(cols) < cols // 2, 1.0, 2.0)[None].repeat(rows, 0), 1)
+    table = tmp_path / "t.json"
+    table.write_text('{"1": "meadow", "2": "asphalt"}')
+    meadow = b1_model(extra={"speed * (ground == 'meadow')": 250.0})
+    cases = [
+        (_setup(None, req, None, 16), np.zeros((0, 1, 1))),
+        (_setup(meadow, req, Channels.parse([], [f"ground={cover}:{table}"]), 8), None),
+    ]
+    for setup, chan in cases:
+        n = setup.headings
+        if chan is None:
+            chan = setup.channels.bind(hill).stack(hill.shape)[0]
+            assert set(np.unique(chan).tolist()) == {0.0, 1.0}  # both categories
+        heading = HeadingCost(*setup.heading.params)  # its own precompiled module, built
+        assert heading.precompiled_map() is not None
+        ref = block_bands(heading, hill.dzdx, hill.dzdy, chan, n)  # numba's, every band
+        assert ref.shape[0] == 2 * n + 4 and np.isfinite(ref[n:]).any()
+        if setup.channels.rasters:  # the meadow half costs more
+            cheapest = ref[2 * n]
+            assert np.nanmedian(cheapest[:, : cols // 2]) > np.nanmedian(cheapest[:, cols // 2 :])
+        else:  # under gait limits, walking forward is not always the cheapest way
+            assert not np.array_equal(ref[:n], ref[n : 2 * n], equal_nan=True)
+        seen: list[int] = []
+        with monkeypatch.context() as m:
+            _recording(m, HeadingCost, seen)
+            for precompiled in (False, True):
+                got = block_bands(heading, hill.dzdx, hill.dzdy, chan, n,
+                                  precompiled=precompiled, along=False)  # fmt: skip
+                assert got.shape == (n + 4, *hill.shape)
+                np.testing.assert_array_equal(got, ref[n:])
+        # numba's kernel: a C-contiguous scratch block; the precompiled one: one plane
+        assert seen == [4 * rows * cols, 0]
+
+
 PLAN = (
     "import json, sys\n"
     "from energy_planner.energy.channels import Channels\n"

@@ -443,12 +443,18 @@ class HeadingCost:
         # other cells masked (NaN), each with that combination's table
         along[:] = np.nan
         best[:] = np.nan
-        a, b = np.empty_like(along), np.empty_like(best)
+        # bands of the same layout as numba's kernel is compiled for (empty_like of a view
+        # with a stride of 0, the along bands nobody reads, would put the headings last);
+        # such a view itself takes every pass's along values (:func:`~energy_planner.
+        # energymap.bands.block_bands`)
+        a = along if along.strides[0] == 0 else np.empty(along.shape, along.dtype)
+        b = np.empty(best.shape, best.dtype)
         for cells, table in self._combination_tables(chan, g2, ok):
             nan = np.full(gx.shape, np.nan)
             self._map(np.where(cells, gx, nan), np.where(cells, gy, nan), chan, ang,
                       np.ascontiguousarray(table), a, b, precompiled)  # fmt: skip
-            along[:, cells] = a[:, cells]
+            if a is not along:
+                along[:, cells] = a[:, cells]
             best[:, cells] = b[:, cells]
 
     def _combination_tables(self, chan, g2, ok):

@@ -31,9 +31,10 @@ SUMMARY_BANDS = ("cheapest", "dearest", "anisotropy", "cheapest_heading_deg")
 SPEED_BANDS = ("cheapest_speed",)
 #: Which bands a map file holds: ``best`` (``best_*`` and the summary bands, N + 4),
 #: ``all`` (``along_*`` too, 2 N + 4) or ``summary`` (the four summary bands: the cheapest
-#: heading and its cost, the dearest, their ratio). All are computed; the heading bands are
-#: written only when asked, so a user who wants the cheapest heading does not pay for
-#: compressing and writing them.
+#: heading and its cost, the dearest, their ratio). The heading bands are written only
+#: when asked, so a user who wants the cheapest heading does not pay for compressing and
+#: writing them, and the ``along_*`` bands are kept in memory only with ``all``
+#: (:func:`block_bands`'s ``along``).
 BAND_SETS = ("best", "all", "summary")
 #: The bands written unless asked otherwise.
 DEFAULT_BANDS = "best"
@@ -133,7 +134,7 @@ def heading_angles(headings: int) -> np.ndarray:
 
 def block_bands(
     heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int,
-    out: np.ndarray | None = None, precompiled: bool = False,
+    out: np.ndarray | None = None, precompiled: bool = False, along: bool = True,
 ) -> np.ndarray:  # fmt: skip
     """Every band of a block of cells, float32 ``(2 N + 4 + E, rows, cols)``.
 
@@ -146,7 +147,12 @@ def block_bands(
     from one window to the next: no fresh pages to fault in), else a new one.
     ``precompiled``: with the model's precompiled map kernels where there are some
     (:meth:`~energy_planner.energy.heading.HeadingCost.precompiled_map`: no numba to
-    load; the same values).
+    load; the same values). ``along``: False leaves out the ``along_*`` bands, for a
+    file that does not hold them: ``(N + 4 + E, rows, cols)``, from ``best_*`` on, the
+    same values. The kernel prices ``along`` either way; the precompiled one writes it
+    into one ``(rows, cols)`` plane that every heading overwrites (a stride of 0 along the
+    headings: no memory traffic for bands nobody reads), numba's into a scratch block
+    (its kernel is compiled for contiguous bands only).
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -156,14 +162,18 @@ def block_bands(
     chan = np.ascontiguousarray(chan, dtype=np.float64)
     ang = heading_angles(headings)
     extra = len(speed_bands(heading))
-    shape = (2 * headings + 4 + extra, rows, cols)
+    lead = headings if along else 0  # the along_* bands out holds
+    shape = (lead + headings + 4 + extra, rows, cols)
     if out is None or out.shape != shape:
         out = np.empty(shape, dtype=np.float32)
-    along = out[:headings]
-    best = out[headings : 2 * headings]
-    heading.map_bands(gx, gy, chan, ang, along, best, precompiled)
     aot = heading.precompiled_map() if precompiled else None
-    summary = out[2 * headings : 2 * headings + 4]
+    if along:
+        fwd = out[:headings]
+    else:
+        fwd = _discarded_along(headings, rows, cols, shared=aot is not None)
+    best = out[lead : lead + headings]
+    heading.map_bands(gx, gy, chan, ang, fwd, best, precompiled)
+    summary = out[lead + headings : lead + headings + 4]
     if aot is None:
         from energy_planner.energymap._summary import summary_bands
 
@@ -176,8 +186,26 @@ def block_bands(
     if extra:
         with np.errstate(invalid="ignore"):
             head = np.radians(summary[3].astype(np.float64))
-        heading.fill_speed_bands(gx, gy, chan, head, out[2 * headings + 4 :], best)
+        heading.fill_speed_bands(gx, gy, chan, head, out[lead + headings + 4 :], best)
     return out
+
+
+def _discarded_along(headings: int, rows: int, cols: int, shared: bool) -> np.ndarray:
+    """Somewhere for the kernel to put ``along`` bands nobody reads, ``(N, rows, cols)``.
+
+    ``shared``: one ``(rows, cols)`` float32 plane seen N times (stride 0 along the
+    headings), for the precompiled kernel, whose bands may have any strides: each cell's
+    N values land on one address (the threads of :func:`~energy_planner.energy.heading.
+    run_by_rows` take distinct rows, so never the same one). Else a scratch array of
+    its own: numba's kernel is compiled for C-contiguous bands, and a view with a stride
+    of 0 would make it compile another specialisation.
+    """
+    if not shared:
+        return np.empty((headings, rows, cols), dtype=np.float32)
+    plane = np.empty((rows, cols), dtype=np.float32)
+    return np.lib.stride_tricks.as_strided(
+        plane, shape=(headings, rows, cols), strides=(0, *plane.strides)
+    )
 
 
 def speed_bands(heading: Any) -> tuple[str, ...]:

@@ -202,11 +202,13 @@ def _map_by_windows(
             gx, gy, chan = block(r0, r1)
             b = k % 2 if setup.encoding == "float32" else 0
             bufs[b] = bands = block_bands(
-                setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True
-            )
+                setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True,
+                along=setup.along,
+            )  # fmt: skip
             if samples is not None:
-                samples.add(bands, r0)
-            codes[k % 2] = data = _encoded(setup, bands[setup.first :], codes[k % 2])
+                samples.add(bands, r0, setup.computed)
+            data = bands[setup.first - setup.computed :]
+            codes[k % 2] = data = _encoded(setup, data, codes[k % 2])
             writer.write(data, Window(0, r0, cols, r1 - r0))
         if samples is not None:
             # beside the last window's write (the result takes them), in the memory of the
@@ -590,11 +592,12 @@ def energy_map(
         ``zstd`` (default) writes 1.7x faster than ``deflate`` at the same size (GDAL >=
         2.3 reads it); ``deflate`` reads everywhere; ``none`` writes fastest, about 1.8x
         larger. The values are the same.
-    bands : {"best", "all"}
+    bands : {"best", "all", "summary"}
         Which bands the file holds: ``best`` (default) the ``best_*`` heading bands and
-        the four summary bands (N + 4 float32 bands); ``all`` also the ``along_*`` bands
+        the four summary bands (N + 4 bands); ``all`` also the ``along_*`` bands
         (walking facing along each heading; 2 N + 4 bands, nearly twice the bytes to
-        write). Both are computed either way.
+        write); ``summary`` the four summary bands. The values are the same either way;
+        the ``along_*`` bands are kept in memory only with ``all``.
     encoding : {"uint16", "float32"}
         How the bands are stored (:mod:`energy_planner.energymap.encoding`): ``uint16``
         (default) scaled integers with GDAL scale and offset, to 0.125 J/m (half of

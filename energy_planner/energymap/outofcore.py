@@ -59,7 +59,8 @@ def gradient_dask(z: Any, step_x: float, step_y: float) -> tuple[Any, Any]:
     return gx, gy
 
 
-def _bands_block(gx, gy, *, heading, headings, channels, transform, crs, block_info=None):
+def _bands_block(gx, gy, *, heading, headings, channels, transform, crs, along=True,
+                 block_info=None):  # fmt: skip
     from affine import Affine
 
     rows, cols = gx.shape
@@ -70,7 +71,7 @@ def _bands_block(gx, gy, *, heading, headings, channels, transform, crs, block_i
     else:
         chan = np.zeros((0, 1, 1))
     with _KERNEL_LOCK:
-        return block_bands(heading, gx, gy, chan, headings)
+        return block_bands(heading, gx, gy, chan, headings, along=along)
 
 
 def _encode_block(block: np.ndarray, *, steps: np.ndarray) -> np.ndarray:
@@ -164,10 +165,10 @@ def compute_dask(
     gx, gy = gradient_dask(z, t.a, t.e)
 
     bands = da.map_blocks(
-        _bands_block, gx, gy, new_axis=0, chunks=((setup.full,), *gx.chunks),
+        _bands_block, gx, gy, new_axis=0, chunks=((setup.full - setup.computed,), *gx.chunks),
         dtype=np.float32, heading=setup.heading, headings=setup.headings,
-        channels=setup.channels, transform=t, crs=info.crs,
-    )[setup.first :]  # fmt: skip
+        channels=setup.channels, transform=t, crs=info.crs, along=setup.along,
+    )[setup.first - setup.computed :]  # fmt: skip
     if setup.encoding == "uint16":
         bands = bands.map_blocks(_encode_block, steps=setup.steps, dtype=np.uint16)
     nb = setup.nbands

@@ -357,14 +357,18 @@ class _Samples:
         self.speed: list[np.ndarray] = []
         self._stats: dict[str, Any] | None = None
 
-    def add(self, bands: np.ndarray, r0: int) -> None:
-        """Take the sampled cells of a window's bands (full layout) starting at row ``r0``."""
+    def add(self, bands: np.ndarray, r0: int, lead: int = 0) -> None:
+        """Take the sampled cells of a window's bands starting at row ``r0``.
+
+        ``bands``: the full layout from its band ``lead`` on (``N`` for a window computed
+        without its ``along_*`` bands).
+        """
         self._stats = None
         first, off, k = (self.off - r0) % self.scale, self.off, self.scale
-        self.cheap.append(bands[self.i_cheap, first::k, off::k].astype(float))
-        self.aniso.append(bands[self.i_aniso, first::k, off::k].astype(float))
+        self.cheap.append(bands[self.i_cheap - lead, first::k, off::k].astype(float))
+        self.aniso.append(bands[self.i_aniso - lead, first::k, off::k].astype(float))
         if self.i_speed is not None:
-            self.speed.append(bands[self.i_speed, first::k, off::k].astype(float))
+            self.speed.append(bands[self.i_speed - lead, first::k, off::k].astype(float))
 
     def stats(self) -> dict[str, Any]:
         """As :func:`_stats` would read them (computed once after the last :meth:`add`).

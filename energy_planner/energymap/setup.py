@@ -63,6 +63,20 @@ class _Setup:
         return first_band(self.headings, self.bands)
 
     @property
+    def along(self) -> bool:
+        """Whether the ``along_*`` bands are written, so computed into the windows' bands.
+
+        Without them :func:`~energy_planner.energymap.bands.block_bands` leaves them out
+        (``along=False``): the windows' bands start at ``best_*`` (:attr:`computed`).
+        """
+        return self.first == 0
+
+    @property
+    def computed(self) -> int:
+        """Index in the full band layout of a computed block's first band (see :attr:`along`)."""
+        return 0 if self.along else self.headings
+
+    @property
     def nbands(self) -> int:
         """Number of bands written."""
         return self.full - self.first
