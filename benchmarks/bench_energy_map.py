@@ -229,6 +229,8 @@ def max_diff(a: Path, b: Path) -> float:
 
 
 #: main's map kernel before the one heading cost (the baseline): best of 4 body yaws.
+#: It predates the gait limits: ``gait_cost`` is called with none (``btan = cmax = inf``),
+#: which is also what the default model's heading cost uses.
 OLD_MAP_COSTS = """
 @numba.njit(cache=True, parallel=True)
 def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
@@ -237,6 +239,7 @@ def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
     nch = chan.shape[0]
     hc = np.cos(headings)
     hs = np.sin(headings)
+    nolim = math.inf  # gait_cost's btan and cmax: no gait limit, as this kernel had
     for r in numba.prange(rows):
         chv = np.empty(nch)
         for c in range(cols):
@@ -274,14 +277,14 @@ def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
                 v1 = u1 / dt
                 v2 = dz / dt
                 fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                smax, chv)
+                                smax, nolim, nolim, chv)
                 m = fwd
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 along[j, r, c] = fwd
                 best[j, r, c] = m
 """
@@ -326,8 +329,8 @@ s = np.empty((nh, 4, 4), np.float32)
 (kernel if which == "old" else hc.map_bands)(*([w(gx[1:5, 1:5]), w(gy[1:5, 1:5]), chan, ang]
     + ([0.3, math.inf, math.inf] if which == "old" else [])), s, s.copy())
 import energy_planner.energy.heading as H
-H._load_table = lambda key: None  # build the table in the run
-H._save_table = lambda key, t: None
+H._load_table = lambda *key: None  # build the table in the run
+H._save_table = lambda *key: None
 t0, c0 = time.perf_counter(), time.process_time()
 tt = 0.0
 step = 256
@@ -336,7 +339,8 @@ best = np.empty_like(along)
 for r0 in range(0, size, step):
     r1 = min(size, r0 + step)
     a, b = w(gx[r0:r1]), w(gy[r0:r1])
-    if which == "new" and fresh._built < fresh.n_alpha:
+    built = fresh._tables.get((), [None, 0])[1]  # rows of the table built so far
+    if which == "new" and built < fresh.n_alpha:
         t1 = time.perf_counter()
         g = np.hypot(a, b)
         fresh.table(float(np.arctan(np.nanmax(g))))
