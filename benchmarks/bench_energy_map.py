@@ -114,6 +114,16 @@ main's (``cmp``: default, ``--bands all``, ``--bands summary``, ``--encoding flo
 0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s
 against 11.18 s, 5.04 CPU s (2.31x wall, 2.10x CPU).
 
+Earlier rounds, kept here (the guide states the current numbers): at 4096^2 with 36
+float32 bands, against commit b0302e8 in the same script (load 5-12): in memory 17.8 CPU
+s against 33.4, windowed 16.2 against 33.5, dask 18.1 against 639.3 (its blocks stored
+by ``rio.to_raster``), jacksboro 2.5 against 2.7, every map bit for bit the baseline's.
+At 2048^2 with the precompiled map kernels and float32 bands (load 8): default 5.97 CPU
+s (main 7.12), ``--bands all`` 7.78 (9.06); the 200 x 200 hill 0.84 CPU s, 1.8 s wall
+against 1.94 CPU s, 4.5 s. With the writer thread compressing, nearly idle (8 runs of
+each in turn, whole process): default 2.80 s wall, 4.66 CPU s against main's 2.96 s,
+4.92 CPU s; a 64 x 64 map 571-603 ms of CPU against 654-680 (``perf stat -r 8``, load 9).
+
 Commands: ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python
 benchmarks/bench_energy_map.py --pace --size 2048 --runs 2 --baseline-python
 /work/main/.venv/bin/python`` (the first four rows); ``python
@@ -387,7 +397,7 @@ def kernel_table(sizes: list[int], headings: int, old_max: int = 2048) -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for size, res in rows:
         n = size * size * headings
-        for which, label in (("old", "old: 4 yaws (main)"), ("new", "new: every yaw")):
+        for which, label in (("old", "old: 4 yaws"), ("new", "new: every yaw")):
             if which not in res:
                 continue
             r = res[which]
