@@ -114,6 +114,16 @@ main's (``cmp``: default, ``--bands all``, ``--bands summary``, ``--encoding flo
 0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s
 against 11.18 s, 5.04 CPU s (2.31x wall, 2.10x CPU).
 
+Earlier rounds, kept here (the guide states the current numbers): at 4096^2 with 36
+float32 bands, against commit b0302e8 in the same script (load 5-12): in memory 17.8 CPU
+s against 33.4, windowed 16.2 against 33.5, dask 18.1 against 639.3 (its blocks stored
+by ``rio.to_raster``), jacksboro 2.5 against 2.7, every map bit for bit the baseline's.
+At 2048^2 with the precompiled map kernels and float32 bands (load 8): default 5.97 CPU
+s (main 7.12), ``--bands all`` 7.78 (9.06); the 200 x 200 hill 0.84 CPU s, 1.8 s wall
+against 1.94 CPU s, 4.5 s. With the writer thread compressing, nearly idle (8 runs of
+each in turn, whole process): default 2.80 s wall, 4.66 CPU s against main's 2.96 s,
+4.92 CPU s; a 64 x 64 map 571-603 ms of CPU against 654-680 (``perf stat -r 8``, load 9).
+
 Commands: ``env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=/tmp/pyc python
 benchmarks/bench_energy_map.py --pace --size 2048 --runs 2 --baseline-python
 /work/main/.venv/bin/python`` (the first four rows); ``python
@@ -229,6 +239,8 @@ def max_diff(a: Path, b: Path) -> float:
 
 
 #: main's map kernel before the one heading cost (the baseline): best of 4 body yaws.
+#: It predates the gait limits: ``gait_cost`` is called with none (``btan = cmax = inf``),
+#: which is also what the default model's heading cost uses.
 OLD_MAP_COSTS = """
 @numba.njit(cache=True, parallel=True)
 def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
@@ -237,6 +249,7 @@ def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
     nch = chan.shape[0]
     hc = np.cos(headings)
     hs = np.sin(headings)
+    nolim = math.inf  # gait_cost's btan and cmax: no gait limit, as this kernel had
     for r in numba.prange(rows):
         chv = np.empty(nch)
         for c in range(cols):
@@ -274,14 +287,14 @@ def old_map_costs(gx, gy, chan, headings, speed, tmax, smax, along, best):
                 v1 = u1 / dt
                 v2 = dz / dt
                 fwd = gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u0, u1, v0, v1, v2, dt,
-                                smax, chv)
+                                smax, nolim, nolim, chv)
                 m = fwd
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u0, -u1, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, u1, -u0, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 m = min(m, gait_cost(a, b, alpha, ca, sa, c_psi, s_psi, -u1, u0, v0, v1, v2,
-                                     dt, smax, chv))
+                                     dt, smax, nolim, nolim, chv))
                 along[j, r, c] = fwd
                 best[j, r, c] = m
 """
@@ -326,8 +339,8 @@ s = np.empty((nh, 4, 4), np.float32)
 (kernel if which == "old" else hc.map_bands)(*([w(gx[1:5, 1:5]), w(gy[1:5, 1:5]), chan, ang]
     + ([0.3, math.inf, math.inf] if which == "old" else [])), s, s.copy())
 import energy_planner.energy.heading as H
-H._load_table = lambda key: None  # build the table in the run
-H._save_table = lambda key, t: None
+H._load_table = lambda *key: None  # build the table in the run
+H._save_table = lambda *key: None
 t0, c0 = time.perf_counter(), time.process_time()
 tt = 0.0
 step = 256
@@ -336,7 +349,8 @@ best = np.empty_like(along)
 for r0 in range(0, size, step):
     r1 = min(size, r0 + step)
     a, b = w(gx[r0:r1]), w(gy[r0:r1])
-    if which == "new" and fresh._built < fresh.n_alpha:
+    built = fresh._tables.get((), [None, 0])[1]  # rows of the table built so far
+    if which == "new" and built < fresh.n_alpha:
         t1 = time.perf_counter()
         g = np.hypot(a, b)
         fresh.table(float(np.arctan(np.nanmax(g))))
@@ -383,7 +397,7 @@ def kernel_table(sizes: list[int], headings: int, old_max: int = 2048) -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for size, res in rows:
         n = size * size * headings
-        for which, label in (("old", "old: 4 yaws (main)"), ("new", "new: every yaw")):
+        for which, label in (("old", "old: 4 yaws"), ("new", "new: every yaw")):
             if which not in res:
                 continue
             r = res[which]
