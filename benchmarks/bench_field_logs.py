@@ -79,6 +79,15 @@ rerun::
     sim-load-0    20   -1.03%    3.02%    16/20      15-20     0.91  yyny
     sim-load-1    20   -0.38%    1.24%    15/20      15-20     0.92  yyny
     sim-load-2    20   -1.03%    2.63%    15/20      15-20     0.81  yyny   pooled 46/60
+    the same with --map-altitude, the twist dead band judged by the energy of paths
+    (``twist_noise`` in ``UNIT_REPAIRS``, b3e1e71; 115 s, load 2.0-3.1):
+    sim-load-0    20   -0.11%    2.10%    17/20      15-20     0.97  yyyy
+    sim-load-1    20   -0.38%    1.24%    15/20      15-20     0.92  yyny
+    sim-load-2    20   -0.05%    2.03%    16/20      15-20     0.93  yyny   pooled 48/60
+    the same without the map (b3e1e71; 294 s, load 2.6-4.0):
+    sim-load-0    20   +0.28%    2.34%    20/20      15-20     1.27  yynn
+    sim-load-1    20   -0.29%    1.96%    18/20      15-20     1.02  yyyy
+    sim-load-2    20   +0.05%    2.42%    18/20      15-20     1.12  yyyy   pooled 56/60
 
 On the varied campaigns without the map, discover adds ``load_kg*P_base`` (seeds 0 and 2,
 then nothing) or ``load_kg*P_base``, ``load_kg*fwd_const`` and ``pos(load_kg - 18)`` (seed
@@ -118,8 +127,48 @@ poses' path is priced without the odometry. The window error rises with the dead
 while the energies of the paths lose their bias. Judged by the energy of a path, as the
 repairs of units are (``calibration.prepare.UNIT_REPAIRS`` with ``twist_noise`` added, on
 seed 0 without the map), the guard keeps it: median held-out run-energy error 3.94 ->
-3.54 %, p_worse 0.09 over 60 runs. The library does not do that (its effect on the other
-campaigns whose guard refuses the dead band, ``docs/diagnosis.md``, is not measured).
+3.54 %, p_worse 0.09 over 60 runs. The library now does that (``twist_noise`` is in
+``UNIT_REPAIRS``; its effect on the other campaigns whose guard refused the dead band,
+``docs/diagnosis.md``, is not measured): with the map the rows above (the dead band kept
+on every seed, the same numbers as ``guard=False``), 48/60 in the intervals, still below
+the band of 60 (49-58). Pooled, the normalized errors have a mean of +0.40 and an RMS of
+1.24 (+0.46 / 1.23, +0.54 / 1.15, +0.21 / 1.33 by seed; median half-width 1.6 / 1.2 / 1.6 %).
+
+What is left is the energy the windows never hold. Per held-out mission (seeds 0, 1, 2,
+the model discover writes with the map, its error model's sigma for each prediction;
+``python benchmarks/field_logs_window_share.py SEED``: the held-out logs prepared as
+discover prepares them, the model's per-sample power summed over their windows):
+
+    mean error, z mean, z RMS         seed 0                 seed 1                 seed 2
+    whole mission, logged poses    -0.43 % -0.54 1.44    -0.40 % -0.54 1.16    -0.21 % -0.20 1.28
+    windows, priced from the pose  -0.13 % -0.16 1.23    -0.11 % -0.14 0.94    -0.06 % -0.06 1.13
+    windows, from the odometry     -0.65 % -0.78 1.52    -0.57 % -0.78 1.20    -0.44 % -0.42 1.25
+
+(``z = (predicted - measured) / sigma``, sigma 0.8 / 0.7 / 1.0 % at the median). The
+windows hold 95.7 / 95.2 / 95.3 % of a mission's battery energy (median); the rest, the
+samples cleaning drops (the speed ramps shorter than ``MIN_STOP_S`` as the gait starts
+and stops, samples beyond the consistency bound, windows shorter than 1 s; which of them
+holds most of it is not measured), is priced 3-7 % low: -0.29 / -0.29 / -0.15 % of the
+mission's energy (sd 0.45 / 0.29 / 0.70 %). (The odometry row's repairs are estimated on
+the 20 held-out missions alone.) The error model is calibrated on the held-out runs'
+window energies (``calibration.fit.cross_validate``: measured and
+predicted over the windows only), so that part of the mission's error is in no score,
+and it is mostly a bias, not a spread. Within the windows the pose-priced energies are
+calibrated on seed 1 (z RMS 0.94) and a little narrow on seeds 0 and 2 (1.23 and 1.13
+over 20: chi-square upper tail p 0.07 and 0.18; pooled over the whole missions in the
+table's rows, 1.24 over 60: p 0.005). Calibrating the error model on the pose track
+instead of the odometry (each held-out run's window energy priced from ``pose_twist`` by
+its fold's coefficients; tried, not kept) does not help: 16 / 11 / 16 of 20 (43/60;
+median half-width 1.66 / 0.91 / 1.63 %: seed 1's intervals narrow).
+The cause left to fix is the whole run: the held-out runs' scores should compare the
+battery energy of every sample of the run with the prediction of every sample (the dropped
+ones priced from the pose too), or the speed ramps priced by a term; neither is done. An
+estimate, not a measurement (in-sample: the held-out missions' own errors outside their
+windows): each interval of the rows above moved by its seed's mean error outside the
+windows and widened by its sd in quadrature holds 17 / 19 / 18 of 20, 54/60 (moved only:
+15 / 18 / 17). Robot-b with
+``--map-altitude`` (``--campaigns 0 --swap``; its logs have no ``z``, the map gives it):
+no ``imu_tilt`` finding, the same rows as without the map (11/12 and 11/12, 1.07 / 1.04x).
 
 With 12 or 20 missions a calibrated 90 % interval holds all of them in 28 % / 12 % of
 samples: the coverage column is to be read against its binomial band. Robot-b's x floor

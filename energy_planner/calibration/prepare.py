@@ -250,10 +250,15 @@ def heldout_score(
 
 
 #: The data findings whose repair changes the units of the logs (the odometry's metre, the
-#: power's sign, its clock). Windows fitted and scored in the logs' own units cannot see
-#: a unit error (the coefficients absorb it), so these repairs are judged by what the
-#: model is for: the energy of a path in map metres (:func:`energy_score`).
-UNIT_REPAIRS = frozenset({"current_sign", "clock_offset", "odometry_slip", "odometry_scale"})
+#: power's sign, its clock) or what the odometry's speed means (the twist's dead band: the
+#: noise that ``abs()`` and ``pos()`` terms rectify into motion is set to zero, a speed
+#: that a path in map metres never has). Windows fitted and scored in the logs' own units
+#: cannot see such an error (the coefficients absorb it: the dead band raises the window
+#: error while the energies of paths lose a bias), so these repairs are judged by what
+#: the model is for: the energy of a path in map metres (:func:`energy_score`).
+UNIT_REPAIRS = frozenset(
+    {"current_sign", "clock_offset", "odometry_slip", "odometry_scale", "twist_noise"}
+)
 #: Half-width of the central difference that turns the pose track into a velocity, s.
 POSE_HALF_WIDTH_S = 0.5
 
