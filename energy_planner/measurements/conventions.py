@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from energy_planner.errors import LogError
-from energy_planner.measurements.schema import VOLTAGE_RANGE
+from energy_planner.measurements.schema import VOLTAGE_RANGE, float_values
 
 __all__ = ["MAX_CURRENT_A", "UNITS", "check_magnitudes", "parquet_units", "to_canonical_units"]
 
@@ -268,7 +268,7 @@ def check_magnitudes(df: pd.DataFrame, source: str) -> None:
     for canon in ("voltage", "current"):
         if canon not in df.columns:
             continue
-        v = pd.to_numeric(df[canon], errors="coerce").to_numpy(float)
+        v = float_values(df[canon])
         v = v[np.isfinite(v)]
         if not v.size:
             continue

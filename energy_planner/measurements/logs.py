@@ -34,6 +34,7 @@ from energy_planner.measurements.schema import (
     check_columns,
     check_runs,
     check_time,
+    float_values,
     validate_log,
 )
 
@@ -340,9 +341,15 @@ def _canonical(df: pd.DataFrame, source: str | None, categories: bool) -> pd.Dat
     check_runs(df, source)
     # columns gathered, then one frame built: assigning ~20 columns one by one into a
     # frame cost ~1.5 ms each (pandas' block manager), 2/3 of loading a campaign's files
-    out: dict[str, Any] = {"run": df["run"].astype(str)}
+    names = df.columns.tolist()  # plain str: membership and lookups without the Index
+    present = set(names)
+    run_in = df["run"]
+    out: dict[str, Any] = {"run": run_in.astype(str)}
+    # a table already canonical (a logger's file: float64, in order) is kept as it is
+    # instead of being rebuilt column by column
+    same = out["run"].dtype == run_in.dtype and len(present) == len(names)
     for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
-        if c not in df.columns:
+        if c not in present:
             continue
         col = df[c]
         if not (pd.api.types.is_numeric_dtype(col) or col.isna().all()):
@@ -361,8 +368,12 @@ def _canonical(df: pd.DataFrame, source: str | None, categories: bool) -> pd.Dat
                     expected="a number in SI units",
                 )
             col = num
-        out[c] = col if col.dtype == np.float64 else col.astype("float64")
-    for c in df.columns:
+            same = False
+        if col.dtype != np.float64:
+            col = col.astype("float64")
+            same = False
+        out[c] = col
+    for c in names:
         if c in CANONICAL_COLUMNS:
             continue
         col = df[c]
@@ -385,8 +396,15 @@ def _canonical(df: pd.DataFrame, source: str | None, categories: bool) -> pd.Dat
             _check_extra_column(col, str(c), df["run"], source)
             if not (isinstance(col.dtype, pd.StringDtype) and col.dtype.na_value is np.nan):
                 col = col.astype("string").astype(object)  # each value as its text, in str
-            out[c] = col.astype("category") if categories else col
-    frame = pd.DataFrame(out, index=df.index, copy=False)
+                same = False
+            if categories:
+                col = col.astype("category")
+                same = False
+            out[c] = col
+    if same and list(out) == names:
+        frame = df
+    else:
+        frame = pd.DataFrame(out, index=df.index, copy=False)
     run = out["run"].to_numpy(dtype=object)
     t = frame["t"].to_numpy(dtype=float) if "t" in frame.columns else None
     if t is not None and len(run) > 1:
@@ -442,12 +460,9 @@ def current_sign(df: pd.DataFrame) -> dict[str, Any]:
     >>> current_sign(df)["ros_sign"]
     True
     """
-    v = np.hypot(
-        pd.to_numeric(df["vx"], errors="coerce").to_numpy(float),
-        pd.to_numeric(df["vy"], errors="coerce").to_numpy(float),
-    )
-    w = np.abs(pd.to_numeric(df["wz"], errors="coerce").to_numpy(float))
-    cur = pd.to_numeric(df["current"], errors="coerce").to_numpy(float)
+    v = np.hypot(float_values(df["vx"]), float_values(df["vy"]))
+    w = np.abs(float_values(df["wz"]))
+    cur = float_values(df["current"])
     with np.errstate(invalid="ignore"):
         moving = ((v >= MOTION_THRESHOLD) | (w >= MOTION_THRESHOLD)) & np.isfinite(cur)
     c = cur[moving]

@@ -236,8 +236,10 @@ def make_windows(
     dt[fill] = np.concatenate([[0.0], dt_next])[fill]
     t0 = pd.Series(t).groupby(block).transform("first").to_numpy()
     k = np.floor((t - t0) / duration + 1e-9).astype(np.int64)
-    key = pd.MultiIndex.from_arrays([block, k])
-    codes = pd.factorize(key)[0]
+    # the (block, k) pairs numbered in order of first appearance, as factorizing their
+    # MultiIndex would, from one int64 key per pair (no tuple per sample)
+    kb = pd.factorize(k)[0]
+    codes = pd.factorize(block * np.int64(kb.max() + 1) + kb)[0]
     dur = np.bincount(codes, weights=dt)
     cnt = np.bincount(codes)
     ok_win = (dur >= min_fraction * duration - 1e-9) & (cnt >= min_samples)
