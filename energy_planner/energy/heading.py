@@ -514,16 +514,43 @@ def run_by_rows(fn: Any, rows: int) -> None:
     For the precompiled map kernels, which release the GIL (numba's own kernels spread a
     block over the cores with ``prange``).
     """
+    import threading
+
     n = max(1, min(usable_cores(), rows))
     cuts = [rows * k // n for k in range(n + 1)]
-    if n == 1:
-        fn(0, rows)
+    if n == 1 or threading.current_thread().name.startswith(_ROW_THREADS):
+        fn(0, rows)  # one core, or called from a row thread itself (its pool is busy)
         return
+    pool = _row_pool(n - 1)
+    # the calling thread takes the last range itself: n - 1 helper threads, kept between
+    # calls (a map calls this for every window and band group)
+    futures = [pool.submit(fn, a, b) for a, b in zip(cuts[:-2], cuts[1:-1], strict=True)]
+    try:
+        fn(cuts[-2], cuts[-1])
+    finally:
+        for f in futures:  # no range is still being written when this returns or raises
+            f.exception()
+    for f in futures:
+        f.result()
+
+
+_POOL: dict[tuple[int, int], Any] = {}
+_ROW_THREADS = "energy_planner_rows"
+
+
+def _row_pool(threads: int) -> Any:
+    """A thread pool of ``threads`` workers for :func:`run_by_rows`, one per process.
+
+    Keyed by the process id too: a forked child does not inherit the parent's threads.
+    """
+    import os
     from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(n) as pool:
-        for f in [pool.submit(fn, a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]:
-            f.result()
+    key = (os.getpid(), threads)
+    pool = _POOL.get(key)
+    if pool is None:  # an executor starts no thread before its first task: a lost race is free
+        pool = _POOL.setdefault(key, ThreadPoolExecutor(threads, thread_name_prefix=_ROW_THREADS))
+    return pool
 
 
 def _top(g2: np.ndarray) -> float:
