@@ -15,13 +15,14 @@ Data flows one way (see ``docs/architecture.md``)::
     measurements -> calibration -> diagnosis
 
 Names are imported on first use (module ``__getattr__``), so ``import energy_planner``
-stays cheap: rasterio, ompl and numba load only with the verb that needs them.
+stays cheap: rasterio, ompl and numba load only with the verb that needs them, and the
+package itself imports nothing (not even :mod:`typing`, which ``energy-planner --help``
+does without).
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+import sys
 
 __version__ = "0.1.0"
 
@@ -58,11 +59,12 @@ _LAZY: dict[str, str] = {
 __all__ = ["__version__", *_LAZY]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     mod = _LAZY.get(name)
     if mod is None:
         raise AttributeError(f"module 'energy_planner' has no attribute {name!r}")
-    value = getattr(importlib.import_module(mod), name)
+    __import__(mod)
+    value = getattr(sys.modules[mod], name)
     globals()[name] = value
     return value
 

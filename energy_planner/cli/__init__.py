@@ -1,41 +1,25 @@
 """The ``energy-planner`` command line.
 
-A click group whose sub-commands live one per module in this package (``terrain.py``,
+A click group (:mod:`energy_planner.cli._group`: the warnings and exit statuses every
+command shares) whose sub-commands live one per module in this package (``terrain.py``,
 ``energy.py``, ...), each exposing a click command named ``command``. Modules are
-imported only when their command runs, so ``energy-planner --help`` stays fast and a
-command's heavy imports (rasterio, ompl, numba) are paid only by that command.
+imported only when their command runs, so a command's heavy imports (rasterio, ompl,
+numba) are paid only by that command.
 
-Two things every command shares are done here, once:
-
-- **Warnings** are collected while the command runs and printed at its end on stderr,
-  one line each, ``warning: <message>``, with no line of Python source. A warning that
-  repeats (the same text, or the same text but for its numbers, names and paths) is one
-  line with its count. A warning carrying a Python remedy
-  (:class:`~energy_planner.errors.EnergyPlannerWarning`) is printed without it.
-- **Exit status**: 0 success; **2 usage**: the command line is wrong (an unknown or
-  missing option, a malformed value, a point outside the map, a channel value the model
-  cannot take, a file named on the command line that does not exist or cannot be read);
-  **1 data**: a file that is there but whose content is wrong (a DEM that is not a
-  raster, a model file that is not JSON, malformed logs, waypoints, keep-outs, sites or
-  value tables), or a computation that fails (no path, a fit that cannot be made).
-  Commands raise ``click.BadParameter`` or ``click.ClickException`` from the library's
-  errors; :func:`exit_status_error` applies the rule above to the error's cause, so a
-  command cannot get it wrong. No error prints a traceback.
+This module itself imports neither click nor the group: ``energy-planner --help`` (the
+console script's :data:`main` called with ``--help`` or ``-h`` alone) prints the group's
+help from :data:`COMMANDS`, :data:`GROUP_HELP` and :data:`GROUP_OPTIONS`, wrapped as
+click wraps it (:func:`group_help`), in the time of the interpreter's own start-up and
+:mod:`textwrap`. Anything else, and every use of :data:`main` as a click group
+(``CliRunner().invoke(main, ...)``, ``main.get_command``), loads the group first.
+The names of :mod:`energy_planner.cli._group` (``exit_status_error``,
+``summarized_warnings``, ...) are importable from here too, loading it.
 """
 
 from __future__ import annotations
 
-import contextlib
-import functools
-import importlib
 import os
-import re
 import sys
-import warnings
-from collections.abc import Iterator
-from typing import Any
-
-import click
 
 # one BLAS thread, set before any command imports numpy (which loads OpenBLAS): the
 # commands' linear algebra is small (a fold's fit: tens of terms over hundreds of windows),
@@ -67,135 +51,26 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "follow": ("follow", "Replay a log along a planned path: remaining energy, updated."),
 }
 
-
-class _DataError(click.ClickException):
-    """The inputs were read but are wrong, or the computation failed: exit status 1.
-
-    A command-line wrapper of a library error (which carries the project's base): it never
-    leaves the command line, so it is private like the other CLI plumbing.
-    """
-
-    exit_code = 1
-
-
-#: What varies between warnings of one kind (quoted names, paths, numbers), a pattern
-#: compiled at the first warning (by :mod:`re`'s cache), not by every start of the command.
-_VARYING = r"(?i)'[^']*'|\"[^\"]*\"|\S*[/\\]\S*|[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?%?"
-
-
-def _warning_text(message: Any) -> str:
-    """A warning's text as the command line prints it (no Python-only remedy)."""
-    text = message.cli_text() if hasattr(message, "cli_text") else str(message)
-    return " ".join(text.split())
-
-
-class WarningSummary:
-    """Warnings of one command, printed at its end: one line per kind, with a count.
-
-    Two warnings are of one kind when their texts are equal but for numbers, quoted
-    names and paths (:data:`_VARYING`), e.g. the same note about 90 log files.
-    """
-
-    def __init__(self) -> None:
-        self.groups: dict[tuple[str, str], list[Any]] = {}
-
-    def add(self, message: Any, category: type[Warning]) -> None:
-        """Record one warning (a ``warnings.showwarning`` replacement calls this)."""
-        text = _warning_text(message)
-        key = (category.__name__, re.sub(_VARYING, "#", text))
-        group = self.groups.setdefault(key, [text, 0, set()])
-        group[1] += 1
-        group[2].add(text)
-
-    def lines(self) -> list[str]:
-        """``warning: ...`` lines, one per kind of warning, in the order first seen."""
-        out = []
-        for text, n, texts in self.groups.values():
-            if n == 1:
-                out.append(f"warning: {text}")
-            elif len(texts) == 1:
-                out.append(f"warning: {text} ({n} times)")
-            else:
-                out.append(f"warning: {text} (and {n - 1} more like it)")
-        return out
-
-
-@contextlib.contextmanager
-def summarized_warnings() -> Iterator[WarningSummary]:
-    """Collect the warnings raised inside; print them on stderr when the block ends."""
-    summary = WarningSummary()
-
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
-        summary.add(message, category)
-
-    with warnings.catch_warnings():
-        # notes for the developers of the libraries we call, not for the user
-        warnings.simplefilter("ignore", DeprecationWarning)
-        warnings.simplefilter("ignore", PendingDeprecationWarning)
-        warnings.filterwarnings("always", category=UserWarning)  # count every one
-        warnings.showwarning = show
-        try:
-            yield summary
-        finally:
-            for line in summary.lines():
-                click.echo(line, err=True)
-
-
-def _file_is_there(path: Any) -> bool:
-    """True if ``path`` names an existing, readable file or folder."""
-    return isinstance(path, str) and os.path.exists(path) and os.access(path, os.R_OK)
-
-
-#: Library parameters that are files: an error naming one of them (its ``param`` field)
-#: is about the file; an error naming another parameter (``band``, ``bounds``, ...) is
-#: about that option's value, a usage error even when it names the file too.
-FILE_PARAMS = frozenset(
-    {"dem", "path", "keep_out", "waypoints", "sites", "model", "logs", "channel", "prior"}
+#: The group's help text (click's ``help`` of the group).
+GROUP_HELP = (
+    "Plan energy-minimal routes for legged robots on sloping ground.\n\n"
+    "Start with `energy-planner demo`."
 )
-
-
-def _option_name(exc: click.ClickException) -> str | None:
-    """The option a usage error blames, as a parameter name (``--keep-out`` -> keep_out)."""
-    param = getattr(exc, "param", None)
-    hint = getattr(exc, "param_hint", None) or (None if param is None else param.name)
-    if not isinstance(hint, str):
-        return None
-    return hint.strip("'\"").lstrip("-").replace("-", "_").lower()
-
-
-def exit_status_error(exc: click.ClickException) -> click.ClickException:
-    """``exc`` with the exit status the rule of this module gives its cause.
-
-    A usage error (2) whose cause names a file that is there (its ``path`` field) is
-    about the file's content: a :class:`_DataError` (1), unless the error blames an option
-    that is not a file (``--start`` outside the map the file covers, ``--band``: the
-    error's ``param_hint`` or its cause's ``param`` field). A data error whose cause is a
-    file that is not there, or a channel value the model cannot take, is a usage error.
-    Anything else is returned as it is.
-    """
-    from energy_planner.errors import ChannelError, ChannelIOError, EnergyPlannerError
-
-    cause = exc.__cause__
-    if not isinstance(cause, EnergyPlannerError):
-        return exc
-    path = cause.fields.get("path")
-    usage = isinstance(exc, click.UsageError)
-    option = _option_name(exc)
-    other_param = cause.fields.get("param") not in (None, *FILE_PARAMS) or (
-        option is not None and option not in FILE_PARAMS
-    )
-    if usage and path is not None and _file_is_there(path) and not other_param:
-        new: click.ClickException = _DataError(exc.format_message())
-    elif not usage and path is not None and isinstance(cause, OSError) and not _file_is_there(path):
-        new = click.UsageError(exc.format_message())
-    elif not usage and isinstance(cause, ChannelError) and not isinstance(cause, ChannelIOError):
-        if path is not None and _file_is_there(path):
-            return exc  # a value table's content
-        new = click.UsageError(exc.format_message())
-    else:
-        return exc
-    new.__cause__ = cause
-    return new
+#: The help of the group's ``-q/--quiet`` flag.
+QUIET_HELP = (
+    "No progress on stderr (bars on a terminal, a line every 10 s in a log); warnings "
+    "and errors are still printed. Results go to stdout either way."
+)
+#: The group's options as its ``--help`` lists them, in click's order: ``--version``
+#: (``click.version_option``), ``-q/--quiet``, then the help option (texts as click's).
+GROUP_OPTIONS: tuple[tuple[str, str], ...] = (
+    ("--version", "Show the version and exit."),
+    ("-q, --quiet", QUIET_HELP),
+    ("-h, --help", "Show this message and exit."),
+)
+#: The group's usage after the program's name (click's ``[OPTIONS]`` and
+#: ``subcommand_metavar``).
+GROUP_USAGE = "[OPTIONS] COMMAND [ARGS]..."
 
 
 def _terminal_columns() -> int:
@@ -216,21 +91,12 @@ def _terminal_columns() -> int:
     return columns if columns > 0 else 80
 
 
-class _Context(click.Context):
-    """click's context, its help formatter as wide as click's without importing shutil."""
+def help_width() -> int:
+    """The width of the help text, as click's formatter takes it outside its test runner.
 
-    def make_formatter(self) -> click.HelpFormatter:
-        """The help formatter, as wide as click makes it.
-
-        ``terminal_width``, click's ``FORCED_WIDTH`` under its test runner, else the
-        terminal's columns, at most ``max_content_width`` (80), less 2, at least 50.
-        """
-        import click.formatting
-
-        width = self.terminal_width
-        if width is None and click.formatting.FORCED_WIDTH is None:
-            width = max(min(_terminal_columns(), self.max_content_width or 80) - 2, 50)
-        return self.formatter_class(width=width, max_width=self.max_content_width)
+    The terminal's columns, at most 80, less 2, at least 50.
+    """
+    return max(min(_terminal_columns(), 80) - 2, 50)
 
 
 def _command_modules() -> set[str]:
@@ -250,89 +116,159 @@ def _command_modules() -> set[str]:
     return names
 
 
-class LazyGroup(click.Group):
-    """A click group that imports a sub-command's module only when it is used."""
-
-    context_class = _Context
-
-    def _available(self) -> dict[str, str]:
-        there = _command_modules()
-        return {name: mod for name, (mod, _) in COMMANDS.items() if mod in there}
-
-    def list_commands(self, ctx: click.Context) -> list[str]:
-        """Return the sorted names of the sub-commands whose modules are installed."""
-        return sorted(self._available())
-
-    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        """Import and return the sub-command ``cmd_name``, or ``None`` if unavailable."""
-        mod = self._available().get(cmd_name)
-        if mod is None:
-            return None
-        cmd = importlib.import_module(f"energy_planner.cli.{mod}").command
-        cmd.short_help = COMMANDS[cmd_name][1]
-        return cmd
-
-    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
-        """List the commands with their summaries from :data:`COMMANDS`, importing none."""
-        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
-        if rows:
-            with formatter.section("Commands"):
-                formatter.write_dl(rows)
-
-    def invoke(self, ctx: click.Context) -> Any:
-        """Run the sub-command with its warnings summarized and its exit status ruled.
-
-        See the module docstring: warnings become one line per kind on stderr; errors get
-        exit status 2 (usage) or 1 (data) by :func:`exit_status_error`, and a library
-        error no command caught is a data error, printed without a traceback.
-        """
-        from energy_planner.errors import EnergyPlannerError
-
-        with summarized_warnings():
-            try:
-                return super().invoke(ctx)
-            except click.ClickException as exc:
-                new = exit_status_error(exc)
-                if new is exc:
-                    raise
-                raise new from exc.__cause__
-            except EnergyPlannerError as exc:
-                err = click.ClickException(str(exc))
-                err.__cause__ = exc
-                raise exit_status_error(err) from exc
+def available_commands() -> list[str]:
+    """Sorted names of the sub-commands whose modules are installed."""
+    there = _command_modules()
+    return sorted(name for name, (mod, _) in COMMANDS.items() if mod in there)
 
 
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="energy_planner")
-@click.option(
-    "-q",
-    "--quiet",
-    is_flag=True,
-    help="No progress on stderr (bars on a terminal, a line every 10 s in a log); warnings "
-    "and errors are still printed. Results go to stdout either way.",
+def group_help(prog: str, width: int) -> str:
+    """The group's ``--help`` text for program name ``prog``, ``width`` columns wide.
+
+    The text click's ``main.get_help`` gives (``tests/test_install.py`` compares the two
+    over widths and program names): click's usage line, its help text and its definition
+    lists (a first column at most 30 wide plus 2, the second wrapped to the rest), with
+    :class:`textwrap.TextWrapper` as click's ``wrap_text`` configures it. Click's own
+    wrapper differs from textwrap's only in words longer than a line, which none of
+    these texts has at 50 columns or more; its English texts are untranslated (click
+    ships no message catalogs).
+    """
+    import textwrap
+
+    def fill(text: str, width: int, first: str = "", rest: str = "") -> str:
+        wrapper = textwrap.TextWrapper(
+            width, initial_indent=first, subsequent_indent=rest, replace_whitespace=False
+        )
+        return wrapper.fill(text.expandtabs())
+
+    def dl(rows: list[tuple[str, str]]) -> list[str]:
+        first_col = min(max(len(a) for a, _ in rows), 30) + 2
+        text_width = max(width - first_col - 2, 10)
+        out = []
+        for a, b in rows:
+            head = f"  {a}"
+            if len(a) <= first_col - 2:
+                head += " " * (first_col - len(a))
+            else:
+                head += "\n" + " " * (first_col + 2)
+            lines = fill(b, text_width).splitlines() or [""]
+            out.append(head + lines[0] + "\n")
+            out += [" " * (first_col + 2) + line + "\n" for line in lines[1:]]
+        return out
+
+    prefix = f"Usage: {prog} "
+    if width >= len(prefix) + 20:
+        usage = fill(GROUP_USAGE, width, prefix, " " * len(prefix))
+    else:
+        usage = prefix + "\n" + fill(GROUP_USAGE, width, " " * 11, " " * 11)
+    text = "\n\n".join(fill(p, width, "  ", "  ") for p in GROUP_HELP.split("\n\n"))
+    parts = [usage, "\n", "\n", text, "\n", "\n", "Options:\n", *dl(list(GROUP_OPTIONS))]
+    commands = [(name, COMMANDS[name][1]) for name in available_commands()]
+    if commands:
+        parts += ["\n", "Commands:\n", *dl(commands)]
+    return "".join(parts).rstrip("\n")
+
+
+def _program_name() -> str | None:
+    """The program name click gives the console script (its file's name).
+
+    None when click would name a ``python -m`` run (from the module: click prints that
+    help).
+    """
+    main_module = sys.modules.get("__main__")
+    if getattr(main_module, "__package__", None) not in (None, ""):
+        return None
+    return os.path.basename(sys.argv[0])
+
+
+def _print_group_help() -> None:
+    """Print the group's help and exit 0 when the command line is ``--help`` or ``-h``.
+
+    As click would (its shell-completion variable unset): on stdout, then exit status 0;
+    a closed pipe exits with status 1 and no traceback. Returns, printing nothing, on any
+    other command line.
+    """
+    if sys.argv[1:] not in (["--help"], ["-h"]) or sys.stdout is None:
+        return
+    prog = _program_name()
+    if prog is None:
+        return
+    complete = prog.replace("-", "_").replace(".", "_")
+    if os.environ.get(f"_{complete}_COMPLETE".upper()):
+        return
+    text = group_help(prog, help_width())
+    try:
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        from click.utils import _PacifyFlushWrapper
+
+        sys.stdout = _PacifyFlushWrapper(sys.stdout)
+        sys.stderr = _PacifyFlushWrapper(sys.stderr)
+        sys.exit(1)
+    sys.exit(0)
+
+
+def _load_group() -> object:
+    """The click group (:data:`energy_planner.cli._group.main`), imported on first use."""
+    from energy_planner.cli._group import main as group
+
+    return group
+
+
+class _Main:
+    """:data:`main`: the click group, loaded on first use, and the console script's entry.
+
+    Called with no arguments (as the console script calls it), a bare ``--help`` or
+    ``-h`` prints the group's help without loading click (:func:`_print_group_help`).
+    Everything else is the group's: calls, attributes (``main.main``, ``main.name``,
+    ``main.get_command``) and ``isinstance(main, click.Group)``.
+    """
+
+    __slots__ = ()
+
+    @property  # type: ignore[misc]
+    def __class__(self) -> type:  # isinstance(main, click.Group) sees the group's class
+        return type(_load_group())
+
+    def __call__(self, *args: object, **kwargs: object) -> object:
+        if not args and not kwargs:
+            _print_group_help()
+        return _load_group()(*args, **kwargs)
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(_load_group(), name)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        setattr(_load_group(), name, value)
+
+    def __delattr__(self, name: str) -> None:
+        delattr(_load_group(), name)
+
+    def __repr__(self) -> str:
+        return repr(_load_group())
+
+
+#: The ``energy-planner`` command (the console script's ``energy_planner.cli:main``).
+main = _Main()
+
+#: Names defined by :mod:`energy_planner.cli._group`, importable from here.
+_GROUP_NAMES = frozenset(
+    {
+        "FILE_PARAMS",
+        "LazyGroup",
+        "WarningSummary",
+        "exit_status_error",
+        "summarized_warnings",
+        "_Context",
+        "_DataError",
+    }
 )
-def main(quiet: bool) -> None:
-    """Plan energy-minimal routes for legged robots on sloping ground.
-
-    Start with `energy-planner demo`.
-    """
-    from energy_planner.progress import quiet as _quiet
-
-    _quiet(quiet)  # each invocation starts from the flag (a command's own -q may add it)
-    _skip_exit_collection()
 
 
-@functools.cache
-def _skip_exit_collection() -> None:
-    """At exit, spare the interpreter its last garbage collection (once per process).
+def __getattr__(name: str) -> object:
+    if name not in _GROUP_NAMES:
+        raise AttributeError(f"module 'energy_planner.cli' has no attribute {name!r}")
+    from energy_planner.cli import _group as group_module
 
-    Python's shutdown walks every object the command imported or made (numpy, rasterio,
-    the model) for reference cycles: 40-80 ms of CPU on the command's critical path,
-    after its result is written, for memory the process frees anyway. ``gc.freeze`` at
-    exit moves them out of the collector's reach; files and datasets are closed by their
-    context managers before then, and the modules are torn down as before.
-    """
-    import atexit
-    import gc
-
-    atexit.register(gc.freeze)
+    return getattr(group_module, name)
