@@ -200,6 +200,8 @@ def _print_group_help() -> None:
     try:
         sys.stdout.write(text + "\n")
         sys.stdout.flush()
+    except UnicodeEncodeError:  # a program name stdout cannot encode: click's echo can
+        return
     except BrokenPipeError:
         from click.utils import _PacifyFlushWrapper
 
