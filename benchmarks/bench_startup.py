@@ -6,29 +6,36 @@ whole processes after one warm-up run:
 - ``python -c pass``: the interpreter alone (the floor of any command);
 - ``--help`` as it was: a listing that imports every command module (what click's default
   ``format_commands`` did before the summaries moved into ``energy_planner.cli.COMMANDS``);
-- ``energy-planner --help`` now;
+- ``import click``: what a ``--help`` rendered by click pays before it prints (click's
+  own imports: typing, inspect, uuid, datetime, platform, gettext);
+- ``energy-planner --help``: the group's help, printed by ``energy_planner.cli`` without
+  importing click (:func:`energy_planner.cli.group_help`);
 - ``import numba`` plus the first call of one cached ``@njit`` function (the floor of any
   command that prices energy with the compiled kernels: numba's import, its typing and
   target registries, and the scipy.linalg import its BLAS check makes);
 - a warm ``energy-planner energy`` of the direct climb on the bundled hill (kernels cached:
   the model's precompiled module, which loads without numba);
 - the same with a model that reads a channel (the bundled model plus ``load_kg * speed``)
-  and a ``--set load_kg=`` value never given before in each run (the model's kernels
-  cached, the value new), and with a numeric channel raster never given before (a new
-  file of new values each run, ``--channel load_kg=RASTER``);
+  and one ``--set load_kg=10`` in every run, then a ``--set load_kg=`` value never given
+  before in each run (the model's kernels cached, the value new: the pair shows what a
+  new value costs), and with a numeric channel raster never given before (a new file of
+  new values each run, ``--channel load_kg=RASTER``);
 - ``energy-planner energy-map`` of the hill with such a new value (fewer runs: a baseline
   that compiles its kernels for every value takes a minute a run).
 
-Every row also runs ``gdaldem slope`` on the hill in turn with it (the GIS tool's
-start-up and a whole small job: what a GIS user compares a command with), and prints the
-target of the row (``--help`` 0.1 s, a warm ``energy`` 0.5 s) with ``met`` when the median
-wall time is within it. Without ``gdaldem`` on the path (``apt-get install gdal-bin``)
-that column says so. The children run with ``PYTHONDONTWRITEBYTECODE`` unset, as an
-installed package runs (its modules' bytecode cached, under the temporary directory),
-whatever this shell sets; the baseline runs without ``PYTHONPATH`` (its own package).
-The header says whether each environment's interpreter imports setuptools'
-editable-install finder at every start (an install made before the project's
-``package-dir`` setting: ``pip install -e .`` again drops it).
+The rows run in rounds: each round runs every row once, in turn, so rows compared with
+each other (a warm run, a repeated value, a new value, a new raster) see the same machine
+however its load drifts; the first round warms up. Every row also runs ``gdaldem slope``
+on the hill in turn with it (the GIS tool's start-up and a whole small job: what a GIS
+user compares a command with), and prints the target of the row (``--help`` 0.1 s, a
+warm ``energy`` 0.5 s) with ``met`` when the median wall time is within it. Without
+``gdaldem`` on the path (``apt-get install gdal-bin``) that column says so. The children
+run with ``PYTHONDONTWRITEBYTECODE`` unset, as an installed package runs (its modules'
+bytecode cached, under the temporary directory), whatever this shell sets; the baseline
+runs without ``PYTHONPATH`` (its own package). The header says whether each
+environment's interpreter imports setuptools' editable-install finder at every start
+(an install made before the project's ``package-dir`` setting: ``pip install -e .``
+again drops it).
 
 With ``--baseline BIN`` (the ``bin`` directory of a virtual environment with another
 checkout installed, e.g. ``main``'s) every row also runs there, A and B in turn, and the
@@ -145,9 +152,15 @@ def rows(bin_dir: Path, hill: str, model: str) -> list[tuple[str, list[str], boo
     return [
         ("python -c pass (floor)", [py, "-c", "pass"], False),
         ("--help, listing imports every command (before)", [py, "-c", OLD_HELP], False),
+        ("import click (floor of a --help through click)", [py, "-c", "import click"], False),
         ("energy-planner --help", [ep, "--help"], False),
         ("import numba + one cached njit call (floor)", [py, "numba_floor.py"], False),
         ("energy, hill, warm", energy, False),
+        (
+            "energy, hill, one --set value, the same each run",
+            [*energy, "--model", model, "--set", "load_kg=10"],
+            False,
+        ),  # fmt: skip
         (
             "energy, hill, a new --set value",
             [*energy, "--model", model, "--set", "load_kg={new}"],
@@ -211,14 +224,19 @@ def main() -> None:
             head += f" {'B wall s':>8} {'B cpu s':>8} {'A/B wall':>8} {'A/B cpu':>8}"
         head += f" {'gdal wall':>9} {'gdal cpu':>8} {'A/gdal wall':>11} {'target s':>8}"
         print(head)
-        for a, b in zip(a_rows, b_rows, strict=True):
-            name, cmd, is_map = a
-            if args.only and args.only not in name:
-                continue
-            n = args.map_runs if is_map else args.runs
-            ta, tb, tg = [], [], []
-            for i in range(n + 1):  # the first pair warms up
-                wa = run(cmd, d)
+        todo = [
+            (a, b, args.map_runs if a[2] else args.runs)
+            for a, b in zip(a_rows, b_rows, strict=True)
+            if not args.only or args.only in a[0]
+        ]
+        times: list[tuple[list, list, list]] = [([], [], []) for _ in todo]
+        # rounds: each round runs every row once, in turn (A, B, gdaldem), so that rows
+        # meant to be compared (a warm run, a new value, a new raster) see the same machine
+        for i in range(max((n for *_, n in todo), default=0) + 1):  # round 0 warms up
+            for (a, b, n), (ta, tb, tg) in zip(todo, times, strict=True):
+                if i > n:
+                    continue
+                wa = run(a[1], d)
                 wb = run(b[1], d, BASE_ENV) if b else None
                 wg = run(gdal, d) if gdal else None
                 if i:
@@ -227,6 +245,8 @@ def main() -> None:
                         tb.append(wb)
                     if wg:
                         tg.append(wg)
+        for (a, _, n), (ta, tb, tg) in zip(todo, times, strict=True):
+            name = a[0]
             line = (f"{name:<48} {n:>4} {statistics.median(t[0] for t in ta):>8.3f} "
                     f"{statistics.median(t[1] for t in ta):>8.3f}")  # fmt: skip
             if tb:
