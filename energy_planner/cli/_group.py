@@ -42,8 +42,8 @@ from energy_planner.cli import (
     COMMANDS,
     GROUP_HELP,
     QUIET_HELP,
-    _command_modules,
     _terminal_columns,
+    available_commands,
 )
 
 
@@ -199,21 +199,17 @@ class LazyGroup(click.Group):
 
     context_class = _Context
 
-    def _available(self) -> dict[str, str]:
-        there = _command_modules()
-        return {name: mod for name, (mod, _) in COMMANDS.items() if mod in there}
-
     def list_commands(self, ctx: click.Context) -> list[str]:
         """Return the sorted names of the sub-commands whose modules are installed."""
-        return sorted(self._available())
+        return available_commands()
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         """Import and return the sub-command ``cmd_name``, or ``None`` if unavailable."""
-        mod = self._available().get(cmd_name)
-        if mod is None:
+        if cmd_name not in available_commands():
             return None
+        mod, summary = COMMANDS[cmd_name]
         cmd = importlib.import_module(f"energy_planner.cli.{mod}").command
-        cmd.short_help = COMMANDS[cmd_name][1]
+        cmd.short_help = summary
         return cmd
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
