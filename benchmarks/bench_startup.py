@@ -46,6 +46,34 @@ seconds with the machine's load: both are printed.
 Usage::
 
     python benchmarks/bench_startup.py [--runs 7] [--map-runs 3] [--baseline ../main/.venv/bin]
+
+Measured 2026-11-29 on the shared 2-core machine, other jobs running (load average 3.9
+at the start, 5.4 at the end: wall seconds are inflated about twice, the CPU seconds and
+the paired ratios hold better); A the ``--help`` printed without click, B main at
+b68ae2d (its ``--help`` rendered by click), medians of 9 (energy-map: 2), run in the
+branch's worktree with ``PYTHONPATH=$PWD``::
+
+    python benchmarks/bench_startup.py --runs 9 --map-runs 2 --baseline /work/main/.venv/bin
+
+    row                                        A wall  A cpu  B wall  B cpu  A/B wall  A/B cpu
+    python -c pass (floor)                      0.045  0.020   0.042  0.020      1.00     1.00
+    import click (floor of a --help through ..  0.202  0.101   0.202  0.100      0.98     0.99
+    energy-planner --help                       0.078  0.039   0.205  0.097      0.42     0.38
+    energy, hill, warm                          0.996  0.488   1.004  0.465      1.07     1.07
+    energy, hill, one --set value, the same     1.052  0.519   1.004  0.496      1.06     1.02
+    energy, hill, a new --set value             1.168  0.544   1.103  0.528      1.07     1.04
+    energy, hill, a new numeric channel raster  1.110  0.539   1.072  0.523      1.04     1.00
+    energy-map, hill, a new --set value         2.830  1.363   2.568  1.257      1.11     1.10
+
+``--help`` is 0.4 of main's (0.039 CPU s against 0.097; at load 7.3 another run gave
+0.055 s wall against 0.155). The energy rows load the same modules in A and B (A one
+more, the group's) and A runs each round first: their A/B ratios of 1.00-1.07 are within
+what that order and the load give (alternating the order at load 4.6, 25 pairs of the
+warm row gave 1.015 CPU). A new ``--set`` value costs what the same value each run
+costs, within the scatter between rounds (in A 0.544 against 0.519 CPU s here, 0.487
+against 0.571 in a run of 21 rounds at load 7.9): the value is a run-time input of the
+model's cached precompiled module, and the two command lines import the same modules
+(listed, diffed).
 """
 
 from __future__ import annotations
