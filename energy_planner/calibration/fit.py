@@ -1278,8 +1278,9 @@ def whole_run_predictions(
     Returns
     -------
     pandas.DataFrame or None
-        Rows of :attr:`CrossValidation.whole`; None without ``whole``, or when a run of
-        ``per_window`` is missing from it or its rest cannot be priced.
+        Rows of :attr:`CrossValidation.whole`; None without ``whole``, when a run of
+        ``per_window`` is missing from it or holds other windows than the run was cut
+        into (a subset of them), or when its rest cannot be priced.
     """
     if whole is None:
         return None
@@ -1297,6 +1298,14 @@ def whole_run_predictions(
     tab = whole.runs
     if not np.isin(runs, tab.index.to_numpy(str)).all():
         return None
+    dur = per_window.groupby(per_window["run"].astype(str), sort=True)["duration"].sum()
+    if not np.allclose(
+        dur.reindex(runs).to_numpy(float),
+        tab["window_s"].reindex(runs).to_numpy(float),
+        rtol=1e-9,
+        atol=1e-6,
+    ):
+        return None  # not the windows the runs were cut into (a subset): not whole
     rest = whole.rest
     rest = rest[np.isin(rest["run"].astype(str).to_numpy(), runs)]
     fold_of = dict(zip(runs, per_run["fold"].to_numpy(int), strict=True))
