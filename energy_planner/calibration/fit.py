@@ -22,6 +22,7 @@ speed term, terms nearly in the span of the others. Too little data raises
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
@@ -121,6 +122,13 @@ class CrossValidation:
         Relative error of the summed held-out energy of all runs.
     warnings : list of str
         Folds in which a term had no training data, fewer runs than folds, ...
+    whole : pandas.DataFrame or None
+        One row per run, the run WHOLE (every sample, not only its windows): run, fold,
+        duration_s, measured_j (battery energy of every sample), predicted_j (the
+        windows' prediction plus the samples no window holds, priced by the same fold's
+        coefficients: :func:`whole_run_predictions`), rest_predicted_j (that second part).
+        None when the windows carry no whole runs (``Windows.whole_runs``: windows
+        cut without :func:`~energy_planner.calibration.prepare_logs`).
     """
 
     n_splits: int
@@ -138,6 +146,7 @@ class CrossValidation:
     energy_median_abs_rel: float = float("nan")
     energy_p90_abs_rel: float = float("nan")
     warnings: list[str] = field(default_factory=list)
+    whole: pd.DataFrame | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (per-run rows included, per-window rows left out)."""
@@ -1216,6 +1225,10 @@ def cross_validate(
     rel = per_run["rel_error"].to_numpy(float)
     rel = rel[np.isfinite(rel)]
     total_rel = float(per_run["error_j"].sum() / per_run["measured_j"].sum())
+    whole = whole_run_predictions(
+        getattr(windows, "whole_runs", None), model, per_window, coefs, names, fixed,
+        floor=None if model.regenerative else 0.0,
+    )  # fmt: skip
     return CrossValidation(
         n_splits=n_splits,
         seed=seed,
@@ -1234,7 +1247,135 @@ def cross_validate(
         energy_p90_abs_rel=float(np.percentile(np.abs(rel), 90)) if rel.size else float("nan"),
         energy_total_rel=total_rel,
         warnings=warnings,
+        whole=whole,
     )
+
+
+def whole_run_predictions(
+    whole: Any, model: EnergyModel, per_window: pd.DataFrame, coefs: np.ndarray,
+    names: Sequence[str], fixed: Mapping[str, float], floor: float | None = 0.0,
+) -> pd.DataFrame | None:  # fmt: skip
+    """Held-out runs whole: their windows' prediction plus the samples no window holds.
+
+    A run's windows are priced at their held-out mean power times their duration (the
+    sum of their samples' time steps, as ``WholeRuns.runs.window_s`` counts them: the
+    trapezoid within a window, ``CrossValidation.runs``, leaves out one step per window,
+    2.5 % of a 2 s window at 20 Hz, which the whole run must not lose). Each run's
+    left-out samples (``WholeRuns.rest``: speed ramps, samples beyond the
+    consistency bound, windows too short) are priced by its fold's coefficients
+    (``coefs``, one row per fold over the free terms ``names``; the ``fixed`` terms at
+    their values), floored per sample as the windows are, each sample times its share of
+    the time no window holds (``_w``); the run's measured energy is the battery energy
+    of every sample (``WholeRuns.runs``).
+
+    Parameters
+    ----------
+    whole : WholeRuns or None
+        ``Windows.whole_runs``.
+    per_window : pandas.DataFrame
+        ``CrossValidation.windows`` (run, fold, duration, predicted_w).
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        Rows of :attr:`CrossValidation.whole`; None without ``whole``, when a run of
+        ``per_window`` is missing from it or holds other windows than the run was cut
+        into (a subset of them), or when its rest cannot be priced.
+    """
+    if whole is None:
+        return None
+    win_j = (
+        (per_window["predicted_w"] * per_window["duration"])
+        .groupby(per_window["run"].astype(str).to_numpy(), sort=True)
+        .sum(min_count=1)
+    )
+    per_run = pd.DataFrame(
+        {"run": win_j.index.to_numpy(str), "predicted_j": win_j.to_numpy(float),
+         "fold": per_window.groupby(per_window["run"].astype(str), sort=True)["fold"].first()
+         .reindex(win_j.index).to_numpy(int)}
+    )  # fmt: skip
+    runs = per_run["run"].astype(str).to_numpy()
+    tab = whole.runs
+    if not np.isin(runs, tab.index.to_numpy(str)).all():
+        return None
+    dur = per_window.groupby(per_window["run"].astype(str), sort=True)["duration"].sum()
+    if not np.allclose(
+        dur.reindex(runs).to_numpy(float),
+        tab["window_s"].reindex(runs).to_numpy(float),
+        rtol=1e-9,
+        atol=1e-6,
+    ):
+        return None  # not the windows the runs were cut into (a subset): not whole
+    rest = whole.rest
+    rest = rest[np.isin(rest["run"].astype(str).to_numpy(), runs)]
+    fold_of = dict(zip(runs, per_run["fold"].to_numpy(int), strict=True))
+    rest_j = pd.Series(0.0, index=runs)
+    if len(rest):
+        try:
+            D = model.design_matrix(model_features(rest, model))
+        except (KeyError, ValueError):
+            return None
+        free = np.array([n in names for n in model.term_names], dtype=bool)
+        fold = np.array([fold_of[r] for r in rest["run"].astype(str)], dtype=int)
+        p = np.einsum("ij,ij->i", D[:, free], np.asarray(coefs)[fold])
+        if (~free).any():
+            p = p + D[:, ~free] @ np.array([fixed[n] for n in model.term_names if n in fixed])
+        if floor is not None:
+            p = np.maximum(p, floor)
+        e = np.where(np.isfinite(p), p, 0.0) * rest["_w"].to_numpy(float)
+        rest_j = rest_j.add(pd.Series(e).groupby(rest["run"].astype(str).to_numpy()).sum(),
+                            fill_value=0.0)  # fmt: skip
+    out = pd.DataFrame(
+        {
+            "run": runs,
+            "fold": per_run["fold"].to_numpy(),
+            "duration_s": tab["duration_s"].reindex(runs).to_numpy(float),
+            "measured_j": tab["measured_j"].reindex(runs).to_numpy(float),
+            "rest_predicted_j": rest_j.reindex(runs).to_numpy(float),
+        }
+    )
+    out["predicted_j"] = per_run["predicted_j"].to_numpy(float) + out["rest_predicted_j"]
+    out["priced_by"] = "samples"
+    if whole.priced_by == "path":
+        path_j = _path_predictions(whole, model, out, coefs, names, fixed)
+        use = np.isfinite(path_j)
+        out.loc[use, "predicted_j"] = path_j[use]
+        out.loc[use, "priced_by"] = "path"
+    return out
+
+
+def _path_predictions(
+    whole: Any, model: EnergyModel, runs: pd.DataFrame, coefs: np.ndarray,
+    names: Sequence[str], fixed: Mapping[str, float],
+) -> np.ndarray:  # fmt: skip
+    """Each held-out run's logged path over the map priced by its fold's coefficients.
+
+    What the energy of a logged path is (``energy --waypoints`` with times and the run's
+    channel values, ``energy.path_energy``), by the fit that did not see the run; NaN
+    where the run has no path or it cannot be priced (off the map, a channel missing).
+    """
+    from energy_planner.energy import path_energy
+    from energy_planner.energy.channels import channel_kinds
+    from energy_planner.errors import EnergyPlannerError
+
+    chans = list(channel_kinds(model))
+    out = np.full(len(runs), np.nan)
+    for k in np.unique(runs["fold"].to_numpy(int)):
+        fm = copy.copy(model)
+        fm.coefficients = {**dict(zip(names, map(float, np.asarray(coefs)[k]), strict=True)),
+                           **{n: float(v) for n, v in fixed.items()}}  # fmt: skip
+        for i in np.flatnonzero(runs["fold"].to_numpy(int) == k):
+            p = whole.paths.get(str(runs["run"].iloc[i]))
+            if p is None or any(c not in p["values"] for c in chans):
+                continue
+            consts = {c: p["values"][c] for c in chans}
+            try:
+                e = path_energy(whole.terrain, fm, p["xy"], yaw=p["yaw"], t=p["t"],
+                                constants=consts)  # fmt: skip
+            except (EnergyPlannerError, ValueError):
+                continue
+            out[i] = float(e.energy_j)
+    return out
 
 
 def as_windows(data: Any, *, window: float = 2.0, repair: bool = True) -> tuple[Any, Any]:
@@ -1459,6 +1600,12 @@ def _error_model(
     covariance: of its fold's fit for the held-out errors (which hold it), of the full
     fit for new predictions (``rho2``, pooled over the runs as a share of ``E^2``). Its
     share outside the domain is measured against the ranges of its fold's training runs.
+
+    A held-out run's predicted and measured energies are those of the run whole
+    (``cv.whole``: every sample, the samples no window holds priced by the fold's
+    coefficients; ``scored_on="runs"``) when the windows carry their whole runs, else
+    its windows' (``scored_on="windows"``). The coefficient variance and the noise
+    within the run are the windows' either way.
     """  # noqa: E501
     from energy_planner.stats import cluster_covariance, wls_coef
     from energy_planner.uncertainty.errormodel import fit_error_model, within_run_noise
@@ -1483,7 +1630,11 @@ def _error_model(
         coef = wls_coef(X[tr], y[tr], w[tr])
         Vk = np.nan_to_num(cluster_covariance(X[tr], y[tr] - X[tr] @ coef, w[tr], runs[tr]))
         parts.append(run_variance(Vk, ~tr))
-    per_run = cv.runs.set_index(cv.runs["run"].astype(str))
+    # a held-out run's energy is the run whole when the windows carry their runs (the
+    # energy a user asks for: every sample, the ones cleaning dropped priced by the same
+    # fold's coefficients); else its windows' energy, and the error model says so
+    scored = cv.runs if cv.whole is None else cv.whole
+    per_run = scored.set_index(scored["run"].astype(str))
     pred = per_run["predicted_j"].to_numpy(float)
     ok = pred > 0
     rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
@@ -1506,6 +1657,7 @@ def _error_model(
         per_run["fold"].to_numpy(),
         param_rel_var=rho2,
         within=(within["ss"].to_numpy(), within["t_eff"].to_numpy(), within["dof"].to_numpy()),
+        scored_on="windows" if cv.whole is None else "runs",
     )
 
 

@@ -56,7 +56,9 @@ __all__ = [
     "heldout_score",
     "pose_twist",
     "UNIT_REPAIRS",
+    "WholeRuns",
     "altitude_from_map",
+    "whole_runs",
     "yardstick_terms",
 ]
 
@@ -550,8 +552,187 @@ def prepare_logs(
     accept = _HeldOutGuard(window, guard_terms) if guard else None
     findings, fixed = check_data(samples, repair=repair, accept=accept)
     clean, report = clean_logs(fixed)
-    del fixed  # a repaired copy of the samples: not held while the windows are cut (memory)
-    return PreparedLogs(make_windows(clean, duration=window), findings, repair, report)
+    windows = make_windows(clean, duration=window)
+    del clean
+    windows.whole_runs = whole_runs(fixed, windows, terrain)
+    return PreparedLogs(windows, findings, repair, report)
+
+
+#: Cleaning that drops no valid sample: the features of every sample of a run
+#: (:func:`whole_runs`), computed as :data:`CLEANING` computes them.
+KEEP_ALL = PreprocessParams(
+    hampel_n_sigma=1e12, min_speed=0.0, min_yaw_rate=0.0, min_mech_ratio=0.0,
+    min_power_w=-math.inf, max_power_w=math.inf,
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class WholeRuns:
+    """Every run whole: its battery energy and the samples its windows leave out.
+
+    A user asks for the energy of a whole run (a path, a mission); the windows hold only
+    part of it (cleaning drops the speed ramps as the gait starts and stops, samples
+    beyond the consistency bound, Hampel outliers, windows shorter than their minimum).
+    With these, a held-out run's prediction is its windows' prediction plus the left-out
+    samples priced by the same fold's coefficients, against the battery energy of every
+    sample (:func:`energy_planner.calibration.cross_validate`, ``CrossValidation.whole``).
+
+    Attributes
+    ----------
+    runs : pandas.DataFrame
+        Indexed by run: ``measured_j`` (trapezoidal integral of ``voltage * current``
+        over every valid sample, gaps not bridged:
+        :func:`~energy_planner.measurements.windows.run_energies`), ``duration_s`` (its
+        integrated time), ``window_s`` (the run's windows' durations summed) and
+        ``rest_s`` (``duration_s - window_s``, at least 0: the time no window holds).
+    rest : pandas.DataFrame
+        The run's samples in no window, with the features cleaning computes (slope,
+        speed, accelerations, channels) and ``_w``: each sample's share of its run's
+        ``rest_s`` (its time step, scaled so that a run's ``_w`` sum to ``rest_s``; a
+        window may span a short dropped stretch, whose time is then not counted twice).
+    twist : str
+        Where the rest's twist comes from: ``"pose"`` (:func:`pose_twist`: from the
+        poses, in map metres) or ``"odometry"`` (logs without a pose ``x, y``).
+    paths : dict or None
+        With a map: per run the path its poses walked, as the energy of a logged path
+        takes it (``follow.walked_path``, one pose every :data:`PATH_POSE_EVERY_S` s with
+        its time, in the map's working CRS): ``xy``, ``yaw``, ``t`` and ``values`` (each
+        other column's value over the run: the constant, else the mean or the most
+        frequent). None without a map or a pose ``x, y, yaw``.
+    terrain : Terrain or None
+        The map of ``paths``.
+    """
+
+    runs: pd.DataFrame
+    rest: pd.DataFrame
+    twist: str
+    paths: dict[str, dict[str, Any]] | None = None
+    terrain: Any = None
+
+    @property
+    def priced_by(self) -> str:
+        """How a held-out run whole is priced.
+
+        ``"path"``: its logged poses over the map, as ``energy`` prices a logged path;
+        ``"samples"``: its windows plus the left-out samples.
+        """
+        return "path" if self.paths and self.terrain is not None else "samples"
+
+
+#: One pose every this many seconds of a run's log when it is priced as a path (as
+#: ``follow.walked_path`` takes a logged path by default).
+PATH_POSE_EVERY_S = 0.5
+
+
+def _run_paths(samples: pd.DataFrame, terrain: Any) -> dict[str, dict[str, Any]] | None:
+    """Per run, its logged poses as a path over the map (:attr:`WholeRuns.paths`)."""
+    from energy_planner.errors import EnergyPlannerError
+    from energy_planner.follow import walked_path
+    from energy_planner.measurements.schema import CANONICAL_COLUMNS
+
+    if not {"x", "y", "yaw", "t"} <= set(samples.columns):
+        return None
+    skip = set(CANONICAL_COLUMNS) | {"x", "y", "z", "yaw", "segment"}
+    extra = [c for c in samples.columns if c not in skip]
+    out: dict[str, dict[str, Any]] = {}
+    for run, g in samples.groupby(samples["run"].astype(str), sort=True):
+        g = g.sort_values("t", kind="stable")
+        try:
+            wp = walked_path(g, every_s=PATH_POSE_EVERY_S)
+            xy = np.column_stack(terrain.to_work(wp.xy[:, 0], wp.xy[:, 1]))
+        except (EnergyPlannerError, ValueError, IndexError):
+            continue
+        if len(xy) < 2 or not np.all(np.isfinite(xy)):
+            continue
+        values: dict[str, Any] = {}
+        for c in extra:
+            v = g[c].dropna()
+            if not len(v):
+                continue
+            if pd.api.types.is_numeric_dtype(v) and not pd.api.types.is_bool_dtype(v):
+                values[c] = float(v.mean())
+            else:
+                values[c] = v.mode().iloc[0]
+        out[str(run)] = {"xy": xy, "yaw": wp.yaw_rad, "t": wp.t, "values": values}
+    return out or None
+
+
+def whole_runs(samples: pd.DataFrame, windows: Any, terrain: Any = None) -> WholeRuns | None:
+    """The runs of ``samples`` whole, beside the ``windows`` cut from them (:class:`WholeRuns`).
+
+    ``samples``: the raw samples as repaired (what cleaning and windows start from). The
+    samples are cleaned again with :data:`KEEP_ALL` (the same filters and features, no
+    sample dropped but invalid ones), those in no window (matched by run and time) kept
+    with their time step; with a pose ``x, y`` their twist is the pose's
+    (:func:`pose_twist` over the whole run, then the left-out samples taken). With the
+    ``terrain`` the robot walked and a pose ``x, y, yaw``, each run's logged path too
+    (:attr:`WholeRuns.paths`).
+
+    Returns
+    -------
+    WholeRuns or None
+        None when the samples cannot be cleaned (no valid sample).
+
+    Examples
+    --------
+    A 1 s stop-and-go ramp dropped by cleaning (:func:`clean_logs`) is in ``rest``:
+
+    >>> t = np.arange(0, 12, 0.1)
+    >>> vx = np.where((t > 5) & (t < 5.8), 0.0, 0.3)
+    >>> s = pd.DataFrame({"run": "a", "t": t, "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0,
+    ...     "vx": vx, "vy": 0.0, "wz": 0.0, "voltage": 50.0, "current": 4.0})
+    >>> p = prepare_logs(s)
+    >>> w = p.windows.whole_runs
+    >>> w.twist, round(float(w.runs.loc["a", "measured_j"]), 6)
+    ('odometry', 2380.0)
+    >>> bool(w.runs.loc["a", "rest_s"] > 0), round(float(w.rest["_w"].sum()), 6) == round(
+    ...     float(w.runs.loc["a", "rest_s"]), 6)
+    (True, True)
+    """
+    from energy_planner.errors import LogError
+    from energy_planner.measurements.preprocess import preprocess
+    from energy_planner.measurements.schema import time_gaps
+    from energy_planner.measurements.windows import run_energies
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            full, _ = preprocess(samples, KEEP_ALL)
+    except LogError:
+        return None
+    energy = run_energies(full).set_index("run")
+    tab = windows.table
+    win_s = tab.groupby(tab["run"].astype(str))["duration"].sum()
+    runs = pd.DataFrame(
+        {"measured_j": energy["measured_j"], "duration_s": energy["duration_s"]}
+    ).astype(float)
+    runs["window_s"] = win_s.reindex(runs.index).fillna(0.0).astype(float)
+    runs["rest_s"] = (runs["duration_s"] - runs["window_s"]).clip(lower=0.0)
+    twist = "odometry"
+    if {"x", "y"} <= set(full.columns) and np.isfinite(full[["x", "y"]].to_numpy(float)).any():
+        posed = pose_twist(full)
+        ok = np.isfinite(posed[["vx", "vy"]].to_numpy(float)).all(axis=1)
+        for c in ("vx", "vy", "wz", "speed", "ax", "ay"):
+            full[c] = np.where(ok & np.isfinite(posed[c].to_numpy(float)),
+                               posed[c].to_numpy(float), full[c].to_numpy(float))  # fmt: skip
+        twist = "pose"
+    run = full["run"].astype(str).to_numpy()
+    t = full["t"].to_numpy(float)
+    step = np.r_[np.diff(t), 0.0]
+    brk = np.r_[(run[1:] != run[:-1]) | time_gaps(run, t).step, True]
+    step[brk] = 0.0
+    inside = pd.MultiIndex.from_arrays(
+        [windows.samples["run"].astype(str).to_numpy(), windows.samples["t"].to_numpy(float)]
+    )
+    rest_mask = ~pd.MultiIndex.from_arrays([run, t]).isin(inside)
+    rest = full.loc[rest_mask].reset_index(drop=True)
+    dt = pd.Series(step[rest_mask])
+    tot = dt.groupby(rest["run"].to_numpy()).transform("sum").to_numpy(float)
+    want = runs["rest_s"].reindex(rest["run"].to_numpy()).to_numpy(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rest["_w"] = np.where(tot > 0, dt.to_numpy(float) * want / tot, 0.0)
+    paths = None if terrain is None else _run_paths(samples, terrain)
+    return WholeRuns(runs, rest, twist, paths, terrain if paths else None)
 
 
 def altitude_from_map(samples: pd.DataFrame, terrain: Any) -> pd.DataFrame:

@@ -65,6 +65,11 @@ class Windows:
         Runs with samples but no window: ``run``, ``n_samples``, ``longest_window_s`` and
         ``most_samples`` (of its candidate windows) and ``reason``. Also a
         ``UserWarning``.
+    whole_runs : WholeRuns or None
+        Every run's battery energy over all its samples and the samples its windows leave
+        out (``calibration.prepare.whole_runs``), so that a held-out run's energy can be
+        scored whole; None when the windows were cut without them (then only the
+        windows' energies can be scored).
     """
 
     samples: pd.DataFrame
@@ -73,6 +78,7 @@ class Windows:
     dropped: dict[str, int] = field(default_factory=dict)
     params: dict[str, Any] = field(default_factory=dict)
     dropped_runs: list[dict[str, Any]] = field(default_factory=list)
+    whole_runs: Any = None
 
     def __len__(self) -> int:
         return len(self.table)

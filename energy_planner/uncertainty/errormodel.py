@@ -1,7 +1,17 @@
 r"""The run-to-run error model of a fit, and its normalized split-conformal scores.
 
 A fitted model predicts a run's energy :math:`\hat E`; on runs it was not fitted on, the
-error :math:`e = \hat E - E` scatters. How much depends on the run:
+error :math:`e = \hat E - E` scatters. A held-out run's energy is the run **whole**, as a
+user asks for it (``ErrorModel.scored_on == "runs"``): :math:`E` the battery energy of
+every sample of the run, :math:`\hat E` its windows' prediction plus the samples cleaning
+left out of every window (the speed ramps as the gait starts and stops, samples beyond the
+consistency bound, windows too short), priced by the same fold's coefficients from the
+pose's twist (the way the energy of a logged path is priced; the odometry's without a
+pose) (:func:`energy_planner.calibration.fit.whole_run_predictions`). Windows given
+without the logs they came from have no whole runs: then the windows' energies alone are
+scored (``scored_on == "windows"``, also the meaning of a model file without the field),
+and an error of the dropped stretches is in no score. How much the error scatters depends
+on the run:
 
 .. math::
 
@@ -112,6 +122,14 @@ class ErrorModel:
         why it could not be measured
         (:func:`energy_planner.calibration.fit.extrapolation_growth`); empty for a model
         fitted before it was recorded.
+    scored_on : str
+        What a held-out run's energy was: ``"runs"``, the run whole (the battery energy
+        of every sample against its windows' prediction plus the samples cleaning left
+        out of every window, priced by the same fold's coefficients); ``"windows"``, its
+        windows only (the calibration had no whole runs: windows given without the logs
+        they came from, or a model saved before whole runs were scored). Scored on
+        windows, an error of the stretches cleaning drops (the speed ramps as the gait
+        starts and stops) is in no score.
     """
 
     param_rel_var: float
@@ -123,6 +141,7 @@ class ErrorModel:
     n_outside: int = 0
     cross_fitted: bool = True
     extrapolation: dict = field(default_factory=dict)
+    scored_on: str = "windows"
 
     def sigma(
         self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0,
@@ -265,6 +284,7 @@ class ErrorModel:
             "n_outside": self.n_outside,
             "cross_fitted": self.cross_fitted,
             "extrapolation": self.extrapolation,
+            "scored_on": self.scored_on,
             # full precision: a bound near zero is E - z sigma, where rounding cancels
             "scores": [float(z) for z in self.scores],
         }
@@ -278,6 +298,7 @@ class ErrorModel:
             np.sort(np.asarray(d["scores"], dtype=float)), float(d["mean_power_w"]),
             int(d.get("n_outside", 0)), bool(d.get("cross_fitted", True)),
             dict(d.get("extrapolation") or {}),
+            str(d.get("scored_on", "windows")),  # a file before it: windows' energies
         )  # fmt: skip
 
 
@@ -412,6 +433,7 @@ def fit_error_model(
     *,
     param_rel_var: float | None = None,
     within: tuple[Any, Any, Any] | None = None,
+    scored_on: str = "windows",
 ) -> ErrorModel | None:
     """Fit the error scale on held-out runs and their normalized conformal scores.
 
@@ -437,6 +459,9 @@ def fit_error_model(
         windows' errors, which measure the noise term ``c`` apart from ``b`` (without
         them, runs of one duration cannot tell an error that averages out over a long
         path from one that does not).
+    scored_on : {"windows", "runs"}
+        What the runs' energies are: their windows' only, or the runs whole
+        (:attr:`ErrorModel.scored_on`).
 
     Returns
     -------
@@ -477,7 +502,8 @@ def fit_error_model(
     def model_of(theta: np.ndarray, scores: np.ndarray, cross: bool, r2: float) -> ErrorModel:
         return ErrorModel(r2, float(theta[0]), float(theta[1]),
                           float(theta[2]) if with_out else None, np.sort(scores),
-                          float(meas.sum() / dur.sum()), n_out, cross)  # fmt: skip
+                          float(meas.sum() / dur.sum()), n_out, cross,
+                          scored_on=scored_on)  # fmt: skip
 
     def own_sigma(th: np.ndarray, sel: np.ndarray) -> np.ndarray:
         # the scale of these runs' errors: their own coefficient variance and the
