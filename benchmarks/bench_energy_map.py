@@ -458,7 +458,8 @@ def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
 
         setattr(owner, name, g)
 
-    timed(core, "_read_rows", "read DEM rows")
+    timed(core, "_read_stored", "read DEM rows (in the reading thread but the first)")
+    timed(core, "_in_metres", "DEM rows to metres")
     timed(horn, "horn_gradient", "gradient (Horn)")
     timed(heading_mod.HeadingCost, "table", "heading table (disk cache)")
     timed(heading_mod.HeadingCost, "_map", "kernel (along, best)")

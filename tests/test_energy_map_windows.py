@@ -174,3 +174,24 @@ def test_an_error_in_a_window_stops_the_read_ahead_and_leaves_no_file(
     assert len(small_windows) == 3  # windows 1, 2 and the one read ahead: no further
     assert not out.exists() and not list(tmp_path.iterdir())
     assert not _readers_alive()
+
+
+@pytest.mark.parametrize("tmax", [1e-3, 0.3, 0.8, np.inf])
+def test_steepest_slope_over_row_ranges_is_the_gathered_cells(tmax):
+    """The heading table's extent: arctan of the root of the greatest squared gradient
+    within the limit, found by row ranges in threads, equal to the one of the cells
+    gathered (0 with none: an empty block, all NaN, all above the limit)."""
+    from energy_planner.energy.heading import _steepest
+
+    rng = np.random.default_rng(3)
+    gx, gy = rng.normal(0, 0.4, (2, 37, 23))
+    gx[rng.random(gx.shape) < 0.1] = np.nan
+    gy[5, 7] = np.inf
+    g2 = gx * gx + gy * gy
+    with np.errstate(invalid="ignore"):
+        cells = g2[np.isfinite(g2) & (g2 <= tmax * tmax)]
+    expect = float(np.arctan(np.sqrt(cells.max()))) if cells.size else 0.0
+    assert _steepest(gx, gy, tmax) == expect
+    assert (expect == 0.0) == (tmax == 1e-3)
+    assert _steepest(gx[:0], gy[:0], tmax) == 0.0
+    assert _steepest(gx * np.nan, gy, tmax) == 0.0
