@@ -109,6 +109,26 @@ default 4.63 CPU s (main 5.05), ``--bands summary`` 3.32 (3.56), ``--encoding fl
 against 2.55; ``--bands summary`` 6 pairs 3.42 against 3.64 (0.95x). The same bytes as
 main's (``cmp``: default, ``--bands all``, ``--bands summary``, ``--encoding float32``).
 
+With each DEM row read once (the windows' halo rows had every window decode three
+chunks of the DEM's compressed tiles), the next window's rows and gradient made in a
+thread beside a window's kernel, and the heading table's extent found over row ranges in
+threads (main b68ae2d in the same rounds; the same bytes, ``cmp``: default, ``--bands
+all``, ``--bands summary``, ``--encoding float32``, ``--dask``): instructions of the
+whole command, load-independent (``valgrind --tool=callgrind energy-planner energy-map
+dem_2048.tif ...``), default bands: 20.80 G against 21.31 G (-2.4 %; DEFLATE decoding
+0.27 G against 0.73 G); at 1024^2 5.88 G against 5.99 G. Paired whole-command runs in
+turn (124 pairs, ``os.wait4``; kept: the 31 during which the other processes took less
+than 0.05 of a core, from ``/proc/stat``): median 2.54 s wall against 2.64, paired
+ratio 0.966 (faster in 20 of 31), 4.15 CPU s against 4.23 (0.974); fastest 2.08 s
+against 2.06. Peak RSS 213 MB against 197 (the next window's inputs held ahead).
+``--pace --runs 5`` at load 4.0-4.6 (mostly waiting for a CPU): default 5.92 s wall,
+3.82 CPU s (main 5.52 s, 4.09), ``--bands summary`` 4.06 s, 3.16 (main 3.99 s, 2.89),
+``--encoding float32`` 7.47 s, 5.02, ``--bands all`` 8.37 s, 6.01. On two cores the
+map was already nearly CPU-bound: while the main thread read and differentiated, the
+writer thread compressed on the other core, so moving that work beside the kernel saves
+little there (it shortens the main thread's path where more cores are free); the rest
+of the gain is the decoding's CPU.
+
 ``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
 0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
 0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s
@@ -458,7 +478,8 @@ def stage_table(size: int, headings: int, compress: str, workdir: Path) -> None:
 
         setattr(owner, name, g)
 
-    timed(core, "_read_rows", "read DEM rows")
+    timed(core, "_read_stored", "read DEM rows (in the reading thread but the first)")
+    timed(core, "_in_metres", "DEM rows to metres")
     timed(horn, "horn_gradient", "gradient (Horn)")
     timed(heading_mod.HeadingCost, "table", "heading table (disk cache)")
     timed(heading_mod.HeadingCost, "_map", "kernel (along, best)")

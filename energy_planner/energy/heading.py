@@ -430,15 +430,15 @@ class HeadingCost:
         ang = np.ascontiguousarray(headings, dtype=np.float64)
         if precompiled:
             self.precompiled_map()  # a table not on disk is built by it too
-        with np.errstate(invalid="ignore"):
-            g2 = gx * gx + gy * gy
-            ok = np.isfinite(g2) & (g2 <= self.tmax * self.tmax)
         if not self.rasters or not self.categorical:
             table = np.zeros((3, 0, 0))  # a numeric raster: the exact minimum everywhere
             if not self.rasters:
-                table = np.ascontiguousarray(self.table(_top(g2[ok])))
+                table = np.ascontiguousarray(self.table(_steepest(gx, gy, self.tmax)))
             self._map(gx, gy, chan, ang, table, along, best, precompiled)
             return
+        with np.errstate(invalid="ignore"):
+            g2 = gx * gx + gy * gy
+            ok = np.isfinite(g2) & (g2 <= self.tmax * self.tmax)
         # categorical rasters: one pass per combination of categories in the block, the
         # other cells masked (NaN), each with that combination's table
         along[:] = np.nan
@@ -556,6 +556,28 @@ def _row_pool(threads: int) -> Any:
 def _top(g2: np.ndarray) -> float:
     """The steepest slope (radians) of squared gradients ``g2`` (0 if none)."""
     return float(np.arctan(np.sqrt(g2.max()))) if g2.size else 0.0
+
+
+def _steepest(gx: np.ndarray, gy: np.ndarray, tmax: float) -> float:
+    """:func:`_top` of the cells of gradient ``(gx, gy)`` within the slope limit ``tmax``.
+
+    The squared gradients of ``gx * gx + gy * gy`` that are finite and at most
+    ``tmax ** 2``, their greatest found over the row ranges of :func:`run_by_rows` in
+    threads (NumPy lets go of Python's lock) and without gathering them: the same value.
+    """
+    lim = tmax * tmax
+    tops: list[float] = []
+
+    def rows(a: int, b: int) -> None:
+        x, y = gx[a:b], gy[a:b]
+        with np.errstate(invalid="ignore"):
+            g2 = x * x + y * y
+            ok = np.isfinite(g2) & (g2 <= lim)
+        tops.append(np.max(g2, where=ok, initial=-np.inf))
+
+    run_by_rows(rows, gx.shape[0])
+    top = max(tops, default=-np.inf)
+    return float(np.arctan(np.sqrt(top))) if top > -np.inf else 0.0
 
 
 @lru_cache(maxsize=32)

@@ -170,7 +170,10 @@ def block_bands(
     if along:
         fwd = out[:headings]
     else:
-        fwd = _discarded_along(headings, rows, cols, shared=aot is not None)
+        # the precompiled kernel's along values go to the cheapest band's plane, which
+        # the summary fills from best afterwards (a plane of out: none to allocate)
+        plane = out[lead + headings] if aot is not None else None
+        fwd = _discarded_along(headings, rows, cols, shared=aot is not None, plane=plane)
     best = out[lead : lead + headings]
     heading.map_bands(gx, gy, chan, ang, fwd, best, precompiled)
     summary = out[lead + headings : lead + headings + 4]
@@ -190,19 +193,24 @@ def block_bands(
     return out
 
 
-def _discarded_along(headings: int, rows: int, cols: int, shared: bool) -> np.ndarray:
+def _discarded_along(
+    headings: int, rows: int, cols: int, shared: bool, plane: np.ndarray | None = None
+) -> np.ndarray:
     """Somewhere for the kernel to put ``along`` bands nobody reads, ``(N, rows, cols)``.
 
     ``shared``: one ``(rows, cols)`` float32 plane seen N times (stride 0 along the
     headings), for the precompiled kernel, whose bands may have any strides: each cell's
     N values land on one address (the threads of :func:`~energy_planner.energy.heading.
-    run_by_rows` take distinct rows, so never the same one). Else a scratch array of
-    its own: numba's kernel is compiled for C-contiguous bands, and a view with a stride
-    of 0 would make it compile another specialisation.
+    run_by_rows` take distinct rows, so never the same one); ``plane``: that plane (a
+    C-contiguous float32 ``(rows, cols)`` array whose values are written over later),
+    else a new one. Else a scratch array of its own: numba's kernel is compiled for
+    C-contiguous bands, and a view with a stride of 0 would make it compile another
+    specialisation.
     """
     if not shared:
         return np.empty((headings, rows, cols), dtype=np.float32)
-    plane = np.empty((rows, cols), dtype=np.float32)
+    if plane is None:
+        plane = np.empty((rows, cols), dtype=np.float32)
     return np.lib.stride_tricks.as_strided(
         plane, shape=(headings, rows, cols), strides=(0, *plane.strides)
     )

@@ -179,27 +179,82 @@ class _BackgroundWriter:
             self._pool.shutdown(wait=True)
 
 
+class _Inputs:
+    """The inputs of each window in turn, those of the next made in a thread meanwhile.
+
+    ``inputs.get(k)``: ``block(*windows[k])``. With ``ahead``, window ``k + 1``'s
+    (reading its rows and their gradient) is started in a thread of its own as window
+    ``k``'s are handed over, so that it runs beside window ``k``'s kernel instead of
+    before window ``k + 1``'s: one window's inputs at most are held ahead. Reading
+    (GDAL) and NumPy's gradient release Python's lock. Whatever ``block`` raises is
+    raised by :meth:`get` of its window, as without a thread; a window's inputs not
+    asked for when the run stops (an error) are waited for and dropped, so that the
+    source is not closed under a read.
+    """
+
+    def __init__(self, block: Any, windows: list[tuple[int, int]], ahead: bool) -> None:
+        self.block = block
+        self.windows = windows
+        self._pool: Any = None
+        if ahead and len(windows) > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="energy-map-read")
+        self._next: Any = None  # (k, future) of the window read ahead
+
+    def get(self, k: int) -> Any:
+        """The inputs of window ``k`` (its error raised here); the next one's started."""
+        if self._pool is None:
+            return self.block(*self.windows[k])
+        job, self._next = self._next, None
+        if job is not None and job[0] == k:
+            out = job[1].result()
+        else:
+            if job is not None:
+                job[1].exception()  # a window not asked for: finished, then dropped
+            out = self.block(*self.windows[k])
+        if k + 1 < len(self.windows):
+            self._next = (k + 1, self._pool.submit(self.block, *self.windows[k + 1]))
+        return out
+
+    def __enter__(self) -> _Inputs:
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        if self._pool is None:
+            return
+        job, self._next = self._next, None
+        try:
+            if job is not None:
+                job[1].exception()  # its error, if any, dropped: nobody asked for it
+        finally:
+            self._pool.shutdown(wait=True)
+
+
 def _map_by_windows(
-    dst: Any, setup: _Setup, shape: tuple[int, int], block: Any, progress: Any, samples: Any
-) -> None:
+    dst: Any, setup: _Setup, shape: tuple[int, int], block: Any, progress: Any, samples: Any,
+    ahead: bool = False,
+) -> None:  # fmt: skip
     """Compute the map by windows of whole tile rows and write them as they come.
 
-    ``block(r0, r1)``: the gradient and channel rasters of rows ``r0 .. r1``. Each
-    window is written (:class:`_BackgroundWriter`) while the next is computed, from one
-    of two buffers in turn; ``samples`` (a :class:`~energy_planner.energymap.result.
-    _Samples`) takes the statistics' cells of each window.
+    ``block(r0, r1)``: the gradient and channel rasters of rows ``r0 .. r1``; with
+    ``ahead``, the next window's are made in a thread while a window is computed
+    (:class:`_Inputs`: for a ``block`` that reads and differentiates). Each window is
+    written (:class:`_BackgroundWriter`) while the next is computed, from one of two
+    buffers in turn; ``samples`` (a :class:`~energy_planner.energymap.result._Samples`)
+    takes the statistics' cells of each window.
     """
     from rasterio.windows import Window
 
     rows, cols = shape
     step = _rows_per_block(cols, setup.full)
-    starts = range(0, rows, step)
+    windows = [(r0, min(rows, r0 + step)) for r0 in range(0, rows, step)]
     bufs: list[Any] = [None, None]  # float bands: one, or two when they are what is written
     codes: list[Any] = [None, None]
-    with _BackgroundWriter(dst) as writer:
-        for k, r0 in enumerate(_progress(starts, len(starts), "energy map", progress)):
-            r1 = min(rows, r0 + step)
-            gx, gy, chan = block(r0, r1)
+    with _BackgroundWriter(dst) as writer, _Inputs(block, windows, ahead) as inputs:
+        for k in _progress(range(len(windows)), len(windows), "energy map", progress):
+            r0, r1 = windows[k]
+            gx, gy, chan = inputs.get(k)
             b = k % 2 if setup.encoding == "float32" else 0
             bufs[b] = bands = block_bands(
                 setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True,
@@ -299,27 +354,89 @@ def _read_rows(src: Any, reading: Any, r0: int, r1: int) -> np.ndarray:
     reading it; then the file's undeclared voids, scale, offset and unit
     (:class:`~energy_planner.terrain.raster.BandReading`).
     """
-    band = reading.band
-    from rasterio.enums import MaskFlags
-    from rasterio.windows import Window
-
     rows, cols = src.height, src.width
     z = np.full((r1 - r0, cols), np.nan)
     a, b = max(r0, 0), min(r1, rows)
     if b > a:
-        win = Window(0, a, cols, b - a)
-        part = z[a - r0 : b - r0]
-        src.read(band, window=win, out=part)
-        flags = src.mask_flag_enums[band - 1]
-        if flags == [MaskFlags.nodata] and src.nodata is not None:
-            nod = np.float64(np.array(src.nodata, dtype=src.dtypes[band - 1]))
-            if not np.isnan(nod):  # a NaN nodata is NaN already
-                part[part == nod] = np.nan
-        elif flags != [MaskFlags.all_valid]:
-            part[src.read_masks(band, window=win) == 0] = np.nan
+        _read_stored(src, reading.band, a, b, z[a - r0 : b - r0])
+    return _in_metres(z, reading)
+
+
+def _read_stored(src: Any, band: int, a: int, b: int, out: np.ndarray) -> None:
+    """Rows ``a .. b`` (inside the raster) as stored, into float64 ``out``, masked cells NaN.
+
+    Cell by cell: the same values whatever rows a read takes.
+    """
+    from rasterio.enums import MaskFlags
+    from rasterio.windows import Window
+
+    win = Window(0, a, src.width, b - a)
+    src.read(band, window=win, out=out)
+    flags = src.mask_flag_enums[band - 1]
+    if flags == [MaskFlags.nodata] and src.nodata is not None:
+        nod = np.float64(np.array(src.nodata, dtype=src.dtypes[band - 1]))
+        if not np.isnan(nod):  # a NaN nodata is NaN already
+            out[out == nod] = np.nan
+    elif flags != [MaskFlags.all_valid]:
+        out[src.read_masks(band, window=win) == 0] = np.nan
+
+
+def _in_metres(z: np.ndarray, reading: Any) -> np.ndarray:
+    """Stored rows (float64, masked NaN) to metres: infinities and voids NaN, in place."""
     np.putmask(z, np.isinf(z), np.nan)
     reading.mask_voids(z)
     return reading.to_metres(z)
+
+
+class _RowReader:
+    """A DEM band's rows by windows with a one-row halo each side, each row read once.
+
+    ``reader(r0, r1)`` is :func:`_read_rows` of ``r0 .. r1`` (the same values: the stored
+    rows are masked cell by cell, and the voids, scale and unit are applied to that
+    window as there), for windows that follow each other down the raster. The stored
+    rows are read ahead in chunks of ``step`` rows from row 0 (the windows' own rows),
+    and a chunk is kept until no later window needs it: a window's halo row below it is
+    the first row of the next chunk. Reading each window with its halo rows instead
+    reads the blocks of three chunks for every window (a compressed tile is decoded
+    whole for its one row in the halo): 0.17 against 0.06 s of decoding for a 2048 x
+    2048 deflate DEM by windows of 256 rows. At most two chunks are held (a window's
+    own rows and the next chunk).
+    """
+
+    def __init__(self, src: Any, reading: Any, step: int) -> None:
+        self.src = src
+        self.reading = reading
+        self.step = max(1, int(step))
+        self._chunks: list[tuple[int, np.ndarray]] = []  # (first row, stored rows)
+        self._end = 0  # rows read so far: 0 .. _end
+
+    def __call__(self, r0: int, r1: int) -> np.ndarray:
+        src = self.src
+        rows, cols = src.height, src.width
+        a, b = max(r0, 0), min(r1, rows)
+        held = self._chunks[0][0] if self._chunks else self._end
+        if a < held:  # rows let go already (windows out of order): read from row a on
+            self._chunks, self._end = [], a
+        while self._end < b:  # the chunks down to row b
+            c0, c1 = self._end, min(rows, self._end + self.step)
+            part = np.empty((c1 - c0, cols))
+            _read_stored(src, self.reading.band, c0, c1, part)
+            self._chunks.append((c0, part))
+            self._end = c1
+        z = np.full((r1 - r0, cols), np.nan)
+        for c0, part in self._chunks:
+            lo, hi = max(a, c0), min(b, c0 + len(part))
+            if hi > lo:
+                z[lo - r0 : hi - r0] = part[lo - c0 : hi - c0]
+        # the next window starts one row above this one's halo row below (row b - 2):
+        # the rows above it are no later window's
+        keep = b - 2
+        self._chunks = [
+            (c0, p) if c0 >= keep else (keep, p[keep - c0 :].copy())
+            for c0, p in self._chunks
+            if c0 + len(p) > keep
+        ]
+        return _in_metres(z, self.reading)
 
 
 def _compute_windowed(
@@ -343,10 +460,11 @@ def _compute_windowed(
                     writer_thread=True)  # fmt: skip
     with rasterio.open(info.path) as src, open_geotiff(out, **prof) as dst:
         reading = band_reading(src, info.band, info.path, scan=True)
+        rows_of = _RowReader(src, reading, _rows_per_block(cols, setup.full))
 
         def block(r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             nonlocal any_valid
-            z = _read_rows(src, reading, r0 - 1, r1 + 1)
+            z = rows_of(r0 - 1, r1 + 1)
             any_valid = any_valid or bool(np.isfinite(z).any())
             gx, gy = horn_gradient(z, t.a, t.e)
             if setup.channels.rasters:
@@ -357,7 +475,7 @@ def _compute_windowed(
                 chan = np.zeros((0, 1, 1))
             return gx[1:-1], gy[1:-1], chan
 
-        _map_by_windows(dst, setup, info.shape, block, progress, samples)
+        _map_by_windows(dst, setup, info.shape, block, progress, samples, ahead=True)
         _write_metadata(dst, setup, model_name, "windowed")
     if not any_valid:
         out.unlink(missing_ok=True)

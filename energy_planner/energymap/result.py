@@ -29,7 +29,15 @@ _BIG_TILE_BYTES = 256e6
 
 
 def _bytes_per_row(cols: int, nbands: int) -> int:
-    """Bytes of arrays a window holds per row: the bands (float32) and gradient temporaries."""
+    """Bytes of arrays a window holds per row: the bands (float32) and gradient temporaries.
+
+    The 80 bytes per cell besides the bands: the window's gradient (16), the next
+    window's, made while this one is computed (16, and up to 25 more while it is made:
+    its rows in metres, a chunk of stored rows being read, the gradient's temporaries;
+    :func:`~energy_planner.energymap.core._map_by_windows`), a chunk of stored rows kept
+    for the next window (8), the squared gradient and its mask over a row range (about
+    9, two ranges at once) and slack.
+    """
     return cols * (nbands * 4 + 80)
 
 
