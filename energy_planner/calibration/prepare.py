@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import warnings
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -418,6 +419,16 @@ class _HeldOutGuard:
     def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
         self.window, self.terms = window, terms
         self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
+        #: the last energy score and a weak reference to the samples it scored: a unit
+        #: repair's "before" is the samples the last one scored (its "before" when it was
+        #: rejected, its "after" when kept, unless another repair came in between), so
+        #: its score is not computed again; weak, so no state of the samples is held
+        self._energy: tuple[weakref.ref, EnergyScore | None] | None = None
+
+    def _energy_score(self, samples: pd.DataFrame) -> EnergyScore | None:
+        if self._energy is not None and self._energy[0]() is samples:
+            return self._energy[1]
+        return energy_score(samples, window=self.window, terms=self.terms)
 
     def _score(self, samples: pd.DataFrame) -> HeldOutScore:
         if self._before is not None and self._before[0] is samples:
@@ -426,12 +437,13 @@ class _HeldOutGuard:
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
         if finding.name in UNIT_REPAIRS:
-            e0 = energy_score(before, window=self.window, terms=self.terms)
+            e0 = self._energy_score(before)
             if e0 is not None:
                 e1 = energy_score(after, window=self.window, terms=self.terms)
                 keep = self._by_energy(e0, e1, finding)
                 if keep:
                     self._before = None  # the samples changed: scored afresh next time
+                self._energy = (weakref.ref(after), e1) if keep else (weakref.ref(before), e0)
                 return keep
         return self._by_power(before, after, finding)
 
