@@ -299,12 +299,13 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
     starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
     bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
+    track = {c: out[c].to_numpy(float) for c in rate}  # read once, sliced per run
     for a, b in bounds:
         tt = t[a:b]
         lo, hi = np.maximum(tt - h, tt[0]), np.minimum(tt + h, tt[-1])
         span = hi - lo
         for c in rate:
-            v = out[c].to_numpy(float)[a:b]
+            v = track[c][a:b]
             if c == "yaw":
                 v = np.unwrap(v)
             ok = np.isfinite(v)
@@ -322,11 +323,12 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     out["vy"] = (r00 * wy - r10 * wx) / det
     if "yaw" in rate:
         out["wz"] = rate["yaw"]
-    out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
+    vel = {"vx": out["vx"].to_numpy(float), "vy": out["vy"].to_numpy(float)}
+    out["speed"] = np.hypot(vel["vx"], vel["vy"])
     for a, b in bounds:
         if b - a > 1:
             for src, dst in (("vx", "ax"), ("vy", "ay")):
-                acc[dst][a:b] = np.gradient(out[src].to_numpy(float)[a:b], t[a:b])
+                acc[dst][a:b] = np.gradient(vel[src][a:b], t[a:b])
     out["ax"], out["ay"] = acc["ax"], acc["ay"]
     return out
 
