@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import warnings
-import weakref
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -371,15 +371,55 @@ def energy_score(
     -------
     EnergyScore or None
         None when the samples have no pose ``x, y``; an empty score when it cannot be
-        computed (fewer than two runs, no window).
+        computed (fewer than two runs, no window). The last :data:`ENERGY_SCORE_CACHE`
+        scores are kept by the content of their samples (a repair's "before" is the last
+        repair's "after"; every command on the same logs scores the same states).
     """
+    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
+        return None
+    key = _content_key(samples, window, terms)
+    if key in _ENERGY_SCORES:
+        _ENERGY_SCORES.move_to_end(key)
+        return _ENERGY_SCORES[key]
+    out = _energy_score(samples, window, terms)
+    _ENERGY_SCORES[key] = out
+    while len(_ENERGY_SCORES) > ENERGY_SCORE_CACHE:
+        _ENERGY_SCORES.popitem(last=False)
+    return out
+
+
+#: How many :func:`energy_score` results are kept by the content of their samples: each
+#: command of a session on the same logs (fit, figures, diagnose, discover through the
+#: Python API, or in one process) checks and repairs them the same way, and scores the
+#: same states; a score is one number per run, the samples are not kept.
+ENERGY_SCORE_CACHE = 32
+_ENERGY_SCORES: OrderedDict[tuple, EnergyScore] = OrderedDict()
+
+
+def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> tuple:
+    """What :func:`energy_score` depends on, as a dictionary key.
+
+    The samples' columns, types, index and values (a digest of pandas' per-row hashes,
+    which read each number's bits), the window and the terms.
+    """
+    import hashlib
+
+    rows = pd.util.hash_pandas_object(samples).to_numpy()
+    kinds = tuple(
+        (str(c), str(d), tuple(map(str, getattr(d, "categories", ()))))
+        for c, d in samples.dtypes.items()
+    )
+    names = None if terms is None else tuple(str(getattr(t, "formula", t)) for t in terms)
+    return (kinds, len(samples), hashlib.sha1(rows.tobytes()).hexdigest(), float(window), names)
+
+
+def _energy_score(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> EnergyScore:
+    """:func:`energy_score` computed (samples with a pose)."""
     from energy_planner.calibration.windowdata import WindowData, window_data
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
-    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
-        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
@@ -421,16 +461,6 @@ class _HeldOutGuard:
     def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
         self.window, self.terms = window, terms
         self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
-        #: the last energy score and a weak reference to the samples it scored: a unit
-        #: repair's "before" is the samples the last one scored (its "before" when it was
-        #: rejected, its "after" when kept, unless another repair came in between), so
-        #: its score is not computed again; weak, so no state of the samples is held
-        self._energy: tuple[weakref.ref, EnergyScore | None] | None = None
-
-    def _energy_score(self, samples: pd.DataFrame) -> EnergyScore | None:
-        if self._energy is not None and self._energy[0]() is samples:
-            return self._energy[1]
-        return energy_score(samples, window=self.window, terms=self.terms)
 
     def _score(self, samples: pd.DataFrame) -> HeldOutScore:
         if self._before is not None and self._before[0] is samples:
@@ -439,13 +469,12 @@ class _HeldOutGuard:
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
         if finding.name in UNIT_REPAIRS:
-            e0 = self._energy_score(before)
+            e0 = energy_score(before, window=self.window, terms=self.terms)
             if e0 is not None:
                 e1 = energy_score(after, window=self.window, terms=self.terms)
                 keep = self._by_energy(e0, e1, finding)
                 if keep:
                     self._before = None  # the samples changed: scored afresh next time
-                self._energy = (weakref.ref(after), e1) if keep else (weakref.ref(before), e0)
                 return keep
         return self._by_power(before, after, finding)
 
