@@ -32,6 +32,7 @@ Examples
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -373,18 +374,24 @@ def energy_score(
         None when the samples have no pose ``x, y``; an empty score when it cannot be
         computed (fewer than two runs, no window). The last :data:`ENERGY_SCORE_CACHE`
         scores are kept by the content of their samples (a repair's "before" is the last
-        repair's "after"; every command on the same logs scores the same states).
+        repair's "after"; every command on the same logs scores the same states) and
+        returned again as they are: read them, do not modify them.
     """
     if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
         return None
-    key = _content_key(samples, window, terms)
-    if key in _ENERGY_SCORES:
-        _ENERGY_SCORES.move_to_end(key)
-        return _ENERGY_SCORES[key]
+    try:
+        key = _content_key(samples, window, terms)
+    except TypeError:  # a column pandas cannot hash (objects of no hashable kind)
+        return _energy_score(samples, window, terms)
+    with _ENERGY_LOCK:
+        if key in _ENERGY_SCORES:
+            _ENERGY_SCORES.move_to_end(key)
+            return _ENERGY_SCORES[key]
     out = _energy_score(samples, window, terms)
-    _ENERGY_SCORES[key] = out
-    while len(_ENERGY_SCORES) > ENERGY_SCORE_CACHE:
-        _ENERGY_SCORES.popitem(last=False)
+    with _ENERGY_LOCK:
+        _ENERGY_SCORES[key] = out
+        while len(_ENERGY_SCORES) > ENERGY_SCORE_CACHE:
+            _ENERGY_SCORES.popitem(last=False)
     return out
 
 
@@ -394,6 +401,7 @@ def energy_score(
 #: same states; a score is one number per run, the samples are not kept.
 ENERGY_SCORE_CACHE = 32
 _ENERGY_SCORES: OrderedDict[tuple, EnergyScore] = OrderedDict()
+_ENERGY_LOCK = threading.Lock()
 
 
 def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> tuple:
