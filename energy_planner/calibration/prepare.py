@@ -32,7 +32,9 @@ Examples
 from __future__ import annotations
 
 import math
+import threading
 import warnings
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -300,12 +302,13 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
     starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
     bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
+    track = {c: out[c].to_numpy(float) for c in rate}  # read once, sliced per run
     for a, b in bounds:
         tt = t[a:b]
         lo, hi = np.maximum(tt - h, tt[0]), np.minimum(tt + h, tt[-1])
         span = hi - lo
         for c in rate:
-            v = out[c].to_numpy(float)[a:b]
+            v = track[c][a:b]
             if c == "yaw":
                 v = np.unwrap(v)
             ok = np.isfinite(v)
@@ -323,11 +326,12 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     out["vy"] = (r00 * wy - r10 * wx) / det
     if "yaw" in rate:
         out["wz"] = rate["yaw"]
-    out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
+    vel = {"vx": out["vx"].to_numpy(float), "vy": out["vy"].to_numpy(float)}
+    out["speed"] = np.hypot(vel["vx"], vel["vy"])
     for a, b in bounds:
         if b - a > 1:
             for src, dst in (("vx", "ax"), ("vy", "ay")):
-                acc[dst][a:b] = np.gradient(out[src].to_numpy(float)[a:b], t[a:b])
+                acc[dst][a:b] = np.gradient(vel[src][a:b], t[a:b])
     out["ax"], out["ay"] = acc["ax"], acc["ay"]
     return out
 
@@ -370,15 +374,62 @@ def energy_score(
     -------
     EnergyScore or None
         None when the samples have no pose ``x, y``; an empty score when it cannot be
-        computed (fewer than two runs, no window).
+        computed (fewer than two runs, no window). The last :data:`ENERGY_SCORE_CACHE`
+        scores are kept by the content of their samples (a repair's "before" is the last
+        repair's "after"; every command on the same logs scores the same states) and
+        returned again as they are: read them, do not modify them.
     """
+    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
+        return None
+    try:
+        key = _content_key(samples, window, terms)
+    except TypeError:  # a column pandas cannot hash (objects of no hashable kind)
+        return _energy_score(samples, window, terms)
+    with _ENERGY_LOCK:
+        if key in _ENERGY_SCORES:
+            _ENERGY_SCORES.move_to_end(key)
+            return _ENERGY_SCORES[key]
+    out = _energy_score(samples, window, terms)
+    with _ENERGY_LOCK:
+        _ENERGY_SCORES[key] = out
+        while len(_ENERGY_SCORES) > ENERGY_SCORE_CACHE:
+            _ENERGY_SCORES.popitem(last=False)
+    return out
+
+
+#: How many :func:`energy_score` results are kept by the content of their samples: each
+#: command of a session on the same logs (fit, figures, diagnose, discover through the
+#: Python API, or in one process) checks and repairs them the same way, and scores the
+#: same states; a score is one number per run, the samples are not kept.
+ENERGY_SCORE_CACHE = 32
+_ENERGY_SCORES: OrderedDict[tuple, EnergyScore] = OrderedDict()
+_ENERGY_LOCK = threading.Lock()
+
+
+def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> tuple:
+    """What :func:`energy_score` depends on, as a dictionary key.
+
+    The samples' columns, types, index and values (a digest of pandas' per-row hashes,
+    which read each number's bits), the window and the terms.
+    """
+    import hashlib
+
+    rows = pd.util.hash_pandas_object(samples).to_numpy()
+    kinds = tuple(
+        (str(c), str(d), tuple(map(str, getattr(d, "categories", ()))))
+        for c, d in samples.dtypes.items()
+    )
+    names = None if terms is None else tuple(str(getattr(t, "formula", t)) for t in terms)
+    return (kinds, len(samples), hashlib.sha1(rows.tobytes()).hexdigest(), float(window), names)
+
+
+def _energy_score(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> EnergyScore:
+    """:func:`energy_score` computed (samples with a pose)."""
     from energy_planner.calibration.windowdata import WindowData, window_data
     from energy_planner.errors import EnergyPlannerError
     from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
-    if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
-        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after

@@ -451,12 +451,13 @@ def ema_smooth(
     """EMA (time constant ``ema_tau`` s) of ``ema_columns``, per run and segment."""
     out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     t = out["t"].to_numpy(dtype=float)
+    segments = segment_slices(out)  # the smoothed columns are not run or segment
     for c in params.ema_columns:
         if c not in out.columns:
             continue
         x = out[c].to_numpy(dtype=float)
         y = x.copy()
-        for sl in segment_slices(out):
+        for sl in segments:
             y[sl] = ema(x[sl], t[sl], params.ema_tau)
         out[c] = y
     note = (
@@ -477,10 +478,11 @@ def body_accelerations(
     """
     out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     t = out["t"].to_numpy(dtype=float)
+    segments = segment_slices(out)
     for src, dst in (("vx", "ax"), ("vy", "ay")):
         v = out[src].to_numpy(dtype=float)
         a = np.zeros_like(v)
-        for sl in segment_slices(out):
+        for sl in segments:
             if sl.stop - sl.start > 1:
                 a[sl] = np.gradient(v[sl], t[sl])
         out[dst] = a

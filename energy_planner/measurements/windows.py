@@ -113,10 +113,11 @@ def _ensure_features(samples: pd.DataFrame) -> pd.DataFrame:
         out["speed"] = np.hypot(out["vx"].to_numpy(float), out["vy"].to_numpy(float))
     if "ax" not in out.columns or "ay" not in out.columns:
         t = out["t"].to_numpy(float)
+        segments = segment_slices(out)
         for src, dst in (("vx", "ax"), ("vy", "ay")):
             v = out[src].to_numpy(float)
             a = np.zeros_like(v)
-            for sl in segment_slices(out):
+            for sl in segments:
                 if sl.stop - sl.start > 1:
                     a[sl] = np.gradient(v[sl], t[sl])
             out[dst] = a
