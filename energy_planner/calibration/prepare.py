@@ -678,7 +678,7 @@ PATH_POSE_EVERY_S = 0.5
 def _run_paths(samples: pd.DataFrame, terrain: Any) -> dict[str, dict[str, Any]] | None:
     """Per run, its logged poses as a path over the map (:attr:`WholeRuns.paths`)."""
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.follow import walked_path
+    from energy_planner.measurements.poses import walked_path
     from energy_planner.measurements.schema import CANONICAL_COLUMNS
 
     if not {"x", "y", "yaw", "t"} <= set(samples.columns):

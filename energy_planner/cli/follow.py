@@ -191,7 +191,7 @@ def command(
         wp = walked_path(samples, run) if path_file is None else read_waypoints(path_file)
     except (WaypointError, WaypointIOError) as exc:
         raise click.BadParameter(str(exc), param_hint="--path") from exc
-    except FollowError as exc:
+    except LogError as exc:  # no pose in the log (measurements.poses)
         raise click.ClickException(f"{log}: {exc}") from exc
     try:
         f = follow_log(

@@ -14,9 +14,7 @@ from energy_planner.follow.core import (
     FollowUpdate,
     SlopeFinding,
     follow_log,
-    fresh_poses,
     imu_gradient,
-    walked_path,
 )
 from energy_planner.follow.rls import ForgettingRLS, seed_covariance
 from energy_planner.follow.terms import (
@@ -25,6 +23,7 @@ from energy_planner.follow.terms import (
     path_term_energies,
     runtime_coefficient_model,
 )
+from energy_planner.measurements.poses import fresh_poses, walked_path
 
 __all__ = [
     "FollowError",

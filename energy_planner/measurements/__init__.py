@@ -11,6 +11,7 @@ described in :mod:`energy_planner.measurements.schema` and ``docs/measurements.m
 from energy_planner.measurements.datacheck import DataFinding, check_data
 from energy_planner.measurements.imu import imu_slope_heading, up_in_body, wrap_angle
 from energy_planner.measurements.logs import LoadReport, load_logs
+from energy_planner.measurements.poses import fresh_poses, walked_path
 from energy_planner.measurements.preprocess import (
     STEPS,
     PreprocessParams,
@@ -84,4 +85,6 @@ __all__ = [
     "validate_log",
     "wrap_angle",
     "write_rosbag",
+    "fresh_poses",
+    "walked_path",
 ]
