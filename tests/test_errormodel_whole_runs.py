@@ -36,17 +36,23 @@ DURATION_S = 24.0
 X0, Y0, N = 500000.0, 5000000.0, 40  # a flat 40 m x 40 m map the runs walk over
 
 
-def _runs(rng: np.random.Generator, n: int, prefix: str) -> pd.DataFrame:
-    """``n`` runs of hand-built logs (module docstring); ``voltage`` 50 V."""
+def _runs(
+    rng: np.random.Generator, n: int, prefix: str, speeds=None, cubic: float = 0.0
+) -> pd.DataFrame:
+    """``n`` runs of hand-built logs (module docstring); ``voltage`` 50 V.
+
+    ``speeds``: each run's speed (default uniform 0.25-0.7 m/s); ``cubic``: a power
+    ``cubic * v^3`` W added to the walking power (an effect the base model lacks).
+    """
     t = np.arange(0.0, DURATION_S, 1.0 / RATE_HZ)
     out = []
     for k in range(n):
-        v = rng.uniform(0.25, 0.7)
+        v = rng.uniform(0.25, 0.7) if speeds is None else float(speeds[k])
         pause = np.zeros(t.size, bool)
         for start in rng.uniform(3.0, DURATION_S - 4.0, 2):
             pause |= (t >= start) & (t < start + 0.5)
         vx = np.where(pause, 0.0, v)
-        walk = (120.0 + 200.0 * v) * (1.0 + rng.normal(0.0, 0.01))
+        walk = (120.0 + 200.0 * v + cubic * v**3) * (1.0 + rng.normal(0.0, 0.01))
         power = walk + np.where(pause, rng.uniform(100.0, 200.0), 0.0)
         power = power + rng.normal(0.0, 4.0, t.size)
         out.append(
@@ -165,3 +171,31 @@ def test_with_the_map_held_out_runs_are_priced_as_their_paths():
     cov, bias = _coverage(result, _runs(np.random.default_rng(1029), 60, "fresh"))
     assert bias < -0.015
     assert cov >= 49 / 60, cov
+
+
+def test_the_growth_beyond_the_ranges_is_measured_against_window_energies():
+    """The growth is measured on the extreme runs' window energies, so their error inside
+    the range is netted out at the scale of window energies: the same windows with or
+    without their whole runs give the same growth (whole runs widen the intervals only).
+
+    Runs at 0.25-0.45 m/s and a fastest fifth at 0.75-0.95 m/s, drawing a power in the
+    cube of the speed that the base model lacks: the fit without the fastest runs
+    underprices them, and the growth beyond the speed range is measured.
+    """
+    rng = np.random.default_rng(30)
+    speeds = np.r_[rng.uniform(0.25, 0.45, 32), rng.uniform(0.75, 0.95, 8)]
+    logs = _runs(rng, 40, "g", speeds=rng.permutation(speeds), cubic=400.0)
+    prepared = prepare_logs(logs.drop(columns="v_walk"))
+    whole = fit_model(prepared)
+    windows = prepared.windows
+    windows.whole_runs = None
+    only_windows = fit_model(windows, whole.model.term_names)
+
+    def growth(result):
+        return result.model.metadata["fit"]["error_model"]["extrapolation"]
+
+    assert growth(whole)["speed"]["growth_per_unit"] > 0, growth(whole)
+    assert growth(whole) == growth(only_windows)
+    em = ErrorModel.from_dict(whole.model.metadata["fit"]["error_model"])
+    narrow = ErrorModel.from_dict(only_windows.model.metadata["fit"]["error_model"])
+    assert em.scored_on == "runs" and narrow.scored_on == "windows"

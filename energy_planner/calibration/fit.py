@@ -1525,7 +1525,14 @@ def fit_model(
         warnings += heldout.warnings
         error_model = _error_model(model, heldout, table, X, res, w)
         if error_model is not None:
-            growth = extrapolation_growth(model, table, X, y, w, error_model, offset, names)
+            # the growth is measured on the extreme runs' window energies: their error
+            # inside the range is the error model's of window energies, not of whole runs
+            inside = error_model
+            if heldout.whole is not None:
+                inside = _error_model(model, heldout, table, X, res, w, whole=False)
+            growth = extrapolation_growth(
+                model, table, X, y, w, error_model if inside is None else inside, offset, names
+            )
             error_model = dataclasses.replace(error_model, extrapolation=growth)
     support = speed_support(table)
     model.metadata = {
@@ -1591,7 +1598,7 @@ def fit_model(
 
 def _error_model(
     model: EnergyModel, cv: CrossValidation, table: pd.DataFrame, X: np.ndarray, res: Any,
-    w: np.ndarray,
+    w: np.ndarray, *, whole: bool = True,
 ) -> Any:  # fmt: skip
     """The run-to-run error model of the held-out runs (:mod:`energy_planner.uncertainty.errormodel`).
 
@@ -1604,8 +1611,9 @@ def _error_model(
     A held-out run's predicted and measured energies are those of the run whole
     (``cv.whole``: every sample, the samples no window holds priced by the fold's
     coefficients; ``scored_on="runs"``) when the windows carry their whole runs, else
-    its windows' (``scored_on="windows"``). The coefficient variance and the noise
-    within the run are the windows' either way.
+    its windows' (``scored_on="windows"``), and with ``whole=False`` (the scale of window
+    energies, which the growth beyond the ranges is measured on). The coefficient variance
+    and the noise within the run are the windows' either way.
     """  # noqa: E501
     from energy_planner.stats import cluster_covariance, wls_coef
     from energy_planner.uncertainty.errormodel import fit_error_model, within_run_noise
@@ -1633,7 +1641,8 @@ def _error_model(
     # a held-out run's energy is the run whole when the windows carry their runs (the
     # energy a user asks for: every sample, the ones cleaning dropped priced by the same
     # fold's coefficients); else its windows' energy, and the error model says so
-    scored = cv.runs if cv.whole is None else cv.whole
+    whole = whole and cv.whole is not None
+    scored = cv.whole if whole else cv.runs
     per_run = scored.set_index(scored["run"].astype(str))
     pred = per_run["predicted_j"].to_numpy(float)
     ok = pred > 0
@@ -1657,7 +1666,7 @@ def _error_model(
         per_run["fold"].to_numpy(),
         param_rel_var=rho2,
         within=(within["ss"].to_numpy(), within["t_eff"].to_numpy(), within["dof"].to_numpy()),
-        scored_on="windows" if cv.whole is None else "runs",
+        scored_on="runs" if whole else "windows",
     )
 
 
