@@ -1523,15 +1523,12 @@ def fit_model(
     if n_splits:
         heldout = cross_validate(model, windows, n_splits=n_splits, seed=seed, fixed=held)
         warnings += heldout.warnings
-        error_model = _error_model(model, heldout, table, X, res, w)
+        error_model, inside = _error_models(model, heldout, table, X, res, w)
         if error_model is not None:
             # the growth is measured on the extreme runs' window energies: their error
             # inside the range is the error model's of window energies, not of whole runs
-            inside = error_model
-            if heldout.whole is not None:
-                inside = _error_model(model, heldout, table, X, res, w, whole=False)
             growth = extrapolation_growth(
-                model, table, X, y, w, error_model if inside is None else inside, offset, names
+                model, table, X, y, w, inside or error_model, offset, names
             )
             error_model = dataclasses.replace(error_model, extrapolation=growth)
     support = speed_support(table)
@@ -1596,11 +1593,13 @@ def fit_model(
     )
 
 
-def _error_model(
+def _error_models(
     model: EnergyModel, cv: CrossValidation, table: pd.DataFrame, X: np.ndarray, res: Any,
-    w: np.ndarray, *, whole: bool = True,
-) -> Any:  # fmt: skip
-    """The run-to-run error model of the held-out runs (:mod:`energy_planner.uncertainty.errormodel`).
+    w: np.ndarray,
+) -> tuple[Any, Any]:  # fmt: skip
+    """The held-out runs' error models, ``(of the runs, of their window energies)``.
+
+    The run-to-run error model of :mod:`energy_planner.uncertainty.errormodel`.
 
     A run's coefficient variance is ``g^T V g`` with ``g`` its term energies (the fitted
     columns' window means times the window durations, summed) and ``V`` a run-clustered
@@ -1611,9 +1610,10 @@ def _error_model(
     A held-out run's predicted and measured energies are those of the run whole
     (``cv.whole``: every sample, the samples no window holds priced by the fold's
     coefficients; ``scored_on="runs"``) when the windows carry their whole runs, else
-    its windows' (``scored_on="windows"``), and with ``whole=False`` (the scale of window
-    energies, which the growth beyond the ranges is measured on). The coefficient variance
-    and the noise within the run are the windows' either way.
+    its windows' (``scored_on="windows"``). The second model is always scored on the
+    windows' energies (the scale the growth beyond the ranges is measured on; the same
+    object as the first without whole runs). The coefficient variance and the noise within
+    the run are the windows' either way; they are computed once for both.
     """  # noqa: E501
     from energy_planner.stats import cluster_covariance, wls_coef
     from energy_planner.uncertainty.errormodel import fit_error_model, within_run_noise
@@ -1638,36 +1638,42 @@ def _error_model(
         coef = wls_coef(X[tr], y[tr], w[tr])
         Vk = np.nan_to_num(cluster_covariance(X[tr], y[tr] - X[tr] @ coef, w[tr], runs[tr]))
         parts.append(run_variance(Vk, ~tr))
-    # a held-out run's energy is the run whole when the windows carry their runs (the
-    # energy a user asks for: every sample, the ones cleaning dropped priced by the same
-    # fold's coefficients); else its windows' energy, and the error model says so
-    whole = whole and cv.whole is not None
-    scored = cv.whole if whole else cv.runs
-    per_run = scored.set_index(scored["run"].astype(str))
-    pred = per_run["predicted_j"].to_numpy(float)
-    ok = pred > 0
-    rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
+    fold_var = pd.concat(parts)
     share = heldout_outside_shares(table, model, fold)
     # the windows' errors within each run measure the error that averages out over a run
     cw = cv.windows
-    within = within_run_noise(
+    noise = within_run_noise(
         cw["run"].astype(str).to_numpy(),
         ((cw["predicted_w"] - cw["measured_w"]) * cw["duration"]).to_numpy(float),
         (cw["predicted_w"] * cw["duration"]).to_numpy(float),
         cw["duration"].to_numpy(float),
     )
-    within = within.reindex(per_run.index).fillna(0.0)  # no windows: no rows (dof 0)
-    return fit_error_model(
-        pred,
-        per_run["measured_j"].to_numpy(float),
-        per_run["duration_s"].to_numpy(float),
-        pd.concat(parts).reindex(per_run.index).to_numpy(float),
-        share.reindex(per_run.index).fillna(0.0).to_numpy(float),
-        per_run["fold"].to_numpy(),
-        param_rel_var=rho2,
-        within=(within["ss"].to_numpy(), within["t_eff"].to_numpy(), within["dof"].to_numpy()),
-        scored_on="runs" if whole else "windows",
-    )
+
+    def fit_on(scored: pd.DataFrame, scored_on: str) -> Any:
+        per_run = scored.set_index(scored["run"].astype(str))
+        pred = per_run["predicted_j"].to_numpy(float)
+        ok = pred > 0
+        rho2 = float(full.reindex(per_run.index).to_numpy(float)[ok].sum() / np.sum(pred[ok] ** 2))
+        within = noise.reindex(per_run.index).fillna(0.0)  # no windows: no rows (dof 0)
+        return fit_error_model(
+            pred,
+            per_run["measured_j"].to_numpy(float),
+            per_run["duration_s"].to_numpy(float),
+            fold_var.reindex(per_run.index).to_numpy(float),
+            share.reindex(per_run.index).fillna(0.0).to_numpy(float),
+            per_run["fold"].to_numpy(),
+            param_rel_var=rho2,
+            within=(within["ss"].to_numpy(), within["t_eff"].to_numpy(), within["dof"].to_numpy()),
+            scored_on=scored_on,
+        )
+
+    # a held-out run's energy is the run whole when the windows carry their runs (the
+    # energy a user asks for: every sample, the ones cleaning dropped priced by the same
+    # fold's coefficients); else its windows' energy, and the error model says so
+    of_windows = fit_on(cv.runs, "windows")
+    if cv.whole is None:
+        return of_windows, of_windows
+    return fit_on(cv.whole, "runs"), of_windows
 
 
 def _unit(model: EnergyModel, name: str) -> str:
