@@ -138,6 +138,14 @@ class Diagnosis:
         return self.data.power - self.predicted
 
     @property
+    def undecided(self):
+        """The best candidate where the staircase stopped, if the logs cannot decide it.
+
+        ``Ranking.undecided`` (:class:`~energy_planner.diagnosis.scoring.Undecided`).
+        """
+        return self.rankings[-1].undecided if self.rankings else None
+
+    @property
     def suspects(self) -> list:
         """Above-noise suspects, best first."""
         return [] if self.ranking is None else self.ranking.suspects
@@ -167,6 +175,7 @@ class Diagnosis:
             "n_tested": 0 if r is None else r.n_tested,
             "p_threshold": None if r is None else r.p_threshold,
             "choice": None if r is None or r.choice is None else r.choice.to_dict(),
+            "undecided": None if self.undecided is None else self.undecided.to_dict(),
             "staircase": [s.to_dict() for s in self.steps],
             "thresholds": {
                 k: getattr(th, k) for k in ("alpha", "min_rel", "span_tol", "n_splits", "seed")
@@ -256,8 +265,13 @@ def diagnose(
 
         notes.append(
             "no candidate effect is above noise; "
-            + conclusion(metrics["rmse_w"], noise_floor(wd), suspects_left=False)
-        )
+            + conclusion(
+                metrics["rmse_w"], noise_floor(wd), suspects_left=False,
+                undecided=ranking.undecided,
+            )
+        )  # fmt: skip
+    elif rankings and rankings[-1].undecided is not None:  # where the staircase stopped
+        notes.append(rankings[-1].undecided.sentence())
     if not math.isfinite(metrics["rmse_w"]):
         notes.append("no window has both a measured and a predicted power")
     return Diagnosis(

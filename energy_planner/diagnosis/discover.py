@@ -33,6 +33,7 @@ import pandas as pd
 
 from energy_planner.calibration.windowdata import WindowData, window_data
 from energy_planner.diagnosis.metrics import NoiseFloorEstimate, noise_floor
+from energy_planner.diagnosis.scoring import Undecided
 from energy_planner.diagnosis.suspects import Ranking, Step, Thresholds, model_term, staircase
 from energy_planner.measurements.datacheck import DataFinding
 from energy_planner.model.terms import Term
@@ -42,7 +43,13 @@ from energy_planner.model.terms import Term
 WITHIN_FLOOR = 1.5
 
 
-def conclusion(rmse_w: float, floor: NoiseFloorEstimate, *, suspects_left: bool) -> str:
+def conclusion(
+    rmse_w: float,
+    floor: NoiseFloorEstimate,
+    *,
+    suspects_left: bool,
+    undecided: Undecided | None = None,
+) -> str:
     """The closing note of a discovery, worded by the noise floor of the logs.
 
     Parameters
@@ -53,6 +60,9 @@ def conclusion(rmse_w: float, floor: NoiseFloorEstimate, *, suspects_left: bool)
         The floor the logs show.
     suspects_left : bool
         Whether candidates above noise remain (the step limit stopped the staircase).
+    undecided : Undecided, optional
+        The best candidate the logs cannot decide (``Ranking.undecided``): the note says
+        what it would gain and what would decide it, instead of "no candidate effect".
 
     Examples
     --------
@@ -73,17 +83,25 @@ def conclusion(rmse_w: float, floor: NoiseFloorEstimate, *, suspects_left: bool)
             "these logs is not known"
         )
     if ratio > WITHIN_FLOOR:
-        why = (
-            "candidate effects remain above noise (the step limit stopped the search)"
-            if suspects_left
-            else "no candidate effect is above noise: something the candidates do not "
-            "capture remains (try your own --term, or more runs)"
-        )
+        if suspects_left:
+            why = "candidate effects remain above noise (the step limit stopped the search)"
+        elif undecided is not None:
+            why = f"no candidate effect is confirmed: {undecided.sentence()}"
+        else:
+            why = (
+                "no candidate effect is above noise: something the candidates do not "
+                "capture remains (try your own --term, or more runs)"
+            )
         return f"the model does NOT explain these logs: {where}; {why}"
     if suspects_left:
         return (
             f"{where} (within {WITHIN_FLOOR}x), but candidate effects remain above noise "
             "(the step limit stopped the search)"
+        )
+    if undecided is not None:
+        return (
+            f"{where} (within {WITHIN_FLOOR}x) and no candidate effect is confirmed: "
+            f"{undecided.sentence()}"
         )
     return (
         f"no candidate effect is above noise and {where} (within {WITHIN_FLOOR}x): the model "
@@ -157,6 +175,15 @@ class Discovery:
     def term_names(self) -> list[str]:
         """Names of the final model's terms: what messages print and ``fit --term`` takes."""
         return [t.name if isinstance(t, Term) else t for t in self.model_terms]
+
+    @property
+    def undecided(self) -> Undecided | None:
+        """The best candidate where the staircase stopped, when the logs cannot decide it.
+
+        It passes its own test by run but the choice test by fold fails
+        (``Ranking.undecided``); None when the staircase stopped for another reason.
+        """
+        return self.rankings[-1].undecided if self.rankings else None
 
     @property
     def added(self) -> list[str]:
@@ -251,6 +278,7 @@ class Discovery:
             "unsupported_at_end": [] if last is None else last.unsupported,
             "n_tested": [r.n_tested for r in self.rankings],
             "choice": [None if r.choice is None else r.choice.to_dict() for r in self.rankings],
+            "undecided": None if self.undecided is None else self.undecided.to_dict(),
             "thresholds": {
                 "alpha": th.alpha,
                 "min_rel": th.min_rel,
@@ -374,7 +402,9 @@ def discover(
         left = len(last.suspects) > len(last.dropped)  # the others a refit would leave out
         if left:
             notes.append(f"stopped at the step limit ({max_steps}); suspects remain above noise")
-        notes.append(conclusion(rankings[-1].heldout_rmse_w, floor, suspects_left=left))
+        notes.append(
+            conclusion(last.heldout_rmse_w, floor, suspects_left=left, undecided=last.undecided)
+        )
     from energy_planner.calibration.fit import speed_support
 
     support = speed_support(windows)

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from energy_planner.calibration.windowdata import WindowData
 from energy_planner.diagnosis.candidates import (
@@ -26,7 +27,7 @@ from energy_planner.diagnosis.names import term_spec
 from energy_planner.model.terms import Term
 from energy_planner.stats import fold_index, paired_run_test, span_basis, span_residual
 from energy_planner.stats import wls_coef as wls
-from energy_planner.stats.heldout import choice_by_fold
+from energy_planner.stats.heldout import choice_by_fold, run_sq_gain
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,9 @@ class Ranking:
     supported_rmse_w: float = math.nan
     #: which windows are supported by their fold (``WindowData.fold_support``)
     supported: np.ndarray | None = field(default=None, repr=False)
+    #: the best candidate when it passes its own test but the choice test fails
+    #: (:class:`Undecided`): the logs cannot decide it; None otherwise
+    undecided: Undecided | None = None
 
 
 @dataclass(frozen=True)
@@ -152,6 +156,151 @@ class ChoiceTest:
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
         return asdict(self) | {"passed": self.passed}
+
+
+#: Runs :class:`Undecided` describes, largest gain first.
+UNDECIDED_TOP_RUNS = 3
+
+
+@dataclass(frozen=True)
+class Undecided:
+    """The best candidate when its own test passes but the choice test fails.
+
+    The candidate lowers the held-out error by itself (its own run test below its level
+    and the ``min_rel`` gain) but the folds do not agree on choosing it
+    (:class:`ChoiceTest` failed), so the ranking has nothing above noise: the logs cannot
+    decide it. The usual reason is a gain that rests on few runs; how much it does is
+    measured by run from the same held-out errors as its own test
+    (:func:`~energy_planner.stats.heldout.run_sq_gain` over the supported windows).
+
+    Attributes
+    ----------
+    name, term, variables, explanation, source : str, str, list of str, str, str
+        As the candidate's :class:`Suspect`.
+    heldout_rmse_before_w, heldout_rmse_w : float
+        Held-out RMSE without and with it (its own score: the supported windows), W.
+    p_value, p_threshold : float
+        Its own run test and the level it passes (``Thresholds.alpha``).
+    chosen : list of str or None
+        The term each fold's training runs chose (:attr:`ChoiceTest.chosen`).
+    n_folds_chose : int
+        Folds whose choice is this candidate.
+    choice_p_value, choice_p_threshold : float
+        The choice test's p-value and level.
+    n_runs, n_runs_better : int
+        Runs scored, and those whose squared held-out error it lowers.
+    top_share, top3_share : float
+        Share of its reduction of the pooled squared held-out error that comes from the
+        run with the largest reduction, and from the three largest (the runs that lose
+        count against the total, so a share can exceed 1).
+    top_runs : list of dict
+        The :data:`UNDECIDED_TOP_RUNS` runs with the largest reduction: ``run``, ``share``,
+        ``n_windows``, ``values`` (the run's duration-weighted mean of each of the term's
+        extra channels, of ``slope_deg`` (``|alpha|``) and of ``speed``, where the windows
+        carry them; a categorical channel: its most frequent value) and ``runs_as_high`` / ``runs_as_low`` (for each value, the
+        runs whose value is at least / at most as large, this one included; a categorical
+        value: the runs with the same value).
+    """
+
+    name: str
+    term: str
+    variables: list[str]
+    explanation: str
+    source: str
+    heldout_rmse_before_w: float
+    heldout_rmse_w: float
+    p_value: float
+    p_threshold: float
+    chosen: list[str | None]
+    n_folds_chose: int
+    choice_p_value: float
+    choice_p_threshold: float
+    n_runs: int
+    n_runs_better: int
+    top_share: float
+    top3_share: float
+    top_runs: list[dict]
+
+    def to_dict(self) -> dict:
+        """JSON-friendly dict."""
+        return asdict(self)
+
+    def sentence(self) -> str:
+        """What it means for the user, in one sentence (the closing note says it).
+
+        Examples
+        --------
+        >>> u = Undecided("load_kg^2", "load_kg ** 2", ["load_kg"], "", "data", 11.59, 8.93,
+        ...               0.005, 0.01, ["load_kg ** 2", "speed", None, "load_kg ** 2",
+        ...               "load_kg ** 2"], 3, 0.09, 0.01, 60, 42, 0.79, 1.02,
+        ...               [{"run": "m46", "share": 0.79, "n_windows": 30,
+        ...                 "values": {"load_kg": 9.0, "slope_deg": 21.0, "speed": 0.4},
+        ...                 "runs_as_high": {"load_kg": 30, "slope_deg": 1, "speed": 20},
+        ...                 "runs_as_low": {"load_kg": 31, "slope_deg": 60, "speed": 41}}])
+        >>> print(u.sentence())  # doctest: +NORMALIZE_WHITESPACE
+        load_kg^2 would lower the held-out RMSE 11.6 -> 8.9 W (its own test by run: p 0.005),
+        but the folds disagree on choosing it (3 of 5 chose it; choice test p 0.09, not below
+        0.01) and 79 % of its gain comes from run m46 (load_kg 9, slope 21 deg, speed 0.4 m/s):
+        the logs cannot decide it; log more runs like it (slope 21 deg or more: 1 of 60 runs)
+        to decide; `fit --term load_kg^2`, with the model's other terms, adds it by hand
+        """
+        lead = (
+            f"{self.name} would lower the held-out RMSE {self.heldout_rmse_before_w:.1f} -> "
+            f"{self.heldout_rmse_w:.1f} W (its own test by run: p {self.p_value:.2g}), but the "
+            f"folds disagree on choosing it ({self.n_folds_chose} of {len(self.chosen)} chose "
+            f"it; choice test p {self.choice_p_value:.2g}, not below {self.choice_p_threshold:g})"
+        )
+        hint = f"`fit --term {self.name}`, with the model's other terms, adds it by hand"
+        top = self.top_runs[0] if self.top_runs else None
+        if top is None or self.top3_share < 0.5:  # spread: no run to point at
+            return (
+                f"{lead}, with a gain spread over the runs ({self.n_runs_better} of "
+                f"{self.n_runs} improve): more runs would decide; {hint}"
+            )
+        runs = f"run {top['run']} ({_run_values(top)})"
+        if self.top_share < 0.5:
+            others = ", ".join(r["run"] for r in self.top_runs[1:])
+            runs = f"{_pct(self.top3_share)} of its gain comes from {runs} and {others}"
+        else:
+            runs = f"{_pct(self.top_share)} of its gain comes from {runs}"
+        rare = _rare_values(top, self.n_runs)
+        like = f" ({rare})" if rare else ""
+        like = f"log more runs like it{like} to decide"
+        return f"{lead} and {runs}: the logs cannot decide it; {like}; {hint}"
+
+
+def _pct(v: float) -> str:
+    return f"{100 * v:.0f} %"
+
+
+def _fmt_value(key: str, v) -> str:
+    if isinstance(v, str):
+        return f"{key} {v}"
+    if key == "slope_deg":
+        return f"slope {v:.0f} deg"
+    if key == "speed":
+        return f"speed {v:.2g} m/s"
+    return f"{key} {v:.3g}"
+
+
+def _run_values(run: dict) -> str:
+    return ", ".join(_fmt_value(k, v) for k, v in run["values"].items())
+
+
+def _rare_values(run: dict, n_runs: int) -> str:
+    """The values of ``run`` that few runs share (at most 10 % of them, at least one)."""
+    few = max(1, int(0.1 * n_runs))
+    out = []
+    for k, v in run["values"].items():
+        hi, lo = run["runs_as_high"].get(k, n_runs), run["runs_as_low"].get(k, n_runs)
+        if isinstance(v, str):
+            if hi <= few:
+                out.append(f"{_fmt_value(k, v)}: {hi} of {n_runs} runs")
+        elif hi <= few and hi <= lo:
+            out.append(f"{_fmt_value(k, v)} or more: {hi} of {n_runs} runs")
+        elif lo <= few:
+            out.append(f"{_fmt_value(k, v)} or less: {lo} of {n_runs} runs")
+    return "; ".join(out)
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
@@ -235,9 +384,12 @@ def rank_suspects(
     # the gate (suspects' docstring, *Above noise*): choosing at all, tested at alpha on
     # errors no choice saw; only then the best at alpha and the others at alpha / m
     choice = ctx.choice_test(a_priori, th.alpha)
+    undecided = None
     if choice is None or not choice.passed:
         for s in final:
             s.above_noise = False
+        if choice is not None and final and ctx.passes(final[0], th.alpha):
+            undecided = ctx.undecided(final[0], choice)  # a report: decides nothing
     elif final and not final[0].above_noise:
         ctx.decide(final[0], th.alpha)
     suspects = [s for s in final if s.above_noise]
@@ -257,6 +409,7 @@ def rank_suspects(
         outside=outside,
         supported_rmse_w=ctx.supported_rmse,
         supported=ctx.inside,
+        undecided=undecided,
     )
 
 
@@ -444,6 +597,50 @@ class _Context:
             p_threshold=level,
         )
 
+    def undecided(self, s: Suspect, choice: ChoiceTest) -> Undecided:
+        """:class:`Undecided` of the scored candidate ``s`` (its gain by run)."""
+        e1 = self.errors[s.term]
+        ok = self.base_ok & np.isfinite(e1) & self.inside  # the windows of its own test
+        ids, gain, count = run_sq_gain(self.base_err[ok], e1[ok], self.runs[ok])
+        total = float(gain.sum())
+        order = np.argsort(-gain, kind="stable")
+        share = gain / total if total > 0 else np.full(gain.shape, np.nan)
+        values = _run_values_table(self.wd, s.variables)
+        top = []
+        for i in order[:UNDECIDED_TOP_RUNS]:
+            run = str(ids[i])
+            v = values.get(run, {})
+            top.append(
+                {
+                    "run": run,
+                    "share": float(share[i]),
+                    "n_windows": int(count[i]),
+                    "values": v,
+                    "runs_as_high": {k: _as_extreme(values, k, x, +1) for k, x in v.items()},
+                    "runs_as_low": {k: _as_extreme(values, k, x, -1) for k, x in v.items()},
+                }
+            )
+        return Undecided(
+            name=s.name,
+            term=s.term,
+            variables=list(s.variables),
+            explanation=s.explanation,
+            source=s.source,
+            heldout_rmse_before_w=s.heldout_rmse_before_w,
+            heldout_rmse_w=s.heldout_rmse_w,
+            p_value=s.p_value,
+            p_threshold=self.th.alpha,
+            chosen=list(choice.chosen),
+            n_folds_chose=sum(c == s.term for c in choice.chosen),
+            choice_p_value=choice.p_value,
+            choice_p_threshold=choice.p_threshold,
+            n_runs=int(ids.size),
+            n_runs_better=int((gain > 0).sum()),
+            top_share=float(share[order[0]]) if ids.size else math.nan,
+            top3_share=float(share[order[:UNDECIDED_TOP_RUNS]].sum()) if ids.size else math.nan,
+            top_runs=top,
+        )
+
     def coefficient(self, term: str) -> float:
         """Coefficient of a scored candidate in the model refitted with it (all windows)."""
         z = self.columns.get(term)
@@ -528,6 +725,46 @@ class _Context:
                 s.p_threshold = p_thr
                 out.append(s)
         return out
+
+
+def _run_values_table(wd: WindowData, variables: Sequence[str]) -> dict[str, dict]:
+    """Each run's value of the term's extra channels, its slope and speed (:class:`Undecided`).
+
+    Numeric: the duration-weighted mean over the run's windows (the slope: of
+    ``|alpha_deg|``); categorical: the value most of its windows have.
+    """
+    t = wd.table
+    chans = [v for v in variables if v in wd.extras]  # the logs' own channels
+    cols = list(dict.fromkeys([*chans, "slope_deg", "speed"]))
+    w = pd.Series(wd.weights, index=t.index).fillna(0.0)
+    runs = t["run"].astype(str)
+    out: dict[str, dict] = {str(r): {} for r in pd.unique(runs)}
+    for c in cols:
+        src = "alpha_deg" if c == "slope_deg" else c
+        if src not in t.columns:
+            continue
+        col = t[src]
+        if pd.api.types.is_numeric_dtype(col):
+            x = col.to_numpy(dtype=float)
+            x = np.abs(x) if c == "slope_deg" else x
+            ok = np.isfinite(x) & (w.to_numpy() > 0)
+            num = pd.Series(np.where(ok, x * w, 0.0)).groupby(runs.to_numpy()).sum()
+            den = pd.Series(np.where(ok, w, 0.0)).groupby(runs.to_numpy()).sum()
+            for r in num.index:
+                if den[r] > 0:
+                    out[str(r)][c] = float(num[r] / den[r])
+        else:
+            for r, g in col.astype(str).groupby(runs.to_numpy()):
+                out[str(r)][c] = str(g.mode().iloc[0])
+    return out
+
+
+def _as_extreme(values: dict[str, dict], key: str, x, side: int) -> int:
+    """Runs whose ``key`` is at least (``side`` +1) / at most (-1) ``x``; categorical: equal."""
+    xs = [v[key] for v in values.values() if key in v]
+    if isinstance(x, str):
+        return sum(v == x for v in xs)
+    return int(sum((v - x) * side >= -1e-9 * max(1.0, abs(x)) for v in xs))
 
 
 def _candidate_columns(wd: WindowData, cands: list[Candidate]) -> dict[str, np.ndarray]:

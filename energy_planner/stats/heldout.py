@@ -47,6 +47,7 @@ __all__ = [
     "fold_index",
     "heldout",
     "paired_run_test",
+    "run_sq_gain",
 ]
 
 
@@ -433,11 +434,42 @@ def _inner_sse(stats, c: int, n_folds: int) -> np.ndarray:
 EXACT_MAX_RUNS = 25
 
 
+def run_sq_gain(
+    e0: np.ndarray, e1: np.ndarray, runs: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reduction of the squared held-out error by run: what :func:`paired_run_test` tests.
+
+    Parameters
+    ----------
+    e0, e1 : numpy.ndarray
+        Held-out errors of the same windows without and with a change.
+    runs : numpy.ndarray
+        Run of every window.
+
+    Returns
+    -------
+    tuple
+        ``(run_ids, gain, n)``: the runs (sorted), the sum over each run's windows of
+        ``e0**2 - e1**2`` (their sum is the change of the pooled sum of squared errors) and
+        each run's number of windows (``gain / n`` is the test's ``d_r``).
+
+    Examples
+    --------
+    >>> ids, g, n = run_sq_gain(np.array([2.0, 2, 1]), np.array([1.0, 0, 1]),
+    ...                         np.array(["b", "b", "a"]))
+    >>> ids.tolist(), g.tolist(), n.tolist()
+    (['a', 'b'], [0.0, 7.0], [1, 2])
+    """
+    ids, inv = np.unique(runs, return_inverse=True)
+    return ids, np.bincount(inv, weights=e0**2 - e1**2), np.bincount(inv)
+
+
 def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[float, float, int]:
     """One-sided paired test by run that ``e1`` has smaller squared errors than ``e0``.
 
-    ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2``; the runs are the
-    independent units (held out by run; a run's windows share its ground and sensors). The
+    ``d_r`` is the mean over run ``r``'s windows of ``e0**2 - e1**2`` (:func:`run_sq_gain`);
+    the runs are the independent units (held out by run; a run's windows share its ground
+    and sensors). The
     test is Wilcoxon's signed-rank test of ``d_r`` (the diagnosis names it
     ``RUN_TEST_NAME``; :func:`~energy_planner.stats.signedrank.signed_rank_test`, as
     ``scipy.stats.wilcoxon``, one-sided, zero differences dropped): an
@@ -474,8 +506,8 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     """
     from energy_planner.stats.signedrank import signed_rank_test
 
-    _, inv = np.unique(runs, return_inverse=True)
-    d = np.bincount(inv, weights=e0**2 - e1**2) / np.bincount(inv)
+    _, gain, count = run_sq_gain(e0, e1, runs)
+    d = gain / count
     n = d.size
     scale = np.max(np.abs(d)) if n else 0.0
     d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
