@@ -81,6 +81,7 @@ def conclusion(
         return (
             f"no noise floor could be estimated ({floor.method}): whether the model explains "
             "these logs is not known"
+            + ("" if undecided is None else f"; {undecided.sentence()}")
         )
     if ratio > WITHIN_FLOOR:
         if suspects_left:

@@ -199,7 +199,7 @@ class Undecided:
         extra channels, of ``slope_deg`` (``|alpha|``) and of ``speed``, where the windows
         carry them; a categorical channel: its most frequent value) and ``runs_as_high`` / ``runs_as_low`` (for each value, the
         runs whose value is at least / at most as large, this one included; a categorical
-        value: the runs with the same value).
+        value: the runs with the same value), among the ``n_runs`` scored.
     """
 
     name: str
@@ -238,15 +238,15 @@ class Undecided:
         ...                 "runs_as_high": {"load_kg": 30, "slope_deg": 1, "speed": 20},
         ...                 "runs_as_low": {"load_kg": 31, "slope_deg": 60, "speed": 41}}])
         >>> print(u.sentence())  # doctest: +NORMALIZE_WHITESPACE
-        load_kg^2 would lower the held-out RMSE 11.6 -> 8.9 W (its own test by run: p 0.005),
+        load_kg^2 would lower the held-out RMSE 11.6 -> 8.93 W (its own test by run: p 0.005),
         but the folds disagree on choosing it (3 of 5 chose it; choice test p 0.09, not below
         0.01) and 79 % of its gain comes from run m46 (load_kg 9, slope 21 deg, speed 0.4 m/s):
         the logs cannot decide it; log more runs like it (slope 21 deg or more: 1 of 60 runs)
         to decide; `fit --term load_kg^2`, with the model's other terms, adds it by hand
         """
         lead = (
-            f"{self.name} would lower the held-out RMSE {self.heldout_rmse_before_w:.1f} -> "
-            f"{self.heldout_rmse_w:.1f} W (its own test by run: p {self.p_value:.2g}), but the "
+            f"{self.name} would lower the held-out RMSE {self.heldout_rmse_before_w:.3g} -> "
+            f"{self.heldout_rmse_w:.3g} W (its own test by run: p {self.p_value:.2g}), but the "
             f"folds disagree on choosing it ({self.n_folds_chose} of {len(self.chosen)} chose "
             f"it; choice test p {self.choice_p_value:.2g}, not below {self.choice_p_threshold:g})"
         )
@@ -606,6 +606,7 @@ class _Context:
         order = np.argsort(-gain, kind="stable")
         share = gain / total if total > 0 else np.full(gain.shape, np.nan)
         values = _run_values_table(self.wd, s.variables)
+        values = {str(r): values.get(str(r), {}) for r in ids}  # the runs scored
         top = []
         for i in order[:UNDECIDED_TOP_RUNS]:
             run = str(ids[i])
