@@ -197,9 +197,10 @@ class Undecided:
         The :data:`UNDECIDED_TOP_RUNS` runs with the largest reduction: ``run``, ``share``,
         ``n_windows``, ``values`` (the run's duration-weighted mean of each of the term's
         extra channels, of ``slope_deg`` (``|alpha|``) and of ``speed``, where the windows
-        carry them; a categorical channel: its most frequent value) and ``runs_as_high`` / ``runs_as_low`` (for each value, the
-        runs whose value is at least / at most as large, this one included; a categorical
-        value: the runs with the same value), among the ``n_runs`` scored.
+        carry them; a categorical channel: its most frequent value) and ``runs_as_high`` /
+        ``runs_as_low`` (for each value, the runs whose value is at least / at most as
+        large, this one included; a categorical value: the runs with the same value), among
+        the ``n_runs`` scored.
     """
 
     name: str
