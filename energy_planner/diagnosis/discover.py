@@ -78,10 +78,10 @@ def conclusion(
         f"logs ({floor.rmse_w:.2f} W)"
     )
     if not math.isfinite(ratio):
+        why = "" if undecided is None else f"; {undecided.sentence()}"
         return (
             f"no noise floor could be estimated ({floor.method}): whether the model explains "
-            "these logs is not known"
-            + ("" if undecided is None else f"; {undecided.sentence()}")
+            f"these logs is not known{why}"
         )
     if ratio > WITHIN_FLOOR:
         if suspects_left:
