@@ -258,15 +258,17 @@ class Undecided:
                 f"{lead}, with a gain spread over the runs ({self.n_runs_better} of "
                 f"{self.n_runs} improve): more runs would decide; {hint}"
             )
-        runs = f"run {top['run']} ({_run_values(top)})"
-        if self.top_share < 0.5:
-            others = ", ".join(r["run"] for r in self.top_runs[1:])
-            runs = f"{_pct(self.top3_share)} of its gain comes from {runs} and {others}"
+        if self.top_share < 0.5:  # three runs: the first described, with its own share
+            first = f"{top['run']} ({_run_values(top)}; {_pct(self.top_share)})"
+            rest = [r["run"] for r in self.top_runs[1:]]
+            names = ", ".join([first, *rest[:-1]]) + (f" and {rest[-1]}" if rest else "")
+            runs = f"{_pct(self.top3_share)} of its gain comes from runs {names}"
         else:
-            runs = f"{_pct(self.top_share)} of its gain comes from {runs}"
+            runs = f"{_pct(self.top_share)} of its gain comes from run {top['run']} ("
+            runs += f"{_run_values(top)})"
         rare = _rare_values(top, self.n_runs)
         like = f" ({rare})" if rare else ""
-        like = f"log more runs like it{like} to decide"
+        like = f"log more runs like {'these' if self.top_share < 0.5 else 'it'}{like} to decide"
         return f"{lead} and {runs}: the logs cannot decide it; {like}; {hint}"
 
 
