@@ -160,6 +160,10 @@ class ChoiceTest:
 
 #: Runs :class:`Undecided` describes, largest gain first.
 UNDECIDED_TOP_RUNS = 3
+#: Share of an undecided candidate's gain that makes it rest on few runs: its note names
+#: the top run when that one carries this much, else the top three when they do, else it
+#: calls the gain spread over the runs.
+FEW_RUNS_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -253,12 +257,12 @@ class Undecided:
         )
         hint = f"`fit --term {self.name}`, with the model's other terms, adds it by hand"
         top = self.top_runs[0] if self.top_runs else None
-        if top is None or self.top3_share < 0.5:  # spread: no run to point at
+        if top is None or self.top3_share < FEW_RUNS_SHARE:  # spread: no run to point at
             return (
                 f"{lead}, with a gain spread over the runs ({self.n_runs_better} of "
                 f"{self.n_runs} improve): more runs would decide; {hint}"
             )
-        if self.top_share < 0.5:  # three runs: the first described, with its own share
+        if self.top_share < FEW_RUNS_SHARE:  # three runs: the first described, with its own share
             first = f"{top['run']} ({_run_values(top)}; {_pct(self.top_share)})"
             rest = [r["run"] for r in self.top_runs[1:]]
             names = ", ".join([first, *rest[:-1]]) + (f" and {rest[-1]}" if rest else "")
@@ -268,7 +272,7 @@ class Undecided:
             runs += f"{_run_values(top)})"
         rare = _rare_values(top, self.n_runs)
         like = f" ({rare})" if rare else ""
-        like = f"log more runs like {'these' if self.top_share < 0.5 else 'it'}{like} to decide"
+        like = f"log more runs like {'these' if self.top_share < FEW_RUNS_SHARE else 'it'}{like} to decide"
         return f"{lead} and {runs}: the logs cannot decide it; {like}; {hint}"
 
 
