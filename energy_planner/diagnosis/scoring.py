@@ -271,8 +271,8 @@ class Undecided:
             runs = f"{_pct(self.top_share)} of its gain comes from run {top['run']} ("
             runs += f"{_run_values(top)})"
         rare = _rare_values(top, self.n_runs)
-        like = f" ({rare})" if rare else ""
-        like = f"log more runs like {'these' if self.top_share < FEW_RUNS_SHARE else 'it'}{like} to decide"
+        them = "these" if self.top_share < FEW_RUNS_SHARE else "it"
+        like = f"log more runs like {them}" + (f" ({rare})" if rare else "") + " to decide"
         return f"{lead} and {runs}: the logs cannot decide it; {like}; {hint}"
 
 
