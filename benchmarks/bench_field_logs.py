@@ -462,7 +462,9 @@ def by_channel(missions: list[Mission], max_values: int = 8) -> dict[str, dict[s
     names = sorted({k for m in missions for k in m.channels})
     out: dict[str, dict[str, Any]] = {}
     for name in names:
-        vals = sorted({m.channels.get(name) for m in missions if name in m.channels}, key=str)
+        vals = {m.channels.get(name) for m in missions if name in m.channels}
+        num = all(isinstance(v, float) for v in vals)
+        vals = sorted(vals) if num else sorted(vals, key=str)
         if len(vals) > max_values:
             continue
         out[name] = {
