@@ -226,7 +226,7 @@ training runs did. Seed 3's discover stops after ``load_kg*P_base`` at 1.39x the
 
 Seed 2 by load (printed under the table): 0 kg 10/15 in (error -1.59 %, z +1.46/1.86), 9 kg
 13/15, 18 kg 14/15, 27 kg 10/15 (z -0.21/1.92); 4 missions predicted above every training
-run's mean power (431 W), 1 of them in (error +2.45 %). Its training runs' cross-validated
+run's measured mean power (431 W), 1 of them in (error +2.45 %). Its training runs' cross-validated
 whole-run errors show the same ends, weaker: 0 kg -0.48 % (rms 1.30 %), 27 kg -0.56 % (rms
 1.22 %), the middle +0.6 % (rms 0.73-1.07 %); the held-out missions err more than the
 training runs did (rms 1.57 against 1.10 %; on seeds 0, 1, 3 no more: 1.03 / 1.05, 0.78 /
@@ -492,7 +492,9 @@ def by_channel(missions: list[Mission], max_values: int = 8) -> dict[str, dict[s
 
 
 def beyond_power(missions: list[Mission], train_max_w: float) -> dict[str, Any]:
-    """:func:`_rows` of the missions whose predicted mean power exceeds every training run's.
+    """:func:`_rows` of the missions predicted above the largest mean power a training run had.
+
+    ``train_max_w``: the training runs' largest battery energy over duration (the run whole).
 
     Each quantity of such a mission (slope, speed, a channel) may lie in its range while
     their combination (heavy and steep uphill) lies beyond every run the model and its
@@ -814,7 +816,7 @@ def print_tables(
         far = beyond_power(s.missions, s.train_max_power_w)
         if far["n"]:
             print(
-                f"{s.name:<14} predicted mean power beyond every training run's "
+                f"{s.name:<14} predicted mean power above every training run's measured "
                 f"({far['train_max_power_w']:.0f} W): {far['covered']}/{far['n']} in, error "
                 f"{_pct(far['mean_error'], True)}, z {far['z_mean']:+.2f}/{far['z_rms']:.2f}"
             )
