@@ -195,3 +195,45 @@ def test_discover_adds_the_cross_slope_holding_cost(discovered):
     assert d.table()[1]["heldout_rmse_w"] < 0.6 * d.table()[0]["heldout_rmse_w"]
     # the model written holds it with the coefficient the staircase fitted
     assert d.model.coefficients[best.term] == pytest.approx(best.coefficient, rel=0.05)
+
+
+def _bench_field_logs():
+    import importlib.util
+    import sys
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_field_logs.py"
+    spec = importlib.util.spec_from_file_location("bench_field_logs", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up there
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_bench_counts_the_missions_by_channel_value_and_beyond_the_training_power():
+    """The bench's breakdown of coverage: worked by hand on four missions of 60 s.
+
+    Half-width 100 J everywhere, so z = (measured - predicted) / (100 / 1.645).
+    """
+    b = _bench_field_logs()
+
+    def m(load: float, meas: float, pred: float) -> object:
+        return b.Mission(f"r{load}{meas}", meas, pred, pred - 100.0, pred + 100.0, 0.0, 60.0, 2,
+                         channels={"load_kg": load})  # fmt: skip
+
+    # 0 kg: one inside (z +0.8225), one under-predicted outside (z +3.29); 27 kg: one over,
+    # outside (z -1.645 * 1.5 = -2.4675); 9 kg: exact (z 0)
+    ms = [m(0.0, 1050.0, 1000.0), m(0.0, 1200.0, 1000.0), m(27.0, 29850.0, 30000.0),
+          m(9.0, 2000.0, 2000.0)]  # fmt: skip
+    by = b.by_channel(ms)["load_kg"]
+    assert list(by) == ["0", "9", "27"]  # numeric order
+    assert (by["0"]["n"], by["0"]["covered"]) == (2, 1)
+    assert by["0"]["mean_error"] == pytest.approx((1000 / 1050 - 1 + 1000 / 1200 - 1) / 2)
+    assert by["0"]["z_mean"] == pytest.approx((0.5 + 2.0) * 1.645 / 2)
+    assert by["0"]["z_rms"] == pytest.approx(1.645 * math.sqrt((0.25 + 4.0) / 2))
+    assert (by["27"]["covered"], by["9"]["covered"]) == (0, 1)
+    assert by["27"]["z_mean"] == pytest.approx(-1.5 * 1.645)
+    # mean powers 16.7, 16.7, 500, 33.3 W: only the 27 kg mission is beyond 400 W
+    far = b.beyond_power(ms, 400.0)
+    assert (far["n"], far["covered"], far["train_max_power_w"]) == (1, 0, 400.0)
+    assert far["mean_error"] == pytest.approx(30000 / 29850 - 1)
+    assert b.beyond_power(ms, float("nan"))["n"] == 0
