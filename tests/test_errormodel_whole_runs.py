@@ -131,6 +131,11 @@ def test_whole_runs_hold_the_energy_outside_the_windows(fitted):
     assert cv.set_index("run")["measured_j"].to_numpy() == pytest.approx(
         battery.reindex(cv["run"]).to_numpy(), rel=1e-9
     )
+    # --json shows the rows the intervals are scored on, each run's error worked from them
+    rows = json.loads(json.dumps(whole.heldout.to_dict()))["whole_runs"]
+    assert [r["run"] for r in rows] == cv["run"].tolist()
+    for r in rows:
+        assert r["rel_error"] == pytest.approx(r["predicted_j"] / r["measured_j"] - 1.0, abs=1e-12)
     cov, bias = _coverage(whole, fresh)
     assert bias < -0.015  # the surges: the steady walking power prices a run 2-4 % low
     # 60 fresh runs at 90 %: the binomial band (95 %) is 49-58
@@ -142,6 +147,7 @@ def test_windows_alone_miss_the_energy_outside_them(fitted):
     em = ErrorModel.from_dict(only_windows.model.metadata["fit"]["error_model"])
     assert em.scored_on == "windows"
     assert only_windows.heldout.whole is None
+    assert only_windows.heldout.to_dict()["whole_runs"] is None
     cov, _ = _coverage(only_windows, fresh)
     assert cov < 0.5, cov
 

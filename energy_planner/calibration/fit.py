@@ -126,9 +126,12 @@ class CrossValidation:
         One row per run, the run WHOLE (every sample, not only its windows): run, fold,
         duration_s, measured_j (battery energy of every sample), predicted_j (the
         windows' prediction plus the samples no window holds, priced by the same fold's
-        coefficients: :func:`whole_run_predictions`), rest_predicted_j (that second part).
+        coefficients: :func:`whole_run_predictions`), rest_predicted_j (that second part),
+        priced_by (``path``: the logged poses over the map; ``samples``) and rel_error
+        (predicted / measured - 1).
         None when the windows carry no whole runs (``Windows.whole_runs``: windows
-        cut without :func:`~energy_planner.calibration.prepare_logs`).
+        cut without :func:`~energy_planner.calibration.prepare_logs`); ``whole_runs``
+        in :meth:`to_dict`.
     """
 
     n_splits: int
@@ -163,6 +166,7 @@ class CrossValidation:
             "energy_p90_abs_rel_error": self.energy_p90_abs_rel,
             "energy_total_rel_error": self.energy_total_rel,
             "runs": self.runs.to_dict(orient="records"),
+            "whole_runs": None if self.whole is None else self.whole.to_dict(orient="records"),
             "warnings": list(self.warnings),
         }
 
@@ -1341,6 +1345,9 @@ def whole_run_predictions(
         use = np.isfinite(path_j)
         out.loc[use, "predicted_j"] = path_j[use]
         out.loc[use, "priced_by"] = "path"
+    m = out["measured_j"].to_numpy(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out["rel_error"] = np.where(m > 0, out["predicted_j"].to_numpy(float) / m - 1.0, np.nan)
     return out
 
 
