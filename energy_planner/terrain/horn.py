@@ -250,8 +250,9 @@ def _horn_strip(top, mid, bot, gx, gy, sx, sy, tmp, bad, bad2) -> None:
     np.isnan(gx, out=bad)
     bad |= np.isnan(gy, out=bad2)
     bad |= np.isnan(mid[:, 1:-1], out=bad2)
-    np.copyto(gx, np.nan, where=bad)
-    np.copyto(gy, np.nan, where=bad)
+    if bad.any():  # most strips of a DEM have no invalid cell
+        np.copyto(gx, np.nan, where=bad)
+        np.copyto(gy, np.nan, where=bad)
 
 
 def gradient(
