@@ -140,7 +140,8 @@ symbol binding 35 M, the gradient's fills and temporaries; the kernels' the same
 ``energy-map`` of the hill 1176 M against 1217 M. Paired whole-command runs in turn
 (``os.wait4``; no idle spell in this round): CPU 4.43 against 4.55 s (ratio 0.965, 6
 pairs, load 5-8), 4.36 against 4.44 (0.999, 10 pairs, load 3-4), 3.52 against 3.99
-(0.908, 10 pairs, load 1.4-3.5, ratios 0.71-1.11); wall ratios 0.954, 1.02, 0.900; peak
+(0.908, 10 pairs, load 1.4-3.5, ratios 0.71-1.11), 4.27 against 4.35 (0.961, 8 pairs,
+load 1.8-3.0); wall ratios 0.954, 1.02, 0.900, 0.970; peak
 RSS 201 MB against 213. ``--pace --runs 5 --baseline-python`` at load 4-5: default
 4.29 s wall, 3.96 CPU s (main 4.39 s, 4.09), ``--bands summary`` 3.27 s, 3.01 (main
 2.88 s, 2.89), ``--encoding float32`` 5.73 s, 5.18, ``--bands all`` 5.66 s, 5.62,

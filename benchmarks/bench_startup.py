@@ -98,7 +98,9 @@ direct.csv``, byte code cached): 941 M against main's 1028 M (-8.5 %; the same e
 to 0.02 %); of ``energy-map`` of the hill 1176 M against 1217 M. The two groups the warm
 row's wall times fell in, by run (0.35-0.39 and 0.48-0.55 s), are not in the process:
 its instruction count and page faults (9673-9680, ``perf stat``) are the same in every
-run, and every run opens the same files (``strace -f -e trace=openat``).
+run, and every run opens the same files (``strace -f -e trace=openat``). At load 1.8,
+15 whole-process runs of the warm row in turn with main's: median 0.412 s wall,
+0.411 CPU s (0.335-0.525 s) against 0.474 s, 0.472 (0.356-0.565 s): paired 0.90.
 """
 
 from __future__ import annotations
