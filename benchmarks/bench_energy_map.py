@@ -129,6 +129,27 @@ writer thread compressed on the other core, so moving that work beside the kerne
 little there (it shortens the main thread's path where more cores are free); the rest
 of the gain is the decoding's CPU.
 
+With each row thread encoding its rows right after its kernel and summary rows (one fork
+and join a window instead of three), the Horn gradient and the steepest slope by strips
+of rows that stay in the cache and the command's extension modules bound lazily (main
+cfdef37 as the baseline; the same bytes, ``cmp``: default, ``--bands all``, ``--bands
+summary``, ``--encoding float32``; ``--dask`` equal cell for cell and in its tags, as
+main's own ``--dask`` files are from run to run): instructions of the whole command at
+1024^2 (callgrind, byte code cached) 5.830 G against 5.882 G (-0.9 %: the start-up's
+symbol binding 35 M, the gradient's fills and temporaries; the kernels' the same); of
+``energy-map`` of the hill 1176 M against 1217 M. Paired whole-command runs in turn
+(``os.wait4``; no idle spell in this round): CPU 4.43 against 4.55 s (ratio 0.965, 6
+pairs, load 5-8), 4.36 against 4.44 (0.999, 10 pairs, load 3-4), 3.52 against 3.99
+(0.908, 10 pairs, load 1.4-3.5, ratios 0.71-1.11), 4.27 against 4.35 (0.961, 8 pairs,
+load 1.8-3.0); wall ratios 0.954, 1.02, 0.900, 0.970; peak
+RSS 201 MB against 213. ``--pace --runs 5 --baseline-python`` at load 4-5: default
+4.29 s wall, 3.96 CPU s (main 4.39 s, 4.09), ``--bands summary`` 3.27 s, 3.01 (main
+2.88 s, 2.89), ``--encoding float32`` 5.73 s, 5.18, ``--bands all`` 5.66 s, 5.62,
+``gdaldem slope`` 0.53 s. The CPU a 2048^2 map takes moved by more than these
+differences from one spell of this machine's load to the next: the instruction counts
+are the load-free measure, and they say the map's own work is nearly unchanged (the
+kernel, zstd and libtiff's predictor are two thirds of its CPU, ``perf record``).
+
 ``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
 0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
 0.6 (1.50x wall, 1.53x CPU); ``--speed auto`` choosing the gait too 25.80 s, 10.60 CPU s

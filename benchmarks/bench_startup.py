@@ -74,6 +74,33 @@ costs, within the scatter between rounds (in A 0.544 against 0.519 CPU s here, 0
 against 0.571 in a run of 21 rounds at load 7.9): the value is a run-time input of the
 model's cached precompiled module, and the two command lines import the same modules
 (listed, diffed).
+
+Measured again 2026-11-29 (load 4.8 falling to 3.4, other jobs running), A the branch
+that binds extension modules lazily, reads a band's mask without ``numpy.ma``, parses
+each term formula once and reads CSV waypoints without the ROS bag module, B main at
+cfdef37, medians of 7 (energy-map: 2)::
+
+    python benchmarks/bench_startup.py --runs 7 --map-runs 2 --baseline /work/main/.venv/bin
+
+    row                                        A wall  A cpu  B wall  B cpu  A/B wall  A/B cpu
+    python -c pass (floor)                      0.032  0.027   0.033  0.022      1.08     1.03
+    energy-planner --help                       0.060  0.038   0.056  0.040      1.01     1.01
+    energy, hill, warm                          0.610  0.413   0.647  0.510      0.91     0.89
+    energy, hill, one --set value, the same     0.583  0.507   0.633  0.548      0.96     0.95
+    energy, hill, a new --set value             0.658  0.495   0.608  0.524      0.96     0.96
+    energy, hill, a new numeric channel raster  0.585  0.451   0.676  0.511      0.93     0.92
+    energy-map, hill, a new --set value         2.802  1.376   2.932  1.448      0.96     0.95
+
+The wall seconds are the load's (a warm ``energy`` is 0.35-0.55 s when a core is free);
+the instructions, which no load moves, of a warm ``energy`` on the hill
+(``valgrind --tool=callgrind energy-planner energy --dem hill.tif --waypoints
+direct.csv``, byte code cached): 941 M against main's 1028 M (-8.5 %; the same every run
+to 0.02 %); of ``energy-map`` of the hill 1176 M against 1217 M. The two groups the warm
+row's wall times fell in, by run (0.35-0.39 and 0.48-0.55 s), are not in the process:
+its instruction count and page faults (9673-9680, ``perf stat``) are the same in every
+run, and every run opens the same files (``strace -f -e trace=openat``). At load 1.8,
+15 whole-process runs of the warm row in turn with main's: median 0.412 s wall,
+0.411 CPU s (0.335-0.525 s) against 0.474 s, 0.472 (0.356-0.565 s): paired 0.90.
 """
 
 from __future__ import annotations

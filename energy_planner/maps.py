@@ -18,14 +18,15 @@ __all__ = ["MAPS_DIR", "map_names", "map_path", "resolve", "scenario", "scenario
 
 
 def _maps_dir() -> Path:
-    """The bundled maps: package data ``energy_planner/data/maps`` (importlib.resources).
+    """The bundled maps: package data ``energy_planner/data/maps``, beside this module.
 
     The same in a source checkout (where ``maps/`` at the root links to these files), an
-    editable install, a wheel in a venv or ``pip install --user``.
+    editable install, a wheel in a venv or ``pip install --user``: the package is always
+    installed as files (``importlib.resources.files`` would give this same folder, at the
+    cost of importing ``tempfile``, ``zipfile``, ``shutil``, ``bz2`` and ``random`` in
+    every command that resolves a map name).
     """
-    from importlib.resources import files
-
-    return Path(str(files("energy_planner") / "data" / "maps"))
+    return Path(__file__).parent / "data" / "maps"
 
 
 #: The bundled maps folder (package data).

@@ -170,9 +170,9 @@ def _recording(monkeypatch, cls, seen):
     """Record the stride along the headings of the ``along`` bands ``cls.map_bands`` gets."""
     orig = cls.map_bands
 
-    def map_bands(self, gx, gy, chan, ang, along, best, precompiled=False):
+    def map_bands(self, gx, gy, chan, ang, along, best, precompiled=False, **kw):
         seen.append(along.strides[0])
-        return orig(self, gx, gy, chan, ang, along, best, precompiled)
+        return orig(self, gx, gy, chan, ang, along, best, precompiled, **kw)
 
     monkeypatch.setattr(cls, "map_bands", map_bands)
 

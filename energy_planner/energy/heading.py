@@ -416,6 +416,7 @@ class HeadingCost:
     def map_bands(
         self, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: np.ndarray,
         along: np.ndarray, best: np.ndarray, precompiled: bool = False,
+        then: Any = None,
     ) -> None:  # fmt: skip
         """Fill the energy map's ``along`` and ``best`` bands of a block of cells.
 
@@ -425,7 +426,11 @@ class HeadingCost:
         cheapest way over the allowed yaws (never above ``along``). Both from the table,
         or exactly where the table does not serve. ``precompiled``: with the model's
         precompiled kernels (:meth:`precompiled_map`) where there are some, the same
-        code and values as numba's.
+        code and values as numba's. ``then(a, b)``: called for each range of rows
+        ``a .. b`` once its bands are filled, in the precompiled kernel's row thread that
+        filled them (:func:`run_by_rows`: what comes next for those rows follows in the
+        same thread, with no wait for the other rows); else over the row ranges of
+        :func:`run_by_rows` after the whole block.
         """
         ang = np.ascontiguousarray(headings, dtype=np.float64)
         if precompiled:
@@ -434,7 +439,7 @@ class HeadingCost:
             table = np.zeros((3, 0, 0))  # a numeric raster: the exact minimum everywhere
             if not self.rasters:
                 table = np.ascontiguousarray(self.table(_steepest(gx, gy, self.tmax)))
-            self._map(gx, gy, chan, ang, table, along, best, precompiled)
+            self._map(gx, gy, chan, ang, table, along, best, precompiled, then)
             return
         with np.errstate(invalid="ignore"):
             g2 = gx * gx + gy * gy
@@ -456,6 +461,8 @@ class HeadingCost:
             if a is not along:
                 along[:, cells] = a[:, cells]
             best[:, cells] = b[:, cells]
+        if then is not None:
+            run_by_rows(then, gx.shape[0])
 
     def _combination_tables(self, chan, g2, ok):
         """``(cells, table)`` for each combination of the categorical rasters in a block.
@@ -478,13 +485,17 @@ class HeadingCost:
             table = self.table(_top(g2[cells & ok]), tuple(float(v) for v in combos[:, k]))
             yield cells, table
 
-    def _map(self, gx, gy, chan, ang, table, along, best, precompiled: bool = False) -> None:
+    def _map(
+        self, gx, gy, chan, ang, table, along, best, precompiled: bool = False, then=None
+    ) -> None:
         aot = self.precompiled_map() if precompiled else None
         if aot is None:
             self._mod.map_costs(
                 gx, gy, chan, self._consts, ang, self.speed, self.tmax, self.smax,
                 self.back_tan, self.crab, table, self.d_alpha, along, best,
             )  # fmt: skip
+            if then is not None:
+                run_by_rows(then, gx.shape[0])
             return
         per_row = chan.shape[1:] == gx.shape  # rasters on the block's cells, else a stub
 
@@ -494,6 +505,8 @@ class HeadingCost:
                 self.speed, self.tmax, self.smax, self.back_tan, self.crab, table,
                 self.d_alpha, along[:, a:b], best[:, a:b],
             )  # fmt: skip
+            if then is not None:
+                then(a, b)
 
         run_by_rows(rows, gx.shape[0])
 
@@ -567,17 +580,34 @@ def _steepest(gx: np.ndarray, gy: np.ndarray, tmax: float) -> float:
     """
     lim = tmax * tmax
     tops: list[float] = []
+    cols = gx.shape[1] if gx.ndim == 2 else 1
+    step = max(1, _STRIP_CELLS // max(cols, 1))
 
     def rows(a: int, b: int) -> None:
-        x, y = gx[a:b], gy[a:b]
-        with np.errstate(invalid="ignore"):
-            g2 = x * x + y * y
-            ok = np.isfinite(g2) & (g2 <= lim)
-        tops.append(np.max(g2, where=ok, initial=-np.inf))
+        # by strips of rows whose scratch stays in the cache (the same squares and maximum)
+        n = min(step, b - a)
+        g2, y2 = np.empty((2, n, *gx.shape[1:]))
+        ok, below = np.empty((2, n, *gx.shape[1:]), dtype=bool)
+        top = -np.inf
+        for s in range(a, b, step):
+            m = min(step, b - s)
+            x, y = gx[s : s + m], gy[s : s + m]
+            with np.errstate(invalid="ignore"):
+                np.multiply(x, x, out=g2[:m])
+                g2[:m] += np.multiply(y, y, out=y2[:m])
+                np.isfinite(g2[:m], out=ok[:m])
+                ok[:m] &= np.less_equal(g2[:m], lim, out=below[:m])
+            top = max(top, np.max(g2[:m], where=ok[:m], initial=-np.inf))
+        tops.append(top)
 
     run_by_rows(rows, gx.shape[0])
     top = max(tops, default=-np.inf)
     return float(np.arctan(np.sqrt(top))) if top > -np.inf else 0.0
+
+
+#: Cells of a strip of rows :func:`_steepest` squares at a time (its scratch, 256 KB an
+#: array, stays in a core's cache).
+_STRIP_CELLS = 32768
 
 
 @lru_cache(maxsize=32)

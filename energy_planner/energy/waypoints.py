@@ -60,6 +60,7 @@ from energy_planner.geojson import (
     yaw_from_work,
     yaw_to_work,
 )
+from energy_planner.io.path_format import is_bag
 from energy_planner.io.path_read import read_text
 
 __all__ = [
@@ -112,9 +113,9 @@ def read_waypoints(path: str | Path, topic: str | None = None) -> Waypoints:
         the value.
     """
     p = Path(path)
-    from energy_planner.io.ros2 import is_bag, read_path_bag
-
     if is_bag(p):
+        from energy_planner.io.ros2 import read_path_bag
+
         return read_path_bag(p, topic)
     text = read_text(
         p, "waypoint file", "a CSV with columns x,y[,yaw_deg][,t] or a GeoJSON LineString",

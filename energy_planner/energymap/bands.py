@@ -135,6 +135,7 @@ def heading_angles(headings: int) -> np.ndarray:
 def block_bands(
     heading: Any, gx: np.ndarray, gy: np.ndarray, chan: np.ndarray, headings: int,
     out: np.ndarray | None = None, precompiled: bool = False, along: bool = True,
+    then: Any = None,
 ) -> np.ndarray:  # fmt: skip
     """Every band of a block of cells, float32 ``(2 N + 4 + E, rows, cols)``.
 
@@ -153,6 +154,12 @@ def block_bands(
     into one ``(rows, cols)`` plane that every heading overwrites (a stride of 0 along the
     headings: no memory traffic for bands nobody reads), numba's into a scratch block
     (its kernel is compiled for contiguous bands only).
+    ``then(out, a, b)``: called for each range of rows ``a .. b`` once every band of those
+    rows is final: with the precompiled kernels and no speed bands, in the row thread
+    that computed them, right after its kernel and summary rows (no wait for the other
+    rows, e.g. to encode them: :func:`~energy_planner.energymap.core._map_by_windows`);
+    else over the row ranges of :func:`~energy_planner.energy.heading.run_by_rows` at
+    the end.
     """
     gx = np.ascontiguousarray(gx, dtype=np.float64)
     gy = np.ascontiguousarray(gy, dtype=np.float64)
@@ -175,21 +182,29 @@ def block_bands(
         plane = out[lead + headings] if aot is not None else None
         fwd = _discarded_along(headings, rows, cols, shared=aot is not None, plane=plane)
     best = out[lead : lead + headings]
-    heading.map_bands(gx, gy, chan, ang, fwd, best, precompiled)
     summary = out[lead + headings : lead + headings + 4]
     if aot is None:
         from energy_planner.energymap._summary import summary_bands
 
+        heading.map_bands(gx, gy, chan, ang, fwd, best, precompiled)
         summary_bands(best, np.degrees(ang), summary)
     else:
-        from energy_planner.energy.heading import run_by_rows
-
         deg = np.degrees(ang)
-        run_by_rows(lambda a, b: aot.summary(best[:, a:b], deg, summary[:, a:b]), rows)
+
+        def rows_done(a: int, b: int) -> None:  # in the row thread of rows a .. b
+            aot.summary(best[:, a:b], deg, summary[:, a:b])
+            if then is not None and not extra:
+                then(out, a, b)
+
+        heading.map_bands(gx, gy, chan, ang, fwd, best, precompiled, then=rows_done)
     if extra:
         with np.errstate(invalid="ignore"):
             head = np.radians(summary[3].astype(np.float64))
         heading.fill_speed_bands(gx, gy, chan, head, out[lead + headings + 4 :], best)
+    if then is not None and (extra or aot is None):
+        from energy_planner.energy.heading import run_by_rows
+
+        run_by_rows(lambda a, b: then(out, a, b), rows)
     return out
 
 

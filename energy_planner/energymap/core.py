@@ -62,7 +62,7 @@ from energy_planner.energymap.bands import (  # noqa: F401  (re-exported: old im
     block_bands,
     heading_angles,
 )
-from energy_planner.energymap.encoding import DEFAULT_ENCODING
+from energy_planner.energymap.encoding import DEFAULT_ENCODING, EncodingOverflow
 from energy_planner.energymap.result import (  # noqa: F401  (re-exported: old import paths)
     _TILE,
     EnergyMapResult,
@@ -251,19 +251,42 @@ def _map_by_windows(
     windows = [(r0, min(rows, r0 + step)) for r0 in range(0, rows, step)]
     bufs: list[Any] = [None, None]  # float bands: one, or two when they are what is written
     codes: list[Any] = [None, None]
+    first = setup.first - setup.computed  # the first band written, in a window's bands
+    # uint16 bands with the precompiled kernels: each row thread encodes its rows as soon
+    # as the kernel and the summary have made them (block_bands' ``then``)
+    aot = setup.heading.precompiled_map() if setup.encoding == "uint16" else None
+    inv = np.ascontiguousarray(1.0 / np.asarray(setup.steps, dtype=np.float64))
     with _BackgroundWriter(dst) as writer, _Inputs(block, windows, ahead) as inputs:
         for k in _progress(range(len(windows)), len(windows), "energy map", progress):
             r0, r1 = windows[k]
             gx, gy, chan = inputs.get(k)
             b = k % 2 if setup.encoding == "float32" else 0
+            then = code = None
+            bad: list[int] = []
+            if aot is not None:
+                shape_k = (setup.nbands, r1 - r0, cols)
+                if codes[k % 2] is None or codes[k % 2].shape != shape_k:
+                    codes[k % 2] = np.empty(shape_k, dtype=np.uint16)
+                code = codes[k % 2]
+
+                def then(out: np.ndarray, a: int, z: int, code=code, bad=bad) -> None:
+                    bad.append(int(aot.encode(out[first:, a:z], inv, code[:, a:z])))
+
             bufs[b] = bands = block_bands(
                 setup.heading, gx, gy, chan, setup.headings, bufs[b], precompiled=True,
-                along=setup.along,
+                along=setup.along, then=then,
             )  # fmt: skip
             if samples is not None:
                 samples.add(bands, r0, setup.computed)
-            data = bands[setup.first - setup.computed :]
-            codes[k % 2] = data = _encoded(setup, data, codes[k % 2])
+            data = bands[first:]
+            if code is not None:  # encoded by the row threads (the same shape: nbands)
+                if sum(bad):
+                    raise EncodingOverflow(
+                        f"{sum(bad)} values outside the uint16 range of their band"
+                    )
+                data = code
+            else:
+                codes[k % 2] = data = _encoded(setup, data, codes[k % 2])
             writer.write(data, Window(0, r0, cols, r1 - r0))
         if samples is not None:
             # beside the last window's write (the result takes them), in the memory of the

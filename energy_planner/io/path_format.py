@@ -30,6 +30,7 @@ __all__ = [
     "PATH_FORMAT_VERSION",
     "YAW_FRAME",
     "Waypoints",
+    "is_bag",
     "path_document",
     "path_document_from_work",
     "segment_gaits",
@@ -394,3 +395,15 @@ def write_path_from_work(
     """Write :func:`path_document_from_work` to ``path`` and return the path."""
     doc = path_document_from_work(terrain, states, t=t, properties=properties, native=native)
     return _write_document(path, doc)
+
+
+def is_bag(path: str | Path) -> bool:
+    """Whether ``path`` names a ROS bag: a folder, or a ``.bag``, ``.mcap``, ``.db3`` file.
+
+    Here, beside the path format, so that a reader of waypoints tells a bag without
+    importing :mod:`energy_planner.io.ros2` (which re-exports it).
+
+    A folder is taken as a ROS 2 bag (its ``metadata.yaml`` is checked on reading).
+    """
+    p = Path(path)
+    return p.is_dir() or p.suffix.lower() in (".bag", ".mcap", ".db3")

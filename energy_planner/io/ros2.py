@@ -63,7 +63,7 @@ from energy_planner.io.bag import (
     topics_listing,
     typestore,
 )
-from energy_planner.io.path_format import YAW_FRAME, Waypoints
+from energy_planner.io.path_format import YAW_FRAME, Waypoints, is_bag
 
 __all__ = [
     "FRAME_KEY",
@@ -307,15 +307,6 @@ def _write(tmp: Path, checked, terrain, mf: MapFrame, storage: str, meta: dict) 
                 header=Header(stamp=ros_time(T, int(ns[0])), frame_id=mf.frame), poses=poses
             )
             w.write(conn, int(ns[0]), ts.serialize_cdr(msg, PATH_TYPE))
-
-
-def is_bag(path: str | Path) -> bool:
-    """Whether ``path`` names a ROS bag: a folder, or a ``.bag``, ``.mcap``, ``.db3`` file.
-
-    A folder is taken as a ROS 2 bag (its ``metadata.yaml`` is checked on reading).
-    """
-    p = Path(path)
-    return p.is_dir() or p.suffix.lower() in (".bag", ".mcap", ".db3")
 
 
 def read_path_bag(path: str | Path, topic: str | None = None) -> Waypoints:

@@ -220,13 +220,27 @@ def parse_formula(text: str) -> Formula:
     """
     if not isinstance(text, str) or not text.strip():
         raise FormulaError(f"a term formula must be a non-empty string, got {text!r}")
-    try:
-        tree = ast.parse(text.strip(), mode="eval").body
-    except SyntaxError as exc:
-        raise FormulaError(f"cannot parse formula {text!r}: {exc.msg}") from exc
-    variables: set[str] = set()
-    _check(tree, text, variables)
-    return Formula(text=ast.unparse(tree), variables=frozenset(variables), _tree=tree)
+    formula = _PARSED.get(text)
+    if formula is None:
+        try:
+            tree = ast.parse(text.strip(), mode="eval").body
+        except SyntaxError as exc:
+            raise FormulaError(f"cannot parse formula {text!r}: {exc.msg}") from exc
+        variables: set[str] = set()
+        _check(tree, text, variables)
+        formula = Formula(text=ast.unparse(tree), variables=frozenset(variables), _tree=tree)
+        if len(_PARSED) > 4096:
+            _PARSED.clear()
+        _PARSED[text] = formula
+        _PARSED.setdefault(formula.text, formula)  # the canonical text parses to itself
+    return formula
+
+
+#: :func:`parse_formula`'s formulas by text, once per process: the term catalog parses its
+#: terms when it is built and a model parses the canonical texts again when it reads them
+#: (17 texts twice in a warm ``energy``); a :class:`Formula` is immutable, so one object
+#: serves every caller.
+_PARSED: dict[str, Formula] = {}
 
 
 def _check(node: ast.AST, text: str, variables: set[str]) -> None:

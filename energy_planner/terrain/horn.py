@@ -180,33 +180,64 @@ def horn_gradient(
         raise DEMError(f"elevation must be a 2-D array, got shape {z.shape}")
     rows, cols = z.shape
     if out is None:
-        dzdx = np.full((rows, cols), np.nan)
-        dzdy = np.full((rows, cols), np.nan)
+        dzdx = np.empty((rows, cols))
+        dzdy = np.empty((rows, cols))
     else:
         if out.shape != (rows, cols, 2) or out.dtype != np.float64:
             raise DEMError(
                 f"out has shape {out.shape} and dtype {out.dtype}; expected float64 of "
                 f"shape {(rows, cols, 2)}"
             )
-        out.fill(np.nan)
         dzdx, dzdy = out[..., 0], out[..., 1]
     if rows < 3 or cols < 3:
+        dzdx.fill(np.nan)
+        dzdy.fill(np.nan)
         return dzdx, dzdy
-    top, mid, bot = z[:-2], z[1:-1], z[2:]
+    for g in (dzdx, dzdy):  # the border; every interior cell is written below
+        g[0] = g[-1] = np.nan
+        g[:, 0] = g[:, -1] = np.nan
+    sx = _per_row(step_x, rows, "step_x")
+    sy = _per_row(step_y, rows, "step_y")
+    # by strips of interior rows whose arrays stay in the cache (each cell's arithmetic
+    # is the same whatever the strip: the same values)
+    step = max(1, _STRIP_CELLS // cols)
+    tmp = np.empty((min(step, rows - 2), cols - 2))
+    bad = np.empty(tmp.shape, dtype=bool)
+    bad2 = np.empty(tmp.shape, dtype=bool)
+    for r0 in range(1, rows - 1, step):
+        r1 = min(rows - 1, r0 + step)
+        n = r1 - r0
+        _horn_strip(
+            z[r0 - 1 : r1 - 1], z[r0:r1], z[r0 + 1 : r1 + 1],
+            dzdx[r0:r1, 1:-1], dzdy[r0:r1, 1:-1],
+            sx if np.ndim(sx) == 0 else sx[r0 - 1 : r1 - 1],
+            sy if np.ndim(sy) == 0 else sy[r0 - 1 : r1 - 1],
+            tmp[:n], bad[:n], bad2[:n],
+        )  # fmt: skip
+    return dzdx, dzdy
+
+
+#: Cells of a strip of rows :func:`horn_gradient` works on at a time (its five arrays of
+#: that many float64 values, 256 KB each, stay in a core's cache).
+_STRIP_CELLS = 32768
+
+
+def _horn_strip(top, mid, bot, gx, gy, sx, sy, tmp, bad, bad2) -> None:
+    """Horn's gradient of the rows of ``mid`` into the interior columns ``gx``, ``gy``.
+
+    ``top``, ``bot``: the rows above and below; ``tmp``, ``bad``, ``bad2``: scratch of
+    the strip's shape.
+    """
     # column difference (east minus west), weights 1-2-1 over the rows
-    gx = dzdx[1:-1, 1:-1]
     np.subtract(top[:, 2:], top[:, :-2], out=gx)
-    tmp = np.subtract(mid[:, 2:], mid[:, :-2])
+    np.subtract(mid[:, 2:], mid[:, :-2], out=tmp)
     tmp *= 2.0
     gx += tmp
     np.subtract(bot[:, 2:], bot[:, :-2], out=tmp)
     gx += tmp
-    sx = _per_row(step_x, rows, "step_x")
-    sy = _per_row(step_y, rows, "step_y")
     gx /= 8.0 * sx
     # row difference (previous row minus next row: north minus south when step_y < 0),
     # weights 1-2-1 over the columns; dividing by -step_y keeps flat cells at +0.0
-    gy = dzdy[1:-1, 1:-1]
     np.subtract(top[:, :-2], bot[:, :-2], out=gy)
     np.subtract(top[:, 1:-1], bot[:, 1:-1], out=tmp)
     tmp *= 2.0
@@ -216,12 +247,12 @@ def horn_gradient(
     gy /= -8.0 * sy
     # dz/dx skips the window's middle column, dz/dy its middle row and neither uses the
     # centre: like gdaldem, any invalid cell among the nine invalidates both components
-    bad = np.isnan(gx)
-    bad |= np.isnan(gy)
-    bad |= np.isnan(mid[:, 1:-1])
-    gx[bad] = np.nan
-    gy[bad] = np.nan
-    return dzdx, dzdy
+    np.isnan(gx, out=bad)
+    bad |= np.isnan(gy, out=bad2)
+    bad |= np.isnan(mid[:, 1:-1], out=bad2)
+    if bad.any():  # most strips of a DEM have no invalid cell
+        np.copyto(gx, np.nan, where=bad)
+        np.copyto(gy, np.nan, where=bad)
 
 
 def gradient(

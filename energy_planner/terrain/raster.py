@@ -179,10 +179,13 @@ class BandReading:
         Masked cells, NaN and infinities become NaN; undeclared voids too: the file's
         (:attr:`voids`), or with ``find`` those of this array (:func:`find_voids`, for a
         read of the whole band; ``warn``: with its warning); then scale, offset and unit
-        are applied.
+        are applied. The mask is ``src.read_masks`` of the same cells (what a masked read
+        takes), read only when the band declares one (:attr:`declared`; otherwise every
+        cell is valid): no ``numpy.ma`` (whose import alone costs a warm command ~10 ms).
         """
-        data = src.read(self.band, masked=True, **kwargs)
-        z = np.ma.filled(data.astype(np.float64), np.nan)
+        z = src.read(self.band, **kwargs).astype(np.float64)
+        if self.declared:
+            np.putmask(z, src.read_masks(self.band, **kwargs) == 0, np.nan)
         np.putmask(z, ~np.isfinite(z), np.nan)
         if find and not self.local:
             find_voids(z, self, warn=warn)
@@ -262,12 +265,27 @@ def _scan_voids(src: Any, reading: BandReading) -> tuple[tuple[float, int], ...]
         z = part.astype(np.float64)
         np.putmask(z, ~np.isfinite(z), np.nan)
         cand = _candidates(z, reading)
-        for v in np.unique(z[cand]):
+        for v in _distinct(z[cand]):
             counts[float(v)] = counts.get(float(v), 0) + int(np.count_nonzero(z == v))
         rest = reading.to_metres(np.where(cand, np.nan, z))
         if np.isfinite(rest).any():
             lo, hi = min(lo, float(np.nanmin(rest))), max(hi, float(np.nanmax(rest)))
     return _decide(counts, reading, lo, hi)
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """The distinct values of a 1-D float array, sorted (no NaN among them).
+
+    ``np.unique``'s values; NumPy 2's ``unique`` imports ``numpy.ma`` (~10 ms of a
+    command's start-up) to ask whether its argument is masked.
+    """
+    v = np.sort(values)
+    if v.size < 2:
+        return v
+    keep = np.empty(v.size, dtype=bool)
+    keep[0] = True
+    np.not_equal(v[1:], v[:-1], out=keep[1:])
+    return v[keep]
 
 
 def _candidates(stored: np.ndarray, reading: BandReading) -> np.ndarray:
