@@ -424,6 +424,11 @@ SERVER = textwrap.dedent(
         except Exception:
             pass
     from energy_planner.cli import main
+    # the bundled model's motion kernels, loaded once here rather than by every forked
+    # command (no parallel kernel: its threads would not survive a fork)
+    import energy_planner as ep
+    hill = ep.Terrain.from_function(lambda x, y: 0.1 * x, size=(20, 20))
+    ep.Problem(hill, ep.load_model()).cost.compile()
     print("ready", flush=True)
 
     from energy_planner.io import atomic

@@ -118,6 +118,8 @@ def test_zigzag_at_the_critical_grade_matches_closed_form(strip):
     height = s * (goal[1] - start[1])
     lat = plan(strip, m, start, goal, planner="lattice", step=1.0, progress=False)
     assert lat.energy_j == pytest.approx(closed_form, rel=1e-6)
+    # its progress report prices the lattice's own poses motion by motion: the optimum too
+    assert lat.history[-1][1] == pytest.approx(closed_form, rel=1e-6)
     # it zigzags: legs cross the slope, none goes straight up
     d = np.diff(lat.states[:, :2], axis=0)
     moving = np.hypot(d[:, 0], d[:, 1]) > 1e-9

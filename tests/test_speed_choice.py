@@ -18,6 +18,11 @@ from hypothesis import strategies as st
 from energy_planner.energy.speed import best_speed, speed_law
 from energy_planner.model import EnergyModel
 
+# one worker: every test here calls the parallel kernel laurent_argmin_batch, whose first
+# compile (a fresh checkout's empty numba cache) takes ~15 CPU s; tests spread over two
+# workers compiled it twice, side by side
+pytestmark = pytest.mark.xdist_group("speed_choice")
+
 
 def _model(a: float, b: float, c: float, degree: int) -> EnergyModel:
     """Power ``a v + b + c v^degree`` (terms ``speed``, ``1``, ``speed ** degree``)."""

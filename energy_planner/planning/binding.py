@@ -13,6 +13,7 @@ import numpy as np
 __all__ = ["bind_kernel", "path_cost"]
 
 _BOUND: dict = {}
+_HOLDERS: dict = {}  # str(numba type of the data tuple) -> its jitclass
 
 
 def bind_kernel(cost):
@@ -34,7 +35,11 @@ def bind_kernel(cost):
     dtype = numba.typeof(data)
     key = (id(kernel), str(dtype))
     if key not in _BOUND:
-        holder_cls = jitclass([("data", dtype)])(_make_holder_class())
+        # one holder class per data type, shared by the kernels (its compiled constructor
+        # and accessor are about half of a binding's compile time)
+        holder_cls = _HOLDERS.get(str(dtype))
+        if holder_cls is None:
+            holder_cls = _HOLDERS[str(dtype)] = jitclass([("data", dtype)])(_make_holder_class())
 
         @numba.njit
         def call(x0, y0, th0, x1, y1, th1, holder):

@@ -609,7 +609,6 @@ def _run_search(r: _Run) -> np.ndarray:
 
 def _run_lattice(r: _Run) -> np.ndarray:
     """``lattice``: the full lattice graph, Dijkstra (not interruptible)."""
-    from energy_planner.planning.binding import path_cost
     from energy_planner.planning.lattice import lattice_plan
 
     lat = lattice_plan(
@@ -623,8 +622,22 @@ def _run_lattice(r: _Run) -> np.ndarray:
         "build_s": lat.build_s,
         "search_s": lat.search_s,
     }
-    r.prog.report(path_cost(_cost_fn(r.cost), lat.states))
+    r.prog.report(_batch_path_cost(r.cost, lat.states))
     return lat.states
+
+
+def _batch_path_cost(cost, states: np.ndarray) -> float:
+    """:func:`~energy_planner.planning.binding.path_cost` of ``states`` by ``cost.batch``.
+
+    The same kernel per motion and the same sum, without the Python-callable kernel
+    (:func:`~energy_planner.planning.binding.bind_kernel`: a jitclass compiled per process
+    and kernel, about 3 s of CPU), which only OMPL's planners need.
+    """
+    s = np.asarray(states, float)
+    if len(s) < 2:
+        return 0.0
+    a, b = s[:-1], s[1:]
+    return float(sum(cost.batch(a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2]).tolist()))
 
 
 def _run_ompl_planner(r: _Run) -> np.ndarray:
@@ -839,9 +852,9 @@ def _warm_up(problem, planner: str, start_p, goal_p, step=None, n_headings=16, m
         from energy_planner.planning.search import prepare_bound
 
         prepare_bound(problem, start_p, step, n_headings, moves)
-    else:
+    elif planner != "lattice":
         # the Python-callable kernel (a jitclass, compiled per process: about 4 s) is
-        # needed by OMPL and the lattice's report only, not by the search
+        # needed by OMPL only, not by the search nor the lattice (which prices by batch)
         warm = _cost_fn(cost)
         warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     if planner == "bitstar" and OMPL_COST_TO_GO:
