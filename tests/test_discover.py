@@ -9,7 +9,6 @@ the data (two channels that carry the same information; one speed or several).
 from __future__ import annotations
 
 import functools
-import importlib.util
 import json
 import sys
 import warnings
@@ -26,17 +25,12 @@ from energy_planner.measurements.datacheck import check_data
 from energy_planner.model import BASE_TERMS, EnergyModel
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _benchmarks import load_benchmark  # noqa: E402
 from test_diagnosis_units import synth  # noqa: E402
-
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_discover.py"
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_discover", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up there
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("bench_discover")
 
 
 # ----------------------------------------------------------------------------- synthetic

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _benchmarks import load_benchmark
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -197,24 +198,12 @@ def test_discover_adds_the_cross_slope_holding_cost(discovered):
     assert d.model.coefficients[best.term] == pytest.approx(best.coefficient, rel=0.05)
 
 
-def _bench_field_logs():
-    import importlib.util
-    import sys
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_field_logs.py"
-    spec = importlib.util.spec_from_file_location("bench_field_logs", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up there
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def test_bench_counts_the_missions_by_channel_value_and_beyond_the_training_power():
     """The bench's breakdown of coverage: worked by hand on four missions of 60 s.
 
     Half-width 100 J everywhere, so z = (measured - predicted) / (100 / 1.645).
     """
-    b = _bench_field_logs()
+    b = load_benchmark("bench_field_logs")
 
     def m(load: float, meas: float, pred: float) -> object:
         return b.Mission(f"r{load}{meas}", meas, pred, pred - 100.0, pred + 100.0, 0.0, 60.0, 2,

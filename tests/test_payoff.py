@@ -12,21 +12,12 @@ more than the ~10 % mud adds per metre.)
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
-
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "payoff_corrected_model.py"
+from _benchmarks import load_benchmark
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("payoff_corrected_model", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up there
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("payoff_corrected_model")
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
