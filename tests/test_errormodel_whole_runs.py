@@ -205,3 +205,24 @@ def test_the_growth_beyond_the_ranges_is_measured_against_window_energies():
     em = ErrorModel.from_dict(whole.model.metadata["fit"]["error_model"])
     narrow = ErrorModel.from_dict(only_windows.model.metadata["fit"]["error_model"])
     assert em.scored_on == "runs" and narrow.scored_on == "windows"
+
+
+def test_the_domain_records_the_runs_predicted_mean_power(fitted):
+    """``metadata.fit.domain.mean_power_w``: the cross-validated runs' predicted energy over
+    their duration, min and max (of the runs whole, or without them of their windows: the
+    windows' held-out mean power weighted by their durations).
+    The hand-built runs walk at 120 + 200 v W (times 1 +- 1 %) but for two pauses of 0.5 s
+    in 24 s, which the model prices at most at that power: the range lies within 4 %
+    below the slowest and the fastest run's walking power and 2 % above."""
+    whole, only_windows, _ = fitted
+    v = _runs(np.random.default_rng(28), 40, "train").groupby("run")["v_walk"].first()
+    walk = 120.0 + 200.0 * np.array([v.min(), v.max()])
+    w = only_windows.heldout.windows
+    by_run = (w["predicted_w"] * w["duration"]).groupby(w["run"]).sum()
+    windows_p = (by_run / w["duration"].groupby(w["run"]).sum()).to_numpy(float)
+    rows = whole.heldout.whole
+    whole_p = rows["predicted_j"].to_numpy(float) / rows["duration_s"].to_numpy(float)
+    for result, p in ((whole, whole_p), (only_windows, windows_p)):
+        rng = result.model.metadata["fit"]["domain"]["mean_power_w"]
+        assert rng == pytest.approx([p.min(), p.max()], abs=0.006)
+        assert np.all((np.array(rng) > 0.96 * walk) & (np.array(rng) < 1.02 * walk)), (rng, walk)

@@ -68,6 +68,7 @@ __all__ = [
     "identify_terms",
     "refuse_free_walking",
     "calibration_domain",
+    "run_power_range",
     "speed_support",
     "SpeedSupport",
     "MIN_WINDOWS_PER_TERM",
@@ -940,7 +941,8 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
         :data:`energy_planner.uncertainty.domain.SLOPED_DEG` (None without any);
         ``channels``: per channel the model reads, [min, max] (numeric) or the categories;
         ``gait_speed_m_s`` (when the model reads the ``gait`` channel): per gait the [min,
-        max] speed of its walking windows.
+        max] speed of its walking windows. :func:`fit_model` adds ``mean_power_w``, the
+        runs' predicted mean power range (:func:`run_power_range`).
     """
     from energy_planner.uncertainty.domain import SLOPED_DEG
 
@@ -982,6 +984,37 @@ def calibration_domain(table: pd.DataFrame, model: EnergyModel) -> dict[str, Any
         "gaits": gaits,
         "channels": channels,
     }
+
+
+def run_power_range(cv: CrossValidation | None) -> dict[str, Any]:
+    """The calibration runs' predicted mean power range, ``{"mean_power_w": [lo, hi]}``.
+
+    Each run's cross-validated prediction over its duration: the run whole
+    (``CrossValidation.whole``, its predicted energy over its duration) when the windows
+    carry their runs, else its windows' (``CrossValidation.windows``: their held-out mean
+    power weighted by their durations). The predicted power,
+    not the measured one: a path's mean power is a prediction (:func:`~energy_planner.
+    uncertainty.domain_report` compares ``energy_j / duration_s`` with it), so the two
+    carry the same model error, and these predictions are those whose errors are the
+    interval's scores: beyond them the interval was calibrated on no prediction. Empty
+    without a cross-validation (no scores, no interval) or runs.
+    """
+    if cv is None:
+        return {}
+    if cv.whole is not None:
+        e = cv.whole["predicted_j"].to_numpy(float)
+        t = cv.whole["duration_s"].to_numpy(float)
+    else:
+        w = cv.windows
+        run = w["run"].astype(str).to_numpy()
+        g = pd.DataFrame({"e": w["predicted_w"] * w["duration"], "t": w["duration"]})
+        g = g.groupby(run, sort=True).sum(min_count=1)
+        e, t = g["e"].to_numpy(float), g["t"].to_numpy(float)
+    ok = np.isfinite(e) & np.isfinite(t) & (t > 0)
+    if not ok.any():
+        return {}
+    p = e[ok] / t[ok]
+    return {"mean_power_w": [round(float(p.min()), 2), round(float(p.max()), 2)]}
 
 
 # --------------------------------------------------------------------------- diagnostics
@@ -1555,7 +1588,7 @@ def fit_model(
             "stderr_by_run": {n: float(f"{v:.3g}") for n, v in se_run.items()},
             "unidentified": dict(dropped),
             "held_at_prior": {n: {"value": c, "reason": unidentified[n]} for n, c in held.items()},
-            "domain": calibration_domain(table, model),
+            "domain": {**calibration_domain(table, model), **run_power_range(heldout)},
             **(
                 {}
                 if findings is None

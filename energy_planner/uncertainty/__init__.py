@@ -21,10 +21,13 @@ the error the fit measured by holding out its most extreme runs
 (:class:`~energy_planner.uncertainty.errormodel.ErrorModel`, ``extrapolation``), given the
 path's domain report (``domain=``, :func:`path_domain`); what no measured growth covers is
 *not calibrated*: the interval says so and :func:`battery_decision` refuses to decide on
-it. :func:`path_trust` gives a path's interval, domain and battery decision at once, as
-every door reports them. A path far longer than the calibration's runs makes the interval
-conservative (errors that average out). A model without held-out scores (an old file, or
-``fit --folds 0``) has no interval: ``None``, said so.
+it. So is a path whose predicted mean power lies above (or below) every calibration
+run's (each quantity may be inside its range while their combination, heavy and steep
+uphill, is not): the report counts it as the quantity ``mean_power``, whose growth is
+never measured. :func:`path_trust` gives a path's interval, domain and battery decision
+at once, as every door reports them. A path far longer than the calibration's runs makes
+the interval conservative (errors that average out). A model without held-out scores (an
+old file, or ``fit --folds 0``) has no interval: ``None``, said so.
 
 Examples
 --------
@@ -222,23 +225,31 @@ def _outside(model: Any, em: ErrorModel | None, outside_share: float,
     With a domain report: what the fit's measured growth covers, and the rest; with only a
     share: all of it by the share (not calibrated unless the error model fitted ``d``).
     """
-    from energy_planner.uncertainty.errormodel import Outside
+    from energy_planner.uncertainty.errormodel import Outside, power_outside
 
     if domain is not None:
         if em is not None:
             return em.outside(domain)
         share = float(domain.get("outside_share") or 0.0)
-        return Outside(0.0, share, (), ("the model records no error model",) if share else ())
+        return Outside(0.0, share, (), ("the model records no error model",) if share else (),
+                       *power_outside(domain))  # fmt: skip
     share = float(outside_share or 0.0)
     loose = ("a share outside given without the path's domain report",) if share > 0 else ()
     return Outside(0.0, share, (), loose)
 
 
 def _not_calibrated(em: ErrorModel | None, out: Any) -> tuple[str, ...]:
-    """The quantities outside where the interval rests on an assumption."""
+    """The quantities outside where the interval rests on an assumption.
+
+    Those without a measured growth when ``d`` was not fitted, and a mean power beyond
+    every calibration run's whatever ``d`` is (:meth:`ErrorModel.outside`).
+    """
+    loose: tuple[str, ...] = ()
     if out.share > 0 and (em is None or em.outside_rel_var is None):
-        return tuple(out.not_measured)
-    return ()
+        loose = tuple(out.not_measured)
+    if out.assumed_share > 0:
+        loose += tuple(out.assumed)
+    return loose
 
 
 def predict_interval(
@@ -259,10 +270,12 @@ def predict_interval(
     :func:`domain_report`), widens it by the growth of the error the fit measured beyond
     each numeric range, for the distance the path goes beyond it; what no measured
     growth covers widens it by its share (the fitted ``d``, or the assumed ``1 + share``,
-    then ``not_calibrated`` names it). ``outside_share`` (0-1) without a report: all of
-    it by the share. Without an error model (older model files): the relative held-out
-    scores ``r``, each scaled by ``1 + OUTSIDE_WIDENING * share`` (kept above -0.9), not
-    calibrated outside.
+    then ``not_calibrated`` names it); a predicted mean power beyond every calibration
+    run's (the report's ``mean_power`` share) widens it by the assumed ``1 + share``
+    whatever ``d`` is, and ``not_calibrated`` names it. ``outside_share`` (0-1) without
+    a report: all of it by the share. Without an error model (older model files): the
+    relative held-out scores ``r``, each scaled by ``1 + OUTSIDE_WIDENING * share`` (kept
+    above -0.9), not calibrated outside.
 
     Examples
     --------
@@ -280,7 +293,8 @@ def predict_interval(
     out = _outside(model, em, outside_share, domain)
     loose = _not_calibrated(em, out)
     if em is not None:
-        lo, hi = em.bounds(float(energy_j), level, duration_s, out.share, out.extra_rel_var)
+        lo, hi = em.bounds(float(energy_j), level, duration_s, out.share, out.extra_rel_var,
+                           out.assumed_share)  # fmt: skip
         how = _EM_METHOD + (_SMALL if em.small_sample(level) else "")
         if out.measured:
             how += "; beyond the range of " + ", ".join(out.measured) + " by the measured growth"
@@ -372,16 +386,20 @@ def battery_decision(
     out = _outside(model, em, outside_share, domain)
     loose = _not_calibrated(em, out)
     if loose:
+        share = max(out.share, out.assumed_share)
+        inside = ("refit on logs that cover it" if out.assumed_share > 0 else
+                  "keep the route inside (plan --stay-in-domain) or refit on logs that "
+                  "cover it")  # fmt: skip
         raise ExtrapolationError(
-            f"no battery decision: {100 * out.share:.0f} % of the route lies outside the "
+            f"no battery decision: {100 * share:.0f} % of the route lies outside the "
             "calibration's ranges where the fit could not measure how the error grows ("
             + "; ".join(loose)
-            + "); keep the route inside (plan --stay-in-domain) or refit "
-            "on logs that cover it",
-            value=out.share,
+            + f"); {inside}",
+            value=share,
         )
     if em is not None:
-        p = em.probability(float(energy_j), usable, duration_s, out.share, out.extra_rel_var)
+        p = em.probability(float(energy_j), usable, duration_s, out.share, out.extra_rel_var,
+                           out.assumed_share)  # fmt: skip
         return BatteryDecision(float(battery_wh), float(reserve_wh), usable, p,
                                float(confidence))  # fmt: skip
     s = model_scores(model)

@@ -102,7 +102,11 @@ def sum_domain(parts: list[tuple[dict[str, Any] | None, float]]) -> dict[str, An
     for d, _ in have:
         for k, v in (d.get("max_excess") or {}).items():
             peak[k] = max(peak.get(k, 0.0), v)
+    power: dict[str, Any] = {}
+    if all("mean_power_w" in d for d, _ in have):  # the whole's, as one path's
+        power["mean_power_w"] = round(sum(d["mean_power_w"] * t for d, t in have) / total, 3)
     return {
+        **power,
         "outside_share": round(sum(d["outside_share"] * t for d, t in have) / total, 4),
         "outside_m": round(sum(d.get("outside_m", 0.0) for d, _ in have), 3),
         "reasons": {k: v for k, v in mix("reasons").items() if v > 0},

@@ -3,9 +3,13 @@
 A fitted model records the ranges its calibration windows saw
 (:func:`energy_planner.calibration.fit.calibration_domain`, ``metadata.fit.domain``):
 slope, relative heading per gait, walking speed, turning rate and the values of each
-channel it reads. :func:`domain_report` gives the share of a path's duration outside each
-of them, and by how far it lies beyond the numeric ranges (its ``excess``: the input of the
-calibrated widening of :func:`energy_planner.uncertainty.predict_interval`);
+channel it reads; and the range of its runs' predicted mean power
+(:func:`energy_planner.calibration.fit.run_power_range`), against which a path's
+predicted mean power is checked: each quantity may lie inside its range while their
+combination (heavy and steep uphill) lies beyond every run the fit saw.
+:func:`domain_report` gives the share of a path's duration outside each of them, and by
+how far it lies beyond the numeric ranges (its ``excess``: the input of the calibrated
+widening of :func:`energy_planner.uncertainty.predict_interval`);
 :func:`path_domain` does it for a priced path over a terrain, sampling the slope and the
 raster channels along every motion at the energy integration's sub-steps, so that a share
 is counted per metre walked, not per segment. :func:`stay_in_domain` turns the domain into
@@ -51,7 +55,17 @@ HEADING_SLACK_DEG = 2.0
 QUANTITIES = ("slope", "gait", "relative_heading", "speed", "turning_rate")
 #: Units of the quantities whose distance beyond their range is measured (``excess``);
 #: numeric channels are measured in their own unit.
-EXCESS_UNITS = {"slope": "deg", "speed": "m/s"}
+EXCESS_UNITS = {"slope": "deg", "speed": "m/s", "mean_power": "W"}
+#: The path's predicted mean power (energy over duration) against the calibration runs'
+#: (``metadata.fit.domain.mean_power_w``): a combination of quantities each inside its
+#: range (heavy AND steep uphill; light, level or downhill and slow) can lie beyond every
+#: run the model and its error model saw. Its error growth is never measured: the
+#: interval widens by the assumed factor and no battery decision is given
+#: (:meth:`energy_planner.uncertainty.ErrorModel.outside`).
+MEAN_POWER = "mean_power"
+#: What runs at a mean power beyond the calibration's take, by side.
+_POWER_HOW = {"above": "heavier loads, steeper climbs, faster",
+              "below": "lighter loads, level ground or downhill, slower"}  # fmt: skip
 
 
 class DomainError(EnergyPlannerError, ValueError):
@@ -237,6 +251,14 @@ def report_against(
             masks[f"{g} at relative heading outside {rng[0]:g}-{rng[1]:g} deg"] = (
                 "relative_heading", out.astype(float), None, 0.0
             )  # fmt: skip
+    power = _mean_power(dom, segments, dur, total)
+    if power is not None and not power[1] <= power[0] <= power[2]:
+        p, lo, hi = power
+        side, gap = ("above", p - hi) if p > hi else ("below", lo - p)
+        masks[
+            f"mean power {p:.0f} W {side} every calibration run's ({lo:.0f}-{hi:.0f} W): "
+            f"log runs at that power ({_POWER_HOW[side]})"
+        ] = (MEAN_POWER, np.ones(dur.size), np.full(dur.size, gap), gap)
     seen_ch = dom.get("channels") or {}
     per_seg: dict[str, Any] = dict(channel_values or {})
     ch_weights: dict[str, Any] = {}
@@ -279,7 +301,7 @@ def report_against(
             any_out = np.maximum(any_out, m)
     for q, m in by_q.items():
         shares[q] = round(float(np.sum(dur * m) / total), 4)
-    return {
+    out = {
         "outside_share": round(float(np.sum(dur * any_out) / total), 4),
         "outside_m": round(float(np.sum(dist * any_out)), 3),
         "reasons": reasons,
@@ -288,6 +310,28 @@ def report_against(
         "max_excess": max_excess,
         "domain": dict(dom),
     }
+    if power is not None:
+        shares.setdefault(MEAN_POWER, 0.0)
+        out["mean_power_w"] = round(power[0], 3)
+    return out
+
+
+def _mean_power(
+    dom: Mapping[str, Any], segments: Any, dur: np.ndarray, total: float
+) -> tuple[float, float, float] | None:
+    """``(path's mean power, lo, hi)`` in W, or None when there is nothing to check.
+
+    None when the domain records no runs' mean power (a model file saved before it was
+    recorded, or fitted without cross-validation) or the segments carry no ``energy_j``
+    (calibration windows).
+    """
+    rng = dom.get("mean_power_w")
+    if not rng or "energy_j" not in segments:
+        return None
+    e = np.asarray(segments["energy_j"], dtype=float)
+    if e.size != dur.size or not np.all(np.isfinite(e)):
+        return None
+    return float(np.sum(e) / total), float(rng[0]), float(rng[1])
 
 
 def domain_report(
@@ -332,7 +376,13 @@ def domain_report(
         ``speed``, ``turning_rate``, ``channel NAME``), ``excess`` (per numeric quantity:
         slope in deg, speed in m/s, a channel in its unit, the distance beyond its range
         averaged over the path's duration, 0 inside), ``max_excess`` (the farthest
-        sample) and ``domain``; None when the model records no domain.
+        sample) and ``domain``; None when the model records no domain. When the domain
+        records the runs' predicted mean power (``mean_power_w``) and the segments carry
+        ``energy_j``: ``mean_power_w``, the path's (its energy over its duration), and
+        the share ``mean_power``, 1 when it lies above the runs' largest or below their
+        smallest (the whole path is then outside, its reason naming both), else 0; its
+        ``excess`` is the distance beyond, W. A model file without the runs' power has
+        neither key.
     """
     dom = domain_of(model)
     if not dom:
@@ -538,8 +588,8 @@ def stay_in_domain(request: Any, model: Any, terrain: Any = None) -> tuple[Any, 
     - constant channels outside the recorded range cannot be kept inside: an error.
 
     The relative-heading ranges within a recorded gait (e.g. forward windows only uphill)
-    are not enforced: the planner has no limit for them (:func:`domain_report` still
-    reports them).
+    and the runs' mean power are not enforced: the planner has no limit for them
+    (:func:`domain_report` still reports them).
 
     Raises
     ------

@@ -82,6 +82,8 @@ from typing import Any
 
 import numpy as np
 
+from energy_planner.uncertainty.domain import MEAN_POWER
+
 __all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model", "within_run_noise"]
 
 #: Held-out runs partly outside their fold's domain needed to fit the outside term.
@@ -145,13 +147,17 @@ class ErrorModel:
 
     def sigma(
         self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0,
-        extra_rel_var: float = 0.0,
+        extra_rel_var: float = 0.0, assumed_share: float = 0.0,
     ) -> Any:  # fmt: skip
         """The error scale (J) of a predicted energy of a run of ``duration_s`` seconds.
 
         Without a duration it is ``energy_j / mean_power_w``. ``outside_share``: the share
         of the run outside the domain that no measured growth covers; ``extra_rel_var``:
-        the measured growth's relative variance beyond the ranges (:meth:`outside`).
+        the measured growth's relative variance beyond the ranges (:meth:`outside`);
+        ``assumed_share``: the share that goes by the assumed factor ``1 + share``
+        whatever ``d`` is (a mean power beyond every calibration run's,
+        :attr:`Outside.assumed_share`): with ``d`` fitted it multiplies the scale, without
+        it the larger of the two shares does.
         """
         e = np.abs(np.asarray(energy_j, dtype=float))
         t = (e / self.mean_power_w if duration_s is None
@@ -162,8 +168,11 @@ class ErrorModel:
         if self.outside_rel_var is not None:
             v = v + self.outside_rel_var * (s * e) ** 2
         sig = np.sqrt(np.maximum(v, (MIN_REL_SIGMA * e) ** 2))
+        a = float(np.clip(assumed_share, 0.0, 1.0))
         if self.outside_rel_var is None:
-            sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * s)
+            sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * np.maximum(s, a))
+        elif a > 0:
+            sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * a)
         return sig
 
     def outside(self, domain: Any) -> Outside:
@@ -174,16 +183,25 @@ class ErrorModel:
         measured growth ``g`` adds ``(g u)^2`` to the relative variance; the largest share
         outside a quantity no growth covers is the share the ``d`` term (or, without it,
         the assumed factor ``1 + s``) widens, and is *not calibrated* when ``d`` was not
-        fitted.
+        fitted. A predicted mean power beyond the calibration runs' (``mean_power``)
+        has no measured growth and goes by the assumed factor whatever ``d`` is
+        (``assumed_share``): ``d`` is fitted on held-out runs outside their fold's ranges
+        range by range, and the cross-validation holds at most one run above its
+        training runs' power range, so ``d`` says nothing of it (a fitted ``d = 0`` would
+        not widen at all).
         """
         if not domain:
             return Outside(0.0, 0.0, (), ())
         extra, used, loose = 0.0, [], []
+        assumed: tuple[str, ...] = ()
         shares = domain.get("shares") or {}
         excess = domain.get("excess") or {}
-        share = 0.0
+        share = assumed_share = 0.0
         for q, sh in shares.items():
             if not sh > 0:
+                continue
+            if q == MEAN_POWER:
+                assumed_share, assumed = power_outside(domain)
                 continue
             rec = self.extrapolation.get(q) or {}
             g = rec.get("growth_per_unit")
@@ -196,7 +214,7 @@ class ErrorModel:
                                          " measured)" if q in excess else
                                          "not a numeric range: no distance to measure")  # fmt: skip
                 loose.append(f"{q}: {why}")
-        return Outside(extra, share, tuple(used), tuple(loose))
+        return Outside(extra, share, tuple(used), tuple(loose), assumed_share, assumed)
 
     @property
     def outside_rule(self) -> str:
@@ -209,7 +227,7 @@ class ErrorModel:
 
     def bounds(
         self, energy_j: float, level: float, duration_s: float | None = None,
-        outside_share: float = 0.0, extra_rel_var: float = 0.0,
+        outside_share: float = 0.0, extra_rel_var: float = 0.0, assumed_share: float = 0.0,
     ) -> tuple[float, float]:  # fmt: skip
         """The interval ``(low, high)`` on the true energy, J (low at least 0)."""
         from energy_planner.uncertainty import conformal_bounds
@@ -218,12 +236,13 @@ class ErrorModel:
             z_lo, z_hi = self._student_bounds(level)
         else:
             z_lo, z_hi = conformal_bounds(self.scores, level)
-        sig = float(self.sigma(energy_j, duration_s, outside_share, extra_rel_var))
+        sig = float(self.sigma(energy_j, duration_s, outside_share, extra_rel_var,
+                               assumed_share))  # fmt: skip
         return max(energy_j - z_hi * sig, 0.0), max(energy_j - z_lo * sig, 0.0)
 
     def probability(
         self, energy_j: Any, usable_j: float, duration_s: Any = None,
-        outside_share: Any = 0.0, extra_rel_var: float = 0.0,
+        outside_share: Any = 0.0, extra_rel_var: float = 0.0, assumed_share: float = 0.0,
     ) -> Any:  # fmt: skip
         """Chance that the true energy is at most ``usable_j`` (conformal: count / (n + 1)).
 
@@ -232,7 +251,8 @@ class ErrorModel:
         e = np.asarray(energy_j, dtype=float)
         if usable_j <= 0:
             return 0.0 if e.ndim == 0 else np.zeros(e.shape)
-        sig = np.asarray(self.sigma(e, duration_s, outside_share, extra_rel_var), dtype=float)
+        sig = np.asarray(self.sigma(e, duration_s, outside_share, extra_rel_var, assumed_share),
+                         dtype=float)  # fmt: skip
         with np.errstate(invalid="ignore", divide="ignore"):
             thr = (e - usable_j) / sig  # the run fits when its score is at least this
         if self.small_sample(0.9):
@@ -316,12 +336,44 @@ class Outside:
         The quantities widened by their measured growth.
     not_measured : tuple of str
         ``"quantity: why"`` for each quantity outside without a measured growth.
+    assumed_share : float
+        The share widened by the assumed factor ``1 + share`` whatever ``d`` is: a
+        predicted mean power above or below every calibration run's (never calibrated).
+    assumed : tuple of str
+        ``"quantity: why"`` for it.
     """
 
     extra_rel_var: float
     share: float
     measured: tuple[str, ...]
     not_measured: tuple[str, ...]
+    assumed_share: float = 0.0
+    assumed: tuple[str, ...] = ()
+
+
+def power_outside(domain: Any) -> tuple[float, tuple[str, ...]]:
+    """The share of a path beyond the calibration runs' mean power, and why, from its report.
+
+    ``(0.0, ())`` when the report has no ``mean_power`` share (inside, or not checked).
+    """
+    sh = float(((domain or {}).get("shares") or {}).get(MEAN_POWER) or 0.0)
+    return (sh, (f"{MEAN_POWER}: {_power_why(domain)}",)) if sh > 0 else (0.0, ())
+
+
+def _power_why(domain: Any) -> str:
+    """Why a path's mean power has no calibrated interval, with its numbers."""
+    rng = (domain.get("domain") or {}).get("mean_power_w")
+    p = domain.get("mean_power_w")
+    if not rng or p is None:
+        return ("the path's mean power lies beyond the calibration runs', where the fit "
+                "cannot measure how the error grows; log runs at that power")  # fmt: skip
+    lo, hi, p = float(rng[0]), float(rng[1]), float(p)
+    # the side of the nearer end (the report rounds the power, maybe onto the edge)
+    side, how = (("above", "heavier loads, steeper climbs") if 2 * p > lo + hi else
+                 ("below", "lighter loads, level ground or downhill"))  # fmt: skip
+    return (f"the path's mean power {p:.0f} W lies {side} every calibration run's "
+            f"({lo:.0f}-{hi:.0f} W), where the fit cannot measure how the error grows; log "
+            f"runs at that power ({how})")  # fmt: skip
 
 
 def _fit_scale(
