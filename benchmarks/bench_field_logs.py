@@ -9,8 +9,10 @@ What a user does with the library, on logs whose physics the project did not wri
    by ``energy.path_energy`` (what ``energy --waypoints`` runs, with times), with the
    mission's own channel values (``--set load_kg=...``), and its 90 % interval as the
    ``energy`` command gives it (``uncertainty.domain_report`` of the path, then
-   ``uncertainty.predict_interval`` with the path's duration and share outside the
-   calibration's domain);
+   ``uncertainty.path_trust`` with the path's duration and that report: the measured
+   growth beyond each range, the mean-power check, and whether a battery decision is
+   given); beside it the same report without the mean-power check, and the interval of
+   the share outside only (what this benchmark printed before it used the report);
 3. against the battery energy the mission measured (``measurements.run_energies``: the
    sum of voltage x current x dt).
 
@@ -240,6 +242,32 @@ range (by the load's position, or one per load), fitted on the cross-validated r
 648-652 of 720 missions (seeds 0-3, three draws each) against 646-650 for today's intervals
 widened uniformly to the same mean width and 637 today: it buys what widening buys.
 
+The missions predicted beyond every training run's mean power are what the domain report
+now checks (branch power44): the fit records the cross-validated runs' predicted mean power
+(``domain.mean_power_w``) and a path beyond it is outside as a whole, its growth not
+measured: the interval x 2 (the assumed ``1 + share``, whatever the fitted ``d``) and no
+battery decision. Printed per data set as "mean-power check" (``--seeds 0 1 2 3 4``, same
+command as above; 377 s, load 4.1-5.1; robot-b ``--campaigns 0 --swap``)::
+
+    data set     runs' power W  in 90 %: with / without / share only  widened  refused (without)
+    sim-load-0      170-509          57 / 56 / 56                         2        2 (0)
+    sim-load-1      174-477          55 / 54 / 54                         2        2 (0)
+    sim-load-2      169-434          48 / 47 / 47                         3        3 (0)
+    sim-load-3      175-595          56 / 55 / 55                         3        3 (0)
+    sim-load-4      185-658          56 / 56 / 56                         1        1 (0)
+    pooled                          272 / 268 / 268 of 300               11       11 (0)
+    robot-b         209-266          11 / 11 / 11 of 12                   3        8 (6)
+    robot-b swap    206-283          12 / 12 / 12 of 12                   0        6 (6)
+
+Above the runs' power 6 missions, 5 inside (3 without the check); below, 5 missions, 4
+inside (2 without). The rest, 263 of 289 (91 %), are as before (the report's measured
+growth gives the same counts as the share only on these missions). Robot-b's median stays
+-0.04 %; its three widened missions (one above 266 W, two below 209 W) were inside either
+way, and six of its intervals are refused without the check too (quantities outside
+without a measured growth, ``d`` not fitted). Over three held-out draws of the same five models (900
+missions, G's offline tables of issue 28), 9 of 23 missions above and 8 of 14 below were
+inside without the check (784 of the other 863); with the interval x 2, 20 and 13.
+
 Priced sample by sample instead (the left-out samples from the pose's twist, each by its
 fold's coefficients; what the library does without the map), seed 0 with the map holds
 15/20 (tried, not kept where a map is given): the model prices those samples (mostly the
@@ -399,6 +427,23 @@ class Mission:
     waypoints: int
     baseline_j: float = float("nan")
     channels: dict[str, Any] = field(default_factory=dict)
+    #: the interval of the same domain report without the mean-power check (a domain
+    #: that records no runs' power), and the one this bench gave before it used the
+    #: report (the share outside only)
+    low0_j: float = float("nan")
+    high0_j: float = float("nan")
+    low_share_j: float = float("nan")
+    high_share_j: float = float("nan")
+    #: the interval is calibrated, and a battery decision was given (not refused); and
+    #: whether it was calibrated without the mean-power check
+    calibrated: bool = True
+    battery_refused: bool = False
+    calibrated0: bool = True
+
+    @property
+    def power_w(self) -> float:
+        """The predicted mean power, W."""
+        return self.predicted_j / self.duration_s
 
     @property
     def error(self) -> float:
@@ -432,6 +477,8 @@ class DataSet:
     final_rmse_supported_w: float = float("nan")
     #: the largest mean power (battery energy over duration) of a training run whole
     train_max_power_w: float = float("nan")
+    #: the written model's recorded runs' predicted mean power range (None: not recorded)
+    power_range_w: list[float] | None = None
 
     def summary(self) -> dict[str, Any]:
         """Median error, p90 |error|, coverage, floor ratio, and the baseline's."""
@@ -453,7 +500,42 @@ class DataSet:
             "baseline_p90_abs": float(np.quantile(np.abs(b), 0.9)),
             "by_channel": by_channel(self.missions),
             "beyond_train_power": beyond_power(self.missions, self.train_max_power_w),
+            "power_check": power_check(self.missions, self.power_range_w),
         }
+
+
+def _in(m: Mission, lo: float, hi: float) -> bool:
+    return bool(lo <= m.measured_j <= hi)
+
+
+def power_check(missions: list[Mission], rng: list[float] | None) -> dict[str, Any]:
+    """What the domain's mean-power check does to these missions' intervals.
+
+    Counts inside the interval with it (``covered``), without it (``covered_without``,
+    the same report from a domain that records no runs' power) and as this bench computed
+    it before (``covered_share_only``: the share outside only, without the report);
+    intervals it widened, battery decisions refused; :func:`_rows` (with and without the
+    check) of the missions predicted above and below the recorded range.
+    """
+    out: dict[str, Any] = {
+        "range_w": None if rng is None else [float(rng[0]), float(rng[1])],
+        "covered": int(sum(m.covered for m in missions)),
+        "covered_without": int(sum(_in(m, m.low0_j, m.high0_j) for m in missions)),
+        "covered_share_only": int(sum(_in(m, m.low_share_j, m.high_share_j) for m in missions)),
+        "widened": int(
+            sum(m.high_j - m.low_j > (m.high0_j - m.low0_j) * (1 + 1e-9) for m in missions)
+        ),  # fmt: skip
+        "battery_refused": int(sum(m.battery_refused for m in missions)),
+        "battery_refused_without": int(sum(not m.calibrated0 for m in missions)),
+        "not_calibrated": int(sum(not m.calibrated for m in missions)),
+    }
+    if rng is not None:
+        for side, sel in (("above", lambda m: m.power_w > rng[1]),
+                          ("below", lambda m: m.power_w < rng[0])):  # fmt: skip
+            ms = [m for m in missions if sel(m)]
+            out[side] = {**_rows(ms), "covered_without": int(
+                sum(_in(m, m.low0_j, m.high0_j) for m in ms))}  # fmt: skip
+    return out
 
 
 def _rows(missions: list[Mission]) -> dict[str, Any]:
@@ -536,7 +618,8 @@ def mission_energy(terrain: Any, model: Any, g: pd.DataFrame, pose_every: float)
     from energy_planner.energy import path_energy
     from energy_planner.follow import walked_path
     from energy_planner.measurements import run_energies
-    from energy_planner.uncertainty import domain_report, predict_interval
+    from energy_planner.uncertainty import domain_report, path_trust, predict_interval
+    from energy_planner.uncertainty.domain import domain_of, report_against
 
     g = g.sort_values("t", kind="stable")
     consts = mission_channels(model, g)
@@ -544,14 +627,21 @@ def mission_energy(terrain: Any, model: Any, g: pd.DataFrame, pose_every: float)
     wp = walked_path(g, every_s=pose_every)
     xy = np.column_stack(terrain.to_work(wp.xy[:, 0], wp.xy[:, 1]))
     e = path_energy(terrain, model, xy, yaw=wp.yaw_rad, t=wp.t, constants=consts)
-    # as the energy command: the share of the path outside the calibration's ranges, then
-    # the interval of the fit's error model for that path's duration and share
+    # as the energy command: the path's domain report (mean power included), then its
+    # interval and battery decision (uncertainty.path_trust, what every door calls); the
+    # battery (twice the measured energy) only to see whether a decision is given
     dom = domain_report(model, e.table, consts, e.poses, {})
-    iv = predict_interval(
-        model, e.energy_j, outside_share=dom["outside_share"], duration_s=e.duration_s
-    )
+    tr = path_trust(model, e.energy_j, e.duration_s, dom, battery_wh=2 * measured / 3600.0)
+    iv = tr.interval
     if iv is None:
         raise ValueError("the model carries no held-out run errors: no interval")
+    # the same without the mean-power check, and as this bench did before (share only)
+    dom0 = {k: v for k, v in (domain_of(model) or {}).items() if k != "mean_power_w"}
+    rep0 = report_against(dom0, e.table, consts, e.poses, {})
+    iv0 = predict_interval(model, e.energy_j, duration_s=e.duration_s, domain=rep0)
+    ivs = predict_interval(
+        model, e.energy_j, outside_share=rep0["outside_share"], duration_s=e.duration_s
+    )
     # baseline: every logged pose as the log holds it, repeats and all
     raw = np.column_stack(terrain.to_work(g["x"].to_numpy(float), g["y"].to_numpy(float)))
     t = g["t"].to_numpy(float)
@@ -567,6 +657,13 @@ def mission_energy(terrain: Any, model: Any, g: pd.DataFrame, pose_every: float)
         waypoints=len(wp.t),
         baseline_j=float(b.energy_j),
         channels=consts,
+        low0_j=float(iv0.low_j),
+        high0_j=float(iv0.high_j),
+        low_share_j=float(ivs.low_j),
+        high_share_j=float(ivs.high_j),
+        calibrated=iv.calibrated,
+        battery_refused=tr.battery_refused is not None,
+        calibrated0=iv0.calibrated,
     )
 
 
@@ -640,7 +737,16 @@ def run_dataset(
         outside=dict(rows[-1].get("outside_support") or {}),
         final_rmse_supported_w=float(rows[-1].get("supported_rmse_w", float("nan"))),
         train_max_power_w=top,
+        power_range_w=None if model is None else domain_power(model),
     )
+
+
+def domain_power(model: Any) -> list[float] | None:
+    """The runs' predicted mean power range the model's domain records, or None."""
+    from energy_planner.uncertainty.domain import domain_of
+
+    rng = (domain_of(model) or {}).get("mean_power_w")
+    return None if not rng else [float(rng[0]), float(rng[1])]
 
 
 def binomial_band(n: int, level: float = 0.9, mass: float = 0.95) -> tuple[int, int]:
@@ -820,6 +926,23 @@ def print_tables(
                 f"({far['train_max_power_w']:.0f} W): {far['covered']}/{far['n']} in, error "
                 f"{_pct(far['mean_error'], True)}, z {far['z_mean']:+.2f}/{far['z_rms']:.2f}"
             )
+    for s in sets:
+        if not s.missions:
+            continue
+        pc = power_check(s.missions, s.power_range_w)
+        rng = "not recorded" if pc["range_w"] is None else "{:.0f}-{:.0f} W".format(
+            *pc["range_w"])  # fmt: skip
+        line = (f"{s.name:<14} mean-power check (runs' predicted power {rng}): "
+                f"{pc['covered']}/{len(s.missions)} in with it, {pc['covered_without']} "
+                f"without, {pc['covered_share_only']} by the share only; "
+                f"{pc['widened']} widened, {pc['battery_refused']} battery decisions "
+                f"refused ({pc['battery_refused_without']} without)")  # fmt: skip
+        for side in ("above", "below"):
+            r = pc.get(side)
+            if r and r["n"]:
+                line += (f"; {side} {r['n']}: {r['covered']} in ({r['covered_without']} "
+                         f"without), error {_pct(r['mean_error'], True)}")  # fmt: skip
+        print(line)
     print(
         "met: y/n for median, p90, coverage, x floor (floor: the simulator's TRUE floor for "
         "simulated sets, the floor discover estimates from the logs for field logs); binom "
