@@ -57,9 +57,13 @@ __all__ = ["Terrain", "utm_epsg"]
 
 
 def _as_crs(crs: Any) -> Any:
-    """``rasterio.crs.CRS`` from anything it accepts; None stays None."""
+    """``rasterio.crs.CRS`` from anything it accepts; None and a ``StoredCRS`` stay."""
     if crs is None:
         return None
+    from energy_planner.terrain.stored import StoredCRS
+
+    if isinstance(crs, StoredCRS):  # a DEM read back: rasterio only when asked more
+        return crs
     from rasterio.crs import CRS
     from rasterio.errors import CRSError
 
