@@ -61,6 +61,8 @@ def test_read_back_is_the_gdal_read(cache):
     # and it is that CRS for everything else, both ways
     assert back.crs == real and real == back.crs and not (back.crs != real)
     assert back.crs != CRS.from_epsg(32632) and CRS.from_epsg(32632) != back.crs
+    assert (back.crs == None) is (real == None) is False  # noqa: E711 - as rasterio's
+    assert back.crs == "EPSG:32631" and real == "EPSG:32631"
     assert back.crs.to_dict() == real.to_dict()
     assert CRS.from_user_input(back.crs) == real
     assert hash(back.crs) == hash(real)
@@ -160,3 +162,25 @@ def test_energy_twice_the_second_without_rasterio(tmp_path):
     assert [r["rasterio"] for r in runs] == [True, False]
     assert runs[0]["out"] == runs[1]["out"]
     assert runs[1]["out"]["working_crs"] == "EPSG:32631"
+
+
+def test_the_energy_door_shows_a_read_that_warns_and_keeps_it_not(cache):
+    """``load_terrain(stored=True)``: a DEM without a CRS warns on every read (none kept);
+    a clean DEM is read with GDAL once, then read back."""
+    from energy_planner.cli.energy import load_terrain
+
+    with rasterio.open(cache) as s:
+        prof, a = dict(s.profile), s.read(1)
+    prof.pop("crs")
+    nocrs = cache.parent / "nocrs.tif"
+    with rasterio.open(nocrs, "w", **prof) as d:
+        d.write(a, 1)
+    for _ in range(2):
+        with pytest.warns(UserWarning, match="has no CRS"):
+            t = load_terrain(nocrs, None, stored=True)
+        assert t.crs is None
+    assert read_stored(nocrs)[0] is None
+    first = load_terrain(cache, None, stored=True)
+    second = load_terrain(cache, None, stored=True)
+    assert not isinstance(first.crs, StoredCRS) and isinstance(second.crs, StoredCRS)
+    np.testing.assert_array_equal(first.grad, second.grad)

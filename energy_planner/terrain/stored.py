@@ -130,6 +130,8 @@ class StoredCRS:
     def __eq__(self, other: object) -> bool:
         if other is self or (isinstance(other, StoredCRS) and other._wkt == self._wkt):
             return True
+        if other is None:  # as rasterio's: no CRS equals a CRS
+            return False
         return self.real() == (other.real() if isinstance(other, StoredCRS) else other)
 
     def __ne__(self, other: object) -> bool:
