@@ -101,6 +101,32 @@ its instruction count and page faults (9673-9680, ``perf stat``) are the same in
 run, and every run opens the same files (``strace -f -e trace=openat``). At load 1.8,
 15 whole-process runs of the warm row in turn with main's: median 0.412 s wall,
 0.411 CPU s (0.335-0.525 s) against 0.474 s, 0.472 (0.356-0.565 s): paired 0.90.
+
+Measured again 2026-11-29 (load 5.4 rising to 6.1, other jobs running), A the branch
+whose ``energy`` reads a DEM read before back from the cache folder without rasterio
+(``energy_planner.terrain.stored``), loads the DEM reader's modules only when a DEM is
+read and the progress module only for ``--quiet``, B main at e5c71ed, medians of 7
+(energy-map: 2)::
+
+    python benchmarks/bench_startup.py --runs 7 --map-runs 2 --baseline /work/main/.venv/bin
+
+    row                                        A wall  A cpu  B wall  B cpu  A/B wall  A/B cpu
+    python -c pass (floor)                      0.032  0.022   0.031  0.022      0.92     1.00
+    energy-planner --help                       0.056  0.039   0.055  0.035      0.99     0.99
+    energy, hill, warm                          0.560  0.361   0.653  0.408      0.73     0.74
+    energy, hill, one --set value, the same     0.383  0.266   0.570  0.362      0.70     0.73
+    energy, hill, a new --set value             0.437  0.275   0.634  0.399      0.73     0.73
+    energy, hill, a new numeric channel raster  0.624  0.434   0.616  0.457      0.98     0.96
+    energy-map, hill, a new --set value         2.195  1.156   1.949  1.214      1.11     0.96
+
+(``gdaldem slope`` of the hill 0.15-0.17 s in turn with each row.) The instructions of a
+warm ``energy`` on the hill (callgrind, as above): 689 M against main's 941 M (0.73); the
+first ``energy`` on a DEM, which reads it with rasterio and keeps it, 950 M against 939 M.
+The channel raster row reads its new raster with rasterio, so it keeps main's cost (969 M
+instructions against the same ``--set`` value's 688 M): a new raster is new data, which
+only GDAL reads. At load 4.0-5.2, 25 whole-process runs of the warm row in turn with
+main's: median 0.368 s wall, 0.239 CPU s against 0.510 s, 0.332 (paired 0.73 wall, 0.72
+CPU), peak memory 38 MiB against 75.
 """
 
 from __future__ import annotations

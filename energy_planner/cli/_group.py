@@ -32,6 +32,7 @@ import functools
 import importlib
 import os
 import re
+import sys
 import warnings
 from collections.abc import Iterator
 from typing import Any
@@ -249,9 +250,10 @@ class LazyGroup(click.Group):
 @click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 def main(quiet: bool) -> None:
     """Run the group: the ``--quiet`` flag, then the sub-command (help: :data:`GROUP_HELP`)."""
-    from energy_planner.progress import quiet as _quiet
+    if quiet or "energy_planner.progress" in sys.modules:  # else its default: not quiet
+        from energy_planner.progress import quiet as _quiet
 
-    _quiet(quiet)  # each invocation starts from the flag (a command's own -q may add it)
+        _quiet(quiet)  # each invocation starts from the flag (a command's own -q may add it)
     _skip_exit_collection()
 
 

@@ -13,13 +13,39 @@ from energy_planner.cli import options
 from energy_planner.request import DEFAULT_SPEED, DEFAULT_YAW_RATE
 
 
-def load_terrain(dem: Path, band: int | None) -> Any:
-    """Load ``--dem``; DEM errors become ``click.BadParameter``."""
+def load_terrain(dem: Path, band: int | None, stored: bool = False) -> Any:
+    """Load ``--dem``; DEM errors become ``click.BadParameter``.
+
+    ``stored``: read a DEM read before from the project's cache folder, without GDAL,
+    and keep one read now there (:mod:`energy_planner.terrain.stored`): the same
+    Terrain, its CRS a :class:`~energy_planner.terrain.stored.StoredCRS`.
+    """
     from energy_planner.errors import DEMError, DEMIOError
-    from energy_planner.terrain import load_dem
 
     try:
-        return load_dem(dem, band=band)
+        if not stored:
+            from energy_planner.terrain import load_dem
+
+            return load_dem(dem, band=band)
+        from energy_planner.terrain.stored import keep_stored, read_stored
+
+        terrain, key = read_stored(dem, band)
+        if terrain is not None:
+            return terrain
+        from energy_planner.terrain import load_dem
+
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                terrain = load_dem(dem, band=band)
+        finally:  # shown as they would have been (the filters applied already)
+            for w in caught:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno, w.file, w.line)
+        if not any(  # a library's deprecation notes say nothing of the DEM
+            not issubclass(w.category, DeprecationWarning | PendingDeprecationWarning)
+            for w in caught
+        ):
+            keep_stored(key, terrain)
+        return terrain
     except (DEMIOError, DEMError) as exc:
         hint = " (use --band N)" if getattr(exc, "param", None) == "band" else ""
         raise click.BadParameter(f"{exc}{hint}", param_hint="--dem") from exc
@@ -170,7 +196,7 @@ def compute(
     from energy_planner.request import Request
     from energy_planner.uncertainty import BatteryError
 
-    terrain = load_terrain(dem, band)
+    terrain = load_terrain(dem, band, stored=True)
     model = options.load_model_option(model_path)
     channels = channels if channels is not None else Channels()
     try:

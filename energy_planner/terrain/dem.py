@@ -39,7 +39,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import InitVar, dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from affine import Affine
@@ -50,16 +50,22 @@ from energy_planner.terrain.horn import (
     horn_gradient,
     pixel_steps,
 )
-from energy_planner.terrain.native import NativeGrid
 from energy_planner.terrain.sample import TerrainSample, bilinear
+
+if TYPE_CHECKING:  # loaded by a DEM in degrees (load_dem) or native_grid
+    from energy_planner.terrain.native import NativeGrid
 
 __all__ = ["Terrain", "utm_epsg"]
 
 
 def _as_crs(crs: Any) -> Any:
-    """``rasterio.crs.CRS`` from anything it accepts; None stays None."""
+    """``rasterio.crs.CRS`` from anything it accepts; None and a ``StoredCRS`` stay."""
     if crs is None:
         return None
+    from energy_planner.terrain.stored import StoredCRS
+
+    if isinstance(crs, StoredCRS):  # a DEM read back: rasterio only when asked more
+        return crs
     from rasterio.crs import CRS
     from rasterio.errors import CRSError
 
@@ -408,6 +414,8 @@ class Terrain:
         """
         if self.native is not None:
             return self.native
+        from energy_planner.terrain.native import NativeGrid
+
         return NativeGrid(self.elevation, self.dzdx, self.dzdy, self.transform, self.crs)
 
     def hillshade(self, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
