@@ -179,19 +179,19 @@ s of start-up, then 1.60 s of map (set-up and the first window 0.08 s, windows o
 ``--bands summary`` 3.80 s, 2.67; ``--encoding float32`` 6.38 s, 4.60; ``--bands all``
 7.59 s, 4.77; ``gdaldem slope`` 0.71 s; at load 2.2-3.1 (``--runs 5``): default 3.51 s,
 3.49 CPU s, ``--bands summary`` 3.09 s, ``--encoding float32`` 4.39 s, ``--bands all``
-3.97 s, ``gdaldem slope`` 0.53 s. Forty more default runs in turn (load 4.4-5.7): none
-quiet, 3.5-8.4 s wall for 2.9-4.9 CPU s, the others taking 1.03-1.55 cores. ``--codecs``
-(load 4.1-4.3, CPU s of the writing thread / MB, every option read back equal): zstd
-level 1 with the horizontal predictor (the command's) 1.03 / 45.4, no predictor 1.01 /
-100.1, zstd level 3 1.42 / 43.1, deflate level 1 (libdeflate) 1.35 / 46.6, LERC lossless
-with zstd 1.48 / 90.9, tiles of 128 1.08 / 46.8, pixel interleaved 1.30 / 53.4, none
-0.25 / 167.8. Tried and not kept (the same values, read back cell for cell): tiles of
-128 (to make the last window, whose compression is the tail, a tile row of 128) 5.94 G
-instructions against 5.83 G (callgrind, 1024^2); windows of 128 rows with tiles of 128,
-median 4.60 against 3.82 CPU s (8 pairs in turn, load 4-6); the C allocator keeping the
-memory it frees (``MALLOC_TRIM_THRESHOLD_``, ``MALLOC_MMAP_THRESHOLD_``): 18 k page
-faults against 27.5 k, CPU ratios 0.955 and 1.036 (medians of 10 and 14 pairs, load
-4-6), noise.
+3.97 s, ``gdaldem slope`` 0.53 s. A hundred more default runs, one after another (load
+3.0-6.2): none quiet, 2.9-9.6 s wall for 2.8-4.9 CPU s, the others taking 0.97-1.59
+cores. ``--codecs`` (load 4.1-4.3, CPU s of the writing thread / MB, every option read
+back equal): zstd level 1 with the horizontal predictor (the command's) 1.03 / 45.4, no
+predictor 1.01 / 100.1, zstd level 3 1.42 / 43.1, deflate level 1 (libdeflate) 1.35 /
+46.6, LERC lossless with zstd 1.48 / 90.9, tiles of 128 1.08 / 46.8, pixel interleaved
+1.30 / 53.4, none 0.25 / 167.8. Tried and not kept (the same values, read back cell for
+cell): tiles of 128 (to make the last window, whose compression is the tail, a tile row
+of 128) 5.94 G instructions against 5.83 G (callgrind, 1024^2); windows of 128 rows with
+tiles of 128, median 4.60 against 3.82 CPU s (8 pairs in turn, load 4-6); the C
+allocator keeping the memory it frees (``MALLOC_TRIM_THRESHOLD_``,
+``MALLOC_MMAP_THRESHOLD_``): 18 k page faults against 27.5 k, CPU ratios 0.955 and 1.036
+(medians of 10 and 14 pairs, load 4-6), noise.
 
 ``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
 0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
