@@ -187,11 +187,15 @@ predictor 1.01 / 100.1, zstd level 3 1.42 / 43.1, deflate level 1 (libdeflate) 1
 46.6, LERC lossless with zstd 1.48 / 90.9, tiles of 128 1.08 / 46.8, pixel interleaved
 1.30 / 53.4, none 0.25 / 167.8. Tried and not kept (the same values, read back cell for
 cell): tiles of 128 (to make the last window, whose compression is the tail, a tile row
-of 128) 5.94 G instructions against 5.83 G (callgrind, 1024^2); windows of 128 rows with
-tiles of 128, median 4.60 against 3.82 CPU s (8 pairs in turn, load 4-6); the C
-allocator keeping the memory it frees (``MALLOC_TRIM_THRESHOLD_``,
-``MALLOC_MMAP_THRESHOLD_``): 18 k page faults against 27.5 k, CPU ratios 0.955 and 1.036
-(medians of 10 and 14 pairs, load 4-6), noise.
+of 128) 5.94 G instructions against 5.83 G (callgrind, 1024^2); tiles of 256 x 128 with
+the last window a tile row of 128: the last window's compression 0.06-0.07 CPU s against
+0.15 at load 5 (0.11 in the quiet spell), so a tail about 0.05 s shorter on a quiet
+machine, for 20.86 G instructions against 20.75 G (+0.5 %, callgrind, 2048^2) and 0.8 %
+more bytes: 2-3 % of the quiet wall time, which no run here could show, for a new tile
+shape; windows of 128 rows with tiles of 128, median 4.60 against 3.82 CPU s (8 pairs in
+turn, load 4-6); the C allocator keeping the memory it frees
+(``MALLOC_TRIM_THRESHOLD_``, ``MALLOC_MMAP_THRESHOLD_``): 18 k page faults against 27.5
+k, CPU ratios 0.955 and 1.036 (medians of 10 and 14 pairs, load 4-6), noise.
 
 ``--speed`` (2048^2, 16 headings, ``b1_speeds``; medians of 2, load 9-11): the range
 0.3:1.2 with ``--set gait=trot`` 21.24 s wall, 8.69 CPU s against 14.18 s, 5.69 CPU s at
