@@ -179,21 +179,24 @@ s of start-up, then 1.60 s of map (set-up and the first window 0.08 s, windows o
 ``--bands summary`` 3.80 s, 2.67; ``--encoding float32`` 6.38 s, 4.60; ``--bands all``
 7.59 s, 4.77; ``gdaldem slope`` 0.71 s; at load 2.2-3.1 (``--runs 5``): default 3.51 s,
 3.49 CPU s, ``--bands summary`` 3.09 s, ``--encoding float32`` 4.39 s, ``--bands all``
-3.97 s, ``gdaldem slope`` 0.53 s. A hundred more default runs, one after another (load
-3.0-6.2): none quiet, 2.9-9.6 s wall for 2.8-4.9 CPU s, the others taking 0.97-1.59
-cores. ``--codecs`` (load 4.1-4.3, CPU s of the writing thread / MB, every option read
-back equal): zstd level 1 with the horizontal predictor (the command's) 1.03 / 45.4, no
-predictor 1.01 / 100.1, zstd level 3 1.42 / 43.1, deflate level 1 (libdeflate) 1.35 /
-46.6, LERC lossless with zstd 1.48 / 90.9, tiles of 128 1.08 / 46.8, pixel interleaved
-1.30 / 53.4, none 0.25 / 167.8. Tried and not kept (the same values, read back cell for
-cell): tiles of 128 (to make the last window, whose compression is the tail, a tile row
-of 128) 5.94 G instructions against 5.83 G (callgrind, 1024^2); tiles of 256 x 128 with
-the last window a tile row of 128: the last window's compression 0.06-0.07 CPU s against
-0.15 at load 5 (0.11 in the quiet spell), so a tail about 0.05 s shorter on a quiet
-machine, for 20.86 G instructions against 20.75 G (+0.5 %, callgrind, 2048^2) and 0.8 %
-more bytes: 2-3 % of the quiet wall time, which no run here could show, for a new tile
-shape; windows of 128 rows with tiles of 128, median 4.60 against 3.82 CPU s (8 pairs in
-turn, load 4-6); the C allocator keeping the memory it frees
+3.97 s, ``gdaldem slope`` 0.53 s; ``--runs 5`` at load 0.7-3.1: default 4.01 s, 4.11 CPU
+s, its one quiet run 2.69 s, ``--encoding float32`` 5.70 s (quiet 2.99 s), ``--bands
+all`` 5.58 s, ``--bands summary`` 3.17 s, ``gdaldem slope`` 0.43 s. The target is so far
+not shown: one quiet run under 2.5 s, one over. A hundred more default runs, one after
+another (load 3.0-6.2): none quiet, 2.9-9.6 s wall for 2.8-4.9 CPU s, the others taking
+0.97-1.59 cores. ``--codecs`` (load 4.1-4.3, CPU s of the writing thread / MB, every
+option read back equal): zstd level 1 with the horizontal predictor (the command's) 1.03
+/ 45.4, no predictor 1.01 / 100.1, zstd level 3 1.42 / 43.1, deflate level 1
+(libdeflate) 1.35 / 46.6, LERC lossless with zstd 1.48 / 90.9, tiles of 128 1.08 / 46.8,
+pixel interleaved 1.30 / 53.4, none 0.25 / 167.8. Tried and not kept (the same values,
+read back cell for cell): tiles of 128 (to make the last window, whose compression is
+the tail, a tile row of 128) 5.94 G instructions against 5.83 G (callgrind, 1024^2);
+tiles of 256 x 128 with the last window a tile row of 128: the last window's compression
+0.06-0.07 CPU s against 0.15 at load 5 (0.11 in the quiet spell), so a tail about 0.05 s
+shorter on a quiet machine, for 20.86 G instructions against 20.75 G (+0.5 %, callgrind,
+2048^2) and 0.8 % more bytes: 2-3 % of the quiet wall time, which no run here could
+show, for a new tile shape; windows of 128 rows with tiles of 128, median 4.60 against
+3.82 CPU s (8 pairs in turn, load 4-6); the C allocator keeping the memory it frees
 (``MALLOC_TRIM_THRESHOLD_``, ``MALLOC_MMAP_THRESHOLD_``): 18 k page faults against 27.5
 k, CPU ratios 0.955 and 1.036 (medians of 10 and 14 pairs, load 4-6), noise.
 
