@@ -235,10 +235,52 @@ def check_shown(shown: list[str], printed: str, cmd: str) -> None:
 
 @functools.cache
 def benchmark_help(script: Path) -> subprocess.CompletedProcess:
-    """``python SCRIPT --help``, run once per script (a page names one script many times)."""
-    return subprocess.run(
-        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120
-    )
+    """``python SCRIPT --help``, run once per script (a page names one script many times).
+
+    It runs in this process (a new interpreter would import the library again for each
+    script: most of its second): as ``python SCRIPT`` runs it, with the script's folder
+    first on ``sys.path`` and ``sys.argv`` ``[SCRIPT, "--help"]``, but under its own module
+    name, so that its ``main()`` (the entry point of every benchmark) is called here;
+    argparse prints the help and exits. What the script changes of this process (the
+    environment, ``sys.path``, ``sys.argv``, warning filters, its own modules and those of
+    its folder) is put back; the library's and third parties' modules it imported stay.
+    """
+    import contextlib
+    import importlib.util
+    import io
+    import warnings
+
+    source = script.read_text()
+    if "def main(" not in source or 'if __name__ == "__main__":' not in source:
+        return subprocess.run(
+            [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120
+        )
+    env, path, argv, modules = dict(os.environ), list(sys.path), sys.argv, set(sys.modules)
+    out, err, code = io.StringIO(), io.StringIO(), 0
+    try:
+        sys.path.insert(0, str(script.parent))
+        sys.argv = [str(script), "--help"]
+        with warnings.catch_warnings(), contextlib.redirect_stdout(out), \
+                contextlib.redirect_stderr(err):  # fmt: skip
+            spec = importlib.util.spec_from_file_location(f"_help_{script.stem}", script)
+            mod = importlib.util.module_from_spec(spec)
+            sys.modules[spec.name] = mod  # its dataclasses look their module up
+            spec.loader.exec_module(mod)
+            mod.main()
+    except SystemExit as e:
+        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+    except Exception as e:  # as the interpreter would: the error, exit status 1
+        code, err = 1, io.StringIO(f"{err.getvalue()}{type(e).__name__}: {e}")
+    finally:
+        for key in set(os.environ) - set(env):
+            del os.environ[key]
+        os.environ.update({k: v for k, v in env.items() if os.environ.get(k) != v})
+        sys.path[:], sys.argv = path, argv
+        for name in set(sys.modules) - modules:
+            if Path(getattr(sys.modules[name], "__file__", None) or "/").parent == script.parent:
+                del sys.modules[name]
+    args = [str(script), "--help"]
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def check_benchmark(cmd: str) -> None:

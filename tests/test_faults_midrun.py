@@ -405,7 +405,8 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 
 # ------------------------------------------------------ every writing command, killed
 
-#: A fork server: imports the whole library once, then for each job forks a child that
+#: A fork server: imports the whole library once (with ``LAZY``, the modules it imports
+#: only where they are used), then for each job forks a child that
 #: runs one command (``main(args)``, the CLI itself) and kills it with SIGKILL ``delay``
 #: s after its start, or after it starts writing its first output (the writer of an
 #: output in its folder starts: ``energy_planner.io.atomic.remove_stale``, which every
@@ -414,6 +415,9 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 SERVER = textwrap.dedent(
     """
     import importlib, json, os, pkgutil, select, signal, sys, time
+    LAZY = ("scipy.ndimage", "scipy.optimize", "scipy.special", "scipy.sparse.csgraph",
+            "scipy.spatial.transform", "pyproj", "shapely.geometry", "shapely.ops",
+            "plotly.graph_objects", "pyarrow.parquet", "pyarrow.csv", "rasterio.warp")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot
@@ -421,6 +425,13 @@ SERVER = textwrap.dedent(
     for m in pkgutil.walk_packages(energy_planner.__path__, "energy_planner."):
         try:
             importlib.import_module(m.name)
+        except Exception:
+            pass
+    # and what the library imports only where it is used (its start-up stays short), which
+    # every forked command would otherwise import again, twice per command
+    for name in LAZY:
+        try:
+            importlib.import_module(name)
         except Exception:
             pass
     from energy_planner.cli import main
