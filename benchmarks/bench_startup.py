@@ -127,6 +127,24 @@ instructions against the same ``--set`` value's 688 M): a new raster is new data
 only GDAL reads. At load 4.0-5.2, 25 whole-process runs of the warm row in turn with
 main's: median 0.368 s wall, 0.239 CPU s against 0.510 s, 0.332 (paired 0.73 wall, 0.72
 CPU), peak memory 38 MiB against 75.
+
+Measured 2026-11-29 idle (load 0.05 at the start, 0.87 at the end; no other job), main at
+f303cd3, the machine in its slower state (``gdaldem slope`` of the hill 0.12 s)::
+
+    python benchmarks/bench_startup.py --runs 11 --map-runs 2
+
+    command                                     runs A wall  A cpu gdal wall A/gdal target
+    python -c pass (floor)                        11  0.023  0.022     0.118    0.2
+    energy-planner --help                         11  0.043  0.042     0.122    0.4 0.10 met
+    energy, hill, warm                            11  0.325  0.322     0.123    2.6 0.50 met
+    energy, hill, one --set value, the same       11  0.326  0.321     0.122    2.7 0.50 met
+    energy, hill, a new --set value               11  0.338  0.335     0.124    2.8 0.50 met
+    energy, hill, a new numeric channel raster    11  0.476  0.472     0.116    3.9 0.50 met
+    energy-map, hill, a new --set value            2  0.884  1.239     0.119    7.6
+
+The same warm row took 0.48-0.51 s in that state at 941 M instructions; at 689 M it takes
+0.325 s. A new channel raster is read with rasterio (its import and open), 0.15 s over the
+warm row.
 """
 
 from __future__ import annotations
