@@ -64,7 +64,7 @@ EXCESS_UNITS = {"slope": "deg", "speed": "m/s", "mean_power": "W"}
 #: (:meth:`energy_planner.uncertainty.ErrorModel.outside`).
 MEAN_POWER = "mean_power"
 #: What runs at a mean power beyond the calibration's take, by side.
-_POWER_HOW = {"above": "heavier loads, steeper climbs, faster",
+POWER_HOW = {"above": "heavier loads, steeper climbs, faster",
               "below": "lighter loads, level ground or downhill, slower"}  # fmt: skip
 
 
@@ -257,7 +257,7 @@ def report_against(
         side, gap = ("above", p - hi) if p > hi else ("below", lo - p)
         masks[
             f"mean power {p:.0f} W {side} every calibration run's ({lo:.0f}-{hi:.0f} W): "
-            f"log runs at that power ({_POWER_HOW[side]})"
+            f"log runs at that power ({POWER_HOW[side]})"
         ] = (MEAN_POWER, np.ones(dur.size), np.full(dur.size, gap), gap)
     seen_ch = dom.get("channels") or {}
     per_seg: dict[str, Any] = dict(channel_values or {})

@@ -82,7 +82,7 @@ from typing import Any
 
 import numpy as np
 
-from energy_planner.uncertainty.domain import MEAN_POWER
+from energy_planner.uncertainty.domain import MEAN_POWER, POWER_HOW
 
 __all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model", "within_run_noise"]
 
@@ -369,11 +369,10 @@ def _power_why(domain: Any) -> str:
                 "cannot measure how the error grows; log runs at that power")  # fmt: skip
     lo, hi, p = float(rng[0]), float(rng[1]), float(p)
     # the side of the nearer end (the report rounds the power, maybe onto the edge)
-    side, how = (("above", "heavier loads, steeper climbs") if 2 * p > lo + hi else
-                 ("below", "lighter loads, level ground or downhill"))  # fmt: skip
+    side = "above" if 2 * p > lo + hi else "below"
     return (f"the path's mean power {p:.0f} W lies {side} every calibration run's "
             f"({lo:.0f}-{hi:.0f} W), where the fit cannot measure how the error grows; log "
-            f"runs at that power ({how})")  # fmt: skip
+            f"runs at that power ({POWER_HOW[side]})")  # fmt: skip
 
 
 def _fit_scale(
