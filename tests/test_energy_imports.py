@@ -11,29 +11,16 @@ import subprocess
 import sys
 
 import numpy as np
+from _energy_process import energy_in_process
 
 from energy_planner.maps import map_path
-
-CODE = (
-    "import json, sys\n"
-    "from click.testing import CliRunner\n"
-    "from energy_planner.cli import main\n"
-    "r = CliRunner().invoke(main, ['energy', '--dem', sys.argv[1], '--waypoints', sys.argv[2],"
-    " '--json'])\n"
-    "assert r.exit_code == 0, r.output\n"
-    "print(json.dumps({'pandas': 'pandas' in sys.modules, 'out': json.loads(r.stdout)}))\n"
-)
 
 
 def test_energy_command_does_not_import_pandas(tmp_path):
     wp = tmp_path / "w.csv"
     wp.write_text("x,y\n500058,5000046\n500058,5000080\n500090,5000080\n")
-    done = subprocess.run(
-        [sys.executable, "-c", CODE, str(map_path("hill")), str(wp)],
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
-    res = json.loads(done.stdout.strip().splitlines()[-1])
-    assert res["pandas"] is False
+    res = energy_in_process(map_path("hill"), wp, "pandas")
+    assert res["imported"]["pandas"] is False
     segs = res["out"]["segments"]
     assert [s["segment"] for s in segs] == [0, 1]
     # the segments add up to the totals

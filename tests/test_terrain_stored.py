@@ -7,15 +7,13 @@ geographic DEM are read by GDAL again.
 
 from __future__ import annotations
 
-import json
 import pickle
 import shutil
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import rasterio
+from _energy_process import energy_in_process
 from rasterio.crs import CRS
 
 from energy_planner.maps import map_path
@@ -134,17 +132,6 @@ def test_the_folder_keeps_the_most_recently_used(cache, monkeypatch):
     assert read_stored(names[0])[0] is None and read_stored(names[2])[0] is not None
 
 
-WARM = (
-    "import json, sys\n"
-    "from click.testing import CliRunner\n"
-    "from energy_planner.cli import main\n"
-    "r = CliRunner().invoke(main, ['energy', '--dem', sys.argv[1], '--waypoints', sys.argv[2],"
-    " '--json'])\n"
-    "assert r.exit_code == 0, r.output\n"
-    "print(json.dumps({'rasterio': 'rasterio' in sys.modules, 'out': json.loads(r.stdout)}))\n"
-)
-
-
 def test_energy_twice_the_second_without_rasterio(tmp_path):
     """The first ``energy`` reads the DEM with GDAL and keeps it; the second reads it
     back without importing rasterio and prints the same JSON, to the last digit."""
@@ -152,14 +139,8 @@ def test_energy_twice_the_second_without_rasterio(tmp_path):
     shutil.copy(map_path("hill"), dem)
     wp = tmp_path / "w.csv"
     wp.write_text("x,y\n500058,5000046\n500058,5000080\n500090,5000080\n")
-    runs = []
-    for _ in range(2):
-        done = subprocess.run(
-            [sys.executable, "-c", WARM, str(dem), str(wp)],
-            capture_output=True, text=True, check=True,
-        )  # fmt: skip
-        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
-    assert [r["rasterio"] for r in runs] == [True, False]
+    runs = [energy_in_process(dem, wp, "rasterio") for _ in range(2)]
+    assert [r["imported"]["rasterio"] for r in runs] == [True, False]
     assert runs[0]["out"] == runs[1]["out"]
     assert runs[1]["out"]["working_crs"] == "EPSG:32631"
 
