@@ -68,7 +68,8 @@ def least_energy(
     moves: str = "all",
     progress: bool = False,
     max_energy: float = math.inf,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    tree: bool = False,
+) -> tuple:
     """Least energy from ``start_xy`` (any initial heading) to every search position.
 
     The one boundary between :func:`reach` and the search (priced by ``problem.cost``,
@@ -82,6 +83,8 @@ def least_energy(
     ``turn_at_cell``, else ``min_h to[p, h] + min_h back[p, h]`` (headings free at the
     cell, as two ``plan`` calls). With ``max_energy`` finite each search stops there
     (exact for every position whose energy is at most ``max_energy``; others ``inf``).
+    With ``tree`` (one way only) a fifth item: the tree of the least-energy paths
+    (:attr:`energy_planner.planning.search.ReachResult.tree`; None for a round trip).
 
     Returns
     -------
@@ -98,9 +101,10 @@ def least_energy(
 
         res = reach_search(
             cost, terrain, (start_xy[0], start_xy[1], None), step=step, n_headings=n_headings,
-            moves=moves, progress=progress, max_energy=max_energy,
+            moves=moves, progress=progress, max_energy=max_energy, tree=tree,
         )  # fmt: skip
-        return res.xs, res.ys, res.energy, "planner's search (reach_search), no goal"
+        out = (res.xs, res.ys, res.energy, "planner's search (reach_search), no goal")
+        return (*out, res.tree) if tree else out
     from scipy.sparse.csgraph import dijkstra
 
     from energy_planner.planning.lattice import lattice_graph
@@ -128,12 +132,9 @@ def least_energy(
     else:
         e = to.min(axis=1) + back.min(axis=1)
     e[e > max_energy] = np.inf
-    return (
-        xs,
-        ys,
-        e.reshape(len(ys), len(xs)),
-        (f"lattice graph (moves={moves!r}), forward + backward Dijkstra"),
-    )
+    out = (xs, ys, e.reshape(len(ys), len(xs)),
+           f"lattice graph (moves={moves!r}), forward + backward Dijkstra")  # fmt: skip
+    return (*out, None) if tree else out
 
 
 @dataclass(repr=False)
@@ -168,6 +169,25 @@ class ReachMap(Result):
     problem : Problem or None
         The terrain, model and request it was computed on
         (:class:`~energy_planner.results.Result`): the writers need no terrain.
+    domain : dict or None
+        With a model that records its calibration domain: the map's domain summary
+        (:func:`domain_summary`: the domain, per quantity and per reason the reached
+        cells whose least-energy path leaves it, their share; with a budget or a battery
+        the same within it). None for a model without a domain.
+    outside_share : ndarray or None
+        Per cell the share of its least-energy path's duration outside the domain (0-1,
+        per metre walked, as :func:`energy_planner.uncertainty.domain.path_domain`
+        reports a path; NaN where unreached). One way only: a round trip's cells carry
+        none (:attr:`domain` says so).
+    outside_m : ndarray or None
+        Per cell the metres of its path outside the domain.
+    shares, excess : dict
+        Per quantity a raster: the share of the path's duration outside it, and (numeric
+        ranges: slope, speed, numeric channels, the mean power) the distance beyond the
+        range averaged over the duration, what the fit's measured error growth widens
+        by (:meth:`energy_planner.uncertainty.ErrorModel.outside`).
+    duration_s : ndarray or None
+        Per cell its least-energy path's duration, s (the error model's input).
     """
 
     energy_j: np.ndarray
@@ -178,6 +198,12 @@ class ReachMap(Result):
     battery: dict[str, Any] | None = field(default=None, repr=False)
     budget_wh: float | None = None
     time_s: np.ndarray | None = field(default=None, repr=False)
+    domain: dict[str, Any] | None = field(default=None, repr=False)
+    outside_share: np.ndarray | None = field(default=None, repr=False)
+    outside_m: np.ndarray | None = field(default=None, repr=False)
+    shares: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    excess: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    duration_s: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def budget_j(self) -> float | None:
@@ -233,6 +259,14 @@ class ReachMap(Result):
             out["budget_area_m2"] = float(self.area(terrain, budget_wh * 3600.0).area)
         if self.battery is not None:
             out["battery"] = dict(self.battery)
+        if self.domain is not None:
+            out["domain"] = dict(self.domain)
+            if budget_wh is not None and self.outside_share is not None:
+                m = self.mask(budget_wh * 3600.0)
+                with np.errstate(invalid="ignore"):
+                    far = int((m & (self.outside_share > 0)).sum())
+                out["domain"]["within_budget"] = {"budget_wh": budget_wh, "cells": int(m.sum()),
+                                                  "outside_cells": far}  # fmt: skip
         budgets = [budget_wh, (self.battery or {}).get("confident_budget_wh")]
         for b in sorted({b for b in budgets if b is not None}):
             w = self.edge_warning(terrain, b * 3600.0)
@@ -308,8 +342,8 @@ class ReachMap(Result):
             budget_j=float(budget_j), **e,
         )  # fmt: skip
 
-    def area(self, terrain, budget_j: float):
-        """The area reachable within ``budget_j``.
+    def area(self, terrain, budget_j: float | None = None, *, mask: Any = None):
+        """The area reachable within ``budget_j`` (or the cells of ``mask``).
 
         A shapely (Multi)Polygon of whole cells, in the working CRS.
         """
@@ -317,7 +351,7 @@ class ReachMap(Result):
         from shapely.geometry import shape
         from shapely.ops import unary_union
 
-        m = self.mask(budget_j)
+        m = self.mask(budget_j) if mask is None else np.asarray(mask, bool)
         polys = [
             shape(geom)
             for geom, v in features.shapes(
@@ -391,29 +425,64 @@ class ReachMap(Result):
         """Per cell, the chance that going there (and back) fits in ``usable_j`` joules.
 
         The model's error model when it has one
-        (:meth:`energy_planner.uncertainty.errormodel.ErrorModel.probability`, the cell's
-        duration taken as its energy over the held-out runs' mean power), else
+        (:meth:`energy_planner.uncertainty.errormodel.ErrorModel.probability`), else
         :func:`energy_planner.uncertainty.success_probability` of each cell's energy from
-        the relative held-out run errors; NaN where the cell cannot be reached.
+        the relative held-out run errors; NaN where the cell cannot be reached. With the
+        cells' domain reports (:attr:`outside_share`) each cell is widened as its path's
+        interval is (:meth:`widening`: the measured growth beyond each range, the fitted
+        ``d`` or the assumed factor, its path's duration) and a cell whose widening is
+        not calibrated gets no chance: NaN (:attr:`battery` counts it as refused).
+        Without an error model the relative errors are not widened and every cell whose
+        path leaves the domain is refused. Without reports (a model without a domain, a
+        round trip) the duration is the energy over the held-out runs' mean power.
         """
         from energy_planner.uncertainty import BatteryError, model_error_model, model_scores
 
         em = model_error_model(model)
-        if em is not None:
-            e = self.energy_j
-            ok = np.isfinite(e)
-            out = np.full(e.shape, np.nan)
-            out[ok] = em.probability(e[ok], usable_j)
-            return out
-        s = model_scores(model)
-        if s is None:
-            raise BatteryError("the model carries no held-out run errors: refit it with "
-                               "cross-validation (energy-planner fit --folds 5)")  # fmt: skip
         e = self.energy_j
-        with np.errstate(invalid="ignore", divide="ignore"):
-            count = s.size - np.searchsorted(s, e / usable_j - 1.0, side="left")
-            out = count / (s.size + 1.0)
-        return np.where(np.isfinite(e), out, np.nan)
+        ok = np.isfinite(e)
+        w = self.widening(model)
+        out = np.full(e.shape, np.nan)
+        if em is not None:
+            if w is None:
+                out[ok] = em.probability(e[ok], usable_j)
+            else:
+                dur = None if self.duration_s is None else self.duration_s[ok]
+                out[ok] = em.probability(e[ok], usable_j, dur, w.share[ok],
+                                         w.extra_rel_var[ok], w.assumed_share[ok])  # fmt: skip
+        else:
+            s = model_scores(model)
+            if s is None:
+                raise BatteryError("the model carries no held-out run errors: refit it with "
+                                   "cross-validation (energy-planner fit --folds 5)")  # fmt: skip
+            with np.errstate(invalid="ignore", divide="ignore"):
+                count = s.size - np.searchsorted(s, e / usable_j - 1.0, side="left")
+                out = np.where(ok, count / (s.size + 1.0), np.nan)
+        if w is not None:
+            out[w.refused] = np.nan
+        return out
+
+    def widening(self, model: Any = None) -> Any:
+        """How each cell's domain report widens its chance, or None without reports.
+
+        :func:`energy_planner.uncertainty.errormodel.outside_cells` of the cells'
+        :attr:`shares` and :attr:`excess` with the model's error model (default: the
+        Problem's model): per cell the extra relative variance, the share the fitted
+        ``d`` (or the assumed factor) widens, the assumed share of a mean power beyond the
+        runs', and ``refused`` (no battery decision) with why.
+        """
+        from energy_planner.uncertainty import model_error_model
+        from energy_planner.uncertainty.errormodel import outside_cells
+
+        if self.outside_share is None:
+            return None
+        if model is None and self.problem is not None:
+            model = self.problem.model
+        w = outside_cells(model_error_model(model), self.shares, self.excess)
+        reached = np.isfinite(self.energy_j)
+        refused = w.refused & reached & np.isfinite(self.outside_share)
+        return type(w)(w.extra_rel_var, w.share, w.assumed_share, refused,
+                       {k: v & refused for k, v in w.why.items()})  # fmt: skip
 
     def write_chance_geotiff(
         self, path: str | Path, terrain: Any = None, model: Any = None, usable_j: Any = None
@@ -650,10 +719,14 @@ def reach(
     step = abs(float(dx))
     if abs(abs(dy) - step) > 1e-9 * step:
         raise PlanningError(f"reach needs square cells; the working grid has {dx} x {-dy} m")
-    xs, ys, grid, search = least_energy(
+    from energy_planner.uncertainty.domain import domain_of
+
+    dom = domain_of(problem.model)
+    xs, ys, grid, search, paths = least_energy(
         problem, s, step=step, n_headings=n_headings, round_trip=round_trip,
         turn_at_cell=turn_at_cell, progress=progress,
         max_energy=math.inf if max_energy is None else float(max_energy),
+        tree=dom is not None,
     )  # fmt: skip
     # lattice positions are cell centres: map them to (row, col)
     ci = np.rint((xs - x0) / dx).astype(int)
@@ -676,6 +749,17 @@ def reach(
               "time_s": time.perf_counter() - t0},
         time_s=times,
     )  # fmt: skip
+    if dom is not None:
+        t1 = time.perf_counter()
+        cells = path_domains(problem, paths, dom, ri, ci, (rows, cols), np.isfinite(out))
+        res.outside_share = cells.pop("outside_share")
+        res.excess = cells.pop("excess")
+        res.shares = cells.pop("shares")
+        res.duration_s = cells.pop("duration_s")
+        res.outside_m = cells.pop("outside_m")
+        res.domain = cells.pop("summary")
+        res.info["domain_s"] = time.perf_counter() - t1
+        res.info["time_s"] = time.perf_counter() - t0
     if bound is not None:
         res.info["time_bound"] = bound
     if cost.speed_range is not None:
@@ -725,7 +809,12 @@ def battery_area(res: ReachMap, terrain: Any, model: Any, trust: Any) -> dict[st
 
     :func:`energy_planner.uncertainty.confident_budget` of the usable energy (battery
     less reserve) at ``trust.confidence``: the largest predicted energy whose chance of
-    fitting is at least that; the cells (and their area) within it.
+    fitting is at least that; the cells (and their area) within it. With the cells'
+    domain reports (a model with a calibration domain, one way) the cells and area are
+    those whose own chance (:meth:`ReachMap.chance`, widened by its path's domain) is at
+    least the confidence; ``refused_cells`` the reached cells given no battery decision
+    (their path leaves the domain where the error growth was not measured, or lies
+    beyond the calibration runs' mean power) and ``refused`` how many for each reason.
 
     Raises
     ------
@@ -739,9 +828,175 @@ def battery_area(res: ReachMap, terrain: Any, model: Any, trust: Any) -> dict[st
                            f"({trust.battery_wh:g} Wh)", value=trust.reserve_wh)  # fmt: skip
     usable = trust.usable_j
     budget_j = confident_budget(model, usable, trust.confidence)
-    return {
+    out = {
         "battery_wh": trust.battery_wh, "reserve_wh": trust.reserve_wh,
         "confidence": trust.confidence, "usable_wh": usable / 3600.0,
         "confident_budget_wh": budget_j / 3600.0, "cells": int(res.mask(budget_j).sum()),
         "area_m2": float(res.area(terrain, budget_j).area),
     }  # fmt: skip
+    w = res.widening(model)
+    if w is None:
+        return out
+    with np.errstate(invalid="ignore"):
+        sure = res.chance(model, usable) >= trust.confidence
+    out["cells"] = int(sure.sum())
+    out["area_m2"] = float(res.area(terrain, mask=sure).area)
+    with np.errstate(invalid="ignore"):
+        out["outside_cells"] = int((sure & (res.outside_share > 0)).sum())
+    out["refused_cells"] = int(w.refused.sum())
+    out["refused"] = {k: int(v.sum()) for k, v in w.why.items() if v.any()}
+    out["decision"] = ("per cell: its chance with its path's domain widening (cells and "
+                       "area reached with the required chance); refused cells have "
+                       "none")  # fmt: skip
+    return out
+
+
+def path_domains(problem, paths, dom, ri, ci, shape, reached) -> dict[str, Any]:
+    """Each cell's calibration domain: the report of its least-energy path from the start.
+
+    The report :func:`energy_planner.uncertainty.domain.path_domain` gives of a path,
+    computed for every cell at once: each state on the tree of least-energy paths
+    (``paths``, :attr:`energy_planner.planning.search.ReachResult.tree`) has one motion
+    from its parent, priced by the kernel as :func:`energy_planner.energy.path_energy`
+    prices a path's motions (durations, distances, turns, mean slope and relative
+    heading) and sampled per metre as :func:`~energy_planner.uncertainty.domain.path_samples`
+    samples them (slope, raster channels); its columns
+    (:func:`~energy_planner.uncertainty.domain.segment_terms`: seconds and metres outside
+    each range, the distance beyond it, the channel constants, the gaits) are summed from
+    the start along the tree, and each cell's sums make its report
+    (:meth:`~energy_planner.uncertainty.domain.SegmentTerms.report`), the mean power of its
+    path included. The numbers are those of ``path_domain`` of the path ``plan`` finds to
+    the cell on the same lattice, cut into its lattice motions.
+
+    Parameters
+    ----------
+    problem : Problem
+    paths : dict or None
+        The tree; None (a round trip's lattice search): no per-cell report.
+    dom : dict
+        The model's calibration domain.
+    ri, ci : ndarray
+        Row and column on the working grid of each search row and column.
+    shape : tuple of int
+        The working grid's shape.
+    reached : ndarray of bool
+        The cells the map keeps (finite energy).
+
+    Returns
+    -------
+    dict
+        ``outside_share`` (raster, NaN where unreached), ``excess`` and ``shares`` (per
+        quantity a raster), ``duration_s`` (each cell's path's duration, s), ``summary``
+        (:func:`domain_summary`).
+    """
+    from energy_planner.uncertainty.domain import segment_terms
+
+    nan = np.full(shape, np.nan)
+    if paths is None:
+        note = ("not computed: a round trip's least-energy paths come from the lattice "
+                "graph's Dijkstra, whose paths are not kept; the cells carry no domain "
+                "report and no battery decision beyond the confident budget")  # fmt: skip
+        return {"outside_share": None, "excess": {}, "shares": {}, "duration_s": None,
+                "outside_m": None, "summary": {"domain": dict(dom), "paths": note}}  # fmt: skip
+    cost = problem.cost
+    S, par, at = paths["states"], paths["parent"], paths["at"]
+    H = len(paths["headings"])
+    nx = len(paths["xs"])
+    p, h = np.divmod(S, H)
+    j, i = np.divmod(p, nx)
+    b = np.column_stack([paths["xs"][i], paths["ys"][j], paths["headings"][h]])
+    root = par < 0
+    a = b[np.where(root, np.arange(S.size), par)]
+    segments, gaits = _motion_table(cost, a, b)
+    channels = cost.channels
+    if channels is not None and getattr(channels, "rasters", None):
+        channels = channels.bind(problem.terrain)
+    from energy_planner.uncertainty.domain import motion_samples
+
+    along = motion_samples(problem.terrain, a, b, channels)
+    consts = None if channels is None else dict(channels.constants)
+    terms = segment_terms(dom, segments, consts, gaits, None, along)
+    keys = list(terms.cols)
+    qs = list(terms.peaks)
+    cols = np.column_stack([terms.cols[k] for k in keys]) if keys else np.zeros((S.size, 0))
+    peaks = np.column_stack([terms.peaks[q] for q in qs]) if qs else np.zeros((S.size, 0))
+    cols[root] = 0.0  # a start state: no motion
+    peaks[root] = 0.0
+    from energy_planner.planning._pathtree import prefix_sums
+
+    cols, peaks = np.ascontiguousarray(cols), np.ascontiguousarray(peaks)
+    prefix_sums(par, cols, peaks)
+    # per cell of the working grid, its least-energy state's sums
+    at_grid = np.full(shape, -1, np.int64)
+    at_grid[np.ix_(ri, ci)] = at.reshape(len(paths["ys"]), nx)
+    at_grid[~reached] = -1
+    have = at_grid >= 0
+    k = at_grid[have]
+    rep = terms.report(dom, {key: cols[k, c] for c, key in enumerate(keys)},
+                       {q: peaks[k, c] for c, q in enumerate(qs)})  # fmt: skip
+
+    def raster(v: Any) -> np.ndarray:
+        r = nan.copy()
+        r[have] = v
+        return r
+
+    return {
+        "outside_share": raster(rep["outside_share"]),
+        "excess": {q: raster(v) for q, v in rep["excess"].items()},
+        "shares": {q: raster(v) for q, v in rep["shares"].items()},
+        "duration_s": raster(cols[k, keys.index("duration_s")]),
+        "summary": domain_summary(rep, dom),
+        "outside_m": raster(rep["outside_m"]),
+    }
+
+
+def _motion_table(cost, a: np.ndarray, b: np.ndarray) -> tuple[dict[str, np.ndarray], Any]:
+    """The kernel's segment columns of independent motions ``a[k] -> b[k]``, and their gaits.
+
+    The motions are priced as one pose sequence ``a0, b0, a1, b1, ...`` by
+    :meth:`~energy_planner.energy.MotionCost.details` (with a speed range, at the speeds
+    and gaits :meth:`~energy_planner.energy.MotionCost.best_timing` chooses, as ``plan``
+    times its path) and every other motion kept; the columns are those
+    :func:`energy_planner.energy.path_energy` gives a path's segments.
+    """
+    from energy_planner.energy.path import _segment_table
+    from energy_planner.uncertainty.domain import motion_gaits
+
+    m = a.shape[0]
+    seq = np.empty((2 * m, 3))
+    seq[0::2], seq[1::2] = a, b
+    x, y, th = seq[:, 0], seq[:, 1], seq[:, 2]
+    durations = gaits = None
+    if cost.ranged:
+        durations, names = cost.best_timing(x, y, th)
+        if names is not None:
+            gaits = cost.gait_indices(names)
+    out = cost.details(x, y, th, durations, gaits)[0::2]
+    table = _segment_table(out, np.arange(m), m)
+    return table, motion_gaits(table["distance_m"], table["turn_deg"], a, b)
+
+
+def domain_summary(rep: dict[str, Any], dom: dict[str, Any]) -> dict[str, Any]:
+    """A reach map's domain in a few numbers: per quantity and reason, the cells outside.
+
+    ``rep``: the per-cell report (:meth:`~energy_planner.uncertainty.domain.SegmentTerms.report`
+    with one value per reached cell).
+    """
+    share = np.asarray(rep["outside_share"], float)
+    n = int(share.size)
+    out = int(np.count_nonzero(share > 0))
+    return {
+        "domain": dict(dom),
+        "paths": "each cell's least-energy path from the start, counted per metre",
+        "reached_cells": n,
+        "outside_cells": out,
+        "outside_cell_share": round(out / n, 4) if n else 0.0,
+        "quantities": {
+            q: int(np.count_nonzero(np.asarray(v) > 0)) for q, v in rep["shares"].items()
+        },  # fmt: skip
+        "reasons": {w: int(np.count_nonzero(np.asarray(v) > 0)) for w, v in rep["reasons"].items()},
+        "max_excess": {
+            q: round(float(np.max(v)), 6) if np.size(v) else 0.0
+            for q, v in rep["max_excess"].items()
+        },  # fmt: skip
+    }

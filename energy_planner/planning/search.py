@@ -323,6 +323,13 @@ class ReachResult:
     n_headings : int
     expanded : int
     time_s : float
+    tree : dict or None
+        With ``reach_search(..., tree=True)``: the least-energy paths to every reached
+        position as a tree of states (:func:`energy_planner.planning._pathtree.path_tree`):
+        ``states`` (``p * n_headings + h``, each after its parent), ``parent`` (index in
+        ``states``, -1 at a start state), ``at`` (per position, row-major over
+        ``energy``, the index of its least-energy state, -1 where unreached), ``xs``,
+        ``ys`` and ``headings`` (rad) to turn a state into a pose.
     """
 
     xs: np.ndarray
@@ -332,6 +339,7 @@ class ReachResult:
     n_headings: int
     expanded: int
     time_s: float
+    tree: dict | None = None
 
 
 class _Grid:
@@ -1079,6 +1087,7 @@ def reach_search(
     max_energy: float = math.inf,
     progress: bool = False,
     time_budget: float = math.inf,
+    tree: bool = False,
 ) -> ReachResult:
     """Least energy from ``start`` to every position: the planner's search without a goal.
 
@@ -1101,6 +1110,9 @@ def reach_search(
         A bar on stderr, or a callable / Reporter (:func:`energy_planner.progress.reporter`).
     time_budget : float
         Seconds; :class:`PlanningError` when exceeded.
+    tree : bool
+        Also the tree of each position's least-energy path (:attr:`ReachResult.tree`),
+        read from the search's predecessor codes before they are freed.
 
     Returns
     -------
@@ -1118,6 +1130,18 @@ def reach_search(
     )  # fmt: skip
     e = mod.min_over_headings(g, _code, grid.P, grid.H)
     e[e > max_energy] = np.inf
+    paths = None
+    if tree:
+        from energy_planner.planning import _pathtree
+
+        best = _pathtree.best_states(g, _code, grid.P, grid.H, mod.UNSEEN)
+        best[~np.isfinite(e)] = -1
+        states, parent, at = _pathtree.path_tree(
+            _code, grid.moves, grid.nx, grid.H, best, mod.START, mod.TURN_FROM_PREV,
+            mod.TURN_FROM_NEXT, mod.CLOSED,
+        )  # fmt: skip
+        paths = {"states": states, "parent": parent, "at": at, "xs": grid.xs, "ys": grid.ys,
+                 "headings": grid.headings}  # fmt: skip
     return ReachResult(
         xs=grid.xs,
         ys=grid.ys,
@@ -1126,6 +1150,7 @@ def reach_search(
         n_headings=grid.H,
         expanded=expanded,
         time_s=time.perf_counter() - t0,
+        tree=paths,
     )
 
 

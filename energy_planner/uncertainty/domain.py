@@ -40,8 +40,11 @@ __all__ = [
     "motion_segments",
     "path_channel_values",
     "path_domain",
+    "motion_gaits",
+    "motion_samples",
     "path_samples",
     "report_against",
+    "segment_terms",
     "stay_in_domain",
     "window_segments",
 ]
@@ -124,13 +127,32 @@ def _segment_gaits(segments: Any, poses: Any) -> np.ndarray:
     if "gait" in segments:
         return np.asarray(segments["gait"], dtype=object)
     dist = np.asarray(segments["distance_m"], dtype=float)
-    turn = np.abs(np.asarray(segments["turn_deg"], dtype=float))
-    out = np.where(dist > 1e-9, "forward", np.where(turn > 0, "turning", "none")).astype(object)
+    turn = np.asarray(segments["turn_deg"], dtype=float)
     p = None if poses is None else np.asarray(poses, dtype=float)
     if p is None or p.ndim != 2 or p.shape[0] != dist.size + 1 or p.shape[1] < 3:
+        return motion_gaits(dist, turn)
+    return motion_gaits(dist, turn, p[:-1], p[1:])
+
+
+def motion_gaits(dist: Any, turn_deg: Any, a: Any = None, b: Any = None) -> np.ndarray:
+    """Motion class of each motion from pose ``a`` to pose ``b`` (``x, y, yaw`` rows).
+
+    Forward, backward or lateral by the direction of travel relative to the body yaw at
+    ``a`` (within 45 deg of it, of its reverse, else); ``turning`` a motion that does not
+    move but turns; ``none`` neither. Without poses every moving motion is forward.
+
+    >>> motion_gaits([1.0, 0.0, 1.0], [0.0, 30.0, 0.0],
+    ...              [[0, 0, 0], [1, 0, 0], [1, 0, 0.5]], [[1, 0, 0], [1, 0, 0.5], [1, 1, 0.5]])
+    array(['forward', 'turning', 'lateral'], dtype=object)
+    """
+    dist = np.asarray(dist, dtype=float)
+    turn = np.abs(np.asarray(turn_deg, dtype=float))
+    out = np.where(dist > 1e-9, "forward", np.where(turn > 0, "turning", "none")).astype(object)
+    if a is None or b is None:
         return out
-    d = np.diff(p[:, :2], axis=0)
-    rel = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - p[:-1, 2])))
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    d = b[:, :2] - a[:, :2]
+    rel = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - a[:, 2])))
     moving = dist > 1e-9
     lateral = np.abs(np.abs(rel) - np.pi / 2) < np.pi / 4
     out[moving & (np.abs(rel) > 3 * np.pi / 4)] = "backward"
@@ -151,7 +173,10 @@ def _categorical(seen: Any) -> bool:
 
 
 def _numbers(values: Any) -> np.ndarray:
-    v = np.atleast_1d(np.asarray(values, dtype=object))
+    v = np.atleast_1d(np.asarray(values))
+    if v.dtype.kind in "fiub":  # already numbers (a raster's samples)
+        return v.astype(float)
+    v = v.astype(object)
     return np.array([np.nan if x is None or isinstance(x, str) else float(x) for x in v])
 
 
@@ -163,19 +188,288 @@ def _beyond(lo: float, hi: float, values: Any) -> np.ndarray:
     return np.where(np.isfinite(d), d, 0.0)
 
 
-def _weighted(per_seg: Any, weights: Any, fn: Any) -> np.ndarray:
-    """Per segment the weighted mean of ``fn(samples)`` (samples along it, or one value)."""
-    out = np.zeros(len(per_seg))
-    for i, v in enumerate(per_seg):
-        x = np.asarray(fn(np.atleast_1d(v)), dtype=float)
-        if x.size == 0:
+@dataclasses.dataclass
+class _Flat:
+    """Samples of ``n`` segments as one array: ``values[k]`` belongs to segment ``owner[k]``.
+
+    ``owner`` is non-decreasing; ``weight`` (or None: plain means) weighs each sample.
+    """
+
+    values: np.ndarray
+    owner: np.ndarray
+    n: int
+    weight: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, per_seg: Any, weights: Any = None, n: int | None = None) -> _Flat:
+        """From one value or one array of samples per segment (and the same of weights)."""
+        if isinstance(per_seg, cls):
+            return per_seg
+        if isinstance(per_seg, np.ndarray) and per_seg.ndim == 1:  # one value each
+            return cls(per_seg, np.arange(per_seg.size), per_seg.size if n is None else n)
+        parts = [np.atleast_1d(np.asarray(v)) for v in per_seg]
+        sizes = np.array([p.size for p in parts], dtype=np.int64)
+        n = len(parts) if n is None else n
+        kinds = {p.dtype.kind for p in parts if p.size}
+        dtype = float if kinds <= set("fiub") else object
+        vals = np.concatenate([p.astype(dtype) for p in parts]) if parts else np.zeros(0)
+        owner = np.repeat(np.arange(len(parts)), sizes)
+        w = None
+        if weights is not None:
+            ws = [np.atleast_1d(np.asarray(x, dtype=float)) for x in weights]
+            same = len(ws) == len(parts)
+            if same and all(x.size == p.size for x, p in zip(ws, parts, strict=True)):
+                w = np.concatenate(ws) if ws else np.zeros(0)
+        return cls(vals, owner, n, w)
+
+    def mean(self, fn: Any) -> np.ndarray:
+        """Per segment the weighted mean of ``fn(samples)``.
+
+        A plain mean where the segment's weights sum to 0 or none are given; 0 for a
+        segment without samples.
+        """
+        x = np.asarray(fn(self.values), dtype=float)
+        cnt = np.bincount(self.owner, minlength=self.n).astype(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = np.where(cnt > 0, np.bincount(self.owner, x, self.n) / cnt, 0.0)
+            if self.weight is not None:
+                sw = np.bincount(self.owner, self.weight, self.n)
+                swx = np.bincount(self.owner, self.weight * x, self.n)
+                out = np.where(sw > 0, swx / np.where(sw > 0, sw, 1.0), out)
+        return out
+
+    def peak(self, fn: Any) -> np.ndarray:
+        """Per segment the largest of ``fn(samples)`` (0 without samples)."""
+        x = np.asarray(fn(self.values), dtype=float)
+        out = np.zeros(self.n)
+        if x.size:
+            cut = np.r_[0, np.flatnonzero(np.diff(self.owner)) + 1]
+            out[self.owner[cut]] = np.maximum.reduceat(x, cut)
+        return out
+
+
+@dataclasses.dataclass
+class SegmentTerms:
+    """What :func:`report_against` sums over a path's segments, per segment.
+
+    A path's report is :meth:`report` of the sums of these columns over its segments, so
+    that the report of every path of a tree of motions (a reach map's least-energy paths)
+    is the prefix sums of its motions' columns along the tree
+    (:func:`energy_planner.planning.reach.reach`), the same numbers as
+    :func:`report_against` of each path.
+
+    Attributes
+    ----------
+    reasons : dict
+        Reason -> ``(quantity, has an excess)``, in the report's order (the calibration
+        runs' mean power, a whole-path check, as ``MEAN_POWER`` at its place).
+    cols : dict
+        Additive per-segment columns: ``duration_s``, ``distance_m``, ``energy_j`` (when
+        the segments carry it), ``any_s`` / ``any_m`` (seconds and metres outside some
+        range), ``("q", quantity)`` seconds outside it, ``("why", reason)`` seconds
+        outside for that reason, ``("hit", reason)`` its share of the segment,
+        ``("exc", reason)`` seconds times the distance beyond the range.
+    peaks : dict
+        Quantity -> per segment the largest distance of a sample beyond its range.
+    """
+
+    reasons: dict[str, tuple[str, bool]]
+    cols: dict[Any, np.ndarray]
+    peaks: dict[str, np.ndarray]
+
+    def report(self, dom: Mapping[str, Any], sums: Mapping[Any, Any],
+               peaks: Mapping[str, Any]) -> dict[str, Any]:  # fmt: skip
+        """The report of a path (or of many: arrays) from its columns' sums and peaks.
+
+        Arrays of sums give arrays in the report (one value per path; the reasons of the
+        mean power then read ``mean power above ...`` without the path's own power).
+        """
+        total = np.asarray(sums["duration_s"], dtype=float)
+        safe = np.where(total > 0, total, np.inf)
+        any_s, any_m = np.asarray(sums["any_s"], float), np.asarray(sums["any_m"], float)
+        shares: dict[str, Any] = {q: np.zeros(total.shape) for q in QUANTITIES}
+        reasons: dict[str, Any] = {}
+        excess: dict[str, Any] = {}
+        max_excess: dict[str, Any] = {}
+        power = None
+        rng = dom.get("mean_power_w")
+        if rng and "energy_j" in sums:
+            p = np.asarray(sums["energy_j"], float) / safe
+            lo, hi = float(rng[0]), float(rng[1])
+            with np.errstate(invalid="ignore"):
+                above, below = p > hi, p < lo
+            power = (p, above, below, np.where(above, p - hi, np.where(below, lo - p, 0.0)))
+            out_p = above | below
+            any_s = np.where(out_p, total, any_s)
+            any_m = np.where(out_p, np.asarray(sums["distance_m"], float), any_m)
+        for why, (q, has_exc) in self.reasons.items():
+            if q == MEAN_POWER:
+                if power is None:
+                    continue
+                p, above, below, gap = power
+                shares[MEAN_POWER] = (above | below).astype(float)
+                if (above | below).any():
+                    excess[MEAN_POWER] = gap
+                    max_excess[MEAN_POWER] = gap
+                for side, m in (("above", above), ("below", below)):
+                    if m.any():
+                        reasons[f"mean power {side} every calibration run's ({lo:.0f}-"
+                                f"{hi:.0f} W): log runs at that power ({POWER_HOW[side]})"
+                                ] = m.astype(float)  # fmt: skip
+                continue
+            shares[q] = np.asarray(sums[("q", q)], float) / safe
+            if has_exc:
+                e = np.asarray(sums[("exc", why)], float) / safe
+                excess[q] = np.maximum(excess[q], e) if q in excess else e
+                pk = np.asarray(peaks[q], float)
+                max_excess[q] = np.maximum(max_excess[q], pk) if q in max_excess else pk
+            hit = np.asarray(sums[("hit", why)], float) > 0
+            if hit.any():
+                reasons[why] = np.where(hit, np.asarray(sums[("why", why)], float) / safe, np.nan)
+        out = {
+            "outside_share": any_s / safe,
+            "outside_m": any_m,
+            "reasons": reasons,
+            "shares": shares,
+            "excess": excess,
+            "max_excess": max_excess,
+            "domain": dict(dom),
+        }
+        if power is not None:
+            out["mean_power_w"] = power[0]
+        return out
+
+
+def segment_terms(
+    dom: Mapping[str, Any],
+    segments: Any,
+    constants: Mapping[str, Any] | None = None,
+    gaits: Any = None,
+    channel_values: Mapping[str, Any] | None = None,
+    along: Mapping[str, Any] | None = None,
+) -> SegmentTerms:
+    """Per segment, the columns of :func:`report_against` (:class:`SegmentTerms`).
+
+    ``gaits``: each segment's motion class (:func:`motion_gaits`); ``along``: as
+    :func:`report_against`, or its samples flat (``owner``: the segment of each sample,
+    non-decreasing; ``weight``, ``slope_deg`` and each raster channel one array).
+    """
+    dur = np.asarray(segments["duration_s"], dtype=float)
+    dist = np.asarray(segments["distance_m"], dtype=float)
+    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
+    n = dur.size
+    with np.errstate(invalid="ignore", divide="ignore"):
+        safe = np.where(dur > 0, dur, np.inf)
+        speed, rate = dist / safe, turn / safe
+    along = dict(along or {})
+    owner = along.pop("owner", None)
+
+    def samples(name: str) -> _Flat:
+        if owner is not None:
+            return _Flat(np.asarray(along[name]), np.asarray(owner), n, along.get("weight"))
+        return _Flat.of(along[name], along.get("weight"), n)
+
+    # reason -> (quantity, share of each segment outside, its excess per segment or None,
+    # the largest excess of a sample per segment or None)
+    masks: dict[str, tuple[str, Any, Any, Any]] = {}
+    top = float(dom["max_slope_deg"])
+    if "slope_deg" in along:
+        sl = samples("slope_deg")
+        s_out = sl.mean(lambda v: v > top)
+        s_exc = sl.mean(lambda v: _beyond(-np.inf, top, v))
+        peak = sl.peak(lambda v: _beyond(-np.inf, top, v))
+    else:
+        slope = np.asarray(segments["max_slope_deg"], dtype=float)
+        s_out = (slope > top).astype(float)
+        s_exc = peak = _beyond(-np.inf, top, slope)
+    masks[f"slope above {top:g} deg"] = ("slope", s_out, s_exc, peak)
+    if dom.get("speed_m_s"):
+        lo, hi = dom["speed_m_s"]
+        walking = speed > 0.05
+        exc = np.where(walking, _beyond(lo, hi, speed), 0.0)
+        masks[f"speed outside {lo:g}-{hi:g} m/s"] = (
+            "speed", (walking & ((speed < lo) | (speed > hi))).astype(float), exc, exc,
+        )  # fmt: skip
+    masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
+        "turning_rate", (rate > dom["max_turn_rate_rad_s"] * 1.05).astype(float), None, None
+    )  # fmt: skip
+    gaits = (np.asarray(gaits, dtype=object) if gaits is not None
+             else motion_gaits(dist, segments["turn_deg"]))  # fmt: skip
+    recorded = dom.get("gaits") or {}
+    for g in ("forward", "backward", "lateral", "turning"):
+        if g not in recorded:
+            masks[f"{g} motion, absent from the calibration"] = (
+                "gait", (gaits == g).astype(float), None, None
+            )  # fmt: skip
+    if "mean_rel_heading_deg" in segments:
+        gamma = np.abs(np.asarray(segments["mean_rel_heading_deg"], dtype=float))
+        mean_slope = np.asarray(segments.get("mean_slope_deg", segments["max_slope_deg"]), float)
+        sloped = mean_slope > SLOPED_DEG
+        for g, rec in recorded.items():
+            rng = rec.get("rel_heading_deg") if isinstance(rec, Mapping) else None
+            if not rng or g == "turning":
+                continue
+            lo, hi = rng[0] - HEADING_SLACK_DEG, rng[1] + HEADING_SLACK_DEG
+            out = (gaits == g) & sloped & ((gamma < lo) | (gamma > hi))
+            masks[f"{g} at relative heading outside {rng[0]:g}-{rng[1]:g} deg"] = (
+                "relative_heading", out.astype(float), None, None
+            )  # fmt: skip
+    masks[MEAN_POWER] = (MEAN_POWER, None, None, None)  # a whole-path check, at its place
+    seen_ch = dom.get("channels") or {}
+    per_seg: dict[str, Any] = dict(channel_values or {})
+    for c in along:
+        if c not in ("weight", "slope_deg"):
+            per_seg[c] = None  # sampled along the segments
+    constants = dict(constants or {})
+    for c, v in constants.items():  # one value for every segment
+        number = isinstance(v, int | float) and not isinstance(v, bool)
+        per_seg.setdefault(c, np.full(n, v, dtype=float if number else object))
+    for c, vals in per_seg.items():
+        seen = seen_ch.get(c)
+        if seen is None:
             continue
-        w = None if weights is None else np.asarray(weights[i], dtype=float)
-        if w is None or w.size != x.size or not np.sum(w) > 0:
-            out[i] = float(np.mean(x))
+        if vals is None:
+            fl = samples(c)
+        elif len(vals) != n:
+            continue
         else:
-            out[i] = float(np.sum(w * x) / np.sum(w))
-    return out
+            fl = _Flat.of(vals, None, n)
+        out = fl.mean(lambda v, seen=seen: _channel_outside(seen, v))
+        exc = pk = None
+        if not _categorical(seen):
+            exc = fl.mean(lambda v, seen=seen: _beyond(seen[0], seen[1], _numbers(v)))
+            pk = fl.peak(lambda v, seen=seen: _beyond(seen[0], seen[1], _numbers(v)))
+        what = f"{c} outside the logs' {seen}"
+        if c in constants and c not in (channel_values or {}) and c not in along:
+            what = f"{c} = {constants[c]} outside the logs' {seen}"
+        masks[what] = (f"channel {c}", out, exc, pk)
+    # a mask is the share of each segment outside (0 or 1, or the share of its metres);
+    # the share outside several ranges is at least the largest of them
+    any_out = np.zeros(n)
+    by_q: dict[str, np.ndarray] = {}
+    cols: dict[Any, np.ndarray] = {"duration_s": dur, "distance_m": dist}
+    if "energy_j" in segments:
+        e = np.asarray(segments["energy_j"], dtype=float)
+        if e.size == n and np.all(np.isfinite(e)):
+            cols["energy_j"] = e
+    peaks: dict[str, np.ndarray] = {}
+    reasons: dict[str, tuple[str, bool]] = {}
+    for why, (q, m, exc, pk) in masks.items():
+        reasons[why] = (q, exc is not None)
+        if m is None:
+            continue
+        m = np.asarray(m, dtype=float)
+        by_q[q] = np.maximum(by_q.get(q, np.zeros(n)), m)
+        any_out = np.maximum(any_out, m)
+        cols[("why", why)] = dur * m
+        cols[("hit", why)] = m
+        if exc is not None:
+            cols[("exc", why)] = dur * np.asarray(exc, dtype=float)
+            peaks[q] = np.maximum(peaks.get(q, np.zeros(n)), np.asarray(pk, dtype=float))
+    for q, m in by_q.items():
+        cols[("q", q)] = dur * m
+    cols["any_s"], cols["any_m"] = dur * any_out, dist * any_out
+    return SegmentTerms(reasons, cols, peaks)
 
 
 def report_against(
@@ -192,146 +486,46 @@ def report_against(
     and of the raster channels along it, with their ``weight`` (metres walked): the share
     of a segment outside a range is the share of its metres outside, and its excess the
     mean distance beyond the range over those metres. Without it a segment is outside by
-    its ``max_slope_deg`` (a calibration window: its mean slope).
+    its ``max_slope_deg`` (a calibration window: its mean slope). The columns of each
+    segment are :func:`segment_terms`, summed over the path (:meth:`SegmentTerms.report`).
     """
     dur = np.asarray(segments["duration_s"], dtype=float)
-    dist = np.asarray(segments["distance_m"], dtype=float)
-    turn = np.radians(np.abs(np.asarray(segments["turn_deg"], dtype=float)))
-    total = float(dur.sum())
-    if total <= 0:
+    if float(dur.sum()) <= 0:
         return {"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
                 "max_excess": {}, "domain": dict(dom)}  # fmt: skip
-    safe = np.where(dur > 0, dur, np.inf)
-    speed, rate = dist / safe, turn / safe
-    along = dict(along or {})
-    weights = along.get("weight")
-    # quantity -> (reason, share of each segment outside, its excess per segment or None,
-    # the largest excess of a sample)
-    masks: dict[str, tuple[str, np.ndarray, np.ndarray | None, float]] = {}
-    top = float(dom["max_slope_deg"])
-    if "slope_deg" in along:
-        s_out = _weighted(along["slope_deg"], weights, lambda v: v > top)
-        s_exc = _weighted(along["slope_deg"], weights, lambda v: _beyond(-np.inf, top, v))
-        peak = max((float(np.max(_beyond(-np.inf, top, v))) for v in along["slope_deg"]
-                    if np.size(v)), default=0.0)  # fmt: skip
-    else:
-        slope = np.asarray(segments["max_slope_deg"], dtype=float)
-        s_out = (slope > top).astype(float)
-        s_exc = _beyond(-np.inf, top, slope)
-        peak = float(np.max(s_exc)) if s_exc.size else 0.0
-    masks[f"slope above {top:g} deg"] = ("slope", s_out, s_exc, peak)
-    if dom.get("speed_m_s"):
-        lo, hi = dom["speed_m_s"]
-        walking = speed > 0.05
-        exc = np.where(walking, _beyond(lo, hi, speed), 0.0)
-        masks[f"speed outside {lo:g}-{hi:g} m/s"] = (
-            "speed", (walking & ((speed < lo) | (speed > hi))).astype(float), exc,
-            float(exc.max()) if exc.size else 0.0,
-        )  # fmt: skip
-    masks[f"turning faster than {dom['max_turn_rate_rad_s']:g} rad/s"] = (
-        "turning_rate", (rate > dom["max_turn_rate_rad_s"] * 1.05).astype(float), None, 0.0
-    )  # fmt: skip
-    gaits = _segment_gaits(segments, poses)
-    recorded = dom.get("gaits") or {}
-    for g in ("forward", "backward", "lateral", "turning"):
-        if g not in recorded:
-            masks[f"{g} motion, absent from the calibration"] = (
-                "gait", (gaits == g).astype(float), None, 0.0
-            )  # fmt: skip
-    if "mean_rel_heading_deg" in segments:
-        gamma = np.abs(np.asarray(segments["mean_rel_heading_deg"], dtype=float))
-        mean_slope = np.asarray(segments.get("mean_slope_deg", segments["max_slope_deg"]), float)
-        sloped = mean_slope > SLOPED_DEG
-        for g, rec in recorded.items():
-            rng = rec.get("rel_heading_deg") if isinstance(rec, Mapping) else None
-            if not rng or g == "turning":
-                continue
-            lo, hi = rng[0] - HEADING_SLACK_DEG, rng[1] + HEADING_SLACK_DEG
-            out = (gaits == g) & sloped & ((gamma < lo) | (gamma > hi))
-            masks[f"{g} at relative heading outside {rng[0]:g}-{rng[1]:g} deg"] = (
-                "relative_heading", out.astype(float), None, 0.0
-            )  # fmt: skip
-    power = _mean_power(dom, segments, dur, total)
-    if power is not None and not power[1] <= power[0] <= power[2]:
-        p, lo, hi = power
-        side, gap = ("above", p - hi) if p > hi else ("below", lo - p)
-        masks[
-            f"mean power {p:.0f} W {side} every calibration run's ({lo:.0f}-{hi:.0f} W): "
-            f"log runs at that power ({POWER_HOW[side]})"
-        ] = (MEAN_POWER, np.ones(dur.size), np.full(dur.size, gap), gap)
-    seen_ch = dom.get("channels") or {}
-    per_seg: dict[str, Any] = dict(channel_values or {})
-    ch_weights: dict[str, Any] = {}
-    for c, v in along.items():
-        if c not in ("weight", "slope_deg"):
-            per_seg[c], ch_weights[c] = v, weights
-    for c, v in dict(constants or {}).items():
-        per_seg.setdefault(c, np.full(dur.size, v, dtype=object))
-    for c, vals in per_seg.items():
-        seen = seen_ch.get(c)
-        if seen is None or len(vals) != dur.size:
-            continue
-        w = ch_weights.get(c)
-        out = _weighted(vals, w, lambda v, seen=seen: _channel_outside(seen, v))
-        exc, peak = None, 0.0
-        if not _categorical(seen):
-            exc = _weighted(vals, w, lambda v, seen=seen: _beyond(seen[0], seen[1], _numbers(v)))
-            peak = max((float(np.max(_beyond(seen[0], seen[1], _numbers(v)))) for v in vals
-                        if np.size(v)), default=0.0)  # fmt: skip
-        what = f"{c} outside the logs' {seen}"
-        if c in (constants or {}):
-            what = f"{c} = {vals[0]} outside the logs' {seen}"
-        masks[what] = (f"channel {c}", out, exc, peak)
-    # a mask is the share of each segment outside (0 or 1, or the share of its metres);
-    # the share outside several ranges is at least the largest of them
-    any_out = np.zeros(dur.size)
-    reasons: dict[str, float] = {}
-    shares: dict[str, float] = {q: 0.0 for q in QUANTITIES}
-    excess: dict[str, float] = {}
-    max_excess: dict[str, float] = {}
-    by_q: dict[str, np.ndarray] = {}
-    for why, (q, m, exc, peak) in masks.items():
-        m = np.asarray(m, dtype=float)
-        by_q[q] = np.maximum(by_q.get(q, np.zeros(dur.size)), m)
-        if exc is not None:
-            excess[q] = max(excess.get(q, 0.0), round(float(np.sum(dur * exc) / total), 6))
-            max_excess[q] = max(max_excess.get(q, 0.0), round(peak, 6))
-        if m.any():
-            reasons[why] = round(float(np.sum(dur * m) / total), 4)
-            any_out = np.maximum(any_out, m)
-    for q, m in by_q.items():
-        shares[q] = round(float(np.sum(dur * m) / total), 4)
-    out = {
-        "outside_share": round(float(np.sum(dur * any_out) / total), 4),
-        "outside_m": round(float(np.sum(dist * any_out)), 3),
-        "reasons": reasons,
-        "shares": shares,
-        "excess": excess,
-        "max_excess": max_excess,
-        "domain": dict(dom),
-    }
-    if power is not None:
-        shares.setdefault(MEAN_POWER, 0.0)
-        out["mean_power_w"] = round(power[0], 3)
-    return out
+    terms = segment_terms(dom, segments, constants, _segment_gaits(segments, poses),
+                          channel_values, along)  # fmt: skip
+    sums = {k: float(np.sum(v)) for k, v in terms.cols.items()}
+    peaks = {q: float(np.max(v)) if v.size else 0.0 for q, v in terms.peaks.items()}
+    rep = terms.report(dom, sums, peaks)
+    return rounded(rep)
 
 
-def _mean_power(
-    dom: Mapping[str, Any], segments: Any, dur: np.ndarray, total: float
-) -> tuple[float, float, float] | None:
-    """``(path's mean power, lo, hi)`` in W, or None when there is nothing to check.
+def rounded(rep: dict[str, Any]) -> dict[str, Any]:
+    """A report of one path (:meth:`SegmentTerms.report`) as plain numbers, rounded.
 
-    None when the domain records no runs' mean power (a model file saved before it was
-    recorded, or fitted without cross-validation) or the segments carry no ``energy_j``
-    (calibration windows).
+    Shares to 4 decimals, metres to 3, excesses to 6; the reason of a mean power beyond
+    the calibration runs' names the path's power.
     """
-    rng = dom.get("mean_power_w")
-    if not rng or "energy_j" not in segments:
-        return None
-    e = np.asarray(segments["energy_j"], dtype=float)
-    if e.size != dur.size or not np.all(np.isfinite(e)):
-        return None
-    return float(np.sum(e) / total), float(rng[0]), float(rng[1])
+    reasons = {}
+    for why, v in rep["reasons"].items():
+        if why.startswith("mean power ") and "mean_power_w" in rep:
+            side = why.split()[2]
+            why = f"mean power {float(rep['mean_power_w']):.0f} W {side} " + why.split(
+                f"{side} ", 1)[1]  # fmt: skip
+        reasons[why] = round(float(v), 4)
+    out = {
+        "outside_share": round(float(rep["outside_share"]), 4),
+        "outside_m": round(float(rep["outside_m"]), 3),
+        "reasons": reasons,
+        "shares": {q: round(float(v), 4) for q, v in rep["shares"].items()},
+        "excess": {q: round(float(v), 6) for q, v in rep["excess"].items()},
+        "max_excess": {q: round(float(v), 6) for q, v in rep["max_excess"].items()},
+        "domain": rep["domain"],
+    }
+    if "mean_power_w" in rep:
+        out["mean_power_w"] = round(float(rep["mean_power_w"]), 3)
+    return out
 
 
 def domain_report(
@@ -451,14 +645,38 @@ def path_samples(
         ``weight`` (m), ``slope_deg`` and each raster channel (numbers, or category names):
         per segment an array of its samples.
     """
-    from energy_planner.terrain.sample import bilinear
-
     p = np.asarray(poses, dtype=float)
-    x0, y0, dx, dy = (float(v) for v in terrain.grid)
-    h = float(step) if step else 0.5 * min(abs(dx), abs(dy))
     seg = motion_segments(p, n_segments)
     n_seg = int(seg.max()) + 1 if seg.size else 0
-    a, b = p[:-1, :2], p[1:, :2]
+    length = np.hypot(*(p[1:, :2] - p[:-1, :2]).T)
+    walks = np.bincount(seg, weights=length, minlength=n_seg) > 0
+    cols = motion_samples(terrain, p[:-1], p[1:], channels, ~walks[seg], step)
+    of_seg = seg[cols.pop("owner")]
+    cut = np.flatnonzero(np.diff(of_seg)) + 1
+    return {name: np.split(v, cut) for name, v in cols.items()}
+
+
+def motion_samples(
+    terrain: Any,
+    a: Any,
+    b: Any,
+    channels: Any = None,
+    lone: Any = None,
+    step: float | None = None,
+) -> dict[str, np.ndarray]:
+    """The samples of :func:`path_samples` of independent motions ``a[k] -> b[k]``, flat.
+
+    ``lone``: per motion, True where a turn in place is a segment of its own (its one
+    sample then weighs 1, else 0); default all. Returns ``owner`` (the motion of each
+    sample, non-decreasing), ``weight``, ``slope_deg`` and each raster channel, one array
+    each (categories as names).
+    """
+    from energy_planner.terrain.sample import bilinear
+
+    a = np.asarray(a, dtype=float)[:, :2]
+    b = np.asarray(b, dtype=float)[:, :2]
+    x0, y0, dx, dy = (float(v) for v in terrain.grid)
+    h = float(step) if step else 0.5 * min(abs(dx), abs(dy))
     length = np.hypot(*(b - a).T)
     n = np.maximum(np.ceil(length / h).astype(int), 1)
     owner = np.repeat(np.arange(length.size), n)
@@ -472,9 +690,9 @@ def path_samples(
     rise = np.nan_to_num(gx * unit[owner, 0] + gy * unit[owner, 1])  # dz per map metre
     w = piece * np.sqrt(1.0 + rise**2)  # metres along the ground, as the kernel's distance
     slope = np.degrees(np.arctan(np.hypot(gx, gy)))
-    walks = np.bincount(seg, weights=length, minlength=n_seg) > 0
-    w = np.where(piece > 0, w, np.where(walks[seg[owner]], 0.0, 1.0))
-    cols: dict[str, np.ndarray] = {"weight": w, "slope_deg": slope}
+    lone = np.ones(length.size, bool) if lone is None else np.asarray(lone, bool)
+    w = np.where(piece > 0, w, np.where(lone[owner], 1.0, 0.0))
+    cols: dict[str, np.ndarray] = {"owner": owner, "weight": w, "slope_deg": slope}
     rasters = getattr(channels, "rasters", None) or {}
     r = np.clip(np.rint((xy[:, 1] - y0) / dy).astype(int), 0, terrain.shape[0] - 1)
     c = np.clip(np.rint((xy[:, 0] - x0) / dx).astype(int), 0, terrain.shape[1] - 1)
@@ -484,15 +702,13 @@ def path_samples(
         vals = np.asarray(ras.values, dtype=float)
         near = vals[r, c]
         if ras.categories is not None:
-            cats = ras.categories
-            cols[name] = np.array([cats[int(v)] if np.isfinite(v) else None for v in near],
-                                  dtype=object)  # fmt: skip
+            cats = np.asarray(list(ras.categories) + [None], dtype=object)
+            idx = np.where(np.isfinite(near), near, len(cats) - 1).astype(int)
+            cols[name] = cats[idx]
         else:
             (lin,) = bilinear((vals,), terrain.grid, xy[:, 0], xy[:, 1])
             cols[name] = np.where(np.isfinite(lin), lin, near)
-    of_seg = seg[owner]
-    cut = np.flatnonzero(np.diff(of_seg)) + 1
-    return {name: np.split(v, cut) for name, v in cols.items()}
+    return cols
 
 
 def path_channel_values(terrain: Any, channels: Any, poses: Any) -> dict[str, list[Any]]:

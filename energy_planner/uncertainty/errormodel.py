@@ -84,7 +84,15 @@ import numpy as np
 
 from energy_planner.uncertainty.domain import MEAN_POWER, POWER_HOW
 
-__all__ = ["MIN_OUTSIDE_RUNS", "ErrorModel", "Outside", "fit_error_model", "within_run_noise"]
+__all__ = [
+    "MIN_OUTSIDE_RUNS",
+    "ErrorModel",
+    "Outside",
+    "OutsideCells",
+    "fit_error_model",
+    "outside_cells",
+    "within_run_noise",
+]
 
 #: Held-out runs partly outside their fold's domain needed to fit the outside term.
 MIN_OUTSIDE_RUNS = 5
@@ -147,7 +155,7 @@ class ErrorModel:
 
     def sigma(
         self, energy_j: Any, duration_s: Any = None, outside_share: Any = 0.0,
-        extra_rel_var: float = 0.0, assumed_share: float = 0.0,
+        extra_rel_var: Any = 0.0, assumed_share: Any = 0.0,
     ) -> Any:  # fmt: skip
         """The error scale (J) of a predicted energy of a run of ``duration_s`` seconds.
 
@@ -163,15 +171,16 @@ class ErrorModel:
         t = (e / self.mean_power_w if duration_s is None
              else np.asarray(duration_s, dtype=float))  # fmt: skip
         s = np.clip(np.asarray(outside_share, dtype=float), 0.0, 1.0)
-        v = (self.param_rel_var + self.model_rel_var + float(extra_rel_var)) * e**2
+        extra = np.asarray(extra_rel_var, dtype=float)
+        v = (self.param_rel_var + self.model_rel_var + extra) * e**2
         v = v + self.noise_j2_per_s * t
         if self.outside_rel_var is not None:
             v = v + self.outside_rel_var * (s * e) ** 2
         sig = np.sqrt(np.maximum(v, (MIN_REL_SIGMA * e) ** 2))
-        a = float(np.clip(assumed_share, 0.0, 1.0))
+        a = np.clip(np.asarray(assumed_share, dtype=float), 0.0, 1.0)
         if self.outside_rel_var is None:
             sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * np.maximum(s, a))
-        elif a > 0:
+        else:  # (1 + 0 a) where nothing lies beyond the runs' power
             sig = sig * (1.0 + ASSUMED_OUTSIDE_FACTOR * a)
         return sig
 
@@ -203,18 +212,39 @@ class ErrorModel:
             if q == MEAN_POWER:
                 assumed_share, assumed = power_outside(domain)
                 continue
-            rec = self.extrapolation.get(q) or {}
-            g = rec.get("growth_per_unit")
-            if q in excess and g is not None:
-                extra += (float(g) * float(excess[q])) ** 2
+            g, why = self.growth(q, q in excess)
+            if g is not None:
+                extra += (g * float(excess[q])) ** 2
                 used.append(q)
             else:
                 share = max(share, float(sh))
-                why = rec.get("why") or ("no growth recorded (a model fitted before it was"
-                                         " measured)" if q in excess else
-                                         "not a numeric range: no distance to measure")  # fmt: skip
                 loose.append(f"{q}: {why}")
         return Outside(extra, share, tuple(used), tuple(loose), assumed_share, assumed)
+
+    def growth(self, quantity: str, numeric: bool) -> tuple[float | None, str]:
+        """The measured growth of the relative error beyond ``quantity``'s range, or why none.
+
+        ``numeric``: the report measures how far beyond the range the path goes (its
+        ``excess``). Returns ``(growth per unit, "")`` or ``(None, why)``.
+        """
+        rec = self.extrapolation.get(quantity) or {}
+        g = rec.get("growth_per_unit")
+        if numeric and g is not None:
+            return float(g), ""
+        return None, rec.get("why") or ("no growth recorded (a model fitted before it was "
+                                        "measured)" if numeric else
+                                        "not a numeric range: no distance to measure")  # fmt: skip
+
+    def outside_cells(self, shares: Any, excess: Any) -> OutsideCells:
+        """:meth:`outside` of many paths at once (a reach map's cells).
+
+        ``shares`` and ``excess``: per quantity an array (one value per path, NaN where
+        there is no path), as a report's ``shares`` and ``excess``. The same rule per
+        quantity as :meth:`outside`; ``refused`` where the interval would not be
+        calibrated (a share no measured growth covers without a fitted ``d``, or a mean
+        power beyond the runs').
+        """
+        return _cells(self, shares, excess)
 
     @property
     def outside_rule(self) -> str:
@@ -349,6 +379,76 @@ class Outside:
     not_measured: tuple[str, ...]
     assumed_share: float = 0.0
     assumed: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class OutsideCells:
+    """:class:`Outside` of many paths (arrays, one value per path).
+
+    Attributes
+    ----------
+    extra_rel_var, share, assumed_share : ndarray
+        As :class:`Outside`, per path.
+    refused : ndarray of bool
+        Paths whose interval would rest on an assumption: no battery decision.
+    why : dict
+        ``"quantity: why"`` -> per path, True where it is a reason of the refusal.
+    """
+
+    extra_rel_var: np.ndarray
+    share: np.ndarray
+    assumed_share: np.ndarray
+    refused: np.ndarray
+    why: dict
+
+
+#: Why a mean power beyond the calibration runs' has no calibrated interval (many paths).
+POWER_WHY = (f"{MEAN_POWER}: the path's mean power lies beyond every calibration run's, "
+             "where the fit cannot measure how the error grows; log runs at that "
+             "power")  # fmt: skip
+
+
+def _cells(em: ErrorModel | None, shares: Any, excess: Any) -> OutsideCells:
+    """:meth:`ErrorModel.outside_cells`, or with ``em`` None every share outside refused.
+
+    ``em`` None: a model without an error model, whose relative errors are not widened.
+    """
+    excess = excess or {}
+    shape = np.shape(next(iter(shares.values()))) if shares else ()
+    extra, share, assumed = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    why: dict[str, np.ndarray] = {}
+    for q, sh in shares.items():
+        sh = np.nan_to_num(np.asarray(sh, dtype=float))
+        pos = sh > 0
+        if not pos.any():
+            continue
+        if q == MEAN_POWER:
+            assumed = np.maximum(assumed, sh)
+            why[POWER_WHY] = pos
+            continue
+        g, reason = (None, "the model records no error model") if em is None else em.growth(
+            q, q in excess)  # fmt: skip
+        if g is not None:
+            extra = extra + np.where(pos, (g * np.nan_to_num(np.asarray(excess[q], float))) ** 2,
+                                     0.0)  # fmt: skip
+        else:
+            share = np.maximum(share, sh)
+            why[f"{q}: {reason}"] = pos
+    refused = assumed > 0
+    if em is None or em.outside_rel_var is None:
+        refused = refused | (share > 0)
+    else:  # d widens the shares no growth covers: calibrated
+        why = {k: v for k, v in why.items() if k == POWER_WHY}
+    return OutsideCells(extra, share, assumed, refused, why)
+
+
+def outside_cells(model_error: ErrorModel | None, shares: Any, excess: Any) -> OutsideCells:
+    """:meth:`ErrorModel.outside_cells` of a model's error model, or with None refusals.
+
+    ``model_error`` None (a model without an error model): every share outside refused,
+    as a path's battery decision is refused there.
+    """
+    return _cells(model_error, shares, excess)
 
 
 def power_outside(domain: Any) -> tuple[float, tuple[str, ...]]:
