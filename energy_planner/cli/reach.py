@@ -36,11 +36,15 @@ def _text(res: dict[str, Any]) -> str:
             f"{b['cells']} cells ({b['area_m2']:.0f} m^2) {what} with a chance of at least "
             f"{100 * b['confidence']:g} % (predicted energy <= {b['confident_budget_wh']:.2f} Wh)"
         )
+        if b.get("refused_cells"):
+            why = "; ".join(f"{k} ({n} cells)" for k, n in b["refused"].items())
+            lines.append(f"             no battery decision for {b['refused_cells']} cells: {why}")
     if res.get("budget_wh") is not None:
         lines.append(
             f"within {res['budget_wh']:g} Wh: {res['budget_cells']} cells, "
             f"{res['budget_area_m2']:.0f} m^2"
         )
+    lines += _domain_lines(res.get("domain"))
     for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("geojson", "GeoJSON"),
                        ("plot", "plot")):  # fmt: skip
         if res.get(key):
@@ -67,6 +71,25 @@ def _text(res: dict[str, Any]) -> str:
     lines.append(f"search       {res['search']}, {res['time_s']:.1f} s")
     lines += [f"warning      {w}" for w in res.get("warnings", [])]
     return "\n".join(lines)
+
+
+def _domain_lines(d: dict[str, Any] | None) -> list[str]:
+    """The map's domain summary (``ReachMap.domain``) as text."""
+    if not d or "reached_cells" not in d:
+        return []
+    lines = [
+        f"domain       {d['outside_cells']} of {d['reached_cells']} reachable cells "
+        f"({100 * d['outside_cell_share']:.0f} %) have a least-energy path leaving the "
+        "calibration's ranges"
+    ]
+    lines += [f"             {why}: {n} cells" for why, n in d["reasons"].items() if n]
+    wb = d.get("within_budget")
+    if wb:
+        lines.append(
+            f"             within {wb['budget_wh']:g} Wh: {wb['outside_cells']} of "
+            f"{wb['cells']} cells"
+        )
+    return lines
 
 
 @options.command(

@@ -103,3 +103,46 @@ def prefix_sums(parent, cols, peaks):
         for c in range(peaks.shape[1]):
             if peaks[u, c] > peaks[t, c]:
                 peaks[t, c] = peaks[u, c]
+
+
+@numba.njit(cache=True)
+def parent_tree(pred, best):
+    """:func:`path_tree` from each state's predecessor (``pred[s] < 0``: a root).
+
+    ``pred``: scipy's Dijkstra's predecessors (a lattice graph's search, forwards or on
+    the transposed graph).
+    """
+    N = pred.shape[0]
+    idx = np.full(N, -1, np.int32)
+    count = 0
+    for k in range(best.shape[0]):
+        s = best[k]
+        while s >= 0 and idx[s] == -1:
+            idx[s] = -2
+            count += 1
+            s = pred[s]
+    states = np.empty(count, np.int64)
+    parent = np.empty(count, np.int64)
+    stack = np.empty(count, np.int64)
+    at = np.full(best.shape[0], -1, np.int64)
+    n = 0
+    for k in range(best.shape[0]):
+        s = best[k]
+        if s < 0:
+            continue
+        top = 0
+        while s >= 0 and idx[s] == -2:
+            stack[top] = s
+            top += 1
+            s = pred[s]
+        up = -1 if s < 0 else idx[s]
+        while top > 0:
+            top -= 1
+            t = stack[top]
+            idx[t] = n
+            states[n] = t
+            parent[n] = up
+            up = n
+            n += 1
+        at[k] = idx[best[k]]
+    return states, parent, at

@@ -123,18 +123,34 @@ def least_energy(
         )  # fmt: skip
     sources = p0 * H + hs
     lim = float(max_energy) if math.isfinite(max_energy) else np.inf
-    to = dijkstra(graph, directed=True, indices=sources, min_only=True, limit=lim)
-    to = to.reshape(-1, H)
-    back = dijkstra(graph.T.tocsr(), directed=True, indices=sources, min_only=True, limit=lim)
-    back = back.reshape(-1, H)
+    kw = {"directed": True, "indices": sources, "min_only": True, "limit": lim,
+          "return_predecessors": tree}  # fmt: skip
+    to = dijkstra(graph, **kw)
+    back = dijkstra(graph.T.tocsr(), **kw)
+    if tree:
+        (to, to_pred, _), (back, back_pred, _) = to, back
+    to, back = to.reshape(-1, H), back.reshape(-1, H)
     if turn_at_cell:
-        e = (to + back).min(axis=1)
+        h_to = h_back = np.argmin(to + back, axis=1)
+        e = (to + back)[np.arange(to.shape[0]), h_to]
     else:
+        h_to, h_back = np.argmin(to, axis=1), np.argmin(back, axis=1)
         e = to.min(axis=1) + back.min(axis=1)
     e[e > max_energy] = np.inf
     out = (xs, ys, e.reshape(len(ys), len(xs)),
            f"lattice graph (moves={moves!r}), forward + backward Dijkstra")  # fmt: skip
-    return (*out, None) if tree else out
+    if not tree:
+        return out
+    from energy_planner.planning._pathtree import parent_tree
+
+    pos = np.arange(e.size)
+    legs = []
+    for pred, hb, back_leg in ((to_pred, h_to, False), (back_pred, h_back, True)):
+        best = np.where(np.isfinite(e), pos * H + hb, -1).astype(np.int64)
+        states, parent, at = parent_tree(np.asarray(pred, np.int64), best)
+        legs.append({"states": states, "parent": parent, "at": at, "back": back_leg})
+    paths = {"legs": legs, "xs": xs, "ys": ys, "headings": np.asarray(lat.headings, float)}
+    return (*out, paths)
 
 
 @dataclass(repr=False)
@@ -871,8 +887,10 @@ def path_domains(problem, paths, dom, ri, ci, shape, reached) -> dict[str, Any]:
     Parameters
     ----------
     problem : Problem
-    paths : dict or None
-        The tree; None (a round trip's lattice search): no per-cell report.
+    paths : dict
+        The tree (one way), or ``legs``: the tree of the paths there and the tree of the
+        paths back (a round trip, the lattice graph's two searches; a cell's report is
+        that of its path there followed by its path back).
     dom : dict
         The model's calibration domain.
     ri, ci : ndarray
@@ -889,17 +907,70 @@ def path_domains(problem, paths, dom, ri, ci, shape, reached) -> dict[str, Any]:
         quantity a raster), ``duration_s`` (each cell's path's duration, s), ``summary``
         (:func:`domain_summary`).
     """
-    from energy_planner.uncertainty.domain import segment_terms
-
     nan = np.full(shape, np.nan)
-    if paths is None:
-        note = ("not computed: a round trip's least-energy paths come from the lattice "
-                "graph's Dijkstra, whose paths are not kept; the cells carry no domain "
-                "report and no battery decision beyond the confident budget")  # fmt: skip
-        return {"outside_share": None, "excess": {}, "shares": {}, "duration_s": None,
-                "outside_m": None, "summary": {"domain": dict(dom), "paths": note}}  # fmt: skip
+    legs = paths.get("legs") or [{**paths, "back": False}]
+    keys: list[Any] = []
+    qs: list[str] = []
+    per_leg = []
+    for leg in legs:
+        terms, cols, peaks = _leg_sums(problem, dom, paths, leg)
+        keys += [k for k in terms.cols if k not in keys]
+        qs += [q for q in terms.peaks if q not in qs]
+        per_leg.append((terms, cols, peaks, leg["at"]))
+    npos = per_leg[0][3].size
+    sums = {k: np.zeros(npos) for k in keys}
+    top = {q: np.zeros(npos) for q in qs}
+    have_pos = np.ones(npos, bool)
+    for _terms, cols, peaks, at in per_leg:
+        ok = at >= 0
+        have_pos &= ok
+        for k in keys:
+            if k in cols:
+                sums[k][ok] += cols[k][at[ok]]
+        for q in qs:
+            if q in peaks:
+                top[q][ok] = np.maximum(top[q][ok], peaks[q][at[ok]])
+    # per cell of the working grid, its position's sums
+    pos_grid = np.full(shape, -1, np.int64)
+    pos_grid[np.ix_(ri, ci)] = np.where(have_pos, np.arange(npos), -1).reshape(
+        len(paths["ys"]), len(paths["xs"]))  # fmt: skip
+    pos_grid[~reached] = -1
+    have = pos_grid >= 0
+    k = pos_grid[have]
+    rep = per_leg[0][0].report(dom, {key: v[k] for key, v in sums.items()},
+                               {q: v[k] for q, v in top.items()})  # fmt: skip
+
+    def raster(v: Any) -> np.ndarray:
+        r = nan.copy()
+        r[have] = v
+        return r
+
+    summary = domain_summary(rep, dom)
+    if len(legs) > 1:
+        summary["paths"] = ("each cell's least-energy round trip (its path there and its "
+                            "path back, as the lattice graph's two searches find them), "
+                            "counted per metre")  # fmt: skip
+    return {
+        "outside_share": raster(rep["outside_share"]),
+        "excess": {q: raster(v) for q, v in rep["excess"].items()},
+        "shares": {q: raster(v) for q, v in rep["shares"].items()},
+        "duration_s": raster(sums["duration_s"][k]),
+        "summary": summary,
+        "outside_m": raster(rep["outside_m"]),
+    }
+
+
+def _leg_sums(problem, dom, paths, leg) -> tuple[Any, dict[Any, np.ndarray], dict[str, Any]]:
+    """One tree's columns summed from its root: ``(terms, cols, peaks)`` per tree state.
+
+    ``leg["back"]``: each state's motion goes from it to its parent (the way back to the
+    start), else from its parent to it.
+    """
+    from energy_planner.planning._pathtree import prefix_sums
+    from energy_planner.uncertainty.domain import motion_samples, segment_terms
+
     cost = problem.cost
-    S, par, at = paths["states"], paths["parent"], paths["at"]
+    S, par = leg["states"], leg["parent"]
     H = len(paths["headings"])
     nx = len(paths["xs"])
     p, h = np.divmod(S, H)
@@ -907,47 +978,24 @@ def path_domains(problem, paths, dom, ri, ci, shape, reached) -> dict[str, Any]:
     b = np.column_stack([paths["xs"][i], paths["ys"][j], paths["headings"][h]])
     root = par < 0
     a = b[np.where(root, np.arange(S.size), par)]
+    if leg["back"]:
+        a, b = b, a
     segments, gaits = _motion_table(cost, a, b)
     channels = cost.channels
     if channels is not None and getattr(channels, "rasters", None):
         channels = channels.bind(problem.terrain)
-    from energy_planner.uncertainty.domain import motion_samples
-
     along = motion_samples(problem.terrain, a, b, channels)
     consts = None if channels is None else dict(channels.constants)
     terms = segment_terms(dom, segments, consts, gaits, None, along)
-    keys = list(terms.cols)
-    qs = list(terms.peaks)
+    keys, qs = list(terms.cols), list(terms.peaks)
     cols = np.column_stack([terms.cols[k] for k in keys]) if keys else np.zeros((S.size, 0))
     peaks = np.column_stack([terms.peaks[q] for q in qs]) if qs else np.zeros((S.size, 0))
     cols[root] = 0.0  # a start state: no motion
     peaks[root] = 0.0
-    from energy_planner.planning._pathtree import prefix_sums
-
     cols, peaks = np.ascontiguousarray(cols), np.ascontiguousarray(peaks)
-    prefix_sums(par, cols, peaks)
-    # per cell of the working grid, its least-energy state's sums
-    at_grid = np.full(shape, -1, np.int64)
-    at_grid[np.ix_(ri, ci)] = at.reshape(len(paths["ys"]), nx)
-    at_grid[~reached] = -1
-    have = at_grid >= 0
-    k = at_grid[have]
-    rep = terms.report(dom, {key: cols[k, c] for c, key in enumerate(keys)},
-                       {q: peaks[k, c] for c, q in enumerate(qs)})  # fmt: skip
-
-    def raster(v: Any) -> np.ndarray:
-        r = nan.copy()
-        r[have] = v
-        return r
-
-    return {
-        "outside_share": raster(rep["outside_share"]),
-        "excess": {q: raster(v) for q, v in rep["excess"].items()},
-        "shares": {q: raster(v) for q, v in rep["shares"].items()},
-        "duration_s": raster(cols[k, keys.index("duration_s")]),
-        "summary": domain_summary(rep, dom),
-        "outside_m": raster(rep["outside_m"]),
-    }
+    prefix_sums(np.ascontiguousarray(par, np.int64), cols, peaks)
+    return (terms, {k: cols[:, c] for c, k in enumerate(keys)},
+            {q: peaks[:, c] for c, q in enumerate(qs)})  # fmt: skip
 
 
 def _motion_table(cost, a: np.ndarray, b: np.ndarray) -> tuple[dict[str, np.ndarray], Any]:
