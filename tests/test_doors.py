@@ -122,6 +122,12 @@ def test_reach(model_file):
     res = ep.reach(prob, START, budget_wh=1.0, within_budget=True, **BATTERY)
     same(printed, res.to_dict(), {"dem"}, "reach")  # it remembers its terrain and budget
     assert printed["battery"]["cells"] > 0
+    # the domain of every cell's path: the summary, within the budget, and the refusals
+    dom = printed["domain"]
+    assert dom["reached_cells"] == printed["reachable_cells"]
+    assert dom["within_budget"]["cells"] == printed["budget_cells"]
+    outside = int((res.outside_share > 0).sum())
+    assert dom["outside_cells"] == outside and printed["battery"]["refused_cells"] == outside
 
 
 def _spy(monkeypatch, module: str, name: str) -> list:

@@ -738,7 +738,7 @@ def reach(
     from energy_planner.uncertainty.domain import domain_of
 
     dom = domain_of(problem.model)
-    xs, ys, grid, search, paths = least_energy(
+    xs, ys, grid, search, *paths = least_energy(
         problem, s, step=step, n_headings=n_headings, round_trip=round_trip,
         turn_at_cell=turn_at_cell, progress=progress,
         max_energy=math.inf if max_energy is None else float(max_energy),
@@ -767,7 +767,7 @@ def reach(
     )  # fmt: skip
     if dom is not None:
         t1 = time.perf_counter()
-        cells = path_domains(problem, paths, dom, ri, ci, (rows, cols), np.isfinite(out))
+        cells = path_domains(problem, paths[0], dom, ri, ci, (rows, cols), np.isfinite(out))
         res.outside_share = cells.pop("outside_share")
         res.excess = cells.pop("excess")
         res.shares = cells.pop("shares")
