@@ -115,12 +115,14 @@ def test_plan(model_file):
     assessed(printed)
 
 
-def test_reach(model_file):
+def test_reach(model_file, tmp_path):
+    tif = tmp_path / "outside.tif"
     printed = cli("reach", str(HILL), "--start", "{},{}".format(*START), "--budget-wh", "1",
-                  "--within-budget", "--model", str(model_file), *BATTERY_ARGS)  # fmt: skip
+                  "--within-budget", "--model", str(model_file), *BATTERY_ARGS,
+                  "--domain-out", str(tif))  # fmt: skip
     prob = ep.Problem.from_dem(HILL, ep.load_model(model_file))
     res = ep.reach(prob, START, budget_wh=1.0, within_budget=True, **BATTERY)
-    same(printed, res.to_dict(), {"dem"}, "reach")  # it remembers its terrain and budget
+    same(printed, res.to_dict(), {"dem", "domain_out"}, "reach")  # it remembers its terrain
     assert printed["battery"]["cells"] > 0
     # the domain of every cell's path: the summary, within the budget, and the refusals
     dom = printed["domain"]
@@ -128,6 +130,11 @@ def test_reach(model_file):
     assert dom["within_budget"]["cells"] == printed["budget_cells"]
     outside = int((res.outside_share > 0).sum())
     assert dom["outside_cells"] == outside and printed["battery"]["refused_cells"] == outside
+    import numpy as np
+    import rasterio
+
+    with rasterio.open(tif) as src:  # the DEM's own grid: the working grid here
+        np.testing.assert_array_equal(src.read(1), res.outside_share.astype(np.float32))
 
 
 def _spy(monkeypatch, module: str, name: str) -> list:

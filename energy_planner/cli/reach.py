@@ -45,8 +45,8 @@ def _text(res: dict[str, Any]) -> str:
             f"{res['budget_area_m2']:.0f} m^2"
         )
     lines += _domain_lines(res.get("domain"))
-    for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("geojson", "GeoJSON"),
-                       ("plot", "plot")):  # fmt: skip
+    for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("domain_out", "domain"),
+                       ("geojson", "GeoJSON"), ("plot", "plot")):  # fmt: skip
         if res.get(key):
             lines.append(f"{label:<12} {res[key]}")
     w = res.get("window")
@@ -148,6 +148,11 @@ def _domain_lines(d: dict[str, Any] | None) -> list[str]:
     help="With --battery-wh: GeoTIFF of the chance that each cell is reached (and left, with "
     "--return) on the usable battery.",
 )
+@options.path_option(
+    "--domain-out",
+    help="GeoTIFF of the share of each cell's least-energy path outside the model's "
+    "calibration domain (0-1; needs a model that records its domain).",
+)
 @options.plot_option("PNG: energy over a hillshade with the budget contour.")
 @options.html_option(
     "Energy to every cell over the hillshade, the budget contour (at "
@@ -174,6 +179,7 @@ def command(
     reserve_wh: float,
     confidence: float,
     chance_out: Path | None,
+    domain_out: Path | None,
     plot: Path | None,
     html: Path | None,
     memory_cap: str | None,
@@ -200,6 +206,12 @@ def command(
             param_hint="--budget-wh",
         )
     model = load_model_option(model_path)
+    from energy_planner.uncertainty.domain import domain_of
+
+    if domain_out is not None and domain_of(model) is None:
+        raise click.BadParameter("the model records no calibration domain (metadata.fit."
+                                 "domain): no domain report to write; give a model that "
+                                 "fit or discover wrote", param_hint="--domain-out")  # fmt: skip
     choice = {"max_time": max_time}
     if options.speed_choice() is not None:
         choice["speed"] = options.speed_choice()
@@ -209,6 +221,7 @@ def command(
     result = {"dem": str(dem), **res.to_dict()}
     options.write_output(result, "chance_out", chance_out, res.write_chance_geotiff)
     options.write_output(result, "out", out, res.write_geotiff)
+    options.write_output(result, "domain_out", domain_out, res.write_domain_geotiff)
     native = geojson_crs == "dem"
     options.write_output(result, "geojson", geojson,
                          lambda p: res.write_geojson(p, native=native))  # fmt: skip

@@ -516,6 +516,23 @@ class ReachMap(Result):
         return self._write(terrain, path, self.chance(model, usable_j), "chance", "1",
                            f"chance to {what} within {usable_j / 3600:.2f} Wh usable")  # fmt: skip
 
+    def write_domain_geotiff(self, path: str | Path, terrain: Any = None) -> Path:
+        """Write :attr:`outside_share` (0-1, float32, nodata NaN) on the DEM's grid and CRS.
+
+        Raises
+        ------
+        ValueError
+            The map has no per-cell domain report (its model records no calibration
+            domain).
+        """
+        path, terrain = path_first(path, terrain)
+        if self.outside_share is None:
+            raise ValueError("no domain report: the model records no calibration domain "
+                             "(metadata.fit.domain)")  # fmt: skip
+        return self._write(terrain, path, self.outside_share, "outside_share", "1",
+                           "share of the least-energy path's duration outside the "
+                           "calibration's ranges")  # fmt: skip
+
     def _battery_inputs(self, model: Any, usable_j: Any) -> tuple[Any, Any]:
         """``model`` and ``usable_j``, by default the Problem's model and the battery's."""
         if model is None and self.problem is not None:
