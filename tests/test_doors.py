@@ -128,6 +128,7 @@ def test_reach(model_file, tmp_path):
     dom = printed["domain"]
     assert dom["reached_cells"] == printed["reachable_cells"]
     assert dom["within_budget"]["cells"] == printed["budget_cells"]
+    assert dom["confident"]["cells"] == printed["battery"]["cells"]
     outside = int((res.outside_share > 0).sum())
     assert dom["outside_cells"] == outside and printed["battery"]["refused_cells"] == outside
     import numpy as np

@@ -89,6 +89,12 @@ def _domain_lines(d: dict[str, Any] | None) -> list[str]:
             f"             within {wb['budget_wh']:g} Wh: {wb['outside_cells']} of "
             f"{wb['cells']} cells"
         )
+    c = d.get("confident")
+    if c:
+        lines.append(
+            f"             reached with a chance of at least {100 * c['confidence']:g} %: "
+            f"{c['outside_cells']} of {c['cells']} cells (widened by their paths' domain)"
+        )
     return lines
 
 

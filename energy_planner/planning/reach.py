@@ -283,6 +283,10 @@ class ReachMap(Result):
                     far = int((m & (self.outside_share > 0)).sum())
                 out["domain"]["within_budget"] = {"budget_wh": budget_wh, "cells": int(m.sum()),
                                                   "outside_cells": far}  # fmt: skip
+            if self.battery is not None and "outside_cells" in self.battery:
+                b = self.battery
+                out["domain"]["confident"] = {"confidence": b["confidence"], "cells": b["cells"],
+                                              "outside_cells": b["outside_cells"]}  # fmt: skip
         budgets = [budget_wh, (self.battery or {}).get("confident_budget_wh")]
         for b in sorted({b for b in budgets if b is not None}):
             w = self.edge_warning(terrain, b * 3600.0)
