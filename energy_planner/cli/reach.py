@@ -45,7 +45,7 @@ def _text(res: dict[str, Any]) -> str:
             f"{res['budget_area_m2']:.0f} m^2"
         )
     lines += _domain_lines(res.get("domain"))
-    for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("domain_out", "domain"),
+    for key, label in (("out", "GeoTIFF"), ("chance_out", "chance"), ("domain_out", "outside"),
                        ("geojson", "GeoJSON"), ("plot", "plot")):  # fmt: skip
         if res.get(key):
             lines.append(f"{label:<12} {res[key]}")
