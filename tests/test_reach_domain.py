@@ -193,3 +193,8 @@ def test_a_path_above_the_runs_mean_power_is_outside_by_mean_power_and_refused()
     assert np.all(np.isnan(chance[r, east])) and np.all(chance[r, west] > 0.9)
     why = [k for k in res.battery["refused"] if k.startswith("mean_power")]
     assert why and res.battery["refused"][why[0]] >= 6
+    # the area the battery's GeoJSON draws is the cells decided with the chance required
+    sure = chance >= 0.9
+    assert res.battery["cells"] == int(sure.sum()) > 0
+    props = res.area_geojson()["features"][0]["properties"]
+    assert props["cells"] == res.battery["cells"] and props["area_m2"] == res.battery["area_m2"]

@@ -389,18 +389,25 @@ class ReachMap(Result):
         RFC 7946 (longitude, latitude; what QGIS, geopandas and web maps expect) by
         default; ``native=True`` writes the DEM's own CRS and declares it with the
         ``crs`` member (:func:`energy_planner.io.feature_collection`). ``budget_j``:
-        default :attr:`budget_j`.
+        default :attr:`budget_j`; with a battery whose decision is per cell (the cells'
+        domain reports widen their chances, :func:`battery_area`) and no ``budget_j``, the
+        cells reached with the required chance (``battery["cells"]``).
         """
         from shapely.ops import transform as shp_transform
 
         from energy_planner.io import crs_name, feature_collection
 
         terrain = self._terrain(terrain)
+        mask = None
+        if budget_j is None and self.battery is not None and "decision" in self.battery:
+            model, usable_j = self._battery_inputs(None, None)
+            with np.errstate(invalid="ignore"):
+                mask = self.chance(model, usable_j) >= self.battery["confidence"]
         budget_j = self.budget_j if budget_j is None else budget_j
         if budget_j is None:
             raise ValueError("no budget: give budget_j (or reach with budget_wh or battery_wh)")
 
-        work = self.area(terrain, budget_j)
+        work = self.area(terrain, budget_j, mask=mask)
         geom, crs = work, terrain.crs
         if native and str(terrain.source_crs) != str(terrain.crs):
             geom = shp_transform(lambda x, y: terrain.from_work(x, y), work)
@@ -410,7 +417,7 @@ class ReachMap(Result):
             "budget_wh": budget_j / 3600.0,
             "round_trip": self.round_trip,
             "area_m2": float(work.area),
-            "cells": int(self.mask(budget_j).sum()),
+            "cells": int((self.mask(budget_j) if mask is None else mask).sum()),
             "dem_crs": crs_name(terrain.source_crs),
         }
         return feature_collection([(geom, props)], crs=crs, native=native)
