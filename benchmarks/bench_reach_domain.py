@@ -7,7 +7,8 @@ Usage::
 
 Runs :func:`energy_planner.planning.reach.reach` from the Fig. 1 start on the bundled hill
 (``maps/hill.tif``, 200 x 200 cells at 1 m) and on a synthetic ``--size`` x ``--size`` map
-at 1 m (two hills and a tilt, start in its south-west quarter), each with the bundled model
+at 1 m (two hills up to about 30 deg steep and a tilt, start in its south-west quarter),
+each with the bundled model
 as it is (no calibration domain: no per-cell report, the search alone) and with the same
 model given a calibration domain (slopes to 12 deg, forward walking and turning: the tree
 of least-energy paths is read from the search, its motions priced and sampled, the columns
@@ -47,8 +48,8 @@ def _synthetic(size: int):
 
     def z(x, y):
         x, y = x - 500000.0, y - 5000000.0
-        h1 = 30.0 * np.exp(-((x - 0.6 * s) ** 2 + (y - 0.55 * s) ** 2) / (2 * (0.12 * s) ** 2))
-        h2 = 18.0 * np.exp(-((x - 0.3 * s) ** 2 + (y - 0.75 * s) ** 2) / (2 * (0.08 * s) ** 2))
+        h1 = 120.0 * np.exp(-((x - 0.6 * s) ** 2 + (y - 0.55 * s) ** 2) / (2 * (0.12 * s) ** 2))
+        h2 = 60.0 * np.exp(-((x - 0.3 * s) ** 2 + (y - 0.75 * s) ** 2) / (2 * (0.08 * s) ** 2))
         return h1 + h2 + 0.02 * x
 
     return Terrain.from_function(z, size=(s, s), origin=(500000.0, 5000000.0))
