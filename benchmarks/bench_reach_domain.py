@@ -7,8 +7,9 @@ Usage::
 
 Runs :func:`energy_planner.planning.reach.reach` from the Fig. 1 start on the bundled hill
 (``maps/hill.tif``, 200 x 200 cells at 1 m) and on a synthetic ``--size`` x ``--size`` map
-at 1 m (two hills up to about 30 deg steep and a tilt, start in its south-west quarter),
-each with the bundled model
+at 1 m (two hills 120 and 60 m high whose widths scale with the map, 31 deg at their
+steepest at 1000 cells, and a tilt; start in its south-west quarter), each with the
+bundled model
 as it is (no calibration domain: no per-cell report, the search alone) and with the same
 model given a calibration domain (slopes to 12 deg, forward walking and turning: the tree
 of least-energy paths is read from the search, its motions priced and sampled, the columns
@@ -18,6 +19,17 @@ ratio of the medians, with the load average before and after (the machine is sha
 
 Both runs search the same states with the same kernel: the difference is the domain
 report, and the numbers it reports do not depend on the time it takes.
+
+Measured when the report was added (2 shared cores; wall times are dominated by the other
+processes, CPU times are the comparison):
+
+- ``--maps hill --repeats 3`` at load 3.4-4.5: CPU 10.80 / 11.07 / 11.38 s without,
+  11.28 / 11.69 / 11.10 s with (medians 1.02 x); the report's step 0.40-1.27 s of wall;
+  39 204 cells, 11 467 outside. The code before the report on the same map (its reach
+  ignores the domain): 11.50 and 10.91 s of CPU.
+- ``--maps synthetic --size 1000 --repeats 1`` at load 1.3-6: CPU 344.7 s without, 348.4 s
+  with (1.011 x), step 18.6 s of wall; 996 004 cells, 469 242 outside. (The same with hills
+  a quarter as high, none outside: 347.6 s and 355.7 s, 1.023 x, step 15.9 s.)
 """
 
 from __future__ import annotations
