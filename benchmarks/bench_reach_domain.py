@@ -23,6 +23,9 @@ report, and the numbers it reports do not depend on the time it takes.
 Measured when the report was added (2 shared cores; wall times are dominated by the other
 processes, CPU times are the comparison):
 
+- ``--maps hill --repeats 5`` at load 0.7-1.7: median CPU 9.87 s without, 10.60 s with
+  (1.074 x), the step 0.38 s (median); ``--repeats 3`` at load 0.3-0.8: pairs 9.61 / 10.86,
+  10.50 / 10.88, 9.60 / 9.96 s (1.04-1.13 x), the step 0.40 s.
 - ``--maps hill --repeats 3`` at load 3.4-4.5: CPU 10.80 / 11.07 / 11.38 s without,
   11.28 / 11.69 / 11.10 s with (medians 1.02 x); the report's step 0.40-1.27 s of wall;
   39 204 cells, 11 467 outside. The code before the report on the same map (its reach
