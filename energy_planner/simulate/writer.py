@@ -94,8 +94,6 @@ def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: b
     from energy_planner.io import atomic_path, write_json
     from energy_planner.progress import track
 
-    where = str(out)
-
     written: list[Path] = []
     logs = campaign.logs
     if fmt == "csv":
@@ -104,13 +102,13 @@ def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: b
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
     for sl in track(runs_in(run), "writing runs", progress, unit="run"):
-        name = f"{run[sl.start]}.{fmt}"
+        tmp = out / f"{run[sl.start]}.{fmt}"  # in atomic_dir's temporary folder
         part = table.slice(sl.start, sl.stop - sl.start)
         if fmt == "csv":
-            pa_csv.write_csv(part, f"{where}/{name}")
+            pa_csv.write_csv(part, str(tmp))
         else:
-            pq.write_table(part, f"{where}/{name}")
-        written.append(out / name)
+            pq.write_table(part, str(tmp))
+        written.append(tmp)
     runs_path = out / "runs.csv"
     with atomic_path(runs_path) as tmp:
         campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
