@@ -35,7 +35,9 @@ campaign, a ROS bag) is written with :func:`atomic_dir` (or ``atomic_path(...,
 create=False)``): built in a private folder on the same file system when there is one
 (the temporary folder, or the project's cache folder :func:`cache_root`), and moved in
 at once, so a kill leaves nothing beside it either; where there is none, built in a
-hidden folder ``.<name>.<pid>.<random>.tmp`` beside it that the next write removes.
+hidden folder ``.<name>.<pid>.<random>.tmp`` beside it that the next write removes. The
+files of such a folder may be written straight into it (no reader sees it before it is
+moved in): the simulator writes a campaign's run logs so.
 
 Examples
 --------

@@ -49,6 +49,7 @@ from energy_planner.io.bag import (
     quaternion_yaw,
     ros_time,
     topics_listing,
+    type_definition,
     typestore,
 )
 from energy_planner.measurements.logs import LoadReport, canonicalize
@@ -565,16 +566,21 @@ def _write_one(
     stamps = np.round(col["t"] * 1e9).astype(np.int64)
     Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
     nan = float("nan")
+
+    def add(w: Any, topic: str, msgtype: str) -> Any:
+        if ros1:
+            return w.add_connection(topic, msgtype, typestore=ts)
+        msgdef, rihs01 = type_definition(msgtype)  # as the typestore gives it, once
+        return w.add_connection(topic, msgtype, msgdef=msgdef, rihs01=rihs01)
+
     with open_writer(path, version, storage) as w:
-        conn = {r: w.add_connection(tops[r], MSGTYPES[r], typestore=ts) for r in MSGTYPES}
+        conn = {r: add(w, tops[r], MSGTYPES[r]) for r in MSGTYPES}
         xconn = {}
         for c in extra_cols:
             numeric = pd.api.types.is_numeric_dtype(df[c])
             values = df[c].to_numpy(dtype=float) if numeric else df[c].astype(str).tolist()
             xconn[c] = (
-                w.add_connection(
-                    EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING, typestore=ts
-                ),
+                add(w, EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING),
                 numeric,
                 values,
             )

@@ -1,7 +1,10 @@
 """Write a simulated campaign: one log per run (CSV or Parquet), the run table, the truth.
 
-Every file goes through :mod:`energy_planner.io` (unnamed until complete, then renamed
-over its destination); ROS 2 bags through :func:`energy_planner.measurements.write_rosbag`.
+The campaign is built in a private folder that becomes ``out_dir`` whole
+(:func:`energy_planner.io.atomic_dir`); the per-run logs are written straight into it
+(no reader sees that folder before it is complete, so a per-file rename would add
+nothing), the other files through :mod:`energy_planner.io`, ROS 2 bags through
+:func:`energy_planner.measurements.write_rosbag`.
 """
 
 from __future__ import annotations
@@ -77,7 +80,13 @@ def write_campaign(
 
 
 def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: bool) -> list[Path]:
-    """Write the campaign's files into the (temporary) folder ``out``."""
+    """Write the campaign's files into the (temporary) folder ``out``.
+
+    ``out`` is the new, private folder of :func:`energy_planner.io.atomic_dir`: a run's
+    log is written at its final name there, without a temporary file of its own (an
+    ``atomic_path`` per file cost about 1.3 ms of CPU each, a third of writing a
+    thousand-run campaign's CSV, and the folder is swapped in whole anyway).
+    """
     import pyarrow as pa
     import pyarrow.csv as pa_csv
     import pyarrow.parquet as pq
@@ -93,13 +102,13 @@ def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: b
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
     for sl in track(runs_in(run), "writing runs", progress, unit="run"):
-        path = out / f"{run[sl.start]}.{fmt}"
-        with atomic_path(path) as tmp:
-            if fmt == "csv":
-                pa_csv.write_csv(table.slice(sl.start, sl.stop - sl.start), tmp)
-            else:
-                pq.write_table(table.slice(sl.start, sl.stop - sl.start), tmp)
-        written.append(path)
+        tmp = out / f"{run[sl.start]}.{fmt}"  # in atomic_dir's temporary folder
+        part = table.slice(sl.start, sl.stop - sl.start)
+        if fmt == "csv":
+            pa_csv.write_csv(part, str(tmp))
+        else:
+            pq.write_table(part, str(tmp))
+        written.append(tmp)
     runs_path = out / "runs.csv"
     with atomic_path(runs_path) as tmp:
         campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
