@@ -455,6 +455,11 @@ def test_cli_text_and_errors(campaign_dir):
         ],
     )
     assert bad.exit_code == 2 and "nope" in bad.output
+    # a term that does not parse is refused before any log is loaded (as discover does)
+    args = ["diagnose", str(campaign_dir / "logs"), "--model", str(campaign_dir / "base.json")]
+    syntax = runner.invoke(main, [*args, "--term", "pos(speed"])
+    assert syntax.exit_code == 2 and "cannot parse formula 'pos(speed'" in syntax.output
+    assert "loading" not in syntax.output, syntax.output
     unfitted = campaign_dir / "unfitted.json"
     EnergyModel(BASE_TERMS).save(unfitted)
     res = runner.invoke(main, ["diagnose", str(campaign_dir / "logs"), "--model", str(unfitted)])

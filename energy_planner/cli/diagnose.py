@@ -205,6 +205,7 @@ def command(
             "(energy-planner fit LOGS --out model.json)",
             param_hint="--model",
         )
+    resolve_terms(terms)  # syntax first: fail before loading any log
     prepared = load_prepared(logs, window, repair)[0]  # (prepared, reports, text, ...)
     extra = [t.name for t in resolve_terms(terms, set(prepared.windows.samples.columns))]
     runs_meta = _runs_meta(runs_path, logs)

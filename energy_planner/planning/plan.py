@@ -629,9 +629,9 @@ def _run_lattice(r: _Run) -> np.ndarray:
 def _batch_path_cost(cost, states: np.ndarray) -> float:
     """:func:`~energy_planner.planning.binding.path_cost` of ``states`` by ``cost.batch``.
 
-    The same kernel per motion and the same sum, without the Python-callable kernel
-    (:func:`~energy_planner.planning.binding.bind_kernel`: a jitclass compiled per process
-    and kernel, about 3 s of CPU), which only OMPL's planners need.
+    The same kernel per motion and the same sum, priced by the batch kernel rather than a
+    Python call per motion (:func:`~energy_planner.planning.binding.bind_kernel`, which
+    OMPL's planners use).
     """
     s = np.asarray(states, float)
     if len(s) < 2:
@@ -853,8 +853,8 @@ def _warm_up(problem, planner: str, start_p, goal_p, step=None, n_headings=16, m
 
         prepare_bound(problem, start_p, step, n_headings, moves)
     elif planner != "lattice":
-        # the Python-callable kernel (a jitclass, compiled per process: about 4 s) is
-        # needed by OMPL only, not by the search nor the lattice (which prices by batch)
+        # the Python-callable kernel, needed by OMPL only (the search and the lattice
+        # price by batch): its first call loads the kernel's signature
         warm = _cost_fn(cost)
         warm(start_p[0], start_p[1], 0.0, start_p[0], start_p[1], 0.0)
     if planner == "bitstar" and OMPL_COST_TO_GO:
