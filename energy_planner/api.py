@@ -96,6 +96,7 @@ CLI_NAMES: dict[str, str | dict[str, str]] = {
     "--geojson": {"reach": "result.write_geojson", "mission": "result.write_geojson"},
     "--geojson-crs": "result.write_geojson",  # native=True for 'dem'
     "--chance-out": "result.write_chance_geotiff",
+    "--domain-out": "result.write_domain_geotiff",
     "--plot": "result.plot",
     "--html": "result.write_html",
     "--bag": "result.write_bag",

@@ -58,10 +58,22 @@ CASES: dict[str, tuple[list[str], dict[str, str]]] = {
     ),
     "energy-map": (["{dem}", "--headings", "4"], {"--out": "map.tif", "--plot": "map.png"}),
     "reach": (
-        ["{dem}", "--start", START, "--budget-wh", "1", "--battery-wh", "2"],
+        # b1_speeds records its calibration domain (--domain-out needs one)
+        [
+            "{dem}",
+            "--start",
+            START,
+            "--budget-wh",
+            "1",
+            "--battery-wh",
+            "2",
+            "--model",
+            "b1_speeds",
+        ],
         {
             "--out": "reach.tif",
             "--chance-out": "chance.tif",
+            "--domain-out": "domain.tif",
             "--geojson": "reach.geojson",
             "--plot": "reach.png",
         },
