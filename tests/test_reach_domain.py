@@ -198,3 +198,38 @@ def test_a_path_above_the_runs_mean_power_is_outside_by_mean_power_and_refused()
     assert res.battery["cells"] == int(sure.sum()) > 0
     props = res.area_geojson()["features"][0]["properties"]
     assert props["cells"] == res.battery["cells"] and props["area_m2"] == res.battery["area_m2"]
+
+
+@pytest.mark.parametrize("with_error_model", [True, False])
+def test_each_cells_interval_is_predict_interval_of_its_path(with_error_model):
+    """Every reached cell's interval is the one ``predict_interval`` gives its path (the
+    scalar door, from the cell's energy, duration and domain report), and holds the cell's
+    own estimate; across the steep band the measured growth of the slope widens it."""
+    from energy_planner.uncertainty import predict_interval
+
+    t = Terrain.from_function(_band, size=(24, 9))
+    em = ErrorModel(0.0, 4e-4, 0.0, None, np.linspace(-1.645, 1.645, 199), 100.0,
+                    extrapolation={"slope": {"growth_per_unit": 0.01}})  # fmt: skip
+    m = _with_domain(EnergyModel.default(), em if with_error_model else None)
+    if not with_error_model:
+        m.metadata["fit"]["heldout_run_rel_errors"] = np.linspace(-0.03, 0.03, 199).tolist()
+    res = ep.reach(t, (3.5, 4.5), model=m)
+    low, high = res.interval(0.9)
+    reached = np.isfinite(res.energy_j)
+    assert np.all(np.isnan(low[~reached])) and np.all(np.isnan(high[~reached]))
+    e = res.energy_j[reached]
+    assert np.all(low[reached] <= e) and np.all(e <= high[reached])
+    beyond = reached & (res.outside_share > 0)
+    assert beyond.sum() > 10
+    for r, c in [*np.argwhere(beyond)[::7], *np.argwhere(reached & ~beyond)[::7]]:
+        dom = {"outside_share": float(res.outside_share[r, c]),
+               "shares": {q: float(v[r, c]) for q, v in res.shares.items()},
+               "excess": {q: float(v[r, c]) for q, v in res.excess.items()}}  # fmt: skip
+        iv = predict_interval(m, float(res.energy_j[r, c]), 0.9,
+                              duration_s=float(res.duration_s[r, c]), domain=dom)  # fmt: skip
+        assert (low[r, c], high[r, c]) == pytest.approx((iv.low_j, iv.high_j), rel=1e-12)
+    # the widening grows with the metres beyond: relative half-width beyond > before
+    moved = reached & (res.energy_j > 0)
+    rel = np.full(low.shape, np.nan)
+    rel[moved] = (high - low)[moved] / res.energy_j[moved]
+    assert np.nanmin(rel[beyond]) > np.nanmax(rel[moved & ~beyond])

@@ -489,6 +489,53 @@ class ReachMap(Result):
             out[w.refused] = np.nan
         return out
 
+    def interval(self, level: float = 0.9, model: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        """Per cell the interval on the true energy at ``level``: ``(low_j, high_j)``, J.
+
+        Each cell's as :func:`energy_planner.uncertainty.predict_interval` gives its
+        least-energy path's: the fit's error model at the path's duration, widened by its
+        domain report (:meth:`widening`; where :meth:`widening` says ``refused`` the
+        widening is the assumed factor, not calibrated); without an error model the
+        relative held-out run errors, widened by the share outside. NaN where the cell is
+        not reached. ``model``: default the model it was computed with.
+
+        Raises
+        ------
+        BatteryError
+            The model carries neither an error model nor held-out run errors.
+        """
+        from energy_planner.uncertainty import (
+            OUTSIDE_WIDENING,
+            BatteryError,
+            conformal_bounds,
+            model_error_model,
+            model_scores,
+        )
+
+        model = self._battery_inputs(model, None)[0]
+        e = self.energy_j
+        ok = np.isfinite(e)
+        low, high = np.full(e.shape, np.nan), np.full(e.shape, np.nan)
+        em = model_error_model(model)
+        w = self.widening(model)
+        if em is not None:
+            dur = None if self.duration_s is None else self.duration_s[ok]
+            more = () if w is None else (w.share[ok], w.extra_rel_var[ok], w.assumed_share[ok])
+            low[ok], high[ok] = em.bounds(e[ok], level, dur, *more)
+            return low, high
+        s = model_scores(model)
+        if s is None:
+            raise BatteryError("the model carries no held-out run errors: refit it with "
+                               "cross-validation (energy-planner fit --folds 5)")  # fmt: skip
+        # predict_interval scales every score by (1 + W share), kept above -0.9: both
+        # keep the scores' order, so its bounds are the scaled bounds
+        r_lo, r_hi = conformal_bounds(s, level)
+        share = 0.0 if self.outside_share is None else np.nan_to_num(self.outside_share[ok])
+        f = 1.0 + OUTSIDE_WIDENING * share
+        low[ok] = e[ok] / (1.0 + np.maximum(r_hi * f, -0.9))
+        high[ok] = e[ok] / (1.0 + np.maximum(r_lo * f, -0.9))
+        return low, high
+
     def widening(self, model: Any = None) -> Any:
         """How each cell's domain report widens its chance, or None without reports.
 

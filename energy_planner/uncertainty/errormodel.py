@@ -259,16 +259,21 @@ class ErrorModel:
         self, energy_j: float, level: float, duration_s: float | None = None,
         outside_share: float = 0.0, extra_rel_var: float = 0.0, assumed_share: float = 0.0,
     ) -> tuple[float, float]:  # fmt: skip
-        """The interval ``(low, high)`` on the true energy, J (low at least 0)."""
+        """The interval ``(low, high)`` on the true energy, J (low at least 0).
+
+        ``energy_j`` (and the others) may be arrays (a reach map's cells): arrays back.
+        """
         from energy_planner.uncertainty import conformal_bounds
 
         if self.small_sample(level):
             z_lo, z_hi = self._student_bounds(level)
         else:
             z_lo, z_hi = conformal_bounds(self.scores, level)
-        sig = float(self.sigma(energy_j, duration_s, outside_share, extra_rel_var,
-                               assumed_share))  # fmt: skip
-        return max(energy_j - z_hi * sig, 0.0), max(energy_j - z_lo * sig, 0.0)
+        e = np.asarray(energy_j, dtype=float)
+        sig = np.asarray(self.sigma(e, duration_s, outside_share, extra_rel_var, assumed_share),
+                         dtype=float)  # fmt: skip
+        lo, hi = np.maximum(e - z_hi * sig, 0.0), np.maximum(e - z_lo * sig, 0.0)
+        return (float(lo), float(hi)) if lo.ndim == 0 else (lo, hi)
 
     def probability(
         self, energy_j: Any, usable_j: float, duration_s: Any = None,
