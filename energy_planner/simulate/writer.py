@@ -102,13 +102,13 @@ def _write_files(campaign: Campaign, out: Path, fmt: str, bag: bool, progress: b
     table = pa.Table.from_pandas(logs, preserve_index=False)
     run = logs["run"].to_numpy()
     for sl in track(runs_in(run), "writing runs", progress, unit="run"):
-        tmp = out / f"{run[sl.start]}.{fmt}"  # in atomic_dir's temporary folder
+        run_log = out / f"{run[sl.start]}.{fmt}"  # in atomic_dir's private folder
         part = table.slice(sl.start, sl.stop - sl.start)
         if fmt == "csv":
-            pa_csv.write_csv(part, str(tmp))
+            pa_csv.write_csv(part, str(run_log))
         else:
-            pq.write_table(part, str(tmp))
-        written.append(tmp)
+            pq.write_table(part, str(run_log))
+        written.append(run_log)
     runs_path = out / "runs.csv"
     with atomic_path(runs_path) as tmp:
         campaign.runs.to_csv(tmp, index=False, float_format="%.10g")
