@@ -507,7 +507,7 @@ def _warn_skipped(rep: LoadReport) -> None:
     shown = "; ".join(f"{k['path']}: {k['reason']}" for k in crashed[:5])
     more = f"; and {len(crashed) - 5} more" if len(crashed) > 5 else ""
     msg = f"skipped {len(crashed)} log file(s) that hold no samples: {shown}{more}"
-    warnings.warn(EnergyPlannerWarning(msg, paths=[k["path"] for k in crashed]), stacklevel=3)
+    warnings.warn(EnergyPlannerWarning(msg, paths=[k["path"] for k in crashed]), stacklevel=4)
     rep.notes.append(msg)
 
 
@@ -541,7 +541,7 @@ def _warn_current_sign(rep: LoadReport, mode: str) -> None:
                 api_hint="Pass table_current='discharge_positive' to keep it as it is.",
                 paths=[e["path"] for e in flipped],
             ),
-            stacklevel=3,
+            stacklevel=4,
         )
         rep.notes.append(msg)
     if kept:
@@ -559,7 +559,7 @@ def _warn_current_sign(rep: LoadReport, mode: str) -> None:
                 "table_current='ros' or 'auto'.",
                 paths=[e["path"] for e in kept],
             ),
-            stacklevel=3,
+            stacklevel=4,
         )
         rep.notes.append(msg)
 
@@ -634,6 +634,94 @@ def load_logs(
             expected=" or ".join(TABLE_CURRENT),
         )
     files = _expand(paths)
+    from energy_planner.measurements import stored
+
+    key = _load_key(files, voltage_range, max_gap, table_current, bag_options)
+    hit = stored.read("load", key)
+    if (
+        isinstance(hit, tuple)
+        and len(hit) == 2
+        and isinstance(hit[0], pd.DataFrame)
+        and isinstance(hit[1], LoadReport)
+    ):
+        samples, rep = hit
+        for k in rep.skipped:  # the log lines of the read, but the warnings: none was kept
+            if "not a robot log" in k["reason"]:
+                log.info("skipped %s: it has none of the log columns", k["path"])
+            else:
+                log.info("skipped %s: %s", k["path"], k["reason"])
+        log.info(
+            "loaded %d samples in %d run(s) from %d file(s)",
+            len(samples),
+            len(rep.runs),
+            len(rep.files),
+        )
+        return (samples, rep) if report else samples
+    with stored.warnings_shown() as caught:
+        samples, rep = _read_files(files, voltage_range, max_gap, table_current, bag_options)
+    if not caught and not _warns(rep, table_current):
+        stored.keep("load", key, (samples, rep))
+    return (samples, rep) if report else samples
+
+
+def _load_key(
+    files: list[tuple[Path, bool]],
+    voltage_range: tuple[float, float],
+    max_gap: float | None,
+    table_current: str,
+    bag_options: dict[str, Any],
+) -> str | None:
+    """The cache key of :func:`load_logs` of ``files`` (None: not kept, e.g. a ROS bag).
+
+    Each file's path as given and resolved, its size, modification and change times,
+    inode and device; the options; pandas' options that change what it reads
+    (:mod:`energy_planner.measurements.stored` adds the code and the environment).
+    """
+    from energy_planner.measurements import stored
+
+    if not stored.enabled():
+        return None
+    parts = [repr((tuple(voltage_range), max_gap, table_current, sorted(bag_options.items())))]
+    for opt in ("mode.copy_on_write", "future.infer_string", "mode.string_storage"):
+        try:
+            parts.append(f"{opt}={pd.get_option(opt)!r}")
+        except (KeyError, pd.errors.OptionError):
+            pass
+    for path, scanned in files:
+        if path.suffix.lower() not in TABLE_SUFFIXES:
+            return None
+        try:
+            real = path.resolve(strict=True)
+            st = os.stat(real)
+        except (OSError, RuntimeError):
+            return None
+        parts.append(
+            f"{path}\0{scanned}\0{real}\0{st.st_size}:{st.st_mtime_ns}:{st.st_ctime_ns}:"
+            f"{st.st_ino}:{st.st_dev}"
+        )
+    modules = (
+        "energy_planner.measurements.logs",
+        "energy_planner.measurements.conventions",
+        "energy_planner.measurements.schema",
+    )
+    return stored.digest("load_logs", parts, modules)
+
+
+def _warns(rep: LoadReport, table_current: str) -> bool:
+    """True when reading these files warns (files a crash left empty, a current sign)."""
+    crashed = any("not a robot log" not in k["reason"] for k in rep.skipped)
+    flipped = bool(rep.current_negated_files) and table_current == "auto"
+    return crashed or flipped or bool(rep.current_kept_negative_files)
+
+
+def _read_files(
+    files: list[tuple[Path, bool]],
+    voltage_range: tuple[float, float],
+    max_gap: float | None,
+    table_current: str,
+    bag_options: dict[str, Any],
+) -> tuple[pd.DataFrame, LoadReport]:
+    """:func:`load_logs` of the expanded ``files``: the samples and the report."""
     rep = LoadReport()
     frames: list[pd.DataFrame] = []
     owner: dict[str, str] = {}
@@ -724,7 +812,7 @@ def load_logs(
     rep.columns = list(samples.columns)
     rep.extra_columns = [c for c in samples.columns if c not in CANONICAL_COLUMNS]
     log.info("loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs), n_files)
-    return (samples, rep) if report else samples
+    return samples, rep
 
 
 #: Files in a log folder that are not logs (the simulator's run table).
