@@ -674,19 +674,14 @@ def _load_key(
     """The cache key of :func:`load_logs` of ``files`` (None: not kept, e.g. a ROS bag).
 
     Each file's path as given and resolved, its size, modification and change times,
-    inode and device; the options; pandas' options that change what it reads
-    (:mod:`energy_planner.measurements.stored` adds the code and the environment).
+    inode and device; the options (:mod:`energy_planner.measurements.stored` adds the
+    code, the versions and the environment).
     """
     from energy_planner.measurements import stored
 
     if not stored.enabled():
         return None
     parts = [repr((tuple(voltage_range), max_gap, table_current, sorted(bag_options.items())))]
-    for opt in ("mode.copy_on_write", "future.infer_string", "mode.string_storage"):
-        try:
-            parts.append(f"{opt}={pd.get_option(opt)!r}")
-        except (KeyError, pd.errors.OptionError):
-            pass
     for path, scanned in files:
         if path.suffix.lower() not in TABLE_SUFFIXES:
             return None

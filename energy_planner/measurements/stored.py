@@ -207,7 +207,6 @@ def keep(kind: str, key: str | None, obj: Any) -> bool:
         return False
     try:
         path = _entry(kind, key)
-        path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp, open(tmp, "wb") as f:
             f.write(MAGIC)
             f.write(body)
