@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 import warnings
 
 import numpy as np
@@ -53,7 +54,14 @@ def folder(tmp_path, monkeypatch):
     logs.mkdir()
     for i in range(3):
         _run(f"r{i}", 12.0 + i, seed=i).to_csv(logs / f"r{i}.csv", index=False)
+        _written_before(logs / f"r{i}.csv")
     return logs
+
+
+def _written_before(path) -> None:
+    """Date ``path`` a minute back: files written just now are not kept (``SETTLED_S``)."""
+    t = time.time_ns() - 60 * 10**9
+    os.utime(path, ns=(t, t))
 
 
 @pytest.fixture()
@@ -111,6 +119,7 @@ def test_a_changed_file_option_or_environment_is_read_afresh(folder, reads, monk
 
     changed = _run("r1", 13.0, current=5.0, seed=1)  # new content, same size class
     changed.to_csv(folder / "r1.csv", index=False)
+    _written_before(folder / "r1.csv")
     again = load_logs(folder)
     assert reads[6:] == ["r0.csv", "r1.csv", "r2.csv"]
     np.testing.assert_allclose(
@@ -129,6 +138,7 @@ def test_a_changed_file_option_or_environment_is_read_afresh(folder, reads, monk
 
 def test_a_read_that_warns_is_done_again_and_warns_again(folder, reads):
     _run("ros", 12.0, current=-4.0).to_csv(folder / "ros.csv", index=False)  # ROS sign
+    _written_before(folder / "ros.csv")
     for _ in range(2):
         with pytest.warns(UserWarning, match="mostly negative"):
             s = load_logs(folder)
@@ -139,6 +149,7 @@ def test_a_read_that_warns_is_done_again_and_warns_again(folder, reads):
 
 def test_a_skipped_crash_file_warns_every_time(folder, reads):
     (folder / "crashed.csv").write_bytes(b"")
+    _written_before(folder / "crashed.csv")
     for _ in range(2):
         with pytest.warns(UserWarning, match="hold no samples"):
             load_logs(folder)
@@ -149,6 +160,7 @@ def test_a_skipped_crash_file_warns_every_time(folder, reads):
 def test_an_ignored_warning_still_keeps_the_read_out(folder, reads):
     """A warning the filters hide now is seen by the next process: the read is not kept."""
     _run("ros", 12.0, current=-4.0).to_csv(folder / "ros.csv", index=False)
+    _written_before(folder / "ros.csv")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         load_logs(folder)
@@ -173,6 +185,18 @@ def test_a_damaged_entry_is_ignored_and_written_again(folder, reads, damage):
     assert entry.read_bytes() == data  # and the entry written again, whole
     load_logs(folder)
     assert len(reads) == 6
+
+
+def test_a_file_written_just_now_is_read_again(folder, reads):
+    """Its next write may fall in the same tick of the file system's clock: not kept."""
+    _run("new", 12.0, seed=5).to_csv(folder / "new.csv", index=False)
+    first = load_logs(folder)
+    assert _entries("load") == []
+    _written_before(folder / "new.csv")
+    pd.testing.assert_frame_equal(load_logs(folder), first)
+    assert len(_entries("load")) == 1
+    pd.testing.assert_frame_equal(load_logs(folder), first)
+    assert reads.count("new.csv") == 2
 
 
 def test_an_unwritable_cache_folder_still_answers(folder, tmp_path, monkeypatch, reads):

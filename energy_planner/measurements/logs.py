@@ -660,8 +660,27 @@ def load_logs(
     with stored.warnings_shown() as caught:
         samples, rep = _read_files(files, voltage_range, max_gap, table_current, bag_options)
     if not caught and not _warns(rep, table_current):
-        stored.keep("load", key, (samples, rep))
+        again = _load_key(files, voltage_range, max_gap, table_current, bag_options)
+        if again == key and _settled(files):  # not changed while read, nor just written
+            stored.keep("load", key, (samples, rep))
     return (samples, rep) if report else samples
+
+
+#: A file modified less than this long (s) before its read ended is not kept: a later
+#: write within the same tick of the file system's clock (1-10 ms) could leave the same
+#: size and times.
+SETTLED_S = 0.2
+
+
+def _settled(files: list[tuple[Path, bool]]) -> bool:
+    """True when every file was last modified at least :data:`SETTLED_S` ago."""
+    import time
+
+    before = time.time_ns() - int(SETTLED_S * 1e9)
+    try:
+        return all(os.stat(p).st_mtime_ns < before for p, _ in files)
+    except OSError:
+        return False
 
 
 def _load_key(

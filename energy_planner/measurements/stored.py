@@ -20,8 +20,11 @@ What makes an entry the same (its key, a SHA-256 of all of it):
 
 Kept only: results computed without a warning (a read or a preparation that warned, or
 raised, is done afresh every time, so the same warnings and errors are seen every time),
-``load_logs`` of tables only (no ROS bag), ``prepare_logs`` without a ``terrain`` and
-with the default or formula ``guard_terms``, entries of at most :data:`MAX_ENTRY_BYTES`.
+``load_logs`` of tables only (no ROS bag), none of them changed while read nor written
+less than ``logs.SETTLED_S`` (0.2 s) before the read ended (a rewrite within the same
+tick of the file system's clock could leave the same size and times), ``prepare_logs``
+without a ``terrain`` and with the default or formula ``guard_terms``, entries of at most
+:data:`MAX_ENTRY_BYTES`.
 The :data:`KEEP` most recently used entries stay, :data:`MAX_BYTES` in all. An entry is
 a pickle (the user's own cache folder, as the generated kernels beside it) followed by
 its BLAKE2b digest: a truncated or altered entry is ignored (and replaced by the next
