@@ -18,7 +18,9 @@ processes) and the ratios:
    ``test_cli_fit``, ``test_diagnosis_units``, ``test_discover``'s command tests), each
    by ``/usr/bin/time -v python -m pytest -n 0 FILE`` with the cache folder's ``logs``
    entries removed first (a suite's first run), A (this checkout, ``PYTHONPATH``) and,
-   with ``--baseline``, B (the other checkout's tests with its own package), in turn.
+   with ``--baseline``, B (the other checkout's tests with its own package), in turn;
+   the cache folder starts with hard links to the user's compiled kernels (as a suite
+   run on this machine finds them).
 
 Usage::
 
@@ -80,6 +82,13 @@ def _model(path: Path) -> dict:
     doc.get("metadata", {}).pop("created", None)
     doc.get("metadata", {}).pop("fitted_at", None)
     return doc
+
+
+def _user_cache() -> Path:
+    env = os.environ.get("ENERGY_PLANNER_CACHE")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "energy_planner"
 
 
 def _forget(cache: Path) -> None:
@@ -154,6 +163,10 @@ def _pytest_cpu(python: str, root: Path, file: str, k: str | None, env: dict) ->
 
 def bench_tests(baseline: Path | None, main: Path) -> None:
     cache = Path(tempfile.mkdtemp(prefix="bench_logs_cache_tests.")) / "cache"
+    cache.mkdir()
+    kernels = _user_cache() / "kernels"
+    if kernels.is_dir():  # compiled kernels as a suite's run finds them (hard links: no copy)
+        subprocess.run(["cp", "-al", str(kernels), str(cache / "kernels")], check=False)
     env_a = _env(cache, path=HERE)
     env_b = _env(cache, path=None)
     print(f"\nCPU s of test files (pytest -n 0, the logs entries removed first), load "

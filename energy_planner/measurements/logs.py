@@ -614,6 +614,13 @@ def load_logs(
         Missing required column, non-numeric value, time not increasing within a run,
         a run id found in two files.
 
+    Notes
+    -----
+    A read of tables (no ROS bag) that gave no warning is kept in the project's cache
+    folder (:mod:`energy_planner.measurements.stored`), keyed by each file's path, size,
+    times and inode and the options: the same files read again come back from it (the
+    same samples and report). ``ENERGY_PLANNER_LOG_CACHE=0`` switches it off.
+
     Examples
     --------
     >>> import tempfile, os
