@@ -139,11 +139,18 @@ def _module_stamp(modules: Iterable[str]) -> str:
 
     parts = []
     for name in sorted(modules):
-        mod = sys.modules.get(name) or importlib.import_module(name)
+        try:
+            mod = sys.modules.get(name) or importlib.import_module(name)
+        except ImportError:  # the computation cannot import it either: it raises there
+            parts.append(f"{name}: not importable")
+            continue
         for k, v in sorted(vars(mod).items()):
             if k.startswith("__"):
                 continue
-            text = _value_stamp(v)
+            try:
+                text = _value_stamp(v)
+            except Exception:  # noqa: BLE001 - an object that answers nothing: its type
+                text = type(v).__qualname__
             if text is not None:
                 parts.append(f"{name}.{k}={text}")
     return "\n".join(parts)
