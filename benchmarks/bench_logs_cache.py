@@ -29,6 +29,40 @@ Usage::
 
 The cache folder is a temporary one (``ENERGY_PLANNER_CACHE``), so the user's is left
 alone; the kernels compiled into it by the untimed first run are kept for the timed ones.
+
+Measured 2026-11-30 on the shared 2-core machine, other jobs running (load average 2.5 to
+5.4), A the branch a46 (the cache), B main at 691ce9b (no cache)::
+
+    python benchmarks/bench_logs_cache.py --rounds 3 --baseline /work/main/.venv/bin
+
+    row          wall s    cpu s  wall/cold  cpu/cold
+    cold          10.06     6.23       1.00      1.00
+    warm           4.90     2.81       0.49      0.45
+    off           13.09     6.49       1.30      1.04
+    baseline       9.33     6.58       0.93      1.06
+    paired warm/cold CPU ratio: median 0.44
+    warm model equals cold model: True; off equals cold: True
+
+A second ``fit`` of the folder costs 0.44 of the first (CPU); the first costs what it
+costs without the cache (off, main: 1.04-1.06 of cold, within the scatter: hashing the
+samples and writing the two entries, ~5 MB, are a few tens of ms).
+
+    python benchmarks/bench_logs_cache.py --no-fit --tests --baseline /work/main/.venv/bin
+
+    file                                           A cpu   B cpu   A/B
+    tests/test_examples.py -k 'calibration or README'    72.3    76.3  0.95
+    tests/test_heldout_agree.py                     25.2    32.2  0.78
+    tests/test_cli_fit.py                           22.0    25.5  0.86
+    tests/test_diagnosis_units.py                   33.1    38.8  0.85
+    tests/test_discover.py -k 'cli'                 15.1    16.5  0.92
+    all                                            167.7   189.2  0.89
+
+and the same for whole files that prepare the same simulated samples in several tests
+(the entry of ``prepare_logs`` is keyed by the samples' content): ``test_discover.py``
+66.9 against 69.7, ``test_discover_undecided.py`` 14.4 against 16.0,
+``test_calibration_sim.py`` 10.1 against 10.9 CPU s. The README chain reads each of its
+folders once (nothing to answer again); the calibration chain's five commands on one
+folder read and prepare it once, the other four read both entries back (~20 ms each).
 """
 
 from __future__ import annotations
