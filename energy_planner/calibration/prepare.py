@@ -595,7 +595,106 @@ def prepare_logs(
     ------
     LogError
         Missing columns or a non-positive window (from cleaning and windows).
+
+    Notes
+    -----
+    The result is kept in the project's cache folder
+    (:mod:`energy_planner.measurements.stored`, by the samples' content and every
+    argument) when it was prepared without a warning and without a ``terrain``: the next
+    command on the same logs gets the same windows, findings and reports at once.
     """
+    from energy_planner.measurements import stored
+
+    key = _prepare_key(samples, window, repair, guard, guard_terms, terrain)
+    hit = stored.read("prepare", key)
+    if isinstance(hit, PreparedLogs):
+        return hit
+    with stored.warnings_shown() as caught:
+        out = _prepare(samples, window, repair, guard, guard_terms, terrain)
+    if not (caught or out.preprocess_report.dropped_runs or out.windows.dropped_runs):
+        stored.keep("prepare", key, out)
+    return out
+
+
+#: The modules whose names (as the process holds them) the key of :func:`prepare_logs`
+#: holds: what checks, repairs, cleans and cuts the samples.
+_PREPARE_MODULES = (
+    "energy_planner.calibration",
+    "energy_planner.calibration._windows",
+    "energy_planner.calibration.fit",
+    "energy_planner.calibration.forces",
+    "energy_planner.calibration.prepare",
+    "energy_planner.calibration.windowdata",
+    "energy_planner.measurements",
+    "energy_planner.measurements._ema",
+    "energy_planner.measurements.conventions",
+    "energy_planner.measurements.datacheck",
+    "energy_planner.measurements.imu",
+    "energy_planner.measurements.poses",
+    "energy_planner.measurements.preprocess",
+    "energy_planner.measurements.schema",
+    "energy_planner.measurements.windows",
+    "energy_planner.model",
+    "energy_planner.model.formula",
+    "energy_planner.model.model",
+    "energy_planner.model.terms",
+    "energy_planner.stats",
+    "energy_planner.stats.heldout",
+    "energy_planner.stats.numerics",
+    "energy_planner.stats.signedrank",
+)
+
+
+def _prepare_key(
+    samples: Any,
+    window: float,
+    repair: bool,
+    guard: bool,
+    guard_terms: Sequence[Any] | None,
+    terrain: Any,
+) -> str | None:
+    """The cache key of :func:`prepare_logs` (None: not kept).
+
+    The samples' columns (names, types, categories), index type, length and content
+    (SHA-1 of pandas' per-row hashes of the values and the index) and every argument.
+    Not kept: with a ``terrain`` (the result holds the map itself), or ``guard_terms``
+    other than formulas (text).
+    """
+    import hashlib
+
+    from energy_planner.measurements import stored
+
+    if not stored.enabled() or terrain is not None or not isinstance(samples, pd.DataFrame):
+        return None
+    if guard_terms is not None and not all(isinstance(t, str) for t in guard_terms):
+        return None
+    try:
+        rows = pd.util.hash_pandas_object(samples).to_numpy()
+        kinds = [
+            (repr(c), str(d), tuple(map(repr, getattr(d, "categories", ()))))
+            for c, d in samples.dtypes.items()
+        ]
+    except (TypeError, ValueError):  # values pandas cannot hash
+        return None
+    parts = [
+        repr(kinds),
+        f"{type(samples.index).__name__}:{samples.index.dtype}:{len(samples)}",
+        hashlib.sha1(rows.tobytes()).hexdigest(),
+        repr((type(window).__name__, window, repair, guard)),
+        repr(None if guard_terms is None else tuple(guard_terms)),
+    ]
+    return stored.digest("prepare_logs", parts, _PREPARE_MODULES)
+
+
+def _prepare(
+    samples: pd.DataFrame,
+    window: float,
+    repair: bool,
+    guard: bool,
+    guard_terms: Sequence[Any] | None,
+    terrain: Any,
+) -> PreparedLogs:
+    """:func:`prepare_logs` computed."""
     from energy_planner.measurements.windows import make_windows
 
     if terrain is not None:

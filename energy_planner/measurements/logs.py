@@ -507,7 +507,7 @@ def _warn_skipped(rep: LoadReport) -> None:
     shown = "; ".join(f"{k['path']}: {k['reason']}" for k in crashed[:5])
     more = f"; and {len(crashed) - 5} more" if len(crashed) > 5 else ""
     msg = f"skipped {len(crashed)} log file(s) that hold no samples: {shown}{more}"
-    warnings.warn(EnergyPlannerWarning(msg, paths=[k["path"] for k in crashed]), stacklevel=3)
+    warnings.warn(EnergyPlannerWarning(msg, paths=[k["path"] for k in crashed]), stacklevel=4)
     rep.notes.append(msg)
 
 
@@ -541,7 +541,7 @@ def _warn_current_sign(rep: LoadReport, mode: str) -> None:
                 api_hint="Pass table_current='discharge_positive' to keep it as it is.",
                 paths=[e["path"] for e in flipped],
             ),
-            stacklevel=3,
+            stacklevel=4,
         )
         rep.notes.append(msg)
     if kept:
@@ -559,7 +559,7 @@ def _warn_current_sign(rep: LoadReport, mode: str) -> None:
                 "table_current='ros' or 'auto'.",
                 paths=[e["path"] for e in kept],
             ),
-            stacklevel=3,
+            stacklevel=4,
         )
         rep.notes.append(msg)
 
@@ -614,6 +614,13 @@ def load_logs(
         Missing required column, non-numeric value, time not increasing within a run,
         a run id found in two files.
 
+    Notes
+    -----
+    A read of tables (no ROS bag) that gave no warning is kept in the project's cache
+    folder (:mod:`energy_planner.measurements.stored`), keyed by each file's path, size,
+    times and inode and the options: the same files read again come back from it (the
+    same samples and report). ``ENERGY_PLANNER_LOG_CACHE=0`` switches it off.
+
     Examples
     --------
     >>> import tempfile, os
@@ -634,6 +641,108 @@ def load_logs(
             expected=" or ".join(TABLE_CURRENT),
         )
     files = _expand(paths)
+    from energy_planner.measurements import stored
+
+    key = _load_key(files, voltage_range, max_gap, table_current, bag_options)
+    hit = stored.read("load", key)
+    if (
+        isinstance(hit, tuple)
+        and len(hit) == 2
+        and isinstance(hit[0], pd.DataFrame)
+        and isinstance(hit[1], LoadReport)
+    ):
+        samples, rep = hit
+        for k in rep.skipped:  # the log lines of the read, but the warnings: none was kept
+            if "not a robot log" in k["reason"]:
+                log.info("skipped %s: it has none of the log columns", k["path"])
+            else:
+                log.info("skipped %s: %s", k["path"], k["reason"])
+        log.info(
+            "loaded %d samples in %d run(s) from %d file(s)",
+            len(samples),
+            len(rep.runs),
+            len(rep.files),
+        )
+        return (samples, rep) if report else samples
+    with stored.warnings_shown() as caught:
+        samples, rep = _read_files(files, voltage_range, max_gap, table_current, bag_options)
+    if not caught and not _warns(rep, table_current):
+        again = _load_key(files, voltage_range, max_gap, table_current, bag_options)
+        if again == key and _settled(files):  # not changed while read, nor just written
+            stored.keep("load", key, (samples, rep))
+    return (samples, rep) if report else samples
+
+
+#: A file modified less than this long (s) before its read ended is not kept: a later
+#: write within the same tick of the file system's clock (1-10 ms) could leave the same
+#: size and times.
+SETTLED_S = 0.2
+
+
+def _settled(files: list[tuple[Path, bool]]) -> bool:
+    """True when every file was last modified at least :data:`SETTLED_S` ago."""
+    import time
+
+    before = time.time_ns() - int(SETTLED_S * 1e9)
+    try:
+        return all(os.stat(p).st_mtime_ns < before for p, _ in files)
+    except OSError:
+        return False
+
+
+def _load_key(
+    files: list[tuple[Path, bool]],
+    voltage_range: tuple[float, float],
+    max_gap: float | None,
+    table_current: str,
+    bag_options: dict[str, Any],
+) -> str | None:
+    """The cache key of :func:`load_logs` of ``files`` (None: not kept, e.g. a ROS bag).
+
+    Each file's path as given and resolved, its size, modification and change times,
+    inode and device; the options (:mod:`energy_planner.measurements.stored` adds the
+    code, the versions and the environment).
+    """
+    from energy_planner.measurements import stored
+
+    if not stored.enabled():
+        return None
+    parts = [repr((tuple(voltage_range), max_gap, table_current, sorted(bag_options.items())))]
+    for path, scanned in files:
+        if path.suffix.lower() not in TABLE_SUFFIXES:
+            return None
+        try:
+            real = path.resolve(strict=True)
+            st = os.stat(real)
+        except (OSError, RuntimeError):
+            return None
+        parts.append(
+            f"{path}\0{scanned}\0{real}\0{st.st_size}:{st.st_mtime_ns}:{st.st_ctime_ns}:"
+            f"{st.st_ino}:{st.st_dev}"
+        )
+    modules = (
+        "energy_planner.measurements.logs",
+        "energy_planner.measurements.conventions",
+        "energy_planner.measurements.schema",
+    )
+    return stored.digest("load_logs", parts, modules)
+
+
+def _warns(rep: LoadReport, table_current: str) -> bool:
+    """True when reading these files warns (files a crash left empty, a current sign)."""
+    crashed = any("not a robot log" not in k["reason"] for k in rep.skipped)
+    flipped = bool(rep.current_negated_files) and table_current == "auto"
+    return crashed or flipped or bool(rep.current_kept_negative_files)
+
+
+def _read_files(
+    files: list[tuple[Path, bool]],
+    voltage_range: tuple[float, float],
+    max_gap: float | None,
+    table_current: str,
+    bag_options: dict[str, Any],
+) -> tuple[pd.DataFrame, LoadReport]:
+    """:func:`load_logs` of the expanded ``files``: the samples and the report."""
     rep = LoadReport()
     frames: list[pd.DataFrame] = []
     owner: dict[str, str] = {}
@@ -724,7 +833,7 @@ def load_logs(
     rep.columns = list(samples.columns)
     rep.extra_columns = [c for c in samples.columns if c not in CANONICAL_COLUMNS]
     log.info("loaded %d samples in %d run(s) from %d file(s)", len(samples), len(rep.runs), n_files)
-    return (samples, rep) if report else samples
+    return samples, rep
 
 
 #: Files in a log folder that are not logs (the simulator's run table).
