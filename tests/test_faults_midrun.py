@@ -308,8 +308,11 @@ TWIN = textwrap.dedent(
 )
 
 
-def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path):
-    """Both compile one new kernel into one cache and write one output: neither breaks."""
+def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path, fork_server):
+    """Both compile one new kernel into one cache and write one output: neither breaks.
+
+    The two runs are two processes at once, forked from the fork server (the library
+    imported once) rather than two new interpreters."""
     n = 64
     dem = tmp_path / "dem.tif"
     from rasterio.transform import from_origin
@@ -322,13 +325,9 @@ def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path):
     out, cache = tmp_path / "map.tif", tmp_path / "cache"
     k = f"{time.time_ns() % 10**9}.0"  # a kernel no cache holds yet
     src = f"def power(x):\n    return {k} * x\n"
-    args = [sys.executable, "-c", TWIN, str(cache), src, k,
-            "energy-map", str(dem), "--out", str(out), "--headings", "4"]  # fmt: skip
-    procs = [
-        subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True) for _ in range(2)
-    ]
-    errs = [p.communicate(timeout=600)[1] for p in procs]
-    assert [p.returncode for p in procs] == [0, 0], errs
+    args = [str(cache), src, k, "energy-map", str(dem), "--out", str(out), "--headings", "4"]
+    got = fork_server(tmp_path, args, 0.0, False, code=TWIN, copies=2)
+    assert got["codes"] == [0, 0], got["errs"]
     with rasterio.open(out) as src_map:
         # best_* and the summary bands (the default set)
         assert src_map.count == 4 + 4 and np.isfinite(src_map.read(1)).any()
@@ -411,7 +410,9 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 #: command can be killed at a few random points in a few seconds. A job with ``code``
 #: runs that script instead (``python -c code *args``), whose ``ready()`` starts the delay:
 #: the writers of :data:`WRITER`, which imported matplotlib, rasterio and the library
-#: afresh in a new interpreter each (about 1.5 s of CPU per kill).
+#: afresh in a new interpreter each (about 1.5 s of CPU per kill). A job with ``copies``
+#: forks that many children of ``code`` at once and waits for them: the two runs of
+#: :data:`TWIN`.
 SERVER = textwrap.dedent(
     """
     import importlib, json, os, pkgutil, select, signal, sys, time
@@ -456,6 +457,39 @@ SERVER = textwrap.dedent(
 
     for line in sys.stdin:
         job = json.loads(line)
+        if job.get("copies"):  # the script in that many children at once, none killed
+            import tempfile, traceback
+            pids = []
+            for _ in range(job["copies"]):
+                pid = os.fork()
+                if pid == 0:
+                    os.chdir(job["cwd"])
+                    err = os.open(os.path.join(tempfile.gettempdir(),
+                                               f"fork_server.{os.getpid()}.err"),
+                                  os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+                    os.dup2(err, 2)
+                    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # the server's replies
+                    code = 0
+                    try:
+                        sys.argv = ["-c", *job["args"]]
+                        exec(job["code"], {"__name__": "__main__"})
+                    except SystemExit as e:
+                        code = e.code if isinstance(e.code, int) else 1
+                    except BaseException:
+                        traceback.print_exc()
+                        code = 99
+                    sys.stderr.flush()
+                    os._exit(code)
+                pids.append(pid)
+            codes = [os.waitstatus_to_exitcode(os.waitpid(p, 0)[1]) for p in pids]
+            errs = []
+            for p in pids:
+                f = os.path.join(tempfile.gettempdir(), f"fork_server.{p}.err")
+                with open(f) as fh:
+                    errs.append(fh.read())
+                os.remove(f)
+            print(json.dumps({"codes": codes, "pids": pids, "errs": errs}), flush=True)
+            continue
         r, w = os.pipe()
         t0 = time.monotonic()
         pid = os.fork()
@@ -575,8 +609,9 @@ def inputs(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fork_server():
-    """``run(cwd, args, delay, after_write, code=None)``: one command (or the script
-    ``code`` with ``args``) in a forked child, killed."""
+    """``run(cwd, args, delay, after_write, code=None, copies=0)``: one command (or the
+    script ``code`` with ``args``) in a forked child, killed; with ``copies``, that many
+    children of the script at once, none killed (``{"codes", "pids", "errs"}``)."""
     proc = subprocess.Popen(
         [sys.executable, "-c", SERVER], env=_env(), stdin=subprocess.PIPE,
         stdout=subprocess.PIPE, text=True,
@@ -584,10 +619,15 @@ def fork_server():
     assert proc.stdout.readline().strip() == "ready"
 
     def run(
-        cwd: Path, args: list[str], delay: float, after_write: bool, code: str | None = None
+        cwd: Path,
+        args: list[str],
+        delay: float,
+        after_write: bool,
+        code: str | None = None,
+        copies: int = 0,
     ) -> dict:
         job = {"cwd": str(cwd), "args": args, "delay": delay, "after_write": after_write,
-               "code": code}  # fmt: skip
+               "code": code, "copies": copies}  # fmt: skip
         proc.stdin.write(json.dumps(job) + "\n")
         proc.stdin.flush()
         return json.loads(proc.stdout.readline())
