@@ -57,13 +57,40 @@ def south(dem, tmp_path_factory):
     return path
 
 
-def test_compare_routes_reports_an_infeasible_direct_line(dem):
-    _, terrain = dem
-    model = EnergyModel.default()
-    s, g = (500015.0, 5000010.0), (500015.0, 5000050.0)
-    comp = compare_routes(
-        terrain, model, s, g, Request.make(max_slope_deg=20), time=2, progress=False
-    )
+@pytest.fixture(scope="module")
+def across_the_ridge(dem, tmp_path_factory):
+    """``compare-routes --max-slope 20 --time 2`` across the ridge, run once: the command's
+    result (exit, JSON, its ``--plot``) and the comparison the library returned to it (a
+    spy on ``energy_planner.api.compare_routes``, which the command calls with the DEM's
+    terrain, the bundled model and the request). The library's checks and the command's read
+    this one search (each searched it on its own: the same map, model and limit)."""
+    import energy_planner.api as api
+
+    path, _ = dem
+    png = tmp_path_factory.mktemp("routes") / "routes.png"
+    real, kept = api.compare_routes, []
+
+    def spy(*a, **k):
+        kept.append((k, real(*a, **k)))
+        return kept[-1][1]
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(api, "compare_routes", spy)
+        res = CliRunner().invoke(
+            main,
+            ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
+             "500015,5000050", "--max-slope", "20", "--time", "2", "--plot", str(png),
+             "--json"],
+        )  # fmt: skip
+    return res, kept, png
+
+
+def test_compare_routes_reports_an_infeasible_direct_line(across_the_ridge):
+    _, kept, _ = across_the_ridge
+    ((kw, comp),) = kept  # one search: the default planner for 2 s, the 20 deg limit
+    assert kw["planner"] == "auto" and kw["time"] == 2.0
+    assert kw["model"].to_dict() == EnergyModel.default().to_dict()
+    assert kw["request"].limits.max_slope_deg == 20.0
     names = [r.name for r in comp.routes]
     assert names == ["direct", "direct_best_yaw", "shortest", "energy_optimal"]
     assert not comp.route("direct_best_yaw").feasible
@@ -83,14 +110,8 @@ def test_compare_routes_reports_an_infeasible_direct_line(dem):
     )
 
 
-def test_compare_routes_cli_json_and_plot(dem, south, tmp_path):
-    path, _ = dem
-    png = tmp_path / "routes.png"
-    res = CliRunner().invoke(
-        main,
-        ["compare-routes", "--dem", str(path), "--start", "500015,5000010", "--goal",
-         "500015,5000050", "--max-slope", "20", "--time", "2", "--plot", str(png), "--json"],
-    )  # fmt: skip
+def test_compare_routes_cli_json_and_plot(across_the_ridge, south):
+    res, _, png = across_the_ridge
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
     routes = {r["name"]: r for r in out["routes"]}

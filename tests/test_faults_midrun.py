@@ -45,9 +45,9 @@ import rasterio
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = int(os.environ.get("FAULT_SEED", "31"))
-CLI = [sys.executable, "-c", "from energy_planner.cli import main; main()"]
 
-#: The child: writes every kind of output, version after version, forever.
+#: The child: writes every kind of output, version after version, forever (forked from
+#: :data:`SERVER`, which gives it ``ready()``: called once every output is written).
 WRITER = textwrap.dedent(
     """
     import json, sys
@@ -83,7 +83,7 @@ WRITER = textwrap.dedent(
                 (tmp / f"run{i}.csv").write_text(f"t,v\\n0,{k}\\n")
             (tmp / "campaign.json").write_text(json.dumps({"version": k, "runs": 30}))
         if k == 1:
-            print("ready", flush=True)
+            ready()
     """
 )
 
@@ -160,27 +160,21 @@ def _env(**extra: str) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(ROOT), **extra}
 
 
-@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
-def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cleans(tmp_path):
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="POSIX fork and signals")
+def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cleans(
+    tmp_path, fork_server
+):
     rng = random.Random(SEED)
     for attempt in range(3):
         d = tmp_path / f"try{attempt}"
         fallback = attempt == 2  # the last as where files cannot be unnamed
-        proc = subprocess.Popen(
-            [sys.executable, "-c", WRITER, str(d), *(["fallback"] if fallback else [])],
-            env=_env(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-        )
-        try:
-            assert proc.stdout.readline().strip() == "ready"
-            time.sleep(rng.uniform(0.0, 1.0))  # seeded: FAULT_SEED=... to vary
-            proc.send_signal(signal.SIGKILL)
-            assert proc.wait(timeout=60) == -signal.SIGKILL
-        finally:
-            if proc.poll() is None:
-                proc.kill()
+        # the writer in a child forked from the server (the libraries imported once), killed
+        # at a seeded random moment up to 1 s after its first whole round of writes
+        delay = rng.uniform(0.0, 1.0)  # seeded: FAULT_SEED=... to vary
+        args = [str(d), *(["fallback"] if fallback else [])]
+        got = fork_server(tmp_path, args, delay, True, code=WRITER)
+        assert got["wrote"] is not None and got["killed"], got  # ready, then killed
+        assert got["code"] == -signal.SIGKILL, got
         _complete(d)
         outputs = [d / "out" / n for n in ("model.json", "report.html", "path.geojson",
                                            "map.tif", "plot.png")] + [d / "campaign"]  # fmt: skip
@@ -202,7 +196,7 @@ def test_sigkill_at_random_points_leaves_complete_outputs_and_the_next_write_cle
         _complete(d)
         assert _leftovers(d) == [], f"attempt {attempt}: {_leftovers(d)}"
         # and the private folders the killed writer left in the temporary folder
-        assert not list(Path(tempfile.gettempdir()).glob(f"energy_planner.{proc.pid}.*"))
+        assert not list(Path(tempfile.gettempdir()).glob(f"energy_planner.{got['pid']}.*"))
 
 
 def test_a_live_writers_temp_file_is_never_removed(tmp_path, monkeypatch):
@@ -246,8 +240,30 @@ def test_a_live_writers_temp_file_is_never_removed(tmp_path, monkeypatch):
     assert dest.read_text() == "being written"
 
 
-@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
-def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_path):
+#: ``simulate`` (the CLI's ``main(args)``) that calls ``ready()`` once it writes the new
+#: campaign: in a private folder on the same mount (the temporary folder, as here), or where
+#: there is none in a hidden folder beside the old one (a thread looks every 10 ms).
+BUILDING = textwrap.dedent(
+    """
+    import os, sys, tempfile, threading, time
+    from pathlib import Path
+    from energy_planner.cli import main
+
+    def watch():
+        private, here = Path(tempfile.gettempdir()), Path.cwd()
+        while not (any(private.glob(f"energy_planner.{os.getpid()}.*/campaign/*.csv"))
+                   or any(here.glob(".campaign.*.tmp/campaign/*.csv"))):
+            time.sleep(0.01)
+        ready()
+
+    threading.Thread(target=watch, daemon=True).start()
+    main(sys.argv[1:])
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="POSIX fork and signals")
+def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_path, fork_server):
     from energy_planner.io.atomic import _staging_base
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
@@ -255,33 +271,14 @@ def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_pat
     small = CampaignConfig.small(slopes_deg=(0.0,), arcs=False, stand=False)
     simulate_campaign(seed=1, config=small).write(out)
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    proc = subprocess.Popen(
-        [*CLI, "simulate", "--out", str(out),
-         "--small", "--seed", "2", "--overwrite"],
-        env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    # the new campaign is built in a private folder on the same mount (the temporary
-    # folder, as here), or where there is none in a hidden folder beside the old one
     private = Path(tempfile.gettempdir())
     staged = _staging_base(tmp_path) is not None
-
-    def building() -> bool:
-        return any(private.glob(f"energy_planner.{proc.pid}.*/campaign/*.csv")) or any(
-            tmp_path.glob(".campaign.*.tmp/campaign/*.csv")
-        )
-
-    try:  # kill it once it writes the new campaign
-        t0 = time.monotonic()
-        while not building() and time.monotonic() - t0 < 120:
-            if proc.poll() is not None:
-                break
-            time.sleep(0.01)
-        time.sleep(random.Random(SEED).uniform(0.0, 0.3))
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    # killed at a random moment up to 0.3 s after it starts writing the new campaign (in
+    # a child forked from the server: the library imported once)
+    args = ["simulate", "--out", str(out), "--small", "--seed", "2", "--overwrite"]
+    delay = random.Random(SEED).uniform(0.0, 0.3)
+    got = fork_server(tmp_path, args, delay, True, code=BUILDING)
+    assert got["killed"] or got["code"] == 0, got  # killed, or it finished first
     now = {p.name: p.read_bytes() for p in out.iterdir()}
     if now != before:  # it finished: then the whole new campaign, nothing of the old
         meta = json.loads(now["campaign.json"])
@@ -292,7 +289,7 @@ def test_simulate_overwrite_killed_mid_campaign_keeps_one_whole_campaign(tmp_pat
         assert sorted(p.name for p in tmp_path.iterdir()) == ["campaign"]
     simulate_campaign(seed=3, config=small).write(out, overwrite=True)  # cleans the leftover
     assert sorted(p.name for p in tmp_path.iterdir()) == ["campaign"]
-    assert not list(private.glob(f"energy_planner.{proc.pid}.*"))  # and the private folder
+    assert not list(private.glob(f"energy_planner.{got['pid']}.*"))  # and the private folder
 
 
 #: Each of the two runs: compile a new kernel into a shared cold cache, then run an
@@ -311,8 +308,11 @@ TWIN = textwrap.dedent(
 )
 
 
-def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path):
-    """Both compile one new kernel into one cache and write one output: neither breaks."""
+def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path, fork_server):
+    """Both compile one new kernel into one cache and write one output: neither breaks.
+
+    The two runs are two processes at once, forked from the fork server (the library
+    imported once) rather than two new interpreters."""
     n = 64
     dem = tmp_path / "dem.tif"
     from rasterio.transform import from_origin
@@ -325,13 +325,9 @@ def test_two_runs_sharing_the_kernel_cache_and_an_output(tmp_path):
     out, cache = tmp_path / "map.tif", tmp_path / "cache"
     k = f"{time.time_ns() % 10**9}.0"  # a kernel no cache holds yet
     src = f"def power(x):\n    return {k} * x\n"
-    args = [sys.executable, "-c", TWIN, str(cache), src, k,
-            "energy-map", str(dem), "--out", str(out), "--headings", "4"]  # fmt: skip
-    procs = [
-        subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, text=True) for _ in range(2)
-    ]
-    errs = [p.communicate(timeout=600)[1] for p in procs]
-    assert [p.returncode for p in procs] == [0, 0], errs
+    args = [str(cache), src, k, "energy-map", str(dem), "--out", str(out), "--headings", "4"]
+    got = fork_server(tmp_path, args, 0.0, False, code=TWIN, copies=2)
+    assert got["codes"] == [0, 0], got["errs"]
     with rasterio.open(out) as src_map:
         # best_* and the summary bands (the default set)
         assert src_map.count == 4 + 4 and np.isfinite(src_map.read(1)).any()
@@ -411,7 +407,12 @@ def test_an_output_that_is_a_folder_is_refused_by_the_writer(tmp_path):
 #: s after its start, or after it starts writing its first output (the writer of an
 #: output in its folder starts: ``energy_planner.io.atomic.remove_stale``, which every
 #: write calls first). Forking keeps each command's start cheap, so that every writing
-#: command can be killed at a few random points in a few seconds.
+#: command can be killed at a few random points in a few seconds. A job with ``code``
+#: runs that script instead (``python -c code *args``), whose ``ready()`` starts the delay:
+#: the writers of :data:`WRITER`, which imported matplotlib, rasterio and the library
+#: afresh in a new interpreter each (about 1.5 s of CPU per kill). A job with ``copies``
+#: forks that many children of ``code`` at once and waits for them: the two runs of
+#: :data:`TWIN`.
 SERVER = textwrap.dedent(
     """
     import importlib, json, os, pkgutil, select, signal, sys, time
@@ -456,20 +457,59 @@ SERVER = textwrap.dedent(
 
     for line in sys.stdin:
         job = json.loads(line)
+        if job.get("copies"):  # the script in that many children at once, none killed
+            import tempfile, traceback
+            pids = []
+            for _ in range(job["copies"]):
+                pid = os.fork()
+                if pid == 0:
+                    os.chdir(job["cwd"])
+                    err = os.open(os.path.join(tempfile.gettempdir(),
+                                               f"fork_server.{os.getpid()}.err"),
+                                  os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+                    os.dup2(err, 2)
+                    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # the server's replies
+                    code = 0
+                    try:
+                        sys.argv = ["-c", *job["args"]]
+                        exec(job["code"], {"__name__": "__main__"})
+                    except SystemExit as e:
+                        code = e.code if isinstance(e.code, int) else 1
+                    except BaseException:
+                        traceback.print_exc()
+                        code = 99
+                    sys.stderr.flush()
+                    os._exit(code)
+                pids.append(pid)
+            codes = [os.waitstatus_to_exitcode(os.waitpid(p, 0)[1]) for p in pids]
+            errs = []
+            for p in pids:
+                f = os.path.join(tempfile.gettempdir(), f"fork_server.{p}.err")
+                with open(f) as fh:
+                    errs.append(fh.read())
+                os.remove(f)
+            print(json.dumps({"codes": codes, "pids": pids, "errs": errs}), flush=True)
+            continue
         r, w = os.pipe()
         t0 = time.monotonic()
         pid = os.fork()
         if pid == 0:
             os.close(r)
             cwd = os.path.realpath(job["cwd"])
-            atomic.remove_stale = telling(atomic.remove_stale, w, cwd)
+            if job.get("code") is None:
+                atomic.remove_stale = telling(atomic.remove_stale, w, cwd)
             os.chdir(cwd)
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
             os.dup2(null, 2)
             code = 0
             try:
-                main(job["args"])
+                if job.get("code") is None:
+                    main(job["args"])
+                else:  # a script, run as ``python -c code *args``; it calls ready()
+                    sys.argv = ["-c", *job["args"]]
+                    exec(job["code"], {"__name__": "__main__",
+                                       "ready": lambda: os.write(w, b"w")})
             except SystemExit as e:
                 code = e.code if isinstance(e.code, int) else 1
             except BaseException:
@@ -569,15 +609,25 @@ def inputs(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fork_server():
-    """``run(cwd, args, delay, after_write)``: one command in a forked child, killed."""
+    """``run(cwd, args, delay, after_write, code=None, copies=0)``: one command (or the
+    script ``code`` with ``args``) in a forked child, killed; with ``copies``, that many
+    children of the script at once, none killed (``{"codes", "pids", "errs"}``)."""
     proc = subprocess.Popen(
         [sys.executable, "-c", SERVER], env=_env(), stdin=subprocess.PIPE,
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip
     assert proc.stdout.readline().strip() == "ready"
 
-    def run(cwd: Path, args: list[str], delay: float, after_write: bool) -> dict:
-        job = {"cwd": str(cwd), "args": args, "delay": delay, "after_write": after_write}
+    def run(
+        cwd: Path,
+        args: list[str],
+        delay: float,
+        after_write: bool,
+        code: str | None = None,
+        copies: int = 0,
+    ) -> dict:
+        job = {"cwd": str(cwd), "args": args, "delay": delay, "after_write": after_write,
+               "code": code, "copies": copies}  # fmt: skip
         proc.stdin.write(json.dumps(job) + "\n")
         proc.stdin.flush()
         return json.loads(proc.stdout.readline())

@@ -257,3 +257,21 @@ def test_a_large_payload_lands_in_the_large_step_group_and_no_event_stays_steady
     # without an event: never leaves steady, no step
     g = make_follower(base, remaining_scores=rs)
     assert {(u.group, u.step) for u in g.replay(base)} == {("steady", 0.0)}
+
+
+def test_bundled_scores_are_the_file_and_each_call_its_own_copy():
+    """The bundled scores are read once per process: each call equals the file read afresh
+    (``RemainingScores.load``), and changing one call's scores leaves the next call's whole."""
+    from pathlib import Path
+
+    import energy_planner.follow.calibrate as cal
+
+    path = Path(cal.__file__).resolve().parents[1] / "data" / cal.SCORES_FILE
+    fresh = RemainingScores.load(path)
+    first = bundled_scores()
+    assert first == fresh and first.to_dict() == fresh.to_dict()
+    group = next(iter(first.scores))
+    first.scores[group].clear()
+    first.conditions.clear()
+    again = bundled_scores()
+    assert again == fresh and again.scores[group] and again is not first

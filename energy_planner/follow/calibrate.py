@@ -29,6 +29,7 @@ event and follow it" that the calibration and ``benchmarks/bench_follow.py`` sha
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -245,10 +246,34 @@ def bundled_scores() -> RemainingScores:
     Made by ``python benchmarks/bench_follow.py --coverage-only --save-scores`` (see
     ``docs/follow.md``): the bundled model's follower on simulated missions of every
     event case, seeds from 1000 (disjoint from the benchmark's).
+
+    The file is read once per process (again if it changes); each call returns its own
+    copy, so that changing one does not change the next.
     """
+    import copy
     from pathlib import Path
 
-    return RemainingScores.load(Path(__file__).resolve().parents[1] / "data" / SCORES_FILE)
+    path = Path(__file__).resolve().parents[1] / "data" / SCORES_FILE
+    st = path.stat()
+    kept = _read_scores(str(path), st.st_mtime_ns, st.st_size)
+    return RemainingScores(
+        {k: list(v) for k, v in kept.scores.items()},  # lists of (share, score) tuples
+        kept.seeds,
+        copy.deepcopy(kept.conditions),
+        kept.normalized,
+        kept.dem_lengths_m,
+        kept.step_split,
+    )
+
+
+@functools.lru_cache(maxsize=1)
+def _read_scores(path: str, mtime_ns: int, size: int) -> RemainingScores:
+    """:meth:`RemainingScores.load` of ``path`` as it is at ``mtime_ns`` and ``size``.
+
+    Parsing the file (about 40 ms: a float per score) was most of a ``Follower``'s start
+    with the bundled model, paid by every follower a process makes.
+    """
+    return RemainingScores.load(path)
 
 
 def forward_mission(duration: float = 240.0, rate: float = 20.0, events: tuple = ()) -> Any:
