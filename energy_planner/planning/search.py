@@ -426,7 +426,9 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     -------
     table : ndarray of float32, shape (16, nodes, nodes)
         J per metre (rounded down), ``inf`` where no heading can move (limits) or the node
-        is steeper than the slope limit.
+        is steeper than the slope limit by more than one node diagonal (the nodes just
+        past it, which a walkable sample's lookup reads, hold the physics' value there:
+        :func:`_past_the_limit`).
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
