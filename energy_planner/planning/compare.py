@@ -247,6 +247,11 @@ class _Candidates:
         self.post = post or (lambda s: s)
         self.best: Route | None = None
         self.origin: str | None = None
+        # the (states, objective) already offered: the same path offered again (the plan
+        # offered with its cheapest constant body yaw when that yaw is its own) would be
+        # refined again from the same seed, the same search repeated (under a time budget
+        # that is a budget spent for nothing), and walked again to the same route
+        self._offered: set[tuple[bytes, int]] = set()
 
     def offer(self, states: np.ndarray | None, origin: str, objective=None, gait=None) -> None:
         """Offer ``states`` as a candidate route.
@@ -262,6 +267,10 @@ class _Candidates:
             states, psi = _best_gait(states, (objective or self.problem).cost, *gait)
             if psi:
                 origin += f", body turned {math.degrees(psi):.0f} deg"
+        seen = (np.ascontiguousarray(states, dtype=np.float64).tobytes(), id(objective))
+        if seen in self._offered:
+            return
+        self._offered.add(seen)
         tries = [(states, origin)]
         spacing = abs(float(self.problem.terrain.grid[2]))
         # refinement densifies the path first; a path that hugs a limit can break it

@@ -426,7 +426,9 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     -------
     table : ndarray of float32, shape (16, nodes, nodes)
         J per metre (rounded down), ``inf`` where no heading can move (limits) or the node
-        is steeper than the slope limit.
+        is steeper than the slope limit by more than one node diagonal (the nodes just
+        past it, which a walkable sample's lookup reads, hold the physics' value there:
+        :func:`_past_the_limit`).
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
@@ -496,6 +498,7 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
             else:  # gait None: the cost's own channels
                 hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait, top_deg=top)
             best = _best_bands(hc, GX, GY, dirs, along)
+            _past_the_limit(hc, GX, GY, dirs, along, best, tgeo)
             if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
                 best = best + np.float32(lam / speed)
             table = np.minimum(table, best)
@@ -512,6 +515,44 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
     up = t32.astype(np.float64) > table
     t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
     return np.ascontiguousarray(t32), tgeo
+
+
+def _past_the_limit(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray,
+                    best: np.ndarray, tgeo: np.ndarray) -> None:  # fmt: skip
+    """Give ``best``'s nodes just past the slope limit the physics' value there (in place).
+
+    A walkable sample (gradient within the limit ``hc.tmax``) reads the four nodes of its
+    table cell, and near the limit some of them lie past it, where ``hc`` says ``inf``
+    (nothing can stand there): :func:`_search.edge_bound` then priced the sample at the
+    table's least (``tmin``, the cheapest ground anywhere, downhill), and on a climb
+    that runs along the limit the heuristic fell far below the cost (on the bundled
+    hill with a 40-degree limit ``h(start)`` was 0.67 of the path's cost and the search
+    expanded half of the map's 634 000 states). The nodes a walkable sample can read
+    (within one cell diagonal past the limit) now hold the same heading cost without
+    the slope limit: the least J per metre of the same model, speed, cross-slope and
+    gait limits at that gradient. The slope limit changes nothing of the energy of a
+    walkable sample, only whether the kernel refuses a steeper one, so between those
+    nodes the bilinear value approximates the sample's true least as everywhere else
+    in the table (its error is what :data:`BOUND_MARGIN` covers); samples past the
+    limit are still ``inf`` in the bound (``edge_bound`` checks ``tmax`` itself).
+    Nodes past the limit farther out are never read by a walkable sample: they stay
+    ``inf``, and the table's least (``tmin``) is unchanged.
+    """
+    tmax = float(hc.tmax)
+    if not math.isfinite(tmax):
+        return
+    with np.errstate(invalid="ignore"):
+        g = np.hypot(GX, GY)
+        ring = (g > tmax) & (g <= tmax + math.hypot(tgeo[2], tgeo[3]))
+    if not ring.any():
+        return
+    from energy_planner.energy.heading import _cached
+
+    params = hc.params
+    free = _cached(params[0], params[1], math.inf, *params[3:])  # the same, no slope limit
+    nan = np.full(GX.shape, np.nan)
+    past = _best_bands(free, np.where(ring, GX, nan), np.where(ring, GY, nan), dirs, along)
+    best[:, ring] = past[:, ring]
 
 
 #: Least J per map metre over the body's yaw (``best``) of the bound's gradient grids,
