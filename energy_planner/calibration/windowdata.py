@@ -79,6 +79,7 @@ class WindowData:
     _stack_key: tuple | None = field(default=None, repr=False)
     _stack: np.ndarray | None = field(default=None, repr=False)
     _stack_means: np.ndarray | None = field(default=None, repr=False)
+    _stack_yw: tuple | None = field(default=None, repr=False)
     _fold_cols: dict = field(default_factory=dict, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
@@ -268,12 +269,13 @@ class WindowData:
             self.sample_columns(terms, out=self._stack[:, :k])
             self._stack_means = np.empty((self.n_windows, width))
             self._stack_means[:, :k] = self.columns(terms)
+            self._stack_yw = (self.power, self.weights)  # read once per model, not per call
             self._stack_key = key
         X, means = self._stack[:, : k + e], self._stack_means[:, : k + e]
         if e:
             self.sample_columns(extra, out=X[:, k:])
             means[:, k:] = self.columns(extra)
-        y, w, folds = self.power, self.weights, np.asarray(folds)
+        (y, w), folds = self._stack_yw, np.asarray(folds)
         rows, table = self.key, self.table
         cache_key = (key, folds.tobytes(), None)
         if ok is not None and not np.all(ok):
