@@ -12,12 +12,18 @@ of the model's columns, a candidate that is 0 on a fold, missing values.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from energy_planner.stats import paired_run_test, solve_min_norm
 from energy_planner.stats.heldout import _choice_gains, choice_by_fold
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_diagnosis_units import synth  # noqa: E402
 
 
 def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -167,3 +173,66 @@ def test_run_test_by_run_codes_equals_by_run_names(seed, n_runs):
     e1 = e0 * rng.uniform(0.3, 1.2, 300)
     a, b = paired_run_test(e0, e1, runs), paired_run_test(e0, e1, codes)
     np.testing.assert_equal(a, b)
+
+
+def _windows(seed: int, n_runs: int):
+    """A small windowed campaign (tests/test_diagnosis_units.synth) with a hidden term."""
+    from energy_planner.diagnosis import window_data
+
+    return window_data(synth(n_runs=n_runs, seed=seed, effect="temperature_c * speed", coef=20.0))
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    seed=st.integers(0, 1000),
+    n_runs=st.integers(10, 30),
+    n_splits=st.integers(2, 5),
+    extra=st.sampled_from(
+        [(), ("temperature_c",), ("temperature_c * speed", "speed ** 2"), ("temperature_c",) * 2]
+    ),
+    holes=st.booleans(),
+    drop=st.floats(0.0, 0.3),
+)
+def test_window_heldout_equals_the_direct_heldout(seed, n_runs, n_splits, extra, holes, drop):
+    """``WindowData.heldout`` (the samples sorted by fold, one product per fold) gives
+    ``stats.heldout`` on the stacked per-sample design: the same coefficients,
+    predictions, residuals and floored sample predictions, on every window or a subset
+    (``ok``), with extra columns, a term missing on some samples, a repeated extra."""
+    from energy_planner.calibration.fit import base_terms, identifiable_by_fold
+    from energy_planner.calibration.windowdata import _with_kind
+    from energy_planner.model import EnergyModel
+    from energy_planner.stats import fold_index, heldout
+
+    wd = _windows(seed, n_runs)
+    rng = np.random.default_rng(seed)
+    if holes:  # a channel missing on some samples (the window mean ignores them)
+        v = wd.samples["temperature_c"].to_numpy(float).copy()
+        v[rng.random(v.size) < 0.1] = np.nan
+        wd.samples["temperature_c"] = v
+    terms = list(base_terms(wd.table.assign(motion=wd.table["motion"])))[:6]
+    folds = fold_index(wd.runs, n_splits, seed)
+    # the windows where every column is finite, some dropped at random
+    ok = np.isfinite(wd.columns([*terms, *extra])).all(axis=1) & (rng.random(wd.n_windows) >= drop)
+    ok = None if ok.all() else ok
+    got = wd.heldout(terms, folds, ok, extra=list(extra))
+    # the direct computation: every sample's design stacked, the same fit columns
+    cols = list(terms) + list(extra)
+    X, means = wd.sample_columns(cols), wd.columns(cols)
+    sel = np.ones(wd.n_windows, bool) if ok is None else ok
+    keep = sel[wd.key]
+    rows = (np.cumsum(sel) - 1)[wd.key[keep]]
+    k = len(terms)  # each fold fits the model terms its training windows identify
+    fit = identifiable_by_fold(
+        EnergyModel(terms=terms), means[sel][:, :k], wd.weights[sel],
+        _with_kind(wd.table[sel]), folds[sel],
+    )  # fmt: skip
+    fit = np.column_stack([fit, np.ones((len(fit), len(extra)), dtype=bool)])
+    want = heldout(
+        X[keep], wd.power[sel], folds[sel], wd.weights[sel], rows=rows, means=means[sel],
+        fit_columns=fit,
+    )  # fmt: skip
+    np.testing.assert_allclose(got.coef, want.coef, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(got.predicted, want.predicted, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got.residuals, want.residuals, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got.sample_predicted, want.sample_predicted, rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(got.folds, folds[sel])
