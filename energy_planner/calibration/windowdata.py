@@ -71,6 +71,7 @@ class _FoldPlan:
     y: np.ndarray  # mean measured power of every window
     w: np.ndarray  # fit weight of every window
     _extra: np.ndarray | None = None
+    fit: Any = None  # stats.heldout._FoldFit of the model on every window, when made
 
     def extra_buffer(self, e: int) -> np.ndarray:
         """Room for ``e`` extra per-sample columns in the plan's order (reused)."""
@@ -283,7 +284,7 @@ class WindowData:
         HeldOut
         """
         from energy_planner.stats import HeldOut
-        from energy_planner.stats.heldout import _fold_coef
+        from energy_planner.stats.heldout import _fold_coef, _FoldFit
 
         key, k, e = tuple(terms), len(terms), len(extra)
         folds = np.asarray(folds, dtype=np.int64)
@@ -304,7 +305,12 @@ class WindowData:
         cols = np.column_stack([cols, np.ones((len(cols), e), dtype=bool)])
         if cols.shape != (n_folds, k + e):
             raise FitError(f"fit_columns {cols.shape}, expected ({n_folds}, {k + e})")
-        coef = _fold_coef(means, y, f_ok, w, cols)
+        if ok is None:  # every window: the model's statistics made once (bordered)
+            if plan.fit is None:
+                plan.fit = _FoldFit(plan.means, y, f_ok, w)
+            coef = plan.fit.coef(means[:, k:], cols)
+        else:
+            coef = _fold_coef(means, y, f_ok, w, cols)
         # every sample by its window's fold's coefficients: the samples sorted by fold,
         # one product per fold over its own samples, floored, then averaged by window
         Z = plan.extra_buffer(e)
