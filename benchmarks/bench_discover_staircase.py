@@ -19,17 +19,18 @@ Run::
 ``--baseline-path`` is put first on the baseline child's ``PYTHONPATH`` (the tree whose
 ``energy_planner`` it imports); this tree's child gets this file's repository.
 
-Measured 2026-11-30 on the shared 2-core machine (load average 4-5 from other jobs, so
-the absolute seconds are inflated; the two trees ran alternately under the same load),
-baseline main 691ce9b against this branch (solve_min_norm's certified LU path, the
-bordered and stacked ``choice_by_fold``, ``WindowData.heldout`` on samples sorted by
-fold, run codes in the run tests):
+Measured 2026-11-30 on the shared 2-core machine (load average 2.6-3.6 from other jobs;
+the two trees ran alternately under the same load, smallest of 3 rounds), baseline main
+691ce9b against branch b46 (solve_min_norm's certified LU path, the bordered and stacked
+``choice_by_fold``, ``WindowData.heldout`` on samples sorted by fold with the model's
+window statistics made once, run codes in the run tests)::
 
-=========================  ==========  ===========  =====  ==============
-campaign (small, seed)     main CPU s  branch CPU s  ratio  same staircase
-=========================  ==========  ===========  =====  ==============
-RATIO_TABLE
-=========================  ==========  ===========  =====  ==============
+    campaign (small, seed)  main CPU s  b46 CPU s  ratio  same staircase
+    speed_dependence 0            5.76       3.98   1.45  True
+    load 0                        2.87       1.75   1.64  True
+    ground 1                      2.65       1.84   1.44  True
+    none 2                        1.18       0.93   1.26  True
+    total                        12.46       8.51   1.47
 """
 
 from __future__ import annotations
