@@ -52,6 +52,35 @@ EVAL_CHUNK = 8
 
 
 @dataclass
+class _FoldPlan:
+    """A model's per-sample design with the samples sorted by their window's fold.
+
+    :meth:`WindowData.heldout` predicts each fold's samples with that fold's coefficients
+    in one product over a contiguous block (the samples of a window stay together), for
+    every candidate scored on the model.
+    """
+
+    key: tuple  # the model's terms
+    folds: np.ndarray  # fold of every window
+    order: np.ndarray  # samples (their index) sorted by fold, stable
+    X: np.ndarray  # (samples, terms), rows in ``order``
+    bounds: np.ndarray  # fold f's samples: rows bounds[f]:bounds[f + 1]
+    starts: np.ndarray  # first row of every window
+    seg_win: np.ndarray  # the window of each of those
+    means: np.ndarray  # (windows, terms): the window means of the terms
+    y: np.ndarray  # mean measured power of every window
+    w: np.ndarray  # fit weight of every window
+    _extra: np.ndarray | None = None
+    fit: Any = None  # stats.heldout._FoldFit of the model on every window, when made
+
+    def extra_buffer(self, e: int) -> np.ndarray:
+        """Room for ``e`` extra per-sample columns in the plan's order (reused)."""
+        if self._extra is None or self._extra.shape[1] < e:
+            self._extra = np.empty((len(self.order), max(e, 2)), order="F")
+        return self._extra[:, :e]
+
+
+@dataclass
 class WindowData:
     """Per-sample features and their per-window aggregation.
 
@@ -76,9 +105,7 @@ class WindowData:
     categorical_extras: list[str] = field(default_factory=list)
     _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     _sample_cache: OrderedDict[str, np.ndarray] = field(default_factory=OrderedDict, repr=False)
-    _stack_key: tuple | None = field(default=None, repr=False)
-    _stack: np.ndarray | None = field(default=None, repr=False)
-    _stack_means: np.ndarray | None = field(default=None, repr=False)
+    _plan: _FoldPlan | None = field(default=None, repr=False)
     _fold_cols: dict = field(default_factory=dict, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
 
@@ -183,7 +210,7 @@ class WindowData:
         final fit, which builds its own design (memory).
         """
         self._sample_cache.clear()
-        self._stack_key = self._stack = self._stack_means = None
+        self._plan = None
 
     def columns(self, terms: Iterable[str]) -> np.ndarray:
         """Window-mean design columns of ``terms`` (catalog names or formulas).
@@ -256,35 +283,109 @@ class WindowData:
         -------
         HeldOut
         """
-        from energy_planner.stats import heldout
+        from energy_planner.stats import HeldOut
+        from energy_planner.stats.heldout import _fold_coef, _FoldFit
 
         key, k, e = tuple(terms), len(terms), len(extra)
-        if self._stack_key != key or self._stack.shape[1] < k + e:
-            # the model's per-sample design and window means, stacked once, with room
-            # for the extra columns (filled in place: no copy of the design per candidate)
-            width = k + max(e, 2)
-            self._stack = self._stack_means = None  # the old model's, let go first (memory)
-            self._stack = np.empty((len(self.samples), width), order="F")
-            self.sample_columns(terms, out=self._stack[:, :k])
-            self._stack_means = np.empty((self.n_windows, width))
-            self._stack_means[:, :k] = self.columns(terms)
-            self._stack_key = key
-        X, means = self._stack[:, : k + e], self._stack_means[:, : k + e]
+        folds = np.asarray(folds, dtype=np.int64)
+        plan = self._fold_plan(key, folds)
+        means = plan.means
         if e:
-            self.sample_columns(extra, out=X[:, k:])
-            means[:, k:] = self.columns(extra)
-        y, w, folds = self.power, self.weights, np.asarray(folds)
-        rows, table = self.key, self.table
+            means = np.column_stack([means, self.columns(extra)])
+        y, w, f_ok, table = plan.y, plan.w, folds, self.table
         cache_key = (key, folds.tobytes(), None)
         if ok is not None and not np.all(ok):
             ok = np.asarray(ok, dtype=bool)
-            keep = ok[self.key]
-            X, rows = X[keep], (np.cumsum(ok) - 1)[self.key[keep]]
             cache_key = (key, folds.tobytes(), ok.tobytes())
-            means, y, w, folds, table = means[ok], y[ok], w[ok], folds[ok], table[ok]
-        cols = self._identifiable(cache_key, means[:, :k], w, table, folds)
+            means, y, w, f_ok, table = means[ok], y[ok], w[ok], folds[ok], table[ok]
+        else:
+            ok = None
+        n_folds = int(f_ok.max()) + 1 if len(f_ok) else 0
+        cols = self._identifiable(cache_key, means[:, :k], w, table, f_ok)
         cols = np.column_stack([cols, np.ones((len(cols), e), dtype=bool)])
-        return heldout(X, y, folds, w, rows=rows, means=means, fit_columns=cols)
+        if cols.shape != (n_folds, k + e):
+            raise FitError(f"fit_columns {cols.shape}, expected ({n_folds}, {k + e})")
+        if ok is None:  # every window: the model's statistics made once (bordered)
+            if plan.fit is None:
+                plan.fit = _FoldFit(plan.means, y, f_ok, w)
+            coef = plan.fit.coef(means[:, k:], cols)
+        else:
+            coef = _fold_coef(means, y, f_ok, w, cols)
+        # every sample by its window's fold's coefficients: the samples sorted by fold,
+        # one product per fold over its own samples, floored, then averaged by window
+        Z = plan.extra_buffer(e)
+        if e:
+            where: dict[str, list[int]] = {}
+            for j, t in enumerate(extra):
+                where.setdefault(t, []).append(j)
+
+            def sink(term: str, column: np.ndarray) -> None:
+                for j in where[term]:
+                    np.take(column, plan.order, out=Z[:, j])
+
+            self._evaluate(list(extra), sink=sink)
+        pred = np.full(len(plan.order), np.nan)
+        # (the samples of windows left out are predicted too, and never read: their
+        # non-finite values must not warn)
+        with np.errstate(invalid="ignore", over="ignore"):
+            for f in range(n_folds):
+                a, b = plan.bounds[f], plan.bounds[f + 1]
+                p = plan.X[a:b] @ coef[f, :k]
+                if e:
+                    p += Z[a:b] @ coef[f, k:]
+                pred[a:b] = p
+        np.maximum(pred, 0.0, out=pred)
+        fin = np.isfinite(pred)
+        tot = np.add.reduceat(np.where(fin, pred, 0.0), plan.starts)
+        cnt = np.add.reduceat(fin.astype(float), plan.starts)
+        win = np.full(self.n_windows, np.nan)
+        np.divide(tot, cnt, out=tot, where=cnt > 0)
+        win[plan.seg_win] = np.where(cnt > 0, tot, np.nan)
+        pred_s = np.empty(len(pred))
+        pred_s[plan.order] = pred
+        if ok is not None:
+            win, pred_s = win[ok], pred_s[ok[self.key]]
+        return HeldOut(win, y - win, f_ok, coef, pred_s)
+
+    def _fold_plan(self, key: tuple, folds: np.ndarray) -> _FoldPlan:
+        """The model's per-sample design sorted by fold (cached for the last model)."""
+        plan = self._plan
+        if plan is not None and plan.key == key and np.array_equal(plan.folds, folds):
+            return plan
+        self._plan = None  # the old model's, let go first (memory)
+        if folds.shape != (self.n_windows,):
+            raise FitError(
+                f"folds have shape {folds.shape}, expected ({self.n_windows},): one per window"
+            )
+        sample_fold = folds[self.key]
+        order = np.argsort(sample_fold, kind="stable")  # windows stay contiguous
+        X = np.empty((len(order), len(key)))
+        where: dict[str, list[int]] = {}
+        for j, t in enumerate(key):
+            where.setdefault(t, []).append(j)
+
+        def sink(term: str, column: np.ndarray) -> None:
+            for j in where[term]:
+                X[:, j] = column[order]
+
+        self._evaluate(list(key), sink=sink)
+        n_folds = int(folds.max()) + 1 if len(folds) else 0
+        bounds = np.searchsorted(sample_fold[order], np.arange(n_folds + 1))
+        keys = self.key[order]
+        starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]]) if len(keys) else keys
+        self._plan = _FoldPlan(
+            key=key,
+            folds=folds.copy(),
+            order=order,
+            X=X,
+            bounds=bounds,
+            starts=starts,
+            seg_win=keys[starts],
+            means=self.columns(list(key)),
+            y=self.power,
+            w=self.weights,
+        )
+        return self._plan
 
     def _identifiable(self, key: tuple, X, w, table, folds) -> np.ndarray:
         """:func:`~energy_planner.calibration.fit.identifiable_by_fold`, cached by key."""

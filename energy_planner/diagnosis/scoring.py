@@ -473,6 +473,9 @@ class _Context:
         self.base_ok = np.all(np.isfinite(self.x), axis=1) & np.isfinite(self.y)
         self.w = self.wd.weights
         self.runs = self.wd.runs
+        # the runs as integers in the order of their names: the run tests group by them
+        # (the same groups, in the same order, without sorting strings every candidate)
+        self.run_codes = np.unique(self.runs, return_inverse=True)[1].reshape(-1)
         ok = self.base_ok
         self.base_err = np.full(len(self.y), np.nan)
         self.base_err[ok] = self.wd.heldout(self.terms, self.folds, ok).residuals
@@ -516,7 +519,7 @@ class _Context:
         if z is None:
             return "the term cannot be evaluated on these logs"
         ok = self.base_ok & np.isfinite(z)
-        if ok.sum() < 3 or len(np.unique(self.runs[ok])) < 2:
+        if ok.sum() < 3 or len(np.unique(self.run_codes[ok])) < 2:
             return "too few windows with a finite value"
         zz = z[ok]
         if np.ptp(zz) == 0 and zz[0] == 0:
@@ -546,7 +549,7 @@ class _Context:
         sup = self.inside[ok]  # the scores: over the supported windows
         before = float(np.sqrt(np.mean(e0[sup] ** 2)))
         after = float(np.sqrt(np.mean(e1[sup] ** 2)))
-        t, p, n_runs = paired_run_test(e0[sup], e1[sup], self.runs[ok][sup])
+        t, p, n_runs = paired_run_test(e0[sup], e1[sup], self.run_codes[ok][sup])
         explained = 1.0 - (after / before) ** 2 if before > 0 else 0.0
         coef = math.nan  # filled in for the suspects reported (see rank_suspects)
         if plus is None:
@@ -593,7 +596,7 @@ class _Context:
                 ej = self.errors[terms[j]][ok]
                 there = (folds == f) & np.isfinite(ej)
                 e1[there] = ej[there]
-        e0, e1, runs = e0[sup], e1[sup], self.runs[ok][sup]
+        e0, e1, runs = e0[sup], e1[sup], self.run_codes[ok][sup]
         z, p, n = paired_run_test(e0, e1, runs)
         return ChoiceTest(
             chosen=[terms[j] if j >= 0 else None for j in pick],
@@ -719,7 +722,7 @@ class _Context:
         for s in picked:
             eb = self.errors[s.term]
             ok = np.isfinite(ea) & np.isfinite(eb) & self.inside
-            t_ab, _, n = paired_run_test(eb[ok], ea[ok], self.runs[ok])  # > 0: A better
+            t_ab, _, n = paired_run_test(eb[ok], ea[ok], self.run_codes[ok])  # > 0: A better
             crit = float(-ndtri(self.th.confound_alpha / 2))
             if not (abs(t_ab) < crit):
                 continue

@@ -257,6 +257,29 @@ def heldout(
         raise FitError(
             f"fit_columns has shape {cols.shape}, expected ({n_folds}, {k}): folds x terms"
         )
+    coef = _fold_coef(Xr, yr, folds, w, cols)
+    # every sample by its row's fold's coefficients
+    # one matrix-vector product per fold: a threaded BLAS spends far longer starting its
+    # threads on this thin product (m x k by k x n_folds) than computing it when the
+    # cores are busy (12 ms against 0.5 ms at a load of 4 on 2 cores)
+    by_fold = np.empty((m, n_folds))
+    for f in range(n_folds):
+        by_fold[:, f] = X @ coef[f]
+    pred_s = np.take_along_axis(by_fold, folds[rows][:, None], axis=1)[:, 0] + off
+    if floor is not None:
+        pred_s = np.maximum(pred_s, floor)
+    pred = _row_means(pred_s[:, None], rows, n)[:, 0]
+    return HeldOut(pred, y - pred, folds, coef, pred_s)
+
+
+def _fold_coef(
+    Xr: np.ndarray, yr: np.ndarray, folds: np.ndarray, w: np.ndarray, cols: np.ndarray
+) -> np.ndarray:
+    """Each fold's coefficients from the other folds' rows (:func:`heldout`'s fit).
+
+    ``cols`` (``(n_folds, k)``, boolean) are the columns each fold fits; the others get 0.
+    """
+    n_folds, k = cols.shape
     sw, Xs, scale = _scaled(Xr, w)
     yw = yr * sw
     g, r = Xs.T @ Xs, Xs.T @ yw
@@ -274,18 +297,52 @@ def heldout(
     rs[off_f] = 0.0
     coef = solve_min_norm(gs, rs, hermitian=True) / scale
     coef[off_f] = 0.0
-    # every sample by its row's fold's coefficients
-    # one matrix-vector product per fold: a threaded BLAS spends far longer starting its
-    # threads on this thin product (m x k by k x n_folds) than computing it when the
-    # cores are busy (12 ms against 0.5 ms at a load of 4 on 2 cores)
-    by_fold = np.empty((m, n_folds))
-    for f in range(n_folds):
-        by_fold[:, f] = X @ coef[f]
-    pred_s = np.take_along_axis(by_fold, folds[rows][:, None], axis=1)[:, 0] + off
-    if floor is not None:
-        pred_s = np.maximum(pred_s, floor)
-    pred = _row_means(pred_s[:, None], rows, n)[:, 0]
-    return HeldOut(pred, y - pred, folds, coef, pred_s)
+    return coef
+
+
+class _FoldFit:
+    """:func:`_fold_coef` of a model's columns bordered with a few more, many times over.
+
+    The model's statistics (its columns scaled to unit weighted norm, their Gram matrix
+    and moments, in total and per fold) are made once; each call adds the extra columns'
+    rows and columns (each column is scaled alone, as :func:`_scaled` scales it) and
+    solves the folds' systems as :func:`_fold_coef` does: the same coefficients, to
+    rounding. The diagnosis scores hundreds of candidates on one model this way.
+    """
+
+    def __init__(self, Xr: np.ndarray, yr: np.ndarray, folds: np.ndarray, w: np.ndarray):
+        self.n_folds = int(folds.max()) + 1 if len(folds) else 0
+        self.w = w
+        self.sw, self.Xs, self.scale = _scaled(Xr, w)
+        self.yw = yr * self.sw
+        self.test = [folds == f for f in range(self.n_folds)]
+        g, r = self.Xs.T @ self.Xs, self.Xs.T @ self.yw
+        self.xt = [self.Xs[te] for te in self.test]
+        self.g = np.array([g - x.T @ x for x in self.xt]).reshape(self.n_folds, *g.shape)
+        self.r = np.array([r - x.T @ self.yw[te] for x, te in zip(self.xt, self.test, strict=True)])
+        self.r = self.r.reshape(self.n_folds, len(r))
+
+    def coef(self, Zr: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Each fold's coefficients of ``[Xr, Zr]``, fitting ``cols`` (``(n_folds, k + e)``)."""
+        k, e = self.Xs.shape[1], Zr.shape[1]
+        _, Zs, zscale = _scaled(Zr, self.w)
+        gxz, gzz, rz = self.Xs.T @ Zs, Zs.T @ Zs, Zs.T @ self.yw
+        gs, rs = np.empty((self.n_folds, k + e, k + e)), np.empty((self.n_folds, k + e))
+        gs[:, :k, :k] = self.g
+        rs[:, :k] = self.r
+        for f, (x, te) in enumerate(zip(self.xt, self.test, strict=True)):
+            zt = Zs[te]
+            gs[f, :k, k:] = gxz - x.T @ zt
+            gs[f, k:, :k] = gs[f, :k, k:].T
+            gs[f, k:, k:] = gzz - zt.T @ zt
+            rs[f, k:] = rz - zt.T @ self.yw[te]
+        off_f = ~cols
+        gs[off_f] = 0.0
+        gs.transpose(0, 2, 1)[off_f] = 0.0
+        rs[off_f] = 0.0
+        coef = solve_min_norm(gs, rs, hermitian=True) / np.r_[self.scale, zscale]
+        coef[off_f] = 0.0
+        return coef
 
 
 def choice_by_fold(
@@ -363,23 +420,114 @@ def choice_by_fold(
     w = _weights(w, n)
     scored = np.ones(n, dtype=bool) if scored is None else np.asarray(scored, dtype=bool)
     n_folds = int(folds.max()) + 1 if n else 0
+    gains = _choice_gains(X, Z, y, folds, w, scored, n_folds)
     best = np.full(n_folds, -1, dtype=np.int64)
     gain = np.zeros(n_folds)
-    base: dict[bytes, np.ndarray] = {}
-    for j in range(Z.shape[1]):
-        ok = np.isfinite(Z[:, j])
-        if ok.sum() <= k + 1:
+    for j, g in enumerate(gains):  # the first of equal gains, as candidate by candidate
+        if np.isnan(g).all():  # too few finite rows: not scored
             continue
-        A = np.column_stack([X[ok], Z[ok, j]])
-        stats = _fold_stats(A, y[ok], w[ok], folds[ok], n_folds, scored[ok])
-        key = ok.tobytes()
-        if key not in base:  # the model without the candidate, on the same rows
-            base[key] = _inner_sse(stats, k, n_folds)
-        sse0, sse1 = base[key], _inner_sse(stats, k + 1, n_folds)
-        g = np.where(sse0 > 0, 1.0 - sse1 / np.where(sse0 > 0, sse0, 1.0), 0.0)
         better = g > gain
         best[better], gain[better] = j, g[better]
     return best
+
+
+def _choice_gains(X, Z, y, folds, w, scored, n_folds) -> np.ndarray:
+    """Each candidate's relative gain in each outer fold (:func:`choice_by_fold`).
+
+    Shape ``(m, n_folds)``; NaN for a candidate with too few finite rows. Candidates
+    with the same finite rows share the model's statistics on them (the model's columns,
+    fitted once), and are bordered with their own column side by side
+    (:func:`_bordered_gains`).
+    """
+    k, m = X.shape[1], Z.shape[1]
+    gains = np.full((m, n_folds), np.nan)
+    fin = np.isfinite(Z)
+    groups: dict[bytes, list[int]] = {}
+    for j in range(m):
+        if fin[:, j].sum() > k + 1:
+            groups.setdefault(fin[:, j].tobytes(), []).append(j)
+    for cols in groups.values():
+        ok = fin[:, cols[0]]
+        for i in range(0, len(cols), CHOICE_CHUNK):
+            part = cols[i : i + CHOICE_CHUNK]
+            gains[part] = _bordered_gains(
+                X[ok], Z[ok][:, part], y[ok], w[ok], folds[ok], n_folds, scored[ok]
+            )
+    return gains
+
+
+#: Candidates :func:`choice_by_fold` borders at once (bounds the stacked systems:
+#: ``CHOICE_CHUNK * n_folds * (n_folds - 1)`` of them, each ``(k + 1) x (k + 1)``).
+CHOICE_CHUNK = 64
+
+
+def _bordered_gains(X, Z, y, w, folds, n_folds, scored):
+    """:func:`choice_by_fold`'s relative gain of each column of ``Z`` in each outer fold.
+
+    The same as scoring ``[X, Z[:, j]]`` by :func:`_fold_stats` and :func:`_inner_sse`,
+    candidate by candidate: the statistics of ``X`` (scaled to unit weighted norm on these
+    rows) are made once, each candidate adds its own row and column to them (its column
+    scaled alone, as :func:`_scaled` scales every column alone), and the inner systems
+    of every candidate and pair of folds are solved in one :func:`solve_min_norm`.
+    """
+    n, k = X.shape
+    c = Z.shape[1]
+    stats = _fold_stats(X, y, w, folds, n_folds, scored)
+    sse0 = _inner_sse(stats, k, n_folds)
+    _, _, xscale = _scaled(X, w)
+    _, _, zscale = _scaled(Z, w)
+    Xs, Zs = X / xscale, Z / zscale  # unit weighted norm, unweighted rows
+    # per fold: the border of the weighted Gram (fits) and of the plain one (errors)
+    gw, gs = np.empty((n_folds, k, c)), np.empty((n_folds, k, c))
+    cw, cs = np.empty((c, n_folds)), np.empty((c, n_folds))
+    rwz, rsz = np.empty((c, n_folds)), np.empty((c, n_folds))
+    for f in range(n_folds):
+        te = folds == f
+        a, z, yy = Xs[te], Zs[te], y[te]
+        zw = z * w[te][:, None]
+        gw[f], cw[:, f], rwz[:, f] = a.T @ zw, np.einsum("nc,nc->c", zw, z), yy @ zw
+        sc = scored[te]
+        a_s, z_s, y_s = a[sc], z[sc], yy[sc]
+        gs[f], cs[:, f], rsz[:, f] = a_s.T @ z_s, np.einsum("nc,nc->c", z_s, z_s), y_s @ z_s
+    GW = np.array([s[0] for s in stats])  # (F, k, k)
+    RW = np.array([s[1] for s in stats])
+    GS = np.array([s[2] for s in stats])
+    RS = np.array([s[3] for s in stats])
+    Q = np.array([s[4] for s in stats])
+    pairs = [(f, g) for f in range(n_folds) for g in range(n_folds) if g != f and stats[g][5] > 0]
+    out = np.zeros((c, n_folds))
+    if not pairs:
+        return _gain(sse0, out)
+    fi, gi = np.array(pairs).T
+    p = len(pairs)
+    # the training systems of every (candidate, pair): totals minus the two folds
+    A = np.empty((c, p, k + 1, k + 1))
+    b = np.empty((c, p, k + 1))
+    A[:, :, :k, :k] = (GW.sum(axis=0) - GW[fi] - GW[gi])[None]
+    border = gw.sum(axis=0)[None] - gw[fi] - gw[gi]  # (p, k, c)
+    A[:, :, :k, k] = border.transpose(2, 0, 1)
+    A[:, :, k, :k] = border.transpose(2, 0, 1)
+    A[:, :, k, k] = cw.sum(axis=1)[:, None] - cw[:, fi] - cw[:, gi]
+    b[:, :, :k] = (RW.sum(axis=0) - RW[fi] - RW[gi])[None]
+    b[:, :, k] = rwz.sum(axis=1)[:, None] - rwz[:, fi] - rwz[:, gi]
+    beta = solve_min_norm(A, b, hermitian=True)  # (c, p, k + 1)
+    # each pair's error on its test fold g: y.y - 2 b.r + b.G b
+    bx, bz = beta[..., :k], beta[..., k]
+    r_dot = np.einsum("cpi,pi->cp", bx, RS[gi]) + bz * rsz[:, gi]
+    quad = (
+        np.einsum("cpi,pij,cpj->cp", bx, GS[gi], bx)
+        + 2.0 * bz * np.einsum("cpi,pic->cp", bx, gs[gi])
+        + bz**2 * cs[:, gi]
+    )
+    err = Q[gi][None] - 2.0 * r_dot + quad
+    for q, f in enumerate(fi):  # summed in the order of the loop it replaces
+        out[:, f] += err[:, q]
+    return _gain(sse0, out)
+
+
+def _gain(sse0: np.ndarray, sse1: np.ndarray) -> np.ndarray:
+    """Relative reduction ``1 - sse1 / sse0`` per outer fold (0 where ``sse0`` is 0)."""
+    return np.where(sse0 > 0, 1.0 - sse1 / np.where(sse0 > 0, sse0, 1.0), 0.0)
 
 
 def _fold_stats(A, y, w, folds, n_folds, scored=None):
@@ -513,9 +661,9 @@ def paired_run_test(e0: np.ndarray, e1: np.ndarray, runs: np.ndarray) -> tuple[f
     d = d[np.abs(d) > 1e-12 * max(scale, 1e-300)]  # zero differences carry no sign
     if d.size < 2:
         return math.nan, 1.0, n
-    _, z, p = signed_rank_test(d, "greater", "asymptotic")
+    # one call: the statistic z is the standardised one whatever the method
+    exact = d.size <= EXACT_MAX_RUNS and np.unique(np.abs(d)).size == d.size
+    _, z, p = signed_rank_test(d, "greater", "exact" if exact else "asymptotic")
     if not math.isfinite(z):
         return math.nan, 1.0, n
-    if d.size <= EXACT_MAX_RUNS and np.unique(np.abs(d)).size == d.size:
-        p = signed_rank_test(d, "greater", "exact")[2]
     return z, p, n

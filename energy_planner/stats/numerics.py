@@ -202,6 +202,15 @@ def wls_coef(
     return np.linalg.lstsq(Xs.T @ Xs, Xs.T @ (y * sw), rcond=1e-12)[0] / scale
 
 
+#: A symmetric system of :func:`solve_min_norm` whose smallest eigenvalue is certified above
+#: this share of its trace (so of its largest eigenvalue: condition number below 1e6) is
+#: solved by LU instead of the eigendecomposition: every eigenvalue is far above the
+#: minimum-norm cut-off, so both give ``A^-1 b``, to within ``1e6 * eps`` of each other
+#: (an 18 x 18 eigendecomposition costs ten solves). The certificate: the Cholesky
+#: factorization of ``A - CERTIFIED * trace(A) * I`` exists.
+CERTIFIED = 1e-6
+
+
 def solve_min_norm(
     A: np.ndarray, b: np.ndarray, rcond: float = 1e-12, *, hermitian: bool = False
 ) -> np.ndarray:
@@ -224,7 +233,9 @@ def solve_min_norm(
         Relative cut-off of the singular values.
     hermitian : bool
         ``A`` is symmetric (normal equations): an eigendecomposition stands in for the
-        SVD (the singular values are the absolute eigenvalues), about twice as fast.
+        SVD (the singular values are the absolute eigenvalues), about twice as fast; and a
+        system certified well-conditioned (:data:`CERTIFIED`, its zero rows and columns
+        aside) is solved by LU, ten times faster, to the same solution.
 
     Returns
     -------
@@ -245,17 +256,114 @@ def solve_min_norm(
     if A.shape[-1] == 0:
         return np.zeros(A.shape[:-2] + (0,))
     if hermitian:
-        ev, v = np.linalg.eigh(A)
-        sv = np.abs(ev)
-        keep = sv > rcond * sv.max(axis=-1, keepdims=True)
-        inv = np.where(keep, 1.0 / np.where(keep, ev, 1.0), 0.0)
-        vb = np.einsum("...ji,...j->...i", v, b)
-        return np.einsum("...ij,...j->...i", v, inv * vb)
+        k = A.shape[-1]
+        shape = A.shape[:-2]
+        A2, b2 = A.reshape(-1, k, k), b.reshape(-1, k)
+        if CERTIFIED <= rcond:  # the certificate would not keep clear of the cut-off
+            return _solve_eigh(A2, b2, rcond).reshape(*shape, k)
+        zero = _zero_lines(A2)
+        M = _padded(A2, zero)
+        fast = _certified(M)
+        x = np.empty(b2.shape)
+        if fast.all():
+            x = _solve_padded(M, b2, zero)
+        elif fast.any():
+            x[fast] = _solve_padded(M[fast], b2[fast], zero[fast])
+        slow = ~fast
+        if slow.any():
+            x[slow] = _solve_eigh(A2[slow], b2[slow], rcond)
+        return x.reshape(*shape, k)
     u, sv, vt = np.linalg.svd(A, full_matrices=False)
     keep = sv > rcond * sv[..., :1]
     inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
     ub = np.einsum("...ji,...j->...i", u, b)
     return np.einsum("...ji,...j->...i", vt, inv * ub)
+
+
+def _solve_eigh(A: np.ndarray, b: np.ndarray, rcond: float) -> np.ndarray:
+    """Minimum-norm solutions of symmetric systems from their eigendecompositions."""
+    ev, v = np.linalg.eigh(A)
+    sv = np.abs(ev)
+    keep = sv > rcond * sv.max(axis=-1, keepdims=True)
+    inv = np.where(keep, 1.0 / np.where(keep, ev, 1.0), 0.0)
+    vb = np.einsum("...ji,...j->...i", v, b)
+    return np.einsum("...ij,...j->...i", v, inv * vb)
+
+
+def _zero_lines(A: np.ndarray) -> np.ndarray:
+    """``(n, k)``: the rows (and columns: ``A`` is symmetric) of each system that are 0."""
+    return ~np.any(A != 0.0, axis=-1)
+
+
+def _padded(A: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """``A`` with a zero line's diagonal set to the trace: decoupled, well-conditioned."""
+    M = A.copy()
+    if zero.any():
+        i, j = np.nonzero(zero)
+        M[i, j, j] = np.trace(A, axis1=-2, axis2=-1)[i]
+    return M
+
+
+def _certified(M: np.ndarray) -> np.ndarray:
+    """Which symmetric systems (:func:`_padded`) :func:`_solve_padded` solves as the eigh path.
+
+    The part of a system off its zero lines must have its smallest eigenvalue above
+    :data:`CERTIFIED` times its trace (its largest eigenvalue at most): the Cholesky
+    factorization of ``M`` minus so much of the identity exists (a zero line, padded
+    with the trace, is decoupled and far above the shift). Then no eigenvalue is near the
+    cut-off, and the minimum-norm solution is ``A^-1 b`` there, 0 on the zero lines.
+    """
+    n, k = M.shape[0], M.shape[-1]
+    tr = np.trace(M, axis1=-2, axis2=-1)
+    ok = (tr > 0) & np.isfinite(tr) & np.isfinite(M).all(axis=(-2, -1))
+    S = M.copy()
+    d = np.einsum("nii->ni", S)  # a view: the diagonals, shifted in place
+    d -= (CERTIFIED * np.where(ok, tr, 0.0))[:, None]
+    S[~ok] = np.eye(k)  # left to the eigh path (not certified)
+    try:
+        np.linalg.cholesky(S)
+        return ok
+    except np.linalg.LinAlgError:
+        pass
+    if n > 32:  # many systems: factorize them side by side, column by column
+        return _cholesky_exists(S) & ok
+    # a few: tell the ones that fail by halves
+    out = np.zeros(n, dtype=bool)
+    todo = [np.arange(n)]
+    while todo:
+        idx = todo.pop()
+        try:
+            np.linalg.cholesky(S[idx])
+            out[idx] = True
+        except np.linalg.LinAlgError:
+            if len(idx) > 1:
+                h = len(idx) // 2
+                todo += [idx[:h], idx[h:]]
+    return out & ok
+
+
+def _cholesky_exists(S: np.ndarray) -> np.ndarray:
+    """Whether each symmetric matrix of the stack ``S`` has a Cholesky factorization."""
+    n, k = S.shape[0], S.shape[-1]
+    L = np.zeros_like(S)
+    ok = np.ones(n, dtype=bool)
+    for j in range(k):
+        row = L[:, j, :j]
+        d = S[:, j, j] - np.einsum("ni,ni->n", row, row)
+        ok &= d > 0
+        ljj = np.sqrt(np.where(d > 0, d, 1.0))
+        L[:, j, j] = ljj
+        if j + 1 < k:
+            below = S[:, j + 1 :, j] - np.einsum("nri,ni->nr", L[:, j + 1 :, :j], row)
+            L[:, j + 1 :, j] = below / ljj[:, None]
+    return ok
+
+
+def _solve_padded(M: np.ndarray, b: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """``A^-1 b`` off the zero lines, 0 on them, from the padded systems ``M``."""
+    x = np.linalg.solve(M, np.where(zero, 0.0, b)[..., None])[..., 0]
+    x[zero] = 0.0
+    return x
 
 
 def cluster_stderr(

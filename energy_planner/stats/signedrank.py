@@ -18,6 +18,7 @@ against scipy on random, tied and zero differences) from ``scipy.special`` and n
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -43,8 +44,12 @@ def _ranks(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return r, counts
 
 
+@functools.lru_cache(maxsize=64)
 def _null_counts(n: int) -> np.ndarray:
-    """Probabilities of ``r_plus = 0 .. n (n + 1) / 2`` under the null (no ties, no zeros)."""
+    """Probabilities of ``r_plus = 0 .. n (n + 1) / 2`` under the null (no ties, no zeros).
+
+    Cached (read-only): the diagnosis tests hundreds of candidates on the same runs.
+    """
     c = np.ones(1)
     for k in range(1, n + 1):
         prev = c
@@ -52,6 +57,7 @@ def _null_counts(n: int) -> np.ndarray:
         m = len(prev)
         c[:m] = prev * 0.5
         c[-m:] += prev * 0.5
+    c.flags.writeable = False
     return c
 
 
