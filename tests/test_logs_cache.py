@@ -330,3 +330,16 @@ def test_a_prepare_that_warns_is_done_again_and_warns_again(folder, hits):
             prepare_logs(s)
     assert hits == [None, None]
     assert _entries("prepare") == []
+
+
+def test_an_entry_past_the_cap_or_unpicklable_is_not_kept_and_leaves_nothing(folder, monkeypatch):
+    """Streamed to its file: refused at the cap, with no partial entry or temporary file."""
+    big = np.arange(200_000, dtype=float)  # 1.6 MB pickled
+    monkeypatch.setattr(stored, "MAX_ENTRY_BYTES", 1 << 20)
+    assert not stored.keep("test", "big", big)
+    assert stored.read("test", "big") is None
+    assert stored.keep("test", "small", big[:1000])
+    np.testing.assert_array_equal(stored.read("test", "small"), big[:1000])
+    assert not stored.keep("test", "lambda", lambda: 0)  # cannot be pickled
+    left = sorted(p.name for p in stored.folder().iterdir())
+    assert left == ["test_small.pkl"], left

@@ -72,6 +72,8 @@ ENV_SWITCH = "ENERGY_PLANNER_LOG_CACHE"
 #: First bytes of an entry (the format's version).
 MAGIC = b"energy_planner-logs-1\n"
 _DIGEST = 32
+#: Bytes hashed at a time when an entry is read.
+_CHUNK = 1 << 20
 
 
 def enabled() -> bool:
@@ -177,27 +179,60 @@ def _entry(kind: str, key: str) -> Path:
 
 
 def read(kind: str, key: str | None) -> Any:
-    """The object kept as entry ``key`` of ``kind``; None when missing or unreadable."""
+    """The object kept as entry ``key`` of ``kind``; None when missing or unreadable.
+
+    The entry's digest is checked by chunks and the object is unpickled from the file:
+    no copy of the entry's bytes is held beside the object it becomes.
+    """
     if key is None or not enabled():
         return None
+    n = len(MAGIC)
     try:
         path = _entry(kind, key)
-        data = path.read_bytes()
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size - n - _DIGEST
+            if size < 0 or f.read(n) != MAGIC:
+                return None
+            h = hashlib.blake2b(digest_size=_DIGEST)
+            left = size
+            while left > 0:
+                chunk = f.read(min(left, _CHUNK))
+                if not chunk:
+                    return None
+                h.update(chunk)
+                left -= len(chunk)
+            if h.digest() != f.read(_DIGEST):
+                return None
+            f.seek(n)
+            try:
+                obj = pickle.load(f)
+            except Exception:  # noqa: BLE001 - an entry of another build: computed afresh
+                return None
     except (OSError, RuntimeError, KeyError):  # no entry, no home folder
-        return None
-    n = len(MAGIC)
-    if len(data) < n + _DIGEST or not data.startswith(MAGIC):
-        return None
-    body = memoryview(data)[n:-_DIGEST]
-    if hashlib.blake2b(body, digest_size=_DIGEST).digest() != data[-_DIGEST:]:
-        return None
-    try:
-        obj = pickle.loads(body)
-    except Exception:  # noqa: BLE001 - an entry of another build: computed afresh
         return None
     with contextlib.suppress(OSError):
         os.utime(path)  # recently used: kept by the pruning
     return obj
+
+
+class _TooBig(Exception):
+    """An entry past :data:`MAX_ENTRY_BYTES`: not kept."""
+
+
+class _Sink:
+    """A file that hashes what is written to it and refuses more than ``limit`` bytes."""
+
+    def __init__(self, f: Any, limit: int) -> None:
+        self.f, self.limit, self.n = f, limit, 0
+        self.h = hashlib.blake2b(digest_size=_DIGEST)
+
+    def write(self, b: Any) -> int:
+        m = memoryview(b)
+        self.n += m.nbytes
+        if self.n > self.limit:
+            raise _TooBig
+        self.h.update(m)
+        return self.f.write(m)
 
 
 def keep(kind: str, key: str | None, obj: Any) -> bool:
@@ -210,19 +245,19 @@ def keep(kind: str, key: str | None, obj: Any) -> bool:
     from energy_planner.io.atomic import atomic_path
 
     try:
-        body = pickle.dumps(obj, protocol=5)
-    except Exception:  # noqa: BLE001 - an object that cannot be pickled is not kept
-        return False
-    if len(body) > MAX_ENTRY_BYTES:
-        return False
-    try:
         path = _entry(kind, key)
         with atomic_path(path) as tmp, open(tmp, "wb") as f:
             f.write(MAGIC)
-            f.write(body)
-            f.write(hashlib.blake2b(body, digest_size=_DIGEST).digest())
+            sink = _Sink(f, MAX_ENTRY_BYTES)
+            # streamed: the pickle's bytes are never all in memory beside the object
+            pickle.dump(obj, sink, protocol=5)
+            f.write(sink.h.digest())
         _prune(path.parent)
+    except _TooBig:
+        return False
     except (OSError, RuntimeError, KeyError):  # OutputError is an OSError
+        return False
+    except Exception:  # noqa: BLE001 - an object that cannot be pickled is not kept
         return False
     return True
 
