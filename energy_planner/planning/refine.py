@@ -184,6 +184,10 @@ MERGE_SPEED_RTOL = 0.01
 MERGE_MIN_RUN = 16
 
 
+#: Rounds over which :func:`refine_path` averages its gain to decide it has converged.
+CALM_WINDOW = 10
+
+
 #: Shortcut prices a refinement keeps (``memo`` of :func:`_shortcut_pass`): beyond this
 #: many, the memo starts again.
 MEMO_SIZE = 500_000
@@ -319,7 +323,13 @@ def refine_path(
         Candidates per pose and round.
     tol : float
         Converged after five rounds in a row with a relative gain below ``tol`` and
-        a step size below a fiftieth of ``spacing``.
+        a step size below a fiftieth of ``spacing``, or when the last
+        :data:`CALM_WINDOW` rounds together gained less than ``CALM_WINDOW * tol``
+        (relative): less than ``tol`` a round on average. The step size tells on a long
+        path (most of its poses stop accepting moves, the step shrinks); on a short one
+        a single accepted move in a round keeps the step (one pose in a few is a high
+        acceptance rate), so the step rarely shrinks that far while the rounds gain
+        little.
     report : callable, optional
         ``report(energy)`` after each round.
 
@@ -353,6 +363,7 @@ def refine_path(
     memo: dict | None = {} if ranged else None
     rounds = 0
     calm = 0
+    totals = [total]  # the energy before round 1, then after each round
     converged = False
     if report is not None:
         report(total)
@@ -432,9 +443,15 @@ def refine_path(
             report(min(total, total0))
         gain = (before - total) / max(abs(before), 1e-12)
         calm = calm + 1 if gain < tol else 0
+        totals.append(total)
         if calm >= 5 and sig_xy < 0.02 * spacing:
             converged = True
             break
+        if len(totals) > CALM_WINDOW:
+            ref = totals[-CALM_WINDOW - 1]
+            if (ref - total) / max(abs(ref), 1e-12) < CALM_WINDOW * tol:
+                converged = True
+                break
     if not total < total0:  # never return something dearer than the input
         return states.copy(), {"rounds": rounds, "evaluations": evals, "converged": converged}
     return s, {"rounds": rounds, "evaluations": evals, "converged": converged}
