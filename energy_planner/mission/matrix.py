@@ -61,7 +61,7 @@ window, are lower), over the same float32 prices, so the entries are those of a 
 pass that prices everything. On the README's mission (``--dem hill --sites hill_sites``)
 the first window is refused (the pairs' ellipses reach the map's edges) and the second
 pass expands the same 58,893 states: with the copied edges it prices none of them, and
-the matrix takes 2.7 CPU s instead of 4.6.
+the matrix takes 2.2 CPU s instead of 4.1 (``benchmarks/bench_mission_passes.py``).
 
 **dask.** The relaxed table (by strips of rows), the per-site heuristics and then the
 per-site searches are independent tasks:
