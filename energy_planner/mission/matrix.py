@@ -511,15 +511,17 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
         from energy_planner.progress import track
 
         cost, grid = _setup(terrain, model, request, *args)
+        cache = search.edge_cache(grid) if lazy else None
+        if carry:  # (the previous pass's cache freed before the heuristics' arrays)
+            old = carry.pop("pass")
+            carried = 0 if cache is None else _carry_cache(*old, grid, cache)
+            del old
         if _relaxed_fits(grid):  # the relaxed edges priced once for every site's Dijkstra
             heur = relaxed_heuristics(grid, relaxed_table(cost, grid), uxy)
         else:
             heur = search.target_heuristics(cost, grid, uxy)
         t1 = time.perf_counter()
         edges = search.edge_table(cost, grid) if use_edges else None
-        cache = search.edge_cache(grid) if lazy else None
-        if cache is not None and carry:
-            carried = _carry_cache(*carry.pop("pass"), grid, cache)
         t_edges = time.perf_counter() - t1
         rows = []
         for i in track(range(n), "matrix searches", progress or False, unit="site"):
