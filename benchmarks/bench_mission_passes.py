@@ -18,6 +18,9 @@ Measured (2026-11-30, ``--repeat 3``, 2 cores shared with other jobs, load 3.5-4
     README mission          117786      1954008 / 977004           4.08 / 2.22   1.84     0.0
     plane with a wall        22837       382950 / 194634           0.67 / 0.38   1.79     0.0
 
+Run again at load 3.4: 3.62 / 2.28 (1.59) and 0.77 / 0.44 (1.74); the edges priced
+and the matrices do not change from run to run.
+
 On the README's mission the second pass prices no edge at all (its searches expand only
 states the first pass priced inside the first window); what is left of it is the
 heuristics over the grown window and the heap.
