@@ -99,8 +99,9 @@ def fit_layout(fig: Any, **tight_kw: Any) -> Any:
 
     ``Figure.tight_layout`` leaves a placeholder layout engine on the figure, and
     ``savefig`` draws a figure with any layout engine twice (a pass without rendering,
-    then the image). Laid out here, the figure keeps its subplot parameters and is drawn
-    once when saved.
+    then the image). Laid out here (the tight layout engine run once, without a ``rect``
+    as ``tight_layout`` runs it: one pass), the figure gets the same subplot parameters,
+    has no engine and is drawn once when saved.
 
     Parameters
     ----------
@@ -122,6 +123,7 @@ def fit_layout(fig: Any, **tight_kw: Any) -> Any:
     """
     from matplotlib.layout_engine import TightLayoutEngine
 
+    tight_kw.setdefault("rect", None)  # as tight_layout: the engine's (0, 0, 1, 1) measures twice
     TightLayoutEngine(**tight_kw).execute(fig)
     return fig
 
