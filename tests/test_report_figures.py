@@ -19,7 +19,6 @@ from PIL import Image
 
 from energy_planner.calibration.figures import plot_superposition
 from energy_planner.diagnosis import report
-from energy_planner.io import save_figure
 from energy_planner.plotting import fit_layout, new_figure
 
 #: Long names: a layout that ignored the tick labels would cut them at the left edge.
@@ -150,27 +149,3 @@ def test_new_figure_is_subplots_without_pyplot():
     fig, axes = new_figure(2, 3, figsize=(6, 4), squeeze=False, sharey=True)
     assert axes.shape == (2, 3) and list(fig.get_size_inches()) == [6.0, 4.0]
     assert axes[0, 1].get_shared_y_axes().joined(axes[0, 1], axes[1, 2])
-
-
-def test_save_figure_draws_a_tight_layout_figure_once_and_writes_what_savefig_writes(tmp_path):
-    """The maps of plan, reach, energy-map... are laid out by ``tight_layout`` and written
-    by ``save_figure``: the same PNG as ``savefig``'s, from one draw instead of two."""
-
-    def figure():
-        fig, ax = new_figure(figsize=(4, 3))
-        ax.scatter(np.arange(50), np.sin(np.arange(50)), s=8, alpha=0.5)
-        ax.set_yticks([-1, 0, 1], NAMES)
-        fig.tight_layout()
-        return fig
-
-    ours, theirs = figure(), figure()
-    draws: dict[str, int] = {"ours": 0, "theirs": 0}
-    for key, fig in (("ours", ours), ("theirs", theirs)):
-        fig.canvas.mpl_connect("draw_event", lambda _, k=key: draws.__setitem__(k, draws[k] + 1))
-    engine = ours.get_layout_engine()
-    save_figure(ours, tmp_path / "ours.png", dpi=90)
-    theirs.savefig(tmp_path / "theirs.png", dpi=90)
-    assert draws == {"ours": 1, "theirs": 2}
-    assert ours.get_layout_engine() is engine  # the figure is left as it was
-    a, b = (np.asarray(Image.open(tmp_path / f"{k}.png")) for k in ("ours", "theirs"))
-    assert a.shape == b.shape == (270, 360, 4) and np.array_equal(a, b)

@@ -1027,12 +1027,6 @@ def write_json(
 def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Path:
     """``fig.savefig`` to ``dest`` atomically (the format from ``dest``'s suffix).
 
-    A figure laid out by ``fig.tight_layout()`` is drawn once: ``tight_layout`` leaves a
-    placeholder layout engine (one that does nothing) on the figure, and ``savefig``
-    draws a figure with any layout engine twice (a pass without rendering for the
-    layout, then the image). The placeholder is set aside while saving and put back, so
-    the file is the same and the figure as it was.
-
     Parameters
     ----------
     fig : matplotlib.figure.Figure
@@ -1044,30 +1038,9 @@ def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Pa
     -------
     pathlib.Path
     """
-    with atomic_path(dest) as tmp, _without_placeholder_layout(fig):
+    with atomic_path(dest) as tmp:
         fig.savefig(tmp, **savefig_kw)
     return Path(dest)
-
-
-@contextlib.contextmanager
-def _without_placeholder_layout(fig: Any) -> Iterator[None]:
-    """``fig`` without the do-nothing layout engine ``tight_layout`` leaves, then with it."""
-    from matplotlib.layout_engine import PlaceHolderLayoutEngine
-
-    engine = fig.get_layout_engine()
-    if not isinstance(engine, PlaceHolderLayoutEngine):
-        yield
-        return
-    import matplotlib
-
-    with matplotlib.rc_context(
-        {"figure.autolayout": False, "figure.constrained_layout.use": False}
-    ):
-        fig.set_layout_engine(None)  # None under these settings: no engine at all
-    try:
-        yield
-    finally:
-        fig.set_layout_engine(engine)
 
 
 def content_id(obj: Any) -> str:
