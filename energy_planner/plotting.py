@@ -18,6 +18,11 @@ was given:
 
 Each drawn layer gets a legend entry. The artists carry their ``gid`` so that tests and
 callers can find them.
+
+The report and calibration figures (``diagnose --report``, ``discover --report``,
+``figures``) are made with :func:`new_figure` and laid out with :func:`fit_layout`:
+figures of their own, drawn by Agg, that neither import pyplot nor switch the caller's
+backend, laid out once so that saving them draws them once.
 """
 
 from __future__ import annotations
@@ -32,6 +37,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "new_figure",
+    "fit_layout",
     "MapFrame",
     "crs_label",
     "degree_aspect",
@@ -47,6 +54,78 @@ __all__ = [
 KEEP_OUT_COLOR = "crimson"
 MASK_COLOR = "orangered"
 CHANNEL_COLORS = ("deepskyblue", "magenta", "gold", "lime")
+
+
+def new_figure(nrows: int = 1, ncols: int = 1, **subplots_kw: Any) -> tuple[Any, Any]:
+    """A figure of its own and its axes: ``plt.subplots`` without pyplot.
+
+    The figure is a :class:`matplotlib.figure.Figure` with an Agg canvas: it is not
+    registered with pyplot (no global figure manager, nothing to close, the caller's
+    backend left as it is) and it saves and draws (``fig.savefig``,
+    ``fig.canvas.buffer_rgba()``) on any machine, without a display.
+
+    Parameters
+    ----------
+    nrows, ncols : int
+        The grid of axes.
+    **subplots_kw
+        ``figsize`` and ``dpi`` go to the figure, the rest to
+        :meth:`matplotlib.figure.Figure.subplots` (``squeeze``, ``sharey``,
+        ``gridspec_kw``, ...).
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    axes : matplotlib.axes.Axes or numpy.ndarray of them
+        As :func:`matplotlib.pyplot.subplots` returns them.
+
+    Examples
+    --------
+    >>> fig, (a, b) = new_figure(1, 2, figsize=(4, 2))
+    >>> type(fig.canvas).__name__, fig.get_size_inches().tolist()
+    ('FigureCanvasAgg', [4.0, 2.0])
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig_kw = {k: subplots_kw.pop(k) for k in ("figsize", "dpi") if k in subplots_kw}
+    fig = Figure(**fig_kw)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **subplots_kw)
+
+
+def fit_layout(fig: Any, **tight_kw: Any) -> Any:
+    """Lay ``fig`` out as ``fig.tight_layout()`` does, leaving no layout engine behind.
+
+    ``Figure.tight_layout`` leaves a placeholder layout engine on the figure, and
+    ``savefig`` draws a figure with any layout engine twice (a pass without rendering,
+    then the image). Laid out here (the tight layout engine run once, without a ``rect``
+    as ``tight_layout`` runs it: one pass), the figure gets the same subplot parameters,
+    has no engine and is drawn once when saved.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    **tight_kw
+        ``pad``, ``h_pad``, ``w_pad``, ``rect``, as for ``tight_layout``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``fig``.
+
+    Examples
+    --------
+    >>> fig, ax = new_figure(figsize=(3, 2))
+    >>> default = fig.subplotpars.right
+    >>> fit_layout(fig).get_layout_engine() is None, bool(fig.subplotpars.right > default)
+    (True, True)
+    """
+    from matplotlib.layout_engine import TightLayoutEngine
+
+    tight_kw.setdefault("rect", None)  # as tight_layout: the engine's (0, 0, 1, 1) measures twice
+    TightLayoutEngine(**tight_kw).execute(fig)
+    return fig
 
 
 def crs_label(crs: Any) -> str:

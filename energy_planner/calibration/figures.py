@@ -27,6 +27,7 @@ import pandas as pd
 from energy_planner.errors import EnergyPlannerError, LogError
 from energy_planner.model import EnergyModel
 from energy_planner.model.formula import MOTION_FEATURES
+from energy_planner.plotting import fit_layout, new_figure
 
 __all__ = [
     "model_curve",
@@ -40,15 +41,6 @@ __all__ = [
 ]
 
 _FWD_COLOR, _LAT_COLOR = "tab:red", "tab:blue"
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def model_curve(
@@ -123,14 +115,13 @@ def _scatter_windows(ax: Any, pts: pd.DataFrame, color: Any, label: str, **kw: A
 
 
 def _save(fig: Any, path: str | Path) -> None:
-    """Lay out, write (:func:`energy_planner.io.save_figure`, 110 dpi) and close ``fig``."""
-    import matplotlib.pyplot as plt
+    """Lay out (once: :func:`energy_planner.plotting.fit_layout`) and write ``fig``.
 
+    Written by :func:`energy_planner.io.save_figure` at 110 dpi.
+    """
     from energy_planner.io import save_figure
 
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    save_figure(fit_layout(fig), path, dpi=110)
 
 
 def plot_force_slope(
@@ -159,13 +150,12 @@ def plot_force_slope(
         Points per panel and motion (level windows appear in both panels), and the
         median force (N) and slope (deg) of the sloped windows per panel and motion.
     """
-    plt = _pyplot()
     fwd = estimates[estimates["kind"] == "forward"]
     lat = estimates[estimates["kind"] == "lateral"]
     speed = _cruise(pd.concat([fwd["rate"], lat["rate"]]), 0.3)
     amax = max(float(estimates["alpha_deg"].max()) if len(estimates) else 0.0, 5.0) + 2.0
     grid = np.radians(np.linspace(0.0, amax, 60))
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.3), sharey=True)
+    fig, axes = new_figure(1, 2, figsize=(11, 4.3), sharey=True)
     summary: dict[str, Any] = {"speed_m_s": speed}
     for ax, direction in zip(axes, ("uphill", "downhill"), strict=True):
         for df, label, color, climb_gamma in (
@@ -227,10 +217,9 @@ def plot_yaw_torque(
     dict
         Number of turn windows, median torque (N m) and the median yaw rate (rad/s).
     """
-    plt = _pyplot()
     turns = estimates[estimates["kind"] == "turning"]
     rate = _cruise(turns["rate"], 0.5)
-    fig, ax = plt.subplots(figsize=(6.5, 4.3))
+    fig, ax = new_figure(figsize=(6.5, 4.3))
     for motion, color in (("turn_left", "tab:purple"), ("turn_right", "tab:orange")):
         pts = turns[turns["motion"] == motion]
         _scatter_windows(ax, pts, color, f"{motion.replace('_', ' ')} windows (n={len(pts)})",
@@ -357,8 +346,7 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     dict
         Number of composites and the mean absolute relative differences.
     """
-    plt = _pyplot()
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5), gridspec_kw={"width_ratios": [2.2, 1]})
+    fig, (ax, ax2) = new_figure(1, 2, figsize=(12, 4.5), gridspec_kw={"width_ratios": [2.2, 1]})
     n = len(table)
     x = np.arange(n)
     w = 0.27
@@ -390,11 +378,9 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     ax2.set_ylabel("measured composite energy (J)")
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
-    fig.tight_layout()
     from energy_planner.io import save_figure
 
-    save_figure(fig, path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    save_figure(fit_layout(fig), path, dpi=110, bbox_inches="tight")
     rel_ab = table["rel_ab"].to_numpy(float)
     rel_c = table["rel_c"].to_numpy(float)
     return {
@@ -512,10 +498,9 @@ def plot_speed_cost(
         sorted(table[GAIT_CHANNEL].dropna().astype(str).unique()) if GAIT_CHANNEL in table else []
     )
     color = {g: _GAIT_COLORS[i % len(_GAIT_COLORS)] for i, g in enumerate(gaits)}
-    plt = _pyplot()
     ncol = min(3, len(panels))
     nrow = -(-len(panels) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
+    fig, axes = new_figure(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
     speed = table["speed"].to_numpy(float)
     cost = table["power"].to_numpy(float) / np.where(speed > 0, speed, np.nan)
     out = []

@@ -17,6 +17,7 @@ import numpy as np
 
 from energy_planner.diagnosis.core import Diagnosis
 from energy_planner.diagnosis.suspects import RUN_TEST_NAME
+from energy_planner.plotting import fit_layout, new_figure
 
 _CSS = """
 body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}
@@ -32,12 +33,9 @@ code{background:#f5f5f5;padding:0 3px}
 
 
 def _png(fig) -> str:
-    """Encode a matplotlib figure as an ``<img>`` tag with a base64 PNG, and close it."""
-    import matplotlib.pyplot as plt
-
+    """Encode a matplotlib figure as an ``<img>`` tag with a base64 PNG."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80)  # layout set by each plot (tight_layout)
-    plt.close(fig)
+    fig.savefig(buf, format="png", dpi=80)  # laid out by each plot (fit_layout): one draw
     data = base64.b64encode(buf.getvalue()).decode("ascii")
     return f'<img alt="plot" src="data:image/png;base64,{data}">'
 
@@ -74,12 +72,7 @@ def _table(rows: Sequence[dict], cols: Sequence[tuple[str, str]], hot=None) -> s
 
 def plot_predicted_vs_measured(d: Diagnosis):
     """Scatter of window mean power, predicted against measured, by motion type."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5.5, 5))
+    fig, ax = new_figure(figsize=(5.5, 5))
     y, p = d.data.power, d.predicted
     motion = d.data.table.get("motion")
     groups = ["all"] if motion is None else sorted(map(str, set(motion.dropna())))
@@ -94,17 +87,11 @@ def plot_predicted_vs_measured(d: Diagnosis):
     ax.set_ylabel("predicted window power (W)")
     ax.set_title(f"RMSE {d.metrics['rmse_w']:.1f} W, R$^2$ {d.metrics['r2']:.3f}")
     ax.legend(fontsize=7, markerscale=1.5)
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def plot_residuals(d: Diagnosis):
     """Window residual (measured - predicted) against every variable."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     t = d.data.table
     r = d.residual
     variables = [c for c in ("alpha_deg", "gamma_deg", "speed", "wz") if c in t.columns]
@@ -113,7 +100,7 @@ def plot_residuals(d: Diagnosis):
     n = len(variables) + len(cats)
     ncol = 3
     nrow = max(1, math.ceil(n / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(12, 3.0 * nrow), squeeze=False)
+    fig, axes = new_figure(nrow, ncol, figsize=(12, 3.0 * nrow), squeeze=False)
     for ax, col in zip(axes.flat, variables, strict=False):
         ax.scatter(t[col].to_numpy(float), r, s=5, alpha=0.5)
         ax.axhline(0, color="k", lw=0.8)
@@ -131,19 +118,13 @@ def plot_residuals(d: Diagnosis):
         ax.set_ylabel("residual (W)")
     for ax in axes.flat[n:]:
         ax.set_visible(False)
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def plot_runs(d: Diagnosis):
     """Per-run energy: relative error of the prediction, and predicted against measured."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     runs = d.runs
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4))
+    fig, (a1, a2) = new_figure(1, 2, figsize=(12, 4))
     m = runs["measured_j"].to_numpy(float)
     p = runs["predicted_j"].to_numpy(float)
     a1.scatter(m, p, s=10)
@@ -158,18 +139,12 @@ def plot_runs(d: Diagnosis):
     a2.axhline(0, color="k", lw=0.8)
     a2.set_xlabel("runs, sorted by error")
     a2.set_ylabel("energy error, % of measured")
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def plot_staircase(d: Diagnosis):
     """Held-out RMSE as the best suspects are added one by one."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 3.8))
+    fig, ax = new_figure(figsize=(7, 3.8))
     steps = d.steps
     rows = [
         {"name": s.name, "heldout_rmse_w": s.heldout_rmse_w, "fold_rmse_w": s.fold_rmse_w}
@@ -177,8 +152,7 @@ def plot_staircase(d: Diagnosis):
     ]
     _rmse_bars(ax, rows, "model as given", "pooled held-out RMSE", "held-out RMSE (W)", 20)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def _rmse_bars(ax, rows: Sequence[dict], first: str, label: str, ylabel: str, rotation: float):
@@ -203,14 +177,9 @@ def _rmse_bars(ax, rows: Sequence[dict], first: str, label: str, ylabel: str, ro
 
 def plot_suspects(d: Diagnosis, top: int = 12):
     """Fraction of the held-out error each candidate explains (above-noise ones in red)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     r = d.ranking
     rows = [] if r is None else (r.suspects + r.below_noise)[:top]
-    fig, ax = plt.subplots(figsize=(7, 0.35 * max(len(rows), 3) + 1))
+    fig, ax = new_figure(figsize=(7, 0.35 * max(len(rows), 3) + 1))
     names = [s.name for s in rows][::-1]
     vals = [s.error_explained for s in rows][::-1]
     colors = ["C3" if s.above_noise else "C7" for s in rows][::-1]
@@ -219,8 +188,7 @@ def plot_suspects(d: Diagnosis, top: int = 12):
     ax.set_xlabel("error_explained (fraction of held-out MSE removed)")
     ax.set_title("candidates, best first (red: above noise, grey: below)", fontsize=9)
     ax.axvline(0, color="k", lw=0.8)
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
@@ -395,12 +363,7 @@ def plot_discovery(table: Sequence[dict]):
     Held-out power RMSE (bars) and run-energy error (median and 90th percentile, lines)
     after each step.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 4.2))
+    fig, ax = new_figure(figsize=(8, 4.2))
     x = _rmse_bars(
         ax, table, "base model", "held-out power RMSE (W)", "held-out power RMSE (W)", 15
     )
@@ -415,8 +378,7 @@ def plot_discovery(table: Sequence[dict]):
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right")
     ax.set_title("discovery staircase (every number held out by run)", fontsize=10)
-    fig.tight_layout()
-    return fig
+    return fit_layout(fig)
 
 
 def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> str:

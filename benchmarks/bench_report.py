@@ -1,0 +1,123 @@
+"""CPU time of the report figures: this tree's against another revision's, side by side.
+
+Rows, each the median CPU seconds (``time.process_time``, this process) of one call:
+
+- ``diagnose --report`` page: :func:`energy_planner.diagnosis.report.render_html` of the
+  diagnosis of a small simulated campaign (``simulate --small --effect load``, the
+  bundled default model, the ``diagnose`` pipeline with the data repairs): its five
+  figures drawn and PNG-encoded, and its tables;
+- ``discover --report`` staircase: :func:`~energy_planner.diagnosis.report.plot_discovery`
+  of that diagnosis' staircase, encoded as the page embeds it.
+
+A is this tree; B is ``energy_planner/diagnosis/report.py`` of revision ``--baseline``
+(``git show``), loaded beside it and run on the same diagnosis. The rows run in rounds,
+A then B in each, so both see the same machine however its load drifts; the first round
+warms up. The table gives both medians and the median of the
+pairwise ratios A/B. The report pages are compared too: the same HTML (``same``).
+
+Usage::
+
+    python benchmarks/bench_report.py [--rounds 7] [--baseline 45c2c81]
+
+Measured 2026-11-30 on the shared 2-core machine, other jobs running (load average 3.1
+at the start, 4.2 at the end), A the figures made outside pyplot and laid out once
+(``new_figure``, ``fit_layout``: no layout engine left, one draw when saved), B main at
+45c2c81 (``tight_layout``, then ``savefig`` drawing every figure twice), run in the
+branch's worktree with ``PYTHONPATH=$PWD``::
+
+    python benchmarks/bench_report.py --rounds 9 --baseline 45c2c81
+
+    B = 45c2c81; 9 rounds; report HTML the same: True
+    row                                        A cpu   B cpu    A/B
+    diagnose --report page                     2.996   3.298   0.84
+    discover --report staircase                0.318   0.409   0.81
+
+The pages are byte-identical: the same subplot parameters, one draw instead of two.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import time
+import types
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _old_module(rev: str, path: str, name: str) -> types.ModuleType:
+    """``path`` of revision ``rev`` as a module of its own (its imports from this tree)."""
+    src = subprocess.run(
+        ["git", "-C", str(ROOT), "show", f"{rev}:{path}"], capture_output=True, text=True,
+        check=True,
+    ).stdout  # fmt: skip
+    mod = types.ModuleType(name)
+    mod.__file__ = f"{rev}:{path}"
+    exec(compile(src, mod.__file__, "exec"), mod.__dict__)
+    return mod
+
+
+def _diagnosis():
+    """The diagnosis ``diagnose CAMP --report`` renders, CAMP ``simulate --small --effect load``."""
+    from energy_planner.calibration import prepare_logs
+    from energy_planner.diagnosis import diagnose
+    from energy_planner.model import EnergyModel
+    from energy_planner.simulate import CampaignConfig, simulate_campaign
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camp = simulate_campaign(seed=0, effects=("load",), config=CampaignConfig.small())
+        prepared = prepare_logs(camp.logs)
+        return diagnose(EnergyModel.default(), prepared, runs_meta=camp.runs)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--baseline", default="main", help="git revision of B (default: main)")
+    args = ap.parse_args()
+
+    from energy_planner.diagnosis import report
+
+    old = _old_module(args.baseline, "energy_planner/diagnosis/report.py", "old_report")
+    d = _diagnosis()
+    table = [
+        {"name": s.name, "heldout_rmse_w": s.heldout_rmse_w, "fold_rmse_w": s.fold_rmse_w,
+         "run_energy_error_median": 0.05, "run_energy_error_p90": 0.1}
+        for s in d.steps
+    ]  # fmt: skip
+    rows = {
+        "diagnose --report page": (
+            lambda: report.render_html(d),
+            lambda: old.render_html(d),
+        ),
+        "discover --report staircase": (
+            lambda: report._png(report.plot_discovery(table)),
+            lambda: old._png(old.plot_discovery(table)),
+        ),
+    }
+    same = report.render_html(d) == old.render_html(d)
+    times: dict[str, tuple[list[float], list[float]]] = {k: ([], []) for k in rows}
+    for r in range(args.rounds + 1):
+        for key, (a, b) in rows.items():
+            ta = time.process_time()
+            a()
+            ta = time.process_time() - ta
+            tb = time.process_time()
+            b()
+            tb = time.process_time() - tb
+            if r:  # the first round warms up
+                times[key][0].append(ta)
+                times[key][1].append(tb)
+    print(f"B = {args.baseline}; {args.rounds} rounds; report HTML the same: {same}")
+    print(f"{'row':40s} {'A cpu':>7s} {'B cpu':>7s} {'A/B':>6s}")
+    for key, (a, b) in times.items():
+        ratio = statistics.median(x / y for x, y in zip(a, b, strict=True))
+        print(f"{key:40s} {statistics.median(a):7.3f} {statistics.median(b):7.3f} {ratio:6.2f}")
+
+
+if __name__ == "__main__":
+    main()

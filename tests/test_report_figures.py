@@ -1,0 +1,151 @@
+"""The report figures (``diagnose --report``, ``discover --report``, ``figures``).
+
+They are figures of their own (:func:`energy_planner.plotting.new_figure`: no pyplot
+figure left open, the backend left as it was), laid out once
+(:func:`energy_planner.plotting.fit_layout`, the same subplot parameters as matplotlib's
+``tight_layout``), so that saving one draws it once, with every label inside the image.
+"""
+
+from __future__ import annotations
+
+import io
+from types import SimpleNamespace
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+from PIL import Image
+
+from energy_planner.calibration.figures import plot_superposition
+from energy_planner.diagnosis import report
+from energy_planner.plotting import fit_layout, new_figure
+
+#: Long names: a layout that ignored the tick labels would cut them at the left edge.
+NAMES = ["load_kg * speed * sin(alpha)", "grass_height_m * abs(vx)", "motor_temp * pos(vx)"]
+
+
+@pytest.fixture(scope="module")
+def diag():
+    """What the report's plots read of a ``Diagnosis``: 120 windows of 12 runs, two
+    numeric and one categorical extra channel, three staircase steps, six candidates."""
+    rng = np.random.default_rng(0)
+    n = 120
+    table = pd.DataFrame(
+        {
+            "alpha_deg": rng.uniform(-20, 20, n),
+            "gamma_deg": rng.uniform(-180, 180, n),
+            "speed": rng.uniform(0, 0.6, n),
+            "wz": rng.normal(0, 0.3, n),
+            "motion": rng.choice(["forward", "lateral", "turn_left"], n),
+            "load_kg": rng.uniform(0, 10, n),
+            "motor_temp": rng.uniform(20, 60, n),
+            "ground": rng.choice(["grass", "gravel", "asphalt"], n),
+        }
+    )
+    power = rng.uniform(100, 400, n)
+    predicted = power + rng.normal(0, 15, n)
+    runs = pd.DataFrame(
+        {"measured_j": rng.uniform(1e3, 5e3, 12), "predicted_j": rng.uniform(1e3, 5e3, 12)}
+    )
+    runs["error_rel"] = runs["predicted_j"] / runs["measured_j"] - 1
+    steps = [
+        SimpleNamespace(name=name, heldout_rmse_w=rmse, fold_rmse_w=[rmse - 2, rmse + 3])
+        for name, rmse in zip(["base", *NAMES[:2]], [30.0, 18.0, 15.0], strict=True)
+    ]
+    cands = [
+        SimpleNamespace(name=f"{name} ({i})", error_explained=0.4 / (i + 1), above_noise=i < 2)
+        for i, name in enumerate(NAMES * 2)
+    ]
+    discovery = [
+        {"name": s.name, "heldout_rmse_w": s.heldout_rmse_w, "fold_rmse_w": s.fold_rmse_w,
+         "run_energy_error_median": 0.05 / (i + 1), "run_energy_error_p90": 0.1 / (i + 1)}
+        for i, s in enumerate(steps)
+    ]  # fmt: skip
+    return SimpleNamespace(
+        data=SimpleNamespace(
+            table=table,
+            power=power,
+            numeric_extras=["load_kg", "motor_temp"],
+            categorical_extras=["ground"],
+        ),
+        predicted=predicted,
+        residual=power - predicted,
+        metrics={"rmse_w": 15.0, "r2": 0.9},
+        runs=runs,
+        steps=steps,
+        ranking=SimpleNamespace(suspects=cands[:2], below_noise=cands[2:]),
+        discovery=discovery,
+    )
+
+
+PLOTS = {
+    "predicted_vs_measured": report.plot_predicted_vs_measured,
+    "residuals": report.plot_residuals,
+    "runs": report.plot_runs,
+    "staircase": report.plot_staircase,
+    "suspects": report.plot_suspects,
+    "discovery": lambda d: report.plot_discovery(d.discovery),
+}
+
+
+@pytest.mark.parametrize("name", PLOTS)
+def test_a_report_figure_is_drawn_once_with_every_label_inside(diag, name):
+    fig = PLOTS[name](diag)
+    draws = []
+    fig.canvas.mpl_connect("draw_event", draws.append)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=80)
+    assert len(draws) == 1  # laid out before: no pass without rendering first
+    # the image is the figure at 80 dpi, and every axes with its labels is inside it
+    width, height = Image.open(buf).size
+    assert (width, height) == tuple(np.round(fig.get_size_inches() * 80).astype(int))
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        if ax.get_visible():
+            box = ax.get_tightbbox(renderer)
+            assert box.x0 >= -1 and box.y0 >= -1, (name, ax.get_xlabel(), box)
+            assert box.x1 <= fig.bbox.x1 + 1 and box.y1 <= fig.bbox.y1 + 1, (name, box)
+
+
+def test_fit_layout_gives_the_subplot_parameters_of_tight_layout():
+    def figure():
+        fig = matplotlib.figure.Figure(figsize=(7, 3))
+        axes = fig.subplots(1, 2)
+        axes[0].barh(range(3), [1, 2, 3])
+        axes[0].set_yticks(range(3), NAMES)
+        axes[1].set_xlabel("speed (m/s)")
+        axes[1].set_title("a title")
+        return fig
+
+    tight, fitted = figure(), figure()
+    tight.tight_layout()
+    fit_layout(fitted)
+    assert vars(fitted.subplotpars) == vars(tight.subplotpars)
+    assert vars(fitted.subplotpars) != vars(figure().subplotpars)  # it did move them
+    assert fitted.get_layout_engine() is None
+
+
+def test_the_figures_leave_pyplot_and_its_backend_alone(diag, tmp_path):
+    import matplotlib.pyplot as plt
+
+    open_before, backend = plt.get_fignums(), matplotlib.get_backend()
+    figs = [plot(diag) for plot in PLOTS.values()]
+    table = pd.DataFrame(
+        {"composite": ["AB1", "AB2"], "A": [100.0, 120.0], "B": [80.0, 90.0],
+         "AB": [185.0, 205.0], "C": [190.0, 230.0]}
+    )  # fmt: skip
+    table["sum_ab"] = table["A"] + table["B"]
+    table["rel_ab"] = table["AB"] / table["sum_ab"] - 1
+    table["rel_c"] = table["C"] / table["sum_ab"] - 1
+    plot_superposition(table, tmp_path / "superposition.png")
+    assert plt.get_fignums() == open_before
+    assert matplotlib.get_backend() == backend
+    assert all(type(f.canvas).__name__ == "FigureCanvasAgg" for f in figs)
+    assert Image.open(tmp_path / "superposition.png").size[0] > 500
+
+
+def test_new_figure_is_subplots_without_pyplot():
+    fig, axes = new_figure(2, 3, figsize=(6, 4), squeeze=False, sharey=True)
+    assert axes.shape == (2, 3) and list(fig.get_size_inches()) == [6.0, 4.0]
+    assert axes[0, 1].get_shared_y_axes().joined(axes[0, 1], axes[1, 2])
