@@ -406,21 +406,36 @@ _ENERGY_SCORES: OrderedDict[tuple, EnergyScore] = OrderedDict()
 _ENERGY_LOCK = threading.Lock()
 
 
-def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> tuple:
-    """What :func:`energy_score` depends on, as a dictionary key.
+def _samples_digest(samples: pd.DataFrame) -> tuple[str, str, str]:
+    """The samples as a key: their columns, their index and a digest of their values.
 
-    The samples' columns, types, index and values (a digest of pandas' per-row hashes,
-    which read each number's bits), the window and the terms.
+    The columns' names, types and categories; the index's type, dtype and length; a
+    SHA-1 of pandas' per-row hashes (which read each number's bits). The one digest of
+    samples of :func:`energy_score` (in memory) and :func:`prepare_logs` (cache folder).
+
+    Raises
+    ------
+    TypeError, ValueError
+        A column pandas cannot hash.
     """
     import hashlib
 
     rows = pd.util.hash_pandas_object(samples).to_numpy()
     kinds = tuple(
-        (str(c), str(d), tuple(map(str, getattr(d, "categories", ()))))
+        (repr(c), str(d), tuple(map(repr, getattr(d, "categories", ()))))
         for c, d in samples.dtypes.items()
     )
+    index = f"{type(samples.index).__name__}:{samples.index.dtype}:{len(samples)}"
+    return repr(kinds), index, hashlib.sha1(rows.tobytes()).hexdigest()
+
+
+def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> tuple:
+    """What :func:`energy_score` depends on, as a dictionary key.
+
+    The samples (:func:`_samples_digest`), the window and the terms.
+    """
     names = None if terms is None else tuple(str(getattr(t, "formula", t)) for t in terms)
-    return (kinds, len(samples), hashlib.sha1(rows.tobytes()).hexdigest(), float(window), names)
+    return (*_samples_digest(samples), float(window), names)
 
 
 def _energy_score(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> EnergyScore:
@@ -655,13 +670,10 @@ def _prepare_key(
 ) -> str | None:
     """The cache key of :func:`prepare_logs` (None: not kept).
 
-    The samples' columns (names, types, categories), index type, length and content
-    (SHA-1 of pandas' per-row hashes of the values and the index) and every argument.
-    Not kept: with a ``terrain`` (the result holds the map itself), or ``guard_terms``
-    other than formulas (text).
+    The samples (:func:`_samples_digest`) and every argument. Not kept: with a
+    ``terrain`` (the result holds the map itself), or ``guard_terms`` other than
+    formulas (text).
     """
-    import hashlib
-
     from energy_planner.measurements import stored
 
     if not stored.enabled() or terrain is not None or not isinstance(samples, pd.DataFrame):
@@ -669,17 +681,13 @@ def _prepare_key(
     if guard_terms is not None and not all(isinstance(t, str) for t in guard_terms):
         return None
     try:
-        rows = pd.util.hash_pandas_object(samples).to_numpy()
-        kinds = [
-            (repr(c), str(d), tuple(map(repr, getattr(d, "categories", ()))))
-            for c, d in samples.dtypes.items()
-        ]
+        columns, index, values = _samples_digest(samples)
     except (TypeError, ValueError):  # values pandas cannot hash
         return None
     parts = [
-        repr(kinds),
-        f"{type(samples.index).__name__}:{samples.index.dtype}:{len(samples)}",
-        hashlib.sha1(rows.tobytes()).hexdigest(),
+        columns,
+        index,
+        values,
         repr((type(window).__name__, window, repair, guard)),
         repr(None if guard_terms is None else tuple(guard_terms)),
     ]
