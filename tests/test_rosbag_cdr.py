@@ -1,8 +1,9 @@
-"""ROS 2 bags written many messages at a time: the same bytes as rosbags' own serializer.
+"""ROS bags written many messages at a time: the same bytes as rosbags' own serializers.
 
 ``write_rosbag`` fills numpy copies of a template message (``measurements._cdr``) instead
 of building and serializing every message. The reference is rosbags'
-``Typestore.serialize_cdr`` applied to each message as built one by one
+``Typestore.serialize_cdr`` (ROS 2) or ``serialize_ros1`` applied to each message as
+built one by one
 (``rosbag._write_messages``), over random values: NaN, infinities, signed zeros, float32
 rounding and overflow, times beyond the int32 seconds of a ROS stamp, numeric and text
 extras, logs longer than one block.
@@ -48,9 +49,10 @@ class Recorder:
         self.out.append((conn, ns, bytes(data)))
 
 
+@pytest.mark.parametrize("version", [2, 1])
 @settings(max_examples=50, deadline=None)
 @given(data=st.data())
-def test_blocks_write_the_bytes_of_messages_serialized_one_by_one(data):
+def test_blocks_write_the_bytes_of_messages_serialized_one_by_one(version, data):
     n = data.draw(st.integers(1, 30), label="n")
     col = {
         c: data.draw(hnp.arrays(np.float64, n, elements=ANY_FLOAT), label=c)
@@ -73,12 +75,12 @@ def test_blocks_write_the_bytes_of_messages_serialized_one_by_one(data):
     text = data.draw(st.lists(st.text(max_size=12), min_size=n, max_size=n), label="text")
     xconn = [("num", True, numeric), ("txt", False, text)]
     conn = {"imu": "i", "odom": "o", "battery": "b"}
-    ts = typestore(2)
+    ts = typestore(version)
     per_message, blocks = Recorder(), Recorder()
-    layouts = rosbag._cdr_layouts()
+    layouts = rosbag._layouts(version)
     with mock.patch.object(rosbag, "_BLOCK", 7):  # several blocks, one partial
         try:
-            rosbag._write_messages(per_message, ts, False, conn, xconn, col, stamps)
+            rosbag._write_messages(per_message, ts, version == 1, conn, xconn, col, stamps)
         except (struct.error, OverflowError):
             # a stamp beyond int32 seconds or a value beyond float32: write_rosbag does
             # not use the blocks, the per-message path raises as it does here
@@ -86,10 +88,10 @@ def test_blocks_write_the_bytes_of_messages_serialized_one_by_one(data):
             return
         except ValueError:  # math.sin of an infinite yaw: the same error
             with pytest.raises(ValueError, match="math domain"):
-                rosbag._write_cdr_blocks(blocks, ts, layouts, conn, xconn, col, stamps)
+                rosbag._write_blocks(blocks, ts, layouts, conn, xconn, col, stamps)
             return
         assert rosbag._fits_layouts(col, stamps)
-        rosbag._write_cdr_blocks(blocks, ts, layouts, conn, xconn, col, stamps)
+        rosbag._write_blocks(blocks, ts, layouts, conn, xconn, col, stamps)
     assert len(blocks.out) == 5 * n
     assert blocks.out == per_message.out
 
@@ -120,16 +122,19 @@ def sample_table(n=50, seed=3):
     )
 
 
-def test_bag_files_are_those_of_the_per_message_path(tmp_path):
+@pytest.mark.parametrize("version", [2, 1])
+def test_bag_files_are_those_of_the_per_message_path(tmp_path, version):
     df = sample_table()
-    blocks, messages = tmp_path / "blocks" / "bag", tmp_path / "messages" / "bag"
+    name = "bag.bag" if version == 1 else "bag"
+    blocks, messages = tmp_path / "blocks" / name, tmp_path / "messages" / name
     blocks.parent.mkdir()
     messages.parent.mkdir()
-    write_rosbag(df, blocks)
-    with mock.patch.object(rosbag, "_cdr_layouts", lambda: None):
-        write_rosbag(df, messages)
-    for name in ("bag.mcap", "metadata.yaml"):
-        assert (blocks / name).read_bytes() == (messages / name).read_bytes()
+    write_rosbag(df, blocks, version=version)
+    with mock.patch.object(rosbag, "_layouts", lambda version: None):
+        write_rosbag(df, messages, version=version)
+    files = [""] if version == 1 else ["bag.mcap", "metadata.yaml"]
+    for f in files:
+        assert (blocks / f).read_bytes() == (messages / f).read_bytes()
     back = load_rosbag(blocks)
     pd.testing.assert_frame_equal(back, load_rosbag(messages))
     np.testing.assert_array_equal(back["vx"], df["vx"])
@@ -154,7 +159,13 @@ def test_layout_refuses_fields_that_are_not_fixed_numbers():
 
 
 def test_layout_offsets_put_each_value_at_its_place():
-    # Float64: 4-byte CDR header (little endian) then the double at payload offset 0
+    # Float64 in CDR: 4-byte header (little endian) then the double at payload offset 0;
+    # in ROS 1 the double alone
+    ts1 = typestore(1)
+    lay = FixedLayout(
+        ts1, "std_msgs/msg/Float64", ts1.types["std_msgs/msg/Float64"](data=0.0), ["data"], True
+    )
+    assert lay.serialize({"data": np.array([3.0])}) == [struct.pack("<d", 3.0)]
     ts = typestore(2)
     lay = FixedLayout(
         ts, "std_msgs/msg/Float64", ts.types["std_msgs/msg/Float64"](data=0.0), ["data"]

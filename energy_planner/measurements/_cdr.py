@@ -1,12 +1,13 @@
-"""Serialize many ROS 2 messages of one fixed layout at once (CDR, little endian).
+"""Serialize many ROS messages of one fixed layout at once (ROS 2 CDR or ROS 1).
 
 A robot log writes the same message types thousands of times with the same frame ids
 and empty arrays: every message has the same size and only a few numeric fields
 change. :class:`FixedLayout` serializes a template message once with the typestore's
-own serializer (``Typestore.serialize_cdr``), finds the byte offsets of the varying
-fields from the type's field definitions, and fills those fields for all messages
-with one numpy assignment each. The bytes are the ones ``serialize_cdr`` gives for
-each message (checked when the layout is built, and by tests over random values).
+own serializer (``Typestore.serialize_cdr`` or ``serialize_ros1``), finds the byte
+offsets of the varying fields from the type's field definitions, and fills those
+fields for all messages with one numpy assignment each. The bytes are the ones the
+typestore gives for each message (checked when the layout is built, and by tests over
+random values).
 """
 
 from __future__ import annotations
@@ -35,30 +36,34 @@ _PRIMITIVES: dict[str, tuple[int, str]] = {
     "float32": (4, "<f4"),
     "float64": (8, "<f8"),
 }
-#: Size of the CDR encapsulation header before the payload.
-_HEADER = 4
+#: Size of the CDR encapsulation header before the payload (ROS 1 has none).
+_CDR_HEADER = 4
 
 
 class NotFixedLayout(ValueError):
     """The message type has parts whose size varies, or the layout check failed."""
 
 
-def _align(pos: int, size: int) -> int:
-    return (pos + size - 1) // size * size
+def _walk(ts: Any, msgtype: str, msg: Any, pos: int, prefix: str, out: dict, ros1: bool) -> int:
+    """Payload offset after ``msg``; leaf fields' ``(offset, numpy type)`` into ``out``.
 
+    CDR aligns each primitive to its size and ends strings with a NUL; ROS 1 does
+    neither.
+    """
 
-def _walk(ts: Any, msgtype: str, msg: Any, pos: int, prefix: str, out: dict) -> int:
-    """Payload offset after ``msg``; leaf fields' ``(offset, numpy type)`` into ``out``."""
+    def _align(pos: int, size: int) -> int:
+        return pos if ros1 else (pos + size - 1) // size * size
+
     for name, (node, spec) in ts.fielddefs[msgtype][1]:
         value = getattr(msg, name)
         path = prefix + name
         kind = getattr(node, "name", str(node))
         if kind == "NAME":
-            pos = _walk(ts, spec, value, pos, path + ".", out)
+            pos = _walk(ts, spec, value, pos, path + ".", out, ros1)
         elif kind == "BASE":
             typ = spec[0]
             if typ == "string":
-                pos = _align(pos, 4) + 4 + len(value.encode()) + 1
+                pos = _align(pos, 4) + 4 + len(value.encode()) + (0 if ros1 else 1)
             elif typ in _PRIMITIVES:
                 size, np_type = _PRIMITIVES[typ]
                 pos = _align(pos, size)
@@ -94,13 +99,16 @@ class FixedLayout:
     Parameters
     ----------
     ts : rosbags Typestore
-        The typestore (ROS 2) whose ``serialize_cdr`` defines the bytes.
+        The typestore whose ``serialize_cdr`` (``ros1``: ``serialize_ros1``) defines the
+        bytes.
     msgtype : str
         Message type, e.g. ``"sensor_msgs/msg/Imu"``.
     template : message
         An instance holding the constant parts (strings, arrays, constants).
     fields : sequence of str
         Dotted paths of the numeric fields that vary, e.g. ``"header.stamp.sec"``.
+    ros1 : bool
+        ROS 1 serialization (no alignment, no encapsulation header) instead of CDR.
 
     Raises
     ------
@@ -109,15 +117,20 @@ class FixedLayout:
         lay out, or the bytes of a probe message differ from ``serialize_cdr``'s.
     """
 
-    def __init__(self, ts: Any, msgtype: str, template: Any, fields: Sequence[str]) -> None:
+    def __init__(
+        self, ts: Any, msgtype: str, template: Any, fields: Sequence[str], ros1: bool = False
+    ) -> None:
         self.msgtype = msgtype
-        raw = ts.serialize_cdr(template, msgtype)
+        #: The typestore's serializer of one message (``serialize_cdr``/``serialize_ros1``).
+        self.serializer = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+        head = 0 if ros1 else _CDR_HEADER
+        raw = self.serializer(template, msgtype)
         self.template = np.frombuffer(bytes(raw), np.uint8)
         self.size = self.template.size
         leaves: dict[str, tuple[int, str]] = {}
-        end = _walk(ts, msgtype, template, 0, "", leaves)
-        if _HEADER + end != self.size:
-            raise NotFixedLayout(f"{msgtype}: computed size {_HEADER + end} != {self.size}")
+        end = _walk(ts, msgtype, template, 0, "", leaves, ros1)
+        if head + end != self.size:
+            raise NotFixedLayout(f"{msgtype}: computed size {head + end} != {self.size}")
         missing = [f for f in fields if f not in leaves]
         if missing:
             raise NotFixedLayout(f"{msgtype}: not numeric fields {missing}")
@@ -126,13 +139,13 @@ class FixedLayout:
             {
                 "names": [f"f{i}" for i in range(len(fields))],
                 "formats": [leaves[f][1] for f in fields],
-                "offsets": [_HEADER + leaves[f][0] for f in fields],
+                "offsets": [head + leaves[f][0] for f in fields],
                 "itemsize": self.size,
             }
         )
-        self._check(ts, template)
+        self._check(template)
 
-    def _check(self, ts: Any, template: Any) -> None:
+    def _check(self, template: Any) -> None:
         """Probe values through both serializers: the same bytes or :class:`NotFixedLayout`."""
         probe = copy.deepcopy(template)
         values = {}
@@ -141,11 +154,11 @@ class FixedLayout:
             v = kind.type(i % 2 == 0) if kind.kind == "b" else kind.type(i + 1)
             values[f] = np.array([v], kind)
             _set_path(probe, f, v.item())
-        if self.serialize(values)[0] != bytes(ts.serialize_cdr(probe, self.msgtype)):
-            raise NotFixedLayout(f"{self.msgtype}: probe bytes differ from serialize_cdr")
+        if self.serialize(values)[0] != bytes(self.serializer(probe, self.msgtype)):
+            raise NotFixedLayout(f"{self.msgtype}: probe bytes differ from the typestore's")
 
     def serialize(self, values: Mapping[str, Any]) -> list[bytes]:
-        """The CDR bytes of each message (one per row of the value arrays).
+        """The serialized bytes of each message (one per row of the value arrays).
 
         Parameters
         ----------

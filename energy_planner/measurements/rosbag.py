@@ -578,17 +578,18 @@ def _write_one(
             xconn.append(
                 (add(w, EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING), numeric, values)
             )
-        layouts = None if ros1 else _cdr_layouts()
+        layouts = _layouts(version)
         if layouts is not None and _fits_layouts(col, stamps):
-            _write_cdr_blocks(w, ts, layouts, conn, xconn, col, stamps)
+            _write_blocks(w, ts, layouts, conn, xconn, col, stamps)
         else:
             _write_messages(w, ts, ros1, conn, xconn, col, stamps)
 
 
-#: Samples serialized together by :func:`_write_cdr_blocks` (bounds the memory held).
+#: Samples serialized together by :func:`_write_blocks` (bounds the memory held).
 _BLOCK = 4096
 _INT32 = np.iinfo(np.int32)
-#: Varying fields of each message written by :func:`write_rosbag` (ROS 2 layouts).
+#: Varying fields of each message written by :func:`write_rosbag` (ROS 1 headers have
+#: ``header.seq`` too).
 _STAMP = ("header.stamp.sec", "header.stamp.nanosec")
 _FIELDS = {
     "imu": (*_STAMP, "orientation.x", "orientation.y", "orientation.z", "orientation.w",
@@ -601,32 +602,40 @@ _FIELDS = {
 }  # fmt: skip
 
 
-@functools.lru_cache(maxsize=1)
-def _cdr_layouts() -> dict | None:
-    """:class:`FixedLayout` of the ROS 2 Imu, Odometry, BatteryState and Float64 (cached).
+@functools.lru_cache(maxsize=2)
+def _layouts(version: int) -> dict | None:
+    """:class:`FixedLayout` of Imu, Odometry, BatteryState and Float64 (cached).
 
     None when a layout cannot be built (another rosbags' types): messages one by one.
     """
     from energy_planner.measurements._cdr import FixedLayout, NotFixedLayout
 
-    ts = typestore(2)
+    ros1 = version == 1
+    ts = typestore(version)
     T = ts.types
     templates = {
-        "imu": _imu(T, False, 0, 0.0, 0.0, 0.0, 1.0, 0.0),
-        "odom": _odom(T, False, 0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
-        "battery": _battery(T, False, 0, 0.0, 0.0),
+        "imu": _imu(T, ros1, 0, 0.0, 0.0, 0.0, 1.0, 0.0),
+        "odom": _odom(T, ros1, 0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
+        "battery": _battery(T, ros1, 0, 0.0, 0.0),
         "float64": T[_FLOAT64](data=0.0),
     }
     types = {**MSGTYPES, "float64": _FLOAT64}
+    seq = ("header.seq",) if ros1 else ()
     try:
-        return {r: FixedLayout(ts, types[r], m, _FIELDS[r]) for r, m in templates.items()}
+        return {
+            r: FixedLayout(ts, types[r], m, (*seq, *_FIELDS[r]) if r in MSGTYPES else _FIELDS[r],
+                           ros1=ros1)
+            for r, m in templates.items()
+        }  # fmt: skip
     except NotFixedLayout as err:
-        log.debug("ROS 2 messages serialized one by one: %s", err)
+        log.debug("ROS %d messages serialized one by one: %s", version, err)
         return None
 
 
 def _fits_layouts(col: Mapping[str, np.ndarray], stamps: np.ndarray) -> bool:
     """Whether every value fits its field (else the per-message path raises as it did)."""
+    if stamps.size > np.iinfo(np.uint32).max:  # the ROS 1 header.seq
+        return False
     sec = stamps // 1_000_000_000
     if sec.size and (sec.min() < _INT32.min or sec.max() > _INT32.max):
         return False
@@ -637,7 +646,7 @@ def _fits_layouts(col: Mapping[str, np.ndarray], stamps: np.ndarray) -> bool:
     return True
 
 
-def _write_cdr_blocks(w, ts, layouts, conn, xconn, col, stamps) -> None:
+def _write_blocks(w, ts, layouts, conn, xconn, col, stamps) -> None:
     """Serialize ``_BLOCK`` samples of each type at once, then write them in time order."""
     n = stamps.size
     sec = stamps // 1_000_000_000
@@ -650,17 +659,21 @@ def _write_cdr_blocks(w, ts, layouts, conn, xconn, col, stamps) -> None:
         "odom": (sec, nsec, col["x"], col["y"], qz, qw, col["vx"], col["vy"], col["wz"]),
         "battery": (sec, nsec, col["voltage"], -col["current"]),
     }
+    ser = layouts["float64"].serializer  # the typestore's, of the bag's ROS version
     texts = {}
     for _, numeric, values in xconn:
         if not numeric:
             for v in set(values) - texts.keys():
-                texts[v] = bytes(ts.serialize_cdr(ts.types[_STRING](data=v), _STRING))
+                texts[v] = bytes(ser(ts.types[_STRING](data=v), _STRING))
     roles = list(MSGTYPES)
     for a in range(0, n, _BLOCK):
         b = min(a + _BLOCK, n)
         blocks = []
+        seq = np.arange(a, b)
         for r in roles:
             values = {f: x[a:b] for f, x in zip(_FIELDS[r], arrays[r], strict=True)}
+            if "header.seq" in layouts[r].fields:
+                values["header.seq"] = seq
             blocks.append((conn[r], layouts[r].serialize(values)))
         for cn, numeric, values in xconn:
             if numeric:
