@@ -14,9 +14,8 @@ def test_bag_path_and_csv_path_give_the_same_table(tmp_path):
         slopes_deg=(0.0, 15.0), headings_deg=(0.0, 90.0), composite_slopes_deg=()
     )
     camp = simulate_campaign(seed=3, config=cfg)
-    camp.write(tmp_path / "csv")
-    camp.write(tmp_path / "bag", bag=True)
-    from_csv = load_logs([tmp_path / "csv"]).sort_values(["run", "t"]).reset_index(drop=True)
+    camp.write(tmp_path / "bag", bag=True)  # the CSV logs, and their bags under bags/
+    from_csv = load_logs([tmp_path / "bag"]).sort_values(["run", "t"]).reset_index(drop=True)
     from_bag = load_logs([tmp_path / "bag" / "bags"]).sort_values(["run", "t"])
     from_bag = from_bag.reset_index(drop=True)
     assert len(from_bag) == len(from_csv) > 1000

@@ -555,17 +555,13 @@ def _write_one(
     df: pd.DataFrame, path: Path, version: int, tops: Mapping[str, str], extras: bool, storage: str
 ) -> None:
     ts = typestore(version)
-    T = ts.types
     ros1 = version == 1
-    ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     extra_cols = [c for c in df.columns if c not in CANONICAL_COLUMNS] if extras else []
     n = len(df)
     col = {c: df[c].to_numpy(dtype=float) for c in REQUIRED_COLUMNS}
     for c in ("x", "y", "yaw"):
         col[c] = df[c].to_numpy(dtype=float) if c in df.columns else np.zeros(n)
     stamps = np.round(col["t"] * 1e9).astype(np.int64)
-    Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
-    nan = float("nan")
 
     def add(w: Any, topic: str, msgtype: str) -> Any:
         if ros1:
@@ -575,66 +571,195 @@ def _write_one(
 
     with open_writer(path, version, storage) as w:
         conn = {r: add(w, tops[r], MSGTYPES[r]) for r in MSGTYPES}
-        xconn = {}
+        xconn = []
         for c in extra_cols:
             numeric = pd.api.types.is_numeric_dtype(df[c])
             values = df[c].to_numpy(dtype=float) if numeric else df[c].astype(str).tolist()
-            xconn[c] = (
-                add(w, EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING),
-                numeric,
-                values,
+            xconn.append(
+                (add(w, EXTRA_NAMESPACE + c, _FLOAT64 if numeric else _STRING), numeric, values)
             )
-        for i in range(n):
-            ns = int(stamps[i])
-            imu = T["sensor_msgs/msg/Imu"](
-                header=_header(T, ros1, ns, "imu_link", i),
-                orientation=Quat(x=col["qx"][i], y=col["qy"][i], z=col["qz"][i], w=col["qw"][i]),
-                orientation_covariance=np.zeros(9),
-                angular_velocity=Vec(x=0.0, y=0.0, z=col["wz"][i]),
-                angular_velocity_covariance=np.zeros(9),
-                linear_acceleration=Vec(x=0.0, y=0.0, z=0.0),
-                linear_acceleration_covariance=np.full(9, 0.0),
-            )
-            h = 0.5 * col["yaw"][i]
-            odom = T["nav_msgs/msg/Odometry"](
-                header=_header(T, ros1, ns, "odom", i),
-                child_frame_id="base_link",
-                pose=T["geometry_msgs/msg/PoseWithCovariance"](
-                    pose=T["geometry_msgs/msg/Pose"](
-                        position=T["geometry_msgs/msg/Point"](x=col["x"][i], y=col["y"][i], z=0.0),
-                        orientation=Quat(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h)),
-                    ),
-                    covariance=np.zeros(36),
-                ),
-                twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                    twist=T["geometry_msgs/msg/Twist"](
-                        linear=Vec(x=col["vx"][i], y=col["vy"][i], z=0.0),
-                        angular=Vec(x=0.0, y=0.0, z=col["wz"][i]),
-                    ),
-                    covariance=np.zeros(36),
-                ),
-            )
-            bat = T["sensor_msgs/msg/BatteryState"](
-                header=_header(T, ros1, ns, "battery", i),
-                voltage=col["voltage"][i],
-                temperature=nan,
-                current=-col["current"][i],
-                charge=nan,
-                capacity=nan,
-                design_capacity=nan,
-                percentage=nan,
-                power_supply_status=2,
-                power_supply_health=0,
-                power_supply_technology=0,
-                present=True,
-                cell_voltage=np.zeros(0, np.float32),
-                cell_temperature=np.zeros(0, np.float32),
-                location="",
-                serial_number="",
-            )
-            for role, msg in (("imu", imu), ("odom", odom), ("battery", bat)):
-                w.write(conn[role], ns, ser(msg, MSGTYPES[role]))
-            for cn, numeric, values in xconn.values():
-                v = values[i]
-                msg = T[_FLOAT64](data=float(v)) if numeric else T[_STRING](data=v)
-                w.write(cn, ns, ser(msg, _FLOAT64 if numeric else _STRING))
+        layouts = _layouts(version)
+        if layouts is not None and _fits_layouts(col, stamps):
+            _write_blocks(w, ts, layouts, conn, xconn, col, stamps)
+        else:
+            _write_messages(w, ts, ros1, conn, xconn, col, stamps)
+
+
+#: Samples serialized together by :func:`_write_blocks` (bounds the memory held).
+_BLOCK = 4096
+_INT32 = np.iinfo(np.int32)
+#: Varying fields of each message written by :func:`write_rosbag` (ROS 1 headers have
+#: ``header.seq`` too).
+_STAMP = ("header.stamp.sec", "header.stamp.nanosec")
+_FIELDS = {
+    "imu": (*_STAMP, "orientation.x", "orientation.y", "orientation.z", "orientation.w",
+            "angular_velocity.z"),
+    "odom": (*_STAMP, "pose.pose.position.x", "pose.pose.position.y",
+             "pose.pose.orientation.z", "pose.pose.orientation.w", "twist.twist.linear.x",
+             "twist.twist.linear.y", "twist.twist.angular.z"),
+    "battery": (*_STAMP, "voltage", "current"),
+    "float64": ("data",),
+}  # fmt: skip
+
+
+@functools.lru_cache(maxsize=2)
+def _layouts(version: int) -> dict | None:
+    """:class:`FixedLayout` of Imu, Odometry, BatteryState and Float64 (cached).
+
+    None when a layout cannot be built (another rosbags' types): messages one by one.
+    """
+    from energy_planner.measurements._cdr import FixedLayout, NotFixedLayout
+
+    ros1 = version == 1
+    ts = typestore(version)
+    T = ts.types
+    templates = {
+        "imu": _imu(T, ros1, 0, 0.0, 0.0, 0.0, 1.0, 0.0),
+        "odom": _odom(T, ros1, 0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0),
+        "battery": _battery(T, ros1, 0, 0.0, 0.0),
+        "float64": T[_FLOAT64](data=0.0),
+    }
+    types = {**MSGTYPES, "float64": _FLOAT64}
+    seq = ("header.seq",) if ros1 else ()
+    try:
+        return {
+            r: FixedLayout(ts, types[r], m, (*seq, *_FIELDS[r]) if r in MSGTYPES else _FIELDS[r],
+                           ros1=ros1)
+            for r, m in templates.items()
+        }  # fmt: skip
+    except NotFixedLayout as err:
+        log.debug("ROS %d messages serialized one by one: %s", version, err)
+        return None
+
+
+def _fits_layouts(col: Mapping[str, np.ndarray], stamps: np.ndarray) -> bool:
+    """Whether every value fits its field (else the per-message path raises as it did)."""
+    if stamps.size > np.iinfo(np.uint32).max:  # the ROS 1 header.seq
+        return False
+    sec = stamps // 1_000_000_000
+    if sec.size and (sec.min() < _INT32.min or sec.max() > _INT32.max):
+        return False
+    with np.errstate(over="ignore"):
+        for v in (col["voltage"], col["current"]):
+            if (np.isinf(v.astype(np.float32)) & np.isfinite(v)).any():
+                return False
+    return True
+
+
+def _write_blocks(w, ts, layouts, conn, xconn, col, stamps) -> None:
+    """Serialize ``_BLOCK`` samples of each type at once, then write them in time order."""
+    n = stamps.size
+    sec = stamps // 1_000_000_000
+    nsec = stamps % 1_000_000_000
+    half = (0.5 * col["yaw"]).tolist()  # math.sin/cos: the per-message path's values
+    qz = np.array([math.sin(h) for h in half], dtype=float)
+    qw = np.array([math.cos(h) for h in half], dtype=float)
+    arrays = {
+        "imu": (sec, nsec, col["qx"], col["qy"], col["qz"], col["qw"], col["wz"]),
+        "odom": (sec, nsec, col["x"], col["y"], qz, qw, col["vx"], col["vy"], col["wz"]),
+        "battery": (sec, nsec, col["voltage"], -col["current"]),
+    }
+    ser = layouts["float64"].serializer  # the typestore's, of the bag's ROS version
+    texts = {}
+    for _, numeric, values in xconn:
+        if not numeric:
+            for v in set(values) - texts.keys():
+                texts[v] = bytes(ser(ts.types[_STRING](data=v), _STRING))
+    roles = list(MSGTYPES)
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        blocks = []
+        seq = np.arange(a, b)
+        for r in roles:
+            values = {f: x[a:b] for f, x in zip(_FIELDS[r], arrays[r], strict=True)}
+            if "header.seq" in layouts[r].fields:
+                values["header.seq"] = seq
+            blocks.append((conn[r], layouts[r].serialize(values)))
+        for cn, numeric, values in xconn:
+            if numeric:
+                blocks.append((cn, layouts["float64"].serialize({"data": values[a:b]})))
+            else:
+                blocks.append((cn, [texts[v] for v in values[a:b]]))
+        for i, ns in enumerate(stamps[a:b].tolist()):
+            for cn, data in blocks:
+                w.write(cn, ns, data[i])
+
+
+def _write_messages(w, ts, ros1, conn, xconn, col, stamps) -> None:
+    """Build and serialize each message on its own (ROS 1, or types without a layout)."""
+    T = ts.types
+    ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    for i in range(stamps.size):
+        ns = int(stamps[i])
+        imu = _imu(T, ros1, ns, col["qx"][i], col["qy"][i], col["qz"][i], col["qw"][i],
+                   col["wz"][i], seq=i)  # fmt: skip
+        h = 0.5 * col["yaw"][i]
+        odom = _odom(T, ros1, ns, col["x"][i], col["y"][i], math.sin(h), math.cos(h),
+                     col["vx"][i], col["vy"][i], col["wz"][i], seq=i)  # fmt: skip
+        bat = _battery(T, ros1, ns, col["voltage"][i], -col["current"][i], seq=i)
+        for role, msg in (("imu", imu), ("odom", odom), ("battery", bat)):
+            w.write(conn[role], ns, ser(msg, MSGTYPES[role]))
+        for cn, numeric, values in xconn:
+            v = values[i]
+            msg = T[_FLOAT64](data=float(v)) if numeric else T[_STRING](data=v)
+            w.write(cn, ns, ser(msg, _FLOAT64 if numeric else _STRING))
+
+
+def _imu(T, ros1: bool, ns: int, qx, qy, qz, qw, wz, seq: int = 0):
+    """The ``sensor_msgs/Imu`` of one sample (frame ``imu_link``)."""
+    Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    return T["sensor_msgs/msg/Imu"](
+        header=_header(T, ros1, ns, "imu_link", seq),
+        orientation=Quat(x=qx, y=qy, z=qz, w=qw),
+        orientation_covariance=np.zeros(9),
+        angular_velocity=Vec(x=0.0, y=0.0, z=wz),
+        angular_velocity_covariance=np.zeros(9),
+        linear_acceleration=Vec(x=0.0, y=0.0, z=0.0),
+        linear_acceleration_covariance=np.full(9, 0.0),
+    )
+
+
+def _odom(T, ros1: bool, ns: int, x, y, qz, qw, vx, vy, wz, seq: int = 0):
+    """The ``nav_msgs/Odometry`` of one sample (frames ``odom`` -> ``base_link``)."""
+    Vec, Quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    return T["nav_msgs/msg/Odometry"](
+        header=_header(T, ros1, ns, "odom", seq),
+        child_frame_id="base_link",
+        pose=T["geometry_msgs/msg/PoseWithCovariance"](
+            pose=T["geometry_msgs/msg/Pose"](
+                position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+                orientation=Quat(x=0.0, y=0.0, z=qz, w=qw),
+            ),
+            covariance=np.zeros(36),
+        ),
+        twist=T["geometry_msgs/msg/TwistWithCovariance"](
+            twist=T["geometry_msgs/msg/Twist"](
+                linear=Vec(x=vx, y=vy, z=0.0),
+                angular=Vec(x=0.0, y=0.0, z=wz),
+            ),
+            covariance=np.zeros(36),
+        ),
+    )
+
+
+def _battery(T, ros1: bool, ns: int, voltage, current, seq: int = 0):
+    """The ``sensor_msgs/BatteryState`` of one sample, ``current`` with the ROS sign."""
+    nan = float("nan")
+    return T["sensor_msgs/msg/BatteryState"](
+        header=_header(T, ros1, ns, "battery", seq),
+        voltage=voltage,
+        temperature=nan,
+        current=current,
+        charge=nan,
+        capacity=nan,
+        design_capacity=nan,
+        percentage=nan,
+        power_supply_status=2,
+        power_supply_health=0,
+        power_supply_technology=0,
+        present=True,
+        cell_voltage=np.zeros(0, np.float32),
+        cell_temperature=np.zeros(0, np.float32),
+        location="",
+        serial_number="",
+    )
