@@ -448,7 +448,68 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
 
 
 def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
-    """:func:`bound_table`, computed."""
+    """:func:`bound_table`, computed (each speed node's bands from :func:`_node_bands`)."""
+    from energy_planner.planning.moves import MOVES_16
+
+    parts = _node_bands(cost, nodes)
+    if parts is None:  # rasters that the table cannot bound: the heuristic is 0
+        zero = np.zeros((len(MOVES_16), 2, 2), np.float32)
+        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
+    tgeo, per_node, ratio = parts
+    lam = float(getattr(cost, "time_weight", 0.0))
+    table = np.full((len(MOVES_16), nodes, nodes), np.inf)
+    for speed, best in per_node:
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / speed)
+        table = np.minimum(table, best)
+    if len(per_node) > 1:  # the least between the speed nodes (the widest spacing of any gait)
+        law = getattr(cost, "speed_law", None)
+        exps = law.exponents if law is not None and law.polynomial else (-2, 2)
+        table = table * (1.0 - speed_dip(ratio, (*exps, -1)))
+    table[np.isnan(table)] = np.inf  # the nodes left out above
+    table[~move_ok.any(axis=0)] = np.inf
+    table = np.maximum(table, 0.0)
+    # float32, each value rounded down so that it stays a lower bound
+    t32 = table.astype(np.float32)
+    up = t32.astype(np.float64) > table
+    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
+    return np.ascontiguousarray(t32), tgeo
+
+
+#: :func:`_node_bands` of costs that choose their speed, by terrain (weakly), then model,
+#: request, speed range and nodes: the bands leave the price of a second out (it only adds
+#: ``lambda / v`` at each node), so the plans of a deadline's or a time budget's bisection,
+#: each at its own ``lambda``, price them once.
+_RANGED_NODES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _node_bands(cost, nodes: int):
+    """``(tgeo, [(speed, best)], ratio)`` of :func:`bound_table`, without the time price.
+
+    ``best``: the least J per map metre at one speed node of :func:`bound_speeds`
+    (float32, ``(16, nodes, nodes)``, NaN at the nodes left out); ``ratio``: the widest
+    spacing of the speed nodes. None where channel rasters leave the heuristic at 0.
+    A cost that chooses its speed, made by a :class:`~energy_planner.problem.Problem`
+    (its ``request``), reads them from :data:`_RANGED_NODES` at any ``lambda``.
+    """
+    request = getattr(cost, "request", None)
+    kept = key = None
+    if getattr(cost, "ranged", False) and request is not None:
+        kept = _RANGED_NODES.setdefault(cost.terrain, {})
+        key = (id(cost.model), id(request), tuple(cost.speed_range), int(nodes))
+        hit = kept.get(key)
+        if hit is not None and hit[0] is cost.model and hit[1] is request:
+            return hit[2]
+    out = _node_bands_computed(cost, nodes)
+    if kept is not None:
+        kept[key] = (cost.model, request, out)  # the objects themselves: ids stay theirs
+        while len(kept) > 4:  # the last few (models, requests) of this terrain
+            kept.pop(next(iter(kept)))
+    return out
+
+
+def _node_bands_computed(cost, nodes: int):
+    """:func:`_node_bands`, computed."""
     from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost
     from energy_planner.planning.moves import MOVES_16
 
@@ -464,8 +525,7 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
         # is then Dijkstra: slower, still optimal)
         combos = _raster_combinations(cost)
         if combos is None:
-            zero = np.zeros((len(MOVES_16), 2, 2), np.float32)
-            return zero, np.array([-1e6, -1e6, 2e6, 2e6])
+            return None
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
     # reductions under a mask (gx[fin] would copy the whole raster)
@@ -478,10 +538,7 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
                          indexing="ij")  # fmt: skip
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
-    best = np.empty_like(along)
-    table = np.full(along.shape, np.inf)
     nodes_by_gait = bound_speeds(cost)
-    lam = float(getattr(cost, "time_weight", 0.0))
     top = TABLE_TOP_DEG
     n_nodes = sum(len(speeds) for _, speeds in nodes_by_gait)
     if n_nodes > 1:
@@ -496,6 +553,7 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
         # each map at each speed, which was most of a plan's time on steep ground
         top = max(TABLE_TOP_DEG, min(RANGED_TOP_MAX_DEG, RANGED_TOP_STEP_DEG * math.ceil(
             (math.degrees(math.atan(gmax)) + 1.0) / RANGED_TOP_STEP_DEG)))  # fmt: skip
+    per_node = []
     for gait, speeds in nodes_by_gait:
         for speed in speeds:
             if gait is None and speed == heading.speed and top == TABLE_TOP_DEG:
@@ -504,22 +562,9 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
                 hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait, top_deg=top)
             best = _best_bands(hc, GX, GY, dirs, along, combos)
             _past_the_limit(hc, GX, GY, dirs, along, best, tgeo, combos)
-            if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
-                best = best + np.float32(lam / speed)
-            table = np.minimum(table, best)
-    if n_nodes > 1:  # the least between the speed nodes (the widest spacing of any gait)
-        law = getattr(cost, "speed_law", None)
-        exps = law.exponents if law is not None and law.polynomial else (-2, 2)
-        ratio = max(float(s[1] / s[0]) for _, s in nodes_by_gait if len(s) > 1)
-        table = table * (1.0 - speed_dip(ratio, (*exps, -1)))
-    table[np.isnan(table)] = np.inf  # the nodes left out above
-    table[~move_ok.any(axis=0)] = np.inf
-    table = np.maximum(table, 0.0)
-    # float32, each value rounded down so that it stays a lower bound
-    t32 = table.astype(np.float32)
-    up = t32.astype(np.float64) > table
-    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
-    return np.ascontiguousarray(t32), tgeo
+            per_node.append((float(speed), best))
+    ratio = max((float(s[1] / s[0]) for _, s in nodes_by_gait if len(s) > 1), default=1.0)
+    return tgeo, per_node, ratio
 
 
 def _past_the_limit(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray,
