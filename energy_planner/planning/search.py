@@ -620,16 +620,35 @@ _BEST_MEMO_SIZE = 32
 MAX_RASTER_COMBINATIONS = 16
 
 
+#: :func:`_raster_combinations` of each cost, as long as the cost lives (a plan prices its
+#: bound before its clock and again in its search).
+_COMBOS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _raster_combinations(cost) -> tuple[tuple[float, ...], ...] | None:
     """The combinations of the cost's channel rasters' values met on its map.
 
     Each a tuple of the rasters' values (category indices) at one cell, every raster
-    defined there; a motion's sample reads its nearest cell's categories
-    (:func:`energy_planner.energy.kernels.sample_channels`), so it costs at least the
-    least over these. None where a raster is numeric (sampled bilinearly, any value
-    between its cells'), none has a value anywhere, or there are more than
+    defined there, in lexicographic order; a motion's sample reads its nearest cell's
+    categories (:func:`energy_planner.energy.kernels.sample_channels`), so it costs at
+    least the least over these. None where a raster is numeric (sampled bilinearly, any
+    value between its cells'), none has a value anywhere, or there are more than
     :data:`MAX_RASTER_COMBINATIONS`.
     """
+    try:
+        return _COMBOS[cost]
+    except (KeyError, TypeError):
+        pass
+    out = _combinations_met(cost)
+    try:
+        _COMBOS[cost] = out
+    except TypeError:  # a cost that cannot be weakly referenced: computed each time
+        pass
+    return out
+
+
+def _combinations_met(cost) -> tuple[tuple[float, ...], ...] | None:
+    """:func:`_raster_combinations`, computed."""
     from energy_planner.energy.kernels import IN_CHAN, IN_NEAREST
 
     n = len(cost.channels.rasters)
