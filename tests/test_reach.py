@@ -88,6 +88,29 @@ def test_return_doubles_a_symmetric_cost_and_adds_the_turn_around(flat):
         assert _cell(flat, legs, dx, dy) == pytest.approx(2 * d * fwd, rel=1e-6)
 
 
+def test_a_second_round_trip_of_the_same_problem_searches_the_kept_graph():
+    """The lattice graph of a round trip is kept for the next one of the same model,
+    request and start (the other ``turn_at_cell`` above reads it): the same energies as a
+    graph built afresh; another model or start builds its own."""
+    from energy_planner.planning import reach as reach_mod
+
+    t = Terrain.from_function(lambda x, y: 0.05 * x, size=(9, 9))
+    model = EnergyModel.default()
+    reach(t, model, (4.5, 4.5), round_trip=True, turn_at_cell=False)
+    kept = reach_mod._GRAPHS[t][3]
+    again = reach(t, model, (4.5, 4.5), round_trip=True)
+    assert reach_mod._GRAPHS[t][3] is kept
+    reach_mod._GRAPHS.clear()
+    fresh = reach(t, model, (4.5, 4.5), round_trip=True)
+    built = reach_mod._GRAPHS[t][3]
+    assert built is not kept
+    np.testing.assert_array_equal(again.energy_j, fresh.energy_j)
+    reach(t, EnergyModel.default(), (4.5, 4.5), round_trip=True)  # another model object
+    assert reach_mod._GRAPHS[t][3] is not built
+    reach(t, model, (3.5, 4.5), round_trip=True)  # another start
+    assert reach_mod._GRAPHS[t][2][0] == (3.5, 4.5)
+
+
 def _hill(x, y):
     return 6.0 * np.exp(-((x - X0 - 28.0) ** 2 + (y - Y0 - 26.0) ** 2) / (2 * 9.0**2))
 

@@ -408,3 +408,29 @@ def test_pareto_plans_anew_where_the_route_changes(hill):
     assert length(front.plans[0]) > 1.05 * line  # the detour
     last = front.plans[-1]
     assert "retimed" not in last.info and length(last) < 1.001 * line
+
+
+def test_bound_bands_of_a_speed_range_serve_every_price_of_a_second():
+    """A deadline's bisection plans at one ``lambda`` after another: the bound table's bands
+    at the speed nodes are priced once (they leave ``lambda`` out) and each ``lambda``'s
+    table is bit for bit the one computed afresh; on this plane every table entry is at
+    most the least cost of a metre, ``min over v in RANGE of a + (b + lambda) / v + c v``
+    (the bound is admissible), and within 2 % of it (the speed nodes are that close)."""
+    from energy_planner.planning import search
+
+    t = Terrain.from_function(lambda x, y: 0.0 * x, size=(16, 16), resolution=1.0)
+    p = Problem(t, _model())
+    v = np.geomspace(*RANGE, 2001)
+    for lam in (0.0, 60.0, 300.0):
+        cost = p.with_speed(RANGE, lam).cost
+        grid = search._Grid(cost, t, (t.grid[0] + 3, t.grid[1] - 3), None, 16, "all")
+        kept, tgeo = search.bound_table(cost, grid.headings, grid.move_ok)
+        assert len(search._RANGED_NODES[t]) == 1  # one set of bands for every lambda
+        search._RANGED_NODES[t].clear()
+        fresh, tgeo2 = search.bound_table(p.with_speed(RANGE, lam).cost, grid.headings,
+                                          grid.move_ok)  # fmt: skip
+        np.testing.assert_array_equal(kept, fresh)
+        np.testing.assert_array_equal(tgeo, tgeo2)
+        least = float(np.min(A + (B + lam) / v + C * v))
+        fin = kept[np.isfinite(kept)]
+        assert fin.max() <= least * (1 + 1e-6) and fin.min() >= 0.98 * least

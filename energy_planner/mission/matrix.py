@@ -82,6 +82,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -624,13 +625,28 @@ def window_proof(
     return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
+#: :func:`_c_min` of the motions choosing their speed, by terrain (weakly), then model,
+#: request and speed range: the bound leaves the price of a second out, so a mission within
+#: a time budget prices it once for every ``lambda`` its bisection tries.
+_C_MIN_RANGED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _c_min(terrain, model, request, n_headings, speed=None) -> float:
     from energy_planner.energy.kernels import IN_GRAD
     from energy_planner.planning.corridor import least_cost_per_metre
 
-    cost = _cost(terrain, model, request, speed)
     if speed is not None:  # a bound over the speed range (and a time price only adds)
-        return cost.min_cost_per_metre
+        kept = _C_MIN_RANGED.setdefault(terrain, {})
+        key = (id(model), id(request), tuple(speed[0]))
+        hit = kept.get(key)
+        if hit is not None and hit[0] is model and hit[1] is request:
+            return hit[2]
+        c = _cost(terrain, model, request, speed).min_cost_per_metre
+        kept[key] = (model, request, c)  # the objects themselves: their ids stay theirs
+        while len(kept) > 8:  # the last few (models, requests) of this terrain
+            kept.pop(next(iter(kept)))
+        return c
+    cost = _cost(terrain, model, request, speed)
     grad = cost.data[IN_GRAD]
     fin = np.isfinite(grad[..., 0]) & np.isfinite(grad[..., 1])
     if not fin.any():

@@ -448,7 +448,68 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
 
 
 def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
-    """:func:`bound_table`, computed."""
+    """:func:`bound_table`, computed (each speed node's bands from :func:`_node_bands`)."""
+    from energy_planner.planning.moves import MOVES_16
+
+    parts = _node_bands(cost, nodes)
+    if parts is None:  # rasters that the table cannot bound: the heuristic is 0
+        zero = np.zeros((len(MOVES_16), 2, 2), np.float32)
+        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
+    tgeo, per_node, ratio = parts
+    lam = float(getattr(cost, "time_weight", 0.0))
+    table = np.full((len(MOVES_16), nodes, nodes), np.inf)
+    for speed, best in per_node:
+        if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
+            best = best + np.float32(lam / speed)
+        table = np.minimum(table, best)
+    if len(per_node) > 1:  # the least between the speed nodes (the widest spacing of any gait)
+        law = getattr(cost, "speed_law", None)
+        exps = law.exponents if law is not None and law.polynomial else (-2, 2)
+        table = table * (1.0 - speed_dip(ratio, (*exps, -1)))
+    table[np.isnan(table)] = np.inf  # the nodes left out above
+    table[~move_ok.any(axis=0)] = np.inf
+    table = np.maximum(table, 0.0)
+    # float32, each value rounded down so that it stays a lower bound
+    t32 = table.astype(np.float32)
+    up = t32.astype(np.float64) > table
+    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
+    return np.ascontiguousarray(t32), tgeo
+
+
+#: :func:`_node_bands` of costs that choose their speed, by terrain (weakly), then model,
+#: request, speed range and nodes: the bands leave the price of a second out (it only adds
+#: ``lambda / v`` at each node), so the plans of a deadline's or a time budget's bisection,
+#: each at its own ``lambda``, price them once.
+_RANGED_NODES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _node_bands(cost, nodes: int):
+    """``(tgeo, [(speed, best)], ratio)`` of :func:`bound_table`, without the time price.
+
+    ``best``: the least J per map metre at one speed node of :func:`bound_speeds`
+    (float32, ``(16, nodes, nodes)``, NaN at the nodes left out); ``ratio``: the widest
+    spacing of the speed nodes. None where channel rasters leave the heuristic at 0.
+    A cost that chooses its speed, made by a :class:`~energy_planner.problem.Problem`
+    (its ``request``), reads them from :data:`_RANGED_NODES` at any ``lambda``.
+    """
+    request = getattr(cost, "request", None)
+    kept = key = None
+    if getattr(cost, "ranged", False) and request is not None:
+        kept = _RANGED_NODES.setdefault(cost.terrain, {})
+        key = (id(cost.model), id(request), tuple(cost.speed_range), int(nodes))
+        hit = kept.get(key)
+        if hit is not None and hit[0] is cost.model and hit[1] is request:
+            return hit[2]
+    out = _node_bands_computed(cost, nodes)
+    if kept is not None:
+        kept[key] = (cost.model, request, out)  # the objects themselves: ids stay theirs
+        while len(kept) > 4:  # the last few (models, requests) of this terrain
+            kept.pop(next(iter(kept)))
+    return out
+
+
+def _node_bands_computed(cost, nodes: int):
+    """:func:`_node_bands`, computed."""
     from energy_planner.energy.heading import TABLE_TOP_DEG, HeadingCost
     from energy_planner.planning.moves import MOVES_16
 
@@ -456,11 +517,15 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
     gx = grad[..., 0]
     gy = grad[..., 1]
     fin = np.isfinite(gx) & np.isfinite(gy)
+    combos = None
     if getattr(getattr(cost, "channels", None), "rasters", None):
-        # channel rasters vary over the map: the constant-gradient table cannot bound
-        # them, so the heuristic is 0 (the search is Dijkstra: slower, still optimal)
-        zero = np.zeros((len(MOVES_16), 2, 2), np.float32)
-        return zero, np.array([-1e6, -1e6, 2e6, 2e6])
+        # categorical channel rasters: the least over the combinations of categories on
+        # the map (a sample reads its nearest cell's); numeric ones (or too many
+        # combinations) vary too freely for the table: the heuristic is 0 (the search
+        # is then Dijkstra: slower, still optimal)
+        combos = _raster_combinations(cost)
+        if combos is None:
+            return None
     if not fin.any():
         raise PlanningError("the terrain has no valid gradient (all nodata)")
     # reductions under a mask (gx[fin] would copy the whole raster)
@@ -473,10 +538,7 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
                          indexing="ij")  # fmt: skip
     dirs = np.arctan2(MOVES_16[:, 1], MOVES_16[:, 0])
     along = np.empty((len(MOVES_16), nodes, nodes), np.float32)
-    best = np.empty_like(along)
-    table = np.full(along.shape, np.inf)
     nodes_by_gait = bound_speeds(cost)
-    lam = float(getattr(cost, "time_weight", 0.0))
     top = TABLE_TOP_DEG
     n_nodes = sum(len(speeds) for _, speeds in nodes_by_gait)
     if n_nodes > 1:
@@ -491,34 +553,22 @@ def _bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int):
         # each map at each speed, which was most of a plan's time on steep ground
         top = max(TABLE_TOP_DEG, min(RANGED_TOP_MAX_DEG, RANGED_TOP_STEP_DEG * math.ceil(
             (math.degrees(math.atan(gmax)) + 1.0) / RANGED_TOP_STEP_DEG)))  # fmt: skip
+    per_node = []
     for gait, speeds in nodes_by_gait:
         for speed in speeds:
             if gait is None and speed == heading.speed and top == TABLE_TOP_DEG:
                 hc = heading
             else:  # gait None: the cost's own channels
                 hc = HeadingCost.of_motion_cost(cost, speed=speed, gait=gait, top_deg=top)
-            best = _best_bands(hc, GX, GY, dirs, along)
-            _past_the_limit(hc, GX, GY, dirs, along, best, tgeo)
-            if lam > 0:  # a map metre lasts at least 1 / v s: its price is part of the bound
-                best = best + np.float32(lam / speed)
-            table = np.minimum(table, best)
-    if n_nodes > 1:  # the least between the speed nodes (the widest spacing of any gait)
-        law = getattr(cost, "speed_law", None)
-        exps = law.exponents if law is not None and law.polynomial else (-2, 2)
-        ratio = max(float(s[1] / s[0]) for _, s in nodes_by_gait if len(s) > 1)
-        table = table * (1.0 - speed_dip(ratio, (*exps, -1)))
-    table[np.isnan(table)] = np.inf  # the nodes left out above
-    table[~move_ok.any(axis=0)] = np.inf
-    table = np.maximum(table, 0.0)
-    # float32, each value rounded down so that it stays a lower bound
-    t32 = table.astype(np.float32)
-    up = t32.astype(np.float64) > table
-    t32[up] = np.nextafter(t32[up], np.float32(-np.inf))
-    return np.ascontiguousarray(t32), tgeo
+            best = _best_bands(hc, GX, GY, dirs, along, combos)
+            _past_the_limit(hc, GX, GY, dirs, along, best, tgeo, combos)
+            per_node.append((float(speed), best))
+    ratio = max((float(s[1] / s[0]) for _, s in nodes_by_gait if len(s) > 1), default=1.0)
+    return tgeo, per_node, ratio
 
 
 def _past_the_limit(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray,
-                    best: np.ndarray, tgeo: np.ndarray) -> None:  # fmt: skip
+                    best: np.ndarray, tgeo: np.ndarray, combos=None) -> None:  # fmt: skip
     """Give ``best``'s nodes just past the slope limit the physics' value there (in place).
 
     A walkable sample (gradient within the limit ``hc.tmax``) reads the four nodes of its
@@ -536,7 +586,8 @@ def _past_the_limit(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along:
     in the table (its error is what :data:`BOUND_MARGIN` covers); samples past the
     limit are still ``inf`` in the bound (``edge_bound`` checks ``tmax`` itself).
     Nodes past the limit farther out are never read by a walkable sample: they stay
-    ``inf``, and the table's least (``tmin``) is unchanged.
+    ``inf``, and the table's least (``tmin``) is unchanged. ``combos``: as
+    :func:`_best_bands`.
     """
     tmax = float(hc.tmax)
     if not math.isfinite(tmax):
@@ -551,7 +602,8 @@ def _past_the_limit(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along:
     params = hc.params
     free = _cached(params[0], params[1], math.inf, *params[3:])  # the same, no slope limit
     nan = np.full(GX.shape, np.nan)
-    past = _best_bands(free, np.where(ring, GX, nan), np.where(ring, GY, nan), dirs, along)
+    past = _best_bands(free, np.where(ring, GX, nan), np.where(ring, GY, nan), dirs, along,
+                       combos)  # fmt: skip
     best[:, ring] = past[:, ring]
 
 
@@ -563,18 +615,74 @@ _BEST_MEMO: dict[str, np.ndarray] = {}
 _BEST_MEMO_SIZE = 32
 
 
-def _best_key(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray) -> str:
+#: The most combinations of categorical channel rasters' values the bound takes the least
+#: over (:func:`_raster_combinations`); with more, the heuristic is 0.
+MAX_RASTER_COMBINATIONS = 16
+
+
+#: :func:`_raster_combinations` of each cost, as long as the cost lives (a plan prices its
+#: bound before its clock and again in its search).
+_COMBOS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _raster_combinations(cost) -> tuple[tuple[float, ...], ...] | None:
+    """The combinations of the cost's channel rasters' values met on its map.
+
+    Each a tuple of the rasters' values (category indices) at one cell, every raster
+    defined there, in lexicographic order; a motion's sample reads its nearest cell's
+    categories (:func:`energy_planner.energy.kernels.sample_channels`), so it costs at
+    least the least over these. None where a raster is numeric (sampled bilinearly, any
+    value between its cells'), none has a value anywhere, or there are more than
+    :data:`MAX_RASTER_COMBINATIONS`.
+    """
+    try:
+        return _COMBOS[cost]
+    except (KeyError, TypeError):
+        pass
+    out = _combinations_met(cost)
+    try:
+        _COMBOS[cost] = out
+    except TypeError:  # a cost that cannot be weakly referenced: computed each time
+        pass
+    return out
+
+
+def _combinations_met(cost) -> tuple[tuple[float, ...], ...] | None:
+    """:func:`_raster_combinations`, computed."""
+    from energy_planner.energy.kernels import IN_CHAN, IN_NEAREST
+
+    n = len(cost.channels.rasters)
+    chan, nearest = cost.data[IN_CHAN][:n], np.asarray(cost.data[IN_NEAREST][:n])
+    if n == 0 or len(nearest) < n or not nearest.all():
+        return None
+    flat = chan.reshape(n, -1)
+    fin = np.isfinite(flat).all(axis=0)
+    if not fin.any():
+        return None
+    combos = np.unique(flat[0, fin]) if n == 1 else np.unique(flat[:, fin], axis=1).T
+    if len(combos) > MAX_RASTER_COMBINATIONS:
+        return None
+    return tuple(tuple(float(v) for v in np.atleast_1d(c)) for c in combos)
+
+
+def _best_key(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, combos=None) -> str:
     """The cache key of ``hc``'s ``best`` bands on the gradient grid ``GX, GY``."""
     import hashlib
 
     h = hashlib.sha256(hc._key().encode())
+    if combos is not None:
+        h.update(repr(combos).encode())
     for arr in (GX, GY, dirs):
         h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
     return h.hexdigest()[:24]
 
 
-def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray):
+def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.ndarray,
+                combos=None):  # fmt: skip
     """``hc``'s ``best`` bands (float32, ``(len(dirs),) + GX.shape``) on a gradient grid.
+
+    ``combos``: the channel rasters' combinations of values (:func:`_raster_combinations`)
+    where ``hc`` reads rasters: the least over them.
 
     Computed by :meth:`~energy_planner.energy.heading.HeadingCost.map_bands` once per
     physics (model, speed, limits, channel values) and grid, then read from
@@ -586,7 +694,7 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
     from energy_planner.io import atomic_path
     from energy_planner.model._codegen import cache_dir
 
-    key = _best_key(hc, GX, GY, dirs)
+    key = _best_key(hc, GX, GY, dirs, combos)
     hit = _BEST_MEMO.get(key)
     path = cache_dir() / f"bound_{key}.npy"
     if hit is None:
@@ -599,7 +707,15 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
             pass
     if hit is None:
         best = np.empty_like(along)
-        hc.map_bands(GX, GY, np.zeros((0,) + GX.shape), dirs, along, best)
+        if combos is None:
+            hc.map_bands(GX, GY, np.zeros((0,) + GX.shape), dirs, along, best)
+        else:
+            one = np.empty_like(along)
+            best.fill(np.inf)
+            for values in combos:  # a node left out (NaN) stays NaN
+                chan = np.stack([np.full(GX.shape, v) for v in values])
+                hc.map_bands(GX, GY, chan, dirs, along, one)
+                best = np.minimum(best, one)
         hit = best
         try:
             with atomic_path(path) as tmp, open(tmp, "wb") as f:
