@@ -155,8 +155,8 @@ def test_new_figure_is_subplots_without_pyplot():
 def test_save_figure_draws_once_the_image_savefig_draws(layout, tmp_path, monkeypatch):
     """``save_figure`` runs a figure's layout engine once, as ``savefig``'s first pass
     would (at the saved dpi), and removes it: the PNG is byte for byte ``savefig``'s, drawn
-    once instead of twice; with ``bbox_inches="tight"`` (which needs that pass) both
-    passes stay, and the image is the same too."""
+    once instead of twice, and the figure keeps its engine; with ``bbox_inches="tight"``
+    (which needs that pass) both passes stay, and the image is the same too."""
     import matplotlib.figure
 
     from energy_planner.io import save_figure
@@ -192,4 +192,6 @@ def test_save_figure_draws_once_the_image_savefig_draws(layout, tmp_path, monkey
         save_figure(ours, tmp_path / "ours.png", **kw)
         assert len(draws) == (2 if tight else 1)
         draws.clear()
+        # the figure keeps its engine (changed and saved again, it is laid out again)
+        assert type(ours.get_layout_engine()) is type(ref.get_layout_engine())
         assert (tmp_path / "ours.png").read_bytes() == (tmp_path / "ref.png").read_bytes()

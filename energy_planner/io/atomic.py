@@ -1044,17 +1044,24 @@ def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Pa
     that runs the engine (``layout="constrained"``; the placeholder that
     ``fig.tight_layout()`` leaves runs nothing), then the image. Unless ``bbox_inches``
     is ``"tight"`` (whose bounding box needs that pass), the engine is run here once, at
-    the resolution the figure is saved at, as that pass runs it, and removed from the
-    figure: the same layout, the image drawn once.
+    the resolution the figure is saved at, as that pass runs it, and set aside while
+    saving: the same layout, the image drawn once. The figure gets its engine back (a
+    figure changed and saved again is laid out again).
     """
-    _lay_out_once(fig, dest, savefig_kw)
-    with atomic_path(dest) as tmp:
-        fig.savefig(tmp, **savefig_kw)
+    engine = _lay_out_once(fig, dest, savefig_kw)
+    try:
+        with atomic_path(dest) as tmp:
+            fig.savefig(tmp, **savefig_kw)
+    finally:
+        if engine is not None:
+            fig.set_layout_engine(engine)
     return Path(dest)
 
 
-def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[str, Any]) -> None:
+def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[str, Any]) -> Any:
     """Run ``fig``'s layout engine as ``savefig``'s first pass would, then remove it.
+
+    Returns the engine removed (None: the figure was left as it was).
 
     Only for matplotlib's own engines, on a figure with axes, saved as PNG (a vector
     format lays out at 72 dpi), without ``bbox_inches`` ``"tight"``, and where removing
@@ -1070,19 +1077,20 @@ def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[st
 
     engine = getattr(fig, "get_layout_engine", lambda: None)()
     if engine is None or not fig.axes:
-        return
+        return None
     fmt = (
         savefig_kw.get("format") or Path(dest).suffix.lstrip(".") or mpl.rcParams["savefig.format"]
     )
     if str(fmt).lower() != "png":
-        return
+        return None
     if type(engine) not in (ConstrainedLayoutEngine, TightLayoutEngine, PlaceHolderLayoutEngine):
-        return
+        return None
     if mpl.rcParams["figure.autolayout"] or mpl.rcParams["figure.constrained_layout.use"]:
-        return
-    bbox = savefig_kw.get("bbox_inches", mpl.rcParams["savefig.bbox"])
+        return None
+    bbox = savefig_kw.get("bbox_inches")
+    bbox = mpl.rcParams["savefig.bbox"] if bbox is None else bbox
     if isinstance(bbox, str) and bbox == "tight":
-        return
+        return None
     dpi = savefig_kw.get("dpi")
     dpi = mpl.rcParams["savefig.dpi"] if dpi is None else dpi
     if dpi == "figure":
@@ -1095,6 +1103,7 @@ def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[st
         finally:
             fig.dpi = original
     fig.set_layout_engine(None)
+    return engine
 
 
 def content_id(obj: Any) -> str:
