@@ -277,3 +277,41 @@ def test_lower_bound_is_admissible():
     d = np.hypot(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
     assert np.all(e >= c.min_cost_per_metre * d - 1e-9)
     assert c.min_cost_per_metre > 0
+
+
+def test_a_passed_power_check_is_not_evaluated_again(monkeypatch):
+    """check_cost_power evaluates check_walking_power's grid once per model content,
+    channel values, speeds, yaw rate, gaits and slope-grid rows: the same count comes
+    back; a model changed in place (here to a negative sideways term) is checked again
+    and refused."""
+    from energy_planner.energy import path as path_mod
+    from energy_planner.errors import NonPositivePowerError
+    from energy_planner.model import EnergyModel
+    from energy_planner.model import model as model_mod
+
+    calls = []
+    real = model_mod.check_walking_power
+
+    def counted(*args, **kw):
+        calls.append(kw["max_slope_deg"])
+        return real(*args, **kw)
+
+    monkeypatch.setattr(model_mod, "check_walking_power", counted)
+    monkeypatch.setattr(path_mod, "_POWER_CHECKED", {})
+    m = EnergyModel(["idle_power", "lat_const"], {"idle_power": 100.0, "lat_const": 10.0})
+    cost = MotionCost(plane(10.0, 0.0), m, 0.3, 0.5)
+    # 36 headings x 5 gaits (4 walking at one speed, turning in place) per slope row
+    n = path_mod.check_cost_power(cost, max_slope_deg=11.0)  # rows 0, 2.5, .., 10: 5
+    assert n == 5 * 36 * 5 == real(m, max_slope_deg=11.0, speeds=[0.3], yaw_rate=0.5)
+    assert path_mod.check_cost_power(cost, max_slope_deg=12.4) == n  # the same 5 rows
+    assert len(calls) == 1
+    assert path_mod.check_cost_power(cost, max_slope_deg=12.5) == 6 * 36 * 5  # a 6th row
+    other = MotionCost(plane(3.0, 0.0), m, 0.3, 0.5)  # another cost, the same model
+    assert path_mod.check_cost_power(other, max_slope_deg=10.0) == n
+    assert len(calls) == 2
+    m.coefficients["lat_const"] = -1000.0  # sideways at 0.3 m/s: 100 - 300 W < 0
+    with pytest.raises(NonPositivePowerError, match="lat_const"):
+        path_mod.check_cost_power(cost, max_slope_deg=11.0)
+    with pytest.raises(NonPositivePowerError, match="lat_const"):  # a failure is not kept
+        path_mod.check_cost_power(cost, max_slope_deg=11.0)
+    assert len(calls) == 4

@@ -149,3 +149,49 @@ def test_new_figure_is_subplots_without_pyplot():
     fig, axes = new_figure(2, 3, figsize=(6, 4), squeeze=False, sharey=True)
     assert axes.shape == (2, 3) and list(fig.get_size_inches()) == [6.0, 4.0]
     assert axes[0, 1].get_shared_y_axes().joined(axes[0, 1], axes[1, 2])
+
+
+@pytest.mark.parametrize("layout", ["constrained", "tight_layout", "none"])
+def test_save_figure_draws_once_the_image_savefig_draws(layout, tmp_path, monkeypatch):
+    """``save_figure`` runs a figure's layout engine once, as ``savefig``'s first pass
+    would (at the saved dpi), and removes it: the PNG is byte for byte ``savefig``'s, drawn
+    once instead of twice, and the figure keeps its engine; with ``bbox_inches="tight"``
+    (which needs that pass) both passes stay, and the image is the same too."""
+    import matplotlib.figure
+
+    from energy_planner.io import save_figure
+
+    def figure():
+        fig = matplotlib.figure.Figure(
+            figsize=(6, 3), layout="constrained" if layout == "constrained" else None
+        )
+        axes = fig.subplots(1, 2)
+        im = axes[0].imshow(np.arange(20.0).reshape(4, 5))
+        fig.colorbar(im, ax=axes[0], label="a colour bar")
+        axes[1].barh(range(3), [1, 2, 3])
+        axes[1].set_yticks(range(3), NAMES)
+        axes[1].set_title("a title")
+        if layout == "tight_layout":
+            fig.tight_layout()
+        return fig
+
+    draws = []
+    real = matplotlib.figure.Figure.draw
+
+    def counted(self, renderer):
+        draws.append(self)
+        return real(self, renderer)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "draw", counted)
+    for tight in (False, True):
+        kw = {"dpi": 90, **({"bbox_inches": "tight"} if tight else {})}
+        ref, ours = figure(), figure()
+        ref.savefig(tmp_path / "ref.png", **kw)
+        assert len(draws) == (2 if tight or layout != "none" else 1)  # savefig's passes
+        draws.clear()
+        save_figure(ours, tmp_path / "ours.png", **kw)
+        assert len(draws) == (2 if tight else 1)
+        draws.clear()
+        # the figure keeps its engine (changed and saved again, it is laid out again)
+        assert type(ours.get_layout_engine()) is type(ref.get_layout_engine())
+        assert (tmp_path / "ours.png").read_bytes() == (tmp_path / "ref.png").read_bytes()

@@ -344,14 +344,48 @@ def check_cost_power(
         max_slope_deg = math.degrees(top)
         if cost.max_slope_deg is not None:
             max_slope_deg = min(max_slope_deg, float(cost.max_slope_deg))
-    return check_walking_power(
-        cost.model,
-        cost.channels.value_samples(),
-        max_slope_deg=max_slope_deg,
-        speeds=(cost.speed,) if speeds is None else tuple(speeds),
-        yaw_rate=cost.yaw_rate,
-        gaits=tuple(WALKING_GAITS) if gaits is None else tuple(gaits),
-    )
+    values = cost.channels.value_samples()
+    speeds = (cost.speed,) if speeds is None else tuple(speeds)
+    gaits = tuple(WALKING_GAITS) if gaits is None else tuple(gaits)
+    key = _power_check_key(cost.model, values, max_slope_deg, speeds, cost.yaw_rate, gaits)
+    checked = _POWER_CHECKED.get(key) if key is not None else None
+    if checked is None:
+        checked = check_walking_power(
+            cost.model, values, max_slope_deg=max_slope_deg, speeds=speeds,
+            yaw_rate=cost.yaw_rate, gaits=gaits,
+        )  # fmt: skip
+        if key is not None:
+            if len(_POWER_CHECKED) >= _POWER_CHECKED_MAX:
+                _POWER_CHECKED.clear()
+            _POWER_CHECKED[key] = checked
+    return checked
+
+
+#: check_walking_power's grids that passed: key (:func:`_power_check_key`) -> its count
+_POWER_CHECKED: dict[tuple, int] = {}
+_POWER_CHECKED_MAX = 1024
+
+
+def _power_check_key(model, values, max_slope_deg, speeds, yaw_rate, gaits) -> tuple | None:
+    """What ``check_walking_power`` reads, as a key (None: not keyed, check it again).
+
+    Every plan and priced path checks its model on its own slopes and speeds; on the same
+    model, channel values, speeds and yaw rate the grid is the same whenever the slope
+    grid (0 to ``max_slope_deg`` in 2.5 deg steps) has as many rows, so a grid that
+    passed once is not evaluated again. Only passes are kept (a failure raises each time,
+    with its message). The model is keyed by its content (terms, coefficients,
+    regenerative), so a model changed in place is checked again.
+    """
+    try:
+        coefs = model.coef_array().tobytes()
+        terms = tuple((t.name, t.formula) for t in model.terms)
+        chans = tuple(sorted((k, str(np.asarray(v).dtype), tuple(np.asarray(v).tolist()))
+                             for k, v in values.items()))  # fmt: skip
+        rows = np.arange(0.0, max(float(max_slope_deg), 0.0) + 1e-9, 2.5).size
+        return (terms, coefs, bool(model.regenerative), chans, rows,
+                tuple(float(v) for v in speeds), float(yaw_rate), tuple(gaits))  # fmt: skip
+    except Exception:  # noqa: BLE001 - an unfitted model, odd values: no key, the check decides
+        return None
 
 
 def _check_path_power(

@@ -62,7 +62,7 @@ import os
 import signal
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -1037,10 +1037,73 @@ def save_figure(fig: Any, dest: str | os.PathLike[str], **savefig_kw: Any) -> Pa
     Returns
     -------
     pathlib.Path
+
+    Notes
+    -----
+    ``savefig`` draws a figure that has a layout engine twice: a pass without rendering
+    that runs the engine (``layout="constrained"``; the placeholder that
+    ``fig.tight_layout()`` leaves runs nothing), then the image. Unless ``bbox_inches``
+    is ``"tight"`` (whose bounding box needs that pass), the engine is run here once, at
+    the resolution the figure is saved at, as that pass runs it, and set aside while
+    saving: the same layout, the image drawn once. The figure gets its engine back (a
+    figure changed and saved again is laid out again).
     """
-    with atomic_path(dest) as tmp:
-        fig.savefig(tmp, **savefig_kw)
+    engine = _lay_out_once(fig, dest, savefig_kw)
+    try:
+        with atomic_path(dest) as tmp:
+            fig.savefig(tmp, **savefig_kw)
+    finally:
+        if engine is not None:
+            fig.set_layout_engine(engine)
     return Path(dest)
+
+
+def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[str, Any]) -> Any:
+    """Run ``fig``'s layout engine as ``savefig``'s first pass would, then remove it.
+
+    Returns the engine removed (None: the figure was left as it was).
+
+    Only for matplotlib's own engines, on a figure with axes, saved as PNG (a vector
+    format lays out at 72 dpi), without ``bbox_inches`` ``"tight"``, and where removing
+    the engine leaves none (rcParams that set a default engine put it back: ``savefig``
+    then runs its two passes).
+    """
+    import matplotlib as mpl
+    from matplotlib.layout_engine import (
+        ConstrainedLayoutEngine,
+        PlaceHolderLayoutEngine,
+        TightLayoutEngine,
+    )
+
+    engine = getattr(fig, "get_layout_engine", lambda: None)()
+    if engine is None or not fig.axes:
+        return None
+    fmt = (
+        savefig_kw.get("format") or Path(dest).suffix.lstrip(".") or mpl.rcParams["savefig.format"]
+    )
+    if str(fmt).lower() != "png":
+        return None
+    if type(engine) not in (ConstrainedLayoutEngine, TightLayoutEngine, PlaceHolderLayoutEngine):
+        return None
+    if mpl.rcParams["figure.autolayout"] or mpl.rcParams["figure.constrained_layout.use"]:
+        return None
+    bbox = savefig_kw.get("bbox_inches")
+    bbox = mpl.rcParams["savefig.bbox"] if bbox is None else bbox
+    if isinstance(bbox, str) and bbox == "tight":
+        return None
+    dpi = savefig_kw.get("dpi")
+    dpi = mpl.rcParams["savefig.dpi"] if dpi is None else dpi
+    if dpi == "figure":
+        dpi = getattr(fig, "_original_dpi", fig.dpi)
+    if not isinstance(engine, PlaceHolderLayoutEngine):
+        original = fig.dpi
+        fig.dpi = dpi
+        try:
+            engine.execute(fig)
+        finally:
+            fig.dpi = original
+    fig.set_layout_engine(None)
+    return engine
 
 
 def content_id(obj: Any) -> str:
