@@ -320,13 +320,13 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     (0.3, 0.0)
     """
     from energy_planner.measurements.datacheck import _rotate_xy
+    from energy_planner.measurements.preprocess import segment_gradient
 
     out = samples.copy(deep=False)
     run = out["run"].astype(str).to_numpy()
     t = out["t"].to_numpy(float)
     h = POSE_HALF_WIDTH_S
     rate = {c: np.full(len(out), np.nan) for c in ("x", "y", "yaw") if c in out}
-    acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
     starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
     bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
     track = {c: out[c].to_numpy(float) for c in rate}  # read once, sliced per run
@@ -355,11 +355,8 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
         out["wz"] = rate["yaw"]
     vel = {"vx": out["vx"].to_numpy(float), "vy": out["vy"].to_numpy(float)}
     out["speed"] = np.hypot(vel["vx"], vel["vy"])
-    for a, b in bounds:
-        if b - a > 1:
-            for src, dst in (("vx", "ax"), ("vy", "ay")):
-                acc[dst][a:b] = np.gradient(vel[src][a:b], t[a:b])
-    out["ax"], out["ay"] = acc["ax"], acc["ay"]
+    edges = np.r_[starts, len(run)]
+    out["ax"], out["ay"] = (segment_gradient(vel[c], t, edges) for c in ("vx", "vy"))
     return out
 
 
