@@ -516,6 +516,18 @@ def _energy_score(
     return EnergyScore(rel)
 
 
+#: Largest windows (their samples' bytes) the repair guard keeps for :func:`prepare_logs`
+#: to take: kept, they are held through the scores that follow (the pose twist, the
+#: design), which on a full campaign raised discover's peak memory by their size (1.21 ->
+#: 1.30 GB; issue 21). Larger windows are cut again after the checks.
+GUARD_WINDOWS_BYTES = 32 << 20
+
+
+def _frame_bytes(frame: pd.DataFrame) -> int:
+    """Bytes of a frame's columns (their buffers, not the objects they point to)."""
+    return int(frame.memory_usage(index=True, deep=False).sum())
+
+
 class _HeldOutGuard:
     """``check_data``'s ``accept``: a repair is kept unless it raises the held-out error.
 
@@ -524,15 +536,15 @@ class _HeldOutGuard:
     the repair, since the check's own test found the fault. The score of the samples as
     they stand is computed once per state (the last accepted repair's samples are the
     next check's "before"). So are its windows (:func:`_clean_windows`), which the scores
-    start from and :func:`prepare_logs` cuts from the checked samples: the samples as
-    they stand keep theirs (:meth:`windows`), the others are let go.
+    start from and :func:`prepare_logs` cuts from the checked samples: the last state
+    scored keeps its windows (:meth:`windows`) while it is the samples as they stand,
+    if they are at most :data:`GUARD_WINDOWS_BYTES`.
     """
 
     def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
         self.window, self.terms = window, terms
         self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
-        # (samples, windows, report) of the states scored and not let go (at most two:
-        # a repair's "before" and "after"), made without a warning
+        # (samples, windows, report) of the last state scored, if it is not let go
         self._windows: list[tuple[pd.DataFrame, Any, Any]] = []
 
     def windows(self, samples: pd.DataFrame) -> tuple[Any, Any] | None:
@@ -553,8 +565,11 @@ class _HeldOutGuard:
             got = self.windows(samples)
             if got is not None:
                 return got[0]
+            self._windows = []  # another state's: let go before these are made (memory)
             windows, report, warned = _clean_windows(samples, self.window)
-            if not warned:  # prepare_logs shows the warnings of its own cleaning
+            # kept unless they warned (prepare_logs shows the warnings of its own
+            # cleaning) or are large (held through the score: discover's peak memory)
+            if not warned and _frame_bytes(windows.samples) <= GUARD_WINDOWS_BYTES:
                 self._windows.append((samples, windows, report))
             return windows
 
