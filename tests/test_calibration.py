@@ -430,3 +430,29 @@ def test_mirrored_campaign_gives_the_same_model(campaign):
     for name in BASE_TERMS:
         assert b.coefficients[name] == pytest.approx(a.coefficients[name], rel=1e-9)
     assert b.heldout.rmse_w == pytest.approx(a.heldout.rmse_w, rel=1e-9)
+
+
+def test_prepare_logs_cleans_each_state_of_the_samples_once(monkeypatch):
+    """The repair guard cleans and cuts each state of the samples it scores; the checked
+    samples' windows are the guard's own (cleaned once), the same as cutting the repaired
+    samples afresh (``guard=False``: no score, every repair applied)."""
+    import energy_planner.calibration.prepare as P
+
+    monkeypatch.setenv("ENERGY_PLANNER_LOG_CACHE", "0")
+    t = np.arange(0, 8, 0.05)  # the module's example: the current's sign is repaired
+    s = pd.DataFrame({"run": np.repeat(["a", "b"], len(t) // 2), "t": np.r_[t[:80], t[:80]],
+                      "qw": 1.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "vx": 0.3, "vy": 0.0,
+                      "wz": 0.0, "voltage": 50.0,
+                      "current": -4.0 + 0.1 * np.sin(7 * t)})  # fmt: skip
+    cleaned = []
+    real = P.clean_logs
+    monkeypatch.setattr(P, "clean_logs", lambda x: cleaned.append(x) or real(x))
+    got = P.prepare_logs(s)
+    assert [f.name for f in got.found if f.repaired] == ["current_sign"]
+    assert len(cleaned) == 2  # the samples without and with the repair, once each
+    assert cleaned[0] is not cleaned[1]
+    plain = P.prepare_logs(s, guard=False)
+    assert len(cleaned) == 3  # no guard: the repaired samples cleaned by prepare_logs
+    pd.testing.assert_frame_equal(got.windows.samples, plain.windows.samples)
+    pd.testing.assert_frame_equal(got.windows.table, plain.windows.table)
+    assert repr(got.preprocess_report) == repr(plain.preprocess_report)

@@ -35,7 +35,7 @@ import math
 import threading
 import warnings
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -230,17 +230,44 @@ def heldout_score(
     """
     # the one held-out evaluation with each fold's identifiable terms is the diagnosis'
     # window view (WindowData.heldout, calibration.windowdata)
+    return _heldout_score(samples, window, terms)
+
+
+def _clean_windows(samples: pd.DataFrame, window: float) -> tuple[Any, Any, bool]:
+    """``(windows, report, warned)``: :func:`clean_logs` then ``make_windows``.
+
+    As :func:`prepare_logs` cleans and cuts the checked samples. The warnings of the
+    two steps are recorded, not shown (``warned``: whether there were any); the cleaned
+    copy is not held beside the windows (memory).
+    """
+    from energy_planner.measurements.windows import make_windows
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        clean, report = clean_logs(samples)
+        windows = make_windows(clean, duration=window)
+        del clean
+    return windows, report, bool(caught)
+
+
+def _heldout_score(
+    samples: pd.DataFrame,
+    window: float,
+    terms: Sequence[Any] | None,
+    cleaned: Callable[[], Any] | None = None,
+) -> HeldOutScore:
+    """:func:`heldout_score` computed.
+
+    ``cleaned()``, when given, returns the samples' windows (:func:`_clean_windows`).
+    """
     from energy_planner.calibration.windowdata import window_data
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
-            clean, _ = clean_logs(samples)
-            windows = make_windows(clean, duration=window)
-            del clean  # the cleaned copy: not held while the window view is built (memory)
+            windows = _clean_windows(samples, window)[0] if cleaned is None else cleaned()
             wd = window_data(windows.samples)
             del windows
         folds = fold_index(wd.runs, 5, 0)
@@ -293,13 +320,13 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
     (0.3, 0.0)
     """
     from energy_planner.measurements.datacheck import _rotate_xy
+    from energy_planner.measurements.preprocess import segment_gradient
 
     out = samples.copy(deep=False)
     run = out["run"].astype(str).to_numpy()
     t = out["t"].to_numpy(float)
     h = POSE_HALF_WIDTH_S
     rate = {c: np.full(len(out), np.nan) for c in ("x", "y", "yaw") if c in out}
-    acc = {"ax": np.zeros(len(out)), "ay": np.zeros(len(out))}
     starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
     bounds = list(zip(starts, np.r_[starts[1:], len(run)], strict=True))
     track = {c: out[c].to_numpy(float) for c in rate}  # read once, sliced per run
@@ -328,11 +355,8 @@ def pose_twist(samples: pd.DataFrame) -> pd.DataFrame:
         out["wz"] = rate["yaw"]
     vel = {"vx": out["vx"].to_numpy(float), "vy": out["vy"].to_numpy(float)}
     out["speed"] = np.hypot(vel["vx"], vel["vy"])
-    for a, b in bounds:
-        if b - a > 1:
-            for src, dst in (("vx", "ax"), ("vy", "ay")):
-                acc[dst][a:b] = np.gradient(vel[src][a:b], t[a:b])
-    out["ax"], out["ay"] = acc["ax"], acc["ay"]
+    edges = np.r_[starts, len(run)]
+    out["ax"], out["ay"] = (segment_gradient(vel[c], t, edges) for c in ("vx", "vy"))
     return out
 
 
@@ -379,17 +403,31 @@ def energy_score(
         repair's "after"; every command on the same logs scores the same states) and
         returned again as they are: read them, do not modify them.
     """
+    return _kept_energy_score(samples, window, terms)
+
+
+def _kept_energy_score(
+    samples: pd.DataFrame,
+    window: float,
+    terms: Sequence[Any] | None,
+    cleaned: Callable[[], Any] | None = None,
+) -> EnergyScore | None:
+    """:func:`energy_score`, kept by content.
+
+    ``cleaned()``, when given, returns the samples' windows (:func:`_clean_windows`);
+    it is asked only when the score is computed.
+    """
     if not {"x", "y", "qw", "qx", "qy", "qz"} <= set(samples.columns):
         return None
     try:
         key = _content_key(samples, window, terms)
     except TypeError:  # a column pandas cannot hash (objects of no hashable kind)
-        return _energy_score(samples, window, terms)
+        return _energy_score(samples, window, terms, cleaned)
     with _ENERGY_LOCK:
         if key in _ENERGY_SCORES:
             _ENERGY_SCORES.move_to_end(key)
             return _ENERGY_SCORES[key]
-    out = _energy_score(samples, window, terms)
+    out = _energy_score(samples, window, terms, cleaned)
     with _ENERGY_LOCK:
         _ENERGY_SCORES[key] = out
         while len(_ENERGY_SCORES) > ENERGY_SCORE_CACHE:
@@ -438,19 +476,24 @@ def _content_key(samples: pd.DataFrame, window: float, terms: Sequence[Any] | No
     return (*_samples_digest(samples), float(window), names)
 
 
-def _energy_score(samples: pd.DataFrame, window: float, terms: Sequence[Any] | None) -> EnergyScore:
-    """:func:`energy_score` computed (samples with a pose)."""
+def _energy_score(
+    samples: pd.DataFrame,
+    window: float,
+    terms: Sequence[Any] | None,
+    cleaned: Callable[[], Any] | None = None,
+) -> EnergyScore:
+    """:func:`energy_score` computed (samples with a pose).
+
+    ``cleaned()``, when given, returns the samples' windows (:func:`_clean_windows`).
+    """
     from energy_planner.calibration.windowdata import WindowData, window_data
     from energy_planner.errors import EnergyPlannerError
-    from energy_planner.measurements.windows import make_windows
     from energy_planner.stats import fold_index
 
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the pipeline itself warns once, after
-            clean, _ = clean_logs(samples)
-            windows = make_windows(clean, duration=window)
-            del clean
+            windows = _clean_windows(samples, window)[0] if cleaned is None else cleaned()
             wd = window_data(windows)
             del windows
         folds = fold_index(wd.runs, 5, 0)
@@ -473,6 +516,18 @@ def _energy_score(samples: pd.DataFrame, window: float, terms: Sequence[Any] | N
     return EnergyScore(rel)
 
 
+#: Largest windows (their samples' bytes) the repair guard keeps for :func:`prepare_logs`
+#: to take: kept, they are held through the scores that follow (the pose twist, the
+#: design), which on a full campaign raised discover's peak memory by their size (1.21 ->
+#: 1.30 GB; issue 21). Larger windows are cut again after the checks.
+GUARD_WINDOWS_BYTES = 32 << 20
+
+
+def _frame_bytes(frame: pd.DataFrame) -> int:
+    """Bytes of a frame's columns (their buffers, not the objects they point to)."""
+    return int(frame.memory_usage(index=True, deep=False).sum())
+
+
 class _HeldOutGuard:
     """``check_data``'s ``accept``: a repair is kept unless it raises the held-out error.
 
@@ -480,23 +535,62 @@ class _HeldOutGuard:
     worse with it beyond noise (:data:`REPAIR_ALPHA`); a difference within noise keeps
     the repair, since the check's own test found the fault. The score of the samples as
     they stand is computed once per state (the last accepted repair's samples are the
-    next check's "before").
+    next check's "before"). So are its windows (:func:`_clean_windows`), which the scores
+    start from and :func:`prepare_logs` cuts from the checked samples: the last state
+    scored keeps its windows (:meth:`windows`) while it is the samples as they stand,
+    if they are at most :data:`GUARD_WINDOWS_BYTES`.
     """
 
     def __init__(self, window: float, terms: Sequence[Any] | None) -> None:
         self.window, self.terms = window, terms
         self._before: tuple[pd.DataFrame, HeldOutScore] | None = None
+        # (samples, windows, report) of the last state scored, if it is not let go
+        self._windows: list[tuple[pd.DataFrame, Any, Any]] = []
+
+    def windows(self, samples: pd.DataFrame) -> tuple[Any, Any] | None:
+        """``(windows, report)`` of ``samples`` made for a score, or None.
+
+        The same object's, made without a warning, as :func:`clean_logs` and
+        ``make_windows`` make them for :func:`prepare_logs`.
+        """
+        for s, windows, report in self._windows:
+            if s is samples:
+                return windows, report
+        return None
+
+    def _cleaned(self, samples: pd.DataFrame) -> Callable[[], Any]:
+        """``cleaned()`` of the scores: the windows of ``samples``, made once."""
+
+        def make() -> Any:
+            got = self.windows(samples)
+            if got is not None:
+                return got[0]
+            self._windows = []  # another state's: let go before these are made (memory)
+            windows, report, warned = _clean_windows(samples, self.window)
+            # kept unless they warned (prepare_logs shows the warnings of its own
+            # cleaning) or are large (held through the score: discover's peak memory)
+            if not warned and _frame_bytes(windows.samples) <= GUARD_WINDOWS_BYTES:
+                self._windows.append((samples, windows, report))
+            return windows
+
+        return make
 
     def _score(self, samples: pd.DataFrame) -> HeldOutScore:
         if self._before is not None and self._before[0] is samples:
             return self._before[1]
-        return heldout_score(samples, window=self.window, terms=self.terms)
+        return _heldout_score(samples, self.window, self.terms, self._cleaned(samples))
 
     def __call__(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
+        keep = self._judge(before, after, finding)
+        now = after if keep else before  # the samples as they stand: their windows stay
+        self._windows = [e for e in self._windows if e[0] is now]
+        return keep
+
+    def _judge(self, before: pd.DataFrame, after: pd.DataFrame, finding: DataFinding) -> bool:
         if finding.name in UNIT_REPAIRS:
-            e0 = energy_score(before, window=self.window, terms=self.terms)
+            e0 = _kept_energy_score(before, self.window, self.terms, self._cleaned(before))
             if e0 is not None:
-                e1 = energy_score(after, window=self.window, terms=self.terms)
+                e1 = _kept_energy_score(after, self.window, self.terms, self._cleaned(after))
                 keep = self._by_energy(e0, e1, finding)
                 if keep:
                     self._before = None  # the samples changed: scored afresh next time
@@ -537,7 +631,7 @@ class _HeldOutGuard:
         from energy_planner.stats import paired_run_test
 
         s0 = self._score(before)
-        s1 = heldout_score(after, window=self.window, terms=self.terms)
+        s1 = _heldout_score(after, self.window, self.terms, self._cleaned(after))
         r0, r1 = s0.rmse_w, s1.rmse_w
         both = s0.run_mse.index.intersection(s1.run_mse.index)
         # one "window" per run: d_r is the run's mean squared error without minus with
@@ -709,9 +803,14 @@ def _prepare(
         samples = altitude_from_map(samples, terrain)
     accept = _HeldOutGuard(window, guard_terms) if guard else None
     findings, fixed = check_data(samples, repair=repair, accept=accept)
-    clean, report = clean_logs(fixed)
-    windows = make_windows(clean, duration=window)
-    del clean
+    made = None if accept is None else accept.windows(fixed)  # the guard's, if it made them
+    del accept
+    if made is None:
+        clean, report = clean_logs(fixed)
+        windows = make_windows(clean, duration=window)
+        del clean
+    else:
+        windows, report = made
     windows.whole_runs = whole_runs(fixed, windows, terrain)
     return PreparedLogs(windows, findings, repair, report)
 

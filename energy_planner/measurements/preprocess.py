@@ -278,6 +278,68 @@ def segment_slices(samples: pd.DataFrame) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)]
 
 
+def segment_gradient(v, t, bounds) -> np.ndarray:
+    """``numpy.gradient(v[a:b], t[a:b])`` in every segment ``[a, b)``, 0 in a one-sample one.
+
+    ``bounds``: the segments' starts and, last, ``len(v)`` (consecutive segments that
+    cover the rows, as :func:`segment_slices` cuts them). The same numbers as
+    ``numpy.gradient`` segment by segment, bit for bit (second-order central differences
+    on the sample times inside, one-sided at the ends; a segment of evenly spaced times
+    by its one spacing, as numpy does), computed for all segments at once. Times that do
+    not increase (a zero or non-finite spacing) are left to ``numpy.gradient`` itself, so
+    that its warnings are the same.
+
+    Examples
+    --------
+    >>> t = np.array([0.0, 0.1, 0.3, 0.6, 0.0, 0.5, 1.0, 2.0])
+    >>> v = t**2
+    >>> g = segment_gradient(v, t, [0, 4, 7, 8])
+    >>> want = np.r_[np.gradient(v[:4], t[:4]), np.gradient(v[4:7], t[4:7]), 0.0]
+    >>> bool(np.array_equal(g, want))
+    True
+    """
+    v = np.asarray(v, dtype=float)
+    t = np.asarray(t, dtype=float)
+    bounds = np.asarray(bounds, dtype=np.int64)
+    n = len(v)
+    out = np.zeros(n)
+    if n < 2:
+        return out
+    starts, ends = bounds[:-1], bounds[1:]
+    lens = ends - starts
+    seg = np.repeat(np.arange(len(lens)), lens)  # segment of each row
+    dt = np.diff(t)  # dt[i]: row i to i + 1
+    inner = seg[1:] == seg[:-1]  # the spacing is within a segment
+    if not np.all(np.isfinite(dt[inner]) & (dt[inner] > 0)):
+        for a, b in zip(starts, ends, strict=True):
+            if b - a > 1:
+                out[a:b] = np.gradient(v[a:b], t[a:b])
+        return out
+    multi = lens > 1
+    first_dt = np.zeros(len(lens))
+    first_dt[multi] = dt[starts[multi]]
+    uneven = inner & (dt != first_dt[seg[:-1]])
+    uniform = np.bincount(seg[:-1][uneven], minlength=len(lens)) == 0
+    # the interior rows: a row before and after in the segment
+    mid = np.zeros(n, dtype=bool)
+    mid[1:-1] = inner[:-1] & inner[1:]
+    j = np.flatnonzero(mid)
+    f0, f1, f2 = v[j - 1], v[j], v[j + 1]
+    even = uniform[seg[j]]
+    je, ju = j[even], j[~even]
+    out[je] = (f2[even] - f0[even]) / (2.0 * first_dt[seg[je]])
+    dx1, dx2 = dt[ju - 1], dt[ju]
+    a = -(dx2) / (dx1 * (dx1 + dx2))
+    b = (dx2 - dx1) / (dx1 * dx2)
+    c = dx1 / (dx2 * (dx1 + dx2))
+    out[ju] = a * f0[~even] + b * f1[~even] + c * f2[~even]
+    # the ends, one-sided (numpy's first spacing and last: one and the same when even)
+    s0, s1 = starts[multi], ends[multi] - 1
+    out[s0] = (v[s0 + 1] - v[s0]) / dt[s0]
+    out[s1] = (v[s1] - v[s1 - 1]) / np.where(uniform[multi], first_dt[multi], dt[s1 - 1])
+    return out
+
+
 def _ema_kernel() -> Callable:
     # numba is imported when a log is smoothed, not with the package
     from energy_planner.measurements._ema import ema_kernel
@@ -342,6 +404,12 @@ def hampel_mask(
     out = np.zeros(n, dtype=bool)
     if n < 3:
         return out
+    if n_sigma >= 0 and np.all(np.abs(x) < 1e300):
+        # every running median lies within the values' range, every scale is at least
+        # min_scale: a spread within n_sigma * min_scale has no outlier (rounding is
+        # monotone, so this holds for the computed numbers too): no median to compute
+        if np.ptp(x) <= n_sigma * min_scale:
+            return out
     w = int(half_window)
     pad = np.concatenate([np.full(w, np.nan), x, np.full(w, np.nan)])
     chunk = 100_000
@@ -478,14 +546,9 @@ def body_accelerations(
     """
     out = samples.copy(deep=False)  # copy-on-write: columns shared until replaced
     t = out["t"].to_numpy(dtype=float)
-    segments = segment_slices(out)
+    bounds = [sl.start for sl in segment_slices(out)] + [len(out)]
     for src, dst in (("vx", "ax"), ("vy", "ay")):
-        v = out[src].to_numpy(dtype=float)
-        a = np.zeros_like(v)
-        for sl in segments:
-            if sl.stop - sl.start > 1:
-                a[sl] = np.gradient(v[sl], t[sl])
-        out[dst] = a
+        out[dst] = segment_gradient(out[src].to_numpy(dtype=float), t, bounds)
     return out, StepRecord(
         "body_accelerations", len(samples), len(out), {}, "ax, ay = d(vx, vy)/dt"
     )
