@@ -43,7 +43,7 @@ def _project_error_classes() -> list[type]:
             mod = importlib.import_module(info.name)
         except ImportError:  # an optional dependency (e.g. OMPL) is missing
             continue
-        for obj in vars(mod).values():
+        for obj in list(vars(mod).values()):  # a snapshot: a background import may add names
             # private classes (leading underscore) are internal control flow that never
             # leaves its module (e.g. rosbag's fallback signal), not errors users see
             if (

@@ -24,7 +24,7 @@ from hypothesis.extra import numpy as hnp
 import energy_planner.measurements.rosbag as rosbag
 from energy_planner.io.bag import typestore
 from energy_planner.measurements import load_rosbag, write_rosbag
-from energy_planner.measurements._cdr import FixedLayout, NotFixedLayout
+from energy_planner.measurements._cdr import FixedLayout, _NotFixedLayout
 
 ANY_FLOAT = st.one_of(
     st.floats(),  # NaN, +-inf, huge, subnormal, -0.0
@@ -146,9 +146,9 @@ def test_bag_files_are_those_of_the_per_message_path(tmp_path, version):
 def test_layout_refuses_fields_that_are_not_fixed_numbers():
     ts = typestore(2)
     T = ts.types
-    with pytest.raises(NotFixedLayout, match="not numeric"):
+    with pytest.raises(_NotFixedLayout, match="not numeric"):
         FixedLayout(ts, "std_msgs/msg/String", T["std_msgs/msg/String"](data="a"), ["data"])
-    with pytest.raises(NotFixedLayout, match="not supported"):
+    with pytest.raises(_NotFixedLayout, match="not supported"):
         path = T["nav_msgs/msg/Path"](
             header=T["std_msgs/msg/Header"](
                 stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id="map"

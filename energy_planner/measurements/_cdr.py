@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FixedLayout", "NotFixedLayout"]
+__all__ = ["FixedLayout"]
 
 #: Bytes of the CDR primitives and their numpy types (little endian).
 _PRIMITIVES: dict[str, tuple[int, str]] = {
@@ -40,7 +40,7 @@ _PRIMITIVES: dict[str, tuple[int, str]] = {
 _CDR_HEADER = 4
 
 
-class NotFixedLayout(ValueError):
+class _NotFixedLayout(ValueError):
     """The message type has parts whose size varies, or the layout check failed."""
 
 
@@ -70,11 +70,11 @@ def _walk(ts: Any, msgtype: str, msg: Any, pos: int, prefix: str, out: dict, ros
                 out[path] = (pos, np_type)
                 pos += size
             else:
-                raise NotFixedLayout(f"{msgtype}.{name}: type {typ!r} not supported")
+                raise _NotFixedLayout(f"{msgtype}.{name}: type {typ!r} not supported")
         elif kind in ("ARRAY", "SEQUENCE"):
             (enode, espec), length = spec
             if getattr(enode, "name", str(enode)) != "BASE" or espec[0] not in _PRIMITIVES:
-                raise NotFixedLayout(f"{msgtype}.{name}: arrays of {espec!r} not supported")
+                raise _NotFixedLayout(f"{msgtype}.{name}: arrays of {espec!r} not supported")
             if kind == "SEQUENCE":
                 pos = _align(pos, 4) + 4
                 length = len(value)
@@ -82,7 +82,7 @@ def _walk(ts: Any, msgtype: str, msg: Any, pos: int, prefix: str, out: dict, ros
             if length:
                 pos = _align(pos, size) + size * length
         else:
-            raise NotFixedLayout(f"{msgtype}.{name}: node {node!r} not supported")
+            raise _NotFixedLayout(f"{msgtype}.{name}: node {node!r} not supported")
     return pos
 
 
@@ -112,7 +112,7 @@ class FixedLayout:
 
     Raises
     ------
-    NotFixedLayout
+    _NotFixedLayout
         A field path is not a numeric leaf, the type holds parts this class does not
         lay out, or the bytes of a probe message differ from ``serialize_cdr``'s.
     """
@@ -130,10 +130,10 @@ class FixedLayout:
         leaves: dict[str, tuple[int, str]] = {}
         end = _walk(ts, msgtype, template, 0, "", leaves, ros1)
         if head + end != self.size:
-            raise NotFixedLayout(f"{msgtype}: computed size {head + end} != {self.size}")
+            raise _NotFixedLayout(f"{msgtype}: computed size {head + end} != {self.size}")
         missing = [f for f in fields if f not in leaves]
         if missing:
-            raise NotFixedLayout(f"{msgtype}: not numeric fields {missing}")
+            raise _NotFixedLayout(f"{msgtype}: not numeric fields {missing}")
         self.fields = tuple(fields)
         self.dtype = np.dtype(
             {
@@ -146,7 +146,7 @@ class FixedLayout:
         self._check(template)
 
     def _check(self, template: Any) -> None:
-        """Probe values through both serializers: the same bytes or :class:`NotFixedLayout`."""
+        """Probe values through both serializers: the same bytes or :class:`_NotFixedLayout`."""
         probe = copy.deepcopy(template)
         values = {}
         for i, f in enumerate(self.fields):
@@ -155,7 +155,7 @@ class FixedLayout:
             values[f] = np.array([v], kind)
             _set_path(probe, f, v.item())
         if self.serialize(values)[0] != bytes(self.serializer(probe, self.msgtype)):
-            raise NotFixedLayout(f"{self.msgtype}: probe bytes differ from the typestore's")
+            raise _NotFixedLayout(f"{self.msgtype}: probe bytes differ from the typestore's")
 
     def serialize(self, values: Mapping[str, Any]) -> list[bytes]:
         """The serialized bytes of each message (one per row of the value arrays).

@@ -608,7 +608,7 @@ def _layouts(version: int) -> dict | None:
 
     None when a layout cannot be built (another rosbags' types): messages one by one.
     """
-    from energy_planner.measurements._cdr import FixedLayout, NotFixedLayout
+    from energy_planner.measurements._cdr import FixedLayout, _NotFixedLayout
 
     ros1 = version == 1
     ts = typestore(version)
@@ -627,7 +627,7 @@ def _layouts(version: int) -> dict | None:
                            ros1=ros1)
             for r, m in templates.items()
         }  # fmt: skip
-    except NotFixedLayout as err:
+    except _NotFixedLayout as err:
         log.debug("ROS %d messages serialized one by one: %s", version, err)
         return None
 
