@@ -253,27 +253,39 @@ def test_plan_energy_equals_energy_of_its_waypoints(tmp_path, model, name, start
     assert e == pytest.approx(res.energy_j, rel=1e-3)
 
 
-def test_bound_table_from_the_cache_is_the_computed_one(model):
+def test_bound_table_from_the_cache_is_the_computed_one(model, monkeypatch):
     """The bound's ``best`` bands read back from the process memo and from the disk cache
     are the ones :meth:`HeadingCost.map_bands` computes, bit for bit."""
+    import hashlib
+    import uuid
+
     from energy_planner.model._codegen import cache_dir
     from energy_planner.planning import search
 
     t = _bumpy(7)
     cost, _ = make_motion_cost(t, model, Request.make())
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, "all")
+    # cold without touching the shared cache: this run's keys are salted, so no file of
+    # an earlier run (or of another xdist worker's plans) is read, and none is deleted
+    salt, keys, real = uuid.uuid4().hex, [], search._best_key
 
-    def cold():
-        search._BEST_MEMO.clear()
-        for f in cache_dir().glob("bound_*.npy"):
-            f.unlink(missing_ok=True)
+    def salted(*args, **kwargs) -> str:
+        keys.append(hashlib.sha256((real(*args, **kwargs) + salt).encode()).hexdigest()[:24])
+        return keys[-1]
 
-    cold()
-    computed, tgeo = bound_table(cost, grid.headings, grid.move_ok)
-    memo, _ = bound_table(cost, grid.headings, grid.move_ok)
+    monkeypatch.setattr(search, "_best_key", salted)
     search._BEST_MEMO.clear()
-    disk, tgeo2 = bound_table(cost, grid.headings, grid.move_ok)
-    assert list(cache_dir().glob("bound_*.npy"))
+    try:
+        computed, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+        written = [cache_dir() / f"bound_{k}.npy" for k in set(keys)]
+        assert written and all(f.exists() for f in written)
+        memo, _ = bound_table(cost, grid.headings, grid.move_ok)
+        search._BEST_MEMO.clear()
+        disk, tgeo2 = bound_table(cost, grid.headings, grid.move_ok)
+    finally:
+        search._BEST_MEMO.clear()
+        for k in set(keys):
+            (cache_dir() / f"bound_{k}.npy").unlink(missing_ok=True)
     np.testing.assert_array_equal(memo, computed)
     np.testing.assert_array_equal(disk, computed)
     np.testing.assert_array_equal(tgeo2, tgeo)
