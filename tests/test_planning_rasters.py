@@ -5,21 +5,17 @@ every edge priced up front: an independent search of the same graph)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
+from _bounds import check_edge_bounds  # tests/ helper
 from b1_model import B1, b1_model  # tests/ helper
 
 from energy_planner.energy.channels import ChannelRaster, Channels
-from energy_planner.energy.kernels import IN_STEP, IN_TMAX
 from energy_planner.planning.lattice import lattice_plan
 from energy_planner.planning.limits import make_motion_cost
 from energy_planner.planning.search import (
-    BOUND_MARGIN,
     _Grid,
     bound_table,
-    search_module,
     search_plan,
 )
 from energy_planner.request import Request
@@ -56,26 +52,10 @@ def test_edge_bound_on_a_ground_raster_never_exceeds_the_kernel(seed):
     """Every translation at every heading allowed to make it costs at least its bound."""
     t, cost = _problem(seed)
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, "all")
-    mod = search_module(cost)
-    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
+    table, _ = bound_table(cost, grid.headings, grid.move_ok)
     assert np.isfinite(table).any() and table.max() > 0  # a table, not the zero heuristic
-    tmin = table.min(axis=(1, 2)).astype(float)
-    geo = np.array(cost.data[2:6], dtype=float)
-    kstep, tmax = float(cost.data[IN_STEP]), float(cost.data[IN_TMAX])
-    checked = 0
-    for i, j in [(2, 2), (grid.nx - 3, grid.ny - 3), (7, 12), (12, 5)]:
-        xa, ya = grid.xs[i], grid.ys[j]
-        for m, (di, dj) in enumerate(grid.moves):
-            if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
-                continue
-            xb, yb = grid.xs[i + di], grid.ys[j + dj]
-            lb = BOUND_MARGIN * mod.edge_bound(cost.data[0], *geo, kstep, tmax, xa, ya, xb, yb,
-                                               table, tmin, m, *tgeo)  # fmt: skip
-            for h in np.nonzero(grid.move_ok[:, m])[0]:
-                th = grid.headings[h]
-                e = cost(xa, ya, th, xb, yb, th)
-                assert lb <= e * (1 + 1e-9), (m, h, lb, e)
-                checked += math.isfinite(e)
+    cells = [(2, 2), (grid.nx - 3, grid.ny - 3), (7, 12), (12, 5)]
+    checked, _ = check_edge_bounds(cost, grid, cells)
     assert checked > 0
 
 

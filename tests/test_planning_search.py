@@ -8,23 +8,21 @@ import math
 
 import numpy as np
 import pytest
+from _bounds import check_edge_bounds  # tests/ helper
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.energy import MotionCost, path_energy
-from energy_planner.energy.kernels import IN_STEP, IN_TMAX
 from energy_planner.errors import InvalidStateError, PlanningError
 from energy_planner.maps import map_path
 from energy_planner.model import EnergyModel
 from energy_planner.planning.lattice import lattice_plan
 from energy_planner.planning.limits import make_motion_cost
 from energy_planner.planning.search import (
-    BOUND_MARGIN,
     _Grid,
     bound_table,
     reach_search,
     relaxed_cost_to_go,
-    search_module,
     search_plan,
 )
 from energy_planner.request import Request
@@ -91,30 +89,11 @@ def test_edge_bound_never_exceeds_the_kernel(model, seed, p, cross, slope, moves
     req = Request.make(max_cross_slope_deg=cross, max_slope_deg=slope)
     cost, _ = make_motion_cost(t, model, req)
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, moves)
-    mod = search_module(cost)
-    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
-    tmin = table.min(axis=(1, 2)).astype(float)
-    geo = np.array(cost.data[2:6], dtype=float)
-    kstep, tmax = float(cost.data[IN_STEP]), float(cost.data[IN_TMAX])
-    checked = 0
     rng = np.random.default_rng(p)
     # interior positions (the Horn gradient of the outer cells is undefined)
     ii = [2, grid.nx - 3, *rng.integers(2, grid.nx - 2, 2)]
     jj = [2, grid.ny - 3, *rng.integers(2, grid.ny - 2, 2)]
-    for i, j in zip(ii, jj, strict=True):
-        xa, ya = grid.xs[i], grid.ys[j]
-        for m, (di, dj) in enumerate(grid.moves):
-            if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
-                continue
-            xb, yb = grid.xs[i + di], grid.ys[j + dj]
-            lb = mod.edge_bound(cost.data[0], *geo, kstep, tmax, xa, ya, xb, yb, table, tmin, m,
-                                *tgeo)  # fmt: skip
-            lb *= BOUND_MARGIN
-            for h in np.nonzero(grid.move_ok[:, m])[0]:
-                th = grid.headings[h]
-                e = cost(xa, ya, th, xb, yb, th)
-                assert lb <= e * (1 + 1e-9), (m, h, lb, e)
-                checked += math.isfinite(e)
+    checked, _ = check_edge_bounds(cost, grid, zip(ii, jj, strict=True))
     assert checked > 0
 
 
@@ -328,25 +307,7 @@ def test_bound_of_a_speed_range_never_exceeds_the_kernel(seed, p, lam, steep):
     t = _steep_crest(seed) if steep else _bumpy(seed, amp=8.0)
     cost = Problem(t, _detour_model()).with_speed((0.2, 2.0), lam).cost.compile()
     grid = _Grid(cost, t, (1.5, 2.5), None, 16, "all")
-    mod = search_module(cost)
-    table, tgeo = bound_table(cost, grid.headings, grid.move_ok)
-    tmin = table.min(axis=(1, 2)).astype(float)
-    geo = np.array(cost.data[2:6], dtype=float)
-    kstep, tmax = float(cost.data[IN_STEP]), float(cost.data[IN_TMAX])
     rng = np.random.default_rng(p)
-    checked = tight = 0
-    for i, j in zip(rng.integers(2, grid.nx - 3, 6), rng.integers(2, grid.ny - 3, 6), strict=True):
-        xa, ya = grid.xs[i], grid.ys[j]
-        for m, (di, dj) in enumerate(grid.moves):
-            if not (0 <= i + di < grid.nx and 0 <= j + dj < grid.ny):
-                continue
-            xb, yb = grid.xs[i + di], grid.ys[j + dj]
-            lb = BOUND_MARGIN * mod.edge_bound(cost.data[0], *geo, kstep, tmax, xa, ya, xb, yb,
-                                               table, tmin, m, *tgeo)  # fmt: skip
-            for h in np.nonzero(grid.move_ok[:, m])[0]:
-                th = grid.headings[h]
-                e = cost(xa, ya, th, xb, yb, th)
-                assert lb <= e * (1 + 1e-9), (m, h, lb, e)
-                checked += math.isfinite(e)
-                tight += math.isfinite(e) and lb > 0.5 * e
+    cells = zip(rng.integers(2, grid.nx - 3, 6), rng.integers(2, grid.ny - 3, 6), strict=True)
+    checked, tight = check_edge_bounds(cost, grid, cells)
     assert checked > 0 and tight > 0  # a bound of 0 would pass the first alone
