@@ -636,16 +636,12 @@ def _c_min(terrain, model, request, n_headings, speed=None) -> float:
     from energy_planner.planning.corridor import least_cost_per_metre
 
     if speed is not None:  # a bound over the speed range (and a time price only adds)
-        kept = _C_MIN_RANGED.setdefault(terrain, {})
-        key = (id(model), id(request), tuple(speed[0]))
-        hit = kept.get(key)
-        if hit is not None and hit[0] is model and hit[1] is request:
-            return hit[2]
-        c = _cost(terrain, model, request, speed).min_cost_per_metre
-        kept[key] = (model, request, c)  # the objects themselves: their ids stay theirs
-        while len(kept) > 8:  # the last few (models, requests) of this terrain
-            kept.pop(next(iter(kept)))
-        return c
+        from energy_planner.planning.search import kept_per_terrain
+
+        return kept_per_terrain(
+            _C_MIN_RANGED, terrain, model, request, (tuple(speed[0]),),
+            lambda: _cost(terrain, model, request, speed).min_cost_per_metre, keep=8,
+        )  # fmt: skip
     cost = _cost(terrain, model, request, speed)
     grad = cost.data[IN_GRAD]
     fin = np.isfinite(grad[..., 0]) & np.isfinite(grad[..., 1])

@@ -493,18 +493,32 @@ def _node_bands(cost, nodes: int):
     (its ``request``), reads them from :data:`_RANGED_NODES` at any ``lambda``.
     """
     request = getattr(cost, "request", None)
-    kept = key = None
-    if getattr(cost, "ranged", False) and request is not None:
-        kept = _RANGED_NODES.setdefault(cost.terrain, {})
-        key = (id(cost.model), id(request), tuple(cost.speed_range), int(nodes))
-        hit = kept.get(key)
-        if hit is not None and hit[0] is cost.model and hit[1] is request:
-            return hit[2]
-    out = _node_bands_computed(cost, nodes)
-    if kept is not None:
-        kept[key] = (cost.model, request, out)  # the objects themselves: ids stay theirs
-        while len(kept) > 4:  # the last few (models, requests) of this terrain
-            kept.pop(next(iter(kept)))
+    if not (getattr(cost, "ranged", False) and request is not None):
+        return _node_bands_computed(cost, nodes)
+    return kept_per_terrain(
+        _RANGED_NODES, cost.terrain, cost.model, request, (tuple(cost.speed_range), int(nodes)),
+        lambda: _node_bands_computed(cost, nodes), keep=4,
+    )  # fmt: skip
+
+
+def kept_per_terrain(store: weakref.WeakKeyDictionary, terrain, model, request, extra: tuple,
+                     compute, keep: int):  # fmt: skip
+    """``compute()``, kept in ``store`` by terrain (weakly), model, request and ``extra``.
+
+    The model and request are kept themselves beside their ids (so an id is never
+    another object's), and each terrain keeps its last ``keep`` entries: the bounds of a
+    speed range that leave the price of a second out, read again at every ``lambda`` of a
+    deadline's or a time budget's bisection.
+    """
+    kept = store.setdefault(terrain, {})
+    key = (id(model), id(request), *extra)
+    hit = kept.get(key)
+    if hit is not None and hit[0] is model and hit[1] is request:
+        return hit[2]
+    out = compute()
+    kept[key] = (model, request, out)
+    while len(kept) > keep:
+        kept.pop(next(iter(kept)))
     return out
 
 
