@@ -100,8 +100,8 @@ def _domain_lines(d: dict[str, Any] | None) -> list[str]:
 
 @options.command(
     "reach",
-    "energy-planner reach hill --start 500058,5000046 --budget-wh "
-    "15 --out reach.tif --geojson area.geojson --plot reach.png",
+    "energy-planner reach hill --start 500058,5000046 --budget-wh 15 --within-budget "
+    "--out reach.tif --geojson area.geojson --plot reach.png",
 )
 @options.dem_argument
 @click.option("--start", required=True, help="Start X,Y in the DEM's CRS (or --points-crs).")
@@ -199,6 +199,8 @@ def command(
     --memory-cap is read as one window about the start that provably holds every cell
     within --budget-wh (its radius: the budget over the least energy per metre anywhere on
     the DEM); the outputs then cover that window, and cells above the budget are nodata.
+    With --within-budget (as in the example) the search stops at the budget: the same
+    area within it, its search about a third of the whole map's on the bundled hill.
     """
     _check_options(free_turn, round_trip, within_budget, budget_wh, geojson, battery_wh,
                    chance_out, reserve_wh)  # fmt: skip
