@@ -56,7 +56,10 @@ SELF_CONTAINED = ("demo",)
 #: commands that read only the files their arguments name (and the bundled maps): a line of
 #: one of them run again on byte-identical named inputs is the same check, so a worker runs
 #: it once and replays its output and its files (:func:`run`). The calibration examples of
-#: README.md, docs/*.md and the help's tutorial share their campaigns and fits this way.
+#: README.md, docs/*.md and the help's tutorial share their campaigns and fits this way;
+#: the sources of no :data:`SHARED_RUNS` group repeat none of them (tested), so they run
+#: their lines without keeping them (keeping costs a walk of the folder and a read of the
+#: files a line names and writes: 1.4 CPU s of simulate.md's 22)
 REPLAYABLE = ("simulate", "fit", "figures", "diagnose", "discover")
 #: the pages and help chains that share those runs, by xdist group (a group runs in one
 #: worker): the load campaign and its fits; the campaign with a ground effect and a fault
@@ -109,16 +112,17 @@ def _workdir(tmp_path: Path) -> Path:
     return tmp_path
 
 
-def run(cmd: str, cwd: Path) -> subprocess.CompletedProcess:
+def run(cmd: str, cwd: Path, replay: bool = True) -> subprocess.CompletedProcess:
     """Run one example line in ``cwd``.
 
     ``energy-planner ...`` lines run in this process through click's test runner (the
     same entry point, without paying the interpreter's and the kernels' start-up for each
-    line); any other line (``printf ... > file``) through bash.
+    line); any other line (``printf ... > file``) through bash. With ``replay``, a line of
+    a :data:`REPLAYABLE` command is kept and replayed (:func:`_replayed`).
     """
     words = shlex.split(cmd, comments=True)
     if words and words[0] == "energy-planner" and not set(words) & {"|", ">", "<", "&&"}:
-        if len(words) > 1 and words[1] in REPLAYABLE:
+        if replay and len(words) > 1 and words[1] in REPLAYABLE:
             return _replayed(words, cwd)
         return _invoke(words, cwd)
     bindir = str(Path(sys.executable).parent)
@@ -356,7 +360,7 @@ def test_help_examples_run_as_printed(chain, tmp_path):
     cwd = _workdir(tmp_path)
     for name, cmd in chain_examples(HELP_CHAINS[chain]):
         assert cmd.startswith(f"energy-planner {name}"), cmd
-        r = run(cmd, cwd)
+        r = run(cmd, cwd, replay=chain in SHARED_RUNS)
         assert r.returncode == 0, f"{name} --help example {cmd!r}:\n{r.stdout}\n{r.stderr}"
 
 
@@ -380,7 +384,7 @@ def test_doc_examples_run_as_printed(page, tmp_path, monkeypatch):
             continue
         if not shown and checked_by_help_chain(cmd):
             continue
-        r = run(cmd, cwd)
+        r = run(cmd, cwd, replay=page.name in SHARED_RUNS)
         if any(s.startswith("Error") for s in shown):
             assert r.returncode != 0, f"{page.name}: {cmd!r} should fail as shown"
             first = next(s for s in shown if s.startswith("Error"))
@@ -407,6 +411,31 @@ def test_pages_reuse_only_help_examples_of_self_contained_commands():
     assert not checked_by_help_chain("energy-planner demo --max-slope 20")
     assert not checked_by_help_chain("energy-planner plan --dem hill")
     assert any(c in HELP_CHAINS["demo"] for c in SELF_CONTAINED)
+
+
+def test_only_grouped_sources_repeat_a_replayable_line():
+    """A :data:`REPLAYABLE` line run more than once (the same words, in one source or in
+    several) is run only by sources of :data:`SHARED_RUNS` groups, the only ones that
+    keep their runs for replay: a source of no group runs each of its lines once (a line
+    of two groups, as ``discover campaign``, reads a different campaign in each)."""
+    sources: dict[tuple[str, ...], list[str]] = {}
+
+    def add(cmd: str, source: str) -> None:
+        words = shlex.split(cmd, comments=True)
+        if words[:1] == ["energy-planner"] and len(words) > 1 and words[1] in REPLAYABLE:
+            sources.setdefault(tuple(words), []).append(source)
+
+    for chain, steps in HELP_CHAINS.items():
+        for _, cmd in chain_examples(steps):
+            add(cmd, chain)
+    for page in DOCS:
+        for kind, cmd, _ in doc_examples(page):
+            if kind == "shell":
+                add(cmd, page.name)
+    repeated = {w: s for w, s in sources.items() if len(s) > 1}
+    assert repeated  # the calibration examples share their campaigns and fits
+    for words, where in repeated.items():
+        assert all(s in SHARED_RUNS for s in where), (" ".join(words), where)
 
 
 def test_a_replayed_run_leaves_what_the_run_left(tmp_path):
