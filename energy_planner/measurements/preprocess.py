@@ -458,8 +458,8 @@ def segment_hampel_mask(
     todo = lens >= 3
     if n_sigma >= 0:  # hampel_mask's shortcut: a spread within n_sigma * min_scale
         big = np.logical_and.reduceat(np.abs(x) < 1e300, starts)
-        ptp = np.maximum.reduceat(x, starts) - np.minimum.reduceat(x, starts)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):  # read only where big: no warning
+            ptp = np.maximum.reduceat(x, starts) - np.minimum.reduceat(x, starts)
             todo &= ~(big & (ptp <= n_sigma * min_scale))
     if not todo.any():
         return out
