@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -100,6 +101,43 @@ def test_hampel_removes_a_spike_and_keeps_a_constant():
     out, rec = hampel_filter(df, P)
     assert len(out) == 49 and out["power"].max() == 300.0
     assert list(rec.removed.values()) == [1]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    lengths=st.lists(st.integers(1, 40), min_size=1, max_size=8),
+    half=st.integers(1, 6),
+    n_sigma=st.sampled_from([3.0, 0.5, -1.0]),
+    min_scale=st.sampled_from([0.0, 5.0, 1e6]),
+)
+def test_segment_hampel_mask_is_hampel_mask_segment_by_segment(
+    seed, lengths, half, n_sigma, min_scale
+):
+    """All segments at once: the mask of hampel_mask on each segment alone, bit for bit,
+    on noise with spikes, repeated values (ties), missing and infinite values and constant
+    segments, with the same warnings (none for an infinite value)."""
+    from energy_planner.measurements.preprocess import segment_hampel_mask
+
+    rng = np.random.default_rng(seed)
+    ends = np.cumsum(lengths)
+    segments = [slice(int(a), int(b)) for a, b in zip(np.r_[0, ends[:-1]], ends, strict=True)]
+    x = np.round(rng.normal(300.0, 20.0, ends[-1]), rng.integers(-1, 2))
+    x[rng.random(x.size) < 0.1] *= 4.0  # spikes
+    x[rng.random(x.size) < 0.05] = np.nan
+    x[rng.random(x.size) < 0.02] = np.inf
+    if len(segments) > 1:
+        x[segments[1]] = 250.0  # a constant segment
+    if len(segments) > 2:
+        x[segments[2]] = np.inf  # no finite value
+    with warnings.catch_warnings(record=True) as before:
+        warnings.simplefilter("always")
+        want = np.concatenate([hampel_mask(x[sl], half, n_sigma, min_scale) for sl in segments])
+    with warnings.catch_warnings(record=True) as now:
+        warnings.simplefilter("always")
+        got = segment_hampel_mask(x, segments, half, n_sigma, min_scale)
+    assert got.tolist() == want.tolist()
+    assert {str(w.message) for w in now} == {str(w.message) for w in before}
 
 
 def test_hampel_keeps_a_ramp_and_a_step():

@@ -154,6 +154,44 @@ def test_independent_columns_names_the_dependence():
     assert fit.rank == 3 and np.isnan(fit.stderr).all()
 
 
+def _independent_by_definition(X, w, tol):
+    """Column by column: kept when its residual on the kept earlier ones exceeds tol."""
+    Xw = X * np.sqrt(w)[:, None]
+    keep = np.zeros(X.shape[1], dtype=bool)
+    for j in range(X.shape[1]):
+        kept = np.flatnonzero(keep)
+        z = Xw[:, j]
+        keep[j] = np.any(z) and (kept.size == 0 or span_residual(z, Xw[:, kept]) > tol)
+    return keep
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    near=st.sampled_from([1e-9, 1e-7, 5e-7, 1e-6, 2e-6, 1e-5, 1e-4, 1e-3, 2e-3]),
+    tol=st.sampled_from([1e-6, 1e-8, 1e-4, 1e-2]),
+)
+def test_independent_columns_decides_as_the_residual_of_each_column(seed, near, tol):
+    """The columns kept are those whose relative residual on the kept earlier ones exceeds
+    ``tol`` (:func:`span_residual`), whatever shortcut decides the clearly independent
+    ones: columns of scales 1e-4 to 1e4, a column near the span of earlier ones by a
+    relative ``near`` either side of the tolerances (at 1e-6, DEPENDENCE_TOL), an exact
+    combination, a zero column and a duplicate."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    base = rng.normal(size=(n, 4)) * 10.0 ** rng.uniform(-4, 4, 4)
+    combo = base[:, :3] @ rng.normal(size=3)
+    off = rng.normal(size=n)
+    off -= base @ np.linalg.lstsq(base, off, rcond=None)[0]  # orthogonal to the span
+    nearby = combo + near * np.linalg.norm(combo) * off / np.linalg.norm(off)
+    cols = [base[:, 0], base[:, 1], nearby, base[:, 2], combo, np.zeros(n), base[:, 3]]
+    X = np.column_stack([*cols, base[:, 1]])[:, rng.permutation(len(cols) + 1)]
+    w = rng.uniform(0.5, 2.0, n)
+    keep, why = independent_columns(X, w, tol=tol)
+    assert keep.tolist() == _independent_by_definition(X, w, tol).tolist()
+    assert set(why) == set(np.flatnonzero(~keep).tolist())
+
+
 @settings(max_examples=50, deadline=None)
 @given(
     vx=st.floats(-1, 1, allow_nan=False),

@@ -602,9 +602,12 @@ def identify_terms(
     absent = [k for k in _RATE_OF_KIND if int(np.sum(kind == k)) < MIN_WINDOWS_PER_TERM]
     present = [k for k in _RATE_OF_KIND if k not in absent]
     n_standing = int(np.sum(kind == STANDING))
+    probed: dict[str, Any] = {}  # each channel's probe value, taken once for every term
     for j, term in enumerate(model.terms):
         if term.kind not in _RATE_OF_KIND:
-            why = _prices_absent_motion(term, absent, X[:, j], table, n_standing, present)
+            why = _prices_absent_motion(
+                term, absent, X[:, j], table, n_standing, present, probed=probed
+            )
             if why:
                 out[term.name] = why
             continue
@@ -663,6 +666,10 @@ def identifiable_by_fold(
     names = model.term_names
     n_folds = int(np.max(folds)) + 1
     out = np.ones((n_folds, len(names)), dtype=bool)
+    # the columns identify_terms reads (the motion, the rates, the terms' channels): the
+    # folds' training rows are taken of these alone
+    reads = {"kind", "speed", "vx", "vy", "wz"}.union(*(t.variables for t in model.terms))
+    table = table[[c for c in table.columns if c in reads]]
     for i in range(n_folds):
         train = np.asarray(folds) != i
         lost = identify_terms(model, X[train], w[train], table[train])
@@ -737,20 +744,30 @@ def _prices_absent_motion(
     table: pd.DataFrame,
     n_standing: int | None = None,
     present: Sequence[str] = (),
+    *,
+    probed: dict[str, Any] | None = None,
 ) -> str | None:
-    """Why a term of another kind is not identified, or None (see :func:`identify_terms`)."""
+    """Why a term of another kind is not identified, or None (see :func:`identify_terms`).
+
+    ``probed``: the channels' probe values taken so far from this ``table`` (filled in
+    here): the terms of one model share their channels, whose median or most frequent
+    value is then taken once.
+    """
     if not absent and n_standing is None:
         return None
+    probed = {} if probed is None else probed
     channels: dict[str, Any] = {}
     for c in sorted(term.variables - MOTION_FEATURES):
         if c not in table:
             return None  # evaluated without the table's channels: nothing to probe with
-        v = table[c]
-        channels[c] = (
-            float(np.nanmedian(v.to_numpy(float)))
-            if pd.api.types.is_numeric_dtype(v)
-            else str(v.mode().iloc[0])
-        )
+        if c not in probed:
+            v = table[c]
+            probed[c] = (
+                float(np.nanmedian(v.to_numpy(float)))
+                if pd.api.types.is_numeric_dtype(v)
+                else str(v.mode().iloc[0])
+            )
+        channels[c] = probed[c]
     scale = float(np.nanmax(np.abs(column))) if column.size else 0.0
     tol = 1e-6 * scale + 1e-9
     if n_standing is not None:
@@ -769,7 +786,9 @@ def _prices_absent_motion(
     parts = _additive_parts(term)
     if len(parts) > 1:  # a sum is told when each of its parts is
         for part in parts:
-            why = _prices_absent_motion(part, absent, column, table, n_standing, present)
+            why = _prices_absent_motion(
+                part, absent, column, table, n_standing, present, probed=probed
+            )
             if why:
                 return why
         return None

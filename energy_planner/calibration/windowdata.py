@@ -636,12 +636,8 @@ def window_data(samples: Any, extras: Iterable[str] | None = None) -> WindowData
         t = s["t"].to_numpy(dtype=float)
         table["t_start"] = np.minimum.reduceat(t, first)
         table["t_end"] = np.maximum.reduceat(t, first)
-    # duration: samples x the run's median sample interval (a window of 1 sample counts too)
-    dt = s.groupby("run", sort=False)["t"].transform(
-        lambda v: np.median(np.diff(np.sort(v.to_numpy()))) if len(v) > 1 else 1.0
-    )
-    table["duration"] = np.bincount(key, weights=dt.to_numpy(float), minlength=n)
     if wtable is not None and "duration" in wtable.columns:
+        # the measurements' own durations (the sum of the samples' intervals)
         per = dict(
             zip(
                 zip(wtable["run"].astype(str), wtable["window"].astype(np.int64), strict=True),
@@ -651,6 +647,18 @@ def window_data(samples: Any, extras: Iterable[str] | None = None) -> WindowData
         )
         keys = zip(table["run"], table["window"].astype(np.int64), strict=True)
         table["duration"] = [per.get(k, np.nan) for k in keys]
+    else:
+        # samples x the run's median sample interval (a window of 1 sample counts too)
+        t_run = s["t"].to_numpy()
+        codes = run_code[order]
+        by_run = np.argsort(codes, kind="stable")
+        cut = np.searchsorted(codes[by_run], np.arange(len(run_names) + 1))
+        step = np.ones(len(run_names))
+        for r in range(len(run_names)):
+            v = t_run[by_run[cut[r] : cut[r + 1]]]
+            if len(v) > 1:
+                step[r] = np.median(np.diff(np.sort(v)))
+        table["duration"] = np.bincount(key, weights=step[codes], minlength=n)
     if "alpha" in s.columns:
         table["alpha_deg"] = np.degrees(mean("alpha"))
     if "gamma" in s.columns:  # circular mean: headings near +-180 deg must not average to 0

@@ -31,7 +31,7 @@ first would make the median and EMA bridge over the removed stretches).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -423,6 +423,65 @@ def hampel_mask(
     return out
 
 
+def segment_hampel_mask(
+    x, segments: Sequence[slice], half_window: int = 5, n_sigma: float = 3.0,
+    min_scale: float = 0.0,
+) -> np.ndarray:  # fmt: skip
+    """:func:`hampel_mask` of every segment ``x[sl]``, all segments at once.
+
+    ``segments``: consecutive slices that cover ``x`` (:func:`segment_slices`). The same
+    mask as :func:`hampel_mask` segment by segment, bit for bit: each sample's window
+    holds its own segment's values and, past the segment's ends, the same missing values;
+    the windows of every segment are sorted side by side (one call, not one per segment).
+
+    Examples
+    --------
+    >>> x = np.array([10.0, 10.2, 9.9, 10.1, 50.0, 10.0, 9.8, 1.0, 1.1, 0.9, 1.0])
+    >>> np.flatnonzero(segment_hampel_mask(x, [slice(0, 7), slice(7, 11)], 3, 3.0))
+    array([4])
+    """
+    x = np.asarray(x, dtype=float)
+    out = np.zeros(x.size, dtype=bool)
+    w = int(half_window)
+    starts = np.array([sl.start for sl in segments], dtype=np.int64)
+    lens = np.array([sl.stop - sl.start for sl in segments], dtype=np.int64)
+    if not starts.size or x.size == 0:
+        return out
+    if (
+        np.any(lens <= 0)
+        or lens.sum() != x.size
+        or np.any(starts != np.r_[0, np.cumsum(lens)[:-1]])
+    ):
+        for sl in segments:  # not consecutive slices covering x: one segment at a time
+            out[sl] = hampel_mask(x[sl], half_window, n_sigma, min_scale)
+        return out
+    todo = lens >= 3
+    if n_sigma >= 0:  # hampel_mask's shortcut: a spread within n_sigma * min_scale
+        big = np.logical_and.reduceat(np.abs(x) < 1e300, starts)
+        with np.errstate(invalid="ignore", over="ignore"):  # read only where big: no warning
+            ptp = np.maximum.reduceat(x, starts) - np.minimum.reduceat(x, starts)
+            todo &= ~(big & (ptp <= n_sigma * min_scale))
+    if not todo.any():
+        return out
+    # every segment to filter, with w missing values before it, and w after the last
+    seg = np.flatnonzero(todo)
+    rows = np.concatenate([np.arange(starts[i], starts[i] + lens[i]) for i in seg])
+    shift = np.repeat(w * np.arange(1, seg.size + 1), lens[seg])  # the pads before a row
+    pad = np.full(rows.size + w * (seg.size + 1), np.nan)
+    at = np.arange(rows.size) + shift  # each row's place in pad
+    pad[at] = x[rows]
+    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * w + 1)
+    chunk = 100_000
+    for a in range(0, rows.size, chunk):
+        b = min(rows.size, a + chunk)
+        cw = win[at[a:b] - w]
+        med = _row_nanmedian(cw)
+        mad = _row_nanmedian(np.abs(cw - med[:, None]))
+        scale = np.maximum(1.4826 * mad, min_scale)
+        out[rows[a:b]] = np.abs(x[rows[a:b]] - med) > n_sigma * scale
+    return out
+
+
 # ------------------------------------------------------------------------------ steps
 
 
@@ -498,11 +557,13 @@ def hampel_filter(
 ) -> tuple[pd.DataFrame, StepRecord]:
     """Drop Hampel outliers of ``column`` (default power), per run and segment."""
     x = samples[column].to_numpy(dtype=float)
-    bad = np.zeros(len(samples), dtype=bool)
-    for sl in segment_slices(samples):
-        bad[sl] = hampel_mask(
-            x[sl], params.hampel_half_window, params.hampel_n_sigma, params.hampel_min_scale_w
-        )
+    bad = segment_hampel_mask(
+        x,
+        segment_slices(samples),
+        params.hampel_half_window,
+        params.hampel_n_sigma,
+        params.hampel_min_scale_w,
+    )
     out = samples.loc[~bad].reset_index(drop=True)
     reason = (
         f"{column} beyond {params.hampel_n_sigma:g} robust sigma of the running median "

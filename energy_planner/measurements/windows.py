@@ -126,6 +126,10 @@ def _modes(window: np.ndarray, values: pd.Series, windows: pd.Index) -> list:
     value that comes first; None where the window holds no value. One grouping of all
     the samples, not one ``value_counts`` per window.
     """
+    if isinstance(values.dtype, pd.CategoricalDtype):
+        got = _category_modes(window, values, windows)
+        if got is not None:
+            return got
     ok = values.notna().to_numpy()
     if isinstance(values.dtype, pd.CategoricalDtype):
         order = values.cat.codes.to_numpy()[ok]
@@ -138,6 +142,31 @@ def _modes(window: np.ndarray, values: pd.Series, windows: pd.Index) -> list:
     counts = counts.reset_index().sort_values(["w", "n", "first"], ascending=[True, False, True])
     best = counts.drop_duplicates("w").set_index("w")["v"]
     return [best.get(w) for w in windows]
+
+
+def _category_modes(window: np.ndarray, values: pd.Series, windows: pd.Index) -> list | None:
+    """:func:`_modes` of a categorical: per window, its most frequent category's value.
+
+    Counted by category code (a tie goes to the first category, as in :func:`_modes`);
+    None when ``windows`` is not the sorted set of labels the samples hold (then
+    :func:`_modes` groups them itself).
+    """
+    wins = np.asarray(windows)
+    window = np.asarray(window)
+    if wins.ndim != 1 or (wins.size > 1 and not np.all(wins[1:] > wins[:-1])):
+        return None
+    pos = np.searchsorted(wins, window)
+    if np.any(pos >= wins.size) or not np.array_equal(wins[np.minimum(pos, wins.size - 1)], window):
+        return None
+    codes = values.cat.codes.to_numpy()
+    n_cat = len(values.cat.categories)
+    ok = codes >= 0
+    counts = np.bincount(
+        pos[ok] * n_cat + codes[ok].astype(np.int64), minlength=wins.size * n_cat
+    ).reshape(wins.size, n_cat)
+    best = counts.argmax(axis=1) if n_cat else np.zeros(wins.size, dtype=np.int64)
+    cats = values.cat.categories.to_numpy(dtype=object)
+    return [cats[b] if n_cat and counts[i, b] > 0 else None for i, b in enumerate(best)]
 
 
 def _mode(s: pd.Series):
