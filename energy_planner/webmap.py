@@ -300,15 +300,21 @@ def route_hover(problem: Any, states: Any, name: str = "route") -> list[str]:
 
     Energy, distance and duration per segment come from
     :meth:`energy_planner.problem.Problem.path_energy`'s per-segment table (the body
-    yaw of ``states`` followed); the last vertex gives the totals.
+    yaw of ``states`` followed); the last vertex gives the totals. They are priced by the
+    model's precompiled kernels where this machine has built them (as ``plan`` prices
+    its path): the same code as numba's, without loading numba's kernels for a page.
     """
     from energy_planner.energy import path_energy
+    from energy_planner.energy.kernels import precompiled_module
 
     states = np.asarray(states, dtype=float)
     if len(states) < 2:
         return ["start"] * len(states)
+    cost = problem.gait_only().cost
+    if not (cost.ranged or cost.gaits) and precompiled_module(cost.source, build=False):
+        cost.precompile()  # already built: loaded, never built here
     pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
-                     cost=problem.gait_only().cost)  # fmt: skip
+                     cost=cost)  # fmt: skip
     tab = pe.table
     cum = np.concatenate([[0.0], np.cumsum(tab["energy_j"])])
     out = []

@@ -116,6 +116,40 @@ def test_route_hover_texts_are_the_segments_of_path_energy(small):
     assert f"{pe.energy_j:,.0f} J" in hover[-1]
 
 
+def test_route_hover_uses_the_built_precompiled_kernels_and_never_builds_them(small, monkeypatch):
+    # plan prices its path with the model's precompiled module; the page's hover does too
+    # where the machine has built it (no numba kernel loaded for a page), and never builds it
+    from energy_planner.energy import kernels, motion
+
+    states = np.array([[10.5, 10.5, 0.0], [30.5, 12.5, 0.3], [50.5, 40.5, 1.2]])
+    numba_path_table = small.gait_only().cost._fn_numba("path_table")
+    priced = []
+
+    class Built:  # a built module: numba's path_table (the same code), its calls counted
+        @staticmethod
+        def path_table(*args):
+            priced.append(len(args[0]))
+            return numba_path_table(*args)
+
+    texts, asked = {}, {}
+    for built in (Built, None):
+        asked[built] = []
+
+        def module(source, build=True, built=built):
+            asked[built].append(build)
+            if built is None and build:
+                pytest.fail("a page built the precompiled module")
+            return built
+
+        monkeypatch.setattr(kernels, "precompiled_module", module)
+        monkeypatch.setattr(motion, "precompiled_module", module)
+        texts[built] = webmap.route_hover(small, states, "r")
+    assert priced == [3]  # the hover's three poses, priced once: by the built module
+    assert asked[Built][0] is False  # looked up without building, then loaded
+    assert asked[None] == [False]  # not built: looked up only, numba's kernels price it
+    assert texts[Built] == texts[None] and len(texts[None]) == 3
+
+
 def test_every_page_is_self_contained(pages):
     for name, p in pages["paths"].items():
         text = p.read_text()
