@@ -13,10 +13,22 @@ alternately on the bundled hill: every turn in place of 2500 positions x 16 head
 every translation of the 16 moves from them. Printed: ns per kernel call (median of
 ``--repeat``) and the ratio.
 
-Measured (2026-11-30, ``--repeat 5``, 2 cores shared with other jobs, load about 4.7)::
+Measured (2026-11-30, 2 cores shared with other jobs; the baseline the template of
+95425f4), four runs: at load about 4.7 (``--repeat 5``; a first version of this loop)::
 
     turn in place: baseline 2387 ns, this tree 2088 ns per call, ratio 1.143, same sums
     translation:   baseline  700 ns, this tree  669 ns per call, ratio 1.046, same sums
+
+and at load 0.3-0.7 (``--repeat 5``, then twice ``--repeat 7``)::
+
+    turn in place: baseline 2386 ns, this tree 1906 ns per call, ratio 1.252, same sums
+    translation: baseline 1229 ns, this tree 1399 ns per call, ratio 0.879, same sums
+    turn in place: baseline 2638 ns, this tree 1988 ns per call, ratio 1.327, same sums
+    translation: baseline 1358 ns, this tree 1337 ns per call, ratio 1.016, same sums
+    turn in place: baseline 2506 ns, this tree 1683 ns per call, ratio 1.489, same sums
+    translation: baseline 1155 ns, this tree 1150 ns per call, ratio 1.004, same sums
+
+Turns 1.14-1.49 x; translations unchanged within the run-to-run noise (0.88-1.05).
 
 Usage::
 
