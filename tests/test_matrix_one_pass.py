@@ -93,8 +93,9 @@ def test_a_second_pass_prices_only_new_edges_and_gives_the_whole_maps_matrix(
 
 
 def test_carried_rows_are_the_kernels_prices_on_the_grown_window(knoll, model):
-    """Every copied row equals the edge table of the grown window, bit for bit; the rows
-    left out (a move leaving the first window) are the ones that differ."""
+    """Every copied entry equals the edge table of the grown window, bit for bit; the
+    moves the first window cut (off its lattice) were never priced there, and the grown
+    window prices them."""
     anchor = (14.0, 12.0)
     small, big = (8.0, 6.0, 22.0, 19.0), (2.0, 1.0, 28.0, 27.0)
     cost, g1 = mx._setup(knoll, model, Request(), 16, small, anchor)
@@ -108,16 +109,19 @@ def test_carried_rows_are_the_kernels_prices_on_the_grown_window(knoll, model):
     n = mx._carry_cache(g1, c1, g2, c2)
     table = search.edge_table(cost, g2)
     got = np.nonzero(c2[1])[0]
-    assert got.size == n > 0
-    np.testing.assert_array_equal(c2[0][got], table[got])
-    # the states the first pass priced but did not hand on: on its window's rim, where
-    # some move was cut by the window (inf there) and the grown window prices it
-    H, r = g1.H, int(np.abs(g1.moves).max())
-    done = np.nonzero(c1[1])[0]
-    j, i = np.divmod(done // H, g1.nx)
-    rim = (i < r) | (j < r) | (i >= g1.nx - r) | (j >= g1.ny - r)
-    assert n == int((~rim).sum()) and rim.any()
-    shift = (int(g1.ys[0] - g2.ys[0]) + j[rim]) * g2.nx + int(g1.xs[0] - g2.xs[0]) + i[rim]
-    left = shift * H + done[rim] % H
-    assert not c2[1][left].any()
-    assert (np.isinf(c1[0][done[rim]]) & np.isfinite(table[left])).any()
+    assert got.size == n == np.count_nonzero(c1[1]) > 0
+    K = table.shape[1]
+    bits = ((c2[1][got, None] >> np.arange(K, dtype=np.uint32)) & 1) == 1
+    np.testing.assert_array_equal(c2[0][got][bits], table[got][bits])
+    # the translations of the priced states that leave the first window: no bit there
+    H = g1.H
+    old = np.nonzero(c1[1])[0]
+    j, i = np.divmod(old // H, g1.nx)
+    m = g1.moves_of[old % H]
+    i2 = i[:, None] + g1.moves[m, 0]
+    j2 = j[:, None] + g1.moves[m, 1]
+    off = (m >= 0) & ((i2 < 0) | (j2 < 0) | (i2 >= g1.nx) | (j2 >= g1.ny))
+    priced = ((c1[1][old, None] >> np.arange(m.shape[1], dtype=np.uint32)) & 1) == 1
+    assert off.any() and not (priced & off).any()
+    shift = (int(g1.ys[0] - g2.ys[0]) + j) * g2.nx + int(g1.xs[0] - g2.xs[0]) + i
+    assert np.isfinite(table[shift * H + old % H][:, : m.shape[1]][off]).any()

@@ -142,8 +142,12 @@ def first_pass(x0, y0, ddx, ddy, n, data, chv):
     """Pass 1 of a motion: check the limits at its ``n`` sub-steps, measure its ground length.
 
     Returns ``(code, surface, gx, gy)``: :data:`OK` or the violation, the length along the
-    surface (m) and the last sample's gradient. ``chv`` receives the sampled channels.
+    surface (m) and the last sample's gradient. ``chv`` receives the sampled channels. A
+    turn in place (``ddx == ddy == 0``) has every sub-step at ``(x0, y0)``, where each
+    would read the same values and add 0 to the length: one is checked.
     """
+    if ddx == 0.0 and ddy == 0.0:
+        n = 1
     grad = data[IN_GRAD]
     blocked = data[IN_BLOCKED]
     gx0, gy0, gdx, gdy = data[IN_X0], data[IN_Y0], data[IN_DX], data[IN_DY]
@@ -217,18 +221,27 @@ def motion_full(x0, y0, th0, x1, y1, th1, duration, data, out):
     # pass 2: the robot keeps a constant speed along the surface (and a constant yaw
     # rate); its body frame is tilted with the ground (see body_velocity).
     wz = dth / T
+    # a turn in place samples (x0, y0) at every sub-step: the gradient, the channels and
+    # the slope's own angles once (slope_frame's operations, so the same numbers)
+    still = ddx == 0.0 and ddy == 0.0
+    alpha = psi = ca = 0.0
     for i in range(n):
         s = (i + 0.5) / n
         x = x0 + s * ddx
         y = y0 + s * ddy
-        ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
-        if nch > 0:
-            sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
+        if i == 0 or not still:
+            ok, gxs, gys = sample_gradient(grad, gx0, gy0, gdx, gdy, x, y)
+            if nch > 0:
+                sample_channels(chan, nearest, gx0, gy0, gdx, gdy, x, y, chv)
+            alpha = math.atan(math.sqrt(gxs * gxs + gys * gys))
+            psi = math.atan2(gys, gxs)
+            ca = math.cos(alpha)
         dz = gxs * hx + gys * hy
         ds = math.sqrt(hx * hx + hy * hy + dz * dz)
         dt = T / n if surface <= 0.0 else T * ds / surface
         th = th0 + s * dth
-        alpha, gamma = slope_frame(gxs, gys, th)
+        gh = th - psi
+        gamma = math.atan2(math.sin(gh) * ca, math.cos(gh))
         if math.sin(alpha) * abs(math.sin(gamma)) > smax:
             out[OUT_CODE] = TOO_CROSS
             out[OUT_ENERGY] = np.inf

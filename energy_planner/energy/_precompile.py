@@ -146,11 +146,11 @@ def build_search(source: str, name: str, out_dir: str) -> None:
         a(f8, 1),
     )  # fmt: skip
     cc.export("heuristic_chunk", sig)(mod.heuristic_chunk.py_func)
-    # astar_chunk(data, lat, headings, moves, moves_of, h2d, eps, g, code, goal_p, goal_h,
-    #             keys, vals, n, max_pops, max_key, out)
+    # astar_chunk(data, lat, headings, moves, moves_of, move_lb, h2d, eps, g, code, goal_p,
+    #             goal_h, keys, vals, n, max_pops, max_key, out)
     sig = types.UniTuple(i8, 3)(
-        data_type(), a(f8, 1), a(f8, 1), a(i8, 2), a(i8, 2), a(f4, 1), f8, a(f4, 1), a(i1, 1),
-        i8, i8, a(f8, 1), a(i8, 1), a(i8, 1), i8, f8, a(i8, 1),
+        data_type(), a(f8, 1), a(f8, 1), a(i8, 2), a(i8, 2), a(f8, 1), a(f4, 1), f8, a(f4, 1),
+        a(i1, 1), i8, i8, a(f8, 1), a(i8, 1), a(i8, 1), i8, f8, a(i8, 1),
     )  # fmt: skip
     cc.export("astar_chunk", sig)(mod.astar_chunk.py_func)
     cc.export("heap_push", b1(a(f8, 1), a(i8, 1), a(i8, 1), f8, i8))(mod.heap_push.py_func)

@@ -30,8 +30,10 @@ narrow bands (20 sites, states expanded per row: 11 % at 200² against 20 % at e
 **Edges priced once.** The cost of a search is the kernel pricing its edges (18 per state
 expanded, each sampling the terrain every half cell with the model's power), not the
 heap. The sites' searches run on one lattice, so they share a cache filled as they go
-(:func:`~energy_planner.planning.search.edge_cache`): a state's edges are priced when a
-row first expands it and read by the later rows (per process; on dask, per batch of
+(:func:`~energy_planner.planning.search.edge_cache`): an edge is priced when a row first
+needs it and read by the later rows (an edge to a closed state, or one that could not
+improve its end even at the least energy of its move, is not needed: about half of a
+row's translations; per process; on dask, per batch of
 rows, the batches passing each other what they priced after every round:
 :func:`_lazy_rounds`), and its memory follows the states expanded. Alternatively every edge of the
 window is priced once (:func:`~energy_planner.planning.search.edge_table`, by strips of
@@ -54,14 +56,14 @@ not, the window grows to the ellipses' bounding box (clipped to the map) and the
 run again, which proves it. A pair without a path in the window, or ``c_min = 0``
 (channel rasters), takes the whole map. The second pass does not price again the edges
 the first one priced (serial, lazy cache: :func:`_carry_cache`): a motion between two
-positions of the first window costs the same in the grown one, so the rows of the states
-inside the first window (by the longest move) are copied into the new cache and only the
-others are priced. The searches run again (their heuristics, bounds over the grown
-window, are lower), over the same float32 prices, so the entries are those of a second
-pass that prices everything. On the README's mission (``--dem hill --sites hill_sites``)
-the first window is refused (the pairs' ellipses reach the map's edges) and the second
-pass expands the same 58,893 states: with the copied edges it prices none of them, and
-the matrix takes 2.2 CPU s instead of 4.1 (``benchmarks/bench_mission_passes.py``).
+positions of the first window costs the same in the grown one, so the edges priced in
+the first window are copied into the new cache and only the others are priced. The
+searches run again (their heuristics, bounds over the grown window, are lower), over the
+same float32 prices, so the entries are those of a second pass that prices everything.
+On the README's mission (``--dem hill --sites hill_sites``) the first window is refused
+(the pairs' ellipses reach the map's edges) and the second pass expands the same 58,893
+states: with the copied edges it prices none of them, and the matrix takes 2.2 CPU s
+instead of 4.1 (``benchmarks/bench_mission_passes.py``).
 
 **dask.** The relaxed table (by strips of rows), the per-site heuristics and then the
 per-site searches are independent tasks:
@@ -301,28 +303,28 @@ def _round_task(terrain, model, request, n_headings, box, anchor, speed, starts,
 
     The batch's cost, grid and cache live in this process (:data:`_BATCHES`, ``key`` =
     ``(token, batch)``) from round to round. ``incoming``: the other batches' results of
-    the previous round (their new edges: ``(states, rows of edges)``), written into the cache
-    first, so no state another batch priced before is priced again; ``after``: this
-    batch's previous round (only its order matters). Returns the rows (as
-    :func:`_rows_task`'s) and the states whose edges this round priced, with their edges.
+    the previous round (their new edges: ``(states, rows of edges, priced bits)``),
+    written into the cache first (:func:`~energy_planner.planning.search.merge_edges`),
+    so no edge another batch priced before is priced again; ``after``: this batch's
+    previous round (only its order matters). Returns the rows (as :func:`_rows_task`'s)
+    and the states with edges this round priced, with their edges and priced bits.
     """
-    from energy_planner.planning.search import _untouched, edge_cache
+    from energy_planner.planning.search import _untouched, edge_cache, merge_edges
 
     if key not in _BATCHES:  # its first round: the heuristics' parts come with it
         cost, grid = _setup(terrain, model, request, n_headings, box, anchor, speed)
         cache = edge_cache(grid)
-        _BATCHES[key] = (cost, grid, cache, _untouched(cache[1].size, np.uint8, zero=True),
+        _BATCHES[key] = (cost, grid, cache, _untouched(cache[1].size, np.uint32, zero=True),
                          _stack(heur))  # fmt: skip
     cost, grid, cache, seen, heur = _BATCHES[key]
     edges, done = cache
-    for _, (idx, vals) in incoming:  # the other batches' results
-        edges[idx] = vals
-        done[idx] = 1
-        seen[idx] = 1
+    for _, (idx, vals, bits) in incoming:  # the other batches' results
+        merge_edges(cache, idx, vals, bits)
+        seen[idx] = done[idx]
     rows = [_row(cost, grid, p, targets, heur, max_energy, eps, cache=cache) for p in starts]
     new = np.flatnonzero(done != seen)
-    seen[new] = 1
-    return rows, (new, edges[new])
+    seen[new] = done[new]
+    return rows, (new, edges[new], done[new])
 
 
 def _stack(parts) -> np.ndarray:
@@ -546,33 +548,29 @@ def _run(terrain, model, request, uxy, n_headings, box, max_energy, client, prog
 
 
 def _carry_cache(old_grid, old_cache, grid, cache) -> int:
-    """Copy the edges a previous pass priced into ``cache`` where they are the same.
+    """Copy the edges a previous pass priced into ``cache``: they are the same.
 
     Both lattices are cut from the one aligned on the first site (:func:`_run`), so a
     position of the old window is a position of the new one, shifted by whole steps. The
-    kernel prices a motion on the whole terrain whatever the window, so a state's row of
-    edges (its translations and turns) is the same in both unless a translation left the
-    old window (then ``inf`` there, priced in the new one): the rows of the states at
-    least the longest move's reach inside the old window are copied, the others priced
-    again when a search expands them.
+    kernel prices a motion on the whole terrain whatever the window, so an edge priced in
+    the old window (a turn, or a translation that stayed in it: one that would leave it
+    is never priced there) costs the same in the new one: every priced entry is copied
+    with its bit (:func:`~energy_planner.planning.search.edge_cache`), and the others are
+    priced when a search needs them.
 
     Returns
     -------
     int
         States whose edges were copied.
     """
-    r = int(np.abs(grid.moves).max())
     H = grid.H
     oi = int(round((old_grid.xs[0] - grid.xs[0]) / grid.step))
     oj = int(round((old_grid.ys[0] - grid.ys[0]) / grid.step))
-    done = old_cache[1].reshape(old_grid.ny, old_grid.nx, H)[
-        r : old_grid.ny - r, r : old_grid.nx - r
-    ]
-    j, i, h = np.nonzero(done)
-    old = ((j + r) * old_grid.nx + (i + r)) * H + h
-    new = ((j + r + oj) * grid.nx + (i + r + oi)) * H + h
+    old = np.flatnonzero(old_cache[1])
+    j, i = np.divmod(old // H, old_grid.nx)
+    new = ((j + oj) * grid.nx + (i + oi)) * H + old % H
     cache[0][new] = old_cache[0][old]
-    cache[1][new] = 1
+    cache[1][new] = old_cache[1][old]
     return int(new.size)
 
 

@@ -400,6 +400,7 @@ def astar_chunk(
     headings,
     moves,
     moves_of,
+    move_lb,
     h2d,
     eps,
     g,
@@ -421,6 +422,12 @@ def astar_chunk(
     ``goal_p`` < 0: no goal (expand everything with ``g <= max_key``). ``goal_h`` < 0:
     any heading at the goal. On FOUND, ``out[0]`` is the goal state. Returns
     (code, pops, edges priced).
+
+    ``move_lb[m]``: a lower bound of the kernel's energy of translation ``m`` anywhere
+    (J; zeros: none). A translation to a state already reached with ``g <= g(s) +
+    move_lb[m]`` cannot lower its ``g`` (``g(s) + e >= g(s) + move_lb[m]`` in floating
+    point too), so it is not priced: the same ``g`` and codes, for fewer kernel calls
+    (on a whole-map reach over half of the translations priced before).
     """
     xs0, ys0, step = lat[0], lat[1], lat[2]
     nx = int(lat[3])
@@ -454,8 +461,11 @@ def astar_chunk(
                 continue
             q = j2 * nx + i2
             t = q * H + hh
-            if code[t] >= CLOSED or not math.isfinite(h2d[q]):
+            ct = code[t]
+            if ct >= CLOSED or not math.isfinite(h2d[q]):
                 continue
+            if ct != UNSEEN and gs + move_lb[m] >= g[t]:
+                continue  # no energy of this move could improve t: left unpriced
             kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
             e = buf[0]
             priced += 1
@@ -676,18 +686,22 @@ def astar_cached_chunk(edges, lat, H, moves, moves_of, h2d, g, code, goal_p, key
 
 
 @numba.njit(cache=True)
-def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p, keys, vals,
-                     n, max_pops, max_key, edges, done):  # fmt: skip
-    """:func:`astar_cached_chunk` with the table filled on first need (a shared edge cache).
+def astar_lazy_chunk(data, lat, headings, moves, moves_of, move_lb, h2d, g, code, goal_p, keys,
+                     vals, n, max_pops, max_key, edges, done):  # fmt: skip
+    """:func:`astar_chunk` with eps 1 and the edges kept in a shared cache as they are priced.
 
-    When state ``s`` is expanded and ``done[s]`` is 0, its row of ``edges`` (the columns of
-    :func:`edge_costs`: its translations, then the turns to ``h - 1`` and ``h + 1``) is
-    priced by the same kernel calls and ``done[s]`` set to 1; the expansion then reads the
-    row. Searches from several starts on the same lattice share ``edges`` and ``done``, so
-    each state's edges are priced at most once, and only for the states some search
-    expands. ``g`` is read only where ``code`` says reached (as :func:`astar_chunk`'s; the
-    caller may leave ``g``, ``edges`` unwritten and ``code``, ``done`` zero). Keys are
-    ``g + h2d``; ``goal_p`` < 0: no goal. Returns (code, pops, edges priced).
+    ``edges`` has the columns of :func:`edge_costs` (a state's translations, then the
+    turns to ``h - 1`` and ``h + 1``); bit ``k`` of ``done[s]`` says column ``k`` of state
+    ``s`` holds its float32 price. An edge the expansion needs is read from the cache, or
+    priced by the same kernel call as :func:`edge_costs` and kept; as in
+    :func:`astar_chunk` an edge to a closed state, or a translation that could not
+    improve the state it leads to even at ``move_lb[m]`` (a float32 lower bound, so below
+    the kept price too), is not priced. Searches from several starts on the same lattice
+    share ``edges`` and ``done``, so each edge is priced at most once, and only where
+    some search needs it. ``g`` is read only where ``code`` says reached (as
+    :func:`astar_chunk`'s; the caller may leave ``g``, ``edges`` unwritten and ``code``,
+    ``done`` zero). Keys are ``g + h2d``; ``goal_p`` < 0: no goal. Returns (code, pops,
+    edges priced).
     """
     xs0, ys0, step = lat[0], lat[1], lat[2]
     nx = int(lat[3])
@@ -706,28 +720,11 @@ def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p,
         if p == goal_p:
             return FOUND, pops, priced
         j, i = divmod(p, nx)
-        if done[s] == 0:
-            x = xs0 + i * step
-            y = ys0 + j * step
-            th = headings[hh]
-            for k in range(nmv):
-                edges[s, k] = np.inf
-                m = moves_of[hh, k]
-                if m < 0:
-                    continue
-                i2 = i + moves[m, 0]
-                j2 = j + moves[m, 1]
-                if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny:
-                    continue
-                kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
-                edges[s, k] = buf[0]
-                priced += 1
-            for d in range(2):
-                kernel(x, y, th, x, y, headings[(hh + 2 * d - 1) % H], -1.0, data, buf)
-                edges[s, nmv + d] = buf[0]
-                priced += 1
-            done[s] = 1
+        x = xs0 + i * step
+        y = ys0 + j * step
+        th = headings[hh]
         gs = g[s]
+        bits = np.int64(done[s])
         for k in range(nmv):
             m = moves_of[hh, k]
             if m < 0:
@@ -738,22 +735,40 @@ def astar_lazy_chunk(data, lat, headings, moves, moves_of, h2d, g, code, goal_p,
                 continue
             q = j2 * nx + i2
             t = q * H + hh
+            ct = code[t]
+            if ct >= CLOSED or not math.isfinite(h2d[q]):
+                continue
+            if not (bits >> k) & 1:
+                if ct != UNSEEN and gs + move_lb[m] >= g[t]:
+                    continue  # no energy of this move could improve t: left unpriced
+                kernel(x, y, th, xs0 + i2 * step, ys0 + j2 * step, th, -1.0, data, buf)
+                edges[s, k] = buf[0]
+                bits |= 1 << k
+                priced += 1
             e = np.float64(edges[s, k])
-            if code[t] >= CLOSED or not math.isfinite(h2d[q]) or not math.isfinite(e):
+            if not math.isfinite(e):
                 continue
             ng = gs + e
-            if code[t] == UNSEEN or ng < g[t]:
+            if ct == UNSEEN or ng < g[t]:
                 g[t] = ng
                 code[t] = 1 + m
                 heap_push(keys, vals, n, ng + h2d[q], t)
         for d in range(2):
             h2 = (hh + 2 * d - 1) % H
             t = p * H + h2
+            if code[t] >= CLOSED:
+                continue
+            if not (bits >> (nmv + d)) & 1:
+                kernel(x, y, th, x, y, headings[h2], -1.0, data, buf)
+                edges[s, nmv + d] = buf[0]
+                bits |= 1 << (nmv + d)
+                priced += 1
             e = np.float64(edges[s, nmv + d])
-            if code[t] >= CLOSED or not math.isfinite(e):
+            if not math.isfinite(e):
                 continue
             ng = gs + e
             if code[t] == UNSEEN or ng < g[t]:
                 g[t] = ng
                 code[t] = TURN_FROM_NEXT if d == 0 else TURN_FROM_PREV
                 heap_push(keys, vals, n, ng + h2d[p], t)
+        done[s] = bits

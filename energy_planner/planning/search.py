@@ -75,6 +75,7 @@ __all__ = [
     "TargetsResult",
     "edge_table",
     "edge_cache",
+    "merge_edges",
     "EDGE_BYTES_PER_STATE",
 ]
 
@@ -228,9 +229,9 @@ def _warm_up_path(mod, cost) -> None:
         n, 0, 1.0, -1, 1.5, np.full(2, np.inf),
     )  # fmt: skip
     mod.astar_chunk(
-        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1, np.float32), 1.0,
-        np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1, keys, vals, n, 0, 0.0,
-        np.zeros(1, i8),
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(16),
+        np.zeros(1, np.float32), 1.0, np.zeros(16, np.float32), np.zeros(16, np.int8), -1, -1,
+        keys, vals, n, 0, 0.0, np.zeros(1, i8),
     )  # fmt: skip
     mod.heap_push(keys, vals, n, 0.0, 0)
     mod.trace(np.full(16, mod.START, np.int8), moves, 1, 16, 0)
@@ -255,9 +256,9 @@ def _warm_up_rest(mod, cost) -> None:
     mod.edge_bound(cost.data[IN_GRAD], *_geo(cost), 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, table,
                    np.zeros(16), 0, *tgeo)  # fmt: skip
     mod.astar_lazy_chunk(
-        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(1),
+        cost.data, lat, np.zeros(16), moves, np.zeros((16, 4), i8), np.zeros(16), np.zeros(1),
         np.zeros(16, np.float32), np.zeros(16, np.int8), -1, keys, vals, n, 0, 0.0,
-        np.zeros((16, 6), np.float32), np.zeros(16, np.uint8),
+        np.zeros((16, 6), np.float32), np.zeros(16, np.uint32),
     )  # fmt: skip
 
 
@@ -330,6 +331,8 @@ class ReachResult:
         ``states``, -1 at a start state), ``at`` (per position, row-major over
         ``energy``, the index of its least-energy state, -1 where unreached), ``xs``,
         ``ys`` and ``headings`` (rad) to turn a state into a pose.
+    priced : int
+        Edges priced by the kernel.
     """
 
     xs: np.ndarray
@@ -340,6 +343,7 @@ class ReachResult:
     expanded: int
     time_s: float
     tree: dict | None = None
+    priced: int = 0
 
 
 class _Grid:
@@ -1085,8 +1089,30 @@ def _untouched(n: int, dtype, zero: bool = False) -> np.ndarray:
             setter(prev)
 
 
+def move_bounds(cost, grid: _Grid, table: tuple | None = None) -> np.ndarray:
+    """A lower bound of the kernel's energy of each translation of ``grid``, anywhere (J).
+
+    ``out[m]`` for the move ``grid.moves[m]``: its map length times the least J per map
+    metre of :func:`bound_table` (``table``, when the caller has it) in that direction,
+    times :data:`BOUND_MARGIN`: the least of every edge bound of the relaxed problem
+    (:func:`_search.edge_bound`), so a lower bound of every such translation's kernel
+    energy wherever the relaxed problem's is (``tests/test_planning_search.py``). 0
+    where the table holds none. :func:`_search.astar_chunk` leaves a translation
+    unpriced when even this energy could not improve the state it leads to.
+    """
+    table = bound_table(cost, grid.headings, grid.move_ok)[0] if table is None else table[0]
+    least = table.reshape(len(table), -1).min(axis=1).astype(np.float64)
+    out = BOUND_MARGIN * (grid.move_len * grid.step) * least
+    out[~np.isfinite(out)] = 0.0
+    # each a float32 rounded down: below the float32 price an edge cache keeps as well
+    o32 = out.astype(np.float32)
+    up = o32.astype(np.float64) > out
+    o32[up] = np.nextafter(o32[up], np.float32(-np.inf))
+    return np.ascontiguousarray(o32, dtype=np.float64)
+
+
 def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *,
-                max_key, progress, deadline, desc):  # fmt: skip
+                max_key, progress, deadline, desc, move_lb):  # fmt: skip
     N = grid.P * grid.H
     # untouched pages cost no memory: g is read only where code says reached
     g = _untouched(N, np.float32)
@@ -1104,8 +1130,9 @@ def _run_search(mod, cost, grid, h2d, eps, starts_p, start_hs, goal_p, goal_h, *
     try:
         while True:
             status, pops, pr = mod.astar_chunk(
-                cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, eps, g,
-                code, goal_p, goal_h, heap.keys, heap.vals, heap.n, 500_000, max_key, out,
+                cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, move_lb, h2d,
+                eps, g, code, goal_p, goal_h, heap.keys, heap.vals, heap.n, 500_000, max_key,
+                out,
             )  # fmt: skip
             expanded += pops
             priced += pr
@@ -1192,8 +1219,9 @@ def search_plan(
     hs_start = _start_states(cost, grid, ps, start[2], "start")
     hs_goal = _start_states(cost, grid, pg, goal[2], "goal")
     goal_h = int(hs_goal[0]) if goal[2] is not None else -1
+    table = bound_table(cost, grid.headings, grid.move_ok)
     h2d = relaxed_cost_to_go(
-        cost, grid, pg, mod=mod, progress=progress, deadline=deadline, stop_p=ps
+        cost, grid, pg, mod=mod, progress=progress, deadline=deadline, stop_p=ps, table=table
     )
     t1 = time.perf_counter()
     if not np.isfinite(h2d[ps]):
@@ -1206,6 +1234,7 @@ def search_plan(
     status, s_goal, g, code, expanded, priced = _run_search(
         mod, cost, grid, h2d, float(eps), ps, hs_start, pg, goal_h, max_key=math.inf,
         progress=progress, deadline=deadline, desc="search (x, y, heading)",
+        move_lb=move_bounds(cost, grid, table),
     )  # fmt: skip
     if status != mod.FOUND:
         raise PlanningError(
@@ -1295,9 +1324,10 @@ def reach_search(
     ps = grid.position(start[0], start[1], "start")
     hs = _start_states(cost, grid, ps, start[2], "start")
     h0 = np.zeros(grid.P)
-    _, _, g, _code, expanded, _ = _run_search(
+    _, _, g, _code, expanded, priced = _run_search(
         mod, cost, grid, h0, 0.0, ps, hs, -1, -1, max_key=float(max_energy),
         progress=progress, deadline=t0 + time_budget, desc="reach (x, y, heading)",
+        move_lb=move_bounds(cost, grid),
     )  # fmt: skip
     e = mod.min_over_headings(g, _code, grid.P, grid.H)
     e[e > max_energy] = np.inf
@@ -1322,6 +1352,7 @@ def reach_search(
         expanded=expanded,
         time_s=time.perf_counter() - t0,
         tree=paths,
+        priced=priced,
     )
 
 
@@ -1466,9 +1497,9 @@ def targets_search(
         bound holds for each target, since the least of the remaining targets' bounds is
         a consistent lower bound of the cost to each of them (with 1 the optimum).
     cache : tuple, optional
-        :func:`edge_cache` of ``grid`` (instead of ``edges``): each state's edges are
-        priced when a search first expands it and kept for the next searches on
-        ``grid`` (the same prices as ``edges``, for only the states expanded).
+        :func:`edge_cache` of ``grid`` (instead of ``edges``): each edge is priced when
+        a search first needs it and kept for the next searches on ``grid`` (the same
+        prices as ``edges``, for only the edges the searches need).
 
     Returns
     -------
@@ -1503,6 +1534,7 @@ def targets_search(
         mod.heap_push(heap.keys, heap.vals, heap.n, float(h2d[ps]), s)
     heads = np.arange(H)
     out = np.zeros(1, np.int64)
+    move_lb = move_bounds(cost, grid) if edges is None else None
     expanded = priced = 0
     bar = _bar(progress, "matrix search (x, y, heading)", None, "states")
     try:
@@ -1511,15 +1543,15 @@ def targets_search(
             last = int(tp[remaining[0]]) if len(remaining) == 1 else -1
             if cache is not None:
                 status, pops, pr = mod.astar_lazy_chunk(
-                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, g,
-                    code, last, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
-                    cache[0], cache[1],
+                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, move_lb,
+                    h2d, g, code, last, heap.keys, heap.vals, heap.n, chunk,
+                    float(max_energy), cache[0], cache[1],
                 )  # fmt: skip
             elif edges is None:
                 status, pops, pr = mod.astar_chunk(
-                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, h2d, 1.0,
-                    g, code, last, -1, heap.keys, heap.vals, heap.n, chunk, float(max_energy),
-                    out,
+                    cost.data, grid.lat, grid.headings, grid.moves, grid.moves_of, move_lb,
+                    h2d, 1.0, g, code, last, -1, heap.keys, heap.vals, heap.n, chunk,
+                    float(max_energy), out,
                 )  # fmt: skip
             else:
                 status, pops = mod.astar_cached_chunk(
@@ -1567,16 +1599,34 @@ EDGE_BYTES_PER_STATE = 4 * 18
 
 
 def edge_cache(grid: _Grid) -> tuple[np.ndarray, np.ndarray]:
-    """An empty shared edge cache of ``grid``: :func:`edge_table`'s rows, filled on demand.
+    """An empty shared edge cache of ``grid``: :func:`edge_table`'s entries, filled on demand.
 
     ``(edges, done)``: float32 ``(grid.P * grid.H, grid.moves_of.shape[1] + 2)`` and a
-    uint8 flag per state, both mapped page by page when first written
-    (:func:`targets_search` with ``cache=``), so their memory follows the states the
-    searches expand (at most :data:`EDGE_BYTES_PER_STATE` + 1 bytes per state).
+    uint32 per state whose bit ``k`` says column ``k`` is priced, both mapped page by page
+    when first written (:func:`targets_search` with ``cache=``), so their memory follows
+    the states the searches expand (at most :data:`EDGE_BYTES_PER_STATE` + 4 bytes per
+    state).
     """
     N = grid.P * grid.H
     edges = _untouched(N * (grid.moves_of.shape[1] + 2), np.float32)
-    return edges.reshape(N, -1), _untouched(N, np.uint8, zero=True)
+    return edges.reshape(N, -1), _untouched(N, np.uint32, zero=True)
+
+
+def merge_edges(cache: tuple[np.ndarray, np.ndarray], states: np.ndarray, rows: np.ndarray,
+                done: np.ndarray) -> None:  # fmt: skip
+    """Write into ``cache`` (:func:`edge_cache`) the entries another cache priced.
+
+    ``rows[i]`` holds state ``states[i]``'s edges where bit ``k`` of ``done[i]`` is set;
+    only the entries ``cache`` lacks are written (the others hold the same price).
+    """
+    edges, have = cache
+    states = np.asarray(states, np.int64)
+    old = have[states]
+    new = np.asarray(done, np.uint32) & ~old
+    for k in range(edges.shape[1]):
+        sel = ((new >> np.uint32(k)) & np.uint32(1)).astype(bool)
+        edges[states[sel], k] = rows[sel, k]
+    have[states] = old | new
 
 
 def edge_table(cost, grid: _Grid, rows: tuple[int, int] | None = None) -> np.ndarray:
