@@ -441,9 +441,6 @@ SERVER = textwrap.dedent(
     import energy_planner as ep
     hill = ep.Terrain.from_function(lambda x, y: 0.1 * x, size=(20, 20))
     ep.Problem(hill, ep.load_model()).cost.compile()
-    # and the search kernels that reach and mission run (numba's, from its cache; no
-    # threads), which each of their four forked runs loaded again
-    ep.reach(hill, (5.0, 5.0), budget_wh=0.5)
     print("ready", flush=True)
 
     from energy_planner.io import atomic
