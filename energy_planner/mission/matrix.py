@@ -410,7 +410,9 @@ def _edge_mode(terrain, box, n_headings, edge_cache, eps, n_sites=2, n_caches=1)
     on the bundled hill at eps 1, serial, the whole matrix took 4.4 CPU s against 27.8 s
     with the table for its 3 sites (the rows expand 7 % of the window's states), 6.5
     against 18.6 s for 8 sites, 9.6 against 24.4 s for 20 and 14.9 against 30.6 s for 40
-    (about half the window), the same entries. On dask each batch of rows fills its own
+    (about half the window), the same entries (measured when the cache priced a state's
+    whole row at its first expansion; pricing each edge as a row first needs it only
+    lowers the cache's side). On dask each batch of rows fills its own
     cache (``n_caches`` batches, pricing some states more than once) while the table is
     priced once by strips on every worker: there the table is kept for ``eps == 1`` and
     at least :data:`TABLE_MIN_SITES` sites when it fits (half the memory cap per
