@@ -400,27 +400,7 @@ def hampel_mask(
     array([4])
     """
     x = np.asarray(x, dtype=float)
-    n = x.size
-    out = np.zeros(n, dtype=bool)
-    if n < 3:
-        return out
-    if n_sigma >= 0 and np.all(np.abs(x) < 1e300):
-        # every running median lies within the values' range, every scale is at least
-        # min_scale: a spread within n_sigma * min_scale has no outlier (rounding is
-        # monotone, so this holds for the computed numbers too): no median to compute
-        if np.ptp(x) <= n_sigma * min_scale:
-            return out
-    w = int(half_window)
-    pad = np.concatenate([np.full(w, np.nan), x, np.full(w, np.nan)])
-    chunk = 100_000
-    for a in range(0, n, chunk):
-        b = min(n, a + chunk)
-        win = np.lib.stride_tricks.sliding_window_view(pad[a : b + 2 * w], 2 * w + 1)
-        med = _row_nanmedian(win)
-        mad = _row_nanmedian(np.abs(win - med[:, None]))
-        scale = np.maximum(1.4826 * mad, min_scale)
-        out[a:b] = np.abs(x[a:b] - med) > n_sigma * scale
-    return out
+    return segment_hampel_mask(x, [slice(0, x.size)], half_window, n_sigma, min_scale)
 
 
 def segment_hampel_mask(
@@ -433,6 +413,10 @@ def segment_hampel_mask(
     mask as :func:`hampel_mask` segment by segment, bit for bit: each sample's window
     holds its own segment's values and, past the segment's ends, the same missing values;
     the windows of every segment are sorted side by side (one call, not one per segment).
+    A segment shorter than 3 samples has no outlier; a segment whose values (all finite)
+    spread within ``n_sigma * min_scale`` has none either (every running median lies
+    within the values' range and every scale is at least ``min_scale``; rounding is
+    monotone, so this holds for the computed numbers too): no median is computed there.
 
     Examples
     --------
