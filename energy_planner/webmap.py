@@ -305,14 +305,13 @@ def route_hover(problem: Any, states: Any, name: str = "route") -> list[str]:
     its path): the same code as numba's, without loading numba's kernels for a page.
     """
     from energy_planner.energy import path_energy
-    from energy_planner.energy.kernels import precompiled_module
 
     states = np.asarray(states, dtype=float)
     if len(states) < 2:
         return ["start"] * len(states)
     cost = problem.gait_only().cost
-    if not (cost.ranged or cost.gaits) and precompiled_module(cost.source, build=False):
-        cost.precompile()  # already built: loaded, never built here
+    if not cost.ranged:
+        cost.precompile(build=False)  # already built: loaded, never built for a page
     pe = path_energy(problem.terrain, problem.model, states[:, :2], yaw=states[:, 2],
                      cost=cost)  # fmt: skip
     tab = pe.table

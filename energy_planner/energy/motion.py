@@ -295,17 +295,18 @@ class MotionCost:
         """
         return self._aot is not None
 
-    def precompile(self) -> bool:
+    def precompile(self, build: bool = True) -> bool:
         """Serve the kernels from the model's precompiled module, where there is one.
 
         :func:`energy_planner.energy.kernels.precompiled_module`: built once per machine
-        and model (unless ``ENERGY_PLANNER_PRECOMPILE=0``), then imported without numba.
-        A cost whose motions choose their gait keeps numba's kernels. Returns
-        :attr:`precompiled`.
+        and model (unless ``ENERGY_PLANNER_PRECOMPILE=0``), then imported without numba;
+        ``build=False``: only where this machine has built it already. A cost whose
+        motions choose their gait keeps numba's kernels. Returns :attr:`precompiled`.
         """
         if self._aot is None and not self.gaits:
-            self._aot = precompiled_module(self.source)
-            self._fns = {}
+            self._aot = precompiled_module(self.source, build=build)
+            if self._aot is not None:
+                self._fns = {}
         return self._aot is not None
 
     def compile(self) -> MotionCost:
