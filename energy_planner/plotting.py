@@ -94,7 +94,7 @@ def new_figure(nrows: int = 1, ncols: int = 1, **subplots_kw: Any) -> tuple[Any,
     return fig, fig.subplots(nrows, ncols, **subplots_kw)
 
 
-def fit_layout(fig: Any, **tight_kw: Any) -> Any:
+def fit_layout(fig: Any, dpi: float | None = None, **tight_kw: Any) -> Any:
     """Lay ``fig`` out as ``fig.tight_layout()`` does, leaving no layout engine behind.
 
     ``Figure.tight_layout`` leaves a placeholder layout engine on the figure, and
@@ -106,6 +106,11 @@ def fit_layout(fig: Any, **tight_kw: Any) -> Any:
     Parameters
     ----------
     fig : matplotlib.figure.Figure
+    dpi : float, optional
+        The resolution the figure will be saved at: it is laid out on the text as drawn
+        at that resolution (the figure's own dpi is left as it is). Saved at this dpi,
+        the image is drawn on the renderer the layout measured its text with, whose text
+        sizes are then already known. Default: the figure's dpi, as ``tight_layout``.
     **tight_kw
         ``pad``, ``h_pad``, ``w_pad``, ``rect``, as for ``tight_layout``.
 
@@ -120,11 +125,22 @@ def fit_layout(fig: Any, **tight_kw: Any) -> Any:
     >>> default = fig.subplotpars.right
     >>> fit_layout(fig).get_layout_engine() is None, bool(fig.subplotpars.right > default)
     (True, True)
+    >>> fit_layout(fig, dpi=80).dpi
+    100.0
     """
     from matplotlib.layout_engine import TightLayoutEngine
 
     tight_kw.setdefault("rect", None)  # as tight_layout: the engine's (0, 0, 1, 1) measures twice
-    TightLayoutEngine(**tight_kw).execute(fig)
+    engine = TightLayoutEngine(**tight_kw)
+    if dpi is None or dpi == fig.dpi:
+        engine.execute(fig)
+        return fig
+    original = fig.dpi
+    fig.dpi = dpi
+    try:
+        engine.execute(fig)
+    finally:
+        fig.dpi = original
     return fig
 
 

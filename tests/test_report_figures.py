@@ -12,6 +12,7 @@ import io
 from types import SimpleNamespace
 
 import matplotlib
+import matplotlib.figure
 import numpy as np
 import pandas as pd
 import pytest
@@ -124,6 +125,29 @@ def test_fit_layout_gives_the_subplot_parameters_of_tight_layout():
     assert vars(fitted.subplotpars) == vars(tight.subplotpars)
     assert vars(fitted.subplotpars) != vars(figure().subplotpars)  # it did move them
     assert fitted.get_layout_engine() is None
+
+
+def test_fit_layout_at_a_dpi_is_tight_layout_of_the_figure_drawn_at_it():
+    """Laid out for 80 dpi: the subplot parameters ``tight_layout`` gives the figure made
+    at 80 dpi (text measured as drawn there, not at the figure's 100 dpi), and the figure
+    keeps its own dpi."""
+
+    def figure(dpi):
+        fig = matplotlib.figure.Figure(figsize=(7, 3), dpi=dpi)
+        axes = fig.subplots(1, 2)
+        axes[0].barh(range(3), [1, 2, 3])
+        axes[0].set_yticks(range(3), NAMES)
+        axes[1].set_xlabel("speed (m/s)")
+        return fig
+
+    at80 = figure(80)
+    at80.tight_layout()
+    fitted = fit_layout(figure(100), dpi=80)
+    assert fitted.dpi == 100 and fitted.get_layout_engine() is None
+    assert vars(fitted.subplotpars) == pytest.approx(vars(at80.subplotpars), abs=1e-12)
+    at100 = figure(100)
+    at100.tight_layout()
+    assert vars(fitted.subplotpars) != pytest.approx(vars(at100.subplotpars), abs=1e-4)
 
 
 def test_the_figures_leave_pyplot_and_its_backend_alone(diag, tmp_path):

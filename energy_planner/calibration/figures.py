@@ -42,6 +42,9 @@ __all__ = [
 
 _FWD_COLOR, _LAT_COLOR = "tab:red", "tab:blue"
 
+#: Resolution of the written figures (dpi); each is laid out for it.
+_DPI = 110
+
 
 def model_curve(
     model: EnergyModel,
@@ -117,11 +120,12 @@ def _scatter_windows(ax: Any, pts: pd.DataFrame, color: Any, label: str, **kw: A
 def _save(fig: Any, path: str | Path) -> None:
     """Lay out (once: :func:`energy_planner.plotting.fit_layout`) and write ``fig``.
 
-    Written by :func:`energy_planner.io.save_figure` at 110 dpi.
+    Written by :func:`energy_planner.io.save_figure` at 110 dpi, the resolution it is
+    laid out for.
     """
     from energy_planner.io import save_figure
 
-    save_figure(fit_layout(fig), path, dpi=110)
+    save_figure(fit_layout(fig, dpi=_DPI), path, dpi=_DPI)
 
 
 def plot_force_slope(
@@ -380,7 +384,7 @@ def plot_superposition(table: pd.DataFrame, path: str | Path) -> dict[str, Any]:
     ax2.grid(alpha=0.3)
     from energy_planner.io import save_figure
 
-    save_figure(fit_layout(fig), path, dpi=110, bbox_inches="tight")
+    save_figure(fit_layout(fig, dpi=_DPI), path, dpi=_DPI, bbox_inches="tight")
     rel_ab = table["rel_ab"].to_numpy(float)
     rel_c = table["rel_c"].to_numpy(float)
     return {

@@ -237,7 +237,7 @@ class Discovery:
         from energy_planner.diagnosis.report import plot_discovery
         from energy_planner.io import save_figure
 
-        fig = plot_discovery(self.table())
+        fig = plot_discovery(self.table(), dpi=None)  # saved at the figure's dpi
         try:
             return save_figure(fig, path)
         finally:

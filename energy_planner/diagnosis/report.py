@@ -1,6 +1,8 @@
 """The diagnosis as one self-contained HTML page (plots embedded as base64 PNG).
 
 The page works offline: no script, no stylesheet or image is fetched from anywhere.
+Its plots (the ``plot_*`` functions, which return the figure) are laid out for the
+resolution the page embeds them at (:data:`REPORT_DPI`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,9 @@ from energy_planner.diagnosis.core import Diagnosis
 from energy_planner.diagnosis.suspects import RUN_TEST_NAME
 from energy_planner.plotting import fit_layout, new_figure
 
+#: Resolution of the page's images (dpi); each plot is laid out for it (``fit_layout``).
+REPORT_DPI = 80
+
 _CSS = """
 body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222}
 h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
@@ -35,7 +40,7 @@ code{background:#f5f5f5;padding:0 3px}
 def _png(fig) -> str:
     """Encode a matplotlib figure as an ``<img>`` tag with a base64 PNG."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80)  # laid out by each plot (fit_layout): one draw
+    fig.savefig(buf, format="png", dpi=REPORT_DPI)  # laid out by each plot for it: one draw
     data = base64.b64encode(buf.getvalue()).decode("ascii")
     return f'<img alt="plot" src="data:image/png;base64,{data}">'
 
@@ -70,8 +75,11 @@ def _table(rows: Sequence[dict], cols: Sequence[tuple[str, str]], hot=None) -> s
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"
 
 
-def plot_predicted_vs_measured(d: Diagnosis):
-    """Scatter of window mean power, predicted against measured, by motion type."""
+def plot_predicted_vs_measured(d: Diagnosis, dpi: float | None = REPORT_DPI):
+    """Scatter of window mean power, predicted against measured, by motion type.
+
+    Laid out for ``dpi`` (None: the figure's), as every plot of the report.
+    """
     fig, ax = new_figure(figsize=(5.5, 5))
     y, p = d.data.power, d.predicted
     motion = d.data.table.get("motion")
@@ -87,10 +95,10 @@ def plot_predicted_vs_measured(d: Diagnosis):
     ax.set_ylabel("predicted window power (W)")
     ax.set_title(f"RMSE {d.metrics['rmse_w']:.1f} W, R$^2$ {d.metrics['r2']:.3f}")
     ax.legend(fontsize=7, markerscale=1.5)
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
-def plot_residuals(d: Diagnosis):
+def plot_residuals(d: Diagnosis, dpi: float | None = REPORT_DPI):
     """Window residual (measured - predicted) against every variable."""
     t = d.data.table
     r = d.residual
@@ -118,10 +126,10 @@ def plot_residuals(d: Diagnosis):
         ax.set_ylabel("residual (W)")
     for ax in axes.flat[n:]:
         ax.set_visible(False)
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
-def plot_runs(d: Diagnosis):
+def plot_runs(d: Diagnosis, dpi: float | None = REPORT_DPI):
     """Per-run energy: relative error of the prediction, and predicted against measured."""
     runs = d.runs
     fig, (a1, a2) = new_figure(1, 2, figsize=(12, 4))
@@ -139,10 +147,10 @@ def plot_runs(d: Diagnosis):
     a2.axhline(0, color="k", lw=0.8)
     a2.set_xlabel("runs, sorted by error")
     a2.set_ylabel("energy error, % of measured")
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
-def plot_staircase(d: Diagnosis):
+def plot_staircase(d: Diagnosis, dpi: float | None = REPORT_DPI):
     """Held-out RMSE as the best suspects are added one by one."""
     fig, ax = new_figure(figsize=(7, 3.8))
     steps = d.steps
@@ -152,7 +160,7 @@ def plot_staircase(d: Diagnosis):
     ]
     _rmse_bars(ax, rows, "model as given", "pooled held-out RMSE", "held-out RMSE (W)", 20)
     ax.legend(fontsize=8)
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
 def _rmse_bars(ax, rows: Sequence[dict], first: str, label: str, ylabel: str, rotation: float):
@@ -175,7 +183,7 @@ def _rmse_bars(ax, rows: Sequence[dict], first: str, label: str, ylabel: str, ro
     return x
 
 
-def plot_suspects(d: Diagnosis, top: int = 12):
+def plot_suspects(d: Diagnosis, top: int = 12, dpi: float | None = REPORT_DPI):
     """Fraction of the held-out error each candidate explains (above-noise ones in red)."""
     r = d.ranking
     rows = [] if r is None else (r.suspects + r.below_noise)[:top]
@@ -188,7 +196,7 @@ def plot_suspects(d: Diagnosis, top: int = 12):
     ax.set_xlabel("error_explained (fraction of held-out MSE removed)")
     ax.set_title("candidates, best first (red: above noise, grey: below)", fontsize=9)
     ax.axvline(0, color="k", lw=0.8)
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
 def render_html(d: Diagnosis, title: str = "energy_planner diagnosis") -> str:
@@ -357,11 +365,11 @@ def write_report(d: Diagnosis, path: str | Path, title: str = "energy_planner di
 # --------------------------------------------------------------------------- discover
 
 
-def plot_discovery(table: Sequence[dict]):
+def plot_discovery(table: Sequence[dict], dpi: float | None = REPORT_DPI):
     """The staircase of ``discover`` as a plot.
 
     Held-out power RMSE (bars) and run-energy error (median and 90th percentile, lines)
-    after each step.
+    after each step; laid out for ``dpi`` (None: the figure's).
     """
     fig, ax = new_figure(figsize=(8, 4.2))
     x = _rmse_bars(
@@ -378,7 +386,7 @@ def plot_discovery(table: Sequence[dict]):
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right")
     ax.set_title("discovery staircase (every number held out by run)", fontsize=10)
-    return fit_layout(fig)
+    return fit_layout(fig, dpi=dpi)
 
 
 def render_discovery_html(doc: dict, title: str = "energy_planner discover") -> str:
