@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import subprocess
+import tempfile
 import time
 import types
 import warnings
@@ -60,18 +61,41 @@ def _old_module(rev: str, path: str, name: str) -> types.ModuleType:
     return mod
 
 
-def _diagnosis():
-    """The diagnosis ``diagnose CAMP --report`` renders, CAMP ``simulate --small --effect load``."""
+def _campaign():
+    """``simulate --small --effect load`` (seed 0), prepared as ``diagnose`` prepares it."""
     from energy_planner.calibration import prepare_logs
-    from energy_planner.diagnosis import diagnose
-    from energy_planner.model import EnergyModel
     from energy_planner.simulate import CampaignConfig, simulate_campaign
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         camp = simulate_campaign(seed=0, effects=("load",), config=CampaignConfig.small())
-        prepared = prepare_logs(camp.logs)
+        return camp, prepare_logs(camp.logs)
+
+
+def _diagnosis(camp, prepared):
+    """The diagnosis ``diagnose CAMP --report`` renders, CAMP ``simulate --small --effect load``."""
+    from energy_planner.diagnosis import diagnose
+    from energy_planner.model import EnergyModel
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
         return diagnose(EnergyModel.default(), prepared, runs_meta=camp.runs)
+
+
+def _figures(mod, camp, prepared, out: Path) -> list[Path]:
+    """``figures CAMP --model default``'s Fig. 4, Fig. 5 and Fig. 3 drawn by module ``mod``."""
+    from energy_planner.calibration import force_estimates
+    from energy_planner.calibration.figures import run_energy, superposition_table
+    from energy_planner.model import EnergyModel
+
+    model = EnergyModel.default()
+    est = force_estimates(prepared.windows)
+    paths = [out / "force_slope.png", out / "yaw_torque.png", out / "superposition.png"]
+    mod.plot_force_slope(est, model, paths[0])
+    mod.plot_yaw_torque(est, model, paths[1])
+    table = superposition_table(run_energy(camp.logs), camp.runs)
+    mod.plot_superposition(table, paths[2])
+    return paths
 
 
 def main() -> None:
@@ -80,10 +104,16 @@ def main() -> None:
     ap.add_argument("--baseline", default="main", help="git revision of B (default: main)")
     args = ap.parse_args()
 
+    from energy_planner.calibration import figures
     from energy_planner.diagnosis import report
 
     old = _old_module(args.baseline, "energy_planner/diagnosis/report.py", "old_report")
-    d = _diagnosis()
+    old_figures = _old_module(args.baseline, "energy_planner/calibration/figures.py", "old_figures")
+    camp, prepared = _campaign()
+    d = _diagnosis(camp, prepared)
+    tmp = Path(tempfile.mkdtemp())
+    (tmp / "a").mkdir()
+    (tmp / "b").mkdir()
     table = [
         {"name": s.name, "heldout_rmse_w": s.heldout_rmse_w, "fold_rmse_w": s.fold_rmse_w,
          "run_energy_error_median": 0.05, "run_energy_error_p90": 0.1}
@@ -97,6 +127,10 @@ def main() -> None:
         "discover --report staircase": (
             lambda: report._png(report.plot_discovery(table)),
             lambda: old._png(old.plot_discovery(table)),
+        ),
+        "figures (Fig. 4, 5, 3)": (
+            lambda: _figures(figures, camp, prepared, tmp / "a"),
+            lambda: _figures(old_figures, camp, prepared, tmp / "b"),
         ),
     }
     same = report.render_html(d) == old.render_html(d)

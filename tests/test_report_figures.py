@@ -90,9 +90,22 @@ PLOTS = {
 }
 
 
+@pytest.fixture(scope="module")
+def made(diag):
+    """Each of :data:`PLOTS` made once, never saved, with pyplot's open figures and the
+    backend before and after they were made."""
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums(), matplotlib.get_backend()
+    figs = {name: plot(diag) for name, plot in PLOTS.items()}
+    return SimpleNamespace(
+        figs=figs, before=before, after=(plt.get_fignums(), matplotlib.get_backend())
+    )
+
+
 @pytest.mark.parametrize("name", PLOTS)
-def test_a_report_figure_is_drawn_once_with_every_label_inside(diag, name):
-    fig = PLOTS[name](diag)
+def test_a_report_figure_is_drawn_once_with_every_label_inside(made, name):
+    fig = made.figs[name]  # made by the plot and not saved before
     draws = []
     fig.canvas.mpl_connect("draw_event", draws.append)
     buf = io.BytesIO()
@@ -150,11 +163,12 @@ def test_fit_layout_at_a_dpi_is_tight_layout_of_the_figure_drawn_at_it():
     assert vars(fitted.subplotpars) != pytest.approx(vars(at100.subplotpars), abs=1e-4)
 
 
-def test_the_figures_leave_pyplot_and_its_backend_alone(diag, tmp_path):
+def test_the_figures_leave_pyplot_and_its_backend_alone(made, tmp_path):
     import matplotlib.pyplot as plt
 
+    assert made.after == made.before  # no pyplot figure opened, the backend as it was
+    assert all(type(f.canvas).__name__ == "FigureCanvasAgg" for f in made.figs.values())
     open_before, backend = plt.get_fignums(), matplotlib.get_backend()
-    figs = [plot(diag) for plot in PLOTS.values()]
     table = pd.DataFrame(
         {"composite": ["AB1", "AB2"], "A": [100.0, 120.0], "B": [80.0, 90.0],
          "AB": [185.0, 205.0], "C": [190.0, 230.0]}
@@ -165,7 +179,6 @@ def test_the_figures_leave_pyplot_and_its_backend_alone(diag, tmp_path):
     plot_superposition(table, tmp_path / "superposition.png")
     assert plt.get_fignums() == open_before
     assert matplotlib.get_backend() == backend
-    assert all(type(f.canvas).__name__ == "FigureCanvasAgg" for f in figs)
     assert Image.open(tmp_path / "superposition.png").size[0] > 500
 
 
