@@ -56,7 +56,9 @@ MASK_COLOR = "orangered"
 CHANNEL_COLORS = ("deepskyblue", "magenta", "gold", "lime")
 
 
-def new_figure(nrows: int = 1, ncols: int = 1, **subplots_kw: Any) -> tuple[Any, Any]:
+def new_figure(
+    nrows: int = 1, ncols: int = 1, *, cells: int | None = None, **subplots_kw: Any
+) -> tuple[Any, Any]:
     """A figure of its own and its axes: ``plt.subplots`` without pyplot.
 
     The figure is a :class:`matplotlib.figure.Figure` with an Agg canvas: it is not
@@ -68,22 +70,29 @@ def new_figure(nrows: int = 1, ncols: int = 1, **subplots_kw: Any) -> tuple[Any,
     ----------
     nrows, ncols : int
         The grid of axes.
+    cells : int, optional
+        Axes in only the first ``cells`` cells of the grid, row by row (the others stay
+        empty, as hidden axes would leave them, without making axes never drawn); they
+        are returned as a list.
     **subplots_kw
         ``figsize`` and ``dpi`` go to the figure, the rest to
         :meth:`matplotlib.figure.Figure.subplots` (``squeeze``, ``sharey``,
-        ``gridspec_kw``, ...).
+        ``gridspec_kw``, ...; with ``cells``, ``gridspec_kw`` and ``subplot_kw`` only).
 
     Returns
     -------
     fig : matplotlib.figure.Figure
     axes : matplotlib.axes.Axes or numpy.ndarray of them
-        As :func:`matplotlib.pyplot.subplots` returns them.
+        As :func:`matplotlib.pyplot.subplots` returns them (a list with ``cells``).
 
     Examples
     --------
     >>> fig, (a, b) = new_figure(1, 2, figsize=(4, 2))
     >>> type(fig.canvas).__name__, fig.get_size_inches().tolist()
     ('FigureCanvasAgg', [4.0, 2.0])
+    >>> fig, axes = new_figure(2, 3, cells=4)
+    >>> len(fig.axes), axes[3].get_subplotspec().get_topmost_subplotspec().rowspan
+    (4, range(1, 2))
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -91,7 +100,13 @@ def new_figure(nrows: int = 1, ncols: int = 1, **subplots_kw: Any) -> tuple[Any,
     fig_kw = {k: subplots_kw.pop(k) for k in ("figsize", "dpi") if k in subplots_kw}
     fig = Figure(**fig_kw)
     FigureCanvasAgg(fig)
-    return fig, fig.subplots(nrows, ncols, **subplots_kw)
+    if cells is None:
+        return fig, fig.subplots(nrows, ncols, **subplots_kw)
+    grid = fig.add_gridspec(nrows, ncols, **subplots_kw.pop("gridspec_kw", {}))
+    subplot_kw = subplots_kw.pop("subplot_kw", {})
+    if subplots_kw:
+        raise TypeError(f"new_figure(cells=...) takes no {', '.join(subplots_kw)}")
+    return fig, [fig.add_subplot(grid[i // ncols, i % ncols], **subplot_kw) for i in range(cells)]
 
 
 def fit_layout(fig: Any, dpi: float | None = None, **tight_kw: Any) -> Any:

@@ -504,11 +504,11 @@ def plot_speed_cost(
     color = {g: _GAIT_COLORS[i % len(_GAIT_COLORS)] for i, g in enumerate(gaits)}
     ncol = min(3, len(panels))
     nrow = -(-len(panels) // ncol)
-    fig, axes = new_figure(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
+    fig, axes = new_figure(nrow, ncol, cells=len(panels), figsize=(4.6 * ncol, 3.6 * nrow))
     speed = table["speed"].to_numpy(float)
     cost = table["power"].to_numpy(float) / np.where(speed > 0, speed, np.nan)
     out = []
-    for ax, panel in zip(axes.ravel(), panels, strict=False):
+    for ax, panel in zip(axes, panels, strict=True):
         rows = panel["rows"]
         if gaits:
             g_of = table[GAIT_CHANNEL].astype(str).to_numpy()
@@ -548,8 +548,6 @@ def plot_speed_cost(
             ax.set_ylim(0.0, float(np.percentile(finite, 99)) * 1.15)
         ax.legend(fontsize=7)
         out.append(rec)
-    for ax in axes.ravel()[len(panels) :]:
-        ax.set_visible(False)
     fig.suptitle("Cost per metre against speed (steady forward windows; optimum marked)")
     _save(fig, path)
     return {"panels": out}

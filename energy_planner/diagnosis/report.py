@@ -108,13 +108,13 @@ def plot_residuals(d: Diagnosis, dpi: float | None = REPORT_DPI):
     n = len(variables) + len(cats)
     ncol = 3
     nrow = max(1, math.ceil(n / ncol))
-    fig, axes = new_figure(nrow, ncol, figsize=(12, 3.0 * nrow), squeeze=False)
-    for ax, col in zip(axes.flat, variables, strict=False):
+    fig, axes = new_figure(nrow, ncol, cells=n, figsize=(12, 3.0 * nrow))  # no empty axes
+    for ax, col in zip(axes, variables, strict=False):
         ax.scatter(t[col].to_numpy(float), r, s=5, alpha=0.5)
         ax.axhline(0, color="k", lw=0.8)
         ax.set_xlabel(col)
         ax.set_ylabel("residual (W)")
-    for ax, col in zip(axes.flat[len(variables) :], cats, strict=False):
+    for ax, col in zip(axes[len(variables) :], cats, strict=False):
         vals = t[col].astype(object).where(t[col].notna(), "(missing)").astype(str).to_numpy()
         labels = sorted(set(vals))
         data = [r[vals == v] for v in labels]
@@ -124,8 +124,6 @@ def plot_residuals(d: Diagnosis, dpi: float | None = REPORT_DPI):
         ax.axhline(0, color="k", lw=0.8)
         ax.set_xlabel(col)
         ax.set_ylabel("residual (W)")
-    for ax in axes.flat[n:]:
-        ax.set_visible(False)
     return fit_layout(fig, dpi=dpi)
 
 
