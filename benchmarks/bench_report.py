@@ -7,32 +7,54 @@ Rows, each the median CPU seconds (``time.process_time``, this process) of one c
   bundled default model, the ``diagnose`` pipeline with the data repairs): its five
   figures drawn and PNG-encoded, and its tables;
 - ``discover --report`` staircase: :func:`~energy_planner.diagnosis.report.plot_discovery`
-  of that diagnosis' staircase, encoded as the page embeds it.
+  of that diagnosis' staircase, encoded as the page embeds it;
+- ``figures`` (Fig. 4, 5, 3): :mod:`energy_planner.calibration.figures`' force against
+  slope, yaw torque and superposition PNGs of that campaign, as ``figures CAMP --model``
+  draws them with the bundled default model.
 
-A is this tree; B is ``energy_planner/diagnosis/report.py`` of revision ``--baseline``
-(``git show``), loaded beside it and run on the same diagnosis. The rows run in rounds,
-A then B in each, so both see the same machine however its load drifts; the first round
-warms up. The table gives both medians and the median of the
-pairwise ratios A/B. The report pages are compared too: the same HTML (``same``).
+A is this tree; B is ``energy_planner/diagnosis/report.py`` and
+``energy_planner/calibration/figures.py`` of revision ``--baseline`` (``git show``),
+loaded beside them and run on the same inputs. The rows run in rounds, A then B in each,
+so both see the same machine however its load drifts; the first round warms up. The
+table gives both medians and the median of the pairwise ratios A/B. The report pages are
+compared too: the same HTML (``same``).
 
 Usage::
 
     python benchmarks/bench_report.py [--rounds 7] [--baseline 45c2c81]
 
-Measured 2026-11-30 on the shared 2-core machine, other jobs running (load average 3.1
-at the start, 4.2 at the end), A the figures made outside pyplot and laid out once
-(``new_figure``, ``fit_layout``: no layout engine left, one draw when saved), B main at
-45c2c81 (``tight_layout``, then ``savefig`` drawing every figure twice), run in the
-branch's worktree with ``PYTHONPATH=$PWD``::
+Measured 2026-11-30 on the shared 2-core machine, other jobs running (load average 3.9
+at the start, 4.1 at the end), A the figures laid out for the resolution they are saved at
+(``fit_layout(fig, dpi=...)``: the report's 80 dpi, the figures' 110; the text measured by
+the layout is the text drawn, on one renderer), B main at 124c0f5 (laid out at the
+figure's 100 dpi, every text measured again at the saved dpi on a second renderer), run
+in the branch's worktree with ``PYTHONPATH=$PWD``::
 
-    python benchmarks/bench_report.py --rounds 9 --baseline 45c2c81
+    python benchmarks/bench_report.py --rounds 15 --baseline 124c0f5
+
+    B = 124c0f5; 15 rounds; report HTML the same: False
+    row                                        A cpu   B cpu    A/B
+    diagnose --report page                     2.143   2.116   0.91
+    discover --report staircase                0.281   0.270   0.96
+    figures (Fig. 4, 5, 3)                     1.453   1.513   0.93
+
+At that load the ratios move between runs (the page 0.91-1.06 over five runs, the figures
+0.83-0.98 over four); per page, A measures the size of 130 texts where B measured 247
+(cProfile: A's draw finds the sizes its layout measured).
+The pages differ by the layout: the axes move by a pixel or so, the data, labels and
+legends are the same (the suspects plot's tick labels now keep the layout's pad from the
+image's edge, where B's came within 3 px of it).
+
+The first measurement (2026-11-30, load 3.1-4.2), A the figures made outside pyplot and
+laid out once (``new_figure``, ``fit_layout``: no layout engine left, one draw when saved),
+B main at 45c2c81 (``tight_layout``, then ``savefig`` drawing every figure twice)::
 
     B = 45c2c81; 9 rounds; report HTML the same: True
     row                                        A cpu   B cpu    A/B
     diagnose --report page                     2.996   3.298   0.84
     discover --report staircase                0.318   0.409   0.81
 
-The pages are byte-identical: the same subplot parameters, one draw instead of two.
+Those pages were byte-identical: the same subplot parameters, one draw instead of two.
 """
 
 from __future__ import annotations

@@ -22,7 +22,8 @@ callers can find them.
 The report and calibration figures (``diagnose --report``, ``discover --report``,
 ``figures``) are made with :func:`new_figure` and laid out with :func:`fit_layout`:
 figures of their own, drawn by Agg, that neither import pyplot nor switch the caller's
-backend, laid out once so that saving them draws them once.
+backend, laid out once (for the resolution they are saved at) so that saving them draws
+them once.
 """
 
 from __future__ import annotations
