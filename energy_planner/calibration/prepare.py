@@ -521,7 +521,7 @@ def _energy_score(
         folds = fold_index(wd.runs, 5, 0)
         use = yardstick_terms(wd) if terms is None else terms
         names = [getattr(t, "formula", t) for t in use]
-        h = wd.heldout(names, folds)
+        coef = wd.heldout_coef(names, folds)  # the held-out fits (WindowData.heldout)
         on_map = WindowData(
             pose_twist(wd.samples), wd.key, wd.table, wd.numeric_extras, wd.categorical_extras
         )
@@ -529,7 +529,7 @@ def _energy_score(
     except (EnergyPlannerError, ValueError):
         return EnergyScore(pd.Series(dtype=float))
     fold = folds[wd.key]
-    p = np.maximum(np.einsum("ij,ij->i", X, h.coef[fold]), 0.0)
+    p = np.maximum(np.einsum("ij,ij->i", X, coef[fold]), 0.0)
     p[~np.all(np.isfinite(X), axis=1)] = np.nan
     dur = wd.weights
     pred = pd.Series(wd.window_mean(p) * dur).groupby(wd.runs).sum(min_count=1)
