@@ -453,6 +453,6 @@ def test_prepare_logs_cleans_each_state_of_the_samples_once(monkeypatch):
     assert cleaned[0] is not cleaned[1]
     plain = P.prepare_logs(s, guard=False)
     assert len(cleaned) == 3  # no guard: the repaired samples cleaned by prepare_logs
-    pd.testing.assert_frame_equal(got.windows.samples, plain.windows.samples)
-    pd.testing.assert_frame_equal(got.windows.table, plain.windows.table)
+    pd.testing.assert_frame_equal(got.windows.samples, plain.windows.samples, check_exact=True)
+    pd.testing.assert_frame_equal(got.windows.table, plain.windows.table, check_exact=True)
     assert repr(got.preprocess_report) == repr(plain.preprocess_report)

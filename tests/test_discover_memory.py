@@ -124,7 +124,9 @@ def test_check_data_on_sorted_logs_equals_shuffled():
         f0, a = check_data(logs)
         f1, b = check_data(shuffled)
     assert [f.to_dict() for f in f0] == [f.to_dict() for f in f1]
-    pd.testing.assert_frame_equal(a.reset_index(drop=True), b.reset_index(drop=True))
+    pd.testing.assert_frame_equal(
+        a.reset_index(drop=True), b.reset_index(drop=True), check_exact=True
+    )
     assert any(f.repaired for f in f0)  # a repair was applied: the comparison is not empty
 
 

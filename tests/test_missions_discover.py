@@ -85,7 +85,7 @@ def test_imu_tilt_is_no_finding_without_tilt_or_without_altitude(tilted):
     level = simulate_missions(seed=3, config=cfg)
     found, fixed = check_imu_tilt(_sorted(level.logs))
     assert not found.finding and found.evidence["p_value"] > 1e-3
-    pd.testing.assert_frame_equal(fixed, _sorted(level.logs))
+    pd.testing.assert_frame_equal(fixed, _sorted(level.logs), check_exact=True)
     found, _ = check_imu_tilt(_sorted(tilted.logs).drop(columns="z"))
     assert not found.finding and found.summary.startswith("not checked")
     names = [f.name for f in check_data(tilted.logs)[0]]

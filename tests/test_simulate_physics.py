@@ -224,7 +224,7 @@ def test_effect_changes_only_the_power_and_only_where_it_should(ideal, name):
     camp = simulate_campaign(seed=3, effects=(name,), config=IDEAL)
     # same seed: same runs, channels, twist and orientation with and without the effect
     same = ["run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "x", "y", *CHANNELS]
-    pd.testing.assert_frame_equal(camp.logs[same], ideal.logs[same])
+    pd.testing.assert_frame_equal(camp.logs[same], ideal.logs[same], check_exact=True)
     f = ideal.features()
     added = (
         camp.true_samples["power_expected"].to_numpy()
@@ -510,7 +510,7 @@ def test_missions_same_seed_with_and_without_an_effect(missions):
         seed=4, effects=("ground", "load"), config=MissionConfig.small(sensors=SensorConfig.ideal())
     )
     same = ["run", "t", "qw", "qx", "qy", "qz", "vx", "vy", "wz", "x", "y", *CHANNELS]
-    pd.testing.assert_frame_equal(other.logs[same], missions.logs[same])
+    pd.testing.assert_frame_equal(other.logs[same], missions.logs[same], check_exact=True)
     assert not np.allclose(other.true_samples["power"], missions.true_samples["power"])
 
 

@@ -1753,7 +1753,7 @@ def heldout_outside_shares(
     """
     import pandas as pd
 
-    from energy_planner.uncertainty.domain import report_against, window_segments
+    from energy_planner.uncertainty.domain import report_against_groups, window_segments
 
     runs = table["run"].astype(str).to_numpy()
     fold = np.asarray(fold_of_window)
@@ -1765,10 +1765,12 @@ def heldout_outside_shares(
         if not train.any():
             continue
         dom = calibration_domain(table.loc[train].reset_index(drop=True), model)
-        for run in np.unique(runs[~train]):
-            idx = np.flatnonzero(runs == run)
-            vals = {c: table[c].to_numpy()[idx] for c in chan_cols if c in dom["channels"]}
-            rep = report_against(dom, seg.iloc[idx].reset_index(drop=True), None, None, vals)
+        # every held-out run's report from one set of the fold's segment columns
+        held = np.unique(runs[~train])
+        rows = [np.flatnonzero(runs == run) for run in held]
+        vals = {c: table[c].to_numpy() for c in chan_cols if c in dom["channels"]}
+        reps = report_against_groups(dom, seg, rows, vals)
+        for run, rep in zip(held, reps, strict=True):
             out[run] = rep["outside_share"]
     return pd.Series(out, dtype=float)
 

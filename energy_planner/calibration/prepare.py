@@ -142,16 +142,7 @@ def clean_logs(samples: pd.DataFrame) -> tuple[pd.DataFrame, Any]:
         np.abs(clean["wz"].to_numpy(float)) < rule.min_yaw_rate
     )
     t = clean["t"].to_numpy(float)
-    drop = np.zeros(len(clean), dtype=bool)
-    for sl in segment_slices(clean):
-        lo = low[sl]
-        if not lo.any():
-            continue
-        edges = np.flatnonzero(np.diff(np.r_[0, lo.astype(np.int8), 0]))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            end = min(b, lo.size - 1)  # the stretch lasts until the next sample
-            if t[sl][end] - t[sl][a] < MIN_STOP_S:
-                drop[sl.start + a : sl.start + b] = True
+    drop = _short_stretches(low, t, segment_slices(clean), MIN_STOP_S)
     reason = (
         f"speed < {rule.min_speed:g} m/s and |wz| < {rule.min_yaw_rate:g} rad/s for less "
         f"than {MIN_STOP_S:g} s (a speed ramp, not a stop)"
@@ -166,6 +157,37 @@ def clean_logs(samples: pd.DataFrame) -> tuple[pd.DataFrame, Any]:
         )
     )
     return clean.loc[~drop].reset_index(drop=True), report
+
+
+def _short_stretches(low: np.ndarray, t: np.ndarray, segments: Any, min_s: float) -> np.ndarray:
+    """The samples of stretches of ``low`` lasting less than ``min_s`` within a segment.
+
+    A stretch lasts from its first sample to the sample after its last (its own last
+    sample at the end of its segment). Every segment's stretches at once: the stretch
+    starts and ends are where ``low`` changes within a segment.
+    """
+    n = low.size
+    drop = np.zeros(n, dtype=bool)
+    if not n or not low.any():
+        return drop
+    first = np.zeros(n, dtype=bool)  # the first sample of each segment
+    last = np.zeros(n, dtype=bool)  # and its last
+    for sl in segments:
+        if sl.stop > sl.start:
+            first[sl.start] = True
+            last[sl.stop - 1] = True
+    prev = np.r_[False, low[:-1]] & ~first
+    nxt = np.r_[low[1:], False] & ~last
+    starts = np.flatnonzero(low & ~prev)
+    stops = np.flatnonzero(low & ~nxt) + 1  # one past each stretch's last sample
+    seg_end = np.flatnonzero(last)[np.searchsorted(np.flatnonzero(last), starts)]
+    end = np.minimum(stops, seg_end)  # the stretch lasts until the next sample
+    short = t[end] - t[starts] < min_s
+    mark = np.zeros(n + 1, dtype=np.int64)
+    np.add.at(mark, starts[short], 1)
+    np.add.at(mark, stops[short], -1)
+    drop[:] = np.cumsum(mark[:-1]) > 0
+    return drop
 
 
 #: A repair is refused when it raises the held-out error beyond noise: the pooled RMSE
@@ -499,7 +521,7 @@ def _energy_score(
         folds = fold_index(wd.runs, 5, 0)
         use = yardstick_terms(wd) if terms is None else terms
         names = [getattr(t, "formula", t) for t in use]
-        h = wd.heldout(names, folds)
+        coef = wd.heldout_coef(names, folds)  # the held-out fits (WindowData.heldout)
         on_map = WindowData(
             pose_twist(wd.samples), wd.key, wd.table, wd.numeric_extras, wd.categorical_extras
         )
@@ -507,7 +529,7 @@ def _energy_score(
     except (EnergyPlannerError, ValueError):
         return EnergyScore(pd.Series(dtype=float))
     fold = folds[wd.key]
-    p = np.maximum(np.einsum("ij,ij->i", X, h.coef[fold]), 0.0)
+    p = np.maximum(np.einsum("ij,ij->i", X, coef[fold]), 0.0)
     p[~np.all(np.isfinite(X), axis=1)] = np.nan
     dur = wd.weights
     pred = pd.Series(wd.window_mean(p) * dur).groupby(wd.runs).sum(min_count=1)

@@ -347,6 +347,28 @@ class WindowData:
             win, pred_s = win[ok], pred_s[ok[self.key]]
         return HeldOut(win, y - win, f_ok, coef, pred_s)
 
+    def heldout_coef(self, terms: Sequence[str], folds: np.ndarray) -> np.ndarray:
+        """Each fold's coefficients of :meth:`heldout` on every window (``HeldOut.coef``).
+
+        The same numbers, without predicting the samples (for a caller that predicts
+        other samples with them): the window means of the terms, the terms each fold
+        identifies, the fold fits.
+        """
+        from energy_planner.stats.heldout import _FoldFit
+
+        key = tuple(terms)
+        folds = np.asarray(folds, dtype=np.int64)
+        if folds.shape != (self.n_windows,):
+            raise FitError(
+                f"folds have shape {folds.shape}, expected ({self.n_windows},): one per window"
+            )
+        means, y, w = self.columns(list(key)), self.power, self.weights
+        n_folds = int(folds.max()) + 1 if len(folds) else 0
+        cols = self._identifiable((key, folds.tobytes(), None), means, w, self.table, folds)
+        if cols.shape != (n_folds, len(key)):
+            raise FitError(f"fit_columns {cols.shape}, expected ({n_folds}, {len(key)})")
+        return _FoldFit(means, y, folds, w).coef(means[:, len(key) :], cols)
+
     def _fold_plan(self, key: tuple, folds: np.ndarray) -> _FoldPlan:
         """The model's per-sample design sorted by fold (cached for the last model)."""
         plan = self._plan

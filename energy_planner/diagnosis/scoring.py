@@ -488,7 +488,9 @@ class _Context:
         self.base_fold = _fold_rmse(e, self.folds[ok], self.n_folds)
         self.supported_rmse = float(np.sqrt(np.mean(self.base_err[ok & self.inside] ** 2)))
         self.available = set(self.wd.samples.columns) | {"speed"}
-        self.basis = span_basis(self.x[ok])
+        self.x_ok = self.x[ok]  # the model's columns on its windows (the span's rows)
+        self.n_ok = int(ok.sum())
+        self.basis = span_basis(self.x_ok)
         self.n_scored = 0
         self.errors: dict[str, np.ndarray] = {}  # held-out errors with each candidate
         self.columns: dict[str, np.ndarray] = {}
@@ -519,13 +521,19 @@ class _Context:
         if z is None:
             return "the term cannot be evaluated on these logs"
         ok = self.base_ok & np.isfinite(z)
-        if ok.sum() < 3 or len(np.unique(self.run_codes[ok])) < 2:
+        n_ok = int(ok.sum())
+        if n_ok < 3:
+            return "too few windows with a finite value"
+        codes = self.run_codes[ok]
+        if not (codes != codes[0]).any():  # one run
             return "too few windows with a finite value"
         zz = z[ok]
         if np.ptp(zz) == 0 and zz[0] == 0:
             return "no variance: the term is 0 in every window"
-        full = ok.sum() == self.base_ok.sum()
-        rel = span_residual(zz, self.x[ok], self.basis if full else None)
+        if n_ok == self.n_ok:  # the model's windows: their span's basis, made once
+            rel = span_residual(zz, self.x_ok, self.basis)
+        else:
+            rel = span_residual(zz, self.x[ok])
         if rel < self.th.span_tol:
             return (
                 f"nearly in the span of the model's columns (relative residual {rel:.3g} < "
@@ -538,8 +546,11 @@ class _Context:
         """Held-out scores of the model (and the scored term ``plus``) plus ``z``."""
         self.n_scored += 1
         more = [] if plus is None else [plus]
-        x = self.x if plus is None else np.column_stack([self.x, self.columns[plus]])
-        base_ok = np.all(np.isfinite(x), axis=1) & np.isfinite(self.y)
+        if plus is None:
+            base_ok = self.base_ok
+        else:
+            x = np.column_stack([self.x, self.columns[plus]])
+            base_ok = np.all(np.isfinite(x), axis=1) & np.isfinite(self.y)
         ok = base_ok & np.isfinite(z)
         if plus is None and ok.sum() == self.base_ok.sum():
             e0 = self.base_err[ok]

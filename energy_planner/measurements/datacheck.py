@@ -303,13 +303,20 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
     width = max(1, int(round(0.25 / dt)))
     first = np.flatnonzero(np.r_[True, ~same])
     bounds = np.r_[first, len(code)]
+    # the smoothed power and motion of every run, its rolling windows within the run: one
+    # grouped rolling per step (the same numbers as a Series per run, bit for bit: a
+    # window that does not overlap the one before starts its sums afresh)
+    group = np.repeat(np.arange(len(bounds) - 1), np.diff(bounds))
+    smooth_p = pd.Series(p).groupby(group).rolling(5, center=True, min_periods=1).median()
+    smooth_p = pd.Series(smooth_p.to_numpy(float)).groupby(group)
+    smooth_p = smooth_p.rolling(width, center=True, min_periods=1).mean().to_numpy(float)
+    smooth_m = pd.Series(motion).groupby(group).rolling(width, center=True, min_periods=1)
+    smooth_m = smooth_m.mean().to_numpy(float)
     offsets = []
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):
         if b - a < 20:
             continue
-        pr = pd.Series(p[a:b]).rolling(5, center=True, min_periods=1).median()
-        pr = pr.rolling(width, center=True, min_periods=1).mean().to_numpy(float)
-        mr = pd.Series(motion[a:b]).rolling(width, center=True, min_periods=1).mean()
+        pr, mr = smooth_p[a:b], smooth_m[a:b]
         # levels before the first step and after the last: the raw first / last samples
         # (the runs start moving at once; a smoothed level would already be rising)
         ends = (
@@ -318,7 +325,7 @@ def check_clock_offset(samples: pd.DataFrame) -> tuple[DataFinding, pd.DataFrame
             float(np.median(p[b - 2 : b])),
             float(np.median(motion[b - 2 : b])),
         )
-        d0, d1 = _transition_offsets(t[a:b], pr, mr.to_numpy(float), ends)
+        d0, d1 = _transition_offsets(t[a:b], pr, mr, ends)
         if math.isfinite(d0):
             offsets.append(d0)
     offsets = np.asarray(offsets)

@@ -139,6 +139,25 @@ def _unique_inverse(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return uniq[order], rank[first]
 
 
+def _run_codes(run: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``_unique_inverse(run.astype(str))`` of an object array of run ids.
+
+    Run ids that are all text (as every log's are) are hashed as they are: the text of
+    each sample (``astype(str)``, a fixed-width copy of every id) and its hashing were
+    most of :func:`time_gaps`, which every cleaning and windowing step calls. Other ids
+    (numbers, missing values, text ending in NUL, which ``astype(str)`` drops) are turned
+    into text first, as before.
+    """
+    first, uniq = pd.factorize(run, use_na_sentinel=False)
+    if all(type(u) is str and not u.endswith("\x00") for u in uniq):
+        uniq = np.asarray(uniq, dtype=object)
+        order = np.argsort(uniq, kind="stable")
+        rank = np.empty(len(order), dtype=np.intp)
+        rank[order] = np.arange(len(order))
+        return uniq[order].astype(str), rank[first]
+    return _unique_inverse(run.astype(str))
+
+
 def _where(source: str | None) -> str:
     return f" in {source}" if source else ""
 
@@ -335,12 +354,12 @@ def time_gaps(run, t, *, max_gap: float | None = None) -> TimeGaps:
     >>> int(np.flatnonzero(g.step)[0])
     59
     """
-    run = np.asarray(run, dtype=object).astype(str)
+    run = np.asarray(run, dtype=object)
     t = np.asarray(t, dtype=float)
     if run.shape != t.shape:
         raise LogError(f"time_gaps: {run.size} run ids for {t.size} times; expected one each")
     dt = np.diff(t)
-    uniq, code = _unique_inverse(run)
+    uniq, code = _run_codes(run)
     same = code[1:] == code[:-1]
     names = [str(r) for r in uniq]
     step_run = code[1:].astype(np.int64)

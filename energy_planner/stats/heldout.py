@@ -315,9 +315,10 @@ class _FoldFit:
         self.w = w
         self.sw, self.Xs, self.scale = _scaled(Xr, w)
         self.yw = yr * self.sw
-        self.test = [folds == f for f in range(self.n_folds)]
+        self.test = [np.flatnonzero(folds == f) for f in range(self.n_folds)]
         g, r = self.Xs.T @ self.Xs, self.Xs.T @ self.yw
         self.xt = [self.Xs[te] for te in self.test]
+        self.ywt = [self.yw[te] for te in self.test]
         self.g = np.array([g - x.T @ x for x in self.xt]).reshape(self.n_folds, *g.shape)
         self.r = np.array([r - x.T @ self.yw[te] for x, te in zip(self.xt, self.test, strict=True)])
         self.r = self.r.reshape(self.n_folds, len(r))
@@ -330,17 +331,18 @@ class _FoldFit:
         gs, rs = np.empty((self.n_folds, k + e, k + e)), np.empty((self.n_folds, k + e))
         gs[:, :k, :k] = self.g
         rs[:, :k] = self.r
-        for f, (x, te) in enumerate(zip(self.xt, self.test, strict=True)):
+        for f, (x, te, yt) in enumerate(zip(self.xt, self.test, self.ywt, strict=True)):
             zt = Zs[te]
             gs[f, :k, k:] = gxz - x.T @ zt
             gs[f, k:, :k] = gs[f, :k, k:].T
             gs[f, k:, k:] = gzz - zt.T @ zt
-            rs[f, k:] = rz - zt.T @ self.yw[te]
+            rs[f, k:] = rz - zt.T @ yt
         off_f = ~cols
         gs[off_f] = 0.0
         gs.transpose(0, 2, 1)[off_f] = 0.0
         rs[off_f] = 0.0
-        coef = solve_min_norm(gs, rs, hermitian=True) / np.r_[self.scale, zscale]
+        scale = np.concatenate([np.ravel(self.scale), np.ravel(zscale)])
+        coef = solve_min_norm(gs, rs, hermitian=True) / scale
         coef[off_f] = 0.0
         return coef
 
@@ -608,7 +610,15 @@ def run_sq_gain(
     >>> ids.tolist(), g.tolist(), n.tolist()
     (['a', 'b'], [0.0, 7.0], [1, 2])
     """
-    ids, inv = np.unique(runs, return_inverse=True)
+    runs = np.asarray(runs)
+    if runs.dtype.kind in "iu" and runs.size and runs.min() >= 0 and runs.max() < 4 * runs.size:
+        # run codes (the diagnosis' integers): counted, not sorted; the same ids and
+        # inverse as np.unique
+        have = np.bincount(runs) > 0
+        ids = np.flatnonzero(have).astype(runs.dtype)
+        inv = (np.cumsum(have) - 1)[runs]
+    else:
+        ids, inv = np.unique(runs, return_inverse=True)
     return ids, np.bincount(inv, weights=e0**2 - e1**2), np.bincount(inv)
 
 

@@ -319,7 +319,8 @@ def _certified(M: np.ndarray) -> np.ndarray:
     S = M.copy()
     d = np.einsum("nii->ni", S)  # a view: the diagonals, shifted in place
     d -= (CERTIFIED * np.where(ok, tr, 0.0))[:, None]
-    S[~ok] = np.eye(k)  # left to the eigh path (not certified)
+    if not ok.all():
+        S[~ok] = np.eye(k)  # left to the eigh path (not certified)
     try:
         np.linalg.cholesky(S)
         return ok

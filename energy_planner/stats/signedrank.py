@@ -35,9 +35,11 @@ def _ranks(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Average ranks of ``a`` (1-based) and the sizes of its groups of equal values."""
     order = np.argsort(a, kind="stable")
     y = a[order]
-    first = np.r_[True, y[:-1] != y[1:]]
+    first = np.empty(max(y.size, 1), dtype=bool)  # np.r_[True, y[:-1] != y[1:]]
+    first[0] = True
+    np.not_equal(y[:-1], y[1:], out=first[1 : y.size])
     starts = np.flatnonzero(first)
-    counts = np.diff(np.r_[starts, y.size])
+    counts = np.diff(starts, append=y.size)
     mid = (starts + 1) + (counts - 1) / 2.0
     r = np.empty(a.size)
     r[order] = np.repeat(mid, counts)

@@ -19,7 +19,7 @@ a planning request that keeps a plan inside it as far as the planner's limits ca
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -499,6 +499,40 @@ def report_against(
     peaks = {q: float(np.max(v)) if v.size else 0.0 for q, v in terms.peaks.items()}
     rep = terms.report(dom, sums, peaks)
     return rounded(rep)
+
+
+def report_against_groups(
+    dom: Mapping[str, Any],
+    segments: Any,
+    groups: Sequence[np.ndarray],
+    channel_values: Mapping[str, Any] | None = None,
+) -> list[dict[str, Any]]:
+    """:func:`report_against` of each group of ``segments`` (rows ``groups[i]``).
+
+    The segments' columns (:func:`segment_terms`: one value per segment, each from its
+    own row) are made once for all of them, and each group's report from the sums and
+    peaks of its rows, in its order: the same reports as ``report_against`` of each
+    group's rows (with the channel values of those rows), without a frame per group.
+    Segments without ``along`` samples or ``energy_j``, as calibration windows are.
+    """
+    if "energy_j" in segments:  # whether it is used depends on every row of the path
+        return [
+            report_against(dom, segments.iloc[g].reset_index(drop=True), None, None,
+                           {c: np.asarray(v)[g] for c, v in (channel_values or {}).items()})
+            for g in groups
+        ]  # fmt: skip
+    dur = np.asarray(segments["duration_s"], dtype=float)
+    terms = segment_terms(dom, segments, None, _segment_gaits(segments, None), channel_values)
+    out = []
+    for g in groups:
+        if float(dur[g].sum()) <= 0:
+            out.append({"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
+                        "max_excess": {}, "domain": dict(dom)})  # fmt: skip
+            continue
+        sums = {k: float(np.sum(v[g])) for k, v in terms.cols.items()}
+        peaks = {q: float(np.max(v[g])) if v[g].size else 0.0 for q, v in terms.peaks.items()}
+        out.append(rounded(terms.report(dom, sums, peaks)))
+    return out
 
 
 def rounded(rep: dict[str, Any]) -> dict[str, Any]:
