@@ -3,7 +3,10 @@
 ``--html FILE`` on ``plan``, ``compare-routes``, ``reach``, ``mission``, ``energy-map`` and
 ``follow`` (and the results' ``write_html``) writes one HTML file that holds everything it
 shows: Plotly's JavaScript is inlined and the hillshade is an inline PNG, so the page makes
-no network request (a field laptop has none). The page shows
+no network request (a field laptop has none). The script is plotly.js's "cartesian" bundle
+(``data/plotly/``; 1.5 MB where the full one has 4.8 MB) when the page draws only its trace
+types (:data:`CARTESIAN_TRACES`; every page here does) and it is the plotly.js release the
+installed ``plotly`` bundles; Plotly's full bundle otherwise. The page shows
 
 - the DEM's hillshade in the working grid's CRS (metres; the axes name the CRS),
 - routes as lines; hovering a vertex shows the segment that starts there: its energy, the
@@ -40,6 +43,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "CARTESIAN_TRACES",
     "MAX_SIDE",
     "WebMap",
     "route_hover",
@@ -55,6 +59,15 @@ __all__ = [
 MAX_SIDE = 600
 #: Route colours, in order (the matplotlib plots use the same order of hues).
 ROUTE_COLORS = ("#1f77b4", "#2ca02c", "#d62728", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
+#: The trace types of plotly.js's "cartesian" bundle, vendored in ``data/plotly/`` (its
+#: README: source, version, sha256). A page whose traces are all of these inlines it.
+CARTESIAN_TRACES = frozenset({
+    "bar", "box", "contour", "heatmap", "histogram", "histogram2d", "histogram2dcontour",
+    "image", "pie", "scatter", "scatterternary", "violin",
+})  # fmt: skip
+#: The vendored bundle (MIT, ``data/plotly/LICENSE``); its plotly.js version is the one the
+#: ``plotly`` package bundles, so the figure JSON Python writes is the one it reads.
+CARTESIAN_JS = Path(__file__).parent / "data" / "plotly" / "plotly-cartesian.min.js"
 
 
 def _stride(shape: tuple[int, int], max_side: int) -> int:
@@ -76,6 +89,19 @@ def _png_uri(gray: np.ndarray) -> str:
     buf = io.BytesIO()
     Image.fromarray(rgba).save(buf, format="png")  # (h, w, 4) uint8: RGBA
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _cartesian_js() -> str | None:
+    """The vendored cartesian bundle, or None if ``plotly`` bundles another plotly.js.
+
+    The figure JSON that ``plotly`` writes is for its own plotly.js version: under another
+    one the pages inline its full bundle.
+    """
+    from plotly.offline import get_plotlyjs_version
+
+    js = CARTESIAN_JS.read_text("utf-8")
+    head = f"plotly.js (cartesian - minified) v{get_plotlyjs_version()}\n"
+    return js if head in js[:200] else None
 
 
 def _fmt(v: float, unit: str, digits: int = 0) -> str:
@@ -264,7 +290,12 @@ class WebMap:
         )  # fmt: skip
 
     def html(self) -> str:
-        """The page: one HTML document with Plotly's JavaScript inlined."""
+        """The page: one HTML document with Plotly's JavaScript inlined.
+
+        The script is the vendored "cartesian" bundle when every trace is one of
+        :data:`CARTESIAN_TRACES` and the installed ``plotly`` bundles its plotly.js version,
+        Plotly's full bundle otherwise.
+        """
         fig = self.figure
         if len(self._rasters) > 1:
             n = len(fig.data)
@@ -281,8 +312,20 @@ class WebMap:
                 updatemenus=[dict(buttons=buttons, active=first, x=1.0, xanchor="right",
                                   y=1.08, yanchor="bottom", direction="down")]
             )  # fmt: skip
-        return fig.to_html(
-            include_plotlyjs=True,
+        # the cartesian bundle goes where to_html puts the full one (in <head>, Chromium
+        # spent twice the CPU on the test's pages): to_html writes a script tag that loads
+        # a file (src), and the bundle takes its place inline
+        src = "energy-planner-plotly-cartesian.min.js"
+        if {d.type for d in fig.data} <= CARTESIAN_TRACES and (js := _cartesian_js()):
+            text = self._to_html(src)
+            before, tag, after = text.partition(f'<script charset="utf-8" src="{src}"></script>')
+            if tag:  # (a plotly that writes the tag otherwise: the full bundle, below)
+                return f"{before}<script>{js}</script>{after}"  # as to_html inlines
+        return self._to_html(True)
+
+    def _to_html(self, include_plotlyjs: bool | str) -> str:
+        return self.figure.to_html(
+            include_plotlyjs=include_plotlyjs,
             full_html=True,
             config={"displaylogo": False, "responsive": True},
             div_id="energy-planner-map",

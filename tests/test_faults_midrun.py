@@ -435,6 +435,20 @@ SERVER = textwrap.dedent(
             importlib.import_module(name)
         except Exception:
             pass
+    # a page's first figure loads plotly's figure classes, their validators and the
+    # template (about 1 s of CPU), which every forked command that writes --html would
+    # load again: one page here, on a grid (no terrain, no kernel)
+    import numpy as np
+    from rasterio.transform import from_origin
+    from energy_planner.webmap import WebMap
+    page = WebMap.of_grid("warm-up", np.zeros((4, 4)), from_origin(0, 4, 1, 1), (4, 4),
+                          "EPSG:32631")
+    for name in ("a", "b"):
+        page.add_raster(name, np.arange(16.0).reshape(4, 4), "J")
+    page.add_contour(np.arange(16.0).reshape(4, 4), 8.0, "budget")
+    page.add_route("route", [[0.5, 0.5], [2.5, 2.5]], hover=["a", "b"])
+    page.add_points("sites", [[0.5, 0.5]], ["a"], ["a"])
+    page.html()
     from energy_planner.cli import main
     # the bundled model's motion kernels, loaded once here rather than by every forked
     # command (no parallel kernel: its threads would not survive a fork)
@@ -536,6 +550,7 @@ SERVER = textwrap.dedent(
                           "pid": pid,
                           "elapsed": time.monotonic() - t0,
                           "wrote": None if wrote is None else wrote - t0}), flush=True)
+    os._exit(0)  # every reply is flushed: the interpreter's teardown (~1 s of CPU) is not needed
     """
 )
 

@@ -18,23 +18,35 @@ import energy_planner
 ROOT = Path(energy_planner.__file__).parent
 
 
+def _imports(node: ast.AST):
+    """The import statements under ``node``, but those under ``if TYPE_CHECKING:``.
+
+    Only statement lists are walked: an import is a statement, and the expressions (most
+    of a module's nodes) hold none.
+    """
+    for field, value in ast.iter_fields(node):
+        if not isinstance(value, list):
+            continue
+        if (
+            field == "body"
+            and isinstance(node, ast.If)
+            and "TYPE_CHECKING" in ast.unparse(node.test)
+        ):
+            continue  # names for annotations, never run (its else: branch is walked)
+        for child in value:
+            if isinstance(child, (ast.Import, ast.ImportFrom)):
+                yield child
+            elif isinstance(child, (ast.stmt, ast.excepthandler, ast.match_case)):
+                yield from _imports(child)
+
+
 def _edges() -> dict[str, set[str]]:
     edges: dict[str, set[str]] = collections.defaultdict(set)
     for f in ROOT.rglob("*.py"):
         unit = f.relative_to(ROOT).parts[0].removesuffix(".py")
         if unit == "__init__":
             continue
-        tree = ast.parse(f.read_text())
-        typing_only = {
-            id(n)
-            for block in ast.walk(tree)
-            if isinstance(block, ast.If) and "TYPE_CHECKING" in ast.unparse(block.test)
-            for stmt in block.body
-            for n in ast.walk(stmt)
-        }
-        for node in ast.walk(tree):
-            if id(node) in typing_only:
-                continue
+        for node in _imports(ast.parse(f.read_text())):
             names = []
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
                 "energy_planner."

@@ -151,12 +151,60 @@ def test_route_hover_uses_the_built_precompiled_kernels_and_never_builds_them(sm
 
 
 def test_every_page_is_self_contained(pages):
+    bundle = webmap.CARTESIAN_JS.read_text("utf-8")
     for name, p in pages["paths"].items():
         text = p.read_text()
         # no script or stylesheet fetched from anywhere: everything inline
         assert not re.search(r"<script[^>]+src=", text), name
         assert not re.search(r"<link[^>]+href=\"http", text), name
-        assert len(text) > 3_000_000, name  # plotly.js (about 4.6 MB) is inlined
+        # plotly.js is inlined: the vendored cartesian bundle (1.5 MB), whole and once
+        assert text.count(bundle) == 1 and len(bundle) > 1_000_000, name
+
+
+def test_the_vendored_plotly_bundle_is_the_plotly_packages_release(monkeypatch):
+    """The cartesian bundle the pages inline is plotly.js of the version the ``plotly``
+    package bundles (its figure JSON is that version's), has exactly the trace types
+    :data:`~energy_planner.webmap.CARTESIAN_TRACES` names, is the file its README's sha256
+    names, ships in the wheel with its licence; a page with another trace type, or under a
+    ``plotly`` that bundles another plotly.js, inlines Plotly's full bundle."""
+    import fnmatch
+    import hashlib
+    import tomllib
+    from pathlib import Path
+
+    import plotly.graph_objects as go
+    from plotly.offline import get_plotlyjs_version
+
+    raw = webmap.CARTESIAN_JS.read_bytes()
+    head = raw[:200].decode("ascii")
+    assert re.search(r"plotly\.js \(cartesian - minified\) v([\d.]+)\n", head).group(1) == (
+        get_plotlyjs_version()
+    )
+    traces = re.findall(rb'moduleType:"trace",name:"(\w+)"', raw)
+    assert sorted(t.decode() for t in traces) == sorted(webmap.CARTESIAN_TRACES)
+    folder = webmap.CARTESIAN_JS.parent
+    assert hashlib.sha256(raw).hexdigest() in (folder / "README.md").read_text()
+    assert "MIT License" in (folder / "LICENSE").read_text()
+    root = Path(__file__).resolve().parents[1]
+    shipped = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-data"
+    ]["energy_planner"]
+    for f in ("plotly-cartesian.min.js", "LICENSE", "README.md"):
+        assert any(fnmatch.fnmatch(f"data/plotly/{f}", pat) for pat in shipped), f
+
+    t = ep.Terrain.from_function(lambda x, y: 0.1 * x, size=(8, 8))
+    page = webmap.WebMap(t, "a plane")
+    page.add_route("line", [[2.0, 2.0], [6.0, 2.0]])
+    text = page.html()
+    assert text.count(raw.decode("utf-8")) == 1 and "plotly.js v" not in text
+    full = f"plotly.js v{get_plotlyjs_version()}\n"
+    with monkeypatch.context() as m:  # a plotly of another plotly.js: its own bundle
+        m.setattr("plotly.offline.get_plotlyjs_version", lambda: "2.35.2")
+        text = page.html()
+    assert full in text and "plotly.js (cartesian" not in text
+    page.figure.add_trace(go.Scatter3d(x=[0], y=[0], z=[0]))  # not in the cartesian bundle
+    text = page.html()
+    assert full in text and "plotly.js (cartesian" not in text
 
 
 def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
@@ -178,13 +226,13 @@ def test_pages_render_offline_and_hover_shows_the_segment_energy(pages):
 
         ctx.route("**/*", route)
         page = ctx.new_page()
-        page.set_default_timeout(180000)  # a loaded CI machine parses 5 MB pages slowly
+        page.set_default_timeout(180000)  # a loaded CI machine parses 1.5 MB pages slowly
         errors: list[str] = []
         page.on("pageerror", lambda e: errors.append(str(e)))
         drawn = {}
         # every page is opened at one path, a byte-for-byte copy of it: V8 keeps the
-        # compiled plotly.js (4.6 MB, inlined in each page) per script URL, so seven paths
-        # compiled it seven times (about 3 s of Chromium's CPU each; then about 0.9 s a page)
+        # compiled plotly.js (1.5 MB, inlined in each page) per script URL, so seven paths
+        # would compile it seven times
         view = pages["paths"]["plan"].parent / "view" / "page.html"
         view.parent.mkdir(exist_ok=True)
         for name, p in pages["paths"].items():
