@@ -305,3 +305,25 @@ def test_distance_lattice_without_a_path_says_so(model):
     with pytest.raises(PlanningError, match="no feasible path"):
         lattice_plan(cost, closed, (8.0, 10.0, None), (50.0, 10.0, None), step=2.0,
                      metric="distance")  # fmt: skip
+
+
+def test_a_second_lattice_plan_from_the_same_start_searches_the_kept_graph(model):
+    """The energy lattice's graph is kept for the next plan of the same model, request and
+    start (another goal): the same path and cost as a graph built afresh."""
+    from energy_planner.planning import lattice
+    from energy_planner.problem import Problem
+
+    t = Terrain.from_function(lambda x, y: 0.05 * x + 0.02 * y * y, size=(9, 9))
+    p = Problem(t, model)
+    s = (2.5, 2.5, None)
+    lattice_plan(p, s, (6.5, 5.5, None), step=1.0)
+    kept = lattice._GRAPHS[t][3]
+    again = lattice_plan(p, s, (5.5, 3.5, 0.0), step=1.0)
+    assert lattice._GRAPHS[t][3] is kept
+    lattice._GRAPHS.clear()
+    fresh = lattice_plan(p, s, (5.5, 3.5, 0.0), step=1.0)
+    assert lattice._GRAPHS[t][3] is not kept
+    assert again.cost == fresh.cost and again.n_edges == fresh.n_edges
+    np.testing.assert_array_equal(again.states, fresh.states)
+    lattice_plan(p, (3.5, 2.5, None), (5.5, 3.5, None), step=1.0)  # another start
+    assert lattice._GRAPHS[t][2][0] == (3.5, 2.5)

@@ -233,8 +233,8 @@ def test_plan_energy_equals_energy_of_its_waypoints(tmp_path, model, name, start
 
 
 def test_bound_table_from_the_cache_is_the_computed_one(model, monkeypatch):
-    """The bound's ``best`` bands read back from the process memo and from the disk cache
-    are the ones :meth:`HeadingCost.map_bands` computes, bit for bit."""
+    """The bound's ``best`` bands read back from the cost's kept table, the process memo
+    and the disk cache are the ones :meth:`HeadingCost.map_bands` computes, bit for bit."""
     import hashlib
     import uuid
 
@@ -258,13 +258,18 @@ def test_bound_table_from_the_cache_is_the_computed_one(model, monkeypatch):
         computed, tgeo = bound_table(cost, grid.headings, grid.move_ok)
         written = [cache_dir() / f"bound_{k}.npy" for k in set(keys)]
         assert written and all(f.exists() for f in written)
+        kept, _ = bound_table(cost, grid.headings, grid.move_ok)  # the cost's own table
+        search._TABLES.clear()
         memo, _ = bound_table(cost, grid.headings, grid.move_ok)
+        search._TABLES.clear()
         search._BEST_MEMO.clear()
         disk, tgeo2 = bound_table(cost, grid.headings, grid.move_ok)
     finally:
         search._BEST_MEMO.clear()
+        search._TABLES.clear()
         for k in set(keys):
             (cache_dir() / f"bound_{k}.npy").unlink(missing_ok=True)
+    np.testing.assert_array_equal(kept, computed)
     np.testing.assert_array_equal(memo, computed)
     np.testing.assert_array_equal(disk, computed)
     np.testing.assert_array_equal(tgeo2, tgeo)

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -330,6 +331,45 @@ def lattice_graph(
     return _graph(edges, xs, ys, headings, valid, step)
 
 
+#: The last lattice graph of each terrain (weakly), with what it was built for: a second
+#: round trip of the same problem from the same start (``reach``: the other
+#: ``turn_at_cell``, another budget), or a second lattice plan from that start (another
+#: goal), searches it again instead of pricing every edge anew.
+_GRAPHS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+#: The largest graph kept in :data:`_GRAPHS` (bytes of its arrays).
+GRAPH_KEEP_BYTES = 64 * 2**20
+
+
+def kept_graph(problem, start_xy, step: float, n_headings: int, moves: str) -> LatticeGraph:
+    """:func:`lattice_graph` of ``problem``, or the kept one.
+
+    Kept (:data:`_GRAPHS`) for a cost its problem made (its model, an equal request without
+    channel rasters, the same speed range and price of a second) and graphs up to
+    :data:`GRAPH_KEEP_BYTES`; the same graph either way.
+    """
+    cost, terrain, request = problem.cost, problem.terrain, problem.request
+    lam = float(getattr(cost, "time_weight", 0.0))
+    xy = tuple(float(v) for v in start_xy[:2])
+    key = (xy, float(step), int(n_headings), str(moves), getattr(cost, "speed_range", None), lam)
+    keep = getattr(cost, "request", None) is request and request.channels is None
+    if keep:
+        hit = _GRAPHS.get(terrain)
+        if hit is not None and hit[0] is problem.model and hit[2] == key:
+            try:
+                same = hit[1] is request or bool(hit[1] == request)
+            except (TypeError, ValueError):  # a keep-out that does not compare
+                same = False
+            if same:
+                return hit[3]
+    lat = lattice_graph(cost, terrain, start_xy, step, n_headings, moves)
+    g = lat.graph
+    size = g.data.nbytes + g.indices.nbytes + g.indptr.nbytes + lat.valid.nbytes
+    if keep and size <= GRAPH_KEEP_BYTES:
+        _GRAPHS[terrain] = (problem.model, request, key, lat)
+    return lat
+
+
 def _graph(edges: list, xs, ys, headings, valid, step) -> LatticeGraph:
     """The :class:`LatticeGraph` of the edge parts ``(src, dst, weight)``."""
     from scipy.sparse import csr_matrix
@@ -523,7 +563,7 @@ def lattice_plan(
     if metric == "distance":
         lat = _distance_search(cost, terrain, start, goal, step, int(n_headings), moves)
     else:
-        lat = lattice_graph(cost, terrain, (start[0], start[1]), step, int(n_headings), moves)
+        lat = kept_graph(problem, (start[0], start[1]), step, int(n_headings), moves)
     t1 = time.perf_counter()
     length, best, sources, pred = _shortest(lat, start, goal)
     if not np.isfinite(length):

@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 import time
 import warnings
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from energy_planner.errors import InvalidStateError, PlanningError, ReachEdgeWarning
+from energy_planner.planning.lattice import _GRAPHS, GRAPH_KEEP_BYTES, kept_graph  # noqa: F401
 from energy_planner.problem import takes_problem
 from energy_planner.results import Result, path_first
 
@@ -108,7 +108,7 @@ def least_energy(
         return (*out, res.tree) if tree else out
     from scipy.sparse.csgraph import dijkstra
 
-    lat = _round_trip_graph(problem, start_xy, step, n_headings, moves)
+    lat = kept_graph(problem, start_xy, step, n_headings, moves)  # kept: see _GRAPHS
     graph, xs, ys, valid = lat.graph, lat.xs, lat.ys, lat.valid
     H = int(n_headings)
     p0 = int(np.argmin(np.abs(ys - start_xy[1]))) * len(xs) + int(
@@ -150,46 +150,6 @@ def least_energy(
         legs.append({"states": states, "parent": parent, "at": at, "back": back_leg})
     paths = {"legs": legs, "xs": xs, "ys": ys, "headings": np.asarray(lat.headings, float)}
     return (*out, paths)
-
-
-#: The last round trip's lattice graph of each terrain (weakly), with what it was built
-#: for: a second round trip of the same problem from the same start (the other
-#: ``turn_at_cell``, another budget) searches it again instead of pricing every edge anew.
-_GRAPHS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-#: The largest graph kept in :data:`_GRAPHS` (bytes of its arrays).
-GRAPH_KEEP_BYTES = 64 * 2**20
-
-
-def _round_trip_graph(problem, start_xy, step: float, n_headings: int, moves: str):
-    """:func:`~energy_planner.planning.lattice.lattice_graph` of ``problem``, or the kept one.
-
-    Kept (:data:`_GRAPHS`) for a cost its problem made (its model, an equal request without
-    channel rasters, the same speed range and price of a second) and graphs up to
-    :data:`GRAPH_KEEP_BYTES`; the same graph either way.
-    """
-    from energy_planner.planning.lattice import lattice_graph
-
-    cost, terrain, request = problem.cost, problem.terrain, problem.request
-    lam = float(getattr(cost, "time_weight", 0.0))
-    xy = tuple(float(v) for v in start_xy[:2])
-    key = (xy, float(step), int(n_headings), str(moves), getattr(cost, "speed_range", None), lam)
-    keep = getattr(cost, "request", None) is request and request.channels is None
-    if keep:
-        hit = _GRAPHS.get(terrain)
-        if hit is not None and hit[0] is problem.model and hit[2] == key:
-            try:
-                same = hit[1] is request or bool(hit[1] == request)
-            except (TypeError, ValueError):  # a keep-out that does not compare
-                same = False
-            if same:
-                return hit[3]
-    lat = lattice_graph(cost, terrain, start_xy, step, n_headings, moves)
-    g = lat.graph
-    size = g.data.nbytes + g.indices.nbytes + g.indptr.nbytes + lat.valid.nbytes
-    if keep and size <= GRAPH_KEEP_BYTES:
-        _GRAPHS[terrain] = (problem.model, request, key, lat)
-    return lat
 
 
 @dataclass(repr=False)

@@ -407,9 +407,8 @@ class _Grid:
         return int(np.argmin(np.abs(wrap(self.headings - float(yaw)))))
 
 
-#: The bound tables of each cost that chooses its speed (:func:`bound_table`), as long as
-#: the cost lives.
-_RANGED_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: The bound tables of each cost (:func:`bound_table`), as long as the cost lives.
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TABLE_NODES):
@@ -436,15 +435,18 @@ def bound_table(cost, headings: np.ndarray, move_ok: np.ndarray, nodes: int = TA
     tgeo : ndarray
         ``(gx of node 0, gy of node 0, gx spacing, gy spacing)``.
     """
-    # a cost that chooses its speed keeps its tables (the least over its speeds' tables,
-    # each read from the cache, and a pass over the map's gradients: about 0.1 s on
-    # 1600^2): a plan prices them before its clock (prepare_bound), then in its search
-    kept = None
-    if getattr(cost, "ranged", False):
-        kept = _RANGED_TABLES.setdefault(cost, {})
-        key = (np.asarray(headings).tobytes(), np.asarray(move_ok).tobytes(), int(nodes))
-        if key in kept:
-            return tuple(a.copy() for a in kept[key])
+    # each cost keeps its tables: a plan prices them before its clock (prepare_bound),
+    # then in its search, and a reach for its move bounds; a cost that chooses its speed
+    # takes the least over its speeds' tables (each read from the cache) and a pass over
+    # the map's gradients (about 0.1 s on 1600^2), one at a fixed speed its grid's memo
+    # hit and the heading cost's parameters (about 5 ms)
+    try:
+        kept = _TABLES.setdefault(cost, {})
+    except TypeError:  # a cost that cannot be weakly referenced: computed each time
+        kept = None
+    key = (np.asarray(headings).tobytes(), np.asarray(move_ok).tobytes(), int(nodes))
+    if kept is not None and key in kept:
+        return tuple(a.copy() for a in kept[key])
     out = _bound_table(cost, headings, move_ok, nodes)
     if kept is not None:
         kept[key] = tuple(a.copy() for a in out)
@@ -714,8 +716,8 @@ def _best_bands(hc, GX: np.ndarray, GY: np.ndarray, dirs: np.ndarray, along: np.
 
     key = _best_key(hc, GX, GY, dirs, combos)
     hit = _BEST_MEMO.get(key)
-    path = cache_dir() / f"bound_{key}.npy"
     if hit is None:
+        path = cache_dir() / f"bound_{key}.npy"
         try:
             arr = np.load(path, allow_pickle=False)
             if arr.shape == along.shape and arr.dtype == np.float32:
