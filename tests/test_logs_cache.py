@@ -91,7 +91,7 @@ def _entries(kind: str) -> list[str]:
 
 
 def _same_load(a, b) -> None:
-    pd.testing.assert_frame_equal(a[0], b[0])
+    pd.testing.assert_frame_equal(a[0], b[0], check_exact=True)
     assert a[1].to_dict() == b[1].to_dict()
     assert str(a[1]) == str(b[1])
 
@@ -103,7 +103,9 @@ def test_a_second_load_is_the_first_read_back(folder, monkeypatch):
     second = load_logs(folder, report=True)
     _same_load(first, second)
     assert second[0]["surface"].dtype.name == "category"  # the types too
-    pd.testing.assert_frame_equal(load_logs(folder), first[0])  # report=False: the samples
+    pd.testing.assert_frame_equal(
+        load_logs(folder), first[0], check_exact=True
+    )  # report=False: the samples
 
 
 def test_a_changed_file_option_or_environment_is_read_afresh(folder, reads, monkeypatch):
@@ -114,7 +116,7 @@ def test_a_changed_file_option_or_environment_is_read_afresh(folder, reads, monk
 
     st = os.stat(folder / "r1.csv")  # touched: same content, a new time
     os.utime(folder / "r1.csv", ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
-    pd.testing.assert_frame_equal(load_logs(folder), first)
+    pd.testing.assert_frame_equal(load_logs(folder), first, check_exact=True)
     assert reads[3:] == ["r0.csv", "r1.csv", "r2.csv"]
 
     changed = _run("r1", 13.0, current=5.0, seed=1)  # new content, same size class
@@ -193,9 +195,9 @@ def test_a_file_written_just_now_is_read_again(folder, reads):
     first = load_logs(folder)
     assert _entries("load") == []
     _written_before(folder / "new.csv")
-    pd.testing.assert_frame_equal(load_logs(folder), first)
+    pd.testing.assert_frame_equal(load_logs(folder), first, check_exact=True)
     assert len(_entries("load")) == 1
-    pd.testing.assert_frame_equal(load_logs(folder), first)
+    pd.testing.assert_frame_equal(load_logs(folder), first, check_exact=True)
     assert reads.count("new.csv") == 2
 
 
@@ -210,7 +212,7 @@ def test_an_unwritable_cache_folder_still_answers(folder, tmp_path, monkeypatch,
     samples = first[0]
     a = prepare_logs(samples)
     b = prepare_logs(samples)
-    pd.testing.assert_frame_equal(a.windows.table, b.windows.table)
+    pd.testing.assert_frame_equal(a.windows.table, b.windows.table, check_exact=True)
 
 
 def test_switched_off_nothing_is_kept(folder, reads, monkeypatch):
@@ -260,11 +262,11 @@ def _doc(p) -> str:
 
 def _same_prepared(a, b) -> None:
     assert _doc(a) == _doc(b)
-    pd.testing.assert_frame_equal(a.windows.samples, b.windows.samples)
-    pd.testing.assert_frame_equal(a.windows.table, b.windows.table)
+    pd.testing.assert_frame_equal(a.windows.samples, b.windows.samples, check_exact=True)
+    pd.testing.assert_frame_equal(a.windows.table, b.windows.table, check_exact=True)
     wa, wb = a.windows.whole_runs, b.windows.whole_runs
-    pd.testing.assert_frame_equal(wa.runs, wb.runs)
-    pd.testing.assert_frame_equal(wa.rest, wb.rest)
+    pd.testing.assert_frame_equal(wa.runs, wb.runs, check_exact=True)
+    pd.testing.assert_frame_equal(wa.rest, wb.rest, check_exact=True)
     assert (wa.twist, wa.paths) == (wb.twist, wb.paths)
 
 
@@ -292,7 +294,9 @@ def test_a_second_prepare_is_the_first_read_back(folder, hits):
     assert hits[0] is None and hits[1] is not None
     _same_prepared(first, second)
     assert second is not first and second.windows.samples is not first.windows.samples
-    pd.testing.assert_frame_equal(samples, before)  # the caller's samples untouched
+    pd.testing.assert_frame_equal(
+        samples, before, check_exact=True
+    )  # the caller's samples untouched
     # the raw samples with a ROS-signed current: a finding, repaired, read back the same
     ros = samples.assign(current=-samples["current"])
     a, b = prepare_logs(ros), prepare_logs(ros)

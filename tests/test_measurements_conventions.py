@@ -338,7 +338,7 @@ def test_a_long_pause_only_splits_the_run(rate_hz, n, at, pause_periods, seed):
     # windows: the same ones, with the same energies
     wp, ws = (make_windows(x.drop(columns=["x", "y"]), 1.5).table for x in (paused, split))
     cols = ["t_start", "duration", "n", "power", "energy_j", "motion"]
-    pd.testing.assert_frame_equal(wp[cols], ws[cols])
+    pd.testing.assert_frame_equal(wp[cols], ws[cols], check_exact=True)
     # cleaned samples: the same ones, with the same power
     cp, cs = (preprocess(x.drop(columns=["x", "y"]))[0] for x in (paused, split))
     np.testing.assert_array_equal(cp["power"], cs["power"])

@@ -119,7 +119,7 @@ def test_validation_counts_nan_voltage_and_gaps_without_changing_data(tmp_path):
     df.loc[8, ["qw", "qx", "qy", "qz"]] = 0.0  # no orientation
     before = df.copy()
     rep = validate_log(df, "r.csv")
-    pd.testing.assert_frame_equal(df, before)
+    pd.testing.assert_frame_equal(df, before, check_exact=True)
     assert rep.n_nan == {"qx": 1, "current": 1}
     assert rep.n_bad_voltage == 2
     assert rep.n_bad_quaternion == 1

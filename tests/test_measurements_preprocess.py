@@ -303,7 +303,7 @@ def test_preprocess_keeps_input_unchanged_and_checks_columns():
     df = log(20)
     before = df.copy()
     preprocess(df)
-    pd.testing.assert_frame_equal(df, before)
+    pd.testing.assert_frame_equal(df, before, check_exact=True)
     with pytest.raises(LogError, match="lacks required column.*'wz'"):
         preprocess(df.drop(columns="wz"))
     bad = df.copy()

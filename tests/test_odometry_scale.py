@@ -68,7 +68,7 @@ def test_a_constant_scale_is_found_and_divided_out(scale):
 def test_an_exact_odometry_is_no_finding():
     found, fixed = check_odometry_scale(_walks(1.0))
     assert not found.finding and not found.repaired
-    pd.testing.assert_frame_equal(fixed, _walks(1.0))
+    pd.testing.assert_frame_equal(fixed, _walks(1.0), check_exact=True)
     found, _ = check_odometry_scale(_walks(0.97).drop(columns=["x", "y"]))
     assert not found.finding and found.summary.startswith("not checked")
 

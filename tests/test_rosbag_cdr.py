@@ -136,7 +136,7 @@ def test_bag_files_are_those_of_the_per_message_path(tmp_path, version):
     for f in files:
         assert (blocks / f).read_bytes() == (messages / f).read_bytes()
     back = load_rosbag(blocks)
-    pd.testing.assert_frame_equal(back, load_rosbag(messages))
+    pd.testing.assert_frame_equal(back, load_rosbag(messages), check_exact=True)
     np.testing.assert_array_equal(back["vx"], df["vx"])
     np.testing.assert_array_equal(back["voltage"], df["voltage"].astype(np.float32))
     np.testing.assert_array_equal(back["motor_temp"], df["motor_temp"])

@@ -287,8 +287,8 @@ def test_seed_determinism():
     a = simulate_campaign(seed=5, effects=("load",), config=CampaignConfig.small())
     b = simulate_campaign(seed=5, effects=("load",), config=CampaignConfig.small())
     c = simulate_campaign(seed=6, effects=("load",), config=CampaignConfig.small())
-    pd.testing.assert_frame_equal(a.logs, b.logs)
-    pd.testing.assert_frame_equal(a.runs, b.runs)
+    pd.testing.assert_frame_equal(a.logs, b.logs, check_exact=True)
+    pd.testing.assert_frame_equal(a.runs, b.runs, check_exact=True)
     assert not np.allclose(a.logs["current"], c.logs["current"])
 
 
