@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from b1_model import b1_model  # tests/ helper
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from energy_planner.energy import MotionCost, path_energy
@@ -224,6 +224,9 @@ def test_mirror_symmetry(x0, y0, x1, y1, th0, th1):
 
 @settings(max_examples=30, deadline=None)
 @given(x0=coord, y0=coord, x1=coord, y1=coord, th0=yaw, th1=yaw, k=st.integers(1, 3))
+# a turn of 38 angular steps whose rotated yaws round it to 38.00000000000001 steps: it
+# took a 39th sub-step there (energy 1e-4 higher) before the count had its slack
+@example(x0=5.0, y0=5.0, x1=5.0, y1=6.0, th0=1.9, th1=0.0, k=2)
 def test_invariance_under_quarter_turns(x0, y0, x1, y1, th0, th1, k):
     """Rotating terrain and path together by k quarter turns about the map centre.
 
