@@ -491,8 +491,7 @@ def report_against(
     """
     dur = np.asarray(segments["duration_s"], dtype=float)
     if float(dur.sum()) <= 0:
-        return {"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
-                "max_excess": {}, "domain": dict(dom)}  # fmt: skip
+        return _report_of_no_time(dom)
     terms = segment_terms(dom, segments, constants, _segment_gaits(segments, poses),
                           channel_values, along)  # fmt: skip
     sums = {k: float(np.sum(v)) for k, v in terms.cols.items()}
@@ -526,13 +525,18 @@ def report_against_groups(
     out = []
     for g in groups:
         if float(dur[g].sum()) <= 0:
-            out.append({"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
-                        "max_excess": {}, "domain": dict(dom)})  # fmt: skip
+            out.append(_report_of_no_time(dom))
             continue
         sums = {k: float(np.sum(v[g])) for k, v in terms.cols.items()}
         peaks = {q: float(np.max(v[g])) if v[g].size else 0.0 for q, v in terms.peaks.items()}
         out.append(rounded(terms.report(dom, sums, peaks)))
     return out
+
+
+def _report_of_no_time(dom: Mapping[str, Any]) -> dict[str, Any]:
+    """The report of a path (or group of segments) that lasts no time: nothing outside."""
+    return {"outside_share": 0.0, "reasons": {}, "shares": {}, "excess": {},
+            "max_excess": {}, "domain": dict(dom)}  # fmt: skip
 
 
 def rounded(rep: dict[str, Any]) -> dict[str, Any]:
