@@ -146,17 +146,14 @@ def fit_layout(fig: Any, dpi: float | None = None, **tight_kw: Any) -> Any:
     """
     from matplotlib.layout_engine import TightLayoutEngine
 
+    from energy_planner.io.atomic import layout_at_dpi
+
     tight_kw.setdefault("rect", None)  # as tight_layout: the engine's (0, 0, 1, 1) measures twice
     engine = TightLayoutEngine(**tight_kw)
     if dpi is None or dpi == fig.dpi:
         engine.execute(fig)
-        return fig
-    original = fig.dpi
-    fig.dpi = dpi
-    try:
-        engine.execute(fig)
-    finally:
-        fig.dpi = original
+    else:
+        layout_at_dpi(fig, engine, dpi)
     return fig
 
 

@@ -1096,14 +1096,23 @@ def _lay_out_once(fig: Any, dest: str | os.PathLike[str], savefig_kw: Mapping[st
     if dpi == "figure":
         dpi = getattr(fig, "_original_dpi", fig.dpi)
     if not isinstance(engine, PlaceHolderLayoutEngine):
-        original = fig.dpi
-        fig.dpi = dpi
-        try:
-            engine.execute(fig)
-        finally:
-            fig.dpi = original
+        layout_at_dpi(fig, engine, dpi)
     fig.set_layout_engine(None)
     return engine
+
+
+def layout_at_dpi(fig: Any, engine: Any, dpi: float) -> None:
+    """Run the layout ``engine`` on ``fig`` as drawn at ``dpi``, the figure's dpi kept.
+
+    The layout measures the text as a renderer at ``dpi`` draws it, so a figure then
+    saved at ``dpi`` is drawn with the text sizes the layout already measured.
+    """
+    original = fig.dpi
+    fig.dpi = dpi
+    try:
+        engine.execute(fig)
+    finally:
+        fig.dpi = original
 
 
 def content_id(obj: Any) -> str:
