@@ -34,13 +34,12 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from _trees import run_in_tree, tree_parser
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -114,19 +113,8 @@ CASES = {
 }
 
 
-def _run(tree: Path, case: str, dem: Path) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(tree))
-    got = subprocess.run([sys.executable, "-c", CHILD, case, str(dem)], env=env, cwd=tree,
-                         capture_output=True, text=True, check=True)  # fmt: skip
-    return json.loads(got.stdout.strip().splitlines()[-1])
-
-
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--baseline", default="/work/main", help="source tree of the method before")
-    ap.add_argument("--cases", default=",".join(CASES))
-    a = ap.parse_args(argv)
+    a = tree_parser(__doc__, CASES).parse_args(argv)
     sys.path.insert(0, str(HERE))
     import numpy as np
     from _hilly import hilly_dem
@@ -140,8 +128,8 @@ def main(argv: list[str] | None = None) -> dict:
         for case in a.cases.split(","):
             base, new = [], []
             for _ in range(a.repeat):  # alternated: both see the same load
-                base.append(_run(Path(a.baseline), case, dem))
-                new.append(_run(ROOT, case, dem))
+                base.append(run_in_tree(Path(a.baseline), CHILD, case, str(dem)))
+                new.append(run_in_tree(ROOT, CHILD, case, str(dem)))
             cb = float(np.median([r["cpu_s"] for r in base]))
             cn = float(np.median([r["cpu_s"] for r in new]))
             same = base[0]["sha"] == new[0]["sha"] and base[0]["expanded"] == new[0]["expanded"]
