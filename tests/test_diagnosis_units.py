@@ -692,3 +692,30 @@ def test_a_power_in_the_square_of_a_carried_mass_is_found_and_written(tmp_path):
     back = EnergyModel.load(tmp_path / "m.json")
     assert "load_kg ** 2" in back.term_names
     assert back.coefficients["load_kg ** 2"] == pytest.approx(0.04, rel=0.1)
+
+
+def test_choice_test_pools_the_partitions_each_a_ranking_of_its_own_seed():
+    """The choice test averages each run's gain over ``n_partitions`` deals of the runs into
+    folds. Each partition's own test is the choice test a ranking with that seed and one
+    partition gives; the pooled test is the run test of the windows' errors stacked over
+    the partitions, and with one partition it is the partition's own."""
+    from energy_planner.diagnosis.scoring import choice_partitions
+    from energy_planner.stats import fold_index
+
+    s = _null_missions(4)
+    s["planted"] = s["junk_run"] + 0.5 * s["junk_t"]
+    s["power"] = s["power"] + 4.0 * s["planted"]  # a weak effect some folds pick
+    wd = window_data(s)
+    terms = ["idle_power", "fwd_const", "fwd_up", "fwd_down"]
+    cands = [*NULL_CANDIDATES, "planted"]
+    r = rank_suspects(wd, terms, Thresholds(n_partitions=4), candidates=[], extra=cands)
+    c = r.choice
+    assert len(c.partitions) == len(c.partition_p_values) == 4 and c.chosen == c.partitions[0]
+    for seed, p in enumerate(c.partition_p_values):
+        one = rank_suspects(wd, terms, Thresholds(seed=seed, n_partitions=1), candidates=[],
+                            extra=cands).choice  # fmt: skip
+        assert one.p_value == pytest.approx(p, rel=1e-9) and one.chosen == c.partitions[seed]
+        assert one.partition_p_values == [one.p_value]
+    parts = choice_partitions(fold_index(wd.runs, 5, 0), wd.runs, Thresholds(n_partitions=4))
+    assert len({tuple(f.tolist()) for f in parts}) == 4
+    assert c.all_chosen == [t for part in c.partitions for t in part]

@@ -327,21 +327,31 @@ def staircase_options(f):
                 default=0,
                 help="Seed of the assignment of runs to folds.",
             ),
+            value_option(
+                "--partitions",
+                type=click.IntRange(min=1),
+                default=10,
+                help="Noise rule: assignments of the runs to folds (seeds --seed, --seed + 1, "
+                "...) whose gains by run the test of choosing at all averages.",
+            ),
         )
     ):
         f = opt(f)
     return collect(
-        "staircase", staircase_from_options, "alpha", "min_rel", "folds", "seed", "max_steps"
-    )(f)
+        "staircase", staircase_from_options, "alpha", "min_rel", "folds", "seed", "max_steps",
+        "partitions",
+    )(f)  # fmt: skip
 
 
 def staircase_from_options(
-    alpha: float, min_rel: float, folds: int, seed: int, max_steps: int
+    alpha: float, min_rel: float, folds: int, seed: int, max_steps: int, partitions: int = 10
 ) -> dict[str, Any]:
     """The staircase's ``thresholds`` (noise rule and folds) and ``max_steps`` keywords."""
     from energy_planner.diagnosis.suspects import Thresholds
 
-    th = Thresholds(alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed)
+    th = Thresholds(
+        alpha=alpha, min_rel=min_rel, n_splits=folds, seed=seed, n_partitions=partitions
+    )
     return {"thresholds": th, "max_steps": max_steps}
 
 

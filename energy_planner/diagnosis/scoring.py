@@ -48,6 +48,13 @@ class Thresholds:
         are unsupported.
     n_splits, seed : int
         Folds by run and the seed of their assignment.
+    n_partitions : int
+        Partitions of the runs into folds that the choice test (rule 1) averages over: the
+        ranking's own (``seed``) and ``n_partitions - 1`` more (seeds ``seed + 1, ...``;
+        a partition equal to an earlier one counts once, as with one run per fold). A
+        run's gain is its mean over them, so that the test does not turn on how the runs
+        happen to be dealt into folds (one partition may hold out together the few runs
+        an effect shows in).
     confound_alpha : float
         Two-sided level of the paired signed-rank test by run that tells the best suspect
         from another one.
@@ -59,6 +66,7 @@ class Thresholds:
     n_splits: int = 5
     seed: int = 0
     confound_alpha: float = 0.05
+    n_partitions: int = 10
 
 
 @dataclass
@@ -125,20 +133,28 @@ class ChoiceTest:
 
     For each fold, the candidate its training folds alone choose
     (:func:`energy_planner.stats.heldout.choice_by_fold`); the held-out errors of every
-    fold's windows with its own choice, against the model's, by the run test.
+    fold's windows with its own choice, against the model's, by the run test. The folds
+    are dealt ``Thresholds.n_partitions`` times (:func:`choice_partitions`), and the test
+    is of each run's squared-error gain averaged over the partitions.
 
     Attributes
     ----------
     chosen : list of str or None
-        The term each fold's training folds chose (None: none improves there).
+        The term each fold's training folds chose in the ranking's own partition (None:
+        none improves there).
     heldout_rmse_w : float
-        Pooled held-out RMSE of the windows with their fold's choice, W.
+        Pooled held-out RMSE of the windows with their fold's choice (over every
+        partition), W.
     z, p_value : float
         The run test's statistic and one-sided p-value.
     n_runs : int
         Runs in the test.
     p_threshold : float
         The level the p-value must be below (its share of ``Thresholds.alpha``).
+    partitions : list of list of str or None
+        Each partition's choices fold by fold (the first is ``chosen``).
+    partition_p_values : list of float
+        The run test of each partition alone (for the record: the test is the pooled one).
     """
 
     chosen: list[str | None]
@@ -147,6 +163,13 @@ class ChoiceTest:
     p_value: float
     n_runs: int
     p_threshold: float
+    partitions: list[list[str | None]] = field(default_factory=list)
+    partition_p_values: list[float] = field(default_factory=list)
+
+    @property
+    def all_chosen(self) -> list[str | None]:
+        """Every fold's choice, partition after partition."""
+        return [c for part in (self.partitions or [self.chosen]) for c in part]
 
     @property
     def passed(self) -> bool:
@@ -308,6 +331,44 @@ def _rare_values(run: dict, n_runs: int) -> str:
         elif lo <= few:
             out.append(f"{_fmt_value(k, v)} or less: {lo} of {n_runs} runs")
     return "; ".join(out)
+
+
+def choice_partitions(folds: np.ndarray, runs: np.ndarray, th: Thresholds) -> list[np.ndarray]:
+    """The partitions of the runs into folds that the choice test averages over.
+
+    ``folds`` (the ranking's own) first, then :func:`~energy_planner.stats.fold_index` with
+    seeds ``th.seed + 1, ...`` up to ``th.n_partitions`` in all; a partition that deals the
+    runs as an earlier one does (whatever its fold numbers) is left out.
+
+    Examples
+    --------
+    Three runs in three folds can be dealt only one way (one run per fold):
+
+    >>> runs = np.array(["a", "a", "b", "c"])
+    >>> f = fold_index(runs, 3, 0)
+    >>> len(choice_partitions(f, runs, Thresholds(n_splits=3)))
+    1
+    >>> runs = np.repeat(np.arange(12), 2)
+    >>> len(choice_partitions(fold_index(runs, 3, 0), runs, Thresholds(n_splits=3)))
+    10
+    """
+    out = [np.asarray(folds)]
+    seen = {_dealt(out[0], runs)}
+    for r in range(1, th.n_partitions):
+        f = fold_index(runs, th.n_splits, th.seed + r)
+        key = _dealt(f, runs)
+        if key not in seen:
+            seen.add(key)
+            out.append(f)
+    return out
+
+
+def _dealt(folds: np.ndarray, runs: np.ndarray) -> frozenset:
+    """How ``folds`` deals the runs, whatever the folds' numbers: the set of run groups."""
+    groups: dict[int, set] = {}
+    for f, r in set(zip(np.asarray(folds).tolist(), np.asarray(runs).tolist(), strict=True)):
+        groups.setdefault(f, set()).add(r)
+    return frozenset(frozenset(g) for g in groups.values())
 
 
 def _fold_rmse(err: np.ndarray, folds: np.ndarray, n_folds: int) -> np.ndarray:
@@ -590,33 +651,68 @@ class _Context:
     def choice_test(self, terms: list[str], level: float) -> ChoiceTest | None:
         """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``."""
         terms = [t for t in terms if t in self.columns]
-        ok = self.base_ok
-        # scored on the supported windows only: a fold whose training runs lack a way of
-        # walking extrapolates it, and the folds would choose whatever fits that
-        # extrapolation; every window still enters the fits
-        sup = self.inside[ok]
-        if not terms or not (ok & self.inside).any():
+        if not terms or not (self.base_ok & self.inside).any():
             return None
+        ok = self.base_ok
         Z = np.column_stack([self.columns[t][ok] for t in terms])
-        folds = self.folds[ok]
-        pick = choice_by_fold(self.x[ok], Z, self.y[ok], folds, self.w[ok], scored=sup)
-        e0 = self.base_err[ok]
-        e1 = e0.copy()
-        for f, j in enumerate(pick):
-            if j >= 0:
-                ej = self.errors[terms[j]][ok]
-                there = (folds == f) & np.isfinite(ej)
+        e0s, e1s, runs, chosen, p_each = [], [], [], [], []
+        for r, folds in enumerate(choice_partitions(self.folds, self.runs, self.th)):
+            if r == 0:  # the ranking's own folds: its errors are already made
+                base, inside, errors = self.base_err, self.inside, self.errors
+            else:
+                base = np.full(len(self.y), np.nan)
+                base[ok] = self.wd.heldout(self.terms, folds, ok).residuals
+                inside = self.wd.fold_support(folds)
+                if not (ok & inside).any():
+                    inside = np.ones(len(self.y), dtype=bool)
+                errors = {}
+            # scored on the supported windows only: a fold whose training runs lack a way
+            # of walking extrapolates it, and the folds would choose whatever fits that
+            # extrapolation; every window still enters the fits
+            sup = inside[ok]
+            f_ok = folds[ok]
+            pick = choice_by_fold(self.x[ok], Z, self.y[ok], f_ok, self.w[ok], scored=sup)
+            e0 = base[ok]
+            e1 = e0.copy()
+            for f, j in enumerate(pick):
+                if j < 0:
+                    continue
+                if terms[j] not in errors:
+                    errors[terms[j]] = self._heldout_with(terms[j], folds)
+                ej = errors[terms[j]][ok]
+                there = (f_ok == f) & np.isfinite(ej)
                 e1[there] = ej[there]
-        e0, e1, runs = e0[sup], e1[sup], self.run_codes[ok][sup]
-        z, p, n = paired_run_test(e0, e1, runs)
+            codes = self.run_codes[ok][sup]
+            p_each.append(paired_run_test(e0[sup], e1[sup], codes)[1])
+            e0s.append(e0[sup])
+            e1s.append(e1[sup])
+            runs.append(codes)
+            chosen.append([terms[j] if j >= 0 else None for j in pick])
+        # each run's gain is its mean over the partitions (paired_run_test averages a run's
+        # windows, and a run has its windows once per partition)
+        e1 = np.concatenate(e1s)
+        z, p, n = paired_run_test(np.concatenate(e0s), e1, np.concatenate(runs))
         return ChoiceTest(
-            chosen=[terms[j] if j >= 0 else None for j in pick],
+            chosen=chosen[0],
             heldout_rmse_w=float(np.sqrt(np.mean(e1**2))),
             z=z,
             p_value=p,
             n_runs=n,
             p_threshold=level,
+            partitions=chosen,
+            partition_p_values=[float(v) for v in p_each],
         )
+
+    def _heldout_with(self, term: str, folds: np.ndarray) -> np.ndarray:
+        """Held-out errors of the model plus the scored candidate ``term`` on ``folds``.
+
+        NaN where its column is not finite; made as :meth:`_score` makes them.
+        """
+        z = self.columns[term]
+        ok = self.base_ok & np.isfinite(z)
+        out = np.full(len(self.y), np.nan)
+        out[ok] = self.wd.heldout(self.terms, folds, ok, extra=[term]).residuals
+        return out
 
     def undecided(self, s: Suspect, choice: ChoiceTest) -> Undecided:
         """:class:`Undecided` of the scored candidate ``s`` (its gain by run)."""
@@ -652,8 +748,8 @@ class _Context:
             heldout_rmse_w=s.heldout_rmse_w,
             p_value=s.p_value,
             p_threshold=self.th.alpha,
-            chosen=list(choice.chosen),
-            n_folds_chose=sum(c == s.term for c in choice.chosen),
+            chosen=choice.all_chosen,
+            n_folds_chose=sum(c == s.term for c in choice.all_chosen),
             choice_p_value=choice.p_value,
             choice_p_threshold=choice.p_threshold,
             n_runs=int(ids.size),
