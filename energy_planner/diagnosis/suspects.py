@@ -47,7 +47,9 @@ chance that *anything* passes by luck is at most ``alpha`` (default 1 %) per ste
    choose (:func:`energy_planner.stats.heldout.choice_by_fold`); the held-out errors of each
    fold's windows with its own choice must pass the test at ``alpha``
    (:class:`~energy_planner.diagnosis.scoring.ChoiceTest`, ``Ranking.choice``). No choice
-   saw the errors it is tested on: one test, whatever the number of candidates;
+   saw the errors it is tested on: one test, whatever the number of candidates. The runs
+   are dealt into folds ``n_partitions`` times (10) and each run's gain is averaged over
+   the deals, so that the answer does not turn on which runs one deal holds out together;
 2. then the best candidate passes when its own p-value is below ``alpha``, any other when
    its p-value is below ``alpha / m`` where ``m`` is the number of candidates scored in this
    ranking (Bonferroni);
