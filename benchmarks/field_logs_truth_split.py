@@ -82,6 +82,15 @@ in every motion; the joint least squares leaves the ends (0 and 27 kg) low. Rebu
 ``P_base`` from the fit's own base coefficients until it settles (a bilinear fit; tried on
 the truth, not kept) moves seed 2's held-out load 0 to -1.44 % but training load 0 to
 -1.09 % and 9 / 18 kg to +0.69 / +0.61 %.
+
+Two interval changes, tried offline on the 180-mission draws of the bench (not kept): each
+mission's prediction and interval divided by ``1 +`` its load's mean cross-validated
+whole-run error in training (``CrossValidation.whole``; seed 2: -0.59 / +0.61 / +0.71 /
+-0.44 % at 0 / 9 / 18 / 27 kg) take seed 2 from 146 to 168 of 180 (median +0.08 ->
+-0.04 %, p90 2.16 -> 1.69 %) but move seeds 0 and 1 off centre (median +0.01 -> -0.24 %,
+-0.02 -> -0.19 %; p90 1.59 -> 1.63 %, 1.22 -> 1.29 %; seed 0 167 -> 166); widening each
+interval by that mean error in quadrature instead gives seed 2 155, and seed 4, already
+above its band (172; band 154-169), 174.
 """
 
 from __future__ import annotations
