@@ -114,13 +114,14 @@ def _window_rows(dst: Any, cols: int, nbands: int) -> int:
     :func:`_rows_per_block`, rounded down to whole rows of ``dst``'s blocks (at least
     one): the same for a tiled file, whose tiles it is made of already; a file in strips
     (an output narrower or lower than a tile, :func:`_profile`) has GDAL's strip height,
-    which need not divide it. So each block of the file is written whole by one window
-    and never again. A block that two windows share stays in GDAL's block cache, dirty,
-    between their writes, and the cache is the process's: the thread that reads the
-    DEM ahead (:class:`_Inputs`) may evict it and, before it has written it, the next
-    window's write read the block back from the file without the first window's rows
-    (a weakness of GDAL's cache that its ``Internalize`` documents): those rows of its
-    band were NaN in the file, now and then.
+    which need not divide it. So each block of the file is written whole by one window,
+    and GDAL writes it straight to the file, past its block cache. A block that two
+    windows share waits in that cache, dirty, between their writes, and the cache is
+    the process's: the thread that reads the DEM ahead (:class:`_Inputs`) may evict it
+    and, before it has written it, the next window's write read the block back from the
+    file without the first window's rows (a weakness of GDAL's cache that its
+    ``GDALRasterBlock::Internalize`` documents): those rows of a band were NaN in the
+    file, now and then.
     """
     block = max(int(dst.block_shapes[0][0]), 1)
     return max(1, _rows_per_block(cols, nbands) // block) * block
