@@ -108,6 +108,25 @@ def _rows_per_block(cols: int, nbands: int, target_bytes: float = 96e6) -> int:
     return max(tile, (rows // tile) * tile)
 
 
+def _window_rows(dst: Any, cols: int, nbands: int) -> int:
+    """Rows per window of a map written to ``dst``: whole rows of the file's blocks.
+
+    :func:`_rows_per_block`, rounded down to whole rows of ``dst``'s blocks (at least
+    one): the same for a tiled file, whose tiles it is made of already; a file in strips
+    (an output narrower or lower than a tile, :func:`_profile`) has GDAL's strip height,
+    which need not divide it. So each block of the file is written whole by one window,
+    and GDAL writes it straight to the file, past its block cache. A block that two
+    windows share waits in that cache, dirty, between their writes, and the cache is
+    the process's: the thread that reads the DEM ahead (:class:`_Inputs`) may evict it
+    and, before it has written it, the next window's write read the block back from the
+    file without the first window's rows (a weakness of GDAL's cache that its
+    ``GDALRasterBlock::Internalize`` documents): those rows of a band were NaN in the
+    file, now and then.
+    """
+    block = max(int(dst.block_shapes[0][0]), 1)
+    return max(1, _rows_per_block(cols, nbands) // block) * block
+
+
 def _progress(iterable: Any, total: int, desc: str, progress: Any) -> Any:
     if progress is False or total < 2:
         return iterable
@@ -235,7 +254,10 @@ def _map_by_windows(
     dst: Any, setup: _Setup, shape: tuple[int, int], block: Any, progress: Any, samples: Any,
     ahead: bool = False,
 ) -> None:  # fmt: skip
-    """Compute the map by windows of whole tile rows and write them as they come.
+    """Compute the map by windows of whole block rows and write them as they come.
+
+    The windows: :func:`_window_rows` rows each, whole rows of ``dst``'s blocks, so
+    that no block of the file is written by two windows.
 
     ``block(r0, r1)``: the gradient and channel rasters of rows ``r0 .. r1``; with
     ``ahead``, the next window's are made in a thread while a window is computed
@@ -247,7 +269,7 @@ def _map_by_windows(
     from rasterio.windows import Window
 
     rows, cols = shape
-    step = _rows_per_block(cols, setup.full)
+    step = _window_rows(dst, cols, setup.full)
     windows = [(r0, min(rows, r0 + step)) for r0 in range(0, rows, step)]
     bufs: list[Any] = [None, None]  # float bands: one, or two when they are what is written
     codes: list[Any] = [None, None]
@@ -483,7 +505,7 @@ def _compute_windowed(
                     writer_thread=True)  # fmt: skip
     with rasterio.open(info.path) as src, open_geotiff(out, **prof) as dst:
         reading = band_reading(src, info.band, info.path, scan=True)
-        rows_of = _RowReader(src, reading, _rows_per_block(cols, setup.full))
+        rows_of = _RowReader(src, reading, _window_rows(dst, cols, setup.full))
 
         def block(r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             nonlocal any_valid
