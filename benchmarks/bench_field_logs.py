@@ -401,8 +401,8 @@ motion, seed 2's load terms (even fitted to the noise-free truth they leave -2.0
 turn in place and climb more than any of four other draws (there 0 kg is -0.6 to -1.3 %).
 With ``--held-out 180`` the five seeds hold 167 / 167 / 146 / 162 / 172 of 180 (band
 154-169). Centring or widening each prediction by its load's cross-validated mean error
-(tried offline) lifts seed 2 and worsens seeds 0, 1 or 4: not kept. Mean-power check: 269 / 265 / 265
-of 300 with it / without / share only, 12 widened, 12 refused (0 without). Robot-b
+(tried offline) lifts seed 2 and worsens seeds 0, 1 or 4: not kept. Mean-power check:
+269 / 265 / 265 of 300 with it / without / share only, 12 widened, 12 refused (0 without). Robot-b
 (``--campaigns 0 --swap``) is unchanged to the digit, and so is
 ``bench_domain_extrapolation.py`` (91.7 %, beyond 20 deg 89.3 %).
 
