@@ -209,9 +209,10 @@ class Undecided:
     p_value, p_threshold : float
         Its own run test and the level it passes (``Thresholds.alpha``).
     chosen : list of str or None
-        The term each fold's training runs chose (:attr:`ChoiceTest.chosen`).
+        The term each fold's training runs chose, partition after partition
+        (:attr:`ChoiceTest.all_chosen`).
     n_folds_chose : int
-        Folds whose choice is this candidate.
+        Folds (of every partition) whose choice is this candidate.
     choice_p_value, choice_p_threshold : float
         The choice test's p-value and level.
     n_runs, n_runs_better : int
