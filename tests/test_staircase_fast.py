@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 
 from energy_planner.stats import paired_run_test, solve_min_norm
 from energy_planner.stats.heldout import _choice_gains, choice_by_fold
+from energy_planner.stats.numerics import solve_bordered
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_diagnosis_units import synth  # noqa: E402
@@ -236,3 +237,51 @@ def test_window_heldout_equals_the_direct_heldout(seed, n_runs, n_splits, extra,
     np.testing.assert_allclose(got.residuals, want.residuals, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(got.sample_predicted, want.sample_predicted, rtol=1e-9, atol=1e-9)
     np.testing.assert_array_equal(got.folds, folds[sel])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    k=st.integers(1, 12),
+    n_pairs=st.integers(1, 8),
+    c=st.integers(1, 12),
+    dependent=st.floats(0.0, 1.0),
+    zero=st.floats(0.0, 1.0),
+    scale=st.sampled_from([1e-3, 1.0, 1e4]),
+)
+def test_bordered_solve_is_lstsq(seed, k, n_pairs, c, dependent, zero, scale):
+    """``solve_bordered`` (one model's normal equations bordered by each candidate) gives
+    every bordered system the solution ``solve_min_norm`` gives the full system (lstsq's
+    minimum-norm one, tested above): models rank-deficient (a column copied) or with a zero
+    row and column, candidates in the model's span, zero, or crossing a zero line of the
+    model."""
+    rng = np.random.default_rng(seed)
+    rows = 3 * k + 4
+    a = rng.normal(size=(n_pairs, rows, k)) * scale
+    a[:, :, 0] += 3.0 * scale
+    if k > 1:
+        dep = rng.random(n_pairs) < dependent
+        a[dep, :, -1] = 2.0 * a[dep, :, 0]  # rank-deficient: a column copied
+    gone = (rng.random(n_pairs) < zero) & (k > 1)
+    a[gone, :, -1] = 0.0  # a term these rows do not fit
+    z = rng.normal(size=(n_pairs, rows, c)) * scale
+    if c > 1:
+        z[:, :, 1] = a @ rng.normal(size=k)  # in the model's span
+    if c > 2:
+        z[:, :, 2] = 0.0  # a candidate with no value on these rows
+    G = a.transpose(0, 2, 1) @ a
+    U = a.transpose(0, 2, 1) @ z  # (p, k, c)
+    if c > 3:
+        U[gone, -1, 3] = scale  # a border crossing the model's zero line (not a Gram)
+    corner = np.einsum("prc,prc->cp", z, z)
+    r = rng.normal(size=(n_pairs, k)) * scale
+    s = rng.normal(size=(c, n_pairs)) * scale
+    got = solve_bordered(G, r, U, corner, s)
+    A = np.empty((c, n_pairs, k + 1, k + 1))
+    A[:, :, :k, :k] = G[None]
+    A[:, :, :k, k] = A[:, :, k, :k] = U.transpose(2, 0, 1)
+    A[:, :, k, k] = corner
+    b = np.concatenate([np.broadcast_to(r, (c, n_pairs, k)), s[:, :, None]], axis=2)
+    want = solve_min_norm(A, b, hermitian=True)  # lstsq's (test_min_norm_solve_is_lstsq)
+    tol = 1e-7 * (np.abs(want).max() + 1.0 / scale)
+    np.testing.assert_allclose(got, want, rtol=1e-7, atol=tol)

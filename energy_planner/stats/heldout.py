@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from energy_planner.errors import FitError
-from energy_planner.stats.numerics import _scaled, _weights, solve_min_norm
+from energy_planner.stats.numerics import _scaled, _weights, solve_bordered, solve_min_norm
 
 __all__ = [
     "EXACT_MAX_RUNS",
@@ -470,7 +470,8 @@ def _bordered_gains(X, Z, y, w, folds, n_folds, scored):
     candidate by candidate: the statistics of ``X`` (scaled to unit weighted norm on these
     rows) are made once, each candidate adds its own row and column to them (its column
     scaled alone, as :func:`_scaled` scales every column alone), and the inner systems
-    of every candidate and pair of folds are solved in one :func:`solve_min_norm`.
+    of every candidate and pair of folds are solved together (:func:`solve_bordered`:
+    the model's block once per pair).
     """
     n, k = X.shape
     c = Z.shape[1]
@@ -501,18 +502,15 @@ def _bordered_gains(X, Z, y, w, folds, n_folds, scored):
     if not pairs:
         return _gain(sse0, out)
     fi, gi = np.array(pairs).T
-    p = len(pairs)
-    # the training systems of every (candidate, pair): totals minus the two folds
-    A = np.empty((c, p, k + 1, k + 1))
-    b = np.empty((c, p, k + 1))
-    A[:, :, :k, :k] = (GW.sum(axis=0) - GW[fi] - GW[gi])[None]
-    border = gw.sum(axis=0)[None] - gw[fi] - gw[gi]  # (p, k, c)
-    A[:, :, :k, k] = border.transpose(2, 0, 1)
-    A[:, :, k, :k] = border.transpose(2, 0, 1)
-    A[:, :, k, k] = cw.sum(axis=1)[:, None] - cw[:, fi] - cw[:, gi]
-    b[:, :, :k] = (RW.sum(axis=0) - RW[fi] - RW[gi])[None]
-    b[:, :, k] = rwz.sum(axis=1)[:, None] - rwz[:, fi] - rwz[:, gi]
-    beta = solve_min_norm(A, b, hermitian=True)  # (c, p, k + 1)
+    # the training systems of every (candidate, pair): totals minus the two folds, the
+    # model's block shared by every candidate's border
+    beta = solve_bordered(
+        GW.sum(axis=0) - GW[fi] - GW[gi],
+        RW.sum(axis=0) - RW[fi] - RW[gi],
+        gw.sum(axis=0)[None] - gw[fi] - gw[gi],  # (p, k, c)
+        cw.sum(axis=1)[:, None] - cw[:, fi] - cw[:, gi],
+        rwz.sum(axis=1)[:, None] - rwz[:, fi] - rwz[:, gi],
+    )  # (c, p, k + 1)
     # each pair's error on its test fold g: y.y - 2 b.r + b.G b
     bx, bz = beta[..., :k], beta[..., k]
     r_dot = np.einsum("cpi,pi->cp", bx, RS[gi]) + bz * rsz[:, gi]

@@ -280,6 +280,90 @@ def solve_min_norm(
     return np.einsum("...ji,...j->...i", vt, inv * ub)
 
 
+def solve_bordered(
+    G: np.ndarray, r: np.ndarray, U: np.ndarray, corner: np.ndarray, s: np.ndarray
+) -> np.ndarray:
+    """:func:`solve_min_norm` (``hermitian=True``) of symmetric systems that share a block.
+
+    System ``(j, p)`` is ``[[G[p], U[p, :, j]], [U[p, :, j], corner[j, p]]]`` with the
+    right-hand side ``[r[p], s[j, p]]``: one model's normal equations ``G[p]`` bordered by
+    each candidate column ``j`` (the choice by fold solves one per candidate and pair of
+    folds). Where a system is certified well-conditioned (as :func:`solve_min_norm`
+    certifies, here through the shared block: the Cholesky factorization of ``G[p]``
+    shifted by :data:`CERTIFIED` times the largest trace of its systems exists, and so
+    does the bordered one's, whose last pivot is the shifted Schur complement
+    ``corner - U^T (G - shift)^-1 U``), its solution is ``A^-1 b`` from one solve of
+    ``G[p]`` for every candidate (the Schur complement); the other systems go to
+    :func:`solve_min_norm`. The same solutions to rounding, at a fraction of the cost of
+    factorizing every bordered system.
+
+    Parameters
+    ----------
+    G : numpy.ndarray
+        Shape ``(p, k, k)``, symmetric.
+    r : numpy.ndarray
+        Shape ``(p, k)``.
+    U : numpy.ndarray
+        Shape ``(p, k, c)``: the borders.
+    corner, s : numpy.ndarray
+        Shape ``(c, p)``: the borders' diagonal entries and right-hand sides.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(c, p, k + 1)``.
+
+    Examples
+    --------
+    >>> G = np.array([[[2.0, 0.0], [0.0, 1.0]]]); r = np.array([[2.0, 1.0]])
+    >>> U = np.array([[[1.0, 0.0], [0.0, 0.0]]])          # two candidates
+    >>> corner = np.array([[2.0], [0.0]]); s = np.array([[3.0], [0.0]])
+    >>> solve_bordered(G, r, U, corner, s).round(9).tolist()  # the second: a zero column
+    [[[0.333333333, 1.0, 1.333333333]], [[1.0, 1.0, 0.0]]]
+    """
+    G, r, U = (np.asarray(a, dtype=float) for a in (G, r, U))
+    corner, s = np.asarray(corner, dtype=float), np.asarray(s, dtype=float)
+    p, k, c = U.shape
+    out = np.empty((c, p, k + 1))
+    zero = _zero_lines(G)  # (p, k): a term the pair's training rows do not fit
+    # a border that is not 0 on a zero line of G: that line is not 0 in the bordered system
+    crossed = np.any((U != 0.0) & zero[:, :, None], axis=1).T  # (c, p)
+    U0 = np.where(zero[:, :, None], 0.0, U)
+    M = _padded(G, zero)
+    tr = np.trace(G, axis1=-2, axis2=-1)
+    shift = CERTIFIED * (tr + np.max(corner, axis=0, initial=0.0))  # (p,): the largest
+    S = M - shift[:, None, None] * np.eye(k)
+    fine = np.isfinite(S).all(axis=(-2, -1)) & (tr > 0)
+    fine &= _cholesky_exists(np.where(fine[:, None, None], S, np.eye(k)))
+    ok = np.zeros((c, p), dtype=bool)
+    if fine.any():
+        Uf = U0[fine]
+        rhs = np.concatenate([np.where(zero, 0.0, r)[fine][:, :, None], Uf], axis=2)
+        shifted = np.linalg.solve(S[fine], Uf)  # (q, k, c)
+        schur_shifted = corner[:, fine] - shift[fine] - np.einsum("qkc,qkc->cq", Uf, shifted)
+        sol = np.linalg.solve(M[fine], rhs)  # (q, k, c + 1): G^-1 r, G^-1 U
+        a, V = sol[:, :, 0], sol[:, :, 1:]
+        schur = corner[:, fine] - np.einsum("qkc,qkc->cq", Uf, V)
+        good = np.isfinite(schur_shifted) & (schur_shifted > 0) & (schur > 0)
+        good &= ~crossed[:, fine]
+        bz = (s[:, fine] - np.einsum("qkc,qk->cq", Uf, a)) / np.where(good, schur, 1.0)
+        bx = a[None] - V.transpose(2, 0, 1) * bz[:, :, None]  # (c, q, k)
+        bx[:, zero[fine]] = 0.0
+        idx = np.flatnonzero(fine)
+        out[:, idx, :k] = bx
+        out[:, idx, k] = bz
+        ok[:, idx] = good
+    if not ok.all():  # the rest as solve_min_norm solves any symmetric system
+        jj, pp = np.nonzero(~ok)
+        A = np.empty((jj.size, k + 1, k + 1))
+        A[:, :k, :k] = G[pp]
+        A[:, :k, k] = A[:, k, :k] = U[pp, :, jj]
+        A[:, k, k] = corner[jj, pp]
+        b = np.concatenate([r[pp], s[jj, pp][:, None]], axis=1)
+        out[jj, pp] = solve_min_norm(A, b, hermitian=True)
+    return out
+
+
 def _solve_eigh(A: np.ndarray, b: np.ndarray, rcond: float) -> np.ndarray:
     """Minimum-norm solutions of symmetric systems from their eigendecompositions."""
     ev, v = np.linalg.eigh(A)
