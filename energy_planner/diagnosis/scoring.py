@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -135,7 +135,9 @@ class ChoiceTest:
     (:func:`energy_planner.stats.heldout.choice_by_fold`); the held-out errors of every
     fold's windows with its own choice, against the model's, by the run test. The folds
     are dealt ``Thresholds.n_partitions`` times (:func:`choice_partitions`), and the test
-    is of each run's squared-error gain averaged over the partitions.
+    is of each run's squared-error gain averaged over the partitions. When no candidate
+    passes its own test at ``alpha`` nothing can be above noise whatever this test says,
+    and it is made on the ranking's own partition only (``partitions`` holds one).
 
     Attributes
     ----------
@@ -452,7 +454,10 @@ def rank_suspects(
     final.sort(key=lambda s: (-round(s.error_explained, 9), not s.coefficient > 0))
     # the gate (suspects' docstring, *Above noise*): choosing at all, tested at alpha on
     # errors no choice saw; only then the best at alpha and the others at alpha / m
-    choice = ctx.choice_test(a_priori, th.alpha)
+    # when no candidate passes its own test at alpha nothing can be above noise whatever
+    # the choice test says: it is then made on the ranking's own partition only (a report)
+    decisive = any(ctx.passes(s, th.alpha) for s in final)
+    choice = ctx.choice_test(a_priori, th.alpha, None if decisive else 1)
     undecided = None
     if choice is None or not choice.passed:
         for s in final:
@@ -649,15 +654,21 @@ class _Context:
             channel=c.channel,
         )
 
-    def choice_test(self, terms: list[str], level: float) -> ChoiceTest | None:
-        """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``."""
+    def choice_test(
+        self, terms: list[str], level: float, n_partitions: int | None = None
+    ) -> ChoiceTest | None:
+        """:class:`ChoiceTest` of the candidates ``terms`` (scored, a priori) at ``level``.
+
+        Over ``n_partitions`` partitions (default ``Thresholds.n_partitions``).
+        """
         terms = [t for t in terms if t in self.columns]
         if not terms or not (self.base_ok & self.inside).any():
             return None
         ok = self.base_ok
         Z = np.column_stack([self.columns[t][ok] for t in terms])
+        th = self.th if n_partitions is None else replace(self.th, n_partitions=n_partitions)
         e0s, e1s, runs, chosen, p_each = [], [], [], [], []
-        for r, folds in enumerate(choice_partitions(self.folds, self.runs, self.th)):
+        for r, folds in enumerate(choice_partitions(self.folds, self.runs, th)):
             if r == 0:  # the ranking's own folds: its errors are already made
                 base, inside, errors = self.base_err, self.inside, self.errors
             else:
