@@ -29,3 +29,19 @@ def run_in_tree(tree: Path, child: str, *args: str) -> dict:
     got = subprocess.run([sys.executable, "-c", child, *args], env=env, cwd=tree,
                          capture_output=True, text=True, check=True)  # fmt: skip
     return json.loads(got.stdout.strip().splitlines()[-1])
+
+
+def alternate(baseline: Path, new: Path, repeat: int, child: str, *args: str):
+    """Run the case ``repeat`` times on each tree, alternated so both see the same load.
+
+    Returns ``(base, new, cpu_base, cpu_new)``: each tree's JSON results and the median of
+    their ``cpu_s``.
+    """
+    import statistics
+
+    base_runs, new_runs = [], []
+    for _ in range(repeat):
+        base_runs.append(run_in_tree(baseline, child, *args))
+        new_runs.append(run_in_tree(new, child, *args))
+    cpu = [statistics.median(r["cpu_s"] for r in runs) for runs in (base_runs, new_runs)]
+    return base_runs, new_runs, float(cpu[0]), float(cpu[1])

@@ -35,7 +35,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from _trees import run_in_tree, tree_parser
+from _trees import alternate, tree_parser
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -90,18 +90,12 @@ CASES = {
 
 def main(argv: list[str] | None = None) -> dict:
     a = tree_parser(__doc__, CASES).parse_args(argv)
-    import numpy as np
 
     print(f"# uptime: {os.popen('uptime').read().strip()}", flush=True)
     print(f"{'case':36s} {'CPU s base / new':>17s} {'ratio':>6s} {'same':>5s}", flush=True)
     out = {}
     for case in a.cases.split(","):
-        base, new = [], []
-        for _ in range(a.repeat):  # alternated: both see the same load
-            base.append(run_in_tree(Path(a.baseline), CHILD, case))
-            new.append(run_in_tree(ROOT, CHILD, case))
-        cb = float(np.median([r["cpu_s"] for r in base]))
-        cn = float(np.median([r["cpu_s"] for r in new]))
+        base, new, cb, cn = alternate(Path(a.baseline), ROOT, a.repeat, CHILD, case)
         same = all(r["sha"] == base[0]["sha"] for r in base + new)
         out[case] = {"cpu_s_base": cb, "cpu_s_new": cn, "ratio": cb / cn, "same": same}
         print(f"{CASES[case]:36s} {cb:8.2f} / {cn:6.2f} {cb / cn:6.2f} "

@@ -39,7 +39,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _trees import run_in_tree, tree_parser
+from _trees import alternate, tree_parser
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -116,7 +116,6 @@ CASES = {
 def main(argv: list[str] | None = None) -> dict:
     a = tree_parser(__doc__, CASES).parse_args(argv)
     sys.path.insert(0, str(HERE))
-    import numpy as np
     from _hilly import hilly_dem
 
     print(f"# uptime: {os.popen('uptime').read().strip()}", flush=True)
@@ -126,12 +125,7 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"{'case':34s} {'CPU s base / new':>17s} {'ratio':>6s} "
               f"{'priced base / new':>19s} {'same':>5s}", flush=True)  # fmt: skip
         for case in a.cases.split(","):
-            base, new = [], []
-            for _ in range(a.repeat):  # alternated: both see the same load
-                base.append(run_in_tree(Path(a.baseline), CHILD, case, str(dem)))
-                new.append(run_in_tree(ROOT, CHILD, case, str(dem)))
-            cb = float(np.median([r["cpu_s"] for r in base]))
-            cn = float(np.median([r["cpu_s"] for r in new]))
+            base, new, cb, cn = alternate(Path(a.baseline), ROOT, a.repeat, CHILD, case, str(dem))
             same = base[0]["sha"] == new[0]["sha"] and base[0]["expanded"] == new[0]["expanded"]
             row = {"cpu_s_base": cb, "cpu_s_new": cn, "ratio": cb / cn, "same": same,
                    "expanded": new[0]["expanded"], "priced_base": base[0]["priced"],
