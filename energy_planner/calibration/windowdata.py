@@ -108,6 +108,7 @@ class WindowData:
     _plan: _FoldPlan | None = field(default=None, repr=False)
     _fold_cols: dict = field(default_factory=dict, repr=False)
     _start_idx: np.ndarray | None = field(default=None, repr=False)
+    _support_bins: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def n_windows(self) -> int:
@@ -458,6 +459,28 @@ class WindowData:
         """
         from energy_planner.calibration.fit import MIN_RUNS, MIN_WINDOWS_PER_TERM
 
+        bins, runs = self._direction_bins()
+        folds = np.asarray(folds)
+        out = np.zeros(len(bins), dtype=bool)
+        for f in np.unique(folds):
+            train = folds != f
+            tb, tr = bins[train], runs[train]
+            n_win = np.bincount(tb, minlength=bins.max() + 1)
+            pairs = np.unique(np.column_stack([tb, tr]), axis=0)
+            n_run = np.bincount(pairs[:, 0], minlength=bins.max() + 1)
+            good = (n_win >= MIN_WINDOWS_PER_TERM) & (n_run >= MIN_RUNS)
+            here = folds == f
+            out[here] = good[bins[here]]
+        return out
+
+    def _direction_bins(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each window's direction bin and run, as codes, for :meth:`fold_support`.
+
+        Made once: they do not depend on the folds, and the choice test asks for ten
+        partitions at every step of a staircase.
+        """
+        if self._support_bins is not None:
+            return self._support_bins
         t = _with_kind(self.table)
         kind = t["kind"].to_numpy(dtype=object).astype(str)
         side = np.full(len(t), "", dtype=object)
@@ -475,18 +498,8 @@ class WindowData:
             side = np.where(grade > lim, "/up", np.where(grade < -lim, "/down", ""))
         bins = pd.factorize(pd.Series(kind + side.astype(str)))[0]
         runs = pd.factorize(pd.Series(t["run"].to_numpy()))[0]
-        folds = np.asarray(folds)
-        out = np.zeros(len(t), dtype=bool)
-        for f in np.unique(folds):
-            train = folds != f
-            tb, tr = bins[train], runs[train]
-            n_win = np.bincount(tb, minlength=bins.max() + 1)
-            pairs = np.unique(np.column_stack([tb, tr]), axis=0)
-            n_run = np.bincount(pairs[:, 0], minlength=bins.max() + 1)
-            good = (n_win >= MIN_WINDOWS_PER_TERM) & (n_run >= MIN_RUNS)
-            here = folds == f
-            out[here] = good[bins[here]]
-        return out
+        self._support_bins = (bins, runs)
+        return self._support_bins
 
     def unidentified(self, terms: Sequence[str], folds: np.ndarray) -> dict[str, str]:
         """Terms a refit of the model ``terms`` leaves out, each with the reason.
